@@ -1,0 +1,28 @@
+# millstab: the two commands a newcomer needs are `make demo` and `make test`.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e ".[test]"
+	touch $(STAMP)
+
+## demo: install into .venv and reproduce the founding paper into ./millstab-report
+demo: $(STAMP)
+	$(BIN)/millstab lobes example:ex1 --rpm 2000:12000:25 --out millstab-demo/sld_ex1.csv --plot millstab-demo/sld_ex1.png
+
+## test: install into .venv and run the test suite
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+## bench: print the speed figures (envelope throughput, ...)
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_envelope.py
+
+clean:
+	rm -rf $(VENV) millstab-demo millstab-report .pytest_cache

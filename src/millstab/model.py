@@ -1,0 +1,276 @@
+"""The milling model: structural modes, the structure at the tool tip, and the cutting conditions.
+
+All classes are small frozen dataclasses, validated on construction, SI inside:
+
+* :class:`Mode` -- one mode of the tool tip in one direction: natural frequency ``fn`` [Hz],
+  modal stiffness ``k`` [N/m], damping ratio ``zeta`` [-].
+* :class:`Structure` -- any number of modes in the feed (x) and cross-feed (y) direction, or a
+  measured frequency response (:class:`MeasuredFRF`). A direction without modes is rigid.
+* :class:`Cutting` -- number of teeth, tangential cutting coefficient ``kt`` [N/m²], the ratio
+  ``kr`` of radial to tangential coefficient, and the entry/exit angles [rad] (Altintas' convention:
+  0..π is slotting, down milling exits at π, up milling enters at 0).
+
+Invalid input raises :class:`millstab.errors.InputError` naming the field, the value and what is
+allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from millstab.errors import InputError, UnitWarning
+
+#: Below this modal stiffness [N/m] a value is almost surely N/µm typed as N/m (the seed paper's
+#: Table 1 prints "12.53 N/m" for 12.53 N/µm).
+SUSPICIOUS_STIFFNESS = 1e4
+
+
+def _finite(field_name: str, value: object) -> float:
+    """Return ``value`` as a float, or raise if it is not a finite real number."""
+    if isinstance(value, bool):
+        raise InputError(field_name, value, "must be a number, not a boolean")
+    try:
+        x = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise InputError(field_name, value, "must be a real number") from None
+    if not math.isfinite(x):
+        raise InputError(field_name, value, "must be a finite number (not NaN or infinity)")
+    return x
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One structural mode in one direction.
+
+    Attributes:
+        fn: undamped natural frequency [Hz], > 0.
+        k: modal stiffness [N/m], > 0.
+        zeta: viscous damping ratio [-], in (0, 1).
+        name: the field name used in error messages (e.g. ``structure.x[0]``).
+    """
+
+    fn: float
+    k: float
+    zeta: float
+    name: str = field(default="mode", compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        fn = _finite(f"{self.name}.fn", self.fn)
+        k = _finite(f"{self.name}.k", self.k)
+        zeta = _finite(f"{self.name}.zeta", self.zeta)
+        if fn <= 0:
+            raise InputError(f"{self.name}.fn", self.fn, "natural frequency must be > 0 Hz")
+        if k <= 0:
+            raise InputError(f"{self.name}.k", self.k, "stiffness must be > 0 N/m")
+        if not 0 < zeta < 1:
+            raise InputError(f"{self.name}.zeta", self.zeta, "damping ratio must be in (0, 1)")
+        if k < SUSPICIOUS_STIFFNESS:
+            warnings.warn(
+                f"{self.name}.k = {k:g} N/m is very low for a tool tip; did you mean "
+                f"{k:g} N/um (= {k * 1e6:g} N/m)? Give units explicitly, e.g. \"{k:g} N/um\".",
+                UnitWarning,
+                stacklevel=3,
+            )
+        object.__setattr__(self, "fn", fn)
+        object.__setattr__(self, "k", k)
+        object.__setattr__(self, "zeta", zeta)
+
+    @property
+    def omega(self) -> float:
+        """Natural frequency [rad/s]."""
+        return 2.0 * math.pi * self.fn
+
+    @property
+    def mass(self) -> float:
+        """Modal mass k/ωn² [kg]."""
+        return self.k / self.omega**2
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredFRF:
+    """A measured tool-tip frequency response, receptance in m/N, on a common frequency axis.
+
+    ``xx`` and ``yy`` are the direct terms; ``xy``/``yx`` the cross terms (``None`` = not measured,
+    taken as zero). A direction given as ``None`` in both its direct term is rigid.
+
+    Attributes:
+        freq_hz: strictly increasing frequencies [Hz], all > 0.
+        xx, yy, xy, yx: complex receptances [m/N] at ``freq_hz`` (or ``None``).
+    """
+
+    freq_hz: np.ndarray
+    xx: np.ndarray | None
+    yy: np.ndarray | None
+    xy: np.ndarray | None = None
+    yx: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        f = np.asarray(self.freq_hz, dtype=float)
+        if f.ndim != 1 or f.size < 4:
+            raise InputError("frf.freq_hz", f"{f.size} values", "need at least 4 frequencies")
+        if not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise InputError("frf.freq_hz", "non-positive or non-finite value", "frequencies must be > 0 Hz")
+        if np.any(np.diff(f) <= 0):
+            raise InputError("frf.freq_hz", "unsorted", "frequencies must be strictly increasing")
+        object.__setattr__(self, "freq_hz", f)
+        if self.xx is None and self.yy is None:
+            raise InputError("frf", "no xx and no yy", "a measured FRF needs at least one direct term")
+        for term in ("xx", "yy", "xy", "yx"):
+            h = getattr(self, term)
+            if h is None:
+                continue
+            h = np.asarray(h, dtype=complex)
+            if h.shape != f.shape:
+                raise InputError(f"frf.{term}", f"{h.size} values", f"must have one value per frequency ({f.size})")
+            if not np.all(np.isfinite(h)):
+                raise InputError(f"frf.{term}", "NaN or infinity", "FRF values must be finite")
+            object.__setattr__(self, term, h)
+
+    @property
+    def has_cross(self) -> bool:
+        """True when a cross term (xy or yx) was measured."""
+        return self.xy is not None or self.yx is not None
+
+    def matrix(self) -> np.ndarray:
+        """The 2×2 receptance matrix per frequency, shape (F, 2, 2), missing terms zero [m/N]."""
+        g = np.zeros((self.freq_hz.size, 2, 2), dtype=complex)
+        for (i, j), term in zip(((0, 0), (1, 1), (0, 1), (1, 0)), ("xx", "yy", "xy", "yx")):
+            h = getattr(self, term)
+            if h is not None:
+                g[:, i, j] = h
+        return g
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Tool-tip dynamics: modes in x (feed) and y (cross-feed), or a measured FRF.
+
+    A direction with no modes is rigid (e.g. the classic x-only one-degree-of-freedom benchmark).
+    A structure with no mode at all (and no FRF) is an error.
+    """
+
+    x: tuple[Mode, ...] = ()
+    y: tuple[Mode, ...] = ()
+    frf: MeasuredFRF | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "x", tuple(self.x))
+        object.__setattr__(self, "y", tuple(self.y))
+        for direction in ("x", "y"):
+            for m in getattr(self, direction):
+                if not isinstance(m, Mode):
+                    raise InputError(f"structure.{direction}", m, "each entry must be a Mode")
+        if self.frf is not None and (self.x or self.y):
+            raise InputError("structure", "modes and a measured FRF", "give either modes or a measured FRF, not both")
+        if self.frf is None and not (self.x or self.y):
+            raise InputError("structure", "no modes", "at least one mode in x or y (or a measured FRF) is required")
+
+    @property
+    def is_modal(self) -> bool:
+        """True when the structure is given by modal parameters (not a measured FRF)."""
+        return self.frf is None
+
+    @property
+    def modes(self) -> tuple[Mode, ...]:
+        """All modes, x first then y."""
+        return self.x + self.y
+
+    def swapped(self) -> Structure:
+        """The same structure with x and y interchanged."""
+        if self.frf is not None:
+            f = self.frf
+            return Structure(frf=MeasuredFRF(f.freq_hz, f.yy, f.xx, f.yx, f.xy))
+        return Structure(x=self.y, y=self.x)
+
+    @classmethod
+    def symmetric(cls, fn: float, k: float, zeta: float) -> Structure:
+        """One identical mode in x and y (an axisymmetric tool)."""
+        return cls(x=(Mode(fn, k, zeta, "structure.x[0]"),), y=(Mode(fn, k, zeta, "structure.y[0]"),))
+
+
+Milling = Literal["down", "up"]
+
+
+@dataclass(frozen=True)
+class Cutting:
+    """Cutting conditions of a straight-fluted end mill with equally spaced teeth.
+
+    Attributes:
+        teeth: number of teeth N, a positive integer.
+        kt: tangential cutting force coefficient [N/m²] (1 MPa = 1 N/mm² = 1e6 N/m²).
+        kr: radial-to-tangential coefficient ratio Kr = Kn/Kt [-] (the seed paper's k_n), ≥ 0.
+        entry: entry (start) angle φst [rad], in [0, π).
+        exit: exit angle φex [rad], in (0, π], > entry.
+    """
+
+    teeth: int
+    kt: float
+    kr: float
+    entry: float = 0.0
+    exit: float = math.pi
+
+    def __post_init__(self) -> None:
+        if isinstance(self.teeth, bool) or not isinstance(self.teeth, (int, np.integer)):
+            if isinstance(self.teeth, float) and self.teeth.is_integer():
+                object.__setattr__(self, "teeth", int(self.teeth))
+            else:
+                raise InputError("cutting.teeth", self.teeth, "number of teeth must be a positive integer")
+        if self.teeth < 1:
+            raise InputError("cutting.teeth", self.teeth, "number of teeth must be a positive integer")
+        object.__setattr__(self, "teeth", int(self.teeth))
+        kt = _finite("cutting.kt", self.kt)
+        kr = _finite("cutting.kr", self.kr)
+        entry = _finite("cutting.entry", self.entry)
+        exit_ = _finite("cutting.exit", self.exit)
+        if kt <= 0:
+            raise InputError("cutting.kt", self.kt, "tangential cutting coefficient must be > 0 N/m^2")
+        if kt < 1e5:
+            warnings.warn(
+                f"cutting.kt = {kt:g} N/m^2 is very low for metal cutting; did you mean {kt:g} N/mm^2 (MPa)? "
+                f"Give units explicitly, e.g. \"{kt:g} MPa\".",
+                UnitWarning,
+                stacklevel=3,
+            )
+        if kr < 0:
+            raise InputError("cutting.kr", self.kr, "radial-to-tangential ratio must be >= 0")
+        tol = 1e-12
+        if not -tol <= entry <= math.pi + tol:
+            raise InputError("cutting.entry", self.entry, "entry angle must be in [0, pi] rad (0..180 deg)")
+        if not -tol <= exit_ <= math.pi + tol:
+            raise InputError("cutting.exit", self.exit, "exit angle must be in [0, pi] rad (0..180 deg)")
+        if entry >= exit_:
+            raise InputError("cutting.entry", self.entry, f"entry angle must be less than the exit angle ({exit_:g} rad)")
+        object.__setattr__(self, "kt", kt)
+        object.__setattr__(self, "kr", kr)
+        object.__setattr__(self, "entry", min(max(entry, 0.0), math.pi))
+        object.__setattr__(self, "exit", min(max(exit_, 0.0), math.pi))
+
+    @classmethod
+    def from_immersion(cls, teeth: int, kt: float, kr: float, radial_immersion: float, milling: Milling = "down") -> Cutting:
+        """Cutting conditions from the radial immersion a/D in (0, 1] and the milling direction.
+
+        Down (climb) milling: φst = arccos(2a/D − 1), φex = π. Up (conventional) milling: φst = 0,
+        φex = arccos(1 − 2a/D).
+        """
+        ri = _finite("cutting.radial_immersion", radial_immersion)
+        if not 0 < ri <= 1:
+            raise InputError("cutting.radial_immersion", radial_immersion, "radial immersion a/D must be in (0, 1]")
+        if milling == "down":
+            return cls(teeth, kt, kr, math.acos(2 * ri - 1), math.pi)
+        if milling == "up":
+            return cls(teeth, kt, kr, 0.0, math.acos(1 - 2 * ri))
+        raise InputError("cutting.milling", milling, 'must be "down" or "up"')
+
+    @property
+    def is_slotting(self) -> bool:
+        """True for full immersion (entry 0, exit π)."""
+        return self.entry <= 1e-12 and self.exit >= math.pi - 1e-12
+
+    def scaled_kt(self, factor: float) -> Cutting:
+        """A copy with Kt multiplied by ``factor``."""
+        return Cutting(self.teeth, self.kt * factor, self.kr, self.entry, self.exit)

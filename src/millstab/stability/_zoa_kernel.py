@@ -1,0 +1,343 @@
+"""Compiled (numba) kernels of the zero-order solution. Use :mod:`millstab.stability.zoa` instead.
+
+Notation (Altintas 2012, ch. 3): [α] is the 2×2 matrix of directional-coefficient brackets,
+[G(ω)] the tool-tip receptance [m/N], ν an eigenvalue of [α][G]. A root ν gives a chatter boundary at
+frequency ω with
+
+    depth   b   = 2π / (N Kt Re ν)                  (only where Re ν > 0)
+    phase   ε   = π + 2 arg ν   ∈ (0, 2π)
+    speed   ω T = ε + 2kπ,  T = 60 / (N Ω[rpm]),     k = 0, 1, 2, ... the lobe number
+
+For a speed Ω every integer k gives one or more chatter frequencies (roots of
+H(ω) = ωT − ε(ω) − 2kπ); the limiting depth b_lim(Ω) is the smallest depth among them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+#: Candidates whose grid estimate is within this factor of the best estimate at a speed are refined
+#: exactly. Larger than the grid's interpolation error (tests compare with a brute-force reference).
+REFINE_MARGIN = 1.15
+
+
+def cluster_offsets(n: int = 61, half_width: float = 60.0, centre_step: float = 0.2) -> np.ndarray:
+    """Offsets x of the dense frequency cluster around a mode: ω = ωn (1 + ζ x).
+
+    sinh-spaced: steps of ``centre_step`` damping-widths at the resonance, growing outward to
+    ±``half_width`` damping-widths.
+    """
+    # solve sinh(U)/U = half_width / (centre_step * (n - 1) / 2) for U by bisection
+    target = half_width / (centre_step * (n - 1) / 2.0)
+    lo, hi = 1e-6, 20.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if math.sinh(mid) / mid < target:
+            lo = mid
+        else:
+            hi = mid
+    u = np.linspace(-lo, lo, n)
+    return half_width * np.sinh(u) / math.sinh(lo)
+
+
+@nb.njit(cache=True)
+def directional_brackets(kr, phi_s, phi_e):
+    """Directional coefficient brackets α_xx, α_xy, α_yx, α_yy (each ½[...] from φst to φex)."""
+
+    ce, se, cs, ss = math.cos(2 * phi_e), math.sin(2 * phi_e), math.cos(2 * phi_s), math.sin(2 * phi_s)
+    dp = phi_e - phi_s
+    axx = 0.5 * ((ce - cs) - 2 * kr * dp + kr * (se - ss))
+    axy = 0.5 * (-(se - ss) - 2 * dp + kr * (ce - cs))
+    ayx = 0.5 * (-(se - ss) + 2 * dp + kr * (ce - cs))
+    ayy = 0.5 * (-(ce - cs) - 2 * kr * dp - kr * (se - ss))
+    return axx, axy, ayx, ayy
+
+
+@nb.njit(cache=True, inline="always")
+def _modal_receptance(w, wn, k, z):
+    """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N]; zero for no modes (rigid)."""
+    g = 0.0 + 0.0j
+    for m in range(wn.size):
+        r = w / wn[m]
+        g += 1.0 / (k[m] * complex(1.0 - r * r, 2.0 * z[m] * r))
+    return g
+
+
+@nb.njit(cache=True, inline="always")
+def _tr_det(a, gxx, gxy, gyx, gyy):
+    """Trace and determinant of [α][G]."""
+    axx, axy, ayx, ayy = a
+    m00 = axx * gxx + axy * gyx
+    m01 = axx * gxy + axy * gyy
+    m10 = ayx * gxx + ayy * gyx
+    m11 = ayx * gxy + ayy * gyy
+    return m00 + m11, m00 * m11 - m01 * m10
+
+
+@nb.njit(cache=True)
+def _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets):
+    """Sorted frequency grid [rad/s]: log-spaced base plus a dense cluster around every mode."""
+    n_modes = wn_all.size
+    n_off = offsets.size
+    w = np.empty(n_base + n_modes * n_off)
+    ratio = math.log(w_hi / w_lo) / (n_base - 1)
+    for i in range(n_base):
+        w[i] = w_lo * math.exp(ratio * i)
+    c = n_base
+    for m in range(n_modes):
+        for j in range(n_off):
+            r = 1.0 + z_all[m] * offsets[j]
+            if r < 0.05:
+                r = 0.05
+            w[c] = wn_all[m] * r
+            c += 1
+    w = np.sort(w)
+    # keep points inside [w_lo, w_hi] and drop near-duplicates
+    out = np.empty(w.size)
+    n = 0
+    for i in range(w.size):
+        if w[i] < w_lo or w[i] > w_hi:
+            continue
+        if n > 0 and w[i] - out[n - 1] <= 1e-12 * w[i]:
+            continue
+        out[n] = w[i]
+        n += 1
+    return out[:n]
+
+
+@nb.njit(cache=True)
+def _branches(a, gxx, gxy, gyx, gyy):
+    """Both eigenvalues of [α][G] on the grid, labelled so each branch is continuous in ω.
+
+    The square root of the discriminant is chosen at each sample as the one nearer to the previous
+    sample's root. A label swap can then only happen where the two roots nearly coincide (the
+    discriminant passes near zero), where it moves a branch by at most the tiny root separation; the
+    principal square root instead flips sign whenever the discriminant crosses the negative real
+    axis, anywhere, which creates false lobe crossings.
+    """
+    n = gxx.size
+    nu = np.empty((2, n), dtype=np.complex128)
+    prev = 0.0 + 0.0j
+    for i in range(n):
+        tr, det = _tr_det(a, gxx[i], gxy[i], gyx[i], gyy[i])
+        s = np.sqrt(tr * tr - 4.0 * det)
+        if i > 0 and abs(s - prev) > abs(s + prev):
+            s = -s
+        prev = s
+        nu[0, i] = 0.5 * (tr + s)
+        nu[1, i] = 0.5 * (tr - s)
+    return nu
+
+
+@nb.njit(cache=True, inline="always")
+def _eps(v):
+    """Phase ε = π + 2 arg ν of a root with Re ν > 0, in (0, 2π)."""
+    return math.pi + 2.0 * math.atan2(v.imag, v.real)
+
+
+@nb.njit(cache=True)
+def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """The root of [α][G(ω)] at ω in segment [wa, wb] nearest the interpolated branch value.
+
+    For a modal structure G is exact; for a measured FRF it is linear between the segment ends
+    (ga, gb hold the four receptances at wa and wb).
+    """
+    t = (w - wa) / (wb - wa)
+    if measured:
+        gxx = ga[0] + t * (gb[0] - ga[0])
+        gxy = ga[1] + t * (gb[1] - ga[1])
+        gyx = ga[2] + t * (gb[2] - ga[2])
+        gyy = ga[3] + t * (gb[3] - ga[3])
+    else:
+        gxx = _modal_receptance(w, wnx, kx, zx)
+        gyy = _modal_receptance(w, wny, ky, zy)
+        gxy = 0.0j
+        gyx = 0.0j
+    tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
+    s = np.sqrt(tr * tr - 4.0 * det)
+    guess = nua + t * (nub - nua)
+    r1 = 0.5 * (tr + s)
+    r2 = 0.5 * (tr - s)
+    if abs(r1 - guess) <= abs(r2 - guess):
+        return r1
+    return r2
+
+
+@nb.njit(cache=True)
+def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """Solve ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change) by the Illinois method.
+
+    Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
+    """
+    target = TWO_PI * k
+    fa = wa * T - _eps(nua) - target
+    fb = wb * T - _eps(nub) - target
+    x0, x1, f0, f1 = wa, wb, fa, fb
+    if f0 == 0.0:
+        return nua.real, wa
+    if f1 == 0.0:
+        return nub.real, wb
+    side = 0
+    v = nua
+    xm = wa
+    for _ in range(60):
+        xm = (x0 * f1 - x1 * f0) / (f1 - f0)
+        if not (min(x0, x1) <= xm <= max(x0, x1)):
+            xm = 0.5 * (x0 + x1)
+        v = _root_at(xm, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        if v.real <= 0.0:
+            return v.real, xm
+        fm = xm * T - _eps(v) - target
+        if fm == 0.0 or abs(x1 - x0) <= 1e-14 * xm:
+            break
+        if fm * f1 > 0.0:
+            x1, f1 = xm, fm
+            if side == -1:
+                f0 *= 0.5
+            side = -1
+        else:
+            x0, f0 = xm, fm
+            if side == 1:
+                f1 *= 0.5
+            side = 1
+        if abs(fm) < 1e-13:
+            break
+    return v.real, xm
+
+
+@nb.njit(cache=True)
+def _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, refine, a, wnx, kx, zx, wny, ky, zy, measured, G,
+          best_inv, best_k, best_w):
+    """Visit every (branch, segment, lobe k, target speed) crossing once.
+
+    Pass 1 (``refine`` False): a linear estimate of 1/b at each crossing; keeps the best per speed in
+    ``est``. Pass 2: exact refinement of the crossings whose estimate is within REFINE_MARGIN of the
+    best, keeping the best refined root per speed.
+    """
+    n_w = w.size
+    n_s = rpm.size
+    t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
+    t_max = T[0]
+    ga = np.empty(4, dtype=np.complex128)
+    gb = np.empty(4, dtype=np.complex128)
+    for br in range(2):
+        for i in range(n_w - 1):
+            if not (valid[br, i] and valid[br, i + 1]):
+                continue
+            wa = w[i]
+            wb = w[i + 1]
+            ea = eps[br, i]
+            eb = eps[br, i + 1]
+            # lobes k whose speed at this segment can fall in [rpm_min, rpm_max]
+            k_lo = int(math.floor((wa * t_min - max(ea, eb)) / TWO_PI))
+            k_hi = int(math.ceil((wb * t_max - min(ea, eb)) / TWO_PI))
+            if k_lo < 0:
+                k_lo = 0
+            for k in range(k_lo, k_hi + 1):
+                sa = 60.0 * wa / (n_teeth * (ea + TWO_PI * k))
+                sb = 60.0 * wb / (n_teeth * (eb + TWO_PI * k))
+                lo = min(sa, sb)
+                hi = max(sa, sb)
+                j = np.searchsorted(rpm, lo)
+                while j < n_s and rpm[j] <= hi:
+                    ha = wa * T[j] - ea - TWO_PI * k
+                    hb = wb * T[j] - eb - TWO_PI * k
+                    if ha * hb <= 0.0 and ha != hb:
+                        t = ha / (ha - hb)
+                        guess = inv_b[br, i] + t * (inv_b[br, i + 1] - inv_b[br, i])
+                        if not refine:
+                            if guess > est[j]:
+                                est[j] = guess
+                        elif guess * REFINE_MARGIN >= est[j]:
+                            if measured:
+                                for q in range(4):
+                                    ga[q] = G[q, i]
+                                    gb[q] = G[q, i + 1]
+                            re_nu, wc = _refine(T[j], k, wa, wb, nu[br, i], nu[br, i + 1], a, wnx, kx, zx,
+                                                wny, ky, zy, measured, ga, gb)
+                            if re_nu > best_inv[j]:
+                                best_inv[j] = re_nu
+                                best_k[j] = k
+                                best_w[j] = wc
+                    j += 1
+
+
+@nb.njit(cache=True)
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc):
+    """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
+
+    Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
+    """
+    nu = _branches(a, G[0], G[1], G[2], G[3])
+    n_w = w.size
+    n_s = rpm.size
+    valid = np.empty((2, n_w), dtype=np.bool_)
+    inv_b = np.empty((2, n_w))
+    eps = np.empty((2, n_w))
+    for br in range(2):
+        for i in range(n_w):
+            v = nu[br, i]
+            ok = v.real > 0.0 and math.isfinite(v.real) and math.isfinite(v.imag)
+            valid[br, i] = ok
+            inv_b[br, i] = v.real if ok else 0.0
+            eps[br, i] = _eps(v) if ok else 0.0
+    T = np.empty(n_s)
+    for j in range(n_s):
+        T[j] = 60.0 / (n_teeth * rpm[j])
+    est = np.zeros(n_s)
+    best_inv = np.zeros(n_s)
+    best_k = np.full(n_s, -1, dtype=np.int64)
+    best_w = np.full(n_s, np.nan)
+    _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, False, a, wnx, kx, zx, wny, ky, zy, measured, G,
+          best_inv, best_k, best_w)
+    _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, True, a, wnx, kx, zx, wny, ky, zy, measured, G,
+          best_inv, best_k, best_w)
+    scale = TWO_PI / (n_teeth * kt)
+    for j in range(n_s):
+        if best_inv[j] > 0.0:
+            depth[j] = scale / best_inv[j]
+            lobe[j] = best_k[j]
+            wc[j] = best_w[j]
+        else:
+            depth[j] = np.inf
+            lobe[j] = -1
+            wc[j] = np.nan
+
+
+@nb.njit(cache=True)
+def modal_grid(wnx, kx, zx, wny, ky, zy, w_top, n_base, offsets):
+    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure on it."""
+    n_all = wnx.size + wny.size
+    wn_all = np.empty(n_all)
+    z_all = np.empty(n_all)
+    wn_all[: wnx.size] = wnx
+    wn_all[wnx.size:] = wny
+    z_all[: wnx.size] = zx
+    z_all[wnx.size:] = zy
+    w_lo = 0.1 * wn_all.min()
+    w_hi = max(4.0 * wn_all.max(), 1.05 * w_top)
+    w = _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets)
+    G = np.zeros((4, w.size), dtype=np.complex128)
+    for i in range(w.size):
+        G[0, i] = _modal_receptance(w[i], wnx, kx, zx)
+        G[3, i] = _modal_receptance(w[i], wny, ky, zy)
+    return w, G
+
+
+@nb.njit(cache=True, parallel=True)
+def envelope_modal_batch(wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
+    """Batched envelope for B modal structures: mode arrays (B, Mx) and (B, My), rpm ascending (S,).
+
+    Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s].
+    """
+    n_b = wnx.shape[0]
+    w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
+    for b in nb.prange(n_b):
+        w, G = modal_grid(wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], w_top, n_base, offsets)
+        envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False,
+                         depth[b], lobe[b], wc[b])

@@ -1,0 +1,201 @@
+"""Zero-order (Altintas–Budak) stability: directional coefficients, lobes and the lower envelope.
+
+The milling forces are averaged over the tooth period into the constant directional matrix
+[A0] = (N/2π)[α]. With ν an eigenvalue of [α][G(iω)], the chatter boundary (Altintas 2012, ch. 3) is
+
+    b_lim(ω) = 2π / (N Kt Re ν(ω))      (Re ν > 0),   ε = π + 2 arg ν,   Ω = 60 ω / (N (ε + 2kπ)).
+
+:func:`envelope` and :func:`envelope_batch` return the lower envelope at arbitrary spindle speeds,
+each value the exact (root-found) minimum over all lobes k and both eigenvalue branches; see
+:mod:`millstab.stability._zoa_kernel` for the algorithm. :func:`lobes` returns the raw lobes for plots.
+
+Units: spindle speed in rpm, depth in m (``depth_mm`` for mm), chatter frequency in Hz.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.frf import ModalBatch, structure_receptance
+from millstab.model import Cutting, Structure
+from millstab.stability import _zoa_kernel as _k
+
+#: log-spaced background points of the per-set frequency grid (mode clusters come on top)
+N_BASE = 400
+_OFFSETS = _k.cluster_offsets()
+#: parameter sets per chunk of the batched engine; bounds memory to a few MB per chunk
+CHUNK = 4096
+
+
+@dataclass(frozen=True, eq=False)
+class Envelope:
+    """The lower envelope of the lobes at given speeds.
+
+    Attributes:
+        rpm: spindle speeds (S,) [rev/min].
+        depth: limiting axial depth b_lim (S,) [m]; ``inf`` where no chatter boundary exists.
+        lobe: lobe number k of the limiting lobe (S,), -1 where none.
+        chatter_hz: chatter frequency of the limiting lobe (S,) [Hz].
+    """
+
+    rpm: np.ndarray
+    depth: np.ndarray
+    lobe: np.ndarray
+    chatter_hz: np.ndarray
+
+    @property
+    def depth_mm(self) -> np.ndarray:
+        """Limiting depth in mm."""
+        return self.depth * 1e3
+
+
+@dataclass(frozen=True, eq=False)
+class Lobe:
+    """One raw lobe (one branch, one k) for plotting: speed and depth along the chatter frequency."""
+
+    k: int
+    branch: int
+    rpm: np.ndarray
+    depth: np.ndarray
+    chatter_hz: np.ndarray
+
+
+def directional_matrix(cutting: Cutting) -> np.ndarray:
+    """The 2×2 matrix [α] of directional-coefficient brackets (dimensionless).
+
+    α_xx = ½[cos2φ − 2Krφ + Kr sin2φ], α_xy = ½[−sin2φ − 2φ + Kr cos2φ],
+    α_yx = ½[−sin2φ + 2φ + Kr cos2φ], α_yy = ½[−cos2φ − 2Krφ − Kr sin2φ], each from φst to φex.
+    """
+    a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
+    return np.array([[a[0], a[1]], [a[2], a[3]]])
+
+
+def check_rpm(rpm: np.ndarray | list[float]) -> np.ndarray:
+    """Spindle speeds as a 1-D float array; raise InputError for non-positive or non-finite values."""
+    r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    if r.ndim != 1 or r.size == 0:
+        raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds")
+    bad = ~np.isfinite(r) | (r <= 0)
+    if bad.any():
+        raise InputError("rpm", float(r[bad][0]), "spindle speeds must be finite and > 0 rev/min")
+    return r
+
+
+def _sorted(rpm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    order = np.argsort(rpm, kind="stable")
+    return np.ascontiguousarray(rpm[order]), order
+
+
+def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
+    """The limiting depth b_lim at each spindle speed for one structure (modal or measured FRF).
+
+    Args:
+        structure: tool-tip dynamics; a measured FRF uses its full 2×2 matrix when cross terms exist.
+        cutting: cutting conditions.
+        rpm: spindle speeds [rev/min], any order.
+    """
+    r = check_rpm(rpm)
+    if structure.is_modal:
+        batch = ModalBatch.from_structures([structure])
+        depth, lobe, wc = _run_modal(batch, cutting, r)
+        return Envelope(r, depth[0], lobe[0], wc[0] / (2 * math.pi))
+    rs, order = _sorted(r)
+    frf = structure.frf
+    w = 2 * math.pi * frf.freq_hz
+    g = frf.matrix()
+    G = np.ascontiguousarray(np.stack([g[:, 0, 0], g[:, 0, 1], g[:, 1, 0], g[:, 1, 1]]))
+    a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
+    n_s = rs.size
+    depth, lobe, wc = np.empty(n_s), np.empty(n_s, dtype=np.int64), np.empty(n_s)
+    empty = np.zeros(0)
+    _k.envelope_on_grid(w, G, a, cutting.teeth, cutting.kt, rs, empty, empty, empty, empty, empty, empty, True,
+                        depth, lobe, wc)
+    inv = np.empty_like(order)
+    inv[order] = np.arange(order.size)
+    return Envelope(r, depth[inv], lobe[inv], wc[inv] / (2 * math.pi))
+
+
+def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S)."""
+    rs, order = _sorted(rpm)
+    n_b, n_s = batch.size, rs.size
+    depth = np.empty((n_b, n_s))
+    lobe = np.empty((n_b, n_s), dtype=np.int64)
+    wc = np.empty((n_b, n_s))
+    a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
+    two_pi = 2 * math.pi
+    _k.envelope_modal_batch(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y,
+                            a, cutting.teeth, cutting.kt, rs, N_BASE, _OFFSETS, depth, lobe, wc)
+    if np.array_equal(order, np.arange(n_s)):
+        return depth, lobe, wc
+    inv = np.empty_like(order)
+    inv[order] = np.arange(n_s)
+    return depth[:, inv], lobe[:, inv], wc[:, inv]
+
+
+def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting, rpm, chunk: int = CHUNK) -> Iterator[tuple[slice, np.ndarray]]:
+    """Yield ``(rows, depth)`` chunk by chunk, depth (rows, S) [m], so huge batches stream in bounded memory."""
+    r = check_rpm(rpm)
+    for start in range(0, batch.size, chunk):
+        rows = slice(start, min(start + chunk, batch.size))
+        part = ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+        yield rows, _run_modal(part, cutting, r)[0]
+
+
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, chunk: int = CHUNK) -> np.ndarray:
+    """The hot path: limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm].
+
+    Compiled, parallel over sets, streamed in chunks of ``chunk`` sets. For reductions over very large
+    B (Monte Carlo) use :func:`iter_envelope_chunks` and keep only what you need.
+    """
+    r = check_rpm(rpm)
+    out = np.empty((batch.size, r.size))
+    for rows, depth in iter_envelope_chunks(batch, cutting, r, chunk):
+        out[rows] = depth
+    return out
+
+
+def lobes(structure: Structure, cutting: Cutting, rpm_min: float, rpm_max: float, n_freq: int = 4000) -> list[Lobe]:
+    """Raw lobes reaching [rpm_min, rpm_max], for plotting (not for accurate envelopes).
+
+    Each lobe is a curve (Ω_k(ω), b(ω)) over the frequencies where Re ν > 0, per eigenvalue branch.
+    """
+    r = check_rpm([rpm_min, rpm_max])
+    if structure.is_modal:
+        fns = np.array([m.fn for m in structure.modes])
+        zs = np.array([m.zeta for m in structure.modes])
+        f_top = cutting.teeth * r.max() / 60.0
+        f_lo, f_hi = 0.3 * fns.min(), max(3.0 * fns.max(), 1.05 * f_top)
+        f = np.unique(np.concatenate([np.geomspace(f_lo, f_hi, n_freq)] +
+                                     [fn * (1 + z * _OFFSETS) for fn, z in zip(fns, zs)]))
+        f = f[(f >= f_lo) & (f <= f_hi)]
+    else:
+        f = structure.frf.freq_hz
+    g = structure_receptance(structure, f)
+    a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
+    G = np.ascontiguousarray(np.stack([g[:, 0, 0], g[:, 0, 1], g[:, 1, 0], g[:, 1, 1]]))
+    nu = _k._branches(a, G[0], G[1], G[2], G[3])
+    out: list[Lobe] = []
+    n, kt = cutting.teeth, cutting.kt
+    w = 2 * math.pi * f
+    for br in range(2):
+        v = nu[br]
+        ok = v.real > 0
+        if not ok.any():
+            continue
+        eps = math.pi + 2 * np.angle(v)
+        depth = np.where(ok, 2 * math.pi / (n * kt * np.where(ok, v.real, 1.0)), np.nan)
+        wv = w[ok]
+        k_max = int(np.ceil((wv * 60.0 / (n * r.min())).max() / (2 * math.pi)))
+        for k in range(0, k_max + 1):
+            speed = np.where(ok, 60.0 * w / (n * (eps + 2 * math.pi * k)), np.nan)
+            inside = ok & (speed >= r.min()) & (speed <= r.max())
+            if inside.sum() < 2:
+                continue
+            out.append(Lobe(k, br, speed, depth, f))
+    return out

@@ -205,66 +205,104 @@ def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, g
             if side == 1:
                 f1 *= 0.5
             side = 1
-        if abs(fm) < 1e-13:
+        if abs(fm) < 1e-11:
             break
     return v.real, xm
 
 
 @nb.njit(cache=True)
-def _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, refine, a, wnx, kx, zx, wny, ky, zy, measured, G,
-          best_inv, best_k, best_w):
-    """Visit every (branch, segment, lobe k, target speed) crossing once.
+def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est):
+    """Find every (branch, segment, lobe k, speed) crossing that can matter, with a linear estimate.
 
-    Pass 1 (``refine`` False): a linear estimate of 1/b at each crossing; keeps the best per speed in
-    ``est``. Pass 2: exact refinement of the crossings whose estimate is within REFINE_MARGIN of the
-    best, keeping the best refined root per speed.
+    A crossing of lobe k at speed j lies in segment i of branch br when ωT_j − ε(ω) − 2kπ changes
+    sign over the segment. Segments are visited in decreasing order of their largest 1/b (Re ν), so
+    once every speed has an estimate, a segment whose best 1/b (times REFINE_MARGIN) is below the
+    worst speed's estimate cannot matter, and neither can any later one: the scan stops there. On
+    typical structures this skips the far-from-resonance 80–90 % of the grid.
+
+    Returns the candidates (speed j, branch, segment i, k, estimated Re ν) and updates ``est`` with the
+    best estimate per speed.
     """
     n_w = w.size
     n_s = rpm.size
     t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
     t_max = T[0]
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    # segments with both ends valid, ordered by their best 1/b
+    seg_max = np.empty(2 * (n_w - 1))
+    n_seg = 0
+    seg_id = np.empty(2 * (n_w - 1), dtype=np.int64)
     for br in range(2):
         for i in range(n_w - 1):
-            if not (valid[br, i] and valid[br, i + 1]):
-                continue
-            wa = w[i]
-            wb = w[i + 1]
-            ea = eps[br, i]
-            eb = eps[br, i + 1]
-            # lobes k whose speed at this segment can fall in [rpm_min, rpm_max]
-            k_lo = int(math.floor((wa * t_min - max(ea, eb)) / TWO_PI))
-            k_hi = int(math.ceil((wb * t_max - min(ea, eb)) / TWO_PI))
-            if k_lo < 0:
-                k_lo = 0
-            for k in range(k_lo, k_hi + 1):
-                sa = 60.0 * wa / (n_teeth * (ea + TWO_PI * k))
-                sb = 60.0 * wb / (n_teeth * (eb + TWO_PI * k))
-                lo = min(sa, sb)
-                hi = max(sa, sb)
-                j = np.searchsorted(rpm, lo)
-                while j < n_s and rpm[j] <= hi:
-                    ha = wa * T[j] - ea - TWO_PI * k
-                    hb = wb * T[j] - eb - TWO_PI * k
-                    if ha * hb <= 0.0 and ha != hb:
-                        t = ha / (ha - hb)
-                        guess = inv_b[br, i] + t * (inv_b[br, i + 1] - inv_b[br, i])
-                        if not refine:
-                            if guess > est[j]:
-                                est[j] = guess
-                        elif guess * REFINE_MARGIN >= est[j]:
-                            if measured:
-                                for q in range(4):
-                                    ga[q] = G[q, i]
-                                    gb[q] = G[q, i + 1]
-                            re_nu, wc = _refine(T[j], k, wa, wb, nu[br, i], nu[br, i + 1], a, wnx, kx, zx,
-                                                wny, ky, zy, measured, ga, gb)
-                            if re_nu > best_inv[j]:
-                                best_inv[j] = re_nu
-                                best_k[j] = k
-                                best_w[j] = wc
-                    j += 1
+            if valid[br, i] and valid[br, i + 1]:
+                seg_max[n_seg] = max(inv_b[br, i], inv_b[br, i + 1])
+                seg_id[n_seg] = br * n_w + i
+                n_seg += 1
+    order = np.argsort(-seg_max[:n_seg])
+    cap = 8 * n_s + 64
+    c_j = np.empty(cap, dtype=np.int64)
+    c_seg = np.empty(cap, dtype=np.int64)
+    c_k = np.empty(cap, dtype=np.int64)
+    c_g = np.empty(cap)
+    n_c = 0
+    worst = 0.0
+    for q in range(n_seg):
+        s = order[q]
+        if q % 8 == 0:
+            worst = est.min()
+        if seg_max[s] * REFINE_MARGIN < worst:
+            break
+        code = seg_id[s]
+        br = code // n_w
+        i = code - br * n_w
+        wa = w[i]
+        wb = w[i + 1]
+        ea = eps[br, i]
+        eb = eps[br, i + 1]
+        # lobes k whose speed on this segment can fall in [rpm_min, rpm_max]
+        k_lo = int(math.floor((wa * t_min - max(ea, eb)) / TWO_PI))
+        k_hi = int(math.ceil((wb * t_max - min(ea, eb)) / TWO_PI))
+        if k_lo < 0:
+            k_lo = 0
+        for k in range(k_lo, k_hi + 1):
+            sa = 60.0 * wa / (n_teeth * (ea + TWO_PI * k))
+            sb = 60.0 * wb / (n_teeth * (eb + TWO_PI * k))
+            j = np.searchsorted(rpm, min(sa, sb))
+            hi = max(sa, sb)
+            while j < n_s and rpm[j] <= hi:
+                ha = wa * T[j] - ea - TWO_PI * k
+                hb = wb * T[j] - eb - TWO_PI * k
+                if ha * hb <= 0.0 and ha != hb:
+                    t = ha / (ha - hb)
+                    guess = inv_b[br, i] + t * (inv_b[br, i + 1] - inv_b[br, i])
+                    if guess > est[j]:
+                        est[j] = guess
+                    if n_c == cap:  # grow the candidate buffers
+                        cap *= 2
+                        c_j = _grow_i(c_j, cap)
+                        c_seg = _grow_i(c_seg, cap)
+                        c_k = _grow_i(c_k, cap)
+                        c_g = _grow_f(c_g, cap)
+                    c_j[n_c] = j
+                    c_seg[n_c] = code
+                    c_k[n_c] = k
+                    c_g[n_c] = guess
+                    n_c += 1
+                j += 1
+    return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c]
+
+
+@nb.njit(cache=True)
+def _grow_i(a, cap):
+    out = np.empty(cap, dtype=np.int64)
+    out[: a.size] = a
+    return out
+
+
+@nb.njit(cache=True)
+def _grow_f(a, cap):
+    out = np.empty(cap)
+    out[: a.size] = a
+    return out
 
 
 @nb.njit(cache=True)
@@ -293,10 +331,26 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     best_inv = np.zeros(n_s)
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
-    _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, False, a, wnx, kx, zx, wny, ky, zy, measured, G,
-          best_inv, best_k, best_w)
-    _scan(w, nu, valid, inv_b, eps, T, rpm, n_teeth, est, True, a, wnx, kx, zx, wny, ky, zy, measured, G,
-          best_inv, best_k, best_w)
+    c_j, c_seg, c_k, c_g = _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est)
+    # refine exactly only the crossings whose estimate is near the best estimate at their speed
+    ga = np.empty(4, dtype=np.complex128)
+    gb = np.empty(4, dtype=np.complex128)
+    for c in range(c_j.size):
+        j = c_j[c]
+        if c_g[c] * REFINE_MARGIN < est[j]:
+            continue
+        br = c_seg[c] // n_w
+        i = c_seg[c] - br * n_w
+        if measured:
+            for q in range(4):
+                ga[q] = G[q, i]
+                gb[q] = G[q, i + 1]
+        re_nu, wcj = _refine(T[j], c_k[c], w[i], w[i + 1], nu[br, i], nu[br, i + 1], a, wnx, kx, zx, wny, ky, zy,
+                             measured, ga, gb)
+        if re_nu > best_inv[j]:
+            best_inv[j] = re_nu
+            best_k[j] = c_k[c]
+            best_w[j] = wcj
     scale = TWO_PI / (n_teeth * kt)
     for j in range(n_s):
         if best_inv[j] > 0.0:

@@ -1,0 +1,312 @@
+"""Config files: cutting conditions and tool-tip structure in TOML, with explicit units.
+
+Schema (every quantity a number in SI or a string with units, parsed by
+:func:`millstab.units.parse_quantity`)::
+
+    name = "Ex.1"                # optional; default: the file name without extension
+    description = "..."          # optional, free text
+
+    [cutting]
+    teeth = 2                    # positive integer
+    kt = "556.31 MPa"            # tangential coefficient; also "556.31 N/mm^2"; plain number = N/m^2
+    kr = 0.404                   # Kr = Kn/Kt (the seed paper's k_n), >= 0
+    entry = "0 deg"              # entry and exit angles (plain number = rad), 0 <= entry < exit <= 180 deg
+    exit = "180 deg"
+    # instead of entry/exit:
+    # radial_immersion = 0.2     # a/D in (0, 1]; also "20 %"
+    # milling = "down"           # "down" or "up"; required unless radial_immersion = 1
+
+    [[structure.x]]              # one table per mode; a direction without modes is rigid
+    fn = "903 Hz"
+    k = "12.53 N/um"
+    zeta = 0.03
+    [[structure.y]]
+    fn = "903 Hz"
+    k = "12.53 N/um"
+    zeta = 0.03
+
+    # or a measured FRF instead of modes (paths relative to this file; .csv, .frf, .uff/.unv):
+    # [structure.frf]
+    # xx = "tap_xx.csv"
+    # yy = { file = "tap.uff", record = 1 }   # UFF: 0-based index among the dataset-58 records
+    # xy = ...; yx = ...                       # optional cross terms
+
+    [speeds]                     # optional: default spindle speeds of this config [rev/min]
+    start = 2000                 # plain numbers are rpm; "5000 rpm" also works
+    stop = 12000                 # inclusive
+    step = 10
+
+Every problem raises :class:`InputError` naming the field (``structure.x[0].k``, ``cutting.kt``),
+the value and what is allowed. Unknown keys are errors (with the allowed keys), so a typo cannot
+pass silently.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.io.results import PathLike, atomic_write_text
+from millstab.model import Cutting, Mode, Structure
+from millstab.units import parse_quantity
+
+TOP_KEYS = ("name", "description", "cutting", "structure", "speeds")
+CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
+STRUCTURE_KEYS = ("x", "y", "frf")
+MODE_KEYS = ("fn", "k", "zeta")
+FRF_KEYS = ("xx", "yy", "xy", "yx")
+SPEED_KEYS = ("start", "stop", "step")
+#: the most speeds a [speeds] table may produce (a larger grid is almost surely a typo)
+MAX_SPEEDS = 1_000_000
+#: hints for keys people are likely to type
+_HINTS = {"kn": "the radial coefficient ratio is called kr (= Kn/Kt, the paper's k_n)",
+          "ks": "give kt and kr (not the specific force Ks)", "n": "the number of teeth is 'teeth'",
+          "flutes": "the number of teeth is 'teeth'", "wn": "give fn in Hz", "f": "the natural frequency is 'fn'",
+          "xi": "the damping ratio is 'zeta'", "damping": "the damping ratio is 'zeta'", "stiffness": "use 'k'"}
+
+
+@dataclass(frozen=True, eq=False)
+class Config:
+    """A loaded config.
+
+    Attributes:
+        cutting: the cutting conditions.
+        structure: the tool-tip structure (modes or measured FRF).
+        name: display name (``name`` key, else the file stem or example name).
+        path: the config file, or ``None`` for a config parsed from text.
+        rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
+        description: free text from the file ("" if none).
+    """
+
+    cutting: Cutting
+    structure: Structure
+    name: str
+    path: Path | None = None
+    rpm: np.ndarray | None = None
+    description: str = ""
+
+
+def _check_keys(table: Any, field: str, allowed: Iterable[str], required: Iterable[str] = ()) -> Mapping[str, Any]:
+    allowed = tuple(allowed)
+    if not isinstance(table, Mapping):
+        raise InputError(field, table, f"must be a table with keys {', '.join(allowed)}")
+    for key in table:
+        if key not in allowed:
+            hint = _HINTS.get(str(key).lower())
+            raise InputError(f"{field}.{key}" if field else str(key), table[key],
+                             f"unknown key{f' ({hint})' if hint else ''}; allowed keys in "
+                             f"{field or 'the top level'}: {', '.join(allowed)}")
+    for key in required:
+        if key not in table:
+            raise InputError(f"{field}.{key}" if field else key, None,
+                             f"missing; [{field}] requires {', '.join(required)}")
+    return table
+
+
+def _angle(value: Any, field: str) -> float:
+    x = parse_quantity(value, field, "angle")
+    if isinstance(value, (int, float)) and not -1e-12 <= x <= math.pi + 1e-12:
+        raise InputError(field, value, "angle must be in [0, pi] rad; a plain number means radians, "
+                                       f"write \"{value} deg\" for degrees")
+    return x
+
+
+def _cutting(t: Any) -> Cutting:
+    t = _check_keys(t, "cutting", CUTTING_KEYS, ("teeth", "kt", "kr"))
+    teeth = t["teeth"]
+    if isinstance(teeth, bool) or not isinstance(teeth, int):
+        raise InputError("cutting.teeth", teeth, "number of teeth must be a positive integer (e.g. teeth = 4)")
+    kt = parse_quantity(t["kt"], "cutting.kt", "pressure")
+    kr = parse_quantity(t["kr"], "cutting.kr", "dimensionless")
+    has_angles = "entry" in t or "exit" in t
+    if has_angles and ("radial_immersion" in t or "milling" in t):
+        raise InputError("cutting.radial_immersion" if "radial_immersion" in t else "cutting.milling",
+                         t.get("radial_immersion", t.get("milling")),
+                         "give either entry/exit angles or radial_immersion (with milling), not both")
+    if has_angles:
+        for key in ("entry", "exit"):
+            if key not in t:
+                raise InputError(f"cutting.{key}", None, "missing; entry and exit are given together")
+        return Cutting(teeth, kt, kr, _angle(t["entry"], "cutting.entry"), _angle(t["exit"], "cutting.exit"))
+    if "radial_immersion" not in t:
+        raise InputError("cutting.entry", None, "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
+                                                "or radial_immersion and milling = \"down\" | \"up\"")
+    ri = parse_quantity(t["radial_immersion"], "cutting.radial_immersion", "dimensionless")
+    milling = t.get("milling")
+    if milling is None:
+        if ri != 1.0:
+            raise InputError("cutting.milling", None, "missing; with radial_immersion < 1 give milling = \"down\" or \"up\"")
+        milling = "down"
+    if milling not in ("down", "up"):
+        raise InputError("cutting.milling", milling, 'must be "down" or "up"')
+    return Cutting.from_immersion(teeth, kt, kr, ri, milling)
+
+
+def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
+    field = f"structure.{direction}"
+    if isinstance(value, Mapping):  # [structure.x] (single brackets): one mode
+        value = [value]
+    if not isinstance(value, list):
+        raise InputError(field, value, f"must be a list of modes: one [[{field}]] table per mode with fn, k, zeta")
+    modes = []
+    for i, m in enumerate(value):
+        name = f"{field}[{i}]"
+        m = _check_keys(m, name, MODE_KEYS, MODE_KEYS)
+        modes.append(Mode(parse_quantity(m["fn"], f"{name}.fn", "frequency"),
+                          parse_quantity(m["k"], f"{name}.k", "stiffness"),
+                          parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless"), name))
+    return tuple(modes)
+
+
+def _structure(t: Any, base_dir: Path | None) -> Structure:
+    t = _check_keys(t, "structure", STRUCTURE_KEYS)
+    if "frf" in t:
+        if t.get("x") or t.get("y"):
+            raise InputError("structure", "modes and [structure.frf]",
+                             "give either modes ([[structure.x]], [[structure.y]]) or a measured FRF, not both")
+        frf_t = _check_keys(t["frf"], "structure.frf", FRF_KEYS)
+        from millstab.io.frf_files import load_measured_frf
+
+        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf")
+        return Structure(frf=frf)
+    x = _modes(t.get("x", []), "x")
+    y = _modes(t.get("y", []), "y")
+    if not x and not y:
+        raise InputError("structure", "no modes", "at least one mode is required: add [[structure.x]] and/or "
+                                                  "[[structure.y]] tables with fn, k, zeta (or a [structure.frf])")
+    return Structure(x=x, y=y)
+
+
+def _rpm_value(value: Any, field: str) -> float:
+    """A spindle speed in rpm: a plain number (rpm) or a string with units (``"5000 rpm"``)."""
+    if isinstance(value, bool):
+        raise InputError(field, value, "expected a spindle speed in rpm")
+    if isinstance(value, (int, float)):
+        x = float(value)
+    elif isinstance(value, str):
+        # only rpm: pint would turn "100 Hz" into 954.9 rpm (rad/s semantics), not 6000 rev/min
+        m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*(rpm|rev/min|1/min)?\s*", value)
+        try:
+            x = float(m.group(1)) if m else math.nan
+        except ValueError:
+            x = math.nan
+        if math.isnan(x):
+            raise InputError(field, value, "expected a spindle speed, e.g. 5000 or \"5000 rpm\" (plain number = rpm)")
+    else:
+        raise InputError(field, value, "expected a spindle speed in rpm")
+    if not math.isfinite(x) or x <= 0:
+        raise InputError(field, value, "spindle speed must be a finite number > 0 rpm")
+    return x
+
+
+def _speeds(t: Any) -> np.ndarray:
+    t = _check_keys(t, "speeds", SPEED_KEYS, SPEED_KEYS)
+    start, stop, step = (_rpm_value(t[k], f"speeds.{k}") for k in SPEED_KEYS)
+    if stop <= start:
+        raise InputError("speeds.stop", t["stop"], f"must be greater than speeds.start ({start:g} rpm)")
+    n = math.floor((stop - start) / step + 1e-9) + 1
+    if n > MAX_SPEEDS:
+        raise InputError("speeds.step", t["step"], f"gives {n} speeds; at most {MAX_SPEEDS} allowed")
+    return start + step * np.arange(n)
+
+
+def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path | None = None,
+                     base_dir: Path | None = None) -> Config:
+    """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths."""
+    data = _check_keys(data, "", TOP_KEYS)
+    for key in ("cutting", "structure"):
+        if key not in data:
+            raise InputError(key, None, f"missing; a config needs [cutting] and [structure] tables")
+    name_value = data.get("name", name)
+    if not isinstance(name_value, str):
+        raise InputError("name", name_value, "must be a string")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise InputError("description", description, "must be a string")
+    cutting = _cutting(data["cutting"])
+    structure = _structure(data["structure"], base_dir)
+    rpm = _speeds(data["speeds"]) if "speeds" in data else None
+    return Config(cutting, structure, name_value, path, rpm, description)
+
+
+def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None) -> Config:
+    """Parse config TOML text (``path`` of the result is ``None``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(name, "TOML syntax error", f"{exc}") from None
+    return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None)
+
+
+def load_config(source: PathLike) -> Config:
+    """Load a config file, or a packaged example with ``"example:NAME"`` (e.g. ``"example:ex1"``).
+
+    Raises:
+        InputError: file missing, TOML syntax error (file name and line), or any schema problem.
+    """
+    if isinstance(source, str) and source.startswith("example:"):
+        from millstab.datasets import example_path
+
+        path = example_path(source.split(":", 1)[1])
+        default_name = path.stem
+    else:
+        path = Path(source).expanduser()
+        default_name = path.stem
+        if not path.is_file():
+            raise InputError("config", str(source), "file does not exist" if not path.exists() else "is not a file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError("config", str(path), "must be a UTF-8 text (TOML) file") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:  # the message carries "(at line L, column C)"
+        raise InputError(str(path), "TOML syntax error", str(exc)) from None
+    return config_from_dict(data, default_name, path, path.parent)
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.15g}"
+
+
+def config_to_toml(config: Config) -> str:
+    """TOML text of a config with a modal structure, in the schema above (trade units, 15 digits).
+
+    Raises:
+        InputError: for a measured-FRF structure (its data live in separate files).
+    """
+    if not config.structure.is_modal:
+        raise InputError("structure", "measured FRF", "only modal structures can be written as a config")
+    c = config.cutting
+    lines = [f"name = {_toml_str(config.name)}"]
+    if config.description:
+        lines.append(f"description = {_toml_str(config.description)}")
+    lines += ["", "[cutting]", f"teeth = {c.teeth}", f'kt = "{_fmt(c.kt / 1e6)} MPa"', f"kr = {_fmt(c.kr)}",
+              f'entry = "{_fmt(math.degrees(c.entry))} deg"', f'exit = "{_fmt(math.degrees(c.exit))} deg"']
+    for d in ("x", "y"):
+        for m in getattr(config.structure, d):
+            lines += ["", f"[[structure.{d}]]", f'fn = "{_fmt(m.fn)} Hz"', f'k = "{_fmt(m.k / 1e6)} N/um"',
+                      f"zeta = {_fmt(m.zeta)}"]
+    if config.rpm is not None and config.rpm.size >= 2:
+        r = config.rpm
+        lines += ["", "[speeds]", f"start = {_fmt(r[0])}", f"stop = {_fmt(r[-1])}", f"step = {_fmt(r[1] - r[0])}"]
+    return "\n".join(lines) + "\n"
+
+
+def _toml_str(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+
+
+def write_config(path: PathLike, config: Config, protect: Iterable[PathLike] = ()) -> Path:
+    """Write a modal config as TOML (atomic; refuses to overwrite a ``protect`` file)."""
+    return atomic_write_text(path, config_to_toml(config), protect)
+
+
+__all__ = ["Config", "config_from_dict", "config_to_toml", "load_config", "parse_config", "write_config"]

@@ -1,0 +1,425 @@
+"""Measured tool-tip FRFs from files: CSV, CutPro-style ``.frf`` text and UFF58 (``.uff``/``.unv``).
+
+Every reader returns ``(freq_hz, h)``: frequencies [Hz] and the complex receptance [m/N] of ONE
+term (xx, yy, xy or yx). :func:`load_measured_frf` combines the terms into a validated
+:class:`~millstab.model.MeasuredFRF`.
+
+Accepted formats (chosen by the file extension, case-insensitive):
+
+``.csv``
+    Header required, columns ``freq_hz,real,imag`` (any order, case-insensitive); values in Hz and
+    m/N. Blank lines and lines starting with ``#`` are skipped. :func:`write_frf_csv` writes it,
+    with floats in their shortest exact form, so a write/read round trip is lossless.
+
+``.frf`` (CutPro-style text)
+    Whitespace-separated columns ``frequency real imaginary``, one frequency per row. Lines that
+    are blank or start with ``#``, ``%``, ``!``, ``;`` or ``//`` are comments; lines before the
+    first data row whose first token is not a number are header lines. CutPro writes its column
+    labels after the numbers of the FIRST data row (``f re im Freq Hz Real m/N Imag Real``), so
+    non-numeric tokens after three numbers are accepted as labels. Units: if the header/label
+    tokens contain a receptance unit (``m/N``, ``mm/N``, ``um/N``, ``µm/N``, ``in/lbf`` ...) the
+    values are converted from it, otherwise m/N is assumed; a ``kHz`` or ``rad/s`` token converts
+    the frequency, otherwise Hz. Decimal commas are not accepted.
+
+``.uff`` / ``.unv`` (universal file, dataset 58, read with :mod:`pyuff`)
+    Function type 4 (FRF); types 0 (general) and 1 are accepted only when the data are complex
+    and the abscissa is frequency, because some exporters write FRFs that way. A file with several
+    dataset-58 records needs ``record=N``: the 0-based index among the file's dataset-58 records in
+    file order (:func:`list_uff_records` lists them; in a config:
+    ``xx = { file = "tap.uff", record = 2 }``). The ordinate may be displacement (receptance),
+    velocity (mobility) or acceleration (accelerance) per its specific data type (8, 11, 12; 0 =
+    unknown is read as displacement); mobility and accelerance are converted to receptance by
+    dividing by iω and −ω². Units, first match wins: (1) the ordinate units label when it is set
+    (e.g. ``mm/N``, ``(m/s)/N``, ``g/N`` for accelerance), converted with pint; (2) a dataset 164
+    in the file (SI value = file value × force factor / length factor, as the UFF spec defines the
+    factors); (3) SI. The abscissa is taken as Hz. Points at exactly 0 Hz are dropped (iω = 0).
+
+Frequencies must be finite and strictly increasing in every file. :func:`load_measured_frf`
+additionally drops a leading 0 Hz point (analyzers export one; MeasuredFRF needs f > 0).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+import warnings
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from millstab.errors import InputError, UnitWarning
+from millstab.io.results import PathLike, write_csv
+from millstab.model import MeasuredFRF
+
+#: extension → format name
+FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
+#: |H| above this [m/N] is implausible for a tool tip: probably mm/N or µm/N read as m/N
+SUSPICIOUS_RECEPTANCE = 1e-3
+
+_COMMENT = ("#", "%", "!", ";", "//")
+
+
+def _check_axis(freq: np.ndarray, h: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
+    if freq.size == 0:
+        raise InputError(where, "no data rows", "the file contains no FRF values")
+    if not np.all(np.isfinite(freq)):
+        raise InputError(where, "non-finite frequency", "frequencies must be finite numbers")
+    if not np.all(np.isfinite(h)):
+        i = int(np.argmax(~np.isfinite(h)))
+        raise InputError(where, f"value {h[i]} at {freq[i]:g} Hz", "FRF values must be finite numbers")
+    if np.any(freq < 0):
+        raise InputError(where, f"frequency {freq.min():g} Hz", "frequencies must be >= 0 Hz")
+    d = np.diff(freq)
+    if np.any(d <= 0):
+        i = int(np.argmax(d <= 0))
+        raise InputError(where, f"{freq[i]:g} Hz followed by {freq[i + 1]:g} Hz", "frequencies must be strictly increasing")
+    return freq, h
+
+
+def _exists(path: PathLike, field: str) -> Path:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(field, str(p), "FRF file does not exist")
+    return p
+
+
+# ----------------------------------------------------------------------------------------- CSV
+
+def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """Read a ``freq_hz,real,imag`` CSV (Hz, m/N). Returns ``(freq_hz, h)``."""
+    p = _exists(path, "frf file")
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(p.read_text(encoding="utf-8-sig").splitlines()))
+            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    required = ("freq_hz", "real", "imag")
+    if not rows:
+        raise InputError(str(p), "empty file", f"expected a header {','.join(required)} and rows")
+    names = [c.strip().lower() for c in rows[0][1]]
+    for n in names:
+        if n not in required:
+            raise InputError(f"{p.name} header", n, f"unknown column; the columns are {', '.join(required)} (Hz, m/N)")
+    for n in required:
+        if n not in names:
+            raise InputError(f"{p.name} header", ",".join(names), f"missing column {n!r}; required: {', '.join(required)}")
+    if len(set(names)) != len(names):
+        raise InputError(f"{p.name} header", ",".join(names), "a column name appears twice")
+    col = {n: i for i, n in enumerate(names)}
+    out = np.empty((len(rows) - 1, 3))
+    for k, (line, r) in enumerate(rows[1:]):
+        if len(r) != len(names):
+            raise InputError(f"{p.name} line {line}", ",".join(r), f"expected {len(names)} cells")
+        for j, n in enumerate(required):
+            cell = r[col[n]].strip()
+            try:
+                out[k, j] = float(cell)
+            except ValueError:
+                raise InputError(f"{p.name} line {line}, {n}", cell, "must be a number") from None
+    return _check_axis(out[:, 0].copy(), out[:, 1] + 1j * out[:, 2], p.name)
+
+
+def write_frf_csv(path: PathLike, freq_hz: np.ndarray, h: np.ndarray, protect=()) -> Path:
+    """Write one FRF term as ``freq_hz,real,imag`` CSV (Hz, m/N), lossless and atomic."""
+    f = np.asarray(freq_hz, dtype=float).ravel()
+    v = np.asarray(h, dtype=complex).ravel()
+    if f.shape != v.shape:
+        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
+    return write_csv(path, ["freq_hz", "real", "imag"], [f, v.real, v.imag], protect)
+
+
+# ------------------------------------------------------------------------------------- CutPro
+
+_FREQ_UNITS = {"hz": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
+
+
+def _is_number(tok: str) -> bool:
+    try:
+        float(tok)
+    except ValueError:
+        return False
+    return True
+
+
+def _receptance_unit(token: str) -> float | None:
+    """SI factor of a receptance unit token like ``mm/N``; None if the token is not one."""
+    if "/" not in token or token.lower() in _FREQ_UNITS:
+        return None
+    from millstab.units import registry
+
+    ureg = registry()
+    try:
+        q = ureg.Quantity(1.0, token.replace("µ", "u").replace("μ", "u").replace("^", "**"))
+        return float(q.to("m/N").magnitude)
+    except Exception:  # not a unit, or not length/force
+        return None
+
+
+def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """Read a CutPro-style ``.frf`` text file (format in the module docstring). Returns ``(freq_hz, h)``."""
+    p = _exists(path, "frf file")
+    data: list[tuple[float, float, float]] = []
+    labels: list[str] = []
+    for line_no, line in enumerate(p.read_text(encoding="utf-8-sig", errors="replace").splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith(_COMMENT):
+            continue
+        tok = s.split()
+        numeric = [_is_number(t) for t in tok]
+        if not numeric[0]:
+            if data:
+                raise InputError(f"{p.name} line {line_no}", s[:60], "text after the data rows; expected 'frequency real imag'")
+            labels += tok
+            continue
+        n_num = next((i for i, ok in enumerate(numeric) if not ok), len(tok))
+        if n_num < 3:
+            raise InputError(f"{p.name} line {line_no}", s[:60], "a data row needs three numbers: frequency, real, imaginary")
+        if n_num > 3:
+            raise InputError(f"{p.name} line {line_no}", s[:60],
+                             f"found {n_num} numbers; expected three columns: frequency [Hz], real, imaginary [m/N]")
+        if n_num < len(tok):
+            if data:
+                raise InputError(f"{p.name} line {line_no}", s[:60], "text after the numbers is only allowed on the first data row")
+            labels += tok[3:]
+        data.append((float(tok[0]), float(tok[1]), float(tok[2])))
+    if not data:
+        raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
+    h_factors = {f for f in (_receptance_unit(t) for t in labels) if f is not None}
+    f_factors = {_FREQ_UNITS[t.lower()] for t in labels if t.lower() in _FREQ_UNITS}
+    if len(h_factors) > 1 or len(f_factors) > 1:
+        raise InputError(f"{p.name} labels", " ".join(labels), "conflicting unit labels; give one frequency and one receptance unit")
+    hf = h_factors.pop() if h_factors else 1.0
+    ff = f_factors.pop() if f_factors else 1.0
+    a = np.array(data)
+    return _check_axis(a[:, 0] * ff, (a[:, 1] + 1j * a[:, 2]) * hf, p.name)
+
+
+# ---------------------------------------------------------------------------------------- UFF
+
+_FUNC_TYPES = {0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
+               5: "transmissibility", 6: "coherence"}
+#: ordinate specific data type → (name, power of iω that turns it into displacement)
+_ORDINATE = {0: ("unknown (read as displacement)", 0), 8: ("displacement", 0), 11: ("velocity", 1), 12: ("acceleration", 2)}
+
+
+def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+    """All dataset-58 records of a UFF file and its first dataset 164 (units), if any."""
+    import pyuff
+
+    try:
+        uff = pyuff.UFF(str(p))
+        types = list(uff.get_set_types())
+    except Exception as exc:  # pyuff raises assorted errors for a non-UFF file
+        raise InputError(str(p), "unreadable", f"not a universal file (UFF): {exc}") from None
+    idx58 = [i for i, t in enumerate(types) if int(t) == 58]
+    idx164 = [i for i, t in enumerate(types) if int(t) == 164]
+    if not idx58:
+        raise InputError(str(p), f"dataset types {sorted({int(t) for t in types})}", "contains no dataset 58 (function) record")
+    try:
+        sets = uff.read_sets(idx58)
+        units = uff.read_sets(idx164[0]) if idx164 else None
+    except Exception as exc:
+        raise InputError(str(p), "unreadable", f"pyuff could not read the records: {exc}") from None
+    if isinstance(sets, dict):
+        sets = [sets]
+    return list(sets), units
+
+
+def _describe(i: int, s: Mapping[str, Any]) -> str:
+    ft = int(s.get("func_type", 0))
+    return (f"[{i}] {_FUNC_TYPES.get(ft, f'type {ft}')}, response {s.get('rsp_node')}:{s.get('rsp_dir')}, "
+            f"reference {s.get('ref_node')}:{s.get('ref_dir')}, '{str(s.get('id1', '')).strip()}'")
+
+
+def list_uff_records(path: PathLike) -> list[str]:
+    """One line per dataset-58 record of a UFF file: ``[index] type, response node:dir, reference node:dir, id``."""
+    p = _exists(path, "frf file")
+    sets, _ = _uff_sets(p)
+    return [_describe(i, s) for i, s in enumerate(sets)]
+
+
+def _label_factor(label: str, power: int) -> float | None:
+    """SI factor from a UFF ordinate units label, or None when the label is unset.
+
+    ``power`` is the numerator's time derivative order (0 receptance, 1 mobility, 2 accelerance).
+    """
+    text = (label or "").strip()
+    if not text or text.upper() == "NONE":
+        return None
+    from millstab.units import registry
+
+    ureg = registry()
+    si = {0: "m/N", 1: "m/s/N", 2: "m/s**2/N"}[power]
+    cleaned = text.replace("µ", "u").replace("μ", "u").replace("^", "**")
+    cleaned = re.sub(r"^\(?\s*g\s*\)?\s*/", "g_0/", cleaned) if power == 2 else cleaned  # g/N means gravities per newton
+    try:
+        return float(ureg.Quantity(1.0, cleaned).to(si).magnitude)
+    except Exception:
+        raise InputError("uff ordinate units", text, f"cannot convert to {si}; expected e.g. "
+                         f"{ {0: 'm/N or mm/N', 1: '(m/s)/N', 2: '(m/s^2)/N or g/N'}[power] }") from None
+
+
+def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Read one dataset-58 FRF record from a UFF file (rules in the module docstring).
+
+    Args:
+        path: ``.uff`` or ``.unv`` file.
+        record: 0-based index among the file's dataset-58 records; may be omitted when there is one.
+
+    Returns:
+        ``(freq_hz, h)`` with h the receptance [m/N].
+    """
+    p = _exists(path, "frf file")
+    sets, units = _uff_sets(p)
+    listing = "; ".join(_describe(i, s) for i, s in enumerate(sets))
+    if record is None:
+        if len(sets) > 1:
+            raise InputError(f"{p.name} record", None, f"the file holds {len(sets)} dataset-58 records; choose one "
+                             f"with record = N (0-based): {listing}")
+        record = 0
+    if isinstance(record, bool) or not isinstance(record, (int, np.integer)) or not 0 <= record < len(sets):
+        raise InputError(f"{p.name} record", record, f"must be an integer 0..{len(sets) - 1}: {listing}")
+    s = sets[int(record)]
+    where = f"{p.name} record {record}"
+    ft = int(s.get("func_type", 0))
+    data = np.asarray(s["data"])
+    freq = np.asarray(s["x"], dtype=float)
+    absc = int(s.get("abscissa_spec_data_type", 0))
+    if ft != 4 and not (ft in (0, 1) and np.iscomplexobj(data) and absc in (0, 18)):
+        raise InputError(f"{where} function type", f"{ft} ({_FUNC_TYPES.get(ft, 'other')})",
+                         "must be an FRF (function type 4) with complex data over frequency")
+    if not np.iscomplexobj(data):
+        raise InputError(f"{where} data", "real values", "an FRF record must hold complex data")
+    if absc not in (0, 18):
+        raise InputError(f"{where} abscissa type", absc, "the abscissa must be frequency (specific data type 18)")
+    num = int(s.get("ordinate_spec_data_type", 0))
+    den = int(s.get("orddenom_spec_data_type", 0))
+    if num not in _ORDINATE:
+        raise InputError(f"{where} ordinate type", num, "the response must be displacement (8), velocity (11) or acceleration (12)")
+    if den not in (0, 13):
+        raise InputError(f"{where} denominator type", den, "the reference must be a force (13)")
+    power = _ORDINATE[num][1]
+    factor = _label_factor(str(s.get("ordinate_axis_units_lab", "")), power)
+    if factor is None and units is not None:
+        factor = float(units.get("force", 1.0)) / float(units.get("length", 1.0))
+    if factor is None:
+        factor = 1.0
+    h = data.astype(complex) * factor
+    freq, h = _check_axis(freq, h, where)
+    if power:
+        keep = freq > 0  # iω = 0 there: no receptance can be derived at 0 Hz
+        freq, h = freq[keep], h[keep]
+        h = h / (2j * np.pi * freq) ** power
+    return freq, h
+
+
+# ----------------------------------------------------------------------------------- dispatch
+
+def read_frf(path: PathLike, record: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Read one FRF term [Hz, m/N] from a file whose format is chosen by extension (see module doc).
+
+    Raises:
+        InputError: unknown extension, missing file, malformed content; ``record`` given for a
+            non-UFF file.
+    """
+    p = Path(path)
+    fmt = FORMATS.get(p.suffix.lower())
+    if fmt is None:
+        raise InputError("frf file", str(p), f"unknown FRF file type {p.suffix!r}; allowed: {', '.join(FORMATS)}")
+    if fmt == "uff":
+        return read_frf_uff(p, record)
+    if record is not None:
+        raise InputError("frf record", record, f"'record' only applies to UFF files, not {p.suffix}")
+    return read_frf_csv(p) if fmt == "csv" else read_frf_cutpro(p)
+
+
+FRFSource = PathLike | Mapping[str, Any] | tuple
+
+
+def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, int | None]:
+    """A source (path, ``{"file": .., "record": ..}`` or ``(path, record)``) → (absolute path, record)."""
+    record = None
+    if isinstance(src, Mapping):
+        unknown = set(src) - {"file", "record"}
+        if unknown:
+            raise InputError(f"{field}.{sorted(unknown)[0]}", src[sorted(unknown)[0]], "unknown key; allowed keys: file, record")
+        if "file" not in src:
+            raise InputError(f"{field}.file", None, "missing; give the FRF file path")
+        path, record = src["file"], src.get("record")
+    elif isinstance(src, tuple):
+        if len(src) != 2:
+            raise InputError(field, src, "expected (path, record)")
+        path, record = src
+    else:
+        path = src
+    if not isinstance(path, (str, Path)) or not str(path).strip():
+        raise InputError(field, path, "expected a file path string")
+    p = Path(path).expanduser()
+    if not p.is_absolute() and base_dir is not None:
+        p = base_dir / p
+    if not p.is_file():
+        raise InputError(field, str(path), f"FRF file does not exist (looked for {p})")
+    return p, record
+
+
+def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, xy: FRFSource | None = None,
+                      yx: FRFSource | None = None, *, base_dir: PathLike | None = None,
+                      field: str = "structure.frf") -> MeasuredFRF:
+    """Read the FRF terms and combine them into a :class:`MeasuredFRF` on one frequency axis.
+
+    Each term is a path, ``{"file": path, "record": N}`` or ``(path, record)``; relative paths are
+    taken relative to ``base_dir`` (the config file's folder). A leading 0 Hz point is dropped.
+
+    Frequency axis: the axis of ``xx`` (``yy`` when there is no xx). A term measured on the same
+    axis (to 1e-9 relative) is used as is; a term on another axis is linearly interpolated (real and
+    imaginary parts) onto it. Where the terms' bands differ, the axis is trimmed to the band all
+    terms cover (never extrapolated), with a warning.
+
+    Raises:
+        InputError: naming the term (``structure.frf.xx``) for missing/malformed files, fewer than
+            four common frequencies, or no direct term.
+    """
+    base = Path(base_dir) if base_dir is not None else None
+    terms: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name, src in (("xx", xx), ("yy", yy), ("xy", xy), ("yx", yx)):
+        if src is None:
+            continue
+        p, record = _source(src, f"{field}.{name}", base)
+        try:
+            f, h = read_frf(p, record)
+        except InputError as exc:
+            raise InputError(f"{field}.{name}", exc.value, f"{exc.field}: {exc.allowed}") from None
+        if f[0] == 0.0:
+            f, h = f[1:], h[1:]
+        if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
+            warnings.warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
+                          f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
+                          UnitWarning, stacklevel=2)
+        terms[name] = (f, h)
+    if "xx" not in terms and "yy" not in terms:
+        raise InputError(field, "no xx and no yy", "a measured FRF needs at least one direct term (xx or yy)")
+    ref_name = "xx" if "xx" in terms else "yy"
+    f_ref = terms[ref_name][0]
+    lo = max(t[0][0] for t in terms.values())
+    hi = min(t[0][-1] for t in terms.values())
+    keep = (f_ref >= lo * (1 - 1e-12)) & (f_ref <= hi * (1 + 1e-12))
+    if np.count_nonzero(keep) < 4:
+        raise InputError(field, f"common band {lo:g}..{hi:g} Hz",
+                         f"the terms must share at least 4 frequencies of the {ref_name} axis")
+    if not keep.all():
+        warnings.warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis",
+                      UserWarning, stacklevel=2)
+    f_common = f_ref[keep]
+    out: dict[str, np.ndarray] = {}
+    for name, (f, h) in terms.items():
+        if f.shape == f_ref.shape and np.allclose(f, f_ref, rtol=1e-9, atol=0.0):
+            out[name] = h[keep]
+        else:
+            out[name] = np.interp(f_common, f, h.real) + 1j * np.interp(f_common, f, h.imag)
+    try:
+        return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
+    except InputError as exc:
+        raise InputError(f"{field}: {exc.field}", exc.value, exc.allowed) from None
+
+
+__all__ = ["FORMATS", "list_uff_records", "load_measured_frf", "read_frf", "read_frf_csv", "read_frf_cutpro",
+           "read_frf_uff", "write_frf_csv"]

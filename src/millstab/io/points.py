@@ -1,0 +1,203 @@
+"""Point sets: stability-boundary points and labelled test cuts, read from and written to CSV.
+
+File format (UTF-8 CSV, header required, columns in any order)::
+
+    rpm,depth_mm,label,weight
+    5500,1.20,,            <- boundary point (no label): the limiting depth at that speed
+    5600,1.50,chatter,2    <- test cut that chattered, counted twice in weighted objectives
+    5600,1.00,stable,      <- test cut that was stable
+
+* ``rpm`` [rev/min] and ``depth_mm`` [mm] are required, both > 0.
+* ``label`` (optional column): ``stable`` or ``chatter`` (case-insensitive) for a test cut; an empty
+  cell marks a boundary point.
+* ``weight`` (optional column): > 0, default 1 (also for an empty cell).
+* Blank lines and lines starting with ``#`` are skipped (comments); any other column name is an
+  error, so a misspelt header cannot be silently ignored.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.io.results import PathLike, write_csv
+
+REQUIRED = ("rpm", "depth_mm")
+OPTIONAL = ("label", "weight")
+LABELS = ("stable", "chatter")
+
+
+@dataclass(frozen=True, eq=False)
+class PointSet:
+    """Spindle-speed/depth points, each a boundary point (label ``""``) or a labelled test cut.
+
+    Attributes:
+        rpm: spindle speeds (n,) [rev/min], > 0.
+        depth_mm: axial depths of cut (n,) [mm], > 0.
+        label: (n,) str array: ``"stable"``, ``"chatter"`` or ``""`` (boundary point). ``None`` =
+            all boundary points.
+        weight: (n,) weights > 0 for weighted objectives; ``None`` = all 1.
+        source: the file the points came from (for messages and ``protect=``), or ``None``.
+    """
+
+    rpm: np.ndarray
+    depth_mm: np.ndarray
+    label: np.ndarray | None = None
+    weight: np.ndarray | None = None
+    source: Path | None = None
+
+    def __post_init__(self) -> None:
+        rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
+        depth = np.atleast_1d(np.asarray(self.depth_mm, dtype=float))
+        n = rpm.size
+        label = np.full(n, "", dtype=object) if self.label is None else np.atleast_1d(np.asarray(self.label, dtype=object))
+        weight = np.ones(n) if self.weight is None else np.atleast_1d(np.asarray(self.weight, dtype=float))
+        for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight)):
+            if arr.ndim != 1 or arr.size != n:
+                raise InputError(f"points.{name}", f"{arr.size} values", f"need one value per speed ({n})")
+        for name, arr, unit in (("rpm", rpm, "rev/min"), ("depth_mm", depth, "mm"), ("weight", weight, "")):
+            bad = ~(np.isfinite(arr) & (arr > 0))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(f"points.{name}[{i}]", float(arr[i]), f"must be a finite number > 0 {unit}".rstrip())
+        label = np.array([str(s).strip().lower() for s in label], dtype=object)
+        for i, s in enumerate(label):
+            if s not in ("",) + LABELS:
+                raise InputError(f"points.label[{i}]", s, "must be 'stable', 'chatter' or empty (boundary point)")
+        # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
+        object.__setattr__(self, "rpm", rpm)
+        object.__setattr__(self, "depth_mm", depth)
+        object.__setattr__(self, "label", label.astype("<U7") if n else np.array([], dtype="<U7"))
+        object.__setattr__(self, "weight", weight)
+        if self.source is not None:
+            object.__setattr__(self, "source", Path(self.source))
+
+    def __len__(self) -> int:
+        return int(self.rpm.size)
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """Boolean mask of the boundary points (no label)."""
+        return self.label == ""
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Boolean mask of the test cuts labelled stable."""
+        return self.label == "stable"
+
+    @property
+    def chatter(self) -> np.ndarray:
+        """Boolean mask of the test cuts labelled chatter."""
+        return self.label == "chatter"
+
+    @property
+    def depth_m(self) -> np.ndarray:
+        """Depths in metres."""
+        return self.depth_mm * 1e-3
+
+    def subset(self, mask: np.ndarray) -> PointSet:
+        """The points selected by a boolean mask (or an index array)."""
+        m = np.asarray(mask)
+        if m.dtype == bool and m.shape != self.rpm.shape:
+            raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
+        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source)
+
+
+def _number(text: str, field: str, line: int, path: Path) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise InputError(f"{path.name} line {line}, {field}", text, "must be a number") from None
+    if not math.isfinite(x):
+        raise InputError(f"{path.name} line {line}, {field}", text, "must be a finite number")
+    return x
+
+
+def read_points(path: PathLike) -> PointSet:
+    """Read a point set CSV (format in the module docstring).
+
+    Raises:
+        InputError: missing file, empty file, missing or unknown column, a non-number (with the
+            line number), speed/depth/weight ≤ 0, unknown label.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("points file", str(p), "file does not exist")
+    try:
+        text = p.read_text(encoding="utf-8-sig")  # -sig: spreadsheets often write a BOM
+    except UnicodeDecodeError:
+        raise InputError("points file", str(p), "must be a UTF-8 text CSV file") from None
+    rows = [(i + 1, row) for i, row in enumerate(csv.reader(text.splitlines()))
+            if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
+    if not rows:
+        raise InputError("points file", str(p), f"is empty; expected a header {','.join(REQUIRED + OPTIONAL)} and rows")
+    header_line, header = rows[0]
+    names = [h.strip().lower() for h in header]
+    allowed = REQUIRED + OPTIONAL
+    for h in names:
+        if h not in allowed:
+            raise InputError(f"{p.name} header", h, f"unknown column; allowed columns: {', '.join(allowed)} "
+                                                    f"(required: {', '.join(REQUIRED)})")
+    if len(set(names)) != len(names):
+        raise InputError(f"{p.name} header", ",".join(names), "a column name appears twice")
+    for r in REQUIRED:
+        if r not in names:
+            raise InputError(f"{p.name} header", ",".join(names), f"missing column {r!r}; required columns: "
+                                                                  f"{', '.join(REQUIRED)} (optional: {', '.join(OPTIONAL)})")
+    if len(rows) == 1:
+        raise InputError("points file", str(p), "has a header but no points")
+    col = {h: i for i, h in enumerate(names)}
+    rpm, depth, label, weight = [], [], [], []
+    for line, row in rows[1:]:
+        if len(row) > len(names):
+            raise InputError(f"{p.name} line {line}", ",".join(row), f"has {len(row)} cells but the header has {len(names)}")
+        cells = [c.strip() for c in row] + [""] * (len(names) - len(row))
+        r = _number(cells[col["rpm"]], "rpm", line, p)
+        d = _number(cells[col["depth_mm"]], "depth_mm", line, p)
+        if r <= 0:
+            raise InputError(f"{p.name} line {line}, rpm", cells[col["rpm"]], "spindle speed must be > 0 rev/min")
+        if d <= 0:
+            raise InputError(f"{p.name} line {line}, depth_mm", cells[col["depth_mm"]], "depth of cut must be > 0 mm")
+        lab = cells[col["label"]].lower() if "label" in col else ""
+        if lab not in ("",) + LABELS:
+            raise InputError(f"{p.name} line {line}, label", cells[col["label"]],
+                             "must be 'stable', 'chatter' or empty (boundary point)")
+        w = 1.0
+        if "weight" in col and cells[col["weight"]]:
+            w = _number(cells[col["weight"]], "weight", line, p)
+            if w <= 0:
+                raise InputError(f"{p.name} line {line}, weight", cells[col["weight"]], "weight must be > 0")
+        rpm.append(r)
+        depth.append(d)
+        label.append(lab)
+        weight.append(w)
+    return PointSet(np.array(rpm), np.array(depth), np.array(label, dtype=object), np.array(weight), p)
+
+
+def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] = ()) -> Path:
+    """Write a point set as CSV (all four columns; floats written exactly). Atomic; see results."""
+    return write_csv(path, ["rpm", "depth_mm", "label", "weight"],
+                     [points.rpm, points.depth_mm, list(points.label), points.weight], protect)
+
+
+def check_enough(points: PointSet, n_free: int) -> int:
+    """Return the number of boundary points; raise InputError if fewer than ``n_free``.
+
+    Fitting ``n_free`` parameters to fewer boundary points is underdetermined.
+    """
+    n = int(np.count_nonzero(points.boundary))
+    if n < n_free:
+        where = f" in {points.source.name}" if points.source is not None else ""
+        raise InputError("points", f"{n} boundary points{where}",
+                         f"need at least {n_free} boundary points (rows without a label) to identify "
+                         f"{n_free} free parameters; add points or fix (tie) parameters")
+    return n
+
+
+__all__ = ["LABELS", "PointSet", "check_enough", "read_points", "write_points"]

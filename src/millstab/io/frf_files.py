@@ -210,6 +210,8 @@ def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
         types = list(uff.get_set_types())
     except Exception as exc:  # pyuff raises assorted errors for a non-UFF file
         raise InputError(str(p), "unreadable", f"not a universal file (UFF): {exc}") from None
+    if not types:
+        raise InputError(str(p), "no datasets", "not a universal file (UFF): no datasets found")
     idx58 = [i for i, t in enumerate(types) if int(t) == 58]
     idx164 = [i for i, t in enumerate(types) if int(t) == 164]
     if not idx58:

@@ -1,0 +1,119 @@
+"""Packaged datasets: the paper's examples load, agree with the paper's tables, and the published values."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+import warnings
+
+import numpy as np
+import pytest
+
+from millstab.datasets import example_path, list_examples, load_example, paper_values
+from millstab.errors import InputError
+from millstab.io.config import load_config
+
+
+def test_list_examples():
+    assert list_examples() == ["ex1", "ex2", "ex3", "fourflute"]
+
+
+@pytest.mark.parametrize("name", ["ex1", "ex2", "ex3", "fourflute"])
+def test_examples_load_cleanly(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no unit warnings: the files state their units
+        c = load_example(name)
+    assert c.name == name and c.path == example_path(name) and c.path.is_file()
+    assert c.rpm is not None and c.rpm.size > 100 and np.all(np.diff(c.rpm) > 0)
+    assert load_config(f"example:{name}").cutting == c.cutting
+
+
+@pytest.mark.parametrize("name", ["ex1", "ex2", "ex3"])
+def test_synthetic_examples_match_table_1(name):
+    t = paper_values()["input_values"][name]
+    c = load_example(name)
+    assert c.cutting.teeth == t["teeth"]
+    assert c.cutting.kt == pytest.approx(t["kt"], rel=1e-14)
+    assert c.cutting.kr == t["kr"]
+    assert math.degrees(c.cutting.entry) == pytest.approx(t["entry_deg"], abs=1e-12)
+    assert math.degrees(c.cutting.exit) == pytest.approx(t["exit_deg"], abs=1e-12)
+    for d in ("x", "y"):
+        (m,) = getattr(c.structure, d)
+        assert (m.fn, m.k, m.zeta) == pytest.approx((t[f"fn_{d}"], t[f"k_{d}"], t[f"zeta_{d}"]), rel=1e-14)
+
+
+def test_ex3_is_20_percent_down_milling():
+    c = load_example("ex3").cutting
+    # Table 1 prints 126.9 deg, the rounded arccos(2 * 0.2 - 1) = 126.87 deg
+    assert math.degrees(c.entry) == pytest.approx(math.degrees(math.acos(2 * 0.2 - 1)), abs=0.05)
+    assert c.exit == math.pi
+
+
+def test_fourflute_matches_table_4():
+    t = paper_values()["modal"]
+    c = load_example("fourflute")
+    for d in ("x", "y"):
+        modes = getattr(c.structure, d)
+        assert [m.fn for m in modes] == t[f"fn_{d}"]
+        assert [m.k for m in modes] == pytest.approx(t[f"k_{d}"], rel=1e-14)
+        assert [m.zeta for m in modes] == t[f"zeta_{d}"]
+    e = paper_values()["experiment"]
+    assert c.cutting.teeth == e["teeth"] == 4 and c.cutting.is_slotting
+    assert c.cutting.kt == pytest.approx(e["kt"], rel=1e-14) and c.cutting.kr == e["kr"]
+    assert c.rpm[0] == 5000 and c.rpm[-1] == 7000
+
+
+def test_unknown_example():
+    with pytest.raises(InputError, match="available: ex1, ex2, ex3, fourflute"):
+        load_example("ex4")
+    with pytest.raises(InputError):
+        example_path("paper_values")  # a data file, not an example config
+
+
+def test_paper_values_groups_cite_their_tables():
+    v = paper_values()
+    for group in ("input_values", "results_fourier", "modal", "experimental_results", "experiment", "mc"):
+        assert "tab:" in v[group]["cite"] or "Section" in v[group]["cite"], group
+    assert v["experiment"]["cite"].startswith("Section")
+
+
+def test_paper_values_numbers():
+    v = paper_values()
+    assert v["results_fourier"]["ex3"]["predicted"]["fn_y"] == 947.7
+    assert v["results_fourier"]["ex1"]["predicted"]["k_x"] == 13.44e6
+    assert v["results_fourier"]["iterations"] == 60
+    for ex in ("ex1", "ex2", "ex3"):  # Table 3 targets are Table 1 inputs
+        tgt = v["results_fourier"][ex]["target"]
+        assert all(tgt[k] == pytest.approx(v["input_values"][ex][k], rel=1e-12) for k in tgt)
+    er = v["experimental_results"]
+    assert (er["newton_raphson"]["fn"], er["newton_raphson"]["k"], er["newton_raphson"]["zeta"]) == (4103.4, 11.65e6, 0.0269)
+    assert (er["method1_two_point"]["fn"], er["method1_two_point"]["k"], er["method1_two_point"]["zeta"]) == (4124.0, 10.63e6, 0.0307)
+    assert (er["method2_regression"]["fn"], er["method2_regression"]["k"], er["method2_regression"]["zeta"]) == (4103.0, 8.90e6, 0.0379)
+    e = v["experiment"]
+    assert (e["chatter_tests"], e["operation"], e["rpm_min"], e["rpm_max"]) == (21, "slotting", 5500.0, 6500.0)
+    mc = v["mc"]
+    assert mc["params"] == ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
+    assert mc["mean"] == [0.06610, 0.00080, 0.00025, 0.06798, 0.00078, 0.00026]
+    assert mc["sd"] == [0.03202, 0.00029, 0.00012, 0.03174, 0.00026, 0.00013]
+    assert (mc["paths"], mc["width_t"], mc["eps"]) == (10000, 0.1, 0.01)
+
+
+def test_paper_values_is_a_fresh_copy():
+    v = paper_values()
+    v["mc"]["mean"][0] = -1.0
+    assert paper_values()["mc"]["mean"][0] == 0.06610
+
+
+def test_paper_values_file_is_plain_toml():
+    with open(example_path("ex1").parent / "paper_values.toml", "rb") as fh:
+        assert tomllib.load(fh) == paper_values()
+
+
+@pytest.mark.parametrize("name,min_lobes", [("ex1", 6), ("ex2", 4), ("ex3", 4), ("fourflute", 3)])
+def test_default_speeds_show_several_lobes(name, min_lobes):
+    """The [speeds] comments promise several lobes; count the distinct limiting lobes on that range."""
+    zoa = pytest.importorskip("millstab.stability.zoa")
+    c = load_example(name)
+    env = zoa.envelope(c.structure, c.cutting, c.rpm)
+    assert np.all(np.isfinite(env.depth))
+    assert len(set(env.lobe.tolist())) >= min_lobes

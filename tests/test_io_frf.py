@@ -1,0 +1,226 @@
+"""FRF files: CSV, CutPro-style .frf and UFF58, written from modal receptances and read back."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+pyuff = pytest.importorskip("pyuff")
+
+from millstab.errors import InputError, UnitWarning  # noqa: E402
+from millstab.frf import modal_receptance  # noqa: E402
+from millstab.io.frf_files import (list_uff_records, load_measured_frf, read_frf, read_frf_csv,  # noqa: E402
+                                   write_frf_csv)
+
+# integer Hz: ASCII UFF stores the abscissa with 6 significant digits, so this grid survives exactly
+F = np.arange(100.0, 3001.0, 10.0)
+HX = modal_receptance(F, [903.0, 2100.0], [12.53e6, 40e6], [0.03, 0.02])
+HY = modal_receptance(F, [950.0], [10e6], [0.01])
+
+
+def uff58(h, f=F, binary=1, func_type=4, num=8, label=None, rsp_dir=1, ref_dir=1, id1="tap"):
+    kw = dict(binary=binary, func_type=func_type, rsp_node=1, rsp_dir=rsp_dir, ref_node=1, ref_dir=ref_dir,
+              data=h, x=f, id1=id1, abscissa_spacing=0, abscissa_spec_data_type=18,
+              ordinate_spec_data_type=num, orddenom_spec_data_type=13)
+    if label:
+        kw["ordinate_axis_units_lab"] = label
+    return pyuff.prepare_58(**kw)
+
+
+def write_uff(path, *sets):
+    u = pyuff.UFF(str(path))
+    for s in sets:
+        u.write_sets(s, "add")
+    return path
+
+
+# ------------------------------------------------------------------------------------ formats
+
+def test_csv_round_trip_exact(tmp_path):
+    p = write_frf_csv(tmp_path / "xx.csv", F, HX)
+    assert p.read_text().splitlines()[0] == "freq_hz,real,imag"
+    f, h = read_frf(p)
+    np.testing.assert_array_equal(f, F)
+    np.testing.assert_array_equal(h, HX)
+
+
+def test_csv_columns_any_order_and_comments(tmp_path):
+    p = tmp_path / "a.csv"
+    p.write_text("# from the analyzer\nIMAG,freq_hz,Real\n-2e-8,100,1e-7\n-3e-8,200,2e-7\n")
+    f, h = read_frf_csv(p)
+    np.testing.assert_array_equal(f, [100.0, 200.0])
+    np.testing.assert_array_equal(h, [1e-7 - 2e-8j, 2e-7 - 3e-8j])
+
+
+def cutpro_text(f, h, label_row=True, header=""):
+    rows = [f"{float(fi)!r}\t{float(hi.real)!r}\t{float(hi.imag)!r}" for fi, hi in zip(f, h)]
+    if label_row:  # CutPro puts its labels after the first row's numbers
+        rows[0] += "\tFreq\tHz\tReal\tm/N\tImag\tReal\t"
+    return header + "\n".join(rows) + "\n"
+
+
+def test_cutpro_layout_exact(tmp_path):
+    p = tmp_path / "xx.frf"
+    p.write_text(cutpro_text(F, HX))
+    f, h = read_frf(p)
+    np.testing.assert_array_equal(f, F)
+    np.testing.assert_array_equal(h, HX)
+
+
+def test_frf_with_header_comments_and_mm_per_n(tmp_path):
+    p = tmp_path / "yy.FRF"
+    text = cutpro_text(F, HY * 1e3, label_row=False, header="% tool tip yy\nFrequency(Hz) Real(mm/N) Imag\n Hz  mm/N  mm/N\n\n")
+    p.write_text(text.replace("\t", "   "))
+    f, h = read_frf(p)
+    np.testing.assert_array_equal(f, F)
+    np.testing.assert_allclose(h, HY, rtol=1e-14)
+
+
+@pytest.mark.parametrize("binary", [1, 0])
+def test_uff_round_trip(tmp_path, binary):
+    p = write_uff(tmp_path / "xx.uff", uff58(HX, binary=binary))
+    f, h = read_frf(p)
+    np.testing.assert_array_equal(f, F)
+    if binary:  # binary double records are bit-exact
+        np.testing.assert_array_equal(h, HX)
+    else:  # ASCII records carry 12 significant digits
+        np.testing.assert_allclose(h, HX, rtol=1e-11)
+
+
+def test_uff_record_selection(tmp_path):
+    p = write_uff(tmp_path / "tap.unv", uff58(HX, id1="xx"), uff58(HY, rsp_dir=2, ref_dir=2, id1="yy"))
+    listing = list_uff_records(p)
+    assert len(listing) == 2 and "[1]" in listing[1] and "1:2" in listing[1] and "yy" in listing[1]
+    with pytest.raises(InputError, match="record = N") as info:
+        read_frf(p)
+    assert "yy" in str(info.value)
+    np.testing.assert_array_equal(read_frf(p, record=0)[1], HX)
+    np.testing.assert_array_equal(read_frf(p, record=1)[1], HY)
+    with pytest.raises(InputError, match="0..1"):
+        read_frf(p, record=2)
+
+
+def test_uff_units_label_mobility_and_accelerance(tmp_path):
+    w = 2j * np.pi * F
+    p = write_uff(tmp_path / "u.uff", uff58(HX * 1e3, label="mm/N"), uff58(HX * w, num=11),
+                  uff58(HX * w * w / 9.80665, num=12, label="g/N"))
+    np.testing.assert_allclose(read_frf(p, 0)[1], HX, rtol=1e-14)
+    np.testing.assert_allclose(read_frf(p, 1)[1], HX, rtol=1e-14)
+    np.testing.assert_allclose(read_frf(p, 2)[1], HX, rtol=1e-14)
+
+
+def test_uff_units_from_dataset_164(tmp_path):
+    units = pyuff.prepare_164(units_code=3, units_description="mm_newton", temp_mode=1, length=1000.0, force=1.0,
+                              temp=1.0, temp_offset=273.15)
+    p = write_uff(tmp_path / "u.uff", units, uff58(HX * 1e3))
+    np.testing.assert_allclose(read_frf(p)[1], HX, rtol=1e-14)
+
+
+def test_uff_rejects_non_frf(tmp_path):
+    p = write_uff(tmp_path / "coh.uff", uff58(np.abs(HX) + 0j, func_type=6))
+    with pytest.raises(InputError, match="function type"):
+        read_frf(p)
+    p = write_uff(tmp_path / "bad.uff", uff58(HX, label="kg"))
+    with pytest.raises(InputError, match="m/N"):
+        read_frf(p)
+
+
+# ------------------------------------------------------------------------------------- errors
+
+@pytest.mark.parametrize("name,text,words", [
+    ("a.csv", "", "empty"),
+    ("a.csv", "f,real,imag\n1,2,3\n", "unknown column"),
+    ("a.csv", "freq_hz,real\n1,2\n", "missing column 'imag'"),
+    ("a.csv", "freq_hz,real,imag\n1,2,x\n", "line 2, imag"),
+    ("a.csv", "freq_hz,real,imag\n2,1,1\n1,1,1\n", "increasing"),
+    ("a.csv", "freq_hz,real,imag\n1,nan,1\n", "finite"),
+    ("a.frf", "1 2\n", "three numbers"),
+    ("a.frf", "1 2 3 4 5\n", "expected three columns"),
+    ("a.frf", "1 2 3\nend of data\n", "line 2"),
+    ("a.frf", "# nothing\n", "no data rows"),
+    ("a.frf", "Hz m/N mm/N\n1 2 3\n", "conflicting"),
+    ("a.txt", "1 2 3\n", "allowed: .csv, .frf, .uff, .unv"),
+    ("a.uff", "this is not a universal file\n", "UFF"),
+])
+def test_malformed_files(tmp_path, name, text, words):
+    p = tmp_path / name
+    p.write_text(text)
+    with pytest.raises(InputError, match=None) as info:
+        read_frf(p)
+    assert words in str(info.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_frf(tmp_path / "gone.csv")
+
+
+# ---------------------------------------------------------------------------- MeasuredFRF
+
+def test_load_measured_frf_mixed_formats(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", F, HX)
+    (tmp_path / "yy.frf").write_text(cutpro_text(F, HY))
+    write_uff(tmp_path / "cross.uff", uff58(HX * 0.1, id1="xy"), uff58(HY * 0.2, id1="yx"))
+    m = load_measured_frf(xx="xx.csv", yy=tmp_path / "yy.frf", xy={"file": "cross.uff", "record": 0},
+                          yx=("cross.uff", 1), base_dir=tmp_path)
+    np.testing.assert_array_equal(m.freq_hz, F)
+    np.testing.assert_array_equal(m.xx, HX)
+    np.testing.assert_array_equal(m.yy, HY)
+    np.testing.assert_array_equal(m.xy, HX * 0.1)
+    np.testing.assert_array_equal(m.yx, HY * 0.2)
+
+
+def test_leading_zero_hz_dropped(tmp_path):
+    f0 = np.concatenate([[0.0], F])
+    write_frf_csv(tmp_path / "xx.csv", f0, np.concatenate([[1 / 12.53e6], HX]))
+    m = load_measured_frf(xx=tmp_path / "xx.csv")
+    np.testing.assert_array_equal(m.freq_hz, F)
+    assert m.yy is None
+
+
+def test_other_axis_is_interpolated_onto_xx(tmp_path):
+    fy = np.linspace(50.0, 3200.0, 2000)
+    hy = modal_receptance(fy, [950.0], [10e6], [0.01])
+    write_frf_csv(tmp_path / "xx.csv", F, HX)
+    write_frf_csv(tmp_path / "yy.csv", fy, hy)
+    m = load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "yy.csv")
+    np.testing.assert_array_equal(m.freq_hz, F)
+    expected = np.interp(F, fy, hy.real) + 1j * np.interp(F, fy, hy.imag)
+    np.testing.assert_array_equal(m.yy, expected)
+    np.testing.assert_allclose(m.yy, HY, rtol=0.05, atol=2e-9)  # and close to the true term
+
+
+def test_different_bands_are_trimmed_with_warning(tmp_path):
+    fy = np.arange(500.0, 2001.0, 5.0)
+    write_frf_csv(tmp_path / "xx.csv", F, HX)
+    write_frf_csv(tmp_path / "yy.csv", fy, modal_receptance(fy, [950.0], [10e6], [0.01]))
+    with pytest.warns(UserWarning, match="500..2000 Hz"):
+        m = load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "yy.csv")
+    assert m.freq_hz[0] == 500.0 and m.freq_hz[-1] == 2000.0
+
+
+def test_load_measured_frf_errors(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", F, HX)
+    with pytest.raises(InputError, match="direct term"):
+        load_measured_frf(xy=tmp_path / "xx.csv")
+    with pytest.raises(InputError) as info:
+        load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "nope.csv")
+    assert info.value.field == "structure.frf.yy"
+    fz = np.arange(5000.0, 6000.0, 10.0)
+    write_frf_csv(tmp_path / "far.csv", fz, modal_receptance(fz, [5500.0], [10e6], [0.01]))
+    with pytest.raises(InputError, match="at least 4"):
+        load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "far.csv")
+    with pytest.raises(InputError, match="allowed keys: file, record"):
+        load_measured_frf(xx={"path": "xx.csv"}, base_dir=tmp_path)
+
+
+def test_receptance_in_mm_per_n_warns(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", F, HX * 1e3)
+    with pytest.warns(UnitWarning, match="mm/N"):
+        load_measured_frf(xx=tmp_path / "xx.csv")
+    write_frf_csv(tmp_path / "ok.csv", F, HX)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_measured_frf(xx=tmp_path / "ok.csv")

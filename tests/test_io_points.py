@@ -1,0 +1,204 @@
+"""Point-set CSVs and the results writers (atomic, protected)."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.io.points import PointSet, check_enough, read_points, write_points
+from millstab.io.results import read_json, write_csv, write_json
+
+GOOD = """rpm,depth_mm,label,weight
+5500,1.20,,
+5600,1.50,chatter,2
+5600,1.00,Stable,
+# a comment line
+5700,0.95,,0.5
+"""
+
+
+def points_file(tmp_path, text, name="pts.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def err(tmp_path, text) -> InputError:
+    with pytest.raises(InputError) as info:
+        read_points(points_file(tmp_path, text))
+    return info.value
+
+
+def test_read_points(tmp_path):
+    ps = read_points(points_file(tmp_path, GOOD))
+    np.testing.assert_array_equal(ps.rpm, [5500, 5600, 5600, 5700])
+    np.testing.assert_array_equal(ps.depth_mm, [1.2, 1.5, 1.0, 0.95])
+    np.testing.assert_array_equal(ps.depth_m, [1.2e-3, 1.5e-3, 1.0e-3, 0.95e-3])
+    assert list(ps.label) == ["", "chatter", "stable", ""]
+    np.testing.assert_array_equal(ps.weight, [1, 2, 1, 0.5])
+    np.testing.assert_array_equal(ps.boundary, [True, False, False, True])
+    np.testing.assert_array_equal(ps.chatter, [False, True, False, False])
+    assert len(ps) == 4 and ps.source == tmp_path / "pts.csv"
+
+
+def test_minimal_columns_any_order(tmp_path):
+    ps = read_points(points_file(tmp_path, "depth_mm , RPM\n2.0, 6000\n3.0,6100\n"))
+    np.testing.assert_array_equal(ps.rpm, [6000, 6100])
+    np.testing.assert_array_equal(ps.depth_mm, [2.0, 3.0])
+    assert ps.boundary.all() and (ps.weight == 1).all()
+
+
+def test_subset(tmp_path):
+    ps = read_points(points_file(tmp_path, GOOD))
+    b = ps.subset(ps.boundary)
+    np.testing.assert_array_equal(b.rpm, [5500, 5700])
+    assert list(b.label) == ["", ""] and b.weight.tolist() == [1.0, 0.5]
+    with pytest.raises(InputError):
+        ps.subset(np.array([True, False]))
+
+
+def test_round_trip_exact(tmp_path):
+    rng = np.random.default_rng(1)
+    ps = PointSet(rng.uniform(5000, 7000, 50), rng.uniform(0.1, 3, 50),
+                  rng.choice(["", "stable", "chatter"], 50), rng.uniform(0.1, 5, 50))
+    out = write_points(tmp_path / "sub" / "p.csv", ps)
+    back = read_points(out)
+    np.testing.assert_array_equal(back.rpm, ps.rpm)
+    np.testing.assert_array_equal(back.depth_mm, ps.depth_mm)
+    np.testing.assert_array_equal(back.label, ps.label)
+    np.testing.assert_array_equal(back.weight, ps.weight)
+
+
+@pytest.mark.parametrize("text,field,words", [
+    ("", "points file", "empty"),
+    ("# only a comment\n\n", "points file", "empty"),
+    ("rpm,depth_mm\n", "points file", "no points"),
+    ("rpm,depth\n5000,1\n", "pts.csv header", "depth_mm"),
+    ("speed,depth_mm\n5000,1\n", "pts.csv header", "rpm"),
+    ("rpm\n5000\n", "pts.csv header", "missing column 'depth_mm'"),
+    ("rpm,depth_mm,lable\n5000,1,stable\n", "pts.csv header", "allowed columns"),
+    ("rpm,depth_mm\n5000,1\n5100,abc\n", "pts.csv line 3, depth_mm", "number"),
+    ("rpm,depth_mm\n5000,1\n\n5,1e\n", "pts.csv line 4, depth_mm", "number"),
+    ("rpm,depth_mm\nnan,1\n", "pts.csv line 2, rpm", "finite"),
+    ("rpm,depth_mm\n0,1\n", "pts.csv line 2, rpm", "> 0"),
+    ("rpm,depth_mm\n5000,-1\n", "pts.csv line 2, depth_mm", "> 0"),
+    ("rpm,depth_mm,label\n5000,1,chatty\n", "pts.csv line 2, label", "stable"),
+    ("rpm,depth_mm,weight\n5000,1,0\n", "pts.csv line 2, weight", "> 0"),
+    ("rpm,depth_mm\n5000,1,3\n", "pts.csv line 2", "cells"),
+    ("rpm,rpm,depth_mm\n5000,1,3\n", "pts.csv header", "twice"),
+])
+def test_bad_point_files(tmp_path, text, field, words):
+    e = err(tmp_path, text)
+    assert e.field == field
+    assert words in str(e)
+
+
+def test_missing_points_file(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_points(tmp_path / "none.csv")
+
+
+def test_pointset_validates_arrays():
+    with pytest.raises(InputError, match=r"points\.depth_mm\[1\]"):
+        PointSet([5000, 6000], [1.0, -1.0])
+    with pytest.raises(InputError, match="points.label"):
+        PointSet([5000], [1.0], ["maybe"])
+    with pytest.raises(InputError, match="points.weight"):
+        PointSet([5000, 6000], [1.0, 2.0], weight=[1.0])
+
+
+def test_check_enough(tmp_path):
+    ps = read_points(points_file(tmp_path, GOOD))  # two boundary points
+    assert check_enough(ps, 2) == 2
+    with pytest.raises(InputError, match="at least 3 boundary points") as info:
+        check_enough(ps, 3)
+    assert "pts.csv" in str(info.value)
+
+
+# ------------------------------------------------------------------------------------ results
+
+def test_write_json_numpy_and_dataclasses(tmp_path):
+    @dataclass(frozen=True)
+    class R:
+        x: np.ndarray
+        n: int
+
+    obj = {"a": np.arange(3), "b": np.float64(0.5), "c": np.int32(7), "d": R(np.array([[1.0, np.nan]]), 2),
+           "e": 1 + 2j, "f": np.bool_(True), "g": (1, 2), "h": tmp_path, "inf": np.inf}
+    p = write_json(tmp_path / "deep" / "dir" / "r.json", obj)
+    back = read_json(p)
+    assert back == {"a": [0, 1, 2], "b": 0.5, "c": 7, "d": {"x": [[1.0, None]], "n": 2},
+                    "e": {"real": 1.0, "imag": 2.0}, "f": True, "g": [1, 2], "h": str(tmp_path), "inf": None}
+    json.loads(p.read_text())  # strict JSON (no NaN tokens)
+    assert "NaN" not in p.read_text()
+
+
+def test_write_json_rejects_unknown_types(tmp_path):
+    with pytest.raises(TypeError, match="object"):
+        write_json(tmp_path / "x.json", {"a": object()})
+    assert not (tmp_path / "x.json").exists()
+
+
+def test_writers_refuse_to_overwrite_inputs(tmp_path):
+    inp = points_file(tmp_path, GOOD)
+    before = inp.read_text()
+    for call in (lambda p: write_json(p, {"a": 1}, protect=[inp]),
+                 lambda p: write_csv(p, ["a"], [[1.0]], protect=[inp]),
+                 lambda p: write_points(p, read_points(inp), protect=[inp])):
+        with pytest.raises(InputError, match="overwrite the input file"):
+            call(inp)
+        # also through another spelling of the same path
+        with pytest.raises(InputError):
+            call(tmp_path / "." / "pts.csv")
+    assert inp.read_text() == before
+    link = tmp_path / "link.csv"
+    link.symlink_to(inp)
+    with pytest.raises(InputError):
+        write_json(link, {}, protect=[inp])
+
+
+def test_atomic_replace_keeps_old_file_on_failure(tmp_path):
+    p = write_json(tmp_path / "r.json", {"v": 1})
+    with pytest.raises(TypeError):
+        write_json(p, {"v": object()})
+    assert read_json(p) == {"v": 1}
+    write_json(p, {"v": 2})
+    assert read_json(p) == {"v": 2}
+    assert [q.name for q in tmp_path.iterdir()] == ["r.json"]  # no temp files left behind
+
+
+def test_new_files_get_normal_permissions(tmp_path):
+    p = write_csv(tmp_path / "a.csv", ["x"], [[1.0]])
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~umask
+
+
+def test_write_csv_exact_and_checked(tmp_path):
+    x = np.array([0.1, 1 / 3, 1e-300, np.nan])
+    p = write_csv(tmp_path / "c.csv", ["x", "label"], [x, ["a", "b", "", "d"]])
+    lines = p.read_text().splitlines()
+    assert lines[0] == "x,label"
+    assert [float(v.split(",")[0]) for v in lines[1:4]] == x[:3].tolist()
+    assert lines[4] == ",d"
+    with pytest.raises(InputError, match="same length"):
+        write_csv(tmp_path / "d.csv", ["a", "b"], [[1, 2], [1]])
+    with pytest.raises(InputError, match="one name per column"):
+        write_csv(tmp_path / "d.csv", ["a"], [[1], [2]])
+    with pytest.raises(InputError, match="directory"):
+        write_csv(tmp_path, ["a"], [[1]])
+
+
+def test_read_json_errors(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_json(tmp_path / "no.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"a": 1,\n "b": }\n')
+    with pytest.raises(InputError, match="line 2"):
+        read_json(bad)

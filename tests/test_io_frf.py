@@ -224,3 +224,19 @@ def test_receptance_in_mm_per_n_warns(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         load_measured_frf(xx=tmp_path / "ok.csv")
+
+
+def test_config_with_uff_record(tmp_path):
+    from millstab.io.config import load_config
+
+    write_uff(tmp_path / "tap.uff", uff58(HX, id1="xx"), uff58(HY, rsp_dir=2, ref_dir=2, id1="yy"))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[cutting]\nteeth = 4\nkt = "1110 MPa"\nkr = 0.22\nentry = "0 deg"\nexit = "180 deg"\n'
+                   '[structure.frf]\nxx = { file = "tap.uff", record = 0 }\nyy = { file = "tap.uff", record = 1 }\n')
+    c = load_config(cfg)
+    np.testing.assert_array_equal(c.structure.frf.xx, HX)
+    np.testing.assert_array_equal(c.structure.frf.yy, HY)
+    cfg.write_text(cfg.read_text().replace("record = 1 }", "}"))
+    with pytest.raises(InputError, match="record = N") as info:
+        load_config(cfg)
+    assert info.value.field == "structure.frf.yy"

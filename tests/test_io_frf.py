@@ -236,7 +236,7 @@ def test_config_with_uff_record(tmp_path):
     c = load_config(cfg)
     np.testing.assert_array_equal(c.structure.frf.xx, HX)
     np.testing.assert_array_equal(c.structure.frf.yy, HY)
-    cfg.write_text(cfg.read_text().replace("record = 1 }", "}"))
+    cfg.write_text(cfg.read_text().replace(", record = 1 }", " }"))
     with pytest.raises(InputError, match="record = N") as info:
         load_config(cfg)
     assert info.value.field == "structure.frf.yy"

@@ -1,0 +1,646 @@
+"""Compiled (numba) kernels of the semi-discretization. Use :mod:`millstab.stability.sdm` instead.
+
+Model (SI units). Every mode j is a 1-DOF oscillator in direction d_j (x = feed, y = cross-feed):
+
+    q̈_j + 2 ζ_j ω_j q̇_j + ω_j² q_j = F_{d_j}(t) / m_j,     x = Σ_{d_j = x} q_j,  y = Σ_{d_j = y} q_j,
+    F(t) = w [A(t)] (u(t) − u(t − T)),   w = ½ b Kt,  u = (x, y),  T = 60 / (N Ω[rpm]),
+
+[A(t)] = Σ_teeth g(φ_j) [[−sin2φ − Kr(1 − cos2φ), −(1 + cos2φ) − Kr sin2φ],
+                         [(1 − cos2φ) − Kr sin2φ,    sin2φ − Kr(1 + cos2φ)]],
+
+φ_j the tooth angles (from +y, Altintas), g = 1 inside [φst, φex]. Its average over a tooth period is
+(N/2π)[α] (the zero-order matrix). Only the directions that carry modes take part (D ≤ 2 of them).
+
+State z = (q_1..q_M, q̇_1..q̇_M), n = 2M. One tooth period is cut into steps on a grid aligned with
+the entry/exit instants; on step i (length h_i) the periodic matrix is replaced by its exact step
+average Ā_i and the delayed displacement by its linear interpolation between grid nodes (first-order
+semi-discretization):
+
+    z_{i+1} = Φ_i z_i + (F1_i − F2_i/h_i) B_i u_{i−m} + (F2_i/h_i) B_i u_{i−m+1},
+    Φ = e^{A h},  F1 = ∫₀ʰ e^{A(h−s)} ds,  F2 = ∫₀ʰ e^{A(h−s)} s ds,
+
+A_i = A0 + w Ê_i (current-state part of the cutting force), B_i the delayed part. Steps where no
+tooth cuts have no forcing and are one exact step. Φ, F1, F2 are functions of the small matrix A_i
+evaluated in closed form (n = 2, Cayley–Hamilton with divided differences) or by eigendecomposition
+(n > 2; an ill-conditioned eigenbasis falls back to a scaled Taylor series of the block matrix).
+"""
+
+from __future__ import annotations
+
+import math
+
+import llvmlite.binding as _llvm
+import numba as nb
+import numpy as np
+from numba import types
+from numba.extending import get_cython_function_address
+
+TWO_PI = 2.0 * math.pi
+
+# LAPACK dgeev straight from SciPy: numba's own eigvals needs complex input for a real matrix with
+# complex eigenvalues, and complex zgeev is ~3× slower than real dgeev on these 20–100 sized matrices.
+# It is bound by symbol name (registered with LLVM at import), so the compiled kernels can be cached;
+# a ctypes pointer would be a "dynamic global" and force a recompile in every process.
+_llvm.add_symbol("millstab_sdm_dgeev", get_cython_function_address("scipy.linalg.cython_lapack", "dgeev"))
+_dgeev = types.ExternalFunction("millstab_sdm_dgeev", types.void(*([types.intp] * 14)))
+
+#: condition number of the eigenbasis above which the Taylor fallback is used (n > 2)
+COND_MAX = 1e7
+
+
+# ---------------------------------------------------------------------------------------------------
+# scalar functions of λ:  E = e^{λh},  F1 = ∫₀ʰ e^{λu} du,  F2 = ∫₀ʰ (h − u) e^{λu} du
+# written with J_k(z) = ∫₀¹ v^k e^{zv} dv, z = λh:  F1 = h J0,  F2 = h²(J0 − J1),  dJ_k/dz = J_{k+1}.
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _jfun(z, kmax, out):
+    """J_0..J_kmax at complex z (series for |z| < 1, else the upward recurrence, stable there)."""
+    if abs(z) < 1.0:
+        for k in range(kmax + 1):
+            term = 1.0 + 0.0j
+            s = term / (k + 1)
+            for j in range(1, 30):
+                term = term * z / j
+                s += term / (j + k + 1)
+            out[k] = s
+    else:
+        ez = np.exp(z)
+        out[0] = (ez - 1.0) / z
+        for k in range(1, kmax + 1):
+            out[k] = (ez - k * out[k - 1]) / z
+
+
+@nb.njit(cache=True)
+def _expm_2x2(a, b, c, d, h, phi, f1, f2):
+    """Φ, F1, F2 of the real 2×2 matrix [[a, b], [c, d]] over a step h, in closed form.
+
+    f(A) = c0 I + c1 A with c1 = (f(s+δ) − f(s−δ))/(2δ), c0 = ½(f(s+δ) + f(s−δ)) − s c1, s = tr/2,
+    δ² = s² − det. Near coalescing eigenvalues (|δh| < 1e-3) a Taylor series in δ² is used instead.
+    """
+    s = 0.5 * (a + d)
+    d2 = s * s - (a * d - b * c)
+    dl = np.sqrt(complex(d2))
+    J = np.empty(5, dtype=np.complex128)
+    cE1 = cE0 = cF1 = cF0 = cG1 = cG0 = 0.0
+    if abs(dl) * h > 1e-3:
+        lp = complex(s, 0.0) + dl
+        lm = complex(s, 0.0) - dl
+        _jfun(lp * h, 1, J)
+        ep = np.exp(lp * h)
+        f1p = h * J[0]
+        f2p = h * h * (J[0] - J[1])
+        _jfun(lm * h, 1, J)
+        em = np.exp(lm * h)
+        f1m = h * J[0]
+        f2m = h * h * (J[0] - J[1])
+        k1 = (ep - em) / (2.0 * dl)
+        cE1 = k1.real
+        cE0 = (0.5 * (ep + em) - s * k1).real
+        k1 = (f1p - f1m) / (2.0 * dl)
+        cF1 = k1.real
+        cF0 = (0.5 * (f1p + f1m) - s * k1).real
+        k1 = (f2p - f2m) / (2.0 * dl)
+        cG1 = k1.real
+        cG0 = (0.5 * (f2p + f2m) - s * k1).real
+    else:
+        # f(s±δ): c1 = f' + f''' δ²/6,  ½(f(s+δ)+f(s−δ)) = f + f'' δ²/2  (error O(δ⁴h⁴) < 1e-12)
+        z = complex(s * h, 0.0)
+        _jfun(z, 4, J)
+        e = math.exp(s * h)
+        # derivatives in λ: E^(k) = h^k e;  F1^(k) = h^{k+1} J_k;  F2^(k) = h^{k+2} (J_k − J_{k+1})
+        cE1 = h * e + h ** 3 * e * d2 / 6.0
+        cE0 = e + h * h * e * d2 / 2.0 - s * cE1
+        cF1 = (h * h * J[1] + h ** 4 * J[3] * d2 / 6.0).real
+        cF0 = (h * J[0] + h ** 3 * J[2] * d2 / 2.0).real - s * cF1
+        cG1 = (h ** 3 * (J[1] - J[2]) + h ** 5 * (J[3] - J[4]) * d2 / 6.0).real
+        cG0 = (h * h * (J[0] - J[1]) + h ** 4 * (J[2] - J[3]) * d2 / 2.0).real - s * cG1
+    phi[0, 0] = cE0 + cE1 * a
+    phi[0, 1] = cE1 * b
+    phi[1, 0] = cE1 * c
+    phi[1, 1] = cE0 + cE1 * d
+    f1[0, 0] = cF0 + cF1 * a
+    f1[0, 1] = cF1 * b
+    f1[1, 0] = cF1 * c
+    f1[1, 1] = cF0 + cF1 * d
+    f2[0, 0] = cG0 + cG1 * a
+    f2[0, 1] = cG1 * b
+    f2[1, 0] = cG1 * c
+    f2[1, 1] = cG0 + cG1 * d
+
+
+@nb.njit(cache=True)
+def _expm_taylor(A, h, phi, f1, f2):
+    """Fallback: exp of the block matrix [[A, I, 0], [0, 0, I], [0, 0, 0]] h by scaling and squaring
+    of a Taylor series; its first block row is (Φ, F1, F2) (Van Loan)."""
+    n = A.shape[0]
+    X = np.zeros((3 * n, 3 * n))
+    for i in range(n):
+        for j in range(n):
+            X[i, j] = A[i, j] * h
+        X[i, n + i] = h
+        X[n + i, 2 * n + i] = h
+    nrm = 0.0
+    for j in range(3 * n):
+        cs = 0.0
+        for i in range(3 * n):
+            cs += abs(X[i, j])
+        nrm = max(nrm, cs)
+    sq = 0
+    while nrm > 0.25:
+        nrm *= 0.5
+        sq += 1
+    X *= 0.5 ** sq
+    # fix the scaled blocks: exp(X/2^sq)^(2^sq) = exp(X), so scaling all of X is right
+    E = np.eye(3 * n)
+    term = np.eye(3 * n)
+    for k in range(1, 18):
+        term = term @ X / k
+        E += term
+    for _ in range(sq):
+        E = E @ E
+    for i in range(n):
+        for j in range(n):
+            phi[i, j] = E[i, j]
+            f1[i, j] = E[i, n + j]
+            f2[i, j] = E[i, 2 * n + j]
+
+
+@nb.njit(cache=True)
+def _expm_eig(A, h, phi, f1, f2):
+    """Φ, F1, F2 of a real n×n matrix by eigendecomposition, Taylor fallback when ill-conditioned."""
+    n = A.shape[0]
+    Ac = A.astype(np.complex128)
+    lam, V = np.linalg.eig(Ac)
+    Vi = np.linalg.inv(V)
+    c1 = 0.0
+    c2 = 0.0
+    for j in range(n):
+        s1 = 0.0
+        s2 = 0.0
+        for i in range(n):
+            s1 += abs(V[i, j])
+            s2 += abs(Vi[i, j])
+        c1 = max(c1, s1)
+        c2 = max(c2, s2)
+    if not (c1 * c2 < COND_MAX):
+        _expm_taylor(A, h, phi, f1, f2)
+        return
+    J = np.empty(2, dtype=np.complex128)
+    fe = np.empty(n, dtype=np.complex128)
+    ff1 = np.empty(n, dtype=np.complex128)
+    ff2 = np.empty(n, dtype=np.complex128)
+    for k in range(n):
+        z = lam[k] * h
+        _jfun(z, 1, J)
+        fe[k] = np.exp(z)
+        ff1[k] = h * J[0]
+        ff2[k] = h * h * (J[0] - J[1])
+    for i in range(n):
+        for j in range(n):
+            se = 0.0j
+            s1 = 0.0j
+            s2 = 0.0j
+            for k in range(n):
+                p = V[i, k] * Vi[k, j]
+                se += p * fe[k]
+                s1 += p * ff1[k]
+                s2 += p * ff2[k]
+            phi[i, j] = se.real
+            f1[i, j] = s1.real
+            f2[i, j] = s2.real
+
+
+@nb.njit(cache=True)
+def free_flight(wn, zeta, h):
+    """e^{A0 h} for the uncut structure (block diagonal: each mode's 2×2 in closed form)."""
+    m = wn.size
+    n = 2 * m
+    phi = np.zeros((n, n))
+    p = np.empty((2, 2))
+    f1 = np.empty((2, 2))
+    f2 = np.empty((2, 2))
+    for j in range(m):
+        _expm_2x2(0.0, 1.0, -wn[j] * wn[j], -2.0 * zeta[j] * wn[j], h, p, f1, f2)
+        phi[j, j] = p[0, 0]
+        phi[j, m + j] = p[0, 1]
+        phi[m + j, j] = p[1, 0]
+        phi[m + j, m + j] = p[1, 1]
+    return phi
+
+
+# ---------------------------------------------------------------------------------------------------
+# the time-periodic directional matrix
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _in_cut(phi, phi_s, phi_e):
+    """Whether angle phi [rad] (any value) lies in the cut [φst, φex]."""
+    p = phi % TWO_PI
+    return phi_s <= p <= phi_e
+
+
+@nb.njit(cache=True)
+def step_average(n_teeth, kr, phi_s, phi_e, th_a, th_b, out):
+    """Average of [A(φ)] over tooth-0 angles [th_a, th_b] (all teeth), written to out (2, 2).
+
+    The step must not straddle an entry or exit instant (the grid is aligned), so each tooth is in or
+    out of the cut for the whole step, decided at the step's middle. Returns True if any tooth cuts.
+    """
+    pitch = TWO_PI / n_teeth
+    dth = th_b - th_a
+    out[:, :] = 0.0
+    cutting = False
+    for j in range(n_teeth):
+        a = th_a + j * pitch
+        b = th_b + j * pitch
+        if not _in_cut(0.5 * (a + b), phi_s, phi_e):
+            continue
+        cutting = True
+        S = 0.5 * (math.cos(2 * a) - math.cos(2 * b))  # ∫ sin2φ
+        C = 0.5 * (math.sin(2 * b) - math.sin(2 * a))  # ∫ cos2φ
+        out[0, 0] += -(S + kr * (dth - C))
+        out[0, 1] += -((dth + C) + kr * S)
+        out[1, 0] += (dth - C) - kr * S
+        out[1, 1] += S - kr * (dth + C)
+    out /= dth
+    return cutting
+
+
+@nb.njit(cache=True)
+def period_grid(n_teeth, kr, phi_s, phi_e, rpm, h_target, mult):
+    """The step grid of one tooth period at speed ``rpm``.
+
+    Tooth 0 enters at t = 0. Breakpoints (entry/exit of any tooth) sit at phase 0 and
+    (φex − φst) mod pitch; each cutting segment is cut into ceil(len/h_target) equal steps, a segment
+    without cutting is one step; ``mult`` multiplies the step count of every cutting segment (so
+    mult = 2 halves every step of the mult = 1 grid, as Richardson extrapolation needs). Returns h (m,) [s], cut (m,) bool and the step averages Abar (m, 2, 2).
+    """
+    omega = TWO_PI * rpm / 60.0
+    pitch = TWO_PI / n_teeth
+    width = phi_e - phi_s
+    s1 = width % pitch
+    if width >= pitch - 1e-12 * pitch:
+        if s1 < 1e-9 * pitch or pitch - s1 < 1e-9 * pitch:
+            bounds = np.array([0.0, pitch])
+        else:
+            bounds = np.array([0.0, s1, pitch])
+    else:
+        bounds = np.array([0.0, width, pitch])
+    n_seg = bounds.size - 1
+    # first pass: count steps
+    counts = np.empty(n_seg, dtype=np.int64)
+    tmp = np.empty((2, 2))
+    for k in range(n_seg):
+        a = phi_s + bounds[k]
+        b = phi_s + bounds[k + 1]
+        if step_average(n_teeth, kr, phi_s, phi_e, a, b, tmp):
+            counts[k] = mult * max(1, int(math.ceil((b - a) / omega / h_target - 1e-9)))
+        else:
+            counts[k] = 1
+    m = counts.sum()
+    h = np.empty(m)
+    cut = np.empty(m, dtype=np.bool_)
+    abar = np.empty((m, 2, 2))
+    i = 0
+    for k in range(n_seg):
+        dth = (bounds[k + 1] - bounds[k]) / counts[k]
+        for q in range(counts[k]):
+            a = phi_s + bounds[k] + q * dth
+            b = a + dth
+            cut[i] = step_average(n_teeth, kr, phi_s, phi_e, a, b, abar[i])
+            h[i] = dth / omega
+            i += 1
+    return h, cut, abar
+
+
+# ---------------------------------------------------------------------------------------------------
+# monodromy and spectral radius
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _eig_real(U, wr, wi, work, ints, chars):
+    """Eigenvalues of the real square matrix U (destroyed) via LAPACK dgeev. Returns info (0 = ok)."""
+    n = U.shape[0]
+    ints[0] = n
+    ints[1] = n
+    ints[2] = 1
+    ints[3] = work.size
+    ints[4] = 0
+    dummy = np.empty(1)
+    # U is C-ordered: LAPACK sees Uᵀ, which has the same eigenvalues
+    _dgeev(chars[0:].ctypes.data, chars[1:].ctypes.data, ints[0:].ctypes.data, U.ctypes.data,
+           ints[1:].ctypes.data, wr.ctypes.data, wi.ctypes.data, dummy.ctypes.data, ints[2:].ctypes.data,
+           dummy.ctypes.data, ints[2:].ctypes.data, work.ctypes.data, ints[3:].ctypes.data,
+           ints[4:].ctypes.data)
+    return ints[4]
+
+
+@nb.njit(cache=True)
+def history_layout(cut):
+    """Which nodes of the previous period enter the recursion, and their column offsets (per D).
+
+    Node p (0 ≤ p < m) is used when step p or step p − 1 cuts; node m is the current node 0.
+    Returns hpos (m + 1,) with -1 for unused nodes and the count of used nodes.
+    """
+    m = cut.size
+    hpos = np.full(m + 1, -1, dtype=np.int64)
+    c = 0
+    for p in range(m):
+        if cut[p] or (p >= 1 and cut[p - 1]):
+            hpos[p] = c
+            c += 1
+    return hpos, c
+
+
+@nb.njit(cache=True)
+def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos, n_used):
+    """The reduced monodromy matrix over one tooth period at depth b [m], shape (K, K).
+
+    Rows/columns: the modal state (n) followed by D tool-tip displacements at each used node of the
+    previous period (unused history nodes only add zero multipliers and are left out).
+
+    Args: kt [N/m²]; wn [rad/s], zeta, mass [kg] (M,); mdir (M,) index of each mode's active
+    direction; h, cut, abar_d (m, D, D) the step grid restricted to the active directions;
+    phi_free (m, n, n) e^{A0 h_i} for every step (used where the step does not cut).
+    """
+    M = wn.size
+    n = 2 * M
+    D = n_dir
+    m = h.size
+    K = n + D * n_used
+    w = 0.5 * b * kt
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, K))
+    A = np.empty((n, n))
+    phi = np.empty((n, n))
+    f1 = np.empty((n, n))
+    f2 = np.empty((n, n))
+    Bd = np.zeros((n, D))
+    G0 = np.empty((n, D))
+    G1 = np.empty((n, D))
+    for i in range(m):
+        if hpos[i] >= 0:  # store this node's displacement as a history row of the next period
+            r = n + D * hpos[i]
+            for e in range(D):
+                for col in range(K):
+                    s = 0.0
+                    for j in range(M):
+                        if mdir[j] == e:
+                            s += Z[j, col]
+                    U[r + e, col] = s
+        if not cut[i]:
+            P = phi_free[i]
+            for r in range(n):
+                for col in range(K):
+                    s = 0.0
+                    for q in range(n):
+                        s += P[r, q] * Z[q, col]
+                    Znew[r, col] = s
+        else:
+            hi = h[i]
+            # A_i = A0 + w Ê_i; B_i = −w [0; Ā_i / m_j]
+            A[:, :] = 0.0
+            for j in range(M):
+                A[j, M + j] = 1.0
+                A[M + j, j] = -wn[j] * wn[j]
+                A[M + j, M + j] = -2.0 * zeta[j] * wn[j]
+            for j in range(M):
+                for l in range(M):
+                    A[M + j, l] += w * abar_d[i, mdir[j], mdir[l]] / mass[j]
+                for e in range(D):
+                    Bd[M + j, e] = -w * abar_d[i, mdir[j], e] / mass[j]
+            if n == 2:
+                _expm_2x2(A[0, 0], A[0, 1], A[1, 0], A[1, 1], hi, phi, f1, f2)
+            else:
+                _expm_eig(A, hi, phi, f1, f2)
+            for r in range(n):
+                for e in range(D):
+                    s1 = 0.0
+                    s2 = 0.0
+                    for q in range(M, n):  # Bd is zero in the displacement rows
+                        s1 += f1[r, q] * Bd[q, e]
+                        s2 += f2[r, q] * Bd[q, e]
+                    G1[r, e] = s2 / hi
+                    G0[r, e] = s1 - s2 / hi
+            for r in range(n):
+                for col in range(K):
+                    s = 0.0
+                    for q in range(n):
+                        s += phi[r, q] * Z[q, col]
+                    Znew[r, col] = s
+            # delayed node i (history) and node i + 1 (history, or the current node 0 at the end)
+            c0 = n + D * hpos[i]
+            for r in range(n):
+                for e in range(D):
+                    Znew[r, c0 + e] += G0[r, e]
+            if i + 1 < m:
+                c1 = n + D * hpos[i + 1]
+                for r in range(n):
+                    for e in range(D):
+                        Znew[r, c1 + e] += G1[r, e]
+            else:  # u_0 = C z_0, and z_0 is the identity block of the initial data
+                for r in range(n):
+                    for j in range(M):
+                        Znew[r, j] += G1[r, mdir[j]]
+        for r in range(n):
+            for col in range(K):
+                Z[r, col] = Znew[r, col]
+    for r in range(n):
+        for col in range(K):
+            U[r, col] = Z[r, col]
+    return U
+
+
+@nb.njit(cache=True)
+def spectral_radius(U):
+    """(ρ, dominant multiplier) of the square matrix U (copied). ρ = inf if LAPACK fails."""
+    K = U.shape[0]
+    A = U.copy()
+    wr = np.empty(K)
+    wi = np.empty(K)
+    work = np.empty(8 * K + 16)
+    ints = np.empty(5, dtype=np.int32)
+    chars = np.array([78, 78], dtype=np.uint8)  # 'N', 'N': eigenvalues only
+    info = _eig_real(A, wr, wi, work, ints, chars)
+    if info != 0:
+        return np.inf, complex(np.nan, np.nan)
+    best = 0.0
+    for k in range(K):
+        best = max(best, math.hypot(wr[k], wi[k]))
+    # the dominant multiplier; of a conjugate pair the one with Im ≥ 0, for a well-defined frequency
+    mu = complex(np.nan, np.nan)
+    for k in range(K):
+        if math.hypot(wr[k], wi[k]) >= best * (1 - 1e-9) and (not (mu.imag >= 0.0) or wi[k] >= 0.0):
+            mu = complex(wr[k], wi[k])
+    return best, mu
+
+
+# ---------------------------------------------------------------------------------------------------
+# drivers: per speed set up the grid once, then evaluate many depths
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, mult, wn, zeta, act):
+    """Grid, step averages restricted to active directions, and free-flight exponentials per step."""
+    T = 60.0 / (n_teeth * rpm)
+    h, cut, abar = period_grid(n_teeth, kr, phi_s, phi_e, rpm, T / steps, mult)
+    m = h.size
+    D = act.size
+    abar_d = np.empty((m, D, D))
+    for i in range(m):
+        for e in range(D):
+            for f in range(D):
+                abar_d[i, e, f] = abar[i, act[e], act[f]]
+    n = 2 * wn.size
+    phi_free = np.zeros((m, n, n))
+    for i in range(m):
+        if not cut[i]:
+            phi_free[i] = free_flight(wn, zeta, h[i])
+    hpos, n_used = history_layout(cut)
+    return h, cut, abar_d, phi_free, hpos, n_used
+
+
+@nb.njit(cache=True)
+def _rho(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
+    U = monodromy(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+    return spectral_radius(U)
+
+
+@nb.njit(cache=True, parallel=True)
+def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, depth, wn, zeta, mass, mdir, act, out):
+    """ρ (S, Dp) at speeds rpm (S,) and depths depth (Dp,) [m]; steps (S,) steps per tooth period."""
+    n_s = rpm.size
+    n_d = depth.size
+    for s in nb.prange(n_s):
+        h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 1, wn, zeta, act)
+        for k in range(n_d):
+            out[s, k] = _rho(depth[k], kt, wn, zeta, mass, mdir, act.size, h, cut, abar_d, phi_free, hpos,
+                             n_used)[0]
+
+
+@nb.njit(cache=True)
+def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos,
+              n_used):
+    """Shrink the bracket (ρ(b_lo) ≤ 1 < ρ(b_hi)) on ρ − 1 to a relative width rtol (Illinois method)."""
+    n_eval = 0
+    if not math.isfinite(f_hi):
+        f_hi = 1.0
+    side = 0
+    for _ in range(100):
+        if b_hi - b_lo <= rtol * b_hi:
+            break
+        x = (b_lo * f_hi - b_hi * f_lo) / (f_hi - f_lo)
+        # keep the guess well inside the bracket, so the bracket shrinks even when ρ is kinked
+        lo_g = b_lo + 0.02 * (b_hi - b_lo)
+        hi_g = b_hi - 0.02 * (b_hi - b_lo)
+        if not (lo_g <= x <= hi_g):
+            x = 0.5 * (b_lo + b_hi)
+        r, mu = _rho(x, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+        n_eval += 1
+        fx = r - 1.0
+        if fx > 0.0:
+            b_hi, f_hi, mu_hi = x, fx, mu
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            b_lo, f_lo = x, fx
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return 0.5 * (b_lo + b_hi), mu_hi, n_eval
+
+
+@nb.njit(cache=True)
+def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
+    """First crossing of ρ(b) = 1 from b = 0 upward on one grid.
+
+    Bracket: ρ on the depths b_ref·factors (ascending), stopping at the first unstable one, then
+    geometric expansion (×1.5) up to 1e4·b_ref; refined by :func:`_illinois`. Returns (depth [m] or
+    inf, dominant multiplier at the unstable bracket end, number of ρ evaluations).
+    """
+    b_lo = 0.0
+    f_lo = _rho(0.0, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)[0] - 1.0
+    n_eval = 1
+    b_hi = -1.0
+    f_hi = 0.0
+    mu_hi = complex(np.nan, np.nan)
+    b = 0.0
+    k = 0
+    while b < 1e4 * b_ref:
+        if k < factors.size:
+            b = b_ref * factors[k]
+        else:
+            b *= 1.5
+        k += 1
+        r, mu = _rho(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+        n_eval += 1
+        if r > 1.0:
+            b_hi, f_hi, mu_hi = b, r - 1.0, mu
+            break
+        b_lo, f_lo = b, r - 1.0
+    if b_hi < 0:
+        return np.inf, complex(np.nan, np.nan), n_eval
+    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d,
+                         phi_free, hpos, n_used)
+    return d, mu, n_eval + c
+
+
+@nb.njit(cache=True)
+def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
+              rtol):
+    """Limiting depth [m] at one speed with ``steps`` per tooth period.
+
+    With ``richardson`` the search is repeated on the grid with every step halved, starting from a
+    ±3 % bracket around the coarse answer (full search if that is not a bracket), and the two depths
+    are extrapolated as (4 b_fine − b_coarse)/3 (the scheme's error is O(h²)); when they differ by
+    more than 10 % (not in the asymptotic range, e.g. a lobe switch between the grids) b_fine is
+    returned. Returns (depth or inf, dominant multiplier, ρ evaluations).
+    """
+    D = act.size
+    h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 1, wn, zeta, act)
+    d1, mu1, n1 = _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free,
+                                  hpos, n_used)
+    if not richardson or not math.isfinite(d1):
+        return d1, mu1, n1
+    h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 2, wn, zeta, act)
+    b_lo = 0.97 * d1
+    b_hi = 1.03 * d1
+    r_lo = _rho(b_lo, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)[0]
+    r_hi, mu_hi = _rho(b_hi, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+    n2 = 2
+    if r_lo <= 1.0 < r_hi:
+        d2, mu2, c = _illinois(b_lo, r_lo - 1.0, b_hi, r_hi - 1.0, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h,
+                               cut, abar_d, phi_free, hpos, n_used)
+    else:
+        d2, mu2, c = _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free,
+                                     hpos, n_used)
+    n2 += c
+    if math.isfinite(d2) and abs(d2 - d1) <= 0.1 * d2:
+        return (4.0 * d2 - d1) / 3.0, mu2, n1 + n2
+    return d2, mu2, n1 + n2
+
+
+@nb.njit(cache=True, parallel=True)
+def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
+                rtol, depth, mu, n_eval):
+    """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M); rpm, steps (S,);
+    b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts."""
+    n_b = wn.shape[0]
+    n_s = rpm.size
+    for t in nb.prange(n_b * n_s):
+        bi = t // n_s
+        s = t % n_s
+        d, m_, c = limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,
+                             wn[bi], zeta[bi], mass[bi], mdir, act, rtol)
+        depth[bi, s] = d
+        mu[bi, s] = m_
+        n_eval[bi, s] = c

@@ -47,10 +47,16 @@ def reference_depth(structure: Structure, cutting: Cutting, rpm: float, f_max_hz
         f_lo, f_hi = structure.frf.freq_hz[0], structure.frf.freq_hz[-1]
     f = np.linspace(f_lo, f_hi, n_grid)
 
+    # a rigid direction makes one root identically zero (det ≡ 0) and P ≡ 0: the problem is then
+    # scalar, ν = tr, and its own factor Re(w ν̄) is used instead
+    rigid = structure.is_modal and not (structure.x and structure.y)
+
     def p_of(freq):
         freq = np.atleast_1d(freq)
         g = structure_receptance(structure, freq)
         tr, det = _tr_det(alpha, g)
+        if rigid:
+            return (np.exp(1j * math.pi * freq * period) * np.conj(tr)).real
         w2 = np.exp(-1j * 2 * math.pi * freq * period)  # conj(w)^2
         return 0.5 * (w2 * det).real + (np.abs(tr) ** 2 - np.abs(tr * tr - 4 * det)) / 8.0
 
@@ -62,7 +68,7 @@ def reference_depth(structure: Structure, cutting: Cutting, rpm: float, f_max_hz
         g = structure_receptance(structure, np.array([fc]))[0]
         nus = np.linalg.eigvals(alpha @ g)
         theta = math.pi * fc * period  # ωT/2
-        resid = [abs(math.cos(theta - np.angle(v))) for v in nus]
+        resid = [abs(math.cos(theta - np.angle(v))) if abs(v) > 0 else math.inf for v in nus]
         v = nus[int(np.argmin(resid))]
         if v.real > 0:
             b = 2 * math.pi / (n * kt * v.real)

@@ -61,11 +61,16 @@ def directional_brackets(kr, phi_s, phi_e):
 @nb.njit(cache=True, inline="always")
 def _modal_receptance(w, wn, k, z):
     """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N]; zero for no modes (rigid)."""
-    g = 0.0 + 0.0j
+    gr = 0.0
+    gi = 0.0
     for m in range(wn.size):
         r = w / wn[m]
-        g += 1.0 / (k[m] * complex(1.0 - r * r, 2.0 * z[m] * r))
-    return g
+        re = 1.0 - r * r
+        im = 2.0 * z[m] * r
+        inv = 1.0 / (k[m] * (re * re + im * im))  # 1/(k(re + i im)) = (re − i im)/(k|.|²)
+        gr += re * inv
+        gi -= im * inv
+    return complex(gr, gi)
 
 
 @nb.njit(cache=True, inline="always")
@@ -110,6 +115,19 @@ def _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets):
     return out[:n]
 
 
+@nb.njit(cache=True, inline="always")
+def _dist2(u, v):
+    """|u − v|² (cheaper than abs(), which calls hypot)."""
+    d = u - v
+    return d.real * d.real + d.imag * d.imag
+
+
+@nb.njit(cache=True, inline="always")
+def _eps(v):
+    """Phase ε = π + 2 arg ν of a root with Re ν > 0, in (0, 2π)."""
+    return math.pi + 2.0 * math.atan2(v.imag, v.real)
+
+
 @nb.njit(cache=True)
 def _branches(a, gxx, gxy, gyx, gyy):
     """Both eigenvalues of [α][G] on the grid, labelled so each branch is continuous in ω.
@@ -126,18 +144,12 @@ def _branches(a, gxx, gxy, gyx, gyy):
     for i in range(n):
         tr, det = _tr_det(a, gxx[i], gxy[i], gyx[i], gyy[i])
         s = np.sqrt(tr * tr - 4.0 * det)
-        if i > 0 and abs(s - prev) > abs(s + prev):
+        if i > 0 and _dist2(s, prev) > _dist2(-s, prev):
             s = -s
         prev = s
         nu[0, i] = 0.5 * (tr + s)
         nu[1, i] = 0.5 * (tr - s)
     return nu
-
-
-@nb.njit(cache=True, inline="always")
-def _eps(v):
-    """Phase ε = π + 2 arg ν of a root with Re ν > 0, in (0, 2π)."""
-    return math.pi + 2.0 * math.atan2(v.imag, v.real)
 
 
 @nb.njit(cache=True)
@@ -163,55 +175,51 @@ def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
     guess = nua + t * (nub - nua)
     r1 = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
-    if abs(r1 - guess) <= abs(r2 - guess):
+    if _dist2(r1, guess) <= _dist2(r2, guess):
         return r1
     return r2
 
 
 @nb.njit(cache=True)
 def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
-    """Solve ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change) by the Illinois method.
+    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change), Dekker-style.
 
+    Secant steps through the two latest points (superlinear), falling back to bisection whenever a
+    step leaves the current bracket; stops at |H| < 1e-8 rad, which bounds the depth error near
+    1e-8 relative (near resonance dε/dω is large, so a phase error moves ω very little).
     Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
     """
     target = TWO_PI * k
-    fa = wa * T - _eps(nua) - target
-    fb = wb * T - _eps(nub) - target
-    x0, x1, f0, f1 = wa, wb, fa, fb
-    if f0 == 0.0:
+    lo, hi = wa, wb
+    flo = wa * T - _eps(nua) - target
+    fhi = wb * T - _eps(nub) - target
+    if flo == 0.0:
         return nua.real, wa
-    if f1 == 0.0:
+    if fhi == 0.0:
         return nub.real, wb
-    side = 0
+    x_prev, f_prev, x_cur, f_cur = lo, flo, hi, fhi
     v = nua
     xm = wa
     for _ in range(60):
-        xm = (x0 * f1 - x1 * f0) / (f1 - f0)
-        if not (min(x0, x1) <= xm <= max(x0, x1)):
-            xm = 0.5 * (x0 + x1)
+        xm = x_cur - f_cur * (x_cur - x_prev) / (f_cur - f_prev) if f_cur != f_prev else 0.5 * (lo + hi)
+        if not (min(lo, hi) < xm < max(lo, hi)):
+            xm = 0.5 * (lo + hi)
         v = _root_at(xm, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
         if v.real <= 0.0:
             return v.real, xm
         fm = xm * T - _eps(v) - target
-        if fm == 0.0 or abs(x1 - x0) <= 1e-14 * xm:
+        if abs(fm) < 1e-8 or abs(hi - lo) <= 1e-14 * xm:
             break
-        if fm * f1 > 0.0:
-            x1, f1 = xm, fm
-            if side == -1:
-                f0 *= 0.5
-            side = -1
+        if fm * flo > 0.0:
+            lo, flo = xm, fm
         else:
-            x0, f0 = xm, fm
-            if side == 1:
-                f1 *= 0.5
-            side = 1
-        if abs(fm) < 1e-11:
-            break
+            hi, fhi = xm, fm
+        x_prev, f_prev, x_cur, f_cur = x_cur, f_cur, xm, fm
     return v.real, xm
 
 
 @nb.njit(cache=True)
-def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est):
+def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform):
     """Find every (branch, segment, lobe k, speed) crossing that can matter, with a linear estimate.
 
     A crossing of lobe k at speed j lies in segment i of branch br when ωT_j − ε(ω) − 2kπ changes
@@ -227,6 +235,7 @@ def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est):
     n_s = rpm.size
     t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
     t_max = T[0]
+    step = (rpm[n_s - 1] - rpm[0]) / (n_s - 1) if n_s > 1 else 1.0
     # segments with both ends valid, ordered by their best 1/b
     seg_max = np.empty(2 * (n_w - 1))
     n_seg = 0
@@ -266,7 +275,13 @@ def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est):
         for k in range(k_lo, k_hi + 1):
             sa = 60.0 * wa / (n_teeth * (ea + TWO_PI * k))
             sb = 60.0 * wb / (n_teeth * (eb + TWO_PI * k))
-            j = np.searchsorted(rpm, min(sa, sb))
+            lo_s = min(sa, sb)
+            if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
+                j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
+                if j > 0 and rpm[j - 1] >= lo_s:
+                    j -= 1
+            else:
+                j = np.searchsorted(rpm, lo_s)
             hi = max(sa, sb)
             while j < n_s and rpm[j] <= hi:
                 ha = wa * T[j] - ea - TWO_PI * k
@@ -306,12 +321,87 @@ def _grow_f(a, cap):
 
 
 @nb.njit(cache=True)
+def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
+    """Frequencies just inside the valid side wherever a branch's Re ν changes sign between nodes.
+
+    Crossings right next to Re ν = 0 are real boundaries (near resonance |ν| is large, so the depth
+    2π/(N Kt Re ν) can still be small) but would sit in a segment with one invalid end. Inserting a
+    node where Re ν turns positive (Illinois root-finding on exact evaluations, to 1e-10 of the segment) makes
+    every crossing lie inside a fully valid segment.
+    """
+    n_w = w.size
+    out = np.empty(2 * n_w)
+    n = 0
+    ga = np.empty(4, dtype=np.complex128)
+    gb = np.empty(4, dtype=np.complex128)
+    for br in range(2):
+        for i in range(n_w - 1):
+            va = nu[br, i].real > 0.0
+            vb = nu[br, i + 1].real > 0.0
+            if va == vb:
+                continue
+            if measured:
+                for q in range(4):
+                    ga[q] = G[q, i]
+                    gb[q] = G[q, i + 1]
+            lo = w[i]  # lo on the invalid side (Re ν ≤ 0), hi on the valid side (Re ν > 0)
+            hi = w[i + 1]
+            flo = nu[br, i].real
+            fhi = nu[br, i + 1].real
+            if va:
+                lo, hi, flo, fhi = hi, lo, fhi, flo
+            side = 0
+            for _ in range(60):  # Illinois on the smooth Re ν: a handful of evaluations
+                mid = (lo * fhi - hi * flo) / (fhi - flo)
+                if not (min(lo, hi) < mid < max(lo, hi)):
+                    mid = 0.5 * (lo + hi)
+                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                if v.real > 0.0:
+                    hi, fhi = mid, v.real
+                    if side == 1:
+                        flo *= 0.5
+                    side = 1
+                else:
+                    lo, flo = mid, v.real
+                    if side == -1:
+                        fhi *= 0.5
+                    side = -1
+                if abs(hi - lo) <= 1e-10 * (w[i + 1] - w[i]) + 1e-14 * hi:
+                    break
+            out[n] = hi
+            n += 1
+    return out[:n]
+
+
+@nb.njit(cache=True)
+def _with_nodes(w, G, extra, measured, wnx, kx, zx, wny, ky, zy):
+    """The grid with ``extra`` frequencies merged in, and the receptances there (exact for modes,
+    linear between table points for a measured FRF)."""
+    w2 = np.sort(np.concatenate((w, extra)))
+    G2 = np.empty((4, w2.size), dtype=np.complex128)
+    if measured:
+        for q in range(4):
+            G2[q] = np.interp(w2, w, G[q].real) + 1j * np.interp(w2, w, G[q].imag)
+    else:
+        for i in range(w2.size):
+            G2[0, i] = _modal_receptance(w2[i], wnx, kx, zx)
+            G2[1, i] = 0.0j
+            G2[2, i] = 0.0j
+            G2[3, i] = _modal_receptance(w2[i], wny, ky, zy)
+    return w2, G2
+
+
+@nb.njit(cache=True)
 def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc):
     """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
 
     Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
     """
     nu = _branches(a, G[0], G[1], G[2], G[3])
+    extra = _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G)
+    if extra.size:
+        w, G = _with_nodes(w, G, extra, measured, wnx, kx, zx, wny, ky, zy)
+        nu = _branches(a, G[0], G[1], G[2], G[3])
     n_w = w.size
     n_s = rpm.size
     valid = np.empty((2, n_w), dtype=np.bool_)
@@ -331,7 +421,11 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     best_inv = np.zeros(n_s)
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
-    c_j, c_seg, c_k, c_g = _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est)
+    uniform = n_s > 2
+    for j in range(1, n_s):
+        if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
+            uniform = False
+    c_j, c_seg, c_k, c_g = _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform)
     # refine exactly only the crossings whose estimate is near the best estimate at their speed
     ga = np.empty(4, dtype=np.complex128)
     gb = np.empty(4, dtype=np.complex128)

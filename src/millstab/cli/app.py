@@ -1,0 +1,87 @@
+"""The typer application every subcommand registers on, and the shared option parsers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from millstab.errors import InputError
+
+app = typer.Typer(
+    name="millstab",
+    help="Milling chatter stability: lobes, in-process modal identification, sensitivity, the seed paper.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def parse_rpm_range(text: str) -> np.ndarray:
+    """``START:STOP:STEP`` in rpm (STOP included when it falls on the grid) → speeds array."""
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise InputError("--rpm", text, "expected START:STOP:STEP in rev/min, e.g. 2000:12000:25")
+    try:
+        start, stop, step = (float(p) for p in parts)
+    except ValueError:
+        raise InputError("--rpm", text, "START, STOP and STEP must be numbers (rev/min)") from None
+    if not (start > 0 and stop > start and step > 0):
+        raise InputError("--rpm", text, "need 0 < START < STOP and STEP > 0")
+    n = int(np.floor((stop - start) / step + 1e-9)) + 1
+    if n > 1_000_000:
+        raise InputError("--rpm", text, f"{n} speeds is too many (max 1e6); use a larger STEP")
+    return start + step * np.arange(n)
+
+
+def read_rpm_file(path: Path) -> np.ndarray:
+    """Speeds from a text/CSV file: one number per line, or the ``rpm`` column of a CSV with header."""
+    import csv
+
+    if not path.exists():
+        raise InputError("--rpm-file", str(path), "file does not exist")
+    rows = [r for r in csv.reader(path.read_text().splitlines()) if r and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise InputError("--rpm-file", str(path), "no speeds in the file")
+    col = 0
+    if rows[0] and not _is_number(rows[0][0]):
+        header = [h.strip().lower() for h in rows[0]]
+        if "rpm" not in header:
+            raise InputError("--rpm-file", str(path), "a CSV with a header needs an 'rpm' column")
+        col, rows = header.index("rpm"), rows[1:]
+    out = []
+    for lineno, r in enumerate(rows, start=2 if col or not _is_number(rows[0][0]) else 1):
+        if not _is_number(r[col]):
+            raise InputError(f"--rpm-file line {lineno}", r[col], "must be a number (rev/min)")
+        out.append(float(r[col]))
+    return np.array(out)
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def select_rpm(rpm: str | None, rpm_file: Path | None, default: np.ndarray | None, fallback: tuple[float, float, float]) -> np.ndarray:
+    """Speeds from --rpm, or --rpm-file, or the config's [speeds], or a fallback range."""
+    if rpm and rpm_file:
+        raise InputError("--rpm", rpm, "give either --rpm or --rpm-file, not both")
+    if rpm:
+        return parse_rpm_range(rpm)
+    if rpm_file:
+        return read_rpm_file(rpm_file)
+    if default is not None:
+        return np.asarray(default, dtype=float)
+    return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
+
+
+@app.callback()
+def _root() -> None:
+    """millstab: milling chatter stability lobes, in-process modal identification and sensitivity.
+
+    Quantities in configs carry units ("12.53 N/um", "556.31 MPa", "126.9 deg"); plain numbers are SI.
+    """

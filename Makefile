@@ -12,9 +12,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test]"
 	touch $(STAMP)
 
-## demo: install into .venv and reproduce the founding paper into ./millstab-report
+## demo: install into .venv and run the packaged examples into ./millstab-demo
 demo: $(STAMP)
-	$(BIN)/millstab lobes example:ex1 --rpm 2000:12000:25 --out millstab-demo/sld_ex1.csv --plot millstab-demo/sld_ex1.png
+	for ex in ex1 ex2 ex3 fourflute; do \
+	  $(BIN)/millstab lobes example:$$ex --out millstab-demo/sld_$$ex.csv --plot millstab-demo/sld_$$ex.png || exit 1; \
+	done
 
 ## test: install into .venv and run the test suite
 test: $(STAMP)

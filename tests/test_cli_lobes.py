@@ -1,0 +1,70 @@
+"""`millstab lobes`: outputs, overlays, and one-line errors with exit status 2."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from millstab.cli import main
+from millstab.io import load_config
+from millstab.stability import zoa
+
+
+def test_lobes_writes_csv_and_plot(tmp_path, capsys):
+    out, fig = tmp_path / "sld.csv", tmp_path / "sld.png"
+    assert main(["lobes", "example:ex1", "--rpm", "3000:6000:100", "--out", str(out), "--plot", str(fig)]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0])[:2] == ["rpm", "blim_mm"]
+    rpm = np.array([float(r["rpm"]) for r in rows])
+    np.testing.assert_allclose(rpm, np.arange(3000, 6001, 100))
+    cfg = load_config("example:ex1")
+    expect = zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm
+    np.testing.assert_allclose([float(r["blim_mm"]) for r in rows], expect, rtol=1e-9)
+    assert fig.stat().st_size > 10_000 and fig.read_bytes()[:4] == b"\x89PNG"
+    assert "minimum limit" in capsys.readouterr().out
+
+
+def test_lobes_with_points_rpm_file_svg(tmp_path):
+    pts = tmp_path / "p.csv"
+    pts.write_text("rpm,depth_mm,label\n4000,1.0,stable\n4000,3.0,chatter\n5000,2.0,\n")
+    speeds = tmp_path / "speeds.txt"
+    speeds.write_text("3000\n4000\n5000\n")
+    fig = tmp_path / "sld.svg"
+    assert main(["lobes", "example:ex1", "--rpm-file", str(speeds), "--points", str(pts), "--plot", str(fig)]) == 0
+    assert fig.read_text().lstrip().startswith(("<?xml", "<svg"))
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["lobes", "example:nope"], "example"),
+    (["lobes", "example:ex1", "--rpm", "5000:100:10"], "--rpm"),
+    (["lobes", "example:ex1", "--rpm", "a:b:c"], "--rpm"),
+    (["lobes", "example:ex1", "--engine", "fem"], "engine"),
+    (["lobes", "example:ex1", "--plot", "x.bmp"], "plot file"),
+    (["lobes", "missing.toml"], "missing.toml"),
+])
+def test_lobes_bad_input_is_one_line_exit_2(args, needle, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and needle in err and "Traceback" not in err
+
+
+def test_lobes_refuses_to_overwrite_its_input(tmp_path, capsys):
+    cfg = tmp_path / "tool.toml"
+    cfg.write_text('[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nentry = "0 deg"\nexit = "180 deg"\n'
+                   '[[structure.x]]\nfn = "900 Hz"\nk = "10 N/um"\nzeta = 0.02\n')
+    before = cfg.read_text()
+    assert main(["lobes", str(cfg), "--rpm", "3000:4000:100", "--out", str(cfg)]) == 2
+    assert cfg.read_text() == before
+    assert "overwrite" in capsys.readouterr().err
+
+
+def test_stiffness_in_wrong_units_warns_on_one_line(tmp_path, capsys):
+    cfg = tmp_path / "tool.toml"
+    cfg.write_text('[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nentry = "0 deg"\nexit = "180 deg"\n'
+                   '[[structure.x]]\nfn = 900\nk = 12.53\nzeta = 0.02\n')
+    assert main(["lobes", str(cfg), "--rpm", "3000:4000:500"]) == 0
+    err = capsys.readouterr().err
+    assert "N/um" in err and "warning" in err

@@ -459,8 +459,8 @@ def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos
 
 
 @nb.njit(cache=True)
-def spectral_radius(U):
-    """(ρ, dominant multiplier) of the square matrix U (copied). ρ = inf if LAPACK fails."""
+def multipliers(U):
+    """All eigenvalues of the square matrix U (copied) via LAPACK dgeev; NaN if LAPACK fails."""
     K = U.shape[0]
     A = U.copy()
     wr = np.empty(K)
@@ -469,17 +469,57 @@ def spectral_radius(U):
     ints = np.empty(5, dtype=np.int32)
     chars = np.array([78, 78], dtype=np.uint8)  # 'N', 'N': eigenvalues only
     info = _eig_real(A, wr, wi, work, ints, chars)
-    if info != 0:
-        return np.inf, complex(np.nan, np.nan)
+    out = np.empty(K, dtype=np.complex128)
+    for k in range(K):
+        out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
+    return out
+
+
+@nb.njit(cache=True)
+def _dominant(mus):
+    """(ρ, dominant multiplier); of a conjugate pair the one with Im ≥ 0 (well-defined frequency).
+    ρ = inf when the eigenvalues are not finite (a failed solve is never taken for stable)."""
     best = 0.0
-    for k in range(K):
-        best = max(best, math.hypot(wr[k], wi[k]))
-    # the dominant multiplier; of a conjugate pair the one with Im ≥ 0, for a well-defined frequency
+    for k in range(mus.size):
+        a = abs(mus[k])
+        if not math.isfinite(a):
+            return np.inf, complex(np.nan, np.nan)
+        best = max(best, a)
     mu = complex(np.nan, np.nan)
-    for k in range(K):
-        if math.hypot(wr[k], wi[k]) >= best * (1 - 1e-9) and (not (mu.imag >= 0.0) or wi[k] >= 0.0):
-            mu = complex(wr[k], wi[k])
+    for k in range(mus.size):
+        if abs(mus[k]) >= best * (1 - 1e-9) and (not (mu.imag >= 0.0) or mus[k].imag >= 0.0):
+            mu = mus[k]
     return best, mu
+
+
+@nb.njit(cache=True)
+def spectral_radius(U):
+    """(ρ, dominant multiplier) of the square matrix U."""
+    return _dominant(multipliers(U))
+
+
+@nb.njit(cache=True)
+def richardson_multipliers(mu1, mu2, n_top):
+    """Multiplier-wise Richardson extrapolation (4 μ_fine − μ_coarse)/3 of the n_top largest fine
+    multipliers, each paired with the nearest coarse one (the grids are nested, so they correspond).
+
+    Extrapolating ρ itself would be wrong where two multipliers compete for the largest modulus (the
+    dominant one can differ between the grids); per multiplier the error is a smooth O(h²).
+    """
+    order = np.argsort(-np.abs(mu2))
+    n = min(n_top, mu2.size)
+    out = np.empty(n, dtype=np.complex128)
+    for q in range(n):
+        v = mu2[order[q]]
+        best = np.inf
+        near = v
+        for k in range(mu1.size):
+            dist = abs(mu1[k] - v)
+            if dist < best:
+                best = dist
+                near = mu1[k]
+        out[q] = (4.0 * v - near) / 3.0
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -509,26 +549,36 @@ def _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, mult, wn, zeta, act):
 
 
 @nb.njit(cache=True)
-def _rho(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
+def _rho1(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
     U = monodromy(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
-    return spectral_radius(U)
-
-
-@nb.njit(cache=True, parallel=True)
-def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, depth, wn, zeta, mass, mdir, act, out):
-    """ρ (S, Dp) at speeds rpm (S,) and depths depth (Dp,) [m]; steps (S,) steps per tooth period."""
-    n_s = rpm.size
-    n_d = depth.size
-    for s in nb.prange(n_s):
-        h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 1, wn, zeta, act)
-        for k in range(n_d):
-            out[s, k] = _rho(depth[k], kt, wn, zeta, mass, mdir, act.size, h, cut, abar_d, phi_free, hpos,
-                             n_used)[0]
+    return multipliers(U)
 
 
 @nb.njit(cache=True)
-def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos,
-              n_used):
+def _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
+    """(ρ, dominant μ) at depth b on grid g1, or Richardson-extrapolated from g1 and its halving g2."""
+    mu1 = _rho1(b, kt, wn, zeta, mass, mdir, D, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5])
+    if not rich:
+        return _dominant(mu1)
+    mu2 = _rho1(b, kt, wn, zeta, mass, mdir, D, g2[0], g2[1], g2[2], g2[3], g2[4], g2[5])
+    return _dominant(richardson_multipliers(mu1, mu2, 8))
+
+
+@nb.njit(cache=True, parallel=True)
+def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, mass, mdir, act, out):
+    """ρ (S, Dp) at speeds rpm (S,) and depths depth (Dp,) [m]; steps (S,) steps per tooth period;
+    ``rich``: multiplier-wise Richardson extrapolation from the grid and its halving."""
+    n_s = rpm.size
+    n_d = depth.size
+    for s in nb.prange(n_s):
+        g1 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 1, wn, zeta, act)
+        g2 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 2 if rich else 1, wn, zeta, act)
+        for k in range(n_d):
+            out[s, k] = _rho(depth[k], kt, wn, zeta, mass, mdir, act.size, g1, g2, rich)[0]
+
+
+@nb.njit(cache=True)
+def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
     """Shrink the bracket (ρ(b_lo) ≤ 1 < ρ(b_hi)) on ρ − 1 to a relative width rtol (Illinois method)."""
     n_eval = 0
     if not math.isfinite(f_hi):
@@ -543,7 +593,7 @@ def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, 
         hi_g = b_hi - 0.02 * (b_hi - b_lo)
         if not (lo_g <= x <= hi_g):
             x = 0.5 * (b_lo + b_hi)
-        r, mu = _rho(x, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+        r, mu = _rho(x, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
         n_eval += 1
         fx = r - 1.0
         if fx > 0.0:
@@ -560,7 +610,7 @@ def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, 
 
 
 @nb.njit(cache=True)
-def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
+def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
     """First crossing of ρ(b) = 1 from b = 0 upward on one grid.
 
     Bracket: ρ on the depths b_ref·factors (ascending), stopping at the first unstable one, then
@@ -568,7 +618,7 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, a
     inf, dominant multiplier at the unstable bracket end, number of ρ evaluations).
     """
     b_lo = 0.0
-    f_lo = _rho(0.0, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)[0] - 1.0
+    f_lo = _rho(0.0, kt, wn, zeta, mass, mdir, D, g1, g2, rich)[0] - 1.0
     n_eval = 1
     b_hi = -1.0
     f_hi = 0.0
@@ -581,7 +631,7 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, a
         else:
             b *= 1.5
         k += 1
-        r, mu = _rho(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+        r, mu = _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
         n_eval += 1
         if r > 1.0:
             b_hi, f_hi, mu_hi = b, r - 1.0, mu
@@ -589,44 +639,17 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, a
         b_lo, f_lo = b, r - 1.0
     if b_hi < 0:
         return np.inf, complex(np.nan, np.nan), n_eval
-    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d,
-                         phi_free, hpos, n_used)
+    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
     return d, mu, n_eval + c
 
 
 @nb.njit(cache=True)
-def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
-              rtol):
-    """Limiting depth [m] at one speed with ``steps`` per tooth period.
-
-    With ``richardson`` the search is repeated on the grid with every step halved, starting from a
-    ±3 % bracket around the coarse answer (full search if that is not a bracket), and the two depths
-    are extrapolated as (4 b_fine − b_coarse)/3 (the scheme's error is O(h²)); when they differ by
-    more than 10 % (not in the asymptotic range, e.g. a lobe switch between the grids) b_fine is
-    returned. Returns (depth or inf, dominant multiplier, ρ evaluations).
-    """
-    D = act.size
-    h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 1, wn, zeta, act)
-    d1, mu1, n1 = _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free,
-                                  hpos, n_used)
-    if not richardson or not math.isfinite(d1):
-        return d1, mu1, n1
-    h, cut, abar_d, phi_free, hpos, n_used = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 2, wn, zeta, act)
-    b_lo = 0.97 * d1
-    b_hi = 1.03 * d1
-    r_lo = _rho(b_lo, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)[0]
-    r_hi, mu_hi = _rho(b_hi, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
-    n2 = 2
-    if r_lo <= 1.0 < r_hi:
-        d2, mu2, c = _illinois(b_lo, r_lo - 1.0, b_hi, r_hi - 1.0, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, h,
-                               cut, abar_d, phi_free, hpos, n_used)
-    else:
-        d2, mu2, c = _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free,
-                                     hpos, n_used)
-    n2 += c
-    if math.isfinite(d2) and abs(d2 - d1) <= 0.1 * d2:
-        return (4.0 * d2 - d1) / 3.0, mu2, n1 + n2
-    return d2, mu2, n1 + n2
+def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, wn, zeta, mass, mdir, act, rtol):
+    """Limiting depth [m] at one speed with ``steps`` per tooth period (``rich``: Richardson-extrapolated
+    multipliers from that grid and its halving). Returns (depth or inf, dominant μ, ρ evaluations)."""
+    g1 = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 1, wn, zeta, act)
+    g2 = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 2 if rich else 1, wn, zeta, act)
+    return _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, act.size, g1, g2, rich)
 
 
 @nb.njit(cache=True, parallel=True)

@@ -66,7 +66,7 @@ from millstab.stability.zoa import Envelope, check_rpm
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
 #: steps per natural period of the highest mode for the accuracy-controlled default
-STEPS_PER_NATURAL_PERIOD = 16.0
+STEPS_PER_NATURAL_PERIOD = 12.0
 #: relative width of the final root bracket
 RTOL = 1e-4
 #: bracket grid of the root search, in units of the reference depth (ascending)
@@ -167,7 +167,7 @@ def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | N
     out = np.empty((r.size, d.size))
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
-        _k.rho_grid(n, kt, kr, ps, pe, r, st, np.ascontiguousarray(d), wn[0], zeta[0], mass[0], mdir, act, out)
+        _k.rho_grid(n, kt, kr, ps, pe, r, st, steps is None, np.ascontiguousarray(d), wn[0], zeta[0], mass[0], mdir, act, out)
     if not np.all(np.isfinite(out)):
         raise ArithmeticError("semi-discretization: eigenvalue solver failed (non-finite spectral radius)")
     return out

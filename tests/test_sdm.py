@@ -257,12 +257,15 @@ def test_sdm_equals_zoa_for_even_teeth_slotting(structure):
 
 
 def test_sdm_differs_from_zoa_for_two_teeth_slotting():
-    """N = 2: [A(t)] varies in time; the zero-order solution is then off by several per cent."""
+    """N = 2: [A(t)] varies in time, so the zero-order solution is only approximate: the lowest
+    boundary over 10 000–25 000 rpm differs by a few per cent (≈ 6 %; field notes: up to ~10 %), and
+    the lobes are shifted, so on their flanks the depths at one speed differ far more."""
     cutting = bench_cut(1.0)
-    e_sdm = sdm.envelope(BENCH, cutting, SPEEDS)
-    e_zoa = zoa.envelope(BENCH, cutting, SPEEDS)
-    diff = np.abs(e_sdm.depth / e_zoa.depth - 1)
-    assert 0.03 < diff.max() < 0.2
+    speeds = np.linspace(10000.0, 25000.0, 61)
+    b_sdm = sdm.envelope(BENCH, cutting, speeds).depth
+    b_zoa = zoa.envelope(BENCH, cutting, speeds).depth
+    assert 0.02 < b_sdm.min() / b_zoa.min() - 1 < 0.12
+    assert np.abs(b_sdm / b_zoa - 1).max() > 0.1
 
 
 # --- interface --------------------------------------------------------------------------------------

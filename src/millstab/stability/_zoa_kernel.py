@@ -182,11 +182,12 @@ def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
 
 @nb.njit(cache=True)
 def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
-    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change), Dekker-style.
+    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change), Brent-style.
 
-    Secant steps through the two latest points (superlinear), falling back to bisection whenever a
-    step leaves the current bracket; stops at |H| < 1e-8 rad, which bounds the depth error near
-    1e-8 relative (near resonance dε/dω is large, so a phase error moves ω very little).
+    Inverse quadratic interpolation through the three latest points (secant while only two are
+    distinct), falling back to bisection whenever a step leaves the current bracket; stops at
+    |H| < 1e-8 rad, which bounds the depth error near 1e-8 relative (near resonance dε/dω is large,
+    so a phase error moves ω very little). Typically three evaluations.
     Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
     """
     target = TWO_PI * k
@@ -197,11 +198,19 @@ def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, g
         return nua.real, wa
     if fhi == 0.0:
         return nub.real, wb
-    x_prev, f_prev, x_cur, f_cur = lo, flo, hi, fhi
+    # the three latest points, newest last
+    x0, f0, x1, f1, x2, f2 = lo, flo, lo, flo, hi, fhi
+    n_pts = 2
     v = nua
     xm = wa
     for _ in range(60):
-        xm = x_cur - f_cur * (x_cur - x_prev) / (f_cur - f_prev) if f_cur != f_prev else 0.5 * (lo + hi)
+        if n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
+            xm = (x0 * f1 * f2 / ((f0 - f1) * (f0 - f2)) + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
+                  + x2 * f0 * f1 / ((f2 - f0) * (f2 - f1)))
+        elif f2 != f1:
+            xm = x2 - f2 * (x2 - x1) / (f2 - f1)
+        else:
+            xm = 0.5 * (lo + hi)
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
         v = _root_at(xm, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
@@ -214,7 +223,8 @@ def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, g
             lo, flo = xm, fm
         else:
             hi, fhi = xm, fm
-        x_prev, f_prev, x_cur, f_cur = x_cur, f_cur, xm, fm
+        x0, f0, x1, f1, x2, f2 = x1, f1, x2, f2, xm, fm
+        n_pts += 1
     return v.real, xm
 
 
@@ -273,9 +283,14 @@ def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform):
         if k_lo < 0:
             k_lo = 0
         for k in range(k_lo, k_hi + 1):
-            sa = 60.0 * wa / (n_teeth * (ea + TWO_PI * k))
-            sb = 60.0 * wb / (n_teeth * (eb + TWO_PI * k))
+            # ε = 0 exactly at a Re ν = 0 edge node: the k = 0 speed is infinite (numba would raise)
+            da = ea + TWO_PI * k
+            db = eb + TWO_PI * k
+            sa = 60.0 * wa / (n_teeth * da) if da > 0.0 else np.inf
+            sb = 60.0 * wb / (n_teeth * db) if db > 0.0 else np.inf
             lo_s = min(sa, sb)
+            if lo_s > rpm[n_s - 1]:  # the whole segment lies above the top speed
+                continue
             if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
                 j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
                 if j > 0 and rpm[j - 1] >= lo_s:

@@ -120,7 +120,7 @@ def reference_rho(structure: Structure, cutting: Cutting, rpm: float, depth: flo
         X[:n, n:2 * n] = np.eye(n)
         X[n:2 * n, 2 * n:] = np.eye(n)
         E = scipy.linalg.expm(X * h)
-        P, F1, F2 = E[:n, :n], E[:n, n:2 * n] / h * h, E[:n, 2 * n:]
+        P, F1, F2 = E[:n, :n], E[:n, n:2 * n], E[:n, 2 * n:]
         G1 = F2 / h @ B
         G0 = F1 @ B - G1
         Gi = np.zeros((dim, dim))

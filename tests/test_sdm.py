@@ -248,12 +248,13 @@ SPEEDS = np.linspace(6000.0, 24000.0, 7)
     ],
 )
 def test_sdm_equals_zoa_for_even_teeth_slotting(structure):
-    """N = 4 slotting: [A(t)] is constant, so the zero-order solution is exact. Agreement 0.3 %."""
+    """N = 4 slotting: [A(t)] is constant, so the zero-order solution is exact. Measured agreement
+    5e-5 (the root bracket width); asserted 5e-4 in depth, 1e-3 in chatter frequency."""
     cutting = Cutting(4, KT, KR, 0.0, math.pi)
     e_sdm = sdm.envelope(structure, cutting, SPEEDS)
     e_zoa = zoa.envelope(structure, cutting, SPEEDS)
-    assert np.allclose(e_sdm.depth, e_zoa.depth, rtol=3e-3)
-    assert np.allclose(e_sdm.chatter_hz, e_zoa.chatter_hz, rtol=1e-2)
+    assert np.allclose(e_sdm.depth, e_zoa.depth, rtol=5e-4)
+    assert np.allclose(e_sdm.chatter_hz, e_zoa.chatter_hz, rtol=1e-3)
 
 
 def test_sdm_differs_from_zoa_for_two_teeth_slotting():

@@ -13,6 +13,7 @@ from millstab.errors import InputError
 
 # subcommands register themselves on `app` when imported
 from millstab.cli import lobes  # noqa: E402,F401
+from millstab.cli import sensitivity  # noqa: E402,F401
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

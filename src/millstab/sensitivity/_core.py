@@ -1,0 +1,174 @@
+"""Shared pieces of the sensitivity studies: parameterization, range checks, MSE, chunked engine calls.
+
+Units: parameters in SI (fn [Hz], k [N/m], ζ [-]); spindle speeds [rev/min]; depths from the engine
+in m; every MSE here is in **mm²** (depths converted to mm before squaring), as in the seed paper.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Iterator, Sequence
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.model import Cutting, Structure
+from millstab.params import Parameterization
+
+#: default one-at-a-time grid: −0.25 … +0.25 step 0.05 (the issue's default)
+DEFAULT_EPS_GRID = np.round(np.arange(-0.25, 0.25 + 1e-9, 0.05), 10) + 0.0  # + 0.0: no −0.0 in the grid
+#: the seed paper's Algorithm 1 grid: −0.20 … +0.20 step 0.05
+PAPER_EPS_GRID = np.round(np.arange(-0.20, 0.20 + 1e-9, 0.05), 10) + 0.0
+#: engine rows per call: bounds the (rows, S) depth block to ~32 MB at any S, and is large enough
+#: that the parallel kernel stays busy (zoa streams its own chunks of 4096 inside)
+ROW_BUDGET_BYTES = 32 * 2**20
+
+Progress = Callable[[int, int], None]  # (done, total) in the caller's unit (paths, rows)
+
+
+def as_parameterization(model: Structure | Parameterization) -> Parameterization:
+    """Every modal parameter free (``fn_x, k_x, zeta_x, fn_y, k_y, zeta_y`` for one mode per
+    direction) unless a :class:`Parameterization` is given."""
+    if isinstance(model, Parameterization):
+        return model
+    if isinstance(model, Structure):
+        return Parameterization(model)
+    raise InputError("structure", type(model).__name__, "need a modal Structure or a Parameterization")
+
+
+def centre(par: Parameterization, theta: Sequence[float] | None) -> np.ndarray:
+    """The parameter vector the study is centred on (P,) [SI]; θ0 of ``par`` when ``theta`` is None."""
+    if theta is None:
+        return par.theta0.copy()
+    th = np.asarray(theta, dtype=float)
+    if th.shape != (par.size,):
+        raise InputError("theta", th.shape, f"need {par.size} values ({', '.join(par.free)})")
+    _check_values(par, th[None, :], "theta")
+    return th
+
+
+def _allowed(kind: str) -> tuple[float, float, str]:
+    if kind == "zeta":
+        return 0.0, 1.0, "damping ratio must stay in (0, 1)"
+    unit = "Hz" if kind == "fn" else "N/m"
+    return 0.0, np.inf, f"must stay > 0 {unit}"
+
+
+def _check_values(par: Parameterization, values: np.ndarray, what: str) -> None:
+    """Raise InputError when any column of ``values`` (R, P) leaves its parameter's valid range."""
+    for j, name in enumerate(par.free):
+        lo, hi, allowed = _allowed(par.kind(name))
+        col = values[:, j]
+        bad = ~np.isfinite(col) | (col <= lo) | (col >= hi)
+        if bad.any():
+            raise InputError(f"{what}.{name}", float(col[bad][0]), allowed)
+
+
+def check_scalar(field: str, value: float, lo: float, hi: float, allowed: str, lo_open: bool = True,
+                 hi_open: bool = True) -> float:
+    """A finite float inside (lo, hi) (ends open or closed as told), else InputError(field, value, allowed)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, value, allowed) from None
+    ok = np.isfinite(v) and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+    if not ok:
+        raise InputError(field, value, allowed)
+    return v
+
+
+def check_neighbourhood(par: Parameterization, theta: np.ndarray, t: float, eps: Sequence[float] | float) -> None:
+    """Reject, before any work, a study whose draws could leave a parameter's valid range.
+
+    Every value a study can produce lies in [(1 − t)·min(1, 1 + ε)·p, (1 + t)·max(1, 1 + ε)·p]; the
+    corners are checked analytically (fn, k > 0; 0 < ζ < 1), so no NaN can appear mid-run.
+
+    Raises:
+        InputError: naming ``t`` or ``eps``, the parameter and the offending corner value.
+    """
+    t = check_scalar("t", t, 0.0, 1.0, "neighbourhood half-width t must be in [0, 1)", lo_open=False)
+    e = np.atleast_1d(np.asarray(eps, dtype=float))
+    if e.size == 0 or not np.isfinite(e).all() or (e <= -1).any():
+        raise InputError("eps", eps, "perturbations must be finite and > -1 (a factor 1 + eps > 0)")
+    f_lo = (1 - t) * min(1.0, 1.0 + e.min())
+    f_hi = (1 + t) * max(1.0, 1.0 + e.max())
+    for j, name in enumerate(par.free):
+        lo, hi, allowed = _allowed(par.kind(name))
+        for f, f_t, e_end in ((f_lo, 1 - t, e.min()), (f_hi, 1 + t, e.max())):
+            v = f * theta[j]
+            if not (lo < v < hi):
+                # blame t when the neighbourhood alone already leaves the range, else the perturbation
+                field, value = ("t", t) if not (lo < f_t * theta[j] < hi) else ("eps", float(e_end))
+                raise InputError(field, value, f"{name} would reach {v:.6g} (= {theta[j]:.6g} x {f:.6g}, "
+                                 f"the corner (1 +/- t)(1 + eps)); {allowed}")
+
+
+def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
+                bounds: dict[str, tuple[float, float]] | None = None) -> np.ndarray:
+    """Input ranges (P, 2) [SI] for global methods: [(1 − t)p, (1 + t)p], or user bounds by name.
+
+    User bounds replace the ±t range for the parameters they name; every range must satisfy
+    lower < upper and stay valid (fn, k > 0; 0 < ζ < 1).
+    """
+    check_neighbourhood(par, theta, t, 0.0)
+    out = np.column_stack([(1 - t) * theta, (1 + t) * theta])
+    for name, lohi in (bounds or {}).items():
+        c = par.canonical(name)
+        if c not in par.free:
+            raise InputError("bounds", name, f"not a free parameter; free: {', '.join(par.free)}")
+        try:
+            lo, hi = (float(v) for v in lohi)
+        except (TypeError, ValueError):
+            raise InputError(f"bounds.{name}", lohi, "need (lower, upper)") from None
+        if not lo < hi:
+            raise InputError(f"bounds.{name}", (lo, hi), "need lower < upper")
+        out[par.free.index(c)] = lo, hi
+    if (out[:, 0] == out[:, 1]).any():
+        j = int(np.argmax(out[:, 0] == out[:, 1]))
+        raise InputError("t", t, f"{par.free[j]} has an empty range; need t > 0 or bounds for it")
+    _check_values(par, out.T.copy(), "bounds")
+    return out
+
+
+def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:
+    """Mean over speeds (last axis) of the squared depth difference, in mm² (depths given in m).
+
+    Where both depths are +inf (no chatter boundary) the difference counts as 0; where only one is,
+    the MSE is inf (the boundary appeared or vanished).
+    """
+    a, b = np.asarray(ref_m), np.asarray(other_m)
+    d = (a - b) * 1e3
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        d = np.where(np.isinf(a) & (a == b), 0.0, d)
+    return np.mean(d * d, axis=-1)
+
+
+def rows_per_call(n_speeds: int) -> int:
+    """Engine rows per call so the (rows, S) float64 depth block stays within ROW_BUDGET_BYTES."""
+    return int(max(64, min(16384, ROW_BUDGET_BYTES // (8 * max(1, n_speeds)))))
+
+
+def engine_module(name: str):
+    from millstab.stability import get_engine
+
+    return get_engine(name)
+
+
+def depths(engine, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray) -> np.ndarray:
+    """Limiting depths (R, S) [m] of R parameter rows: ONE batched engine call."""
+    return engine.envelope_batch(par.batch(theta_rows), cutting, rpm)
+
+
+def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:
+    for start in range(0, n_rows, per_call):
+        yield slice(start, min(n_rows, start + per_call))
+
+
+def depths_chunked(engine, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray,
+                   progress: Progress | None = None) -> np.ndarray:
+    """Depths (R, S) [m] for many rows, one engine call per chunk (progress in rows)."""
+    out = np.empty((theta_rows.shape[0], rpm.size))
+    for rows in iter_row_chunks(theta_rows.shape[0], rows_per_call(rpm.size)):
+        out[rows] = depths(engine, par, theta_rows[rows], cutting, rpm)
+        if progress:
+            progress(rows.stop, theta_rows.shape[0])
+    return out

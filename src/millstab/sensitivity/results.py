@@ -1,0 +1,200 @@
+"""Result types of the sensitivity studies: small frozen dataclasses with a JSON-ready ``to_dict``.
+
+Every MSE is in mm² (depths in mm before squaring); speeds in rev/min; parameters in SI
+(fn [Hz], k [N/m], ζ [-]).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+def _speeds(rpm: np.ndarray) -> dict[str, Any]:
+    r = np.asarray(rpm, float)
+    return {"count": int(r.size), "rpm_min": float(r.min()), "rpm_max": float(r.max()), "rpm": r}
+
+
+@dataclass(frozen=True, eq=False)
+class OATResult:
+    """One-at-a-time sensitivity (the seed paper's Algorithm 1).
+
+    Attributes:
+        names: parameter names (P,), e.g. fn_x, k_x, zeta_x, fn_y, k_y, zeta_y.
+        theta: the centre values (P,) [Hz, N/m, -].
+        eps: relative perturbations (E,); parameter j is set to (1 + eps)·theta_j, the others kept.
+        mse_mm2: MSE (P, E) [mm²] of each perturbed SLD against the original, over ``rpm``.
+        rpm: spindle speeds (S,) [rev/min].
+        depth_ref_mm: the original SLD (S,) [mm].
+        engine: stability engine name.
+    """
+
+    names: tuple[str, ...]
+    theta: np.ndarray
+    eps: np.ndarray
+    mse_mm2: np.ndarray
+    rpm: np.ndarray
+    depth_ref_mm: np.ndarray
+    engine: str = "zoa"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": "oat", "engine": self.engine, "units": {"mse": "mm^2", "theta": "Hz, N/m, -"},
+                "centre": dict(zip(self.names, map(float, self.theta))), "eps": self.eps,
+                "speeds": _speeds(self.rpm), "depth_ref_mm": self.depth_ref_mm,
+                "mse_mm2": {n: self.mse_mm2[j] for j, n in enumerate(self.names)}}
+
+
+@dataclass(frozen=True, eq=False)
+class MCResult:
+    """Monte Carlo sensitivity (the seed paper's Algorithm 2 and Table 6).
+
+    Each of ``n`` paths draws every parameter uniformly in [(1 − t)p, (1 + t)p], makes the SLD, then
+    scales each parameter in turn by (1 + eps) and records the MSE [mm²] against that path's SLD.
+
+    Attributes:
+        names: parameter names (P,).
+        theta: the centre p (P,) [Hz, N/m, -].
+        t, eps, seed, n: the study's settings (seed: numpy Generator seed).
+        rpm: speeds (S,) [rev/min].
+        mse_mm2: every path's MSE (n, P) [mm²] (kept in memory, not written to JSON).
+        mean: mean MSE per parameter (P,) [mm²].
+        sd: population standard deviation (1/n, as the paper's Algorithm 2) (P,) [mm²].
+        sd_sample: sample standard deviation (1/(n − 1)) (P,) [mm²].
+        sem: standard error of each mean, sd_sample/√n (P,) [mm²].
+    """
+
+    names: tuple[str, ...]
+    theta: np.ndarray
+    t: float
+    eps: float
+    seed: int
+    n: int
+    rpm: np.ndarray
+    mse_mm2: np.ndarray
+    engine: str = "zoa"
+    mean: np.ndarray = field(init=False)
+    sd: np.ndarray = field(init=False)
+    sd_sample: np.ndarray = field(init=False)
+    sem: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        m = self.mse_mm2
+        object.__setattr__(self, "mean", m.mean(axis=0))
+        object.__setattr__(self, "sd", m.std(axis=0, ddof=0))
+        s1 = m.std(axis=0, ddof=1) if m.shape[0] > 1 else np.full(m.shape[1], np.nan)
+        object.__setattr__(self, "sd_sample", s1)
+        object.__setattr__(self, "sem", s1 / np.sqrt(m.shape[0]))
+
+    def running(self, points: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Convergence: (paths (K,), running mean (K, P) [mm²], running SEM (K, P) [mm²]) at K
+        log-spaced path counts up to n (the last one is n)."""
+        n = self.mse_mm2.shape[0]
+        k = np.unique(np.geomspace(1, n, min(points, n)).round().astype(np.int64))
+        c1 = np.cumsum(self.mse_mm2, axis=0)
+        c2 = np.cumsum(self.mse_mm2 ** 2, axis=0)
+        s1, s2 = c1[k - 1], c2[k - 1]
+        kk = k[:, None].astype(float)
+        mean = s1 / kk
+        var = np.where(kk > 1, (s2 - kk * mean ** 2) / np.maximum(kk - 1, 1), np.nan)
+        return k, mean, np.sqrt(np.clip(var, 0, None) / kk)
+
+    def ratio(self, a: str, b: str) -> float:
+        """mean[a] / mean[b], e.g. ``ratio("fn_x", "k_x")``."""
+        return float(self.mean[self.names.index(a)] / self.mean[self.names.index(b)])
+
+    def to_dict(self, paper: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
+        """JSON form. Per parameter name a dict with ``mean`` and ``sd`` (population) in mm² (the
+        public contract), plus ``sd_sample``, ``sem``; settings, speeds, convergence and, when
+        given, the paper's Table 6 values beside ours."""
+        out: dict[str, Any] = {"method": "mc", "engine": self.engine, "units": {"mse": "mm^2", "theta": "Hz, N/m, -"},
+                               "n": self.n, "seed": self.seed, "t": self.t, "eps": self.eps,
+                               "parameters": list(self.names), "centre": dict(zip(self.names, map(float, self.theta))),
+                               "speeds": _speeds(self.rpm)}
+        for j, name in enumerate(self.names):
+            out[name] = {"mean": float(self.mean[j]), "sd": float(self.sd[j]), "sd_sample": float(self.sd_sample[j]),
+                         "sem": float(self.sem[j]), "n": self.n}
+        k, rm, rs = self.running(100)
+        out["convergence"] = {"paths": k, "running_mean": {n: rm[:, j] for j, n in enumerate(self.names)},
+                              "running_sem": {n: rs[:, j] for j, n in enumerate(self.names)}}
+        ratios = {}
+        for d in ("x", "y"):
+            if f"fn_{d}" in self.names and f"k_{d}" in self.names:
+                ratios[f"fn_{d}/k_{d}"] = self.ratio(f"fn_{d}", f"k_{d}")
+        if ratios:
+            out["ratios"] = ratios
+        if paper:
+            out["paper"] = paper
+            pr = {}
+            for d in ("x", "y"):
+                if f"fn_{d}" in paper and f"k_{d}" in paper:
+                    pr[f"fn_{d}/k_{d}"] = paper[f"fn_{d}"]["mean"] / paper[f"k_{d}"]["mean"]
+            out["paper_ratios"] = pr
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class SobolResult:
+    """First- and total-order Sobol indices with confidence half-widths (SALib, Saltelli sampling).
+
+    Attributes:
+        names: parameter names (P,).
+        bounds: input ranges (P, 2) [Hz, N/m, -] (uniform inputs).
+        n: SALib base sample size (a power of 2); the engine ran n·(P + 2) structures.
+        seed: sampler and bootstrap seed.
+        rpm: speeds (S,) [rev/min]; depth_nominal_mm: the nominal SLD (S,) [mm].
+        mse: indices of the SLD's MSE [mm²] against the nominal SLD: {S1, S1_conf, ST, ST_conf} each (P,).
+        minimum: indices of the envelope minimum min_Ω b_lim [mm]: same keys, each (P,).
+        blim: indices of b_lim at each speed: same keys, each (S, P).
+        conf_level: confidence level of the ``*_conf`` half-widths (bootstrap).
+    """
+
+    names: tuple[str, ...]
+    bounds: np.ndarray
+    n: int
+    seed: int
+    rpm: np.ndarray
+    depth_nominal_mm: np.ndarray
+    mse: dict[str, np.ndarray]
+    minimum: dict[str, np.ndarray]
+    blim: dict[str, np.ndarray]
+    conf_level: float = 0.95
+    engine: str = "zoa"
+
+    def to_dict(self) -> dict[str, Any]:
+        def per_name(d):
+            return {key: {n: v[..., j] for j, n in enumerate(self.names)} for key, v in d.items()}
+
+        return {"method": "sobol", "engine": self.engine, "n": self.n, "evaluations": self.n * (len(self.names) + 2),
+                "seed": self.seed, "conf_level": self.conf_level, "parameters": list(self.names),
+                "bounds": {n: self.bounds[j] for j, n in enumerate(self.names)}, "speeds": _speeds(self.rpm),
+                "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
+                "blim": per_name(self.blim)}
+
+
+@dataclass(frozen=True, eq=False)
+class MorrisResult:
+    """Morris elementary-effects screening (SALib) of the SLD's MSE [mm²] and the envelope minimum [mm].
+
+    Attributes:
+        outputs: {"mse": {...}, "minimum": {...}}, each {mu, mu_star, sigma, mu_star_conf} (P,) in the
+            output's units.
+    """
+
+    names: tuple[str, ...]
+    bounds: np.ndarray
+    trajectories: int
+    levels: int
+    seed: int
+    rpm: np.ndarray
+    outputs: dict[str, dict[str, np.ndarray]]
+    engine: str = "zoa"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": "morris", "engine": self.engine, "trajectories": self.trajectories, "levels": self.levels,
+                "evaluations": self.trajectories * (len(self.names) + 1), "seed": self.seed,
+                "parameters": list(self.names), "bounds": {n: self.bounds[j] for j, n in enumerate(self.names)},
+                "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
+                "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
+                            for o, d in self.outputs.items()}}

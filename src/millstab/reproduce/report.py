@@ -1,0 +1,152 @@
+"""A small report builder: headings, paragraphs, tables and figures, rendered as Markdown and as a
+self-contained HTML page (figures embedded), with every table also saved as CSV and every figure as
+PNG next to it. Headline checks (claim, our value, pass/fail) are collected for a summary.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+from millstab.io.results import atomic_write_text, write_csv
+
+
+@dataclass(frozen=True)
+class Check:
+    """One headline comparison: what is claimed, what we measured, and whether it holds."""
+
+    claim: str
+    measured: str
+    ok: bool
+
+
+def fmt(x: Any, digits: int = 4) -> str:
+    """A number for a table: 4 significant digits, ints as ints, strings unchanged."""
+    if isinstance(x, str):
+        return x
+    if isinstance(x, (bool,)):
+        return "yes" if x else "no"
+    if isinstance(x, int):
+        return str(x)
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if v != v:
+        return "–"
+    if v == 0:
+        return "0"
+    if abs(v) >= 1e5 or abs(v) < 1e-3:
+        return f"{v:.{digits - 1}e}"
+    return f"{v:.{digits}g}"
+
+
+@dataclass
+class Report:
+    """Blocks of a report written into ``out``; :meth:`write` renders report.md and report.html."""
+
+    out: Path
+    title: str
+    blocks: list[tuple[str, Any]] = field(default_factory=list)
+    checks: list[Check] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.out = Path(self.out)
+        self.out.mkdir(parents=True, exist_ok=True)
+
+    def heading(self, text: str, level: int = 2) -> None:
+        self.blocks.append(("h", (level, text)))
+
+    def paragraph(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def table(self, name: str, header: Sequence[str], rows: Sequence[Sequence[Any]], caption: str) -> Path:
+        """Add a table and save it as ``name.csv`` (raw values; the report shows rounded ones)."""
+        path = self.out / f"{name}.csv"
+        cols = [[r[i] for r in rows] for i in range(len(header))]
+        write_csv(path, list(header), cols)
+        self.files.append(path)
+        self.blocks.append(("t", (caption, list(header), [[fmt(v) for v in r] for r in rows], path.name)))
+        return path
+
+    def figure(self, name: str, fig, caption: str) -> Path:
+        """Add a figure and save it as ``name.png``."""
+        from millstab.plot import save_figure
+
+        path = save_figure(fig, self.out / f"{name}.png")
+        self.files.append(path)
+        self.blocks.append(("f", (caption, path)))
+        return path
+
+    def check(self, claim: str, measured: str, ok: bool) -> Check:
+        c = Check(claim, measured, bool(ok))
+        self.checks.append(c)
+        return c
+
+    # --- rendering --------------------------------------------------------------------------------
+    def _summary_rows(self) -> list[list[str]]:
+        return [[c.claim, c.measured, "holds" if c.ok else "DOES NOT HOLD"] for c in self.checks]
+
+    def markdown(self) -> str:
+        lines = [f"# {self.title}", ""]
+        if self.checks:
+            lines += ["## Headline comparisons", "", "| claim | ours | verdict |", "|---|---|---|"]
+            lines += [f"| {a} | {b} | {c} |" for a, b, c in self._summary_rows()] + [""]
+        for kind, val in self.blocks:
+            if kind == "h":
+                lines += ["#" * val[0] + " " + val[1], ""]
+            elif kind == "p":
+                lines += [val, ""]
+            elif kind == "t":
+                caption, header, rows, csv_name = val
+                lines += [f"**{caption}** ([{csv_name}]({csv_name}))", "", "| " + " | ".join(header) + " |",
+                          "|" + "---|" * len(header)]
+                lines += ["| " + " | ".join(r) + " |" for r in rows] + [""]
+            elif kind == "f":
+                caption, path = val
+                lines += [f"![{caption}]({path.name})", "", f"*{caption}*", ""]
+        return "\n".join(lines)
+
+    def html(self) -> str:
+        esc = html.escape
+        parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(self.title)}</title>",
+                 "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;line-height:1.45}"
+                 "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #bbb;padding:3px 8px;"
+                 "text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}"
+                 ".bad{color:#b00;font-weight:bold}.ok{color:#070}figcaption{font-style:italic}</style></head><body>",
+                 f"<h1>{esc(self.title)}</h1>"]
+        if self.checks:
+            parts.append("<h2>Headline comparisons</h2><table><tr><th>claim</th><th>ours</th><th>verdict</th></tr>")
+            for c in self.checks:
+                cls = "ok" if c.ok else "bad"
+                parts.append(f"<tr><td>{esc(c.claim)}</td><td>{esc(c.measured)}</td>"
+                             f"<td class='{cls}'>{'holds' if c.ok else 'DOES NOT HOLD'}</td></tr>")
+            parts.append("</table>")
+        for kind, val in self.blocks:
+            if kind == "h":
+                parts.append(f"<h{val[0]}>{esc(val[1])}</h{val[0]}>")
+            elif kind == "p":
+                parts.append(f"<p>{esc(val)}</p>")
+            elif kind == "t":
+                caption, header, rows, csv_name = val
+                parts.append(f"<p><b>{esc(caption)}</b> ({esc(csv_name)})</p><table><tr>"
+                             + "".join(f"<th>{esc(h)}</th>" for h in header) + "</tr>")
+                parts += ["<tr>" + "".join(f"<td>{esc(v)}</td>" for v in r) + "</tr>" for r in rows]
+                parts.append("</table>")
+            elif kind == "f":
+                caption, path = val
+                data = base64.b64encode(path.read_bytes()).decode()
+                parts.append(f"<figure><img src='data:image/png;base64,{data}' alt='{esc(caption)}'>"
+                             f"<figcaption>{esc(caption)}</figcaption></figure>")
+        parts.append("</body></html>")
+        return "\n".join(parts)
+
+    def write(self) -> tuple[Path, Path]:
+        """Write report.md and report.html; returns their paths."""
+        md = atomic_write_text(self.out / "report.md", self.markdown())
+        ht = atomic_write_text(self.out / "report.html", self.html())
+        return md, ht

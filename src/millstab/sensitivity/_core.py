@@ -136,7 +136,8 @@ def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:
     the MSE is inf (the boundary appeared or vanished).
     """
     a, b = np.asarray(ref_m), np.asarray(other_m)
-    d = (a - b) * 1e3
+    with np.errstate(invalid="ignore"):  # inf − inf is resolved just below
+        d = (a - b) * 1e3
     if not (np.isfinite(a).all() and np.isfinite(b).all()):
         d = np.where(np.isinf(a) & (a == b), 0.0, d)
     return np.mean(d * d, axis=-1)

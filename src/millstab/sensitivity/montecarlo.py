@@ -21,7 +21,7 @@ from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.sensitivity._core import (Progress, as_parameterization, centre, check_neighbourhood, check_scalar, depths,
-                                        engine_module, rows_per_call)
+                                        engine_module, mse_mm2, rows_per_call)
 from millstab.sensitivity.results import MCResult
 from millstab.stability.zoa import check_rpm
 
@@ -83,8 +83,7 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
         star = th * (1.0 + t * (2.0 * rng.random((c, n_p)) - 1.0))
         rows = (star[:, None, :] * factor[None, :, :]).reshape(c * per, n_p)
         d = depths(eng, par, rows, cutting, r).reshape(c, per, r.size)
-        diff = (d[:, 1:, :] - d[:, :1, :]) * 1e3  # mm
-        mse[start:start + c] = np.mean(diff * diff, axis=-1)
+        mse[start:start + c] = mse_mm2(d[:, :1, :], d[:, 1:, :])  # (c, P) [mm²]; the depths are dropped
         if progress:
             progress(start + c, n)
     if not np.isfinite(mse).all():

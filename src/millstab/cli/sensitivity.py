@@ -94,7 +94,7 @@ def _mc_table(res, paper: dict | None, paper_comparable: bool) -> str:
 def sensitivity(
     method: str = typer.Argument(..., help="oat (one-at-a-time), mc (Monte Carlo, Table 6), sobol or morris."),
     config: str = typer.Argument(..., help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute)."),
-    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP [rev/min]."),
+    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min)."),
     rpm_file: Optional[Path] = typer.Option(None, "--rpm-file", help="Speeds, one per line or an 'rpm' CSV column."),
     n: Optional[int] = typer.Option(None, "--n", help="mc: paths (10000); sobol: base sample, power of 2 (1024); "
                                     "morris: trajectories (50)."),

@@ -1,0 +1,230 @@
+"""The seed paper's multivariate Newton–Raphson scheme (Section 2), with its three refinements.
+
+Per iteration, for the current guess p (all guesses while exploring):
+
+* objective: MLAE = Σ w_i log(1 + |b_exp,i − b*_i|) / Σ w_i (paper eq. 4; depths in mm; w = 1 gives eq. 4
+  exactly; the critical-point weights below make it the paper's "more weight on critical points");
+* sensitivities by forward differences (paper eq. ``partial``): S_i = (MLAE(p + ε_i e_i) − MLAE(p)) / ε_i;
+* update (paper eq. ``newton``): p ← p − α · MLAE · S / ‖S‖².
+
+What is literal and what is scaled:
+
+* ``scaled=False`` (literal): p, ε and S in physical units (Hz, N/m, -), ε_i = ``fd_step`` · p_i (the paper
+  says only "a small value"; a relative ε makes it usable for Hz and N/m alike). Because S_ζ ≫ S_fn ≫ S_k
+  in these units, ‖S‖² is dominated by ζ and the step moves almost only ζ (the fn and k steps are
+  smaller by the squared unit ratios) — the paper's update taken literally.
+* ``scaled=True`` (default): the same formula in log coordinates u = ln p (S_i = ∂MLAE/∂ ln p_i, ε = ``fd_step``
+  in u), so every parameter moves in proportion: u ← u − α · MLAE · S / ‖S‖². This is the only change.
+
+The refinements (all three, as the paper describes them):
+
+1. **Trial jumps.** When the best MLAE has not improved by a relative ``improve_tol`` (1 %) for
+   ``patience`` (3) consecutive iterations, the next iteration also evaluates jumps from the best point
+   so far: ±``jump`` (5 %) in each parameter alone, in each pair of parameters (±, ±: this is what can
+   move along the k–ζ valley, where k·ζ, and so the lobe minima, stay fixed) and ``n_random_jumps``
+   random ± combinations of all (seeded). The best jump replaces the guess only if it lowers the best
+   MLAE; when none does, the jump size halves for the next round (down to ``jump``/16).
+2. **Critical points.** Points within a relative speed window ``critical_window`` (2 %) of a *critical
+   point* get weight ``critical_weight`` (10) in the objective. Critical points are the cusps and lobe
+   minima of the boundary, found as the strict local maxima (cusps: two lobes meet) and strict local
+   minima (lobe bottoms) of the depth over the sorted speeds — of the measured points and of the current
+   guessed SLD at the same speeds (so the set follows the guess, iteration by iteration).
+3. **Diverse initial guesses.** The start plus ``n_screen`` scrambled-Sobol points (seeded) in the search
+   box (as in :mod:`millstab.identify.lsq`) are ranked by MLAE in one call; the ``n_guesses`` best
+   iterate together for ``explore_iters`` iterations; then only the best continues.
+
+A safeguard not in the paper: each scaled step is capped at ``max_step`` (0.1 in ln p) per parameter,
+because MLAE/‖S‖ explodes where the objective is flat.
+
+Every iteration is ONE batched engine call: all guesses, their P forward-difference rows and any trial
+jumps stacked. Every iteration's parameters and (unweighted) MLAE are recorded (``Fit.history_*``); the
+result is the best iterate. Stops when the MLAE falls below ``tol`` or after ``max_iter`` iterations.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.stats import qmc
+
+from millstab.errors import InputError
+from millstab.identify.lsq import Progress, search_box
+from millstab.identify.objective import Problem, canonical, swap_permutation
+from millstab.identify.result import Fit
+
+
+def critical_mask(rpm: np.ndarray, depth_meas: np.ndarray, depth_guess: np.ndarray, window: float) -> np.ndarray:
+    """Points (n,) within ±``window``·Ω of a cusp or lobe minimum of the measured or the guessed boundary.
+
+    Cusps and lobe minima = strict local maxima and minima of depth over the sorted speeds (end
+    points excluded). ``depth_guess`` may be (n,) or (B, n); the mask then has the same shape.
+    """
+    order = np.argsort(rpm, kind="stable")
+    r = rpm[order]
+    g = np.atleast_2d(depth_guess)[:, order]
+    m = np.broadcast_to(depth_meas[order], g.shape)
+
+    def extrema(d: np.ndarray) -> np.ndarray:
+        e = np.zeros(d.shape, bool)
+        left, mid, right = d[:, :-2], d[:, 1:-1], d[:, 2:]
+        e[:, 1:-1] = ((mid > left) & (mid > right)) | ((mid < left) & (mid < right))
+        return e
+
+    ext = extrema(m) | extrema(g)
+    # each point is critical when some extremum lies within the window of its speed
+    near = np.abs(r[None, :] - r[:, None]) <= window * r[None, :]  # near[e, i]: extremum e near point i
+    crit_sorted = (ext.astype(float) @ near.astype(float)) > 0
+    out = np.empty_like(crit_sorted)
+    out[:, order] = crit_sorted
+    return out if np.ndim(depth_guess) > 1 else out[0]
+
+
+def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bool = True, alpha: float = 1.0,
+               max_iter: int = 200, tol: float = 1e-4, fd_step: float = 1e-4, n_guesses: int = 8,
+               explore_iters: int = 5, n_screen: int = 256, jump: float = 0.05, max_step: float = 0.1, patience: int = 3, improve_tol: float = 0.01,
+               n_random_jumps: int = 8, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
+               search: dict[str, float] | None = None, progress: Progress | None = None) -> Fit:
+    """The paper's Newton–Raphson identification (see module docstring for every option).
+
+    Args:
+        theta0: start [Hz, N/m, -]; default the parameterization's start.
+        scaled: update in log coordinates (default) or literally in physical units.
+        alpha: the paper's pace α in (0, 1].
+        tol: stopping threshold on the (unweighted) MLAE [log(1 + mm)].
+        n_guesses: initial guesses (1 = only the start); explore_iters: iterations before keeping the best.
+        critical_weight: weight of points near critical points (1 = the unweighted eq. 4).
+        seed: seed of the initial-guess design and the random jumps.
+    """
+    for name, v, ok in (("alpha", alpha, 0 < alpha <= 1), ("max_iter", max_iter, max_iter >= 1),
+                        ("n_guesses", n_guesses, n_guesses >= 1), ("jump", jump, 0 < jump < 1),
+                        ("critical_weight", critical_weight, critical_weight >= 1), ("fd_step", fd_step, 0 < fd_step < 0.1)):
+        if not ok:
+            raise InputError(name, v, {"alpha": "must be in (0, 1]", "max_iter": "must be >= 1", "n_guesses": "must be >= 1",
+                                       "jump": "must be in (0, 1)", "critical_weight": "must be >= 1",
+                                       "fd_step": "must be in (0, 0.1)"}[name])
+    t0 = time.perf_counter()
+    sets0, calls0 = problem.n_sets, problem.n_calls
+    par = problem.par
+    p = par.size
+    lo, hi = np.log(par.lower), np.log(par.upper)
+    start = par.theta0 if theta0 is None else np.asarray(theta0, dtype=float)
+    u_start = np.clip(np.log(start), lo, hi)
+    rng = np.random.default_rng(seed)
+    # diverse initial guesses: the start plus a Sobol design in the search box
+    u = u_start[None]  # (G, P) current guesses in log coordinates
+    if n_guesses > 1:
+        # a diverse set: the start plus a Sobol design in the search box, ranked by MLAE in one call;
+        # the n_guesses best go on to explore
+        blo, bhi = search_box(problem, u_start, search)
+        m = int(np.ceil(np.log2(max(n_screen, 2))))
+        sob = qmc.Sobol(p, scramble=True, seed=seed).random_base2(m)[:max(n_screen, n_guesses - 1)]
+        cand = np.vstack([u_start[None], blo + sob * (bhi - blo)])
+        f0 = problem.mlae(problem.predict_mm(np.exp(cand)))
+        u = cand[np.argsort(f0, kind="stable")[:n_guesses]]
+    hist_u: list[np.ndarray] = []
+    hist_f: list[float] = []
+    best_u, best_f = u_start.copy(), np.inf
+    since_improve = 0
+    ref_f = np.inf  # best MLAE at the last "real" improvement (for the stagnation test)
+    want_jumps = False
+    # jump directions: each parameter alone (±), each pair (±, ±), and random ± combinations of all
+    pairs = [(i, j) for i in range(p) for j in range(i + 1, p)]
+    pair_signs = np.zeros((4 * len(pairs), p))
+    for q, (i, j) in enumerate(pairs):
+        pair_signs[4 * q:4 * q + 4, [i, j]] = [[1, 1], [1, -1], [-1, 1], [-1, -1]]
+    jump_signs = np.vstack([np.eye(p), -np.eye(p), pair_signs, rng.choice([-1.0, 1.0], (n_random_jumps, p))])
+    jump_now = jump
+    n_jumps_tried = n_jumps_kept = 0
+    it = 0
+    base_w = problem.weight
+    for it in range(1, max_iter + 1):
+        g = u.shape[0]
+        theta = np.exp(u)
+        # forward-difference rows: scaled → u + ε; literal → p + ε p (the same points, different units of S)
+        rows = np.repeat(theta[:, None, :], p + 1, axis=1)
+        idx = np.arange(p)
+        rows[:, 1 + idx, idx] = theta * np.exp(fd_step) if scaled else theta * (1 + fd_step)
+        all_rows = [rows.reshape(-1, p)]
+        jumps = None
+        if want_jumps and g == 1:
+            jumps = np.exp(best_u) * (1 + jump_now * jump_signs)
+            jumps = np.clip(jumps, par.lower, par.upper)
+            all_rows.append(jumps)
+        pred = problem.predict_mm(np.vstack(all_rows))  # ONE engine call per iteration
+        pg = pred[:g * (p + 1)].reshape(g, p + 1, -1)
+        f_plain = problem.mlae(pg[:, 0])
+        # critical-point weights from the measured and the current guessed boundary
+        crit = critical_mask(problem.rpm, problem.depth_mm, pg[:, 0], critical_window)
+        w = base_w * np.where(crit, critical_weight, 1.0)  # (G, n)
+        f_w = problem.mlae(pg.reshape(g * (p + 1), -1), np.repeat(w, p + 1, axis=0)).reshape(g, p + 1)
+        # record this iteration (the guess being evaluated, unweighted MLAE)
+        i_best = int(np.argmin(f_plain))
+        hist_u.append(u[i_best].copy())
+        hist_f.append(float(f_plain[i_best]))
+        if f_plain[i_best] < best_f:
+            best_u, best_f = u[i_best].copy(), float(f_plain[i_best])
+        if progress is not None:
+            progress("newton", it, best_f)
+        if best_f < tol:
+            break
+        # stagnation bookkeeping → trial jumps next iteration
+        if best_f < ref_f * (1 - improve_tol):
+            ref_f, since_improve = best_f, 0
+        else:
+            since_improve += 1
+        want_jumps = since_improve >= patience
+        if jumps is not None:
+            n_jumps_tried += 1
+            fj = problem.mlae(pred[g * (p + 1):])
+            j = int(np.argmin(fj))
+            if fj[j] >= best_f:  # no jump helped: try smaller ones next time (down to jump / 16)
+                jump_now = max(jump_now / 2, jump / 16)
+            if fj[j] < best_f:  # kept only when it improves the objective (on the best so far)
+                n_jumps_kept += 1
+                best_u, best_f = np.log(jumps[j]), float(fj[j])
+                u = np.log(jumps[j])[None]
+                since_improve = 0
+                ref_f = min(ref_f, float(fj[j]))
+                want_jumps = False
+                continue
+        # the Newton step (paper eq. newton), in u (scaled) or in physical units (literal)
+        if scaled:
+            s = (f_w[:, 1:] - f_w[:, :1]) / fd_step  # ∂MLAE/∂u
+            step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
+            # safeguard: MLAE/‖S‖ explodes where the objective is flat; cap each log step
+            u = np.clip(u - np.clip(step, -max_step, max_step), lo, hi)
+        else:
+            eps = theta * fd_step
+            s = (f_w[:, 1:] - f_w[:, :1]) / eps  # ∂MLAE/∂p in physical units
+            step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
+            theta_new = np.clip(theta - step, par.lower, par.upper)
+            u = np.log(theta_new)
+        if g > 1 and it >= explore_iters:  # exploration over: only the best guess continues
+            u = u[[i_best]]
+    perm = swap_permutation(par, problem.cutting)
+    theta_hat = canonical(np.exp(best_u), perm)
+    pred_hat = problem.predict_mm(theta_hat[None])
+    warn = []
+    symmetry = None
+    if perm is not None:
+        symmetry = ("x and y are interchangeable: swapping the x and y parameters leaves this cut's SLD unchanged "
+                    "exactly (α_xx = α_yy, e.g. slotting); the estimate is given in canonical order (fn_x <= fn_y)")
+        warn.append("x/y symmetry: " + symmetry.split(":", 1)[1].strip())
+    if best_f >= tol:
+        warn.append(f"stopping threshold MLAE < {tol:g} not reached in {max_iter} iterations (best {best_f:.3g})")
+    cuts = problem.cut_report(theta_hat)
+    hist_theta = np.exp(np.array(hist_u))
+    return Fit(method="newton", par=par, estimate=theta_hat, start=np.exp(u_start), mlae=float(problem.mlae(pred_hat)[0]),
+               rss=float(problem.rss(pred_hat)[0]), iterations=it, evaluations=problem.n_sets - sets0,
+               engine_calls=problem.n_calls - calls0, time_s=time.perf_counter() - t0, history_theta=hist_theta,
+               history_mlae=np.array(hist_f), history_rss=np.full(len(hist_f), np.nan), warnings=warn,
+               symmetry=symmetry, test_cuts=cuts,
+               settings={"scaled": scaled, "alpha": alpha, "max_iter": max_iter, "tol": tol, "fd_step": fd_step,
+                         "n_guesses": n_guesses, "explore_iters": explore_iters, "jump": jump, "patience": patience,
+                         "improve_tol": improve_tol, "n_random_jumps": n_random_jumps,
+                         "critical_weight": critical_weight, "critical_window": critical_window, "seed": seed,
+                         "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine})
+
+
+__all__ = ["critical_mask", "fit_newton"]

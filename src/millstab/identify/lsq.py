@@ -241,7 +241,8 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
         schedule: successive halving of the LM starts, ((starts, iterations), ...).
         rounds: at most this many re-seeding rounds while the RMS residual exceeds ``good_rms``: each
             re-samples every mode's parameters in the search box (others at the best so far, 128 each)
-            plus 256 fresh global candidates, one call, then halving again; kept only if better.
+            plus 256 fresh global candidates, one call, then halving again; kept only if better, and
+            the rounds stop at the first that finds nothing better.
         good_rms: RMS residual (log residuals: relative, 0.01 = 1 %) below which no re-seeding is done.
         loss: scipy robust loss of the polish (``linear``, ``soft_l1``, ``huber``, ``cauchy``, ``arctan``).
         f_scale: residual scale of a robust loss (default 0.05: 5 % for log residuals, 0.05 mm for mm).
@@ -290,11 +291,11 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
         n_rounds += 1
         parts = [best_u[None]]
         for b, cols in enumerate(mode_blocks(problem)):
-            sob = qmc.Sobol(len(cols), scramble=True, seed=[seed, r, b]).random(128)
+            sob = qmc.Sobol(len(cols), scramble=True, seed=np.random.default_rng([seed, r, b])).random(128)
             uu = np.tile(best_u, (128, 1))
             uu[:, cols] = blo[cols] + sob * (bhi[cols] - blo[cols])
             parts.append(uu)
-        sob = qmc.Sobol(problem.p, scramble=True, seed=[seed, r, 99]).random(256)
+        sob = qmc.Sobol(problem.p, scramble=True, seed=np.random.default_rng([seed, r, 99])).random(256)
         parts.append(blo + sob * (bhi - blo))
         uu = np.vstack(parts)
         pred = problem.predict_u(uu)
@@ -303,8 +304,10 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
         it_lm += it
         finals_u.append(u_end)
         finals_c.append(c_end)
-        if c_end.min() < best_c:
+        if c_end.min() < best_c * (1 - 1e-3):
             best_u, best_c = u_end[np.argmin(c_end)], float(c_end.min())
+        else:  # the round found nothing better: more rounds would not either (a noise-level fit)
+            break
     c_lm = np.concatenate(finals_c)
     u_lm = np.vstack(finals_u)
     # 3. polish with scipy trf (the chosen loss), Jacobian from the batched rows
@@ -345,11 +348,9 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
         warn.append(f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
                     "combinations are not identifiable from these points; standard errors are unreliable")
     names = par.free
-    for i in range(p):
-        for j in range(i + 1, p):
-            if abs(corr[i, j]) > 0.99:
-                warn.append(f"{names[i]} and {names[j]} are strongly correlated (r = {corr[i, j]:+.3f}): "
-                            "not separately identifiable from these points")
+    pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p) for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
+    if pairs:
+        warn.append("strongly correlated (|r| > 0.99), not separately identifiable from these points: " + ", ".join(pairs))
     if not sol.success:
         warn.append(f"least squares did not converge: {sol.message}")
     # other multi-start solutions inside the 95 % joint confidence region

@@ -1,0 +1,115 @@
+"""``millstab identify``: in-process modal parameters from measured boundary points."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+
+from millstab.cli.app import app
+from millstab.errors import InputError
+
+_UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
+
+
+@app.command()
+def identify(
+    config: str = typer.Argument(..., help="TOML config (cutting conditions + starting modal structure), or example:NAME."),
+    points: Path = typer.Argument(..., help="Points CSV rpm,depth_mm[,label][,weight]; unlabelled rows are boundary points."),
+    method: str = typer.Option("lsq", "--method", help="lsq (multi-start trust-region least squares) or newton (the paper's scheme)."),
+    free: Optional[str] = typer.Option(None, "--free", help="Free parameters, e.g. fn_x,k_x,zeta_x (default: all)."),
+    axisymmetric: bool = typer.Option(False, "--axisymmetric", help="Tie x and y (parameters fn, k, zeta)."),
+    initial: Optional[str] = typer.Option(None, "--initial", help="Start values in SI, e.g. fn_x=900,k_x=12e6."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random designs (same seed, same numbers)."),
+    loss: str = typer.Option("linear", "--loss", help="Robust loss (lsq): linear, soft_l1, huber, cauchy, arctan."),
+    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write the fit as JSON."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Final SLD against the points (.png/.svg/.pdf)."),
+    history_plot: Optional[Path] = typer.Option(None, "--history-plot", help="Objective against iteration."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress display."),
+) -> None:
+    """Identify the modal parameters whose stability boundary explains the measured POINTS."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from millstab.identify import METHODS
+    from millstab.identify import identify as run_identify
+    from millstab.identify.lsq import LOSSES
+    from millstab.io import load_config, read_points, write_json
+
+    if method not in METHODS:
+        raise InputError("--method", method, f"must be one of {', '.join(METHODS)}")
+    if loss not in LOSSES:
+        raise InputError("--loss", loss, f"must be one of {', '.join(LOSSES)}")
+    if loss != "linear" and method != "lsq":
+        raise InputError("--loss", loss, "a robust loss applies to --method lsq only")
+    cfg = load_config(config)
+    pts = read_points(points)
+    protect = [p for p in (cfg.path, points) if p]
+    for p in (out, plot, history_plot):  # fail before the work, not after
+        if p is not None:
+            from millstab.io.results import check_not_protected
+
+            check_not_protected(p, protect)
+    console = Console(stderr=True)
+    options = {"loss": loss} if method == "lsq" else {}
+    if quiet:
+        fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                           engine=engine, seed=seed, **options)
+    else:
+        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("iteration {task.completed}"),
+                      TextColumn("best {task.fields[best]}"), TimeElapsedColumn(), console=console, transient=True) as bar:
+            task = bar.add_task(f"identify ({method})", total=None, best="-")
+
+            def progress(stage: str, iteration: int, best: float) -> None:
+                bar.update(task, completed=iteration, best=f"{best:.4g}")
+
+            fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                               engine=engine, seed=seed, progress=progress, **options)
+    out_console = Console()
+    table = Table(title=f"{cfg.name}: {method}, {fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
+    for col in ("parameter", "start", "estimate", "± std error", "unit"):
+        table.add_column(col, justify="right" if col != "parameter" else "left")
+    for i, (name, unit) in enumerate(zip(fit.names, fit.units)):
+        scale, shown = _UNIT_SHOW[unit]
+        se = "-" if fit.std_errors is None else f"{fit.std_errors[i] * scale:.4g}"
+        table.add_row(name, f"{fit.start[i] * scale:.5g}", f"{fit.estimate[i] * scale:.5g}", se, shown)
+    out_console.print(table)
+    out_console.print(f"MLAE {fit.mlae:.4g} (mm, eq. 4); RSS {fit.rss:.4g} ({fit.settings.get('residual', 'log')} residuals)")
+    if fit.test_cuts:
+        c = fit.test_cuts
+        out_console.print(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted chatter; "
+                          f"{c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted stable")
+    for w in fit.warnings:
+        out_console.print(f"[yellow]warning:[/yellow] {w}")
+    for a in fit.alternatives:
+        vals = ", ".join(f"{k}={v:.5g}" for k, v in a["estimate"].items())
+        out_console.print(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
+    if out:
+        doc = fit.to_json()
+        doc["config"] = cfg.name
+        doc["points"] = str(points)
+        write_json(out, doc, protect=protect)
+        out_console.print(f"wrote {out}")
+    if plot:
+        from millstab.plot import save_figure
+        from millstab.plot.identify import plot_final, sld_curves
+
+        lo, hi = float(pts.rpm.min()), float(pts.rpm.max())
+        pad = 0.05 * (hi - lo) if hi > lo else 0.05 * hi
+        rpm = np.linspace(max(lo - pad, 1.0), hi + pad, 600)
+        curves = sld_curves(fit, cfg.cutting, rpm, np.vstack([fit.start, fit.estimate]), engine)
+        fig = plot_final([(f"{cfg.name}: identified ({method})", rpm, None, curves[1], pts)])
+        fig.axes[0].plot(rpm, curves[0], color="0.5", lw=1.0, ls=":", label="start")
+        fig.axes[0].legend(fontsize=7)
+        save_figure(fig, plot, protect=protect)
+        out_console.print(f"wrote {plot}")
+    if history_plot:
+        from millstab.plot import save_figure
+        from millstab.plot.identify import plot_convergence
+
+        save_figure(plot_convergence(fit), history_plot, protect=protect)
+        out_console.print(f"wrote {history_plot}")

@@ -1,0 +1,114 @@
+"""Identification figures, as in the seed paper: convergence (Fig. conv), iteration snapshots (Fig. iter)
+and the final SLD against the target or the measured points (Fig. eggs).
+
+Nothing is computed here: the SLD curves arrive as arrays. :func:`sld_curves` (in this module but
+outside the plotting functions) evaluates them with ONE batched engine call for callers that need it.
+Speeds in rev/min, depths in mm.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+
+def sld_curves(fit, cutting, rpm: np.ndarray, thetas: np.ndarray, engine: str = "zoa") -> np.ndarray:
+    """Depths (B, S) [mm] of the SLDs of parameter rows ``thetas`` (B, P) of ``fit`` at ``rpm`` — one batched call."""
+    from millstab.stability import get_engine
+
+    return get_engine(engine).envelope_batch(fit.par.batch(np.atleast_2d(thetas)), cutting, np.asarray(rpm, float)) * 1e3
+
+
+def snapshot_indices(n_iter: int, n_panels: int = 6) -> np.ndarray:
+    """Iterations to show in :func:`plot_iterations`: the first, the last and evenly spaced ones between."""
+    return np.unique(np.linspace(0, max(n_iter - 1, 0), n_panels).round().astype(int))
+
+
+def plot_convergence(fit, *, ax=None, title: str | None = None):
+    """Objective against iteration (paper Fig. conv): MLAE (and RSS for least squares) on log axes."""
+    fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(6.4, 4))
+    it = np.arange(len(fit.history_mlae))
+    ax.semilogy(it, np.maximum(fit.history_mlae, 1e-300), "o-", ms=3, color="tab:blue", label="MLAE (eq. 4)")
+    if np.isfinite(fit.history_rss).any():
+        ax.semilogy(it, np.maximum(fit.history_rss, 1e-300), "s--", ms=3, color="tab:orange", label="RSS (fitted residuals)")
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("objective")
+    ax.set_title(title or f"{fit.method}: convergence ({fit.iterations} iterations, {fit.evaluations} SLD evaluations)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def plot_iterations(fit, rpm: np.ndarray, target_mm: np.ndarray, guesses_mm: np.ndarray, iterations: Sequence[int], *,
+                    points=None, ncols: int = 3, title: str | None = None):
+    """A grid of panels (paper Fig. iter): the target SLD (blue) and the guessed SLD (orange) at chosen iterations.
+
+    Args:
+        rpm: speeds of the curves (S,) [rev/min]; target_mm: the target SLD (S,) [mm] or ``None``.
+        guesses_mm: (len(iterations), S) guessed SLDs [mm]; iterations: their iteration numbers.
+        points: measured points (PointSet) drawn in every panel, optional.
+    """
+    n = len(iterations)
+    nrows = int(np.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.0 * nrows), squeeze=False, sharex=True, sharey=True)
+    top = np.nanmax([np.nanmax(np.where(np.isfinite(g), g, np.nan)) for g in guesses_mm])
+    if target_mm is not None:
+        top = max(top, np.nanmax(target_mm))
+    if points is not None:
+        top = max(top, float(points.depth_mm.max()))
+    for a, it, g in zip(axes.flat, iterations, guesses_mm):
+        if target_mm is not None:
+            a.plot(rpm, target_mm, color="tab:blue", lw=1.5, label="target")
+        if points is not None:
+            a.scatter(points.rpm, points.depth_mm, s=6, color="k", zorder=4, label="points")
+        a.plot(rpm, g, color="tab:orange", lw=1.3, label="guess")
+        a.set_title(f"iteration {it}: MLAE {fit.history_mlae[it]:.3g}", fontsize=9)
+        a.set_ylim(0, 1.1 * top)
+        a.grid(alpha=0.3)
+    for a in axes.flat[n:]:
+        a.axis("off")
+    for a in axes[-1]:
+        a.set_xlabel("spindle speed [rev/min]")
+    for a in axes[:, 0]:
+        a.set_ylabel("depth [mm]")
+    axes.flat[0].legend(fontsize=7)
+    fig.suptitle(title or f"{fit.method}: guessed SLD through the iterations")
+    fig.tight_layout()
+    return fig
+
+
+def plot_final(fits_or_panels: Sequence[tuple[str, np.ndarray, np.ndarray | None, np.ndarray, object]], *,
+               title: str | None = None):
+    """Final SLDs (paper Fig. eggs): one panel per case, target (blue) and identified (orange) SLD, points.
+
+    Args:
+        fits_or_panels: tuples ``(label, rpm (S,), target_mm (S,) or None, fitted_mm (S,), points or None)``.
+    """
+    n = len(fits_or_panels)
+    fig, axes = plt.subplots(1, n, figsize=(5.0 * n, 3.6), squeeze=False)
+    for a, (label, rpm, target, fitted, points) in zip(axes[0], fits_or_panels):
+        if target is not None:
+            a.plot(rpm, target, color="tab:blue", lw=1.6, label="target")
+        a.plot(rpm, fitted, color="tab:orange", lw=1.4, ls="--" if target is not None else "-", label="identified")
+        if points is not None and len(points):
+            style = {"": ("k", ".", "boundary point"), "stable": ("tab:green", "o", "stable cut"),
+                     "chatter": ("tab:red", "x", "chatter cut")}
+            for lab, (c, m, name) in style.items():
+                sel = points.label == lab
+                if sel.any():
+                    a.scatter(points.rpm[sel], points.depth_mm[sel], s=14, color=c, marker=m, zorder=5, label=name)
+        a.set_title(label, fontsize=10)
+        a.set_xlabel("spindle speed [rev/min]")
+        a.set_ylabel("depth [mm]")
+        a.set_ylim(0, None)
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["plot_convergence", "plot_final", "plot_iterations", "sld_curves", "snapshot_indices"]

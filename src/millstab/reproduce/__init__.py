@@ -18,7 +18,9 @@ def steps() -> list[tuple[str, Callable[[Context], None]]]:
 
     return [
         ("Table 1 and the synthetic SLDs", paper.table1),
-        ("Table 4 and Fig. fourSLD", paper.four_flute),
+        ("Table 3: identification of Examples 1-3", paper.table3),
+        ("Table 4, Fig. fourSLD, experimental identification", paper.four_flute),
+        ("Fig. SENS and Table 6: sensitivity", paper.sensitivity),
     ]
 
 

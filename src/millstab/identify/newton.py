@@ -30,7 +30,7 @@ The refinements (all three, as the paper describes them):
    minima (lobe bottoms) of the depth over the sorted speeds — of the measured points and of the current
    guessed SLD at the same speeds (so the set follows the guess, iteration by iteration).
 3. **Diverse initial guesses.** The start plus ``n_screen`` scrambled-Sobol points (seeded) in the search
-   box (as in :mod:`millstab.identify.lsq`) are ranked by MLAE in one call; the ``n_guesses`` best
+   box ``SEARCH_NEWTON`` around the start (fn ×/÷ 1.05, k and ζ ×/÷ 1.15) are ranked by MLAE in one call; the ``n_guesses`` best
    iterate together for ``explore_iters`` iterations; then only the best continues.
 
 A safeguard not in the paper: each scaled step is capped at ``max_step`` (0.1 in ln p) per parameter,
@@ -52,6 +52,11 @@ from millstab.errors import InputError
 from millstab.identify.lsq import Progress, search_box
 from millstab.identify.objective import Problem, canonical, swap_permutation
 from millstab.identify.result import Fit
+
+
+#: the guesses' box around the start (×/÷): narrower than lsq's, because this first-order scheme only
+#: converges from near the basin and a wide box lets a low-MLAE guess in a wrong basin win the exploration
+SEARCH_NEWTON = {"fn": 1.05, "k": 1.15, "zeta": 1.15}
 
 
 def critical_mask(rpm: np.ndarray, depth_meas: np.ndarray, depth_guess: np.ndarray, window: float) -> np.ndarray:
@@ -116,7 +121,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     if n_guesses > 1:
         # a diverse set: the start plus a Sobol design in the search box, ranked by MLAE in one call;
         # the n_guesses best go on to explore
-        blo, bhi = search_box(problem, u_start, search)
+        blo, bhi = search_box(problem, u_start, search or SEARCH_NEWTON)
         m = int(np.ceil(np.log2(max(n_screen, 2))))
         sob = qmc.Sobol(p, scramble=True, seed=seed).random_base2(m)[:max(n_screen, n_guesses - 1)]
         cand = np.vstack([u_start[None], blo + sob * (bhi - blo)])

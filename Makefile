@@ -12,11 +12,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test]"
 	touch $(STAMP)
 
-## demo: install into .venv and run the packaged examples into ./millstab-demo
+## demo: install into .venv, reproduce the seed paper into ./millstab-report (open report.html)
 demo: $(STAMP)
-	for ex in ex1 ex2 ex3 fourflute; do \
-	  $(BIN)/millstab lobes example:$$ex --out millstab-demo/sld_$$ex.csv --plot millstab-demo/sld_$$ex.png || exit 1; \
-	done
+	$(BIN)/millstab reproduce --out millstab-report
+	@echo "open millstab-report/report.html"
 
 ## test: install into .venv and run the test suite
 test: $(STAMP)

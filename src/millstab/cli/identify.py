@@ -70,7 +70,8 @@ def identify(
             fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
                                engine=engine, seed=seed, progress=progress, **options)
     out_console = Console()
-    table = Table(title=f"{cfg.name}: {method}, {fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
+    table = Table(title=f"{cfg.name}: {method}",
+                  caption=f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
     for col in ("parameter", "start", "estimate", "± std error", "unit"):
         table.add_column(col, justify="right" if col != "parameter" else "left")
     for i, (name, unit) in enumerate(zip(fit.names, fit.units)):

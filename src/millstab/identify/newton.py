@@ -52,7 +52,7 @@ Budget: ``max_iter`` = 600 iterations (the paper shows 60) and ``tol`` = 1e-6; t
 jumps are first-order/pattern moves, so convergence along the k–ζ valleys is slow (linear) and stops
 where the MLAE's kinks (|Δb| and the lobe envelope's min) leave no improving direction among the
 jumps. From Table 3's ±30 % start this reaches the paper's Predicted-row accuracy on Examples 1–3 (seeds
-0–2) in ~35 000 parameter sets (≈ 2.5 s on 2 cores); it does not reach lsq's 1e-6.
+0–2) in 48 000–65 000 parameter sets (≈ 3–4.5 s at ~15 000 sets/s); it does not reach lsq's 1e-6.
 
 A safeguard not in the paper: each scaled step is capped at ``max_step`` (0.1 in ln p) per parameter,
 because MLAE/‖S‖ explodes where the objective is flat.

@@ -21,9 +21,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
-## bench: print the speed figures (envelope throughput, ...)
+## bench: print the speed figures (envelope throughput, SDM, identification, Monte Carlo)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_envelope.py
+	$(BIN)/python benchmarks/bench_sdm.py
+	$(BIN)/python benchmarks/bench_identify.py
+	$(BIN)/python benchmarks/bench_sensitivity.py
 
 clean:
 	rm -rf $(VENV) millstab-demo millstab-report .pytest_cache

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
+import numpy as np
+
 from millstab.errors import InputError
 from millstab.identify.lsq import fit_lsq
 from millstab.identify.newton import fit_newton
@@ -45,10 +47,47 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
         raise InputError("method", method, f"must be one of {', '.join(METHODS)}")
     if not config.structure.is_modal:
         raise InputError("structure", "measured FRF", "identification needs a modal starting structure ([[structure.x]] modes)")
-    problem = make_problem(config.structure, config.cutting, points, free=free, axisymmetric=axisymmetric,
-                           initial=initial, bounds=bounds, engine=engine, residual=residual)
+    def problem_for(eng: str) -> Problem:
+        return make_problem(config.structure, config.cutting, points, free=free, axisymmetric=axisymmetric,
+                            initial=initial, bounds=bounds, engine=eng, residual=residual)
+
+    if engine == "sdm" and method == "lsq":
+        return _zoa_then_sdm(problem_for, seed, progress, options)
     solver = fit_lsq if method == "lsq" else fit_newton
-    return solver(problem, seed=seed, progress=progress, **options)
+    return solver(problem_for(engine), seed=seed, progress=progress, **options)
+
+
+#: the SDM stage after the global ZOA search: 64 candidates around the ZOA estimate, LM on the best 4
+#: then 1, no re-seeding, a capped trust-region polish
+SDM_POLISH = dict(n_candidates=64, schedule=((4, 3), (1, 10)), rounds=0, n_local=0, max_nfev=30)
+#: RMS of the fitted residuals above which an SDM fit is flagged as poor (log residuals: 0.05 = 5 %)
+POOR_RMS = 0.05
+
+
+def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
+    """Least squares with the SDM engine in two stages.
+
+    The global search (hundreds of screening candidates, multi-start LM) needs thousands of SLD
+    evaluations: with SDM (tens of ms per speed) that would take tens of minutes. The zero-order
+    solution differs from SDM only locally (flip lobes, partial immersion), so the search runs on
+    ZOA and its estimate starts a local SDM polish (:data:`SDM_POLISH`), whose result, standard errors
+    and diagnostics are reported. The SDM stage screens candidates around the ZOA estimate, but it
+    cannot leave a wrong basin: where the two boundaries differ a lot (low immersion) a poor fit is
+    flagged in the warnings.
+    """
+    first = fit_lsq(problem_for("zoa"), seed=seed, progress=progress, **options)
+    polish = {**options, **SDM_POLISH}
+    sdm_problem = problem_for("sdm")
+    fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, **polish)
+    fit.warnings.insert(0, f"two stages: global search with the zero-order engine (MLAE {first.mlae:.4g}, "
+                           f"{first.evaluations} SLDs), then a local polish with SDM ({fit.evaluations} SLDs)")
+    fit.settings["stage1_zoa"] = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations}
+    rms = float(np.sqrt(fit.rss / sdm_problem.n))
+    if rms > POOR_RMS:
+        fit.warnings.insert(1, f"poor fit (RMS residual {rms:.3g}): the SDM polish starts in the zero-order basin, "
+                               "which can be the wrong one where the two engines' boundaries differ a lot (low "
+                               "radial immersion, flip lobes); a global SDM search is not available")
+    return fit
 
 
 __all__ = ["METHODS", "Fit", "Problem", "fit_lsq", "fit_newton", "identify", "make_problem"]

@@ -18,9 +18,6 @@ from millstab.params import Parameterization
 DEFAULT_EPS_GRID = np.round(np.arange(-0.25, 0.25 + 1e-9, 0.05), 10) + 0.0  # + 0.0: no −0.0 in the grid
 #: the seed paper's Algorithm 1 grid: −0.20 … +0.20 step 0.05
 PAPER_EPS_GRID = np.round(np.arange(-0.20, 0.20 + 1e-9, 0.05), 10) + 0.0
-#: engine rows per call: bounds the (rows, S) depth block to ~32 MB at any S, and is large enough
-#: that the parallel kernel stays busy (zoa streams its own chunks of 4096 inside)
-ROW_BUDGET_BYTES = 32 * 2**20
 
 Progress = Callable[[int, int], None]  # (done, total) in the caller's unit (paths, rows)
 
@@ -144,8 +141,11 @@ def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:
 
 
 def rows_per_call(n_speeds: int) -> int:
-    """Engine rows per call so the (rows, S) float64 depth block stays within ROW_BUDGET_BYTES."""
-    return int(max(64, min(16384, ROW_BUDGET_BYTES // (8 * max(1, n_speeds)))))
+    """Engine rows per call: the batched engine's own chunk size, so one call's (rows, S) outputs stay
+    bounded (~100 MB) whatever the number of speeds."""
+    from millstab.stability.zoa import chunk_rows
+
+    return chunk_rows(n_speeds)
 
 
 def engine_module(name: str):

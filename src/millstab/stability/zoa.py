@@ -28,8 +28,16 @@ from millstab.stability import _zoa_kernel as _k
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
 N_BASE = 160
 _OFFSETS = _k.cluster_offsets()
-#: parameter sets per chunk of the batched engine; bounds memory to a few MB per chunk
-CHUNK = 4096
+#: outputs (sets × speeds) per chunk of the batched engine: depth, lobe and chatter frequency take
+#: 24 bytes each, so a chunk holds at most ~100 MB whatever the number of speeds
+CHUNK_CELLS = 4_000_000
+#: the most parameter sets per chunk (larger chunks amortise the per-call overhead; ~5 % faster than 4096)
+CHUNK = 16_384
+
+
+def chunk_rows(n_speeds: int) -> int:
+    """Parameter sets per chunk for ``n_speeds`` speeds: ≤ CHUNK and ≤ CHUNK_CELLS / n_speeds."""
+    return max(64, min(CHUNK, CHUNK_CELLS // max(n_speeds, 1)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,16 +146,18 @@ def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray) -> tuple[np
     return depth[:, inv], lobe[:, inv], wc[:, inv]
 
 
-def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting, rpm, chunk: int = CHUNK) -> Iterator[tuple[slice, np.ndarray]]:
-    """Yield ``(rows, depth)`` chunk by chunk, depth (rows, S) [m], so huge batches stream in bounded memory."""
+def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting, rpm, chunk: int | None = None) -> Iterator[tuple[slice, np.ndarray]]:
+    """Yield ``(rows, depth)`` chunk by chunk, depth (rows, S) [m], so huge batches stream in bounded
+    memory (``chunk`` sets at a time; default :func:`chunk_rows`)."""
     r = check_rpm(rpm)
+    chunk = chunk or chunk_rows(r.size)
     for start in range(0, batch.size, chunk):
         rows = slice(start, min(start + chunk, batch.size))
         part = ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
         yield rows, _run_modal(part, cutting, r)[0]
 
 
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, chunk: int = CHUNK) -> np.ndarray:
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, chunk: int | None = None) -> np.ndarray:
     """The hot path: limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm].
 
     Compiled, parallel over sets, streamed in chunks of ``chunk`` sets. For reductions over very large

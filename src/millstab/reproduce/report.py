@@ -23,8 +23,9 @@ class Check:
     ok: bool
 
 
-def fmt(x: Any, digits: int = 4) -> str:
-    """A number for a table: 4 significant digits, ints as ints, strings unchanged."""
+def fmt(x: Any, digits: int = 5) -> str:
+    """A number for a table: 5 significant digits (the paper prints e.g. 4103.4 Hz, 556.31 MPa),
+    ints as ints, strings unchanged."""
     if isinstance(x, str):
         return x
     if isinstance(x, (bool,)):
@@ -40,7 +41,7 @@ def fmt(x: Any, digits: int = 4) -> str:
     if v == 0:
         return "0"
     if abs(v) >= 1e5 or abs(v) < 1e-3:
-        return f"{v:.{digits - 1}e}"
+        return f"{v:.3g}" if 1e-4 <= abs(v) < 1e-3 else f"{v:.2e}"
     return f"{v:.{digits}g}"
 
 

@@ -19,7 +19,11 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
 
 Diagnostics at the solution: σ² = RSS/(n − p), cov_u = σ²(JᵀJ)⁻¹ in log-parameters, standard errors
 θ·√diag(cov_u) (delta method), the correlation matrix, cond(JᵀJ); warnings for an exact x↔y symmetry
-(slotting: the estimate is returned in canonical order, fn_x ≤ fn_y), near-singular JᵀJ, strongly
+(slotting: the estimate is returned in canonical order, fn_x ≤ fn_y) and for the general exact x↔y
+mode exchange of the zero-order SLD (any cut with α_xx α_yy > 0: (fn, ζ) of x and y exchanged,
+k_x' = (α_xx/α_yy) k_y, k_y' = k_x α_yy/α_xx — :func:`~millstab.identify.objective.exchange_map`; the
+exchanged estimate, which explains the points equally well, is listed first in the alternatives and the
+solver cannot prefer either: with noise-free data it returns whichever basin the start leads to), near-singular JᵀJ, strongly
 correlated pairs, and other multi-start solutions inside the 95 % joint confidence region
 RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate.
 """
@@ -34,8 +38,9 @@ from scipy import optimize, stats
 from scipy.stats import qmc
 
 from millstab.errors import InputError
-from millstab.identify.objective import Problem, canonical, swap_permutation
+from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
 from millstab.identify.result import Fit
+from millstab.stability import zoa
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 #: default search box half-widths (multiplicative) around the start, per parameter kind
@@ -365,6 +370,14 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
             q = perm
             sd_u, corr = sd_u[q], corr[np.ix_(q, q)]
             theta_hat = theta_c
+    xmap = exchange_map(par, problem.cutting, problem.engine) if perm is None else None
+    if xmap is not None:
+        a_dir = zoa.directional_matrix(problem.cutting)
+        symmetry = (f"x and y modes are exchangeable: with α_xx/α_yy = {a_dir[0, 0] / a_dir[1, 1]:.4g} for this cut, exchanging "
+                    "(fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
+                    "zero-order SLD unchanged exactly; the points cannot tell the two structures apart "
+                    "(the exchanged estimate is listed in alternatives)")
+        warn.append("x/y exchange: " + symmetry.split(":", 1)[1].strip())
     if cond > 1e8:  # cond(J) > 1e4: some combination is determined 1e4× worse than the best one
         warn.append(f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
                     "combinations are not identifiable from these points; standard errors are unreliable")
@@ -382,6 +395,12 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
         thresh = rss
     thresh = max(thresh, rss + 1e-12 * n)
     u_best_c = np.log(canonical(theta_hat, perm))
+    if xmap is not None:
+        theta_x = exchanged(theta_hat, xmap)
+        pred_x = problem.predict_mm(theta_x[None])
+        alternatives.append({"estimate": par.as_dict(theta_x), "mlae": float(problem.mlae(pred_x)[0]),
+                             "rss": float(problem.rss(pred_x)[0]),
+                             "why": "the exact x↔y mode exchange of the estimate (same zero-order SLD)"})
     for i in np.argsort(c_lm):
         if c_lm[i] > thresh:
             continue

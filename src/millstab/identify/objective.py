@@ -210,6 +210,57 @@ def swap_permutation(par: Parameterization, cutting: Cutting) -> np.ndarray | No
     return None if np.array_equal(perm, np.arange(par.size)) else perm
 
 
+def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> tuple[np.ndarray, np.ndarray] | None:
+    """The generalised x↔y mode exchange that leaves every zero-order SLD unchanged exactly.
+
+    The zero-order boundary depends only on the eigenvalues of [α][G], G = diag(g_x, g_y), i.e. on
+    tr = α_xx g_x + α_yy g_y and det = det[α] g_x g_y. Exchanging the x and y modes (fn, ζ swapped) and
+    scaling the stiffnesses k_x' = r k_y, k_y' = k_x / r with r = α_xx/α_yy (so g_x' = g_y/r, g_y' = r g_x)
+    keeps both, for EVERY cut with α_xx α_yy > 0 — not only when α_xx = α_yy (r = 1, slotting, see
+    :func:`swap_permutation`). Such a cut cannot tell the two structures apart from its boundary.
+
+    Returns (perm, shift): θ' = θ[perm] · exp(shift) (shift = ±ln r on the k columns), or ``None`` when
+    the engine is not ``zoa``, the tool is tied, the mode counts differ, a free name's partner is not free,
+    a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1), or α_xx α_yy ≤ 0.
+    """
+    if engine != "zoa" or par.axisymmetric or len(par.base.x) != len(par.base.y):
+        return None
+    a = zoa.directional_matrix(cutting)
+    if not a[0, 0] * a[1, 1] > 0:
+        return None
+    r = float(a[0, 0] / a[1, 1])
+    if abs(r - 1) <= 1e-9:
+        r = 1.0
+    swapped = [n.replace("_x", "_#").replace("_y", "_x").replace("_#", "_y") for n in par.free]
+    if any(s not in par.free for s in swapped):
+        return None
+    free_slots = {s for n in par.free for s in par._slots(n)}
+    for i, (mx, my) in enumerate(zip(par.base.x, par.base.y)):
+        for p in ("fn", "k", "zeta"):
+            fixed_x, fixed_y = ("x", i, p) not in free_slots, ("y", i, p) not in free_slots
+            if fixed_x != fixed_y:
+                return None
+            if fixed_x and ((p == "k" and r != 1.0) or getattr(mx, p) != getattr(my, p)):
+                return None  # (a fixed stiffness pair cannot follow the k_x' = r k_y scaling)
+    perm = np.array([par.free.index(s) for s in swapped])
+    if np.array_equal(perm, np.arange(par.size)):
+        return None
+    shift = np.zeros(par.size)
+    for j, n in enumerate(par.free):
+        if par.kind(n) == "k":
+            shift[j] = math.log(r) if "_x" in n else -math.log(r)
+    return perm, shift
+
+
+def exchanged(theta: np.ndarray, xmap: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+    """θ (P,) or (B, P) after the exchange ``xmap`` of :func:`exchange_map` (θ itself when ``None``)."""
+    t = np.asarray(theta, dtype=float)
+    if xmap is None:
+        return t.copy()
+    perm, shift = xmap
+    return t[..., perm] * np.exp(shift)
+
+
 def canonical(theta: np.ndarray, perm: np.ndarray | None) -> np.ndarray:
     """The canonical member of {θ, θ[perm]}: the one whose first differing x/y pair (in the order of the
     free names, fn first) has the smaller x value, so fn_x ≤ fn_y when they differ. Works on (P,) or (B, P)."""
@@ -228,12 +279,16 @@ def canonical(theta: np.ndarray, perm: np.ndarray | None) -> np.ndarray:
     return out[0] if single else out
 
 
-def rel_error(theta: np.ndarray, truth: np.ndarray, perm: np.ndarray | None = None) -> np.ndarray:
-    """|θ/θ_true − 1| per parameter, up to the x↔y symmetry when ``perm`` is given (the better of the two)."""
+def rel_error(theta: np.ndarray, truth: np.ndarray, perm=None) -> np.ndarray:
+    """|θ/θ_true − 1| per parameter, up to the x↔y symmetry when ``perm`` is given (the better of the two).
+
+    ``perm`` may be an index permutation (:func:`swap_permutation`) or a (perm, shift) exchange map
+    (:func:`exchange_map`)."""
     t, tr = np.asarray(theta, float), np.asarray(truth, float)
     e = np.abs(t / tr - 1)
     if perm is not None:
-        e2 = np.abs(t[perm] / tr - 1)
+        t2 = exchanged(t, perm) if isinstance(perm, tuple) else t[perm]
+        e2 = np.abs(t2 / tr - 1)
         if e2.max() < e.max():
             return e2
     return e
@@ -293,5 +348,5 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
     return Problem(par, cutting, points.rpm[b], points.depth_mm[b], points.weight[b], engine, cuts, residual)
 
 
-__all__ = ["DEPTH_CAP", "Problem", "canonical", "make_problem", "parse_assignments", "rel_error", "swap_permutation",
+__all__ = ["DEPTH_CAP", "Problem", "canonical", "exchange_map", "exchanged", "make_problem", "parse_assignments", "rel_error", "swap_permutation",
            "xy_symmetric_cut"]

@@ -1,6 +1,7 @@
 """Figures. Functions take result objects and return matplotlib figures; nothing is computed here.
 
-* :mod:`millstab.plot.sld` -- stability lobe diagrams (envelope, raw lobes, measured points).
+* :mod:`millstab.plot.sld` -- stability lobe diagrams (envelope, raw lobes, measured points, panels, families).
+* :mod:`millstab.plot.identify`, :mod:`millstab.plot.sensitivity` -- identification and sensitivity figures.
 """
 
 from __future__ import annotations

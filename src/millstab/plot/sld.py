@@ -63,3 +63,54 @@ def plot_sld(rpm: np.ndarray, depth_mm: np.ndarray, *, label: str = "stability l
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     return fig
+
+
+def plot_sld_panels(panels: Sequence[tuple[str, Sequence[tuple[str, np.ndarray, np.ndarray]]]]):
+    """Side-by-side SLDs: ``panels`` = [(title, [(label, rpm, depth_mm), ...]), ...]; the first curve of
+    each panel is drawn solid with its stable region shaded, the others dashed."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 4.2), squeeze=False)
+    for ax, (title, curves) in zip(axes[0], panels):
+        for i, (label, rpm, d) in enumerate(curves):
+            if i == 0:
+                ax.plot(rpm, d, color="tab:blue", lw=1.6, label=label)
+                ax.fill_between(rpm, 0, np.where(np.isfinite(d), d, np.nan), color="tab:blue", alpha=0.1, lw=0)
+            else:
+                ax.plot(rpm, d, ls="--", color=("tab:orange", "tab:purple", "tab:brown")[(i - 1) % 3], lw=1.3, label=label)
+        ax.set_ylim(0, 1.1 * _finite_top(*[c[2] for c in curves]))
+        ax.set_title(title)
+        ax.set_xlabel("spindle speed [rev/min]")
+        ax.set_ylabel("axial depth [mm]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    return fig
+
+
+def plot_sld_family(rpm: np.ndarray, curves: dict[str, np.ndarray], points=None,
+                    fitted: tuple[str, np.ndarray] | None = None, title: str | None = None):
+    """Several SLDs on common speeds (e.g. the paper's Fig. fourSLD): the first curve dashed black (the
+    static SLD), the others coloured, an optional fitted curve in bold orange and points in red.
+
+    Args:
+        rpm: speeds (S,) [rev/min]; curves: {label: depth (S,) [mm]}; fitted: (label, depth (S,) [mm]).
+        points: a PointSet drawn as red dots, labelled with its ``source``.
+    """
+    fig, ax = plt.subplots(figsize=(9, 5))
+    styles = [dict(color="black", ls="--"), dict(color="tab:blue"), dict(color="tab:green", ls="-."),
+              dict(color="tab:purple", ls=":")]
+    for i, (label, d) in enumerate(curves.items()):
+        ax.plot(rpm, d, lw=1.6, label=label, **styles[i % len(styles)])
+    if fitted is not None:
+        ax.plot(rpm, fitted[1], color="tab:orange", lw=2.0, label=fitted[0])
+    if points is not None:
+        ax.scatter(points.rpm, points.depth_mm, color="tab:red", s=22, zorder=5, label=points.source or "points")
+    lows = min(float(np.nanmin(d)) for d in curves.values())
+    ax.set_ylim(0, min(_finite_top(*curves.values()), 4 * lows) * 1.05)
+    ax.set_xlim(rpm.min(), rpm.max())
+    ax.set_xlabel("spindle speed [rev/min]")
+    ax.set_ylabel("axial depth of cut [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    if title:
+        ax.set_title(title)
+    return fig

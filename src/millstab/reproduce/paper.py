@@ -22,7 +22,7 @@ import numpy as np
 
 from millstab.datasets import load_example, paper_values
 from millstab.model import Structure
-from millstab.reproduce.report import Report, fmt
+from millstab.reproduce.report import Report
 from millstab.stability import zoa
 
 PARAM_ROWS = [("fn_x", "Hz", 1.0), ("k_x", "N/µm", 1e-6), ("zeta_x", "-", 1.0),
@@ -90,35 +90,27 @@ def table1(ctx: Context) -> None:
                                 "Ex.3 ours"], rows, "Table 1: inputs, paper vs packaged configs")
     rep.check("Packaged configs equal the paper's Table 1", f"{mismatches} mismatching values", mismatches == 0)
 
-    import matplotlib.pyplot as plt
+    from millstab.plot.sld import plot_sld_panels
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
-    rows = []
-    for ax, ex in zip(axes, ("ex1", "ex2", "ex3")):
+    panels, rows = [], []
+    for ex in ("ex1", "ex2", "ex3"):
         cfg = load_example(ex)
         rpm = speeds_of(ex, 250 if ctx.quick else 600)
         env = zoa.envelope(cfg.structure, cfg.cutting, rpm)
-        ax.plot(rpm, env.depth_mm, color="tab:blue", lw=1.6, label="zero-order (ZOA)")
-        ax.fill_between(rpm, 0, env.depth_mm, color="tab:blue", alpha=0.1, lw=0)
-        sdm_txt = ""
+        curves = [("zero-order (ZOA)", rpm, env.depth_mm)]
+        sdm_txt = "not run (--quick)"
         if not ctx.quick:
             from millstab.stability import sdm
 
             r_sdm = rpm[::6]
             d_sdm = sdm.envelope(cfg.structure, cfg.cutting, r_sdm).depth_mm
-            ax.plot(r_sdm, d_sdm, ls="--", color="tab:orange", lw=1.3, label="semi-discretization (SDM)")
+            curves.append(("semi-discretization (SDM)", r_sdm, d_sdm))
             rel = np.abs(d_sdm / env.depth_mm[::6] - 1)
             sdm_txt = f"{100 * np.median(rel):.1f} % / {100 * rel.max():.1f} %"
-        ax.set_title(f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°")
-        ax.set_xlabel("spindle speed [rev/min]")
-        ax.set_ylabel("axial depth [mm]")
-        shown = [env.depth_mm] + ([d_sdm] if not ctx.quick else [])
-        ax.set_ylim(0, 1.1 * max(np.nanmax(d[np.isfinite(d)]) for d in shown))
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper left")
+        panels.append((f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°", curves))
         i = int(np.argmin(env.depth))
-        rows.append([ex, rpm.min(), rpm.max(), env.depth_mm[i], rpm[i], env.chatter_hz[i], sdm_txt or "not run (--quick)"])
-    fig.tight_layout()
+        rows.append([ex, rpm.min(), rpm.max(), env.depth_mm[i], rpm[i], env.chatter_hz[i], sdm_txt])
+    fig = plot_sld_panels(panels)
     rep.figure("fig_sld_examples", fig, "SLDs of the three synthetic examples (the targets of Table 3); SDM dashed")
     rep.table("sld_examples_summary", ["example", "from rpm", "to rpm", "min b_lim [mm]", "at rpm", "chatter [Hz]",
                                        "SDM vs ZOA median / max difference"], rows,
@@ -175,37 +167,6 @@ def table4(ctx: Context, points=None) -> dict:
     return {"rpm": rpm, "curves": curves, "cutting": cfg.cutting}
 
 
-def plot_four_sld(rpm, curves: dict, points=None, fitted: tuple[str, np.ndarray] | None = None):
-    """Fig. fourSLD: static SLD dashed black, in-process SLDs, points red."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(9, 5))
-    styles = {0: dict(color="black", ls="--"), 1: dict(color="tab:blue"), 2: dict(color="tab:green", ls="-."),
-              3: dict(color="tab:purple", ls=":")}
-    for i, (label, d) in enumerate(curves.items()):
-        ax.plot(rpm, d, lw=1.6, label=label, **styles.get(i, {}))
-    if fitted is not None:
-        ax.plot(rpm, fitted[1], color="tab:orange", lw=2.0, label=fitted[0])
-    if points is not None:
-        ax.scatter(points.rpm, points.depth_mm, color="tab:red", s=22, zorder=5, label=points.source or "points")
-    ax.set_xlabel("spindle speed [rev/min]")
-    ax.set_ylabel("axial depth of cut [mm]")
-    top = max(np.nanmax(np.where(np.isfinite(d), d, np.nan)) for d in curves.values())
-    ax.set_ylim(0, min(top, 4 * min(np.nanmin(d) for d in curves.values())) * 1.05)
-    ax.set_xlim(rpm.min(), rpm.max())
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left")
-    ax.set_title("Four-flute tool, slotting: static vs in-process SLDs")
-    return fig
-
-
-def fmt_param(name: str, value: float) -> str:
-    """A parameter value in the paper's units (Hz, N/µm, -)."""
-    if name.startswith("k"):
-        return fmt(value * 1e-6)
-    return fmt(value)
-
-
 def stand_in_points(seed: int, noise: float = 0.03, n: int = 21):
     """The synthetic stand-in for the 21 unpublished chatter tests: boundary points of the paper's
     in-process Newton–Raphson result (4103.4 Hz, 11.65 MN/m, 0.0269, axisymmetric) at n evenly spaced
@@ -243,7 +204,9 @@ def four_flute(ctx: Context) -> None:
             "noise on the depths (red points below). Recovering that result from them shows what the method can do "
             "with 21 noisy points; it says nothing about the real tests.")
     fitted = identify_four_flute(ctx, pts, data) if "identify_four_flute" in globals() else None
-    fig = plot_four_sld(data["rpm"], data["curves"], pts, fitted)
+    from millstab.plot.sld import plot_sld_family
+
+    fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted, title="Four-flute tool, slotting: static vs in-process SLDs")
     rep.figure("fig_fourSLD", fig, "Fig. fourSLD: static SLD (dashed black), the in-process SLDs of the paper and of "
                "Eynian's two methods, and the points used for identification (red)")
 

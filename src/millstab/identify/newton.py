@@ -40,7 +40,12 @@ The refinements (all three, as the paper describes them; what is the paper's and
    guesses, but after a few iterations, only continues with the best guess"). The start plus
    ``n_screen`` (2048) scrambled-Sobol points (seeded) in the box ``SEARCH_NEWTON`` around the start
    (fn ×/÷ 1.5, k and ζ ×/÷ 2.5, inside the bounds; the same box as the lsq screen) are ranked by MLAE
-   in ONE engine call; added (ours): a second, finer design of ``n_refine`` (1024) Sobol points in a
+   in ONE engine call, together with (ours) a regular ``n_fn_grid`` (1024 = 32 × 32) grid over the fn
+   columns of the same box (one or two fn free), every other parameter at the start: the natural
+   frequencies dominate the SLD (fn ≫ k > ζ), and 2048 random points in a 6-D box resolve fn too
+   coarsely — without the grid, Example 3 (modes 900/950 Hz) from ±10 % starts (bench_identify starts
+   1, 2) got only guesses in a wrong fn_x basin (the x mode nearly switched off, k_x × 1.5–7; errors
+   11–150 %, MLAE 0.15–0.35). Added (ours): a second, finer design of ``n_refine`` (1024) Sobol points in a
    small box (``REFINE_NEWTON``: fn ×/÷ 1.02, k and ζ ×/÷ 1.15) around each of the ``n_centres`` (8)
    best distinct candidates, again one call. The ``n_guesses`` (16) best pairwise-distinct candidates
    (log max-distance ≥ ``min_distance``, up to the x↔y swap) iterate together, stacked in one call per
@@ -152,7 +157,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
                explore_iters: int = 40, n_screen: int = 2048, n_centres: int = 8, n_refine: int = 1024,
                refine: dict[str, float] | None = None, min_distance: float = 0.05, jump: float = 0.05,
                min_jump: float = 0.05 / 256, max_step: float = 0.1, patience: int = 3, improve_tol: float = 0.01,
-               n_random_jumps: int = 16, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
+               n_random_jumps: int = 16, n_fn_grid: int = 1024, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
                search: dict[str, float] | None = None, progress: Progress | None = None) -> Fit:
     """The paper's Newton–Raphson identification (see module docstring for every option).
 
@@ -162,7 +167,8 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
         alpha: the paper's pace α in (0, 1].
         tol: stopping threshold on the (unweighted) MLAE [log(1 + mm)].
         n_guesses: initial guesses (1 = only the start); explore_iters: iterations before keeping the best.
-        n_screen: size of the Sobol design the guesses are picked from; min_distance: the least
+        n_screen: size of the Sobol design the guesses are picked from; n_fn_grid: points of the regular
+            grid over the (one or two) fn columns screened with it (0: none); min_distance: the least
             log-distance (max-norm, up to the x↔y swap) between two guesses.
         search: {kind: ×/÷ half-width} to screen a box around the start instead of the whole bounds box.
         jump, min_jump: the first and the smallest trial-jump size (relative).
@@ -196,6 +202,15 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
         m = int(np.ceil(np.log2(max(n_screen, n_guesses, 2))))
         sob = qmc.Sobol(p, scramble=True, seed=seed).random_base2(m)[:max(n_screen, n_guesses - 1)]
         cand = np.vstack([u_start[None], blo + sob * (bhi - blo)])
+        fn_cols = [j for j, n in enumerate(par.free) if par.kind(n) == "fn"]
+        if n_fn_grid > 0 and 1 <= len(fn_cols) <= 2:
+            # the natural frequencies dominate the SLD (fn ≫ k > ζ): a regular grid over the fn columns
+            # of the box, every other parameter at the start
+            m_ax = max(2, int(round(n_fn_grid ** (1 / len(fn_cols)))))
+            axes = [np.linspace(blo[j], bhi[j], m_ax) for j in fn_cols]
+            grid = np.tile(u_start, (m_ax ** len(fn_cols), 1))
+            grid[:, fn_cols] = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(fn_cols))
+            cand = np.vstack([cand, grid])
         f0 = problem.mlae(problem.predict_mm(np.exp(cand)))
         if n_refine > 0:
             # a second, finer design: n_refine Sobol points in a small box around each of the
@@ -313,7 +328,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
                history_mlae=np.array(hist_f), history_rss=np.full(len(hist_f), np.nan), warnings=warn,
                symmetry=symmetry, test_cuts=cuts,
                settings={"scaled": scaled, "alpha": alpha, "max_iter": max_iter, "tol": tol, "fd_step": fd_step,
-                         "n_guesses": n_guesses, "n_guesses_used": g0, "explore_iters": explore_iters, "n_screen": n_screen, "jump": jump, "min_jump": min_jump, "patience": patience,
+                         "n_guesses": n_guesses, "n_guesses_used": g0, "n_fn_grid": n_fn_grid, "explore_iters": explore_iters, "n_screen": n_screen, "jump": jump, "min_jump": min_jump, "patience": patience,
                          "improve_tol": improve_tol, "n_random_jumps": n_random_jumps,
                          "critical_weight": critical_weight, "critical_window": critical_window, "seed": seed,
                          "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine})

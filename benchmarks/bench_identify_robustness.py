@@ -41,6 +41,8 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=0.02)
+    ap.add_argument("--band", type=float, nargs=2, default=(0.1, 0.6), metavar=("LO", "HI"),
+                    help="tooth-passing frequency band of the speeds, as fractions of the lower natural frequency")
     args = ap.parse_args()
     print(describe())
     rng = np.random.default_rng(args.seed)
@@ -52,7 +54,7 @@ def main() -> None:
     with threadpool_limits(1):
         i = 0
         while i < args.cases:
-            case = random_case(rng)
+            case = random_case(rng, band=tuple(args.band))
             if identifiability(case.structure, case.cutting, case.rpm) < 1e-2:
                 rejected += 1
                 continue

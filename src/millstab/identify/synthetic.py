@@ -80,14 +80,15 @@ class RandomCase:
     start: Structure
 
 
-def random_case(rng: np.random.Generator, *, spread: float = 0.3, n: int = N_SPEEDS, fn_ratio: float = 1.5) -> RandomCase:
+def random_case(rng: np.random.Generator, *, spread: float = 0.3, n: int = N_SPEEDS, fn_ratio: float = 1.5,
+                band: tuple[float, float] = (0.1, 0.6)) -> RandomCase:
     """Draw a case: fn_x 300–5000 Hz, fn_y = fn_x ×/÷ up to ``fn_ratio`` (log-uniform; a tool's two
     bending modes sit close together, and a mode far from the other is often invisible in the
     boundary), k 2–50 N/µm and ζ 0.005–0.08 (log-uniform, independently in x and y), 2–6 teeth,
     radial immersion a/D 0.05–1 (uniform), up or down milling, Kt 600–2500 MPa, Kr 0.1–0.5.
 
-    The speeds: n evenly spaced speeds whose tooth-passing frequencies span 0.1–0.6 of the lower
-    natural frequency (about lobes k = 1..9 of that mode). The start: every parameter of the truth
+    The speeds: n evenly spaced speeds whose tooth-passing frequencies span ``band`` (default 0.1–0.6)
+    of the lower natural frequency (0.1–0.6: about lobes k = 1..9 of that mode). The start: every parameter of the truth
     times an independent factor uniform in [1 − spread, 1 + spread].
     """
     lu = lambda lo, hi: float(math.exp(rng.uniform(math.log(lo), math.log(hi))))  # noqa: E731
@@ -99,7 +100,7 @@ def random_case(rng: np.random.Generator, *, spread: float = 0.3, n: int = N_SPE
     milling = "down" if rng.random() < 0.5 else "up"
     cutting = Cutting.from_immersion(teeth, rng.uniform(600e6, 2500e6), rng.uniform(0.1, 0.5), ri, milling)
     f_lo = min(modes["x"].fn, modes["y"].fn)
-    rpm = np.linspace(0.1, 0.6, n) * 60 * f_lo / teeth
+    rpm = np.linspace(band[0], band[1], n) * 60 * f_lo / teeth
     f = lambda: float(rng.uniform(1 - spread, 1 + spread))  # noqa: E731
     start = Structure(x=(Mode(modes["x"].fn * f(), modes["x"].k * f(), modes["x"].zeta * f(), "structure.x[0]"),),
                       y=(Mode(modes["y"].fn * f(), modes["y"].k * f(), modes["y"].zeta * f(), "structure.y[0]"),))

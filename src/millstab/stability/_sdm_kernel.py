@@ -356,6 +356,17 @@ def history_layout(cut):
     return hpos, c
 
 
+
+@nb.njit(cache=True, inline="always")
+def _matmul_into(P, Z, out):
+    """out = P @ Z for the small per-step blocks, written out: a BLAS call per step costs more than the product."""
+    for r in range(P.shape[0]):
+        for col in range(Z.shape[1]):
+            s = 0.0
+            for q in range(P.shape[1]):
+                s += P[r, q] * Z[q, col]
+            out[r, col] = s
+
 @nb.njit(cache=True)
 def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos, n_used):
     """The reduced monodromy matrix over one tooth period at depth b [m], shape (K, K).
@@ -396,13 +407,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos
                             s += Z[j, col]
                     U[r + e, col] = s
         if not cut[i]:
-            P = phi_free[i]
-            for r in range(n):
-                for col in range(K):
-                    s = 0.0
-                    for q in range(n):
-                        s += P[r, q] * Z[q, col]
-                    Znew[r, col] = s
+            _matmul_into(phi_free[i], Z, Znew)
         else:
             hi = h[i]
             # A_i = A0 + w Ê_i; B_i = −w [0; Ā_i / m_j]
@@ -429,12 +434,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos
                         s2 += f2[r, q] * Bd[q, e]
                     G1[r, e] = s2 / hi
                     G0[r, e] = s1 - s2 / hi
-            for r in range(n):
-                for col in range(K):
-                    s = 0.0
-                    for q in range(n):
-                        s += phi[r, q] * Z[q, col]
-                    Znew[r, col] = s
+            _matmul_into(phi, Z, Znew)
             # delayed node i (history) and node i + 1 (history, or the current node 0 at the end)
             c0 = n + D * hpos[i]
             for r in range(n):

@@ -195,7 +195,19 @@ def swap_permutation(par: Parameterization, cutting: Cutting) -> np.ndarray | No
     (axisymmetric), x and y have the same number of modes, every free name's x↔y partner is free, and
     every fixed value equals its partner's.
     """
-    if par.axisymmetric or not xy_symmetric_cut(cutting) or len(par.base.x) != len(par.base.y):
+    if not xy_symmetric_cut(cutting):
+        return None
+    return _partner_permutation(par, 1.0)
+
+
+def _partner_permutation(par: Parameterization, r: float) -> np.ndarray | None:
+    """Index permutation of θ exchanging every free x parameter with its y partner, or ``None``.
+
+    ``None`` when the tool is tied (axisymmetric), the mode counts differ, a free name's partner is not
+    free, a fixed value differs from its partner's, a stiffness is fixed while the exchange rescales
+    stiffnesses (r ≠ 1), or the permutation is the identity.
+    """
+    if par.axisymmetric or len(par.base.x) != len(par.base.y):
         return None
     swapped = [n.replace("_x", "_#").replace("_y", "_x").replace("_#", "_y") for n in par.free]
     if any(s not in par.free for s in swapped):
@@ -204,8 +216,10 @@ def swap_permutation(par: Parameterization, cutting: Cutting) -> np.ndarray | No
     for i, (mx, my) in enumerate(zip(par.base.x, par.base.y)):
         for p in ("fn", "k", "zeta"):
             fixed_x, fixed_y = ("x", i, p) not in free_slots, ("y", i, p) not in free_slots
-            if fixed_x != fixed_y or (fixed_x and getattr(mx, p) != getattr(my, p)):
+            if fixed_x != fixed_y:
                 return None
+            if fixed_x and ((p == "k" and r != 1.0) or getattr(mx, p) != getattr(my, p)):
+                return None  # (a fixed stiffness pair cannot follow the k_x' = r k_y scaling)
     perm = np.array([par.free.index(s) for s in swapped])
     return None if np.array_equal(perm, np.arange(par.size)) else perm
 
@@ -223,7 +237,7 @@ def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -
     the engine is not ``zoa``, the tool is tied, the mode counts differ, a free name's partner is not free,
     a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1), or α_xx α_yy ≤ 0.
     """
-    if engine != "zoa" or par.axisymmetric or len(par.base.x) != len(par.base.y):
+    if engine != "zoa":
         return None
     a = zoa.directional_matrix(cutting)
     if not a[0, 0] * a[1, 1] > 0:
@@ -231,19 +245,8 @@ def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -
     r = float(a[0, 0] / a[1, 1])
     if abs(r - 1) <= 1e-9:
         r = 1.0
-    swapped = [n.replace("_x", "_#").replace("_y", "_x").replace("_#", "_y") for n in par.free]
-    if any(s not in par.free for s in swapped):
-        return None
-    free_slots = {s for n in par.free for s in par._slots(n)}
-    for i, (mx, my) in enumerate(zip(par.base.x, par.base.y)):
-        for p in ("fn", "k", "zeta"):
-            fixed_x, fixed_y = ("x", i, p) not in free_slots, ("y", i, p) not in free_slots
-            if fixed_x != fixed_y:
-                return None
-            if fixed_x and ((p == "k" and r != 1.0) or getattr(mx, p) != getattr(my, p)):
-                return None  # (a fixed stiffness pair cannot follow the k_x' = r k_y scaling)
-    perm = np.array([par.free.index(s) for s in swapped])
-    if np.array_equal(perm, np.arange(par.size)):
+    perm = _partner_permutation(par, r)
+    if perm is None:
         return None
     shift = np.zeros(par.size)
     for j, n in enumerate(par.free):

@@ -4,7 +4,7 @@ Data: the paper's Examples 1–3 (packaged configs), noise-free boundary points 
 spaced over each config's [speeds] range. Starts (seeded, random signs):
 * lsq: every parameter 30 % off the target;
 * newton: every parameter 10 % off (x and y factors tied in the x/y-symmetric slotting Examples 1–2,
-  whose Predicted rows have x = y), run 200 iterations (the paper: 60), all refinements on.
+  whose Predicted rows have x = y), run the default 600 iterations (the paper: 60), all refinements on.
 Prints per example and start the relative errors [%] beside the paper's Predicted-row errors.
 Timing: lsq, 6 parameters, 100 points, BLAS pinned to one thread, best of 3 (after a warm-up call).
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,20 +41,14 @@ class Context:
     progress: object = None
     timings: dict[str, float] = field(default_factory=dict)
 
+    @contextmanager
     def step(self, name: str):
-        """Context manager that times a step and reports it to the progress display."""
-        ctx = self
-
-        class _Step:
-            def __enter__(self):
-                self.t = time.perf_counter()
-                if ctx.progress:
-                    ctx.progress(name)
-
-            def __exit__(self, *exc):
-                ctx.timings[name] = time.perf_counter() - self.t
-
-        return _Step()
+        """Time a step (into ``timings``) and report it to the progress display."""
+        t = time.perf_counter()
+        if self.progress:
+            self.progress(name)
+        yield
+        self.timings[name] = time.perf_counter() - t
 
 
 def speeds_of(name: str, n: int = 600) -> np.ndarray:

@@ -95,3 +95,16 @@ def test_lobes_from_measured_frf_config_matches_modal(tmp_path):
     cut = Cutting.from_immersion(3, modal_cut.kt, modal_cut.kr, 0.2, "down")
     expect = zoa.envelope(cfg.structure, cut, rpm).depth_mm
     np.testing.assert_allclose([float(r["blim_mm"]) for r in rows], expect, rtol=2e-4)
+
+
+def test_rpm_file_errors_name_the_real_line(tmp_path, capsys):
+    """Blank and comment lines are skipped but counted: the error names the file's own line number,
+    and a row too short for the 'rpm' column is an error, not a crash."""
+    f = tmp_path / "speeds.csv"
+    f.write_text("# speeds for the test\nrpm,note\n3000,a\n\n4000,b\nabc,c\n")
+    assert main(["lobes", "example:ex1", "--rpm-file", str(f)]) == 2
+    assert "line 6" in capsys.readouterr().err
+    f.write_text("note,rpm\nx,3000\ny\n")
+    assert main(["lobes", "example:ex1", "--rpm-file", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert "line 3" in err and "Traceback" not in err

@@ -41,20 +41,23 @@ def read_rpm_file(path: Path) -> np.ndarray:
 
     if not path.exists():
         raise InputError("--rpm-file", str(path), "file does not exist")
-    rows = [r for r in csv.reader(path.read_text().splitlines()) if r and not r[0].lstrip().startswith("#")]
+    # (line number, cells) of the lines that hold data: blank and '#' lines are skipped
+    rows = [(no, r) for no, r in enumerate(csv.reader(path.read_text().splitlines()), start=1)
+            if r and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("--rpm-file", str(path), "no speeds in the file")
     col = 0
-    if rows[0] and not _is_number(rows[0][0]):
-        header = [h.strip().lower() for h in rows[0]]
+    if not _is_number(rows[0][1][0]):
+        header = [h.strip().lower() for h in rows[0][1]]
         if "rpm" not in header:
             raise InputError("--rpm-file", str(path), "a CSV with a header needs an 'rpm' column")
         col, rows = header.index("rpm"), rows[1:]
     out = []
-    for lineno, r in enumerate(rows, start=2 if col or not _is_number(rows[0][0]) else 1):
-        if not _is_number(r[col]):
-            raise InputError(f"--rpm-file line {lineno}", r[col], "must be a number (rev/min)")
-        out.append(float(r[col]))
+    for lineno, r in rows:
+        cell = r[col] if col < len(r) else ""
+        if not _is_number(cell):
+            raise InputError(f"--rpm-file line {lineno}", cell, "must be a number (rev/min)")
+        out.append(float(cell))
     return np.array(out)
 
 

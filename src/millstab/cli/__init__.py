@@ -14,6 +14,7 @@ from millstab.errors import InputError
 # subcommands register themselves on `app` when imported
 from millstab.cli import lobes  # noqa: E402,F401
 from millstab.cli import identify  # noqa: E402,F401
+from millstab.cli import design  # noqa: E402,F401
 from millstab.cli import reproduce  # noqa: E402,F401
 from millstab.cli import sensitivity  # noqa: E402,F401
 

@@ -1,0 +1,313 @@
+"""Where to measure next: speeds whose boundary points pin the modal parameters best.
+
+How precisely boundary points determine fn, k and ζ depends far more on *where* they are measured than
+on how many there are. On a steep lobe flank a 1 % shift of fn moves the limiting depth by tens of
+percent; on a flat lobe bottom it hardly moves it. With a fixed, evenly spaced speed set, the weaker
+mode of a tool is often determined to only ±0.5–1 % in fn at 2 % depth noise, while the same number
+of well-placed points determines it to ±0.1 %.
+
+This module plans the speeds (an *optimal experimental design*):
+
+* **Information.** A boundary point at speed Ω carries the Fisher information jjᵀ/v,
+  j = ∂ ln b(Ω)/∂ ln θ (the same log residuals the least-squares solver fits), with the variance of
+  its ln-depth v = σ² + (σ_Ω ∂ ln b/∂ ln Ω)²: depth noise σ plus the uncertainty σ_Ω of where the
+  boundary sits in speed (:data:`SPEED_NOISE`). n_i points at speed Ω_i and the already measured
+  points add up: M(θ) = M₀ + Σ n_i j_i j_iᵀ/v_i.
+* **Criterion.** Bayesian A-optimality in log-parameters: minimise the expected sum of the squared
+  relative standard errors of the target parameters, E_θ[tr(Cᵀ M(θ)⁻¹ C)], the expectation over the
+  current uncertainty of θ (a fit's covariance, or a prior spread around the hammer-test values). The
+  expectation matters: a design optimal at a point estimate puts all its points on the flanks of
+  *that* θ's lobes, and 1 % off in fn those flanks have moved. A fit's alternative solutions join
+  the centres the expectation is taken around.
+* **Algorithm.** The continuous design (weights w over candidate speeds) by the classic
+  multiplicative algorithm w_i ← w_i d_i / Σ w d, d_i = E_θ‖Cᵀ M⁻¹ j_i‖² (Silvey, Titterington &
+  Torsney 1978), whose optimality the general equivalence theorem certifies: at the optimum every
+  d_i ≤ Σ_j w_j d_j, and the gap bounds the efficiency (:attr:`SpeedDesign.efficiency`). It is then
+  rounded to n tests (largest remainders; a speed may get several tests, each an independent
+  measurement of the limiting depth there).
+
+Every Jacobian of every θ sample comes from ONE batched engine call (central differences).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.model import Cutting
+from millstab.params import Parameterization
+from millstab.stability import get_engine
+
+#: default prior spread (standard deviation of ln θ) around a structure that is not a fit: a hammer
+#: test's modes move a few percent in fn and tens of percent in k and ζ once the spindle turns
+PRIOR_SPREAD = {"fn": 0.05, "k": 0.3, "zeta": 0.3}
+#: default relative uncertainty of where the boundary sits in speed: spindle-speed error and the drift
+#: of the natural frequencies between tests. It turns a point on a near-vertical lobe flank (|∂ ln b/∂ ln Ω|
+#: of 10–100) from the most informative test into a poor one, which it is: there the measured limit
+#: depends on exactly where the flank is, and a fit through it is not a smooth least-squares problem.
+SPEED_NOISE = 0.005
+#: central-difference step in ln θ (and ln Ω)
+FD_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class SpeedDesign:
+    """A planned set of test speeds and what it is expected to achieve.
+
+    Attributes:
+        rpm: the n planned tests [rev/min], sorted; a speed appears once per test planned there.
+        candidates: the candidate speeds [rev/min] (m,); weights: the optimal continuous design over
+            them (m,), summing to 1.
+        names: the free parameters; target: those the criterion weighs.
+        theta: the centre of the uncertainty the design averages over (P,) [Hz, N/m, -].
+        noise: relative depth noise assumed (standard deviation, 0.02 = 2 %); speed_noise: relative
+            uncertainty of the boundary's speed assumed (see :data:`SPEED_NOISE`).
+        sigma_existing: predicted relative standard error of each parameter from the existing points
+            alone (P,), ``None`` without existing points or when they cannot determine θ (inf where
+            singular); sigma_uniform: with n more tests evenly spaced over the candidates;
+            sigma_design: with the n planned tests. All at ``theta`` (relative: 0.001 = 0.1 %).
+        efficiency: lower bound on the continuous design's efficiency (1 = optimal), from the
+            equivalence theorem.
+        iterations: multiplicative-algorithm iterations; samples: θ samples averaged over.
+        predicted_depth_mm: the limiting depth at ``theta`` at each planned speed [mm] (n,).
+    """
+
+    rpm: np.ndarray
+    candidates: np.ndarray
+    weights: np.ndarray
+    names: tuple[str, ...]
+    target: tuple[str, ...]
+    theta: np.ndarray
+    noise: float
+    speed_noise: float
+    sigma_existing: np.ndarray | None
+    sigma_uniform: np.ndarray
+    sigma_design: np.ndarray
+    efficiency: float
+    iterations: int
+    samples: int
+    predicted_depth_mm: np.ndarray
+
+    def tests(self) -> list[tuple[float, int, float]]:
+        """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
+        speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
+        return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
+
+
+def log_jacobians(par: Parameterization, cutting: Cutting, theta: np.ndarray, rpm: np.ndarray,
+                  engine: str = "zoa") -> tuple[np.ndarray, np.ndarray]:
+    """Sensitivities of ln b at each row of ``theta`` (S, P) and speeds ``rpm`` (m,).
+
+    Returns (J (S, m, P) = ∂ ln b/∂ ln θ, slope (S, m) = ∂ ln b/∂ ln Ω), by central differences
+    (step :data:`FD_STEP`) from ONE engine call. Where a sample has no finite limit the rows are
+    zero (no boundary point can be measured there).
+    """
+    t = np.atleast_2d(np.asarray(theta, dtype=float))
+    s, p = t.shape
+    r = np.asarray(rpm, float)
+    u = np.log(t)
+    steps = FD_STEP * np.eye(p)
+    rows = np.concatenate([u[:, None, :] + steps[None], u[:, None, :] - steps[None], u[:, None, :]], axis=1)
+    h = math.exp(FD_STEP)
+    speeds = np.concatenate([r, r * h, r / h])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.log(get_engine(engine).envelope_batch(par.batch(np.exp(rows.reshape(-1, p))), cutting, speeds))
+        d = d.reshape(s, 2 * p + 1, 3, -1)
+        jac = np.transpose((d[:, :p, 0] - d[:, p:2 * p, 0]) / (2 * FD_STEP), (0, 2, 1))
+        slope = (d[:, 2 * p, 1] - d[:, 2 * p, 2]) / (2 * FD_STEP)
+    ok = np.isfinite(jac).all(axis=2) & np.isfinite(slope)
+    return np.where(ok[..., None], jac, 0.0), np.where(ok, slope, 0.0)
+
+
+def prior_covariance(par: Parameterization, spread: dict[str, float] | None = None) -> np.ndarray:
+    """Diagonal covariance of ln θ from per-kind spreads (default :data:`PRIOR_SPREAD`)."""
+    sp = {**PRIOR_SPREAD, **(spread or {})}
+    return np.diag([sp[par.kind(n)] ** 2 for n in par.free])
+
+
+def fit_covariance(std_errors: Sequence[float], correlation, theta: Sequence[float]) -> np.ndarray:
+    """Covariance of ln θ from a fit's standard errors [physical units] and correlation matrix."""
+    rel = np.asarray(std_errors, float) / np.asarray(theta, float)
+    corr = np.asarray(correlation, float)
+    return rel[:, None] * corr * rel[None, :]
+
+
+def relative_sigma(info: np.ndarray) -> np.ndarray:
+    """Relative standard errors √diag(M⁻¹) from information matrices (..., P, P); inf where singular."""
+    info = np.asarray(info, float)
+    out = np.full(info.shape[:-1], np.inf)
+    scale = np.sqrt(np.clip(np.diagonal(info, axis1=-2, axis2=-1), 1e-300, None))
+    # scaled to unit diagonal first, so the conditioning test is independent of the parameters' units
+    m = info / (scale[..., :, None] * scale[..., None, :])
+    cond = np.linalg.cond(m)
+    ok = np.isfinite(cond) & (cond < 1e12)
+    if np.any(ok):
+        inv = np.linalg.inv(m[ok])
+        out[ok] = np.sqrt(np.clip(np.diagonal(inv, axis1=-2, axis2=-1), 0, None)) / scale[ok]
+    return out
+
+
+def optimal_weights(jac: np.ndarray, n: int, *, info0: np.ndarray | None = None, target: np.ndarray | None = None,
+                    iterations: int = 2000, tol: float = 1e-3) -> tuple[np.ndarray, float, int]:
+    """Bayesian A-optimal continuous design over candidates (the multiplicative algorithm).
+
+    Args:
+        jac: (S, m, P) per-sample Jacobian rows of the m candidates, already divided by the noise σ.
+        n: number of tests the weights will be spread over (the existing information counts in full).
+        info0: (S, P, P) information of the existing points per sample, or ``None``.
+        target: indices of the parameters the criterion sums (default all).
+        iterations: at most this many updates; tol: stop when the equivalence-theorem gap
+            max_i d_i / Σ w d − 1 falls below it.
+    Returns:
+        (weights (m,), efficiency lower bound, iterations used).
+    """
+    s, m, p = jac.shape
+    c = np.eye(p)[:, np.arange(p) if target is None else np.asarray(target)]
+    m0 = np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)
+    w = np.full(m, 1.0 / m)
+    it = 0
+    eff = 0.0
+    # a small ridge keeps samples whose candidates miss a parameter finite (it is ~1e-9 of a typical
+    # information and so never changes a design that does determine the parameter)
+    ridge = 1e-9 * np.mean(np.einsum("smi,smi->s", jac, jac)) * np.eye(p)
+    jac_t = np.transpose(jac, (0, 2, 1))
+    cs = np.broadcast_to(c, (s, p, c.shape[1]))
+    for it in range(1, iterations + 1):
+        info = m0 + n * (jac_t @ (w[None, :, None] * jac)) + ridge
+        inv_c = np.linalg.solve(info, cs)  # M⁻¹ C per sample (S, P, T)
+        phi = float((cs * inv_c).sum()) / s  # E tr(Cᵀ M⁻¹ C)
+        d = ((jac @ inv_c) ** 2).sum(axis=2).mean(axis=0)  # −∂Φ/∂w_i / n
+        wd = float(w @ d)
+        # convexity of Φ in w: Φ(w*) ≥ Φ(w) − n (max d − w·d)  ⇒  efficiency Φ(w*)/Φ(w) ≥ 1 − n(max d − w·d)/Φ
+        eff = max(0.0, 1.0 - n * (float(d.max()) - wd) / phi)
+        if d.max() <= wd * (1 + tol):
+            break
+        w = w * d / wd
+    return w / w.sum(), eff, it
+
+
+def round_design(weights: np.ndarray, n: int) -> np.ndarray:
+    """Integer test counts (m,) summing to n from continuous weights (largest remainders)."""
+    exact = n * np.asarray(weights, float)
+    counts = np.floor(exact).astype(int)
+    short = n - int(counts.sum())
+    counts[np.argsort(counts - exact, kind="stable")[:short]] += 1
+    return counts
+
+
+def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *, theta=None, cov_u=None,
+                  alternatives: Sequence[Sequence[float]] = (), existing_rpm=None, existing_weight=None,
+                  target: Sequence[str] | None = None, noise: float = 0.02, speed_noise: float = SPEED_NOISE,
+                  samples: int = 16, seed: int = 0, engine: str = "zoa", iterations: int = 2000) -> SpeedDesign:
+    """Plan ``n`` boundary-point tests among ``candidates`` [rev/min] that best determine θ.
+
+    Args:
+        par: the free parameters (their base structure supplies the fixed ones).
+        cutting: the cutting conditions of the tests.
+        candidates: speeds the tests may use [rev/min] (e.g. the spindle's range on a fine grid).
+        n: number of tests to plan (≥ 1).
+        theta: centre of the current knowledge (P,) [Hz, N/m, -]; default the base structure's values.
+        cov_u: covariance of ln θ (P, P), e.g. :func:`fit_covariance` of a first fit; default
+            :func:`prior_covariance`.
+        alternatives: other parameter sets (P,) that explain the data so far as well as ``theta`` (a
+            fit's alternatives); the samples are shared among all centres, so the plan serves each.
+        existing_rpm, existing_weight: speeds [rev/min] (and weights) of points already measured, whose
+            information the plan adds to.
+        target: parameters whose relative standard errors the plan minimises (sum of squares); default
+            all free parameters. ``["fn_x", "fn_y"]`` pins the natural frequencies first.
+        noise: relative standard deviation of a measured limiting depth (0.02 = 2 %).
+        speed_noise: relative uncertainty of where the boundary sits in speed (see :data:`SPEED_NOISE`).
+        samples: θ samples the criterion averages over (each centre itself, then draws from
+            N(ln centre, cov_u) with ``seed``, clipped to the bounds).
+    Raises:
+        InputError: bad n, noise, samples, candidates or target names; or candidates that cannot
+            determine the target parameters even all together.
+    """
+    cand = np.unique(np.asarray(candidates, dtype=float).ravel())
+    if cand.size < 2 or not np.all(np.isfinite(cand)) or cand[0] <= 0:
+        raise InputError("candidates", f"{cand.size} speeds", "need at least 2 finite positive speeds (rev/min)")
+    if not (isinstance(n, (int, np.integer)) and n >= 1):
+        raise InputError("n", n, "the number of tests to plan must be an integer >= 1")
+    for field_name, v in (("noise", noise), ("speed_noise", speed_noise)):
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
+    if noise == 0:
+        raise InputError("noise", noise, "relative depth noise must be > 0 (0.02 = 2 %)")
+    if not (isinstance(samples, (int, np.integer)) and samples >= 1):
+        raise InputError("samples", samples, "must be an integer >= 1")
+    names = par.free
+    tgt = tuple(names if not target else (par.canonical(t) for t in target))
+    unknown = [t for t in tgt if t not in names]
+    if unknown:
+        raise InputError("target", unknown[0], f"not a free parameter; free: {', '.join(names)}")
+    t_idx = np.array([names.index(t) for t in tgt])
+    centre = par.theta0 if theta is None else np.asarray(theta, dtype=float)
+    cov = prior_covariance(par) if cov_u is None else np.asarray(cov_u, dtype=float)
+    if cov.shape != (par.size, par.size):
+        raise InputError("cov_u", cov.shape, f"need a ({par.size}, {par.size}) covariance of ln θ")
+    u = _samples(np.log(np.vstack([centre, *[np.asarray(a, float) for a in alternatives]])), cov, samples,
+                 np.log(par.lower), np.log(par.upper), seed)
+    ex = None if existing_rpm is None else np.asarray(existing_rpm, dtype=float).ravel()
+    speeds = cand if ex is None else np.concatenate([cand, ex])
+    jac_all, slope = log_jacobians(par, cutting, np.exp(u), speeds, engine)
+    # a point's ln-depth variance: depth noise plus the speed uncertainty carried through the slope
+    jac_all = jac_all / np.sqrt(noise ** 2 + (speed_noise * slope) ** 2)[..., None]
+    jac, jac_ex = jac_all[:, :cand.size], jac_all[:, cand.size:]
+    info0 = None
+    if ex is not None and ex.size:
+        wex = np.ones(ex.size) if existing_weight is None else np.asarray(existing_weight, float).ravel()
+        info0 = np.einsum("smi,m,smj->sij", jac_ex, wex, jac_ex)
+    # the candidates must be able to determine the target at the centre, all of them together
+    every = (0 if info0 is None else info0[0]) + n * jac[0].T @ jac[0] / cand.size
+    sig_every = relative_sigma(every)
+    if not np.all(np.isfinite(sig_every[t_idx])):
+        bad = names[int(t_idx[np.argmax(~np.isfinite(sig_every[t_idx]))])]
+        raise InputError("candidates", f"{cand[0]:.0f}-{cand[-1]:.0f} rpm",
+                         f"boundary points at these speeds cannot determine {bad}; widen the speed range")
+    w, eff, its = optimal_weights(jac, n, info0=info0, target=t_idx, iterations=iterations)
+    counts = round_design(w, n)
+    rpm = np.repeat(cand, counts)
+
+    def sigma(rows: np.ndarray, counts_: np.ndarray) -> np.ndarray:
+        info = (0 if info0 is None else info0[0]) + np.einsum("mi,m,mj->ij", rows, counts_, rows)
+        return relative_sigma(info)
+
+    uni = np.linspace(cand[0], cand[-1], n) if n > 1 else cand[[cand.size // 2]]
+    j_uni, s_uni = log_jacobians(par, cutting, centre[None], uni, engine)
+    j_uni = j_uni[0] / np.sqrt(noise ** 2 + (speed_noise * s_uni[0]) ** 2)[:, None]
+    depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, rpm)[0] * 1e3
+    return SpeedDesign(
+        rpm=rpm, candidates=cand, weights=w, names=names, target=tgt, theta=centre, noise=float(noise),
+        speed_noise=float(speed_noise), sigma_existing=None if info0 is None else relative_sigma(info0[0]),
+        sigma_uniform=sigma(j_uni, np.ones(uni.size)), sigma_design=sigma(jac[0], counts.astype(float)),
+        efficiency=eff, iterations=its, samples=int(u.shape[0]), predicted_depth_mm=depth)
+
+
+def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> SpeedDesign:
+    """:func:`design_speeds` around a :class:`~millstab.identify.result.Fit`: its estimate, its
+    covariance (from standard errors and correlation; the prior spread where it has none) and its
+    alternative solutions. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests."""
+    cov = None
+    if fit.std_errors is not None and fit.correlation is not None and np.all(np.isfinite(fit.std_errors)):
+        cov = fit_covariance(fit.std_errors, fit.correlation, fit.estimate)
+    alts = [[a["estimate"][name] for name in fit.names] for a in fit.alternatives]
+    return design_speeds(fit.par, cutting, candidates, n, theta=fit.estimate, cov_u=cov, alternatives=alts, **options)
+
+
+def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
+    """ln θ samples (S, P): every centre (C, P) first, then draws N(centre, cov) taking turns over the
+    centres, S = max(samples, C); clipped to [lo, hi]. An eigen-factor of cov, which may be singular."""
+    rng = np.random.default_rng(seed)
+    vals, vecs = np.linalg.eigh((cov + cov.T) / 2)
+    factor = vecs * np.sqrt(np.clip(vals, 0, None))
+    extra = max(samples - centres.shape[0], 0)
+    draws = centres[np.arange(extra) % centres.shape[0]] + rng.standard_normal((extra, centres.shape[1])) @ factor.T
+    return np.clip(np.vstack([centres, draws]), lo, hi)
+
+
+__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "log_jacobians", "optimal_weights",
+           "prior_covariance", "relative_sigma", "round_design"]

@@ -72,7 +72,8 @@ class SpeedDesign:
             sigma_design: with the n planned tests. All at ``theta`` (relative: 0.001 = 0.1 %).
         efficiency: lower bound on the continuous design's efficiency (1 = optimal), from the
             equivalence theorem.
-        iterations: multiplicative-algorithm iterations; samples: θ samples averaged over.
+        iterations: design-algorithm iterations; samples: θ samples averaged over (those the
+            candidates can determine).
         predicted_depth_mm: the limiting depth at ``theta`` at each planned speed [mm] (n,).
     """
 
@@ -153,7 +154,14 @@ def relative_sigma(info: np.ndarray) -> np.ndarray:
 
 def optimal_weights(jac: np.ndarray, n: int, *, info0: np.ndarray | None = None, target: np.ndarray | None = None,
                     iterations: int = 2000, tol: float = 1e-3) -> tuple[np.ndarray, float, int]:
-    """Bayesian A-optimal continuous design over candidates (the multiplicative algorithm).
+    """Bayesian A-optimal continuous design over candidates.
+
+    Each iteration is a multiplicative step w_i ← w_i d_i / Σ w d (Silvey, Titterington & Torsney
+    1978), which moves all weights at once but empties poor candidates only geometrically slowly,
+    followed by a vertex-exchange step (Böhning 1986): weight moves from the worst supported candidate
+    straight to the best one, by an exact line search over the amount. Together (the idea of Yu's 2011
+    cocktail algorithm) they reach designs concentrated on a few speeds hundreds of times faster than
+    the multiplicative step alone.
 
     Args:
         jac: (S, m, P) per-sample Jacobian rows of the m candidates, already divided by the noise σ.
@@ -167,26 +175,46 @@ def optimal_weights(jac: np.ndarray, n: int, *, info0: np.ndarray | None = None,
     """
     s, m, p = jac.shape
     c = np.eye(p)[:, np.arange(p) if target is None else np.asarray(target)]
-    m0 = np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)
-    w = np.full(m, 1.0 / m)
-    it = 0
-    eff = 0.0
+    cs = np.broadcast_to(c, (s, p, c.shape[1]))
     # a small ridge keeps samples whose candidates miss a parameter finite (it is ~1e-9 of a typical
     # information and so never changes a design that does determine the parameter)
     ridge = 1e-9 * np.mean(np.einsum("smi,smi->s", jac, jac)) * np.eye(p)
+    m0 = (np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)) + ridge
     jac_t = np.transpose(jac, (0, 2, 1))
-    cs = np.broadcast_to(c, (s, p, c.shape[1]))
+    outer = lambda i: jac[:, i, :, None] * jac[:, i, None, :]  # noqa: E731  (S, P, P) of candidate i
+
+    def phi(info: np.ndarray) -> np.ndarray:
+        """E tr(Cᵀ M⁻¹ C) for a stack of information matrices (..., S, P, P)."""
+        inv_c = np.linalg.solve(info, np.broadcast_to(cs, info.shape[:-1] + (c.shape[1],)))
+        return (cs * inv_c).sum(axis=(-3, -2, -1)) / s
+
+    w = np.full(m, 1.0 / m)
+    fractions = np.array([1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125, 0.0])
+    eff, it = 0.0, 0
+    info = m0 + n * (jac_t @ (w[None, :, None] * jac))
     for it in range(1, iterations + 1):
-        info = m0 + n * (jac_t @ (w[None, :, None] * jac)) + ridge
         inv_c = np.linalg.solve(info, cs)  # M⁻¹ C per sample (S, P, T)
-        phi = float((cs * inv_c).sum()) / s  # E tr(Cᵀ M⁻¹ C)
+        crit = float((cs * inv_c).sum()) / s
         d = ((jac @ inv_c) ** 2).sum(axis=2).mean(axis=0)  # −∂Φ/∂w_i / n
         wd = float(w @ d)
         # convexity of Φ in w: Φ(w*) ≥ Φ(w) − n (max d − w·d)  ⇒  efficiency Φ(w*)/Φ(w) ≥ 1 − n(max d − w·d)/Φ
-        eff = max(0.0, 1.0 - n * (float(d.max()) - wd) / phi)
+        eff = max(0.0, 1.0 - n * (float(d.max()) - wd) / crit)
         if d.max() <= wd * (1 + tol):
             break
         w = w * d / wd
+        # vertex exchange: move weight from the worst supported candidate to the best one
+        info = m0 + n * (jac_t @ (w[None, :, None] * jac))
+        inv_c = np.linalg.solve(info, cs)
+        d = ((jac @ inv_c) ** 2).sum(axis=2).mean(axis=0)
+        support = np.flatnonzero(w > 1e-12)
+        best, worst = int(np.argmax(d)), int(support[np.argmin(d[support])])
+        if best != worst:
+            moves = fractions * w[worst]
+            swap = n * (outer(best) - outer(worst))
+            t = moves[int(np.argmin(phi(info[None] + moves[:, None, None, None] * swap[None])))]
+            w[best] += t
+            w[worst] -= t
+            info = info + t * swap  # the next iteration's information, without another full product
     return w / w.sum(), eff, it
 
 
@@ -261,19 +289,23 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
     if ex is not None and ex.size:
         wex = np.ones(ex.size) if existing_weight is None else np.asarray(existing_weight, float).ravel()
         info0 = np.einsum("smi,m,smj->sij", jac_ex, wex, jac_ex)
-    # the candidates must be able to determine the target at the centre, all of them together
-    every = (0 if info0 is None else info0[0]) + n * jac[0].T @ jac[0] / cand.size
-    sig_every = relative_sigma(every)
-    if not np.all(np.isfinite(sig_every[t_idx])):
-        bad = names[int(t_idx[np.argmax(~np.isfinite(sig_every[t_idx]))])]
+    # each sample must be determinable by all the candidates together; samples that are not (identical
+    # x and y modes in a symmetric cut enter the boundary identically) are left out of the criterion
+    every = (0 if info0 is None else info0) + n * (np.transpose(jac, (0, 2, 1)) @ jac) / cand.size
+    keep = np.isfinite(relative_sigma(every)[:, t_idx]).all(axis=1)
+    if not keep.any():
+        bad = names[int(t_idx[np.argmax(~np.isfinite(relative_sigma(every[0])[t_idx]))])]
         raise InputError("candidates", f"{cand[0]:.0f}-{cand[-1]:.0f} rpm",
-                         f"boundary points at these speeds cannot determine {bad}; widen the speed range")
+                         f"boundary points at these speeds cannot determine {bad}: widen the speed range, or fix or "
+                         "tie parameters the boundary cannot tell apart")
+    jac_c, info0_c = jac[0], None if info0 is None else info0[0]  # the centre, for the reported errors
+    jac, info0 = jac[keep], None if info0 is None else info0[keep]
     w, eff, its = optimal_weights(jac, n, info0=info0, target=t_idx, iterations=iterations)
     counts = round_design(w, n)
     rpm = np.repeat(cand, counts)
 
     def sigma(rows: np.ndarray, counts_: np.ndarray) -> np.ndarray:
-        info = (0 if info0 is None else info0[0]) + np.einsum("mi,m,mj->ij", rows, counts_, rows)
+        info = (0 if info0_c is None else info0_c) + np.einsum("mi,m,mj->ij", rows, counts_, rows)
         return relative_sigma(info)
 
     uni = np.linspace(cand[0], cand[-1], n) if n > 1 else cand[[cand.size // 2]]
@@ -282,9 +314,9 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
     depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, rpm)[0] * 1e3
     return SpeedDesign(
         rpm=rpm, candidates=cand, weights=w, names=names, target=tgt, theta=centre, noise=float(noise),
-        speed_noise=float(speed_noise), sigma_existing=None if info0 is None else relative_sigma(info0[0]),
-        sigma_uniform=sigma(j_uni, np.ones(uni.size)), sigma_design=sigma(jac[0], counts.astype(float)),
-        efficiency=eff, iterations=its, samples=int(u.shape[0]), predicted_depth_mm=depth)
+        speed_noise=float(speed_noise), sigma_existing=None if info0_c is None else relative_sigma(info0_c),
+        sigma_uniform=sigma(j_uni, np.ones(uni.size)), sigma_design=sigma(jac_c, counts.astype(float)),
+        efficiency=eff, iterations=its, samples=int(keep.sum()), predicted_depth_mm=depth)
 
 
 def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> SpeedDesign:

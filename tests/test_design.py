@@ -1,0 +1,220 @@
+"""Test planning (millstab.identify.design, millstab design): optimal-design algebra against closed forms,
+the sensitivities against the SLD's exact scaling laws, and the planned speeds against an independent
+re-computation of their information."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from millstab.cli import main
+from millstab.datasets import load_example
+from millstab.errors import InputError
+from millstab.frf import ModalBatch
+from millstab.identify import fit_lsq, make_problem
+from millstab.identify.design import (design_after_fit, design_speeds, log_jacobians, optimal_weights, relative_sigma,
+                                      round_design)
+from millstab.identify.synthetic import boundary_points
+from millstab.io.points import write_points
+from millstab.params import Parameterization
+from millstab.stability import zoa
+
+
+# --- the optimal-design algebra --------------------------------------------------------------------------
+def _regression(x: np.ndarray, degree: int) -> np.ndarray:
+    return np.vander(x, degree + 1, increasing=True)[None]  # (1, m, P)
+
+
+def test_a_optimal_quadratic_regression_is_quarter_half_quarter():
+    """A-optimal design of y = a + bx + cx² on [-1, 1]: weight 1/4 at ±1 and 1/2 at 0 (closed form:
+    tr M⁻¹ = (2w+1)/(2w(1−2w)) + 1/(2w) for weight w at each end, minimal at w = 1/4)."""
+    x = np.linspace(-1, 1, 201)
+    w, eff, _ = optimal_weights(_regression(x, 2), 1, iterations=20000, tol=1e-5)
+    # the algorithm converges to point masses only slowly: count the mass within 0.05 of each support point
+    near = lambda x0: w[np.abs(x - x0) <= 0.05 + 1e-12].sum()  # noqa: E731
+    assert [near(-1), near(0), near(1)] == pytest.approx([0.25, 0.5, 0.25], abs=5e-3)
+    assert eff > 0.99  # the equivalence-theorem bound: within 1 % of the optimum
+    # brute force over the symmetric three-point designs agrees on the optimum
+    grid = np.linspace(0.01, 0.49, 4801)
+    crit = (2 * grid + 1) / (2 * grid * (1 - 2 * grid)) + 1 / (2 * grid)
+    assert grid[np.argmin(crit)] == pytest.approx(0.25, abs=1e-3)
+
+
+def test_c_optimal_slope_puts_half_at_each_end():
+    """Pinning only the slope of a straight line: all weight at the ends, half each."""
+    x = np.linspace(-1, 1, 101)
+    w, eff, _ = optimal_weights(_regression(x, 1), 1, target=np.array([1]), iterations=20000, tol=1e-6)
+    assert w[0] == pytest.approx(0.5, abs=5e-3) and w[-1] == pytest.approx(0.5, abs=5e-3)
+    assert eff > 0.95  # a singular optimum (the intercept is not estimable from it): slower to certify
+
+
+def test_existing_information_is_completed_not_repeated():
+    """With the intercept already known exactly from earlier points (huge M₀ on it), the best new
+    points for the line y = a + bx serve the slope alone: the ends."""
+    x = np.linspace(0, 1, 51)
+    info0 = np.array([[[1e9, 0.0], [0.0, 0.0]]])
+    w, _, _ = optimal_weights(_regression(x, 1), 10, info0=info0, iterations=20000, tol=1e-6)
+    assert w[-1] > 0.99  # the point farthest from 0 carries all the slope information
+
+
+def test_round_design_keeps_the_total_and_each_count_within_one():
+    rng = np.random.default_rng(3)
+    w = rng.dirichlet(np.ones(40))
+    for n in (1, 7, 40, 113):
+        c = round_design(w, n)
+        assert c.sum() == n and np.all(np.abs(c - n * w) < 1)
+
+
+def test_relative_sigma_inverts_and_flags_singular():
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((8, 4))
+    m = a.T @ a
+    assert relative_sigma(m) == pytest.approx(np.sqrt(np.diag(np.linalg.inv(m))), rel=1e-10)
+    sing = m.copy()
+    sing[:, 3] = sing[3, :] = 0.0
+    assert np.isinf(relative_sigma(sing)).any()
+
+
+# --- sensitivities: exact scaling laws of the SLD --------------------------------------------------------
+def test_log_jacobians_obey_the_scaling_laws():
+    """b ∝ k (all stiffnesses × c ⇒ depth × c), and b depends on Ω and every fn only through Ω/fn:
+    ∂ln b/∂ln k_x + ∂ln b/∂ln k_y = 1 and ∂ln b/∂ln Ω = −(∂ln b/∂ln fn_x + ∂ln b/∂ln fn_y)."""
+    cfg = load_example("ex3")
+    par = Parameterization(cfg.structure)
+    rpm = np.linspace(4000, 20000, 57)
+    jac, slope = log_jacobians(par, cfg.cutting, par.theta0[None], rpm)
+    names = list(par.free)
+    kx, ky, fx, fy = (names.index(n) for n in ("k_x", "k_y", "fn_x", "fn_y"))
+    assert jac[0, :, kx] + jac[0, :, ky] == pytest.approx(np.ones(rpm.size), abs=1e-6)
+    np.testing.assert_allclose(slope[0], -(jac[0, :, fx] + jac[0, :, fy]), rtol=1e-3, atol=1e-3)  # central differences across a cusp
+
+
+# --- planning on a real SLD ------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def ex3():
+    cfg = load_example("ex3")
+    return cfg, Parameterization(cfg.structure), np.linspace(3000, 21000, 400)
+
+
+def test_plan_information_matches_an_independent_recomputation(ex3):
+    """The planned tests' reported standard errors equal √diag((JᵀV⁻¹J)⁻¹) rebuilt from the engine
+    directly at the planned speeds (forward differences, another step), and beat n evenly spaced
+    speeds at the point the plan was made for."""
+    cfg, par, cand = ex3
+    plan = design_speeds(par, cfg.cutting, cand, 60, samples=1, noise=0.02, speed_noise=0.0)
+    assert plan.rpm.size == 60 and np.all(np.isin(plan.rpm, cand))
+    theta = par.theta0
+    h = 1e-5
+    rows = np.vstack([theta, theta * np.exp(h * np.eye(par.size))])
+    d = np.log(zoa.envelope_batch(par.batch(rows), cfg.cutting, plan.rpm))
+    jac = ((d[1:] - d[0]) / h).T / 0.02
+    sigma = np.sqrt(np.diag(np.linalg.inv(jac.T @ jac)))
+    assert plan.sigma_design == pytest.approx(sigma, rel=2e-2)
+    assert np.sum(plan.sigma_design ** 2) < 0.8 * np.sum(plan.sigma_uniform ** 2)
+    assert plan.efficiency > 0.99
+    assert plan.predicted_depth_mm == pytest.approx(
+        zoa.envelope_batch(ModalBatch.from_structures([cfg.structure]), cfg.cutting, plan.rpm)[0] * 1e3, rel=1e-9)
+
+
+def test_plan_is_reproducible_and_seeded(ex3):
+    cfg, par, cand = ex3
+    a = design_speeds(par, cfg.cutting, cand, 20, seed=4)
+    b = design_speeds(par, cfg.cutting, cand, 20, seed=4)
+    c = design_speeds(par, cfg.cutting, cand, 20, seed=5)
+    assert np.array_equal(a.rpm, b.rpm) and np.array_equal(a.weights, b.weights)
+    assert not np.array_equal(a.weights, c.weights)
+
+
+def test_target_fn_pins_fn_better_than_the_all_parameter_plan(ex3):
+    cfg, par, cand = ex3
+    # many tests, so rounding the continuous designs to whole tests hardly matters
+    all_ = design_speeds(par, cfg.cutting, cand, 400, samples=1, speed_noise=0.0)
+    fn = design_speeds(par, cfg.cutting, cand, 400, samples=1, speed_noise=0.0, target=["fn_x", "fn_y"])
+    idx = [par.free.index("fn_x"), par.free.index("fn_y")]
+    assert np.sum(fn.sigma_design[idx] ** 2) < np.sum(all_.sigma_design[idx] ** 2)
+    assert fn.target == ("fn_x", "fn_y")
+
+
+def test_speed_noise_keeps_tests_off_near_vertical_flanks(ex3):
+    """Without speed uncertainty the plan puts tests on the steepest flanks; with it, the steepest
+    planned speed is far less steep."""
+    cfg, par, cand = ex3
+    steep = design_speeds(par, cfg.cutting, cand, 40, samples=1, speed_noise=0.0)
+    calm = design_speeds(par, cfg.cutting, cand, 40, samples=1, speed_noise=0.01)
+    _, s_steep = log_jacobians(par, cfg.cutting, par.theta0[None], steep.rpm)
+    _, s_calm = log_jacobians(par, cfg.cutting, par.theta0[None], calm.rpm)
+    assert np.abs(s_calm).max() < 0.5 * np.abs(s_steep).max()
+
+
+def test_plan_after_a_fit_completes_the_first_points():
+    """Sequential use: fit 20 evenly spaced noisy points, plan 20 more around that fit; the plan's
+    predicted errors (first points + plan) are smaller than with 20 more evenly spaced ones."""
+    cfg = load_example("ex1")
+    rpm1 = np.linspace(3000, 12000, 20)
+    pts = boundary_points(cfg.structure, cfg.cutting, rpm1, noise=0.02, seed=7)
+    fit = fit_lsq(make_problem(cfg.structure, cfg.cutting, pts), seed=0)
+    plan = design_after_fit(fit, cfg.cutting, np.linspace(2000, 15000, 600), 20, existing_rpm=rpm1, seed=1)
+    assert plan.sigma_existing is not None
+    assert np.all(plan.sigma_design <= plan.sigma_existing)
+    assert np.sum(plan.sigma_design ** 2) < np.sum(plan.sigma_uniform ** 2)
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"n": 0}, "n"),
+    ({"noise": -0.01}, "noise"),
+    ({"noise": 0.0}, "noise"),
+    ({"speed_noise": float("nan")}, "speed_noise"),
+    ({"samples": 0}, "samples"),
+    ({"target": ["fn_z"]}, "fn_z"),
+])
+def test_bad_plan_input_names_the_field(ex3, kwargs, field):
+    cfg, par, cand = ex3
+    with pytest.raises(InputError, match=field):
+        design_speeds(par, cfg.cutting, cand, **{"n": 5, **kwargs})
+
+
+def test_candidates_that_cannot_determine_a_parameter_are_refused(ex3):
+    """Three speeds cannot determine six parameters, however the tests are spread over them."""
+    cfg, par, _ = ex3
+    with pytest.raises(InputError, match="cannot determine"):
+        design_speeds(par, cfg.cutting, [5000.0, 6000.0, 7000.0], 10)
+
+
+# --- the command ----------------------------------------------------------------------------------------
+def test_cli_design_writes_the_plan(tmp_path, capsys):
+    out, fig = tmp_path / "plan.csv", tmp_path / "plan.png"
+    assert main(["design", "example:ex1", "--n", "12", "--out", str(out), "--plot", str(fig)]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert sum(int(r["tests"]) for r in rows) == 12
+    assert all(float(r["predicted_depth_mm"]) > 0 for r in rows)
+    assert fig.stat().st_size > 0
+    assert "planned" in capsys.readouterr().out
+
+
+def test_cli_design_after_identify(tmp_path, capsys):
+    cfg = load_example("ex1")
+    pts = boundary_points(cfg.structure, cfg.cutting, np.linspace(3000, 12000, 25), noise=0.02, seed=2)
+    csv_path = write_points(tmp_path / "pts.csv", pts)
+    fit = tmp_path / "fit.json"
+    assert main(["identify", "example:ex1", str(csv_path), "--quiet", "--out", str(fit)]) == 0
+    out = tmp_path / "next.csv"
+    assert main(["design", "example:ex1", "--fit", str(fit), "--points", str(csv_path), "--n", "10",
+                 "--rpm", "2000:15000:20", "--out", str(out)]) == 0
+    assert "measured points" in capsys.readouterr().out  # the table compares with the points so far
+    assert sum(int(r["tests"]) for r in csv.DictReader(out.open())) == 10
+    doc = json.loads(fit.read_text())
+    assert doc["parameters"]  # the fit JSON is unchanged by planning
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--target", "zeta_q"], "zeta_q"),
+    (["--n", "0"], "n"),
+    (["--rpm", "9000:100:5"], "--rpm"),
+])
+def test_cli_design_bad_input_one_line_exit_2(capsys, args, field):
+    assert main(["design", "example:ex1", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("millstab: error:") and field in err

@@ -200,6 +200,8 @@ def test_cli_design_after_identify(tmp_path, capsys):
     csv_path = write_points(tmp_path / "pts.csv", pts)
     fit = tmp_path / "fit.json"
     assert main(["identify", "example:ex1", str(csv_path), "--quiet", "--out", str(fit)]) == 0
+    tip = " ".join(capsys.readouterr().out.split())  # rich wraps long lines
+    assert "tip: `millstab design example:ex1 --fit" in tip  # 25 noisy points leave ζ loose
     out = tmp_path / "next.csv"
     assert main(["design", "example:ex1", "--fit", str(fit), "--points", str(csv_path), "--n", "10",
                  "--rpm", "2000:15000:20", "--out", str(out)]) == 0

@@ -11,6 +11,8 @@ import typer
 from millstab.cli.app import app
 from millstab.errors import InputError
 
+#: relative standard error above which the command suggests planning more tests (millstab design)
+LOOSE = 0.05
 _UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
 
 
@@ -89,6 +91,9 @@ def identify(
     for a in fit.alternatives:
         vals = ", ".join(f"{k}={v:.5g}" for k, v in a["estimate"].items())
         out_console.print(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
+    if fit.std_errors is not None and (fit.alternatives or np.any(fit.std_errors / fit.estimate > LOOSE)):
+        out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
+                          "further tests that would pin the loose parameters")
     if out:
         doc = fit.to_json()
         doc["config"] = cfg.name

@@ -191,7 +191,9 @@ def test_cli_design_writes_the_plan(tmp_path, capsys):
     assert sum(int(r["tests"]) for r in rows) == 12
     assert all(float(r["predicted_depth_mm"]) > 0 for r in rows)
     assert fig.stat().st_size > 0
-    assert "planned" in capsys.readouterr().out
+    text = " ".join(capsys.readouterr().out.split())
+    # Ex1: identical x and y modes in slotting, so six parameters cannot be told apart at these values
+    assert "not determined" in text and "--axisymmetric" in text
 
 
 def test_cli_design_after_identify(tmp_path, capsys):
@@ -209,6 +211,12 @@ def test_cli_design_after_identify(tmp_path, capsys):
     assert sum(int(r["tests"]) for r in csv.DictReader(out.open())) == 10
     doc = json.loads(fit.read_text())
     assert doc["parameters"]  # the fit JSON is unchanged by planning
+
+
+def test_cli_design_axisymmetric_determines_the_tied_parameters(capsys):
+    assert main(["design", "example:ex1", "--n", "10", "--axisymmetric"]) == 0
+    text = capsys.readouterr().out
+    assert "not determined" not in text and "fn *" in text
 
 
 @pytest.mark.parametrize("args, field", [

@@ -93,6 +93,10 @@ def design(
         table.add_row(*row)
     console.print(table)
     console.print("* = the parameters the plan pins (sum of squared relative standard errors)")
+    if not np.all(np.isfinite(plan.sigma_design)):
+        console.print("note: at these values no boundary points can tell some parameters apart (e.g. identical x and y "
+                      "modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
+                      "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
     tests = plan.tests()
     console.print("planned speeds, rev/min (tests): " + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in tests))
     if out:

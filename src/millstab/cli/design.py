@@ -70,7 +70,7 @@ def design(
                    target=[t.strip() for t in target.split(",") if t.strip()] if target else None,
                    noise=noise, speed_noise=speed_noise, samples=samples, seed=seed)
     if fit is not None:
-        par, theta, cov, alts = _from_fit_json(read_json(fit), fit)
+        par, theta, cov, alts = _from_fit_json(read_json(fit), fit, cfg.cutting)
         plan = design_speeds(par, cfg.cutting, candidates, theta=theta, cov_u=cov, alternatives=alts, **options)
     else:
         names = tuple(s.strip() for s in free.split(",") if s.strip()) if free else ()
@@ -119,9 +119,9 @@ def _pct(v: float) -> str:
     return "not determined" if not np.isfinite(v) else f"± {100 * v:.3g} %"
 
 
-def _from_fit_json(doc, path: Path):
+def _from_fit_json(doc, path: Path, cutting):
     """(Parameterization, θ, cov of ln θ or None, alternatives) from a fit JSON (millstab identify --out)."""
-    from millstab.identify.design import fit_covariance
+    from millstab.identify.design import fit_view
     from millstab.model import Mode, Structure
     from millstab.params import Parameterization
 
@@ -129,14 +129,11 @@ def _from_fit_json(doc, path: Path):
         modes = {d: tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{d}[{i}]") for i, m in enumerate(doc["structure"][d]))
                  for d in ("x", "y")}
         names = tuple(doc["free"])
-        theta = np.array([doc["estimate"][k] for k in names], dtype=float)
+        theta = [doc["estimate"][k] for k in names]
         alts = [[a["estimate"][k] for k in names] for a in doc.get("alternatives") or []]
     except (KeyError, TypeError) as exc:
         raise InputError("--fit", str(path), f"not a millstab fit JSON (missing {exc})") from None
-    axisymmetric = all("_" not in k for k in names)
-    par = Parameterization(Structure(**modes), names, axisymmetric)
+    par = Parameterization(Structure(**modes), names, all("_" not in k for k in names))
     se, corr = doc.get("std_errors"), doc.get("correlation")
-    cov = None
-    if se and corr is not None and all(np.isfinite(se[k]) for k in names):
-        cov = fit_covariance([se[k] for k in names], corr, theta)
-    return par, theta, cov, alts
+    tied = ((doc.get("settings") or {}).get("xy_tie_test") or {}).get("chosen") == "tied"
+    return fit_view(par, cutting, theta, None if not se else [se[k] for k in names], corr, alts, tied)

@@ -322,12 +322,38 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
 def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> SpeedDesign:
     """:func:`design_speeds` around a :class:`~millstab.identify.result.Fit`: its estimate, its
     covariance (from standard errors and correlation; the prior spread where it has none) and its
-    alternative solutions. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests."""
-    cov = None
-    if fit.std_errors is not None and fit.correlation is not None and np.all(np.isfinite(fit.std_errors)):
-        cov = fit_covariance(fit.std_errors, fit.correlation, fit.estimate)
+    alternative solutions. A fit that reports x and y tied (:mod:`~millstab.identify.tie`) is planned
+    for in the tied parameters. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests."""
+    from millstab.identify.tie import is_tied
+
     alts = [[a["estimate"][name] for name in fit.names] for a in fit.alternatives]
-    return design_speeds(fit.par, cutting, candidates, n, theta=fit.estimate, cov_u=cov, alternatives=alts, **options)
+    par, theta, cov, alts = fit_view(fit.par, cutting, fit.estimate, fit.std_errors, fit.correlation, alts, is_tied(fit))
+    return design_speeds(par, cutting, candidates, n, theta=theta, cov_u=cov, alternatives=alts, **options)
+
+
+def fit_view(par: Parameterization, cutting: Cutting, estimate, std_errors, correlation, alternatives, tied: bool):
+    """(parameterization, θ, covariance of ln θ or ``None``, alternatives) to plan around a fit's results.
+
+    With ``tied`` (the fit chose x = y) the tied parameterization, whose θ takes each pair's common value,
+    and no alternatives (the free solution the tied fit lists is not a different structure to serve)."""
+    theta = np.asarray(estimate, float)
+    se = None if std_errors is None else np.asarray(std_errors, float)
+    corr = None if correlation is None else np.asarray(correlation, float)
+    if tied:
+        from millstab.identify.tie import tied_parameterization
+
+        made = tied_parameterization(par, cutting)
+        if made is not None:
+            par, index = made
+            first = [int(np.argmax(index == j)) for j in range(par.size)]
+            theta = theta[first]
+            se = None if se is None else se[first]
+            corr = None if corr is None else corr[np.ix_(first, first)]
+            alternatives = []
+    cov = None
+    if se is not None and corr is not None and np.all(np.isfinite(se)):
+        cov = fit_covariance(se, corr, theta)
+    return par, theta, cov, [np.asarray(a, float) for a in alternatives]
 
 
 def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
@@ -341,5 +367,5 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "log_jacobians", "optimal_weights",
+__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "fit_view", "log_jacobians", "optimal_weights",
            "prior_covariance", "relative_sigma", "round_design"]

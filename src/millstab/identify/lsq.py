@@ -40,6 +40,7 @@ from scipy.stats import qmc
 from millstab.errors import InputError
 from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
 from millstab.identify.result import Fit
+from millstab.identify.tie import prefer_tied
 from millstab.stability import zoa
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -235,11 +236,26 @@ def halving(problem: Problem, u: np.ndarray, cost: np.ndarray, schedule, perm, r
     return u, c, its
 
 
-def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,
-            schedule=((32, 3), (8, 5), (2, 30)), rounds: int = 3, good_rms: float = 0.01, n_local: int = 64,
-            loss: str = "linear", f_scale: float | None = None, central: bool = False, seed: int = 0,
-            search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None) -> Fit:
+def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, tie_xy: bool = True, **options) -> Fit:
     """Identify the free parameters of ``problem`` by multi-start least squares (see module docstring).
+
+    Args:
+        theta0: start [Hz, N/m, -]; default the parameterization's start (the config's structure).
+        tie_xy: in an x/y-symmetric cut, also fit x = y and report it when the points do not reject it
+            (:mod:`~millstab.identify.tie`).
+        options: the search settings of :func:`fit_lsq_free`.
+    """
+    free = fit_lsq_free(problem, theta0, **options)
+    if not tie_xy:
+        return free
+    return prefer_tied(problem, free, lambda prob, start: fit_lsq_free(prob, start, **options))
+
+
+def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,
+                 schedule=((32, 3), (8, 5), (2, 30)), rounds: int = 3, good_rms: float = 0.01, n_local: int = 64,
+                 loss: str = "linear", f_scale: float | None = None, central: bool = False, seed: int = 0,
+                 search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None) -> Fit:
+    """:func:`fit_lsq` without the x = y test: the multi-start search itself (module docstring).
 
     Args:
         theta0: start [Hz, N/m, -]; default the parameterization's start (the config's structure).
@@ -435,4 +451,4 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates:
                          "polish_nfev": int(sol.nfev), "polish_status": int(sol.status)})
 
 
-__all__ = ["LOSSES", "SEARCH", "covariance", "fit_lsq"]
+__all__ = ["LOSSES", "SEARCH", "covariance", "fit_lsq", "fit_lsq_free"]

@@ -8,6 +8,7 @@ parameters (fn [Hz], k [N/m], ζ [-] per direction) whose zero-order SLD explain
   x↔y symmetry;
 * :mod:`~millstab.identify.lsq` — the default solver (multi-start trust-region least squares);
 * :mod:`~millstab.identify.newton` — the seed paper's Newton–Raphson scheme with its refinements;
+* :mod:`~millstab.identify.tie` — the F-test that reports alike x and y tied in symmetric cuts;
 * :mod:`~millstab.identify.design` — where to measure next: speeds that pin the parameters best;
 * :mod:`~millstab.identify.synthetic` — boundary points from known structures (with seeded noise);
 * :mod:`~millstab.identify.result` — :class:`Fit` and its JSON contract.

@@ -17,6 +17,10 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
    chosen robust ``loss``; its Jacobian comes from the same batched call as its residuals (the
    residual row plus P forward-difference rows), never scipy's per-column differences.
 
+4. **x = y?** In an x/y-symmetric cut the tied model is fitted as well and reported when an F-test
+   does not reject it (:mod:`~millstab.identify.tie`: near x = y a free fit splits the pairs by
+   noise alone, with overconfident standard errors).
+
 Diagnostics at the solution: σ² = RSS/(n − p), cov_u = σ²(JᵀJ)⁻¹ in log-parameters, standard errors
 θ·√diag(cov_u) (delta method), the correlation matrix, cond(JᵀJ); warnings for an exact x↔y symmetry
 (slotting: the estimate is returned in canonical order, fn_x ≤ fn_y) and for the general exact x↔y

@@ -19,12 +19,12 @@ This module plans the speeds (an *optimal experimental design*):
   expectation matters: a design optimal at a point estimate puts all its points on the flanks of
   *that* θ's lobes, and 1 % off in fn those flanks have moved. A fit's alternative solutions join
   the centres the expectation is taken around.
-* **Algorithm.** The continuous design (weights w over candidate speeds) by the classic
-  multiplicative algorithm w_i ← w_i d_i / Σ w d, d_i = E_θ‖Cᵀ M⁻¹ j_i‖² (Silvey, Titterington &
-  Torsney 1978), whose optimality the general equivalence theorem certifies: at the optimum every
-  d_i ≤ Σ_j w_j d_j, and the gap bounds the efficiency (:attr:`SpeedDesign.efficiency`). It is then
-  rounded to n tests (largest remainders; a speed may get several tests, each an independent
-  measurement of the limiting depth there).
+* **Algorithm.** The continuous design (weights w over candidate speeds) by multiplicative steps
+  w_i ← w_i d_i / Σ w d, d_i = E_θ‖Cᵀ M⁻¹ j_i‖² (Silvey, Titterington & Torsney 1978), each followed
+  by a vertex-exchange step (:func:`optimal_weights`). The general equivalence theorem certifies the
+  result: at the optimum every d_i ≤ Σ_j w_j d_j, and the gap bounds the efficiency
+  (:attr:`SpeedDesign.efficiency`). It is then rounded to n tests (largest remainders; a speed may
+  get several tests, each an independent measurement of the limiting depth there).
 
 Every Jacobian of every θ sample comes from ONE batched engine call (central differences).
 """
@@ -38,6 +38,7 @@ from typing import Sequence
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.identify.tie import is_tied, tied_parameterization
 from millstab.model import Cutting
 from millstab.params import Parameterization
 from millstab.stability import get_engine
@@ -324,8 +325,6 @@ def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> Sp
     covariance (from standard errors and correlation; the prior spread where it has none) and its
     alternative solutions. A fit that reports x and y tied (:mod:`~millstab.identify.tie`) is planned
     for in the tied parameters. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests."""
-    from millstab.identify.tie import is_tied
-
     alts = [[a["estimate"][name] for name in fit.names] for a in fit.alternatives]
     par, theta, cov, alts = fit_view(fit.par, cutting, fit.estimate, fit.std_errors, fit.correlation, alts, is_tied(fit))
     return design_speeds(par, cutting, candidates, n, theta=theta, cov_u=cov, alternatives=alts, **options)
@@ -340,8 +339,6 @@ def fit_view(par: Parameterization, cutting: Cutting, estimate, std_errors, corr
     se = None if std_errors is None else np.asarray(std_errors, float)
     corr = None if correlation is None else np.asarray(correlation, float)
     if tied:
-        from millstab.identify.tie import tied_parameterization
-
         made = tied_parameterization(par, cutting)
         if made is not None:
             par, index = made
@@ -367,5 +364,5 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "fit_view", "log_jacobians", "optimal_weights",
-           "prior_covariance", "relative_sigma", "round_design"]
+__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "fit_view",
+           "log_jacobians", "optimal_weights", "prior_covariance", "relative_sigma", "round_design"]

@@ -96,6 +96,9 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
     alt = {"estimate": problem.par.as_dict(free.estimate), "mlae": float(free.mlae), "rss": float(free.rss),
            "why": f"the fit with x and y free; the x–y differences it finds are not significant "
                   f"(F = {f:.3g}, p = {pval:.2f})"}
+    # the tied fit's own alternatives (other tied structures as good), in the free names
+    alts = [alt] + [{**a, "estimate": problem.par.as_dict(np.array([a["estimate"][t] for t in tprob.par.free])[index])}
+                    for a in tied.alternatives]
     warn = [w for w in tied.warnings if "x/y symmetry" not in w]
     warn.insert(0, f"x and y tied: the points do not show x and y differing (F-test of the tied against the free fit: "
                    f"p = {pval:.2f} ≥ {ALPHA}), so the estimate gives both directions the tied values; near x = y a "
@@ -110,7 +113,7 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
                history_theta=np.vstack([free.history_theta, tied.estimate[index]]),
                history_mlae=np.append(free.history_mlae, tied.mlae),
                history_rss=np.append(free.history_rss, tied.rss), std_errors=se, correlation=corr,
-               condition=tied.condition, warnings=warn, alternatives=[alt], symmetry=free.symmetry,
+               condition=tied.condition, warnings=warn, alternatives=alts, symmetry=free.symmetry,
                test_cuts=tied.test_cuts, settings={**free.settings, "xy_tie_test": {**test, "chosen": "tied"}})
 
 

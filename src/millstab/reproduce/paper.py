@@ -198,7 +198,8 @@ def four_flute(ctx: Context) -> None:
             "points over 5500–6500 rpm generated from the paper's in-process Newton–Raphson result with 3 % Gaussian "
             "noise on the depths (red points below). Recovering that result from them shows what the method can do "
             "with 21 noisy points; it says nothing about the real tests.")
-    fitted = identify_four_flute(ctx, pts, data) if "identify_four_flute" in globals() else None
+    fitted, fit = identify_four_flute(ctx, pts, data)
+    plan_next_tests(ctx, fit, pts, data["rpm"])
     from millstab.plot.sld import plot_sld_family
 
     fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted, title="Four-flute tool, slotting: static vs in-process SLDs")
@@ -304,8 +305,10 @@ def _identification_figures(ctx: Context, results: dict) -> None:
 
 # --- step 4: the experimental identification (stand-in) ----------------------------------------------
 
-def identify_four_flute(ctx: Context, pts, data: dict) -> tuple[str, np.ndarray]:
-    """Identify the axisymmetric in-process mode from ``pts``, starting from the static dominant mode."""
+def identify_four_flute(ctx: Context, pts, data: dict) -> tuple[tuple[str, np.ndarray], object]:
+    """Identify the axisymmetric in-process mode from ``pts``, starting from the static dominant mode.
+
+    Returns ((label, depth [mm] of the identified SLD at ``data["rpm"]``), the lsq fit)."""
     import dataclasses
 
     from millstab.identify import identify
@@ -343,7 +346,37 @@ def identify_four_flute(ctx: Context, pts, data: dict) -> tuple[str, np.ndarray]
         err_fn = abs(lsq.estimate[0] / truth["fn"] - 1)
         rep.check("Stand-in: fn recovered from 21 points with 3 % noise", f"{100 * err_fn:.2f} % off", err_fn < 0.01)
     depth = zoa.envelope(lsq.structure, cfg.cutting, data["rpm"]).depth_mm
-    return ("identified here (lsq" + (", your points)" if ctx.points else ", stand-in points)"), depth)
+    return ("identified here (lsq" + (", your points)" if ctx.points else ", stand-in points)"), depth), lsq
+
+
+#: tests the report plans beyond the identification's points, and the depth noise it assumes (that of
+#: the stand-in points)
+PLAN_TESTS, PLAN_NOISE = 10, 0.03
+
+
+def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
+    """Where the next tests should go (not in the paper): :func:`~millstab.identify.design.design_after_fit`
+    around the experimental fit, over the speeds of Fig. fourSLD, adding to the points already used."""
+    from millstab.identify.design import design_after_fit
+    from millstab.plot.identify import plot_design
+
+    rep = ctx.report
+    cfg = load_example("fourflute")
+    measured = pts.subset(pts.boundary)
+    plan = design_after_fit(fit, cfg.cutting, np.linspace(rpm[0], rpm[-1], 800), PLAN_TESTS, existing_rpm=measured.rpm,
+                            existing_weight=measured.weight, noise=PLAN_NOISE, seed=ctx.seed)
+    rows = [[name, 100 * plan.sigma_existing[i], 100 * plan.sigma_uniform[i], 100 * plan.sigma_design[i]]
+            for i, name in enumerate(plan.names)]
+    rep.table("test_plan", ["parameter", f"σ % with the {len(measured)} points",
+                            f"σ % with {PLAN_TESTS} more evenly spaced", f"σ % with {PLAN_TESTS} more planned"], rows,
+              f"Planning the next tests (millstab design; not in the paper): predicted relative standard errors at "
+              f"{100 * PLAN_NOISE:g} % depth noise")
+    rep.paragraph("Planned speeds [rpm] (tests): " + ", ".join(f"{r:.0f}" + (f" ({c})" if c > 1 else "")
+                                                             for r, c, _ in plan.tests()))
+    grid = np.linspace(rpm[0], rpm[-1], 800)
+    rep.figure("fig_plan", plot_design(plan, grid, zoa.envelope(fit.structure, cfg.cutting, grid).depth_mm, measured,
+                                       title="Four-flute tool: the next tests planned around the identified mode"),
+               "Where to measure next: the identified SLD, the points used (black) and the planned tests (red)")
 
 
 # --- step 5: Fig. SENS and Table 6 --------------------------------------------------------------------

@@ -13,7 +13,7 @@ EXPECTED = [
     "table3_identification.csv", "fig_conv.png", "fig_iter.png", "fig_eggs.png",
     "table4_static_modal.csv", "fourSLD_summary.csv", "experimental_identification.csv", "fig_fourSLD.png",
     "fig_sens_ex1.png", "fig_sens_ex2.png", "fig_sens_ex3.png", "fig_sens_mse_at_plus20.csv",
-    "table6_monte_carlo.csv", "fig_mc_convergence.png", "run_time.csv",
+    "table6_monte_carlo.csv", "fig_mc_convergence.png", "run_time.csv", "test_plan.csv", "fig_plan.png",
 ]
 
 
@@ -56,3 +56,12 @@ def test_tables_put_the_paper_beside_ours(report_dir):
     assert all(float(r["paper mean"]) > 0 and float(r["ours mean"]) > 0 for r in rows)
     t3 = list(csv.DictReader((out / "table3_identification.csv").open()))
     assert {"paper predicted", "ours: newton", "ours: lsq"} <= set(t3[0])
+
+
+def test_planned_tests_pin_k_and_zeta_better_than_evenly_spaced_ones(report_dir):
+    out, _ = report_dir
+    rows = {r["parameter"]: r for r in csv.DictReader((out / "test_plan.csv").open())}
+    assert set(rows) == {"fn", "k", "zeta"}
+    for name in ("k", "zeta"):
+        measured, even, planned = (float(v) for k, v in rows[name].items() if k != "parameter")
+        assert planned < even < measured

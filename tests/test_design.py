@@ -176,6 +176,12 @@ def test_bad_plan_input_names_the_field(ex3, kwargs, field):
         design_speeds(par, cfg.cutting, cand, **{"n": 5, **kwargs})
 
 
+def test_fewer_tests_than_parameters_are_refused(ex3):
+    cfg, par, cand = ex3
+    with pytest.raises(InputError, match="cannot determine 6 free parameters: plan at least 4"):
+        design_speeds(par, cfg.cutting, cand, 3, existing_rpm=[5000.0, 6000.0])
+
+
 def test_candidates_that_cannot_determine_a_parameter_are_refused(ex3):
     """Three speeds cannot determine six parameters, however the tests are spread over them."""
     cfg, par, _ = ex3

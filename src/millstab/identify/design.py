@@ -281,6 +281,10 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
     u = _samples(np.log(np.vstack([centre, *[np.asarray(a, float) for a in alternatives]])), cov, samples,
                  np.log(par.lower), np.log(par.upper), seed)
     ex = None if existing_rpm is None else np.asarray(existing_rpm, dtype=float).ravel()
+    n_ex = 0 if ex is None else ex.size
+    if n + n_ex < par.size:
+        raise InputError("n", n, f"{n} tests{f' and {n_ex} measured points' if n_ex else ''} cannot determine "
+                         f"{par.size} free parameters: plan at least {par.size - n_ex}, or free fewer parameters")
     speeds = cand if ex is None else np.concatenate([cand, ex])
     jac_all, slope = log_jacobians(par, cutting, np.exp(u), speeds, engine)
     # a point's ln-depth variance: depth noise plus the speed uncertainty carried through the slope

@@ -25,6 +25,7 @@ from millstab.identify.lsq import fit_lsq
 from millstab.identify.newton import fit_newton
 from millstab.identify.objective import Problem, make_problem
 from millstab.identify.result import Fit
+from millstab.identify.tie import is_tied
 
 METHODS = ("lsq", "newton")
 
@@ -80,7 +81,8 @@ def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
     first = fit_lsq(problem_for("zoa"), seed=seed, progress=progress, **options)
     polish = {**options, **SDM_POLISH}
     sdm_problem = problem_for("sdm")
-    fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, **polish)
+    # the x = y test again under SDM only where the zero-order stage kept x = y (otherwise it was rejected)
+    fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, tie_xy=is_tied(first), **polish)
     fit.warnings.insert(0, f"two stages: global search with the zero-order engine (MLAE {first.mlae:.4g}, "
                            f"{first.evaluations} SLDs), then a local polish with SDM ({fit.evaluations} SLDs)")
     fit.settings["stage1_zoa"] = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations}

@@ -29,7 +29,7 @@ from _machine import describe  # noqa: E402
 
 from millstab.datasets import paper_values  # noqa: E402
 from millstab.identify import fit_lsq, fit_newton, make_problem  # noqa: E402
-from millstab.identify.objective import rel_error, swap_permutation  # noqa: E402
+from millstab.identify.objective import oriented, rel_error, swap_permutation  # noqa: E402
 from millstab.identify.synthetic import example_points  # noqa: E402
 
 NAMES = ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
@@ -80,10 +80,7 @@ def main() -> None:
                     prob = make_problem(cfg.structure, cfg.cutting, pts)
                     truth = prob.par.theta0
                     fit = fit_lsq(prob, seed=s, tie_xy=tie_xy)
-                    perm = swap_permutation(prob.par, prob.cutting)
-                    est, se = fit.estimate, fit.std_errors
-                    if perm is not None and np.abs(est[perm] / truth - 1).max() < np.abs(est / truth - 1).max():
-                        est, se = est[perm], se[perm]
+                    est, se = oriented(fit.estimate, truth, swap_permutation(prob.par, prob.cutting), fit.std_errors)
                     errs.append(np.abs(est / truth - 1)[[0, 3]].max())
                     covered += int((np.abs(est - truth) <= 2 * se).sum())
                     total += truth.size

@@ -45,7 +45,7 @@ from _machine import describe  # noqa: E402
 
 from millstab.identify import fit_lsq, make_problem  # noqa: E402
 from millstab.identify.design import design_after_fit, log_jacobians  # noqa: E402
-from millstab.identify.objective import exchange_map, exchanged, rel_error, swap_permutation  # noqa: E402
+from millstab.identify.objective import exchange_map, oriented, rel_error, swap_permutation  # noqa: E402
 from millstab.identify.synthetic import boundary_points, identifiability, random_case  # noqa: E402
 from millstab.io.points import PointSet  # noqa: E402
 from millstab.params import Parameterization  # noqa: E402
@@ -68,13 +68,9 @@ class Tally:
         Also adds the probability that an efficient unbiased estimator keeps every fn within 0.5 % with
         these speeds: Π 2Φ(0.5 %/σ_j) − 1, σ_j the Cramér–Rao bound noise·√((JᵀJ)⁻¹)_jj at the truth
         (J = ∂ ln b/∂ ln θ; the fn errors taken as independent)."""
-        est, se = fit.estimate, fit.std_errors
         perm = swap_permutation(prob.par, prob.cutting)
         sym = perm if perm is not None else exchange_map(prob.par, prob.cutting, prob.engine)
-        if sym is not None:
-            est2, se2 = (est[perm], se[perm]) if perm is not None else (exchanged(est, sym), exchanged(se, sym))
-            if np.abs(est2 / truth - 1).max() < np.abs(est / truth - 1).max():
-                est, se = est2, se2
+        est, se = oriented(fit.estimate, truth, sym, fit.std_errors)
         fn = [j for j, name in enumerate(prob.par.free) if name.startswith("fn")]
         jac = log_jacobians(prob.par, prob.cutting, truth[None], prob.rpm)[0][0]
         crb = noise * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac)))

@@ -282,19 +282,27 @@ def canonical(theta: np.ndarray, perm: np.ndarray | None) -> np.ndarray:
     return out[0] if single else out
 
 
-def rel_error(theta: np.ndarray, truth: np.ndarray, perm=None) -> np.ndarray:
-    """|θ/θ_true − 1| per parameter, up to the x↔y symmetry when ``perm`` is given (the better of the two).
+def oriented(theta: np.ndarray, truth: np.ndarray, perm=None, std_errors: np.ndarray | None = None):
+    """θ (and its standard errors) in the x↔y orientation closer to the truth: θ itself, or its image
+    under ``perm`` when that is closer in the largest relative error.
 
     ``perm`` may be an index permutation (:func:`swap_permutation`) or a (perm, shift) exchange map
-    (:func:`exchange_map`)."""
+    (:func:`exchange_map`; standard errors scale with their parameters). Returns (θ, std_errors)."""
     t, tr = np.asarray(theta, float), np.asarray(truth, float)
-    e = np.abs(t / tr - 1)
-    if perm is not None:
-        t2 = exchanged(t, perm) if isinstance(perm, tuple) else t[perm]
-        e2 = np.abs(t2 / tr - 1)
-        if e2.max() < e.max():
-            return e2
-    return e
+    if perm is None:
+        return t, std_errors
+    move = (lambda v: exchanged(v, perm)) if isinstance(perm, tuple) else (lambda v: np.asarray(v)[perm])  # noqa: E731
+    t2 = move(t)
+    if np.abs(t2 / tr - 1).max() < np.abs(t / tr - 1).max():
+        return t2, None if std_errors is None else move(std_errors)
+    return t, std_errors
+
+
+def rel_error(theta: np.ndarray, truth: np.ndarray, perm=None) -> np.ndarray:
+    """|θ/θ_true − 1| per parameter, up to the x↔y symmetry when ``perm`` is given (the better of the two:
+    see :func:`oriented`)."""
+    t, _ = oriented(theta, truth, perm)
+    return np.abs(t / np.asarray(truth, float) - 1)
 
 
 # --- building a problem --------------------------------------------------------------------------
@@ -351,5 +359,5 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
     return Problem(par, cutting, points.rpm[b], points.depth_mm[b], points.weight[b], engine, cuts, residual)
 
 
-__all__ = ["DEPTH_CAP", "Problem", "canonical", "exchange_map", "exchanged", "make_problem", "parse_assignments", "rel_error", "swap_permutation",
+__all__ = ["DEPTH_CAP", "Problem", "canonical", "exchange_map", "exchanged", "make_problem", "oriented", "parse_assignments", "rel_error", "swap_permutation",
            "xy_symmetric_cut"]

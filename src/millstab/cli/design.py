@@ -104,13 +104,12 @@ def design(
                   ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests], [d for _, _, d in tests]), protect=protect)
         console.print(f"wrote {out}")
     if plot:
-        from millstab.frf import ModalBatch
         from millstab.plot import save_figure
         from millstab.plot.identify import plot_design
-        from millstab.stability import get_engine
+        from millstab.stability import zoa
 
         grid = np.linspace(candidates[0], candidates[-1], 800)
-        sld = get_engine("zoa").envelope_batch(ModalBatch.from_structures([par.structure(plan.theta)]), cfg.cutting, grid)[0] * 1e3
+        sld = zoa.envelope(par.structure(plan.theta), cfg.cutting, grid).depth_mm
         save_figure(plot_design(plan, grid, sld, existing, title=f"{cfg.name}: planned tests"), plot, protect=protect)
         console.print(f"wrote {plot}")
 

@@ -2,24 +2,40 @@
 
 ``"12.53 N/um"`` → 12.53e6 (N/m), ``"556.31 MPa"`` → 556.31e6 (N/m²), ``"126.9 deg"`` → rad.
 A plain number means SI. Parsing uses pint; the registry is built lazily (it takes ~0.3 s).
+
+Angles need care because pint treats the radian as dimensionless: to pint, ``Hz``, ``rad/s`` and
+``rpm`` are all 1/time, and ``"900 rpm"`` converts to "94.25 Hz" (rad/s) and ``"5655 rad/s"`` to
+"5655 Hz". millstab's frequencies are cycles per second, so the angle content of the written unit
+is counted (its power of the radian after reduction to base units) and converted explicitly:
+a frequency written per angle (``rad/s``, ``deg/s``, ``rpm``, ``rps``, ``cycle/s``) is divided by
+2π rad per cycle (900 rpm = 15 Hz, 5655 rad/s = 900.0 Hz); an angle must carry an angle unit
+(``deg``, ``rad``, ``turn``) or be a plain number (rad); every other quantity must carry none
+(``kr = "2 deg"`` or ``fn = "10 %"`` are refused, not read as 0.035 and 0.1).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import re
 
 from millstab.errors import InputError
 
-#: dimension name → (SI unit string for pint, human description of what is allowed)
-DIMENSIONS: dict[str, tuple[str, str]] = {
-    "frequency": ("Hz", "a frequency, e.g. \"903 Hz\" or \"0.9 kHz\" (plain number = Hz)"),
-    "stiffness": ("N/m", "a stiffness, e.g. \"12.53 N/um\" or \"12.53 MN/m\" (plain number = N/m)"),
-    "pressure": ("N/m**2", "a cutting coefficient, e.g. \"556.31 MPa\" or \"556.31 N/mm^2\" (plain number = N/m^2)"),
-    "angle": ("rad", "an angle, e.g. \"126.9 deg\" (plain number = rad)"),
-    "length": ("m", "a length, e.g. \"2 mm\" (plain number = m)"),
-    "dimensionless": ("", "a plain number"),
+#: dimension name → (SI unit string for pint, power of the radian the unit must carry, what is allowed)
+DIMENSIONS: dict[str, tuple[str, int, str]] = {
+    "frequency": ("Hz", 0, "a frequency, e.g. \"903 Hz\" or \"0.9 kHz\"; \"rad/s\" and \"rpm\" are converted "
+                           "to Hz (plain number = Hz)"),
+    "stiffness": ("N/m", 0, "a stiffness, e.g. \"12.53 N/um\" or \"12.53 MN/m\" (plain number = N/m)"),
+    "pressure": ("N/m**2", 0, "a cutting coefficient, e.g. \"556.31 MPa\" or \"556.31 N/mm^2\" (plain number = N/m^2)"),
+    "angle": ("rad", 1, "an angle, e.g. \"126.9 deg\" or \"2.21 rad\" (plain number = rad)"),
+    "length": ("m", 0, "a length, e.g. \"2 mm\" (plain number = m)"),
+    "dimensionless": ("", 0, "a plain number (or a percentage, e.g. \"20 %\")"),
 }
+
+#: a number with a decimal comma or thousands separators, e.g. "900,5" or "1,000"
+_COMMA_NUMBER = re.compile(r"[-+]?\d*,\d")
+#: the text must start with a number (pint would read "Hz" alone as 1 Hz)
+_LEADING_NUMBER = re.compile(r"\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|\s*[-+]?(inf|nan)\b", re.IGNORECASE)
 
 
 @functools.lru_cache(maxsize=1)
@@ -39,15 +55,16 @@ def parse_quantity(value: object, field: str, dimension: str) -> float:
         dimension: one of :data:`DIMENSIONS`.
 
     Raises:
-        InputError: unknown unit, wrong dimension, not a number, NaN or infinity.
+        InputError: unknown unit, wrong dimension (angle content included, see the module doc),
+            a decimal comma, not a number, NaN or infinity. The message echoes ``value`` as given.
     """
-    si_unit, allowed = DIMENSIONS[dimension]
+    si_unit, angle_power, allowed = DIMENSIONS[dimension]
     if isinstance(value, bool):
         raise InputError(field, value, f"expected {allowed}")
     if isinstance(value, (int, float)):
         x = float(value)
     elif isinstance(value, str):
-        x = _parse_string(value, field, si_unit, allowed)
+        x = _parse_string(value, field, si_unit, angle_power, allowed)
     else:
         raise InputError(field, value, f"expected {allowed}")
     if not math.isfinite(x):
@@ -55,24 +72,40 @@ def parse_quantity(value: object, field: str, dimension: str) -> float:
     return x
 
 
-def _parse_string(text: str, field: str, si_unit: str, allowed: str) -> float:
+def _parse_string(text: str, field: str, si_unit: str, angle_power: int, allowed: str) -> float:
     import pint
 
-    ureg = registry()
     cleaned = text.strip().replace("µ", "u").replace("μ", "u").replace("^", "**")
     if not cleaned:
         raise InputError(field, text, f"empty; expected {allowed}")
+    if _COMMA_NUMBER.search(cleaned):  # pint reads "900,5 Hz" as 9005 Hz
+        raise InputError(field, text, "numbers must use a decimal point and no thousands separator "
+                                      f"(write 900.5, not 900,5); expected {allowed}")
+    try:
+        return float(cleaned)  # a bare number in a string: SI
+    except ValueError:
+        pass
+    if not _LEADING_NUMBER.match(cleaned):
+        raise InputError(field, text, f"expected a number followed by a unit: {allowed}")
+    ureg = registry()
     try:
         q = ureg.Quantity(cleaned)
     except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError) as exc:
         raise InputError(field, text, f"unknown unit ({exc}); expected {allowed}") from None
     except Exception:  # pint raises assorted tokenizer errors for garbage
         raise InputError(field, text, f"cannot be read as a quantity; expected {allowed}") from None
-    if not isinstance(q, ureg.Quantity):  # a bare number in a string
+    if not isinstance(q, ureg.Quantity):
         return float(q)
-    if q.dimensionless and si_unit not in ("", "rad"):
-        return float(q.to("").magnitude)
     try:
-        return float(q.to(si_unit).magnitude) if si_unit else float(q.to("").magnitude)
+        x = float(q.to(si_unit).magnitude) if si_unit else float(q.to("").magnitude)
     except pint.errors.DimensionalityError:
         raise InputError(field, text, f"has units of {q.units:~} but expected {allowed}") from None
+    # pint counts the radian as dimensionless: compare the angle content separately
+    power = dict(q.to_base_units().unit_items()).get("radian", 0)
+    if power == angle_power:
+        return x
+    if si_unit == "Hz" and power == 1:  # rad/s, rpm, deg/s: pint gave rad/s; Hz counts cycles (turns)
+        return float(q.to("turn/s").magnitude)
+    if angle_power == 1:
+        raise InputError(field, text, f"has no angle unit; expected {allowed}")
+    raise InputError(field, text, f"has units of {q.units:~}, which include an angle; expected {allowed}")

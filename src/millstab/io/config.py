@@ -46,14 +46,16 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from millstab.errors import InputError
+from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
+from millstab.io.text import read_text
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
@@ -110,11 +112,27 @@ def _check_keys(table: Any, field: str, allowed: Iterable[str], required: Iterab
     return table
 
 
+@contextmanager
+def _as_written(raw: Mapping[str, Any]):
+    """Re-raise an :class:`InputError` about one of ``raw``'s fields with the value the user wrote.
+
+    The model classes validate SI floats, so their errors would echo ``cutting.exit = 4.71...`` for
+    ``exit = "270 deg"`` or ``k = -3000000.0`` for ``k = "-3 N/um"``.
+    """
+    try:
+        yield
+    except InputError as exc:
+        if exc.field in raw:
+            raise InputError(exc.field, raw[exc.field], exc.allowed) from None
+        raise
+
+
 def _angle(value: Any, field: str) -> float:
     x = parse_quantity(value, field, "angle")
-    if isinstance(value, (int, float)) and not -1e-12 <= x <= math.pi + 1e-12:
-        raise InputError(field, value, "angle must be in [0, pi] rad; a plain number means radians, "
-                                       f"write \"{value} deg\" for degrees")
+    if not -1e-12 <= x <= math.pi + 1e-12:
+        hint = (f"; a plain number means radians, write \"{value} deg\" for degrees"
+                if isinstance(value, (int, float)) else "")
+        raise InputError(field, value, f"angle must be in [0, pi] rad (0..180 deg){hint}")
     return x
 
 
@@ -134,7 +152,12 @@ def _cutting(t: Any) -> Cutting:
         for key in ("entry", "exit"):
             if key not in t:
                 raise InputError(f"cutting.{key}", None, "missing; entry and exit are given together")
-        return Cutting(teeth, kt, kr, _angle(t["entry"], "cutting.entry"), _angle(t["exit"], "cutting.exit"))
+        entry, exit_ = _angle(t["entry"], "cutting.entry"), _angle(t["exit"], "cutting.exit")
+        if entry >= exit_:
+            raise InputError("cutting.entry", t["entry"], f"entry angle must be less than the exit angle "
+                                                          f"(exit = {show(t['exit'])})")
+        with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")}):
+            return Cutting(teeth, kt, kr, entry, exit_)
     if "radial_immersion" not in t:
         raise InputError("cutting.entry", None, "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
                                                 "or radial_immersion and milling = \"down\" | \"up\"")
@@ -146,7 +169,8 @@ def _cutting(t: Any) -> Cutting:
         milling = "down"
     if milling not in ("down", "up"):
         raise InputError("cutting.milling", milling, 'must be "down" or "up"')
-    return Cutting.from_immersion(teeth, kt, kr, ri, milling)
+    with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")}):
+        return Cutting.from_immersion(teeth, kt, kr, ri, milling)
 
 
 def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
@@ -159,9 +183,11 @@ def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
     for i, m in enumerate(value):
         name = f"{field}[{i}]"
         m = _check_keys(m, name, MODE_KEYS, MODE_KEYS)
-        modes.append(Mode(parse_quantity(m["fn"], f"{name}.fn", "frequency"),
-                          parse_quantity(m["k"], f"{name}.k", "stiffness"),
-                          parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless"), name))
+        fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
+        k = parse_quantity(m["k"], f"{name}.k", "stiffness")
+        zeta = parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless")
+        with _as_written({f"{name}.{key}": m[key] for key in MODE_KEYS}):
+            modes.append(Mode(fn, k, zeta, name))
     return tuple(modes)
 
 
@@ -191,19 +217,33 @@ def _rpm_value(value: Any, field: str) -> float:
     if isinstance(value, (int, float)):
         x = float(value)
     elif isinstance(value, str):
-        # only rpm: pint would turn "100 Hz" into 954.9 rpm (rad/s semantics), not 6000 rev/min
-        m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*(rpm|rev/min|1/min)?\s*", value)
+        # only rev/min is accepted: a speed written in Hz or rad/s is refused with its rpm value
+        # as a hint rather than converted, so that [speeds] always reads as written
+        m = _RPM.fullmatch(value)
         try:
             x = float(m.group(1)) if m else math.nan
         except ValueError:
             x = math.nan
         if math.isnan(x):
-            raise InputError(field, value, "expected a spindle speed, e.g. 5000 or \"5000 rpm\" (plain number = rpm)")
+            raise InputError(field, value, "expected a spindle speed in rpm, e.g. 5000 or \"5000 rpm\" "
+                                           f"(plain number = rpm){_rpm_hint(value, field)}")
     else:
         raise InputError(field, value, "expected a spindle speed in rpm")
     if not math.isfinite(x) or x <= 0:
         raise InputError(field, value, "spindle speed must be a finite number > 0 rpm")
     return x
+
+
+_RPM = re.compile(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*(rpm|rev/min|r/min|1/min|min\^-1|min-1)?\s*", re.IGNORECASE)
+
+
+def _rpm_hint(value: str, field: str) -> str:
+    """``"; "100 Hz" is 6000 rpm"`` for a speed written in another unit of rotational frequency."""
+    try:
+        hz = parse_quantity(value, field, "frequency")
+    except InputError as exc:
+        return "; numbers must use a decimal point" if "decimal point" in exc.allowed else ""
+    return f"; {value.strip()!r} is {hz * 60:.10g} rpm as a rotational speed: write that"
 
 
 def _speeds(t: Any) -> np.ndarray:
@@ -239,9 +279,9 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None) -> Config:
     """Parse config TOML text (``path`` of the result is ``None``)."""
     try:
-        data = tomllib.loads(text)
+        data = tomllib.loads(text.lstrip("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(name, "TOML syntax error", f"{exc}") from None
+        raise InputError(name, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
     return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None)
 
 
@@ -261,15 +301,23 @@ def load_config(source: PathLike) -> Config:
         default_name = path.stem
         if not path.is_file():
             raise InputError("config", str(source), "file does not exist" if not path.exists() else "is not a file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError("config", str(path), "must be a UTF-8 text (TOML) file") from None
+    text = read_text(path, "config", "text (TOML) file")  # a byte-order mark (Notepad) is dropped
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:  # the message carries "(at line L, column C)"
-        raise InputError(str(path), "TOML syntax error", str(exc)) from None
+        raise InputError(str(path), "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
     return config_from_dict(data, default_name, path, path.parent)
+
+
+_TOML_COMMA = re.compile(r"^\s*[\w.\-\"']+\s*=\s*[-+]?\d+,\d+\s*(#.*)?$")
+
+
+def _comma_hint(text: str) -> str:
+    """A hint naming the first line whose value is a number with a decimal comma (``fn = 900,5``)."""
+    for no, line in enumerate(text.splitlines(), start=1):
+        if _TOML_COMMA.match(line):
+            return f"; line {no} ({line.strip()!r}) uses a decimal comma: write numbers with a decimal point"
+    return ""
 
 
 def _fmt(x: float) -> str:

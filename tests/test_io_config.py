@@ -309,3 +309,50 @@ def test_parse_config_text_has_no_path():
         c = parse_config(EX1, name="inline")
     assert c.path is None and c.name == "inline"
     assert config_to_toml(c).startswith('name = "inline"')
+
+
+# ------------------------------------------------------------------ issue 10: BOM, commas, echo
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])  # Notepad's "UTF-8" and "Unicode"
+def test_config_with_byte_order_mark_loads(tmp_path, encoding):
+    p = tmp_path / "bom.toml"
+    p.write_bytes(EX1.encode(encoding))
+    c = load_config(p)
+    ref = load_config(write(tmp_path, EX1))
+    assert c.cutting == ref.cutting and c.structure == ref.structure
+    assert parse_config("\ufeff" + EX1).structure == ref.structure
+
+
+def test_config_not_utf8_is_named(tmp_path):
+    p = tmp_path / "latin.toml"
+    p.write_bytes(EX1.replace("12.53 N/um", "12.53 N/µm").encode("latin-1"))
+    with pytest.raises(InputError, match="UTF-8") as info:
+        load_config(p)
+    assert info.value.field == "config"
+
+
+def test_toml_decimal_comma_is_named(tmp_path):
+    err = error(tmp_path, EX1.replace("zeta = 0.03", "zeta = 0,03", 1))
+    assert "line 11" in str(err) and "decimal comma" in str(err)
+
+
+@pytest.mark.parametrize("old,new,field,shown", [
+    ('exit = "180 deg"', 'exit = "270 deg"', "cutting.exit", "cutting.exit = '270 deg'"),
+    ('entry = "0 deg"', 'entry = "-10 deg"', "cutting.entry", "cutting.entry = '-10 deg'"),
+    ('fn = "903 Hz"', 'fn = "-0.9 kHz"', "structure.x[0].fn", "structure.x[0].fn = '-0.9 kHz'"),
+    ('k = "12.53 N/um"', 'k = "-3 N/um"', "structure.x[0].k", "structure.x[0].k = '-3 N/um'"),
+    ("zeta = 0.03", 'zeta = "130 %"', "structure.x[0].zeta", "structure.x[0].zeta = '130 %'"),
+    ('kt = "556.31 MPa"', 'kt = "-5 MPa"', "cutting.kt", "cutting.kt = '-5 MPa'"),
+    ("kr = 0.404", 'kr = "-40 %"', "cutting.kr", "cutting.kr = '-40 %'"),
+    ('entry = "0 deg"\nexit = "180 deg"', 'radial_immersion = "150 %"\nmilling = "up"', "cutting.radial_immersion",
+     "cutting.radial_immersion = '150 %'"),
+])
+def test_errors_echo_the_value_as_written(tmp_path, old, new, field, shown):
+    assert old in EX1
+    err = error(tmp_path, EX1.replace(old, new, 1))
+    assert err.field == field and str(err).startswith(shown + " is invalid")
+
+
+def test_entry_after_exit_names_both_as_written(tmp_path):
+    err = error(tmp_path, EX1.replace('entry = "0 deg"', 'entry = "100 deg"').replace('"180 deg"', '"1.2 rad"'))
+    assert str(err).startswith("cutting.entry = '100 deg' is invalid") and "exit = '1.2 rad'" in str(err)

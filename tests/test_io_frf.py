@@ -9,7 +9,7 @@ import pytest
 
 pyuff = pytest.importorskip("pyuff")
 
-from millstab.errors import InputError, UnitWarning  # noqa: E402
+from millstab.errors import FRFWarning, InputError, UnitWarning  # noqa: E402
 from millstab.frf import modal_receptance  # noqa: E402
 from millstab.io.frf_files import (list_uff_records, load_measured_frf, read_frf, read_frf_csv,  # noqa: E402
                                    write_frf_csv)
@@ -185,7 +185,8 @@ def test_other_axis_is_interpolated_onto_xx(tmp_path):
     hy = modal_receptance(fy, [950.0], [10e6], [0.01])
     write_frf_csv(tmp_path / "xx.csv", F, HX)
     write_frf_csv(tmp_path / "yy.csv", fy, hy)
-    m = load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "yy.csv")
+    with pytest.warns(FRFWarning, match=r"yy \(yy.csv, 50..3200 Hz\) is ignored outside"):  # yy reaches beyond xx
+        m = load_measured_frf(xx=tmp_path / "xx.csv", yy=tmp_path / "yy.csv")
     np.testing.assert_array_equal(m.freq_hz, F)
     expected = np.interp(F, fy, hy.real) + 1j * np.interp(F, fy, hy.imag)
     np.testing.assert_array_equal(m.yy, expected)
@@ -240,3 +241,184 @@ def test_config_with_uff_record(tmp_path):
     with pytest.raises(InputError, match="record = N") as info:
         load_config(cfg)
     assert info.value.field == "structure.frf.yy"
+
+
+# ------------------------------------------------------------------ issue 10: input slips in FRF files
+
+def _write(path, text, encoding="utf-8"):
+    path.write_bytes(text.encode(encoding))
+    return path
+
+
+def _uff_ascii(tmp_path, h=HX, name="a.uff"):
+    return write_uff(tmp_path / name, uff58(h, binary=0))
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])  # Notepad's "UTF-8" and "Unicode"
+def test_byte_order_mark_in_every_frf_format(tmp_path, encoding):
+    csv_text = (tmp_path / "ref.csv").write_text("") or write_frf_csv(tmp_path / "ref.csv", F, HX).read_text()
+    for name, text in (("xx.csv", csv_text), ("xx.frf", cutpro_text(F, HX))):
+        f, h = read_frf(_write(tmp_path / name, text, encoding))
+        np.testing.assert_array_equal(f, F)
+        np.testing.assert_array_equal(h, HX)
+    if encoding == "utf-8-sig":  # a UFF is ASCII; an editor may still have prepended a UTF-8 BOM
+        p = _uff_ascii(tmp_path)
+        p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
+        np.testing.assert_allclose(read_frf(p)[1], HX, rtol=1e-11)
+
+
+def test_cutpro_in_windows_1252_keeps_its_micro_sign_unit(tmp_path):
+    p = _write(tmp_path / "xx.frf", cutpro_text(F, HX * 1e6, label_row=False, header="Hz µm/N µm/N\n"), "cp1252")
+    np.testing.assert_allclose(read_frf(p)[1], HX, rtol=1e-14)
+
+
+@pytest.mark.parametrize("name,text,line", [
+    # a spreadsheet's CSV in a decimal-comma locale: ';' between cells, ',' in numbers
+    ("a.csv", "freq_hz;real;imag\n100,5;1,2e-07;-3e-08\n", "line 1"),
+    ("a.csv", "freq_hz,real,imag\n100,5,1.2e-07,-3e-08\n", "line 2"),
+    ("a.csv", 'freq_hz,real,imag\n"100,5","1,2e-07","-3e-08"\n', "line 2, freq_hz"),
+    ("a.frf", "100,5 1,2e-07 -3,0e-08\n101,5 1,3e-07 -3,1e-08\n", "line 1"),
+    ("a.frf", "% header\nHz m/N\n100.5\t1,2e-07\t-3e-08\n", "line 3"),
+])
+def test_decimal_commas_are_named(tmp_path, name, text, line):
+    with pytest.raises(InputError) as info:
+        read_frf(_write(tmp_path / name, text))
+    msg = str(info.value)
+    assert f"a.{name[-3:]} {line}" in info.value.field and "decimal" in msg and "no data rows" not in msg
+
+
+def test_comma_separated_frf_is_named(tmp_path):
+    with pytest.raises(InputError, match="separated by commas") as info:
+        read_frf(_write(tmp_path / "a.frf", "100.5,1.2e-07,-3e-08\n"))
+    assert "line 1" in info.value.field
+
+
+def test_uff_with_decimal_commas_is_named(tmp_path):
+    p = _uff_ascii(tmp_path)
+    text = p.read_text()
+    p.write_text(text.replace("e-0", "E-0").replace(".", ","))
+    with pytest.raises(InputError, match="decimal comma"):
+        read_frf(p)
+
+
+@pytest.mark.parametrize("bad", ["inf", "-inf", "nan", "Infinity"])
+@pytest.mark.parametrize("fmt", ["csv", "frf"])
+def test_non_finite_values_name_file_and_line(tmp_path, bad, fmt):
+    rows = [f"{fi!r},{hi.real!r},{hi.imag!r}" for fi, hi in zip(F[:6].tolist(), HX[:6].tolist())]
+    rows[3] = rows[3].split(",")[0] + f",{bad},{float(HX[3].imag)!r}"
+    text = "freq_hz,real,imag\n" + "\n".join(rows) + "\n" if fmt == "csv" else "\n".join(rows).replace(",", " ") + "\n"
+    p = _write(tmp_path / f"t.{fmt}", text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy RuntimeWarning may leak
+        with pytest.raises(InputError) as info:
+            read_frf(p)
+    line = 5 if fmt == "csv" else 4
+    assert f"t.{fmt} line {line}" in info.value.field and "finite" in str(info.value)
+    assert info.value.value == bad
+
+
+def test_non_finite_frequency_names_the_line(tmp_path):
+    p = _write(tmp_path / "t.csv", "freq_hz,real,imag\n100,1e-7,-1e-8\ninf,1e-7,-1e-8\n")
+    with pytest.raises(InputError) as info:
+        read_frf(p)
+    assert info.value.field == "t.csv line 3, freq_hz"
+
+
+@pytest.mark.parametrize("bad", ["inf", "NaN"])
+def test_uff_non_finite_value_names_record_and_sample(tmp_path, bad):
+    p = _uff_ascii(tmp_path)
+    lines = p.read_text().splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.strip().startswith("4.00000e+02"))  # the 400 Hz row
+    cells = lines[i].split()
+    lines[i] = f"  {cells[0]}{bad:>20}{cells[2]:>20}"
+    p.write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError) as info:
+            read_frf(p)
+    assert "a.uff record 0 sample 30 (400 Hz)" == info.value.field and "finite" in str(info.value)
+    assert "np." not in str(info.value)
+
+
+# sign convention: G = 1/(k(1 - r^2 + 2iζr)) has Im G < 0 at a resonance; conjugated data have Im G > 0
+
+def _term_file(tmp_path, fmt, h, name):
+    if fmt == "csv":
+        return write_frf_csv(tmp_path / f"{name}.csv", F, h)
+    if fmt == "frf":
+        return _write(tmp_path / f"{name}.frf", cutpro_text(F, h))
+    return write_uff(tmp_path / f"{name}.uff", uff58(h))
+
+
+@pytest.mark.parametrize("fmt", ["csv", "frf", "uff"])
+@pytest.mark.parametrize("term", ["xx", "yy"])
+def test_conjugated_direct_term_warns_naming_file_and_convention(tmp_path, fmt, term):
+    good = _term_file(tmp_path, fmt, HX, "good")
+    bad = _term_file(tmp_path, fmt, np.conj(HY), "bad")
+    kw = {"xx": good, "yy": good, term: bad}
+    with pytest.warns(FRFWarning) as rec:
+        m = load_measured_frf(**kw)
+    msgs = [str(w.message) for w in rec if issubclass(w.category, FRFWarning)]
+    assert len(msgs) == 1  # once, from the loader (which names the file), not again from MeasuredFRF
+    assert f"structure.frf.{term} ({bad.name})" in msgs[0] and "Im G < 0" in msgs[0] and "950 Hz" in msgs[0]
+    np.testing.assert_array_equal(getattr(m, term), np.conj(HY))  # warned, not altered
+
+
+def test_correct_sign_and_cross_terms_do_not_warn(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", F, HX)
+    write_frf_csv(tmp_path / "yy.csv", F, HY)
+    write_frf_csv(tmp_path / "xy.csv", F, -0.3 * HX)  # a cross term may have either sign
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_measured_frf(xx="xx.csv", yy="yy.csv", xy="xy.csv", yx="xy.csv", base_dir=tmp_path)
+
+
+def test_conjugated_term_in_a_config_warns(tmp_path):
+    from millstab.io.config import load_config
+
+    write_frf_csv(tmp_path / "xx.csv", F, np.conj(HX))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[cutting]\nteeth = 4\nkt = "1110 MPa"\nkr = 0.22\nentry = "0 deg"\nexit = "180 deg"\n'
+                   '[structure.frf]\nxx = "xx.csv"\n')
+    with pytest.warns(FRFWarning, match=r"xx \(xx.csv\).*near 900 Hz"):
+        load_config(cfg)
+
+
+# band coverage: a term whose band extends beyond the others' loses data, perhaps a mode
+
+FULL = np.arange(100.0, 2001.0, 2.0)
+NARROW = np.arange(300.0, 501.0, 2.0)
+G_NARROW = modal_receptance(NARROW, [400.0], [20e6], [0.03])
+G_FULL = modal_receptance(FULL, [400.0, 1069.0], [20e6, 5e6], [0.03, 0.02])  # the weak y mode at 1069 Hz
+
+
+@pytest.mark.parametrize("narrow,full", [("xx", "yy"), ("yy", "xx")])
+def test_band_mismatch_warns_in_either_order_naming_the_lost_mode(tmp_path, narrow, full):
+    write_frf_csv(tmp_path / "narrow.csv", NARROW, G_NARROW)
+    write_frf_csv(tmp_path / "full.csv", FULL, G_FULL)
+    with pytest.warns(FRFWarning) as rec:
+        m = load_measured_frf(**{narrow: "narrow.csv", full: "full.csv"}, base_dir=tmp_path)
+    (msg,) = [str(w.message) for w in rec if issubclass(w.category, FRFWarning)]
+    assert f"{narrow} (narrow.csv) covers only 300..500 Hz" in msg
+    assert f"{full} (full.csv, 100..2000 Hz) is ignored outside it" in msg
+    # the strongest ignored response is the 1069 Hz mode (within one 2 Hz sample)
+    f_peak = float(msg.split("m/N at ")[1].split(" Hz")[0])
+    assert abs(f_peak - 1069.0) <= 2.0 and "probably a mode" in msg and "unsafe" in msg
+    assert m.freq_hz[0] == 300.0 and m.freq_hz[-1] == 500.0
+
+
+def test_band_mismatch_of_a_cross_term_warns(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", FULL, G_FULL)
+    write_frf_csv(tmp_path / "yy.csv", FULL, G_FULL)
+    write_frf_csv(tmp_path / "xy.csv", NARROW, 0.1 * G_NARROW)
+    with pytest.warns(FRFWarning, match=r"xy \(xy.csv\) covers only 300..500 Hz"):
+        load_measured_frf(xx="xx.csv", yy="yy.csv", xy="xy.csv", base_dir=tmp_path)
+
+
+def test_same_band_on_different_grids_does_not_warn(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", FULL, G_FULL)
+    fine = np.linspace(100.0, 2000.0, 3001)
+    write_frf_csv(tmp_path / "yy.csv", fine, modal_receptance(fine, [950.0], [10e6], [0.01]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_measured_frf(xx="xx.csv", yy="yy.csv", base_dir=tmp_path)

@@ -202,3 +202,23 @@ def test_read_json_errors(tmp_path):
     bad.write_text('{"a": 1,\n "b": }\n')
     with pytest.raises(InputError, match="line 2"):
         read_json(bad)
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])  # Excel/Notepad "UTF-8" and Notepad "Unicode"
+def test_points_with_byte_order_mark(tmp_path, encoding):
+    p = tmp_path / "bom.csv"
+    p.write_bytes(GOOD.encode(encoding))
+    ps, ref = read_points(p), read_points(points_file(tmp_path, GOOD))
+    np.testing.assert_array_equal(ps.rpm, ref.rpm)
+    np.testing.assert_array_equal(ps.depth_mm, ref.depth_mm)
+    np.testing.assert_array_equal(ps.label, ref.label)
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])
+@pytest.mark.parametrize("text", ["5000\n5500\n6000\n", "rpm,note\n5000,a\n5500,b\n6000,c\n"])
+def test_rpm_file_with_byte_order_mark(tmp_path, encoding, text):
+    from millstab.cli.app import read_rpm_file
+
+    p = tmp_path / "speeds.txt"
+    p.write_bytes(text.encode(encoding))
+    np.testing.assert_array_equal(read_rpm_file(p), [5000.0, 5500.0, 6000.0])

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from millstab.errors import InputError, UnitWarning
+from millstab.errors import FRFWarning, InputError, UnitWarning
 from millstab.model import Cutting, MeasuredFRF, Mode, Structure
 
 NAN = float("nan")
@@ -179,3 +179,35 @@ def test_frf_nan_value():
     h = _h()
     h[4] = complex(NAN, 0)
     _raises("frf.xy", MeasuredFRF, np.linspace(10, 100, 10), _h(), None, h)
+
+
+# --------------------------------------------------------------- issue 10: sign convention, plain echo
+
+def test_conjugated_direct_term_warns_and_correct_one_does_not():
+    """G = 1/(k(1 - r^2 + 2iζr)) (x = Re(G F e^{iωt})) has Im G < 0 at resonance; its conjugate does not."""
+    f = np.linspace(100.0, 3000.0, 600)
+    r = f / 903.0
+    g = 1.0 / (12.53e6 * (1 - r * r + 2j * 0.03 * r))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        MeasuredFRF(f, g, g, np.conj(g), None)  # a cross term may have either sign
+        MeasuredFRF(f, _h(f.size), None)  # flat, small positive Im: no resonance, no warning
+    for term in ("xx", "yy"):
+        with pytest.warns(FRFWarning, match=rf"frf\.{term}.*near 90\d\.?\d* Hz.*Im G < 0"):
+            MeasuredFRF(f, **{"xx": g, "yy": g, term: np.conj(g)})
+
+
+@pytest.mark.parametrize("value,shown", [
+    (np.array([-1.5, 0.0, 0.5]), "[-1.5, 0, 0.5]"),
+    (np.float64(4.71238898038469), "4.71238898038469"),
+    (np.int64(3), "3"),
+    (np.complex128(complex(math.inf, 0.0)), "inf+0j"),
+    ((np.float64(2.0), np.float64(1.0)), "(2, 1)"),
+    (np.arange(20.0), "[0, 1, 2, 3, 4, 5, 6, 7, ... (20 values)]"),
+    ("270 deg", "'270 deg'"),
+    (1e-07, "1e-07"),
+])
+def test_input_error_shows_values_plainly(value, shown):
+    err = InputError("eps", value, "allowed")
+    assert str(err) == f"eps = {shown} is invalid: allowed"
+    assert "array(" not in str(err) and "np." not in str(err)

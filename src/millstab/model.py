@@ -23,7 +23,7 @@ from typing import Literal
 
 import numpy as np
 
-from millstab.errors import InputError, UnitWarning
+from millstab.errors import FRFWarning, InputError, UnitWarning
 
 #: Below this modal stiffness [N/m] a value is almost surely N/µm typed as N/m (the seed paper's
 #: Table 1 prints "12.53 N/m" for 12.53 N/µm).
@@ -91,12 +91,44 @@ class Mode:
         return self.k / self.omega**2
 
 
+#: at a resonance the imaginary part dominates a receptance: |Im G| ≈ |G| (1/(2ζk) against |Re G| → 0);
+#: a sample where Im G > 0 carries at least this share of |G| is a resonance seen with the wrong sign
+_RESONANT_SHARE = 0.5
+
+
+def wrong_sign_resonance(h: np.ndarray) -> int | None:
+    """Index of the resonance of a direct receptance whose imaginary part is positive, or ``None``.
+
+    millstab's receptance follows x(t) = Re(G F e^{iωt}): for a mode G = 1/(k(1 − r² + 2iζr)), so a
+    passive structure's direct term has Im G ≤ 0 at every frequency, and Im G ≈ −|G| at a resonance.
+    Data written in the e^{−iωt} convention (or with the imaginary column negated) have Im G > 0
+    there. The test looks at the sample with the largest |Im G| (the strongest resonance) and
+    reports it when Im G is positive there and dominates |G|, so a flat or noisy term does not trip it.
+    """
+    h = np.asarray(h)
+    if h.size == 0:
+        return None
+    i = int(np.argmax(np.abs(h.imag)))
+    return i if h.imag[i] > _RESONANT_SHARE * abs(h[i]) else None
+
+
+def sign_convention_message(term: str, freq_hz: float, h: complex) -> str:
+    """The warning text for :func:`wrong_sign_resonance` (``term`` names the term and its file)."""
+    return (f"{term}: the imaginary part is positive at the resonance near {freq_hz:.6g} Hz (Im G = {h.imag:.3g} m/N); "
+            f"millstab's receptance has Im G < 0 at a resonance (e^{{iωt}} convention, G = 1/(k(1 - r^2 + 2iζr))). "
+            f"The data look conjugated (e^{{-iωt}} convention or a negated imaginary column): negate the imaginary "
+            f"part, or the stability limit will be wrong")
+
+
 @dataclass(frozen=True, eq=False)
 class MeasuredFRF:
     """A measured tool-tip frequency response, receptance in m/N, on a common frequency axis.
 
     ``xx`` and ``yy`` are the direct terms; ``xy``/``yx`` the cross terms (``None`` = not measured,
     taken as zero). A direction given as ``None`` in both its direct term is rigid.
+
+    Convention: x(t) = Re(G F e^{iωt}), so a direct term has Im G < 0 at a resonance; a direct term
+    with Im G > 0 there (conjugated data) gives an :class:`~millstab.errors.FRFWarning`.
 
     Attributes:
         freq_hz: strictly increasing frequencies [Hz], all > 0.
@@ -130,6 +162,9 @@ class MeasuredFRF:
             if not np.all(np.isfinite(h)):
                 raise InputError(f"frf.{term}", "NaN or infinity", "FRF values must be finite")
             object.__setattr__(self, term, h)
+            i = wrong_sign_resonance(h) if term in ("xx", "yy") else None
+            if i is not None:
+                warnings.warn(sign_convention_message(f"frf.{term}", f[i], h[i]), FRFWarning, stacklevel=3)
 
     @property
     def has_cross(self) -> bool:
@@ -184,7 +219,9 @@ class Structure:
         """The same structure with x and y interchanged."""
         if self.frf is not None:
             f = self.frf
-            return Structure(frf=MeasuredFRF(f.freq_hz, f.yy, f.xx, f.yx, f.xy))
+            with warnings.catch_warnings():  # the terms were checked when this FRF was built
+                warnings.simplefilter("ignore", FRFWarning)
+                return Structure(frf=MeasuredFRF(f.freq_hz, f.yy, f.xx, f.yx, f.xy))
         return Structure(x=self.y, y=self.x)
 
     @classmethod

@@ -40,10 +40,13 @@ _LEADING_NUMBER = re.compile(r"\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|\s*[-+]?
 
 @functools.lru_cache(maxsize=1)
 def registry():
-    """The shared pint unit registry (``um`` and ``µm`` both mean micrometre)."""
+    """The shared pint unit registry (``um`` and ``µm`` both mean micrometre; ``rev`` is a revolution)."""
     import pint
 
-    return pint.UnitRegistry()
+    ureg = pint.UnitRegistry()
+    if "rev" not in ureg:  # "rev/min" is how spindle speeds are often written
+        ureg.define("rev = revolution")
+    return ureg
 
 
 def parse_quantity(value: object, field: str, dimension: str) -> float:

@@ -42,7 +42,10 @@ def read_rpm_file(path: Path) -> np.ndarray:
     if not path.exists():
         raise InputError("--rpm-file", str(path), "file does not exist")
     # (line number, cells) of the lines that hold data: blank and '#' lines are skipped
-    rows = [(no, r) for no, r in enumerate(csv.reader(path.read_text().splitlines()), start=1)
+    from millstab.io.text import read_text
+
+    text = read_text(path, "--rpm-file", "text file")  # a byte-order mark (Notepad, Excel) is dropped
+    rows = [(no, r) for no, r in enumerate(csv.reader(text.splitlines()), start=1)
             if r and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("--rpm-file", str(path), "no speeds in the file")

@@ -19,7 +19,8 @@ Accepted formats (chosen by the file extension, case-insensitive):
     non-numeric tokens after three numbers are accepted as labels. Units: if the header/label
     tokens contain a receptance unit (``m/N``, ``mm/N``, ``um/N``, ``µm/N``, ``in/lbf`` ...) the
     values are converted from it, otherwise m/N is assumed; a ``kHz`` or ``rad/s`` token converts
-    the frequency, otherwise Hz. Decimal commas are not accepted.
+    the frequency, otherwise Hz. Decimal commas are not accepted (refused naming the line). Text
+    that is not UTF-8 is read as Windows-1252 (CutPro's own encoding).
 
 ``.uff`` / ``.unv`` (universal file, dataset 58, read with :mod:`pyuff`)
     Function type 4 (FRF); types 0 (general) and 1 are accepted only when the data are complex
@@ -34,8 +35,14 @@ Accepted formats (chosen by the file extension, case-insensitive):
     in the file (SI value = file value × force factor / length factor, as the UFF spec defines the
     factors); (3) SI. The abscissa is taken as Hz. Points at exactly 0 Hz are dropped (iω = 0).
 
-Frequencies must be finite and strictly increasing in every file. :func:`load_measured_frf`
-additionally drops a leading 0 Hz point (analyzers export one; MeasuredFRF needs f > 0).
+Every text file may start with a byte-order mark (UTF-8 or UTF-16, as Windows editors write).
+Frequencies and values must be finite (``inf``/``nan`` are refused naming the file and line or
+sample), frequencies strictly increasing, and numbers written with a decimal point: a decimal
+comma is refused with a message that says so, never guessed. :func:`load_measured_frf`
+additionally drops a leading 0 Hz point (analyzers export one; MeasuredFRF needs f > 0), warns
+when a direct term's imaginary part is positive at a resonance (a sign-convention slip, see
+:class:`~millstab.model.MeasuredFRF`) and when the terms cover different bands, so that part of a
+term (perhaps a mode) is ignored.
 """
 
 from __future__ import annotations
@@ -49,9 +56,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from millstab.errors import InputError, UnitWarning
+from millstab.errors import FRFWarning, InputError, UnitWarning
 from millstab.io.results import PathLike, write_csv
-from millstab.model import MeasuredFRF
+from millstab.io.text import read_text
+from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
 
 #: extension → format name
 FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
@@ -59,16 +67,33 @@ FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
 SUSPICIOUS_RECEPTANCE = 1e-3
 
 _COMMENT = ("#", "%", "!", ";", "//")
+#: a number written with a decimal comma (or a thousands separator): "100,5", "-1,2e-07"
+_COMMA_NUMBER = re.compile(r"[-+]?\d*,\d+([eE][-+]?\d+)?")
+_COMMA_ADVICE = "decimal commas are not accepted: write numbers with a decimal point (100.5, not 100,5)"
+
+
+def _cell(text: str, where: str) -> float:
+    """One number of a data row; a decimal comma, text, NaN or infinity is refused naming ``where``."""
+    try:
+        x = float(text)
+    except ValueError:
+        if _COMMA_NUMBER.fullmatch(text.strip()):
+            raise InputError(where, text, _COMMA_ADVICE) from None
+        raise InputError(where, text, "must be a number") from None
+    if not math.isfinite(x):
+        raise InputError(where, text, "must be a finite number (not inf or nan)")
+    return x
 
 
 def _check_axis(freq: np.ndarray, h: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
     if freq.size == 0:
         raise InputError(where, "no data rows", "the file contains no FRF values")
     if not np.all(np.isfinite(freq)):
-        raise InputError(where, "non-finite frequency", "frequencies must be finite numbers")
+        i = int(np.argmax(~np.isfinite(freq)))
+        raise InputError(f"{where} sample {i}", float(freq[i]), "frequencies must be finite numbers")
     if not np.all(np.isfinite(h)):
         i = int(np.argmax(~np.isfinite(h)))
-        raise InputError(where, f"value {h[i]} at {freq[i]:g} Hz", "FRF values must be finite numbers")
+        raise InputError(f"{where} sample {i} ({freq[i]:g} Hz)", complex(h[i]), "FRF values must be finite numbers")
     if np.any(freq < 0):
         raise InputError(where, f"frequency {freq.min():g} Hz", "frequencies must be >= 0 Hz")
     d = np.diff(freq)
@@ -90,12 +115,18 @@ def _exists(path: PathLike, field: str) -> Path:
 def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Read a ``freq_hz,real,imag`` CSV (Hz, m/N). Returns ``(freq_hz, h)``."""
     p = _exists(path, "frf file")
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(p.read_text(encoding="utf-8-sig").splitlines()))
+    lines = read_text(p, str(p), "text CSV file").splitlines()
+    rows = [(i + 1, r) for i, r in enumerate(csv.reader(lines))
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     required = ("freq_hz", "real", "imag")
     if not rows:
         raise InputError(str(p), "empty file", f"expected a header {','.join(required)} and rows")
     names = [c.strip().lower() for c in rows[0][1]]
+    if len(names) == 1 and re.search(r"[;\t]", names[0]):  # a spreadsheet's "CSV" in a decimal-comma locale
+        sep = "';'" if ";" in names[0] else "tabs"
+        raise InputError(f"{p.name} line {rows[0][0]}", lines[rows[0][0] - 1],
+                         f"columns are separated by {sep}; a CSV must separate them with commas and write "
+                         f"numbers with a decimal point (header {','.join(required)})")
     for n in names:
         if n not in required:
             raise InputError(f"{p.name} header", n, f"unknown column; the columns are {', '.join(required)} (Hz, m/N)")
@@ -108,13 +139,11 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     out = np.empty((len(rows) - 1, 3))
     for k, (line, r) in enumerate(rows[1:]):
         if len(r) != len(names):
-            raise InputError(f"{p.name} line {line}", ",".join(r), f"expected {len(names)} cells")
+            text = lines[line - 1]
+            comma = f"; {_COMMA_ADVICE}" if len(r) > len(names) and re.search(r"\d,\d", text) else ""
+            raise InputError(f"{p.name} line {line}", text, f"expected {len(names)} cells, found {len(r)}{comma}")
         for j, n in enumerate(required):
-            cell = r[col[n]].strip()
-            try:
-                out[k, j] = float(cell)
-            except ValueError:
-                raise InputError(f"{p.name} line {line}, {n}", cell, "must be a number") from None
+            out[k, j] = _cell(r[col[n]].strip(), f"{p.name} line {line}, {n}")
     return _check_axis(out[:, 0].copy(), out[:, 1] + 1j * out[:, 2], p.name)
 
 
@@ -154,16 +183,29 @@ def _receptance_unit(token: str) -> float | None:
         return None
 
 
+def _refuse_commas(tok: list[str], where: str, line: str) -> None:
+    """Refuse a row with a decimal comma (``100,5``) or comma-separated numbers (``100.5,1e-7``)."""
+    for t in tok:
+        if _COMMA_NUMBER.fullmatch(t):
+            raise InputError(where, line[:60], f"{t!r}: {_COMMA_ADVICE}")
+        parts = t.split(",")
+        if len(parts) > 1 and all(_is_number(x) for x in parts if x):
+            raise InputError(where, line[:60], "numbers separated by commas: a .frf file separates its columns "
+                                               "with spaces or tabs (save comma-separated data as .csv with a "
+                                               "header freq_hz,real,imag)")
+
+
 def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Read a CutPro-style ``.frf`` text file (format in the module docstring). Returns ``(freq_hz, h)``."""
     p = _exists(path, "frf file")
     data: list[tuple[float, float, float]] = []
     labels: list[str] = []
-    for line_no, line in enumerate(p.read_text(encoding="utf-8-sig", errors="replace").splitlines(), start=1):
+    for line_no, line in enumerate(read_text(p, str(p), fallback="cp1252").splitlines(), start=1):
         s = line.strip()
         if not s or s.startswith(_COMMENT):
             continue
         tok = s.split()
+        _refuse_commas(tok, f"{p.name} line {line_no}", s)
         numeric = [_is_number(t) for t in tok]
         if not numeric[0]:
             if data:
@@ -180,7 +222,7 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
             if data:
                 raise InputError(f"{p.name} line {line_no}", s[:60], "text after the numbers is only allowed on the first data row")
             labels += tok[3:]
-        data.append((float(tok[0]), float(tok[1]), float(tok[2])))
+        data.append(tuple(_cell(t, f"{p.name} line {line_no}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
     if not data:
         raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
     h_factors = {f for f in (_receptance_unit(t) for t in labels) if f is not None}
@@ -209,7 +251,7 @@ def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
         uff = pyuff.UFF(str(p))
         types = list(uff.get_set_types())
     except Exception as exc:  # pyuff raises assorted errors for a non-UFF file
-        raise InputError(str(p), "unreadable", f"not a universal file (UFF): {exc}") from None
+        raise InputError(str(p), "unreadable", f"not a universal file (UFF): {exc}{_uff_comma_hint(p)}") from None
     if not types:
         raise InputError(str(p), "no datasets", "not a universal file (UFF): no datasets found")
     idx58 = [i for i, t in enumerate(types) if int(t) == 58]
@@ -220,10 +262,22 @@ def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
         sets = uff.read_sets(idx58)
         units = uff.read_sets(idx164[0]) if idx164 else None
     except Exception as exc:
-        raise InputError(str(p), "unreadable", f"pyuff could not read the records: {exc}") from None
+        raise InputError(str(p), "unreadable", f"pyuff could not read the records: {exc}{_uff_comma_hint(p)}") from None
     if isinstance(sets, dict):
         sets = [sets]
     return list(sets), units
+
+
+def _uff_comma_hint(p: Path) -> str:
+    """Why pyuff failed, when an ASCII UFF holds decimal commas (``1,0e-07``): names the first line."""
+    try:
+        text = p.read_bytes().decode("latin-1")
+    except OSError:
+        return ""
+    for no, line in enumerate(text.splitlines(), start=1):
+        if re.search(r"\d,\d", line):
+            return f"; line {no} ({line.strip()[:40]!r}) has a decimal comma: {_COMMA_ADVICE}"
+    return ""
 
 
 def _describe(i: int, s: Mapping[str, Any]) -> str:
@@ -305,8 +359,10 @@ def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray,
         factor = float(units.get("force", 1.0)) / float(units.get("length", 1.0))
     if factor is None:
         factor = 1.0
-    h = data.astype(complex) * factor
-    freq, h = _check_axis(freq, h, where)
+    freq, _ = _check_axis(freq, data.astype(complex), where)  # inf/nan refused before any arithmetic
+    with np.errstate(over="ignore", invalid="ignore"):
+        h = data.astype(complex) * factor
+    freq, h = _check_axis(freq, h, where)  # overflow of a huge value times the unit factor
     if power:
         keep = freq > 0  # iω = 0 there: no receptance can be derived at 0 Hz
         freq, h = freq[keep], h[keep]
@@ -374,7 +430,12 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     Frequency axis: the axis of ``xx`` (``yy`` when there is no xx). A term measured on the same
     axis (to 1e-9 relative) is used as is; a term on another axis is linearly interpolated (real and
     imaginary parts) onto it. Where the terms' bands differ, the axis is trimmed to the band all
-    terms cover (never extrapolated), with a warning.
+    terms cover (never extrapolated), with an :class:`~millstab.errors.FRFWarning` whenever any
+    term (in any order, cross terms included) has data outside that band, naming the terms that
+    limit it and the strongest response that is ignored: a mode there is missing from the limit.
+
+    A direct term whose imaginary part is positive at its strongest resonance (conjugated data)
+    gives an :class:`~millstab.errors.FRFWarning` naming the file.
 
     Raises:
         InputError: naming the term (``structure.frf.xx``) for missing/malformed files, fewer than
@@ -382,6 +443,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     """
     base = Path(base_dir) if base_dir is not None else None
     terms: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    files: dict[str, str] = {}
     for name, src in (("xx", xx), ("yy", yy), ("xy", xy), ("yx", yx)):
         if src is None:
             continue
@@ -396,7 +458,11 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             warnings.warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
                           f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
                           UnitWarning, stacklevel=2)
+        i = wrong_sign_resonance(h) if name in ("xx", "yy") else None
+        if i is not None:
+            warnings.warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
         terms[name] = (f, h)
+        files[name] = p.name
     if "xx" not in terms and "yy" not in terms:
         raise InputError(field, "no xx and no yy", "a measured FRF needs at least one direct term (xx or yy)")
     ref_name = "xx" if "xx" in terms else "yy"
@@ -407,9 +473,10 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     if np.count_nonzero(keep) < 4:
         raise InputError(field, f"common band {lo:g}..{hi:g} Hz",
                          f"the terms must share at least 4 frequencies of the {ref_name} axis")
-    if not keep.all():
-        warnings.warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis",
-                      UserWarning, stacklevel=2)
+    coverage = _band_loss(terms, files, lo, hi)
+    if coverage:
+        warnings.warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
+                      f"{coverage}", FRFWarning, stacklevel=2)
     f_common = f_ref[keep]
     out: dict[str, np.ndarray] = {}
     for name, (f, h) in terms.items():
@@ -418,9 +485,43 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
         else:
             out[name] = np.interp(f_common, f, h.real) + 1j * np.interp(f_common, f, h.imag)
     try:
-        return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
+        with warnings.catch_warnings():  # the sign convention was checked above, naming the files
+            warnings.simplefilter("ignore", FRFWarning)
+            return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
     except InputError as exc:
         raise InputError(f"{field}: {exc.field}", exc.value, exc.allowed) from None
+
+
+#: an ignored response at least this share of the largest one kept is called "probably a mode"
+_MODE_SHARE = 0.5
+
+
+def _band_loss(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], files: Mapping[str, str], lo: float, hi: float) -> str:
+    """Why a band mismatch matters, or ``""`` when every term lies inside ``lo..hi`` Hz.
+
+    Names the terms that limit the band and, per term that loses data, its strongest response
+    outside the band, compared with its strongest inside: a peak outside is a mode the stability
+    limit cannot see (an unsafe, too high limit when it is the weakest mode).
+    """
+    inside = {n: (f >= lo * (1 - 1e-12)) & (f <= hi * (1 + 1e-12)) for n, (f, _) in terms.items()}
+    losers = [n for n in terms if not inside[n].all()]
+    if not losers:
+        return ""
+    limits = [f"{n} ({files[n]}) covers only {terms[n][0][0]:g}..{terms[n][0][-1]:g} Hz" for n in terms
+              if terms[n][0][0] >= lo * (1 - 1e-12) or terms[n][0][-1] <= hi * (1 + 1e-12)]
+    parts = []
+    for n in losers:
+        f, h = terms[n]
+        a = np.abs(h)
+        out_i = int(np.argmax(np.where(inside[n], -np.inf, a)))
+        peak_in = float(a[inside[n]].max(initial=0.0))
+        ratio = a[out_i] / peak_in if peak_in > 0 else math.inf
+        mode = "; probably a mode" if ratio >= _MODE_SHARE else ""
+        parts.append(f"{n} ({files[n]}, {f[0]:g}..{f[-1]:g} Hz) is ignored outside it, where its largest response "
+                     f"is |H| = {a[out_i]:.3g} m/N at {f[out_i]:g} Hz ({ratio:.3g} x its largest inside{mode})")
+    return (f"{'; '.join(limits)}. " if limits else "") + "; ".join(parts) + (
+        ". Modes outside the common band are left out of the stability limit, which may then be unsafe "
+        "(too high): measure every term over the same band")
 
 
 __all__ = ["FORMATS", "list_uff_records", "load_measured_frf", "read_frf", "read_frf_csv", "read_frf_cutpro",

@@ -27,6 +27,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
+from millstab.io.text import read_text
 
 REQUIRED = ("rpm", "depth_mm")
 OPTIONAL = ("label", "weight")
@@ -129,10 +130,7 @@ def read_points(path: PathLike) -> PointSet:
     p = Path(path)
     if not p.is_file():
         raise InputError("points file", str(p), "file does not exist")
-    try:
-        text = p.read_text(encoding="utf-8-sig")  # -sig: spreadsheets often write a BOM
-    except UnicodeDecodeError:
-        raise InputError("points file", str(p), "must be a UTF-8 text CSV file") from None
+    text = read_text(p, "points file", "text CSV file")  # spreadsheets and Notepad often write a BOM
     rows = [(i + 1, row) for i, row in enumerate(csv.reader(text.splitlines()))
             if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
     if not rows:

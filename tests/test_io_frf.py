@@ -422,3 +422,29 @@ def test_same_band_on_different_grids_does_not_warn(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         load_measured_frf(xx="xx.csv", yy="yy.csv", base_dir=tmp_path)
+
+
+# angular and rotational frequency axes: converted as cycles (ω/2π, n/60), never read as Hz
+
+@pytest.mark.parametrize("header,scale", [
+    ("Frequency(rad/s) Real(mm/N) Imag(mm/N)\n", 2 * np.pi),
+    ("freq [rad/s]   real [mm/N]   imag [mm/N]\n", 2 * np.pi),
+    ("Freq rad/s Real mm/N Imag\n", 2 * np.pi),
+    ("f(rpm) re(mm/N) im(mm/N)\n", 60.0),
+    ("f(KHZ) re(mm/N) im(mm/N)\n", 1e-3),
+])
+def test_cutpro_frequency_axis_units(tmp_path, header, scale):
+    p = _write(tmp_path / "xx.frf", cutpro_text(F * scale, HX * 1e3, label_row=False, header=header))
+    f, h = read_frf(p)
+    np.testing.assert_allclose(f, F, rtol=1e-14)
+    np.testing.assert_allclose(h, HX, rtol=1e-14)
+
+
+@pytest.mark.parametrize("label,scale", [("rad/s", 2 * np.pi), ("RPM", 60.0), ("rpm", 60.0), ("kHz", 1e-3), ("Hz", 1.0),
+                                         ("Frequency", 1.0)])
+def test_uff_abscissa_units_label(tmp_path, label, scale):
+    s = uff58(HX, f=F * scale)
+    s["abscissa_axis_units_lab"] = label
+    f, h = read_frf(write_uff(tmp_path / "a.uff", s))
+    np.testing.assert_allclose(f, F, rtol=1e-14)
+    np.testing.assert_array_equal(h, HX)

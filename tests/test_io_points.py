@@ -222,3 +222,23 @@ def test_rpm_file_with_byte_order_mark(tmp_path, encoding, text):
     p = tmp_path / "speeds.txt"
     p.write_bytes(text.encode(encoding))
     np.testing.assert_array_equal(read_rpm_file(p), [5000.0, 5500.0, 6000.0])
+
+
+@pytest.mark.parametrize("text,line", [("5000\n5500,5\n6000\n", 2), ("# speeds\n5000,5\n", 2), ("5000,6000,7000\n", 1)])
+def test_rpm_file_refuses_decimal_commas_and_extra_cells(tmp_path, text, line):
+    """Was read silently as the first cell (5500,5 -> 5500 rpm)."""
+    from millstab.cli.app import read_rpm_file
+
+    p = tmp_path / "speeds.txt"
+    p.write_text(text)
+    with pytest.raises(InputError, match="decimal point") as info:
+        read_rpm_file(p)
+    assert info.value.field == f"--rpm-file line {line}"
+
+
+def test_rpm_file_trailing_comma_is_fine(tmp_path):
+    from millstab.cli.app import read_rpm_file
+
+    p = tmp_path / "speeds.txt"
+    p.write_text("5000,\n6000,\n")
+    np.testing.assert_array_equal(read_rpm_file(p), [5000.0, 6000.0])

@@ -112,3 +112,25 @@ def _parse_string(text: str, field: str, si_unit: str, angle_power: int, allowed
     if angle_power == 1:
         raise InputError(field, text, f"has no angle unit; expected {allowed}")
     raise InputError(field, text, f"has units of {q.units:~}, which include an angle; expected {allowed}")
+
+
+#: frequency unit labels that files write in other cases than pint's ("HZ", "KHZ", "RPM", "RAD/S")
+_HZ_LABELS = {"hz": 1.0, "khz": 1e3, "rpm": 1.0 / 60.0, "rad/s": 1.0 / (2.0 * math.pi)}
+
+
+def frequency_factor(label: str) -> float | None:
+    """Hz per unit of a file's frequency-axis label (``"Hz"`` 1, ``"rad/s"`` 1/2π, ``"rpm"`` 1/60).
+
+    Returns ``None`` when the label is not a unit of frequency (a word such as ``"Frequency"``, or a
+    unit of another dimension), so the caller can keep its default. Angle content is counted as in
+    :func:`parse_quantity`: ``rad/s`` is divided by 2π, never read as Hz.
+    """
+    text = label.strip()
+    if text.lower() in _HZ_LABELS:
+        return _HZ_LABELS[text.lower()]
+    if not text or not re.search(r"[A-Za-z]", text):
+        return None
+    try:
+        return parse_quantity(f"1 {text}", "label", "frequency")
+    except InputError:
+        return None

@@ -17,9 +17,10 @@ Accepted formats (chosen by the file extension, case-insensitive):
     first data row whose first token is not a number are header lines. CutPro writes its column
     labels after the numbers of the FIRST data row (``f re im Freq Hz Real m/N Imag Real``), so
     non-numeric tokens after three numbers are accepted as labels. Units: if the header/label
-    tokens contain a receptance unit (``m/N``, ``mm/N``, ``um/N``, ``µm/N``, ``in/lbf`` ...) the
-    values are converted from it, otherwise m/N is assumed; a ``kHz`` or ``rad/s`` token converts
-    the frequency, otherwise Hz. Decimal commas are not accepted (refused naming the line). Text
+    tokens contain a receptance unit (``m/N``, ``mm/N``, ``um/N``, ``µm/N``, ``in/lbf`` ...), alone
+    or in brackets (``Real(mm/N)``), the values are converted from it, otherwise m/N is assumed; a
+    frequency unit token (``kHz``, ``rad/s``, ``rpm``, also ``Freq(rad/s)``) converts the frequency,
+    angular ones by 1/2π, otherwise Hz. Decimal commas are not accepted (refused naming the line). Text
     that is not UTF-8 is read as Windows-1252 (CutPro's own encoding).
 
 ``.uff`` / ``.unv`` (universal file, dataset 58, read with :mod:`pyuff`)
@@ -33,7 +34,9 @@ Accepted formats (chosen by the file extension, case-insensitive):
     dividing by iω and −ω². Units, first match wins: (1) the ordinate units label when it is set
     (e.g. ``mm/N``, ``(m/s)/N``, ``g/N`` for accelerance), converted with pint; (2) a dataset 164
     in the file (SI value = file value × force factor / length factor, as the UFF spec defines the
-    factors); (3) SI. The abscissa is taken as Hz. Points at exactly 0 Hz are dropped (iω = 0).
+    factors); (3) SI. The abscissa is in Hz unless its units label names another unit of frequency
+    (``kHz``; ``rad/s`` and ``rpm`` are converted as angular/rotational frequencies, not read as Hz);
+    a label that is no frequency unit is ignored. Points at exactly 0 Hz are dropped (iω = 0).
 
 Every text file may start with a byte-order mark (UTF-8 or UTF-16, as Windows editors write).
 Frequencies and values must be finite (``inf``/``nan`` are refused naming the file and line or
@@ -159,6 +162,26 @@ def write_frf_csv(path: PathLike, freq_hz: np.ndarray, h: np.ndarray, protect=()
 # ------------------------------------------------------------------------------------- CutPro
 
 _FREQ_UNITS = {"hz": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
+#: a unit inside brackets in a label: "Frequency(rad/s)", "Real[mm/N]"
+_BRACKETED = re.compile(r"[(\[]([^()\[\]]+)[)\]]")
+
+
+def _label_units(labels: list[str]) -> tuple[set[float], set[float]]:
+    """(Hz factors, m/N factors) named by label tokens, bare (``rad/s``) or in brackets (``Freq(rad/s)``)."""
+    f_factors: set[float] = set()
+    h_factors: set[float] = set()
+    from millstab.units import frequency_factor
+
+    for token in labels:
+        for t in [token] + _BRACKETED.findall(token):
+            ff = _FREQ_UNITS.get(t.lower()) if t.lower() in _FREQ_UNITS else frequency_factor(t)
+            if ff is not None:
+                f_factors.add(ff)
+                continue
+            hf = _receptance_unit(t)
+            if hf is not None:
+                h_factors.add(hf)
+    return f_factors, h_factors
 
 
 def _is_number(tok: str) -> bool:
@@ -225,8 +248,7 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
         data.append(tuple(_cell(t, f"{p.name} line {line_no}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
     if not data:
         raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
-    h_factors = {f for f in (_receptance_unit(t) for t in labels) if f is not None}
-    f_factors = {_FREQ_UNITS[t.lower()] for t in labels if t.lower() in _FREQ_UNITS}
+    f_factors, h_factors = _label_units(labels)
     if len(h_factors) > 1 or len(f_factors) > 1:
         raise InputError(f"{p.name} labels", " ".join(labels), "conflicting unit labels; give one frequency and one receptance unit")
     hf = h_factors.pop() if h_factors else 1.0
@@ -339,6 +361,12 @@ def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray,
     ft = int(s.get("func_type", 0))
     data = np.asarray(s["data"])
     freq = np.asarray(s["x"], dtype=float)
+    from millstab.units import frequency_factor
+
+    f_unit = frequency_factor(str(s.get("abscissa_axis_units_lab", "") or ""))
+    if f_unit is not None and f_unit != 1.0:
+        with np.errstate(over="ignore", invalid="ignore"):
+            freq = freq * f_unit
     absc = int(s.get("abscissa_spec_data_type", 0))
     if ft != 4 and not (ft in (0, 1) and np.iscomplexobj(data) and absc in (0, 18)):
         raise InputError(f"{where} function type", f"{ft} ({_FUNC_TYPES.get(ft, 'other')})",

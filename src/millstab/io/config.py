@@ -17,7 +17,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     # milling = "down"           # "down" or "up"; required unless radial_immersion = 1
 
     [[structure.x]]              # one table per mode; a direction without modes is rigid
-    fn = "903 Hz"
+    fn = "903 Hz"                # also "0.903 kHz"; "5674 rad/s" = 903 Hz (÷2π), "54180 rpm" = 903 Hz (÷60)
     k = "12.53 N/um"
     zeta = 0.03
     [[structure.y]]
@@ -37,8 +37,11 @@ Schema (every quantity a number in SI or a string with units, parsed by
     step = 10
 
 Every problem raises :class:`InputError` naming the field (``structure.x[0].k``, ``cutting.kt``),
-the value and what is allowed. Unknown keys are errors (with the allowed keys), so a typo cannot
-pass silently.
+the value as written (``cutting.exit = '270 deg'``, not its SI value) and what is allowed. Unknown
+keys are errors (with the allowed keys), so a typo cannot pass silently; so are units of the wrong
+kind, angle content included (``kr = "2 deg"``, ``fn = "2 rad"``; see :mod:`millstab.units`), and
+numbers with a decimal comma (``fn = 900,5`` or ``"900,5 Hz"``, which pint would read as 9005).
+The file is UTF-8, with or without a byte-order mark (Notepad); UTF-16 with a mark is read too.
 """
 
 from __future__ import annotations

@@ -59,7 +59,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from millstab.errors import FRFWarning, InputError, UnitWarning
+from millstab.errors import FRFWarning, InputError, UnitWarning, show
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import read_text
 from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
@@ -98,11 +98,12 @@ def _check_axis(freq: np.ndarray, h: np.ndarray, where: str) -> tuple[np.ndarray
         i = int(np.argmax(~np.isfinite(h)))
         raise InputError(f"{where} sample {i} ({freq[i]:g} Hz)", complex(h[i]), "FRF values must be finite numbers")
     if np.any(freq < 0):
-        raise InputError(where, f"frequency {freq.min():g} Hz", "frequencies must be >= 0 Hz")
+        raise InputError(where, f"frequency {show(float(freq.min()))} Hz", "frequencies must be >= 0 Hz")
     d = np.diff(freq)
     if np.any(d <= 0):
         i = int(np.argmax(d <= 0))
-        raise InputError(where, f"{freq[i]:g} Hz followed by {freq[i + 1]:g} Hz", "frequencies must be strictly increasing")
+        raise InputError(where, f"{show(float(freq[i]))} Hz followed by {show(float(freq[i + 1]))} Hz",
+                         "frequencies must be strictly increasing")
     return freq, h
 
 
@@ -211,8 +212,8 @@ def _refuse_commas(tok: list[str], where: str, line: str) -> None:
     for t in tok:
         if _COMMA_NUMBER.fullmatch(t):
             raise InputError(where, line[:60], f"{t!r}: {_COMMA_ADVICE}")
-        parts = t.split(",")
-        if len(parts) > 1 and all(_is_number(x) for x in parts if x):
+        parts = [x for x in t.split(",") if x]
+        if "," in t and parts and all(_is_number(x) for x in parts):
             raise InputError(where, line[:60], "numbers separated by commas: a .frf file separates its columns "
                                                "with spaces or tabs (save comma-separated data as .csv with a "
                                                "header freq_hz,real,imag)")

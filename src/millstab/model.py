@@ -116,8 +116,8 @@ def sign_convention_message(term: str, freq_hz: float, h: complex) -> str:
     """The warning text for :func:`wrong_sign_resonance` (``term`` names the term and its file)."""
     return (f"{term}: the imaginary part is positive at the resonance near {freq_hz:.6g} Hz (Im G = {h.imag:.3g} m/N); "
             f"millstab's receptance has Im G < 0 at a resonance (e^{{iωt}} convention, G = 1/(k(1 - r^2 + 2iζr))). "
-            f"The data look conjugated (e^{{-iωt}} convention or a negated imaginary column): negate the imaginary "
-            f"part, or the stability limit will be wrong")
+            f"The data look conjugated (the e^{{-iωt}} sign convention, or a negated imaginary column): negate the "
+            f"imaginary part, or the stability limit will be wrong")
 
 
 @dataclass(frozen=True, eq=False)

@@ -62,8 +62,8 @@ def test_angular_frequency_round_trip_on_random_values():
         assert parse_quantity(f"{float(60 * fi)!r} rpm", "fn", "frequency") == pytest.approx(fi, rel=1e-12)
 
 
-@pytest.mark.parametrize("text,rad", [("126.9 deg", math.radians(126.9)), ("2.21 rad", 2.21), ("0.25 turn", math.pi / 2),
-                                      ("100 grad", math.pi / 2), ("1.5", 1.5)])
+@pytest.mark.parametrize("text,rad", [("126.9 deg", math.radians(126.9)), ("2.21 rad", 2.21),
+                                      ("0.25 turn", math.pi / 2), ("100 grad", math.pi / 2), ("1.5", 1.5)])
 def test_angles(text, rad):
     assert parse_quantity(text, "cutting.entry", "angle") == pytest.approx(rad, rel=1e-13)
 
@@ -111,7 +111,8 @@ def test_every_config_quantity_field_refuses_angle_slips(field, old, new):
     assert info.value.field == field
 
 
-@pytest.mark.parametrize("value,words", [('"5000 Hz"', "300000 rpm"), ('"523.6 rad/s"', "5000.0"), ('"5000,5"', "decimal point")])
+@pytest.mark.parametrize("value,words", [('"5000 Hz"', "300000 rpm"), ('"523.6 rad/s"', "5000.0"),
+                                         ('"5000,5"', "decimal point")])
 def test_speeds_in_other_units_are_refused_with_their_rpm(value, words):
     with pytest.raises(InputError) as info:
         parse_config(HEAD.format(fn="903") + f"[speeds]\nstart = {value}\nstop = 6000\nstep = 100\n")

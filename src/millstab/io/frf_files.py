@@ -246,7 +246,8 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
             if data:
                 raise InputError(f"{p.name} line {line_no}", s[:60], "text after the numbers is only allowed on the first data row")
             labels += tok[3:]
-        data.append(tuple(_cell(t, f"{p.name} line {line_no}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
+        where = f"{p.name} line {line_no}"
+        data.append(tuple(_cell(t, f"{where}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
     if not data:
         raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
     f_factors, h_factors = _label_units(labels)
@@ -525,7 +526,8 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
 _MODE_SHARE = 0.5
 
 
-def _band_loss(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], files: Mapping[str, str], lo: float, hi: float) -> str:
+def _band_loss(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], files: Mapping[str, str],
+               lo: float, hi: float) -> str:
     """Why a band mismatch matters, or ``""`` when every term lies inside ``lo..hi`` Hz.
 
     Names the terms that limit the band and, per term that loses data, its strongest response

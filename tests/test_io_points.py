@@ -242,3 +242,34 @@ def test_rpm_file_trailing_comma_is_fine(tmp_path):
     p = tmp_path / "speeds.txt"
     p.write_text("5000,\n6000,\n")
     np.testing.assert_array_equal(read_rpm_file(p), [5000.0, 6000.0])
+
+
+@pytest.mark.parametrize("text,field", [
+    ("rpm;depth_mm\n5500;1,2\n", "line 1"),              # a decimal-comma locale's ';'-separated "CSV"
+    ("rpm\tdepth_mm\n5500\t1,2\n", "line 1"),             # or tab-separated
+    ('rpm,depth_mm\n5500,"1,2"\n', "line 2, depth_mm"),  # a quoted decimal comma
+    ("rpm,depth_mm\n5500,1,2\n", "line 2"),              # an unquoted one splits the cell
+])
+def test_points_decimal_commas_are_named(tmp_path, text, field):
+    """Was 'unknown column' / 'must be a number' / a cell count with no word of the decimal comma."""
+    p = tmp_path / "pts.csv"
+    p.write_text(text)
+    with pytest.raises(InputError, match="decimal point") as info:
+        read_points(p)
+    assert info.value.field == f"pts.csv {field}"
+
+
+def test_points_infinite_depth_is_refused(tmp_path):
+    p = tmp_path / "pts.csv"
+    p.write_text("rpm,depth_mm\n5500,inf\n")
+    with pytest.raises(InputError, match="finite"):
+        read_points(p)
+
+
+def test_json_with_byte_order_mark(tmp_path):
+    """A fit file re-saved by a Windows editor carries a UTF-8 BOM; json.loads refused it."""
+    from millstab.io.results import read_json
+
+    p = tmp_path / "fit.json"
+    p.write_bytes('{"a": 1}'.encode("utf-8-sig"))
+    assert read_json(p) == {"a": 1}

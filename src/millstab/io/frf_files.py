@@ -61,7 +61,7 @@ import numpy as np
 
 from millstab.errors import FRFWarning, InputError, UnitWarning, show
 from millstab.io.results import PathLike, write_csv
-from millstab.io.text import read_text
+from millstab.io.text import COMMA_ADVICE, COMMA_NUMBER, check_comma_separated, parse_number, read_text
 from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
 
 #: extension → format name
@@ -70,22 +70,6 @@ FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
 SUSPICIOUS_RECEPTANCE = 1e-3
 
 _COMMENT = ("#", "%", "!", ";", "//")
-#: a number written with a decimal comma (or a thousands separator): "100,5", "-1,2e-07"
-_COMMA_NUMBER = re.compile(r"[-+]?\d*,\d+([eE][-+]?\d+)?")
-_COMMA_ADVICE = "decimal commas are not accepted: write numbers with a decimal point (100.5, not 100,5)"
-
-
-def _cell(text: str, where: str) -> float:
-    """One number of a data row; a decimal comma, text, NaN or infinity is refused naming ``where``."""
-    try:
-        x = float(text)
-    except ValueError:
-        if _COMMA_NUMBER.fullmatch(text.strip()):
-            raise InputError(where, text, _COMMA_ADVICE) from None
-        raise InputError(where, text, "must be a number") from None
-    if not math.isfinite(x):
-        raise InputError(where, text, "must be a finite number (not inf or nan)")
-    return x
 
 
 def _check_axis(freq: np.ndarray, h: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
@@ -126,11 +110,7 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
         raise InputError(str(p), "empty file", f"expected a header {','.join(required)} and rows")
     names = [c.strip().lower() for c in rows[0][1]]
-    if len(names) == 1 and re.search(r"[;\t]", names[0]):  # a spreadsheet's "CSV" in a decimal-comma locale
-        sep = "';'" if ";" in names[0] else "tabs"
-        raise InputError(f"{p.name} line {rows[0][0]}", lines[rows[0][0] - 1],
-                         f"columns are separated by {sep}; a CSV must separate them with commas and write "
-                         f"numbers with a decimal point (header {','.join(required)})")
+    check_comma_separated(names, f"{p.name} line {rows[0][0]}", lines[rows[0][0] - 1], ",".join(required))
     for n in names:
         if n not in required:
             raise InputError(f"{p.name} header", n, f"unknown column; the columns are {', '.join(required)} (Hz, m/N)")
@@ -144,10 +124,10 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     for k, (line, r) in enumerate(rows[1:]):
         if len(r) != len(names):
             text = lines[line - 1]
-            comma = f"; {_COMMA_ADVICE}" if len(r) > len(names) and re.search(r"\d,\d", text) else ""
+            comma = f"; {COMMA_ADVICE}" if len(r) > len(names) and re.search(r"\d,\d", text) else ""
             raise InputError(f"{p.name} line {line}", text, f"expected {len(names)} cells, found {len(r)}{comma}")
         for j, n in enumerate(required):
-            out[k, j] = _cell(r[col[n]].strip(), f"{p.name} line {line}, {n}")
+            out[k, j] = parse_number(r[col[n]].strip(), f"{p.name} line {line}, {n}")
     return _check_axis(out[:, 0].copy(), out[:, 1] + 1j * out[:, 2], p.name)
 
 
@@ -210,8 +190,8 @@ def _receptance_unit(token: str) -> float | None:
 def _refuse_commas(tok: list[str], where: str, line: str) -> None:
     """Refuse a row with a decimal comma (``100,5``) or comma-separated numbers (``100.5,1e-7``)."""
     for t in tok:
-        if _COMMA_NUMBER.fullmatch(t):
-            raise InputError(where, line[:60], f"{t!r}: {_COMMA_ADVICE}")
+        if COMMA_NUMBER.fullmatch(t):
+            raise InputError(where, line[:60], f"{t!r}: {COMMA_ADVICE}")
         parts = [x for x in t.split(",") if x]
         if "," in t and parts and all(_is_number(x) for x in parts):
             raise InputError(where, line[:60], "numbers separated by commas: a .frf file separates its columns "
@@ -247,7 +227,7 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
                 raise InputError(f"{p.name} line {line_no}", s[:60], "text after the numbers is only allowed on the first data row")
             labels += tok[3:]
         where = f"{p.name} line {line_no}"
-        data.append(tuple(_cell(t, f"{where}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
+        data.append(tuple(parse_number(t, f"{where}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
     if not data:
         raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
     f_factors, h_factors = _label_units(labels)
@@ -300,7 +280,7 @@ def _uff_comma_hint(p: Path) -> str:
         return ""
     for no, line in enumerate(text.splitlines(), start=1):
         if re.search(r"\d,\d", line):
-            return f"; line {no} ({line.strip()[:40]!r}) has a decimal comma: {_COMMA_ADVICE}"
+            return f"; line {no} ({line.strip()[:40]!r}) has a decimal comma: {COMMA_ADVICE}"
     return ""
 
 

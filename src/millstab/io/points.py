@@ -18,7 +18,7 @@ File format (UTF-8 CSV, header required, columns in any order)::
 from __future__ import annotations
 
 import csv
-import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
@@ -27,7 +27,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
-from millstab.io.text import read_text
+from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 
 REQUIRED = ("rpm", "depth_mm")
 OPTIONAL = ("label", "weight")
@@ -111,13 +111,7 @@ class PointSet:
 
 
 def _number(text: str, field: str, line: int, path: Path) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise InputError(f"{path.name} line {line}, {field}", text, "must be a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{path.name} line {line}, {field}", text, "must be a finite number")
-    return x
+    return parse_number(text, f"{path.name} line {line}, {field}")
 
 
 def read_points(path: PathLike) -> PointSet:
@@ -137,6 +131,7 @@ def read_points(path: PathLike) -> PointSet:
         raise InputError("points file", str(p), f"is empty; expected a header {','.join(REQUIRED + OPTIONAL)} and rows")
     header_line, header = rows[0]
     names = [h.strip().lower() for h in header]
+    check_comma_separated(names, f"{p.name} line {header_line}", ",".join(header), ",".join(REQUIRED + OPTIONAL))
     allowed = REQUIRED + OPTIONAL
     for h in names:
         if h not in allowed:
@@ -154,7 +149,10 @@ def read_points(path: PathLike) -> PointSet:
     rpm, depth, label, weight = [], [], [], []
     for line, row in rows[1:]:
         if len(row) > len(names):
-            raise InputError(f"{p.name} line {line}", ",".join(row), f"has {len(row)} cells but the header has {len(names)}")
+            # "5500,1,2" under a two-column header is most often a decimal comma (1,2 mm)
+            comma = f"; if a number has a decimal comma: {COMMA_ADVICE}" if re.search(r"\d,\d", ",".join(row)) else ""
+            raise InputError(f"{p.name} line {line}", ",".join(row),
+                             f"has {len(row)} cells but the header has {len(names)}{comma}")
         cells = [c.strip() for c in row] + [""] * (len(names) - len(row))
         r = _number(cells[col["rpm"]], "rpm", line, p)
         d = _number(cells[col["depth_mm"]], "depth_mm", line, p)

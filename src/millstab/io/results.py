@@ -27,6 +27,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.io.text import read_text
 
 PathLike = str | os.PathLike[str]
 
@@ -147,7 +148,7 @@ def read_json(path: PathLike) -> Any:
     if not p.is_file():
         raise InputError("json file", str(p), "file does not exist")
     try:
-        return json.loads(p.read_text(encoding="utf-8"))
+        return json.loads(read_text(p, "json file", "JSON text file"))  # a BOM from a Windows editor is fine
     except json.JSONDecodeError as exc:
         raise InputError(str(p), f"line {exc.lineno}, column {exc.colno}", f"not valid JSON: {exc.msg}") from None
 

@@ -9,6 +9,8 @@ where a caller names a fallback (CutPro writes Windows-1252 text, e.g. a "µm/N"
 from __future__ import annotations
 
 import codecs
+import math
+import re
 from pathlib import Path
 
 from millstab.errors import InputError
@@ -45,3 +47,30 @@ def read_text(path: Path, field: str, what: str = "text file", fallback: str | N
             return raw.decode(fallback, errors="replace")
         raise InputError(field, str(path), f"must be a UTF-8 {what} (byte 0x{raw[exc.start]:02X} at offset "
                                            f"{exc.start} is not UTF-8; save the file as UTF-8)") from None
+
+
+#: a number written with a decimal comma (or a thousands separator): "100,5", "-1,2e-07"
+COMMA_NUMBER = re.compile(r"[-+]?\d*,\d+([eE][-+]?\d+)?")
+COMMA_ADVICE = "decimal commas are not accepted: write numbers with a decimal point (100.5, not 100,5)"
+
+
+def parse_number(text: str, where: str) -> float:
+    """One number of a CSV cell; a decimal comma, text, NaN or infinity is refused naming ``where``."""
+    try:
+        x = float(text)
+    except ValueError:
+        if COMMA_NUMBER.fullmatch(text.strip()):
+            raise InputError(where, text, COMMA_ADVICE) from None
+        raise InputError(where, text, "must be a number") from None
+    if not math.isfinite(x):
+        raise InputError(where, text, "must be a finite number (not inf or nan)")
+    return x
+
+
+def check_comma_separated(header: list[str], where: str, line: str, columns: str) -> None:
+    """Refuse a header that is one cell holding ';' or tabs: a spreadsheet's "CSV" written in a
+    decimal-comma locale, whose numbers would then be misread. ``columns`` names the expected header."""
+    if len(header) == 1 and re.search(r"[;\t]", header[0]):
+        sep = "';'" if ";" in header[0] else "tabs"
+        raise InputError(where, line, f"columns are separated by {sep}; a CSV must separate them with commas and "
+                                      f"write numbers with a decimal point (header {columns})")

@@ -29,13 +29,16 @@ def lobes(
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""
     from millstab.io import load_config, read_points, write_csv
+    from millstab.io.outputs import check_outputs, config_inputs
     from millstab.stability import get_engine
 
     cfg = load_config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
     pts = read_points(points) if points else None
+    inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
+    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before the work
+    protect = [p for p in inputs.values() if p]
     env = get_engine(engine).envelope(cfg.structure, cfg.cutting, speeds)
-    protect = [p for p in (cfg.path, points, rpm_file) if p]
     finite = np.isfinite(env.depth)
     i_min = int(np.argmin(np.where(finite, env.depth, np.inf)))
     typer.echo(f"{cfg.name}: {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm ({engine}); "

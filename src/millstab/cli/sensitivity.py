@@ -5,16 +5,14 @@ Each method is its own subcommand with its own options and help; they share one 
 
 from __future__ import annotations
 
-import sys
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Iterator, List, Optional
+from typing import Annotated, List, Optional
 
 import numpy as np
 import typer
 from typer.core import TyperGroup
 
-from millstab.cli.app import app, select_rpm
+from millstab.cli.app import app, progress_bar, select_rpm
 from millstab.errors import InputError
 
 #: speed range when neither the command line nor the config gives one [rpm]
@@ -50,25 +48,6 @@ def _parse_bounds(items: List[str]) -> dict[str, tuple[float, float]]:
         except ValueError:
             raise InputError("--bound", item, "expected NAME=LOWER:UPPER in SI units, e.g. fn_x=850:950") from None
     return out
-
-
-@contextmanager
-def _progress(label: str, enabled: bool) -> Iterator:
-    """A rich progress bar on stderr (only on a terminal); yields a ``(done, total)`` callback."""
-    if not enabled or not sys.stderr.isatty():
-        yield None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
-                  console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(label, total=None)
-
-        def update(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        yield update
 
 
 def _fmt_row(label: str, values, width: int = 11) -> str:
@@ -256,7 +235,7 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
             eps_val = 0.01 if eps is None else float(eps)
         except ValueError:
             raise InputError("--eps", eps, "for mc: one relative change, e.g. 0.01") from None
-        with _progress(f"Monte Carlo, {n_val} paths", True) as cb:
+        with progress_bar(f"Monte Carlo, {n_val} paths") as cb:
             res = monte_carlo(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, eps=eps_val, seed=seed, theta=theta,
                               engine=engine, progress=cb)
         paper = table6() if set(res.names) == set(table6()) else None
@@ -278,7 +257,7 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
         bounds = _parse_bounds(bound)
         n_val = DEFAULT_N[method] if n is None else n
         label = f"{method}: evaluating structures"
-        with _progress(label, True) as cb:
+        with progress_bar(label) as cb:
             if method == "sobol":
                 res = sobol(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, bounds=bounds, seed=seed, theta=theta,
                             engine=engine, progress=cb)

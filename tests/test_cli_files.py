@@ -263,3 +263,14 @@ def test_sensitivity_json_names_the_paper_table(shop, tmp_path):
     out = tmp_path / "o.json"
     assert main(["sensitivity", "oat", "example:ex1", *SPEEDS, "--preset", "paper", "--eps", "0.1", "--out", str(out)]) == 0
     assert "tab:" not in json.loads(out.read_text())["centre_source"]
+
+
+def test_ctrl_c_exits_130_without_a_traceback(monkeypatch, capsys):
+    from millstab.stability import zoa
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(zoa, "envelope", interrupted)
+    assert main(["lobes", "example:ex1", *SPEEDS]) == 130
+    assert "Traceback" not in capsys.readouterr().err

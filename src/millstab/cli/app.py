@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Callable, Iterator
 
 import numpy as np
 import typer
@@ -86,6 +89,32 @@ def select_rpm(rpm: str | None, rpm_file: Path | None, default: np.ndarray | Non
     if default is not None:
         return np.asarray(default, dtype=float)
     return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
+
+
+@contextmanager
+def progress_bar(label: str) -> Iterator[Callable[[int, int], None] | None]:
+    """A transient rich progress bar on stderr (only on a terminal); yields a ``(done, total)``
+    callback, or None when stderr is not a terminal (pipes and logs get no bar)."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
+                  console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(label, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
+def engine_progress(update: Callable[[int, int], None] | None) -> dict:
+    """Keyword arguments that connect an engine's ``progress(stage, done, total)`` to a bar's
+    ``update(done, total)`` (empty without a bar)."""
+    return {} if update is None else {"progress": lambda stage, done, total: update(done, total)}
 
 
 @app.callback()

@@ -45,14 +45,15 @@ def design(
 
     from millstab.identify.design import design_speeds
     from millstab.io import load_config, read_points
-    from millstab.io.results import check_not_protected, read_json, write_csv
+    from millstab.io.results import read_json, write_csv
     from millstab.params import Parameterization
 
     cfg = load_config(config)
-    protect = [p for p in (cfg.path, points, fit) if p]
-    for p in (out, plot):  # fail before the work, not after
-        if p is not None:
-            check_not_protected(p, protect)
+    from millstab.io.outputs import check_outputs, config_inputs
+
+    inputs = {**config_inputs(cfg), "--points": points, "--fit": fit}
+    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # fail before the work, not after
+    protect = [p for p in inputs.values() if p]
     if not cfg.structure.is_modal:
         raise InputError("structure", "measured FRF", "planning needs a modal structure ([[structure.x]] modes)")
     if rpm:

@@ -50,12 +50,12 @@ def identify(
         raise InputError("--loss", loss, "a robust loss applies to --method lsq only")
     cfg = load_config(config)
     pts = read_points(points)
-    protect = [p for p in (cfg.path, points) if p]
-    for p in (out, plot, history_plot):  # fail before the work, not after
-        if p is not None:
-            from millstab.io.results import check_not_protected
+    from millstab.io.outputs import check_outputs, config_inputs
 
-            check_not_protected(p, protect)
+    inputs = {**config_inputs(cfg), "POINTS": points}
+    check_outputs(inputs, {"--out": out, "--plot": plot, "--history-plot": history_plot},
+                  figures=("--plot", "--history-plot"))  # fail before the work, not after
+    protect = [p for p in inputs.values() if p]
     console = Console(stderr=True)
     options = {"loss": loss} if method == "lsq" else {}
     if quiet:

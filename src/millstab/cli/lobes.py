@@ -8,7 +8,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from millstab.cli.app import app, select_rpm
+from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
 from millstab.errors import InputError
 
 #: speed range when neither the command line nor the config gives one [rpm]
@@ -29,22 +29,24 @@ def lobes(
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""
     from millstab.io import load_config, read_points, write_csv
-    from millstab.stability import get_engine
+    from millstab.io.outputs import check_outputs, config_inputs
 
+    if compare and compare == engine:
+        raise InputError("--compare", compare, f"must differ from --engine ({engine})")
     cfg = load_config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
     pts = read_points(points) if points else None
-    env = get_engine(engine).envelope(cfg.structure, cfg.cutting, speeds)
-    protect = [p for p in (cfg.path, points, rpm_file) if p]
+    inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
+    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before the work
+    protect = [p for p in inputs.values() if p]
+    env = _envelope(engine, cfg, speeds)
     finite = np.isfinite(env.depth)
     i_min = int(np.argmin(np.where(finite, env.depth, np.inf)))
     typer.echo(f"{cfg.name}: {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm ({engine}); "
                f"minimum limit {env.depth_mm[i_min]:.4g} mm at {speeds[i_min]:.6g} rpm")
     others = []
     if compare:
-        if compare == engine:
-            raise InputError("--compare", compare, f"must differ from --engine ({engine})")
-        other = get_engine(compare).envelope(cfg.structure, cfg.cutting, speeds)
+        other = _envelope(compare, cfg, speeds)
         ok = np.isfinite(other.depth) & finite
         rel = np.abs(other.depth[ok] / env.depth[ok] - 1)
         typer.echo(f"{compare} vs {engine}: max |difference| {100 * rel.max():.2f} % at "
@@ -66,3 +68,14 @@ def lobes(
                        title=f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g}")
         save_figure(fig, plot, protect=protect)
         typer.echo(f"wrote {plot}")
+
+
+def _envelope(engine: str, cfg, speeds: np.ndarray):
+    """The engine's envelope; the semi-discretization (seconds to minutes) with a progress bar on a terminal."""
+    from millstab.stability import get_engine
+
+    eng = get_engine(engine)
+    if engine != "sdm":
+        return eng.envelope(cfg.structure, cfg.cutting, speeds)
+    with progress_bar(f"{engine}: speeds") as update:
+        return eng.envelope(cfg.structure, cfg.cutting, speeds, **engine_progress(update))

@@ -10,6 +10,9 @@ import typer
 
 from millstab.cli.app import app
 
+#: the kinds of file the report writes into its folder (report.md/.html, tables as CSV, figures as PNG)
+REPORT_KINDS = (".md", ".html", ".csv", ".png")
+
 
 @app.command()
 def reproduce(
@@ -23,7 +26,13 @@ def reproduce(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from millstab import reproduce as rp
+    from millstab.io import read_points
+    from millstab.io.outputs import check_outputs
 
+    # fail before the work: a bad points file or report folder must not wait for the minutes of steps 1-2
+    if points is not None:
+        read_points(points)
+    check_outputs({"--points": points}, {"--out": out}, folders={"--out": REPORT_KINDS})
     console = Console(stderr=True)
     names = [n for n, _ in rp.steps()]
     t0 = time.perf_counter()

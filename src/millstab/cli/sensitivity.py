@@ -1,16 +1,18 @@
-"""``millstab sensitivity oat|mc|sobol|morris CONFIG``: sensitivity of the SLD to the modal parameters."""
+"""``millstab sensitivity oat|mc|sobol|morris CONFIG``: sensitivity of the SLD to the modal parameters.
+
+Each method is its own subcommand with its own options and help; they share one body (:func:`_run`).
+"""
 
 from __future__ import annotations
 
-import sys
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator, List, Optional
+from typing import Annotated, List, Optional
 
 import numpy as np
 import typer
+from typer.core import TyperGroup
 
-from millstab.cli.app import app, select_rpm
+from millstab.cli.app import app, progress_bar, select_rpm
 from millstab.errors import InputError
 
 #: speed range when neither the command line nor the config gives one [rpm]
@@ -48,25 +50,6 @@ def _parse_bounds(items: List[str]) -> dict[str, tuple[float, float]]:
     return out
 
 
-@contextmanager
-def _progress(label: str, enabled: bool) -> Iterator:
-    """A rich progress bar on stderr (only on a terminal); yields a ``(done, total)`` callback."""
-    if not enabled or not sys.stderr.isatty():
-        yield None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
-                  console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(label, total=None)
-
-        def update(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        yield update
-
-
 def _fmt_row(label: str, values, width: int = 11) -> str:
     return f"{label:<22}" + "".join(f"{v:>{width}.5f}" if np.isfinite(v) else f"{'-':>{width}}" for v in values)
 
@@ -90,58 +73,133 @@ def _mc_table(res, paper: dict | None, paper_comparable: bool) -> str:
     return "\n".join(lines)
 
 
-@app.command()
-def sensitivity(
-    method: str = typer.Argument(..., help="oat (one-at-a-time), mc (Monte Carlo, Table 6), sobol or morris."),
-    config: str = typer.Argument(..., help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute)."),
-    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min)."),
-    rpm_file: Optional[Path] = typer.Option(None, "--rpm-file", help="Speeds, one per line or an 'rpm' CSV column."),
-    n: Optional[int] = typer.Option(None, "--n", help="mc: paths (10000); sobol: base sample, power of 2 (1024); "
-                                    "morris: trajectories (50)."),
-    t: Optional[float] = typer.Option(None, "--t", help="Neighbourhood half-width: parameters in [(1-t)p, (1+t)p] (0.1)."),
-    eps: Optional[str] = typer.Option(None, "--eps", help="mc: relative change (0.01); oat: grid START:STOP:STEP or "
-                                      "comma list (-0.25:0.25:0.05)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed (mc, sobol, morris); same seed, same numbers."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Result JSON (MSE in mm^2)."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
-    preset: Optional[str] = typer.Option(None, "--preset", help="paper: the seed paper's settings (oat grid "
-                                         "-0.20:0.20:0.05; N 10000, t 0.1, eps 0.01) centred on its predicted "
-                                         "parameters (tab:results_fourier) when CONFIG is its Ex.1/2/3."),
-    bound: List[str] = typer.Option([], "--bound", help="sobol/morris: NAME=LOWER:UPPER [SI] replacing the ±t range; "
-                                    "repeatable."),
-    levels: int = typer.Option(4, "--levels", help="morris: grid levels (even)."),
+class _MethodGroup(TyperGroup):
+    """The ``sensitivity`` group: an unknown METHOD is an InputError (one line, exit 2), as before the
+    methods became subcommands, not a usage panel."""
+
+    def resolve_command(self, ctx, args):
+        if args and not args[0].startswith("-") and args[0] not in self.commands:
+            raise InputError("METHOD", args[0], f"must be one of {', '.join(METHODS)}")
+        return super().resolve_command(ctx, args)
+
+
+sensitivity_app = typer.Typer(
+    cls=_MethodGroup, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    help="Sensitivity of the stability lobe diagram of CONFIG to each modal parameter (MSE in mm^2): "
+         "oat (one at a time, the paper's Fig. SENS), mc (Monte Carlo, the paper's Table 6), sobol or morris.")
+app.add_typer(sensitivity_app, name="sensitivity")
+
+# options every method takes (typer.Option objects are shared read-only between the commands)
+ConfigArg = Annotated[str, typer.Argument(help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute).")]
+RpmOpt = Annotated[Optional[str], typer.Option("--rpm", help="Speeds START:STOP:STEP (rev/min).")]
+RpmFileOpt = Annotated[Optional[Path], typer.Option("--rpm-file", help="Speeds, one per line or an 'rpm' CSV column.")]
+OutOpt = Annotated[Optional[Path], typer.Option("--out", help="Result JSON (MSE in mm^2).")]
+PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Figure (.png, .svg or .pdf).")]
+EngineOpt = Annotated[str, typer.Option("--engine", help="Stability engine: zoa or sdm.")]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers.")]
+TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-width: each parameter drawn from "
+                                                         "[(1-t)p, (1+t)p] (0.1).")]
+BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
+                                                             "parameter, e.g. fn_x=850:950; repeatable.")]
+_CENTRE = "centre on the paper's predicted parameters (its Table 3, Newton results) when CONFIG is its Ex.1, 2 or 3"
+
+
+@sensitivity_app.command("oat")
+def oat_command(
+    config: ConfigArg,
+    rpm: RpmOpt = None,
+    rpm_file: RpmFileOpt = None,
+    eps: Annotated[Optional[str], typer.Option("--eps", help="Relative changes: START:STOP:STEP or a comma list "
+                                                             "(-0.25:0.25:0.05).")] = None,
+    preset: Annotated[Optional[str], typer.Option("--preset", help=f"paper: the paper's grid -0.20:0.20:0.05 and "
+                                                                   f"{_CENTRE}.")] = None,
+    engine: EngineOpt = "zoa",
+    out: OutOpt = None,
+    plot: PlotOpt = None,
 ) -> None:
-    """Sensitivity of the stability lobe diagram of CONFIG to each modal parameter (MSE in mm^2)."""
+    """One at a time (the paper's Fig. SENS): the MSE between the SLD and the SLD with one parameter
+    changed by each relative change in --eps, the others kept."""
+    _run("oat", config, rpm, rpm_file, None, None, eps, 0, out, plot, engine, preset, [], 4)
+
+
+@sensitivity_app.command("mc")
+def mc_command(
+    config: ConfigArg,
+    rpm: RpmOpt = None,
+    rpm_file: RpmFileOpt = None,
+    n: Annotated[Optional[int], typer.Option("--n", help="Monte Carlo paths (10000).")] = None,
+    t: TOpt = None,
+    eps: Annotated[Optional[str], typer.Option("--eps", help="Relative change of a parameter on each path (0.01).")] = None,
+    seed: SeedOpt = 0,
+    preset: Annotated[Optional[str], typer.Option("--preset", help=f"paper: {_CENTRE} (the defaults are the paper's "
+                                                                   "N 10 000, t 0.1, eps 0.01).")] = None,
+    engine: EngineOpt = "zoa",
+    out: OutOpt = None,
+    plot: PlotOpt = None,
+) -> None:
+    """Monte Carlo (the paper's Algorithm 2 and Table 6): mean and SD over --n random structures within
+    ±t of the centre of the MSE caused by a relative change --eps of each parameter."""
+    _run("mc", config, rpm, rpm_file, n, t, eps, seed, out, plot, engine, preset, [], 4)
+
+
+@sensitivity_app.command("sobol")
+def sobol_command(
+    config: ConfigArg,
+    rpm: RpmOpt = None,
+    rpm_file: RpmFileOpt = None,
+    n: Annotated[Optional[int], typer.Option("--n", help="Base sample, a power of 2 (1024).")] = None,
+    t: TOpt = None,
+    bound: BoundOpt = [],  # noqa: B006 (typer's default for a repeatable option)
+    seed: SeedOpt = 0,
+    preset: Annotated[Optional[str], typer.Option("--preset", help=f"paper: {_CENTRE}.")] = None,
+    engine: EngineOpt = "zoa",
+    out: OutOpt = None,
+    plot: PlotOpt = None,
+) -> None:
+    """Sobol' indices (first order S1 and total ST) of the MSE, the minimum limiting depth and b_lim
+    at each speed, with parameters uniform within ±t of the centre (or --bound)."""
+    _run("sobol", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, 4)
+
+
+@sensitivity_app.command("morris")
+def morris_command(
+    config: ConfigArg,
+    rpm: RpmOpt = None,
+    rpm_file: RpmFileOpt = None,
+    n: Annotated[Optional[int], typer.Option("--n", help="Trajectories (50).")] = None,
+    levels: Annotated[int, typer.Option("--levels", help="Grid levels (even).")] = 4,
+    t: TOpt = None,
+    bound: BoundOpt = [],  # noqa: B006
+    seed: SeedOpt = 0,
+    preset: Annotated[Optional[str], typer.Option("--preset", help=f"paper: {_CENTRE}.")] = None,
+    engine: EngineOpt = "zoa",
+    out: OutOpt = None,
+    plot: PlotOpt = None,
+) -> None:
+    """Morris elementary effects (mu* and sigma) of the MSE and the minimum limiting depth: a cheap
+    screening of which parameters matter, with parameters within ±t of the centre (or --bound)."""
+    _run("morris", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, levels)
+
+
+def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: int | None, t: float | None,
+         eps: str | None, seed: int, out: Path | None, plot: Path | None, engine: str, preset: str | None,
+         bound: List[str], levels: int) -> None:
+    """The body every method shares: read, check the outputs, compute, print, save."""
     from millstab.io import load_config, write_json
+    from millstab.io.outputs import check_outputs, config_inputs
     from millstab.sensitivity import (PAPER_EPS_GRID, match_example, monte_carlo, morris, oat, predicted_theta, sobol,
                                       table6)
     from millstab.stability import ENGINES
 
-    if method not in METHODS:
-        raise InputError("METHOD", method, f"must be one of {', '.join(METHODS)}")
     if preset is not None and preset not in PRESETS:
         raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"must be one of {', '.join(ENGINES)}")
-    if method in ("oat",) and (n is not None or t is not None):
-        raise InputError("--n" if n is not None else "--t", n if n is not None else t, "oat takes no --n or --t (it perturbs the centre itself)")
-    if method not in ("sobol", "morris") and bound:
-        raise InputError("--bound", bound[0], "only sobol and morris take input bounds")
     cfg = load_config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
-    protect = [p for p in (cfg.path, rpm_file) if p]
-    if out and plot and Path(out).resolve() == Path(plot).resolve():
-        raise InputError("--plot", str(plot), "must differ from --out")
-    # refuse bad output paths before a long run, not after it
-    from millstab.io.results import check_not_protected
-    from millstab.plot import FORMATS
-
-    for path in (out, plot):
-        if path:
-            check_not_protected(path, protect)
-    if plot and plot.suffix.lower() not in FORMATS:
-        raise InputError("--plot", str(plot), f"extension must be one of {', '.join(FORMATS)}")
+    inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
+    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
+    protect = [p for p in inputs.values() if p]
     if not cfg.structure.is_modal:
         raise InputError("structure", "measured FRF", "sensitivity studies need modal parameters (fn, k, zeta) in the config")
 
@@ -150,7 +208,7 @@ def sensitivity(
     if preset == "paper":
         if example:
             theta = predicted_theta(example)
-            centre_note = f"the paper's {example} predicted values (tab:results_fourier)"
+            centre_note = f"the paper's {example} predicted values (its Table 3)"
         else:
             centre_note += " (not a paper example: --preset paper sets only the paper's settings)"
     t_val = 0.1 if t is None else t
@@ -177,7 +235,7 @@ def sensitivity(
             eps_val = 0.01 if eps is None else float(eps)
         except ValueError:
             raise InputError("--eps", eps, "for mc: one relative change, e.g. 0.01") from None
-        with _progress(f"Monte Carlo, {n_val} paths", True) as cb:
+        with progress_bar(f"Monte Carlo, {n_val} paths") as cb:
             res = monte_carlo(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, eps=eps_val, seed=seed, theta=theta,
                               engine=engine, progress=cb)
         paper = table6() if set(res.names) == set(table6()) else None
@@ -199,7 +257,7 @@ def sensitivity(
         bounds = _parse_bounds(bound)
         n_val = DEFAULT_N[method] if n is None else n
         label = f"{method}: evaluating structures"
-        with _progress(label, True) as cb:
+        with progress_bar(label) as cb:
             if method == "sobol":
                 res = sobol(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, bounds=bounds, seed=seed, theta=theta,
                             engine=engine, progress=cb)

@@ -3,16 +3,19 @@
 * :mod:`millstab.io.config` -- TOML configs with explicit units → :class:`Config`.
 * :mod:`millstab.io.points` -- boundary points / labelled test cuts CSV → :class:`PointSet`.
 * :mod:`millstab.io.frf_files` -- measured FRFs from CSV, CutPro ``.frf`` and UFF58 files.
-* :mod:`millstab.io.results` -- atomic JSON/CSV writers that refuse to overwrite input files.
+* :mod:`millstab.io.results` -- atomic JSON/CSV/figure writers that refuse to overwrite input files.
+* :mod:`millstab.io.outputs` -- a run's output paths checked before the work (inputs, duplicates, folders).
 """
 
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config, write_config
 from millstab.io.frf_files import (list_uff_records, load_measured_frf, read_frf, read_frf_csv, read_frf_cutpro,
                                    read_frf_uff, write_frf_csv)
 from millstab.io.points import PointSet, check_enough, read_points, write_points
-from millstab.io.results import atomic_write_text, read_json, to_jsonable, write_csv, write_json
+from millstab.io.outputs import check_outputs, config_inputs
+from millstab.io.results import atomic_write_text, read_json, to_jsonable, write_csv, write_figure, write_json
 
-__all__ = ["Config", "PointSet", "atomic_write_text", "check_enough", "config_from_dict", "config_to_toml",
+__all__ = ["Config", "PointSet", "atomic_write_text", "check_enough", "check_outputs", "config_from_dict",
+           "config_inputs", "config_to_toml",
            "list_uff_records", "load_config", "load_measured_frf", "parse_config", "read_frf", "read_frf_csv",
            "read_frf_cutpro", "read_frf_uff", "read_json", "read_points", "to_jsonable", "write_config", "write_csv",
-           "write_frf_csv", "write_json", "write_points"]
+           "write_figure", "write_frf_csv", "write_json", "write_points"]

@@ -1,7 +1,7 @@
-"""Writing results (JSON, CSV) without ever losing a user's file.
+"""Writing results (JSON, CSV, figures) without ever losing a user's file.
 
-Every writer here goes through :func:`atomic_write_text`: the text is written to a temporary file in
-the target's directory and then moved over the target with :func:`os.replace`, so a crash or a full
+Every writer here goes through one atomic writer: the data are written to a temporary file in the
+target's directory and then moved over the target with :func:`os.replace`, so a crash or a full
 disk leaves either the old file or the new one, never half of either. Writers take ``protect``, the
 input files of the run; writing over one of them is refused with :class:`InputError`, because
 ``millstab identify cuts.csv -o cuts.csv`` would otherwise silently destroy the measurements.
@@ -22,7 +22,7 @@ import math
 import os
 import secrets
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, BinaryIO, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -54,11 +54,13 @@ def check_not_protected(path: PathLike, protect: Iterable[PathLike] = ()) -> Pat
     return target
 
 
-def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (), encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically (temp file in the same directory, then os.replace).
+def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: Iterable[PathLike] = ()) -> Path:
+    """Write a file atomically: ``write(fh)`` fills a temporary file in the target's directory, which
+    then replaces the target with :func:`os.replace`.
 
-    Parent directories are created. The new file gets the usual permissions (0666 minus umask), or
-    the permissions of the file it replaces.
+    The temporary file is created with ``os.open(..., 0o666)`` so the umask applies, as for any file
+    a program creates (``tempfile.mkstemp`` would give 0600, and an os.replace keeps that mode: a
+    report served from a shared folder then cannot be read). A file that is replaced keeps its mode.
 
     Raises:
         InputError: ``path`` is one of ``protect``, is a directory, or cannot be written.
@@ -70,15 +72,14 @@ def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError("output", str(target), f"cannot create the directory {target.parent}: {exc.strerror}") from None
-    # os.open with mode 0o666 lets the umask apply (mkstemp would create 0600 files)
     tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     except OSError as exc:
         raise InputError("output", str(target), f"cannot write in {target.parent}: {exc.strerror}") from None
     try:
-        with os.fdopen(fd, "w", encoding=encoding, newline="") as fh:
-            fh.write(text)
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         if target.exists():
@@ -94,6 +95,35 @@ def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (
             pass
         raise
     return target
+
+
+def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (), encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (temp file in the same directory, then os.replace).
+
+    Parent directories are created. The new file gets the usual permissions (0666 minus umask), or
+    the permissions of the file it replaces.
+
+    Raises:
+        InputError: ``path`` is one of ``protect``, is a directory, or cannot be written.
+    """
+    data = text.encode(encoding)
+    return _atomic_write(path, lambda fh: fh.write(data), protect)
+
+
+def write_figure(fig, path: PathLike, protect: Iterable[PathLike] = (), dpi: int = 150) -> Path:
+    """Save a matplotlib figure as PNG, SVG or PDF (by the extension of ``path``) atomically, with
+    the same permissions as every other output (0666 minus umask); the figure is not closed.
+
+    Raises:
+        InputError: unknown extension, a protected input file, or a path that cannot be written.
+    """
+    from millstab.io.outputs import FIGURE_FORMATS
+
+    p = Path(path)
+    fmt = p.suffix.lower()
+    if fmt not in FIGURE_FORMATS:
+        raise InputError("plot file", str(path), f"extension must be one of {', '.join(FIGURE_FORMATS)}")
+    return _atomic_write(p, lambda fh: fig.savefig(fh, dpi=dpi, bbox_inches="tight", format=fmt[1:]), protect)
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -195,4 +225,4 @@ def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[
     return atomic_write_text(path, buf.getvalue(), protect)
 
 
-__all__ = ["atomic_write_text", "check_not_protected", "read_json", "to_jsonable", "write_csv", "write_json"]
+__all__ = ["atomic_write_text", "check_not_protected", "read_json", "to_jsonable", "write_csv", "write_figure", "write_json"]

@@ -12,32 +12,20 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only; never needs a display
 
-from millstab.errors import InputError  # noqa: E402
-
-FORMATS = (".png", ".svg", ".pdf")
+from millstab.io.outputs import FIGURE_FORMATS as FORMATS  # noqa: E402
 
 
 def save_figure(fig, path: str | Path, protect=()) -> Path:
-    """Save a figure as PNG, SVG or PDF (by extension) through a temporary file, then close it."""
-    import os
-    import tempfile
+    """Save a figure as PNG, SVG or PDF (by extension) through the io layer's atomic writer, then close it.
 
-    from millstab.io.results import check_not_protected
+    Raises:
+        InputError: unknown extension, ``path`` is one of ``protect``, or it cannot be written.
+    """
+    import matplotlib.pyplot as plt
 
-    p = Path(path)
-    if p.suffix.lower() not in FORMATS:
-        raise InputError("plot file", str(path), f"extension must be one of {', '.join(FORMATS)}")
-    check_not_protected(p, protect)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, suffix=p.suffix)
-    os.close(fd)
+    from millstab.io.results import write_figure
+
     try:
-        fig.savefig(tmp, dpi=150, bbox_inches="tight", format=p.suffix[1:].lower())
-        os.replace(tmp, p)
+        return write_figure(fig, path, protect=protect)
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        import matplotlib.pyplot as plt
-
         plt.close(fig)
-    return p

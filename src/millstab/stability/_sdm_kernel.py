@@ -565,12 +565,13 @@ def _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
 
 
 @nb.njit(cache=True, parallel=True)
-def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, mass, mdir, act, out):
+def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, mass, mdir, act, first, last, out):
     """ρ (S, Dp) at speeds rpm (S,) and depths depth (Dp,) [m]; steps (S,) steps per tooth period;
-    ``rich``: multiplier-wise Richardson extrapolation from the grid and its halving."""
-    n_s = rpm.size
+    ``rich``: multiplier-wise Richardson extrapolation from the grid and its halving. Only the speeds
+    first..last-1 are computed (the caller runs the grid in chunks, to stay interruptible)."""
     n_d = depth.size
-    for s in nb.prange(n_s):
+    for q in nb.prange(last - first):
+        s = first + q
         g1 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 1, wn, zeta, act)
         g2 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 2 if rich else 1, wn, zeta, act)
         for k in range(n_d):
@@ -654,12 +655,14 @@ def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, w
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
-                rtol, depth, mu, n_eval):
+                rtol, first, last, depth, mu, n_eval):
     """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M); rpm, steps (S,);
-    b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts."""
-    n_b = wn.shape[0]
+    b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts
+    for the tasks first..last-1 of the B·S (structure, speed) pairs, row-major (the caller runs them
+    in chunks, to stay interruptible; each pair is computed alone, so chunking changes no bit)."""
     n_s = rpm.size
-    for t in nb.prange(n_b * n_s):
+    for q in nb.prange(last - first):
+        t = first + q
         bi = t // n_s
         s = t % n_s
         d, m_, c = limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,

@@ -53,13 +53,23 @@ frequency only modulo the tooth-passing frequency, ω = (±θ + 2πk)/T; ``envel
 candidate nearest the natural frequency of the most flexible mode (largest 1/(k ζ)), and lobe = −1.
 A multiplier μ ≈ −1 is a period-doubling (flip) boundary, complex μ a Hopf boundary.
 
+Interruptible, with progress. A compiled call cannot be interrupted (Ctrl-C waits for it), so the
+speeds (× structures) are run in chunks from Python: each chunk is sized from the rate of the one
+before to take about ``CHUNK_SECONDS`` (a multiple of the thread count, growing at most 4× per chunk),
+and between chunks KeyboardInterrupt is seen and ``progress(stage, done, total)`` is called (an
+exception it raises stops the run). Every (structure, speed) pair is computed alone, so the chunking
+changes no bit of the result.
+
 Units: rpm at the interface, depth in m (``Envelope.depth_mm`` for mm), frequencies in Hz.
 """
 
 from __future__ import annotations
 
 import math
+import time
+from typing import Callable
 
+import numba as nb
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -78,6 +88,36 @@ STEPS_PER_NATURAL_PERIOD = 12.0
 RTOL = 1e-4
 #: bracket grid of the root search, in units of the reference depth (ascending)
 FACTORS = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
+#: target wall time of one compiled call [s]: Ctrl-C and the progress callback are seen between calls;
+#: None runs everything in one call
+CHUNK_SECONDS: float | None = 0.25
+
+#: progress(stage, done, total): called before the first chunk and after each one
+Progress = Callable[[str, int, int], None]
+
+
+def _chunked(run: Callable[[int, int], None], total: int, stage: str, progress: Progress | None) -> None:
+    """Call ``run(first, last)`` over the tasks 0..total-1 in chunks of about CHUNK_SECONDS each.
+
+    The first chunk has one task per thread; each next one as many as the previous chunk's rate gives
+    for CHUNK_SECONDS (a multiple of the thread count, at most 4× the previous, so a run whose tasks
+    grow dearer stays responsive).
+    """
+    threads = max(1, nb.get_num_threads())
+    done, size = 0, threads if CHUNK_SECONDS is not None else total
+    if progress is not None:
+        progress(stage, 0, total)
+    while done < total:
+        last = min(total, done + size)
+        t0 = time.perf_counter()
+        run(done, last)
+        elapsed = time.perf_counter() - t0
+        n, done = last - done, last
+        if progress is not None:
+            progress(stage, done, total)
+        if CHUNK_SECONDS is not None:
+            fit = int(n * CHUNK_SECONDS / max(elapsed, 1e-9)) // threads * threads
+            size = max(threads, min(4 * n, fit))
 
 __all__ = ["envelope", "envelope_batch", "rho_map", "monodromy", "critical_multipliers", "default_steps",
            "step_matrices", "STEPS_MIN", "STEPS_PER_NATURAL_PERIOD"]
@@ -157,12 +197,14 @@ def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float
                         hpos, n_used)
 
 
-def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | None = None) -> np.ndarray:
+def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | None = None,
+            progress: Progress | None = None) -> np.ndarray:
     """Spectral radius ρ of the monodromy matrix on a speed × depth grid, shape (S, D).
 
     Args:
         rpm: spindle speeds (S,) [rev/min]; depth_m: axial depths (D,) [m], ≥ 0;
-        steps: steps per tooth period (int), or None for the accuracy-controlled default.
+        steps: steps per tooth period (int), or None for the accuracy-controlled default;
+        progress: ``progress(stage, done, total)`` in speeds, see the module docstring.
     """
     _require_modal(structure)
     r = check_rpm(rpm)
@@ -173,8 +215,13 @@ def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | N
     st = _steps(steps, float(np.max(wn) / (2 * math.pi)), cutting, r)
     out = np.empty((r.size, d.size))
     n, kt, kr, ps, pe = _cut_args(cutting)
+    d = np.ascontiguousarray(d)
+
+    def run(first: int, last: int) -> None:
+        _k.rho_grid(n, kt, kr, ps, pe, r, st, steps is None, d, wn[0], zeta[0], mass[0], mdir, act, first, last, out)
+
     with threadpool_limits(1):
-        _k.rho_grid(n, kt, kr, ps, pe, r, st, steps is None, np.ascontiguousarray(d), wn[0], zeta[0], mass[0], mdir, act, out)
+        _chunked(run, r.size, "sdm: spectral radius map", progress)
     if not np.all(np.isfinite(out)):
         raise ArithmeticError("semi-discretization: eigenvalue solver failed (non-finite spectral radius)")
     return out
@@ -186,7 +233,8 @@ def _static_scale(batch: ModalBatch, cutting: Cutting) -> np.ndarray:
     return 8.0 * kz.min(axis=1) / (cutting.teeth * cutting.kt)
 
 
-def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps) -> tuple[np.ndarray, np.ndarray]:
+def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
+           progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and dominant multipliers (B, S) at the boundary."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     st = _steps(steps, float(np.max(wn) / (2 * math.pi)), cutting, r)
@@ -201,9 +249,13 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps) -> tuple[n
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
-    with threadpool_limits(1):
+
+    def run(first: int, last: int) -> None:
         _k.limit_batch(n, kt, kr, ps, pe, r, st, steps is None, b_ref, FACTORS, wn, zeta, mass, mdir, act, RTOL,
-                       depth, mu, n_eval)
+                       first, last, depth, mu, n_eval)
+
+    with threadpool_limits(1):
+        _chunked(run, n_b * n_s, "sdm: limiting depths", progress)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("semi-discretization: root search produced NaN")
     return depth, mu
@@ -223,11 +275,14 @@ def _chatter_hz(mu: np.ndarray, T: np.ndarray, f_ref: float) -> np.ndarray:
     return np.where(np.isfinite(mu), best / (2 * math.pi), np.nan)
 
 
-def envelope(structure: Structure, cutting: Cutting, rpm, steps: int | None = None) -> Envelope:
+def envelope(structure: Structure, cutting: Cutting, rpm, steps: int | None = None,
+             progress: Progress | None = None) -> Envelope:
     """The limiting depth b_lim [m] at each spindle speed [rpm] for one modal structure.
 
     ``inf`` where no boundary exists up to 1e4 times the reference depth. ``chatter_hz`` is the
     dominant multiplier's frequency nearest the most flexible mode (see module docstring); lobe = −1.
+    ``progress(stage, done, total)`` is called between chunks of speeds (an exception it raises
+    stops the run).
 
     Raises:
         InputError: for a measured-FRF structure (semi-discretization needs modal parameters).
@@ -235,24 +290,27 @@ def envelope(structure: Structure, cutting: Cutting, rpm, steps: int | None = No
     _require_modal(structure)
     r = check_rpm(rpm)
     batch = ModalBatch.from_structures([structure])
-    depth, mu = _limit(batch, cutting, r, steps)
+    depth, mu = _limit(batch, cutting, r, steps, progress)
     flex = max(structure.modes, key=lambda m: 1.0 / (m.k * m.zeta))
     T = 60.0 / (cutting.teeth * r)
     hz = np.where(np.isfinite(depth[0]), _chatter_hz(mu[0], T, flex.fn), np.nan)
     return Envelope(r, depth[0], np.full(r.size, -1, dtype=np.int64), hz)
 
 
-def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int | None = None) -> np.ndarray:
+def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int | None = None,
+                         progress: Progress | None = None) -> np.ndarray:
     """The dominant Floquet multiplier at the limiting depth (just on the unstable side), (S,) complex.
 
     |μ| ≈ 1; μ ≈ −1 marks a period-doubling (flip) boundary, a complex pair a Hopf boundary.
     """
     _require_modal(structure)
     r = check_rpm(rpm)
-    return _limit(ModalBatch.from_structures([structure]), cutting, r, steps)[1][0]
+    return _limit(ModalBatch.from_structures([structure]), cutting, r, steps, progress)[1][0]
 
 
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None) -> np.ndarray:
-    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]."""
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None,
+                   progress: Progress | None = None) -> np.ndarray:
+    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm];
+    ``progress(stage, done, total)`` counts (structure, speed) pairs."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, steps)[0]
+    return _limit(batch, cutting, r, steps, progress)[0]

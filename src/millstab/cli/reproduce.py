@@ -44,7 +44,8 @@ def reproduce(
     failed = [c for c in rep.checks if not c.ok]
     typer.echo(f"wrote {out / 'report.md'} and {out / 'report.html'} ({len(rep.files)} figures and tables)")
     for c in rep.checks:
-        typer.echo(f"  [{'ok' if c.ok else 'FAIL'}] {c.claim}: {c.measured}")
+        tag = "compared" if c.kind == "comparison" else ("ok" if c.ok else "FAIL")  # a comparison has no verdict
+        typer.echo(f"  [{tag}] {c.claim}: {c.measured}")
     typer.echo(f"total time {time.perf_counter() - t0:.1f} s")
     if failed:
         raise typer.Exit(1)

@@ -69,8 +69,8 @@ def fmt(x: Any, digits: int = 5) -> str:
 
 
 #: what the verdicts of the summary table mean
-SUMMARY_NOTE = ("'holds' / 'DOES NOT HOLD': a claim with a stated criterion, tested in this run. 'compared': one of "
-                "our values beside the paper's, with their ratio; no criterion, no verdict.")
+SUMMARY_NOTE = ("A claim has a stated criterion, tested in this run: it holds or it does not. 'compared' sets one of "
+                "our values beside the paper's, with their ratio: no criterion, no verdict.")
 
 
 @dataclass

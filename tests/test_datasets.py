@@ -117,3 +117,73 @@ def test_default_speeds_show_several_lobes(name, min_lobes):
     env = zoa.envelope(c.structure, c.cutting, c.rpm)
     assert np.all(np.isfinite(env.depth))
     assert len(set(env.lobe.tolist())) >= min_lobes
+
+
+# --- the example points file ------------------------------------------------------------------------
+
+def _generating_command() -> str:
+    """The python -c command quoted in the example points file's comment lines."""
+    from millstab.datasets import points_path
+
+    lines = points_path("ex3_points").read_text(encoding="utf-8").splitlines()
+    (cmd,) = [ln for ln in lines if ln.startswith('# python -c "')]
+    return cmd[len('# python -c "'):-1]
+
+
+def test_example_points_file_is_what_its_comment_says():
+    """Running the command in the file's comment prints exactly the file's data lines."""
+    import contextlib
+    import io
+
+    from millstab.datasets import points_path
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(_generating_command(), {})
+    data = [ln for ln in points_path("ex3_points").read_text(encoding="utf-8").splitlines() if not ln.startswith("#")]
+    assert out.getvalue().splitlines() == data
+
+
+def test_example_points_file_holds_example_3_boundary_with_2_percent_noise():
+    """Independent of the comment: the points lie on Example 3's SLD within a 2 % noise band."""
+    from millstab.io.points import read_points
+    from millstab.stability import zoa
+
+    pts = read_points("example:ex3_points")
+    assert len(pts) == 40 and pts.boundary.all()
+    c = load_example("ex3")
+    assert pts.rpm[0] == c.rpm[0] and pts.rpm[-1] == pytest.approx(c.rpm[-1])
+    rel = pts.depth_mm / zoa.envelope(c.structure, c.cutting, pts.rpm).depth_mm - 1
+    assert 0.01 < rel.std() < 0.03 and np.abs(rel).max() < 4 * 0.02
+
+
+def test_example_points_resolve_like_configs():
+    from millstab.datasets import list_example_points, points_path
+    from millstab.io.points import read_points
+
+    assert list_example_points() == ["ex3_points"]
+    assert points_path("ex3_points.csv") == points_path(" EX3_points ") == example_path("ex3").parent / "ex3_points.csv"
+    assert read_points("example:ex3_points.csv").source == points_path("ex3_points")
+    with pytest.raises(InputError, match="available: ex3_points"):
+        read_points("example:ex4_points")
+    with pytest.raises(InputError, match="example points file"):  # a points file given as the config
+        load_config("example:ex3_points")
+
+
+def test_identify_example_points_recovers_example_3(tmp_path):
+    """`millstab identify example:ex3 example:ex3_points` from a start 30 % off every parameter recovers
+    Table 1's Example 3 within 3 standard errors (and 5 %) of every parameter."""
+    import json
+
+    from millstab.cli import main
+
+    truth = paper_values()["input_values"]["ex3"]
+    names = ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
+    start = ",".join(f"{n}={truth[n] * f:.6g}" for n, f in zip(names, (1.3, 0.7, 1.3, 0.7, 1.3, 0.7)))
+    out = tmp_path / "fit.json"
+    assert main(["identify", "example:ex3", "example:ex3_points", "--initial", start, "--quiet", "--out", str(out)]) == 0
+    fit = json.loads(out.read_text())
+    for n in names:
+        est, se = fit["parameters"][n], fit["std_errors"][n]
+        assert abs(est - truth[n]) < 3 * se, n
+        assert est == pytest.approx(truth[n], rel=0.05), n

@@ -2,9 +2,13 @@
 
 * ``ex1``, ``ex2``, ``ex3`` -- the paper's synthetic examples (tab:Input_values).
 * ``fourflute`` -- the four-flute tool's static modal parameters (tab:modal), slotting.
+* ``ex3_points`` (``ex3_points.csv``) -- an example points file: 40 boundary points of Example 3 with
+  2 % depth noise, so that ``millstab identify example:ex3 example:ex3_points`` runs at once (the
+  command that generated it is in its first lines).
 
-Use :func:`load_example` (or ``load_config("example:ex1")``) for a :class:`~millstab.io.config.Config`
-and :func:`paper_values` for the paper's published numbers (SI units, see ``paper_values.toml``).
+Use :func:`load_example` (or ``load_config("example:ex1")``) for a :class:`~millstab.io.config.Config`,
+:func:`points_path` (or ``read_points("example:ex3_points")``) for an example points file, and
+:func:`paper_values` for the paper's published numbers (SI units, see ``paper_values.toml``).
 """
 
 from __future__ import annotations
@@ -36,8 +40,30 @@ def example_path(name: str) -> Path:
     if key.endswith(".toml"):
         key = key[:-5]
     if key not in names:
-        raise InputError("example", name, f"unknown example; available: {', '.join(names)}")
+        hint = (f" ({key} is an example points file: give it where points are read, e.g. "
+                f"`millstab identify example:ex3 example:{key}`)" if key in list_example_points() else "")
+        raise InputError("example", name, f"unknown example; available: {', '.join(names)}{hint}")
     return _DIR / f"{key}.toml"
+
+
+def list_example_points() -> list[str]:
+    """Names of the packaged example points files, sorted (e.g. ``["ex3_points"]``)."""
+    return sorted(p.stem for p in _DIR.glob("*.csv"))
+
+
+def points_path(name: str) -> Path:
+    """The file of a packaged example points file (``"ex3_points"`` or ``"ex3_points.csv"``).
+
+    Raises:
+        InputError: unknown name (the message lists the available points files).
+    """
+    names = list_example_points()
+    key = str(name).strip().lower()
+    if key.endswith(".csv"):
+        key = key[:-4]
+    if key not in names:
+        raise InputError("example points", name, f"unknown example points file; available: {', '.join(names)}")
+    return _DIR / f"{key}.csv"
 
 
 def load_example(name: str):
@@ -60,4 +86,4 @@ def paper_values() -> dict[str, Any]:
         return tomllib.load(fh)
 
 
-__all__ = ["example_path", "list_examples", "load_example", "paper_values"]
+__all__ = ["example_path", "list_example_points", "list_examples", "load_example", "paper_values", "points_path"]

@@ -115,12 +115,17 @@ def _number(text: str, field: str, line: int, path: Path) -> float:
 
 
 def read_points(path: PathLike) -> PointSet:
-    """Read a point set CSV (format in the module docstring).
+    """Read a point set CSV (format in the module docstring), or a packaged example points file
+    with ``"example:NAME"`` (e.g. ``"example:ex3_points"``, see :mod:`millstab.datasets`).
 
     Raises:
         InputError: missing file, empty file, missing or unknown column, a non-number (with the
             line number), speed/depth/weight ≤ 0, unknown label.
     """
+    if str(path).startswith("example:"):  # the CLI hands it over as a Path; str() keeps the text
+        from millstab.datasets import points_path
+
+        path = points_path(str(path).split(":", 1)[1])
     p = Path(path)
     if not p.is_file():
         raise InputError("points file", str(p), "file does not exist")

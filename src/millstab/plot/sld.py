@@ -94,8 +94,10 @@ def plot_sld_family(rpm: np.ndarray, curves: dict[str, np.ndarray], points=None,
     Args:
         rpm: speeds (S,) [rev/min]; curves: {label: depth (S,) [mm]}; fitted: (label, depth (S,) [mm]).
         points: a PointSet drawn as red dots, labelled with its ``source``.
+
+    The legend sits below the axes: inside, with five or six long labels, it covers lobe peaks.
     """
-    fig, ax = plt.subplots(figsize=(9, 5))
+    fig, ax = plt.subplots(figsize=(9, 5.8), layout="constrained")
     styles = [dict(color="black", ls="--"), dict(color="tab:blue"), dict(color="tab:green", ls="-."),
               dict(color="tab:purple", ls=":")]
     for i, (label, d) in enumerate(curves.items()):
@@ -110,7 +112,7 @@ def plot_sld_family(rpm: np.ndarray, curves: dict[str, np.ndarray], points=None,
     ax.set_xlabel("spindle speed [rev/min]")
     ax.set_ylabel("axial depth of cut [mm]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left")
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     if title:
         ax.set_title(title)
     return fig

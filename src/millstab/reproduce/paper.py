@@ -202,9 +202,10 @@ def four_flute(ctx: Context) -> None:
     plan_next_tests(ctx, fit, pts, data["rpm"])
     from millstab.plot.sld import plot_sld_family
 
-    fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted, title="Four-flute tool, slotting: static vs in-process SLDs")
-    rep.figure("fig_fourSLD", fig, "Fig. fourSLD: static SLD (dashed black), the in-process SLDs of the paper and of "
-               "Eynian's two methods, and the points used for identification (red)")
+    fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted)
+    rep.figure("fig_fourSLD", fig, "Fig. fourSLD: the four-flute tool in slotting, static SLD (dashed black) against the "
+               "in-process SLDs of the paper and of Eynian's two methods, ours identified from the points (orange), and "
+               "the points used for identification (red)")
 
 
 # --- step 2: Table 3, identification of the synthetic examples ----------------------------------------
@@ -282,7 +283,8 @@ def _identification_figures(ctx: Context, results: dict) -> None:
     for ax, (ex, r) in zip(axes, results.items()):
         plot_convergence(r["fits"]["newton"], ax=ax, title=f"{ex}: Newton–Raphson (paper's scheme)")
     fig.tight_layout()
-    rep.figure("fig_conv", fig, "Fig. conv: the objective (MLAE, eq. 4) against iteration, paper's scheme")
+    rep.figure("fig_conv", fig, "Fig. conv: the objective (MLAE, eq. 4) against iteration, paper's scheme (log scale): "
+               "each iterate's MLAE as a dot (the scheme's jumps and trial steps make it zig-zag), the best so far as a line")
 
     r3 = results["ex3"]
     fit = r3["fits"]["newton"]
@@ -290,8 +292,9 @@ def _identification_figures(ctx: Context, results: dict) -> None:
     its = snapshot_indices(len(fit.history_mlae), 6)
     guesses = sld_curves(fit, r3["cfg"].cutting, rpm, fit.history_theta[its])
     target = zoa.envelope(r3["cfg"].structure, r3["cfg"].cutting, rpm).depth_mm
-    rep.figure("fig_iter", plot_iterations(fit, rpm, target, guesses, its, title="Fig. iter: Example 3, guessed SLD (orange) against the target (blue)"),
-               "Fig. iter: snapshots of Example 3's guessed SLD through the Newton–Raphson iterations")
+    rep.figure("fig_iter", plot_iterations(fit, rpm, target, guesses, its),
+               "Fig. iter: snapshots of Example 3's guessed SLD (orange) against the target (blue) through the "
+               "Newton–Raphson iterations")
 
     panels = []
     for ex, r in results.items():
@@ -299,8 +302,9 @@ def _identification_figures(ctx: Context, results: dict) -> None:
         tgt = zoa.envelope(r["cfg"].structure, r["cfg"].cutting, rr).depth_mm
         fitted = sld_curves(r["fits"]["newton"], r["cfg"].cutting, rr, r["fits"]["newton"].estimate[None, :])[0]
         panels.append((f"{ex}: target vs Newton–Raphson result", rr, tgt, fitted, None))
-    rep.figure("fig_eggs", plot_final(panels, title="Fig. eggs: final SLDs (blue target, orange identified)"),
-               "Fig. eggs: final SLDs of the three examples, target against the paper's scheme's result")
+    rep.figure("fig_eggs", plot_final(panels),
+               "Fig. eggs: final SLDs of the three examples, the target (blue) against the paper's scheme's result "
+               "(orange, dashed)")
 
 
 # --- step 4: the experimental identification (stand-in) ----------------------------------------------
@@ -374,9 +378,9 @@ def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
     rep.paragraph("Planned speeds [rpm] (tests): " + ", ".join(f"{r:.0f}" + (f" ({c})" if c > 1 else "")
                                                              for r, c, _ in plan.tests()))
     grid = np.linspace(rpm[0], rpm[-1], 800)
-    rep.figure("fig_plan", plot_design(plan, grid, zoa.envelope(fit.structure, cfg.cutting, grid).depth_mm, measured,
-                                       title="Four-flute tool: the next tests planned around the identified mode"),
-               "Where to measure next: the identified SLD, the points used (black) and the planned tests (red)")
+    rep.figure("fig_plan", plot_design(plan, grid, zoa.envelope(fit.structure, cfg.cutting, grid).depth_mm, measured),
+               "Where to measure next on the four-flute tool: the SLD of the identified mode, the points used (black) and "
+               "the tests planned around it (red)")
 
 
 # --- step 5: Fig. SENS and Table 6 --------------------------------------------------------------------
@@ -402,8 +406,9 @@ def sensitivity(ctx: Context) -> None:
         cfg = load_example(ex)
         rpm = speeds_of(ex, SENS_SPEEDS)
         res = oat(Parameterization(cfg.structure), cfg.cutting, rpm, PAPER_EPS_GRID, theta=predicted_theta(ex))
-        rep.figure(f"fig_sens_{ex}", plot_oat(res, title=f"Fig. SENS, {ex}: one-at-a-time sensitivity"),
-                   f"Fig. SENS for {ex}: MSE [mm²] against ε; natural-frequency panels on their own scale")
+        rep.figure(f"fig_sens_{ex}", plot_oat(res),
+                   f"Fig. SENS for {ex}: one-at-a-time sensitivity, MSE [mm²] against ε; natural-frequency panels on "
+                   "their own scale")
         at20 = res.mse_mm2[:, np.argmin(np.abs(res.eps - 0.20))]
         oat_rows.append([ex] + list(at20))
         order_ok = min(at20[0], at20[3]) > max(at20[1], at20[2], at20[4], at20[5])
@@ -437,11 +442,12 @@ def sensitivity(ctx: Context) -> None:
         rep.check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
                   ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
                   min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"]) and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))
-        rep.check(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's",
-                  f"ours {ours_ratio:.0f}, paper {paper_ratio:.0f}", ours_ratio > 10)
+        # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
+        rep.compare(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's", ours_ratio, paper_ratio)
     rep.table("table6_monte_carlo", ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
               rows, f"Table 6: Monte Carlo sensitivity [mm²], N = {n}, speed sets A and B")
     mc = results[next(iter(results))]
     rep.figure("fig_mc_convergence", plot_mc_convergence(mc, paper=paper),
-               "Monte Carlo convergence (speed set A): running mean of each parameter's MSE against the number of paths, "
-               "the paper's Table 6 value dashed")
+               f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): running "
+               "mean of each parameter's MSE against the number of paths, ±1.96 SEM shaded, the paper's Table 6 value "
+               "dashed")

@@ -1,6 +1,7 @@
 """A small report builder: headings, paragraphs, tables and figures, rendered as Markdown and as a
 self-contained HTML page (figures embedded), with every table also saved as CSV and every figure as
-PNG next to it. Headline checks (claim, our value, pass/fail) are collected for a summary.
+PNG next to it. Headline rows are collected for a summary: claims (our value, holds or not) and
+comparisons (our value beside the paper's, with the ratio, no verdict).
 """
 
 from __future__ import annotations
@@ -11,16 +12,38 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
+
 from millstab.io.results import atomic_write_text, write_csv
+
+
+#: kinds of headline rows: a claim that holds or not, or a value set beside the paper's with no verdict
+KINDS = ("claim", "comparison")
 
 
 @dataclass(frozen=True)
 class Check:
-    """One headline comparison: what is claimed, what we measured, and whether it holds."""
+    """One headline row: what is claimed (or compared), what we measured, and whether it holds.
+
+    ``kind="comparison"`` rows put a value of ours beside the paper's; they have no pass/fail
+    criterion (``ok`` is always True) and their verdict reads "compared", never "holds".
+    """
 
     claim: str
     measured: str
     ok: bool
+    kind: str = "claim"
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, not {self.kind!r}")
+
+    @property
+    def verdict(self) -> str:
+        """What the summary table says: "holds", "DOES NOT HOLD" or "compared"."""
+        if self.kind == "comparison":
+            return "compared"
+        return "holds" if self.ok else "DOES NOT HOLD"
 
 
 def fmt(x: Any, digits: int = 5) -> str:
@@ -28,7 +51,7 @@ def fmt(x: Any, digits: int = 5) -> str:
     ints as ints, strings unchanged."""
     if isinstance(x, str):
         return x
-    if isinstance(x, (bool,)):
+    if isinstance(x, (bool, np.bool_)):  # numpy comparisons give np.bool_, which float() would print as 1
         return "yes" if x else "no"
     if isinstance(x, int):
         return str(x)
@@ -43,6 +66,11 @@ def fmt(x: Any, digits: int = 5) -> str:
     if abs(v) >= 1e5 or abs(v) < 1e-3:
         return f"{v:.3g}" if 1e-4 <= abs(v) < 1e-3 else f"{v:.2e}"
     return f"{v:.{digits}g}"
+
+
+#: what the verdicts of the summary table mean
+SUMMARY_NOTE = ("A claim has a stated criterion, tested in this run: it holds or it does not. 'compared' sets one of "
+                "our values beside the paper's, with their ratio: no criterion, no verdict.")
 
 
 @dataclass
@@ -75,27 +103,43 @@ class Report:
         return path
 
     def figure(self, name: str, fig, caption: str) -> Path:
-        """Add a figure and save it as ``name.png``."""
+        """Add a figure and save it as ``name.png``.
+
+        The caption is the figure's title in the report, so a figure-level title (the suptitle, or the
+        title of a one-panel figure) is removed rather than said twice; panel titles stay.
+        """
         from millstab.plot import save_figure
 
+        if fig.get_suptitle():
+            fig.suptitle("")
+        if len(fig.axes) == 1:
+            fig.axes[0].set_title("")
         path = save_figure(fig, self.out / f"{name}.png")
         self.files.append(path)
         self.blocks.append(("f", (caption, path)))
         return path
 
     def check(self, claim: str, measured: str, ok: bool) -> Check:
+        """A claim with a pass/fail criterion (``ok``)."""
         c = Check(claim, measured, bool(ok))
+        self.checks.append(c)
+        return c
+
+    def compare(self, what: str, ours: float, paper: float) -> Check:
+        """A value of ours beside the paper's, with their ratio; no verdict (it reads "compared")."""
+        c = Check(what, f"ours {fmt(ours, 3)}, paper {fmt(paper, 3)}: ours/paper = {ours / paper:.2f}", True, "comparison")
         self.checks.append(c)
         return c
 
     # --- rendering --------------------------------------------------------------------------------
     def _summary_rows(self) -> list[list[str]]:
-        return [[c.claim, c.measured, "holds" if c.ok else "DOES NOT HOLD"] for c in self.checks]
+        return [[c.claim, c.measured, c.verdict] for c in self.checks]
 
     def markdown(self) -> str:
         lines = [f"# {self.title}", ""]
         if self.checks:
-            lines += ["## Headline comparisons", "", "| claim | ours | verdict |", "|---|---|---|"]
+            lines += ["## Headline claims and comparisons", "", SUMMARY_NOTE, "",
+                      "| claim or comparison | ours | verdict |", "|---|---|---|"]
             lines += [f"| {a} | {b} | {c} |" for a, b, c in self._summary_rows()] + [""]
         for kind, val in self.blocks:
             if kind == "h":
@@ -108,8 +152,8 @@ class Report:
                           "|" + "---|" * len(header)]
                 lines += ["| " + " | ".join(r) + " |" for r in rows] + [""]
             elif kind == "f":
-                caption, path = val
-                lines += [f"![{caption}]({path.name})", "", f"*{caption}*", ""]
+                caption, path = val  # alt text: the file's name, so the caption is not printed twice
+                lines += [f"![{path.stem}]({path.name})", "", f"*{caption}*", ""]
         return "\n".join(lines)
 
     def html(self) -> str:
@@ -118,14 +162,15 @@ class Report:
                  "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;line-height:1.45}"
                  "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #bbb;padding:3px 8px;"
                  "text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}"
-                 ".bad{color:#b00;font-weight:bold}.ok{color:#070}figcaption{font-style:italic}</style></head><body>",
+                 ".bad{color:#b00;font-weight:bold}.ok{color:#070}.cmp{color:#555}figcaption{font-style:italic}</style></head><body>",
                  f"<h1>{esc(self.title)}</h1>"]
         if self.checks:
-            parts.append("<h2>Headline comparisons</h2><table><tr><th>claim</th><th>ours</th><th>verdict</th></tr>")
+            parts.append(f"<h2>Headline claims and comparisons</h2><p>{esc(SUMMARY_NOTE)}</p><table><tr>"
+                         "<th>claim or comparison</th><th>ours</th><th>verdict</th></tr>")
             for c in self.checks:
-                cls = "ok" if c.ok else "bad"
+                cls = {"holds": "ok", "compared": "cmp"}.get(c.verdict, "bad")
                 parts.append(f"<tr><td>{esc(c.claim)}</td><td>{esc(c.measured)}</td>"
-                             f"<td class='{cls}'>{'holds' if c.ok else 'DOES NOT HOLD'}</td></tr>")
+                             f"<td class='{cls}'>{esc(c.verdict)}</td></tr>")
             parts.append("</table>")
         for kind, val in self.blocks:
             if kind == "h":

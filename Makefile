@@ -29,4 +29,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_sensitivity.py
 
 clean:
-	rm -rf $(VENV) millstab-demo millstab-report .pytest_cache
+	rm -rf $(VENV) millstab-report .pytest_cache .numba_cache

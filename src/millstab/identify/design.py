@@ -196,10 +196,9 @@ def optimal_weights(jac: np.ndarray, n: int, *, info0: np.ndarray | None = None,
     s, m, p = jac.shape
     c = np.eye(p)[:, np.arange(p) if target is None else np.asarray(target)]
     cs = np.broadcast_to(c, (s, p, c.shape[1]))
-    # a small ridge keeps samples whose candidates miss a parameter finite (it is ~1e-9 of a typical
+    # a small ridge keeps samples whose candidates miss a parameter finite (:func:`ridge`; it is ~1e-9 of a typical
     # information and so never changes a design that does determine the parameter)
-    ridge = 1e-9 * np.mean(np.einsum("smi,smi->s", jac, jac)) * np.eye(p)
-    m0 = (np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)) + ridge
+    m0 = (np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)) + ridge(jac)
     jac_t = np.transpose(jac, (0, 2, 1))
     outer = lambda i: jac[:, i, :, None] * jac[:, i, None, :]  # noqa: E731  (S, P, P) of candidate i
 
@@ -247,11 +246,20 @@ def round_design(weights: np.ndarray, n: int) -> np.ndarray:
     return counts
 
 
+def ridge(jac: np.ndarray) -> np.ndarray:
+    """The small ridge every information matrix of a plan carries: 1e-9 × the mean over samples of
+    Σ_candidates ‖j‖², times the identity (P, P). It keeps samples whose planned speeds miss a parameter
+    finite — a tiny prior: where a sample's tests do determine the parameters it changes nothing, where
+    they nearly miss one it caps that sample's weight in the criterion."""
+    return 1e-9 * float(np.mean(np.einsum("smi,smi->s", jac, jac))) * np.eye(jac.shape[-1])
+
+
 def criterion(jac: np.ndarray, counts: np.ndarray, info0: np.ndarray | None, target: np.ndarray,
               ridge: np.ndarray | float = 0.0) -> np.ndarray:
     """The design criterion E_θ tr(Cᵀ M⁻¹ C) for test counts (..., m) over candidates with per-sample
     rows ``jac`` (S, m, P) (already divided by the noise), M = M₀ + ridge + Σ_i c_i j_i j_iᵀ; ``target``
-    the parameter indices C selects. Returns one value per leading index of ``counts`` (or a scalar)."""
+    the parameter indices C selects (a plan's own criterion uses ``ridge`` = :func:`ridge` of the candidate
+    rows). Returns one value per leading index of ``counts`` (or a scalar)."""
     c = np.asarray(counts, float)
     s, _, p = jac.shape
     info = np.einsum("smi,...m,smj->...sij", jac, c, jac) + ridge
@@ -269,12 +277,14 @@ def improve_counts(jac: np.ndarray, counts: np.ndarray, info0: np.ndarray | None
     Each move tries, in one batched evaluation, taking one test from every supported candidate and
     giving it to each of the ``n_add`` candidates with the largest directional derivative
     d_i = E‖Cᵀ M⁻¹ j_i‖², and keeps the best move if it lowers the criterion; it stops when none
-    does (at most ``max_moves``, default 2n, moves). The total number of tests is kept."""
+    does (at most ``max_moves``, default 2n, moves). The total number of tests is kept. (Trial designs
+    that lose a parameter are kept finite by a 1e-12 relative ridge of their own, and so never win.)"""
     c = np.asarray(counts, int).copy()
     n = int(c.sum())
     s, m, p = jac.shape
     sel = np.eye(p)[:, np.asarray(target)]
     info = np.einsum("smi,m,smj->sij", jac, c.astype(float), jac) + ridge + (0 if info0 is None else info0)
+    info = info + 1e-12 * np.trace(info, axis1=1, axis2=2)[:, None, None] / p * np.eye(p)
 
     def phi(mats: np.ndarray) -> np.ndarray:  # E tr(Cᵀ M⁻¹ C) for (..., S, P, P)
         inv_c = np.linalg.solve(mats, np.broadcast_to(sel, mats.shape[:-1] + (sel.shape[1],)))
@@ -388,10 +398,10 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
     jac, info0 = jac[keep], None if info0 is None else info0[keep]
     w, eff_w, its = optimal_weights(jac, n, info0=info0, target=t_idx, iterations=iterations)
     # the criterion exactly as optimal_weights sees it (same ridge), for the rounded and the even plans
-    ridge = 1e-9 * np.mean(np.einsum("smi,smi->s", jac, jac)) * np.eye(par.size)
-    counts = improve_counts(jac, round_design(w, n), info0, t_idx, ridge)
+    rdg = ridge(jac)
+    counts = improve_counts(jac, round_design(w, n), info0, t_idx, rdg)
     even = evenly_spaced(cand, n)
-    phi_w, phi_plan, phi_even = criterion(jac, np.stack([n * w, counts, even]), info0, t_idx, ridge)
+    phi_w, phi_plan, phi_even = criterion(jac, np.stack([n * w, counts, even]), info0, t_idx, rdg)
     uniform = not phi_plan < phi_even  # rounding or a stuck exchange: never plan worse than even spacing
     if uniform:
         counts, phi_plan = even, phi_even
@@ -467,4 +477,4 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
 
 __all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds", "evenly_spaced",
            "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
-           "relative_sigma", "round_design"]
+           "relative_sigma", "ridge", "round_design"]

@@ -282,6 +282,10 @@ def test_plan_is_never_worse_than_even_spacing_for_its_criterion(case, n):
     assert plan.criterion_design == pytest.approx(phi_plan, rel=1e-3)
     assert plan.criterion_uniform == pytest.approx(phi_even, rel=1e-3)
     assert 0 < plan.efficiency <= plan.efficiency_continuous <= 1
+    # the columns the command prints (RMS over the samples) add up to the criterion
+    t = [par.free.index(nm) for nm in plan.target]
+    assert np.sum(plan.sigma_design_mean[t] ** 2) == pytest.approx(plan.criterion_design, rel=1e-6)
+    assert np.sum(plan.sigma_uniform_mean[t] ** 2) == pytest.approx(plan.criterion_uniform, rel=1e-6)
 
 
 def test_exchange_reaches_the_best_integer_design():

@@ -182,6 +182,14 @@ def test_points_at_one_speed_are_refused_clearly(ex3):
     assert fit.dof == 2 and np.isfinite(fit.estimate).all()
 
 
+def test_equal_depths_are_flagged(ex3):
+    """A constant depth column (no lobes): the fit runs but says the points cannot locate fn."""
+    flat = PointSet(np.linspace(*SPEEDS, 12), np.full(12, 1.5))
+    fit = identify(ex3, flat, seed=0, **FAST)
+    assert "flat_points" in fit.codes and any("1.5 mm" in w for w in fit.warnings)
+    assert "flat_points" not in identify(ex3, _points(ex3, 12, 0.0, 0), seed=0, **FAST).codes
+
+
 def test_test_cuts_at_one_speed_are_reported(ex3):
     """Labelled test cuts all at one speed (three or more at one speed also crashed the kernel)."""
     pts = _points(ex3, 20, 0.0, 0)

@@ -89,8 +89,8 @@ def design(
 
     console = Console()
     table = Table(title=f"{cfg.name}: {n} planned tests", caption=(
-        f"relative standard errors at {noise:.3g} depth noise and {speed_noise:.3g} speed noise, at the values "
-        "shown"))
+        f"relative standard errors at {noise:.3g} depth noise and {speed_noise:.3g} speed noise: root-mean-square "
+        f"over the {plan.samples} parameter samples the plan serves (the values shown and draws around them)"))
     cols = ["parameter", "value"] + (["measured points"] if plan.sigma_existing is not None else []) + [
         f"+ {n} evenly spaced", f"+ {n} planned"]
     for c in cols:
@@ -98,19 +98,20 @@ def design(
     for i, name in enumerate(plan.names):
         row = [name + (" *" if name in plan.target else ""), show_value(name, plan.theta[i])]
         if plan.sigma_existing is not None:
-            row.append(_pct(plan.sigma_existing[i]))
-        worse = plan.sigma_design[i] > plan.sigma_uniform[i] * (1 + 1e-9)
-        row += [_pct(plan.sigma_uniform[i]), _pct(plan.sigma_design[i]) + (" †" if worse else "")]
+            row.append(_pct(plan.sigma_existing_mean[i]))
+        worse = plan.sigma_design_mean[i] > plan.sigma_uniform_mean[i] * (1 + 1e-9)
+        row += [_pct(plan.sigma_uniform_mean[i]), _pct(plan.sigma_design_mean[i]) + (" †" if worse else "")]
         table.add_row(*row)
     console.print(table)
     console.print("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
                   f"averaged over {plan.samples} parameter samples")
     console.print(_criterion_line(plan))
-    if np.any(plan.sigma_design > plan.sigma_uniform * (1 + 1e-9)):
+    if np.any(plan.sigma_design_mean > plan.sigma_uniform_mean * (1 + 1e-9)):
         console.print("† = determined less well than by the evenly spaced tests: the plan gives this up for larger gains "
                       "elsewhere (use --target to pin the parameters that matter most)")
     if not np.all(np.isfinite(plan.sigma_design)):
-        console.print("note: at these values no boundary points can tell some parameters apart (e.g. identical x and y "
+        lost = ", ".join(nm for nm, v in zip(plan.names, plan.sigma_design) if not np.isfinite(v))
+        console.print(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x and y "
                       "modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
                       "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
     tests = plan.tests()

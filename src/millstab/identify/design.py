@@ -88,6 +88,11 @@ class SpeedDesign:
             errors of the target parameters over the θ samples) of the planned tests and of n tests
             evenly spaced over the candidates; criterion_design ≤ criterion_uniform always.
         uniform: True when the evenly spaced tests were at least as good and are the plan.
+        sigma_existing_mean, sigma_uniform_mean, sigma_design_mean: the relative standard errors as the
+            criterion weighs them: root-mean-square over the θ samples (P,), ``None`` for existing points
+            when there are none. Over the target parameters, Σ σ²_mean is the criterion, so the planned
+            column always sums lower than the evenly spaced one, while at ``theta`` alone (sigma_design)
+            the plan can be worse: the samples spread the lobes over speed, and the plan serves them all.
         iterations: design-algorithm iterations; samples: θ samples averaged over (those the
             candidates can determine).
         predicted_depth_mm: the limiting depth at ``theta`` at each planned speed [mm] (n,).
@@ -112,6 +117,9 @@ class SpeedDesign:
     criterion_design: float = float("nan")
     criterion_uniform: float = float("nan")
     uniform: bool = False
+    sigma_existing_mean: np.ndarray | None = None
+    sigma_uniform_mean: np.ndarray | None = None
+    sigma_design_mean: np.ndarray | None = None
 
     def tests(self) -> list[tuple[float, int, float]]:
         """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
@@ -411,6 +419,12 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
         info = (0 if info0_c is None else info0_c) + np.einsum("mi,m,mj->ij", jac_c, counts_.astype(float), jac_c)
         return relative_sigma(info)
 
+    def sigma_mean(counts_: np.ndarray | None) -> np.ndarray:
+        info = (0 if info0 is None else info0) + rdg
+        if counts_ is not None:
+            info = info + np.einsum("smi,m,smj->sij", jac, counts_.astype(float), jac)
+        return np.sqrt(np.mean(relative_sigma(info) ** 2, axis=0))
+
     speeds, at = np.unique(rpm, return_inverse=True)  # (the engine wants distinct speeds)
     depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, speeds)[0, at] * 1e3
     return SpeedDesign(
@@ -419,7 +433,9 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
         sigma_uniform=sigma(even), sigma_design=sigma(counts),
         efficiency=float(min(1.0, eff_w * phi_w / phi_plan)), iterations=its, samples=int(keep.sum()),
         predicted_depth_mm=depth, efficiency_continuous=float(eff_w), criterion_design=float(phi_plan),
-        criterion_uniform=float(phi_even), uniform=bool(uniform))
+        criterion_uniform=float(phi_even), uniform=bool(uniform),
+        sigma_existing_mean=None if info0 is None else sigma_mean(None), sigma_uniform_mean=sigma_mean(even),
+        sigma_design_mean=sigma_mean(counts))
 
 
 def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> SpeedDesign:

@@ -24,7 +24,9 @@ Warnings with structured codes (``Fit.codes``; :func:`diagnose`):
 * ``zoa_model``: the zero-order engine on a cut where its model is known to be approximate (radial
   immersion a/D < :data:`ZOA_POOR_IMMERSION`, or two or fewer teeth: strongly time-varying forces,
   flip lobes; see the field notes); suggests ``--engine sdm``;
-* ``at_bound``: an estimate sits on its search bound (the optimum may lie outside).
+* ``at_bound``: an estimate sits on its search bound (the optimum may lie outside);
+* ``flat_points``: every boundary depth is the same — no lobe to locate a natural frequency by (often
+  a wrong column or a constant placeholder in the file).
 """
 
 from __future__ import annotations
@@ -196,6 +198,11 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     if at:
         fit.add_warning("at_bound", "estimate on its search bound (the best value may lie beyond it; widen the bounds "
                                     "or check the start): " + ", ".join(at))
+    depth = np.asarray(problem.depth_mm, float)
+    if n > 1 and np.ptp(depth) <= 1e-12 * float(np.max(depth)):
+        fit.add_warning("flat_points", f"all {n} boundary depths are {depth[0]:g} mm: points without lobes cannot "
+                                       "locate the natural frequencies, so the estimate is arbitrary in fn; check the "
+                                       "depth column of the points file")
     checks["rms"] = rms
     fit.checks = checks
 

@@ -152,21 +152,23 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     fit.n_points = n
     fit.noise = {k: info[k] for k in ("source", "estimated", "stated", "assumed")} | {"sigma": info["sigma"] / scale}
     checks: dict = {}
-    if fit.std_errors is not None and info["source"] != "residuals":
-        how = (f"the stated {100 * noise:.3g} % depth noise" if info["source"] == "stated" else
-               f"an assumed {100 * ASSUMED_NOISE:.3g} % depth noise (state the real one with --noise)")
-        if dof <= 0:
-            fit.add_warning("no_dof", f"no degrees of freedom: {n} boundary points for {p} free parameters, so the fit "
-                                      "passes through every point, any noise goes straight into the estimate and the "
-                                      f"residuals cannot tell how good it is; the standard errors use {how}. "
-                                      "Measure more points or free fewer parameters")
-        elif dof < FEW_DOF and noise is None:
-            fit.add_warning("few_dof", f"only {dof} degree(s) of freedom ({n} points, {p} free parameters): the residual "
-                                       f"scatter ({100 * info['estimated']:.3g} %) is too uncertain to set the standard "
-                                       f"errors, which use {how} instead")
-    elif fit.std_errors is None and dof <= 0:
-        fit.add_warning("no_dof", f"no degrees of freedom: {n} boundary points for {p} free parameters; the fit passes "
-                                  "through every point and any noise goes straight into the estimate")
+    how = {"stated": f"the stated {100 * (noise or 0):.3g} % depth noise",
+           "assumed": f"an assumed {100 * ASSUMED_NOISE:.3g} % depth noise (state the real one with --noise)",
+           "residuals": "the residual scatter"}[info["source"]]
+    if dof <= 0:
+        fit.add_warning("no_dof", f"no degrees of freedom: {n} boundary points for {p} free parameters, so the fit "
+                                  "passes through every point, any noise goes straight into the estimate and the "
+                                  "residuals cannot tell how good it is"
+                                  + (f"; the standard errors use {how}" if fit.std_errors is not None else "")
+                                  + ". Measure more points or free fewer parameters")
+    elif dof < FEW_DOF and noise is None:
+        est = f"{100 * info['estimated']:.3g} %"
+        fit.add_warning("few_dof", f"only {dof} degree(s) of freedom ({n} points, {p} free parameters): the residual "
+                                   f"scatter ({est}) is a rough estimate of the noise"
+                                   + ("" if fit.std_errors is None else
+                                      f"; the standard errors use {how}" + (" instead" if info["source"] == "assumed"
+                                                                             else ", larger than the assumed "
+                                                                             f"{100 * ASSUMED_NOISE:.3g} %")))
     sig_hat = info["estimated"]
     if sig_hat is not None:
         if noise is not None:

@@ -368,6 +368,10 @@ def test_cli_design_with_the_fits_config_and_old_fit_files(tmp_path, capsys, ex3
     old.write_text(json.dumps(doc))
     assert main(["design", "example:ex3", "--fit", str(old), "--n", "8"]) == 0
     assert "does not record the cutting conditions" in " ".join(capsys.readouterr().err.split())
+    renamed = tmp_path / "renamed.toml"
+    renamed.write_text(same.read_text().replace('name = "ex3"', 'name = "shop"'))
+    assert main(["design", str(renamed), "--fit", str(fit), "--n", "8"]) == 0
+    assert "made from config 'ex3', this is 'shop'" in " ".join(capsys.readouterr().err.split())
 
 
 def test_design_after_fit_refuses_other_cutting_conditions():

@@ -167,6 +167,10 @@ def check_fit_matches(doc, path: Path, cfg) -> None:
         raise InputError("--fit", str(path),
                          f"its structure has {layout['x']} x and {layout['y']} y mode(s), the config {cfg.name} "
                          f"{want_layout['x']} and {want_layout['y']}: plan with the config the fit was made from")
+    made_from = doc.get("config") if isinstance(doc, dict) else None
+    if isinstance(made_from, str) and made_from != cfg.name:
+        warnings.warn(f"--fit {path} was made from config {made_from!r}, this is {cfg.name!r}; their cutting conditions "
+                      "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
 
 
 def _pct(v: float) -> str:

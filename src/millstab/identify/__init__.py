@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
-
 from millstab.errors import InputError
 from millstab.identify.lsq import fit_lsq
 from millstab.identify.newton import fit_newton

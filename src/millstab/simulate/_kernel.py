@@ -1,0 +1,388 @@
+"""Compiled (numba) time-domain milling simulation. Use :mod:`millstab.simulate` instead.
+
+Model (SI units). Every mode j is a 1-DOF oscillator in direction d_j (0 = x feed, 1 = y cross-feed):
+
+    q̈_j + 2 ζ_j ω_j q̇_j + ω_j² q_j = F_{d_j}(t) / m_j,     x = Σ_{d_j = 0} q_j,  y = Σ_{d_j = 1} q_j.
+
+N equally spaced straight teeth; tooth angle ψ measured from +y (Altintas), cutting in
+[φst, φex]. The tooth's radial direction is n = (sin ψ, cos ψ); its position along n is
+s = (X_f(t) + x) sin ψ + y cos ψ with X_f = f_t t / T the feed. The chip is the part of s beyond
+the surface S(ψ) left by the last tooth that cut at that angle (multiple regeneration: a tooth that
+was out of the cut leaves S unchanged, so the next tooth meets the older surface):
+
+    h = s − S(ψ),   F = b Kt h (−cos ψ − Kr sin ψ,  sin ψ − Kr cos ψ)   if h > 0 and φst ≤ ψ ≤ φex,
+    F = 0 otherwise,   S(ψ) ← s after a cut.
+
+Without vibration S(ψ) = X_f(t − T) sin ψ and h = f_t sin ψ; linearised about a T-periodic motion
+h − f_t sin ψ = n·(u(t) − u(t − T)) with u = (x, y): the force of the semi-discretization engine,
+F = ½ b Kt [A(t)] (u(t) − u(t − T)) (see :mod:`millstab.stability._sdm_kernel`), same signs.
+
+Grid. One tooth period T = 60/(N Ω) is m equal steps ("nodes", the output samples) plus, where a
+tooth leaves the cut between two nodes, that exit instant as one extra point: every entry is at a
+node (tooth 0 enters at t = 0), every exit at a grid point, so no step straddles a jump of the
+screen function. The grid repeats every period, so the angle of a "slot" k (the tooth that is k
+pitches ahead of the one entering at the period start) at grid point p is the same in every period,
+ψ(p, k) = φst + (phase_p + k) 2π/N, and the surface is stored per (p, k): the delay is exact (no
+interpolation of the delayed state).
+
+Step. Each mode is advanced exactly (matrix exponential of its 2×2 system) under a force that is
+linear in time over the step between its values at the two ends (first-order hold):
+
+    z_b = Φ z_a + Γ0 F_a + Γ1 F_b,  Φ = e^{Aτ},  Γ0 = (F1 − F2/τ) B,  Γ1 = (F2/τ) B,
+    F1 = ∫₀^τ e^{A(τ−s)} ds,  F2 = ∫₀^τ e^{A(τ−s)} s ds,  B = (0, 1/m)ᵀ.
+
+F_b depends on the unknown displacement at the step end (the chip is cut now): with the set of
+teeth in contact fixed, F_b = K u_b + r is linear, so u_b solves one 2×2 system (implicit, no
+stability limit on the step). The contact set is predicted with F held constant, then corrected
+(≤ 3 passes). The local error is O(τ³) (force interpolation), so the scheme is second order in τ;
+free vibration is exact for any step.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from millstab.stability._sdm_kernel import _expm_2x2
+
+TWO_PI = 2.0 * math.pi
+#: a tooth at a grid point is "in the cut" for surface updates when ψ ≤ φex + this [rad]
+ANGLE_TOL = 1e-9
+
+
+@nb.njit(cache=True)
+def period_points(n_teeth, phi_s, phi_e, m):
+    """Grid of one tooth period: phases (P + 1,) in [0, 1] (last = 1) and node flags (P,).
+
+    Nodes are k/m; the exit instant (φex − φst) mod pitch is added unless it falls on a node.
+    """
+    pitch = TWO_PI / n_teeth
+    e = ((phi_e - phi_s) / pitch) % 1.0
+    extra = not (e < 1e-9 or 1.0 - e < 1e-9 or abs(e * m - round(e * m)) < 1e-9 * m)
+    P = m + (1 if extra else 0)
+    phase = np.empty(P + 1)
+    node = np.zeros(P, dtype=np.bool_)
+    i = 0
+    added = not extra
+    for k in range(m):
+        ph = k / m
+        if not added and e < ph:
+            phase[i] = e
+            i += 1
+            added = True
+        phase[i] = ph
+        node[i] = True
+        i += 1
+    if not added:
+        phase[i] = e
+        i += 1
+    phase[P] = 1.0
+    return phase, node
+
+
+@nb.njit(cache=True)
+def setup(n_teeth, phi_s, phi_e, rpm, m, wn, zeta, mass):
+    """Per-period geometry and per-step modal matrices.
+
+    Returns phase (P+1,), node (P,), sin/cos of ψ(p, k) (P, N), act (P, N) whether slot k cuts on
+    step p, and per step p and mode j: Φ (P, M, 2, 2), Γ0 (P, M, 2), Γ1 (P, M, 2).
+    """
+    T = 60.0 / (n_teeth * rpm)
+    pitch = TWO_PI / n_teeth
+    phase, node = period_points(n_teeth, phi_s, phi_e, m)
+    P = node.size
+    sp = np.empty((P, n_teeth))
+    cp = np.empty((P, n_teeth))
+    act = np.zeros((P, n_teeth), dtype=np.bool_)
+    for p in range(P):
+        mid = 0.5 * (phase[p] + phase[p + 1])
+        for k in range(n_teeth):
+            psi = phi_s + (phase[p] + k) * pitch
+            sp[p, k] = math.sin(psi)
+            cp[p, k] = math.cos(psi)
+            act[p, k] = phi_s + (mid + k) * pitch <= phi_e
+    M = wn.size
+    PH = np.empty((P, M, 2, 2))
+    G0 = np.empty((P, M, 2))
+    G1 = np.empty((P, M, 2))
+    phi = np.empty((2, 2))
+    f1 = np.empty((2, 2))
+    f2 = np.empty((2, 2))
+    for p in range(P):
+        tau = (phase[p + 1] - phase[p]) * T
+        for j in range(M):
+            _expm_2x2(0.0, 1.0, -wn[j] * wn[j], -2.0 * zeta[j] * wn[j], tau, phi, f1, f2)
+            PH[p, j] = phi
+            for r in range(2):  # B = (0, 1/m): only the second column of F1, F2 enters
+                G0[p, j, r] = (f1[r, 1] - f2[r, 1] / tau) / mass[j]
+                G1[p, j, r] = f2[r, 1] / tau / mass[j]
+    return phase, node, sp, cp, act, PH, G0, G1
+
+
+@nb.njit(cache=True, inline="always")
+def _contact(bkt, kr, s, c, xf, S, x, y):
+    """Chip h at one tooth and the force direction; returns (h, fx_unit, fy_unit, base) with
+    h = base + s x + c y, base = xf s − S."""
+    base = xf * s - S
+    h = base + s * x + c * y
+    return h, -c - kr * s, s - kr * c, base
+
+
+@nb.njit(cache=True)
+def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, zeta, mass, mdir,
+             q0, v0, surf0, bound, out_x, out_y, out_fx, out_fy):
+    """Integrate one cut over n_periods tooth periods with m nodes per period.
+
+    q0, v0 (M,) initial modal displacement [m] and velocity [m/s]; surf0 (P, N) the initial surface
+    (what the previous tooth left, absolute, including −f_t sin ψ from the feed). Writes the node
+    samples x, y [m], fx, fy [N] into out_* (n_periods m + 1,). Stops when |x| or |y| exceeds
+    ``bound`` [m] or is not finite. Returns the number of samples written.
+    """
+    phase, node, sp, cp, act, PH, G0, G1 = setup(n_teeth, phi_s, phi_e, rpm, m, wn, zeta, mass)
+    P = node.size
+    M = wn.size
+    N = n_teeth
+    bkt = depth * kt
+    S = surf0.copy()
+    q = q0.copy()
+    v = v0.copy()
+    x = 0.0
+    y = 0.0
+    for j in range(M):
+        if mdir[j] == 0:
+            x += q[j]
+        else:
+            y += q[j]
+    # force just after t = 0 (step 0's contact set), then the surface update at point 0
+    fxa = 0.0
+    fya = 0.0
+    for k in range(N):
+        if act[0, k]:
+            h, ux, uy, _ = _contact(bkt, kr, sp[0, k], cp[0, k], 0.0, S[0, k], x, y)
+            if h > 0.0:
+                fxa += bkt * h * ux
+                fya += bkt * h * uy
+    for k in range(N):
+        if phi_s + k * TWO_PI / N <= phi_e + ANGLE_TOL:
+            h = 0.0 * sp[0, k] - S[0, k] + sp[0, k] * x + cp[0, k] * y
+            if h > 0.0:
+                S[0, k] += h
+    out_x[0] = x
+    out_y[0] = y
+    out_fx[0] = fxa
+    out_fy[0] = fya
+    n_out = 1
+    on = np.empty(N, dtype=np.bool_)
+    qn = np.empty(M)
+    vn = np.empty(M)
+    for c in range(n_periods):
+        for p in range(P):
+            end = p + 1 == P
+            xf_b = ft * (c + phase[p + 1])
+            # free part w = C(Φ z + Γ0 F_a), predictor with F_b = F_a, and the Γ1 gains per direction
+            wx = 0.0
+            wy = 0.0
+            px = 0.0
+            py = 0.0
+            g1x = 0.0
+            g1y = 0.0
+            for j in range(M):
+                fa = fxa if mdir[j] == 0 else fya
+                qf = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa
+                if mdir[j] == 0:
+                    wx += qf
+                    px += qf + G1[p, j, 0] * fa
+                    g1x += G1[p, j, 0]
+                else:
+                    wy += qf
+                    py += qf + G1[p, j, 0] * fa
+                    g1y += G1[p, j, 0]
+            # contact set at the step end from the predictor
+            for k in range(N):
+                on[k] = False
+                if act[p, k]:
+                    pb = 0 if end else p + 1
+                    kb = (k + 1) % N if end else k
+                    h, ux, uy, _ = _contact(bkt, kr, sp[pb, kb], cp[pb, kb], xf_b, S[pb, kb], px, py)
+                    on[k] = h > 0.0
+            xb = px
+            yb = py
+            fxb = 0.0
+            fyb = 0.0
+            for _it in range(3):
+                k11 = 0.0
+                k12 = 0.0
+                k21 = 0.0
+                k22 = 0.0
+                r1 = 0.0
+                r2 = 0.0
+                for k in range(N):
+                    if on[k]:
+                        pb = 0 if end else p + 1
+                        kb = (k + 1) % N if end else k
+                        s = sp[pb, kb]
+                        cc = cp[pb, kb]
+                        _, ux, uy, base = _contact(bkt, kr, s, cc, xf_b, S[pb, kb], 0.0, 0.0)
+                        k11 += bkt * ux * s
+                        k12 += bkt * ux * cc
+                        k21 += bkt * uy * s
+                        k22 += bkt * uy * cc
+                        r1 += bkt * ux * base
+                        r2 += bkt * uy * base
+                # (I − diag(g1) K) u = w + diag(g1) r
+                a11 = 1.0 - g1x * k11
+                a12 = -g1x * k12
+                a21 = -g1y * k21
+                a22 = 1.0 - g1y * k22
+                b1 = wx + g1x * r1
+                b2 = wy + g1y * r2
+                det = a11 * a22 - a12 * a21
+                xb = (b1 * a22 - a12 * b2) / det
+                yb = (a11 * b2 - a21 * b1) / det
+                fxb = k11 * xb + k12 * yb + r1
+                fyb = k21 * xb + k22 * yb + r2
+                changed = False
+                for k in range(N):
+                    if act[p, k]:
+                        pb = 0 if end else p + 1
+                        kb = (k + 1) % N if end else k
+                        h, ux, uy, _ = _contact(bkt, kr, sp[pb, kb], cp[pb, kb], xf_b, S[pb, kb], xb, yb)
+                        if (h > 0.0) != on[k]:
+                            on[k] = h > 0.0
+                            changed = True
+                if not changed:
+                    break
+            # advance every mode with the final end force
+            x = 0.0
+            y = 0.0
+            for j in range(M):
+                fa = fxa if mdir[j] == 0 else fya
+                fb = fxb if mdir[j] == 0 else fyb
+                qn[j] = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa + G1[p, j, 0] * fb
+                vn[j] = PH[p, j, 1, 0] * q[j] + PH[p, j, 1, 1] * v[j] + G0[p, j, 1] * fa + G1[p, j, 1] * fb
+                if mdir[j] == 0:
+                    x += qn[j]
+                else:
+                    y += qn[j]
+            for j in range(M):
+                q[j] = qn[j]
+                v[j] = vn[j]
+            if not (abs(x) <= bound and abs(y) <= bound):
+                return n_out
+            # the next point: force just after it (the next step's contact set, old surface), then
+            # the surface it leaves
+            pn = 0 if end else p + 1
+            fxa = 0.0
+            fya = 0.0
+            for k in range(N):
+                if act[pn, k]:
+                    h, ux, uy, _ = _contact(bkt, kr, sp[pn, k], cp[pn, k], xf_b, S[pn, k], x, y)
+                    if h > 0.0:
+                        fxa += bkt * h * ux
+                        fya += bkt * h * uy
+            for k in range(N):
+                if phi_s + (phase[pn] + k) * TWO_PI / N <= phi_e + ANGLE_TOL:
+                    h = xf_b * sp[pn, k] - S[pn, k] + sp[pn, k] * x + cp[pn, k] * y
+                    if h > 0.0:
+                        S[pn, k] += h
+            if end or node[p + 1]:
+                out_x[n_out] = x
+                out_y[n_out] = y
+                out_fx[n_out] = fxa
+                out_fy[n_out] = fya
+                n_out += 1
+    return n_out
+
+
+@nb.njit(cache=True)
+def rest_surface(n_teeth, phi_s, phi_e, m, ft):
+    """The surface left by a previous tooth without vibration: S(p, k) = f_t (phase_p − 1) sin ψ."""
+    phase, node = period_points(n_teeth, phi_s, phi_e, m)
+    P = node.size
+    S = np.empty((P, n_teeth))
+    pitch = TWO_PI / n_teeth
+    for p in range(P):
+        for k in range(n_teeth):
+            S[p, k] = ft * (phase[p] - 1.0) * math.sin(phi_s + (phase[p] + k) * pitch)
+    return S
+
+
+# ---------------------------------------------------------------------------------------------------
+# the forced T-periodic motion (no regeneration): Fourier series of the static force × receptance
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft):
+    """Complex Fourier coefficient c_n (x, y) [N] of the force of an unvibrating cut, period T.
+
+    F(t) = Σ_teeth b Kt f_t sin ψ (−cos ψ − Kr sin ψ, sin ψ − Kr cos ψ) over [φst, φex] (h = f_t sin ψ
+    ≥ 0 there). With ψ = Ωt + φst for the tooth entering at t = 0 the N teeth fill one revolution, so
+    c_n = (N / 2π) ∫_{φst}^{φex} F₁(ψ) e^{−i n N (ψ − φst)} dψ, in closed form from
+    sin ψ cos ψ = ½ sin 2ψ and sin² ψ = ½ (1 − cos 2ψ).
+    """
+    q = n * n_teeth
+    J = np.empty(3, dtype=np.complex128)  # ∫ e^{i a ψ} e^{−i q (ψ − φst)} dψ for a = −2, 0, 2
+    for ia in range(3):
+        a = 2 * (ia - 1)
+        if a == q:
+            J[ia] = phi_e - phi_s
+        else:
+            d = a - q
+            J[ia] = np.exp(1j * q * phi_s) * (np.exp(1j * d * phi_e) - np.exp(1j * d * phi_s)) / (1j * d)
+    s2 = (J[2] - J[0]) / 2j
+    c2 = (J[2] + J[0]) / 2.0
+    one = J[1]
+    scale = n_teeth / TWO_PI * depth * kt * ft
+    cx = scale * (-0.5 * s2 - 0.5 * kr * (one - c2))
+    cy = scale * (0.5 * (one - c2) - 0.5 * kr * s2)
+    return cx, cy
+
+
+@nb.njit(cache=True)
+def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm):
+    """Modal state (q, v) at t = 0 and the surface (P, N) of the forced T-periodic motion.
+
+    On that motion u(t) = u(t − T), so the chip is f_t sin ψ and the force is the static one: its
+    Fourier series times each mode's receptance 1/(m (ωn² − ω² + 2iζωnω)), n_harm harmonics.
+    """
+    T = 60.0 / (n_teeth * rpm)
+    wT = TWO_PI / T
+    phase, node = period_points(n_teeth, phi_s, phi_e, m)
+    P = node.size
+    M = wn.size
+    q0 = np.zeros(M)
+    v0 = np.zeros(M)
+    ux = np.zeros(P)
+    uy = np.zeros(P)
+    rot = np.empty(P, dtype=np.complex128)
+    for p in range(P):
+        rot[p] = np.exp(1j * wT * phase[p] * T)
+    E = np.ones(P, dtype=np.complex128)  # e^{i n ωT t_p}, advanced by one harmonic per pass
+    for n in range(n_harm + 1):
+        if n > 0:
+            for p in range(P):
+                E[p] *= rot[p]
+        cx, cy = force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft)
+        w = n * wT
+        wgt = 1.0 if n == 0 else 2.0
+        for j in range(M):
+            H = 1.0 / (mass[j] * (wn[j] * wn[j] - w * w + 2j * zeta[j] * wn[j] * w))
+            qc = wgt * H * (cx if mdir[j] == 0 else cy)
+            q0[j] += qc.real
+            v0[j] += (1j * w * qc).real
+            for p in range(P):
+                val = (qc * E[p]).real
+                if mdir[j] == 0:
+                    ux[p] += val
+                else:
+                    uy[p] += val
+    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
+    pitch = TWO_PI / n_teeth
+    for p in range(P):
+        for k in range(n_teeth):
+            psi = phi_s + (phase[p] + k) * pitch
+            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
+    return q0, v0, S

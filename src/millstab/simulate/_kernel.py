@@ -328,7 +328,7 @@ def force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft):
     for ia in range(3):
         a = 2 * (ia - 1)
         if a == q:
-            J[ia] = phi_e - phi_s
+            J[ia] = np.exp(1j * q * phi_s) * (phi_e - phi_s)
         else:
             d = a - q
             J[ia] = np.exp(1j * q * phi_s) * (np.exp(1j * d * phi_e) - np.exp(1j * d * phi_s)) / (1j * d)
@@ -342,11 +342,13 @@ def force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft):
 
 
 @nb.njit(cache=True)
-def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm):
+def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm, n_harm_state):
     """Modal state (q, v) at t = 0 and the surface (P, N) of the forced T-periodic motion.
 
     On that motion u(t) = u(t − T), so the chip is f_t sin ψ and the force is the static one: its
-    Fourier series times each mode's receptance 1/(m (ωn² − ω² + 2iζωnω)), n_harm harmonics.
+    Fourier series times each mode's receptance 1/(m (ωn² − ω² + 2iζωnω)): n_harm harmonics for the
+    surface (displacement terms fall as 1/n³), n_harm_state for the state at t = 0 (the velocity terms
+    fall only as 1/n² where a tooth enters with a finite chip, and the sum there is cheap).
     """
     T = 60.0 / (n_teeth * rpm)
     wT = TWO_PI / T
@@ -361,8 +363,8 @@ def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mas
     for p in range(P):
         rot[p] = np.exp(1j * wT * phase[p] * T)
     E = np.ones(P, dtype=np.complex128)  # e^{i n ωT t_p}, advanced by one harmonic per pass
-    for n in range(n_harm + 1):
-        if n > 0:
+    for n in range(max(n_harm, n_harm_state) + 1):
+        if n > 0 and n <= n_harm:
             for p in range(P):
                 E[p] *= rot[p]
         cx, cy = force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft)
@@ -371,8 +373,11 @@ def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mas
         for j in range(M):
             H = 1.0 / (mass[j] * (wn[j] * wn[j] - w * w + 2j * zeta[j] * wn[j] * w))
             qc = wgt * H * (cx if mdir[j] == 0 else cy)
-            q0[j] += qc.real
-            v0[j] += (1j * w * qc).real
+            if n <= n_harm_state:
+                q0[j] += qc.real
+                v0[j] += (1j * w * qc).real
+            if n > n_harm:
+                continue
             for p in range(P):
                 val = (qc * E[p]).real
                 if mdir[j] == 0:

@@ -254,7 +254,7 @@ def simulate_cut(structure: Structure, cutting: Cutting, rpm: float, depth: floa
     n = n_per * m + 1
     if n > MAX_SAMPLES:
         raise InputError("revs", revs, f"{n_per} tooth periods x {m} steps = {n} samples; at most {MAX_SAMPLES}")
-    from millstab.simulate._batch import initial_state
+    from millstab.simulate._kernel import initial_state
 
     args = _cut_args(cutting)
     rpm0 = float(r[0])
@@ -348,7 +348,7 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
     lobe = np.empty(n, dtype=np.int64)
     level = np.empty(n)
     growth = np.empty(n)
-    from millstab.simulate._batch import label_batch
+    from millstab.simulate._kernel import label_batch
 
     with threadpool_limits(1):
         label_batch(*_cut_args(cutting), r, d, steps, periods, ft, wn, zeta, mass, mdir, start == "steady",

@@ -48,6 +48,24 @@ import numpy as np
 from millstab.stability._sdm_kernel import _expm_2x2
 
 TWO_PI = 2.0 * math.pi
+
+# Every compiled function of the simulation lives in this one file: numba's on-disk cache of a
+# function is only refreshed when its own file changes, so a kernel calling into another module
+# could keep running stale code after an edit there. (The 2×2 matrix functions are the
+# semi-discretization engine's, unchanged since they were written.)
+
+# detector thresholds (rules and reasons in millstab.simulate.detect)
+#: growth factor of the tooth-to-tooth RMS over W periods above which a cut is chatter
+GROWTH = 1.5
+#: level (RMS of the tooth-to-tooth change over the feed per tooth) of a sustained chatter
+LEVEL_CHATTER = 0.1
+#: level below which the once-per-tooth samples are converged (stable)
+LEVEL_QUIET = 1e-4
+#: at most this many of the last tooth periods enter the spectrum (cost, and resolution f_T / 64)
+SPECTRUM_PERIODS = 64
+#: the fewest tooth periods a detection needs (two halves of 4)
+MIN_PERIODS = 8
+STABLE, MARGINAL, CHATTER = 0, 1, 2
 #: a tooth at a grid point is "in the cut" for surface updates when ψ ≤ φex + this [rad]
 ANGLE_TOL = 1e-9
 
@@ -391,3 +409,160 @@ def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mas
             psi = phi_s + (phase[p] + k) * pitch
             S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
     return q0, v0, S
+
+
+# ---------------------------------------------------------------------------------------------------
+# the detector's metrics (rules in millstab.simulate.detect)
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _rms_diff(x, y, m, c0, c1, lag):
+    """RMS over c in [c0, c1) of |P_c − P_{c−lag}|, P_c = (x, y)[c m]."""
+    s = 0.0
+    for c in range(c0, c1):
+        dx = x[c * m] - x[(c - lag) * m]
+        dy = y[c * m] - y[(c - lag) * m]
+        s += dx * dx + dy * dy
+    return math.sqrt(s / max(c1 - c0, 1))
+
+
+@nb.njit(cache=True)
+def _peak(x, y, m, c_end, n_per, stride, k_hi):
+    """(frequency in units of f_T, peak power) of the non-synchronous part of the last n_per periods.
+
+    Residual = signal − its average over those periods at each phase (removes all harmonics of f_T);
+    Hann window; DFT bins j / n_per (j = 1..k_hi, in units of f_T) on every ``stride``-th sample.
+    """
+    L = n_per * m
+    i0 = (c_end - n_per) * m
+    avg_x = np.zeros(m)
+    avg_y = np.zeros(m)
+    for c in range(n_per):
+        for i in range(m):
+            avg_x[i] += x[i0 + c * m + i]
+            avg_y[i] += y[i0 + c * m + i]
+    avg_x /= n_per
+    avg_y /= n_per
+    n_s = (L + stride - 1) // stride
+    rx = np.empty(n_s)
+    ry = np.empty(n_s)
+    for s in range(n_s):
+        i = s * stride
+        w = 0.5 - 0.5 * math.cos(2.0 * math.pi * i / L)
+        rx[s] = w * (x[i0 + i] - avg_x[i % m])
+        ry[s] = w * (y[i0 + i] - avg_y[i % m])
+    pw = np.zeros(k_hi + 2)
+    for j in range(1, k_hi + 2):
+        dth = 2.0 * math.pi * j * stride / L
+        rot = complex(math.cos(dth), -math.sin(dth))
+        e = 1.0 + 0.0j
+        sx = 0.0j
+        sy = 0.0j
+        for s in range(n_s):
+            sx += rx[s] * e
+            sy += ry[s] * e
+            e *= rot
+        pw[j] = abs(sx) ** 2 + abs(sy) ** 2
+    best = 1
+    for j in range(1, k_hi + 1):
+        if pw[j] > pw[best]:
+            best = j
+    f = float(best)
+    if 1 < best and pw[best - 1] > 0 and pw[best + 1] > 0 and pw[best] > 0:
+        a = math.log(pw[best - 1])
+        b = math.log(pw[best])
+        c = math.log(pw[best + 1])
+        den = a - 2 * b + c
+        if den < 0:
+            f += 0.5 * (a - c) / den
+    return f / n_per, pw[best]
+
+
+@nb.njit(cache=True)
+def detect_core(x, y, n_out, m, ft, f_tooth, f_hi, diverged):
+    """Detection metrics of one simulated cut (node samples x, y, n_out of them, m per period).
+
+    Returns (label code, chatter frequency [Hz] or NaN, lobe code, level L, growth G, spectral
+    window periods). See the module docstring for the rules.
+    """
+    C = (n_out - 1) // m  # complete periods; once-per-tooth samples at c m, c = 0..C
+    nan = np.nan
+    if C < 2:
+        return CHATTER if diverged else MARGINAL, nan, 0, nan, nan, 0
+    if C >= MIN_PERIODS:
+        W = C // 4
+        c_mid = C - W
+        r1 = _rms_diff(x, y, m, c_mid - W + 1, c_mid + 1, 1)
+        r2 = _rms_diff(x, y, m, c_mid + 1, C + 1, 1)
+    else:
+        r1 = _rms_diff(x, y, m, 1, C // 2 + 1, 1)
+        r2 = _rms_diff(x, y, m, C // 2 + 1, C + 1, 1)
+    level = r2 / ft
+    if r1 > 0:
+        growth = r2 / r1
+    else:
+        growth = 1.0 if r2 == 0 else np.inf
+    if diverged or growth >= GROWTH:
+        label = CHATTER
+    elif level < LEVEL_QUIET or growth <= 1.0 / GROWTH:
+        label = STABLE
+    elif level >= LEVEL_CHATTER:
+        label = CHATTER
+    else:
+        label = MARGINAL
+    hz = nan
+    lobe = 0
+    n_per = min(SPECTRUM_PERIODS, max(C // 2, 1) if C >= MIN_PERIODS else C)
+    if label != STABLE:
+        fs = m * f_tooth
+        stride = max(1, int(fs / (2.5 * f_hi)))
+        k_hi = max(2, int(f_hi / f_tooth * n_per))
+        frac, pw = _peak(x, y, m, C, n_per, stride, k_hi)
+        if pw > 0:
+            hz = frac * f_tooth
+            half = (frac % 1.0) - 0.5
+            lobe = 2 if abs(half) < 1.5 / n_per else 1
+    return label, hz, lobe, level, growth, n_per
+
+
+# ---------------------------------------------------------------------------------------------------
+# a batch of cuts, simulated and labelled in parallel
+# ---------------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, steady, perturb, n_harm):
+    """(q0, v0, surface) of a cut starting at rest, or on the forced periodic motion with every modal
+    displacement moved by ``perturb`` [m]."""
+    if steady:
+        q0, v0, S = steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm, 16 * n_harm)
+        for j in range(wn.size):
+            q0[j] += perturb
+        return q0, v0, S
+    return np.zeros(wn.size), np.zeros(wn.size), rest_surface(n_teeth, phi_s, phi_e, m, ft)
+
+
+@nb.njit(cache=True, parallel=True)
+def label_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, depth, steps, periods, ft, wn, zeta, mass, mdir, steady,
+                perturb_rel, n_harm, bound, f_hi, out_label, out_hz, out_lobe, out_level, out_growth):
+    """Simulate and label cuts (rpm[i], depth[i]) with steps[i] nodes per tooth period over
+    periods[i] periods; writes the detector's label/frequency/lobe codes and metrics per cut."""
+    for i in nb.prange(rpm.size):
+        m = steps[i]
+        q0, v0, S = initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm[i], m, depth[i], ft, wn, zeta, mass, mdir,
+                                  steady, perturb_rel * ft, n_harm)
+        n = periods[i] * m + 1
+        x = np.empty(n)
+        y = np.empty(n)
+        fx = np.empty(n)
+        fy = np.empty(n)
+        n_out = simulate(n_teeth, kt, kr, phi_s, phi_e, rpm[i], m, periods[i], depth[i], ft, wn, zeta, mass,
+                            mdir, q0, v0, S, bound[i], x, y, fx, fy)
+        f_tooth = n_teeth * rpm[i] / 60.0
+        lab, hz, lobe, level, growth, _ = detect_core(x, y, n_out, m, ft, f_tooth, f_hi[i], n_out < n)
+        out_label[i] = lab
+        out_hz[i] = hz
+        out_lobe[i] = lobe
+        out_level[i] = level
+        out_growth[i] = growth

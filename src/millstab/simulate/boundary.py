@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.simulate import simulate_cut
@@ -32,7 +34,13 @@ def multiplier(structure: Structure, cutting: Cutting, rpm: float, depth: float,
                        steps_per_tooth=steps_per_tooth, start="steady", perturbation=SMALL)
     if res.diverged:
         return complex(math.inf, 0.0)
-    return growth_multiplier(res, max_level=LINEAR * FEED)
+    try:
+        return growth_multiplier(res, max_level=LINEAR * FEED)
+    except ValueError:
+        # so few periods below the level that the growth is fast: its mean rate is enough here
+        d = np.abs(np.diff(res.once_x)) + np.abs(np.diff(res.once_y))
+        i = int(np.argmax(d > LINEAR * FEED))
+        return complex((d[i] / d[0]) ** (1.0 / max(i, 1)), 0.0)
 
 
 def simulated_limit(structure: Structure, cutting: Cutting, rpm: float, lo: float, hi: float, rtol: float = 1e-3,

@@ -92,6 +92,31 @@ def test_time_step_convergence_is_second_order():
     assert all(3.0 < r < 5.5 for r in ratios), (e, ratios)
 
 
+@pytest.mark.parametrize("shift,expected", [(-1.0, [2.0, 1.0, 1.0]), (1.5, [0.0, 0.5, 1.0])])
+def test_multiple_regeneration_keeps_the_surface_a_tooth_did_not_cut(shift, expected):
+    """The surface is kept per angle: a tooth meets what the last *cutting* tooth left.
+
+    A rigid tool (k = 1e14 N/m: no vibration) in slotting, and at ψ = 90° an initial surface moved
+    by ``shift`` × f_t. Moved back (−1): the first tooth cuts a double chip, then f_t again. Moved
+    forward (+1.5): the first tooth is out of the cut (no force) and leaves the surface as it was,
+    so the next one cuts 0.5 f_t (a surface reset to the path of the idle tooth would give f_t),
+    then f_t. Expected chips in units of f_t for the first three periods.
+    """
+    from millstab.simulate import _kernel
+
+    m, N, ft, depth = 40, 2, 1e-4, 1e-3
+    wn, zeta = np.array([2 * math.pi * 1000.0]), np.array([0.05])
+    mass = np.array([1e14 / wn[0] ** 2])
+    surf = _kernel.rest_surface(N, 0.0, math.pi, m, ft)
+    surf[m // 2, 0] += shift * ft  # slot 0 at phase 1/2 is at ψ = 90°, sin ψ = 1
+    n = 3 * m + 1
+    out = [np.empty(n) for _ in range(4)]
+    _kernel.simulate(N, 6e8, 1 / 3, 0.0, math.pi, 10000.0, m, 3, depth, ft, wn, zeta, mass, np.array([0]),
+                     np.zeros(1), np.zeros(1), surf, 1.0, *out)
+    fy = out[3][m // 2 + m * np.arange(3)]  # at ψ = 90°: F = b Kt h (−Kr, 1)
+    assert np.allclose(fy / (depth * 6e8 * ft), expected, atol=1e-6)
+
+
 # --- stability and chatter frequency against the semi-discretization engine -----------------------
 
 
@@ -197,7 +222,7 @@ def test_measured_frf_is_refused():
 def test_default_steps_resolve_the_mode_and_the_cut():
     m = default_steps(BENCH, LOW, [5000.0, 25000.0])
     T = 60.0 / (2 * np.array([5000.0, 25000.0]))
-    assert np.all(m >= 20) and np.all(m * 0.143 >= 39) and np.all(T / m <= 1 / (100 * FN) * 1.0001)
+    assert np.all(m >= 200) and np.all(m * 0.143 >= 39) and np.all(T / m <= 1 / (100 * FN) * 1.0001)
 
 
 # --- many cuts, noise, results --------------------------------------------------------------------

@@ -11,13 +11,14 @@
 Step. One tooth period T = 60/(N Ω) is m equal steps, so the delay is exactly m steps (exit
 instants between nodes become extra grid points). By default
 
-    m = max(STEPS_MIN, ceil(STEPS_PER_NATURAL_PERIOD · fn_max · T), ceil(STEPS_IN_CUT / (cut share of T)))
+    m = max(STEPS_DEFAULT_MIN, ceil(STEPS_PER_NATURAL_PERIOD · fn_max · T), ceil(STEPS_IN_CUT / (cut share of T)))
 
-(20, 100, 40): the error of the first-order-hold force is O(τ²) in the step τ measured against the
+(200, 100, 40): the error of the first-order-hold force is O(τ²) in the step τ measured against the
 natural period of the highest mode and against the time a tooth spends in the cut (a/D = 0.05 with
 2 teeth cuts during 14 % of T). Measured (benchmarks/bench_simulate.py): on a slotting lobe flank
 of the classic benchmark (11 667 rpm) 95 steps per tooth period (40 per natural period) put the
-boundary 2 % high, 200 steps 0.4 %, 400 steps 0.1 %; the defaults keep it within ~0.5 %. Fewer than
+boundary 2 % high, 200 steps 0.4 %, 400 steps 0.1 %; a two-mode structure at 20 000 rpm with 112
+steps per period (100 per natural period) was 1.3 % high, hence the floor of 200 per tooth period. Fewer than
 ``STEPS_MIN`` steps per tooth period is refused.
 
 Start. ``start="steady"`` (default) starts on the forced T-periodic motion of the cut (the vibration
@@ -50,6 +51,8 @@ __all__ = ["CutResult", "Detection", "Labels", "simulate_cut", "detect", "label_
 
 #: fewest steps per tooth period accepted
 STEPS_MIN = 20
+#: fewest steps per tooth period by default
+STEPS_DEFAULT_MIN = 200
 #: default steps per natural period of the highest mode
 STEPS_PER_NATURAL_PERIOD = 100.0
 #: default fewest steps during the time a tooth is in the cut
@@ -179,7 +182,7 @@ def default_steps(structure: Structure, cutting: Cutting, rpm) -> np.ndarray:
     share = min(1.0, (cutting.exit - cutting.entry) / (2 * math.pi / cutting.teeth))
     fn_max = wn.max() / (2 * math.pi)
     m = np.maximum(np.ceil(STEPS_PER_NATURAL_PERIOD * fn_max * T), math.ceil(STEPS_IN_CUT / share))
-    return np.maximum(m, STEPS_MIN).astype(np.int64)
+    return np.maximum(m, STEPS_DEFAULT_MIN).astype(np.int64)
 
 
 def _steps(structure, cutting, r, steps_per_tooth) -> np.ndarray:

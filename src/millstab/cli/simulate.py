@@ -1,6 +1,7 @@
 """``millstab simulate``: virtual test cuts (time-domain simulation and chatter detection).
 
-One cut:   millstab simulate CONFIG --rpm R --depth MM [--feed-per-tooth MM] [--revs N] [--plot cut.png] [--out trace.csv]
+One cut:   millstab simulate CONFIG --rpm R --depth MM [--feed-per-tooth MM] [--revs N] [--plot cut.png]
+           [--out trace.csv]
 Many cuts: millstab simulate CONFIG --cuts cuts.csv --out labelled.csv [--label-noise P --seed S]
 """
 
@@ -25,11 +26,15 @@ def simulate(
     feed: float = typer.Option(0.1, "--feed-per-tooth", help="Feed per tooth (mm)."),
     revs: float = typer.Option(100.0, "--revs", help="Spindle revolutions per cut."),
     steps: Optional[int] = typer.Option(None, "--steps", help="Steps per tooth period (>= 20; default automatic)."),
-    start: str = typer.Option("steady", "--start", help="steady (engaged cut, small bump) or rest (entering at full depth)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="CSV: with --cuts rpm,depth_mm,label,chatter_hz; else the trace t_s,x_m,y_m,fx_N,fy_N."),
+    start: str = typer.Option("steady", "--start",
+                              help="steady (engaged cut, small bump) or rest (entering at full depth)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="CSV: with --cuts rpm,depth_mm,label,chatter_hz; "
+                                                           "else the trace t_s,x_m,y_m,fx_N,fy_N."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure of one cut (.png, .svg or .pdf)."),
-    label_noise: float = typer.Option(0.0, "--label-noise", help="Probability that a stable/chatter label is swapped (needs --seed)."),
-    marginal: str = typer.Option("keep", "--marginal", help="keep the 'marginal' label, or 'random': call it stable/chatter at even odds (needs --seed)."),
+    label_noise: float = typer.Option(0.0, "--label-noise",
+                                      help="Probability that a stable/chatter label is swapped (needs --seed)."),
+    marginal: str = typer.Option("keep", "--marginal", help="keep the 'marginal' label, or 'random': call it "
+                                                            "stable/chatter at even odds (needs --seed)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the label noise."),
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
@@ -46,8 +51,8 @@ def simulate(
         if plot is not None:
             raise InputError("--plot", str(plot), "a figure is drawn for one cut (--rpm/--depth), not for --cuts")
         pts = read_points(cuts)
-        lab = label_cuts(cfg.structure, cfg.cutting, pts.rpm, pts.depth_m, feed * 1e-3, revs=revs, steps_per_tooth=steps,
-                         start=start, label_noise=label_noise, marginal=marginal, seed=seed)
+        lab = label_cuts(cfg.structure, cfg.cutting, pts.rpm, pts.depth_m, feed * 1e-3, revs=revs,
+                         steps_per_tooth=steps, start=start, label_noise=label_noise, marginal=marginal, seed=seed)
         counts = ", ".join(f"{int(np.sum(lab.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
         typer.echo(f"{cfg.name}: {len(pts)} cuts labelled: {counts}")
         if out:
@@ -56,7 +61,8 @@ def simulate(
             typer.echo(f"wrote {out}")
         return
     if rpm is None or depth is None:
-        raise InputError("--rpm/--depth", f"{rpm}/{depth}", "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
+        raise InputError("--rpm/--depth", f"{rpm}/{depth}",
+                         "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
     if label_noise or seed is not None or marginal != "keep":
         raise InputError("--label-noise", label_noise, "label noise applies to --cuts only")
     res = simulate_cut(cfg.structure, cfg.cutting, rpm, depth * 1e-3, feed * 1e-3, revs=revs, steps_per_tooth=steps,

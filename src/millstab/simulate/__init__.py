@@ -278,7 +278,8 @@ class Labels:
 
     Attributes:
         rpm [rev/min], depth_m [m]; label: "stable" | "marginal" | "chatter" (after any label noise);
-        true_label: the detector's label before noise; chatter_hz [Hz] (NaN when stable);
+        true_label: the detector's label before noise; chatter_hz [Hz] of the detector (NaN where
+            true_label is stable, also when noise swapped the label);
         lobe: "hopf" | "flip" | ""; level, growth: the detector's metrics (see :mod:`.detect`);
         seed: the seed of the label noise (None: no noise).
     """

@@ -536,7 +536,8 @@ def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, ma
     """(q0, v0, surface) of a cut starting at rest, or on the forced periodic motion with every modal
     displacement moved by ``perturb`` [m]."""
     if steady:
-        q0, v0, S = steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm, 16 * n_harm)
+        q0, v0, S = steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm,
+                                 16 * n_harm)
         for j in range(wn.size):
             q0[j] += perturb
         return q0, v0, S

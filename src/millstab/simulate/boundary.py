@@ -54,7 +54,8 @@ def simulated_limit(structure: Structure, cutting: Cutting, rpm: float, lo: floa
     mu_lo = multiplier(structure, cutting, rpm, lo, periods, steps_per_tooth)
     mu_hi = multiplier(structure, cutting, rpm, hi, periods, steps_per_tooth)
     if not (abs(mu_lo) < 1.0 < abs(mu_hi)):
-        raise InputError("bracket", (lo, hi), f"|mu| = {abs(mu_lo):.5f}, {abs(mu_hi):.5f}: need |mu(lo)| < 1 < |mu(hi)|")
+        raise InputError("bracket", (lo, hi),
+                         f"|mu| = {abs(mu_lo):.5f}, {abs(mu_hi):.5f}: need |mu(lo)| < 1 < |mu(hi)|")
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
         mu = multiplier(structure, cutting, rpm, mid, periods, steps_per_tooth)

@@ -122,12 +122,14 @@ def test_multiple_regeneration_keeps_the_surface_a_tooth_did_not_cut(shift, expe
 
 @pytest.mark.parametrize("structure,cutting,rpm", [
     (BENCH, SLOT, 5000.0), (BENCH, SLOT, 18333.0), (BENCH, LOW, 9000.0), (BENCH, LOW, 17000.0),
-    (TWO, HALF3, 11000.0),
+    (TWO, HALF3, 11000.0), (TWO, HALF3, 16111.0), (Structure.symmetric(FN, K, ZETA), SLOT, 12000.0),
 ])
 def test_simulated_multiplier_matches_sdm_and_brackets_its_boundary(structure, cutting, rpm):
     """At small vibration the once-per-tooth multiplier of the simulation is the engine's Floquet
     multiplier: |μ| within 1e-3 at the SDM boundary, the same angle (chatter frequency modulo the
-    tooth-passing frequency, lobe type), and stable 2 % below, unstable 2 % above the SDM depth."""
+    tooth-passing frequency, lobe type), and stable 2 % below, unstable 2 % above the SDM depth.
+    With a mode in y and an exit (entry) at ψ = π (0), where the static chip is zero, a scheme that
+    treats the sign of the dynamic chip there point-wise converges only O(τ) (|μ| 0.992 at 16 111 rpm)."""
     b0 = sdm.envelope(structure, cutting, [rpm]).depth[0]
     mu_sdm = sdm.critical_multipliers(structure, cutting, [rpm])[0]
     mu = multiplier(structure, cutting, rpm, b0)

@@ -31,11 +31,14 @@ linear in time over the step between its values at the two ends (first-order hol
     z_b = Φ z_a + Γ0 F_a + Γ1 F_b,  Φ = e^{Aτ},  Γ0 = (F1 − F2/τ) B,  Γ1 = (F2/τ) B,
     F1 = ∫₀^τ e^{A(τ−s)} ds,  F2 = ∫₀^τ e^{A(τ−s)} s ds,  B = (0, 1/m)ᵀ.
 
-F_b depends on the unknown displacement at the step end (the chip is cut now): with the set of
-teeth in contact fixed, F_b = K u_b + r is linear, so u_b solves one 2×2 system (implicit, no
-stability limit on the step). The contact set is predicted with F held constant, then corrected
-(≤ 3 passes). The local error is O(τ³) (force interpolation), so the scheme is second order in τ;
-free vibration is exact for any step.
+F_b depends on the unknown displacement at the step end (the chip is cut now): for the teeth in
+the cut at both ends F_b = K u_b + r is linear, so u_b solves one 2×2 system (implicit, no
+stability limit on the step), started from a predictor with F held constant and repeated (≤ 4
+passes) while the contact changes. A tooth whose chip changes sign within the step (it leaves or
+enters the cut there) contributes the endpoint values of the straight line with the same integral
+and first moment as its clipped linear chip, so a chip that is zero at a grid point (ψ = 0 or π,
+where f_t sin ψ = 0) does not spoil the order. The local error is O(τ³) (force interpolation), so
+the scheme is second order in τ; free vibration is exact for any step.
 """
 
 from __future__ import annotations
@@ -68,6 +71,11 @@ MIN_PERIODS = 8
 STABLE, MARGINAL, CHATTER = 0, 1, 2
 #: a tooth at a grid point is "in the cut" for surface updates when ψ ≤ φex + this [rad]
 ANGLE_TOL = 1e-9
+#: |sin ψ| below this: a grid point at ψ = 0 or π, where the static chip f_t sin ψ is zero. There the
+#: surface always takes the tooth's path, cut or not: in continuous time the angles near 0 or π
+#: where a small vibration makes the chip negative shrink with it (width ~ |Δu| / f_t), so keeping
+#: the older surface at that one grid point would put an O(τ |Δu|) error into the linear dynamics.
+ZERO_CHIP = 1e-9
 
 
 @nb.njit(cache=True)
@@ -176,23 +184,24 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
     # force just after t = 0 (step 0's contact set), then the surface update at point 0
     fxa = 0.0
     fya = 0.0
+    ha = np.zeros(N)  # chip of each tooth at the start of the step (old surface), unclipped
     for k in range(N):
         if act[0, k]:
             h, ux, uy, _ = _contact(bkt, kr, sp[0, k], cp[0, k], 0.0, S[0, k], x, y)
+            ha[k] = h
             if h > 0.0:
                 fxa += bkt * h * ux
                 fya += bkt * h * uy
     for k in range(N):
         if phi_s + k * TWO_PI / N <= phi_e + ANGLE_TOL:
             h = 0.0 * sp[0, k] - S[0, k] + sp[0, k] * x + cp[0, k] * y
-            if h > 0.0:
+            if h > 0.0 or abs(sp[0, k]) < ZERO_CHIP:
                 S[0, k] += h
     out_x[0] = x
     out_y[0] = y
     out_fx[0] = fxa
     out_fy[0] = fya
     n_out = 1
-    on = np.empty(N, dtype=np.bool_)
     qn = np.empty(M)
     vn = np.empty(M)
     for c in range(n_periods):
@@ -217,61 +226,89 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                     wy += qf
                     py += qf + G1[p, j, 0] * fa
                     g1y += G1[p, j, 0]
-            # contact set at the step end from the predictor
-            for k in range(N):
-                on[k] = False
-                if act[p, k]:
-                    pb = 0 if end else p + 1
-                    kb = (k + 1) % N if end else k
-                    h, ux, uy, _ = _contact(bkt, kr, sp[pb, kb], cp[pb, kb], xf_b, S[pb, kb], px, py)
-                    on[k] = h > 0.0
+            # end force: chips at both ends of the step per tooth; where a chip changes sign within
+            # the step the tooth leaves (enters) the cut there, and the clipped linear chip is
+            # replaced by the linear one with the same integral and first moment (endpoint values
+            # a, b below), so a chip that is zero at a node (ψ = 0, π) does not cost O(τ)
             xb = px
             yb = py
             fxb = 0.0
             fyb = 0.0
-            for _it in range(3):
+            fxe = fxa
+            fye = fya
+            for _it in range(4):
                 k11 = 0.0
                 k12 = 0.0
                 k21 = 0.0
                 k22 = 0.0
                 r1 = 0.0
                 r2 = 0.0
+                fxe = 0.0  # start force of this step (effective)
+                fye = 0.0
+                cx = 0.0  # end force of crossing teeth, held fixed in this pass
+                cy = 0.0
                 for k in range(N):
-                    if on[k]:
-                        pb = 0 if end else p + 1
-                        kb = (k + 1) % N if end else k
-                        s = sp[pb, kb]
-                        cc = cp[pb, kb]
-                        _, ux, uy, base = _contact(bkt, kr, s, cc, xf_b, S[pb, kb], 0.0, 0.0)
+                    if not act[p, k]:
+                        continue
+                    pb = 0 if end else p + 1
+                    kb = (k + 1) % N if end else k
+                    s = sp[pb, kb]
+                    cc = cp[pb, kb]
+                    hb, ux, uy, base = _contact(bkt, kr, s, cc, xf_b, S[pb, kb], xb, yb)
+                    h0 = ha[k]
+                    uxa = -cp[p, k] - kr * sp[p, k]
+                    uya = sp[p, k] - kr * cp[p, k]
+                    on_k = hb > 0.0
+                    if h0 > 0.0 and on_k:
                         k11 += bkt * ux * s
                         k12 += bkt * ux * cc
                         k21 += bkt * uy * s
                         k22 += bkt * uy * cc
                         r1 += bkt * ux * base
                         r2 += bkt * uy * base
-                # (I − diag(g1) K) u = w + diag(g1) r
+                        fxe += bkt * h0 * uxa
+                        fye += bkt * h0 * uya
+                    elif h0 > 0.0 or on_k:
+                        if h0 > 0.0:  # leaves at σ τ: a = h0 σ (2 − σ), b = h0 σ (σ − 1)
+                            sg = h0 / (h0 - hb)
+                            a = h0 * sg * (2.0 - sg)
+                            b = h0 * sg * (sg - 1.0)
+                        else:  # enters at (1 − ρ) τ: a = hb ρ (ρ − 1), b = hb ρ (2 − ρ)
+                            rh = hb / (hb - h0)
+                            a = hb * rh * (rh - 1.0)
+                            b = hb * rh * (2.0 - rh)
+                        fxe += bkt * a * uxa
+                        fye += bkt * a * uya
+                        cx += bkt * b * ux
+                        cy += bkt * b * uy
+                # w = C(Φ z + Γ0 F_a); (I − diag(g1) K) u = w + diag(g1) (r + crossing end force)
+                wx = 0.0
+                wy = 0.0
+                for j in range(M):
+                    fa = fxe if mdir[j] == 0 else fye
+                    qf = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa
+                    if mdir[j] == 0:
+                        wx += qf
+                    else:
+                        wy += qf
                 a11 = 1.0 - g1x * k11
                 a12 = -g1x * k12
                 a21 = -g1y * k21
                 a22 = 1.0 - g1y * k22
-                b1 = wx + g1x * r1
-                b2 = wy + g1y * r2
+                b1 = wx + g1x * (r1 + cx)
+                b2 = wy + g1y * (r2 + cy)
                 det = a11 * a22 - a12 * a21
-                xb = (b1 * a22 - a12 * b2) / det
-                yb = (a11 * b2 - a21 * b1) / det
-                fxb = k11 * xb + k12 * yb + r1
-                fyb = k21 * xb + k22 * yb + r2
-                changed = False
-                for k in range(N):
-                    if act[p, k]:
-                        pb = 0 if end else p + 1
-                        kb = (k + 1) % N if end else k
-                        h, ux, uy, _ = _contact(bkt, kr, sp[pb, kb], cp[pb, kb], xf_b, S[pb, kb], xb, yb)
-                        if (h > 0.0) != on[k]:
-                            on[k] = h > 0.0
-                            changed = True
-                if not changed:
+                xn = (b1 * a22 - a12 * b2) / det
+                yn = (a11 * b2 - a21 * b1) / det
+                fxb = k11 * xn + k12 * yn + r1 + cx
+                fyb = k21 * xn + k22 * yn + r2 + cy
+                moved = abs(xn - xb) + abs(yn - yb)
+                xb = xn
+                yb = yn
+                if moved <= 1e-13 * (abs(xb) + abs(yb)) + 1e-300:
                     break
+            fxa = fxe
+            fya = fye
             # advance every mode with the final end force
             x = 0.0
             y = 0.0
@@ -295,15 +332,17 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
             fxa = 0.0
             fya = 0.0
             for k in range(N):
+                ha[k] = 0.0
                 if act[pn, k]:
                     h, ux, uy, _ = _contact(bkt, kr, sp[pn, k], cp[pn, k], xf_b, S[pn, k], x, y)
+                    ha[k] = h
                     if h > 0.0:
                         fxa += bkt * h * ux
                         fya += bkt * h * uy
             for k in range(N):
                 if phi_s + (phase[pn] + k) * TWO_PI / N <= phi_e + ANGLE_TOL:
                     h = xf_b * sp[pn, k] - S[pn, k] + sp[pn, k] * x + cp[pn, k] * y
-                    if h > 0.0:
+                    if h > 0.0 or abs(sp[pn, k]) < ZERO_CHIP:
                         S[pn, k] += h
             if end or node[p + 1]:
                 out_x[n_out] = x

@@ -131,7 +131,7 @@ def _display_spectrum(result, n_per: int) -> tuple[np.ndarray, np.ndarray]:
 def growth_multiplier(result, skip: float = 0.5, order: int = 3, max_level: float | None = None) -> complex:
     """The dominant multiplier of the once-per-tooth map, fitted to the simulated samples.
 
-    A least-squares linear predictor (dynamic mode decomposition with ``order`` delays) of the
+    A linear predictor (dynamic mode decomposition with ``order`` delays, rank-truncated) of the
     tooth-to-tooth changes d_c = P_c − P_{c−1} after the first ``skip`` share of the cut; its
     eigenvalue of largest modulus. With ``max_level`` [m] only the samples before the first change
     larger than it (after the first one below it) are used (the linear regime of a growing run).
@@ -156,8 +156,13 @@ def growth_multiplier(result, skip: float = 0.5, order: int = 3, max_level: floa
     d = d / np.abs(d).max()
     # Hankel states s_c = (d_c, d_{c−1}, ..., d_{c−order+1})
     H = np.concatenate([d[order - 1 - i: d.shape[0] - i] for i in range(order)], axis=1)
-    A, *_ = np.linalg.lstsq(H[:-1], H[1:], rcond=None)
-    mu = np.linalg.eigvals(A.T)
+    # exact DMD on the data's own subspace: X = H₀ᵀ = U Σ Vᵀ (singular values below 1e-7 of the
+    # largest dropped), Ã = Uᵀ Y V Σ⁻¹; a plain least-squares map would also carry arbitrary
+    # eigenvalues on directions the data never visit (a growing pair alone fills 2 of qD dimensions)
+    X, Y = H[:-1].T, H[1:].T
+    U, sv, Vt = np.linalg.svd(X, full_matrices=False)
+    r = int(np.sum(sv > 1e-7 * sv[0]))
+    mu = np.linalg.eigvals(U[:, :r].T @ Y @ Vt[:r].T / sv[:r])
     mu = mu[np.argsort(-np.abs(mu))]
     top = mu[0]
     if top.imag < 0 and np.any(np.isclose(mu, np.conj(top))):

@@ -1,0 +1,221 @@
+"""Spectral-element collocation of the cutting intervals: an accurate and fast time-domain engine.
+
+Same interface as :mod:`millstab.stability.zoa` and :mod:`millstab.stability.sdm` (``envelope``,
+``envelope_batch``), plus :func:`monodromy`, :func:`rho_map` and the lobe type (Hopf / flip) in
+:class:`SpectralEnvelope`. Modal structures only (as SDM); the force model is SDM's (see
+:mod:`millstab.stability.sdm`): F = ½ b Kt [A(t)] (u(t) − u(t − T)).
+
+Why this method (measured, see benchmarks/bench_spectral.py). The milling equation is a linear
+delay equation with T-periodic coefficients; its stability is that of the monodromy operator over
+one tooth period. Between cuts the tool vibrates freely, so the only part of the past that matters
+is the displacement during the previous cut. This engine therefore discretises only the cutting
+intervals, with spectral elements: each cutting segment (between entry/exit instants, where [A(t)]
+is a smooth trigonometric function) is split into elements of at most ``ELEM_PERIODS`` natural
+periods of the highest mode, and on each element the state is a polynomial of degree p collocated at
+the Chebyshev–Lobatto nodes. The delayed displacement at a node is the previous period's value at the
+same node, so no interpolation error enters; the free flight is one exact exponential. The error then
+falls spectrally with p (semi-discretization: O(h²)), so a 10–40 sized monodromy matrix gives ρ to
+~1e-5 where SDM needs ~70 steps and a Richardson extrapolation. The multi-frequency (Hill) form was
+not chosen: at low immersion the directional matrix is a short pulse with jumps, whose Fourier series
+converges like 1/r, so many harmonics (large complex matrices) are needed for 1 %.
+
+Accuracy control (converged by default). p = ``P_NODES`` nodes per element, elements ≤ ``ELEM_PERIODS``
+natural periods. Per call the depth at CHECK speeds (the lowest speed, where elements are longest, and
+the highest) is recomputed with p + ``P_STEP`` nodes; while the two differ by more than ``TOL`` (0.1 %,
+ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``).
+
+Root search (compiled, parallel over sets × speed blocks). ρ(0) = max e^{−ζ ωn T} < 1. At the first
+speed of a block, ρ is evaluated at b_ref·LADDER (b_ref the zero-order depth) until the first unstable
+depth; at the next speeds at min(previous depth, b_ref)·LADDER_CONT (the boundary is continuous in
+speed except where a new unstable island appears, which the lowest rung, 0.2 of the guess, must
+catch); beyond the ladder the depth grows ×1.5 up to 1e4 times the guess (then ``inf``). The bracket
+is refined by the Illinois method on ρ − 1 to a relative width ``RTOL``.
+
+Lobe type and chatter frequency: the dominant multiplier μ at the boundary; μ real negative
+(|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency
+(±arg μ + 2πk)/T is taken nearest the most flexible mode's natural frequency, as in SDM; lobe =
+floor(f_c T) (whole vibration waves per tooth period).
+
+Units: rpm at the interface, depth in m (``depth_mm`` for mm), frequencies in Hz.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from millstab.errors import InputError
+from millstab.frf import ModalBatch
+from millstab.model import Cutting, Structure
+from millstab.stability import _spectral_kernel as _k
+from millstab.stability import zoa
+from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
+from millstab.stability.zoa import Envelope, check_rpm
+
+#: collocation nodes per element (degree of the polynomial) before the convergence check
+P_NODES = 6
+#: nodes added per refinement of the convergence check, and the most allowed
+P_STEP = 4
+P_MAX = 30
+#: the longest element, in natural periods of the highest mode
+ELEM_PERIODS = 0.5
+#: relative depth change between p and p + P_STEP accepted as converged (the target is 1 %)
+TOL = 1e-3
+#: relative width of the final root bracket
+RTOL = 2e-4
+#: root-search ladders (multiples of the guess, ascending): first speed of a block, then continuation
+LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
+LADDER_CONT = np.array([0.2, 0.45, 0.65, 0.8, 0.9, 0.97, 1.03, 1.1, 1.25, 1.5, 2.0, 3.0])
+#: speeds per block of the root search (blocks run in parallel; within one, depth continues)
+BLOCK = 25
+#: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
+FLIP_ARG = 1e-3
+
+__all__ = ["envelope", "envelope_batch", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES", "ELEM_PERIODS", "TOL"]
+
+
+@dataclass(frozen=True, eq=False)
+class SpectralEnvelope(Envelope):
+    """:class:`~millstab.stability.zoa.Envelope` plus the lobe type and the critical multiplier.
+
+    Attributes:
+        kind: ``"hopf"``, ``"flip"`` or ``"none"`` (no boundary) per speed (S,).
+        multiplier: dominant Floquet multiplier just on the unstable side of the boundary (S,) complex.
+        nodes: collocation nodes per element the convergence check settled on.
+    """
+
+    kind: np.ndarray = None  # type: ignore[assignment]
+    multiplier: np.ndarray = None  # type: ignore[assignment]
+    nodes: int = P_NODES
+
+
+def _cut_args(cutting: Cutting) -> tuple:
+    return cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit
+
+
+def _elem_len(wn: np.ndarray) -> np.ndarray:
+    """Longest element [s] per set: ELEM_PERIODS natural periods of its highest mode."""
+    return np.ascontiguousarray(ELEM_PERIODS * 2 * math.pi / wn.max(axis=1))
+
+
+def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
+    """Zero-order depths (B, S) [m] as the search's starting guess (a finite stand-in where it has none)."""
+    b_ref = zoa.envelope_batch(batch, cutting, r)
+    fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
+    row_max = np.nanmax(np.where(np.isfinite(fallback), fallback, -np.inf), axis=1)
+    row_max = np.where(np.isfinite(row_max), row_max, _static_scale(batch, cutting))
+    return np.ascontiguousarray(np.where(np.isfinite(b_ref), b_ref, row_max[:, None]))
+
+
+def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int) -> tuple[np.ndarray, ...]:
+    """Depth, multiplier and ρ-evaluation counts (B, S) at ascending speeds rs with p nodes per element."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    n_b, n_s = batch.size, rs.size
+    starts = np.unique(np.concatenate([np.arange(0, n_s, BLOCK), [n_s]])).astype(np.int64)
+    depth = np.empty((n_b, n_s))
+    mu = np.empty((n_b, n_s), dtype=np.complex128)
+    n_eval = np.empty((n_b, n_s), dtype=np.int64)
+    n, kt, kr, ps, pe = _cut_args(cutting)
+    with threadpool_limits(1):
+        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
+                       _elem_len(wn), int(p), RTOL, depth, mu, n_eval)
+    if np.any(np.isnan(depth)):
+        raise ArithmeticError("spectral engine: root search produced NaN")
+    return depth, mu, n_eval
+
+
+def converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray) -> int:
+    """Nodes per element for which the depth at the check speeds (lowest and highest) changes by
+    less than TOL when P_STEP nodes are added (first set of the batch, the one the check is run on)."""
+    idx = np.unique([0, rs.size - 1])
+    sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    p = P_NODES
+    d0 = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p)[0][0]
+    while p < P_MAX:
+        d1 = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p + P_STEP)[0][0]
+        fin = np.isfinite(d0) & np.isfinite(d1)
+        same_inf = np.isinf(d0) == np.isinf(d1)
+        if np.all(same_inf) and (not fin.any() or np.max(np.abs(d1[fin] / d0[fin] - 1)) <= TOL):
+            return p
+        p, d0 = p + P_STEP, d1
+    return p
+
+
+def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None) -> tuple[np.ndarray, np.ndarray, int]:
+    """Limiting depths (B, S) [m] and dominant multipliers (B, S) at speeds r (any order); the nodes used."""
+    order = np.argsort(r, kind="stable")
+    rs = np.ascontiguousarray(r[order])
+    b_ref = _b_ref(batch, cutting, rs)
+    if nodes is None:
+        p = converged_nodes(batch, cutting, rs, b_ref)
+    else:
+        if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2:
+            raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
+        p = int(nodes)
+    depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
+    inv = np.empty_like(order)
+    inv[order] = np.arange(order.size)
+    return depth[:, inv], mu[:, inv], p
+
+
+def lobe_kind(mu: np.ndarray) -> np.ndarray:
+    """``"flip"`` for a multiplier on the negative real axis, ``"hopf"`` otherwise, ``"none"`` if NaN."""
+    mu = np.asarray(mu)
+    flip = np.abs(np.angle(mu)) > math.pi - FLIP_ARG
+    return np.where(~np.isfinite(mu), "none", np.where(flip, "flip", "hopf"))
+
+
+def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = None) -> SpectralEnvelope:
+    """The limiting depth b_lim [m] at each spindle speed [rpm] for one modal structure.
+
+    ``inf`` where no boundary exists up to 1e4 times the reference depth. ``nodes``: collocation
+    nodes per element (None: chosen by the convergence check, see the module docstring).
+
+    Raises:
+        InputError: for a measured-FRF structure (the time-domain engines need modal parameters).
+    """
+    _require_modal(structure)
+    r = check_rpm(rpm)
+    depth, mu, p = _limit(ModalBatch.from_structures([structure]), cutting, r, nodes)
+    flex = max(structure.modes, key=lambda m: 1.0 / (m.k * m.zeta))
+    T = 60.0 / (cutting.teeth * r)
+    ok = np.isfinite(depth[0])
+    hz = np.where(ok, _chatter_hz(mu[0], T, flex.fn), np.nan)
+    lobe = np.where(ok, np.floor(np.nan_to_num(hz) * T), -1).astype(np.int64)
+    kind = np.where(ok, lobe_kind(mu[0]), "none")
+    return SpectralEnvelope(r, depth[0], lobe, hz, kind=kind, multiplier=mu[0], nodes=p)
+
+
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> np.ndarray:
+    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]."""
+    r = check_rpm(rpm)
+    return _limit(batch, cutting, r, nodes)[0]
+
+
+def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float, nodes: int = P_NODES) -> np.ndarray:
+    """The monodromy matrix over one tooth period at one speed [rpm] and depth [m]; its eigenvalues
+    are the Floquet multipliers (the cut is stable when all have modulus < 1)."""
+    _require_modal(structure)
+    wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
+    r = float(check_rpm([rpm])[0])
+    n, kt, kr, ps, pe = _cut_args(cutting)
+    g = _k.setup(n, kr, ps, pe, r, float(_elem_len(wn)[0]), int(nodes), wn[0], zeta[0], act)
+    _, Dm = _k.cheb_nodes(int(nodes))
+    return _k.monodromy(float(depth_m), kt, wn[0], zeta[0], mass[0], mdir, act.size, g[0], g[1], g[2], g[3], g[4], Dm)
+
+
+def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, nodes: int = P_NODES) -> np.ndarray:
+    """Spectral radius ρ of the monodromy matrix on a speed × depth grid, shape (S, D) (depths in m)."""
+    r = check_rpm(rpm)
+    d = np.atleast_1d(np.asarray(depth_m, dtype=float))
+    if d.ndim != 1 or not np.all(np.isfinite(d)) or np.any(d < 0):
+        raise InputError("depth_m", depth_m, "depths must be a 1-D list of finite values >= 0 m")
+    out = np.empty((r.size, d.size))
+    with threadpool_limits(1):
+        for i, s in enumerate(r):  # a diagnostic, not a hot path
+            for j, b in enumerate(d):
+                out[i, j] = np.max(np.abs(np.linalg.eigvals(monodromy(structure, cutting, s, b, nodes))))
+    return out

@@ -56,10 +56,10 @@ from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static
 from millstab.stability.zoa import Envelope, check_rpm
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
-P_NODES = 6
+P_NODES = 4
 #: nodes added per refinement of the convergence check, and the most allowed
-P_STEP = 4
-P_MAX = 30
+P_STEP = 2
+P_MAX = 16
 #: the longest element, in natural periods of the highest mode
 ELEM_PERIODS = 0.5
 #: relative depth change between p and p + P_STEP accepted as converged (the target is 1 %)
@@ -68,7 +68,7 @@ TOL = 1e-3
 RTOL = 2e-4
 #: root-search ladders (multiples of the guess, ascending): first speed of a block, then continuation
 LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
-LADDER_CONT = np.array([0.2, 0.45, 0.65, 0.8, 0.9, 0.97, 1.03, 1.1, 1.25, 1.5, 2.0, 3.0])
+LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: speeds per block of the root search (blocks run in parallel; within one, depth continues)
 BLOCK = 25
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
@@ -121,7 +121,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), int(p), RTOL, depth, mu, n_eval)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -202,9 +202,10 @@ def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float
     wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
     r = float(check_rpm([rpm])[0])
     n, kt, kr, ps, pe = _cut_args(cutting)
-    g = _k.setup(n, kr, ps, pe, r, float(_elem_len(wn)[0]), int(nodes), wn[0], zeta[0], act)
-    _, Dm = _k.cheb_nodes(int(nodes))
-    return _k.monodromy(float(depth_m), kt, wn[0], zeta[0], mass[0], mdir, act.size, g[0], g[1], g[2], g[3], g[4], Dm)
+    x, Dm, lend = _k.gauss_nodes(int(nodes))
+    g = _k.setup(n, kr, ps, pe, r, float(_elem_len(wn)[0]), x, wn[0], zeta[0], act)
+    return _k.monodromy(float(depth_m), kt, wn[0], zeta[0], mass[0], mdir, act.size, g[0], g[1], g[2], g[3], g[4], Dm,
+                        lend)
 
 
 def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, nodes: int = P_NODES) -> np.ndarray:

@@ -23,8 +23,8 @@ def lobes(
     out: Optional[Path] = typer.Option(None, "--out", help="CSV: rpm,blim_mm,lobe,chatter_hz."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
     points: Optional[Path] = typer.Option(None, "--points", help="Measured points CSV rpm,depth_mm[,label] to overlay."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
-    compare: Optional[str] = typer.Option(None, "--compare", help="Overlay a second engine (zoa or sdm) and report the difference."),
+    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa, sdm or spectral."),
+    compare: Optional[str] = typer.Option(None, "--compare", help="Overlay a second engine (zoa, sdm or spectral) and report the difference."),
     raw: bool = typer.Option(False, "--raw-lobes", help="Draw the individual lobes (zoa) under the envelope."),
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""

@@ -104,7 +104,7 @@ def sensitivity(
     seed: int = typer.Option(0, "--seed", help="Random seed (mc, sobol, morris); same seed, same numbers."),
     out: Optional[Path] = typer.Option(None, "--out", help="Result JSON (MSE in mm^2)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
+    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa, sdm or spectral."),
     preset: Optional[str] = typer.Option(None, "--preset", help="paper: the seed paper's settings (oat grid "
                                          "-0.20:0.20:0.05; N 10000, t 0.1, eps 0.01) centred on its predicted "
                                          "parameters (tab:results_fourier) when CONFIG is its Ex.1/2/3."),

@@ -42,7 +42,7 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
             rows = test cuts, reported).
         method: ``lsq`` (default) or ``newton`` (the paper's scheme).
         free, axisymmetric, initial, bounds: see :func:`~millstab.identify.objective.make_problem`.
-        engine: ``zoa`` or ``sdm``; residual: ``log`` or ``mm`` (lsq).
+        engine: ``zoa``, ``sdm`` or ``spectral``; residual: ``log`` or ``mm`` (lsq).
         seed: seed of every random design (same seed ⇒ same numbers).
         options: passed to :func:`fit_lsq` or :func:`fit_newton`.
     """

@@ -317,41 +317,212 @@ def first_crossing(guess, ladder, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd
 
 
 @nb.njit(cache=True)
+def psi(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
+    """Ψ(σ): the collocation transition (n, n) complex over one tooth period of the ODE
+    ż = (A0 + σ E(t) C) z, the same discretisation as :func:`monodromy`.
+
+    Why: a Floquet solution z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so the delay equation becomes this
+    ODE with σ = w (1 − 1/μ), and μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0: an n × n
+    characteristic equation (n = 2 × modes), exact for the discretised system as well.
+    """
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    P = p * n
+    Z = np.zeros((n, n), dtype=np.complex128)
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, n), dtype=np.complex128)
+    L = np.empty((P, P), dtype=np.complex128)
+    R = np.empty((P, n), dtype=np.complex128)
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for col in range(n):
+                    acc = 0.0j
+                    for q in range(n):
+                        acc += phi_free[el, r, q] * Z[q, col]
+                    Znew[r, col] = acc
+            for r in range(n):
+                for col in range(n):
+                    Z[r, col] = Znew[r, col]
+            continue
+        hi = h[el]
+        L[:, :] = 0.0
+        for k in range(1, p + 1):
+            rk = (k - 1) * n
+            for l in range(1, p + 1):
+                dkl = Dm[k, l] / hi
+                cl = (l - 1) * n
+                for r in range(n):
+                    L[rk + r, cl + r] = dkl
+            for j in range(M):
+                L[rk + j, rk + M + j] -= 1.0
+                L[rk + M + j, rk + j] += wn[j] * wn[j]
+                L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
+                for l in range(M):
+                    L[rk + M + j, rk + l] -= sigma * Aq[el, k, mdir[j], mdir[l]] / mass[j]
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                for col in range(n):
+                    R[rk + r, col] = -d0 * Z[r, col]
+        X = np.linalg.solve(L, R)
+        for r in range(n):
+            for col in range(n):
+                acc = lend[0] * Z[r, col]
+                for k in range(1, p + 1):
+                    acc += lend[k] * X[(k - 1) * n + r, col]
+                Znew[r, col] = acc
+        for r in range(n):
+            for col in range(n):
+                Z[r, col] = Znew[r, col]
+    return Z
+
+
+@nb.njit(cache=True)
+def char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd):
+    """det(μ I − Ψ(w (1 − 1/μ))) at μ = e^{iθ}, w = ½ b Kt: zero iff a multiplier lies at e^{iθ}."""
+    mu = complex(math.cos(theta), math.sin(theta))
+    sigma = 0.5 * b * kt * (1.0 - 1.0 / mu)
+    P = psi(sigma, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], nd[1], nd[2])
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(n):
+            P[i, j] = -P[i, j]
+        P[i, i] += mu
+    return np.linalg.det(P)
+
+
+@nb.njit(cache=True)
+def refine(b, theta, kt, wn, zeta, mass, mdir, g, nd):
+    """Newton on the characteristic function for (b, θ) with a multiplier e^{iθ} on the unit circle
+    at depth b, θ folded into [0, π] (conjugate symmetry). A flip boundary (θ = π) is a root of the
+    same system. Returns (b, θ, converged, evaluations)."""
+    n_eval = 0
+    for _ in range(12):
+        f = char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd)
+        db_ = 1e-7 * b
+        fb = (char_fn(b + db_, theta, kt, wn, zeta, mass, mdir, g, nd) - f) / db_
+        dt_ = -1e-7 if theta > 1.0 else 1e-7
+        ft = (char_fn(b, theta + dt_, kt, wn, zeta, mass, mdir, g, nd) - f) / dt_
+        n_eval += 3
+        det = fb.real * ft.imag - ft.real * fb.imag
+        if det == 0.0 or not math.isfinite(det):
+            return b, theta, False, n_eval
+        step_b = (-f.real * ft.imag + ft.real * f.imag) / det
+        step_t = (-fb.real * f.imag + fb.imag * f.real) / det
+        # damped: a Newton step longer than this has left the root's neighbourhood
+        scale = max(abs(step_b) / (0.2 * b), abs(step_t) / 0.3, 1.0)
+        b += step_b / scale
+        theta += step_t / scale
+        if theta > math.pi:
+            theta = 2.0 * math.pi - theta
+        if theta < 0.0:
+            theta = -theta
+        if not (b > 0.0) or not math.isfinite(b):
+            return b, theta, False, n_eval
+        if scale == 1.0 and abs(step_b) < 1e-9 * b and abs(step_t) < 1e-9:
+            return b, theta, True, n_eval
+    return b, theta, False, n_eval
+
+
+@nb.njit(cache=True)
+def _fold(theta):
+    """θ mod 2π folded into [0, π] (a multiplier and its conjugate are the same boundary)."""
+    t = theta % TWO_PI
+    return TWO_PI - t if t > math.pi else t
+
+
+@nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act, elem_len,
-              nd, rtol, depth, mu, n_eval):
+              nd, rtol, w_flex, checks, depth, mu, n_eval):
     """Limiting depths along ascending speeds rpm (S,) for one structure, continuing from speed to speed.
 
-    The first speed's ladder is b_ref·``ladder`` (b_ref the zero-order depth). Later speeds use
-    ``ladder_cont`` times a guess extrapolated linearly from the two previous depths (clamped to
-    [0.5, 2] times the last one): the boundary is continuous in speed except where a new unstable
-    island appears, which the low rungs must catch. Writes depth, mu, n_eval (S,).
+    First speed (or after a failure): ρ on b_ref·``ladder`` to the first unstable depth, Illinois on
+    ρ − 1, then Newton on the characteristic function (exact root of the discretised system). Next
+    speeds: Newton from the previous boundary point (θ predicted from the chatter frequency nearest
+    w_flex [rad/s], or kept at π for a flip), accepted when the full monodromy is stable at
+    b·``checks`` (e.g. 0.6 and 0.995: nothing crossed below); otherwise the ladder search with
+    ``ladder_cont`` around the rejected value. Writes depth, mu (on the unit circle), n_eval (S,).
     """
-    prev = np.inf
-    prev2 = np.inf
+    D = act.size
+    have = False
+    b_prev = 0.0
+    th_prev = 0.0
+    T_prev = 1.0
     for s in range(rpm.size):
         g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
         T = 60.0 / (n_teeth * rpm[s])
         rho0 = 0.0
         for j in range(wn.size):
             rho0 = max(rho0, math.exp(-zeta[j] * wn[j] * T))
-        if math.isfinite(prev):
-            guess = prev
-            if s >= 2 and math.isfinite(prev2):
-                slope = (prev - prev2) / (rpm[s - 1] - rpm[s - 2])
-                guess = min(2.0 * prev, max(0.5 * prev, prev + slope * (rpm[s] - rpm[s - 1])))
-            d, m_, c = first_crossing(guess, ladder_cont, rtol, rho0, kt, wn, zeta, mass, mdir, act.size, g, nd)
-        else:
-            d, m_, c = first_crossing(b_ref[s], ladder, rtol, rho0, kt, wn, zeta, mass, mdir, act.size, g, nd)
-        depth[s] = d
-        mu[s] = m_
-        n_eval[s] = c
-        prev2 = prev
-        prev = d
+        count = 0
+        done = False
+        guess = b_ref[s]
+        lad = ladder
+        if have:
+            if th_prev > math.pi - 1e-6:
+                th0 = math.pi
+            else:
+                # the chatter frequency ω = (±θ + 2πk)/T nearest the flexible mode stays, θ moves with T
+                best = np.inf
+                w_c = 0.0
+                for sg in (-1.0, 1.0):
+                    k = round((w_flex * T_prev - sg * th_prev) / TWO_PI)
+                    w_try = (sg * th_prev + TWO_PI * k) / T_prev
+                    if abs(w_try - w_flex) < best:
+                        best = abs(w_try - w_flex)
+                        w_c = w_try
+                th0 = _fold(w_c * T)
+            b1, th1, ok, c = refine(b_prev, th0, kt, wn, zeta, mass, mdir, g, nd)
+            count += c
+            if ok:
+                stable = True
+                for q in range(checks.size):
+                    r, _ = rho(b1 * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
+                    count += 1
+                    if r > 1.0:
+                        stable = False
+                        break
+                if stable:
+                    depth[s] = b1
+                    mu[s] = complex(math.cos(th1), math.sin(th1))
+                    done = True
+                    b_prev, th_prev = b1, th1
+                guess = b1
+            else:
+                guess = b_prev
+            lad = ladder_cont
+        if not done:
+            d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+            count += c
+            if math.isfinite(d):
+                th0 = abs(cmath_phase(m_))
+                b1, th1, ok, c = refine(d, th0, kt, wn, zeta, mass, mdir, g, nd)
+                count += c
+                if ok and abs(b1 / d - 1.0) < 2.0 * rtol + 1e-3:
+                    d = b1
+                    m_ = complex(math.cos(th1), math.sin(th1))
+                    have = True
+                    b_prev, th_prev = b1, th1
+                else:
+                    have = False
+            else:
+                have = False
+            depth[s] = d
+            mu[s] = m_
+        T_prev = T
+        n_eval[s] = count
+
+
+@nb.njit(cache=True)
+def cmath_phase(z):
+    return math.atan2(z.imag, z.real)
 
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
-                elem_len, nd, rtol, depth, mu, n_eval):
+                elem_len, nd, rtol, w_flex, checks, depth, mu, n_eval):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
@@ -363,4 +534,4 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladde
         a = starts[k]
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
-                  mass[bi], mdir, act, elem_len[bi], nd, rtol, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])

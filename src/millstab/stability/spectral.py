@@ -69,6 +69,8 @@ RTOL = 2e-4
 #: root-search ladders (multiples of the guess, ascending): first speed of a block, then continuation
 LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
+#: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
+CHECKS = np.array([0.5, 0.8, 0.93, 0.995])
 #: speeds per block of the root search (blocks run in parallel; within one, depth continues)
 BLOCK = 25
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
@@ -90,6 +92,13 @@ class SpectralEnvelope(Envelope):
     kind: np.ndarray = None  # type: ignore[assignment]
     multiplier: np.ndarray = None  # type: ignore[assignment]
     nodes: int = P_NODES
+
+
+def _w_flex(batch: ModalBatch) -> np.ndarray:
+    """ωn [rad/s] of each set's most flexible mode (largest 1/(k ζ)): the chatter frequency is taken nearest it."""
+    fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
+    kz = np.concatenate([batch.k_x * batch.zeta_x, batch.k_y * batch.zeta_y], axis=1)
+    return np.ascontiguousarray(2 * math.pi * fn[np.arange(batch.size), np.argmin(kz, axis=1)])
 
 
 def _cut_args(cutting: Cutting) -> tuple:
@@ -121,7 +130,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, depth, mu, n_eval)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval

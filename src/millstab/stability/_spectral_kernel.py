@@ -397,32 +397,57 @@ def char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd):
 def refine(b, theta, kt, wn, zeta, mass, mdir, g, nd):
     """Newton on the characteristic function for (b, θ) with a multiplier e^{iθ} on the unit circle
     at depth b, θ folded into [0, π] (conjugate symmetry). A flip boundary (θ = π) is a root of the
-    same system. Returns (b, θ, converged, evaluations)."""
+    same system. The Jacobian (forward differences) is formed at the start and then updated by
+    Broyden's rule (one evaluation per step), re-formed if a step fails to shrink |f|.
+    Returns (b, θ, converged, evaluations)."""
     n_eval = 0
-    for _ in range(12):
-        f = char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd)
-        db_ = 1e-7 * b
-        fb = (char_fn(b + db_, theta, kt, wn, zeta, mass, mdir, g, nd) - f) / db_
-        dt_ = -1e-7 if theta > 1.0 else 1e-7
-        ft = (char_fn(b, theta + dt_, kt, wn, zeta, mass, mdir, g, nd) - f) / dt_
-        n_eval += 3
-        det = fb.real * ft.imag - ft.real * fb.imag
+    f = char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd)
+    n_eval += 1
+    j00 = j01 = j10 = j11 = 0.0
+    fresh = False
+    for it in range(30):
+        if not fresh:
+            db_ = 1e-7 * b
+            fb = (char_fn(b + db_, theta, kt, wn, zeta, mass, mdir, g, nd) - f) / db_
+            dt_ = -1e-7 if theta > 1.0 else 1e-7
+            ft = (char_fn(b, theta + dt_, kt, wn, zeta, mass, mdir, g, nd) - f) / dt_
+            n_eval += 2
+            j00, j01, j10, j11 = fb.real, ft.real, fb.imag, ft.imag
+            fresh = True
+        det = j00 * j11 - j01 * j10
         if det == 0.0 or not math.isfinite(det):
             return b, theta, False, n_eval
-        step_b = (-f.real * ft.imag + ft.real * f.imag) / det
-        step_t = (-fb.real * f.imag + fb.imag * f.real) / det
+        step_b = (-f.real * j11 + j01 * f.imag) / det
+        step_t = (-j00 * f.imag + j10 * f.real) / det
         # damped: a Newton step longer than this has left the root's neighbourhood
         scale = max(abs(step_b) / (0.2 * b), abs(step_t) / 0.3, 1.0)
-        b += step_b / scale
-        theta += step_t / scale
-        if theta > math.pi:
-            theta = 2.0 * math.pi - theta
-        if theta < 0.0:
-            theta = -theta
-        if not (b > 0.0) or not math.isfinite(b):
+        step_b /= scale
+        step_t /= scale
+        b_new = b + step_b
+        t_new = theta + step_t
+        if not (b_new > 0.0) or not math.isfinite(b_new):
             return b, theta, False, n_eval
-        if scale == 1.0 and abs(step_b) < 1e-9 * b and abs(step_t) < 1e-9:
-            return b, theta, True, n_eval
+        if scale == 1.0 and abs(step_b) < 1e-8 * b and abs(step_t) < 1e-8:
+            return b_new, _fold(t_new), True, n_eval
+        folded = t_new > math.pi or t_new < 0.0
+        f_new = char_fn(b_new, _fold(t_new), kt, wn, zeta, mass, mdir, g, nd)
+        n_eval += 1
+        if abs(f_new) >= abs(f) and not fresh:
+            fresh = False  # the secant model went stale: re-form the Jacobian at the old point
+            continue
+        if folded:
+            fresh = False  # the reflection breaks the secant relation
+        else:
+            # Broyden: J += (Δf − J Δx) Δxᵀ / |Δx|², scaled so that b and θ steps weigh alike
+            rb = f_new.real - f.real - (j00 * step_b + j01 * step_t)
+            ri = f_new.imag - f.imag - (j10 * step_b + j11 * step_t)
+            nn = step_b * step_b + step_t * step_t
+            j00 += rb * step_b / nn
+            j01 += rb * step_t / nn
+            j10 += ri * step_b / nn
+            j11 += ri * step_t / nn
+            fresh = abs(f_new) < abs(f)
+        b, theta, f = b_new, _fold(t_new), f_new
     return b, theta, False, n_eval
 
 
@@ -448,6 +473,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
     D = act.size
     have = False
     b_prev = 0.0
+    b_prev2 = 0.0
     th_prev = 0.0
     T_prev = 1.0
     for s in range(rpm.size):
@@ -474,41 +500,67 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                         best = abs(w_try - w_flex)
                         w_c = w_try
                 th0 = _fold(w_c * T)
-            b1, th1, ok, c = refine(b_prev, th0, kt, wn, zeta, mass, mdir, g, nd)
+            b0 = b_prev
+            if s >= 2 and b_prev2 > 0.0:  # linear extrapolation in speed, clamped
+                b0 = b_prev + (b_prev - b_prev2) / (rpm[s - 1] - rpm[s - 2]) * (rpm[s] - rpm[s - 1])
+                b0 = min(1.5 * b_prev, max(b0, 0.67 * b_prev))
+            b1, th1, ok, c = refine(b0, th0, kt, wn, zeta, mass, mdir, g, nd)
             count += c
+            br_lo = 0.0
+            br_hi = -1.0
             if ok:
                 stable = True
+                f_lo = rho0 - 1.0
                 for q in range(checks.size):
-                    r, _ = rho(b1 * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
+                    r, m_hi = rho(b1 * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
                     count += 1
                     if r > 1.0:
                         stable = False
+                        # a lower crossing: the checks already bracket it
+                        br_lo = b1 * checks[q - 1] if q > 0 else 0.0
+                        br_hi = b1 * checks[q]
+                        f_hi = r - 1.0
                         break
+                    f_lo = r - 1.0
                 if stable:
                     depth[s] = b1
                     mu[s] = complex(math.cos(th1), math.sin(th1))
                     done = True
+                    b_prev2 = b_prev
                     b_prev, th_prev = b1, th1
                 guess = b1
             else:
                 guess = b_prev
             lad = ladder_cont
+            if not done and br_hi > 0.0:
+                d, m_, c = _illinois(br_lo, f_lo, br_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)
+                count += c
+                b1, th1, ok, c = refine(d, abs(cmath_phase(m_)), kt, wn, zeta, mass, mdir, g, nd)
+                count += c
+                if ok and abs(b1 / d - 1.0) < 0.006:
+                    depth[s] = b1
+                    mu[s] = complex(math.cos(th1), math.sin(th1))
+                    done = True
+                    b_prev2 = 0.0
+                    b_prev, th_prev = b1, th1
         if not done:
-            d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+            # bracket to 1 %, then Newton (exact root); the fine Illinois only where Newton fails
+            d, m_, c = first_crossing(guess, lad, 0.01, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
             count += c
+            have = False
             if math.isfinite(d):
                 th0 = abs(cmath_phase(m_))
                 b1, th1, ok, c = refine(d, th0, kt, wn, zeta, mass, mdir, g, nd)
                 count += c
-                if ok and abs(b1 / d - 1.0) < 2.0 * rtol + 1e-3:
+                if ok and abs(b1 / d - 1.0) < 0.006:
                     d = b1
                     m_ = complex(math.cos(th1), math.sin(th1))
                     have = True
+                    b_prev2 = 0.0  # a restart: no slope across it
                     b_prev, th_prev = b1, th1
                 else:
-                    have = False
-            else:
-                have = False
+                    d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+                    count += c
             depth[s] = d
             mu[s] = m_
         T_prev = T
@@ -535,3 +587,11 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladde
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
                   mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+
+
+@nb.njit(cache=True)
+def refine_at(n_teeth, kt, kr, phi_s, phi_e, rpm, b, theta, wn, zeta, mass, mdir, act, elem_len, nd):
+    """:func:`refine` at one speed on the layout with nodes ``nd``: the boundary point (b, θ) found
+    with other nodes, moved to this discretisation (used by the convergence check)."""
+    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    return refine(b, theta, kt, wn, zeta, mass, mdir, g, nd)

@@ -19,19 +19,29 @@ falls spectrally with p (semi-discretization: O(h²)), so a 10–40 sized monodr
 not chosen: at low immersion the directional matrix is a short pulse with jumps, whose Fourier series
 converges like 1/r, so many harmonics (large complex matrices) are needed for 1 %.
 
-Accuracy control (converged by default). p = ``P_NODES`` nodes per element, elements ≤ ``ELEM_PERIODS``
-natural periods. Per call the depth at CHECK speeds (the lowest speed, where elements are longest, and
-the highest) is recomputed with p + ``P_STEP`` nodes; while the two differ by more than ``TOL`` (0.1 %,
-ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``).
+Accuracy control (converged by default). p = ``P_NODES`` Gauss nodes per element, elements ≤
+``ELEM_PERIODS`` natural periods of the highest mode. Per call, before the batch is solved, the boundary
+points of the first set at three check speeds (the lowest, where elements are longest, the middle and
+the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes; while one moves by more
+than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``).
 
-Root search (compiled, parallel over sets × speed blocks). ρ(0) = max e^{−ζ ωn T} < 1. At the first
-speed of a block, ρ is evaluated at b_ref·LADDER (b_ref the zero-order depth) until the first unstable
-depth; at the next speeds at min(previous depth, b_ref)·LADDER_CONT (the boundary is continuous in
-speed except where a new unstable island appears, which the lowest rung, 0.2 of the guess, must
-catch); beyond the ladder the depth grows ×1.5 up to 1e4 times the guess (then ``inf``). The bracket
-is refined by the Illinois method on ρ − 1 to a relative width ``RTOL``.
+Root search (compiled, parallel over sets × speed blocks of ``BLOCK`` speeds). A Floquet solution
+z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0,
+with Ψ(σ) the transition over one tooth period of the ODE ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n
+characteristic equation (n = 2 × modes), exact for the discretised system too and far cheaper than the
+monodromy's eigenvalues. The boundary at a speed is the smallest b with a multiplier e^{iθ} on the unit
+circle (θ = π: flip). At the first speed of a block, ρ(b) is evaluated on b_ref·LADDER (b_ref the
+zero-order depth) up to the first unstable depth, the bracket is narrowed by the Illinois method on
+ρ − 1 (``RTOL``) and polished by Newton on the characteristic function in (b, θ). At the next speeds
+Newton starts from the previous boundary point (θ predicted from the chatter frequency, or kept at π
+for a flip), and its root is accepted only if the full monodromy is stable at b·CHECKS (0.5, 0.8,
+0.93, 0.995: nothing crossed below it, e.g. another lobe that has become lower); otherwise the ladder
+search runs from there (``LADDER_CONT``). The accepted depths are roots of the discretised
+characteristic equation to 1e-9, so they are smooth in the parameters (finite-difference Jacobians in
+identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
+checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark).
 
-Lobe type and chatter frequency: the dominant multiplier μ at the boundary; μ real negative
+Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency
 (±arg μ + 2πk)/T is taken nearest the most flexible mode's natural frequency, as in SDM; lobe =
 floor(f_c T) (whole vibration waves per tooth period).
@@ -85,7 +95,7 @@ class SpectralEnvelope(Envelope):
 
     Attributes:
         kind: ``"hopf"``, ``"flip"`` or ``"none"`` (no boundary) per speed (S,).
-        multiplier: dominant Floquet multiplier just on the unstable side of the boundary (S,) complex.
+        multiplier: the critical Floquet multiplier e^{iθ} at the boundary (S,) complex (NaN where none).
         nodes: collocation nodes per element the convergence check settled on.
     """
 
@@ -136,34 +146,52 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     return depth, mu, n_eval
 
 
-def converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray) -> int:
-    """Nodes per element for which the depth at the check speeds (lowest and highest) changes by
-    less than TOL when P_STEP nodes are added (first set of the batch, the one the check is run on)."""
-    idx = np.unique([0, rs.size - 1])
-    sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-    p = P_NODES
-    d0 = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p)[0][0]
-    while p < P_MAX:
-        d1 = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p + P_STEP)[0][0]
-        fin = np.isfinite(d0) & np.isfinite(d1)
-        same_inf = np.isinf(d0) == np.isinf(d1)
-        if np.all(same_inf) and (not fin.any() or np.max(np.abs(d1[fin] / d0[fin] - 1)) <= TOL):
-            return p
-        p, d0 = p + P_STEP, d1
-    return p
+def _moved(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, depth: np.ndarray, mu: np.ndarray, p: int,
+           idx: np.ndarray) -> np.ndarray:
+    """Relative change of set 0's boundary depth at speeds rs[idx] when its boundary point (depth, arg μ)
+    is moved by Newton to the discretisation with p nodes (NaN where Newton fails: not converged)."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    n, kt, kr, ps, pe = _cut_args(cutting)
+    nd = _k.gauss_nodes(int(p))
+    el = float(_elem_len(wn)[0])
+    out = np.full(idx.size, np.nan)
+    for q, i in enumerate(idx):  # a handful of check speeds, not a hot loop
+        if not np.isfinite(depth[0, i]):
+            out[q] = 0.0
+            continue
+        b, _, ok, _ = _k.refine_at(n, kt, kr, ps, pe, float(rs[i]), float(depth[0, i]), float(abs(np.angle(mu[0, i]))),
+                                   wn[0], zeta[0], mass[0], mdir, act, el, nd)
+        out[q] = b / depth[0, i] - 1 if ok else np.nan
+    return out
+
+
+def _check_speeds(n_s: int) -> np.ndarray:
+    """Indices of the convergence-check speeds: the lowest (longest elements), the middle and the highest."""
+    return np.unique([0, n_s // 2, n_s - 1])
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None) -> tuple[np.ndarray, np.ndarray, int]:
-    """Limiting depths (B, S) [m] and dominant multipliers (B, S) at speeds r (any order); the nodes used."""
+    """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
+
+    With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
+    boundary points are moved by Newton to p + P_STEP nodes; while one moves by more than TOL (or Newton
+    fails), p grows by P_STEP. Then the whole batch is solved once with that p.
+    """
+    if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
+        raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
     order = np.argsort(r, kind="stable")
     rs = np.ascontiguousarray(r[order])
     b_ref = _b_ref(batch, cutting, rs)
+    p = P_NODES if nodes is None else int(nodes)
     if nodes is None:
-        p = converged_nodes(batch, cutting, rs, b_ref)
-    else:
-        if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2:
-            raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
-        p = int(nodes)
+        idx = _check_speeds(rs.size)
+        sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+        while p < P_MAX:
+            d_c, mu_c, _ = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p)
+            moved = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP, np.arange(idx.size))
+            if np.all(np.abs(moved) <= TOL):
+                break
+            p += P_STEP
     depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)

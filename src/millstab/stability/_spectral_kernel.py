@@ -427,7 +427,7 @@ def refine(b, theta, kt, wn, zeta, mass, mdir, g, nd):
         t_new = theta + step_t
         if not (b_new > 0.0) or not math.isfinite(b_new):
             return b, theta, False, n_eval
-        if scale == 1.0 and abs(step_b) < 1e-8 * b and abs(step_t) < 1e-8:
+        if scale == 1.0 and abs(step_b) < 1e-7 * b and abs(step_t) < 1e-7:
             return b_new, _fold(t_new), True, n_eval
         folded = t_new > math.pi or t_new < 0.0
         f_new = char_fn(b_new, _fold(t_new), kt, wn, zeta, mass, mdir, g, nd)

@@ -80,7 +80,7 @@ RTOL = 2e-4
 LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
-CHECKS = np.array([0.5, 0.8, 0.93, 0.995])
+CHECKS = np.array([0.7, 0.93, 0.995])
 #: speeds per block of the root search (blocks run in parallel; within one, depth continues)
 BLOCK = 25
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary

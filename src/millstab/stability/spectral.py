@@ -45,6 +45,15 @@ depths are roots of the discretised characteristic equation to ~1e-7, so they ar
 identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
 checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark).
 
+Speed (measured with benchmarks/bench_spectral.py on the shared 2-core machine, same run): 200 speeds,
+one mode per direction, a/D = 0.05: 0.17–0.27 s per envelope (4–6 per second), 17× faster than SDM's
+default (2.9 s), 400× slower than the zero-order engine. What bounds it: per speed ~3 eigenvalue
+problems of the full monodromy matrix (the verification rungs; LAPACK dgeev on 6–20 rows) and ~10
+evaluations of the n × n characteristic function (a complex p·n solve per element); where the boundary
+jumps between lobes from one speed to the next (about one speed in five at 100 rpm spacing) the
+continuation fails and a bracketing search costs 2–4 times more. The issue's 20 envelopes/s is not
+reached.
+
 Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency
 (±arg μ + 2πk)/T is taken nearest the most flexible mode's natural frequency, as in SDM; lobe =

@@ -10,6 +10,7 @@ import typer
 
 from millstab.cli.app import app
 from millstab.errors import InputError
+from millstab.stability import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05
@@ -35,7 +36,7 @@ def identify(
     initial: Optional[str] = typer.Option(None, "--initial", help="Start values in SI, e.g. fn_x=900,k_x=12e6."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random designs (same seed, same numbers)."),
     loss: str = typer.Option("linear", "--loss", help="Robust loss (lsq): linear, soft_l1, huber, cauchy, arctan."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
+    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)}."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the fit as JSON."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Final SLD against the points (.png/.svg/.pdf)."),
     history_plot: Optional[Path] = typer.Option(None, "--history-plot", help="Objective against iteration."),

@@ -43,7 +43,7 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
             rows = test cuts, reported).
         method: ``lsq`` (default) or ``newton`` (the paper's scheme).
         free, axisymmetric, initial, bounds: see :func:`~millstab.identify.objective.make_problem`.
-        engine: ``zoa`` or ``sdm``; residual: ``log`` or ``mm`` (lsq).
+        engine: ``zoa``, ``sdm`` or ``spectral``; residual: ``log`` or ``mm`` (lsq).
         seed: seed of every random design (same seed ⇒ same numbers).
         noise: the relative standard deviation of a measured limiting depth (0.02 = 2 %), if known: the
             standard errors use it (or the residual scatter where larger) and the fit is checked against

@@ -45,7 +45,7 @@ class Problem:
         rpm: boundary-point spindle speeds (n,) [rev/min].
         depth_mm: measured limiting depths (n,) [mm].
         weight: per-point weights (n,) > 0 (from the point file; 1 by default).
-        engine: stability engine name (``zoa`` or ``sdm``).
+        engine: stability engine name (``zoa``, ``sdm`` or ``spectral``).
         cuts: labelled test cuts (not fitted; reported), or ``None``.
         residual: ``log`` or ``mm`` (see module docstring).
         n_sets: parameter sets evaluated so far (counter); n_calls: engine calls so far.

@@ -197,6 +197,10 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     no_peak = (f"no clear resonance peak in {band}: no pole stays stable across model orders with a peak above "
                f"the noise; check the file (a drive-point receptance in m/N) or choose --band around the modes")
     if not cands:
+        if stable_clusters(lscf(f, hs.conj(), max_order)):  # conjugated data: every pole looks unstable
+            raise InputError(f"FRF {where}", source, "its poles are stable only after conjugation: the imaginary part "
+                             "has the opposite sign convention (e^{-iwt}, or a negated column); millstab's drive-point "
+                             "receptance has Im G < 0 at each resonance: negate the imaginary column")
         raise InputError(f"FRF {where}", source, no_peak)
     cands = _drop_duplicates(cands)
     wn0 = np.array([2 * np.pi * c.fn for c in cands])
@@ -248,7 +252,8 @@ MAX_GROW = 3
 def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted):
     """Add modes the stabilisation diagram missed (two modes closer than their bandwidth look like one
     wandering pole when noisy): a trial mode at the largest misfit, kept when the refit cuts the RMS
-    misfit by :data:`GROW_GAIN` and stands above the noise (or while fewer than ``wanted`` modes)."""
+    misfit by :data:`GROW_GAIN` (not asked while fewer than ``wanted`` modes), stands above the noise and
+    is physical (g > 0, ζ < 0.3)."""
     noise = float(np.sqrt(np.mean(np.abs(b @ c - hs) ** 2)))
     for _ in range(MAX_GROW if wanted is None else max(0, wanted - wn.size)):
         r = np.abs(b @ c - hs)
@@ -258,9 +263,9 @@ def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted):
         trial = _refine(w, hs, np.append(wn, w[i]), np.append(zeta, np.median(zeta)), w_lo)
         t_noise = float(np.sqrt(np.mean(np.abs(trial[3] @ trial[2] - hs) ** 2)))
         ptn = np.abs(trial[2][:trial[0].size]) / (2 * trial[1]) / max(t_noise, NOISE_FLOOR)
-        ok = (t_noise < GROW_GAIN * noise and ptn.min() >= MIN_PEAK_TO_NOISE and np.all(trial[1] < 0.3)
-              and np.all(trial[2][:trial[0].size] > 0))
-        if wanted is None and not ok:
+        physical = (ptn.min() >= MIN_PEAK_TO_NOISE and np.all(trial[1] < 0.3) and np.all(trial[2][:trial[0].size] > 0)
+                    and np.all((trial[0] >= w[0]) & (trial[0] <= w[-1])))  # a mode outside the band is a residual's job
+        if not physical or (wanted is None and t_noise >= GROW_GAIN * noise):
             break
         wn, zeta, c, b = trial
         noise = t_noise

@@ -122,29 +122,70 @@ def _basis(w: np.ndarray, wn: np.ndarray, zeta: np.ndarray, w_lo: float) -> np.n
     return np.column_stack([modes, np.ones_like(w), -((w_lo / w) ** 2)])
 
 
+def _real(b: np.ndarray) -> np.ndarray:
+    """Complex (N, ...) → real (2N, ...): real parts stacked over imaginary parts."""
+    return np.concatenate([b.real, b.imag])
+
+
+def _lsq(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares solution of the real system a x = y (y may have several columns).
+
+    Normal equations on unit-norm columns (a has M + 2 well-separated columns, so cond(aᵀa) stays far
+    from 1/eps; ~20x faster than an SVD per call, which matters inside the optimiser), with the SVD as
+    the fallback when a column is degenerate.
+    """
+    norm = np.sqrt(np.einsum("ij,ij->j", a, a))
+    norm[norm == 0] = 1.0
+    an = a / norm
+    try:
+        x = np.linalg.solve(an.T @ an, an.T @ y)
+    except np.linalg.LinAlgError:
+        x = np.linalg.lstsq(an, y, rcond=None)[0]
+    return x / (norm if x.ndim == 1 else norm[:, None])
+
+
 def _solve_real(b: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Real coefficients c minimising |b c − h| (complex b, h) by stacking real and imaginary parts."""
-    a = np.vstack([b.real, b.imag])
-    y = np.concatenate([h.real, h.imag])
-    return np.linalg.lstsq(a, y, rcond=None)[0]
+    return _lsq(_real(b), _real(h))
 
 
 def _refine(w: np.ndarray, hs: np.ndarray, wn0: np.ndarray, zeta0: np.ndarray, w_lo: float):
-    """Poles (ωn, ζ) and real coefficients by variable projection from the LSCF start."""
+    """Poles (ωn, ζ) and real coefficients by variable projection from the LSCF start.
+
+    Unknowns θ = (ln ωn, ln ζ) per mode (positive by construction); for each θ the coefficients c are
+    the linear least-squares solution, and the Jacobian is Kaufman's: J = P⊥ (∂B/∂θ) c, P⊥ = I − B B⁺.
+    """
     m = wn0.size
+    y = _real(hs)
+    memo: dict[bytes, tuple] = {}
+
+    def state(theta):
+        key = theta.tobytes()
+        if key not in memo:
+            memo.clear()
+            wn, zeta = np.exp(theta[:m]), np.exp(theta[m:])
+            b = _basis(w, wn, zeta, w_lo)
+            br = _real(b)
+            memo[key] = (wn, zeta, b, br, _lsq(br, y))
+        return memo[key]
 
     def resid(theta):
-        wn, zeta = np.exp(theta[:m]), np.exp(theta[m:])
-        b = _basis(w, wn, zeta, w_lo)
-        c = _solve_real(b, hs)
-        r = b @ c - hs
-        return np.concatenate([r.real, r.imag])
+        _, _, _, br, c = state(theta)
+        return br @ c - y
+
+    def jac(theta):
+        wn, zeta, _, br, c = state(theta)
+        wc = w[:, None]
+        den2 = (wn**2 - wc**2 + 2j * zeta * wn * wc) ** 2
+        d_lnwn = (-2 * wn**2 * wc**2 + 2j * zeta * wn**3 * wc) / den2  # ∂/∂ln ωn of ωn²/den
+        d_lnz = (-2j * zeta * wn**3 * wc) / den2  # ∂/∂ln ζ
+        d = _real(np.concatenate([d_lnwn * c[:m], d_lnz * c[:m]], axis=1))
+        return d - br @ _lsq(br, d)
 
     theta0 = np.concatenate([np.log(wn0), np.log(zeta0)])
-    sol = least_squares(resid, theta0, method="lm", xtol=1e-12, ftol=1e-12)
-    wn, zeta = np.exp(sol.x[:m]), np.exp(sol.x[m:])
-    b = _basis(w, wn, zeta, w_lo)
-    return wn, zeta, _solve_real(b, hs), b
+    sol = least_squares(resid, theta0, jac=jac, method="lm", xtol=1e-12, ftol=1e-12)
+    wn, zeta, b, _, c = state(sol.x)
+    return wn, zeta, c, b
 
 
 def _free_residue_phase(w: np.ndarray, hs: np.ndarray, wn: np.ndarray, zeta: np.ndarray, w_lo: float) -> np.ndarray:

@@ -139,6 +139,33 @@ def fit_files_arrays(hx, hy):
     return Structure(x=tuple(Mode(m.fn, m.k, m.zeta) for m in fx.modes), y=tuple(Mode(m.fn, m.k, m.zeta) for m in fy.modes))
 
 
+def test_modes_at_the_band_edges_are_found():
+    """40 Hz (5 lines per half-power band) and 1980 Hz (20 Hz below the top): LSCF finds no stable pole
+    under noise; the modes are grown from the misfit instead."""
+    modes = ([40.0, 1980.0], [12.5e6, 20e6], [0.03, 0.02])
+    fit = fit_direction(F, noisy(exact(modes), seed=11))
+    assert_modes(fit, modes, 2e-3, 0.05, 0.05)
+
+
+def test_only_modes_above_the_noise_are_reported():
+    """A mode whose peak is 6x the noise RMS is found; one at 1x (hidden in the noise) is not invented."""
+    strong = ([903.0], [12.5e6], [0.03])
+    peak = 1 / (2 * 0.03 * 12.5e6)
+    sigma = 0.02 * peak
+    for ratio, found in ((6.0, 2), (1.0, 1)):
+        k_weak = 1 / (2 * 0.03 * ratio * sigma)
+        h = exact(strong) + exact(([300.0], [k_weak], [0.03]))
+        rng = np.random.default_rng(12)
+        h = h + sigma * (rng.standard_normal(F.size) + 1j * rng.standard_normal(F.size)) / np.sqrt(2)
+        fit = fit_direction(F, h)
+        assert len(fit.modes) == found, (ratio, [m.fn for m in fit.modes])
+        np.testing.assert_allclose(fit.modes[-1].fn, 903.0, rtol=2e-3)
+        np.testing.assert_allclose(fit.modes[-1].k, 12.5e6, rtol=0.05)
+        if found == 2:
+            np.testing.assert_allclose(fit.modes[0].fn, 300.0, rtol=2e-3)
+            np.testing.assert_allclose(fit.modes[0].k, k_weak, rtol=0.1)  # 6x the noise: k to 10 %
+
+
 def test_modes_option_keeps_the_largest_peaks_and_refuses_too_many():
     h = exact(X_MODES)
     fit = fit_direction(F, h, modes=2)

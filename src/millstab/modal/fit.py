@@ -237,17 +237,21 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     band = f"{f[0]:g}..{f[-1]:g} Hz"
     no_peak = (f"no clear resonance peak in {band}: no pole stays stable across model orders with a peak above "
                f"the noise; check the file (a drive-point receptance in m/N) or choose --band around the modes")
-    if not cands:
+    cands = _drop_duplicates(cands)
+    if cands:
+        wn, zeta, c, b = _refine(w, hs, np.array([2 * np.pi * cd.fn for cd in cands]), np.array([cd.zeta for cd in cands]), w_lo)
+    else:  # nothing stable (a mode at the band's edge, few lines per bandwidth): the residual terms alone, then grow
+        wn, zeta = np.empty(0), np.empty(0)
+        b = _basis(w, wn, zeta, w_lo)
+        c = _solve_real(b, hs)
+    wn, zeta, c, b, cands = _grow(w, hs, wn, zeta, c, b, w_lo, cands, None if modes == "auto" else int(modes),
+                                  len(stab.orders))
+    if wn.size == 0:
         if stable_clusters(lscf(f, hs.conj(), max_order)):  # conjugated data: every pole looks unstable
             raise InputError(f"FRF {where}", source, "its poles are stable only after conjugation: the imaginary part "
                              "has the opposite sign convention (e^{-iwt}, or a negated column); millstab's drive-point "
                              "receptance has Im G < 0 at each resonance: negate the imaginary column")
         raise InputError(f"FRF {where}", source, no_peak)
-    cands = _drop_duplicates(cands)
-    wn0 = np.array([2 * np.pi * c.fn for c in cands])
-    z0 = np.array([c.zeta for c in cands])
-    wn, zeta, c, b = _refine(w, hs, wn0, z0, w_lo)
-    wn, zeta, c, b, cands = _grow(w, hs, wn, zeta, c, b, w_lo, cands, None if modes == "auto" else int(modes))
     m = wn.size
     noise = float(np.sqrt(np.mean(np.abs(b @ c - hs) ** 2)))
     peak = np.abs(c[:m]) / (2 * zeta)
@@ -284,33 +288,42 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
                         float(c[m + 1] * scale), noise, noise * scale, stab)
 
 
-#: a mode added to the fit (:func:`_grow`) must cut the RMS misfit by this factor at least
-GROW_GAIN = 0.8
+#: a mode added to the fit (:func:`_grow`) must cut the misfit's sum of squares by this many noise
+#: variances: 3 more parameters fitting pure noise gain a chi-square with 3 degrees of freedom (> 25 with
+#: probability 1e-5), a missed mode gains hundreds
+GROW_CHI2 = 25.0
 #: at most this many modes are added beyond the stabilisation diagram's candidates
 MAX_GROW = 3
 
 
-def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted):
+#: damping ratio a grown mode starts from when no mode is known yet
+START_ZETA = 0.03
+
+
+def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted, n_orders):
     """Add modes the stabilisation diagram missed (two modes closer than their bandwidth look like one
-    wandering pole when noisy): a trial mode at the largest misfit, kept when the refit cuts the RMS
-    misfit by :data:`GROW_GAIN` (not asked while fewer than ``wanted`` modes), stands above the noise and
-    is physical (g > 0, ζ < 0.3)."""
-    noise = float(np.sqrt(np.mean(np.abs(b @ c - hs) ** 2)))
+    wandering pole when noisy): a trial mode at the largest (smoothed) misfit, refitted with the rest;
+    kept when it cuts the misfit's sum of squares by :data:`GROW_CHI2` noise variances (not asked while
+    fewer than ``wanted`` modes), stands above the noise and is physical (g > 0, ζ < 0.3, in the band)."""
+    ss = float(np.sum(np.abs(b @ c - hs) ** 2))
     for _ in range(MAX_GROW if wanted is None else max(0, wanted - wn.size)):
         r = np.abs(b @ c - hs)
-        width = max(3, int(r.size * float(np.median(zeta)) * wn.mean() / (w[-1] - w[0] + 1e-300)))
+        z0 = float(np.median(zeta)) if zeta.size else START_ZETA
+        width = max(3, int(r.size * z0 * (wn.mean() if wn.size else w.mean()) / (w[-1] - w[0] + 1e-300)))
         smooth = np.convolve(r, np.ones(width) / width, mode="same")
         i = int(np.argmax(smooth))
-        trial = _refine(w, hs, np.append(wn, w[i]), np.append(zeta, np.median(zeta)), w_lo)
-        t_noise = float(np.sqrt(np.mean(np.abs(trial[3] @ trial[2] - hs) ** 2)))
+        trial = _refine(w, hs, np.append(wn, w[i]), np.append(zeta, z0), w_lo)
+        t_ss = float(np.sum(np.abs(trial[3] @ trial[2] - hs) ** 2))
+        t_noise = math.sqrt(t_ss / w.size)
+        var = max(t_ss / max(2 * w.size - 2 * trial[0].size - trial[2].size, 1), NOISE_FLOOR**2)  # per real component
         ptn = np.abs(trial[2][:trial[0].size]) / (2 * trial[1]) / max(t_noise, NOISE_FLOOR)
         physical = (ptn.min() >= MIN_PEAK_TO_NOISE and np.all(trial[1] < 0.3) and np.all(trial[2][:trial[0].size] > 0)
                     and np.all((trial[0] >= w[0]) & (trial[0] <= w[-1])))  # a mode outside the band is a residual's job
-        if not physical or (wanted is None and t_noise >= GROW_GAIN * noise):
+        if not physical or (wanted is None and (ss - t_ss) / var < GROW_CHI2):
             break
         wn, zeta, c, b = trial
-        noise = t_noise
-        cands = cands + [Candidate(float(w[i] / (2 * np.pi)), float(np.median(zeta)), 0, cands[0].n_orders if cands else 0)]
+        ss = t_ss
+        cands = cands + [Candidate(float(w[i] / (2 * np.pi)), z0, 0, n_orders)]
     return wn, zeta, c, b, cands
 
 

@@ -79,7 +79,7 @@ def lscf(freq_hz: np.ndarray, h: np.ndarray, max_order: int) -> Stabilisation:
             fns.append(np.empty(0))
             zetas.append(np.empty(0))
             continue
-        roots = np.roots(np.append(a, 1.0)[::-1])
+        roots = np.roots(np.append(a, 1.0)[::-1]).astype(complex)  # all-real roots come back as a real array
         roots = roots[np.abs(roots) > 0]
         p = np.log(roots) / ts
         fn = np.abs(p) / (2 * np.pi)

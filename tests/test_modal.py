@@ -281,3 +281,35 @@ def test_conjugated_file_warns_then_refuses(tmp_path):
         warnings.simplefilter("ignore", FRFWarning)
         with pytest.raises(InputError, match="opposite sign convention"):
             fit_files(p)
+
+
+# ------------------------------------------------------- commands that need modes, given a measured FRF
+
+def measured_config(tmp_path):
+    write_frf_csv(tmp_path / "xx.csv", F, exact(X_MODES))
+    write_frf_csv(tmp_path / "yy.csv", F, exact(Y_MODES))
+    p = tmp_path / "tool.toml"
+    p.write_text(CUTTING + '[structure.frf]\nxx = "xx.csv"\nyy = "yy.csv"\n')
+    return p
+
+
+def test_fitted_config_starts_from_the_fit(tmp_path):
+    from millstab.io import load_config
+    from millstab.modal.run import fitted_config
+
+    cfg = load_config(str(measured_config(tmp_path)))
+    assert not cfg.structure.is_modal
+    modal_cfg, note = fitted_config(cfg)
+    assert "fitted its modes first" in note and "x: 520 Hz" in note
+    for d, truth in (("x", X_MODES), ("y", Y_MODES)):
+        got = np.array([[m.fn, m.k, m.zeta] for m in getattr(modal_cfg.structure, d)]).T
+        np.testing.assert_allclose(got, np.array(truth), rtol=1e-6)
+    assert modal_cfg.cutting is cfg.cutting and fitted_config(modal_cfg) == (modal_cfg, None)
+
+
+def test_sensitivity_accepts_a_measured_frf_config(tmp_path, capsys):
+    cfg = measured_config(tmp_path)
+    code = main(["sensitivity", "oat", str(cfg), "--rpm", "3000:12000:500", "--out", str(tmp_path / "oat.csv")])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert "fitted its modes first" in out.out and (tmp_path / "oat.csv").exists()

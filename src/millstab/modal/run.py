@@ -155,5 +155,30 @@ def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.
     return SLDCheck(np.asarray(rpm, float), a.depth_mm, b.depth_mm, ma, mb, ma / mb - 1, float(rel[i]), float(np.asarray(rpm)[ok][i]))
 
 
-__all__ = ["ModalResult", "SLDCheck", "fit_files", "measured_structure", "parse_band", "parse_modes",
+__all__ = ["ModalResult", "SLDCheck", "fit_files", "fitted_config", "measured_structure", "parse_band", "parse_modes",
            "read_direction", "sld_check"]
+
+
+def fitted_config(cfg, modes: int | str = "auto"):
+    """``cfg`` itself when its structure is modal; else a copy whose structure is fitted from its measured
+    direct terms (xx → x modes, yy → y modes), and a one-line note saying so (``None`` when nothing was done).
+
+    Cross terms (xy, yx) of the measured FRF are not part of the modal form and are left out (said in the note).
+    """
+    import dataclasses
+
+    if cfg.structure.is_modal:
+        return cfg, None
+    frf = cfg.structure.frf
+    fits = {d: fit_direction(frf.freq_hz, getattr(frf, t), direction=d, source=f"structure.frf.{t}", modes=modes)
+            for d, t in (("x", "xx"), ("y", "yy")) if getattr(frf, t) is not None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(f.modes))
+                                 for d, f in fits.items()})
+    parts = [f"{d}: " + ", ".join(f"{m.fn:.5g} Hz {m.k / 1e6:.4g} N/um zeta {m.zeta:.4g}" for m in f.modes)
+             for d, f in fits.items()]
+    cross = "; its cross terms are left out" if frf.xy is not None or frf.yx is not None else ""
+    note = (f"{cfg.name}: the structure is a measured FRF; fitted its modes first ({'; '.join(parts)}){cross} and "
+            f"starting from the fit (`millstab modal` writes it as a [structure] section)")
+    return dataclasses.replace(cfg, structure=structure), note

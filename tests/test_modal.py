@@ -243,6 +243,24 @@ def test_cli_non_drive_point_is_one_line(tmp_path, capsys):
     assert code == 2 and len(errors) == 1 and "drive-point" in errors[0]
 
 
+def test_fit_refuses_malformed_arrays():
+    with pytest.raises(InputError, match="strictly increasing"):
+        fit_direction(F[::-1], exact(ONE_MODE))
+    with pytest.raises(InputError, match="at least 20"):
+        fit_direction(F[:10], exact(ONE_MODE)[:10])
+
+
+def test_cli_picks_a_uff_record(tmp_path, capsys):
+    p = tmp_path / "two.uff"
+    write_uff(p, F, exact(Y_MODES))
+    write_uff(p, F, exact(ONE_MODE))
+    code, _, err = cli(capsys, p, "--out", tmp_path / "s.toml")
+    assert code == 2 and "record" in err
+    code, text, err = cli(capsys, p, "--record-x", 1, "--out", tmp_path / "s.toml")
+    assert code == 0, err
+    assert [m.fn for m in parse_config(CUTTING + (tmp_path / "s.toml").read_text()).structure.x] == pytest.approx([903.0])
+
+
 def test_cli_refuses_to_overwrite_an_input(tmp_path, capsys):
     p = write_frf_csv(tmp_path / "x.csv", F, exact(ONE_MODE))
     code, _, err = cli(capsys, p, "--out", p)

@@ -98,7 +98,8 @@ class DirectionFit:
     Attributes:
         direction: "x" or "y".  source: file name (for messages).
         freq_hz, h: the measured band [Hz, m/N].  h_fit: the fitted receptance there [m/N].
-        modes: fitted modes, by frequency.  upper, lower: residual terms U [m/N] and L [m/N].
+        modes: fitted modes, by frequency.  upper: residual flexibility U of modes above the band [m/N].
+        lower: the mass line −L(ω_lo/ω)² of modes below the band, as its value L at the band's lowest line [m/N].
         nrmse: RMS misfit over the band / max |H| [-].  noise: RMS misfit [m/N].
         stabilisation: the LSCF poles over orders (for the diagram).
     """
@@ -226,6 +227,9 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     where = f"{direction} ({source})"
     if f.size < MIN_LINES:
         raise InputError(f"FRF {where}", f"{f.size} lines", f"the band needs at least {MIN_LINES} frequency lines")
+    if f.shape != h.shape or not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))) or f[0] <= 0 or np.any(np.diff(f) <= 0):
+        raise InputError(f"FRF {where}", f"{f.size} frequencies, {h.size} values",
+                         "need one finite receptance per frequency, frequencies > 0 Hz and strictly increasing")
     scale = float(np.max(np.abs(h)))
     if not scale > 0:
         raise InputError(f"FRF {where}", "all zero", "the receptance is zero everywhere in the band")

@@ -284,7 +284,9 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     out = []
     for i in range(m):
         near = np.abs(f - fn[i]) <= 3 * zeta[i] * fn[i]
-        local = float(np.sqrt(np.mean(np.abs(fitted[near] - hs[near]) ** 2)) / (abs(c[i]) / (2 * zeta[i]))) if near.any() else math.nan
+        if not near.any():  # a bandwidth narrower than the line spacing: the nearest line
+            near = np.abs(f - fn[i]) == np.min(np.abs(f - fn[i]))
+        local = float(np.sqrt(np.mean(np.abs(fitted[near] - hs[near]) ** 2)) / (abs(c[i]) / (2 * zeta[i])))
         out.append(FittedMode(float(fn[i]), float(1.0 / (c[i] * scale)), float(zeta[i]), float(phase[i]), float(ptn[i]),
                               cands[i].n_stable, cands[i].n_orders, local))
     order = np.argsort(fn)

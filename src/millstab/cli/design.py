@@ -62,8 +62,11 @@ def design(
     inputs = {**config_inputs(cfg), "--points": points, "--fit": fit}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # fail before the work, not after
     protect = [p for p in inputs.values() if p]
-    if not cfg.structure.is_modal:
-        raise InputError("structure", "measured FRF", "planning needs a modal structure ([[structure.x]] modes)")
+    if not cfg.structure.is_modal:  # a measured FRF: plan around its fitted modes (issue 14)
+        from millstab.modal.run import fitted_config
+
+        cfg, note = fitted_config(cfg)
+        typer.echo(note)
     if rpm:
         candidates = parse_rpm_range(rpm)
     elif cfg.rpm is not None:

@@ -72,6 +72,11 @@ def identify(
                   figures=("--plot", "--history-plot"))  # fail before the work, not after
     protect = [p for p in inputs.values() if p]
     console = Console(stderr=True)
+    if not cfg.structure.is_modal:  # a measured FRF: start from its fitted modes (issue 14)
+        from millstab.modal.run import fitted_config
+
+        cfg, note = fitted_config(cfg)
+        typer.echo(note)
     options = {"loss": loss} if method == "lsq" else {}
     options["noise"] = check_noise(noise, "--noise")
     if quiet:

@@ -200,8 +200,11 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
     protect = [p for p in inputs.values() if p]
-    if not cfg.structure.is_modal:
-        raise InputError("structure", "measured FRF", "sensitivity studies need modal parameters (fn, k, zeta) in the config")
+    if not cfg.structure.is_modal:  # a measured FRF: study its fitted modes (issue 14)
+        from millstab.modal.run import fitted_config
+
+        cfg, note = fitted_config(cfg)
+        typer.echo(note)
 
     example = match_example(cfg.cutting, cfg.structure)
     theta, centre_note = None, "the config's modal parameters"

@@ -1,0 +1,71 @@
+"""``millstab modal``: fit measured drive-point FRFs (a tap test) to modes and write a [structure] section."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from millstab.cli.app import app, select_rpm
+
+#: speed range of the SLD check when neither --rpm nor the config gives one [rpm]
+FALLBACK_RPM = (2000.0, 12000.0, 20.0)
+
+
+@app.command()
+def modal(
+    frf_x: Path = typer.Argument(..., help="Drive-point FRF of x (.csv freq_hz,real,imag in m/N, CutPro .frf, .uff/.unv)."),
+    frf_y: Optional[Path] = typer.Argument(None, help="Drive-point FRF of y (omit: y rigid)."),
+    out: Path = typer.Option(..., "--out", help="TOML file with the fitted \\[structure] section."),
+    band: Optional[str] = typer.Option(None, "--band", help="Frequency band A:B [Hz] to fit (default: the whole file)."),
+    modes: str = typer.Option("auto", "--modes", help="Modes per direction: auto (stabilisation diagram), N, or NX,NY."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Figure: fit, phase, stabilisation diagram (and SLD check)."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Fit quality as JSON (schema millstab.modal/1)."),
+    config: Optional[str] = typer.Option(None, "--config", help="Config whose \\[cutting] runs the SLD check (fit vs measured FRF)."),
+    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP of the SLD check (rev/min)."),
+    record_x: Optional[int] = typer.Option(None, "--record-x", help="UFF record of FRF_X (0-based among its dataset-58 records)."),
+    record_y: Optional[int] = typer.Option(None, "--record-y", help="UFF record of FRF_Y."),
+) -> None:
+    r"""Fit FRF_X (and FRF_Y) to modes (fn, k, zeta) and write them as a config's \[structure] section."""
+    from millstab.io import load_config, write_json
+    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.modal.output import quality, write_structure
+    from millstab.modal.run import fit_files, measured_structure, parse_band, parse_modes, sld_check
+
+    b = parse_band(band)
+    n_modes = parse_modes(modes)
+    cfg = load_config(config) if config else None
+    inputs = {"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})}
+    check_outputs(inputs, {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
+    protect = [p for p in inputs.values() if p]
+    result = fit_files(frf_x, frf_y, band=b, modes=n_modes, records=(record_x, record_y))
+    sources = {d: fit.source for d, fit in result.fits.items()}
+    for d, fit in result.fits.items():
+        typer.echo(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
+                   f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
+        for m in fit.modes:
+            typer.echo(f"  fn {m.fn:10.4f} Hz   k {m.k / 1e6:9.4f} N/um   zeta {m.zeta:.5f}   "
+                       f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}")
+    check = None
+    if cfg is not None:
+        speeds = select_rpm(rpm, None, cfg.rpm, FALLBACK_RPM)
+        measured = measured_structure(frf_x, frf_y, b, (record_x, record_y))
+        check = sld_check(result.structure, measured, cfg.cutting, speeds)
+        typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "
+                   f"minimum depth {check.min_fitted_mm:.4g} mm from the fit vs {check.min_measured_mm:.4g} mm from the "
+                   f"measured FRF ({100 * check.min_difference:+.2f} %); worst difference {100 * check.worst_difference:.1f} % "
+                   f"at {check.worst_rpm:.6g} rpm")
+    elif rpm:
+        typer.echo("note: --rpm is used by the SLD check, which needs --config for the cutting conditions", err=True)
+    write_structure(out, result, sources, protect)
+    typer.echo(f"wrote {out}")
+    if json_out:
+        write_json(json_out, quality(result, sources, check), protect)
+        typer.echo(f"wrote {json_out}")
+    if plot:
+        from millstab.plot import save_figure
+        from millstab.plot.modal import plot_modal_fit
+
+        save_figure(plot_modal_fit(result, check), plot, protect=protect)
+        typer.echo(f"wrote {plot}")

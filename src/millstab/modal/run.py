@@ -1,0 +1,184 @@
+"""From FRF files to a modal structure: read each direction, cut the band, fit, and check the SLD.
+
+One file per direction (``FRF_X`` is the xx drive point, ``FRF_Y`` the yy one), in any format
+:mod:`millstab.io.frf_files` reads (CSV in m/N, CutPro ``.frf``, UFF58 with ``record``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.io.frf_files import load_measured_frf
+from millstab.model import Cutting, MeasuredFRF, Mode, Structure
+from millstab.modal.fit import MIN_LINES, DirectionFit, fit_direction
+
+
+def parse_band(text: str | None) -> tuple[float, float] | None:
+    """``"A:B"`` [Hz] → (A, B), or None for the whole file."""
+    if text is None:
+        return None
+    parts = str(text).split(":")
+    try:
+        lo, hi = (float(p) for p in parts)
+    except ValueError:
+        raise InputError("--band", text, "expected A:B in Hz, e.g. 200:2500") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
+        raise InputError("--band", text, "need 0 <= A < B (Hz)")
+    return lo, hi
+
+
+def parse_modes(text: str | int | None) -> tuple[int | str, int | str]:
+    """``auto`` / ``N`` / ``NX,NY`` → the mode count for x and for y."""
+    if text is None or str(text).strip().lower() == "auto":
+        return "auto", "auto"
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) not in (1, 2):
+        raise InputError("--modes", text, "expected auto, N or NX,NY (modes per direction)")
+    out = []
+    for p in parts:
+        if p.lower() == "auto":
+            out.append("auto")
+            continue
+        try:
+            n = int(p)
+        except ValueError:
+            raise InputError("--modes", text, "expected auto, N or NX,NY with whole numbers >= 1") from None
+        if not 1 <= n <= 10:
+            raise InputError("--modes", text, "a direction takes 1 to 10 modes")
+        out.append(n)
+    return (out[0], out[0]) if len(out) == 1 else (out[0], out[1])
+
+
+def read_direction(path, direction: str, band: tuple[float, float] | None, record: int | None = None,
+                   label: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One direction's drive-point receptance [Hz, m/N] from a file, cut to ``band`` [Hz]."""
+    label = label or f"FRF_{direction.upper()}"
+    src = {"file": str(path), "record": record} if record is not None else str(path)
+    term = "xx" if direction == "x" else "yy"
+    frf = load_measured_frf(**{term: src}, field=label)
+    f, h = frf.freq_hz, getattr(frf, term)
+    if band is not None:
+        keep = (f >= band[0]) & (f <= band[1])
+        if np.count_nonzero(keep) < MIN_LINES:
+            raise InputError("--band", f"{band[0]:g}:{band[1]:g}",
+                             f"holds {np.count_nonzero(keep)} of the {f.size} lines of {label} ({Path(path).name}, "
+                             f"{f[0]:g}..{f[-1]:g} Hz); the fit needs at least {MIN_LINES} lines")
+        f, h = f[keep], h[keep]
+    return f, h
+
+
+@dataclass(frozen=True)
+class ModalResult:
+    """The fits of both directions and the structure they make.
+
+    Attributes:
+        fits: ``{"x": DirectionFit, "y": DirectionFit}`` (a direction without a file is absent: rigid).
+        structure: the fitted modal :class:`Structure`.
+        band: the band given [Hz], or None (each file's whole range).
+    """
+
+    fits: dict[str, DirectionFit]
+    structure: Structure
+    band: tuple[float, float] | None
+
+
+def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, modes=("auto", "auto"),
+              records: tuple[int | None, int | None] = (None, None)) -> ModalResult:
+    """Fit the drive-point FRF files of x (and y) to modes; see :func:`millstab.modal.fit.fit_direction`."""
+    fits: dict[str, DirectionFit] = {}
+    for d, path, n, rec in (("x", frf_x, modes[0], records[0]), ("y", frf_y, modes[1], records[1])):
+        if path is None:
+            continue
+        f, h = read_direction(path, d, band, rec)
+        fits[d] = fit_direction(f, h, direction=d, source=Path(path).name, modes=n)
+    with warnings.catch_warnings():  # a soft fitted k is what was measured; the report shows it in N/um
+        warnings.simplefilter("ignore")
+        structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(fit.modes))
+                                 for d, fit in fits.items()})
+    return ModalResult(fits, structure, band)
+
+
+def measured_structure(frf_x, frf_y=None, band: tuple[float, float] | None = None,
+                       records: tuple[int | None, int | None] = (None, None)) -> Structure:
+    """The measured FRFs as a :class:`Structure` (direct terms only, on x's axis), cut to ``band``."""
+    src = {}
+    for term, path, rec in (("xx", frf_x, records[0]), ("yy", frf_y, records[1])):
+        if path is not None:
+            src[term] = {"file": str(path), "record": rec} if rec is not None else str(path)
+    with warnings.catch_warnings():  # already warned when the directions were read
+        warnings.simplefilter("ignore")
+        frf = load_measured_frf(**src, field="FRF")
+    if band is not None:
+        keep = (frf.freq_hz >= band[0]) & (frf.freq_hz <= band[1])
+        frf = MeasuredFRF(frf.freq_hz[keep], None if frf.xx is None else frf.xx[keep],
+                          None if frf.yy is None else frf.yy[keep])
+    return Structure(frf=frf)
+
+
+@dataclass(frozen=True)
+class SLDCheck:
+    """The SLD from the fitted modes beside the SLD from the measured FRF.
+
+    Attributes:
+        rpm: speeds [rev/min].  fitted_mm, measured_mm: limiting depths [mm].
+        min_fitted_mm, min_measured_mm: their minima [mm];  min_difference: min_fitted/min_measured − 1.
+        worst_difference: the largest |fitted/measured − 1| over the speeds;  worst_rpm: where.
+    """
+
+    rpm: np.ndarray
+    fitted_mm: np.ndarray
+    measured_mm: np.ndarray
+    min_fitted_mm: float
+    min_measured_mm: float
+    min_difference: float
+    worst_difference: float
+    worst_rpm: float
+
+
+def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.ndarray) -> SLDCheck:
+    """Both limits by the zoa engine at ``rpm``, their minima and their worst relative difference."""
+    from millstab.stability import zoa
+
+    a = zoa.envelope(fitted, cutting, rpm)
+    b = zoa.envelope(measured, cutting, rpm)
+    ok = np.isfinite(a.depth) & np.isfinite(b.depth) & (b.depth > 0)
+    if not ok.any():
+        raise InputError("--config", "cutting conditions", "no speed gives a finite limit for both structures")
+    rel = np.abs(a.depth[ok] / b.depth[ok] - 1)
+    i = int(np.argmax(rel))
+    ma, mb = float(np.min(a.depth_mm[ok])), float(np.min(b.depth_mm[ok]))
+    return SLDCheck(np.asarray(rpm, float), a.depth_mm, b.depth_mm, ma, mb, ma / mb - 1, float(rel[i]), float(np.asarray(rpm)[ok][i]))
+
+
+__all__ = ["ModalResult", "SLDCheck", "fit_files", "fitted_config", "measured_structure", "parse_band", "parse_modes",
+           "read_direction", "sld_check"]
+
+
+def fitted_config(cfg, modes: int | str = "auto"):
+    """``cfg`` itself when its structure is modal; else a copy whose structure is fitted from its measured
+    direct terms (xx → x modes, yy → y modes), and a one-line note saying so (``None`` when nothing was done).
+
+    Cross terms (xy, yx) of the measured FRF are not part of the modal form and are left out (said in the note).
+    """
+    import dataclasses
+
+    if cfg.structure.is_modal:
+        return cfg, None
+    frf = cfg.structure.frf
+    fits = {d: fit_direction(frf.freq_hz, getattr(frf, t), direction=d, source=f"structure.frf.{t}", modes=modes)
+            for d, t in (("x", "xx"), ("y", "yy")) if getattr(frf, t) is not None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(f.modes))
+                                 for d, f in fits.items()})
+    parts = [f"{d}: " + ", ".join(f"{m.fn:.5g} Hz {m.k / 1e6:.4g} N/um zeta {m.zeta:.4g}" for m in f.modes)
+             for d, f in fits.items()]
+    cross = "; its cross terms are left out" if frf.xy is not None or frf.yx is not None else ""
+    note = (f"{cfg.name}: the structure is a measured FRF; fitted its modes first ({'; '.join(parts)}){cross} and "
+            f"starting from the fit (`millstab modal` writes it as a [structure] section)")
+    return dataclasses.replace(cfg, structure=structure), note

@@ -84,9 +84,45 @@ def reference_envelope(structure: Structure, cutting: Cutting, rpm, **kw) -> tup
 
 
 
+def ranked_roots(structure: Structure, cutting: Cutting, freq_hz: np.ndarray) -> np.ndarray:
+    """Both roots of [α][G] at ``freq_hz`` (F,), larger modulus first: (2, F). No tracking along ω."""
+    tr, det = _tr_det(directional_matrix(cutting), structure_receptance(structure, np.asarray(freq_hz, dtype=float)))
+    sq = np.sqrt(tr * tr - 4 * det)
+    a, b = 0.5 * (tr + sq), 0.5 * (tr - sq)
+    swap = np.abs(b) > np.abs(a)
+    return np.stack([np.where(swap, b, a), np.where(swap, a, b)])
+
+
+def lobe_tips(structure: Structure, cutting: Cutting, rpm_lo: float, rpm_hi: float,
+              step_widths: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds [rpm] and depths [m] of the lobe tips in [rpm_lo, rpm_hi]: the interior extrema of each
+    lobe's speed Ω_k(ω) = 60ω/(N(ε + 2kπ)) along ω (where a lobe turns back), on a uniform grid of
+    ``step_widths`` × the narrowest half-power width, per root rank (see :func:`ranked_roots`; a rank
+    swap can add a spurious "tip", which only adds a speed band to check)."""
+    n, kt = cutting.teeth, cutting.kt
+    fns = np.array([m.fn for m in structure.modes])
+    widths = np.array([m.zeta * m.fn for m in structure.modes])
+    f = np.arange(0.2 * fns.min(), 3.0 * fns.max(), step_widths * widths.min())
+    nu = ranked_roots(structure, cutting, f)
+    speeds, depths = [], []
+    k_max = int(math.ceil(f[-1] * 60.0 / (n * rpm_lo)))
+    for v in nu:
+        ok = v.real > 0
+        inner = ok[:-2] & ok[1:-1] & ok[2:]
+        eps = math.pi + 2 * np.angle(v)
+        for k in range(k_max + 1):
+            sp = 60.0 * f / (n * (eps + 2 * math.pi * k) / (2 * math.pi))
+            d = np.diff(sp)
+            turn = np.nonzero(inner & (np.sign(d[:-1]) != np.sign(d[1:])))[0] + 1
+            turn = turn[(sp[turn] >= rpm_lo) & (sp[turn] <= rpm_hi)]
+            speeds.append(sp[turn])
+            depths.append(2 * math.pi / (n * kt * v.real[turn]))
+    return np.concatenate(speeds), np.concatenate(depths)
+
+
 def reference_envelope_dense(structure: Structure, cutting: Cutting, rpm, depth_cap: float | None = None,
                              step_widths: float = 0.02, max_cells: int = 20_000_000) -> tuple[np.ndarray, np.ndarray]:
-    """The brute-force reference at many speeds at once (modal structures), vectorised with numpy.
+    """The brute-force reference at many speeds at once, vectorised with numpy.
 
     The roots ν1, ν2 of [α][G(iω)] are ranked by modulus at every frequency (|ν1| ≥ |ν2|: a rule
     that needs no tracking along ω), and each rank's phase condition is the zero of
@@ -95,7 +131,7 @@ def reference_envelope_dense(structure: Structure, cutting: Cutting, rpm, depth_
     zeros then lie close together and a product would show no sign change between them. Each rank is
     scanned on one uniform grid whose step is ``step_widths`` × the narrowest half-power width ζ·fn
     of the structure (50 points per damping width by default, ten times finer than the narrowest
-    step of the engine's grid, and uniform everywhere). Every sign change is refined by bisection to
+    step of the engine's grid, and uniform everywhere; a measured FRF: 50 points per table step). Every sign change is refined by bisection to
     the last bits of ω (all brackets at once); the root is then identified with numpy.linalg.eigvals
     and kept only if it meets the phase condition (a sign change at a rank swap |ν1| = |ν2| is a
     jump, not a root, and is dropped). Near a rank swap a rank's own sign change can be hidden by
@@ -110,26 +146,23 @@ def reference_envelope_dense(structure: Structure, cutting: Cutting, rpm, depth_
 
     Returns the depths [m] and chatter frequencies [Hz], both (S,).
     """
-    if not structure.is_modal:
-        raise ValueError("reference_envelope_dense handles modal structures; use reference_envelope")
     alpha = directional_matrix(cutting)
     n, kt = cutting.teeth, cutting.kt
     rpm = np.atleast_1d(np.asarray(rpm, dtype=float))
     period = 60.0 / (n * rpm)  # (S,)
-    fns = np.array([m.fn for m in structure.modes])
-    widths = np.array([m.zeta * m.fn for m in structure.modes])
-    f_lo = 0.02 * fns.min()
-    f_hi = max(8.0 * fns.max(), 1.5 * n * rpm.max() / 60.0)
-    df = step_widths * widths.min()
-    f = np.arange(f_lo, f_hi + df, df)
+    if structure.is_modal:
+        fns = np.array([m.fn for m in structure.modes])
+        widths = np.array([m.zeta * m.fn for m in structure.modes])
+        f_lo = 0.02 * fns.min()
+        f_hi = max(8.0 * fns.max(), 1.5 * n * rpm.max() / 60.0)
+        df = step_widths * widths.min()
+    else:  # a measured table, linearly interpolated: 50 points per table step
+        f_lo, f_hi = structure.frf.freq_hz[0], structure.frf.freq_hz[-1]
+        df = np.diff(structure.frf.freq_hz).min() / 50.0
+    f = np.arange(f_lo, f_hi, df)
 
     def ranked(freq):
-        """Both roots at ``freq``, larger modulus first: (2, F)."""
-        tr, det = _tr_det(alpha, structure_receptance(structure, freq))
-        sq = np.sqrt(tr * tr - 4 * det)
-        a, b = 0.5 * (tr + sq), 0.5 * (tr - sq)
-        swap = np.abs(b) > np.abs(a)
-        return np.stack([np.where(swap, b, a), np.where(swap, a, b)])
+        return ranked_roots(structure, cutting, freq)
 
     nu = ranked(f)
     if depth_cap is not None:

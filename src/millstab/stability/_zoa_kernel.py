@@ -300,7 +300,8 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
 
     Inverse quadratic interpolation through the three latest points (secant while only two are
     distinct), falling back to bisection whenever a step leaves the current bracket; stops at
-    |H| < 1e-7 rad. A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
+    |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope: near a lobe tip H is flat and a residual
+    moves the root further, so the tolerance tightens there). A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
     derivatives scale as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6
     (the tests compare with a brute-force reference at 1e-6). Typically two or three evaluations.
     Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
@@ -332,7 +333,10 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
         if v.real <= 0.0:
             return v.real, xm
         fm = xm * T - _eps(v) - target
-        if abs(fm) < 1e-7 or abs(hi - lo) <= 1e-14 * xm:
+        # |H| < 1e-7 rad, tighter where H is flatter than its far-field slope T (near a lobe tip
+        # dH/dω → 0 and the same residual would leave the root, and the depth, much less certain)
+        slope = abs((fm - f2) / (xm - x2)) if xm != x2 else T
+        if abs(fm) < 1e-7 * min(1.0, slope / T) or abs(hi - lo) <= 1e-14 * xm:
             break
         if fm * flo > 0.0:
             lo, flo = xm, fm

@@ -259,7 +259,8 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
 def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
     """A zero inside (p, q) ⊂ segment i of ε'' (kind 0) or of g = ωε' − ε − target (kind 1), given
     its values fp, fq of opposite signs at the ends. Illinois iteration on exact evaluations to 1e-11
-    of ω (a split point off by δ hides a lobe tip only for speeds within ~δ² of it).
+    of ω for a lobe's turning point (a split point off by δ hides a tip only for speeds within ~δ²
+    of it) and 1e-8 for an extremum of g (g then varies by ~δ² across the piece it overlaps).
     Returns (ω, ν, ε', ε'') at the zero."""
     wi = w[i]
     wj = w[i + 1]
@@ -288,7 +289,7 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
             if side == 1:
                 flo *= 0.5
             side = 1
-        if abs(hi - lo) <= 1e-11 * x:
+        if abs(hi - lo) <= (1e-8 if kind == 0 else 1e-11) * x:
             break
     return x, v, e1, e2
 
@@ -369,10 +370,11 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     |T_k − T_k(end)| ≤ |g(end) − 2kπ|·h/ω_lo² bounds the tip. Between split points every speed has
     at most one root per bracket, found by the sign change.
 
-    Segments are visited in decreasing order of their largest 1/b (Re ν), so once every speed has an
-    estimate, a segment whose best 1/b (times REFINE_MARGIN) is below the worst speed's estimate
-    cannot matter, and neither can any later one: the scan stops there. On typical structures this
-    skips the far-from-resonance 80–90 % of the grid.
+    Segments are visited in levels of their largest 1/b (Re ν), each level a factor 2 below the last
+    (a linear pass per level instead of a sort), so once every speed has an estimate, a segment whose
+    best 1/b (times REFINE_MARGIN) is below the worst speed's estimate cannot matter and is skipped,
+    and once a whole level lies below it the scan stops. On typical structures this skips the
+    far-from-resonance 80–90 % of the grid.
 
     Returns the candidates (speed j, segment code br·F + i, k, bracket ends and their roots,
     estimated Re ν) and updates ``est`` with the best estimate per speed.
@@ -394,7 +396,6 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                 seg_max[n_seg] = max(inv_b[br, i], inv_b[br, i + 1])
                 seg_id[n_seg] = br * n_w + i
                 n_seg += 1
-    order = np.argsort(-seg_max[:n_seg])
     cap = 8 * n_s + 64
     c_j = np.empty(cap, dtype=np.int64)
     c_seg = np.empty(cap, dtype=np.int64)
@@ -413,146 +414,163 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     bx = np.empty(5)
     bnu = np.empty(5, dtype=np.complex128)
     worst = 0.0
-    for q in range(n_seg):
-        s = order[q]
-        if q % 8 == 0:
-            worst = est.min()
-        if seg_max[s] * REFINE_MARGIN < worst:
-            break
-        code = seg_id[s]
-        br = code // n_w
-        i = code - br * n_w
-        wa = w[i]
-        wb = w[i + 1]
-        nua = nu[br, i]
-        nub = nu[br, i + 1]
-        ea = eps[br, i]
-        eb = eps[br, i + 1]
-        for c4 in range(4):
-            ga[c4] = G[c4, i]
-            gb[c4] = G[c4, i + 1]
-        # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
-        if measured:
-            _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
-            _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
-        else:
-            for e in range(i, i + 2):
-                if not have[br, e]:
-                    _, d1[br, e], d2[br, e] = _phase_at(w[e], w[e], w[e] + 1.0, nu[br, e], nu[br, e], wa, wb, a,
-                                                        wnx, kx, zx, wny, ky, zy, measured, ga, gb)
-                    have[br, e] = True
-            d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
-        g_a = wa * d1a - ea
-        g_b = wb * d1b - eb
-        # g = ωε' − ε is monotone on [wa, we] and [we, wb], we the zero of ε'' if it changes sign
-        split_e = False
-        we = 0.0
-        nue = 0.0j
-        ee = 0.0
-        g_e = 0.0
-        if d2a * d2b < 0.0:
-            we, nue, d1e, _ = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                           measured, ga, gb)
-            if nue.real > 0.0 and wa < we < wb:
-                split_e = True
-                ee = _eps(nue)
-                g_e = we * d1e - ee
-        # lobes k whose speed on this segment can fall in [rpm_min, rpm_max] (any ε in (0, 2π))
-        k_lo = int(math.floor((wa * t_min - TWO_PI) / TWO_PI))
-        k_hi = int(math.ceil((wb * t_max) / TWO_PI))
-        if k_lo < 0:
-            k_lo = 0
-        for k in range(k_lo, k_hi + 1):
-            tk = TWO_PI * k
-            # bracket ends for this lobe: wa, [tip in piece 1], [we], [tip in piece 2], wb
-            nb_ = 0
-            bx[0] = wa
-            bnu[0] = nua
-            nb_ = 1
-            n_piece = 2 if split_e else 1
-            for pc in range(n_piece):
-                if split_e and pc == 0:
-                    p, pq, gp, gq, ep, eq = wa, we, g_a, g_e, ea, ee
-                elif split_e:
-                    p, pq, gp, gq, ep, eq = we, wb, g_e, g_b, ee, eb
-                else:
-                    p, pq, gp, gq, ep, eq = wa, wb, g_a, g_b, ea, eb
-                dp = gp - tk
-                dq = gq - tk
-                if dp * dq < 0.0:
-                    # one turning point of T_k inside: only speeds in its tip (beyond both ends) are at risk
-                    tp = (ep + tk) / p
-                    tq = (eq + tk) / pq
-                    room = (pq - p) / (p * p)
-                    if dp > 0.0:  # T_k rises, then falls: a maximum of the period, a minimum of the speed
-                        t_lo = max(tp, tq)
-                        t_hi = min(tp + dp * room, tq - dq * room)
+    # visit segments in levels of decreasing best 1/b (each level a factor 2 below the last): once the
+    # worst speed's estimate exceeds a level's floor × REFINE_MARGIN, no later segment can matter
+    top = seg_max[:n_seg].max() if n_seg > 0 else 0.0
+    level_hi = np.inf
+    level_lo = 0.5 * top
+    n_vis = 0
+    while n_seg > 0:
+        for s in range(n_seg):
+            m_s = seg_max[s]
+            if m_s < level_lo or m_s >= level_hi:
+                continue
+            if n_vis % 8 == 0:
+                worst = est.min()
+            n_vis += 1
+            if m_s * REFINE_MARGIN < worst:
+                continue
+            code = seg_id[s]
+            br = code // n_w
+            i = code - br * n_w
+            wa = w[i]
+            wb = w[i + 1]
+            nua = nu[br, i]
+            nub = nu[br, i + 1]
+            ea = eps[br, i]
+            eb = eps[br, i + 1]
+            for c4 in range(4):
+                ga[c4] = G[c4, i]
+                gb[c4] = G[c4, i + 1]
+            # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
+            if measured:
+                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+            else:
+                for e in range(i, i + 2):
+                    if not have[br, e]:
+                        _, d1[br, e], d2[br, e] = _phase_at(w[e], w[e], w[e] + 1.0, nu[br, e], nu[br, e], wa, wb, a,
+                                                            wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                        have[br, e] = True
+                d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
+            g_a = wa * d1a - ea
+            g_b = wb * d1b - eb
+            # g = ωε' − ε is monotone on [wa, we] and [we, wb], we the zero of ε'' if it changes sign
+            split_e = False
+            we = 0.0
+            nue = 0.0j
+            ee = 0.0
+            g_e = 0.0
+            # lobes k whose speed on this segment can fall in [rpm_min, rpm_max] (any ε in (0, 2π))
+            k_lo = int(math.floor((wa * t_min - TWO_PI) / TWO_PI))
+            k_hi = int(math.ceil((wb * t_max) / TWO_PI))
+            if k_lo < 0:
+                k_lo = 0
+            # an extremum of g can only hide crossings of 2kπ beyond both ends' values: above them for a
+            # maximum (ε'' from + to −), below them for a minimum (near a resonance g ≪ 0: none)
+            if d2a * d2b < 0.0 and (TWO_PI * k_hi > max(g_a, g_b) if d2a > 0.0 else TWO_PI * k_lo < min(g_a, g_b)):
+                we, nue, d1e, _ = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
+                                               measured, ga, gb)
+                if nue.real > 0.0 and wa < we < wb:
+                    split_e = True
+                    ee = _eps(nue)
+                    g_e = we * d1e - ee
+            for k in range(k_lo, k_hi + 1):
+                tk = TWO_PI * k
+                # bracket ends for this lobe: wa, [tip in piece 1], [we], [tip in piece 2], wb
+                nb_ = 0
+                bx[0] = wa
+                bnu[0] = nua
+                nb_ = 1
+                n_piece = 2 if split_e else 1
+                for pc in range(n_piece):
+                    if split_e and pc == 0:
+                        p, pq, gp, gq, ep, eq = wa, we, g_a, g_e, ea, ee
+                    elif split_e:
+                        p, pq, gp, gq, ep, eq = we, wb, g_e, g_b, ee, eb
                     else:
-                        t_hi = min(tp, tq)
-                        t_lo = max(tp + dp * room, tq - dq * room)
-                    if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
-                                                                    c60 / t_lo if t_lo > 0.0 else np.inf):
-                        x, v, _, _ = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                                  measured, ga, gb)
-                        if v.real > 0.0 and bx[nb_ - 1] < x < pq:
-                            bx[nb_] = x
-                            bnu[nb_] = v
-                            nb_ += 1
-                if split_e and pc == 0:
-                    bx[nb_] = we
-                    bnu[nb_] = nue
-                    nb_ += 1
-            bx[nb_] = wb
-            bnu[nb_] = nub
-            nb_ += 1
-            for m in range(nb_ - 1):
-                x0 = bx[m]
-                x1 = bx[m + 1]
-                n0 = bnu[m]
-                n1 = bnu[m + 1]
-                e0 = ea if m == 0 else _eps(n0)
-                e1 = eb if m == nb_ - 2 else _eps(n1)
-                # ε = 0 exactly at a Re ν = 0 edge node: the k = 0 speed is infinite (numba would raise)
-                da = e0 + tk
-                db = e1 + tk
-                sa = c60 * x0 / da if da > 0.0 else np.inf
-                sb = c60 * x1 / db if db > 0.0 else np.inf
-                lo_s = min(sa, sb)
-                if lo_s > rpm_top:  # the whole bracket lies above the top speed
-                    continue
-                if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
-                    j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
-                    if j > 0 and rpm[j - 1] >= lo_s:
-                        j -= 1
-                else:
-                    j = np.searchsorted(rpm, lo_s)
-                hi = max(sa, sb)
-                while j < n_s and rpm[j] <= hi:
-                    ha = x0 * T[j] - e0 - tk
-                    hb = x1 * T[j] - e1 - tk
-                    if ha * hb <= 0.0 and ha != hb:
-                        t = ha / (ha - hb)
-                        guess = n0.real + t * (n1.real - n0.real)
-                        if guess > est[j]:
-                            est[j] = guess
-                        if n_c == cap:  # grow the candidate buffers
-                            cap *= 2
-                            c_j = _grow_i(c_j, cap)
-                            c_seg = _grow_i(c_seg, cap)
-                            c_k = _grow_i(c_k, cap)
-                            c_g = _grow_f(c_g, cap)
-                            c_x = _grow_f2(c_x, cap)
-                            c_nu = _grow_c2(c_nu, cap)
-                        c_j[n_c] = j
-                        c_seg[n_c] = code
-                        c_k[n_c] = k
-                        c_g[n_c] = guess
-                        c_x[n_c, 0] = x0
-                        c_x[n_c, 1] = x1
-                        c_nu[n_c, 0] = n0
-                        c_nu[n_c, 1] = n1
-                        n_c += 1
-                    j += 1
+                        p, pq, gp, gq, ep, eq = wa, wb, g_a, g_b, ea, eb
+                    dp = gp - tk
+                    dq = gq - tk
+                    if dp * dq < 0.0:
+                        # one turning point of T_k inside: only speeds in its tip (beyond both ends) are at risk
+                        tp = (ep + tk) / p
+                        tq = (eq + tk) / pq
+                        room = (pq - p) / (p * p)
+                        if dp > 0.0:  # T_k rises, then falls: a maximum of the period, a minimum of the speed
+                            t_lo = max(tp, tq)
+                            t_hi = min(tp + dp * room, tq - dq * room)
+                        else:
+                            t_hi = min(tp, tq)
+                            t_lo = max(tp + dp * room, tq - dq * room)
+                        if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
+                                                                        c60 / t_lo if t_lo > 0.0 else np.inf):
+                            x, v, _, _ = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
+                                                      measured, ga, gb)
+                            if v.real > 0.0 and bx[nb_ - 1] < x < pq:
+                                bx[nb_] = x
+                                bnu[nb_] = v
+                                nb_ += 1
+                    if split_e and pc == 0:
+                        bx[nb_] = we
+                        bnu[nb_] = nue
+                        nb_ += 1
+                bx[nb_] = wb
+                bnu[nb_] = nub
+                nb_ += 1
+                for m in range(nb_ - 1):
+                    x0 = bx[m]
+                    x1 = bx[m + 1]
+                    n0 = bnu[m]
+                    n1 = bnu[m + 1]
+                    e0 = ea if m == 0 else _eps(n0)
+                    e1 = eb if m == nb_ - 2 else _eps(n1)
+                    # ε = 0 exactly at a Re ν = 0 edge node: the k = 0 speed is infinite (numba would raise)
+                    da = e0 + tk
+                    db = e1 + tk
+                    sa = c60 * x0 / da if da > 0.0 else np.inf
+                    sb = c60 * x1 / db if db > 0.0 else np.inf
+                    lo_s = min(sa, sb)
+                    if lo_s > rpm_top:  # the whole bracket lies above the top speed
+                        continue
+                    if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
+                        j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
+                        if j > 0 and rpm[j - 1] >= lo_s:
+                            j -= 1
+                    else:
+                        j = np.searchsorted(rpm, lo_s)
+                    hi = max(sa, sb)
+                    while j < n_s and rpm[j] <= hi:
+                        ha = x0 * T[j] - e0 - tk
+                        hb = x1 * T[j] - e1 - tk
+                        if ha * hb <= 0.0 and ha != hb:
+                            t = ha / (ha - hb)
+                            guess = n0.real + t * (n1.real - n0.real)
+                            if guess > est[j]:
+                                est[j] = guess
+                            if n_c == cap:  # grow the candidate buffers
+                                cap *= 2
+                                c_j = _grow_i(c_j, cap)
+                                c_seg = _grow_i(c_seg, cap)
+                                c_k = _grow_i(c_k, cap)
+                                c_g = _grow_f(c_g, cap)
+                                c_x = _grow_f2(c_x, cap)
+                                c_nu = _grow_c2(c_nu, cap)
+                            c_j[n_c] = j
+                            c_seg[n_c] = code
+                            c_k[n_c] = k
+                            c_g[n_c] = guess
+                            c_x[n_c, 0] = x0
+                            c_x[n_c, 1] = x1
+                            c_nu[n_c, 0] = n0
+                            c_nu[n_c, 1] = n1
+                            n_c += 1
+                        j += 1
+        worst = est.min()
+        if level_lo == 0.0 or level_lo * REFINE_MARGIN < worst:
+            break
+        level_hi = level_lo
+        level_lo = 0.5 * level_lo if level_lo > 1e-3 * top else 0.0
     return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from millstab.frf import measured_from_structure
 from millstab.model import Cutting, Mode, Structure
@@ -103,3 +104,37 @@ def test_dense_grids_over_random_multimode_structures():
             failures.append(f"case {case}: {err:.3g} at {where:.1f} rpm")
     assert not failures, failures
     assert n_tips >= 60 and n_speeds >= 5000  # the draw does put many speeds next to lobe tips
+
+
+def test_phase_derivatives_match_finite_differences():
+    """The tip detection rests on dε/dω and d²ε/dω² from the eigenvalue formula; compare them with
+    central differences of ε and dε/dω, for modes (exact G) and for a measured segment (linear G)."""
+    from millstab.stability import _zoa_kernel as k_
+
+    a = k_.directional_brackets(0.6, 0.4, 2.5)
+    two_pi = 2 * math.pi
+    wnx, kx, zx = two_pi * np.array([369.85, 700.0]), np.array([5.4e6, 9e6]), np.array([0.0316, 0.02])
+    wny, ky, zy = two_pi * np.array([411.21]), np.array([6.6756e6]), np.array([0.0168])
+    ga = np.array([2e-7 - 1e-7j, 1e-8j, -1e-8j, 1e-7 - 3e-7j])
+    gb = np.array([-1e-7 - 2e-7j, 2e-8, 3e-8j, 2e-7 - 1e-7j])
+    for measured in (False, True):
+        for f in (300.0, 372.0, 411.0, 442.0, 690.0, 1200.0):
+            w = two_pi * f
+            wi, wj = w - 40.0, w + 40.0  # the measured segment around ω (ω at its middle)
+            if measured:
+                g = 0.5 * (ga + gb)
+            else:
+                g = [k_._modal_receptance(w, wnx, kx, zx), 0j, 0j, k_._modal_receptance(w, wny, ky, zy)]
+            tr, det = k_._tr_det(a, *g)
+            for root in (0.5 * (tr + np.sqrt(tr * tr - 4 * det)), 0.5 * (tr - np.sqrt(tr * tr - 4 * det))):
+                nu, d1, d2 = k_._phase_at(w, w, w + 1.0, root, root, wi, wj, a, wnx, kx, zx, wny, ky, zy,
+                                          measured, ga, gb)
+                assert nu == pytest.approx(root, rel=1e-12)
+                h = 1e-6 * w
+
+                def at(x):
+                    return k_._phase_at(x, x, x + 1.0, nu, nu, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+
+                eps = [2 * math.atan2(at(x)[0].imag, at(x)[0].real) for x in (w - h, w + h)]
+                assert d1 == pytest.approx((eps[1] - eps[0]) / (2 * h), rel=1e-5, abs=1e-12)
+                assert d2 == pytest.approx((at(w + h)[1] - at(w - h)[1]) / (2 * h), rel=1e-4, abs=1e-14)

@@ -10,6 +10,11 @@ frequency ω with
 
 For a speed Ω every integer k gives one or more chatter frequencies (roots of
 H(ω) = ωT − ε(ω) − 2kπ); the limiting depth b_lim(Ω) is the smallest depth among them.
+
+The roots are bracketed on a per-set frequency grid. Where a lobe turns back (its period
+T_k(ω) = (ε + 2kπ)/ω has an extremum: a narrow tip, or a fold), a speed inside the tip has two roots
+that can fall into one grid segment without a sign change of H; :func:`_collect` therefore splits
+brackets at such turning points, located from the analytic dε/dω and d²ε/dω² (:func:`_phase_at`).
 """
 
 from __future__ import annotations

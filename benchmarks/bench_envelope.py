@@ -1,9 +1,9 @@
 """Throughput of the batched zero-order envelope (the hot path of every parameter study).
 
 B = 10 000 parameter sets of the seed paper's Example 1 drawn uniformly within ±10 %, S = 200
-speeds over 2 000–12 000 rpm, at the engine's full accuracy (every depth root-found; tests check
-it against a brute-force reference to 1e-4). Also streams 10^6 sets in chunks and reports the peak
-memory. Run: ``.venv/bin/python benchmarks/bench_envelope.py [--million]``.
+speeds over 2 000–12 000 rpm, at the engine's full accuracy (every depth root-found; tests/test_zoa.py
+and tests/test_zoa_dense.py check it against a brute-force reference to 1e-6). Also streams 10^6 sets
+in chunks and reports the peak memory. Run: ``.venv/bin/python benchmarks/bench_envelope.py [--million]``.
 Last line: ``envelopes_per_s: N``.
 """
 

@@ -10,6 +10,11 @@ frequency ω with
 
 For a speed Ω every integer k gives one or more chatter frequencies (roots of
 H(ω) = ωT − ε(ω) − 2kπ); the limiting depth b_lim(Ω) is the smallest depth among them.
+
+The roots are bracketed on a per-set frequency grid. Where a lobe turns back (its period
+T_k(ω) = (ε + 2kπ)/ω has an extremum: a narrow tip, or a fold), a speed inside the tip has two roots
+that can fall into one grid segment without a sign change of H; :func:`_collect` therefore splits
+brackets at such turning points, located from the analytic dε/dω and d²ε/dω² (:func:`_phase_at`).
 """
 
 from __future__ import annotations
@@ -153,14 +158,14 @@ def _branches(a, gxx, gxy, gyx, gyy):
 
 
 @nb.njit(cache=True, inline="always")
-def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
-    """The root of [α][G(ω)] at ω in segment [wa, wb] nearest the interpolated branch value.
+def _root_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """The root of [α][G(ω)] at ω nearest the branch value interpolated between (sa, nua) and (sb, nub).
 
-    For a modal structure G is exact; for a measured FRF it is linear between the segment ends
-    (ga, gb hold the four receptances at wa and wb).
+    For a modal structure G is exact; for a measured FRF it is linear on the table segment [wi, wj]
+    (ga, gb hold the four receptances at wi and wj).
     """
-    t = (w - wa) / (wb - wa)
     if measured:
+        t = (w - wi) / (wj - wi)
         gxx = ga[0] + t * (gb[0] - ga[0])
         gxy = ga[1] + t * (gb[1] - ga[1])
         gyx = ga[2] + t * (gb[2] - ga[2])
@@ -172,7 +177,7 @@ def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
         gyx = 0.0j
     tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
     s = np.sqrt(tr * tr - 4.0 * det)
-    guess = nua + t * (nub - nua)
+    guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     r1 = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
     if _dist2(r1, guess) <= _dist2(r2, guess):
@@ -180,13 +185,129 @@ def _root_at(w, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
     return r2
 
 
+@nb.njit(cache=True, inline="always")
+def _modal_d(w, wn, k, z):
+    """Σ_m 1/D_m and its first two ω-derivatives [m/N, m·s/N, m·s²/N], D_m = k_m(1 − r² + 2iζ_m r)."""
+    g0 = 0.0j
+    g1 = 0.0j
+    g2 = 0.0j
+    for m in range(wn.size):
+        r = w / wn[m]
+        d0 = k[m] * complex(1.0 - r * r, 2.0 * z[m] * r)
+        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
+        d2 = -2.0 * k[m] / (wn[m] * wn[m])
+        inv = 1.0 / d0
+        g0 += inv
+        g1 -= d1 * inv * inv
+        g2 += (2.0 * d1 * d1 - d0 * d2) * inv * inv * inv
+    return g0, g1, g2
+
+
 @nb.njit(cache=True)
-def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
-    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in [wa, wb] (a sign change), Brent-style.
+def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """The root ν at ω (chosen as in :func:`_root_at`) with dε/dω [s] and d²ε/dω² [s²].
+
+    From ν² − tr ν + det = 0 (tr, det of [α][G(ω)]): ν' = (tr'ν − det')/(2ν − tr) and
+    ν'' = (tr''ν + 2tr'ν' − 2ν'² − det'')/(2ν − tr); ε = π + 2 arg ν gives ε' = 2 Im(ν'/ν) and
+    ε'' = 2 Im(ν''/ν − (ν'/ν)²). G', G'' are exact for modes; for a measured FRF G is linear on the
+    table segment [wi, wj], so G' is its slope and G'' = 0 (the data between table points are the
+    straight line the engine uses everywhere else).
+    """
+    axx, axy, ayx, ayy = a
+    if measured:
+        h = wj - wi
+        t = (w - wi) / h
+        gxx = ga[0] + t * (gb[0] - ga[0])
+        gxy = ga[1] + t * (gb[1] - ga[1])
+        gyx = ga[2] + t * (gb[2] - ga[2])
+        gyy = ga[3] + t * (gb[3] - ga[3])
+        dxx = (gb[0] - ga[0]) / h
+        dxy = (gb[1] - ga[1]) / h
+        dyx = (gb[2] - ga[2]) / h
+        dyy = (gb[3] - ga[3]) / h
+        exx = 0.0j
+        exy = 0.0j
+        eyx = 0.0j
+        eyy = 0.0j
+    else:
+        gxx, dxx, exx = _modal_d(w, wnx, kx, zx)
+        gyy, dyy, eyy = _modal_d(w, wny, ky, zy)
+        gxy = 0.0j
+        gyx = 0.0j
+        dxy = 0.0j
+        dyx = 0.0j
+        exy = 0.0j
+        eyx = 0.0j
+    det_a = axx * ayy - axy * ayx
+    tr = axx * gxx + axy * gyx + ayx * gxy + ayy * gyy
+    tr1 = axx * dxx + axy * dyx + ayx * dxy + ayy * dyy
+    tr2 = axx * exx + axy * eyx + ayx * exy + ayy * eyy
+    det = det_a * (gxx * gyy - gxy * gyx)
+    det1 = det_a * (dxx * gyy + gxx * dyy - dxy * gyx - gxy * dyx)
+    det2 = det_a * (exx * gyy + 2.0 * dxx * dyy + gxx * eyy - exy * gyx - 2.0 * dxy * dyx - gxy * eyx)
+    s = np.sqrt(tr * tr - 4.0 * det)
+    guess = nua + (w - sa) / (sb - sa) * (nub - nua)
+    nu = 0.5 * (tr + s)
+    r2 = 0.5 * (tr - s)
+    if _dist2(r2, guess) < _dist2(nu, guess):
+        nu = r2
+    q = 2.0 * nu - tr
+    if q == 0.0 or nu == 0.0:  # a double root (measure zero): no derivative; report a flat phase
+        return nu, 0.0, 0.0
+    nu1 = (tr1 * nu - det1) / q
+    nu2 = (tr2 * nu + 2.0 * tr1 * nu1 - 2.0 * nu1 * nu1 - det2) / q
+    r1 = nu1 / nu
+    return nu, 2.0 * r1.imag, 2.0 * (nu2 / nu - r1 * r1).imag
+
+
+@nb.njit(cache=True)
+def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """A zero inside (p, q) ⊂ segment i of ε'' (kind 0) or of g = ωε' − ε − target (kind 1), given
+    its values fp, fq of opposite signs at the ends. Illinois iteration on exact evaluations to 1e-11
+    of ω for a lobe's turning point (a split point off by δ hides a tip only for speeds within ~δ²
+    of it) and 1e-8 for an extremum of g (g then varies by ~δ² across the piece it overlaps).
+    Returns (ω, ν, ε', ε'') at the zero."""
+    wi = w[i]
+    wj = w[i + 1]
+    lo, hi, flo, fhi = p, q, fp, fq
+    x = 0.5 * (lo + hi)
+    v = 0.0j
+    e1 = 0.0
+    e2 = 0.0
+    side = 0
+    for _ in range(100):
+        x = (lo * fhi - hi * flo) / (fhi - flo)
+        if not (min(lo, hi) < x < max(lo, hi)):
+            x = 0.5 * (lo + hi)
+        v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
+                              ga, gb)
+        fx = e2 if kind == 0 else x * e1 - _eps(v) - target
+        if fx == 0.0:
+            break
+        if (fx > 0.0) == (flo > 0.0):
+            lo, flo = x, fx
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+        else:
+            hi, fhi = x, fx
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        if abs(hi - lo) <= (1e-8 if kind == 0 else 1e-11) * x:
+            break
+    return x, v, e1, e2
+
+
+@nb.njit(cache=True)
+def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
+    [wi, wj], Brent-style.
 
     Inverse quadratic interpolation through the three latest points (secant while only two are
     distinct), falling back to bisection whenever a step leaves the current bracket; stops at
-    |H| < 1e-7 rad. A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
+    |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope: near a lobe tip H is flat and a residual
+    moves the root further, so the tolerance tightens there). A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
     derivatives scale as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6
     (the tests compare with a brute-force reference at 1e-6). Typically two or three evaluations.
     Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
@@ -214,11 +335,14 @@ def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, g
             xm = 0.5 * (lo + hi)
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
-        v = _root_at(xm, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
         if v.real <= 0.0:
             return v.real, xm
         fm = xm * T - _eps(v) - target
-        if abs(fm) < 1e-7 or abs(hi - lo) <= 1e-14 * xm:
+        # |H| < 1e-7 rad, tighter where H is flatter than its far-field slope T (near a lobe tip
+        # dH/dω → 0 and the same residual would leave the root, and the depth, much less certain)
+        slope = abs((fm - f2) / (xm - x2)) if xm != x2 else T
+        if abs(fm) < 1e-7 * min(1.0, slope / T) or abs(hi - lo) <= 1e-14 * xm:
             break
         if fm * flo > 0.0:
             lo, flo = xm, fm
@@ -229,23 +353,43 @@ def _refine(T, k, wa, wb, nua, nub, a, wnx, kx, zx, wny, ky, zy, measured, ga, g
     return v.real, xm
 
 
+@nb.njit(cache=True, inline="always")
+def _any_speed(rpm, lo, hi):
+    """Whether some speed of the ascending ``rpm`` lies in [lo, hi]."""
+    j = np.searchsorted(rpm, lo)
+    return j < rpm.size and rpm[j] <= hi
+
+
 @nb.njit(cache=True)
-def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform):
-    """Find every (branch, segment, lobe k, speed) crossing that can matter, with a linear estimate.
+def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx, kx, zx, wny, ky, zy, measured):
+    """Find every (branch, bracket, lobe k, speed) crossing that can matter, with a linear estimate.
 
-    A crossing of lobe k at speed j lies in segment i of branch br when ωT_j − ε(ω) − 2kπ changes
-    sign over the segment. Segments are visited in decreasing order of their largest 1/b (Re ν), so
-    once every speed has an estimate, a segment whose best 1/b (times REFINE_MARGIN) is below the
-    worst speed's estimate cannot matter, and neither can any later one: the scan stops there. On
-    typical structures this skips the far-from-resonance 80–90 % of the grid.
+    A crossing of lobe k at speed j lies in a bracket [x0, x1] of branch br when
+    H = ωT_j − ε(ω) − 2kπ changes sign over it. The brackets are the grid segments, split wherever
+    lobe k's period T_k(ω) = (ε + 2kπ)/ω turns back inside a segment (a lobe tip, or a fold): there
+    dT_k/dω = (g − 2kπ)/ω² with g = ωε' − ε changes sign, and a speed beyond both ends' periods has
+    two roots in the segment and no sign change. Per segment, g is made monotone by splitting at the
+    zero of ε'' (g' = ωε'') where ε'' changes sign between the ends; then lobe k turns back at most
+    once per piece, exactly where g − 2kπ changes sign, and that turning point is located (and the
+    bracket split there) whenever a speed can lie in the tip beyond the ends: with g monotone,
+    |T_k − T_k(end)| ≤ |g(end) − 2kπ|·h/ω_lo² bounds the tip. Between split points every speed has
+    at most one root per bracket, found by the sign change.
 
-    Returns the candidates (speed j, branch, segment i, k, estimated Re ν) and updates ``est`` with the
-    best estimate per speed.
+    Segments are visited in levels of their largest 1/b (Re ν), each level a factor 2 below the last
+    (a linear pass per level instead of a sort), so once every speed has an estimate, a segment whose
+    best 1/b (times REFINE_MARGIN) is below the worst speed's estimate cannot matter and is skipped,
+    and once a whole level lies below it the scan stops. On typical structures this skips the
+    far-from-resonance 80–90 % of the grid.
+
+    Returns the candidates (speed j, segment code br·F + i, k, bracket ends and their roots,
+    estimated Re ν) and updates ``est`` with the best estimate per speed.
     """
     n_w = w.size
     n_s = rpm.size
     t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
     t_max = T[0]
+    rpm_top = rpm[n_s - 1]
+    c60 = 60.0 / n_teeth
     step = (rpm[n_s - 1] - rpm[0]) / (n_s - 1) if n_s > 1 else 1.0
     # segments with both ends valid, ordered by their best 1/b
     seg_max = np.empty(2 * (n_w - 1))
@@ -257,69 +401,196 @@ def _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform):
                 seg_max[n_seg] = max(inv_b[br, i], inv_b[br, i + 1])
                 seg_id[n_seg] = br * n_w + i
                 n_seg += 1
-    order = np.argsort(-seg_max[:n_seg])
     cap = 8 * n_s + 64
     c_j = np.empty(cap, dtype=np.int64)
     c_seg = np.empty(cap, dtype=np.int64)
     c_k = np.empty(cap, dtype=np.int64)
     c_g = np.empty(cap)
+    c_x = np.empty((cap, 2))
+    c_nu = np.empty((cap, 2), dtype=np.complex128)
     n_c = 0
+    # dε/dω and d²ε/dω² at the nodes (modal structures; computed on first use)
+    d1 = np.zeros((2, n_w))
+    d2 = np.zeros((2, n_w))
+    have = np.zeros((2, n_w), dtype=np.bool_)
+    ga = np.empty(4, dtype=np.complex128)
+    gb = np.empty(4, dtype=np.complex128)
+    # the bracket ends of one (segment, k): frequency, root, ε, 1/b
+    bx = np.empty(5)
+    bnu = np.empty(5, dtype=np.complex128)
     worst = 0.0
-    for q in range(n_seg):
-        s = order[q]
-        if q % 8 == 0:
-            worst = est.min()
-        if seg_max[s] * REFINE_MARGIN < worst:
-            break
-        code = seg_id[s]
-        br = code // n_w
-        i = code - br * n_w
-        wa = w[i]
-        wb = w[i + 1]
-        ea = eps[br, i]
-        eb = eps[br, i + 1]
-        # lobes k whose speed on this segment can fall in [rpm_min, rpm_max]
-        k_lo = int(math.floor((wa * t_min - max(ea, eb)) / TWO_PI))
-        k_hi = int(math.ceil((wb * t_max - min(ea, eb)) / TWO_PI))
-        if k_lo < 0:
-            k_lo = 0
-        for k in range(k_lo, k_hi + 1):
-            # ε = 0 exactly at a Re ν = 0 edge node: the k = 0 speed is infinite (numba would raise)
-            da = ea + TWO_PI * k
-            db = eb + TWO_PI * k
-            sa = 60.0 * wa / (n_teeth * da) if da > 0.0 else np.inf
-            sb = 60.0 * wb / (n_teeth * db) if db > 0.0 else np.inf
-            lo_s = min(sa, sb)
-            if lo_s > rpm[n_s - 1]:  # the whole segment lies above the top speed
+    # visit segments in levels of decreasing best 1/b (each level a factor 2 below the last): once the
+    # worst speed's estimate exceeds a level's floor × REFINE_MARGIN, no later segment can matter
+    top = seg_max[:n_seg].max() if n_seg > 0 else 0.0
+    level_hi = np.inf
+    level_lo = 0.5 * top
+    n_vis = 0
+    while n_seg > 0:
+        for s in range(n_seg):
+            m_s = seg_max[s]
+            if m_s < level_lo or m_s >= level_hi:
                 continue
-            if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
-                j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
-                if j > 0 and rpm[j - 1] >= lo_s:
-                    j -= 1
+            if n_vis % 8 == 0:
+                worst = est.min()
+            n_vis += 1
+            if m_s * REFINE_MARGIN < worst:
+                continue
+            code = seg_id[s]
+            br = code // n_w
+            i = code - br * n_w
+            wa = w[i]
+            wb = w[i + 1]
+            nua = nu[br, i]
+            nub = nu[br, i + 1]
+            ea = eps[br, i]
+            eb = eps[br, i + 1]
+            for c4 in range(4):
+                ga[c4] = G[c4, i]
+                gb[c4] = G[c4, i + 1]
+            # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
+            if measured:
+                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
             else:
-                j = np.searchsorted(rpm, lo_s)
-            hi = max(sa, sb)
-            while j < n_s and rpm[j] <= hi:
-                ha = wa * T[j] - ea - TWO_PI * k
-                hb = wb * T[j] - eb - TWO_PI * k
-                if ha * hb <= 0.0 and ha != hb:
-                    t = ha / (ha - hb)
-                    guess = inv_b[br, i] + t * (inv_b[br, i + 1] - inv_b[br, i])
-                    if guess > est[j]:
-                        est[j] = guess
-                    if n_c == cap:  # grow the candidate buffers
-                        cap *= 2
-                        c_j = _grow_i(c_j, cap)
-                        c_seg = _grow_i(c_seg, cap)
-                        c_k = _grow_i(c_k, cap)
-                        c_g = _grow_f(c_g, cap)
-                    c_j[n_c] = j
-                    c_seg[n_c] = code
-                    c_k[n_c] = k
-                    c_g[n_c] = guess
-                    n_c += 1
-                j += 1
-    return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c]
+                for e in range(i, i + 2):
+                    if not have[br, e]:
+                        _, d1[br, e], d2[br, e] = _phase_at(w[e], w[e], w[e] + 1.0, nu[br, e], nu[br, e], wa, wb, a,
+                                                            wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                        have[br, e] = True
+                d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
+            g_a = wa * d1a - ea
+            g_b = wb * d1b - eb
+            # g = ωε' − ε is monotone on [wa, we] and [we, wb], we the zero of ε'' if it changes sign
+            split_e = False
+            we = 0.0
+            nue = 0.0j
+            ee = 0.0
+            g_e = 0.0
+            # lobes k whose speed on this segment can fall in [rpm_min, rpm_max] (any ε in (0, 2π))
+            k_lo = int(math.floor((wa * t_min - TWO_PI) / TWO_PI))
+            k_hi = int(math.ceil((wb * t_max) / TWO_PI))
+            if k_lo < 0:
+                k_lo = 0
+            # an extremum of g can only hide crossings of 2kπ beyond both ends' values: above them for a
+            # maximum (ε'' from + to −), below them for a minimum (near a resonance g ≪ 0: none)
+            if d2a * d2b < 0.0 and (TWO_PI * k_hi > max(g_a, g_b) if d2a > 0.0 else TWO_PI * k_lo < min(g_a, g_b)):
+                we, nue, d1e, _ = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
+                                               measured, ga, gb)
+                if nue.real > 0.0 and wa < we < wb:
+                    split_e = True
+                    ee = _eps(nue)
+                    g_e = we * d1e - ee
+            for k in range(k_lo, k_hi + 1):
+                tk = TWO_PI * k
+                # bracket ends for this lobe: wa, [tip in piece 1], [we], [tip in piece 2], wb
+                nb_ = 0
+                bx[0] = wa
+                bnu[0] = nua
+                nb_ = 1
+                n_piece = 2 if split_e else 1
+                for pc in range(n_piece):
+                    if split_e and pc == 0:
+                        p, pq, gp, gq, ep, eq = wa, we, g_a, g_e, ea, ee
+                    elif split_e:
+                        p, pq, gp, gq, ep, eq = we, wb, g_e, g_b, ee, eb
+                    else:
+                        p, pq, gp, gq, ep, eq = wa, wb, g_a, g_b, ea, eb
+                    dp = gp - tk
+                    dq = gq - tk
+                    if dp * dq < 0.0:
+                        # one turning point of T_k inside: only speeds in its tip (beyond both ends) are at risk
+                        tp = (ep + tk) / p
+                        tq = (eq + tk) / pq
+                        room = (pq - p) / (p * p)
+                        if dp > 0.0:  # T_k rises, then falls: a maximum of the period, a minimum of the speed
+                            t_lo = max(tp, tq)
+                            t_hi = min(tp + dp * room, tq - dq * room)
+                        else:
+                            t_hi = min(tp, tq)
+                            t_lo = max(tp + dp * room, tq - dq * room)
+                        if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
+                                                                        c60 / t_lo if t_lo > 0.0 else np.inf):
+                            x, v, _, _ = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
+                                                      measured, ga, gb)
+                            if v.real > 0.0 and bx[nb_ - 1] < x < pq:
+                                bx[nb_] = x
+                                bnu[nb_] = v
+                                nb_ += 1
+                    if split_e and pc == 0:
+                        bx[nb_] = we
+                        bnu[nb_] = nue
+                        nb_ += 1
+                bx[nb_] = wb
+                bnu[nb_] = nub
+                nb_ += 1
+                for m in range(nb_ - 1):
+                    x0 = bx[m]
+                    x1 = bx[m + 1]
+                    n0 = bnu[m]
+                    n1 = bnu[m + 1]
+                    e0 = ea if m == 0 else _eps(n0)
+                    e1 = eb if m == nb_ - 2 else _eps(n1)
+                    # ε = 0 exactly at a Re ν = 0 edge node: the k = 0 speed is infinite (numba would raise)
+                    da = e0 + tk
+                    db = e1 + tk
+                    sa = c60 * x0 / da if da > 0.0 else np.inf
+                    sb = c60 * x1 / db if db > 0.0 else np.inf
+                    lo_s = min(sa, sb)
+                    if lo_s > rpm_top:  # the whole bracket lies above the top speed
+                        continue
+                    if uniform:  # evenly spaced speeds: the first index ≥ lo_s directly
+                        j = max(0, int(math.ceil((lo_s - rpm[0]) / step - 1e-9)))
+                        if j > 0 and rpm[j - 1] >= lo_s:
+                            j -= 1
+                    else:
+                        j = np.searchsorted(rpm, lo_s)
+                    hi = max(sa, sb)
+                    while j < n_s and rpm[j] <= hi:
+                        ha = x0 * T[j] - e0 - tk
+                        hb = x1 * T[j] - e1 - tk
+                        if ha * hb <= 0.0 and ha != hb:
+                            t = ha / (ha - hb)
+                            guess = n0.real + t * (n1.real - n0.real)
+                            if guess > est[j]:
+                                est[j] = guess
+                            if n_c == cap:  # grow the candidate buffers
+                                cap *= 2
+                                c_j = _grow_i(c_j, cap)
+                                c_seg = _grow_i(c_seg, cap)
+                                c_k = _grow_i(c_k, cap)
+                                c_g = _grow_f(c_g, cap)
+                                c_x = _grow_f2(c_x, cap)
+                                c_nu = _grow_c2(c_nu, cap)
+                            c_j[n_c] = j
+                            c_seg[n_c] = code
+                            c_k[n_c] = k
+                            c_g[n_c] = guess
+                            c_x[n_c, 0] = x0
+                            c_x[n_c, 1] = x1
+                            c_nu[n_c, 0] = n0
+                            c_nu[n_c, 1] = n1
+                            n_c += 1
+                        j += 1
+        worst = est.min()
+        if level_lo == 0.0 or level_lo * REFINE_MARGIN < worst:
+            break
+        level_hi = level_lo
+        level_lo = 0.5 * level_lo if level_lo > 1e-3 * top else 0.0
+    return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
+
+
+@nb.njit(cache=True)
+def _grow_f2(a, cap):
+    out = np.empty((cap, 2))
+    out[: a.shape[0]] = a
+    return out
+
+
+@nb.njit(cache=True)
+def _grow_c2(a, cap):
+    out = np.empty((cap, 2), dtype=np.complex128)
+    out[: a.shape[0]] = a
+    return out
 
 
 @nb.njit(cache=True)
@@ -371,7 +642,8 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
                 mid = (lo * fhi - hi * flo) / (fhi - flo)
                 if not (min(lo, hi) < mid < max(lo, hi)):
                     mid = 0.5 * (lo + hi)
-                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, wnx, kx, zx, wny, ky, zy,
+                             measured, ga, gb)
                 if v.real > 0.0:
                     hi, fhi = mid, v.real
                     if side == 1:
@@ -471,7 +743,8 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False
-    c_j, c_seg, c_k, c_g = _collect(w, valid, inv_b, eps, T, rpm, n_teeth, est, uniform)
+    c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a,
+                                               wnx, kx, zx, wny, ky, zy, measured)
     # refine exactly only the crossings whose estimate is near the best estimate at their speed
     ga = np.empty(4, dtype=np.complex128)
     gb = np.empty(4, dtype=np.complex128)
@@ -485,8 +758,8 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
             for q in range(4):
                 ga[q] = G[q, i]
                 gb[q] = G[q, i + 1]
-        re_nu, wcj = _refine(T[j], c_k[c], w[i], w[i + 1], nu[br, i], nu[br, i + 1], a, wnx, kx, zx, wny, ky, zy,
-                             measured, ga, gb)
+        re_nu, wcj = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
+                             wnx, kx, zx, wny, ky, zy, measured, ga, gb)
         if re_nu > best_inv[j]:
             best_inv[j] = re_nu
             best_k[j] = c_k[c]

@@ -27,7 +27,8 @@ Accuracy control (converged by default). p = ``P_NODES`` Gauss nodes per element
 ``ELEM_PERIODS`` natural periods of the highest mode. Per call, before the batch is solved, the boundary
 points of the first set at three check speeds (the lowest, where elements are longest, the middle and
 the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes; while one moves by more
-than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``).
+than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
+moved points are the start of the next check (a fresh search only where Newton failed).
 
 Root search (compiled, parallel over sets × speed blocks of ``BLOCK`` speeds). A Floquet solution
 z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0,
@@ -52,7 +53,15 @@ problems of the full monodromy matrix (the verification rungs; LAPACK dgeev on 6
 evaluations of the n × n characteristic function (a complex p·n solve per element); where the boundary
 jumps between lobes from one speed to the next (about one speed in five at 100 rpm spacing) the
 continuation fails and a bracketing search costs 2–4 times more. The issue's 20 envelopes/s is not
-reached.
+reached. Profile (200 speeds, a/D = 0.05, p = 6, one thread): ~3 450 evaluations, 17 per speed; the
+speeds that take more than 12 (block starts and lobe switches, about 70 of 200) hold two thirds of
+them; one ρ evaluation costs 80–160 µs (monodromy 16–28 rows: build ~60 µs, dgeev 85–140 µs), one
+characteristic function 20–50 µs, so the ρ evaluations (verification rungs, ladders, Illinois) are
+~3/4 of the time. The lowest-speed block (5 000–7 400 rpm, most lobe switches, 2 elements) costs as
+much as the other seven together, so the second thread barely helps with 8 equal-speed blocks.
+Measured without gain (same moment, paired): reusing the previous speed's Newton Jacobian (more
+evaluations, the stale model costs re-formation), elements of one natural period (3× faster in
+slotting, but 0.9 % off, too close to the 1 % target).
 
 Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency

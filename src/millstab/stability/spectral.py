@@ -58,7 +58,10 @@ speeds that take more than 12 (block starts and lobe switches, about 70 of 200) 
 them; one ρ evaluation costs 80–160 µs (monodromy 16–28 rows: build ~60 µs, dgeev 85–140 µs), one
 characteristic function 20–50 µs, so the ρ evaluations (verification rungs, ladders, Illinois) are
 ~3/4 of the time. The lowest-speed block (5 000–7 400 rpm, most lobe switches, 2 elements) costs as
-much as the other seven together, so the second thread barely helps with 8 equal-speed blocks.
+much as the other seven together (61 of 143 ms on one thread), so with the static split of the 8
+equal-speed blocks over 2 threads one thread gets ~110 ms of it; a dynamic schedule
+(``numba.parallel_chunksize(1)``, identical results) could not be shown faster on the loaded machine
+(load ~10 on 2 cores: 2 threads were no faster than 1).
 Measured without gain (same moment, paired): reusing the previous speed's Newton Jacobian (more
 evaluations, the stale model costs re-formation), elements of one natural period (3× faster in
 slotting, but 0.9 % off, too close to the 1 % target).

@@ -27,7 +27,8 @@ Accuracy control (converged by default). p = ``P_NODES`` Gauss nodes per element
 ``ELEM_PERIODS`` natural periods of the highest mode. Per call, before the batch is solved, the boundary
 points of the first set at three check speeds (the lowest, where elements are longest, the middle and
 the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes; while one moves by more
-than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``).
+than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
+moved points are the start of the next check (a fresh search only where Newton failed).
 
 Root search (compiled, parallel over sets × speed blocks of ``BLOCK`` speeds). A Floquet solution
 z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0,
@@ -52,7 +53,18 @@ problems of the full monodromy matrix (the verification rungs; LAPACK dgeev on 6
 evaluations of the n × n characteristic function (a complex p·n solve per element); where the boundary
 jumps between lobes from one speed to the next (about one speed in five at 100 rpm spacing) the
 continuation fails and a bracketing search costs 2–4 times more. The issue's 20 envelopes/s is not
-reached.
+reached. Profile (200 speeds, a/D = 0.05, p = 6, one thread): ~3 450 evaluations, 17 per speed; the
+speeds that take more than 12 (block starts and lobe switches, about 70 of 200) hold two thirds of
+them; one ρ evaluation costs 80–160 µs (monodromy 16–28 rows: build ~60 µs, dgeev 85–140 µs), one
+characteristic function 20–50 µs, so the ρ evaluations (verification rungs, ladders, Illinois) are
+~3/4 of the time. The lowest-speed block (5 000–7 400 rpm, most lobe switches, 2 elements) costs as
+much as the other seven together (61 of 143 ms on one thread), so with the static split of the 8
+equal-speed blocks over 2 threads one thread gets ~110 ms of it; a dynamic schedule
+(``numba.parallel_chunksize(1)``, identical results) could not be shown faster on the loaded machine
+(load ~10 on 2 cores: 2 threads were no faster than 1).
+Measured without gain (same moment, paired): reusing the previous speed's Newton Jacobian (more
+evaluations, the stale model costs re-formation), elements of one natural period (3× faster in
+slotting, but 0.9 % off, too close to the 1 % target).
 
 Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency
@@ -142,11 +154,13 @@ def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.where(np.isfinite(b_ref), b_ref, row_max[:, None]))
 
 
-def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int) -> tuple[np.ndarray, ...]:
-    """Depth, multiplier and ρ-evaluation counts (B, S) at ascending speeds rs with p nodes per element."""
+def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
+           block: int = BLOCK) -> tuple[np.ndarray, ...]:
+    """Depth, multiplier and ρ-evaluation counts (B, S) at ascending speeds rs with p nodes per element
+    (speeds in blocks of ``block``; depth continues within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
-    starts = np.unique(np.concatenate([np.arange(0, n_s, BLOCK), [n_s]])).astype(np.int64)
+    starts = np.unique(np.concatenate([np.arange(0, n_s, block), [n_s]])).astype(np.int64)
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
@@ -159,23 +173,25 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     return depth, mu, n_eval
 
 
-def _moved(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, depth: np.ndarray, mu: np.ndarray, p: int,
-           idx: np.ndarray) -> np.ndarray:
-    """Relative change of set 0's boundary depth at speeds rs[idx] when its boundary point (depth, arg μ)
-    is moved by Newton to the discretisation with p nodes (NaN where Newton fails: not converged)."""
+def _moved(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, depth: np.ndarray, mu: np.ndarray,
+           p: int) -> tuple[np.ndarray, np.ndarray]:
+    """Set 0's boundary points (depth (S,) [m], multiplier (S,)) at speeds rs, moved by Newton to the
+    discretisation with p nodes (NaN where Newton fails: not converged; inf stays inf)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n, kt, kr, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
     el = float(_elem_len(wn)[0])
-    out = np.full(idx.size, np.nan)
-    for q, i in enumerate(idx):  # a handful of check speeds, not a hot loop
-        if not np.isfinite(depth[0, i]):
-            out[q] = 0.0
+    d_new = np.full(rs.size, np.nan)
+    mu_new = np.full(rs.size, np.nan, dtype=np.complex128)
+    for i in range(rs.size):  # a handful of check speeds, not a hot loop
+        if not np.isfinite(depth[i]):
+            d_new[i], mu_new[i] = depth[i], mu[i]
             continue
-        b, _, ok, _ = _k.refine_at(n, kt, kr, ps, pe, float(rs[i]), float(depth[0, i]), float(abs(np.angle(mu[0, i]))),
-                                   wn[0], zeta[0], mass[0], mdir, act, el, nd)
-        out[q] = b / depth[0, i] - 1 if ok else np.nan
-    return out
+        b, th, ok, _ = _k.refine_at(n, kt, kr, ps, pe, float(rs[i]), float(depth[i]), float(abs(np.angle(mu[i]))),
+                                    wn[0], zeta[0], mass[0], mdir, act, el, nd)
+        if ok:
+            d_new[i], mu_new[i] = b, complex(math.cos(th), math.sin(th))
+    return d_new, mu_new
 
 
 def _check_speeds(n_s: int) -> np.ndarray:
@@ -199,12 +215,21 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     if nodes is None:
         idx = _check_speeds(rs.size)
         sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+        # each check speed is its own block: they are far apart, continuation between them only fails
+        d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
         while p < P_MAX:
-            d_c, mu_c, _ = _solve(sub, cutting, rs[idx], b_ref[:1, idx], p)
-            moved = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP, np.arange(idx.size))
+            d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
+            with np.errstate(invalid="ignore"):
+                moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
             if np.all(np.abs(moved) <= TOL):
                 break
             p += P_STEP
+            if np.all(np.isfinite(moved)):
+                # the moved points are the boundary at p nodes: the next check starts from them (a
+                # root search per check speed saved)
+                d_c, mu_c = d_n, mu_n
+            else:  # Newton failed somewhere: search afresh at p nodes
+                d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
     depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)

@@ -44,7 +44,11 @@ for a flip), and its root is accepted only if the full monodromy is stable at b�
 brackets the lower crossing, or the ladder search runs from there (``LADDER_CONT``). The accepted
 depths are roots of the discretised characteristic equation to ~1e-7, so they are smooth in the parameters (finite-difference Jacobians in
 identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
-checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark).
+checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark). Known
+case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
+dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this engine and SDM step
+over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm that SDM misses
+(42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
 
 Speed (measured with benchmarks/bench_spectral.py on the shared 2-core machine, same run): 200 speeds,
 one mode per direction, a/D = 0.05: 0.17–0.27 s per envelope (4–6 per second), 17× faster than SDM's

@@ -6,7 +6,9 @@ unchanged, so the cuts alone cannot tell a structure from its twin; only the pri
 assigned to the orientation whose prior density is higher (the sample itself, "as tested", or its
 exchange, "x↔y exchanged"); when both hold a noticeable share (≥ :data:`MODE_SHARE`) the posterior
 is bimodal: the summaries are then given per mode and the top-level summary is that of the larger
-mode, with a warning, rather than an average across the two that describes neither. Near-twins (other
+mode, with a warning, rather than an average across the two that describes neither. When the prior
+itself is x/y symmetric (identical tap tests in x and y) it cannot choose either: the two modes are
+then told apart by the order of the first differing x/y pair (fn_x < fn_y) and labelled so. Near-twins (other
 engines, or fixed parameters) show up the same way when the assignment splits the samples.
 """
 
@@ -60,6 +62,15 @@ def split_modes(prior: Prior, theta: np.ndarray, engine: str) -> np.ndarray | No
     return np.where(tie, d[np.arange(d.shape[0]), first] > 0, diff > 0)
 
 
+def _symmetric(prior: Prior, engine: str) -> bool:
+    """True when the prior cannot tell a structure from its exchange (identical x and y tap tests)."""
+    xm = exchange_of(prior, engine)
+    if xm is None:
+        return False
+    u = prior.mean_u[None]
+    return bool(abs(prior.logpdf(np.log(exchanged(np.exp(u), xm)))[0] - prior.logpdf(u)[0]) <= 1e-9 * (1 + abs(prior.logpdf(u)[0])))
+
+
 @dataclass(frozen=True, eq=False)
 class Posterior:
     """Posterior samples of the free parameters and everything ``map``/``recommend`` need.
@@ -95,7 +106,10 @@ class Posterior:
         if twin is None or min(twin.mean(), 1 - twin.mean()) < MODE_SHARE:
             return [{"label": "as tested", "share": 1.0, "parameters": summary(self.samples, self.names)}]
         out = []
-        for label, mask in (("as tested", ~twin), ("x<->y exchanged", twin)):
+        labels = ("as tested", "x<->y exchanged")
+        if _symmetric(self.prior, self.engine):
+            labels = ("x/y order of the first differing pair: x lower", "x/y order: x higher")  # a tie-broken split
+        for label, mask in zip(labels, (~twin, twin)):
             out.append({"label": label, "share": float(mask.mean()), "parameters": summary(self.samples[mask], self.names)})
         return sorted(out, key=lambda m: -m["share"])
 

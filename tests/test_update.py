@@ -293,3 +293,28 @@ def test_map_from_posterior_uses_one_engine_call():
     pm = p_stable_map(post, rpm, depth)
     env = zoa.envelope_batch(prior.par.batch(post.samples), CUT, rpm) * 1e3
     np.testing.assert_allclose(pm, (env[:, :, None] > depth).mean(0))
+
+
+def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_truth():
+    prior = make_prior(STRUCT, CUT)
+    cuts = PointSet([6000.0, 7000.0], [5.0, 1.0], ["chatter", "stable"])
+    pts = PointSet([6500.0, 8000.0], [2.0, 2.5])
+    ev = Evidence.from_points(cuts, pts)
+    assert ev.n_cuts == 2 and ev.pt_rpm.tolist() == [6500.0, 8000.0] and ev.speeds.tolist() == [6000, 6500, 7000, 8000]
+    # a chatter cut whose measured frequency is the truth's: the frequency term prefers the truth
+    u0 = prior.mean_u[None]
+    hz = limits(prior, u0, [6000.0], "zoa", True)[1][0, 0]
+    only = PointSet([6000.0], [50.0], ["chatter"], chatter_hz=[hz])  # deep: the label term is ~0 for all
+    with pytest.warns(UserWarning, match="every cut is chatter"):
+        ev1 = Evidence.from_points(only)
+    lik = Likelihood(prior, ev1)
+    shifted = u0.copy()
+    shifted[0, 0] += 0.05  # fn_x 5 % higher moves the limiting lobe's f_c
+    ll = lik(np.vstack([u0, shifted]))
+    hz2 = limits(prior, shifted, [6000.0], "zoa", True)[1][0, 0]
+    d = frequency_distance(hz, hz2, 200.0)
+    assert 5 < d < 100
+    assert ll[0] == pytest.approx(norm.logpdf(0, scale=20.0), abs=1e-6)
+    assert ll[1] == pytest.approx(norm.logpdf(d, scale=20.0), abs=1e-6)
+    with pytest.warns(UserWarning, match="not used"):
+        assert not Likelihood(prior, ev1, "sdm").uses_frequency

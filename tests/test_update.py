@@ -318,3 +318,10 @@ def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_trut
     assert ll[1] == pytest.approx(norm.logpdf(d, scale=20.0), abs=1e-6)
     with pytest.warns(UserWarning, match="not used"):
         assert not Likelihood(prior, ev1, "sdm").uses_frequency
+
+
+def test_smc_refuses_to_return_an_unfinished_tempering():
+    loglik = lambda u: -0.5 * ((u - 3.0) / 0.01) ** 2  # noqa: E731  (far and narrow: many stages)
+    with pytest.raises(RuntimeError, match="beta"):
+        tempered_smc(lambda n, rng: rng.standard_normal((n, 1)), lambda u: -0.5 * (u**2).sum(1),
+                     lambda u: loglik(u).sum(1), 200, max_stages=2)

@@ -163,6 +163,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         accs.append(float(acc))
         if progress is not None:
             progress("update", int(round(1000 * beta)), 1000)
+    if beta < 1.0:  # never hand back a tempered distribution as if it were the posterior
+        raise RuntimeError(f"tempered SMC stopped after {max_stages} stages at beta = {beta:.3g} < 1; raise max_stages "
+                           "or the number of particles")
     return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0)
 
 

@@ -250,7 +250,7 @@ def test_p_stable_map_counts_samples_and_is_monotone_in_depth():
     rng = np.random.default_rng(0)
     blim = rng.gamma(3.0, 1.0, (500, 7))
     blim[::17, 2] = np.inf
-    depth = np.linspace(0, 12, 50)
+    depth = np.linspace(-1, 12, 50)
     got = p_stable_from_limits(blim, depth)
     brute = (blim[:, :, None] > depth[None, None, :]).mean(0)  # independent: every (sample, speed, depth)
     np.testing.assert_allclose(got, brute, atol=1e-12)

@@ -45,7 +45,7 @@ NEXT_TEST_SAMPLES = 1000
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
     """P(stable) (S, D): the fraction of rows of ``blim_mm`` (N, S) [mm] above each depth (D,) [mm]."""
     n, s = blim_mm.shape
-    d = np.asarray(depth_mm, dtype=float)
+    d = np.maximum(np.asarray(depth_mm, dtype=float), 0.0)  # every limit is > 0: P(stable) = 1 at b ≤ 0
     top = max(float(np.nanmax(np.where(np.isfinite(blim_mm), blim_mm, 0.0))), float(d.max(initial=0.0)), 1.0)
     width = 4.0 * top  # every column's values (inf → 2 top) fit in [0, width): offsets keep columns apart
     a = np.sort(np.where(np.isfinite(blim_mm), blim_mm, 2.0 * top), axis=0).T  # (S, N)

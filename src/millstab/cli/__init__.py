@@ -17,6 +17,7 @@ from millstab.cli import identify  # noqa: E402,F401
 from millstab.cli import design  # noqa: E402,F401
 from millstab.cli import reproduce  # noqa: E402,F401
 from millstab.cli import sensitivity  # noqa: E402,F401
+from millstab.cli import simulate  # noqa: E402,F401
 from millstab.cli import update  # noqa: E402,F401
 
 

@@ -10,10 +10,20 @@ import typer
 
 from millstab.cli.app import app
 from millstab.errors import InputError
+from millstab.stability import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05
+#: how every printed parameter is shown (JSON stays SI): stiffness in N/µm, frequency in Hz, ζ bare
 _UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
+
+
+def show_value(name: str, value: float, digits: int = 5) -> str:
+    """A parameter value as printed: ``k…`` in N/µm with its unit, ``fn…`` in Hz, ``zeta…`` bare."""
+    from millstab.params import UNITS, Parameterization
+
+    scale, unit = _UNIT_SHOW[UNITS[Parameterization.kind(name)]]
+    return f"{value * scale:.{digits}g}" + (f" {unit}" if unit else "")
 
 
 @app.command()
@@ -26,11 +36,15 @@ def identify(
     initial: Optional[str] = typer.Option(None, "--initial", help="Start values in SI, e.g. fn_x=900,k_x=12e6."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random designs (same seed, same numbers)."),
     loss: str = typer.Option("linear", "--loss", help="Robust loss (lsq): linear, soft_l1, huber, cauchy, arctan."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
+    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)}."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the fit as JSON."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Final SLD against the points (.png/.svg/.pdf)."),
     history_plot: Optional[Path] = typer.Option(None, "--history-plot", help="Objective against iteration."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress display."),
+    noise: Optional[float] = typer.Option(
+        None, "--noise", help="Relative standard deviation of a measured limiting depth (0.02 = 2 %), if known: the "
+        "standard errors use it and the fit is checked against it. Default: the residual scatter (an assumed 2 % "
+        "with fewer than 10 degrees of freedom)."),
 ) -> None:
     """Identify the modal parameters whose stability boundary explains the measured POINTS."""
     from rich.console import Console
@@ -40,6 +54,7 @@ def identify(
     from millstab.identify import METHODS
     from millstab.identify import identify as run_identify
     from millstab.identify.lsq import LOSSES
+    from millstab.identify.quality import check_noise
     from millstab.io import load_config, read_points, write_json
 
     if method not in METHODS:
@@ -58,6 +73,7 @@ def identify(
     protect = [p for p in inputs.values() if p]
     console = Console(stderr=True)
     options = {"loss": loss} if method == "lsq" else {}
+    options["noise"] = check_noise(noise, "--noise")
     if quiet:
         fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
                            engine=engine, seed=seed, **options)
@@ -82,6 +98,7 @@ def identify(
         table.add_row(name, f"{fit.start[i] * scale:.5g}", f"{fit.estimate[i] * scale:.5g}", se, shown)
     out_console.print(table)
     out_console.print(f"MLAE {fit.mlae:.4g} (mm, eq. 4); RSS {fit.rss:.4g} ({fit.settings.get('residual', 'log')} residuals)")
+    out_console.print(_dof_line(fit))
     if fit.test_cuts:
         c = fit.test_cuts
         out_console.print(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted chatter; "
@@ -89,7 +106,7 @@ def identify(
     for w in fit.warnings:
         out_console.print(f"[yellow]warning:[/yellow] {w}")
     for a in fit.alternatives:
-        vals = ", ".join(f"{k}={v:.5g}" for k, v in a["estimate"].items())
+        vals = ", ".join(f"{k}={show_value(k, v)}" for k, v in a["estimate"].items())
         out_console.print(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
     if fit.std_errors is not None and (fit.alternatives or np.any(fit.std_errors / fit.estimate > LOOSE)):
         out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
@@ -119,3 +136,18 @@ def identify(
 
         save_figure(plot_convergence(fit), history_plot, protect=protect)
         out_console.print(f"wrote {history_plot}")
+
+
+def _dof_line(fit) -> str:
+    """Degrees of freedom and the noise behind the standard errors, in one line."""
+    if fit.dof is None:
+        return ""
+    p = fit.n_points - fit.dof
+    line = f"degrees of freedom: {fit.n_points} boundary points − {p} parameters = {fit.dof}"
+    nz = fit.noise or {}
+    if fit.std_errors is None or not nz:
+        return line
+    pct = f"{100 * nz['sigma']:.3g} %"
+    how = {"residuals": f"the residual scatter ({pct})", "stated": f"the stated depth noise ({pct})",
+           "assumed": f"an assumed depth noise ({pct}; give --noise)"}[nz["source"]]
+    return f"{line}; standard errors from {how}"

@@ -10,6 +10,7 @@ import typer
 
 from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
 from millstab.errors import InputError
+from millstab.stability import ENGINES
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -23,8 +24,8 @@ def lobes(
     out: Optional[Path] = typer.Option(None, "--out", help="CSV: rpm,blim_mm,lobe,chatter_hz."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
     points: Optional[Path] = typer.Option(None, "--points", help="Measured points CSV rpm,depth_mm[,label] to overlay."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine: zoa or sdm."),
-    compare: Optional[str] = typer.Option(None, "--compare", help="Overlay a second engine (zoa or sdm) and report the difference."),
+    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)}."),
+    compare: Optional[str] = typer.Option(None, "--compare", help=f"Overlay a second engine ({', '.join(ENGINES)}) and report the difference."),
     raw: bool = typer.Option(False, "--raw-lobes", help="Draw the individual lobes (zoa) under the envelope."),
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""

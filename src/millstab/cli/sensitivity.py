@@ -14,6 +14,7 @@ from typer.core import TyperGroup
 
 from millstab.cli.app import app, progress_bar, select_rpm
 from millstab.errors import InputError
+from millstab.stability import ENGINES
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 50.0)
@@ -95,7 +96,7 @@ RpmOpt = Annotated[Optional[str], typer.Option("--rpm", help="Speeds START:STOP:
 RpmFileOpt = Annotated[Optional[Path], typer.Option("--rpm-file", help="Speeds, one per line or an 'rpm' CSV column.")]
 OutOpt = Annotated[Optional[Path], typer.Option("--out", help="Result JSON (MSE in mm^2).")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Figure (.png, .svg or .pdf).")]
-EngineOpt = Annotated[str, typer.Option("--engine", help="Stability engine: zoa or sdm.")]
+EngineOpt = Annotated[str, typer.Option("--engine", help=f"Stability engine: {', '.join(ENGINES)}.")]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers.")]
 TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-width: each parameter drawn from "
                                                          "[(1-t)p, (1+t)p] (0.1).")]
@@ -189,7 +190,6 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
     from millstab.io.outputs import check_outputs, config_inputs
     from millstab.sensitivity import (PAPER_EPS_GRID, match_example, monte_carlo, morris, oat, predicted_theta, sobol,
                                       table6)
-    from millstab.stability import ENGINES
 
     if preset is not None and preset not in PRESETS:
         raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")

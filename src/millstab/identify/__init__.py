@@ -9,6 +9,8 @@ parameters (fn [Hz], k [N/m], ζ [-] per direction) whose zero-order SLD explain
 * :mod:`~millstab.identify.lsq` — the default solver (multi-start trust-region least squares);
 * :mod:`~millstab.identify.newton` — the seed paper's Newton–Raphson scheme with its refinements;
 * :mod:`~millstab.identify.tie` — the F-test that reports alike x and y tied in symmetric cuts;
+* :mod:`~millstab.identify.quality` — degrees of freedom, the noise behind the standard errors, poor or
+  systematic residuals, the zero-order model's weak cuts (warning codes in ``Fit.codes``);
 * :mod:`~millstab.identify.design` — where to measure next: speeds that pin the parameters best;
 * :mod:`~millstab.identify.synthetic` — boundary points from known structures (with seeded noise);
 * :mod:`~millstab.identify.result` — :class:`Fit` and its JSON contract.
@@ -18,12 +20,11 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
-import numpy as np
-
 from millstab.errors import InputError
 from millstab.identify.lsq import fit_lsq
 from millstab.identify.newton import fit_newton
 from millstab.identify.objective import Problem, make_problem
+from millstab.identify.quality import check_noise
 from millstab.identify.result import Fit
 from millstab.identify.tie import is_tied
 
@@ -33,7 +34,7 @@ METHODS = ("lsq", "newton")
 def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str | None = None,
              axisymmetric: bool = False, initial: Mapping[str, float] | str | None = None,
              bounds: Mapping[str, tuple[float, float]] | None = None, engine: str = "zoa", residual: str = "log",
-             seed: int = 0, progress=None, **options: Any) -> Fit:
+             seed: int = 0, progress=None, noise: float | None = None, **options: Any) -> Fit:
     """Identify modal parameters from boundary points.
 
     Args:
@@ -42,12 +43,17 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
             rows = test cuts, reported).
         method: ``lsq`` (default) or ``newton`` (the paper's scheme).
         free, axisymmetric, initial, bounds: see :func:`~millstab.identify.objective.make_problem`.
-        engine: ``zoa`` or ``sdm``; residual: ``log`` or ``mm`` (lsq).
+        engine: ``zoa``, ``sdm`` or ``spectral``; residual: ``log`` or ``mm`` (lsq).
         seed: seed of every random design (same seed ⇒ same numbers).
+        noise: the relative standard deviation of a measured limiting depth (0.02 = 2 %), if known: the
+            standard errors use it (or the residual scatter where larger) and the fit is checked against
+            it; default ``None``: the residual scatter, or an assumed 2 % where the points leave fewer than
+            10 degrees of freedom (:mod:`~millstab.identify.quality`).
         options: passed to :func:`fit_lsq` or :func:`fit_newton`.
     """
     if method not in METHODS:
         raise InputError("method", method, f"must be one of {', '.join(METHODS)}")
+    noise = check_noise(noise)
     if not config.structure.is_modal:
         raise InputError("structure", "measured FRF", "identification needs a modal starting structure ([[structure.x]] modes)")
     def problem_for(eng: str) -> Problem:
@@ -55,16 +61,14 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
                             initial=initial, bounds=bounds, engine=eng, residual=residual)
 
     if engine == "sdm" and method == "lsq":
-        return _zoa_then_sdm(problem_for, seed, progress, options)
+        return _zoa_then_sdm(problem_for, seed, progress, {**options, "noise": noise})
     solver = fit_lsq if method == "lsq" else fit_newton
-    return solver(problem_for(engine), seed=seed, progress=progress, **options)
+    return solver(problem_for(engine), seed=seed, progress=progress, noise=noise, **options)
 
 
 #: the SDM stage after the global ZOA search: 64 candidates around the ZOA estimate, LM on the best 4
 #: then 1, no re-seeding, a capped trust-region polish
 SDM_POLISH = dict(n_candidates=64, schedule=((4, 3), (1, 10)), rounds=0, n_local=0, max_nfev=30)
-#: RMS of the fitted residuals above which an SDM fit is flagged as poor (log residuals: 0.05 = 5 %)
-POOR_RMS = 0.05
 
 
 def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
@@ -75,22 +79,20 @@ def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
     solution differs from SDM only locally (flip lobes, partial immersion), so the search runs on
     ZOA and its estimate starts a local SDM polish (:data:`SDM_POLISH`), whose result, standard errors
     and diagnostics are reported. The SDM stage screens candidates around the ZOA estimate, but it
-    cannot leave a wrong basin: where the two boundaries differ a lot (low immersion) a poor fit is
-    flagged in the warnings.
+    cannot leave a wrong basin: where the two boundaries differ a lot (low immersion) the quality checks
+    (:mod:`~millstab.identify.quality`: residuals above the noise, or systematic along the speed axis)
+    flag it.
     """
     first = fit_lsq(problem_for("zoa"), seed=seed, progress=progress, **options)
     polish = {**options, **SDM_POLISH}
     sdm_problem = problem_for("sdm")
     # the x = y test again under SDM only where the zero-order stage kept x = y (otherwise it was rejected)
     fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, tie_xy=is_tied(first), **polish)
+    fit.codes.insert(0, "two_stages")
     fit.warnings.insert(0, f"two stages: global search with the zero-order engine (MLAE {first.mlae:.4g}, "
                            f"{first.evaluations} SLDs), then a local polish with SDM ({fit.evaluations} SLDs)")
-    fit.settings["stage1_zoa"] = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations}
-    rms = float(np.sqrt(fit.rss / sdm_problem.n))
-    if rms > POOR_RMS:
-        fit.warnings.insert(1, f"poor fit (RMS residual {rms:.3g}): the SDM polish starts in the zero-order basin, "
-                               "which can be the wrong one where the two engines' boundaries differ a lot (low "
-                               "radial immersion, flip lobes); a global SDM search is not available")
+    fit.settings["stage1_zoa"] = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations,
+                                  "warning_codes": list(first.codes)}
     return fit
 
 

@@ -23,8 +23,16 @@ This module plans the speeds (an *optimal experimental design*):
   w_i ← w_i d_i / Σ w d, d_i = E_θ‖Cᵀ M⁻¹ j_i‖² (Silvey, Titterington & Torsney 1978), each followed
   by a vertex-exchange step (:func:`optimal_weights`). The general equivalence theorem certifies the
   result: at the optimum every d_i ≤ Σ_j w_j d_j, and the gap bounds the efficiency
-  (:attr:`SpeedDesign.efficiency`). It is then rounded to n tests (largest remainders; a speed may
-  get several tests, each an independent measurement of the limiting depth there).
+  (:attr:`SpeedDesign.efficiency_continuous`). It is then rounded to n tests (largest remainders; a
+  speed may get several tests, each an independent measurement of the limiting depth there) and the
+  rounded plan improved by exchanging single tests (:func:`improve_counts`).
+* **Never worse than even spacing.** The plan's own criterion is computed for it and for n tests evenly
+  spaced over the candidates (the candidates nearest to n evenly spaced speeds), over the same θ
+  samples; should the evenly spaced tests be better (rounding, or an exchange stuck), they are the plan.
+  :attr:`SpeedDesign.efficiency` bounds the *rounded* plan's efficiency against the best continuous
+  design. The criterion is a sum over the target parameters averaged over θ: a plan that lowers it can
+  still determine a single parameter, at the centre θ, less well than even spacing (it trades that
+  parameter's error for larger gains elsewhere); the per-parameter errors show it.
 
 Every Jacobian of every θ sample comes from ONE batched engine call (central differences).
 """
@@ -38,6 +46,7 @@ from typing import Sequence
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.identify.result import cutting_difference, cutting_record
 from millstab.identify.tie import is_tied, tied_parameterization
 from millstab.model import Cutting
 from millstab.params import Parameterization
@@ -71,8 +80,19 @@ class SpeedDesign:
             alone (P,), ``None`` without existing points or when they cannot determine θ (inf where
             singular); sigma_uniform: with n more tests evenly spaced over the candidates;
             sigma_design: with the n planned tests. All at ``theta`` (relative: 0.001 = 0.1 %).
-        efficiency: lower bound on the continuous design's efficiency (1 = optimal), from the
-            equivalence theorem.
+        efficiency: lower bound on the efficiency of the planned n tests against the best continuous
+            design (1 = optimal), from the equivalence theorem: Φ* ≥ efficiency_continuous · Φ(w), so
+            Φ*/Φ(plan) ≥ efficiency_continuous · Φ(w)/Φ(plan).
+        efficiency_continuous: the same bound for the continuous design (before rounding).
+        criterion_design, criterion_uniform: the criterion (expected sum of squared relative standard
+            errors of the target parameters over the θ samples) of the planned tests and of n tests
+            evenly spaced over the candidates; criterion_design ≤ criterion_uniform always.
+        uniform: True when the evenly spaced tests were at least as good and are the plan.
+        sigma_existing_mean, sigma_uniform_mean, sigma_design_mean: the relative standard errors as the
+            criterion weighs them: root-mean-square over the θ samples (P,), ``None`` for existing points
+            when there are none. Over the target parameters, Σ σ²_mean is the criterion, so the planned
+            column always sums lower than the evenly spaced one, while at ``theta`` alone (sigma_design)
+            the plan can be worse: the samples spread the lobes over speed, and the plan serves them all.
         iterations: design-algorithm iterations; samples: θ samples averaged over (those the
             candidates can determine).
         predicted_depth_mm: the limiting depth at ``theta`` at each planned speed [mm] (n,).
@@ -93,6 +113,13 @@ class SpeedDesign:
     iterations: int
     samples: int
     predicted_depth_mm: np.ndarray
+    efficiency_continuous: float = 1.0
+    criterion_design: float = float("nan")
+    criterion_uniform: float = float("nan")
+    uniform: bool = False
+    sigma_existing_mean: np.ndarray | None = None
+    sigma_uniform_mean: np.ndarray | None = None
+    sigma_design_mean: np.ndarray | None = None
 
     def tests(self) -> list[tuple[float, int, float]]:
         """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
@@ -177,10 +204,9 @@ def optimal_weights(jac: np.ndarray, n: int, *, info0: np.ndarray | None = None,
     s, m, p = jac.shape
     c = np.eye(p)[:, np.arange(p) if target is None else np.asarray(target)]
     cs = np.broadcast_to(c, (s, p, c.shape[1]))
-    # a small ridge keeps samples whose candidates miss a parameter finite (it is ~1e-9 of a typical
+    # a small ridge keeps samples whose candidates miss a parameter finite (:func:`ridge`; it is ~1e-9 of a typical
     # information and so never changes a design that does determine the parameter)
-    ridge = 1e-9 * np.mean(np.einsum("smi,smi->s", jac, jac)) * np.eye(p)
-    m0 = (np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)) + ridge
+    m0 = (np.zeros((s, p, p)) if info0 is None else np.asarray(info0, float)) + ridge(jac)
     jac_t = np.transpose(jac, (0, 2, 1))
     outer = lambda i: jac[:, i, :, None] * jac[:, i, None, :]  # noqa: E731  (S, P, P) of candidate i
 
@@ -226,6 +252,79 @@ def round_design(weights: np.ndarray, n: int) -> np.ndarray:
     short = n - int(counts.sum())
     counts[np.argsort(counts - exact, kind="stable")[:short]] += 1
     return counts
+
+
+def ridge(jac: np.ndarray) -> np.ndarray:
+    """The small ridge every information matrix of a plan carries: 1e-9 × the mean over samples of
+    Σ_candidates ‖j‖², times the identity (P, P). It keeps samples whose planned speeds miss a parameter
+    finite — a tiny prior: where a sample's tests do determine the parameters it changes nothing, where
+    they nearly miss one it caps that sample's weight in the criterion."""
+    return 1e-9 * float(np.mean(np.einsum("smi,smi->s", jac, jac))) * np.eye(jac.shape[-1])
+
+
+def criterion(jac: np.ndarray, counts: np.ndarray, info0: np.ndarray | None, target: np.ndarray,
+              ridge: np.ndarray | float = 0.0) -> np.ndarray:
+    """The design criterion E_θ tr(Cᵀ M⁻¹ C) for test counts (..., m) over candidates with per-sample
+    rows ``jac`` (S, m, P) (already divided by the noise), M = M₀ + ridge + Σ_i c_i j_i j_iᵀ; ``target``
+    the parameter indices C selects (a plan's own criterion uses ``ridge`` = :func:`ridge` of the candidate
+    rows). Returns one value per leading index of ``counts`` (or a scalar)."""
+    c = np.asarray(counts, float)
+    s, _, p = jac.shape
+    info = np.einsum("smi,...m,smj->...sij", jac, c, jac) + ridge
+    if info0 is not None:
+        info = info + info0
+    sel = np.eye(p)[:, np.asarray(target)]
+    inv_c = np.linalg.solve(info, np.broadcast_to(sel, info.shape[:-1] + (sel.shape[1],)))
+    return np.einsum("pt,...spt->...", sel, inv_c) / s
+
+
+def improve_counts(jac: np.ndarray, counts: np.ndarray, info0: np.ndarray | None, target: np.ndarray,
+                   ridge: np.ndarray | float = 0.0, max_moves: int | None = None, n_add: int = 4) -> np.ndarray:
+    """Improve an integer design by moving single tests (a discrete exchange, as Fedorov's algorithm).
+
+    Each move tries, in one batched evaluation, taking one test from every supported candidate and
+    giving it to each of the ``n_add`` candidates with the largest directional derivative
+    d_i = E‖Cᵀ M⁻¹ j_i‖², and keeps the best move if it lowers the criterion; it stops when none
+    does (at most ``max_moves``, default 2n, moves). The total number of tests is kept. (Trial designs
+    that lose a parameter are kept finite by a 1e-12 relative ridge of their own, and so never win.)"""
+    c = np.asarray(counts, int).copy()
+    n = int(c.sum())
+    s, m, p = jac.shape
+    sel = np.eye(p)[:, np.asarray(target)]
+    info = np.einsum("smi,m,smj->sij", jac, c.astype(float), jac) + ridge + (0 if info0 is None else info0)
+    info = info + 1e-12 * np.trace(info, axis1=1, axis2=2)[:, None, None] / p * np.eye(p)
+
+    def phi(mats: np.ndarray) -> np.ndarray:  # E tr(Cᵀ M⁻¹ C) for (..., S, P, P)
+        inv_c = np.linalg.solve(mats, np.broadcast_to(sel, mats.shape[:-1] + (sel.shape[1],)))
+        return np.einsum("pt,...spt->...", sel, inv_c) / s
+
+    best = float(phi(info))
+    for _ in range(max_moves if max_moves is not None else 2 * n):
+        inv_c = np.linalg.solve(info, np.broadcast_to(sel, (s, p, sel.shape[1])))
+        d = ((jac @ inv_c) ** 2).sum(axis=2).mean(axis=0)
+        add = np.argsort(-d, kind="stable")[:n_add]
+        rem = np.flatnonzero(c > 0)
+        rank1 = lambda idx: jac[:, idx, :, None] * jac[:, idx, None, :]  # noqa: E731  (S, K, P, P)
+        # info after moving one test from rem[b] to add[a], for every pair: (A, B, S, P, P)
+        trial = (info[None, None] + np.moveaxis(rank1(add), 1, 0)[:, None] - np.moveaxis(rank1(rem), 1, 0)[None, :])
+        vals = phi(trial)
+        a, b = np.unravel_index(int(np.argmin(vals)), vals.shape)
+        if not vals[a, b] < best * (1 - 1e-9) or add[a] == rem[b]:
+            break
+        best, info = float(vals[a, b]), trial[a, b]
+        c[rem[b]] -= 1
+        c[add[a]] += 1
+    return c
+
+
+def evenly_spaced(candidates: np.ndarray, n: int) -> np.ndarray:
+    """Counts (m,) of n tests evenly spaced over sorted candidates: the candidate nearest to each of n
+    evenly spaced speeds from the first to the last (the middle one for n = 1)."""
+    cand = np.asarray(candidates, float)
+    targets = np.linspace(cand[0], cand[-1], n) if n > 1 else np.array([(cand[0] + cand[-1]) / 2])
+    idx = np.clip(np.searchsorted(cand, targets), 1, cand.size - 1)
+    idx = np.where(np.abs(cand[idx - 1] - targets) <= np.abs(cand[idx] - targets), idx - 1, idx)
+    return np.bincount(idx, minlength=cand.size)
 
 
 def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *, theta=None, cov_u=None,
@@ -305,30 +404,54 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
                          "tie parameters the boundary cannot tell apart")
     jac_c, info0_c = jac[0], None if info0 is None else info0[0]  # the centre, for the reported errors
     jac, info0 = jac[keep], None if info0 is None else info0[keep]
-    w, eff, its = optimal_weights(jac, n, info0=info0, target=t_idx, iterations=iterations)
-    counts = round_design(w, n)
+    w, eff_w, its = optimal_weights(jac, n, info0=info0, target=t_idx, iterations=iterations)
+    # the criterion exactly as optimal_weights sees it (same ridge), for the rounded and the even plans
+    rdg = ridge(jac)
+    counts = improve_counts(jac, round_design(w, n), info0, t_idx, rdg)
+    even = evenly_spaced(cand, n)
+    phi_w, phi_plan, phi_even = criterion(jac, np.stack([n * w, counts, even]), info0, t_idx, rdg)
+    uniform = not phi_plan < phi_even  # rounding or a stuck exchange: never plan worse than even spacing
+    if uniform:
+        counts, phi_plan = even, phi_even
     rpm = np.repeat(cand, counts)
 
-    def sigma(rows: np.ndarray, counts_: np.ndarray) -> np.ndarray:
-        info = (0 if info0_c is None else info0_c) + np.einsum("mi,m,mj->ij", rows, counts_, rows)
+    def sigma(counts_: np.ndarray) -> np.ndarray:
+        info = (0 if info0_c is None else info0_c) + np.einsum("mi,m,mj->ij", jac_c, counts_.astype(float), jac_c)
         return relative_sigma(info)
 
-    uni = np.linspace(cand[0], cand[-1], n) if n > 1 else cand[[cand.size // 2]]
-    j_uni, s_uni = log_jacobians(par, cutting, centre[None], uni, engine)
-    j_uni = j_uni[0] / np.sqrt(noise ** 2 + (speed_noise * s_uni[0]) ** 2)[:, None]
-    depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, rpm)[0] * 1e3
+    def sigma_mean(counts_: np.ndarray | None) -> np.ndarray:
+        info = (0 if info0 is None else info0) + rdg
+        if counts_ is not None:
+            info = info + np.einsum("smi,m,smj->sij", jac, counts_.astype(float), jac)
+        return np.sqrt(np.mean(relative_sigma(info) ** 2, axis=0))
+
+    speeds, at = np.unique(rpm, return_inverse=True)  # (the engine wants distinct speeds)
+    depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, speeds)[0, at] * 1e3
     return SpeedDesign(
         rpm=rpm, candidates=cand, weights=w, names=names, target=tgt, theta=centre, noise=float(noise),
         speed_noise=float(speed_noise), sigma_existing=None if info0_c is None else relative_sigma(info0_c),
-        sigma_uniform=sigma(j_uni, np.ones(uni.size)), sigma_design=sigma(jac_c, counts.astype(float)),
-        efficiency=eff, iterations=its, samples=int(keep.sum()), predicted_depth_mm=depth)
+        sigma_uniform=sigma(even), sigma_design=sigma(counts),
+        efficiency=float(min(1.0, eff_w * phi_w / phi_plan)), iterations=its, samples=int(keep.sum()),
+        predicted_depth_mm=depth, efficiency_continuous=float(eff_w), criterion_design=float(phi_plan),
+        criterion_uniform=float(phi_even), uniform=bool(uniform),
+        sigma_existing_mean=None if info0 is None else sigma_mean(None), sigma_uniform_mean=sigma_mean(even),
+        sigma_design_mean=sigma_mean(counts))
 
 
 def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> SpeedDesign:
     """:func:`design_speeds` around a :class:`~millstab.identify.result.Fit`: its estimate, its
     covariance (from standard errors and correlation; the prior spread where it has none) and its
     alternative solutions. A fit that reports x and y tied (:mod:`~millstab.identify.tie`) is planned
-    for in the tied parameters. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests."""
+    for in the tied parameters. Pass the fitted points' speeds as ``existing_rpm`` to plan the next tests.
+
+    Raises:
+        InputError: the fit was made under other cutting conditions than ``cutting``.
+    """
+    if fit.cutting is not None:
+        diff = cutting_difference(cutting_record(fit.cutting), cutting)
+        if diff:
+            raise InputError("fit", "fitted under other cutting conditions",
+                             f"{diff}; plan with the conditions the fit's points were measured under")
     alts = [[a["estimate"][name] for name in fit.names] for a in fit.alternatives]
     par, theta, cov, alts = fit_view(fit.par, cutting, fit.estimate, fit.std_errors, fit.correlation, alts, is_tied(fit))
     return design_speeds(par, cutting, candidates, n, theta=theta, cov_u=cov, alternatives=alts, **options)
@@ -368,5 +491,6 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "design_after_fit", "design_speeds", "fit_covariance", "fit_view",
-           "log_jacobians", "optimal_weights", "prior_covariance", "relative_sigma", "round_design"]
+__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds", "evenly_spaced",
+           "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
+           "relative_sigma", "ridge", "round_design"]

@@ -21,7 +21,9 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
    does not reject it (:mod:`~millstab.identify.tie`: near x = y a free fit splits the pairs by
    noise alone, with overconfident standard errors).
 
-Diagnostics at the solution: σ² = RSS/(n − p), cov_u = σ²(JᵀJ)⁻¹ in log-parameters, standard errors
+Diagnostics at the solution: cov_u = σ²(JᵀJ)⁻¹ in log-parameters with σ the residual scatter
+√(RSS/(n − p)) — or a stated (``noise``) or assumed depth noise where the points leave few or no
+degrees of freedom (:func:`~millstab.identify.quality.error_sigma`) — standard errors
 θ·√diag(cov_u) (delta method), the correlation matrix, cond(JᵀJ); warnings for an exact x↔y symmetry
 (slotting: the estimate is returned in canonical order, fn_x ≤ fn_y) and for the general exact x↔y
 mode exchange of the zero-order SLD (any cut with α_xx α_yy > 0: (fn, ζ) of x and y exchanged,
@@ -29,7 +31,9 @@ k_x' = (α_xx/α_yy) k_y, k_y' = k_x α_yy/α_xx — :func:`~millstab.identify.o
 exchanged estimate, which explains the points equally well, is listed first in the alternatives and the
 solver cannot prefer either: with noise-free data it returns whichever basin the start leads to), near-singular JᵀJ, strongly
 correlated pairs, and other multi-start solutions inside the 95 % joint confidence region
-RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate.
+RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate. Then the
+quality checks of :func:`~millstab.identify.quality.diagnose` (degrees of freedom, poor or systematic
+residuals, the zero-order model's known weak cuts), each warning with a code in ``Fit.codes``.
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ from scipy.stats import qmc
 
 from millstab.errors import InputError
 from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
+from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
 from millstab.identify.tie import prefer_tied
 from millstab.stability import zoa
@@ -206,11 +211,12 @@ class _Cached:
         return self.j
 
 
-def covariance(jac: np.ndarray, rss: float, n: int, p: int) -> tuple[np.ndarray, float]:
-    """cov_u = σ²(JᵀJ)⁻¹ with σ² = RSS/(n − p) (pseudo-inverse when singular), and cond(JᵀJ)."""
+def covariance(jac: np.ndarray, rss: float, n: int, p: int, sigma2: float | None = None) -> tuple[np.ndarray, float]:
+    """cov_u = σ²(JᵀJ)⁻¹ (pseudo-inverse when singular), and cond(JᵀJ); σ² = RSS/(n − p) unless given."""
     jtj = jac.T @ jac
     cond = float(np.linalg.cond(jtj))
-    sigma2 = rss / max(n - p, 1)
+    if sigma2 is None:
+        sigma2 = rss / max(n - p, 1)
     return sigma2 * np.linalg.pinv(jtj, rcond=1e-15), cond
 
 
@@ -247,18 +253,19 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, tie_xy: bool 
         theta0: start [Hz, N/m, -]; default the parameterization's start (the config's structure).
         tie_xy: in an x/y-symmetric cut, also fit x = y and report it when the points do not reject it
             (:mod:`~millstab.identify.tie`).
-        options: the search settings of :func:`fit_lsq_free`.
+        options: the search settings of :func:`fit_lsq_free` (``noise``: the stated relative depth noise).
     """
     free = fit_lsq_free(problem, theta0, **options)
-    if not tie_xy:
-        return free
-    return prefer_tied(problem, free, lambda prob, start: fit_lsq_free(prob, start, **options))
+    fit = free if not tie_xy else prefer_tied(problem, free, lambda prob, start: fit_lsq_free(prob, start, **options))
+    diagnose(fit, problem, options.get("noise"))
+    return fit
 
 
 def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,
                  schedule=((32, 3), (8, 5), (2, 30)), rounds: int = 3, good_rms: float = 0.01, n_local: int = 64,
                  loss: str = "linear", f_scale: float | None = None, central: bool = False, seed: int = 0,
-                 search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None) -> Fit:
+                 search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None,
+                 noise: float | None = None) -> Fit:
     """:func:`fit_lsq` without the x = y test: the multi-start search itself (module docstring).
 
     Args:
@@ -278,7 +285,11 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
         seed: seed of the Sobol designs (same seed ⇒ same result).
         search: {kind: factor} overriding :data:`SEARCH`.
         progress: called as progress(stage, iteration, best_rss).
+        noise: stated relative standard deviation of a measured depth (0.02 = 2 %), or ``None``: the
+            standard errors then use the residual scatter (an assumed noise with few degrees of freedom;
+            :func:`~millstab.identify.quality.error_sigma`).
     """
+    noise = check_noise(noise)
     if loss not in LOSSES:
         raise InputError("loss", loss, f"must be one of {', '.join(LOSSES)}")
     if n_candidates < 1 or not schedule or any(k < 1 or i < 1 for k, i in schedule):
@@ -372,18 +383,21 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
 
     # diagnostics
     n, p = problem.n, problem.p
-    cov_u, cond = covariance(j_hat, rss, n, p)
+    sig = error_sigma(rss, n, p, residual_scale(problem.residual, problem.depth_mm), noise)
+    cov_u, cond = covariance(j_hat, rss, n, p, sig["sigma"] ** 2)
     sd_u = np.sqrt(np.clip(np.diag(cov_u), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov_u / np.outer(sd_u, sd_u)
     corr = np.where(np.isfinite(corr), corr, 0.0)
     np.fill_diagonal(corr, 1.0)
     warn: list[str] = []
+    codes: list[str] = []  # one per warning kind (Fit.codes)
     symmetry = None
     if perm is not None:
         symmetry = ("x and y are interchangeable: swapping the x and y parameters leaves this cut's SLD unchanged "
                     "exactly (α_xx = α_yy, e.g. slotting); the estimate is given in canonical order "
                     "(first differing pair has x < y, i.e. fn_x <= fn_y)")
+        codes.append("xy_symmetry")
         warn.append("x/y symmetry: " + symmetry.split(":", 1)[1].strip())
         theta_c = canonical(theta_hat, perm)
         if not np.array_equal(theta_c, theta_hat):
@@ -397,15 +411,19 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
                     "(fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
                     "zero-order SLD unchanged exactly; the points cannot tell the two structures apart "
                     "(the exchanged estimate is listed in alternatives)")
+        codes.append("xy_exchange")
         warn.append("x/y exchange: " + symmetry.split(":", 1)[1].strip())
     if cond > 1e8:  # cond(J) > 1e4: some combination is determined 1e4× worse than the best one
+        codes.append("near_singular")
         warn.append(f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
                     "combinations are not identifiable from these points; standard errors are unreliable")
     names = par.free
     pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p) for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
     if pairs:
+        codes.append("correlated")
         warn.append("strongly correlated (|r| > 0.99), not separately identifiable from these points: " + ", ".join(pairs))
     if not sol.success:
+        codes.append("not_converged")
         warn.append(f"least squares did not converge: {sol.message}")
     # other multi-start solutions inside the 95 % joint confidence region
     alternatives = []
@@ -433,12 +451,14 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
                                  "rss": float(c_lm[i]), "why": "another multi-start solution inside the 95 % joint "
                                                                  "confidence region of the estimate"})
     if alternatives:
+        codes.append("alternatives")
         warn.append(f"{len(alternatives)} distinct parameter set(s) explain the points as well as the estimate "
                     "(see alternatives): the data do not determine the parameters uniquely")
     pred_hat = problem.predict_mm(theta_hat[None])
     mlae = float(problem.mlae(pred_hat)[0])
     cuts = problem.cut_report(theta_hat)
     if cuts and (cuts["stable_predicted_chatter"] or cuts["chatter_predicted_stable"]):
+        codes.append("test_cuts")
         warn.append(f"test cuts: {cuts['stable_predicted_chatter']} of {cuts['stable_cuts']} stable cuts lie above the "
                     f"fitted limit, {cuts['chatter_predicted_stable']} of {cuts['chatter_cuts']} chatter cuts below it")
     hist_theta = np.exp(np.array(hist_u))
@@ -447,12 +467,12 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
                evaluations=problem.n_sets - sets0, engine_calls=problem.n_calls - calls0,
                time_s=time.perf_counter() - t0, history_theta=hist_theta, history_mlae=hist_mlae,
                history_rss=np.array(hist_rss), std_errors=theta_hat * sd_u, correlation=corr, condition=cond,
-               warnings=warn, alternatives=alternatives, symmetry=symmetry, test_cuts=cuts,
+               warnings=warn, codes=codes, alternatives=alternatives, symmetry=symmetry, test_cuts=cuts, cutting=problem.cutting,
                settings={"n_candidates": n_candidates, "loss": loss, "f_scale": f_scale,
                          "central": central, "seed": seed, "search": {**SEARCH, **(search or {})},
                          "schedule": [list(x) for x in schedule], "rounds_run": n_rounds, "n_local": n_local, "good_rms": good_rms,
                          "residual": problem.residual, "engine": problem.engine, "lm_iterations": it_lm,
-                         "polish_nfev": int(sol.nfev), "polish_status": int(sol.status)})
+                         "polish_nfev": int(sol.nfev), "polish_status": int(sol.status), "noise": noise})
 
 
 __all__ = ["LOSSES", "SEARCH", "covariance", "fit_lsq", "fit_lsq_free"]

@@ -78,6 +78,7 @@ from scipy.stats import qmc
 from millstab.errors import InputError
 from millstab.identify.lsq import Progress, pick_distinct, search_box
 from millstab.identify.objective import Problem, canonical, swap_permutation
+from millstab.identify.quality import check_noise, diagnose
 from millstab.identify.result import Fit
 
 
@@ -158,8 +159,12 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
                refine: dict[str, float] | None = None, min_distance: float = 0.05, jump: float = 0.05,
                min_jump: float = 0.05 / 256, max_step: float = 0.1, patience: int = 3, improve_tol: float = 0.01,
                n_random_jumps: int = 16, n_fn_grid: int = 1024, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
-               search: dict[str, float] | None = None, progress: Progress | None = None) -> Fit:
+               search: dict[str, float] | None = None, progress: Progress | None = None,
+               noise: float | None = None) -> Fit:
     """The paper's Newton–Raphson identification (see module docstring for every option).
+
+    ``noise`` (stated relative depth noise, or ``None``) only feeds the quality checks
+    (:func:`~millstab.identify.quality.diagnose`): this scheme reports no standard errors.
 
     Args:
         theta0: start [Hz, N/m, -]; default the parameterization's start.
@@ -183,6 +188,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
             raise InputError(name, v, {"alpha": "must be in (0, 1]", "max_iter": "must be >= 1", "n_guesses": "must be >= 1",
                                        "jump": "must be in (0, 1)", "min_jump": "must be in (0, jump]",
                                        "critical_weight": "must be >= 1", "fd_step": "must be in (0, 0.1)"}[name])
+    noise = check_noise(noise)
     t0 = time.perf_counter()
     sets0, calls0 = problem.n_sets, problem.n_calls
     par = problem.par
@@ -313,25 +319,31 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     theta_hat = canonical(np.exp(best_u), perm)
     pred_hat = problem.predict_mm(theta_hat[None])
     warn = []
+    codes: list[str] = []
     symmetry = None
     if perm is not None:
         symmetry = ("x and y are interchangeable: swapping the x and y parameters leaves this cut's SLD unchanged "
                     "exactly (α_xx = α_yy, e.g. slotting); the estimate is given in canonical order (fn_x <= fn_y)")
+        codes.append("xy_symmetry")
         warn.append("x/y symmetry: " + symmetry.split(":", 1)[1].strip())
     if best_f >= tol:
+        codes.append("not_converged")
         warn.append(f"stopping threshold MLAE < {tol:g} not reached in {max_iter} iterations (best {best_f:.3g})")
     cuts = problem.cut_report(theta_hat)
     hist_theta = np.exp(np.array(hist_u))
-    return Fit(method="newton", par=par, estimate=theta_hat, start=np.exp(u_start), mlae=float(problem.mlae(pred_hat)[0]),
+    fit = Fit(method="newton", par=par, estimate=theta_hat, start=np.exp(u_start), mlae=float(problem.mlae(pred_hat)[0]),
                rss=float(problem.rss(pred_hat)[0]), iterations=it, evaluations=problem.n_sets - sets0,
                engine_calls=problem.n_calls - calls0, time_s=time.perf_counter() - t0, history_theta=hist_theta,
                history_mlae=np.array(hist_f), history_rss=np.full(len(hist_f), np.nan), warnings=warn,
-               symmetry=symmetry, test_cuts=cuts,
+               codes=codes, symmetry=symmetry, test_cuts=cuts, cutting=problem.cutting,
                settings={"scaled": scaled, "alpha": alpha, "max_iter": max_iter, "tol": tol, "fd_step": fd_step,
                          "n_guesses": n_guesses, "n_guesses_used": g0, "n_fn_grid": n_fn_grid, "explore_iters": explore_iters, "n_screen": n_screen, "jump": jump, "min_jump": min_jump, "patience": patience,
                          "improve_tol": improve_tol, "n_random_jumps": n_random_jumps,
                          "critical_weight": critical_weight, "critical_window": critical_window, "seed": seed,
-                         "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine})
+                         "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine,
+                         "noise": noise})
+    diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
+    return fit
 
 
 __all__ = ["critical_mask", "fit_newton", "jump_directions"]

@@ -45,7 +45,7 @@ class Problem:
         rpm: boundary-point spindle speeds (n,) [rev/min].
         depth_mm: measured limiting depths (n,) [mm].
         weight: per-point weights (n,) > 0 (from the point file; 1 by default).
-        engine: stability engine name (``zoa`` or ``sdm``).
+        engine: stability engine name (``zoa``, ``sdm`` or ``spectral``).
         cuts: labelled test cuts (not fitted; reported), or ``None``.
         residual: ``log`` or ``mm`` (see module docstring).
         n_sets: parameter sets evaluated so far (counter); n_calls: engine calls so far.
@@ -74,6 +74,8 @@ class Problem:
         if self.residual not in RESIDUALS:
             raise InputError("residual", self.residual, f"must be one of {', '.join(RESIDUALS)}")
         self._engine_mod = get_engine(self.engine)
+        # repeated tests at one speed are evaluated once (the engine also needs distinct speeds)
+        self._speeds, self._at = np.unique(self.rpm, return_inverse=True)
         self._cap = DEPTH_CAP * float(self.depth_mm.max())
         self._sw = np.sqrt(self.weight)
         self._log_meas = np.log(self.depth_mm)
@@ -96,7 +98,7 @@ class Problem:
         ONE batched engine call for all B rows; ``inf`` capped (see module docstring).
         """
         t = np.atleast_2d(np.asarray(theta, dtype=float))
-        depth = self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, self.rpm) * 1e3
+        depth = self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, self._speeds)[:, self._at] * 1e3
         self.n_sets += t.shape[0]
         self.n_calls += 1
         return np.minimum(np.where(np.isfinite(depth), depth, self._cap), self._cap)
@@ -167,7 +169,8 @@ class Problem:
         """
         if self.cuts is None or len(self.cuts) == 0:
             return None
-        lim = self._engine_mod.envelope_batch(self.par.batch(np.atleast_2d(theta)), self.cutting, self.cuts.rpm)[0] * 1e3
+        speeds, at = np.unique(self.cuts.rpm, return_inverse=True)
+        lim = self._engine_mod.envelope_batch(self.par.batch(np.atleast_2d(theta)), self.cutting, speeds)[0, at] * 1e3
         self.n_sets += 1
         self.n_calls += 1
         pred_chatter = self.cuts.depth_mm > lim
@@ -306,6 +309,25 @@ def rel_error(theta: np.ndarray, truth: np.ndarray, perm=None) -> np.ndarray:
 
 
 # --- building a problem --------------------------------------------------------------------------
+def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
+    """The number of distinct boundary-point speeds; InputError when fewer than ``n_free``.
+
+    The boundary is one depth per speed: repeated tests at one speed measure that depth again (its
+    scatter), not another point of the curve, so P parameters need at least P different speeds — all
+    points at one speed determine at most one parameter.
+    """
+    r = np.asarray(rpm, dtype=float)
+    distinct = int(np.unique(r[np.isfinite(r)]).size)
+    if distinct < n_free:
+        where = f" in {source.name}" if source is not None else ""
+        at = f"all at {r[0]:g} rpm" if distinct == 1 else f"at {distinct} distinct speeds"
+        raise InputError("points", f"{r.size} boundary points{where} {at}",
+                         f"{n_free} free parameters need boundary points at {n_free} or more different spindle speeds "
+                         "(repeats at one speed only re-measure its depth); measure at other speeds, or free fewer "
+                         "parameters (--free)")
+    return distinct
+
+
 def parse_assignments(text: str | Mapping[str, float] | None, field_name: str = "--initial") -> dict[str, float]:
     """``"fn_x=900,k_x=12e6"`` → {name: value} (SI: Hz, N/m, -). Raises InputError naming the bad item."""
     if text is None:
@@ -343,7 +365,8 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
         initial: start values overriding the structure's, {name: value} or ``"fn_x=900,..."`` [SI].
         bounds: {name: (lo, hi)} [SI] overriding the defaults (fn ×/÷ 2, k ×/÷ 10, ζ ×/÷ 20).
     Raises:
-        InputError: unknown names, fewer boundary points than free parameters, bad values.
+        InputError: unknown names, fewer boundary points (or fewer distinct speeds among them) than free
+            parameters, bad values.
     """
     if isinstance(free, str):
         free = [s.strip() for s in free.split(",") if s.strip()]
@@ -355,9 +378,10 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
         par = Parameterization(par.structure(theta), par.free, axisymmetric, dict(bounds or {}))
     check_enough(points, par.size)
     b = points.boundary
+    check_speeds(points.rpm[b], par.size, points.source)
     cuts = points.subset(~b) if (~b).any() else None
     return Problem(par, cutting, points.rpm[b], points.depth_mm[b], points.weight[b], engine, cuts, residual)
 
 
-__all__ = ["DEPTH_CAP", "Problem", "canonical", "exchange_map", "exchanged", "make_problem", "oriented", "parse_assignments", "rel_error", "swap_permutation",
+__all__ = ["DEPTH_CAP", "Problem", "canonical", "check_speeds", "exchange_map", "exchanged", "make_problem", "oriented", "parse_assignments", "rel_error", "swap_permutation",
            "xy_symmetric_cut"]

@@ -8,7 +8,12 @@ JSON contract (``Fit.to_json()``; keys may be added, never removed or renamed):
 * beside them: ``free`` (names), ``estimate`` ({free name: value}), ``units``, ``std_errors``,
   ``correlation``, ``rss``, ``method``, ``iterations``, ``evaluations``, ``time_s``, ``warnings``,
   ``alternatives``, ``symmetry``, ``test_cuts``, ``history`` ({theta, mlae, rss} per iteration),
-  ``structure`` (every mode), ``settings``.
+  ``structure`` (every mode), ``settings``;
+* the fit's reliability: ``dof`` (residual degrees of freedom n − p), ``n_points``, ``noise`` (the σ the
+  standard errors use and where it comes from: residual scatter, stated or assumed), ``warning_codes``
+  (one code per warning kind, :mod:`~millstab.identify.quality`), ``checks`` (χ² and runs tests);
+* ``cutting``: the cutting conditions the points were fitted under (teeth, kt [N/m²], kr, entry and exit
+  [rad]), so a fit file cannot be used with a config of other conditions.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from millstab.model import Structure
+from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 
 
@@ -39,7 +44,15 @@ class Fit:
         std_errors: approximate standard errors (P,) [same units], ``None`` when not computed (newton).
         correlation: (P, P) correlation matrix of the estimate, or ``None``.
         condition: condition number of JᵀJ in log-parameters, or ``None``.
-        warnings: identifiability and convergence warnings (one line each).
+        warnings: identifiability, convergence and quality warnings (one line each).
+        codes: a code per warning kind (e.g. ``no_dof``, ``poor_fit``, ``residual_structure``, ``zoa_model``;
+            :mod:`~millstab.identify.quality`), in the order first raised.
+        dof: residual degrees of freedom n − p (``None`` before :func:`~millstab.identify.quality.diagnose`);
+            n_points: boundary points fitted.
+        noise: the residual σ the standard errors use: {"sigma" (relative), "source" (``residuals``,
+            ``stated`` or ``assumed``), "estimated" (σ̂ = √(RSS/dof), relative), "stated", "assumed"}.
+        checks: test statistics behind the quality warnings (χ² p-value, runs test, RMS residual).
+        cutting: the cutting conditions of the fitted points, or ``None``.
         alternatives: other parameter sets as good as the estimate: [{"estimate": {...}, "mlae", "rss", "why"}].
         symmetry: a line describing an exact symmetry of the data (x↔y), or ``None``.
         test_cuts: how the fitted SLD classifies the labelled test cuts (counts), or ``None``.
@@ -68,6 +81,18 @@ class Fit:
     symmetry: str | None = None
     test_cuts: dict[str, int] | None = None
     settings: dict[str, Any] = field(default_factory=dict)
+    codes: list[str] = field(default_factory=list)
+    dof: int | None = None
+    n_points: int | None = None
+    noise: dict[str, Any] | None = None
+    checks: dict[str, Any] = field(default_factory=dict)
+    cutting: Cutting | None = None
+
+    def add_warning(self, code: str, text: str) -> None:
+        """Add a warning line and its code (a code is listed once however many lines carry it)."""
+        self.warnings.append(text)
+        if code not in self.codes:
+            self.codes.append(code)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -126,8 +151,38 @@ class Fit:
             "test_cuts": self.test_cuts,
             "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
             "settings": self.settings,
+            "dof": None if self.dof is None else int(self.dof),
+            "n_points": None if self.n_points is None else int(self.n_points),
+            "noise": self.noise,
+            "warning_codes": list(self.codes),
+            "checks": self.checks,
+            "cutting": None if self.cutting is None else cutting_record(self.cutting),
             "history": {"theta": self.history_theta, "mlae": self.history_mlae, "rss": self.history_rss},
         }
 
 
-__all__ = ["Fit"]
+def cutting_record(cutting: Cutting) -> dict[str, float]:
+    """The JSON record of cutting conditions: teeth, kt [N/m²], kr [-], entry and exit [rad]."""
+    return {"teeth": int(cutting.teeth), "kt": float(cutting.kt), "kr": float(cutting.kr),
+            "entry": float(cutting.entry), "exit": float(cutting.exit)}
+
+
+def cutting_difference(record, cutting: Cutting) -> str | None:
+    """How a recorded cutting (:func:`cutting_record`, e.g. from a fit file) differs from ``cutting``
+    (first differing field, both values shown as a user writes them), or ``None`` when the same
+    (relative tolerance 1e-9)."""
+    import math
+
+    want = cutting_record(cutting)
+    show = {"teeth": lambda v: f"{v:g}", "kt": lambda v: f"{v / 1e6:.6g} MPa", "kr": lambda v: f"{v:.6g}",
+            "entry": lambda v: f"{math.degrees(v):.6g}°", "exit": lambda v: f"{math.degrees(v):.6g}°"}
+    for key, fmt in show.items():
+        got = record.get(key) if isinstance(record, dict) else None
+        if isinstance(got, bool) or not isinstance(got, (int, float)):
+            return f"cutting {key} is missing from the fit's record ({got!r})"
+        if not math.isclose(float(got), want[key], rel_tol=1e-9, abs_tol=1e-12):
+            return f"cutting {key} is {fmt(float(got))} in the fit but {fmt(want[key])} here"
+    return None
+
+
+__all__ = ["Fit", "cutting_difference", "cutting_record"]

@@ -100,6 +100,7 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
     alts = [alt] + [{**a, "estimate": problem.par.as_dict(np.array([a["estimate"][t] for t in tprob.par.free])[index])}
                     for a in tied.alternatives]
     warn = [w for w in tied.warnings if "x/y symmetry" not in w]
+    codes = ["xy_tied"] + [c for c in tied.codes if c != "xy_symmetry"]
     warn.insert(0, f"x and y tied: the points do not show x and y differing (F-test of the tied against the free fit: "
                    f"p = {pval:.2f} ≥ {ALPHA}), so the estimate gives both directions the tied values; near x = y a "
                    "free fit splits them by noise alone, with overconfident standard errors")
@@ -113,7 +114,7 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
                history_theta=np.vstack([free.history_theta, tied.estimate[index]]),
                history_mlae=np.append(free.history_mlae, tied.mlae),
                history_rss=np.append(free.history_rss, tied.rss), std_errors=se, correlation=corr,
-               condition=tied.condition, warnings=warn, alternatives=alts, symmetry=free.symmetry,
+               condition=tied.condition, warnings=warn, codes=codes, alternatives=alts, cutting=free.cutting, symmetry=free.symmetry,
                test_cuts=tied.test_cuts, settings={**free.settings, "xy_tie_test": {**test, "chosen": "tied"}})
 
 

@@ -47,7 +47,7 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
         n: number of paths N (≥ 2). t: neighbourhood half-width, 0 ≤ t < 1. eps: relative change, > −1.
         seed: seed of the numpy Generator; the same seed gives the same table.
         theta: centre (P,) [SI], default the structure's values.
-        engine: ``zoa`` or ``sdm``.
+        engine: ``zoa``, ``sdm`` or ``spectral``.
         chunk_paths: paths per engine call (default: a ~32 MB depth block); does not change the result.
         progress: called as ``progress(paths_done, n)`` after each chunk.
 

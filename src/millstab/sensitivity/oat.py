@@ -31,7 +31,7 @@ def oat(model: Structure | Parameterization, cutting: Cutting, rpm, eps: Sequenc
         eps: relative changes (default −0.25 … +0.25 step 0.05; the paper's grid is
             :data:`~millstab.sensitivity.PAPER_EPS_GRID`), each > −1.
         theta: centre values (P,) [SI]; default the structure's own.
-        engine: ``zoa`` or ``sdm``.
+        engine: ``zoa``, ``sdm`` or ``spectral``.
 
     Raises:
         InputError: an ε ≤ −1, or a scaled parameter leaving its valid range (ζ ≥ 1, …), before any work.

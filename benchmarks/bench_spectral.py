@@ -1,0 +1,108 @@
+"""Accuracy and speed of the spectral-element engine (issue 16), against semi-discretization.
+
+Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_spectral.py [--n 81] [--repeat 5]
+
+1. Accuracy on the classic benchmark (Insperger & Stépán: 922 Hz, ζ 0.011, 2 teeth, Kt 6e8, Kn 2e8 N/m²,
+   m 0.03993 kg, down milling) at a/D = 0.05, 0.1, 0.5 and 1 on ``--n`` speeds 5 000–25 000 rpm: the
+   relative difference to SDM's accuracy-controlled default (itself within 0.1–0.2 % of a Richardson
+   extrapolation of 120/240 steps per period, tests/test_sdm.py), worst case with its speed and lobe
+   type, and the count of flip speeds each engine reports. The first-crossing search is also re-run
+   with 40 verification rungs instead of 4 (``dense`` column): any difference would be a missed band.
+2. Speed: 200 speeds, one mode per direction (x and y), a/D = 0.05: envelopes per second of the spectral
+   engine (best of ``--repeat``), of SDM (once) and of the zero-order engine, measured in the same run
+   (the machine is shared, so the ratio is the robust figure), and the ρ / characteristic-function
+   evaluations per speed. The last line is ``spectral_envelopes_per_s: X``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from _machine import describe
+from millstab.frf import ModalBatch
+from millstab.model import Cutting, Mode, Structure
+from millstab.stability import sdm, spectral, zoa
+
+MASS, FN, ZETA = 0.03993, 922.0, 0.011
+K = MASS * (2 * math.pi * FN) ** 2
+BENCH = Structure(x=(Mode(FN, K, ZETA),))
+XY = Structure(x=(Mode(FN, K, ZETA),), y=(Mode(FN, K, ZETA),))
+KT, KR = 6e8, 1.0 / 3.0
+
+
+def cut(immersion: float) -> Cutting:
+    return Cutting.from_immersion(2, KT, KR, immersion, "down")
+
+
+def timed(f):
+    t = time.perf_counter()
+    out = f()
+    return time.perf_counter() - t, out
+
+
+def accuracy(n: int) -> None:
+    rpm = np.linspace(5000.0, 25000.0, n)
+    print(f"accuracy, 1-DOF benchmark, {n} speeds 5000-25000 rpm, against SDM's default (Richardson):")
+    for imm in (0.05, 0.1, 0.5, 1.0):
+        c = cut(imm)
+        t_s, e = timed(lambda: spectral.envelope(BENCH, c, rpm))
+        t_d, ref = timed(lambda: sdm.envelope(BENCH, c, rpm))
+        mu_sdm = sdm.critical_multipliers(BENCH, c, rpm)
+        flip_sdm = np.abs(np.angle(mu_sdm)) > math.pi - spectral.FLIP_ARG
+        rel = e.depth / ref.depth - 1
+        i = int(np.argmax(np.abs(rel)))
+        saved = spectral.CHECKS
+        spectral.CHECKS = np.linspace(0.025, 0.995, 40)
+        try:
+            dense = spectral.envelope(BENCH, c, rpm).depth
+        finally:
+            spectral.CHECKS = saved
+        rel_z = zoa.envelope(BENCH, c, rpm).depth / ref.depth - 1
+        print(f"  a/D {imm:4}: max |spectral/SDM - 1| {100 * abs(rel[i]):.3f} % at {rpm[i]:.0f} rpm ({e.kind[i]}, "
+              f"{e.depth_mm[i]:.4f} mm); mean {100 * np.mean(np.abs(rel)):.3f} %; flip speeds {int(np.sum(e.kind == 'flip'))} "
+              f"(SDM {int(flip_sdm.sum())}, same type at {int(np.sum((e.kind == 'flip') == flip_sdm))}/{n}); "
+              f"dense-check max diff {100 * np.max(np.abs(dense / e.depth - 1)):.4f} %; nodes {e.nodes}; "
+              f"zero-order max error {100 * np.max(np.abs(rel_z)):.0f} %, min-depth error "
+              f"{100 * (np.min(zoa.envelope(BENCH, c, rpm).depth) / np.min(ref.depth) - 1):+.0f} %; "
+              f"time spectral {t_s:.2f} s, SDM {t_d:.2f} s")
+
+
+def speed(repeat: int) -> float:
+    rpm = np.linspace(5000.0, 25000.0, 200)
+    c = cut(0.05)
+    spectral.envelope(XY, c, rpm[:3])  # compile / cache load
+    times = [timed(lambda: spectral.envelope(XY, c, rpm))[0] for _ in range(repeat)]
+    t_spec = min(times)
+    t_zoa = min(timed(lambda: zoa.envelope(XY, c, rpm))[0] for _ in range(repeat))
+    t_sdm, _ = timed(lambda: sdm.envelope(XY, c, rpm))
+    batch = ModalBatch.from_structures([XY])
+    rs = rpm
+    _, _, n_eval = spectral._solve(batch, c, rs, spectral._b_ref(batch, c, rs), spectral.P_NODES)
+    print(f"speed, 200 speeds, one mode per direction, a/D = 0.05: spectral {t_spec * 1e3:.1f} ms "
+          f"({1 / t_spec:.1f} envelopes/s; all runs {', '.join(f'{t * 1e3:.0f}' for t in times)} ms), "
+          f"SDM {t_sdm:.2f} s ({t_sdm / t_spec:.0f}x slower), zero-order {t_zoa * 1e3:.1f} ms; "
+          f"evaluations per speed {n_eval.mean():.1f} (ρ and characteristic function)")
+    return 1 / t_spec
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--n", type=int, default=81, help="speeds of the accuracy grid")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--skip-accuracy", action="store_true")
+    a = ap.parse_args()
+    print(describe())
+    with threadpool_limits(1):
+        if not a.skip_accuracy:
+            accuracy(a.n)
+        eps = speed(a.repeat)
+    print(f"spectral_envelopes_per_s: {eps:.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,597 @@
+"""Compiled (numba) kernels of the spectral-element engine. Use :mod:`millstab.stability.spectral` instead.
+
+Model (SI units, the same as :mod:`millstab.stability._sdm_kernel`): mode j is a 1-DOF oscillator in
+direction d_j; state z = (q_1..q_M, q̇_1..q̇_M), n = 2M;
+
+    ż(t) = A0 z(t) + w E(t) (u(t) − u(t − T)),   u = C z (tool-tip displacements),   w = ½ b Kt,
+
+E(t) maps the displacements through the periodic directional matrix [A(t)] onto the velocity rows
+(E[M+j, e] = A_{d_j e}(t) / m_j). One tooth period is cut at every entry/exit instant into segments;
+a segment where no tooth cuts is one exact free-flight step e^{A0 h}; a cutting segment (where [A(t)]
+is a smooth trigonometric function) is cut into elements of at most ``elem_len`` seconds, and on each
+element z is a polynomial of degree p collocated at the Chebyshev–Lobatto nodes τ_1..τ_p (τ_0 is the
+element's start, where z is continuous):
+
+    Σ_l D_kl z_l − (A0 + w E_k C) z_k = − w E_k u_old,k      (k = 1..p),
+
+D the Chebyshev differentiation matrix on the element. The delayed displacement at a node is the
+previous period's value at the same node (the grid is the same every period), so there is no
+interpolation: the only discretisation error is the collocation error, which falls spectrally with p.
+
+The monodromy matrix maps (z at the period start, u at every collocation node of the previous
+period) to the same quantities one period later; its size n + D·(nodes) does not grow with the free
+flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from millstab.stability._sdm_kernel import _dominant, _in_cut, free_flight, multipliers
+
+TWO_PI = 2.0 * math.pi
+
+
+def gauss_nodes(p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element nodes x = (0, c_1..c_p) on [0, 1] (c the Gauss–Legendre points), the differentiation
+    matrix of the degree-p interpolant through them (p + 1, p + 1), and its value weights at 1 (p + 1,).
+
+    Collocation at Gauss points has order 2p at the element ends (superconvergence), so a few nodes
+    give the transition over an element to ~1e-6.
+    """
+    c = 0.5 * (np.polynomial.legendre.leggauss(p)[0] + 1.0)
+    x = np.concatenate([[0.0], c])
+    diff = x[:, None] - x[None, :]
+    np.fill_diagonal(diff, 1.0)
+    wb = 1.0 / diff.prod(axis=1)  # barycentric weights
+    D = (wb[None, :] / wb[:, None]) / diff
+    np.fill_diagonal(D, 0.0)
+    np.fill_diagonal(D, -D.sum(axis=1))
+    d1 = 1.0 - x
+    lend = (wb / d1) / np.sum(wb / d1)
+    return np.ascontiguousarray(x), np.ascontiguousarray(D), np.ascontiguousarray(lend)
+
+
+@nb.njit(cache=True)
+def dir_matrix(n_teeth, kr, phi_s, phi_e, phi0, phi_mid, out):
+    """[A] at tooth-0 angle phi0, with the teeth in the cut decided at the segment's mid angle phi_mid
+    (one-sided values at entry/exit instants). Writes out (2, 2); returns True if any tooth cuts."""
+    pitch = TWO_PI / n_teeth
+    out[:, :] = 0.0
+    cutting = False
+    for j in range(n_teeth):
+        if not _in_cut(phi_mid + j * pitch, phi_s, phi_e):
+            continue
+        cutting = True
+        phi = phi0 + j * pitch
+        s2 = math.sin(2 * phi)
+        c2 = math.cos(2 * phi)
+        out[0, 0] += -s2 - kr * (1.0 - c2)
+        out[0, 1] += -(1.0 + c2) - kr * s2
+        out[1, 0] += (1.0 - c2) - kr * s2
+        out[1, 1] += s2 - kr * (1.0 + c2)
+    return cutting
+
+
+@nb.njit(cache=True)
+def period_layout(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, act):
+    """Elements of one tooth period (tooth 0 enters at t = 0).
+
+    Returns kind (E,) (0 free flight, 1 collocation), h (E,) [s], Aq (E, p + 1, D, D) the directional
+    matrix at the element's nodes (restricted to the active directions), and the number of
+    collocation elements.
+    """
+    omega = TWO_PI * rpm / 60.0
+    pitch = TWO_PI / n_teeth
+    width = phi_e - phi_s
+    s1 = width % pitch
+    if width >= pitch - 1e-12 * pitch:
+        if s1 < 1e-9 * pitch or pitch - s1 < 1e-9 * pitch:
+            bounds = np.array([0.0, pitch])
+        else:
+            bounds = np.array([0.0, s1, pitch])
+    else:
+        bounds = np.array([0.0, width, pitch])
+    n_seg = bounds.size - 1
+    tmp = np.empty((2, 2))
+    counts = np.empty(n_seg, dtype=np.int64)
+    cuts = np.empty(n_seg, dtype=np.bool_)
+    for k in range(n_seg):
+        a = phi_s + bounds[k]
+        b = phi_s + bounds[k + 1]
+        cuts[k] = dir_matrix(n_teeth, kr, phi_s, phi_e, a, 0.5 * (a + b), tmp)
+        if cuts[k]:
+            counts[k] = max(1, int(math.ceil((b - a) / omega / elem_len - 1e-9)))
+        else:
+            counts[k] = 1
+    E = counts.sum()
+    p = x.size - 1
+    D = act.size
+    kind = np.empty(E, dtype=np.int64)
+    h = np.empty(E)
+    Aq = np.zeros((E, p + 1, D, D))
+    i = 0
+    n_col = 0
+    for k in range(n_seg):
+        dth = (bounds[k + 1] - bounds[k]) / counts[k]
+        mid = phi_s + 0.5 * (bounds[k] + bounds[k + 1])
+        for q in range(counts[k]):
+            a = phi_s + bounds[k] + q * dth
+            h[i] = dth / omega
+            kind[i] = 1 if cuts[k] else 0
+            if cuts[k]:
+                n_col += 1
+                for l in range(p + 1):
+                    dir_matrix(n_teeth, kr, phi_s, phi_e, a + x[l] * dth, mid, tmp)
+                    for e in range(D):
+                        for f in range(D):
+                            Aq[i, l, e, f] = tmp[act[e], act[f]]
+            i += 1
+    return kind, h, Aq, n_col
+
+
+@nb.njit(cache=True)
+def setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, wn, zeta, act):
+    """Layout plus the free-flight exponentials of the free elements (zero elsewhere)."""
+    kind, h, Aq, n_col = period_layout(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, act)
+    n = 2 * wn.size
+    phi_free = np.zeros((h.size, n, n))
+    for i in range(h.size):
+        if kind[i] == 0:
+            phi_free[i] = free_flight(wn, zeta, h[i])
+    return kind, h, Aq, n_col, phi_free
+
+
+@nb.njit(cache=True)
+def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, lend):
+    """The monodromy matrix (K, K), K = n + D·p·(collocation elements), at depth b [m].
+
+    Columns/rows: z at the period start (n), then u at every collocation node τ_1..τ_p of every
+    collocation element (D each), previous period → this period.
+    """
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    K = n + D * p * n_col
+    w = 0.5 * b * kt
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, K))
+    P = p * n
+    L = np.empty((P, P))
+    R = np.empty((P, n + D * p))
+    X = np.empty((P, K))
+    ce = 0  # collocation element counter
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for col in range(K):
+                    s = 0.0
+                    for q in range(n):
+                        s += phi_free[el, r, q] * Z[q, col]
+                    Znew[r, col] = s
+            for r in range(n):
+                for col in range(K):
+                    Z[r, col] = Znew[r, col]
+            continue
+        hi = h[el]
+        L[:, :] = 0.0
+        R[:, :] = 0.0
+        for k in range(1, p + 1):
+            rk = (k - 1) * n
+            for l in range(1, p + 1):
+                dkl = Dm[k, l] / hi
+                cl = (l - 1) * n
+                for r in range(n):
+                    L[rk + r, cl + r] = dkl
+            # − (A0 + w E_k C) on the diagonal block
+            for j in range(M):
+                L[rk + j, rk + M + j] -= 1.0
+                L[rk + M + j, rk + j] += wn[j] * wn[j]
+                L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
+                for l in range(M):
+                    L[rk + M + j, rk + l] -= w * Aq[el, k, mdir[j], mdir[l]] / mass[j]
+            # right-hand sides: − D_k0 z_0 (first n columns), − w E_k u_old,k (node k's D columns)
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                R[rk + r, r] = -d0
+            for j in range(M):
+                for e in range(D):
+                    R[rk + M + j, n + (k - 1) * D + e] = -w * Aq[el, k, mdir[j], e] / mass[j]
+        Y = np.linalg.solve(L, R)
+        # node states in the global columns: X = Y[:, :n] Z + Y[:, n:] at this element's history columns
+        c0 = n + D * p * ce
+        for r in range(P):
+            for col in range(K):
+                s = 0.0
+                for q in range(n):
+                    s += Y[r, q] * Z[q, col]
+                X[r, col] = s
+            for c in range(D * p):
+                X[r, c0 + c] += Y[r, n + c]
+        # this period's displacements at the nodes (history rows of U), and the end state
+        for k in range(1, p + 1):
+            rk = (k - 1) * n
+            for e in range(D):
+                row = n + D * (p * ce + k - 1) + e
+                for col in range(K):
+                    s = 0.0
+                    for j in range(M):
+                        if mdir[j] == e:
+                            s += X[rk + j, col]
+                    U[row, col] = s
+        # the end state from the interpolant (Gauss nodes are interior): z(h) = Σ_l ℓ_l(1) z_l
+        for r in range(n):
+            for col in range(K):
+                s = lend[0] * Z[r, col]
+                for k in range(1, p + 1):
+                    s += lend[k] * X[(k - 1) * n + r, col]
+                Znew[r, col] = s
+        for r in range(n):
+            for col in range(K):
+                Z[r, col] = Znew[r, col]
+        ce += 1
+    for r in range(n):
+        for col in range(K):
+            U[r, col] = Z[r, col]
+    return U
+
+
+@nb.njit(cache=True)
+def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
+    """(ρ, dominant multiplier) at depth b [m] on the layout g."""
+    U = monodromy(b, kt, wn, zeta, mass, mdir, D, g[0], g[1], g[2], g[3], g[4], nd[1], nd[2])
+    return _dominant(multipliers(U))
+
+
+@nb.njit(cache=True)
+def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g, nd):
+    """Shrink the bracket (ρ(b_lo) ≤ 1 < ρ(b_hi)) on ρ − 1 to a relative width rtol (Illinois method)."""
+    n_eval = 0
+    if not math.isfinite(f_hi):
+        f_hi = 1.0
+    side = 0
+    for _ in range(100):
+        if b_hi - b_lo <= rtol * b_hi:
+            break
+        x = (b_lo * f_hi - b_hi * f_lo) / (f_hi - f_lo)
+        # keep the guess inside the bracket, so it shrinks even where ρ is kinked (dominance switch)
+        lo_g = b_lo + 0.02 * (b_hi - b_lo)
+        hi_g = b_hi - 0.02 * (b_hi - b_lo)
+        if not (lo_g <= x <= hi_g):
+            x = 0.5 * (b_lo + b_hi)
+        r, mu = rho(x, kt, wn, zeta, mass, mdir, D, g, nd)
+        n_eval += 1
+        fx = r - 1.0
+        if fx > 0.0:
+            b_hi, f_hi, mu_hi = x, fx, mu
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            b_lo, f_lo = x, fx
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return 0.5 * (b_lo + b_hi), mu_hi, n_eval
+
+
+@nb.njit(cache=True)
+def first_crossing(guess, ladder, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd):
+    """First crossing of ρ(b) = 1 from b = 0 upward.
+
+    ρ on the depths guess·ladder (ascending), stopping at the first unstable one, then geometric
+    expansion (×1.5) up to 1e4·guess; the bracket is refined by :func:`_illinois`. ``rho0`` = ρ(0)
+    (free decay, known in closed form). Returns (depth [m] or inf, dominant multiplier at the
+    unstable end, number of ρ evaluations).
+    """
+    b_lo = 0.0
+    f_lo = rho0 - 1.0
+    n_eval = 0
+    b_hi = -1.0
+    f_hi = 0.0
+    mu_hi = complex(np.nan, np.nan)
+    b = 0.0
+    k = 0
+    while b < 1e4 * guess:
+        if k < ladder.size:
+            b = guess * ladder[k]
+        else:
+            b *= 1.5
+        k += 1
+        r, mu = rho(b, kt, wn, zeta, mass, mdir, D, g, nd)
+        n_eval += 1
+        if r > 1.0:
+            b_hi, f_hi, mu_hi = b, r - 1.0, mu
+            break
+        b_lo, f_lo = b, r - 1.0
+    if b_hi < 0:
+        return np.inf, complex(np.nan, np.nan), n_eval
+    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g, nd)
+    return d, mu, n_eval + c
+
+
+@nb.njit(cache=True)
+def psi(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
+    """Ψ(σ): the collocation transition (n, n) complex over one tooth period of the ODE
+    ż = (A0 + σ E(t) C) z, the same discretisation as :func:`monodromy`.
+
+    Why: a Floquet solution z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so the delay equation becomes this
+    ODE with σ = w (1 − 1/μ), and μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0: an n × n
+    characteristic equation (n = 2 × modes), exact for the discretised system as well.
+    """
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    P = p * n
+    Z = np.zeros((n, n), dtype=np.complex128)
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, n), dtype=np.complex128)
+    L = np.empty((P, P), dtype=np.complex128)
+    R = np.empty((P, n), dtype=np.complex128)
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for col in range(n):
+                    acc = 0.0j
+                    for q in range(n):
+                        acc += phi_free[el, r, q] * Z[q, col]
+                    Znew[r, col] = acc
+            for r in range(n):
+                for col in range(n):
+                    Z[r, col] = Znew[r, col]
+            continue
+        hi = h[el]
+        L[:, :] = 0.0
+        for k in range(1, p + 1):
+            rk = (k - 1) * n
+            for l in range(1, p + 1):
+                dkl = Dm[k, l] / hi
+                cl = (l - 1) * n
+                for r in range(n):
+                    L[rk + r, cl + r] = dkl
+            for j in range(M):
+                L[rk + j, rk + M + j] -= 1.0
+                L[rk + M + j, rk + j] += wn[j] * wn[j]
+                L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
+                for l in range(M):
+                    L[rk + M + j, rk + l] -= sigma * Aq[el, k, mdir[j], mdir[l]] / mass[j]
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                for col in range(n):
+                    R[rk + r, col] = -d0 * Z[r, col]
+        X = np.linalg.solve(L, R)
+        for r in range(n):
+            for col in range(n):
+                acc = lend[0] * Z[r, col]
+                for k in range(1, p + 1):
+                    acc += lend[k] * X[(k - 1) * n + r, col]
+                Znew[r, col] = acc
+        for r in range(n):
+            for col in range(n):
+                Z[r, col] = Znew[r, col]
+    return Z
+
+
+@nb.njit(cache=True)
+def char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd):
+    """det(μ I − Ψ(w (1 − 1/μ))) at μ = e^{iθ}, w = ½ b Kt: zero iff a multiplier lies at e^{iθ}."""
+    mu = complex(math.cos(theta), math.sin(theta))
+    sigma = 0.5 * b * kt * (1.0 - 1.0 / mu)
+    P = psi(sigma, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], nd[1], nd[2])
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(n):
+            P[i, j] = -P[i, j]
+        P[i, i] += mu
+    return np.linalg.det(P)
+
+
+@nb.njit(cache=True)
+def refine(b, theta, kt, wn, zeta, mass, mdir, g, nd):
+    """Newton on the characteristic function for (b, θ) with a multiplier e^{iθ} on the unit circle
+    at depth b, θ folded into [0, π] (conjugate symmetry). A flip boundary (θ = π) is a root of the
+    same system. The Jacobian (forward differences) is formed at the start and then updated by
+    Broyden's rule (one evaluation per step), re-formed if a step fails to shrink |f|.
+    Returns (b, θ, converged, evaluations)."""
+    n_eval = 0
+    f = char_fn(b, theta, kt, wn, zeta, mass, mdir, g, nd)
+    n_eval += 1
+    j00 = j01 = j10 = j11 = 0.0
+    fresh = False
+    for it in range(30):
+        if not fresh:
+            db_ = 1e-7 * b
+            fb = (char_fn(b + db_, theta, kt, wn, zeta, mass, mdir, g, nd) - f) / db_
+            dt_ = -1e-7 if theta > 1.0 else 1e-7
+            ft = (char_fn(b, theta + dt_, kt, wn, zeta, mass, mdir, g, nd) - f) / dt_
+            n_eval += 2
+            j00, j01, j10, j11 = fb.real, ft.real, fb.imag, ft.imag
+            fresh = True
+        det = j00 * j11 - j01 * j10
+        if det == 0.0 or not math.isfinite(det):
+            return b, theta, False, n_eval
+        step_b = (-f.real * j11 + j01 * f.imag) / det
+        step_t = (-j00 * f.imag + j10 * f.real) / det
+        # damped: a Newton step longer than this has left the root's neighbourhood
+        scale = max(abs(step_b) / (0.2 * b), abs(step_t) / 0.3, 1.0)
+        step_b /= scale
+        step_t /= scale
+        b_new = b + step_b
+        t_new = theta + step_t
+        if not (b_new > 0.0) or not math.isfinite(b_new):
+            return b, theta, False, n_eval
+        if scale == 1.0 and abs(step_b) < 1e-7 * b and abs(step_t) < 1e-7:
+            return b_new, _fold(t_new), True, n_eval
+        folded = t_new > math.pi or t_new < 0.0
+        f_new = char_fn(b_new, _fold(t_new), kt, wn, zeta, mass, mdir, g, nd)
+        n_eval += 1
+        if abs(f_new) >= abs(f) and not fresh:
+            fresh = False  # the secant model went stale: re-form the Jacobian at the old point
+            continue
+        if folded:
+            fresh = False  # the reflection breaks the secant relation
+        else:
+            # Broyden: J += (Δf − J Δx) Δxᵀ / |Δx|², scaled so that b and θ steps weigh alike
+            rb = f_new.real - f.real - (j00 * step_b + j01 * step_t)
+            ri = f_new.imag - f.imag - (j10 * step_b + j11 * step_t)
+            nn = step_b * step_b + step_t * step_t
+            j00 += rb * step_b / nn
+            j01 += rb * step_t / nn
+            j10 += ri * step_b / nn
+            j11 += ri * step_t / nn
+            fresh = abs(f_new) < abs(f)
+        b, theta, f = b_new, _fold(t_new), f_new
+    return b, theta, False, n_eval
+
+
+@nb.njit(cache=True)
+def _fold(theta):
+    """θ mod 2π folded into [0, π] (a multiplier and its conjugate are the same boundary)."""
+    t = theta % TWO_PI
+    return TWO_PI - t if t > math.pi else t
+
+
+@nb.njit(cache=True)
+def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act, elem_len,
+              nd, rtol, w_flex, checks, depth, mu, n_eval):
+    """Limiting depths along ascending speeds rpm (S,) for one structure, continuing from speed to speed.
+
+    First speed (or after a failure): ρ on b_ref·``ladder`` to the first unstable depth, Illinois on
+    ρ − 1, then Newton on the characteristic function (exact root of the discretised system). Next
+    speeds: Newton from the previous boundary point (θ predicted from the chatter frequency nearest
+    w_flex [rad/s], or kept at π for a flip), accepted when the full monodromy is stable at
+    b·``checks`` (e.g. 0.6 and 0.995: nothing crossed below); otherwise the ladder search with
+    ``ladder_cont`` around the rejected value. Writes depth, mu (on the unit circle), n_eval (S,).
+    """
+    D = act.size
+    have = False
+    b_prev = 0.0
+    b_prev2 = 0.0
+    th_prev = 0.0
+    T_prev = 1.0
+    for s in range(rpm.size):
+        g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
+        T = 60.0 / (n_teeth * rpm[s])
+        rho0 = 0.0
+        for j in range(wn.size):
+            rho0 = max(rho0, math.exp(-zeta[j] * wn[j] * T))
+        count = 0
+        done = False
+        guess = b_ref[s]
+        lad = ladder
+        if have:
+            if th_prev > math.pi - 1e-6:
+                th0 = math.pi
+            else:
+                # the chatter frequency ω = (±θ + 2πk)/T nearest the flexible mode stays, θ moves with T
+                best = np.inf
+                w_c = 0.0
+                for sg in (-1.0, 1.0):
+                    k = round((w_flex * T_prev - sg * th_prev) / TWO_PI)
+                    w_try = (sg * th_prev + TWO_PI * k) / T_prev
+                    if abs(w_try - w_flex) < best:
+                        best = abs(w_try - w_flex)
+                        w_c = w_try
+                th0 = _fold(w_c * T)
+            b0 = b_prev
+            if s >= 2 and b_prev2 > 0.0:  # linear extrapolation in speed, clamped
+                b0 = b_prev + (b_prev - b_prev2) / (rpm[s - 1] - rpm[s - 2]) * (rpm[s] - rpm[s - 1])
+                b0 = min(1.5 * b_prev, max(b0, 0.67 * b_prev))
+            b1, th1, ok, c = refine(b0, th0, kt, wn, zeta, mass, mdir, g, nd)
+            count += c
+            br_lo = 0.0
+            br_hi = -1.0
+            if ok:
+                stable = True
+                f_lo = rho0 - 1.0
+                for q in range(checks.size):
+                    r, m_hi = rho(b1 * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
+                    count += 1
+                    if r > 1.0:
+                        stable = False
+                        # a lower crossing: the checks already bracket it
+                        br_lo = b1 * checks[q - 1] if q > 0 else 0.0
+                        br_hi = b1 * checks[q]
+                        f_hi = r - 1.0
+                        break
+                    f_lo = r - 1.0
+                if stable:
+                    depth[s] = b1
+                    mu[s] = complex(math.cos(th1), math.sin(th1))
+                    done = True
+                    b_prev2 = b_prev
+                    b_prev, th_prev = b1, th1
+                guess = b1
+            else:
+                guess = b_prev
+            lad = ladder_cont
+            if not done and br_hi > 0.0:
+                d, m_, c = _illinois(br_lo, f_lo, br_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)
+                count += c
+                b1, th1, ok, c = refine(d, abs(cmath_phase(m_)), kt, wn, zeta, mass, mdir, g, nd)
+                count += c
+                if ok and abs(b1 / d - 1.0) < 0.006:
+                    depth[s] = b1
+                    mu[s] = complex(math.cos(th1), math.sin(th1))
+                    done = True
+                    b_prev2 = 0.0
+                    b_prev, th_prev = b1, th1
+        if not done:
+            # bracket to 1 %, then Newton (exact root); the fine Illinois only where Newton fails
+            d, m_, c = first_crossing(guess, lad, 0.01, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+            count += c
+            have = False
+            if math.isfinite(d):
+                th0 = abs(cmath_phase(m_))
+                b1, th1, ok, c = refine(d, th0, kt, wn, zeta, mass, mdir, g, nd)
+                count += c
+                if ok and abs(b1 / d - 1.0) < 0.006:
+                    d = b1
+                    m_ = complex(math.cos(th1), math.sin(th1))
+                    have = True
+                    b_prev2 = 0.0  # a restart: no slope across it
+                    b_prev, th_prev = b1, th1
+                else:
+                    d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+                    count += c
+            depth[s] = d
+            mu[s] = m_
+        T_prev = T
+        n_eval[s] = count
+
+
+@nb.njit(cache=True)
+def cmath_phase(z):
+    return math.atan2(z.imag, z.real)
+
+
+@nb.njit(cache=True, parallel=True)
+def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
+                elem_len, nd, rtol, w_flex, checks, depth, mu, n_eval):
+    """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
+    blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
+    (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
+    n_b = wn.shape[0]
+    n_blk = starts.size - 1
+    for t in nb.prange(n_b * n_blk):
+        bi = t // n_blk
+        k = t % n_blk
+        a = starts[k]
+        e = starts[k + 1]
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
+                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+
+
+@nb.njit(cache=True)
+def refine_at(n_teeth, kt, kr, phi_s, phi_e, rpm, b, theta, wn, zeta, mass, mdir, act, elem_len, nd):
+    """:func:`refine` at one speed on the layout with nodes ``nd``: the boundary point (b, θ) found
+    with other nodes, moved to this discretisation (used by the convergence check)."""
+    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    return refine(b, theta, kt, wn, zeta, mass, mdir, g, nd)

@@ -7,6 +7,9 @@ Each campaign (seeded):
 * labels: a cut at (Ω, b) chatters when b > b_lim,true(Ω) · exp(ε), ε ~ N(0, 3 %) (label noise), with
   b_lim,true from ``--truth-engine`` (default sdm with 40 steps per tooth period, ``--truth-steps``: the labels do NOT come from the zero-order model
   being fitted, so model error is in the loop; ``--truth-engine zoa`` for calibration);
+  or, with ``--labels simulate``, from the time-domain simulation (millstab.simulate.label_cuts: its
+  stable | marginal | chatter labels and chatter frequencies, ``--flip`` of the stable/chatter labels
+  swapped by the "operator"), the truth engine then only judging whether a recommendation is stable;
 * the loop: the first cut is the recommendation of the prior alone; then ``--cuts`` − 1 times: update
   (``--samples``, zoa), cut the tool's next test, label it. After each update: the recommendation at
   ``--risk`` in ``--rpm`` with ``--max-depth``, whether it is truly stable (b < b_lim,true), and its
@@ -43,6 +46,8 @@ from millstab.update import Posterior, make_prior, p_stable_map, recommend, upda
 from millstab.update.posterior import exchange_of  # noqa: E402
 
 OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
+#: feed per tooth of the simulated cuts [m]
+FEED_M = 0.1e-3
 
 
 def truth_of(prior, rng) -> np.ndarray:
@@ -52,6 +57,16 @@ def truth_of(prior, rng) -> np.ndarray:
 
 def label(b_true: np.ndarray, depth: np.ndarray, rng, noise: float) -> np.ndarray:
     return np.where(depth > b_true * np.exp(noise * rng.standard_normal(depth.shape)), "chatter", "stable")
+
+
+def simulated(structure, cutting, rpm, depth_mm, seed: int, flip: float) -> tuple[list[str], list[float]]:
+    """Labels and chatter frequencies [Hz] of cuts from the time-domain simulation (operator swaps a
+    stable/chatter label with probability ``flip``; marginal kept)."""
+    from millstab.simulate import label_cuts
+
+    lab = label_cuts(structure, cutting, np.atleast_1d(rpm), np.atleast_1d(depth_mm) * 1e-3, FEED_M, label_noise=flip,
+                     seed=seed)
+    return [str(x) for x in lab.label], [float(h) for h in lab.chatter_hz]
 
 
 def main() -> None:
@@ -65,6 +80,9 @@ def main() -> None:
     ap.add_argument("--noise", type=float, default=0.03, help="label noise: σ of ln(boundary)")
     ap.add_argument("--truth-engine", default="sdm")
     ap.add_argument("--truth-steps", type=int, default=40, help="SDM steps per tooth period of the truth (speed)")
+    ap.add_argument("--labels", choices=("engine", "simulate"), default="engine",
+                    help="labels from the truth engine with boundary noise, or from the time-domain simulation")
+    ap.add_argument("--flip", type=float, default=0.05, help="simulate: probability an operator swaps a label")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     print(describe())
@@ -106,11 +124,15 @@ def main() -> None:
             # the campaign
             rec = recommend(prior_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
             cut_rpm, cut_depth = [rec.rpm], [rec.depth_mm]
-            labels = [str(label(np.array([b_true(rec.rpm)]), np.array([rec.depth_mm]), rng, args.noise)[0])]
+            hz: list[float] = [np.nan]
+            if args.labels == "simulate":
+                labels, hz = simulated(s_true, cfg.cutting, rec.rpm, rec.depth_mm, 1000 * c, args.flip)
+            else:
+                labels = [str(label(np.array([b_true(rec.rpm)]), np.array([rec.depth_mm]), rng, args.noise)[0])]
             trace = []
             post = prior_post
             for k in range(1, args.cuts + 1):
-                cuts = PointSet(cut_rpm, cut_depth, labels)
+                cuts = PointSet(cut_rpm, cut_depth, labels, chatter_hz=hz)
                 if (cuts.stable.any() or cuts.chatter.any()):
                     post = update(cfg, cuts, samples=args.samples, seed=1000 * (args.seed * 100 + c) + k)
                 rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=k)
@@ -121,7 +143,13 @@ def main() -> None:
                 nt = rec.next_test
                 cut_rpm.append(nt["rpm"])
                 cut_depth.append(nt["depth_mm"])
-                labels.append(str(label(np.array([b_true(nt["rpm"])]), np.array([nt["depth_mm"]]), rng, args.noise)[0]))
+                if args.labels == "simulate":
+                    lab1, hz1 = simulated(s_true, cfg.cutting, nt["rpm"], nt["depth_mm"], 1000 * c + k, args.flip)
+                    labels += lab1
+                    hz += hz1
+                else:
+                    labels.append(str(label(np.array([b_true(nt["rpm"])]), np.array([nt["depth_mm"]]), rng, args.noise)[0]))
+                    hz.append(np.nan)
             brier_end = brier(post)
             # each sample in the x/y orientation closer to the truth (the exact twins are indistinguishable)
             xm = exchange_of(prior, "zoa")
@@ -135,8 +163,12 @@ def main() -> None:
             # baseline 2: evenly spaced test cuts at the prior-median limit depth
             ev_rpm = np.linspace(lo, hi, args.cuts)
             ev_depth = np.minimum(get_engine("zoa").envelope(cfg.structure, cfg.cutting, ev_rpm).depth_mm, args.max_depth)
-            ev_lab = label(truth_engine.envelope(s_true, cfg.cutting, ev_rpm, **opts).depth_mm, ev_depth, rng, args.noise)
-            ev_cuts = PointSet(ev_rpm, ev_depth, ev_lab)
+            if args.labels == "simulate":
+                ev_lab, ev_hz = simulated(s_true, cfg.cutting, ev_rpm, ev_depth, 1000 * c + 999, args.flip)
+            else:
+                ev_lab = label(truth_engine.envelope(s_true, cfg.cutting, ev_rpm, **opts).depth_mm, ev_depth, rng, args.noise)
+                ev_hz = np.full(ev_rpm.size, np.nan)
+            ev_cuts = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
             ev_ok, ev_prod = (False, 0.0)
             if ev_cuts.stable.any() or ev_cuts.chatter.any():
                 ev_post = update(cfg, ev_cuts, samples=args.samples, seed=c)
@@ -151,7 +183,10 @@ def main() -> None:
                   f"90 % intervals cover truth: {cover.astype(int).tolist()}")
     n = len(rows)
     fin = [r["trace"][-1] for r in rows]
-    print(f"\n{n} campaigns, risk {args.risk}, labels from {args.truth_engine}, {args.cuts} cuts, {args.samples} samples:")
+    src = (f"the time-domain simulation ({args.flip:.0%} swapped; chatter frequencies used)" if args.labels == "simulate"
+           else f"{args.truth_engine} with {args.noise:.0%} boundary noise")
+    print(f"\n{n} campaigns, risk {args.risk}, labels from {src}, truth {args.truth_engine}, {args.cuts} cuts, "
+          f"{args.samples} samples:")
     print(f"  final recommendation truly stable: {sum(ok for _, ok, _ in fin)}/{n}; productivity/best: median "
           f"{np.median([p for _, _, p in fin]):.2f}, min {min(p for _, _, p in fin):.2f}; >= 0.85 and stable: "
           f"{sum(ok and p >= 0.85 for _, ok, p in fin)}/{n}")

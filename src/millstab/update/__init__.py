@@ -37,7 +37,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         config: a :class:`millstab.io.config.Config` (structure = prior medians; ``[prior]`` table).
         cuts: labelled cuts (unlabelled rows count as boundary points).
         points: more boundary points (or cuts), or ``None``.
-        engine: ``zoa`` (fast; reports chatter frequencies) or ``sdm`` (interrupted cutting).
+        engine: a registered engine (:data:`millstab.stability.ENGINES`): ``zoa`` (fast; the only one whose
+            chatter frequencies are used) or an interrupted-cutting engine (``sdm``, ``spectral``).
         samples: posterior samples (SMC particles).
         seed: seed of the sampler (same seed, same samples).
         moves: Metropolis–Hastings moves per tempering stage.

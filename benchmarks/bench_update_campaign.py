@@ -40,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
+from millstab.io.config import PriorTable  # noqa: E402
 from millstab.io.points import PointSet  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import Posterior, make_prior, p_stable_map, recommend, update  # noqa: E402
@@ -84,11 +85,14 @@ def main() -> None:
                     help="labels from the truth engine with boundary noise, or from the time-domain simulation")
     ap.add_argument("--flip", type=float, default=0.05, help="simulate: probability an operator swaps a label")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--sigma-depth-rel", type=float, default=None,
+                    help="the likelihood's depth noise relative to the depth (default: the absolute 0.05 mm)")
     args = ap.parse_args()
     print(describe())
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
-    prior = make_prior(cfg.structure, cfg.cutting)
+    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel) if args.sigma_depth_rel else None
+    prior = make_prior(cfg.structure, cfg.cutting, table)
     truth_engine = get_engine(args.truth_engine)
     fine = np.linspace(lo, hi, 181)
     g_rpm, g_depth = fine[::3], np.linspace(0.05, args.max_depth, 40)
@@ -134,7 +138,7 @@ def main() -> None:
             for k in range(1, args.cuts + 1):
                 cuts = PointSet(cut_rpm, cut_depth, labels, chatter_hz=hz)
                 if (cuts.stable.any() or cuts.chatter.any()):
-                    post = update(cfg, cuts, samples=args.samples, seed=1000 * (args.seed * 100 + c) + k)
+                    post = update(cfg, cuts, prior=prior, samples=args.samples, seed=1000 * (args.seed * 100 + c) + k)
                 rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=k)
                 ok, prod = truly(rec.rpm, rec.depth_mm)
                 trace.append((k, ok, prod))
@@ -171,7 +175,7 @@ def main() -> None:
             ev_cuts = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
             ev_ok, ev_prod = (False, 0.0)
             if ev_cuts.stable.any() or ev_cuts.chatter.any():
-                ev_post = update(cfg, ev_cuts, samples=args.samples, seed=c)
+                ev_post = update(cfg, ev_cuts, prior=prior, samples=args.samples, seed=c)
                 ev_rec = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
                 ev_ok, ev_prod = truly(ev_rec.rpm, ev_rec.depth_mm)
             rows.append({"trace": trace, "ham": (ham_ok, ham_prod), "even": (ev_ok, ev_prod), "brier": (brier0, brier_end),

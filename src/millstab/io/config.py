@@ -36,6 +36,18 @@ Schema (every quantity a number in SI or a string with units, parsed by
     stop = 12000                 # inclusive
     step = 10
 
+    [prior]                      # optional: the prior of `millstab update` (Bayesian updating)
+    fn = "5 %"                   # log-normal spread of every natural frequency (default 5 %)
+    k = "30 %"                   # ... of every stiffness (default 30 %), zeta: of every damping ratio (30 %)
+    fn_x = "3 %"                 # one parameter's own spread (names as in millstab.params)
+    kt = "10 %"                  # frees Kt (cutting coefficients are fixed unless given a spread)
+    fixed = ["zeta_y"]           # parameters held at the structure's values
+    sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
+    sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
+
+A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
+a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".
+
 Every problem raises :class:`InputError` naming the field (``structure.x[0].k``, ``cutting.kt``),
 the value as written (``cutting.exit = '270 deg'``, not its SI value) and what is allowed. Unknown
 keys are errors (with the allowed keys), so a typo cannot pass silently; so are units of the wrong
@@ -62,7 +74,10 @@ from millstab.io.text import read_text
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
-TOP_KEYS = ("name", "description", "cutting", "structure", "speeds")
+TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior")
+#: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
+PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz")
+_PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
 STRUCTURE_KEYS = ("x", "y", "frf")
 MODE_KEYS = ("fn", "k", "zeta")
@@ -88,6 +103,7 @@ class Config:
         path: the config file, or ``None`` for a config parsed from text.
         rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
         description: free text from the file ("" if none).
+        prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
     """
 
     cutting: Cutting
@@ -96,6 +112,27 @@ class Config:
     path: Path | None = None
     rpm: np.ndarray | None = None
     description: str = ""
+    prior: PriorTable | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PriorTable:
+    """The ``[prior]`` table of a config, as written (defaults are applied by :mod:`millstab.update.prior`).
+
+    Attributes:
+        spreads: {name: σ of ln(value)} for kinds (``fn``, ``k``, ``zeta``), parameter names
+            (``fn_x``, ``k_y2``) and cutting coefficients (``kt``, ``kr``), each > 0.
+        fixed: parameter names held at the structure's values.
+        sigma_depth_m: absolute depth noise [m], or ``None``.
+        sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
+        sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
+    """
+
+    spreads: Mapping[str, float]
+    fixed: tuple[str, ...] = ()
+    sigma_depth_m: float | None = None
+    sigma_depth_rel: float | None = None
+    sigma_chatter_hz: float | None = None
 
 
 def _check_keys(table: Any, field: str, allowed: Iterable[str], required: Iterable[str] = ()) -> Mapping[str, Any]:
@@ -249,6 +286,45 @@ def _rpm_hint(value: str, field: str) -> str:
     return f"; {value.strip()!r} is {hz * 60:.10g} rpm as a rotational speed: write that"
 
 
+def _prior(t: Any) -> PriorTable:
+    if not isinstance(t, Mapping):
+        raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
+    spreads: dict[str, float] = {}
+    fixed: tuple[str, ...] = ()
+    sd_m = sd_rel = sf = None
+    for key, value in t.items():
+        field = f"prior.{key}"
+        if key == "fixed":
+            if not (isinstance(value, list) and all(isinstance(v, str) and _PRIOR_NAME.match(v.strip()) for v in value)):
+                raise InputError(field, value, "must be a list of parameter names, e.g. [\"zeta_y\"]")
+            fixed = tuple(v.strip() for v in value)
+        elif key == "sigma_depth":
+            if not isinstance(value, str):
+                raise InputError(field, value, "give the unit: an absolute depth noise such as \"0.05 mm\" or a "
+                                               "relative one such as \"5 %\"")
+            if "%" in value:
+                sd_rel = parse_quantity(value, field, "dimensionless")
+                if not 0 < sd_rel < 1:
+                    raise InputError(field, value, "a relative depth noise must be in (0 %, 100 %)")
+            else:
+                sd_m = parse_quantity(value, field, "length")
+                if sd_m <= 0:
+                    raise InputError(field, value, "depth noise must be > 0 mm")
+        elif key == "sigma_chatter_hz":
+            sf = parse_quantity(value, field, "frequency")
+            if sf <= 0:
+                raise InputError(field, value, "chatter-frequency noise must be > 0 Hz")
+        elif isinstance(key, str) and _PRIOR_NAME.match(key):
+            x = parse_quantity(value, field, "dimensionless")
+            if x <= 0:
+                raise InputError(field, value, "a prior spread must be > 0 (to hold a parameter, list it in fixed)")
+            spreads[key] = x
+        else:
+            raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
+                                           f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
+    return PriorTable(spreads, fixed, sd_m, sd_rel, sf)
+
+
 def _speeds(t: Any) -> np.ndarray:
     t = _check_keys(t, "speeds", SPEED_KEYS, SPEED_KEYS)
     start, stop, step = (_rpm_value(t[k], f"speeds.{k}") for k in SPEED_KEYS)
@@ -276,7 +352,8 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     cutting = _cutting(data["cutting"])
     structure = _structure(data["structure"], base_dir)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
-    return Config(cutting, structure, name_value, path, rpm, description)
+    prior = _prior(data["prior"]) if "prior" in data else None
+    return Config(cutting, structure, name_value, path, rpm, description, prior)
 
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None) -> Config:
@@ -360,4 +437,4 @@ def write_config(path: PathLike, config: Config, protect: Iterable[PathLike] = (
     return atomic_write_text(path, config_to_toml(config), protect)
 
 
-__all__ = ["Config", "config_from_dict", "config_to_toml", "load_config", "parse_config", "write_config"]
+__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "parse_config", "write_config"]

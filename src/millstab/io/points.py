@@ -2,15 +2,18 @@
 
 File format (UTF-8 CSV, header required, columns in any order)::
 
-    rpm,depth_mm,label,weight
-    5500,1.20,,            <- boundary point (no label): the limiting depth at that speed
-    5600,1.50,chatter,2    <- test cut that chattered, counted twice in weighted objectives
-    5600,1.00,stable,      <- test cut that was stable
+    rpm,depth_mm,label,weight,chatter_hz
+    5500,1.20,,,           <- boundary point (no label): the limiting depth at that speed
+    5600,1.50,chatter,2,1012   <- test cut that chattered (at 1012 Hz), counted twice in weighted objectives
+    5600,1.00,stable,,     <- test cut that was stable
+    5700,1.25,marginal,,   <- test cut at the edge of chatter (light marks, growing sound)
 
 * ``rpm`` [rev/min] and ``depth_mm`` [mm] are required, both > 0.
-* ``label`` (optional column): ``stable`` or ``chatter`` (case-insensitive) for a test cut; an empty
-  cell marks a boundary point.
+* ``label`` (optional column): ``stable``, ``chatter`` or ``marginal`` (case-insensitive) for a test
+  cut; an empty cell marks a boundary point.
 * ``weight`` (optional column): > 0, default 1 (also for an empty cell).
+* ``chatter_hz`` (optional column): the measured chatter frequency [Hz] of a chatter (or marginal)
+  cut, > 0; an empty cell means not measured. Given on a stable cut or a boundary point it is an error.
 * Blank lines and lines starting with ``#`` are skipped (comments); any other column name is an
   error, so a misspelt header cannot be silently ignored.
 """
@@ -18,6 +21,7 @@ File format (UTF-8 CSV, header required, columns in any order)::
 from __future__ import annotations
 
 import csv
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,8 +34,9 @@ from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 
 REQUIRED = ("rpm", "depth_mm")
-OPTIONAL = ("label", "weight")
-LABELS = ("stable", "chatter")
+OPTIONAL = ("label", "weight", "chatter_hz")
+LABELS = ("stable", "chatter", "marginal")
+_LABEL_RULE = "must be 'stable', 'chatter', 'marginal' or empty (boundary point)"
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,9 +46,10 @@ class PointSet:
     Attributes:
         rpm: spindle speeds (n,) [rev/min], > 0.
         depth_mm: axial depths of cut (n,) [mm], > 0.
-        label: (n,) str array: ``"stable"``, ``"chatter"`` or ``""`` (boundary point). ``None`` =
-            all boundary points.
+        label: (n,) str array: ``"stable"``, ``"chatter"``, ``"marginal"`` or ``""`` (boundary point).
+            ``None`` = all boundary points.
         weight: (n,) weights > 0 for weighted objectives; ``None`` = all 1.
+        chatter_hz: (n,) measured chatter frequencies [Hz], NaN where not measured; ``None`` = none.
         source: the file the points came from (for messages and ``protect=``), or ``None``.
     """
 
@@ -52,6 +58,7 @@ class PointSet:
     label: np.ndarray | None = None
     weight: np.ndarray | None = None
     source: Path | None = None
+    chatter_hz: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
@@ -59,7 +66,8 @@ class PointSet:
         n = rpm.size
         label = np.full(n, "", dtype=object) if self.label is None else np.atleast_1d(np.asarray(self.label, dtype=object))
         weight = np.ones(n) if self.weight is None else np.atleast_1d(np.asarray(self.weight, dtype=float))
-        for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight)):
+        hz = np.full(n, np.nan) if self.chatter_hz is None else np.atleast_1d(np.asarray(self.chatter_hz, dtype=float))
+        for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight), ("chatter_hz", hz)):
             if arr.ndim != 1 or arr.size != n:
                 raise InputError(f"points.{name}", f"{arr.size} values", f"need one value per speed ({n})")
         for name, arr, unit in (("rpm", rpm, "rev/min"), ("depth_mm", depth, "mm"), ("weight", weight, "")):
@@ -70,11 +78,22 @@ class PointSet:
         label = np.array([str(s).strip().lower() for s in label], dtype=object)
         for i, s in enumerate(label):
             if s not in ("",) + LABELS:
-                raise InputError(f"points.label[{i}]", s, "must be 'stable', 'chatter' or empty (boundary point)")
+                raise InputError(f"points.label[{i}]", s, _LABEL_RULE)
+        given = ~np.isnan(hz)
+        bad = given & ~(np.isfinite(hz) & (hz > 0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(f"points.chatter_hz[{i}]", float(hz[i]), "must be a finite frequency > 0 Hz (or empty)")
+        odd = given & ~np.isin(label, ("chatter", "marginal"))
+        if odd.any():
+            i = int(np.argmax(odd))
+            raise InputError(f"points.chatter_hz[{i}]", float(hz[i]),
+                             f"a chatter frequency belongs to a chatter or marginal cut, not to a {label[i] or 'boundary'} point")
         # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "depth_mm", depth)
-        object.__setattr__(self, "label", label.astype("<U7") if n else np.array([], dtype="<U7"))
+        object.__setattr__(self, "label", label.astype("<U8") if n else np.array([], dtype="<U8"))
+        object.__setattr__(self, "chatter_hz", hz)
         object.__setattr__(self, "weight", weight)
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
@@ -98,6 +117,11 @@ class PointSet:
         return self.label == "chatter"
 
     @property
+    def marginal(self) -> np.ndarray:
+        """Boolean mask of the test cuts labelled marginal (at the edge of chatter)."""
+        return self.label == "marginal"
+
+    @property
     def depth_m(self) -> np.ndarray:
         """Depths in metres."""
         return self.depth_mm * 1e-3
@@ -107,7 +131,7 @@ class PointSet:
         m = np.asarray(mask)
         if m.dtype == bool and m.shape != self.rpm.shape:
             raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
-        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source)
+        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m])
 
 
 def _number(text: str, field: str, line: int, path: Path) -> float:
@@ -120,7 +144,8 @@ def read_points(path: PathLike) -> PointSet:
 
     Raises:
         InputError: missing file, empty file, missing or unknown column, a non-number (with the
-            line number), speed/depth/weight ≤ 0, unknown label.
+            line number), speed/depth/weight/chatter frequency ≤ 0, unknown label, a chatter
+            frequency on a stable cut or a boundary point.
     """
     if str(path).startswith("example:"):  # the CLI hands it over as a Path; str() keeps the text
         from millstab.datasets import points_path
@@ -151,7 +176,7 @@ def read_points(path: PathLike) -> PointSet:
     if len(rows) == 1:
         raise InputError("points file", str(p), "has a header but no points")
     col = {h: i for i, h in enumerate(names)}
-    rpm, depth, label, weight = [], [], [], []
+    rpm, depth, label, weight, hz = [], [], [], [], []
     for line, row in rows[1:]:
         if len(row) > len(names):
             # "5500,1,2" under a two-column header is most often a decimal comma (1,2 mm)
@@ -167,24 +192,38 @@ def read_points(path: PathLike) -> PointSet:
             raise InputError(f"{p.name} line {line}, depth_mm", cells[col["depth_mm"]], "depth of cut must be > 0 mm")
         lab = cells[col["label"]].lower() if "label" in col else ""
         if lab not in ("",) + LABELS:
-            raise InputError(f"{p.name} line {line}, label", cells[col["label"]],
-                             "must be 'stable', 'chatter' or empty (boundary point)")
+            raise InputError(f"{p.name} line {line}, label", cells[col["label"]], _LABEL_RULE)
         w = 1.0
         if "weight" in col and cells[col["weight"]]:
             w = _number(cells[col["weight"]], "weight", line, p)
             if w <= 0:
                 raise InputError(f"{p.name} line {line}, weight", cells[col["weight"]], "weight must be > 0")
+        f = math.nan
+        if "chatter_hz" in col and cells[col["chatter_hz"]]:
+            f = _number(cells[col["chatter_hz"]], "chatter_hz", line, p)
+            if f <= 0:
+                raise InputError(f"{p.name} line {line}, chatter_hz", cells[col["chatter_hz"]], "chatter frequency must be > 0 Hz")
+            if lab not in ("chatter", "marginal"):
+                raise InputError(f"{p.name} line {line}, chatter_hz", cells[col["chatter_hz"]],
+                                 f"a chatter frequency belongs to a chatter or marginal cut, not to a "
+                                 f"{lab or 'boundary'} point")
+        hz.append(f)
         rpm.append(r)
         depth.append(d)
         label.append(lab)
         weight.append(w)
-    return PointSet(np.array(rpm), np.array(depth), np.array(label, dtype=object), np.array(weight), p)
+    return PointSet(np.array(rpm), np.array(depth), np.array(label, dtype=object), np.array(weight), p, np.array(hz))
 
 
 def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] = ()) -> Path:
-    """Write a point set as CSV (all four columns; floats written exactly). Atomic; see results."""
-    return write_csv(path, ["rpm", "depth_mm", "label", "weight"],
-                     [points.rpm, points.depth_mm, list(points.label), points.weight], protect)
+    """Write a point set as CSV (rpm, depth_mm, label, weight, and chatter_hz when any is measured;
+    floats written exactly). Atomic; see results."""
+    header = ["rpm", "depth_mm", "label", "weight"]
+    cols = [points.rpm, points.depth_mm, list(points.label), points.weight]
+    if not np.isnan(points.chatter_hz).all():
+        header.append("chatter_hz")
+        cols.append(points.chatter_hz)
+    return write_csv(path, header, cols, protect)
 
 
 def check_enough(points: PointSet, n_free: int) -> int:

@@ -1,0 +1,76 @@
+"""Figures of Bayesian updating: the posterior's pair plot and the P(stable) map (drawing only)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+_MARKERS = {"stable": ("o", "tab:green"), "chatter": ("x", "tab:red"), "marginal": ("^", "tab:orange"),
+            "": ("s", "k")}
+_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
+
+
+def plot_corner(samples: np.ndarray, names, units, truth: np.ndarray | None = None, max_points: int = 2000):
+    """Pair plot of posterior samples (N, P): histograms on the diagonal, scatter below it."""
+    import matplotlib.pyplot as plt
+
+    p = samples.shape[1]
+    scale = np.array([_SHOW.get(u, (1.0, u))[0] for u in units])
+    s = samples * scale
+    sub = s[:: max(1, s.shape[0] // max_points)]
+    fig, axes = plt.subplots(p, p, figsize=(1.9 * p + 1, 1.9 * p + 1), squeeze=False)
+    for i in range(p):
+        for j in range(p):
+            ax = axes[i, j]
+            if j > i:
+                ax.set_visible(False)
+                continue
+            if i == j:
+                ax.hist(s[:, i], bins=40, color="0.4")
+                ax.set_yticks([])
+            else:
+                ax.plot(sub[:, j], sub[:, i], ".", ms=1.5, alpha=0.4, color="tab:blue")
+                if truth is not None:
+                    ax.plot(truth[j] * scale[j], truth[i] * scale[i], "r+", ms=10)
+            if truth is not None and i == j:
+                ax.axvline(truth[i] * scale[i], color="r", lw=1)
+            if i == p - 1:
+                ax.set_xlabel(f"{names[j]} [{_SHOW.get(units[j], (1, units[j]))[1]}]".replace(" []", ""), fontsize=8)
+            if j == 0 and i > 0:
+                ax.set_ylabel(f"{names[i]} [{_SHOW.get(units[i], (1, units[i]))[1]}]".replace(" []", ""), fontsize=8)
+            ax.tick_params(labelsize=6)
+    fig.tight_layout()
+    return fig
+
+
+def plot_pmap(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, prior_rpm=None, prior_depth_mm=None,
+              cuts: dict | None = None, recommended: dict | None = None, title: str = ""):
+    """P(stable) (S, D) as colour with its 5/50/95 % contours, the prior's SLD and the labelled cuts."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    mesh = ax.pcolormesh(rpm, depth_mm, p_stable.T, cmap="RdYlGn", vmin=0, vmax=1, shading="auto")
+    fig.colorbar(mesh, ax=ax, label="P(stable)")
+    cs = ax.contour(rpm, depth_mm, p_stable.T, levels=[0.05, 0.5, 0.95], colors="k", linewidths=[0.8, 1.4, 0.8],
+                    linestyles=["--", "-", "--"])
+    ax.clabel(cs, fmt={0.05: "5 %", 0.5: "50 %", 0.95: "95 %"}, fontsize=7)
+    if prior_rpm is not None:
+        ax.plot(prior_rpm, prior_depth_mm, color="tab:blue", lw=1.2, ls=":", label="prior SLD (hammer test)")
+    if cuts and cuts.get("rpm"):
+        lab = np.asarray(cuts.get("label", [""] * len(cuts["rpm"])))
+        r, d = np.asarray(cuts["rpm"], float), np.asarray(cuts["depth_mm"], float)
+        for name, (m, c) in _MARKERS.items():
+            sel = lab == name
+            if sel.any():
+                ax.plot(r[sel], d[sel], m, color=c, mec="k" if m != "x" else c, ms=6, label=name or "boundary point")
+    if recommended:
+        ax.plot(recommended["rpm"], recommended["depth_mm"], "*", color="gold", mec="k", ms=14, label="recommended")
+    ax.set_xlim(rpm.min(), rpm.max())
+    ax.set_ylim(depth_mm.min(), depth_mm.max())
+    ax.set_xlabel("spindle speed [rpm]")
+    ax.set_ylabel("axial depth [mm]")
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="upper left")
+    return fig
+
+
+__all__ = ["plot_corner", "plot_pmap"]

@@ -1,0 +1,206 @@
+"""Decisions from posterior samples: the P(stable) map, the recommended cut, and the next test.
+
+A cut at (Ω, b) is truly stable for a sample θ when b < b_lim(Ω; θ), so with equally weighted
+samples P(stable | Ω, b) = fraction of samples with b_lim(Ω) > b: a property of the posterior of the
+boundary, free of the label noise σ_b of the likelihood (which describes how labels are observed, not
+whether the process chatters).
+
+* :func:`p_stable_map`: ONE engine call for all samples × speeds, then a sort per speed and a single
+  vectorised ``searchsorted`` for all (speed, depth) pairs.
+* :func:`recommend`: the largest depth with P(chatter) ≤ risk at a speed is the risk-quantile of
+  b_lim over the samples (capped by ``max_depth``); the speed maximises the material removal rate
+  depth × speed (× width × feed per tooth × teeth → cm³/min). The best of a coarse grid is refined by a
+  bounded 1-D search on the continuous speed axis: rounds of ``REFINE_POINTS`` speeds in the bracket
+  between the best point's neighbours, each round one engine call, the bracket shrinking each time.
+* :func:`next_test`: the cut with the largest expected information about the parameters per unit of
+  productivity, among cuts more productive than the recommendation (criterion: the mutual information
+  between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
+  probability of the likelihood — "BALD" — times the cut's productivity relative to the
+  recommendation). It is the test most likely both to shrink the uncertainty and to move the
+  recommendation to a more productive cut; evaluated on a subsample of the posterior.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ndtr
+
+from millstab.errors import InputError
+from millstab.update.likelihood import limits
+from millstab.update.posterior import Posterior
+
+#: speeds of the coarse grid of :func:`recommend`
+COARSE_POINTS = 200
+#: speeds per refinement round, and rounds
+REFINE_POINTS = 24
+REFINE_ROUNDS = 3
+#: posterior samples used for the next-test criterion (its cost is quadratic-free but per sample)
+NEXT_TEST_SAMPLES = 1000
+
+
+def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
+    """P(stable) (S, D): the fraction of rows of ``blim_mm`` (N, S) [mm] above each depth (D,) [mm]."""
+    n, s = blim_mm.shape
+    d = np.maximum(np.asarray(depth_mm, dtype=float), 0.0)  # every limit is > 0: P(stable) = 1 at b ≤ 0
+    top = max(float(np.nanmax(np.where(np.isfinite(blim_mm), blim_mm, 0.0))), float(d.max(initial=0.0)), 1.0)
+    width = 4.0 * top  # every column's values (inf → 2 top) fit in [0, width): offsets keep columns apart
+    a = np.sort(np.where(np.isfinite(blim_mm), blim_mm, 2.0 * top), axis=0).T  # (S, N)
+    off = width * np.arange(s)[:, None]
+    flat = (a + off).ravel()
+    # samples with b_lim ≤ b chatter at b: count them for every (speed, depth) in one search
+    below = np.searchsorted(flat, (d[None, :] + off).ravel(), side="right").reshape(s, d.size) - n * np.arange(s)[:, None]
+    return 1.0 - below / n
+
+
+def p_stable_map(post: Posterior, rpm, depth_mm) -> np.ndarray:
+    """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call."""
+    blim, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine)
+    return p_stable_from_limits(blim, np.asarray(depth_mm, float))
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The recommended cut and the next test (rpm, mm, cm³/min)."""
+
+    rpm: float
+    depth_mm: float
+    p_chatter: float
+    productivity: float
+    mrr_cm3_per_min: float | None
+    risk: float
+    next_test: dict
+    limited_by: str
+
+    def to_json(self) -> dict:
+        out = {"schema": "millstab.recommendation/1", "rpm": self.rpm, "depth_mm": self.depth_mm,
+               "p_chatter": self.p_chatter, "risk": self.risk, "limited_by": self.limited_by,
+               "relative_productivity_mm_rpm": self.productivity, "next_test": self.next_test}
+        if self.mrr_cm3_per_min is not None:
+            out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
+        return out
+
+
+def safe_depth(blim_mm: np.ndarray, risk: float) -> np.ndarray:
+    """Per speed (S,), the largest depth [mm] whose P(chatter) = P(b_lim ≤ b) is at most ``risk``.
+
+    With the sorted limits a₀ ≤ a₁ ≤ …, any b < a_m (m = ⌊risk·N⌋) has at most m samples below it:
+    the answer is a_m less a relative 1e-9 (so that the count is strict).
+    """
+    n = blim_mm.shape[0]
+    m = min(int(math.floor(risk * n)), n - 1)
+    a = np.partition(blim_mm, m, axis=0)[m]
+    return a * (1 - 1e-9)
+
+
+def _mrr_factor(teeth: int, width_mm: float | None, feed_mm: float | None) -> float | None:
+    if width_mm is None and feed_mm is None:
+        return None
+    if width_mm is None or feed_mm is None:
+        raise InputError("--radial-width" if width_mm is None else "--feed-per-tooth", None,
+                         "give both the radial width and the feed per tooth for a removal rate in cm^3/min")
+    for name, v in (("--radial-width", width_mm), ("--feed-per-tooth", feed_mm)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(name, v, "must be a finite number > 0 mm")
+    return width_mm * feed_mm * teeth / 1000.0  # mm·mm·mm/min per (mm·rpm) → cm³/min
+
+
+def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
+              width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0) -> Recommendation:
+    """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
+
+    Args:
+        post: the posterior.
+        risk: tolerated probability of chatter, in (0, 1).
+        rpm_range: (low, high) spindle speeds [rpm].
+        max_depth_mm: the deepest cut allowed [mm] (tool, machine), or ``None``.
+        width_mm, feed_mm: radial width of cut and feed per tooth [mm] for a rate in cm³/min.
+        seed: seed of the subsample of the next-test criterion.
+    Raises:
+        InputError: risk outside (0, 1), a bad speed range or depth limit.
+    Warns:
+        UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior there).
+    """
+    if not (isinstance(risk, (int, float)) and 0 < risk < 1):
+        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
+    lo, hi = (float(x) for x in rpm_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise InputError("--rpm", f"{lo:g}:{hi:g}", "need 0 < LOW < HIGH rev/min")
+    if max_depth_mm is not None and not (math.isfinite(max_depth_mm) and max_depth_mm > 0):
+        raise InputError("--max-depth", max_depth_mm, "must be a finite depth > 0 mm")
+    factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
+    data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
+    if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
+        warnings.warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
+                      f"{data_rpm.max():g} rpm): there the recommendation leans on the prior", UserWarning, stacklevel=2)
+    cap = math.inf if max_depth_mm is None else max_depth_mm
+    u = post.u
+
+    def best_of(speeds: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+        blim, _ = limits(post.prior, u, speeds, post.engine)
+        depth = np.minimum(safe_depth(blim, risk), cap)
+        depth = np.where(np.isfinite(depth), depth, 0.0)
+        return int(np.argmax(depth * speeds)), depth, blim
+
+    speeds = np.linspace(lo, hi, COARSE_POINTS)
+    i, depth, blim = best_of(speeds)
+    best = (speeds[i], depth[i], blim[:, i])
+    step = speeds[1] - speeds[0]
+    for _ in range(REFINE_ROUNDS):  # bounded 1-D search around the best speed, one engine call per round
+        a, b = max(lo, best[0] - step), min(hi, best[0] + step)
+        cand = np.linspace(a, b, REFINE_POINTS)
+        j, d2, bl2 = best_of(cand)
+        if d2[j] * cand[j] > best[1] * best[0]:
+            best = (cand[j], d2[j], bl2[:, j])
+        step = cand[1] - cand[0]
+    rpm_best, depth_best, col = best
+    p_ch = float(np.mean(col <= depth_best))
+    prod = float(rpm_best * depth_best)
+    limited = "max_depth" if depth_best >= cap * (1 - 1e-12) else "chatter risk"
+    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed)
+    return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
+                          None if factor is None else prod * factor, float(risk), nt, limited)
+
+
+def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, depth_rec: float, cap: float = math.inf,
+              *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0) -> dict:
+    """The next test cut: the largest productivity-weighted label information (see the module docstring)."""
+    rng = np.random.default_rng(seed)
+    u = post.u
+    if u.shape[0] > NEXT_TEST_SAMPLES:
+        u = u[rng.choice(u.shape[0], NEXT_TEST_SAMPLES, replace=False)]
+    speeds = np.linspace(*rpm_range, n_rpm)
+    blim, _ = limits(post.prior, u, speeds, post.engine)  # (M, S)
+    finite = np.where(np.isfinite(blim), blim, np.nan)
+    top = float(np.nanquantile(finite, 0.95)) if np.isfinite(finite).any() else 2 * max(depth_rec, 1e-3)
+    d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
+    depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
+    sig = post.prior.sigma_depth_mm(depths)  # (D,)
+    pi = ndtr((depths[None, None, :] - blim[:, :, None]) / sig)  # (M, S, D) label probabilities
+    pbar = pi.mean(axis=0)
+
+    def h(p: np.ndarray) -> np.ndarray:
+        q = np.clip(p, 1e-12, 1 - 1e-12)
+        return -(q * np.log(q) + (1 - q) * np.log(1 - q))
+
+    info = h(pbar) - h(pi).mean(axis=0)  # mutual information [nats]
+    prod = speeds[:, None] * depths[None, :]
+    ref = max(rpm_rec * depth_rec, 1e-300)
+    score = info * prod / ref
+    better = prod > ref
+    if better.any():
+        score = np.where(better, score, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+    return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(pbar[i, j]),
+            "information_nats": float(info[i, j]), "relative_productivity": float(prod[i, j] / ref),
+            "why": "largest expected information about the parameters (mutual information between the cut's label "
+                   "and θ) times its productivity relative to the recommendation, among cuts more productive than "
+                   "the recommendation" if better.any() else
+                   "largest expected information about the parameters (no cut in range is more productive than the "
+                   "recommendation)"}
+
+
+__all__ = ["Recommendation", "next_test", "p_stable_from_limits", "p_stable_map", "recommend", "safe_depth"]

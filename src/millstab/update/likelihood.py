@@ -1,0 +1,199 @@
+"""The likelihood of labelled test cuts (and boundary points) given the modal parameters.
+
+For a cut at speed Ω and depth b with limiting depth b_lim(Ω; θ) (one batched engine call for all
+samples, :func:`limits`) and depth noise σ_b:
+
+* chatter: P = Φ(z), stable: P = Φ(−z), z = (b − b_lim)/σ_b (a probit boundary: a label is nearly
+  certain far from the limit and a coin toss on it);
+* marginal: half a chatter and half a stable observation, L = Φ(z)^½ Φ(−z)^½. Why this and not a
+  narrow Gaussian at b_lim: "marginal" says the cut is near the limit without saying on which side;
+  the half/half form is largest at b = b_lim, falls off with the same σ_b scale as the other labels
+  (so one noise level serves all three), and carries at most one cut's worth of evidence, so a shop's
+  loosely used "marginal" cannot pin the limit harder than a bracketing pair of cuts would;
+* a measured chatter frequency f_m (chatter or marginal cut): Gaussian in the distance from f_m to
+  the nearest member of the family ±f_c + m·f_tp (f_c the limiting lobe's chatter frequency, f_tp =
+  N Ω/60 the tooth-passing frequency, m any integer). The vibration of a milling process holds the
+  whole family (the tooth-passing modulation), and a microphone's strongest peak may be any member,
+  so the nearest-member distance (a max over harmonics instead of a mixture's sum) is used; it is
+  informative modulo f_tp only, which is the honest content of one frequency reading;
+* a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²).
+
+Units: rpm, mm, Hz at this module's interface; the engines work in m.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import log_ndtr
+
+from millstab.errors import InputError
+from millstab.io.points import PointSet
+from millstab.stability import get_engine
+from millstab.stability import zoa
+from millstab.update.prior import Prior
+
+#: engines that report the limiting lobe's chatter frequency through the batched path
+FREQUENCY_ENGINES = ("zoa",)
+_LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
+
+
+def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
+           with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
+
+    ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm]; a free Kt
+    scales the depths exactly (see :mod:`millstab.update.prior`). ``inf`` where no boundary exists.
+    """
+    theta, factor = prior.split(u)
+    batch = prior.par.batch(theta)
+    rpm = zoa.check_rpm(rpm)
+    if with_freq and engine == "zoa":
+        depth = np.empty((batch.size, rpm.size))
+        hz = np.empty((batch.size, rpm.size))
+        step = zoa.chunk_rows(rpm.size)
+        for start in range(0, batch.size, step):  # chunks bound the memory; each chunk is one compiled call
+            rows = slice(start, min(start + step, batch.size))
+            part = type(batch)(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+            d, _, wc = zoa._run_modal(part, prior.cutting, rpm)
+            depth[rows], hz[rows] = d, wc / (2 * math.pi)
+    else:
+        depth, hz = get_engine(engine).envelope_batch(batch, prior.cutting, rpm), None
+    return depth * 1e3 * factor[:, None], hz
+
+
+def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_hz: np.ndarray) -> np.ndarray:
+    """Distance [Hz] from a measured frequency to the nearest of ±f_c + m·f_tp (m integer).
+
+    Broadcasts; a NaN prediction (no boundary) gives the largest possible distance, f_tp/2.
+    """
+    fc = np.where(np.isfinite(predicted_hz), predicted_hz, 0.5 * tooth_hz)
+    r1 = np.mod(measured_hz - fc, tooth_hz)
+    r2 = np.mod(measured_hz + fc, tooth_hz)
+    d = np.minimum(np.minimum(r1, tooth_hz - r1), np.minimum(r2, tooth_hz - r2))
+    return np.where(np.isfinite(predicted_hz), d, 0.5 * tooth_hz)
+
+
+def cut_loglik(z: np.ndarray, kind: np.ndarray) -> np.ndarray:
+    """Log-likelihood of each cut's label from z = (b − b_lim)/σ_b; kind 0 stable, 1 chatter, 2 marginal."""
+    up, down = log_ndtr(z), log_ndtr(-z)
+    return np.where(kind == 1, up, np.where(kind == 0, down, 0.5 * (up + down)))
+
+
+_KIND = {"stable": 0, "chatter": 1, "marginal": 2}
+
+
+@dataclass(frozen=True, eq=False)
+class Evidence:
+    """The data of one update: labelled cuts and boundary points (rpm, mm, Hz; NaN = no frequency)."""
+
+    cut_rpm: np.ndarray
+    cut_depth_mm: np.ndarray
+    cut_kind: np.ndarray
+    cut_weight: np.ndarray
+    cut_hz: np.ndarray
+    pt_rpm: np.ndarray
+    pt_depth_mm: np.ndarray
+    pt_weight: np.ndarray
+
+    @classmethod
+    def from_points(cls, cuts: PointSet, points: PointSet | None = None) -> Evidence:
+        """Split a cuts file (labelled rows; unlabelled rows are boundary points) and an optional
+        boundary-point file into evidence.
+
+        Raises:
+            InputError: neither a stable nor a chatter cut, and no boundary point either.
+        Warns:
+            UserWarning: every cut has the same label (the answer is valid but leans on the prior).
+        """
+        pts = [p for p in (cuts, points) if p is not None]
+        labelled = cuts.label != ""
+        c = cuts.subset(labelled)
+        b_rpm = np.concatenate([p.rpm[p.boundary] for p in pts])
+        b_depth = np.concatenate([p.depth_mm[p.boundary] for p in pts])
+        b_w = np.concatenate([p.weight[p.boundary] for p in pts])
+        if points is not None and (~points.boundary).any():
+            extra = points.subset(~points.boundary)
+            c = PointSet(np.r_[c.rpm, extra.rpm], np.r_[c.depth_mm, extra.depth_mm], np.r_[c.label, extra.label],
+                         np.r_[c.weight, extra.weight], cuts.source, np.r_[c.chatter_hz, extra.chatter_hz])
+        n_st, n_ch = int(c.stable.sum()), int(c.chatter.sum())
+        where = f" in {cuts.source.name}" if cuts.source is not None else ""
+        if n_st == 0 and n_ch == 0 and b_rpm.size == 0:
+            raise InputError("cuts", f"{int(c.marginal.sum())} marginal and no stable or chatter cut{where}",
+                             "updating needs at least one cut labelled stable or chatter (or boundary points)")
+        if b_rpm.size == 0 and (n_st == 0 or n_ch == 0):
+            only = "stable" if n_ch == 0 else "chatter"
+            side = "from below" if only == "stable" else "from above"
+            warnings.warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "
+                          "and the P(stable) map lean on the prior; add a cut on the other side", UserWarning, stacklevel=2)
+        kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
+        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w)
+
+    @property
+    def n_cuts(self) -> int:
+        return int(self.cut_rpm.size)
+
+    @property
+    def speeds(self) -> np.ndarray:
+        """Every speed the data mention [rpm] (sorted, unique)."""
+        return np.unique(np.concatenate([self.cut_rpm, self.pt_rpm]))
+
+
+class Likelihood:
+    """log p(data | u) for batches u = ln θ (B, P): :meth:`__call__` makes ONE engine call per batch.
+
+    Attributes:
+        n_calls, n_sets: engine calls and parameter sets evaluated so far.
+    """
+
+    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa"):
+        get_engine(engine)  # a clear error for an unknown name
+        self.prior, self.evidence, self.engine = prior, evidence, engine
+        ev = evidence
+        self.speeds = ev.speeds
+        self._ic = np.searchsorted(self.speeds, ev.cut_rpm)
+        self._ip = np.searchsorted(self.speeds, ev.pt_rpm)
+        self._sig_c = prior.sigma_depth_mm(ev.cut_depth_mm)
+        self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
+        hz = np.isfinite(ev.cut_hz)
+        if hz.any() and engine not in FREQUENCY_ENGINES:
+            warnings.warn(f"the {engine} engine reports no limiting-lobe chatter frequency in its batched path: the "
+                          f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
+            hz = np.zeros_like(hz)
+        self._hz = np.flatnonzero(hz)
+        self._tooth_hz = prior.cutting.teeth * ev.cut_rpm / 60.0
+        self.n_calls = 0
+        self.n_sets = 0
+
+    @property
+    def uses_frequency(self) -> bool:
+        return self._hz.size > 0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency)
+        self.n_calls += 1
+        self.n_sets += depth.shape[0]
+        return self.from_limits(depth, hz)
+
+    def from_limits(self, depth_mm: np.ndarray, hz: np.ndarray | None = None) -> np.ndarray:
+        """log-likelihood (B,) from limiting depths (B, S) [mm] (and frequencies (B, S) [Hz]) at :attr:`speeds`."""
+        ev = self.evidence
+        ll = np.zeros(depth_mm.shape[0])
+        if ev.n_cuts:
+            z = (ev.cut_depth_mm - depth_mm[:, self._ic]) / self._sig_c
+            ll += cut_loglik(z, ev.cut_kind) @ ev.cut_weight
+        if self._hz.size and hz is not None:
+            j = self._hz
+            d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])
+            s = self.prior.sigma_chatter_hz
+            ll += (-0.5 * (d / s) ** 2 - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
+        if ev.pt_rpm.size:
+            r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / self._sig_p
+            ll += (-0.5 * r**2 - np.log(self._sig_p) - _LOG_SQRT_2PI) @ ev.pt_weight
+        return np.where(np.isnan(ll), -np.inf, ll)
+
+
+__all__ = ["Evidence", "FREQUENCY_ENGINES", "Likelihood", "cut_loglik", "frequency_distance", "limits"]

@@ -1,0 +1,150 @@
+"""The posterior of an update: samples, summaries, x↔y exchange modes, and its JSON form.
+
+Exchange twins. With the zero-order engine, exchanging the x and y modes (fn, ζ swapped, stiffnesses
+rescaled by α_xx/α_yy, :func:`millstab.identify.objective.exchange_map`) leaves every boundary exactly
+unchanged, so the cuts alone cannot tell a structure from its twin; only the prior can. Each sample is
+assigned to the orientation whose prior density is higher (the sample itself, "as tested", or its
+exchange, "x↔y exchanged"); when both hold a noticeable share (≥ :data:`MODE_SHARE`) the posterior
+is bimodal: the summaries are then given per mode and the top-level summary is that of the larger
+mode, with a warning, rather than an average across the two that describes neither. When the prior
+itself is x/y symmetric (identical tap tests in x and y) it cannot choose either: the two modes are
+then told apart by the order of the first differing x/y pair (fn_x < fn_y) and labelled so. Near-twins (other
+engines, or fixed parameters) show up the same way when the assignment splits the samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.identify.objective import exchange_map, exchanged
+from millstab.update.prior import Prior
+
+SCHEMA = "millstab.posterior/1"
+#: the least share of samples for a second exchange mode to be reported as a mode
+MODE_SHARE = 0.02
+
+
+def summary(theta: np.ndarray, names) -> dict[str, dict[str, float]]:
+    """{name: {mean, sd, q05, q50, q95}} of samples θ (N, P)."""
+    q = np.quantile(theta, [0.05, 0.5, 0.95], axis=0)
+    return {n: {"mean": float(theta[:, j].mean()), "sd": float(theta[:, j].std(ddof=1) if theta.shape[0] > 1 else 0.0),
+                "q05": float(q[0, j]), "q50": float(q[1, j]), "q95": float(q[2, j])} for j, n in enumerate(names)}
+
+
+def exchange_of(prior: Prior, engine: str):
+    """(perm, shift) of the x↔y exchange on the full u = ln θ vector (Kt mapped to itself), or ``None``."""
+    xm = exchange_map(prior.par, prior.cutting, engine)
+    if xm is None:
+        return None
+    perm, shift = xm
+    if prior.kt_free:
+        perm, shift = np.append(perm, prior.size - 1), np.append(shift, 0.0)
+    return perm, shift
+
+
+def split_modes(prior: Prior, theta: np.ndarray, engine: str) -> np.ndarray | None:
+    """Boolean (N,): True where the exchanged sample has the higher prior density; ``None`` without an exchange."""
+    xm = exchange_of(prior, engine)
+    if xm is None:
+        return None
+    u = np.log(theta)
+    u2 = np.log(exchanged(theta, xm))
+    diff = prior.logpdf(u2) - prior.logpdf(u)
+    # a prior symmetric in x and y (identical tap tests) cannot choose: then fn_x ≤ fn_y (the first
+    # differing pair, as identify's canonical form) defines "as tested"
+    tie = np.abs(diff) <= 1e-9 * (1 + np.abs(prior.logpdf(u)))
+    d = u - u2
+    big = np.abs(d) > 1e-12
+    first = np.where(big.any(axis=1), big.argmax(axis=1), 0)
+    return np.where(tie, d[np.arange(d.shape[0]), first] > 0, diff > 0)
+
+
+def _symmetric(prior: Prior, engine: str) -> bool:
+    """True when the prior cannot tell a structure from its exchange (identical x and y tap tests)."""
+    xm = exchange_of(prior, engine)
+    if xm is None:
+        return False
+    u = prior.mean_u[None]
+    return bool(abs(prior.logpdf(np.log(exchanged(np.exp(u), xm)))[0] - prior.logpdf(u)[0]) <= 1e-9 * (1 + abs(prior.logpdf(u)[0])))
+
+
+@dataclass(frozen=True, eq=False)
+class Posterior:
+    """Posterior samples of the free parameters and everything ``map``/``recommend`` need.
+
+    Attributes:
+        prior: the prior (structure, cutting conditions, spreads, noise levels).
+        samples: (N, P) equally weighted samples [Hz, N/m, -, N/m²] in the order of ``prior.names``.
+        engine: the engine the likelihood used.
+        diagnostics: the sampler's diagnostics (:meth:`SMCResult.diagnostics`).
+        cuts: the data: {"rpm", "depth_mm", "label", "chatter_hz"} lists (for plots).
+        warnings: messages for the user.
+    """
+
+    prior: Prior
+    samples: np.ndarray
+    engine: str = "zoa"
+    diagnostics: dict = field(default_factory=dict)
+    cuts: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.prior.names
+
+    @property
+    def u(self) -> np.ndarray:
+        """Samples in log coordinates (N, P)."""
+        return np.log(self.samples)
+
+    def modes(self) -> list[dict]:
+        """The exchange modes with their share of samples and summaries (largest first); one entry when unimodal."""
+        twin = split_modes(self.prior, self.samples, self.engine)
+        if twin is None or min(twin.mean(), 1 - twin.mean()) < MODE_SHARE:
+            return [{"label": "as tested", "share": 1.0, "parameters": summary(self.samples, self.names)}]
+        out = []
+        labels = ("as tested", "x<->y exchanged")
+        if _symmetric(self.prior, self.engine):
+            labels = ("x/y order of the first differing pair: x lower", "x/y order: x higher")  # a tie-broken split
+        for label, mask in zip(labels, (~twin, twin)):
+            out.append({"label": label, "share": float(mask.mean()), "parameters": summary(self.samples[mask], self.names)})
+        return sorted(out, key=lambda m: -m["share"])
+
+    def parameters(self) -> dict:
+        """Summaries of the main mode (all samples when unimodal)."""
+        return self.modes()[0]["parameters"]
+
+    def to_json(self) -> dict:
+        modes = self.modes()
+        warn = list(self.warnings)
+        if len(modes) > 1:
+            warn.append(f"bimodal posterior: the x<->y exchange twin holds {modes[1]['share']:.0%} of the samples "
+                        f"(the cuts cannot tell x from y; only the prior can). 'parameters' summarises the larger "
+                        f"mode ({modes[0]['label']}); see 'modes'")
+        return {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
+                "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
+                "warnings": warn, "prior": self.prior.to_dict(), "cuts": self.cuts,
+                "samples": self.samples.tolist()}
+
+    @classmethod
+    def from_json(cls, doc: dict, source: str = "posterior") -> Posterior:
+        """Rebuild a posterior from :meth:`to_json` output.
+
+        Raises:
+            InputError: not a millstab posterior (wrong or missing schema, bad samples).
+        """
+        if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
+            got = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
+            raise InputError(f"{source} schema", got, f"expected a posterior written by millstab update ({SCHEMA!r})")
+        prior = Prior.from_dict(doc.get("prior") or {})
+        s = np.asarray(doc.get("samples"), dtype=float)
+        if s.ndim != 2 or s.shape[1] != prior.size or s.shape[0] < 2 or not (np.isfinite(s) & (s > 0)).all():
+            raise InputError(f"{source} samples", f"shape {s.shape}", f"need N ≥ 2 rows of {prior.size} finite values > 0")
+        warn = tuple(w for w in doc.get("warnings", ()) if not str(w).startswith("bimodal posterior"))  # re-derived
+        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn)
+
+
+__all__ = ["MODE_SHARE", "Posterior", "SCHEMA", "exchange_of", "split_modes", "summary"]

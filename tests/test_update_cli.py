@@ -1,0 +1,80 @@
+"""`millstab update`, `map` and `recommend` end to end, and their one-line errors."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from millstab.cli import main
+
+CUTS = """rpm,depth_mm,label,chatter_hz
+5000,1.0,stable,
+5500,4.0,chatter,1010
+6000,2.0,stable,
+7000,3.0,marginal,
+8000,5.0,chatter,
+9000,2.5,stable,
+"""
+
+
+@pytest.fixture(scope="module")
+def shop(tmp_path_factory):
+    d = tmp_path_factory.mktemp("upd")
+    (d / "cuts.csv").write_text(CUTS)
+    assert main(["update", "example:ex1", str(d / "cuts.csv"), "--samples", "300", "--seed", "3",
+                 "--out", str(d / "post.json"), "--plot", str(d / "corner.png")]) == 0
+    return d
+
+
+def test_update_writes_the_posterior(shop):
+    doc = json.loads((shop / "post.json").read_text())
+    assert doc["schema"] == "millstab.posterior/1"
+    assert doc["names"] == ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
+    s = np.array(doc["samples"])
+    assert s.shape == (300, 6) and (s > 0).all()
+    p = doc["parameters"]["fn_x"]
+    assert p["q05"] <= p["q50"] <= p["q95"] and p["sd"] > 0
+    assert doc["diagnostics"]["stages"] >= 1 and doc["diagnostics"]["frequency_term"] is True
+    assert doc["prior"]["cutting"]["teeth"] == 2 and len(doc["cuts"]["rpm"]) == 6
+    assert (shop / "corner.png").stat().st_size > 1000
+
+
+def test_map_and_recommend_from_the_json_alone(shop, capsys):
+    assert main(["map", str(shop / "post.json"), "--rpm", "5000:9000:500", "--depth", "0:6:0.5",
+                 "--out", str(shop / "pmap.csv"), "--plot", str(shop / "pmap.png")]) == 0
+    rows = list(csv.DictReader((shop / "pmap.csv").open()))
+    assert len(rows) == 9 * 13 and set(rows[0]) == {"rpm", "depth_mm", "p_stable"}
+    p = np.array([float(r["p_stable"]) for r in rows]).reshape(9, 13)
+    assert (np.diff(p, axis=1) <= 0).all() and (p[:, 0] == 1).all()
+    assert main(["recommend", str(shop / "post.json"), "--risk", "0.05", "--rpm", "5000:9000", "--max-depth", "3",
+                 "--radial-width", "5", "--feed-per-tooth", "0.1", "--out", str(shop / "rec.json")]) == 0
+    rec = json.loads((shop / "rec.json").read_text())
+    assert rec["p_chatter"] <= 0.05 and rec["depth_mm"] <= 3 and 5000 <= rec["rpm"] <= 9000
+    assert rec["mrr_cm3_per_min"] == pytest.approx(rec["depth_mm"] * rec["rpm"] * 5 * 0.1 * 2 / 1000)
+    assert {"rpm", "depth_mm", "why"} <= set(rec["next_test"])
+
+
+@pytest.mark.parametrize("args, text", [
+    (["recommend", "{d}/post.json", "--risk", "0", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
+    (["recommend", "{d}/post.json", "--rpm", "9000:5000", "--out", "{d}/r.json"], "--rpm"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--radial-width", "5", "--out", "{d}/r.json"], "--feed-per-tooth"),
+    (["map", "{d}/cuts.csv", "--rpm", "5000:9000:100", "--depth", "0:5:0.1", "--out", "{d}/m.csv"], "not valid JSON"),
+    (["map", "{d}/post.json", "--rpm", "5000:9000:100", "--depth", "0:5", "--out", "{d}/m.csv"], "--depth"),
+    (["update", "example:ex1", "{d}/bad.csv", "--out", "{d}/p.json"], "label"),
+    (["update", "example:ex1", "{d}/marg.csv", "--out", "{d}/p.json"], "stable or chatter"),
+    (["update", "example:ex1", "{d}/cuts.csv", "--out", "{d}/cuts.csv"], "--out"),
+    (["update", "{d}/neg.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.fn"),
+])
+def test_bad_input_is_one_line_exit_2(shop, args, text, capsys):
+    (shop / "bad.csv").write_text("rpm,depth_mm,label\n5000,1,wobbly\n")
+    (shop / "marg.csv").write_text("rpm,depth_mm,label\n5000,1,marginal\n")
+    from millstab.datasets import example_path
+
+    (shop / "neg.toml").write_text(example_path("ex1").read_text() + '\n[prior]\nfn = "-5 %"\n')
+    capsys.readouterr()
+    assert main([a.format(d=shop) for a in args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: error:") and text in err[0]

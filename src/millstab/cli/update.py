@@ -67,6 +67,11 @@ def update_cmd(
     protect = [v for v in inputs.values() if v]
     if samples < 100:
         raise InputError("--samples", samples, "need at least 100 samples")
+    if not cfg.structure.is_modal:  # a measured FRF: the prior centres on its fitted modes (issue 14)
+        from millstab.modal.run import fitted_config
+
+        cfg, note = fitted_config(cfg)
+        typer.echo(note)
     post = update(cfg, c, p, engine=engine, samples=samples, seed=seed)
     doc = post.to_json()
     doc["config"] = cfg.name

@@ -14,13 +14,15 @@ TITLE = "millstab reproduces: Sensitivity Analysis and Monte Carlo Based Uncerta
 
 def steps() -> list[tuple[str, Callable[[Context], None]]]:
     """The steps in report order (name, function)."""
-    from millstab.reproduce import paper
+    from millstab.reproduce import low_immersion, paper
 
     return [
         ("Table 1 and the synthetic SLDs", paper.table1),
         ("Table 3: identification of Examples 1-3", paper.table3),
         ("Table 4, Fig. fourSLD, experimental identification", paper.four_flute),
         ("Fig. SENS and Table 6: sensitivity", paper.sensitivity),
+        ("Beyond the paper: simulated cuts", low_immersion.simulated_cuts),
+        ("Beyond the paper: engines at low immersion, identification", low_immersion.engines),
     ]
 
 

@@ -1,4 +1,9 @@
-"""Reproduce the seed paper end to end: :func:`run` writes report.md, report.html, figures and CSVs."""
+"""Reproduce the seed paper end to end: :func:`run` writes report.md, report.html, figures and CSVs.
+
+The paper's tables and figures come from :mod:`millstab.reproduce.paper`; two further steps from
+:mod:`millstab.reproduce.low_immersion` go beyond it (simulated test cuts; the zero-order, SDM and
+spectral engines at low radial immersion and the zero-order identification's model error there).
+"""
 
 from __future__ import annotations
 
@@ -35,7 +40,9 @@ def run(out: Path, quick: bool = False, seed: int = 0, points: Path | None = Non
     rep.paragraph(
         "Every number below was computed in this run by millstab; the paper's numbers come from "
         "millstab/datasets/paper_values.toml, each cited to its table. "
-        + ("This is the --quick run (smaller Monte Carlo, fewer identification starts). " if quick else "")
+        + ("This is the --quick run (smaller Monte Carlo, fewer identification starts, no SDM check of "
+           "Table 1's SLDs, SDM on a coarser grid in the low-immersion section). "
+           if quick else "")
         + f"Seed {seed}.")
     for name, fn in steps():
         with ctx.step(name):

@@ -121,8 +121,8 @@ def engines(ctx) -> None:
         "collocation of the cutting intervals) aims at SDM's accuracy at a fraction of its cost. The benchmark "
         f"(922 Hz, ζ 0.011, 2 teeth, down milling) on {BENCH_RPM.size} speeds 5 000–25 000 rpm for ZOA and "
         "spectral, "
-        f"every {stride}th of them ({BENCH_RPM[::stride].size} speeds) for SDM"
-        + (" (--quick: SDM on a coarser grid than the full run's every 2nd speed)." if ctx.quick else "."))
+        f"one in {stride} of them ({BENCH_RPM[::stride].size} speeds) for SDM"
+        + (f" (--quick; the full run: one in {SDM_STRIDE[False]})." if ctx.quick else "."))
     panels, rows, res = [], [], {}
     for aD in (0.05, 1.0):
         cut = bench_cutting(aD)

@@ -331,3 +331,18 @@ def test_sensitivity_accepts_a_measured_frf_config(tmp_path, capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     assert "fitted its modes first" in out.out and (tmp_path / "oat.csv").exists()
+
+
+def test_update_accepts_a_measured_frf_config(tmp_path, capsys):
+    """`update` centres its prior on the fitted modes of a measured-FRF config (it refused it before)."""
+    cfg = measured_config(tmp_path)
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm,label\n6000,0.2,stable\n6000,20,chatter\n9000,0.2,stable\n9000,20,chatter\n")
+    out = tmp_path / "post.json"
+    code = main(["update", str(cfg), str(cuts), "--samples", "200", "--seed", "1", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "fitted its modes first" in captured.out
+    doc = json.loads(out.read_text())
+    # the prior's median is the fitted x mode that dominates (520 Hz within its 5 % spread)
+    assert abs(doc["parameters"]["fn_x1"]["q50"] / 520.0 - 1) < 0.15

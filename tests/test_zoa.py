@@ -268,6 +268,25 @@ def test_random_structures_match_brute_force():
     assert worst < 1e-6
 
 
+def test_repeated_speeds_give_the_single_speed_result():
+    """Three or more equal speeds once crashed the kernel (taken as evenly spaced with step 0):
+    every copy must equal the depth computed alone, for modal sets, a measured FRF and duplicates
+    mixed with other speeds."""
+    s, cut = EX3
+    batch = Parameterization(s).batch(Parameterization(s).theta0[None, :])
+    measured = Structure(frf=measured_from_structure(s, np.linspace(90, 4000, 4001)))
+    for rpm in ([9000.0] * 3, [9000.0] * 5, [5000.0, 5000.0, 5000.0, 6000.0], [6000.0, 5000.0, 5000.0, 5000.0]):
+        alone = {r: (zoa.envelope_batch(batch, cut, [r])[0, 0], zoa.envelope(measured, cut, [r]).depth[0])
+                 for r in set(rpm)}
+        modal = zoa.envelope_batch(batch, cut, rpm)[0]
+        frf = zoa.envelope(measured, cut, rpm).depth
+        np.testing.assert_array_equal(modal, [alone[r][0] for r in rpm])
+        np.testing.assert_array_equal(frf, [alone[r][1] for r in rpm])
+        assert np.all(np.isfinite(modal)) and np.all(np.isfinite(frf))
+    ref = reference_depth(s, cut, 9000.0)[0]
+    np.testing.assert_allclose(zoa.envelope_batch(batch, cut, [9000.0] * 3)[0], ref, rtol=1e-6)
+
+
 def test_one_dof_has_rigid_direction_and_depth_is_finite():
     s = Structure(x=(Mode(922.0, 1.3400496e6, 0.011),))
     env = zoa.envelope(s, Cutting.from_immersion(2, 6e8, 1 / 3, 1.0), np.linspace(5000, 25000, 11))

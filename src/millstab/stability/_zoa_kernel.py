@@ -739,7 +739,8 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     best_inv = np.zeros(n_s)
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
-    uniform = n_s > 2
+    # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
+    uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False

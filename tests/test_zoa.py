@@ -320,3 +320,28 @@ def test_lobes_for_plotting_touch_the_envelope():
         assert np.all(lb.depth[ok][::7] >= env * (1 - 1e-6))
         touching += np.any(lb.depth[ok][::7] <= env * (1 + 1e-3))
     assert touching >= 8
+
+
+def test_grid_frequencies_equal_the_sorted_union():
+    """The per-set grid merges the base and every mode's cluster (already ascending runs); it must be the
+    sorted union of them, clipped to [w_lo, w_hi], with near-duplicates dropped, as a plain sort gives."""
+    rng = np.random.default_rng(3)
+    offsets = _zoa_kernel.cluster_offsets()
+    for case in range(30):
+        n_modes = int(rng.integers(1, 6))
+        wn = 2 * math.pi * rng.uniform(200, 5000, n_modes)
+        z = rng.uniform(0.005, 0.3, n_modes)  # large ζ: the cluster's low end is clipped at 0.05 ωn
+        if case % 5 == 0:
+            wn[1:] = wn[0]  # coincident modes: duplicated points
+        off = offsets if case % 7 else rng.permutation(offsets)
+        w_lo, w_hi, n_base = 0.1 * wn.min(), 4.0 * wn.max(), 160
+        grid = _zoa_kernel._grid_frequencies(wn, z, w_lo, w_hi, n_base, off)
+        ratio = math.log(w_hi / w_lo) / (n_base - 1)
+        pts = np.concatenate([[w_lo * math.exp(ratio * i) for i in range(n_base)]]
+                             + [m * np.maximum(1.0 + zz * off, 0.05) for m, zz in zip(wn, z)])
+        pts = np.sort(pts[(pts >= w_lo) & (pts <= w_hi)])
+        keep = [pts[0]]
+        for x in pts[1:]:
+            if x - keep[-1] > 1e-12 * x:
+                keep.append(x)
+        np.testing.assert_array_equal(grid, keep)

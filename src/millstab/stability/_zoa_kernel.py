@@ -94,30 +94,59 @@ def _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets):
     """Sorted frequency grid [rad/s]: log-spaced base plus a dense cluster around every mode."""
     n_modes = wn_all.size
     n_off = offsets.size
-    w = np.empty(n_base + n_modes * n_off)
+    total = n_base + n_modes * n_off
+    # the base and every cluster are ascending runs already (offsets ascending; the clip at 0.05 keeps
+    # that): merge them run by run instead of sorting the whole grid
+    w = np.empty(total)
+    tmp = np.empty(total)
+    run = np.empty(n_off)
     ratio = math.log(w_hi / w_lo) / (n_base - 1)
     for i in range(n_base):
         w[i] = w_lo * math.exp(ratio * i)
-    c = n_base
+    n = n_base
     for m in range(n_modes):
         for j in range(n_off):
             r = 1.0 + z_all[m] * offsets[j]
             if r < 0.05:
                 r = 0.05
-            w[c] = wn_all[m] * r
+            run[j] = wn_all[m] * r
+        for j in range(1, n_off):
+            if run[j] < run[j - 1]:  # offsets not ascending (not the engine's own): sort this run
+                run.sort()
+                break
+        i = 0
+        j = 0
+        c = 0
+        while i < n and j < n_off:
+            if w[i] <= run[j]:
+                tmp[c] = w[i]
+                i += 1
+            else:
+                tmp[c] = run[j]
+                j += 1
             c += 1
-    w = np.sort(w)
-    # keep points inside [w_lo, w_hi] and drop near-duplicates
-    out = np.empty(w.size)
-    n = 0
-    for i in range(w.size):
-        if w[i] < w_lo or w[i] > w_hi:
+        while i < n:
+            tmp[c] = w[i]
+            i += 1
+            c += 1
+        while j < n_off:
+            tmp[c] = run[j]
+            j += 1
+            c += 1
+        n = c
+        w, tmp = tmp, w
+    # keep points inside [w_lo, w_hi] and drop near-duplicates (in place: the write index never passes
+    # the read index)
+    k = 0
+    for i in range(n):
+        x = w[i]
+        if x < w_lo or x > w_hi:
             continue
-        if n > 0 and w[i] - out[n - 1] <= 1e-12 * w[i]:
+        if k > 0 and x - w[k - 1] <= 1e-12 * x:
             continue
-        out[n] = w[i]
-        n += 1
-    return out[:n]
+        w[k] = x
+        k += 1
+    return w[:k]
 
 
 @nb.njit(cache=True, inline="always")

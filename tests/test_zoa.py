@@ -268,6 +268,25 @@ def test_random_structures_match_brute_force():
     assert worst < 1e-6
 
 
+def test_repeated_speeds_give_the_single_speed_result():
+    """Three or more equal speeds once crashed the kernel (taken as evenly spaced with step 0):
+    every copy must equal the depth computed alone, for modal sets, a measured FRF and duplicates
+    mixed with other speeds."""
+    s, cut = EX3
+    batch = Parameterization(s).batch(Parameterization(s).theta0[None, :])
+    measured = Structure(frf=measured_from_structure(s, np.linspace(90, 4000, 4001)))
+    for rpm in ([9000.0] * 3, [9000.0] * 5, [5000.0, 5000.0, 5000.0, 6000.0], [6000.0, 5000.0, 5000.0, 5000.0]):
+        alone = {r: (zoa.envelope_batch(batch, cut, [r])[0, 0], zoa.envelope(measured, cut, [r]).depth[0])
+                 for r in set(rpm)}
+        modal = zoa.envelope_batch(batch, cut, rpm)[0]
+        frf = zoa.envelope(measured, cut, rpm).depth
+        np.testing.assert_array_equal(modal, [alone[r][0] for r in rpm])
+        np.testing.assert_array_equal(frf, [alone[r][1] for r in rpm])
+        assert np.all(np.isfinite(modal)) and np.all(np.isfinite(frf))
+    ref = reference_depth(s, cut, 9000.0)[0]
+    np.testing.assert_allclose(zoa.envelope_batch(batch, cut, [9000.0] * 3)[0], ref, rtol=1e-6)
+
+
 def test_one_dof_has_rigid_direction_and_depth_is_finite():
     s = Structure(x=(Mode(922.0, 1.3400496e6, 0.011),))
     env = zoa.envelope(s, Cutting.from_immersion(2, 6e8, 1 / 3, 1.0), np.linspace(5000, 25000, 11))
@@ -301,3 +320,28 @@ def test_lobes_for_plotting_touch_the_envelope():
         assert np.all(lb.depth[ok][::7] >= env * (1 - 1e-6))
         touching += np.any(lb.depth[ok][::7] <= env * (1 + 1e-3))
     assert touching >= 8
+
+
+def test_grid_frequencies_equal_the_sorted_union():
+    """The per-set grid merges the base and every mode's cluster (already ascending runs); it must be the
+    sorted union of them, clipped to [w_lo, w_hi], with near-duplicates dropped, as a plain sort gives."""
+    rng = np.random.default_rng(3)
+    offsets = _zoa_kernel.cluster_offsets()
+    for case in range(30):
+        n_modes = int(rng.integers(1, 6))
+        wn = 2 * math.pi * rng.uniform(200, 5000, n_modes)
+        z = rng.uniform(0.005, 0.3, n_modes)  # large ζ: the cluster's low end is clipped at 0.05 ωn
+        if case % 5 == 0:
+            wn[1:] = wn[0]  # coincident modes: duplicated points
+        off = offsets if case % 7 else rng.permutation(offsets)
+        w_lo, w_hi, n_base = 0.1 * wn.min(), 4.0 * wn.max(), 160
+        grid = _zoa_kernel._grid_frequencies(wn, z, w_lo, w_hi, n_base, off)
+        ratio = math.log(w_hi / w_lo) / (n_base - 1)
+        pts = np.concatenate([[w_lo * math.exp(ratio * i) for i in range(n_base)]]
+                             + [m * np.maximum(1.0 + zz * off, 0.05) for m, zz in zip(wn, z)])
+        pts = np.sort(pts[(pts >= w_lo) & (pts <= w_hi)])
+        keep = [pts[0]]
+        for x in pts[1:]:
+            if x - keep[-1] > 1e-12 * x:
+                keep.append(x)
+        np.testing.assert_array_equal(grid, keep)

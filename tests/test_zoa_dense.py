@@ -138,3 +138,29 @@ def test_phase_derivatives_match_finite_differences():
                 eps = [2 * math.atan2(at(x)[0].imag, at(x)[0].real) for x in (w - h, w + h)]
                 assert d1 == pytest.approx((eps[1] - eps[0]) / (2 * h), rel=1e-5, abs=1e-12)
                 assert d2 == pytest.approx((at(w + h)[1] - at(w - h)[1]) / (2 * h), rel=1e-4, abs=1e-14)
+
+
+def test_node_slopes_match_the_general_phase_derivatives():
+    """At grid nodes of a modal structure the kernel takes dε/dω and d²ε/dω² from the known roots and
+    receptances (no square root, no complex division): they must equal the general formula's, which the
+    test above checks against finite differences."""
+    from millstab.stability import _zoa_kernel as k_
+
+    two_pi = 2 * math.pi
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        a = k_.directional_brackets(rng.uniform(0.1, 0.6), rng.uniform(0.0, 1.5), rng.uniform(1.6, math.pi))
+        wnx, wny = two_pi * rng.uniform(300, 3000, 2), two_pi * rng.uniform(300, 3000, 1)
+        kx, ky = rng.uniform(2e6, 5e7, 2), rng.uniform(2e6, 5e7, 1)
+        zx, zy = rng.uniform(0.005, 0.08, 2), rng.uniform(0.005, 0.08, 1)
+        for w in two_pi * rng.uniform(100, 4000, 10):
+            gxx, gyy = k_._modal_receptance(w, wnx, kx, zx), k_._modal_receptance(w, wny, ky, zy)
+            tr, det = k_._tr_det(a, gxx, 0j, 0j, gyy)
+            s = np.sqrt(tr * tr - 4 * det)
+            roots = (0.5 * (tr + s), 0.5 * (tr - s))
+            for m in range(2):
+                _, d1, d2 = k_._phase_at(w, w, w + 1.0, roots[m], roots[m], w, w + 1.0, a, wnx, kx, zx, wny, ky, zy,
+                                         False, np.zeros(4, complex), np.zeros(4, complex))
+                f1, f2 = k_._node_slopes(w, roots[m], roots[1 - m], gxx, gyy, a, wnx, kx, zx, wny, ky, zy)
+                assert f1 == pytest.approx(d1, rel=1e-8, abs=1e-15)
+                assert f2 == pytest.approx(d2, rel=1e-7, abs=1e-18)

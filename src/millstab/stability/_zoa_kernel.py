@@ -94,30 +94,59 @@ def _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets):
     """Sorted frequency grid [rad/s]: log-spaced base plus a dense cluster around every mode."""
     n_modes = wn_all.size
     n_off = offsets.size
-    w = np.empty(n_base + n_modes * n_off)
+    total = n_base + n_modes * n_off
+    # the base and every cluster are ascending runs already (offsets ascending; the clip at 0.05 keeps
+    # that): merge them run by run instead of sorting the whole grid
+    w = np.empty(total)
+    tmp = np.empty(total)
+    run = np.empty(n_off)
     ratio = math.log(w_hi / w_lo) / (n_base - 1)
     for i in range(n_base):
         w[i] = w_lo * math.exp(ratio * i)
-    c = n_base
+    n = n_base
     for m in range(n_modes):
         for j in range(n_off):
             r = 1.0 + z_all[m] * offsets[j]
             if r < 0.05:
                 r = 0.05
-            w[c] = wn_all[m] * r
+            run[j] = wn_all[m] * r
+        for j in range(1, n_off):
+            if run[j] < run[j - 1]:  # offsets not ascending (not the engine's own): sort this run
+                run.sort()
+                break
+        i = 0
+        j = 0
+        c = 0
+        while i < n and j < n_off:
+            if w[i] <= run[j]:
+                tmp[c] = w[i]
+                i += 1
+            else:
+                tmp[c] = run[j]
+                j += 1
             c += 1
-    w = np.sort(w)
-    # keep points inside [w_lo, w_hi] and drop near-duplicates
-    out = np.empty(w.size)
-    n = 0
-    for i in range(w.size):
-        if w[i] < w_lo or w[i] > w_hi:
+        while i < n:
+            tmp[c] = w[i]
+            i += 1
+            c += 1
+        while j < n_off:
+            tmp[c] = run[j]
+            j += 1
+            c += 1
+        n = c
+        w, tmp = tmp, w
+    # keep points inside [w_lo, w_hi] and drop near-duplicates (in place: the write index never passes
+    # the read index)
+    k = 0
+    for i in range(n):
+        x = w[i]
+        if x < w_lo or x > w_hi:
             continue
-        if n > 0 and w[i] - out[n - 1] <= 1e-12 * w[i]:
+        if k > 0 and x - w[k - 1] <= 1e-12 * x:
             continue
-        out[n] = w[i]
-        n += 1
-    return out[:n]
+        w[k] = x
+        k += 1
+    return w[:k]
 
 
 @nb.njit(cache=True, inline="always")
@@ -258,6 +287,50 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
     nu2 = (tr2 * nu + 2.0 * tr1 * nu1 - 2.0 * nu1 * nu1 - det2) / q
     r1 = nu1 / nu
     return nu, 2.0 * r1.imag, 2.0 * (nu2 / nu - r1 * r1).imag
+
+
+@nb.njit(cache=True, inline="always")
+def _modal_d12(w, wn, k, z):
+    """The first two ω-derivatives of Σ_m 1/D_m [m·s/N, m·s²/N] (as :func:`_modal_d`, without a
+    complex division: 1/D = conj(D)/|D|², and D'' = −2k/ωn² is real)."""
+    g1 = 0.0j
+    g2 = 0.0j
+    for m in range(wn.size):
+        r = w / wn[m]
+        re = 1.0 - r * r
+        im = 2.0 * z[m] * r
+        sc = 1.0 / (k[m] * (re * re + im * im))
+        inv = complex(re * sc, -im * sc)
+        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
+        inv2 = inv * inv
+        g1 -= d1 * inv2
+        g2 += inv2 * (2.0 * d1 * d1 * inv + 2.0 * k[m] / (wn[m] * wn[m]))  # (2D'² − D D'')/D³
+    return g1, g2
+
+
+@nb.njit(cache=True, inline="always")
+def _node_slopes(w, nu, nu_other, gxx, gyy, a, wnx, kx, zx, wny, ky, zy):
+    """dε/dω [s] and d²ε/dω² [s²] of the root ``nu`` at a grid node of a modal structure.
+
+    The same formulas as :func:`_phase_at`, but the node's roots and receptances are already known:
+    no square root or branch choice, and 2ν − tr is the difference of the two roots."""
+    axx, axy, ayx, ayy = a
+    dxx, exx = _modal_d12(w, wnx, kx, zx)
+    dyy, eyy = _modal_d12(w, wny, ky, zy)
+    det_a = axx * ayy - axy * ayx
+    tr1 = axx * dxx + ayy * dyy
+    tr2 = axx * exx + ayy * eyy
+    det1 = det_a * (dxx * gyy + gxx * dyy)
+    det2 = det_a * (exx * gyy + 2.0 * dxx * dyy + gxx * eyy)
+    q = nu - nu_other
+    if q == 0.0 or nu == 0.0:  # a double root (measure zero): no derivative; report a flat phase
+        return 0.0, 0.0
+    iq = q.conjugate() / (q.real * q.real + q.imag * q.imag)
+    inu = nu.conjugate() / (nu.real * nu.real + nu.imag * nu.imag)
+    nu1 = (tr1 * nu - det1) * iq
+    nu2 = (tr2 * nu + 2.0 * tr1 * nu1 - 2.0 * nu1 * nu1 - det2) * iq
+    r1 = nu1 * inu
+    return 2.0 * r1.imag, 2.0 * (nu2 * inu - r1 * r1).imag
 
 
 @nb.njit(cache=True)
@@ -410,8 +483,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     c_nu = np.empty((cap, 2), dtype=np.complex128)
     n_c = 0
     # dε/dω and d²ε/dω² at the nodes (modal structures; computed on first use)
-    d1 = np.zeros((2, n_w))
-    d2 = np.zeros((2, n_w))
+    d1 = np.empty((2, n_w))
+    d2 = np.empty((2, n_w))
     have = np.zeros((2, n_w), dtype=np.bool_)
     ga = np.empty(4, dtype=np.complex128)
     gb = np.empty(4, dtype=np.complex128)
@@ -454,8 +527,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             else:
                 for e in range(i, i + 2):
                     if not have[br, e]:
-                        _, d1[br, e], d2[br, e] = _phase_at(w[e], w[e], w[e] + 1.0, nu[br, e], nu[br, e], wa, wb, a,
-                                                            wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                        d1[br, e], d2[br, e] = _node_slopes(w[e], nu[br, e], nu[1 - br, e], G[0, e], G[3, e], a,
+                                                            wnx, kx, zx, wny, ky, zy)
                         have[br, e] = True
                 d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
             g_a = wa * d1a - ea
@@ -739,7 +812,8 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     best_inv = np.zeros(n_s)
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
-    uniform = n_s > 2
+    # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
+    uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False

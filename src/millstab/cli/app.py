@@ -18,6 +18,9 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # help texts are plain text: units and TOML tables in brackets ("[mm]", "[prior]") must be shown, not
+    # read as rich markup (which silently dropped them)
+    rich_markup_mode=None,
 )
 
 

@@ -85,7 +85,7 @@ class _MethodGroup(TyperGroup):
 
 
 sensitivity_app = typer.Typer(
-    cls=_MethodGroup, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    cls=_MethodGroup, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False, rich_markup_mode=None,
     help="Sensitivity of the stability lobe diagram of CONFIG to each modal parameter (MSE in mm^2): "
          "oat (one at a time, the paper's Fig. SENS), mc (Monte Carlo, the paper's Table 6), sobol or morris.")
 app.add_typer(sensitivity_app, name="sensitivity")

@@ -52,7 +52,10 @@ def simulated_points(truth: Structure, cut: Cutting, rpm: np.ndarray, guess_m: n
                 continue
         else:
             raise RuntimeError(f"no simulated crossing within ±30 % of SDM's {g * 1e3:.3f} mm at {r:.0f} rpm")
-    print(f"simulated boundary vs SDM: max |sim/SDM - 1| {100 * np.max(np.abs(depth / guess_m - 1)):.3f} %")
+    dev = depth / guess_m - 1
+    j = int(np.argmax(np.abs(dev)))
+    print(f"simulated boundary vs SDM: max |sim/SDM - 1| {100 * abs(dev[j]):.3f} % at {rpm[j]:.0f} rpm "
+          f"(median {100 * np.median(np.abs(dev)):.3f} %)")
     return PointSet(rpm, depth * 1e3)
 
 

@@ -219,3 +219,32 @@ def test_cli_lobes_rejects_an_unregistered_engine(capsys):
     assert main(["lobes", "example:ex1", "--rpm", "3000:3500:100", "--engine", "dummy"]) == 2
     err = capsys.readouterr().err
     assert "dummy" in err and "zoa" in err
+
+
+def test_sensitivity_streams_in_the_engines_own_chunks(dummy, monkeypatch):
+    """Sensitivity asks the engine for its chunk size (it used the zero-order one for every engine)."""
+    from millstab.params import Parameterization
+    from millstab.sensitivity._core import depths_chunked
+
+    calls = []
+    batch_fn = dummy.envelope_batch
+    monkeypatch.setattr(dummy, "chunk_rows", lambda n_speeds: 3)
+    monkeypatch.setattr(dummy, "envelope_batch", lambda b, c, r: calls.append(b.size) or batch_fn(b, c, r))
+    par = Parameterization(TWO_DOF)
+    rows = par.theta0[None] * np.linspace(0.9, 1.1, 7)[:, None]
+    d = depths_chunked(dummy, par, rows, HALF3, SPEEDS)
+    assert calls == [3, 3, 1]
+    np.testing.assert_allclose(d, SCALE * zoa.envelope_batch(par.batch(rows), HALF3, SPEEDS), rtol=1e-12)
+
+
+def test_exchange_map_follows_the_capability_not_the_name(dummy):
+    """The exact x↔y exchange is offered for any engine declaring ``exact_xy_exchange`` (it was "zoa" only)."""
+    from millstab.identify.objective import exchange_map
+    from millstab.params import Parameterization
+
+    par = Parameterization(Structure(x=(Mode(FN, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),)))
+    ref = exchange_map(par, SLOT4, "zoa")
+    assert ref is not None
+    got = exchange_map(par, SLOT4, "dummy")
+    assert got is not None and all(np.array_equal(a, b) for a, b in zip(got, ref))
+    assert exchange_map(par, SLOT4, "sdm") is None

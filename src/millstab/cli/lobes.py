@@ -76,7 +76,7 @@ def _envelope(engine: str, cfg, speeds: np.ndarray):
     from millstab.stability import get_engine
 
     eng = get_engine(engine)
-    if engine != "sdm":
+    if not eng.reports_progress:
         return eng.envelope(cfg.structure, cfg.cutting, speeds)
     with progress_bar(f"{engine}: speeds") as update:
         return eng.envelope(cfg.structure, cfg.cutting, speeds, **engine_progress(update))

@@ -27,6 +27,7 @@ from millstab.identify.objective import Problem, make_problem
 from millstab.identify.quality import check_noise
 from millstab.identify.result import Fit
 from millstab.identify.tie import is_tied
+from millstab.stability import get_engine
 
 METHODS = ("lsq", "newton")
 
@@ -60,8 +61,9 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
         return make_problem(config.structure, config.cutting, points, free=free, axisymmetric=axisymmetric,
                             initial=initial, bounds=bounds, engine=eng, residual=residual)
 
-    if engine == "sdm" and method == "lsq":
-        return _zoa_then_sdm(problem_for, seed, progress, {**options, "noise": noise})
+    # an engine too slow for the global search gets the zero-order search first, then its own polish
+    if method == "lsq" and not get_engine(engine).cheap:
+        return _zoa_then_sdm(problem_for, seed, progress, {**options, "noise": noise}, engine)
     solver = fit_lsq if method == "lsq" else fit_newton
     return solver(problem_for(engine), seed=seed, progress=progress, noise=noise, **options)
 
@@ -71,7 +73,7 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
 SDM_POLISH = dict(n_candidates=64, schedule=((4, 3), (1, 10)), rounds=0, n_local=0, max_nfev=30)
 
 
-def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
+def _zoa_then_sdm(problem_for, seed: int, progress, options: dict, engine: str = "sdm") -> Fit:
     """Least squares with the SDM engine in two stages.
 
     The global search (hundreds of screening candidates, multi-start LM) needs thousands of SLD
@@ -85,7 +87,7 @@ def _zoa_then_sdm(problem_for, seed: int, progress, options: dict) -> Fit:
     """
     first = fit_lsq(problem_for("zoa"), seed=seed, progress=progress, **options)
     polish = {**options, **SDM_POLISH}
-    sdm_problem = problem_for("sdm")
+    sdm_problem = problem_for(engine)
     # the x = y test again under SDM only where the zero-order stage kept x = y (otherwise it was rejected)
     fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, tie_xy=is_tied(first), **polish)
     fit.codes.insert(0, "two_stages")

@@ -237,10 +237,10 @@ def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -
     :func:`swap_permutation`). Such a cut cannot tell the two structures apart from its boundary.
 
     Returns (perm, shift): θ' = θ[perm] · exp(shift) (shift = ±ln r on the k columns), or ``None`` when
-    the engine is not ``zoa``, the tool is tied, the mode counts differ, a free name's partner is not free,
+    the engine's x↔y exchange is not exact (``exact_xy_exchange``: zoa only), the tool is tied, the mode counts differ, a free name's partner is not free,
     a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1), or α_xx α_yy ≤ 0.
     """
-    if engine != "zoa":
+    if not get_engine(engine).exact_xy_exchange:
         return None
     a = zoa.directional_matrix(cutting)
     if not a[0, 0] * a[1, 1] > 0:

@@ -140,12 +140,14 @@ def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:
     return np.mean(d * d, axis=-1)
 
 
-def rows_per_call(n_speeds: int) -> int:
-    """Engine rows per call: the batched engine's own chunk size, so one call's (rows, S) outputs stay
-    bounded (~100 MB) whatever the number of speeds."""
-    from millstab.stability.zoa import chunk_rows
+def rows_per_call(n_speeds: int, engine=None) -> int:
+    """Engine rows per call: the engine's own chunk size (``engine.chunk_rows``; the zero-order one when
+    ``engine`` is None), so one call's (rows, S) outputs stay bounded (~100 MB) whatever the number of speeds."""
+    if engine is None:
+        from millstab.stability.zoa import chunk_rows
 
-    return chunk_rows(n_speeds)
+        return chunk_rows(n_speeds)
+    return engine.chunk_rows(n_speeds)
 
 
 def engine_module(name: str):
@@ -168,7 +170,7 @@ def depths_chunked(engine, par: Parameterization, theta_rows: np.ndarray, cuttin
                    progress: Progress | None = None) -> np.ndarray:
     """Depths (R, S) [m] for many rows, one engine call per chunk (progress in rows)."""
     out = np.empty((theta_rows.shape[0], rpm.size))
-    for rows in iter_row_chunks(theta_rows.shape[0], rows_per_call(rpm.size)):
+    for rows in iter_row_chunks(theta_rows.shape[0], rows_per_call(rpm.size, engine)):
         out[rows] = depths(engine, par, theta_rows[rows], cutting, rpm)
         if progress:
             progress(rows.stop, theta_rows.shape[0])

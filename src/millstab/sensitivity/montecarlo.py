@@ -69,7 +69,7 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
     n_p = par.size
     per = 1 + n_p
     if chunk_paths is None:
-        chunk_paths = max(1, rows_per_call(r.size) // per)
+        chunk_paths = max(1, rows_per_call(r.size, eng) // per)
     elif isinstance(chunk_paths, bool) or not isinstance(chunk_paths, (int, np.integer)) or chunk_paths < 1:
         raise InputError("chunk_paths", chunk_paths, "must be a positive integer")
     rng = np.random.default_rng(seed)

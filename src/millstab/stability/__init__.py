@@ -1,33 +1,100 @@
-"""Stability engines behind one interface: ``envelope(structure, cutting, rpm)`` → Envelope and
-``envelope_batch(batch, cutting, rpm)`` → (B, S) depths [m].
+"""Stability engines behind one contract (:mod:`millstab.stability.base`): ``envelope(structure,
+cutting, rpm)`` → Envelope and ``envelope_batch(batch, cutting, rpm)`` → (B, S) depths [m], plus
+declared capabilities that consumers ask for instead of testing names.
 
 * ``zoa`` -- zero-order (Altintas–Budak), fast, exact for time-invariant directional matrices;
 * ``sdm`` -- semi-discretization (Insperger–Stépán), time domain, captures flip lobes at low immersion;
 * ``spectral`` -- spectral-element collocation of the cutting intervals (time domain, exact free flight):
   as accurate as converged SDM, flip and Hopf lobes, far faster; the engine for low radial immersion.
+
+A new engine is one module with the contract's attributes and one :func:`register` call. The built-in
+engines are registered by module path so that importing this package does not compile them.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Sequence
 from types import ModuleType
 
 from millstab.errors import InputError
+from millstab.stability.base import Engine, Envelope, missing_attributes  # noqa: F401  (the contract)
 
-ENGINES = ("zoa", "sdm", "spectral")
+#: name → engine object, or the module path of a built-in engine not imported yet
+_REGISTRY: dict[str, object] = {}
 
 
-def get_engine(name: str) -> ModuleType:
-    """The engine module by name (``zoa``, ``sdm`` or ``spectral``)."""
-    if name == "zoa":
-        from millstab.stability import zoa
+class _Names(Sequence):
+    """The registered names, read from the registry at each use (so engines registered later count)."""
 
-        return zoa
-    if name == "sdm":
-        from millstab.stability import sdm
+    def __getitem__(self, i):
+        return tuple(_REGISTRY)[i]
 
-        return sdm
-    if name == "spectral":
-        from millstab.stability import spectral
+    def __len__(self):
+        return len(_REGISTRY)
 
-        return spectral
-    raise InputError("engine", name, f"must be one of {', '.join(ENGINES)}")
+    def __contains__(self, name):
+        return name in _REGISTRY
+
+    def __eq__(self, other):
+        return tuple(_REGISTRY) == tuple(other)
+
+    def __hash__(self):
+        return hash(tuple(_REGISTRY))
+
+    def __repr__(self):
+        return repr(tuple(_REGISTRY))
+
+
+#: the registered engine names (a live view of the registry: ``"x" in ENGINES`` and ``", ".join(ENGINES)``
+#: see engines registered after import)
+ENGINES: Sequence[str] = _Names()
+
+
+def register(engine: object, module: str | None = None) -> object:
+    """Register ``engine`` (an object or module satisfying :class:`~millstab.stability.base.Engine`)
+    under ``engine.name``; or, with ``module``, register the name ``engine`` (a str) to be imported from
+    that module path on first use. Re-registering a name replaces it. Returns what was registered.
+
+    Raises:
+        InputError: for an object missing contract attributes or a name that is not a plain word.
+    """
+    if module is not None:
+        name = engine
+    else:
+        missing = missing_attributes(engine)
+        if missing:
+            raise InputError("engine", repr(engine), f"lacks the engine contract attributes {', '.join(missing)}")
+        name = engine.name
+    if not isinstance(name, str) or not name.isidentifier():
+        raise InputError("engine.name", name, "must be a plain word (letters, digits, underscores)")
+    _REGISTRY[name] = module if module is not None else engine
+    return _REGISTRY[name]
+
+
+def unregister(name: str) -> None:
+    """Remove ``name`` from the registry (no error when absent); for tests and plug-ins."""
+    _REGISTRY.pop(name, None)
+
+
+def get_engine(name: str) -> Engine | ModuleType:
+    """The registered engine called ``name`` (built-ins: ``zoa``, ``sdm``, ``spectral``).
+
+    Raises:
+        InputError: naming the allowed engines when ``name`` is not registered.
+    """
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise InputError("engine", name, f"must be one of {', '.join(_REGISTRY)}")
+    engine = _REGISTRY[name]
+    if isinstance(engine, str):
+        # importing a built-in module runs its own register(...) call, which replaces the path
+        engine = importlib.import_module(engine)
+        _REGISTRY[name] = engine
+    return engine
+
+
+register("zoa", "millstab.stability.zoa")
+register("sdm", "millstab.stability.sdm")
+register("spectral", "millstab.stability.spectral")
+
+__all__ = ["ENGINES", "Engine", "Envelope", "get_engine", "register", "unregister"]

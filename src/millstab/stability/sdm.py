@@ -78,7 +78,8 @@ from millstab.frf import ModalBatch
 from millstab.model import Cutting, Structure
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
-from millstab.stability.zoa import Envelope, check_rpm
+from millstab.stability.base import Envelope, memory_chunk_rows
+from millstab.stability.zoa import check_rpm
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
@@ -314,3 +315,30 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None =
     ``progress(stage, done, total)`` counts (structure, speed) pairs."""
     r = check_rpm(rpm)
     return _limit(batch, cutting, r, steps, progress)[0]
+
+
+# -- the engine contract (millstab.stability.base.Engine) -----------------------------------------
+name = "sdm"
+#: the time-domain model keeps the time-varying forces, so the zero-order x↔y exchange is not exact
+exact_xy_exchange = False
+#: modal structures only (the state-space model needs fn, k, ζ per mode)
+accepts_measured_frf = False
+#: flip and Hopf boundaries are both found, but not told apart
+reports_lobe_type = False
+reports_progress = True
+cheap = False
+#: sets per call for callers that stream many sets: small, since each set costs ms per speed, so a
+#: caller's progress and cancellation are seen often
+CALL_ROWS = 256
+
+
+def chunk_rows(n_speeds: int) -> int:
+    """Parameter sets per ``envelope_batch`` call for ``n_speeds`` speeds (≤ CALL_ROWS, bounded memory)."""
+    return memory_chunk_rows(n_speeds, CALL_ROWS)
+
+
+import sys as _sys  # noqa: E402
+
+from millstab.stability import register as _register  # noqa: E402
+
+_register(_sys.modules[__name__])

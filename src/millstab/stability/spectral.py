@@ -92,7 +92,8 @@ from millstab.model import Cutting, Structure
 from millstab.stability import _spectral_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
-from millstab.stability.zoa import Envelope, check_rpm
+from millstab.stability.base import Envelope, memory_chunk_rows
+from millstab.stability.zoa import check_rpm
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
 P_NODES = 4
@@ -299,3 +300,31 @@ def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, nodes: int = P
             for j, b in enumerate(d):
                 out[i, j] = np.max(np.abs(np.linalg.eigvals(monodromy(structure, cutting, s, b, nodes))))
     return out
+
+
+# -- the engine contract (millstab.stability.base.Engine) -----------------------------------------
+name = "spectral"
+#: the time-domain model keeps the time-varying forces, so the zero-order x↔y exchange is not exact
+exact_xy_exchange = False
+#: modal structures only (the state-space model needs fn, k, ζ per mode)
+accepts_measured_frf = False
+#: ``kind`` per speed: hopf / flip / none
+reports_lobe_type = True
+reports_progress = False
+cheap = True
+#: sets per call for callers that stream many sets: as large as the zero-order engine's, because each
+#: call runs the node-count convergence check once (on its first set), so fewer calls cost less and
+#: give every set the same node count
+CALL_ROWS = 16_384
+
+
+def chunk_rows(n_speeds: int) -> int:
+    """Parameter sets per ``envelope_batch`` call for ``n_speeds`` speeds (≤ CALL_ROWS, bounded memory)."""
+    return memory_chunk_rows(n_speeds, CALL_ROWS)
+
+
+import sys as _sys  # noqa: E402
+
+from millstab.stability import register as _register  # noqa: E402
+
+_register(_sys.modules[__name__])

@@ -24,6 +24,7 @@ from millstab.errors import InputError
 from millstab.frf import ModalBatch, structure_receptance  # noqa: F401  (re-exported for tests)
 from millstab.model import Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
+from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
 N_BASE = 160
@@ -38,28 +39,6 @@ CHUNK = 16_384
 def chunk_rows(n_speeds: int) -> int:
     """Parameter sets per chunk for ``n_speeds`` speeds: ≤ CHUNK and ≤ CHUNK_CELLS / n_speeds."""
     return max(64, min(CHUNK, CHUNK_CELLS // max(n_speeds, 1)))
-
-
-@dataclass(frozen=True, eq=False)
-class Envelope:
-    """The lower envelope of the lobes at given speeds.
-
-    Attributes:
-        rpm: spindle speeds (S,) [rev/min].
-        depth: limiting axial depth b_lim (S,) [m]; ``inf`` where no chatter boundary exists.
-        lobe: lobe number k of the limiting lobe (S,), -1 where none.
-        chatter_hz: chatter frequency of the limiting lobe (S,) [Hz].
-    """
-
-    rpm: np.ndarray
-    depth: np.ndarray
-    lobe: np.ndarray
-    chatter_hz: np.ndarray
-
-    @property
-    def depth_mm(self) -> np.ndarray:
-        """Limiting depth in mm."""
-        return self.depth * 1e3
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,3 +188,21 @@ def lobes(structure: Structure, cutting: Cutting, rpm_min: float, rpm_max: float
                 continue
             out.append(Lobe(k, br, speed, depth, f))
     return out
+
+
+# -- the engine contract (millstab.stability.base.Engine) -----------------------------------------
+name = "zoa"
+#: the zero-order boundary depends only on tr and det of [α][G], so the x↔y exchange is exact
+exact_xy_exchange = True
+#: a measured FRF is used directly (full 2×2 matrix when cross terms exist)
+accepts_measured_frf = True
+#: lobe numbers only, no flip/Hopf distinction (the averaged model has no flip lobes)
+reports_lobe_type = False
+reports_progress = False
+cheap = True
+
+import sys as _sys  # noqa: E402
+
+from millstab.stability import register as _register  # noqa: E402
+
+_register(_sys.modules[__name__])

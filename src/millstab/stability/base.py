@@ -1,0 +1,88 @@
+"""The engine contract shared by every stability engine: the :class:`Envelope` result and the
+:class:`Engine` protocol (name, the two entry points and the declared capabilities).
+
+An engine is any object (usually a module) with these attributes; consumers ask for a capability
+(``engine.exact_xy_exchange``) instead of testing the engine's name, so a new engine is one module
+plus one :func:`millstab.stability.register` call.
+
+Units: spindle speed in rpm, depth in m (``Envelope.depth_mm`` for mm), chatter frequency in Hz.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+#: outputs (sets × speeds) one batched call should hold at most: a few float64 arrays of this many
+#: cells stay ~100 MB whatever the number of speeds
+CHUNK_CELLS = 4_000_000
+
+#: the attributes every engine must have (checked by :func:`missing_attributes` on registration)
+CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchange", "accepts_measured_frf",
+            "reports_lobe_type", "reports_progress", "cheap")
+
+
+@dataclass(frozen=True, eq=False)
+class Envelope:
+    """The lower envelope of the lobes at given speeds.
+
+    Attributes:
+        rpm: spindle speeds (S,) [rev/min].
+        depth: limiting axial depth b_lim (S,) [m]; ``inf`` where no chatter boundary exists.
+        lobe: lobe number k of the limiting lobe (S,), -1 where none (or not reported).
+        chatter_hz: chatter frequency of the limiting lobe (S,) [Hz].
+    """
+
+    rpm: np.ndarray
+    depth: np.ndarray
+    lobe: np.ndarray
+    chatter_hz: np.ndarray
+
+    @property
+    def depth_mm(self) -> np.ndarray:
+        """Limiting depth in mm."""
+        return self.depth * 1e3
+
+
+@runtime_checkable
+class Engine(Protocol):
+    """What a stability engine provides (a module with these names satisfies it).
+
+    Attributes:
+        name: the registry key (``--engine`` value).
+        exact_xy_exchange: the generalised x↔y mode exchange (see
+            :func:`millstab.identify.objective.exchange_map`) leaves its boundary unchanged exactly
+            (true of the zero-order model only).
+        accepts_measured_frf: ``envelope`` takes a measured-FRF structure (else modal structures only).
+        reports_lobe_type: ``envelope`` tells flip from Hopf boundaries (``kind`` per speed).
+        reports_progress: ``envelope``/``envelope_batch`` take ``progress=(stage, done, total)``.
+        cheap: fast enough (≲ ms per set and speed) for global multi-start searches over thousands of sets.
+    """
+
+    name: str
+    exact_xy_exchange: bool
+    accepts_measured_frf: bool
+    reports_lobe_type: bool
+    reports_progress: bool
+    cheap: bool
+
+    def envelope(self, structure, cutting, rpm) -> Envelope:
+        """The limiting depth [m] at each spindle speed [rpm] (any order) for one structure."""
+
+    def envelope_batch(self, batch, cutting, rpm) -> np.ndarray:
+        """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]."""
+
+    def chunk_rows(self, n_speeds: int) -> int:
+        """Parameter sets per ``envelope_batch`` call that callers streaming many sets should use."""
+
+
+def missing_attributes(engine: object) -> list[str]:
+    """The contract attributes ``engine`` lacks (empty when it satisfies :class:`Engine`)."""
+    return [a for a in CONTRACT if not hasattr(engine, a)]
+
+
+def memory_chunk_rows(n_speeds: int, most: int) -> int:
+    """Sets per call: at most ``most`` and at most CHUNK_CELLS / n_speeds (≥ 1)."""
+    return max(1, min(most, CHUNK_CELLS // max(int(n_speeds), 1)))

@@ -39,7 +39,7 @@ def draw_cut(result, detection, axes) -> None:
         u, v, lu, lv = result.once_x, result.once_y, "x", "y"
     else:  # one direction: the return map x_c -> x_{c+1}
         u, v = result.once_x[:-1], result.once_x[1:]
-        lu, lv = "x_c", "x_{c+1}"
+        lu, lv = "$x_c$", "$x_{c+1}$"
         n, late = n - 1, slice((n - 1) // 2, n - 1)
     ax_p.plot(u[: n // 2] * 1e6, v[: n // 2] * 1e6, ".", ms=2, color="0.7", label="first half")
     ax_p.plot(u[late] * 1e6, v[late] * 1e6, ".", ms=3, color=colour, label="second half")

@@ -46,8 +46,8 @@ from scipy import optimize, stats
 from scipy.stats import qmc
 
 from millstab.errors import InputError
+from millstab.forward import FD_STEP, fd_rows  # noqa: F401 (FD_STEP: the solver's step, re-exported)
 from millstab.forward import fd_difference as jacobians
-from millstab.forward import fd_rows
 from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
 from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
@@ -57,8 +57,6 @@ from millstab.stability import zoa
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 #: default search box half-widths (multiplicative) around the start, per parameter kind
 SEARCH = {"fn": 1.5, "k": 2.5, "zeta": 2.5}
-#: forward-difference step in log-parameters (1e-4 ⇒ 0.01 % relative; the engine resolves ~1e-8)
-FD_STEP = 1e-4  # the same as millstab.forward.FD_STEP, fd_rows' default
 
 Progress = Callable[[str, int, float], None]
 

@@ -124,12 +124,13 @@ def identify(
         out_console.print(f"wrote {out}")
     if plot:
         from millstab.plot import save_figure
-        from millstab.plot.identify import plot_final, sld_curves
+        from millstab.forward import forward
+        from millstab.plot.identify import plot_final
 
         lo, hi = float(pts.rpm.min()), float(pts.rpm.max())
         pad = 0.05 * (hi - lo) if hi > lo else 0.05 * hi
         rpm = np.linspace(max(lo - pad, 1.0), hi + pad, 600)
-        curves = sld_curves(fit, cfg.cutting, rpm, np.vstack([fit.start, fit.estimate]), engine)
+        curves = forward(fit.par, cfg.cutting, engine)(np.vstack([fit.start, fit.estimate]), rpm) * 1e3  # [mm]
         fig = plot_final([(f"{cfg.name}: identified ({method})", rpm, None, curves[1], pts)])
         fig.axes[0].plot(rpm, curves[0], color="0.5", lw=1.0, ls=":", label="start")
         fig.axes[0].legend(fontsize=7)

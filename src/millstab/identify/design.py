@@ -50,7 +50,7 @@ from millstab.identify.result import cutting_difference, cutting_record
 from millstab.identify.tie import is_tied, tied_parameterization
 from millstab.model import Cutting
 from millstab.params import Parameterization
-from millstab.stability import get_engine
+from millstab.forward import forward, log_jacobian
 
 #: default prior spread (standard deviation of ln θ) around a structure that is not a fit: a hammer
 #: test's modes move a few percent in fn and tens of percent in k and ζ once the spindle turns
@@ -135,19 +135,7 @@ def log_jacobians(par: Parameterization, cutting: Cutting, theta: np.ndarray, rp
     (step :data:`FD_STEP`) from ONE engine call. Where a sample has no finite limit the rows are
     zero (no boundary point can be measured there).
     """
-    t = np.atleast_2d(np.asarray(theta, dtype=float))
-    s, p = t.shape
-    r = np.asarray(rpm, float)
-    u = np.log(t)
-    steps = FD_STEP * np.eye(p)
-    rows = np.concatenate([u[:, None, :] + steps[None], u[:, None, :] - steps[None], u[:, None, :]], axis=1)
-    h = math.exp(FD_STEP)
-    speeds = np.concatenate([r, r * h, r / h])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.log(get_engine(engine).envelope_batch(par.batch(np.exp(rows.reshape(-1, p))), cutting, speeds))
-        d = d.reshape(s, 2 * p + 1, 3, -1)
-        jac = np.transpose((d[:, :p, 0] - d[:, p:2 * p, 0]) / (2 * FD_STEP), (0, 2, 1))
-        slope = (d[:, 2 * p, 1] - d[:, 2 * p, 2]) / (2 * FD_STEP)
+    jac, slope = log_jacobian(forward(par, cutting, engine), theta, rpm, rel_step=FD_STEP, central=True, speed=True)
     ok = np.isfinite(jac).all(axis=2) & np.isfinite(slope)
     return np.where(ok[..., None], jac, 0.0), np.where(ok, slope, 0.0)
 
@@ -426,7 +414,7 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
         return np.sqrt(np.mean(relative_sigma(info) ** 2, axis=0))
 
     speeds, at = np.unique(rpm, return_inverse=True)  # (the engine wants distinct speeds)
-    depth = get_engine(engine).envelope_batch(par.batch(centre[None]), cutting, speeds)[0, at] * 1e3
+    depth = forward(par, cutting, engine)(centre[None], speeds)[0, at] * 1e3
     return SpeedDesign(
         rpm=rpm, candidates=cand, weights=w, names=names, target=tgt, theta=centre, noise=float(noise),
         speed_noise=float(speed_noise), sigma_existing=None if info0_c is None else relative_sigma(info0_c),

@@ -46,6 +46,8 @@ from scipy import optimize, stats
 from scipy.stats import qmc
 
 from millstab.errors import InputError
+from millstab.forward import FD_STEP, fd_rows  # noqa: F401 (FD_STEP: the solver's step, re-exported)
+from millstab.forward import fd_difference as jacobians
 from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
 from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
@@ -55,39 +57,8 @@ from millstab.stability import zoa
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 #: default search box half-widths (multiplicative) around the start, per parameter kind
 SEARCH = {"fn": 1.5, "k": 2.5, "zeta": 2.5}
-#: forward-difference step in log-parameters (1e-4 ⇒ 0.01 % relative; the engine resolves ~1e-8)
-FD_STEP = 1e-4
 
 Progress = Callable[[str, int, float], None]
-
-
-def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):
-    """Rows to evaluate for forward (or central) differences around each row of u (K, P).
-
-    Returns (rows (K·m, P), steps (K, P)) with m = P + 1 (forward: [u, u + h_j e_j]) or 2P + 1
-    (central: [u, u + h e_j, u − h e_j]); a step that would leave the bounds is taken backwards.
-    """
-    k, p = u.shape
-    eye = np.eye(p)
-    steps = np.where(u + h <= hi, h, -h) * np.ones((k, p))
-    plus = u[:, None, :] + steps[:, :, None] * eye[None]
-    parts = [u[:, None, :], plus]
-    if central:
-        parts.append(u[:, None, :] - steps[:, :, None] * eye[None])
-    return np.concatenate(parts, axis=1).reshape(-1, p), steps
-
-
-def jacobians(res: np.ndarray, steps: np.ndarray, central: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """From residual rows (K·m, n) laid out as :func:`fd_rows`: residuals at u (K, n) and J (K, n, P)."""
-    k, p = steps.shape
-    m = 2 * p + 1 if central else p + 1
-    r = res.reshape(k, m, -1)
-    r0 = r[:, 0]
-    if central:
-        jac = (r[:, 1:p + 1] - r[:, p + 1:]) / (2 * steps[:, :, None])
-    else:
-        jac = (r[:, 1:p + 1] - r0[:, None]) / steps[:, :, None]
-    return r0, np.transpose(jac, (0, 2, 1))
 
 
 def search_box(problem: Problem, u0: np.ndarray, search: dict[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -76,6 +76,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from millstab.errors import InputError
+from millstab.forward import fd_difference
 from millstab.identify.lsq import Progress, pick_distinct, search_box
 from millstab.identify.objective import Problem, canonical, swap_permutation
 from millstab.identify.quality import check_noise, diagnose
@@ -304,13 +305,12 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
             continue
         # the Newton step (paper eq. newton), in u (scaled) or in physical units (literal)
         if scaled:
-            s = (f_w[:, 1:] - f_w[:, :1]) / fd_step  # ∂MLAE/∂u
+            s = fd_difference(f_w, np.full((g, p), fd_step))[1][:, 0]  # ∂MLAE/∂u (forward differences)
             step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
             # safeguard: MLAE/‖S‖ explodes where the objective is flat; cap each log step
             u = np.clip(u - np.clip(step, -max_step, max_step), lo, hi)
         else:
-            eps = theta * fd_step
-            s = (f_w[:, 1:] - f_w[:, :1]) / eps  # ∂MLAE/∂p in physical units
+            s = fd_difference(f_w, theta * fd_step)[1][:, 0]  # ∂MLAE/∂p in physical units (step ε = fd_step·p)
             step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
             theta_new = np.clip(theta - step, par.lower, par.upper)
             u = np.log(theta_new)

@@ -1,7 +1,8 @@
 """The identification problem: measured boundary points, a parameterization, and the batched forward model.
 
 Everything a solver needs goes through :meth:`Problem.predict_mm`, which stacks B parameter sets into
-ONE batched engine call (``envelope_batch``) and returns the limiting depths at the measured speeds.
+ONE call of the forward model (:func:`millstab.forward.forward`) and returns the limiting depths at the
+measured speeds.
 
 Objectives and residuals (depths in mm, speeds in rev/min, parameters θ in Hz, N/m, -):
 
@@ -27,7 +28,7 @@ from millstab.errors import InputError
 from millstab.io.points import PointSet, check_enough
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.stability import get_engine
+from millstab.forward import forward
 from millstab.stability import zoa
 
 #: a predicted depth above this multiple of the largest measured depth counts as this multiple
@@ -61,7 +62,7 @@ class Problem:
     residual: str = "log"
     n_sets: int = 0
     n_calls: int = 0
-    _engine_mod: object = field(default=None, repr=False)
+    _forward: object = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         self.rpm = zoa.check_rpm(self.rpm)
@@ -73,7 +74,7 @@ class Problem:
             raise InputError("depth_mm", "non-positive or non-finite value", "measured depths must be finite and > 0 mm")
         if self.residual not in RESIDUALS:
             raise InputError("residual", self.residual, f"must be one of {', '.join(RESIDUALS)}")
-        self._engine_mod = get_engine(self.engine)
+        self._forward = forward(self.par, self.cutting, self.engine)
         # repeated tests at one speed are evaluated once (the engine also needs distinct speeds)
         self._speeds, self._at = np.unique(self.rpm, return_inverse=True)
         self._cap = DEPTH_CAP * float(self.depth_mm.max())
@@ -98,7 +99,7 @@ class Problem:
         ONE batched engine call for all B rows; ``inf`` capped (see module docstring).
         """
         t = np.atleast_2d(np.asarray(theta, dtype=float))
-        depth = self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, self._speeds)[:, self._at] * 1e3
+        depth = self._forward(t, self._speeds)[:, self._at] * 1e3
         self.n_sets += t.shape[0]
         self.n_calls += 1
         return np.minimum(np.where(np.isfinite(depth), depth, self._cap), self._cap)
@@ -170,7 +171,7 @@ class Problem:
         if self.cuts is None or len(self.cuts) == 0:
             return None
         speeds, at = np.unique(self.cuts.rpm, return_inverse=True)
-        lim = self._engine_mod.envelope_batch(self.par.batch(np.atleast_2d(theta)), self.cutting, speeds)[0, at] * 1e3
+        lim = self._forward(theta, speeds)[0, at] * 1e3
         self.n_sets += 1
         self.n_calls += 1
         pred_chatter = self.cuts.depth_mm > lim

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.frf import ModalBatch
 from millstab.io.points import PointSet
 from millstab.model import Cutting, Mode, Structure
-from millstab.stability import get_engine
+from millstab.forward import forward, log_jacobian
+from millstab.params import Parameterization
 
 #: boundary points per synthetic example (the documented speed set)
 N_SPEEDS = 100
@@ -45,7 +45,8 @@ def boundary_points(structure: Structure, cutting: Cutting, rpm, *, noise: float
     if not (math.isfinite(noise) and noise >= 0):
         raise InputError("noise", noise, "relative noise must be a finite number >= 0")
     r = np.asarray(rpm, dtype=float)
-    depth = get_engine(engine).envelope_batch(ModalBatch.from_structures([structure]), cutting, r)[0] * 1e3
+    par = Parameterization(structure)  # all parameters free: θ0 reproduces the structure exactly
+    depth = forward(par, cutting, engine)(par.theta0, r)[0] * 1e3
     if not np.isfinite(depth).all():
         raise InputError("rpm", float(r[~np.isfinite(depth)][0]), "no finite stability limit at this speed")
     if noise > 0:
@@ -112,14 +113,8 @@ def identifiability(structure: Structure, cutting: Cutting, rpm, *, engine: str 
     batched engine call) over all six parameters. A 1 % change along the worst-determined parameter
     combination moves the boundary by this × 1 % RMS; near 0 the points cannot determine that
     combination (e.g. a mode too stiff or too far from the speeds to show in the boundary)."""
-    from millstab.params import Parameterization
-
     par = Parameterization(structure)
-    u = np.log(par.theta0)
-    h = 1e-4
-    rows = np.vstack([u + h * np.eye(par.size), u - h * np.eye(par.size)])
-    d = np.log(get_engine(engine).envelope_batch(par.batch(np.exp(rows)), cutting, np.asarray(rpm, float)))
-    jac = (d[:par.size] - d[par.size:]).T / (2 * h)
+    jac = log_jacobian(forward(par, cutting, engine), par.theta0, rpm, rel_step=1e-4, central=True)[0]
     return float(np.linalg.svd(jac / math.sqrt(jac.shape[0]), compute_uv=False)[-1])
 
 

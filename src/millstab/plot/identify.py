@@ -1,8 +1,8 @@
 """Identification figures, as in the seed paper: convergence (Fig. conv), iteration snapshots (Fig. iter)
 and the final SLD against the target or the measured points (Fig. eggs).
 
-Nothing is computed here: the SLD curves arrive as arrays. :func:`sld_curves` (in this module but
-outside the plotting functions) evaluates them with ONE batched engine call for callers that need it.
+Nothing is computed here: the SLD curves arrive as arrays (callers evaluate them with the forward
+model, :func:`millstab.forward.forward`).
 Speeds in rev/min, depths in mm.
 """
 
@@ -12,13 +12,6 @@ from typing import Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
-
-
-def sld_curves(fit, cutting, rpm: np.ndarray, thetas: np.ndarray, engine: str = "zoa") -> np.ndarray:
-    """Depths (B, S) [mm] of the SLDs of parameter rows ``thetas`` (B, P) of ``fit`` at ``rpm`` — one batched call."""
-    from millstab.stability import get_engine
-
-    return get_engine(engine).envelope_batch(fit.par.batch(np.atleast_2d(thetas)), cutting, np.asarray(rpm, float)) * 1e3
 
 
 def snapshot_indices(n_iter: int, n_panels: int = 6) -> np.ndarray:
@@ -160,4 +153,4 @@ def plot_design(plan, rpm: np.ndarray, sld_mm: np.ndarray, measured=None, *, tit
     return fig
 
 
-__all__ = ["plot_convergence", "plot_design", "plot_final", "plot_iterations", "sld_curves", "snapshot_indices"]
+__all__ = ["plot_convergence", "plot_design", "plot_final", "plot_iterations", "snapshot_indices"]

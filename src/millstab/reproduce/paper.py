@@ -276,7 +276,8 @@ def table3(ctx: Context) -> None:
 def _identification_figures(ctx: Context, results: dict) -> None:
     import matplotlib.pyplot as plt
 
-    from millstab.plot.identify import plot_convergence, plot_final, plot_iterations, sld_curves, snapshot_indices
+    from millstab.forward import forward
+    from millstab.plot.identify import plot_convergence, plot_final, plot_iterations, snapshot_indices
 
     rep = ctx.report
     fig, axes = plt.subplots(1, 3, figsize=(15, 3.8))
@@ -290,7 +291,7 @@ def _identification_figures(ctx: Context, results: dict) -> None:
     fit = r3["fits"]["newton"]
     rpm = np.linspace(r3["points"].rpm.min(), r3["points"].rpm.max(), 400)
     its = snapshot_indices(len(fit.history_mlae), 6)
-    guesses = sld_curves(fit, r3["cfg"].cutting, rpm, fit.history_theta[its])
+    guesses = forward(fit.par, r3["cfg"].cutting)(fit.history_theta[its], rpm) * 1e3  # [mm]
     target = zoa.envelope(r3["cfg"].structure, r3["cfg"].cutting, rpm).depth_mm
     rep.figure("fig_iter", plot_iterations(fit, rpm, target, guesses, its),
                "Fig. iter: snapshots of Example 3's guessed SLD (orange) against the target (blue) through the "
@@ -300,7 +301,7 @@ def _identification_figures(ctx: Context, results: dict) -> None:
     for ex, r in results.items():
         rr = np.linspace(r["points"].rpm.min(), r["points"].rpm.max(), 400)
         tgt = zoa.envelope(r["cfg"].structure, r["cfg"].cutting, rr).depth_mm
-        fitted = sld_curves(r["fits"]["newton"], r["cfg"].cutting, rr, r["fits"]["newton"].estimate[None, :])[0]
+        fitted = forward(r["fits"]["newton"].par, r["cfg"].cutting)(r["fits"]["newton"].estimate, rr)[0] * 1e3
         panels.append((f"{ex}: target vs Newton–Raphson result", rr, tgt, fitted, None))
     rep.figure("fig_eggs", plot_final(panels),
                "Fig. eggs: final SLDs of the three examples, the target (blue) against the paper's scheme's result "

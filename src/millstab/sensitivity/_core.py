@@ -11,6 +11,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.forward import forward
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 
@@ -150,15 +151,18 @@ def rows_per_call(n_speeds: int, engine=None) -> int:
     return engine.chunk_rows(n_speeds)
 
 
-def engine_module(name: str):
+def engine_module(name: str) -> str:
+    """The engine name, validated now (an unknown name fails before any work); the studies pass it to
+    :func:`depths`, which evaluates through the one forward model :func:`millstab.forward.forward`."""
     from millstab.stability import get_engine
 
-    return get_engine(name)
+    get_engine(name)
+    return name
 
 
-def depths(engine, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray) -> np.ndarray:
+def depths(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray) -> np.ndarray:
     """Limiting depths (R, S) [m] of R parameter rows: ONE batched engine call."""
-    return engine.envelope_batch(par.batch(theta_rows), cutting, rpm)
+    return forward(par, cutting, engine)(theta_rows, rpm)
 
 
 def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.special import log_ndtr
 
 from millstab.errors import InputError
+from millstab.forward import forward
 from millstab.io.points import PointSet
 from millstab.stability import get_engine
 from millstab.stability import zoa
@@ -61,7 +62,7 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
             d, _, wc = zoa._run_modal(part, prior.cutting, rpm)
             depth[rows], hz[rows] = d, wc / (2 * math.pi)
     else:
-        depth, hz = get_engine(engine).envelope_batch(batch, prior.cutting, rpm), None
+        depth, hz = forward(prior.par, prior.cutting, engine)(theta, rpm), None
     return depth * 1e3 * factor[:, None], hz
 
 

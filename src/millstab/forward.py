@@ -1,0 +1,110 @@
+"""The one forward model and the one finite-difference log-Jacobian.
+
+:func:`forward` binds a parameterization, the cutting conditions and an engine into a frozen callable
+``f(θ[B, P], rpm[S]) → depth[B, S]`` [m]: ONE batched engine call (``envelope_batch``; the engine
+chunks the rows itself). Every consumer (identification, design, synthetic data, sensitivity,
+updating, the callers of the plots) evaluates SLDs through it.
+
+:func:`log_jacobian` differentiates ``ln b`` with respect to ``ln θ`` (optionally also ``ln Ω``) by
+finite differences from ONE call of ``f`` on all perturbed rows. :func:`fd_rows` and
+:func:`fd_difference` are its two halves, shared with the least-squares solver, which differentiates
+its residuals on the same rows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from millstab.model import Cutting
+from millstab.params import Parameterization
+from millstab.stability import get_engine
+
+#: default step in ln θ (1e-4 ⇒ 0.01 % relative; the engines resolve ~1e-8)
+FD_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class Forward:
+    """``f(θ, rpm)``: limiting depths [m] of parameter rows θ (B, P) [Hz, N/m, -] at speeds rpm (S,) [rev/min]."""
+
+    par: Parameterization
+    cutting: Cutting
+    engine: str = "zoa"
+    _engine_mod: object = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # resolve (and validate) the engine name once, not per call
+        object.__setattr__(self, "_engine_mod", get_engine(self.engine))
+
+    def __call__(self, theta: np.ndarray, rpm: np.ndarray) -> np.ndarray:
+        """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call."""
+        t = np.atleast_2d(np.asarray(theta, dtype=float))
+        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, np.asarray(rpm, dtype=float))
+
+
+def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> Forward:
+    """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`)."""
+    return Forward(par, cutting, engine)
+
+
+def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):
+    """Rows to evaluate for forward (or central) differences around each row of u (K, P).
+
+    Returns (rows (K·m, P), steps (K, P)) with m = P + 1 (forward: [u, u + h_j e_j]) or 2P + 1
+    (central: [u, u + h e_j, u − h e_j]); a step that would leave the bounds is taken backwards.
+    """
+    k, p = u.shape
+    eye = np.eye(p)
+    steps = np.where(u + h <= hi, h, -h) * np.ones((k, p))
+    plus = u[:, None, :] + steps[:, :, None] * eye[None]
+    parts = [u[:, None, :], plus]
+    if central:
+        parts.append(u[:, None, :] - steps[:, :, None] * eye[None])
+    return np.concatenate(parts, axis=1).reshape(-1, p), steps
+
+
+def fd_difference(values: np.ndarray, steps: np.ndarray, central: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """From value rows (K·m, n) laid out as :func:`fd_rows`: values at u (K, n) and J (K, n, P)."""
+    k, p = steps.shape
+    m = 2 * p + 1 if central else p + 1
+    r = values.reshape(k, m, -1)
+    r0 = r[:, 0]
+    if central:
+        jac = (r[:, 1:p + 1] - r[:, p + 1:]) / (2 * steps[:, :, None])
+    else:
+        jac = (r[:, 1:p + 1] - r0[:, None]) / steps[:, :, None]
+    return r0, np.transpose(jac, (0, 2, 1))
+
+
+def log_jacobian(f, theta: np.ndarray, rpm: np.ndarray, *, rel_step: float = FD_STEP, central: bool = True,
+                 bounds: tuple[np.ndarray, np.ndarray] | None = None, speed: bool = False):
+    """∂ ln b/∂ ln θ at each row of ``theta`` (B, P) [SI] and speed of ``rpm`` (S,) [rev/min].
+
+    ``f`` is a forward model (:func:`forward`). All perturbed rows (and, with ``speed``, the speeds
+    Ω·e^{±h}) go through ONE call of ``f``. ``rel_step`` is h, the step in ln θ; ``central`` picks
+    central (error O(h²)) or forward differences; with ``bounds`` (lower, upper) [SI] a step that would
+    leave the upper bound is taken backwards (as :func:`fd_rows`).
+
+    Returns J (B, S, P); with ``speed=True`` also slope (B, S) = ∂ ln b/∂ ln Ω (central, same h).
+    Entries are ``nan`` where b is not finite; the caller decides what that means.
+    """
+    t = np.atleast_2d(np.asarray(theta, dtype=float))
+    u = np.log(t)
+    p = u.shape[1]
+    lo, hi = (np.full(p, -np.inf), np.full(p, np.inf)) if bounds is None else (np.log(bounds[0]), np.log(bounds[1]))
+    rows, steps = fd_rows(u, lo, hi, rel_step, central)
+    r = np.asarray(rpm, dtype=float)
+    speeds = np.concatenate([r, r * math.exp(rel_step), r / math.exp(rel_step)]) if speed else r
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d0, jac = fd_difference(np.log(f(np.exp(rows), speeds)), steps, central)
+        if not speed:
+            return jac
+        m = r.size
+        slope = (d0[:, m:2 * m] - d0[:, 2 * m:]) / (2 * rel_step)
+    return jac[:, :m], slope
+
+
+__all__ = ["FD_STEP", "Forward", "fd_difference", "fd_rows", "forward", "log_jacobian"]

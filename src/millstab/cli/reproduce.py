@@ -17,7 +17,7 @@ REPORT_KINDS = (".md", ".html", ".csv", ".png")
 @app.command()
 def reproduce(
     out: Path = typer.Option(Path("millstab-report"), "--out", help="Output folder for report.md/.html, figures, CSVs."),
-    quick: bool = typer.Option(False, "--quick", help="Smaller Monte Carlo, fewer identification starts, no SDM cross-check: a faster run."),
+    quick: bool = typer.Option(False, "--quick", help="Smaller Monte Carlo, fewer identification starts, SDM only on coarse grids (no SDM cross-check of the examples): a faster run."),
     points: Optional[Path] = typer.Option(None, "--points", help="The four-flute chatter tests, if you have them (CSV rpm,depth_mm[,label])."),
     seed: int = typer.Option(0, "--seed", help="Seed of every random process in the run."),
 ) -> None:

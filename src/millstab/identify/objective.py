@@ -29,7 +29,7 @@ from millstab.io.points import PointSet, check_enough
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.forward import forward
-from millstab.stability import zoa
+from millstab.stability import get_engine, zoa
 
 #: a predicted depth above this multiple of the largest measured depth counts as this multiple
 DEPTH_CAP = 20.0

@@ -141,14 +141,12 @@ def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:
     return np.mean(d * d, axis=-1)
 
 
-def rows_per_call(n_speeds: int, engine=None) -> int:
-    """Engine rows per call: the engine's own chunk size (``engine.chunk_rows``; the zero-order one when
-    ``engine`` is None), so one call's (rows, S) outputs stay bounded (~100 MB) whatever the number of speeds."""
-    if engine is None:
-        from millstab.stability.zoa import chunk_rows
+def rows_per_call(n_speeds: int, engine: str = "zoa") -> int:
+    """Engine rows per call: the named engine's own chunk size (its ``chunk_rows``), so one call's (rows, S)
+    outputs stay bounded (~100 MB) whatever the number of speeds."""
+    from millstab.stability import get_engine
 
-        return chunk_rows(n_speeds)
-    return engine.chunk_rows(n_speeds)
+    return get_engine(engine).chunk_rows(n_speeds)
 
 
 def engine_module(name: str) -> str:
@@ -170,7 +168,7 @@ def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:
         yield slice(start, min(n_rows, start + per_call))
 
 
-def depths_chunked(engine, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray,
+def depths_chunked(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray,
                    progress: Progress | None = None) -> np.ndarray:
     """Depths (R, S) [m] for many rows, one engine call per chunk (progress in rows)."""
     out = np.empty((theta_rows.shape[0], rpm.size))

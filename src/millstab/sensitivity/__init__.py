@@ -7,7 +7,8 @@
 * :func:`sobol`, :func:`morris` -- global indices (SALib) of the SLD's MSE, b_lim at each speed and
   the envelope minimum.
 
-Every study goes through the batched engine (``envelope_batch``), centres on a structure's values or
+Every study goes through the one forward model (:func:`millstab.forward.forward`, batched and chunked by
+the engine's own ``chunk_rows``), centres on a structure's values or
 a given θ, and rejects, before any work, settings that could push a parameter out of its valid range.
 Parameters are named as in :mod:`millstab.params` (``fn_x, k_x, zeta_x, fn_y, k_y, zeta_y``).
 """

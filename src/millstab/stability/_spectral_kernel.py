@@ -146,6 +146,30 @@ def setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, wn, zeta, act):
 
 
 @nb.njit(cache=True)
+def _element_lhs(L, el, hi, coef, wn, zeta, mass, mdir, Aq, Dm):
+    """Fill L (p·n × p·n) of collocation element ``el`` (length hi [s]): the differentiation matrix's
+    node block D_kl / hi on each state, minus (A0 + coef E_k C) on the diagonal blocks. ``coef`` is
+    w = ½ b Kt (real, :func:`monodromy`) or σ = w (1 − 1/μ) (complex, :func:`psi`); L has its dtype."""
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    L[:, :] = 0.0
+    for k in range(1, p + 1):
+        rk = (k - 1) * n
+        for l in range(1, p + 1):
+            dkl = Dm[k, l] / hi
+            cl = (l - 1) * n
+            for r in range(n):
+                L[rk + r, cl + r] = dkl
+        for j in range(M):
+            L[rk + j, rk + M + j] -= 1.0
+            L[rk + M + j, rk + j] += wn[j] * wn[j]
+            L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
+            for l in range(M):
+                L[rk + M + j, rk + l] -= coef * Aq[el, k, mdir[j], mdir[l]] / mass[j]
+
+
+@nb.njit(cache=True)
 def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, lend):
     """The monodromy matrix (K, K), K = n + D·p·(collocation elements), at depth b [m].
 
@@ -180,22 +204,10 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
                     Z[r, col] = Znew[r, col]
             continue
         hi = h[el]
-        L[:, :] = 0.0
+        _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
         R[:, :] = 0.0
         for k in range(1, p + 1):
             rk = (k - 1) * n
-            for l in range(1, p + 1):
-                dkl = Dm[k, l] / hi
-                cl = (l - 1) * n
-                for r in range(n):
-                    L[rk + r, cl + r] = dkl
-            # − (A0 + w E_k C) on the diagonal block
-            for j in range(M):
-                L[rk + j, rk + M + j] -= 1.0
-                L[rk + M + j, rk + j] += wn[j] * wn[j]
-                L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
-                for l in range(M):
-                    L[rk + M + j, rk + l] -= w * Aq[el, k, mdir[j], mdir[l]] / mass[j]
             # right-hand sides: − D_k0 z_0 (first n columns), − w E_k u_old,k (node k's D columns)
             d0 = Dm[k, 0] / hi
             for r in range(n):
@@ -348,20 +360,9 @@ def psi(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
                     Z[r, col] = Znew[r, col]
             continue
         hi = h[el]
-        L[:, :] = 0.0
+        _element_lhs(L, el, hi, sigma, wn, zeta, mass, mdir, Aq, Dm)
         for k in range(1, p + 1):
             rk = (k - 1) * n
-            for l in range(1, p + 1):
-                dkl = Dm[k, l] / hi
-                cl = (l - 1) * n
-                for r in range(n):
-                    L[rk + r, cl + r] = dkl
-            for j in range(M):
-                L[rk + j, rk + M + j] -= 1.0
-                L[rk + M + j, rk + j] += wn[j] * wn[j]
-                L[rk + M + j, rk + M + j] += 2.0 * zeta[j] * wn[j]
-                for l in range(M):
-                    L[rk + M + j, rk + l] -= sigma * Aq[el, k, mdir[j], mdir[l]] / mass[j]
             d0 = Dm[k, 0] / hi
             for r in range(n):
                 for col in range(n):

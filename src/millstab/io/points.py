@@ -155,6 +155,18 @@ def read_points(path: PathLike) -> PointSet:
     if not p.is_file():
         raise InputError("points file", str(p), "file does not exist")
     text = read_text(p, "points file", "text CSV file")  # spreadsheets and Notepad often write a BOM
+    return parse_points(text, p)
+
+
+def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
+    """Parse point-set CSV text (an upload, a string in a notebook) with the same checks as
+    :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``.
+
+    Raises:
+        InputError: as :func:`read_points`.
+    """
+    p = Path(source)
+    text = text.lstrip("\ufeff")
     rows = [(i + 1, row) for i, row in enumerate(csv.reader(text.splitlines()))
             if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
     if not rows:
@@ -240,4 +252,4 @@ def check_enough(points: PointSet, n_free: int) -> int:
     return n
 
 
-__all__ = ["LABELS", "PointSet", "check_enough", "read_points", "write_points"]
+__all__ = ["LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]

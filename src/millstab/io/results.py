@@ -199,16 +199,15 @@ def _cell(v: Any) -> str:
     return str(v)
 
 
-def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[Any]],
-              protect: Iterable[PathLike] = ()) -> Path:
-    """Write columns (equal lengths) under ``header`` as CSV atomically; returns the path.
+def csv_text(header: Sequence[str], columns: Sequence[Sequence[Any]]) -> str:
+    """Columns (equal lengths) under ``header`` as CSV text: what :func:`write_csv` writes (the web app's
+    downloads use it, so a download and the command line's file are the same bytes).
 
     Floats are written with Python's shortest round-trip repr (no precision lost); NaN as an empty
     cell.
 
     Raises:
-        InputError: header and columns disagree in count, columns differ in length, or the path is
-            a protected input file.
+        InputError: header and columns disagree in count, or columns differ in length.
     """
     header = [str(h) for h in header]
     cols = [np.asarray(c).ravel() if not isinstance(c, (list, tuple)) else list(c) for c in columns]
@@ -222,7 +221,17 @@ def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[
     w.writerow(header)
     for row in zip(*cols):
         w.writerow([_cell(v) for v in row])
-    return atomic_write_text(path, buf.getvalue(), protect)
+    return buf.getvalue()
 
 
-__all__ = ["atomic_write_text", "check_not_protected", "read_json", "to_jsonable", "write_csv", "write_figure", "write_json"]
+def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[Any]],
+              protect: Iterable[PathLike] = ()) -> Path:
+    """Write columns (equal lengths) under ``header`` as CSV atomically (:func:`csv_text`); returns the path.
+
+    Raises:
+        InputError: see :func:`csv_text`, or the path is a protected input file.
+    """
+    return atomic_write_text(path, csv_text(header, columns), protect)
+
+
+__all__ = ["atomic_write_text", "check_not_protected", "csv_text", "read_json", "to_jsonable", "write_csv", "write_figure", "write_json"]

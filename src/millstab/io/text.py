@@ -34,6 +34,15 @@ def read_text(path: Path, field: str, what: str = "text file", fallback: str | N
         raw = Path(path).read_bytes()
     except OSError as exc:
         raise InputError(field, str(path), f"cannot be read ({exc.strerror or exc})") from None
+    return decode_text(raw, field, str(path), what, fallback)
+
+
+def decode_text(raw: bytes, field: str, name: str, what: str = "text file", fallback: str | None = None) -> str:
+    """Bytes of a user's text (a file, an upload named ``name``) as text, by the rules of :func:`read_text`.
+
+    Raises:
+        InputError: not text in an accepted encoding.
+    """
     for bom, encoding in _BOMS:
         if raw.startswith(bom):
             try:
@@ -45,8 +54,8 @@ def read_text(path: Path, field: str, what: str = "text file", fallback: str | N
     except UnicodeDecodeError as exc:
         if fallback is not None:
             return raw.decode(fallback, errors="replace")
-        raise InputError(field, str(path), f"must be a UTF-8 {what} (byte 0x{raw[exc.start]:02X} at offset "
-                                           f"{exc.start} is not UTF-8; save the file as UTF-8)") from None
+        raise InputError(field, name, f"must be a UTF-8 {what} (byte 0x{raw[exc.start]:02X} at offset "
+                                      f"{exc.start} is not UTF-8; save the file as UTF-8)") from None
 
 
 #: a number written with a decimal comma (or a thousands separator): "100,5", "-1,2e-07"

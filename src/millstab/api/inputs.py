@@ -1,0 +1,89 @@
+"""Validated inputs of the service layer: configs and point sets from files, packaged examples or text
+(an upload), speed grids, and a measured-FRF structure replaced by its fitted modes where a task needs
+modes. Every problem is an :class:`~millstab.errors.InputError` naming the field, the value and what is
+allowed, the same message whichever door (command line, Python, web page) the input came through.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.io.config import Config, config_to_toml, load_config, parse_config
+from millstab.io.points import PointSet, parse_points, read_points
+from millstab.io.text import decode_text
+from millstab.ranges import parse_rpm_grid
+
+#: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
+FALLBACK_RPM = (2000.0, 12000.0, 20.0)
+#: the largest text (an upload) parsed as a config or a point set [bytes]
+MAX_TEXT_BYTES = 5_000_000
+
+
+def config(source: Config | str | os.PathLike) -> Config:
+    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute)."""
+    return source if isinstance(source, Config) else load_config(source)
+
+
+def config_from_text(text: str | bytes, name: str = "config") -> Config:
+    """A config parsed from TOML text (an upload); ``name`` names it in messages. An FRF table a config
+    refers to by file name cannot be resolved from text alone (upload the FRF instead)."""
+    return parse_config(_text(text, name), name=Path(name).stem or name)
+
+
+def points(source: PointSet | str | os.PathLike) -> PointSet:
+    """A point set: itself, a CSV file, or a packaged example ``"example:NAME"`` (ex3_points)."""
+    return source if isinstance(source, PointSet) else read_points(source)
+
+
+def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
+    """A point set parsed from CSV text ``rpm,depth_mm[,label][,weight][,chatter_hz]`` (an upload), with the
+    same checks as a file; ``name`` names it in messages."""
+    return parse_points(_text(text, name), name)
+
+
+def config_toml(cfg: Config) -> str:
+    """The TOML text that reproduces ``cfg`` (the web app's config download; ``millstab lobes FILE``)."""
+    return config_to_toml(cfg)
+
+
+def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
+           field: str = "--rpm") -> np.ndarray:
+    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else the config's
+    ``[speeds]``, else the ``fallback`` grid.
+
+    Raises:
+        InputError: bad range text, or a speed ≤ 0 or not finite.
+    """
+    if spec is None:
+        if cfg is not None and cfg.rpm is not None:
+            return np.asarray(cfg.rpm, dtype=float)
+        return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
+    if isinstance(spec, str):
+        return parse_rpm_grid(spec, field)
+    r = np.asarray(spec, dtype=float).ravel()
+    if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
+        raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")
+    return r
+
+
+def modal(cfg: Config, modes: int | str = "auto") -> tuple[Config, str | None]:
+    """``cfg`` itself when its structure is modal; else ``cfg`` with the modes fitted to its measured FRF
+    (identification, planning, updating and sensitivity need modes) and a one-line note saying so."""
+    if cfg.structure.is_modal:
+        return cfg, None
+    from millstab.modal.run import fitted_config
+
+    return fitted_config(cfg, modes)
+
+
+def _text(text: str | bytes, name: str) -> str:
+    size = len(text)
+    if size > MAX_TEXT_BYTES:
+        raise InputError(name, f"{size / 1e6:.1f} MB", f"is too large (at most {MAX_TEXT_BYTES / 1e6:g} MB)")
+    if isinstance(text, bytes):
+        text = decode_text(text, name, name, "text file (CSV or TOML)")
+    return text.lstrip("\ufeff")

@@ -1,0 +1,120 @@
+"""The stability lobe diagram as a service: limits of a config at given speeds with any registered
+engine, an optional second engine for comparison, the CSV table and the figure."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from millstab.api.progress import Progress
+from millstab.errors import InputError
+from millstab.io.config import Config
+from millstab.io.points import PointSet
+from millstab.stability import Envelope, get_engine
+
+
+@dataclass(frozen=True, eq=False)
+class Lobes:
+    """The SLD of one config: ``envelope`` by ``engine`` and, with ``compare``, ``other`` by that engine.
+
+    Units: rpm [rev/min], depths [m] in the envelopes (``*_mm`` helpers in mm), chatter frequency [Hz].
+    """
+
+    config: Config
+    engine: str
+    envelope: Envelope
+    compare: str | None = None
+    other: Envelope | None = None
+
+    @property
+    def rpm(self) -> np.ndarray:
+        return self.envelope.rpm
+
+    def minimum(self) -> tuple[float, float]:
+        """(rpm, depth [mm]) of the lowest finite limit."""
+        d = np.where(np.isfinite(self.envelope.depth), self.envelope.depth, np.inf)
+        i = int(np.argmin(d))
+        return float(self.rpm[i]), float(self.envelope.depth_mm[i])
+
+    def difference(self) -> tuple[float, float, float] | None:
+        """The compared engine against the main one: (max |relative difference|, its rpm, mean), or None."""
+        if self.other is None:
+            return None
+        ok = np.isfinite(self.other.depth) & np.isfinite(self.envelope.depth)
+        if not ok.any():
+            return None
+        rel = np.abs(self.other.depth[ok] / self.envelope.depth[ok] - 1)
+        return float(rel.max()), float(self.rpm[ok][np.argmax(rel)]), float(rel.mean())
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the CSV: rpm, blim_mm, lobe, chatter_hz[, blim_mm_<compare>]."""
+        env = self.envelope
+        cols = {"rpm": env.rpm, "blim_mm": env.depth_mm, "lobe": env.lobe, "chatter_hz": env.chatter_hz}
+        if self.other is not None:
+            cols[f"blim_mm_{self.compare}"] = self.other.depth_mm
+        return list(cols), list(cols.values())
+
+    def csv(self) -> str:
+        """The CSV text ``millstab lobes --out`` writes."""
+        from millstab.io.results import csv_text
+
+        return csv_text(*self.table())
+
+    def summary(self) -> list[str]:
+        """The lines the command prints."""
+        r, d = self.minimum()
+        lines = [f"{self.config.name}: {self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm ({self.engine}); "
+                 f"minimum limit {d:.4g} mm at {r:.6g} rpm"]
+        diff = self.difference()
+        if diff is not None:
+            lines.append(f"{self.compare} vs {self.engine}: max |difference| {100 * diff[0]:.2f} % at {diff[1]:.6g} rpm, "
+                         f"mean {100 * diff[2]:.2f} %")
+        return lines
+
+
+def envelope(cfg: Config, rpm: np.ndarray, engine: str = "zoa", progress: Progress | None = None) -> Envelope:
+    """One engine's envelope of ``cfg`` at ``rpm``; an engine that reports progress reports to ``progress``
+    (and is cancelled through it)."""
+    eng = get_engine(engine)
+    if not cfg.structure.is_modal and not eng.accepts_measured_frf:
+        raise InputError("engine", engine, "needs a modal structure; this config's structure is a measured FRF "
+                                           "(use zoa, or fit its modes with `millstab modal`)")
+    if eng.reports_progress and progress is not None:
+        return eng.envelope(cfg.structure, cfg.cutting, rpm, progress=progress)
+    return eng.envelope(cfg.structure, cfg.cutting, rpm)
+
+
+def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | None = None,
+          progress: Progress | None = None) -> Lobes:
+    """The SLD of ``cfg`` at the speeds ``rpm`` [rev/min] with ``engine``, and with ``compare`` beside it.
+
+    Raises:
+        InputError: an unknown engine, ``compare`` equal to ``engine``, or an engine that cannot take the
+            config's structure.
+    """
+    if compare and compare == engine:
+        raise InputError("--compare", compare, f"must differ from --engine ({engine})")
+    env = envelope(cfg, rpm, engine, progress)
+    other = envelope(cfg, rpm, compare, progress) if compare else None
+    return Lobes(cfg, engine, env, compare or None, other)
+
+
+def raw_lobes(cfg: Config, rpm: np.ndarray) -> list:
+    """The individual zero-order lobes over the range of ``rpm`` (:class:`millstab.stability.zoa.Lobe`)."""
+    from millstab.stability import zoa
+
+    return zoa.lobes(cfg.structure, cfg.cutting, float(np.min(rpm)), float(np.max(rpm)))
+
+
+def lobes_figure(result: Lobes, points: PointSet | None = None, raw: bool = False, ax=None):
+    """The SLD figure ``millstab lobes --plot`` saves: the limit, the compared engine, the raw lobes and
+    the measured points."""
+    from millstab.plot.sld import plot_sld
+
+    cfg = result.config
+    others = [(f"{result.compare} limit", result.rpm, result.other.depth_mm)] if result.other is not None else []
+    return plot_sld(result.rpm, result.envelope.depth_mm, label=f"{result.engine} limit",
+                    lobes=raw_lobes(cfg, result.rpm) if raw else None, points=points, others=others,
+                    title=f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g}",
+                    **({"ax": ax} if ax is not None else {}))

@@ -1,0 +1,74 @@
+"""The one progress protocol of the service layer, and cancellation.
+
+Every long service function takes ``progress``: a callable ``progress(stage, done, total)`` with
+``stage`` a short text ("identify: lsq", "sdm: limiting depths"), ``done`` a count and ``total`` the count
+at the end, or ``None`` where it is not known in advance (an iterative solver). A caller cancels by
+raising :class:`Cancelled` from the callback (a :class:`CancelToken` does it for a web page's cancel
+button): the exception propagates out of the numerical code, which calls the callback only between
+compiled chunks, so nothing is left half-written.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Callable, Optional
+
+#: progress(stage, done, total); total None = unknown
+Progress = Callable[[str, int, Optional[int]], None]
+
+
+class Cancelled(Exception):
+    """Raised through a running service function when its caller cancels it."""
+
+
+class CancelToken:
+    """A cancel flag that one thread sets (a button) and the worker's progress callback checks.
+
+    ``token.watch(progress)`` wraps a progress callback (or none) into one that raises
+    :class:`Cancelled` once :meth:`cancel` has been called.
+    """
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+
+    def cancel(self) -> None:
+        """Ask the running work to stop at its next progress report."""
+        self._event.set()
+
+    @property
+    def cancelled(self) -> bool:
+        return self._event.is_set()
+
+    def check(self) -> None:
+        """Raise :class:`Cancelled` when cancelled."""
+        if self._event.is_set():
+            raise Cancelled("cancelled by the user")
+
+    def watch(self, progress: Progress | None = None) -> Progress:
+        """A progress callback that reports to ``progress`` and then raises if cancelled."""
+
+        def report(stage: str, done: int, total: int | None) -> None:
+            if progress is not None:
+                progress(stage, done, total)
+            self.check()
+
+        return report
+
+
+def solver_progress(progress: Progress | None, label: str):
+    """Adapt the solvers' ``progress(stage, iteration, best)`` to the protocol (total unknown; the best
+    objective value goes into the stage text)."""
+    if progress is None:
+        return None
+
+    def report(stage: str, iteration: int, best: float) -> None:
+        progress(f"{label}: {stage}, best {best:.4g}", int(iteration), None)
+
+    return report
+
+
+def count_progress(progress: Progress | None, stage: str):
+    """Adapt a ``progress(done, total)`` counter (sensitivity studies) to the protocol."""
+    if progress is None:
+        return None
+    return lambda done, total: progress(stage, int(done), int(total))

@@ -1,0 +1,58 @@
+"""Virtual cuts, modal fits of tap tests and the paper's reproduction as services."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.io.config import Config
+from millstab.io.points import PointSet
+
+
+def _feed(feed_mm: float) -> float:
+    if not (np.isfinite(feed_mm) and feed_mm > 0):
+        raise InputError("--feed-per-tooth", feed_mm, "must be a number > 0 mm")
+    return feed_mm * 1e-3
+
+
+def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float = 0.1, revs: float = 100.0,
+                 steps: int | None = None, start: str = "steady"):
+    """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection)."""
+    from millstab.simulate import detect, simulate_cut as run
+
+    res = run(cfg.structure, cfg.cutting, rpm, depth_mm * 1e-3, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
+              start=start)
+    return res, detect(res)
+
+
+def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float = 100.0, steps: int | None = None,
+               start: str = "steady", label_noise: float = 0.0, marginal: str = "keep", seed: int | None = None):
+    """Simulate and label the cuts (:class:`millstab.simulate.Labels`: stable | marginal | chatter, chatter Hz)."""
+    from millstab.simulate import label_cuts as run
+
+    return run(cfg.structure, cfg.cutting, cuts.rpm, cuts.depth_m, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
+               start=start, label_noise=label_noise, marginal=marginal, seed=seed)
+
+
+def labels_table(labels) -> tuple[list[str], list]:
+    """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
+    return ["rpm", "depth_mm", "label", "chatter_hz"], [labels.rpm, labels.depth_mm, list(labels.label), labels.chatter_hz]
+
+
+def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | None = None,
+              records: tuple[int | None, int | None] = (None, None)):
+    """Modes fitted to measured drive-point FRF files (:class:`millstab.modal.run.ModalResult`)."""
+    from millstab.modal.run import fit_files, parse_band, parse_modes
+
+    return fit_files(frf_x, frf_y, band=parse_band(band), modes=parse_modes(modes), records=records)
+
+
+def reproduce(out: str | Path, *, quick: bool = False, seed: int = 0, points: str | Path | None = None,
+              progress=None):
+    """Reproduce the seed paper's results into the folder ``out`` (:func:`millstab.reproduce.run`);
+    ``progress(step_name)`` is called as each step starts."""
+    from millstab import reproduce as rp
+
+    return rp.run(Path(out), quick=quick, seed=seed, points=None if points is None else Path(points), progress=progress)

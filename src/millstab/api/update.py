@@ -1,0 +1,107 @@
+"""Bayesian updating as services: the posterior from labelled cuts, P(stable) maps, the recommended cut
+and the next test (:mod:`millstab.update`), with the checks every door shares."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from millstab.api.inputs import modal
+from millstab.api.progress import Progress
+from millstab.errors import InputError
+from millstab.io.config import Config
+from millstab.io.points import PointSet
+
+#: the most cells (speeds × depths) of one P(stable) map
+MAX_MAP_CELLS = 5_000_000
+
+
+def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
+           seed: int = 0, progress: Progress | None = None):
+    """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
+    measured-FRF config's prior centres on its fitted modes.
+
+    Raises:
+        InputError: fewer than 100 samples, bad cuts (see :class:`millstab.update.Evidence`), bad prior.
+        Cancelled: raised by ``progress``.
+    """
+    from millstab.update import update as run_update
+
+    if samples < 100:
+        raise InputError("--samples", samples, "need at least 100 samples")
+    cfg, _ = modal(cfg)
+    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, progress=progress)
+
+
+def posterior_from_json(doc, source: str = "posterior"):
+    """A :class:`millstab.update.Posterior` from its JSON document (``millstab update --out``)."""
+    from millstab.update import Posterior
+
+    return Posterior.from_json(doc, str(source))
+
+
+def depth_grid(start: float, stop: float, step: float, field: str = "--depth") -> np.ndarray:
+    """Depths START..STOP by STEP [mm], STOP included when on the grid."""
+    from millstab.ranges import parse_grid
+
+    return parse_grid(f"{start!r}:{stop!r}:{step!r}", field, "mm")
+
+
+def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
+    """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones.
+
+    Raises:
+        InputError: more than :data:`MAX_MAP_CELLS` cells.
+    """
+    from millstab.update import p_stable_map
+
+    if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
+        raise InputError("--depth", f"{np.size(depth_mm)} depths",
+                         f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max {MAX_MAP_CELLS:.0e})")
+    warn_outside(post, float(np.min(rpm)), float(np.max(rpm)))
+    return p_stable_map(post, rpm, depth_mm)
+
+
+def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[list[str], list]:
+    """(header, columns) of the map CSV rpm,depth_mm,p_stable (speed-major)."""
+    R, D = np.meshgrid(rpm, depth_mm, indexing="ij")
+    return ["rpm", "depth_mm", "p_stable"], [R.ravel(), D.ravel(), pm.ravel()]
+
+
+def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, title: str = "P(stable)"):
+    """The P(stable) map with its 5/50/95 % boundaries, the prior's SLD and the cuts (``millstab map --plot``)."""
+    from millstab.plot.update import plot_pmap
+    from millstab.stability import get_engine
+
+    prior_sld = get_engine(post.engine).envelope(post.prior.par.base, post.prior.cutting, rpm).depth_mm
+    return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, post.cuts, title=title)
+
+
+def corner_figure(post):
+    """The pair plot of the posterior samples (``millstab update --plot``)."""
+    from millstab.plot.update import plot_corner
+
+    return plot_corner(post.samples, post.names, post.prior.units())
+
+
+def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
+              width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0):
+    """The most productive cut with P(chatter) ≤ ``risk`` in ``rpm_range`` [rev/min], and the next test
+    (:func:`millstab.update.recommend`).
+
+    Raises:
+        InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0.
+    """
+    from millstab.update import recommend as run_recommend
+
+    return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
+                         seed=seed)
+
+
+def warn_outside(post, lo: float, hi: float) -> None:
+    """Warn when the speeds lo..hi reach beyond the tested speeds (there the answer leans on the prior)."""
+    r = np.asarray(post.cuts.get("rpm") or [], float)
+    if r.size and (lo < 0.9 * r.min() or hi > 1.1 * r.max()):
+        warnings.warn(f"speeds {lo:g}-{hi:g} rpm reach beyond the tested speeds ({r.min():g}-{r.max():g} rpm): "
+                      "there the answer leans on the prior", UserWarning, stacklevel=3)

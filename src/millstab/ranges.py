@@ -1,0 +1,59 @@
+"""Number ranges written as text: ``START:STOP:STEP`` grids and ``LOW:HIGH`` intervals.
+
+One parser for every command-line option, config value and web form that takes a range, so each
+gives the same one-line error (field, the text as written, what is allowed).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from millstab.errors import InputError
+
+#: the most grid points a range may expand to
+MAX_POINTS = 1_000_000
+
+
+def parse_interval(text: str, field: str, unit: str, *, positive: bool = False) -> tuple[float, float]:
+    """``LOW:HIGH`` → (low, high) with 0 ≤ low < high (0 < low with ``positive``)."""
+    lo, hi = _numbers(text, field, unit, "LOW:HIGH")
+    if not (lo > 0 if positive else lo >= 0) or not hi > lo:
+        raise InputError(field, text, f"need {'0 <' if positive else '0 <='} LOW < HIGH ({unit})")
+    return lo, hi
+
+
+def parse_grid(text: str, field: str, unit: str, *, positive: bool = False, example: str = "") -> np.ndarray:
+    """``START:STOP:STEP`` → the grid START, START + STEP, … (STOP included when it falls on the grid).
+
+    Raises:
+        InputError: not three numbers, START < 0 (≤ 0 with ``positive``), STOP ≤ START, STEP ≤ 0, or more
+            than :data:`MAX_POINTS` points.
+    """
+    start, stop, step = _numbers(text, field, unit, "START:STOP:STEP", example)
+    if not ((start > 0 if positive else start >= 0) and stop > start and step > 0):
+        raise InputError(field, text, f"need {'0 <' if positive else '0 <='} START < STOP and STEP > 0 ({unit})")
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if n > MAX_POINTS:
+        raise InputError(field, text, f"{n} points is too many (max {MAX_POINTS:.0e}); use a larger STEP")
+    return start + step * np.arange(n)
+
+
+def parse_rpm_grid(text: str, field: str = "--rpm") -> np.ndarray:
+    """Spindle speeds ``START:STOP:STEP`` [rev/min], all > 0."""
+    return parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25")
+
+
+def _numbers(text: str, field: str, unit: str, form: str, example: str = "") -> tuple[float, ...]:
+    parts = str(text).split(":")
+    eg = f", e.g. {example}" if example else ""
+    if len(parts) != form.count(":") + 1:
+        raise InputError(field, text, f"expected {form} in {unit}{eg}")
+    try:
+        vals = tuple(float(p) for p in parts)
+    except ValueError:
+        raise InputError(field, text, f"{form} must be numbers ({unit}){eg}") from None
+    if not all(math.isfinite(v) for v in vals):
+        raise InputError(field, text, f"{form} must be finite numbers ({unit})")
+    return vals

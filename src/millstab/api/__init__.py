@@ -24,11 +24,11 @@ from millstab.api.inputs import config, config_from_text, config_toml, modal, po
 from millstab.api.lobes import Lobes, envelope, lobes, lobes_figure, raw_lobes
 from millstab.api.progress import CancelToken, Cancelled, Progress
 from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
-from millstab.api.update import (corner_figure, depth_grid, map_figure, map_table, p_stable, posterior_from_json,
+from millstab.api.update import (corner_figure, map_figure, map_table, p_stable, posterior_from_json,
                                  recommend, update)
 
 __all__ = ["CancelToken", "Cancelled", "Lobes", "Progress", "check_fit_matches", "config", "config_from_text",
-           "config_toml", "corner_figure", "depth_grid", "design", "design_figure", "envelope", "fit_curves",
+           "config_toml", "corner_figure", "design", "design_figure", "envelope", "fit_curves",
            "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "labels_table", "lobes", "lobes_figure",
            "map_figure", "map_table", "modal", "modal_fit", "p_stable", "points", "points_from_text", "posterior_from_json",
            "raw_lobes", "recommend", "reproduce", "simulate_cut", "speeds", "update"]

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
@@ -50,9 +51,20 @@ def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | 
 
 
 def reproduce(out: str | Path, *, quick: bool = False, seed: int = 0, points: str | Path | None = None,
-              progress=None):
+              progress: Progress | None = None):
     """Reproduce the seed paper's results into the folder ``out`` (:func:`millstab.reproduce.run`);
-    ``progress(step_name)`` is called as each step starts."""
+    ``progress(step name, steps done, steps in all)`` as each step starts (and once more at the end)."""
     from millstab import reproduce as rp
 
-    return rp.run(Path(out), quick=quick, seed=seed, points=None if points is None else Path(points), progress=progress)
+    total = len(rp.steps())
+    seen: list[str] = []
+
+    def step(name: str) -> None:
+        if progress is not None:
+            progress(name, len(seen), total)
+        seen.append(name)
+
+    rep = rp.run(Path(out), quick=quick, seed=seed, points=None if points is None else Path(points), progress=step)
+    if progress is not None:
+        progress("done", total, total)
+    return rep

@@ -41,13 +41,6 @@ def posterior_from_json(doc, source: str = "posterior"):
     return Posterior.from_json(doc, str(source))
 
 
-def depth_grid(start: float, stop: float, step: float, field: str = "--depth") -> np.ndarray:
-    """Depths START..STOP by STEP [mm], STOP included when on the grid."""
-    from millstab.ranges import parse_grid
-
-    return parse_grid(f"{start!r}:{stop!r}:{step!r}", field, "mm")
-
-
 def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
     """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones.
 

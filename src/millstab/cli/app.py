@@ -26,19 +26,9 @@ app = typer.Typer(
 
 def parse_rpm_range(text: str) -> np.ndarray:
     """``START:STOP:STEP`` in rpm (STOP included when it falls on the grid) → speeds array."""
-    parts = text.split(":")
-    if len(parts) != 3:
-        raise InputError("--rpm", text, "expected START:STOP:STEP in rev/min, e.g. 2000:12000:25")
-    try:
-        start, stop, step = (float(p) for p in parts)
-    except ValueError:
-        raise InputError("--rpm", text, "START, STOP and STEP must be numbers (rev/min)") from None
-    if not (start > 0 and stop > start and step > 0):
-        raise InputError("--rpm", text, "need 0 < START < STOP and STEP > 0")
-    n = int(np.floor((stop - start) / step + 1e-9)) + 1
-    if n > 1_000_000:
-        raise InputError("--rpm", text, f"{n} speeds is too many (max 1e6); use a larger STEP")
-    return start + step * np.arange(n)
+    from millstab.ranges import parse_rpm_grid
+
+    return parse_rpm_grid(text, "--rpm")
 
 
 def read_rpm_file(path: Path) -> np.ndarray:
@@ -114,10 +104,10 @@ def progress_bar(label: str) -> Iterator[Callable[[int, int], None] | None]:
         yield update
 
 
-def engine_progress(update: Callable[[int, int], None] | None) -> dict:
-    """Keyword arguments that connect an engine's ``progress(stage, done, total)`` to a bar's
-    ``update(done, total)`` (empty without a bar)."""
-    return {} if update is None else {"progress": lambda stage, done, total: update(done, total)}
+def engine_progress(update: Callable[[int, int], None] | None):
+    """A ``progress(stage, done, total)`` callback (:mod:`millstab.api.progress`) that drives a bar's
+    ``update(done, total)``, or None without a bar."""
+    return None if update is None else (lambda stage, done, total: update(done, total))
 
 
 @app.callback()

@@ -10,13 +10,6 @@ import typer
 
 from millstab.cli.app import app, parse_rpm_range
 from millstab.cli.identify import show_value
-from millstab.errors import InputError
-
-#: candidate grid when neither --rpm nor the config gives speeds: this many evenly spaced speeds over
-#: the config's [speeds] range is the finest the plan needs (the lobes of a 5 kHz mode at 20 000 rpm
-#: are hundreds of rpm wide)
-N_CANDIDATES = 800
-
 
 #: the command's help (rich reflows each paragraph; square brackets would be read as markup)
 HELP = (
@@ -51,45 +44,23 @@ def design(
     from rich.console import Console
     from rich.table import Table
 
-    from millstab.identify.design import design_speeds
-    from millstab.io import load_config, read_points
-    from millstab.io.results import read_json, write_csv
-    from millstab.params import Parameterization
-
-    cfg = load_config(config)
+    from millstab import api
+    from millstab.io import read_points
     from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.io.results import read_json, write_csv
 
+    cfg = api.config(config)
     inputs = {**config_inputs(cfg), "--points": points, "--fit": fit}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # fail before the work, not after
     protect = [p for p in inputs.values() if p]
-    if not cfg.structure.is_modal:  # a measured FRF: plan around its fitted modes (issue 14)
-        from millstab.modal.run import fitted_config
-
-        cfg, note = fitted_config(cfg)
+    cfg, note = api.modal(cfg)  # a measured FRF: plan around its fitted modes (issue 14)
+    if note:
         typer.echo(note)
-    if rpm:
-        candidates = parse_rpm_range(rpm)
-    elif cfg.rpm is not None:
-        candidates = np.linspace(float(np.min(cfg.rpm)), float(np.max(cfg.rpm)), N_CANDIDATES)
-    else:
-        raise InputError("--rpm", None, "the config has no [speeds] range: give candidate speeds as START:STOP:STEP")
-    existing = None
-    if points is not None:
-        pts = read_points(points)
-        existing = pts.subset(pts.boundary)
-    options = dict(n=n, existing_rpm=None if existing is None else existing.rpm,
-                   existing_weight=None if existing is None else existing.weight,
-                   target=[t.strip() for t in target.split(",") if t.strip()] if target else None,
-                   noise=noise, speed_noise=speed_noise, samples=samples, seed=seed)
-    if fit is not None:
-        doc = read_json(fit)
-        check_fit_matches(doc, fit, cfg)
-        par, theta, cov, alts = _from_fit_json(doc, fit, cfg.cutting)
-        plan = design_speeds(par, cfg.cutting, candidates, theta=theta, cov_u=cov, alternatives=alts, **options)
-    else:
-        names = tuple(s.strip() for s in free.split(",") if s.strip()) if free else ()
-        par = Parameterization(cfg.structure, names, axisymmetric)
-        plan = design_speeds(par, cfg.cutting, candidates, **options)
+    pts = read_points(points) if points is not None else None
+    fit_doc = read_json(fit) if fit is not None else None
+    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=parse_rpm_range(rpm) if rpm else None,
+                      target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
+                      samples=samples, seed=seed)
 
     console = Console()
     table = Table(title=f"{cfg.name}: {n} planned tests", caption=(
@@ -126,12 +97,8 @@ def design(
         console.print(f"wrote {out}")
     if plot:
         from millstab.plot import save_figure
-        from millstab.plot.identify import plot_design
-        from millstab.stability import zoa
 
-        grid = np.linspace(candidates[0], candidates[-1], 800)
-        sld = zoa.envelope(par.structure(plan.theta), cfg.cutting, grid).depth_mm
-        save_figure(plot_design(plan, grid, sld, existing, title=f"{cfg.name}: planned tests"), plot, protect=protect)
+        save_figure(api.design_figure(plan, cfg, pts, fit_doc, str(fit)), plot, protect=protect)
         console.print(f"wrote {plot}")
 
 
@@ -148,54 +115,5 @@ def _criterion_line(plan) -> str:
             f"(that design itself ≥ {plan.efficiency_continuous:.3f})")
 
 
-def check_fit_matches(doc, path: Path, cfg) -> None:
-    """Refuse a fit JSON made from other cutting conditions or another mode layout than ``cfg``'s; warn
-    when the file is too old to record its cutting conditions."""
-    import warnings
-
-    rec = doc.get("cutting") if isinstance(doc, dict) else None
-    if rec is None:
-        warnings.warn(f"--fit {path}: the file does not record the cutting conditions it was fitted under (written "
-                      "by an older millstab), so it cannot be checked against this config: make sure it comes from "
-                      f"{cfg.name}", UserWarning, stacklevel=2)
-    else:
-        from millstab.identify.result import cutting_difference
-
-        diff = cutting_difference(rec, cfg.cutting)
-        if diff:
-            raise InputError("--fit", str(path), f"was fitted under other cutting conditions than {cfg.name}: {diff} "
-                                                 "(the config); plan with the config the fit was made from")
-    layout = {d: len((doc.get("structure") or {}).get(d) or []) for d in ("x", "y")} if isinstance(doc, dict) else {}
-    want_layout = {d: len(getattr(cfg.structure, d)) for d in ("x", "y")}
-    if layout and layout != want_layout:
-        raise InputError("--fit", str(path),
-                         f"its structure has {layout['x']} x and {layout['y']} y mode(s), the config {cfg.name} "
-                         f"{want_layout['x']} and {want_layout['y']}: plan with the config the fit was made from")
-    made_from = doc.get("config") if isinstance(doc, dict) else None
-    if isinstance(made_from, str) and made_from != cfg.name:
-        warnings.warn(f"--fit {path} was made from config {made_from!r}, this is {cfg.name!r}; their cutting conditions "
-                      "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
-
-
 def _pct(v: float) -> str:
     return "not determined" if not np.isfinite(v) else f"± {100 * v:.3g} %"
-
-
-def _from_fit_json(doc, path: Path, cutting):
-    """(Parameterization, θ, cov of ln θ or None, alternatives) from a fit JSON (millstab identify --out)."""
-    from millstab.identify.design import fit_view
-    from millstab.model import Mode, Structure
-    from millstab.params import Parameterization
-
-    try:
-        modes = {d: tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{d}[{i}]") for i, m in enumerate(doc["structure"][d]))
-                 for d in ("x", "y")}
-        names = tuple(doc["free"])
-        theta = [doc["estimate"][k] for k in names]
-        alts = [[a["estimate"][k] for k in names] for a in doc.get("alternatives") or []]
-    except (KeyError, TypeError) as exc:
-        raise InputError("--fit", str(path), f"not a millstab fit JSON (missing {exc})") from None
-    par = Parameterization(Structure(**modes), names, all("_" not in k for k in names))
-    se, corr = doc.get("std_errors"), doc.get("correlation")
-    tied = ((doc.get("settings") or {}).get("xy_tie_test") or {}).get("chosen") == "tied"
-    return fit_view(par, cutting, theta, None if not se else [se[k] for k in names], corr, alts, tied)

@@ -9,7 +9,6 @@ import numpy as np
 import typer
 
 from millstab.cli.app import app
-from millstab.errors import InputError
 from millstab.stability import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
@@ -51,47 +50,33 @@ def identify(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from millstab.identify import METHODS
-    from millstab.identify import identify as run_identify
-    from millstab.identify.lsq import LOSSES
-    from millstab.identify.quality import check_noise
-    from millstab.io import load_config, read_points, write_json
-
-    if method not in METHODS:
-        raise InputError("--method", method, f"must be one of {', '.join(METHODS)}")
-    if loss not in LOSSES:
-        raise InputError("--loss", loss, f"must be one of {', '.join(LOSSES)}")
-    if loss != "linear" and method != "lsq":
-        raise InputError("--loss", loss, "a robust loss applies to --method lsq only")
-    cfg = load_config(config)
-    pts = read_points(points)
+    from millstab import api
+    from millstab.io import read_points, write_json
     from millstab.io.outputs import check_outputs, config_inputs
 
+    cfg = api.config(config)
+    pts = read_points(points)
     inputs = {**config_inputs(cfg), "POINTS": points}
     check_outputs(inputs, {"--out": out, "--plot": plot, "--history-plot": history_plot},
                   figures=("--plot", "--history-plot"))  # fail before the work, not after
     protect = [p for p in inputs.values() if p]
     console = Console(stderr=True)
-    if not cfg.structure.is_modal:  # a measured FRF: start from its fitted modes (issue 14)
-        from millstab.modal.run import fitted_config
-
-        cfg, note = fitted_config(cfg)
+    cfg, note = api.modal(cfg)  # a measured FRF: start from its fitted modes (issue 14)
+    if note:
         typer.echo(note)
-    options = {"loss": loss} if method == "lsq" else {}
-    options["noise"] = check_noise(noise, "--noise")
+    options = dict(method=method, free=free, axisymmetric=axisymmetric, initial=initial, engine=engine, seed=seed,
+                   loss=loss, noise=noise)
     if quiet:
-        fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
-                           engine=engine, seed=seed, **options)
+        fit = api.identify(cfg, pts, **options)
     else:
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("iteration {task.completed}"),
-                      TextColumn("best {task.fields[best]}"), TimeElapsedColumn(), console=console, transient=True) as bar:
-            task = bar.add_task(f"identify ({method})", total=None, best="-")
+                      TimeElapsedColumn(), console=console, transient=True) as bar:
+            task = bar.add_task(f"identify ({method})", total=None)
 
-            def progress(stage: str, iteration: int, best: float) -> None:
-                bar.update(task, completed=iteration, best=f"{best:.4g}")
+            def progress(stage: str, done: int, total: int | None) -> None:
+                bar.update(task, completed=done, description=stage)
 
-            fit = run_identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
-                               engine=engine, seed=seed, progress=progress, **options)
+            fit = api.identify(cfg, pts, progress=progress, **options)
     out_console = Console()
     table = Table(title=f"{cfg.name}: {method}",
                   caption=f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
@@ -124,23 +109,13 @@ def identify(
         out_console.print(f"wrote {out}")
     if plot:
         from millstab.plot import save_figure
-        from millstab.forward import forward
-        from millstab.plot.identify import plot_final
 
-        lo, hi = float(pts.rpm.min()), float(pts.rpm.max())
-        pad = 0.05 * (hi - lo) if hi > lo else 0.05 * hi
-        rpm = np.linspace(max(lo - pad, 1.0), hi + pad, 600)
-        curves = forward(fit.par, cfg.cutting, engine)(np.vstack([fit.start, fit.estimate]), rpm) * 1e3  # [mm]
-        fig = plot_final([(f"{cfg.name}: identified ({method})", rpm, None, curves[1], pts)])
-        fig.axes[0].plot(rpm, curves[0], color="0.5", lw=1.0, ls=":", label="start")
-        fig.axes[0].legend(fontsize=7)
-        save_figure(fig, plot, protect=protect)
+        save_figure(api.fit_figure(fit, cfg, pts, engine, method), plot, protect=protect)
         out_console.print(f"wrote {plot}")
     if history_plot:
         from millstab.plot import save_figure
-        from millstab.plot.identify import plot_convergence
 
-        save_figure(plot_convergence(fit), history_plot, protect=protect)
+        save_figure(api.history_figure(fit), history_plot, protect=protect)
         out_console.print(f"wrote {history_plot}")
 
 

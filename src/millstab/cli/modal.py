@@ -28,18 +28,17 @@ def modal(
     record_y: Optional[int] = typer.Option(None, "--record-y", help="UFF record of FRF_Y."),
 ) -> None:
     """Fit FRF_X (and FRF_Y) to modes (fn, k, zeta) and write them as a config's [structure] section."""
-    from millstab.io import load_config, write_json
+    from millstab.io import write_json
     from millstab.io.outputs import check_outputs, config_inputs
     from millstab.modal.output import quality, write_structure
-    from millstab.modal.run import fit_files, measured_structure, parse_band, parse_modes, sld_check
+    from millstab import api
+    from millstab.modal.run import measured_structure, parse_band, sld_check
 
-    b = parse_band(band)
-    n_modes = parse_modes(modes)
-    cfg = load_config(config) if config else None
+    cfg = api.config(config) if config else None
     inputs = {"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})}
     check_outputs(inputs, {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
-    result = fit_files(frf_x, frf_y, band=b, modes=n_modes, records=(record_x, record_y))
+    result = api.modal_fit(frf_x, frf_y, band=band, modes=modes, records=(record_x, record_y))
     sources = {d: fit.source for d, fit in result.fits.items()}
     for d, fit in result.fits.items():
         typer.echo(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
@@ -50,7 +49,7 @@ def modal(
     check = None
     if cfg is not None:
         speeds = select_rpm(rpm, None, cfg.rpm, FALLBACK_RPM)
-        measured = measured_structure(frf_x, frf_y, b, (record_x, record_y))
+        measured = measured_structure(frf_x, frf_y, parse_band(band), (record_x, record_y))
         check = sld_check(result.structure, measured, cfg.cutting, speeds)
         typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "
                    f"minimum depth {check.min_fitted_mm:.4g} mm from the fit vs {check.min_measured_mm:.4g} mm from the "

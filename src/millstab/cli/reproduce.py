@@ -25,6 +25,7 @@ def reproduce(
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from millstab import api
     from millstab import reproduce as rp
     from millstab.io import read_points
     from millstab.io.outputs import check_outputs
@@ -39,17 +40,11 @@ def reproduce(
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
                   TimeElapsedColumn(), console=console, transient=False) as bar:
         task = bar.add_task("starting", total=len(names))
-        seen: list[str] = []
 
-        def progress(name: str) -> None:
-            if seen:
-                bar.advance(task)
-            seen.append(name)
-            bar.update(task, description=name)
+        def progress(stage: str, done: int, total: int | None) -> None:
+            bar.update(task, completed=done, description=stage)
 
-        rep = rp.run(out, quick=quick, seed=seed, points=points, progress=progress)
-        bar.advance(task)
-        bar.update(task, description="done")
+        rep = api.reproduce(out, quick=quick, seed=seed, points=points, progress=progress)
     failed = [c for c in rep.checks if not c.ok]
     typer.echo(f"wrote {out / 'report.md'} and {out / 'report.html'} ({len(rep.files)} figures and tables)")
     for c in rep.checks:

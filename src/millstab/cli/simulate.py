@@ -38,12 +38,10 @@ def simulate(
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the label noise."),
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
-    from millstab.io import load_config, read_points, write_csv
-    from millstab.simulate import detect, label_cuts, simulate_cut
+    from millstab import api
+    from millstab.io import read_points, write_csv
 
-    if feed <= 0 or not np.isfinite(feed):
-        raise InputError("--feed-per-tooth", feed, "must be a number > 0 mm")
-    cfg = load_config(config)
+    cfg = api.config(config)
     protect = [p for p in (cfg.path, cuts) if p]
     if cuts is not None:
         if rpm is not None or depth is not None:
@@ -51,13 +49,12 @@ def simulate(
         if plot is not None:
             raise InputError("--plot", str(plot), "a figure is drawn for one cut (--rpm/--depth), not for --cuts")
         pts = read_points(cuts)
-        lab = label_cuts(cfg.structure, cfg.cutting, pts.rpm, pts.depth_m, feed * 1e-3, revs=revs,
-                         steps_per_tooth=steps, start=start, label_noise=label_noise, marginal=marginal, seed=seed)
+        lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
+                             marginal=marginal, seed=seed)
         counts = ", ".join(f"{int(np.sum(lab.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
         typer.echo(f"{cfg.name}: {len(pts)} cuts labelled: {counts}")
         if out:
-            write_csv(out, ["rpm", "depth_mm", "label", "chatter_hz"],
-                      [lab.rpm, lab.depth_mm, list(lab.label), lab.chatter_hz], protect=protect)
+            write_csv(out, *api.labels_table(lab), protect=protect)
             typer.echo(f"wrote {out}")
         return
     if rpm is None or depth is None:
@@ -65,9 +62,7 @@ def simulate(
                          "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
     if label_noise or seed is not None or marginal != "keep":
         raise InputError("--label-noise", label_noise, "label noise applies to --cuts only")
-    res = simulate_cut(cfg.structure, cfg.cutting, rpm, depth * 1e-3, feed * 1e-3, revs=revs, steps_per_tooth=steps,
-                       start=start)
-    det = detect(res)
+    res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
     hz = f" at {det.chatter_hz:.1f} Hz ({det.lobe})" if det.label != "stable" else ""
     typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {feed:g} mm/tooth, {res.periods} tooth periods: "
                f"{det.label}{hz}; growth {det.growth:.3g}, level {det.level:.3g}"

@@ -3,11 +3,9 @@ the recommended cut."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from millstab.cli.app import app, parse_rpm_range
@@ -17,27 +15,11 @@ from millstab.stability import ENGINES
 _SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
 
 
-def _range(text: str, option: str, unit: str, parts_wanted: int) -> tuple[float, ...]:
-    """``A:B`` or ``A:B:S`` → floats, with a one-line error naming the option."""
-    parts = text.split(":")
-    form = "LOW:HIGH" if parts_wanted == 2 else "START:STOP:STEP"
-    if len(parts) != parts_wanted:
-        raise InputError(option, text, f"expected {form} in {unit}")
-    try:
-        vals = tuple(float(p) for p in parts)
-    except ValueError:
-        raise InputError(option, text, f"{form} must be numbers ({unit})") from None
-    if not all(math.isfinite(v) for v in vals) or not 0 <= vals[0] < vals[1] or (parts_wanted == 3 and vals[2] <= 0):
-        raise InputError(option, text, f"need 0 <= {form.split(':')[0]} < {form.split(':')[1]}" +
-                         (" and STEP > 0" if parts_wanted == 3 else ""))
-    return vals
-
-
 def _load_posterior(path: Path):
+    from millstab import api
     from millstab.io import read_json
-    from millstab.update import Posterior
 
-    return Posterior.from_json(read_json(path), str(path))
+    return api.posterior_from_json(read_json(path), str(path))
 
 
 @app.command("update")
@@ -56,23 +38,19 @@ def update_cmd(
     from rich.console import Console
     from rich.table import Table
 
-    from millstab.io import check_outputs, config_inputs, load_config, read_points, write_json
-    from millstab.update import update
+    from millstab import api
+    from millstab.io import check_outputs, config_inputs, read_points, write_json
 
-    cfg = load_config(config)
+    cfg = api.config(config)
     c = read_points(cuts)
     p = read_points(points) if points is not None else None
     inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = [v for v in inputs.values() if v]
-    if samples < 100:
-        raise InputError("--samples", samples, "need at least 100 samples")
-    if not cfg.structure.is_modal:  # a measured FRF: the prior centres on its fitted modes (issue 14)
-        from millstab.modal.run import fitted_config
-
-        cfg, note = fitted_config(cfg)
+    cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
+    if note:
         typer.echo(note)
-    post = update(cfg, c, p, engine=engine, samples=samples, seed=seed)
+    post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed)
     doc = post.to_json()
     doc["config"] = cfg.name
     write_json(out, doc, protect=protect)
@@ -93,9 +71,8 @@ def update_cmd(
     con.print(f"wrote {out}")
     if plot:
         from millstab.plot import save_figure
-        from millstab.plot.update import plot_corner
 
-        save_figure(plot_corner(post.samples, post.names, post.prior.units()), plot, protect=protect)
+        save_figure(api.corner_figure(post), plot, protect=protect)
         con.print(f"wrote {plot}")
 
 
@@ -110,40 +87,24 @@ def map_cmd(
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
 
+    from millstab import api
     from millstab.io import check_outputs, write_csv
-    from millstab.update import p_stable_map
+    from millstab.ranges import parse_grid
 
     speeds = parse_rpm_range(rpm)
-    d0, d1, ds = _range(depth, "--depth", "mm", 3)
-    depths = d0 + ds * np.arange(int(math.floor((d1 - d0) / ds + 1e-9)) + 1)
-    if depths.size * speeds.size > 5_000_000:
-        raise InputError("--depth", depth, f"{speeds.size} speeds × {depths.size} depths is too many cells (max 5e6)")
+    depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post = _load_posterior(posterior)
     check_outputs({"POSTERIOR": posterior}, {"--out": out, "--plot": plot}, figures=("--plot",))
-    _warn_outside(post, speeds.min(), speeds.max())
-    pm = p_stable_map(post, speeds, depths)
-    R, D = np.meshgrid(speeds, depths, indexing="ij")
-    write_csv(out, ["rpm", "depth_mm", "p_stable"], [R.ravel(), D.ravel(), pm.ravel()], protect=[posterior])
+    pm = api.p_stable(post, speeds, depths)
+    write_csv(out, *api.map_table(speeds, depths, pm), protect=[posterior])
     con = Console()
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")
     if plot:
         from millstab.plot import save_figure
-        from millstab.plot.update import plot_pmap
-        from millstab.stability import get_engine
 
-        prior_sld = get_engine(post.engine).envelope(post.prior.par.base, post.prior.cutting, speeds).depth_mm
-        fig = plot_pmap(speeds, depths, pm, speeds, prior_sld, post.cuts, title=f"P(stable) from {posterior.name}")
+        fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name}")
         save_figure(fig, plot, protect=[posterior])
         con.print(f"wrote {plot}")
-
-
-def _warn_outside(post, lo: float, hi: float) -> None:
-    import warnings
-
-    r = np.asarray(post.cuts.get("rpm") or [], float)
-    if r.size and (lo < 0.9 * r.min() or hi > 1.1 * r.max()):
-        warnings.warn(f"speeds {lo:g}-{hi:g} rpm reach beyond the tested speeds ({r.min():g}-{r.max():g} rpm): "
-                      "there the answer leans on the prior", UserWarning, stacklevel=2)
 
 
 @app.command("recommend")
@@ -160,17 +121,17 @@ def recommend_cmd(
     """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
     from rich.console import Console
 
+    from millstab import api
     from millstab.io import check_outputs, write_json
-    from millstab.update import recommend
+    from millstab.ranges import parse_interval
 
-    if not 0 < risk < 1:
+    if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
-    lo, hi = _range(rpm, "--rpm", "rpm", 2)
-    if lo <= 0:
-        raise InputError("--rpm", rpm, "need 0 < LOW < HIGH rev/min")
+    lo, hi = parse_interval(rpm, "--rpm", "rpm", positive=True)
     post = _load_posterior(posterior)
     check_outputs({"POSTERIOR": posterior}, {"--out": out})
-    rec = recommend(post, risk, (lo, hi), max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed)
+    rec = api.recommend(post, risk, (lo, hi), max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth,
+                        seed=seed)
     write_json(out, rec.to_json(), protect=[posterior])
     con = Console()
     mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""

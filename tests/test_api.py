@@ -1,0 +1,104 @@
+"""The service layer (millstab.api): inputs from text agree with files, the one progress protocol and
+cancellation, and the CLI writing exactly what the service returns."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from millstab import api
+from millstab.cli import main
+from millstab.datasets import points_path
+from millstab.errors import InputError
+from millstab.io import read_points
+
+
+def test_points_from_text_equal_the_file_reader():
+    path = points_path("ex3_points")
+    from_file = read_points(path)
+    for text in (path.read_text(), path.read_bytes(), b"\xef\xbb\xbf" + path.read_bytes()):  # str, bytes, with a BOM
+        up = api.points_from_text(text, "upload.csv")
+        for field in ("rpm", "depth_m", "weight"):
+            np.testing.assert_array_equal(getattr(up, field), getattr(from_file, field))
+        assert list(up.label) == list(from_file.label)
+
+
+@pytest.mark.parametrize("text, field, says", [
+    ("rpm,depth\n5000,1\n", "header", "unknown column"),
+    ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),
+    ("rpm,depth_mm\n5000,1,5\n", "line 2", "decimal comma"),
+    (b"rpm,depth_mm\n5000,\xff\xfe1\n", "up.csv", "UTF-8"),
+])
+def test_bad_uploads_get_the_file_readers_messages(text, field, says):
+    with pytest.raises(InputError) as exc:
+        api.points_from_text(text, "up.csv")
+    assert field in str(exc.value) and says in str(exc.value)
+
+
+def test_upload_size_is_limited_before_parsing(monkeypatch):
+    monkeypatch.setattr("millstab.api.inputs.MAX_TEXT_BYTES", 100)
+    with pytest.raises(InputError, match="too large"):
+        api.points_from_text(b"rpm,depth_mm\n" + b"5000,1\n" * 20, "big.csv")
+    with pytest.raises(InputError, match="too large"):
+        api.config_from_text("#" * 101, "big.toml")
+
+
+def test_config_text_round_trip_gives_the_same_lobes():
+    cfg = api.config("example:ex1")
+    again = api.config_from_text(api.config_toml(cfg), "ex1.toml")
+    rpm = api.speeds("3000:9000:100")
+    np.testing.assert_array_equal(api.lobes(cfg, rpm).envelope.depth, api.lobes(again, rpm).envelope.depth)
+
+
+@pytest.mark.parametrize("spec, says", [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
+                                        ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0")])
+def test_bad_speeds_name_the_field(spec, says):
+    with pytest.raises(InputError) as exc:
+        api.speeds(spec)
+    assert "--rpm" in str(exc.value) and says in str(exc.value)
+
+
+def test_cli_csv_is_the_services_csv(tmp_path):
+    out = tmp_path / "sld.csv"
+    assert main(["lobes", "example:ex2", "--rpm", "4000:12000:400", "--compare", "sdm", "--out", str(out)]) == 0
+    result = api.lobes(api.config("example:ex2"), api.speeds("4000:12000:400"), compare="sdm")
+    assert out.read_text() == result.csv()
+    header = result.csv().splitlines()[0]
+    assert header == "rpm,blim_mm,lobe,chatter_hz,blim_mm_sdm"
+
+
+def test_compare_with_itself_is_refused():
+    with pytest.raises(InputError, match="must differ"):
+        api.lobes(api.config("example:ex1"), api.speeds("3000:4000:100"), engine="zoa", compare="zoa")
+
+
+def test_progress_reports_stage_done_total_and_cancels_sdm():
+    cfg = api.config("example:ex1")
+    rpm = api.speeds("3000:9000:600")
+    calls = []
+    api.lobes(cfg, rpm, engine="sdm", progress=lambda *a: calls.append(a))
+    assert calls and all(isinstance(s, str) and isinstance(d, int) and t == rpm.size for s, d, t in calls)
+    assert calls[0][1] == 0 and calls[-1][1] == rpm.size
+    assert [d for _, d, _ in calls] == sorted(d for _, d, _ in calls)
+
+    token = api.CancelToken()
+
+    def cancel_after_first_chunk(stage, done, total):
+        if done > 0:
+            token.cancel()
+
+    with pytest.raises(api.Cancelled):
+        api.lobes(cfg, rpm, engine="sdm", progress=token.watch(cancel_after_first_chunk))
+
+
+def test_identification_reports_progress_and_can_be_cancelled():
+    cfg = api.config("example:ex3")
+    pts = read_points(points_path("ex3_points"))
+    seen = []
+    fit = api.identify(cfg, pts, free="fn_x,k_x", progress=lambda s, d, t: seen.append((s, d, t)))
+    assert fit.mlae < 0.5 and seen and all(t is None and s.startswith("identify (lsq)") for s, _, t in seen)
+
+    token = api.CancelToken()
+    token.cancel()
+    with pytest.raises(api.Cancelled):
+        api.identify(cfg, pts, free="fn_x,k_x", progress=token.watch())

@@ -45,8 +45,8 @@ def update_cmd(
     config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
     cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal."),
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
-    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast, and the "
-                                                       "only one whose chatter frequencies are used)."),
+    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
+                                                       "spectral use measured chatter frequencies)."),
     samples: int = typer.Option(4000, "--samples", help="Posterior samples (SMC particles)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the sampler (same seed, same samples)."),
     out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/1)."),

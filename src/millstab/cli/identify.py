@@ -123,7 +123,7 @@ def identify(
         write_json(out, doc, protect=protect)
         out_console.print(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.forward import forward
         from millstab.plot.identify import plot_final
 
@@ -137,7 +137,7 @@ def identify(
         save_figure(fig, plot, protect=protect)
         out_console.print(f"wrote {plot}")
     if history_plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.identify import plot_convergence
 
         save_figure(plot_convergence(fit), history_plot, protect=protect)

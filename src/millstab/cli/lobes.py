@@ -60,7 +60,7 @@ def lobes(
         write_csv(out, list(cols), list(cols.values()), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.sld import plot_sld
         from millstab.stability import zoa
 

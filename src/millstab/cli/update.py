@@ -92,7 +92,7 @@ def update_cmd(
         con.print(f"[yellow]warning:[/yellow] {w}")
     con.print(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.update import plot_corner
 
         save_figure(plot_corner(post.samples, post.names, post.prior.units()), plot, protect=protect)
@@ -127,7 +127,7 @@ def map_cmd(
     con = Console()
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.update import plot_pmap
         from millstab.stability import get_engine
 

@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update.decide import Recommendation, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.posterior import Posterior

@@ -32,7 +32,7 @@ from scipy.special import log_ndtr
 
 from millstab.errors import InputError
 from millstab.forward import forward
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.stability import get_engine
 from millstab.stability import zoa
 from millstab.update.prior import Prior

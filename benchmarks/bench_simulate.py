@@ -142,7 +142,7 @@ def speed() -> float:
 
 def figure(path: str) -> None:
     """A stable and a chattering cut of the benchmark side by side (slotting, 18 333 rpm)."""
-    from millstab.plot import save_figure
+    from millstab.io.figures import save_figure
     from millstab.plot.simulate import plot_cuts
 
     structure, cutting = CASES["slotting"]

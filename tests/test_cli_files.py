@@ -216,7 +216,7 @@ def test_figures_get_the_permissions_of_other_outputs(shop, umask, mode):
 def test_save_figure_leaves_no_temporary_file(shop):
     import matplotlib.pyplot as plt
 
-    from millstab.plot import save_figure
+    from millstab.io.figures import save_figure
 
     fig = plt.figure()
     save_figure(fig, shop / "f.pdf")

@@ -210,13 +210,15 @@ def test_cli_design_after_identify(tmp_path, capsys):
     assert main(["identify", "example:ex1", str(csv_path), "--quiet", "--out", str(fit)]) == 0
     tip = " ".join(capsys.readouterr().out.split())  # rich wraps long lines
     assert "tip: `millstab design example:ex1 --fit" in tip  # 25 noisy points leave ζ loose
+    fit_bytes, pts_bytes = fit.read_bytes(), csv_path.read_bytes()
     out = tmp_path / "next.csv"
     assert main(["design", "example:ex1", "--fit", str(fit), "--points", str(csv_path), "--n", "10",
                  "--rpm", "2000:15000:20", "--out", str(out)]) == 0
     assert "measured points" in capsys.readouterr().out  # the table compares with the points so far
     assert sum(int(r["tests"]) for r in csv.DictReader(out.open())) == 10
-    doc = json.loads(fit.read_text())
-    assert doc["parameters"]  # the fit JSON is unchanged by planning
+    # planning reads the fit and the points, never writes them
+    assert fit.read_bytes() == fit_bytes and csv_path.read_bytes() == pts_bytes
+    assert json.loads(fit_bytes)["parameters"]
 
 
 def test_cli_design_axisymmetric_determines_the_tied_parameters(capsys):

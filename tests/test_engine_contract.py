@@ -111,16 +111,37 @@ def check_bad_input(eng) -> None:
 def check_capabilities(eng, name: str) -> None:
     assert isinstance(eng, stab.Engine) and not stab.missing_attributes(eng)
     assert eng.name == name
-    for flag in ("exact_xy_exchange", "accepts_measured_frf", "reports_lobe_type", "reports_progress", "cheap"):
+    for flag in ("exact_xy_exchange", "accepts_measured_frf", "reports_lobe_type", "reports_progress", "cheap",
+                 "reports_chatter_frequency", "time_averaged"):
         assert isinstance(getattr(eng, flag), bool), flag
+    assert 0 < eng.depth_accuracy < 0.01
     for n_speeds in (1, 50, 10**6):
         rows = eng.chunk_rows(n_speeds)
         assert isinstance(rows, int) and rows >= 1
     assert eng.chunk_rows(10**6) * 10**6 <= 10**8 or eng.chunk_rows(10**6) == 1  # bounded memory per call
 
 
+def check_chatter_frequency(eng, rtol: float) -> None:
+    """An engine declaring ``reports_chatter_frequency``: ``envelope_batch_hz`` gives the batched depths
+    and, per row, the chatter frequency that ``envelope`` reports for that row's structure."""
+    if not eng.reports_chatter_frequency:
+        assert not stab.missing_attributes(eng)
+        return
+    other = Structure(x=(Mode(FN * 1.05, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),))
+    batch = ModalBatch.from_structures([TWO_DOF, other])
+    depth, hz = eng.envelope_batch_hz(batch, HALF3, SPEEDS)
+    assert depth.shape == hz.shape == (2, SPEEDS.size)
+    np.testing.assert_allclose(depth, eng.envelope_batch(batch, HALF3, SPEEDS), rtol=1e-12)
+    for row, s in enumerate((TWO_DOF, other)):
+        env = eng.envelope(s, HALF3, SPEEDS)
+        np.testing.assert_allclose(depth[row], env.depth, rtol=rtol)
+        np.testing.assert_allclose(hz[row], env.chatter_hz, rtol=rtol)
+    # a chatter frequency lies near the structure's modes (the limiting lobe is a structural one)
+    assert np.all((hz > 0.8 * FN) & (hz < 1.3 * 1100.0))
+
+
 CHECKS = {"closed_form": check_closed_form, "scaling": check_scaling, "batch": check_batch_equals_single,
-          "speed_order": check_speed_order}
+          "speed_order": check_speed_order, "chatter_frequency": check_chatter_frequency}
 
 
 # --- every registered engine ------------------------------------------------------------------------
@@ -144,6 +165,8 @@ def test_builtin_engines_and_their_capabilities():
     assert [n for n in ENGINES if get_engine(n).exact_xy_exchange] == ["zoa"]
     assert get_engine("spectral").reports_lobe_type and not get_engine("zoa").reports_lobe_type
     assert get_engine("sdm").reports_progress and not get_engine("sdm").cheap
+    assert [n for n in ENGINES if get_engine(n).reports_chatter_frequency] == ["zoa", "spectral"]
+    assert [n for n in ENGINES if get_engine(n).time_averaged] == ["zoa"]
     with pytest.raises(InputError, match="engine") as err:
         get_engine("fast")
     assert all(n in str(err.value) for n in ENGINES) and "'fast'" in str(err.value)
@@ -160,6 +183,12 @@ def test_register_rejects_an_object_without_the_contract():
     with pytest.raises(InputError, match="envelope_batch"):
         stab.register(types.SimpleNamespace(name="half", envelope=zoa.envelope))
     assert "half" not in ENGINES
+    # declaring chatter frequencies needs the entry point that returns them
+    m = _dummy_module()
+    m.reports_chatter_frequency = True
+    with pytest.raises(InputError, match="envelope_batch_hz"):
+        stab.register(m)
+    assert "dummy" not in ENGINES
 
 
 # --- a plug-in engine: one module-like object, one register call ------------------------------------
@@ -172,7 +201,8 @@ def _dummy_module() -> types.ModuleType:
     m = types.ModuleType("dummy_engine")
     m.name = "dummy"
     m.exact_xy_exchange = m.accepts_measured_frf = m.cheap = True
-    m.reports_lobe_type = m.reports_progress = False
+    m.reports_lobe_type = m.reports_progress = m.time_averaged = m.reports_chatter_frequency = False
+    m.depth_accuracy = 1e-6
     m.chunk_rows = zoa.chunk_rows
 
     def envelope(structure, cutting, rpm):

@@ -320,6 +320,40 @@ def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_trut
         assert not Likelihood(prior, ev1, "sdm").uses_frequency
 
 
+def test_frequencies_come_from_any_engine_declaring_them(monkeypatch):
+    """The likelihood asks ``reports_chatter_frequency`` and calls ``envelope_batch_hz`` (it tested the
+    name "zoa" and called zoa's kernel): a plug-in declaring it has its frequencies used; the spectral
+    engine's agree with its own single-structure envelope."""
+    import types
+
+    import millstab.stability as stab
+
+    prior = make_prior(STRUCT, CUT)
+    u0 = prior.mean_u[None]
+    hz = limits(prior, u0, [6000.0], "zoa", True)[1][0, 0]
+    with pytest.warns(UserWarning, match="every cut is chatter"):
+        ev = Evidence.from_points(PointSet([6000.0], [50.0], ["chatter"], chatter_hz=[hz]))
+    plug = types.ModuleType("plug")
+    for a in stab.base.CONTRACT:
+        setattr(plug, a, getattr(zoa, a))
+    plug.name = "plug"
+    plug.envelope_batch_hz = lambda b, c, r: tuple(2 * x for x in zoa.envelope_batch_hz(b, c, r))
+    stab.register(plug)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no "not used" warning
+            lik = Likelihood(prior, ev, "plug")
+        assert lik.uses_frequency
+        d, f = limits(prior, u0, [6000.0], "plug", True)
+        assert f[0, 0] == pytest.approx(2 * hz, rel=1e-12)
+    finally:
+        stab.unregister("plug")
+    d, f = limits(prior, u0, [6000.0, 7000.0], "spectral", True)
+    env = stab.get_engine("spectral").envelope(prior.par.structure(np.exp(u0[0])), CUT, [6000.0, 7000.0])
+    np.testing.assert_allclose(d[0], env.depth_mm, rtol=1e-12)
+    np.testing.assert_allclose(f[0], env.chatter_hz, rtol=1e-12)
+
+
 def test_smc_refuses_to_return_an_unfinished_tempering():
     loglik = lambda u: -0.5 * ((u - 3.0) / 0.01) ** 2  # noqa: E731  (far and narrow: many stages)
     with pytest.raises(RuntimeError, match="beta"):

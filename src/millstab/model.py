@@ -166,11 +166,6 @@ class MeasuredFRF:
             if i is not None:
                 warnings.warn(sign_convention_message(f"frf.{term}", f[i], h[i]), FRFWarning, stacklevel=3)
 
-    @property
-    def has_cross(self) -> bool:
-        """True when a cross term (xy or yx) was measured."""
-        return self.xy is not None or self.yx is not None
-
     def matrix(self) -> np.ndarray:
         """The 2×2 receptance matrix per frequency, shape (F, 2, 2), missing terms zero [m/N]."""
         g = np.zeros((self.freq_hz.size, 2, 2), dtype=complex)

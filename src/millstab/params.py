@@ -8,8 +8,9 @@ Names (SI units: fn in Hz, k in N/m, zeta dimensionless):
 * an axisymmetric tool (x and y tied, same number of modes): ``fn``, ``k``, ``zeta`` (or ``fn1``,
   ``fn2``, …; ``fn`` = dominant), each setting the x and the y mode together.
 
-Parameters not free keep the base structure's values. Solvers work in log coordinates
-(:meth:`Parameterization.to_log`), which makes Hz, N/m and ζ comparable and keeps them positive.
+Parameters not free keep the base structure's values. The solvers search u = ln θ themselves
+(``np.log`` of :attr:`Parameterization.theta0` and of the bounds; see :mod:`millstab.forward`), which
+makes Hz, N/m and ζ comparable and keeps them positive.
 """
 
 from __future__ import annotations
@@ -190,22 +191,7 @@ class Parameterization:
             theta[self.free.index(c)] = float(v)
         return theta
 
-    # --- scaled coordinates for solvers ------------------------------------------------------------
-    @staticmethod
-    def to_log(theta: np.ndarray) -> np.ndarray:
-        """Solver coordinates u = ln θ."""
-        return np.log(np.asarray(theta, dtype=float))
-
-    @staticmethod
-    def from_log(u: np.ndarray) -> np.ndarray:
-        """Physical θ = exp u."""
-        return np.exp(np.asarray(u, dtype=float))
-
     def as_dict(self, theta: Sequence[float]) -> dict[str, float]:
         """{name: value} for a parameter vector."""
         return {n: float(v) for n, v in zip(self.free, theta)}
 
-
-def full_parameterization(structure: Structure) -> Parameterization:
-    """All parameters of a modal structure free (the 6 of the paper for one mode per direction)."""
-    return Parameterization(structure)

@@ -96,7 +96,7 @@ def design(
                   ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests], [d for _, _, d in tests]), protect=protect)
         console.print(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(api.design_figure(plan, cfg, pts, fit_doc, str(fit)), plot, protect=protect)
         console.print(f"wrote {plot}")

@@ -108,12 +108,12 @@ def identify(
         write_json(out, doc, protect=protect)
         out_console.print(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(api.fit_figure(fit, cfg, pts, engine, method), plot, protect=protect)
         out_console.print(f"wrote {plot}")
     if history_plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(api.history_figure(fit), history_plot, protect=protect)
         out_console.print(f"wrote {history_plot}")

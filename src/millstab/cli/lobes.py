@@ -45,7 +45,7 @@ def lobes(
         write_csv(out, *result.table(), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(api.lobes_figure(result, points=pts, raw=raw), plot, protect=protect)
         typer.echo(f"wrote {plot}")

@@ -63,7 +63,7 @@ def modal(
         write_json(json_out, quality(result, sources, check), protect)
         typer.echo(f"wrote {json_out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.modal import plot_modal_fit
 
         save_figure(plot_modal_fit(result, check), plot, protect=protect)

@@ -293,7 +293,7 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
         write_json(out, payload, protect=protect)
         typer.echo(f"wrote {out}")
     if plot and fig_fn:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(fig_fn(), plot, protect=protect + ([out] if out else []))
         typer.echo(f"wrote {plot}")

@@ -71,7 +71,7 @@ def simulate(
         write_csv(out, ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [res.t, res.x, res.y, res.fx, res.fy], protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
         from millstab.plot.simulate import plot_cut
 
         save_figure(plot_cut(res, det, title=cfg.name), plot, protect=protect)

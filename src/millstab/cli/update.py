@@ -27,8 +27,8 @@ def update_cmd(
     config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
     cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal."),
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
-    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast, and the "
-                                                       "only one whose chatter frequencies are used)."),
+    engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
+                                                       "spectral use measured chatter frequencies)."),
     samples: int = typer.Option(4000, "--samples", help="Posterior samples (SMC particles)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the sampler (same seed, same samples)."),
     out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/1)."),
@@ -70,7 +70,7 @@ def update_cmd(
         con.print(f"[yellow]warning:[/yellow] {w}")
     con.print(f"wrote {out}")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         save_figure(api.corner_figure(post), plot, protect=protect)
         con.print(f"wrote {plot}")
@@ -100,7 +100,7 @@ def map_cmd(
     con = Console()
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")
     if plot:
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name}")
         save_figure(fig, plot, protect=[posterior])

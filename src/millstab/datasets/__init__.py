@@ -14,62 +14,17 @@ Use :func:`load_example` (or ``load_config("example:ex1")``) for a :class:`~mill
 from __future__ import annotations
 
 import tomllib
-from pathlib import Path
 from typing import Any
 
-from millstab.errors import InputError
+from millstab.config import Config
+from millstab.io.config import load_config
 
-_DIR = Path(__file__).resolve().parent
-#: files in this folder that are data, not example configs
-_NOT_EXAMPLES = {"paper_values"}
-
-
-def list_examples() -> list[str]:
-    """Names of the packaged example configs, sorted (e.g. ``["ex1", "ex2", "ex3", "fourflute"]``)."""
-    return sorted(p.stem for p in _DIR.glob("*.toml") if p.stem not in _NOT_EXAMPLES)
+# the files are located by the io layer, which resolves "example:NAME" (datasets sits above io)
+from millstab.io.examples import _DIR, example_path, list_example_points, list_examples, points_path  # noqa: F401
 
 
-def example_path(name: str) -> Path:
-    """The file of a packaged example config.
-
-    Raises:
-        InputError: unknown name (the message lists the available examples).
-    """
-    names = list_examples()
-    key = str(name).strip().lower()
-    if key.endswith(".toml"):
-        key = key[:-5]
-    if key not in names:
-        hint = (f" ({key} is an example points file: give it where points are read, e.g. "
-                f"`millstab identify example:ex3 example:{key}`)" if key in list_example_points() else "")
-        raise InputError("example", name, f"unknown example; available: {', '.join(names)}{hint}")
-    return _DIR / f"{key}.toml"
-
-
-def list_example_points() -> list[str]:
-    """Names of the packaged example points files, sorted (e.g. ``["ex3_points"]``)."""
-    return sorted(p.stem for p in _DIR.glob("*.csv"))
-
-
-def points_path(name: str) -> Path:
-    """The file of a packaged example points file (``"ex3_points"`` or ``"ex3_points.csv"``).
-
-    Raises:
-        InputError: unknown name (the message lists the available points files).
-    """
-    names = list_example_points()
-    key = str(name).strip().lower()
-    if key.endswith(".csv"):
-        key = key[:-4]
-    if key not in names:
-        raise InputError("example points", name, f"unknown example points file; available: {', '.join(names)}")
-    return _DIR / f"{key}.csv"
-
-
-def load_example(name: str):
-    """A packaged example as a :class:`~millstab.io.config.Config`."""
-    from millstab.io.config import load_config
-
+def load_example(name: str) -> Config:
+    """A packaged example as a :class:`~millstab.config.Config`."""
     return load_config(example_path(name))
 
 

@@ -25,7 +25,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.io.points import PointSet, check_enough
+from millstab.points import PointSet, check_enough
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.forward import forward

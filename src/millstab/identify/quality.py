@@ -36,6 +36,8 @@ import math
 import numpy as np
 from scipy import stats
 
+from millstab.stability import get_engine
+
 #: fewer residual degrees of freedom than this: the residual scatter alone does not set the errors
 FEW_DOF = 10
 #: relative depth noise assumed when none is stated and the residuals cannot estimate it (2 %: a
@@ -49,8 +51,6 @@ POOR_RATIO = 1.5
 #: significance of the χ² and runs tests
 CHI2_ALPHA = 0.01
 RUNS_ALPHA = 0.01
-#: relative accuracy of a limiting depth per engine: residuals below 10× this are numerical, not misfit
-ENGINE_ACCURACY = {"zoa": 1e-6, "sdm": 1e-4}
 #: below this radial immersion a/D the zero-order model is a poor one (field notes: ~59 % off at 0.05)
 ZOA_POOR_IMMERSION = 0.3
 #: standard errors use the residual scatter, a stated noise, or an assumed one
@@ -184,12 +184,13 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     runs = runs_test(r, problem.rpm)
     if runs is not None:
         checks["runs_test"] = runs
-        if runs["p_value"] < RUNS_ALPHA and rms > 10 * ENGINE_ACCURACY.get(problem.engine, 1e-6):
+        # residuals below 10× the engine's own accuracy are numerical, not misfit
+        if runs["p_value"] < RUNS_ALPHA and rms > 10 * get_engine(problem.engine).depth_accuracy:
             fit.add_warning("residual_structure",
                             f"the residuals are systematic, not noise: their signs form {runs['runs']} runs along the "
                             f"speed axis where about {runs['expected']:.1f} are expected (runs test p = {runs['p_value']:.2g})"
                             + _why(problem))
-    poor = zoa_model_poor(problem.cutting) if problem.engine == "zoa" else None
+    poor = zoa_model_poor(problem.cutting) if get_engine(problem.engine).time_averaged else None
     if poor:
         fit.add_warning("zoa_model", f"the zero-order model is approximate for this cut ({poor}): on points from real "
                                      "cuts or a time-domain model its estimates can be biased by tens of percent in k and "
@@ -217,13 +218,15 @@ def effective_p(fit, problem) -> int:
 
 def _why(problem) -> str:
     """The likely causes of a poor or systematic fit, for the warning text."""
-    if problem.engine == "zoa" and zoa_model_poor(problem.cutting):
+    eng = get_engine(problem.engine)
+    if eng.time_averaged and zoa_model_poor(problem.cutting):
         return ("; the zero-order model is poor for this cut: refit with the time-domain engine (--engine sdm)")
-    if problem.engine == "sdm":
-        return ("; the SDM stage polishes the zero-order basin and may be in the wrong one (no global SDM search): "
+    if not eng.cheap:  # identify's two stages: a zero-order global search, then this engine's local polish
+        e = problem.engine.upper()
+        return (f"; the {e} stage polishes the zero-order basin and may be in the wrong one (no global {e} search): "
                 "try other starts (--initial) or check the points")
     return "; the search may have stopped in a wrong basin (try other starts with --initial), or the points hold outliers"
 
 
-__all__ = ["ASSUMED_NOISE", "ENGINE_ACCURACY", "FEW_DOF", "POOR_RMS", "SOURCES", "check_noise", "diagnose",
+__all__ = ["ASSUMED_NOISE", "FEW_DOF", "POOR_RMS", "SOURCES", "check_noise", "diagnose",
            "error_sigma", "radial_immersion", "residual_scale", "runs_test", "zoa_model_poor"]

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.model import Cutting, Mode, Structure
 from millstab.forward import forward, log_jacobian
 from millstab.params import Parameterization

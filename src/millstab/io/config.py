@@ -62,7 +62,6 @@ import math
 import re
 import tomllib
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -71,6 +70,7 @@ import numpy as np
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
 from millstab.io.text import read_text
+from millstab.config import Config, PriorTable  # the model types, re-exported from here
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
@@ -90,49 +90,6 @@ _HINTS = {"kn": "the radial coefficient ratio is called kr (= Kn/Kt, the paper's
           "ks": "give kt and kr (not the specific force Ks)", "n": "the number of teeth is 'teeth'",
           "flutes": "the number of teeth is 'teeth'", "wn": "give fn in Hz", "f": "the natural frequency is 'fn'",
           "xi": "the damping ratio is 'zeta'", "damping": "the damping ratio is 'zeta'", "stiffness": "use 'k'"}
-
-
-@dataclass(frozen=True, eq=False)
-class Config:
-    """A loaded config.
-
-    Attributes:
-        cutting: the cutting conditions.
-        structure: the tool-tip structure (modes or measured FRF).
-        name: display name (``name`` key, else the file stem or example name).
-        path: the config file, or ``None`` for a config parsed from text.
-        rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
-        description: free text from the file ("" if none).
-        prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
-    """
-
-    cutting: Cutting
-    structure: Structure
-    name: str
-    path: Path | None = None
-    rpm: np.ndarray | None = None
-    description: str = ""
-    prior: PriorTable | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class PriorTable:
-    """The ``[prior]`` table of a config, as written (defaults are applied by :mod:`millstab.update.prior`).
-
-    Attributes:
-        spreads: {name: σ of ln(value)} for kinds (``fn``, ``k``, ``zeta``), parameter names
-            (``fn_x``, ``k_y2``) and cutting coefficients (``kt``, ``kr``), each > 0.
-        fixed: parameter names held at the structure's values.
-        sigma_depth_m: absolute depth noise [m], or ``None``.
-        sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
-        sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
-    """
-
-    spreads: Mapping[str, float]
-    fixed: tuple[str, ...] = ()
-    sigma_depth_m: float | None = None
-    sigma_depth_rel: float | None = None
-    sigma_chatter_hz: float | None = None
 
 
 def _check_keys(table: Any, field: str, allowed: Iterable[str], required: Iterable[str] = ()) -> Mapping[str, Any]:
@@ -342,7 +299,7 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     data = _check_keys(data, "", TOP_KEYS)
     for key in ("cutting", "structure"):
         if key not in data:
-            raise InputError(key, None, f"missing; a config needs [cutting] and [structure] tables")
+            raise InputError(key, None, "missing; a config needs [cutting] and [structure] tables")
     name_value = data.get("name", name)
     if not isinstance(name_value, str):
         raise InputError("name", name_value, "must be a string")
@@ -372,7 +329,7 @@ def load_config(source: PathLike) -> Config:
         InputError: file missing, TOML syntax error (file name and line), or any schema problem.
     """
     if isinstance(source, str) and source.startswith("example:"):
-        from millstab.datasets import example_path
+        from millstab.io.examples import example_path
 
         path = example_path(source.split(":", 1)[1])
         default_name = path.stem

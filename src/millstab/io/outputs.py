@@ -27,10 +27,8 @@ from pathlib import Path
 from typing import Iterable, Mapping
 
 from millstab.errors import InputError
+from millstab.io.figures import FIGURE_FORMATS  # noqa: F401  (re-exported: it was defined here)
 from millstab.io.results import PathLike, _same_file
-
-#: figure formats every ``--plot``-like option accepts (by extension)
-FIGURE_FORMATS = (".png", ".svg", ".pdf")
 
 
 def config_inputs(cfg) -> dict[str, Path]:

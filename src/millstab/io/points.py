@@ -23,7 +23,6 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
@@ -32,106 +31,11 @@ import numpy as np
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
+# the model type lives below io; re-exported so `from millstab.io.points import PointSet` keeps working
+from millstab.points import LABEL_RULE, LABELS, PointSet, check_enough
 
 REQUIRED = ("rpm", "depth_mm")
 OPTIONAL = ("label", "weight", "chatter_hz")
-LABELS = ("stable", "chatter", "marginal")
-_LABEL_RULE = "must be 'stable', 'chatter', 'marginal' or empty (boundary point)"
-
-
-@dataclass(frozen=True, eq=False)
-class PointSet:
-    """Spindle-speed/depth points, each a boundary point (label ``""``) or a labelled test cut.
-
-    Attributes:
-        rpm: spindle speeds (n,) [rev/min], > 0.
-        depth_mm: axial depths of cut (n,) [mm], > 0.
-        label: (n,) str array: ``"stable"``, ``"chatter"``, ``"marginal"`` or ``""`` (boundary point).
-            ``None`` = all boundary points.
-        weight: (n,) weights > 0 for weighted objectives; ``None`` = all 1.
-        chatter_hz: (n,) measured chatter frequencies [Hz], NaN where not measured; ``None`` = none.
-        source: the file the points came from (for messages and ``protect=``), or ``None``.
-    """
-
-    rpm: np.ndarray
-    depth_mm: np.ndarray
-    label: np.ndarray | None = None
-    weight: np.ndarray | None = None
-    source: Path | None = None
-    chatter_hz: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
-        depth = np.atleast_1d(np.asarray(self.depth_mm, dtype=float))
-        n = rpm.size
-        label = np.full(n, "", dtype=object) if self.label is None else np.atleast_1d(np.asarray(self.label, dtype=object))
-        weight = np.ones(n) if self.weight is None else np.atleast_1d(np.asarray(self.weight, dtype=float))
-        hz = np.full(n, np.nan) if self.chatter_hz is None else np.atleast_1d(np.asarray(self.chatter_hz, dtype=float))
-        for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight), ("chatter_hz", hz)):
-            if arr.ndim != 1 or arr.size != n:
-                raise InputError(f"points.{name}", f"{arr.size} values", f"need one value per speed ({n})")
-        for name, arr, unit in (("rpm", rpm, "rev/min"), ("depth_mm", depth, "mm"), ("weight", weight, "")):
-            bad = ~(np.isfinite(arr) & (arr > 0))
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InputError(f"points.{name}[{i}]", float(arr[i]), f"must be a finite number > 0 {unit}".rstrip())
-        label = np.array([str(s).strip().lower() for s in label], dtype=object)
-        for i, s in enumerate(label):
-            if s not in ("",) + LABELS:
-                raise InputError(f"points.label[{i}]", s, _LABEL_RULE)
-        given = ~np.isnan(hz)
-        bad = given & ~(np.isfinite(hz) & (hz > 0))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise InputError(f"points.chatter_hz[{i}]", float(hz[i]), "must be a finite frequency > 0 Hz (or empty)")
-        odd = given & ~np.isin(label, ("chatter", "marginal"))
-        if odd.any():
-            i = int(np.argmax(odd))
-            raise InputError(f"points.chatter_hz[{i}]", float(hz[i]),
-                             f"a chatter frequency belongs to a chatter or marginal cut, not to a {label[i] or 'boundary'} point")
-        # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
-        object.__setattr__(self, "rpm", rpm)
-        object.__setattr__(self, "depth_mm", depth)
-        object.__setattr__(self, "label", label.astype("<U8") if n else np.array([], dtype="<U8"))
-        object.__setattr__(self, "chatter_hz", hz)
-        object.__setattr__(self, "weight", weight)
-        if self.source is not None:
-            object.__setattr__(self, "source", Path(self.source))
-
-    def __len__(self) -> int:
-        return int(self.rpm.size)
-
-    @property
-    def boundary(self) -> np.ndarray:
-        """Boolean mask of the boundary points (no label)."""
-        return self.label == ""
-
-    @property
-    def stable(self) -> np.ndarray:
-        """Boolean mask of the test cuts labelled stable."""
-        return self.label == "stable"
-
-    @property
-    def chatter(self) -> np.ndarray:
-        """Boolean mask of the test cuts labelled chatter."""
-        return self.label == "chatter"
-
-    @property
-    def marginal(self) -> np.ndarray:
-        """Boolean mask of the test cuts labelled marginal (at the edge of chatter)."""
-        return self.label == "marginal"
-
-    @property
-    def depth_m(self) -> np.ndarray:
-        """Depths in metres."""
-        return self.depth_mm * 1e-3
-
-    def subset(self, mask: np.ndarray) -> PointSet:
-        """The points selected by a boolean mask (or an index array)."""
-        m = np.asarray(mask)
-        if m.dtype == bool and m.shape != self.rpm.shape:
-            raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
-        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m])
 
 
 def _number(text: str, field: str, line: int, path: Path) -> float:
@@ -148,7 +52,7 @@ def read_points(path: PathLike) -> PointSet:
             frequency on a stable cut or a boundary point.
     """
     if str(path).startswith("example:"):  # the CLI hands it over as a Path; str() keeps the text
-        from millstab.datasets import points_path
+        from millstab.io.examples import points_path
 
         path = points_path(str(path).split(":", 1)[1])
     p = Path(path)
@@ -204,7 +108,7 @@ def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
             raise InputError(f"{p.name} line {line}, depth_mm", cells[col["depth_mm"]], "depth of cut must be > 0 mm")
         lab = cells[col["label"]].lower() if "label" in col else ""
         if lab not in ("",) + LABELS:
-            raise InputError(f"{p.name} line {line}, label", cells[col["label"]], _LABEL_RULE)
+            raise InputError(f"{p.name} line {line}, label", cells[col["label"]], LABEL_RULE)
         w = 1.0
         if "weight" in col and cells[col["weight"]]:
             w = _number(cells[col["weight"]], "weight", line, p)
@@ -236,20 +140,6 @@ def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] =
         header.append("chatter_hz")
         cols.append(points.chatter_hz)
     return write_csv(path, header, cols, protect)
-
-
-def check_enough(points: PointSet, n_free: int) -> int:
-    """Return the number of boundary points; raise InputError if fewer than ``n_free``.
-
-    Fitting ``n_free`` parameters to fewer boundary points is underdetermined.
-    """
-    n = int(np.count_nonzero(points.boundary))
-    if n < n_free:
-        where = f" in {points.source.name}" if points.source is not None else ""
-        raise InputError("points", f"{n} boundary points{where}",
-                         f"need at least {n_free} boundary points (rows without a label) to identify "
-                         f"{n_free} free parameters; add points or fix (tie) parameters")
-    return n
 
 
 __all__ = ["LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]

@@ -1,4 +1,4 @@
-"""Writing results (JSON, CSV, figures) without ever losing a user's file.
+"""Writing results (JSON, CSV; figures in :mod:`millstab.io.figures`) without ever losing a user's file.
 
 Every writer here goes through one atomic writer: the data are written to a temporary file in the
 target's directory and then moved over the target with :func:`os.replace`, so a crash or a full
@@ -110,20 +110,11 @@ def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (
     return _atomic_write(path, lambda fh: fh.write(data), protect)
 
 
-def write_figure(fig, path: PathLike, protect: Iterable[PathLike] = (), dpi: int = 150) -> Path:
-    """Save a matplotlib figure as PNG, SVG or PDF (by the extension of ``path``) atomically, with
-    the same permissions as every other output (0666 minus umask); the figure is not closed.
-
-    Raises:
-        InputError: unknown extension, a protected input file, or a path that cannot be written.
-    """
-    from millstab.io.outputs import FIGURE_FORMATS
-
+def ensure_folder(path: PathLike) -> Path:
+    """Create the folder ``path`` (and its parents) if it does not exist; return it as a Path."""
     p = Path(path)
-    fmt = p.suffix.lower()
-    if fmt not in FIGURE_FORMATS:
-        raise InputError("plot file", str(path), f"extension must be one of {', '.join(FIGURE_FORMATS)}")
-    return _atomic_write(p, lambda fh: fig.savefig(fh, dpi=dpi, bbox_inches="tight", format=fmt[1:]), protect)
+    p.mkdir(parents=True, exist_ok=True)
+    return p
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -234,4 +225,5 @@ def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[
     return atomic_write_text(path, csv_text(header, columns), protect)
 
 
-__all__ = ["atomic_write_text", "check_not_protected", "csv_text", "read_json", "to_jsonable", "write_csv", "write_figure", "write_json"]
+__all__ = ["atomic_write_text", "check_not_protected", "csv_text", "ensure_folder", "read_json", "to_jsonable", "write_csv",
+           "write_json"]

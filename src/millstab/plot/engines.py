@@ -4,20 +4,21 @@ speeds where an engine finds a period-doubling (flip) boundary marked. Draws arr
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-#: line style per engine name (others fall back to grey dotted)
-ENGINE_STYLE = {
-    "zoa": dict(color="tab:blue", lw=1.6, ls="-", label="zero-order (ZOA)"),
-    "sdm": dict(color="black", lw=0, marker="o", ms=3.5, mfc="none", label="semi-discretization (SDM)"),
-    "spectral": dict(color="tab:red", lw=1.3, ls="--", label="spectral"),
-}
+#: line styles given to the curves of a panel in order when the caller gives none
+STYLE_CYCLE = (
+    dict(color="tab:blue", lw=1.6, ls="-"),
+    dict(color="black", lw=1.2, ls="-."),
+    dict(color="tab:red", lw=1.3, ls="--"),
+    dict(color="tab:green", lw=1.2, ls=":"),
+)
 
 
-def plot_engine_panels(panels: Sequence[dict]):
+def plot_engine_panels(panels: Sequence[dict], styles: Mapping[str, dict] | None = None):
     """One panel per cut: the limiting depth [mm] against spindle speed [rev/min] of each engine.
 
     Args:
@@ -25,14 +26,16 @@ def plot_engine_panels(panels: Sequence[dict]):
             (rpm, depth_mm) of the speeds where the boundary is a flip (period-doubling) one, drawn as
             red triangles; optional ``ylim_mm`` (default: 1.1 × the highest finite depth, at most 4 × the
             lowest, so the lobe bottoms stay readable).
+        styles: optional matplotlib line keywords per curve name (``label`` included); a curve without
+            one is drawn in the next style of :data:`STYLE_CYCLE`, labelled with its name.
     Returns:
         The matplotlib Figure.
     """
     fig, axes = plt.subplots(1, len(panels), figsize=(6.5 * len(panels), 4.4), squeeze=False)
     for ax, panel in zip(axes[0], panels):
         lows, highs = [], []
-        for name, (rpm, d) in panel["curves"].items():
-            style = ENGINE_STYLE.get(name, dict(color="0.5", ls=":", lw=1.2, label=name))
+        for i, (name, (rpm, d)) in enumerate(panel["curves"].items()):
+            style = (styles or {}).get(name) or dict(STYLE_CYCLE[i % len(STYLE_CYCLE)], label=name)
             ax.plot(rpm, d, **style)
             fin = np.asarray(d)[np.isfinite(d)]
             if fin.size:

@@ -39,6 +39,12 @@ ID_IMMERSION = 0.1
 ID_RPM = np.linspace(3000.0, 15000.0, 40)
 ID_SPREAD = 0.2  # every start parameter 20 % off the truth, signs drawn with the run's seed
 ID_NAMES = ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
+#: the three engines this section compares, as Fig. engines draws them (SDM, on a coarser grid, as circles)
+ENGINE_STYLE = {
+    "zoa": dict(color="tab:blue", lw=1.6, ls="-", label="zero-order (ZOA)"),
+    "sdm": dict(color="black", lw=0, marker="o", ms=3.5, mfc="none", label="semi-discretization (SDM)"),
+    "spectral": dict(color="tab:red", lw=1.3, ls="--", label="spectral"),
+}
 
 
 def bench_cutting(immersion: float) -> Cutting:
@@ -143,7 +149,7 @@ def engines(ctx) -> None:
             n_flip = int(flip.sum()) if name == "spectral" else ""
             rows.append([aD, name, env.depth_mm[i], rpm[i], 100 * diff.max(), rpm.size, dt, n_flip])
         res[aD] = out
-    rep.figure("fig_engines", plot_engine_panels(panels),
+    rep.figure("fig_engines", plot_engine_panels(panels, ENGINE_STYLE),
                "Fig. engines: limiting depth of the benchmark by the zero-order (ZOA, blue), semi-discretization (SDM, "
                "circles) and spectral (red dashed) engines; red triangles: speeds where the spectral engine's boundary "
                "is a period-doubling (flip) one, which the zero-order model cannot predict")

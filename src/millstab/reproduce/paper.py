@@ -166,7 +166,7 @@ def stand_in_points(seed: int, noise: float = 0.03, n: int = 21):
     """The synthetic stand-in for the 21 unpublished chatter tests: boundary points of the paper's
     in-process Newton–Raphson result (4103.4 Hz, 11.65 MN/m, 0.0269, axisymmetric) at n evenly spaced
     speeds over 5500–6500 rpm, depths multiplied by (1 + noise·N(0, 1)) with a seeded generator."""
-    from millstab.io.points import PointSet
+    from millstab.points import PointSet
 
     pv = paper_values()
     nr = pv["experimental_results"]["newton_raphson"]

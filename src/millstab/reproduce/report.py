@@ -14,7 +14,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from millstab.io.results import atomic_write_text, write_csv
+from millstab.io.results import atomic_write_text, ensure_folder, write_csv
 
 
 #: kinds of headline rows: a claim that holds or not, or a value set beside the paper's with no verdict
@@ -84,8 +84,7 @@ class Report:
     files: list[Path] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self.out = Path(self.out)
-        self.out.mkdir(parents=True, exist_ok=True)
+        self.out = ensure_folder(self.out)
 
     def heading(self, text: str, level: int = 2) -> None:
         self.blocks.append(("h", (level, text)))
@@ -108,7 +107,7 @@ class Report:
         The caption is the figure's title in the report, so a figure-level title (the suptitle, or the
         title of a one-panel figure) is removed rather than said twice; panel titles stay.
         """
-        from millstab.plot import save_figure
+        from millstab.io.figures import save_figure
 
         if fig.get_suptitle():
             fig.suptitle("")

@@ -21,7 +21,8 @@ CHUNK_CELLS = 4_000_000
 
 #: the attributes every engine must have (checked by :func:`missing_attributes` on registration)
 CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchange", "accepts_measured_frf",
-            "reports_lobe_type", "reports_progress", "cheap")
+            "reports_lobe_type", "reports_progress", "cheap", "reports_chatter_frequency", "time_averaged",
+            "depth_accuracy")
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +60,11 @@ class Engine(Protocol):
         reports_lobe_type: ``envelope`` tells flip from Hopf boundaries (``kind`` per speed).
         reports_progress: ``envelope``/``envelope_batch`` take ``progress=(stage, done, total)``.
         cheap: fast enough (≲ ms per set and speed) for global multi-start searches over thousands of sets.
+        reports_chatter_frequency: the batched path gives the limiting lobe's chatter frequency too:
+            ``envelope_batch_hz(batch, cutting, rpm)`` → (depth (B, S) [m], chatter_hz (B, S) [Hz]).
+        time_averaged: the zero-order model (cutting forces averaged over the tooth period), which is a
+            poor one at low radial immersion.
+        depth_accuracy: relative accuracy of a limiting depth [-]; residuals below ~10× this are numerical.
     """
 
     name: str
@@ -67,6 +73,9 @@ class Engine(Protocol):
     reports_lobe_type: bool
     reports_progress: bool
     cheap: bool
+    reports_chatter_frequency: bool
+    time_averaged: bool
+    depth_accuracy: float
 
     def envelope(self, structure, cutting, rpm) -> Envelope:
         """The limiting depth [m] at each spindle speed [rpm] (any order) for one structure."""
@@ -79,8 +88,12 @@ class Engine(Protocol):
 
 
 def missing_attributes(engine: object) -> list[str]:
-    """The contract attributes ``engine`` lacks (empty when it satisfies :class:`Engine`)."""
-    return [a for a in CONTRACT if not hasattr(engine, a)]
+    """The contract attributes ``engine`` lacks (empty when it satisfies :class:`Engine`); an engine
+    declaring ``reports_chatter_frequency`` needs ``envelope_batch_hz`` too."""
+    missing = [a for a in CONTRACT if not hasattr(engine, a)]
+    if getattr(engine, "reports_chatter_frequency", False) and not hasattr(engine, "envelope_batch_hz"):
+        missing.append("envelope_batch_hz")
+    return missing
 
 
 def memory_chunk_rows(n_speeds: int, most: int) -> int:

@@ -327,6 +327,11 @@ accepts_measured_frf = False
 reports_lobe_type = False
 reports_progress = True
 cheap = False
+#: the batched path returns depths only (``envelope`` reports the chatter frequency of one structure)
+reports_chatter_frequency = False
+time_averaged = False
+#: relative accuracy of a limiting depth (discretisation and root bracket)
+depth_accuracy = 1e-4
 #: sets per call for callers that stream many sets: small, since each set costs ms per speed, so a
 #: caller's progress and cancellation are seen often
 CALL_ROWS = 256

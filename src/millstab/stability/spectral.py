@@ -116,7 +116,7 @@ BLOCK = 25
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
-__all__ = ["envelope", "envelope_batch", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES", "ELEM_PERIODS", "TOL"]
+__all__ = ["envelope", "envelope_batch", "envelope_batch_hz", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES", "ELEM_PERIODS", "TOL"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,6 +275,22 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None =
     return _limit(batch, cutting, r, nodes)[0]
 
 
+def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
+    spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
+    (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
+    no boundary exists."""
+    r = check_rpm(rpm)
+    depth, mu, _ = _limit(batch, cutting, r, nodes)
+    k = np.concatenate([batch.k_x, batch.k_y], axis=1)
+    fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
+    zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
+    flex = np.argmax(1.0 / (k * zeta), axis=1)
+    f_ref = fn[np.arange(batch.size), flex][:, None]
+    hz = np.where(np.isfinite(depth), _chatter_hz(mu, 60.0 / (cutting.teeth * r), f_ref), np.nan)
+    return depth, hz
+
+
 def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float, nodes: int = P_NODES) -> np.ndarray:
     """The monodromy matrix over one tooth period at one speed [rpm] and depth [m]; its eigenvalues
     are the Floquet multipliers (the cut is stable when all have modulus < 1)."""
@@ -312,6 +328,11 @@ accepts_measured_frf = False
 reports_lobe_type = True
 reports_progress = False
 cheap = True
+#: :func:`envelope_batch_hz` gives the critical multiplier's frequency beside the depth
+reports_chatter_frequency = True
+time_averaged = False
+#: relative accuracy of a limiting depth (the final root bracket; the node count converges to TOL)
+depth_accuracy = RTOL
 #: sets per call for callers that stream many sets: as large as the zero-order engine's, because each
 #: call runs the node-count convergence check once (on its first set), so fewer calls cost less and
 #: give every set the same node count

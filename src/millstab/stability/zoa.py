@@ -149,6 +149,21 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, chunk: int | None =
     return out
 
 
+def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm) -> tuple[np.ndarray, np.ndarray]:
+    """Limiting depths (B, S) [m] and the limiting lobes' chatter frequencies (B, S) [Hz] of B modal
+    parameter sets at S spindle speeds [rpm], streamed in chunks of :func:`chunk_rows` sets."""
+    r = check_rpm(rpm)
+    depth = np.empty((batch.size, r.size))
+    hz = np.empty((batch.size, r.size))
+    step = chunk_rows(r.size)
+    for start in range(0, batch.size, step):  # chunks bound the memory; each chunk is one compiled call
+        rows = slice(start, min(start + step, batch.size))
+        part = ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+        d, _, wc = _run_modal(part, cutting, r)
+        depth[rows], hz[rows] = d, wc / (2 * math.pi)
+    return depth, hz
+
+
 def lobes(structure: Structure, cutting: Cutting, rpm_min: float, rpm_max: float, n_freq: int = 4000) -> list[Lobe]:
     """Raw lobes reaching [rpm_min, rpm_max], for plotting (not for accurate envelopes).
 
@@ -200,6 +215,12 @@ accepts_measured_frf = True
 reports_lobe_type = False
 reports_progress = False
 cheap = True
+#: the compiled batch kernel returns the limiting lobe's ωc beside the depth (:func:`envelope_batch_hz`)
+reports_chatter_frequency = True
+#: the directional matrix averaged over the tooth period (the zero-order model)
+time_averaged = True
+#: relative accuracy of a limiting depth (root polish of the compiled kernel)
+depth_accuracy = 1e-6
 
 import sys as _sys  # noqa: E402
 

@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update.decide import Recommendation, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.posterior import Posterior
@@ -37,8 +37,9 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         config: a :class:`millstab.io.config.Config` (structure = prior medians; ``[prior]`` table).
         cuts: labelled cuts (unlabelled rows count as boundary points).
         points: more boundary points (or cuts), or ``None``.
-        engine: a registered engine (:data:`millstab.stability.ENGINES`): ``zoa`` (fast; the only one whose
-            chatter frequencies are used) or an interrupted-cutting engine (``sdm``, ``spectral``).
+        engine: a registered engine (:data:`millstab.stability.ENGINES`): ``zoa`` (fast) or an
+            interrupted-cutting engine (``sdm``, ``spectral``); measured chatter frequencies are used with
+            an engine declaring ``reports_chatter_frequency`` (``zoa``, ``spectral``).
         samples: posterior samples (SMC particles).
         seed: seed of the sampler (same seed, same samples).
         moves: Metropolis–Hastings moves per tempering stage.

@@ -32,13 +32,11 @@ from scipy.special import log_ndtr
 
 from millstab.errors import InputError
 from millstab.forward import forward
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.stability import get_engine
 from millstab.stability import zoa
 from millstab.update.prior import Prior
 
-#: engines that report the limiting lobe's chatter frequency through the batched path
-FREQUENCY_ENGINES = ("zoa",)
 _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 
 
@@ -48,19 +46,13 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm]; a free Kt
     scales the depths exactly (see :mod:`millstab.update.prior`). ``inf`` where no boundary exists.
+    Frequencies come only from an engine declaring ``reports_chatter_frequency`` (else ``None``).
     """
     theta, factor = prior.split(u)
-    batch = prior.par.batch(theta)
     rpm = zoa.check_rpm(rpm)
-    if with_freq and engine == "zoa":
-        depth = np.empty((batch.size, rpm.size))
-        hz = np.empty((batch.size, rpm.size))
-        step = zoa.chunk_rows(rpm.size)
-        for start in range(0, batch.size, step):  # chunks bound the memory; each chunk is one compiled call
-            rows = slice(start, min(start + step, batch.size))
-            part = type(batch)(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-            d, _, wc = zoa._run_modal(part, prior.cutting, rpm)
-            depth[rows], hz[rows] = d, wc / (2 * math.pi)
+    eng = get_engine(engine)
+    if with_freq and eng.reports_chatter_frequency:
+        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), prior.cutting, rpm)
     else:
         depth, hz = forward(prior.par, prior.cutting, engine)(theta, rpm), None
     return depth * 1e3 * factor[:, None], hz
@@ -160,7 +152,7 @@ class Likelihood:
         self._sig_c = prior.sigma_depth_mm(ev.cut_depth_mm)
         self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
         hz = np.isfinite(ev.cut_hz)
-        if hz.any() and engine not in FREQUENCY_ENGINES:
+        if hz.any() and not get_engine(engine).reports_chatter_frequency:
             warnings.warn(f"the {engine} engine reports no limiting-lobe chatter frequency in its batched path: the "
                           f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
             hz = np.zeros_like(hz)
@@ -197,4 +189,4 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "FREQUENCY_ENGINES", "Likelihood", "cut_loglik", "frequency_distance", "limits"]
+__all__ = ["Evidence", "Likelihood", "cut_loglik", "frequency_distance", "limits"]

@@ -1,0 +1,59 @@
+"""A loaded config, the model type of a run's inputs: cutting conditions, tool-tip structure, default
+speeds and the ``[prior]`` table. Parsed from TOML (schema and errors) by :mod:`millstab.io.config`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from millstab.model import Cutting, Structure
+
+
+@dataclass(frozen=True, eq=False)
+class Config:
+    """A loaded config.
+
+    Attributes:
+        cutting: the cutting conditions.
+        structure: the tool-tip structure (modes or measured FRF).
+        name: display name (``name`` key, else the file stem or example name).
+        path: the config file, or ``None`` for a config parsed from text.
+        rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
+        description: free text from the file ("" if none).
+        prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
+    """
+
+    cutting: Cutting
+    structure: Structure
+    name: str
+    path: Path | None = None
+    rpm: np.ndarray | None = None
+    description: str = ""
+    prior: PriorTable | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PriorTable:
+    """The ``[prior]`` table of a config, as written (defaults are applied by :mod:`millstab.update.prior`).
+
+    Attributes:
+        spreads: {name: σ of ln(value)} for kinds (``fn``, ``k``, ``zeta``), parameter names
+            (``fn_x``, ``k_y2``) and cutting coefficients (``kt``, ``kr``), each > 0.
+        fixed: parameter names held at the structure's values.
+        sigma_depth_m: absolute depth noise [m], or ``None``.
+        sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
+        sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
+    """
+
+    spreads: Mapping[str, float]
+    fixed: tuple[str, ...] = ()
+    sigma_depth_m: float | None = None
+    sigma_depth_rel: float | None = None
+    sigma_chatter_hz: float | None = None
+
+
+__all__ = ["Config", "PriorTable"]

@@ -91,7 +91,8 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
     Args:
         cfg: the config (cutting conditions, starting structure, [speeds] range).
         points: boundary points already measured (their speeds are part of the plan's information).
-        fit: a fit to plan around (a JSON document from ``millstab identify --out``), named
+        fit: a fit to plan around (a :class:`~millstab.identify.result.Fit` or its JSON document from
+            ``millstab identify --out``), named
             ``fit_source`` in messages; without it the plan averages over the prior spread around ``cfg``'s
             structure with the ``free`` parameters (default all), x and y tied with ``axisymmetric``.
         rpm: candidate speeds; default :data:`N_CANDIDATES` over the config's [speeds] range.
@@ -116,9 +117,10 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
                    existing_weight=None if existing is None else existing.weight, target=target or None,
                    noise=noise, speed_noise=speed_noise, samples=samples, seed=seed)
     if fit is not None:
+        from millstab.identify.design import design_after_fit
+
         check_fit_matches(fit, fit_source, cfg)
-        par, theta, cov, alts = fit_view_from_json(fit, fit_source, cfg.cutting)
-        return design_speeds(par, cfg.cutting, candidates, theta=theta, cov_u=cov, alternatives=alts, **options)
+        return design_after_fit(_fit(fit, fit_source), cfg.cutting, candidates, **options)
     names = tuple(s.strip() for s in free.split(",") if s.strip()) if isinstance(free, str) else tuple(free or ())
     return design_speeds(Parameterization(cfg.structure, names, axisymmetric), cfg.cutting, candidates, **options)
 
@@ -132,7 +134,7 @@ def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, f
 
     cfg, _ = modal(cfg)
     if fit is not None:
-        par = fit_view_from_json(fit, fit_source, cfg.cutting)[0]
+        par = _fit(fit, fit_source).par
     else:
         par = Parameterization(cfg.structure, plan.names, all("_" not in k for k in plan.names))
     grid = np.linspace(plan.candidates[0], plan.candidates[-1], 800)
@@ -143,7 +145,9 @@ def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, f
 
 def check_fit_matches(doc, source: str, cfg: Config) -> None:
     """Refuse a fit JSON made from other cutting conditions or another mode layout than ``cfg``'s; warn
-    when the file is too old to record its cutting conditions."""
+    when the file is too old to record its cutting conditions. ``doc``: the fit JSON, or a Fit."""
+    if hasattr(doc, "to_json"):
+        doc = doc.to_json()
     rec = doc.get("cutting") if isinstance(doc, dict) else None
     if rec is None:
         warnings.warn(f"--fit {source}: the file does not record the cutting conditions it was fitted under (written "
@@ -168,21 +172,8 @@ def check_fit_matches(doc, source: str, cfg: Config) -> None:
                       "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
 
 
-def fit_view_from_json(doc, source: str, cutting):
-    """(Parameterization, θ, cov of ln θ or None, alternatives) from a fit JSON (millstab identify --out)."""
-    from millstab.identify.design import fit_view
-    from millstab.model import Mode, Structure
-    from millstab.params import Parameterization
+def _fit(fit, source: str):
+    """A :class:`~millstab.identify.result.Fit` from itself or its JSON document."""
+    from millstab.identify.result import Fit
 
-    try:
-        modes = {d: tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{d}[{i}]") for i, m in enumerate(doc["structure"][d]))
-                 for d in ("x", "y")}
-        names = tuple(doc["free"])
-        theta = [doc["estimate"][k] for k in names]
-        alts = [[a["estimate"][k] for k in names] for a in doc.get("alternatives") or []]
-    except (KeyError, TypeError) as exc:
-        raise InputError("--fit", str(source), f"not a millstab fit JSON (missing {exc})") from None
-    par = Parameterization(Structure(**modes), names, all("_" not in k for k in names))
-    se, corr = doc.get("std_errors"), doc.get("correlation")
-    tied = ((doc.get("settings") or {}).get("xy_tie_test") or {}).get("chosen") == "tied"
-    return fit_view(par, cutting, theta, None if not se else [se[k] for k in names], corr, alts, tied)
+    return fit if isinstance(fit, Fit) else Fit.from_json(fit, str(source))

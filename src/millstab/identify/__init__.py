@@ -90,12 +90,11 @@ def _zoa_then_sdm(problem_for, seed: int, progress, options: dict, engine: str =
     sdm_problem = problem_for(engine)
     # the x = y test again under SDM only where the zero-order stage kept x = y (otherwise it was rejected)
     fit = fit_lsq(sdm_problem, theta0=first.estimate, seed=seed, progress=progress, tie_xy=is_tied(first), **polish)
-    fit.codes.insert(0, "two_stages")
-    fit.warnings.insert(0, f"two stages: global search with the zero-order engine (MLAE {first.mlae:.4g}, "
-                           f"{first.evaluations} SLDs), then a local polish with SDM ({fit.evaluations} SLDs)")
-    fit.settings["stage1_zoa"] = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations,
-                                  "warning_codes": list(first.codes)}
-    return fit
+    note = ("two_stages", f"two stages: global search with the zero-order engine (MLAE {first.mlae:.4g}, "
+                          f"{first.evaluations} SLDs), then a local polish with SDM ({fit.evaluations} SLDs)")
+    stage1 = {"estimate": first.as_dict(), "mlae": first.mlae, "evaluations": first.evaluations,
+              "warning_codes": list(first.codes)}
+    return fit.with_warnings([note], first=True, settings={**fit.settings, "stage1_zoa": stage1})
 
 
 __all__ = ["METHODS", "Fit", "Problem", "fit_lsq", "fit_newton", "identify", "make_problem"]

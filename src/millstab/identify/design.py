@@ -41,13 +41,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from millstab.errors import InputError
 from millstab.identify.result import cutting_difference, cutting_record
 from millstab.identify.tie import is_tied, tied_parameterization
+from millstab.jsondoc import check_schema, floats_in, floats_out, int_in, names_in, need, number_in, number_out
 from millstab.model import Cutting
 from millstab.params import Parameterization
 from millstab.forward import forward, log_jacobian
@@ -125,6 +126,61 @@ class SpeedDesign:
         """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
         speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
         return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form (plain types, schema ``millstab.design/1``): every attribute under its own name,
+        arrays as lists, a relative standard error the tests cannot determine as ``"inf"``, ``null`` for
+        an absent array (no existing points) or a criterion not computed (NaN); conventions of
+        :mod:`millstab.jsondoc`. ``tests`` adds the per-speed plan (rpm, tests, predicted depth [mm]).
+
+        Raises:
+            ValueError: a NaN in an array (a result never carries one silently).
+        """
+        doc: dict[str, Any] = {"schema": DESIGN_SCHEMA, "units": {"rpm": "rev/min", "theta": "Hz, N/m, -",
+                                                                  "sigma": "relative", "predicted_depth_mm": "mm"}}
+        for name in _DESIGN_ARRAYS:
+            doc[name] = floats_out(getattr(self, name), f"design.{name}")
+        for name in ("names", "target"):
+            doc[name] = list(getattr(self, name))
+        for name in ("noise", "speed_noise", "efficiency", "efficiency_continuous"):
+            doc[name] = number_out(getattr(self, name), f"design.{name}")
+        for name in ("criterion_design", "criterion_uniform"):
+            doc[name] = number_out(getattr(self, name), f"design.{name}", nan_ok=True)
+        doc.update(iterations=int(self.iterations), samples=int(self.samples), uniform=bool(self.uniform),
+                   tests=[{"rpm": r, "tests": c, "predicted_depth_mm": number_out(d, "design.tests")}
+                          for r, c, d in self.tests()])
+        return doc
+
+    @staticmethod
+    def from_json(doc: Any, source: str = "design") -> "SpeedDesign":
+        """Rebuild a :class:`SpeedDesign` from :meth:`to_json` output (``tests`` is derived, not read).
+
+        Raises:
+            InputError: another schema, a missing field or one of the wrong kind (named with ``source``).
+        """
+        check_schema(doc, DESIGN_SCHEMA, source)
+        arrays = {}
+        for name in _DESIGN_ARRAYS:
+            optional = name in _DESIGN_OPTIONAL
+            value = need(doc, name, source, (list, type(None)) if optional else list)
+            arrays[name] = None if value is None else floats_in(value, f"{source}: {name}")
+        names = names_in(need(doc, "names", source), f"{source}: names")
+        target = names_in(need(doc, "target", source), f"{source}: target")
+        nums = {name: number_in(need(doc, name, source), f"{source}: {name}",
+                                nan_ok=name.startswith("criterion"))
+                for name in ("noise", "speed_noise", "efficiency", "efficiency_continuous", "criterion_design",
+                             "criterion_uniform")}
+        return SpeedDesign(names=names, target=target, iterations=int_in(need(doc, "iterations", source), f"{source}: iterations"),
+                           samples=int_in(need(doc, "samples", source), f"{source}: samples"),
+                           uniform=need(doc, "uniform", source, bool), **arrays, **nums)
+
+
+#: the ``"schema"`` of :meth:`SpeedDesign.to_json`
+DESIGN_SCHEMA = "millstab.design/1"
+#: SpeedDesign's float arrays, and those that may be absent (``None``)
+_DESIGN_ARRAYS = ("rpm", "candidates", "weights", "theta", "sigma_existing", "sigma_uniform", "sigma_design",
+                  "predicted_depth_mm", "sigma_existing_mean", "sigma_uniform_mean", "sigma_design_mean")
+_DESIGN_OPTIONAL = ("sigma_existing", "sigma_existing_mean", "sigma_uniform_mean", "sigma_design_mean")
 
 
 def log_jacobians(par: Parameterization, cutting: Cutting, theta: np.ndarray, rpm: np.ndarray,
@@ -479,6 +535,6 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds", "evenly_spaced",
+__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds", "evenly_spaced",
            "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
            "relative_sigma", "ridge", "round_design"]

@@ -228,8 +228,7 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, tie_xy: bool 
     """
     free = fit_lsq_free(problem, theta0, **options)
     fit = free if not tie_xy else prefer_tied(problem, free, lambda prob, start: fit_lsq_free(prob, start, **options))
-    diagnose(fit, problem, options.get("noise"))
-    return fit
+    return diagnose(fit, problem, options.get("noise"))
 
 
 def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,

@@ -342,8 +342,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
                          "critical_weight": critical_weight, "critical_window": critical_window, "seed": seed,
                          "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine,
                          "noise": noise})
-    diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
-    return fit
+    return diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
 
 
 __all__ = ["critical_mask", "fit_newton", "jump_directions"]

@@ -137,9 +137,10 @@ def zoa_model_poor(cutting) -> str | None:
     return None
 
 
-def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | None = None) -> None:
-    """Add degrees of freedom, the noise record and the quality warnings (module docstring) to ``fit``
-    in place. ``residuals`` at the estimate, if known (else one engine call)."""
+def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | None = None):
+    """``fit`` with degrees of freedom, the noise record and the quality warnings (module docstring)
+    added: a new :class:`~millstab.identify.result.Fit` (a fit is frozen). ``residuals`` at the
+    estimate, if known (else one engine call)."""
     n, p = problem.n, effective_p(fit, problem)
     scale = residual_scale(problem.residual, problem.depth_mm)
     if residuals is None:
@@ -148,22 +149,22 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     rss = float(r @ r)
     info = error_sigma(rss, n, p, scale, noise)
     dof = info["dof"]
-    fit.dof = dof
-    fit.n_points = n
-    fit.noise = {k: info[k] for k in ("source", "estimated", "stated", "assumed")} | {"sigma": info["sigma"] / scale}
+    record = {k: info[k] for k in ("source", "estimated", "stated", "assumed")} | {"sigma": info["sigma"] / scale}
+    notes: list[tuple[str, str]] = []  # (code, warning) pairs, added to the fit at the end
+    add = lambda code, text: notes.append((code, text))  # noqa: E731
     checks: dict = {}
     how = {"stated": f"the stated {100 * (noise or 0):.3g} % depth noise",
            "assumed": f"an assumed {100 * ASSUMED_NOISE:.3g} % depth noise (state the real one with --noise)",
            "residuals": "the residual scatter"}[info["source"]]
     if dof <= 0:
-        fit.add_warning("no_dof", f"no degrees of freedom: {n} boundary points for {p} free parameters, so the fit "
+        add("no_dof", f"no degrees of freedom: {n} boundary points for {p} free parameters, so the fit "
                                   "passes through every point, any noise goes straight into the estimate and the "
                                   "residuals cannot tell how good it is"
                                   + (f"; the standard errors use {how}" if fit.std_errors is not None else "")
                                   + ". Measure more points or free fewer parameters")
     elif dof < FEW_DOF and noise is None:
         est = f"{100 * info['estimated']:.3g} %"
-        fit.add_warning("few_dof", f"only {dof} degree(s) of freedom ({n} points, {p} free parameters): the residual "
+        add("few_dof", f"only {dof} degree(s) of freedom ({n} points, {p} free parameters): the residual "
                                    f"scatter ({est}) is a rough estimate of the noise"
                                    + ("" if fit.std_errors is None else
                                       f"; the standard errors use {how}" + (" instead" if info["source"] == "assumed"
@@ -175,10 +176,10 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
             chi = stats.chi2.sf(rss / (noise * scale) ** 2, dof)
             checks["chi2_p_value"] = float(chi)
             if chi < CHI2_ALPHA and sig_hat >= POOR_RATIO * noise:
-                fit.add_warning("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is {sig_hat / noise:.3g}× "
+                add("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is {sig_hat / noise:.3g}× "
                                             f"the stated {100 * noise:.3g} % noise (χ² test p = {chi:.2g})" + _why(problem))
         elif sig_hat > POOR_RMS:
-            fit.add_warning("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is above the "
+            add("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is above the "
                                         f"{100 * POOR_RMS:.3g} % a measured boundary plausibly scatters" + _why(problem))
     rms = math.sqrt(rss / n) / scale
     runs = runs_test(r, problem.rpm)
@@ -186,28 +187,28 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
         checks["runs_test"] = runs
         # residuals below 10× the engine's own accuracy are numerical, not misfit
         if runs["p_value"] < RUNS_ALPHA and rms > 10 * get_engine(problem.engine).depth_accuracy:
-            fit.add_warning("residual_structure",
+            add("residual_structure",
                             f"the residuals are systematic, not noise: their signs form {runs['runs']} runs along the "
                             f"speed axis where about {runs['expected']:.1f} are expected (runs test p = {runs['p_value']:.2g})"
                             + _why(problem))
     poor = zoa_model_poor(problem.cutting) if get_engine(problem.engine).time_averaged else None
     if poor:
-        fit.add_warning("zoa_model", f"the zero-order model is approximate for this cut ({poor}): on points from real "
+        add("zoa_model", f"the zero-order model is approximate for this cut ({poor}): on points from real "
                                      "cuts or a time-domain model its estimates can be biased by tens of percent in k and "
                                      "ζ; check with the time-domain engine (--engine sdm)")
     lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
     u = np.log(fit.estimate)
     at = [name for name, a, b, x in zip(fit.names, lo, hi, u) if min(x - a, b - x) < 1e-6]
     if at:
-        fit.add_warning("at_bound", "estimate on its search bound (the best value may lie beyond it; widen the bounds "
+        add("at_bound", "estimate on its search bound (the best value may lie beyond it; widen the bounds "
                                     "or check the start): " + ", ".join(at))
     depth = np.asarray(problem.depth_mm, float)
     if n > 1 and np.ptp(depth) <= 1e-12 * float(np.max(depth)):
-        fit.add_warning("flat_points", f"all {n} boundary depths are {depth[0]:g} mm: points without lobes cannot "
+        add("flat_points", f"all {n} boundary depths are {depth[0]:g} mm: points without lobes cannot "
                                        "locate the natural frequencies, so the estimate is arbitrary in fn; check the "
                                        "depth column of the points file")
     checks["rms"] = rms
-    fit.checks = checks
+    return fit.with_warnings(notes, dof=dof, n_points=n, noise=record, checks=checks)
 
 
 def effective_p(fit, problem) -> int:

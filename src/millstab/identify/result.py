@@ -13,23 +13,39 @@ JSON contract (``Fit.to_json()``; keys may be added, never removed or renamed):
   standard errors use and where it comes from: residual scatter, stated or assumed), ``warning_codes``
   (one code per warning kind, :mod:`~millstab.identify.quality`), ``checks`` (χ² and runs tests);
 * ``cutting``: the cutting conditions the points were fitted under (teeth, kt [N/m²], kr, entry and exit
-  [rad]), so a fit file cannot be used with a config of other conditions.
+  [rad]), so a fit file cannot be used with a config of other conditions;
+* ``schema``: ``"millstab.fit/1"``; ``parameterization``: what :meth:`Fit.from_json` needs to rebuild
+  the object exactly: the base structure (``{"x": [{fn, k, zeta}], "y": [...]}``, the fixed values),
+  ``free``, ``axisymmetric`` and the search ``bounds`` ({name: [lower, upper]}, SI).
+
+``warning_codes[i]`` is the code of ``warnings[i]`` (every warning carries one code; the solvers raise
+each kind once, so the list is also the set of codes in the order raised). Non-finite floats are written
+as ``null`` (the convention of :func:`millstab.io.results.to_jsonable`): in ``history`` a ``null`` is
+"not computed" (the Newton scheme has no RSS) and reads back as NaN; ``condition`` is ``null`` for
+"not computed" (Newton, no standard errors) or for an exactly singular JᵀJ (standard errors present),
+which reads back as ∞.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from millstab.model import Cutting, Structure
+from millstab.errors import InputError
+from millstab.jsondoc import check_schema, need
+from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
 
+SCHEMA = "millstab.fit/1"
 
-@dataclass(eq=False)
+
+@dataclass(frozen=True, eq=False)
 class Fit:
-    """An identification result.
+    """An identification result, frozen: a solver builds it once (later stages make a new one with
+    :func:`dataclasses.replace`), and it never changes after it is returned.
 
     Attributes:
         method: ``lsq`` or ``newton``.
@@ -44,9 +60,10 @@ class Fit:
         std_errors: approximate standard errors (P,) [same units], ``None`` when not computed (newton).
         correlation: (P, P) correlation matrix of the estimate, or ``None``.
         condition: condition number of JᵀJ in log-parameters, or ``None``.
-        warnings: identifiability, convergence and quality warnings (one line each).
-        codes: a code per warning kind (e.g. ``no_dof``, ``poor_fit``, ``residual_structure``, ``zoa_model``;
-            :mod:`~millstab.identify.quality`), in the order first raised.
+        warnings: identifiability, convergence and quality warnings (one line each), a tuple.
+        codes: the code of each warning, ``codes[i]`` that of ``warnings[i]`` (e.g. ``no_dof``, ``poor_fit``,
+            ``residual_structure``, ``zoa_model``, ``xy_symmetry``, ``xy_tied``;
+            :mod:`~millstab.identify.quality`), a tuple; :attr:`notes` pairs them.
         dof: residual degrees of freedom n − p (``None`` before :func:`~millstab.identify.quality.diagnose`);
             n_points: boundary points fitted.
         noise: the residual σ the standard errors use: {"sigma" (relative), "source" (``residuals``,
@@ -56,8 +73,8 @@ class Fit:
         alternatives: other parameter sets as good as the estimate: [{"estimate": {...}, "mlae", "rss", "why"}].
         symmetry: a line describing an exact symmetry of the data (x↔y), or ``None``.
         test_cuts: how the fitted SLD classifies the labelled test cuts (counts), or ``None``.
-        snapshots: iteration indices and θ (for the paper's Fig. iter), (iteration, θ) pairs.
-        settings: solver settings used (for reproducibility).
+        settings: solver settings used (for reproducibility); ``settings["xy_tie_test"]`` is the x = y
+            test's record (:attr:`tie`).
     """
 
     method: str
@@ -76,23 +93,63 @@ class Fit:
     std_errors: np.ndarray | None = None
     correlation: np.ndarray | None = None
     condition: float | None = None
-    warnings: list[str] = field(default_factory=list)
-    alternatives: list[dict[str, Any]] = field(default_factory=list)
+    warnings: tuple[str, ...] = ()
+    alternatives: tuple[dict[str, Any], ...] = ()
     symmetry: str | None = None
     test_cuts: dict[str, int] | None = None
     settings: dict[str, Any] = field(default_factory=dict)
-    codes: list[str] = field(default_factory=list)
+    codes: tuple[str, ...] = ()
     dof: int | None = None
     n_points: int | None = None
     noise: dict[str, Any] | None = None
     checks: dict[str, Any] = field(default_factory=dict)
     cutting: Cutting | None = None
 
-    def add_warning(self, code: str, text: str) -> None:
-        """Add a warning line and its code (a code is listed once however many lines carry it)."""
-        self.warnings.append(text)
-        if code not in self.codes:
-            self.codes.append(code)
+    def __post_init__(self) -> None:
+        for name in ("warnings", "codes", "alternatives"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        if len(self.codes) != len(self.warnings):
+            raise ValueError(f"every warning needs its code: {len(self.warnings)} warnings, {len(self.codes)} codes")
+
+    def with_warnings(self, notes, first: bool = False, **changes: Any) -> "Fit":
+        """A new fit with the (code, message) pairs ``notes`` added (before the others with ``first``),
+        and any other field ``changes`` (:func:`dataclasses.replace`)."""
+        import dataclasses
+
+        codes = tuple(c for c, _ in notes)
+        texts = tuple(t for _, t in notes)
+        if first:
+            codes, texts = codes + self.codes, texts + self.warnings
+        else:
+            codes, texts = self.codes + codes, self.warnings + texts
+        return dataclasses.replace(self, codes=codes, warnings=texts, **changes)
+
+    @property
+    def notes(self) -> tuple[dict[str, str], ...]:
+        """The warnings with their codes: ({"code", "message"}, ...)."""
+        return tuple({"code": c, "message": w} for c, w in zip(self.codes, self.warnings))
+
+    @property
+    def tie(self) -> dict[str, Any] | None:
+        """The x = y test (:mod:`~millstab.identify.tie`): {"F", "p_value", "tied_pairs", "rss_tied", "rss_free",
+        "alpha", "tied_iterations", "chosen": "tied" or "free"}, or ``None`` where it was not run."""
+        return self.settings.get("xy_tie_test") or None
+
+    @property
+    def tied(self) -> bool:
+        """Whether the estimate is the tied (x = y) one."""
+        return (self.tie or {}).get("chosen") == "tied"
+
+    @property
+    def symmetry_kind(self) -> str | None:
+        """The exact symmetry of the data ``symmetry`` describes: ``"xy_swap"`` (x and y interchangeable,
+        α_xx = α_yy; a tied fit came from such a cut), ``"xy_exchange"`` (the zero-order x↔y mode exchange)
+        or ``None``."""
+        if "xy_symmetry" in self.codes or "xy_tied" in self.codes:
+            return "xy_swap"
+        if "xy_exchange" in self.codes:
+            return "xy_exchange"
+        return None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -126,10 +183,13 @@ class Fit:
         return out
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON form (see module docstring)."""
+        """The JSON form (see module docstring), plain JSON types only."""
+        from millstab.io.results import to_jsonable
+
         s = self.structure
         se = None if self.std_errors is None else {n: float(v) for n, v in zip(self.names, self.std_errors)}
-        return {
+        return to_jsonable({
+            "schema": SCHEMA,
             "parameters": self.parameters(),
             "mlae": float(self.mlae),
             "rss": float(self.rss),
@@ -146,10 +206,10 @@ class Fit:
             "engine_calls": int(self.engine_calls),
             "time_s": float(self.time_s),
             "warnings": list(self.warnings),
-            "alternatives": self.alternatives,
+            "alternatives": list(self.alternatives),
             "symmetry": self.symmetry,
             "test_cuts": self.test_cuts,
-            "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
+            "structure": _structure_record(s),
             "settings": self.settings,
             "dof": None if self.dof is None else int(self.dof),
             "n_points": None if self.n_points is None else int(self.n_points),
@@ -158,7 +218,147 @@ class Fit:
             "checks": self.checks,
             "cutting": None if self.cutting is None else cutting_record(self.cutting),
             "history": {"theta": self.history_theta, "mlae": self.history_mlae, "rss": self.history_rss},
-        }
+            "parameterization": {"base": _structure_record(self.par.base), "free": list(self.par.free),
+                                 "axisymmetric": bool(self.par.axisymmetric),
+                                 "bounds": {n: list(b) for n, b in self.par.bounds.items()}},
+        })
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "fit") -> "Fit":
+        """Rebuild a fit from :meth:`to_json` output (e.g. a ``millstab identify --out`` file read with
+        :func:`millstab.io.read_json`); ``source`` (the file name) is named in every error.
+
+        A file written before the schema existed (no ``"schema"``, no ``"parameterization"``) is read
+        too: its parameterization is the identified structure with the default bounds around it.
+
+        Raises:
+            InputError: another schema, a missing field, or a field of the wrong kind (named).
+        """
+        if isinstance(doc, dict) and "schema" not in doc and "parameterization" not in doc and "free" in doc:
+            par = _legacy_parameterization(doc, source)
+        else:
+            check_schema(doc, SCHEMA, source)
+            par = _parameterization(need(doc, "parameterization", source, dict), f"{source}: parameterization")
+        names = par.free
+
+        def vector(key: str, optional: bool = False) -> np.ndarray | None:
+            rec = need(doc, key, source, (dict, type(None)) if optional else dict)
+            if rec is None:
+                return None
+            missing = [n for n in names if n not in rec]
+            if missing:
+                raise InputError(f"{source}: {key}.{missing[0]}", "missing", f"one value per free parameter ({', '.join(names)})")
+            return _floats([rec[n] for n in names], f"{source}: {key}")
+
+        hist = need(doc, "history", source, dict)
+        corr = need(doc, "correlation", source, (list, type(None)))
+        std_errors = vector("std_errors", optional=True)
+        condition = need(doc, "condition", source, (int, float, type(None)))
+        if condition is None and std_errors is not None:
+            condition = math.inf  # an exactly singular JᵀJ (module docstring)
+        cut = need(doc, "cutting", source, (dict, type(None)))
+        warnings = _strings(need(doc, "warnings", source, list), f"{source}: warnings")
+        codes = _strings(need(doc, "warning_codes", source, list), f"{source}: warning_codes")
+        if len(codes) != len(warnings):
+            raise InputError(f"{source}: warning_codes", f"{len(codes)} codes for {len(warnings)} warnings",
+                             "one code per warning")
+        optional_int = (int, type(None))
+        try:
+            return cls(
+                method=need(doc, "method", source, str), par=par, estimate=vector("estimate"), start=vector("start"),
+                mlae=float(need(doc, "mlae", source, (int, float))), rss=float(need(doc, "rss", source, (int, float))),
+                iterations=need(doc, "iterations", source, int), evaluations=need(doc, "evaluations", source, int),
+                engine_calls=need(doc, "engine_calls", source, int), time_s=float(need(doc, "time_s", source, (int, float))),
+                history_theta=_floats(need(hist, "theta", f"{source}: history", list), f"{source}: history.theta",
+                                      null_nan=True, shape=(None, len(names))),
+                history_mlae=_floats(need(hist, "mlae", f"{source}: history", list), f"{source}: history.mlae", null_nan=True),
+                history_rss=_floats(need(hist, "rss", f"{source}: history", list), f"{source}: history.rss", null_nan=True),
+                std_errors=std_errors,
+                correlation=None if corr is None else _floats(corr, f"{source}: correlation", shape=(len(names), len(names))),
+                condition=None if condition is None else float(condition),
+                warnings=warnings, codes=codes,
+                alternatives=tuple(need(doc, "alternatives", source, list)),
+                symmetry=need(doc, "symmetry", source, (str, type(None))),
+                test_cuts=need(doc, "test_cuts", source, (dict, type(None))),
+                settings=need(doc, "settings", source, dict),
+                dof=need(doc, "dof", source, optional_int), n_points=need(doc, "n_points", source, optional_int),
+                noise=need(doc, "noise", source, (dict, type(None))), checks=need(doc, "checks", source, dict),
+                cutting=None if cut is None else _cutting(cut, f"{source}: cutting"))
+        except ValueError as exc:  # e.g. warnings without codes
+            raise InputError(source, "fit record", str(exc)) from None
+
+
+def _structure_record(s: Structure) -> dict[str, list[dict[str, float]]]:
+    """{"x": [{fn, k, zeta}, ...], "y": [...]} of a modal structure (Hz, N/m, -)."""
+    return {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")}
+
+
+def _structure(rec: Any, source: str) -> Structure:
+    """The inverse of :func:`_structure_record` (the modes validate their own values)."""
+    if not isinstance(rec, dict):
+        raise InputError(source, type(rec).__name__, "must be an object {\"x\": [modes], \"y\": [modes]}")
+    modes = {}
+    for d in ("x", "y"):
+        items = need(rec, d, source, list)
+        out = []
+        for i, m in enumerate(items):
+            where = f"{source}.{d}[{i}]"
+            if not isinstance(m, dict):
+                raise InputError(where, type(m).__name__, "a mode is an object {fn, k, zeta}")
+            out.append(Mode(*(float(need(m, key, where, (int, float))) for key in ("fn", "k", "zeta")), where))
+        modes[d] = tuple(out)
+    return Structure(**modes)
+
+
+def _parameterization(rec: dict, source: str) -> Parameterization:
+    """The fit's parameterization from its record (base structure, free names, axisymmetric, bounds)."""
+    base = _structure(need(rec, "base", source, dict), f"{source}.base")
+    free = _strings(need(rec, "free", source, list), f"{source}.free")
+    axi = need(rec, "axisymmetric", source, bool)
+    bounds = need(rec, "bounds", source, dict)
+    pairs = {}
+    for name, b in bounds.items():
+        if not (isinstance(b, list) and len(b) == 2):
+            raise InputError(f"{source}.bounds.{name}", b, "a [lower, upper] pair")
+        pairs[name] = tuple(_floats(b, f"{source}.bounds.{name}"))
+    return Parameterization(base, free, axi, pairs)
+
+
+def _legacy_parameterization(doc: dict, source: str) -> Parameterization:
+    """A fit file without ``parameterization``: the identified structure, default bounds around it."""
+    names = _strings(need(doc, "free", source, list), f"{source}: free")
+    base = _structure(need(doc, "structure", source, dict), f"{source}: structure")
+    return Parameterization(base, names, all("_" not in n for n in names))
+
+
+def _cutting(rec: dict, source: str) -> Cutting:
+    """Cutting conditions from :func:`cutting_record` (the conditions validate themselves)."""
+    vals = {k: need(rec, k, source, (int, float)) for k in ("teeth", "kt", "kr", "entry", "exit")}
+    return Cutting(**{k: (v if k == "teeth" else float(v)) for k, v in vals.items()})
+
+
+def _strings(items: list, source: str) -> tuple[str, ...]:
+    if not all(isinstance(v, str) for v in items):
+        raise InputError(source, items, "must be a list of strings")
+    return tuple(items)
+
+
+def _floats(values: Any, source: str, null_nan: bool = False, shape: tuple | None = None) -> np.ndarray:
+    """A float array from JSON lists; ``null`` is NaN only with ``null_nan`` (else InputError)."""
+    flat = np.asarray(values, dtype=object).ravel() if values != [] else np.zeros(0, dtype=object)
+    bad = [v for v in flat if not (isinstance(v, (int, float)) and not isinstance(v, bool) or v is None and null_nan)]
+    if bad:
+        raise InputError(source, bad[0], "must be numbers" + (" (null: not computed)" if null_nan else ""))
+    try:
+        arr = np.array(values, dtype=float)
+    except (ValueError, TypeError):
+        raise InputError(source, "ragged lists", "rows must have equal lengths") from None
+    if shape is not None:
+        if arr.size == 0 and shape[0] is None:
+            arr = arr.reshape(0, shape[1])
+        if arr.ndim != len(shape) or any(want is not None and got != want for got, want in zip(arr.shape, shape)):
+            raise InputError(source, f"shape {arr.shape}", f"need shape {tuple('any' if w is None else w for w in shape)}")
+    return arr
 
 
 def cutting_record(cutting: Cutting) -> dict[str, float]:
@@ -185,4 +385,4 @@ def cutting_difference(record, cutting: Cutting) -> str | None:
     return None
 
 
-__all__ = ["Fit", "cutting_difference", "cutting_record"]
+__all__ = ["SCHEMA", "Fit", "cutting_difference", "cutting_record"]

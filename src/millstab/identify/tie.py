@@ -18,6 +18,7 @@ alternative; otherwise the free fit stands. Either way the test is recorded in `
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -62,8 +63,8 @@ def tied_problem(problem: Problem) -> tuple[Problem, np.ndarray] | None:
 
 
 def is_tied(fit: Fit) -> bool:
-    """Whether ``fit`` reports the tied (x = y) estimate."""
-    return fit.settings.get("xy_tie_test", {}).get("chosen") == "tied"
+    """Whether ``fit`` reports the tied (x = y) estimate (:attr:`Fit.tied`)."""
+    return fit.tied
 
 
 def f_test(rss_tied: float, rss_free: float, n: int, p: int, q: int, floor: float) -> tuple[float, float]:
@@ -91,16 +92,17 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
     test = {"F": f, "p_value": pval, "tied_pairs": q, "rss_tied": float(tied.rss), "rss_free": float(free.rss),
             "alpha": ALPHA, "tied_iterations": int(tied.iterations)}
     if pval < ALPHA:
-        free.settings["xy_tie_test"] = {**test, "chosen": "free"}
-        return free
+        return dataclasses.replace(free, settings={**free.settings, "xy_tie_test": {**test, "chosen": "free"}})
     alt = {"estimate": problem.par.as_dict(free.estimate), "mlae": float(free.mlae), "rss": float(free.rss),
            "why": f"the fit with x and y free; the x–y differences it finds are not significant "
                   f"(F = {f:.3g}, p = {pval:.2f})"}
     # the tied fit's own alternatives (other tied structures as good), in the free names
     alts = [alt] + [{**a, "estimate": problem.par.as_dict(np.array([a["estimate"][t] for t in tprob.par.free])[index])}
                     for a in tied.alternatives]
-    warn = [w for w in tied.warnings if "x/y symmetry" not in w]
-    codes = ["xy_tied"] + [c for c in tied.codes if c != "xy_symmetry"]
+    # the tied fit's warnings but its x/y symmetry note (the tie says it); each warning carries its code
+    kept = [n for n in tied.notes if n["code"] != "xy_symmetry"]
+    codes = ["xy_tied"] + [n["code"] for n in kept]
+    warn = [n["message"] for n in kept]
     warn.insert(0, f"x and y tied: the points do not show x and y differing (F-test of the tied against the free fit: "
                    f"p = {pval:.2f} ≥ {ALPHA}), so the estimate gives both directions the tied values; near x = y a "
                    "free fit splits them by noise alone, with overconfident standard errors")

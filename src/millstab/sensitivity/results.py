@@ -1,7 +1,15 @@
-"""Result types of the sensitivity studies: small frozen dataclasses with a JSON-ready ``to_dict``.
+"""Result types of the sensitivity studies: small frozen dataclasses with a JSON-ready ``to_dict``
+(the fields ``millstab sensitivity --out`` writes) and ``to_json()`` / ``from_json()`` that round-trip.
 
 Every MSE is in mm² (depths in mm before squaring); speeds in rev/min; parameters in SI
 (fn [Hz], k [N/m], ζ [-]).
+
+``to_json()`` is ``to_dict()`` in plain JSON types plus ``"schema": "millstab.sensitivity.<kind>/1"``
+(kind ``oat``, ``mc``, ``sobol``, ``morris``) and, for Monte Carlo, every path's MSE (``paths``), which
+``to_dict`` leaves out; floats follow :mod:`millstab.jsondoc` (±∞ as ``"inf"``/``"-inf"``; ``null``
+only for statistics that are not defined, e.g. a sample standard deviation of one path or an index of
+an output that does not vary). ``from_json(doc, source)`` reads it back; derived entries (MC means,
+convergence, ratios) are recomputed from the paths, not read.
 """
 
 from __future__ import annotations
@@ -10,6 +18,34 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from millstab.errors import InputError
+from millstab.jsondoc import (check_schema, floats_in, int_in, names_in, need, number_in, per_name_in, per_name_out,
+                              plain)
+
+
+def schema(kind: str) -> str:
+    """The ``"schema"`` of a sensitivity result's JSON: ``millstab.sensitivity.<kind>/1``."""
+    return f"millstab.sensitivity.{kind}/1"
+
+
+def _rpm_in(doc: dict, source: str) -> np.ndarray:
+    return floats_in(need(need(doc, "speeds", source, dict), "rpm", f"{source}: speeds", list), f"{source}: speeds.rpm")
+
+
+def _bounds_in(doc: dict, names: tuple[str, ...], source: str) -> np.ndarray:
+    """(P, 2) bounds from {name: [lower, upper]}."""
+    b = per_name_in(need(doc, "bounds", source, dict), names, f"{source}: bounds", ndim=1).T
+    if b.shape != (len(names), 2):
+        raise InputError(f"{source}: bounds", f"shape {b.shape}", "one [lower, upper] pair per parameter")
+    return b
+
+
+def _stats_in(value: Any, names: tuple[str, ...], source: str, ndim: int) -> dict[str, np.ndarray]:
+    """{statistic: array} from {statistic: {name: value(s)}} (``null``: not defined)."""
+    if not isinstance(value, dict):
+        raise InputError(source, type(value).__name__, "must be an object {statistic: {parameter: value}}")
+    return {key: per_name_in(v, names, f"{source}.{key}", ndim=ndim, nan_ok=True) for key, v in value.items()}
 
 
 def _speeds(rpm: np.ndarray) -> dict[str, Any]:
@@ -44,6 +80,26 @@ class OATResult:
                 "centre": dict(zip(self.names, map(float, self.theta))), "eps": self.eps,
                 "speeds": _speeds(self.rpm), "depth_ref_mm": self.depth_ref_mm,
                 "mse_mm2": {n: self.mse_mm2[j] for j, n in enumerate(self.names)}}
+
+    def to_json(self) -> dict[str, Any]:
+        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.oat/1"``.
+
+        Raises:
+            ValueError: a NaN anywhere (a result never carries one silently)."""
+        return {"schema": schema("oat"), **plain(self.to_dict(), "oat")}
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "oat sensitivity") -> "OATResult":
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        check_schema(doc, schema("oat"), source)
+        centre = need(doc, "centre", source, dict)
+        names = tuple(centre)
+        return cls(names=names, theta=per_name_in(centre, names, f"{source}: centre"),
+                   eps=floats_in(need(doc, "eps", source, list), f"{source}: eps"),
+                   mse_mm2=per_name_in(need(doc, "mse_mm2", source, dict), names, f"{source}: mse_mm2", ndim=1).T,
+                   rpm=_rpm_in(doc, source),
+                   depth_ref_mm=floats_in(need(doc, "depth_ref_mm", source, list), f"{source}: depth_ref_mm"),
+                   engine=need(doc, "engine", source, str))
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,6 +189,37 @@ class MCResult:
             out["paper_ratios"] = pr
         return out
 
+    def to_json(self, paper: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
+        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.mc/1"`` and every
+        path's MSE, ``paths: {"mse_mm2": {name: [n values]}}`` [mm²] (so that :meth:`from_json` rebuilds
+        the result exactly; ~20 characters per value: 1.2 MB for the paper's 10 000 paths × 6).
+
+        Raises:
+            ValueError: a NaN in the inputs or the paths (statistics may be ``null``: not defined)."""
+        d = self.to_dict(paper)
+        stats = set(self.names) | {"convergence", "ratios", "paper", "paper_ratios"}
+        out = {"schema": schema("mc")}
+        out.update({k: plain(v, f"mc.{k}", nan_ok=k in stats) for k, v in d.items()})
+        out["paths"] = {"mse_mm2": per_name_out(self.names, self.mse_mm2, "mc.paths.mse_mm2")}
+        return out
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "mc sensitivity") -> "MCResult":
+        """Rebuild from :meth:`to_json` output (means and deviations recomputed from the paths).
+        Raises InputError (wrong schema, missing or bad field)."""
+        check_schema(doc, schema("mc"), source)
+        names = names_in(need(doc, "parameters", source), f"{source}: parameters")
+        paths = need(need(doc, "paths", source, dict), "mse_mm2", f"{source}: paths", dict)
+        mse = per_name_in(paths, names, f"{source}: paths.mse_mm2", ndim=1)
+        n = int_in(need(doc, "n", source), f"{source}: n")
+        if mse.shape[0] != n:
+            raise InputError(f"{source}: paths.mse_mm2", f"{mse.shape[0]} paths", f"n = {n} paths per parameter")
+        return cls(names=names, theta=per_name_in(need(doc, "centre", source, dict), names, f"{source}: centre"),
+                   t=number_in(need(doc, "t", source), f"{source}: t"),
+                   eps=number_in(need(doc, "eps", source), f"{source}: eps"),
+                   seed=int_in(need(doc, "seed", source), f"{source}: seed"), n=n, rpm=_rpm_in(doc, source),
+                   mse_mm2=mse, engine=need(doc, "engine", source, str))
+
 
 @dataclass(frozen=True, eq=False)
 class SobolResult:
@@ -172,6 +259,30 @@ class SobolResult:
                 "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
                 "blim": per_name(self.blim)}
 
+    def to_json(self) -> dict[str, Any]:
+        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.sobol/1"`` (an index
+        may be ``null``: not defined, e.g. for an output that does not vary).
+
+        Raises:
+            ValueError: a NaN in the inputs (bounds, speeds, nominal SLD)."""
+        d = self.to_dict()
+        stats = {"mse", "minimum", "blim"}
+        return {"schema": schema("sobol"), **{k: plain(v, f"sobol.{k}", nan_ok=k in stats) for k, v in d.items()}}
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "sobol sensitivity") -> "SobolResult":
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        check_schema(doc, schema("sobol"), source)
+        names = names_in(need(doc, "parameters", source), f"{source}: parameters")
+        return cls(names=names, bounds=_bounds_in(doc, names, source), n=int_in(need(doc, "n", source), f"{source}: n"),
+                   seed=int_in(need(doc, "seed", source), f"{source}: seed"), rpm=_rpm_in(doc, source),
+                   depth_nominal_mm=floats_in(need(doc, "depth_nominal_mm", source, list), f"{source}: depth_nominal_mm"),
+                   mse=_stats_in(need(doc, "mse", source), names, f"{source}: mse", 0),
+                   minimum=_stats_in(need(doc, "minimum", source), names, f"{source}: minimum", 0),
+                   blim=_stats_in(need(doc, "blim", source), names, f"{source}: blim", 1),
+                   conf_level=number_in(need(doc, "conf_level", source), f"{source}: conf_level"),
+                   engine=need(doc, "engine", source, str))
+
 
 @dataclass(frozen=True, eq=False)
 class MorrisResult:
@@ -198,3 +309,25 @@ class MorrisResult:
                 "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
                 "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
                             for o, d in self.outputs.items()}}
+
+    def to_json(self) -> dict[str, Any]:
+        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.morris/1"`` (a
+        statistic may be ``null``: not defined).
+
+        Raises:
+            ValueError: a NaN in the inputs (bounds, speeds)."""
+        d = self.to_dict()
+        return {"schema": schema("morris"), **{k: plain(v, f"morris.{k}", nan_ok=k == "outputs") for k, v in d.items()}}
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "morris sensitivity") -> "MorrisResult":
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        check_schema(doc, schema("morris"), source)
+        names = names_in(need(doc, "parameters", source), f"{source}: parameters")
+        outputs = need(doc, "outputs", source, dict)
+        return cls(names=names, bounds=_bounds_in(doc, names, source),
+                   trajectories=int_in(need(doc, "trajectories", source), f"{source}: trajectories"),
+                   levels=int_in(need(doc, "levels", source), f"{source}: levels"),
+                   seed=int_in(need(doc, "seed", source), f"{source}: seed"), rpm=_rpm_in(doc, source),
+                   outputs={o: _stats_in(v, names, f"{source}: outputs.{o}", 0) for o, v in outputs.items()},
+                   engine=need(doc, "engine", source, str))

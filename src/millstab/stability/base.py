@@ -11,9 +11,12 @@ Units: spindle speed in rpm, depth in m (``Envelope.depth_mm`` for mm), chatter 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+
+from millstab.errors import InputError
+from millstab.jsondoc import check_schema, floats_in, floats_out, ints_in, need
 
 #: outputs (sets × speeds) one batched call should hold at most: a few float64 arrays of this many
 #: cells stay ~100 MB whatever the number of speeds
@@ -23,6 +26,9 @@ CHUNK_CELLS = 4_000_000
 CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchange", "accepts_measured_frf",
             "reports_lobe_type", "reports_progress", "cheap", "reports_chatter_frequency", "time_averaged",
             "depth_accuracy")
+
+#: the ``"schema"`` of :meth:`Envelope.to_json`
+ENVELOPE_SCHEMA = "millstab.envelope/1"
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +51,37 @@ class Envelope:
     def depth_mm(self) -> np.ndarray:
         """Limiting depth in mm."""
         return self.depth * 1e3
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form (plain types, schema ``millstab.envelope/1``): ``rpm`` [rev/min], ``depth`` [m]
+        with ``"inf"`` where no chatter boundary exists, ``lobe`` (integers, -1: none), ``chatter_hz`` [Hz]
+        with ``null`` where not defined (no boundary); conventions of :mod:`millstab.jsondoc`. An engine's
+        extra fields (e.g. the spectral engine's ``kind``) are not part of this record.
+
+        Raises:
+            ValueError: a NaN speed or depth (a result never carries one silently).
+        """
+        return {"schema": ENVELOPE_SCHEMA, "units": {"rpm": "rev/min", "depth": "m", "chatter_hz": "Hz"},
+                "rpm": floats_out(self.rpm, "envelope.rpm"), "depth": floats_out(self.depth, "envelope.depth"),
+                "lobe": [int(v) for v in np.asarray(self.lobe).ravel()],
+                "chatter_hz": floats_out(self.chatter_hz, "envelope.chatter_hz", nan_ok=True)}
+
+    @staticmethod
+    def from_json(doc: Any, source: str = "envelope") -> "Envelope":
+        """Rebuild an :class:`Envelope` from :meth:`to_json` output.
+
+        Raises:
+            InputError: another schema, a missing field, or arrays of other lengths (named with ``source``).
+        """
+        check_schema(doc, ENVELOPE_SCHEMA, source)
+        rpm = floats_in(need(doc, "rpm", source, list), f"{source}: rpm")
+        depth = floats_in(need(doc, "depth", source, list), f"{source}: depth")
+        lobe = ints_in(need(doc, "lobe", source, list), f"{source}: lobe")
+        hz = floats_in(need(doc, "chatter_hz", source, list), f"{source}: chatter_hz", nan_ok=True)
+        for name, arr in (("depth", depth), ("lobe", lobe), ("chatter_hz", hz)):
+            if arr.shape != rpm.shape:
+                raise InputError(f"{source}: {name}", f"{arr.size} values", f"one per speed ({rpm.size})")
+        return Envelope(rpm, depth, lobe, hz)
 
 
 @runtime_checkable

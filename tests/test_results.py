@@ -1,0 +1,378 @@
+"""Frozen result objects and their JSON: from_json(to_json(x)) equals x field by field (arrays equal,
+inf and NaN included), the JSON holds plain types only (json.dumps with allow_nan=False works), a
+document of another schema or with a field missing is an InputError that names the source and field,
+and a fit is never changed after it is built (tie test, quality checks and the two-stage SDM fit make
+new objects). The fit's public JSON is checked against the contract as it was before the schema: the
+same keys and values, plus ``schema`` and ``parameterization``."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from millstab.cli import main
+from millstab.datasets import load_example
+from millstab.errors import InputError
+from millstab.identify import make_problem
+from millstab.identify.design import DESIGN_SCHEMA, SpeedDesign, design_speeds
+from millstab.identify.quality import diagnose
+from millstab.identify.result import SCHEMA as FIT_SCHEMA
+from millstab.identify.result import Fit, cutting_record
+from millstab.identify.synthetic import boundary_points
+from millstab.identify.tie import prefer_tied
+from millstab.io.results import to_jsonable
+from millstab.model import Cutting, Mode, Structure
+from millstab.params import Parameterization
+from millstab.sensitivity import monte_carlo, morris, oat, sobol
+from millstab.sensitivity.results import MCResult, MorrisResult, OATResult, SobolResult
+from millstab.stability import zoa
+from millstab.stability.base import ENVELOPE_SCHEMA, Envelope
+from millstab.update import Posterior, make_prior
+
+SPEEDS = np.linspace(4000.0, 12000.0, 25)
+
+
+def same(a, b, where: str = "") -> None:
+    """Field-by-field equality of two result objects (arrays bit-equal with NaN = NaN, same shape)."""
+    assert type(a) is type(b), (where, type(a), type(b))
+    if isinstance(a, Parameterization):
+        assert (a.base, a.free, a.axisymmetric, dict(a.bounds)) == (b.base, b.free, b.axisymmetric, dict(b.bounds)), where
+    elif dataclasses.is_dataclass(a):
+        for f in dataclasses.fields(a):
+            same(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
+    elif isinstance(a, np.ndarray):
+        assert a.shape == b.shape, (where, a.shape, b.shape)
+        np.testing.assert_array_equal(a, b, err_msg=where)
+    elif isinstance(a, dict):
+        assert list(a) == list(b), where
+        for k in a:
+            same(a[k], b[k], f"{where}[{k}]")
+    elif isinstance(a, float) and math.isnan(a):
+        assert math.isnan(b), where
+    else:
+        assert a == b, (where, a, b)
+
+
+def roundtrip(obj, cls=None):
+    """Through text, as a file would: strict JSON (no NaN/Infinity literals, no numpy types)."""
+    text = json.dumps(obj.to_json(), allow_nan=False)
+    return (cls or type(obj)).from_json(json.loads(text), "test.json")
+
+
+# --- Fit --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def ex3():
+    return load_example("ex3")
+
+
+def _fit(cfg, **changes) -> Fit:
+    """A fit as lsq builds one (every field set), on Example 3 with four free parameters and own bounds."""
+    par = Parameterization(cfg.structure, ("fn_x", "k_x", "zeta_x", "fn_y"), False, {"fn_x": (500.0, 1500.0)})
+    est = par.theta0 * np.array([1.01, 0.98, 1.05, 0.99])
+    corr = np.eye(4)
+    corr[0, 1] = corr[1, 0] = -0.25
+    fields = dict(
+        method="lsq", par=par, estimate=est, start=par.theta0.copy(), mlae=0.123, rss=4.5e-3, iterations=7,
+        evaluations=900, engine_calls=12, time_s=1.25, history_theta=np.vstack([par.theta0, est]),
+        history_mlae=np.array([0.5, 0.123]), history_rss=np.array([0.1, 4.5e-3]), std_errors=est * 0.01,
+        correlation=corr, condition=3.2e5, warnings=("some combination is weak", "the zero-order model..."),
+        codes=("near_singular", "zoa_model"),
+        alternatives=({"estimate": dict(zip(par.free, est * 1.1)), "mlae": 0.13, "rss": 5e-3, "why": "another"},),
+        symmetry=None, test_cuts={"stable_cuts": 3, "chatter_cuts": 2, "stable_predicted_chatter": 0,
+                                  "chatter_predicted_stable": 1},
+        settings={"n_candidates": 32, "seed": 0, "schedule": [[4, 5], [1, 30]], "noise": None, "search": {"fn": 1.5},
+                  "xy_tie_test": {"F": 1.5, "p_value": 0.01, "tied_pairs": 3, "chosen": "free"}},
+        dof=10, n_points=14, noise={"source": "residuals", "estimated": 0.02, "stated": None, "assumed": None,
+                                    "sigma": 0.02},
+        checks={"rms": 0.018, "runs_test": {"runs": 6, "expected": 7.5, "z": -0.9, "p_value": 0.18}},
+        cutting=cfg.cutting)
+    return Fit(**{**fields, **changes})
+
+
+def test_fit_round_trips_field_by_field(ex3):
+    fit = _fit(ex3)
+    doc = fit.to_json()
+    assert doc["schema"] == FIT_SCHEMA == "millstab.fit/1"
+    same(roundtrip(fit), fit)
+
+
+@pytest.mark.parametrize("case", ["newton", "singular", "axisymmetric", "no_cutting"])
+def test_fit_round_trips_its_special_values(ex3, case):
+    """Newton (no standard errors, RSS history not computed: NaN ↔ null), an exactly singular JᵀJ
+    (condition ∞ ↔ null beside standard errors), an axisymmetric parameterization, no cutting record."""
+    if case == "newton":
+        fit = _fit(ex3, method="newton", std_errors=None, correlation=None, condition=None,
+                   history_rss=np.full(2, np.nan), dof=None, n_points=None, noise=None, checks={}, alternatives=())
+    elif case == "singular":
+        fit = _fit(ex3, condition=math.inf)
+    elif case == "axisymmetric":
+        s = Structure(x=(Mode(900.0, 1e7, 0.03),), y=(Mode(900.0, 1e7, 0.03),))
+        par = Parameterization(s, (), True)
+        fit = _fit(ex3, par=par, estimate=par.theta0 * 1.02, start=par.theta0, std_errors=par.theta0 * 0.01,
+                   correlation=np.eye(3), history_theta=par.theta0[None], history_mlae=np.array([0.1]),
+                   history_rss=np.array([0.01]), alternatives=())
+        assert set(fit.to_json()["parameters"]) == {"fn", "k", "zeta"}
+    else:
+        fit = _fit(ex3, cutting=None, test_cuts=None, symmetry="x and y are interchangeable")
+    same(roundtrip(fit), fit)
+
+
+def legacy_fit_json(fit: Fit) -> dict:
+    """The fit's JSON exactly as ``Fit.to_json`` wrote it before the schema (commit b98e4d3), kept here as
+    the public contract the new JSON must still hold key for key and value for value."""
+    s = fit.structure
+    se = None if fit.std_errors is None else {n: float(v) for n, v in zip(fit.names, fit.std_errors)}
+    return to_jsonable({
+        "parameters": fit.parameters(), "mlae": float(fit.mlae), "rss": float(fit.rss), "method": fit.method,
+        "free": list(fit.names), "units": dict(zip(fit.names, fit.units)), "estimate": fit.as_dict(),
+        "start": fit.par.as_dict(fit.start), "std_errors": se, "correlation": fit.correlation,
+        "condition": fit.condition, "iterations": int(fit.iterations), "evaluations": int(fit.evaluations),
+        "engine_calls": int(fit.engine_calls), "time_s": float(fit.time_s), "warnings": list(fit.warnings),
+        "alternatives": list(fit.alternatives), "symmetry": fit.symmetry, "test_cuts": fit.test_cuts,
+        "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
+        "settings": fit.settings, "dof": fit.dof, "n_points": fit.n_points, "noise": fit.noise,
+        "warning_codes": list(fit.codes), "checks": fit.checks,
+        "cutting": None if fit.cutting is None else cutting_record(fit.cutting),
+        "history": {"theta": fit.history_theta, "mlae": fit.history_mlae, "rss": fit.history_rss}})
+
+
+def _only_added(doc: dict, legacy: dict) -> None:
+    """``doc`` is ``legacy`` plus exactly ``schema`` and ``parameterization``, every old value unchanged."""
+    assert set(doc) - set(legacy) == {"schema", "parameterization"} and not set(legacy) - set(doc)
+    for key, value in legacy.items():
+        assert doc[key] == value, key
+
+
+def test_fit_json_keeps_every_field_it_had_before(ex3):
+    for fit in (_fit(ex3), _fit(ex3, condition=math.inf, history_rss=np.array([np.nan, 1.0]))):
+        _only_added(json.loads(json.dumps(fit.to_json(), allow_nan=False)), legacy_fit_json(fit))
+
+
+def test_cli_identify_out_of_a_packaged_example_is_the_old_json_plus_schema(ex3, tmp_path, capsys):
+    """``millstab identify example:ex3 <its packaged points> --out``: the file holds every field of the
+    old contract with the old values (recomputed from the fit the file rebuilds) plus ``schema`` and
+    ``parameterization``, and the rebuilt fit writes the file's content again."""
+    from importlib.resources import files
+
+    points = files("millstab.datasets") / "ex3_points.csv"
+    out = tmp_path / "fit.json"
+    assert main(["identify", "example:ex3", str(points), "--quiet", "--out", str(out)]) == 0
+    capsys.readouterr()
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == FIT_SCHEMA and (doc["config"], doc["points"]) == (ex3.name, str(points))
+    back = Fit.from_json(doc, str(out))
+    written = {k: v for k, v in doc.items() if k not in ("config", "points")}
+    assert back.to_json() == written
+    _only_added(written, legacy_fit_json(back))
+    assert doc["parameters"]["fn_x"] == pytest.approx(900, rel=0.05) and back.cutting == ex3.cutting
+
+
+def test_fit_is_frozen_and_its_warnings_carry_codes(ex3):
+    fit = _fit(ex3)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fit.mlae = 0.0
+    assert isinstance(fit.warnings, tuple) and isinstance(fit.codes, tuple)
+    assert fit.notes[1] == {"code": "zoa_model", "message": "the zero-order model..."}
+    assert fit.tie["chosen"] == "free" and not fit.tied
+    with pytest.raises(ValueError, match="code"):
+        _fit(ex3, codes=("near_singular",))  # a warning without its code
+
+
+def test_diagnose_returns_a_new_fit_and_leaves_the_old_one(ex3):
+    """The quality checks used to write dof, noise, checks and warnings into the fit in place."""
+    pts = boundary_points(ex3.structure, ex3.cutting, np.linspace(3000, 21000, 6), noise=0.0, seed=0)
+    problem = make_problem(ex3.structure, ex3.cutting, pts)
+    fit = _fit(ex3, par=problem.par, estimate=problem.par.theta0, start=problem.par.theta0,
+               std_errors=problem.par.theta0 * 0.01, correlation=np.eye(problem.p),
+               history_theta=problem.par.theta0[None], history_mlae=np.zeros(1), history_rss=np.zeros(1),
+               dof=None, n_points=None, noise=None, checks={}, alternatives=(), settings={})
+    before = legacy_fit_json(fit)
+    new = diagnose(fit, problem)
+    assert new is not fit and legacy_fit_json(fit) == before
+    assert (new.dof, new.n_points) == (0, 6) and "no_dof" in new.codes and new.codes[:2] == fit.codes
+    assert len(new.codes) == len(new.warnings) and new.noise["source"] == "assumed"
+
+
+def _tie_problem(noise_seed: int = 0):
+    ex1 = load_example("ex1")  # slotting, x = y: the tie test applies
+    pts = boundary_points(ex1.structure, ex1.cutting, np.linspace(3000, 12000, 12), noise=0.02, seed=noise_seed)
+    return ex1, make_problem(ex1.structure, ex1.cutting, pts)
+
+
+@pytest.mark.parametrize("chosen", ["tied", "free"])
+def test_tie_test_makes_a_new_fit_and_drops_the_symmetry_warning_by_its_code(ex3, chosen):
+    """prefer_tied used to write the test into the free fit's settings, and to drop the tied fit's
+    symmetry warning by a substring of its text; a symmetry note worded otherwise was kept."""
+    ex1, problem = _tie_problem()
+    par = problem.par
+    free = _fit(ex3, par=par, estimate=par.theta0, start=par.theta0, std_errors=par.theta0 * 0.01,
+                correlation=np.eye(par.size), history_theta=par.theta0[None], history_mlae=np.zeros(1),
+                history_rss=np.array([0.01]), rss=0.01, alternatives=(), settings={"seed": 0},
+                warnings=("x and y are interchangeable here",), codes=("xy_symmetry",), cutting=ex1.cutting)
+
+    def refit(tprob, start):
+        return _fit(ex3, par=tprob.par, estimate=start, start=start, std_errors=start * 0.01,
+                    correlation=np.eye(tprob.p), history_theta=start[None], history_mlae=np.zeros(1),
+                    history_rss=np.array([0.0100001 if chosen == "tied" else 10.0]),
+                    rss=0.0100001 if chosen == "tied" else 10.0, alternatives=(), settings={},
+                    warnings=("interchangeable x and y (worded without the old marker)", "weak"),
+                    codes=("xy_symmetry", "near_singular"), cutting=ex1.cutting)
+
+    before = legacy_fit_json(free)
+    fit = prefer_tied(problem, free, refit)
+    assert legacy_fit_json(free) == before and "xy_tie_test" not in free.settings  # the free fit untouched
+    assert fit.tie["chosen"] == chosen and fit.tied == (chosen == "tied")
+    if chosen == "tied":
+        assert fit.codes == ("xy_tied", "near_singular") and len(fit.warnings) == 2
+        assert fit.symmetry_kind == "xy_swap"
+    else:
+        assert fit.codes == free.codes and fit.warnings == free.warnings
+    same(roundtrip(fit), fit)
+
+
+def test_fit_from_json_errors_name_source_and_field(ex3):
+    doc = _fit(ex3).to_json()
+    with pytest.raises(InputError, match="schema") as e:
+        Fit.from_json({**doc, "schema": "millstab.design/1"}, "fit.json")
+    assert "fit.json" in str(e.value)
+    for key in ("estimate", "parameterization", "history", "warning_codes"):
+        with pytest.raises(InputError, match=key) as e:
+            Fit.from_json({k: v for k, v in doc.items() if k != key}, "fit.json")
+        assert "fit.json" in str(e.value)
+    with pytest.raises(InputError, match="estimate.k_x"):
+        Fit.from_json({**doc, "estimate": {"fn_x": 1.0}}, "fit.json")
+    with pytest.raises(InputError, match="warning_codes"):
+        Fit.from_json({**doc, "warning_codes": ["near_singular"]}, "fit.json")
+    with pytest.raises(InputError, match="mlae"):
+        Fit.from_json({**doc, "mlae": "small"}, "fit.json")
+
+
+def test_fit_file_written_before_the_schema_is_still_read(ex3):
+    """An older ``identify --out`` file: no schema, no parameterization; the structure it identified
+    with default bounds around it (what ``millstab design --fit`` did with it)."""
+    fit = _fit(ex3)
+    old = legacy_fit_json(fit)
+    back = Fit.from_json(old, "old.json")
+    np.testing.assert_array_equal(back.estimate, fit.estimate)
+    assert back.par.free == fit.par.free and back.structure == fit.structure and back.codes == fit.codes
+    assert back.par.bounds == Parameterization(fit.structure, fit.names).bounds
+
+
+# --- Envelope ---------------------------------------------------------------------------------------
+def test_envelope_round_trips_with_inf_and_undefined_frequencies(ex3):
+    env = zoa.envelope(ex3.structure, ex3.cutting, SPEEDS)
+    same(roundtrip(env), env)
+    no_boundary = Envelope(np.array([1000.0, 2000.0]), np.array([np.inf, 1e-3]), np.array([-1, 3]),
+                           np.array([np.nan, 812.5]))
+    doc = no_boundary.to_json()
+    assert doc["schema"] == ENVELOPE_SCHEMA and doc["depth"][0] == "inf" and doc["chatter_hz"][0] is None
+    back = roundtrip(no_boundary)
+    same(back, no_boundary)
+    assert back.lobe.dtype.kind == "i"
+    with pytest.raises(ValueError, match="depth"):
+        Envelope(np.array([1000.0]), np.array([np.nan]), np.array([-1]), np.array([np.nan])).to_json()
+
+
+def test_envelope_from_json_errors():
+    doc = Envelope(np.array([1000.0, 2000.0]), np.array([1e-3, 2e-3]), np.array([1, 2]), np.array([800.0, 900.0])).to_json()
+    with pytest.raises(InputError, match="env.json: schema"):
+        Envelope.from_json({**doc, "schema": "millstab.fit/1"}, "env.json")
+    with pytest.raises(InputError, match="env.json: depth"):
+        Envelope.from_json({k: v for k, v in doc.items() if k != "depth"}, "env.json")
+    with pytest.raises(InputError, match="env.json: lobe"):
+        Envelope.from_json({**doc, "lobe": [1]}, "env.json")
+    with pytest.raises(InputError, match="env.json: depth"):
+        Envelope.from_json({**doc, "depth": [1e-3, None]}, "env.json")  # null is no depth
+
+
+# --- SpeedDesign ------------------------------------------------------------------------------------
+def test_speed_design_round_trips(ex3):
+    par = Parameterization(ex3.structure, ("fn_x", "fn_y"))
+    plan = design_speeds(par, ex3.cutting, np.linspace(5000, 15000, 21), 4, samples=4, seed=1,
+                         existing_rpm=np.array([6000.0, 9000.0]))
+    assert plan.to_json()["schema"] == DESIGN_SCHEMA and plan.to_json()["tests"][0]["tests"] >= 1
+    same(roundtrip(plan), plan)
+    # a parameter the existing points cannot determine: inf must survive; a criterion not computed: NaN
+    odd = dataclasses.replace(plan, sigma_existing=np.array([np.inf, 0.01]), criterion_uniform=float("nan"),
+                              sigma_uniform_mean=None)
+    assert odd.to_json()["sigma_existing"][0] == "inf"
+    same(roundtrip(odd), odd)
+    with pytest.raises(ValueError, match="sigma_design"):
+        dataclasses.replace(plan, sigma_design=np.array([np.nan, 0.1])).to_json()
+    doc = plan.to_json()
+    with pytest.raises(InputError, match="plan.json: schema"):
+        SpeedDesign.from_json({**doc, "schema": None}, "plan.json")
+    with pytest.raises(InputError, match="plan.json: weights"):
+        SpeedDesign.from_json({k: v for k, v in doc.items() if k != "weights"}, "plan.json")
+
+
+# --- sensitivity --------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def studies(ex3):
+    rpm = np.linspace(5000, 15000, 12)
+    return {"oat": oat(ex3.structure, ex3.cutting, rpm, [-0.01, 0.01]),
+            "mc": monte_carlo(ex3.structure, ex3.cutting, rpm, n=9, seed=3),
+            "sobol": sobol(ex3.structure, ex3.cutting, rpm, n=8, seed=2, num_resamples=10),
+            "morris": morris(ex3.structure, ex3.cutting, rpm, trajectories=3, seed=2, num_resamples=10)}
+
+
+@pytest.mark.parametrize("kind", ["oat", "mc", "sobol", "morris"])
+def test_sensitivity_results_round_trip_and_keep_their_fields(studies, kind):
+    res = studies[kind]
+    doc = res.to_json()
+    assert doc["schema"] == f"millstab.sensitivity.{kind}/1"
+    # every field of the written summary is kept, same values (to_dict is what --out writes)
+    legacy = json.loads(json.dumps(to_jsonable(res.to_dict())))
+    for key, value in legacy.items():
+        assert doc[key] == value or json.loads(json.dumps(doc[key])) == value, key
+    same(roundtrip(res), res)
+
+
+def test_mc_json_keeps_mean_and_sd_per_parameter_in_mm2(studies):
+    res = studies["mc"]
+    doc = json.loads(json.dumps(res.to_json(), allow_nan=False))
+    for j, name in enumerate(res.names):
+        col = [float(v) for v in res.mse_mm2[:, j]]  # by hand: mean and population SD (1/n) of the paths
+        mean = sum(col) / len(col)
+        assert doc[name]["mean"] == pytest.approx(mean, rel=1e-12)
+        assert doc[name]["sd"] == pytest.approx(math.sqrt(sum((v - mean) ** 2 for v in col) / len(col)), rel=1e-9)
+    assert doc["units"]["mse"] == "mm^2" and len(doc["paths"]["mse_mm2"]["fn_x"]) == res.n
+
+
+def test_mc_with_one_path_has_undefined_sample_sd(studies):
+    """One path: the sample SD is not defined (NaN ↔ null) and round-trips as such."""
+    res = studies["mc"]
+    one = MCResult(res.names, res.theta, res.t, res.eps, res.seed, 1, res.rpm, res.mse_mm2[:1], res.engine)
+    assert one.to_json()["fn_x"]["sd_sample"] is None
+    same(roundtrip(one), one)
+
+
+@pytest.mark.parametrize("cls, kind, drop", [(OATResult, "oat", "mse_mm2"), (MCResult, "mc", "paths"),
+                                             (SobolResult, "sobol", "blim"), (MorrisResult, "morris", "outputs")])
+def test_sensitivity_from_json_errors(studies, cls, kind, drop):
+    doc = studies[kind].to_json()
+    with pytest.raises(InputError, match="s.json: schema"):
+        cls.from_json({**doc, "schema": "millstab.sensitivity.other/1"}, "s.json")
+    with pytest.raises(InputError, match=f"s.json: {drop}"):
+        cls.from_json({k: v for k, v in doc.items() if k != drop}, "s.json")
+
+
+# --- Posterior ------------------------------------------------------------------------------------------
+def test_posterior_round_trips_and_carries_its_schema():
+    cut = Cutting(2, 556.31e6, 0.404, 0.0, math.pi)
+    prior = make_prior(Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(1050.0, 15e6, 0.04),)), cut)
+    samples = np.exp(prior.sample(40, np.random.default_rng(0)))
+    post = Posterior(prior, samples, "zoa", {"ess": 38.5, "stages": 3}, {"rpm": [5000.0], "depth_mm": [1.0],
+                                                                         "label": ["stable"], "chatter_hz": [None]},
+                     ("one-sided evidence",))
+    doc = json.loads(json.dumps(post.to_json(), allow_nan=False))
+    assert doc["schema"] == "millstab.posterior/1"
+    back = Posterior.from_json(doc, "post.json")
+    assert back.prior.to_dict() == prior.to_dict()
+    same(dataclasses.replace(back, prior=prior), post)
+    with pytest.raises(InputError, match="post.json schema"):
+        Posterior.from_json({**doc, "schema": "millstab.fit/1"}, "post.json")

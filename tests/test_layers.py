@@ -77,6 +77,28 @@ def test_io_does_not_import_datasets_and_io_has_no_circle(graph):
             assert chain == [], chain
 
 
+#: the doors: the only modules that may import the service layer (and themselves)
+DOORS = ("millstab.cli", "millstab.web")
+
+
+def test_only_the_doors_import_the_service_layer(graph):
+    """api/ sits above every study and engine: nothing below it imports it, or a door."""
+    for mod in graph:
+        if mod.startswith(DOORS) or mod == "millstab.api" or mod.startswith("millstab.api."):
+            continue
+        for top in ("millstab.api",) + DOORS:
+            assert _reaches(graph, mod, top) == [], (mod, top)
+
+
+def test_plots_import_no_engine_and_no_study(graph):
+    """Plots draw results: they import model types, never an engine or a study that computes."""
+    for mod in graph:
+        if mod.startswith("millstab.plot"):
+            for below in ("millstab.stability", "millstab.forward", "millstab.identify", "millstab.update",
+                          "millstab.sensitivity", "millstab.simulate", "millstab.api"):
+                assert _reaches(graph, mod, below) == [], (mod, below)
+
+
 def test_old_import_paths_still_work():
     from millstab.config import Config, PriorTable
     from millstab.io import Config as IoConfig

@@ -256,7 +256,8 @@ class Fit:
         condition = need(doc, "condition", source, (int, float, type(None)))
         if condition is None and std_errors is not None:
             condition = math.inf  # an exactly singular JᵀJ (module docstring)
-        cut = need(doc, "cutting", source, (dict, type(None)))
+        # "cutting" is absent from fits written before the cutting record (read as unknown)
+        cut = need(doc, "cutting", source, (dict, type(None))) if "cutting" in doc else None
         warnings = _strings(need(doc, "warnings", source, list), f"{source}: warnings")
         codes = _strings(need(doc, "warning_codes", source, list), f"{source}: warning_codes")
         if len(codes) != len(warnings):

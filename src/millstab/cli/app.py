@@ -11,6 +11,7 @@ import numpy as np
 import typer
 
 from millstab.errors import InputError
+from millstab.parsing import parse_rpm_range
 
 app = typer.Typer(
     name="millstab",
@@ -22,23 +23,6 @@ app = typer.Typer(
     # read as rich markup (which silently dropped them)
     rich_markup_mode=None,
 )
-
-
-def parse_rpm_range(text: str) -> np.ndarray:
-    """``START:STOP:STEP`` in rpm (STOP included when it falls on the grid) → speeds array."""
-    parts = text.split(":")
-    if len(parts) != 3:
-        raise InputError("--rpm", text, "expected START:STOP:STEP in rev/min, e.g. 2000:12000:25")
-    try:
-        start, stop, step = (float(p) for p in parts)
-    except ValueError:
-        raise InputError("--rpm", text, "START, STOP and STEP must be numbers (rev/min)") from None
-    if not (start > 0 and stop > start and step > 0):
-        raise InputError("--rpm", text, "need 0 < START < STOP and STEP > 0")
-    n = int(np.floor((stop - start) / step + 1e-9)) + 1
-    if n > 1_000_000:
-        raise InputError("--rpm", text, f"{n} speeds is too many (max 1e6); use a larger STEP")
-    return start + step * np.arange(n)
 
 
 def read_rpm_file(path: Path) -> np.ndarray:

@@ -10,27 +10,12 @@ from typing import Optional
 import numpy as np
 import typer
 
-from millstab.cli.app import app, parse_rpm_range
+from millstab.cli.app import app
+from millstab.parsing import parse_range, parse_rpm_range
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
 _SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
-
-
-def _range(text: str, option: str, unit: str, parts_wanted: int) -> tuple[float, ...]:
-    """``A:B`` or ``A:B:S`` → floats, with a one-line error naming the option."""
-    parts = text.split(":")
-    form = "LOW:HIGH" if parts_wanted == 2 else "START:STOP:STEP"
-    if len(parts) != parts_wanted:
-        raise InputError(option, text, f"expected {form} in {unit}")
-    try:
-        vals = tuple(float(p) for p in parts)
-    except ValueError:
-        raise InputError(option, text, f"{form} must be numbers ({unit})") from None
-    if not all(math.isfinite(v) for v in vals) or not 0 <= vals[0] < vals[1] or (parts_wanted == 3 and vals[2] <= 0):
-        raise InputError(option, text, f"need 0 <= {form.split(':')[0]} < {form.split(':')[1]}" +
-                         (" and STEP > 0" if parts_wanted == 3 else ""))
-    return vals
 
 
 def _load_posterior(path: Path):
@@ -114,7 +99,7 @@ def map_cmd(
     from millstab.update import p_stable_map
 
     speeds = parse_rpm_range(rpm)
-    d0, d1, ds = _range(depth, "--depth", "mm", 3)
+    d0, d1, ds = parse_range(depth, "--depth", "mm", 3)
     depths = d0 + ds * np.arange(int(math.floor((d1 - d0) / ds + 1e-9)) + 1)
     if depths.size * speeds.size > 5_000_000:
         raise InputError("--depth", depth, f"{speeds.size} speeds × {depths.size} depths is too many cells (max 5e6)")
@@ -165,7 +150,7 @@ def recommend_cmd(
 
     if not 0 < risk < 1:
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
-    lo, hi = _range(rpm, "--rpm", "rpm", 2)
+    lo, hi = parse_range(rpm, "--rpm", "rpm", 2)
     if lo <= 0:
         raise InputError("--rpm", rpm, "need 0 < LOW < HIGH rev/min")
     post = _load_posterior(posterior)

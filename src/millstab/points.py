@@ -124,4 +124,23 @@ def check_enough(points: PointSet, n_free: int) -> int:
     return n
 
 
-__all__ = ["LABELS", "LABEL_RULE", "PointSet", "check_enough"]
+def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
+    """The number of distinct boundary-point speeds; InputError when fewer than ``n_free``.
+
+    The boundary is one depth per speed: repeated tests at one speed measure that depth again (its
+    scatter), not another point of the curve, so P parameters need at least P different speeds — all
+    points at one speed determine at most one parameter.
+    """
+    r = np.asarray(rpm, dtype=float)
+    distinct = int(np.unique(r[np.isfinite(r)]).size)
+    if distinct < n_free:
+        where = f" in {source.name}" if source is not None else ""
+        at = f"all at {r[0]:g} rpm" if distinct == 1 else f"at {distinct} distinct speeds"
+        raise InputError("points", f"{r.size} boundary points{where} {at}",
+                         f"{n_free} free parameters need boundary points at {n_free} or more different spindle speeds "
+                         "(repeats at one speed only re-measure its depth); measure at other speeds, or free fewer "
+                         "parameters (--free)")
+    return distinct
+
+
+__all__ = ["LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_speeds"]

@@ -15,7 +15,7 @@ from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
-from millstab.ranges import parse_rpm_grid
+from millstab.parsing import parse_rpm_range
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -63,7 +63,7 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
             return np.asarray(cfg.rpm, dtype=float)
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
-        return parse_rpm_grid(spec, field)
+        return parse_rpm_range(spec, field)
     r = np.asarray(spec, dtype=float).ravel()
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")

@@ -11,6 +11,7 @@ import numpy as np
 import typer
 
 from millstab.errors import InputError
+from millstab.parsing import parse_rpm_range
 
 app = typer.Typer(
     name="millstab",
@@ -22,13 +23,6 @@ app = typer.Typer(
     # read as rich markup (which silently dropped them)
     rich_markup_mode=None,
 )
-
-
-def parse_rpm_range(text: str) -> np.ndarray:
-    """``START:STOP:STEP`` in rpm (STOP included when it falls on the grid) → speeds array."""
-    from millstab.ranges import parse_rpm_grid
-
-    return parse_rpm_grid(text, "--rpm")
 
 
 def read_rpm_file(path: Path) -> np.ndarray:

@@ -8,7 +8,8 @@ from typing import Optional
 import numpy as np
 import typer
 
-from millstab.cli.app import app, parse_rpm_range
+from millstab.cli.app import app
+from millstab.parsing import parse_rpm_range
 from millstab.cli.identify import show_value
 
 #: the command's help (rich reflows each paragraph; square brackets would be read as markup)

@@ -8,7 +8,8 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app, parse_rpm_range
+from millstab.cli.app import app
+from millstab.parsing import parse_rpm_range
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
@@ -89,7 +90,7 @@ def map_cmd(
 
     from millstab import api
     from millstab.io import check_outputs, write_csv
-    from millstab.ranges import parse_grid
+    from millstab.parsing import parse_grid
 
     speeds = parse_rpm_range(rpm)
     depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
@@ -123,7 +124,7 @@ def recommend_cmd(
 
     from millstab import api
     from millstab.io import check_outputs, write_json
-    from millstab.ranges import parse_interval
+    from millstab.parsing import parse_interval
 
     if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")

@@ -27,7 +27,7 @@ degrees of freedom (:func:`~millstab.identify.quality.error_sigma`) — standard
 θ·√diag(cov_u) (delta method), the correlation matrix, cond(JᵀJ); warnings for an exact x↔y symmetry
 (slotting: the estimate is returned in canonical order, fn_x ≤ fn_y) and for the general exact x↔y
 mode exchange of the zero-order SLD (any cut with α_xx α_yy > 0: (fn, ζ) of x and y exchanged,
-k_x' = (α_xx/α_yy) k_y, k_y' = k_x α_yy/α_xx — :func:`~millstab.identify.objective.exchange_map`; the
+k_x' = (α_xx/α_yy) k_y, k_y' = k_x α_yy/α_xx — :func:`~millstab.identify.symmetry.exchange_map`; the
 exchanged estimate, which explains the points equally well, is listed first in the alternatives and the
 solver cannot prefer either: with noise-free data it returns whichever basin the start leads to), near-singular JᵀJ, strongly
 correlated pairs, and other multi-start solutions inside the 95 % joint confidence region
@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import time
 from typing import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize, stats
@@ -48,25 +49,18 @@ from scipy.stats import qmc
 from millstab.errors import InputError
 from millstab.forward import FD_STEP, fd_rows  # noqa: F401 (FD_STEP: the solver's step, re-exported)
 from millstab.forward import fd_difference as jacobians
-from millstab.identify.objective import Problem, canonical, exchange_map, exchanged, swap_permutation
+from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
+from millstab.identify.search import SEARCH, Progress, pick_distinct, search_box, sobol
+from millstab.identify.symmetry import (canonical, exchange_map, exchange_note, exchanged, swap_permutation,
+                                        xy_symmetry_note)
 from millstab.identify.tie import prefer_tied
-from millstab.stability import zoa
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
-#: default search box half-widths (multiplicative) around the start, per parameter kind
-SEARCH = {"fn": 1.5, "k": 2.5, "zeta": 2.5}
-
-Progress = Callable[[str, int, float], None]
-
-
-def search_box(problem: Problem, u0: np.ndarray, search: dict[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The screening box in log-parameters: start ×/÷ SEARCH[kind], inside the bounds."""
-    s = {**SEARCH, **(search or {})}
-    half = np.log([s[problem.par.kind(n)] for n in problem.par.free])
-    lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
-    return np.maximum(lo, u0 - half), np.minimum(hi, u0 + half)
+#: successive halving of the re-seeding rounds' and of the confidence-region candidates
+RESEED_SCHEDULE = ((16, 3), (4, 8), (2, 30))
+LOCAL_SCHEDULE = ((8, 4), (2, 20))
 
 
 def screen(problem: Problem, u0: np.ndarray, n_candidates: int, seed: int, search=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -75,35 +69,11 @@ def screen(problem: Problem, u0: np.ndarray, n_candidates: int, seed: int, searc
     Returns (u (N, P), predictions (N, n) [mm], rss (N,)), k-profiled when possible.
     """
     blo, bhi = search_box(problem, u0, search)
-    m = max(1, int(np.ceil(np.log2(max(n_candidates, 1)))))
-    sob = qmc.Sobol(problem.p, scramble=True, seed=seed).random_base2(m)[:n_candidates]
+    sob = sobol(problem.p, n_candidates, seed)
     u = np.vstack([u0[None], blo + sob * (bhi - blo)])
     pred = problem.predict_u(u)
     u, pred = problem.profile_k(u, pred)
     return u, pred, problem.rss(pred)
-
-
-def pick_distinct(u: np.ndarray, cost: np.ndarray, k: int, min_dist: float, perm=None) -> np.ndarray:
-    """Indices of the k lowest-cost rows whose log-distance (max-norm, up to x↔y swap) to every already
-    picked row exceeds ``min_dist``."""
-    order = np.argsort(cost, kind="stable")
-    picked: list[int] = []
-    for i in order:
-        if not np.isfinite(cost[i]):
-            break
-        d_ok = True
-        for j in picked:
-            d = np.abs(u[i] - u[j]).max()
-            if perm is not None:
-                d = min(d, np.abs(u[i][perm] - u[j]).max())
-            if d < min_dist:
-                d_ok = False
-                break
-        if d_ok:
-            picked.append(int(i))
-            if len(picked) == k:
-                break
-    return np.array(picked, dtype=int)
 
 
 def batched_lm(problem: Problem, u: np.ndarray, *, max_iter: int = 40, tol: float = 1e-10, central: bool = False,
@@ -231,12 +201,210 @@ def fit_lsq(problem: Problem, theta0: np.ndarray | None = None, *, tie_xy: bool 
     return diagnose(fit, problem, options.get("noise"))
 
 
+def check_options(loss: str, n_candidates: int, schedule) -> None:
+    """InputError for an unknown robust loss or an empty screening/halving schedule."""
+    if loss not in LOSSES:
+        raise InputError("loss", loss, f"must be one of {', '.join(LOSSES)}")
+    if n_candidates < 1 or not schedule or any(k < 1 or i < 1 for k, i in schedule):
+        raise InputError("schedule", schedule, "need n_candidates >= 1 and a schedule of (starts >= 1, iterations >= 1)")
+
+
+class History:
+    """The best-so-far path of the search, one entry per recorded step (``Fit.history_*``); called as
+    ``record(u (K, P), rss (K,))`` by every stage, it also reports ``progress("lsq", step, best rss)``."""
+
+    def __init__(self, progress: Progress | None = None):
+        self.progress = progress
+        self.u: list[np.ndarray] = []
+        self.rss: list[float] = []
+
+    def __call__(self, u: np.ndarray, cost: np.ndarray) -> None:
+        i = int(np.argmin(cost))
+        if self.rss and self.rss[-1] <= cost[i]:
+            self.u.append(self.u[-1])
+            self.rss.append(self.rss[-1])
+        else:
+            self.u.append(u[i].copy())
+            self.rss.append(float(cost[i]))
+        if self.progress is not None:
+            self.progress("lsq", len(self.rss), self.rss[-1])
+
+
+@dataclass
+class Starts:
+    """Where the multi-start stages ended: the best point so far and every stage's final LM starts
+    (their u (K, P) and RSS (K,), searched for alternatives at the end)."""
+
+    best_u: np.ndarray
+    best_rss: float
+    u: list[np.ndarray] = field(default_factory=list)
+    rss: list[np.ndarray] = field(default_factory=list)
+    lm_iterations: int = 0
+    rounds: int = 0
+
+    def add(self, u_end: np.ndarray, c_end: np.ndarray, iterations: int, margin: float = 0.0) -> bool:
+        """Keep a stage's final starts; the best of them becomes the best point when it beats the
+        current one by the relative ``margin``. Returns whether it did."""
+        self.lm_iterations += iterations
+        self.u.append(u_end)
+        self.rss.append(c_end)
+        if c_end.min() < self.best_rss * (1 - margin):
+            self.best_u, self.best_rss = u_end[np.argmin(c_end)], float(c_end.min())
+            return True
+        return False
+
+
+def multistart(problem: Problem, u0: np.ndarray, *, n_candidates: int, schedule, seed: int, search, perm, record,
+               central: bool) -> Starts:
+    """Stages 1 and 2: the screening design (one call), then successive halving of batched LM starts."""
+    u_c, _, c_c = screen(problem, u0, n_candidates, seed, search)
+    record(u_c, c_c)
+    u_end, c_end, its = halving(problem, u_c, c_c, schedule, perm, record, central)
+    return Starts(u_end[np.argmin(c_end)], float(c_end.min()), [u_end], [c_end], its)
+
+
+def reseed_candidates(problem: Problem, best_u: np.ndarray, blo: np.ndarray, bhi: np.ndarray, seed: int,
+                      round_no: int) -> np.ndarray:
+    """Candidates (1 + 128·modes + 256, P) of one re-seeding round: the best point; per mode, 128 Sobol
+    re-samples of that mode's columns in the box (others held at the best); 256 fresh global ones.
+    Seeded by (seed, round, mode)."""
+    parts = [best_u[None]]
+    for b, cols in enumerate(mode_blocks(problem)):
+        sob = qmc.Sobol(len(cols), scramble=True, seed=np.random.default_rng([seed, round_no, b])).random(128)
+        uu = np.tile(best_u, (128, 1))
+        uu[:, cols] = blo[cols] + sob * (bhi[cols] - blo[cols])
+        parts.append(uu)
+    sob = qmc.Sobol(problem.p, scramble=True, seed=np.random.default_rng([seed, round_no, 99])).random(256)
+    parts.append(blo + sob * (bhi - blo))
+    return np.vstack(parts)
+
+
+def reseed(problem: Problem, starts: Starts, u0: np.ndarray, *, rounds: int, good_rms: float, seed: int, search,
+           perm, record, central: bool) -> None:
+    """Stage 2b: while the RMS residual exceeds ``good_rms``, up to ``rounds`` re-seeding rounds
+    (:func:`reseed_candidates`, one call, halving again); stops at the first round that finds nothing
+    better by 0.1 % (a noise-level fit). Updates ``starts``."""
+    blo, bhi = search_box(problem, u0, search)
+    for r in range(rounds):
+        if np.sqrt(starts.best_rss / problem.n) < good_rms:
+            break
+        starts.rounds += 1
+        uu = reseed_candidates(problem, starts.best_u, blo, bhi, seed, r)
+        pred = problem.predict_u(uu)
+        uu, pred = problem.profile_k(uu, pred)
+        if not starts.add(*halving(problem, uu, problem.rss(pred), RESEED_SCHEDULE, perm, record, central), margin=1e-3):
+            break
+
+
+def confidence_cloud(problem: Problem, best_u: np.ndarray, n_local: int, seed: int, central: bool) -> np.ndarray:
+    """The best point and ``n_local`` seeded draws (1 + n_local, P) in its linearised 3σ confidence
+    region (σ from the residual scatter; each step capped at 0.15 in ln θ), inside the bounds."""
+    lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
+    cache0 = _Cached(problem, central)
+    r0, j0 = cache0.fun(best_u), cache0.jac(best_u)
+    cov0, _ = covariance(j0, float(r0 @ r0), problem.n, problem.p)
+    w_, v_ = np.linalg.eigh((cov0 + cov0.T) / 2)
+    sd_dir = v_ * np.sqrt(np.clip(w_, 0, None))  # columns: principal axes scaled by their σ
+    z = np.random.default_rng([seed, 7]).standard_normal((n_local, problem.p))
+    cloud = np.clip(best_u + 3 * np.clip(z @ sd_dir.T, -0.05, 0.05), lo, hi)
+    return np.vstack([best_u[None], cloud])
+
+
+def local_search(problem: Problem, starts: Starts, *, n_local: int, seed: int, perm, record, central: bool) -> None:
+    """Stage 2c: with noise the non-smooth boundary (cusps crossing points) leaves small local minima
+    next to the best one; sample the confidence region once (:func:`confidence_cloud`) and halve again."""
+    if n_local <= 0:
+        return
+    uu = confidence_cloud(problem, starts.best_u, n_local, seed, central)
+    starts.add(*halving(problem, uu, problem.rss(problem.predict_u(uu)), LOCAL_SCHEDULE, perm, record, central))
+
+
+def polish(problem: Problem, u_start: np.ndarray, *, loss: str, f_scale: float, max_nfev: int, central: bool):
+    """Stage 3: scipy's trust-region reflective least squares from ``u_start`` with the robust ``loss``,
+    its Jacobian from the batched rows. Returns (scipy result, residuals (n,), J (n, P)) at the solution."""
+    cache = _Cached(problem, central)
+    lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
+    sol = optimize.least_squares(cache.fun, u_start, jac=cache.jac, bounds=(lo, hi), method="trf", loss=loss,
+                                 f_scale=f_scale, x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev)
+    return sol, cache.fun(sol.x), cache.jac(sol.x)
+
+
+def uncertainty(problem: Problem, jac: np.ndarray, rss: float, noise: float | None):
+    """Standard errors of ln θ (P,), the correlation matrix (P, P) and cond(JᵀJ) at the solution, with σ
+    from the residual scatter, a stated or an assumed noise (:func:`~millstab.identify.quality.error_sigma`)."""
+    n, p = problem.n, problem.p
+    sig = error_sigma(rss, n, p, residual_scale(problem.residual, problem.depth_mm), noise)
+    cov_u, cond = covariance(jac, rss, n, p, sig["sigma"] ** 2)
+    sd_u = np.sqrt(np.clip(np.diag(cov_u), 0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov_u / np.outer(sd_u, sd_u)
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    return sd_u, corr, cond
+
+
+def identifiability_warnings(names, corr: np.ndarray, cond: float) -> list[tuple[str, str]]:
+    """(code, text) for a near-singular JᵀJ and for strongly correlated parameter pairs."""
+    out = []
+    if cond > 1e8:  # cond(J) > 1e4: some combination is determined 1e4× worse than the best one
+        out.append(("near_singular", f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
+                                     "combinations are not identifiable from these points; standard errors are unreliable"))
+    p = len(names)
+    pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p) for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
+    if pairs:
+        out.append(("correlated", "strongly correlated (|r| > 0.99), not separately identifiable from these points: "
+                                  + ", ".join(pairs)))
+    return out
+
+
+def alternative_solutions(problem: Problem, theta_hat: np.ndarray, rss: float, sd_u: np.ndarray, starts: Starts,
+                          perm, xmap) -> list[dict]:
+    """Parameter sets that explain the points as well as the estimate: the exact x↔y exchange (when
+    ``xmap``), then the other multi-start solutions inside the 95 % joint confidence region
+    RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate by more than
+    max(1 %, 4 σ) in some ln θ and from every listed one by 1 %."""
+    n, p, par = problem.n, problem.p, problem.par
+    c_lm, u_lm = np.concatenate(starts.rss), np.vstack(starts.u)
+    thresh = rss * (1 + p / (n - p) * stats.f.ppf(0.95, p, n - p)) if n > p else rss
+    thresh = max(thresh, rss + 1e-12 * n)
+    u_best_c = np.log(canonical(theta_hat, perm))
+    alternatives = []
+    if xmap is not None:
+        theta_x = exchanged(theta_hat, xmap)
+        pred_x = problem.predict_mm(theta_x[None])
+        alternatives.append({"estimate": par.as_dict(theta_x), "mlae": float(problem.mlae(pred_x)[0]),
+                             "rss": float(problem.rss(pred_x)[0]),
+                             "why": "the exact x↔y mode exchange of the estimate (same zero-order SLD)"})
+    for i in np.argsort(c_lm):
+        if c_lm[i] > thresh:
+            continue
+        u_i = np.log(canonical(np.exp(u_lm[i]), perm))
+        d = np.abs(u_i - u_best_c)
+        if (d > np.maximum(0.01, 4 * sd_u)).any() and all(
+                np.abs(u_i - np.log(list(a["estimate"].values()))).max() > 0.01 for a in alternatives):
+            pred_i = problem.predict_u(u_i[None])
+            alternatives.append({"estimate": par.as_dict(np.exp(u_i)), "mlae": float(problem.mlae(pred_i)[0]),
+                                 "rss": float(c_lm[i]), "why": "another multi-start solution inside the 95 % joint "
+                                                                 "confidence region of the estimate"})
+    return alternatives
+
+
+def cut_warning(cuts: dict | None) -> str | None:
+    """The warning text when labelled test cuts contradict the fitted limit, else ``None``."""
+    if cuts and (cuts["stable_predicted_chatter"] or cuts["chatter_predicted_stable"]):
+        return (f"test cuts: {cuts['stable_predicted_chatter']} of {cuts['stable_cuts']} stable cuts lie above the "
+                f"fitted limit, {cuts['chatter_predicted_stable']} of {cuts['chatter_cuts']} chatter cuts below it")
+    return None
+
+
 def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,
                  schedule=((32, 3), (8, 5), (2, 30)), rounds: int = 3, good_rms: float = 0.01, n_local: int = 64,
                  loss: str = "linear", f_scale: float | None = None, central: bool = False, seed: int = 0,
                  search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None,
                  noise: float | None = None) -> Fit:
-    """:func:`fit_lsq` without the x = y test: the multi-start search itself (module docstring).
+    """:func:`fit_lsq` without the x = y test: the multi-start search itself (module docstring), run as
+    its stages :func:`multistart`, :func:`reseed`, :func:`local_search`, :func:`polish`, then the
+    diagnostics :func:`uncertainty`, :func:`identifiability_warnings`, :func:`alternative_solutions`.
 
     Args:
         theta0: start [Hz, N/m, -]; default the parameterization's start (the config's structure).
@@ -260,10 +428,7 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
             :func:`~millstab.identify.quality.error_sigma`).
     """
     noise = check_noise(noise)
-    if loss not in LOSSES:
-        raise InputError("loss", loss, f"must be one of {', '.join(LOSSES)}")
-    if n_candidates < 1 or not schedule or any(k < 1 or i < 1 for k, i in schedule):
-        raise InputError("schedule", schedule, "need n_candidates >= 1 and a schedule of (starts >= 1, iterations >= 1)")
+    check_options(loss, n_candidates, schedule)
     t0 = time.perf_counter()
     sets0, calls0 = problem.n_sets, problem.n_calls
     par = problem.par
@@ -271,155 +436,46 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
     theta_start = par.theta0 if theta0 is None else np.asarray(theta0, dtype=float)
     u0 = np.clip(np.log(theta_start), lo, hi)
     perm = swap_permutation(par, problem.cutting)
-    hist_u: list[np.ndarray] = []
-    hist_rss: list[float] = []
-
-    def record(u: np.ndarray, cost: np.ndarray) -> None:
-        i = int(np.argmin(cost))
-        if hist_rss and hist_rss[-1] <= cost[i]:
-            hist_u.append(hist_u[-1])
-            hist_rss.append(hist_rss[-1])
-        else:
-            hist_u.append(u[i].copy())
-            hist_rss.append(float(cost[i]))
-        if progress is not None:
-            progress("lsq", len(hist_rss), hist_rss[-1])
-
-    # 1. screening, 2. successive halving of batched LM starts
-    u_c, _, c_c = screen(problem, u0, n_candidates, seed, search)
-    record(u_c, c_c)
-    u_end, c_end, it_lm = halving(problem, u_c, c_c, schedule, perm, record, central)
-    finals_u, finals_c = [u_end], [c_end]
-    best_u, best_c = u_end[np.argmin(c_end)], float(c_end.min())
-    # 2b. re-seeding rounds while the fit is poor: one mode at a time, plus fresh global candidates
-    blo, bhi = search_box(problem, u0, search)
-    n_rounds = 0
-    for r in range(rounds):
-        if np.sqrt(best_c / problem.n) < good_rms:
-            break
-        n_rounds += 1
-        parts = [best_u[None]]
-        for b, cols in enumerate(mode_blocks(problem)):
-            sob = qmc.Sobol(len(cols), scramble=True, seed=np.random.default_rng([seed, r, b])).random(128)
-            uu = np.tile(best_u, (128, 1))
-            uu[:, cols] = blo[cols] + sob * (bhi[cols] - blo[cols])
-            parts.append(uu)
-        sob = qmc.Sobol(problem.p, scramble=True, seed=np.random.default_rng([seed, r, 99])).random(256)
-        parts.append(blo + sob * (bhi - blo))
-        uu = np.vstack(parts)
-        pred = problem.predict_u(uu)
-        uu, pred = problem.profile_k(uu, pred)
-        u_end, c_end, it = halving(problem, uu, problem.rss(pred), ((16, 3), (4, 8), (2, 30)), perm, record, central)
-        it_lm += it
-        finals_u.append(u_end)
-        finals_c.append(c_end)
-        if c_end.min() < best_c * (1 - 1e-3):
-            best_u, best_c = u_end[np.argmin(c_end)], float(c_end.min())
-        else:  # the round found nothing better: more rounds would not either (a noise-level fit)
-            break
-    # 2c. the confidence region: with noise the non-smooth boundary (cusps crossing points) leaves small
-    # local minima next to the best one; sample the linearised 3σ region once and halve again
-    if n_local > 0:
-        cache0 = _Cached(problem, central)
-        r0, j0 = cache0.fun(best_u), cache0.jac(best_u)
-        cov0, _ = covariance(j0, float(r0 @ r0), problem.n, problem.p)
-        w_, v_ = np.linalg.eigh((cov0 + cov0.T) / 2)
-        sd_dir = v_ * np.sqrt(np.clip(w_, 0, None))  # columns: principal axes scaled by their σ
-        z = np.random.default_rng([seed, 7]).standard_normal((n_local, problem.p))
-        cloud = np.clip(best_u + 3 * np.clip(z @ sd_dir.T, -0.05, 0.05), lo, hi)
-        uu = np.vstack([best_u[None], cloud])
-        c_cloud = problem.rss(problem.predict_u(uu))
-        u_end, c_end, it = halving(problem, uu, c_cloud, ((8, 4), (2, 20)), perm, record, central)
-        it_lm += it
-        finals_u.append(u_end)
-        finals_c.append(c_end)
-        if c_end.min() < best_c:
-            best_u, best_c = u_end[np.argmin(c_end)], float(c_end.min())
-    c_lm = np.concatenate(finals_c)
-    u_lm = np.vstack(finals_u)
+    record = History(progress)
+    # 1. screening, 2. successive halving of batched LM starts; 2b. re-seeding; 2c. the confidence region
+    stage = dict(seed=seed, perm=perm, record=record, central=central)
+    starts = multistart(problem, u0, n_candidates=n_candidates, schedule=schedule, search=search, **stage)
+    reseed(problem, starts, u0, rounds=rounds, good_rms=good_rms, search=search, **stage)
+    local_search(problem, starts, n_local=n_local, **stage)
     # 3. polish with scipy trf (the chosen loss), Jacobian from the batched rows
-    cache = _Cached(problem, central)
     if f_scale is None:
         f_scale = 0.05
-    sol = optimize.least_squares(cache.fun, best_u, jac=cache.jac, bounds=(lo, hi), method="trf", loss=loss,
-                                 f_scale=f_scale, x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev)
-    u_hat = sol.x
-    r_hat = cache.fun(u_hat)
-    j_hat = cache.jac(u_hat)
+    sol, r_hat, j_hat = polish(problem, starts.best_u, loss=loss, f_scale=f_scale, max_nfev=max_nfev, central=central)
     rss = float(r_hat @ r_hat)
-    record(u_hat[None], np.array([rss]))
-    iterations = len(hist_rss) - 1  # screening is iteration 0
-    theta_hat = np.exp(u_hat)
+    record(sol.x[None], np.array([rss]))
+    iterations = len(record.rss) - 1  # screening is iteration 0
+    theta_hat = np.exp(sol.x)
 
     # diagnostics
-    n, p = problem.n, problem.p
-    sig = error_sigma(rss, n, p, residual_scale(problem.residual, problem.depth_mm), noise)
-    cov_u, cond = covariance(j_hat, rss, n, p, sig["sigma"] ** 2)
-    sd_u = np.sqrt(np.clip(np.diag(cov_u), 0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov_u / np.outer(sd_u, sd_u)
-    corr = np.where(np.isfinite(corr), corr, 0.0)
-    np.fill_diagonal(corr, 1.0)
+    sd_u, corr, cond = uncertainty(problem, j_hat, rss, noise)
     warn: list[str] = []
     codes: list[str] = []  # one per warning kind (Fit.codes)
     symmetry = None
     if perm is not None:
-        symmetry = ("x and y are interchangeable: swapping the x and y parameters leaves this cut's SLD unchanged "
-                    "exactly (α_xx = α_yy, e.g. slotting); the estimate is given in canonical order "
-                    "(first differing pair has x < y, i.e. fn_x <= fn_y)")
+        symmetry, text = xy_symmetry_note("(first differing pair has x < y, i.e. fn_x <= fn_y)")
         codes.append("xy_symmetry")
-        warn.append("x/y symmetry: " + symmetry.split(":", 1)[1].strip())
+        warn.append(text)
         theta_c = canonical(theta_hat, perm)
         if not np.array_equal(theta_c, theta_hat):
-            q = perm
-            sd_u, corr = sd_u[q], corr[np.ix_(q, q)]
+            sd_u, corr = sd_u[perm], corr[np.ix_(perm, perm)]
             theta_hat = theta_c
     xmap = exchange_map(par, problem.cutting, problem.engine) if perm is None else None
     if xmap is not None:
-        a_dir = zoa.directional_matrix(problem.cutting)
-        symmetry = (f"x and y modes are exchangeable: with α_xx/α_yy = {a_dir[0, 0] / a_dir[1, 1]:.4g} for this cut, exchanging "
-                    "(fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
-                    "zero-order SLD unchanged exactly; the points cannot tell the two structures apart "
-                    "(the exchanged estimate is listed in alternatives)")
+        symmetry, text = exchange_note(problem.cutting)
         codes.append("xy_exchange")
-        warn.append("x/y exchange: " + symmetry.split(":", 1)[1].strip())
-    if cond > 1e8:  # cond(J) > 1e4: some combination is determined 1e4× worse than the best one
-        codes.append("near_singular")
-        warn.append(f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
-                    "combinations are not identifiable from these points; standard errors are unreliable")
-    names = par.free
-    pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p) for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
-    if pairs:
-        codes.append("correlated")
-        warn.append("strongly correlated (|r| > 0.99), not separately identifiable from these points: " + ", ".join(pairs))
+        warn.append(text)
+    for code, text in identifiability_warnings(par.free, corr, cond):
+        codes.append(code)
+        warn.append(text)
     if not sol.success:
         codes.append("not_converged")
         warn.append(f"least squares did not converge: {sol.message}")
-    # other multi-start solutions inside the 95 % joint confidence region
-    alternatives = []
-    if n > p:
-        thresh = rss * (1 + p / (n - p) * stats.f.ppf(0.95, p, n - p))
-    else:
-        thresh = rss
-    thresh = max(thresh, rss + 1e-12 * n)
-    u_best_c = np.log(canonical(theta_hat, perm))
-    if xmap is not None:
-        theta_x = exchanged(theta_hat, xmap)
-        pred_x = problem.predict_mm(theta_x[None])
-        alternatives.append({"estimate": par.as_dict(theta_x), "mlae": float(problem.mlae(pred_x)[0]),
-                             "rss": float(problem.rss(pred_x)[0]),
-                             "why": "the exact x↔y mode exchange of the estimate (same zero-order SLD)"})
-    for i in np.argsort(c_lm):
-        if c_lm[i] > thresh:
-            continue
-        u_i = np.log(canonical(np.exp(u_lm[i]), perm))
-        d = np.abs(u_i - u_best_c)
-        if (d > np.maximum(0.01, 4 * sd_u)).any() and all(
-                np.abs(u_i - np.log(list(a["estimate"].values()))).max() > 0.01 for a in alternatives):
-            pred_i = problem.predict_u(u_i[None])
-            alternatives.append({"estimate": par.as_dict(np.exp(u_i)), "mlae": float(problem.mlae(pred_i)[0]),
-                                 "rss": float(c_lm[i]), "why": "another multi-start solution inside the 95 % joint "
-                                                                 "confidence region of the estimate"})
+    alternatives = alternative_solutions(problem, theta_hat, rss, sd_u, starts, perm, xmap)
     if alternatives:
         codes.append("alternatives")
         warn.append(f"{len(alternatives)} distinct parameter set(s) explain the points as well as the estimate "
@@ -427,22 +483,25 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
     pred_hat = problem.predict_mm(theta_hat[None])
     mlae = float(problem.mlae(pred_hat)[0])
     cuts = problem.cut_report(theta_hat)
-    if cuts and (cuts["stable_predicted_chatter"] or cuts["chatter_predicted_stable"]):
+    text = cut_warning(cuts)
+    if text:
         codes.append("test_cuts")
-        warn.append(f"test cuts: {cuts['stable_predicted_chatter']} of {cuts['stable_cuts']} stable cuts lie above the "
-                    f"fitted limit, {cuts['chatter_predicted_stable']} of {cuts['chatter_cuts']} chatter cuts below it")
-    hist_theta = np.exp(np.array(hist_u))
+        warn.append(text)
+    hist_theta = np.exp(np.array(record.u))
     hist_mlae = problem.mlae(problem.predict_mm(hist_theta))
     return Fit(method="lsq", par=par, estimate=theta_hat, start=np.exp(u0), mlae=mlae, rss=rss, iterations=iterations,
                evaluations=problem.n_sets - sets0, engine_calls=problem.n_calls - calls0,
                time_s=time.perf_counter() - t0, history_theta=hist_theta, history_mlae=hist_mlae,
-               history_rss=np.array(hist_rss), std_errors=theta_hat * sd_u, correlation=corr, condition=cond,
+               history_rss=np.array(record.rss), std_errors=theta_hat * sd_u, correlation=corr, condition=cond,
                warnings=warn, codes=codes, alternatives=alternatives, symmetry=symmetry, test_cuts=cuts, cutting=problem.cutting,
                settings={"n_candidates": n_candidates, "loss": loss, "f_scale": f_scale,
                          "central": central, "seed": seed, "search": {**SEARCH, **(search or {})},
-                         "schedule": [list(x) for x in schedule], "rounds_run": n_rounds, "n_local": n_local, "good_rms": good_rms,
-                         "residual": problem.residual, "engine": problem.engine, "lm_iterations": it_lm,
-                         "polish_nfev": int(sol.nfev), "polish_status": int(sol.status), "noise": noise})
+                         "schedule": [list(x) for x in schedule], "rounds_run": starts.rounds, "n_local": n_local,
+                         "good_rms": good_rms, "residual": problem.residual, "engine": problem.engine,
+                         "lm_iterations": starts.lm_iterations, "polish_nfev": int(sol.nfev),
+                         "polish_status": int(sol.status), "noise": noise})
 
 
-__all__ = ["LOSSES", "SEARCH", "covariance", "fit_lsq", "fit_lsq_free"]
+__all__ = ["LOSSES", "SEARCH", "Starts", "alternative_solutions", "check_options", "confidence_cloud", "covariance",
+           "fit_lsq", "fit_lsq_free", "identifiability_warnings", "local_search", "multistart", "polish", "reseed",
+           "reseed_candidates", "uncertainty"]

@@ -73,12 +73,11 @@ import itertools
 import time
 
 import numpy as np
-from scipy.stats import qmc
-
 from millstab.errors import InputError
 from millstab.forward import fd_difference
-from millstab.identify.lsq import Progress, pick_distinct, search_box
-from millstab.identify.objective import Problem, canonical, swap_permutation
+from millstab.identify.search import Progress, pick_distinct, search_box, sobol
+from millstab.identify.symmetry import canonical, swap_permutation, xy_symmetry_note
+from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose
 from millstab.identify.result import Fit
 
@@ -154,6 +153,119 @@ def jump_directions(par) -> np.ndarray:
     return np.unique(np.vstack(rows), axis=0)
 
 
+#: the option checks of :func:`fit_newton`: (test, what is allowed) per option
+_RULES = {"alpha": (lambda v, o: 0 < v <= 1, "must be in (0, 1]"), "max_iter": (lambda v, o: v >= 1, "must be >= 1"),
+          "n_guesses": (lambda v, o: v >= 1, "must be >= 1"), "jump": (lambda v, o: 0 < v < 1, "must be in (0, 1)"),
+          "min_jump": (lambda v, o: 0 < v <= o["jump"], "must be in (0, jump]"),
+          "critical_weight": (lambda v, o: v >= 1, "must be >= 1"), "fd_step": (lambda v, o: 0 < v < 0.1, "must be in (0, 0.1)")}
+
+
+def check_options(**options) -> None:
+    """InputError naming the first option (of :data:`_RULES`, in their order) outside its range."""
+    for name, (ok, allowed) in _RULES.items():
+        if name in options and not ok(options[name], options):
+            raise InputError(name, options[name], allowed)
+
+
+def screen_design(par, u_start: np.ndarray, blo: np.ndarray, bhi: np.ndarray, n: int, n_fn_grid: int,
+                  seed: int) -> np.ndarray:
+    """Candidates (N, P) in ln θ: the start, ``n`` scrambled-Sobol points in the box [blo, bhi] and, with
+    one or two fn free, a regular grid of about ``n_fn_grid`` points over the fn columns of the box (every
+    other parameter at the start): the natural frequencies dominate the SLD (fn ≫ k > ζ)."""
+    p = par.size
+    cand = np.vstack([u_start[None], blo + sobol(p, n, seed) * (bhi - blo)])
+    fn_cols = [j for j, name in enumerate(par.free) if par.kind(name) == "fn"]
+    if n_fn_grid > 0 and 1 <= len(fn_cols) <= 2:
+        m_ax = max(2, int(round(n_fn_grid ** (1 / len(fn_cols)))))
+        axes = [np.linspace(blo[j], bhi[j], m_ax) for j in fn_cols]
+        grid = np.tile(u_start, (m_ax ** len(fn_cols), 1))
+        grid[:, fn_cols] = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(fn_cols))
+        cand = np.vstack([cand, grid])
+    return cand
+
+
+def refine_design(par, centres: np.ndarray, n_refine: int, refine: dict[str, float], seed: int) -> np.ndarray:
+    """``n_refine`` scrambled-Sobol points in a box ×/÷ ``refine[kind]`` around each centre (C, P),
+    stacked (C·n_refine, P) in ln θ, inside the bounds."""
+    p = par.size
+    half = np.log([refine[par.kind(n)] for n in par.free])
+    local = (centres[:, None, :] + (2 * sobol(p, n_refine, seed)[None] - 1) * half).reshape(-1, p)
+    return np.clip(local, np.log(par.lower), np.log(par.upper))
+
+
+def initial_guesses(problem: Problem, u_start: np.ndarray, *, n_guesses: int, n_screen: int, n_fn_grid: int,
+                    n_centres: int, n_refine: int, refine: dict[str, float], min_distance: float, seed: int,
+                    search: dict[str, float] | None, perm) -> np.ndarray:
+    """Refinement 3, the diverse initial guesses (G, P) in ln θ: the screening design (:func:`screen_design`)
+    ranked by MLAE in ONE call, the finer design around its ``n_centres`` best distinct candidates
+    (:func:`refine_design`, one call), then the ``n_guesses`` best pairwise-distinct candidates."""
+    if n_guesses <= 1:
+        return u_start[None]
+    par = problem.par
+    blo, bhi = search_box(problem, u_start, {**SEARCH_NEWTON, **(search or {})})
+    cand = screen_design(par, u_start, blo, bhi, max(n_screen, n_guesses - 1), n_fn_grid, seed)
+    f0 = problem.mlae(problem.predict_mm(np.exp(cand)))
+    if n_refine > 0:
+        centres = cand[pick_distinct(cand, f0, n_centres, min_distance, perm)]
+        local = refine_design(par, centres, n_refine, refine, seed + 1)
+        f_local = problem.mlae(problem.predict_mm(np.exp(local)))
+        cand, f0 = np.vstack([cand, local]), np.concatenate([f0, f_local])
+    return cand[pick_distinct(cand, f0, n_guesses, min_distance, perm)]
+
+
+def difference_rows(theta: np.ndarray, fd_step: float, scaled: bool) -> np.ndarray:
+    """Each guess (G, P) and its P forward-difference points, (G, P + 1, P) [SI]: scaled → u + ε
+    (θ·e^ε), literal → p + ε p (the same points, different units of the sensitivity)."""
+    p = theta.shape[1]
+    rows = np.repeat(theta[:, None, :], p + 1, axis=1)
+    idx = np.arange(p)
+    rows[:, 1 + idx, idx] = theta * np.exp(fd_step) if scaled else theta * (1 + fd_step)
+    return rows
+
+
+def trial_jumps(best_u: np.ndarray, best_path: list[np.ndarray], signs: np.ndarray, jump: float, lo: np.ndarray,
+                hi: np.ndarray) -> np.ndarray:
+    """Refinement 1, the trial jumps (J, P) in ln θ from the best point: ×/÷ (1 + ``jump``) along each
+    row of ``signs``, then the pattern jumps along the best point's recent progress (best − best
+    ``PATTERN_LAGS`` iterations ago, × ``PATTERN_MULTIPLES``), inside the bounds."""
+    p = best_u.size
+    jumps = best_u + np.log1p(jump) * signs
+    if len(best_path) > 1:
+        d = best_u[None] - np.array([best_path[max(0, len(best_path) - 1 - lag)] for lag in PATTERN_LAGS])
+        d = d[np.abs(d).max(axis=1) > 1e-9]
+        if d.size:
+            jumps = np.vstack([jumps, (best_u[None, None] + PATTERN_MULTIPLES[None, :, None] * d[:, None]).reshape(-1, p)])
+    return np.clip(jumps, lo, hi)
+
+
+def weighted_mlae(problem: Problem, pg: np.ndarray, critical_weight: float, critical_window: float):
+    """Refinement 2: for predictions pg (G, P + 1, n) [mm] of each guess and its difference rows, the
+    plain MLAE of the guesses (G,) and the MLAE (G, P + 1) with the points near a critical point of the
+    measured or the guess's boundary weighted ``critical_weight``."""
+    g, m, _ = pg.shape
+    crit = critical_mask(problem.rpm, problem.depth_mm, pg[:, 0], critical_window)
+    w = problem.weight * np.where(crit, critical_weight, 1.0)  # (G, n)
+    f_w = problem.mlae(pg.reshape(g * m, -1), np.repeat(w, m, axis=0)).reshape(g, m)
+    return problem.mlae(pg[:, 0]), f_w
+
+
+def newton_step(u: np.ndarray, theta: np.ndarray, f_w: np.ndarray, *, fd_step: float, scaled: bool, alpha: float,
+                max_step: float, par) -> np.ndarray:
+    """The paper's update p ← p − α · MLAE · S / ‖S‖² for each guess (G, P), with S from the forward
+    differences f_w (G, P + 1): in u = ln p (scaled; each log step capped at ``max_step``) or in
+    physical units (literal). Returns the new guesses in ln θ, inside the bounds."""
+    g, p = u.shape
+    lo, hi = np.log(par.lower), np.log(par.upper)
+    if scaled:
+        s = fd_difference(f_w, np.full((g, p), fd_step))[1][:, 0]  # ∂MLAE/∂u (forward differences)
+        step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
+        # safeguard: MLAE/‖S‖ explodes where the objective is flat; cap each log step
+        return np.clip(u - np.clip(step, -max_step, max_step), lo, hi)
+    s = fd_difference(f_w, theta * fd_step)[1][:, 0]  # ∂MLAE/∂p in physical units (step ε = fd_step·p)
+    step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
+    return np.log(np.clip(theta - step, par.lower, par.upper))
+
+
 def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bool = True, alpha: float = 1.0,
                max_iter: int = 600, tol: float = 1e-6, fd_step: float = 1e-4, n_guesses: int = 16,
                explore_iters: int = 40, n_screen: int = 2048, n_centres: int = 8, n_refine: int = 1024,
@@ -162,7 +274,9 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
                n_random_jumps: int = 16, n_fn_grid: int = 1024, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
                search: dict[str, float] | None = None, progress: Progress | None = None,
                noise: float | None = None) -> Fit:
-    """The paper's Newton–Raphson identification (see module docstring for every option).
+    """The paper's Newton–Raphson identification (see module docstring for every option), in stages:
+    :func:`initial_guesses`, then per iteration :func:`difference_rows` (and :func:`trial_jumps` when
+    stagnating) in ONE call, :func:`weighted_mlae`, :func:`newton_step`.
 
     ``noise`` (stated relative depth noise, or ``None``) only feeds the quality checks
     (:func:`~millstab.identify.quality.diagnose`): this scheme reports no standard errors.
@@ -181,14 +295,8 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
         critical_weight: weight of points near critical points (1 = the unweighted eq. 4).
         seed: seed of the initial-guess design and the random jumps.
     """
-    for name, v, ok in (("alpha", alpha, 0 < alpha <= 1), ("max_iter", max_iter, max_iter >= 1),
-                        ("n_guesses", n_guesses, n_guesses >= 1), ("jump", jump, 0 < jump < 1),
-                        ("min_jump", min_jump, 0 < min_jump <= jump),
-                        ("critical_weight", critical_weight, critical_weight >= 1), ("fd_step", fd_step, 0 < fd_step < 0.1)):
-        if not ok:
-            raise InputError(name, v, {"alpha": "must be in (0, 1]", "max_iter": "must be >= 1", "n_guesses": "must be >= 1",
-                                       "jump": "must be in (0, 1)", "min_jump": "must be in (0, jump]",
-                                       "critical_weight": "must be >= 1", "fd_step": "must be in (0, 0.1)"}[name])
+    check_options(alpha=alpha, max_iter=max_iter, n_guesses=n_guesses, jump=jump, min_jump=min_jump,
+                  critical_weight=critical_weight, fd_step=fd_step)
     noise = check_noise(noise)
     t0 = time.perf_counter()
     sets0, calls0 = problem.n_sets, problem.n_calls
@@ -199,37 +307,9 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     start = par.theta0 if theta0 is None else np.asarray(theta0, dtype=float)
     u_start = np.clip(np.log(start), lo, hi)
     rng = np.random.default_rng(seed)
-    refine = {**REFINE_NEWTON, **(refine or {})}
-    u = u_start[None]  # (G, P) current guesses in log coordinates
-    if n_guesses > 1:
-        # a diverse set of initial guesses: the start plus a scrambled-Sobol design over the whole bounds box
-        # (or the ``search`` box around the start), ranked by MLAE in ONE engine call; the n_guesses best
-        # that are pairwise distinct go on to explore
-        blo, bhi = search_box(problem, u_start, {**SEARCH_NEWTON, **(search or {})})
-        m = int(np.ceil(np.log2(max(n_screen, n_guesses, 2))))
-        sob = qmc.Sobol(p, scramble=True, seed=seed).random_base2(m)[:max(n_screen, n_guesses - 1)]
-        cand = np.vstack([u_start[None], blo + sob * (bhi - blo)])
-        fn_cols = [j for j, n in enumerate(par.free) if par.kind(n) == "fn"]
-        if n_fn_grid > 0 and 1 <= len(fn_cols) <= 2:
-            # the natural frequencies dominate the SLD (fn ≫ k > ζ): a regular grid over the fn columns
-            # of the box, every other parameter at the start
-            m_ax = max(2, int(round(n_fn_grid ** (1 / len(fn_cols)))))
-            axes = [np.linspace(blo[j], bhi[j], m_ax) for j in fn_cols]
-            grid = np.tile(u_start, (m_ax ** len(fn_cols), 1))
-            grid[:, fn_cols] = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(fn_cols))
-            cand = np.vstack([cand, grid])
-        f0 = problem.mlae(problem.predict_mm(np.exp(cand)))
-        if n_refine > 0:
-            # a second, finer design: n_refine Sobol points in a small box around each of the
-            # ``n_centres`` best distinct candidates (all in ONE engine call)
-            centres = cand[pick_distinct(cand, f0, n_centres, min_distance, perm)]
-            half = np.log([refine[par.kind(n)] for n in par.free])
-            m2 = int(np.ceil(np.log2(max(n_refine, 2))))
-            sob2 = qmc.Sobol(p, scramble=True, seed=seed + 1).random_base2(m2)[:n_refine]
-            local = np.clip((centres[:, None, :] + (2 * sob2[None] - 1) * half).reshape(-1, p), lo, hi)
-            f_local = problem.mlae(problem.predict_mm(np.exp(local)))
-            cand, f0 = np.vstack([cand, local]), np.concatenate([f0, f_local])
-        u = cand[pick_distinct(cand, f0, n_guesses, min_distance, perm)]
+    u = initial_guesses(problem, u_start, n_guesses=n_guesses, n_screen=n_screen, n_fn_grid=n_fn_grid,
+                        n_centres=n_centres, n_refine=n_refine, refine={**REFINE_NEWTON, **(refine or {})},
+                        min_distance=min_distance, seed=seed, search=search, perm=perm)  # (G, P) in ln θ
     g0 = u.shape[0]
     hist_u: list[np.ndarray] = []
     hist_f: list[float] = []
@@ -242,35 +322,17 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     jump_now = jump
     n_jumps_tried = n_jumps_kept = 0
     it = 0
-    base_w = problem.weight
     for it in range(1, max_iter + 1):
         g = u.shape[0]
         theta = np.exp(u)
-        # forward-difference rows: scaled → u + ε; literal → p + ε p (the same points, different units of S)
-        rows = np.repeat(theta[:, None, :], p + 1, axis=1)
-        idx = np.arange(p)
-        rows[:, 1 + idx, idx] = theta * np.exp(fd_step) if scaled else theta * (1 + fd_step)
-        all_rows = [rows.reshape(-1, p)]
+        all_rows = [difference_rows(theta, fd_step, scaled).reshape(-1, p)]
         jumps = None
         if want_jumps and g == 1:
             signs = np.vstack([jump_signs, rng.integers(-1, 2, (n_random_jumps, p))])  # random ones afresh
-            jumps = best_u + np.log1p(jump_now) * signs
-            # pattern jumps: along the recent progress of the best point (its path down a curved valley),
-            # extrapolated by several multiples
-            if len(best_path) > 1:
-                d = best_u[None] - np.array([best_path[max(0, len(best_path) - 1 - lag)] for lag in PATTERN_LAGS])
-                d = d[np.abs(d).max(axis=1) > 1e-9]
-                if d.size:
-                    jumps = np.vstack([jumps, (best_u[None, None] + PATTERN_MULTIPLES[None, :, None] * d[:, None]).reshape(-1, p)])
-            jumps = np.clip(jumps, lo, hi)
+            jumps = trial_jumps(best_u, best_path, signs, jump_now, lo, hi)
             all_rows.append(np.exp(jumps))
         pred = problem.predict_mm(np.vstack(all_rows))  # ONE engine call per iteration
-        pg = pred[:g * (p + 1)].reshape(g, p + 1, -1)
-        f_plain = problem.mlae(pg[:, 0])
-        # critical-point weights from the measured and the current guessed boundary
-        crit = critical_mask(problem.rpm, problem.depth_mm, pg[:, 0], critical_window)
-        w = base_w * np.where(crit, critical_weight, 1.0)  # (G, n)
-        f_w = problem.mlae(pg.reshape(g * (p + 1), -1), np.repeat(w, p + 1, axis=0)).reshape(g, p + 1)
+        f_plain, f_w = weighted_mlae(problem, pred[:g * (p + 1)].reshape(g, p + 1, -1), critical_weight, critical_window)
         # record this iteration (the guess being evaluated, unweighted MLAE)
         i_best = int(np.argmin(f_plain))
         hist_u.append(u[i_best].copy())
@@ -303,17 +365,7 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
         want_jumps = since_improve >= patience
         if jumped:
             continue
-        # the Newton step (paper eq. newton), in u (scaled) or in physical units (literal)
-        if scaled:
-            s = fd_difference(f_w, np.full((g, p), fd_step))[1][:, 0]  # ∂MLAE/∂u (forward differences)
-            step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
-            # safeguard: MLAE/‖S‖ explodes where the objective is flat; cap each log step
-            u = np.clip(u - np.clip(step, -max_step, max_step), lo, hi)
-        else:
-            s = fd_difference(f_w, theta * fd_step)[1][:, 0]  # ∂MLAE/∂p in physical units (step ε = fd_step·p)
-            step = alpha * f_w[:, :1] * s / np.maximum((s * s).sum(axis=1, keepdims=True), 1e-300)
-            theta_new = np.clip(theta - step, par.lower, par.upper)
-            u = np.log(theta_new)
+        u = newton_step(u, theta, f_w, fd_step=fd_step, scaled=scaled, alpha=alpha, max_step=max_step, par=par)
         if g > 1 and it >= explore_iters:  # exploration over: only the best guess continues
             u = u[[i_best]]
     theta_hat = canonical(np.exp(best_u), perm)
@@ -322,10 +374,9 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     codes: list[str] = []
     symmetry = None
     if perm is not None:
-        symmetry = ("x and y are interchangeable: swapping the x and y parameters leaves this cut's SLD unchanged "
-                    "exactly (α_xx = α_yy, e.g. slotting); the estimate is given in canonical order (fn_x <= fn_y)")
+        symmetry, text = xy_symmetry_note("(fn_x <= fn_y)")
         codes.append("xy_symmetry")
-        warn.append("x/y symmetry: " + symmetry.split(":", 1)[1].strip())
+        warn.append(text)
     if best_f >= tol:
         codes.append("not_converged")
         warn.append(f"stopping threshold MLAE < {tol:g} not reached in {max_iter} iterations (best {best_f:.3g})")
@@ -345,4 +396,5 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     return diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
 
 
-__all__ = ["critical_mask", "fit_newton", "jump_directions"]
+__all__ = ["check_options", "critical_mask", "difference_rows", "fit_newton", "initial_guesses", "jump_directions",
+           "newton_step", "refine_design", "screen_design", "trial_jumps", "weighted_mlae"]

@@ -1,4 +1,7 @@
-"""The identification problem: measured boundary points, a parameterization, and the batched forward model.
+"""The identification problem: measured boundary points, a parameterization, and the batched forward model;
+its objectives and residuals, and :func:`make_problem`. (The x ↔ y symmetry theory is in
+:mod:`~millstab.identify.symmetry`, comparisons with a known truth in :mod:`~millstab.identify.accuracy`,
+text parsing of ``--initial`` in :mod:`millstab.parsing`.)
 
 Everything a solver needs goes through :meth:`Problem.predict_mm`, which stacks B parameter sets into
 ONE call of the forward model (:func:`millstab.forward.forward`) and returns the limiting depths at the
@@ -18,18 +21,22 @@ A predicted depth may be ``inf`` (no chatter boundary at that speed); it is capp
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.points import PointSet, check_enough
+from millstab.forward import forward
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.forward import forward
-from millstab.stability import get_engine, zoa
+from millstab.parsing import parse_assignments
+from millstab.points import PointSet, check_enough, check_speeds
+from millstab.stability import zoa
+# moved by responsibility; re-exported so the old import paths keep working
+from millstab.identify.accuracy import oriented, rel_error  # noqa: E402,F401
+from millstab.identify.symmetry import (canonical, exchange_map, exchanged, swap_permutation,  # noqa: E402,F401
+                                        xy_symmetric_cut)
 
 #: a predicted depth above this multiple of the largest measured depth counts as this multiple
 DEPTH_CAP = 20.0
@@ -180,178 +187,7 @@ class Problem:
                 "chatter_cuts": int(ch.sum()), "chatter_predicted_stable": int((ch & ~pred_chatter).sum())}
 
 
-# --- x ↔ y symmetry ------------------------------------------------------------------------------------
-def xy_symmetric_cut(cutting: Cutting, tol: float = 1e-9) -> bool:
-    """True when swapping x and y leaves every zero-order SLD unchanged exactly.
-
-    With G = diag(g_x, g_y), swapping x and y turns the eigenvalues of [α][G] into those of
-    P[α]P·G (P the swap); P[α]P equals [α]ᵀ (so the spectrum is unchanged: spec(αᵀG) = spec(Gα) = spec(αG))
-    exactly when α_xx = α_yy, which holds for slotting (and a few other immersions).
-    """
-    a = zoa.directional_matrix(cutting)
-    return abs(a[0, 0] - a[1, 1]) <= tol * max(1.0, np.abs(a).max())
-
-
-def swap_permutation(par: Parameterization, cutting: Cutting) -> np.ndarray | None:
-    """Index permutation of θ that swaps x and y, when that swap is an exact symmetry of the data.
-
-    ``None`` unless: the cut is x/y symmetric (:func:`xy_symmetric_cut`), the tool is not tied
-    (axisymmetric), x and y have the same number of modes, every free name's x↔y partner is free, and
-    every fixed value equals its partner's.
-    """
-    if not xy_symmetric_cut(cutting):
-        return None
-    return _partner_permutation(par, 1.0)
-
-
-def _partner_permutation(par: Parameterization, r: float) -> np.ndarray | None:
-    """Index permutation of θ exchanging every free x parameter with its y partner, or ``None``.
-
-    ``None`` when the tool is tied (axisymmetric), the mode counts differ, a free name's partner is not
-    free, a fixed value differs from its partner's, a stiffness is fixed while the exchange rescales
-    stiffnesses (r ≠ 1), or the permutation is the identity.
-    """
-    if par.axisymmetric or len(par.base.x) != len(par.base.y):
-        return None
-    swapped = [n.replace("_x", "_#").replace("_y", "_x").replace("_#", "_y") for n in par.free]
-    if any(s not in par.free for s in swapped):
-        return None
-    free_slots = {s for n in par.free for s in par._slots(n)}
-    for i, (mx, my) in enumerate(zip(par.base.x, par.base.y)):
-        for p in ("fn", "k", "zeta"):
-            fixed_x, fixed_y = ("x", i, p) not in free_slots, ("y", i, p) not in free_slots
-            if fixed_x != fixed_y:
-                return None
-            if fixed_x and ((p == "k" and r != 1.0) or getattr(mx, p) != getattr(my, p)):
-                return None  # (a fixed stiffness pair cannot follow the k_x' = r k_y scaling)
-    perm = np.array([par.free.index(s) for s in swapped])
-    return None if np.array_equal(perm, np.arange(par.size)) else perm
-
-
-def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> tuple[np.ndarray, np.ndarray] | None:
-    """The generalised x↔y mode exchange that leaves every zero-order SLD unchanged exactly.
-
-    The zero-order boundary depends only on the eigenvalues of [α][G], G = diag(g_x, g_y), i.e. on
-    tr = α_xx g_x + α_yy g_y and det = det[α] g_x g_y. Exchanging the x and y modes (fn, ζ swapped) and
-    scaling the stiffnesses k_x' = r k_y, k_y' = k_x / r with r = α_xx/α_yy (so g_x' = g_y/r, g_y' = r g_x)
-    keeps both, for EVERY cut with α_xx α_yy > 0 — not only when α_xx = α_yy (r = 1, slotting, see
-    :func:`swap_permutation`). Such a cut cannot tell the two structures apart from its boundary.
-
-    Returns (perm, shift): θ' = θ[perm] · exp(shift) (shift = ±ln r on the k columns), or ``None`` when
-    the engine's x↔y exchange is not exact (``exact_xy_exchange``: zoa only), the tool is tied, the mode counts differ, a free name's partner is not free,
-    a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1), or α_xx α_yy ≤ 0.
-    """
-    if not get_engine(engine).exact_xy_exchange:
-        return None
-    a = zoa.directional_matrix(cutting)
-    if not a[0, 0] * a[1, 1] > 0:
-        return None
-    r = float(a[0, 0] / a[1, 1])
-    if abs(r - 1) <= 1e-9:
-        r = 1.0
-    perm = _partner_permutation(par, r)
-    if perm is None:
-        return None
-    shift = np.zeros(par.size)
-    for j, n in enumerate(par.free):
-        if par.kind(n) == "k":
-            shift[j] = math.log(r) if "_x" in n else -math.log(r)
-    return perm, shift
-
-
-def exchanged(theta: np.ndarray, xmap: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
-    """θ (P,) or (B, P) after the exchange ``xmap`` of :func:`exchange_map` (θ itself when ``None``)."""
-    t = np.asarray(theta, dtype=float)
-    if xmap is None:
-        return t.copy()
-    perm, shift = xmap
-    return t[..., perm] * np.exp(shift)
-
-
-def canonical(theta: np.ndarray, perm: np.ndarray | None) -> np.ndarray:
-    """The canonical member of {θ, θ[perm]}: the one whose first differing x/y pair (in the order of the
-    free names, fn first) has the smaller x value, so fn_x ≤ fn_y when they differ. Works on (P,) or (B, P)."""
-    t = np.asarray(theta, dtype=float)
-    if perm is None:
-        return t.copy()
-    single = t.ndim == 1
-    t2 = np.atleast_2d(t)
-    s = t2[:, perm]
-    diff = t2 - s
-    # first column where θ and its swap differ by more than round-off decides
-    big = np.abs(diff) > 1e-12 * np.abs(t2)
-    first = np.where(big.any(axis=1), big.argmax(axis=1), 0)
-    take_swap = diff[np.arange(t2.shape[0]), first] > 0
-    out = np.where(take_swap[:, None], s, t2)
-    return out[0] if single else out
-
-
-def oriented(theta: np.ndarray, truth: np.ndarray, perm=None, std_errors: np.ndarray | None = None):
-    """θ (and its standard errors) in the x↔y orientation closer to the truth: θ itself, or its image
-    under ``perm`` when that is closer in the largest relative error.
-
-    ``perm`` may be an index permutation (:func:`swap_permutation`) or a (perm, shift) exchange map
-    (:func:`exchange_map`; standard errors scale with their parameters). Returns (θ, std_errors)."""
-    t, tr = np.asarray(theta, float), np.asarray(truth, float)
-    if perm is None:
-        return t, std_errors
-    move = (lambda v: exchanged(v, perm)) if isinstance(perm, tuple) else (lambda v: np.asarray(v)[perm])  # noqa: E731
-    t2 = move(t)
-    if np.abs(t2 / tr - 1).max() < np.abs(t / tr - 1).max():
-        return t2, None if std_errors is None else move(std_errors)
-    return t, std_errors
-
-
-def rel_error(theta: np.ndarray, truth: np.ndarray, perm=None) -> np.ndarray:
-    """|θ/θ_true − 1| per parameter, up to the x↔y symmetry when ``perm`` is given (the better of the two:
-    see :func:`oriented`)."""
-    t, _ = oriented(theta, truth, perm)
-    return np.abs(t / np.asarray(truth, float) - 1)
-
-
 # --- building a problem --------------------------------------------------------------------------
-def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
-    """The number of distinct boundary-point speeds; InputError when fewer than ``n_free``.
-
-    The boundary is one depth per speed: repeated tests at one speed measure that depth again (its
-    scatter), not another point of the curve, so P parameters need at least P different speeds — all
-    points at one speed determine at most one parameter.
-    """
-    r = np.asarray(rpm, dtype=float)
-    distinct = int(np.unique(r[np.isfinite(r)]).size)
-    if distinct < n_free:
-        where = f" in {source.name}" if source is not None else ""
-        at = f"all at {r[0]:g} rpm" if distinct == 1 else f"at {distinct} distinct speeds"
-        raise InputError("points", f"{r.size} boundary points{where} {at}",
-                         f"{n_free} free parameters need boundary points at {n_free} or more different spindle speeds "
-                         "(repeats at one speed only re-measure its depth); measure at other speeds, or free fewer "
-                         "parameters (--free)")
-    return distinct
-
-
-def parse_assignments(text: str | Mapping[str, float] | None, field_name: str = "--initial") -> dict[str, float]:
-    """``"fn_x=900,k_x=12e6"`` → {name: value} (SI: Hz, N/m, -). Raises InputError naming the bad item."""
-    if text is None:
-        return {}
-    if isinstance(text, Mapping):
-        return {str(k): float(v) for k, v in text.items()}
-    out: dict[str, float] = {}
-    for item in (s.strip() for s in str(text).split(",")):
-        if not item:
-            continue
-        if "=" not in item:
-            raise InputError(field_name, item, "expected NAME=VALUE items separated by commas, e.g. fn_x=900,k_x=12e6")
-        name, value = (s.strip() for s in item.split("=", 1))
-        try:
-            v = float(value)
-        except ValueError:
-            raise InputError(f"{field_name} {name}", value, "must be a number in SI units (Hz, N/m, -)") from None
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"{field_name} {name}", value, "must be a finite number > 0 (Hz, N/m, -)")
-        out[name] = v
-    return out
-
-
 def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, free: Sequence[str] | str | None = None,
                  axisymmetric: bool = False, initial: Mapping[str, float] | str | None = None,
                  bounds: Mapping[str, tuple[float, float]] | None = None, engine: str = "zoa",

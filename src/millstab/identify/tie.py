@@ -24,7 +24,8 @@ import re
 import numpy as np
 from scipy import stats
 
-from millstab.identify.objective import Problem, swap_permutation
+from millstab.identify.objective import Problem
+from millstab.identify.symmetry import swap_permutation
 from millstab.identify.result import Fit
 from millstab.params import Parameterization
 

@@ -172,7 +172,7 @@ def identification(ctx) -> None:
     """The zero-order identification's model error on SDM boundary points at a/D = 0.1."""
     from millstab.datasets import load_example
     from millstab.identify import fit_lsq, make_problem
-    from millstab.identify.objective import oriented, rel_error
+    from millstab.identify.accuracy import oriented, rel_error
     from millstab.identify.synthetic import boundary_points
 
     rep = ctx.report

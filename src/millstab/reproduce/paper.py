@@ -218,7 +218,8 @@ LSQ_TOLERANCE = 1e-3
 
 def _identify_example(ctx: Context, ex: str) -> dict:
     from millstab.identify import identify
-    from millstab.identify.objective import rel_error, swap_permutation
+    from millstab.identify.accuracy import rel_error
+    from millstab.identify.symmetry import swap_permutation
     from millstab.identify.synthetic import example_points
 
     cfg, pts = example_points(ex)

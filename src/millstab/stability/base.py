@@ -91,7 +91,7 @@ class Engine(Protocol):
     Attributes:
         name: the registry key (``--engine`` value).
         exact_xy_exchange: the generalised x↔y mode exchange (see
-            :func:`millstab.identify.objective.exchange_map`) leaves its boundary unchanged exactly
+            :func:`millstab.identify.symmetry.exchange_map`) leaves its boundary unchanged exactly
             (true of the zero-order model only).
         accepts_measured_frf: ``envelope`` takes a measured-FRF structure (else modal structures only).
         reports_lobe_type: ``envelope`` tells flip from Hopf boundaries (``kind`` per speed).

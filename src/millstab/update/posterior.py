@@ -1,7 +1,7 @@
 """The posterior of an update: samples, summaries, x↔y exchange modes, and its JSON form.
 
 Exchange twins. With the zero-order engine, exchanging the x and y modes (fn, ζ swapped, stiffnesses
-rescaled by α_xx/α_yy, :func:`millstab.identify.objective.exchange_map`) leaves every boundary exactly
+rescaled by α_xx/α_yy, :func:`millstab.identify.symmetry.exchange_map`) leaves every boundary exactly
 unchanged, so the cuts alone cannot tell a structure from its twin; only the prior can. Each sample is
 assigned to the orientation whose prior density is higher (the sample itself, "as tested", or its
 exchange, "x↔y exchanged"); when both hold a noticeable share (≥ :data:`MODE_SHARE`) the posterior
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.identify.objective import exchange_map, exchanged
+from millstab.identify.symmetry import exchange_map, exchanged
 from millstab.update.prior import Prior
 
 SCHEMA = "millstab.posterior/1"

@@ -1,16 +1,41 @@
-"""Number ranges written as text: ``START:STOP:STEP`` grids and ``LOW:HIGH`` intervals.
-
-One parser for every command-line option, config value and web form that takes a range, so each
-gives the same one-line error (field, the text as written, what is allowed).
+"""Parsing option text shared by the command line and any other front end (one place, one set of
+messages): ``NAME=VALUE`` lists, ``START:STOP:STEP`` speed grids and ``LOW:HIGH`` / ``START:STOP:STEP``
+ranges, for command-line options, config values and web forms alike. Each error is an
+:class:`InputError` naming the option, the text as written and what is allowed.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Mapping
 
 import numpy as np
 
 from millstab.errors import InputError
+
+
+def parse_assignments(text: str | Mapping[str, float] | None, field_name: str = "--initial") -> dict[str, float]:
+    """``"fn_x=900,k_x=12e6"`` → {name: value} (SI: Hz, N/m, -). Raises InputError naming the bad item."""
+    if text is None:
+        return {}
+    if isinstance(text, Mapping):
+        return {str(k): float(v) for k, v in text.items()}
+    out: dict[str, float] = {}
+    for item in (s.strip() for s in str(text).split(",")):
+        if not item:
+            continue
+        if "=" not in item:
+            raise InputError(field_name, item, "expected NAME=VALUE items separated by commas, e.g. fn_x=900,k_x=12e6")
+        name, value = (s.strip() for s in item.split("=", 1))
+        try:
+            v = float(value)
+        except ValueError:
+            raise InputError(f"{field_name} {name}", value, "must be a number in SI units (Hz, N/m, -)") from None
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{field_name} {name}", value, "must be a finite number > 0 (Hz, N/m, -)")
+        out[name] = v
+    return out
+
 
 #: the most grid points a range may expand to
 MAX_POINTS = 1_000_000
@@ -40,7 +65,7 @@ def parse_grid(text: str, field: str, unit: str, *, positive: bool = False, exam
     return start + step * np.arange(n)
 
 
-def parse_rpm_grid(text: str, field: str = "--rpm") -> np.ndarray:
+def parse_rpm_range(text: str, field: str = "--rpm") -> np.ndarray:
     """Spindle speeds ``START:STOP:STEP`` [rev/min], all > 0."""
     return parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25")
 
@@ -57,3 +82,6 @@ def _numbers(text: str, field: str, unit: str, form: str, example: str = "") -> 
     if not all(math.isfinite(v) for v in vals):
         raise InputError(field, text, f"{form} must be finite numbers ({unit})")
     return vals
+
+
+__all__ = ["MAX_POINTS", "parse_assignments", "parse_grid", "parse_interval", "parse_rpm_range"]

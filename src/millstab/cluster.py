@@ -94,9 +94,10 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
     distributed = _distributed("--workers", workers)
-    with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                                  dashboard_address=None, env=WORKER_ENV, silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:
-        yield client
+    with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None,
+                                  env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:
+        with distributed.Client(cluster) as client:
+            yield client
 
 
 def one_thread() -> None:
@@ -132,7 +133,8 @@ def warm(client: Any, engine: str, par, cutting, rpm: np.ndarray, probe_rows: in
                           allow_other_workers=False, pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-0")
     times = [first.result()]
     rest = [client.submit(_warm_task, engine, par, cutting, rpm, probe_rows, workers=[w], allow_other_workers=False,
-                          pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-{i}") for i, w in enumerate(workers[1:], 1)]
+                          pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-{i}")
+            for i, w in enumerate(workers[1:], 1)]
     times += client.gather(rest)
     return float(np.median(times))
 

@@ -103,11 +103,12 @@ TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-w
                                                          "[(1-t)p, (1+t)p] (0.1).")]
 BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
                                                              "parameter, e.g. fn_x=850:950; repeatable.")]
-DaskOpt = Annotated[Optional[str], typer.Option("--dask", metavar="ADDRESS", help="Run on the Dask cluster whose scheduler "
-                                                 "is at ADDRESS (e.g. tcp://10.0.0.5:8786); needs millstab[dask]. "
-                                                 "Same numbers as a local run.")]
-WorkersOpt = Annotated[Optional[int], typer.Option("--workers", help="Run on a local Dask cluster of N worker processes "
-                                                 "started for this run; needs millstab[dask]. Same numbers.")]
+DaskOpt = Annotated[Optional[str], typer.Option(
+    "--dask", metavar="ADDRESS", help="Run on the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786); "
+                                      "needs millstab[dask]. Same numbers as a local run.")]
+WorkersOpt = Annotated[Optional[int], typer.Option(
+    "--workers", help="Run on a local Dask cluster of N worker processes started for this run; needs millstab[dask]. "
+                      "Same numbers as a local run.")]
 _CENTRE = "centre on the paper's predicted parameters (its Table 3, Newton results) when CONFIG is its Ex.1, 2 or 3"
 
 

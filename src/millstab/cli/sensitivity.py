@@ -5,8 +5,9 @@ Each method is its own subcommand with its own options and help; they share one 
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, List, Optional
+from typing import Annotated, Iterator, List, Optional
 
 import numpy as np
 import typer
@@ -102,6 +103,12 @@ TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-w
                                                          "[(1-t)p, (1+t)p] (0.1).")]
 BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
                                                              "parameter, e.g. fn_x=850:950; repeatable.")]
+DaskOpt = Annotated[Optional[str], typer.Option(
+    "--dask", metavar="ADDRESS", help="Run on the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786); "
+                                      "needs millstab[dask]. Same numbers as a local run.")]
+WorkersOpt = Annotated[Optional[int], typer.Option(
+    "--workers", help="Run on a local Dask cluster of N worker processes started for this run; needs millstab[dask]. "
+                      "Same numbers as a local run.")]
 _CENTRE = "centre on the paper's predicted parameters (its Table 3, Newton results) when CONFIG is its Ex.1, 2 or 3"
 
 
@@ -137,10 +144,12 @@ def mc_command(
     engine: EngineOpt = "zoa",
     out: OutOpt = None,
     plot: PlotOpt = None,
+    dask: DaskOpt = None,
+    workers: WorkersOpt = None,
 ) -> None:
     """Monte Carlo (the paper's Algorithm 2 and Table 6): mean and SD over --n random structures within
     ±t of the centre of the MSE caused by a relative change --eps of each parameter."""
-    _run("mc", config, rpm, rpm_file, n, t, eps, seed, out, plot, engine, preset, [], 4)
+    _run("mc", config, rpm, rpm_file, n, t, eps, seed, out, plot, engine, preset, [], 4, dask, workers)
 
 
 @sensitivity_app.command("sobol")
@@ -156,10 +165,12 @@ def sobol_command(
     engine: EngineOpt = "zoa",
     out: OutOpt = None,
     plot: PlotOpt = None,
+    dask: DaskOpt = None,
+    workers: WorkersOpt = None,
 ) -> None:
     """Sobol' indices (first order S1 and total ST) of the MSE, the minimum limiting depth and b_lim
     at each speed, with parameters uniform within ±t of the centre (or --bound)."""
-    _run("sobol", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, 4)
+    _run("sobol", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, 4, dask, workers)
 
 
 @sensitivity_app.command("morris")
@@ -176,16 +187,35 @@ def morris_command(
     engine: EngineOpt = "zoa",
     out: OutOpt = None,
     plot: PlotOpt = None,
+    dask: DaskOpt = None,
+    workers: WorkersOpt = None,
 ) -> None:
     """Morris elementary effects (mu* and sigma) of the MSE and the minimum limiting depth: a cheap
     screening of which parameters matter, with parameters within ±t of the centre (or --bound)."""
-    _run("morris", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, levels)
+    _run("morris", config, rpm, rpm_file, n, t, None, seed, out, plot, engine, preset, bound, levels, dask, workers)
+
+
+@contextmanager
+def _client(dask: str | None, workers: int | None) -> Iterator:
+    """The run's Dask client (None without --dask/--workers: then dask is not imported); says on stderr
+    where the work goes."""
+    if dask is None and workers is None:
+        yield None
+        return
+    from millstab.cluster import open_client
+
+    with open_client(dask, workers) as client:
+        n_workers = len(client.scheduler_info()["workers"])
+        where = f"scheduler {dask}" if dask else "a local cluster started for this run"
+        typer.echo(f"Dask: {n_workers} workers, {sum(client.nthreads().values())} threads ({where})", err=True)
+        yield client
 
 
 def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: int | None, t: float | None,
          eps: str | None, seed: int, out: Path | None, plot: Path | None, engine: str, preset: str | None,
-         bound: List[str], levels: int) -> None:
-    """The body every method shares: read, check the outputs, compute, print, save."""
+         bound: List[str], levels: int, dask: str | None = None, workers: int | None = None) -> None:
+    """The body every method shares: read, check the outputs, compute, print, save. With --dask or --workers
+    the structures are evaluated on a Dask cluster (:mod:`millstab.cluster`); without, dask is not imported."""
     from millstab.io import load_config, write_json
     from millstab.io.outputs import check_outputs, config_inputs
     from millstab.sensitivity import (PAPER_EPS_GRID, match_example, monte_carlo, morris, oat, predicted_theta, sobol,
@@ -195,6 +225,10 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
         raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"must be one of {', '.join(ENGINES)}")
+    if dask is not None and workers is not None:
+        raise InputError("--dask", dask, "give either --dask ADDRESS (a running scheduler) or --workers N, not both")
+    if workers is not None and workers < 1:
+        raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
     cfg = load_config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
@@ -238,9 +272,9 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
             eps_val = 0.01 if eps is None else float(eps)
         except ValueError:
             raise InputError("--eps", eps, "for mc: one relative change, e.g. 0.01") from None
-        with progress_bar(f"Monte Carlo, {n_val} paths") as cb:
+        with _client(dask, workers) as client, progress_bar(f"Monte Carlo, {n_val} paths") as cb:
             res = monte_carlo(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, eps=eps_val, seed=seed, theta=theta,
-                              engine=engine, progress=cb)
+                              engine=engine, progress=cb, client=client)
         paper = table6() if set(res.names) == set(table6()) else None
         comparable = example == "ex1" and preset == "paper" and abs(t_val - 0.1) < 1e-12 and abs(eps_val - 0.01) < 1e-12
         typer.echo(header)
@@ -260,13 +294,13 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
         bounds = _parse_bounds(bound)
         n_val = DEFAULT_N[method] if n is None else n
         label = f"{method}: evaluating structures"
-        with progress_bar(label) as cb:
+        with _client(dask, workers) as client, progress_bar(label) as cb:
             if method == "sobol":
                 res = sobol(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, bounds=bounds, seed=seed, theta=theta,
-                            engine=engine, progress=cb)
+                            engine=engine, progress=cb, client=client)
             else:
                 res = morris(cfg.structure, cfg.cutting, speeds, trajectories=n_val, levels=levels, t=t_val, bounds=bounds,
-                             seed=seed, theta=theta, engine=engine, progress=cb)
+                             seed=seed, theta=theta, engine=engine, progress=cb, client=client)
         typer.echo(header)
         w = 15 if method == "sobol" else 11
         typer.echo(f"{'':<24}" + "".join(f"{nm:>{w}}" for nm in res.names))

@@ -10,6 +10,8 @@
 Every study goes through the one forward model (:func:`millstab.forward.forward`, batched and chunked by
 the engine's own ``chunk_rows``), centres on a structure's values or
 a given θ, and rejects, before any work, settings that could push a parameter out of its valid range.
+``monte_carlo``, ``sobol`` and ``morris`` take ``client=`` (a ``distributed.Client``) to run on a Dask
+cluster with the same numbers (:mod:`millstab.cluster`).
 Parameters are named as in :mod:`millstab.params` (``fn_x, k_x, zeta_x, fn_y, k_y, zeta_y``).
 """
 

@@ -169,10 +169,20 @@ def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:
 
 
 def depths_chunked(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray,
-                   progress: Progress | None = None) -> np.ndarray:
-    """Depths (R, S) [m] for many rows, one engine call per chunk (progress in rows)."""
+                   progress: Progress | None = None, client=None, chunk_rows: int | None = None) -> np.ndarray:
+    """Depths (R, S) [m] for many rows, one engine call per chunk of ``chunk_rows`` rows (default the
+    engine's chunk; progress in rows); with ``client`` (a ``distributed.Client``) the chunks are tasks on
+    its Dask cluster (:func:`millstab.cluster.depths`). Every row is evaluated alone, so neither the chunk
+    size nor the cluster changes a number."""
+    if chunk_rows is not None and (isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer))
+                                   or chunk_rows < 1):
+        raise InputError("chunk_rows", chunk_rows, "must be a positive integer")
+    if client is not None:
+        from millstab import cluster
+
+        return cluster.depths(client, engine, par, cutting, theta_rows, rpm, progress, chunk_rows)
     out = np.empty((theta_rows.shape[0], rpm.size))
-    for rows in iter_row_chunks(theta_rows.shape[0], rows_per_call(rpm.size, engine)):
+    for rows in iter_row_chunks(theta_rows.shape[0], int(chunk_rows or rows_per_call(rpm.size, engine))):
         out[rows] = depths(engine, par, theta_rows[rows], cutting, rpm)
         if progress:
             progress(rows.stop, theta_rows.shape[0])

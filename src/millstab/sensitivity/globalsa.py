@@ -133,7 +133,11 @@ def sobol_function(func: Callable[[np.ndarray], np.ndarray], names: Sequence[str
     return salib_sobol(prob, np.asarray(func(X), float), seed, num_resamples, conf_level)
 
 
-def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine):
+def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client=None):
+    if client is not None:  # a wrong client fails before any work
+        from millstab.cluster import check_client
+
+        check_client(client)
     par = as_parameterization(model)
     th = centre(par, theta)
     seed = check_seed(seed)
@@ -148,7 +152,7 @@ def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine):
 def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1024, t: float = 0.1,
           bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0, *, theta: Sequence[float] | None = None,
           engine: str = "zoa", num_resamples: int = 100, conf_level: float = 0.95,
-          progress: Progress | None = None) -> SobolResult:
+          progress: Progress | None = None, client=None, chunk_rows: int | None = None) -> SobolResult:
     """First- and total-order Sobol indices of the SLD's MSE [mm²], the envelope minimum [mm] and b_lim
     at each speed [mm], for uniform inputs in the ±t neighbourhood of the centre (or ``bounds``).
 
@@ -156,13 +160,17 @@ def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1
         n: SALib base sample size, a power of 2; the engine evaluates n·(P + 2) structures.
         bounds: {name: (lower, upper)} [SI] replacing the ±t range for the parameters named.
         progress: ``progress(rows_done, rows_total)`` after each engine chunk.
+        client: a ``distributed.Client``: the structures are evaluated on its Dask cluster (same numbers,
+            bit for bit: every row is evaluated alone and the design is drawn here); None: in this process.
+        chunk_rows: rows per engine call / cluster task (default: the engine's chunk; on a cluster ~2 s
+            of work); does not change the result.
     """
     n = check_power_of_two(n)
     conf_level = check_scalar("conf_level", conf_level, 0.0, 1.0, "confidence level must be in (0, 1)")
-    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine)
+    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
     prob = problem(par.free, bnds)
     X = sobol_sample(prob, n, seed)
-    d = depths_chunked(eng, par, X, cutting, r, progress)
+    d = depths_chunked(eng, par, X, cutting, r, progress, client, chunk_rows)
     if not np.isfinite(d).all():
         raise InputError("rpm", f"{r.min():g}..{r.max():g}", "some sampled SLDs have no finite limit there; "
                          "choose speeds where every structure has a chatter boundary")
@@ -177,13 +185,15 @@ def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1
 def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajectories: int = 50, levels: int = 4,
            t: float = 0.1, bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0, *,
            theta: Sequence[float] | None = None, engine: str = "zoa", num_resamples: int = 100,
-           conf_level: float = 0.95, progress: Progress | None = None) -> MorrisResult:
+           conf_level: float = 0.95, progress: Progress | None = None, client=None,
+           chunk_rows: int | None = None) -> MorrisResult:
     """Morris screening (elementary effects; a cheap preview of Sobol): μ, μ*, σ and μ*'s confidence
     half-width for the SLD's MSE [mm²] against the nominal and the envelope minimum [mm].
 
     Args:
         trajectories: number of Morris trajectories r (≥ 2); the engine evaluates r·(P + 1) structures.
         levels: grid levels p (even, ≥ 2).
+        client, chunk_rows: as :func:`sobol` (a Dask cluster evaluates the structures; same numbers).
     """
     from SALib.analyze import morris as ma
     from SALib.sample import morris as ms
@@ -192,10 +202,10 @@ def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajector
         raise InputError("n", trajectories, "number of Morris trajectories must be an integer >= 2")
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 2 or levels % 2:
         raise InputError("levels", levels, "number of Morris levels must be an even integer >= 2")
-    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine)
+    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
     prob = problem(par.free, bnds)
     X = ms.sample(prob, int(trajectories), num_levels=int(levels), seed=seed)
-    d = depths_chunked(eng, par, X, cutting, r, progress)
+    d = depths_chunked(eng, par, X, cutting, r, progress, client, chunk_rows)
     if not np.isfinite(d).all():
         raise InputError("rpm", f"{r.min():g}..{r.max():g}", "some sampled SLDs have no finite limit there")
     outs = {}

@@ -1,0 +1,234 @@
+"""Large studies on a Dask cluster (the optional extra ``millstab[dask]``).
+
+The embarrassingly parallel studies (Monte Carlo, Sobol, Morris; any batch of parameter sets through an
+engine's ``envelope_batch``) cut their rows into tasks and run them on ``dask.distributed`` workers:
+
+* :func:`open_client` -- ``--dask ADDRESS`` connects to a running scheduler; ``--workers N`` starts a
+  ``LocalCluster`` of N worker processes (one thread each) for the run and closes it afterwards;
+  neither: ``None`` and the study runs in this process as before (dask is then never imported).
+* :func:`warm` -- numba compiled once per worker, without cache races: the first worker compiles
+  alone (and writes the on-disk cache, ``NUMBA_CACHE_DIR``), then the others start together and load
+  it. Numba writes each cache file atomically, but the index of a source file is read-modify-written,
+  so workers compiling at once all pay the compile and can overwrite each other's entries. The warm
+  call also times a small batch, from which :func:`task_rows` sizes the tasks.
+* :func:`stream` -- submits tasks a window at a time and hands each result to the caller as it arrives
+  (``as_completed``), exactly once, so the caller aggregates into preallocated arrays and the client
+  holds only a few tasks' results. A worker lost mid-run is handled by the scheduler: its tasks are run
+  again elsewhere; every task is a pure function of its inputs, so a re-run returns the same numbers.
+
+Each task runs numba with ONE thread (the parallelism is the cluster's): one worker process per core.
+Results do not depend on how the rows are cut (the engines evaluate every row independently, and the
+Monte Carlo draws are addressed by path index), so the same seed gives the same numbers, bit for bit,
+in this process and on any number of workers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+import uuid
+from itertools import islice
+from typing import Any, Callable, Iterator, Sequence
+
+import numpy as np
+
+from millstab.errors import InputError
+
+#: target seconds of work per task: ≥ 1 s makes dask's per-task cost (~1–10 ms) negligible, while many
+#: tasks per worker keep the load balanced and make a lost worker cheap
+TASK_SECONDS = 2.0
+#: tasks submitted per worker thread before results come back: workers never wait, and the cluster holds
+#: at most this many unfetched results per thread (bounded memory, however many tasks the study has)
+IN_FLIGHT_PER_THREAD = 3
+#: environment of the workers this module starts: numba and BLAS single-threaded (one process per core)
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+_EXTRA = "needs the optional extra: pip install 'millstab[dask]' (dask[distributed])"
+
+
+def _distributed(field: str, value: Any):
+    try:
+        import distributed
+    except ImportError:  # pragma: no cover (CI installs the extra)
+        raise InputError(field, value, _EXTRA) from None
+    return distributed
+
+
+def check_client(client: Any) -> Any:
+    """``client`` if it is a ``distributed.Client``, else InputError naming ``client``."""
+    distributed = _distributed("client", type(client).__name__)
+    if not isinstance(client, distributed.Client):
+        raise InputError("client", type(client).__name__, "need a distributed.Client (or None: run in this process)")
+    return client
+
+
+@contextlib.contextmanager
+def open_client(address: str | None = None, workers: int | None = None, *, timeout_s: float = 20.0) -> Iterator[Any]:
+    """A ``distributed.Client`` for the run, or None when neither ``address`` nor ``workers`` is given.
+
+    Args:
+        address: a running scheduler (``tcp://host:8786``, as printed by ``dask scheduler``).
+        workers: start a local cluster of this many worker processes (one thread each), closed on exit.
+        timeout_s: how long to wait for a scheduler at ``address`` [s].
+
+    Raises:
+        InputError: both given, ``workers`` < 1, no scheduler at ``address``, or dask not installed.
+    """
+    if address is None and workers is None:
+        yield None
+        return
+    if address is not None and workers is not None:
+        raise InputError("--dask", address, "give either --dask ADDRESS (a running scheduler) or --workers N, not both")
+    if address is not None:
+        if not isinstance(address, str) or not address.strip():
+            raise InputError("--dask", address, "need a scheduler address, e.g. tcp://10.0.0.5:8786")
+        distributed = _distributed("--dask", address)
+        try:
+            client = distributed.Client(address.strip(), timeout=timeout_s)
+        except (OSError, TimeoutError) as exc:
+            raise InputError("--dask", address, f"no Dask scheduler answered there ({exc}); start one with "
+                             "`dask scheduler` and workers with `dask worker ADDRESS`, or use --workers N") from None
+        with client:
+            yield client
+        return
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
+    distributed = _distributed("--workers", workers)
+    with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None,
+                                  env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:
+        with distributed.Client(cluster) as client:
+            yield client
+
+
+def one_thread() -> None:
+    """Numba single-threaded in the calling thread (numba's thread count is per calling thread, so every
+    task sets it): the cluster supplies the parallelism, threads inside a task would oversubscribe."""
+    import numba
+
+    numba.set_num_threads(1)
+
+
+def _warm_task(engine: str, par, cutting, rpm: np.ndarray, probe_rows: int) -> float:
+    """On a worker: compile (or load) the engine with one tiny call, then time ``probe_rows`` rows;
+    returns seconds per row."""
+    from millstab.forward import forward
+
+    one_thread()
+    f = forward(par, cutting, engine)
+    theta = par.theta0[None, :]
+    f(theta, rpm[: min(2, rpm.size)])
+    rows = np.repeat(theta, probe_rows, axis=0)
+    t0 = time.perf_counter()
+    f(rows, rpm)
+    return (time.perf_counter() - t0) / probe_rows
+
+
+def warm(client: Any, engine: str, par, cutting, rpm: np.ndarray, probe_rows: int = 32) -> float:
+    """Compile the engine on every worker, the first one alone (see the module docstring), and return
+    the median seconds per parameter set (row) at these speeds on one worker thread."""
+    workers = sorted(client.scheduler_info()["workers"])
+    if not workers:
+        raise InputError("client", str(client), "the Dask cluster has no workers")
+    first = client.submit(_warm_task, engine, par, cutting, rpm, probe_rows, workers=workers[:1],
+                          allow_other_workers=False, pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-0")
+    times = [first.result()]
+    rest = [client.submit(_warm_task, engine, par, cutting, rpm, probe_rows, workers=[w], allow_other_workers=False,
+                          pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-{i}")
+            for i, w in enumerate(workers[1:], 1)]
+    times += client.gather(rest)
+    return float(np.median(times))
+
+
+def task_rows(seconds_per_row: float, limit: int) -> int:
+    """Rows per task for :data:`TASK_SECONDS` of work at ``seconds_per_row``, between 1 and ``limit``
+    (the engine's own chunk, which bounds a task's output memory)."""
+    if not np.isfinite(seconds_per_row) or seconds_per_row <= 0:
+        return int(limit)
+    return int(min(limit, max(1, round(TASK_SECONDS / seconds_per_row))))
+
+
+def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_result: Callable[[int, Any], None],
+           common: tuple = (), name: str = "task") -> None:
+    """Run ``func(*common, *tasks[i])`` for every i on the cluster; call ``on_result(i, value)`` once per
+    task, in the order results arrive.
+
+    At most :data:`IN_FLIGHT_PER_THREAD` tasks per worker thread are submitted ahead; each result is
+    released on the cluster once handed over. A task that fails raises here (the others are cancelled).
+    """
+    from distributed import as_completed
+
+    threads = max(1, sum(client.nthreads().values()))
+    todo = iter(range(len(tasks)))
+    tag = f"millstab-{name}-{uuid.uuid4().hex[:8]}"
+    index: dict[str, int] = {}
+    pending: dict[str, Any] = {}  # key -> future not yet handed over (cancelled if we stop early)
+    received = np.zeros(len(tasks), dtype=bool)
+    queue = as_completed()
+
+    def submit(i: int) -> None:
+        fut = client.submit(func, *common, *tasks[i], key=f"{tag}-{i}", pure=False)
+        index[fut.key] = i
+        pending[fut.key] = fut
+        queue.add(fut)
+
+    try:
+        for i in islice(todo, IN_FLIGHT_PER_THREAD * threads):
+            submit(i)
+        for fut in queue:
+            i = index.pop(fut.key)
+            del pending[fut.key]
+            value = fut.result()
+            fut.release()
+            if received[i]:  # cannot happen with one future per task; guards the "no path twice" promise
+                raise RuntimeError(f"task {i} of {name} returned twice")
+            received[i] = True
+            on_result(i, value)
+            nxt = next(todo, None)
+            if nxt is not None:
+                submit(nxt)
+    finally:
+        if pending:  # a task failed (or the caller raised): nothing else of this study should run
+            client.cancel(list(pending.values()))
+    if not received.all():  # pragma: no cover (as_completed yields every future)
+        raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
+
+
+def _depths_task(engine: str, par, cutting, rpm: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """On a worker: limiting depths (R, S) [m] of parameter rows (R, P), numba on one thread."""
+    from millstab.forward import forward
+
+    one_thread()
+    return forward(par, cutting, engine)(rows, rpm)
+
+
+def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray,
+           progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None) -> np.ndarray:
+    """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
+    the cluster: the same numbers as ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row is
+    evaluated independently), for SDM/spectral maps as for the sensitivity studies.
+
+    ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
+    ``progress(rows_done, R)`` after each task's result has arrived.
+    """
+    from millstab.stability import get_engine
+
+    check_client(client)
+    rpm = np.asarray(rpm, dtype=float)
+    theta_rows = np.asarray(theta_rows, dtype=float)
+    n = theta_rows.shape[0]
+    sec = warm(client, engine, par, cutting, rpm)
+    per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
+    starts = range(0, n, per)
+    out = np.empty((n, rpm.size))
+    done = [0]
+
+    def take(i: int, d: np.ndarray) -> None:
+        s = starts[i]
+        out[s:s + d.shape[0]] = d
+        done[0] += d.shape[0]
+        if progress:
+            progress(done[0], n)
+
+    stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], take, common=(engine, par, cutting, rpm),
+           name="depths")
+    return out

@@ -1,0 +1,161 @@
+"""Large studies on a Dask cluster (millstab.cluster): the same numbers as in this process, bit for bit,
+with a LocalCluster of 2 worker processes; a worker killed mid-run loses and duplicates no path; and
+without a cluster dask is never imported."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from millstab.datasets import load_example
+from millstab.errors import InputError
+from millstab.forward import forward
+from millstab.params import Parameterization
+from millstab.sensitivity import monte_carlo, morris, mse_mm2, predicted_theta, sobol
+from millstab.sensitivity.montecarlo import draws
+
+CFG = load_example("ex1")
+THETA = predicted_theta("ex1")
+RPM = np.linspace(2000.0, 12000.0, 60)
+
+
+def test_draws_are_rows_of_the_plain_stream():
+    """Each block jumps to its first path: the rows equal those of one sequential default_rng stream."""
+    full = np.random.default_rng(11).random((500, 6))
+    for start, count in ((0, 500), (0, 1), (1, 7), (137, 200), (499, 1)):
+        np.testing.assert_array_equal(draws(11, start, count, 6), full[start:start + count])
+
+
+def test_without_a_cluster_dask_is_not_imported():
+    """No millstab code imports dask or distributed without a cluster. (pint itself imports ``dask.base``
+    when dask is installed, for its dask-array support; those modules are the baseline, taken after
+    ``import pint`` alone.)"""
+    code = (
+        "import sys\n"
+        "def ours(): return {m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')}\n"
+        "import pint\n"
+        "baseline = ours()\n"
+        "import numpy as np\n"
+        "import millstab.cli, millstab.cluster, millstab.sensitivity as s\n"
+        "from millstab.cli import main\n"
+        "from millstab.datasets import load_example\n"
+        "c = load_example('ex1'); r = np.linspace(3000, 9000, 8)\n"
+        "s.monte_carlo(c.structure, c.cutting, r, n=3)\n"
+        "s.sobol(c.structure, c.cutting, r, n=2)\n"
+        "assert main(['sensitivity', 'mc', 'example:ex1', '--n', '3', '--rpm', '3000:9000:1000']) == 0\n"
+        "extra = sorted(ours() - baseline)\n"
+        "assert not extra, extra\n"
+        "assert 'distributed' not in sys.modules\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=os.environ.copy())
+    assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+def test_client_arguments_are_checked():
+    from millstab.cluster import open_client
+
+    with pytest.raises(InputError, match="--dask"):
+        with open_client("tcp://127.0.0.1:8786", 2):
+            pass
+    with pytest.raises(InputError, match="--workers"):
+        with open_client(workers=0):
+            pass
+    with open_client() as client:
+        assert client is None
+
+
+distributed = pytest.importorskip("distributed", reason="the cluster tests need dask[distributed] (millstab[dask])")
+
+
+@pytest.fixture(scope="module")
+def client():
+    from millstab.cluster import open_client
+
+    with open_client(workers=2) as c:
+        yield c
+
+
+def _mc_by_hand(n, t, eps, seed, rpm):
+    """Algorithm 2 written out: every path's draws from one plain stream, ONE engine call on all rows."""
+    par = Parameterization(CFG.structure)
+    star = THETA * (1.0 + t * (2.0 * np.random.default_rng(seed).random((n, 6)) - 1.0))
+    rows = [star]
+    for j in range(6):
+        r = star.copy()
+        r[:, j] *= 1.0 + eps
+        rows.append(r)
+    d = forward(par, CFG.cutting)(np.concatenate(rows), rpm).reshape(7, n, rpm.size)
+    return np.stack([mse_mm2(d[0], d[1 + j]) for j in range(6)], axis=1)
+
+
+def test_bad_client_is_rejected_before_any_work():
+    with pytest.raises(InputError, match="client"):
+        monte_carlo(CFG.structure, CFG.cutting, RPM, n=4, client="tcp://127.0.0.1:8786")
+    with pytest.raises(InputError, match="client"):
+        sobol(CFG.structure, CFG.cutting, RPM, n=4, client=object())
+
+
+def test_mc_on_cluster_equals_local_bit_for_bit(client):
+    kw = dict(n=65, t=0.1, eps=0.01, seed=7, theta=THETA)
+    here = monte_carlo(CFG.structure, CFG.cutting, RPM, **kw)
+    there = monte_carlo(CFG.structure, CFG.cutting, RPM, chunk_paths=13, client=client, **kw)  # 5 tasks
+    auto = monte_carlo(CFG.structure, CFG.cutting, RPM, client=client, **kw)  # tasks sized on the workers
+    np.testing.assert_array_equal(there.mse_mm2, here.mse_mm2)
+    np.testing.assert_array_equal(auto.mse_mm2, here.mse_mm2)
+    np.testing.assert_array_equal(there.mse_mm2, _mc_by_hand(65, 0.1, 0.01, 7, RPM))
+    assert there.mean.tolist() == here.mean.tolist() and there.sd.tolist() == here.sd.tolist()
+
+
+def test_sobol_and_morris_on_cluster_equal_local_bit_for_bit(client):
+    kw = dict(t=0.1, seed=3, theta=THETA)
+    a = sobol(CFG.structure, CFG.cutting, RPM, n=16, **kw)
+    b = sobol(CFG.structure, CFG.cutting, RPM, n=16, client=client, chunk_rows=23, **kw)
+    for out in ("mse", "minimum", "blim"):
+        for key in ("S1", "S1_conf", "ST", "ST_conf"):
+            np.testing.assert_array_equal(getattr(b, out)[key], getattr(a, out)[key])
+    m1 = morris(CFG.structure, CFG.cutting, RPM, trajectories=6, **kw)
+    m2 = morris(CFG.structure, CFG.cutting, RPM, trajectories=6, client=client, chunk_rows=9, **kw)
+    for out in ("mse", "minimum"):
+        for key, v in m1.outputs[out].items():
+            np.testing.assert_array_equal(m2.outputs[out][key], v)
+
+
+def test_cli_dask_address_gives_the_local_numbers(client, tmp_path):
+    """``--dask ADDRESS`` (here the fixture's scheduler; ``--workers N`` starts the same LocalCluster as the
+    fixture, through the same open_client) prints and writes the local run's numbers."""
+    from millstab.cli import main
+
+    args = ["sensitivity", "mc", "example:ex1", "--n", "30", "--rpm", "2000:12000:500", "--seed", "5"]
+    assert main(args + ["--out", str(tmp_path / "here.json")]) == 0
+    assert main(args + ["--dask", client.scheduler.address, "--out", str(tmp_path / "there.json")]) == 0
+    here, there = (json.loads((tmp_path / f).read_text()) for f in ("here.json", "there.json"))
+    assert here == there
+    assert main(args + ["--workers", "2", "--dask", client.scheduler.address]) == 2
+
+
+def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
+    """One of the 2 workers dies (SIGKILL) after the first block has arrived; the scheduler re-runs its
+    tasks elsewhere. Every path arrives exactly once and the table is the local one, bit for bit."""
+    n, chunk = 400, 10
+    kw = dict(n=n, t=0.1, eps=0.01, seed=21, theta=THETA)
+    here = monte_carlo(CFG.structure, CFG.cutting, RPM, **kw)
+    victim = sorted(client.scheduler_info()["workers"])[0]
+    pid = client.run(os.getpid, workers=[victim])[victim]
+    seen = []
+
+    def progress(done, total):
+        seen.append(done)
+        if len(seen) == 1:
+            os.kill(pid, signal.SIGKILL)  # a hard loss, as of a node: no goodbye to the scheduler
+
+    there = monte_carlo(CFG.structure, CFG.cutting, RPM, chunk_paths=chunk, client=client, progress=progress, **kw)
+    assert victim not in client.scheduler_info()["workers"]  # it did die (the nanny restarts a new one)
+    steps = np.diff([0] + seen)
+    assert seen[-1] == n and len(seen) == n // chunk and (steps == chunk).all()  # each block once, none lost
+    np.testing.assert_array_equal(there.mse_mm2, here.mse_mm2)

@@ -10,7 +10,8 @@ Inputs (:mod:`~millstab.api.inputs`): :func:`config`, :func:`config_from_text`, 
 
 Tasks: :func:`lobes` (SLD, any registered engine), :func:`identify`, :func:`design` (next test speeds),
 :func:`update` / :func:`p_stable` / :func:`recommend` (Bayesian updating and decisions),
-:func:`simulate_cut` / :func:`label_cuts` (virtual cuts), :func:`modal_fit` (tap test), :func:`reproduce`.
+:func:`sensitivity` (oat, mc, sobol, morris; locally or on Dask), :func:`simulate_cut` / :func:`label_cuts`
+(virtual cuts), :func:`modal_fit` (tap test), :func:`reproduce`.
 Figures: ``*_figure`` functions return matplotlib figures; tables: ``*_table`` functions return
 ``(header, columns)`` for :func:`millstab.io.results.csv_text` / ``write_csv``.
 
@@ -23,12 +24,15 @@ from millstab.api.identify import (check_fit_matches, design, design_figure, fit
 from millstab.api.inputs import config, config_from_text, config_toml, modal, points, points_from_text, speeds
 from millstab.api.lobes import Lobes, envelope, lobes, lobes_figure, raw_lobes
 from millstab.api.progress import CancelToken, Cancelled, Progress
+from millstab.api.sensitivity import DEFAULT_N as SENSITIVITY_DEFAULT_N
+from millstab.api.sensitivity import PRESETS as SENSITIVITY_PRESETS
+from millstab.api.sensitivity import Study, sensitivity
 from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
 from millstab.api.update import (corner_figure, map_figure, map_table, p_stable, posterior_from_json,
                                  recommend, update)
 
-__all__ = ["CancelToken", "Cancelled", "Lobes", "Progress", "check_fit_matches", "config", "config_from_text",
+__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "CancelToken", "Cancelled", "Lobes", "Progress", "Study", "check_fit_matches", "config", "config_from_text",
            "config_toml", "corner_figure", "design", "design_figure", "envelope", "fit_curves",
            "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "labels_table", "lobes", "lobes_figure",
            "map_figure", "map_table", "modal", "modal_fit", "p_stable", "points", "points_from_text", "posterior_from_json",
-           "raw_lobes", "recommend", "reproduce", "simulate_cut", "speeds", "update"]
+           "raw_lobes", "recommend", "reproduce", "sensitivity", "simulate_cut", "speeds", "update"]

@@ -13,16 +13,13 @@ import numpy as np
 import typer
 from typer.core import TyperGroup
 
-from millstab.cli.app import app, progress_bar, select_rpm
+from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 50.0)
 METHODS = ("oat", "mc", "sobol", "morris")
-PRESETS = ("paper",)
-#: defaults of --n per method: MC paths, Sobol base sample (power of 2), Morris trajectories
-DEFAULT_N = {"mc": 10_000, "sobol": 1024, "morris": 50}
 
 
 def _parse_eps_grid(text: str) -> np.ndarray:
@@ -214,97 +211,68 @@ def _client(dask: str | None, workers: int | None) -> Iterator:
 def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: int | None, t: float | None,
          eps: str | None, seed: int, out: Path | None, plot: Path | None, engine: str, preset: str | None,
          bound: List[str], levels: int, dask: str | None = None, workers: int | None = None) -> None:
-    """The body every method shares: read, check the outputs, compute, print, save. With --dask or --workers
-    the structures are evaluated on a Dask cluster (:mod:`millstab.cluster`); without, dask is not imported."""
-    from millstab.io import load_config, write_json
+    """The body every method shares: parse, check the outputs, call :func:`millstab.api.sensitivity`, print,
+    save. With --dask or --workers the structures are evaluated on a Dask cluster (:mod:`millstab.cluster`);
+    without, dask is not imported."""
+    from millstab import api
+    from millstab.io import write_json
     from millstab.io.outputs import check_outputs, config_inputs
-    from millstab.sensitivity import (PAPER_EPS_GRID, match_example, monte_carlo, morris, oat, predicted_theta, sobol,
-                                      table6)
 
-    if preset is not None and preset not in PRESETS:
-        raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")
+    if preset is not None and preset not in api.SENSITIVITY_PRESETS:  # before any work
+        raise InputError("--preset", preset, f"must be one of {', '.join(api.SENSITIVITY_PRESETS)}")
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"must be one of {', '.join(ENGINES)}")
-    if dask is not None and workers is not None:
-        raise InputError("--dask", dask, "give either --dask ADDRESS (a running scheduler) or --workers N, not both")
-    if workers is not None and workers < 1:
-        raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
-    cfg = load_config(config)
+    if method == "oat":
+        eps_val = _parse_eps_grid(eps) if eps else None
+    elif method == "mc":
+        try:
+            eps_val = None if eps is None else float(eps)
+        except ValueError:
+            raise InputError("--eps", eps, "for mc: one relative change, e.g. 0.01") from None
+    else:
+        eps_val = None
+    bounds = _parse_bounds(bound)
+    cfg = api.config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
     protect = [p for p in inputs.values() if p]
-    if not cfg.structure.is_modal:  # a measured FRF: study its fitted modes (issue 14)
-        from millstab.modal.run import fitted_config
-
-        cfg, note = fitted_config(cfg)
+    cfg, note = api.modal(cfg)  # a measured FRF: study its fitted modes (issue 14)
+    if note:
         typer.echo(note)
+    label = {"mc": f"Monte Carlo, {n or api.SENSITIVITY_DEFAULT_N['mc']} paths"}.get(method, f"{method}: evaluating structures")
+    with _client(dask, workers) as client, progress_bar(label) as bar:
+        study = api.sensitivity(method, cfg, speeds, n=n, t=t, eps=eps_val, seed=seed, engine=engine, preset=preset,
+                                bounds=bounds, levels=levels, client=client, progress=engine_progress(bar))
+    typer.echo(study.header())
+    _print(study)
+    if out:
+        write_json(out, study.to_json(paths=False), protect=protect)
+        typer.echo(f"wrote {out}")
+    if plot:
+        from millstab.io.figures import save_figure
 
-    example = match_example(cfg.cutting, cfg.structure)
-    theta, centre_note = None, "the config's modal parameters"
-    if preset == "paper":
-        if example:
-            theta = predicted_theta(example)
-            centre_note = f"the paper's {example} predicted values (its Table 3)"
-        else:
-            centre_note += " (not a paper example: --preset paper sets only the paper's settings)"
-    t_val = 0.1 if t is None else t
-    header = (f"{cfg.name}: {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm ({engine}); "
-              f"centre: {centre_note}")
-    payload_extra = {"config": cfg.name, "preset": preset, "centre_source": centre_note, "paper_example": example}
+        save_figure(study.figure(), plot, protect=protect + ([out] if out else []))
+        typer.echo(f"wrote {plot}")
 
-    if method == "oat":
-        grid = PAPER_EPS_GRID if (preset == "paper" and eps is None) else (_parse_eps_grid(eps) if eps else None)
-        res = oat(cfg.structure, cfg.cutting, speeds, grid, theta=theta, engine=engine)
-        typer.echo(header)
+
+def _print(study) -> None:
+    """The study's table on stdout."""
+    res = study.result
+    if study.method == "oat":
         typer.echo(f"{'MSE [mm^2]':<12}" + "".join(f"{n:>11}" for n in res.names))
         for k, e in enumerate(res.eps):
             typer.echo(f"eps {e:+7.3f} " + "".join(f"{v:>11.5f}" for v in res.mse_mm2[:, k]))
-        payload = res.to_dict()
-        fig_fn = None
-        if plot:
-            from millstab.plot.sensitivity import plot_oat
-
-            fig_fn = lambda: plot_oat(res, title=f"{cfg.name}: one-at-a-time sensitivity ({speeds.size} speeds)")  # noqa: E731
-    elif method == "mc":
-        n_val = DEFAULT_N["mc"] if n is None else n
-        try:
-            eps_val = 0.01 if eps is None else float(eps)
-        except ValueError:
-            raise InputError("--eps", eps, "for mc: one relative change, e.g. 0.01") from None
-        with _client(dask, workers) as client, progress_bar(f"Monte Carlo, {n_val} paths") as cb:
-            res = monte_carlo(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, eps=eps_val, seed=seed, theta=theta,
-                              engine=engine, progress=cb, client=client)
-        paper = table6() if set(res.names) == set(table6()) else None
-        comparable = example == "ex1" and preset == "paper" and abs(t_val - 0.1) < 1e-12 and abs(eps_val - 0.01) < 1e-12
-        typer.echo(header)
+    elif study.method == "mc":
         typer.echo(f"Monte Carlo sensitivity: N = {res.n}, t = {res.t:g}, eps = {res.eps:g}, seed {res.seed}")
-        typer.echo(_mc_table(res, paper, comparable))
-        if paper:
+        typer.echo(_mc_table(res, study.paper, study.paper_comparable))
+        if study.paper:
             typer.echo("paper Table 6: N = 10 000, t = 0.1, eps = 1 % around Ex.1 predicted values; its speed set "
-                       "is not given" + ("" if comparable else "; this run differs in centre or settings"))
-        payload = res.to_dict(paper=paper)
-        payload["paper_comparable"] = comparable
-        fig_fn = None
-        if plot:
-            from millstab.plot.sensitivity import plot_mc_convergence
-
-            fig_fn = lambda: plot_mc_convergence(res, paper=paper if comparable else None)  # noqa: E731
+                       "is not given" + ("" if study.paper_comparable else "; this run differs in centre or settings"))
     else:
-        bounds = _parse_bounds(bound)
-        n_val = DEFAULT_N[method] if n is None else n
-        label = f"{method}: evaluating structures"
-        with _client(dask, workers) as client, progress_bar(label) as cb:
-            if method == "sobol":
-                res = sobol(cfg.structure, cfg.cutting, speeds, n=n_val, t=t_val, bounds=bounds, seed=seed, theta=theta,
-                            engine=engine, progress=cb, client=client)
-            else:
-                res = morris(cfg.structure, cfg.cutting, speeds, trajectories=n_val, levels=levels, t=t_val, bounds=bounds,
-                             seed=seed, theta=theta, engine=engine, progress=cb, client=client)
-        typer.echo(header)
-        w = 15 if method == "sobol" else 11
+        w = 15 if study.method == "sobol" else 11
         typer.echo(f"{'':<24}" + "".join(f"{nm:>{w}}" for nm in res.names))
-        if method == "sobol":
+        if study.method == "sobol":
             for oname, d in (("MSE", res.mse), ("min b_lim", res.minimum)):
                 for key in ("S1", "ST"):
                     typer.echo(f"{oname + ' ' + key:<24}" + "".join(f"{v:.3f}±{c:.3f}".rjust(w) for v, c in zip(d[key], d[key + '_conf'])))
@@ -316,18 +284,3 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
             for oname, d in res.outputs.items():
                 typer.echo(f"{oname + ' mu*':<24}" + "".join(f"{v:>11.4g}" for v in d["mu_star"]))
                 typer.echo(f"{oname + ' sigma':<24}" + "".join(f"{v:>11.4g}" for v in d["sigma"]))
-        payload = res.to_dict()
-        fig_fn = None
-        if plot:
-            from millstab.plot.sensitivity import plot_morris, plot_sobol_speed
-
-            fig_fn = (lambda: plot_sobol_speed(res)) if method == "sobol" else (lambda: plot_morris(res))  # noqa: E731
-    payload.update(payload_extra)
-    if out:
-        write_json(out, payload, protect=protect)
-        typer.echo(f"wrote {out}")
-    if plot and fig_fn:
-        from millstab.io.figures import save_figure
-
-        save_figure(fig_fn(), plot, protect=protect + ([out] if out else []))
-        typer.echo(f"wrote {plot}")

@@ -189,10 +189,11 @@ class MCResult:
             out["paper_ratios"] = pr
         return out
 
-    def to_json(self, paper: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
-        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.mc/1"`` and every
-        path's MSE, ``paths: {"mse_mm2": {name: [n values]}}`` [mm²] (so that :meth:`from_json` rebuilds
-        the result exactly; ~20 characters per value: 1.2 MB for the paper's 10 000 paths × 6).
+    def to_json(self, paper: dict[str, dict[str, float]] | None = None, paths: bool = True) -> dict[str, Any]:
+        """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.mc/1"`` and, with
+        ``paths``, every path's MSE, ``paths: {"mse_mm2": {name: [n values]}}`` [mm²] (so that :meth:`from_json`
+        rebuilds the result exactly; ~20 characters per value: 1.2 MB for the paper's 10 000 paths × 6).
+        Without ``paths`` (the command line's file: a 10^6-path study would be 120 MB) the statistics only.
 
         Raises:
             ValueError: a NaN in the inputs or the paths (statistics may be ``null``: not defined)."""
@@ -200,7 +201,8 @@ class MCResult:
         stats = set(self.names) | {"convergence", "ratios", "paper", "paper_ratios"}
         out = {"schema": schema("mc")}
         out.update({k: plain(v, f"mc.{k}", nan_ok=k in stats) for k, v in d.items()})
-        out["paths"] = {"mse_mm2": per_name_out(self.names, self.mse_mm2, "mc.paths.mse_mm2")}
+        if paths:
+            out["paths"] = {"mse_mm2": per_name_out(self.names, self.mse_mm2, "mc.paths.mse_mm2")}
         return out
 
     @classmethod
@@ -209,6 +211,9 @@ class MCResult:
         Raises InputError (wrong schema, missing or bad field)."""
         check_schema(doc, schema("mc"), source)
         names = names_in(need(doc, "parameters", source), f"{source}: parameters")
+        if isinstance(doc, dict) and "paths" not in doc:
+            raise InputError(f"{source}: paths", "missing", "the file holds the statistics only (as `millstab "
+                             "sensitivity mc --out` writes them); a result rebuilds from to_json(paths=True)")
         paths = need(need(doc, "paths", source, dict), "mse_mm2", f"{source}: paths", dict)
         mse = per_name_in(paths, names, f"{source}: paths.mse_mm2", ndim=1)
         n = int_in(need(doc, "n", source), f"{source}: n")

@@ -117,10 +117,9 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
                    existing_weight=None if existing is None else existing.weight, target=target or None,
                    noise=noise, speed_noise=speed_noise, samples=samples, seed=seed)
     if fit is not None:
-        from millstab.identify.design import design_after_fit
-
         check_fit_matches(fit, fit_source, cfg)
-        return design_after_fit(_fit(fit, fit_source), cfg.cutting, candidates, **options)
+        par, theta, cov, alts = _fit_view(_fit(fit, fit_source), cfg.cutting)
+        return design_speeds(par, cfg.cutting, candidates, theta=theta, cov_u=cov, alternatives=alts, **options)
     names = tuple(s.strip() for s in free.split(",") if s.strip()) if isinstance(free, str) else tuple(free or ())
     return design_speeds(Parameterization(cfg.structure, names, axisymmetric), cfg.cutting, candidates, **options)
 
@@ -134,7 +133,7 @@ def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, f
 
     cfg, _ = modal(cfg)
     if fit is not None:
-        par = _fit(fit, fit_source).par
+        par = _fit_view(_fit(fit, fit_source), cfg.cutting)[0]
     else:
         par = Parameterization(cfg.structure, plan.names, all("_" not in k for k in plan.names))
     grid = np.linspace(plan.candidates[0], plan.candidates[-1], 800)
@@ -177,3 +176,14 @@ def _fit(fit, source: str):
     from millstab.identify.result import Fit
 
     return fit if isinstance(fit, Fit) else Fit.from_json(fit, str(source))
+
+
+def _fit_view(fit, cutting):
+    """(parameterization, θ, covariance of ln θ or None, alternatives) to plan around a fit: the default
+    search bounds around its estimate (as the command has always planned), tied where the fit chose x = y."""
+    from millstab.identify.design import fit_view
+    from millstab.params import Parameterization
+
+    par0 = Parameterization(fit.structure, fit.names, fit.par.axisymmetric)
+    alts = [[a["estimate"][k] for k in fit.names] for a in fit.alternatives]
+    return fit_view(par0, cutting, fit.estimate, fit.std_errors, fit.correlation, alts, fit.tied)

@@ -40,7 +40,8 @@ def same(a, b, where: str = "") -> None:
     """Field-by-field equality of two result objects (arrays bit-equal with NaN = NaN, same shape)."""
     assert type(a) is type(b), (where, type(a), type(b))
     if isinstance(a, Parameterization):
-        assert (a.base, a.free, a.axisymmetric, dict(a.bounds)) == (b.base, b.free, b.axisymmetric, dict(b.bounds)), where
+        assert (a.base, a.free, a.axisymmetric) == (b.base, b.free, b.axisymmetric), where
+        assert dict(a.bounds) == dict(b.bounds), where
     elif dataclasses.is_dataclass(a):
         for f in dataclasses.fields(a):
             same(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
@@ -278,7 +279,8 @@ def test_envelope_round_trips_with_inf_and_undefined_frequencies(ex3):
 
 
 def test_envelope_from_json_errors():
-    doc = Envelope(np.array([1000.0, 2000.0]), np.array([1e-3, 2e-3]), np.array([1, 2]), np.array([800.0, 900.0])).to_json()
+    env = Envelope(np.array([1000.0, 2000.0]), np.array([1e-3, 2e-3]), np.array([1, 2]), np.array([800.0, 900.0]))
+    doc = env.to_json()
     with pytest.raises(InputError, match="env.json: schema"):
         Envelope.from_json({**doc, "schema": "millstab.fit/1"}, "env.json")
     with pytest.raises(InputError, match="env.json: depth"):
@@ -376,3 +378,23 @@ def test_posterior_round_trips_and_carries_its_schema():
     same(dataclasses.replace(back, prior=prior), post)
     with pytest.raises(InputError, match="post.json schema"):
         Posterior.from_json({**doc, "schema": "millstab.fit/1"}, "post.json")
+
+
+# --- the float conventions (millstab.jsondoc) ---------------------------------------------------------
+def test_schema_floats_keep_inf_and_refuse_what_is_not_a_number():
+    from millstab.jsondoc import floats_in, floats_out, number_in
+
+    a = np.array([[1.5, -np.inf], [np.inf, 0.1]])
+    assert floats_out(a, "a") == [[1.5, "-inf"], ["inf", 0.1]]
+    np.testing.assert_array_equal(floats_in(json.loads(json.dumps(floats_out(a, "a"))), "a", ndim=2), a)
+    assert floats_out(np.array([np.nan, 1.0]), "hz", nan_ok=True) == [None, 1.0]
+    with pytest.raises(ValueError, match="x holds NaN"):
+        floats_out(np.array([np.nan]), "x")
+    for bad in (True, "nan", "Infinity", None, [1.0]):
+        with pytest.raises(InputError, match="doc: x"):
+            number_in(bad, "doc: x")
+    assert math.isnan(number_in(None, "x", nan_ok=True))
+    with pytest.raises(InputError, match="equal lengths"):
+        floats_in([[1.0, 2.0], [3.0]], "t", ndim=2)
+    with pytest.raises(InputError, match="2-d"):
+        floats_in([1.0, 2.0], "t", ndim=2)

@@ -535,6 +535,7 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds", "evenly_spaced",
+__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
+           "evenly_spaced",
            "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
            "relative_sigma", "ridge", "round_design"]

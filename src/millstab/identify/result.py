@@ -70,11 +70,14 @@ class Fit:
             ``stated`` or ``assumed``), "estimated" (σ̂ = √(RSS/dof), relative), "stated", "assumed"}.
         checks: test statistics behind the quality warnings (χ² p-value, runs test, RMS residual).
         cutting: the cutting conditions of the fitted points, or ``None``.
-        alternatives: other parameter sets as good as the estimate: [{"estimate": {...}, "mlae", "rss", "why"}].
+        alternatives: other parameter sets as good as the estimate: ({"estimate": {...}, "mlae", "rss", "why"}, ...).
         symmetry: a line describing an exact symmetry of the data (x↔y), or ``None``.
         test_cuts: how the fitted SLD classifies the labelled test cuts (counts), or ``None``.
         settings: solver settings used (for reproducibility); ``settings["xy_tie_test"]`` is the x = y
             test's record (:attr:`tie`).
+
+    Frozen means no field is reassigned; the dicts inside (settings, noise, checks, test_cuts, the
+    alternatives) are plain dicts for the JSON and must be treated as read-only too.
     """
 
     method: str
@@ -247,7 +250,8 @@ class Fit:
                 return None
             missing = [n for n in names if n not in rec]
             if missing:
-                raise InputError(f"{source}: {key}.{missing[0]}", "missing", f"one value per free parameter ({', '.join(names)})")
+                raise InputError(f"{source}: {key}.{missing[0]}", "missing",
+                                 f"one value per free parameter ({', '.join(names)})")
             return _floats([rec[n] for n in names], f"{source}: {key}")
 
         hist = need(doc, "history", source, dict)
@@ -269,13 +273,17 @@ class Fit:
                 method=need(doc, "method", source, str), par=par, estimate=vector("estimate"), start=vector("start"),
                 mlae=float(need(doc, "mlae", source, (int, float))), rss=float(need(doc, "rss", source, (int, float))),
                 iterations=need(doc, "iterations", source, int), evaluations=need(doc, "evaluations", source, int),
-                engine_calls=need(doc, "engine_calls", source, int), time_s=float(need(doc, "time_s", source, (int, float))),
+                engine_calls=need(doc, "engine_calls", source, int),
+                time_s=float(need(doc, "time_s", source, (int, float))),
                 history_theta=_floats(need(hist, "theta", f"{source}: history", list), f"{source}: history.theta",
                                       null_nan=True, shape=(None, len(names))),
-                history_mlae=_floats(need(hist, "mlae", f"{source}: history", list), f"{source}: history.mlae", null_nan=True),
-                history_rss=_floats(need(hist, "rss", f"{source}: history", list), f"{source}: history.rss", null_nan=True),
+                history_mlae=_floats(need(hist, "mlae", f"{source}: history", list), f"{source}: history.mlae",
+                                     null_nan=True),
+                history_rss=_floats(need(hist, "rss", f"{source}: history", list), f"{source}: history.rss",
+                                    null_nan=True),
                 std_errors=std_errors,
-                correlation=None if corr is None else _floats(corr, f"{source}: correlation", shape=(len(names), len(names))),
+                correlation=None if corr is None else _floats(corr, f"{source}: correlation",
+                                                              shape=(len(names), len(names))),
                 condition=None if condition is None else float(condition),
                 warnings=warnings, codes=codes,
                 alternatives=tuple(need(doc, "alternatives", source, list)),
@@ -358,7 +366,8 @@ def _floats(values: Any, source: str, null_nan: bool = False, shape: tuple | Non
         if arr.size == 0 and shape[0] is None:
             arr = arr.reshape(0, shape[1])
         if arr.ndim != len(shape) or any(want is not None and got != want for got, want in zip(arr.shape, shape)):
-            raise InputError(source, f"shape {arr.shape}", f"need shape {tuple('any' if w is None else w for w in shape)}")
+            want = tuple("any" if w is None else w for w in shape)
+            raise InputError(source, f"shape {arr.shape}", f"need shape {want}")
     return arr
 
 

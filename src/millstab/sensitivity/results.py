@@ -281,7 +281,8 @@ class SobolResult:
         names = names_in(need(doc, "parameters", source), f"{source}: parameters")
         return cls(names=names, bounds=_bounds_in(doc, names, source), n=int_in(need(doc, "n", source), f"{source}: n"),
                    seed=int_in(need(doc, "seed", source), f"{source}: seed"), rpm=_rpm_in(doc, source),
-                   depth_nominal_mm=floats_in(need(doc, "depth_nominal_mm", source, list), f"{source}: depth_nominal_mm"),
+                   depth_nominal_mm=floats_in(need(doc, "depth_nominal_mm", source, list),
+                                              f"{source}: depth_nominal_mm"),
                    mse=_stats_in(need(doc, "mse", source), names, f"{source}: mse", 0),
                    minimum=_stats_in(need(doc, "minimum", source), names, f"{source}: minimum", 0),
                    blim=_stats_in(need(doc, "blim", source), names, f"{source}: blim", 1),

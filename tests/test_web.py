@@ -7,7 +7,7 @@ asserted (benchmarks/bench_app.py measures them).
 
 from __future__ import annotations
 
-import shutil
+import re
 from pathlib import Path
 
 import numpy as np
@@ -117,6 +117,7 @@ def test_identify_uploaded_points(app):
     T.upload(page, "drop-points", points_path("ex3_points"))
     page.locator(".points-note").filter(has_text="40 points").wait_for()
     page.locator(".identify-run button").click()
+    page.locator(".identify-status").filter(has_text="running").wait_for()  # progress while it works
     page.locator(".identify-status").filter(has_text="done in").wait_for(timeout=90_000)
     truth = {"fn_x": 900.0, "fn_y": 950.0, "k_x": 9e6, "k_y": 10e6}
     rows = {}
@@ -132,6 +133,43 @@ def test_identify_uploaded_points(app):
     page.locator(".plan-status").filter(has_text="done in").wait_for(timeout=90_000)
     assert page.locator(".plan-table tr").count() >= 2  # header and at least one planned speed
     shot(page, "identify")
+    # a second run, cancelled: the page says so and keeps the first result
+    page.locator(".identify-run button").click()
+    page.locator(".identify-status").filter(has_text="running").wait_for()
+    page.locator(".identify-cancel button").click()
+    page.locator(".identify-status").filter(has_text="cancelled").wait_for()
+    assert page.locator(".fit-table tr").count() == 7
+
+
+def test_update_map_and_recommend(app, tmp_path):
+    from millstab.io.points import PointSet
+
+    page = app
+    cfg = api.config("example:ex3")
+    rpm = np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000])
+    blim = api.lobes(cfg, rpm).envelope.depth_mm
+    cuts = PointSet(np.r_[rpm, rpm], np.r_[0.6 * blim, 1.4 * blim], ["stable"] * 7 + ["chatter"] * 7)
+    path = tmp_path / "cuts.csv"
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="14 points").wait_for()
+    samples = page.locator(".update-samples input").first
+    samples.fill("200")
+    samples.press("Enter")
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="running").wait_for()
+    page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".map-status").filter(has_text="done in").wait_for(timeout=120_000)
+    rec = T.text(page, "recommendation")
+    got = re.search(r"risk 0.05: ([0-9.]+) rpm, ([0-9.]+) mm", rec)
+    assert got, rec
+    r, d = float(got.group(1)), float(got.group(2))
+    assert 3000 <= r <= 21000
+    # at 5 % risk the recommended cut is stable for the true structure the cuts were labelled by
+    assert d < api.lobes(cfg, np.array([r])).envelope.depth_mm[0]
+    page.wait_for_timeout(1000)  # let the map's image paint before the screenshot
+    shot(page, "update")
 
 
 def test_bad_uploads_show_errors_and_keep_state(app, tmp_path):
@@ -161,10 +199,10 @@ def test_bad_uploads_show_errors_and_keep_state(app, tmp_path):
     # an FRF with one line
     T.tab(page, "Tool and cut")
     one = tmp_path / "tap_xx.csv"
-    one.write_text("freq_hz,re,im\n")
+    one.write_text("freq_hz,real,imag\n")
     T.upload(page, "drop-frf-xx", one)
     msg = error_text(page, "e-structure-frf-xx")
-    assert "structure.frf.xx" in msg
+    assert msg.startswith("structure.frf.xx") and "no FRF values" in msg
     shot(page, "frf_error")
     # the page still works and the other tabs kept their state
     assert T.source_data(page)["blim_mm"] == sld

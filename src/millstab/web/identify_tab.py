@@ -10,7 +10,7 @@ import panel as pn
 from millstab import api
 from millstab.datasets import list_example_points
 from millstab.errors import InputError
-from millstab.web.common import error_html, esc, html_table
+from millstab.web.common import TextBox, error_html, esc, html_table
 from millstab.web.jobs import JobBar
 from millstab.web.plots import set_line, set_points, sld_figure, update
 from millstab.web.state import Session
@@ -49,12 +49,13 @@ class IdentifyTab:
         self.axisym = pn.widgets.Checkbox(label="x = y (axisymmetric)", value=False)
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
         self.job = JobBar("Identify", "identify")
-        self.table = pn.pane.HTML("", css_classes=["fit-table"])
-        self.warnings = pn.pane.HTML("", css_classes=["fit-warnings"])
-        self.fig, self.src = sld_figure("identified SLD over the points", name="fit")
+        self.table = TextBox("fit-table", width=None, height=None)
+        self.warnings = TextBox("fit-warnings", width=700, height=None)
+        self.fig, self.src = sld_figure("identified SLD over the points", name="fit", limit="identified",
+                                       second="start", raw=False)
         self.n_plan = pn.widgets.IntInput(label="next tests", value=8, start=1, end=100, width=90)
         self.plan_job = JobBar("Plan next tests", "plan")
-        self.plan_table = pn.pane.HTML("", css_classes=["plan-table"])
+        self.plan_table = TextBox("plan-table", width=None, height=None)
         self.drop.param.watch(lambda e: points_upload(session, "points", self.drop, self.drop_error, self.points_note),
                               "value")
         self.example.on_click(lambda e: self.use_example())
@@ -71,7 +72,7 @@ class IdentifyTab:
     def run(self) -> None:
         cfg, pts = self.s.cfg, self.s.points
         if cfg is None or pts is None:
-            self.job.status.object = error_html("need a valid config (Tool and cut) and boundary points")
+            self.job.status.text = error_html("need a valid config (Tool and cut) and boundary points")
             return
         opts = dict(method=self.method.value, free=self.free.value.strip() or None, axisymmetric=self.axisym.value,
                     seed=int(self.seed.value))
@@ -84,11 +85,11 @@ class IdentifyTab:
         se = fit.std_errors if fit.std_errors is not None else np.full(len(fit.names), np.nan)
         rows = [(n, f"{v:.6g}", f"{e:.3g}" if np.isfinite(e) else "–", u, f"{s:.6g}")
                 for n, v, e, u, s in zip(fit.names, fit.estimate, se, fit.units, fit.start)]
-        self.table.object = (html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit") +
+        self.table.text = (html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit") +
                              f'<div class="ms-note">{esc(method)}: MLAE {fit.mlae:.4g} mm, {fit.iterations} iterations, '
                              f'{fit.evaluations} evaluations, {fit.time_s:.2f} s, {fit.n_points} points</div>')
         lines = list(fit.warnings) + [w for w in caught if w not in fit.warnings]
-        self.warnings.object = ("<b>warnings</b><ul>" + "".join(f"<li>{esc(w)}</li>" for w in lines) + "</ul>"
+        self.warnings.text = ("<b>warnings</b><ul>" + "".join(f"<li>{esc(w)}</li>" for w in lines) + "</ul>"
                                 if lines else '<span class="ms-note">no warnings</span>')
         rpm = api.fit_rpm(pts)
         curves = api.fit_curves(fit, api.modal(cfg)[0], rpm)
@@ -101,7 +102,7 @@ class IdentifyTab:
     def plan(self) -> None:
         cfg, pts, fit = self.s.cfg, self.s.points, self.s.fit
         if cfg is None:
-            self.plan_job.status.object = error_html("need a valid config (Tool and cut)")
+            self.plan_job.status.text = error_html("need a valid config (Tool and cut)")
             return
         if fit is not None and self.s.fit_cfg is not cfg:
             fit = None  # the form changed since the fit: plan around the form's structure
@@ -114,13 +115,13 @@ class IdentifyTab:
         tests = plan.tests()
         rows = [(f"{r:.0f}", c, f"{d:.4g}") for r, c, d in tests]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.plan_table.object = html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes
+        self.plan_table.text = html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes
         update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
 
     def view(self):
         inputs = pn.Card(pn.Row(pn.Column(self.drop, self.drop_error, self.points_note), self.example),
                          pn.Row(self.method, self.free, self.seed, self.axisym), self.job,
                          title="Boundary points and identification", collapsible=False)
-        plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table, title="Next tests", collapsible=False)
-        return pn.Column(inputs, pn.Row(self.table, self.warnings), pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"),
+        plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table.view(), title="Next tests", collapsible=False)
+        return pn.Column(inputs, pn.Row(self.table.view(), self.warnings.view()), pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"),
                          plan, name="Identify")

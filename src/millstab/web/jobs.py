@@ -1,5 +1,5 @@
 """Long work off the page's thread: a worker thread runs the service function, the page polls its
-progress every 100 ms (a periodic callback in the session, so widgets are only touched from the
+progress every 250 ms (a periodic callback in the session, so widgets are only touched from the
 session's own event loop), and a cancel button stops it through :class:`millstab.api.CancelToken`."""
 
 from __future__ import annotations
@@ -15,10 +15,13 @@ import panel as pn
 
 from millstab import api
 from millstab.errors import InputError
+from millstab.web.common import TextBox
 
 #: worker threads shared by all sessions of one server (the machine's cores are the limit anyway)
 EXECUTOR = ThreadPoolExecutor(max_workers=2, thread_name_prefix="millstab-job")
-POLL_MS = 100
+#: how often the page shows progress [ms]: each update costs the server's thread (and the GIL the worker
+#: needs) tens of ms on a loaded machine, so not more often
+POLL_MS = 250
 
 
 class JobBar(pn.viewable.Viewer):
@@ -36,7 +39,7 @@ class JobBar(pn.viewable.Viewer):
                                         css_classes=[f"{css}-cancel"], width=90)
         self.bar = pn.indicators.Progress(value=0, max=100, active=False, width=260, css_classes=[f"{css}-bar"],
                                           visible=False)
-        self.status = pn.pane.HTML("", css_classes=[f"{css}-status"], min_width=300)
+        self.status = TextBox(f"{css}-status", width=520, height=24)
         self._token: api.CancelToken | None = None
         self._future = None
         self._cb = None
@@ -46,7 +49,7 @@ class JobBar(pn.viewable.Viewer):
         self.cancel.on_click(lambda e: self._token and self._token.cancel())
 
     def __panel__(self):
-        return pn.Column(pn.Row(self.run, self.cancel, self.bar), self.status)
+        return pn.Column(pn.Row(self.run, self.cancel, self.bar), self.status.view())
 
     @property
     def busy(self) -> bool:
@@ -74,7 +77,7 @@ class JobBar(pn.viewable.Viewer):
         self._future = EXECUTOR.submit(run)
         self.run.disabled, self.cancel.disabled = True, False
         self.bar.visible, self.bar.value, self.bar.active = True, -1, True
-        self.status.object = "running …"
+        self.status.text = "running …"
         self._done = done
         self._cb = pn.state.add_periodic_callback(self._poll, period=POLL_MS)
 
@@ -82,11 +85,10 @@ class JobBar(pn.viewable.Viewer):
         fut = self._future
         with self._lock:
             stage, n, total = self._report
-        if total:
-            self.bar.value = int(100 * min(n, total) / total)
-        else:
-            self.bar.value = -1  # indeterminate
-        self.status.object = f"running: {stage} ({n}{f'/{total}' if total else ''}) {time.perf_counter() - self._t0:.1f} s"
+        value = int(100 * min(n, total) / total) if total else -1  # -1: indeterminate (total unknown)
+        if self.bar.value != value:
+            self.bar.value = value
+        self.status.text = f"running: {stage} ({n}{f'/{total}' if total else ''}) {time.perf_counter() - self._t0:.1f} s"
         if fut is None or not fut.done():
             return
         self._cb.stop()
@@ -97,16 +99,16 @@ class JobBar(pn.viewable.Viewer):
         try:
             result, caught = fut.result()
         except api.Cancelled:
-            self.status.object = '<span class="ms-error">cancelled</span>'
+            self.status.text = '<span class="ms-error">cancelled</span>'
             return
         except InputError as exc:
-            self.status.object = f'<span class="ms-error">{_esc(str(exc))}</span>'
+            self.status.text = f'<span class="ms-error">{_esc(str(exc))}</span>'
             return
         except Exception as exc:  # a bug must not take the page down: show it, keep the page
             traceback.print_exc()
-            self.status.object = f'<span class="ms-error">failed: {_esc(type(exc).__name__)}: {_esc(str(exc))}</span>'
+            self.status.text = f'<span class="ms-error">failed: {_esc(type(exc).__name__)}: {_esc(str(exc))}</span>'
             return
-        self.status.object = f'<span class="ms-done">done in {elapsed:.2f} s</span>'
+        self.status.text = f'<span class="ms-done">done in {elapsed:.2f} s</span>'
         self._done(result, caught)
 
 

@@ -14,7 +14,8 @@ from millstab.errors import InputError
 from millstab.stability import ENGINES
 from millstab.web.common import error_html, esc
 from millstab.web.jobs import JobBar
-from millstab.web.plots import TextBox, set_line, set_points, set_raw, sld_figure
+from millstab.web.common import TextBox
+from millstab.web.plots import set_line, set_points, set_raw, sld_figure
 from millstab.web.state import Session
 
 #: engines fast enough to run in the page's own callback
@@ -24,7 +25,7 @@ INLINE_ENGINES = ("zoa",)
 class LobesTab:
     def __init__(self, session: Session):
         self.s = session
-        self.fig, self.src = sld_figure(name="sld")
+        self.fig, self.src = sld_figure(name="sld", second="")
         self.engine = pn.widgets.Select(label="engine", options=list(ENGINES), value="zoa", width=120,
                                         css_classes=["engine"])
         self.raw = pn.widgets.Checkbox(label="raw lobes (zoa)", value=False, css_classes=["raw-lobes"])

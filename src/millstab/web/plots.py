@@ -21,33 +21,6 @@ def update(source: ColumnDataSource, data: dict) -> None:
         source.data = data
 
 
-class TextBox:
-    """An HTML line the page rewrites often (the SLD summary): a Bokeh ``Div`` whose ``text`` changes
-    without re-walking the document's models, as a Panel HTML pane's update does (≈ 0.3 s on a busy page)."""
-
-    def __init__(self, css: str, width: int = 1000, height: int = 44):
-        from bokeh.models import Div
-
-        self.div = Div(text="", css_classes=[css], width=width, height=height)  # fixed: no re-layout
-
-    @property
-    def text(self) -> str:
-        return self.div.text
-
-    @text.setter
-    def text(self, html: str) -> None:
-        import panel as pn
-
-        if html != self.div.text:
-            with pn.io.unlocked():
-                self.div.text = html
-
-    def view(self):
-        import panel as pn
-
-        return pn.pane.Bokeh(self.div)
-
-
 def _finite(a: np.ndarray) -> np.ndarray:
     """NaN instead of ±inf (JSON cannot carry inf; Bokeh leaves a gap at NaN)."""
     a = np.asarray(a, float).copy()
@@ -55,19 +28,22 @@ def _finite(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def sld_figure(title: str = "", name: str = "sld") -> tuple:
-    """(figure, sources): the limit line with hover, a second line (fit start / compared engine), raw lobes
-    and one scatter per point label."""
+def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second: str = "second curve",
+               raw: bool = True) -> tuple:
+    """(figure, sources): the limit line (legend ``limit``) with hover, a second line (legend ``second``: the
+    fit's start), the raw lobes (with ``raw``) and one scatter per point label."""
     fig = figure(height=430, sizing_mode="stretch_width", title=title, x_axis_label="spindle speed [rpm]",
                  y_axis_label="axial depth limit [mm]", tools="pan,box_zoom,wheel_zoom,reset,save", name=f"{name}_fig")
     src = {"env": ColumnDataSource(dict(rpm=[], blim_mm=[], lobe=[], chatter_hz=[]), name=f"{name}_source"),
            "other": ColumnDataSource(dict(rpm=[], blim_mm=[]), name=f"{name}_other"),
            "raw": ColumnDataSource(dict(xs=[], ys=[]), name=f"{name}_raw"),
            "plan": ColumnDataSource(dict(rpm=[], depth_mm=[]), name=f"{name}_plan")}
-    fig.multi_line("xs", "ys", source=src["raw"], color="#9e9e9e", line_width=0.8, alpha=0.7, legend_label="raw lobes")
-    line = fig.line("rpm", "blim_mm", source=src["env"], color="#1565c0", line_width=2, legend_label="limit")
-    fig.line("rpm", "blim_mm", source=src["other"], color="#6a1b9a", line_width=1.5, line_dash="dotted",
-             legend_label="second curve")
+    if raw:
+        fig.multi_line("xs", "ys", source=src["raw"], color="#9e9e9e", line_width=0.8, alpha=0.7, legend_label="raw lobes")
+    line = fig.line("rpm", "blim_mm", source=src["env"], color="#1565c0", line_width=2, legend_label=limit)
+    if second:
+        fig.line("rpm", "blim_mm", source=src["other"], color="#6a1b9a", line_width=1.5, line_dash="dotted",
+                 legend_label=second)
     for label, (text, color, marker) in MARKERS.items():
         key = f"pts_{text}"
         src[key] = ColumnDataSource(dict(rpm=[], depth_mm=[]), name=f"{name}_{key}")

@@ -38,7 +38,7 @@ class JobBar(pn.viewable.Viewer):
         self.cancel = pn.widgets.Button(label="Cancel", color="warning", disabled=True,
                                         css_classes=[f"{css}-cancel"], width=90)
         self.bar = pn.indicators.Progress(value=0, max=100, active=False, width=260, css_classes=[f"{css}-bar"],
-                                          visible=False)
+                                          visible=False)  # active=False: no animated stripes
         self.status = TextBox(f"{css}-status", width=520, height=24)
         self._token: api.CancelToken | None = None
         self._future = None
@@ -76,7 +76,9 @@ class JobBar(pn.viewable.Viewer):
 
         self._future = EXECUTOR.submit(run)
         self.run.disabled, self.cancel.disabled = True, False
-        self.bar.visible, self.bar.value, self.bar.active = True, -1, True
+        # the bar appears once a stage reports its total: an indeterminate bar's animation costs the browser
+        # CPU that the work needs on a small machine; the status line shows the iteration meanwhile
+        self.bar.visible, self.bar.value = False, 0
         self.status.text = "running …"
         self._done = done
         self._cb = pn.state.add_periodic_callback(self._poll, period=POLL_MS)
@@ -85,16 +87,21 @@ class JobBar(pn.viewable.Viewer):
         fut = self._future
         with self._lock:
             stage, n, total = self._report
-        value = int(100 * min(n, total) / total) if total else -1  # -1: indeterminate (total unknown)
-        if self.bar.value != value:
-            self.bar.value = value
+        if total:
+            value = int(100 * min(n, total) / total)
+            if self.bar.value != value:
+                self.bar.value = value
+            if not self.bar.visible:
+                self.bar.visible = True
+        elif self.bar.visible:
+            self.bar.visible = False
         self.status.text = f"running: {stage} ({n}{f'/{total}' if total else ''}) {time.perf_counter() - self._t0:.1f} s"
         if fut is None or not fut.done():
             return
         self._cb.stop()
         self._cb = None
         self.run.disabled, self.cancel.disabled = False, True
-        self.bar.active, self.bar.visible = False, False
+        self.bar.visible = False
         elapsed = time.perf_counter() - self._t0
         try:
             result, caught = fut.result()

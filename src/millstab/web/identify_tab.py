@@ -119,7 +119,7 @@ class IdentifyTab:
         update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
 
     def view(self):
-        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.drop_error, self.points_note), self.example),
+        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.drop_error, self.points_note), self.example, margin=(0, 0, 20, 0)),
                          pn.Row(self.method, self.free, self.seed, self.axisym), self.job,
                          title="Boundary points and identification", collapsible=False)
         plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table.view(), title="Next tests", collapsible=False)

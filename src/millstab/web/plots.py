@@ -82,26 +82,37 @@ def set_raw(source: ColumnDataSource, lobes) -> None:
     update(source, dict(xs=[np.asarray(lb.rpm, float) for lb in lobes], ys=[_finite(np.asarray(lb.depth) * 1e3) for lb in lobes]))
 
 
-def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap"):
-    """P(stable) over rpm × depth with the 5/50/95 % contours and the cuts."""
-    fig = figure(height=430, sizing_mode="stretch_width", title="P(stable): 5 / 50 / 95 % boundaries",
+def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):
+    """P(stable) over rpm × depth with the 5/50/95 % contours, the cuts, and ``marks``: (rpm, depth [mm],
+    legend label) of the recommended cut and the next test."""
+    fig = figure(height=430, sizing_mode="stretch_width", title="P(stable), with its 5 % (dashed), 50 % (solid) and 95 % (dotted) boundaries",
                  x_axis_label="spindle speed [rpm]", y_axis_label="axial depth [mm]",
                  x_range=(float(rpm[0]), float(rpm[-1])), y_range=(float(depth_mm[0]), float(depth_mm[-1])),
                  tools="pan,box_zoom,wheel_zoom,reset,save,hover", name=f"{name}_fig",
                  tooltips=[("speed", "$x{0,0} rpm"), ("depth", "$y{0.00} mm"), ("P(stable)", "@image{0.00}")])
+    from bokeh.models import ColorBar, LinearColorMapper
     from bokeh.palettes import RdYlGn11
 
+    colors = LinearColorMapper(palette=list(reversed(RdYlGn11)), low=0.0, high=1.0)  # red: chatter, green: stable
     fig.image(image=[np.asarray(pm, float).T], x=float(rpm[0]), y=float(depth_mm[0]), dw=float(rpm[-1] - rpm[0]),
-              dh=float(depth_mm[-1] - depth_mm[0]), palette=list(reversed(RdYlGn11)), name=f"{name}_image")
+              dh=float(depth_mm[-1] - depth_mm[0]), color_mapper=colors, name=f"{name}_image")
+    fig.add_layout(ColorBar(color_mapper=colors, title="P(stable)", width=12), "right")
     if np.nanmin(pm) < 0.95 and np.nanmax(pm) > 0.05:
+        # black lines read on both ends of the red-green map: 5 % dashed, 50 % solid, 95 % dotted
         fig.contour(np.asarray(rpm, float), np.asarray(depth_mm, float), np.asarray(pm, float).T, levels=[0.05, 0.5, 0.95],
-                    line_color=["#b71c1c", "black", "#1b5e20"], line_width=[1.5, 2, 1.5], line_dash=["dashed", "solid", "dashed"])
+                    line_color="black", line_width=[1.5, 2.5, 1.5], line_dash=["dashed", "solid", "dotted"])
     if cuts is not None:
-        for label, (text, color, marker) in MARKERS.items():
+        styles = {"stable": dict(marker="circle", fill_color="white", line_color="black", size=9),
+                  "chatter": dict(marker="x", line_color="black", line_width=2.5, size=11),
+                  "marginal": dict(marker="triangle", fill_color="#ef6c00", line_color="black", size=10),
+                  "": dict(marker="diamond", fill_color="#1565c0", line_color="white", size=9)}
+        for label, style in styles.items():
             m = cuts.label == label
             if m.any():
-                fig.scatter(cuts.rpm[m], cuts.depth_mm[m], color=color, marker=marker, size=8, legend_label=text,
-                            line_color="white" if marker != "x" else color)
+                fig.scatter(cuts.rpm[m], cuts.depth_mm[m], legend_label=MARKERS[label][0], **style)
+    for (r, d, text), (marker, color) in zip(marks, (("star", "#1565c0"), ("square_pin", "#6a1b9a"))):
+        fig.scatter([r], [d], marker=marker, size=18, fill_color=color, line_color="white", legend_label=text)
+    if cuts is not None or marks:
         fig.legend.location = "top_right"
     return fig
 

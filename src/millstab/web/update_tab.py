@@ -84,8 +84,11 @@ class UpdateTab:
     def show_map(self, result, caught) -> None:
         rpm, depth, pm, rec = result
         self.s.pmap, self.s.rec = (rpm, depth, pm), rec
-        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts), sizing_mode="stretch_width")]
         nt = rec.next_test
+        marks = [(rec.rpm, rec.depth_mm, "recommended")]
+        if "rpm" in nt and "depth_mm" in nt:
+            marks.append((nt["rpm"], nt["depth_mm"], "next test"))
+        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks), sizing_mode="stretch_width")]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
         self.rec.text = (f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
@@ -93,7 +96,7 @@ class UpdateTab:
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
 
     def view(self):
-        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.drop_error, self.cuts_note), self.use_points),
+        inputs = pn.Card(pn.Column(self.drop, self.drop_error, self.cuts_note), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.map_job), self.rec.view(), title="P(stable) and recommendation",

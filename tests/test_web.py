@@ -240,6 +240,12 @@ def test_csv_download_equals_cli(app, tmp_path):
         page.locator(".dl-config-toml button").click()
     toml = tmp_path / "session.toml"
     info.value.save_as(toml)
+    assert info.value.suggested_filename == "ex3.toml"
+    with page.expect_download() as info:
+        page.locator(".dl-lobes-svg button").click()
+    svg = tmp_path / "lobes.svg"
+    info.value.save_as(svg)
+    assert svg.read_text().lstrip().startswith("<?xml") and "<svg" in svg.read_text()
     cli = tmp_path / "cli.csv"
     assert main(["lobes", "example:ex3", "--out", str(cli)]) == 0
     assert got.read_bytes() == cli.read_bytes()

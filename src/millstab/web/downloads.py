@@ -53,7 +53,8 @@ class DownloadsTab:
         self.buttons = []
         for label, filename, available, make in self.items():
             stem = filename.replace(".", "-")
-            button = pn.widgets.FileDownload(callback=make, filename=filename, label=f"{label}: {filename}",
+            text = label if filename == "config.toml" else f"{label}: {filename}"  # the config's file is named after it
+            button = pn.widgets.FileDownload(callback=make, filename=filename, label=text,
                                              width=440, css_classes=[f"dl-{stem}"], visible=False)
             self.buttons.append((available, button))
         self.config_button = self.buttons[0][1]

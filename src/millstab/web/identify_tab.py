@@ -38,9 +38,11 @@ class IdentifyTab:
         from millstab.identify import METHODS
 
         self.s = session
-        self.drop = dropper("boundary points CSV: rpm,depth_mm[,label][,weight]", [".csv", ".txt"], css="drop-points")
+        self.drop = dropper("boundary points CSV", [".csv", ".txt"], css="drop-points")
         self.drop_error = pn.pane.HTML("", css_classes=["e-points-upload"])
         self.points_note = pn.pane.HTML("", css_classes=["points-note"])
+        self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm[,label][,weight][,chatter_hz]; '
+                                   'boundary points have no label</span>', width=330)
         self.example = pn.widgets.Button(label=f"Use example:{list_example_points()[0]}", width=200,
                                          css_classes=["example-points"])
         self.method = pn.widgets.Select(label="method", options=list(METHODS), value="lsq", width=100)
@@ -119,7 +121,7 @@ class IdentifyTab:
         update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
 
     def view(self):
-        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.drop_error, self.points_note), self.example, margin=(0, 0, 20, 0)),
+        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.format, self.drop_error, self.points_note), self.example, margin=(0, 0, 20, 0)),
                          pn.Row(self.method, self.free, self.seed, self.axisym), self.job,
                          title="Boundary points and identification", collapsible=False)
         plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table.view(), title="Next tests", collapsible=False)

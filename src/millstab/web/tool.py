@@ -89,7 +89,7 @@ class ToolTab:
         self.structure_kind = pn.widgets.RadioButtonGroup(options=["modes", "measured FRF"], value="modes",
                                                           css_classes=["structure-kind"])
         self.modes = {d: ModeList(d, ch) for d in ("x", "y")}
-        self.frf_drop = {t: dropper(f"H{t} FRF (.csv, .frf, .uff, .unv)", [".csv", ".frf", ".uff", ".unv", ".txt"],
+        self.frf_drop = {t: dropper(f"H{t} FRF: .csv, .frf, .uff", [".csv", ".frf", ".uff", ".unv", ".txt"],
                                     MAX_FRF_BYTES, css=f"drop-frf-{t}") for t in FRF_TERMS}
         self.frf_error = {t: pn.pane.HTML("", css_classes=[f"e-structure-frf-{t}"]) for t in FRF_TERMS}
         self.frf_files: dict[str, str] = {}

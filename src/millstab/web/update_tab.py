@@ -23,7 +23,9 @@ MAP_SPEEDS = 240
 class UpdateTab:
     def __init__(self, session: Session):
         self.s = session
-        self.drop = dropper("test cuts CSV: rpm,depth_mm,label[,weight][,chatter_hz]", [".csv", ".txt"], css="drop-cuts")
+        self.drop = dropper("test cuts CSV", [".csv", ".txt"], css="drop-cuts")
+        self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm,label[,weight][,chatter_hz]; label '
+                                   'stable, chatter or marginal</span>', width=330)
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
         self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
         self.use_points = pn.widgets.Checkbox(label="use the boundary points (Identify) as well", value=False)
@@ -96,7 +98,7 @@ class UpdateTab:
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
 
     def view(self):
-        inputs = pn.Card(pn.Column(self.drop, self.drop_error, self.cuts_note), self.use_points,
+        inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.map_job), self.rec.view(), title="P(stable) and recommendation",

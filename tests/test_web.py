@@ -227,6 +227,30 @@ def test_bad_uploads_show_errors_and_keep_state(app, tmp_path):
     page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
 
 
+def test_measured_frf_uploads_give_the_frf_sld(app, tmp_path):
+    from millstab.io.frf_files import write_frf_csv
+
+    page = app
+    f = np.linspace(200.0, 2500.0, 1200)
+    files = {}
+    for term, (fn, k, zeta) in {"xx": (900.0, 9e6, 0.02), "yy": (950.0, 10e6, 0.01)}.items():
+        r = f / fn
+        files[term] = write_frf_csv(tmp_path / f"tap_{term}.csv", f, 1.0 / (k * (1 - r**2 + 2j * zeta * r)))
+    T.tab(page, "Tool and cut")
+    for term, path in files.items():
+        T.upload(page, f"drop-frf-{term}", path)
+    page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
+    t = api.config_fields(api.config("example:ex3"))
+    t["structure"] = {"frf": {term: p.name for term, p in files.items()}}
+    cfg = api.config_from_fields(t, "ex3", tmp_path)  # the same files through the validators, here
+    wait_sld(page, api.lobes(cfg, api.speeds(None, cfg)).envelope.depth_mm)
+    T.tab(page, "Downloads")  # no config TOML for a measured FRF: the page says why
+    page.locator(".downloads-note").filter(has_text="measured-FRF").wait_for()
+    T.tab(page, "Tool and cut")
+    page.locator(".structure-kind button", has_text="modes").first.click()
+    wait_sld(page, expected_sld())
+
+
 def test_csv_download_equals_cli(app, tmp_path):
     from millstab.cli import main
 

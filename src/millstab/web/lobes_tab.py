@@ -90,7 +90,7 @@ class LobesTab:
                 set_line(self.src[key], env.rpm, env.depth_mm, lobe=np.asarray(env.lobe),
                          chatter_hz=np.asarray(env.chatter_hz, float))
         self.s.raw = bool(self.raw.value)
-        set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None)
+        set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None, env.rpm, env.depth_mm)
         cfg = result.config
         title = f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g} ({result.engine})"
         if self.fig.title.text != title:  # an unchanged property is not sent (every change re-lays the page out)

@@ -74,12 +74,25 @@ def set_line(source: ColumnDataSource, rpm, depth_mm, **extra) -> None:
     update(source, dict(rpm=np.asarray(rpm, float), blim_mm=_finite(depth_mm), **extra))
 
 
-def set_raw(source: ColumnDataSource, lobes) -> None:
-    """The raw zero-order lobes (millstab.stability.zoa.Lobe: rpm, depth [m])."""
+def set_raw(source: ColumnDataSource, lobes, rpm=None, depth_mm=None) -> None:
+    """The raw zero-order lobes (millstab.stability.zoa.Lobe: rpm, depth [m]), cut to the speeds ``rpm``
+    [rev/min] and to twice the largest finite limit ``depth_mm`` (a lobe's branches run far outside the
+    diagram and would set its axes)."""
     if not lobes:
         update(source, dict(xs=[], ys=[]))
         return
-    update(source, dict(xs=[np.asarray(lb.rpm, float) for lb in lobes], ys=[_finite(np.asarray(lb.depth) * 1e3) for lb in lobes]))
+    lo, hi = (float(np.min(rpm)), float(np.max(rpm))) if rpm is not None else (-np.inf, np.inf)
+    d = np.asarray(depth_mm, float) if depth_mm is not None else np.array([np.inf])
+    top = 2.0 * float(np.max(d[np.isfinite(d)])) if np.isfinite(d).any() else np.inf
+    xs, ys = [], []
+    for lb in lobes:
+        x = np.asarray(lb.rpm, float)
+        y = _finite(np.asarray(lb.depth) * 1e3)
+        y[(x < lo) | (x > hi) | (y > top)] = np.nan
+        if np.isfinite(y).any():
+            xs.append(x)
+            ys.append(y)
+    update(source, dict(xs=xs, ys=ys))
 
 
 def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):

@@ -1,10 +1,10 @@
-# millstab: the two commands a newcomer needs are `make demo` and `make test`.
+# millstab: the commands a newcomer needs are `make demo`, `make test` and `make app`.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test app bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,12 +21,18 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+## app: install the app extra into .venv and serve the browser interface on http://127.0.0.1:5006/
+app: $(STAMP)
+	$(BIN)/python -m pip install -q -e ".[app]"
+	$(BIN)/millstab app
+
 ## bench: print the speed figures (envelope throughput, SDM, identification, Monte Carlo)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_envelope.py
 	$(BIN)/python benchmarks/bench_sdm.py
 	$(BIN)/python benchmarks/bench_identify.py
 	$(BIN)/python benchmarks/bench_sensitivity.py
+	$(BIN)/python benchmarks/bench_app.py
 
 clean:
 	rm -rf $(VENV) millstab-report .pytest_cache .numba_cache

@@ -102,3 +102,11 @@ def test_identification_reports_progress_and_can_be_cancelled():
     token.cancel()
     with pytest.raises(api.Cancelled):
         api.identify(cfg, pts, free="fn_x,k_x", progress=token.watch())
+
+
+def test_depth_grid_spans_up_to_the_maximum_and_refuses_nonsense():
+    d = api.depth_grid(6.0, 4)
+    np.testing.assert_allclose(d, [1.5, 3.0, 4.5, 6.0])
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(InputError, match="> 0 mm"):
+            api.depth_grid(bad)

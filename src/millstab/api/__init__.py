@@ -6,7 +6,8 @@ same error messages. Long tasks take ``progress(stage, done, total)`` (:mod:`mil
 raising :class:`Cancelled` from it (or using a :class:`CancelToken`) stops the work.
 
 Inputs (:mod:`~millstab.api.inputs`): :func:`config`, :func:`config_from_text`, :func:`points`,
-:func:`points_from_text`, :func:`speeds`, :func:`modal` (a measured FRF → its fitted modes).
+:func:`points_from_text`, :func:`config_from_fields` / :func:`config_fields` (a form's fields),
+:func:`check_size` (an upload's size, before reading it), :func:`speeds`, :func:`modal` (a measured FRF → its fitted modes).
 
 Tasks: :func:`lobes` (SLD, any registered engine), :func:`identify`, :func:`design` (next test speeds),
 :func:`update` / :func:`p_stable` / :func:`recommend` (Bayesian updating and decisions),
@@ -21,18 +22,20 @@ frequencies Hz, stiffness N/m.
 
 from millstab.api.identify import (check_fit_matches, design, design_figure, fit_curves, fit_figure, fit_rpm,
                                    history_figure, identify)
-from millstab.api.inputs import config, config_from_text, config_toml, modal, points, points_from_text, speeds
+from millstab.api.inputs import (check_size, config, config_fields, config_from_fields, config_from_text, config_toml,
+                                 modal, points, points_from_text, speeds)
 from millstab.api.lobes import Lobes, envelope, lobes, lobes_figure, raw_lobes
 from millstab.api.progress import CancelToken, Cancelled, Progress
 from millstab.api.sensitivity import DEFAULT_N as SENSITIVITY_DEFAULT_N
 from millstab.api.sensitivity import PRESETS as SENSITIVITY_PRESETS
 from millstab.api.sensitivity import Study, sensitivity
 from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
-from millstab.api.update import (corner_figure, map_figure, map_table, p_stable, posterior_from_json,
+from millstab.api.update import (corner_figure, depth_grid, map_figure, map_table, p_stable, posterior_from_json,
                                  recommend, update)
 
-__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "CancelToken", "Cancelled", "Lobes", "Progress", "Study", "check_fit_matches", "config", "config_from_text",
-           "config_toml", "corner_figure", "design", "design_figure", "envelope", "fit_curves",
+__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "CancelToken", "Cancelled", "Lobes", "Progress", "Study",
+           "check_fit_matches", "check_size", "config", "config_fields", "config_from_fields", "config_from_text",
+           "config_toml", "corner_figure", "depth_grid", "design", "design_figure", "envelope", "fit_curves",
            "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "labels_table", "lobes", "lobes_figure",
            "map_figure", "map_table", "modal", "modal_fit", "p_stable", "points", "points_from_text", "posterior_from_json",
            "raw_lobes", "recommend", "reproduce", "sensitivity", "simulate_cut", "speeds", "update"]

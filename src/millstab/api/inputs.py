@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.io.config import Config, config_to_toml, load_config, parse_config
+from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
 from millstab.parsing import parse_rpm_range
@@ -21,6 +21,8 @@ from millstab.parsing import parse_rpm_range
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
 #: the largest text (an upload) parsed as a config or a point set [bytes]
 MAX_TEXT_BYTES = 5_000_000
+#: the largest measured-FRF file accepted as an upload [bytes] (a UFF file holds many records)
+MAX_FRF_BYTES = 20_000_000
 
 
 def config(source: Config | str | os.PathLike) -> Config:
@@ -43,6 +45,36 @@ def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
     """A point set parsed from CSV text ``rpm,depth_mm[,label][,weight][,chatter_hz]`` (an upload), with the
     same checks as a file; ``name`` names it in messages."""
     return parse_points(_text(text, name), name)
+
+
+def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike | None = None) -> Config:
+    """A config from the parsed-TOML form of its tables (``{"cutting": {...}, "structure": {...}}``, values
+    numbers or strings with units exactly as in a TOML file): a form's fields go through the validators of
+    a file. ``base_dir`` resolves the file names of a ``[structure.frf]`` table (the web app's per-session
+    folder of uploaded FRF files).
+
+    Raises:
+        InputError: as for a config file, naming the field (``cutting.kt``, ``structure.x[0].fn``).
+    """
+    return config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None)
+
+
+def config_fields(cfg: Config) -> dict:
+    """The tables of ``cfg`` as :func:`config_from_fields` takes them (values with units as
+    :func:`config_toml` writes them): ``config_from_fields(config_fields(cfg))`` gives the same config."""
+    import tomllib
+
+    return tomllib.loads(config_to_toml(cfg))
+
+
+def check_size(nbytes: int, name: str, limit: int = MAX_TEXT_BYTES) -> None:
+    """Refuse an upload of ``nbytes`` bytes larger than ``limit`` before anything reads it.
+
+    Raises:
+        InputError: naming the file, its size and the limit.
+    """
+    if nbytes > limit:
+        raise InputError(name, f"{nbytes / 1e6:.1f} MB", f"is too large (at most {limit / 1e6:g} MB)")
 
 
 def config_toml(cfg: Config) -> str:
@@ -81,9 +113,7 @@ def modal(cfg: Config, modes: int | str = "auto") -> tuple[Config, str | None]:
 
 
 def _text(text: str | bytes, name: str) -> str:
-    size = len(text)
-    if size > MAX_TEXT_BYTES:
-        raise InputError(name, f"{size / 1e6:.1f} MB", f"is too large (at most {MAX_TEXT_BYTES / 1e6:g} MB)")
+    check_size(len(text), name)
     if isinstance(text, bytes):
         text = decode_text(text, name, name, "text file (CSV or TOML)")
     return text.lstrip("\ufeff")

@@ -41,6 +41,19 @@ def posterior_from_json(doc, source: str = "posterior"):
     return Posterior.from_json(doc, str(source))
 
 
+def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.ndarray:
+    """``n`` depths evenly spaced up to ``max_mm`` [mm]: max/n, 2·max/n, …, max (a P(stable) map's axis).
+
+    Raises:
+        InputError: ``max_mm`` not a finite number > 0, or ``n`` < 2.
+    """
+    if not (np.isfinite(max_mm) and max_mm > 0):
+        raise InputError(field, max_mm, "must be a depth > 0 mm")
+    if n < 2:
+        raise InputError("depths", n, "need at least 2 depths")
+    return np.arange(1, n + 1) * (max_mm / n)
+
+
 def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
     """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones.
 

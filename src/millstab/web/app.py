@@ -1,0 +1,40 @@
+"""The page: one :class:`~millstab.web.state.Session` and the five tabs per browser tab."""
+
+from __future__ import annotations
+
+import panel as pn
+
+from millstab.web.common import CSS
+from millstab.web.downloads import DownloadsTab
+from millstab.web.identify_tab import IdentifyTab
+from millstab.web.lobes_tab import LobesTab
+from millstab.web.plots import preview_figure
+from millstab.web.state import Session
+from millstab.web.tool import ToolTab
+from millstab.web.update_tab import UpdateTab
+
+
+def create_app():
+    """Build one browser tab's page (``pn.serve`` calls this per session)."""
+    pn.extension("filedropper", raw_css=[CSS], notifications=False)
+    session = Session()
+    tool = ToolTab(session)  # validates the form and sets session.cfg first, so the other tabs start drawn
+    lobes = LobesTab(session)
+    ident = IdentifyTab(session)
+    update = UpdateTab(session)
+    downloads = DownloadsTab(session)
+    doc = pn.state.curdoc
+    if doc is not None:
+        doc.on_session_destroyed(lambda ctx: session.close())
+    preview = preview_figure(lobes.src)
+    if session.lobes is not None:
+        lobes.show(session.lobes)  # fill the preview's source too
+    tabs = pn.Tabs(tool.view(preview), lobes.view(), ident.view(), update.view(), downloads.view(), dynamic=False,
+                   css_classes=["ms-tabs"], sizing_mode="stretch_width")
+    header = pn.pane.HTML("<h2 style='margin:4px 0'>millstab: milling stability</h2>"
+                          "<span class='ms-note'>Tool and cut → Lobes → Identify → Update and recommend → Downloads"
+                          "</span>")
+    page = pn.Column(header, tabs, sizing_mode="stretch_width", css_classes=["ms-page"])
+    page.session = session  # for tests and notebooks
+    page.tabs = {"tool": tool, "lobes": lobes, "identify": ident, "update": update, "downloads": downloads}
+    return page

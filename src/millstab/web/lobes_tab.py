@@ -1,0 +1,107 @@
+"""Tab "Lobes": the SLD of the current config (any registered engine), raw lobes, hover readout and the
+uploaded points and cuts overlaid; redrawn on every valid edit of the form. The zero-order engine
+(milliseconds) runs in the page's callback; the time-domain engines run in a worker with progress."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import panel as pn
+
+from millstab import api
+from millstab.errors import InputError
+from millstab.stability import ENGINES
+from millstab.web.common import error_html, esc
+from millstab.web.jobs import JobBar
+from millstab.web.common import TextBox
+from millstab.web.plots import set_line, set_points, set_raw, sld_figure
+from millstab.web.state import Session
+
+#: engines fast enough to run in the page's own callback
+INLINE_ENGINES = ("zoa",)
+
+
+class LobesTab:
+    def __init__(self, session: Session):
+        self.s = session
+        self.fig, self.src = sld_figure(name="sld", second="")
+        self.engine = pn.widgets.Select(label="engine", options=list(ENGINES), value="zoa", width=120,
+                                        css_classes=["engine"])
+        self.raw = pn.widgets.Checkbox(label="raw lobes (zoa)", value=False, css_classes=["raw-lobes"])
+        self.summary = TextBox("lobes-summary")
+        self.error = pn.pane.HTML("", css_classes=["lobes-error"])
+        self.job = JobBar("Compute", "lobes")
+        self.job_box = pn.Column(self.job, visible=False)
+        self.job.run.on_click(lambda e: self.redraw(force=True))
+        self.engine.param.watch(lambda e: self.redraw(), "value")
+        self.raw.param.watch(lambda e: self.redraw(), "value")
+        session.param.watch(lambda e: self.redraw(), "cfg")
+        session.param.watch(lambda e: self.overlay(), ["points", "cuts"])
+        self.timing = 0.0
+        self.redraw()
+
+    def overlay(self) -> None:
+        pts = [p for p in (self.s.points, self.s.cuts) if p is not None]
+        if not pts:
+            set_points(self.src, None)
+            return
+        from millstab.io.points import PointSet
+
+        both = PointSet(np.concatenate([p.rpm for p in pts]), np.concatenate([p.depth_mm for p in pts]),
+                        np.concatenate([p.label for p in pts]))
+        set_points(self.src, both)
+
+    def redraw(self, force: bool = False) -> None:
+        cfg = self.s.cfg
+        if cfg is None:
+            return
+        self.error.object = ""
+        engine = self.engine.value
+        try:
+            rpm = api.speeds(None, cfg)
+        except InputError as exc:
+            self.error.object = error_html(str(exc))
+            return
+        if engine in INLINE_ENGINES:
+            self.job_box.visible = False
+            t0 = time.perf_counter()
+            try:
+                result = api.lobes(cfg, rpm, engine=engine)
+            except InputError as exc:
+                self.error.object = error_html(str(exc))
+                return
+            self.timing = time.perf_counter() - t0
+            self.show(result)
+            return
+        self.job_box.visible = True
+        if not force:
+            self.summary.text = (f'<span class="ms-note">{esc(engine)} takes seconds to minutes for '
+                                   f'{rpm.size} speeds: press Compute</span>')
+            return
+        self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress),
+                       lambda result, caught: self.show(result, caught))
+
+    def show(self, result, caught=()) -> None:
+        self.s.lobes = result
+        env = result.envelope
+        for key in ("env", "preview"):
+            if key in self.src:
+                set_line(self.src[key], env.rpm, env.depth_mm, lobe=np.asarray(env.lobe),
+                         chatter_hz=np.asarray(env.chatter_hz, float))
+        self.s.raw = bool(self.raw.value)
+        set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None, env.rpm, env.depth_mm)
+        cfg = result.config
+        title = f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g} ({result.engine})"
+        if self.fig.title.text != title:  # an unchanged property is not sent (every change re-lays the page out)
+            with pn.io.unlocked():
+                self.fig.title.text = title
+        notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
+        self.summary.text = "<br>".join(esc(line) for line in result.summary()) + notes
+
+    def view(self):
+        return pn.Column(pn.Row(self.engine, self.raw, self.job_box), self.error, self.summary.view(),
+                         pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"),
+                         pn.pane.HTML('<span class="ms-note">Hover the limit for speed, depth, chatter frequency and '
+                                      'lobe number. Uploaded boundary points and test cuts are drawn by label.</span>'),
+                         name="Lobes")

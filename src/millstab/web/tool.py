@@ -1,0 +1,271 @@
+"""Tab "Tool and cut": cutting conditions, structure (modes per direction, or uploaded FRF files), speeds;
+or a packaged example, or an uploaded config TOML. The fields hold values as a TOML config writes them
+(units included) and go through the config file's validators (:func:`millstab.api.config_from_fields`);
+a problem is shown next to the field it names."""
+
+from __future__ import annotations
+
+import warnings
+
+import panel as pn
+
+from millstab import api
+from millstab.datasets import list_examples
+from millstab.errors import InputError
+from millstab.web.common import Field, as_text, error_html, esc
+from millstab.web.state import Session
+from millstab.web.uploads import MAX_FRF_BYTES, MAX_TEXT_BYTES, dropper, latest, save_in
+
+DEFAULT_EXAMPLE = "ex3"
+FRF_TERMS = ("xx", "yy", "xy", "yx")
+
+
+class ModeList:
+    """The modes of one direction: rows of fn, k, zeta fields and buttons to add or remove a row."""
+
+    def __init__(self, direction: str, changed):
+        self.direction = direction
+        self.changed = changed
+        self.rows: list[tuple[Field, Field, Field]] = []
+        self.box = pn.Column(margin=0)
+        self.add = pn.widgets.Button(label=f"+ {direction} mode", width=110, css_classes=[f"add-{direction}"])
+        self.remove = pn.widgets.Button(label=f"− {direction} mode", width=110, css_classes=[f"remove-{direction}"])
+        self.add.on_click(lambda e: (self.append({"fn": "1000 Hz", "k": "10 N/um", "zeta": 0.03}), self.changed()))
+        self.remove.on_click(lambda e: (self.pop(), self.changed()))
+
+    def view(self):
+        return pn.Column(pn.pane.HTML(f"<b>{self.direction} direction</b> (one row per mode)"), self.box,
+                         pn.Row(self.add, self.remove), margin=(0, 10))
+
+    def append(self, mode: dict) -> None:
+        i = len(self.rows)
+        key = f"structure.{self.direction}[{i}]"
+        row = (Field("fn", as_text(mode["fn"]), f"{key}.fn"), Field("k", as_text(mode["k"]), f"{key}.k"),
+               Field("zeta", as_text(mode["zeta"]), f"{key}.zeta", width=90))
+        for f in row:
+            f.input.param.watch(lambda e: self.changed(), "value")
+        self.rows.append(row)
+        self.box.append(pn.Row(*(f.view() for f in row), margin=0))
+
+    def pop(self) -> None:
+        if self.rows:
+            self.rows.pop()
+            self.box.pop(-1)
+
+    def set(self, modes: list) -> None:
+        self.rows.clear()
+        self.box.clear()
+        for m in modes:
+            self.append(m)
+
+    def fields(self) -> list[Field]:
+        return [f for row in self.rows for f in row]
+
+    def tables(self) -> list[dict]:
+        return [{"fn": a.value, "k": b.value, "zeta": c.value} for a, b, c in self.rows]
+
+
+class ToolTab:
+    """The form; on every committed edit (Enter or leaving a field) it validates and sets ``session.cfg``."""
+
+    def __init__(self, session: Session):
+        self.s = session
+        self._filling = False
+        self.extra: dict = {}  # tables the form does not show ([prior], description) kept from a loaded config
+        ch = self.changed
+        self.name = Field("name", "", "name", width=200)
+        self.teeth = Field("teeth", "", "cutting.teeth", width=80)
+        self.kt = Field("kt", "", "cutting.kt")
+        self.kr = Field("kr = Kn/Kt", "", "cutting.kr", width=100)
+        self.geometry = pn.widgets.RadioButtonGroup(options=["entry/exit angles", "radial immersion"],
+                                                    value="entry/exit angles", css_classes=["geometry"])
+        self.entry = Field("entry", "", "cutting.entry")
+        self.exit = Field("exit", "", "cutting.exit")
+        self.immersion = Field("radial_immersion (a/D)", "0.2", "cutting.radial_immersion", width=150)
+        self.milling = pn.widgets.Select(label="milling", options=["down", "up"], value="down", width=90)
+        self.start = Field("start [rpm]", "", "speeds.start", width=100)
+        self.stop = Field("stop [rpm]", "", "speeds.stop", width=100)
+        self.step = Field("step [rpm]", "", "speeds.step", width=100)
+        self.structure_kind = pn.widgets.RadioButtonGroup(options=["modes", "measured FRF"], value="modes",
+                                                          css_classes=["structure-kind"])
+        self.modes = {d: ModeList(d, ch) for d in ("x", "y")}
+        self.frf_drop = {t: dropper(f"H{t} FRF: .csv, .frf, .uff", [".csv", ".frf", ".uff", ".unv", ".txt"],
+                                    MAX_FRF_BYTES, css=f"drop-frf-{t}") for t in FRF_TERMS}
+        self.frf_error = {t: pn.pane.HTML("", css_classes=[f"e-structure-frf-{t}"]) for t in FRF_TERMS}
+        self.frf_files: dict[str, str] = {}
+        for t, w in self.frf_drop.items():
+            w.param.watch(lambda e, t=t: self._frf_uploaded(t), "value")
+        self.example = pn.widgets.Select(label="packaged example", options=list_examples(), value=DEFAULT_EXAMPLE,
+                                         width=150, css_classes=["example"])
+        self.load_example = pn.widgets.Button(label="Load example", width=120, css_classes=["load-example"])
+        self.config_drop = dropper("config TOML", [".toml"], MAX_TEXT_BYTES, css="drop-config")
+        self.config_error = pn.pane.HTML("", css_classes=["e-config-upload"])
+        self.general = pn.pane.HTML("", css_classes=["e-general"])
+        self.status = pn.pane.HTML("", css_classes=["tool-status"])
+        self.load_example.on_click(lambda e: self.fill_example(self.example.value))
+        self.config_drop.param.watch(lambda e: self._config_uploaded(), "value")
+        for f in self.simple_fields():
+            f.input.param.watch(lambda e: ch(), "value")
+        for w in (self.geometry, self.milling, self.structure_kind):
+            w.param.watch(lambda e: ch(), "value")
+        self.angles_row = pn.Row(self.entry.view(), self.exit.view())
+        self.immersion_row = pn.Row(self.immersion.view(), self.milling, visible=False)
+        self.geometry.param.watch(lambda e: self._geometry_shown(), "value")
+        self.fill_example(DEFAULT_EXAMPLE)
+
+    def _geometry_shown(self) -> None:
+        angles = self.geometry.value == "entry/exit angles"
+        self.angles_row.visible, self.immersion_row.visible = angles, not angles
+
+    def simple_fields(self) -> list[Field]:
+        return [self.name, self.teeth, self.kt, self.kr, self.entry, self.exit, self.immersion, self.start, self.stop,
+                self.step]
+
+    def all_fields(self) -> list[Field]:
+        return self.simple_fields() + self.modes["x"].fields() + self.modes["y"].fields()
+
+    # --- filling the form from a config -------------------------------------------------------------------
+    def fill(self, cfg) -> None:
+        """Show ``cfg`` in the fields (values with units as a TOML config writes them)."""
+        t = api.config_fields(cfg)
+        self._filling = True
+        try:
+            c = t["cutting"]
+            self.name.input.value = t.get("name", "")
+            self.teeth.input.value, self.kt.input.value, self.kr.input.value = (as_text(c[k]) for k in ("teeth", "kt", "kr"))
+            self.geometry.value = "entry/exit angles"
+            self.entry.input.value, self.exit.input.value = as_text(c["entry"]), as_text(c["exit"])
+            sp = t.get("speeds") or {"start": 2000, "stop": 12000, "step": 20}
+            self.start.input.value, self.stop.input.value, self.step.input.value = (as_text(sp[k]) for k in ("start", "stop", "step"))
+            self.structure_kind.value = "modes"
+            for d in ("x", "y"):
+                self.modes[d].set(t.get("structure", {}).get(d, []))
+            self.extra = {k: t[k] for k in ("description",) if k in t}
+            if cfg.prior is not None:
+                self.extra["prior"] = _prior_fields(cfg.prior)
+        finally:
+            self._filling = False
+        self.changed()
+
+    def fill_example(self, name: str) -> None:
+        try:
+            self.fill(api.config(f"example:{name}"))
+        except InputError as exc:
+            self.general.object = error_html(str(exc))
+
+    def _config_uploaded(self) -> None:
+        self.config_error.object = ""
+        try:
+            got = latest(self.config_drop, MAX_TEXT_BYTES)
+            if got is None:
+                return
+            name, content = got
+            cfg = api.config_from_text(content, name)
+        except InputError as exc:
+            self.config_error.object = error_html(str(exc))
+            return
+        self.fill(cfg)
+        self.status.object = f'<span class="ms-done">loaded {esc(name)}</span>'
+
+    def _frf_uploaded(self, term: str) -> None:
+        self.frf_error[term].object = ""
+        try:
+            got = latest(self.frf_drop[term], MAX_FRF_BYTES)
+        except InputError as exc:
+            self.frf_error[term].object = error_html(str(exc))
+            return
+        if got is None:
+            self.frf_files.pop(term, None)
+        else:
+            self.frf_files[term] = save_in(self.s.folder, term, *got).name
+        self.structure_kind.value = "measured FRF"
+        self.changed()
+
+    # --- validation -------------------------------------------------------------------------------------
+    def tables(self) -> dict:
+        cutting = {"teeth": self.teeth.value, "kt": self.kt.value, "kr": self.kr.value}
+        if self.geometry.value == "entry/exit angles":
+            cutting.update(entry=self.entry.value, exit=self.exit.value)
+        else:
+            cutting.update(radial_immersion=self.immersion.value, milling=self.milling.value)
+        if self.structure_kind.value == "modes":
+            structure = {d: m.tables() for d, m in self.modes.items() if m.rows}
+        else:
+            structure = {"frf": dict(self.frf_files)}
+        out = {"name": str(self.name.input.value).strip() or "config", **self.extra, "cutting": cutting,
+               "structure": structure,
+               "speeds": {"start": self.start.value, "stop": self.stop.value, "step": self.step.value}}
+        return out
+
+    def changed(self) -> None:
+        if self._filling:
+            return
+        self._changed()
+
+    def _changed(self) -> None:
+        for f in self.all_fields():
+            f.error.object = ""
+        for t in FRF_TERMS:
+            if t in self.frf_files:  # an upload's own error (too large) stays until the next upload
+                self.frf_error[t].object = ""
+        self.general.object = ""
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                cfg = api.config_from_fields(self.tables(), "config", self.s.folder)
+        except InputError as exc:
+            self.show_error(exc)
+            self.status.object = error_html("input not valid: the diagrams show the last valid input")
+            return
+        notes = "".join(f'<div class="ms-note">{esc(w.message)}</div>' for w in caught)
+        self.status.object = f'<span class="ms-done">valid: {esc(cfg.name)}</span>{notes}'
+        self.s.cfg = cfg
+
+    def show_error(self, exc: InputError) -> None:
+        fields = {f.key: f for f in self.all_fields()}
+        key = exc.field
+        if key in fields:
+            fields[key].error.object = error_html(str(exc))
+            return
+        for t in FRF_TERMS:
+            if key.startswith(f"structure.frf.{t}"):
+                self.frf_error[t].object = error_html(str(exc))
+                return
+        self.general.object = error_html(str(exc))
+
+    # --- layout -----------------------------------------------------------------------------------------
+    def view(self, preview=None):
+        source = pn.Card(pn.Row(pn.Column(self.example, self.load_example),
+                                pn.Column(self.config_drop, self.config_error)),
+                         title="Start from a packaged example or a config TOML", collapsible=False)
+        cutting = pn.Card(pn.Row(self.name.view(), self.teeth.view(), self.kt.view(), self.kr.view()),
+                          self.geometry, self.angles_row, self.immersion_row,
+                          pn.pane.HTML('<span class="ms-note">Units as in a TOML config: kt "2173 N/mm^2" or '
+                                       '"2173 MPa"; angles "126.9 deg" (plain number = rad); fn "900 Hz"; k "9 N/um"; '
+                                       'plain numbers are SI. Press Enter or leave a field to apply.</span>'),
+                          title="Cutting conditions", collapsible=False)
+        frf = pn.GridBox(*(pn.Column(self.frf_drop[t], self.frf_error[t]) for t in FRF_TERMS), ncols=2)
+        structure = pn.Card(self.structure_kind, pn.Row(self.modes["x"].view(), self.modes["y"].view()),
+                            pn.pane.HTML("<b>or measured FRF</b> (choose \"measured FRF\"; at least xx or yy):"), frf,
+                            title="Structure (tool tip)", collapsible=False)
+        speeds = pn.Card(pn.Row(self.start.view(), self.stop.view(), self.step.view()), title="Spindle speeds",
+                         collapsible=False)
+        form = pn.Column(self.status, self.general, source, cutting, structure, speeds)
+        if preview is None:
+            return pn.Column(form, name="Tool and cut")
+        return pn.Row(form, pn.Column(pn.pane.Bokeh(preview), styles={"position": "sticky", "top": "0"}),
+                      name="Tool and cut")
+
+
+def _prior_fields(prior) -> dict:
+    """The [prior] table of a loaded config, re-written so the form's config keeps it."""
+    out = {k: float(v) for k, v in prior.spreads.items()}
+    if prior.fixed:
+        out["fixed"] = list(prior.fixed)
+    if prior.sigma_depth_m is not None:
+        out["sigma_depth"] = f"{prior.sigma_depth_m * 1e3!r} mm"
+    if prior.sigma_depth_rel is not None:
+        out["sigma_depth"] = f"{prior.sigma_depth_rel * 100!r} %"
+    if prior.sigma_chatter_hz is not None:
+        out["sigma_chatter_hz"] = f"{prior.sigma_chatter_hz!r} Hz"
+    return out

@@ -1,0 +1,105 @@
+"""Tab "Update and recommend": labelled test cuts (upload), the posterior of the modal parameters in a
+worker with progress and cancel, the P(stable) map with its 5/50/95 % boundaries, the recommended cut at a
+chosen risk and the next test cut (:mod:`millstab.api.update`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import panel as pn
+
+from millstab import api
+from millstab.web.common import TextBox, error_html, esc, html_table
+from millstab.web.identify_tab import points_upload
+from millstab.web.jobs import JobBar
+from millstab.web.plots import map_figure
+from millstab.web.state import Session
+from millstab.web.uploads import dropper
+
+#: speeds of the P(stable) map (the map's cost is speeds × posterior samples)
+MAP_SPEEDS = 240
+
+
+class UpdateTab:
+    def __init__(self, session: Session):
+        self.s = session
+        self.drop = dropper("test cuts CSV", [".csv", ".txt"], css="drop-cuts")
+        self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm,label[,weight][,chatter_hz]; label '
+                                   'stable, chatter or marginal</span>', width=330)
+        self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
+        self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
+        self.use_points = pn.widgets.Checkbox(label="use the boundary points (Identify) as well", value=False)
+        self.samples = pn.widgets.IntInput(label="samples", value=1000, start=100, step=500, width=100,
+                                           css_classes=["update-samples"])
+        self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
+        self.job = JobBar("Update", "update")
+        self.post_table = TextBox("post-table", width=None, height=None)
+        self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
+        self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01, width=120)
+        self.map_job = JobBar("Map and recommend", "map")
+        self.rec = TextBox("recommendation", width=900, height=None)
+        self.plot = pn.Column(sizing_mode="stretch_width")
+        self.drop.param.watch(lambda e: points_upload(session, "cuts", self.drop, self.drop_error, self.cuts_note), "value")
+        self.job.run.on_click(lambda e: self.run())
+        self.map_job.run.on_click(lambda e: self.map())
+
+    def run(self) -> None:
+        cfg, cuts = self.s.cfg, self.s.cuts
+        if cfg is None or cuts is None:
+            self.job.status.text = error_html("need a valid config (Tool and cut) and test cuts")
+            return
+        pts = self.s.points if self.use_points.value else None
+        n, seed = int(self.samples.value or 0), int(self.seed.value or 0)
+        self.job.start(lambda progress: api.update(cfg, cuts, pts, samples=n, seed=seed, progress=progress), self.show)
+
+    def show(self, post, caught) -> None:
+        self.s.post = post
+        theta = np.asarray(post.samples)
+        q = np.percentile(theta, [5, 50, 95], axis=0)
+        rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
+        lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
+        self.post_table.text = (html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior") +
+                                  "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
+        self.map()
+
+    def map(self) -> None:
+        post, cfg, cuts = self.s.post, self.s.cfg, self.s.cuts
+        if post is None or cfg is None:
+            self.map_job.status.text = error_html("run Update first")
+            return
+        r = np.asarray(api.speeds(None, cfg))
+        rpm = np.linspace(r.min(), r.max(), MAP_SPEEDS)
+        top = self.depth_max.value or (float(1.5 * np.max(cuts.depth_mm)) if cuts is not None else 5.0)
+        if not top or top <= 0:
+            self.map_job.status.text = error_html(f"map depth up to = {top}: must be > 0 mm")
+            return
+        risk = self.risk.value
+
+        def work(progress):
+            depth = api.depth_grid(top, field="map depth up to")
+            pm = api.p_stable(post, rpm, depth)
+            rec = api.recommend(post, risk, (float(rpm[0]), float(rpm[-1])))
+            return rpm, depth, pm, rec
+
+        self.map_job.start(work, self.show_map)
+
+    def show_map(self, result, caught) -> None:
+        rpm, depth, pm, rec = result
+        self.s.pmap, self.s.rec = (rpm, depth, pm), rec
+        nt = rec.next_test
+        marks = [(rec.rpm, rec.depth_mm, "recommended")]
+        if "rpm" in nt and "depth_mm" in nt:
+            marks.append((nt["rpm"], nt["depth_mm"], "next test"))
+        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks), sizing_mode="stretch_width")]
+        notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
+        self.rec.text = (f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
+                           f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
+                           f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, {nt.get('depth_mm', float('nan')):.3g} mm "
+                           f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
+
+    def view(self):
+        inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note), self.use_points,
+                         pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
+                         title="Test cuts and Bayesian update", collapsible=False)
+        decide = pn.Card(pn.Row(self.depth_max, self.risk, self.map_job), self.rec.view(), title="P(stable) and recommendation",
+                         collapsible=False)
+        return pn.Column(inputs, decide, self.plot, name="Update and recommend")

@@ -1,0 +1,299 @@
+"""The web app (``millstab app``) in a real browser: Playwright driving Debian's chromium.
+
+Skipped only when /usr/bin/chromium (or Panel / Playwright) is missing; CI installs chromium (.ci/run).
+Screenshots of the main views go to .test-artifacts/web/ (gitignored). Timings are printed, never
+asserted (benchmarks/bench_app.py measures them).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from millstab.web.testing import CHROMIUM, LAUNCH
+
+pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason=f"no chromium at {CHROMIUM} (apt-get install chromium)")
+pytest.importorskip("panel")
+pytest.importorskip("pytest_playwright")
+
+from millstab import api  # noqa: E402
+from millstab.datasets import points_path  # noqa: E402
+from millstab.errors import InputError  # noqa: E402
+from millstab.web import testing as T  # noqa: E402
+
+ARTIFACTS = Path(__file__).resolve().parents[1] / ".test-artifacts" / "web"
+
+
+@pytest.fixture(scope="session")
+def browser_type_launch_args(browser_type_launch_args):
+    return {**browser_type_launch_args, **LAUNCH}
+
+
+@pytest.fixture(scope="session")
+def browser_context_args(browser_context_args):
+    return {**browser_context_args, "viewport": {"width": 1400, "height": 1000}, "accept_downloads": True}
+
+
+@pytest.fixture(scope="module")
+def app_url():
+    with T.running_app() as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def app(browser, app_url):
+    """One page for the module's tests (loading one costs seconds); each test leaves the form at example ex3."""
+    context = browser.new_context(viewport={"width": 1400, "height": 1000}, accept_downloads=True)
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    T.open_app(page, app_url)
+    yield page
+    context.close()
+
+
+def shot(page, name: str) -> None:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / f"{name}.png"), full_page=True)
+
+
+def error_text(page, css: str) -> str:
+    err = page.locator(f".{css} .ms-error").first
+    err.wait_for()
+    return err.inner_text().strip()
+
+
+def expected_sld(**mode_k):
+    """The limit of example ex3 with some modes' stiffness changed, computed here through the service
+    layer (the page must show exactly these numbers)."""
+    t = api.config_fields(api.config("example:ex3"))
+    for d, k in mode_k.items():
+        t["structure"][d][0]["k"] = k
+    cfg = api.config_from_fields(t, "ex3")
+    return api.lobes(cfg, api.speeds(None, cfg)).envelope.depth_mm
+
+
+def wait_sld(page, expected, timeout: float = 60.0) -> None:
+    """Wait until the page's SLD holds ``expected`` (the service layer's numbers)."""
+    import time
+
+    t_end = time.monotonic() + timeout
+    while True:
+        got = np.array(T.source_data(page)["blim_mm"], float)
+        if got.shape == expected.shape and np.allclose(got, expected, rtol=1e-12, equal_nan=True):
+            return
+        if time.monotonic() > t_end:
+            np.testing.assert_allclose(got, expected, rtol=1e-12)
+        time.sleep(0.05)
+
+
+def test_load_edit_structure_redraws_sld(app):
+    page = app
+    shot(page, "tool_and_cut")
+    before = T.source_data(page)
+    np.testing.assert_allclose(np.array(before["blim_mm"], float), expected_sld(), rtol=1e-12)
+    ms = T.timed_edit(page, "structure.x[0].k", "5 N/um")
+    after = T.source_data(page)
+    # the page's limit is the service layer's limit of the edited structure
+    np.testing.assert_allclose(np.array(after["blim_mm"], float), expected_sld(x="5 N/um"), rtol=1e-12)
+    print(f"\nSLD redraw after an edit ({len(after['rpm'])} speeds): {ms:.0f} ms (key press to painted frame)")
+    T.tab(page, "Lobes")
+    page.locator(".raw-lobes input").check()
+    page.locator(".lobes-summary").filter(has_text="minimum limit").wait_for()
+    page.wait_for_timeout(500)
+    shot(page, "lobes")
+    page.locator(".raw-lobes input").uncheck()
+    T.tab(page, "Tool and cut")
+    T.set_field(page, "structure.x[0].k", "9 N/um")
+    wait_sld(page, expected_sld())
+
+
+def test_bad_field_shows_validator_message_and_keeps_last_sld(app):
+    page = app
+    before = T.source_data(page)["blim_mm"]
+    T.set_field(page, "cutting.kt", "2173,5 MPa")
+    with pytest.raises(InputError) as exc:
+        t = api.config_fields(api.config("example:ex3"))
+        t["cutting"]["kt"] = "2173,5 MPa"
+        api.config_from_fields(t)
+    assert error_text(page, "e-cutting-kt") == str(exc.value)  # the file validator's message, beside the field
+    assert T.source_data(page)["blim_mm"] == before
+    shot(page, "field_error")
+    T.set_field(page, "cutting.kt", "2173 MPa")
+    page.locator(".e-cutting-kt .ms-error").wait_for(state="detached")
+
+
+def test_identify_uploaded_points(app):
+    page = app
+    T.tab(page, "Identify")
+    T.upload(page, "drop-points", points_path("ex3_points"))
+    page.locator(".points-note").filter(has_text="40 points").wait_for()
+    page.locator(".identify-run button").click()
+    page.locator(".identify-status").filter(has_text="running").wait_for()  # progress while it works
+    page.locator(".identify-status").filter(has_text="done in").wait_for(timeout=90_000)
+    truth = {"fn_x": 900.0, "fn_y": 950.0, "k_x": 9e6, "k_y": 10e6}
+    rows = {}
+    for tr in page.locator(".fit-table tr").all():
+        cells = [c.strip() for c in tr.locator("td, th").all_inner_texts()]
+        rows[cells[0]] = cells
+    for name, value in truth.items():  # points of the true structure with 2 % noise: estimates near the truth
+        assert abs(float(rows[name][1]) / value - 1) < 0.05, (name, rows[name])
+    assert len([r for r in rows if r != "parameter"]) == 6
+    fit = T.source_data(page, "fit_source")
+    assert len(fit["rpm"]) == len(api.fit_rpm(api.points("example:ex3_points")))
+    page.locator(".plan-run button").click()
+    page.locator(".plan-status").filter(has_text="done in").wait_for(timeout=90_000)
+    assert page.locator(".plan-table tr").count() >= 2  # header and at least one planned speed
+    shot(page, "identify")
+    # a second run, cancelled: the page says so and keeps the first result
+    page.locator(".identify-run button").click()
+    page.locator(".identify-status").filter(has_text="running").wait_for()
+    page.locator(".identify-cancel button").click()
+    page.locator(".identify-status").filter(has_text="cancelled").wait_for()
+    assert page.locator(".fit-table tr").count() == 7
+
+
+def test_update_map_and_recommend(app, tmp_path):
+    from millstab.io.points import PointSet
+
+    page = app
+    cfg = api.config("example:ex3")
+    rpm = np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000])
+    blim = api.lobes(cfg, rpm).envelope.depth_mm
+    cuts = PointSet(np.r_[rpm, rpm], np.r_[0.6 * blim, 1.4 * blim], ["stable"] * 7 + ["chatter"] * 7)
+    path = tmp_path / "cuts.csv"
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="14 points").wait_for()
+    samples = page.locator(".update-samples input").first
+    samples.fill("200")
+    samples.press("Enter")
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="running").wait_for()
+    page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".map-status").filter(has_text="done in").wait_for(timeout=120_000)
+    rec = T.text(page, "recommendation")
+    got = re.search(r"risk 0.05: ([0-9.]+) rpm, ([0-9.]+) mm", rec)
+    assert got, rec
+    r, d = float(got.group(1)), float(got.group(2))
+    assert 3000 <= r <= 21000
+    # at 5 % risk the recommended cut is stable for the true structure the cuts were labelled by
+    assert d < api.lobes(cfg, np.array([r])).envelope.depth_mm[0]
+    page.wait_for_timeout(1000)  # let the map's image paint before the screenshot
+    shot(page, "update")
+
+
+def test_bad_uploads_show_errors_and_keep_state(app, tmp_path):
+    page = app
+    sld = T.source_data(page)["blim_mm"]
+    T.tab(page, "Identify")
+    T.upload(page, "drop-points", points_path("ex3_points"))
+    page.locator(".points-note").filter(has_text="40 points").wait_for()
+    cases = {"columns.csv": "speed,depth\n5000,1.0\n6000,1.2\n", "text.csv": "rpm,depth_mm\n5000,1.0\n6000,one\n"}
+    for name, text in cases.items():
+        path = tmp_path / name
+        path.write_text(text)
+        with pytest.raises(InputError) as exc:
+            api.points_from_text(text, name)
+        T.upload(page, "drop-points", path)
+        page.locator(".e-points-upload").filter(has_text=str(exc.value)).wait_for()
+    # the last good points stay
+    assert "40 points" in T.text(page, "points-note")
+    # a file just above the size limit: refused in the browser before a byte is sent (the server checks
+    # again with api.check_size, tested without a browser); 200 MB behaves the same without the disk
+    big = tmp_path / "big.csv"
+    with open(big, "wb") as f:
+        f.write(b"rpm,depth_mm\n" + b"5000,1.0\n" * (api.inputs.MAX_TEXT_BYTES // 9 + 10))
+    T.upload(page, "drop-points", big)
+    page.locator(".drop-points").filter(has_text="too large").wait_for()
+    shot(page, "bad_upload")
+    # an FRF with one line
+    T.tab(page, "Tool and cut")
+    one = tmp_path / "tap_xx.csv"
+    one.write_text("freq_hz,real,imag\n")
+    T.upload(page, "drop-frf-xx", one)
+    msg = error_text(page, "e-structure-frf-xx")
+    assert msg.startswith("structure.frf.xx") and "no FRF values" in msg
+    shot(page, "frf_error")
+    # the page still works and the other tabs kept their state
+    assert T.source_data(page)["blim_mm"] == sld
+    T.tab(page, "Identify")
+    assert "40 points" in T.text(page, "points-note")
+    T.tab(page, "Tool and cut")  # back to the modes: the form is valid again
+    page.locator(".structure-kind button", has_text="modes").first.click()
+    page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
+
+
+def test_measured_frf_uploads_give_the_frf_sld(app, tmp_path):
+    from millstab.io.frf_files import write_frf_csv
+
+    page = app
+    f = np.linspace(200.0, 2500.0, 1200)
+    files = {}
+    for term, (fn, k, zeta) in {"xx": (900.0, 9e6, 0.02), "yy": (950.0, 10e6, 0.01)}.items():
+        r = f / fn
+        files[term] = write_frf_csv(tmp_path / f"tap_{term}.csv", f, 1.0 / (k * (1 - r**2 + 2j * zeta * r)))
+    T.tab(page, "Tool and cut")
+    for term, path in files.items():
+        T.upload(page, f"drop-frf-{term}", path)
+    page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
+    t = api.config_fields(api.config("example:ex3"))
+    t["structure"] = {"frf": {term: p.name for term, p in files.items()}}
+    cfg = api.config_from_fields(t, "ex3", tmp_path)  # the same files through the validators, here
+    wait_sld(page, api.lobes(cfg, api.speeds(None, cfg)).envelope.depth_mm)
+    T.tab(page, "Downloads")  # no config TOML for a measured FRF: the page says why
+    page.locator(".downloads-note").filter(has_text="measured-FRF").wait_for()
+    T.tab(page, "Tool and cut")
+    page.locator(".structure-kind button", has_text="modes").first.click()
+    wait_sld(page, expected_sld())
+
+
+def test_csv_download_equals_cli(app, tmp_path):
+    from millstab.cli import main
+
+    page = app
+    T.tab(page, "Downloads")
+    with page.expect_download() as info:
+        page.locator(".dl-lobes-csv button").click()
+    got = tmp_path / "page.csv"
+    info.value.save_as(got)
+    with page.expect_download() as info:
+        page.locator(".dl-config-toml button").click()
+    toml = tmp_path / "session.toml"
+    info.value.save_as(toml)
+    assert info.value.suggested_filename == "ex3.toml"
+    with page.expect_download() as info:
+        page.locator(".dl-lobes-svg button").click()
+    svg = tmp_path / "lobes.svg"
+    info.value.save_as(svg)
+    assert svg.read_text().lstrip().startswith("<?xml") and "<svg" in svg.read_text()
+    cli = tmp_path / "cli.csv"
+    assert main(["lobes", "example:ex3", "--out", str(cli)]) == 0
+    assert got.read_bytes() == cli.read_bytes()
+    again = tmp_path / "again.csv"  # the session's config reproduces the page's table from the CLI
+    assert main(["lobes", str(toml), "--out", str(again)]) == 0
+    assert again.read_bytes() == cli.read_bytes()
+    shot(page, "downloads")
+
+
+def test_two_pages_do_not_share_data(browser, app_url):
+    a, b = browser.new_context().new_page(), browser.new_context().new_page()
+    for p in (a, b):
+        p.set_default_timeout(60_000)
+        T.open_app(p, app_url)
+    T.set_field(a, "structure.x[0].k", "3 N/um")
+    T.tab(a, "Identify")
+    a.get_by_role("button", name="Use example:ex3_points").click()
+    a.locator(".points-note").filter(has_text="40 points").wait_for()
+    # a's edit reached a's plot, not b's
+    wait_sld(a, expected_sld(x="3 N/um"))
+    np.testing.assert_allclose(np.array(T.source_data(b)["blim_mm"], float), expected_sld(), rtol=1e-12)
+    T.tab(b, "Identify")
+    assert T.text(b, "points-note") == ""
+    b.locator(".identify-run button").click()
+    b.locator(".identify-status").filter(has_text="need a valid config").wait_for()
+    for p in (a, b):
+        p.context.close()

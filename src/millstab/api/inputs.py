@@ -67,12 +67,14 @@ def config_fields(cfg: Config) -> dict:
     return tomllib.loads(config_to_toml(cfg))
 
 
-def check_size(nbytes: int, name: str, limit: int = MAX_TEXT_BYTES) -> None:
-    """Refuse an upload of ``nbytes`` bytes larger than ``limit`` before anything reads it.
+def check_size(nbytes: int, name: str, limit: int | None = None) -> None:
+    """Refuse an upload of ``nbytes`` bytes larger than ``limit`` (default :data:`MAX_TEXT_BYTES`, read at
+    the call) before anything reads it.
 
     Raises:
         InputError: naming the file, its size and the limit.
     """
+    limit = MAX_TEXT_BYTES if limit is None else limit
     if nbytes > limit:
         raise InputError(name, f"{nbytes / 1e6:.1f} MB", f"is too large (at most {limit / 1e6:g} MB)")
 

@@ -45,4 +45,28 @@ def save_figure(fig, path: PathLike, protect: Iterable[PathLike] = ()) -> Path:
         plt.close(fig)
 
 
-__all__ = ["FIGURE_FORMATS", "save_figure", "write_figure"]
+
+
+def figure_bytes(fig, fmt: str, dpi: int = 150) -> bytes:
+    """A figure as PNG, SVG or PDF bytes (a download), rendered as :func:`write_figure` renders files;
+    the figure is closed.
+
+    Raises:
+        InputError: unknown format.
+    """
+    import io
+
+    import matplotlib.pyplot as plt
+
+    ext = "." + fmt.lower().lstrip(".")
+    if ext not in FIGURE_FORMATS:
+        raise InputError("figure format", fmt, f"must be one of {', '.join(FIGURE_FORMATS)}")
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, format=ext[1:], dpi=dpi, bbox_inches="tight")
+    finally:
+        plt.close(fig)
+    return buf.getvalue()
+
+
+__all__ = ["FIGURE_FORMATS", "figure_bytes", "save_figure", "write_figure"]

@@ -110,6 +110,11 @@ def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (
     return _atomic_write(path, lambda fh: fh.write(data), protect)
 
 
+def atomic_write_bytes(path: PathLike, data: bytes, protect: Iterable[PathLike] = ()) -> Path:
+    """Write ``data`` to ``path`` atomically (as :func:`atomic_write_text`)."""
+    return _atomic_write(path, lambda fh: fh.write(data), protect)
+
+
 def ensure_folder(path: PathLike) -> Path:
     """Create the folder ``path`` (and its parents) if it does not exist; return it as a Path."""
     p = Path(path)
@@ -225,5 +230,5 @@ def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[
     return atomic_write_text(path, csv_text(header, columns), protect)
 
 
-__all__ = ["atomic_write_text", "check_not_protected", "csv_text", "ensure_folder", "read_json", "to_jsonable", "write_csv",
+__all__ = ["atomic_write_bytes", "atomic_write_text", "check_not_protected", "csv_text", "ensure_folder", "read_json", "to_jsonable", "write_csv",
            "write_json"]

@@ -16,19 +16,9 @@ from millstab.web.state import Session
 
 
 def _figure_bytes(make, fmt: str) -> io.BytesIO:
-    import matplotlib
+    from millstab.io.figures import figure_bytes
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig = make()
-    buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format=fmt, dpi=150 if fmt == "png" else None, bbox_inches="tight")
-    finally:
-        plt.close(fig)
-    buf.seek(0)
-    return buf
+    return io.BytesIO(figure_bytes(make(), fmt))
 
 
 def _text_bytes(text: str) -> io.BytesIO:

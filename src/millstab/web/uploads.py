@@ -44,5 +44,6 @@ def save_in(folder: Path, role: str, name: str, content: bytes | str) -> Path:
     characters, never a path: the file cannot land outside the folder)."""
     safe = _SAFE.sub("_", Path(name).name).lstrip(".") or "upload"
     path = folder / f"{role}_{safe}"
-    path.write_bytes(content.encode("utf-8") if isinstance(content, str) else content)
-    return path
+    from millstab.io.results import atomic_write_bytes
+
+    return atomic_write_bytes(path, content.encode("utf-8") if isinstance(content, str) else content)

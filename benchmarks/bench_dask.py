@@ -17,9 +17,14 @@ Figures printed:
   three tasks per worker queued) it is the parallel efficiency T_1 / (W · T_W);
 * ``wall_efficiency`` = (paths/s on W workers) / (W · paths/s in-process wall): meaningful only on an
   otherwise idle machine;
-* ``dedicated_time``: the main run's CPU-seconds / W, the wall time on W dedicated cores at that efficiency;
+* ``idle cluster``: CPU-seconds per wall-second the cluster burns with nothing to do (event loops,
+  heartbeats, memory monitors), timed after the main run; on a crowded machine the run's wall time is
+  stretched and this background with it, so it is removed from the study's CPU and added back at the
+  dedicated-core wall time: ``dedicated_time`` = (study CPU) / (W − idle rate), and the projected
+  parallel efficiency T_1 / (W · T_W) with T_1 the in-process CPU time of the same paths;
 * the client's peak RSS (it runs no engine work before the end of the main run) and the tracemalloc peak;
-* the per-core rate (envelopes per CPU-second) and the time it predicts for 10^8 envelopes on 256 cores.
+* the per-core rate (envelopes per second of a dedicated core: the study's own CPU, less the background)
+  and the time it predicts for 10^8 envelopes on 256 cores.
 
 Run: ``python benchmarks/bench_dask.py [--paths 1000000] [--workers 2] [--serial-paths 2000]``.
 Progress lines (``progress:``) every 10 % of the main run keep the partial rates of an interrupted run.
@@ -78,6 +83,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="worker processes of the main run")
     ap.add_argument("--serial-paths", type=int, default=2_000, help="paths of the in-process reference run")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--idle-seconds", type=float, default=20.0, help="idle cluster timed after the main run")
     args = ap.parse_args()
     print(describe())
     print(f"{_autogroup()}; load average (1, 5, 15 min) at start: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
@@ -104,6 +110,11 @@ def main() -> None:
             _, traced = tracemalloc.get_traced_memory()
             tracemalloc.stop()
             cpu_workers, cpu_client = _worker_cpu(client) - w0, _client_cpu() - c0
+            # what the cluster burns doing nothing (event loops, heartbeats, memory monitors), per wall-second:
+            # on a crowded machine the run's wall time, and with it this share of its CPU, is stretched
+            w1, c1, t1 = _worker_cpu(client), _client_cpu(), time.perf_counter()
+            time.sleep(args.idle_seconds)
+            idle = (_worker_cpu(client) - w1 + _client_cpu() - c1) / (time.perf_counter() - t1)
         peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the client alone so far
         import numba
 
@@ -116,7 +127,6 @@ def main() -> None:
     per_cpu_1, per_cpu_w = args.serial_paths / cpu_1, args.paths / cpu
     eff_cpu = per_cpu_w / per_cpu_1
     eff_wall = (args.paths / wall) / (args.workers * args.serial_paths / wall_1)
-    env_core = per_cpu_w * ENVELOPES_PER_PATH
     print(f"in-process (no dask), {args.serial_paths} paths: {per_cpu_1:.1f} paths per CPU-s; wall {wall_1:.1f} s "
           f"({args.serial_paths / wall_1:.1f} paths/s)")
     print(f"{args.workers} workers, {args.paths} paths ({ENVELOPES_PER_PATH * args.paths} envelopes): wall {wall:.1f} s "
@@ -124,11 +134,19 @@ def main() -> None:
           f"client+scheduler {cpu_client:.1f}) = {per_cpu_w:.1f} paths per CPU-s")
     print("mean MSE [mm^2]: " + ", ".join(f"{n} {m:.5f}" for n, m in zip(res.names, res.mean)))
     print(f"cpu_efficiency: {eff_cpu:.3f}; wall_efficiency: {eff_wall:.3f} (wall: only on an idle machine)")
-    print(f"dedicated_time: {cpu / args.workers / 60:.2f} min on {args.workers} dedicated cores "
-          f"(this run's CPU-seconds / {args.workers})")
+    work = cpu - idle * wall  # the study's own CPU-seconds (tasks, transfers, scheduling), background removed
+    wall_d = work / (args.workers - idle)  # W dedicated cores, less the background the cluster burns meanwhile
+    eff_d = (args.paths / per_cpu_1) / (args.workers * wall_d)
+    print(f"idle cluster: {idle:.3f} CPU-s per wall-second (all {args.workers} workers + client/scheduler); the study's "
+          f"own CPU without it: {work:.1f} s = {args.paths / work:.1f} paths per CPU-s")
+    print(f"dedicated_time: {wall_d / 60:.2f} min projected on {args.workers} dedicated cores (study CPU / "
+          f"({args.workers} - idle rate)); projected parallel efficiency T_1 / ({args.workers} T_{args.workers}): "
+          f"{eff_d:.3f}")
+    env_core = args.paths / work * ENVELOPES_PER_PATH * (1 - idle / args.workers)  # per dedicated core, background in
     print(f"peak_client_mb: {peak_mb:.0f} (peak RSS of the client to the end of the main run); "
           f"tracemalloc peak of the main run: {traced / 2**20:.0f} MB")
-    print(f"per-core rate: {env_core:.0f} envelopes per CPU-s at {RPM.size} speeds (cluster, all overheads); "
+    print(f"per-core rate: {env_core:.0f} envelopes/s per dedicated core at {RPM.size} speeds (study CPU, less the "
+          "idle background); "
           f"1e8 envelopes on 256 cores: {1e8 / (256 * env_core) / 60:.1f} min")
     print("load average (1, 5, 15 min) at end: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
     print(f"total_seconds: {wall:.1f}")

@@ -129,7 +129,8 @@ def main() -> None:
     eff_wall = (args.paths / wall) / (args.workers * args.serial_paths / wall_1)
     print(f"in-process (no dask), {args.serial_paths} paths: {per_cpu_1:.1f} paths per CPU-s; wall {wall_1:.1f} s "
           f"({args.serial_paths / wall_1:.1f} paths/s)")
-    print(f"{args.workers} workers, {args.paths} paths ({ENVELOPES_PER_PATH * args.paths} envelopes): wall {wall:.1f} s "
+    print(f"{args.workers} workers, {args.paths} paths ({ENVELOPES_PER_PATH * args.paths} envelopes): "
+          f"wall {wall:.1f} s "
           f"= {wall / 60:.2f} min ({args.paths / wall:.1f} paths/s); CPU {cpu:.1f} s (workers {cpu_workers:.1f}, "
           f"client+scheduler {cpu_client:.1f}) = {per_cpu_w:.1f} paths per CPU-s")
     print("mean MSE [mm^2]: " + ", ".join(f"{n} {m:.5f}" for n, m in zip(res.names, res.mean)))
@@ -137,8 +138,8 @@ def main() -> None:
     work = cpu - idle * wall  # the study's own CPU-seconds (tasks, transfers, scheduling), background removed
     wall_d = work / (args.workers - idle)  # W dedicated cores, less the background the cluster burns meanwhile
     eff_d = (args.paths / per_cpu_1) / (args.workers * wall_d)
-    print(f"idle cluster: {idle:.3f} CPU-s per wall-second (all {args.workers} workers + client/scheduler); the study's "
-          f"own CPU without it: {work:.1f} s = {args.paths / work:.1f} paths per CPU-s")
+    print(f"idle cluster: {idle:.3f} CPU-s per wall-second (all {args.workers} workers + client/scheduler); "
+          f"the study's own CPU without it: {work:.1f} s = {args.paths / work:.1f} paths per CPU-s")
     print(f"dedicated_time: {wall_d / 60:.2f} min projected on {args.workers} dedicated cores (study CPU / "
           f"({args.workers} - idle rate)); projected parallel efficiency T_1 / ({args.workers} T_{args.workers}): "
           f"{eff_d:.3f}")

@@ -1,22 +1,33 @@
 """Monte Carlo of Example 1 on a local Dask cluster: parallel efficiency, client memory, total time.
 
 The study is the seed paper's Algorithm 2 (t = 0.1, ε = 1 %) around Ex.1's predicted values, S = 200
-speeds 2000–12000 rpm, 7 envelopes per path. Figures printed:
+speeds 2000–12000 rpm, 7 envelopes per path. Both wall-clock and CPU time are measured, because on a
+shared machine the wall clock says little: with the kernel's autogroup scheduling (printed on the first
+lines) all processes of one login session share ONE fair share of the CPUs, so adding workers there cannot
+shorten the wall time however well the work parallelises. CPU time is what the work costs wherever it runs.
 
-* ``rate_1``: paths/s of ONE worker process (a LocalCluster of 1 worker, numba on one thread) on
-  ``--serial-paths`` paths, measured just before and just after the main run (mean of the two, so a
-  change of the machine's load during the run shows as a spread);
-* ``rate_W``: paths/s of the main run, ``--paths`` paths on ``--workers`` worker processes;
-* ``efficiency = rate_W / (W · rate_1)`` (target ≥ 0.8 for W = 2);
-* ``peak_client_mb``: the client process's peak RSS up to the end of the main run (it has run no engine
-  work: every run so far was on workers), and the tracemalloc peak of the main run (the per-path MSE array
-  N × 6 × 8 bytes plus the blocks in flight);
-* the in-process rate without dask (numba on one thread), measured last: the gap to ``rate_1`` is dask's cost;
-* the load average of the machine at start and end (a shared machine makes every rate noisy);
-* the per-core rate in envelopes/s and the time it predicts for 10^8 envelopes on 256 cores.
+Figures printed:
 
-Run: ``python benchmarks/bench_dask.py [--paths 1000000] [--workers 2] [--serial-paths 10000]``.
-The machine is described on the first line; BLAS is pinned to one thread in every process.
+* ``in-process``: paths per CPU-second of this process without dask (numba on one thread): the
+  reference "one process doing the same work";
+* the main run, ``--paths`` on ``--workers`` worker processes: wall time, paths/s, and the CPU-seconds of
+  every process involved (the workers, measured inside them; the client, which also hosts the scheduler);
+* ``cpu_efficiency`` = (paths per CPU-second of the whole cluster) / (paths per CPU-second in-process):
+  dask's overhead and any work done twice; on dedicated cores with workers never idle (the client keeps
+  three tasks per worker queued) it is the parallel efficiency T_1 / (W · T_W);
+* ``wall_efficiency`` = (paths/s on W workers) / (W · paths/s in-process wall): meaningful only on an
+  otherwise idle machine;
+* ``idle cluster``: CPU-seconds per wall-second the cluster burns with nothing to do (event loops,
+  heartbeats, memory monitors), timed after the main run; on a crowded machine the run's wall time is
+  stretched and this background with it, so it is removed from the study's CPU and added back at the
+  dedicated-core wall time: ``dedicated_time`` = (study CPU) / (W − idle rate), and the projected
+  parallel efficiency T_1 / (W · T_W) with T_1 the in-process CPU time of the same paths;
+* the client's peak RSS (it runs no engine work before the end of the main run) and the tracemalloc peak;
+* the per-core rate (envelopes per second of a dedicated core: the study's own CPU, less the background)
+  and the time it predicts for 10^8 envelopes on 256 cores.
+
+Run: ``python benchmarks/bench_dask.py [--paths 1000000] [--workers 2] [--serial-paths 2000]``.
+Progress lines (``progress:``) every 10 % of the main run keep the partial rates of an interrupted run.
 """
 
 from __future__ import annotations
@@ -43,66 +54,103 @@ RPM = np.linspace(2000.0, 12000.0, 200)
 ENVELOPES_PER_PATH = 7  # the path's own SLD and one per perturbed parameter (P = 6)
 
 
-def run(client, n: int, seed: int):
+def _autogroup() -> str:
+    try:
+        on = Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return "autogroup scheduling: unknown"
+    return f"autogroup scheduling: {'ON (one fair CPU share per login session)' if on else 'off'}"
+
+
+def _client_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _worker_cpu(client) -> float:
+    return float(sum(client.run(time.process_time).values()))
+
+
+def study(client, n: int, seed: int, progress=None):
     cfg = load_example("ex1")
-    t0 = time.perf_counter()
-    res = monte_carlo(cfg.structure, cfg.cutting, RPM, n=n, seed=seed, theta=predicted_theta("ex1"), client=client)
-    return time.perf_counter() - t0, res
-
-
-def serial_rate(n: int, seed: int) -> float:
-    """Paths/s of one worker process (warm-up excluded: a first small run compiles/loads numba)."""
-    with open_client(workers=1) as client:
-        run(client, 20, seed)
-        dt, _ = run(client, n, seed)
-    return n / dt
+    return monte_carlo(cfg.structure, cfg.cutting, RPM, n=n, seed=seed, theta=predicted_theta("ex1"), client=client,
+                       progress=progress)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", type=int, default=1_000_000, help="paths of the main run (10^6)")
     ap.add_argument("--workers", type=int, default=2, help="worker processes of the main run")
-    ap.add_argument("--serial-paths", type=int, default=10_000, help="paths of each 1-worker reference run")
+    ap.add_argument("--serial-paths", type=int, default=2_000, help="paths of the in-process reference run")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--idle-seconds", type=float, default=20.0, help="idle cluster timed after the main run")
     args = ap.parse_args()
-    print(describe().replace("with", "(client process) with"))
-    print("load average at start (1, 5, 15 min): " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
-    print(f"Monte Carlo of Ex.1, {RPM.size} speeds, {ENVELOPES_PER_PATH} envelopes per path; workers run numba "
-          "on 1 thread each")
+    print(describe())
+    print(f"{_autogroup()}; load average (1, 5, 15 min) at start: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
+    print(f"Monte Carlo of Ex.1, {RPM.size} speeds, {ENVELOPES_PER_PATH} envelopes per path; every worker and the "
+          "in-process reference run numba on 1 thread", flush=True)
     with threadpool_limits(1):
-        r1a = serial_rate(args.serial_paths, args.seed)
-        print(f"1 worker, {args.serial_paths} paths (before): {r1a:.1f} paths/s")
         with open_client(workers=args.workers) as client:
-            run(client, 20, args.seed)  # compile / load on every worker, outside the timing
+            study(client, 20, args.seed)  # compile / load on every worker, outside the timing
+            w0, c0 = _worker_cpu(client), _client_cpu()
+            marks = [0.1 * k * args.paths for k in range(1, 10)]
+            t0 = time.perf_counter()
+
+            def progress(done: int, total: int) -> None:
+                if marks and done >= marks[0]:
+                    while marks and done >= marks[0]:
+                        marks.pop(0)
+                    dt = time.perf_counter() - t0
+                    print(f"progress: {done} paths in {dt:.0f} s ({done / dt:.1f} paths/s wall)", flush=True)
+
             tracemalloc.start()
-            dt, res = run(client, args.paths, args.seed)
+            t0 = time.perf_counter()
+            res = study(client, args.paths, args.seed, progress)
+            wall = time.perf_counter() - t0
             _, traced = tracemalloc.get_traced_memory()
             tracemalloc.stop()
+            cpu_workers, cpu_client = _worker_cpu(client) - w0, _client_cpu() - c0
+            # what the cluster burns doing nothing (event loops, heartbeats, memory monitors), per wall-second:
+            # on a crowded machine the run's wall time, and with it this share of its CPU, is stretched
+            w1, c1, t1 = _worker_cpu(client), _client_cpu(), time.perf_counter()
+            time.sleep(args.idle_seconds)
+            idle = (_worker_cpu(client) - w1 + _client_cpu() - c1) / (time.perf_counter() - t1)
         peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the client alone so far
-        r1b = serial_rate(args.serial_paths, args.seed)
-        print(f"1 worker, {args.serial_paths} paths (after): {r1b:.1f} paths/s")
         import numba
 
         numba.set_num_threads(1)
-        run(None, 20, args.seed)
-        dt0, _ = run(None, args.serial_paths, args.seed)
-        print(f"no dask, this process, numba on 1 thread, {args.serial_paths} paths: "
-              f"{args.serial_paths / dt0:.1f} paths/s (the cost of dask is the gap to the 1-worker rate)")
-    r1 = 0.5 * (r1a + r1b)
-    rw = args.paths / dt
-    eff = rw / (args.workers * r1)
-    env_core = r1 * ENVELOPES_PER_PATH
-    print(f"{args.workers} workers, {args.paths} paths ({ENVELOPES_PER_PATH * args.paths} envelopes): {dt:.1f} s "
-          f"= {dt / 60:.2f} min, {rw:.1f} paths/s")
-    print(f"mean MSE [mm^2]: " + ", ".join(f"{n} {m:.5f}" for n, m in zip(res.names, res.mean)))
-    print(f"parallel efficiency rate_{args.workers} / ({args.workers} x rate_1): {eff:.3f} "
-          f"(rate_1 before/after {r1a:.1f}/{r1b:.1f} paths/s)")
-    print(f"peak_client_mb: {peak_mb:.0f} (peak RSS of the client up to the end of the main run); "
+        study(None, 20, args.seed)
+        t1, c1 = time.perf_counter(), time.thread_time()
+        study(None, args.serial_paths, args.seed)
+        wall_1, cpu_1 = time.perf_counter() - t1, time.thread_time() - c1
+    cpu = cpu_workers + cpu_client
+    per_cpu_1, per_cpu_w = args.serial_paths / cpu_1, args.paths / cpu
+    eff_cpu = per_cpu_w / per_cpu_1
+    eff_wall = (args.paths / wall) / (args.workers * args.serial_paths / wall_1)
+    print(f"in-process (no dask), {args.serial_paths} paths: {per_cpu_1:.1f} paths per CPU-s; wall {wall_1:.1f} s "
+          f"({args.serial_paths / wall_1:.1f} paths/s)")
+    print(f"{args.workers} workers, {args.paths} paths ({ENVELOPES_PER_PATH * args.paths} envelopes): "
+          f"wall {wall:.1f} s "
+          f"= {wall / 60:.2f} min ({args.paths / wall:.1f} paths/s); CPU {cpu:.1f} s (workers {cpu_workers:.1f}, "
+          f"client+scheduler {cpu_client:.1f}) = {per_cpu_w:.1f} paths per CPU-s")
+    print("mean MSE [mm^2]: " + ", ".join(f"{n} {m:.5f}" for n, m in zip(res.names, res.mean)))
+    print(f"cpu_efficiency: {eff_cpu:.3f}; wall_efficiency: {eff_wall:.3f} (wall: only on an idle machine)")
+    work = cpu - idle * wall  # the study's own CPU-seconds (tasks, transfers, scheduling), background removed
+    wall_d = work / (args.workers - idle)  # W dedicated cores, less the background the cluster burns meanwhile
+    eff_d = (args.paths / per_cpu_1) / (args.workers * wall_d)
+    print(f"idle cluster: {idle:.3f} CPU-s per wall-second (all {args.workers} workers + client/scheduler); "
+          f"the study's own CPU without it: {work:.1f} s = {args.paths / work:.1f} paths per CPU-s")
+    print(f"dedicated_time: {wall_d / 60:.2f} min projected on {args.workers} dedicated cores (study CPU / "
+          f"({args.workers} - idle rate)); projected parallel efficiency T_1 / ({args.workers} T_{args.workers}): "
+          f"{eff_d:.3f}")
+    env_core = args.paths / work * ENVELOPES_PER_PATH * (1 - idle / args.workers)  # per dedicated core, background in
+    print(f"peak_client_mb: {peak_mb:.0f} (peak RSS of the client to the end of the main run); "
           f"tracemalloc peak of the main run: {traced / 2**20:.0f} MB")
-    print(f"per-core rate: {env_core:.0f} envelopes/s at {RPM.size} speeds; 1e8 envelopes on 256 cores at that rate "
-          f"and this efficiency: {1e8 / (256 * env_core * eff) / 60:.1f} min")
-    print("load average at end (1, 5, 15 min): " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
-    print(f"total_seconds: {dt:.1f}")
+    print(f"per-core rate: {env_core:.0f} envelopes/s per dedicated core at {RPM.size} speeds (study CPU, less the "
+          "idle background); "
+          f"1e8 envelopes on 256 cores: {1e8 / (256 * env_core) / 60:.1f} min")
+    print("load average (1, 5, 15 min) at end: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
+    print(f"total_seconds: {wall:.1f}")
 
 
 if __name__ == "__main__":

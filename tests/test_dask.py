@@ -4,6 +4,7 @@ without a cluster dask is never imported."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import signal
@@ -70,7 +71,9 @@ def test_client_arguments_are_checked():
         assert client is None
 
 
-distributed = pytest.importorskip("distributed", reason="the cluster tests need dask[distributed] (millstab[dask])")
+#: the cluster tests need dask[distributed] (the millstab[dask] extra; `make test` and CI install it)
+needs_distributed = pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
+                                       reason="dask[distributed] is not installed (pip install 'millstab[dask]')")
 
 
 @pytest.fixture(scope="module")
@@ -94,6 +97,7 @@ def _mc_by_hand(n, t, eps, seed, rpm):
     return np.stack([mse_mm2(d[0], d[1 + j]) for j in range(6)], axis=1)
 
 
+@needs_distributed
 def test_bad_client_is_rejected_before_any_work():
     with pytest.raises(InputError, match="client"):
         monte_carlo(CFG.structure, CFG.cutting, RPM, n=4, client="tcp://127.0.0.1:8786")
@@ -101,6 +105,7 @@ def test_bad_client_is_rejected_before_any_work():
         sobol(CFG.structure, CFG.cutting, RPM, n=4, client=object())
 
 
+@needs_distributed
 def test_mc_on_cluster_equals_local_bit_for_bit(client):
     kw = dict(n=65, t=0.1, eps=0.01, seed=7, theta=THETA)
     here = monte_carlo(CFG.structure, CFG.cutting, RPM, **kw)
@@ -112,6 +117,7 @@ def test_mc_on_cluster_equals_local_bit_for_bit(client):
     assert there.mean.tolist() == here.mean.tolist() and there.sd.tolist() == here.sd.tolist()
 
 
+@needs_distributed
 def test_sobol_and_morris_on_cluster_equal_local_bit_for_bit(client):
     kw = dict(t=0.1, seed=3, theta=THETA)
     a = sobol(CFG.structure, CFG.cutting, RPM, n=16, **kw)
@@ -126,6 +132,7 @@ def test_sobol_and_morris_on_cluster_equal_local_bit_for_bit(client):
             np.testing.assert_array_equal(m2.outputs[out][key], v)
 
 
+@needs_distributed
 def test_cli_dask_address_gives_the_local_numbers(client, tmp_path):
     """``--dask ADDRESS`` (here the fixture's scheduler; ``--workers N`` starts the same LocalCluster as the
     fixture, through the same open_client) prints and writes the local run's numbers."""
@@ -139,6 +146,7 @@ def test_cli_dask_address_gives_the_local_numbers(client, tmp_path):
     assert main(args + ["--workers", "2", "--dask", client.scheduler.address]) == 2
 
 
+@needs_distributed
 def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
     """One of the 2 workers dies (SIGKILL) after the first block has arrived; the scheduler re-runs its
     tasks elsewhere. Every path arrives exactly once and the table is the local one, bit for bit."""

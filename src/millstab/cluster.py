@@ -100,8 +100,9 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     # and the engine's arrays page-fault in again on every call (measured: ~16 % more CPU, 4.5x the minor
     # faults); the engine's memory is bounded by its chunk, so the workers keep glibc's default
     with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        # dashboard on a free port (":0"): the scheduler's HTTP server starts anyway, and the default :8787 may be taken
         with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                                      dashboard_address=None, env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:
+                                      dashboard_address=":0", env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:
             with distributed.Client(cluster) as client:
                 yield client
 

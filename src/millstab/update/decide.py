@@ -27,9 +27,9 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ndtr
 
 from millstab.errors import InputError
+from millstab.update._bald import label_information
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
 
@@ -179,14 +179,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    pi = ndtr((depths[None, None, :] - blim[:, :, None]) / sig)  # (M, S, D) label probabilities
-    pbar = pi.mean(axis=0)
-
-    def h(p: np.ndarray) -> np.ndarray:
-        q = np.clip(p, 1e-12, 1 - 1e-12)
-        return -(q * np.log(q) + (1 - q) * np.log(1 - q))
-
-    info = h(pbar) - h(pi).mean(axis=0)  # mutual information [nats]
+    pbar, info = label_information(blim, depths, sig)  # (S, D): P(chatter label), mutual information [nats]
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref

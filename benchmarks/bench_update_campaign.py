@@ -45,6 +45,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
+from millstab.io.config import PriorTable  # noqa: E402
 from millstab.io.points import PointSet  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
@@ -71,6 +72,8 @@ def main() -> None:
     ap.add_argument("--truth-engine", default="sdm")
     ap.add_argument("--truth-steps", type=int, default=40, help="SDM steps per tooth period of the truth (speed)")
     ap.add_argument("--engine", default="zoa", help="engine of the updates and decisions")
+    ap.add_argument("--sigma-depth-rel", type=float, default=None,
+                    help="the likelihood's depth noise relative to the depth (default: the absolute 0.05 mm)")
     ap.add_argument("--labels", choices=("engine", "simulate"), default="engine",
                     help="labels from the truth engine with boundary noise, or from the time-domain simulation")
     ap.add_argument("--flip", type=float, default=0.05, help="simulate: probability an operator swaps a label")
@@ -85,7 +88,8 @@ def main() -> None:
     cut = cfg.cutting
     if args.immersion < 1:
         cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
-    prior = make_prior(cfg.structure, cut)
+    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel) if args.sigma_depth_rel else None
+    prior = make_prior(cfg.structure, cut, table)
     if args.calibrate:
         args.truth_engine, args.labels = "zoa", "engine"
     truth_engine = get_engine(args.truth_engine)
@@ -127,9 +131,10 @@ def main() -> None:
                                 rpm_range=(lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)),
                                 engine=args.engine, reuse=not args.fresh, truth_grid=grid)
             cover = coverage(camp.posteriors[args.cuts], theta)
+            cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
             row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
                    "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
-                   "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(),
+                   "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
                    "stages": camp.stages, "best": camp.best}
             if not args.no_baselines:
                 # baseline 1: the hammer-test SLD alone, 5 % below its limit
@@ -170,7 +175,9 @@ def main() -> None:
                else f"{args.truth_engine} with {args.noise:.0%} boundary noise")
         design = f"truth = hammer test off by fn±3 %, k±20 %, ζ±30 %; labels from {src}; truth {args.truth_engine}"
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, risk {args.risk}, {design}; "
-          f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, {'fresh updates' if args.fresh else 'sequential reuse'}:")
+          f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, {'fresh updates' if args.fresh else 'sequential reuse'}, "
+          f"likelihood depth noise {prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / "
+          f"{prior.sigma_depth_rel or 0:g} rel:")
     print(f"  final recommendation truly stable: {sum(fin_ok)}/{n}; productivity/best: median {np.median(fin_p):.2f}, "
           f"min {min(fin_p):.2f}; >= 0.85 and stable: {sum(ok and p >= 0.85 for ok, p in zip(fin_ok, fin_p))}/{n}")
     print(f"  every recommendation along the way truly stable: {sum(sum(r['rec_stable']) for r in rows)}/"
@@ -185,7 +192,7 @@ def main() -> None:
           f"(median {np.median([r['brier'][0] for r in rows]):.4f} -> {np.median([r['brier'][-1] for r in rows]):.4f})")
     cov = np.array([r["cover"] for r in rows]).mean(0)
     print(f"  90 % interval coverage per parameter ({', '.join(prior.names)}): {np.round(cov, 2).tolist()} "
-          f"(all: {cov.mean():.2f})")
+          f"(all: {cov.mean():.2f}); 50 % intervals: {np.array([r['cover50'] for r in rows]).mean():.2f} over all")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]
     reached = [k for k in k_best if k is not None]

@@ -24,6 +24,9 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
 * baselines: the recommendation from the hammer-test SLD alone (the deepest·fastest point of the
   prior-median SLD, 5 % below the limit): is it truly stable, its productivity; and evenly spaced test
   cuts (same number, at speeds evenly spaced, depth = prior-median limit) → one update → recommend.
+* ``--engine-check zoa,sdm,spectral``: model error without sampling: how many of the campaign's
+  stable/chatter labels the TRUE structure contradicts under each engine (one parameter set, so even
+  a slow engine costs only a few envelopes).
 
 Run: ``.venv/bin/python benchmarks/bench_update_campaign.py --calibrate --campaigns 50 [--samples 1000]``
 (``--json FILE`` keeps every campaign's record).
@@ -79,6 +82,9 @@ def main() -> None:
     ap.add_argument("--flip", type=float, default=0.05, help="simulate: probability an operator swaps a label")
     ap.add_argument("--fresh", action="store_true", help="a fresh update after each cut (no sequential reuse)")
     ap.add_argument("--no-baselines", action="store_true")
+    ap.add_argument("--engine-check", default="",
+                    help="comma-separated engines: how many of the campaign's stable/chatter labels the TRUE structure "
+                         "contradicts under each (model error, one parameter set: cheap even for slow engines)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None, help="write every campaign's record here")
     args = ap.parse_args()
@@ -153,6 +159,15 @@ def main() -> None:
                     ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
                     r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
                     row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
+            if args.engine_check:
+                lab = np.array(camp.labels)
+                sel = lab != "marginal"
+                r_c, d_c = np.array(camp.cut_rpm)[sel], np.array(camp.cut_depth_mm)[sel]
+                row["contradicted"] = {}
+                for e in args.engine_check.split(","):
+                    b_e = get_engine(e).envelope(s_true, cut, r_c).depth_mm
+                    row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
+                row["labelled"] = int(sel.sum())
             rows.append(row)
             tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(camp.rec_stable, camp.rec_productivity))
             print(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages}; after 0..{args.cuts} cuts "
@@ -193,6 +208,10 @@ def main() -> None:
     cov = np.array([r["cover"] for r in rows]).mean(0)
     print(f"  90 % interval coverage per parameter ({', '.join(prior.names)}): {np.round(cov, 2).tolist()} "
           f"(all: {cov.mean():.2f}); 50 % intervals: {np.array([r['cover50'] for r in rows]).mean():.2f} over all")
+    if args.engine_check:
+        tot = sum(r["labelled"] for r in rows)
+        print("  labels contradicted by the TRUE structure under each engine: " + ", ".join(
+            f"{e} {sum(r['contradicted'][e] for r in rows)}/{tot}" for e in args.engine_check.split(",")))
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]
     reached = [k for k in k_best if k is not None]

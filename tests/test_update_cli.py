@@ -145,3 +145,23 @@ def test_kt_freed_by_the_prior_table_end_to_end(tmp_path):
     assert main(["recommend", str(tmp_path / "post.json"), "--rpm", "5000:12000", "--out", str(tmp_path / "r.json")]) == 0
     rec = json.loads((tmp_path / "r.json").read_text())
     assert rec["p_chatter"] <= 0.05
+
+
+def test_update_from_an_earlier_posterior(shop, capsys):
+    """--start: the posterior of the first cuts starts the update of all of them; a start of other cuts
+    is refused in one line."""
+    first = "".join(CUTS.splitlines(keepends=True)[:4])
+    (shop / "first.csv").write_text(first)
+    assert main(["update", "example:ex1", str(shop / "first.csv"), "--samples", "300", "--seed", "1",
+                 "--out", str(shop / "early.json")]) == 0
+    assert main(["update", "example:ex1", str(shop / "cuts.csv"), "--samples", "300", "--seed", "2",
+                 "--start", str(shop / "early.json"), "--out", str(shop / "seq.json")]) == 0
+    seq = json.loads((shop / "seq.json").read_text())
+    fresh = json.loads((shop / "post.json").read_text())
+    assert len(seq["cuts"]["rpm"]) == 6 and seq["diagnostics"]["stages"] < fresh["diagnostics"]["stages"]
+    (shop / "other.csv").write_text(CUTS.replace("6000,2.0", "6100,2.0"))
+    capsys.readouterr()
+    assert main(["update", "example:ex1", str(shop / "other.csv"), "--start", str(shop / "early.json"),
+                 "--out", str(shop / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: error:") and "start" in err[0]

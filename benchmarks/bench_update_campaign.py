@@ -18,8 +18,8 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
   (``--samples``, ``--engine``; each update starts from the previous posterior unless ``--fresh``), cut
   the tool's next test, label it. After each update: the recommendation at ``--risk`` in ``--rpm``
   with ``--max-depth``, whether it is truly stable (b < b_lim,true), and its productivity (b·Ω) over that
-  of the best truly stable cut (b_lim,true capped at max depth, on 361 speeds); the Brier score of the
-  P(stable) map against the truth (61 × 40 grid) beside the prior's; whether each parameter's 90 %
+  of the best truly stable cut (b_lim,true capped at max depth, on ``--best-speeds`` 361 speeds); the Brier score of the
+  P(stable) map against the truth (``--grid``, 61 × 40) beside the prior's; whether each parameter's 90 %
   interval covers the truth (in the x/y orientation closer to it).
 * baselines: the recommendation from the hammer-test SLD alone (the deepest·fastest point of the
   prior-median SLD, 5 % below the limit): is it truly stable, its productivity; and evenly spaced test
@@ -86,6 +86,8 @@ def main() -> None:
                     help="comma-separated engines: how many of the campaign's stable/chatter labels the TRUE structure "
                          "contradicts under each (model error, one parameter set: cheap even for slow engines)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--best-speeds", type=int, default=361, help="speeds on which the best truly stable cut is sought")
+    ap.add_argument("--grid", default="61x40", help="speeds x depths of the Brier-score grid")
     ap.add_argument("--json", type=Path, default=None, help="write every campaign's record here")
     args = ap.parse_args()
     print(describe())
@@ -100,7 +102,8 @@ def main() -> None:
         args.truth_engine, args.labels = "zoa", "engine"
     truth_engine = get_engine(args.truth_engine)
     opts = {"steps": args.truth_steps} if args.truth_engine == "sdm" else {}
-    g_rpm, g_depth = np.linspace(lo, hi, 61), np.linspace(0.05, args.max_depth, 40)
+    gs, gd = (int(x) for x in args.grid.split("x"))
+    g_rpm, g_depth = np.linspace(lo, hi, gs), np.linspace(0.05, args.max_depth, gd)
     rows = []
     t_all = time.perf_counter()
     with threadpool_limits(1), warnings.catch_warnings():
@@ -135,7 +138,8 @@ def main() -> None:
             grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
             camp = run_campaign(cfg, prior, truth, labeler, cuts=args.cuts, samples=args.samples, risk=args.risk,
                                 rpm_range=(lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)),
-                                engine=args.engine, reuse=not args.fresh, truth_grid=grid)
+                                engine=args.engine, reuse=not args.fresh, truth_grid=grid,
+                                best_speeds=args.best_speeds)
             cover = coverage(camp.posteriors[args.cuts], theta)
             cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
             row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
@@ -144,7 +148,7 @@ def main() -> None:
                    "stages": camp.stages, "best": camp.best}
             if not args.no_baselines:
                 # baseline 1: the hammer-test SLD alone, 5 % below its limit
-                fine = np.linspace(lo, hi, 361)
+                fine = np.linspace(lo, hi, args.best_speeds)
                 b_ham = get_engine(args.engine).envelope(cfg.structure, cut, fine).depth_mm
                 j = int(np.argmax(np.minimum(0.95 * b_ham, args.max_depth) * fine))
                 d_ham = min(0.95 * b_ham[j], args.max_depth)

@@ -110,7 +110,7 @@ def plot_campaign(rpm: np.ndarray, depth_mm: np.ndarray, maps: dict, truth_depth
         ax.set_xlabel("spindle speed [rpm]")
         ax.set_ylabel("axial depth [mm]")
         fig.colorbar(mesh, ax=ax, label="P(stable)")
-    axes[0, 0].legend(fontsize=7, loc="upper left")
+    axes.ravel()[len(maps) - 1].legend(fontsize=7, loc="upper left")  # the panel with the most cuts
     ax = axes[1, 1]
     k = np.arange(len(productivity))
     p, ok = np.asarray(productivity, float), np.asarray(stable, bool)

@@ -77,7 +77,7 @@ def brier_score(post: Posterior, truth_grid: tuple[np.ndarray, np.ndarray, np.nd
 def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: int = 10, samples: int = 1000,
                  risk: float = 0.05, rpm_range: tuple[float, float] = (5000.0, 12000.0), max_depth_mm: float = 8.0,
                  seed: int = 0, engine: str = "zoa", reuse: bool = True, keep: tuple[int, ...] = (),
-                 truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None, best_speeds: int = 361,
                  progress: Callable[[int], None] | None = None) -> Campaign:
     """Play one virtual campaign of ``cuts`` test cuts (see the module docstring).
 
@@ -93,10 +93,11 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
         reuse: start each update from the previous posterior (else a fresh update each time).
         keep: after which numbers of cuts to keep the posterior (for maps).
         truth_grid: (rpm (S,), depth (D,), stable (S, D) bool) to score maps on after each cut, or ``None``.
+        best_speeds: speeds of the grid on which the best truly stable cut is sought (a slow truth: fewer).
     """
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
-    out = Campaign(best=best_productivity(truth, rpm_range, max_depth_mm))
+    out = Campaign(best=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
     post = Posterior(prior, np.exp(prior.sample(samples, rng)), engine, cuts={"rpm": [lo, hi]})
     last: Posterior | None = None  # the last posterior of an update (the start of the next one)
     with warnings.catch_warnings():

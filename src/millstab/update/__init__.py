@@ -5,7 +5,8 @@
   frequencies and boundary points through the one batched forward function;
 * :mod:`~millstab.update.sampler` -- adaptive tempered sequential Monte Carlo;
 * :mod:`~millstab.update.posterior` -- the result (samples, summaries, x↔y exchange modes, JSON);
-* :mod:`~millstab.update.decide` -- P(stable) maps, the recommended cut and the next test.
+* :mod:`~millstab.update.decide` -- P(stable) maps, the recommended cut and the next test;
+* :mod:`~millstab.update.campaign` -- virtual test campaigns (recommend → cut → update) and calibration.
 
 :func:`update` runs the whole chain from a config and a cuts file.
 """

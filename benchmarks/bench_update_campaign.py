@@ -145,7 +145,7 @@ def main() -> None:
             row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
                    "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
                    "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
-                   "stages": camp.stages, "best": camp.best}
+                   "stages": camp.stages, "best": camp.best, "failed": camp.failed}
             if not args.no_baselines:
                 # baseline 1: the hammer-test SLD alone, 5 % below its limit
                 fine = np.linspace(lo, hi, args.best_speeds)
@@ -160,9 +160,13 @@ def main() -> None:
                 ev = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
                 row["even"] = [False, 0.0]
                 if ev.stable.any() or ev.chatter.any():
-                    ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
-                    r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
-                    row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
+                    try:
+                        ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
+                    except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
+                        print("   even cuts: UPDATE FAILED (tempering stalled)")
+                    else:
+                        r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
+                        row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
             if args.engine_check:
                 lab = np.array(camp.labels)
                 sel = lab != "marginal"
@@ -179,9 +183,11 @@ def main() -> None:
                         continue
                     row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
                 row["labelled"] = int(sel.sum())
+                print(f"   labels the true structure contradicts: {row['contradicted']} of {row['labelled']}")
             rows.append(row)
             tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(camp.rec_stable, camp.rec_productivity))
-            print(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages}; after 0..{args.cuts} cuts "
+            fail = f" UPDATE FAILED after cuts {camp.failed};" if camp.failed else ""
+            print(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages};{fail} after 0..{args.cuts} cuts "
                   f"(S stable/C chatter, productivity/best): {tr}")
             extra = "" if args.no_baselines else (
                 f"hammer SLD: {'stable' if row['hammer'][0] else 'CHATTER'} {row['hammer'][1]:.2f}; even cuts: "
@@ -223,6 +229,7 @@ def main() -> None:
         print("  labels contradicted by the TRUE structure under each engine: " + ", ".join(
             f"{e} {sum(r['contradicted'][e] for r in rows if r['contradicted'][e] is not None)}/"
             f"{sum(r['labelled'] for r in rows if r['contradicted'][e] is not None)}" for e in args.engine_check.split(",")))
+    print(f"  campaigns with a failed (stalled) update: {sum(bool(r['failed']) for r in rows)}/{n}")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]
     reached = [k for k in k_best if k is not None]

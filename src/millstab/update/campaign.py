@@ -46,6 +46,7 @@ class Campaign:
         brier: Brier score of the P(stable) map against the truth after 0, 1, … cuts (when asked).
         posteriors: the posterior after k cuts for the k in ``keep`` (index 0 = prior draws).
         stages: tempering stages of each update.
+        failed: after which cuts the update failed (tempering stalled: the model cannot explain the labels).
     """
 
     cut_rpm: list[float] = field(default_factory=list)
@@ -60,6 +61,7 @@ class Campaign:
     brier: list[float] = field(default_factory=list)
     posteriors: dict[int, Posterior] = field(default_factory=dict)
     stages: list[int] = field(default_factory=list)
+    failed: list[int] = field(default_factory=list)
 
 
 def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361) -> float:
@@ -106,11 +108,14 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
             if k:
                 ps = PointSet(out.cut_rpm, out.cut_depth_mm, out.labels, chatter_hz=out.chatter_hz)
                 if ps.stable.any() or ps.chatter.any():
-                    post = update(config, ps, prior=prior, engine=engine, samples=samples,
-                                  seed=int(rng.integers(2**31)),
-                                  start=last if reuse else None)
-                    last = post
-                    out.stages.append(int(post.diagnostics["stages"]))
+                    try:
+                        post = update(config, ps, prior=prior, engine=engine, samples=samples,
+                                      seed=int(rng.integers(2**31)), start=last if reuse else None)
+                    except RuntimeError:  # the tempering stalled (labels the model cannot explain): say so, go on
+                        out.failed.append(k)  # with the last posterior (the next update tries these cuts again)
+                    else:
+                        last = post
+                        out.stages.append(int(post.diagnostics["stages"]))
             if k in keep:
                 out.posteriors[k] = post
             if truth_grid is not None:

@@ -127,7 +127,9 @@ def main() -> None:
 
                     lab = label_cuts(s_true, cut, rpm, depth * 1e-3, FEED_M, label_noise=args.flip,
                                      seed=int(r.integers(2**31)))
-                    return [str(x) for x in lab.label], [float(h) for h in lab.chatter_hz]
+                    # an operator who swapped chatter to stable wrote no frequency down
+                    return ([str(x) for x in lab.label],
+                            [float("nan") if str(x) == "stable" else float(h) for x, h in zip(lab.label, lab.chatter_hz)])
                 b = truth(rpm)
                 if args.calibrate:
                     edge = b + prior.sigma_depth_mm(depth) * r.standard_normal(b.shape)

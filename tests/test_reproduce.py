@@ -15,7 +15,7 @@ EXPECTED = [
     "fig_sens_ex1.png", "fig_sens_ex2.png", "fig_sens_ex3.png", "fig_sens_mse_at_plus20.csv",
     "table6_monte_carlo.csv", "fig_mc_convergence.png", "run_time.csv", "test_plan.csv", "fig_plan.png",
     "simulated_cuts.csv", "fig_simulated_cuts.png", "engines_summary.csv", "fig_engines.png",
-    "low_immersion_identification.csv", "low_immersion_residuals.csv",
+    "low_immersion_identification.csv", "low_immersion_residuals.csv", "campaign.csv", "fig_campaign.png",
 ]
 
 

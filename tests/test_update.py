@@ -359,3 +359,73 @@ def test_smc_refuses_to_return_an_unfinished_tempering():
     with pytest.raises(RuntimeError, match="beta"):
         tempered_smc(lambda n, rng: rng.standard_normal((n, 1)), lambda u: -0.5 * (u**2).sum(1),
                      lambda u: loglik(u).sum(1), 200, max_stages=2)
+
+
+# --- sequential reuse and the compiled next-test criterion ------------------------------------------
+def _grid_posterior(prior, cuts, n=90):
+    lik = Likelihood(prior, Evidence.from_points(cuts))
+    g1 = prior.mean_u[0] + np.linspace(-4, 4, n) * prior.spread[0]
+    g2 = prior.mean_u[1] + np.linspace(-4, 4, n) * prior.spread[1]
+    uu = np.stack(np.meshgrid(g1, g2, indexing="ij"), -1).reshape(-1, 2)
+    logp = prior.logpdf(uu) + lik(uu)
+    w = np.exp(logp - logp.max()).reshape(n, n)
+    return g1, g2, w / w.sum()
+
+
+def test_sequential_reuse_matches_the_grid_posterior_and_a_fresh_update():
+    """Posterior of 4 cuts as the start of an update of 8: same answer as the brute-force grid of all 8
+    (and as a fresh update), in fewer tempering stages."""
+    cfg = parse_config(TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y"]\nsigma_depth = "15 %"\n')
+    prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
+    truth = prior.median * np.array([1.04, 0.8])
+    cuts = _truth_cuts(prior, truth, np.linspace(5200, 9000, 8), 0.4)
+    first = cuts.subset(np.arange(8) < 4)
+    # an informative first half, so that a start ignoring it (L_old left out) would be visibly wrong
+    early = update(cfg, first, samples=2000, seed=1)
+    seq = update(cfg, cuts, samples=2000, seed=3, start=early)
+    fresh = update(cfg, cuts, samples=2000, seed=3)
+    assert seq.diagnostics["stages"] < fresh.diagnostics["stages"]
+    g1, g2, w = _grid_posterior(prior, cuts)
+    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
+        mean = (grid * marg).sum()
+        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
+        cdf = np.cumsum(marg)
+        for post in (seq, fresh):
+            u = post.u[:, j]
+            assert abs(u.mean() - mean) < 0.15 * sd, (j, u.mean(), mean, sd)
+            assert abs(u.std() - sd) < 0.15 * sd
+            for q in (0.05, 0.95):
+                assert abs(np.quantile(u, q) - np.interp(q, cdf, grid)) < 0.25 * sd
+
+
+def test_sequential_reuse_refuses_a_start_of_other_data():
+    cfg = parse_config(TOML)
+    cuts = PointSet([5500, 6500, 8000], [1.0, 3.0, 2.0], ["stable", "chatter", "stable"])
+    early = update(cfg, cuts.subset(np.array([True, True, False])), samples=100, seed=1)
+    other = PointSet([5500, 6600, 8000], [1.0, 3.0, 2.0], ["stable", "chatter", "stable"])
+    with pytest.raises(InputError, match="start"):
+        update(cfg, other, samples=100, seed=1, start=early)
+    with pytest.raises(InputError, match="start"):
+        update(cfg, cuts, samples=100, seed=1, start=early, engine="sdm")
+
+
+def test_label_information_kernel_matches_the_numpy_form():
+    from scipy.special import ndtr
+
+    from millstab.update._bald import label_information
+
+    rng = np.random.default_rng(0)
+    blim = rng.uniform(1.0, 4.0, (300, 7))
+    blim[5, 2] = np.inf  # no boundary: surely stable
+    depths = np.linspace(0.1, 5.0, 40)
+    sig = 0.05 + 0.02 * depths
+    pi = ndtr((depths[None, None, :] - blim[:, :, None]) / sig)
+
+    def h(p):
+        q = np.clip(p, 1e-12, 1 - 1e-12)
+        return -(q * np.log(q) + (1 - q) * np.log(1 - q))
+
+    pbar, info = label_information(blim, depths, sig)
+    np.testing.assert_allclose(pbar, pi.mean(0), atol=1e-12)
+    np.testing.assert_allclose(info, h(pi.mean(0)) - h(pi).mean(0), atol=1e-9)
+    assert info.min() > -1e-12 and info.max() <= math.log(2)

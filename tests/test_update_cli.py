@@ -78,3 +78,90 @@ def test_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     assert main([a.format(d=shop) for a in args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("millstab: error:") and text in err[0]
+
+
+@pytest.mark.parametrize("args, text", [
+    (["recommend", "{d}/post.json", "--risk", "1.5", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
+    (["recommend", "{d}/post.json", "--risk", "-0.1", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
+    (["update", "{d}/zero.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.k_x"),
+    (["update", "{d}/kr.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.kr"),
+])
+def test_more_bad_input_is_one_line_exit_2(shop, args, text, capsys):
+    from millstab.datasets import example_path
+
+    (shop / "zero.toml").write_text(example_path("ex1").read_text() + "\n[prior]\nk_x = 0\n")
+    (shop / "kr.toml").write_text(example_path("ex1").read_text() + "\n[prior]\nkr = 0.1\n")
+    capsys.readouterr()
+    assert main([a.format(d=shop) for a in args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: error:") and text in err[0]
+
+
+def test_weak_but_valid_answers_warn_in_one_line(shop, capsys):
+    """All cuts stable: the update runs and says the map leans on the prior; speeds beyond the tested
+    ones: map and recommend run and say so."""
+    (shop / "stable.csv").write_text("rpm,depth_mm,label\n6000,1.0,stable\n7000,1.2,stable\n")
+    capsys.readouterr()
+    assert main(["update", "example:ex1", str(shop / "stable.csv"), "--samples", "200", "--out",
+                 str(shop / "post_st.json")]) == 0
+    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert len(err) == 1 and err[0].startswith("millstab: warning:") and "every cut" in err[0] and "stable" in err[0]
+    assert "lean on the prior" in err[0]
+    assert main(["map", str(shop / "post.json"), "--rpm", "2000:20000:2000", "--depth", "0:4:1",
+                 "--out", str(shop / "far.csv")]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: warning:") and "beyond the tested speeds" in err[0]
+    assert main(["recommend", str(shop / "post.json"), "--rpm", "2000:20000", "--out", str(shop / "far.json")]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: warning:") and "beyond the tested speeds" in err[0]
+
+
+def test_kt_freed_by_the_prior_table_end_to_end(tmp_path):
+    """[prior] kt = 0.3 frees Kt: the posterior carries it (N/m²), map and recommend read it back from the
+    JSON, and cuts made with a 25 % larger true Kt pull it up (the limit scales as Kt₀/Kt exactly)."""
+    from millstab.datasets import example_path
+    from millstab.io import load_config
+    from millstab.stability import get_engine
+
+    cfg_text = example_path("ex1").read_text() + ('\n[prior]\nkt = 0.3\nzeta_x = 0.02\n'
+                                                  'fixed = ["fn_x", "k_x", "fn_y", "k_y", "zeta_y"]\n')
+    (tmp_path / "kt.toml").write_text(cfg_text)
+    cfg = load_config(str(tmp_path / "kt.toml"))
+    rpm = np.linspace(5000, 12000, 8)
+    b_true = get_engine("zoa").envelope(cfg.structure, cfg.cutting, rpm).depth_mm / 1.25
+    depth = b_true * np.where(np.arange(8) % 2, 1.15, 0.85)
+    rows = "".join(f"{r},{d},{'chatter' if d > b else 'stable'}\n" for r, d, b in zip(rpm, depth, b_true))
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n" + rows)
+    assert main(["update", str(tmp_path / "kt.toml"), str(tmp_path / "cuts.csv"), "--samples", "1000", "--seed", "1",
+                 "--out", str(tmp_path / "post.json")]) == 0
+    doc = json.loads((tmp_path / "post.json").read_text())
+    assert doc["names"] == ["zeta_x", "kt"] and doc["units"][-1] == "N/m^2"
+    kt = doc["parameters"]["kt"]
+    assert kt["q05"] < 1.25 * cfg.cutting.kt < kt["q95"]
+    assert kt["q50"] > 1.1 * cfg.cutting.kt  # pulled up from the prior median Kt₀
+    assert np.std(np.log(np.array(doc["samples"])[:, 1])) < 0.5 * 0.3  # narrower than the prior
+    assert main(["map", str(tmp_path / "post.json"), "--rpm", "5000:12000:1000", "--depth", "0:4:1",
+                 "--out", str(tmp_path / "m.csv")]) == 0
+    assert main(["recommend", str(tmp_path / "post.json"), "--rpm", "5000:12000", "--out", str(tmp_path / "r.json")]) == 0
+    rec = json.loads((tmp_path / "r.json").read_text())
+    assert rec["p_chatter"] <= 0.05
+
+
+def test_update_from_an_earlier_posterior(shop, capsys):
+    """--start: the posterior of the first cuts starts the update of all of them; a start of other cuts
+    is refused in one line."""
+    first = "".join(CUTS.splitlines(keepends=True)[:4])
+    (shop / "first.csv").write_text(first)
+    assert main(["update", "example:ex1", str(shop / "first.csv"), "--samples", "300", "--seed", "1",
+                 "--out", str(shop / "early.json")]) == 0
+    assert main(["update", "example:ex1", str(shop / "cuts.csv"), "--samples", "300", "--seed", "2",
+                 "--start", str(shop / "early.json"), "--out", str(shop / "seq.json")]) == 0
+    seq = json.loads((shop / "seq.json").read_text())
+    fresh = json.loads((shop / "post.json").read_text())
+    assert len(seq["cuts"]["rpm"]) == 6 and seq["diagnostics"]["stages"] < fresh["diagnostics"]["stages"]
+    (shop / "other.csv").write_text(CUTS.replace("6000,2.0", "6100,2.0"))
+    capsys.readouterr()
+    assert main(["update", "example:ex1", str(shop / "other.csv"), "--start", str(shop / "early.json"),
+                 "--out", str(shop / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: error:") and "start" in err[0]

@@ -18,9 +18,10 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, progress: Progress | None = None):
+           seed: int = 0, start=None, progress: Progress | None = None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
-    measured-FRF config's prior centres on its fitted modes.
+    measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
+    among ``cuts`` (sequential reuse: only the new cuts are tempered in).
 
     Raises:
         InputError: fewer than 100 samples, bad cuts (see :class:`millstab.update.Evidence`), bad prior.
@@ -31,7 +32,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     if samples < 100:
         raise InputError("--samples", samples, "need at least 100 samples")
     cfg, _ = modal(cfg)
-    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, progress=progress)
+    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress)
 
 
 def posterior_from_json(doc, source: str = "posterior"):

@@ -34,6 +34,8 @@ def update_cmd(
     seed: int = typer.Option(0, "--seed", help="Seed of the sampler (same seed, same samples)."),
     out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/1)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
+    start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
+                                         "earlier update): only the later cuts are tempered in (faster)."),
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC)."""
     from rich.console import Console
@@ -45,13 +47,14 @@ def update_cmd(
     cfg = api.config(config)
     c = read_points(cuts)
     p = read_points(points) if points is not None else None
-    inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points}
+    inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = [v for v in inputs.values() if v]
     cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
     if note:
         typer.echo(note)
-    post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed)
+    post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
+                      start=_load_posterior(start) if start is not None else None)
     doc = post.to_json()
     doc["config"] = cfg.name
     write_json(out, doc, protect=protect)

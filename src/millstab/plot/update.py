@@ -73,4 +73,58 @@ def plot_pmap(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, prior
     return fig
 
 
-__all__ = ["plot_corner", "plot_pmap"]
+def plot_campaign(rpm: np.ndarray, depth_mm: np.ndarray, maps: dict, truth_depth_mm: np.ndarray, cuts: dict,
+                  recs: dict, productivity: np.ndarray, stable: np.ndarray, prior_depth_mm: np.ndarray | None = None):
+    """A virtual campaign: P(stable) maps after some numbers of cuts, and productivity / best vs cuts.
+
+    Args:
+        rpm (S,), depth_mm (D,): the maps' grid [rpm], [mm].
+        maps: {number of cuts k: P(stable) (S, D)} (up to three panels).
+        truth_depth_mm: the true limit at ``rpm`` [mm]; prior_depth_mm: the prior's SLD [mm] or ``None``.
+        cuts: {"rpm", "depth_mm", "label"} lists of the campaign's cuts in order (panel k shows the first k).
+        recs: {k: (rpm, depth_mm)} the recommendation after k cuts.
+        productivity, stable: after 0, 1, … cuts, the recommendation's productivity over the best truly
+            stable cut's, and whether it is truly stable.
+    """
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
+    lab = np.asarray(cuts["label"])
+    cr, cd = np.asarray(cuts["rpm"], float), np.asarray(cuts["depth_mm"], float)
+    for ax, (k, pm) in zip(axes.ravel(), maps.items()):
+        mesh = ax.pcolormesh(rpm, depth_mm, pm.T, cmap="RdYlGn", vmin=0, vmax=1, shading="auto", rasterized=True)
+        ax.contour(rpm, depth_mm, pm.T, levels=[0.05, 0.5, 0.95], colors="k", linewidths=[0.6, 1.2, 0.6],
+                   linestyles=["--", "-", "--"])
+        ax.plot(rpm, truth_depth_mm, color="tab:blue", lw=1.4, label="true limit")
+        if prior_depth_mm is not None:
+            ax.plot(rpm, prior_depth_mm, color="tab:blue", lw=1, ls=":", label="hammer-test SLD")
+        for name, (m, c) in _MARKERS.items():
+            sel = (lab == name) & (np.arange(lab.size) < k)
+            if sel.any():
+                ax.plot(cr[sel], cd[sel], "X" if m == "x" else m, color=c, mec="k", ms=7, label=name)
+        if k in recs:
+            ax.plot(*recs[k], "*", color="gold", mec="k", ms=14, label="recommended (risk 5 %)")
+        ax.set_xlim(rpm.min(), rpm.max())
+        ax.set_ylim(depth_mm.min(), depth_mm.max())
+        ax.set_title(f"after {k} cut{'s' if k != 1 else ''}", fontsize=10)
+        ax.set_xlabel("spindle speed [rpm]")
+        ax.set_ylabel("axial depth [mm]")
+        fig.colorbar(mesh, ax=ax, label="P(stable)")
+    axes.ravel()[len(maps) - 1].legend(fontsize=7, loc="upper left")  # the panel with the most cuts
+    ax = axes[1, 1]
+    k = np.arange(len(productivity))
+    p, ok = np.asarray(productivity, float), np.asarray(stable, bool)
+    ax.plot(k, p, "-", color="0.5")
+    ax.plot(k[ok], p[ok], "o", color="tab:green", label="truly stable")
+    ax.plot(k[~ok], p[~ok], "x", color="tab:red", ms=8, label="chatters")
+    ax.axhline(0.85, color="k", ls="--", lw=0.8, label="85 % of the best")
+    ax.set_ylim(0, max(1.05, float(p.max()) + 0.05))
+    ax.set_xlabel("test cuts")
+    ax.set_ylabel("productivity / best truly stable")
+    ax.set_title("cuts to the optimum", fontsize=10)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["plot_campaign", "plot_corner", "plot_pmap"]

@@ -2,7 +2,8 @@
 
 The paper's tables and figures come from :mod:`millstab.reproduce.paper`; two further steps from
 :mod:`millstab.reproduce.low_immersion` go beyond it (simulated test cuts; the zero-order, SDM and
-spectral engines at low radial immersion and the zero-order identification's model error there).
+spectral engines at low radial immersion and the zero-order identification's model error there), and
+:mod:`millstab.reproduce.campaign` plays a virtual test campaign of Bayesian updating.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ TITLE = "millstab reproduces: Sensitivity Analysis and Monte Carlo Based Uncerta
 
 def steps() -> list[tuple[str, Callable[[Context], None]]]:
     """The steps in report order (name, function)."""
-    from millstab.reproduce import low_immersion, paper
+    from millstab.reproduce import campaign, low_immersion, paper
 
     return [
         ("Table 1 and the synthetic SLDs", paper.table1),
@@ -28,6 +29,7 @@ def steps() -> list[tuple[str, Callable[[Context], None]]]:
         ("Fig. SENS and Table 6: sensitivity", paper.sensitivity),
         ("Beyond the paper: simulated cuts", low_immersion.simulated_cuts),
         ("Beyond the paper: engines at low immersion, identification", low_immersion.engines),
+        ("Beyond the paper: a virtual test campaign (Bayesian updating)", campaign.virtual_campaign),
     ]
 
 

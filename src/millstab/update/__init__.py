@@ -5,7 +5,8 @@
   frequencies and boundary points through the one batched forward function;
 * :mod:`~millstab.update.sampler` -- adaptive tempered sequential Monte Carlo;
 * :mod:`~millstab.update.posterior` -- the result (samples, summaries, x↔y exchange modes, JSON);
-* :mod:`~millstab.update.decide` -- P(stable) maps, the recommended cut and the next test.
+* :mod:`~millstab.update.decide` -- P(stable) maps, the recommended cut and the next test;
+* :mod:`~millstab.update.campaign` -- virtual test campaigns (recommend → cut → update) and calibration.
 
 :func:`update` runs the whole chain from a config and a cuts file.
 """
@@ -30,7 +31,7 @@ DEFAULT_SAMPLES = 4000
 
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
-           progress: Callable[[str, int, int], None] | None = None) -> Posterior:
+           progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None) -> Posterior:
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
@@ -44,6 +45,10 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         seed: seed of the sampler (same seed, same samples).
         moves: Metropolis–Hastings moves per tempering stage.
         prior: a prior to use instead of the config's.
+        start: the posterior of the first cuts of ``cuts`` (sequential reuse: the posterior after n cuts
+            is the prior of cut n + 1): its samples start the sampler and only the later cuts are
+            tempered in, which takes far fewer stages than a fresh update. Its prior, engine and data must
+            be those of this update's first cuts (boundary points included).
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
@@ -55,7 +60,15 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         lik = Likelihood(pr, ev, engine)
     for w in caught:  # pass them on to the caller, and keep them in the result
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    res = tempered_smc(pr.sample, pr.logpdf, lik, samples, seed=seed, moves=moves, progress=progress)
+    if start is None:
+        res = tempered_smc(pr.sample, pr.logpdf, lik, samples, seed=seed, moves=moves, progress=progress)
+    else:
+        n_old = _check_start(start, pr, ev, engine)
+        rng = np.random.default_rng(seed)
+        u0 = start.u
+        u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
+        res = tempered_smc(pr.sample, pr.logpdf, lik.split(n_old), samples, seed=rng, moves=moves, progress=progress,
+                           init=u0)
     diag = res.diagnostics()
     diag["engine_sets"] = lik.n_sets
     diag["frequency_term"] = lik.uses_frequency
@@ -63,6 +76,31 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             "label": [("stable", "chatter", "marginal")[k] for k in ev.cut_kind] + [""] * ev.pt_rpm.size,
             "chatter_hz": [None if not np.isfinite(h) else float(h) for h in ev.cut_hz] + [None] * ev.pt_rpm.size}
     return Posterior(pr, np.exp(res.u), engine, diag, data, tuple(str(w.message) for w in caught))
+
+
+def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> int:
+    """The number of earlier cuts of ``start`` after checking that it is this update's own beginning."""
+    from millstab.errors import InputError
+
+    same_prior = (start.prior.names == prior.names and np.allclose(start.prior.median, prior.median, rtol=1e-12)
+                  and np.allclose(start.prior.spread, prior.spread, rtol=1e-12)
+                  and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel)
+    if not same_prior or start.engine != engine:
+        raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
+                                                                           "[prior] table and engine")
+    c = start.cuts or {}
+    lab = list(c.get("label") or [])
+    n_old = sum(1 for x in lab if x)
+    n_pts = len(lab) - n_old
+    kinds = [("stable", "chatter", "marginal")[k] for k in ev.cut_kind[:n_old]]
+    ok = (n_old <= ev.n_cuts and n_pts == ev.pt_rpm.size and kinds == lab[:n_old]
+          and np.allclose(np.asarray(c.get("rpm", [])[:n_old], float), ev.cut_rpm[:n_old])
+          and np.allclose(np.asarray(c.get("depth_mm", [])[:n_old], float), ev.cut_depth_mm[:n_old])
+          and np.allclose(np.asarray(c.get("rpm", [])[n_old:], float), ev.pt_rpm))
+    if not ok:
+        raise InputError("start", f"a posterior of {n_old} cuts and {n_pts} points",
+                         "its cuts must be the first cuts of this update (same order, labels, boundary points)")
+    return n_old
 
 
 __all__ = ["DEFAULT_SAMPLES", "Evidence", "Likelihood", "Posterior", "Prior", "Recommendation", "make_prior",

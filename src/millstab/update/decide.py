@@ -27,9 +27,9 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ndtr
 
 from millstab.errors import InputError
+from millstab.update._bald import label_information
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
 
@@ -160,33 +160,34 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     p_ch = float(np.mean(col <= depth_best))
     prod = float(rpm_best * depth_best)
     limited = "max_depth" if depth_best >= cap * (1 - 1e-12) else "chatter risk"
-    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed)
+    # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
+    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]))
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited)
 
 
 def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, depth_rec: float, cap: float = math.inf,
-              *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0) -> dict:
-    """The next test cut: the largest productivity-weighted label information (see the module docstring)."""
+              *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0,
+              grid: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+    """The next test cut: the largest productivity-weighted label information (see the module docstring).
+
+    ``grid`` = (speeds (S,) [rpm], limits (N, S) [mm] of all the posterior's samples) reuses limits the
+    caller has computed already (then ``n_rpm`` is unused); else ``n_rpm`` speeds span ``rpm_range``.
+    """
     rng = np.random.default_rng(seed)
-    u = post.u
-    if u.shape[0] > NEXT_TEST_SAMPLES:
-        u = u[rng.choice(u.shape[0], NEXT_TEST_SAMPLES, replace=False)]
-    speeds = np.linspace(*rpm_range, n_rpm)
-    blim, _ = limits(post.prior, u, speeds, post.engine)  # (M, S)
+    n = post.u.shape[0]
+    rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
+    if grid is None:
+        speeds = np.linspace(*rpm_range, n_rpm)
+        blim, _ = limits(post.prior, post.u[rows], speeds, post.engine)  # (M, S)
+    else:
+        speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)[rows]
     finite = np.where(np.isfinite(blim), blim, np.nan)
     top = float(np.nanquantile(finite, 0.95)) if np.isfinite(finite).any() else 2 * max(depth_rec, 1e-3)
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    pi = ndtr((depths[None, None, :] - blim[:, :, None]) / sig)  # (M, S, D) label probabilities
-    pbar = pi.mean(axis=0)
-
-    def h(p: np.ndarray) -> np.ndarray:
-        q = np.clip(p, 1e-12, 1 - 1e-12)
-        return -(q * np.log(q) + (1 - q) * np.log(1 - q))
-
-    info = h(pbar) - h(pi).mean(axis=0)  # mutual information [nats]
+    pbar, info = label_information(blim, depths, sig)  # (S, D): P(chatter label), mutual information [nats]
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref

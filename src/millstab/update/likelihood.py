@@ -171,19 +171,38 @@ class Likelihood:
         self.n_sets += depth.shape[0]
         return self.from_limits(depth, hz)
 
-    def from_limits(self, depth_mm: np.ndarray, hz: np.ndarray | None = None) -> np.ndarray:
-        """log-likelihood (B,) from limiting depths (B, S) [mm] (and frequencies (B, S) [Hz]) at :attr:`speeds`."""
+    def split(self, n_old: int):
+        """``u -> (log L of the first n_old cuts and every boundary point, log L of the other cuts)``
+        from ONE engine call: the likelihood of sequential reuse (:func:`tempered_smc`'s ``init``)."""
+        if not 0 <= n_old <= self.evidence.n_cuts:
+            raise InputError("start", f"{n_old} earlier cuts", f"at most the {self.evidence.n_cuts} cuts of this update")
+        new = np.arange(self.evidence.n_cuts) >= n_old
+
+        def parts(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency)
+            self.n_calls += 1
+            self.n_sets += depth.shape[0]
+            return self.from_limits(depth, hz, ~new, True), self.from_limits(depth, hz, new, False)
+
+        return parts
+
+    def from_limits(self, depth_mm: np.ndarray, hz: np.ndarray | None = None, cuts: np.ndarray | None = None,
+                    points: bool = True) -> np.ndarray:
+        """log-likelihood (B,) from limiting depths (B, S) [mm] (and frequencies (B, S) [Hz]) at :attr:`speeds`;
+        ``cuts`` (bool per cut) and ``points`` select the data counted (default all)."""
         ev = self.evidence
+        sel = np.ones(ev.n_cuts, bool) if cuts is None else np.asarray(cuts, bool)
         ll = np.zeros(depth_mm.shape[0])
-        if ev.n_cuts:
-            z = (ev.cut_depth_mm - depth_mm[:, self._ic]) / self._sig_c
-            ll += cut_loglik(z, ev.cut_kind) @ ev.cut_weight
-        if self._hz.size and hz is not None:
-            j = self._hz
+        if sel.any():  # the columns of the selected cuts only (a zero weight times −inf would be NaN)
+            i = np.flatnonzero(sel)
+            z = (ev.cut_depth_mm[i] - depth_mm[:, self._ic[i]]) / self._sig_c[i]
+            ll += cut_loglik(z, ev.cut_kind[i]) @ ev.cut_weight[i]
+        j = self._hz[sel[self._hz]] if self._hz.size else self._hz
+        if j.size and hz is not None:
             d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])
             s = self.prior.sigma_chatter_hz
             ll += (-0.5 * (d / s) ** 2 - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
-        if ev.pt_rpm.size:
+        if ev.pt_rpm.size and points:
             r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / self._sig_p
             ll += (-0.5 * r**2 - np.log(self._sig_p) - _LOG_SQRT_2PI) @ ev.pt_weight
         return np.where(np.isnan(ll), -np.inf, ll)

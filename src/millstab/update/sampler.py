@@ -13,6 +13,11 @@ The particles move from the prior (β = 0) to the posterior (β = 1) through π_
 Every likelihood evaluation is ONE call of the batched ``loglik`` for all particles; there is no
 Python loop over particles. The log evidence (Σ log mean incremental weight) comes as a by-product.
 Random numbers come from the numpy Generator passed in, so a seed fixes the result.
+
+Sequential reuse (``init``): the posterior after n cuts is the prior of cut n + 1. Starting from its
+equally weighted particles, only the new data are tempered, π_β ∝ prior · L_old · L_new^β; ``loglik``
+then returns the pair (log L_old, log L_new) from one engine call, L_old enters every MH acceptance
+untempered and only L_new chooses the β steps (and the evidence, which is then p(new | old)).
 """
 
 from __future__ import annotations
@@ -101,17 +106,21 @@ def next_beta(loglik: np.ndarray, beta: float, target: float) -> float:
 
 def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray], logprior: Batch, loglik: Batch,
                  n: int = 4000, *, seed: int | np.random.Generator = 0, moves: int = 3, ess_target: float = 0.5,
-                 max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None) -> SMCResult:
+                 max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
+                 init: np.ndarray | None = None) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
         sample_prior: ``(n, rng) -> u (n, P)`` prior draws.
-        logprior, loglik: batched ``u (B, P) -> (B,)``; −inf allowed, NaN not.
+        logprior, loglik: batched ``u (B, P) -> (B,)``; −inf allowed, NaN not. With ``init``, ``loglik``
+            returns the pair (untempered log L_old (B,), tempered log L_new (B,)).
         n: particles (posterior samples).
         seed: a seed or a numpy Generator.
         moves: MH moves per stage (each one batched likelihood call).
         ess_target: ESS fraction aimed at when choosing each β (0 < · < 1).
         progress: ``progress(stage, done, total)`` with done = β·1000 of 1000.
+        init: (n, P) starting particles, equally weighted draws of prior · L_old (the posterior of the
+            earlier data), instead of prior draws.
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -123,14 +132,26 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         raise InputError("moves", moves, "need at least one MH move per stage")
     t0 = time.perf_counter()
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    u = np.asarray(sample_prior(n, rng), dtype=float)
+    if init is None:
+        u = np.asarray(sample_prior(n, rng), dtype=float)
+
+        def both(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return np.zeros(v.shape[0]), loglik(v)
+    else:
+        u = np.array(init, dtype=float)
+        if u.ndim != 2 or u.shape[0] != n:
+            raise InputError("init", f"shape {u.shape}", f"need ({n}, P) starting particles")
+
+        def both(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            a, b = loglik(v)
+            return np.asarray(a, float), np.asarray(b, float)
     p = u.shape[1]
-    ll = loglik(u)
+    fx, ll = both(u)
     n_ll = 1
     if not np.isfinite(ll).any():
         raise InputError("cuts", "no prior sample explains them", "every prior draw has likelihood 0: the cuts contradict "
                                                                  "the prior (check the labels and units, or widen the spreads)")
-    lp = logprior(u)
+    lp = logprior(u) + fx  # the untempered part of the target (the prior, and L_old when reusing)
     beta, log_z = 0.0, 0.0
     betas, esss, accs = [0.0], [], []
     scale = 2.38**2 / p
@@ -149,8 +170,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         acc = 0.0
         for _ in range(moves):  # each move: one batched likelihood call for all particles
             prop = u + rng.standard_normal((n, p)) @ chol.T
-            lp2 = logprior(prop)
-            ll2 = loglik(prop)
+            fx2, ll2 = both(prop)
+            lp2 = logprior(prop) + fx2
             n_ll += 1
             log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp - beta * ll
             ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)

@@ -26,6 +26,16 @@ import numpy as np
 
 TWO_PI = 2.0 * math.pi
 
+#: work counts (``stats`` arrays of :func:`envelope_on_grid`): grid nodes, evaluations locating the
+#: Re ν = 0 edges, segments with both ends valid, segments visited, their ε'/ε'' node evaluations,
+#: (segment, lobe) pairs scanned, evaluations locating split points, candidates (crossings with a
+#: linear estimate), candidates refined, refinement evaluations, levels of the segment scan
+S_NODES, S_EDGE, S_SEGMENTS, S_VISITED, S_SLOPES, S_PAIRS, S_SPLIT, S_CANDIDATES, S_REFINED, S_REFINE_EVALS, S_LEVELS = range(11)
+N_STATS = 11
+STAT_NAMES = ("grid nodes", "edge evaluations", "valid segments", "segments visited", "node slope evaluations",
+              "(segment, lobe) pairs", "split-point evaluations", "candidates", "candidates refined",
+              "refinement evaluations", "scan levels")
+
 #: Candidates whose grid estimate is within this factor of the best estimate at a speed are refined
 #: exactly. Larger than the grid's interpolation error (tests compare with a brute-force reference).
 REFINE_MARGIN = 1.15
@@ -339,7 +349,7 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
     its values fp, fq of opposite signs at the ends. Illinois iteration on exact evaluations to 1e-11
     of ω for a lobe's turning point (a split point off by δ hides a tip only for speeds within ~δ²
     of it) and 1e-8 for an extremum of g (g then varies by ~δ² across the piece it overlaps).
-    Returns (ω, ν, ε', ε'') at the zero."""
+    Returns (ω, ν, ε', ε'') at the zero and the number of evaluations."""
     wi = w[i]
     wj = w[i + 1]
     lo, hi, flo, fhi = p, q, fp, fq
@@ -348,12 +358,14 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
     e1 = 0.0
     e2 = 0.0
     side = 0
+    n_ev = 0
     for _ in range(100):
         x = (lo * fhi - hi * flo) / (fhi - flo)
         if not (min(lo, hi) < x < max(lo, hi)):
             x = 0.5 * (lo + hi)
         v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
                               ga, gb)
+        n_ev += 1
         fx = e2 if kind == 0 else x * e1 - _eps(v) - target
         if fx == 0.0:
             break
@@ -369,7 +381,7 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
             side = 1
         if abs(hi - lo) <= (1e-8 if kind == 0 else 1e-11) * x:
             break
-    return x, v, e1, e2
+    return x, v, e1, e2, n_ev
 
 
 @nb.njit(cache=True)
@@ -390,14 +402,15 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
     flo = wa * T - _eps(nua) - target
     fhi = wb * T - _eps(nub) - target
     if flo == 0.0:
-        return nua.real, wa
+        return nua.real, wa, 0
     if fhi == 0.0:
-        return nub.real, wb
+        return nub.real, wb, 0
     # the three latest points, newest last
     x0, f0, x1, f1, x2, f2 = lo, flo, lo, flo, hi, fhi
     n_pts = 2
     v = nua
     xm = wa
+    n_ev = 0
     for _ in range(60):
         if n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
             xm = (x0 * f1 * f2 / ((f0 - f1) * (f0 - f2)) + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
@@ -409,8 +422,9 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
         v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        n_ev += 1
         if v.real <= 0.0:
-            return v.real, xm
+            return v.real, xm, n_ev
         fm = xm * T - _eps(v) - target
         # |H| < 1e-7 rad, tighter where H is flatter than its far-field slope T (near a lobe tip
         # dH/dω → 0 and the same residual would leave the root, and the depth, much less certain)
@@ -423,7 +437,7 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
             hi, fhi = xm, fm
         x0, f0, x1, f1, x2, f2 = x1, f1, x2, f2, xm, fm
         n_pts += 1
-    return v.real, xm
+    return v.real, xm, n_ev
 
 
 @nb.njit(cache=True, inline="always")
@@ -434,7 +448,7 @@ def _any_speed(rpm, lo, hi):
 
 
 @nb.njit(cache=True)
-def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx, kx, zx, wny, ky, zy, measured):
+def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx, kx, zx, wny, ky, zy, measured, stats):
     """Find every (branch, bracket, lobe k, speed) crossing that can matter, with a linear estimate.
 
     A crossing of lobe k at speed j lies in a bracket [x0, x1] of branch br when
@@ -455,8 +469,10 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     far-from-resonance 80–90 % of the grid.
 
     Returns the candidates (speed j, segment code br·F + i, k, bracket ends and their roots,
-    estimated Re ν) and updates ``est`` with the best estimate per speed.
+    estimated Re ν) and updates ``est`` with the best estimate per speed. ``stats`` (size 0: not
+    counted) receives the work counts (S_* indices).
     """
+    counting = stats.size > 0
     n_w = w.size
     n_s = rpm.size
     t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
@@ -474,6 +490,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                 seg_max[n_seg] = max(inv_b[br, i], inv_b[br, i + 1])
                 seg_id[n_seg] = br * n_w + i
                 n_seg += 1
+    if counting:
+        stats[S_SEGMENTS] += n_seg
     cap = 8 * n_s + 64
     c_j = np.empty(cap, dtype=np.int64)
     c_seg = np.empty(cap, dtype=np.int64)
@@ -508,6 +526,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             n_vis += 1
             if m_s * REFINE_MARGIN < worst:
                 continue
+            if counting:
+                stats[S_VISITED] += 1
             code = seg_id[s]
             br = code // n_w
             i = code - br * n_w
@@ -527,6 +547,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             else:
                 for e in range(i, i + 2):
                     if not have[br, e]:
+                        if counting:
+                            stats[S_SLOPES] += 1
                         d1[br, e], d2[br, e] = _node_slopes(w[e], nu[br, e], nu[1 - br, e], G[0, e], G[3, e], a,
                                                             wnx, kx, zx, wny, ky, zy)
                         have[br, e] = True
@@ -547,12 +569,16 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             # an extremum of g can only hide crossings of 2kπ beyond both ends' values: above them for a
             # maximum (ε'' from + to −), below them for a minimum (near a resonance g ≪ 0: none)
             if d2a * d2b < 0.0 and (TWO_PI * k_hi > max(g_a, g_b) if d2a > 0.0 else TWO_PI * k_lo < min(g_a, g_b)):
-                we, nue, d1e, _ = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                               measured, ga, gb)
+                we, nue, d1e, _, n_ev = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny,
+                                                     ky, zy, measured, ga, gb)
+                if counting:
+                    stats[S_SPLIT] += n_ev
                 if nue.real > 0.0 and wa < we < wb:
                     split_e = True
                     ee = _eps(nue)
                     g_e = we * d1e - ee
+            if counting:
+                stats[S_PAIRS] += k_hi - k_lo + 1
             for k in range(k_lo, k_hi + 1):
                 tk = TWO_PI * k
                 # bracket ends for this lobe: wa, [tip in piece 1], [we], [tip in piece 2], wb
@@ -583,8 +609,10 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             t_lo = max(tp + dp * room, tq - dq * room)
                         if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
                                                                         c60 / t_lo if t_lo > 0.0 else np.inf):
-                            x, v, _, _ = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                                      measured, ga, gb)
+                            x, v, _, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny,
+                                                            ky, zy, measured, ga, gb)
+                            if counting:
+                                stats[S_SPLIT] += n_ev
                             if v.real > 0.0 and bx[nb_ - 1] < x < pq:
                                 bx[nb_] = x
                                 bnu[nb_] = v
@@ -645,6 +673,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             n_c += 1
                         j += 1
         worst = est.min()
+        if counting:
+            stats[S_LEVELS] += 1
         if level_lo == 0.0 or level_lo * REFINE_MARGIN < worst:
             break
         level_hi = level_lo
@@ -681,7 +711,7 @@ def _grow_f(a, cap):
 
 
 @nb.njit(cache=True)
-def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
+def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
     """Frequencies just inside the valid side wherever a branch's Re ν changes sign between nodes.
 
     Crossings right next to Re ν = 0 are real boundaries (near resonance |ν| is large, so the depth
@@ -717,6 +747,8 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
                     mid = 0.5 * (lo + hi)
                 v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, wnx, kx, zx, wny, ky, zy,
                              measured, ga, gb)
+                if stats.size > 0:
+                    stats[S_EDGE] += 1
                 if v.real > 0.0:
                     hi, fhi = mid, v.real
                     if side == 1:
@@ -784,17 +816,19 @@ def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
 
 
 @nb.njit(cache=True)
-def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc):
-    """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
-
-    Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
-    """
+def _scan(w, G, a, n_teeth, rpm, wnx, kx, zx, wny, ky, zy, measured, stats):
+    """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
+    the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
+    the tooth periods T [s], the best estimate per speed and the candidates."""
+    counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3])
-    extra = _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G)
+    extra = _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats)
     if extra.size:
         w, G, nu = _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy)
     n_w = w.size
     n_s = rpm.size
+    if counting:
+        stats[S_NODES] += n_w
     valid = np.empty((2, n_w), dtype=np.bool_)
     inv_b = np.empty((2, n_w))
     eps = np.empty((2, n_w))
@@ -809,16 +843,33 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     for j in range(n_s):
         T[j] = 60.0 / (n_teeth * rpm[j])
     est = np.zeros(n_s)
-    best_inv = np.zeros(n_s)
-    best_k = np.full(n_s, -1, dtype=np.int64)
-    best_w = np.full(n_s, np.nan)
     # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
     uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False
     c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a,
-                                               wnx, kx, zx, wny, ky, zy, measured)
+                                               wnx, kx, zx, wny, ky, zy, measured, stats)
+    if counting:
+        stats[S_CANDIDATES] += c_j.size
+    return w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu
+
+
+@nb.njit(cache=True)
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc, stats):
+    """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
+
+    Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
+    ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
+    """
+    counting = stats.size > 0
+    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, wnx, kx, zx, wny, ky, zy, measured,
+                                                          stats)
+    n_w = w.size
+    n_s = rpm.size
+    best_inv = np.zeros(n_s)
+    best_k = np.full(n_s, -1, dtype=np.int64)
+    best_w = np.full(n_s, np.nan)
     # refine exactly only the crossings whose estimate is near the best estimate at their speed
     ga = np.empty(4, dtype=np.complex128)
     gb = np.empty(4, dtype=np.complex128)
@@ -832,8 +883,11 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
             for q in range(4):
                 ga[q] = G[q, i]
                 gb[q] = G[q, i + 1]
-        re_nu, wcj = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
-                             wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
+                                   wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        if counting:
+            stats[S_REFINED] += 1
+            stats[S_REFINE_EVALS] += n_ev
         if re_nu > best_inv[j]:
             best_inv[j] = re_nu
             best_k[j] = c_k[c]
@@ -871,14 +925,17 @@ def modal_grid(wnx, kx, zx, wny, ky, zy, w_top, n_base, offsets):
 
 
 @nb.njit(cache=True, parallel=True)
-def envelope_modal_batch(wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
+def envelope_modal_batch(wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc, stats):
     """Batched envelope for B modal structures: mode arrays (B, Mx) and (B, My), rpm ascending (S,).
 
-    Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s].
+    Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s]. ``stats`` is
+    (B, N_STATS) int64 zeros to receive each set's work counts, or (0, N_STATS) for none.
     """
+    counting = stats.shape[0] > 0
+    empty = np.zeros(0, dtype=np.int64)
     n_b = wnx.shape[0]
     w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
     for b in nb.prange(n_b):
         w, G = modal_grid(wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], w_top, n_base, offsets)
         envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False,
-                         depth[b], lobe[b], wc[b])
+                         depth[b], lobe[b], wc[b], stats[b] if counting else empty)

@@ -56,39 +56,38 @@ FLOPS_CANDIDATE = 12
 
 
 @nb.njit(cache=True)
-def _stages(upto, wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
+def _stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
     """Run the per-set pipeline serially up to stage ``upto`` (0 grid and receptances, 1 + branches,
     2 + Re ν = 0 edges and the candidate scan, 3 the whole envelope); returns a checksum."""
-    n_b = wnx.shape[0]
+    n_b = md.shape[0]
     w_top = K.TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0
     acc = 0.0
     none = np.zeros(0, dtype=np.int64)
     for b in range(n_b):
-        w, G = K.modal_grid(wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], w_top, n_base, offsets)
+        w, G = K.modal_grid(md[b], w_top, n_base, offsets)
         acc += G[0, 0].real
         if upto == 0:
             continue
         if upto == 3:
-            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False,
-                               depth[b], lobe[b], wc[b], none)
+            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none)
             continue
         if upto == 1:
             nu = K._branches(a, G[0], G[1], G[2], G[3])
             acc += nu[0, 0].real
             continue
-        acc += K._scan(w, G, a, n_teeth, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False, none)[4].size
+        acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, none)[4].size
     return acc
 
 
 @nb.njit(cache=True)
-def _dense_rate(n, wn, k, z, a):
+def _dense_rate(n, md, a):
     """The same operations as one root evaluation (two receptances, tr/det, sqrt, atan2) in a dense
     loop with no branches or memory traffic: root evaluations per second at the scalar rate."""
     acc = 0.0
     for i in range(n):
-        w = wn[0] * (0.5 + i * (1.0 / n))
-        gxx = K._modal_receptance(w, wn, k, z)
-        gyy = K._modal_receptance(w * 1.01, wn, k, z)
+        w = md[0, 0, 0] * (0.5 + i * (1.0 / n))
+        gxx = K._modal_receptance(w, md, 0)
+        gyy = K._modal_receptance(w, md, 1)
         tr, det = K._tr_det(a, gxx, 0.0j, 0.0j, gyy)
         s = np.sqrt(tr * tr - 4.0 * det)
         v = 0.5 * (tr + s)
@@ -126,7 +125,7 @@ def main() -> None:
     # stage timings, one thread, serial
     two_pi = 2 * math.pi
     a = K.directional_brackets(cfg.cutting.kr, cfg.cutting.entry, cfg.cutting.exit)
-    arrays = (two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y)
+    arrays = (K.pack_modes(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y),)
     out = (np.empty((n_b, n_s)), np.empty((n_b, n_s), dtype=np.int64), np.empty((n_b, n_s)))
     t0 = time.perf_counter()
     small = tuple(x[:2] for x in arrays)
@@ -156,10 +155,10 @@ def main() -> None:
              + ev["node slope evaluations"] * FLOPS_NODE_SLOPES + ev["(segment, lobe) pairs"] * FLOPS_PAIR
              + ev["candidates"] * FLOPS_CANDIDATE + ev["refinement evaluations"] * (FLOPS_ROOT + 20))
     n = 2_000_000
-    wn, k, z = np.array([two_pi * 903.0]), np.array([1.253e7]), np.array([0.03])
-    _dense_rate(10, wn, k, z, a)
+    md = K.pack_modes(*([v] for v in (two_pi * 903.0, 1.253e7, 0.03, two_pi * 910.0, 1.253e7, 0.03)))
+    _dense_rate(10, md, a)
     t = time.perf_counter()
-    _dense_rate(n, wn, k, z, a)
+    _dense_rate(n, md, a)
     per_root = (time.perf_counter() - t) / n
     rate = FLOPS_ROOT / per_root
     print(f"\nflops per envelope (hand counts x work counts): {flops / 1e3:.0f} k")

@@ -41,6 +41,29 @@ STAT_NAMES = ("grid nodes", "edge evaluations", "valid segments", "segments visi
 REFINE_MARGIN = 1.15
 
 
+def pack_modes(wnx, kx, zx, wny, ky, zy) -> np.ndarray:
+    """The modal parameters of B sets as one array (B, 2, 3, M) [rad/s, N/m, 1]: direction (x, y), then
+    (ωn, k, ζ), then the mode, padded with k = 0 (a stiffness no real mode has) where a direction has
+    fewer than M modes. Inputs (B, Mx) and (B, My), or 1-D for one set (the result is then (2, 3, M)).
+
+    One array instead of six: every call between the compiled functions that passes an array costs an
+    atomic reference-count increment and decrement per array, which numba does not always remove.
+    """
+    wnx, kx, zx, wny, ky, zy = (np.asarray(v, dtype=float) for v in (wnx, kx, zx, wny, ky, zy))
+    single = wnx.ndim == 1
+    if single:
+        wnx, kx, zx, wny, ky, zy = (v[None, :] for v in (wnx, kx, zx, wny, ky, zy))
+    n_b = wnx.shape[0]
+    m = max(wnx.shape[1], wny.shape[1], 1)
+    md = np.zeros((n_b, 2, 3, m))
+    for d, (wn, k, z) in enumerate(((wnx, kx, zx), (wny, ky, zy))):
+        n = wn.shape[1]
+        md[:, d, 0, :n] = wn
+        md[:, d, 1, :n] = k
+        md[:, d, 2, :n] = z
+    return md[0] if single else md
+
+
 def cluster_offsets(n: int = 61, half_width: float = 60.0, centre_step: float = 0.2) -> np.ndarray:
     """Offsets x of the dense frequency cluster around a mode: ω = ωn (1 + ζ x).
 
@@ -74,15 +97,19 @@ def directional_brackets(kr, phi_s, phi_e):
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_receptance(w, wn, k, z):
-    """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N]; zero for no modes (rigid)."""
+def _modal_receptance(w, md, d):
+    """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N] in direction d (0 x, 1 y) of the packed
+    modes ``md`` (:func:`pack_modes`); zero for no modes (rigid)."""
     gr = 0.0
     gi = 0.0
-    for m in range(wn.size):
-        r = w / wn[m]
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:  # padding: no more modes in this direction
+            break
+        r = w / md[d, 0, m]
         re = 1.0 - r * r
-        im = 2.0 * z[m] * r
-        inv = 1.0 / (k[m] * (re * re + im * im))  # 1/(k(re + i im)) = (re − i im)/(k|.|²)
+        im = 2.0 * md[d, 2, m] * r
+        inv = 1.0 / (km * (re * re + im * im))  # 1/(k(re + i im)) = (re − i im)/(k|.|²)
         gr += re * inv
         gi -= im * inv
     return complex(gr, gi)
@@ -197,21 +224,21 @@ def _branches(a, gxx, gxy, gyx, gyy):
 
 
 @nb.njit(cache=True, inline="always")
-def _root_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _root_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     """The root of [α][G(ω)] at ω nearest the branch value interpolated between (sa, nua) and (sb, nub).
 
     For a modal structure G is exact; for a measured FRF it is linear on the table segment [wi, wj]
-    (ga, gb hold the four receptances at wi and wj).
+    (gab hold the four receptances at wi and wj).
     """
     if measured:
         t = (w - wi) / (wj - wi)
-        gxx = ga[0] + t * (gb[0] - ga[0])
-        gxy = ga[1] + t * (gb[1] - ga[1])
-        gyx = ga[2] + t * (gb[2] - ga[2])
-        gyy = ga[3] + t * (gb[3] - ga[3])
+        gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+        gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+        gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+        gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
     else:
-        gxx = _modal_receptance(w, wnx, kx, zx)
-        gyy = _modal_receptance(w, wny, ky, zy)
+        gxx = _modal_receptance(w, md, 0)
+        gyy = _modal_receptance(w, md, 1)
         gxy = 0.0j
         gyx = 0.0j
     tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
@@ -225,16 +252,22 @@ def _root_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_d(w, wn, k, z):
-    """Σ_m 1/D_m and its first two ω-derivatives [m/N, m·s/N, m·s²/N], D_m = k_m(1 − r² + 2iζ_m r)."""
+def _modal_d(w, md, d):
+    """Σ_m 1/D_m and its first two ω-derivatives [m/N, m·s/N, m·s²/N], D_m = k_m(1 − r² + 2iζ_m r),
+    in direction d of the packed modes ``md``."""
     g0 = 0.0j
     g1 = 0.0j
     g2 = 0.0j
-    for m in range(wn.size):
-        r = w / wn[m]
-        d0 = k[m] * complex(1.0 - r * r, 2.0 * z[m] * r)
-        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
-        d2 = -2.0 * k[m] / (wn[m] * wn[m])
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:
+            break
+        wn = md[d, 0, m]
+        z = md[d, 2, m]
+        r = w / wn
+        d0 = km * complex(1.0 - r * r, 2.0 * z * r)
+        d1 = km * complex(-2.0 * r, 2.0 * z) / wn
+        d2 = -2.0 * km / (wn * wn)
         inv = 1.0 / d0
         g0 += inv
         g1 -= d1 * inv * inv
@@ -243,7 +276,7 @@ def _modal_d(w, wn, k, z):
 
 
 @nb.njit(cache=True)
-def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _phase_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     """The root ν at ω (chosen as in :func:`_root_at`) with dε/dω [s] and d²ε/dω² [s²].
 
     From ν² − tr ν + det = 0 (tr, det of [α][G(ω)]): ν' = (tr'ν − det')/(2ν − tr) and
@@ -256,21 +289,21 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
     if measured:
         h = wj - wi
         t = (w - wi) / h
-        gxx = ga[0] + t * (gb[0] - ga[0])
-        gxy = ga[1] + t * (gb[1] - ga[1])
-        gyx = ga[2] + t * (gb[2] - ga[2])
-        gyy = ga[3] + t * (gb[3] - ga[3])
-        dxx = (gb[0] - ga[0]) / h
-        dxy = (gb[1] - ga[1]) / h
-        dyx = (gb[2] - ga[2]) / h
-        dyy = (gb[3] - ga[3]) / h
+        gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+        gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+        gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+        gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+        dxx = (gab[1, 0] - gab[0, 0]) / h
+        dxy = (gab[1, 1] - gab[0, 1]) / h
+        dyx = (gab[1, 2] - gab[0, 2]) / h
+        dyy = (gab[1, 3] - gab[0, 3]) / h
         exx = 0.0j
         exy = 0.0j
         eyx = 0.0j
         eyy = 0.0j
     else:
-        gxx, dxx, exx = _modal_d(w, wnx, kx, zx)
-        gyy, dyy, eyy = _modal_d(w, wny, ky, zy)
+        gxx, dxx, exx = _modal_d(w, md, 0)
+        gyy, dyy, eyy = _modal_d(w, md, 1)
         gxy = 0.0j
         gyx = 0.0j
         dxy = 0.0j
@@ -300,33 +333,38 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_d12(w, wn, k, z):
+def _modal_d12(w, md, d):
     """The first two ω-derivatives of Σ_m 1/D_m [m·s/N, m·s²/N] (as :func:`_modal_d`, without a
     complex division: 1/D = conj(D)/|D|², and D'' = −2k/ωn² is real)."""
     g1 = 0.0j
     g2 = 0.0j
-    for m in range(wn.size):
-        r = w / wn[m]
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:
+            break
+        wn = md[d, 0, m]
+        z = md[d, 2, m]
+        r = w / wn
         re = 1.0 - r * r
-        im = 2.0 * z[m] * r
-        sc = 1.0 / (k[m] * (re * re + im * im))
+        im = 2.0 * z * r
+        sc = 1.0 / (km * (re * re + im * im))
         inv = complex(re * sc, -im * sc)
-        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
+        d1 = km * complex(-2.0 * r, 2.0 * z) / wn
         inv2 = inv * inv
         g1 -= d1 * inv2
-        g2 += inv2 * (2.0 * d1 * d1 * inv + 2.0 * k[m] / (wn[m] * wn[m]))  # (2D'² − D D'')/D³
+        g2 += inv2 * (2.0 * d1 * d1 * inv + 2.0 * km / (wn * wn))  # (2D'² − D D'')/D³
     return g1, g2
 
 
 @nb.njit(cache=True, inline="always")
-def _node_slopes(w, nu, nu_other, gxx, gyy, a, wnx, kx, zx, wny, ky, zy):
+def _node_slopes(w, nu, nu_other, gxx, gyy, a, md):
     """dε/dω [s] and d²ε/dω² [s²] of the root ``nu`` at a grid node of a modal structure.
 
     The same formulas as :func:`_phase_at`, but the node's roots and receptances are already known:
     no square root or branch choice, and 2ν − tr is the difference of the two roots."""
     axx, axy, ayx, ayy = a
-    dxx, exx = _modal_d12(w, wnx, kx, zx)
-    dyy, eyy = _modal_d12(w, wny, ky, zy)
+    dxx, exx = _modal_d12(w, md, 0)
+    dyy, eyy = _modal_d12(w, md, 1)
     det_a = axx * ayy - axy * ayx
     tr1 = axx * dxx + ayy * dyy
     tr2 = axx * exx + ayy * eyy
@@ -344,7 +382,7 @@ def _node_slopes(w, nu, nu_other, gxx, gyy, a, wnx, kx, zx, wny, ky, zy):
 
 
 @nb.njit(cache=True)
-def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, md, measured, gab):
     """A zero inside (p, q) ⊂ segment i of ε'' (kind 0) or of g = ωε' − ε − target (kind 1), given
     its values fp, fq of opposite signs at the ends. Illinois iteration on exact evaluations to 1e-11
     of ω for a lobe's turning point (a split point off by δ hides a tip only for speeds within ~δ²
@@ -363,8 +401,8 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
         x = (lo * fhi - hi * flo) / (fhi - flo)
         if not (min(lo, hi) < x < max(lo, hi)):
             x = 0.5 * (lo + hi)
-        v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
-                              ga, gb)
+        v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, md, measured,
+                              gab)
         n_ev += 1
         fx = e2 if kind == 0 else x * e1 - _eps(v) - target
         if fx == 0.0:
@@ -385,7 +423,7 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
 
 
 @nb.njit(cache=True)
-def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _refine(T, k, wa, wb, nua, nub, wi, wj, a, md, measured, gab):
     """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
     [wi, wj], Brent-style.
 
@@ -421,7 +459,7 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
             xm = 0.5 * (lo + hi)
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
-        v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, md, measured, gab)
         n_ev += 1
         if v.real <= 0.0:
             return v.real, xm, n_ev
@@ -448,7 +486,7 @@ def _any_speed(rpm, lo, hi):
 
 
 @nb.njit(cache=True)
-def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx, kx, zx, wny, ky, zy, measured, stats):
+def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, measured, cap, stats):
     """Find every (branch, bracket, lobe k, speed) crossing that can matter, with a linear estimate.
 
     A crossing of lobe k at speed j lies in a bracket [x0, x1] of branch br when
@@ -470,7 +508,10 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
 
     Returns the candidates (speed j, segment code br·F + i, k, bracket ends and their roots,
     estimated Re ν) and updates ``est`` with the best estimate per speed. ``stats`` (size 0: not
-    counted) receives the work counts (S_* indices).
+    counted) receives the work counts (S_* indices). At most ``cap`` candidates are kept: when there are
+    more, the candidate arrays come back empty and ``overflow`` True, and the caller runs it again with a
+    larger ``cap`` (buffers grown inside the loops would be loop-carried arrays, which numba reference-
+    counts on every iteration).
     """
     counting = stats.size > 0
     n_w = w.size
@@ -492,7 +533,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                 n_seg += 1
     if counting:
         stats[S_SEGMENTS] += n_seg
-    cap = 8 * n_s + 64
+    overflow = False
     c_j = np.empty(cap, dtype=np.int64)
     c_seg = np.empty(cap, dtype=np.int64)
     c_k = np.empty(cap, dtype=np.int64)
@@ -504,8 +545,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     d1 = np.empty((2, n_w))
     d2 = np.empty((2, n_w))
     have = np.zeros((2, n_w), dtype=np.bool_)
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    gab = np.empty((2, 4), dtype=np.complex128)
     # the bracket ends of one (segment, k): frequency, root, ε, 1/b
     bx = np.empty(5)
     bnu = np.empty(5, dtype=np.complex128)
@@ -538,19 +578,19 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             ea = eps[br, i]
             eb = eps[br, i + 1]
             for c4 in range(4):
-                ga[c4] = G[c4, i]
-                gb[c4] = G[c4, i + 1]
+                gab[0, c4] = G[c4, i]
+                gab[1, c4] = G[c4, i + 1]
             # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
             if measured:
-                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
-                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
+                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
             else:
                 for e in range(i, i + 2):
                     if not have[br, e]:
                         if counting:
                             stats[S_SLOPES] += 1
                         d1[br, e], d2[br, e] = _node_slopes(w[e], nu[br, e], nu[1 - br, e], G[0, e], G[3, e], a,
-                                                            wnx, kx, zx, wny, ky, zy)
+                                                            md)
                         have[br, e] = True
                 d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
             g_a = wa * d1a - ea
@@ -569,8 +609,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             # an extremum of g can only hide crossings of 2kπ beyond both ends' values: above them for a
             # maximum (ε'' from + to −), below them for a minimum (near a resonance g ≪ 0: none)
             if d2a * d2b < 0.0 and (TWO_PI * k_hi > max(g_a, g_b) if d2a > 0.0 else TWO_PI * k_lo < min(g_a, g_b)):
-                we, nue, d1e, _, n_ev = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny,
-                                                     ky, zy, measured, ga, gb)
+                we, nue, d1e, _, n_ev = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, md, measured, gab)
                 if counting:
                     stats[S_SPLIT] += n_ev
                 if nue.real > 0.0 and wa < we < wb:
@@ -609,8 +648,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             t_lo = max(tp + dp * room, tq - dq * room)
                         if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
                                                                         c60 / t_lo if t_lo > 0.0 else np.inf):
-                            x, v, _, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny,
-                                                            ky, zy, measured, ga, gb)
+                            x, v, _, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, md, measured, gab)
                             if counting:
                                 stats[S_SPLIT] += n_ev
                             if v.real > 0.0 and bx[nb_ - 1] < x < pq:
@@ -654,14 +692,10 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             guess = n0.real + t * (n1.real - n0.real)
                             if guess > est[j]:
                                 est[j] = guess
-                            if n_c == cap:  # grow the candidate buffers
-                                cap *= 2
-                                c_j = _grow_i(c_j, cap)
-                                c_seg = _grow_i(c_seg, cap)
-                                c_k = _grow_i(c_k, cap)
-                                c_g = _grow_f(c_g, cap)
-                                c_x = _grow_f2(c_x, cap)
-                                c_nu = _grow_c2(c_nu, cap)
+                            if n_c == cap:  # full: keep scanning (est stays exact), the caller runs it again
+                                overflow = True
+                                j += 1
+                                continue
                             c_j[n_c] = j
                             c_seg[n_c] = code
                             c_k[n_c] = k
@@ -679,39 +713,11 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             break
         level_hi = level_lo
         level_lo = 0.5 * level_lo if level_lo > 1e-3 * top else 0.0
-    return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
+    return overflow, c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
 
 
 @nb.njit(cache=True)
-def _grow_f2(a, cap):
-    out = np.empty((cap, 2))
-    out[: a.shape[0]] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_c2(a, cap):
-    out = np.empty((cap, 2), dtype=np.complex128)
-    out[: a.shape[0]] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_i(a, cap):
-    out = np.empty(cap, dtype=np.int64)
-    out[: a.size] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_f(a, cap):
-    out = np.empty(cap)
-    out[: a.size] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
+def _validity_edges(w, nu, a, md, measured, G, stats):
     """Frequencies just inside the valid side wherever a branch's Re ν changes sign between nodes.
 
     Crossings right next to Re ν = 0 are real boundaries (near resonance |ν| is large, so the depth
@@ -722,8 +728,7 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
     n_w = w.size
     out = np.empty(2 * n_w)
     n = 0
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    gab = np.empty((2, 4), dtype=np.complex128)
     for br in range(2):
         for i in range(n_w - 1):
             va = nu[br, i].real > 0.0
@@ -732,8 +737,8 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
                 continue
             if measured:
                 for q in range(4):
-                    ga[q] = G[q, i]
-                    gb[q] = G[q, i + 1]
+                    gab[0, q] = G[q, i]
+                    gab[1, q] = G[q, i + 1]
             lo = w[i]  # lo on the invalid side (Re ν ≤ 0), hi on the valid side (Re ν > 0)
             hi = w[i + 1]
             flo = nu[br, i].real
@@ -745,8 +750,8 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
                 mid = (lo * fhi - hi * flo) / (fhi - flo)
                 if not (min(lo, hi) < mid < max(lo, hi)):
                     mid = 0.5 * (lo + hi)
-                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, wnx, kx, zx, wny, ky, zy,
-                             measured, ga, gb)
+                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, md,
+                             measured, gab)
                 if stats.size > 0:
                     stats[S_EDGE] += 1
                 if v.real > 0.0:
@@ -767,7 +772,7 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats):
 
 
 @nb.njit(cache=True)
-def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
+def _with_nodes(w, G, nu, extra, a, measured, md):
     """The grid with the ``extra`` frequencies merged in: frequencies, receptances (exact for modes,
     linear between table points for a measured FRF) and the roots, each branch continued by
     proximity from the node before (as in :func:`_branches`)."""
@@ -789,10 +794,10 @@ def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
                 for q in range(4):
                     G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
             else:
-                G2[0, c] = _modal_receptance(x, wnx, kx, zx)
+                G2[0, c] = _modal_receptance(x, md, 0)
                 G2[1, c] = 0.0j
                 G2[2, c] = 0.0j
-                G2[3, c] = _modal_receptance(x, wny, ky, zy)
+                G2[3, c] = _modal_receptance(x, md, 1)
             tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
             sq = np.sqrt(tr * tr - 4.0 * det)
             guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
@@ -816,15 +821,15 @@ def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
 
 
 @nb.njit(cache=True)
-def _scan(w, G, a, n_teeth, rpm, wnx, kx, zx, wny, ky, zy, measured, stats):
+def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
     """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
     the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
     the tooth periods T [s], the best estimate per speed and the candidates."""
     counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3])
-    extra = _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G, stats)
+    extra = _validity_edges(w, nu, a, md, measured, G, stats)
     if extra.size:
-        w, G, nu = _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy)
+        w, G, nu = _with_nodes(w, G, nu, extra, a, measured, md)
     n_w = w.size
     n_s = rpm.size
     if counting:
@@ -848,22 +853,28 @@ def _scan(w, G, a, n_teeth, rpm, wnx, kx, zx, wny, ky, zy, measured, stats):
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False
-    c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a,
-                                               wnx, kx, zx, wny, ky, zy, measured, stats)
+    cap = 8 * n_s + 64
+    while True:
+        overflow, c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est,
+                                                             uniform, a, md, measured, cap, stats)
+        if not overflow:
+            break
+        cap *= 4
+        est[:] = 0.0
     if counting:
         stats[S_CANDIDATES] += c_j.size
     return w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu
 
 
 @nb.njit(cache=True)
-def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc, stats):
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats):
     """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
 
     Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
     ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
     """
     counting = stats.size > 0
-    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, wnx, kx, zx, wny, ky, zy, measured,
+    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured,
                                                           stats)
     n_w = w.size
     n_s = rpm.size
@@ -871,8 +882,7 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
     # refine exactly only the crossings whose estimate is near the best estimate at their speed
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    gab = np.empty((2, 4), dtype=np.complex128)
     for c in range(c_j.size):
         j = c_j[c]
         if c_g[c] * REFINE_MARGIN < est[j]:
@@ -881,10 +891,10 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
         i = c_seg[c] - br * n_w
         if measured:
             for q in range(4):
-                ga[q] = G[q, i]
-                gb[q] = G[q, i + 1]
+                gab[0, q] = G[q, i]
+                gab[1, q] = G[q, i + 1]
         re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
-                                   wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                                   md, measured, gab)
         if counting:
             stats[S_REFINED] += 1
             stats[S_REFINE_EVALS] += n_ev
@@ -905,37 +915,44 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
 
 
 @nb.njit(cache=True)
-def modal_grid(wnx, kx, zx, wny, ky, zy, w_top, n_base, offsets):
-    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure on it."""
-    n_all = wnx.size + wny.size
-    wn_all = np.empty(n_all)
-    z_all = np.empty(n_all)
-    wn_all[: wnx.size] = wnx
-    wn_all[wnx.size:] = wny
-    z_all[: wnx.size] = zx
-    z_all[wnx.size:] = zy
+def modal_grid(md, w_top, n_base, offsets):
+    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure (packed modes ``md``)."""
+    n_m = md.shape[2]
+    wn_all = np.empty(2 * n_m)
+    z_all = np.empty(2 * n_m)
+    n_all = 0
+    for d in range(2):
+        for m in range(n_m):
+            if md[d, 1, m] == 0.0:
+                break
+            wn_all[n_all] = md[d, 0, m]
+            z_all[n_all] = md[d, 2, m]
+            n_all += 1
+    wn_all = wn_all[:n_all]
+    z_all = z_all[:n_all]
     w_lo = 0.1 * wn_all.min()
     w_hi = max(4.0 * wn_all.max(), 1.05 * w_top)
     w = _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets)
     G = np.zeros((4, w.size), dtype=np.complex128)
     for i in range(w.size):
-        G[0, i] = _modal_receptance(w[i], wnx, kx, zx)
-        G[3, i] = _modal_receptance(w[i], wny, ky, zy)
+        G[0, i] = _modal_receptance(w[i], md, 0)
+        G[3, i] = _modal_receptance(w[i], md, 1)
     return w, G
 
 
 @nb.njit(cache=True, parallel=True)
-def envelope_modal_batch(wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc, stats):
-    """Batched envelope for B modal structures: mode arrays (B, Mx) and (B, My), rpm ascending (S,).
+def envelope_modal_batch(md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc, stats):
+    """Batched envelope for B modal structures: packed modes md (B, 2, 3, M) (:func:`pack_modes`),
+    rpm ascending (S,).
 
     Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s]. ``stats`` is
     (B, N_STATS) int64 zeros to receive each set's work counts, or (0, N_STATS) for none.
     """
     counting = stats.shape[0] > 0
     empty = np.zeros(0, dtype=np.int64)
-    n_b = wnx.shape[0]
+    n_b = md.shape[0]
     w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
     for b in nb.prange(n_b):
-        w, G = modal_grid(wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], w_top, n_base, offsets)
-        envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False,
+        w, G = modal_grid(md[b], w_top, n_base, offsets)
+        envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False,
                          depth[b], lobe[b], wc[b], stats[b] if counting else empty)

@@ -423,17 +423,43 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, md, measured, gab):
 
 
 @nb.njit(cache=True)
-def _refine(T, k, wa, wb, nua, nub, wi, wj, a, md, measured, gab):
-    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
-    [wi, wj], Brent-style.
+def _hermite_root(h0, h1, s0, s1):
+    """Zero t ∈ (0, 1) of the cubic Hermite interpolant with values h0, h1 (opposite signs) and slopes
+    s0, s1 (per unit t) at t = 0, 1: Newton from the linear zero, kept inside (0, 1); the linear zero
+    if Newton leaves the interval or stalls."""
+    t_lin = h0 / (h0 - h1)
+    t = t_lin
+    for _ in range(6):
+        t2 = t * t
+        t3 = t2 * t
+        p = (2.0 * t3 - 3.0 * t2 + 1.0) * h0 + (t3 - 2.0 * t2 + t) * s0 + (3.0 * t2 - 2.0 * t3) * h1 + (t3 - t2) * s1
+        dp = (6.0 * t2 - 6.0 * t) * (h0 - h1) + (3.0 * t2 - 4.0 * t + 1.0) * s0 + (3.0 * t2 - 2.0 * t) * s1
+        if dp == 0.0:
+            return t_lin
+        step = p / dp
+        t -= step
+        if not (0.0 < t < 1.0):
+            return t_lin
+        if abs(step) < 1e-12:
+            break
+    return t
 
-    Inverse quadratic interpolation through the three latest points (secant while only two are
-    distinct), falling back to bisection whenever a step leaves the current bracket; stops at
-    |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope: near a lobe tip H is flat and a residual
-    moves the root further, so the tolerance tightens there). A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
-    derivatives scale as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6
-    (the tests compare with a brute-force reference at 1e-6). Typically two or three evaluations.
-    Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
+
+@nb.njit(cache=True)
+def _refine(T, k, wa, wb, nua, nub, da, db, wi, wj, a, md, measured, gab):
+    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
+    [wi, wj], Brent-style; da, db = dε/dω [s] at the bracket ends.
+
+    The first iterate is the zero of the cubic Hermite interpolant of H (values and slopes T − ε' at
+    both ends; error O(h⁴) against O(h²) for the secant), then inverse quadratic interpolation through
+    the three latest points (secant while only two are distinct), falling back to bisection whenever a
+    step leaves the current bracket; stops at |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope:
+    near a lobe tip H is flat and a residual moves the root further, so the tolerance tightens there).
+    A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both derivatives scale
+    as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6 (the tests compare with a
+    brute-force reference at 1e-6). Typically one or two evaluations.
+    Returns (Re ν, ω) at the root and the number of evaluations; Re ν ≤ 0 means the candidate is not a
+    physical boundary.
     """
     target = TWO_PI * k
     lo, hi = wa, wb
@@ -443,6 +469,8 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, md, measured, gab):
         return nua.real, wa, 0
     if fhi == 0.0:
         return nub.real, wb, 0
+    axx, axy, ayx, ayy = a
+    n_m = md.shape[2]
     # the three latest points, newest last
     x0, f0, x1, f1, x2, f2 = lo, flo, lo, flo, hi, fhi
     n_pts = 2
@@ -450,7 +478,10 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, md, measured, gab):
     xm = wa
     n_ev = 0
     for _ in range(60):
-        if n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
+        if n_ev == 0:
+            h = wb - wa
+            xm = wa + h * _hermite_root(flo, fhi, (T - da) * h, (T - db) * h)
+        elif n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
             xm = (x0 * f1 * f2 / ((f0 - f1) * (f0 - f2)) + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
                   + x2 * f0 * f1 / ((f2 - f0) * (f2 - f1)))
         elif f2 != f1:
@@ -459,7 +490,55 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, md, measured, gab):
             xm = 0.5 * (lo + hi)
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
-        v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, md, measured, gab)
+        # the root at xm (as _root_at, written out: an inlined call with the arrays md and gab makes
+        # numba reference-count them on every iteration)
+        if measured:
+            t = (xm - wi) / (wj - wi)
+            gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+            gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+            gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+            gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+        else:
+            gr0 = 0.0
+            gi0 = 0.0
+            gr3 = 0.0
+            gi3 = 0.0
+            for m in range(n_m):
+                km = md[0, 1, m]
+                if km == 0.0:
+                    break
+                r = xm / md[0, 0, m]
+                re = 1.0 - r * r
+                im = 2.0 * md[0, 2, m] * r
+                inv = 1.0 / (km * (re * re + im * im))
+                gr0 += re * inv
+                gi0 -= im * inv
+            for m in range(n_m):
+                km = md[1, 1, m]
+                if km == 0.0:
+                    break
+                r = xm / md[1, 0, m]
+                re = 1.0 - r * r
+                im = 2.0 * md[1, 2, m] * r
+                inv = 1.0 / (km * (re * re + im * im))
+                gr3 += re * inv
+                gi3 -= im * inv
+            gxx = complex(gr0, gi0)
+            gyy = complex(gr3, gi3)
+            gxy = 0.0j
+            gyx = 0.0j
+        m00 = axx * gxx + axy * gyx
+        m01 = axx * gxy + axy * gyy
+        m10 = ayx * gxx + ayy * gyx
+        m11 = ayx * gxy + ayy * gyy
+        tr = m00 + m11
+        det = m00 * m11 - m01 * m10
+        sq = np.sqrt(tr * tr - 4.0 * det)
+        guess = nua + (xm - wa) / (wb - wa) * (nub - nua)
+        v = 0.5 * (tr + sq)
+        r2 = 0.5 * (tr - sq)
+        if _dist2(r2, guess) < _dist2(v, guess):
+            v = r2
         n_ev += 1
         if v.real <= 0.0:
             return v.real, xm, n_ev
@@ -538,7 +617,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
     c_seg = np.empty(cap, dtype=np.int64)
     c_k = np.empty(cap, dtype=np.int64)
     c_g = np.empty(cap)
-    c_x = np.empty((cap, 2))
+    c_x = np.empty((cap, 4))  # bracket ends [rad/s] and ε' there [s]
     c_nu = np.empty((cap, 2), dtype=np.complex128)
     n_c = 0
     # dε/dω and d²ε/dω² at the nodes (modal structures; computed on first use)
@@ -549,6 +628,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
     # the bracket ends of one (segment, k): frequency, root, ε, 1/b
     bx = np.empty(5)
     bnu = np.empty(5, dtype=np.complex128)
+    bd1 = np.empty(5)
     worst = 0.0
     # visit segments in levels of decreasing best 1/b (each level a factor 2 below the last): once the
     # worst speed's estimate exceeds a level's floor × REFINE_MARGIN, no later segment can matter
@@ -624,6 +704,7 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
                 nb_ = 0
                 bx[0] = wa
                 bnu[0] = nua
+                bd1[0] = d1a
                 nb_ = 1
                 n_piece = 2 if split_e else 1
                 for pc in range(n_piece):
@@ -648,19 +729,22 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
                             t_lo = max(tp + dp * room, tq - dq * room)
                         if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
                                                                         c60 / t_lo if t_lo > 0.0 else np.inf):
-                            x, v, _, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, md, measured, gab)
+                            x, v, xe1, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, md, measured, gab)
                             if counting:
                                 stats[S_SPLIT] += n_ev
                             if v.real > 0.0 and bx[nb_ - 1] < x < pq:
                                 bx[nb_] = x
                                 bnu[nb_] = v
+                                bd1[nb_] = xe1
                                 nb_ += 1
                     if split_e and pc == 0:
                         bx[nb_] = we
                         bnu[nb_] = nue
+                        bd1[nb_] = d1e
                         nb_ += 1
                 bx[nb_] = wb
                 bnu[nb_] = nub
+                bd1[nb_] = d1b
                 nb_ += 1
                 for m in range(nb_ - 1):
                     x0 = bx[m]
@@ -702,6 +786,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
                             c_g[n_c] = guess
                             c_x[n_c, 0] = x0
                             c_x[n_c, 1] = x1
+                            c_x[n_c, 2] = bd1[m]
+                            c_x[n_c, 3] = bd1[m + 1]
                             c_nu[n_c, 0] = n0
                             c_nu[n_c, 1] = n1
                             n_c += 1
@@ -893,7 +979,8 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
             for q in range(4):
                 gab[0, q] = G[q, i]
                 gab[1, q] = G[q, i + 1]
-        re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
+        re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], c_x[c, 2], c_x[c, 3],
+                                   w[i], w[i + 1], a,
                                    md, measured, gab)
         if counting:
             stats[S_REFINED] += 1
@@ -934,9 +1021,22 @@ def modal_grid(md, w_top, n_base, offsets):
     w_hi = max(4.0 * wn_all.max(), 1.05 * w_top)
     w = _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets)
     G = np.zeros((4, w.size), dtype=np.complex128)
-    for i in range(w.size):
-        G[0, i] = _modal_receptance(w[i], md, 0)
-        G[3, i] = _modal_receptance(w[i], md, 1)
+    # the receptance sums written out here (not _modal_receptance): an inlined call per node makes numba
+    # reference-count md on every iteration
+    for d in range(2):
+        row = 3 * d
+        for m in range(n_m):
+            km = md[d, 1, m]
+            if km == 0.0:
+                break
+            wn = md[d, 0, m]
+            z2 = 2.0 * md[d, 2, m]
+            for i in range(w.size):
+                r = w[i] / wn
+                re = 1.0 - r * r
+                im = z2 * r
+                inv = 1.0 / (km * (re * re + im * im))
+                G[row, i] += complex(re * inv, -im * inv)
     return w, G
 
 

@@ -194,6 +194,24 @@ def _dist2(u, v):
 
 
 @nb.njit(cache=True, inline="always")
+def _csqrt(z):
+    """Principal square root of a complex number from two real square roots (numba's complex sqrt goes
+    through hypot and special-case checks, ~2× slower here). Inputs whose |z|² would leave the double
+    range (or NaN) go to np.sqrt; the engine's values (|z| ~ |α G|², G ~ 1e-9–1e-5 m/N) never do."""
+    x = z.real
+    y = z.imag
+    r2 = x * x + y * y
+    if not (1e-280 < r2 < 1e280):
+        return np.sqrt(z)
+    r = math.sqrt(r2)
+    if x >= 0.0:
+        t = math.sqrt(0.5 * (r + x))
+        return complex(t, 0.5 * y / t)
+    t = math.sqrt(0.5 * (r - x))
+    return complex(0.5 * abs(y) / t, math.copysign(t, y))
+
+
+@nb.njit(cache=True, inline="always")
 def _eps(v):
     """Phase ε = π + 2 arg ν of a root with Re ν > 0, in (0, 2π)."""
     return math.pi + 2.0 * math.atan2(v.imag, v.real)
@@ -214,7 +232,7 @@ def _branches(a, gxx, gxy, gyx, gyy):
     prev = 0.0 + 0.0j
     for i in range(n):
         tr, det = _tr_det(a, gxx[i], gxy[i], gyx[i], gyy[i])
-        s = np.sqrt(tr * tr - 4.0 * det)
+        s = _csqrt(tr * tr - 4.0 * det)
         if i > 0 and _dist2(s, prev) > _dist2(-s, prev):
             s = -s
         prev = s
@@ -242,7 +260,7 @@ def _root_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
         gxy = 0.0j
         gyx = 0.0j
     tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
-    s = np.sqrt(tr * tr - 4.0 * det)
+    s = _csqrt(tr * tr - 4.0 * det)
     guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     r1 = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
@@ -317,7 +335,7 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     det = det_a * (gxx * gyy - gxy * gyx)
     det1 = det_a * (dxx * gyy + gxx * dyy - dxy * gyx - gxy * dyx)
     det2 = det_a * (exx * gyy + 2.0 * dxx * dyy + gxx * eyy - exy * gyx - 2.0 * dxy * dyx - gxy * eyx)
-    s = np.sqrt(tr * tr - 4.0 * det)
+    s = _csqrt(tr * tr - 4.0 * det)
     guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     nu = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
@@ -446,9 +464,9 @@ def _hermite_root(h0, h1, s0, s1):
 
 
 @nb.njit(cache=True)
-def _refine(T, k, wa, wb, nua, nub, da, db, wi, wj, a, md, measured, gab):
+def _refine(T, k, wa, wb, nua, nub, da, db, ea, eb, wi, wj, a, md, measured, gab):
     """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
-    [wi, wj], Brent-style; da, db = dε/dω [s] at the bracket ends.
+    [wi, wj], Brent-style; ν, dε/dω [s] and ε at the bracket ends are nua, nub, da, db, ea, eb.
 
     The first iterate is the zero of the cubic Hermite interpolant of H (values and slopes T − ε' at
     both ends; error O(h⁴) against O(h²) for the secant), then inverse quadratic interpolation through
@@ -463,8 +481,8 @@ def _refine(T, k, wa, wb, nua, nub, da, db, wi, wj, a, md, measured, gab):
     """
     target = TWO_PI * k
     lo, hi = wa, wb
-    flo = wa * T - _eps(nua) - target
-    fhi = wb * T - _eps(nub) - target
+    flo = wa * T - ea - target
+    fhi = wb * T - eb - target
     if flo == 0.0:
         return nua.real, wa, 0
     if fhi == 0.0:
@@ -533,7 +551,7 @@ def _refine(T, k, wa, wb, nua, nub, da, db, wi, wj, a, md, measured, gab):
         m11 = ayx * gxy + ayy * gyy
         tr = m00 + m11
         det = m00 * m11 - m01 * m10
-        sq = np.sqrt(tr * tr - 4.0 * det)
+        sq = _csqrt(tr * tr - 4.0 * det)
         guess = nua + (xm - wa) / (wb - wa) * (nub - nua)
         v = 0.5 * (tr + sq)
         r2 = 0.5 * (tr - sq)
@@ -565,7 +583,7 @@ def _any_speed(rpm, lo, hi):
 
 
 @nb.njit(cache=True)
-def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, measured, cap, stats):
+def _collect(w, G, nu, valid, inv_b, T, rpm, n_teeth, est, uniform, a, md, measured, cap, stats):
     """Find every (branch, bracket, lobe k, speed) crossing that can matter, with a linear estimate.
 
     A crossing of lobe k at speed j lies in a bracket [x0, x1] of branch br when
@@ -617,13 +635,15 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
     c_seg = np.empty(cap, dtype=np.int64)
     c_k = np.empty(cap, dtype=np.int64)
     c_g = np.empty(cap)
-    c_x = np.empty((cap, 4))  # bracket ends [rad/s] and ε' there [s]
+    c_x = np.empty((cap, 6))  # bracket ends [rad/s], ε' [s] and ε there
     c_nu = np.empty((cap, 2), dtype=np.complex128)
     n_c = 0
     # dε/dω and d²ε/dω² at the nodes (modal structures; computed on first use)
     d1 = np.empty((2, n_w))
     d2 = np.empty((2, n_w))
     have = np.zeros((2, n_w), dtype=np.bool_)
+    eps = np.empty((2, n_w))
+    have_e = np.zeros((2, n_w), dtype=np.bool_)
     gab = np.empty((2, 4), dtype=np.complex128)
     # the bracket ends of one (segment, k): frequency, root, ε, 1/b
     bx = np.empty(5)
@@ -655,6 +675,11 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
             wb = w[i + 1]
             nua = nu[br, i]
             nub = nu[br, i + 1]
+            # ε at the ends, computed on first use: most nodes lie in segments that are never visited
+            for e in range(i, i + 2):
+                if not have_e[br, e]:
+                    eps[br, e] = _eps(nu[br, e])
+                    have_e[br, e] = True
             ea = eps[br, i]
             eb = eps[br, i + 1]
             for c4 in range(4):
@@ -788,6 +813,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, md, 
                             c_x[n_c, 1] = x1
                             c_x[n_c, 2] = bd1[m]
                             c_x[n_c, 3] = bd1[m + 1]
+                            c_x[n_c, 4] = e0
+                            c_x[n_c, 5] = e1
                             c_nu[n_c, 0] = n0
                             c_nu[n_c, 1] = n1
                             n_c += 1
@@ -885,7 +912,7 @@ def _with_nodes(w, G, nu, extra, a, measured, md):
                 G2[2, c] = 0.0j
                 G2[3, c] = _modal_receptance(x, md, 1)
             tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
-            sq = np.sqrt(tr * tr - 4.0 * det)
+            sq = _csqrt(tr * tr - 4.0 * det)
             guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
             r1 = 0.5 * (tr + sq)
             r2 = 0.5 * (tr - sq)
@@ -922,14 +949,12 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
         stats[S_NODES] += n_w
     valid = np.empty((2, n_w), dtype=np.bool_)
     inv_b = np.empty((2, n_w))
-    eps = np.empty((2, n_w))
     for br in range(2):
         for i in range(n_w):
             v = nu[br, i]
             ok = v.real > 0.0 and math.isfinite(v.real) and math.isfinite(v.imag)
             valid[br, i] = ok
             inv_b[br, i] = v.real if ok else 0.0
-            eps[br, i] = _eps(v) if ok else 0.0
     T = np.empty(n_s)
     for j in range(n_s):
         T[j] = 60.0 / (n_teeth * rpm[j])
@@ -941,7 +966,7 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
             uniform = False
     cap = 8 * n_s + 64
     while True:
-        overflow, c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est,
+        overflow, c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, T, rpm, n_teeth, est,
                                                              uniform, a, md, measured, cap, stats)
         if not overflow:
             break
@@ -980,7 +1005,7 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
                 gab[0, q] = G[q, i]
                 gab[1, q] = G[q, i + 1]
         re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], c_x[c, 2], c_x[c, 3],
-                                   w[i], w[i + 1], a,
+                                   c_x[c, 4], c_x[c, 5], w[i], w[i + 1], a,
                                    md, measured, gab)
         if counting:
             stats[S_REFINED] += 1

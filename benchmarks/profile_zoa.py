@@ -14,8 +14,8 @@ On the throughput benchmark's problem (benchmarks/bench_envelope.py: Example 1 s
    operations (measured here as well, not assumed).
 
 Run: ``.venv/bin/python benchmarks/profile_zoa.py [--sets 2000]``. Single thread (NUMBA_NUM_THREADS
-is not changed; the stage timings run serially). The first run compiles its own stage function (about a
-minute), later runs load it from numba's cache.
+is not changed; the stage timings run serially). Its own stage function is compiled on every run (about a
+minute; not cached, as numba's cache does not notice edits to the kernel module it calls).
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ FLOPS_PAIR = 12
 FLOPS_CANDIDATE = 12
 
 
-@nb.njit(cache=True)
+@nb.njit  # not cached: numba's cache would not see edits to the kernel module it calls
 def _stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
     """Run the per-set pipeline serially up to stage ``upto`` (0 grid and receptances, 1 + branches,
     2 + Re ν = 0 edges and the candidate scan, 3 the whole envelope); returns a checksum."""
@@ -79,7 +79,7 @@ def _stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
     return acc
 
 
-@nb.njit(cache=True)
+@nb.njit  # not cached: numba's cache would not see edits to the kernel module it calls
 def _dense_rate(n, md, a):
     """The same operations as one root evaluation (two receptances, tr/det, sqrt, atan2) in a dense
     loop with no branches or memory traffic: root evaluations per second at the scalar rate."""
@@ -132,7 +132,7 @@ def main() -> None:
     for upto in range(4):
         _stages(upto, *small, a, cfg.cutting.teeth, cfg.cutting.kt, rpm, zoa.N_BASE, zoa._OFFSETS,
                 *(o[:2] for o in out))
-    print(f"\n(stage function compiled or loaded in {time.perf_counter() - t0:.1f} s)")
+    print(f"\n(stage function compiled in {time.perf_counter() - t0:.1f} s)")
     names = ("grid + receptances", "+ eigenvalue branches", "+ edges and candidate scan", "whole envelope")
     times = []
     for upto in range(4):

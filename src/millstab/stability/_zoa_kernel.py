@@ -15,6 +15,33 @@ The roots are bracketed on a per-set frequency grid. Where a lobe turns back (it
 T_k(ω) = (ε + 2kπ)/ω has an extremum: a narrow tip, or a fold), a speed inside the tip has two roots
 that can fall into one grid segment without a sign change of H; :func:`_collect` therefore splits
 brackets at such turning points, located from the analytic dε/dω and d²ε/dω² (:func:`_phase_at`).
+
+Where the time goes (benchmarks/profile_zoa.py prints these counts and times; issue 15, item 4).
+Per envelope of the throughput benchmark (Example 1 sets within ±10 %, 200 speeds 2 000–12 000 rpm):
+273 grid nodes (two receptances and both eigenvalues each), 16 evaluations locating Re ν = 0 edges,
+243 valid segments of which 40 are visited (the rest lie below the worst speed's depth estimate), 41
+node ε'/ε'' evaluations, 576 (segment, lobe) pairs scanned, 3 split-point evaluations, 279 candidate
+crossings of which 210 are refined (1.05 per speed) with 365 root evaluations (1.74 per candidate; 533
+and 2.54 with the secant start). About 80 k floating-point operations in all (hand counts per
+evaluation × these counts), which at the core's vector peak (AVX2 FMA, ~40 Gflop/s) would be ~2 µs:
+the work is scalar and latency-bound (square roots, divisions, atan2 and branches), and the honest
+yardstick is the same machine's rate on a dense loop of root evaluations (~0.4 Gflop/s, one root per
+~200 ns on the loaded machine). One thread, one envelope is then ~60 % refinement, ~30 % candidate
+scan, ~10 % grid and eigenvalues, and its work done as that dense loop would take ~70 % of its time, so
+no reshuffling of the same work gains more than ~1.4×; more needs less work: fewer grid nodes, fewer
+root evaluations per speed (≥ 1 each: the depth needs ν at the root), or cheaper ones (atan2 is ~15 %).
+
+What made it faster (each step timed interleaved against the step before on the same sets, identical
+or equal to ≤ 2e-7 depths): numba reference-counts an array on every iteration where it is a
+loop-carried variable (the candidate buffers, grown inside the scan) or an argument of an inlined call
+in a loop (the six mode arrays and the two receptance rows): 8 800 atomic increments and as many
+decrements per envelope, now 640 (modes packed into one array by :func:`pack_modes`, the buffers
+sized up front with a rerun on overflow, the root evaluation written out in :func:`_refine`), 1.36×;
+the refinement's first iterate from the cubic Hermite interpolant of H (ε' at the bracket ends is
+known from the scan), 1.2×; ε only at the nodes of visited segments, ε at the bracket ends handed to
+the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.2×. In all 1.9× on
+2 threads (bench_envelope.py --against the previous kernel; measured on a shared 2-core machine at a
+load average of ~20, so absolute rates there are ~2× below an idle machine's).
 """
 
 from __future__ import annotations

@@ -15,11 +15,11 @@ e.g. ``git show <rev>:src/millstab/stability/_zoa_kernel.py > /tmp/old_kernel.py
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import resource
 import sys
 import time
+import types
 from pathlib import Path
 
 import numpy as np
@@ -35,10 +35,13 @@ from millstab.stability import zoa  # noqa: E402
 
 
 def _load_kernel(path: str):
-    """Another version of _zoa_kernel.py, imported under its own module name (numba caches it apart)."""
-    spec = importlib.util.spec_from_file_location("_zoa_kernel_against", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    """Another version of _zoa_kernel.py as a module of its own, compiled afresh (not cached: numba
+    could not reload its cached parallel function, whose module is not importable by name)."""
+    source = Path(path).read_text().replace("cache=True", "cache=False")
+    mod = types.ModuleType("_zoa_kernel_against")
+    mod.__file__ = path
+    sys.modules[mod.__name__] = mod
+    exec(compile(source, path, "exec"), mod.__dict__)
     return mod
 
 

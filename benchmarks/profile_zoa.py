@@ -165,7 +165,8 @@ def main() -> None:
     print(f"scalar rate on a dense loop of root evaluations: {per_root * 1e9:.1f} ns per root = "
           f"{rate / 1e9:.2f} Gflop/s (one core)")
     print(f"flop limit at that rate: {flops / rate * 1e6:.1f} µs per envelope = {rate / flops:.0f} sets/s per core; "
-          f"measured {total:.1f} µs = {1e6 / total:.0f} sets/s per core ({flops / rate * 1e6 / total:.0%} of the limit)")
+          f"measured {total:.1f} µs = {1e6 / total:.0f} sets/s per core "
+          f"({flops / rate * 1e6 / total:.0%} of the limit)")
 
 
 if __name__ == "__main__":

@@ -57,7 +57,8 @@ TWO_PI = 2.0 * math.pi
 #: Re ν = 0 edges, segments with both ends valid, segments visited, their ε'/ε'' node evaluations,
 #: (segment, lobe) pairs scanned, evaluations locating split points, candidates (crossings with a
 #: linear estimate), candidates refined, refinement evaluations, levels of the segment scan
-S_NODES, S_EDGE, S_SEGMENTS, S_VISITED, S_SLOPES, S_PAIRS, S_SPLIT, S_CANDIDATES, S_REFINED, S_REFINE_EVALS, S_LEVELS = range(11)
+(S_NODES, S_EDGE, S_SEGMENTS, S_VISITED, S_SLOPES, S_PAIRS, S_SPLIT, S_CANDIDATES, S_REFINED, S_REFINE_EVALS,
+ S_LEVELS) = range(11)
 N_STATS = 11
 STAT_NAMES = ("grid nodes", "edge evaluations", "valid segments", "segments visited", "node slope evaluations",
               "(segment, lobe) pairs", "split-point evaluations", "candidates", "candidates refined",

@@ -27,8 +27,8 @@ evaluation × these counts), which at the core's vector peak (AVX2 FMA, ~40 Gflo
 the work is scalar and latency-bound (square roots, divisions, atan2 and branches), and the honest
 yardstick is the same machine's rate on a dense loop of root evaluations (~0.4 Gflop/s, one root per
 ~200 ns on the loaded machine). One thread, one envelope is then ~60 % refinement, ~30 % candidate
-scan, ~10 % grid and eigenvalues, and its work done as that dense loop would take ~70 % of its time, so
-no reshuffling of the same work gains more than ~1.4×; more needs less work: fewer grid nodes, fewer
+scan, ~10 % grid and eigenvalues, and its work done as that dense loop would take 70–85 % of its time
+(two runs), so no reshuffling of the same work gains more than ~1.2–1.4×; more needs less work: fewer grid nodes, fewer
 root evaluations per speed (≥ 1 each: the depth needs ν at the root), or cheaper ones (atan2 is ~15 %).
 
 What made it faster (each step timed interleaved against the step before on the same sets, identical
@@ -39,9 +39,12 @@ decrements per envelope, now 640 (modes packed into one array by :func:`pack_mod
 sized up front with a rerun on overflow, the root evaluation written out in :func:`_refine`), 1.36×;
 the refinement's first iterate from the cubic Hermite interpolant of H (ε' at the bracket ends is
 known from the scan), 1.2×; ε only at the nodes of visited segments, ε at the bracket ends handed to
-the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.2×. In all 1.9× on
-2 threads (bench_envelope.py --against the previous kernel; measured on a shared 2-core machine at a
-load average of ~20, so absolute rates there are ~2× below an idle machine's).
+the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.2×. In all 1.87× on
+2 threads and 1.84× on one (bench_envelope.py --against the kernel before; 4 351 → 8 119 and
+2 582 → 4 746 sets/s, measured on a shared 2-core machine at a load average of 15–20, where absolute
+rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
+The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
+it needs fewer root evaluations per speed or a coarser grid, which the accuracy tests must then allow.
 """
 
 from __future__ import annotations

@@ -115,8 +115,10 @@ def test_phase_derivatives_match_finite_differences():
     two_pi = 2 * math.pi
     wnx, kx, zx = two_pi * np.array([369.85, 700.0]), np.array([5.4e6, 9e6]), np.array([0.0316, 0.02])
     wny, ky, zy = two_pi * np.array([411.21]), np.array([6.6756e6]), np.array([0.0168])
+    md = k_.pack_modes(wnx, kx, zx, wny, ky, zy)
     ga = np.array([2e-7 - 1e-7j, 1e-8j, -1e-8j, 1e-7 - 3e-7j])
     gb = np.array([-1e-7 - 2e-7j, 2e-8, 3e-8j, 2e-7 - 1e-7j])
+    gab = np.stack([ga, gb])
     for measured in (False, True):
         for f in (300.0, 372.0, 411.0, 442.0, 690.0, 1200.0):
             w = two_pi * f
@@ -124,16 +126,15 @@ def test_phase_derivatives_match_finite_differences():
             if measured:
                 g = 0.5 * (ga + gb)
             else:
-                g = [k_._modal_receptance(w, wnx, kx, zx), 0j, 0j, k_._modal_receptance(w, wny, ky, zy)]
+                g = [k_._modal_receptance(w, md, 0), 0j, 0j, k_._modal_receptance(w, md, 1)]
             tr, det = k_._tr_det(a, *g)
             for root in (0.5 * (tr + np.sqrt(tr * tr - 4 * det)), 0.5 * (tr - np.sqrt(tr * tr - 4 * det))):
-                nu, d1, d2 = k_._phase_at(w, w, w + 1.0, root, root, wi, wj, a, wnx, kx, zx, wny, ky, zy,
-                                          measured, ga, gb)
+                nu, d1, d2 = k_._phase_at(w, w, w + 1.0, root, root, wi, wj, a, md, measured, gab)
                 assert nu == pytest.approx(root, rel=1e-12)
                 h = 1e-6 * w
 
                 def at(x):
-                    return k_._phase_at(x, x, x + 1.0, nu, nu, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                    return k_._phase_at(x, x, x + 1.0, nu, nu, wi, wj, a, md, measured, gab)
 
                 eps = [2 * math.atan2(at(x)[0].imag, at(x)[0].real) for x in (w - h, w + h)]
                 assert d1 == pytest.approx((eps[1] - eps[0]) / (2 * h), rel=1e-5, abs=1e-12)
@@ -153,14 +154,15 @@ def test_node_slopes_match_the_general_phase_derivatives():
         wnx, wny = two_pi * rng.uniform(300, 3000, 2), two_pi * rng.uniform(300, 3000, 1)
         kx, ky = rng.uniform(2e6, 5e7, 2), rng.uniform(2e6, 5e7, 1)
         zx, zy = rng.uniform(0.005, 0.08, 2), rng.uniform(0.005, 0.08, 1)
+        md = k_.pack_modes(wnx, kx, zx, wny, ky, zy)
         for w in two_pi * rng.uniform(100, 4000, 10):
-            gxx, gyy = k_._modal_receptance(w, wnx, kx, zx), k_._modal_receptance(w, wny, ky, zy)
+            gxx, gyy = k_._modal_receptance(w, md, 0), k_._modal_receptance(w, md, 1)
             tr, det = k_._tr_det(a, gxx, 0j, 0j, gyy)
             s = np.sqrt(tr * tr - 4 * det)
             roots = (0.5 * (tr + s), 0.5 * (tr - s))
             for m in range(2):
-                _, d1, d2 = k_._phase_at(w, w, w + 1.0, roots[m], roots[m], w, w + 1.0, a, wnx, kx, zx, wny, ky, zy,
-                                         False, np.zeros(4, complex), np.zeros(4, complex))
-                f1, f2 = k_._node_slopes(w, roots[m], roots[1 - m], gxx, gyy, a, wnx, kx, zx, wny, ky, zy)
+                _, d1, d2 = k_._phase_at(w, w, w + 1.0, roots[m], roots[m], w, w + 1.0, a, md,
+                                         False, np.zeros((2, 4), complex))
+                f1, f2 = k_._node_slopes(w, roots[m], roots[1 - m], gxx, gyy, a, md)
                 assert f1 == pytest.approx(d1, rel=1e-8, abs=1e-15)
                 assert f2 == pytest.approx(d2, rel=1e-7, abs=1e-18)

@@ -15,6 +15,36 @@ The roots are bracketed on a per-set frequency grid. Where a lobe turns back (it
 T_k(ω) = (ε + 2kπ)/ω has an extremum: a narrow tip, or a fold), a speed inside the tip has two roots
 that can fall into one grid segment without a sign change of H; :func:`_collect` therefore splits
 brackets at such turning points, located from the analytic dε/dω and d²ε/dω² (:func:`_phase_at`).
+
+Where the time goes (benchmarks/profile_zoa.py prints these counts and times; issue 15, item 4).
+Per envelope of the throughput benchmark (Example 1 sets within ±10 %, 200 speeds 2 000–12 000 rpm):
+273 grid nodes (two receptances and both eigenvalues each), 16 evaluations locating Re ν = 0 edges,
+243 valid segments of which 40 are visited (the rest lie below the worst speed's depth estimate), 41
+node ε'/ε'' evaluations, 576 (segment, lobe) pairs scanned, 3 split-point evaluations, 279 candidate
+crossings of which 210 are refined (1.05 per speed) with 365 root evaluations (1.74 per candidate; 533
+and 2.54 with the secant start). About 80 k floating-point operations in all (hand counts per
+evaluation × these counts), which at the core's vector peak (AVX2 FMA, ~40 Gflop/s) would be ~2 µs:
+the work is scalar and latency-bound (square roots, divisions, atan2 and branches), and the honest
+yardstick is the same machine's rate on a dense loop of root evaluations (~0.4 Gflop/s, one root per
+~200 ns on the loaded machine). One thread, one envelope is then ~60 % refinement, ~30 % candidate
+scan, ~10 % grid and eigenvalues, and its work done as that dense loop would take 70–85 % of its time
+(two runs), so no reshuffling of the same work gains more than ~1.2–1.4×; more needs less work: fewer grid nodes, fewer
+root evaluations per speed (≥ 1 each: the depth needs ν at the root), or cheaper ones (atan2 is ~15 %).
+
+What made it faster (each step timed interleaved against the step before on the same sets, identical
+or equal to ≤ 2e-7 depths): numba reference-counts an array on every iteration where it is a
+loop-carried variable (the candidate buffers, grown inside the scan) or an argument of an inlined call
+in a loop (the six mode arrays and the two receptance rows): 8 800 atomic increments and as many
+decrements per envelope, now 640 (modes packed into one array by :func:`pack_modes`, the buffers
+sized up front with a rerun on overflow, the root evaluation written out in :func:`_refine`), 1.36×;
+the refinement's first iterate from the cubic Hermite interpolant of H (ε' at the bracket ends is
+known from the scan), 1.2×; ε only at the nodes of visited segments, ε at the bracket ends handed to
+the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.2×. In all 1.87× on
+2 threads and 1.84× on one (bench_envelope.py --against the kernel before; 4 351 → 8 119 and
+2 582 → 4 746 sets/s, measured on a shared 2-core machine at a load average of 15–20, where absolute
+rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
+The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
+it needs fewer root evaluations per speed or a coarser grid, which the accuracy tests must then allow.
 """
 
 from __future__ import annotations
@@ -26,9 +56,43 @@ import numpy as np
 
 TWO_PI = 2.0 * math.pi
 
+#: work counts (``stats`` arrays of :func:`envelope_on_grid`): grid nodes, evaluations locating the
+#: Re ν = 0 edges, segments with both ends valid, segments visited, their ε'/ε'' node evaluations,
+#: (segment, lobe) pairs scanned, evaluations locating split points, candidates (crossings with a
+#: linear estimate), candidates refined, refinement evaluations, levels of the segment scan
+(S_NODES, S_EDGE, S_SEGMENTS, S_VISITED, S_SLOPES, S_PAIRS, S_SPLIT, S_CANDIDATES, S_REFINED, S_REFINE_EVALS,
+ S_LEVELS) = range(11)
+N_STATS = 11
+STAT_NAMES = ("grid nodes", "edge evaluations", "valid segments", "segments visited", "node slope evaluations",
+              "(segment, lobe) pairs", "split-point evaluations", "candidates", "candidates refined",
+              "refinement evaluations", "scan levels")
+
 #: Candidates whose grid estimate is within this factor of the best estimate at a speed are refined
 #: exactly. Larger than the grid's interpolation error (tests compare with a brute-force reference).
 REFINE_MARGIN = 1.15
+
+
+def pack_modes(wnx, kx, zx, wny, ky, zy) -> np.ndarray:
+    """The modal parameters of B sets as one array (B, 2, 3, M) [rad/s, N/m, 1]: direction (x, y), then
+    (ωn, k, ζ), then the mode, padded with k = 0 (a stiffness no real mode has) where a direction has
+    fewer than M modes. Inputs (B, Mx) and (B, My), or 1-D for one set (the result is then (2, 3, M)).
+
+    One array instead of six: every call between the compiled functions that passes an array costs an
+    atomic reference-count increment and decrement per array, which numba does not always remove.
+    """
+    wnx, kx, zx, wny, ky, zy = (np.asarray(v, dtype=float) for v in (wnx, kx, zx, wny, ky, zy))
+    single = wnx.ndim == 1
+    if single:
+        wnx, kx, zx, wny, ky, zy = (v[None, :] for v in (wnx, kx, zx, wny, ky, zy))
+    n_b = wnx.shape[0]
+    m = max(wnx.shape[1], wny.shape[1], 1)
+    md = np.zeros((n_b, 2, 3, m))
+    for d, (wn, k, z) in enumerate(((wnx, kx, zx), (wny, ky, zy))):
+        n = wn.shape[1]
+        md[:, d, 0, :n] = wn
+        md[:, d, 1, :n] = k
+        md[:, d, 2, :n] = z
+    return md[0] if single else md
 
 
 def cluster_offsets(n: int = 61, half_width: float = 60.0, centre_step: float = 0.2) -> np.ndarray:
@@ -64,15 +128,19 @@ def directional_brackets(kr, phi_s, phi_e):
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_receptance(w, wn, k, z):
-    """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N]; zero for no modes (rigid)."""
+def _modal_receptance(w, md, d):
+    """Σ_m 1 / (k_m (1 − r² + 2iζ_m r)), r = ω/ωn_m [m/N] in direction d (0 x, 1 y) of the packed
+    modes ``md`` (:func:`pack_modes`); zero for no modes (rigid)."""
     gr = 0.0
     gi = 0.0
-    for m in range(wn.size):
-        r = w / wn[m]
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:  # padding: no more modes in this direction
+            break
+        r = w / md[d, 0, m]
         re = 1.0 - r * r
-        im = 2.0 * z[m] * r
-        inv = 1.0 / (k[m] * (re * re + im * im))  # 1/(k(re + i im)) = (re − i im)/(k|.|²)
+        im = 2.0 * md[d, 2, m] * r
+        inv = 1.0 / (km * (re * re + im * im))  # 1/(k(re + i im)) = (re − i im)/(k|.|²)
         gr += re * inv
         gi -= im * inv
     return complex(gr, gi)
@@ -157,6 +225,24 @@ def _dist2(u, v):
 
 
 @nb.njit(cache=True, inline="always")
+def _csqrt(z):
+    """Principal square root of a complex number from two real square roots (numba's complex sqrt goes
+    through hypot and special-case checks, ~2× slower here). Inputs whose |z|² would leave the double
+    range (or NaN) go to np.sqrt; the engine's values (|z| ~ |α G|², G ~ 1e-9–1e-5 m/N) never do."""
+    x = z.real
+    y = z.imag
+    r2 = x * x + y * y
+    if not (1e-280 < r2 < 1e280):
+        return np.sqrt(z)
+    r = math.sqrt(r2)
+    if x >= 0.0:
+        t = math.sqrt(0.5 * (r + x))
+        return complex(t, 0.5 * y / t)
+    t = math.sqrt(0.5 * (r - x))
+    return complex(0.5 * abs(y) / t, math.copysign(t, y))
+
+
+@nb.njit(cache=True, inline="always")
 def _eps(v):
     """Phase ε = π + 2 arg ν of a root with Re ν > 0, in (0, 2π)."""
     return math.pi + 2.0 * math.atan2(v.imag, v.real)
@@ -177,7 +263,7 @@ def _branches(a, gxx, gxy, gyx, gyy):
     prev = 0.0 + 0.0j
     for i in range(n):
         tr, det = _tr_det(a, gxx[i], gxy[i], gyx[i], gyy[i])
-        s = np.sqrt(tr * tr - 4.0 * det)
+        s = _csqrt(tr * tr - 4.0 * det)
         if i > 0 and _dist2(s, prev) > _dist2(-s, prev):
             s = -s
         prev = s
@@ -187,25 +273,25 @@ def _branches(a, gxx, gxy, gyx, gyy):
 
 
 @nb.njit(cache=True, inline="always")
-def _root_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _root_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     """The root of [α][G(ω)] at ω nearest the branch value interpolated between (sa, nua) and (sb, nub).
 
     For a modal structure G is exact; for a measured FRF it is linear on the table segment [wi, wj]
-    (ga, gb hold the four receptances at wi and wj).
+    (gab hold the four receptances at wi and wj).
     """
     if measured:
         t = (w - wi) / (wj - wi)
-        gxx = ga[0] + t * (gb[0] - ga[0])
-        gxy = ga[1] + t * (gb[1] - ga[1])
-        gyx = ga[2] + t * (gb[2] - ga[2])
-        gyy = ga[3] + t * (gb[3] - ga[3])
+        gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+        gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+        gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+        gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
     else:
-        gxx = _modal_receptance(w, wnx, kx, zx)
-        gyy = _modal_receptance(w, wny, ky, zy)
+        gxx = _modal_receptance(w, md, 0)
+        gyy = _modal_receptance(w, md, 1)
         gxy = 0.0j
         gyx = 0.0j
     tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
-    s = np.sqrt(tr * tr - 4.0 * det)
+    s = _csqrt(tr * tr - 4.0 * det)
     guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     r1 = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
@@ -215,16 +301,22 @@ def _root_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_d(w, wn, k, z):
-    """Σ_m 1/D_m and its first two ω-derivatives [m/N, m·s/N, m·s²/N], D_m = k_m(1 − r² + 2iζ_m r)."""
+def _modal_d(w, md, d):
+    """Σ_m 1/D_m and its first two ω-derivatives [m/N, m·s/N, m·s²/N], D_m = k_m(1 − r² + 2iζ_m r),
+    in direction d of the packed modes ``md``."""
     g0 = 0.0j
     g1 = 0.0j
     g2 = 0.0j
-    for m in range(wn.size):
-        r = w / wn[m]
-        d0 = k[m] * complex(1.0 - r * r, 2.0 * z[m] * r)
-        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
-        d2 = -2.0 * k[m] / (wn[m] * wn[m])
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:
+            break
+        wn = md[d, 0, m]
+        z = md[d, 2, m]
+        r = w / wn
+        d0 = km * complex(1.0 - r * r, 2.0 * z * r)
+        d1 = km * complex(-2.0 * r, 2.0 * z) / wn
+        d2 = -2.0 * km / (wn * wn)
         inv = 1.0 / d0
         g0 += inv
         g1 -= d1 * inv * inv
@@ -233,7 +325,7 @@ def _modal_d(w, wn, k, z):
 
 
 @nb.njit(cache=True)
-def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _phase_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     """The root ν at ω (chosen as in :func:`_root_at`) with dε/dω [s] and d²ε/dω² [s²].
 
     From ν² − tr ν + det = 0 (tr, det of [α][G(ω)]): ν' = (tr'ν − det')/(2ν − tr) and
@@ -246,21 +338,21 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
     if measured:
         h = wj - wi
         t = (w - wi) / h
-        gxx = ga[0] + t * (gb[0] - ga[0])
-        gxy = ga[1] + t * (gb[1] - ga[1])
-        gyx = ga[2] + t * (gb[2] - ga[2])
-        gyy = ga[3] + t * (gb[3] - ga[3])
-        dxx = (gb[0] - ga[0]) / h
-        dxy = (gb[1] - ga[1]) / h
-        dyx = (gb[2] - ga[2]) / h
-        dyy = (gb[3] - ga[3]) / h
+        gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+        gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+        gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+        gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+        dxx = (gab[1, 0] - gab[0, 0]) / h
+        dxy = (gab[1, 1] - gab[0, 1]) / h
+        dyx = (gab[1, 2] - gab[0, 2]) / h
+        dyy = (gab[1, 3] - gab[0, 3]) / h
         exx = 0.0j
         exy = 0.0j
         eyx = 0.0j
         eyy = 0.0j
     else:
-        gxx, dxx, exx = _modal_d(w, wnx, kx, zx)
-        gyy, dyy, eyy = _modal_d(w, wny, ky, zy)
+        gxx, dxx, exx = _modal_d(w, md, 0)
+        gyy, dyy, eyy = _modal_d(w, md, 1)
         gxy = 0.0j
         gyx = 0.0j
         dxy = 0.0j
@@ -274,7 +366,7 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
     det = det_a * (gxx * gyy - gxy * gyx)
     det1 = det_a * (dxx * gyy + gxx * dyy - dxy * gyx - gxy * dyx)
     det2 = det_a * (exx * gyy + 2.0 * dxx * dyy + gxx * eyy - exy * gyx - 2.0 * dxy * dyx - gxy * eyx)
-    s = np.sqrt(tr * tr - 4.0 * det)
+    s = _csqrt(tr * tr - 4.0 * det)
     guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     nu = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
@@ -290,33 +382,38 @@ def _phase_at(w, sa, sb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured
 
 
 @nb.njit(cache=True, inline="always")
-def _modal_d12(w, wn, k, z):
+def _modal_d12(w, md, d):
     """The first two ω-derivatives of Σ_m 1/D_m [m·s/N, m·s²/N] (as :func:`_modal_d`, without a
     complex division: 1/D = conj(D)/|D|², and D'' = −2k/ωn² is real)."""
     g1 = 0.0j
     g2 = 0.0j
-    for m in range(wn.size):
-        r = w / wn[m]
+    for m in range(md.shape[2]):
+        km = md[d, 1, m]
+        if km == 0.0:
+            break
+        wn = md[d, 0, m]
+        z = md[d, 2, m]
+        r = w / wn
         re = 1.0 - r * r
-        im = 2.0 * z[m] * r
-        sc = 1.0 / (k[m] * (re * re + im * im))
+        im = 2.0 * z * r
+        sc = 1.0 / (km * (re * re + im * im))
         inv = complex(re * sc, -im * sc)
-        d1 = k[m] * complex(-2.0 * r, 2.0 * z[m]) / wn[m]
+        d1 = km * complex(-2.0 * r, 2.0 * z) / wn
         inv2 = inv * inv
         g1 -= d1 * inv2
-        g2 += inv2 * (2.0 * d1 * d1 * inv + 2.0 * k[m] / (wn[m] * wn[m]))  # (2D'² − D D'')/D³
+        g2 += inv2 * (2.0 * d1 * d1 * inv + 2.0 * km / (wn * wn))  # (2D'² − D D'')/D³
     return g1, g2
 
 
 @nb.njit(cache=True, inline="always")
-def _node_slopes(w, nu, nu_other, gxx, gyy, a, wnx, kx, zx, wny, ky, zy):
+def _node_slopes(w, nu, nu_other, gxx, gyy, a, md):
     """dε/dω [s] and d²ε/dω² [s²] of the root ``nu`` at a grid node of a modal structure.
 
     The same formulas as :func:`_phase_at`, but the node's roots and receptances are already known:
     no square root or branch choice, and 2ν − tr is the difference of the two roots."""
     axx, axy, ayx, ayy = a
-    dxx, exx = _modal_d12(w, wnx, kx, zx)
-    dyy, eyy = _modal_d12(w, wny, ky, zy)
+    dxx, exx = _modal_d12(w, md, 0)
+    dyy, eyy = _modal_d12(w, md, 1)
     det_a = axx * ayy - axy * ayx
     tr1 = axx * dxx + ayy * dyy
     tr2 = axx * exx + ayy * eyy
@@ -334,12 +431,12 @@ def _node_slopes(w, nu, nu_other, gxx, gyy, a, wnx, kx, zx, wny, ky, zy):
 
 
 @nb.njit(cache=True)
-def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
+def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, md, measured, gab):
     """A zero inside (p, q) ⊂ segment i of ε'' (kind 0) or of g = ωε' − ε − target (kind 1), given
     its values fp, fq of opposite signs at the ends. Illinois iteration on exact evaluations to 1e-11
     of ω for a lobe's turning point (a split point off by δ hides a tip only for speeds within ~δ²
     of it) and 1e-8 for an extremum of g (g then varies by ~δ² across the piece it overlaps).
-    Returns (ω, ν, ε', ε'') at the zero."""
+    Returns (ω, ν, ε', ε'') at the zero and the number of evaluations."""
     wi = w[i]
     wj = w[i + 1]
     lo, hi, flo, fhi = p, q, fp, fq
@@ -348,12 +445,14 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
     e1 = 0.0
     e2 = 0.0
     side = 0
+    n_ev = 0
     for _ in range(100):
         x = (lo * fhi - hi * flo) / (fhi - flo)
         if not (min(lo, hi) < x < max(lo, hi)):
             x = 0.5 * (lo + hi)
-        v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, wnx, kx, zx, wny, ky, zy, measured,
-                              ga, gb)
+        v, e1, e2 = _phase_at(x, wi, wj, nu_br[i], nu_br[i + 1], wi, wj, a, md, measured,
+                              gab)
+        n_ev += 1
         fx = e2 if kind == 0 else x * e1 - _eps(v) - target
         if fx == 0.0:
             break
@@ -369,37 +468,69 @@ def _split_point(kind, target, p, q, fp, fq, i, w, nu_br, a, wnx, kx, zx, wny, k
             side = 1
         if abs(hi - lo) <= (1e-8 if kind == 0 else 1e-11) * x:
             break
-    return x, v, e1, e2
+    return x, v, e1, e2, n_ev
 
 
 @nb.njit(cache=True)
-def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb):
-    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
-    [wi, wj], Brent-style.
+def _hermite_root(h0, h1, s0, s1):
+    """Zero t ∈ (0, 1) of the cubic Hermite interpolant with values h0, h1 (opposite signs) and slopes
+    s0, s1 (per unit t) at t = 0, 1: Newton from the linear zero, kept inside (0, 1); the linear zero
+    if Newton leaves the interval or stalls."""
+    t_lin = h0 / (h0 - h1)
+    t = t_lin
+    for _ in range(6):
+        t2 = t * t
+        t3 = t2 * t
+        p = (2.0 * t3 - 3.0 * t2 + 1.0) * h0 + (t3 - 2.0 * t2 + t) * s0 + (3.0 * t2 - 2.0 * t3) * h1 + (t3 - t2) * s1
+        dp = (6.0 * t2 - 6.0 * t) * (h0 - h1) + (3.0 * t2 - 4.0 * t + 1.0) * s0 + (3.0 * t2 - 2.0 * t) * s1
+        if dp == 0.0:
+            return t_lin
+        step = p / dp
+        t -= step
+        if not (0.0 < t < 1.0):
+            return t_lin
+        if abs(step) < 1e-12:
+            break
+    return t
 
-    Inverse quadratic interpolation through the three latest points (secant while only two are
-    distinct), falling back to bisection whenever a step leaves the current bracket; stops at
-    |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope: near a lobe tip H is flat and a residual
-    moves the root further, so the tolerance tightens there). A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both
-    derivatives scale as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6
-    (the tests compare with a brute-force reference at 1e-6). Typically two or three evaluations.
-    Returns (Re ν, ω) at the root; Re ν ≤ 0 means the candidate is not a physical boundary.
+
+@nb.njit(cache=True)
+def _refine(T, k, wa, wb, nua, nub, da, db, ea, eb, wi, wj, a, md, measured, gab):
+    """Solve H(ω) = ωT − ε(ω) − 2kπ = 0 in the bracket [wa, wb] (a sign change) of table segment
+    [wi, wj], Brent-style; ν, dε/dω [s] and ε at the bracket ends are nua, nub, da, db, ea, eb.
+
+    The first iterate is the zero of the cubic Hermite interpolant of H (values and slopes T − ε' at
+    both ends; error O(h⁴) against O(h²) for the secant), then inverse quadratic interpolation through
+    the three latest points (secant while only two are distinct), falling back to bisection whenever a
+    step leaves the current bracket; stops at |H| < 1e-7 rad × min(1, |dH/dω|/T) (the secant slope:
+    near a lobe tip H is flat and a residual moves the root further, so the tolerance tightens there).
+    A phase error δH moves the depth by (d ln b/dω)/(dH/dω)·δH: near resonance both derivatives scale
+    as 1/(ζωn), away from it the ratio is ≤ 2/ε, so depths are good to ~1e-6 (the tests compare with a
+    brute-force reference at 1e-6). Typically one or two evaluations.
+    Returns (Re ν, ω) at the root and the number of evaluations; Re ν ≤ 0 means the candidate is not a
+    physical boundary.
     """
     target = TWO_PI * k
     lo, hi = wa, wb
-    flo = wa * T - _eps(nua) - target
-    fhi = wb * T - _eps(nub) - target
+    flo = wa * T - ea - target
+    fhi = wb * T - eb - target
     if flo == 0.0:
-        return nua.real, wa
+        return nua.real, wa, 0
     if fhi == 0.0:
-        return nub.real, wb
+        return nub.real, wb, 0
+    axx, axy, ayx, ayy = a
+    n_m = md.shape[2]
     # the three latest points, newest last
     x0, f0, x1, f1, x2, f2 = lo, flo, lo, flo, hi, fhi
     n_pts = 2
     v = nua
     xm = wa
+    n_ev = 0
     for _ in range(60):
-        if n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
+        if n_ev == 0:
+            h = wb - wa
+            xm = wa + h * _hermite_root(flo, fhi, (T - da) * h, (T - db) * h)
+        elif n_pts >= 3 and f0 != f1 and f0 != f2 and f1 != f2:
             xm = (x0 * f1 * f2 / ((f0 - f1) * (f0 - f2)) + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
                   + x2 * f0 * f1 / ((f2 - f0) * (f2 - f1)))
         elif f2 != f1:
@@ -408,9 +539,58 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
             xm = 0.5 * (lo + hi)
         if not (min(lo, hi) < xm < max(lo, hi)):
             xm = 0.5 * (lo + hi)
-        v = _root_at(xm, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+        # the root at xm (as _root_at, written out: an inlined call with the arrays md and gab makes
+        # numba reference-count them on every iteration)
+        if measured:
+            t = (xm - wi) / (wj - wi)
+            gxx = gab[0, 0] + t * (gab[1, 0] - gab[0, 0])
+            gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
+            gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
+            gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+        else:
+            gr0 = 0.0
+            gi0 = 0.0
+            gr3 = 0.0
+            gi3 = 0.0
+            for m in range(n_m):
+                km = md[0, 1, m]
+                if km == 0.0:
+                    break
+                r = xm / md[0, 0, m]
+                re = 1.0 - r * r
+                im = 2.0 * md[0, 2, m] * r
+                inv = 1.0 / (km * (re * re + im * im))
+                gr0 += re * inv
+                gi0 -= im * inv
+            for m in range(n_m):
+                km = md[1, 1, m]
+                if km == 0.0:
+                    break
+                r = xm / md[1, 0, m]
+                re = 1.0 - r * r
+                im = 2.0 * md[1, 2, m] * r
+                inv = 1.0 / (km * (re * re + im * im))
+                gr3 += re * inv
+                gi3 -= im * inv
+            gxx = complex(gr0, gi0)
+            gyy = complex(gr3, gi3)
+            gxy = 0.0j
+            gyx = 0.0j
+        m00 = axx * gxx + axy * gyx
+        m01 = axx * gxy + axy * gyy
+        m10 = ayx * gxx + ayy * gyx
+        m11 = ayx * gxy + ayy * gyy
+        tr = m00 + m11
+        det = m00 * m11 - m01 * m10
+        sq = _csqrt(tr * tr - 4.0 * det)
+        guess = nua + (xm - wa) / (wb - wa) * (nub - nua)
+        v = 0.5 * (tr + sq)
+        r2 = 0.5 * (tr - sq)
+        if _dist2(r2, guess) < _dist2(v, guess):
+            v = r2
+        n_ev += 1
         if v.real <= 0.0:
-            return v.real, xm
+            return v.real, xm, n_ev
         fm = xm * T - _eps(v) - target
         # |H| < 1e-7 rad, tighter where H is flatter than its far-field slope T (near a lobe tip
         # dH/dω → 0 and the same residual would leave the root, and the depth, much less certain)
@@ -423,7 +603,7 @@ def _refine(T, k, wa, wb, nua, nub, wi, wj, a, wnx, kx, zx, wny, ky, zy, measure
             hi, fhi = xm, fm
         x0, f0, x1, f1, x2, f2 = x1, f1, x2, f2, xm, fm
         n_pts += 1
-    return v.real, xm
+    return v.real, xm, n_ev
 
 
 @nb.njit(cache=True, inline="always")
@@ -434,7 +614,7 @@ def _any_speed(rpm, lo, hi):
 
 
 @nb.njit(cache=True)
-def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx, kx, zx, wny, ky, zy, measured):
+def _collect(w, G, nu, valid, inv_b, T, rpm, n_teeth, est, uniform, a, md, measured, cap, stats):
     """Find every (branch, bracket, lobe k, speed) crossing that can matter, with a linear estimate.
 
     A crossing of lobe k at speed j lies in a bracket [x0, x1] of branch br when
@@ -455,8 +635,13 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
     far-from-resonance 80–90 % of the grid.
 
     Returns the candidates (speed j, segment code br·F + i, k, bracket ends and their roots,
-    estimated Re ν) and updates ``est`` with the best estimate per speed.
+    estimated Re ν) and updates ``est`` with the best estimate per speed. ``stats`` (size 0: not
+    counted) receives the work counts (S_* indices). At most ``cap`` candidates are kept: when there are
+    more, the candidate arrays come back empty and ``overflow`` True, and the caller runs it again with a
+    larger ``cap`` (buffers grown inside the loops would be loop-carried arrays, which numba reference-
+    counts on every iteration).
     """
+    counting = stats.size > 0
     n_w = w.size
     n_s = rpm.size
     t_min = T[n_s - 1]  # speeds ascending ⇒ periods descending
@@ -474,23 +659,27 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                 seg_max[n_seg] = max(inv_b[br, i], inv_b[br, i + 1])
                 seg_id[n_seg] = br * n_w + i
                 n_seg += 1
-    cap = 8 * n_s + 64
+    if counting:
+        stats[S_SEGMENTS] += n_seg
+    overflow = False
     c_j = np.empty(cap, dtype=np.int64)
     c_seg = np.empty(cap, dtype=np.int64)
     c_k = np.empty(cap, dtype=np.int64)
     c_g = np.empty(cap)
-    c_x = np.empty((cap, 2))
+    c_x = np.empty((cap, 6))  # bracket ends [rad/s], ε' [s] and ε there
     c_nu = np.empty((cap, 2), dtype=np.complex128)
     n_c = 0
     # dε/dω and d²ε/dω² at the nodes (modal structures; computed on first use)
     d1 = np.empty((2, n_w))
     d2 = np.empty((2, n_w))
     have = np.zeros((2, n_w), dtype=np.bool_)
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    eps = np.empty((2, n_w))
+    have_e = np.zeros((2, n_w), dtype=np.bool_)
+    gab = np.empty((2, 4), dtype=np.complex128)
     # the bracket ends of one (segment, k): frequency, root, ε, 1/b
     bx = np.empty(5)
     bnu = np.empty(5, dtype=np.complex128)
+    bd1 = np.empty(5)
     worst = 0.0
     # visit segments in levels of decreasing best 1/b (each level a factor 2 below the last): once the
     # worst speed's estimate exceeds a level's floor × REFINE_MARGIN, no later segment can matter
@@ -508,6 +697,8 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             n_vis += 1
             if m_s * REFINE_MARGIN < worst:
                 continue
+            if counting:
+                stats[S_VISITED] += 1
             code = seg_id[s]
             br = code // n_w
             i = code - br * n_w
@@ -515,20 +706,27 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             wb = w[i + 1]
             nua = nu[br, i]
             nub = nu[br, i + 1]
+            # ε at the ends, computed on first use: most nodes lie in segments that are never visited
+            for e in range(i, i + 2):
+                if not have_e[br, e]:
+                    eps[br, e] = _eps(nu[br, e])
+                    have_e[br, e] = True
             ea = eps[br, i]
             eb = eps[br, i + 1]
             for c4 in range(4):
-                ga[c4] = G[c4, i]
-                gb[c4] = G[c4, i + 1]
+                gab[0, c4] = G[c4, i]
+                gab[1, c4] = G[c4, i + 1]
             # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
             if measured:
-                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
-                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
+                _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
             else:
                 for e in range(i, i + 2):
                     if not have[br, e]:
+                        if counting:
+                            stats[S_SLOPES] += 1
                         d1[br, e], d2[br, e] = _node_slopes(w[e], nu[br, e], nu[1 - br, e], G[0, e], G[3, e], a,
-                                                            wnx, kx, zx, wny, ky, zy)
+                                                            md)
                         have[br, e] = True
                 d1a, d2a, d1b, d2b = d1[br, i], d2[br, i], d1[br, i + 1], d2[br, i + 1]
             g_a = wa * d1a - ea
@@ -547,18 +745,22 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
             # an extremum of g can only hide crossings of 2kπ beyond both ends' values: above them for a
             # maximum (ε'' from + to −), below them for a minimum (near a resonance g ≪ 0: none)
             if d2a * d2b < 0.0 and (TWO_PI * k_hi > max(g_a, g_b) if d2a > 0.0 else TWO_PI * k_lo < min(g_a, g_b)):
-                we, nue, d1e, _ = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                               measured, ga, gb)
+                we, nue, d1e, _, n_ev = _split_point(0, 0.0, wa, wb, d2a, d2b, i, w, nu[br], a, md, measured, gab)
+                if counting:
+                    stats[S_SPLIT] += n_ev
                 if nue.real > 0.0 and wa < we < wb:
                     split_e = True
                     ee = _eps(nue)
                     g_e = we * d1e - ee
+            if counting:
+                stats[S_PAIRS] += k_hi - k_lo + 1
             for k in range(k_lo, k_hi + 1):
                 tk = TWO_PI * k
                 # bracket ends for this lobe: wa, [tip in piece 1], [we], [tip in piece 2], wb
                 nb_ = 0
                 bx[0] = wa
                 bnu[0] = nua
+                bd1[0] = d1a
                 nb_ = 1
                 n_piece = 2 if split_e else 1
                 for pc in range(n_piece):
@@ -583,18 +785,22 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             t_lo = max(tp + dp * room, tq - dq * room)
                         if t_hi > 0.0 and t_hi >= t_lo and _any_speed(rpm, c60 / t_hi,
                                                                         c60 / t_lo if t_lo > 0.0 else np.inf):
-                            x, v, _, _ = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, wnx, kx, zx, wny, ky, zy,
-                                                      measured, ga, gb)
+                            x, v, xe1, _, n_ev = _split_point(1, tk, p, pq, dp, dq, i, w, nu[br], a, md, measured, gab)
+                            if counting:
+                                stats[S_SPLIT] += n_ev
                             if v.real > 0.0 and bx[nb_ - 1] < x < pq:
                                 bx[nb_] = x
                                 bnu[nb_] = v
+                                bd1[nb_] = xe1
                                 nb_ += 1
                     if split_e and pc == 0:
                         bx[nb_] = we
                         bnu[nb_] = nue
+                        bd1[nb_] = d1e
                         nb_ += 1
                 bx[nb_] = wb
                 bnu[nb_] = nub
+                bd1[nb_] = d1b
                 nb_ += 1
                 for m in range(nb_ - 1):
                     x0 = bx[m]
@@ -626,62 +832,36 @@ def _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a, wnx,
                             guess = n0.real + t * (n1.real - n0.real)
                             if guess > est[j]:
                                 est[j] = guess
-                            if n_c == cap:  # grow the candidate buffers
-                                cap *= 2
-                                c_j = _grow_i(c_j, cap)
-                                c_seg = _grow_i(c_seg, cap)
-                                c_k = _grow_i(c_k, cap)
-                                c_g = _grow_f(c_g, cap)
-                                c_x = _grow_f2(c_x, cap)
-                                c_nu = _grow_c2(c_nu, cap)
+                            if n_c == cap:  # full: keep scanning (est stays exact), the caller runs it again
+                                overflow = True
+                                j += 1
+                                continue
                             c_j[n_c] = j
                             c_seg[n_c] = code
                             c_k[n_c] = k
                             c_g[n_c] = guess
                             c_x[n_c, 0] = x0
                             c_x[n_c, 1] = x1
+                            c_x[n_c, 2] = bd1[m]
+                            c_x[n_c, 3] = bd1[m + 1]
+                            c_x[n_c, 4] = e0
+                            c_x[n_c, 5] = e1
                             c_nu[n_c, 0] = n0
                             c_nu[n_c, 1] = n1
                             n_c += 1
                         j += 1
         worst = est.min()
+        if counting:
+            stats[S_LEVELS] += 1
         if level_lo == 0.0 or level_lo * REFINE_MARGIN < worst:
             break
         level_hi = level_lo
         level_lo = 0.5 * level_lo if level_lo > 1e-3 * top else 0.0
-    return c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
+    return overflow, c_j[:n_c], c_seg[:n_c], c_k[:n_c], c_g[:n_c], c_x[:n_c], c_nu[:n_c]
 
 
 @nb.njit(cache=True)
-def _grow_f2(a, cap):
-    out = np.empty((cap, 2))
-    out[: a.shape[0]] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_c2(a, cap):
-    out = np.empty((cap, 2), dtype=np.complex128)
-    out[: a.shape[0]] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_i(a, cap):
-    out = np.empty(cap, dtype=np.int64)
-    out[: a.size] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _grow_f(a, cap):
-    out = np.empty(cap)
-    out[: a.size] = a
-    return out
-
-
-@nb.njit(cache=True)
-def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
+def _validity_edges(w, nu, a, md, measured, G, stats):
     """Frequencies just inside the valid side wherever a branch's Re ν changes sign between nodes.
 
     Crossings right next to Re ν = 0 are real boundaries (near resonance |ν| is large, so the depth
@@ -692,8 +872,7 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
     n_w = w.size
     out = np.empty(2 * n_w)
     n = 0
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    gab = np.empty((2, 4), dtype=np.complex128)
     for br in range(2):
         for i in range(n_w - 1):
             va = nu[br, i].real > 0.0
@@ -702,8 +881,8 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
                 continue
             if measured:
                 for q in range(4):
-                    ga[q] = G[q, i]
-                    gb[q] = G[q, i + 1]
+                    gab[0, q] = G[q, i]
+                    gab[1, q] = G[q, i + 1]
             lo = w[i]  # lo on the invalid side (Re ν ≤ 0), hi on the valid side (Re ν > 0)
             hi = w[i + 1]
             flo = nu[br, i].real
@@ -715,8 +894,10 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
                 mid = (lo * fhi - hi * flo) / (fhi - flo)
                 if not (min(lo, hi) < mid < max(lo, hi)):
                     mid = 0.5 * (lo + hi)
-                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, wnx, kx, zx, wny, ky, zy,
-                             measured, ga, gb)
+                v = _root_at(mid, w[i], w[i + 1], nu[br, i], nu[br, i + 1], w[i], w[i + 1], a, md,
+                             measured, gab)
+                if stats.size > 0:
+                    stats[S_EDGE] += 1
                 if v.real > 0.0:
                     hi, fhi = mid, v.real
                     if side == 1:
@@ -735,7 +916,7 @@ def _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G):
 
 
 @nb.njit(cache=True)
-def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
+def _with_nodes(w, G, nu, extra, a, measured, md):
     """The grid with the ``extra`` frequencies merged in: frequencies, receptances (exact for modes,
     linear between table points for a measured FRF) and the roots, each branch continued by
     proximity from the node before (as in :func:`_branches`)."""
@@ -757,12 +938,12 @@ def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
                 for q in range(4):
                     G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
             else:
-                G2[0, c] = _modal_receptance(x, wnx, kx, zx)
+                G2[0, c] = _modal_receptance(x, md, 0)
                 G2[1, c] = 0.0j
                 G2[2, c] = 0.0j
-                G2[3, c] = _modal_receptance(x, wny, ky, zy)
+                G2[3, c] = _modal_receptance(x, md, 1)
             tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
-            sq = np.sqrt(tr * tr - 4.0 * det)
+            sq = _csqrt(tr * tr - 4.0 * det)
             guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
             r1 = 0.5 * (tr + sq)
             r2 = 0.5 * (tr - sq)
@@ -784,44 +965,66 @@ def _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy):
 
 
 @nb.njit(cache=True)
-def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measured, depth, lobe, wc):
-    """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
-
-    Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
-    """
+def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
+    """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
+    the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
+    the tooth periods T [s], the best estimate per speed and the candidates."""
+    counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3])
-    extra = _validity_edges(w, nu, a, wnx, kx, zx, wny, ky, zy, measured, G)
+    extra = _validity_edges(w, nu, a, md, measured, G, stats)
     if extra.size:
-        w, G, nu = _with_nodes(w, G, nu, extra, a, measured, wnx, kx, zx, wny, ky, zy)
+        w, G, nu = _with_nodes(w, G, nu, extra, a, measured, md)
     n_w = w.size
     n_s = rpm.size
+    if counting:
+        stats[S_NODES] += n_w
     valid = np.empty((2, n_w), dtype=np.bool_)
     inv_b = np.empty((2, n_w))
-    eps = np.empty((2, n_w))
     for br in range(2):
         for i in range(n_w):
             v = nu[br, i]
             ok = v.real > 0.0 and math.isfinite(v.real) and math.isfinite(v.imag)
             valid[br, i] = ok
             inv_b[br, i] = v.real if ok else 0.0
-            eps[br, i] = _eps(v) if ok else 0.0
     T = np.empty(n_s)
     for j in range(n_s):
         T[j] = 60.0 / (n_teeth * rpm[j])
     est = np.zeros(n_s)
-    best_inv = np.zeros(n_s)
-    best_k = np.full(n_s, -1, dtype=np.int64)
-    best_w = np.full(n_s, np.nan)
     # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
     uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
         if abs(rpm[j] - rpm[j - 1] - (rpm[n_s - 1] - rpm[0]) / (n_s - 1)) > 1e-9 * rpm[n_s - 1]:
             uniform = False
-    c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, eps, T, rpm, n_teeth, est, uniform, a,
-                                               wnx, kx, zx, wny, ky, zy, measured)
+    cap = 8 * n_s + 64
+    while True:
+        overflow, c_j, c_seg, c_k, c_g, c_x, c_nu = _collect(w, G, nu, valid, inv_b, T, rpm, n_teeth, est,
+                                                             uniform, a, md, measured, cap, stats)
+        if not overflow:
+            break
+        cap *= 4
+        est[:] = 0.0
+    if counting:
+        stats[S_CANDIDATES] += c_j.size
+    return w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu
+
+
+@nb.njit(cache=True)
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats):
+    """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
+
+    Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
+    ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
+    """
+    counting = stats.size > 0
+    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured,
+                                                          stats)
+    n_w = w.size
+    n_s = rpm.size
+    best_inv = np.zeros(n_s)
+    best_k = np.full(n_s, -1, dtype=np.int64)
+    best_w = np.full(n_s, np.nan)
     # refine exactly only the crossings whose estimate is near the best estimate at their speed
-    ga = np.empty(4, dtype=np.complex128)
-    gb = np.empty(4, dtype=np.complex128)
+    gab = np.empty((2, 4), dtype=np.complex128)
     for c in range(c_j.size):
         j = c_j[c]
         if c_g[c] * REFINE_MARGIN < est[j]:
@@ -830,10 +1033,14 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
         i = c_seg[c] - br * n_w
         if measured:
             for q in range(4):
-                ga[q] = G[q, i]
-                gb[q] = G[q, i + 1]
-        re_nu, wcj = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], w[i], w[i + 1], a,
-                             wnx, kx, zx, wny, ky, zy, measured, ga, gb)
+                gab[0, q] = G[q, i]
+                gab[1, q] = G[q, i + 1]
+        re_nu, wcj, n_ev = _refine(T[j], c_k[c], c_x[c, 0], c_x[c, 1], c_nu[c, 0], c_nu[c, 1], c_x[c, 2], c_x[c, 3],
+                                   c_x[c, 4], c_x[c, 5], w[i], w[i + 1], a,
+                                   md, measured, gab)
+        if counting:
+            stats[S_REFINED] += 1
+            stats[S_REFINE_EVALS] += n_ev
         if re_nu > best_inv[j]:
             best_inv[j] = re_nu
             best_k[j] = c_k[c]
@@ -851,34 +1058,57 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx, kx, zx, wny, ky, zy, measur
 
 
 @nb.njit(cache=True)
-def modal_grid(wnx, kx, zx, wny, ky, zy, w_top, n_base, offsets):
-    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure on it."""
-    n_all = wnx.size + wny.size
-    wn_all = np.empty(n_all)
-    z_all = np.empty(n_all)
-    wn_all[: wnx.size] = wnx
-    wn_all[wnx.size:] = wny
-    z_all[: wnx.size] = zx
-    z_all[wnx.size:] = zy
+def modal_grid(md, w_top, n_base, offsets):
+    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure (packed modes ``md``)."""
+    n_m = md.shape[2]
+    wn_all = np.empty(2 * n_m)
+    z_all = np.empty(2 * n_m)
+    n_all = 0
+    for d in range(2):
+        for m in range(n_m):
+            if md[d, 1, m] == 0.0:
+                break
+            wn_all[n_all] = md[d, 0, m]
+            z_all[n_all] = md[d, 2, m]
+            n_all += 1
+    wn_all = wn_all[:n_all]
+    z_all = z_all[:n_all]
     w_lo = 0.1 * wn_all.min()
     w_hi = max(4.0 * wn_all.max(), 1.05 * w_top)
     w = _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets)
     G = np.zeros((4, w.size), dtype=np.complex128)
-    for i in range(w.size):
-        G[0, i] = _modal_receptance(w[i], wnx, kx, zx)
-        G[3, i] = _modal_receptance(w[i], wny, ky, zy)
+    # the receptance sums written out here (not _modal_receptance): an inlined call per node makes numba
+    # reference-count md on every iteration
+    for d in range(2):
+        row = 3 * d
+        for m in range(n_m):
+            km = md[d, 1, m]
+            if km == 0.0:
+                break
+            wn = md[d, 0, m]
+            z2 = 2.0 * md[d, 2, m]
+            for i in range(w.size):
+                r = w[i] / wn
+                re = 1.0 - r * r
+                im = z2 * r
+                inv = 1.0 / (km * (re * re + im * im))
+                G[row, i] += complex(re * inv, -im * inv)
     return w, G
 
 
 @nb.njit(cache=True, parallel=True)
-def envelope_modal_batch(wnx, kx, zx, wny, ky, zy, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
-    """Batched envelope for B modal structures: mode arrays (B, Mx) and (B, My), rpm ascending (S,).
+def envelope_modal_batch(md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc, stats):
+    """Batched envelope for B modal structures: packed modes md (B, 2, 3, M) (:func:`pack_modes`),
+    rpm ascending (S,).
 
-    Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s].
+    Writes depth (B, S) [m], lobe (B, S) and chatter frequency wc (B, S) [rad/s]. ``stats`` is
+    (B, N_STATS) int64 zeros to receive each set's work counts, or (0, N_STATS) for none.
     """
-    n_b = wnx.shape[0]
+    counting = stats.shape[0] > 0
+    empty = np.zeros(0, dtype=np.int64)
+    n_b = md.shape[0]
     w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
     for b in nb.prange(n_b):
-        w, G = modal_grid(wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], w_top, n_base, offsets)
-        envelope_on_grid(w, G, a, n_teeth, kt, rpm, wnx[b], kx[b], zx[b], wny[b], ky[b], zy[b], False,
-                         depth[b], lobe[b], wc[b])
+        w, G = modal_grid(md[b], w_top, n_base, offsets)
+        envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False,
+                         depth[b], lobe[b], wc[b], stats[b] if counting else empty)

@@ -36,6 +36,11 @@ CHUNK_CELLS = 4_000_000
 CHUNK = 16_384
 
 
+_NO_STATS = np.zeros(0, dtype=np.int64)
+_NO_MODES = np.zeros((2, 3, 0))
+_NO_STATS_2D = np.zeros((0, _k.N_STATS), dtype=np.int64)
+
+
 def chunk_rows(n_speeds: int) -> int:
     """Parameter sets per chunk for ``n_speeds`` speeds: ≤ CHUNK and ≤ CHUNK_CELLS / n_speeds."""
     return max(64, min(CHUNK, CHUNK_CELLS // max(n_speeds, 1)))
@@ -99,16 +104,18 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
     a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
     n_s = rs.size
     depth, lobe, wc = np.empty(n_s), np.empty(n_s, dtype=np.int64), np.empty(n_s)
-    empty = np.zeros(0)
-    _k.envelope_on_grid(w, G, a, cutting.teeth, cutting.kt, rs, empty, empty, empty, empty, empty, empty, True,
-                        depth, lobe, wc)
+    _k.envelope_on_grid(w, G, a, cutting.teeth, cutting.kt, rs, _NO_MODES, True, depth, lobe, wc, _NO_STATS)
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)
     return Envelope(r, depth[inv], lobe[inv], wc[inv] / (2 * math.pi))
 
 
-def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S)."""
+def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray,
+               stats: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S).
+
+    ``stats``: optional (B, N_STATS) int64 zeros that receive the kernel's work counts per set.
+    """
     rs, order = _sorted(rpm)
     n_b, n_s = batch.size, rs.size
     depth = np.empty((n_b, n_s))
@@ -116,8 +123,9 @@ def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray) -> tuple[np
     wc = np.empty((n_b, n_s))
     a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
     two_pi = 2 * math.pi
-    _k.envelope_modal_batch(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y,
-                            a, cutting.teeth, cutting.kt, rs, N_BASE, _OFFSETS, depth, lobe, wc)
+    md = _k.pack_modes(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y)
+    _k.envelope_modal_batch(md, a, cutting.teeth, cutting.kt, rs, N_BASE, _OFFSETS, depth, lobe, wc,
+                            _NO_STATS_2D if stats is None else stats)
     if np.array_equal(order, np.arange(n_s)):
         return depth, lobe, wc
     inv = np.empty_like(order)

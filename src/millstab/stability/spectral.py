@@ -83,6 +83,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -111,8 +112,12 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
 CHECKS = np.array([0.7, 0.93, 0.995])
-#: speeds per block of the root search (blocks run in parallel; within one, depth continues)
+#: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
+#: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
+#: blocks per thread when the sets alone do not fill the threads (several, for load balance: the
+#: low-speed blocks cost more)
+BLOCKS_PER_THREAD = 2
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
@@ -159,12 +164,20 @@ def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.where(np.isfinite(b_ref), b_ref, row_max[:, None]))
 
 
+def _block_len(n_b: int, n_s: int) -> int:
+    """Speeds per block: the whole range per set when the sets fill the threads (no restarts), else
+    split into about BLOCKS_PER_THREAD blocks per thread, none shorter than BLOCK."""
+    want = math.ceil(BLOCKS_PER_THREAD * numba.get_num_threads() / n_b)
+    return max(BLOCK, math.ceil(n_s / max(want, 1))) if want > 1 else n_s
+
+
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int = BLOCK) -> tuple[np.ndarray, ...]:
-    """Depth, multiplier and ρ-evaluation counts (B, S) at ascending speeds rs with p nodes per element
-    (speeds in blocks of ``block``; depth continues within a block)."""
+           block: int | None = None) -> tuple[np.ndarray, ...]:
+    """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
+    (speeds in blocks of ``block``, default :func:`_block_len`; branches continue within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
+    block = _block_len(n_b, n_s) if block is None else block
     starts = np.unique(np.concatenate([np.arange(0, n_s, block), [n_s]])).astype(np.int64)
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)

@@ -30,19 +30,25 @@ the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes;
 than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
 moved points are the start of the next check (a fresh search only where Newton failed).
 
-Root search (compiled, parallel over sets × speed blocks of ``BLOCK`` speeds). A Floquet solution
-z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0,
-with Ψ(σ) the transition over one tooth period of the ODE ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n
-characteristic equation (n = 2 × modes), exact for the discretised system too and far cheaper than the
-monodromy's eigenvalues. The boundary at a speed is the smallest b with a multiplier e^{iθ} on the unit
-circle (θ = π: flip). At the first speed of a block, ρ(b) is evaluated on b_ref·LADDER (b_ref the
-zero-order depth) up to the first unstable depth, the bracket is narrowed by the Illinois method on
-ρ − 1 (``RTOL``) and polished by Newton on the characteristic function in (b, θ). At the next speeds
-Newton starts from the previous boundary point (θ predicted from the chatter frequency, or kept at π
-for a flip), and its root is accepted only if the full monodromy is stable at b·CHECKS (0.7, 0.93,
-0.995: nothing crossed below it, e.g. another lobe that has become lower); otherwise the failed rung
-brackets the lower crossing, or the ladder search runs from there (``LADDER_CONT``). The accepted
-depths are roots of the discretised characteristic equation to ~1e-7, so they are smooth in the parameters (finite-difference Jacobians in
+Root search (compiled, parallel over sets × speed blocks: a set's speeds are one block when the sets
+fill the threads, else about ``BLOCKS_PER_THREAD`` blocks per thread, none shorter than ``BLOCK``). A
+Floquet solution z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff
+det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth period of the ODE
+ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
+discretised system too and far cheaper than the monodromy's eigenvalues. The boundary at a speed is
+the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
+Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundary, Hopf or flip),
+continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
+one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
+one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
+prediction linear in speed. The lowest branch is accepted if the full monodromy is stable at
+b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe come down or a flip band);
+a failed rung brackets the unknown crossing, Newton from inside it (θ from the rung's dominant
+multiplier) adds its root to the set, and that root is checked in turn. Where no branch is left (a
+block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the zero-order depth; inside a block the
+last boundary·LADDER_CONT) up to the first unstable depth, Illinois on ρ − 1 to 1 %, Newton; the fine
+Illinois (``RTOL``) only where Newton fails. The accepted depths are roots of the discretised
+characteristic equation to ~1e-12, so they are smooth in the parameters (finite-difference Jacobians in
 identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
 checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark). Known
 case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
@@ -50,25 +56,29 @@ dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both
 over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm that SDM misses
 (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
 
-Speed (measured with benchmarks/bench_spectral.py on the shared 2-core machine, same run): 200 speeds,
-one mode per direction, a/D = 0.05: 0.17–0.27 s per envelope (4–6 per second), 17× faster than SDM's
-default (2.9 s), 400× slower than the zero-order engine. What bounds it: per speed ~3 eigenvalue
-problems of the full monodromy matrix (the verification rungs; LAPACK dgeev on 6–20 rows) and ~10
-evaluations of the n × n characteristic function (a complex p·n solve per element); where the boundary
-jumps between lobes from one speed to the next (about one speed in five at 100 rpm spacing) the
-continuation fails and a bracketing search costs 2–4 times more. The issue's 20 envelopes/s is not
-reached. Profile (200 speeds, a/D = 0.05, p = 6, one thread): ~3 450 evaluations, 17 per speed; the
-speeds that take more than 12 (block starts and lobe switches, about 70 of 200) hold two thirds of
-them; one ρ evaluation costs 80–160 µs (monodromy 16–28 rows: build ~60 µs, dgeev 85–140 µs), one
-characteristic function 20–50 µs, so the ρ evaluations (verification rungs, ladders, Illinois) are
-~3/4 of the time. The lowest-speed block (5 000–7 400 rpm, most lobe switches, 2 elements) costs as
-much as the other seven together (61 of 143 ms on one thread), so with the static split of the 8
-equal-speed blocks over 2 threads one thread gets ~110 ms of it; a dynamic schedule
-(``numba.parallel_chunksize(1)``, identical results) could not be shown faster on the loaded machine
-(load ~10 on 2 cores: 2 threads were no faster than 1).
-Measured without gain (same moment, paired): reusing the previous speed's Newton Jacobian (more
-evaluations, the stale model costs re-formation), elements of one natural period (3× faster in
-slotting, but 0.9 % off, too close to the 1 % target).
+Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the shared 2-core
+machine ran at load 15–24 during these measurements, so old/new were run alternately in the same
+minutes and CPU time (process_time) is the robust figure; wall figures are not comparable across
+days). With branch tracking the root search needs 1 829 evaluations (9.1 per speed) where the
+previous continued-root-plus-rescue scheme needed 3 454 (17.3): root search alone, p = 6, one thread,
+52 ms CPU (was 72–74 ms); a whole envelope (convergence check and zero-order guesses included) 58.6 ms
+CPU on one thread, 80–84 ms CPU on two (was 101–105 ms), i.e. ~17 envelopes per CPU-second. Wall time on
+the loaded machine: best of 7, 388–588 ms (old 572–748 ms in the same minutes). So the issue's
+20 envelopes/s would need the two threads to scale on an idle machine; it is not shown here. What
+bounds it: a speed where the branch simply continues costs 3 ρ evaluations (the checks) and ~3.4
+characteristic functions; ρ is a monodromy of 16 rows (one element, high speeds: build 13 µs, dgeev
+21 µs) to 28 rows (two elements, low speeds: 28 + 57 µs), a characteristic function with its
+derivatives 14–28 µs, so the checks are ~70 % of such a speed. Those 169 of 200 speeds hold 58 % of
+the evaluations; the other 31 (block starts, lobes that come down from above unannounced) hold 42 %,
+each a bracketing on ρ plus Newton. Per call on top: the zero-order guesses (~8 ms CPU, independent of
+the speed count) and the convergence check (~6 ms). Measured and not kept: the ρ checks on a coarser
+discretisation (p = 4 while the roots use p = 6: at 8 216 rpm its crossing is 2 % off, the brackets
+then disagree with Newton and the rescue costs more); a single check at 0.995 (45 instead of 52 ms,
+but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
+Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
+is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).
+Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
+natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 
 Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency

@@ -645,6 +645,9 @@ def _fold(theta):
 N_BRANCH = 4
 #: a tracked branch whose depth exceeds this multiple of the boundary is dropped (it has left)
 BRANCH_DROP = 3.0
+#: relative depth change of the boundary's branch from one speed to the next beyond which the continued
+#: root is not trusted (Newton may have jumped to another lobe over a closed band): search from below
+BRANCH_JUMP = 0.25
 
 
 @nb.njit(cache=True)
@@ -670,7 +673,7 @@ def _add_branch(br_b, br_t, br_b2, br_on, b, th):
     it is already tracked."""
     for i in range(br_b.size):
         if br_on[i] and abs(br_b[i] / b - 1.0) < 1e-5 and abs(br_t[i] - th) < 1e-4:
-            return
+            return i
     slot = -1
     for i in range(br_b.size):
         if not br_on[i]:
@@ -685,6 +688,7 @@ def _add_branch(br_b, br_t, br_b2, br_on, b, th):
     br_t[slot] = th
     br_b2[slot] = 0.0
     br_on[slot] = True
+    return slot
 
 
 @nb.njit(cache=True)
@@ -710,6 +714,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
     br_t2 = np.zeros(N_BRANCH)  # and its θ
     br_on = np.zeros(N_BRANCH, dtype=np.bool_)
     T_prev = 1.0
+    acc = -1  # the branch accepted at the previous speed
     for s in range(rpm.size):
         g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
         T = 60.0 / (n_teeth * rpm[s])
@@ -744,6 +749,13 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                 br_t[i] = th1
             else:
                 br_on[i] = False
+        # the boundary's own branch lost (a closed band's edge, a lobe's end): the other branches say
+        # nothing about what lies below, so search from below as at a block start
+        lost = acc >= 0 and not br_on[acc]
+        # ... or moved so far that Newton may have jumped to another root (a steep flank moves this
+        # much too: then the search from below costs a ladder, and is safe)
+        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and abs(br_b[acc] / br_b2[acc] - 1.0) > BRANCH_JUMP:
+            lost = True
         # drop duplicates (two branches that met the same root) and branches far above the lowest
         b_min = np.inf
         for i in range(N_BRANCH):
@@ -757,7 +769,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
             if br_on[i] and br_b[i] > BRANCH_DROP * b_min:
                 br_on[i] = False
         done = False
-        for attempt in range(4):
+        acc = -1
+        for attempt in range(0 if lost else 4):
             best = -1
             for i in range(N_BRANCH):
                 if br_on[i] and (best < 0 or br_b[i] < br_b[best]):
@@ -786,6 +799,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                 depth[s] = b1
                 mu[s] = complex(math.cos(br_t[best]), math.sin(br_t[best]))
                 done = True
+                acc = best
                 break
             # an unknown crossing below: Newton from the secant point of the bracket
             x = (br_lo * f_hi - br_hi * f_lo) / (f_hi - f_lo)
@@ -818,7 +832,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                 if ok and abs(b1 / d - 1.0) < 0.006:
                     d = b1
                     m_ = complex(math.cos(th1), math.sin(th1))
-                    _add_branch(br_b, br_t, br_b2, br_on, b1, th1)
+                    acc = _add_branch(br_b, br_t, br_b2, br_on, b1, th1)
                 else:
                     d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
                     count += c

@@ -252,3 +252,20 @@ def test_branch_tracking_finds_a_narrow_flip_band():
     assert rho.max() < 1.0
     assert spectral_radius(xy, cutting, rpm[i], 1.002 * b, 8) > 1.0
     assert env.kind[i] == "flip"
+
+
+def test_closed_band_below_a_far_continued_root():
+    """A set from identification's search space (Example 1's structure moved by up to 30 %, a/D = 0.1,
+    40 speeds 3 000–15 000 rpm): at 6 077 rpm a closed unstable band spans ~41–45 mm below a Hopf
+    crossing at 57.4 mm. Newton continued the previous speed's boundary (42.0 mm) onto the 57.4 mm
+    root, whose checks (0.7, 0.93, 0.995 of it) all lie outside the band; a branch that moves by more
+    than 25 % in one speed step must not be trusted. The depth must be the first crossing (a dense ρ
+    scan with more nodes, an independent re-computation, is stable below it)."""
+    s = Structure(x=(Mode(685.0407184001604, 12746788.109185813, 0.029276902992752436),),
+                  y=(Mode(694.4584275801416, 13638854.533296518, 0.037068853353218134),))
+    cutting = Cutting.from_immersion(2, 556.31e6, 0.404, 0.1, "down")
+    rpm = np.linspace(3000.0, 15000.0, 40)
+    b = spectral.envelope(s, cutting, rpm).depth[10]
+    rho = spectral.rho_map(s, cutting, [rpm[10]], np.linspace(0.3 * b, 0.995 * b, 40), nodes=8)[0]
+    assert rho.max() < 1.0
+    assert spectral_radius(s, cutting, rpm[10], 1.005 * b, 8) > 1.0

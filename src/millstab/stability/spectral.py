@@ -41,7 +41,9 @@ Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundar
 continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
 one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
 one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
-prediction linear in speed. The lowest branch is accepted if the full monodromy is stable at
+prediction linear in speed. Where the boundary's own branch is lost or moves by more than
+``_spectral_kernel.BRANCH_JUMP`` (25 %) in one speed step (Newton may have jumped onto another lobe
+over a closed band), the search starts from below as at a block start. The lowest branch is accepted if the full monodromy is stable at
 b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe come down or a flip band);
 a failed rung brackets the unknown crossing, Newton from inside it (θ from the rung's dominant
 multiplier) adds its root to the set, and that root is checked in turn. Where no branch is left (a
@@ -57,23 +59,23 @@ over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 m
 (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
 
 Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the shared 2-core
-machine ran at load 15–24 during these measurements, so old/new were run alternately in the same
-minutes and CPU time (process_time) is the robust figure; wall figures are not comparable across
-days). With branch tracking the root search needs 1 829 evaluations (9.1 per speed) where the
+machine ran at load 5–24 during these measurements, shared with 6 other sessions, so old/new were
+run alternately in the same minutes and CPU time (process_time) is the robust figure; wall figures are
+not comparable across days). With branch tracking the root search needs 1 951 evaluations (9.8 per speed) where the
 previous continued-root-plus-rescue scheme needed 3 454 (17.3): root search alone, p = 6, one thread,
-52 ms CPU (was 72–74 ms); a whole envelope (convergence check and zero-order guesses included) 58.6 ms
-CPU on one thread, 80–84 ms CPU on two (was 101–105 ms), i.e. ~17 envelopes per CPU-second. Wall time on
-the loaded machine: best of 7, 388–588 ms (old 572–748 ms in the same minutes). So the issue's
-20 envelopes/s would need the two threads to scale on an idle machine; it is not shown here. What
+58 ms CPU (was 72 ms); a whole envelope (convergence check and zero-order guesses included) 64 ms CPU
+on one thread, 83–87 ms CPU on two (was 101–112 ms), i.e. ~15 envelopes per CPU-second. Wall time, best
+of 7: 181 ms, 5.5 envelopes/s (old 228 ms, 4.4/s, in the same minute at load ~5; at load 15–24,
+388–588 ms against 572–748 ms). So the issue's 20 envelopes/s would need the two threads to scale on an idle machine; it is not shown here. What
 bounds it: a speed where the branch simply continues costs 3 ρ evaluations (the checks) and ~3.4
 characteristic functions; ρ is a monodromy of 16 rows (one element, high speeds: build 13 µs, dgeev
 21 µs) to 28 rows (two elements, low speeds: 28 + 57 µs), a characteristic function with its
-derivatives 14–28 µs, so the checks are ~70 % of such a speed. Those 169 of 200 speeds hold 58 % of
-the evaluations; the other 31 (block starts, lobes that come down from above unannounced) hold 42 %,
+derivatives 14–28 µs, so the checks are ~70 % of such a speed. Those ~170 of 200 speeds hold ~58 %
+of the evaluations; the other ~30 (block starts, lobes that come down from above unannounced) hold 42 %,
 each a bracketing on ρ plus Newton. Per call on top: the zero-order guesses (~8 ms CPU, independent of
 the speed count) and the convergence check (~6 ms). Measured and not kept: the ρ checks on a coarser
 discretisation (p = 4 while the roots use p = 6: at 8 216 rpm its crossing is 2 % off, the brackets
-then disagree with Newton and the rescue costs more); a single check at 0.995 (45 instead of 52 ms,
+then disagree with Newton and the rescue costs more); a single check at 0.995 (−13 % CPU,
 but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
 Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
 is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).

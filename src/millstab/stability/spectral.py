@@ -66,7 +66,10 @@ previous continued-root-plus-rescue scheme needed 3 454 (17.3): root search alon
 58 ms CPU (was 72 ms); a whole envelope (convergence check and zero-order guesses included) 64 ms CPU
 on one thread, 83–87 ms CPU on two (was 101–112 ms), i.e. ~15 envelopes per CPU-second. Wall time, best
 of 7: 181 ms, 5.5 envelopes/s (old 228 ms, 4.4/s, in the same minute at load ~5; at load 15–24,
-388–588 ms against 572–748 ms). So the issue's 20 envelopes/s would need the two threads to scale on an idle machine; it is not shown here. What
+388–588 ms against 572–748 ms). On the briefly idle machine (load 0.3, two alternating pairs, best of 7
+each): new 61 and 45 ms (16 and 22 envelopes/s), old 56 and 54 ms (18/s): there the wall-clock gain is
+within the run-to-run spread, and both engines are near the issue's 20 envelopes/s; the earlier figure
+of 4–6 per second was taken under load. What
 bounds it: a speed where the branch simply continues costs 3 ρ evaluations (the checks) and ~3.4
 characteristic functions; ρ is a monodromy of 16 rows (one element, high speeds: build 13 µs, dgeev
 21 µs) to 28 rows (two elements, low speeds: 28 + 57 µs), a characteristic function with its

@@ -82,6 +82,13 @@ then disagree with Newton and the rescue costs more); a single check at 0.995 (�
 but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
 Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
 is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).
+Identification (benchmarks/bench_spectral_identify.py: Example 1, a/D = 0.1, 40 SDM points, the same
+global search; old and new run at the same time on the 2 cores): both recover every parameter within
+0.1 % (max 0.096 %, RMS log residual 7.8e-4), but the new engine took 266 s for 5 884 envelope
+evaluations against the old one's 158 s for 2 501: each evaluation is cheaper (45 against 63 ms), yet
+the search takes 2.4 times as many steps on it; why is not known (the depths of the two agree within
+0.07 % on 40 random sets of that search space). The issue's < 60 s is not reached by either. The
+zero-order engine on the same points: 10.5 s, off by up to 83 % (the damping ratios; k 12–15 %).
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 

@@ -188,3 +188,84 @@ def test_measured_frf_rejected_and_bad_input():
         spectral.envelope(BENCH, bench_cut(1.0), [0.0])
     with pytest.raises(InputError, match="nodes"):
         spectral.envelope(BENCH, bench_cut(1.0), [10000.0], nodes=1)
+
+
+# --- the characteristic function's exact derivatives and Newton (issue 16, speed) ----------------------
+
+
+def _layout(structure, cutting, rpm, nodes=6):
+    from millstab.stability import _spectral_kernel as k
+    from millstab.stability.sdm import _arrays
+
+    wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
+    nd = k.gauss_nodes(nodes)
+    g = k.setup(cutting.teeth, cutting.kr, cutting.entry, cutting.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0],
+                wn[0], zeta[0], act)
+    return k, (cutting.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
+
+
+@pytest.mark.parametrize("structure, immersion", [(BENCH, 0.05), (BENCH, 1.0), (TWO_MODE, 0.1)])
+def test_characteristic_derivatives_match_finite_differences(structure, immersion):
+    """char_d's F equals char_fn's (the same determinant by another code path) and its ∂F/∂b, ∂F/∂θ
+    (Jacobi's formula with dΨ/dσ from the element LU) equal central differences of char_fn."""
+    k, args = _layout(structure, bench_cut(immersion), 9000.0)
+    for b, th in ((2e-3, 1.3), (0.7e-3, 2.9), (5e-3, 0.4)):
+        f, fb, ft = k.char_d(b, th, *args)
+        assert f == pytest.approx(k.char_fn(b, th, *args), rel=1e-10)
+        h = 1e-6
+        fd_b = (k.char_fn(b * (1 + h), th, *args) - k.char_fn(b * (1 - h), th, *args)) / (2 * h * b)
+        fd_t = (k.char_fn(b, th + h, *args) - k.char_fn(b, th - h, *args)) / (2 * h)
+        assert abs(fb - fd_b) < 1e-5 * abs(fd_b)
+        assert abs(ft - fd_t) < 1e-5 * abs(fd_t)
+
+
+@pytest.mark.parametrize("immersion, rpm", [(0.05, 9000.0), (0.05, 10000.0), (1.0, 23000.0)])
+def test_newton_root_is_a_multiplier_on_the_unit_circle(immersion, rpm):
+    """Started 10 % off the engine's boundary point, Newton lands on a depth where the monodromy
+    matrix (dense eigenvalues, an independent path) has a multiplier at e^{iθ} to 1e-7; a flip root
+    has θ = π exactly."""
+    cutting = bench_cut(immersion)
+    env = spectral.envelope(BENCH, cutting, [rpm], nodes=6)
+    k, args = _layout(BENCH, cutting, rpm, nodes=6)
+    th0 = abs(float(np.angle(env.multiplier[0])))
+    b, th, ok, n_eval = k.newton(1.1 * env.depth[0], th0, *args)
+    assert ok and n_eval <= k.NEWTON_EVALS
+    assert b == pytest.approx(env.depth[0], rel=1e-7)
+    mus = np.linalg.eigvals(spectral.monodromy(BENCH, cutting, rpm, b, nodes=6))
+    assert np.min(np.abs(mus - np.exp(1j * th))) < 1e-7
+    if env.kind[0] == "flip":
+        assert th == math.pi
+
+
+def test_branch_tracking_finds_a_narrow_flip_band():
+    """x = y one mode each, a/D = 0.05, 200 speeds: at 12 538 rpm a flip band opens at 14.80 mm just
+    below the Hopf crossing at 15.10 mm (the engine before branch tracking reported 15.10 mm). The
+    reported depth must be the first crossing: a dense ρ scan with more nodes (an independent
+    re-computation) is stable below it and unstable just above."""
+    xy = Structure(x=(Mode(FN, K, ZETA),), y=(Mode(FN, K, ZETA),))
+    cutting = bench_cut(0.05)
+    rpm = np.linspace(5000.0, 25000.0, 200)
+    env = spectral.envelope(xy, cutting, rpm)
+    i = 75
+    b = env.depth[i]
+    rho = spectral.rho_map(xy, cutting, [rpm[i]], np.linspace(0.7 * b, 0.998 * b, 30), nodes=8)[0]
+    assert rho.max() < 1.0
+    assert spectral_radius(xy, cutting, rpm[i], 1.002 * b, 8) > 1.0
+    assert env.kind[i] == "flip"
+
+
+def test_closed_band_below_a_far_continued_root():
+    """A set from identification's search space (Example 1's structure moved by up to 30 %, a/D = 0.1,
+    40 speeds 3 000–15 000 rpm): at 6 077 rpm a closed unstable band spans ~41–45 mm below a Hopf
+    crossing at 57.4 mm. Newton continued the previous speed's boundary (42.0 mm) onto the 57.4 mm
+    root, whose checks (0.7, 0.93, 0.995 of it) all lie outside the band; a branch that moves by more
+    than 25 % in one speed step must not be trusted. The depth must be the first crossing (a dense ρ
+    scan with more nodes, an independent re-computation, is stable below it)."""
+    s = Structure(x=(Mode(685.0407184001604, 12746788.109185813, 0.029276902992752436),),
+                  y=(Mode(694.4584275801416, 13638854.533296518, 0.037068853353218134),))
+    cutting = Cutting.from_immersion(2, 556.31e6, 0.404, 0.1, "down")
+    rpm = np.linspace(3000.0, 15000.0, 40)
+    b = spectral.envelope(s, cutting, rpm).depth[10]
+    rho = spectral.rho_map(s, cutting, [rpm[10]], np.linspace(0.3 * b, 0.995 * b, 40), nodes=8)[0]
+    assert rho.max() < 1.0
+    assert spectral_radius(s, cutting, rpm[10], 1.005 * b, 8) > 1.0

@@ -30,19 +30,27 @@ the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes;
 than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
 moved points are the start of the next check (a fresh search only where Newton failed).
 
-Root search (compiled, parallel over sets × speed blocks of ``BLOCK`` speeds). A Floquet solution
-z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff det(μ I − Ψ(w (1 − 1/μ))) = 0,
-with Ψ(σ) the transition over one tooth period of the ODE ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n
-characteristic equation (n = 2 × modes), exact for the discretised system too and far cheaper than the
-monodromy's eigenvalues. The boundary at a speed is the smallest b with a multiplier e^{iθ} on the unit
-circle (θ = π: flip). At the first speed of a block, ρ(b) is evaluated on b_ref·LADDER (b_ref the
-zero-order depth) up to the first unstable depth, the bracket is narrowed by the Illinois method on
-ρ − 1 (``RTOL``) and polished by Newton on the characteristic function in (b, θ). At the next speeds
-Newton starts from the previous boundary point (θ predicted from the chatter frequency, or kept at π
-for a flip), and its root is accepted only if the full monodromy is stable at b·CHECKS (0.7, 0.93,
-0.995: nothing crossed below it, e.g. another lobe that has become lower); otherwise the failed rung
-brackets the lower crossing, or the ladder search runs from there (``LADDER_CONT``). The accepted
-depths are roots of the discretised characteristic equation to ~1e-7, so they are smooth in the parameters (finite-difference Jacobians in
+Root search (compiled, parallel over sets × speed blocks: a set's speeds are one block when the sets
+fill the threads, else about ``BLOCKS_PER_THREAD`` blocks per thread, none shorter than ``BLOCK``). A
+Floquet solution z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff
+det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth period of the ODE
+ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
+discretised system too and far cheaper than the monodromy's eigenvalues. The boundary at a speed is
+the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
+Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundary, Hopf or flip),
+continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
+one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
+one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
+prediction linear in speed. Where the boundary's own branch is lost or moves by more than
+``_spectral_kernel.BRANCH_JUMP`` (25 %) in one speed step (Newton may have jumped onto another lobe
+over a closed band), the search starts from below as at a block start. The lowest branch is accepted if the full monodromy is stable at
+b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe come down or a flip band);
+a failed rung brackets the unknown crossing, Newton from inside it (θ from the rung's dominant
+multiplier) adds its root to the set, and that root is checked in turn. Where no branch is left (a
+block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the zero-order depth; inside a block the
+last boundary·LADDER_CONT) up to the first unstable depth, Illinois on ρ − 1 to 1 %, Newton; the fine
+Illinois (``RTOL``) only where Newton fails. The accepted depths are roots of the discretised
+characteristic equation to ~1e-12, so they are smooth in the parameters (finite-difference Jacobians in
 identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
 checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark). Known
 case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
@@ -50,25 +58,39 @@ dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both
 over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm that SDM misses
 (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
 
-Speed (measured with benchmarks/bench_spectral.py on the shared 2-core machine, same run): 200 speeds,
-one mode per direction, a/D = 0.05: 0.17–0.27 s per envelope (4–6 per second), 17× faster than SDM's
-default (2.9 s), 400× slower than the zero-order engine. What bounds it: per speed ~3 eigenvalue
-problems of the full monodromy matrix (the verification rungs; LAPACK dgeev on 6–20 rows) and ~10
-evaluations of the n × n characteristic function (a complex p·n solve per element); where the boundary
-jumps between lobes from one speed to the next (about one speed in five at 100 rpm spacing) the
-continuation fails and a bracketing search costs 2–4 times more. The issue's 20 envelopes/s is not
-reached. Profile (200 speeds, a/D = 0.05, p = 6, one thread): ~3 450 evaluations, 17 per speed; the
-speeds that take more than 12 (block starts and lobe switches, about 70 of 200) hold two thirds of
-them; one ρ evaluation costs 80–160 µs (monodromy 16–28 rows: build ~60 µs, dgeev 85–140 µs), one
-characteristic function 20–50 µs, so the ρ evaluations (verification rungs, ladders, Illinois) are
-~3/4 of the time. The lowest-speed block (5 000–7 400 rpm, most lobe switches, 2 elements) costs as
-much as the other seven together (61 of 143 ms on one thread), so with the static split of the 8
-equal-speed blocks over 2 threads one thread gets ~110 ms of it; a dynamic schedule
-(``numba.parallel_chunksize(1)``, identical results) could not be shown faster on the loaded machine
-(load ~10 on 2 cores: 2 threads were no faster than 1).
-Measured without gain (same moment, paired): reusing the previous speed's Newton Jacobian (more
-evaluations, the stale model costs re-formation), elements of one natural period (3× faster in
-slotting, but 0.9 % off, too close to the 1 % target).
+Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the shared 2-core
+machine ran at load 5–24 during these measurements, shared with 6 other sessions, so old/new were
+run alternately in the same minutes and CPU time (process_time) is the robust figure; wall figures are
+not comparable across days). With branch tracking the root search needs 1 951 evaluations (9.8 per speed) where the
+previous continued-root-plus-rescue scheme needed 3 454 (17.3): root search alone, p = 6, one thread,
+58 ms CPU (was 72 ms); a whole envelope (convergence check and zero-order guesses included) 64 ms CPU
+on one thread, 83–87 ms CPU on two (was 101–112 ms), i.e. ~15 envelopes per CPU-second. Wall time, best
+of 7: 181 ms, 5.5 envelopes/s (old 228 ms, 4.4/s, in the same minute at load ~5; at load 15–24,
+388–588 ms against 572–748 ms). On the briefly idle machine (load 0.3, two alternating pairs, best of 7
+each): new 61 and 45 ms (16 and 22 envelopes/s), old 56 and 54 ms (18/s): there the wall-clock gain is
+within the run-to-run spread, and both engines are near the issue's 20 envelopes/s; the earlier figure
+of 4–6 per second was taken under load. What
+bounds it: a speed where the branch simply continues costs 3 ρ evaluations (the checks) and ~3.4
+characteristic functions; ρ is a monodromy of 16 rows (one element, high speeds: build 13 µs, dgeev
+21 µs) to 28 rows (two elements, low speeds: 28 + 57 µs), a characteristic function with its
+derivatives 14–28 µs, so the checks are ~70 % of such a speed. Those ~170 of 200 speeds hold ~58 %
+of the evaluations; the other ~30 (block starts, lobes that come down from above unannounced) hold 42 %,
+each a bracketing on ρ plus Newton. Per call on top: the zero-order guesses (~8 ms CPU, independent of
+the speed count) and the convergence check (~6 ms). Measured and not kept: the ρ checks on a coarser
+discretisation (p = 4 while the roots use p = 6: at 8 216 rpm its crossing is 2 % off, the brackets
+then disagree with Newton and the rescue costs more); a single check at 0.995 (−13 % CPU,
+but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
+Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
+is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).
+Identification (benchmarks/bench_spectral_identify.py: Example 1, a/D = 0.1, 40 SDM points, the same
+global search; old and new run at the same time on the 2 cores): both recover every parameter within
+0.1 % (max 0.096 %, RMS log residual 7.8e-4), but the new engine took 266 s for 5 884 envelope
+evaluations against the old one's 158 s for 2 501: each evaluation is cheaper (45 against 63 ms), yet
+the search takes 2.4 times as many steps on it; why is not known (the depths of the two agree within
+0.07 % on 40 random sets of that search space). The issue's < 60 s is not reached by either. The
+zero-order engine on the same points: 10.5 s, off by up to 83 % (the damping ratios; k 12–15 %).
+Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
+natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 
 Lobe type and chatter frequency: the critical multiplier μ = e^{iθ} at the boundary; θ = π
 (|arg μ| > π − FLIP_ARG) is a period-doubling (flip) boundary, otherwise Hopf. The chatter frequency
@@ -83,6 +105,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -111,8 +134,12 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
 CHECKS = np.array([0.7, 0.93, 0.995])
-#: speeds per block of the root search (blocks run in parallel; within one, depth continues)
+#: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
+#: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
+#: blocks per thread when the sets alone do not fill the threads (several, for load balance: the
+#: low-speed blocks cost more)
+BLOCKS_PER_THREAD = 2
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
@@ -159,12 +186,20 @@ def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.where(np.isfinite(b_ref), b_ref, row_max[:, None]))
 
 
+def _block_len(n_b: int, n_s: int) -> int:
+    """Speeds per block: the whole range per set when the sets fill the threads (no restarts), else
+    split into about BLOCKS_PER_THREAD blocks per thread, none shorter than BLOCK."""
+    want = math.ceil(BLOCKS_PER_THREAD * numba.get_num_threads() / n_b)
+    return max(BLOCK, math.ceil(n_s / max(want, 1))) if want > 1 else n_s
+
+
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int = BLOCK) -> tuple[np.ndarray, ...]:
-    """Depth, multiplier and ρ-evaluation counts (B, S) at ascending speeds rs with p nodes per element
-    (speeds in blocks of ``block``; depth continues within a block)."""
+           block: int | None = None) -> tuple[np.ndarray, ...]:
+    """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
+    (speeds in blocks of ``block``, default :func:`_block_len`; branches continue within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
+    block = _block_len(n_b, n_s) if block is None else block
     starts = np.unique(np.concatenate([np.arange(0, n_s, block), [n_s]])).astype(np.int64)
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)

@@ -269,3 +269,24 @@ def test_closed_band_below_a_far_continued_root():
     rho = spectral.rho_map(s, cutting, [rpm[10]], np.linspace(0.3 * b, 0.995 * b, 40), nodes=8)[0]
     assert rho.max() < 1.0
     assert spectral_radius(s, cutting, rpm[10], 1.005 * b, 8) > 1.0
+
+
+def test_unsorted_speeds_with_repeats_equal_each_speed_alone():
+    """A campaign asked for [12000, 11965, 8869, 9080, 8940, 11965 ×4] rpm: the kernel divided by zero on the
+    repeated speeds (continuation needs a step > 0). Each distinct speed is solved once now; every entry
+    equals that speed's depth computed alone."""
+    from millstab.datasets import load_example
+    from millstab.model import Cutting, Mode, Structure
+    from millstab.stability import spectral
+
+    c = load_example("ex1").cutting
+    s = Structure(x=(Mode(910.4205842190763, 11376171.009384518, 0.021737523430851505),),
+                  y=(Mode(876.8054672929356, 14100110.438871766, 0.03742960039099899),))
+    cut = Cutting.from_immersion(c.teeth, c.kt, c.kr, 0.1, "down")
+    rpm = [12000.0, 11964.824120603014, 8869.346733668342, 9080.402010050251, 8939.698492462312] + [11964.824120603014] * 4
+    env = spectral.envelope(s, cut, rpm)
+    assert np.all(np.isfinite(env.depth))
+    np.testing.assert_array_equal(env.depth[5:], env.depth[1])
+    for i in (0, 2):
+        alone = spectral.envelope(s, cut, [rpm[i]]).depth[0]
+        np.testing.assert_allclose(env.depth[i], alone, rtol=1e-3)

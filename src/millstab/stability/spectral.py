@@ -248,8 +248,10 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     """
     if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
         raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
-    order = np.argsort(r, kind="stable")
-    rs = np.ascontiguousarray(r[order])
+    # solved once per distinct speed, in increasing order (the continuation from speed to speed needs a
+    # step > 0: repeated speeds made the kernel divide by zero), then put back in the caller's order
+    rs, inv = np.unique(r, return_inverse=True)
+    rs = np.ascontiguousarray(rs)
     b_ref = _b_ref(batch, cutting, rs)
     p = P_NODES if nodes is None else int(nodes)
     if nodes is None:
@@ -271,8 +273,6 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
             else:  # Newton failed somewhere: search afresh at p nodes
                 d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
     depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
-    inv = np.empty_like(order)
-    inv[order] = np.arange(order.size)
     return depth[:, inv], mu[:, inv], p
 
 

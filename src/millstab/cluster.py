@@ -156,6 +156,21 @@ def task_rows(seconds_per_row: float, limit: int) -> int:
     return int(min(limit, max(1, round(TASK_SECONDS / seconds_per_row))))
 
 
+def rows_into(out: np.ndarray, starts: Sequence[int], progress: Callable[[int, int], None] | None = None):
+    """An ``on_result`` for :func:`stream` whose task i returns the rows that begin at ``starts[i]`` of
+    ``out``: each block is written in place as it arrives, then ``progress(rows done, rows in all)``."""
+    done = [0]
+
+    def take(i: int, rows: np.ndarray) -> None:
+        s = starts[i]
+        out[s:s + rows.shape[0]] = rows
+        done[0] += rows.shape[0]
+        if progress:
+            progress(done[0], out.shape[0])
+
+    return take
+
+
 def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_result: Callable[[int, Any], None],
            common: tuple = (), name: str = "task") -> None:
     """Run ``func(*common, *tasks[i])`` for every i on the cluster; call ``on_result(i, value)`` once per
@@ -229,15 +244,6 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)
     out = np.empty((n, rpm.size))
-    done = [0]
-
-    def take(i: int, d: np.ndarray) -> None:
-        s = starts[i]
-        out[s:s + d.shape[0]] = d
-        done[0] += d.shape[0]
-        if progress:
-            progress(done[0], n)
-
-    stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], take, common=(engine, par, cutting, rpm),
-           name="depths")
+    stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], rows_into(out, starts, progress),
+           common=(engine, par, cutting, rpm), name="depths")
     return out

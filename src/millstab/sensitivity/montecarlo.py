@@ -139,13 +139,5 @@ def _on_cluster(client, spec: tuple, mse: np.ndarray, chunk_paths: int | None, p
     else:
         cluster.warm(client, eng, par, cutting, r)
     starts = range(0, n, int(chunk_paths))
-    done = [0]
-
-    def take(i: int, block: np.ndarray) -> None:
-        s = starts[i]
-        mse[s:s + block.shape[0]] = block
-        done[0] += block.shape[0]
-        if progress:
-            progress(done[0], n)
-
-    cluster.stream(client, _task, [(s, min(int(chunk_paths), n - s)) for s in starts], take, common=spec, name="mc")
+    cluster.stream(client, _task, [(s, min(int(chunk_paths), n - s)) for s in starts],
+                   cluster.rows_into(mse, starts, progress), common=spec, name="mc")

@@ -3,7 +3,6 @@ and the next test (:mod:`millstab.update`), with the checks every door shares.""
 
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 
@@ -62,11 +61,12 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
         InputError: more than :data:`MAX_MAP_CELLS` cells.
     """
     from millstab.update import p_stable_map
+    from millstab.update.decide import warn_outside
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
                          f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max {MAX_MAP_CELLS:.0e})")
-    warn_outside(post, float(np.min(rpm)), float(np.max(rpm)))
+    warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), "the map", stacklevel=3)
     return p_stable_map(post, rpm, depth_mm)
 
 
@@ -104,11 +104,3 @@ def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm
 
     return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
                          seed=seed)
-
-
-def warn_outside(post, lo: float, hi: float) -> None:
-    """Warn when the speeds lo..hi reach beyond the tested speeds (there the answer leans on the prior)."""
-    r = np.asarray(post.cuts.get("rpm") or [], float)
-    if r.size and (lo < 0.9 * r.min() or hi > 1.1 * r.max()):
-        warnings.warn(f"speeds {lo:g}-{hi:g} rpm reach beyond the tested speeds ({r.min():g}-{r.max():g} rpm): "
-                      "there the answer leans on the prior", UserWarning, stacklevel=3)

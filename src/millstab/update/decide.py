@@ -62,6 +62,15 @@ def p_stable_map(post: Posterior, rpm, depth_mm) -> np.ndarray:
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 
+def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer", stacklevel: int = 2) -> None:
+    """Warn when the speeds ``lo``..``hi`` [rpm] reach more than 10 % beyond the tested speeds: there
+    ``what`` leans on the prior."""
+    data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
+    if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
+        warnings.warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
+                      f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
+
+
 @dataclass(frozen=True)
 class Recommendation:
     """The recommended cut and the next test (rpm, mm, cm³/min)."""
@@ -132,10 +141,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     if max_depth_mm is not None and not (math.isfinite(max_depth_mm) and max_depth_mm > 0):
         raise InputError("--max-depth", max_depth_mm, "must be a finite depth > 0 mm")
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
-    data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
-    if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
-        warnings.warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
-                      f"{data_rpm.max():g} rpm): there the recommendation leans on the prior", UserWarning, stacklevel=2)
+    warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
     cap = math.inf if max_depth_mm is None else max_depth_mm
     u = post.u
 

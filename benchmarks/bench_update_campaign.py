@@ -60,6 +60,32 @@ OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
 FEED_M = 0.1e-3
 
 
+#: relative speed offsets at which the final recommendation's depth is checked (spindle speed error)
+OFFSETS = (-0.02, -0.01, -0.005, 0.0, 0.005, 0.01, 0.02)
+
+
+def final_diagnosis(post, rpm: float, depth: float, truth) -> dict:
+    """Why a recommendation chatters: P(chatter) epistemic (fraction of samples with b_lim ≤ b) and
+    with the label noise (mean Φ((b − b_lim)/σ_b)); distinct samples and the last stage's ESS; the
+    posterior's 5 % quantile and the true limit at the speed ± :data:`OFFSETS` (a knife-edge shows as
+    a quantile that falls steeply beside the speed)."""
+    from scipy.special import ndtr
+
+    from millstab.update.likelihood import limits
+
+    sp = rpm * (1 + np.array(OFFSETS))
+    bl, _ = limits(post.prior, post.u, sp, post.engine)
+    sig = post.prior.sigma_depth_mm(np.array([depth]))[0]
+    i0 = OFFSETS.index(0.0)
+    ess = post.diagnostics.get("ess") or [float("nan")]
+    return {"rpm": rpm, "depth": depth, "true_limit": [float(x) for x in truth(sp)],
+            "q05": [float(x) for x in np.quantile(bl, 0.05, axis=0)],
+            "p_epistemic": float(np.mean(bl[:, i0] <= depth)),
+            "p_label": float(np.mean(ndtr((depth - bl[:, i0]) / sig))),
+            "distinct": int(np.unique(post.u, axis=0).shape[0]), "ess_last": float(ess[-1]),
+            "stages": int(post.diagnostics.get("stages", 0))}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=5)
@@ -169,6 +195,7 @@ def main() -> None:
                     else:
                         r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
                         row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
+            row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
             if args.engine_check:
                 lab = np.array(camp.labels)
                 sel = lab != "marginal"
@@ -197,6 +224,14 @@ def main() -> None:
             print(f"   {extra}Brier prior {camp.brier[0]:.4f} -> {camp.brier[-1]:.4f}; 90 % intervals cover truth: "
                   f"{cover.astype(int).tolist()}", flush=True)
     n = len(rows)
+    for r in rows:
+        if not r["rec_stable"][-1]:  # the failures, one by one
+            f = r["final"]
+            print(f"  campaign {r['campaign']} CHATTERS: {f['rpm']:.0f} rpm, {f['depth']:.3f} mm; true limit "
+                  f"{f['true_limit'][OFFSETS.index(0.0)]:.3f} mm; P(chatter) epistemic {f['p_epistemic']:.3f}, "
+                  f"with label noise {f['p_label']:.3f}; distinct samples {f['distinct']}, last ESS {f['ess_last']:.0f}; "
+                  f"at speed x(1{'/'.join(f'{o:+g}' for o in OFFSETS)}): 5 % quantile "
+                  f"{' '.join(f'{x:.2f}' for x in f['q05'])}, truth {' '.join(f'{x:.2f}' for x in f['true_limit'])}")
     if args.json:
         args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()}, "names": list(prior.names),
                                          "campaigns": rows}))

@@ -356,3 +356,38 @@ def test_errors_echo_the_value_as_written(tmp_path, old, new, field, shown):
 def test_entry_after_exit_names_both_as_written(tmp_path):
     err = error(tmp_path, EX1.replace('entry = "0 deg"', 'entry = "100 deg"').replace('"180 deg"', '"1.2 rad"'))
     assert str(err).startswith("cutting.entry = '100 deg' is invalid") and "exit = '1.2 rad'" in str(err)
+
+
+# ------------------------------------------------------------------ issue 17: [prior] written back
+
+def _prior_fields(p):
+    return (dict(p.spreads), p.fixed, p.sigma_depth_m, p.sigma_depth_rel, p.sigma_chatter_hz, p.label_error)
+
+
+@pytest.mark.parametrize("table", [
+    'fn = "3 %"\nk_y = 0.1\nkt = "10 %"\nfixed = ["zeta_y"]\nsigma_depth = "4 %"\nsigma_chatter_hz = "10 Hz"\n'
+    'label_error = "1 %"\n',
+    'zeta = 0.2\nsigma_depth = "0.07 mm"\nlabel_error = 0\n',
+    'fn_x = 0.04\n'])
+def test_write_config_keeps_the_prior_table(tmp_path, table):
+    """A user's [prior] survives write → load (it was dropped: the app's config download lost it)."""
+    c = parse_config(EX1 + "[prior]\n" + table)
+    back = load_config(write_config(tmp_path / "out.toml", c))
+    assert back.prior is not None
+    a, b = _prior_fields(c.prior), _prior_fields(back.prior)
+    assert a[0].keys() == b[0].keys() and a[1] == b[1]
+    for x, y in zip((*a[0].values(), *a[2:]), (*b[0].values(), *b[2:]), strict=True):
+        assert (x is None and y is None) or x == pytest.approx(y, rel=1e-13)
+    assert load_config(write_config(tmp_path / "none.toml", parse_config(EX1))).prior is None  # none stays none
+
+
+@pytest.mark.parametrize("value, ok", [("0", 0.0), ("0.02", 0.02), ('"2 %"', 0.02), ("0.49", 0.49),
+                                       ("0.5", None), ("-0.01", None), ('"60 %"', None), ('"0.1 mm"', None)])
+def test_prior_label_error_is_a_probability_below_one_half(value, ok):
+    text = EX1 + f"[prior]\nlabel_error = {value}\n"
+    if ok is not None:
+        assert parse_config(text).prior.label_error == pytest.approx(ok)
+        return
+    with pytest.raises(InputError) as info:
+        parse_config(text)
+    assert info.value.field == "prior.label_error" and value.strip('"') in str(info.value)

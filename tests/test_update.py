@@ -51,6 +51,46 @@ def test_cut_loglik_is_probit_and_marginal_is_half_each():
     assert np.argmax(m) == 2  # a marginal cut is most likely right on the limit
 
 
+def test_label_error_is_the_swap_mixture_and_bounds_a_contradiction():
+    z = np.array([-40.0, -3.0, -0.5, 0.0, 0.5, 3.0, 40.0])
+    for eps in (0.0, 0.02, 0.3):
+        up, down = cut_loglik(z, np.ones(7, int), eps), cut_loglik(z, np.zeros(7, int), eps)
+        np.testing.assert_allclose(np.exp(up), (1 - eps) * norm.cdf(z) + eps * norm.cdf(-z), rtol=1e-12, atol=1e-300)
+        np.testing.assert_allclose(np.exp(up) + np.exp(down), 1.0, rtol=1e-12)  # the two labels are all there is
+    # a label 40 σ on the wrong side costs log ε, not −∞ (nor the ≈ −800 of the plain probit)
+    assert cut_loglik(np.array([-40.0]), np.ones(1, int), 0.02)[0] == pytest.approx(math.log(0.02), rel=1e-9)
+    assert cut_loglik(np.array([-40.0]), np.ones(1, int), 0.0)[0] < -700
+
+
+def test_a_swapped_label_leaves_the_truth_inside_with_label_error_but_not_without():
+    """Twelve cuts bracketing the true limit (±15 %) and one swapped label (a cut at half the limit
+    written "chatter"): the 90 % intervals of a grid posterior (two free parameters, one engine call)
+    cover the truth with ε = 0.02 and miss it with ε = 0."""
+    rpm = np.linspace(5200, 9000, 12)
+    covered = {}
+    for eps in (0.0, 0.02):
+        cfg = parse_config(TOML + f'[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y"]\nlabel_error = {eps}\n')
+        prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
+        assert prior.label_error == eps
+        truth = np.log(prior.median * np.array([1.03, 0.85]))
+        b = limits(prior, truth[None], rpm)[0][0]
+        depth = b * np.where(np.arange(12) % 2, 1.15, 0.85)
+        label = np.where(depth > b, "chatter", "stable")
+        depth[4], label[4] = 0.5 * b[4], "chatter"  # the operator's slip
+        lik = Likelihood(prior, Evidence.from_points(PointSet(rpm, depth, label)))
+        g = [prior.mean_u[j] + np.linspace(-5, 5, 120) * prior.spread[j] for j in (0, 1)]
+        uu = np.stack(np.meshgrid(*g, indexing="ij"), -1).reshape(-1, 2)
+        logp = prior.logpdf(uu) + lik(uu)
+        w = np.exp(logp - logp.max()).reshape(120, 120)
+        w /= w.sum()
+        covered[eps] = []
+        for j, marg in enumerate((w.sum(1), w.sum(0))):
+            lo, hi = np.interp([0.05, 0.95], np.cumsum(marg), g[j])
+            covered[eps].append(bool(lo <= truth[j] <= hi))
+    assert covered[0.02] == [True, True]
+    assert covered[0.0] == [False, False]
+
+
 def test_frequency_distance_sees_through_tooth_passing_aliases():
     ftp = 300.0
     fc = np.array([903.0])
@@ -76,8 +116,14 @@ def test_likelihood_matches_a_hand_computation():
     b = lambda r: depth[:, i[r]]  # noqa: E731
     ftp = 2 * 6000 / 60
     d = frequency_distance(1000.0, hz[:, i[6000]], ftp)
-    want = (norm.logcdf(-(1.0 - b(5000)) / s) + 2 * norm.logcdf((2.0 - b(6000)) / s)
-            + 0.5 * (norm.logcdf((1.5 - b(7000)) / s) + norm.logcdf(-(1.5 - b(7000)) / s))
+    e = prior.label_error
+    assert e == 0.02  # the default: a label swapped now and then
+
+    def lab(z):  # P(chatter label) of the swap mixture
+        return np.log((1 - e) * norm.cdf(z) + e * norm.cdf(-z))
+
+    want = (lab(-(1.0 - b(5000)) / s) + 2 * lab((2.0 - b(6000)) / s)
+            + 0.5 * (lab((1.5 - b(7000)) / s) + lab(-(1.5 - b(7000)) / s))
             + 2 * norm.logpdf(d, scale=20.0) + norm.logpdf(1.7, loc=b(6500), scale=s))
     np.testing.assert_allclose(lik(u), want, rtol=1e-10)
     assert lik.n_calls == 1 and lik.n_sets == 5
@@ -99,7 +145,7 @@ def test_prior_defaults_and_table():
     p = make_prior(STRUCT, CUT)
     assert p.names == ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
     np.testing.assert_allclose(p.spread, [0.05, 0.3, 0.3] * 2)
-    assert p.sigma_depth_m == 0.05e-3 and p.sigma_chatter_hz == 20.0
+    assert p.sigma_depth_m == 0.05e-3 and p.sigma_chatter_hz == 20.0 and p.label_error == 0.02
     cfg = parse_config(TOML + '[prior]\nfn = "3 %"\nk_y = 0.1\nfixed = ["zeta_y"]\nsigma_depth = "4 %"\n'
                        'sigma_chatter_hz = "10 Hz"\n')
     p = make_prior(cfg.structure, cfg.cutting, cfg.prior)
@@ -304,7 +350,7 @@ def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_trut
     # a chatter cut whose measured frequency is the truth's: the frequency term prefers the truth
     u0 = prior.mean_u[None]
     hz = limits(prior, u0, [6000.0], "zoa", True)[1][0, 0]
-    only = PointSet([6000.0], [50.0], ["chatter"], chatter_hz=[hz])  # deep: the label term is ~0 for all
+    only = PointSet([6000.0], [50.0], ["chatter"], chatter_hz=[hz])  # deep: the same label term for all
     with pytest.warns(UserWarning, match="every cut is chatter"):
         ev1 = Evidence.from_points(only)
     lik = Likelihood(prior, ev1)
@@ -314,8 +360,9 @@ def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_trut
     hz2 = limits(prior, shifted, [6000.0], "zoa", True)[1][0, 0]
     d = frequency_distance(hz, hz2, 200.0)
     assert 5 < d < 100
-    assert ll[0] == pytest.approx(norm.logpdf(0, scale=20.0), abs=1e-6)
-    assert ll[1] == pytest.approx(norm.logpdf(d, scale=20.0), abs=1e-6)
+    label = math.log(1 - prior.label_error)  # a cut this deep is written "chatter" unless the label is swapped
+    assert ll[0] == pytest.approx(label + norm.logpdf(0, scale=20.0), abs=1e-6)
+    assert ll[1] == pytest.approx(label + norm.logpdf(d, scale=20.0), abs=1e-6)
     with pytest.warns(UserWarning, match="not used"):
         assert not Likelihood(prior, ev1, "sdm").uses_frequency
 
@@ -425,7 +472,11 @@ def test_label_information_kernel_matches_the_numpy_form():
         q = np.clip(p, 1e-12, 1 - 1e-12)
         return -(q * np.log(q) + (1 - q) * np.log(1 - q))
 
-    pbar, info = label_information(blim, depths, sig)
-    np.testing.assert_allclose(pbar, pi.mean(0), atol=1e-12)
-    np.testing.assert_allclose(info, h(pi.mean(0)) - h(pi).mean(0), atol=1e-9)
-    assert info.min() > -1e-12 and info.max() <= math.log(2)
+    for eps in (0.0, 0.02):
+        pe = eps + (1 - 2 * eps) * pi  # the label swapped with probability ε
+        pbar, info = label_information(blim, depths, sig, eps)
+        np.testing.assert_allclose(pbar, pe.mean(0), atol=1e-12)
+        np.testing.assert_allclose(info, h(pe.mean(0)) - h(pe).mean(0), atol=1e-9)
+        assert info.min() > -1e-12 and info.max() <= math.log(2)
+    # a swapped label now and then makes every test less informative
+    assert (label_information(blim, depths, sig, 0.1)[1] <= label_information(blim, depths, sig)[1] + 1e-12).all()

@@ -47,6 +47,7 @@ class PriorTable:
         sigma_depth_m: absolute depth noise [m], or ``None``.
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
+        label_error: probability that a cut's label is swapped, in [0, 0.5), or ``None``.
     """
 
     spreads: Mapping[str, float]
@@ -54,6 +55,7 @@ class PriorTable:
     sigma_depth_m: float | None = None
     sigma_depth_rel: float | None = None
     sigma_chatter_hz: float | None = None
+    label_error: float | None = None
 
 
 __all__ = ["Config", "PriorTable"]

@@ -44,6 +44,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     fixed = ["zeta_y"]           # parameters held at the structure's values
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
+    label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
 a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".
@@ -76,7 +77,7 @@ from millstab.units import parse_quantity
 
 TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
-PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz")
+PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
 STRUCTURE_KEYS = ("x", "y", "frf")
@@ -248,7 +249,7 @@ def _prior(t: Any) -> PriorTable:
         raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
     spreads: dict[str, float] = {}
     fixed: tuple[str, ...] = ()
-    sd_m = sd_rel = sf = None
+    sd_m = sd_rel = sf = eps = None
     for key, value in t.items():
         field = f"prior.{key}"
         if key == "fixed":
@@ -271,6 +272,11 @@ def _prior(t: Any) -> PriorTable:
             sf = parse_quantity(value, field, "frequency")
             if sf <= 0:
                 raise InputError(field, value, "chatter-frequency noise must be > 0 Hz")
+        elif key == "label_error":
+            eps = parse_quantity(value, field, "dimensionless")
+            if not 0 <= eps < 0.5:
+                raise InputError(field, value, "the probability that a cut's label is swapped must be in [0, 0.5) "
+                                               "(a number such as 0.02 or a percentage such as \"2 %\"; 0: never)")
         elif isinstance(key, str) and _PRIOR_NAME.match(key):
             x = parse_quantity(value, field, "dimensionless")
             if x <= 0:
@@ -279,7 +285,7 @@ def _prior(t: Any) -> PriorTable:
         else:
             raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
                                            f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
-    return PriorTable(spreads, fixed, sd_m, sd_rel, sf)
+    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps)
 
 
 def _speeds(t: Any) -> np.ndarray:
@@ -382,7 +388,29 @@ def config_to_toml(config: Config) -> str:
     if config.rpm is not None and config.rpm.size >= 2:
         r = config.rpm
         lines += ["", "[speeds]", f"start = {_fmt(r[0])}", f"stop = {_fmt(r[-1])}", f"step = {_fmt(r[1] - r[0])}"]
+    if config.prior is not None:
+        lines += ["", "[prior]"] + _prior_lines(config.prior)
     return "\n".join(lines) + "\n"
+
+
+def _prior_lines(p: PriorTable) -> list[str]:
+    """The ``[prior]`` table as written by a user (only what they set; spreads as plain σ of ln)."""
+    out = [f"{_toml_key(k)} = {_fmt(v)}" for k, v in p.spreads.items()]
+    if p.fixed:
+        out.append("fixed = [" + ", ".join(_toml_str(f) for f in p.fixed) + "]")
+    if p.sigma_depth_m is not None:
+        out.append(f'sigma_depth = "{_fmt(p.sigma_depth_m * 1e3)} mm"')
+    if p.sigma_depth_rel is not None:
+        out.append(f'sigma_depth = "{_fmt(p.sigma_depth_rel * 100)} %"')
+    if p.sigma_chatter_hz is not None:
+        out.append(f'sigma_chatter_hz = "{_fmt(p.sigma_chatter_hz)} Hz"')
+    if p.label_error is not None:
+        out.append(f"label_error = {_fmt(p.label_error)}")
+    return out
+
+
+def _toml_key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
 
 
 def _toml_str(s: str) -> str:

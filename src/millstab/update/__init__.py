@@ -84,7 +84,8 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
 
     same_prior = (start.prior.names == prior.names and np.allclose(start.prior.median, prior.median, rtol=1e-12)
                   and np.allclose(start.prior.spread, prior.spread, rtol=1e-12)
-                  and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel)
+                  and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel
+                  and start.prior.label_error == prior.label_error)
     if not same_prior or start.engine != engine:
         raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
                                                                            "[prior] table and engine")

@@ -5,6 +5,9 @@ The NumPy form builds (M samples, S speeds, D depths) arrays of Φ and of the bi
 ~7·10⁶ erf and 2 log evaluations per call at the defaults; here each (speed, sample) column is read once,
 and cells more than :data:`Z_FAR` noise widths from a sample's limit contribute their exact limits
 (π = 0 or 1, entropy 0, both within 1e-16) without any transcendental function.
+
+With a label error ε (the label swapped with probability ε) the label probability is
+ε + (1 − 2ε)·π: far cells then have probability ε or 1 − ε and entropy h(ε), computed once.
 """
 
 from __future__ import annotations
@@ -26,8 +29,10 @@ def _h(p: float) -> float:
 
 
 @nb.njit(cache=True, parallel=True)
-def _bald(blim_t: np.ndarray, depths: np.ndarray, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _bald(blim_t: np.ndarray, depths: np.ndarray, sig: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
     s_n, m_n = blim_t.shape
+    h_far = _h(eps) if eps > 0 else 0.0  # the entropy of a far cell's label (0 without label errors)
+    keep = 1.0 - 2.0 * eps
     d_n = depths.size
     pbar = np.zeros((s_n, d_n))
     info = np.zeros((s_n, d_n))
@@ -39,24 +44,30 @@ def _bald(blim_t: np.ndarray, depths: np.ndarray, sig: np.ndarray) -> tuple[np.n
             for d in range(d_n):
                 z = (depths[d] - b) / sig[d]
                 if z > Z_FAR:
-                    pbar[s, d] += 1.0
+                    pbar[s, d] += 1.0 - eps
+                    hsum[d] += h_far
                 elif z >= -Z_FAR:
-                    p = 0.5 * math.erfc(-z * r2)
+                    p = eps + keep * 0.5 * math.erfc(-z * r2)
                     pbar[s, d] += p
                     hsum[d] += _h(p)
+                else:
+                    pbar[s, d] += eps
+                    hsum[d] += h_far
         for d in range(d_n):
             pbar[s, d] /= m_n
             info[s, d] = _h(pbar[s, d]) - hsum[d] / m_n
     return pbar, info
 
 
-def label_information(blim_mm: np.ndarray, depth_mm: np.ndarray, sigma_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def label_information(blim_mm: np.ndarray, depth_mm: np.ndarray, sigma_mm: np.ndarray,
+                      label_error: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(P(chatter label) (S, D), mutual information [nats] (S, D)) of cuts at the grid's depths [mm].
 
     Args:
         blim_mm: posterior limits (M, S) [mm]; ``inf`` = no boundary (the label is surely stable).
         depth_mm: depths (D,) [mm]; sigma_mm: the likelihood's depth noise at each depth (D,) [mm].
+        label_error: probability ε ∈ [0, ½) that a label is swapped.
     """
     b = np.where(np.isnan(blim_mm), np.inf, blim_mm)
     return _bald(np.ascontiguousarray(b.T, dtype=float), np.ascontiguousarray(depth_mm, float),
-                 np.ascontiguousarray(sigma_mm, float))
+                 np.ascontiguousarray(sigma_mm, float), float(label_error))

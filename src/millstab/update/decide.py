@@ -193,7 +193,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    pbar, info = label_information(blim, depths, sig)  # (S, D): P(chatter label), mutual information [nats]
+    pbar, info = label_information(blim, depths, sig, post.prior.label_error)  # (S, D): P(chatter label), mutual information [nats]
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref

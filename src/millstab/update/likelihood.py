@@ -10,6 +10,16 @@ samples, :func:`limits`) and depth noise σ_b:
   the half/half form is largest at b = b_lim, falls off with the same σ_b scale as the other labels
   (so one noise level serves all three), and carries at most one cut's worth of evidence, so a shop's
   loosely used "marginal" cannot pin the limit harder than a bracketing pair of cuts would;
+* label error ε (``[prior] label_error``, default :data:`DEFAULT_LABEL_ERROR`): a shop writes the
+  opposite label now and then (a microphone's false alarm, a swapped row), so the label is a
+  mixture, P(chatter label) = (1 − ε)·Φ(z) + ε·Φ(−z) = ε + (1 − 2ε)·Φ(z): the probit label, swapped
+  with probability ε. Why the swap form and not ε/2 + (1 − ε)·Φ(z) (a random label with probability
+  ε): the two are the same family (ε_swap = ε_random/2), and ε as "the probability that a written label
+  is wrong" is what a shop can estimate; ε ∈ [0, ½), since at ½ a label says nothing. Without it one
+  swapped label far from the limit has likelihood ≈ Φ(−|z|) ≈ 0 for every sample near the truth, so
+  the posterior must leave the truth to explain it (or the tempering stalls); with it, a label that
+  contradicts a well-supported limit costs at most a factor ε. Marginal cuts use the mixed
+  probabilities in their half/half form;
 * a measured chatter frequency f_m (chatter or marginal cut): Gaussian in the distance from f_m to
   the nearest member of the family ±f_c + m·f_tp (f_c the limiting lobe's chatter frequency, f_tp =
   N Ω/60 the tooth-passing frequency, m any integer). The vibration of a milling process holds the
@@ -70,9 +80,13 @@ def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_
     return np.where(np.isfinite(predicted_hz), d, 0.5 * tooth_hz)
 
 
-def cut_loglik(z: np.ndarray, kind: np.ndarray) -> np.ndarray:
-    """Log-likelihood of each cut's label from z = (b − b_lim)/σ_b; kind 0 stable, 1 chatter, 2 marginal."""
+def cut_loglik(z: np.ndarray, kind: np.ndarray, label_error: float = 0.0) -> np.ndarray:
+    """Log-likelihood of each cut's label from z = (b − b_lim)/σ_b; kind 0 stable, 1 chatter, 2 marginal;
+    ``label_error`` ε ∈ [0, ½): the probability that a label is swapped (see the module docstring)."""
     up, down = log_ndtr(z), log_ndtr(-z)
+    if label_error > 0:  # log((1 − ε)Φ(±z) + εΦ(∓z)) without cancellation in either tail
+        a, b = math.log1p(-label_error), math.log(label_error)
+        up, down = np.logaddexp(a + up, b + down), np.logaddexp(a + down, b + up)
     return np.where(kind == 1, up, np.where(kind == 0, down, 0.5 * (up + down)))
 
 
@@ -196,7 +210,7 @@ class Likelihood:
         if sel.any():  # the columns of the selected cuts only (a zero weight times −inf would be NaN)
             i = np.flatnonzero(sel)
             z = (ev.cut_depth_mm[i] - depth_mm[:, self._ic[i]]) / self._sig_c[i]
-            ll += cut_loglik(z, ev.cut_kind[i]) @ ev.cut_weight[i]
+            ll += cut_loglik(z, ev.cut_kind[i], self.prior.label_error) @ ev.cut_weight[i]
         j = self._hz[sel[self._hz]] if self._hz.size else self._hz
         if j.size and hz is not None:
             d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])

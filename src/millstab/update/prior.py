@@ -28,6 +28,8 @@ DEFAULT_SPREADS = {"fn": 0.05, "k": 0.30, "zeta": 0.30}
 DEFAULT_SIGMA_DEPTH_M = 0.05e-3
 #: default noise of a measured chatter frequency [Hz]
 DEFAULT_SIGMA_CHATTER_HZ = 20.0
+#: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
+DEFAULT_LABEL_ERROR = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +45,8 @@ class Prior:
         sigma_depth_m: absolute depth noise [m], or ``None`` when relative.
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz].
+        label_error: probability ε ∈ [0, ½) that a cut's stable/chatter label is swapped
+            (:mod:`millstab.update.likelihood`).
     """
 
     par: Parameterization
@@ -53,6 +57,12 @@ class Prior:
     sigma_depth_m: float | None = DEFAULT_SIGMA_DEPTH_M
     sigma_depth_rel: float | None = None
     sigma_chatter_hz: float = DEFAULT_SIGMA_CHATTER_HZ
+    label_error: float = DEFAULT_LABEL_ERROR
+
+    def __post_init__(self):
+        if not (isinstance(self.label_error, (int, float)) and 0 <= self.label_error < 0.5):
+            raise InputError("prior.label_error", self.label_error, "the probability that a label is swapped must be "
+                                                                    "in [0, 0.5), e.g. 0.02 (0: labels never wrong)")
 
     @property
     def size(self) -> int:
@@ -103,7 +113,7 @@ class Prior:
                 "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
                 "names": list(self.names), "median": self.median.tolist(), "spread": self.spread.tolist(),
                 "sigma_depth_m": self.sigma_depth_m, "sigma_depth_rel": self.sigma_depth_rel,
-                "sigma_chatter_hz": self.sigma_chatter_hz}
+                "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error}
 
     @classmethod
     def from_dict(cls, d: dict) -> Prior:
@@ -116,7 +126,9 @@ class Prior:
             modal = tuple(n for n in names if n != "kt")
             par = Parameterization(structure, modal)
             return cls(par, cutting, names, np.asarray(d["median"], float), np.asarray(d["spread"], float),
-                       d.get("sigma_depth_m"), d.get("sigma_depth_rel"), float(d["sigma_chatter_hz"]))
+                       d.get("sigma_depth_m"), d.get("sigma_depth_rel"), float(d["sigma_chatter_hz"]),
+                       # a posterior written before label errors existed had none
+                       float(d.get("label_error", 0.0)))
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, InputError):
                 raise
@@ -178,7 +190,9 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
     if sd_m is None and sd_rel is None:
         sd_m = DEFAULT_SIGMA_DEPTH_M
     sf = getattr(table, "sigma_chatter_hz", None) or DEFAULT_SIGMA_CHATTER_HZ
-    return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf))
+    eps = getattr(table, "label_error", None)
+    eps = DEFAULT_LABEL_ERROR if eps is None else float(eps)
+    return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf), eps)
 
 
-__all__ = ["DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]
+__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]

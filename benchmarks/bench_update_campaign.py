@@ -54,6 +54,7 @@ from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
 from millstab.update.campaign import coverage, run_campaign  # noqa: E402
+from millstab.update.decide import CONFIDENCE, SPEED_TOLERANCE  # noqa: E402
 
 OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
 #: feed per tooth of the simulated cuts [m]
@@ -86,6 +87,17 @@ def final_diagnosis(post, rpm: float, depth: float, truth) -> dict:
             "stages": int(post.diagnostics.get("stages", 0))}
 
 
+def limit_coverage(post, rpm: np.ndarray, truth, level: float = 0.90) -> list[bool]:
+    """Whether the posterior's central ``level`` interval of b_lim covers the truth's limit, per speed [rpm]
+    (the model-error check that needs no parameter to be "true": it reads the boundary itself)."""
+    from millstab.update.likelihood import limits
+
+    bl, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine)
+    lo_q, hi_q = np.quantile(bl, [(1 - level) / 2, (1 + level) / 2], axis=0)
+    t = truth(np.asarray(rpm, float))
+    return [bool(a <= x <= b) for a, x, b in zip(lo_q, t, hi_q)]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=5)
@@ -111,6 +123,14 @@ def main() -> None:
     ap.add_argument("--engine-check", default="",
                     help="comma-separated engines: how many of the campaign's stable/chatter labels the TRUE structure "
                          "contradicts under each (model error, one parameter set: cheap even for slow engines)")
+    ap.add_argument("--confidence", default=str(CONFIDENCE),
+                    help="one-sided confidence of P(chatter) <= risk against its Monte Carlo error ('none': plain count)")
+    ap.add_argument("--speed-tolerance", type=float, default=SPEED_TOLERANCE,
+                    help="relative spindle-speed error the recommended depth must tolerate (0: none)")
+    ap.add_argument("--coarse", type=int, default=None,
+                    help="speeds of the recommendation's coarse grid (default 200; fewer for a slow --engine)")
+    ap.add_argument("--label-error", type=float, default=None,
+                    help="the likelihood's label-swap probability (default: the prior's); --calibrate swaps labels so")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--best-speeds", type=int, default=361, help="speeds on which the best truly stable cut is sought")
     ap.add_argument("--grid", default="61x40", help="speeds x depths of the Brier-score grid")
@@ -122,8 +142,12 @@ def main() -> None:
     cut = cfg.cutting
     if args.immersion < 1:
         cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
-    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel) if args.sigma_depth_rel else None
+    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error)
     prior = make_prior(cfg.structure, cut, table)
+    decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),
+                "speed_tolerance": args.speed_tolerance}
+    if args.coarse:
+        decision["coarse_points"] = args.coarse
     if args.calibrate:
         args.truth_engine, args.labels = "zoa", "engine"
     truth_engine = get_engine(args.truth_engine)
@@ -157,17 +181,18 @@ def main() -> None:
                     return ([str(x) for x in lab.label],
                             [float("nan") if str(x) == "stable" else float(h) for x, h in zip(lab.label, lab.chatter_hz)])
                 b = truth(rpm)
-                if args.calibrate:
+                if args.calibrate:  # the likelihood's own model: probit noise, then a swap with probability ε
                     edge = b + prior.sigma_depth_mm(depth) * r.standard_normal(b.shape)
+                    chat = (depth > edge) ^ (r.random(b.shape) < prior.label_error)
                 else:
-                    edge = b * np.exp(args.noise * r.standard_normal(b.shape))
-                return list(np.where(depth > edge, "chatter", "stable")), [float("nan")] * b.size
+                    chat = depth > b * np.exp(args.noise * r.standard_normal(b.shape))
+                return list(np.where(chat, "chatter", "stable")), [float("nan")] * b.size
 
             grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
             camp = run_campaign(cfg, prior, truth, labeler, cuts=args.cuts, samples=args.samples, risk=args.risk,
                                 rpm_range=(lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)),
                                 engine=args.engine, reuse=not args.fresh, truth_grid=grid,
-                                best_speeds=args.best_speeds)
+                                best_speeds=args.best_speeds, decision=decision)
             cover = coverage(camp.posteriors[args.cuts], theta)
             cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
             row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
@@ -193,9 +218,10 @@ def main() -> None:
                     except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
                         print("   even cuts: UPDATE FAILED (tempering stalled)")
                     else:
-                        r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c)
+                        r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c, **decision)
                         row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
             row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
+            row["limit_cover"] = limit_coverage(camp.posteriors[args.cuts], np.unique(camp.cut_rpm), truth)
             if args.engine_check:
                 lab = np.array(camp.labels)
                 sel = lab != "marginal"
@@ -246,7 +272,12 @@ def main() -> None:
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, risk {args.risk}, {design}; "
           f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, {'fresh updates' if args.fresh else 'sequential reuse'}, "
           f"likelihood depth noise {prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / "
-          f"{prior.sigma_depth_rel or 0:g} rel:")
+          f"{prior.sigma_depth_rel or 0:g} rel, label error {prior.label_error:g}; decision: confidence "
+          f"{decision['confidence']}, speed tolerance ±{decision['speed_tolerance']:g}:")
+    print(f"  final posterior: distinct samples median {np.median([r['final']['distinct'] for r in rows]):.0f}, last-stage "
+          f"ESS median {np.median([r['final']['ess_last'] for r in rows]):.0f}; P(chatter) at the final recommendation, "
+          f"epistemic: median {np.median([r['final']['p_epistemic'] for r in rows]):.3f}, with label noise "
+          f"{np.median([r['final']['p_label'] for r in rows]):.3f}")
     print(f"  final recommendation truly stable: {sum(fin_ok)}/{n}; productivity/best: median {np.median(fin_p):.2f}, "
           f"min {min(fin_p):.2f}; >= 0.85 and stable: {sum(ok and p >= 0.85 for ok, p in zip(fin_ok, fin_p))}/{n}")
     print(f"  every recommendation along the way truly stable: {sum(sum(r['rec_stable']) for r in rows)}/"
@@ -266,6 +297,9 @@ def main() -> None:
         print("  labels contradicted by the TRUE structure under each engine: " + ", ".join(
             f"{e} {sum(r['contradicted'][e] for r in rows if r['contradicted'][e] is not None)}/"
             f"{sum(r['labelled'] for r in rows if r['contradicted'][e] is not None)}" for e in args.engine_check.split(",")))
+    lc = [x for r in rows for x in r["limit_cover"]]
+    print(f"  90 % interval of the limit covers the truth's limit at the cut speeds: {sum(lc)}/{len(lc)} = "
+          f"{np.mean(lc):.2f} (per campaign median {np.median([np.mean(r['limit_cover']) for r in rows]):.2f})")
     print(f"  campaigns with a failed (stalled) update: {sum(bool(r['failed']) for r in rows)}/{n}")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]

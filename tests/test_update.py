@@ -315,7 +315,8 @@ def test_safe_depth_respects_the_risk_exactly():
 def test_recommend_respects_the_risk_and_beats_the_grid():
     prior = make_prior(STRUCT, CUT)
     post = Posterior(prior, np.exp(prior.sample(400, np.random.default_rng(4))), cuts={"rpm": [5000.0, 9000.0]})
-    rec = recommend(post, 0.1, (5000, 9000), width_mm=10, feed_mm=0.1)
+    # the plain rule (no Monte Carlo bound, no speed tolerance): the search against a grid
+    rec = recommend(post, 0.1, (5000, 9000), width_mm=10, feed_mm=0.1, confidence=None, speed_tolerance=0.0)
     blim = limits(prior, post.u, [rec.rpm])[0][:, 0]
     assert rec.p_chatter == pytest.approx((blim <= rec.depth_mm).mean())
     assert rec.p_chatter <= 0.1
@@ -324,12 +325,65 @@ def test_recommend_respects_the_risk_and_beats_the_grid():
     assert rec.productivity >= best_grid * (1 - 1e-9)
     assert rec.mrr_cm3_per_min == pytest.approx(rec.depth_mm * rec.rpm * 10 * 0.1 * 2 / 1000)
     assert rec.next_test["relative_productivity"] > 1 and 0 < rec.next_test["p_chatter"] < 1
-    capped = recommend(post, 0.1, (5000, 9000), max_depth_mm=0.5 * rec.depth_mm)
+    capped = recommend(post, 0.1, (5000, 9000), max_depth_mm=0.5 * rec.depth_mm, confidence=None, speed_tolerance=0.0)
     assert capped.depth_mm <= 0.5 * rec.depth_mm and capped.limited_by == "max_depth"
     with pytest.raises(InputError, match="--risk"):
         recommend(post, 1.5, (5000, 9000))
     with pytest.warns(UserWarning, match="beyond the tested speeds"):
         recommend(post, 0.1, (2000, 9000))
+
+
+def test_allowed_count_is_the_clopper_pearson_bound():
+    from scipy.stats import binom
+
+    from millstab.update.decide import allowed_count
+
+    n, risk = 1000, 0.05
+    for conf in (0.5, 0.8, 0.9, 0.99):
+        # independent: the Clopper–Pearson upper bound of k/n is ≤ risk ⟺ P(X ≤ k; n, risk) ≤ 1 − confidence
+        ks = np.arange(51)
+        want = ks[binom.cdf(ks, n, risk) <= 1 - conf].max()
+        assert allowed_count(n, risk, n, conf) == want
+    assert allowed_count(n, risk, n, None) == 50  # the plain count ⌊risk·N⌋
+    # fewer effective samples: a smaller count; too few to bound the risk at all: −1
+    assert allowed_count(n, risk, 300, 0.9) < allowed_count(n, risk, 1000, 0.9) < 50
+    assert allowed_count(n, risk, 20, 0.9) == -1  # 1 − 0.1^(1/20) = 0.109 > 0.05 even with no sample below
+
+
+def test_effective_samples_counts_distinct_samples_and_the_last_ess():
+    from millstab.update.decide import effective_samples
+
+    prior = make_prior(STRUCT, CUT)
+    u = prior.sample(200, np.random.default_rng(0))
+    dup = Posterior(prior, np.exp(np.vstack([u, u[:50]])))  # resampling duplicates
+    assert effective_samples(dup) == 200
+    assert effective_samples(Posterior(prior, np.exp(u), diagnostics={"ess": [150.0, 120.5]})) == 120.5
+
+
+def test_recommendation_holds_the_risk_at_its_speed_error_by_brute_force():
+    """The recommended depth keeps the epistemic P(chatter) (the fraction of samples whose OWN limit,
+    one engine call per sample, is at or below the depth) within the allowed count at the speed and
+    at ±tolerance; the reported probabilities are those counts; tolerance and bound cost depth."""
+    from millstab.update.decide import allowed_count
+
+    prior = make_prior(STRUCT, CUT)
+    post = Posterior(prior, np.exp(prior.sample(300, np.random.default_rng(4))), cuts={"rpm": [5000.0, 9000.0]})
+    tol = 0.005
+    rec = recommend(post, 0.1, (5000, 9000), confidence=0.9, speed_tolerance=tol)
+    speeds = rec.rpm * np.array([1 - tol, 1.0, 1 + tol])
+    own = np.array([zoa.envelope(prior.par.structure(t), CUT, speeds).depth_mm for t in post.samples])  # (N, 3)
+    frac = (own <= rec.depth_mm).mean(0)
+    assert rec.p_chatter == pytest.approx(frac[1], abs=1e-12)
+    assert rec.p_chatter_speed_error == pytest.approx(frac.max(), abs=1e-12)
+    assert frac.max() <= allowed_count(300, 0.1, 300, 0.9) / 300 < 0.1
+    assert rec.p_chatter_bound <= 0.1 + 1e-9 and rec.effective_samples == 300
+    plain = recommend(post, 0.1, (5000, 9000), confidence=None, speed_tolerance=0.0)
+    assert rec.productivity < plain.productivity
+    assert rec.to_json()["speed_tolerance"] == tol
+    with pytest.raises(InputError, match="speed_tolerance"):
+        recommend(post, 0.1, (5000, 9000), speed_tolerance=-0.01)
+    with pytest.raises(InputError, match="confidence"):
+        recommend(post, 0.1, (5000, 9000), confidence=1.0)
 
 
 def test_map_from_posterior_uses_one_engine_call():

@@ -80,7 +80,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
                  risk: float = 0.05, rpm_range: tuple[float, float] = (5000.0, 12000.0), max_depth_mm: float = 8.0,
                  seed: int = 0, engine: str = "zoa", reuse: bool = True, keep: tuple[int, ...] = (),
                  truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None, best_speeds: int = 361,
-                 progress: Callable[[int], None] | None = None) -> Campaign:
+                 progress: Callable[[int], None] | None = None, decision: dict | None = None) -> Campaign:
     """Play one virtual campaign of ``cuts`` test cuts (see the module docstring).
 
     Args:
@@ -96,6 +96,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
         keep: after which numbers of cuts to keep the posterior (for maps).
         truth_grid: (rpm (S,), depth (D,), stable (S, D) bool) to score maps on after each cut, or ``None``.
         best_speeds: speeds of the grid on which the best truly stable cut is sought (a slow truth: fewer).
+        decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``).
     """
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
@@ -120,7 +121,8 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
                 out.posteriors[k] = post
             if truth_grid is not None:
                 out.brier.append(brier_score(post, truth_grid))
-            rec = recommend(post, risk, rpm_range, max_depth_mm=max_depth_mm, seed=int(rng.integers(2**31)))
+            rec = recommend(post, risk, rpm_range, max_depth_mm=max_depth_mm, seed=int(rng.integers(2**31)),
+                            **(decision or {}))
             out.rec_rpm.append(rec.rpm)
             out.rec_depth_mm.append(rec.depth_mm)
             out.rec_stable.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))

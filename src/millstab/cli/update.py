@@ -141,6 +141,10 @@ def recommend_cmd(
     mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""
     con.print(f"recommended: {rec.rpm:.0f} rpm, {rec.depth_mm:.3f} mm (P(chatter) {rec.p_chatter:.3f} ≤ {risk:g}, "
               f"limited by {rec.limited_by}{mrr})")
+    if rec.p_chatter_bound is not None:
+        con.print(f"  held at ±{100 * rec.speed_tolerance:g} % speed error (P(chatter) ≤ {rec.p_chatter_speed_error:.3f}) "
+                  f"and against the sampling error: {rec.confidence:.0%} upper bound {rec.p_chatter_bound:.3f} from "
+                  f"{rec.effective_samples:.0f} effective samples")
     nt = rec.next_test
     con.print(f"next test: {nt['rpm']:.0f} rpm, {nt['depth_mm']:.3f} mm (P(chatter) {nt['p_chatter']:.2f}; {nt['why']})")
     con.print(f"wrote {out}")

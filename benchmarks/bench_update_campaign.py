@@ -28,8 +28,29 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
   stable/chatter labels the TRUE structure contradicts under each engine (one parameter set, so even
   a slow engine costs only a few envelopes).
 
+* the decision rule (:func:`millstab.update.recommend`): P(chatter) ≤ risk held with ``--confidence``
+  (default 0.9) against the Monte Carlo error over the effective sample size, at ±``--speed-tolerance``
+  (default 0.25 %) of the speed; ``--confidence none --speed-tolerance 0`` is the plain rule (the risk
+  quantile at the speed). After the campaigns, each final recommendation that chatters is printed with
+  its diagnosis: P(chatter) epistemic (fraction of samples with b_lim ≤ b, what "truly stable" judges)
+  and with the label noise, distinct samples and ESS, and the posterior's 5 % quantile beside the true
+  limit at the speed × (1 ± 0.5, 1, 2 %) (a knife-edge shows as a quantile that falls steeply beside it).
+* the 90 % interval of the LIMIT at the cut speeds against the truth's limit: the model-error measure
+  that needs no "true parameter" (with another engine's labels, a parameter's truth is not the fitted
+  model's).
+
 Run: ``.venv/bin/python benchmarks/bench_update_campaign.py --calibrate --campaigns 50 [--samples 1000]``
-(``--json FILE`` keeps every campaign's record).
+(``--json FILE`` keeps every campaign's record; ``--first K`` starts at campaign K, to split a study
+over processes). The model-error study (issue 17; a/D 0.1, labels from SDM with 3 % boundary noise,
+limits there are 25–100 mm, hence the depth cap and the relative depth noise)::
+
+    bench_update_campaign.py --immersion 0.1 --truth-engine sdm --noise 0.03 --max-depth 60 \
+        --sigma-depth-rel 0.05 --campaigns 10 --cuts 10 --samples 500 --best-speeds 121 --grid 31x20 \
+        --engine-check zoa,spectral --engine zoa            # ~7 min on the loaded 2-core machine
+    ... --engine spectral --samples 200 --coarse 30 --cuts 5 --campaigns 2 --no-baselines   # slow today
+
+(``--labels simulate`` takes the labels from the time-domain simulation instead: ~3 min for a 3-cut
+campaign on the loaded machine.)
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ whether the process chatters).
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
   between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
-  probability of the likelihood — "BALD" — times the cut's productivity relative to the
+  probability of the likelihood (ε + (1 − 2ε)·Φ with a label error ε) — "BALD" — times the cut's productivity relative to the
   recommendation). It is the test most likely both to shrink the uncertainty and to move the
   recommendation to a more productive cut; evaluated on a subsample of the posterior.
 """

@@ -118,8 +118,20 @@ def virtual_campaign(ctx) -> None:
         f"SLD alone (its most productive point 5 % below its own limit) would cut at {fine[j]:.0f} rpm, {d_ham:.2f} mm: "
         f"{'truly stable' if ham_ok else 'it chatters'} ({ham_p:.2f} of the best). Each update after the first "
         f"started from the previous posterior and took {min(camp.stages)}–{max(camp.stages)} tempering stages. "
-        "One campaign is an anecdote: the calibration and decision statistics over 50 campaigns come from "
-        "benchmarks/bench_update_campaign.py (--calibrate for the coverage study).")
+        "One campaign is an anecdote. The decision rule holds P(chatter) ≤ risk with 90 % confidence against the "
+        "Monte Carlo error of its estimate (a Clopper–Pearson bound over the posterior's effective sample size) "
+        "and at ±0.25 % of the spindle speed (the best speed is a pocket's cusp, a knife-edge), and the "
+        "likelihood allows a swapped label with probability 0.02. Measured with "
+        "benchmarks/bench_update_campaign.py, not in this run: over 100 calibration campaigns (--calibrate: truth "
+        "drawn from the prior, labels from the likelihood's own noise model, 1 000 samples) the recommendation "
+        "after 10 cuts was truly stable in 98, at a median 0.90 of the best truly stable cut's productivity "
+        "(≥ 0.85 and stable in 69), the 90 % intervals covered the truth in 86–92 % per parameter and the "
+        "Brier score beat the prior's in 91; from the hammer-test SLD alone 14 of 100 were stable, after ten "
+        "evenly spaced cuts 93 at a median 0.65. With model error (a/D 0.1, labels from SDM with 3 % noise, "
+        "updated with zoa; 10 campaigns, 500 samples) 10 of 10 were stable at a median 0.92 (≥ 0.85 in 7), the "
+        "90 % interval of the limit covered SDM's limit at 65 of 76 cut speeds, and the true structure under "
+        "zoa contradicted 21 of the 100 labels, under the interrupted-cutting spectral engine 6 (labels near the "
+        "limit are flipped by the 3 % noise too).")
     rep.check(f"Virtual campaign: after {CUTS} tool-chosen cuts the recommendation at risk {RISK:g} is truly stable",
               f"{camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm, true limit "
               f"{truth([camp.rec_rpm[-1]])[0]:.2f} mm", fin_ok)

@@ -754,7 +754,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
         lost = acc >= 0 and not br_on[acc]
         # ... or moved so far that Newton may have jumped to another root (a steep flank moves this
         # much too: then the search from below costs a ladder, and is safe)
-        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and abs(br_b[acc] / br_b2[acc] - 1.0) > BRANCH_JUMP:
+        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and br_b[acc] / br_b2[acc] - 1.0 > BRANCH_JUMP:
             lost = True
         # drop duplicates (two branches that met the same root) and branches far above the lowest
         b_min = np.inf

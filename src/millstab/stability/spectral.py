@@ -134,6 +134,8 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
 CHECKS = np.array([0.7, 0.93, 0.995])
+#: the same where the continued root lies above the previous speed's boundary (a rising flank)
+CHECKS_UP = np.array([0.3, 0.4, 0.55, 0.7, 0.93, 0.995])
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
@@ -244,7 +246,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, depth, mu, n_eval)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, CHECKS_UP, depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval

@@ -296,7 +296,8 @@ def test_unsorted_speeds_with_repeats_equal_each_speed_alone():
 
 
 @pytest.mark.parametrize("structure", [BENCH, Structure.symmetric(FN, K, ZETA), TWO_MODE])
-@pytest.mark.parametrize("teeth, immersion, mode", [(2, 0.05, "down"), (2, 1.0, "down"), (3, 0.5, "up"), (4, 1.0, "down")])
+@pytest.mark.parametrize("teeth, immersion, mode",
+                         [(2, 0.05, "down"), (2, 1.0, "down"), (3, 0.5, "up"), (4, 1.0, "down")])
 def test_reduced_monodromy_has_the_full_monodromys_multipliers(structure, teeth, immersion, mode):
     """The root search's ρ uses the monodromy on the reduced history (one chip thickness per tooth in
     the cut and node instead of the D displacements): the node factors reproduce [A] exactly, and its
@@ -308,8 +309,8 @@ def test_reduced_monodromy_has_the_full_monodromys_multipliers(structure, teeth,
     wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
     nd = k.gauss_nodes(6)
     for rpm in (7000.0, 13000.0):  # two collocation elements at a/D = 0.05, one
-        g = k.setup(cutting.teeth, cutting.kr, cutting.entry, cutting.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0],
-                    wn[0], zeta[0], act)
+        el = float(spectral._elem_len(wn)[0])
+        g = k.setup(cutting.teeth, cutting.kr, cutting.entry, cutting.exit, rpm, el, nd[0], wn[0], zeta[0], act)
         kind, Aq, Fq, Gq, rk = g[0], g[2], g[5], g[6], g[7]
         for e in np.flatnonzero(kind == 1):
             for node in range(1, nd[0].size):

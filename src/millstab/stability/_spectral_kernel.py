@@ -20,7 +20,11 @@ interpolation: the only discretisation error is the collocation error, which fal
 
 The monodromy matrix maps (z at the period start, u at every collocation node of the previous
 period) to the same quantities one period later; its size n + D·(nodes) does not grow with the free
-flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers.
+flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers. The
+root search's ρ uses :func:`monodromy_small`, the same operator on the reduced history (a tooth's
+force depends on its chip thickness only, so the past enters a node through one number per tooth in
+the cut, :func:`node_factors`): the same nonzero multipliers with n + Σ(teeth in the cut per node)
+rows, half the history at low immersion.
 
 Root finding (:func:`limit_run`): the boundary points are Newton roots (:func:`newton`) of the n × n
 characteristic function det(μ I − Ψ(σ)) with its exact Jacobian (:func:`char_d`; Ψ and dΨ/dσ from one
@@ -28,8 +32,9 @@ hand-written LU per element, :func:`psi_d`), continued from speed to speed as br
 eigenvalues of the monodromy (:func:`rho`) only check that nothing crossed below the lowest branch and
 bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are the same function without
 derivatives through numpy's solver (the tests' independent path). Costs measured (x = y one mode each,
-a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–28 µs; ρ = monodromy build 13–28 µs +
-dgeev 21–57 µs (16–28 rows); the envelope figures are in :mod:`millstab.stability.spectral`.
+a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–25 µs; ρ on the full monodromy (16–28
+rows) 30–79 µs (dgeev 18–54 µs of it), on the reduced one (10–16 rows) 18–41 µs; the envelope figures
+are in :mod:`millstab.stability.spectral`.
 """
 
 from __future__ import annotations
@@ -802,6 +807,9 @@ def _fold(theta):
 N_BRANCH = 4
 #: a tracked branch whose depth exceeds this multiple of the boundary is dropped (it has left)
 BRANCH_DROP = 3.0
+#: a continued root above RISE × the previous speed's boundary is checked on the rising-flank rungs (1.05
+#: saved 4 % of the evaluations but missed one more band on the random sets of the docstring)
+RISE = 1.0
 #: relative depth change of the boundary's branch from one speed to the next beyond which the continued
 #: root is not trusted (Newton may have jumped to another lobe over a closed band): search from below
 BRANCH_JUMP = 0.25
@@ -937,7 +945,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
             b1 = br_b[best]
             # above a rising boundary a new lobe (a flip band at low immersion) can open far below it
             # (measured: at 20–60 % of the continued root): more rungs there
-            ch = checks_up if s > 0 and b1 > depth[s - 1] else checks
+            ch = checks_up if s > 0 and b1 > RISE * depth[s - 1] else checks
             stable = True
             f_lo = rho0 - 1.0
             br_lo = 0.0
@@ -1021,7 +1029,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladde
         a = starts[k]
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
-                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, checks_up, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, checks_up, depth[bi, a:e],
+                  mu[bi, a:e], n_eval[bi, a:e])
 
 
 @nb.njit(cache=True)

@@ -11,7 +11,8 @@ Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_spectral.py [--n 81] [--re
 2. Speed: 200 speeds, one mode per direction (x and y), a/D = 0.05: envelopes per second of the spectral
    engine (best of ``--repeat``), of SDM (once) and of the zero-order engine, measured in the same run
    (the machine is shared, so the ratio is the robust figure), and the ρ / characteristic-function
-   evaluations per speed. The last line is ``spectral_envelopes_per_s: X``.
+   evaluations per speed, and the best wall and CPU time (process_time) per envelope on 1 and on all
+   numba threads. The last line is ``spectral_envelopes_per_s: X``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import argparse
 import math
 import time
 
+import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -56,12 +58,12 @@ def accuracy(n: int) -> None:
         flip_sdm = np.abs(np.angle(mu_sdm)) > math.pi - spectral.FLIP_ARG
         rel = e.depth / ref.depth - 1
         i = int(np.argmax(np.abs(rel)))
-        saved = spectral.CHECKS
-        spectral.CHECKS = np.linspace(0.025, 0.995, 40)
+        saved = spectral.CHECKS, spectral.CHECKS_UP
+        spectral.CHECKS = spectral.CHECKS_UP = np.linspace(0.025, 0.995, 40)
         try:
             dense = spectral.envelope(BENCH, c, rpm).depth
         finally:
-            spectral.CHECKS = saved
+            spectral.CHECKS, spectral.CHECKS_UP = saved
         rel_z = zoa.envelope(BENCH, c, rpm).depth / ref.depth - 1
         print(f"  a/D {imm:4}: max |spectral/SDM - 1| {100 * abs(rel[i]):.3f} % at {rpm[i]:.0f} rpm ({e.kind[i]}, "
               f"{e.depth_mm[i]:.4f} mm); mean {100 * np.mean(np.abs(rel)):.3f} %; flip speeds {int(np.sum(e.kind == 'flip'))} "
@@ -72,12 +74,31 @@ def accuracy(n: int) -> None:
               f"time spectral {t_s:.2f} s, SDM {t_d:.2f} s")
 
 
+def cpu_per_envelope(rpm, c, threads: int, repeat: int) -> tuple[float, float]:
+    """(best wall, best CPU) seconds of one envelope with ``threads`` numba threads."""
+    saved = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        walls, cpus = [], []
+        for _ in range(repeat):
+            w, c0 = time.perf_counter(), time.process_time()
+            spectral.envelope(XY, c, rpm)
+            walls.append(time.perf_counter() - w)
+            cpus.append(time.process_time() - c0)
+    finally:
+        numba.set_num_threads(saved)
+    return min(walls), min(cpus)
+
+
 def speed(repeat: int) -> float:
     rpm = np.linspace(5000.0, 25000.0, 200)
     c = cut(0.05)
     spectral.envelope(XY, c, rpm[:3])  # compile / cache load
     times = [timed(lambda: spectral.envelope(XY, c, rpm))[0] for _ in range(repeat)]
     t_spec = min(times)
+    for threads in sorted({1, numba.get_num_threads()}):
+        w, cpu = cpu_per_envelope(rpm, c, threads, repeat)
+        print(f"  {threads} thread(s): best wall {w * 1e3:.1f} ms, best CPU {cpu * 1e3:.1f} ms per envelope")
     t_zoa = min(timed(lambda: zoa.envelope(XY, c, rpm))[0] for _ in range(repeat))
     t_sdm, _ = timed(lambda: sdm.envelope(XY, c, rpm))
     batch = ModalBatch.from_structures([XY])

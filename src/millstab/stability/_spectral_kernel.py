@@ -20,7 +20,11 @@ interpolation: the only discretisation error is the collocation error, which fal
 
 The monodromy matrix maps (z at the period start, u at every collocation node of the previous
 period) to the same quantities one period later; its size n + D·(nodes) does not grow with the free
-flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers.
+flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers. The
+root search's ρ uses :func:`monodromy_small`, the same operator on the reduced history (a tooth's
+force depends on its chip thickness only, so the past enters a node through one number per tooth in
+the cut, :func:`node_factors`): the same nonzero multipliers with n + Σ(teeth in the cut per node)
+rows, half the history at low immersion.
 
 Root finding (:func:`limit_run`): the boundary points are Newton roots (:func:`newton`) of the n × n
 characteristic function det(μ I − Ψ(σ)) with its exact Jacobian (:func:`char_d`; Ψ and dΨ/dσ from one
@@ -28,8 +32,9 @@ hand-written LU per element, :func:`psi_d`), continued from speed to speed as br
 eigenvalues of the monodromy (:func:`rho`) only check that nothing crossed below the lowest branch and
 bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are the same function without
 derivatives through numpy's solver (the tests' independent path). Costs measured (x = y one mode each,
-a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–28 µs; ρ = monodromy build 13–28 µs +
-dgeev 21–57 µs (16–28 rows); the envelope figures are in :mod:`millstab.stability.spectral`.
+a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–25 µs; ρ on the full monodromy (16–28
+rows) 30–79 µs (dgeev 18–54 µs of it), on the reduced one (10–16 rows) 18–41 µs; the envelope figures
+are in :mod:`millstab.stability.spectral`.
 """
 
 from __future__ import annotations
@@ -83,6 +88,52 @@ def dir_matrix(n_teeth, kr, phi_s, phi_e, phi0, phi_mid, out):
         out[1, 0] += (1.0 - c2) - kr * s2
         out[1, 1] += s2 - kr * (1.0 + c2)
     return cutting
+
+
+@nb.njit(cache=True)
+def node_factors(n_teeth, kr, phi_s, phi_e, phi0, phi_mid, act, F, G):
+    """[A] restricted to the active directions at tooth-0 angle phi0 (teeth in the cut decided at
+    phi_mid) as F[:, :r] G[:, :r]ᵀ, F and G (D, D) written in place; returns the rank bound r.
+
+    Why: one tooth's force depends on its chip thickness only, a scalar g·u (g = (sin φ, cos φ)), so
+    its [A] is the rank-1 product 2 f gᵀ (f = (−cos φ − kr sin φ, sin φ − kr cos φ)); with fewer teeth
+    in the cut than active directions (every low-immersion cut) the delayed displacement enters a node
+    through r < D numbers, and the monodromy needs only those as history (:func:`monodromy_small`).
+    With r ≥ D teeth cutting: F = [A], G = I, r = D."""
+    D = act.size
+    pitch = TWO_PI / n_teeth
+    m = 0
+    for j in range(n_teeth):
+        if _in_cut(phi_mid + j * pitch, phi_s, phi_e):
+            m += 1
+    F[:, :] = 0.0
+    G[:, :] = 0.0
+    if m >= D:
+        tmp = np.empty((2, 2))
+        dir_matrix(n_teeth, kr, phi_s, phi_e, phi0, phi_mid, tmp)
+        for e in range(D):
+            G[e, e] = 1.0
+            for f in range(D):
+                F[e, f] = tmp[act[e], act[f]]
+        return D
+    fv = np.empty(2)
+    gv = np.empty(2)
+    r = 0
+    for j in range(n_teeth):
+        if not _in_cut(phi_mid + j * pitch, phi_s, phi_e):
+            continue
+        phi = phi0 + j * pitch
+        sn = math.sin(phi)
+        cs = math.cos(phi)
+        fv[0] = 2.0 * (-cs - kr * sn)
+        fv[1] = 2.0 * (sn - kr * cs)
+        gv[0] = sn
+        gv[1] = cs
+        for e in range(D):
+            F[e, r] = fv[act[e]]
+            G[e, r] = gv[act[e]]
+        r += 1
+    return r
 
 
 @nb.njit(cache=True)
@@ -144,14 +195,32 @@ def period_layout(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, act):
 
 @nb.njit(cache=True)
 def setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, wn, zeta, act):
-    """Layout plus the free-flight exponentials of the free elements (zero elsewhere)."""
+    """Layout plus the free-flight exponentials of the free elements (zero elsewhere), and the factors
+    of [A] at every collocation node (:func:`node_factors`: Fq, Gq (E, p + 1, D, D), ranks rk (E, p + 1),
+    zero on free elements). Returns (kind, h, Aq, n_col, phi_free, Fq, Gq, rk)."""
     kind, h, Aq, n_col = period_layout(n_teeth, kr, phi_s, phi_e, rpm, elem_len, x, act)
     n = 2 * wn.size
     phi_free = np.zeros((h.size, n, n))
     for i in range(h.size):
         if kind[i] == 0:
             phi_free[i] = free_flight(wn, zeta, h[i])
-    return kind, h, Aq, n_col, phi_free
+    # the factors, on the same angles as period_layout's Aq (elements in order, equal angle steps per segment)
+    p1 = x.size
+    D = act.size
+    Fq = np.zeros((h.size, p1, D, D))
+    Gq = np.zeros((h.size, p1, D, D))
+    rk = np.zeros((h.size, p1), dtype=np.int64)
+    omega = TWO_PI * rpm / 60.0
+    t0 = 0.0  # element start [s] after tooth 0's entry
+    for i in range(h.size):
+        if kind[i] == 1:
+            a = phi_s + omega * t0
+            dth = omega * h[i]
+            mid = a + 0.5 * dth  # inside the segment: the same teeth cut as at its mid angle
+            for l in range(1, p1):
+                rk[i, l] = node_factors(n_teeth, kr, phi_s, phi_e, a + x[l] * dth, mid, act, Fq[i, l], Gq[i, l])
+        t0 += h[i]
+    return kind, h, Aq, n_col, phi_free, Fq, Gq, rk
 
 
 @nb.njit(cache=True)
@@ -264,9 +333,102 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
 
 
 @nb.njit(cache=True)
+def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, rk, Dm, lend):
+    """The monodromy matrix on the reduced history (K, K), K = n + Σ rk: the same nonzero eigenvalues
+    as :func:`monodromy`, at depth b [m].
+
+    The delayed displacement enters node k only through Gqᵀ u (rk numbers, the chip thicknesses of the
+    teeth in the cut, :func:`node_factors`), so that is the history kept: with U = P Q (Q: u ↦ Gqᵀ u
+    per node), Q P has the nonzero eigenvalues of P Q. At low immersion (one tooth in the cut, two
+    directions) the history halves: 10 rows instead of 16 with one element of 6 nodes, 16 instead of 28
+    with two, and the eigenvalues (O(K³)) cost a quarter."""
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    H = 0
+    for el in range(h.size):
+        if kind[el] == 1:
+            for k in range(1, p + 1):
+                H += rk[el, k]
+    K = n + H
+    w = 0.5 * b * kt
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, K))
+    P = p * n
+    L = np.empty((P, P))
+    piv = np.empty(P, dtype=np.int64)
+    X = np.empty((P, K))
+    hoff = n  # this element's first history column (and row)
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for col in range(K):
+                    acc = 0.0
+                    for q in range(n):
+                        acc += phi_free[el, r, q] * Z[q, col]
+                    Znew[r, col] = acc
+            Z[:, :] = Znew
+            continue
+        hi = h[el]
+        he = 0
+        for k in range(1, p + 1):
+            he += rk[el, k]
+        _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
+        R = np.zeros((P, n + he))
+        col = n
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            # right-hand sides: − D_k0 z_0 (first n columns), − w F_k (the old chip thicknesses at node k)
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                R[rk0 + r, r] = -d0
+            for j in range(M):
+                for i in range(rk[el, k]):
+                    R[rk0 + M + j, col + i] = -w * Fq[el, k, mdir[j], i] / mass[j]
+            col += rk[el, k]
+        _lu_factor(L, piv)  # hand-written (24–48 rows: a LAPACK call's copies cost more than its arithmetic)
+        _lu_solve(L, piv, R)
+        Y = R
+        for r in range(P):
+            for c in range(K):
+                acc = 0.0
+                for q in range(n):
+                    acc += Y[r, q] * Z[q, c]
+                X[r, c] = acc
+            for c in range(he):
+                X[r, hoff + c] += Y[r, n + c]
+        # this period's chip thicknesses at the nodes (history rows) and the end state
+        row = hoff
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            for i in range(rk[el, k]):
+                for c in range(K):
+                    acc = 0.0
+                    for j in range(M):
+                        acc += Gq[el, k, mdir[j], i] * X[rk0 + j, c]
+                    U[row, c] = acc
+                row += 1
+        for r in range(n):
+            for c in range(K):
+                acc = lend[0] * Z[r, c]
+                for k in range(1, p + 1):
+                    acc += lend[k] * X[(k - 1) * n + r, c]
+                Znew[r, c] = acc
+        Z[:, :] = Znew
+        hoff += he
+    for r in range(n):
+        for c in range(K):
+            U[r, c] = Z[r, c]
+    return U
+
+
+@nb.njit(cache=True)
 def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
-    """(ρ, dominant multiplier) at depth b [m] on the layout g."""
-    U = monodromy(b, kt, wn, zeta, mass, mdir, D, g[0], g[1], g[2], g[3], g[4], nd[1], nd[2])
+    """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy)."""
+    U = monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
     return _dominant(multipliers(U))
 
 
@@ -645,6 +807,9 @@ def _fold(theta):
 N_BRANCH = 4
 #: a tracked branch whose depth exceeds this multiple of the boundary is dropped (it has left)
 BRANCH_DROP = 3.0
+#: a continued root above RISE × the previous speed's boundary is checked on the rising-flank rungs (1.05
+#: saved 4 % of the evaluations but missed one more band on the random sets of the docstring)
+RISE = 1.0
 #: relative depth change of the boundary's branch from one speed to the next beyond which the continued
 #: root is not trusted (Newton may have jumped to another lobe over a closed band): search from below
 BRANCH_JUMP = 0.25
@@ -693,7 +858,7 @@ def _add_branch(br_b, br_t, br_b2, br_on, b, th):
 
 @nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act, elem_len,
-              nd, rtol, w_flex, checks, depth, mu, n_eval):
+              nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
@@ -754,7 +919,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
         lost = acc >= 0 and not br_on[acc]
         # ... or moved so far that Newton may have jumped to another root (a steep flank moves this
         # much too: then the search from below costs a ladder, and is safe)
-        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and abs(br_b[acc] / br_b2[acc] - 1.0) > BRANCH_JUMP:
+        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and br_b[acc] / br_b2[acc] - 1.0 > BRANCH_JUMP:
             lost = True
         # drop duplicates (two branches that met the same root) and branches far above the lowest
         b_min = np.inf
@@ -778,19 +943,22 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
             if best < 0:
                 break
             b1 = br_b[best]
+            # above a rising boundary a new lobe (a flip band at low immersion) can open far below it
+            # (measured: at 20–60 % of the continued root): more rungs there
+            ch = checks_up if s > 0 and b1 > RISE * depth[s - 1] else checks
             stable = True
             f_lo = rho0 - 1.0
             br_lo = 0.0
             br_hi = 0.0
             f_hi = 0.0
             m_hi = complex(np.nan, np.nan)
-            for q in range(checks.size):
-                r, m_ = rho(b1 * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
+            for q in range(ch.size):
+                r, m_ = rho(b1 * ch[q], kt, wn, zeta, mass, mdir, D, g, nd)
                 count += 1
                 if r > 1.0:
                     stable = False
-                    br_lo = b1 * checks[q - 1] if q > 0 else 0.0
-                    br_hi = b1 * checks[q]
+                    br_lo = b1 * ch[q - 1] if q > 0 else 0.0
+                    br_hi = b1 * ch[q]
                     f_hi = r - 1.0
                     m_hi = m_
                     break
@@ -849,7 +1017,7 @@ def cmath_phase(z):
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
-                elem_len, nd, rtol, w_flex, checks, depth, mu, n_eval):
+                elem_len, nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
@@ -861,7 +1029,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladde
         a = starts[k]
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
-                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, checks_up, depth[bi, a:e],
+                  mu[bi, a:e], n_eval[bi, a:e])
 
 
 @nb.njit(cache=True)

@@ -31,7 +31,7 @@ than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``
 moved points are the start of the next check (a fresh search only where Newton failed).
 
 Root search (compiled, parallel over sets × speed blocks: a set's speeds are one block when the sets
-fill the threads, else about ``BLOCKS_PER_THREAD`` blocks per thread, none shorter than ``BLOCK``). A
+fill the threads, else a few blocks of equal modelled cost, see ``_block_starts``). A
 Floquet solution z(t + T) = μ z(t) has z(t − T) = z(t)/μ, so μ is a multiplier iff
 det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth period of the ODE
 ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
@@ -41,45 +41,61 @@ Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundar
 continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
 one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
 one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
-prediction linear in speed. Where the boundary's own branch is lost or moves by more than
+prediction linear in speed. Where the boundary's own branch is lost or moves UP by more than
 ``_spectral_kernel.BRANCH_JUMP`` (25 %) in one speed step (Newton may have jumped onto another lobe
-over a closed band), the search starts from below as at a block start. The lowest branch is accepted if the full monodromy is stable at
-b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe come down or a flip band);
-a failed rung brackets the unknown crossing, Newton from inside it (θ from the rung's dominant
-multiplier) adds its root to the set, and that root is checked in turn. Where no branch is left (a
-block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the zero-order depth; inside a block the
-last boundary·LADDER_CONT) up to the first unstable depth, Illinois on ρ − 1 to 1 %, Newton; the fine
-Illinois (``RTOL``) only where Newton fails. The accepted depths are roots of the discretised
-characteristic equation to ~1e-12, so they are smooth in the parameters (finite-difference Jacobians in
-identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
-checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark). Known
-case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
-dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this engine and SDM step
-over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm that SDM misses
-(42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
+over a closed band), the search starts from below as at a block start; a branch that moves down by
+as much is checked like any other (a lower root is never above the first crossing; only what lies
+below it is in doubt, and that is what the checks test). The lowest branch is accepted if the full
+monodromy is stable at b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe
+come down or a flip band); under a rising boundary (b above the previous speed's) at b·CHECKS_UP
+(0.3, 0.4, 0.55 added): there a new lobe, at low immersion a flip band, can open far below the
+continued root (measured on random sets of identification's search space, a/D 0.05 and 0.1: bands at
+20–60 % of it, 14–50 % of the depth wide, that the three rungs stepped over, reporting 2–5 times the
+first crossing; tests/test_spectral.py). A failed rung brackets the unknown crossing, Newton from
+inside it (θ from the rung's dominant multiplier) adds its root to the set, and that root is checked
+in turn. Where no branch is left (a block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the
+zero-order depth; inside a block the last boundary·LADDER_CONT) up to the first unstable depth, Illinois
+on ρ − 1 to 1 %, Newton; the fine Illinois (``RTOL``) only where Newton fails. The accepted depths are
+roots of the discretised characteristic equation to ~1e-12, so they are smooth in the parameters
+(finite-difference Jacobians in identification). Limitation, as for every ladder: an unstable band
+narrower than the spacing of the checks can be missed (on the benchmark grids a 40-rung check changed
+nothing, see the benchmark). On 20 random sets of that search space (seed 11, 40 speeds 3 000–15 000
+rpm, 800 speeds) a dense ρ scan finds 7 speeds where a band 1–2 % of the depth wide lies just below the
+reported root (the first crossing 1–2 % lower); the rising-flank rungs removed the other 7 violations
+(2–5× too deep). Known case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000
+rpm): at 24 698 rpm a dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this
+engine and SDM step over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm
+that SDM misses (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
 
-Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the shared 2-core
-machine ran at load 5–24 during these measurements, shared with 6 other sessions, so old/new were
-run alternately in the same minutes and CPU time (process_time) is the robust figure; wall figures are
-not comparable across days). With branch tracking the root search needs 1 951 evaluations (9.8 per speed) where the
-previous continued-root-plus-rescue scheme needed 3 454 (17.3): root search alone, p = 6, one thread,
-58 ms CPU (was 72 ms); a whole envelope (convergence check and zero-order guesses included) 64 ms CPU
-on one thread, 83–87 ms CPU on two (was 101–112 ms), i.e. ~15 envelopes per CPU-second. Wall time, best
-of 7: 181 ms, 5.5 envelopes/s (old 228 ms, 4.4/s, in the same minute at load ~5; at load 15–24,
-388–588 ms against 572–748 ms). On the briefly idle machine (load 0.3, two alternating pairs, best of 7
-each): new 61 and 45 ms (16 and 22 envelopes/s), old 56 and 54 ms (18/s): there the wall-clock gain is
-within the run-to-run spread, and both engines are near the issue's 20 envelopes/s; the earlier figure
-of 4–6 per second was taken under load. What
-bounds it: a speed where the branch simply continues costs 3 ρ evaluations (the checks) and ~3.4
-characteristic functions; ρ is a monodromy of 16 rows (one element, high speeds: build 13 µs, dgeev
-21 µs) to 28 rows (two elements, low speeds: 28 + 57 µs), a characteristic function with its
-derivatives 14–28 µs, so the checks are ~70 % of such a speed. Those ~170 of 200 speeds hold ~58 %
-of the evaluations; the other ~30 (block starts, lobes that come down from above unannounced) hold 42 %,
-each a bracketing on ρ plus Newton. Per call on top: the zero-order guesses (~8 ms CPU, independent of
-the speed count) and the convergence check (~6 ms). Measured and not kept: the ρ checks on a coarser
-discretisation (p = 4 while the roots use p = 6: at 8 216 rpm its crossing is 2 % off, the brackets
-then disagree with Newton and the rescue costs more); a single check at 0.995 (−13 % CPU,
-but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
+Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the 2-core machine
+is shared, so old (the code before) and new ran alternately in the same minutes, BLAS pinned to one
+thread, best of 7 per run, three pairs each). Two threads: wall 29.7–30.5 ms, 33 envelopes/s (old
+44.5–51.8 ms, 19–22/s), CPU 58 ms per envelope (old 74–87 ms); one thread: 48.7 ms CPU (old 60.0–60.8).
+What changed: (1) the speeds are split into blocks of equal modelled cost (``_speed_cost``: the
+monodromy's rows × (1 + the phase step of the flexible mode between neighbouring speeds), one block
+per thread for one set: split at 46 of 200 here, where the first 20 speeds, 5 000–6 900 rpm, cost as
+much as the last 100), where the previous equal-length blocks (4 × 50) left one thread idle most of
+the time: 40 → 28 ms wall in a measurement of the root search alone on the idle machine; (2) ρ on the
+reduced monodromy (10 rows instead of 16 with one element, 16 instead of 28 with two: −25 to −38 % CPU of the
+root search); (3) a branch moving down by > 25 % is no longer searched from below (−2 % evaluations).
+The rising-flank rungs (a correctness fix) cost back +17 % evaluations (11.5 per speed, was 9.8). The
+zero-order guesses now cost 0.2 ms per call (the zero-order engine got faster), the convergence check
+~4 ms. What bounds it now (one thread, 45 ms for the root search): ~170 speeds where the branch simply
+continues cost ~7 evaluations (3 ρ, or 6 under a rising boundary, and ~3.5 characteristic functions
+of 14–25 µs), ~100 µs each; the ~30 speeds where the boundary's branch is lost or jumps up (lobe
+changes, crowded below 9 000 rpm where each 100 rpm step turns the flexible mode's phase by 0.3–0.7
+rad) cost 21–27 evaluations each, about 40 % of the total; on two threads the CPU time rises 49 → 58
+ms (a second block start and the idle thread's wait). 100 envelopes/s would need both fewer
+evaluations at lobe changes (a continuation that follows a lobe's end onto the next one) and cheaper
+acceptance than ρ rungs. Measured and not kept: the lower rungs and the ladder on a coarser
+discretisation (p − 2 or p − 1 nodes, redone at p where ρ > 0.98–0.99): at a/D = 0.05 the coarse ρ is
+off by up to 0.05 near the boundary (colliding flip multipliers), so the flip band at 12 538 rpm was
+missed (p − 1 too); accepting another tracked branch with the search-from-below's rungs where the
+boundary's branch was lost (+1 % evaluations); skipping lower rungs when the previous speed's margin
+was large (ρ at a rung moves by up to 0.05 per speed step while the margins are often < 0.05);
+rising-flank rungs only above a 5 % rise (−4 % evaluations, one more band missed). Earlier figures
+(before these changes): root search 58 ms CPU on one thread, 1 951 evaluations. Measured and not
+kept then: a single check at 0.995 (misses the island at 24 799 rpm: 93.1 mm instead of 59.1 mm).
 Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
 is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).
 Identification (benchmarks/bench_spectral_identify.py: Example 1, a/D = 0.1, 40 SDM points, the same
@@ -134,11 +150,13 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
 #: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
 CHECKS = np.array([0.7, 0.93, 0.995])
+#: the same where the continued root lies above the previous speed's boundary (a rising flank)
+CHECKS_UP = np.array([0.3, 0.4, 0.55, 0.7, 0.93, 0.995])
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
-#: blocks per thread when the sets alone do not fill the threads (several, for load balance: the
-#: low-speed blocks cost more)
+#: tasks (set × block) per thread at most when the sets alone do not fill the threads: blocks are of
+#: equal modelled cost (``_speed_cost``), so one per thread balances one set; ``_blocks_per_set``
 BLOCKS_PER_THREAD = 2
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
@@ -186,28 +204,66 @@ def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.where(np.isfinite(b_ref), b_ref, row_max[:, None]))
 
 
-def _block_len(n_b: int, n_s: int) -> int:
-    """Speeds per block: the whole range per set when the sets fill the threads (no restarts), else
-    split into about BLOCKS_PER_THREAD blocks per thread, none shorter than BLOCK."""
-    want = math.ceil(BLOCKS_PER_THREAD * numba.get_num_threads() / n_b)
-    return max(BLOCK, math.ceil(n_s / max(want, 1))) if want > 1 else n_s
+def _blocks_per_set(n_b: int, n_threads: int) -> int:
+    """Blocks per set: the fewest (each block start costs a search from below) that give every thread
+    the same number of (cost-balanced) tasks, or at least BLOCKS_PER_THREAD tasks per thread."""
+    k = 1
+    while (n_b * k) % n_threads and n_b * k < BLOCKS_PER_THREAD * n_threads:
+        k += 1
+    return k
+
+
+def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
+    """A model of the root search's cost per speed (S,), for load balance: the monodromy's rows K (its
+    collocation elements grow as the cut lasts longer at low speed) times (1 + φ/0.1), φ [rad] the
+    phase the most flexible mode turns through between the tooth periods of neighbouring speeds
+    (capped at 0.3: beyond it nearly every speed is a lobe change). Measured on the benchmark (x = y,
+    a/D = 0.05, 200 speeds 5 000–25 000 rpm, 1 thread): 0.65, 0.45, 0.20 and 0.155 ms per speed near
+    6 000, 8 000, 12 000 and 20 000 rpm; the model gives 4.9 : 2.6 : 1.5 : 1."""
+    T = 60.0 / (cutting.teeth * rs)
+    dT = np.abs(np.diff(T, prepend=T[0] + (T[0] - T[1] if T.size > 1 else 0.0)))
+    phase = float(np.mean(_w_flex(batch))) * dT
+    omega = 2 * math.pi * rs / 60.0
+    cut = min(cutting.exit - cutting.entry, 2 * math.pi / cutting.teeth) / omega
+    wn = _arrays(batch)[0]
+    n_col = np.ceil(cut / float(np.min(_elem_len(wn))) - 1e-9)
+    rows = 2 * wn.shape[1] + 2 * p * n_col
+    return rows * (1.0 + np.minimum(phase, 0.3) / 0.1)
+
+
+def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
+    """Start indices of the speed blocks (ends with S): the whole range per set when the sets fill the
+    threads (no restarts), else :func:`_blocks_per_set` blocks of equal modelled cost
+    (:func:`_speed_cost`: the low speeds cost several times more), none shorter than BLOCK."""
+    n_s = rs.size
+    k = min(_blocks_per_set(batch.size, numba.get_num_threads()), math.ceil(n_s / BLOCK))
+    if k <= 1:
+        return np.array([0, n_s], dtype=np.int64)
+    cum = np.cumsum(_speed_cost(batch, cutting, rs, p))
+    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, k) / k)
+    shortest = min(BLOCK, n_s // k)
+    cuts = np.clip(cuts, shortest, n_s - shortest)
+    return np.unique(np.concatenate([[0], cuts, [n_s]])).astype(np.int64)
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
            block: int | None = None) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
-    (speeds in blocks of ``block``, default :func:`_block_len`; branches continue within a block)."""
+    (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
-    block = _block_len(n_b, n_s) if block is None else block
-    starts = np.unique(np.concatenate([np.arange(0, n_s, block), [n_s]])).astype(np.int64)
+    if block is None:
+        starts = _block_starts(batch, cutting, rs, p)
+    else:
+        starts = np.unique(np.concatenate([np.arange(0, n_s, block), [n_s]])).astype(np.int64)
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, depth, mu, n_eval)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, CHECKS_UP, depth, mu,
+                       n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval

@@ -113,6 +113,7 @@ from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.model import Cutting, Structure
 from millstab.stability import _spectral_kernel as _k
+from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
@@ -140,6 +141,9 @@ BLOCK = 25
 #: blocks per thread when the sets alone do not fill the threads (several, for load balance: the
 #: low-speed blocks cost more)
 BLOCKS_PER_THREAD = 2
+#: rows within this largest |ln ratio| of (ωn, ζ, m) of their run's head start from its boundary (warm
+#: starts, :func:`_solve_warm`): the rows of a finite-difference Jacobian differ by ~1e-4
+WARM_REL = 1e-2
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
@@ -213,6 +217,64 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     return depth, mu, n_eval
 
 
+def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows that start from a nearby row's boundary: (follower mask (B,), head index (B,)).
+
+    A run of consecutive rows, each within ``WARM_REL`` (largest |ln ratio| of ωn, ζ, m) of the row
+    before, follows the run's first row (its head) if also within WARM_REL of it: the layout of
+    finite-difference rows ([u, u + h e_1, ...], :func:`millstab.forward.fd_rows`). Vectorised: no
+    per-row work in Python."""
+    par = np.log(np.concatenate([wn, zeta, mass], axis=1))
+    near_prev = np.zeros(par.shape[0], bool)
+    near_prev[1:] = np.max(np.abs(np.diff(par, axis=0)), axis=1) < WARM_REL
+    head = np.maximum.accumulate(np.where(near_prev, 0, np.arange(par.shape[0])))
+    follow = near_prev & (np.max(np.abs(par - par[head]), axis=1) < WARM_REL)
+    return follow, head
+
+
+def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int) -> tuple[np.ndarray, ...]:
+    """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
+    the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
+    are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
+    alone, from below). Depth, multiplier, evaluations (B, S)."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    follow, head = _heads(wn, zeta, mass)
+    if not follow.any():
+        return _solve(batch, cutting, rs, b_ref, p)
+    cold = np.flatnonzero(~follow)
+    sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    depth = np.empty((batch.size, rs.size))
+    mu = np.empty((batch.size, rs.size), dtype=np.complex128)
+    n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
+    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p)
+    row = np.flatnonzero(follow)
+    n, kt, kr, ps, pe = _cut_args(cutting)
+    nd = _k.gauss_nodes(int(p))
+    el = _elem_len(wn)
+    e_shape = (row.size, rs.size)
+    d_w, th_w, ok, ne_w = np.empty(e_shape), np.empty(e_shape), np.empty(e_shape, bool), np.empty(e_shape, np.int64)
+    b0 = np.ascontiguousarray(depth[head[row]])
+    th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
+    with threadpool_limits(1):
+        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, wn, zeta, mass, mdir, act, el, nd, CHECKS, d_w, th_w, ok,
+                      ne_w)
+        e, s = np.nonzero(~ok)
+        if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
+            i = row[e]
+            d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
+            _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
+                            np.ascontiguousarray(b_ref[i, s]), LADDER, LADDER_CONT, wn, zeta, mass, mdir, act, el, nd,
+                            RTOL, _w_flex(batch), CHECKS, d_c, mu_c, ne_c)
+    depth[row] = d_w
+    mu[row] = np.exp(1j * th_w)
+    n_eval[row] = ne_w
+    if e.size:
+        depth[row[e], s], mu[row[e], s], n_eval[row[e], s] = d_c, mu_c, n_eval[row[e], s] + ne_c
+    if np.any(np.isnan(depth)):
+        raise ArithmeticError("spectral engine: root search produced NaN")
+    return depth, mu, n_eval
+
+
 def _moved(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, depth: np.ndarray, mu: np.ndarray,
            p: int) -> tuple[np.ndarray, np.ndarray]:
     """Set 0's boundary points (depth (S,) [m], multiplier (S,)) at speeds rs, moved by Newton to the
@@ -239,7 +301,33 @@ def _check_speeds(n_s: int) -> np.ndarray:
     return np.unique([0, n_s // 2, n_s - 1])
 
 
-def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None) -> tuple[np.ndarray, np.ndarray, int]:
+def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray) -> int:
+    """The convergence check: nodes per element for set 0 of ``batch`` at ascending speeds rs (b_ref its
+    zero-order depths (B, S) [m]). Set 0's boundary points at the check speeds are moved by Newton to
+    p + P_STEP nodes; while one moves by more than TOL (or Newton fails), p grows by P_STEP."""
+    p = P_NODES
+    idx = _check_speeds(rs.size)
+    sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    # each check speed is its own block: they are far apart, continuation between them only fails
+    d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+    while p < P_MAX:
+        d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
+        with np.errstate(invalid="ignore"):
+            moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
+        if np.all(np.abs(moved) <= TOL):
+            break
+        p += P_STEP
+        if np.all(np.isfinite(moved)):
+            # the moved points are the boundary at p nodes: the next check starts from them (a
+            # root search per check speed saved)
+            d_c, mu_c = d_n, mu_n
+        else:  # Newton failed somewhere: search afresh at p nodes
+            d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+    return p
+
+
+def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
+           warm: bool = True) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
@@ -253,26 +341,8 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     rs, inv = np.unique(r, return_inverse=True)
     rs = np.ascontiguousarray(rs)
     b_ref = _b_ref(batch, cutting, rs)
-    p = P_NODES if nodes is None else int(nodes)
-    if nodes is None:
-        idx = _check_speeds(rs.size)
-        sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-        # each check speed is its own block: they are far apart, continuation between them only fails
-        d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
-        while p < P_MAX:
-            d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
-            with np.errstate(invalid="ignore"):
-                moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
-            if np.all(np.abs(moved) <= TOL):
-                break
-            p += P_STEP
-            if np.all(np.isfinite(moved)):
-                # the moved points are the boundary at p nodes: the next check starts from them (a
-                # root search per check speed saved)
-                d_c, mu_c = d_n, mu_n
-            else:  # Newton failed somewhere: search afresh at p nodes
-                d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
-    depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
+    p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p)
     return depth[:, inv], mu[:, inv], p
 
 
@@ -372,6 +442,23 @@ depth_accuracy = RTOL
 #: call runs the node-count convergence check once (on its first set), so fewer calls cost less and
 #: give every set the same node count
 CALL_ROWS = 16_384
+
+
+def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
+    """The discretisation for a whole problem (optional contract capability, see
+    :class:`millstab.stability.base.Engine`): ``{"nodes": p}``, the node count the convergence check
+    settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm], to pass to every later
+    :func:`envelope_batch` call, so the depths of one problem are one smooth function of the parameters
+    (a per-call check can change p between calls, a jump of up to TOL)."""
+    _require_modal_batch(batch)
+    rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
+    first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs))}
+
+
+def _require_modal_batch(batch) -> None:
+    if not isinstance(batch, ModalBatch):
+        raise InputError("structure", type(batch).__name__, "a modal parameter batch (ModalBatch)")
 
 
 def chunk_rows(n_speeds: int) -> int:

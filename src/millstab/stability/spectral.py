@@ -28,7 +28,12 @@ Accuracy control (converged by default). p = ``P_NODES`` Gauss nodes per element
 points of the first set at three check speeds (the lowest, where elements are longest, the middle and
 the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes; while one moves by more
 than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
-moved points are the start of the next check (a fresh search only where Newton failed).
+moved points are the start of the next check (a fresh search only where Newton failed). A problem
+evaluated over many calls (identification, sensitivity: :class:`millstab.forward.Forward`) asks once,
+through :func:`settings`, and passes ``nodes`` to every call: the finer of the two discretisations the
+check compared, chosen at the problem's start; a per-call check on each call's first set could change
+p between the calls of one search (a jump of up to TOL in the objective). The fit re-checks at its
+solution and polishes again where p changed there.
 
 Root search (compiled, parallel over sets × speed blocks: a set's speeds are one block when the sets
 fill the threads, else about ``BLOCKS_PER_THREAD`` blocks per thread, none shorter than ``BLOCK``). A
@@ -49,7 +54,10 @@ a failed rung brackets the unknown crossing, Newton from inside it (θ from the 
 multiplier) adds its root to the set, and that root is checked in turn. Where no branch is left (a
 block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the zero-order depth; inside a block the
 last boundary·LADDER_CONT) up to the first unstable depth, Illinois on ρ − 1 to 1 %, Newton; the fine
-Illinois (``RTOL``) only where Newton fails. The accepted depths are roots of the discretised
+Illinois (``RTOL``) only where Newton fails. Warm starts (:mod:`._spectral_warm`): a row within
+``WARM_REL`` of the row heading its run (the rows of a finite-difference Jacobian) starts at that row's
+boundary at each speed: Newton, then the same checks that accept a continued branch (a failed check
+brackets the crossing below, as above); only where that is not accepted is the speed searched from below. The accepted depths are roots of the discretised
 characteristic equation to ~1e-12, so they are smooth in the parameters (finite-difference Jacobians in
 identification). Limitation, as for every ladder: an unstable band narrower than the spacing of the
 checks can be missed (on the benchmark grids a 40-rung check changed nothing, see the benchmark). Known
@@ -446,14 +454,17 @@ CALL_ROWS = 16_384
 
 def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     """The discretisation for a whole problem (optional contract capability, see
-    :class:`millstab.stability.base.Engine`): ``{"nodes": p}``, the node count the convergence check
-    settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm], to pass to every later
+    :class:`millstab.stability.base.Engine`): ``{"nodes": p + P_STEP}``, p the node count the convergence
+    check settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm] (p + P_STEP its reference), to pass to every later
     :func:`envelope_batch` call, so the depths of one problem are one smooth function of the parameters
     (a per-call check can change p between calls, a jump of up to TOL)."""
     _require_modal_batch(batch)
     rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
     first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs))}
+    # the finer of the two discretisations the check compared: a whole search moves the parameters, and
+    # p converged at set 0 alone was measured too coarse elsewhere in the box (Example 1 at a/D = 0.1:
+    # 4 at the start, 6 at the truth, 8 at fn × 1.2)
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP}
 
 
 def _require_modal_batch(batch) -> None:

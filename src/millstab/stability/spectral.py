@@ -90,13 +90,26 @@ then disagree with Newton and the rescue costs more); a single check at 0.995 (�
 but it misses the island at 24 799 rpm: 93.1 mm instead of the 59.1 mm a 40-rung check finds).
 Branch tracking also found a flip band the previous scheme missed: at 12 538 rpm (same case) the boundary
 is a flip at 14.80 mm, not the Hopf crossing at 15.10 mm it reported (tests/test_spectral.py).
-Identification (benchmarks/bench_spectral_identify.py: Example 1, a/D = 0.1, 40 SDM points, the same
-global search; old and new run at the same time on the 2 cores): both recover every parameter within
-0.1 % (max 0.096 %, RMS log residual 7.8e-4), but the new engine took 266 s for 5 884 envelope
-evaluations against the old one's 158 s for 2 501: each evaluation is cheaper (45 against 63 ms), yet
-the search takes 2.4 times as many steps on it; why is not known (the depths of the two agree within
-0.07 % on 40 random sets of that search space). The issue's < 60 s is not reached by either. The
-zero-order engine on the same points: 10.5 s, off by up to 83 % (the damping ratios; k 12–15 %).
+Identification (benchmarks/bench_spectral_identify.py --engines spectral: Example 1, a/D = 0.1, 40 SDM
+points, the same global search as the zero-order engine, seed 0). Why the evaluation count varied (5 834
+here, 2 501 with an older engine): it is set by the path of the global search, which on these points either
+escapes a wrong basin (RMS log residual 4–5.5 %) in its first stage or only later, and 0.1 %-level
+differences in the depths decide which. Measured with the same engine and the node count per call (the
+earlier scheme: 4 for the screening, 6 from the first LM steps on; p switched between calls only there and
+once near the end, so the jumps of hypothesis "p per call" were not the cause): 5 834 evaluations, the truth
+found in the second re-seeding round; p fixed at 6: 6 308, found only by the confidence-region stage; p
+fixed at 4 (the start's converged count): 8 500 evaluations and the wrong basin (79 % off). Now the search
+runs on the discretisation chosen once (:func:`settings`: 6 here, re-checked at the solution: 8, one more
+polish) and the finite-difference rows start warm: 2 663 evaluations (the truth found in the first stage),
+every parameter within 0.12 % (RMS log residual 7.7e-4); the kernel's evaluations per cold (set, speed) are
+~19 at these sparse speeds (a ladder at most speeds), per warm one ~5 (Newton, three checks). Timed
+alternately with the previous code on the shared machine (load 7–13, 2 cores): old 409.7 s (5 834
+evaluations, 70 ms each) against new 130.3 s (2 663, 49 ms), and again 523.9 s (90 ms) against 176.5 s (66
+ms): 3.0–3.1× in all, 1.35–1.45× per evaluation, and 2.2× fewer evaluations (the screening now runs at p =
+6, not 4). On the idle machine the old code took 215–266 s, so about 70–90 s is expected. The issue's < 60 s
+is not reached on the loaded machine; the screening (513 cold sets) and the re-seeding rounds, when the
+search needs them, are cold searches. The zero-order engine on the same points: 10.5 s, off by up to 83 %
+(the damping ratios; k 12–15 %).
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 

@@ -47,12 +47,13 @@ class Forward:
         """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         r = np.asarray(rpm, dtype=float)
-        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, r, **self.settings(r))
+        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, r, **self.settings(r, t[0]))
 
-    def settings(self, rpm: np.ndarray) -> dict:
+    def settings(self, rpm: np.ndarray, theta: np.ndarray | None = None) -> dict:
         """The engine's discretisation at speeds rpm [rev/min] (keywords of ``envelope_batch``): chosen
-        once per speed list at the parameterization's start θ0, so every call of one problem evaluates
-        the same smooth function; ``{}`` for an engine without the ``settings`` capability."""
+        once per speed list, at the first row of the first call (``theta`` (P,), default the start θ0;
+        in a fit, the start), so every call of one problem evaluates the same smooth function and a
+        single call is evaluated as the engine alone would; ``{}`` for an engine without ``settings``."""
         choose = getattr(self._engine_mod, "settings", None)
         if choose is None:
             return {}
@@ -61,7 +62,8 @@ class Forward:
         if key not in self._settings:
             if len(self._settings) >= SETTINGS_CACHE:  # bounded: a caller sweeping speed lists
                 self._settings.pop(next(iter(self._settings)))
-            self._settings[key] = dict(choose(self.par.batch(self.par.theta0[None]), self.cutting, r))
+            row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
+            self._settings[key] = dict(choose(self.par.batch(row[None]), self.cutting, r))
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray) -> bool:

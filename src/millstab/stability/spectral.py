@@ -31,7 +31,7 @@ than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``
 moved points are the start of the next check (a fresh search only where Newton failed). A problem
 evaluated over many calls (identification, sensitivity: :class:`millstab.forward.Forward`) asks once,
 through :func:`settings`, and passes ``nodes`` to every call: the finer of the two discretisations the
-check compared, chosen at the problem's start; a per-call check on each call's first set could change
+check compared, chosen at the first set of the problem's first call (a fit's start); a per-call check on each call's first set could change
 p between the calls of one search (a jump of up to TOL in the objective). The fit re-checks at its
 solution and polishes again where p changed there.
 

@@ -92,7 +92,7 @@ def main() -> None:
             e = rel_error(fit.estimate, th_true, SWAP)
             rms = float(np.sqrt(fit.rss / prob.n))
             print(f"{eng:>8}: {' '.join(f'{100 * v:8.3f}' for v in e)}   max {100 * e.max():.3f} %, RMS log residual "
-                  f"{rms:.2e}, {fit.evaluations} SLDs, {dt:.1f} s")
+                  f"{rms:.2e}, {fit.evaluations} SLDs, {dt:.1f} s ({1e3 * dt / max(fit.evaluations, 1):.1f} ms per SLD)")
             if eng == "spectral":
                 print(f"spectral_identify_s: {dt:.1f}")
 

@@ -22,6 +22,8 @@ from millstab.model import Cutting
 from millstab.params import Parameterization
 from millstab.stability import get_engine
 
+#: speed lists whose engine settings a Forward remembers
+SETTINGS_CACHE = 16
 #: default step in ln θ (1e-4 ⇒ 0.01 % relative; the engines resolve ~1e-8)
 FD_STEP = 1e-4
 
@@ -34,6 +36,8 @@ class Forward:
     cutting: Cutting
     engine: str = "zoa"
     _engine_mod: object = field(default=None, init=False, repr=False, compare=False)
+    #: the engine's discretisation per speed list (``settings`` capability), chosen once
+    _settings: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         # resolve (and validate) the engine name once, not per call
@@ -42,7 +46,38 @@ class Forward:
     def __call__(self, theta: np.ndarray, rpm: np.ndarray) -> np.ndarray:
         """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
-        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, np.asarray(rpm, dtype=float))
+        r = np.asarray(rpm, dtype=float)
+        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, r, **self.settings(r, t[0]))
+
+    def settings(self, rpm: np.ndarray, theta: np.ndarray | None = None) -> dict:
+        """The engine's discretisation at speeds rpm [rev/min] (keywords of ``envelope_batch``): chosen
+        once per speed list, at the first row of the first call (``theta`` (P,), default the start θ0;
+        in a fit, the start), so every call of one problem evaluates the same smooth function and a
+        single call is evaluated as the engine alone would; ``{}`` for an engine without ``settings``."""
+        choose = getattr(self._engine_mod, "settings", None)
+        if choose is None:
+            return {}
+        r = np.asarray(rpm, dtype=float)
+        key = r.tobytes()
+        if key not in self._settings:
+            if len(self._settings) >= SETTINGS_CACHE:  # bounded: a caller sweeping speed lists
+                self._settings.pop(next(iter(self._settings)))
+            row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
+            self._settings[key] = dict(choose(self.par.batch(row[None]), self.cutting, r))
+        return self._settings[key]
+
+    def refine(self, theta: np.ndarray, rpm: np.ndarray) -> bool:
+        """Re-check the discretisation at the parameter row ``theta`` (P,) [SI] (e.g. a fitted solution):
+        where the engine chooses other settings there, they replace the chosen ones for these speeds.
+        Returns whether they changed (the caller then evaluates again, e.g. polishes the fit)."""
+        choose = getattr(self._engine_mod, "settings", None)
+        if choose is None:
+            return False
+        r = np.asarray(rpm, dtype=float)
+        old = self.settings(r)
+        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), self.cutting, r))
+        self._settings[r.tobytes()] = new
+        return new != old
 
 
 def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> Forward:

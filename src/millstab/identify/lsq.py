@@ -446,6 +446,10 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
     if f_scale is None:
         f_scale = 0.05
     sol, r_hat, j_hat = polish(problem, starts.best_u, loss=loss, f_scale=f_scale, max_nfev=max_nfev, central=central)
+    if problem.refine(np.exp(sol.x)):
+        # the engine's discretisation (chosen once, at the start) is not converged at the solution:
+        # polish again on the one chosen there
+        sol, r_hat, j_hat = polish(problem, sol.x, loss=loss, f_scale=f_scale, max_nfev=max_nfev, central=central)
     rss = float(r_hat @ r_hat)
     record(sol.x[None], np.array([rss]))
     iterations = len(record.rss) - 1  # screening is iteration 0

@@ -111,6 +111,11 @@ class Problem:
         self.n_calls += 1
         return np.minimum(np.where(np.isfinite(depth), depth, self._cap), self._cap)
 
+    def refine(self, theta: np.ndarray) -> bool:
+        """Re-check the engine's discretisation at the parameter row θ (P,) (a solution); True when it
+        changed (see :meth:`millstab.forward.Forward.refine`): the caller evaluates again."""
+        return self._forward.refine(theta, self._speeds)
+
     def predict_u(self, u: np.ndarray) -> np.ndarray:
         """:meth:`predict_mm` for log-parameters u = ln θ, shape (B, P)."""
         return self.predict_mm(np.exp(np.atleast_2d(u)))

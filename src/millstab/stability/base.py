@@ -102,6 +102,14 @@ class Engine(Protocol):
         time_averaged: the zero-order model (cutting forces averaged over the tooth period), which is a
             poor one at low radial immersion.
         depth_accuracy: relative accuracy of a limiting depth [-]; residuals below ~10× this are numerical.
+
+    Optional (consumers check with ``hasattr``; an engine without it is called with no keywords):
+        settings(batch, cutting, rpm) -> dict: keyword arguments of ``envelope_batch`` that fix the
+            engine's discretisation for a whole problem (e.g. the spectral engine's ``{"nodes": p}``),
+            chosen once from set 0 of ``batch`` at the speeds ``rpm``. :class:`millstab.forward.Forward`
+            asks once per speed list and passes them to every call, so the depths of one problem are
+            one smooth function of the parameters (finite differences, least squares); an engine that
+            chose its discretisation per call could change it between the calls of one search.
     """
 
     name: str

@@ -1,0 +1,107 @@
+"""Warm-started boundary points for the spectral engine (compiled): Newton from a guess, then the checks.
+
+A warm start replaces the root search at one (set, speed) when a good guess (depth b, multiplier angle
+θ) is known: the boundary of a nearly equal parameter set (the rows of a finite-difference Jacobian
+differ by 1e-4 in ln θ), or the zero-order boundary. It is accepted by the same rule that accepts a
+continued branch in :func:`millstab.stability._spectral_kernel.limit_run`: Newton on the characteristic
+function converges, and the full monodromy is stable at b·checks (nothing crossed below); a failed
+check brackets the crossing below, Newton from inside the bracket gives that root and it is checked in
+turn. A root of the characteristic equation is never below the first crossing (a multiplier on the unit
+circle means ρ ≥ 1), so an accepted point is the boundary the search from below finds, to Newton's
+~1e-12, wherever the checks see the crossing (the same limitation as every check ladder). Where
+Newton fails or leaves its bracket, the entry is reported not converged and the caller solves it cold
+(:func:`cold_entries`: the search from below at that speed alone).
+
+Kept apart from ``_spectral_kernel.limit_run`` (whose logic it mirrors without changing it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from millstab.stability._spectral_kernel import cmath_phase, limit_run, newton, rho, setup
+
+#: attempts of the check loop (a failed check yields a lower root, checked in turn), as limit_run
+ATTEMPTS = 4
+
+
+@nb.njit(cache=True)
+def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, wn, zeta, mass, mdir, act, elem_len, nd, checks):
+    """The boundary at one speed [rpm] from the guess (b0 [m], θ0 [rad] in [0, π]).
+
+    Returns (depth [m], θ, accepted, evaluations); depth NaN where not accepted."""
+    if not (math.isfinite(b0) and b0 > 0.0 and math.isfinite(th0)):
+        return np.nan, np.nan, False, 0
+    D = act.size
+    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    T = 60.0 / (n_teeth * rpm)
+    rho0 = 0.0
+    for j in range(wn.size):
+        rho0 = max(rho0, math.exp(-zeta[j] * wn[j] * T))
+    b, th, ok, count = newton(b0, th0, kt, wn, zeta, mass, mdir, g, nd)
+    if not ok:
+        return np.nan, np.nan, False, count
+    for _ in range(ATTEMPTS):
+        stable = True
+        f_lo = rho0 - 1.0
+        br_lo = 0.0
+        br_hi = 0.0
+        f_hi = 0.0
+        m_hi = complex(np.nan, np.nan)
+        for q in range(checks.size):
+            r, m_ = rho(b * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
+            count += 1
+            if r > 1.0:
+                stable = False
+                br_lo = b * checks[q - 1] if q > 0 else 0.0
+                br_hi = b * checks[q]
+                f_hi = r - 1.0
+                m_hi = m_
+                break
+            f_lo = r - 1.0
+        if stable:
+            return b, th, True, count
+        # a crossing below the root: Newton from the secant point of the bracket (as limit_run)
+        x = (br_lo * f_hi - br_hi * f_lo) / (f_hi - f_lo)
+        x = min(max(x, br_lo + 0.05 * (br_hi - br_lo)), br_hi - 0.02 * (br_hi - br_lo))
+        b, th, ok, c = newton(x, abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir, g, nd)
+        count += c
+        if not (ok and br_lo * (1.0 - 1e-6) < b < br_hi * (1.0 + 1e-6)):
+            return np.nan, np.nan, False, count
+    return np.nan, np.nan, False, count
+
+
+@nb.njit(cache=True, parallel=True)
+def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, wn, zeta, mass, mdir, act, elem_len, nd, checks,
+               depth, theta, ok, n_eval):
+    """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,)) at every
+    speed rpm (S,), guesses b0, th0 (E, S). Parallel over (entry, speed). Writes depth, theta, ok,
+    n_eval (E, S)."""
+    n_e = row.size
+    n_s = rpm.size
+    for t in nb.prange(n_e * n_s):
+        e = t // n_s
+        s = t % n_s
+        i = row[e]
+        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], wn[i], zeta[i], mass[i],
+                                    mdir, act, elem_len[i], nd, checks)
+        depth[e, s] = d
+        theta[e, s] = th
+        ok[e, s] = good
+        n_eval[e, s] = c
+
+
+@nb.njit(cache=True, parallel=True)
+def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
+                 elem_len, nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
+    """The search from below (``limit_run`` on one speed) for single entries (set row[e], speed rpm[col[e]]),
+    b_ref (E,) the ladder's reference depth [m]. Parallel over entries. Writes depth, mu, n_eval (E,)."""
+    for e in nb.prange(row.size):
+        i = row[e]
+        s = col[e]
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, ladder_cont, wn[i], zeta[i],
+                  mass[i], mdir, act, elem_len[i], nd, rtol, w_flex[i], checks, checks_up, depth[e:e + 1], mu[e:e + 1],
+                  n_eval[e:e + 1])

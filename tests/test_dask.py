@@ -167,3 +167,26 @@ def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
     steps = np.diff([0] + seen)
     assert seen[-1] == n and len(seen) == n // chunk and (steps == chunk).all()  # each block once, none lost
     np.testing.assert_array_equal(there.mse_mm2, here.mse_mm2)
+
+
+@needs_distributed
+def test_workers_compile_when_the_main_module_imports_numba(tmp_path):
+    """A worker process imports the caller's main module before the nanny applies its ``env``; with numba
+    imported there, the workers' first compile (a cold cache) failed ("Cannot set NUMBA_NUM_THREADS to a
+    different value once the threads have been launched"). Now the thread settings are in place before
+    the spawn: a fresh function compiles on the worker after :func:`one_thread`."""
+    script = tmp_path / "main_with_numba.py"
+    script.write_text(
+        "import numba\n"
+        "def task():\n"
+        "    from millstab.cluster import one_thread\n"
+        "    one_thread()\n"
+        "    return numba.njit(lambda x: x + 1)(41), numba.config.NUMBA_NUM_THREADS\n"
+        "if __name__ == '__main__':\n"
+        "    from millstab.cluster import open_client\n"
+        "    with open_client(workers=1) as c:\n"
+        "        print(c.submit(task, pure=False).result())\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=os.environ.copy(),
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "(42, 1)"

@@ -99,7 +99,11 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     # dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536: glibc then hands freed memory back at once
     # and the engine's arrays page-fault in again on every call (measured: ~16 % more CPU, 4.5x the minor
     # faults); the engine's memory is bounded by its chunk, so the workers keep glibc's default
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    # WORKER_ENV also goes in before the spawn: the worker process imports the caller's main module (and with it
+    # numba, reading NUMBA_NUM_THREADS) before the nanny's ``env`` is applied; numba would then start with the
+    # machine's core count and refuse the changed value at the first compile (a cold cache failed every task)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                          **{f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENV.items()}}):
         # dashboard on a free port (":0"): the scheduler's HTTP server starts anyway, and the default :8787 may be taken
         with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                       dashboard_address=":0", env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:

@@ -255,25 +255,43 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     b_ref = _b_ref(batch, cutting, rs)
     p = P_NODES if nodes is None else int(nodes)
     if nodes is None:
-        idx = _check_speeds(rs.size)
-        sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-        # each check speed is its own block: they are far apart, continuation between them only fails
-        d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
-        while p < P_MAX:
-            d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
-            with np.errstate(invalid="ignore"):
-                moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
-            if np.all(np.abs(moved) <= TOL):
-                break
-            p += P_STEP
-            if np.all(np.isfinite(moved)):
-                # the moved points are the boundary at p nodes: the next check starts from them (a
-                # root search per check speed saved)
-                d_c, mu_c = d_n, mu_n
-            else:  # Newton failed somewhere: search afresh at p nodes
-                d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+        p = _check_nodes(batch, cutting, rs, b_ref)
     depth, mu, _ = _solve(batch, cutting, rs, b_ref, p)
     return depth[:, inv], mu[:, inv], p
+
+
+def _check_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray) -> int:
+    """Collocation nodes per element from the convergence check on set 0 at the check speeds of the
+    sorted distinct speeds ``rs`` (b_ref: zero-order guesses (B, S) [m]); see :func:`_limit`."""
+    p = P_NODES
+    idx = _check_speeds(rs.size)
+    sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    # each check speed is its own block: they are far apart, continuation between them only fails
+    d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+    while p < P_MAX:
+        d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
+        with np.errstate(invalid="ignore"):
+            moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
+        if np.all(np.abs(moved) <= TOL):
+            break
+        p += P_STEP
+        if np.all(np.isfinite(moved)):
+            # the moved points are the boundary at p nodes: the next check starts from them (a
+            # root search per check speed saved)
+            d_c, mu_c = d_n, mu_n
+        else:  # Newton failed somewhere: search afresh at p nodes
+            d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+    return p
+
+
+def split_settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
+    """Keyword arguments of :func:`envelope_batch` (and ``_hz``) under which any part of ``batch`` gives,
+    row for row, the numbers of the whole batch's call: the nodes come from a convergence check on the
+    batch's first set, so a part must be given the whole's (used to split a batch over a Dask cluster).
+    Costs the check (one set at a few speeds)."""
+    rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
+    first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    return {"nodes": _check_nodes(first, cutting, rs, _b_ref(first, cutting, rs))}
 
 
 def lobe_kind(mu: np.ndarray) -> np.ndarray:

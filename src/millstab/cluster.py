@@ -43,6 +43,14 @@ TASK_SECONDS = 2.0
 IN_FLIGHT_PER_THREAD = 3
 #: environment of the workers this module starts: numba and BLAS single-threaded (one process per core)
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: dask settings of the local clusters this module starts (docs/cluster.md has the paired measurements):
+#: the statistical profiler (a thread sampling every thread's stack every 10 ms, for the dashboard) off:
+#: ~3 % of the workers' CPU; the event loops' tick monitor (20 ms, it only warns of a blocked loop) and the
+#: memory monitors (100 ms) at 1 s: the idle cluster's CPU falls from ~0.07 to ~0.017 CPU-s per second, which
+#: on 2 cores is ~3 % of the machine the engine gets back. The tasks' memory is bounded by the engine's chunk,
+#: so a memory check a second is enough.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                 "distributed.worker.memory.monitor-interval": "1s"}
 _EXTRA = "needs the optional extra: pip install 'millstab[dask]' (dask[distributed])"
 
 
@@ -103,7 +111,8 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     # numba, reading NUMBA_NUM_THREADS) before the nanny's ``env`` is applied; numba would then start with the
     # machine's core count and refuse the changed value at the first compile (a cold cache failed every task)
     with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                          **{f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENV.items()}}):
+                          **{f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENV.items()},
+                          **WORKER_CONFIG}):
         # dashboard on a free port (":0"): the scheduler's HTTP server starts anyway, and the default :8787 may be taken
         with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                       dashboard_address=":0", env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:

@@ -27,6 +27,8 @@ Figures printed:
   and the time it predicts for 10^8 envelopes on 256 cores.
 
 Run: ``python benchmarks/bench_dask.py [--paths 1000000] [--workers 2] [--serial-paths 2000]``.
+``--sweep [zoa spectral sdm] [--samples 4000]`` instead times one Bayesian likelihood sweep per engine here
+and on the cluster, and prints what the rule of :func:`millstab.cluster.sample_limits` decides.
 Progress lines (``progress:``) every 10 % of the main run keep the partial rates of an interrupted run.
 """
 

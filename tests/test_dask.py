@@ -173,23 +173,27 @@ def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
 def test_workers_compile_when_the_main_module_imports_numba(tmp_path):
     """A worker process imports the caller's main module before the nanny applies its ``env``; with numba
     imported there, the workers' first compile (a cold cache) failed ("Cannot set NUMBA_NUM_THREADS to a
-    different value once the threads have been launched"). Now the thread settings are in place before
-    the spawn: a fresh function compiles on the worker after :func:`one_thread`."""
+    different value once the threads have been launched"). Numba's thread count is now set per task only:
+    a fresh function compiles on the worker after :func:`one_thread`, and in this process after the
+    cluster (a NUMBA_NUM_THREADS set before the spawn stayed in this process's environment and broke it)."""
     script = tmp_path / "main_with_numba.py"
     script.write_text(
         "import numba\n"
         "def task():\n"
         "    from millstab.cluster import one_thread\n"
         "    one_thread()\n"
-        "    return numba.njit(lambda x: x + 1)(41), numba.config.NUMBA_NUM_THREADS\n"
+        "    return numba.njit(lambda x: x + 1)(41), numba.get_num_threads()\n"
         "if __name__ == '__main__':\n"
         "    from millstab.cluster import open_client\n"
+        "    numba.njit(lambda x: x)(0), numba.get_num_threads()  # this process's threads started\n"
         "    with open_client(workers=1) as c:\n"
-        "        print(c.submit(task, pure=False).result())\n")
+        "        print(c.submit(task, pure=False).result())\n"
+        "        numba.njit(lambda x: x - 1)(1)\n"
+        "    print(numba.njit(lambda x: x * 2)(21))\n")
     proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=os.environ.copy(),
                           cwd=tmp_path, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.strip() == "(42, 1)"
+    assert proc.stdout.split() == ["(42,", "1)", "42"]
 
 
 @needs_distributed

@@ -41,8 +41,14 @@ TASK_SECONDS = 2.0
 #: tasks submitted per worker thread before results come back: workers never wait, and the cluster holds
 #: at most this many unfetched results per thread (bounded memory, however many tasks the study has)
 IN_FLIGHT_PER_THREAD = 3
-#: environment of the workers this module starts: numba and BLAS single-threaded (one process per core)
-WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: environment of the workers this module starts: BLAS single-threaded (one process per core). Numba's
+#: thread count is NOT set here but per task (:func:`one_thread`): a worker imports the caller's main module
+#: (numba with it) before Dask applies this environment, and numba refuses a NUMBA_NUM_THREADS that changed
+#: after its threads started ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+#: launched", at the first compile: a cold cache failed every task); setting it before the spawn instead
+#: leaks it into this process for good (Dask's nanny updates os.environ and never restores it), where the
+#: same error then hits this process's next compile
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: dask settings of the local clusters this module starts (docs/cluster.md has the paired measurements):
 #: the statistical profiler (a thread sampling every thread's stack every 10 ms, for the dashboard) off:
 #: ~3 % of the workers' CPU; the event loops' tick monitor (20 ms, it only warns of a blocked loop) and the
@@ -107,12 +113,7 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     # dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536: glibc then hands freed memory back at once
     # and the engine's arrays page-fault in again on every call (measured: ~16 % more CPU, 4.5x the minor
     # faults); the engine's memory is bounded by its chunk, so the workers keep glibc's default
-    # WORKER_ENV also goes in before the spawn: the worker process imports the caller's main module (and with it
-    # numba, reading NUMBA_NUM_THREADS) before the nanny's ``env`` is applied; numba would then start with the
-    # machine's core count and refuse the changed value at the first compile (a cold cache failed every task)
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                          **{f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENV.items()},
-                          **WORKER_CONFIG}):
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None, **WORKER_CONFIG}):
         # dashboard on a free port (":0"): the scheduler's HTTP server starts anyway, and the default :8787 may be taken
         with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                       dashboard_address=":0", env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:

@@ -16,6 +16,11 @@ engine's ``envelope_batch``) cut their rows into tasks and run them on ``dask.di
   holds only a few tasks' results. A worker lost mid-run is handled by the scheduler: its tasks are run
   again elsewhere; every task is a pure function of its inputs, so a re-run returns the same numbers.
 
+* :func:`depths` -- any batch of parameter sets through an engine (SDM / spectral maps, Sobol, Morris);
+  :func:`sample_limits` -- the Bayesian likelihood's sweeps and the P(stable) map by sample rows, sent out
+  only where a measured probe says the work pays (:data:`PAYS_SECONDS`). Both hand every task the whole
+  batch's :func:`split_settings` (the interrupted-cutting engines choose their discretisation per batch).
+
 Each task runs numba with ONE thread (the parallelism is the cluster's): one worker process per core.
 Results do not depend on how the rows are cut (the engines evaluate every row independently, and the
 Monte Carlo draws are addressed by path index), so the same seed gives the same numbers, bit for bit,

@@ -27,6 +27,8 @@ Figures printed:
   and the time it predicts for 10^8 envelopes on 256 cores.
 
 Run: ``python benchmarks/bench_dask.py [--paths 1000000] [--workers 2] [--serial-paths 2000]``.
+``--sweep [zoa spectral sdm] [--samples 4000]`` instead times one Bayesian likelihood sweep per engine here
+and on the cluster, and prints what the rule of :func:`millstab.cluster.sample_limits` decides.
 Progress lines (``progress:``) every 10 % of the main run keep the partial rates of an interrupted run.
 """
 
@@ -77,6 +79,44 @@ def study(client, n: int, seed: int, progress=None):
                        progress=progress)
 
 
+def sweep(engines: list[str], samples: int, workers: int, repeats: int = 1) -> None:
+    """Where the cluster pays for the Bayesian likelihood: one sweep (all particles at the cut speeds, as
+    one Metropolis move of ``millstab update``) here and on ``workers`` local worker processes (forced
+    out, PAYS_SECONDS = 0), for each engine; CPU-seconds here, wall both ways, the rule's decision."""
+    from millstab import cluster
+    from millstab.update import make_prior
+    from millstab.update.likelihood import limits
+
+    cfg = load_example("ex1")
+    prior = make_prior(cfg.structure, cfg.cutting)
+    rpm = np.array([4500.0, 6000.0, 7500.0, 9000.0, 10500.0])  # five test cuts' speeds
+    u = prior.sample(samples, np.random.default_rng(0))
+    with open_client(workers=workers) as client:
+        for eng in engines:
+            n = samples if eng == "zoa" else max(2 * workers, samples // {"spectral": 10, "sdm": 200}[eng])
+            limits(prior, u[:2], rpm, eng)  # compile here
+            c0, t0 = time.thread_time(), time.perf_counter()
+            for _ in range(repeats):
+                here = limits(prior, u[:n], rpm, eng)[0]
+            cpu, wall = (time.thread_time() - c0) / repeats, (time.perf_counter() - t0) / repeats
+            sec = cluster.seconds_per_row(client, eng, prior.par, prior.cutting, rpm)
+            decided = "cluster" if sec * samples >= cluster.PAYS_SECONDS else "here"  # sample_limits' rule
+            old, cluster.PAYS_SECONDS = cluster.PAYS_SECONDS, 0.0
+            try:
+                t0 = time.perf_counter()
+                for _ in range(repeats):
+                    there = cluster.sample_limits(client, prior, u[:n], rpm, eng)[0]
+                wall_c = (time.perf_counter() - t0) / repeats
+            finally:
+                cluster.PAYS_SECONDS = old
+            assert np.array_equal(here, there)
+            print(f"sweep {eng}: {n} samples x {rpm.size} speeds: here {cpu:.3f} CPU-s ({wall:.3f} s wall) = "
+                  f"{1e3 * cpu / n:.3f} ms per sample; on {workers} workers {wall_c:.3f} s wall (ratio "
+                  f"{wall / wall_c:.2f}); {samples} samples would take {cpu / n * samples:.2f} CPU-s per sweep: the rule "
+                  f"(probe {1e3 * sec:.3f} ms per sample on a worker, ≥ {cluster.PAYS_SECONDS} s) says {decided}",
+                  flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", type=int, default=1_000_000, help="paths of the main run (10^6)")
@@ -84,8 +124,19 @@ def main() -> None:
     ap.add_argument("--serial-paths", type=int, default=2_000, help="paths of the in-process reference run")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--idle-seconds", type=float, default=20.0, help="idle cluster timed after the main run")
+    ap.add_argument("--sweep", nargs="*", default=None, metavar="ENGINE",
+                    help="instead: time one likelihood sweep per engine (zoa spectral sdm) here and on the cluster")
+    ap.add_argument("--samples", type=int, default=4000, help="particles of a --sweep (spectral runs 1/10, sdm 1/200)")
     args = ap.parse_args()
     print(describe())
+    if args.sweep is not None:
+        print("load average (1, 5, 15 min) at start: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
+        with threadpool_limits(1):
+            import numba
+
+            numba.set_num_threads(1)
+            sweep(args.sweep or ["zoa", "spectral", "sdm"], args.samples, args.workers)
+        return
     print(f"{_autogroup()}; load average (1, 5, 15 min) at start: " + ", ".join(f"{v:.1f}" for v in os.getloadavg()))
     print(f"Monte Carlo of Ex.1, {RPM.size} speeds, {ENVELOPES_PER_PATH} envelopes per path; every worker and the "
           "in-process reference run numba on 1 thread", flush=True)

@@ -26,7 +26,11 @@ of draws rejected is printed (those are cases no method can solve: a mode that h
     ``--stages 3``: 33 evenly spaced, then two rounds of fit-and-plan (33 + 34 tests).
 
 Run: ``.venv/bin/python benchmarks/bench_identify_robustness.py [--cases 50] [--seed 0] [--stages 2]``
-(about 2 minutes).
+(about 2 minutes). On a Dask cluster: ``--workers N`` (a local cluster started for the run) or ``--dask
+ADDRESS`` (a running scheduler): one task per case (:func:`millstab.cluster.stream`). The cases are drawn
+here, in order, from the one seeded stream (the rejected draws included), exactly as the serial run
+draws them; every fit is seeded by the case's index, and the totals are summed in case order, so the
+figures printed are the serial run's (the case lines come in the order the tasks finish).
 """
 
 from __future__ import annotations
@@ -62,8 +66,10 @@ class Tally:
         self.ok_fn = self.covered = self.total = self.all_covered = 0
         self.expected = 0.0
 
-    def add(self, fit, prob, truth, noise: float) -> tuple[float, float, int]:
-        """Score a fit (in the x↔y orientation closer to the truth); returns (fn error, fn σ, covered).
+    @staticmethod
+    def score(fit, prob, truth, noise: float) -> tuple[float, float, int, int, int, float]:
+        """Score a fit (in the x↔y orientation closer to the truth); returns (fn error, fn σ, parameters
+        covered, parameters, all covered, P(efficient estimator within 0.5 %)).
 
         Also adds the probability that an efficient unbiased estimator keeps every fn within 0.5 % with
         these speeds: Π 2Φ(0.5 %/σ_j) − 1, σ_j the Cramér–Rao bound noise·√((JᵀJ)⁻¹)_jj at the truth
@@ -74,14 +80,19 @@ class Tally:
         fn = [j for j, name in enumerate(prob.par.free) if name.startswith("fn")]
         jac = log_jacobians(prob.par, prob.cutting, truth[None], prob.rpm)[0][0]
         crb = noise * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac)))
-        self.expected += float(np.prod(2 * stats.norm.cdf(5e-3 / crb[fn]) - 1))
+        expected = float(np.prod(2 * stats.norm.cdf(5e-3 / crb[fn]) - 1))
         err = float(np.abs(est / truth - 1)[fn].max())
         cov = np.abs(est - truth) <= 2 * se
+        return err, float(max(se[j] / truth[j] for j in fn)), int(cov.sum()), int(cov.size), int(cov.all()), expected
+
+    def add(self, score: tuple) -> None:
+        """Count one case's :meth:`score` (call in case order: ``expected`` is a float sum)."""
+        err, _, covered, total, all_covered, expected = score
+        self.expected += expected
         self.ok_fn += err < 5e-3
-        self.covered += int(cov.sum())
-        self.total += cov.size
-        self.all_covered += bool(cov.all())
-        return err, float(max(se[j] / truth[j] for j in fn)), int(cov.sum())
+        self.covered += covered
+        self.total += total
+        self.all_covered += all_covered
 
     def line(self, n: int) -> str:
         return (f"fn within 0.5 % in {self.ok_fn}/{n} (an efficient estimator: {self.expected:.1f} on average); ±2σ coverage {self.covered}/{self.total} = "
@@ -107,6 +118,54 @@ def planned_fit(case, i: int, noise: float, stages: int = 2):
     return prob, fit_lsq(prob, seed=i)
 
 
+def run_case(case, i: int, noise: float, stages: int) -> dict:
+    """Case ``i`` alone (a pure function of the case and its index: the same record here or on a worker):
+    the noise-free fit, and the scores of the noisy evenly spaced and planned fits."""
+    truth = Parameterization(case.structure).theta0
+    # noise-free
+    prob = make_problem(case.start, case.cutting, boundary_points(case.structure, case.cutting, case.rpm))
+    perm = swap_permutation(prob.par, prob.cutting)
+    sym = perm if perm is not None else exchange_map(prob.par, prob.cutting, prob.engine)
+    fit = fit_lsq(prob, seed=i)
+    e = rel_error(fit.estimate, truth, sym)
+    # noisy, evenly spaced speeds
+    pts = boundary_points(case.structure, case.cutting, case.rpm, noise=noise, seed=1000 + i)
+    probn = make_problem(case.start, case.cutting, pts)
+    even = Tally.score(fit_lsq(probn, seed=i), probn, truth, noise)
+    # noisy, half evenly spaced and half planned
+    probp, fitp = planned_fit(case, i, noise, stages)
+    planned = Tally.score(fitp, probp, truth, noise)
+    flag = "" if e.max() < 1e-3 else "  <- not recovered"
+    line = (f"case {i:2d}: {case.cutting.teeth} teeth, immersion {np.degrees(case.cutting.entry):5.1f}-"
+            f"{np.degrees(case.cutting.exit):5.1f} deg, fn {truth[0]:6.0f}/{truth[3]:6.0f} Hz: clean max err "
+            f"{100 * e.max():.1e} %{flag}; noisy fn err (σ), ±2σ covers: evenly spaced {100 * even[0]:.3f} % "
+            f"({100 * even[1]:.3f} %) {even[2]}/6, planned {100 * planned[0]:.3f} % ({100 * planned[1]:.3f} %) "
+            f"{planned[2]}/6")
+    return {"ok": bool(e.max() < 1e-3), "exchange": sym is not None, "time_s": fit.time_s, "even": even,
+            "planned": planned, "line": line}
+
+
+def _case_task(noise: float, stages: int, case, i: int) -> dict:
+    """One case on a cluster worker, numba and BLAS on one thread (the workers are the parallelism)."""
+    from millstab.cluster import one_thread
+
+    one_thread()
+    with threadpool_limits(1):
+        return run_case(case, i, noise, stages)
+
+
+def draw_cases(rng: np.random.Generator, n: int, band: tuple[float, float]) -> tuple[list, int]:
+    """The first ``n`` identifiable cases of the stream (and the number of draws rejected)."""
+    cases, rejected = [], 0
+    while len(cases) < n:
+        case = random_case(rng, band=band)
+        if identifiability(case.structure, case.cutting, case.rpm) < 1e-2:
+            rejected += 1
+            continue
+        cases.append(case)
+    return cases, rejected
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=50)
@@ -115,43 +174,37 @@ def main() -> None:
     ap.add_argument("--stages", type=int, default=2, help="planned protocol: evenly spaced first share, then this many - 1 planned rounds")
     ap.add_argument("--band", type=float, nargs=2, default=(0.1, 0.6), metavar=("LO", "HI"),
                     help="tooth-passing frequency band of the speeds, as fractions of the lower natural frequency")
+    ap.add_argument("--workers", type=int, default=None, help="run the cases on a local Dask cluster of N worker processes")
+    ap.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on the Dask scheduler at ADDRESS")
     args = ap.parse_args()
     print(describe())
     rng = np.random.default_rng(args.seed)
-    ok_clean = rejected = n_exch = 0
-    even, planned = Tally(), Tally()
-    times = []
     t_all = time.perf_counter()
+    records: list = [None] * args.cases
     with threadpool_limits(1):
-        i = 0
-        while i < args.cases:
-            case = random_case(rng, band=tuple(args.band))
-            if identifiability(case.structure, case.cutting, case.rpm) < 1e-2:
-                rejected += 1
-                continue
-            truth = Parameterization(case.structure).theta0
-            # noise-free
-            prob = make_problem(case.start, case.cutting, boundary_points(case.structure, case.cutting, case.rpm))
-            perm = swap_permutation(prob.par, prob.cutting)
-            sym = perm if perm is not None else exchange_map(prob.par, prob.cutting, prob.engine)
-            n_exch += sym is not None
-            fit = fit_lsq(prob, seed=i)
-            times.append(fit.time_s)
-            e = rel_error(fit.estimate, truth, sym)
-            ok_clean += bool(e.max() < 1e-3)
-            # noisy, evenly spaced speeds
-            pts = boundary_points(case.structure, case.cutting, case.rpm, noise=args.noise, seed=1000 + i)
-            probn = make_problem(case.start, case.cutting, pts)
-            err_e, sd_e, cov_e = even.add(fit_lsq(probn, seed=i), probn, truth, args.noise)
-            # noisy, half evenly spaced and half planned
-            probp, fitp = planned_fit(case, i, args.noise, args.stages)
-            err_p, sd_p, cov_p = planned.add(fitp, probp, truth, args.noise)
-            flag = "" if e.max() < 1e-3 else "  <- not recovered"
-            print(f"case {i:2d}: {case.cutting.teeth} teeth, immersion {np.degrees(case.cutting.entry):5.1f}-"
-                  f"{np.degrees(case.cutting.exit):5.1f} deg, fn {truth[0]:6.0f}/{truth[3]:6.0f} Hz: clean max err "
-                  f"{100 * e.max():.1e} %{flag}; noisy fn err (σ), ±2σ covers: evenly spaced {100 * err_e:.3f} % "
-                  f"({100 * sd_e:.3f} %) {cov_e}/6, planned {100 * err_p:.3f} % ({100 * sd_p:.3f} %) {cov_p}/6", flush=True)
-            i += 1
+        cases, rejected = draw_cases(rng, args.cases, tuple(args.band))
+        if args.workers is None and args.dask is None:
+            for i, case in enumerate(cases):
+                records[i] = run_case(case, i, args.noise, args.stages)
+                print(records[i]["line"], flush=True)
+        else:
+            from millstab.cluster import open_client, stream
+
+            def take(i: int, rec: dict) -> None:
+                records[i] = rec
+                print(rec["line"], flush=True)
+
+            with open_client(args.dask, args.workers) as client:
+                print(f"Dask: {len(client.scheduler_info()['workers'])} workers; one task per case", flush=True)
+                stream(client, _case_task, [(case, i) for i, case in enumerate(cases)], take,
+                       common=(args.noise, args.stages), name="identify-case")
+    even, planned = Tally(), Tally()
+    for rec in records:  # in case order: the float sums are those of the serial run
+        even.add(rec["even"])
+        planned.add(rec["planned"])
+    ok_clean = sum(r["ok"] for r in records)
+    n_exch = sum(r["exchange"] for r in records)
+    times = [r["time_s"] for r in records]
     n = args.cases
     print(f"draws rejected as not identifiable (s_min < 0.01): {rejected}")
     print(f"noise-free: {ok_clean}/{n} recovered within 0.1 % in every parameter "

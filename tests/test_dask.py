@@ -167,3 +167,122 @@ def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
     steps = np.diff([0] + seen)
     assert seen[-1] == n and len(seen) == n // chunk and (steps == chunk).all()  # each block once, none lost
     np.testing.assert_array_equal(there.mse_mm2, here.mse_mm2)
+
+
+@needs_distributed
+def test_workers_compile_when_the_main_module_imports_numba(tmp_path):
+    """A worker process imports the caller's main module before the nanny applies its ``env``; with numba
+    imported there, the workers' first compile (a cold cache) failed ("Cannot set NUMBA_NUM_THREADS to a
+    different value once the threads have been launched"). Numba's thread count is now set per task only:
+    a fresh function compiles on the worker after :func:`one_thread`, and in this process after the
+    cluster (a NUMBA_NUM_THREADS set before the spawn stayed in this process's environment and broke it)."""
+    script = tmp_path / "main_with_numba.py"
+    script.write_text(
+        "import numba\n"
+        "def task():\n"
+        "    from millstab.cluster import one_thread\n"
+        "    one_thread()\n"
+        "    return numba.njit(lambda x: x + 1)(41), numba.get_num_threads()\n"
+        "if __name__ == '__main__':\n"
+        "    from millstab.cluster import open_client\n"
+        "    numba.njit(lambda x: x)(0), numba.get_num_threads()  # this process's threads started\n"
+        "    with open_client(workers=1) as c:\n"
+        "        print(c.submit(task, pure=False).result())\n"
+        "        numba.njit(lambda x: x - 1)(1)\n"
+        "    print(numba.njit(lambda x: x * 2)(21))\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=os.environ.copy(),
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.split() == ["(42,", "1)", "42"]
+
+
+@needs_distributed
+@pytest.mark.parametrize("engine", ["spectral", "sdm"])
+def test_interrupted_engine_depths_on_cluster_equal_one_local_call(client, engine):
+    """SDM / spectral maps on the cluster: the rows split over tasks give the numbers of ONE local call on
+    all rows. These engines choose their discretisation from the whole batch (sdm: steps from the highest
+    natural frequency; spectral: nodes from a check on the first set), so each task is told the whole
+    batch's choice (``split_settings``); without it the parts differed (sdm ~1e-6, spectral ~0.4 %)."""
+    from millstab import cluster
+
+    par = Parameterization(CFG.structure)
+    rng = np.random.default_rng(4)
+    rows = THETA * (1 + 0.1 * (2 * rng.random((2 if engine == "sdm" else 7, 6)) - 1))  # sdm: ~1 s per set
+    rows[1, 3] *= 1.15  # the highest mode is not the first row's (sdm's steps follow the batch maximum)
+    rpm = np.array([4000.0, 10500.0]) if engine == "sdm" else np.array([4000.0, 7000.0, 10500.0])
+    here = forward(par, CFG.cutting, engine)(rows, rpm)
+    there = cluster.depths(client, engine, par, CFG.cutting, rows, rpm, chunk_rows=1 if engine == "sdm" else 2)
+    np.testing.assert_array_equal(there, here)
+
+
+TOML = """name = "t"
+[cutting]
+teeth = 2
+kt = "556.31 MPa"
+kr = 0.404
+entry = "0 deg"
+exit = "180 deg"
+[[structure.x]]
+fn = "903 Hz"
+k = "12.53 N/um"
+zeta = 0.03
+[[structure.y]]
+fn = "1050 Hz"
+k = "15 N/um"
+zeta = 0.04
+"""
+
+
+@needs_distributed
+def test_update_and_map_on_cluster_give_the_local_posterior(client, monkeypatch, tmp_path):
+    """Same seed, same posterior with and without a client (spectral engine, a measured chatter frequency:
+    depths and frequencies come back from the workers), and the same P(stable) map through the CLI's
+    ``map --dask``; the cluster forced (PAYS_SECONDS = 0) since this small case would stay here."""
+    from millstab import cluster
+    from millstab.cli import main
+    from millstab.io.config import parse_config
+    from millstab.io.points import PointSet
+    from millstab.update import update
+
+    cfg = parse_config(TOML)
+    cuts = PointSet([6000.0, 8000.0], [3.0, 1.0], ["chatter", "stable"], chatter_hz=[1010.0, float("nan")])
+    here = update(cfg, cuts, engine="spectral", samples=16, seed=3, moves=1)
+    calls = []
+    stream = cluster.stream
+    monkeypatch.setattr(cluster, "stream", lambda *a, **k: calls.append(1) or stream(*a, **k))
+    monkeypatch.setattr(cluster, "PAYS_SECONDS", 0.0)
+    there = update(cfg, cuts, engine="spectral", samples=16, seed=3, moves=1, client=client)
+    assert len(calls) == there.diagnostics["loglik_calls"] > 1 and there.diagnostics["frequency_term"]
+    np.testing.assert_array_equal(there.samples, here.samples)
+    post = tmp_path / "post.json"
+    post.write_text(json.dumps(here.to_json()))
+    args = ["map", str(post), "--rpm", "5000:9000:1000", "--depth", "0.5:4:0.5"]
+    assert main(args + ["--out", str(tmp_path / "here.csv")]) == 0
+    n = len(calls)
+    assert main(args + ["--out", str(tmp_path / "there.csv"), "--dask", client.scheduler.address]) == 0
+    assert len(calls) == n + 1
+    assert (tmp_path / "here.csv").read_text() == (tmp_path / "there.csv").read_text()
+
+
+@needs_distributed
+def test_zoa_likelihood_stays_in_this_process(client):
+    """Where it pays: a zoa sweep of 4 000 samples at the cut speeds is milliseconds (measured on a worker):
+    no round trip; the rule (PAYS_SECONDS of estimated work) sends it out only when forced, then with the
+    local numbers."""
+    from millstab import cluster
+    from millstab.update import make_prior
+    from millstab.update.likelihood import limits
+
+    prior = make_prior(CFG.structure, CFG.cutting)
+    u = prior.sample(4000, np.random.default_rng(0))
+    rpm = np.array([5000.0, 6500.0, 9000.0])
+    assert cluster.sample_limits(client, prior, u, rpm, "zoa") is None
+    old = cluster.PAYS_SECONDS
+    try:
+        cluster.PAYS_SECONDS = 0.0
+        depth, hz = cluster.sample_limits(client, prior, u, rpm, "zoa", True)
+    finally:
+        cluster.PAYS_SECONDS = old
+    d0, h0 = limits(prior, u, rpm, "zoa", True)
+    np.testing.assert_array_equal(depth, d0)
+    np.testing.assert_array_equal(hz, h0)

@@ -16,6 +16,11 @@ engine's ``envelope_batch``) cut their rows into tasks and run them on ``dask.di
   holds only a few tasks' results. A worker lost mid-run is handled by the scheduler: its tasks are run
   again elsewhere; every task is a pure function of its inputs, so a re-run returns the same numbers.
 
+* :func:`depths` -- any batch of parameter sets through an engine (SDM / spectral maps, Sobol, Morris);
+  :func:`sample_limits` -- the Bayesian likelihood's sweeps and the P(stable) map by sample rows, sent out
+  only where a measured probe says the work pays (:data:`PAYS_SECONDS`). Both hand every task the whole
+  batch's :func:`split_settings` (the interrupted-cutting engines choose their discretisation per batch).
+
 Each task runs numba with ONE thread (the parallelism is the cluster's): one worker process per core.
 Results do not depend on how the rows are cut (the engines evaluate every row independently, and the
 Monte Carlo draws are addressed by path index), so the same seed gives the same numbers, bit for bit,
@@ -41,8 +46,22 @@ TASK_SECONDS = 2.0
 #: tasks submitted per worker thread before results come back: workers never wait, and the cluster holds
 #: at most this many unfetched results per thread (bounded memory, however many tasks the study has)
 IN_FLIGHT_PER_THREAD = 3
-#: environment of the workers this module starts: numba and BLAS single-threaded (one process per core)
-WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: environment of the workers this module starts: BLAS single-threaded (one process per core). Numba's
+#: thread count is NOT set here but per task (:func:`one_thread`): a worker imports the caller's main module
+#: (numba with it) before Dask applies this environment, and numba refuses a NUMBA_NUM_THREADS that changed
+#: after its threads started ("Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+#: launched", at the first compile: a cold cache failed every task); setting it before the spawn instead
+#: leaks it into this process for good (Dask's nanny updates os.environ and never restores it), where the
+#: same error then hits this process's next compile
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: dask settings of the local clusters this module starts (docs/cluster.md has the paired measurements):
+#: the statistical profiler (a thread sampling every thread's stack every 10 ms, for the dashboard) off:
+#: ~3 % of the workers' CPU; the event loops' tick monitor (20 ms, it only warns of a blocked loop) and the
+#: memory monitors (100 ms) at 1 s: the idle cluster's CPU falls from ~0.07 to ~0.017 CPU-s per second, which
+#: on 2 cores is ~3 % of the machine the engine gets back. The tasks' memory is bounded by the engine's chunk,
+#: so a memory check a second is enough.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                 "distributed.worker.memory.monitor-interval": "1s"}
 _EXTRA = "needs the optional extra: pip install 'millstab[dask]' (dask[distributed])"
 
 
@@ -99,7 +118,7 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     # dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536: glibc then hands freed memory back at once
     # and the engine's arrays page-fault in again on every call (measured: ~16 % more CPU, 4.5x the minor
     # faults); the engine's memory is bounded by its chunk, so the workers keep glibc's default
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None, **WORKER_CONFIG}):
         # dashboard on a free port (":0"): the scheduler's HTTP server starts anyway, and the default :8787 may be taken
         with distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                       dashboard_address=":0", env=WORKER_ENV, silence_logs=logging.ERROR) as cluster:
@@ -124,9 +143,14 @@ def _warm_task(engine: str, par, cutting, rpm: np.ndarray, probe_rows: int) -> f
     f = forward(par, cutting, engine)
     theta = par.theta0[None, :]
     f(theta, rpm[: min(2, rpm.size)])
-    rows = np.repeat(theta, probe_rows, axis=0)
     # CPU time of this thread (numba on one thread runs here), not the wall clock: on a crowded machine the
     # wall clock of a few milliseconds is mostly waiting, and tasks sized by it would be far too small
+    t0 = time.thread_time()
+    f(theta, rpm)
+    one = time.thread_time() - t0
+    if one * probe_rows > 0.5:  # an expensive engine (sdm: ~1 s per set): one set times it well enough
+        return one
+    rows = np.repeat(theta, probe_rows, axis=0)
     t0 = time.thread_time()
     f(rows, rpm)
     return (time.thread_time() - t0) / probe_rows
@@ -217,19 +241,36 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def _depths_task(engine: str, par, cutting, rpm: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """On a worker: limiting depths (R, S) [m] of parameter rows (R, P), numba on one thread."""
+def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
+    """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
+    for row, the numbers of ONE local call on all of them: an engine with the ``settings`` capability
+    (spectral: the node count) gets what :class:`millstab.forward.Forward` passes (chosen at the first
+    row); sdm gets its ``split_settings`` (the steps follow the batch's highest natural frequency); {} for
+    an engine whose rows are evaluated alone with no choice per call (zoa)."""
     from millstab.forward import forward
+    from millstab.stability import get_engine
+
+    eng = get_engine(engine)
+    if hasattr(eng, "settings"):
+        return forward(par, cutting, engine).settings(np.asarray(rpm, dtype=float), np.asarray(theta_rows)[0])
+    fn = getattr(eng, "split_settings", None)
+    return fn(par.batch(theta_rows), cutting, rpm) if fn is not None else {}
+
+
+def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, rows: np.ndarray) -> np.ndarray:
+    """On a worker: limiting depths (R, S) [m] of parameter rows (R, P), numba on one thread."""
+    from millstab.stability import get_engine
 
     one_thread()
-    return forward(par, cutting, engine)(rows, rpm)
+    return get_engine(engine).envelope_batch(par.batch(rows), cutting, rpm, **settings)
 
 
 def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray,
            progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
-    the cluster: the same numbers as ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row is
-    evaluated independently), for SDM/spectral maps as for the sensitivity studies.
+    the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
+    is evaluated alone, under the whole batch's :func:`split_settings`), for SDM/spectral maps as for
+    the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
     ``progress(rows_done, R)`` after each task's result has arrived.
@@ -240,10 +281,85 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     rpm = np.asarray(rpm, dtype=float)
     theta_rows = np.asarray(theta_rows, dtype=float)
     n = theta_rows.shape[0]
+    settings = split_settings(engine, par, cutting, theta_rows, rpm)
     sec = warm(client, engine, par, cutting, rpm)
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)
     out = np.empty((n, rpm.size))
     stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], rows_into(out, starts, progress),
-           common=(engine, par, cutting, rpm), name="depths")
+           common=(engine, par, cutting, rpm, settings), name="depths")
     return out
+
+
+# ---- the Bayesian sampler's likelihood and the P(stable) map: rows = posterior samples ----------------------
+
+#: a batch of samples goes to the cluster only when its engine work is estimated at ≥ this many CPU-seconds
+#: (timed on a worker, :func:`seconds_per_row`): below, a round trip to the cluster (submitting, pickling the
+#: prior, gathering; tens of milliseconds) and the split would cost more than they save. The zero-order
+#: engine's sweep of 4 000 samples at a few cut speeds is milliseconds: it stays in this process; the
+#: interrupted-cutting engines (sdm, spectral) take seconds per sweep and go out.
+PAYS_SECONDS = 1.0
+_probed: dict[tuple, float] = {}
+
+
+def seconds_per_row(client: Any, engine: str, par, cutting, rpm: np.ndarray) -> float:
+    """Worker CPU seconds per parameter set at these speeds (one :func:`warm` per client, engine, speed
+    count and parameter count; remembered for the client's lifetime)."""
+    key = (client.id, engine, int(rpm.size), int(par.size), len(par.base.x), len(par.base.y))
+    if key not in _probed:
+        _probed[key] = warm(client, engine, par, cutting, rpm, probe_rows=8)
+    return _probed[key]
+
+
+def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings: dict, u: np.ndarray):
+    """On a worker: what :func:`millstab.update.likelihood.limits` computes for the sample rows ``u``
+    (depths [mm] with a free Kt's exact factor; chatter frequencies [Hz] or None) under the whole
+    batch's ``settings``, numba on one thread."""
+    from millstab.stability import get_engine
+
+    one_thread()
+    theta, factor = prior.split(u)
+    eng = get_engine(engine)
+    batch = prior.par.batch(theta)
+    if with_freq and eng.reports_chatter_frequency:
+        depth, hz = eng.envelope_batch_hz(batch, prior.cutting, rpm, **settings)
+    else:
+        depth, hz = eng.envelope_batch(batch, prior.cutting, rpm, **settings), None
+    return depth * 1e3 * factor[:, None], hz
+
+
+def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
+                  with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
+    (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
+    exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
+    the same numbers). Returns None when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
+    from millstab.stability.zoa import check_rpm
+
+    check_client(client)
+    rpm = check_rpm(rpm)
+    u = np.asarray(u, dtype=float)
+    n = u.shape[0]
+    work = n * seconds_per_row(client, engine, prior.par, prior.cutting, rpm)
+    if work < PAYS_SECONDS:
+        return None
+    threads = max(1, sum(client.nthreads().values()))
+    tasks = min(n, max(threads, int(np.ceil(work / TASK_SECONDS))))
+    per = -(-n // tasks)
+    starts = range(0, n, per)
+    depth = np.empty((n, rpm.size))
+    hz: list[np.ndarray | None] = [None]
+
+    def take(i: int, value) -> None:
+        d, h = value
+        s = starts[i]
+        depth[s:s + d.shape[0]] = d
+        if h is not None:
+            if hz[0] is None:
+                hz[0] = np.empty((n, rpm.size))
+            hz[0][s:s + h.shape[0]] = h
+
+    settings = split_settings(engine, prior.par, prior.cutting, prior.split(u)[0], rpm)
+    stream(client, _samples_task, [(u[s:s + per],) for s in starts], take,
+           common=(prior, rpm, engine, with_freq, settings), name="samples")
+    return depth, hz[0]

@@ -17,10 +17,11 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, start=None, progress: Progress | None = None):
+           seed: int = 0, start=None, progress: Progress | None = None, client=None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
-    among ``cuts`` (sequential reuse: only the new cuts are tempered in).
+    among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
+    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior).
 
     Raises:
         InputError: fewer than 100 samples, bad cuts (see :class:`millstab.update.Evidence`), bad prior.
@@ -31,7 +32,12 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     if samples < 100:
         raise InputError("--samples", samples, "need at least 100 samples")
     cfg, _ = modal(cfg)
-    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress)
+    if client is not None:  # a wrong client fails before any work
+        from millstab.cluster import check_client
+
+        check_client(client)
+    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
+                      client=client)
 
 
 def posterior_from_json(doc, source: str = "posterior"):
@@ -54,8 +60,9 @@ def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.nd
     return np.arange(1, n + 1) * (max_mm / n)
 
 
-def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
-    """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones.
+def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None) -> np.ndarray:
+    """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones;
+    ``client``: the samples' limits on its Dask cluster where that pays (same numbers).
 
     Raises:
         InputError: more than :data:`MAX_MAP_CELLS` cells.
@@ -67,7 +74,11 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
                          f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max {MAX_MAP_CELLS:.0e})")
     warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), "the map", stacklevel=3)
-    return p_stable_map(post, rpm, depth_mm)
+    if client is not None:
+        from millstab.cluster import check_client
+
+        check_client(client)
+    return p_stable_map(post, rpm, depth_mm, client)
 
 
 def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[list[str], list]:

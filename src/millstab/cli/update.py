@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
 from millstab.parsing import parse_rpm_range
 from millstab.errors import InputError
 from millstab.stability import ENGINES
@@ -36,6 +37,8 @@ def update_cmd(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
+    dask: DaskOpt = None,
+    workers: WorkersOpt = None,
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC)."""
     from rich.console import Console
@@ -53,8 +56,11 @@ def update_cmd(
     cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
     if note:
         typer.echo(note)
-    post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
-                      start=_load_posterior(start) if start is not None else None)
+    # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral;
+    # not zoa, whose sweeps take milliseconds): millstab.cluster.sample_limits
+    with _client(dask, workers) as client:
+        post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
+                          start=_load_posterior(start) if start is not None else None, client=client)
     doc = post.to_json()
     doc["config"] = cfg.name
     write_json(out, doc, protect=protect)
@@ -87,6 +93,8 @@ def map_cmd(
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
+    dask: DaskOpt = None,
+    workers: WorkersOpt = None,
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -99,7 +107,8 @@ def map_cmd(
     depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post = _load_posterior(posterior)
     check_outputs({"POSTERIOR": posterior}, {"--out": out, "--plot": plot}, figures=("--plot",))
-    pm = api.p_stable(post, speeds, depths)
+    with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
+        pm = api.p_stable(post, speeds, depths, client)
     write_csv(out, *api.map_table(speeds, depths, pm), protect=[posterior])
     con = Console()
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")

@@ -235,10 +235,11 @@ def _static_scale(batch: ModalBatch, cutting: Cutting) -> np.ndarray:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
-           progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Limiting depths (B, S) [m] and dominant multipliers (B, S) at the boundary."""
+           progress: Progress | None = None, fn_max_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Limiting depths (B, S) [m] and dominant multipliers (B, S) at the boundary; the default steps
+    follow ``fn_max_hz`` [Hz] (default: the batch's highest natural frequency, :func:`split_settings`)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
-    st = _steps(steps, float(np.max(wn) / (2 * math.pi)), cutting, r)
+    st = _steps(steps, _fn_max_hz(wn) if fn_max_hz is None else float(fn_max_hz), cutting, r)
     b_ref = zoa.envelope_batch(batch, cutting, r)
     fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
     # where the zero-order method finds no boundary, take the largest finite one of that set (or a static scale)
@@ -310,11 +311,22 @@ def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int
 
 
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None,
-                   progress: Progress | None = None) -> np.ndarray:
+                   progress: Progress | None = None, fn_max_hz: float | None = None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm];
-    ``progress(stage, done, total)`` counts (structure, speed) pairs."""
+    ``progress(stage, done, total)`` counts (structure, speed) pairs; ``fn_max_hz``: see :func:`split_settings`."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, steps, progress)[0]
+    return _limit(batch, cutting, r, steps, progress, fn_max_hz)[0]
+
+
+def _fn_max_hz(wn: np.ndarray) -> float:
+    return float(np.max(wn) / (2 * math.pi))
+
+
+def split_settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
+    """Keyword arguments of :func:`envelope_batch` under which any part of ``batch`` gives, row for row,
+    the numbers of the whole batch's call: the default steps per period follow the batch's highest
+    natural frequency, so a part must be told the whole's (used to split a batch over a Dask cluster)."""
+    return {"fn_max_hz": _fn_max_hz(_arrays(batch)[0])}
 
 
 # -- the engine contract (millstab.stability.base.Engine) -----------------------------------------

@@ -31,7 +31,8 @@ DEFAULT_SAMPLES = 4000
 
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
-           progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None) -> Posterior:
+           progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
+           client=None) -> Posterior:
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
@@ -49,6 +50,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             is the prior of cut n + 1): its samples start the sampler and only the later cuts are
             tempered in, which takes far fewer stages than a fresh update. Its prior, engine and data must
             be those of this update's first cuts (boundary points included).
+        client: a ``distributed.Client``: the likelihood's engine calls run on its cluster where that pays
+            (:func:`millstab.cluster.sample_limits`); the same seed gives the same posterior.
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
@@ -57,7 +60,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ev = Evidence.from_points(cuts, points)
-        lik = Likelihood(pr, ev, engine)
+        lik = Likelihood(pr, ev, engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if start is None:

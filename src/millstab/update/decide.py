@@ -76,9 +76,10 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
     return 1.0 - below / n
 
 
-def p_stable_map(post: Posterior, rpm, depth_mm) -> np.ndarray:
-    """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call."""
-    blim, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine)
+def p_stable_map(post: Posterior, rpm, depth_mm, client=None) -> np.ndarray:
+    """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
+    Dask cluster where that pays, same numbers)."""
+    blim, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine, client=client)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 

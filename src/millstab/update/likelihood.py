@@ -51,20 +51,29 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
-           with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+           with_freq: bool = False, client=None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm]; a free Kt
     scales the depths exactly (see :mod:`millstab.update.prior`). ``inf`` where no boundary exists.
     Frequencies come only from an engine declaring ``reports_chatter_frequency`` (else ``None``).
+    ``client``: a ``distributed.Client``; the rows go to its cluster where that pays (same numbers).
     """
+    if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
+        from millstab.cluster import sample_limits
+
+        out = sample_limits(client, prior, u, rpm, engine, with_freq)
+        if out is not None:
+            return out
     theta, factor = prior.split(u)
     rpm = zoa.check_rpm(rpm)
     eng = get_engine(engine)
+    fwd = forward(prior.par, prior.cutting, engine)
     if with_freq and eng.reports_chatter_frequency:
-        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), prior.cutting, rpm)
+        # the discretisation the depths-only path would get (Forward's settings), so both agree
+        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), prior.cutting, rpm, **fwd.settings(rpm, theta[0]))
     else:
-        depth, hz = forward(prior.par, prior.cutting, engine)(theta, rpm), None
+        depth, hz = fwd(theta, rpm), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -156,9 +165,9 @@ class Likelihood:
         n_calls, n_sets: engine calls and parameter sets evaluated so far.
     """
 
-    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa"):
+    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None):
         get_engine(engine)  # a clear error for an unknown name
-        self.prior, self.evidence, self.engine = prior, evidence, engine
+        self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
         self.speeds = ev.speeds
         self._ic = np.searchsorted(self.speeds, ev.cut_rpm)
@@ -180,7 +189,7 @@ class Likelihood:
         return self._hz.size > 0
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
-        depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency)
+        depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency, self.client)
         self.n_calls += 1
         self.n_sets += depth.shape[0]
         return self.from_limits(depth, hz)
@@ -193,7 +202,7 @@ class Likelihood:
         new = np.arange(self.evidence.n_cuts) >= n_old
 
         def parts(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency)
+            depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency, self.client)
             self.n_calls += 1
             self.n_sets += depth.shape[0]
             return self.from_limits(depth, hz, ~new, True), self.from_limits(depth, hz, new, False)

@@ -57,6 +57,26 @@ def test_map_and_recommend_from_the_json_alone(shop, capsys):
     assert {"rpm", "depth_mm", "why"} <= set(rec["next_test"])
 
 
+def test_recommend_rule_options_reach_the_library(shop):
+    """--confidence none --speed-tolerance 0 is the plain rule of millstab.update.recommend (the same cut),
+    and the default rule is at least as cautious (its depth never deeper at the same risk)."""
+    from millstab.update import recommend
+    from millstab.update.posterior import Posterior
+
+    post = Posterior.from_json(json.loads((shop / "post.json").read_text()))
+    assert main(["recommend", str(shop / "post.json"), "--rpm", "5000:9000", "--max-depth", "3", "--confidence", "none",
+                 "--speed-tolerance", "0", "--out", str(shop / "plain.json")]) == 0
+    plain = json.loads((shop / "plain.json").read_text())
+    lib = recommend(post, 0.05, (5000, 9000), max_depth_mm=3, confidence=None, speed_tolerance=0.0)
+    assert plain["rpm"] == pytest.approx(lib.rpm, rel=1e-12) and plain["depth_mm"] == pytest.approx(lib.depth_mm, rel=1e-12)
+    assert main(["recommend", str(shop / "post.json"), "--rpm", "5000:9000", "--max-depth", "3",
+                 "--out", str(shop / "safe.json")]) == 0
+    safe = json.loads((shop / "safe.json").read_text())
+    assert safe["confidence"] == 0.9 and safe["speed_tolerance"] == 0.0025
+    # the default rule's cuts are a subset of the plain rule's, so its best removal rate is no higher
+    assert safe["depth_mm"] * safe["rpm"] <= plain["depth_mm"] * plain["rpm"] * (1 + 1e-3)
+
+
 @pytest.mark.parametrize("args, text", [
     (["recommend", "{d}/post.json", "--risk", "0", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["recommend", "{d}/post.json", "--rpm", "9000:5000", "--out", "{d}/r.json"], "--rpm"),
@@ -67,6 +87,10 @@ def test_map_and_recommend_from_the_json_alone(shop, capsys):
     (["update", "example:ex1", "{d}/marg.csv", "--out", "{d}/p.json"], "stable or chatter"),
     (["update", "example:ex1", "{d}/cuts.csv", "--out", "{d}/cuts.csv"], "--out"),
     (["update", "{d}/neg.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.fn"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--confidence", "1", "--out", "{d}/r.json"], "--confidence"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--confidence", "high", "--out", "{d}/r.json"], "--confidence"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--speed-tolerance", "0.2", "--out", "{d}/r.json"],
+     "--speed-tolerance"),
 ])
 def test_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     (shop / "bad.csv").write_text("rpm,depth_mm,label\n5000,1,wobbly\n")

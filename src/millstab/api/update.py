@@ -104,14 +104,15 @@ def corner_figure(post):
 
 
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
-              width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0):
+              width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0, **rule):
     """The most productive cut with P(chatter) ≤ ``risk`` in ``rpm_range`` [rev/min], and the next test
-    (:func:`millstab.update.recommend`).
+    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance`` and
+    ``coarse_points``, defaults there).
 
     Raises:
-        InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0.
+        InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0, a bad confidence or tolerance.
     """
     from millstab.update import recommend as run_recommend
 
     return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
-                         seed=seed)
+                         seed=seed, **rule)

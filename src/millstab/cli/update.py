@@ -3,6 +3,7 @@ the recommended cut."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -120,6 +121,19 @@ def map_cmd(
         con.print(f"wrote {plot}")
 
 
+def _confidence(text: str) -> float | None:
+    """--confidence as a number in [0.5, 1), or None for 'none'."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.5 <= value < 1:
+        raise InputError("--confidence", text, "a one-sided confidence in [0.5, 1), e.g. 0.9, or 'none'")
+    return value
+
+
 @app.command("recommend")
 def recommend_cmd(
     posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update."),
@@ -129,6 +143,12 @@ def recommend_cmd(
     radial_width: Optional[float] = typer.Option(None, "--radial-width", help="Radial width of cut [mm] (for cm³/min)."),
     feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the next-test subsample."),
+    confidence: str = typer.Option("0.9", "--confidence",
+                                   help="P(chatter) <= RISK must hold with this one-sided confidence against the "
+                                        "posterior's sampling error, in [0.5, 1); 'none': the plain sample count."),
+    speed_tolerance: float = typer.Option(0.0025, "--speed-tolerance",
+                                          help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
+                                               "(0.0025 = ±0.25 %)."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
 ) -> None:
     """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
@@ -141,10 +161,13 @@ def recommend_cmd(
     if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
     lo, hi = parse_interval(rpm, "--rpm", "rpm", positive=True)
+    conf = _confidence(confidence)
+    if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
+        raise InputError("--speed-tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
     post = _load_posterior(posterior)
     check_outputs({"POSTERIOR": posterior}, {"--out": out})
     rec = api.recommend(post, risk, (lo, hi), max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth,
-                        seed=seed)
+                        seed=seed, confidence=conf, speed_tolerance=speed_tolerance)
     write_json(out, rec.to_json(), protect=[posterior])
     con = Console()
     mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""

@@ -857,6 +857,32 @@ def _add_branch(br_b, br_t, br_b2, br_on, b, th):
 
 
 @nb.njit(cache=True)
+def check_rungs(b, rungs, rho0, kt, wn, zeta, mass, mdir, D, g, nd):
+    """The full monodromy's stability at the depths b·rungs [m] (rungs ascending, below 1), which accept a
+    boundary root b: returns (stable, bracket low [m], bracket high [m], ρ − 1 at both ends, the dominant
+    multiplier at the high end, ρ evaluations). On the first unstable rung the bracket is (the last stable
+    rung, or 0 with ρ − 1 = rho0 − 1, that rung); when every rung is stable only ``stable`` and the count
+    mean anything."""
+    f_lo = rho0 - 1.0
+    br_lo = 0.0
+    for q in range(rungs.size):
+        r, m_ = rho(b * rungs[q], kt, wn, zeta, mass, mdir, D, g, nd)
+        if r > 1.0:
+            return False, br_lo, b * rungs[q], f_lo, r - 1.0, m_, q + 1
+        br_lo = b * rungs[q]
+        f_lo = r - 1.0
+    return True, 0.0, 0.0, f_lo, 0.0, complex(np.nan, np.nan), rungs.size
+
+
+@nb.njit(cache=True)
+def secant_start(br_lo, br_hi, f_lo, f_hi):
+    """Newton's start inside a bracket [br_lo, br_hi] of ρ − 1 (values f_lo < 0 < f_hi): the secant point,
+    kept 5 % / 2 % of the bracket away from its ends."""
+    x = (br_lo * f_hi - br_hi * f_lo) / (f_hi - f_lo)
+    return min(max(x, br_lo + 0.05 * (br_hi - br_lo)), br_hi - 0.02 * (br_hi - br_lo))
+
+
+@nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act, elem_len,
               nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
@@ -946,23 +972,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
             # above a rising boundary a new lobe (a flip band at low immersion) can open far below it
             # (measured: at 20–60 % of the continued root): more rungs there
             ch = checks_up if s > 0 and b1 > RISE * depth[s - 1] else checks
-            stable = True
-            f_lo = rho0 - 1.0
-            br_lo = 0.0
-            br_hi = 0.0
-            f_hi = 0.0
-            m_hi = complex(np.nan, np.nan)
-            for q in range(ch.size):
-                r, m_ = rho(b1 * ch[q], kt, wn, zeta, mass, mdir, D, g, nd)
-                count += 1
-                if r > 1.0:
-                    stable = False
-                    br_lo = b1 * ch[q - 1] if q > 0 else 0.0
-                    br_hi = b1 * ch[q]
-                    f_hi = r - 1.0
-                    m_hi = m_
-                    break
-                f_lo = r - 1.0
+            stable, br_lo, br_hi, f_lo, f_hi, m_hi, c = check_rungs(b1, ch, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+            count += c
             if stable:
                 depth[s] = b1
                 mu[s] = complex(math.cos(br_t[best]), math.sin(br_t[best]))
@@ -970,9 +981,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                 acc = best
                 break
             # an unknown crossing below: Newton from the secant point of the bracket
-            x = (br_lo * f_hi - br_hi * f_lo) / (f_hi - f_lo)
-            x = min(max(x, br_lo + 0.05 * (br_hi - br_lo)), br_hi - 0.02 * (br_hi - br_lo))
-            bn, thn, ok, c = newton(x, abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir, g, nd)
+            bn, thn, ok, c = newton(secant_start(br_lo, br_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass,
+                                    mdir, g, nd)
             count += c
             if not (ok and bn < br_hi * (1.0 + 1e-6) and bn > br_lo * (1.0 - 1e-6)):
                 d, m2, c = _illinois(br_lo, f_lo, br_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)

@@ -22,7 +22,7 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._spectral_kernel import cmath_phase, limit_run, newton, rho, setup
+from millstab.stability._spectral_kernel import check_rungs, cmath_phase, limit_run, newton, secant_start, setup
 
 #: attempts of the check loop (a failed check yields a lower root, checked in turn), as limit_run
 ATTEMPTS = 4
@@ -45,29 +45,13 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, wn, zeta, mass, mdir
     if not ok:
         return np.nan, np.nan, False, count
     for _ in range(ATTEMPTS):
-        stable = True
-        f_lo = rho0 - 1.0
-        br_lo = 0.0
-        br_hi = 0.0
-        f_hi = 0.0
-        m_hi = complex(np.nan, np.nan)
-        for q in range(checks.size):
-            r, m_ = rho(b * checks[q], kt, wn, zeta, mass, mdir, D, g, nd)
-            count += 1
-            if r > 1.0:
-                stable = False
-                br_lo = b * checks[q - 1] if q > 0 else 0.0
-                br_hi = b * checks[q]
-                f_hi = r - 1.0
-                m_hi = m_
-                break
-            f_lo = r - 1.0
+        stable, br_lo, br_hi, f_lo, f_hi, m_hi, c = check_rungs(b, checks, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+        count += c
         if stable:
             return b, th, True, count
         # a crossing below the root: Newton from the secant point of the bracket (as limit_run)
-        x = (br_lo * f_hi - br_hi * f_lo) / (f_hi - f_lo)
-        x = min(max(x, br_lo + 0.05 * (br_hi - br_lo)), br_hi - 0.02 * (br_hi - br_lo))
-        b, th, ok, c = newton(x, abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir, g, nd)
+        b, th, ok, c = newton(secant_start(br_lo, br_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir, g,
+                              nd)
         count += c
         if not (ok and br_lo * (1.0 - 1e-6) < b < br_hi * (1.0 + 1e-6)):
             return np.nan, np.nan, False, count

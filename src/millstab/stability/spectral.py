@@ -122,10 +122,10 @@ every parameter within 0.12 % (RMS log residual 7.7e-4); the kernel's evaluation
 alternately with the previous code on the shared machine (load 7–13, 2 cores): old 409.7 s (5 834
 evaluations, 70 ms each) against new 130.3 s (2 663, 49 ms), and again 523.9 s (90 ms) against 176.5 s (66
 ms): 3.0–3.1× in all, 1.35–1.45× per evaluation, and 2.2× fewer evaluations (the screening now runs at p =
-6, not 4). On the idle machine the old code took 215–266 s, so about 70–90 s is expected. The issue's < 60 s
-is not reached on the loaded machine; the screening (513 cold sets) and the re-seeding rounds, when the
-search needs them, are cold searches. The zero-order engine on the same points: 10.5 s, off by up to 83 %
-(the damping ratios; k 12–15 %).
+6, not 4). With the faster kernel merged (reduced monodromy, cost-balanced blocks), on the idle machine
+(load ~1.9, 2026-11-23 22:46): **26.8 s**, 2 544 evaluations, 10.5 ms each, every parameter within 0.121 %
+(the issue's < 60 s and 0.5 %); what remains is mostly cold searches (the 513-set screening). The
+zero-order engine on the same points: 0.2 s, off by up to 83 % (the damping ratios; k 12–15 %).
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 

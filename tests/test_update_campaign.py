@@ -34,8 +34,14 @@ def test_campaign_records_agree_with_the_truth_and_the_cuts():
     # the best truly stable productivity by brute force on a dense grid (the record uses 361 speeds)
     dense = np.linspace(5000, 12000, 20001)
     brute = (np.minimum(truth(dense), 8.0) * dense).max()
-    assert 0.99 * brute <= camp.best <= brute * (1 + 1e-12)
-    assert camp.best == best_productivity(truth, (5000, 12000), 8.0)
+    assert 0.99 * brute <= camp.best_exact <= brute * (1 + 1e-4)  # the refinement may beat the grid slightly
+    assert camp.best_exact == best_productivity(truth, (5000, 12000), 8.0)
+    # under the decision's ±0.25 % speed tolerance: the depth must hold at Ω and Ω(1 ± 0.0025), by brute force
+    tol = 0.0025
+    robust = np.minimum.reduce([truth(dense * f) for f in (1 - tol, 1.0, 1 + tol)])
+    brute_tol = (np.minimum(robust, 8.0) * dense).max()
+    assert 0.99 * brute_tol <= camp.best <= brute_tol * (1 + 1e-4) and camp.best < camp.best_exact
+    assert camp.best == best_productivity(truth, (5000, 12000), 8.0, speed_tolerance=tol)
     for k in range(4):
         assert camp.rec_productivity[k] == camp.rec_rpm[k] * camp.rec_depth_mm[k] / camp.best
         assert camp.rec_stable[k] == bool(camp.rec_depth_mm[k] < truth([camp.rec_rpm[k]])[0])

@@ -95,10 +95,12 @@ def virtual_campaign(ctx) -> None:
     rep.table("campaign", ["cuts", "label of the last cut", "recommended rpm", "recommended depth [mm]", "truly stable",
                            "productivity / best", "Brier score of the map"], rows,
               f"The virtual campaign cut by cut: the recommendation at risk {RISK:g} after k cuts, judged against the "
-              "truth; productivity = depth × speed over that of the best truly stable cut; Brier score = mean squared "
+              "truth; productivity = depth × speed over that of the best truly stable cut under the same constraints "
+              "(stable also at ±0.25 % spindle-speed error, as the recommendation must be); Brier score = mean squared "
               "difference between P(stable) and the true 0/1 stability on a 61 × 40 grid")
     reached = next((k for k in range(CUTS + 1) if camp.rec_stable[k] and camp.rec_productivity[k] >= 0.85), None)
     fin_ok, fin_p = camp.rec_stable[-1], camp.rec_productivity[-1]
+    fin_exact = camp.rec_rpm[-1] * camp.rec_depth_mm[-1] / camp.best_exact
     rep.figure("fig_campaign", plot_campaign(rpm, depth, maps, truth(rpm), cuts, recs, np.array(camp.rec_productivity),
                                              np.array(camp.rec_stable), prior_sld),
                f"A virtual campaign: P(stable) after {', '.join(map(str, SHOWN))} cuts (colour; 5/50/95 % contours "
@@ -110,7 +112,8 @@ def virtual_campaign(ctx) -> None:
         f"Measured in this run: from the hammer test alone (0 cuts) the recommendation is "
         f"{'truly stable' if camp.rec_stable[0] else 'a chattering cut'} at {camp.rec_productivity[0]:.2f} of the best; "
         f"after {CUTS} tool-chosen cuts it is {'truly stable' if fin_ok else 'a chattering cut'} at {fin_p:.2f} of "
-        f"the best ({camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm); "
+        f"the best ({camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm; {fin_exact:.2f} of the exact best, "
+        f"which sits on a pocket's cusp that no cut tolerating a speed error can use); "
         + (f"85 % of the best was first reached, stably, after {reached} cuts; " if reached is not None else
            "85 % of the best was not reached stably; ")
         + f"{n_ok} of the {CUTS + 1} recommendations along the way were truly stable. The map's Brier score went "
@@ -124,8 +127,8 @@ def virtual_campaign(ctx) -> None:
         "likelihood allows a swapped label with probability 0.02. Measured with "
         "benchmarks/bench_update_campaign.py, not in this run: over 100 calibration campaigns (--calibrate: truth "
         "drawn from the prior, labels from the likelihood's own noise model, 1 000 samples) the recommendation "
-        "after 10 cuts was truly stable in 98, at a median 0.90 of the best truly stable cut's productivity "
-        "(≥ 0.85 and stable in 69), the 90 % intervals covered the truth in 86–92 % per parameter and the "
+        "after 10 cuts was truly stable in 98, at a median 0.90 of the exact best truly stable cut's productivity "
+        "(≥ 0.85 and stable in 69; the exact best, without the speed tolerance), the 90 % intervals covered the truth in 86–92 % per parameter and the "
         "Brier score beat the prior's in 91; from the hammer-test SLD alone 14 of 100 were stable, after ten "
         "evenly spaced cuts 93 at a median 0.65. With model error (a/D 0.1, labels from SDM with 3 % noise, "
         "updated with zoa; 10 campaigns, 500 samples) 10 of 10 were stable at a median 0.92 (≥ 0.85 in 7), the "
@@ -135,8 +138,9 @@ def virtual_campaign(ctx) -> None:
     rep.check(f"Virtual campaign: after {CUTS} tool-chosen cuts the recommendation at risk {RISK:g} is truly stable",
               f"{camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm, true limit "
               f"{truth([camp.rec_rpm[-1]])[0]:.2f} mm", fin_ok)
-    rep.check(f"Virtual campaign: after {CUTS} cuts its productivity is ≥ 85 % of the best truly stable cut",
-              f"{fin_p:.2f}", fin_p >= 0.85)
+    rep.check(f"Virtual campaign: after {CUTS} cuts its productivity is ≥ 85 % of the best truly stable cut under "
+              "the same constraints (±0.25 % speed error)", f"{fin_p:.2f} (of the exact best: {fin_exact:.2f})",
+              fin_p >= 0.85)
     rep.check("Virtual campaign: the P(stable) map's Brier score after the cuts beats the prior's",
               f"{camp.brier[0]:.4f} → {camp.brier[-1]:.4f}", camp.brier[-1] < camp.brier[0])
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from millstab.io.points import PointSet
 from millstab.update import update
-from millstab.update.decide import p_stable_map, recommend
+from millstab.update.decide import SPEED_TOLERANCE, p_stable_map, recommend
 from millstab.update.posterior import Posterior, exchange_of, split_modes
 from millstab.update.prior import Prior
 
@@ -41,8 +41,10 @@ class Campaign:
         cut_rpm, cut_depth_mm, labels, chatter_hz: the cuts in the order they were made.
         rec_rpm, rec_depth_mm, rec_stable, rec_productivity: the recommendation after 0, 1, … cuts
             (index k = after k cuts; 0 = the prior's), whether it is truly stable, and its productivity
-            relative to the best truly stable cut.
-        best: productivity (mm·rpm) of the best truly stable cut.
+            relative to the best truly stable cut under the same constraints (speed range, depth cap, and the
+            decision's spindle-speed tolerance: :func:`best_productivity`).
+        best: productivity (mm·rpm) of that best cut; best_exact: of the exact best (no speed tolerance, it
+            may sit on a pocket's cusp), for reporting both.
         brier: Brier score of the P(stable) map against the truth after 0, 1, … cuts (when asked).
         posteriors: the posterior after k cuts for the k in ``keep`` (index 0 = prior draws).
         stages: tempering stages of each update.
@@ -58,16 +60,33 @@ class Campaign:
     rec_stable: list[bool] = field(default_factory=list)
     rec_productivity: list[float] = field(default_factory=list)
     best: float = 0.0
+    best_exact: float = 0.0
     brier: list[float] = field(default_factory=list)
     posteriors: dict[int, Posterior] = field(default_factory=dict)
     stages: list[int] = field(default_factory=list)
     failed: list[int] = field(default_factory=list)
 
 
-def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361) -> float:
-    """max over speeds of min(b_lim,true, max depth)·Ω [mm·rpm] on ``n`` evenly spaced speeds."""
+def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361,
+                      speed_tolerance: float = 0.0) -> float:
+    """The best truly stable cut under the recommendation's constraints: max over speeds Ω (``n`` evenly
+    spaced, refined around the best three) of min(b_lim,true, max depth)·Ω [mm·rpm], b_lim,true taken as its smallest at Ω and Ω·(1 ± speed_tolerance)
+    (the speeds at which :func:`millstab.update.recommend` holds its risk; 0: the exact best, which may sit on
+    a pocket's cusp that no cut tolerating a speed error can use)."""
+    off = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
+
+    def rate(speeds: np.ndarray) -> np.ndarray:
+        lim = truth((speeds[None, :] * (1 + off[:, None])).ravel()).reshape(off.size, speeds.size).min(axis=0)
+        return np.minimum(lim, max_depth_mm) * speeds
+
     fine = np.linspace(*rpm_range, n)
-    return float((np.minimum(truth(fine), max_depth_mm) * fine).max())
+    r = rate(fine)
+    # the best sits on a pocket's cusp (with a tolerance, on a narrower peak): refine around the three best
+    # grid speeds, ±1 grid step on 41 speeds each
+    step = fine[1] - fine[0]
+    top = fine[np.argsort(r)[-3:]]
+    near = np.clip((top[:, None] + np.linspace(-step, step, 41)[None, :]).ravel(), *rpm_range)
+    return float(max(r.max(), rate(near).max()))
 
 
 def brier_score(post: Posterior, truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray]) -> float:
@@ -100,7 +119,9 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
     """
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
-    out = Campaign(best=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
+    tol = (decision or {}).get("speed_tolerance", SPEED_TOLERANCE)
+    out = Campaign(best=best_productivity(truth, rpm_range, max_depth_mm, best_speeds, tol),
+                   best_exact=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
     post = Posterior(prior, np.exp(prior.sample(samples, rng)), engine, cuts={"rpm": [lo, hi]})
     last: Posterior | None = None  # the last posterior of an update (the start of the next one)
     with warnings.catch_warnings():

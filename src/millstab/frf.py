@@ -96,10 +96,9 @@ class ModalBatch:
 
     def structure(self, i: int = 0) -> Structure:
         """Parameter set ``i`` as a :class:`Structure`."""
-        import warnings
+        from millstab.warnlog import quiet
 
-        with warnings.catch_warnings():  # values already validated; a batch may legitimately hold soft values
-            warnings.simplefilter("ignore")
+        with quiet():  # values already validated; a batch may legitimately hold soft values
             modes = {d: tuple(Mode(getattr(self, f"fn_{d}")[i, m], getattr(self, f"k_{d}")[i, m], getattr(self, f"zeta_{d}")[i, m],
                                    f"structure.{d}[{m}]") for m in range(getattr(self, f"fn_{d}").shape[1])) for d in ("x", "y")}
         return Structure(x=modes["x"], y=modes["y"])

@@ -17,13 +17,13 @@ allowed.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
 from millstab.errors import FRFWarning, InputError, UnitWarning
+from millstab.warnlog import quiet, warn
 
 #: Below this modal stiffness [N/m] a value is almost surely N/µm typed as N/m (the seed paper's
 #: Table 1 prints "12.53 N/m" for 12.53 N/µm).
@@ -70,7 +70,7 @@ class Mode:
         if not 0 < zeta < 1:
             raise InputError(f"{self.name}.zeta", self.zeta, "damping ratio must be in (0, 1)")
         if k < SUSPICIOUS_STIFFNESS:
-            warnings.warn(
+            warn(
                 f"{self.name}.k = {k:g} N/m is very low for a tool tip; did you mean "
                 f"{k:g} N/um (= {k * 1e6:g} N/m)? Give units explicitly, e.g. \"{k:g} N/um\".",
                 UnitWarning,
@@ -164,7 +164,7 @@ class MeasuredFRF:
             object.__setattr__(self, term, h)
             i = wrong_sign_resonance(h) if term in ("xx", "yy") else None
             if i is not None:
-                warnings.warn(sign_convention_message(f"frf.{term}", f[i], h[i]), FRFWarning, stacklevel=3)
+                warn(sign_convention_message(f"frf.{term}", f[i], h[i]), FRFWarning, stacklevel=3)
 
     def matrix(self) -> np.ndarray:
         """The 2×2 receptance matrix per frequency, shape (F, 2, 2), missing terms zero [m/N]."""
@@ -214,8 +214,7 @@ class Structure:
         """The same structure with x and y interchanged."""
         if self.frf is not None:
             f = self.frf
-            with warnings.catch_warnings():  # the terms were checked when this FRF was built
-                warnings.simplefilter("ignore", FRFWarning)
+            with quiet(FRFWarning):  # the terms were checked when this FRF was built
                 return Structure(frf=MeasuredFRF(f.freq_hz, f.yy, f.xx, f.yx, f.xy))
         return Structure(x=self.y, y=self.x)
 
@@ -262,7 +261,7 @@ class Cutting:
         if kt <= 0:
             raise InputError("cutting.kt", self.kt, "tangential cutting coefficient must be > 0 N/m^2")
         if kt < 1e5:
-            warnings.warn(
+            warn(
                 f"cutting.kt = {kt:g} N/m^2 is very low for metal cutting; did you mean {kt:g} N/mm^2 (MPa)? "
                 f"Give units explicitly, e.g. \"{kt:g} MPa\".",
                 UnitWarning,

@@ -3,7 +3,6 @@ speeds of the next tests (around a prior or a fit)."""
 
 from __future__ import annotations
 
-import warnings
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -13,6 +12,7 @@ from millstab.api.progress import Progress, solver_progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
+from millstab.warnlog import warn
 
 #: candidate speeds of a plan when neither the caller nor the config gives a range: this many evenly
 #: spaced speeds over the config's [speeds] range is the finest the plan needs (the lobes of a 5 kHz
@@ -149,7 +149,7 @@ def check_fit_matches(doc, source: str, cfg: Config) -> None:
         doc = doc.to_json()
     rec = doc.get("cutting") if isinstance(doc, dict) else None
     if rec is None:
-        warnings.warn(f"--fit {source}: the file does not record the cutting conditions it was fitted under (written "
+        warn(f"--fit {source}: the file does not record the cutting conditions it was fitted under (written "
                       "by an older millstab), so it cannot be checked against this config: make sure it comes from "
                       f"{cfg.name}", UserWarning, stacklevel=2)
     else:
@@ -167,7 +167,7 @@ def check_fit_matches(doc, source: str, cfg: Config) -> None:
                          f"{want_layout['x']} and {want_layout['y']}: plan with the config the fit was made from")
     made_from = doc.get("config") if isinstance(doc, dict) else None
     if isinstance(made_from, str) and made_from != cfg.name:
-        warnings.warn(f"--fit {source} was made from config {made_from!r}, this is {cfg.name!r}; their cutting conditions "
+        warn(f"--fit {source} was made from config {made_from!r}, this is {cfg.name!r}; their cutting conditions "
                       "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
 
 

@@ -53,7 +53,6 @@ from __future__ import annotations
 import csv
 import math
 import re
-import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -63,6 +62,7 @@ from millstab.errors import FRFWarning, InputError, UnitWarning, show
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, COMMA_NUMBER, check_comma_separated, parse_number, read_text
 from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
+from millstab.warnlog import quiet, warn
 
 #: extension → format name
 FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
@@ -465,12 +465,12 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
         if f[0] == 0.0:
             f, h = f[1:], h[1:]
         if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
-            warnings.warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
+            warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
                           f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
                           UnitWarning, stacklevel=2)
         i = wrong_sign_resonance(h) if name in ("xx", "yy") else None
         if i is not None:
-            warnings.warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
+            warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
         terms[name] = (f, h)
         files[name] = p.name
     if "xx" not in terms and "yy" not in terms:
@@ -485,7 +485,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
                          f"the terms must share at least 4 frequencies of the {ref_name} axis")
     coverage = _band_loss(terms, files, lo, hi)
     if coverage:
-        warnings.warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
+        warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
                       f"{coverage}", FRFWarning, stacklevel=2)
     f_common = f_ref[keep]
     out: dict[str, np.ndarray] = {}
@@ -495,8 +495,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
         else:
             out[name] = np.interp(f_common, f, h.real) + 1j * np.interp(f_common, f, h.imag)
     try:
-        with warnings.catch_warnings():  # the sign convention was checked above, naming the files
-            warnings.simplefilter("ignore", FRFWarning)
+        with quiet(FRFWarning):  # the sign convention was checked above, naming the files
             return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
     except InputError as exc:
         raise InputError(f"{field}: {exc.field}", exc.value, exc.allowed) from None

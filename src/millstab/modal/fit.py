@@ -44,7 +44,6 @@ Units: frequencies in Hz at the interface, ω in rad/s inside; receptance in m/N
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,6 +52,7 @@ from threadpoolctl import threadpool_limits
 
 from millstab.errors import FRFWarning, InputError
 from millstab.modal.lscf import Candidate, Stabilisation, lscf, stable_clusters
+from millstab.warnlog import warn
 
 #: highest LSCF polynomial order of the stabilisation diagram (up to MAX_ORDER/2 pole pairs)
 MAX_ORDER = 40
@@ -354,7 +354,7 @@ def _check_drive_point(fn: np.ndarray, phase: np.ndarray, g: np.ndarray, where: 
                          "direction), or negate the imaginary column of conjugated data")
     skew = np.abs(phase) > WARN_PHASE_DEG
     for i in np.flatnonzero(skew):
-        warnings.warn(f"FRF {where}: the residue of the mode at {fn[i]:.6g} Hz is {phase[i]:+.0f} deg off the "
+        warn(f"FRF {where}: the residue of the mode at {fn[i]:.6g} Hz is {phase[i]:+.0f} deg off the "
                       f"drive-point -90 deg (non-proportional damping, a skewed sensor or a neighbouring mode); "
                       f"k is fitted with the drive-point phase", FRFWarning, stacklevel=3)
 

@@ -6,7 +6,6 @@ One file per direction (``FRF_X`` is the xx drive point, ``FRF_Y`` the yy one), 
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,6 +15,7 @@ from millstab.errors import InputError
 from millstab.io.frf_files import load_measured_frf
 from millstab.model import Cutting, MeasuredFRF, Mode, Structure
 from millstab.modal.fit import MIN_LINES, DirectionFit, fit_direction
+from millstab.warnlog import quiet
 
 
 def parse_band(text: str | None) -> tuple[float, float] | None:
@@ -96,8 +96,7 @@ def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, mod
             continue
         f, h = read_direction(path, d, band, rec)
         fits[d] = fit_direction(f, h, direction=d, source=Path(path).name, modes=n)
-    with warnings.catch_warnings():  # a soft fitted k is what was measured; the report shows it in N/um
-        warnings.simplefilter("ignore")
+    with quiet():  # a soft fitted k is what was measured; the report shows it in N/um
         structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(fit.modes))
                                  for d, fit in fits.items()})
     return ModalResult(fits, structure, band)
@@ -110,8 +109,7 @@ def measured_structure(frf_x, frf_y=None, band: tuple[float, float] | None = Non
     for term, path, rec in (("xx", frf_x, records[0]), ("yy", frf_y, records[1])):
         if path is not None:
             src[term] = {"file": str(path), "record": rec} if rec is not None else str(path)
-    with warnings.catch_warnings():  # already warned when the directions were read
-        warnings.simplefilter("ignore")
+    with quiet():  # already warned when the directions were read
         frf = load_measured_frf(**src, field="FRF")
     if band is not None:
         keep = (frf.freq_hz >= band[0]) & (frf.freq_hz <= band[1])
@@ -172,8 +170,7 @@ def fitted_config(cfg, modes: int | str = "auto"):
     frf = cfg.structure.frf
     fits = {d: fit_direction(frf.freq_hz, getattr(frf, t), direction=d, source=f"structure.frf.{t}", modes=modes)
             for d, t in (("x", "xx"), ("y", "yy")) if getattr(frf, t) is not None}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet():
         structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(f.modes))
                                  for d, f in fits.items()})
     parts = [f"{d}: " + ", ".join(f"{m.fn:.5g} Hz {m.k / 1e6:.4g} N/um zeta {m.zeta:.4g}" for m in f.modes)

@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import warnings
 from typing import Callable
 
 import numpy as np
@@ -24,6 +23,7 @@ from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.posterior import Posterior
 from millstab.update.prior import Prior, make_prior
 from millstab.update.sampler import tempered_smc
+from millstab.warnlog import collect, emit
 
 #: the default number of posterior samples (the reference's ~4 000 weighted samples)
 DEFAULT_SAMPLES = 4000
@@ -57,12 +57,11 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             draw can explain.
     """
     pr = prior or make_prior(config.structure, config.cutting, getattr(config, "prior", None))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with collect() as caught:
         ev = Evidence.from_points(cuts, points)
         lik = Likelihood(pr, ev, engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        emit(w)
     if start is None:
         res = tempered_smc(pr.sample, pr.logpdf, lik, samples, seed=seed, moves=moves, progress=progress)
     else:

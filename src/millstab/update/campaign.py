@@ -15,7 +15,6 @@ the time-domain simulation) and the report. Units: rpm and mm.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -26,6 +25,7 @@ from millstab.update import update
 from millstab.update.decide import SPEED_TOLERANCE, p_stable_map, recommend
 from millstab.update.posterior import Posterior, exchange_of, split_modes
 from millstab.update.prior import Prior
+from millstab.warnlog import quiet
 
 #: labels of cuts: (rpm (K,), depth_mm (K,), rng) -> (labels, chatter frequencies [Hz] or NaN)
 Labeler = Callable[[np.ndarray, np.ndarray, np.random.Generator], tuple[list[str], list[float]]]
@@ -124,8 +124,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
                    best_exact=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
     post = Posterior(prior, np.exp(prior.sample(samples, rng)), engine, cuts={"rpm": [lo, hi]})
     last: Posterior | None = None  # the last posterior of an update (the start of the next one)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # one-sided early data and ranges beyond the cuts are expected here
+    with quiet():  # one-sided early data and ranges beyond the cuts are expected here
         for k in range(cuts + 1):
             if k:
                 ps = PointSet(out.cut_rpm, out.cut_depth_mm, out.labels, chatter_hz=out.chatter_hz)

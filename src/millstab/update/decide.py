@@ -38,7 +38,6 @@ whether the process chatters).
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +46,7 @@ from millstab.errors import InputError
 from millstab.update._bald import label_information
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
+from millstab.warnlog import warn
 
 #: speeds of the coarse grid of :func:`recommend`
 COARSE_POINTS = 200
@@ -88,7 +88,7 @@ def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer"
     ``what`` leans on the prior."""
     data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
     if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
-        warnings.warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
+        warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
                       f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
@@ -220,7 +220,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     n_eff = effective_samples(post)
     count = allowed_count(n, risk, n_eff, confidence)
     if count < 0:
-        warnings.warn(f"{n_eff:.0f} effective samples cannot bound P(chatter) ≤ {risk:g} at {confidence:.0%} "
+        warn(f"{n_eff:.0f} effective samples cannot bound P(chatter) ≤ {risk:g} at {confidence:.0%} "
                       "confidence: the recommendation is the least limit of all samples; update with more --samples",
                       UserWarning, stacklevel=2)
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)

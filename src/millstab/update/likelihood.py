@@ -34,7 +34,6 @@ Units: rpm, mm, Hz at this module's interface; the engines work in m.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +45,7 @@ from millstab.points import PointSet
 from millstab.stability import get_engine
 from millstab.stability import zoa
 from millstab.update.prior import Prior
+from millstab.warnlog import warn
 
 _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 
@@ -143,7 +143,7 @@ class Evidence:
         if b_rpm.size == 0 and (n_st == 0 or n_ch == 0):
             only = "stable" if n_ch == 0 else "chatter"
             side = "from below" if only == "stable" else "from above"
-            warnings.warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "
+            warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "
                           "and the P(stable) map lean on the prior; add a cut on the other side", UserWarning, stacklevel=2)
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
         return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w)
@@ -176,7 +176,7 @@ class Likelihood:
         self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
         hz = np.isfinite(ev.cut_hz)
         if hz.any() and not get_engine(engine).reports_chatter_frequency:
-            warnings.warn(f"the {engine} engine reports no limiting-lobe chatter frequency in its batched path: the "
+            warn(f"the {engine} engine reports no limiting-lobe chatter frequency in its batched path: the "
                           f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
             hz = np.zeros_like(hz)
         self._hz = np.flatnonzero(hz)

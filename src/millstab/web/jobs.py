@@ -7,7 +7,6 @@ from __future__ import annotations
 import threading
 import time
 import traceback
-import warnings
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
 
@@ -16,6 +15,7 @@ import panel as pn
 from millstab import api
 from millstab.errors import InputError
 from millstab.web.common import TextBox
+from millstab.warnlog import collect
 
 #: worker threads shared by all sessions of one server (the machine's cores are the limit anyway)
 EXECUTOR = ThreadPoolExecutor(max_workers=2, thread_name_prefix="millstab-job")
@@ -69,8 +69,7 @@ class JobBar(pn.viewable.Viewer):
         watched = self._token.watch(progress)
 
         def run():
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
+            with collect() as caught:  # this job's warnings only (per thread; see millstab.warnlog)
                 result = work(watched)
             return result, [str(w.message) for w in caught]
 

@@ -5,7 +5,6 @@ a problem is shown next to the field it names."""
 
 from __future__ import annotations
 
-import warnings
 
 import panel as pn
 
@@ -15,6 +14,7 @@ from millstab.errors import InputError
 from millstab.web.common import Field, as_text, error_html, esc
 from millstab.web.state import Session
 from millstab.web.uploads import MAX_FRF_BYTES, MAX_TEXT_BYTES, dropper, latest, save_in
+from millstab.warnlog import collect
 
 DEFAULT_EXAMPLE = "ex3"
 FRF_TERMS = ("xx", "yy", "xy", "yx")
@@ -210,8 +210,7 @@ class ToolTab:
                 self.frf_error[t].object = ""
         self.general.object = ""
         try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
+            with collect() as caught:  # this session's warnings only (see millstab.warnlog)
                 cfg = api.config_from_fields(self.tables(), "config", self.s.folder)
         except InputError as exc:
             self.show_error(exc)

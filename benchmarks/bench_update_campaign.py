@@ -41,16 +41,17 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
 
 Run: ``.venv/bin/python benchmarks/bench_update_campaign.py --calibrate --campaigns 50 [--samples 1000]``
 (``--json FILE`` keeps every campaign's record; ``--first K`` starts at campaign K, to split a study
-over processes). The model-error study (issue 17; a/D 0.1, labels from SDM with 3 % boundary noise,
-limits there are 25–100 mm, hence the depth cap and the relative depth noise)::
+over processes; 50 calibration campaigns took 6 min on the 2-core machine beside another job). The
+model-error study (issue 17; a/D 0.1, labels from the time-domain simulation, limits there are 25–100 mm,
+hence the depth cap and the relative depth noise; docs/updating.md has the measured figures)::
 
-    bench_update_campaign.py --immersion 0.1 --truth-engine sdm --noise 0.03 --max-depth 60 \
-        --sigma-depth-rel 0.05 --campaigns 10 --cuts 10 --samples 500 --best-speeds 121 --grid 31x20 \
-        --engine-check zoa,spectral --engine zoa            # ~7 min on the loaded 2-core machine
-    ... --engine spectral --samples 200 --coarse 30 --cuts 5 --campaigns 2 --no-baselines   # slow today
+    bench_update_campaign.py --immersion 0.1 --labels simulate --truth-engine sdm --max-depth 60 \
+        --sigma-depth-rel 0.05 --cuts 10 --best-speeds 121 --grid 31x20 --engine-check zoa,spectral \
+        --campaigns 50 --samples 1000 --engine zoa                      # 13 min (16 s a campaign)
+    ... --samples 500 --coarse 40 --no-baselines --engine spectral --first K --campaigns 1   # 13 min a campaign
 
-(``--labels simulate`` takes the labels from the time-domain simulation instead: ~3 min for a 3-cut
-campaign on the loaded machine.)
+(``--labels engine --truth-engine sdm --noise 0.03`` takes the labels from SDM's boundary with 3 % noise
+instead: cheaper, without the simulation's own model of the cut.)
 """
 
 from __future__ import annotations

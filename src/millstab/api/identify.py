@@ -150,8 +150,8 @@ def check_fit_matches(doc, source: str, cfg: Config) -> None:
     rec = doc.get("cutting") if isinstance(doc, dict) else None
     if rec is None:
         warn(f"--fit {source}: the file does not record the cutting conditions it was fitted under (written "
-                      "by an older millstab), so it cannot be checked against this config: make sure it comes from "
-                      f"{cfg.name}", UserWarning, stacklevel=2)
+             "by an older millstab), so it cannot be checked against this config: make sure it comes from "
+             f"{cfg.name}", UserWarning, stacklevel=2)
     else:
         from millstab.identify.result import cutting_difference
 
@@ -168,7 +168,7 @@ def check_fit_matches(doc, source: str, cfg: Config) -> None:
     made_from = doc.get("config") if isinstance(doc, dict) else None
     if isinstance(made_from, str) and made_from != cfg.name:
         warn(f"--fit {source} was made from config {made_from!r}, this is {cfg.name!r}; their cutting conditions "
-                      "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
+             "and modes agree, so the plan goes ahead", UserWarning, stacklevel=2)
 
 
 def _fit(fit, source: str):

@@ -466,8 +466,8 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             f, h = f[1:], h[1:]
         if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
             warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
-                          f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
-                          UnitWarning, stacklevel=2)
+                 f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
+                 UnitWarning, stacklevel=2)
         i = wrong_sign_resonance(h) if name in ("xx", "yy") else None
         if i is not None:
             warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
@@ -486,7 +486,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     coverage = _band_loss(terms, files, lo, hi)
     if coverage:
         warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
-                      f"{coverage}", FRFWarning, stacklevel=2)
+             f"{coverage}", FRFWarning, stacklevel=2)
     f_common = f_ref[keep]
     out: dict[str, np.ndarray] = {}
     for name, (f, h) in terms.items():

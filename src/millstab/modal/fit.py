@@ -355,8 +355,8 @@ def _check_drive_point(fn: np.ndarray, phase: np.ndarray, g: np.ndarray, where: 
     skew = np.abs(phase) > WARN_PHASE_DEG
     for i in np.flatnonzero(skew):
         warn(f"FRF {where}: the residue of the mode at {fn[i]:.6g} Hz is {phase[i]:+.0f} deg off the "
-                      f"drive-point -90 deg (non-proportional damping, a skewed sensor or a neighbouring mode); "
-                      f"k is fitted with the drive-point phase", FRFWarning, stacklevel=3)
+             f"drive-point -90 deg (non-proportional damping, a skewed sensor or a neighbouring mode); "
+             f"k is fitted with the drive-point phase", FRFWarning, stacklevel=3)
 
 
 __all__ = ["DirectionFit", "FittedMode", "MAX_ORDER", "MIN_PEAK_TO_NOISE", "fit_direction"]

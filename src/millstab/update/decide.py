@@ -89,7 +89,7 @@ def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer"
     data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
     if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
         warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
-                      f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
+             f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
 @dataclass(frozen=True)
@@ -221,8 +221,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     count = allowed_count(n, risk, n_eff, confidence)
     if count < 0:
         warn(f"{n_eff:.0f} effective samples cannot bound P(chatter) ≤ {risk:g} at {confidence:.0%} "
-                      "confidence: the recommendation is the least limit of all samples; update with more --samples",
-                      UserWarning, stacklevel=2)
+             "confidence: the recommendation is the least limit of all samples; update with more --samples",
+             UserWarning, stacklevel=2)
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
     def best_of(speeds: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:

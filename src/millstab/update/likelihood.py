@@ -144,7 +144,7 @@ class Evidence:
             only = "stable" if n_ch == 0 else "chatter"
             side = "from below" if only == "stable" else "from above"
             warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "
-                          "and the P(stable) map lean on the prior; add a cut on the other side", UserWarning, stacklevel=2)
+                 "and the P(stable) map lean on the prior; add a cut on the other side", UserWarning, stacklevel=2)
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
         return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w)
 
@@ -177,7 +177,7 @@ class Likelihood:
         hz = np.isfinite(ev.cut_hz)
         if hz.any() and not get_engine(engine).reports_chatter_frequency:
             warn(f"the {engine} engine reports no limiting-lobe chatter frequency in its batched path: the "
-                          f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
+                 f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
             hz = np.zeros_like(hz)
         self._hz = np.flatnonzero(hz)
         self._tooth_hz = prior.cutting.teeth * ev.cut_rpm / 60.0

@@ -15,7 +15,7 @@ from millstab.warnlog import collect, emit, quiet, warn
 def test_interleaved_threads_keep_their_own_warnings():
     """A enters, B enters, A leaves, B warns, B leaves: the order that left catch_warnings(record=True)'s
     hook pointing at A's list (B's warning lost to B, A's list growing after A left)."""
-    step = [threading.Event() for _ in range(4)]
+    step = [threading.Event() for _ in range(3)]
     got: dict[str, list[str]] = {}
 
     def a():

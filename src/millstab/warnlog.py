@@ -41,30 +41,46 @@ def _leave(entry: tuple[str, object]) -> None:
             return
 
 
+#: :func:`_handler`'s answer for a warning that a :func:`quiet` drops
+_DROP = object()
+
+
+def _handler(category: type[Warning]):
+    """Where a warning of ``category`` goes in this thread: the innermost collector's list, :data:`_DROP`
+    when a :func:`quiet` inside it matches, or ``None`` (no entry takes it: the standard route)."""
+    for kind, what in reversed(_stack()):
+        if kind == "quiet":
+            if issubclass(category, what):
+                return _DROP
+        else:
+            return what
+    return None
+
+
 def emit(record: warnings.WarningMessage) -> None:
     """Pass a recorded warning on: to this thread's innermost collector, dropped by a :func:`quiet`
     inside it, or else re-issued with :func:`warnings.warn_explicit` at its recorded place."""
-    for kind, what in reversed(_stack()):
-        if kind == "quiet":
-            if issubclass(record.category, what):
-                return
-        else:
-            what.append(record)
-            return
-    warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
+    to = _handler(record.category)
+    if to is None:
+        warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
+    elif to is not _DROP:
+        to.append(record)
 
 
 def warn(message: str, category: type[Warning] = UserWarning, stacklevel: int = 1) -> None:
     """Issue a millstab warning (``stacklevel`` as for :func:`warnings.warn`, counted from the caller)."""
-    if not _stack():  # the common case (CLI, scripts): exactly warnings.warn, with its once-per-place registry
+    to = _handler(category)
+    if to is None:  # exactly warnings.warn: the process's filters and its once-per-place registry
         warnings.warn(message, category, stacklevel=stacklevel + 1)
+        return
+    if to is _DROP:
         return
     try:
         frame = sys._getframe(stacklevel)
         where = (frame.f_code.co_filename, frame.f_lineno)
     except ValueError:  # fewer frames than stacklevel
         where = ("sys", 1)
-    emit(warnings.WarningMessage(category(message), category, *where))
+    to.append(warnings.WarningMessage(category(message), category, *where))
 
 
 @contextmanager

@@ -14,6 +14,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.model import SUSPICIOUS_STIFFNESS, MeasuredFRF, Mode, Structure
+from millstab.warnlog import quiet
 
 PARAMS = ("fn", "k", "zeta")
 
@@ -96,8 +97,6 @@ class ModalBatch:
 
     def structure(self, i: int = 0) -> Structure:
         """Parameter set ``i`` as a :class:`Structure`."""
-        from millstab.warnlog import quiet
-
         with quiet():  # values already validated; a batch may legitimately hold soft values
             modes = {d: tuple(Mode(getattr(self, f"fn_{d}")[i, m], getattr(self, f"k_{d}")[i, m], getattr(self, f"zeta_{d}")[i, m],
                                    f"structure.{d}[{m}]") for m in range(getattr(self, f"fn_{d}").shape[1])) for d in ("x", "y")}

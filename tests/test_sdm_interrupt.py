@@ -101,7 +101,10 @@ def test_ctrl_c_stops_a_long_run():
     """A real SIGINT while the compiled code runs: KeyboardInterrupt comes after the running chunk
     (about CHUNK_SECONDS), not after the whole run."""
     sdm.envelope(BENCH, CUT, SPEEDS[:2], steps=20)  # compile (or load the cache) before the clock starts
-    speeds = np.linspace(8000.0, 25000.0, 4000)  # several seconds of work even on a fast machine
+    # many seconds of work even on a fast machine (4 000 speeds took ~0.8 s on an idle 2-core one, so the
+    # SIGINT at 0.3 s plus one running chunk of ~0.25 s reached 2 730 of them); the run is interrupted, so
+    # its length costs nothing
+    speeds = np.linspace(8000.0, 25000.0, 40000)
     seen = []
     armed = threading.Event()
 

@@ -13,6 +13,8 @@ from millstab.errors import InputError
 
 LABELS = ("stable", "chatter", "marginal")
 LABEL_RULE = "must be 'stable', 'chatter', 'marginal' or empty (boundary point)"
+#: the graded label of each written label: how strongly it says "chatter"
+GRADE = {"stable": 0.0, "marginal": 0.5, "chatter": 1.0}
 
 
 @dataclass(frozen=True, eq=False)
@@ -27,6 +29,10 @@ class PointSet:
         weight: (n,) weights > 0 for weighted objectives; ``None`` = all 1.
         chatter_hz: (n,) measured chatter frequencies [Hz], NaN where not measured; ``None`` = none.
         source: the file the points came from (for messages and ``protect=``), or ``None``.
+        grade: (n,) graded label in [0, 1] of each test cut: how strongly the written label(s) say
+            "chatter" (stable 0, marginal ½, chatter 1, a probability as written, the mean over several
+            raters); NaN for boundary points. ``None`` = from ``label``.
+        batch: (n,) str: the test day or session of each cut (``""`` = none); ``None`` = all ``""``.
     """
 
     rpm: np.ndarray
@@ -35,6 +41,8 @@ class PointSet:
     weight: np.ndarray | None = None
     source: Path | None = None
     chatter_hz: np.ndarray | None = None
+    grade: np.ndarray | None = None
+    batch: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
@@ -65,12 +73,31 @@ class PointSet:
             i = int(np.argmax(odd))
             raise InputError(f"points.chatter_hz[{i}]", float(hz[i]),
                              f"a chatter frequency belongs to a chatter or marginal cut, not to a {label[i] or 'boundary'} point")
+        if self.grade is None:
+            grade = np.array([GRADE.get(s, np.nan) for s in label], dtype=float)
+        else:
+            grade = np.atleast_1d(np.asarray(self.grade, dtype=float))
+            if grade.ndim != 1 or grade.size != n:
+                raise InputError("points.grade", f"{grade.size} values", f"need one value per speed ({n})")
+            bad = (label != "") & ~((grade >= 0) & (grade <= 1))
+            bad |= (label == "") & ~np.isnan(grade)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(f"points.grade[{i}]", float(grade[i]),
+                                 "a test cut's graded label is a number in [0, 1] (0 stable, 1 chatter); "
+                                 "a boundary point has none")
+        batch = np.full(n, "", dtype=object) if self.batch is None else np.atleast_1d(np.asarray(self.batch, dtype=object))
+        if batch.ndim != 1 or batch.size != n:
+            raise InputError("points.batch", f"{batch.size} values", f"need one value per speed ({n})")
+        batch = np.array([str(b).strip() for b in batch], dtype=object)
         # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "depth_mm", depth)
         object.__setattr__(self, "label", label.astype("<U8") if n else np.array([], dtype="<U8"))
         object.__setattr__(self, "chatter_hz", hz)
         object.__setattr__(self, "weight", weight)
+        object.__setattr__(self, "grade", grade)
+        object.__setattr__(self, "batch", batch.astype(str) if n else np.array([], dtype="<U1"))
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
 
@@ -107,7 +134,8 @@ class PointSet:
         m = np.asarray(mask)
         if m.dtype == bool and m.shape != self.rpm.shape:
             raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
-        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m])
+        return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m],
+                        self.grade[m], self.batch[m])
 
 
 def check_enough(points: PointSet, n_free: int) -> int:
@@ -143,4 +171,4 @@ def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
     return distinct
 
 
-__all__ = ["LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_speeds"]
+__all__ = ["GRADE", "LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_speeds"]

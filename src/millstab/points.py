@@ -4,7 +4,8 @@ updating and design take. Read from and written to CSV by :mod:`millstab.io.poin
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +13,107 @@ import numpy as np
 from millstab.errors import InputError
 
 LABELS = ("stable", "chatter", "marginal")
-LABEL_RULE = "must be 'stable', 'chatter', 'marginal' or empty (boundary point)"
+LABEL_RULE = ("must be 'stable', 'chatter', 'marginal' (or 'uncertain'/'unsure' = marginal), a probability of "
+              "chatter in [0, 1], or empty (boundary point)")
 #: the graded label of each written label: how strongly it says "chatter"
 GRADE = {"stable": 0.0, "marginal": 0.5, "chatter": 1.0}
+#: words a shop writes for "near the limit, I cannot tell": read as marginal
+SYNONYMS = {"uncertain": "marginal", "unsure": "marginal"}
+#: the class of a graded label: below this stable, above 1 − this chatter, else marginal (the nearest of 0, ½, 1)
+CLASS_EDGE = 1.0 / 3.0
+
+
+def label_of_grade(grade) -> np.ndarray:
+    """The nearest written class of graded labels (n,): < ⅓ stable, > ⅔ chatter, else marginal; NaN → ``""``."""
+    g = np.atleast_1d(np.asarray(grade, dtype=float))
+    out = np.where(g < CLASS_EDGE, "stable", np.where(g > 1 - CLASS_EDGE, "chatter", "marginal")).astype(object)
+    out[np.isnan(g)] = ""
+    return out
+
+
+def parse_label_codes(text: str | None, field: str = "--labels") -> dict[str, float]:
+    """A code mapping ``"0=stable,1=marginal,2=chatter"`` → {code (lower case): grade}; targets are
+    stable | marginal | chatter (or uncertain/unsure) or a probability of chatter in [0, 1]. ``None`` or
+    ``""`` → {}.
+
+    Raises:
+        InputError: an item without ``=``, an empty code, a code given twice, a target that is neither.
+    """
+    out: dict[str, float] = {}
+    if not text or not str(text).strip():
+        return out
+    for item in str(text).split(","):
+        code, eq, target = item.partition("=")
+        code, target = code.strip().lower(), target.strip().lower()
+        if not eq or not code or not target:
+            raise InputError(field, text, "a list CODE=LABEL separated by commas, e.g. 0=stable,1=marginal,2=chatter")
+        if code in out:
+            raise InputError(field, text, f"the code {code!r} is mapped twice")
+        target = SYNONYMS.get(target, target)
+        if target in GRADE:
+            out[code] = GRADE[target]
+            continue
+        try:
+            g = float(target)
+        except ValueError:
+            g = math.nan
+        if not 0 <= g <= 1:
+            raise InputError(field, item.strip(), "each code maps to stable, marginal, chatter or a probability of "
+                                                  "chatter in [0, 1]")
+        out[code] = g
+    return out
+
+
+def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
+    """The graded label [0, 1] of one written label cell; NaN for an empty cell.
+
+    Order: a code of ``codes`` (from :func:`parse_label_codes`, matched as written, case-insensitive, or
+    as the same number: "2.0" matches the code "2"); stable | marginal | chatter and the marginal
+    synonyms uncertain | unsure; a number in [0, 1] (or a percentage "70 %") = the probability of
+    chatter as written.
+
+    Raises:
+        ValueError: with the reason (the caller names the file, line and column): a number outside
+            [0, 1] without a mapping (a code: suggests ``--labels``), yes/no (which way is "yes"?), any other word.
+    """
+    s = str(text).strip().lower()
+    if not s:
+        return math.nan
+    if codes:
+        if s in codes:
+            return codes[s]
+        x = _float(s)
+        if not math.isnan(x):
+            for k, g in codes.items():
+                if _float(k) == x:
+                    return g
+    s2 = SYNONYMS.get(s, s)
+    if s2 in GRADE:
+        return GRADE[s2]
+    pct = s.endswith("%")
+    x = _float(s[:-1] if pct else s)
+    if not math.isnan(x):
+        x = x / 100 if pct else x
+        if 0 <= x <= 1:
+            return x
+        if codes:
+            raise ValueError(f"{LABEL_RULE}; {s!r} is not one of the codes of --labels ({', '.join(codes)})")
+        raise ValueError(f"{LABEL_RULE}; a number outside [0, 1] looks like a code: map the codes with --labels, "
+                         "e.g. --labels 0=stable,1=marginal,2=chatter")
+    if s in ("yes", "no", "y", "n", "true", "false"):
+        raise ValueError(f"{LABEL_RULE}; yes/no does not say which way (chattered? stable?): map it with --labels, "
+                         "e.g. --labels yes=chatter,no=stable")
+    if codes:
+        raise ValueError(f"{LABEL_RULE}, or one of the codes of --labels ({', '.join(codes)})")
+    raise ValueError(LABEL_RULE)
+
+
+def _float(s: str) -> float:
+    try:
+        x = float(s)
+    except ValueError:
+        return math.nan
+    return x if math.isfinite(x) else math.nan
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,6 +132,11 @@ class PointSet:
             "chatter" (stable 0, marginal ½, chatter 1, a probability as written, the mean over several
             raters); NaN for boundary points. ``None`` = from ``label``.
         batch: (n,) str: the test day or session of each cut (``""`` = none); ``None`` = all ``""``.
+        ratings: (n, R) graded labels of each of R raters (operators, label columns), NaN where a rater
+            wrote nothing; ``None`` = one rater, the grade itself (R = 1).
+        raters: the R raters' names (``"label"`` for a single label column); ``None`` = ``("label",)``.
+        extra: {column name: (n,) str} columns of the file that millstab does not use (feed, notes),
+            kept as read; ``None`` = none.
     """
 
     rpm: np.ndarray
@@ -43,6 +147,9 @@ class PointSet:
     chatter_hz: np.ndarray | None = None
     grade: np.ndarray | None = None
     batch: np.ndarray | None = None
+    ratings: np.ndarray | None = None
+    raters: tuple[str, ...] | None = None
+    extra: dict = field(default=None)
 
     def __post_init__(self) -> None:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
@@ -59,10 +166,11 @@ class PointSet:
             if bad.any():
                 i = int(np.argmax(bad))
                 raise InputError(f"points.{name}[{i}]", float(arr[i]), f"must be a finite number > 0 {unit}".rstrip())
-        label = np.array([str(s).strip().lower() for s in label], dtype=object)
+        label = np.array([SYNONYMS.get(t, t) for t in (str(s).strip().lower() for s in label)], dtype=object)
         for i, s in enumerate(label):
             if s not in ("",) + LABELS:
-                raise InputError(f"points.label[{i}]", s, LABEL_RULE)
+                raise InputError(f"points.label[{i}]", s, "must be 'stable', 'chatter', 'marginal' (or 'uncertain'/"
+                                                          "'unsure' = marginal) or empty (boundary point)")
         given = ~np.isnan(hz)
         bad = given & ~(np.isfinite(hz) & (hz > 0))
         if bad.any():
@@ -90,6 +198,24 @@ class PointSet:
         if batch.ndim != 1 or batch.size != n:
             raise InputError("points.batch", f"{batch.size} values", f"need one value per speed ({n})")
         batch = np.array([str(b).strip() for b in batch], dtype=object)
+        if self.ratings is None:
+            ratings = grade[:, None].copy()
+            raters = tuple(self.raters or ("label",))
+        else:
+            ratings = np.asarray(self.ratings, dtype=float).reshape(n, -1) if n else np.zeros((0, len(self.raters or ())))
+            raters = tuple(str(r) for r in (self.raters or (f"rater{j + 1}" for j in range(ratings.shape[1]))))
+            bad = ~np.isnan(ratings) & ~((ratings >= 0) & (ratings <= 1))
+            if bad.any():
+                i, j = np.argwhere(bad)[0]
+                raise InputError(f"points.ratings[{i}, {j}]", float(ratings[i, j]), "a rater's graded label is in [0, 1] or NaN")
+        if len(raters) != ratings.shape[1]:
+            raise InputError("points.raters", list(raters), f"need one name per column of ratings ({ratings.shape[1]})")
+        extra = {}
+        for name, col in (self.extra or {}).items():
+            col = np.atleast_1d(np.asarray(col, dtype=object))
+            if col.ndim != 1 or col.size != n:
+                raise InputError(f"points.extra[{name!r}]", f"{col.size} values", f"need one value per speed ({n})")
+            extra[str(name)] = col.astype(str) if n else np.array([], dtype="<U1")
         # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "depth_mm", depth)
@@ -98,6 +224,9 @@ class PointSet:
         object.__setattr__(self, "weight", weight)
         object.__setattr__(self, "grade", grade)
         object.__setattr__(self, "batch", batch.astype(str) if n else np.array([], dtype="<U1"))
+        object.__setattr__(self, "ratings", ratings)
+        object.__setattr__(self, "raters", raters)
+        object.__setattr__(self, "extra", extra)
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
 
@@ -135,7 +264,8 @@ class PointSet:
         if m.dtype == bool and m.shape != self.rpm.shape:
             raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
         return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m],
-                        self.grade[m], self.batch[m])
+                        self.grade[m], self.batch[m], self.ratings[m], self.raters,
+                        {k: v[m] for k, v in self.extra.items()})
 
 
 def check_enough(points: PointSet, n_free: int) -> int:
@@ -171,4 +301,5 @@ def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
     return distinct
 
 
-__all__ = ["GRADE", "LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_speeds"]
+__all__ = ["CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_speeds",
+           "grade_of_cell", "label_of_grade", "parse_label_codes"]

@@ -1,6 +1,6 @@
 """Point sets: stability-boundary points and labelled test cuts, read from and written to CSV.
 
-File format (UTF-8 CSV, header required, columns in any order)::
+File format (UTF-8 CSV, header required, columns in any order, names case-insensitive)::
 
     rpm,depth_mm,label,weight,chatter_hz
     5500,1.20,,,           <- boundary point (no label): the limiting depth at that speed
@@ -9,18 +9,33 @@ File format (UTF-8 CSV, header required, columns in any order)::
     5700,1.25,marginal,,   <- test cut at the edge of chatter (light marks, growing sound)
 
 * ``rpm`` [rev/min] and ``depth_mm`` [mm] are required, both > 0.
-* ``label`` (optional column): ``stable``, ``chatter`` or ``marginal`` (case-insensitive) for a test
-  cut; an empty cell marks a boundary point.
+* ``label`` (optional column): a test cut's written label; an empty cell marks a boundary point.
+  A cell may be ``stable``, ``chatter`` or ``marginal`` (``uncertain`` and ``unsure`` read as
+  marginal), a probability of chatter in [0, 1] (``0.7`` or ``70 %``), or a code mapped by the
+  ``labels`` argument (``--labels 0=stable,1=marginal,2=chatter``; a number outside [0, 1] without a
+  mapping is an error that suggests the option; ``yes``/``no`` must be mapped too: they do not say
+  which way). The cut's **grade** (``PointSet.grade``) is that number (stable 0, marginal ½, chatter 1)
+  and its **label** the nearest class: grade < ⅓ stable, > ⅔ chatter, else marginal.
+* Several raters: one column per rater, ``label_NAME`` (or ``rater_NAME``, ``labelN``), e.g.
+  ``label_op1,label_op2``; each cell as above, empty = that rater wrote nothing. The grade is the mean of
+  the grades present on the row (a row no rater labelled is a boundary point); each rater's grade is kept
+  in ``PointSet.ratings`` (n × R, NaN = not rated) with the names in ``PointSet.raters``.
 * ``weight`` (optional column): > 0, default 1 (also for an empty cell).
 * ``chatter_hz`` (optional column): the measured chatter frequency [Hz] of a chatter (or marginal)
   cut, > 0; an empty cell means not measured. Given on a stable cut or a boundary point it is an error.
-* Blank lines and lines starting with ``#`` are skipped (comments); any other column name is an
-  error, so a misspelt header cannot be silently ignored.
+* ``batch`` (or ``date``, ``day``, ``session``; the first of these present): the test day or session
+  of each cut, as written (``PointSet.batch``).
+* Any other column (feed, notes, tool, ...) is kept as text in ``PointSet.extra`` and ignored, with
+  one warning naming the columns. A column that looks like a misspelt known column that is absent
+  (``lable``, ``weigth``, ``depht_mm``) is an error, since a silently ignored label column would turn
+  every cut into a boundary point.
+* Blank lines and lines starting with ``#`` are skipped (comments).
 """
 
 from __future__ import annotations
 
 import csv
+import difflib
 import math
 import re
 from pathlib import Path
@@ -32,24 +47,34 @@ from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 # the model type lives below io; re-exported so `from millstab.io.points import PointSet` keeps working
-from millstab.points import LABEL_RULE, LABELS, PointSet, check_enough
+from millstab.points import GRADE, LABELS, PointSet, check_enough, grade_of_cell, label_of_grade, parse_label_codes
+from millstab.warnlog import warn
 
 REQUIRED = ("rpm", "depth_mm")
-OPTIONAL = ("label", "weight", "chatter_hz")
+OPTIONAL = ("label", "weight", "chatter_hz", "batch")
+#: columns that name the test day or session (PointSet.batch), in order of preference
+BATCH_COLUMNS = ("batch", "date", "day", "session")
+#: a rater's label column: label, label_NAME / labelN, rater_NAME / raterN
+RATER_COLUMN = re.compile(r"^(?:label|rater)(?:[_\- ](?P<name>\w.*)|(?P<num>\d+))?$")
 
 
 def _number(text: str, field: str, line: int, path: Path) -> float:
     return parse_number(text, f"{path.name} line {line}, {field}")
 
 
-def read_points(path: PathLike) -> PointSet:
+def read_points(path: PathLike, labels: str | dict | None = None) -> PointSet:
     """Read a point set CSV (format in the module docstring), or a packaged example points file
     with ``"example:NAME"`` (e.g. ``"example:ex3_points"``, see :mod:`millstab.datasets`).
 
+    ``labels``: codes of the label cells, ``"0=stable,1=marginal,2=chatter"`` or its
+    :func:`~millstab.points.parse_label_codes` dict (the CLI's ``--labels``).
+
     Raises:
-        InputError: missing file, empty file, missing or unknown column, a non-number (with the
-            line number), speed/depth/weight/chatter frequency ≤ 0, unknown label, a chatter
-            frequency on a stable cut or a boundary point.
+        InputError: missing file, empty file, missing or misspelt column, a non-number (with the
+            line number), speed/depth/weight/chatter frequency ≤ 0, an unknown label (a code without
+            ``labels``), a chatter frequency on a stable cut or a boundary point.
+    Warns:
+        UserWarning: once, naming the columns millstab does not use (kept in ``PointSet.extra``).
     """
     if str(path).startswith("example:"):  # the CLI hands it over as a Path; str() keeps the text
         from millstab.io.examples import points_path
@@ -59,17 +84,46 @@ def read_points(path: PathLike) -> PointSet:
     if not p.is_file():
         raise InputError("points file", str(p), "file does not exist")
     text = read_text(p, "points file", "text CSV file")  # spreadsheets and Notepad often write a BOM
-    return parse_points(text, p)
+    return parse_points(text, p, labels)
 
 
-def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
+def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | None, list[str]]:
+    """(rater columns [(rater name, index)], the batch column or None, the unused columns) of a header;
+    a misspelt known column (close to one that is absent) is an error, anything else unknown is unused."""
+    raters = []
+    for i, h in enumerate(names):
+        m = RATER_COLUMN.match(h)
+        if m:
+            raters.append(((m.group("name") or m.group("num") or h).strip(), i))
+    batch = next((b for b in BATCH_COLUMNS if b in names), None)
+    known = set(REQUIRED) | {"weight", "chatter_hz"} | {names[i] for _, i in raters} | ({batch} if batch else set())
+    unknown = [h for h in names if h not in known and h not in BATCH_COLUMNS]
+    absent = [k for k in REQUIRED + ("weight", "chatter_hz") if k not in names] + ([] if raters else ["label"])
+    for r in REQUIRED:
+        if r not in names:
+            near = difflib.get_close_matches(r, unknown, 1, 0.6)
+            hint = f" (is {near[0]!r} meant to be {r!r}?)" if near else ""
+            raise InputError(f"{p.name} header", ",".join(names), f"missing column {r!r}{hint}; required columns: "
+                                                                  f"{', '.join(REQUIRED)} (optional: {', '.join(OPTIONAL)})")
+    for h in unknown:
+        near = difflib.get_close_matches(h, absent, 1, 0.8)
+        if near:  # "lable", "weigth": a misspelt column would silently turn every cut into a boundary point
+            raise InputError(f"{p.name} header", h, f"looks like a misspelt {near[0]!r}; allowed columns: "
+                                                    f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, "
+                                                    "date; other columns are kept and ignored")
+    return raters, batch, [h for h in names if h not in known]
+
+
+def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict | None = None) -> PointSet:
     """Parse point-set CSV text (an upload, a string in a notebook) with the same checks as
-    :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``.
+    :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``;
+    ``labels``: codes of the label cells (see :func:`read_points`).
 
     Raises:
         InputError: as :func:`read_points`.
     """
     p = Path(source)
+    codes = parse_label_codes(labels) if isinstance(labels, (str, type(None))) else dict(labels)
     text = text.lstrip("\ufeff")
     rows = [(i + 1, row) for i, row in enumerate(csv.reader(text.splitlines()))
             if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
@@ -78,21 +132,14 @@ def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
     header_line, header = rows[0]
     names = [h.strip().lower() for h in header]
     check_comma_separated(names, f"{p.name} line {header_line}", ",".join(header), ",".join(REQUIRED + OPTIONAL))
-    allowed = REQUIRED + OPTIONAL
-    for h in names:
-        if h not in allowed:
-            raise InputError(f"{p.name} header", h, f"unknown column; allowed columns: {', '.join(allowed)} "
-                                                    f"(required: {', '.join(REQUIRED)})")
     if len(set(names)) != len(names):
         raise InputError(f"{p.name} header", ",".join(names), "a column name appears twice")
-    for r in REQUIRED:
-        if r not in names:
-            raise InputError(f"{p.name} header", ",".join(names), f"missing column {r!r}; required columns: "
-                                                                  f"{', '.join(REQUIRED)} (optional: {', '.join(OPTIONAL)})")
+    raters, batch_col, unused = _columns(names, p)
     if len(rows) == 1:
         raise InputError("points file", str(p), "has a header but no points")
     col = {h: i for i, h in enumerate(names)}
-    rpm, depth, label, weight, hz = [], [], [], [], []
+    rpm, depth, grades, weight, hz, batch = [], [], [], [], [], []
+    extra: dict[str, list[str]] = {h: [] for h in unused}
     for line, row in rows[1:]:
         if len(row) > len(names):
             # "5500,1,2" under a two-column header is most often a decimal comma (1,2 mm)
@@ -106,9 +153,14 @@ def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
             raise InputError(f"{p.name} line {line}, rpm", cells[col["rpm"]], "spindle speed must be > 0 rev/min")
         if d <= 0:
             raise InputError(f"{p.name} line {line}, depth_mm", cells[col["depth_mm"]], "depth of cut must be > 0 mm")
-        lab = cells[col["label"]].lower() if "label" in col else ""
-        if lab not in ("",) + LABELS:
-            raise InputError(f"{p.name} line {line}, label", cells[col["label"]], LABEL_RULE)
+        g = []
+        for _, i in raters:
+            try:
+                g.append(grade_of_cell(cells[i], codes))
+            except ValueError as exc:
+                raise InputError(f"{p.name} line {line}, {names[i]}", cells[i], str(exc)) from None
+        grades.append(g)
+        lab = label_of_grade(np.nanmean(g) if g and not np.isnan(g).all() else np.nan)[0]
         w = 1.0
         if "weight" in col and cells[col["weight"]]:
             w = _number(cells[col["weight"]], "weight", line, p)
@@ -126,20 +178,51 @@ def parse_points(text: str, source: PathLike = "points.csv") -> PointSet:
         hz.append(f)
         rpm.append(r)
         depth.append(d)
-        label.append(lab)
         weight.append(w)
-    return PointSet(np.array(rpm), np.array(depth), np.array(label, dtype=object), np.array(weight), p, np.array(hz))
+        batch.append(cells[col[batch_col]] if batch_col else "")
+        for h in unused:
+            extra[h].append(cells[col[h]])
+    if unused:
+        warn(f"{p.name}: ignored columns: {', '.join(unused)} (kept, not used)", UserWarning, stacklevel=3)
+    ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))
+    with np.errstate(all="ignore"):
+        rated = ~np.isnan(ratings).all(axis=1)
+        grade = np.full(len(rpm), np.nan)
+        grade[rated] = np.nanmean(ratings[rated], axis=1)
+    return PointSet(np.array(rpm), np.array(depth), label_of_grade(grade), np.array(weight), p, np.array(hz), grade,
+                    np.array(batch, dtype=object), ratings, tuple(n for n, _ in raters), extra)
+
+
+def _label_text(g: float) -> str:
+    """A grade as a label cell: the class word where it is one, else the number (exact)."""
+    if np.isnan(g):
+        return ""
+    words = {v: k for k, v in GRADE.items()}
+    return words.get(float(g), repr(float(g)))
 
 
 def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] = ()) -> Path:
-    """Write a point set as CSV (rpm, depth_mm, label, weight, and chatter_hz when any is measured;
-    floats written exactly). Atomic; see results."""
-    header = ["rpm", "depth_mm", "label", "weight"]
-    cols = [points.rpm, points.depth_mm, list(points.label), points.weight]
+    """Write a point set as CSV: rpm, depth_mm, the label (one ``label`` column, or ``label_NAME`` per
+    rater when there are several; a grade that is no class word is written as its number), weight,
+    chatter_hz when any is measured, batch when any is given, and the extra columns as read; floats
+    written exactly, so :func:`read_points` gives the same point set back. Atomic; see results."""
+    if points.ratings.shape[1] > 1:
+        header = ["rpm", "depth_mm"] + [f"label_{r}" for r in points.raters] + ["weight"]
+        labels = [[_label_text(g) for g in points.ratings[:, j]] for j in range(points.ratings.shape[1])]
+    else:
+        header = ["rpm", "depth_mm", "label", "weight"]
+        labels = [[lab if not lab or GRADE[lab] == g else _label_text(g) for lab, g in zip(points.label, points.grade)]]
+    cols = [points.rpm, points.depth_mm, *labels, points.weight]
     if not np.isnan(points.chatter_hz).all():
         header.append("chatter_hz")
         cols.append(points.chatter_hz)
+    if (points.batch != "").any():
+        header.append("batch")
+        cols.append(list(points.batch))
+    for name, col in points.extra.items():
+        header.append(name)
+        cols.append(list(col))
     return write_csv(path, header, cols, protect)
 
 
-__all__ = ["LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]
+__all__ = ["BATCH_COLUMNS", "LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]

@@ -27,12 +27,24 @@ whether the process chatters).
   depth × speed (× width × feed per tooth × teeth → cm³/min). The best of a coarse grid is refined by a
   bounded 1-D search on the continuous speed axis: rounds of ``REFINE_POINTS`` speeds in the bracket
   between the best point's neighbours, each round one engine call, the bracket shrinking each time.
+* :func:`data_guard`: a backstop from the data alone, whatever the model says: no recommended depth at or
+  above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) within its speed
+  neighbourhood, ±:data:`GUARD_LOBE_FRACTION` of the local lobe spacing (Ω·f_tp/f_c, f_tp = N·Ω/60, f_c the
+  cut's measured chatter frequency or else the most flexible mode's natural frequency), unless the stable
+  cuts (grade < ½) at least as deep in that neighbourhood outweigh the chatter cuts at most as deep there
+  (each cut weighs |2·grade − 1|: 1 for a plain label, 0 for marginal; strictly more stable weight).
+  Why: a posterior that cannot explain a chatter label (a label-error model absorbs it, a model error
+  hides it) would otherwise recommend the very cut the shop saw chatter.
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
   between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
   probability of the likelihood (ε + (1 − 2ε)·Φ with a label error ε) — "BALD" — times the cut's productivity relative to the
   recommendation). It is the test most likely both to shrink the uncertainty and to move the
-  recommendation to a more productive cut; evaluated on a subsample of the posterior.
+  recommendation to a more productive cut; evaluated on a subsample of the posterior. Its probability of
+  chattering (the process's, E_θ Φ((b − b_lim)/σ_b), without the label error) is capped at ``test_risk``
+  (a chattering test costs a part or a tool), and a cut the data guard forbids is never proposed. When no
+  such cut is more productive than the recommendation (or none is informative), the next test is the
+  recommendation itself.
 """
 
 from __future__ import annotations
@@ -60,6 +72,16 @@ NEXT_TEST_SAMPLES = 1000
 CONFIDENCE = 0.9
 #: relative spindle-speed error (±) the recommended depth must tolerate
 SPEED_TOLERANCE = 0.0025
+#: the default cap on the proposed next test's probability of chatter (``--test-risk``; campaign trade-off in
+#: docs/updating.md)
+TEST_RISK = 0.5
+#: data guard: the neighbourhood of a chatter-labelled cut is ±this fraction of the local lobe spacing (½: the
+#: width of one lobe, centred on the cut)
+#: (relative lobe spacing ≈ f_tp/f_c), clipped to :data:`GUARD_WIDTH_LIMITS` of the speed
+GUARD_LOBE_FRACTION = 0.5
+GUARD_WIDTH_LIMITS = (0.005, 0.25)
+#: data guard: a recommended depth stays below (1 − this)·depth of a guarding chatter cut
+GUARD_MARGIN = 0.05
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -111,6 +133,9 @@ class Recommendation:
     effective_samples: float | None = None
     confidence: float | None = None
     speed_tolerance: float = 0.0
+    #: the data guard's chatter cuts near the recommendation's speed range (see :func:`data_guard`)
+    guard: tuple[dict, ...] = ()
+    test_risk: float | None = None
 
     def to_json(self) -> dict:
         out = {"schema": "millstab.recommendation/1", "rpm": self.rpm, "depth_mm": self.depth_mm,
@@ -118,7 +143,7 @@ class Recommendation:
                "relative_productivity_mm_rpm": self.productivity, "next_test": self.next_test,
                "p_chatter_speed_error": self.p_chatter_speed_error, "p_chatter_bound": self.p_chatter_bound,
                "effective_samples": self.effective_samples, "confidence": self.confidence,
-               "speed_tolerance": self.speed_tolerance}
+               "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard)}
         if self.mrr_cm3_per_min is not None:
             out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
         return out
@@ -169,19 +194,76 @@ def safe_depth(blim_mm: np.ndarray, risk: float, count: int | None = None) -> np
 def _mrr_factor(teeth: int, width_mm: float | None, feed_mm: float | None) -> float | None:
     if width_mm is None and feed_mm is None:
         return None
-    if width_mm is None or feed_mm is None:
-        raise InputError("--radial-width" if width_mm is None else "--feed-per-tooth", None,
-                         "give both the radial width and the feed per tooth for a removal rate in cm^3/min")
+    if width_mm is None or feed_mm is None:  # name the option that WAS given (not "= None"), and the missing one
+        given, value, missing = (("--feed-per-tooth", feed_mm, "--radial-width") if width_mm is None
+                                 else ("--radial-width", width_mm, "--feed-per-tooth"))
+        raise InputError(given, value, f"also give {missing} [mm]: the removal rate in cm^3/min needs the radial "
+                                       "width and the feed per tooth (or give neither: depth × speed)")
     for name, v in (("--radial-width", width_mm), ("--feed-per-tooth", feed_mm)):
         if not (math.isfinite(v) and v > 0):
             raise InputError(name, v, "must be a finite number > 0 mm")
     return width_mm * feed_mm * teeth / 1000.0  # mm·mm·mm/min per (mm·rpm) → cm³/min
 
 
+def _cut_grades(cuts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(rpm, depth [mm], grade, chatter_hz) of a posterior's labelled cuts (its ``cuts`` record; ``grade``
+    when it was kept, else from the label words)."""
+    from millstab.points import GRADE
+
+    lab = [str(x or "") for x in (cuts.get("label") or [])]
+    n = len(lab)
+    rpm = np.asarray((cuts.get("rpm") or [])[:n], float)
+    depth = np.asarray((cuts.get("depth_mm") or [])[:n], float)
+    if n == 0 or rpm.size != n or depth.size != n:  # prior draws carry only a speed range
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
+    g = cuts.get("grade")
+    grade = (np.array([np.nan if x is None else float(x) for x in g[:n]]) if g is not None and len(g) >= n
+             else np.array([GRADE.get(x, np.nan) for x in lab]))
+    hz = np.array([np.nan if x is None else float(x) for x in (cuts.get("chatter_hz") or [None] * n)[:n]], float)
+    keep = np.array([bool(x) for x in lab], dtype=bool) & np.isfinite(grade)
+    return rpm[keep], depth[keep], grade[keep], hz[keep]
+
+
+def data_guard(post: Posterior) -> list[dict]:
+    """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
+    a list of {rpm, depth_mm, grade, half_width_rpm, cap_mm, stable_weight, chatter_weight}, one per
+    guarding cut (outweighed ones are left out)."""
+    rpm, depth, grade, hz = _cut_grades(post.cuts or {})
+    if rpm.size == 0:
+        return []
+    modes = [m for m in (*post.prior.par.base.x, *post.prior.par.base.y)]
+    fc_struct = min(modes, key=lambda m: m.k).fn  # the most flexible mode: where chatter grows
+    fc = np.where(np.isfinite(hz) & (hz > 0), hz, fc_struct)
+    ftp = post.prior.cutting.teeth * rpm / 60.0
+    rel = np.clip(GUARD_LOBE_FRACTION * ftp / fc, *GUARD_WIDTH_LIMITS)
+    strength = np.abs(2 * grade - 1)
+    out = []
+    for i in np.flatnonzero(grade > 0.5):
+        near = np.abs(rpm - rpm[i]) <= rel[i] * rpm[i]
+        w_stable = float(strength[near & (grade < 0.5) & (depth >= depth[i])].sum())
+        w_chatter = float(strength[near & (grade > 0.5) & (depth <= depth[i])].sum())
+        if w_stable > w_chatter:
+            continue
+        out.append({"rpm": float(rpm[i]), "depth_mm": float(depth[i]), "grade": float(grade[i]),
+                    "half_width_rpm": float(rel[i] * rpm[i]), "cap_mm": float((1 - GUARD_MARGIN) * depth[i]),
+                    "stable_weight": w_stable, "chatter_weight": w_chatter})
+    return out
+
+
+def guard_cap(guard: list[dict], rpm) -> np.ndarray:
+    """The deepest depth [mm] the data guard allows at each speed (inf where no guarding cut is near)."""
+    r = np.asarray(rpm, float)
+    cap = np.full(r.shape, np.inf)
+    for g in guard:
+        cap = np.where(np.abs(r - g["rpm"]) <= g["half_width_rpm"], np.minimum(cap, g["cap_mm"]), cap)
+    return cap
+
+
 def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,
-              coarse_points: int = COARSE_POINTS) -> Recommendation:
+              coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
+              guard: bool = True) -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -195,8 +277,10 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             error of the estimate (see the module docstring); ``None``: the plain count ⌊risk·N⌋.
         speed_tolerance: the depth must keep P(chatter) ≤ risk at every speed within ±this fraction.
         coarse_points: speeds of the coarse grid before the refinement (fewer for a slow engine).
+        test_risk: the next test's probability of chattering is at most this, in (0, 1]; ``None`` or 1: no cap.
+        guard: apply the data guard (:func:`data_guard`; ``False`` only for studies of the model alone).
     Raises:
-        InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence or tolerance.
+        InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance or test risk.
     Warns:
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
@@ -212,8 +296,12 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         raise InputError("confidence", confidence, "must be in [0.5, 1), e.g. 0.9 (or None for the plain count)")
     if not (isinstance(speed_tolerance, (int, float)) and 0 <= speed_tolerance < 0.1):
         raise InputError("speed_tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
+    if test_risk is not None and not (isinstance(test_risk, (int, float)) and 0 < test_risk <= 1):
+        raise InputError("--test-risk", test_risk, "the next test's tolerated probability of chatter, in (0, 1], "
+                                                   f"e.g. {TEST_RISK:g} (1: no cap)")
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
+    guards = data_guard(post) if guard else []
     cap = math.inf if max_depth_mm is None else max_depth_mm
     u = post.u
     n = u.shape[0]
@@ -230,7 +318,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         both, _ = limits(post.prior, u, (speeds[None, :] * (1 + offsets[:, None])).ravel(), post.engine)
         blim = both[:, :speeds.size]
         d_all = safe_depth(both, risk, count).reshape(offsets.size, speeds.size)
-        depth = np.minimum(d_all.min(axis=0), cap)
+        g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
+        depth = np.minimum(np.minimum(d_all.min(axis=0), g_all.min(axis=0)), cap)
         depth = np.where(np.isfinite(depth), depth, 0.0)
         return int(np.argmax(depth * speeds)), depth, blim
 
@@ -258,21 +347,39 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         k = p_worst * n_eff
         bound = float(beta.ppf(confidence, k + 1, max(n_eff - k, 1e-12)))
     prod = float(rpm_best * depth_best)
-    limited = "max_depth" if depth_best >= cap * (1 - 1e-12) else "chatter risk"
+    g_best = float(guard_cap(guards, rpm_best * (1 + offsets)).min())
+    limited = ("max_depth" if depth_best >= cap * (1 - 1e-12) else
+               "data guard (a chatter-labelled cut)" if depth_best >= g_best * (1 - 1e-12) else "chatter risk")
+    binding = [dict(g, binding=bool(np.any(np.abs(rpm_best * (1 + offsets) - g["rpm"]) <= g["half_width_rpm"])
+                                    and depth_best >= g["cap_mm"] * (1 - 1e-12))) for g in guards]
+    # where the model alone would go at or above a cut that chattered, the data and the model disagree: say so
+    model_depth = float(min(safe_depth(around, risk, count).min(), cap))
+    conflict = [g for g in guards if abs(rpm_best - g["rpm"]) <= g["half_width_rpm"] and model_depth >= g["depth_mm"]]
+    if conflict:
+        g = min(conflict, key=lambda c: (c["cap_mm"], abs(rpm_best - c["rpm"])))
+        warn(f"the posterior allows {model_depth:.3g} mm at {rpm_best:.0f} rpm, but a cut chattered at {g['rpm']:.0f} "
+             f"rpm, {g['depth_mm']:.3g} mm: the data guard holds the recommendation below {g['cap_mm']:.3g} mm "
+             "(the model does not explain that cut; check the label, or update with an engine that models the cut)",
+             UserWarning, stacklevel=2)
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
-    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]))
+    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
+                   test_risk=test_risk, guard=guards, p_chatter_rec=p_worst)
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited, p_worst, bound,
-                          n_eff, confidence, float(speed_tolerance))
+                          n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk)
 
 
 def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, depth_rec: float, cap: float = math.inf,
               *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0,
-              grid: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
-    """The next test cut: the largest productivity-weighted label information (see the module docstring).
+              grid: tuple[np.ndarray, np.ndarray] | None = None, test_risk: float | None = TEST_RISK,
+              guard: list[dict] = (), p_chatter_rec: float | None = None) -> dict:
+    """The next test cut: the largest productivity-weighted label information (see the module docstring)
+    among cuts more productive than the recommendation whose probability of chattering is at most
+    ``test_risk`` and that the data ``guard`` allows; the recommendation itself when there is none.
 
     ``grid`` = (speeds (S,) [rpm], limits (N, S) [mm] of all the posterior's samples) reuses limits the
     caller has computed already (then ``n_rpm`` is unused); else ``n_rpm`` speeds span ``rpm_range``.
+    ``p_chatter_rec``: the recommendation's own P(chatter), reported when it is the next test.
     """
     rng = np.random.default_rng(seed)
     n = post.u.shape[0]
@@ -287,21 +394,35 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    pbar, info = label_information(blim, depths, sig, post.prior.label_error)  # (S, D): P(chatter label), mutual information [nats]
+    eps = float(post.prior.label_error)
+    pbar, info = label_information(blim, depths, sig, eps)  # (S, D): P(chatter label), mutual information [nats]
+    p_process = np.clip((pbar - eps) / (1 - 2 * eps), 0.0, 1.0)  # the cut's own chance to chatter, no label error
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref
-    better = prod > ref
-    if better.any():
-        score = np.where(better, score, -np.inf)
+    ok = (prod > ref * (1 + 1e-9)) & (depths[None, :] < guard_cap(list(guard), speeds)[:, None])
+    if test_risk is not None:
+        ok &= p_process <= test_risk
+    # an exactly certain outcome has information ~1e-15 of round-off: not worth a cut
+    ok &= info > 1e-6
+    if not ok.any():
+        p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
+            if p_chatter_rec is None else float(p_chatter_rec)
+        return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
+                "relative_productivity": 1.0,
+                "why": "the recommendation itself: no cut within the limits that is more productive is also "
+                       "informative" + ("" if test_risk is None else f", at most {test_risk:g} likely to chatter")
+                       + (" and clear of the chatter-labelled cuts" if len(guard) else "")}
+    score = np.where(ok, score, -np.inf)
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
-    return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(pbar[i, j]),
+    return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(p_process[i, j]),
+            "p_label_chatter": float(pbar[i, j]),
             "information_nats": float(info[i, j]), "relative_productivity": float(prod[i, j] / ref),
             "why": "largest expected information about the parameters (mutual information between the cut's label "
                    "and θ) times its productivity relative to the recommendation, among cuts more productive than "
-                   "the recommendation" if better.any() else
-                   "largest expected information about the parameters (no cut in range is more productive than the "
-                   "recommendation)"}
+                   "the recommendation" + ("" if test_risk is None else f" at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["CONFIDENCE", "SPEED_TOLERANCE", "Recommendation", "allowed_count", "effective_samples", "next_test", "p_stable_from_limits", "p_stable_map", "recommend", "safe_depth"]
+__all__ = ["CONFIDENCE", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+           "allowed_count", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
+           "p_stable_map", "recommend", "safe_depth"]

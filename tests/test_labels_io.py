@@ -1,0 +1,129 @@
+"""Real shop label files (issue 24): graded and coded labels, several raters, a batch column, extra
+columns kept and ignored; the errors still name the file, the line and the column."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.io.points import parse_points, read_points, write_points
+from millstab.points import PointSet, grade_of_cell, label_of_grade, parse_label_codes
+
+
+def parse(text, labels=None):
+    return parse_points(text, "cuts.csv", labels)
+
+
+def test_words_synonyms_and_probabilities():
+    ps = parse("rpm,depth_mm,label\n5000,1,Stable\n5000,2,uncertain\n5000,3,CHATTER\n5100,1,0.2\n5100,2,0.5\n"
+               "5100,3,0.9\n5200,1,70 %\n5200,2,\n5300,1,unsure\n")
+    np.testing.assert_array_equal(ps.grade[:7], [0, 0.5, 1, 0.2, 0.5, 0.9, 0.7])
+    assert np.isnan(ps.grade[7]) and ps.grade[8] == 0.5
+    assert list(ps.label) == ["stable", "marginal", "chatter", "stable", "marginal", "chatter", "chatter", "", "marginal"]
+    assert ps.boundary.tolist() == [False] * 7 + [True, False]
+    assert ps.raters == ("label",) and ps.ratings.shape == (9, 1)
+
+
+def test_nearest_class_edges():
+    # < 1/3 stable, > 2/3 chatter, else marginal; NaN: boundary point
+    g = np.array([0.0, 0.333, 1 / 3, 0.5, 2 / 3, 0.667, 1.0, np.nan])
+    assert list(label_of_grade(g)) == ["stable", "stable", "marginal", "marginal", "marginal", "chatter", "chatter", ""]
+
+
+def test_codes_need_the_mapping_and_the_error_suggests_it():
+    text = "rpm,depth_mm,label\n5000,1,0\n5000,2,1\n5000,3,2\n"
+    with pytest.raises(InputError) as e:
+        parse(text)
+    assert e.value.field == "cuts.csv line 4, label" and "--labels 0=stable,1=marginal,2=chatter" in str(e.value)
+    ps = parse(text, "0=stable,1=marginal,2=chatter")
+    assert list(ps.label) == ["stable", "marginal", "chatter"] and ps.grade.tolist() == [0, 0.5, 1]
+    # "2.0" is the same code as "2"; a code map may give probabilities too
+    assert parse("rpm,depth_mm,label\n5000,1,2.0\n", {"2": 1.0}).label[0] == "chatter"
+    assert parse_label_codes("a=0.25, B=unsure") == {"a": 0.25, "b": 0.5}
+    with pytest.raises(InputError) as e:
+        parse("rpm,depth_mm,label\n5000,1,3\n", "0=stable,1=marginal,2=chatter")
+    assert "codes of --labels" in str(e.value) and e.value.field == "cuts.csv line 2, label"
+
+
+@pytest.mark.parametrize("text", ["0=stable,1", "=stable", "0=wobbly", "0=1.5", "0=stable,0=chatter"])
+def test_bad_code_maps(text):
+    with pytest.raises(InputError, match="--labels"):
+        parse_label_codes(text)
+
+
+def test_yes_no_is_ambiguous_unless_mapped():
+    with pytest.raises(ValueError, match="yes=chatter,no=stable"):
+        grade_of_cell("yes")
+    assert grade_of_cell("YES", parse_label_codes("yes=chatter,no=stable")) == 1.0
+    with pytest.raises(ValueError, match="stable"):
+        grade_of_cell("chatty")
+
+
+def test_two_raters_mean_grade_and_ratings_kept():
+    ps = parse("rpm,depth_mm,label_op1,label_op2\n5000,1,stable,stable\n5000,2,stable,chatter\n"
+               "5000,3,chatter,\n5000,4,,\n5000,2.5,marginal,chatter\n")
+    assert ps.raters == ("op1", "op2")
+    np.testing.assert_array_equal(ps.ratings[:3], [[0, 0], [0, 1], [1, np.nan]])
+    assert np.isnan(ps.ratings[3]).all()
+    np.testing.assert_array_equal(ps.grade[[0, 1, 2, 4]], [0, 0.5, 1, 0.75])
+    assert list(ps.label) == ["stable", "marginal", "chatter", "", "chatter"]
+    sub = ps.subset(np.array([False, True, False, False, True]))
+    np.testing.assert_array_equal(sub.ratings, [[0, 1], [0.5, 1]])
+    assert sub.raters == ("op1", "op2")
+    # rater_NAME and labelN name raters too
+    assert parse("rpm,depth_mm,rater_ann,label2\n5000,1,stable,chatter\n").raters == ("ann", "2")
+
+
+def test_extra_columns_kept_with_one_note_and_batch_parsed():
+    text = "rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n5000,2,chatter,0.1,,2024-05-02\n"
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        ps = parse(text)
+    msgs = [str(x.message) for x in w]
+    assert msgs == ["cuts.csv: ignored columns: feed, notes (kept, not used)"]
+    assert ps.batch.tolist() == ["2024-05-01", "2024-05-02"]
+    assert ps.extra["notes"].tolist() == ["good finish", ""] and ps.extra["feed"].tolist() == ["0.1", "0.1"]
+    assert ps.subset(np.array([1])).extra["notes"].tolist() == [""]
+    # batch wins over date; date is then an extra column
+    ps = parse("rpm,depth_mm,label,batch,date\n5000,1,stable,A,2024\n")
+    assert ps.batch.tolist() == ["A"] and ps.extra == {"date": np.array(["2024"])}
+
+
+@pytest.mark.parametrize("text,field,words", [
+    ("rpm,depht_mm,label\n5000,1,stable\n", "cuts.csv header", "'depht_mm' meant to be 'depth_mm'"),
+    ("rpm,depth_mm,lable\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
+    ("rpm,depth_mm,labels\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
+    ("rpm,depth_mm,label,weigth\n5000,1,stable,2\n", "cuts.csv header", "misspelt 'weight'"),
+    ("rpm,depth_mm,label_a,label_b\n5000,1,stable,chatty\n", "cuts.csv line 2, label_b", "stable"),
+    ("rpm,depth_mm,label,chatter_hz\n5000,1,0.2,900\n", "cuts.csv line 2, chatter_hz", "stable"),
+    ("rpm,depth_mm,label\n5000,1,1.5\n", "cuts.csv line 2, label", "--labels"),
+    ("rpm,depth_mm,label\n5000,1,-0.1\n", "cuts.csv line 2, label", "--labels"),
+])
+def test_errors_still_name_file_line_and_column(text, field, words):
+    with pytest.raises(InputError) as e:
+        parse(text)
+    assert e.value.field == field and words in str(e.value)
+
+
+def test_round_trip_of_grades_raters_batch_and_extras(tmp_path):
+    ps = parse("rpm,depth_mm,label_op1,label_op2,batch,notes\n5000,1,stable,0.25,d1,x\n5000,2,0.6,chatter,d2,\n"
+               "5100,1.5,,,d2,boundary\n")
+    back = read_points(write_points(tmp_path / "a.csv", ps))
+    np.testing.assert_array_equal(back.ratings, ps.ratings)
+    np.testing.assert_array_equal(back.grade, ps.grade)
+    assert back.raters == ps.raters and back.label.tolist() == ps.label.tolist()
+    assert back.batch.tolist() == ["d1", "d2", "d2"] and back.extra["notes"].tolist() == ["x", "", "boundary"]
+    one = PointSet([5000, 5000], [1, 2], ["marginal", "chatter"], grade=[0.45, 1.0])
+    back = read_points(write_points(tmp_path / "b.csv", one))
+    np.testing.assert_array_equal(back.grade, [0.45, 1.0])
+    assert back.label.tolist() == ["marginal", "chatter"]
+
+
+def test_old_files_read_as_before(tmp_path):
+    ps = parse("rpm,depth_mm,label,weight,chatter_hz\n5500,1.2,,,\n5600,1.5,chatter,2,1012\n5600,1,stable,,\n")
+    assert ps.label.tolist() == ["", "chatter", "stable"] and ps.weight.tolist() == [1, 2, 1]
+    assert ps.raters == ("label",) and ps.extra == {} and (ps.batch == "").all()
+    assert np.isnan(ps.grade[0]) and ps.grade[1:].tolist() == [1, 0]

@@ -76,7 +76,7 @@ from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
 from millstab.update.campaign import coverage, run_campaign  # noqa: E402
-from millstab.update.decide import CONFIDENCE, SPEED_TOLERANCE  # noqa: E402
+from millstab.update.decide import CONFIDENCE, SPEED_TOLERANCE, TEST_RISK  # noqa: E402
 
 OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
 #: feed per tooth of the simulated cuts [m]
@@ -153,6 +153,9 @@ def main() -> None:
                     help="speeds of the recommendation's coarse grid (default 200; fewer for a slow --engine)")
     ap.add_argument("--label-error", type=float, default=None,
                     help="the likelihood's label-swap probability (default: the prior's); --calibrate swaps labels so")
+    ap.add_argument("--test-risk", default=str(TEST_RISK),
+                    help="cap on the next test's probability of chatter ('none': no cap, the most informative cut)")
+    ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--best-speeds", type=int, default=361, help="speeds on which the best truly stable cut is sought")
     ap.add_argument("--grid", default="61x40", help="speeds x depths of the Brier-score grid")
@@ -167,7 +170,8 @@ def main() -> None:
     table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error)
     prior = make_prior(cfg.structure, cut, table)
     decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),
-                "speed_tolerance": args.speed_tolerance}
+                "speed_tolerance": args.speed_tolerance,
+                "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk), "guard": not args.no_guard}
     if args.coarse:
         decision["coarse_points"] = args.coarse
     if args.calibrate:
@@ -220,7 +224,8 @@ def main() -> None:
             row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
                    "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
                    "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
-                   "stages": camp.stages, "best": camp.best, "failed": camp.failed}
+                   "stages": camp.stages, "best": camp.best, "failed": camp.failed,
+                   "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")}}
             if not args.no_baselines:
                 # baseline 1: the hammer-test SLD alone, 5 % below its limit
                 fine = np.linspace(lo, hi, args.best_speeds)
@@ -323,6 +328,10 @@ def main() -> None:
     print(f"  90 % interval of the limit covers the truth's limit at the cut speeds: {sum(lc)}/{len(lc)} = "
           f"{np.mean(lc):.2f} (per campaign median {np.median([np.mean(r['limit_cover']) for r in rows]):.2f})")
     print(f"  campaigns with a failed (stalled) update: {sum(bool(r['failed']) for r in rows)}/{n}")
+    print(f"  tests (cuts 2..{args.cuts}) labelled chatter: {np.mean([r['tests']['chatter'] for r in rows]):.0%}, "
+          f"marginal: {np.mean([r['tests']['marginal'] for r in rows]):.0%}, truly chattering: "
+          f"{np.mean([r['tests']['true'] for r in rows]):.0%} (test risk {decision['test_risk']}, data guard "
+          f"{'on' if decision['guard'] else 'off'})")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]
     reached = [k for k in k_best if k is not None]

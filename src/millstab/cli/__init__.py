@@ -20,6 +20,7 @@ from millstab.cli import sensitivity  # noqa: E402,F401
 from millstab.cli import simulate  # noqa: E402,F401
 from millstab.cli import modal  # noqa: E402,F401
 from millstab.cli import update  # noqa: E402,F401
+from millstab.cli import recommend  # noqa: E402,F401
 from millstab.cli import webapp  # noqa: E402,F401
 
 

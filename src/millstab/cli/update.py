@@ -1,9 +1,8 @@
-"""``millstab update``, ``map`` and ``recommend``: Bayesian updating from test cuts, P(stable) maps and
-the recommended cut."""
+"""``millstab update`` and ``map``: Bayesian updating from test cuts and P(stable) maps (``recommend``:
+:mod:`millstab.cli.recommend`)."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -12,8 +11,11 @@ import typer
 from millstab.cli.app import app
 from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
 from millstab.parsing import parse_rpm_range
-from millstab.errors import InputError
 from millstab.stability import ENGINES
+
+#: the --labels option of every command that reads a cuts file
+LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
+               "(words stable|marginal|chatter and probabilities in [0, 1] need none).")
 
 _SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
 
@@ -28,7 +30,8 @@ def _load_posterior(path: Path):
 @app.command("update")
 def update_cmd(
     config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
-    cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal."),
+    cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal, "
+                                          "a probability of chatter, or a code (--labels); label_NAME per rater."),
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
                                                        "spectral use measured chatter frequencies)."),
@@ -38,6 +41,7 @@ def update_cmd(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
+    labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
 ) -> None:
@@ -49,8 +53,8 @@ def update_cmd(
     from millstab.io import check_outputs, config_inputs, read_points, write_json
 
     cfg = api.config(config)
-    c = read_points(cuts)
-    p = read_points(points) if points is not None else None
+    c = read_points(cuts, labels)
+    p = read_points(points, labels) if points is not None else None
     inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = [v for v in inputs.values() if v]
@@ -119,64 +123,3 @@ def map_cmd(
         fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name}")
         save_figure(fig, plot, protect=[posterior])
         con.print(f"wrote {plot}")
-
-
-def _confidence(text: str) -> float | None:
-    """--confidence as a number in [0.5, 1), or None for 'none'."""
-    if text.strip().lower() == "none":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.5 <= value < 1:
-        raise InputError("--confidence", text, "a one-sided confidence in [0.5, 1), e.g. 0.9, or 'none'")
-    return value
-
-
-@app.command("recommend")
-def recommend_cmd(
-    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update."),
-    risk: float = typer.Option(0.05, "--risk", help="Tolerated probability of chatter, in (0, 1)."),
-    rpm: str = typer.Option(..., "--rpm", help="Speed range LOW:HIGH [rpm]."),
-    max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
-    radial_width: Optional[float] = typer.Option(None, "--radial-width", help="Radial width of cut [mm] (for cm³/min)."),
-    feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the next-test subsample."),
-    confidence: str = typer.Option("0.9", "--confidence",
-                                   help="P(chatter) <= RISK must hold with this one-sided confidence against the "
-                                        "posterior's sampling error, in [0.5, 1); 'none': the plain sample count."),
-    speed_tolerance: float = typer.Option(0.0025, "--speed-tolerance",
-                                          help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
-                                               "(0.0025 = ±0.25 %)."),
-    out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
-) -> None:
-    """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
-    from rich.console import Console
-
-    from millstab import api
-    from millstab.io import check_outputs, write_json
-    from millstab.parsing import parse_interval
-
-    if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
-        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
-    lo, hi = parse_interval(rpm, "--rpm", "rpm", positive=True)
-    conf = _confidence(confidence)
-    if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
-        raise InputError("--speed-tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
-    post = _load_posterior(posterior)
-    check_outputs({"POSTERIOR": posterior}, {"--out": out})
-    rec = api.recommend(post, risk, (lo, hi), max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth,
-                        seed=seed, confidence=conf, speed_tolerance=speed_tolerance)
-    write_json(out, rec.to_json(), protect=[posterior])
-    con = Console()
-    mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""
-    con.print(f"recommended: {rec.rpm:.0f} rpm, {rec.depth_mm:.3f} mm (P(chatter) {rec.p_chatter:.3f} ≤ {risk:g}, "
-              f"limited by {rec.limited_by}{mrr})")
-    if rec.p_chatter_bound is not None:
-        con.print(f"  held at ±{100 * rec.speed_tolerance:g} % speed error (P(chatter) ≤ {rec.p_chatter_speed_error:.3f}) "
-                  f"and against the sampling error: {rec.confidence:.0%} upper bound {rec.p_chatter_bound:.3f} from "
-                  f"{rec.effective_samples:.0f} effective samples")
-    nt = rec.next_test
-    con.print(f"next test: {nt['rpm']:.0f} rpm, {nt['depth_mm']:.3f} mm (P(chatter) {nt['p_chatter']:.2f}; {nt['why']})")
-    con.print(f"wrote {out}")

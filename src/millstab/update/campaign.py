@@ -49,6 +49,7 @@ class Campaign:
         posteriors: the posterior after k cuts for the k in ``keep`` (index 0 = prior draws).
         stages: tempering stages of each update.
         failed: after which cuts the update failed (tempering stalled: the model cannot explain the labels).
+        cut_true_chatter: whether each cut truly chattered (its depth at or above the true limit).
     """
 
     cut_rpm: list[float] = field(default_factory=list)
@@ -65,6 +66,15 @@ class Campaign:
     posteriors: dict[int, Posterior] = field(default_factory=dict)
     stages: list[int] = field(default_factory=list)
     failed: list[int] = field(default_factory=list)
+    cut_true_chatter: list[bool] = field(default_factory=list)
+
+    def test_chatter_share(self, label: str = "chatter") -> float:
+        """The share of the tool's tests (every cut after the first, which is the prior's recommendation) whose
+        label is ``label`` (``"true"``: that truly chattered); NaN without tests."""
+        tests = self.labels[1:] if label != "true" else self.cut_true_chatter[1:]
+        if not tests:
+            return float("nan")
+        return float(np.mean([bool(x) if label == "true" else x == label for x in tests]))
 
 
 def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361,
@@ -115,7 +125,8 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
         keep: after which numbers of cuts to keep the posterior (for maps).
         truth_grid: (rpm (S,), depth (D,), stable (S, D) bool) to score maps on after each cut, or ``None``.
         best_speeds: speeds of the grid on which the best truly stable cut is sought (a slow truth: fewer).
-        decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``).
+        decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,
+            ``guard``).
     """
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
@@ -156,6 +167,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: 
             lab, hz = labeler(np.array([nxt[0]]), np.array([nxt[1]]), rng)
             out.cut_rpm.append(float(nxt[0]))
             out.cut_depth_mm.append(float(nxt[1]))
+            out.cut_true_chatter.append(bool(nxt[1] >= truth(np.array([nxt[0]]))[0]))
             out.labels += list(lab)
             out.chatter_hz += list(hz)
     out.posteriors.setdefault(cuts, post)

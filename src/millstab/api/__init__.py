@@ -11,6 +11,7 @@ Inputs (:mod:`~millstab.api.inputs`): :func:`config`, :func:`config_from_text`, 
 
 Tasks: :func:`lobes` (SLD, any registered engine), :func:`identify`, :func:`design` (next test speeds),
 :func:`update` / :func:`p_stable` / :func:`recommend` (Bayesian updating and decisions),
+:func:`predict` (per-cut P(stable) and P(label chatter)), :func:`validate` (cross-validated scores beside baselines),
 :func:`sensitivity` (oat, mc, sobol, morris; locally or on Dask), :func:`simulate_cut` / :func:`label_cuts`
 (virtual cuts), :func:`modal_fit` (tap test), :func:`reproduce`.
 Figures: ``*_figure`` functions return matplotlib figures; tables: ``*_table`` functions return
@@ -32,8 +33,11 @@ from millstab.api.sensitivity import Study, sensitivity
 from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
 from millstab.api.update import (corner_figure, depth_grid, map_figure, map_table, p_stable, posterior_from_json,
                                  recommend, update)
+from millstab.api.predict import Prediction, predict
+from millstab.api.validate import validate
 
-__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "CancelToken", "Cancelled", "Lobes", "Progress", "Study",
+__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "CancelToken", "Cancelled", "Lobes", "Prediction", "Progress",
+           "Study", "predict", "validate",
            "check_fit_matches", "check_size", "config", "config_fields", "config_from_fields", "config_from_text",
            "config_toml", "corner_figure", "depth_grid", "design", "design_figure", "envelope", "fit_curves",
            "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "labels_table", "lobes", "lobes_figure",

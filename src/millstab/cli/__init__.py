@@ -21,6 +21,8 @@ from millstab.cli import simulate  # noqa: E402,F401
 from millstab.cli import modal  # noqa: E402,F401
 from millstab.cli import update  # noqa: E402,F401
 from millstab.cli import recommend  # noqa: E402,F401
+from millstab.cli import predict  # noqa: E402,F401
+from millstab.cli import validate  # noqa: E402,F401
 from millstab.cli import webapp  # noqa: E402,F401
 
 

@@ -1,0 +1,70 @@
+"""Honest predictions for given cuts from a posterior (``millstab predict``): per cut the chance that the
+process is stable and the chance that an operator writes "chatter" (the posterior's label model), in the
+input order; with labelled cuts, their scores against the written labels."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from millstab.points import PointSet
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Predictions for n cuts (rpm, mm), in the order of the cuts file.
+
+    Attributes:
+        cuts: the cuts as read (labels, grades, batches).
+        p_stable: (n,) probability that the cut is stable (the fraction of posterior samples whose limit
+            lies above its depth: the process, free of how labels are written).
+        p_label_chatter: (n,) probability that the written label says chatter (with the posterior's label
+            model: :func:`millstab.update.predict.predict_cuts`).
+        warnings: the posterior's own warnings (a prior-data conflict among them).
+    """
+
+    cuts: PointSet
+    p_stable: np.ndarray
+    p_label_chatter: np.ndarray
+    warnings: tuple[str, ...] = ()
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the CSV: rpm, depth_mm, label (when any cut is labelled; the written class,
+        empty for a boundary point), p_stable, p_label_chatter."""
+        c = self.cuts
+        labelled = bool((~c.boundary).any())
+        header = ["rpm", "depth_mm"] + (["label"] if labelled else []) + ["p_stable", "p_label_chatter"]
+        cols = [c.rpm, c.depth_mm] + ([list(c.label)] if labelled else []) + [self.p_stable, self.p_label_chatter]
+        return header, cols
+
+    def scores(self) -> dict | None:
+        """Scores of ``p_label_chatter`` against the labelled cuts (``None`` without any): ``n``, ``brier``
+        (mean squared difference to the graded label, 0 stable … 1 chatter) and ``brier_rate`` (that of the
+        constant rate of chatter labels among these cuts, a baseline that has seen the answers)."""
+        m = ~self.cuts.boundary
+        if not m.any():
+            return None
+        g = self.cuts.grade[m]
+        p = self.p_label_chatter[m]
+        return {"n": int(m.sum()), "brier": float(np.mean((p - g) ** 2)), "brier_rate": float(np.mean((g.mean() - g) ** 2))}
+
+
+def predict(post, cuts: PointSet) -> Prediction:
+    """Predictions for the cuts (labelled or not) from a posterior (:class:`millstab.update.Posterior`).
+
+    Raises:
+        InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`).
+    Warns:
+        UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior).
+    """
+    from millstab.update.decide import warn_outside
+    from millstab.update.predict import predict_cuts
+
+    if len(cuts):
+        warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), "the prediction", stacklevel=3)
+    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm)
+    return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings))
+
+
+__all__ = ["Prediction", "predict"]

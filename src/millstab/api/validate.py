@@ -1,0 +1,33 @@
+"""Cross-validation of millstab's predictions on a shop's own cuts beside simple baselines
+(``millstab validate``; the study is :mod:`millstab.update.validate`)."""
+
+from __future__ import annotations
+
+from millstab.api.inputs import modal
+from millstab.api.progress import Progress
+from millstab.errors import InputError
+from millstab.points import PointSet
+
+
+def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int = 1000, engine: str = "zoa",
+             progress: Progress | None = None):
+    """Cross-validated Brier score, log loss and AUC of millstab's P(chatter label) and of the majority rate,
+    logistic regression and k-nearest-neighbours, by random folds, leave-one-speed-out and (with two or
+    more batches) leave-one-day-out (:func:`millstab.update.validate.cross_validate`); a measured-FRF config's
+    prior centres on its fitted modes.
+
+    Raises:
+        InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine.
+    """
+    from millstab.stability import ENGINES
+    from millstab.update.validate import cross_validate
+
+    if samples < 100:
+        raise InputError("--samples", samples, "need at least 100 samples")
+    if engine not in ENGINES:
+        raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
+    cfg, _ = modal(cfg)
+    return cross_validate(cfg, cuts, n_folds=folds, seed=seed, samples=samples, engine=engine, progress=progress)
+
+
+__all__ = ["validate"]

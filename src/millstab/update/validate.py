@@ -1,0 +1,261 @@
+"""Cross-validation of the posterior's predictions on a shop's own cuts: "can I trust it on my machine?".
+
+For each fold the posterior is updated on the training cuts only, and the held-out cuts' chance of a
+"chatter" label (:func:`millstab.update.predict.predict_cuts`, with the posterior's label model) is scored
+against what was written. Three baselines get the same folds, the same features and the same targets:
+
+* ``majority``: the training cuts' rate of chatter (the mean graded label), a constant;
+* ``logistic``: logistic regression on the standardised (rpm, depth) (scikit-learn, C = 1); graded labels
+  enter as two weighted rows (chatter with weight g, stable with weight 1 − g), the exact
+  log-likelihood of a graded target;
+* ``knn``: the mean graded label of the k = round(√n_train) nearest training cuts in the standardised
+  (rpm, depth) plane (scikit-learn's KNeighborsRegressor; √n is the classical consistent choice and needs
+  no inner loop).
+
+Fold schemes (each cut is held out exactly once per scheme; boundary points always stay in training):
+
+* ``random``: K folds at random (``KFold(shuffle=True, random_state=seed)``);
+* ``speed``: leave one speed out: speeds within 0.5 % of each other are one speed; when there are more
+  than ``max_speeds`` of them they are merged into K contiguous speed bands of about equal numbers of
+  cuts. It asks whether the model carries to speeds it has not seen — where a shop will use it;
+* ``batch``: leave one test day out, when the cuts carry two or more batches (days drift: fn a few %,
+  a new tool, another operator).
+
+Scores, pooled over the held-out predictions of a scheme (per-fold Brier scores kept too):
+Brier = mean (p − g)² against the graded label g ∈ [0, 1] (proper for graded targets); log loss and AUC
+against the thresholded label y = [g > ½] (cuts with g = ½ exactly, a plain "marginal" or a split vote of
+two raters, are left out of these two: they are neither), p clipped to [10⁻⁶, 1 − 10⁻⁶] in the log loss.
+Units: rpm, mm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.points import PointSet
+
+METHODS = ("millstab", "majority", "logistic", "knn")
+#: relative speed difference within which two cuts are "the same speed" for leave-one-speed-out
+SAME_SPEED = 0.005
+#: the most speed groups left out one by one (more: merged into K contiguous bands)
+MAX_SPEEDS = 10
+
+
+def speed_groups(rpm: np.ndarray, n_folds: int, max_speeds: int = MAX_SPEEDS) -> np.ndarray:
+    """Group index (n,) of each speed: runs of sorted speeds less than :data:`SAME_SPEED` apart are one speed;
+    more than ``max_speeds`` speeds are merged into ``n_folds`` contiguous bands of about equal counts."""
+    r = np.asarray(rpm, float)
+    order = np.argsort(r, kind="stable")
+    rs = r[order]
+    new = np.r_[True, np.diff(rs) > SAME_SPEED * rs[:-1]]
+    g_sorted = np.cumsum(new) - 1
+    n_groups = int(g_sorted[-1]) + 1 if r.size else 0
+    if n_groups > max_speeds:
+        # contiguous bands: cut the sorted cuts into n_folds near-equal parts, at speed-group boundaries
+        counts = np.bincount(g_sorted, minlength=n_groups)
+        edges = np.cumsum(counts) / r.size  # the share of cuts up to each group's end
+        band = np.minimum((np.r_[0.0, edges[:-1]] * n_folds + 1e-9).astype(int), n_folds - 1)
+        g_sorted = band[g_sorted]
+        g_sorted = np.unique(g_sorted, return_inverse=True)[1]
+    out = np.empty(r.size, int)
+    out[order] = g_sorted
+    return out
+
+
+def fold_indices(cuts: PointSet, scheme: str, n_folds: int, seed: int,
+                 max_speeds: int = MAX_SPEEDS) -> list[np.ndarray]:
+    """The held-out indices (into the labelled cuts, in file order) of each fold of ``scheme``."""
+    from sklearn.model_selection import KFold
+
+    lab = np.flatnonzero(~cuts.boundary)
+    n = lab.size
+    if scheme == "random":
+        k = min(n_folds, n)
+        return [test for _, test in KFold(k, shuffle=True, random_state=seed).split(np.zeros(n))]
+    if scheme == "speed":
+        groups = speed_groups(cuts.rpm[lab], n_folds, max_speeds)
+    elif scheme == "batch":
+        groups = np.unique(cuts.batch[lab], return_inverse=True)[1]
+    else:
+        raise InputError("scheme", scheme, "one of random, speed, batch")
+    return [np.flatnonzero(groups == g) for g in np.unique(groups)]
+
+
+def _features(cuts: PointSet) -> np.ndarray:
+    return np.column_stack([cuts.rpm, cuts.depth_mm])
+
+
+def baseline_predictions(train: PointSet, test: PointSet) -> dict[str, np.ndarray]:
+    """P(chatter label) of the test cuts by the three baselines trained on the labelled training cuts."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.neighbors import KNeighborsRegressor
+    from sklearn.preprocessing import StandardScaler
+
+    t = train.subset(~train.boundary)
+    g = t.grade
+    rate = float(g.mean())
+    out = {"majority": np.full(len(test), rate)}
+    sc = StandardScaler().fit(_features(t))
+    x, xt = sc.transform(_features(t)), sc.transform(_features(test))
+    if 0 < rate < 1 and (g > 0).any() and (g < 1).any():
+        # a graded target g is a chatter row of weight g and a stable row of weight 1 − g
+        xx = np.vstack([x, x])
+        yy = np.r_[np.ones(len(g)), np.zeros(len(g))]
+        ww = np.r_[g, 1 - g]
+        keep = ww > 0
+        lr = LogisticRegression(C=1.0).fit(xx[keep], yy[keep], sample_weight=ww[keep])
+        out["logistic"] = lr.predict_proba(xt)[:, 1]
+    else:  # one class only: nothing to regress on
+        out["logistic"] = np.full(len(test), rate)
+    k = max(1, min(len(g), int(round(math.sqrt(len(g))))))
+    out["knn"] = np.clip(KNeighborsRegressor(n_neighbors=k).fit(x, g).predict(xt), 0.0, 1.0)
+    return out
+
+
+def scores(p: np.ndarray, grade: np.ndarray) -> dict:
+    """Brier (graded target), log loss and AUC (thresholded target, g = ½ left out) of predictions p."""
+    from sklearn.metrics import log_loss, roc_auc_score
+
+    p = np.asarray(p, float)
+    g = np.asarray(grade, float)
+    out = {"n": int(g.size), "brier": float(np.mean((p - g) ** 2)) if g.size else math.nan}
+    m = g != 0.5
+    y = (g[m] > 0.5).astype(int)
+    pc = np.clip(p[m], 1e-6, 1 - 1e-6)
+    both = y.size and 0 < y.sum() < y.size
+    out["log_loss"] = float(log_loss(y, pc, labels=[0, 1])) if y.size else math.nan
+    out["auc"] = float(roc_auc_score(y, pc)) if both else math.nan
+    out["n_thresholded"] = int(y.size)
+    return out
+
+
+@dataclass
+class Validation:
+    """The result of :func:`cross_validate`.
+
+    Attributes:
+        cuts: the labelled cuts that were held out (file order).
+        predictions: {scheme: {method: (n,) P(chatter label) of each cut when it was held out}}.
+        folds: {scheme: (n,) the fold each cut was held out in}.
+        summary: {scheme: {method: scores (:func:`scores`) pooled over the folds, plus "fold_brier"}}.
+        notes: what went wrong in a fold (an update that could not run), for the user.
+        settings: folds, seed, samples, engine.
+    """
+
+    cuts: PointSet
+    predictions: dict = field(default_factory=dict)
+    folds: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+    settings: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return {"schema": "millstab.validation/1", "settings": self.settings, "summary": self.summary,
+                "notes": self.notes, "cuts": {"rpm": self.cuts.rpm.tolist(), "depth_mm": self.cuts.depth_mm.tolist(),
+                                              "label": self.cuts.label.tolist(), "grade": self.cuts.grade.tolist(),
+                                              "batch": self.cuts.batch.tolist()},
+                "folds": {s: f.tolist() for s, f in self.folds.items()},
+                "predictions": {s: {m: p.tolist() for m, p in d.items()} for s, d in self.predictions.items()}}
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the per-cut CSV: rpm, depth_mm, label, grade, batch, then per scheme its fold
+        and each method's held-out P(chatter label)."""
+        c = self.cuts
+        header, cols = ["rpm", "depth_mm", "label", "grade", "batch"], [c.rpm, c.depth_mm, list(c.label), c.grade, list(c.batch)]
+        for s, d in self.predictions.items():
+            header.append(f"{s}_fold")
+            cols.append(self.folds[s])
+            for m, p in d.items():
+                header.append(f"{s}_{m}")
+                cols.append(p)
+        return header, cols
+
+
+def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, samples: int = 1000,
+                   engine: str = "zoa", schemes: tuple[str, ...] | None = None, max_speeds: int = MAX_SPEEDS,
+                   update_fn: Callable | None = None,
+                   progress: Callable[[str, int, int], None] | None = None) -> Validation:
+    """Cross-validated scores of millstab's predictions beside the baselines (module docstring).
+
+    Args:
+        config: the config whose structure is the prior (a modal one: see :func:`millstab.api.modal`).
+        cuts: the labelled cuts (boundary points among them stay in every training set).
+        n_folds: K of the random folds (and of the speed bands).
+        seed: seed of the folds and of every update.
+        samples: posterior samples per update.
+        engine: the engine of the updates.
+        schemes: fold schemes; default random and speed, and batch when the cuts carry two or more batches.
+        update_fn: ``update(config, train_cuts, engine=, samples=, seed=)`` → posterior; default
+            :func:`millstab.update.update` (a study may pass another prior through it).
+        progress: ``progress(stage, done, total)`` after each update.
+    Raises:
+        InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme.
+    """
+    from millstab.update import update as run_update
+    from millstab.update.posterior import Posterior
+    from millstab.update.predict import predict_cuts
+    from millstab.warnlog import quiet
+
+    labelled = ~cuts.boundary
+    n = int(labelled.sum())
+    if n < 4:
+        raise InputError("cuts", f"{n} labelled cuts", "cross-validation needs at least 4 labelled cuts")
+    if not (isinstance(n_folds, (int, np.integer)) and n_folds >= 2):
+        raise InputError("--folds", n_folds, "need an integer ≥ 2")
+    lab = cuts.subset(labelled)
+    bnd = cuts.subset(cuts.boundary)
+    if schemes is None:
+        schemes = ("random", "speed") + (("batch",) if np.unique(lab.batch[lab.batch != ""]).size >= 2 else ())
+    update_fn = update_fn or (lambda cfg, tr, **kw: run_update(cfg, tr, **kw))
+    plan = [(s, i, test) for s in schemes for i, test in enumerate(fold_indices(lab, s, n_folds, seed, max_speeds))]
+    out = Validation(lab, settings={"folds": int(n_folds), "seed": int(seed), "samples": int(samples), "engine": engine,
+                                    "schemes": list(schemes)})
+    for s in schemes:
+        out.predictions[s] = {m: np.full(n, np.nan) for m in METHODS}
+        out.folds[s] = np.full(n, -1)
+    for done, (s, i, test) in enumerate(plan):
+        mask = np.zeros(n, bool)
+        mask[test] = True
+        tr = lab.subset(~mask)
+        train = tr if not len(bnd) else _concat(tr, bnd)
+        te = lab.subset(mask)
+        try:
+            with quiet():  # one-sided folds and speeds beyond the training cuts are expected here
+                post = update_fn(config, train, engine=engine, samples=samples, seed=int(seed) * 1000 + done)
+        except (InputError, RuntimeError) as exc:  # a fold the model cannot be updated on: the prior predicts
+            from millstab.update.prior import make_prior
+
+            out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
+            pr = make_prior(config.structure, config.cutting, getattr(config, "prior", None))
+            post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
+        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm)[1]
+        for m, p in baseline_predictions(tr, te).items():
+            out.predictions[s][m][mask] = p
+        out.folds[s][mask] = i
+        if progress is not None:
+            progress(f"{s} fold {i}", done + 1, len(plan))
+    for s in schemes:
+        out.summary[s] = {}
+        for m in METHODS:
+            sc = scores(out.predictions[s][m], lab.grade)
+            sc["fold_brier"] = [float(np.mean((out.predictions[s][m][out.folds[s] == f] - lab.grade[out.folds[s] == f]) ** 2))
+                                for f in np.unique(out.folds[s])]
+            out.summary[s][m] = sc
+    return out
+
+
+def _concat(a: PointSet, b: PointSet) -> PointSet:
+    """Training cuts and the boundary points (the raters of ``a``; a boundary point has no rating)."""
+    r = np.vstack([a.ratings, np.full((len(b), a.ratings.shape[1]), np.nan)])
+    return PointSet(np.r_[a.rpm, b.rpm], np.r_[a.depth_mm, b.depth_mm], np.r_[a.label, b.label], np.r_[a.weight, b.weight],
+                    a.source, np.r_[a.chatter_hz, b.chatter_hz], np.r_[a.grade, b.grade], np.r_[a.batch, b.batch], r,
+                    a.raters)
+
+
+__all__ = ["METHODS", "MAX_SPEEDS", "SAME_SPEED", "Validation", "baseline_predictions", "cross_validate",
+           "fold_indices", "scores", "speed_groups"]

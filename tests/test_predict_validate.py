@@ -1,0 +1,190 @@
+"""`millstab predict` (per-cut P(stable) and P(label chatter), input order) and `millstab validate`
+(cross-validated scores beside the baselines), each checked against an independent re-computation."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from millstab.cli import main
+from millstab.errors import InputError
+from millstab.io.points import parse_points
+from millstab.model import Cutting, Mode, Structure
+from millstab.points import PointSet
+from millstab.update import Posterior, make_prior
+from millstab.update.likelihood import limits
+from millstab.update.validate import (baseline_predictions, cross_validate, fold_indices, scores, speed_groups)
+
+CUT = Cutting(2, 556.31e6, 0.404, 0.0, math.pi)
+STRUCT = Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(1050.0, 15e6, 0.04),))
+PRIOR = make_prior(STRUCT, CUT)
+
+
+def prior_post(n=300, seed=4, warn=()):
+    return Posterior(PRIOR, np.exp(PRIOR.sample(n, np.random.default_rng(seed))), cuts={"rpm": [5000.0, 9000.0]},
+                     warnings=tuple(warn))
+
+
+# --- predict -------------------------------------------------------------------------------------------
+def test_predict_in_the_input_order_against_each_cuts_own_limits():
+    from millstab.api import predict
+
+    post = prior_post()
+    cuts = parse_points("rpm,depth_mm,label\n9000,2.5,stable\n5000,0.5,chatter\n9000,1.0,\n6100,9.0,0.7\n5000,3,stable\n",
+                        "c.csv")
+    pred = predict(post, cuts)
+    for i in range(len(cuts)):  # one cut at a time: the fraction of samples whose own limit is above it
+        b = limits(PRIOR, post.u, [cuts.rpm[i]])[0][:, 0]
+        assert pred.p_stable[i] == pytest.approx((b > cuts.depth_mm[i]).mean(), abs=1e-12)
+    eps = PRIOR.label_error
+    np.testing.assert_allclose(pred.p_label_chatter, eps + (1 - 2 * eps) * (1 - pred.p_stable), atol=1e-12)
+    header, cols = pred.table()
+    assert header == ["rpm", "depth_mm", "label", "p_stable", "p_label_chatter"]
+    assert cols[0].tolist() == [9000, 5000, 9000, 6100, 5000] and cols[2] == ["stable", "chatter", "", "chatter", "stable"]
+    s = pred.scores()
+    g = np.array([0, 1, 0.7, 0])
+    m = np.array([0, 1, 3, 4])
+    assert s["n"] == 4 and s["brier"] == pytest.approx(np.mean((pred.p_label_chatter[m] - g) ** 2))
+    assert s["brier_rate"] == pytest.approx(np.mean((g.mean() - g) ** 2))
+    unl = predict(post, PointSet([5000.0], [1.0]))
+    assert unl.table()[0] == ["rpm", "depth_mm", "p_stable", "p_label_chatter"] and unl.scores() is None
+
+
+def test_predict_command(tmp_path, capsys):
+    (tmp_path / "post.json").write_text(json.dumps(prior_post(warn=["prior-data conflict: test"]).to_json()))
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label,notes\n8000,3,chatter,loud\n5000,0.2,stable,\n")
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv"), "--out", str(tmp_path / "p.csv")]) == 0
+    out = capsys.readouterr()
+    assert "prior-data conflict" in out.out and "Brier score" in out.out and "ignored columns: notes" in out.err
+    rows = list(csv.DictReader((tmp_path / "p.csv").open()))
+    assert [float(r["rpm"]) for r in rows] == [8000, 5000] and rows[1]["label"] == "stable"
+    assert float(rows[1]["p_stable"]) == 1.0 and 0 <= float(rows[0]["p_label_chatter"]) <= 1
+    # outputs are checked before the work: the cuts file is never overwritten
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv"), "--out",
+                 str(tmp_path / "cuts.csv")]) == 2
+    assert "cuts.csv" in capsys.readouterr().err and "notes" in (tmp_path / "cuts.csv").read_text()
+
+
+# --- validate: the pieces ------------------------------------------------------------------------------
+def test_fold_schemes_hold_out_each_cut_once():
+    rng = np.random.default_rng(0)
+    rpm = np.r_[np.full(4, 5000.0), np.full(3, 5010.0), np.full(5, 7000.0), np.full(2, 9000.0)]
+    cuts = PointSet(rpm, rng.uniform(0.5, 4, rpm.size), ["stable"] * rpm.size, batch=["a"] * 7 + ["b"] * 7)
+    for scheme in ("random", "speed", "batch"):
+        f = fold_indices(cuts, scheme, 3, seed=1)
+        assert np.sort(np.concatenate(f)).tolist() == list(range(rpm.size))
+    # 5000 and 5010 rpm are one speed (0.2 % apart): three speeds
+    sp = fold_indices(cuts, "speed", 5, 1)
+    assert sorted(map(len, sp)) == [2, 5, 7]
+    assert [len(x) for x in fold_indices(cuts, "batch", 5, 1)] == [7, 7]
+    assert fold_indices(cuts, "random", 3, 1)[0].tolist() == fold_indices(cuts, "random", 3, 1)[0].tolist()
+    # many speeds: merged into contiguous bands of about equal counts
+    many = np.linspace(5000, 9000, 40)
+    g = speed_groups(many, 4, max_speeds=10)
+    assert np.bincount(g).tolist() == [10, 10, 10, 10] and (np.diff(g) >= 0).all()
+    with pytest.raises(InputError, match="scheme"):
+        fold_indices(cuts, "day", 3, 1)
+
+
+def test_baselines_against_brute_force():
+    rng = np.random.default_rng(3)
+    n = 30
+    rpm, depth = rng.uniform(5000, 9000, n), rng.uniform(0.5, 4, n)
+    grade = np.clip(np.round((depth - 2 + rng.normal(0, 0.7, n)) / 1.5 * 2) / 2, 0, 1)  # 0, ½, 1
+    train = PointSet(rpm, depth, np.where(grade > 0.6, "chatter", np.where(grade < 0.4, "stable", "marginal")), grade=grade)
+    test = PointSet([6000.0, 8000.0, 7000.0], [1.0, 3.5, 2.2])
+    got = baseline_predictions(train, test)
+    assert got["majority"] == pytest.approx(np.full(3, grade.mean()))
+    # standardised features (population sd, as StandardScaler)
+    mu, sd = np.array([rpm.mean(), depth.mean()]), np.array([rpm.std(), depth.std()])
+    x = (np.column_stack([rpm, depth]) - mu) / sd
+    xt = (np.column_stack([test.rpm, test.depth_mm]) - mu) / sd
+    # logistic: the graded log-likelihood with the L2 penalty ½|w|² (C = 1), minimised directly
+
+    def nll(beta):
+        z = beta[0] + x @ beta[1:]
+        return -(grade * -np.logaddexp(0, -z) + (1 - grade) * -np.logaddexp(0, z)).sum() + 0.5 * beta[1:] @ beta[1:]
+
+    beta = minimize(nll, np.zeros(3), method="BFGS", options={"gtol": 1e-10}).x
+    np.testing.assert_allclose(got["logistic"], 1 / (1 + np.exp(-(beta[0] + xt @ beta[1:]))), atol=2e-4)
+    # kNN: k = round(sqrt(30)) = 5 nearest by Euclidean distance, the mean of their grades
+    d = np.linalg.norm(x[None, :, :] - xt[:, None, :], axis=2)
+    brute = np.array([grade[np.argsort(row)[:5]].mean() for row in d])
+    np.testing.assert_allclose(got["knn"], brute, atol=1e-12)
+
+
+def test_scores_against_their_definitions():
+    p = np.array([0.1, 0.8, 0.4, 0.6, 0.3, 0.9])
+    g = np.array([0.0, 1.0, 0.5, 0.0, 1.0, 1.0])
+    s = scores(p, g)
+    assert s["brier"] == pytest.approx(np.mean((p - g) ** 2)) and s["n"] == 6 and s["n_thresholded"] == 5
+    m = g != 0.5
+    y, q = g[m], p[m]
+    assert s["log_loss"] == pytest.approx(-np.mean(y * np.log(q) + (1 - y) * np.log(1 - q)))
+    pos, neg = q[y == 1], q[y == 0]
+    pairs = (pos[:, None] > neg[None, :]).mean() + 0.5 * (pos[:, None] == neg[None, :]).mean()
+    assert s["auc"] == pytest.approx(pairs)
+    assert math.isnan(scores(np.array([0.2, 0.3]), np.array([0.0, 0.0]))["auc"])  # one class: no AUC
+
+
+def test_cross_validate_plumbing_with_a_stand_in_update():
+    """The folds' training sets never hold the held-out cuts, each cut is predicted once per scheme with the
+    posterior of its own fold, and the pooled scores are those of the predictions."""
+    rng = np.random.default_rng(5)
+    n = 12
+    rpm = np.repeat([5000.0, 6000, 7000, 8000], 3)
+    depth = rng.uniform(0.5, 4, n)
+    lab = np.where(depth > 2, "chatter", "stable")
+    cuts = PointSet(np.r_[rpm, 6500.0], np.r_[depth, 2.0], np.append(lab, ""), batch=["d1"] * 6 + ["d2"] * 6 + [""])
+    seen = []
+
+    def fake_update(cfg, train, **kw):
+        seen.append((train.rpm.tolist(), train.depth_mm.tolist(), kw["seed"]))
+        return prior_post(200, seed=kw["seed"] % 97)
+
+    class Cfg:
+        structure, cutting = STRUCT, CUT
+
+    res = cross_validate(Cfg(), cuts, n_folds=3, seed=2, samples=200, update_fn=fake_update)
+    assert res.settings["schemes"] == ["random", "speed", "batch"] and len(seen) == 3 + 4 + 2
+    for s in ("random", "speed", "batch"):
+        f = res.folds[s]
+        assert (f >= 0).all() and set(np.unique(f)) == set(range(len(np.unique(f))))
+        for m in ("millstab", "majority", "logistic", "knn"):
+            p = res.predictions[s][m]
+            assert np.isfinite(p).all() and ((0 <= p) & (p <= 1)).all()
+            assert res.summary[s][m]["brier"] == pytest.approx(np.mean((p - res.cuts.grade) ** 2))
+    # the boundary point is in every training set, a held-out cut in none of its fold's
+    k = 0
+    for s in ("random", "speed", "batch"):
+        for fold in np.unique(res.folds[s]):
+            tr_rpm, tr_depth, _ = seen[k]
+            k += 1
+            assert 2.0 in tr_depth and 6500.0 in tr_rpm
+            held = set(res.cuts.depth_mm[res.folds[s] == fold].tolist())
+            assert not held & set(tr_depth)
+    assert res.table()[0][:5] == ["rpm", "depth_mm", "label", "grade", "batch"]
+    with pytest.raises(InputError, match="at least 4"):
+        cross_validate(Cfg(), cuts.subset(np.arange(3)), update_fn=fake_update)
+
+
+@pytest.mark.slow
+def test_validate_command_end_to_end(tmp_path, capsys):
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label_a,label_b\n5000,1.0,stable,stable\n5000,4.0,chatter,chatter\n"
+                                       "7000,2.0,stable,1\n7000,5.0,2,chatter\n9000,1.5,0,stable\n9000,4.5,chatter,2\n")
+    args = ["validate", "example:ex1", str(tmp_path / "cuts.csv"), "--folds", "2", "--samples", "100", "--seed", "1",
+            "--out", str(tmp_path / "v.json"), "--predictions", str(tmp_path / "v.csv")]
+    assert main(args) == 2 and "--labels" in capsys.readouterr().err  # the codes need a mapping
+    assert main(args + ["--labels", "0=stable,1=marginal,2=chatter"]) == 0
+    out = capsys.readouterr().out
+    assert "random folds" in out and "leave one speed out" in out and "logistic" in out
+    doc = json.loads((tmp_path / "v.json").read_text())
+    assert doc["schema"] == "millstab.validation/1" and set(doc["summary"]) == {"random", "speed"}
+    assert len(doc["summary"]["speed"]["millstab"]["fold_brier"]) == 3
+    rows = list(csv.DictReader((tmp_path / "v.csv").open()))
+    assert len(rows) == 6 and float(rows[2]["grade"]) == 0.25

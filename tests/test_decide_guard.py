@@ -145,3 +145,14 @@ def test_recommend_command_shows_the_update_warnings_and_the_guard(tmp_path, cap
     assert main(["recommend", str(tmp_path / "post.json"), "--rpm", "5000:9000", "--test-risk", "0",
                  "--out", str(tmp_path / "r2.json")]) == 2
     assert "--test-risk" in capsys.readouterr().err
+
+
+def test_campaign_counts_the_tests_that_chattered():
+    from millstab.update.campaign import Campaign
+
+    c = Campaign(labels=["stable", "chatter", "marginal", "chatter", "stable"],
+                 cut_true_chatter=[True, True, False, True, False])
+    # the first cut is the prior's recommendation, not a test
+    assert c.test_chatter_share() == 0.5 and c.test_chatter_share("marginal") == 0.25
+    assert c.test_chatter_share("true") == 0.5
+    assert math.isnan(Campaign(labels=["stable"], cut_true_chatter=[False]).test_chatter_share())

@@ -79,11 +79,18 @@ def test_the_guard_neighbourhood_and_its_exceptions():
     assert data_guard(post_with([7000.0, 7050], [0.3, 0.4], ["chatter", "stable"], grade=[0.8, 0.1])) == []
 
 
-def test_a_guard_that_does_not_bind_changes_nothing():
-    # a chatter cut far above the model's limits: the recommendation is the model's own
+def test_a_cut_the_model_explains_does_not_guard_and_a_far_guard_changes_nothing():
+    # chatter at 20 mm: every sample's limit (1-3 mm) lies below it, the model explains it: no guard
     post = post_with([7000.0], [20.0], ["chatter"])
+    assert data_guard(post) == []
+    # chatter at 0.3 mm at 5 200 rpm: unexplained (the model's P(chatter) there is ~0), so it guards ±498 rpm,
+    # but the model's best cut is far away (9 000 rpm): the recommendation is the model's own
+    post = post_with([5200.0, 9000.0], [0.3, 0.5], ["chatter", "stable"])
+    g = data_guard(post)
+    assert len(g) == 1 and g[0]["p_model_chatter"] < 0.5
     a = recommend(post, 0.05, (5000, 9000))
     b = recommend(post, 0.05, (5000, 9000), guard=False)
+    assert abs(b.rpm - 5200) > half_width(5200)
     assert (a.rpm, a.depth_mm) == (b.rpm, b.depth_mm) and a.limited_by == "chatter risk"
     assert a.guard[0]["binding"] is False
 

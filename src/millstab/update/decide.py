@@ -27,14 +27,18 @@ whether the process chatters).
   depth × speed (× width × feed per tooth × teeth → cm³/min). The best of a coarse grid is refined by a
   bounded 1-D search on the continuous speed axis: rounds of ``REFINE_POINTS`` speeds in the bracket
   between the best point's neighbours, each round one engine call, the bracket shrinking each time.
-* :func:`data_guard`: a backstop from the data alone, whatever the model says: no recommended depth at or
-  above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) within its speed
-  neighbourhood, ±:data:`GUARD_LOBE_FRACTION` of the local lobe spacing (Ω·f_tp/f_c, f_tp = N·Ω/60, f_c the
-  cut's measured chatter frequency or else the most flexible mode's natural frequency), unless the stable
-  cuts (grade < ½) at least as deep in that neighbourhood outweigh the chatter cuts at most as deep there
-  (each cut weighs |2·grade − 1|: 1 for a plain label, 0 for marginal; strictly more stable weight).
-  Why: a posterior that cannot explain a chatter label (a label-error model absorbs it, a model error
-  hides it) would otherwise recommend the very cut the shop saw chatter.
+* :func:`data_guard`: a backstop from the data where the model does not explain them: no recommended depth
+  at or above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) that the posterior
+  calls chatter with probability < :data:`GUARD_EXPLAINED` (the fraction of samples whose limit lies at or
+  below the cut), within its speed neighbourhood, ±:data:`GUARD_LOBE_FRACTION` of the local lobe spacing
+  (Ω·f_tp/f_c, f_tp = N·Ω/60, f_c the cut's measured chatter frequency or else the most flexible mode's
+  natural frequency), unless the stable cuts (grade < ½) at least as deep in that neighbourhood outweigh
+  the chatter cuts at most as deep there (each cut weighs |2·grade − 1|: 1 for a plain label, 0 for
+  marginal; strictly more stable weight). Why: a posterior that cannot explain a chatter label (a
+  label-error model absorbs it, a model error hides it) would otherwise recommend the very cut the shop saw
+  chatter. A cut the posterior does explain needs no guard: its boundary already puts the limit at or below
+  the cut (the calibration campaigns measured the cost of guarding those too: productivity median 0.91 →
+  0.79, docs/updating.md).
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
   between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
@@ -82,6 +86,9 @@ GUARD_LOBE_FRACTION = 0.5
 GUARD_WIDTH_LIMITS = (0.005, 0.25)
 #: data guard: a recommended depth stays below (1 − this)·depth of a guarding chatter cut
 GUARD_MARGIN = 0.05
+#: data guard: a chatter cut guards when the posterior calls it chatter with less than this probability
+#: (the fraction of samples whose limit lies at or below the cut): the model does not explain it
+GUARD_EXPLAINED = 0.5
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -226,11 +233,15 @@ def _cut_grades(cuts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
 def data_guard(post: Posterior) -> list[dict]:
     """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
-    a list of {rpm, depth_mm, grade, half_width_rpm, cap_mm, stable_weight, chatter_weight}, one per
-    guarding cut (outweighed ones are left out)."""
+    a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
+    one per guarding cut (cuts the posterior explains, and outweighed ones, are left out)."""
     rpm, depth, grade, hz = _cut_grades(post.cuts or {})
-    if rpm.size == 0:
+    ch = np.flatnonzero(grade > 0.5)
+    if ch.size == 0:
         return []
+    # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
+    blim, _ = limits(post.prior, post.u, rpm[ch], post.engine)
+    p_model = np.mean(blim <= depth[ch][None, :], axis=0)
     modes = [m for m in (*post.prior.par.base.x, *post.prior.par.base.y)]
     fc_struct = min(modes, key=lambda m: m.k).fn  # the most flexible mode: where chatter grows
     fc = np.where(np.isfinite(hz) & (hz > 0), hz, fc_struct)
@@ -238,15 +249,18 @@ def data_guard(post: Posterior) -> list[dict]:
     rel = np.clip(GUARD_LOBE_FRACTION * ftp / fc, *GUARD_WIDTH_LIMITS)
     strength = np.abs(2 * grade - 1)
     out = []
-    for i in np.flatnonzero(grade > 0.5):
+    for i, p in zip(ch, p_model):
+        if p >= GUARD_EXPLAINED:  # the model calls it chatter too: its own boundary already respects the cut
+            continue
         near = np.abs(rpm - rpm[i]) <= rel[i] * rpm[i]
         w_stable = float(strength[near & (grade < 0.5) & (depth >= depth[i])].sum())
         w_chatter = float(strength[near & (grade > 0.5) & (depth <= depth[i])].sum())
         if w_stable > w_chatter:
             continue
         out.append({"rpm": float(rpm[i]), "depth_mm": float(depth[i]), "grade": float(grade[i]),
-                    "half_width_rpm": float(rel[i] * rpm[i]), "cap_mm": float((1 - GUARD_MARGIN) * depth[i]),
-                    "stable_weight": w_stable, "chatter_weight": w_chatter})
+                    "p_model_chatter": float(p), "half_width_rpm": float(rel[i] * rpm[i]),
+                    "cap_mm": float((1 - GUARD_MARGIN) * depth[i]), "stable_weight": w_stable,
+                    "chatter_weight": w_chatter})
     return out
 
 
@@ -423,6 +437,6 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
                    "the recommendation" + ("" if test_risk is None else f" at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["CONFIDENCE", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+__all__ = ["CONFIDENCE", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

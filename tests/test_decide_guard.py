@@ -163,3 +163,9 @@ def test_campaign_counts_the_tests_that_chattered():
     assert c.test_chatter_share() == 0.5 and c.test_chatter_share("marginal") == 0.25
     assert c.test_chatter_share("true") == 0.5
     assert math.isnan(Campaign(labels=["stable"], cut_true_chatter=[False]).test_chatter_share())
+
+
+def test_the_command_line_default_test_risk_is_the_library_s():
+    from millstab.cli.recommend import TEST_RISK as CLI_TEST_RISK
+
+    assert CLI_TEST_RISK == TEST_RISK

@@ -188,3 +188,18 @@ def test_validate_command_end_to_end(tmp_path, capsys):
     assert len(doc["summary"]["speed"]["millstab"]["fold_brier"]) == 3
     rows = list(csv.DictReader((tmp_path / "v.csv").open()))
     assert len(rows) == 6 and float(rows[2]["grade"]) == 0.25
+
+
+@pytest.mark.parametrize("argv,shown", [(["predict", "--help"], "p_stable,p_label_chatter"),
+                                        (["validate", "--help"], "0=stable,1=marginal,2=chatter")])
+def test_help_of_the_new_commands(capsys, argv, shown):
+    assert main(argv) == 0
+    assert shown in " ".join(capsys.readouterr().out.split())
+
+
+def test_validate_refuses_bad_options_before_any_update(tmp_path, capsys):
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1,stable\n5000,4,chatter\n7000,2,stable\n7000,5,chatter\n")
+    base = ["validate", "example:ex1", str(tmp_path / "cuts.csv")]
+    assert main(base + ["--folds", "1"]) == 2 and "--folds" in capsys.readouterr().err
+    assert main(base + ["--samples", "10"]) == 2 and "--samples" in capsys.readouterr().err
+    assert main(base + ["--out", str(tmp_path / "cuts.csv")]) == 2 and "cuts.csv" in capsys.readouterr().err

@@ -88,7 +88,8 @@ def test_extra_columns_kept_with_one_note_and_batch_parsed():
     assert ps.extra["notes"].tolist() == ["good finish", ""] and ps.extra["feed"].tolist() == ["0.1", "0.1"]
     assert ps.subset(np.array([1])).extra["notes"].tolist() == [""]
     # batch wins over date; date is then an extra column
-    ps = parse("rpm,depth_mm,label,batch,date\n5000,1,stable,A,2024\n")
+    with pytest.warns(UserWarning, match="ignored columns: date"):
+        ps = parse("rpm,depth_mm,label,batch,date\n5000,1,stable,A,2024\n")
     assert ps.batch.tolist() == ["A"] and ps.extra == {"date": np.array(["2024"])}
 
 
@@ -109,9 +110,11 @@ def test_errors_still_name_file_line_and_column(text, field, words):
 
 
 def test_round_trip_of_grades_raters_batch_and_extras(tmp_path):
-    ps = parse("rpm,depth_mm,label_op1,label_op2,batch,notes\n5000,1,stable,0.25,d1,x\n5000,2,0.6,chatter,d2,\n"
-               "5100,1.5,,,d2,boundary\n")
-    back = read_points(write_points(tmp_path / "a.csv", ps))
+    with pytest.warns(UserWarning, match="notes"):
+        ps = parse("rpm,depth_mm,label_op1,label_op2,batch,notes\n5000,1,stable,0.25,d1,x\n5000,2,0.6,chatter,d2,\n"
+                   "5100,1.5,,,d2,boundary\n")
+    with pytest.warns(UserWarning, match="notes"):
+        back = read_points(write_points(tmp_path / "a.csv", ps))
     np.testing.assert_array_equal(back.ratings, ps.ratings)
     np.testing.assert_array_equal(back.grade, ps.grade)
     assert back.raters == ps.raters and back.label.tolist() == ps.label.tolist()

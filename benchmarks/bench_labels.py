@@ -23,9 +23,10 @@ millstab's P(label chatter) from a zero-order update on the training cuts agains
 logistic regression and kNN on the same folds. Target: millstab's held-out Brier ≤ the best baseline, and
 ≤ the majority rate in every fold scheme.
 
-Run (the size in docs/updating.md; a few minutes on the 2-core machine)::
+Run (the sizes in docs/updating.md; about a minute a shop on the idle 2-core machine)::
 
-    .venv/bin/python benchmarks/bench_labels.py --shops 3 --samples 500 [--json out.json]
+    .venv/bin/python benchmarks/bench_labels.py --shops 10 --samples 500 [--json out.json]
+    .venv/bin/python benchmarks/bench_labels.py --shops 5 --samples 500 --immersion 0.1 --sigma-depth-rel 0.05
 """
 
 from __future__ import annotations
@@ -44,7 +45,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
+from millstab.io.config import PriorTable  # noqa: E402
 from millstab.io.points import parse_points  # noqa: E402
+from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior  # noqa: E402
 from millstab.update.validate import METHODS, cross_validate  # noqa: E402
@@ -53,21 +56,21 @@ OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
 CODES = "0=stable,1=marginal,2=chatter"
 
 
-def shop_file(seed: int, args, cfg, prior) -> tuple[str, dict]:
+def shop_file(seed: int, args, cut, prior) -> tuple[str, dict]:
     """The CSV text a shop would write, and facts about it (disagreement, chatter share, true limits)."""
     rng = np.random.default_rng([seed, 24])
     kinds = np.array([prior.par.kind(n) for n in prior.par.free])
     theta = prior.median * (1 + np.array([rng.uniform(-OFF[k], OFF[k]) for k in kinds]))
     sdm = get_engine("sdm")
     lo, hi = args.rpm
-    b_ref = float(np.percentile(sdm.envelope(prior.par.structure(theta), cfg.cutting, np.linspace(lo, hi, 60),
+    b_ref = float(np.percentile(sdm.envelope(prior.par.structure(theta), cut, np.linspace(lo, hi, 60),
                                             steps=args.steps).depth_mm, 25))
     rec = []  # (day, rpm, depth, true limit, operator 1's code)
     for d in range(args.days):
         drift = 1 + rng.uniform(-0.03, 0.03)
         th = theta * np.where(kinds == "fn", drift, 1.0)
         speeds = np.round(rng.uniform(lo, hi, args.speeds), -1)
-        limit = sdm.envelope(prior.par.structure(th), cfg.cutting, speeds, steps=args.steps).depth_mm
+        limit = sdm.envelope(prior.par.structure(th), cut, speeds, steps=args.steps).depth_mm
         for s, bl in zip(speeds, limit):
             for b in np.round(b_ref * rng.uniform(0.8, 1.8, args.depths) * (0.7 + 0.15 * d), 3):
                 r = b / bl - 1 + rng.normal(0, 0.04)
@@ -100,25 +103,33 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=500)
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--engine", default="zoa")
+    ap.add_argument("--immersion", type=float, default=1.0, help="radial immersion a/D (1: slotting; else down milling)")
+    ap.add_argument("--sigma-depth-rel", type=float, default=None,
+                    help="relative depth noise of the likelihood (at a/D 0.1 the limits are 25-100 mm: use 0.05)")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--keep-files", type=Path, default=None, help="folder to keep each shop's cuts CSV in")
     args = ap.parse_args()
     print(describe())
     cfg = load_config("example:ex1")
-    prior = make_prior(cfg.structure, cfg.cutting, getattr(cfg, "prior", None))
+    cut = cfg.cutting
+    if args.immersion < 1:
+        cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
+    # the shop's prior: its cutting conditions and depth noise
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel))
     rows = []
     t_all = time.perf_counter()
     with threadpool_limits(1):
         for shop in range(args.first, args.first + args.shops):
             t0 = time.perf_counter()
-            text, facts = shop_file(shop, args, cfg, prior)
+            text, facts = shop_file(shop, args, cut, prior)
             if args.keep_files:
                 args.keep_files.mkdir(parents=True, exist_ok=True)
                 (args.keep_files / f"shop{shop}.csv").write_text(text)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # the note on the ignored feed/notes columns
                 cuts = parse_points(text, f"shop{shop}.csv", CODES)
-            res = cross_validate(cfg, cuts, n_folds=args.folds, seed=shop, samples=args.samples, engine=args.engine)
+            res = cross_validate(cfg, cuts, n_folds=args.folds, seed=shop, samples=args.samples, engine=args.engine,
+                                 prior=prior)
             print(f"shop {shop}: {facts['cuts']} cuts, operators disagree on {facts['disagree']:.0%}, truly chattering "
                   f"{facts['truly_chatter']:.0%} (per day {', '.join(f'{x:.0%}' for x in facts['truly_chatter_per_day'])}), labelled chatter (grade > 1/2) {np.mean(cuts.grade > 0.5):.0%}; "
                   f"{time.perf_counter() - t0:.0f} s")
@@ -130,7 +141,7 @@ def main() -> None:
             for note in res.notes:
                 print(f"   note: {note}")
             rows.append({"shop": shop, "facts": facts, "summary": res.summary})
-    print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), {args.days} days x {args.speeds} speeds x "
+    print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, {args.days} days x {args.speeds} speeds x "
           f"{args.depths} depths, truth SDM ({args.steps} steps), updates {args.engine} with {args.samples} samples, "
           f"{args.folds} random folds:")
     for s in ("random", "speed", "batch"):

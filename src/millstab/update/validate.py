@@ -178,7 +178,7 @@ class Validation:
 
 def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, samples: int = 1000,
                    engine: str = "zoa", schemes: tuple[str, ...] | None = None, max_speeds: int = MAX_SPEEDS,
-                   update_fn: Callable | None = None,
+                   prior=None, update_fn: Callable | None = None,
                    progress: Callable[[str, int, int], None] | None = None) -> Validation:
     """Cross-validated scores of millstab's predictions beside the baselines (module docstring).
 
@@ -190,8 +190,9 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         samples: posterior samples per update.
         engine: the engine of the updates.
         schemes: fold schemes; default random and speed, and batch when the cuts carry two or more batches.
+        prior: a :class:`millstab.update.Prior` instead of the config's (other cutting conditions, noise).
         update_fn: ``update(config, train_cuts, engine=, samples=, seed=)`` → posterior; default
-            :func:`millstab.update.update` (a study may pass another prior through it).
+            :func:`millstab.update.update` with ``prior``.
         progress: ``progress(stage, done, total)`` after each update.
     Raises:
         InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme.
@@ -211,7 +212,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     bnd = cuts.subset(cuts.boundary)
     if schemes is None:
         schemes = ("random", "speed") + (("batch",) if np.unique(lab.batch[lab.batch != ""]).size >= 2 else ())
-    update_fn = update_fn or (lambda cfg, tr, **kw: run_update(cfg, tr, **kw))
+    update_fn = update_fn or (lambda cfg, tr, **kw: run_update(cfg, tr, prior=prior, **kw))
     plan = [(s, i, test) for s in schemes for i, test in enumerate(fold_indices(lab, s, n_folds, seed, max_speeds))]
     out = Validation(lab, settings={"folds": int(n_folds), "seed": int(seed), "samples": int(samples), "engine": engine,
                                     "schemes": list(schemes)})
@@ -231,7 +232,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             from millstab.update.prior import make_prior
 
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
-            pr = make_prior(config.structure, config.cutting, getattr(config, "prior", None))
+            pr = prior or make_prior(config.structure, config.cutting, getattr(config, "prior", None))
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
         out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm)[1]
         for m, p in baseline_predictions(tr, te).items():

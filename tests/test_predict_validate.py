@@ -203,3 +203,15 @@ def test_validate_refuses_bad_options_before_any_update(tmp_path, capsys):
     assert main(base + ["--folds", "1"]) == 2 and "--folds" in capsys.readouterr().err
     assert main(base + ["--samples", "10"]) == 2 and "--samples" in capsys.readouterr().err
     assert main(base + ["--out", str(tmp_path / "cuts.csv")]) == 2 and "cuts.csv" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_update_reads_coded_labels_of_two_operators(tmp_path):
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label_a,label_b,notes\n5000,1.0,0,0,\n5500,4.0,2,2,loud\n"
+                                       "7000,3.0,1,2,\n9000,2.5,0,1,\n")
+    args = ["update", "example:ex1", str(tmp_path / "cuts.csv"), "--samples", "100", "--out", str(tmp_path / "p.json")]
+    assert main(args) == 2
+    assert main(args + ["--labels", "0=stable,1=marginal,2=chatter"]) == 0
+    cuts = json.loads((tmp_path / "p.json").read_text())["cuts"]
+    # grades 0, 1, 0.75, 0.25: the nearest classes
+    assert cuts["label"] == ["stable", "chatter", "chatter", "stable"]

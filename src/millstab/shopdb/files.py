@@ -96,7 +96,7 @@ def _index(files: list[str], f, what: str) -> int | None:
     if f is None:
         return None
     if f not in files:
-        raise InputError(what, f, f"is not one of the exported files ({', '.join(files[:4])}{', ...' if len(files) > 4 else ''})")
+        raise InputError(what, f, f"not one of the exported files ({', '.join(files[:4])}{', ...' if len(files) > 4 else ''})")
     return files.index(f)
 
 
@@ -109,7 +109,7 @@ def read_campaign(folder) -> dict:
     """
     src = Path(folder)
     if not (src / "campaign.json").is_file():
-        raise InputError("FOLDER", str(src), "is not an exported campaign (no campaign.json); see docs/shopdb.md")
+        raise InputError("FOLDER", str(src), "not an exported campaign folder (no campaign.json); see docs/shopdb.md")
     m = read_json(src / "campaign.json")
     if not isinstance(m, dict) or m.get("schema") != SCHEMA:
         raise InputError(f"{src / 'campaign.json'} schema", m.get("schema") if isinstance(m, dict) else None,

@@ -174,7 +174,7 @@ def _sqlite_target(db: str) -> tuple[str, Path | None]:
         return db, None
     p = Path(db).expanduser()
     if p.is_dir():
-        raise InputError("--db", db, "is a folder; give a database file, e.g. shop.db, or a database URL")
+        raise InputError("--db", db, "a folder; give a database file, e.g. shop.db, or a database URL")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise InputError("--db", db, f"the folder {str(parent)!r} does not exist; create it or choose another path")
@@ -283,7 +283,8 @@ class Store:
 
     def _unknown(self, conn: sa.Connection, name: str) -> InputError:
         names = list(conn.execute(sa.select(T.campaign.c.name)).scalars())
-        close = difflib.get_close_matches(str(name), names, n=3)
+        low = {n.lower(): n for n in names}  # 'T12-M1 ' finds 't12-m1'
+        close = [low[x] for x in difflib.get_close_matches(str(name).strip().lower(), list(low), n=3)]
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
         some = f"it holds {len(names)} campaign(s)" + (f": {', '.join(names[:8])}" if 0 < len(names) <= 8 else "")
         return InputError("--campaign", name, f"no such campaign in {self.url} ({some}){hint}; "
@@ -686,20 +687,20 @@ def _translate(url: str, doing: str, exc: sa_exc.DBAPIError) -> InputError:
     msg = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
     low = msg.lower()
     if "readonly" in low or "read-only" in low or "read only" in low:
-        return InputError("--db", url, f"is read-only ({msg}); nothing was recorded; use a writable copy or "
+        return InputError("--db", url, f"the database is read-only ({msg}); nothing was recorded; use a writable copy or "
                                        "ask for write access to the file and its folder")
     if "disk is full" in low or "no space" in low or "disk full" in low:
         return InputError("--db", url, f"the disk is full ({msg}); nothing was recorded; free space and re-run")
     if "unable to open" in low:
-        return InputError("--db", url, f"cannot be opened or created ({msg}); check the path and that its folder "
+        return InputError("--db", url, f"the database cannot be opened or created ({msg}); check the path and that its folder "
                                        "is writable")
     if "locked" in low or "busy" in low:
-        return InputError("--db", url, f"stayed locked by another writer for {BUSY_TIMEOUT_S:g} s ({msg}); re-run")
+        return InputError("--db", url, f"the database stayed locked by another writer for {BUSY_TIMEOUT_S:g} s ({msg}); re-run")
     if isinstance(exc, sa_exc.IntegrityError):  # two writers created the same campaign/cut at once (PostgreSQL)
         return StaleError("--db", url, f"another writer changed the campaign at the same moment ({msg}); nothing "
                                        "was recorded; re-run")
     if "not a database" in low or "malformed" in low:
-        return InputError("--db", url, f"is not a millstab shop database or is damaged ({msg})")
+        return InputError("--db", url, f"not a millstab shop database, or a damaged one ({msg})")
     return InputError("--db", url, f"could not {doing} the database: {msg}")
 
 
@@ -724,7 +725,7 @@ def schema_revision(store: Store) -> str | None:
         if not sa.inspect(conn).has_table("alembic_version"):
             tables = sa.inspect(conn).get_table_names()
             if tables:
-                raise InputError("--db", store.url, f"is a database of something else (tables {', '.join(tables[:6])}) "
+                raise InputError("--db", store.url, f"a database of something else (tables {', '.join(tables[:6])}) "
                                                     "and no millstab schema; give a new file or a millstab shop database")
             return None
         return conn.execute(sa.text("SELECT version_num FROM alembic_version")).scalar()
@@ -741,7 +742,7 @@ def migrate(store: Store) -> None:
 
     known = {s.revision for s in ScriptDirectory.from_config(alembic_config()).walk_revisions()}
     if rev is not None and rev not in known:
-        raise InputError("--db", store.url, f"has schema revision {rev!r}, newer than this millstab knows "
+        raise InputError("--db", store.url, f"its schema revision {rev!r} is newer than this millstab knows "
                                             f"({T.HEAD!r}); upgrade millstab")
     with store.transaction(write=True) as conn:
         command.upgrade(alembic_config(conn), "head")

@@ -51,6 +51,22 @@ def _join(a: PointSet | None, b: PointSet | None) -> PointSet:
                     np.r_[x.batch, y.batch])
 
 
+def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | None]:
+    """The rows of ``given`` that are new: all of them, or, when ``given`` begins with every recorded cut (the
+    file workflow's habit of passing the whole cuts file each time), the rows after those; and a note then."""
+    n = len(old)
+    if n == 0 or len(given) < n:
+        return given, None
+    head = given.subset(np.arange(n))
+    same = (np.array_equal(head.rpm, old.rpm) and np.array_equal(head.depth_mm, old.depth_mm)
+            and head.label.tolist() == old.label.tolist() and np.array_equal(head.weight, old.weight)
+            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True))
+    if not same:
+        return given, None
+    return (given.subset(np.arange(n, len(given))),
+            f"the first {n} rows of the cuts are the campaign's recorded cuts: adding the {len(given) - n} after them")
+
+
 @dataclass(frozen=True)
 class ShopUpdate:
     """What :func:`update_in_db` recorded."""
@@ -89,7 +105,9 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
     over all cuts (old, then new) with ``start=`` the current posterior (only the new cuts are tempered in;
     a fresh update from the prior when the config or engine changed or boundary points were added), and
-    records the new cuts and the posterior in one transaction. When another update landed meanwhile,
+    records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole cuts file
+    (the file workflow's habit): when it begins with every recorded cut, only the rows after them are new.
+    When another update landed meanwhile,
     it re-runs from that one (up to ``retries`` times), then raises :class:`~millstab.shopdb.store.StaleError`.
 
     Raises:
@@ -107,6 +125,10 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     sha = hashlib.sha256(toml.encode("utf-8")).hexdigest()
     new = _join(new_cuts, points)
     notes: list[str] = []
+    first = store.snapshot(campaign, with_posterior=False)
+    if first is not None:
+        new, note = already_recorded(first.cuts, new)
+        notes += [note] if note else []
     for attempt in range(1, retries + 2):
         snap = store.snapshot(campaign)
         old = snap.cuts if snap is not None else PointSet(np.zeros(0), np.zeros(0))
@@ -125,7 +147,7 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
                                       expected_rows=head.n_rows if head else 0,
                                       parent=head.posterior_id if start is not None else None, seed=seed,
                                       machine=machine, tool=tool, user=user, raters=raters, recordings=recordings,
-                                      all_cuts=cuts, note="; ".join(notes[-1:]) if why else "")
+                                      all_cuts=cuts, note="; ".join(notes))
         except StaleError as exc:
             if attempt > retries:
                 raise
@@ -198,5 +220,5 @@ def import_campaign(db, folder, name: str | None = None, user: str | None = None
     return open_db(db, user).import_bundle(read_campaign(folder), name, user)
 
 
-__all__ = ["ShopUpdate", "campaigns", "config_text", "export_campaign", "history", "history_table", "import_campaign",
+__all__ = ["ShopUpdate", "already_recorded", "campaigns", "config_text", "export_campaign", "history", "history_table", "import_campaign",
            "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "update_in_db"]

@@ -745,6 +745,8 @@ def migrate(store: Store) -> None:
         raise InputError("--db", store.url, f"its schema revision {rev!r} is newer than this millstab knows "
                                             f"({T.HEAD!r}); upgrade millstab")
     with store.transaction(write=True) as conn:
+        if conn.dialect.name == "postgresql":  # two first opens at once: the second waits, then finds it done
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(3131)"))
         command.upgrade(alembic_config(conn), "head")
 
 

@@ -269,3 +269,5 @@ def test_history_and_campaign_commands(store, tmp_path, capsys):
     assert "import" in out and "bob" in out and "--before" in out
     assert main(["history", "--db", db, "--campaign", "nope"]) == 2
     assert "millstab: error: --campaign = 'nope'" in capsys.readouterr().err
+    assert main(["history", "--db", str(tmp_path / "typo.db")]) == 2  # a reading command creates no file
+    assert "no such database file" in capsys.readouterr().err and not (tmp_path / "typo.db").exists()

@@ -28,7 +28,7 @@ from millstab.shopdb import open_store  # noqa: E402
 from millstab.shopdb.store import StaleError  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 
-from test_shopdb import fake_posterior, land, some_cuts  # noqa: E402
+from test_shopdb import land, some_cuts  # noqa: E402
 
 TESTS = Path(__file__).resolve().parent
 SRC = TESTS.parent / "src"
@@ -181,18 +181,24 @@ RACE = """
 """
 
 
-def test_two_concurrent_updates_one_lands_the_other_is_stale(tmp_path):
-    db = tmp_path / "shop.db"
-    first = land(open_store(db, user="ann"), "c", some_cuts(3), 1)
-    procs = [_python(RACE, str(db), who, str(tmp_path)) for who in ("ann", "bob")]
+def race(db: str, gate: Path) -> list[str]:
+    """Two processes (ann, bob) read the same head, wait at a gate, then record at once; their outputs."""
+    procs = [_python(RACE, db, who, str(gate)) for who in ("ann", "bob")]
     t0 = time.monotonic()
-    while not ((tmp_path / "ann").exists() and (tmp_path / "bob").exists()):
+    while not ((gate / "ann").exists() and (gate / "bob").exists()):
         assert time.monotonic() - t0 < 120 and all(p.poll() is None for p in procs)
         time.sleep(0.01)
-    (tmp_path / "go").touch()
+    (gate / "go").touch()
     outs = [p.communicate(timeout=120)[0].strip() for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
     assert sorted(o.split()[0] for o in outs) == ["landed", "stale"], outs
+    return outs
+
+
+def test_two_concurrent_updates_one_lands_the_other_is_stale(tmp_path):
+    db = tmp_path / "shop.db"
+    first = land(open_store(db, user="ann"), "c", some_cuts(3), 1)
+    outs = race(str(db), tmp_path)
     winner = next(o for o in outs if o.startswith("landed"))
     loser = next(o for o in outs if o.startswith("stale"))
     by = "ann" if outs.index(winner) == 0 else "bob"

@@ -12,7 +12,6 @@ import os
 import shutil
 import subprocess
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,7 @@ from millstab.api import shop  # noqa: E402
 from millstab.shopdb import open_store  # noqa: E402
 
 from test_shopdb import land, some_cuts  # noqa: E402
-from test_shopdb_campaign import RACE, _python  # noqa: E402
+from test_shopdb_campaign import race  # noqa: E402
 
 pytestmark = pytest.mark.slow  # initdb and a server start: ~5 s
 
@@ -94,14 +93,8 @@ def test_schema_and_exact_round_trip_on_postgresql(url):
 
 def test_two_concurrent_updates_on_postgresql(url, tmp_path):
     first = land(open_store(url, user="ann"), "c", some_cuts(3), 1)
-    procs = [_python(RACE, url, who, str(tmp_path)) for who in ("ann", "bob")]
-    t0 = time.monotonic()
-    while not ((tmp_path / "ann").exists() and (tmp_path / "bob").exists()):
-        assert time.monotonic() - t0 < 120 and all(p.poll() is None for p in procs)
-        time.sleep(0.01)
-    (tmp_path / "go").touch()
-    outs = [p.communicate(timeout=120)[0].strip() for p in procs]
-    assert sorted(o.split()[0] for o in outs) == ["landed", "stale"], outs
+    outs = race(url, tmp_path)
+    assert "re-run to start from it" in next(o for o in outs if o.startswith("stale"))
     head = open_store(url).head("c")
     assert head.posterior_id == first + 1 and head.n_rows == 5 and head.revision == 2
 

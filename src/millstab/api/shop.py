@@ -21,13 +21,14 @@ from millstab.io.text import read_text
 from millstab.points import PointSet
 
 
-def open_db(db, user: str | None = None):
-    """An open :class:`~millstab.shopdb.store.Store` (``db`` itself when it is one)."""
+def open_db(db, user: str | None = None, create: bool = True):
+    """An open :class:`~millstab.shopdb.store.Store` (``db`` itself when it is one); ``create=False``: a
+    database file that does not exist is an error (for the commands that only read)."""
     if hasattr(db, "record_update"):
         return db
     from millstab.shopdb import open_store
 
-    return open_store(db, user)
+    return open_store(db, user, create)
 
 
 def config_text(cfg: Config) -> str:
@@ -161,7 +162,7 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
 def posterior_from_db(db, campaign: str, user: str | None = None):
     """(posterior id, :class:`~millstab.update.Posterior`) of the campaign's current posterior (for ``map``,
     ``predict``, ``listen``)."""
-    store = open_db(db, user)
+    store = open_db(db, user, create=False)
     pid, doc = store.latest_posterior_doc(campaign)
     from millstab.api.update import posterior_from_json
 
@@ -175,7 +176,7 @@ def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, fl
     posterior id)``."""
     from millstab.api.update import recommend
 
-    store = open_db(db, user)
+    store = open_db(db, user, create=False)
     pid, post = posterior_from_db(store, campaign)
     rec = recommend(post, risk, rpm_range, **options)
     rid = store.record_recommendation(campaign, rec.to_json(), pid, user=user)
@@ -192,7 +193,7 @@ def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, m
 
 def history(db, campaign: str | None = None, limit: int = 50, before: int | None = None):
     """The newest ``limit`` events (:class:`~millstab.shopdb.store.Event`, newest first), of one campaign or all."""
-    return open_db(db).history(campaign, limit, before)
+    return open_db(db, create=False).history(campaign, limit, before)
 
 
 def history_table(events) -> tuple[list[str], list]:
@@ -203,14 +204,14 @@ def history_table(events) -> tuple[list[str], list]:
 
 def campaigns(db) -> list[dict]:
     """Every campaign of the database (name, machine, tool, updates, times)."""
-    return open_db(db).campaigns()
+    return open_db(db, create=False).campaigns()
 
 
 def export_campaign(db, campaign: str, folder) -> Path:
     """Write a campaign as plain files (:mod:`millstab.shopdb.files`); returns the folder."""
     from millstab.shopdb.files import export_campaign as run
 
-    return run(open_db(db), campaign, folder)
+    return run(open_db(db, create=False), campaign, folder)
 
 
 def import_campaign(db, folder, name: str | None = None, user: str | None = None) -> str:

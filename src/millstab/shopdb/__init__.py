@@ -28,9 +28,10 @@ def available() -> bool:
     return all(importlib.util.find_spec(m) is not None for m in ("sqlalchemy", "alembic"))
 
 
-def open_store(db, user: str | None = None):
+def open_store(db, user: str | None = None, create: bool = True):
     """Open (and create or migrate) the shop database ``db``: a file path (SQLite) or a SQLAlchemy URL;
-    ``user``: who acts (default $USER). Returns a :class:`millstab.shopdb.store.Store`.
+    ``user``: who acts (default $USER); ``create=False``: a SQLite file that does not exist is an error (the
+    reading commands never leave an empty database behind). Returns a :class:`millstab.shopdb.store.Store`.
 
     Raises:
         InputError: the extra is not installed, or the database cannot be opened (one line naming --db).
@@ -39,7 +40,7 @@ def open_store(db, user: str | None = None):
         raise InputError("--db", str(db), f"the shop database needs SQLAlchemy and Alembic: {INSTALL}")
     from millstab.shopdb.store import Store
 
-    return Store(str(db), user)
+    return Store(str(db), user, create)
 
 
 __all__ = ["INSTALL", "available", "open_store"]

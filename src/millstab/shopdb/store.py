@@ -184,10 +184,12 @@ def _sqlite_target(db: str) -> tuple[str, Path | None]:
 class Store:
     """An open shop database (:func:`millstab.shopdb.open_store`)."""
 
-    def __init__(self, db: str, user: str | None = None):
+    def __init__(self, db: str, user: str | None = None, create: bool = True):
         self.url = str(db)
         self.user = default_user(user)
         url, self.path = _sqlite_target(self.url)
+        if not create and self.path is not None and not self.path.exists():
+            raise InputError("--db", self.url, "no such database file (an update with --db creates one)")
         try:
             u = sa.engine.make_url(url)
         except sa_exc.ArgumentError:

@@ -229,6 +229,10 @@ def test_bad_targets_are_one_clear_error(tmp_path):
         open_store(tmp_path / "new.db")
     with pytest.raises(InputError, match="--campaign"):
         land(open_store(tmp_path / "a.db"), "bad\nname", some_cuts(1), 1)
+    with pytest.raises(InputError, match="postgresql"):
+        open_store("postgres://u@host/shop")
+    with pytest.raises(InputError, match="in-memory"):
+        open_store("sqlite://")
 
 
 def test_without_the_extra_one_line_names_it(monkeypatch):
@@ -260,6 +264,7 @@ def test_history_and_campaign_commands(store, tmp_path, capsys):
     assert "t12-m1" in out and "update" in out and "create" in out
     assert (tmp_path / "h.csv").read_text().splitlines()[0] == "id,at,user,campaign,action,detail"
     assert main(["campaign", "list", "--db", db]) == 0 and "m1" in capsys.readouterr().out
+    assert main(["campaign", "check", "--db", db]) == 0 and "consistent" in capsys.readouterr().out
     assert main(["campaign", "export", "--db", db, "--campaign", "t12-m1", "--out", str(tmp_path / "e")]) == 0
     assert json.loads((tmp_path / "e" / "campaign.json").read_text())["name"] == "t12-m1"
     assert main(["campaign", "import", str(tmp_path / "e"), "--db", db, "--as", "copy", "--user", "bob"]) == 0
@@ -271,3 +276,17 @@ def test_history_and_campaign_commands(store, tmp_path, capsys):
     assert "millstab: error: --campaign = 'nope'" in capsys.readouterr().err
     assert main(["history", "--db", str(tmp_path / "typo.db")]) == 2  # a reading command creates no file
     assert "no such database file" in capsys.readouterr().err and not (tmp_path / "typo.db").exists()
+
+
+def test_check_finds_what_a_half_written_update_would_leave(store):
+    """check() is not vacuous: each kind of damage a torn update could leave is reported."""
+    land(store, "c", some_cuts(3), 1)
+    land(store, "c", some_cuts(2, 2), 2)
+    assert store.check() == []
+    with store.engine.begin() as conn:
+        conn.exec_driver_sql("UPDATE campaign SET head_posterior_id = 1")  # a head that did not move
+        conn.exec_driver_sql("DELETE FROM cut WHERE seq = 1")  # a lost cut row
+    problems = store.check()
+    assert any("head posterior 1, newest posterior 2" in p for p in problems)
+    assert any("cut seq not 0..3" in p for p in problems)
+    assert any("posterior 2 uses more cut rows than stored" in p for p in problems)

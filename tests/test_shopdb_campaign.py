@@ -117,6 +117,7 @@ def test_sigkill_before_commit_keeps_the_previous_posterior(tmp_path):
     out, err = p.communicate(timeout=120)
     assert p.returncode == -signal.SIGKILL, err
     assert out.split() == ["7", str(first + 1)]  # the killed transaction had written its cuts and moved the head
+    assert main(["campaign", "check", "--db", str(db)]) == 0
     store = open_store(db, user="ann")
     assert store.check() == []  # integrity_check, foreign keys, head = newest posterior, cut seq
     assert store.export_bundle("c") == before  # nothing of the killed update, the previous posterior current

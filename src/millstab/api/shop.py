@@ -207,6 +207,11 @@ def campaigns(db) -> list[dict]:
     return open_db(db, create=False).campaigns()
 
 
+def check(db) -> list[str]:
+    """Problems found in the database (empty when consistent): :meth:`~millstab.shopdb.store.Store.check`."""
+    return open_db(db, create=False).check()
+
+
 def export_campaign(db, campaign: str, folder) -> Path:
     """Write a campaign as plain files (:mod:`millstab.shopdb.files`); returns the folder."""
     from millstab.shopdb.files import export_campaign as run
@@ -221,5 +226,5 @@ def import_campaign(db, folder, name: str | None = None, user: str | None = None
     return open_db(db, user).import_bundle(read_campaign(folder), name, user)
 
 
-__all__ = ["ShopUpdate", "already_recorded", "campaigns", "config_text", "export_campaign", "history", "history_table", "import_campaign",
+__all__ = ["ShopUpdate", "already_recorded", "campaigns", "check", "config_text", "export_campaign", "history", "history_table", "import_campaign",
            "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "update_in_db"]

@@ -59,3 +59,16 @@ def import_cmd(
 
     got = shop.import_campaign(db, folder, name, user)
     typer.echo(f"imported campaign {got} into {db}")
+
+
+@campaign_app.command("check")
+def check_cmd(db: str = DbOpt) -> None:
+    """Check a shop database: SQLite's integrity and foreign keys, every campaign's current posterior and cuts."""
+    from millstab.api import shop
+
+    problems = shop.check(db)
+    for p in problems:
+        typer.echo(f"problem: {p}")
+    typer.echo(f"{db}: {'consistent' if not problems else f'{len(problems)} problem(s)'}")
+    if problems:
+        raise typer.Exit(1)

@@ -188,8 +188,6 @@ class Store:
         self.url = str(db)
         self.user = default_user(user)
         url, self.path = _sqlite_target(self.url)
-        if not create and self.path is not None and not self.path.exists():
-            raise InputError("--db", self.url, "no such database file (an update with --db creates one)")
         try:
             u = sa.engine.make_url(url)
         except sa_exc.ArgumentError:
@@ -197,15 +195,21 @@ class Store:
                                                "postgresql+psycopg://user@host/shop") from None
         self.sqlite = u.get_backend_name() == "sqlite"
         if self.sqlite and self.path is None:
-            self.path = Path(u.database) if u.database and u.database != ":memory:" else None
-            if self.path is None:
+            if not u.database or u.database == ":memory:":
                 raise InputError("--db", self.url, "an in-memory SQLite database forgets everything; give a file")
+            # sqlite:///file:PATH?mode=ro&uri=true is an SQLite URI: its file is PATH
+            self.path = Path(u.database[5:] if u.database.startswith("file:") else u.database)
         try:
             kw = {"connect_args": {"timeout": BUSY_TIMEOUT_S}} if self.sqlite else {"pool_pre_ping": True}
             self.engine = sa.create_engine(u, **kw)
         except ImportError as exc:  # a driver that is not installed (psycopg, ...)
             raise InputError("--db", self.url, f"its database driver is not installed ({exc}); "
                                                "pip install it, e.g. psycopg[binary] for PostgreSQL") from None
+        except sa_exc.ArgumentError as exc:  # postgres:// (not postgresql://), an unknown dialect
+            raise InputError("--db", self.url, f"not a database URL SQLAlchemy knows ({exc}); e.g. "
+                                               "postgresql+psycopg://user@host/shop, or a file path") from None
+        if not create and self.path is not None and not self.path.exists():
+            raise InputError("--db", self.url, "no such database file (an update with --db creates one)")
         if self.sqlite:
             sa_event.listen(self.engine, "connect", _sqlite_connect)
             sa_event.listen(self.engine, "begin", _sqlite_begin)

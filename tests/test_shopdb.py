@@ -290,3 +290,13 @@ def test_check_finds_what_a_half_written_update_would_leave(store):
     assert any("head posterior 1, newest posterior 2" in p for p in problems)
     assert any("cut seq not 0..3" in p for p in problems)
     assert any("posterior 2 uses more cut rows than stored" in p for p in problems)
+
+
+def test_shop_options_go_together():
+    from millstab.cli.history import shop_target
+
+    assert shop_target(None, None) is False and shop_target("shop.db", "t12-m1") is True
+    with pytest.raises(InputError, match="--campaign .*go together"):
+        shop_target("shop.db", None)
+    with pytest.raises(InputError, match="--db .*go together"):
+        shop_target(None, "t12-m1")

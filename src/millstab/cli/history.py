@@ -4,14 +4,34 @@ recommendations, and when), newest first."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
 import typer
 
 from millstab.cli.app import app
+from millstab.errors import InputError
 
-DbOpt = typer.Option(..., "--db", help="Shop database: a file (SQLite, created when new) or a SQLAlchemy URL "
-                                       "(postgresql+psycopg://user@host/shop).")
+_DB_HELP = ("Shop database: a file (SQLite, created by an update) or a SQLAlchemy URL "
+            "(postgresql+psycopg://user@host/shop); needs millstab[db]. See docs/shopdb.md.")
+DbOpt = typer.Option(..., "--db", help=_DB_HELP)
+# for the commands that also work from files (update, map, recommend, predict, listen): `db: ShopDbOpt = None`
+ShopDbOpt = Annotated[Optional[str], typer.Option("--db", help=_DB_HELP)]
+CampaignOpt = Annotated[Optional[str], typer.Option("--campaign", help="The campaign in --db (an update creates it).")]
+UserOpt = Annotated[Optional[str], typer.Option("--user", help="Who does it, for the history (default: $USER).")]
+
+
+def shop_target(db: str | None, campaign: str | None) -> bool:
+    """True when the command works on a campaign in a shop database (--db and --campaign given), False when
+    on files (neither given).
+
+    Raises:
+        InputError: one given without the other.
+    """
+    if (db is None) != (campaign is None):
+        missing, given = ("--campaign", db) if campaign is None else ("--db", campaign)
+        raise InputError(missing, None, f"--db and --campaign go together (got {given!r} alone): "
+                                        "--db shop.db --campaign NAME")
+    return db is not None
 
 
 @app.command("history")

@@ -196,6 +196,7 @@ def race(db: str, gate: Path) -> list[str]:
     return outs
 
 
+@pytest.mark.slow  # two fresh Python processes: ~3 s idle, 20 s on a loaded 2-core machine
 def test_two_concurrent_updates_one_lands_the_other_is_stale(tmp_path):
     db = tmp_path / "shop.db"
     first = land(open_store(db, user="ann"), "c", some_cuts(3), 1)

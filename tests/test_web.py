@@ -473,3 +473,33 @@ def test_measured_frf_config_naming_uploads_and_a_server_file(app, tmp_path):
         assert T.text(page, f"frf-note-{term}") == f"frf_tool.toml: tap.uff record {record}"
     shot(page, "frf_config_uploaded")
     back_to_ex3(page)
+
+
+def test_login_required_beyond_localhost(browser, tmp_path, caplog):
+    """Issue 31.4: bound beyond 127.0.0.1/localhost/::1 (here 127.0.0.2, a loopback address the rule counts
+    as non-local) the app asks for a login; a wrong password is refused; the right one opens the page; the
+    password appears in no log (fails on the old code: no users, no login)."""
+    import logging
+
+    from millstab.web import auth
+
+    caplog.set_level(logging.DEBUG)
+    path = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
+    with T.running_app(host="127.0.0.2", users=auth.read_users(path)) as url:
+        assert url.startswith("http://127.0.0.2:")
+        page = browser.new_context().new_page()
+        page.set_default_timeout(60_000)
+        page.goto(url)
+        page.locator("input[name=username]").wait_for()
+        assert "/login" in page.url and page.locator(".tool-status").count() == 0
+        for password in ("wrong horse 1", "correct horse 1"):
+            page.locator("input[name=username]").fill("anna")
+            page.locator("input[name=password]").fill(password)
+            page.locator("button[type=submit]").click()
+            if password.startswith("wrong"):
+                page.locator(".errormessage").filter(has_text="Invalid username or password").wait_for()
+                shot(page, "login")
+        page.locator(".tool-status").filter(has_text="valid: ex3").wait_for(timeout=90_000)
+        wait_sld(page, expected_sld())
+        page.context.close()
+    assert "horse" not in caplog.text

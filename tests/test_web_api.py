@@ -241,3 +241,57 @@ def test_app_on_a_busy_port_or_bad_host_says_so_in_one_line(case, capsys):
     assert len(lines) == 1 and lines[0].startswith("millstab: error: "), out.err
     assert (f"--port = {port}" in lines[0] and "in use" in lines[0]) if case == "busy port" else \
         (f"--host = '{host}'" in lines[0] and "0.0.0.0" in lines[0])
+
+
+def test_passwords_are_hashed_salted_and_checked():
+    from millstab.web import auth
+
+    a, b = auth.hash_password("correct horse 1"), auth.hash_password("correct horse 1")
+    assert a != b and "correct horse" not in a  # salted
+    assert auth.check_password("correct horse 1", a) and auth.check_password("correct horse 1", b)
+    assert not auth.check_password("correct horse 2", a) and not auth.check_password("x", "plain")
+    # scrypt itself, recomputed here from the stored salt and parameters
+    import base64
+    import hashlib
+
+    kind, n, r, p, salt, digest = a.split("$")
+    assert base64.b64decode(digest) == hashlib.scrypt(b"correct horse 1", salt=base64.b64decode(salt), n=int(n),
+                                                      r=int(r), p=int(p), dklen=32)
+    assert int(n) >= 2**14
+    with pytest.raises(InputError, match="never a plain password"):
+        auth.parse_users("anna:correct horse 1\n")
+    with pytest.raises(InputError, match="add-user"):
+        auth.parse_users("# nobody\n")
+    assert [auth.is_local(h) for h in ("127.0.0.1", "localhost", "::1", "127.0.0.2", "0.0.0.0", "192.168.1.5")] == \
+        [True, True, True, False, False, False]
+
+
+def test_app_beyond_localhost_requires_a_users_file(tmp_path, capsys, monkeypatch):
+    """Issue 31.4: `millstab app --host 0.0.0.0` served anyone who reached it (fails on the old code: no
+    --users and --add-user options, and 0.0.0.0 was served without a login)."""
+    import io
+
+    from millstab.cli import main
+    from millstab.web import auth
+
+    pytest.importorskip("panel")
+    for host in ("0.0.0.0", "127.0.0.2"):
+        assert main(["app", "--host", host, "--port", "0", "--no-browser"]) == 2
+        err = capsys.readouterr().err
+        assert f"--host = '{host}'" in err and "--add-user" in err and len(err.strip().splitlines()) == 1
+    users = tmp_path / "users.txt"
+    monkeypatch.setattr("sys.stdin", io.StringIO("correct horse 1\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("battery staple 2\n"))
+    assert main(["app", "--add-user", "ben", "--users", str(users), "--password-stdin"]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("new password 3\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0  # a new password
+    out = capsys.readouterr()
+    text = users.read_text()
+    assert "horse" not in text + out.out + out.err and "staple" not in text + out.out + out.err
+    got = auth.read_users(users)
+    assert sorted(got) == ["anna", "ben"] and auth.check_password("new password 3", got["anna"])
+    assert not auth.check_password("correct horse 1", got["anna"]) and auth.check_password("battery staple 2", got["ben"])
+    monkeypatch.setattr("sys.stdin", io.StringIO("short\n"))
+    assert main(["app", "--add-user", "cid", "--users", str(users), "--password-stdin"]) == 2
+    assert main(["app", "--host", "0.0.0.0", "--users", str(tmp_path / "none.txt"), "--no-browser"]) == 2

@@ -65,14 +65,23 @@ def check_address(host: str, port: int) -> None:
 
 
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
-          verbose: bool = False):
+          verbose: bool = False, users: dict[str, str] | None = None):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
-    (the URL is printed once the server holds the port, never before).
+    (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
+    :mod:`millstab.web.auth`) every page needs a login; a host other than 127.0.0.1/localhost/::1
+    requires them.
 
     Raises:
-        InputError: a host this machine cannot bind (``--host``) or a port in use (``--port``).
+        InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
+            non-local host without ``users``.
     """
+    from millstab.web.auth import is_local
+
+    if not users and not is_local(host):
+        raise InputError("--host", host, "serves beyond this machine (only 127.0.0.1, localhost and ::1 are local), "
+                                         "so it needs accounts: make a users file with `millstab app --add-user NAME "
+                                         "--users FILE` and start with --users FILE")
     check_address(host, port)
     import panel as pn
 
@@ -82,6 +91,13 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     url = f"http://{host}:{port}/"
     origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
     opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose)
+    if users:
+        import secrets
+
+        from millstab.web.auth import auth_provider
+
+        # a fresh cookie key per start: logins end with the server
+        opts.update(auth_provider=auth_provider(users), cookie_secret=secrets.token_urlsafe(32))
     if threaded:
         return pn.serve({"/": create_app}, threaded=True, **opts), url
     try:

@@ -78,11 +78,11 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     """
     from millstab.web.auth import is_local
 
+    check_address(host, port)  # an address that is not this machine's is that, whatever the accounts
     if not users and not is_local(host):
         raise InputError("--host", host, "serves beyond this machine (only 127.0.0.1, localhost and ::1 are local), "
                                          "so it needs accounts: make a users file with `millstab app --add-user NAME "
                                          "--users FILE` and start with --users FILE")
-    check_address(host, port)
     import panel as pn
 
     from millstab.web.app import create_app

@@ -181,12 +181,14 @@ def test_measured_frf_config_upload_loads_the_uploaded_files(tmp_path):
     hx, hy = _receptance(f, 900.0, 9e6, 0.02), _receptance(f, 950.0, 10e6, 0.01)
     s, tool = _tool()
     try:
-        tool.frf_drop["xx"].value = {"tap_xx.csv": _frf_text(f, hx)}
-        tool.frf_drop["yy"].value = {"tap yy.csv": _frf_text(f, hy).encode()}
-        tool.fill_example("ex3")
-        assert s.cfg.structure.is_modal
+        # the config first: it waits for the FRF files it names and loads when the last one arrives
         text = _frf_config("tap_xx.csv", '{ file = "tap yy.csv" }')
         tool.config_drop.value = {"frf_tool.toml": text}
+        assert "structure.frf.xx" in tool.config_error.object and "loads once" in tool.config_error.object
+        assert s.cfg.structure.is_modal and s.origin.startswith("the packaged example ex3")
+        tool.frf_drop["xx"].value = {"tap_xx.csv": _frf_text(f, hx)}
+        assert "structure.frf.yy" in tool.config_error.object and "loads once" in tool.config_error.object
+        tool.frf_drop["yy"].value = {"tap yy.csv": _frf_text(f, hy).encode()}
         assert tool.config_error.object == ""
         assert not s.cfg.structure.is_modal and tool.structure_kind.value == "measured FRF"
         assert s.origin == "uploaded frf_tool.toml"
@@ -199,6 +201,7 @@ def test_measured_frf_config_upload_loads_the_uploaded_files(tmp_path):
         # a config naming a file that was not uploaded: refused beside the drop zone, the form keeps the last
         tool.config_drop.value = {"evil.toml": _frf_config("/etc/passwd")}
         assert "structure.frf.xx" in tool.config_error.object and "tap_xx.csv" in tool.config_error.object
+        assert "loads once" not in tool.config_error.object and tool.waiting is None
         assert not s.cfg.structure.is_modal and s.origin == "uploaded frf_tool.toml"
     finally:
         s.close()
@@ -295,3 +298,19 @@ def test_app_beyond_localhost_requires_a_users_file(tmp_path, capsys, monkeypatc
     monkeypatch.setattr("sys.stdin", io.StringIO("short\n"))
     assert main(["app", "--add-user", "cid", "--users", str(users), "--password-stdin"]) == 2
     assert main(["app", "--host", "0.0.0.0", "--users", str(tmp_path / "none.txt"), "--no-browser"]) == 2
+
+
+def test_io_parse_config_confines_text_without_a_folder(tmp_path, monkeypatch):
+    """The io reader under api.config_from_text: text without base_dir names no file on its own (it
+    resolved absolute paths and the working directory before); with base_dir, relative names resolve there."""
+    from millstab.io.config import parse_config
+
+    f = np.linspace(200.0, 2500.0, 300)
+    h = _receptance(f, 900.0, 9e6, 0.02)
+    (tmp_path / "tap.csv").write_text(_frf_text(f, h))
+    monkeypatch.chdir(tmp_path)
+    for name in ("tap.csv", str(tmp_path / "tap.csv")):
+        with pytest.raises(InputError) as exc:
+            parse_config(_frf_config(name))
+        assert exc.value.field == "structure.frf.xx"
+    np.testing.assert_array_equal(parse_config(_frf_config("tap.csv"), base_dir=tmp_path).structure.frf.xx, h)

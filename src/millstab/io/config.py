@@ -324,7 +324,13 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
                  files: Mapping[str, PathLike] | None = None) -> Config:
-    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`."""
+    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`.
+
+    Text has no folder: without ``base_dir`` (the caller's word for where its FRF files are) and without
+    ``files``, a ``[structure.frf]`` file name is refused, never looked up from the working directory
+    or as an absolute path (the text may come from anyone: an upload)."""
+    if base_dir is None and files is None:
+        files = {}
     try:
         data = tomllib.loads(text.lstrip("\ufeff"))
     except tomllib.TOMLDecodeError as exc:

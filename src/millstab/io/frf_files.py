@@ -428,8 +428,7 @@ def _source(src: FRFSource, field: str, base_dir: Path | None,
             return Path(files[path]), record
         have = ", ".join(sorted(files)) or "none yet"
         raise InputError(field, str(path), "a config from text (a browser upload) may name only FRF files uploaded "
-                                           f"in the same session, by file name (uploaded: {have}); upload the "
-                                           "file in an FRF drop zone, then the config again")
+                                           f"in the same session, by file name (uploaded: {have})")
     p = Path(path).expanduser()
     if not p.is_absolute() and base_dir is not None:
         p = base_dir / p

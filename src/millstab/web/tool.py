@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
+from pathlib import Path
 
 import panel as pn
 
@@ -100,6 +101,7 @@ class ToolTab:
         self.frf_files: dict[str, str | dict] = {}
         self.source = ""  # what the form was last filled from (Session.origin says it with "edited")
         self.edited = False
+        self.waiting: tuple[str, bytes | str] | None = None  # an uploaded config waiting for the FRF files it names
         for t, w in self.frf_drop.items():
             w.param.watch(lambda e, t=t: self._frf_uploaded(t), "value")
         self.example = pn.widgets.Select(label="packaged example", options=list_examples(), value=DEFAULT_EXAMPLE,
@@ -173,17 +175,31 @@ class ToolTab:
 
     def _config_uploaded(self) -> None:
         self.config_error.object = ""
+        self.waiting = None
         try:
             got = latest(self.config_drop, MAX_TEXT_BYTES, CONFIG_TYPES, "config TOML")
-            if got is None:
-                return
-            name, content = got
+        except InputError as exc:
+            self.config_error.object = error_html(str(exc))
+            return
+        if got is not None:
+            self._load_config(*got)
+
+    def _load_config(self, name: str, content: bytes | str) -> None:
+        self.config_error.object = ""
+        try:
             # FRF file names in it resolve to this session's uploads only: nothing else is opened
             cfg = api.config_from_text(content, name, files=self.s.uploads)
             frf, written = (None, None) if cfg.structure.is_modal else self._frf_table(content, name)
         except InputError as exc:
-            self.config_error.object = error_html(str(exc))
+            waits = (exc.field.startswith("structure.frf.") and "uploaded in the same session" in exc.allowed
+                     and Path(str(exc.value)).name == exc.value and not str(exc.value).startswith("~"))
+            # a config that names FRF files not uploaded yet loads when they are (upload order is free)
+            self.waiting = (name, content) if waits else None
+            note = (f'<div class="ms-note">{esc(name)} loads once the FRF files it names are uploaded in the FRF drop '
+                    'zones below</div>' if waits else "")
+            self.config_error.object = error_html(str(exc)) + note
             return
+        self.waiting = None
         self.fill(cfg, f"uploaded {name}", frf)
         if frf is not None:
             for term, src in written.items():
@@ -218,6 +234,8 @@ class ToolTab:
             self.frf_files[term] = self.s.save_upload(term, *got).name
         self.structure_kind.value = "measured FRF"
         self.changed()
+        if got is not None and self.waiting is not None:
+            self._load_config(*self.waiting)
 
     # --- validation -------------------------------------------------------------------------------------
     def tables(self) -> dict:

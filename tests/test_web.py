@@ -15,7 +15,9 @@ import pytest
 
 from millstab.web.testing import CHROMIUM, LAUNCH
 
-pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason=f"no chromium at {CHROMIUM} (apt-get install chromium)")
+# every test here drives chromium for 5-25 s on the shared 2-core machine
+pytestmark = [pytest.mark.skipif(not CHROMIUM.exists(), reason=f"no chromium at {CHROMIUM} (apt-get install chromium)"),
+              pytest.mark.slow]
 pytest.importorskip("panel")
 pytest.importorskip("pytest_playwright")
 

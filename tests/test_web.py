@@ -477,18 +477,23 @@ def test_measured_frf_config_naming_uploads_and_a_server_file(app, tmp_path):
     back_to_ex3(page)
 
 
-def test_login_required_beyond_localhost(browser, tmp_path, caplog):
-    """Issue 31.4: bound beyond 127.0.0.1/localhost/::1 (here 127.0.0.2, a loopback address the rule counts
-    as non-local) the app asks for a login; a wrong password is refused; the right one opens the page; the
+@pytest.mark.parametrize("host", ["127.0.0.2", "0.0.0.0"])
+def test_login_required_beyond_localhost(browser, tmp_path, caplog, host):
+    """Issue 31.4: bound beyond 127.0.0.1/localhost/::1 (127.0.0.2, a loopback address the rule counts as
+    non-local; 0.0.0.0, reached by the machine's host name as from another machine) the app asks for a
+    login; a wrong password is refused; the right one opens a working page (its websocket accepted); the
     password appears in no log (fails on the old code: no users, no login)."""
     import logging
+    import socket
 
     from millstab.web import auth
 
     caplog.set_level(logging.DEBUG)
     path = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
-    with T.running_app(host="127.0.0.2", users=auth.read_users(path)) as url:
-        assert url.startswith("http://127.0.0.2:")
+    with T.running_app(host=host, users=auth.read_users(path)) as url:
+        assert url.startswith(f"http://{host}:")
+        if host == "0.0.0.0":
+            url = url.replace("0.0.0.0", socket.gethostname())
         page = browser.new_context().new_page()
         page.set_default_timeout(60_000)
         page.goto(url)
@@ -503,5 +508,7 @@ def test_login_required_beyond_localhost(browser, tmp_path, caplog):
                 shot(page, "login")
         page.locator(".tool-status").filter(has_text="valid: ex3").wait_for(timeout=90_000)
         wait_sld(page, expected_sld())
+        T.set_field(page, "structure.x[0].k", "5 N/um")  # a round trip through the websocket
+        wait_sld(page, expected_sld(x="5 N/um"))
         page.context.close()
     assert "horse" not in caplog.text

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -30,10 +31,19 @@ def config(source: Config | str | os.PathLike) -> Config:
     return source if isinstance(source, Config) else load_config(source)
 
 
-def config_from_text(text: str | bytes, name: str = "config") -> Config:
-    """A config parsed from TOML text (an upload); ``name`` names it in messages. An FRF table a config
-    refers to by file name cannot be resolved from text alone (upload the FRF instead)."""
-    return parse_config(_text(text, name), name=Path(name).stem or name)
+def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str, str | os.PathLike] | None = None
+                     ) -> Config:
+    """A config parsed from TOML text (an upload); ``name`` names it in messages.
+
+    Text has no folder, and an upload must not make the server read its files: a ``[structure.frf]``
+    file name is looked up only in ``files`` ({file name as uploaded: path}, the files uploaded in the
+    same browser session) and any other name or path is refused before a file is opened. Without
+    ``files`` every FRF file reference is refused.
+
+    Raises:
+        InputError: as for a config file; ``structure.frf.xx`` for a file not in ``files``.
+    """
+    return parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {}))
 
 
 def points(source: PointSet | str | os.PathLike) -> PointSet:
@@ -47,16 +57,17 @@ def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
     return parse_points(_text(text, name), name)
 
 
-def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike | None = None) -> Config:
+def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike | None = None,
+                       files: Mapping[str, str | os.PathLike] | None = None) -> Config:
     """A config from the parsed-TOML form of its tables (``{"cutting": {...}, "structure": {...}}``, values
     numbers or strings with units exactly as in a TOML file): a form's fields go through the validators of
     a file. ``base_dir`` resolves the file names of a ``[structure.frf]`` table (the web app's per-session
-    folder of uploaded FRF files).
+    folder of uploaded FRF files); ``files`` instead confines them as in :func:`config_from_text`.
 
     Raises:
         InputError: as for a config file, naming the field (``cutting.kt``, ``structure.x[0].fn``).
     """
-    return config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None)
+    return config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None, files)
 
 
 def config_fields(cfg: Config) -> dict:

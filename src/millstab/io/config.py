@@ -189,7 +189,7 @@ def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
     return tuple(modes)
 
 
-def _structure(t: Any, base_dir: Path | None) -> Structure:
+def _structure(t: Any, base_dir: Path | None, files: Mapping[str, PathLike] | None = None) -> Structure:
     t = _check_keys(t, "structure", STRUCTURE_KEYS)
     if "frf" in t:
         if t.get("x") or t.get("y"):
@@ -198,7 +198,8 @@ def _structure(t: Any, base_dir: Path | None) -> Structure:
         frf_t = _check_keys(t["frf"], "structure.frf", FRF_KEYS)
         from millstab.io.frf_files import load_measured_frf
 
-        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf")
+        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf",
+                                files=files)
         return Structure(frf=frf)
     x = _modes(t.get("x", []), "x")
     y = _modes(t.get("y", []), "y")
@@ -300,8 +301,10 @@ def _speeds(t: Any) -> np.ndarray:
 
 
 def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path | None = None,
-                     base_dir: Path | None = None) -> Config:
-    """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths."""
+                     base_dir: Path | None = None, files: Mapping[str, PathLike] | None = None) -> Config:
+    """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths.
+    ``files`` ({name: path}) confines the ``[structure.frf]`` file names to its keys
+    (:func:`millstab.io.frf_files.load_measured_frf`): nothing else is opened."""
     data = _check_keys(data, "", TOP_KEYS)
     for key in ("cutting", "structure"):
         if key not in data:
@@ -313,19 +316,26 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
-    structure = _structure(data["structure"], base_dir)
+    structure = _structure(data["structure"], base_dir, files)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
     return Config(cutting, structure, name_value, path, rpm, description, prior)
 
 
-def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None) -> Config:
-    """Parse config TOML text (``path`` of the result is ``None``)."""
+def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
+                 files: Mapping[str, PathLike] | None = None) -> Config:
+    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`.
+
+    Text has no folder: without ``base_dir`` (the caller's word for where its FRF files are) and without
+    ``files``, a ``[structure.frf]`` file name is refused, never looked up from the working directory
+    or as an absolute path (the text may come from anyone: an upload)."""
+    if base_dir is None and files is None:
+        files = {}
     try:
         data = tomllib.loads(text.lstrip("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(name, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
-    return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None)
+    return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None, files)
 
 
 def load_config(source: PathLike) -> Config:

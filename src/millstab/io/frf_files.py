@@ -403,8 +403,10 @@ def read_frf(path: PathLike, record: int | None = None) -> tuple[np.ndarray, np.
 FRFSource = PathLike | Mapping[str, Any] | tuple
 
 
-def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, int | None]:
-    """A source (path, ``{"file": .., "record": ..}`` or ``(path, record)``) → (absolute path, record)."""
+def _source(src: FRFSource, field: str, base_dir: Path | None,
+            files: Mapping[str, PathLike] | None = None) -> tuple[Path, int | None]:
+    """A source (path, ``{"file": .., "record": ..}`` or ``(path, record)``) → (absolute path, record).
+    With ``files`` the path is only looked up there (see :func:`load_measured_frf`)."""
     record = None
     if isinstance(src, Mapping):
         unknown = set(src) - {"file", "record"}
@@ -421,6 +423,12 @@ def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, in
         path = src
     if not isinstance(path, (str, Path)) or not str(path).strip():
         raise InputError(field, path, "expected a file path string")
+    if files is not None:  # confined: a name from this mapping or nothing; the file system is not asked
+        if isinstance(path, str) and path in files:
+            return Path(files[path]), record
+        have = ", ".join(sorted(files)) or "none yet"
+        raise InputError(field, str(path), "a config from text (a browser upload) may name only FRF files uploaded "
+                                           f"in the same session, by file name (uploaded: {have})")
     p = Path(path).expanduser()
     if not p.is_absolute() and base_dir is not None:
         p = base_dir / p
@@ -431,11 +439,16 @@ def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, in
 
 def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, xy: FRFSource | None = None,
                       yx: FRFSource | None = None, *, base_dir: PathLike | None = None,
-                      field: str = "structure.frf") -> MeasuredFRF:
+                      field: str = "structure.frf", files: Mapping[str, PathLike] | None = None) -> MeasuredFRF:
     """Read the FRF terms and combine them into a :class:`MeasuredFRF` on one frequency axis.
 
     Each term is a path, ``{"file": path, "record": N}`` or ``(path, record)``; relative paths are
     taken relative to ``base_dir`` (the config file's folder). A leading 0 Hz point is dropped.
+
+    ``files`` confines the sources (a config that arrived as text, e.g. a browser upload): a path must
+    be one of its keys exactly (a file name as uploaded) and reads the file it maps to; anything else
+    (an absolute or relative path, ``~``, ``..``) is refused with an :class:`InputError` naming the
+    term before any file is opened or even looked up, so an upload cannot make the server read its files.
 
     Frequency axis: the axis of ``xx`` (``yy`` when there is no xx). A term measured on the same
     axis (to 1e-9 relative) is used as is; a term on another axis is linearly interpolated (real and
@@ -453,11 +466,11 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     """
     base = Path(base_dir) if base_dir is not None else None
     terms: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    files: dict[str, str] = {}
+    file_names: dict[str, str] = {}
     for name, src in (("xx", xx), ("yy", yy), ("xy", xy), ("yx", yx)):
         if src is None:
             continue
-        p, record = _source(src, f"{field}.{name}", base)
+        p, record = _source(src, f"{field}.{name}", base, files)
         try:
             f, h = read_frf(p, record)
         except InputError as exc:
@@ -472,7 +485,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
         if i is not None:
             warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
         terms[name] = (f, h)
-        files[name] = p.name
+        file_names[name] = p.name
     if "xx" not in terms and "yy" not in terms:
         raise InputError(field, "no xx and no yy", "a measured FRF needs at least one direct term (xx or yy)")
     ref_name = "xx" if "xx" in terms else "yy"
@@ -483,7 +496,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     if np.count_nonzero(keep) < 4:
         raise InputError(field, f"common band {lo:g}..{hi:g} Hz",
                          f"the terms must share at least 4 frequencies of the {ref_name} axis")
-    coverage = _band_loss(terms, files, lo, hi)
+    coverage = _band_loss(terms, file_names, lo, hi)
     if coverage:
         warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
              f"{coverage}", FRFWarning, stacklevel=2)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from millstab.bounds import check_speeds
 from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
@@ -26,8 +27,16 @@ MAX_FRF_BYTES = 20_000_000
 
 
 def config(source: Config | str | os.PathLike) -> Config:
-    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute)."""
-    return source if isinstance(source, Config) else load_config(source)
+    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute).
+
+    Raises:
+        InputError: as the file's reader, and for ``[speeds]`` outside :func:`millstab.bounds.check_speeds`'s
+            bounds (naming the file and ``[speeds]``).
+    """
+    cfg = source if isinstance(source, Config) else load_config(source)
+    if cfg.rpm is not None:
+        check_speeds(cfg.rpm, f"{cfg.path.name if cfg.path else cfg.name} [speeds]")
+    return cfg
 
 
 def config_from_text(text: str | bytes, name: str = "config") -> Config:
@@ -90,18 +99,19 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
     ``[speeds]``, else the ``fallback`` grid.
 
     Raises:
-        InputError: bad range text, or a speed ≤ 0 or not finite.
+        InputError: bad range text, or a speed outside :func:`millstab.bounds.check_speeds`'s bounds
+            (10..500 000 rev/min) or not finite.
     """
     if spec is None:
         if cfg is not None and cfg.rpm is not None:
-            return np.asarray(cfg.rpm, dtype=float)
+            return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
         return parse_rpm_range(spec, field)
     r = np.asarray(spec, dtype=float).ravel()
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")
-    return r
+    return check_speeds(r, field)
 
 
 def modal(cfg: Config, modes: int | str = "auto") -> tuple[Config, str | None]:

@@ -8,6 +8,7 @@ import numpy as np
 
 from millstab.api.inputs import modal
 from millstab.api.progress import Progress
+from millstab.bounds import samples as check_samples
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
@@ -29,8 +30,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     """
     from millstab.update import update as run_update
 
-    if samples < 100:
-        raise InputError("--samples", samples, "need at least 100 samples")
+    check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
     cfg, _ = modal(cfg)
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client

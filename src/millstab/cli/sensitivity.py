@@ -5,6 +5,7 @@ Each method is its own subcommand with its own options and help; they share one 
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Iterator, List, Optional
@@ -14,6 +15,7 @@ import typer
 from typer.core import TyperGroup
 
 from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
+from millstab.cli.options import seed_callback
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
@@ -95,7 +97,8 @@ RpmFileOpt = Annotated[Optional[Path], typer.Option("--rpm-file", help="Speeds, 
 OutOpt = Annotated[Optional[Path], typer.Option("--out", help="Result JSON (MSE in mm^2).")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Figure (.png, .svg or .pdf).")]
 EngineOpt = Annotated[str, typer.Option("--engine", help=f"Stability engine: {', '.join(ENGINES)}.")]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers.")]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers; 0..4294967295.",
+                                      callback=seed_callback)]
 TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-width: each parameter drawn from "
                                                          "[(1-t)p, (1+t)p] (0.1).")]
 BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
@@ -199,8 +202,11 @@ def _client(dask: str | None, workers: int | None) -> Iterator:
     if dask is None and workers is None:
         yield None
         return
-    from millstab.cluster import open_client
+    from millstab.cluster import CONNECT_SECONDS, open_client
 
+    if sys.stderr.isatty():  # on a terminal only: a pipe's stderr keeps an error to one line
+        typer.echo(f"Dask: connecting to {dask} (at most ~{CONNECT_SECONDS:g} s)…" if dask else
+                   f"Dask: starting {workers} local workers…", err=True)
     with open_client(dask, workers) as client:
         n_workers = len(client.scheduler_info()["workers"])
         where = f"scheduler {dask}" if dask else "a local cluster started for this run"

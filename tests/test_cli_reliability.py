@@ -60,7 +60,7 @@ def test_speeds_beyond_the_bounds_are_refused_before_any_work(capsys, tmp_path, 
 
 def test_the_bounds_themselves_are_accepted_and_the_hint_names_the_revolution_time():
     assert bounds.check_speeds([bounds.MIN_RPM, bounds.MAX_RPM]).tolist() == [10.0, 500_000.0]
-    with pytest.raises(InputError, match=r"at 0\.001 one revolution takes 16\.7 h"):
+    with pytest.raises(InputError, match=r"at 0\.001 rev/min one revolution takes 16\.7 h"):
         bounds.check_speeds([0.001, 5000.0], "--rpm")
     with pytest.raises(InputError, match="extra zero"):
         bounds.check_speeds([5e6], "--rpm")
@@ -102,6 +102,18 @@ def test_a_config_whose_speeds_table_crawls_is_refused(capsys, tmp_path):
                    if "[speeds]" in text else text + '\n[speeds]\nstart = 0.01\nstop = 2\nstep = 0.01\n')
     code, _, err = run(capsys, ["lobes", cfg])
     one_line_error(code, err, "slow.toml [speeds]", "10..500,000 rev/min")
+
+
+def test_a_speeds_file_and_an_uploaded_config_are_bounded_too(capsys, tmp_path):
+    (tmp_path / "speeds.txt").write_text("5000\n0.5\n")
+    for cmd in (["lobes", "example:ex1"], ["sensitivity", "oat", "example:ex1"]):
+        code, _, err = run(capsys, cmd + ["--rpm-file", tmp_path / "speeds.txt"])
+        one_line_error(code, err, "--rpm-file speeds.txt = 0.5", "one revolution takes 2 min")
+    from millstab import api
+
+    text = api.config_toml(api.config("example:ex1")).split("[speeds]")[0] + "[speeds]\nstart = 1\nstop = 5\nstep = 1\n"
+    with pytest.raises(InputError, match=r"\[speeds\] = 1 is invalid"):
+        api.config_from_text(text, "upload.toml")
 
 
 # ---- seeds ---------------------------------------------------------------------------------------------

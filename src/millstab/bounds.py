@@ -61,7 +61,7 @@ def check_speeds(rpm, field: str = "rpm", shown: object = None) -> np.ndarray:
         value = shown if shown is not None else float(r[bad][0])
         fin = r[np.isfinite(r) & (r > 0)]
         slow = fin[fin < MIN_RPM]
-        hint = (f" (speeds are rev/min: at {slow.min():g} one revolution takes {_duration(60.0 / slow.min())})"
+        hint = (f" (at {slow.min():g} rev/min one revolution takes {_duration(60.0 / slow.min())})"
                 if slow.size else " (an extra zero? speeds are rev/min, not rad/s)" if np.any(fin > MAX_RPM) else "")
         raise InputError(field, value, speed_rule() + hint)
     return r

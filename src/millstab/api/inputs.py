@@ -33,7 +33,12 @@ def config(source: Config | str | os.PathLike) -> Config:
         InputError: as the file's reader, and for ``[speeds]`` outside :func:`millstab.bounds.check_speeds`'s
             bounds (naming the file and ``[speeds]``).
     """
-    cfg = source if isinstance(source, Config) else load_config(source)
+    return _bounded(source if isinstance(source, Config) else load_config(source))
+
+
+def _bounded(cfg: Config) -> Config:
+    """``cfg`` when its ``[speeds]`` lie within :func:`millstab.bounds.check_speeds`'s bounds (a config's own
+    speeds drive every command that is given no --rpm)."""
     if cfg.rpm is not None:
         check_speeds(cfg.rpm, f"{cfg.path.name if cfg.path else cfg.name} [speeds]")
     return cfg
@@ -42,7 +47,7 @@ def config(source: Config | str | os.PathLike) -> Config:
 def config_from_text(text: str | bytes, name: str = "config") -> Config:
     """A config parsed from TOML text (an upload); ``name`` names it in messages. An FRF table a config
     refers to by file name cannot be resolved from text alone (upload the FRF instead)."""
-    return parse_config(_text(text, name), name=Path(name).stem or name)
+    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name))
 
 
 def points(source: PointSet | str | os.PathLike) -> PointSet:
@@ -65,7 +70,7 @@ def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike
     Raises:
         InputError: as for a config file, naming the field (``cutting.kt``, ``structure.x[0].fn``).
     """
-    return config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None)
+    return _bounded(config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None))
 
 
 def config_fields(cfg: Config) -> dict:

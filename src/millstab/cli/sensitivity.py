@@ -16,6 +16,7 @@ from typer.core import TyperGroup
 
 from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
 from millstab.cli.options import seed_callback
+from millstab.bounds import check_speeds
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
@@ -240,6 +241,8 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
     bounds = _parse_bounds(bound)
     cfg = api.config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
+    if rpm_file:  # --rpm text and [speeds] are checked where they are parsed; a file's speeds here
+        check_speeds(speeds, f"--rpm-file {rpm_file.name}")
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
     protect = [p for p in inputs.values() if p]

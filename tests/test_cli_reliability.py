@@ -137,6 +137,17 @@ def test_every_seed_is_checked_once_the_same_way(capsys, tmp_path, command, seed
     assert not (tmp_path / "p.json").exists() and not (tmp_path / "rep").exists()
 
 
+def test_the_python_doors_check_the_seed_too():
+    from millstab import api
+    from millstab.points import PointSet
+
+    cfg, cuts = api.config("example:ex1"), PointSet([5000.0], [1.0], ["stable"])
+    for call in (lambda: api.update(cfg, cuts, samples=200, seed=-1),
+                 lambda: api.label_cuts(cfg, cuts, seed=-1, label_noise=0.1)):
+        with pytest.raises(InputError, match="--seed = -1"):
+            call()
+
+
 def test_seed_rule():
     assert bounds.seed(0) == 0 and bounds.seed(2**32 - 1) == 2**32 - 1 and bounds.seed(None) is None
     assert bounds.seed(np.int64(7)) == 7
@@ -147,10 +158,19 @@ def test_seed_rule():
 
 # ---- samples -------------------------------------------------------------------------------------------
 
-def test_samples_beyond_the_cap_say_how_much_memory_they_would_need(capsys, tmp_path):
-    code, _, err = run(capsys, ["update", "example:ex1", tmp_path / "none.csv", "--samples", "100000000",
+@pytest.mark.parametrize("text", ["100000000", "1e8", "1E8"])
+def test_samples_beyond_the_cap_say_how_much_memory_they_would_need(capsys, tmp_path, text):
+    """Today --samples 100000000 starts and dies of a MemoryError traceback (and 1e8 is a usage panel)."""
+    code, _, err = run(capsys, ["update", "example:ex1", tmp_path / "none.csv", "--samples", text,
                                 "--out", tmp_path / "p.json"])
-    one_line_error(code, err, "--samples = 100000000", "at most 1,000,000 samples", "~200 GB")
+    one_line_error(code, err, "--samples = 100000000", "at most 1,000,000 samples: this many needs ~200 GB of memory")
+
+
+@pytest.mark.parametrize("text", ["abc", "1.5", "-5", "99"])
+def test_samples_that_are_no_count_or_too_few(capsys, tmp_path, text):
+    code, _, err = run(capsys, ["update", "example:ex1", tmp_path / "none.csv", "--samples", text,
+                                "--out", tmp_path / "p.json"])
+    one_line_error(code, err, "--samples = ")
 
 
 def test_samples_beyond_the_memory_say_how_much_there_is(capsys, tmp_path, monkeypatch):

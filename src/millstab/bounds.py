@@ -126,10 +126,11 @@ def samples(n, field: str = "--samples", minimum: int = 100) -> int:
     if k < minimum:
         raise InputError(field, n, f"need at least {minimum} samples")
     need = k * BYTES_PER_SAMPLE
-    if k > MAX_SAMPLES:
-        raise InputError(field, n, f"at most {MAX_SAMPLES:,} samples (this many would need ~{_gb(need)} of "
-                                   f"memory; the default 4 000 is usually plenty)")
     avail = available_memory()
+    has = f", this machine has {_gb(avail)} available" if avail is not None else ""
+    if k > MAX_SAMPLES:
+        raise InputError(field, n, f"at most {MAX_SAMPLES:,} samples: this many needs ~{_gb(need)} of memory{has} "
+                                   f"(the default 4 000 is usually plenty)")
     if avail is not None and need > 0.8 * avail:
         raise InputError(field, n, f"needs ~{_gb(need)} of memory, this machine has {_gb(avail)} available; "
                                    f"use at most ~{int(0.8 * avail / BYTES_PER_SAMPLE):,} samples")
@@ -137,7 +138,7 @@ def samples(n, field: str = "--samples", minimum: int = 100) -> int:
 
 
 def _gb(nbytes: float) -> str:
-    return f"{nbytes / 1e9:.3g} GB"
+    return f"{nbytes / 1e9:.3g} GB" if nbytes < 1e12 else f"{nbytes / 1e12:,.0f} TB"
 
 
 __all__ = ["BYTES_PER_SAMPLE", "MAX_SAMPLES", "available_memory", "samples", "MAX_CHATTER_HZ", "MAX_RPM", "MIN_RPM", "SEED_LIMIT", "check_speeds", "seed", "speed_rule"]

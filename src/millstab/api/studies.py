@@ -33,8 +33,10 @@ def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float = 0
 def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float = 100.0, steps: int | None = None,
                start: str = "steady", label_noise: float = 0.0, marginal: str = "keep", seed: int | None = None):
     """Simulate and label the cuts (:class:`millstab.simulate.Labels`: stable | marginal | chatter, chatter Hz)."""
+    from millstab.bounds import seed as check_seed
     from millstab.simulate import label_cuts as run
 
+    check_seed(seed)
     return run(cfg.structure, cfg.cutting, cuts.rpm, cuts.depth_m, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
                start=start, label_noise=label_noise, marginal=marginal, seed=seed)
 

@@ -28,6 +28,18 @@ def samples_callback(value):
     return samples(value, "--samples")
 
 
+def count(text: str):
+    """A count as written: ``4000``, ``4e3``, ``4_000`` → 4000; anything else is handed on as text, for the
+    option's callback to refuse in one line (a parser that raised would print typer's usage panel)."""
+    try:
+        value = float(str(text).replace("_", ""))
+    except ValueError:
+        return text
+    return int(value) if value.is_integer() else text
+
+
 def samples_option(default: int, help: str) -> Any:
-    """A ``--samples`` option of the Bayesian updating checked by :func:`millstab.bounds.samples`."""
-    return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", callback=samples_callback)
+    """A ``--samples`` option of the Bayesian updating checked by :func:`millstab.bounds.samples` (``1e8``
+    reads as 100000000 and is refused for the memory it needs, not for its spelling)."""
+    return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", parser=count,
+                        callback=samples_callback)

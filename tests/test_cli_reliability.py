@@ -469,6 +469,31 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_not(tmp_path):
     assert "compiling" not in second.stderr, second.stderr
 
 
+def test_the_notice_goes_to_a_real_stderr_once_and_not_into_a_capture(tmp_path, monkeypatch):
+    import io
+    import types
+
+    from millstab.cli import notices
+
+    def event(module):
+        return types.SimpleNamespace(data={"dispatcher": types.SimpleNamespace(py_func=types.SimpleNamespace(
+            __module__=module))})
+
+    monkeypatch.setattr(notices, "_said", [False])
+    with open(tmp_path / "stderr.txt", "w+", encoding="utf-8") as real:
+        monkeypatch.setattr(sys, "stderr", real)
+        notices._on_compile(event("numpy.linalg"))  # not ours: no notice
+        notices._on_compile(event("millstab.stability._zoa_kernel"))
+        notices._on_compile(event("millstab.stability._sdm_kernel"))
+        real.seek(0)
+        assert real.read() == notices.COMPILE_NOTICE + "\n"
+    monkeypatch.setattr(notices, "_said", [False])
+    captured = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", captured)
+    notices._on_compile(event("millstab.stability._zoa_kernel"))
+    assert captured.getvalue() == ""
+
+
 def test_warmup_refuses_an_unknown_target(capsys):
     code, _, err = run(capsys, ["warmup", "zoa", "nope"])
     one_line_error(code, err, "TARGET = 'nope'", "zoa, sdm, spectral, simulate")

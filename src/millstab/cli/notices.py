@@ -3,7 +3,7 @@ compilation of the engines (numba) in a fresh cache.
 
 The compile notice listens to numba's own ``numba:compile`` event, which numba raises only after its
 on-disk cache missed (``Dispatcher.compile``: ``load_overload`` first, the event on a miss), so a warm
-cache prints nothing and costs nothing. The listener is registered when numba is first imported (an
+cache prints nothing and costs nothing; nor does an in-memory stderr (:func:`_real_stream`). The listener is registered when numba is first imported (an
 import hook), so commands that never touch an engine (``--help``, input errors) do not pay numba's
 ~0.5 s import for it.
 """
@@ -27,7 +27,19 @@ def _on_compile(event) -> None:
     module = getattr(getattr(disp, "py_func", None), "__module__", "") or ""
     if module.startswith("millstab"):
         _said[0] = True
-        print(COMPILE_NOTICE, file=sys.stderr, flush=True)
+        if _real_stream(sys.stderr):
+            print(COMPILE_NOTICE, file=sys.stderr, flush=True)
+
+
+def _real_stream(stream) -> bool:
+    """Whether ``stream`` is a terminal, pipe or file (has a file descriptor). An in-memory stream (a test's
+    capture of ``main()``, a program embedding the CLI) gets no notice: such callers read stderr as the
+    command's errors and warnings, one per line, and a cold cache there is no newcomer's first run."""
+    try:
+        stream.fileno()
+        return True
+    except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is both OSError and ValueError
+        return False
 
 
 def _register() -> None:

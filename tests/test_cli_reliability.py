@@ -284,6 +284,16 @@ def test_a_server_of_another_kind_is_named():
     assert ended and isinstance(exc, InputError) and "not a Dask scheduler answers there" in str(exc), exc
 
 
+def test_a_local_cluster_beyond_four_workers_per_core_is_refused(monkeypatch):
+    pytest.importorskip("distributed")
+    from millstab.cluster import open_client
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 1)  # a 1-core machine: 5 workers is beyond 4 per core
+    with pytest.raises(InputError, match="--workers = 5 is invalid: this machine has 1 cores"):
+        with open_client(workers=5):
+            pass
+
+
 @pytest.mark.parametrize("address", ["garbage", "http://localhost:8787"])
 def test_dask_garbage_on_the_command_line_is_one_line(capsys, address):
     pytest.importorskip("distributed")

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import time
 import uuid
 from itertools import islice
@@ -208,6 +209,11 @@ def open_client(address: str | None = None, workers: int | None = None, *,
         return
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
+    cores = os.cpu_count() or 1
+    if workers > 4 * cores:  # each worker is a process with its own numba and numpy (~200 MB): bound the start
+        raise InputError("--workers", workers, f"this machine has {cores} cores: a local cluster takes at most "
+                                               f"{4 * cores} worker processes (one per core is best; each is a "
+                                               f"Python process of ~200 MB); use --dask ADDRESS for more")
     distributed = _distributed("--workers", workers)
     import dask
 

@@ -141,4 +141,5 @@ def _gb(nbytes: float) -> str:
     return f"{nbytes / 1e9:.3g} GB" if nbytes < 1e12 else f"{nbytes / 1e12:,.0f} TB"
 
 
-__all__ = ["BYTES_PER_SAMPLE", "MAX_SAMPLES", "available_memory", "samples", "MAX_CHATTER_HZ", "MAX_RPM", "MIN_RPM", "SEED_LIMIT", "check_speeds", "seed", "speed_rule"]
+__all__ = ["BYTES_PER_SAMPLE", "MAX_CHATTER_HZ", "MAX_RPM", "MAX_SAMPLES", "MIN_RPM", "SEED_LIMIT", "available_memory",
+           "check_speeds", "samples", "seed", "speed_rule"]

@@ -3,9 +3,9 @@ compilation of the engines (numba) in a fresh cache.
 
 The compile notice listens to numba's own ``numba:compile`` event, which numba raises only after its
 on-disk cache missed (``Dispatcher.compile``: ``load_overload`` first, the event on a miss), so a warm
-cache prints nothing and costs nothing; nor does an in-memory stderr (:func:`_real_stream`). The listener is registered when numba is first imported (an
-import hook), so commands that never touch an engine (``--help``, input errors) do not pay numba's
-~0.5 s import for it.
+cache prints nothing and costs nothing; nor does an in-memory stderr (:func:`_real_stream`). The listener
+is registered when numba is first imported (an import hook), so commands that never touch an engine
+(``--help``, input errors) do not pay numba's ~0.5 s import for it.
 """
 
 from __future__ import annotations

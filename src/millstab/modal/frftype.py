@@ -13,12 +13,14 @@ accelerance rises like ω² below them and is flat above (slope about 0..+2). Th
 after conversion to receptance decides between the twins.
 
 :func:`frf_kind` scores the six readings (three quantities, each plain or conjugated) after conversion to
-receptance: the share of the measured |H|² (the resonances) whose imaginary part is ≤ 0 (1 for the right reading, noise aside; a reading
-below :data:`PASSIVE_SHARE` is out), then one point each for a stiffness-like low end (median Re > 0 over the
-lowest 10 % of lines: below the modes G → 1/k), a mass-like high end (Re < 0 over the highest 10 %: above them
-G → −1/(mω²)) and an end-to-end slope within :data:`RECEPTANCE_SLOPE`. A band on one side of its modes still
-has one end and usually the slope to tell the twins apart. Ties go to the plain receptance. Cross (transfer) FRFs, whose modes have either
-sign, pass none of the readings and are left to the fit's own drive-point check.
+receptance: the share of the measured |H|² (the resonances) whose imaginary part is ≤ 0 (1 for the right
+reading, noise aside; a reading below :data:`PASSIVE_SHARE` is out), then one point each for a stiffness-like
+low end (median Re > 0 over the lowest 10 % of lines: below the modes G → 1/k), a mass-like high end (Re < 0
+over the highest 10 %: above them G → −1/(mω²)) and an end-to-end slope within :data:`RECEPTANCE_SLOPE`. A band
+on one side of its modes still has one end and usually the slope to tell the twins apart. Ties go to the
+plain receptance. Cross (transfer) FRFs, whose modes have either sign, pass none of the readings and are
+left to the fit's own drive-point check. Checked on synthetic FRFs of each kind, plain and conjugated, on
+bands around, below, above and narrowly about the modes, and with 2 % noise (tests/test_cli_reliability.py).
 """
 
 from __future__ import annotations

@@ -94,7 +94,8 @@ def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path)
     if seen.kind is not None:
         lo, hi = PHASE_DEG[seen.kind]
         lo, hi = (-hi, -lo) if seen.conjugated else (lo, hi)
-        why = f"its phase stays within {lo:+d}..{hi:+d} deg over {100 * seen.passive:.0f} % of |H| and {why}"
+        why = (f"its phase stays within {lo:+d}..{hi:+d} deg at the lines carrying {100 * seen.passive:.0f} % of "
+               f"|H|² and {why}")
     if t == "auto":
         if seen.kind in ("mobility", "accelerance"):
             raise InputError(label, name, f"looks like {seen.describe()}, not receptance (m/N) ({why}); "
@@ -105,7 +106,8 @@ def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path)
     after = frf_kind(f, g)
     if after.kind not in (None, "receptance"):
         raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
-                                      f"after converting it is no receptance (m/N); pass --frf-type {seen.kind or 'auto'}")
+                                      f"after converting it is no receptance (m/N); pass --frf-type "
+                                      f"{seen.kind or 'auto'}")
     if after.kind is None or (seen.kind and seen.kind != t):
         raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
                                       f"{KINDS[t][1]} data would have the other phase and slope")
@@ -172,7 +174,8 @@ def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, mod
     warned about: y then equals x, true only of an axisymmetric tool."""
     fits: dict[str, DirectionFit] = {}
     if frf_x is not None and frf_y is not None and records[0] == records[1] and same_file(frf_x, frf_y):
-        warn(f"FRF_Y is the same measurement as FRF_X ({Path(str(frf_x)).name}{'' if str(frf_x) == str(frf_y) else ', ' + Path(str(frf_y)).name}): "
+        names = Path(str(frf_x)).name + ("" if str(frf_x) == str(frf_y) else ", " + Path(str(frf_y)).name)
+        warn(f"FRF_Y is the same measurement as FRF_X ({names}): "
              f"y is fitted equal to x, which holds only for a tool that is symmetric about its axis; tap y "
              f"separately (hammer and sensor along y) unless it is", FRFWarning, stacklevel=2)
     for d, path, n, rec in (("x", frf_x, modes[0], records[0]), ("y", frf_y, modes[1], records[1])):

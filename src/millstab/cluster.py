@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import time
 import uuid
 from itertools import islice
@@ -81,17 +82,113 @@ def check_client(client: Any) -> Any:
     return client
 
 
+#: how long a scheduler address may take to answer as a Dask scheduler [s]: a scheduler sends its handshake
+#: within milliseconds of a connection; a web server (the dashboard, port 8787) sends nothing until asked
+CONNECT_SECONDS = 10.0
+#: address schemes of dask.distributed's comms
+SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+_EXAMPLE = "e.g. tcp://10.0.0.5:8786 (printed as 'Scheduler at:' by `dask scheduler`)"
+
+
+def scheduler_address(text: Any, field: str = "--dask") -> str:
+    """``--dask`` text as a scheduler address ``SCHEME://HOST:PORT`` (``HOST:PORT`` means tcp).
+
+    Raises:
+        InputError: not text, an http(s) address (the dashboard's: the scheduler is usually tcp://HOST:8786),
+            an unknown scheme, no host, or no port / a port outside 1..65535.
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(field, text, f"need a scheduler address, {_EXAMPLE}")
+    addr = text.strip()
+    scheme, sep, rest = addr.partition("://")
+    if not sep:
+        scheme, rest = "tcp", addr
+    scheme = scheme.lower()
+    if scheme in ("http", "https"):
+        host = rest.split("/", 1)[0].rsplit(":", 1)[0] or "HOST"
+        raise InputError(field, text, f"that is a web address (the Dask dashboard's, usually port 8787); the "
+                                      f"scheduler's is usually tcp://{host}:8786")
+    if scheme not in SCHEMES:
+        raise InputError(field, text, f"unknown scheme {scheme!r} (known: {', '.join(SCHEMES)}); {_EXAMPLE}")
+    if scheme == "inproc":
+        return addr
+    hostport = rest.split("/", 1)[0]
+    host, colon, port = hostport.rpartition(":")
+    if not colon or not host.strip("[]") or not port.isdigit() or not 0 < int(port) < 65536:
+        raise InputError(field, text, f"need HOST:PORT with a port in 1..65535, {_EXAMPLE}")
+    return f"{scheme}://{hostport}"
+
+
+def probe_scheduler(address: str, timeout_s: float = CONNECT_SECONDS, field: str = "--dask",
+                    shown: str | None = None) -> None:
+    """Check that a Dask scheduler answers at the tcp ``address`` within ``timeout_s``, without dask: connect
+    and read the handshake a scheduler sends at once (msgpack naming its ``compression`` and ``python``).
+    A closed port, an unknown host or a server of another kind (a web server waits for a request and sends
+    nothing) fails here in at most ~``timeout_s`` seconds, where ``distributed.Client`` would wait for ever
+    on a server that accepts and never answers. Other schemes (tls, ucx, ...) are left to dask. ``shown``:
+    the address as the user wrote it (for the message; default ``address``).
+
+    Raises:
+        InputError: naming the address and what answered there.
+    """
+    import socket
+
+    if not address.startswith("tcp://"):
+        return
+    given = address if shown is None else shown
+    host, _, port = address[len("tcp://"):].rpartition(":")
+    host = host.strip("[]")
+    advice = "start one with `dask scheduler` (and workers with `dask worker ADDRESS`), or use --workers N"
+    try:
+        sock = socket.create_connection((host, int(port)), timeout=timeout_s)
+    except socket.gaierror:
+        raise InputError(field, given, f"unknown host {host!r}; {_EXAMPLE}") from None
+    except (socket.timeout, TimeoutError):
+        raise InputError(field, given, f"no answer from {host}:{port} in {timeout_s:g} s (a firewall, or no such "
+                                         f"machine); {advice}") from None
+    except OSError as exc:
+        raise InputError(field, given, f"nothing listens there ({exc.strerror or exc}); {advice}") from None
+    data = b""
+    try:
+        sock.settimeout(timeout_s)
+        deadline = time.monotonic() + timeout_s
+        while len(data) < 256 and time.monotonic() < deadline:
+            chunk = sock.recv(256)
+            if not chunk:
+                break
+            data += chunk
+            if b"compression" in data or b"pickle-protocol" in data:
+                return
+    except (socket.timeout, TimeoutError):
+        pass
+    except OSError:
+        pass
+    finally:
+        sock.close()
+    if not data:
+        what = (f"something accepts connections there but sent nothing in {timeout_s:g} s: not a Dask scheduler "
+                "(a web server, e.g. the dashboard, waits for a request)")
+    elif data[:5] in (b"HTTP/", b"<!DOC", b"<html"):
+        what = "a web server answers there, not a Dask scheduler"
+    else:
+        what = f"something that is not a Dask scheduler answers there ({data[:16]!r})"
+    raise InputError(field, given, f"{what}; the scheduler's address is usually tcp://HOST:8786")
+
+
 @contextlib.contextmanager
-def open_client(address: str | None = None, workers: int | None = None, *, timeout_s: float = 20.0) -> Iterator[Any]:
+def open_client(address: str | None = None, workers: int | None = None, *,
+                timeout_s: float = CONNECT_SECONDS) -> Iterator[Any]:
     """A ``distributed.Client`` for the run, or None when neither ``address`` nor ``workers`` is given.
 
     Args:
-        address: a running scheduler (``tcp://host:8786``, as printed by ``dask scheduler``).
+        address: a running scheduler (``tcp://host:8786``, as printed by ``dask scheduler``; ``host:8786``
+            means tcp).
         workers: start a local cluster of this many worker processes (one thread each), closed on exit.
-        timeout_s: how long to wait for a scheduler at ``address`` [s].
+        timeout_s: how long a scheduler at ``address`` may take to answer [s] (:data:`CONNECT_SECONDS`).
 
     Raises:
-        InputError: both given, ``workers`` < 1, no scheduler at ``address``, or dask not installed.
+        InputError: both given, ``workers`` < 1, a malformed or http address, no scheduler answering at
+            ``address`` in ``timeout_s`` (:func:`probe_scheduler`), or dask not installed.
     """
     if address is None and workers is None:
         yield None
@@ -99,12 +196,12 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     if address is not None and workers is not None:
         raise InputError("--dask", address, "give either --dask ADDRESS (a running scheduler) or --workers N, not both")
     if address is not None:
-        if not isinstance(address, str) or not address.strip():
-            raise InputError("--dask", address, "need a scheduler address, e.g. tcp://10.0.0.5:8786")
+        addr = scheduler_address(address)
         distributed = _distributed("--dask", address)
+        probe_scheduler(addr, timeout_s, shown=address)
         try:
-            client = distributed.Client(address.strip(), timeout=timeout_s)
-        except (OSError, TimeoutError) as exc:
+            client = distributed.Client(addr, timeout=timeout_s)
+        except (OSError, TimeoutError, ValueError) as exc:
             raise InputError("--dask", address, f"no Dask scheduler answered there ({exc}); start one with "
                              "`dask scheduler` and workers with `dask worker ADDRESS`, or use --workers N") from None
         with client:
@@ -112,6 +209,11 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
         return
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
+    cores = os.cpu_count() or 1
+    if workers > 4 * cores:  # each worker is a process with its own numba and numpy (~200 MB): bound the start
+        raise InputError("--workers", workers, f"this machine has {cores} cores: a local cluster takes at most "
+                                               f"{4 * cores} worker processes (one per core is best; each is a "
+                                               f"Python process of ~200 MB); use --dask ADDRESS for more")
     distributed = _distributed("--workers", workers)
     import dask
 

@@ -547,5 +547,13 @@ def _band_loss(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], files: Mappin
         "(too high): measure every term over the same band")
 
 
+def same_content(a: PathLike, b: PathLike) -> bool:
+    """Whether two files hold the same bytes (an FRF copied under another name for the other direction)."""
+    pa, pb = Path(a), Path(b)
+    if pa.stat().st_size != pb.stat().st_size:
+        return False
+    return pa.read_bytes() == pb.read_bytes()
+
+
 __all__ = ["FORMATS", "list_uff_records", "load_measured_frf", "read_frf", "read_frf_csv", "read_frf_cutpro",
-           "read_frf_uff", "write_frf_csv"]
+           "read_frf_uff", "same_content", "write_frf_csv"]

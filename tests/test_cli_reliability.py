@@ -373,7 +373,7 @@ BANDS = {"around": np.linspace(100, 5000, 2000), "below": np.linspace(100, 1000,
 @pytest.mark.parametrize("kind", ["receptance", "mobility", "accelerance"])
 @pytest.mark.parametrize("conj", [False, True])
 def test_the_kind_is_told_from_phase_and_slope(band, kind, conj):
-    from millstab.modal.frftype import frf_kind
+    from millstab.frfkind import frf_kind
 
     f = BANDS[band]
     one = (np.array([900.0]), np.array([2e7]), np.array([0.03]))
@@ -385,7 +385,7 @@ def test_the_kind_is_told_from_phase_and_slope(band, kind, conj):
 @pytest.mark.parametrize("kind", ["receptance", "mobility", "accelerance"])
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_kind_survives_two_percent_noise(kind, seed):
-    from millstab.modal.frftype import frf_kind
+    from millstab.frfkind import frf_kind
 
     f = np.linspace(0.5, 2000.0, 4000)  # a hammer test's lines, 0.5 Hz up
     seen = frf_kind(f, _frf(kind, f, noise=0.02, seed=seed))
@@ -394,7 +394,7 @@ def test_the_kind_survives_two_percent_noise(kind, seed):
 
 def test_a_cross_frf_is_no_kind():
     from millstab.frf import modal_receptance
-    from millstab.modal.frftype import frf_kind
+    from millstab.frfkind import frf_kind
 
     g = np.asarray(modal_receptance(F, *MODES)).reshape(-1)
     g2 = np.asarray(modal_receptance(F, MODES[0][:1], MODES[1][:1], MODES[2][:1])).reshape(-1)

@@ -439,7 +439,8 @@ def _source(src: FRFSource, field: str, base_dir: Path | None,
 
 def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, xy: FRFSource | None = None,
                       yx: FRFSource | None = None, *, base_dir: PathLike | None = None,
-                      field: str = "structure.frf", files: Mapping[str, PathLike] | None = None) -> MeasuredFRF:
+                      field: str = "structure.frf", files: Mapping[str, PathLike] | None = None,
+                      receptance_only: bool = True) -> MeasuredFRF:
     """Read the FRF terms and combine them into a :class:`MeasuredFRF` on one frequency axis.
 
     Each term is a path, ``{"file": path, "record": N}`` or ``(path, record)``; relative paths are
@@ -458,7 +459,9 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     limit it and the strongest response that is ignored: a mode there is missing from the limit.
 
     A direct term whose imaginary part is positive at its strongest resonance (conjugated data)
-    gives an :class:`~millstab.errors.FRFWarning` naming the file.
+    gives an :class:`~millstab.errors.FRFWarning` naming the file. A direct term that holds mobility or
+    accelerance (its phase and slope, :func:`millstab.frfkind.frf_kind`) is an :class:`InputError` saying
+    how to convert it, unless ``receptance_only=False`` (``millstab modal``, which converts it itself).
 
     Raises:
         InputError: naming the term (``structure.frf.xx``) for missing/malformed files, fewer than
@@ -477,6 +480,8 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             raise InputError(f"{field}.{name}", exc.value, f"{exc.field}: {exc.allowed}") from None
         if f[0] == 0.0:
             f, h = f[1:], h[1:]
+        if name in ("xx", "yy") and receptance_only:
+            _refuse_other_kind(f, h, f"{field}.{name}", p.name)
         if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
             warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
                  f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
@@ -512,6 +517,19 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
     except InputError as exc:
         raise InputError(f"{field}: {exc.field}", exc.value, exc.allowed) from None
+
+
+def _refuse_other_kind(freq_hz: np.ndarray, h: np.ndarray, field: str, file_name: str) -> None:
+    """InputError when a direct term holds mobility or accelerance rather than receptance (told from its
+    phase and slope, :func:`millstab.frfkind.frf_kind`): the engines would read it as m/N and give a
+    meaningless boundary. A conjugated receptance is left to the sign-convention warning."""
+    from millstab.frfkind import CONVERSION, frf_kind
+
+    seen = frf_kind(freq_hz, h)
+    if seen.kind in ("mobility", "accelerance"):
+        raise InputError(field, file_name,
+                         f"looks like {seen.describe()}, not a receptance (m/N): {CONVERSION[seen.kind]}; "
+                         f"`millstab modal {file_name} --frf-type {seen.kind}` converts it and fits its modes")
 
 
 #: an ignored response at least this share of the largest one kept is called "probably a mode"

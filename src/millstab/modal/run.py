@@ -74,7 +74,7 @@ def check_frf_type(frf_type: str) -> str:
 def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path) -> np.ndarray:
     """The receptance [m/N] of a drive-point FRF ``h`` at ``f`` [Hz] read from ``path``.
 
-    ``frf_type``: ``auto`` tells the quantity from the phase and slope (:func:`millstab.modal.frftype.frf_kind`)
+    ``frf_type``: ``auto`` tells the quantity from the phase and slope (:func:`millstab.frfkind.frf_kind`)
     and refuses a mobility or an accelerance, naming it and the conversion (the fit would otherwise read an
     accelerance as a conjugated receptance and advise negating its imaginary part); ``receptance`` takes
     ``h`` as it is; ``mobility``/``accelerance`` convert (G = H/(iω), G = −H/ω²) and refuse data that do not
@@ -83,7 +83,7 @@ def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path)
     Raises:
         InputError: naming ``label``, the file, what the data look like and how to convert.
     """
-    from millstab.modal.frftype import CONVERSION, KINDS, frf_kind, to_receptance
+    from millstab.frfkind import CONVERSION, KINDS, frf_kind, to_receptance
 
     t = check_frf_type(frf_type)
     if t == "receptance":
@@ -124,7 +124,7 @@ def read_direction(path, direction: str, band: tuple[float, float] | None, recor
     src = {"file": str(path), "record": record} if record is not None else str(path)
     term = "xx" if direction == "x" else "yy"
     with collect() as said:  # held back: an accelerance trips the sign-convention warning (negate Im: wrong advice)
-        frf = load_measured_frf(**{term: src}, field=label)
+        frf = load_measured_frf(**{term: src}, field=label, receptance_only=False)
     f, h = frf.freq_hz, as_receptance(frf.freq_hz, getattr(frf, term), frf_type, label, path)
     if check_frf_type(frf_type) in ("auto", "receptance"):  # converted data: the raw file's warnings do not apply
         for record_ in said:
@@ -198,9 +198,9 @@ def measured_structure(frf_x, frf_y=None, band: tuple[float, float] | None = Non
         if path is not None:
             src[term] = {"file": str(path), "record": rec} if rec is not None else str(path)
     with quiet():  # already warned when the directions were read
-        frf = load_measured_frf(**src, field="FRF")
+        frf = load_measured_frf(**src, field="FRF", receptance_only=False)
     if check_frf_type(frf_type) in ("mobility", "accelerance"):
-        from millstab.modal.frftype import to_receptance
+        from millstab.frfkind import to_receptance
 
         conv = {t: None if getattr(frf, t) is None else to_receptance(frf.freq_hz, getattr(frf, t), frf_type)
                 for t in ("xx", "yy")}

@@ -75,7 +75,7 @@ from millstab.config import Config, PriorTable  # the model types, re-exported f
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
-TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior")
+TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
 PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
@@ -304,8 +304,9 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths."""
     data = _check_keys(data, "", TOP_KEYS)
     for key in ("cutting", "structure"):
-        if key not in data:
-            raise InputError(key, None, "missing; a config needs [cutting] and [structure] tables")
+        if key not in data and not (key == "structure" and "tool" in data):
+            raise InputError(key, None, "missing; a config needs [cutting] and [structure] tables "
+                                        "(or [tool] and [holder] instead of [structure])")
     name_value = data.get("name", name)
     if not isinstance(name_value, str):
         raise InputError("name", name_value, "must be a string")
@@ -313,7 +314,7 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
-    structure = _structure(data["structure"], base_dir)
+    structure = _tool_structure(data, base_dir) if "tool" in data or "holder" in data else _structure(data["structure"], base_dir)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
     return Config(cutting, structure, name_value, path, rpm, description, prior)
@@ -422,4 +423,191 @@ def write_config(path: PathLike, config: Config, protect: Iterable[PathLike] = (
     return atomic_write_text(path, config_to_toml(config), protect)
 
 
-__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "parse_config", "write_config"]
+# ------------------------------------------------------------------ [tool] + [holder] (docs/tooltip.md)
+
+TOOL_KEYS = ("diameter", "stickout", "fluted_length", "flute_diameter_ratio", "material", "E", "density", "nu",
+             "zeta")
+HOLDER_KEYS = ("rigid", "modes", "frf", "artifact")
+HOLDER_MODE_KEYS = ("fn", "k", "zeta", "slope")
+HOLDER_FRF_KEYS = ("h", "l", "n", "p")
+ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu", "tip", "cross", "offset_direct")
+#: the largest plausible lengths [m] of a tool's diameter and stickout (a bigger one is mm written as m)
+_MAX_LENGTH = {"diameter": 0.2, "stickout": 1.0, "fluted_length": 1.0, "length": 1.0, "offset": 1.0}
+
+
+def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | None = None) -> float:
+    if key not in t:
+        if default is None:
+            raise InputError(f"{field}.{key}", None, f"missing; give it with its unit, e.g. {key} = \"12 mm\"")
+        return default
+    value = t[key]
+    x = parse_quantity(value, f"{field}.{key}", "length")
+    if x <= 0:
+        raise InputError(f"{field}.{key}", value, "must be a length > 0, e.g. \"12 mm\"")
+    top = _MAX_LENGTH.get(key, 1.0)
+    if x > top:
+        raise InputError(f"{field}.{key}", value, f"is {x:g} m, more than {top:g} m for a tool's {key}; a plain number "
+                                                  f"means metres: did you mean \"{x:g} mm\"?")
+    return x
+
+
+def _material(t: Mapping[str, Any], field: str):
+    from millstab.tooltip.beam import Material, material
+    from millstab.units import _parse_string
+
+    if "material" in t:
+        if "E" in t or "density" in t:
+            raise InputError(f"{field}.material", t["material"], "give either a material name or E and density, not both")
+        return material(t["material"])
+    if "E" not in t or "density" not in t:
+        raise InputError(f"{field}.material", None, "missing; give material = \"carbide\" (or steel, hss, aluminium) "
+                                                    "or E = \"600 GPa\" and density = \"14600 kg/m^3\"")
+    E = parse_quantity(t["E"], f"{field}.E", "pressure")
+    rho_raw = t["density"]
+    allowed = "a density, e.g. \"14600 kg/m^3\" (plain number = kg/m^3)"
+    rho = (float(rho_raw) if isinstance(rho_raw, (int, float)) and not isinstance(rho_raw, bool)
+           else _parse_string(str(rho_raw), f"{field}.density", "kg/m**3", 0, allowed))
+    nu = parse_quantity(t.get("nu", 0.3), f"{field}.nu", "dimensionless")
+    if not 1e9 <= E <= 2e12:
+        raise InputError(f"{field}.E", t["E"], "Young's modulus of a tool or holder material must be 1..2000 GPa "
+                                               "(a plain number is Pa: write \"600 GPa\")")
+    if not 500 <= rho <= 30000:
+        raise InputError(f"{field}.density", rho_raw, "must be 500..30000 kg/m^3 (a plain number is kg/m^3)")
+    with _as_written({f"material.{k}": t.get(k) for k in ("E", "density", "nu")}):
+        return Material("custom", E, rho, nu, "given in the config")
+
+
+def _tool(t: Any):
+    from millstab.tooltip.tool import DEFAULT_FLUTE_RATIO, Tool
+
+    t = _check_keys(t, "tool", TOOL_KEYS, ("diameter", "stickout"))
+    d = _tool_length(t, "diameter", "tool")
+    stick = _tool_length(t, "stickout", "tool")
+    fl = _tool_length(t, "fluted_length", "tool", 0.0) if "fluted_length" in t else 0.0
+    if fl > stick * (1 + 1e-9):
+        raise InputError("tool.fluted_length", t["fluted_length"], f"must not exceed the stickout ({show(t['stickout'])})")
+    ratio = parse_quantity(t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO), "tool.flute_diameter_ratio", "dimensionless")
+    zeta = parse_quantity(t.get("zeta", 0.0), "tool.zeta", "dimensionless")
+    raw = {f"tool.{k}": t[k] for k in ("diameter", "stickout", "zeta") if k in t}
+    raw["tool.flute_diameter_ratio"] = t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO)
+    with _as_written(raw):
+        return Tool(d, stick, _material(t, "tool"), fl, ratio, zeta)
+
+
+def _holder_term(src: Any, field: str, base_dir: Path | None) -> tuple[np.ndarray, np.ndarray]:
+    from millstab.io.frf_files import _source, read_frf
+
+    p, record = _source(src, field, base_dir)
+    try:
+        f, h = read_frf(p, record)
+    except InputError as exc:
+        raise InputError(field, exc.value, f"{exc.field}: {exc.allowed}") from None
+    return (f[1:], h[1:]) if f[0] == 0.0 else (f, h)
+
+
+def _on_axis(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], first: str, field: str) -> tuple[np.ndarray, dict]:
+    """All terms on the axis of ``first``, trimmed to the band every term covers (interpolated where needed)."""
+    lo = max(f[0] for f, _ in terms.values())
+    hi = min(f[-1] for f, _ in terms.values())
+    f0 = terms[first][0]
+    f = f0[(f0 >= lo * (1 - 1e-12)) & (f0 <= hi * (1 + 1e-12))]
+    if f.size < 4:
+        raise InputError(field, f"common band {lo:g}..{hi:g} Hz", "the files must share at least 4 frequencies")
+    return f, {k: np.interp(f, fk, hk.real) + 1j * np.interp(f, fk, hk.imag) for k, (fk, hk) in terms.items()}
+
+
+def _holder(t: Any, base_dir: Path | None):
+    from millstab.tooltip import holder as hm
+
+    t = _check_keys(t, "holder", HOLDER_KEYS)
+    given = [k for k in HOLDER_KEYS if k in t and not (k == "rigid" and t[k] is False)]
+    if len(given) != 1:
+        raise InputError("holder", ", ".join(given) or "nothing",
+                         "give exactly one of: rigid = true, [[holder.modes]] (fn, k, zeta, slope), [holder.frf] "
+                         "(h, l, n, p files) or [holder.artifact] (an artifact test)")
+    kind = given[0]
+    if kind == "rigid":
+        if t["rigid"] is not True:
+            raise InputError("holder.rigid", t["rigid"], "must be true (or leave it out and describe the holder)")
+        return hm.RigidHolder()
+    if kind == "modes":
+        value = t["modes"]
+        modes = []
+        for i, m in enumerate(value if isinstance(value, list) else [value]):
+            name = f"holder.modes[{i}]"
+            m = _check_keys(m, name, HOLDER_MODE_KEYS, ("fn", "k", "zeta"))
+            fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
+            k = parse_quantity(m["k"], f"{name}.k", "stiffness")
+            zeta = parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless")
+            slope = _slope(m.get("slope", 0.0), f"{name}.slope")
+            with _as_written({f"holder mode {a}": m.get(a) for a in HOLDER_MODE_KEYS}):
+                modes.append(hm.FaceMode(fn, k, zeta, slope))
+        return hm.ModalHolder(tuple(modes))
+    if kind == "frf":
+        ft = _check_keys(t["frf"], "holder.frf", HOLDER_FRF_KEYS, ("h", "l", "p"))
+        terms = {k: _holder_term(ft[k], f"holder.frf.{k}", base_dir) for k in HOLDER_FRF_KEYS if k in ft}
+        f, v = _on_axis(terms, "h", "holder.frf")
+        return hm.MeasuredHolder(f, v["h"], v["l"], v.get("n", v["l"]), v["p"], source="holder.frf files")
+    at = _check_keys(t["artifact"], "holder.artifact", ARTIFACT_KEYS,
+                     ("diameter", "length", "offset", "tip", "cross", "offset_direct"))
+    d = _tool_length(at, "diameter", "holder.artifact")
+    length = _tool_length(at, "length", "holder.artifact")
+    off = _tool_length(at, "offset", "holder.artifact")
+    if off >= length:
+        raise InputError("holder.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
+    art = hm.artifact_beam(d, length, off, _material(at, "holder.artifact"))
+    terms = {k: _holder_term(at[k], f"holder.artifact.{k}", base_dir) for k in ("tip", "cross", "offset_direct")}
+    f, v = _on_axis(terms, "tip", "holder.artifact")
+    return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)
+
+
+def _slope(value: Any, field: str) -> float:
+    """A mode's rotation per displacement at the face: a plain number (rad/m) or text such as "20 rad/m"."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    from millstab.units import _parse_string
+
+    # pint counts the radian as an angle the length dimension lacks: read "rad/m" as 1/m
+    return _parse_string(re.sub(r"\brad\s*/", "1/", str(value)), field, "1/m", 0,
+                         "a rotation per displacement, e.g. \"20 rad/m\" (plain number = rad/m)")
+
+
+def tool_setup(data: Mapping[str, Any], base_dir: Path | None = None):
+    """``(Tool, Holder)`` from a config's ``[tool]`` and ``[holder]`` tables (parsed TOML)."""
+    if "tool" not in data or "holder" not in data:
+        missing = "holder" if "tool" in data else "tool"
+        raise InputError(missing, None, "missing; [tool] and [holder] are given together (the holder: rigid = true, "
+                                        "[[holder.modes]], [holder.frf] or [holder.artifact])")
+    return _tool(data["tool"]), _holder(data["holder"], base_dir)
+
+
+def _tool_structure(data: Mapping[str, Any], base_dir: Path | None) -> Structure:
+    if "structure" in data:
+        raise InputError("structure", "[structure] and [tool]", "give either [structure] (modes or a measured FRF) or "
+                                                                "[tool] + [holder], not both")
+    from millstab.tooltip.tool import tip_structure
+
+    return tip_structure(*tool_setup(data, base_dir))
+
+
+def load_tool_setup(source: PathLike):
+    """``(Config, Tool, Holder)`` of a config file (or ``example:NAME``) with ``[tool]`` and ``[holder]``."""
+    cfg = load_config(source)
+    data = tomllib.loads(read_text(cfg.path, "config", "text (TOML) file"))
+    if "tool" not in data:
+        raise InputError("config", str(source), "has no [tool] table; `millstab tooltip` needs [tool] and [holder]")
+    tool, holder = tool_setup(data, cfg.path.parent)
+    return cfg, tool, holder
+
+
+def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | None = None):
+    """``(Config, Tool, Holder)`` from config TOML text."""
+    cfg = parse_config(text, name, base_dir)
+    data = tomllib.loads(text.lstrip("\ufeff"))
+    if "tool" not in data:
+        raise InputError(name, "no [tool]", "`millstab tooltip` needs [tool] and [holder]")
+    return (cfg, *tool_setup(data, Path(base_dir) if base_dir is not None else None))
+
+
+__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
+           "parse_config", "tool_setup", "tool_setup_from_text", "write_config"]

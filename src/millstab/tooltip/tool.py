@@ -1,0 +1,146 @@
+"""A tool in a holder: the tool as a stepped Timoshenko beam (shank + fluted part), coupled to the holder
+face by RCSA, and the tool-tip FRF as a :class:`~millstab.model.Structure` every measured-FRF engine takes.
+
+The tool-tip structure is a :class:`~millstab.model.MeasuredFRF` (the same xx and yy: an axisymmetric tool
+in a holder with the same face receptances in x and y) sampled on a grid built for it (:func:`tip_grid`):
+log-spaced over the band plus dense clusters around every resonance, so a lightly damped peak is resolved
+(spacing ≤ 5e-4·fn there, i.e. ≥ 40 points across the half-power band of ζ = 0.01). An FRF, not modes,
+because a measured holder gives no modes; ``identify``, ``update`` and ``design`` fit modes to it as they do
+for a measured tip FRF (issue 14).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from millstab.errors import InputError
+from millstab.model import MeasuredFRF, Structure
+from millstab.tooltip.beam import DEFAULT_ELEMENTS, Beam, Material, Section
+from millstab.tooltip.holder import Holder, RigidHolder
+from millstab.tooltip.rcsa import couple
+from millstab.warnlog import quiet
+
+#: equivalent-diameter ratio of the fluted part of an end mill when none is given: Kops & Vo (1990, CIRP
+#: Annals 39(1):93) found ~0.8 D from the measured bending compliance of two-flute end mills; Schmitz & Smith
+#: (Machining Dynamics) use 0.8 D for 2–4 flute tools. A per-flute-count table is not established in the
+#: public literature we have (the ratio varies more with the flute geometry than with the count)
+DEFAULT_FLUTE_RATIO = 0.8
+
+
+@dataclass(frozen=True)
+class Tool:
+    """An end mill: ``diameter`` [m], ``stickout`` [m] (holder face to tip), ``fluted_length`` [m] (0: none
+    modelled), ``flute_ratio`` (equivalent diameter of the fluted part / diameter), ``material``, ``zeta``
+    (resonant damping ratio of the tool's modes, as a loss factor η = 2ζ)."""
+
+    diameter: float
+    stickout: float
+    material: Material
+    fluted_length: float = 0.0
+    flute_ratio: float = DEFAULT_FLUTE_RATIO
+    zeta: float = 0.0
+    elements: int = DEFAULT_ELEMENTS
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.diameter) and self.diameter > 0):
+            raise InputError("tool.diameter", self.diameter, "must be > 0 m")
+        if not (math.isfinite(self.stickout) and self.stickout > 0):
+            raise InputError("tool.stickout", self.stickout, "must be > 0 m (holder face to tip)")
+        if not (math.isfinite(self.fluted_length) and self.fluted_length >= 0):
+            raise InputError("tool.fluted_length", self.fluted_length, "must be >= 0 m")
+        if not 0.3 <= self.flute_ratio <= 1.0:
+            raise InputError("tool.flute_diameter_ratio", self.flute_ratio, "must be in [0.3, 1] (typically ~0.8)")
+        if not 0.0 <= self.zeta < 0.5:
+            raise InputError("tool.zeta", self.zeta, "tool damping ratio must be in [0, 0.5)")
+
+    def at(self, stickout: float) -> Tool:
+        """The same tool at another stickout [m] (the fluted length is kept, clipped to the stickout)."""
+        return replace(self, stickout=stickout)
+
+    def beam(self) -> Beam:
+        """The tool from the holder face to the tip: shank, then the fluted part as its equivalent solid."""
+        fl = min(self.fluted_length, self.stickout)
+        secs = []
+        if self.stickout - fl > 1e-9 * self.stickout:
+            secs.append(Section(self.stickout - fl, self.diameter, self.material))
+        if fl > 0:
+            secs.append(Section(fl, self.diameter * self.flute_ratio, self.material))
+        return Beam(tuple(secs), eta=2.0 * self.zeta, elements=self.elements)
+
+
+def tip_receptance(tool: Tool, holder: Holder, freq_hz: np.ndarray) -> np.ndarray:
+    """The tool-tip receptance w/f [m/N] at ``freq_hz`` (F,): the tool coupled to ``holder`` by RCSA."""
+    f = np.asarray(freq_hz, dtype=float)
+    beam = tool.beam()
+    if isinstance(holder, RigidHolder):  # clamped: the modes of the clamped tool directly (same result)
+        last = 2 * (beam.mesh()[0].size - 1)
+        return beam.receptance(f, [last], clamped=True)[:, 0, 0]
+    return couple(beam.end_receptances(f), holder.receptance(f))[:, 0, 0]
+
+
+#: background points of the tip grid, and the dense points per resonance (±0.05·fn and ±0.25·fn)
+N_BACKGROUND, N_PEAK, N_SKIRT = 1200, 201, 61
+
+
+def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
+    """The default band [Hz] of the tip FRF: up to 3× the clamped tool's first natural frequency (and 1.5×
+    the highest holder mode), inside a measured holder's band."""
+    lam, _ = tool.beam().modes(clamped=True)
+    f_top = 3.0 * math.sqrt(lam[0]) / (2 * math.pi)
+    modes = getattr(holder, "modes", ())
+    if modes:
+        f_top = max(f_top, 1.5 * max(m.fn for m in modes))
+    lo, hi = holder.band
+    f_hi = min(f_top, hi)
+    f_lo = max(f_hi / 500.0, lo)
+    if f_hi <= f_lo * 1.01:
+        raise InputError("holder band", f"{lo:g}..{hi:g} Hz", f"does not reach the tool's modes (first near {f_top / 3:.4g} Hz)")
+    return f_lo, f_hi
+
+
+def tip_grid(tool: Tool, holder: Holder, band: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(freq_hz, tip receptance) on a grid that resolves every resonance of |G| in ``band`` (default
+    :func:`tip_band`): log-spaced background, then ±5 % of each peak at 201 points and ±25 % at 61."""
+    f_lo, f_hi = band or tip_band(tool, holder)
+    f = np.geomspace(f_lo, f_hi, N_BACKGROUND)
+    if hasattr(holder, "freq_hz"):
+        f = np.union1d(f, holder.freq_hz[(holder.freq_hz >= f_lo) & (holder.freq_hz <= f_hi)])
+    g = np.abs(tip_receptance(tool, holder, f))
+    peaks = np.nonzero((g[1:-1] > g[:-2]) & (g[1:-1] >= g[2:]))[0] + 1
+    extra = [fp * (1 + np.linspace(-0.05, 0.05, N_PEAK)) for fp in f[peaks]]
+    extra += [fp * (1 + np.linspace(-0.25, 0.25, N_SKIRT)) for fp in f[peaks]]
+    if extra:
+        f = np.union1d(f, np.concatenate(extra))
+    f = f[(f >= f_lo) & (f <= f_hi)]
+    f = f[np.concatenate([[True], np.diff(f) > 1e-9 * f[1:]])]
+    return f, tip_receptance(tool, holder, f)
+
+
+def tip_structure(tool: Tool, holder: Holder, band: tuple[float, float] | None = None) -> Structure:
+    """The tool-tip :class:`Structure` (a sampled FRF, xx = yy) of ``tool`` in ``holder``."""
+    f, g = tip_grid(tool, holder, band)
+    with quiet():  # computed, passive by construction
+        return Structure(frf=MeasuredFRF(f, g, g.copy()))
+
+
+def peaks(freq_hz: np.ndarray, g: np.ndarray, n: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The ``n`` lowest resonances of |g|: frequencies [Hz] (parabolic in ln|g| around each local maximum)
+    and peak |g| [m/N]; NaN where fewer exist."""
+    a = np.log(np.abs(g))
+    i = np.nonzero((a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]))[0] + 1
+    fn = np.full(n, np.nan)
+    amp = np.full(n, np.nan)
+    for k, j in enumerate(i[:n]):
+        x = freq_hz[j - 1:j + 2]
+        y = a[j - 1:j + 2]
+        c = np.polyfit(x - x[1], y, 2)
+        dx = -c[1] / (2 * c[0]) if c[0] < 0 else 0.0
+        fn[k] = x[1] + float(np.clip(dx, x[0] - x[1], x[2] - x[1]))
+        amp[k] = math.exp(np.polyval(c, fn[k] - x[1]))
+    return fn, amp
+
+
+__all__ = ["DEFAULT_FLUTE_RATIO", "Tool", "peaks", "tip_band", "tip_grid", "tip_receptance", "tip_structure"]

@@ -18,27 +18,30 @@ import scipy.linalg
 
 
 def transfer(sections, omega, eta=0.0):
-    """The 4×4 transfer matrix over ``sections`` [(length, E, G, kappa, rho, A, I), ...] at ω [rad/s]."""
-    T = np.eye(4, dtype=complex)
+    """The transfer matrices (W, 4, 4) over ``sections`` [(length, E, G, kappa, rho, A, I), ...] at ω (W,)
+    [rad/s] (a scalar ω gives one (4, 4)): expm(Aℓ) = V diag(e^{λℓ}) V⁻¹ per section, batched."""
+    w = np.atleast_1d(np.asarray(omega, dtype=float))
+    T = np.broadcast_to(np.eye(4, dtype=complex), (w.size, 4, 4)).copy()
     for ell, E, G, kappa, rho, A, I in sections:
         Ec, Gc = E * (1 + 1j * eta), G * (1 + 1j * eta)
-        A_ = np.array([[0, 1, 0, 1 / (kappa * Gc * A)],
-                       [0, 0, 1 / (Ec * I), 0],
-                       [0, -rho * I * omega**2, 0, -1],
-                       [-rho * A * omega**2, 0, 0, 0]], dtype=complex)
-        T = scipy.linalg.expm(A_ * ell) @ T
-    return T
+        A_ = np.zeros((w.size, 4, 4), dtype=complex)
+        A_[:, 0, 1] = 1
+        A_[:, 0, 3] = 1 / (kappa * Gc * A)
+        A_[:, 1, 2] = 1 / (Ec * I)
+        A_[:, 2, 1] = -rho * I * w**2
+        A_[:, 2, 3] = -1
+        A_[:, 3, 0] = -rho * A * w**2
+        lam, V = np.linalg.eig(A_ * ell)
+        T = (V * np.exp(lam)[:, None, :]) @ np.linalg.inv(V) @ T
+    return T if np.ndim(omega) else T[0]
 
 
 def clamped_tip(sections, freq_hz, eta=0.0):
     """Tip receptance matrix [[w/P, w/Q], [ψ/P, ψ/Q]] (F, 2, 2) of the stepped beam clamped at its start."""
-    out = []
-    for f in np.atleast_1d(freq_hz):
-        T = transfer(sections, 2 * np.pi * f, eta)
-        # [M(L), V(L)] = T22 [M0, V0] = [Q, P];  [w, ψ](L) = T12 [M0, V0]
-        G = T[0:2, 2:4] @ np.linalg.inv(T[2:4, 2:4])  # maps (Q, P) -> (w, ψ)
-        out.append(G[:, ::-1])
-    return np.array(out)
+    T = transfer(sections, 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float)), eta)
+    # [M(L), V(L)] = T22 [M0, V0] = [Q, P];  [w, ψ](L) = T12 [M0, V0]
+    G = T[:, 0:2, 2:4] @ np.linalg.inv(T[:, 2:4, 2:4])  # maps (Q, P) -> (w, ψ)
+    return G[:, :, ::-1]
 
 
 def clamped_frequencies(sections, f_lo, f_hi, n=4000):
@@ -50,7 +53,7 @@ def clamped_frequencies(sections, f_lo, f_hi, n=4000):
         return np.real(np.linalg.det(T[2:4, 2:4]))
 
     fs = np.linspace(f_lo, f_hi, n)
-    vals = np.array([d(f) for f in fs])
+    vals = np.real(np.linalg.det(transfer(sections, 2 * np.pi * fs)[:, 2:4, 2:4]))
     roots = []
     for i in np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]:
         roots.append(brentq(d, fs[i], fs[i + 1], xtol=1e-12, rtol=1e-14))
@@ -62,3 +65,22 @@ def section(length, diameter, E, rho, nu):
     A = np.pi / 4 * diameter**2
     I = np.pi / 64 * diameter**4
     return (length, E, E / (2 * (1 + nu)), 6 * (1 + nu) / (7 + 6 * nu), rho, A, I)
+
+
+def clamped_point_force(sections_before, sections_after, freq_hz, eta=0.0):
+    """Responses (w at the load point s, w at the free end) (F, 2) to a unit force at s of a stepped beam
+    clamped at its start: ``sections_before`` run from the clamp to s, ``sections_after`` from s to the end.
+
+    A point force F at s makes the shear force jump by −F (V(z) is the load beyond z: V' = −q).
+    """
+    w = 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    A = transfer(sections_before, w, eta)
+    B = transfer(sections_after, w, eta)
+    jump = np.array([0, 0, 0, -1.0])
+    BA = B @ A
+    Bj = B @ jump  # (F, 4)
+    # z(L) = B (A z0 + jump), z0 = [0, 0, M0, V0]; M(L) = V(L) = 0
+    m0v0 = np.linalg.solve(BA[:, 2:4, 2:4], -Bj[:, 2:4, None])[..., 0]
+    zs = np.einsum("fij,fj->fi", A[:, :, 2:4], m0v0)  # the state just before s (w is continuous)
+    zl = np.einsum("fij,fj->fi", BA[:, :, 2:4], m0v0) + Bj
+    return np.stack([zs[:, 0], zl[:, 0]], axis=-1)

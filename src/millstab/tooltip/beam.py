@@ -116,6 +116,11 @@ class Section:
     def kappa(self) -> float:
         return cowper_kappa(self.material.nu, self.inner / self.diameter)
 
+    @property
+    def shear_stiffness(self) -> float:
+        """κGA [N]."""
+        return self.kappa * self.material.G * self.area
+
 
 #: elements per beam when the caller gives none: a uniform carbide cantilever of 2 D (the stubbiest,
 #: slowest-converging case) then has f1, f2 within 1e-5, 1.5e-4 of the exact Timoshenko values

@@ -170,14 +170,24 @@ def artifact_beam(diameter: float, length: float, offset: float, material, eleme
 _FD = {1: np.array([1.0, -1.0]), 2: np.array([1.5, -2.0, 0.5])}
 
 
-def from_finite_differences(freq_hz: np.ndarray, H: np.ndarray, spacing: float, order: int = 1) -> MeasuredHolder:
+def from_finite_differences(freq_hz: np.ndarray, H: np.ndarray, spacing: float, order: int = 1,
+                            shear_stiffness: float | None = None) -> MeasuredHolder:
     """Holder-face receptances from translational FRFs at equally spaced points on the holder.
 
     ``H`` (F, n, n): H[:, i, j] = w_i/f_j at points z_i = −i·``spacing`` (i = 0 the face, going toward the
-    spindle), n = 2 (``order`` 1) or 3 (``order`` 2). With the one-sided stencil c (θ₀ ≈ Σ c_i w_i / s;
+    spindle), n = 2 (``order`` 1) or 3 (``order`` 2). With the one-sided stencil c (slope ≈ Σ c_i w_i / s;
     c = [1, −1] or [3/2, −2, 1/2]) and a moment as the matching set of forces (m = s Σ c_j f_j):
     H = H₀₀, N = Σ c_i H_i0/s, L = Σ c_j H_0j/s, P = Σ c_i c_j H_ij/s² (Sattinger 1980; Duarte & Ewins
-    2000). The truncation error is O(s^order) and measurement noise grows as 1/s (N, L) and 1/s² (P).
+    2000). The truncation error of N and L is O(s^order), of P O(s) with either stencil (measured in
+    tests/test_tooltip.py); measurement noise grows as 1/s (N, L) and 1/s² (P).
+
+    Shear: differences of w give the slope dw/dz, but the joint couples the section rotation ψ, and
+    dw/dz = ψ + V/(κGA). On a thick holder the shear angle adds 1/(κGA) to N and L and, because the forces
+    that stand in for the moment shear the span between the points, c·S·c/s² ≈ 1/(s κGA) to P — an error
+    that GROWS as the spacing shrinks (tests/test_tooltip.py shows it). Give the holder's ``shear_stiffness``
+    κGA [N] (:attr:`Section.shear_stiffness`) and these shear parts are taken out: with the static shear
+    compliance between the points S_ij = −max(i, j)·s/(κGA) (a constant drops out, Σc = 0), N −= Σ c_i S_i0/s,
+    L −= Σ c_j S_0j/s, P −= Σ c_i c_j S_ij/s².
     """
     c = _FD.get(order)
     if c is None:
@@ -187,7 +197,13 @@ def from_finite_differences(freq_hz: np.ndarray, H: np.ndarray, spacing: float, 
         raise InputError("finite-difference FRFs", Hm.shape, f"order {order} needs (F, {c.size}, {c.size})")
     if not (math.isfinite(spacing) and spacing > 0):
         raise InputError("finite-difference spacing", spacing, "must be > 0 m")
-    h = Hm[:, 0, 0]
+    if shear_stiffness is not None:
+        if not (math.isfinite(shear_stiffness) and shear_stiffness > 0):
+            raise InputError("shear stiffness", shear_stiffness, "kappa*G*A must be > 0 N")
+        idx = np.arange(c.size)
+        S = -np.maximum(idx[:, None], idx[None, :]) * spacing / shear_stiffness
+        Hm = Hm - S[None, :, :]  # S00 = 0: H keeps its value
+    h = np.asarray(H)[:, 0, 0]
     n = np.einsum("i,fi->f", c, Hm[:, :, 0]) / spacing
     l_ = np.einsum("j,fj->f", c, Hm[:, 0, :]) / spacing
     p = np.einsum("i,j,fij->f", c, c, Hm) / spacing**2

@@ -26,6 +26,7 @@ as −φφᵀ/ω²), vectorized over frequency: one symmetric eigen-solution per
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -187,16 +188,7 @@ class Beam:
         ``clamped``: the coupling end (node 0) fixed; its rows of the shapes are zero. A free beam's two
         rigid-body eigenvalues are set to exactly 0 (they come out as ±1e-10 of the largest).
         """
-        import scipy.linalg
-
-        K, M = self.matrices()
-        keep = np.arange(2 if clamped else 0, K.shape[0])
-        lam, phi = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)])
-        if not clamped:
-            lam[:2] = 0.0
-        shapes = np.zeros((K.shape[0], lam.size))
-        shapes[keep] = phi
-        return lam, shapes
+        return _modes(self, clamped)
 
     def receptance(self, freq_hz: np.ndarray, dofs: Sequence[int], clamped: bool = False) -> np.ndarray:
         """Receptances between the FE DOFs ``dofs`` (2·node for w, 2·node+1 for θ), shape (F, D, D).
@@ -213,13 +205,34 @@ class Beam:
         return self.receptance(freq_hz, [0, 1, last, last + 1])
 
 
+@functools.lru_cache(maxsize=64)
+def _modes(beam: Beam, clamped: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Cached per beam: a tip grid asks for the same beam's modes 3 times, a sweep once per stickout."""
+    import scipy.linalg
+    from threadpoolctl import threadpool_limits
+
+    K, M = beam.matrices()
+    keep = np.arange(2 if clamped else 0, K.shape[0])
+    with threadpool_limits(1):  # an 82×82 problem: BLAS threads only cost (0.5 s instead of 1 ms on a busy machine)
+        lam, phi = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)])
+    if not clamped:
+        lam[:2] = 0.0
+    shapes = np.zeros((K.shape[0], lam.size))
+    shapes[keep] = phi
+    lam.flags.writeable = False
+    shapes.flags.writeable = False
+    return lam, shapes
+
+
 def modal_receptance(freq_hz: np.ndarray, lam: np.ndarray, phi: np.ndarray, eta: float) -> np.ndarray:
     """Σ_r φ_r φ_rᵀ/(λ_r(1 + iη) − ω²): (F, D, D) from eigenvalues λ (R,) and shapes φ (D, R)."""
     w2 = (2.0 * math.pi * np.asarray(freq_hz, dtype=float)) ** 2
     if np.any(w2 <= 0):
         raise InputError("frequency", float(np.min(freq_hz)), "receptances need frequencies > 0 Hz")
     den = 1.0 / (lam[None, :] * (1.0 + 1j * eta) - w2[:, None])  # (F, R)
-    return np.einsum("ir,jr,fr->fij", phi, phi, den, optimize=True)
+    d = phi.shape[0]
+    outer = (phi[:, None, :] * phi[None, :, :]).reshape(d * d, -1)  # (D², R)
+    return (den @ outer.T.astype(complex)).reshape(-1, d, d)
 
 
 def element_matrices(ell: float, s: Section) -> tuple[np.ndarray, np.ndarray]:

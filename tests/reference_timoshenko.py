@@ -18,12 +18,14 @@ import scipy.linalg
 
 
 def transfer(sections, omega, eta=0.0):
-    """The transfer matrices (W, 4, 4) over ``sections`` [(length, E, G, kappa, rho, A, I), ...] at ω (W,)
+    """The transfer matrices (W, 4, 4) over ``sections`` [(length, E, G, kappa, rho, A, I[, eta]), ...] at ω (W,)
     [rad/s] (a scalar ω gives one (4, 4)): expm(Aℓ) = V diag(e^{λℓ}) V⁻¹ per section, batched."""
     w = np.atleast_1d(np.asarray(omega, dtype=float))
     T = np.broadcast_to(np.eye(4, dtype=complex), (w.size, 4, 4)).copy()
-    for ell, E, G, kappa, rho, A, I in sections:
-        Ec, Gc = E * (1 + 1j * eta), G * (1 + 1j * eta)
+    for sec in sections:
+        ell, E, G, kappa, rho, A, I = sec[:7]
+        e = sec[7] if len(sec) > 7 else eta  # a section's own loss factor, if it has one
+        Ec, Gc = E * (1 + 1j * e), G * (1 + 1j * e)
         A_ = np.zeros((w.size, 4, 4), dtype=complex)
         A_[:, 0, 1] = 1
         A_[:, 0, 3] = 1 / (kappa * Gc * A)

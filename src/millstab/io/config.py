@@ -63,6 +63,7 @@ import math
 import re
 import tomllib
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -430,7 +431,8 @@ TOOL_KEYS = ("diameter", "stickout", "fluted_length", "flute_diameter_ratio", "m
 HOLDER_KEYS = ("rigid", "modes", "frf", "artifact")
 HOLDER_MODE_KEYS = ("fn", "k", "zeta", "slope")
 HOLDER_FRF_KEYS = ("h", "l", "n", "p")
-ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu", "tip", "cross", "offset_direct")
+ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu", "zeta", "tip", "cross",
+                 "offset_direct")
 #: the largest plausible lengths [m] of a tool's diameter and stickout (a bigger one is mm written as m)
 _MAX_LENGTH = {"diameter": 0.2, "stickout": 1.0, "fluted_length": 1.0, "length": 1.0, "offset": 1.0}
 
@@ -556,6 +558,11 @@ def _holder(t: Any, base_dir: Path | None):
     if off >= length:
         raise InputError("holder.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
     art = hm.artifact_beam(d, length, off, _material(at, "holder.artifact"))
+    zeta = parse_quantity(at.get("zeta", 0.0), "holder.artifact.zeta", "dimensionless")
+    if not 0.0 <= zeta < 0.5:
+        raise InputError("holder.artifact.zeta", at["zeta"], "the artifact's damping ratio must be in [0, 0.5) (a steel "
+                                                             "cylinder: ~0.001, or leave it out: 0)")
+    art = replace(art, eta=2.0 * zeta)
     terms = {k: _holder_term(at[k], f"holder.artifact.{k}", base_dir) for k in ("tip", "cross", "offset_direct")}
     f, v = _on_axis(terms, "tip", "holder.artifact")
     return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)

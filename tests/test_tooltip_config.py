@@ -135,6 +135,19 @@ def test_holder_frf_files_couple_like_the_assembly(tmp_path):
     from millstab.tooltip import peaks
 
     assert peaks(frf.freq_hz, frf.xx, 1)[0][0] == pytest.approx(peaks(frf.freq_hz, ref, 1)[0][0], rel=5e-3)
+    # the holder's files are inputs: no output may overwrite them
+    cfg_path = tmp_path / "c.toml"
+    h_before = (tmp_path / "h.csv").read_bytes()
+    assert main(["tooltip", str(cfg_path), "--out", str(tmp_path / "h.csv")]) == 2
+    assert main(["lobes", str(cfg_path), "--rpm", "8000:9000:500", "--out", str(tmp_path / "p.csv")]) == 2
+    assert (tmp_path / "h.csv").read_bytes() == h_before
+
+
+def test_undamped_tool_in_a_rigid_holder_warns(tmp_path):
+    from millstab.errors import FRFWarning
+
+    with pytest.warns(FRFWarning, match="no damping"):
+        load_config(write(tmp_path, CUT + TOOL.replace("zeta = 0.01\n", "") + RIGID))
 
 
 def test_holder_artifact_files(tmp_path):

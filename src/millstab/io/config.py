@@ -592,9 +592,17 @@ def _tool_structure(data: Mapping[str, Any], base_dir: Path | None) -> Structure
     if "structure" in data:
         raise InputError("structure", "[structure] and [tool]", "give either [structure] (modes or a measured FRF) or "
                                                                 "[tool] + [holder], not both")
+    from millstab.errors import FRFWarning
+    from millstab.tooltip.holder import RigidHolder
     from millstab.tooltip.tool import tip_structure
+    from millstab.warnlog import warn
 
-    return tip_structure(*tool_setup(data, base_dir))
+    tool, holder = tool_setup(data, base_dir)
+    if isinstance(holder, RigidHolder) and tool.zeta == 0:
+        warn("tool.zeta: the tool has no damping and the holder is rigid, so the tip FRF is undamped and every "
+             "stability limit near its modes is ~0; give the tool's damping, e.g. zeta = 0.01 (a carbide end mill "
+             "in a holder: ~0.5-3 %), or describe the holder (its damping)", FRFWarning, stacklevel=2)
+    return tip_structure(tool, holder)
 
 
 def load_tool_setup(source: PathLike):

@@ -95,7 +95,8 @@ def _holder_exact(Lh, Dh, f, eta):
 def test_coupled_tip_matches_full_assembly(ratio):
     """A steel holder (25 mm × 70 mm, clamped at the spindle) and a carbide tool of 12 mm at 3–10 D: the
     tool coupled by RCSA to the holder's exact face receptances against the exact assembly beam — every
-    natural frequency below 8 kHz within 2 % (measured ≤ 2e-5) and every peak receptance within 5 %."""
+    natural frequency below 8 kHz within 2 % (measured ≤ 4e-4) and every peak receptance within 5 % (measured
+    ≤ 1e-4)."""
     D, Dh, Lh, eta = 0.012, 0.025, 0.07, 0.02
     L = ratio * D
     tool = Tool(D, L, CARBIDE, zeta=eta / 2)

@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
 
-from millstab.api.tooltip import sweep  # noqa: E402
+from millstab.api import stickout_sweep as sweep  # noqa: E402
 from millstab.io import parse_config  # noqa: E402
 from millstab.tooltip import (MATERIALS, Beam, FaceMode, MeasuredHolder, ModalHolder, RigidHolder,  # noqa: E402
                               Section, Tool)

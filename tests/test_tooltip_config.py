@@ -203,3 +203,17 @@ def test_cli_tooltip_csv_is_a_structure_frf_and_the_sweep_matches_lobes(tmp_path
     assert main(["tooltip", str(cfg_path), "--stickout", "0:50:10"]) == 2
     assert main(["tooltip", str(cfg_path), "--out", str(cfg_path)]) == 2
     assert main(["lobes", str(cfg_path), "--rpm", "8000:9000:500", "--engine", "sdm"]) == 2
+
+
+def test_service_inputs_and_engine_errors(tmp_path):
+    from millstab import api
+
+    np.testing.assert_allclose(api.stickouts_mm("30:50:10"), [0.03, 0.04, 0.05])
+    for bad in ("0:50:10", "50:30:5", "30:2000:500"):
+        with pytest.raises(InputError):
+            api.stickouts_mm(bad)
+    cfg, tool, holder = api.tool_config(write(tmp_path, CUT + TOOL + RIGID))
+    with pytest.raises(InputError, match="measured FRF"):
+        api.stickout_sweep(cfg, tool, holder, np.array([0.04]), np.array([9000.0]), engine="sdm")
+    with pytest.raises(InputError, match="no \\[tool\\]"):
+        api.tool_config("example:ex1")

@@ -24,7 +24,7 @@ N_MODES = 3
 FALLBACK_RPM = (2000.0, 30000.0, 50.0)
 
 
-def setup(source: str | os.PathLike) -> tuple[Config, Tool, Holder]:
+def tool_config(source: str | os.PathLike) -> tuple[Config, Tool, Holder]:
     """``(Config, Tool, Holder)`` of a config file (or ``example:NAME``) with [tool] and [holder]."""
     return load_tool_setup(source)
 
@@ -110,7 +110,7 @@ def stickouts_mm(spec: str | np.ndarray | None, field: str = "--stickout") -> np
     return mm * 1e-3
 
 
-def sweep(cfg: Config, tool: Tool, holder: Holder, stickouts: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
+def stickout_sweep(cfg: Config, tool: Tool, holder: Holder, stickouts: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
           progress: Progress | None = None) -> StickoutSweep:
     """The tip modes and the minimum limiting depth of ``cfg``'s cut at each stickout [m] over ``rpm``."""
     eng = get_engine(engine)
@@ -139,7 +139,7 @@ def sweep(cfg: Config, tool: Tool, holder: Holder, stickouts: np.ndarray, rpm: n
     return StickoutSweep(s, fn, pk, dmin, rmin, engine, np.asarray(rpm, float))
 
 
-def tooltip(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | None = None,
+def tip_frf(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | None = None,
             rpm: np.ndarray | None = None, engine: str = "zoa", progress: Progress | None = None) -> TipFRF:
     """The tip FRF of ``tool`` in ``holder`` and, with ``stickouts`` [m], the sweep over them at ``rpm``
     (default: the config's [speeds], else 2000..30000 rpm in steps of 50)."""
@@ -150,11 +150,11 @@ def tooltip(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | 
         from millstab.api.inputs import speeds
 
         r = speeds(rpm, cfg, FALLBACK_RPM)
-        sw = sweep(cfg, tool, holder, stickouts, r, engine, progress)
+        sw = stickout_sweep(cfg, tool, holder, stickouts, r, engine, progress)
     return TipFRF(cfg, tool, holder, f, g, fn, pk, sw)
 
 
-def tooltip_figure(result: TipFRF):
+def tip_figure(result: TipFRF):
     """The figure ``millstab tooltip --plot`` saves: the tip FRF and, with a sweep, "which stickout?"."""
     from millstab.plot.tooltip import plot_tooltip
 
@@ -163,4 +163,5 @@ def tooltip_figure(result: TipFRF):
                         title=f"{result.config.name}: {t.diameter * 1e3:g} mm tool, {t.stickout * 1e3:g} mm stickout")
 
 
-__all__ = ["StickoutSweep", "TipFRF", "setup", "stickouts_mm", "sweep", "tooltip", "tooltip_figure"]
+__all__ = ["FALLBACK_RPM", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf",
+           "tool_config"]

@@ -24,21 +24,20 @@ def tooltip(
     """Predict the tool-tip FRF of CONFIG's tool in its holder; write it as CSV, and with --stickout the
     minimum limiting depth per stickout."""
     from millstab import api
-    from millstab.api import tooltip as tt
     from millstab.errors import InputError
     from millstab.io import write_csv
     from millstab.io.outputs import check_outputs, config_inputs
 
-    cfg, tool, holder = tt.setup(config)
-    stickouts = tt.stickouts_mm(stickout)
+    cfg, tool, holder = api.tool_config(config)
+    stickouts = api.stickouts_mm(stickout)
     if sweep_out and stickouts is None:
         raise InputError("--sweep-out", str(sweep_out), "needs --stickout START:STOP:STEP [mm]")
     inputs = config_inputs(cfg)
     check_outputs(inputs, {"--out": out, "--plot": plot, "--sweep-out": sweep_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
-    speeds = api.speeds(rpm, cfg, tt.FALLBACK_RPM) if stickouts is not None else None
+    speeds = api.speeds(rpm, cfg, api.TOOLTIP_FALLBACK_RPM) if stickouts is not None else None
     with progress_bar("stickouts") as update:
-        result = tt.tooltip(cfg, tool, holder, stickouts=stickouts, rpm=speeds, engine=engine,
+        result = api.tip_frf(cfg, tool, holder, stickouts=stickouts, rpm=speeds, engine=engine,
                             progress=engine_progress(update))
     for line in result.summary():
         typer.echo(line)
@@ -51,5 +50,5 @@ def tooltip(
     if plot:
         from millstab.io.figures import save_figure
 
-        save_figure(tt.tooltip_figure(result), plot, protect=protect)
+        save_figure(api.tip_figure(result), plot, protect=protect)
         typer.echo(f"wrote {plot}")

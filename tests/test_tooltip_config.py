@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import reference_timoshenko as rt
+from test_io_config import error, write  # the config tests' helpers: write a file, expect an InputError
 from millstab.cli import main
 from millstab.errors import InputError
 from millstab.io import load_config
@@ -37,18 +38,6 @@ zeta = 0.01
 """
 RIGID = "[holder]\nrigid = true\n"
 STEEL, CARBIDE = MATERIALS["steel"], MATERIALS["carbide"]
-
-
-def write(tmp_path, text, name="c.toml"):
-    p = tmp_path / name
-    p.write_text(textwrap.dedent(text))
-    return p
-
-
-def error(tmp_path, text) -> InputError:
-    with pytest.raises(InputError) as info:
-        load_config(write(tmp_path, text))
-    return info.value
 
 
 def test_tool_config_gives_the_tip_frf_structure(tmp_path):

@@ -1,7 +1,7 @@
 """Tool tip by receptance coupling (``millstab tooltip --stickout``): the issue's speed figure.
 
 A stickout sweep: 50 stickouts (3..10 D of a 12 mm carbide end mill, 26 mm fluted at 0.8 D, ζ 1 %), each the
-coupled tip FRF on its grid (~1 700 lines), its first modes and the zoa SLD at 500 speeds (3-tooth slotting,
+coupled tip FRF on its grid (~1 500-2 000 lines), its first modes and the zoa SLD at 500 speeds (3-tooth slotting,
 5 000..30 000 rpm) with its minimum — for three holders: rigid, face modes (900 Hz 40 N/um ζ 4 % + 2.6 kHz),
 and measured face receptances (a synthetic 25 × 70 mm steel holder tabulated every 2 Hz, 20..20 000 Hz).
 

@@ -205,15 +205,28 @@ class Beam:
         return self.receptance(freq_hz, [0, 1, last, last + 1])
 
 
+@functools.lru_cache(maxsize=1)
+def _blas_controller():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()  # built once: each threadpool_limits() call would scan the libraries again
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread: the FE problems here are ~80×80 and the modal sums
+    (F, 82) @ (82, 16); BLAS threads only cost (an eigen-solution took 0.5 s instead of 1 ms, a modal sum
+    3× longer, on the busy 2-core machine)."""
+    return _blas_controller().limit(limits=1, user_api="blas")
+
+
 @functools.lru_cache(maxsize=64)
 def _modes(beam: Beam, clamped: bool) -> tuple[np.ndarray, np.ndarray]:
     """Cached per beam: a tip grid asks for the same beam's modes 3 times, a sweep once per stickout."""
     import scipy.linalg
-    from threadpoolctl import threadpool_limits
 
     K, M = beam.matrices()
     keep = np.arange(2 if clamped else 0, K.shape[0])
-    with threadpool_limits(1):  # an 82×82 problem: BLAS threads only cost (0.5 s instead of 1 ms on a busy machine)
+    with one_blas_thread():
         lam, phi = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)])
     if not clamped:
         lam[:2] = 0.0

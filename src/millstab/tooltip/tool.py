@@ -15,11 +15,10 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from millstab.errors import InputError
 from millstab.model import MeasuredFRF, Structure
-from millstab.tooltip.beam import DEFAULT_ELEMENTS, Beam, Material, Section
+from millstab.tooltip.beam import DEFAULT_ELEMENTS, Beam, Material, Section, one_blas_thread
 from millstab.tooltip.holder import Holder, RigidHolder
 from millstab.tooltip.rcsa import couple
 from millstab.warnlog import quiet
@@ -74,7 +73,7 @@ class Tool:
 
 def tip_receptance(tool: Tool, holder: Holder, freq_hz: np.ndarray) -> np.ndarray:
     """The tool-tip receptance w/f [m/N] at ``freq_hz`` (F,): the tool coupled to ``holder`` by RCSA."""
-    with threadpool_limits(1):  # (F, 82) @ (82, 16) products: BLAS threads cost 3x on a busy machine
+    with one_blas_thread():
         return _tip_receptance(tool, holder, np.asarray(freq_hz, dtype=float))
 
 
@@ -91,10 +90,10 @@ N_BACKGROUND, N_PEAK, N_SKIRT = 1200, 201, 61
 
 
 def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
-    """The default band [Hz] of the tip FRF: up to 3× the clamped tool's first natural frequency (and 1.5×
-    the highest holder mode), inside a measured holder's band."""
+    """The default band [Hz] of the tip FRF: up to 1.25× the clamped tool's second natural frequency (its
+    first two bending modes; and 1.5× the highest holder mode), inside a measured holder's band."""
     lam, _ = tool.beam().modes(clamped=True)
-    f_top = 3.0 * math.sqrt(lam[0]) / (2 * math.pi)
+    f_top = 1.25 * math.sqrt(lam[1]) / (2 * math.pi)
     modes = getattr(holder, "modes", ())
     if modes:
         f_top = max(f_top, 1.5 * max(m.fn for m in modes))
@@ -102,22 +101,21 @@ def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
     f_hi = min(f_top, hi)
     f_lo = max(f_hi / 500.0, lo)
     if f_hi <= f_lo * 1.01:
-        raise InputError("holder band", f"{lo:g}..{hi:g} Hz", f"does not reach the tool's modes (first near {f_top / 3:.4g} Hz)")
+        raise InputError("holder band", f"{lo:g}..{hi:g} Hz", f"does not reach the tool's modes (first near {math.sqrt(lam[0]) / (2 * math.pi):.4g} Hz)")
     return f_lo, f_hi
 
 
 def tip_grid(tool: Tool, holder: Holder, band: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(freq_hz, tip receptance) on a grid that resolves every resonance of |G| in ``band`` (default
     :func:`tip_band`): log-spaced background, then ±5 % of each peak at 201 points and ±25 % at 61."""
-    with threadpool_limits(1):
+    with one_blas_thread():
         return _tip_grid(tool, holder, band)
 
 
 def _tip_grid(tool: Tool, holder: Holder, band: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
     f_lo, f_hi = band or tip_band(tool, holder)
+    # log spacing 0.5 %: a measured holder's own resonances (ζ of a few %) are seen, then refined like the tool's
     f = np.geomspace(f_lo, f_hi, N_BACKGROUND)
-    if hasattr(holder, "freq_hz"):
-        f = np.union1d(f, holder.freq_hz[(holder.freq_hz >= f_lo) & (holder.freq_hz <= f_hi)])
     g = _tip_receptance(tool, holder, f)
     a = np.abs(g)
     top = np.nonzero((a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]))[0] + 1

@@ -62,6 +62,11 @@ def test_stubby_cantilever_is_timoshenko_not_euler_bernoulli():
     g = tip_receptance(Tool(D, L, CARBIDE), RigidHolder(), fs)
     assert g[0].real == pytest.approx(rt.clamped_tip([_ref(L, D, CARBIDE)], fs)[0, 0, 0].real, rel=1e-9)
     assert g[0].real > 1.1 / k_eb  # shear adds >10 % compliance at 2 D
+    # the rigid holder as R33 = 0 in the coupling formula: the clamped tool again
+    fs = np.array([500.0, 20000.0, 90000.0])
+    beam = Tool(D, L, CARBIDE, zeta=0.01).beam()
+    np.testing.assert_allclose(couple(beam.end_receptances(fs), None)[:, 0, 0],
+                               tip_receptance(Tool(D, L, CARBIDE, zeta=0.01), RigidHolder(), fs), rtol=1e-6)
 
 
 def test_element_count_converges():
@@ -226,3 +231,13 @@ def test_finite_differences_without_shear_correction_fail_on_a_thick_holder():
     errs = _fd_errors(1, (0.004, 0.002), shear=False)
     assert np.all(errs[:, 0] > 0.03)
     assert errs[1, 2] > 1.5 * errs[0, 2] > 0.3
+
+
+def test_a_holder_measured_below_the_tools_mode_warns():
+    from millstab.errors import FRFWarning
+
+    f = np.linspace(10.0, 2000.0, 200)
+    r = _holder_exact(0.07, 0.025, f, 0.02)
+    holder = MeasuredHolder(f, r[:, 0, 0], r[:, 0, 1], r[:, 1, 0], r[:, 1, 1])
+    with pytest.warns(FRFWarning, match="reach only 2000 Hz"):
+        tip_grid(Tool(0.012, 0.036, CARBIDE, zeta=0.01), holder)

@@ -90,6 +90,11 @@ class TipFRF:
             lines.append(f"  stickout {s.stickout[0] * 1e3:g}..{s.stickout[-1] * 1e3:g} mm ({s.stickout.size}), {s.engine}, "
                          f"{s.rpm.size} speeds: highest minimum limit {s.min_depth_mm[b]:.4g} mm at {s.stickout[b] * 1e3:g} mm "
                          f"stickout; {s.min_depth_mm[-1]:.4g} mm at {s.stickout[-1] * 1e3:g} mm")
+            lines.append("  stickout [mm]   fn1 [Hz]   fn2 [Hz]   peak1 [um/N]   min b_lim [mm]   at [rpm]")
+            for i in range(s.stickout.size):
+                mark = "  <- best" if i == b else ""
+                lines.append(f"  {s.stickout[i] * 1e3:13.4g}   {s.fn_hz[i, 0]:8.5g}   {s.fn_hz[i, 1]:8.5g}   "
+                             f"{s.peak[i, 0] * 1e6:12.4g}   {s.min_depth_mm[i]:14.4g}   {s.rpm_at_min[i]:8.6g}{mark}")
         return lines
 
 

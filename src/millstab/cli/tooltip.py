@@ -35,6 +35,8 @@ def tooltip(
     inputs = config_inputs(cfg)
     check_outputs(inputs, {"--out": out, "--plot": plot, "--sweep-out": sweep_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
+    if rpm and stickouts is None:
+        typer.echo("note: --rpm sets the speeds of the stickout sweep, which needs --stickout", err=True)
     speeds = api.speeds(rpm, cfg, api.TOOLTIP_FALLBACK_RPM) if stickouts is not None else None
     with progress_bar("stickouts") as update:
         result = api.tip_frf(cfg, tool, holder, stickouts=stickouts, rpm=speeds, engine=engine,

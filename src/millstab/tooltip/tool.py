@@ -16,12 +16,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from millstab.errors import InputError
+from millstab.errors import FRFWarning, InputError
 from millstab.model import MeasuredFRF, Structure
 from millstab.tooltip.beam import DEFAULT_ELEMENTS, Beam, Material, Section, one_blas_thread
 from millstab.tooltip.holder import Holder, RigidHolder
 from millstab.tooltip.rcsa import couple
-from millstab.warnlog import quiet
+from millstab.warnlog import quiet, warn
 
 #: equivalent-diameter ratio of the fluted part of an end mill when none is given: Kops & Vo (1990, CIRP
 #: Annals 39(1):93) found ~0.8 D from the measured bending compliance of two-flute end mills; Schmitz & Smith
@@ -98,6 +98,12 @@ def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
     if modes:
         f_top = max(f_top, 1.5 * max(m.fn for m in modes))
     lo, hi = holder.band
+    f1 = math.sqrt(lam[0]) / (2 * math.pi)
+    if f1 > 0.9 * hi:
+        warn(f"the holder's receptances reach only {hi:g} Hz but this tool clamped rigidly has its first mode at "
+             f"{f1:.5g} Hz: the tip FRF stops at {hi:g} Hz and leaves the tool's own mode out of the stability limit "
+             f"(which may then be unsafe); measure the holder over a wider band, or use a longer tool", FRFWarning,
+             stacklevel=3)
     f_hi = min(f_top, hi)
     f_lo = max(f_hi / 500.0, lo)
     if f_hi <= f_lo * 1.01:

@@ -117,6 +117,9 @@ def test_holder_frf_files_couple_like_the_assembly(tmp_path):
         write_frf_csv(tmp_path / f"{name}.csv", f, r[:, i, j])
     text = CUT + TOOL.replace('fluted_length = "26 mm"\n', "") + '[holder.frf]\nh = "h.csv"\nl = "l.csv"\np = "p.csv"\n'
     cfg = load_config(write(tmp_path, text))
+    upper = load_config(write(tmp_path, text.replace('\nh = "', '\nH = "').replace('\nl = "', '\nN = "'), "u.toml"))
+    np.testing.assert_array_equal(upper.structure.frf.xx, cfg.structure.frf.xx)
+    assert error(tmp_path, text.replace('l = "l.csv"\n', "")).field == "holder.frf.l"
     frf = cfg.structure.frf
     ref = rt.clamped_tip([rt.section(0.07, 0.025, STEEL.E, STEEL.density, STEEL.nu),
                           rt.section(0.045, 0.012, CARBIDE.E, CARBIDE.density, CARBIDE.nu)], frf.freq_hz, 0.02)[:, 0, 0]

@@ -546,10 +546,16 @@ def _holder(t: Any, base_dir: Path | None):
                 modes.append(hm.FaceMode(fn, k, zeta, slope))
         return hm.ModalHolder(tuple(modes))
     if kind == "frf":
-        ft = _check_keys(t["frf"], "holder.frf", HOLDER_FRF_KEYS, ("h", "l", "p"))
+        raw_t = t["frf"]
+        if isinstance(raw_t, Mapping):  # H, L, N, P as the literature writes them are accepted too
+            raw_t = {str(k).lower() if str(k) in "HLNP" else k: v for k, v in raw_t.items()}
+        ft = _check_keys(raw_t, "holder.frf", HOLDER_FRF_KEYS, ("h", "p"))
+        if "l" not in ft and "n" not in ft:
+            raise InputError("holder.frf.l", None, "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
         terms = {k: _holder_term(ft[k], f"holder.frf.{k}", base_dir) for k in HOLDER_FRF_KEYS if k in ft}
         f, v = _on_axis(terms, "h", "holder.frf")
-        return hm.MeasuredHolder(f, v["h"], v["l"], v.get("n", v["l"]), v["p"], source="holder.frf files")
+        l_, n_ = v.get("l", v.get("n")), v.get("n", v.get("l"))
+        return hm.MeasuredHolder(f, v["h"], l_, n_, v["p"], source="holder.frf files")
     at = _check_keys(t["artifact"], "holder.artifact", ARTIFACT_KEYS,
                      ("diameter", "length", "offset", "tip", "cross", "offset_direct"))
     d = _tool_length(at, "diameter", "holder.artifact")

@@ -209,3 +209,28 @@ def test_service_inputs_and_engine_errors(tmp_path):
         api.stickout_sweep(cfg, tool, holder, np.array([0.04]), np.array([9000.0]), engine="sdm")
     with pytest.raises(InputError, match="no \\[tool\\]"):
         api.tool_config("example:ex1")
+
+
+def test_holder_differing_in_x_and_y(tmp_path, capsys):
+    """[holder.x] and [holder.y]: xx couples the tool to the x holder, yy to the y holder, on one grid; the
+    command writes both terms, and they read back as a [structure.frf]."""
+    from millstab.tooltip import FaceMode, ModalHolder
+
+    xy = '[holder.x]\nrigid = true\n[[holder.y.modes]]\nfn = "900 Hz"\nk = "40 N/um"\nzeta = 0.04\nslope = "20 rad/m"\n'
+    cfg_path = write(tmp_path, CUT + TOOL + xy)
+    cfg, tool, holder = load_tool_setup(cfg_path)
+    frf = cfg.structure.frf
+    np.testing.assert_allclose(frf.xx, tip_receptance(tool, RigidHolder(), frf.freq_hz), rtol=1e-12)
+    modal = ModalHolder((FaceMode(900.0, 40e6, 0.04, 20.0),))
+    np.testing.assert_allclose(frf.yy, tip_receptance(tool, modal, frf.freq_hz), rtol=1e-12)
+    assert np.max(np.abs(frf.yy / frf.xx - 1)) > 0.5
+    ox, oy = tmp_path / "x.csv", tmp_path / "y.csv"
+    assert main(["tooltip", str(cfg_path), "--out", str(ox), "--out-y", str(oy)]) == 0
+    assert "tip FRF y" in capsys.readouterr().out
+    back = write(tmp_path, CUT + '[structure.frf]\nxx = "x.csv"\nyy = "y.csv"\n', "b.toml")
+    rpm = np.arange(8000.0, 30001.0, 500.0)
+    np.testing.assert_allclose(zoa.envelope(load_config(back).structure, cfg.cutting, rpm).depth,
+                               zoa.envelope(cfg.structure, cfg.cutting, rpm).depth, rtol=1e-12)
+    e = error(tmp_path, CUT + TOOL + "[holder.x]\nrigid = true\n")
+    assert e.field == "holder.y"
+    assert error(tmp_path, CUT + TOOL + "[holder.x]\nrigid = true\n[holder.y]\n").field == "holder.y"

@@ -15,7 +15,7 @@ from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config, load_tool_setup
 from millstab.stability import get_engine
-from millstab.tooltip import Tool, peaks, tip_grid
+from millstab.tooltip import Tool, XYHolder, peaks, tip_structure
 from millstab.tooltip.holder import Holder
 
 #: modes reported per stickout
@@ -61,8 +61,9 @@ class StickoutSweep:
 
 @dataclass(frozen=True, eq=False)
 class TipFRF:
-    """The tip FRF of ``tool`` in ``holder``: ``freq_hz`` (F,), ``g`` (F,) complex [m/N], its first modes
-    ``fn_hz`` / ``peak`` [Hz, m/N] and, where asked, a :class:`StickoutSweep`."""
+    """The tip FRF of ``tool`` in ``holder``: ``freq_hz`` (F,), ``g`` (F,) complex [m/N] (x), its first modes
+    ``fn_hz`` / ``peak`` [Hz, m/N], where asked a :class:`StickoutSweep`, and ``g_y`` (y) where the holder
+    differs in y (an :class:`~millstab.tooltip.XYHolder`; else ``None``: y = x)."""
 
     config: Config
     tool: Tool
@@ -72,18 +73,25 @@ class TipFRF:
     fn_hz: np.ndarray
     peak: np.ndarray
     sweep: StickoutSweep | None = None
+    g_y: np.ndarray | None = None
 
-    def table(self) -> tuple[list[str], list]:
-        """(header, columns) of the FRF CSV configs read: freq_hz, real, imag [Hz, m/N]."""
-        return ["freq_hz", "real", "imag"], [self.freq_hz, self.g.real, self.g.imag]
+    def table(self, direction: str = "x") -> tuple[list[str], list]:
+        """(header, columns) of the FRF CSV configs read: freq_hz, real, imag [Hz, m/N], of x (or ``"y"``)."""
+        g = self.g_y if direction == "y" and self.g_y is not None else self.g
+        return ["freq_hz", "real", "imag"], [self.freq_hz, g.real, g.imag]
 
     def summary(self) -> list[str]:
         t = self.tool
         modes = ", ".join(f"{f:.5g} Hz ({p * 1e6:.3g} um/N)" for f, p in zip(self.fn_hz, self.peak) if np.isfinite(f))
+        xy = "" if self.g_y is None else " x"
         lines = [f"{self.config.name}: {t.diameter * 1e3:g} mm {t.material.name} tool at {t.stickout * 1e3:g} mm "
                  f"stickout, {self.holder.describe()}",
-                 f"  tip FRF {self.freq_hz[0]:.4g}..{self.freq_hz[-1]:.6g} Hz ({self.freq_hz.size} lines), static "
+                 f"  tip FRF{xy} {self.freq_hz[0]:.4g}..{self.freq_hz[-1]:.6g} Hz ({self.freq_hz.size} lines), static "
                  f"{abs(self.g[0]) * 1e6:.4g} um/N; modes: {modes or 'none in the band'}"]
+        if self.g_y is not None:
+            fy, py = peaks(self.freq_hz, self.g_y, N_MODES)
+            my = ", ".join(f"{f:.5g} Hz ({p * 1e6:.3g} um/N)" for f, p in zip(fy, py) if np.isfinite(f))
+            lines.append(f"  tip FRF y: static {abs(self.g_y[0]) * 1e6:.4g} um/N; modes: {my or 'none in the band'}")
         s = self.sweep
         if s is not None:
             b = s.best()
@@ -124,8 +132,6 @@ def stickout_sweep(cfg: Config, tool: Tool, holder: Holder, stickouts: np.ndarra
     s = np.asarray(stickouts, dtype=float)
     if np.any(s <= 0):
         raise InputError("stickout", float(s.min()), "must be > 0 m")
-    from millstab.tooltip import tip_structure
-
     n = s.size
     fn = np.full((n, N_MODES), np.nan)
     pk = np.full((n, N_MODES), np.nan)
@@ -134,7 +140,7 @@ def stickout_sweep(cfg: Config, tool: Tool, holder: Holder, stickouts: np.ndarra
     for i, L in enumerate(s):  # one compiled envelope per stickout (no batch engine takes FRFs)
         st = tip_structure(tool.at(L), holder)
         frf = st.frf
-        fn[i], pk[i] = peaks(frf.freq_hz, frf.xx, N_MODES)
+        fn[i], pk[i] = peaks(frf.freq_hz, frf.xx, N_MODES)  # x: the feed direction
         env = eng.envelope(st, cfg.cutting, rpm)
         d = np.where(np.isfinite(env.depth), env.depth, np.inf)
         j = int(np.argmin(d))
@@ -148,7 +154,9 @@ def tip_frf(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | 
             rpm: np.ndarray | None = None, engine: str = "zoa", progress: Progress | None = None) -> TipFRF:
     """The tip FRF of ``tool`` in ``holder`` and, with ``stickouts`` [m], the sweep over them at ``rpm``
     (default: the config's [speeds], else 2000..30000 rpm in steps of 50)."""
-    f, g = tip_grid(tool, holder)
+    frf = tip_structure(tool, holder).frf
+    f, g = frf.freq_hz, frf.xx
+    g_y = frf.yy if isinstance(holder, XYHolder) else None
     fn, pk = peaks(f, g, N_MODES)
     sw = None
     if stickouts is not None:
@@ -156,7 +164,7 @@ def tip_frf(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | 
 
         r = speeds(rpm, cfg, FALLBACK_RPM)
         sw = stickout_sweep(cfg, tool, holder, stickouts, r, engine, progress)
-    return TipFRF(cfg, tool, holder, f, g, fn, pk, sw)
+    return TipFRF(cfg, tool, holder, f, g, fn, pk, sw, g_y)
 
 
 def tip_figure(result: TipFRF):

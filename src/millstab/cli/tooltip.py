@@ -14,7 +14,8 @@ from millstab.cli.app import app, engine_progress, progress_bar
 @app.command()
 def tooltip(
     config: str = typer.Argument(..., help="TOML config with [tool] and [holder] (docs/tooltip.md)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Tip FRF CSV freq_hz,real,imag (Hz, m/N): what [structure.frf] reads."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Tip FRF CSV freq_hz,real,imag (Hz, m/N): what [structure.frf] reads (x)."),
+    out_y: Optional[Path] = typer.Option(None, "--out-y", help="The y tip FRF, where [holder.x] and [holder.y] differ."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf): tip FRF and, with --stickout, which stickout."),
     stickout: Optional[str] = typer.Option(None, "--stickout", help="Stickouts START:STOP:STEP [mm]: modes and minimum limiting depth per stickout."),
     sweep_out: Optional[Path] = typer.Option(None, "--sweep-out", help="CSV of the sweep: stickout_mm, fn*_hz, peak*_um_per_n, min_blim_mm, rpm_at_min."),
@@ -33,7 +34,7 @@ def tooltip(
     if sweep_out and stickouts is None:
         raise InputError("--sweep-out", str(sweep_out), "needs --stickout START:STOP:STEP [mm]")
     inputs = config_inputs(cfg)
-    check_outputs(inputs, {"--out": out, "--plot": plot, "--sweep-out": sweep_out}, figures=("--plot",))
+    check_outputs(inputs, {"--out": out, "--out-y": out_y, "--plot": plot, "--sweep-out": sweep_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
     if rpm and stickouts is None:
         typer.echo("note: --rpm sets the speeds of the stickout sweep, which needs --stickout", err=True)
@@ -46,6 +47,11 @@ def tooltip(
     if out:
         write_csv(out, *result.table(), protect=protect)
         typer.echo(f"wrote {out}")
+    if out_y:
+        write_csv(out_y, *result.table("y"), protect=protect)
+        typer.echo(f"wrote {out_y}")
+    elif out and result.g_y is not None:
+        typer.echo("note: the holder differs in y; --out has x only: give --out-y for the y tip FRF", err=True)
     if sweep_out:
         write_csv(sweep_out, *result.sweep.table(), protect=protect)
         typer.echo(f"wrote {sweep_out}")

@@ -519,24 +519,35 @@ def _on_axis(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], first: str, fie
 
 
 def _holder(t: Any, base_dir: Path | None):
+    """The [holder] table: one description for both directions, or [holder.x] and [holder.y]."""
     from millstab.tooltip import holder as hm
 
-    t = _check_keys(t, "holder", HOLDER_KEYS)
+    if isinstance(t, Mapping) and ("x" in t or "y" in t):
+        _check_keys(t, "holder", ("x", "y"), ("x", "y"))
+        return hm.XYHolder(_holder_one(t["x"], base_dir, "holder.x"), _holder_one(t["y"], base_dir, "holder.y"))
+    return _holder_one(t, base_dir, "holder")
+
+
+def _holder_one(t: Any, base_dir: Path | None, field: str):
+    from millstab.tooltip import holder as hm
+
+    t = _check_keys(t, field, HOLDER_KEYS)
     given = [k for k in HOLDER_KEYS if k in t and not (k == "rigid" and t[k] is False)]
     if len(given) != 1:
-        raise InputError("holder", ", ".join(given) or "nothing",
+        raise InputError(field, ", ".join(given) or "nothing",
                          "give exactly one of: rigid = true, [[holder.modes]] (fn, k, zeta, slope), [holder.frf] "
-                         "(h, l, n, p files) or [holder.artifact] (an artifact test)")
+                         "(h, l, n, p files) or [holder.artifact] (an artifact test); or [holder.x] and [holder.y], "
+                         "one each")
     kind = given[0]
     if kind == "rigid":
         if t["rigid"] is not True:
-            raise InputError("holder.rigid", t["rigid"], "must be true (or leave it out and describe the holder)")
+            raise InputError(f"{field}.rigid", t["rigid"], "must be true (or leave it out and describe the holder)")
         return hm.RigidHolder()
     if kind == "modes":
         value = t["modes"]
         modes = []
         for i, m in enumerate(value if isinstance(value, list) else [value]):
-            name = f"holder.modes[{i}]"
+            name = f"{field}.modes[{i}]"
             m = _check_keys(m, name, HOLDER_MODE_KEYS, ("fn", "k", "zeta"))
             fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
             k = parse_quantity(m["k"], f"{name}.k", "stiffness")
@@ -549,28 +560,28 @@ def _holder(t: Any, base_dir: Path | None):
         raw_t = t["frf"]
         if isinstance(raw_t, Mapping):  # H, L, N, P as the literature writes them are accepted too
             raw_t = {str(k).lower() if str(k) in "HLNP" else k: v for k, v in raw_t.items()}
-        ft = _check_keys(raw_t, "holder.frf", HOLDER_FRF_KEYS, ("h", "p"))
+        ft = _check_keys(raw_t, f"{field}.frf", HOLDER_FRF_KEYS, ("h", "p"))
         if "l" not in ft and "n" not in ft:
-            raise InputError("holder.frf.l", None, "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
-        terms = {k: _holder_term(ft[k], f"holder.frf.{k}", base_dir) for k in HOLDER_FRF_KEYS if k in ft}
-        f, v = _on_axis(terms, "h", "holder.frf")
+            raise InputError(f"{field}.frf.l", None, "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
+        terms = {k: _holder_term(ft[k], f"{field}.frf.{k}", base_dir) for k in HOLDER_FRF_KEYS if k in ft}
+        f, v = _on_axis(terms, "h", f"{field}.frf")
         l_, n_ = v.get("l", v.get("n")), v.get("n", v.get("l"))
-        return hm.MeasuredHolder(f, v["h"], l_, n_, v["p"], source="holder.frf files")
-    at = _check_keys(t["artifact"], "holder.artifact", ARTIFACT_KEYS,
+        return hm.MeasuredHolder(f, v["h"], l_, n_, v["p"], source=f"{field}.frf files")
+    at = _check_keys(t["artifact"], f"{field}.artifact", ARTIFACT_KEYS,
                      ("diameter", "length", "offset", "tip", "cross", "offset_direct"))
-    d = _tool_length(at, "diameter", "holder.artifact")
-    length = _tool_length(at, "length", "holder.artifact")
-    off = _tool_length(at, "offset", "holder.artifact")
+    d = _tool_length(at, "diameter", f"{field}.artifact")
+    length = _tool_length(at, "length", f"{field}.artifact")
+    off = _tool_length(at, "offset", f"{field}.artifact")
     if off >= length:
-        raise InputError("holder.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
-    art = hm.artifact_beam(d, length, off, _material(at, "holder.artifact"))
-    zeta = parse_quantity(at.get("zeta", 0.0), "holder.artifact.zeta", "dimensionless")
+        raise InputError(f"{field}.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
+    art = hm.artifact_beam(d, length, off, _material(at, f"{field}.artifact"))
+    zeta = parse_quantity(at.get("zeta", 0.0), f"{field}.artifact.zeta", "dimensionless")
     if not 0.0 <= zeta < 0.5:
-        raise InputError("holder.artifact.zeta", at["zeta"], "the artifact's damping ratio must be in [0, 0.5) (a steel "
+        raise InputError(f"{field}.artifact.zeta", at["zeta"], "the artifact's damping ratio must be in [0, 0.5) (a steel "
                                                              "cylinder: ~0.001, or leave it out: 0)")
     art = replace(art, eta=2.0 * zeta)
-    terms = {k: _holder_term(at[k], f"holder.artifact.{k}", base_dir) for k in ("tip", "cross", "offset_direct")}
-    f, v = _on_axis(terms, "tip", "holder.artifact")
+    terms = {k: _holder_term(at[k], f"{field}.artifact.{k}", base_dir) for k in ("tip", "cross", "offset_direct")}
+    f, v = _on_axis(terms, "tip", f"{field}.artifact")
     return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)
 
 

@@ -52,12 +52,13 @@ def config_inputs(cfg) -> dict[str, Path]:
         field = f"structure.frf.{term}"
         files[field] = _source(src, field, Path(path).parent)[0]
     holder = data.get("holder") or {}  # a [tool]'s holder measured in files (docs/tooltip.md)
-    for table, keys in (("frf", ("h", "l", "n", "p")), ("artifact", ("tip", "cross", "offset_direct"))):
-        for key in keys:
-            src = (holder.get(table) or {}).get(key)
-            if src is not None:
-                field = f"holder.{table}.{key}"
-                files[field] = _source(src, field, Path(path).parent)[0]
+    for prefix, h in (("holder", holder), ("holder.x", holder.get("x") or {}), ("holder.y", holder.get("y") or {})):
+        for table, keys in (("frf", ("h", "l", "n", "p", "H", "L", "N", "P")), ("artifact", ("tip", "cross", "offset_direct"))):
+            for key in keys:
+                src = (h.get(table) or {}).get(key)
+                if src is not None:
+                    field = f"{prefix}.{table}.{key}"
+                    files[field] = _source(src, field, Path(path).parent)[0]
     return files
 
 

@@ -5,11 +5,11 @@ artifact test / finite differences), coupled by :mod:`.rcsa`; :mod:`.tool` build
 """
 
 from millstab.tooltip.beam import MATERIALS, Beam, Material, Section, material
-from millstab.tooltip.holder import (FaceMode, MeasuredHolder, ModalHolder, RigidHolder, artifact_beam, from_artifact,
-                                     from_finite_differences)
+from millstab.tooltip.holder import (FaceMode, MeasuredHolder, ModalHolder, RigidHolder, XYHolder, artifact_beam,
+                                     from_artifact, from_finite_differences)
 from millstab.tooltip.rcsa import couple, decouple_artifact
 from millstab.tooltip.tool import DEFAULT_FLUTE_RATIO, Tool, peaks, tip_band, tip_grid, tip_receptance, tip_structure
 
 __all__ = ["DEFAULT_FLUTE_RATIO", "FaceMode", "MATERIALS", "Beam", "Material", "MeasuredHolder", "ModalHolder",
-           "RigidHolder", "Section", "Tool", "artifact_beam", "couple", "decouple_artifact", "from_artifact",
+           "RigidHolder", "Section", "Tool", "XYHolder", "artifact_beam", "couple", "decouple_artifact", "from_artifact",
            "from_finite_differences", "material", "peaks", "tip_band", "tip_grid", "tip_receptance", "tip_structure"]

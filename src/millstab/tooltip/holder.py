@@ -130,6 +130,21 @@ class MeasuredHolder:
 Holder = RigidHolder | ModalHolder | MeasuredHolder
 
 
+@dataclass(frozen=True)
+class XYHolder:
+    """A spindle–holder whose face receptances differ in x (feed) and y (cross-feed): one holder each."""
+
+    x: Holder
+    y: Holder
+
+    @property
+    def band(self) -> tuple[float, float]:
+        return max(self.x.band[0], self.y.band[0]), min(self.x.band[1], self.y.band[1])
+
+    def describe(self) -> str:
+        return f"x: {self.x.describe()}; y: {self.y.describe()}"
+
+
 def artifact_points(artifact: Beam, offset: float) -> list[int]:
     """FE DOFs [w₂, θ₂, w_tip, w_offset] of ``artifact``: its face end, its free end, and the point ``offset``
     [m] from the free end toward the face (a node of the artifact's mesh)."""
@@ -210,5 +225,5 @@ def from_finite_differences(freq_hz: np.ndarray, H: np.ndarray, spacing: float, 
     return MeasuredHolder(np.asarray(freq_hz, float), h, l_, n, p, source=f"finite differences, order {order}")
 
 
-__all__ = ["FaceMode", "Holder", "MeasuredHolder", "ModalHolder", "RigidHolder", "artifact_beam", "artifact_points",
+__all__ = ["XYHolder", "FaceMode", "Holder", "MeasuredHolder", "ModalHolder", "RigidHolder", "artifact_beam", "artifact_points",
            "from_artifact", "from_finite_differences"]

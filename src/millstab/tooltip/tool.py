@@ -19,7 +19,7 @@ import numpy as np
 from millstab.errors import FRFWarning, InputError
 from millstab.model import MeasuredFRF, Structure
 from millstab.tooltip.beam import DEFAULT_ELEMENTS, Beam, Material, Section, one_blas_thread
-from millstab.tooltip.holder import Holder, RigidHolder
+from millstab.tooltip.holder import Holder, RigidHolder, XYHolder
 from millstab.tooltip.rcsa import couple
 from millstab.warnlog import quiet, warn
 
@@ -139,11 +139,23 @@ def _tip_grid(tool: Tool, holder: Holder, band: tuple[float, float] | None) -> t
     return f_all[keep], g_all[keep]
 
 
-def tip_structure(tool: Tool, holder: Holder, band: tuple[float, float] | None = None) -> Structure:
-    """The tool-tip :class:`Structure` (a sampled FRF, xx = yy) of ``tool`` in ``holder``."""
-    f, g = tip_grid(tool, holder, band)
+def tip_structure(tool: Tool, holder: Holder | XYHolder, band: tuple[float, float] | None = None) -> Structure:
+    """The tool-tip :class:`Structure` (a sampled FRF) of ``tool`` in ``holder``: xx = yy for one holder; for an
+    :class:`XYHolder` xx and yy from its x and y holders on the union of their grids, in their common band."""
+    if isinstance(holder, XYHolder):
+        if band is None:
+            bx, by = tip_band(tool, holder.x), tip_band(tool, holder.y)
+            band = (max(bx[0], by[0]), min(bx[1], by[1]))
+            if band[1] <= band[0] * 1.01:
+                raise InputError("holder", holder.describe(), "the x and y holders share no frequency band")
+        f = np.union1d(tip_grid(tool, holder.x, band)[0], tip_grid(tool, holder.y, band)[0])
+        f = f[np.concatenate([[True], np.diff(f) > 1e-9 * f[1:]])]
+        gx, gy = tip_receptance(tool, holder.x, f), tip_receptance(tool, holder.y, f)
+    else:
+        f, gx = tip_grid(tool, holder, band)
+        gy = gx.copy()
     with quiet():  # computed, passive by construction
-        return Structure(frf=MeasuredFRF(f, g, g.copy()))
+        return Structure(frf=MeasuredFRF(f, gx, gy))
 
 
 def peaks(freq_hz: np.ndarray, g: np.ndarray, n: int = 3) -> tuple[np.ndarray, np.ndarray]:

@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test app bench clean
+.PHONY: demo test test-fast app bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +20,10 @@ demo: $(STAMP)
 ## test: install into .venv and run the test suite
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+## test-fast: the inner loop: every test not marked slow (well under a minute once the engines are compiled)
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -m "not slow"
 
 ## app: install the app extra into .venv and serve the browser interface on http://127.0.0.1:5006/
 app: $(STAMP)

@@ -243,18 +243,11 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
 
 def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
-    for row, the numbers of ONE local call on all of them: an engine with the ``settings`` capability
-    (spectral: the node count) gets what :class:`millstab.forward.Forward` passes (chosen at the first
-    row); sdm gets its ``split_settings`` (the steps follow the batch's highest natural frequency); {} for
-    an engine whose rows are evaluated alone with no choice per call (zoa)."""
+    for row, the numbers of ONE local call on all of them: the settings of
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there)."""
     from millstab.forward import forward
-    from millstab.stability import get_engine
 
-    eng = get_engine(engine)
-    if hasattr(eng, "settings"):
-        return forward(par, cutting, engine).settings(np.asarray(rpm, dtype=float), np.asarray(theta_rows)[0])
-    fn = getattr(eng, "split_settings", None)
-    return fn(par.batch(theta_rows), cutting, rpm) if fn is not None else {}
+    return dict(forward(par, cutting, engine).pinned(rpm, theta_rows).settings)
 
 
 def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, rows: np.ndarray) -> np.ndarray:
@@ -266,14 +259,16 @@ def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, row
 
 
 def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray,
-           progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None) -> np.ndarray:
+           progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None,
+           settings: dict | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
     the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
     is evaluated alone, under the whole batch's :func:`split_settings`), for SDM/spectral maps as for
     the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
-    ``progress(rows_done, R)`` after each task's result has arrived.
+    ``progress(rows_done, R)`` after each task's result has arrived. ``settings``: the engine's pinned
+    discretisation (:meth:`millstab.forward.Forward.pinned`; default: pinned on ``theta_rows``).
     """
     from millstab.stability import get_engine
 
@@ -281,7 +276,8 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     rpm = np.asarray(rpm, dtype=float)
     theta_rows = np.asarray(theta_rows, dtype=float)
     n = theta_rows.shape[0]
-    settings = split_settings(engine, par, cutting, theta_rows, rpm)
+    if settings is None:
+        settings = split_settings(engine, par, cutting, theta_rows, rpm)
     sec = warm(client, engine, par, cutting, rpm)
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)

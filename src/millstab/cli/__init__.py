@@ -21,6 +21,8 @@ from millstab.cli import simulate  # noqa: E402,F401
 from millstab.cli import modal  # noqa: E402,F401
 from millstab.cli import update  # noqa: E402,F401
 from millstab.cli import webapp  # noqa: E402,F401
+from millstab.cli import history  # noqa: E402,F401
+from millstab.cli import campaign  # noqa: E402,F401
 from millstab.cli import tooltip  # noqa: E402,F401
 
 

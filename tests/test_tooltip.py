@@ -241,3 +241,18 @@ def test_a_holder_measured_below_the_tools_mode_warns():
     holder = MeasuredHolder(f, r[:, 0, 0], r[:, 0, 1], r[:, 1, 0], r[:, 1, 1])
     with pytest.warns(FRFWarning, match="reach only 2000 Hz"):
         tip_grid(Tool(0.012, 0.036, CARBIDE, zeta=0.01), holder)
+
+
+def test_a_noisy_measured_holder_refines_real_resonances_only():
+    """0.5 % noise on the holder's terms makes local maxima everywhere in |G|; only the prominent ones are
+    refined and reported, so the grid stays small and the first mode is the noise-free one."""
+    f = np.arange(20.0, 9001.0, 2.0)
+    r = _holder_exact(0.07, 0.025, f, 0.02)
+    rng = np.random.default_rng(3)
+    noisy = r * (1 + 0.005 * (rng.standard_normal(r.shape) + 1j * rng.standard_normal(r.shape)))
+    tool = Tool(0.012, 0.06, CARBIDE, zeta=0.01)
+    fc, gc = tip_grid(tool, MeasuredHolder(f, r[:, 0, 0], r[:, 0, 1], r[:, 1, 0], r[:, 1, 1]))
+    fn, gn = tip_grid(tool, MeasuredHolder(f, noisy[:, 0, 0], noisy[:, 0, 1], noisy[:, 1, 0], noisy[:, 1, 1]))
+    assert fn.size < 1.5 * fc.size
+    clean, noise = peaks(fc, gc, 2)[0], peaks(fn, gn, 2)[0]
+    np.testing.assert_allclose(noise, clean, rtol=0.01)

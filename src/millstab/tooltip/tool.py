@@ -87,6 +87,28 @@ def _tip_receptance(tool: Tool, holder: Holder, f: np.ndarray) -> np.ndarray:
 
 #: background points of the tip grid, and the dense points per resonance (±0.05·fn and ±0.25·fn)
 N_BACKGROUND, N_PEAK, N_SKIRT = 1200, 201, 61
+#: a resonance stands out of |G| by at least this factor on both sides (a measured holder's noise does not)
+PROMINENCE = 1.1
+#: ... and is the strongest within this relative distance (noise near a resonance of a measured holder is not)
+SEPARATION = 0.03
+#: ... and reaches this share of the largest |g| (noise at an anti-resonance of a measured holder is far below)
+FLOOR = 0.01
+#: the most resonances refined per tip grid (the strongest)
+MAX_PEAKS = 30
+
+
+def _resonances(f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Indices of the resonances of |g|, strongest first: local maxima that stand out by :data:`PROMINENCE`,
+    reach :data:`FLOOR` of the largest |g| and are the strongest within ±:data:`SEPARATION`·f."""
+    from scipy.signal import find_peaks
+
+    a = np.log(np.abs(g))
+    i, _ = find_peaks(a, prominence=math.log(PROMINENCE), height=float(a.max()) + math.log(FLOOR))
+    kept: list[int] = []
+    for j in i[np.argsort(-a[i])]:  # strongest first; at most a few dozen candidates
+        if all(abs(f[j] - f[k]) > SEPARATION * f[k] for k in kept):
+            kept.append(int(j))
+    return np.asarray(kept, dtype=int)
 
 
 def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
@@ -123,8 +145,7 @@ def _tip_grid(tool: Tool, holder: Holder, band: tuple[float, float] | None) -> t
     # log spacing 0.5 %: a measured holder's own resonances (ζ of a few %) are seen, then refined like the tool's
     f = np.geomspace(f_lo, f_hi, N_BACKGROUND)
     g = _tip_receptance(tool, holder, f)
-    a = np.abs(g)
-    top = np.nonzero((a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]))[0] + 1
+    top = _resonances(f, g)[:MAX_PEAKS]
     extra = [fp * (1 + np.linspace(-0.05, 0.05, N_PEAK)) for fp in f[top]]
     extra += [fp * (1 + np.linspace(-0.25, 0.25, N_SKIRT)) for fp in f[top]]
     if not extra:
@@ -159,10 +180,10 @@ def tip_structure(tool: Tool, holder: Holder | XYHolder, band: tuple[float, floa
 
 
 def peaks(freq_hz: np.ndarray, g: np.ndarray, n: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """The ``n`` lowest resonances of |g|: frequencies [Hz] (parabolic in ln|g| around each local maximum)
-    and peak |g| [m/N]; NaN where fewer exist."""
+    """The ``n`` lowest resonances of |g| (local maxima standing out by :data:`PROMINENCE`): frequencies [Hz]
+    (parabolic in ln|g| around each maximum) and peak |g| [m/N]; NaN where fewer exist."""
     a = np.log(np.abs(g))
-    i = np.nonzero((a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]))[0] + 1
+    i = np.sort(_resonances(freq_hz, g))
     fn = np.full(n, np.nan)
     amp = np.full(n, np.nan)
     for k, j in enumerate(i[:n]):

@@ -428,7 +428,8 @@ def write_config(path: PathLike, config: Config, protect: Iterable[PathLike] = (
 
 TOOL_KEYS = ("diameter", "stickout", "fluted_length", "flute_diameter_ratio", "material", "E", "density", "nu",
              "zeta")
-HOLDER_KEYS = ("rigid", "modes", "frf", "artifact")
+HOLDER_KEYS = ("rigid", "modes", "frf", "artifact", "finite_differences")
+FD_KEYS = ("spacing", "h00", "h01", "h11", "h02", "h12", "h22", "diameter", "material", "E", "density", "nu")
 HOLDER_MODE_KEYS = ("fn", "k", "zeta", "slope")
 HOLDER_FRF_KEYS = ("h", "l", "n", "p")
 ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu", "zeta", "tip", "cross",
@@ -536,8 +537,8 @@ def _holder_one(t: Any, base_dir: Path | None, field: str):
     if len(given) != 1:
         raise InputError(field, ", ".join(given) or "nothing",
                          "give exactly one of: rigid = true, [[holder.modes]] (fn, k, zeta, slope), [holder.frf] "
-                         "(h, l, n, p files) or [holder.artifact] (an artifact test); or [holder.x] and [holder.y], "
-                         "one each")
+                         "(h, l, n, p files), [holder.artifact] (an artifact test) or [holder.finite_differences]; "
+                         "or [holder.x] and [holder.y], one each")
     kind = given[0]
     if kind == "rigid":
         if t["rigid"] is not True:
@@ -567,6 +568,8 @@ def _holder_one(t: Any, base_dir: Path | None, field: str):
         f, v = _on_axis(terms, "h", f"{field}.frf")
         l_, n_ = v.get("l", v.get("n")), v.get("n", v.get("l"))
         return hm.MeasuredHolder(f, v["h"], l_, n_, v["p"], source=f"{field}.frf files")
+    if kind == "finite_differences":
+        return _holder_fd(t["finite_differences"], base_dir, f"{field}.finite_differences")
     at = _check_keys(t["artifact"], f"{field}.artifact", ARTIFACT_KEYS,
                      ("diameter", "length", "offset", "tip", "cross", "offset_direct"))
     d = _tool_length(at, "diameter", f"{field}.artifact")
@@ -583,6 +586,34 @@ def _holder_one(t: Any, base_dir: Path | None, field: str):
     terms = {k: _holder_term(at[k], f"{field}.artifact.{k}", base_dir) for k in ("tip", "cross", "offset_direct")}
     f, v = _on_axis(terms, "tip", f"{field}.artifact")
     return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)
+
+
+def _holder_fd(t: Any, base_dir: Path | None, field: str):
+    """[holder.finite_differences]: translational FRFs h_ij at points i·spacing from the face toward the spindle
+    (h00, h01, h11; with h02, h12, h22 the second-order stencil), optionally the holder's diameter at the
+    face (and material) for the shear correction (docs/tooltip.md)."""
+    from millstab.tooltip import holder as hm
+    from millstab.tooltip.beam import Section
+
+    t = _check_keys(t, field, FD_KEYS, ("spacing", "h00", "h01", "h11"))
+    second = [k for k in ("h02", "h12", "h22") if k in t]
+    if second and len(second) != 3:
+        raise InputError(f"{field}.{second[0]}", t[second[0]], "the second-order stencil needs h02, h12 and h22 together")
+    order = 2 if second else 1
+    spacing = _tool_length(t, "spacing", field)
+    n = order + 1
+    names = [f"h{i}{j}" for i in range(n) for j in range(i, n)]
+    terms = {k: _holder_term(t[k], f"{field}.{k}", base_dir) for k in names}
+    f, v = _on_axis(terms, "h00", field)
+    H = np.empty((f.size, n, n), dtype=complex)
+    for i in range(n):
+        for j in range(i, n):
+            H[:, i, j] = H[:, j, i] = v[f"h{i}{j}"]  # reciprocity
+    shear = None
+    if "diameter" in t:
+        mat = _material(t, field) if ("material" in t or "E" in t) else _material({"material": "steel"}, field)
+        shear = Section(spacing, _tool_length(t, "diameter", field), mat).shear_stiffness
+    return hm.from_finite_differences(f, H, spacing, order, shear_stiffness=shear)
 
 
 def _slope(value: Any, field: str) -> float:

@@ -23,10 +23,10 @@ from millstab.tooltip.holder import Holder, RigidHolder, XYHolder
 from millstab.tooltip.rcsa import couple
 from millstab.warnlog import quiet, warn
 
-#: equivalent-diameter ratio of the fluted part of an end mill when none is given: Kops & Vo (1990, CIRP
-#: Annals 39(1):93) found ~0.8 D from the measured bending compliance of two-flute end mills; Schmitz & Smith
-#: (Machining Dynamics) use 0.8 D for 2–4 flute tools. A per-flute-count table is not established in the
-#: public literature we have (the ratio varies more with the flute geometry than with the count)
+#: equivalent-diameter ratio of the fluted part of an end mill when none is given: the value commonly used in
+#: RCSA work for 2–4 flute tools (Kops & Vo, CIRP Annals 1990, derived about 0.8 D from the bending compliance
+#: of end mills). A per-flute-count table is not established in the public literature we have (the ratio
+#: varies more with the flute geometry than with the count), so one default serves every count
 DEFAULT_FLUTE_RATIO = 0.8
 
 

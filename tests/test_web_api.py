@@ -314,3 +314,25 @@ def test_io_parse_config_confines_text_without_a_folder(tmp_path, monkeypatch):
             parse_config(_frf_config(name))
         assert exc.value.field == "structure.frf.xx"
     np.testing.assert_array_equal(parse_config(_frf_config("tap.csv"), base_dir=tmp_path).structure.frf.xx, h)
+
+
+@pytest.mark.parametrize("holder", [
+    '[holder.frf]\nh = "/etc/hostname"\nl = "l.csv"\np = "p.csv"\n',
+    '[holder.finite_differences]\nspacing = "10 mm"\nh00 = "../h00.csv"\nh01 = "h01.csv"\nh11 = "h11.csv"\n',
+])
+def test_a_tool_config_from_text_names_no_server_file(tmp_path, holder, monkeypatch):
+    """A [tool] + [holder] config's holder files are confined as [structure.frf]'s: an uploaded config
+    could otherwise make the server open any path (the holder tables came with the tool-tip model)."""
+    import builtins
+
+    from millstab import api
+
+    opened = []
+    real_open = builtins.open
+    monkeypatch.setattr(builtins, "open", lambda f, *a, **k: opened.append(str(f)) or real_open(f, *a, **k))
+    text = ('[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nradial_immersion = 0.5\nmilling = "down"\n'
+            '[tool]\ndiameter = "12 mm"\nstickout = "45 mm"\nmaterial = "carbide"\nzeta = 0.01\n' + holder)
+    with pytest.raises(InputError) as exc:
+        api.config_from_text(text, "upload.toml")
+    assert exc.value.field.startswith("holder.") and "uploaded" in exc.value.allowed
+    assert not [f for f in opened if "hostname" in f or "h00" in f]

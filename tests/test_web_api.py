@@ -336,3 +336,24 @@ def test_a_tool_config_from_text_names_no_server_file(tmp_path, holder, monkeypa
         api.config_from_text(text, "upload.toml")
     assert exc.value.field.startswith("holder.") and "uploaded" in exc.value.allowed
     assert not [f for f in opened if "hostname" in f or "h00" in f]
+
+
+def test_tool_config_upload_shows_its_tip_frf():
+    """Issue 30: the app takes a [tool] + [holder] config (its form refused any structure but modes and
+    uploaded FRF files): the tip FRF computed by receptance coupling becomes the session's measured FRF,
+    saved in its folder, equal to the config read directly, bit for bit."""
+    text = ('name = "t12"\n[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 0.5\nmilling = "down"\n'
+            '[tool]\ndiameter = "12 mm"\nstickout = "45 mm"\nmaterial = "carbide"\nzeta = 0.02\n'
+            '[holder]\nrigid = true\n')
+    ref = api.config_from_text(text, "t12.toml")
+    s, tool = _tool()
+    try:
+        tool.config_drop.value = {"t12.toml": text.encode()}
+        assert tool.config_error.object == "", tool.config_error.object
+        assert tool.structure_kind.value == "measured FRF" and not s.cfg.structure.is_modal
+        assert s.origin == "uploaded t12.toml" and "receptance coupling" in tool.frf_note["xx"].object
+        for term in ("xx", "yy"):
+            np.testing.assert_array_equal(getattr(s.cfg.structure.frf, term), getattr(ref.structure.frf, term))
+        np.testing.assert_array_equal(s.cfg.structure.frf.freq_hz, ref.structure.frf.freq_hz)
+    finally:
+        s.close()

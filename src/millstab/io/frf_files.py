@@ -140,6 +140,17 @@ def write_frf_csv(path: PathLike, freq_hz: np.ndarray, h: np.ndarray, protect=()
     return write_csv(path, ["freq_hz", "real", "imag"], [f, v.real, v.imag], protect)
 
 
+def frf_csv_text(freq_hz: np.ndarray, h: np.ndarray) -> str:
+    """One FRF term as ``freq_hz,real,imag`` CSV text (Hz, m/N), floats in their shortest exact form: what
+    :func:`write_frf_csv` writes, for a caller that keeps the file itself (the web app's session folder)."""
+    f = np.asarray(freq_hz, dtype=float).ravel()
+    v = np.asarray(h, dtype=complex).ravel()
+    if f.shape != v.shape:
+        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
+    rows = (f"{a!r},{b!r},{c!r}" for a, b, c in zip(f.tolist(), v.real.tolist(), v.imag.tolist()))
+    return "freq_hz,real,imag\n" + "\n".join(rows) + "\n"
+
+
 # ------------------------------------------------------------------------------------- CutPro
 
 _FREQ_UNITS = {"hz": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}

@@ -14,6 +14,7 @@ import panel as pn
 from millstab import api
 from millstab.datasets import list_examples
 from millstab.errors import InputError
+from millstab.io.frf_files import frf_csv_text
 from millstab.io.text import decode_text
 from millstab.model import Mode, Structure
 from millstab.web.common import Field, as_text, error_html, esc
@@ -189,7 +190,12 @@ class ToolTab:
         try:
             # FRF file names in it resolve to this session's uploads only: nothing else is opened
             cfg = api.config_from_text(content, name, files=self.s.uploads)
-            frf, written = (None, None) if cfg.structure.is_modal else self._frf_table(content, name)
+            if cfg.structure.is_modal:
+                frf, written = None, None
+            elif "tool" in tomllib.loads(_text(content, name).lstrip("\ufeff")):
+                frf, written = self._tip_files(cfg, name), {}
+            else:
+                frf, written = self._frf_table(content, name)
         except InputError as exc:
             waits = (exc.field.startswith("structure.frf.") and "uploaded in the same session" in exc.allowed
                      and Path(str(exc.value)).name == exc.value and not str(exc.value).startswith("~"))
@@ -201,17 +207,34 @@ class ToolTab:
             return
         self.waiting = None
         self.fill(cfg, f"uploaded {name}", frf)
-        if frf is not None:
+        if frf is not None and not written:  # a [tool] + [holder] config: its tip FRF, computed here
+            for term, file in frf.items():
+                self.frf_note[term].object = (f'<span class="ms-note">{esc(name)}: the tool tip by receptance '
+                                              f'coupling ([tool] + [holder]), saved as {esc(file)}</span>')
+        elif frf is not None:
             for term, src in written.items():
                 file = src["file"] if isinstance(src, dict) else src
                 record = f" record {src['record']}" if isinstance(src, dict) and "record" in src else ""
                 self.frf_note[term].object = f'<span class="ms-note">{esc(name)}: {esc(file)}{esc(record)}</span>'
 
+    def _tip_files(self, cfg, name: str) -> dict:
+        """A ``[tool]`` + ``[holder]`` config's tool-tip FRF (computed by the config reader) saved in the
+        session's folder as FRF CSV files, one per term: the form then shows it as a measured FRF, and its
+        config download names those files (the [tool] description is not kept by the form)."""
+        frf = cfg.structure.frf
+        out = {}
+        for term in FRF_TERMS:
+            h = getattr(frf, term, None)
+            if h is not None:
+                file = f"{Path(name).stem}_tip_{term}.csv"
+                self.s.save_upload(term, file, frf_csv_text(frf.freq_hz, h))
+                out[term] = self.s.uploads[file].name
+        return out
+
     def _frf_table(self, content: bytes | str, name: str) -> tuple[dict, dict]:
         """The ``[structure.frf]`` table of an uploaded config (already validated) naming the saved files,
         and as written."""
-        text = content if isinstance(content, str) else decode_text(content, name, name, "text file (TOML)")
-        table = tomllib.loads(text.lstrip("\ufeff"))["structure"]["frf"]
+        table = tomllib.loads(_text(content, name).lstrip("\ufeff"))["structure"]["frf"]
         out: dict[str, str | dict] = {}
         for term, src in table.items():
             if isinstance(src, dict):
@@ -323,3 +346,6 @@ class ToolTab:
         return pn.Row(form, pn.Column(pn.pane.Bokeh(preview), styles={"position": "sticky", "top": "0"}),
                       name="Tool and cut")
 
+
+def _text(content: bytes | str, name: str) -> str:
+    return content if isinstance(content, str) else decode_text(content, name, name, "text file (TOML)")

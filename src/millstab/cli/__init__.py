@@ -21,6 +21,7 @@ from millstab.cli import simulate  # noqa: E402,F401
 from millstab.cli import modal  # noqa: E402,F401
 from millstab.cli import update  # noqa: E402,F401
 from millstab.cli import webapp  # noqa: E402,F401
+from millstab.cli import listen  # noqa: E402,F401
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

@@ -16,7 +16,7 @@ import numpy as np
 
 def milling_sound(*, fs=48000, seconds=4.0, rpm=10000.0, teeth=3, chatter_hz=None, ratio=1.0, onset=None,
                   true_rpm=None, runout=0.3, hum=0.3, mains=50.0, noise=0.02, pink=0.05, air=0.0,
-                  bursts=False, seed=0, harmonics=12):
+                  bursts=False, seed=0, harmonics=12, tones=()):
     rng = np.random.default_rng(seed)
     n = int(seconds * fs)
     t = np.arange(n) / fs
@@ -36,6 +36,8 @@ def milling_sound(*, fs=48000, seconds=4.0, rpm=10000.0, teeth=3, chatter_hz=Non
     if chatter_hz is not None:
         env = np.ones(n) if onset is None else np.clip((t - onset) / 0.05, 0.0, 1.0)
         x += ratio * a_forced * env * np.sin(2 * math.pi * chatter_hz * t + rng.uniform(0, 2 * math.pi))
+    for hz, r in tones:  # further non-synchronous tones (hz, amplitude ratio), e.g. chatter sidebands
+        x += r * a_forced * np.sin(2 * math.pi * hz * t + rng.uniform(0, 2 * math.pi))
     if air:  # silence (idle spindle) before and after the cut
         quiet = (t < air) | (t > seconds - air)
         x[quiet] *= 0.02

@@ -188,3 +188,37 @@ def test_cuts_csv_with_recordings_are_labelled_by_listening(tmp_path):
     csv.write_text("rpm,depth_mm,recording\n9000,3,\n")
     with pytest.raises(InputError, match="needs a label"):
         api.label_from_recordings(csv, teeth=2)
+
+
+@pytest.mark.slow
+def test_update_takes_labels_and_chatter_frequencies_from_recordings(tmp_path, capsys):
+    """ex1 (2 teeth): a cuts CSV naming a recording per cut; update says where each label came from."""
+    from millstab.cli import main
+    from millstab.io.recordings import write_recording
+
+    rows = ["rpm,depth_mm,label,recording"]
+    for i, (rpm, depth, fc) in enumerate([(9000, 4.0, 870.0), (9000, 0.5, None), (6000, 0.5, None),
+                                          (12000, 5.0, 905.0), (7000, 0.4, None)]):
+        wav = tmp_path / f"c{i}.wav"
+        write_recording(wav, FS, milling_sound(teeth=2, rpm=float(rpm), chatter_hz=fc, ratio=0.5, seed=i))
+        rows.append(f"{rpm},{depth},,{wav.name}")
+    rows.append("10000,0.3,stable,")
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "post.json"
+    assert main(["update", "example:ex1", str(cuts), "--out", str(out), "--samples", "200"]) == 0
+    text = capsys.readouterr().out
+    assert "9000 rpm, 4 mm: chatter at 870.0 Hz (heard in c0.wav" in text
+    assert "10000 rpm, 0.3 mm: stable (from the file)" in text
+    assert json.loads(out.read_text())["schema"].startswith("millstab.posterior")
+
+
+def test_of_a_chatter_family_the_member_strongest_in_displacement_is_reported():
+    """Chatter at 800 Hz with its tooth-passing sideband 800 + f_T = 1300 Hz louder in the recording
+    (acceleration weighs by f²): the member near the mode, strongest in displacement, is the chatter
+    frequency; an unrelated louder tone is not a family member and wins as the dominant line."""
+    f_t = 3 * 10000.0 / 60.0
+    r = heard(chatter_hz=800.0, ratio=0.5, tones=[(800.0 + f_t, 0.6)])
+    assert r.label == "chatter" and abs(r.chatter_hz - 800.0) < 0.2
+    r = heard(chatter_hz=800.0, ratio=0.5, tones=[(1234.5, 0.6)])
+    assert abs(r.chatter_hz - 1234.5) < 0.2

@@ -186,9 +186,22 @@ def read_cuts_with_recordings(path: PathLike) -> list[dict]:
     return out
 
 
+def has_recording_column(path: PathLike) -> bool:
+    """Whether a cuts CSV's header names a ``recording`` column (False for a missing or empty file:
+    the ordinary reader then says what is wrong)."""
+    p = Path(path)
+    if not p.is_file():
+        return False
+    with p.open(encoding="utf-8-sig") as fh:
+        for line in fh:
+            if line.strip() and not line.lstrip().startswith("#"):
+                return "recording" in [h.strip().lower() for h in line.split(",")]
+    return False
+
+
 def is_recording_path(path: PathLike) -> bool:
     """Whether a path names a recording this module reads (.wav or .csv)."""
     return Path(path).suffix.lower() in (".wav", ".csv")
 
 
-__all__ = ["read_cuts_with_recordings", "read_recording", "write_wav", "write_recording", "write_recording_csv", "is_recording_path"]
+__all__ = ["has_recording_column", "read_cuts_with_recordings", "read_recording", "write_wav", "write_recording", "write_recording_csv", "is_recording_path"]

@@ -15,13 +15,14 @@ The steps, with every threshold and the reason for it:
    stays apart), 50 % overlap, zero-padded twice. Chatter is searched from ``F_LO`` = 40 Hz to
    min(0.45 fs, ``F_HI`` = 8 kHz).
 3. **Speed.** The speed given can be off (an override knob, a rounded value): the tooth-passing
-   frequency f_T is the comb k·f_T, k ≤ ``COMB_HARMONICS`` = 3, in ±``SPEED_TOL`` = 1.5 % of N·rpm/60
-   with the largest sum of its lines' prominences (log power over the floor, counted only at a local
-   maximum, at most ``COMB_CLIP`` = 8 each). Only three: slotting with two teeth has lines at f_T and
-   2 f_T only, while a saturated chatter fills the spectrum with combination tones j f_T ± m f_c, 50 dB
-   over the floor, that a 30-harmonic comb drifting by 1 % walks along (measured on ex1 at 8 mm:
-   −1.4 %). Refined by least squares on the interpolated peaks of the prominent harmonics up to
-   k = 30 (±1 bin each).
+   frequency f_s = rpm/60 is the comb k·f_s over the spindle harmonics up to ``COMB_HARMONICS`` = 3
+   tooth-passing harmonics (k ≤ 3N: tooth passing and runout lines), in ±``SPEED_TOL`` = 1.5 %, with
+   the largest sum of its lines' prominences (log power over the floor, counted only at a local
+   maximum, at most ``COMB_CLIP`` = 8 each). Only up to 3 f_T: slotting with two teeth has lines at
+   f_T and 2 f_T only (slotting with four, hardly any: there the runout lines carry the speed), while a
+   saturated chatter fills the spectrum with combination tones j f_T ± m f_c, 50 dB over the floor,
+   that a 30-harmonic comb drifting by 1 % walks along (measured on ex1 at 8 mm: −1.4 %). Refined by
+   least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±1 bin).
 4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
    harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
    One exception: with an even number of teeth, a line at an odd multiple of f_T/2 above 1.5 f_T
@@ -41,6 +42,12 @@ The steps, with every threshold and the reason for it:
    full-window spectrum (finer bins) by a parabola through log-magnitudes. Its power is the excess
    over its contiguous region above twice the floor (a modulated chatter is a hump), at least its
    peak density times the window's noise bandwidth (a line beside a masked one).
+   One chatter sounds as a family f_c + k f_T (the tooth passing modulates it); the chatter frequency
+   of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
+   accelerometer both follow acceleration, whose power is f⁴ times the displacement's, so of the
+   family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 3, each ≥ ``FAMILY_SHARE`` = 2 % of the
+   strongest's power) the one with the largest power / f⁴ is reported (on virtual recordings the
+   loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts).
 8. **Score** = A_c / A_s: the RMS amplitude of the chatter line over that of all synchronous lines
    (forced vibration and runout), times the ratio of its RMS amplitude over the last ``LATE_SHARE``
    = 40 % of the window to that over the whole window (chatter that starts late is scored as it
@@ -50,12 +57,13 @@ The steps, with every threshold and the reason for it:
    projection, noise floor subtracted); early and late levels are the medians of the first and last
    20 %. trend = late / early. Chatter *starts* during the recording if trend > ``ONSET_RATIO`` = 4;
    the onset is where the amplitude first reaches half its late level (interpolated between frames).
-10. **Label**: ``stable`` if no line is prominent, or the score is below ``SCORE_MARGINAL`` = 0.02
-    (−34 dB: a stable cut's non-synchronous sound is a mode rung by noise, further down), or the line
-    decays, trend < ``DECAY`` = 0.5 (the ringing of a transient dies, chatter does not);
-    ``chatter`` if score ≥ ``SCORE_CHATTER`` = 0.05, or the line grows (trend > ``ONSET_RATIO``):
-    a chatter line 4× weaker than the forced vibration (score 0.25) is plainly chatter; ``marginal``
-    otherwise (a steady line 34-26 dB below the forced vibration: a cut at the edge of a lobe).
+10. **Label**: ``chatter`` if the line grows fourfold within the cut (trend > ``ONSET_RATIO``:
+    chatter building up, however weak yet: the simulation's detector calls a clear growth chatter
+    too); ``stable`` if no line is prominent, or the score is below ``SCORE_MARGINAL`` = 0.02 (−34 dB:
+    a stable cut's non-synchronous sound is a mode rung by noise, further down), or the line decays,
+    trend < ``DECAY`` = 0.5 (the ringing of a transient dies, chatter does not); ``chatter`` if score ≥
+    ``SCORE_CHATTER`` = 0.05: a chatter line 4× weaker than the forced vibration (score 0.25) is
+    plainly chatter; ``marginal`` otherwise (a steady line 34-26 dB below the forced vibration: a cut at the edge of a lobe).
     The thresholds were set on virtual recordings (``benchmarks/bench_listen.py``: 0.05 keeps every
     stable cut's score below it, while saturated chatter in a microphone's weighting can fall to 0.07).
 
@@ -106,6 +114,9 @@ SCORE_CHATTER = 0.05
 SCORE_MARGINAL = 0.02
 #: half-width of a line mask in Welch bins (Blackman-Harris main lobe: ±4 bins, side lobes −92 dB)
 LINE_BINS = 4.5
+#: a chatter-family member f + k f_T (|k| ≤ FAMILY_ORDERS) counts with ≥ FAMILY_SHARE of the strongest's power
+FAMILY_ORDERS = 3
+FAMILY_SHARE = 0.02
 #: equivalent noise bandwidth of the Blackman-Harris window [bins of fs / segment]
 ENBW_BINS = 2.004
 #: Welch segments: the window / SEGMENTS, at most SEGMENT_MAX_S
@@ -252,35 +263,31 @@ def _interp_peak(logp: np.ndarray, i: int) -> float:
 
 
 def _floor(f: np.ndarray, p: np.ndarray, masked: np.ndarray) -> np.ndarray:
+    """Noise floor (PSD units): the FLOOR_PERCENTILE-th percentile of the unmasked log-power per block of
+    FLOOR_BLOCK_HZ (≥ 32 bins), interpolated between block centres (flat beyond the end ones). Blocks
+    less than a quarter unmasked are skipped. A percentile of log-power sits below the mean power by a
+    constant factor (chi-square statistics), the same for every bin, so prominences stay comparable."""
     df = f[1] - f[0]
     nb = max(32, int(round(FLOOR_BLOCK_HZ / df)))
     nblk = max(1, f.size // nb)
-    lp = np.log(np.maximum(p, 1e-300))
-    lp = np.where(masked, np.nan, lp)
-    blocks = lp[: nblk * nb].reshape(nblk, nb)
-    ok = np.isfinite(blocks).sum(axis=1) >= nb // 4
-    with np.errstate(all="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            med = np.nanpercentile(blocks, FLOOR_PERCENTILE, axis=1)
-    centres = f[: nblk * nb].reshape(nblk, nb).mean(axis=1)
+    lp = np.where(masked, np.nan, np.log(np.maximum(p, 1e-300)))[: nblk * nb].reshape(nblk, nb)
+    ok = np.isfinite(lp).sum(axis=1) >= nb // 4
     if not ok.any():
         return np.full_like(p, np.median(p))
-    # the median of log power of a chi-square bin sits below its mean: +ln(ln 2 ⁻¹)-ish bias is the same
-    # for lines and floor, so the prominence ratios stay comparable; no correction needed
-    return np.exp(np.interp(f, centres[ok], med[ok]))
+    level = np.nanpercentile(lp[ok], FLOOR_PERCENTILE, axis=1)
+    centres = f[: nblk * nb].reshape(nblk, nb).mean(axis=1)[ok]
+    return np.exp(np.interp(f, centres, level))
 
 
-def _tooth_hz(f: np.ndarray, p: np.ndarray, f_t0: float, f_max: float) -> float:
-    """Tooth-passing frequency found near f_t0 (comb search, then least squares on the peaks)."""
+def _spindle_hz(f: np.ndarray, p: np.ndarray, f_s0: float, teeth: int, f_max: float) -> float:
+    """Spindle frequency found near f_s0 (comb search on the spindle harmonics up to COMB_HARMONICS
+    tooth-passing harmonics, then least squares on the prominent peaks)."""
     df = f[1] - f[0]
-    K = int(max(1, min(MAX_COMB, f_max // (f_t0 * (1 + SPEED_TOL)))))
+    K = int(max(1, min(MAX_COMB, f_max // (f_s0 * (1 + SPEED_TOL)))))
     k = np.arange(1, K + 1)
-    kc = k[:COMB_HARMONICS]
-    n_c = int(2 * SPEED_TOL * f_t0 * 2 * kc.size / df) + 1
-    cand = f_t0 * (1 + np.linspace(-SPEED_TOL, SPEED_TOL, max(n_c, 3)))
+    kc = k[: COMB_HARMONICS * teeth]
+    n_c = int(2 * SPEED_TOL * f_s0 * 2 * kc.size / df) + 1
+    cand = f_s0 * (1 + np.linspace(-SPEED_TOL, SPEED_TOL, max(n_c, 3)))
     lp = np.log(np.maximum(p, 1e-300))
     # each harmonic scores its line's log-prominence over the floor, only at a local maximum (a line,
     # not the skirt of a chatter hump) and at most COMB_CLIP (so one strong chatter line that a wrong
@@ -295,8 +302,8 @@ def _tooth_hz(f: np.ndarray, p: np.ndarray, f_t0: float, f_max: float) -> float:
     idx = np.clip(np.rint(np.outer(cand, kc) / df).astype(int), 0, f.size - 1)
     score = b[idx].sum(axis=1)
     best = np.flatnonzero(score >= score.max() - 1e-9)
-    ft = float(cand[best[np.argmin(np.abs(cand[best] - f_t0))]])  # ties: the speed given
-    # least squares on the prominent harmonics, f_k = k f_T (up to k = 30): each line is sought within
+    ft = float(cand[best[np.argmin(np.abs(cand[best] - f_s0))]])  # ties: the speed given
+    # least squares on the prominent harmonics, f_k = k f_s (up to k = 30): each line is sought within
     # ±1 bin of k times the comb's estimate, which is good to k·(step + its own error) < 1 bin here at
     # least for the first harmonics; a wider search would catch a strong chatter line beside a harmonic
     num = den = 0.0
@@ -342,8 +349,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     f, p, nper = _welch(w, fs)
     df = f[1] - f[0]
     band = (f >= F_LO) & (f <= f_hi)
-    f_t = _tooth_hz(f, p, f_t0, f_hi)
-    f_s = f_t / teeth
+    f_s = _spindle_hz(f, p, rpm / 60.0, teeth, f_hi)
+    f_t = teeth * f_s
     # synchronous masks: every spindle harmonic
     half = LINE_BINS * fs / nper  # Hz
     ks = np.arange(1, int(f_hi / f_s) + 2)
@@ -406,6 +413,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), 60.0 * f_s, int(teeth), f_t,
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     j = int(peaks[np.argmax(excess[peaks])])
+    j = _family_member(f, excess, peaks, j, f_t, 2.0 * fs / nper)
     prom = float(ratio[j])
     # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
     a_ = j
@@ -439,15 +447,29 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
             a0, a1 = a_c[k - 1], a_c[k]
             t_k = float(tc[k - 1] + (tc[k] - tc[k - 1]) * (0.5 * late - a0) / (a1 - a0))
         onset = i0 / fs + t_k
-    if trend < DECAY or score < SCORE_MARGINAL:
+    if trend > ONSET_RATIO:
+        label = "chatter"  # a line growing fourfold within the cut: chatter building up, however weak yet
+    elif trend < DECAY or score < SCORE_MARGINAL:
         label = "stable"  # the ringing of a transient, or a line too weak to mark the surface
-    elif score >= SCORE_CHATTER or trend > ONSET_RATIO:
+    elif score >= SCORE_CHATTER:
         label = "chatter"
     else:
         label = "marginal"
     return Listening(label, fc, float(score), 10 * math.log10(prom), onset, float(trend), float(rpm), 60.0 * f_s,
                      int(teeth), f_t, (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask,
                      i0 / fs + tc, a_c)
+
+
+def _family_member(f: np.ndarray, excess: np.ndarray, peaks: np.ndarray, j: int, f_t: float, tol: float) -> int:
+    """Of the chatter family f_j + k f_T (|k| ≤ FAMILY_ORDERS) among the prominent peaks, the member
+    strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is f⁴ times
+    the displacement's), counting members with at least FAMILY_SHARE of the strongest's excess."""
+    k = (f[peaks] - f[j]) / f_t
+    fam = peaks[(np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS)
+                & (excess[peaks] >= FAMILY_SHARE * excess[j])]
+    if fam.size <= 1:
+        return j
+    return int(fam[np.argmax(excess[fam] / f[fam] ** 4)])
 
 
 def _refine(w: np.ndarray, fs: float, f0: float, span: float) -> float:

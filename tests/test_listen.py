@@ -211,6 +211,13 @@ def test_update_takes_labels_and_chatter_frequencies_from_recordings(tmp_path, c
     assert "9000 rpm, 4 mm: chatter at 870.0 Hz (heard in c0.wav" in text
     assert "10000 rpm, 0.3 mm: stable (from the file)" in text
     assert json.loads(out.read_text())["schema"].startswith("millstab.posterior")
+    # with the posterior, listen suggests recommend's speed at the cut's depth
+    res = tmp_path / "heard.json"
+    assert main(["listen", str(tmp_path / "c0.wav"), "--rpm", "9000", "--teeth", "2", "--post", str(out),
+                 "--depth", "1", "--rpm-range", "5000:15000", "--out", str(res)]) == 0
+    doc = json.loads(res.read_text())
+    assert doc["suggestion_from"] == "recommend" and 5000 <= doc["suggested_rpm"] <= 15000
+    assert main(["listen", str(tmp_path / "c0.wav"), "--rpm", "9000", "--teeth", "2", "--post", str(out)]) == 2
 
 
 def test_of_a_chatter_family_the_member_strongest_in_displacement_is_reported():

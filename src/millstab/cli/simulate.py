@@ -15,6 +15,7 @@ import numpy as np
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 from millstab.errors import InputError
 
 
@@ -41,8 +42,7 @@ def simulate(
                                       help="Probability that a stable/chatter label is swapped (needs --seed)."),
     marginal: str = typer.Option("keep", "--marginal", help="keep the 'marginal' label, or 'random': call it "
                                                             "stable/chatter at even odds (needs --seed)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the label noise (--cuts) or of the "
-                                                            "recording's noise (--record)."),
+    seed: Optional[int] = seed_option(None, "Seed of the label noise (--cuts) or of the recording's noise (--record)."),
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
     from millstab import api

@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import samples_option, seed_option
 from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
 from millstab.parsing import parse_rpm_range
 from millstab.errors import InputError
@@ -32,8 +33,8 @@ def update_cmd(
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
                                                        "spectral use measured chatter frequencies)."),
-    samples: int = typer.Option(4000, "--samples", help="Posterior samples (SMC particles)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the sampler (same seed, same samples)."),
+    samples: int = samples_option(4000, "Posterior samples (SMC particles)."),
+    seed: int = seed_option(0, "Seed of the sampler (same seed, same samples)."),
     out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/1)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
@@ -151,7 +152,7 @@ def recommend_cmd(
     max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
     radial_width: Optional[float] = typer.Option(None, "--radial-width", help="Radial width of cut [mm] (for cm³/min)."),
     feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the next-test subsample."),
+    seed: int = seed_option(0, "Seed of the next-test subsample."),
     confidence: str = typer.Option("0.9", "--confidence",
                                    help="P(chatter) <= RISK must hold with this one-sided confidence against the "
                                         "posterior's sampling error, in [0.5, 1); 'none': the plain sample count."),

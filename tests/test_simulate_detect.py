@@ -113,7 +113,7 @@ def test_simulate_cuts_checks_the_output_before_the_work_and_prints_without_out(
 
 
 @pytest.mark.parametrize("args,field", [
-    (["--rpm", "0.01", "--depth", "1"], "rpm"),
+    (["--rpm", "0.01", "--depth", "1"], "--rpm"),
     (["--rpm", "9000", "--depth", "1", "--marginal", "weird"], "--marginal"),
     (["--rpm", "9000", "--depth", "1", "--marginal", "random"], "--marginal"),
     (["--rpm", "9000", "--depth", "1", "--label-noise", "0.1"], "--label-noise"),
@@ -126,3 +126,16 @@ def test_simulate_messages_blame_the_right_option(args, field, capsys, tmp_path,
     assert main(["simulate", "example:ex1", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"millstab: error: {field} ")
+
+
+def test_a_cut_too_long_to_store_blames_the_speed_or_the_revolutions():
+    """At 0.01 rpm one revolution alone exceeds the storage (the speed is wrong, not the revs); at 10 rpm
+    100 revolutions do (fewer revolutions fit: the revs are named, with how many fit)."""
+    from millstab.errors import InputError
+
+    with pytest.raises(InputError) as e:
+        simulate_cut(BENCH, SLOT, 0.01, 1e-3, FEED)
+    assert e.value.field == "rpm" and "rev/min" in str(e.value)
+    with pytest.raises(InputError) as e:
+        simulate_cut(BENCH, SLOT, 10.0, 1e-3, FEED)
+    assert e.value.field == "revs" and "revolutions at this speed" in str(e.value)

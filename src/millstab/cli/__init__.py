@@ -28,6 +28,7 @@ from millstab.cli import history  # noqa: E402,F401
 from millstab.cli import campaign  # noqa: E402,F401
 from millstab.cli import warmup  # noqa: E402,F401
 from millstab.cli import tooltip  # noqa: E402,F401
+from millstab.cli import listen  # noqa: E402,F401
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

@@ -50,7 +50,16 @@ def update_cmd(
     from millstab.io import check_outputs, config_inputs, read_points, write_json
 
     cfg = api.config(config)
-    c = read_points(cuts)
+    # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
+    from millstab.io.recordings import has_recording_column
+
+    if has_recording_column(cuts):
+        c, heard = api.label_from_recordings(cuts, cfg.cutting.teeth)
+        for line in heard:
+            typer.echo(line)
+    else:
+        c = read_points(cuts)
+    # --- end listen --------------------------------------------------------------------------------
     p = read_points(points) if points is not None else None
     inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))

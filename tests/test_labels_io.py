@@ -94,7 +94,7 @@ def test_extra_columns_kept_with_one_note_and_batch_parsed():
 
 
 @pytest.mark.parametrize("text,field,words", [
-    ("rpm,depht_mm,label\n5000,1,stable\n", "cuts.csv header", "'depht_mm' meant to be 'depth_mm'"),
+    ("rpm,depht_mm,label\n5000,1,stable\n", "cuts.csv header", "unknown column 'depht_mm' looks like a misspelt 'depth_mm'"),
     ("rpm,depth_mm,lable\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
     ("rpm,depth_mm,labels\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
     ("rpm,depth_mm,label,weigth\n5000,1,stable,2\n", "cuts.csv header", "misspelt 'weight'"),

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 from millstab.cli.update import _load_posterior
 from millstab.errors import InputError
 
@@ -37,7 +38,7 @@ def recommend_cmd(
     max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
     radial_width: Optional[float] = typer.Option(None, "--radial-width", help="Radial width of cut [mm] (for cm³/min)."),
     feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the next-test subsample."),
+    seed: int = seed_option(0, "Seed of the next-test subsample."),
     test_risk: float = typer.Option(TEST_RISK, "--test-risk",
                                     help="The proposed next test's probability of chatter is at most this, in (0, 1] "
                                          "(a chattering test costs a part or a tool; 1: no cap)."),

@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import samples_option, seed_option
 from millstab.cli.update import LABELS_HELP
 from millstab.stability import ENGINES
 
@@ -19,8 +20,8 @@ def validate_cmd(
     config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
     cuts: Path = typer.Argument(..., help="Labelled cuts CSV (as for millstab update)."),
     folds: int = typer.Option(5, "--folds", help="Random folds (and speed bands when there are many speeds)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the folds and the updates."),
-    samples: int = typer.Option(1000, "--samples", help="Posterior samples per fold's update."),
+    seed: int = seed_option(0, "Seed of the folds and the updates."),
+    samples: int = samples_option(1000, "Posterior samples per fold's update."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine of the updates: {', '.join(ENGINES)}."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     out: Optional[Path] = typer.Option(None, "--out", help="JSON: the scores per scheme and method, folds, predictions."),

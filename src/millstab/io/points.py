@@ -102,13 +102,13 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
     for r in REQUIRED:
         if r not in names:
             near = difflib.get_close_matches(r, unknown, 1, 0.6)
-            hint = f" (is {near[0]!r} meant to be {r!r}?)" if near else ""
+            hint = f" (the unknown column {near[0]!r} looks like a misspelt {r!r})" if near else ""
             raise InputError(f"{p.name} header", ",".join(names), f"missing column {r!r}{hint}; required columns: "
                                                                   f"{', '.join(REQUIRED)} (optional: {', '.join(OPTIONAL)})")
     for h in unknown:
         near = difflib.get_close_matches(h, absent, 1, 0.8)
         if near:  # "lable", "weigth": a misspelt column would silently turn every cut into a boundary point
-            raise InputError(f"{p.name} header", h, f"looks like a misspelt {near[0]!r}; allowed columns: "
+            raise InputError(f"{p.name} header", h, f"unknown column that looks like a misspelt {near[0]!r}; allowed columns: "
                                                     f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, "
                                                     "date; other columns are kept and ignored")
     return raters, batch, [h for h in names if h not in known]

@@ -202,7 +202,7 @@ def test_learned_label_error_matches_a_brute_force_grid_posterior():
         assert abs(smc[:, j].std() - s) < 0.15 * s
         for q in (0.05, 0.5, 0.95):
             assert abs(np.quantile(smc[:, j], q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * s
-    assert np.median(post.label_error) > 0.04  # three swaps in sixteen: the label error learned upwards
+    assert np.median(post.label_error) > 0.026  # three swaps in sixteen: the label error learned upwards (prior 0.02)
 
 
 # --- conflict, predictions, the file ----------------------------------------------------------------------
@@ -222,7 +222,7 @@ def test_conflict_check_names_the_parameter_and_its_distance():
 
 @pytest.mark.slow
 def test_update_names_a_wrong_hammer_test_and_api_results_carry_it():
-    """Cuts from a tool 3× softer (k) with 20 % higher fn and 3× the damping than its tap test: the
+    """Cuts from a tool 3× stiffer (k) with 20 % higher fn and 3× the damping than its tap test: the
     posterior moves there and the result's warnings (Python and JSON, with its code) name the conflict;
     cuts from the tap test's own structure do not."""
     from millstab import api
@@ -230,7 +230,7 @@ def test_update_names_a_wrong_hammer_test_and_api_results_carry_it():
     cfg, prior = _prior()
     rng = np.random.default_rng(2)
     rpm = np.linspace(5000, 12000, 14)
-    f = np.array([1.2, 1 / 3, 3.0, 1.2, 1 / 3, 3.0])
+    f = np.array([1.2, 3.0, 3.0, 1.2, 3.0, 3.0])
     res = {}
     for name, theta in (("off", prior.median * f), ("same", prior.median)):
         b = limits(prior, np.log(theta)[None], rpm)[0][0]
@@ -286,3 +286,13 @@ def test_posterior_file_keeps_the_noise_and_an_old_file_still_loads():
     np.testing.assert_array_equal(was.label_error, np.full(200, 0.02))
     with pytest.raises(InputError):
         Posterior.from_json(dict(doc, noise={"names": ["label_error"], "samples": [[0.1]]}))
+
+
+def test_tails_and_held_noise_survive_a_config_round_trip(tmp_path):
+    from millstab.io.config import load_config, write_config
+
+    cfg = parse_config(TOML + '[prior]\ntails = "mixture"\nfixed = ["zeta_y", "label_error"]\n')
+    back = load_config(write_config(tmp_path / "c.toml", cfg)).prior
+    assert back.tails == "mixture" and back.fixed == ("zeta_y", "label_error")
+    p = make_prior(cfg.structure, cfg.cutting, back)
+    assert p.tails == "mixture" and p.noise_names == ("sigma_depth",) and "zeta_y" not in p.names

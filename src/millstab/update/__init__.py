@@ -24,7 +24,7 @@ from millstab.points import PointSet
 from millstab.update.decide import Recommendation, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.conflict import check as check_conflict
-from millstab.update.posterior import Posterior, bimodal_warning, split_modes
+from millstab.update.posterior import Posterior, split_modes
 from millstab.update.prior import Prior, make_prior
 from millstab.update.sampler import tempered_smc
 from millstab.warnlog import collect, emit, warn
@@ -97,9 +97,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     if msg is not None:  # issued (the doors print it in one line) and kept in the result
         warn(msg, UserWarning, stacklevel=2)
         messages.append(msg)
-    bim = bimodal_warning(modes)  # kept in the result (as before, not issued: a property of the answer)
-    if bim is not None:
-        messages.append(bim)
+    # the bimodal warning (not issued, as before: a property of the answer) joins them in Posterior itself
     return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise)
 
 

@@ -113,6 +113,14 @@ class Posterior:
     warnings: tuple[str, ...] = ()
     noise: np.ndarray | None = None
 
+    def __post_init__(self):
+        # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
+        if self.samples.ndim == 2 and self.samples.shape[0] > 1 and not any(
+                str(w).startswith("bimodal posterior") for w in self.warnings):
+            bim = bimodal_warning(self.modes())
+            if bim is not None:
+                object.__setattr__(self, "warnings", tuple(self.warnings) + (bim,))
+
     @property
     def names(self) -> tuple[str, ...]:
         return self.prior.names
@@ -172,10 +180,7 @@ class Posterior:
 
     def to_json(self) -> dict:
         modes = self.modes()
-        warn = list(self.warnings)
-        bim = bimodal_warning(modes)
-        if bim is not None and not any(w.startswith("bimodal posterior") for w in warn):
-            warn.append(bim)
+        warn = list(self.warnings)  # the bimodal one included (__post_init__)
         doc = {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
                "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
                "warnings": warn, "warning_codes": [warning_code(w) for w in warn], "prior": self.prior.to_dict(),

@@ -127,7 +127,7 @@ def main() -> None:
                    "last_warnings": list(post.warnings)}
             rows.append(row)
             tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
-            print("   log Bayes factor robust/tight per round: " + " ".join(f"{x:.1f}" for x in log_bf))
+            print("   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf))
             print(f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                   f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
                   f"{time.perf_counter() - t0:.0f} s; rounds (S stable/C chatter, productivity/best, ! conflict named): {tr}",

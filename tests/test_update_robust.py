@@ -296,3 +296,17 @@ def test_tails_and_held_noise_survive_a_config_round_trip(tmp_path):
     assert back.tails == "mixture" and back.fixed == ("zeta_y", "label_error")
     p = make_prior(cfg.structure, cfg.cutting, back)
     assert p.tails == "mixture" and p.noise_names == ("sigma_depth",) and "zeta_y" not in p.names
+
+
+def test_labels_written_off_as_errors_are_named():
+    """Six cuts chattering at 0.05 mm under a ≈ 3 mm hammer-test limit: no structure within the prior
+    explains them, so the learned label error rises far above the config's 2 % — and the update says so,
+    naming the cuts (before: P(stable) = 1 there and not a word)."""
+    cfg, prior = _prior()
+    rpm = np.linspace(5500, 11500, 6)
+    with pytest.warns(UserWarning, match="the cuts contradict the hammer test or each other: 6 of 6 labels"):
+        post = update(cfg, PointSet(rpm, np.full(6, 0.05), ["chatter"] * 6), samples=500, seed=1)
+    assert np.median(post.label_error) > 0.058  # above the prior's 95 % quantile of ε
+    assert "prior-data-conflict" in post.to_json()["warning_codes"]
+    _, pl = predict_cuts(post, rpm, np.full(6, 0.05))
+    assert (pl > 0.06).all()  # the written label's probability follows the learned label error, not the 2 %

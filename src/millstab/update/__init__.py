@@ -23,7 +23,7 @@ import numpy as np
 from millstab.points import PointSet
 from millstab.update.decide import Recommendation, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood
-from millstab.update.conflict import check as check_conflict
+from millstab.update.conflict import check as check_conflict, label_error_too_high, label_message
 from millstab.update.posterior import Posterior, split_modes
 from millstab.update.prior import Prior, make_prior
 from millstab.update.sampler import tempered_smc
@@ -94,6 +94,12 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
     main = u if twin is None else u[twin if twin.mean() > 0.5 else ~twin]  # the larger mode's samples
     msg, diag["conflict"] = check_conflict(pr, main)
+    if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
+        from millstab.update.predict import predict_cuts  # one more engine call, only in this case
+
+        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm)
+        msg = label_message(pr, post.label_error, ev.cut_rpm, ev.cut_depth_mm, ev.cut_grade, ps)
+        diag["conflict"]["labels"] = True
     if msg is not None:  # issued (the doors print it in one line) and kept in the result
         warn(msg, UserWarning, stacklevel=2)
         messages.append(msg)

@@ -21,6 +21,12 @@ data moved the structure into the tails, in the prior's own terms. With ``tails 
 robust alternative) the rule falls back to the posterior median's distance: a parameter more than
 :data:`Z_NORMAL` σ from the hammer test's value.
 
+A second check reads the learned label error: when its posterior median lies above its prior's 95 %
+quantile, the labels are being written off as mistakes rather than explained by the structure (six cuts
+chattering at 0.05 mm under a 3 mm hammer-test limit: no structure within the prior explains them, so ε
+rises to ≈ 13 %). The warning then names those labels; it starts with the same words and carries the
+same code, since a shop must hear it the same way.
+
 The warning names the parameters that moved (|z| ≥ :data:`Z_NAME`, the largest first), each as a ratio
 to the tap test's value and in σ of the hammer-test prior: "the cuts contradict the hammer test: k_x
 is 0.33× the tap test's (−3.7σ) …".
@@ -31,7 +37,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import logsumexp
+from scipy.special import expit, logsumexp
 
 from millstab.update.prior import Prior
 
@@ -77,4 +83,28 @@ def check(prior: Prior, u: np.ndarray) -> tuple[str | None, dict]:
     return msg, info
 
 
-__all__ = ["BAYES_FACTOR", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check"]
+def label_error_too_high(prior: Prior, eps: np.ndarray) -> bool:
+    """Whether the learned label error's posterior median lies above its prior's 95 % quantile (the
+    labels contradict the model more than the shop's stated label error allows)."""
+    if "label_error" not in prior.noise_names:
+        return False
+    mu, sd = prior._noise_prior()
+    j = prior.noise_names.index("label_error")
+    return bool(np.median(eps) > 0.5 * expit(mu[j] + 1.6449 * sd[j]))
+
+
+def label_message(prior: Prior, eps: np.ndarray, rpm: np.ndarray, depth_mm: np.ndarray, grade: np.ndarray,
+                  p_stable: np.ndarray) -> str:
+    """The one-line warning when the learned label error is too high: which labels the posterior writes
+    off (a chatter-leaning label where P(stable) ≥ 0.95, a stable-leaning one where it is ≤ 0.05)."""
+    off = ((grade >= 0.75) & (p_stable >= 0.95)) | ((grade <= 0.25) & (p_stable <= 0.05))
+    which = ", ".join(f"{'chatter' if g >= 0.75 else 'stable'} at {r:.0f} rpm {d:.3g} mm"
+                      for r, d, g in zip(rpm[off][:4], depth_mm[off][:4], grade[off][:4]))
+    more = f" and {int(off.sum()) - 4} more" if off.sum() > 4 else ""
+    return (f"the cuts contradict the hammer test or each other: {int(off.sum())} of {rpm.size} labels are explained as "
+            f"label errors ({which}{more}), the learned label error is {np.median(eps):.0%} against the config's "
+            f"{prior.label_error:.0%}; the model cannot explain them by the structure within its prior: check those "
+            "cuts (labels, units) and the tap test")
+
+
+__all__ = ["BAYES_FACTOR", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check", "label_error_too_high", "label_message"]

@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+WARM := $(VENV)/.warm
 
-.PHONY: demo test app bench clean
+.PHONY: demo test test-fast app bench clean warmup
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -12,8 +13,18 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test,dask]"
 	touch $(STAMP)
 
+# the engines compiled into numba's cache once, right after installing (a fresh install otherwise compiles
+# each engine at its first use, for minutes); `make test` does not wait for it: the tests compile what they use
+$(WARM): $(STAMP)
+	@echo "compiling the engines into the cache (first install only; a few minutes)"
+	$(BIN)/millstab warmup
+	touch $(WARM)
+
+## warmup: compile every engine into the cache (demo and app do this first)
+warmup: $(WARM)
+
 ## demo: install into .venv, reproduce the seed paper into ./millstab-report (open report.html)
-demo: $(STAMP)
+demo: $(WARM)
 	$(BIN)/millstab reproduce --out millstab-report
 	@echo "open millstab-report/report.html"
 
@@ -21,8 +32,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+## test-fast: the inner loop: every test not marked slow (well under a minute once the engines are compiled)
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -m "not slow"
+
 ## app: install the app extra into .venv and serve the browser interface on http://127.0.0.1:5006/
-app: $(STAMP)
+app: $(WARM)
 	$(BIN)/python -m pip install -q -e ".[app]"
 	$(BIN)/millstab app
 

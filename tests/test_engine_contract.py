@@ -254,7 +254,7 @@ def test_cli_lobes_rejects_an_unregistered_engine(capsys):
 def test_sensitivity_streams_in_the_engines_own_chunks(dummy, monkeypatch):
     """Sensitivity asks the engine for its chunk size (it used the zero-order one for every engine)."""
     from millstab.params import Parameterization
-    from millstab.sensitivity._core import depths_chunked
+    from millstab.sensitivity._core import depths_chunked, pin
 
     calls = []
     batch_fn = dummy.envelope_batch
@@ -262,7 +262,7 @@ def test_sensitivity_streams_in_the_engines_own_chunks(dummy, monkeypatch):
     monkeypatch.setattr(dummy, "envelope_batch", lambda b, c, r: calls.append(b.size) or batch_fn(b, c, r))
     par = Parameterization(TWO_DOF)
     rows = par.theta0[None] * np.linspace(0.9, 1.1, 7)[:, None]
-    d = depths_chunked("dummy", par, rows, HALF3, SPEEDS)
+    d = depths_chunked(pin("dummy", par, HALF3, SPEEDS, rows), rows)
     assert calls == [3, 3, 1]
     np.testing.assert_allclose(d, SCALE * zoa.envelope_batch(par.batch(rows), HALF3, SPEEDS), rtol=1e-12)
 

@@ -449,3 +449,17 @@ def test_uff_abscissa_units_label(tmp_path, label, scale):
     f, h = read_frf(write_uff(tmp_path / "a.uff", s))
     np.testing.assert_allclose(f, F, rtol=1e-14)
     np.testing.assert_array_equal(h, HX)
+
+
+@pytest.mark.parametrize("kind, factor", [("mobility", lambda w: 1j * w), ("accelerance", lambda w: -w * w)])
+def test_measured_frf_of_another_kind_is_refused_naming_it(tmp_path, kind, factor):
+    """A config's tap-test file in mobility or accelerance was read as m/N (a meaningless boundary, with a
+    'negate the imaginary column' hint); it is refused, naming the term, the kind and the conversion."""
+    w = 2 * np.pi * F
+    write_frf_csv(tmp_path / "xx.csv", F, HX * factor(w))
+    write_frf_csv(tmp_path / "yy.csv", F, HY)
+    with pytest.raises(InputError) as exc:
+        load_measured_frf(xx="xx.csv", yy="yy.csv", base_dir=tmp_path)
+    assert exc.value.field == "structure.frf.xx" and kind in exc.value.allowed and "--frf-type" in exc.value.allowed
+    m = load_measured_frf(xx="yy.csv", yy="yy.csv", base_dir=tmp_path)  # receptances pass
+    np.testing.assert_array_equal(m.xx, HY)

@@ -73,3 +73,287 @@ def test_cli_does_not_import_panel_and_checks_the_port():
     from millstab.cli import main
 
     assert main(["app", "--port", "70000", "--no-browser"]) == 2
+
+
+# ----------------------------------------------------------------------- uploads: confinement, formats, prior
+
+def _frf_text(f, h) -> str:
+    return "freq_hz,real,imag\n" + "".join(f"{float(a)!r},{float(b.real)!r},{float(b.imag)!r}\n" for a, b in zip(f, h))
+
+
+def _receptance(f, fn, k, zeta):
+    r = f / fn
+    return 1.0 / (k * (1 - r**2 + 2j * zeta * r))
+
+
+def _frf_config(xx: str, yy: str | None = None) -> str:
+    """ex3's cutting with a measured-FRF structure naming ``xx`` (and ``yy``), as a user would upload it."""
+    text = api.config_toml(api.config("example:ex3"))
+    cut = text.split("[[structure.x]]")[0]
+    speeds = "[speeds]" + text.split("[speeds]")[1].split("[prior]")[0] if "[speeds]" in text else ""
+    frf = f'[structure.frf]\nxx = "{xx}"\n' + (f'yy = {yy}\n' if yy else "")
+    return cut + frf + "\n" + speeds
+
+
+SECRET = "freq_hz,real,imag\n100.0,1e-7,-1e-8\n200.0,1e-7,-1e-8\n300.0,1e-7,-1e-8\n400.0,1e-7,-1e-8\n"
+
+
+@pytest.mark.parametrize("where", ["absolute", "relative", "dotdot", "home", "table"])
+def test_config_text_cannot_name_a_server_file(tmp_path, monkeypatch, where):
+    """Issue 25.2: an uploaded config's [structure.frf] made the server open any path and echo a line of it.
+    A config from text may name only the session's uploads; anything else is refused, naming the field,
+    before any file is even looked up (fails on the old code: the file was read and the config loaded)."""
+    import millstab.io.frf_files as ff
+
+    secret = tmp_path / "secret" / "server.csv"
+    secret.parent.mkdir()
+    secret.write_text(SECRET)
+    monkeypatch.chdir(tmp_path)
+    name = {"absolute": str(secret), "relative": "secret/server.csv", "dotdot": "../" + tmp_path.name + "/secret/server.csv",
+            "home": "~/server.csv", "table": str(secret)}[where]
+    xx = name if where != "table" else None
+    text = _frf_config(xx or "x.csv").replace(f'xx = "{xx or "x.csv"}"', f'xx = "{name}"' if xx else
+                                              f'xx = {{ file = "{name}" }}')
+    opened = []
+    monkeypatch.setattr(ff, "read_frf", lambda *a, **k: opened.append(a) or pytest.fail("an FRF file was read"))
+    for files in (None, {"tap_xx.csv": tmp_path / "nowhere.csv"}):
+        with pytest.raises(InputError) as exc:
+            api.config_from_text(text, "evil.toml", files=files)
+        assert exc.value.field == "structure.frf.xx", exc.value
+        assert "1e-7" not in str(exc.value) and "uploaded in the same session" in str(exc.value)
+    assert opened == []
+
+
+def test_config_text_reads_the_sessions_uploads_by_name(tmp_path):
+    f = np.linspace(200.0, 2500.0, 400)
+    saved = tmp_path / "xx_tap_xx.csv"
+    h = _receptance(f, 900.0, 9e6, 0.02)
+    saved.write_text(_frf_text(f, h))
+    cfg = api.config_from_text(_frf_config("tap_xx.csv"), "mine.toml", files={"tap_xx.csv": saved})
+    np.testing.assert_array_equal(cfg.structure.frf.freq_hz, f)  # the shortest-repr CSV round-trips exactly
+    np.testing.assert_array_equal(cfg.structure.frf.xx, h)
+    assert cfg.structure.frf.yy is None and cfg.name == "ex3"
+
+
+def _tool():
+    pytest.importorskip("panel")
+    from millstab.web.state import Session
+    from millstab.web.tool import ToolTab
+
+    s = Session()
+    return s, ToolTab(s)
+
+
+PRIOR = '\n[prior]\nfn = "4 %"\nk_x = 0.2\nkt = "10 %"\nfixed = ["zeta_y"]\nsigma_depth = "7 %"\nsigma_chatter_hz = "15 Hz"\nlabel_error = "9 %"\n'
+
+
+def test_config_upload_keeps_every_prior_field(tmp_path):
+    """Issue 26: the form re-wrote [prior] itself and dropped label_error, so a config loaded in the browser
+    changed the prior of an update (fails on the old code). The form's config, its TOML download and the
+    prior an update builds from it equal the uploaded config's."""
+    from millstab.update.prior import make_prior
+
+    text = api.config_toml(api.config("example:ex1")).split("[prior]")[0] + PRIOR
+    mine = api.config_from_text(text, "my_tool.toml")
+    assert mine.prior.label_error == pytest.approx(0.09)
+    s, tool = _tool()
+    try:
+        tool.config_drop.value = {"my_tool.toml": text.encode()}
+        assert tool.config_error.object == ""
+        assert api.config_toml(s.cfg) == api.config_toml(mine)  # the download (Downloads tab: api.config_toml)
+        a, b = make_prior(s.cfg.structure, s.cfg.cutting, s.cfg.prior), make_prior(mine.structure, mine.cutting, mine.prior)
+        assert a.to_dict() == b.to_dict() and a.label_error == pytest.approx(0.09)
+        assert s.origin == "uploaded my_tool.toml"
+        tool.teeth.input.value = "3"  # an edit keeps the prior, and the page says the config was edited
+        assert s.cfg.cutting.teeth == 3 and s.cfg.prior.label_error == pytest.approx(0.09)
+        assert s.origin == "uploaded my_tool.toml, edited in the form"
+        tool.fill_example("ex3")
+        assert s.origin == "the packaged example ex3 — no config loaded"
+    finally:
+        s.close()
+
+
+def test_measured_frf_config_upload_loads_the_uploaded_files(tmp_path):
+    """Issue 25.2: a valid measured-FRF config upload raised out of the handler (the form could not show
+    it) and was lost silently (fails on the old code). Now its FRF names resolve to this session's
+    uploads, the form switches to "measured FRF", and the config equals the same files read from disk."""
+    f = np.linspace(200.0, 2500.0, 600)
+    hx, hy = _receptance(f, 900.0, 9e6, 0.02), _receptance(f, 950.0, 10e6, 0.01)
+    s, tool = _tool()
+    try:
+        # the config first: it waits for the FRF files it names and loads when the last one arrives
+        text = _frf_config("tap_xx.csv", '{ file = "tap yy.csv" }')
+        tool.config_drop.value = {"frf_tool.toml": text}
+        assert "structure.frf.xx" in tool.config_error.object and "loads once" in tool.config_error.object
+        assert s.cfg.structure.is_modal and s.origin.startswith("the packaged example ex3")
+        tool.frf_drop["xx"].value = {"tap_xx.csv": _frf_text(f, hx)}
+        assert "structure.frf.yy" in tool.config_error.object and "loads once" in tool.config_error.object
+        tool.frf_drop["yy"].value = {"tap yy.csv": _frf_text(f, hy).encode()}
+        assert tool.config_error.object == ""
+        assert not s.cfg.structure.is_modal and tool.structure_kind.value == "measured FRF"
+        assert s.origin == "uploaded frf_tool.toml"
+        (tmp_path / "tap_xx.csv").write_text(_frf_text(f, hx))
+        (tmp_path / "tap yy.csv").write_text(_frf_text(f, hy))
+        (tmp_path / "frf_tool.toml").write_text(text)
+        ref = api.config(tmp_path / "frf_tool.toml")
+        for term in ("xx", "yy"):
+            np.testing.assert_array_equal(getattr(s.cfg.structure.frf, term), getattr(ref.structure.frf, term))
+        # a config naming a file that was not uploaded: refused beside the drop zone, the form keeps the last
+        tool.config_drop.value = {"evil.toml": _frf_config("/etc/passwd")}
+        assert "structure.frf.xx" in tool.config_error.object and "tap_xx.csv" in tool.config_error.object
+        assert "loads once" not in tool.config_error.object and tool.waiting is None
+        assert not s.cfg.structure.is_modal and s.origin == "uploaded frf_tool.toml"
+    finally:
+        s.close()
+
+
+@pytest.mark.parametrize("drop, name", [("config", "tool.txt"), ("config", "tool"), ("frf", "tap.txt"),
+                                        ("frf", "tap.xlsx")])
+def test_uploads_of_other_types_are_refused_by_extension(drop, name):
+    s, tool = _tool()
+    try:
+        if drop == "config":
+            tool.config_drop.value = {name: api.config_toml(api.config("example:ex1"))}
+            msg = tool.config_error.object
+        else:
+            tool.frf_drop["xx"].value = {name: "freq_hz,real,imag\n"}
+            msg = tool.frf_error["xx"].object
+        assert name in msg and "files must end in" in msg and s.cfg.name == "ex3" and s.saved == {}
+    finally:
+        s.close()
+
+
+@pytest.mark.parametrize("case", ["busy port", "unknown host", "not this machine"])
+def test_app_on_a_busy_port_or_bad_host_says_so_in_one_line(case, capsys):
+    """Issue 25.4: `millstab app` on a busy port printed the other server's URL as its own, then a
+    traceback; a bad --host gave a traceback (fails on the old code: the OSError escaped main)."""
+    import socket
+
+    from millstab.cli import main
+
+    pytest.importorskip("panel")
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        host = {"busy port": "127.0.0.1", "unknown host": "no-such-host.invalid", "not this machine": "192.0.2.1"}[case]
+        assert main(["app", "--host", host, "--port", str(port if case == "busy port" else 0), "--no-browser"]) == 2
+    out = capsys.readouterr()
+    assert "http://" not in out.out  # no URL of a server that is not ours
+    lines = out.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("millstab: error: "), out.err
+    assert (f"--port = {port}" in lines[0] and "in use" in lines[0]) if case == "busy port" else \
+        (f"--host = '{host}'" in lines[0] and "0.0.0.0" in lines[0])
+
+
+def test_passwords_are_hashed_salted_and_checked():
+    from millstab.web import auth
+
+    a, b = auth.hash_password("correct horse 1"), auth.hash_password("correct horse 1")
+    assert a != b and "correct horse" not in a  # salted
+    assert auth.check_password("correct horse 1", a) and auth.check_password("correct horse 1", b)
+    assert not auth.check_password("correct horse 2", a) and not auth.check_password("x", "plain")
+    # scrypt itself, recomputed here from the stored salt and parameters
+    import base64
+    import hashlib
+
+    kind, n, r, p, salt, digest = a.split("$")
+    assert base64.b64decode(digest) == hashlib.scrypt(b"correct horse 1", salt=base64.b64decode(salt), n=int(n),
+                                                      r=int(r), p=int(p), dklen=32)
+    assert int(n) >= 2**14
+    with pytest.raises(InputError, match="never a plain password"):
+        auth.parse_users("anna:correct horse 1\n")
+    with pytest.raises(InputError, match="add-user"):
+        auth.parse_users("# nobody\n")
+    assert [auth.is_local(h) for h in ("127.0.0.1", "localhost", "::1", "127.0.0.2", "0.0.0.0", "192.168.1.5")] == \
+        [True, True, True, False, False, False]
+
+
+def test_app_beyond_localhost_requires_a_users_file(tmp_path, capsys, monkeypatch):
+    """Issue 31.4: `millstab app --host 0.0.0.0` served anyone who reached it (fails on the old code: no
+    --users and --add-user options, and 0.0.0.0 was served without a login)."""
+    import io
+
+    from millstab.cli import main
+    from millstab.web import auth
+
+    pytest.importorskip("panel")
+    for host in ("0.0.0.0", "127.0.0.2"):
+        assert main(["app", "--host", host, "--port", "0", "--no-browser"]) == 2
+        err = capsys.readouterr().err
+        assert f"--host = '{host}'" in err and "--add-user" in err and len(err.strip().splitlines()) == 1
+    users = tmp_path / "users.txt"
+    monkeypatch.setattr("sys.stdin", io.StringIO("correct horse 1\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("battery staple 2\n"))
+    assert main(["app", "--add-user", "ben", "--users", str(users), "--password-stdin"]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("new password 3\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0  # a new password
+    out = capsys.readouterr()
+    text = users.read_text()
+    assert "horse" not in text + out.out + out.err and "staple" not in text + out.out + out.err
+    got = auth.read_users(users)
+    assert sorted(got) == ["anna", "ben"] and auth.check_password("new password 3", got["anna"])
+    assert not auth.check_password("correct horse 1", got["anna"]) and auth.check_password("battery staple 2", got["ben"])
+    monkeypatch.setattr("sys.stdin", io.StringIO("short\n"))
+    assert main(["app", "--add-user", "cid", "--users", str(users), "--password-stdin"]) == 2
+    assert main(["app", "--host", "0.0.0.0", "--users", str(tmp_path / "none.txt"), "--no-browser"]) == 2
+
+
+def test_io_parse_config_confines_text_without_a_folder(tmp_path, monkeypatch):
+    """The io reader under api.config_from_text: text without base_dir names no file on its own (it
+    resolved absolute paths and the working directory before); with base_dir, relative names resolve there."""
+    from millstab.io.config import parse_config
+
+    f = np.linspace(200.0, 2500.0, 300)
+    h = _receptance(f, 900.0, 9e6, 0.02)
+    (tmp_path / "tap.csv").write_text(_frf_text(f, h))
+    monkeypatch.chdir(tmp_path)
+    for name in ("tap.csv", str(tmp_path / "tap.csv")):
+        with pytest.raises(InputError) as exc:
+            parse_config(_frf_config(name))
+        assert exc.value.field == "structure.frf.xx"
+    np.testing.assert_array_equal(parse_config(_frf_config("tap.csv"), base_dir=tmp_path).structure.frf.xx, h)
+
+
+@pytest.mark.parametrize("holder", [
+    '[holder.frf]\nh = "/etc/hostname"\nl = "l.csv"\np = "p.csv"\n',
+    '[holder.finite_differences]\nspacing = "10 mm"\nh00 = "../h00.csv"\nh01 = "h01.csv"\nh11 = "h11.csv"\n',
+])
+def test_a_tool_config_from_text_names_no_server_file(tmp_path, holder, monkeypatch):
+    """A [tool] + [holder] config's holder files are confined as [structure.frf]'s: an uploaded config
+    could otherwise make the server open any path (the holder tables came with the tool-tip model)."""
+    import builtins
+
+    from millstab import api
+
+    opened = []
+    real_open = builtins.open
+    monkeypatch.setattr(builtins, "open", lambda f, *a, **k: opened.append(str(f)) or real_open(f, *a, **k))
+    text = ('[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nradial_immersion = 0.5\nmilling = "down"\n'
+            '[tool]\ndiameter = "12 mm"\nstickout = "45 mm"\nmaterial = "carbide"\nzeta = 0.01\n' + holder)
+    with pytest.raises(InputError) as exc:
+        api.config_from_text(text, "upload.toml")
+    assert exc.value.field.startswith("holder.") and "uploaded" in exc.value.allowed
+    assert not [f for f in opened if "hostname" in f or "h00" in f]
+
+
+def test_tool_config_upload_shows_its_tip_frf():
+    """Issue 30: the app takes a [tool] + [holder] config (its form refused any structure but modes and
+    uploaded FRF files): the tip FRF computed by receptance coupling becomes the session's measured FRF,
+    saved in its folder, equal to the config read directly, bit for bit."""
+    text = ('name = "t12"\n[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 0.5\nmilling = "down"\n'
+            '[tool]\ndiameter = "12 mm"\nstickout = "45 mm"\nmaterial = "carbide"\nzeta = 0.02\n'
+            '[holder]\nrigid = true\n')
+    ref = api.config_from_text(text, "t12.toml")
+    s, tool = _tool()
+    try:
+        tool.config_drop.value = {"t12.toml": text.encode()}
+        assert tool.config_error.object == "", tool.config_error.object
+        assert tool.structure_kind.value == "measured FRF" and not s.cfg.structure.is_modal
+        assert s.origin == "uploaded t12.toml" and "receptance coupling" in tool.frf_note["xx"].object
+        for term in ("xx", "yy"):
+            np.testing.assert_array_equal(getattr(s.cfg.structure.frf, term), getattr(ref.structure.frf, term))
+        np.testing.assert_array_equal(s.cfg.structure.frf.freq_hz, ref.structure.frf.freq_hz)
+    finally:
+        s.close()

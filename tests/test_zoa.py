@@ -345,3 +345,20 @@ def test_grid_frequencies_equal_the_sorted_union():
             if x - keep[-1] > 1e-12 * x:
                 keep.append(x)
         np.testing.assert_array_equal(grid, keep)
+
+
+def test_measured_frf_in_one_direction_alone():
+    """A measured FRF with xx alone (a tool much stiffer across the feed) crashed with ZeroDivisionError: the
+    empty direction's root ν ≡ 0 put its Re ν = 0 edges twice into the frequency grid. It now gives the
+    limits of the modal structure with that one x mode (the grid's linear interpolation aside)."""
+    from millstab.datasets import load_example
+    from millstab.frf import modal_receptance
+    from millstab.model import MeasuredFRF, Mode, Structure
+
+    cut = load_example("ex3").cutting
+    f = np.arange(100.0, 3000.0, 0.25)
+    g = np.asarray(modal_receptance(f, [900.0], [2e7], [0.03])).reshape(-1)
+    rpm = np.linspace(4000.0, 12000.0, 9)
+    measured = zoa.envelope(Structure(frf=MeasuredFRF(f, g, None)), cut, rpm).depth_mm
+    modal = zoa.envelope(Structure(x=(Mode(900.0, 2e7, 0.03),), y=()), cut, rpm).depth_mm
+    np.testing.assert_allclose(measured, modal, rtol=1e-4)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import time
 import uuid
 from itertools import islice
@@ -81,17 +82,113 @@ def check_client(client: Any) -> Any:
     return client
 
 
+#: how long a scheduler address may take to answer as a Dask scheduler [s]: a scheduler sends its handshake
+#: within milliseconds of a connection; a web server (the dashboard, port 8787) sends nothing until asked
+CONNECT_SECONDS = 10.0
+#: address schemes of dask.distributed's comms
+SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+_EXAMPLE = "e.g. tcp://10.0.0.5:8786 (printed as 'Scheduler at:' by `dask scheduler`)"
+
+
+def scheduler_address(text: Any, field: str = "--dask") -> str:
+    """``--dask`` text as a scheduler address ``SCHEME://HOST:PORT`` (``HOST:PORT`` means tcp).
+
+    Raises:
+        InputError: not text, an http(s) address (the dashboard's: the scheduler is usually tcp://HOST:8786),
+            an unknown scheme, no host, or no port / a port outside 1..65535.
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(field, text, f"need a scheduler address, {_EXAMPLE}")
+    addr = text.strip()
+    scheme, sep, rest = addr.partition("://")
+    if not sep:
+        scheme, rest = "tcp", addr
+    scheme = scheme.lower()
+    if scheme in ("http", "https"):
+        host = rest.split("/", 1)[0].rsplit(":", 1)[0] or "HOST"
+        raise InputError(field, text, f"that is a web address (the Dask dashboard's, usually port 8787); the "
+                                      f"scheduler's is usually tcp://{host}:8786")
+    if scheme not in SCHEMES:
+        raise InputError(field, text, f"unknown scheme {scheme!r} (known: {', '.join(SCHEMES)}); {_EXAMPLE}")
+    if scheme == "inproc":
+        return addr
+    hostport = rest.split("/", 1)[0]
+    host, colon, port = hostport.rpartition(":")
+    if not colon or not host.strip("[]") or not port.isdigit() or not 0 < int(port) < 65536:
+        raise InputError(field, text, f"need HOST:PORT with a port in 1..65535, {_EXAMPLE}")
+    return f"{scheme}://{hostport}"
+
+
+def probe_scheduler(address: str, timeout_s: float = CONNECT_SECONDS, field: str = "--dask",
+                    shown: str | None = None) -> None:
+    """Check that a Dask scheduler answers at the tcp ``address`` within ``timeout_s``, without dask: connect
+    and read the handshake a scheduler sends at once (msgpack naming its ``compression`` and ``python``).
+    A closed port, an unknown host or a server of another kind (a web server waits for a request and sends
+    nothing) fails here in at most ~``timeout_s`` seconds, where ``distributed.Client`` would wait for ever
+    on a server that accepts and never answers. Other schemes (tls, ucx, ...) are left to dask. ``shown``:
+    the address as the user wrote it (for the message; default ``address``).
+
+    Raises:
+        InputError: naming the address and what answered there.
+    """
+    import socket
+
+    if not address.startswith("tcp://"):
+        return
+    given = address if shown is None else shown
+    host, _, port = address[len("tcp://"):].rpartition(":")
+    host = host.strip("[]")
+    advice = "start one with `dask scheduler` (and workers with `dask worker ADDRESS`), or use --workers N"
+    try:
+        sock = socket.create_connection((host, int(port)), timeout=timeout_s)
+    except socket.gaierror:
+        raise InputError(field, given, f"unknown host {host!r}; {_EXAMPLE}") from None
+    except (socket.timeout, TimeoutError):
+        raise InputError(field, given, f"no answer from {host}:{port} in {timeout_s:g} s (a firewall, or no such "
+                                         f"machine); {advice}") from None
+    except OSError as exc:
+        raise InputError(field, given, f"nothing listens there ({exc.strerror or exc}); {advice}") from None
+    data = b""
+    try:
+        sock.settimeout(timeout_s)
+        deadline = time.monotonic() + timeout_s
+        while len(data) < 256 and time.monotonic() < deadline:
+            chunk = sock.recv(256)
+            if not chunk:
+                break
+            data += chunk
+            if b"compression" in data or b"pickle-protocol" in data:
+                return
+    except (socket.timeout, TimeoutError):
+        pass
+    except OSError:
+        pass
+    finally:
+        sock.close()
+    if not data:
+        what = (f"something accepts connections there but sent nothing in {timeout_s:g} s: not a Dask scheduler "
+                "(a web server, e.g. the dashboard, waits for a request)")
+    elif data[:5] in (b"HTTP/", b"<!DOC", b"<html"):
+        what = "a web server answers there, not a Dask scheduler"
+    else:
+        what = f"something that is not a Dask scheduler answers there ({data[:16]!r})"
+    raise InputError(field, given, f"{what}; the scheduler's address is usually tcp://HOST:8786")
+
+
 @contextlib.contextmanager
-def open_client(address: str | None = None, workers: int | None = None, *, timeout_s: float = 20.0) -> Iterator[Any]:
+def open_client(address: str | None = None, workers: int | None = None, *,
+                timeout_s: float = CONNECT_SECONDS) -> Iterator[Any]:
     """A ``distributed.Client`` for the run, or None when neither ``address`` nor ``workers`` is given.
 
     Args:
-        address: a running scheduler (``tcp://host:8786``, as printed by ``dask scheduler``).
+        address: a running scheduler (``tcp://host:8786``, as printed by ``dask scheduler``; ``host:8786``
+            means tcp).
         workers: start a local cluster of this many worker processes (one thread each), closed on exit.
-        timeout_s: how long to wait for a scheduler at ``address`` [s].
+        timeout_s: how long a scheduler at ``address`` may take to answer [s] (:data:`CONNECT_SECONDS`).
 
     Raises:
-        InputError: both given, ``workers`` < 1, no scheduler at ``address``, or dask not installed.
+        InputError: both given, ``workers`` < 1, a malformed or http address, no scheduler answering at
+            ``address`` in ``timeout_s`` (:func:`probe_scheduler`), or dask not installed.
     """
     if address is None and workers is None:
         yield None
@@ -99,12 +196,12 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
     if address is not None and workers is not None:
         raise InputError("--dask", address, "give either --dask ADDRESS (a running scheduler) or --workers N, not both")
     if address is not None:
-        if not isinstance(address, str) or not address.strip():
-            raise InputError("--dask", address, "need a scheduler address, e.g. tcp://10.0.0.5:8786")
+        addr = scheduler_address(address)
         distributed = _distributed("--dask", address)
+        probe_scheduler(addr, timeout_s, shown=address)
         try:
-            client = distributed.Client(address.strip(), timeout=timeout_s)
-        except (OSError, TimeoutError) as exc:
+            client = distributed.Client(addr, timeout=timeout_s)
+        except (OSError, TimeoutError, ValueError) as exc:
             raise InputError("--dask", address, f"no Dask scheduler answered there ({exc}); start one with "
                              "`dask scheduler` and workers with `dask worker ADDRESS`, or use --workers N") from None
         with client:
@@ -112,6 +209,11 @@ def open_client(address: str | None = None, workers: int | None = None, *, timeo
         return
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise InputError("--workers", workers, "number of local worker processes must be an integer >= 1")
+    cores = os.cpu_count() or 1
+    if workers > 4 * cores:  # each worker is a process with its own numba and numpy (~200 MB): bound the start
+        raise InputError("--workers", workers, f"this machine has {cores} cores: a local cluster takes at most "
+                                               f"{4 * cores} worker processes (one per core is best; each is a "
+                                               f"Python process of ~200 MB); use --dask ADDRESS for more")
     distributed = _distributed("--workers", workers)
     import dask
 
@@ -243,18 +345,11 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
 
 def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
-    for row, the numbers of ONE local call on all of them: an engine with the ``settings`` capability
-    (spectral: the node count) gets what :class:`millstab.forward.Forward` passes (chosen at the first
-    row); sdm gets its ``split_settings`` (the steps follow the batch's highest natural frequency); {} for
-    an engine whose rows are evaluated alone with no choice per call (zoa)."""
+    for row, the numbers of ONE local call on all of them: the settings of
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there)."""
     from millstab.forward import forward
-    from millstab.stability import get_engine
 
-    eng = get_engine(engine)
-    if hasattr(eng, "settings"):
-        return forward(par, cutting, engine).settings(np.asarray(rpm, dtype=float), np.asarray(theta_rows)[0])
-    fn = getattr(eng, "split_settings", None)
-    return fn(par.batch(theta_rows), cutting, rpm) if fn is not None else {}
+    return dict(forward(par, cutting, engine).pinned(rpm, theta_rows).settings)
 
 
 def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, rows: np.ndarray) -> np.ndarray:
@@ -266,14 +361,16 @@ def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, row
 
 
 def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray,
-           progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None) -> np.ndarray:
+           progress: Callable[[int, int], None] | None = None, chunk_rows: int | None = None,
+           settings: dict | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
     the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
     is evaluated alone, under the whole batch's :func:`split_settings`), for SDM/spectral maps as for
     the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
-    ``progress(rows_done, R)`` after each task's result has arrived.
+    ``progress(rows_done, R)`` after each task's result has arrived. ``settings``: the engine's pinned
+    discretisation (:meth:`millstab.forward.Forward.pinned`; default: pinned on ``theta_rows``).
     """
     from millstab.stability import get_engine
 
@@ -281,7 +378,8 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     rpm = np.asarray(rpm, dtype=float)
     theta_rows = np.asarray(theta_rows, dtype=float)
     n = theta_rows.shape[0]
-    settings = split_settings(engine, par, cutting, theta_rows, rpm)
+    if settings is None:
+        settings = split_settings(engine, par, cutting, theta_rows, rpm)
     sec = warm(client, engine, par, cutting, rpm)
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
 import numpy as np
 
@@ -79,6 +80,66 @@ class Forward:
         self._settings[r.tobytes()] = new
         return new != old
 
+    def pinned(self, rpm: np.ndarray, theta_rows: np.ndarray | None = None) -> Pinned:
+        """This model at the speeds ``rpm`` (S,) [rev/min] with the engine's discretisation fixed now for a
+        whole problem whose parameter rows are (or are bounded by) ``theta_rows`` (R, P) [SI] (default the
+        start θ0): an engine with ``settings`` (spectral) chooses it at the first row, as :meth:`settings`;
+        one with ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows;
+        ``{}`` otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in
+        any chunks, here or on a cluster, then gives the numbers of ONE call on all of them."""
+        r = np.asarray(rpm, dtype=float)
+        rows = np.atleast_2d(np.asarray(self.par.theta0 if theta_rows is None else theta_rows, dtype=float))
+        if getattr(self._engine_mod, "settings", None) is not None:
+            chosen = self.settings(r, rows[0])
+        else:
+            split = getattr(self._engine_mod, "split_settings", None)
+            chosen = dict(split(self.par.batch(rows), self.cutting, r)) if split is not None else {}
+        return Pinned(self, r, chosen)
+
+
+@dataclass(frozen=True, eq=False)
+class Pinned:
+    """A forward model at fixed speeds with a fixed discretisation (:meth:`Forward.pinned`): ``f(θ)`` →
+    depths (B, S) [m]; :meth:`map` evaluates many rows in chunks or on a Dask cluster, same numbers."""
+
+    forward: Forward
+    rpm: np.ndarray
+    settings: MappingProxyType
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rpm", np.asarray(self.rpm, dtype=float))
+        object.__setattr__(self, "settings", MappingProxyType(dict(self.settings)))
+
+    def __reduce__(self):  # a read-only mapping does not pickle; a Dask task gets a copy
+        return Pinned, (self.forward, self.rpm, dict(self.settings))
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call."""
+        t = np.atleast_2d(np.asarray(theta, dtype=float))
+        f = self.forward
+        return f._engine_mod.envelope_batch(f.par.batch(t), f.cutting, self.rpm, **self.settings)
+
+    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
+        """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
+        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each), or as tasks on the
+        Dask cluster of ``client`` (:func:`millstab.cluster.depths`). The discretisation is pinned, so
+        neither the chunk size nor the cluster changes a number."""
+        rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        f = self.forward
+        if client is not None:
+            from millstab import cluster
+
+            return cluster.depths(client, f.engine, f.par, f.cutting, rows, self.rpm, progress, chunk_rows,
+                                  settings=dict(self.settings))
+        per = int(chunk_rows or f._engine_mod.chunk_rows(self.rpm.size))
+        out = np.empty((rows.shape[0], self.rpm.size))
+        for start in range(0, rows.shape[0], per):
+            stop = min(rows.shape[0], start + per)
+            out[start:stop] = self(rows[start:stop])
+            if progress:
+                progress(stop, rows.shape[0])
+        return out
+
 
 def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> Forward:
     """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`)."""
@@ -142,4 +203,4 @@ def log_jacobian(f, theta: np.ndarray, rpm: np.ndarray, *, rel_step: float = FD_
     return jac[:, :m], slope
 
 
-__all__ = ["FD_STEP", "Forward", "fd_difference", "fd_rows", "forward", "log_jacobian"]
+__all__ = ["FD_STEP", "Forward", "Pinned", "fd_difference", "fd_rows", "forward", "log_jacobian"]

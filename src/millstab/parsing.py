@@ -11,6 +11,7 @@ from typing import Mapping
 
 import numpy as np
 
+from millstab.bounds import check_speeds
 from millstab.errors import InputError
 
 
@@ -37,15 +38,20 @@ def parse_assignments(text: str | Mapping[str, float] | None, field_name: str = 
     return out
 
 
+#: units that mark a range of spindle speeds (checked against millstab.bounds)
+_SPEED_UNITS = ("rpm", "rev/min")
 #: the most grid points a range may expand to
 MAX_POINTS = 1_000_000
 
 
 def parse_interval(text: str, field: str, unit: str, *, positive: bool = False) -> tuple[float, float]:
-    """``LOW:HIGH`` → (low, high) with 0 ≤ low < high (0 < low with ``positive``)."""
+    """``LOW:HIGH`` → (low, high) with 0 ≤ low < high (0 < low with ``positive``); a range of spindle speeds
+    (``unit`` rpm or rev/min) must also lie within :func:`millstab.bounds.check_speeds`'s bounds."""
     lo, hi = _numbers(text, field, unit, "LOW:HIGH")
     if not (lo > 0 if positive else lo >= 0) or not hi > lo:
         raise InputError(field, text, f"need {'0 <' if positive else '0 <='} LOW < HIGH ({unit})")
+    if unit in _SPEED_UNITS:
+        check_speeds((lo, hi), field, text)
     return lo, hi
 
 
@@ -66,8 +72,11 @@ def parse_grid(text: str, field: str, unit: str, *, positive: bool = False, exam
 
 
 def parse_rpm_range(text: str, field: str = "--rpm") -> np.ndarray:
-    """Spindle speeds ``START:STOP:STEP`` [rev/min], all > 0."""
-    return parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25")
+    """Spindle speeds ``START:STOP:STEP`` [rev/min], all within :func:`millstab.bounds.check_speeds`'s bounds
+    (10..500 000 rev/min: below, the engines' work grows without bound)."""
+    grid = parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25")
+    check_speeds(grid, field, text)
+    return grid
 
 
 def _numbers(text: str, field: str, unit: str, form: str, example: str = "") -> tuple[float, ...]:

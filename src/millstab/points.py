@@ -100,6 +100,7 @@ class PointSet:
         object.__setattr__(self, "batch", batch.astype(str) if n else np.array([], dtype="<U1"))
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
+        check_plausible(self)  # a speed of 0.001 rpm or a chatter frequency of 10 MHz: refused, whichever the door
 
     def __len__(self) -> int:
         return int(self.rpm.size)
@@ -171,4 +172,28 @@ def check_speeds(rpm: np.ndarray, n_free: int, source=None) -> int:
     return distinct
 
 
-__all__ = ["GRADE", "LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_speeds"]
+def check_plausible(points: PointSet) -> PointSet:
+    """``points`` itself when every speed lies within :data:`millstab.bounds.MIN_RPM`..``MAX_RPM`` and every
+    chatter frequency is at most :data:`millstab.bounds.MAX_CHATTER_HZ` (module :mod:`millstab.bounds`: why).
+
+    Raises:
+        InputError: naming the file (when known), the data row (1 = the first row after the header,
+            comment and blank lines not counted), the column and the value.
+    """
+    from millstab.bounds import MAX_CHATTER_HZ, MAX_RPM, MIN_RPM, speed_rule
+
+    where = f"{points.source.name} " if points.source is not None else ""
+    slow = (points.rpm < MIN_RPM) | (points.rpm > MAX_RPM)
+    if slow.any():
+        i = int(np.argmax(slow))
+        raise InputError(f"{where}data row {i + 1}, column rpm", float(points.rpm[i]), speed_rule())
+    high = points.chatter_hz > MAX_CHATTER_HZ  # NaN (not measured) compares False
+    if high.any():
+        i = int(np.argmax(high))
+        raise InputError(f"{where}data row {i + 1}, column chatter_hz", float(points.chatter_hz[i]),
+                         f"a chatter frequency is a vibration of the tool, holder or spindle: at most "
+                         f"{MAX_CHATTER_HZ:,.0f} Hz (is it in Hz? a rate in rpm or a sample rate?)")
+    return points
+
+
+__all__ = ["GRADE", "LABELS", "LABEL_RULE", "PointSet", "check_enough", "check_plausible", "check_speeds"]

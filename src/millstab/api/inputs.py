@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
+from millstab.bounds import check_speeds
 from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
@@ -26,14 +28,36 @@ MAX_FRF_BYTES = 20_000_000
 
 
 def config(source: Config | str | os.PathLike) -> Config:
-    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute)."""
-    return source if isinstance(source, Config) else load_config(source)
+    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute).
+
+    Raises:
+        InputError: as the file's reader, and for ``[speeds]`` outside :func:`millstab.bounds.check_speeds`'s
+            bounds (naming the file and ``[speeds]``).
+    """
+    return _bounded(source if isinstance(source, Config) else load_config(source))
 
 
-def config_from_text(text: str | bytes, name: str = "config") -> Config:
-    """A config parsed from TOML text (an upload); ``name`` names it in messages. An FRF table a config
-    refers to by file name cannot be resolved from text alone (upload the FRF instead)."""
-    return parse_config(_text(text, name), name=Path(name).stem or name)
+def _bounded(cfg: Config) -> Config:
+    """``cfg`` when its ``[speeds]`` lie within :func:`millstab.bounds.check_speeds`'s bounds (a config's own
+    speeds drive every command that is given no --rpm)."""
+    if cfg.rpm is not None:
+        check_speeds(cfg.rpm, f"{cfg.path.name if cfg.path else cfg.name} [speeds]")
+    return cfg
+
+
+def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str, str | os.PathLike] | None = None
+                     ) -> Config:
+    """A config parsed from TOML text (an upload); ``name`` names it in messages.
+
+    Text has no folder, and an upload must not make the server read its files: a ``[structure.frf]``
+    file name is looked up only in ``files`` ({file name as uploaded: path}, the files uploaded in the
+    same browser session) and any other name or path is refused before a file is opened. Without
+    ``files`` every FRF file reference is refused.
+
+    Raises:
+        InputError: as for a config file; ``structure.frf.xx`` for a file not in ``files``.
+    """
+    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {})))
 
 
 def points(source: PointSet | str | os.PathLike) -> PointSet:
@@ -47,16 +71,17 @@ def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
     return parse_points(_text(text, name), name)
 
 
-def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike | None = None) -> Config:
+def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike | None = None,
+                       files: Mapping[str, str | os.PathLike] | None = None) -> Config:
     """A config from the parsed-TOML form of its tables (``{"cutting": {...}, "structure": {...}}``, values
     numbers or strings with units exactly as in a TOML file): a form's fields go through the validators of
     a file. ``base_dir`` resolves the file names of a ``[structure.frf]`` table (the web app's per-session
-    folder of uploaded FRF files).
+    folder of uploaded FRF files); ``files`` instead confines them as in :func:`config_from_text`.
 
     Raises:
         InputError: as for a config file, naming the field (``cutting.kt``, ``structure.x[0].fn``).
     """
-    return config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None)
+    return _bounded(config_from_dict(fields, name, None, Path(base_dir) if base_dir is not None else None, files))
 
 
 def config_fields(cfg: Config) -> dict:
@@ -90,18 +115,19 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
     ``[speeds]``, else the ``fallback`` grid.
 
     Raises:
-        InputError: bad range text, or a speed ≤ 0 or not finite.
+        InputError: bad range text, or a speed outside :func:`millstab.bounds.check_speeds`'s bounds
+            (10..500 000 rev/min) or not finite.
     """
     if spec is None:
         if cfg is not None and cfg.rpm is not None:
-            return np.asarray(cfg.rpm, dtype=float)
+            return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
         return parse_rpm_range(spec, field)
     r = np.asarray(spec, dtype=float).ravel()
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")
-    return r
+    return check_speeds(r, field)
 
 
 def modal(cfg: Config, modes: int | str = "auto") -> tuple[Config, str | None]:

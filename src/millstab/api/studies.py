@@ -21,8 +21,10 @@ def _feed(feed_mm: float) -> float:
 def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float = 0.1, revs: float = 100.0,
                  steps: int | None = None, start: str = "steady"):
     """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection)."""
+    from millstab.bounds import check_speeds
     from millstab.simulate import detect, simulate_cut as run
 
+    check_speeds(rpm, "--rpm")  # a near-zero speed is days of steps: refused before the work
     res = run(cfg.structure, cfg.cutting, rpm, depth_mm * 1e-3, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
               start=start)
     return res, detect(res)
@@ -31,8 +33,10 @@ def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float = 0
 def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float = 100.0, steps: int | None = None,
                start: str = "steady", label_noise: float = 0.0, marginal: str = "keep", seed: int | None = None):
     """Simulate and label the cuts (:class:`millstab.simulate.Labels`: stable | marginal | chatter, chatter Hz)."""
+    from millstab.bounds import seed as check_seed
     from millstab.simulate import label_cuts as run
 
+    check_seed(seed)
     return run(cfg.structure, cfg.cutting, cuts.rpm, cuts.depth_m, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
                start=start, label_noise=label_noise, marginal=marginal, seed=seed)
 
@@ -43,11 +47,14 @@ def labels_table(labels) -> tuple[list[str], list]:
 
 
 def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | None = None,
-              records: tuple[int | None, int | None] = (None, None)):
-    """Modes fitted to measured drive-point FRF files (:class:`millstab.modal.run.ModalResult`)."""
+              records: tuple[int | None, int | None] = (None, None), frf_type: str = "auto"):
+    """Modes fitted to measured drive-point FRF files (:class:`millstab.modal.run.ModalResult`); ``frf_type``:
+    what the files hold, ``auto`` (detected; mobility/accelerance refused with the conversion), ``receptance``,
+    ``mobility`` or ``accelerance`` (converted)."""
     from millstab.modal.run import fit_files, parse_band, parse_modes
 
-    return fit_files(frf_x, frf_y, band=parse_band(band), modes=parse_modes(modes), records=records)
+    return fit_files(frf_x, frf_y, band=parse_band(band), modes=parse_modes(modes), records=records,
+                     frf_type=frf_type)
 
 
 def reproduce(out: str | Path, *, quick: bool = False, seed: int = 0, points: str | Path | None = None,

@@ -8,6 +8,8 @@ import numpy as np
 
 from millstab.api.inputs import modal
 from millstab.api.progress import Progress
+from millstab.bounds import samples as check_samples
+from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
@@ -33,8 +35,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     """
     from millstab.update import update as run_update
 
-    if samples < 100:
-        raise InputError("--samples", samples, "need at least 100 samples")
+    check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
+    check_seed(seed)
     cfg, _ = modal(cfg)
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client
@@ -118,5 +120,6 @@ def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm
     """
     from millstab.update import recommend as run_recommend
 
+    check_seed(seed)
     return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
                          seed=seed, **rule)

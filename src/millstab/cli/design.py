@@ -9,6 +9,7 @@ import numpy as np
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 from millstab.parsing import parse_rpm_range
 from millstab.cli.identify import show_value
 
@@ -37,7 +38,7 @@ def design(
     noise: float = typer.Option(0.02, "--noise", help="Relative standard deviation of a measured limiting depth (0.02 = 2 %)."),
     speed_noise: float = typer.Option(0.005, "--speed-noise", help="Relative uncertainty of the boundary's speed (0.005 = 0.5 %)."),
     samples: int = typer.Option(16, "--samples", help="Parameter samples the plan averages over."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the parameter samples (same seed, same plan)."),
+    seed: int = seed_option(0, "Seed of the parameter samples (same seed, same plan)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the plan as CSV: rpm,tests,predicted_depth_mm."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="The SLD with the planned and measured speeds (.png/.svg/.pdf)."),
 ) -> None:

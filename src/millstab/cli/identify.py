@@ -9,6 +9,7 @@ import numpy as np
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 from millstab.stability import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
@@ -33,7 +34,7 @@ def identify(
     free: Optional[str] = typer.Option(None, "--free", help="Free parameters, e.g. fn_x,k_x,zeta_x (default: all)."),
     axisymmetric: bool = typer.Option(False, "--axisymmetric", help="Tie x and y (parameters fn, k, zeta)."),
     initial: Optional[str] = typer.Option(None, "--initial", help="Start values in SI, e.g. fn_x=900,k_x=12e6."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the random designs (same seed, same numbers)."),
+    seed: int = seed_option(0, "Seed of the random designs (same seed, same numbers)."),
     loss: str = typer.Option("linear", "--loss", help="Robust loss (lsq): linear, soft_l1, huber, cauchy, arctan."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)}."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the fit as JSON."),

@@ -26,19 +26,23 @@ def modal(
     rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP of the SLD check (rev/min)."),
     record_x: Optional[int] = typer.Option(None, "--record-x", help="UFF record of FRF_X (0-based among its dataset-58 records)."),
     record_y: Optional[int] = typer.Option(None, "--record-y", help="UFF record of FRF_Y."),
+    frf_type: str = typer.Option("auto", "--frf-type", help="What the files hold: auto (told from phase and slope; "
+                                 "mobility and accelerance are refused, naming the conversion), receptance (m/N), "
+                                 "mobility ((m/s)/N) or accelerance ((m/s^2)/N), converted to receptance."),
 ) -> None:
     """Fit FRF_X (and FRF_Y) to modes (fn, k, zeta) and write them as a config's [structure] section."""
     from millstab.io import write_json
     from millstab.io.outputs import check_outputs, config_inputs
     from millstab.modal.output import quality, write_structure
     from millstab import api
-    from millstab.modal.run import measured_structure, parse_band, sld_check
+    from millstab.modal.run import check_frf_type, measured_structure, parse_band, sld_check
 
+    frf_type = check_frf_type(frf_type)  # before any reading
     cfg = api.config(config) if config else None
     inputs = {"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})}
     check_outputs(inputs, {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
-    result = api.modal_fit(frf_x, frf_y, band=band, modes=modes, records=(record_x, record_y))
+    result = api.modal_fit(frf_x, frf_y, band=band, modes=modes, records=(record_x, record_y), frf_type=frf_type)
     sources = {d: fit.source for d, fit in result.fits.items()}
     for d, fit in result.fits.items():
         typer.echo(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
@@ -49,7 +53,7 @@ def modal(
     check = None
     if cfg is not None:
         speeds = select_rpm(rpm, None, cfg.rpm, FALLBACK_RPM)
-        measured = measured_structure(frf_x, frf_y, parse_band(band), (record_x, record_y))
+        measured = measured_structure(frf_x, frf_y, parse_band(band), (record_x, record_y), frf_type)
         check = sld_check(result.structure, measured, cfg.cutting, speeds)
         typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "
                    f"minimum depth {check.min_fitted_mm:.4g} mm from the fit vs {check.min_measured_mm:.4g} mm from the "

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 
 #: the kinds of file the report writes into its folder (report.md/.html, tables as CSV, figures as PNG)
 REPORT_KINDS = (".md", ".html", ".csv", ".png")
@@ -19,7 +20,7 @@ def reproduce(
     out: Path = typer.Option(Path("millstab-report"), "--out", help="Output folder for report.md/.html, figures, CSVs."),
     quick: bool = typer.Option(False, "--quick", help="Smaller Monte Carlo, fewer identification starts, SDM only on coarse grids (no SDM cross-check of the examples): a faster run."),
     points: Optional[Path] = typer.Option(None, "--points", help="The four-flute chatter tests, if you have them (CSV rpm,depth_mm[,label])."),
-    seed: int = typer.Option(0, "--seed", help="Seed of every random process in the run."),
+    seed: int = seed_option(0, "Seed of every random process in the run."),
 ) -> None:
     """Reproduce the seed paper's tables and figures, our values beside the paper's."""
     from rich.console import Console

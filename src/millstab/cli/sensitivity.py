@@ -5,6 +5,7 @@ Each method is its own subcommand with its own options and help; they share one 
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Iterator, List, Optional
@@ -14,6 +15,8 @@ import typer
 from typer.core import TyperGroup
 
 from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
+from millstab.cli.options import seed_callback
+from millstab.bounds import check_speeds
 from millstab.errors import InputError
 from millstab.stability import ENGINES
 
@@ -95,7 +98,8 @@ RpmFileOpt = Annotated[Optional[Path], typer.Option("--rpm-file", help="Speeds, 
 OutOpt = Annotated[Optional[Path], typer.Option("--out", help="Result JSON (MSE in mm^2).")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Figure (.png, .svg or .pdf).")]
 EngineOpt = Annotated[str, typer.Option("--engine", help=f"Stability engine: {', '.join(ENGINES)}.")]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers.")]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, same numbers; 0..4294967295.",
+                                      callback=seed_callback)]
 TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-width: each parameter drawn from "
                                                          "[(1-t)p, (1+t)p] (0.1).")]
 BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
@@ -199,8 +203,11 @@ def _client(dask: str | None, workers: int | None) -> Iterator:
     if dask is None and workers is None:
         yield None
         return
-    from millstab.cluster import open_client
+    from millstab.cluster import CONNECT_SECONDS, open_client
 
+    if sys.stderr.isatty():  # on a terminal only: a pipe's stderr keeps an error to one line
+        typer.echo(f"Dask: connecting to {dask} (at most ~{CONNECT_SECONDS:g} s)…" if dask else
+                   f"Dask: starting {workers} local workers…", err=True)
     with open_client(dask, workers) as client:
         n_workers = len(client.scheduler_info()["workers"])
         where = f"scheduler {dask}" if dask else "a local cluster started for this run"
@@ -234,6 +241,8 @@ def _run(method: str, config: str, rpm: str | None, rpm_file: Path | None, n: in
     bounds = _parse_bounds(bound)
     cfg = api.config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
+    if rpm_file:  # --rpm text and [speeds] are checked where they are parsed; a file's speeds here
+        check_speeds(speeds, f"--rpm-file {rpm_file.name}")
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
     protect = [p for p in inputs.values() if p]

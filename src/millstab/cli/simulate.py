@@ -1,12 +1,13 @@
 """``millstab simulate``: virtual test cuts (time-domain simulation and chatter detection).
 
 One cut:   millstab simulate CONFIG --rpm R --depth MM [--feed-per-tooth MM] [--revs N] [--plot cut.png]
-           [--out trace.csv]
-Many cuts: millstab simulate CONFIG --cuts cuts.csv --out labelled.csv [--label-noise P --seed S]
+           [--out trace.csv] [--record cut.wav [--sensor microphone|accelerometer] [--noise X] [--seed S]]
+Many cuts: millstab simulate CONFIG --cuts cuts.csv [--out labelled.csv] [--label-noise P --seed S]
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -14,6 +15,7 @@ import numpy as np
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import seed_option
 from millstab.errors import InputError
 
 
@@ -28,45 +30,66 @@ def simulate(
     steps: Optional[int] = typer.Option(None, "--steps", help="Steps per tooth period (>= 20; default automatic)."),
     start: str = typer.Option("steady", "--start",
                               help="steady (engaged cut, small bump) or rest (entering at full depth)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="CSV: with --cuts rpm,depth_mm,label,chatter_hz; "
+    out: Optional[Path] = typer.Option(None, "--out", help="CSV: with --cuts rpm,depth_mm,label,chatter_hz "
+                                                           "(without --out the table is printed); "
                                                            "else the trace t_s,x_m,y_m,fx_N,fy_N."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure of one cut (.png, .svg or .pdf)."),
+    record: Optional[Path] = typer.Option(None, "--record", help="What a sensor would record of one cut: "
+                                                                 ".wav (16-bit, 48 kHz) or .csv time_s,signal."),
+    sensor: str = typer.Option("microphone", "--sensor", help="microphone or accelerometer (with --record)."),
+    noise: float = typer.Option(0.02, "--noise", help="Sensor noise RMS relative to the vibration's (with --record)."),
     label_noise: float = typer.Option(0.0, "--label-noise",
                                       help="Probability that a stable/chatter label is swapped (needs --seed)."),
     marginal: str = typer.Option("keep", "--marginal", help="keep the 'marginal' label, or 'random': call it "
                                                             "stable/chatter at even odds (needs --seed)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the label noise."),
+    seed: Optional[int] = seed_option(None, "Seed of the label noise (--cuts) or of the recording's noise (--record)."),
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
     from millstab import api
     from millstab.io import read_points, write_csv
+    from millstab.io.outputs import check_outputs, config_inputs
 
     cfg = api.config(config)
-    protect = [p for p in (cfg.path, cuts) if p]
+    inputs = {**config_inputs(cfg), "--cuts": cuts}
+    # every output checked before the work (an hour of cuts is not lost to a bad path)
+    check_outputs(inputs, {"--out": out, "--plot": plot, "--record": record}, figures=("--plot",))
+    protect = [p for p in inputs.values() if p]
+    if record is not None and record.suffix.lower() not in (".wav", ".csv"):
+        raise InputError("--record", str(record), "a .wav or .csv file")
+    if marginal not in ("keep", "random"):
+        raise InputError("--marginal", marginal, "keep or random")
     if cuts is not None:
         if rpm is not None or depth is not None:
             raise InputError("--cuts", str(cuts), "give either --cuts or --rpm/--depth, not both")
-        if plot is not None:
-            raise InputError("--plot", str(plot), "a figure is drawn for one cut (--rpm/--depth), not for --cuts")
+        for opt, given in (("--plot", plot), ("--record", record)):
+            if given is not None:
+                raise InputError(opt, str(given), f"{opt} is for one cut (--rpm/--depth), not for --cuts")
         pts = read_points(cuts)
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
         counts = ", ".join(f"{int(np.sum(lab.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
         typer.echo(f"{cfg.name}: {len(pts)} cuts labelled: {counts}")
+        header, columns = api.labels_table(lab)
         if out:
-            write_csv(out, *api.labels_table(lab), protect=protect)
+            write_csv(out, header, columns, protect=protect)
             typer.echo(f"wrote {out}")
+        else:
+            from millstab.io.results import csv_text
+
+            typer.echo(csv_text(header, columns), nl=False)
         return
     if rpm is None or depth is None:
         raise InputError("--rpm/--depth", f"{rpm}/{depth}",
                          "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
-    if label_noise or seed is not None or marginal != "keep":
-        raise InputError("--label-noise", label_noise, "label noise applies to --cuts only")
+    for opt, bad in (("--label-noise", label_noise != 0.0), ("--marginal", marginal != "keep")):
+        if bad:
+            raise InputError(opt, label_noise if opt == "--label-noise" else marginal,
+                             f"{opt} applies to --cuts only")
+    if seed is not None and record is None:
+        raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record (sensor noise)")
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
-    hz = f" at {det.chatter_hz:.1f} Hz ({det.lobe})" if det.label != "stable" else ""
     typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {feed:g} mm/tooth, {res.periods} tooth periods: "
-               f"{det.label}{hz}; growth {det.growth:.3g}, level {det.level:.3g}"
-               + ("; the vibration diverged" if res.diverged else ""))
+               + _detection_line(det, res.diverged))
     if out:
         write_csv(out, ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [res.t, res.x, res.y, res.fx, res.fy], protect=protect)
         typer.echo(f"wrote {out}")
@@ -76,3 +99,25 @@ def simulate(
 
         save_figure(plot_cut(res, det, title=cfg.name), plot, protect=protect)
         typer.echo(f"wrote {plot}")
+    if record:
+        from millstab.io.recordings import write_recording
+
+        rec = api.record_cut(res, sensor=sensor, noise=noise, seed=0 if seed is None else seed)
+        write_recording(record, rec.fs, rec.signal, protect=protect)
+        typer.echo(f"wrote {record} ({rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+
+
+def _detection_line(det, diverged: bool) -> str:
+    """'chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31' (never 'nan')."""
+    text = det.label
+    if det.label != "stable" and math.isfinite(det.chatter_hz):
+        text += f" at {det.chatter_hz:.1f} Hz" + (f" ({det.lobe})" if det.lobe else "")
+    parts = []
+    if math.isfinite(det.growth):
+        parts.append(f"growth {det.growth:.3g}" + (f" (|mu| {det.multiplier:.5g} per tooth period)"
+                                                    if math.isfinite(det.multiplier) else ""))
+    if math.isfinite(det.level):
+        parts.append(f"level {det.level:.3g}")
+    if parts:
+        text += "; " + ", ".join(parts)
+    return text + ("; the vibration diverged" if diverged else "")

@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.options import samples_option, seed_option
 from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
 from millstab.parsing import parse_rpm_range
 from millstab.errors import InputError
@@ -32,8 +33,8 @@ def update_cmd(
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
                                                        "spectral use measured chatter frequencies)."),
-    samples: int = typer.Option(4000, "--samples", help="Posterior samples (SMC particles)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the sampler (same seed, same samples)."),
+    samples: int = samples_option(4000, "Posterior samples (SMC particles)."),
+    seed: int = seed_option(0, "Seed of the sampler (same seed, same samples)."),
     out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/2)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
@@ -49,7 +50,16 @@ def update_cmd(
     from millstab.io import check_outputs, config_inputs, read_points, write_json
 
     cfg = api.config(config)
-    c = read_points(cuts)
+    # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
+    from millstab.io.recordings import has_recording_column
+
+    if has_recording_column(cuts):
+        c, heard = api.label_from_recordings(cuts, cfg.cutting.teeth)
+        for line in heard:
+            typer.echo(line)
+    else:
+        c = read_points(cuts)
+    # --- end listen --------------------------------------------------------------------------------
     p = read_points(points) if points is not None else None
     inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
@@ -146,7 +156,7 @@ def recommend_cmd(
     max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
     radial_width: Optional[float] = typer.Option(None, "--radial-width", help="Radial width of cut [mm] (for cm³/min)."),
     feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the next-test subsample."),
+    seed: int = seed_option(0, "Seed of the next-test subsample."),
     confidence: str = typer.Option("0.9", "--confidence",
                                    help="P(chatter) <= RISK must hold with this one-sided confidence against the "
                                         "posterior's sampling error, in [0.5, 1); 'none': the plain sample count."),

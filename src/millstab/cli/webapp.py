@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import typer
 
 from millstab.cli.app import app
@@ -11,17 +14,39 @@ from millstab.errors import InputError
 @app.command("app")
 def app_cmd(
     port: int = typer.Option(5006, "--port", help="TCP port (0: a free one)."),
-    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind; the default serves this machine only "
-                                                        "(0.0.0.0 serves the network: anyone who reaches it can use it)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind; the default serves this machine only. Any "
+                                                        "other (0.0.0.0: every network interface) needs --users."),
+    users: Path = typer.Option(None, "--users", help="Users file (name:hash lines): every page then needs a login. "
+                                                     "Required for a --host other than 127.0.0.1, localhost, ::1."),
+    add_user: str = typer.Option(None, "--add-user", metavar="NAME", help="Add NAME (or change its password) in the "
+                                 "--users file, asking for the password, and exit."),
+    password_stdin: bool = typer.Option(False, "--password-stdin", help="With --add-user: read the password from the "
+                                        "first line of standard input (scripts) instead of asking."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser tab."),
 ) -> None:
     """Serve the stability tools as a web page (tool and cut, lobes, identify, update, downloads); prints the URL."""
+    from millstab.web import auth
+
+    if add_user is not None:
+        if users is None:
+            raise InputError("--add-user", add_user, "give the file too: --users FILE")
+        auth.check_name(add_user)
+        if password_stdin:
+            password = sys.stdin.readline().rstrip("\r\n")
+        else:
+            password = typer.prompt(f"password for {add_user}", hide_input=True, confirmation_prompt=True)
+        path = auth.add_user(users, add_user, password)
+        print(f"millstab app: {add_user} added to {path}; serve with --users {path}")
+        return
+    if password_stdin:
+        raise InputError("--password-stdin", True, "only with --add-user NAME --users FILE")
     if not 0 <= port <= 65535:
         raise InputError("--port", port, "must be a TCP port 0..65535")
+    accounts = auth.read_users(users) if users is not None else None
     try:
         import panel  # noqa: F401
     except ImportError:
         raise InputError("millstab app", "panel not installed", "install the app extra: pip install 'millstab[app]'") from None
     from millstab.web import serve
 
-    serve(port=port, host=host, show=not no_browser)
+    serve(port=port, host=host, show=not no_browser, users=accounts)

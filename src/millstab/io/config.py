@@ -64,6 +64,7 @@ import math
 import re
 import tomllib
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -76,7 +77,7 @@ from millstab.config import Config, PriorTable  # the model types, re-exported f
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
-TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior")
+TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
 PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails")
 #: the prior's tails (millstab.update.prior.TAILS)
@@ -192,7 +193,7 @@ def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
     return tuple(modes)
 
 
-def _structure(t: Any, base_dir: Path | None) -> Structure:
+def _structure(t: Any, base_dir: Path | None, files: Mapping[str, PathLike] | None = None) -> Structure:
     t = _check_keys(t, "structure", STRUCTURE_KEYS)
     if "frf" in t:
         if t.get("x") or t.get("y"):
@@ -201,7 +202,8 @@ def _structure(t: Any, base_dir: Path | None) -> Structure:
         frf_t = _check_keys(t["frf"], "structure.frf", FRF_KEYS)
         from millstab.io.frf_files import load_measured_frf
 
-        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf")
+        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf",
+                                files=files)
         return Structure(frf=frf)
     x = _modes(t.get("x", []), "x")
     y = _modes(t.get("y", []), "y")
@@ -309,12 +311,15 @@ def _speeds(t: Any) -> np.ndarray:
 
 
 def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path | None = None,
-                     base_dir: Path | None = None) -> Config:
-    """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths."""
+                     base_dir: Path | None = None, files: Mapping[str, PathLike] | None = None) -> Config:
+    """Build a :class:`Config` from parsed TOML (a dict); ``base_dir`` resolves relative FRF paths.
+    ``files`` ({name: path}) confines the ``[structure.frf]`` file names to its keys
+    (:func:`millstab.io.frf_files.load_measured_frf`): nothing else is opened."""
     data = _check_keys(data, "", TOP_KEYS)
     for key in ("cutting", "structure"):
-        if key not in data:
-            raise InputError(key, None, "missing; a config needs [cutting] and [structure] tables")
+        if key not in data and not (key == "structure" and "tool" in data):
+            raise InputError(key, None, "missing; a config needs [cutting] and [structure] tables "
+                                        "(or [tool] and [holder] instead of [structure])")
     name_value = data.get("name", name)
     if not isinstance(name_value, str):
         raise InputError("name", name_value, "must be a string")
@@ -322,19 +327,29 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
-    structure = _structure(data["structure"], base_dir)
+    if "tool" in data or "holder" in data:
+        structure = _tool_structure(data, base_dir, files)
+    else:
+        structure = _structure(data["structure"], base_dir, files)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
     return Config(cutting, structure, name_value, path, rpm, description, prior)
 
 
-def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None) -> Config:
-    """Parse config TOML text (``path`` of the result is ``None``)."""
+def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
+                 files: Mapping[str, PathLike] | None = None) -> Config:
+    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`.
+
+    Text has no folder: without ``base_dir`` (the caller's word for where its FRF files are) and without
+    ``files``, a ``[structure.frf]`` file name is refused, never looked up from the working directory
+    or as an absolute path (the text may come from anyone: an upload)."""
+    if base_dir is None and files is None:
+        files = {}
     try:
         data = tomllib.loads(text.lstrip("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(name, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
-    return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None)
+    return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None, files)
 
 
 def load_config(source: PathLike) -> Config:
@@ -433,4 +448,260 @@ def write_config(path: PathLike, config: Config, protect: Iterable[PathLike] = (
     return atomic_write_text(path, config_to_toml(config), protect)
 
 
-__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "parse_config", "write_config"]
+# ------------------------------------------------------------------ [tool] + [holder] (docs/tooltip.md)
+
+TOOL_KEYS = ("diameter", "stickout", "fluted_length", "flute_diameter_ratio", "material", "E", "density", "nu",
+             "zeta")
+HOLDER_KEYS = ("rigid", "modes", "frf", "artifact", "finite_differences")
+FD_KEYS = ("spacing", "h00", "h01", "h11", "h02", "h12", "h22", "diameter", "material", "E", "density", "nu")
+HOLDER_MODE_KEYS = ("fn", "k", "zeta", "slope")
+HOLDER_FRF_KEYS = ("h", "l", "n", "p")
+ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu", "zeta", "tip", "cross",
+                 "offset_direct")
+#: the largest plausible lengths [m] of a tool's diameter and stickout (a bigger one is mm written as m)
+_MAX_LENGTH = {"diameter": 0.2, "stickout": 1.0, "fluted_length": 1.0, "length": 1.0, "offset": 1.0}
+
+
+def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | None = None) -> float:
+    if key not in t:
+        if default is None:
+            raise InputError(f"{field}.{key}", None, f"missing; give it with its unit, e.g. {key} = \"12 mm\"")
+        return default
+    value = t[key]
+    x = parse_quantity(value, f"{field}.{key}", "length")
+    if x <= 0:
+        raise InputError(f"{field}.{key}", value, "must be a length > 0, e.g. \"12 mm\"")
+    top = _MAX_LENGTH.get(key, 1.0)
+    if x > top:
+        raise InputError(f"{field}.{key}", value, f"is {x:g} m, more than {top:g} m for a tool's {key}; a plain number "
+                                                  f"means metres: did you mean \"{x:g} mm\"?")
+    return x
+
+
+def _material(t: Mapping[str, Any], field: str):
+    from millstab.tooltip.beam import Material, material
+    from millstab.units import _parse_string
+
+    if "material" in t:
+        if "E" in t or "density" in t:
+            raise InputError(f"{field}.material", t["material"], "give either a material name or E and density, not both")
+        return material(t["material"])
+    if "E" not in t or "density" not in t:
+        raise InputError(f"{field}.material", None, "missing; give material = \"carbide\" (or steel, hss, aluminium) "
+                                                    "or E = \"600 GPa\" and density = \"14600 kg/m^3\"")
+    E = parse_quantity(t["E"], f"{field}.E", "pressure")
+    rho_raw = t["density"]
+    allowed = "a density, e.g. \"14600 kg/m^3\" (plain number = kg/m^3)"
+    rho = (float(rho_raw) if isinstance(rho_raw, (int, float)) and not isinstance(rho_raw, bool)
+           else _parse_string(str(rho_raw), f"{field}.density", "kg/m**3", 0, allowed))
+    nu = parse_quantity(t.get("nu", 0.3), f"{field}.nu", "dimensionless")
+    if not 1e9 <= E <= 2e12:
+        raise InputError(f"{field}.E", t["E"], "Young's modulus of a tool or holder material must be 1..2000 GPa "
+                                               "(a plain number is Pa: write \"600 GPa\")")
+    if not 500 <= rho <= 30000:
+        raise InputError(f"{field}.density", rho_raw, "must be 500..30000 kg/m^3 (a plain number is kg/m^3)")
+    with _as_written({f"material.{k}": t.get(k) for k in ("E", "density", "nu")}):
+        return Material("custom", E, rho, nu, "given in the config")
+
+
+def _tool(t: Any):
+    from millstab.tooltip.tool import DEFAULT_FLUTE_RATIO, Tool
+
+    t = _check_keys(t, "tool", TOOL_KEYS, ("diameter", "stickout"))
+    d = _tool_length(t, "diameter", "tool")
+    stick = _tool_length(t, "stickout", "tool")
+    fl = _tool_length(t, "fluted_length", "tool", 0.0) if "fluted_length" in t else 0.0
+    if fl > stick * (1 + 1e-9):
+        raise InputError("tool.fluted_length", t["fluted_length"], f"must not exceed the stickout ({show(t['stickout'])})")
+    ratio = parse_quantity(t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO), "tool.flute_diameter_ratio", "dimensionless")
+    zeta = parse_quantity(t.get("zeta", 0.0), "tool.zeta", "dimensionless")
+    raw = {f"tool.{k}": t[k] for k in ("diameter", "stickout", "zeta") if k in t}
+    raw["tool.flute_diameter_ratio"] = t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO)
+    with _as_written(raw):
+        return Tool(d, stick, _material(t, "tool"), fl, ratio, zeta)
+
+
+def _holder_term(src: Any, field: str, base_dir: Path | None,
+                 files: Mapping[str, PathLike] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    from millstab.io.frf_files import _source, read_frf
+
+    p, record = _source(src, field, base_dir, files)  # a config from text: only its session's uploads
+    try:
+        f, h = read_frf(p, record)
+    except InputError as exc:
+        raise InputError(field, exc.value, f"{exc.field}: {exc.allowed}") from None
+    return (f[1:], h[1:]) if f[0] == 0.0 else (f, h)
+
+
+def _on_axis(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], first: str, field: str) -> tuple[np.ndarray, dict]:
+    """All terms on the axis of ``first``, trimmed to the band every term covers (interpolated where needed)."""
+    lo = max(f[0] for f, _ in terms.values())
+    hi = min(f[-1] for f, _ in terms.values())
+    f0 = terms[first][0]
+    f = f0[(f0 >= lo * (1 - 1e-12)) & (f0 <= hi * (1 + 1e-12))]
+    if f.size < 4:
+        raise InputError(field, f"common band {lo:g}..{hi:g} Hz", "the files must share at least 4 frequencies")
+    return f, {k: np.interp(f, fk, hk.real) + 1j * np.interp(f, fk, hk.imag) for k, (fk, hk) in terms.items()}
+
+
+def _holder(t: Any, base_dir: Path | None, files: Mapping[str, PathLike] | None = None):
+    """The [holder] table: one description for both directions, or [holder.x] and [holder.y]."""
+    from millstab.tooltip import holder as hm
+
+    if isinstance(t, Mapping) and ("x" in t or "y" in t):
+        _check_keys(t, "holder", ("x", "y"), ("x", "y"))
+        return hm.XYHolder(_holder_one(t["x"], base_dir, "holder.x", files),
+                           _holder_one(t["y"], base_dir, "holder.y", files))
+    return _holder_one(t, base_dir, "holder", files)
+
+
+def _holder_one(t: Any, base_dir: Path | None, field: str, files: Mapping[str, PathLike] | None = None):
+    from millstab.tooltip import holder as hm
+
+    t = _check_keys(t, field, HOLDER_KEYS)
+    given = [k for k in HOLDER_KEYS if k in t and not (k == "rigid" and t[k] is False)]
+    if len(given) != 1:
+        raise InputError(field, ", ".join(given) or "nothing",
+                         "give exactly one of: rigid = true, [[holder.modes]] (fn, k, zeta, slope), [holder.frf] "
+                         "(h, l, n, p files), [holder.artifact] (an artifact test) or [holder.finite_differences]; "
+                         "or [holder.x] and [holder.y], one each")
+    kind = given[0]
+    if kind == "rigid":
+        if t["rigid"] is not True:
+            raise InputError(f"{field}.rigid", t["rigid"], "must be true (or leave it out and describe the holder)")
+        return hm.RigidHolder()
+    if kind == "modes":
+        value = t["modes"]
+        modes = []
+        for i, m in enumerate(value if isinstance(value, list) else [value]):
+            name = f"{field}.modes[{i}]"
+            m = _check_keys(m, name, HOLDER_MODE_KEYS, ("fn", "k", "zeta"))
+            fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
+            k = parse_quantity(m["k"], f"{name}.k", "stiffness")
+            zeta = parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless")
+            slope = _slope(m.get("slope", 0.0), f"{name}.slope")
+            with _as_written({f"holder mode {a}": m.get(a) for a in HOLDER_MODE_KEYS}):
+                modes.append(hm.FaceMode(fn, k, zeta, slope))
+        return hm.ModalHolder(tuple(modes))
+    if kind == "frf":
+        raw_t = t["frf"]
+        if isinstance(raw_t, Mapping):  # H, L, N, P as the literature writes them are accepted too
+            raw_t = {str(k).lower() if str(k) in "HLNP" else k: v for k, v in raw_t.items()}
+        ft = _check_keys(raw_t, f"{field}.frf", HOLDER_FRF_KEYS, ("h", "p"))
+        if "l" not in ft and "n" not in ft:
+            raise InputError(f"{field}.frf.l", None, "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
+        terms = {k: _holder_term(ft[k], f"{field}.frf.{k}", base_dir, files) for k in HOLDER_FRF_KEYS if k in ft}
+        f, v = _on_axis(terms, "h", f"{field}.frf")
+        l_, n_ = v.get("l", v.get("n")), v.get("n", v.get("l"))
+        return hm.MeasuredHolder(f, v["h"], l_, n_, v["p"], source=f"{field}.frf files")
+    if kind == "finite_differences":
+        return _holder_fd(t["finite_differences"], base_dir, f"{field}.finite_differences", files)
+    at = _check_keys(t["artifact"], f"{field}.artifact", ARTIFACT_KEYS,
+                     ("diameter", "length", "offset", "tip", "cross", "offset_direct"))
+    d = _tool_length(at, "diameter", f"{field}.artifact")
+    length = _tool_length(at, "length", f"{field}.artifact")
+    off = _tool_length(at, "offset", f"{field}.artifact")
+    if off >= length:
+        raise InputError(f"{field}.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
+    art = hm.artifact_beam(d, length, off, _material(at, f"{field}.artifact"))
+    zeta = parse_quantity(at.get("zeta", 0.0), f"{field}.artifact.zeta", "dimensionless")
+    if not 0.0 <= zeta < 0.5:
+        raise InputError(f"{field}.artifact.zeta", at["zeta"], "the artifact's damping ratio must be in [0, 0.5) (a steel "
+                                                             "cylinder: ~0.001, or leave it out: 0)")
+    art = replace(art, eta=2.0 * zeta)
+    terms = {k: _holder_term(at[k], f"{field}.artifact.{k}", base_dir, files) for k in ("tip", "cross", "offset_direct")}
+    f, v = _on_axis(terms, "tip", f"{field}.artifact")
+    return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)
+
+
+def _holder_fd(t: Any, base_dir: Path | None, field: str, files: Mapping[str, PathLike] | None = None):
+    """[holder.finite_differences]: translational FRFs h_ij at points i·spacing from the face toward the spindle
+    (h00, h01, h11; with h02, h12, h22 the second-order stencil), optionally the holder's diameter at the
+    face (and material) for the shear correction (docs/tooltip.md)."""
+    from millstab.tooltip import holder as hm
+    from millstab.tooltip.beam import Section
+
+    t = _check_keys(t, field, FD_KEYS, ("spacing", "h00", "h01", "h11"))
+    second = [k for k in ("h02", "h12", "h22") if k in t]
+    if second and len(second) != 3:
+        raise InputError(f"{field}.{second[0]}", t[second[0]], "the second-order stencil needs h02, h12 and h22 together")
+    order = 2 if second else 1
+    spacing = _tool_length(t, "spacing", field)
+    n = order + 1
+    names = [f"h{i}{j}" for i in range(n) for j in range(i, n)]
+    terms = {k: _holder_term(t[k], f"{field}.{k}", base_dir, files) for k in names}
+    f, v = _on_axis(terms, "h00", field)
+    H = np.empty((f.size, n, n), dtype=complex)
+    for i in range(n):
+        for j in range(i, n):
+            H[:, i, j] = H[:, j, i] = v[f"h{i}{j}"]  # reciprocity
+    shear = None
+    if "diameter" in t:
+        mat = _material(t, field) if ("material" in t or "E" in t) else _material({"material": "steel"}, field)
+        shear = Section(spacing, _tool_length(t, "diameter", field), mat).shear_stiffness
+    return hm.from_finite_differences(f, H, spacing, order, shear_stiffness=shear)
+
+
+def _slope(value: Any, field: str) -> float:
+    """A mode's rotation per displacement at the face: a plain number (rad/m) or text such as "20 rad/m"."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    from millstab.units import _parse_string
+
+    # pint counts the radian as an angle the length dimension lacks: read "rad/m" as 1/m
+    return _parse_string(re.sub(r"\brad\s*/", "1/", str(value)), field, "1/m", 0,
+                         "a rotation per displacement, e.g. \"20 rad/m\" (plain number = rad/m)")
+
+
+def tool_setup(data: Mapping[str, Any], base_dir: Path | None = None, files: Mapping[str, PathLike] | None = None):
+    """``(Tool, Holder)`` from a config's ``[tool]`` and ``[holder]`` tables (parsed TOML)."""
+    if "tool" not in data or "holder" not in data:
+        missing = "holder" if "tool" in data else "tool"
+        raise InputError(missing, None, "missing; [tool] and [holder] are given together (the holder: rigid = true, "
+                                        "[[holder.modes]], [holder.frf] or [holder.artifact])")
+    return _tool(data["tool"]), _holder(data["holder"], base_dir, files)
+
+
+def _tool_structure(data: Mapping[str, Any], base_dir: Path | None,
+                    files: Mapping[str, PathLike] | None = None) -> Structure:
+    if "structure" in data:
+        raise InputError("structure", "[structure] and [tool]", "give either [structure] (modes or a measured FRF) or "
+                                                                "[tool] + [holder], not both")
+    from millstab.errors import FRFWarning
+    from millstab.tooltip.holder import RigidHolder
+    from millstab.tooltip.tool import tip_structure
+    from millstab.warnlog import warn
+
+    tool, holder = tool_setup(data, base_dir, files)
+    if isinstance(holder, RigidHolder) and tool.zeta == 0:
+        warn("tool.zeta: the tool has no damping and the holder is rigid, so the tip FRF is undamped and every "
+             "stability limit near its modes is ~0; give the tool's damping, e.g. zeta = 0.01 (a carbide end mill "
+             "in a holder: ~0.5-3 %), or describe the holder (its damping)", FRFWarning, stacklevel=2)
+    return tip_structure(tool, holder)
+
+
+def load_tool_setup(source: PathLike):
+    """``(Config, Tool, Holder)`` of a config file (or ``example:NAME``) with ``[tool]`` and ``[holder]``."""
+    cfg = load_config(source)
+    data = tomllib.loads(read_text(cfg.path, "config", "text (TOML) file"))
+    if "tool" not in data:
+        raise InputError("config", str(source), "has no [tool] table; `millstab tooltip` needs [tool] and [holder]")
+    tool, holder = tool_setup(data, cfg.path.parent)
+    return cfg, tool, holder
+
+
+def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | None = None,
+                         files: Mapping[str, PathLike] | None = None):
+    """``(Config, Tool, Holder)`` from config TOML text; ``base_dir`` and ``files`` as :func:`parse_config`
+    (without either, a holder file name is refused, never looked up)."""
+    if base_dir is None and files is None:
+        files = {}
+    cfg = parse_config(text, name, base_dir, files)
+    data = tomllib.loads(text.lstrip("\ufeff"))
+    if "tool" not in data:
+        raise InputError(name, "no [tool]", "`millstab tooltip` needs [tool] and [holder]")
+    return (cfg, *tool_setup(data, Path(base_dir) if base_dir is not None else None, files))
+
+
+__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
+           "parse_config", "tool_setup", "tool_setup_from_text", "write_config"]

@@ -140,6 +140,17 @@ def write_frf_csv(path: PathLike, freq_hz: np.ndarray, h: np.ndarray, protect=()
     return write_csv(path, ["freq_hz", "real", "imag"], [f, v.real, v.imag], protect)
 
 
+def frf_csv_text(freq_hz: np.ndarray, h: np.ndarray) -> str:
+    """One FRF term as ``freq_hz,real,imag`` CSV text (Hz, m/N), floats in their shortest exact form: what
+    :func:`write_frf_csv` writes, for a caller that keeps the file itself (the web app's session folder)."""
+    f = np.asarray(freq_hz, dtype=float).ravel()
+    v = np.asarray(h, dtype=complex).ravel()
+    if f.shape != v.shape:
+        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
+    rows = (f"{a!r},{b!r},{c!r}" for a, b, c in zip(f.tolist(), v.real.tolist(), v.imag.tolist()))
+    return "freq_hz,real,imag\n" + "\n".join(rows) + "\n"
+
+
 # ------------------------------------------------------------------------------------- CutPro
 
 _FREQ_UNITS = {"hz": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
@@ -403,8 +414,10 @@ def read_frf(path: PathLike, record: int | None = None) -> tuple[np.ndarray, np.
 FRFSource = PathLike | Mapping[str, Any] | tuple
 
 
-def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, int | None]:
-    """A source (path, ``{"file": .., "record": ..}`` or ``(path, record)``) → (absolute path, record)."""
+def _source(src: FRFSource, field: str, base_dir: Path | None,
+            files: Mapping[str, PathLike] | None = None) -> tuple[Path, int | None]:
+    """A source (path, ``{"file": .., "record": ..}`` or ``(path, record)``) → (absolute path, record).
+    With ``files`` the path is only looked up there (see :func:`load_measured_frf`)."""
     record = None
     if isinstance(src, Mapping):
         unknown = set(src) - {"file", "record"}
@@ -421,6 +434,12 @@ def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, in
         path = src
     if not isinstance(path, (str, Path)) or not str(path).strip():
         raise InputError(field, path, "expected a file path string")
+    if files is not None:  # confined: a name from this mapping or nothing; the file system is not asked
+        if isinstance(path, str) and path in files:
+            return Path(files[path]), record
+        have = ", ".join(sorted(files)) or "none yet"
+        raise InputError(field, str(path), "a config from text (a browser upload) may name only FRF files uploaded "
+                                           f"in the same session, by file name (uploaded: {have})")
     p = Path(path).expanduser()
     if not p.is_absolute() and base_dir is not None:
         p = base_dir / p
@@ -431,11 +450,17 @@ def _source(src: FRFSource, field: str, base_dir: Path | None) -> tuple[Path, in
 
 def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, xy: FRFSource | None = None,
                       yx: FRFSource | None = None, *, base_dir: PathLike | None = None,
-                      field: str = "structure.frf") -> MeasuredFRF:
+                      field: str = "structure.frf", files: Mapping[str, PathLike] | None = None,
+                      receptance_only: bool = True) -> MeasuredFRF:
     """Read the FRF terms and combine them into a :class:`MeasuredFRF` on one frequency axis.
 
     Each term is a path, ``{"file": path, "record": N}`` or ``(path, record)``; relative paths are
     taken relative to ``base_dir`` (the config file's folder). A leading 0 Hz point is dropped.
+
+    ``files`` confines the sources (a config that arrived as text, e.g. a browser upload): a path must
+    be one of its keys exactly (a file name as uploaded) and reads the file it maps to; anything else
+    (an absolute or relative path, ``~``, ``..``) is refused with an :class:`InputError` naming the
+    term before any file is opened or even looked up, so an upload cannot make the server read its files.
 
     Frequency axis: the axis of ``xx`` (``yy`` when there is no xx). A term measured on the same
     axis (to 1e-9 relative) is used as is; a term on another axis is linearly interpolated (real and
@@ -445,7 +470,9 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     limit it and the strongest response that is ignored: a mode there is missing from the limit.
 
     A direct term whose imaginary part is positive at its strongest resonance (conjugated data)
-    gives an :class:`~millstab.errors.FRFWarning` naming the file.
+    gives an :class:`~millstab.errors.FRFWarning` naming the file. A direct term that holds mobility or
+    accelerance (its phase and slope, :func:`millstab.frfkind.frf_kind`) is an :class:`InputError` saying
+    how to convert it, unless ``receptance_only=False`` (``millstab modal``, which converts it itself).
 
     Raises:
         InputError: naming the term (``structure.frf.xx``) for missing/malformed files, fewer than
@@ -453,17 +480,19 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     """
     base = Path(base_dir) if base_dir is not None else None
     terms: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    files: dict[str, str] = {}
+    file_names: dict[str, str] = {}
     for name, src in (("xx", xx), ("yy", yy), ("xy", xy), ("yx", yx)):
         if src is None:
             continue
-        p, record = _source(src, f"{field}.{name}", base)
+        p, record = _source(src, f"{field}.{name}", base, files)
         try:
             f, h = read_frf(p, record)
         except InputError as exc:
             raise InputError(f"{field}.{name}", exc.value, f"{exc.field}: {exc.allowed}") from None
         if f[0] == 0.0:
             f, h = f[1:], h[1:]
+        if name in ("xx", "yy") and receptance_only:
+            _refuse_other_kind(f, h, f"{field}.{name}", p.name)
         if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
             warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
                  f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
@@ -472,7 +501,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
         if i is not None:
             warn(sign_convention_message(f"{field}.{name} ({p.name})", f[i], h[i]), FRFWarning, stacklevel=2)
         terms[name] = (f, h)
-        files[name] = p.name
+        file_names[name] = p.name
     if "xx" not in terms and "yy" not in terms:
         raise InputError(field, "no xx and no yy", "a measured FRF needs at least one direct term (xx or yy)")
     ref_name = "xx" if "xx" in terms else "yy"
@@ -483,7 +512,7 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
     if np.count_nonzero(keep) < 4:
         raise InputError(field, f"common band {lo:g}..{hi:g} Hz",
                          f"the terms must share at least 4 frequencies of the {ref_name} axis")
-    coverage = _band_loss(terms, files, lo, hi)
+    coverage = _band_loss(terms, file_names, lo, hi)
     if coverage:
         warn(f"{field}: the terms cover different bands; using {lo:g}..{hi:g} Hz of the {ref_name} axis. "
              f"{coverage}", FRFWarning, stacklevel=2)
@@ -499,6 +528,19 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             return MeasuredFRF(f_common, out.get("xx"), out.get("yy"), out.get("xy"), out.get("yx"))
     except InputError as exc:
         raise InputError(f"{field}: {exc.field}", exc.value, exc.allowed) from None
+
+
+def _refuse_other_kind(freq_hz: np.ndarray, h: np.ndarray, field: str, file_name: str) -> None:
+    """InputError when a direct term holds mobility or accelerance rather than receptance (told from its
+    phase and slope, :func:`millstab.frfkind.frf_kind`): the engines would read it as m/N and give a
+    meaningless boundary. A conjugated receptance is left to the sign-convention warning."""
+    from millstab.frfkind import CONVERSION, frf_kind
+
+    seen = frf_kind(freq_hz, h)
+    if seen.kind in ("mobility", "accelerance"):
+        raise InputError(field, file_name,
+                         f"looks like {seen.describe()}, not a receptance (m/N): {CONVERSION[seen.kind]}; "
+                         f"`millstab modal {file_name} --frf-type {seen.kind}` converts it and fits its modes")
 
 
 #: an ignored response at least this share of the largest one kept is called "probably a mode"
@@ -534,5 +576,13 @@ def _band_loss(terms: Mapping[str, tuple[np.ndarray, np.ndarray]], files: Mappin
         "(too high): measure every term over the same band")
 
 
+def same_content(a: PathLike, b: PathLike) -> bool:
+    """Whether two files hold the same bytes (an FRF copied under another name for the other direction)."""
+    pa, pb = Path(a), Path(b)
+    if pa.stat().st_size != pb.stat().st_size:
+        return False
+    return pa.read_bytes() == pb.read_bytes()
+
+
 __all__ = ["FORMATS", "list_uff_records", "load_measured_frf", "read_frf", "read_frf_csv", "read_frf_cutpro",
-           "read_frf_uff", "write_frf_csv"]
+           "read_frf_uff", "same_content", "write_frf_csv"]

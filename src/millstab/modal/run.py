@@ -15,7 +15,8 @@ from millstab.errors import InputError
 from millstab.io.frf_files import load_measured_frf
 from millstab.model import Cutting, MeasuredFRF, Mode, Structure
 from millstab.modal.fit import MIN_LINES, DirectionFit, fit_direction
-from millstab.warnlog import quiet
+from millstab.errors import FRFWarning
+from millstab.warnlog import quiet, warn
 
 
 def parse_band(text: str | None) -> tuple[float, float] | None:
@@ -54,14 +55,80 @@ def parse_modes(text: str | int | None) -> tuple[int | str, int | str]:
     return (out[0], out[0]) if len(out) == 1 else (out[0], out[1])
 
 
+#: what ``--frf-type`` takes: ``auto`` detects (and refuses mobility/accelerance, saying how to convert)
+FRF_TYPES = ("auto", "receptance", "mobility", "accelerance")
+
+
+#: the phase range of a passive drive point's FRF of each kind [deg] (millstab's e^{iωt} convention)
+PHASE_DEG = {"receptance": (-180, 0), "mobility": (-90, 90), "accelerance": (0, 180)}
+
+
+def check_frf_type(frf_type: str) -> str:
+    """``frf_type`` lower-cased when it is one of :data:`FRF_TYPES`, else InputError."""
+    t = str(frf_type).strip().lower()
+    if t not in FRF_TYPES:
+        raise InputError("--frf-type", frf_type, f"must be one of {', '.join(FRF_TYPES)}")
+    return t
+
+
+def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path) -> np.ndarray:
+    """The receptance [m/N] of a drive-point FRF ``h`` at ``f`` [Hz] read from ``path``.
+
+    ``frf_type``: ``auto`` tells the quantity from the phase and slope (:func:`millstab.frfkind.frf_kind`)
+    and refuses a mobility or an accelerance, naming it and the conversion (the fit would otherwise read an
+    accelerance as a conjugated receptance and advise negating its imaginary part); ``receptance`` takes
+    ``h`` as it is; ``mobility``/``accelerance`` convert (G = H/(iω), G = −H/ω²) and refuse data that do not
+    then look like a receptance.
+
+    Raises:
+        InputError: naming ``label``, the file, what the data look like and how to convert.
+    """
+    from millstab.frfkind import CONVERSION, KINDS, frf_kind, to_receptance
+
+    t = check_frf_type(frf_type)
+    if t == "receptance":
+        return h
+    name = Path(str(path)).name
+    seen = frf_kind(f, h)
+    why = f"|H| changes like f^{seen.slope:+.1f} from {f[0]:g} to {f[-1]:g} Hz"
+    if seen.kind is not None:
+        lo, hi = PHASE_DEG[seen.kind]
+        lo, hi = (-hi, -lo) if seen.conjugated else (lo, hi)
+        why = (f"its phase stays within {lo:+d}..{hi:+d} deg at the lines carrying {100 * seen.passive:.0f} % of "
+               f"|H|² and {why}")
+    if t == "auto":
+        if seen.kind in ("mobility", "accelerance"):
+            raise InputError(label, name, f"looks like {seen.describe()}, not receptance (m/N) ({why}); "
+                                          f"{CONVERSION[seen.kind]}, or pass --frf-type {seen.kind} to have it "
+                                          f"converted")
+        return h
+    g = to_receptance(f, h, t)
+    after = frf_kind(f, g)
+    if after.kind not in (None, "receptance"):
+        raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
+                                      f"after converting it is no receptance (m/N); pass --frf-type "
+                                      f"{seen.kind or 'auto'}")
+    if after.kind is None or (seen.kind and seen.kind != t):
+        raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
+                                      f"{KINDS[t][1]} data would have the other phase and slope")
+    return g
+
+
 def read_direction(path, direction: str, band: tuple[float, float] | None, record: int | None = None,
-                   label: str | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """One direction's drive-point receptance [Hz, m/N] from a file, cut to ``band`` [Hz]."""
+                   label: str | None = None, frf_type: str = "auto") -> tuple[np.ndarray, np.ndarray]:
+    """One direction's drive-point receptance [Hz, m/N] from a file, cut to ``band`` [Hz]; ``frf_type``: what
+    the file holds (:func:`as_receptance`)."""
+    from millstab.warnlog import collect, emit
+
     label = label or f"FRF_{direction.upper()}"
     src = {"file": str(path), "record": record} if record is not None else str(path)
     term = "xx" if direction == "x" else "yy"
-    frf = load_measured_frf(**{term: src}, field=label)
-    f, h = frf.freq_hz, getattr(frf, term)
+    with collect() as said:  # held back: an accelerance trips the sign-convention warning (negate Im: wrong advice)
+        frf = load_measured_frf(**{term: src}, field=label, receptance_only=False)
+    f, h = frf.freq_hz, as_receptance(frf.freq_hz, getattr(frf, term), frf_type, label, path)
+    if check_frf_type(frf_type) in ("auto", "receptance"):  # converted data: the raw file's warnings do not apply
+        for record_ in said:
+            emit(record_)
     if band is not None:
         keep = (f >= band[0]) & (f <= band[1])
         if np.count_nonzero(keep) < MIN_LINES:
@@ -70,6 +137,19 @@ def read_direction(path, direction: str, band: tuple[float, float] | None, recor
                              f"{f[0]:g}..{f[-1]:g} Hz); the fit needs at least {MIN_LINES} lines")
         f, h = f[keep], h[keep]
     return f, h
+
+
+def same_file(a, b) -> bool:
+    """Whether two FRF paths name the same file, or files with the same bytes (a copy)."""
+    pa, pb = Path(str(a)), Path(str(b))
+    try:
+        if pa.resolve() == pb.resolve() or pa.samefile(pb):
+            return True
+        from millstab.io.frf_files import same_content
+
+        return same_content(pa, pb)
+    except OSError:
+        return False
 
 
 @dataclass(frozen=True)
@@ -88,13 +168,20 @@ class ModalResult:
 
 
 def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, modes=("auto", "auto"),
-              records: tuple[int | None, int | None] = (None, None)) -> ModalResult:
-    """Fit the drive-point FRF files of x (and y) to modes; see :func:`millstab.modal.fit.fit_direction`."""
+              records: tuple[int | None, int | None] = (None, None), frf_type: str = "auto") -> ModalResult:
+    """Fit the drive-point FRF files of x (and y) to modes; see :func:`millstab.modal.fit.fit_direction`.
+    ``frf_type``: what the files hold (:func:`as_receptance`). The same file (or a copy) for x and y is
+    warned about: y then equals x, true only of an axisymmetric tool."""
     fits: dict[str, DirectionFit] = {}
+    if frf_x is not None and frf_y is not None and records[0] == records[1] and same_file(frf_x, frf_y):
+        names = Path(str(frf_x)).name + ("" if str(frf_x) == str(frf_y) else ", " + Path(str(frf_y)).name)
+        warn(f"FRF_Y is the same measurement as FRF_X ({names}): "
+             f"y is fitted equal to x, which holds only for a tool that is symmetric about its axis; tap y "
+             f"separately (hammer and sensor along y) unless it is", FRFWarning, stacklevel=2)
     for d, path, n, rec in (("x", frf_x, modes[0], records[0]), ("y", frf_y, modes[1], records[1])):
         if path is None:
             continue
-        f, h = read_direction(path, d, band, rec)
+        f, h = read_direction(path, d, band, rec, frf_type=frf_type)
         fits[d] = fit_direction(f, h, direction=d, source=Path(path).name, modes=n)
     with quiet():  # a soft fitted k is what was measured; the report shows it in N/um
         structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(fit.modes))
@@ -103,14 +190,22 @@ def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, mod
 
 
 def measured_structure(frf_x, frf_y=None, band: tuple[float, float] | None = None,
-                       records: tuple[int | None, int | None] = (None, None)) -> Structure:
-    """The measured FRFs as a :class:`Structure` (direct terms only, on x's axis), cut to ``band``."""
+                       records: tuple[int | None, int | None] = (None, None), frf_type: str = "auto") -> Structure:
+    """The measured FRFs as a :class:`Structure` (direct terms only, on x's axis), cut to ``band``;
+    ``frf_type`` as for :func:`fit_files`."""
     src = {}
     for term, path, rec in (("xx", frf_x, records[0]), ("yy", frf_y, records[1])):
         if path is not None:
             src[term] = {"file": str(path), "record": rec} if rec is not None else str(path)
     with quiet():  # already warned when the directions were read
-        frf = load_measured_frf(**src, field="FRF")
+        frf = load_measured_frf(**src, field="FRF", receptance_only=False)
+    if check_frf_type(frf_type) in ("mobility", "accelerance"):
+        from millstab.frfkind import to_receptance
+
+        conv = {t: None if getattr(frf, t) is None else to_receptance(frf.freq_hz, getattr(frf, t), frf_type)
+                for t in ("xx", "yy")}
+        with quiet():
+            frf = MeasuredFRF(frf.freq_hz, conv["xx"], conv["yy"])
     if band is not None:
         keep = (frf.freq_hz >= band[0]) & (frf.freq_hz <= band[1])
         frf = MeasuredFRF(frf.freq_hz[keep], None if frf.xx is None else frf.xx[keep],
@@ -153,8 +248,8 @@ def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.
     return SLDCheck(np.asarray(rpm, float), a.depth_mm, b.depth_mm, ma, mb, ma / mb - 1, float(rel[i]), float(np.asarray(rpm)[ok][i]))
 
 
-__all__ = ["ModalResult", "SLDCheck", "fit_files", "fitted_config", "measured_structure", "parse_band", "parse_modes",
-           "read_direction", "sld_check"]
+__all__ = ["FRF_TYPES", "ModalResult", "SLDCheck", "as_receptance", "check_frf_type", "fit_files", "fitted_config", "measured_structure", "parse_band", "parse_modes",
+           "read_direction", "same_file", "sld_check"]
 
 
 def fitted_config(cfg, modes: int | str = "auto"):

@@ -11,7 +11,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.forward import forward
+from millstab.forward import Pinned, forward
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 
@@ -163,27 +163,27 @@ def depths(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: 
     return forward(par, cutting, engine)(theta_rows, rpm)
 
 
+def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, bounding_rows: np.ndarray) -> Pinned:
+    """A study's forward model at the speeds ``rpm`` with the engine's discretisation pinned for the whole
+    study (:meth:`millstab.forward.Forward.pinned`): ``bounding_rows`` (K, P) [SI] are the centre first
+    (spectral chooses there) and rows that bound every row the study will evaluate (sdm's steps follow the
+    highest natural frequency). Then neither the chunks nor a cluster change a number."""
+    return forward(par, cutting, engine).pinned(rpm, bounding_rows)
+
+
 def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:
     for start in range(0, n_rows, per_call):
         yield slice(start, min(n_rows, start + per_call))
 
 
-def depths_chunked(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: Cutting, rpm: np.ndarray,
-                   progress: Progress | None = None, client=None, chunk_rows: int | None = None) -> np.ndarray:
-    """Depths (R, S) [m] for many rows, one engine call per chunk of ``chunk_rows`` rows (default the
-    engine's chunk; progress in rows); with ``client`` (a ``distributed.Client``) the chunks are tasks on
-    its Dask cluster (:func:`millstab.cluster.depths`). Every row is evaluated alone, so neither the chunk
-    size nor the cluster changes a number."""
+def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: Progress | None = None, client=None,
+                   chunk_rows: int | None = None) -> np.ndarray:
+    """Depths (R, S) [m] for many rows through the pinned model ``f`` (:func:`pin`), one engine call per chunk
+    of ``chunk_rows`` rows (default the engine's chunk; progress in rows); with ``client`` (a
+    ``distributed.Client``) the chunks are tasks on its Dask cluster (:func:`millstab.cluster.depths`).
+    The discretisation is pinned and every row is evaluated alone, so neither the chunk size nor the
+    cluster changes a number."""
     if chunk_rows is not None and (isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer))
                                    or chunk_rows < 1):
         raise InputError("chunk_rows", chunk_rows, "must be a positive integer")
-    if client is not None:
-        from millstab import cluster
-
-        return cluster.depths(client, engine, par, cutting, theta_rows, rpm, progress, chunk_rows)
-    out = np.empty((theta_rows.shape[0], rpm.size))
-    for rows in iter_row_chunks(theta_rows.shape[0], int(chunk_rows or rows_per_call(rpm.size, engine))):
-        out[rows] = depths(engine, par, theta_rows[rows], cutting, rpm)
-        if progress:
-            progress(rows.stop, theta_rows.shape[0])
-    return out
+    return f.map(theta_rows, chunk_rows=chunk_rows, progress=progress, client=client)

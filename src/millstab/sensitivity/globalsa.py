@@ -25,8 +25,8 @@ from scipy.stats import norm
 from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.sensitivity._core import (Progress, as_parameterization, bounds_from, centre, check_scalar, depths,
-                                        depths_chunked, engine_module, mse_mm2)
+from millstab.sensitivity._core import (Progress, as_parameterization, bounds_from, centre, check_scalar,
+                                        depths_chunked, engine_module, mse_mm2, pin)
 from millstab.sensitivity.montecarlo import check_seed
 from millstab.sensitivity.results import MorrisResult, SobolResult
 from millstab.stability.zoa import check_rpm
@@ -145,8 +145,8 @@ def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client=None):
     bnds = bounds_from(par, th, t, bounds)
     r = check_rpm(rpm)
     eng = engine_module(engine)
-    nominal = depths(eng, par, th[None, :], cutting, r)
-    return par, th, seed, bnds, r, eng, nominal
+    f = pin(eng, par, cutting, r, np.vstack([th, bnds[:, 1]]))  # the centre, then the box's upper corner
+    return par, th, seed, bnds, r, f, f(th[None, :])
 
 
 def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1024, t: float = 0.1,
@@ -167,10 +167,10 @@ def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1
     """
     n = check_power_of_two(n)
     conf_level = check_scalar("conf_level", conf_level, 0.0, 1.0, "confidence level must be in (0, 1)")
-    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
+    par, th, seed, bnds, r, f, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
     prob = problem(par.free, bnds)
     X = sobol_sample(prob, n, seed)
-    d = depths_chunked(eng, par, X, cutting, r, progress, client, chunk_rows)
+    d = depths_chunked(f, X, progress, client, chunk_rows)
     if not np.isfinite(d).all():
         raise InputError("rpm", f"{r.min():g}..{r.max():g}", "some sampled SLDs have no finite limit there; "
                          "choose speeds where every structure has a chatter boundary")
@@ -202,10 +202,10 @@ def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajector
         raise InputError("n", trajectories, "number of Morris trajectories must be an integer >= 2")
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 2 or levels % 2:
         raise InputError("levels", levels, "number of Morris levels must be an even integer >= 2")
-    par, th, seed, bnds, r, eng, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
+    par, th, seed, bnds, r, f, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
     prob = problem(par.free, bnds)
     X = ms.sample(prob, int(trajectories), num_levels=int(levels), seed=seed)
-    d = depths_chunked(eng, par, X, cutting, r, progress, client, chunk_rows)
+    d = depths_chunked(f, X, progress, client, chunk_rows)
     if not np.isfinite(d).all():
         raise InputError("rpm", f"{r.min():g}..{r.max():g}", "some sampled SLDs have no finite limit there")
     outs = {}

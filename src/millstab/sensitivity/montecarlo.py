@@ -22,8 +22,9 @@ import numpy as np
 from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.sensitivity._core import (Progress, as_parameterization, centre, check_neighbourhood, check_scalar, depths,
-                                        engine_module, mse_mm2, rows_per_call)
+from millstab.forward import Pinned, forward
+from millstab.sensitivity._core import (Progress, as_parameterization, centre, check_neighbourhood, check_scalar,
+                                        engine_module, mse_mm2, pin, rows_per_call)
 from millstab.sensitivity.results import MCResult
 from millstab.stability.zoa import check_rpm
 
@@ -76,7 +77,10 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
                                     or chunk_paths < 1):
         raise InputError("chunk_paths", chunk_paths, "must be a positive integer")
     mse = np.empty((n, n_p))
-    spec = (eng, par, cutting, r, th, t, eps, seed)
+    # every row of every path lies in [(1 − t)p, (1 + t)(1 + ε⁺)p]: pin the discretisation on the centre and that
+    # corner once, so the blocks (their size, where they run) change no number
+    settings = dict(pin(eng, par, cutting, r, np.vstack([th, th * (1 + t) * max(1.0, 1.0 + eps)])).settings)
+    spec = (eng, par, cutting, r, th, t, eps, seed, settings)
     if client is None:
         per_block = int(chunk_paths or max(1, rows_per_call(r.size, eng) // per))
         for start in range(0, n, per_block):
@@ -104,8 +108,9 @@ def draws(seed: int, start: int, count: int, n_p: int) -> np.ndarray:
 
 
 def _block(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, th: np.ndarray, t: float, eps: float,
-           seed: int, start: int, count: int) -> np.ndarray:
-    """MSE (count, P) [mm²] of paths ``start .. start + count − 1``: ONE engine call on their (1 + P) rows each."""
+           seed: int, settings: dict, start: int, count: int) -> np.ndarray:
+    """MSE (count, P) [mm²] of paths ``start .. start + count − 1``: ONE engine call on their (1 + P) rows each,
+    under the study's pinned discretisation ``settings``."""
     n_p = th.size
     per = 1 + n_p
     # the (1 + ε) factor sits on the diagonal of rows 1..P of each path's block
@@ -114,7 +119,7 @@ def _block(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray
     # uniform in [(1 − t)p, (1 + t)p]
     star = th * (1.0 + t * (2.0 * draws(seed, start, count, n_p) - 1.0))
     rows = (star[:, None, :] * factor[None, :, :]).reshape(count * per, n_p)
-    d = depths(engine, par, rows, cutting, rpm).reshape(count, per, rpm.size)
+    d = Pinned(forward(par, cutting, engine), rpm, settings)(rows).reshape(count, per, rpm.size)
     return mse_mm2(d[:, :1, :], d[:, 1:, :])  # (count, P) [mm²]; the depths are dropped here
 
 

@@ -208,6 +208,28 @@ def _periods(cutting, revs, n: int) -> np.ndarray:
     return np.ascontiguousarray(p)
 
 
+def _check_samples(cutting: Cutting, rpm: np.ndarray, steps: np.ndarray, periods: np.ndarray, revs,
+                   steps_given: bool) -> None:
+    """Refuse a cut that would store more than MAX_SAMPLES samples, blaming what makes it long: the
+    speed when one revolution alone is that long (the default steps follow the tooth period, so a
+    very low speed needs ~ 100 steps per natural period over a very long period), else the revs."""
+    n = periods * steps + 1
+    if not np.any(n > MAX_SAMPLES):
+        return
+    i = int(np.argmax(n > MAX_SAMPLES))
+    per_rev = int(steps[i]) * cutting.teeth
+    if per_rev * 2 > MAX_SAMPLES and not steps_given:
+        r_min = per_rev * float(rpm[i]) * 2 / MAX_SAMPLES  # samples per revolution fall as 1/rpm
+        raise InputError("rpm", float(rpm[i]),
+                         f"at {rpm[i]:g} rev/min one revolution needs {per_rev} steps (~100 per period of the "
+                         f"highest mode); a cut may store at most {MAX_SAMPLES} samples: use at least "
+                         f"{r_min:.3g} rev/min")
+    what = "--steps" if steps_given and per_rev * 2 > MAX_SAMPLES else "revs"
+    raise InputError(what, revs if what == "revs" else int(steps[i]),
+                     f"{int(periods[i])} tooth periods x {int(steps[i])} steps = {int(n[i])} samples; "
+                     f"at most {MAX_SAMPLES} (at most {MAX_SAMPLES // per_rev} revolutions at this speed)")
+
+
 def _bound(structure, cutting, depth, ft) -> np.ndarray:
     """Vibration bound [m]: BOUND_FACTOR × (f_t + largest static force / smallest stiffness)."""
     k_min = min(m.k for m in structure.modes)
@@ -257,8 +279,7 @@ def simulate_cut(structure: Structure, cutting: Cutting, rpm: float, depth: floa
     m = int(_steps(structure, cutting, r, steps_per_tooth)[0])
     n_per = int(_periods(cutting, revs, 1)[0])
     n = n_per * m + 1
-    if n > MAX_SAMPLES:
-        raise InputError("revs", revs, f"{n_per} tooth periods x {m} steps = {n} samples; at most {MAX_SAMPLES}")
+    _check_samples(cutting, r, np.array([m]), np.array([n_per]), revs, steps_per_tooth is not None)
     from millstab.simulate._kernel import initial_state
 
     args = _cut_args(cutting)
@@ -282,7 +303,7 @@ class Labels:
         rpm [rev/min], depth_m [m]; label: "stable" | "marginal" | "chatter" (after any label noise);
         true_label: the detector's label before noise; chatter_hz [Hz] of the detector (NaN where
             true_label is stable, also when noise swapped the label);
-        lobe: "hopf" | "flip" | ""; level, growth: the detector's metrics (see :mod:`.detect`);
+        lobe: "hopf" | "flip" | ""; level, growth, multiplier: the detector's metrics (see :mod:`.detect`);
         seed: the seed of the label noise (None: no noise).
     """
 
@@ -295,6 +316,7 @@ class Labels:
     level: np.ndarray
     growth: np.ndarray
     seed: int | None = None
+    multiplier: np.ndarray | None = None
     schema: str = "millstab.simulate.labels/1"
 
     @property
@@ -343,8 +365,7 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
         raise InputError("seed", seed, "label noise needs a seed (an integer), so runs can be repeated")
     steps = np.ascontiguousarray(_steps(structure, cutting, r, steps_per_tooth))
     periods = _periods(cutting, revs, r.size)
-    if np.any(periods * steps + 1 > MAX_SAMPLES):
-        raise InputError("revs", revs, f"a cut would store more than {MAX_SAMPLES} samples")
+    _check_samples(cutting, r, steps, periods, revs, steps_per_tooth is not None)
     bound = np.ascontiguousarray(_bound(structure, cutting, d, ft))
     fn_max = float(wn.max() / (2 * math.pi))
     f_hi = np.ascontiguousarray(spectrum_band_hz(fn_max, cutting.teeth * r / 60.0))
@@ -354,11 +375,12 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
     lobe = np.empty(n, dtype=np.int64)
     level = np.empty(n)
     growth = np.empty(n)
+    mu = np.empty(n)
     from millstab.simulate._kernel import label_batch
 
     with threadpool_limits(1):
         label_batch(*_cut_args(cutting), r, d, steps, periods, ft, wn, zeta, mass, mdir, start == "steady",
-                    float(perturbation), N_HARMONICS, bound, f_hi, lab, hz, lobe, level, growth)
+                    float(perturbation), N_HARMONICS, bound, f_hi, lab, hz, lobe, level, growth, mu)
     true = np.array(LABELS, dtype=object)[lab].astype("<U8")
     out = true.copy()
     if seed is not None:
@@ -370,4 +392,4 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
             out[mg] = np.where(u_marg[mg] < 0.5, "stable", "chatter")
         flip = (u_flip < noise) & (out != "marginal")
         out[flip] = np.where(out[flip] == "stable", "chatter", "stable")
-    return Labels(r, d, out, true, hz, np.array(LOBES, dtype=object)[lobe].astype("<U4"), level, growth, seed)
+    return Labels(r, d, out, true, hz, np.array(LOBES, dtype=object)[lobe].astype("<U4"), level, growth, seed, mu)

@@ -68,6 +68,8 @@ LEVEL_QUIET = 1e-4
 SPECTRUM_PERIODS = 64
 #: the fewest tooth periods a detection needs (two halves of 4)
 MIN_PERIODS = 8
+#: blocks of the log-RMS trend fit over the analysed periods
+TREND_BLOCKS = 8
 STABLE, MARGINAL, CHATTER = 0, 1, 2
 #: a tooth at a grid point is "in the cut" for surface updates when ψ ≤ φex + this [rad]
 ANGLE_TOL = 1e-9
@@ -519,32 +521,154 @@ def _peak(x, y, m, c_end, n_per, stride, k_hi):
 
 
 @nb.njit(cache=True)
+def _trend(x, y, m, c0, c1):
+    """Per-tooth-period multiplier |μ| of the tooth-to-tooth change over c in [c0, c1): exp of the
+    least-squares slope of log RMS(d_c) on TREND_BLOCKS equal blocks (a block of several periods
+    averages the rotation of a Hopf pair, so the fit sees the envelope, not the beat)."""
+    n = c1 - c0
+    nb_ = min(TREND_BLOCKS, n // 2)
+    if nb_ < 2:
+        r1 = _rms_diff(x, y, m, c0, c0 + n // 2, 1)
+        r2 = _rms_diff(x, y, m, c0 + n // 2, c1, 1)
+        if r1 <= 0.0:
+            return 1.0 if r2 <= 0.0 else np.inf
+        return (r2 / r1) ** (1.0 / max(n / 2.0, 1.0))
+    lb = n // nb_
+    st = 0.0
+    sl = 0.0
+    stt = 0.0
+    stl = 0.0
+    for b in range(nb_):
+        a = c1 - (nb_ - b) * lb  # blocks end at c1 (the latest periods count)
+        r = max(_rms_diff(x, y, m, a, a + lb, 1), 1e-300)
+        t = a + 0.5 * lb
+        lr = math.log(r)
+        st += t
+        sl += lr
+        stt += t * t
+        stl += t * lr
+    den = nb_ * stt - st * st
+    return math.exp((nb_ * stl - st * sl) / den)
+
+
+@nb.njit(cache=True)
+def _crossing_hz(x, y, i0, i1, dt):
+    """Half the rate of sign changes of the larger of x, y (mean removed) over samples [i0, i1) [Hz]."""
+    best = 0.0
+    for ch in range(2):
+        z = x if ch == 0 else y
+        mz = 0.0
+        for i in range(i0, i1):
+            mz += z[i]
+        mz /= max(i1 - i0, 1)
+        n = 0
+        for i in range(i0 + 1, i1):
+            if (z[i] - mz) * (z[i - 1] - mz) < 0.0:
+                n += 1
+        best = max(best, n / (2.0 * max(i1 - i0 - 1, 1) * dt))
+    return best
+
+
+@nb.njit(cache=True)
+def _prony(x, y, i0, i1, stride, dt):
+    """(frequency [Hz], per-second growth rate σ) of the dominant oscillation of x, y over samples
+    [i0, i1): one second-order linear predictor z_n = a₁ z_{n−1} + a₂ z_{n−2} fitted to both (mean
+    removed) by least squares; its roots e^{(σ ± iω) stride dt}. For a run that diverged before two
+    tooth periods (no synchronous average possible): the exponential growth dominates there.
+    Where the roots are real (no oscillation fits) the frequency is the zero-crossing rate, σ NaN."""
+    mx = 0.0
+    my = 0.0
+    cnt = 0
+    for i in range(i0, i1, stride):
+        mx += x[i]
+        my += y[i]
+        cnt += 1
+    mx /= max(cnt, 1)
+    my /= max(cnt, 1)
+    s11 = 0.0
+    s12 = 0.0
+    s22 = 0.0
+    b1 = 0.0
+    b2 = 0.0
+    for ch in range(2):
+        z = x if ch == 0 else y
+        mz = mx if ch == 0 else my
+        for i in range(i0 + 2 * stride, i1, stride):
+            z0 = z[i] - mz
+            z1 = z[i - stride] - mz
+            z2 = z[i - 2 * stride] - mz
+            s11 += z1 * z1
+            s12 += z1 * z2
+            s22 += z2 * z2
+            b1 += z1 * z0
+            b2 += z2 * z0
+    det = s11 * s22 - s12 * s12
+    if det <= 0.0:
+        return _crossing_hz(x, y, i0, i1, dt), np.nan
+    a1 = (b1 * s22 - s12 * b2) / det
+    a2 = (s11 * b2 - s12 * b1) / det
+    disc = a1 * a1 + 4.0 * a2
+    if disc >= 0.0 or a2 >= 0.0:
+        return _crossing_hz(x, y, i0, i1, dt), np.nan
+    rho = math.sqrt(-a2)  # |λ|
+    th = math.acos(max(-1.0, min(1.0, a1 / (2.0 * rho))))
+    h = stride * dt
+    return th / (2.0 * math.pi * h), math.log(rho) / h
+
+
+@nb.njit(cache=True)
 def detect_core(x, y, n_out, m, ft, f_tooth, f_hi, diverged):
     """Detection metrics of one simulated cut (node samples x, y, n_out of them, m per period).
 
     Returns (label code, chatter frequency [Hz] or NaN, lobe code, level L, growth G, spectral
-    window periods). See the module docstring for the rules.
+    window periods, multiplier |μ| per tooth period). See :mod:`millstab.simulate.detect`.
     """
     C = (n_out - 1) // m  # complete periods; once-per-tooth samples at c m, c = 0..C
     nan = np.nan
+    T = 1.0 / f_tooth
+    fs = m * f_tooth
+    stride = max(1, int(fs / (2.5 * f_hi)))
     if C < 2:
-        return CHATTER if diverged else MARGINAL, nan, 0, nan, nan, 0
+        if not diverged:
+            return MARGINAL, nan, 0, nan, nan, 0, nan
+        # diverged within two periods: frequency and growth of the blow-up itself
+        i0 = n_out // 2
+        st = max(1, min(stride, (n_out - i0) // 8))
+        hz, _ = _prony(x, y, i0, n_out, st, T / m)
+        # growth: the largest |u| on the last quarter of the samples over that on the quarter before,
+        # per tooth period (a blow-up this fast is nonlinear: an envelope ratio, not a linear fit)
+        q = max(n_out // 4, 1)
+        a1 = 0.0
+        a2 = 0.0
+        for i in range(n_out - 2 * q, n_out - q):
+            a1 = max(a1, abs(x[i]), abs(y[i]))
+        for i in range(n_out - q, n_out):
+            a2 = max(a2, abs(x[i]), abs(y[i]))
+        mu = (a2 / a1) ** (m / q) if a1 > 0 else np.inf
+        peak = a2
+        lobe = 0
+        if hz == hz:
+            frac = hz / f_tooth
+            lobe = 2 if abs((frac % 1.0) - 0.5) < 0.05 else 1
+        return CHATTER, hz, lobe, peak / ft, mu, 0, mu
     if C >= MIN_PERIODS:
         W = C // 4
-        c_mid = C - W
-        r1 = _rms_diff(x, y, m, c_mid - W + 1, c_mid + 1, 1)
-        r2 = _rms_diff(x, y, m, c_mid + 1, C + 1, 1)
+        c0 = C - 2 * W + 1  # the last half: the entry transient (the first half) is left out
+        r2 = _rms_diff(x, y, m, C - W + 1, C + 1, 1)
     else:
-        r1 = _rms_diff(x, y, m, 1, C // 2 + 1, 1)
+        W = max(C // 2, 1)
+        c0 = 1
         r2 = _rms_diff(x, y, m, C // 2 + 1, C + 1, 1)
+    mu = _trend(x, y, m, c0, C + 1)
     level = r2 / ft
-    if r1 > 0:
-        growth = r2 / r1
-    else:
-        growth = 1.0 if r2 == 0 else np.inf
-    if diverged or growth >= GROWTH:
+    growth = mu ** W if mu < np.inf else np.inf
+    if diverged:
         label = CHATTER
-    elif level < LEVEL_QUIET or growth <= 1.0 / GROWTH:
+    elif level < LEVEL_QUIET:
+        label = STABLE  # numerical-noise level: any "growth" of it is no vibration at all
+    elif growth >= GROWTH:
+        label = CHATTER
+    elif growth <= 1.0 / GROWTH:
         label = STABLE
     elif level >= LEVEL_CHATTER:
         label = CHATTER
@@ -554,15 +678,15 @@ def detect_core(x, y, n_out, m, ft, f_tooth, f_hi, diverged):
     lobe = 0
     n_per = min(SPECTRUM_PERIODS, max(C // 2, 1) if C >= MIN_PERIODS else C)
     if label != STABLE:
-        fs = m * f_tooth
-        stride = max(1, int(fs / (2.5 * f_hi)))
         k_hi = max(2, int(f_hi / f_tooth * n_per))
         frac, pw = _peak(x, y, m, C, n_per, stride, k_hi)
         if pw > 0:
             hz = frac * f_tooth
             half = (frac % 1.0) - 0.5
             lobe = 2 if abs(half) < 1.5 / n_per else 1
-    return label, hz, lobe, level, growth, n_per
+        elif diverged:
+            hz, _ = _prony(x, y, 0, n_out, stride, T / m)
+    return label, hz, lobe, level, growth, n_per, mu
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -585,7 +709,7 @@ def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, ma
 
 @nb.njit(cache=True, parallel=True)
 def label_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, depth, steps, periods, ft, wn, zeta, mass, mdir, steady,
-                perturb_rel, n_harm, bound, f_hi, out_label, out_hz, out_lobe, out_level, out_growth):
+                perturb_rel, n_harm, bound, f_hi, out_label, out_hz, out_lobe, out_level, out_growth, out_mu):
     """Simulate and label cuts (rpm[i], depth[i]) with steps[i] nodes per tooth period over
     periods[i] periods; writes the detector's label/frequency/lobe codes and metrics per cut."""
     for i in nb.prange(rpm.size):
@@ -600,9 +724,10 @@ def label_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, depth, steps, periods, ft, w
         n_out = simulate(n_teeth, kt, kr, phi_s, phi_e, rpm[i], m, periods[i], depth[i], ft, wn, zeta, mass,
                             mdir, q0, v0, S, bound[i], x, y, fx, fy)
         f_tooth = n_teeth * rpm[i] / 60.0
-        lab, hz, lobe, level, growth, _ = detect_core(x, y, n_out, m, ft, f_tooth, f_hi[i], n_out < n)
+        lab, hz, lobe, level, growth, _, mu = detect_core(x, y, n_out, m, ft, f_tooth, f_hi[i], n_out < n)
         out_label[i] = lab
         out_hz[i] = hz
         out_lobe[i] = lobe
         out_level[i] = level
         out_growth[i] = growth
+        out_mu[i] = mu

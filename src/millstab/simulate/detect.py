@@ -10,26 +10,38 @@ Two signals are used, both of the tool-tip displacement (x, y) in the directions
   average over the analysed periods, i.e. with every tooth-passing harmonic removed. Its peak is the
   chatter frequency.
 
-The last half of the cut is analysed (the first half is the transient of the entry), split into two
-halves of W periods. With rms₁, rms₂ the RMS of d_c on them and f_t the feed per tooth:
+The last half of the cut is analysed (the first half is the transient of the entry). Two numbers:
 
-    level  L = rms₂ / f_t,    growth  G = rms₂ / rms₁   (per W periods).
+* the trend: the per-tooth-period multiplier |μ| of the tooth-to-tooth change, exp of the
+  least-squares slope of log RMS(d_c) over ``TREND_BLOCKS`` = 8 equal blocks of the last half (a
+  block of several periods averages a Hopf pair's rotation, so the fit follows the envelope; a fit
+  over the whole last half, not the ratio of two windows, is not thrown by a beat or by one noisy
+  window). ``growth`` G = |μ|^W is its factor over W = C/4 periods (C periods in the cut);
+* the level: L = RMS(d_c) over the last W periods / f_t, the vibration in units of the feed per
+  tooth (the chip thickness scale: what decides whether the cut leaves marks).
 
-Label (thresholds, and why):
+Label (thresholds, and why), in this order:
 
-* ``chatter`` if the simulation diverged (|u| beyond the bound), or G ≥ ``GROWTH`` = 1.5: the
-  tooth-to-tooth vibration grows by half again within W periods (|μ| ≥ 1.5^{1/W}, e.g. 1.008 for
-  W = 50); a linear growth this clear will reach the chip thickness, so the cut chatters; or if
-  L ≥ ``LEVEL_CHATTER`` = 0.1 and the vibration does not decay (G > 1/``GROWTH``): a sustained
-  tooth-to-tooth change of 10 % of the feed per tooth is a plain chatter mark on the surface
-  (10 µm at 0.1 mm/tooth), ten times the default start bump (1 % of the feed), and the saturated
-  limit cycle of an unstable cut sits there (L ≈ 0.2-1.5 in the benchmark: the tooth leaves the
-  cut), while a stable cut's vibration only decays from the bump.
-* ``stable`` if L < ``LEVEL_QUIET`` = 1e-4 (the samples sit on the fixed point to 0.01 % of the feed,
-  10 nm at 0.1 mm/tooth, far below any sensor's noise; G is meaningless there), or if the vibration
-  decays, G ≤ 1/``GROWTH``.
+* ``chatter`` if the simulation diverged (|u| beyond the bound);
+* ``stable`` if L < ``LEVEL_QUIET`` = 1e-4: the samples sit on the fixed point to 0.01 % of the feed
+  (10 nm at 0.1 mm/tooth, far below any sensor's noise). The trend of such a vibration is no
+  evidence: a transient that decayed to 1e-15 f_t (round-off of the periodic motion) can show any
+  "growth" (the 1-DOF benchmark at a/D = 0.05, 10 000 rpm, 0.85 × the limit showed G = 2.04 at
+  L = 8e-15 and was called chatter before this rule came first);
+* ``chatter`` if G ≥ ``GROWTH`` = 1.5: the tooth-to-tooth vibration grows by half again within W
+  periods (|μ| ≥ 1.5^{1/W}, e.g. 1.008 for W = 50); a linear growth this clear will reach the chip
+  thickness, so the cut chatters;
+* ``stable`` if G ≤ 1/``GROWTH``: it decays clearly (the transient of a stable cut);
+* ``chatter`` if L ≥ ``LEVEL_CHATTER`` = 0.1 (and neither growing nor decaying): a sustained
+  tooth-to-tooth change of 10 % of the feed per tooth is a plain chatter mark on the surface (10 µm
+  at 0.1 mm/tooth), ten times the default start bump (1 % of the feed), and the saturated limit
+  cycle of an unstable cut sits there (L ≈ 0.2-1.5 in the benchmark: the tooth leaves the cut);
 * ``marginal`` otherwise: small and neither growing nor decaying clearly within the cut. A longer
   cut (more revolutions) narrows this band: its width in |μ| is about ±ln(1.5)/W.
+
+A run that diverged before two tooth periods has no synchronous average: its frequency and |μ| come
+from a second-order linear predictor (Prony) fitted to the last half of the samples, where the
+blow-up dominates; level is then the largest |u| over f_t. No output of a diverged run is NaN.
 
 Chatter frequency: the largest peak of the non-synchronous spectrum (Hann window, the analysed
 periods, at most ``SPECTRUM_PERIODS`` of them, peak refined by a parabola through the log-magnitudes
@@ -46,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from millstab.simulate._kernel import (CHATTER, GROWTH, LEVEL_CHATTER, LEVEL_QUIET, MARGINAL,  # noqa: F401
-                                       MIN_PERIODS, SPECTRUM_PERIODS, STABLE, detect_core)
+                                       MIN_PERIODS, SPECTRUM_PERIODS, STABLE, TREND_BLOCKS, detect_core)
 
 LABELS = ("stable", "marginal", "chatter")
 LOBES = ("", "hopf", "flip")
@@ -61,7 +73,8 @@ class Detection:
         chatter_hz: chatter frequency [Hz] (the non-synchronous spectral peak); NaN when stable.
         lobe: ``"hopf"``, ``"flip"`` or ``""`` (stable).
         level: RMS tooth-to-tooth change over the feed per tooth on the last W periods [-].
-        growth: its growth factor over W periods [-] (inf: from exactly zero).
+        growth: its growth factor over W periods [-], |μ|^W (inf: from exactly zero).
+        multiplier: |μ|, the fitted per-tooth-period multiplier of the tooth-to-tooth change [-].
         window_periods: tooth periods in the spectral window.
         freq_hz, amplitude_m: the one-sided amplitude spectrum [m] of x and y together (root of the
             summed powers) over the spectral window, with the harmonics (for plotting).
@@ -77,6 +90,7 @@ class Detection:
     tooth_hz: float
     freq_hz: np.ndarray = field(repr=False)
     amplitude_m: np.ndarray = field(repr=False)
+    multiplier: float = float("nan")
     schema: str = "millstab.simulate.detection/1"
 
     def to_dict(self) -> dict[str, Any]:
@@ -87,7 +101,9 @@ class Detection:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Detection:
         kw = {k: d[k] for k in cls.__dataclass_fields__ if k in d}
-        for k in ("chatter_hz", "level", "growth", "tooth_hz"):
+        for k in ("chatter_hz", "level", "growth", "tooth_hz", "multiplier"):
+            if k not in kw:
+                continue
             kw[k] = float("nan") if kw[k] is None else float(kw[k])
         kw["freq_hz"] = np.asarray(kw["freq_hz"], float)
         kw["amplitude_m"] = np.asarray(kw["amplitude_m"], float)
@@ -104,11 +120,11 @@ def detect(result) -> Detection:
     m = result.steps_per_tooth
     n_out = result.x.size
     f_hi = spectrum_band_hz(result.fn_max_hz, result.tooth_hz)
-    code, hz, lobe, level, growth, n_per = detect_core(result.x, result.y, n_out, m, result.feed_per_tooth_m,
+    code, hz, lobe, level, growth, n_per, mu = detect_core(result.x, result.y, n_out, m, result.feed_per_tooth_m,
                                                        result.tooth_hz, f_hi, result.diverged)
     freq, amp = _display_spectrum(result, n_per)
     return Detection(LABELS[code], float(hz), LOBES[lobe], float(level), float(growth), int(n_per),
-                     result.tooth_hz, freq, amp)
+                     result.tooth_hz, freq, amp, float(mu))
 
 
 def _display_spectrum(result, n_per: int) -> tuple[np.ndarray, np.ndarray]:

@@ -965,13 +965,29 @@ def _with_nodes(w, G, nu, extra, a, measured, md):
 
 
 @nb.njit(cache=True)
+def _distinct_new(w, extra):
+    """The nodes of ``extra`` once each and not already in the ascending grid ``w``: a node twice makes a
+    zero-length segment (a division by zero). A direction without data (a measured FRF with xx alone) has a
+    root ν ≡ 0 whose Re ν = 0 edges fall on the other root's edges and on the grid."""
+    if extra.size == 0:
+        return extra
+    ex = np.unique(extra)
+    pos = np.searchsorted(w, ex)
+    keep = np.ones(ex.size, dtype=np.bool_)
+    for e in range(ex.size):
+        if pos[e] < w.size and w[pos[e]] == ex[e]:
+            keep[e] = False
+    return ex[keep]
+
+
+@nb.njit(cache=True)
 def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
     """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
     the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
     the tooth periods T [s], the best estimate per speed and the candidates."""
     counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3])
-    extra = _validity_edges(w, nu, a, md, measured, G, stats)
+    extra = _distinct_new(w, _validity_edges(w, nu, a, md, measured, G, stats))
     if extra.size:
         w, G, nu = _with_nodes(w, G, nu, extra, a, measured, md)
     n_w = w.size

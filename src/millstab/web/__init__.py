@@ -8,7 +8,10 @@ module does not.
 
 from __future__ import annotations
 
+import errno
 import socket
+
+from millstab.errors import InputError
 
 #: the address the app binds to unless told otherwise: this machine only
 DEFAULT_HOST = "127.0.0.1"
@@ -17,16 +20,69 @@ DEFAULT_PORT = 5006
 
 def free_port(host: str = DEFAULT_HOST) -> int:
     """A TCP port free on ``host`` now."""
-    with socket.socket() as s:
+    with socket.socket(_family(host)) as s:
         s.bind((host, 0))
         return s.getsockname()[1]
 
 
+def _family(host: str) -> int:
+    return socket.AF_INET6 if ":" in host else socket.AF_INET
+
+
+def _address_error(exc: OSError, host: str, port: int) -> InputError:
+    """The one-line error of a failed bind: a port in use, or a host that is not this machine's."""
+    if isinstance(exc, socket.gaierror):
+        return InputError("--host", host, f"is not an address or host name this machine resolves ({exc.strerror}); "
+                                          "127.0.0.1 serves this machine only, 0.0.0.0 every network interface")
+    if exc.errno == errno.EADDRINUSE:
+        return InputError("--port", port, f"is in use on {host} (another server listens there): stop it, or give "
+                                          "another --port (0 picks a free one)")
+    if exc.errno == errno.EADDRNOTAVAIL:
+        return InputError("--host", host, "is not an address of this machine: 127.0.0.1 serves this machine only, "
+                                          "0.0.0.0 every network interface")
+    if exc.errno == errno.EACCES:
+        return InputError("--port", port, "needs privileges on this machine (ports below 1024): give a port "
+                                          "above 1023 (0 picks a free one)")
+    return InputError("--host", f"{host}:{port}", f"cannot serve there: {exc.strerror or exc}")
+
+
+def check_address(host: str, port: int) -> None:
+    """Refuse, before anything is printed or served, a ``host`` this machine cannot bind or a ``port``
+    in use there (a test bind with SO_REUSEADDR, as the server binds: on Linux it fails on a port another
+    server listens on, but not on one in TIME_WAIT).
+
+    Raises:
+        InputError: naming ``--host`` or ``--port``.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+        for family, kind, proto, _, addr in infos:
+            with socket.socket(family, kind, proto) as s:
+                s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                s.bind(addr)
+    except OSError as exc:
+        raise _address_error(exc, host, port) from None
+
+
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
-          verbose: bool = False):
+          verbose: bool = False, users: dict[str, str] | None = None):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
-    (the URL is printed first)."""
+    (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
+    :mod:`millstab.web.auth`) every page needs a login; a host other than 127.0.0.1/localhost/::1
+    requires them.
+
+    Raises:
+        InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
+            non-local host without ``users``.
+    """
+    from millstab.web.auth import is_local
+
+    check_address(host, port)  # an address that is not this machine's is that, whatever the accounts
+    if not users and not is_local(host):
+        raise InputError("--host", host, "serves beyond this machine (only 127.0.0.1, localhost and ::1 are local), "
+                                         "so it needs accounts: make a users file with `millstab app --add-user NAME "
+                                         "--users FILE` and start with --users FILE")
     import panel as pn
 
     from millstab.web.app import create_app
@@ -34,8 +90,21 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     port = port or free_port(host)
     url = f"http://{host}:{port}/"
     origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
-    if not threaded:
-        print(f"millstab app: {url}  (Ctrl+C stops it)", flush=True)
-    server = pn.serve({"/": create_app}, port=port, address=host, websocket_origin=origin, show=show,
-                      threaded=threaded, title="millstab", verbose=verbose)
+    opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose)
+    if users:
+        import secrets
+
+        from millstab.web.auth import auth_provider
+
+        # a fresh cookie key per start: logins end with the server
+        opts.update(auth_provider=auth_provider(users), cookie_secret=secrets.token_urlsafe(32))
+    if threaded:
+        return pn.serve({"/": create_app}, threaded=True, **opts), url
+    try:
+        server = pn.serve({"/": create_app}, start=False, **opts)  # binds the port here
+    except OSError as exc:  # taken since the check
+        raise _address_error(exc, host, port) from None
+    print(f"millstab app: {url}  (Ctrl+C stops it)", flush=True)
+    server.start()
+    server.io_loop.start()
     return server, url

@@ -28,7 +28,7 @@ def create_app():
         doc.on_session_destroyed(lambda ctx: session.close())
     preview = preview_figure(lobes.src)
     if session.lobes is not None:
-        lobes.show(session.lobes)  # fill the preview's source too
+        lobes.show(session.lobes, origin=session.origin)  # fill the preview's source too
     tabs = pn.Tabs(tool.view(preview), lobes.view(), ident.view(), update.view(), downloads.view(), dynamic=False,
                    css_classes=["ms-tabs"], sizing_mode="stretch_width")
     header = pn.pane.HTML("<h2 style='margin:4px 0'>millstab: milling stability</h2>"

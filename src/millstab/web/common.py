@@ -10,6 +10,7 @@ CSS = """
 .ms-error { color: #b00020; font-size: 0.9em; }
 .ms-done { color: #1b5e20; }
 .ms-note { color: #555; font-size: 0.9em; }
+.ms-for { color: #0d47a1; font-size: 0.9em; }
 table.ms-table { border-collapse: collapse; font-size: 0.9em; }
 table.ms-table td, table.ms-table th { border: 1px solid #ccc; padding: 2px 8px; text-align: right; }
 """
@@ -60,6 +61,12 @@ def as_text(value) -> str:
 
 def error_html(text: str) -> str:
     return f'<span class="ms-error">{esc(text)}</span>' if text else ""
+
+
+def computed_for(origin: str) -> str:
+    """The line over a result that says which structure it is for (the session's ``origin`` when the work
+    started): a posterior of the packaged example must not pass for one of the user's tool."""
+    return f'<div class="ms-for"><b>computed for:</b> {esc(origin)}</div>' if origin else ""
 
 
 def html_table(header, rows, css: str = "") -> str:

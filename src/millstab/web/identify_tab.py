@@ -10,11 +10,11 @@ import panel as pn
 from millstab import api
 from millstab.datasets import list_example_points
 from millstab.errors import InputError
-from millstab.web.common import TextBox, error_html, esc, html_table
+from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
 from millstab.web.jobs import JobBar
 from millstab.web.plots import set_line, set_points, sld_figure, update
 from millstab.web.state import Session
-from millstab.web.uploads import MAX_TEXT_BYTES, dropper, latest
+from millstab.web.uploads import MAX_TEXT_BYTES, POINTS_TYPES, dropper, latest
 
 
 def points_upload(session: Session, attr: str, drop, error, note) -> None:
@@ -22,7 +22,7 @@ def points_upload(session: Session, attr: str, drop, error, note) -> None:
     goes to ``error`` and the previous points stay."""
     error.object = ""
     try:
-        got = latest(drop, MAX_TEXT_BYTES)
+        got = latest(drop, MAX_TEXT_BYTES, POINTS_TYPES, "points CSV")
         if got is None:
             return
         pts = api.points_from_text(got[1], got[0])
@@ -38,7 +38,7 @@ class IdentifyTab:
         from millstab.identify import METHODS
 
         self.s = session
-        self.drop = dropper("boundary points CSV", [".csv", ".txt"], css="drop-points")
+        self.drop = dropper("boundary points CSV", POINTS_TYPES, css="drop-points")
         self.drop_error = pn.pane.HTML("", css_classes=["e-points-upload"])
         self.points_note = pn.pane.HTML("", css_classes=["points-note"])
         self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm[,label][,weight][,chatter_hz]; '
@@ -78,16 +78,17 @@ class IdentifyTab:
             return
         opts = dict(method=self.method.value, free=self.free.value.strip() or None, axisymmetric=self.axisym.value,
                     seed=int(self.seed.value))
-        self.job.start(lambda progress: (api.identify(cfg, pts, progress=progress, **opts), cfg, pts, opts["method"]),
-                       self.show)
+        origin = self.s.origin
+        self.job.start(lambda progress: (api.identify(cfg, pts, progress=progress, **opts), cfg, pts, opts["method"],
+                                         origin), self.show)
 
     def show(self, result, caught) -> None:
-        fit, cfg, pts, method = result
+        fit, cfg, pts, method, origin = result
         self.s.fit, self.s.fit_cfg = fit, cfg
         se = fit.std_errors if fit.std_errors is not None else np.full(len(fit.names), np.nan)
         rows = [(n, f"{v:.6g}", f"{e:.3g}" if np.isfinite(e) else "–", u, f"{s:.6g}")
                 for n, v, e, u, s in zip(fit.names, fit.estimate, se, fit.units, fit.start)]
-        self.table.text = (html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit") +
+        self.table.text = (computed_for(origin) + html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit") +
                              f'<div class="ms-note">{esc(method)}: MLAE {fit.mlae:.4g} mm, {fit.iterations} iterations, '
                              f'{fit.evaluations} evaluations, {fit.time_s:.2f} s, {fit.n_points} points</div>')
         lines = list(fit.warnings) + [w for w in caught if w not in fit.warnings]
@@ -110,14 +111,16 @@ class IdentifyTab:
             fit = None  # the form changed since the fit: plan around the form's structure
         n = int(self.n_plan.value)
         doc = None if fit is None else fit.to_json()
-        self.plan_job.start(lambda progress: api.design(cfg, n=n, points=pts, fit=doc), self.show_plan)
+        origin = self.s.origin
+        self.plan_job.start(lambda progress: (api.design(cfg, n=n, points=pts, fit=doc), origin), self.show_plan)
 
-    def show_plan(self, plan, caught) -> None:
+    def show_plan(self, result, caught) -> None:
+        plan, origin = result
         self.s.plan = plan
         tests = plan.tests()
         rows = [(f"{r:.0f}", c, f"{d:.4g}") for r, c, d in tests]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.plan_table.text = html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes
+        self.plan_table.text = computed_for(origin) + html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes
         update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
 
     def view(self):

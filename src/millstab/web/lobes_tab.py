@@ -5,6 +5,7 @@ uploaded points and cuts overlaid; redrawn on every valid edit of the form. The 
 from __future__ import annotations
 
 import time
+import traceback
 
 import numpy as np
 import panel as pn
@@ -12,7 +13,7 @@ import panel as pn
 from millstab import api
 from millstab.errors import InputError
 from millstab.stability import ENGINES
-from millstab.web.common import error_html, esc
+from millstab.web.common import computed_for, error_html, esc
 from millstab.web.jobs import JobBar
 from millstab.web.common import TextBox
 from millstab.web.plots import set_line, set_points, set_raw, sld_figure
@@ -29,7 +30,7 @@ class LobesTab:
         self.engine = pn.widgets.Select(label="engine", options=list(ENGINES), value="zoa", width=120,
                                         css_classes=["engine"])
         self.raw = pn.widgets.Checkbox(label="raw lobes (zoa)", value=False, css_classes=["raw-lobes"])
-        self.summary = TextBox("lobes-summary")
+        self.summary = TextBox("lobes-summary", height=66)
         self.error = pn.pane.HTML("", css_classes=["lobes-error"])
         self.job = JobBar("Compute", "lobes")
         self.job_box = pn.Column(self.job, visible=False)
@@ -53,7 +54,7 @@ class LobesTab:
         set_points(self.src, both)
 
     def redraw(self, force: bool = False) -> None:
-        cfg = self.s.cfg
+        cfg, origin = self.s.cfg, self.s.origin
         if cfg is None:
             return
         self.error.object = ""
@@ -71,8 +72,12 @@ class LobesTab:
             except InputError as exc:
                 self.error.object = error_html(str(exc))
                 return
+            except Exception as exc:  # a bug must not escape into the server's handler: show it, keep the page
+                traceback.print_exc()
+                self.error.object = error_html(f"failed: {type(exc).__name__}: {exc}")
+                return
             self.timing = time.perf_counter() - t0
-            self.show(result)
+            self.show(result, origin=origin)
             return
         self.job_box.visible = True
         if not force:
@@ -80,9 +85,9 @@ class LobesTab:
                                    f'{rpm.size} speeds: press Compute</span>')
             return
         self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress),
-                       lambda result, caught: self.show(result, caught))
+                       lambda result, caught: self.show(result, caught, origin))
 
-    def show(self, result, caught=()) -> None:
+    def show(self, result, caught=(), origin: str = "") -> None:
         self.s.lobes = result
         env = result.envelope
         for key in ("env", "preview"):
@@ -97,7 +102,7 @@ class LobesTab:
             with pn.io.unlocked():
                 self.fig.title.text = title
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.summary.text = "<br>".join(esc(line) for line in result.summary()) + notes
+        self.summary.text = computed_for(origin) + "<br>".join(esc(line) for line in result.summary()) + notes
 
     def view(self):
         return pn.Column(pn.Row(self.engine, self.raw, self.job_box), self.error, self.summary.view(),

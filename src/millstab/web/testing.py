@@ -15,11 +15,12 @@ LAUNCH = {"executable_path": str(CHROMIUM), "args": ["--no-sandbox"]}
 
 
 @contextmanager
-def running_app(timeout: float = 60.0):
-    """Serve the app on 127.0.0.1 and a free port in a thread; yields the URL; stops the server after."""
+def running_app(timeout: float = 60.0, host: str = "127.0.0.1", users: dict[str, str] | None = None):
+    """Serve the app on ``host`` (127.0.0.1) and a free port in a thread, with a login for ``users``
+    ({name: hash}) if given; yields the URL; stops the server after."""
     from millstab.web import serve
 
-    thread, url = serve(port=0, threaded=True, show=False)
+    thread, url = serve(port=0, host=host, threaded=True, show=False, users=users)
     t_end = time.monotonic() + timeout
     while True:
         try:

@@ -5,15 +5,21 @@ a problem is shown next to the field it names."""
 
 from __future__ import annotations
 
+import dataclasses
+import tomllib
+from pathlib import Path
 
 import panel as pn
 
 from millstab import api
 from millstab.datasets import list_examples
 from millstab.errors import InputError
+from millstab.io.frf_files import frf_csv_text
+from millstab.io.text import decode_text
+from millstab.model import Mode, Structure
 from millstab.web.common import Field, as_text, error_html, esc
 from millstab.web.state import Session
-from millstab.web.uploads import MAX_FRF_BYTES, MAX_TEXT_BYTES, dropper, latest, save_in
+from millstab.web.uploads import CONFIG_TYPES, FRF_TYPES, MAX_FRF_BYTES, MAX_TEXT_BYTES, dropper, latest
 from millstab.warnlog import collect
 
 DEFAULT_EXAMPLE = "ex3"
@@ -89,16 +95,20 @@ class ToolTab:
         self.structure_kind = pn.widgets.RadioButtonGroup(options=["modes", "measured FRF"], value="modes",
                                                           css_classes=["structure-kind"])
         self.modes = {d: ModeList(d, ch) for d in ("x", "y")}
-        self.frf_drop = {t: dropper(f"H{t} FRF: .csv, .frf, .uff", [".csv", ".frf", ".uff", ".unv", ".txt"],
-                                    MAX_FRF_BYTES, css=f"drop-frf-{t}") for t in FRF_TERMS}
+        self.frf_drop = {t: dropper(f"H{t} FRF", FRF_TYPES, MAX_FRF_BYTES, css=f"drop-frf-{t}") for t in FRF_TERMS}
         self.frf_error = {t: pn.pane.HTML("", css_classes=[f"e-structure-frf-{t}"]) for t in FRF_TERMS}
-        self.frf_files: dict[str, str] = {}
+        self.frf_note = {t: pn.pane.HTML("", css_classes=[f"frf-note-{t}"]) for t in FRF_TERMS}
+        #: the FRF term sources of the form: a saved upload's file name, or {"file": that, "record": N}
+        self.frf_files: dict[str, str | dict] = {}
+        self.source = ""  # what the form was last filled from (Session.origin says it with "edited")
+        self.edited = False
+        self.waiting: tuple[str, bytes | str] | None = None  # an uploaded config waiting for the FRF files it names
         for t, w in self.frf_drop.items():
             w.param.watch(lambda e, t=t: self._frf_uploaded(t), "value")
         self.example = pn.widgets.Select(label="packaged example", options=list_examples(), value=DEFAULT_EXAMPLE,
                                          width=150, css_classes=["example"])
         self.load_example = pn.widgets.Button(label="Load example", width=120, css_classes=["load-example"])
-        self.config_drop = dropper("config TOML", [".toml"], MAX_TEXT_BYTES, css="drop-config")
+        self.config_drop = dropper("config TOML", CONFIG_TYPES, MAX_TEXT_BYTES, css="drop-config")
         self.config_error = pn.pane.HTML("", css_classes=["e-config-upload"])
         self.general = pn.pane.HTML("", css_classes=["e-general"])
         self.status = pn.pane.HTML("", css_classes=["tool-status"])
@@ -125,9 +135,15 @@ class ToolTab:
         return self.simple_fields() + self.modes["x"].fields() + self.modes["y"].fields()
 
     # --- filling the form from a config -------------------------------------------------------------------
-    def fill(self, cfg) -> None:
-        """Show ``cfg`` in the fields (values with units as a TOML config writes them)."""
-        t = api.config_fields(cfg)
+    def fill(self, cfg, source: str, frf: dict | None = None) -> None:
+        """Show ``cfg`` in the fields (values with units as the config writer writes them, [prior] and
+        description kept as written by it); ``source`` says where it came from. A measured-FRF config
+        comes with ``frf``, its ``[structure.frf]`` table naming the session's saved uploads; the mode
+        rows are then left as they are."""
+        # the io config writer is the one source of the tables (a form-side copy of it dropped
+        # [prior] label_error: a config loaded in the browser changed the prior of an update)
+        shown = cfg if frf is None else dataclasses.replace(cfg, structure=Structure(x=(Mode(1000.0, 1e7, 0.03),)))
+        t = api.config_fields(shown)
         self._filling = True
         try:
             c = t["cutting"]
@@ -137,49 +153,112 @@ class ToolTab:
             self.entry.input.value, self.exit.input.value = as_text(c["entry"]), as_text(c["exit"])
             sp = t.get("speeds") or {"start": 2000, "stop": 12000, "step": 20}
             self.start.input.value, self.stop.input.value, self.step.input.value = (as_text(sp[k]) for k in ("start", "stop", "step"))
-            self.structure_kind.value = "modes"
-            for d in ("x", "y"):
-                self.modes[d].set(t.get("structure", {}).get(d, []))
-            self.extra = {k: t[k] for k in ("description",) if k in t}
-            if cfg.prior is not None:
-                self.extra["prior"] = _prior_fields(cfg.prior)
+            if frf is None:
+                self.structure_kind.value = "modes"
+                for d in ("x", "y"):
+                    self.modes[d].set(t.get("structure", {}).get(d, []))
+            else:
+                self.structure_kind.value = "measured FRF"
+                self.frf_files = dict(frf)
+                for term in FRF_TERMS:
+                    self.frf_note[term].object = ""
+            self.extra = {k: t[k] for k in ("description", "prior") if k in t}
+            self.source, self.edited = source, False
         finally:
             self._filling = False
-        self.changed()
+        self._changed()
 
     def fill_example(self, name: str) -> None:
         try:
-            self.fill(api.config(f"example:{name}"))
+            self.fill(api.config(f"example:{name}"), f"the packaged example {name}")
         except InputError as exc:
             self.general.object = error_html(str(exc))
 
     def _config_uploaded(self) -> None:
         self.config_error.object = ""
+        self.waiting = None
         try:
-            got = latest(self.config_drop, MAX_TEXT_BYTES)
-            if got is None:
-                return
-            name, content = got
-            cfg = api.config_from_text(content, name)
+            got = latest(self.config_drop, MAX_TEXT_BYTES, CONFIG_TYPES, "config TOML")
         except InputError as exc:
             self.config_error.object = error_html(str(exc))
             return
-        self.fill(cfg)
-        self.status.object = f'<span class="ms-done">loaded {esc(name)}</span>'
+        if got is not None:
+            self._load_config(*got)
+
+    def _load_config(self, name: str, content: bytes | str) -> None:
+        self.config_error.object = ""
+        try:
+            # FRF file names in it resolve to this session's uploads only: nothing else is opened
+            cfg = api.config_from_text(content, name, files=self.s.uploads)
+            if cfg.structure.is_modal:
+                frf, written = None, None
+            elif "tool" in tomllib.loads(_text(content, name).lstrip("\ufeff")):
+                frf, written = self._tip_files(cfg, name), {}
+            else:
+                frf, written = self._frf_table(content, name)
+        except InputError as exc:
+            waits = (exc.field.startswith("structure.frf.") and "uploaded in the same session" in exc.allowed
+                     and Path(str(exc.value)).name == exc.value and not str(exc.value).startswith("~"))
+            # a config that names FRF files not uploaded yet loads when they are (upload order is free)
+            self.waiting = (name, content) if waits else None
+            note = (f'<div class="ms-note">{esc(name)} loads once the FRF files it names are uploaded in the FRF drop '
+                    'zones below</div>' if waits else "")
+            self.config_error.object = error_html(str(exc)) + note
+            return
+        self.waiting = None
+        self.fill(cfg, f"uploaded {name}", frf)
+        if frf is not None and not written:  # a [tool] + [holder] config: its tip FRF, computed here
+            for term, file in frf.items():
+                self.frf_note[term].object = (f'<span class="ms-note">{esc(name)}: the tool tip by receptance '
+                                              f'coupling ([tool] + [holder]), saved as {esc(file)}</span>')
+        elif frf is not None:
+            for term, src in written.items():
+                file = src["file"] if isinstance(src, dict) else src
+                record = f" record {src['record']}" if isinstance(src, dict) and "record" in src else ""
+                self.frf_note[term].object = f'<span class="ms-note">{esc(name)}: {esc(file)}{esc(record)}</span>'
+
+    def _tip_files(self, cfg, name: str) -> dict:
+        """A ``[tool]`` + ``[holder]`` config's tool-tip FRF (computed by the config reader) saved in the
+        session's folder as FRF CSV files, one per term: the form then shows it as a measured FRF, and its
+        config download names those files (the [tool] description is not kept by the form)."""
+        frf = cfg.structure.frf
+        out = {}
+        for term in FRF_TERMS:
+            h = getattr(frf, term, None)
+            if h is not None:
+                file = f"{Path(name).stem}_tip_{term}.csv"
+                self.s.save_upload(term, file, frf_csv_text(frf.freq_hz, h))
+                out[term] = self.s.uploads[file].name
+        return out
+
+    def _frf_table(self, content: bytes | str, name: str) -> tuple[dict, dict]:
+        """The ``[structure.frf]`` table of an uploaded config (already validated) naming the saved files,
+        and as written."""
+        table = tomllib.loads(_text(content, name).lstrip("\ufeff"))["structure"]["frf"]
+        out: dict[str, str | dict] = {}
+        for term, src in table.items():
+            if isinstance(src, dict):
+                out[term] = {**src, "file": self.s.uploads[src["file"]].name}
+            else:
+                out[term] = self.s.uploads[src].name
+        return out, table
 
     def _frf_uploaded(self, term: str) -> None:
         self.frf_error[term].object = ""
+        self.frf_note[term].object = ""
         try:
-            got = latest(self.frf_drop[term], MAX_FRF_BYTES)
+            got = latest(self.frf_drop[term], MAX_FRF_BYTES, FRF_TYPES, "FRF")
         except InputError as exc:
             self.frf_error[term].object = error_html(str(exc))
             return
         if got is None:
             self.frf_files.pop(term, None)
         else:
-            self.frf_files[term] = save_in(self.s.folder, term, *got).name
+            self.frf_files[term] = self.s.save_upload(term, *got).name
         self.structure_kind.value = "measured FRF"
         self.changed()
+        if got is not None and self.waiting is not None:
+            self._load_config(*self.waiting)
 
     # --- validation -------------------------------------------------------------------------------------
     def tables(self) -> dict:
@@ -200,7 +279,14 @@ class ToolTab:
     def changed(self) -> None:
         if self._filling:
             return
+        self.edited = True
         self._changed()
+
+    def origin(self) -> str:
+        """What the form's config is, as the result panes say it."""
+        if self.source.startswith("uploaded"):
+            return self.source + (", edited in the form" if self.edited else "")
+        return f"{self.source}{', edited in the form' if self.edited else ''} — no config loaded"
 
     def _changed(self) -> None:
         for f in self.all_fields():
@@ -211,13 +297,17 @@ class ToolTab:
         self.general.object = ""
         try:
             with collect() as caught:  # this session's warnings only (see millstab.warnlog)
-                cfg = api.config_from_fields(self.tables(), "config", self.s.folder)
+                # the form's FRF terms name the session's saved uploads, and nothing else can be opened
+                cfg = api.config_from_fields(self.tables(), "config", files=self.s.saved)
         except InputError as exc:
             self.show_error(exc)
             self.status.object = error_html("input not valid: the diagrams show the last valid input")
             return
         notes = "".join(f'<div class="ms-note">{esc(w.message)}</div>' for w in caught)
-        self.status.object = f'<span class="ms-done">valid: {esc(cfg.name)}</span>{notes}'
+        origin = self.origin()
+        self.status.object = (f'<span class="ms-done">valid: {esc(cfg.name)}</span> '
+                              f'<span class="ms-note">({esc(origin)})</span>{notes}')
+        self.s.origin = origin  # before cfg: the tabs redraw on cfg and say what they computed for
         self.s.cfg = cfg
 
     def show_error(self, exc: InputError) -> None:
@@ -243,7 +333,8 @@ class ToolTab:
                                        '"2173 MPa"; angles "126.9 deg" (plain number = rad); fn "900 Hz"; k "9 N/um"; '
                                        'plain numbers are SI. Press Enter or leave a field to apply.</span>'),
                           title="Cutting conditions", collapsible=False)
-        frf = pn.GridBox(*(pn.Column(self.frf_drop[t], self.frf_error[t]) for t in FRF_TERMS), ncols=2)
+        frf = pn.GridBox(*(pn.Column(self.frf_drop[t], self.frf_note[t], self.frf_error[t]) for t in FRF_TERMS),
+                         ncols=2)
         structure = pn.Card(self.structure_kind, pn.Row(self.modes["x"].view(), self.modes["y"].view()),
                             pn.pane.HTML("<b>or measured FRF</b> (choose \"measured FRF\"; at least xx or yy):"), frf,
                             title="Structure (tool tip)", collapsible=False)
@@ -256,15 +347,5 @@ class ToolTab:
                       name="Tool and cut")
 
 
-def _prior_fields(prior) -> dict:
-    """The [prior] table of a loaded config, re-written so the form's config keeps it."""
-    out = {k: float(v) for k, v in prior.spreads.items()}
-    if prior.fixed:
-        out["fixed"] = list(prior.fixed)
-    if prior.sigma_depth_m is not None:
-        out["sigma_depth"] = f"{prior.sigma_depth_m * 1e3!r} mm"
-    if prior.sigma_depth_rel is not None:
-        out["sigma_depth"] = f"{prior.sigma_depth_rel * 100!r} %"
-    if prior.sigma_chatter_hz is not None:
-        out["sigma_chatter_hz"] = f"{prior.sigma_chatter_hz!r} Hz"
-    return out
+def _text(content: bytes | str, name: str) -> str:
+    return content if isinstance(content, str) else decode_text(content, name, name, "text file (TOML)")

@@ -8,12 +8,12 @@ import numpy as np
 import panel as pn
 
 from millstab import api
-from millstab.web.common import TextBox, error_html, esc, html_table
+from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
 from millstab.web.identify_tab import points_upload
 from millstab.web.jobs import JobBar
 from millstab.web.plots import map_figure
 from millstab.web.state import Session
-from millstab.web.uploads import dropper
+from millstab.web.uploads import POINTS_TYPES, dropper
 
 #: speeds of the P(stable) map (the map's cost is speeds × posterior samples)
 MAP_SPEEDS = 240
@@ -22,7 +22,7 @@ MAP_SPEEDS = 240
 class UpdateTab:
     def __init__(self, session: Session):
         self.s = session
-        self.drop = dropper("test cuts CSV", [".csv", ".txt"], css="drop-cuts")
+        self.drop = dropper("test cuts CSV", POINTS_TYPES, css="drop-cuts")
         self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm,label[,weight][,chatter_hz]; label '
                                    'stable, chatter or marginal</span>', width=330)
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
@@ -32,6 +32,7 @@ class UpdateTab:
                                            css_classes=["update-samples"])
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
         self.job = JobBar("Update", "update")
+        self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
         self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
         self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01, width=120)
@@ -49,15 +50,18 @@ class UpdateTab:
             return
         pts = self.s.points if self.use_points.value else None
         n, seed = int(self.samples.value or 0), int(self.seed.value or 0)
-        self.job.start(lambda progress: api.update(cfg, cuts, pts, samples=n, seed=seed, progress=progress), self.show)
+        origin = self.s.origin
+        self.job.start(lambda progress: (api.update(cfg, cuts, pts, samples=n, seed=seed, progress=progress), origin),
+                       self.show)
 
-    def show(self, post, caught) -> None:
+    def show(self, result, caught) -> None:
+        post, self.post_origin = result
         self.s.post = post
         theta = np.asarray(post.samples)
         q = np.percentile(theta, [5, 50, 95], axis=0)
         rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
         lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
-        self.post_table.text = (html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior") +
+        self.post_table.text = (computed_for(self.post_origin) + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior") +
                                   "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
         self.map()
 
@@ -91,7 +95,7 @@ class UpdateTab:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks), sizing_mode="stretch_width")]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.rec.text = (f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
+        self.rec.text = (computed_for(self.post_origin) + f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, {nt.get('depth_mm', float('nan')):.3g} mm "
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")

@@ -1,0 +1,146 @@
+"""Listen benchmark: ``millstab listen`` on virtual recordings of simulated cuts whose truth is known.
+
+Cuts: several tools (the 1-DOF benchmark in slotting and at a/D = 0.05, the seed paper's ex1, ex2, ex3
+and the four-flute tool), random speeds, depths 0.7-1.3 × the semi-discretization limit at that speed,
+a start bump of 1e-3 to 3e-2 f_t (so chatter grows during the recording, sometimes late; from a
+smaller bump a cut just above the limit is chatter to the simulation by its growth while its
+vibration stays 1e-3 f_t, below any sensor's noise, to the end of the recording), about
+``--seconds`` of cutting each. Each cut is recorded by a random sensor model (microphone or
+accelerometer, 44.1/48/96 kHz, white noise 0.5-10 %, hum 0-20 %, runout 2-10 %; see
+:mod:`millstab.simulate.record`). Truth = the simulation's own label and chatter frequency
+(:func:`millstab.simulate.detect` on the noise-free displacement).
+
+Scored: a label is right when it equals the truth, or when either says marginal and the depth is within
+0.9-1.1 × the limit; the chatter frequency is right within max(2 Hz, 0.5 %) on every cut both call
+chatter (and, separately, how many of the misses are another member f_c + k f_T of the same chatter:
+a microphone and an accelerometer weigh by ω², the simulation's truth is the displacement's peak).
+The speed given to listen is off by up to ±1 %. Also the analysis time of a 10 s, 48 kHz recording (one core, BLAS pinned).
+
+    python benchmarks/bench_listen.py [--cuts 200] [--seconds 2] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _machine import describe  # noqa: E402
+
+from millstab import api  # noqa: E402
+from millstab.model import Cutting, Mode, Structure  # noqa: E402
+from millstab.simulate import detect, simulate_cut  # noqa: E402
+from millstab.simulate.record import record  # noqa: E402
+from millstab.stability import sdm  # noqa: E402
+
+FN, ZETA, MASS = 922.0, 0.011, 0.03993
+K = MASS * (2 * math.pi * FN) ** 2
+BENCH = Structure(x=(Mode(FN, K, ZETA),))
+
+
+def tools():
+    """(name, structure, cutting, rpm range) of the benchmark's tools."""
+    out = [("bench-slot", BENCH, Cutting(2, 6e8, 1 / 3, 0.0, math.pi), (5000.0, 25000.0)),
+           ("bench-low", BENCH, Cutting.from_immersion(2, 6e8, 1 / 3, 0.05, "down"), (5000.0, 25000.0))]
+    for name, rng in (("ex1", (4000.0, 15000.0)), ("ex2", (2000.0, 9000.0)), ("ex3", (4000.0, 15000.0)),
+                      ("fourflute", (8000.0, 30000.0))):
+        cfg = api.config(f"example:{name}")
+        out.append((name, cfg.structure, cfg.cutting, rng))
+    return out
+
+
+def right(truth: str, heard: str, ratio: float) -> bool:
+    if truth == heard:
+        return True
+    return (truth == "marginal" or heard == "marginal") and 0.9 <= ratio <= 1.1
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cuts", type=int, default=200)
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--verbose", action="store_true")
+    a = ap.parse_args(argv)
+    print(describe())
+    rng = np.random.default_rng(a.seed)
+    tl = tools()
+    rows = []
+    t_sim = t_listen = 0.0
+    with threadpool_limits(1):
+        for i in range(a.cuts):
+            name, st, cut, (lo, hi) = tl[i % len(tl)]
+            rpm = float(rng.uniform(lo, hi))
+            ratio = float(rng.uniform(0.7, 1.3))
+            limit = float(sdm.envelope(st, cut, [rpm]).depth[0])
+            revs = max(50.0, a.seconds * rpm / 60.0)
+            t0 = time.perf_counter()
+            res = simulate_cut(st, cut, rpm, ratio * limit, 1e-4, revs=revs,
+                               perturbation=float(10 ** rng.uniform(-3, -1.5)))
+            truth = detect(res)
+            sensor = "microphone" if rng.random() < 0.7 else "accelerometer"
+            rec = record(res, sensor=sensor, fs=int(rng.choice([44100, 48000, 96000])),
+                         noise=float(10 ** rng.uniform(-2.3, -1)), hum=float(rng.choice([0.0, 0.05, 0.2])),
+                         runout=float(rng.uniform(0.02, 0.1)), mains_hz=float(rng.choice([50.0, 60.0])),
+                         direction_deg=float(rng.uniform(0, 90)), seed=i)
+            t1 = time.perf_counter()
+            given = rpm * (1 + float(rng.uniform(-0.01, 0.01)))  # the speed as read, off by up to 1 %
+            heard = api.listen_signal(rec.signal, rec.fs, given, cut.teeth).listening
+            t2 = time.perf_counter()
+            t_sim += t1 - t0
+            t_listen += t2 - t1
+            ok = right(truth.label, heard.label, ratio)
+            f_ok = fam_ok = None
+            if truth.label == "chatter" and heard.label == "chatter":
+                tol = max(2.0, 0.005 * truth.chatter_hz)
+                f_ok = abs(heard.chatter_hz - truth.chatter_hz) <= tol
+                # the same chatter seen through the tooth-passing modulation: f + k f_T
+                d = (heard.chatter_hz - truth.chatter_hz) / res.tooth_hz
+                fam_ok = abs(d - round(d)) * res.tooth_hz <= tol + abs(round(d)) * 0.005 * res.tooth_hz
+            rows.append((name, rpm, ratio, sensor, truth.label, truth.chatter_hz, heard.label, heard.chatter_hz,
+                         heard.score, heard.trend, ok, f_ok, heard.rpm_heard / rpm - 1, fam_ok))
+            if a.verbose or not ok or f_ok is False or abs(heard.rpm_heard / rpm - 1) > 5e-4:
+                print(f"{'  ' if ok and f_ok is not False else '! '}{name:10s} {rpm:7.0f} rpm {ratio:4.2f}x {sensor:13s} "
+                      f"truth {truth.label:8s} {truth.chatter_hz:7.1f} Hz | heard {heard.label:8s} "
+                      f"{heard.chatter_hz:7.1f} Hz score {heard.score:.3g} trend {heard.trend:.3g} "
+                      f"speed {100 * (heard.rpm_heard / rpm - 1):+.3f} % (given {100 * (given / rpm - 1):+.2f} %)")
+    n = len(rows)
+    acc = sum(r[10] for r in rows) / n
+    fr = [r for r in rows if r[11] is not None]
+    errs = np.array([abs(r[7] - r[5]) for r in fr])
+    print(f"{n} cuts ({sum(r[4] == 'chatter' for r in rows)} chatter, {sum(r[4] == 'marginal' for r in rows)} "
+          f"marginal, {sum(r[4] == 'stable' for r in rows)} stable by the simulation)")
+    print(f"labels right: {acc:.1%}")
+    if fr:
+        print(f"chatter frequency within max(2 Hz, 0.5 %): {sum(r[11] for r in fr)}/{len(fr)}; "
+              f"error median {np.median(errs):.2f} Hz, max {errs.max():.2f} Hz; another member f + k f_T of the "
+              f"same chatter family: {sum(bool(r[13]) and not r[11] for r in fr)}")
+    sp = np.abs([r[12] for r in rows])
+    print(f"speed heard (given off by up to 1 %): error median {np.median(sp):.1e}, max {sp.max():.1e}; "
+          f"{np.mean(sp < 5e-4):.1%} within 0.05 %")
+    print(f"time: simulate+record {t_sim:.1f} s, listen {t_listen:.1f} s ({t_listen / n * 1e3:.0f} ms per cut)")
+    # one 10 s 48 kHz recording
+    st, cut = BENCH, Cutting(2, 6e8, 1 / 3, 0.0, math.pi)
+    rpm = 18333.0
+    res = simulate_cut(st, cut, rpm, 1.05 * float(sdm.envelope(st, cut, [rpm]).depth[0]), 1e-4, revs=10 * rpm / 60)
+    rec = record(res, fs=48000)
+    with threadpool_limits(1):
+        api.listen_signal(rec.signal, rec.fs, rpm, 2)
+        ts = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            api.listen_signal(rec.signal, rec.fs, rpm, 2)
+            ts.append(time.perf_counter() - t0)
+    print(f"10 s at 48 kHz ({rec.signal.size} samples): listen {min(ts) * 1e3:.0f} ms (best of 5), "
+          f"median {np.median(ts) * 1e3:.0f} ms")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,125 @@
+"""Listening to cuts as services: a recording → label and chatter frequency (``millstab listen``), a
+simulated cut → what a sensor would record (``simulate --record``), and a cuts CSV whose ``recording``
+column names a recording per cut → labelled cuts for ``update``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from millstab.errors import InputError
+
+
+@dataclass(frozen=True, eq=False)
+class Heard:
+    """One recording listened to: the analysis (:class:`millstab.listen.Listening`), the suggestion
+    (suggested_rpm [rev/min] or NaN, its reason) and where the suggestion came from
+    (``"harmonizer"``: 60 f_c/(N n); ``"recommend"``: the posterior's recommendation at that depth)."""
+
+    listening: Any
+    suggested_rpm: float
+    reason: str
+    source: str
+    schema: str = "millstab.listen.heard/1"
+
+    def summary(self) -> dict[str, Any]:
+        return {**self.listening.summary(), "suggested_rpm": self.suggested_rpm, "reason": self.reason,
+                "suggestion_from": self.source}
+
+    def to_dict(self) -> dict[str, Any]:
+        from millstab.io.results import to_jsonable
+
+        return to_jsonable({**self.summary(), "schema": self.schema})
+
+
+def _range(rpm_range, rpm: float) -> tuple[float, float]:
+    if rpm_range is None:
+        return 0.5 * rpm, 1.5 * rpm
+    if isinstance(rpm_range, str):
+        from millstab.parsing import parse_interval
+
+        return parse_interval(rpm_range, "--rpm-range", "rev/min", positive=True)
+    lo, hi = rpm_range
+    return float(lo), float(hi)
+
+
+def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | None = None, end: float | None = None,
+                  rpm_range=None, post=None, depth_mm: float | None = None, risk: float = 0.1) -> Heard:
+    """Label a recorded signal and suggest a speed (:mod:`millstab.listen`). With a posterior ``post``
+    (of ``update``) and the cut's ``depth_mm`` the suggestion is ``recommend``'s fastest speed with
+    P(chatter) ≤ ``risk`` at that depth instead of the harmonizer rule."""
+    from millstab.listen import listen, suggest_rpm
+
+    res = listen(signal, fs, rpm, teeth, start=start, end=end)
+    lo, hi = _range(rpm_range, rpm)
+    if post is not None:
+        if depth_mm is None or not (math.isfinite(depth_mm) and depth_mm > 0):
+            raise InputError("--depth", depth_mm, "the cut's depth in mm (> 0): --post recommends a speed at it")
+        from millstab.api.update import recommend
+
+        rec = recommend(post, risk, (lo, hi), max_depth_mm=depth_mm)
+        at = (f"at {depth_mm:g} mm" if rec.depth_mm >= depth_mm * (1 - 1e-6)
+              else f"at {rec.depth_mm:.3g} mm (no speed in range is safe enough at {depth_mm:g} mm)")
+        return Heard(res, float(rec.rpm), f"recommend: the fastest cut with P(chatter) {rec.p_chatter:.3g} <= {risk:g} "
+                                          f"{at} in {lo:g}-{hi:g} rpm", "recommend")
+    if res.label == "stable":
+        return Heard(res, float("nan"), "stable: keep the speed", "harmonizer")
+    s = suggest_rpm(res.chatter_hz, teeth, rpm, (lo, hi))
+    return Heard(res, s.rpm, s.reason, "harmonizer")
+
+
+def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, **kw) -> Heard:
+    """:func:`listen_signal` of a WAV or CSV recording (:mod:`millstab.io.recordings`)."""
+    from millstab.io.recordings import read_recording
+
+    x, fs = read_recording(path, channel)
+    return listen_signal(x, fs, rpm, teeth, **kw)
+
+
+def listen_figure(heard: Heard, title: str = ""):
+    """The spectrum with its floor, the masked lines and the chatter line, and the chatter amplitude in time."""
+    from millstab.plot.listen import plot_listening
+
+    return plot_listening(heard.listening, title=title)
+
+
+def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed: int = 0, **kw):
+    """What a sensor would record of a simulated cut (:func:`millstab.simulate.record.record`)."""
+    from millstab.simulate.record import record
+
+    return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
+
+
+def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None):
+    """The cuts of a CSV with a ``recording`` column (a path relative to the CSV; empty: keep the row's
+    own label) labelled by listening: a :class:`~millstab.points.PointSet` with label and chatter_hz
+    from each recording, and one line per cut saying where its label came from."""
+    from millstab.io.recordings import read_cuts_with_recordings, read_recording
+    from millstab.listen import listen
+    from millstab.points import PointSet
+
+    rows = read_cuts_with_recordings(cuts_csv)
+    labels, hz, notes = [], [], []
+    for r in rows:
+        if r["recording"] is None:
+            labels.append(r["label"])
+            hz.append(r["chatter_hz"])
+            notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
+            continue
+        x, fs = read_recording(r["recording"])
+        res = listen(x, fs, r["rpm"], teeth)
+        labels.append(res.label)
+        hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
+        notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
+                     + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
+                     + f" (heard in {Path(r['recording']).name}, score {res.score:.3g})")
+    rpm = np.array([r["rpm"] for r in rows])
+    depth = np.array([r["depth_mm"] for r in rows])
+    weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])
+    pts = PointSet(rpm, depth, np.array(labels, dtype=object), weight=weight, source=Path(cuts_csv),
+                   chatter_hz=np.array(hz, float))
+    return pts, notes

@@ -1,0 +1,230 @@
+"""Shop memory as services: update, recommend and read a campaign kept in a database (docs/shopdb.md).
+
+``db`` is a file path (SQLite), a SQLAlchemy URL, or an open :class:`millstab.shopdb.store.Store`.
+:func:`update_in_db` is the file workflow (``millstab update CONFIG CUTS --start post.json``) with the
+database holding the cuts and the posteriors: the same seed gives the same posterior, bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from millstab.api.inputs import modal
+from millstab.api.progress import Progress
+from millstab.errors import InputError
+from millstab.io.config import Config, config_to_toml
+from millstab.io.text import read_text
+from millstab.points import PointSet
+
+
+def open_db(db, user: str | None = None, create: bool = True):
+    """An open :class:`~millstab.shopdb.store.Store` (``db`` itself when it is one); ``create=False``: a
+    database file that does not exist is an error (for the commands that only read)."""
+    if hasattr(db, "record_update"):
+        return db
+    from millstab.shopdb import open_store
+
+    return open_store(db, user, create)
+
+
+def config_text(cfg: Config) -> str:
+    """The config text recorded with an update: the file as the user wrote it (a modal config read from a
+    file), else the TOML of its modal structure (:func:`millstab.io.config.config_to_toml`)."""
+    path = getattr(cfg, "path", None)
+    if cfg.structure.is_modal and path is not None and Path(path).is_file():
+        return read_text(Path(path), "config", "UTF-8 text (TOML) file")
+    return config_to_toml(modal(cfg)[0])
+
+
+def _join(a: PointSet | None, b: PointSet | None) -> PointSet:
+    parts = [p for p in (a, b) if p is not None and len(p)]
+    if not parts:
+        return PointSet(np.zeros(0), np.zeros(0))
+    if len(parts) == 1:
+        return parts[0]
+    x, y = parts
+    return PointSet(np.r_[x.rpm, y.rpm], np.r_[x.depth_mm, y.depth_mm], np.r_[x.label, y.label],
+                    np.r_[x.weight, y.weight], x.source, np.r_[x.chatter_hz, y.chatter_hz], np.r_[x.grade, y.grade],
+                    np.r_[x.batch, y.batch])
+
+
+def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | None]:
+    """The rows of ``given`` that are new: all of them, or, when ``given`` begins with every recorded cut (the
+    file workflow's habit of passing the whole cuts file each time), the rows after those; and a note then."""
+    n = len(old)
+    if n == 0 or len(given) < n:
+        return given, None
+    head = given.subset(np.arange(n))
+    same = (np.array_equal(head.rpm, old.rpm) and np.array_equal(head.depth_mm, old.depth_mm)
+            and head.label.tolist() == old.label.tolist() and np.array_equal(head.weight, old.weight)
+            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True))
+    if not same:
+        return given, None
+    return (given.subset(np.arange(n, len(given))),
+            f"the first {n} rows of the cuts are the campaign's recorded cuts: adding the {len(given) - n} after them")
+
+
+@dataclass(frozen=True)
+class ShopUpdate:
+    """What :func:`update_in_db` recorded."""
+
+    campaign: str
+    posterior: object  # millstab.update.Posterior
+    posterior_id: int
+    parent_id: int | None  # the posterior it started from (None: a fresh update from the prior)
+    new_cuts: int
+    cuts: int  # cut rows of the campaign after the update
+    attempts: int  # 1, or more when another update landed first and this one re-ran from it
+    notes: tuple[str, ...] = field(default=())
+
+
+def _why_fresh(snap, cfg_sha: str, engine: str, new: PointSet) -> str | None:
+    """Why the head posterior cannot start this update (``None`` when it can)."""
+    if snap is None or snap.head.posterior_id is None:
+        return None
+    if snap.head.config_sha256 != cfg_sha:
+        return "the config differs from the last update's"
+    if snap.head.engine != engine:
+        return f"the engine differs from the last update's ({snap.head.engine})"
+    post_rows = (snap.posterior_doc.get("cuts") or {}).get("label") or []
+    if (new.label == "").any() or sum(1 for x in snap.rows if x["label"] == "") != sum(1 for x in post_rows if not x):
+        return "boundary points were added"
+    return None
+
+
+def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
+                 engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
+                 machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
+                 recordings: Sequence[str] | None = None, retries: int = 1, progress: Progress | None = None,
+                 client=None) -> ShopUpdate:
+    """Update campaign ``campaign`` with ``new_cuts`` (and boundary ``points``) and record it.
+
+    Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
+    over all cuts (old, then new) with ``start=`` the current posterior (only the new cuts are tempered in;
+    a fresh update from the prior when the config or engine changed or boundary points were added), and
+    records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole cuts file
+    (the file workflow's habit): when it begins with every recorded cut, only the rows after them are new.
+    When another update landed meanwhile,
+    it re-runs from that one (up to ``retries`` times), then raises :class:`~millstab.shopdb.store.StaleError`.
+
+    Raises:
+        InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
+        StaleError: still stale after ``retries`` re-runs.
+    """
+    from millstab.api.update import update
+    import hashlib
+
+    from millstab.shopdb.store import StaleError
+
+    store = open_db(db, user)
+    cfg, _ = modal(cfg)
+    toml = config_text(cfg)
+    sha = hashlib.sha256(toml.encode("utf-8")).hexdigest()
+    new = _join(new_cuts, points)
+    notes: list[str] = []
+    first = store.snapshot(campaign, with_posterior=False)
+    if first is not None:
+        new, note = already_recorded(first.cuts, new)
+        notes += [note] if note else []
+    for attempt in range(1, retries + 2):
+        snap = store.snapshot(campaign)
+        old = snap.cuts if snap is not None else PointSet(np.zeros(0), np.zeros(0))
+        cuts = _join(old, new)
+        if not len(cuts):
+            raise InputError("cuts", "none", f"campaign {campaign!r} holds no cuts yet; give the cuts to record")
+        why = _why_fresh(snap, sha, engine, new)
+        start = snap.posterior() if snap is not None and snap.posterior_doc is not None and why is None else None
+        if why is not None:
+            notes.append(f"updating from the prior over all {len(cuts)} cuts: {why}")
+        post = update(cfg, cuts, None, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
+                      client=client)
+        head = snap.head if snap is not None else None
+        try:
+            pid = store.record_update(campaign, toml, new, post, expected_head=head.posterior_id if head else None,
+                                      expected_rows=head.n_rows if head else 0,
+                                      parent=head.posterior_id if start is not None else None, seed=seed,
+                                      machine=machine, tool=tool, user=user, raters=raters, recordings=recordings,
+                                      all_cuts=cuts, note="; ".join(notes))
+        except StaleError as exc:
+            if attempt > retries:
+                raise
+            notes.append(f"{exc.allowed.split(';')[0]}: re-ran from it")
+            continue
+        return ShopUpdate(campaign, post, pid, head.posterior_id if start is not None else None, len(new), len(cuts),
+                          attempt, tuple(notes))
+    raise AssertionError("unreachable")
+
+
+def posterior_from_db(db, campaign: str, user: str | None = None):
+    """(posterior id, :class:`~millstab.update.Posterior`) of the campaign's current posterior (for ``map``,
+    ``predict``, ``listen``)."""
+    store = open_db(db, user, create=False)
+    pid, doc = store.latest_posterior_doc(campaign)
+    from millstab.api.update import posterior_from_json
+
+    return pid, posterior_from_json(doc, f"{campaign} posterior {pid}")
+
+
+def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, float], *, user: str | None = None,
+                      **options):
+    """The recommended cut and next test from the campaign's current posterior, recorded in the database.
+    ``options``: those of :func:`millstab.api.recommend`. Returns ``(recommendation, recommendation id,
+    posterior id)``."""
+    from millstab.api.update import recommend
+
+    store = open_db(db, user, create=False)
+    pid, post = posterior_from_db(store, campaign)
+    rec = recommend(post, risk, rpm_range, **options)
+    rid = store.record_recommendation(campaign, rec.to_json(), pid, user=user)
+    return rec, rid, pid
+
+
+def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, machine: str | None = None,
+                tool: str | None = None, raters: Sequence[str] | None = None,
+                recordings: Sequence[str] | None = None) -> int:
+    """Record cuts without an update (the next :func:`update_in_db` uses them); returns the campaign's row count."""
+    return open_db(db, user).add_cuts(campaign, cuts, machine=machine, tool=tool, user=user, raters=raters,
+                                      recordings=recordings)
+
+
+def history(db, campaign: str | None = None, limit: int = 50, before: int | None = None):
+    """The newest ``limit`` events (:class:`~millstab.shopdb.store.Event`, newest first), of one campaign or all."""
+    return open_db(db, create=False).history(campaign, limit, before)
+
+
+def history_table(events) -> tuple[list[str], list]:
+    """(header, columns) of history events for CSV."""
+    header = ["id", "at", "user", "campaign", "action", "detail"]
+    return header, [[getattr(e, h) for e in events] for h in header]
+
+
+def campaigns(db) -> list[dict]:
+    """Every campaign of the database (name, machine, tool, updates, times)."""
+    return open_db(db, create=False).campaigns()
+
+
+def check(db) -> list[str]:
+    """Problems found in the database (empty when consistent): :meth:`~millstab.shopdb.store.Store.check`."""
+    return open_db(db, create=False).check()
+
+
+def export_campaign(db, campaign: str, folder) -> Path:
+    """Write a campaign as plain files (:mod:`millstab.shopdb.files`); returns the folder."""
+    from millstab.shopdb.files import export_campaign as run
+
+    return run(open_db(db, create=False), campaign, folder)
+
+
+def import_campaign(db, folder, name: str | None = None, user: str | None = None) -> str:
+    """Create a campaign from an exported folder; returns its name."""
+    from millstab.shopdb.files import read_campaign
+
+    return open_db(db, user).import_bundle(read_campaign(folder), name, user)
+
+
+__all__ = ["ShopUpdate", "already_recorded", "campaigns", "check", "config_text", "export_campaign", "history", "history_table", "import_campaign",
+           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "update_in_db"]

@@ -1,0 +1,145 @@
+"""Plausibility bounds on inputs that set how much work a command does: spindle speeds, chatter
+frequencies and random seeds. One place, one set of messages, for the command line, Python and the web.
+
+Why a speed floor. The work of every engine grows without bound as the speed falls: the semi-discretization
+(``sdm``) takes ~12 steps per natural period of the highest mode in each tooth period, so its steps grow like
+1/Ω (fn = 1 kHz, 2 teeth: 72 steps at 5 000 rpm, 36 000 at 10 rpm, 3.6·10⁸ at 0.001 rpm); the time-domain
+simulation's steps per tooth period and the spectral engine's collocation grow the same way, and the
+zero-order engine's lobe count f/(NΩ) too. Below :data:`MIN_RPM` no milling spindle turns a cutter (a 1 m
+face mill at 30 m/min is ~10 rev/min) while a single speed costs ~500 times one at 5 000 rpm: a speed
+below it is a typing slip (0.01 for 10 000?), not a process, and is refused before any work.
+
+Why a ceiling. The fastest spindles that carry milling cutters, air-bearing micro-milling spindles, reach
+~400 000 rev/min; :data:`MAX_RPM` leaves room above them. 5 000 000 rev/min is a slip (an extra zero, or Hz).
+
+Chatter frequencies are vibrations of the tool, holder and spindle (modes from ~100 Hz to ~20 kHz on micro
+tools), recorded by microphones and accelerometers whose bandwidth ends below ~50 kHz; :data:`MAX_CHATTER_HZ`
+(100 kHz) is far above any of them.
+"""
+
+from __future__ import annotations
+
+import operator
+
+import numpy as np
+
+from millstab.errors import InputError
+
+#: the slowest accepted spindle speed [rev/min] (module docstring: why)
+MIN_RPM = 10.0
+#: the fastest accepted spindle speed [rev/min]
+MAX_RPM = 500_000.0
+#: the highest accepted chatter frequency [Hz]
+MAX_CHATTER_HZ = 100_000.0
+#: the most posterior samples (SMC particles) an update takes: 250x the default 4 000; the posterior JSON of
+#: 10^6 samples is ~130 MB and the zero-order update of 40 000 took ~1 min (2 shared cores), so 10^6 is ~half
+#: an hour, more never pays (the sampling error of a probability falls like 1/sqrt(n): 0.0005 at 10^6)
+MAX_SAMPLES = 1_000_000
+#: the updating's peak memory per sample [bytes]: measured 1 300 (peak RSS 241 MB at 2 000 samples, 291 MB at
+#: 40 000; example ex1, 6 cuts, 6 free parameters: the particles, their proposals and the likelihood's
+#: samples x cuts arrays), rounded up for more cuts and parameters
+BYTES_PER_SAMPLE = 2_000
+#: seeds are numpy's 32-bit unsigned integers (``default_rng``, ``RandomState`` and SALib all accept them)
+SEED_LIMIT = 2**32
+
+
+def speed_rule() -> str:
+    return (f"spindle speeds must lie in {MIN_RPM:g}..{MAX_RPM:,.0f} rev/min (below {MIN_RPM:g} no milling "
+            f"spindle turns and the engines' work grows like 1/speed; above {MAX_RPM:,.0f} no spindle turns)")
+
+
+def check_speeds(rpm, field: str = "rpm", shown: object = None) -> np.ndarray:
+    """``rpm`` as a float array when every speed is finite and within [MIN_RPM, MAX_RPM] [rev/min].
+
+    Raises:
+        InputError: naming ``field``, ``shown`` (the text as written; default: the first speed out of
+            range) and the bounds with their reason.
+    """
+    r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    bad = ~np.isfinite(r) | (r < MIN_RPM) | (r > MAX_RPM)
+    if bad.any():
+        value = shown if shown is not None else float(r[bad][0])
+        fin = r[np.isfinite(r) & (r > 0)]
+        slow = fin[fin < MIN_RPM]
+        hint = (f" (at {slow.min():g} rev/min one revolution takes {_duration(60.0 / slow.min())})"
+                if slow.size else " (an extra zero? speeds are rev/min, not rad/s)" if np.any(fin > MAX_RPM) else "")
+        raise InputError(field, value, speed_rule() + hint)
+    return r
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def seed(value, field: str = "--seed") -> int | None:
+    """A random seed as an int in [0, 2**32) (None passes: no seed given).
+
+    Raises:
+        InputError: a negative, too large or non-integer seed.
+    """
+    if value is None:
+        return None
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        s = operator.index(value)
+    except TypeError:
+        raise InputError(field, value, f"a seed is a whole number in 0..{SEED_LIMIT - 1}") from None
+    if not 0 <= s < SEED_LIMIT:
+        raise InputError(field, value, f"a seed is a whole number in 0..{SEED_LIMIT - 1} (numpy's 32-bit seeds)")
+    return int(s)
+
+
+def available_memory() -> float | None:
+    """Memory this process could still take [bytes] (``MemAvailable`` of the OS), or None when unknown."""
+    try:
+        import psutil
+
+        return float(psutil.virtual_memory().available)
+    except Exception:  # psutil missing (it comes with dask, not with the core install)
+        pass
+    try:
+        import os
+
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def samples(n, field: str = "--samples", minimum: int = 100) -> int:
+    """A sample count in [``minimum``, :data:`MAX_SAMPLES`] whose memory (:data:`BYTES_PER_SAMPLE` each) fits
+    in this machine's available memory, checked before anything is allocated.
+
+    Raises:
+        InputError: too few, too many (with the memory they would need), or more than the memory holds
+            (saying how much is needed and how much there is).
+    """
+    try:
+        if isinstance(n, bool):
+            raise TypeError
+        k = operator.index(n)
+    except TypeError:
+        raise InputError(field, n, "a whole number of samples, e.g. 4000") from None
+    if k < minimum:
+        raise InputError(field, n, f"need at least {minimum} samples")
+    need = k * BYTES_PER_SAMPLE
+    avail = available_memory()
+    has = f", this machine has {_gb(avail)} available" if avail is not None else ""
+    if k > MAX_SAMPLES:
+        raise InputError(field, n, f"at most {MAX_SAMPLES:,} samples: this many needs ~{_gb(need)} of memory{has} "
+                                   f"(the default 4 000 is usually plenty)")
+    if avail is not None and need > 0.8 * avail:
+        raise InputError(field, n, f"needs ~{_gb(need)} of memory, this machine has {_gb(avail)} available; "
+                                   f"use at most ~{int(0.8 * avail / BYTES_PER_SAMPLE):,} samples")
+    return int(k)
+
+
+def _gb(nbytes: float) -> str:
+    return f"{nbytes / 1e9:.3g} GB" if nbytes < 1e12 else f"{nbytes / 1e12:,.0f} TB"
+
+
+__all__ = ["BYTES_PER_SAMPLE", "MAX_CHATTER_HZ", "MAX_RPM", "MAX_SAMPLES", "MIN_RPM", "SEED_LIMIT", "available_memory",
+           "check_speeds", "samples", "seed", "speed_rule"]

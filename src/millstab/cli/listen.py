@@ -1,0 +1,67 @@
+"""``millstab listen``: chatter and its frequency from a recording of a cut, and a speed to try.
+
+millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--rpm-range MIN:MAX]
+                [--post post.json --depth MM [--risk P]] [--out res.json] [--plot spec.png]
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from millstab.cli.app import app
+
+
+@app.command()
+def listen(
+    recording: Path = typer.Argument(..., help="WAV (PCM 8/16/24/32-bit or float, 8-192 kHz) or CSV time_s,signal."),
+    rpm: float = typer.Option(..., "--rpm", help="Spindle speed of the cut (rev/min; may be off by ~1 %)."),
+    teeth: int = typer.Option(..., "--teeth", help="Number of teeth of the tool."),
+    start: Optional[float] = typer.Option(None, "--start", help="Start of the cut in the recording (s); "
+                                                                "default: found from the tooth-passing sound."),
+    end: Optional[float] = typer.Option(None, "--end", help="End of the cut in the recording (s)."),
+    channel: int = typer.Option(0, "--channel", help="Channel of a multi-channel WAV (0 = first)."),
+    rpm_range: Optional[str] = typer.Option(None, "--rpm-range", help="Machine speed range MIN:MAX for the "
+                                                                      "suggestion (rev/min; default 0.5-1.5 x rpm)."),
+    post: Optional[Path] = typer.Option(None, "--post", help="Posterior JSON of millstab update: suggest "
+                                                             "recommend's speed at --depth instead."),
+    depth: Optional[float] = typer.Option(None, "--depth", help="Depth of the cut (mm), with --post."),
+    risk: float = typer.Option(0.1, "--risk", help="Tolerated P(chatter) of the suggestion, with --post."),
+    out: Optional[Path] = typer.Option(None, "--out", help="JSON of the result."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Spectrum figure (.png, .svg or .pdf)."),
+) -> None:
+    """Listen to a recorded cut: stable, marginal or chatter, the chatter frequency and a speed to try."""
+    from millstab import api
+    from millstab.io import check_outputs, read_json, write_json
+
+    check_outputs({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    posterior = api.posterior_from_json(read_json(post), str(post)) if post is not None else None
+    heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
+                            post=posterior, depth_mm=depth, risk=risk)
+    r = heard.listening
+    line = f"{recording.name}: {r.label}"
+    if math.isfinite(r.chatter_hz) and r.label != "stable":
+        line += f" at {r.chatter_hz:.1f} Hz"
+    line += f"; score {r.score:.3g} (chatter/forced amplitude; >= 0.05 chatter, < 0.02 stable)"
+    if math.isfinite(r.onset_s):
+        line += f"; starts at {r.onset_s:.2f} s"
+    typer.echo(line)
+    typer.echo(f"cut {r.window_s[0]:.2f}-{r.window_s[1]:.2f} s; speed heard {r.rpm_heard:.0f} rpm "
+               f"({100 * (r.rpm_heard / r.rpm - 1):+.2f} % from {r.rpm:g})"
+               + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else ""))
+    if math.isfinite(heard.suggested_rpm):
+        typer.echo(f"suggested speed: {heard.suggested_rpm:.0f} rpm ({heard.reason})")
+    else:
+        typer.echo(f"suggestion: {heard.reason}")
+    protect = [p for p in (recording, post) if p]
+    if out:
+        write_json(out, heard.to_dict(), protect=protect)
+        typer.echo(f"wrote {out}")
+    if plot:
+        from millstab.io.figures import save_figure
+
+        save_figure(api.listen_figure(heard, title=recording.name), plot, protect=protect)
+        typer.echo(f"wrote {plot}")

@@ -1,0 +1,45 @@
+"""Options several commands share, validated once: ``--seed`` (every random process) and ``--samples``
+(the Bayesian updating's particles), each refused with one line before any work."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import typer
+
+
+def seed_callback(value):
+    """typer callback of ``--seed``: the value, or InputError (one line, exit 2)."""
+    from millstab.bounds import seed
+
+    return seed(value, "--seed")
+
+
+def seed_option(default: int | None, help: str) -> Any:
+    """A ``--seed`` option whose value is checked by :func:`millstab.bounds.seed` (0 ≤ seed < 2**32)."""
+    return typer.Option(default, "--seed", help=help + " A whole number in 0..4294967295.", callback=seed_callback)
+
+
+def samples_callback(value):
+    """typer callback of ``--samples``: the value, or InputError when too few, too many or more than the
+    machine's memory holds (:func:`millstab.bounds.samples`)."""
+    from millstab.bounds import samples
+
+    return samples(value, "--samples")
+
+
+def count(text: str):
+    """A count as written: ``4000``, ``4e3``, ``4_000`` → 4000; anything else is handed on as text, for the
+    option's callback to refuse in one line (a parser that raised would print typer's usage panel)."""
+    try:
+        value = float(str(text).replace("_", ""))
+    except ValueError:
+        return text
+    return int(value) if value.is_integer() else text
+
+
+def samples_option(default: int, help: str) -> Any:
+    """A ``--samples`` option of the Bayesian updating checked by :func:`millstab.bounds.samples` (``1e8``
+    reads as 100000000 and is refused for the memory it needs, not for its spelling)."""
+    return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", parser=count,
+                        callback=samples_callback)

@@ -1,0 +1,60 @@
+"""``millstab warmup``: compile the engines into numba's on-disk cache once, ahead of the first real run.
+
+A fresh install compiles each engine at its first use (~1 min for zoa, ~4 min for spectral on one core);
+``make demo``/``make test`` call this right after installing, so a newcomer's first command starts at once.
+Every kernel a command reaches is touched with a tiny problem (two speeds of example ex1): the single
+structure's envelope, the batched forward function of the studies, the chatter-frequency path of the
+updating, and the time-domain simulation of one short cut.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import List, Optional
+
+import numpy as np
+import typer
+
+from millstab.cli.app import app
+from millstab.errors import InputError
+
+#: what ``millstab warmup`` compiles by default (every engine and the simulation)
+TARGETS = ("zoa", "sdm", "spectral", "simulate")
+
+
+def warm(target: str) -> None:
+    """Compile (or load from the cache) every kernel of one engine or of ``simulate``."""
+    from millstab import api
+
+    cfg = api.config("example:ex1")
+    rpm = np.array([5000.0, 5200.0])
+    if target == "simulate":
+        api.simulate_cut(cfg, 5000.0, 0.5, revs=4)
+        api.label_cuts(cfg, api.points_from_text("rpm,depth_mm\n5000,0.5\n"), revs=4)
+        return
+    from millstab.forward import forward
+    from millstab.params import Parameterization
+    from millstab.stability import get_engine
+
+    api.envelope(cfg, rpm, engine=target)
+    par = Parameterization(cfg.structure)
+    theta = np.repeat(par.theta0[None, :], 2, axis=0)
+    forward(par, cfg.cutting, target)(theta, rpm)
+    eng = get_engine(target)
+    if eng.reports_chatter_frequency:
+        eng.envelope_batch_hz(par.batch(theta), cfg.cutting, rpm)
+
+
+@app.command("warmup")
+def warmup_cmd(
+    targets: Optional[List[str]] = typer.Argument(None, help=f"What to compile: {', '.join(TARGETS)} (default: all)."),
+) -> None:
+    """Compile the engines into the cache once (first run after installing: minutes), so later runs start at once."""
+    chosen = list(targets) if targets else list(TARGETS)
+    for t in chosen:
+        if t not in TARGETS:
+            raise InputError("TARGET", t, f"must be one of {', '.join(TARGETS)}")
+    for t in chosen:
+        t0 = time.perf_counter()
+        warm(t)
+        typer.echo(f"{t}: ready ({time.perf_counter() - t0:.1f} s)")

@@ -1,0 +1,492 @@
+"""Listen to a cut: chatter, its frequency and its onset from a microphone or accelerometer signal.
+
+The steps, with every threshold and the reason for it:
+
+1. **Cut window.** ``start``/``end`` [s] when given; else the frames (20 ms, and at least 4 tooth
+   periods) where the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error
+   keeps the line within a bin) holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the
+   recording: the comb is the forced vibration, there only while the teeth cut; air cutting, the idle
+   spindle and hum are left out, and chatter that starts late does not move the window (a broadband
+   RMS would). The median, not a high percentile: a ringing entry transient leaks into the comb's
+   50 Hz-wide frame bins and would otherwise set the level and cut the steady cut away (measured: a
+   four-tooth slot at 3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). A
+   recording more than half air is analysed whole (give ``--start``/``--end``). The window is then trimmed by ``TRIM`` = 3 % of its length at each end: the entry and
+   exit transients (an impact rings every mode, which is no chatter).
+2. **Spectrum.** Welch average of the window: Blackman-Harris segments (side lobes −92 dB, so a line
+   60-70 dB over the floor leaks nothing beyond ±4 bins), a quarter of the window long, 0.1-2 s
+   (≥ 7 averages; ≤ 0.5 Hz bins on an 8 s window, so a chatter line a few Hz from a spindle line
+   stays apart), 50 % overlap, zero-padded twice. Chatter is searched from ``F_LO`` = 40 Hz to
+   min(0.45 fs, ``F_HI`` = 8 kHz).
+3. **Speed.** The speed given can be off (an override knob, a rounded value): the tooth-passing
+   frequency f_s = rpm/60 is the comb k·f_s over the spindle harmonics up to ``COMB_HARMONICS`` = 3
+   tooth-passing harmonics (k ≤ 3N: tooth passing and runout lines), in ±``SPEED_TOL`` = 1.5 %, with
+   the largest sum of its lines' prominences (log power over the floor, counted only at a local
+   maximum, at most ``COMB_CLIP`` = 8 each). Only up to 3 f_T: slotting with two teeth has lines at
+   f_T and 2 f_T only (slotting with four, hardly any: there the runout lines carry the speed), while a
+   saturated chatter fills the spectrum with combination tones j f_T ± m f_c, 50 dB over the floor,
+   that a 30-harmonic comb drifting by 1 % walks along (measured on ex1 at 8 mm: −1.4 %). Refined by
+   least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±1 bin).
+4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
+   harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
+   One exception: with an even number of teeth, a line at an odd multiple of f_T/2 above 1.5 f_T
+   ``FLIP_RATIO`` = 10× stronger (in power) than every runout line below 1.5 f_T stays a chatter candidate:
+   period-doubling (flip) chatter falls exactly on a spindle harmonic there, and runout falls with
+   its order instead of peaking near a mode.
+5. **Mains** (masked): lines at h·50 and h·60 Hz (h ≤ 8) standing ``MAINS_PROMINENCE`` = 4× over
+   the floor within ±0.3 Hz + 1 bin, unless (h ≥ 4) ``MAINS_OVER_HUM`` = 2× louder than the hum at
+   h = 1-3 (then it is no hum: a chatter line that happens to fall on a mains harmonic stays).
+6. **Floor**: the ``FLOOR_PERCENTILE`` = 25th percentile of the unmasked log-power in blocks of
+   ``FLOOR_BLOCK_HZ`` = 100 Hz, interpolated between block centres: it follows broadband and 1/f
+   noise and the hump of a mode excited by noise (no chatter), and a broad modulated chatter hump
+   filling half a block leaves it alone (a median would rise with it).
+7. **Chatter line**: the largest excess power (PSD − floor) among local maxima standing
+   ``PROMINENCE`` = 10 (10 dB) over the floor: with ≥ 7 averages of two degrees of freedom a noise
+   bin passes 10 × the 25th percentile with probability ~1e-7. Its frequency is refined on the
+   full-window spectrum (finer bins) by a parabola through log-magnitudes. Its power is the excess
+   over its contiguous region above twice the floor (a modulated chatter is a hump), at least its
+   peak density times the window's noise bandwidth (a line beside a masked one).
+   One chatter sounds as a family f_c + k f_T (the tooth passing modulates it); the chatter frequency
+   of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
+   accelerometer both follow acceleration, whose power is f⁴ times the displacement's, so of the
+   family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 3, each ≥ ``FAMILY_SHARE`` = 2 % of the
+   strongest's power) the one with the largest power / f⁴ is reported (on virtual recordings the
+   loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts).
+8. **Score** = A_c / A_s: the RMS amplitude of the chatter line over that of all synchronous lines
+   (forced vibration and runout), times the ratio of its RMS amplitude over the last ``LATE_SHARE``
+   = 40 % of the window to that over the whole window (chatter that starts late is scored as it
+   sounds at the end). Scale: 0 no chatter line; 0.05 = chatter 26 dB below the forced vibration;
+   1 as loud; 4 = 12 dB louder.
+9. **Trend and onset**: the amplitude at f_c in 16-64 frames of ~``TREND_FRAME_S`` = 0.1 s (Hann
+   projection, noise floor subtracted); early and late levels are the medians of the first and last
+   20 %. trend = late / early. Chatter *starts* during the recording if trend > ``ONSET_RATIO`` = 4;
+   the onset is where the amplitude first reaches half its late level (interpolated between frames).
+10. **Label**: ``chatter`` if the line grows fourfold within the cut (trend > ``ONSET_RATIO``:
+    chatter building up, however weak yet: the simulation's detector calls a clear growth chatter
+    too); ``stable`` if no line is prominent, or the score is below ``SCORE_MARGINAL`` = 0.02 (−34 dB:
+    a stable cut's non-synchronous sound is a mode rung by noise, further down), or the line decays,
+    trend < ``DECAY`` = 0.5 (the ringing of a transient dies, chatter does not); ``chatter`` if score ≥
+    ``SCORE_CHATTER`` = 0.05: a chatter line 4× weaker than the forced vibration (score 0.25) is
+    plainly chatter; ``marginal`` otherwise (a steady line 34-26 dB below the forced vibration: a cut at the edge of a lobe).
+    The thresholds were set on virtual recordings (``benchmarks/bench_listen.py``: 0.05 keeps every
+    stable cut's score below it, while saturated chatter in a microphone's weighting can fall to 0.07).
+
+Units: seconds, Hz, rev/min; the signal in any unit (only ratios are used).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from millstab.errors import InputError
+
+FRAME_S = 0.02
+WINDOW_LEVEL = 0.1
+TRIM = 0.03
+F_LO = 40.0
+F_HI = 8000.0
+SPEED_TOL = 0.015
+MAX_COMB = 30
+#: most a harmonic adds to the comb score [log power over the floor] (e⁸ = 35 dB)
+COMB_CLIP = 8.0
+#: harmonics of the comb search: the tooth-passing lines are strongest at the first few (slotting
+#: with two teeth has hardly any beyond 2 f_T), while a saturated chatter fills the spectrum with
+#: combination tones j f_T ± m f_c that a long comb drifting by 1 % walks along
+COMB_HARMONICS = 3
+FLIP_RATIO = 10.0
+MAINS = (50.0, 60.0)
+MAINS_HARMONICS = 8
+#: a line at a mains harmonic h ≥ 4 louder than this × the hum at h = 1-3 is not hum
+MAINS_OVER_HUM = 2.0
+MAINS_PROMINENCE = 4.0
+FLOOR_BLOCK_HZ = 100.0
+#: the floor is this percentile of a block's unmasked log-power (a broad, modulated chatter hump
+#: filling half a block leaves it alone; a median would rise with it)
+FLOOR_PERCENTILE = 25.0
+PROMINENCE = 10.0
+LATE_SHARE = 0.4
+TREND_FRAMES = 16
+#: preferred length of a trend frame [s] (16-64 frames)
+TREND_FRAME_S = 0.1
+DECAY = 0.5
+ONSET_RATIO = 4.0
+SCORE_CHATTER = 0.05
+SCORE_MARGINAL = 0.02
+#: half-width of a line mask in Welch bins (Blackman-Harris main lobe: ±4 bins, side lobes −92 dB)
+LINE_BINS = 4.5
+#: a chatter-family member f + k f_T (|k| ≤ FAMILY_ORDERS) counts with ≥ FAMILY_SHARE of the strongest's power
+FAMILY_ORDERS = 3
+FAMILY_SHARE = 0.02
+#: equivalent noise bandwidth of the Blackman-Harris window [bins of fs / segment]
+ENBW_BINS = 2.004
+#: Welch segments: the window / SEGMENTS, at most SEGMENT_MAX_S
+SEGMENTS = 4.0
+SEGMENT_MAX_S = 2.0
+SCORE_SCALE = ("amplitude of the chatter line / amplitude of all spindle-synchronous lines, on the last 40 % "
+               "of the cut: 0 none, >= 0.02 marginal, >= 0.05 chatter (26 dB below the forced vibration), 1 as loud")
+
+
+@dataclass(frozen=True, eq=False)
+class Listening:
+    """What ``listen`` heard in one recording.
+
+    Attributes:
+        label: ``"stable"``, ``"marginal"`` or ``"chatter"``.
+        chatter_hz: the dominant non-synchronous frequency [Hz] (NaN when no line stands out).
+        score: chatter amplitude over synchronous amplitude (scale in :data:`SCORE_SCALE`) [-].
+        prominence_db: the chatter line over the noise floor [dB].
+        onset_s: time in the recording [s] where a growing chatter reached half its final level (NaN if
+            it does not grow during the recording).
+        trend: late / early chatter amplitude [-].
+        rpm, rpm_heard: the speed given and the speed found from the tooth-passing comb [rev/min].
+        teeth, tooth_hz (found) [Hz]; window_s: (start, end) of the analysed cut [s].
+        mains_hz: tuple of the mains line frequencies masked [Hz].
+        freq_hz, psd, floor, synchronous: the Welch spectrum, its floor and the mask (for plots).
+        times_s, chatter_amp: the chatter amplitude per frame (for plots).
+    """
+
+    label: str
+    chatter_hz: float
+    score: float
+    prominence_db: float
+    onset_s: float
+    trend: float
+    rpm: float
+    rpm_heard: float
+    teeth: int
+    tooth_hz: float
+    window_s: tuple[float, float]
+    mains_hz: tuple[float, ...]
+    fs: float
+    freq_hz: np.ndarray = field(repr=False)
+    psd: np.ndarray = field(repr=False)
+    floor: np.ndarray = field(repr=False)
+    synchronous: np.ndarray = field(repr=False)
+    times_s: np.ndarray = field(repr=False)
+    chatter_amp: np.ndarray = field(repr=False)
+    score_scale: str = SCORE_SCALE
+    schema: str = "millstab.listen.listening/1"
+
+    def summary(self) -> dict[str, Any]:
+        """The scalar results (no arrays)."""
+        skip = {"freq_hz", "psd", "floor", "synchronous", "times_s", "chatter_amp"}
+        return {k: getattr(self, k) for k in self.__dataclass_fields__ if k not in skip}
+
+    def to_dict(self) -> dict[str, Any]:
+        from millstab.io.results import to_jsonable
+
+        return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
+
+
+# ---------------------------------------------------------------------------------------------------
+
+
+def _check(signal, fs, rpm, teeth, start, end) -> tuple[np.ndarray, float]:
+    x = np.asarray(signal, dtype=float)
+    if x.ndim != 1 or x.size < 1024:
+        raise InputError("signal", f"{x.size} samples", "one channel of at least 1024 samples")
+    if not np.all(np.isfinite(x)):
+        raise InputError("signal", "NaN/inf", "finite samples")
+    if not (math.isfinite(fs) and 500 <= fs <= 192000):
+        raise InputError("fs", fs, "a sample rate from 500 to 192000 Hz")
+    if not (math.isfinite(rpm) and rpm > 0):
+        raise InputError("--rpm", rpm, "the spindle speed in rev/min, > 0")
+    if not (isinstance(teeth, (int, np.integer)) and 1 <= teeth <= 100):
+        raise InputError("--teeth", teeth, "a whole number of teeth from 1 to 100")
+    dur = x.size / fs
+    s = 0.0 if start is None else float(start)
+    e = dur if end is None else float(end)
+    if not (0 <= s < dur):
+        raise InputError("--start", start, f"a time in the recording, 0 to {dur:.3g} s")
+    if not (s < e <= dur + 1e-9):
+        raise InputError("--end", end, f"a time after --start ({s:g} s) and within the recording ({dur:.3g} s)")
+    f_t = teeth * rpm / 60.0
+    if f_t * (1 + SPEED_TOL) > 0.45 * fs:
+        raise InputError("--rpm", rpm, f"a tooth-passing frequency below 0.45 × the sample rate ({0.45 * fs:g} Hz)")
+    return x, dur
+
+
+def cut_window(x: np.ndarray, fs: float, f_t: float, start: float | None = None,
+               end: float | None = None) -> tuple[int, int]:
+    """Sample range (i0, i1) of the cut: the given times, or the frames where the tooth-passing comb
+    (the forced vibration: there only while the teeth cut) is loud (module docstring)."""
+    if start is not None or end is not None:
+        i0 = int(round((start or 0.0) * fs))
+        i1 = x.size if end is None else min(x.size, int(round(end * fs)))
+        return i0, i1
+    n = max(int(FRAME_S * fs), 64, int(4 * fs / f_t))  # ≥ 4 tooth periods per frame: the comb resolves
+    nf = x.size // n
+    if nf < 8:
+        return 0, x.size
+    fr = x[: nf * n].reshape(nf, n)
+    spec = np.abs(np.fft.rfft((fr - fr.mean(axis=1, keepdims=True)) * np.hanning(n), axis=1)) ** 2
+    # harmonics whose place is known to a bin despite a speed off by SPEED_TOL (at least 3)
+    k_max = max(3, int(1.0 / (SPEED_TOL * f_t * n / fs)))
+    k = np.arange(1, int(min(k_max, MAX_COMB, 0.45 * fs / f_t)) + 1)
+    b = np.rint(k * f_t * n / fs).astype(int)
+    cols = np.clip(np.concatenate([b - 1, b, b + 1]), 0, spec.shape[1] - 1)
+    comb = spec[:, cols].sum(axis=1)
+    loud = np.flatnonzero(comb >= WINDOW_LEVEL * np.median(comb))
+    f0, f1 = int(loud[0]), int(loud[-1]) + 1
+    trim = max(1, int(round(TRIM * (f1 - f0))))
+    if f1 - f0 > 4 * trim:
+        f0, f1 = f0 + trim, f1 - trim
+    return f0 * n, min(f1 * n, x.size)
+
+
+def _welch(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """One-sided PSD (Welch: Blackman-Harris segments, 50 % overlap, zero-padded twice), frequencies, and
+    the segment length. Written out with numpy (scipy.signal.welch costs twice as much here: its
+    detrending and scaling pass over every segment again)."""
+    from scipy import fft as sfft
+    from scipy.signal import windows
+
+    dur = x.size / fs
+    nper = min(int(min(max(dur / SEGMENTS, 0.1), SEGMENT_MAX_S) * fs), x.size)
+    step = max(nper // 2, 1)
+    seg = np.lib.stride_tricks.sliding_window_view(x, nper)[::step]
+    win = windows.blackmanharris(nper, sym=False)
+    spec = sfft.rfft((seg - seg.mean(axis=1, keepdims=True)) * win, 2 * nper, axis=1)
+    p = (spec.real**2 + spec.imag**2).mean(axis=0) * (2.0 / (fs * np.sum(win**2)))
+    p[0] /= 2.0
+    return np.arange(p.size) * (fs / (2 * nper)), p, nper
+
+
+def _interp_peak(logp: np.ndarray, i: int) -> float:
+    """Sub-bin offset of a peak at bin i from a parabola through three log values."""
+    if 0 < i < logp.size - 1:
+        a, b, c = logp[i - 1], logp[i], logp[i + 1]
+        den = a - 2 * b + c
+        if den < 0:
+            return float(np.clip(0.5 * (a - c) / den, -0.5, 0.5))
+    return 0.0
+
+
+def _floor(f: np.ndarray, p: np.ndarray, masked: np.ndarray) -> np.ndarray:
+    """Noise floor (PSD units): the FLOOR_PERCENTILE-th percentile of the unmasked log-power per block of
+    FLOOR_BLOCK_HZ (≥ 32 bins), interpolated between block centres (flat beyond the end ones). Blocks
+    less than a quarter unmasked are skipped. A percentile of log-power sits below the mean power by a
+    constant factor (chi-square statistics), the same for every bin, so prominences stay comparable."""
+    df = f[1] - f[0]
+    nb = max(32, int(round(FLOOR_BLOCK_HZ / df)))
+    nblk = max(1, f.size // nb)
+    lp = np.where(masked, np.nan, np.log(np.maximum(p, 1e-300)))[: nblk * nb].reshape(nblk, nb)
+    ok = np.isfinite(lp).sum(axis=1) >= nb // 4
+    if not ok.any():
+        return np.full_like(p, np.median(p))
+    level = np.nanpercentile(lp[ok], FLOOR_PERCENTILE, axis=1)
+    centres = f[: nblk * nb].reshape(nblk, nb).mean(axis=1)[ok]
+    return np.exp(np.interp(f, centres, level))
+
+
+def _spindle_hz(f: np.ndarray, p: np.ndarray, f_s0: float, teeth: int, f_max: float) -> float:
+    """Spindle frequency found near f_s0 (comb search on the spindle harmonics up to COMB_HARMONICS
+    tooth-passing harmonics, then least squares on the prominent peaks)."""
+    df = f[1] - f[0]
+    K = int(max(1, min(MAX_COMB, f_max // (f_s0 * (1 + SPEED_TOL)))))
+    k = np.arange(1, K + 1)
+    kc = k[: COMB_HARMONICS * teeth]
+    n_c = int(2 * SPEED_TOL * f_s0 * 2 * kc.size / df) + 1
+    cand = f_s0 * (1 + np.linspace(-SPEED_TOL, SPEED_TOL, max(n_c, 3)))
+    lp = np.log(np.maximum(p, 1e-300))
+    # each harmonic scores its line's log-prominence over the floor, only at a local maximum (a line,
+    # not the skirt of a chatter hump) and at most COMB_CLIP (so one strong chatter line that a wrong
+    # comb happens to hit cannot outvote the tooth-passing lines)
+    lf = np.log(_floor(f, p, np.zeros(f.size, bool)))
+    loc = np.ones(f.size, bool)
+    for sh in (1, 2):
+        loc[sh:] &= p[sh:] >= p[:-sh]
+        loc[:-sh] &= p[:-sh] >= p[sh:]
+    a = np.where(loc, np.clip(lp - lf, 0.0, COMB_CLIP), 0.0)
+    b = np.maximum(a, np.maximum(np.r_[0.0, a[:-1]], np.r_[a[1:], 0.0]))
+    idx = np.clip(np.rint(np.outer(cand, kc) / df).astype(int), 0, f.size - 1)
+    score = b[idx].sum(axis=1)
+    best = np.flatnonzero(score >= score.max() - 1e-9)
+    ft = float(cand[best[np.argmin(np.abs(cand[best] - f_s0))]])  # ties: the speed given
+    # least squares on the prominent harmonics, f_k = k f_s (up to k = 30): each line is sought within
+    # ±1 bin of k times the comb's estimate, which is good to k·(step + its own error) < 1 bin here at
+    # least for the first harmonics; a wider search would catch a strong chatter line beside a harmonic
+    num = den = 0.0
+    for kk in k:
+        i = int(round(kk * ft / df))
+        lo, hi = max(i - 1, 1), min(i + 2, f.size - 1)
+        if hi - lo < 3:
+            continue
+        j = lo + int(np.argmax(p[lo:hi]))
+        if not (p[j] >= p[j - 1] and p[j] >= p[j + 1]):
+            continue
+        side = np.median(p[max(j - 40, 0): j + 41])
+        if p[j] < PROMINENCE * side:
+            continue
+        fk = f[j] + _interp_peak(lp, j) * df
+        num += kk * fk
+        den += kk * kk
+    return num / den if den > 0 else ft
+
+
+def _amp_at(x: np.ndarray, fs: float, f0: float, n_frames: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Amplitude of the sinusoid at f0 in n_frames equal frames (Hann projection), the frame centres [s]
+    relative to the segment start, and the frame length [s]."""
+    n = x.size // n_frames
+    seg = x[: n * n_frames].reshape(n_frames, n)
+    w = np.hanning(n)
+    ph = np.exp(-2j * math.pi * f0 * np.arange(n) / fs)
+    z = (seg - seg.mean(axis=1, keepdims=True)) * w @ ph
+    t = (np.arange(n_frames) + 0.5) * n / fs
+    return 2.0 * np.abs(z) / w.sum(), t, n / fs
+
+
+def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = None,
+           end: float | None = None) -> Listening:
+    """Label one recording of a cut at ``rpm`` [rev/min] with ``teeth`` teeth (module docstring)."""
+    x, dur = _check(signal, float(fs), float(rpm), teeth, start, end)
+    f_hi = min(0.45 * fs, F_HI)
+    f_t0 = teeth * rpm / 60.0
+    i0, i1 = cut_window(x, fs, f_t0, start, end)
+    if (i1 - i0) < 1024:
+        raise InputError("--start/--end", f"{i0 / fs:g}-{i1 / fs:g} s", "a cut window of at least 1024 samples")
+    w = x[i0:i1] - x[i0:i1].mean()
+    f, p, nper = _welch(w, fs)
+    df = f[1] - f[0]
+    band = (f >= F_LO) & (f <= f_hi)
+    f_s = _spindle_hz(f, p, rpm / 60.0, teeth, f_hi)
+    f_t = teeth * f_s
+    # synchronous masks: every spindle harmonic
+    half = LINE_BINS * fs / nper  # Hz
+    ks = np.arange(1, int(f_hi / f_s) + 2)
+    dfs = 2e-4 * f_s  # uncertainty of the refined spindle frequency (measured: < 1e-4 on 2 s windows)
+    line_f = ks * f_s
+    sync = np.zeros(f.size, bool)
+    # mask by ranges (cheap): bins within half + k·dfs of each line
+    lo = np.searchsorted(f, line_f - half - ks * dfs)
+    hi = np.searchsorted(f, line_f + half + ks * dfs, side="right")
+    line_pow = np.zeros(ks.size)
+    for j in range(ks.size):
+        sync[lo[j]:hi[j]] = True
+        if hi[j] > lo[j]:
+            line_pow[j] = p[lo[j]:hi[j]].max()
+    # flip candidates: odd multiples of f_T/2 (even teeth only) above 1.5 f_T, far above the runout
+    keep = np.zeros(ks.size, bool)
+    if teeth % 2 == 0:
+        runout = (ks % teeth != 0) & (line_f < 1.5 * f_t)  # the runout lines below any flip candidate
+        ref = float(line_pow[runout].max()) if runout.any() else 0.0
+        half_order = 2 * ks / teeth  # line frequency in units of f_T/2
+        odd = (np.abs(half_order - np.round(half_order)) < 1e-9) & (np.round(half_order) % 2 == 1)
+        keep = odd & (line_f > 1.5 * f_t) & (line_pow > FLIP_RATIO * ref)
+        for j in np.flatnonzero(keep):
+            sync[lo[j]:hi[j]] = False
+    # mains lines
+    floor0 = _floor(f, p, sync)
+    mains = []
+    mask = sync.copy()
+    for fm in MAINS:
+        hum = 0.0
+        for h in range(1, MAINS_HARMONICS + 1):
+            fh = h * fm
+            if fh > f_hi:
+                break
+            a = np.searchsorted(f, fh - 0.3 - df)
+            b = np.searchsorted(f, fh + 0.3 + df, side="right")
+            top = p[a:b].max() if b > a else 0.0
+            if h <= 3:
+                hum = max(hum, top)
+            elif top > MAINS_OVER_HUM * hum:
+                continue  # far louder than the hum itself: not hum
+            if b > a and top > MAINS_PROMINENCE * floor0[a:b].max():
+                if not np.any(np.abs(ks[keep] * f_s - fh) < half):
+                    ma = np.searchsorted(f, fh - 0.3 - half)
+                    mb = np.searchsorted(f, fh + 0.3 + half, side="right")
+                    mask[ma:mb] = True
+                    if fm not in mains:
+                        mains.append(fm)
+    floor = _floor(f, p, mask)
+    # chatter candidates
+    excess = np.where(mask | ~band, 0.0, p - floor)
+    ratio = np.where(mask | ~band, 0.0, p / floor)
+    peaks = np.flatnonzero((excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:]) &
+                           (ratio[1:-1] >= PROMINENCE)) + 1
+    sync_pow = float(np.sum(np.where(sync & (f <= f_hi), np.maximum(p - floor, 0.0), 0.0)) * df)
+    nan = float("nan")
+    n_fr = int(np.clip(w.size / fs / TREND_FRAME_S, TREND_FRAMES, 4 * TREND_FRAMES))
+    if peaks.size == 0:
+        times = np.zeros(0)
+        return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), 60.0 * f_s, int(teeth), f_t,
+                         (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
+    j = int(peaks[np.argmax(excess[peaks])])
+    j = _family_member(f, excess, peaks, j, f_t, 2.0 * fs / nper)
+    prom = float(ratio[j])
+    # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
+    a_ = j
+    while a_ > 0 and not mask[a_ - 1] and p[a_ - 1] > 2.0 * floor[a_ - 1]:
+        a_ -= 1
+    b_ = j + 1
+    while b_ < f.size and not mask[b_] and p[b_] > 2.0 * floor[b_]:
+        b_ += 1
+    # ... or, for a line next to a masked one, its peak density × the window's noise bandwidth
+    line_pow = max(float(np.sum(p[a_:b_] - floor[a_:b_])) * df, float(p[j] - floor[j]) * ENBW_BINS * fs / nper)
+    # refine on the full-window spectrum
+    lp = np.log(np.maximum(p, 1e-300))
+    fc = float(f[j] + _interp_peak(lp, j) * df)
+    fc = _refine(w, fs, fc, fs / nper)
+    # short-time amplitude at fc
+    amp, tc, tf = _amp_at(w, fs, fc, n_fr)
+    noise_amp = math.sqrt(2.0 * float(np.interp(fc, f, floor)) * 1.5 / tf)  # Hann ENBW 1.5 bins of 1/tf
+    a_c = np.sqrt(np.maximum(amp**2 - noise_amp**2, 0.0))
+    m = max(1, int(round(0.2 * n_fr)))
+    early, late = float(np.median(a_c[:m])), float(np.median(a_c[-m:]))
+    late_part = a_c[-max(1, int(round(LATE_SHARE * n_fr))):]
+    all_rms = float(np.sqrt(np.mean(a_c**2)))
+    late_gain = float(np.sqrt(np.mean(late_part**2))) / all_rms if all_rms > 0 else 1.0
+    score = math.sqrt(line_pow / sync_pow) * late_gain if sync_pow > 0 else math.inf
+    trend = late / early if early > 0 else (math.inf if late > 0 else 1.0)
+    onset = nan
+    if trend > ONSET_RATIO:
+        k = int(np.argmax(a_c >= 0.5 * late))
+        t_k = float(tc[k])
+        if k > 0:  # linear interpolation of the crossing between frame centres
+            a0, a1 = a_c[k - 1], a_c[k]
+            t_k = float(tc[k - 1] + (tc[k] - tc[k - 1]) * (0.5 * late - a0) / (a1 - a0))
+        onset = i0 / fs + t_k
+    if trend > ONSET_RATIO:
+        label = "chatter"  # a line growing fourfold within the cut: chatter building up, however weak yet
+    elif trend < DECAY or score < SCORE_MARGINAL:
+        label = "stable"  # the ringing of a transient, or a line too weak to mark the surface
+    elif score >= SCORE_CHATTER:
+        label = "chatter"
+    else:
+        label = "marginal"
+    return Listening(label, fc, float(score), 10 * math.log10(prom), onset, float(trend), float(rpm), 60.0 * f_s,
+                     int(teeth), f_t, (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask,
+                     i0 / fs + tc, a_c)
+
+
+def _family_member(f: np.ndarray, excess: np.ndarray, peaks: np.ndarray, j: int, f_t: float, tol: float) -> int:
+    """Of the chatter family f_j + k f_T (|k| ≤ FAMILY_ORDERS) among the prominent peaks, the member
+    strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is f⁴ times
+    the displacement's), counting members with at least FAMILY_SHARE of the strongest's excess."""
+    k = (f[peaks] - f[j]) / f_t
+    fam = peaks[(np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS)
+                & (excess[peaks] >= FAMILY_SHARE * excess[j])]
+    if fam.size <= 1:
+        return j
+    return int(fam[np.argmax(excess[fam] / f[fam] ** 4)])
+
+
+def _refine(w: np.ndarray, fs: float, f0: float, span: float) -> float:
+    """Frequency of the largest full-window (Hann) DFT magnitude within f0 ± span [Hz], parabola-refined."""
+    from scipy import fft as sfft
+
+    n = sfft.next_fast_len(2 * w.size, real=True)
+    spec = np.abs(sfft.rfft(w * np.hanning(w.size), n))
+    dfx = fs / n
+    a = max(int((f0 - span) / dfx), 1)
+    b = min(int((f0 + span) / dfx) + 1, spec.size - 1)
+    if b - a < 3:
+        return f0
+    i = a + int(np.argmax(spec[a:b]))
+    if i in (a, b - 1):  # the slope of a neighbour, not a peak: keep the Welch estimate
+        return f0
+    return float((i + _interp_peak(np.log(np.maximum(spec, 1e-300)), i)) * dfx)

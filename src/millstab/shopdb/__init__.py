@@ -1,0 +1,46 @@
+"""Shop memory: machines, tools, campaigns, cuts, posteriors and recommendations in a database.
+
+A campaign (one tool on one machine) lives in a SQLite file (a plain path) or any SQLAlchemy database URL
+(PostgreSQL for a shared server), with its whole history: who recorded which cut, which posterior came
+from which data and code, which recommendation from which posterior. See docs/shopdb.md.
+
+* :mod:`~millstab.shopdb.schema` -- the tables (SQLAlchemy Core) and the newest migration's id;
+* ``migrations/`` -- the Alembic migrations, run on open (``upgrade head``);
+* :mod:`~millstab.shopdb.store` -- :class:`Store`: one transaction per update, optimistic concurrency,
+  reading a campaign back, the history;
+* :mod:`~millstab.shopdb.files` -- a campaign as plain files (config.toml, cuts.csv, posteriors/, ...).
+
+SQLAlchemy and Alembic are the optional extra ``millstab[db]``; this module imports them only when a
+database is opened, so the rest of millstab works without them.
+"""
+
+from __future__ import annotations
+
+from millstab.errors import InputError
+
+INSTALL = "pip install 'millstab[db]' (SQLAlchemy and Alembic)"
+
+
+def available() -> bool:
+    """True when SQLAlchemy and Alembic are installed."""
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in ("sqlalchemy", "alembic"))
+
+
+def open_store(db, user: str | None = None, create: bool = True):
+    """Open (and create or migrate) the shop database ``db``: a file path (SQLite) or a SQLAlchemy URL;
+    ``user``: who acts (default $USER); ``create=False``: a SQLite file that does not exist is an error (the
+    reading commands never leave an empty database behind). Returns a :class:`millstab.shopdb.store.Store`.
+
+    Raises:
+        InputError: the extra is not installed, or the database cannot be opened (one line naming --db).
+    """
+    if not available():
+        raise InputError("--db", str(db), f"the shop database needs SQLAlchemy and Alembic: {INSTALL}")
+    from millstab.shopdb.store import Store
+
+    return Store(str(db), user, create)
+
+
+__all__ = ["INSTALL", "available", "open_store"]

@@ -1,0 +1,148 @@
+"""Accounts for ``millstab app`` when it serves beyond this machine: a users file of ``name:hash`` lines,
+the password hash (scrypt, standard library), and the login that checks it (Panel's basic-auth login
+page, with the stored hash compared instead of a plain password).
+
+Rule: the app is *local* when it binds 127.0.0.1, ``localhost`` or ``::1`` exactly; any other address
+(``0.0.0.0``, a network address, even another loopback address such as 127.0.0.2) lets other users or
+machines reach it, and the app refuses to start there without ``--users FILE``. With a users file every
+page needs a login, whatever the address. Passwords are never stored, printed or logged; each browser
+session still sees only its own uploads (:class:`millstab.web.state.Session`).
+
+Users file (make it with ``millstab app --add-user NAME --users FILE``; keep it private, ``chmod 600``)::
+
+    # millstab app users: name:scrypt$N$r$p$salt$hash
+    anna:scrypt$16384$8$1$3q2+7w...$Jm9v...
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import hmac
+import re
+import secrets
+from pathlib import Path
+
+from millstab.errors import InputError
+
+#: the addresses that serve this machine only
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+#: scrypt cost (2^14, r 8, p 1: ~50 ms and 16 MB per check, the work factor Python's docs and OWASP name)
+SCRYPT_N, SCRYPT_R, SCRYPT_P = 2**14, 8, 1
+_NAME = re.compile(r"[A-Za-z0-9_.@+-]{1,64}")
+MIN_PASSWORD = 8
+
+
+def is_local(host: str) -> bool:
+    """Whether binding ``host`` serves this machine only (see the module's rule)."""
+    return host.strip().lower() in LOCAL_HOSTS
+
+
+def _b64(b: bytes) -> str:
+    return base64.b64encode(b).decode("ascii")
+
+
+def hash_password(password: str, salt: bytes | None = None) -> str:
+    """``scrypt$N$r$p$salt$hash`` of ``password`` (a fresh 16-byte salt unless given)."""
+    salt = secrets.token_bytes(16) if salt is None else salt
+    digest = hashlib.scrypt(password.encode("utf-8"), salt=salt, n=SCRYPT_N, r=SCRYPT_R, p=SCRYPT_P, dklen=32)
+    return f"scrypt${SCRYPT_N}${SCRYPT_R}${SCRYPT_P}${_b64(salt)}${_b64(digest)}"
+
+
+def check_password(password: str, stored: str) -> bool:
+    """Whether ``password`` matches ``stored`` (:func:`hash_password`'s form), in constant time."""
+    try:
+        kind, n, r, p, salt, digest = stored.split("$")
+        if kind != "scrypt":
+            return False
+        want = base64.b64decode(digest, validate=True)
+        got = hashlib.scrypt(password.encode("utf-8"), salt=base64.b64decode(salt, validate=True), n=int(n), r=int(r),
+                             p=int(p), dklen=len(want), maxmem=2**26)
+    except (ValueError, TypeError):
+        return False
+    return hmac.compare_digest(got, want)
+
+
+def check_name(name: str) -> str:
+    if not _NAME.fullmatch(name or ""):
+        raise InputError("--add-user", name, "a user name of 1..64 letters, digits or _ . @ + -")
+    return name
+
+
+def parse_users(text: str, where: str = "--users", require: bool = True) -> dict[str, str]:
+    """{name: hash} of a users file's text; blank and ``#`` lines are skipped.
+
+    Raises:
+        InputError: a line that is not ``name:scrypt$...`` (a plain password is refused: it would be
+            stored in clear), or (``require``) no user at all.
+    """
+    users: dict[str, str] = {}
+    for no, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        name, _, stored = s.partition(":")
+        if not _NAME.fullmatch(name) or not re.fullmatch(r"scrypt\$\d+\$\d+\$\d+\$[A-Za-z0-9+/=]+\$[A-Za-z0-9+/=]+",
+                                                         stored):
+            raise InputError(f"{where} line {no}", f"{name}:…", "expected name:scrypt$... as written by "
+                                                                "`millstab app --add-user NAME --users FILE` (never a "
+                                                                "plain password)")
+        users[name] = stored
+    if require and not users:
+        raise InputError(where, "no users", "add one with `millstab app --add-user NAME --users FILE`")
+    return users
+
+
+def read_users(path: str | Path) -> dict[str, str]:
+    """The users of the file at ``path`` (:func:`parse_users`)."""
+    from millstab.io.text import read_text
+
+    p = Path(path).expanduser()
+    if not p.is_file():
+        raise InputError("--users", str(path), "file does not exist: make it with `millstab app --add-user NAME "
+                                               "--users FILE`")
+    return parse_users(read_text(p, "--users", "users file"), f"--users {p.name}")
+
+
+def add_user(path: str | Path, name: str, password: str) -> Path:
+    """Add ``name`` (or replace its password) in the users file at ``path``, made if missing."""
+    from millstab.io.results import atomic_write_text
+    from millstab.io.text import read_text
+
+    check_name(name)
+    if len(password) < MIN_PASSWORD:
+        raise InputError("password", f"{len(password)} characters", f"at least {MIN_PASSWORD} characters")
+    p = Path(path).expanduser()
+    if p.is_file():
+        lines = read_text(p, "--users", "users file").splitlines()
+        parse_users("\n".join(lines), f"--users {p.name}", require=False)  # never rewrite a file that is not one
+    else:
+        lines = ["# millstab app users: name:scrypt$N$r$p$salt$hash (made by millstab app --add-user; keep private)"]
+    kept = [ln for ln in lines if ln.strip().partition(":")[0] != name]
+    return atomic_write_text(p, "\n".join(kept + [f"{name}:{hash_password(password)}"]) + "\n")
+
+
+def auth_provider(users: dict[str, str]):
+    """A Panel/Bokeh auth provider: Panel's login and logout pages, the password checked against ``users``'
+    hashes. Imports Panel."""
+    from panel.auth import BasicAuthProvider, BasicLoginHandler
+
+    class HashedLogin(BasicLoginHandler):
+        def _validate(self, username, password):
+            stored = users.get(username)
+            if stored is None:
+                check_password(password, _DUMMY)  # the same time for an unknown name
+                return False
+            return check_password(password, stored)
+
+    class HashedAuth(BasicAuthProvider):
+        @property
+        def login_handler(self):
+            HashedLogin._login_endpoint = self._login_endpoint
+            HashedLogin._login_template = self._login_template
+            return HashedLogin
+
+    return HashedAuth()
+
+
+_DUMMY = hash_password("not a password", b"millstab-dummy!!")

@@ -1,0 +1,231 @@
+"""``millstab listen`` on hand-made microphone signals (tests/listen_synth.py, independent of the
+simulator) with each feature of issue 29, point 2; the harmonizer rule in closed form; the recording
+reader; the door; cuts labelled from recordings. Virtual recordings of simulated cuts are
+tests/test_listen_virtual.py and benchmarks/bench_listen.py."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+
+import numpy as np
+import pytest
+
+from listen_synth import milling_sound
+from millstab.errors import InputError
+from millstab.listen import listen, suggest_rpm
+
+FS = 48000
+
+
+def heard(**kw):
+    rpm, teeth = kw.pop("rpm_given", kw.get("rpm", 10000.0)), kw.get("teeth", 3)
+    return listen(milling_sound(**kw), FS, rpm, teeth)
+
+
+def test_forced_vibration_runout_hum_and_noise_alone_are_stable():
+    for kw in (dict(), dict(hum=1.0, mains=60.0), dict(noise=0.2, pink=0.5), dict(teeth=2, rpm=6000.0, runout=1.0)):
+        r = heard(**kw)
+        assert r.label == "stable" and r.score < 0.02, (kw, r.label, r.chatter_hz, r.score)
+
+
+@pytest.mark.parametrize("ratio", [0.25, 1.0, 4.0])
+def test_chatter_four_times_weaker_to_four_times_stronger_than_the_forced_vibration(ratio):
+    r = heard(chatter_hz=1234.5, ratio=ratio)
+    assert r.label == "chatter" and abs(r.chatter_hz - 1234.5) < 0.2
+    # the score is the amplitude ratio to the synchronous lines (forced + runout: 0.3/k² extra)
+    assert 0.8 * ratio < r.score < 1.05 * ratio
+
+
+@pytest.mark.parametrize("seconds,offset", [(4.0, 7.0), (10.0, 3.0)])
+def test_chatter_a_few_hz_from_a_runout_line(seconds, offset):
+    f_s = 10000.0 / 60.0
+    fc = 7 * f_s + offset  # 7 f_s is a runout line (3 teeth: not a tooth harmonic)
+    r = heard(chatter_hz=fc, ratio=0.5, seconds=seconds)
+    assert r.label == "chatter" and abs(r.chatter_hz - fc) < 0.3
+
+
+def test_chatter_on_a_mains_harmonic_and_hum_of_60_hz():
+    r = heard(chatter_hz=900.0, hum=0.3)  # 900 Hz = 18 x 50 Hz = 15 x 60 Hz
+    assert r.label == "chatter" and abs(r.chatter_hz - 900.0) < 0.2
+    r = heard(chatter_hz=1111.0, ratio=0.3, hum=1.0, mains=60.0)
+    assert r.label == "chatter" and abs(r.chatter_hz - 1111.0) < 0.2 and 60.0 in r.mains_hz
+
+
+def test_chatter_under_strong_broadband_and_1_over_f_noise():
+    r = heard(teeth=4, rpm=3100.0, chatter_hz=650.0, ratio=0.3, noise=0.2, pink=0.5)
+    assert r.label == "chatter" and abs(r.chatter_hz - 650.0) < 0.3
+
+
+def test_chatter_that_starts_late_is_found_with_its_onset():
+    r = heard(chatter_hz=1234.5, onset=2.5)
+    assert r.label == "chatter" and abs(r.onset_s - 2.5) < 0.1 and r.trend > 4
+    r = heard(chatter_hz=1234.5)
+    assert math.isnan(r.onset_s)  # there from the start: no onset
+
+
+def test_entry_and_exit_transients_and_air_cutting_are_left_out():
+    r = heard(air=0.5, bursts=True)
+    assert r.label == "stable" and 0.5 <= r.window_s[0] < 0.7 and 3.3 < r.window_s[1] <= 3.5
+    r = heard(air=0.5, bursts=True, chatter_hz=777.7, ratio=0.5)
+    assert r.label == "chatter" and abs(r.chatter_hz - 777.7) < 0.2
+    # the window given by hand
+    r = listen(milling_sound(air=0.5, bursts=True), FS, 10000.0, 3, start=0.7, end=3.3)
+    assert r.window_s == pytest.approx((0.7, 3.3), abs=1e-3) and r.label == "stable"
+
+
+@pytest.mark.parametrize("off", [-0.01, 0.01])
+def test_speed_read_one_percent_off(off):
+    true = 10000.0 * (1 + off)
+    r = heard(rpm_given=10000.0, true_rpm=true, chatter_hz=1300.0, ratio=0.5)
+    assert abs(r.rpm_heard / true - 1) < 2e-4 and r.label == "chatter" and abs(r.chatter_hz - 1300.0) < 0.2
+    r = heard(rpm_given=10000.0, true_rpm=true)
+    assert r.label == "stable"
+
+
+def test_flip_chatter_on_a_spindle_harmonic_with_two_teeth():
+    """Two teeth: period doubling chatters at odd multiples of f_T/2, exactly on a spindle harmonic."""
+    f_t = 2 * 10000.0 / 60.0
+    r = heard(teeth=2, chatter_hz=2.5 * f_t, ratio=1.0)
+    assert r.label == "chatter" and abs(r.chatter_hz - 2.5 * f_t) < 0.2
+
+
+def test_harmonizer_suggestion_in_closed_form():
+    s = suggest_rpm(1000.0, 2, 14000.0)  # 60·1000/(2 n) = 30000/n: n = 2 gives 15000, nearest
+    assert s.rpm == pytest.approx(15000.0) and s.lobe == 2 and "1000.0 Hz / 2" in s.reason
+    s = suggest_rpm(1000.0, 2, 14000.0, (20000.0, 25000.0))
+    assert math.isnan(s.rpm) and "reduce the depth" in s.reason
+    with pytest.raises(InputError):
+        suggest_rpm(1000.0, 2, 14000.0, (5000.0, 4000.0))
+
+
+@pytest.mark.parametrize("kw,field", [(dict(rpm=-1.0), "--rpm"), (dict(teeth=0), "--teeth"),
+                                      (dict(start=9.0), "--start"), (dict(start=0.6, end=0.4), "--end")])
+def test_bad_input_is_a_clear_error(kw, field):
+    args = dict(rpm=10000.0, teeth=3)
+    args.update(kw)
+    with pytest.raises(InputError) as e:
+        listen(milling_sound(seconds=1.0), FS, args.pop("rpm"), args.pop("teeth"), **args)
+    assert e.value.field == field
+
+
+# --- reading recordings ---------------------------------------------------------------------------
+
+
+def _wav24(path, fs, x):
+    """A 24-bit PCM mono WAV written by hand (the format scipy reads but does not write)."""
+    q = np.round(np.clip(x, -1, 1) * (2**23 - 1)).astype("<i4")
+    data = b"".join(int(v).to_bytes(3, "little", signed=True) for v in q)
+    hdr = b"RIFF" + struct.pack("<I", 36 + len(data)) + b"WAVEfmt " + struct.pack("<IHHIIHH", 16, 1, 1, fs, 3 * fs, 3, 24)
+    path.write_bytes(hdr + b"data" + struct.pack("<I", len(data)) + data)
+
+
+def test_read_wav_16_24_float_stereo_and_csv(tmp_path):
+    from scipy.io import wavfile
+
+    from millstab.io.recordings import read_recording, write_recording
+
+    x = milling_sound(seconds=0.5, chatter_hz=1234.5)
+    write_recording(tmp_path / "a.wav", FS, x)
+    y, fs = read_recording(tmp_path / "a.wav")
+    assert fs == FS and np.abs(y - x).max() < 1.0 / 32767
+    _wav24(tmp_path / "b.wav", FS, x)
+    y, fs = read_recording(tmp_path / "b.wav")
+    assert np.abs(y - x).max() < 2.0 / 2**23
+    wavfile.write(tmp_path / "c.wav", 96000, np.stack([0.1 * x, x], axis=1).astype(np.float32))
+    y, fs = read_recording(tmp_path / "c.wav", channel=1)
+    assert fs == 96000 and np.abs(y - x).max() < 1e-7
+    with pytest.raises(InputError, match="channel"):
+        read_recording(tmp_path / "c.wav", channel=2)
+    write_recording(tmp_path / "d.csv", 20000.0, x[:5000])
+    y, fs = read_recording(tmp_path / "d.csv")
+    assert fs == pytest.approx(20000.0) and np.allclose(y, x[:5000])
+    wavfile.write(tmp_path / "e.wav", 4000, (x * 3000).astype(np.int16))
+    with pytest.raises(InputError, match="sample rate"):
+        read_recording(tmp_path / "e.wav")
+    (tmp_path / "f.csv").write_text("time_s,signal\n0,1\n0.001,nan\n" + "".join(f"{i/1000},0\n" for i in range(2, 2000)))
+    with pytest.raises(InputError, match="finite"):
+        read_recording(tmp_path / "f.csv")
+
+
+# --- the door and the loop ------------------------------------------------------------------------
+
+
+def test_cli_listen_prints_label_frequency_suggestion_and_writes_json_and_plot(tmp_path, capsys):
+    from millstab.cli import main
+    from millstab.io.recordings import write_recording
+
+    wav = tmp_path / "cut.wav"
+    write_recording(wav, FS, milling_sound(teeth=2, rpm=14000.0, chatter_hz=1000.0, ratio=0.5))
+    out, png = tmp_path / "res.json", tmp_path / "spec.png"
+    assert main(["listen", str(wav), "--rpm", "14000", "--teeth", "2", "--out", str(out), "--plot", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "chatter at 1000.0 Hz" in text and "suggested speed: 15000 rpm" in text
+    doc = json.loads(out.read_text())
+    assert doc["label"] == "chatter" and doc["suggested_rpm"] == pytest.approx(15000.0, rel=1e-3)
+    assert "score_scale" in doc and png.stat().st_size > 10_000
+    assert main(["listen", str(wav), "--rpm", "14000", "--teeth", "2", "--out", str(wav)]) == 2  # never over the input
+    assert main(["listen", str(wav), "--rpm", "14000", "--teeth", "0"]) == 2
+
+
+def test_cuts_csv_with_recordings_are_labelled_by_listening(tmp_path):
+    from millstab import api
+    from millstab.io.recordings import write_recording
+
+    (tmp_path / "rec").mkdir()
+    write_recording(tmp_path / "rec" / "a.wav", FS, milling_sound(teeth=2, rpm=9000.0, chatter_hz=870.0, ratio=0.5))
+    write_recording(tmp_path / "rec" / "b.wav", FS, milling_sound(teeth=2, rpm=9000.0, seed=3))
+    csv = tmp_path / "cuts.csv"
+    csv.write_text("rpm,depth_mm,label,recording\n9000,3,,rec/a.wav\n9000,1,,rec/b.wav\n12000,2,stable,\n")
+    pts, notes = api.label_from_recordings(csv, teeth=2)
+    assert list(pts.label) == ["chatter", "stable", "stable"]
+    assert abs(pts.chatter_hz[0] - 870.0) < 0.2 and np.isnan(pts.chatter_hz[1]) and np.isnan(pts.chatter_hz[2])
+    assert "heard in a.wav" in notes[0] and "from the file" in notes[2]
+    csv.write_text("rpm,depth_mm,recording\n9000,3,rec/missing.wav\n")
+    with pytest.raises(InputError, match="missing.wav"):
+        api.label_from_recordings(csv, teeth=2)
+    csv.write_text("rpm,depth_mm,recording\n9000,3,\n")
+    with pytest.raises(InputError, match="needs a label"):
+        api.label_from_recordings(csv, teeth=2)
+
+
+@pytest.mark.slow
+def test_update_takes_labels_and_chatter_frequencies_from_recordings(tmp_path, capsys):
+    """ex1 (2 teeth): a cuts CSV naming a recording per cut; update says where each label came from."""
+    from millstab.cli import main
+    from millstab.io.recordings import write_recording
+
+    rows = ["rpm,depth_mm,label,recording"]
+    for i, (rpm, depth, fc) in enumerate([(9000, 4.0, 870.0), (9000, 0.5, None), (6000, 0.5, None),
+                                          (12000, 5.0, 905.0), (7000, 0.4, None)]):
+        wav = tmp_path / f"c{i}.wav"
+        write_recording(wav, FS, milling_sound(teeth=2, rpm=float(rpm), chatter_hz=fc, ratio=0.5, seed=i))
+        rows.append(f"{rpm},{depth},,{wav.name}")
+    rows.append("10000,0.3,stable,")
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "post.json"
+    assert main(["update", "example:ex1", str(cuts), "--out", str(out), "--samples", "200"]) == 0
+    text = capsys.readouterr().out
+    assert "9000 rpm, 4 mm: chatter at 870.0 Hz (heard in c0.wav" in text
+    assert "10000 rpm, 0.3 mm: stable (from the file)" in text
+    assert json.loads(out.read_text())["schema"].startswith("millstab.posterior")
+    # with the posterior, listen suggests recommend's speed at the cut's depth
+    res = tmp_path / "heard.json"
+    assert main(["listen", str(tmp_path / "c0.wav"), "--rpm", "9000", "--teeth", "2", "--post", str(out),
+                 "--depth", "1", "--rpm-range", "5000:15000", "--out", str(res)]) == 0
+    doc = json.loads(res.read_text())
+    assert doc["suggestion_from"] == "recommend" and 5000 <= doc["suggested_rpm"] <= 15000
+    assert main(["listen", str(tmp_path / "c0.wav"), "--rpm", "9000", "--teeth", "2", "--post", str(out)]) == 2
+
+
+def test_of_a_chatter_family_the_member_strongest_in_displacement_is_reported():
+    """Chatter at 800 Hz with its tooth-passing sideband 800 + f_T = 1300 Hz louder in the recording
+    (acceleration weighs by f²): the member near the mode, strongest in displacement, is the chatter
+    frequency; an unrelated louder tone is not a family member and wins as the dominant line."""
+    f_t = 3 * 10000.0 / 60.0
+    r = heard(chatter_hz=800.0, ratio=0.5, tones=[(800.0 + f_t, 0.6)])
+    assert r.label == "chatter" and abs(r.chatter_hz - 800.0) < 0.2
+    r = heard(chatter_hz=800.0, ratio=0.5, tones=[(1234.5, 0.6)])
+    assert abs(r.chatter_hz - 1234.5) < 0.2

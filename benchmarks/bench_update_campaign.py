@@ -57,6 +57,7 @@ instead: cheaper, without the simulation's own model of the cut.)
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -156,6 +157,11 @@ def main() -> None:
     ap.add_argument("--test-risk", default=str(TEST_RISK),
                     help="cap on the next test's probability of chatter ('none': no cap, the most informative cut)")
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
+    ap.add_argument("--tails", default=None, help="tails of the prior: student | normal | mixture (default: the "
+                                                  "prior's default, student)")
+    ap.add_argument("--truth-tails", default="normal",
+                    help="--calibrate: the family the truths are drawn from (the hammer test's spreads, Gaussian by "
+                         "default: the shop's in-process drift; 'same': the prior's own, the self-consistent check)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--best-speeds", type=int, default=361, help="speeds on which the best truly stable cut is sought")
     ap.add_argument("--grid", default="61x40", help="speeds x depths of the Brier-score grid")
@@ -167,8 +173,9 @@ def main() -> None:
     cut = cfg.cutting
     if args.immersion < 1:
         cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
-    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error)
+    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error, tails=args.tails)
     prior = make_prior(cfg.structure, cut, table)
+    truth_prior = prior if args.truth_tails == "same" else dataclasses.replace(prior, tails=args.truth_tails)
     decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),
                 "speed_tolerance": args.speed_tolerance,
                 "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk), "guard": not args.no_guard}
@@ -188,7 +195,7 @@ def main() -> None:
             t0 = time.perf_counter()
             rng = np.random.default_rng([args.seed, c])
             if args.calibrate:
-                theta = np.exp(prior.sample(1, rng)[0])
+                theta = np.exp(truth_prior.sample(1, rng)[0])
             else:
                 f = np.array([rng.uniform(-OFF[prior.par.kind(n)], OFF[prior.par.kind(n)]) for n in prior.par.free])
                 theta = prior.median * (1 + f)
@@ -225,7 +232,9 @@ def main() -> None:
                    "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
                    "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
                    "stages": camp.stages, "best": camp.best, "failed": camp.failed,
-                   "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")}}
+                   "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")},
+                   "conflict": any(str(w).startswith("the cuts contradict the hammer test")
+                                   for w in camp.posteriors[args.cuts].warnings)}
             if not args.no_baselines:
                 # baseline 1: the hammer-test SLD alone, 5 % below its limit
                 fine = np.linspace(lo, hi, args.best_speeds)
@@ -332,6 +341,7 @@ def main() -> None:
           f"marginal: {np.mean([r['tests']['marginal'] for r in rows]):.0%}, truly chattering: "
           f"{np.mean([r['tests']['true'] for r in rows]):.0%} (test risk {decision['test_risk']}, data guard "
           f"{'on' if decision['guard'] else 'off'})")
+    print(f"  final posterior names a prior-data conflict: {sum(r['conflict'] for r in rows)}/{n}")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
               for r in rows]
     reached = [k for k in k_best if k is not None]

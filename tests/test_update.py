@@ -234,7 +234,8 @@ def _truth_cuts(prior, theta, rpm, rel, seed=0):
 
 def test_smc_agrees_with_a_brute_force_grid_posterior():
     """Two free parameters (fn_x, k_x): posterior means and quantiles of SMC against a dense grid."""
-    cfg = parse_config(TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y"]\nsigma_depth = "15 %"\n')
+    cfg = parse_config(TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", "sigma_depth"]\n'
+                       'sigma_depth = "15 %"\n')
     prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
     truth = prior.median * np.array([1.04, 0.8])
     cuts = _truth_cuts(prior, truth, np.linspace(5200, 9000, 8), 0.4)
@@ -271,7 +272,7 @@ def test_same_seed_same_samples():
     np.testing.assert_array_equal(back.samples, a.samples)
     assert back.prior.names == a.prior.names and back.prior.cutting == a.prior.cutting
     doc = a.to_json()
-    assert doc["schema"] == "millstab.posterior/1" and set(doc["parameters"]["fn_x"]) == {"mean", "sd", "q05", "q50", "q95"}
+    assert doc["schema"] == "millstab.posterior/2" and set(doc["parameters"]["fn_x"]) == {"mean", "sd", "q05", "q50", "q95"}
 
 
 def test_exchange_twins_are_reported_as_modes():
@@ -481,7 +482,8 @@ def _grid_posterior(prior, cuts, n=90):
 def test_sequential_reuse_matches_the_grid_posterior_and_a_fresh_update():
     """Posterior of 4 cuts as the start of an update of 8: same answer as the brute-force grid of all 8
     (and as a fresh update), in fewer tempering stages."""
-    cfg = parse_config(TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y"]\nsigma_depth = "15 %"\n')
+    cfg = parse_config(TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", "sigma_depth"]\n'
+                       'sigma_depth = "15 %"\n')
     prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
     truth = prior.median * np.array([1.04, 0.8])
     cuts = _truth_cuts(prior, truth, np.linspace(5200, 9000, 8), 0.4)

@@ -48,6 +48,7 @@ class PriorTable:
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
         label_error: probability that a cut's label is swapped, in [0, 0.5), or ``None``.
+        tails: the tails of the spreads (``student``, ``normal``, ``mixture``), or ``None`` (default).
     """
 
     spreads: Mapping[str, float]
@@ -56,6 +57,7 @@ class PriorTable:
     sigma_depth_rel: float | None = None
     sigma_chatter_hz: float | None = None
     label_error: float | None = None
+    tails: str | None = None
 
 
 __all__ = ["Config", "PriorTable"]

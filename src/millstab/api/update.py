@@ -25,6 +25,10 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
     whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior).
 
+    The result's ``warnings`` hold every message for the user, one line each: data that lean on the
+    prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
+    and a bimodal exchange split; ``to_json()["warning_codes"]`` gives their codes. A door shows them all.
+
     Raises:
         InputError: fewer than 100 samples, bad cuts (see :class:`millstab.update.Evidence`), bad prior.
         Cancelled: raised by ``progress``.

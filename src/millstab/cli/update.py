@@ -38,7 +38,7 @@ def update_cmd(
                                                        "spectral use measured chatter frequencies)."),
     samples: int = samples_option(4000, "Posterior samples (SMC particles)."),
     seed: int = seed_option(0, "Seed of the sampler (same seed, same samples)."),
-    out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/1)."),
+    out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/2)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
@@ -90,6 +90,10 @@ def update_cmd(
         sc, shown = _SHOW[unit]
         s = doc["parameters"][name]
         table.add_row(name, f"{post.prior.median[j] * sc:.5g}", *(f"{s[k] * sc:.5g}" for k in ("mean", "sd", "q05", "q95")), shown)
+    noise = (doc.get("noise") or {}).get("parameters", {})
+    for name, s in noise.items():  # the learned noise levels: the label error, the factor on the depth noise
+        shown, med = ("label_error", post.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
+        table.add_row(shown, f"{med:.3g}", *(f"{s[k]:.3g}" for k in ("mean", "sd", "q05", "q95")), "")
     con.print(table)
     for w in doc["warnings"]:
         con.print(f"[yellow]warning:[/yellow] {w}")

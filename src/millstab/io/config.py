@@ -45,6 +45,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
+    tails = "student"            # the spreads' tails: student (default), normal or mixture
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
 a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".
@@ -78,7 +79,9 @@ from millstab.units import parse_quantity
 
 TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
-PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error")
+PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails")
+#: the prior's tails (millstab.update.prior.TAILS)
+PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
 STRUCTURE_KEYS = ("x", "y", "frf")
@@ -251,12 +254,14 @@ def _prior(t: Any) -> PriorTable:
         raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
     spreads: dict[str, float] = {}
     fixed: tuple[str, ...] = ()
-    sd_m = sd_rel = sf = eps = None
+    sd_m = sd_rel = sf = eps = tails = None
     for key, value in t.items():
         field = f"prior.{key}"
         if key == "fixed":
-            if not (isinstance(value, list) and all(isinstance(v, str) and _PRIOR_NAME.match(v.strip()) for v in value)):
-                raise InputError(field, value, "must be a list of parameter names, e.g. [\"zeta_y\"]")
+            if not (isinstance(value, list) and all(isinstance(v, str) and (_PRIOR_NAME.match(v.strip()) or v.strip() in
+                                                                             ("label_error", "sigma_depth")) for v in value)):
+                raise InputError(field, value, "must be a list of parameter names, e.g. [\"zeta_y\"] (or label_error, "
+                                               "sigma_depth: held at their values instead of learned)")
             fixed = tuple(v.strip() for v in value)
         elif key == "sigma_depth":
             if not isinstance(value, str):
@@ -279,6 +284,10 @@ def _prior(t: Any) -> PriorTable:
             if not 0 <= eps < 0.5:
                 raise InputError(field, value, "the probability that a cut's label is swapped must be in [0, 0.5) "
                                                "(a number such as 0.02 or a percentage such as \"2 %\"; 0: never)")
+        elif key == "tails":
+            if value not in PRIOR_TAILS:
+                raise InputError(field, value, f"one of {', '.join(PRIOR_TAILS)}")
+            tails = value
         elif isinstance(key, str) and _PRIOR_NAME.match(key):
             x = parse_quantity(value, field, "dimensionless")
             if x <= 0:
@@ -287,7 +296,7 @@ def _prior(t: Any) -> PriorTable:
         else:
             raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
                                            f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
-    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps)
+    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails)
 
 
 def _speeds(t: Any) -> np.ndarray:
@@ -421,6 +430,8 @@ def _prior_lines(p: PriorTable) -> list[str]:
         out.append(f'sigma_chatter_hz = "{_fmt(p.sigma_chatter_hz)} Hz"')
     if p.label_error is not None:
         out.append(f"label_error = {_fmt(p.label_error)}")
+    if getattr(p, "tails", None) is not None:
+        out.append(f"tails = {_toml_str(p.tails)}")
     return out
 
 

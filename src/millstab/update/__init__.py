@@ -1,6 +1,9 @@
 """Bayesian updating of the modal parameters from labelled test cuts, and decisions from the posterior.
 
-* :mod:`~millstab.update.prior` -- log-normal prior around the hammer-test structure (``[prior]``);
+* :mod:`~millstab.update.prior` -- heavy-tailed prior around the hammer-test structure (``[prior]``) and
+  the priors of the learned noise levels (label error, depth noise);
+* :mod:`~millstab.update.conflict` -- does the posterior contradict the hammer test? (a one-line warning);
+* :mod:`~millstab.update.predict` -- P(stable) and P(the operator writes chatter) of given cuts;
 * :mod:`~millstab.update.likelihood` -- probit likelihood of stable/chatter/marginal labels, chatter
   frequencies and boundary points through the one batched forward function;
 * :mod:`~millstab.update.sampler` -- adaptive tempered sequential Monte Carlo;
@@ -20,10 +23,11 @@ import numpy as np
 from millstab.points import PointSet
 from millstab.update.decide import Recommendation, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood
-from millstab.update.posterior import Posterior
+from millstab.update.conflict import check as check_conflict, label_error_too_high, label_message
+from millstab.update.posterior import Posterior, split_modes
 from millstab.update.prior import Prior, make_prior
 from millstab.update.sampler import tempered_smc
-from millstab.warnlog import collect, emit
+from millstab.warnlog import collect, emit, warn
 
 #: the default number of posterior samples (the reference's ~4 000 weighted samples)
 DEFAULT_SAMPLES = 4000
@@ -62,22 +66,45 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         lik = Likelihood(pr, ev, engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
+    # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates
     if start is None:
-        res = tempered_smc(pr.sample, pr.logpdf, lik, samples, seed=seed, moves=moves, progress=progress)
+        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress)
     else:
         n_old = _check_start(start, pr, ev, engine)
         rng = np.random.default_rng(seed)
-        u0 = start.u
+        u0 = start.sampler_state(rng)
         u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
-        res = tempered_smc(pr.sample, pr.logpdf, lik.split(n_old), samples, seed=rng, moves=moves, progress=progress,
-                           init=u0)
+        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik.split(n_old), samples, seed=rng, moves=moves,
+                           progress=progress, init=u0)
     diag = res.diagnostics()
     diag["engine_sets"] = lik.n_sets
     diag["frequency_term"] = lik.uses_frequency
     data = {"rpm": np.r_[ev.cut_rpm, ev.pt_rpm].tolist(), "depth_mm": np.r_[ev.cut_depth_mm, ev.pt_depth_mm].tolist(),
             "label": [("stable", "chatter", "marginal")[k] for k in ev.cut_kind] + [""] * ev.pt_rpm.size,
-            "chatter_hz": [None if not np.isfinite(h) else float(h) for h in ev.cut_hz] + [None] * ev.pt_rpm.size}
-    return Posterior(pr, np.exp(res.u), engine, diag, data, tuple(str(w.message) for w in caught))
+            "chatter_hz": [None if not np.isfinite(h) else float(h) for h in ev.cut_hz] + [None] * ev.pt_rpm.size,
+            "grade": [float(g) for g in ev.cut_grade] + [None] * ev.pt_rpm.size}
+    u = res.u[:, :pr.size]
+    noise = None
+    if pr.dim > pr.size:
+        eps, fac = pr.noise(res.u[:, pr.size:], samples)
+        noise = np.stack([eps if n == "label_error" else fac for n in pr.noise_names], axis=1)
+    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise)
+    messages = [str(w.message) for w in caught]
+    modes = post.modes()
+    twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
+    main = u if twin is None else u[twin if twin.mean() > 0.5 else ~twin]  # the larger mode's samples
+    msg, diag["conflict"] = check_conflict(pr, main)
+    if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
+        from millstab.update.predict import predict_cuts  # one more engine call, only in this case
+
+        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm)
+        msg = label_message(pr, post.label_error, ev.cut_rpm, ev.cut_depth_mm, ev.cut_grade, ps)
+        diag["conflict"]["labels"] = True
+    if msg is not None:  # issued (the doors print it in one line) and kept in the result
+        warn(msg, UserWarning, stacklevel=2)
+        messages.append(msg)
+    # the bimodal warning (not issued, as before: a property of the answer) joins them in Posterior itself
+    return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise)
 
 
 def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> int:
@@ -87,7 +114,8 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
     same_prior = (start.prior.names == prior.names and np.allclose(start.prior.median, prior.median, rtol=1e-12)
                   and np.allclose(start.prior.spread, prior.spread, rtol=1e-12)
                   and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel
-                  and start.prior.label_error == prior.label_error)
+                  and start.prior.label_error == prior.label_error and start.prior.tails == prior.tails
+                  and start.prior.noise_names == prior.noise_names)
     if not same_prior or start.engine != engine:
         raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
                                                                            "[prior] table and engine")

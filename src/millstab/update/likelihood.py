@@ -26,7 +26,22 @@ samples, :func:`limits`) and depth noise σ_b:
   whole family (the tooth-passing modulation), and a microphone's strongest peak may be any member,
   so the nearest-member distance (a max over harmonics instead of a mixture's sum) is used; it is
   informative modulo f_tp only, which is the honest content of one frequency reading;
-* a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²).
+* a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²);
+* a graded label g ∈ [0, 1] (how strongly the written label says chatter: stable 0, marginal ½,
+  chatter 1, a probability as written, or the mean over several raters): L = P(chatter label)^g ·
+  P(stable label)^(1−g), with the ε-mixed probabilities. For g = 0, ½, 1 this is the stable, marginal
+  and chatter likelihood above, bit for bit; in between it is a fractional observation that carries
+  one cut's worth of evidence and peaks where P(chatter label) = g. Several raters of one cut are
+  averaged into g (by the cuts reader) rather than multiplied as independent labels: they watched
+  the same cut, so their labels are not independent observations of the process (two raters saying
+  "chatter" of one cut are not two chattering cuts), and their disagreement is itself the information
+  that the cut lies near the limit, which the fractional g expresses;
+* learned noise levels: the label error ε and a factor s on σ_b are sampled with the parameters
+  (:mod:`millstab.update.prior`), one value per sample; they reuse the engine's limits, so they cost
+  no engine call.
+
+Support: rows of u outside the prior's support (ζ ≥ 1, …: :meth:`Prior.in_support`) get log L = −inf
+and never reach the engine, so a proposal there is rejected instead of failing the model's checks.
 
 Units: rpm, mm, Hz at this module's interface; the engines work in m.
 """
@@ -89,17 +104,28 @@ def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_
     return np.where(np.isfinite(predicted_hz), d, 0.5 * tooth_hz)
 
 
-def cut_loglik(z: np.ndarray, kind: np.ndarray, label_error: float = 0.0) -> np.ndarray:
-    """Log-likelihood of each cut's label from z = (b − b_lim)/σ_b; kind 0 stable, 1 chatter, 2 marginal;
-    ``label_error`` ε ∈ [0, ½): the probability that a label is swapped (see the module docstring)."""
-    up, down = log_ndtr(z), log_ndtr(-z)
-    if label_error > 0:  # log((1 − ε)Φ(±z) + εΦ(∓z)) without cancellation in either tail
-        a, b = math.log1p(-label_error), math.log(label_error)
-        up, down = np.logaddexp(a + up, b + down), np.logaddexp(a + down, b + up)
-    return np.where(kind == 1, up, np.where(kind == 0, down, 0.5 * (up + down)))
-
-
 _KIND = {"stable": 0, "chatter": 1, "marginal": 2}
+_KIND_GRADE = np.array([0.0, 1.0, 0.5])
+
+
+def cut_loglik(z: np.ndarray, kind: np.ndarray | None = None, label_error=0.0,
+               grade: np.ndarray | None = None) -> np.ndarray:
+    """Log-likelihood of each cut's label from z = (b − b_lim)/σ_b: g·log P(chatter label) + (1 − g)·log
+    P(stable label), the grade g from ``grade`` or else from ``kind`` (0 stable, 1 chatter, 2 marginal:
+    g = 0, 1, ½); ``label_error`` ε ∈ [0, ½) (a number, or an array broadcasting with z, e.g. (B, 1) per
+    sample): the probability that a label is swapped (see the module docstring)."""
+    up, down = log_ndtr(z), log_ndtr(-z)
+    eps = np.asarray(label_error, dtype=float)
+    if (eps > 0).any():  # log((1 − ε)Φ(±z) + εΦ(∓z)) without cancellation in either tail
+        if eps.ndim == 0:  # the libm logs of a held ε (the numbers of earlier versions, to the last bit)
+            a, b = math.log1p(-float(eps)), math.log(float(eps))
+        else:
+            with np.errstate(divide="ignore"):
+                a, b = np.log1p(-eps), np.log(eps)
+        up, down = np.logaddexp(a + up, b + down), np.logaddexp(a + down, b + up)
+    g = _KIND_GRADE[np.asarray(kind)] if grade is None else np.asarray(grade, dtype=float)
+    # g = 0 and 1 pick one term (0·(−∞) would be NaN where a label is impossible); ½ is 0.5·(up + down) exactly
+    return np.where(g == 1, up, np.where(g == 0, down, g * up + (1 - g) * down))
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +140,14 @@ class Evidence:
     pt_rpm: np.ndarray
     pt_depth_mm: np.ndarray
     pt_weight: np.ndarray
+    cut_grade: np.ndarray | None = None  # graded labels in [0, 1]; None: from cut_kind
+    cut_batch: np.ndarray | None = None  # the test day of each cut ("" none); None: all ""
+
+    def __post_init__(self):
+        if self.cut_grade is None:
+            object.__setattr__(self, "cut_grade", _KIND_GRADE[np.asarray(self.cut_kind, dtype=np.int64)])
+        if self.cut_batch is None:
+            object.__setattr__(self, "cut_batch", np.full(np.size(self.cut_rpm), "", dtype=object))
 
     @classmethod
     def from_points(cls, cuts: PointSet, points: PointSet | None = None) -> Evidence:
@@ -134,7 +168,8 @@ class Evidence:
         if points is not None and (~points.boundary).any():
             extra = points.subset(~points.boundary)
             c = PointSet(np.r_[c.rpm, extra.rpm], np.r_[c.depth_mm, extra.depth_mm], np.r_[c.label, extra.label],
-                         np.r_[c.weight, extra.weight], cuts.source, np.r_[c.chatter_hz, extra.chatter_hz])
+                         np.r_[c.weight, extra.weight], cuts.source, np.r_[c.chatter_hz, extra.chatter_hz],
+                         np.r_[c.grade, extra.grade], np.r_[c.batch, extra.batch])
         n_st, n_ch = int(c.stable.sum()), int(c.chatter.sum())
         where = f" in {cuts.source.name}" if cuts.source is not None else ""
         if n_st == 0 and n_ch == 0 and b_rpm.size == 0:
@@ -146,7 +181,9 @@ class Evidence:
             warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "
                  "and the P(stable) map lean on the prior; add a cut on the other side", UserWarning, stacklevel=2)
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
-        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w)
+        grade = np.asarray(c.grade, dtype=float) if c.grade is not None else None
+        batch = np.asarray(c.batch, dtype=object) if c.batch is not None else None
+        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch)
 
     @property
     def n_cuts(self) -> int:
@@ -188,11 +225,34 @@ class Likelihood:
     def uses_frequency(self) -> bool:
         return self._hz.size > 0
 
-    def __call__(self, u: np.ndarray) -> np.ndarray:
-        depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency, self.client)
-        self.n_calls += 1
-        self.n_sets += depth.shape[0]
-        return self.from_limits(depth, hz)
+    def _limits(self, v: np.ndarray):
+        """(depths (B, S), freqs, noise coordinates (B, Q) or None, in-support (B,)) of sampler vectors v
+        (B, P) or (B, P + Q); rows outside the prior's support do not reach the engine (their limits: 1 mm,
+        a placeholder: the callers mask them to −inf)."""
+        v = np.atleast_2d(np.asarray(v, dtype=float))
+        p = self.prior.size
+        u, w = v[:, :p], (v[:, p:] if v.shape[1] > p else None)
+        ok = self.prior.in_support(u)
+        if w is not None:
+            ok &= np.isfinite(w).all(axis=1)
+        depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
+        hz = np.full_like(depth, np.nan) if self.uses_frequency else None
+        if ok.any():
+            d, h = limits(self.prior, u[ok], self.speeds, self.engine, self.uses_frequency, self.client)
+            self.n_calls += 1
+            self.n_sets += d.shape[0]
+            depth[ok] = d
+            if hz is not None and h is not None:
+                hz[ok] = h
+            elif h is None:
+                hz = None
+        return depth, hz, w, ok
+
+    def __call__(self, v: np.ndarray) -> np.ndarray:
+        """log L (B,) of sampler vectors v = (ln θ, noise coordinates) (B, P [+ Q]); without the noise
+        columns the prior's held noise levels are used. −inf outside the prior's support."""
+        depth, hz, w, ok = self._limits(v)
+        return np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)
 
     def split(self, n_old: int):
         """``u -> (log L of the first n_old cuts and every boundary point, log L of the other cuts)``
@@ -201,33 +261,39 @@ class Likelihood:
             raise InputError("start", f"{n_old} earlier cuts", f"at most the {self.evidence.n_cuts} cuts of this update")
         new = np.arange(self.evidence.n_cuts) >= n_old
 
-        def parts(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            depth, hz = limits(self.prior, u, self.speeds, self.engine, self.uses_frequency, self.client)
-            self.n_calls += 1
-            self.n_sets += depth.shape[0]
-            return self.from_limits(depth, hz, ~new, True), self.from_limits(depth, hz, new, False)
+        def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            depth, hz, w, ok = self._limits(v)
+            return (np.where(ok, self.from_limits(depth, hz, ~new, True, w), -np.inf),
+                    np.where(ok, self.from_limits(depth, hz, new, False, w), -np.inf))
 
         return parts
 
     def from_limits(self, depth_mm: np.ndarray, hz: np.ndarray | None = None, cuts: np.ndarray | None = None,
-                    points: bool = True) -> np.ndarray:
+                    points: bool = True, noise: np.ndarray | None = None) -> np.ndarray:
         """log-likelihood (B,) from limiting depths (B, S) [mm] (and frequencies (B, S) [Hz]) at :attr:`speeds`;
-        ``cuts`` (bool per cut) and ``points`` select the data counted (default all)."""
+        ``cuts`` (bool per cut) and ``points`` select the data counted (default all); ``noise``: the
+        learned noise levels' coordinates (B, Q) per row (``None``: the prior's held values)."""
         ev = self.evidence
         sel = np.ones(ev.n_cuts, bool) if cuts is None else np.asarray(cuts, bool)
         ll = np.zeros(depth_mm.shape[0])
+        if noise is None:
+            eps, fac = self.prior.label_error, np.ones((1, 1))
+        else:
+            e, f = self.prior.noise(noise, depth_mm.shape[0])
+            eps, fac = e[:, None], f[:, None]
         if sel.any():  # the columns of the selected cuts only (a zero weight times −inf would be NaN)
             i = np.flatnonzero(sel)
-            z = (ev.cut_depth_mm[i] - depth_mm[:, self._ic[i]]) / self._sig_c[i]
-            ll += cut_loglik(z, ev.cut_kind[i], self.prior.label_error) @ ev.cut_weight[i]
+            z = (ev.cut_depth_mm[i] - depth_mm[:, self._ic[i]]) / (self._sig_c[i] * fac)
+            ll += cut_loglik(z, None, eps, ev.cut_grade[i]) @ ev.cut_weight[i]
         j = self._hz[sel[self._hz]] if self._hz.size else self._hz
         if j.size and hz is not None:
             d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])
             s = self.prior.sigma_chatter_hz
             ll += (-0.5 * (d / s) ** 2 - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
         if ev.pt_rpm.size and points:
-            r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / self._sig_p
-            ll += (-0.5 * r**2 - np.log(self._sig_p) - _LOG_SQRT_2PI) @ ev.pt_weight
+            sig = self._sig_p * fac
+            r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / sig
+            ll += (-0.5 * r**2 - np.log(sig) - _LOG_SQRT_2PI) @ ev.pt_weight
         return np.where(np.isnan(ll), -np.inf, ll)
 
 

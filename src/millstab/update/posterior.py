@@ -22,9 +22,28 @@ from millstab.errors import InputError
 from millstab.identify.symmetry import exchange_map, exchanged
 from millstab.update.prior import Prior
 
-SCHEMA = "millstab.posterior/1"
+SCHEMA = "millstab.posterior/2"
+#: older layouts that still load (/1: no learned noise levels, a Gaussian prior)
+OLD_SCHEMAS = ("millstab.posterior/1",)
+#: the code of each kind of warning (``warning_codes`` in the JSON), by the start of its message
+WARNING_CODES = (("the cuts contradict the hammer test", "prior-data-conflict"), ("bimodal posterior", "bimodal"),
+                 ("every cut", "one-sided-data"))
 #: the least share of samples for a second exchange mode to be reported as a mode
 MODE_SHARE = 0.02
+
+
+def warning_code(message: str) -> str:
+    """The code of a warning message (:data:`WARNING_CODES`; ``"data"`` for any other)."""
+    return next((c for start, c in WARNING_CODES if str(message).startswith(start)), "data")
+
+
+def bimodal_warning(modes: list[dict]) -> str | None:
+    """The one-line warning of a posterior split between exchange twins, or ``None``."""
+    if len(modes) < 2:
+        return None
+    return (f"bimodal posterior: the x<->y exchange twin holds {modes[1]['share']:.0%} of the samples "
+            f"(the cuts cannot tell x from y; only the prior can). 'parameters' summarises the larger "
+            f"mode ({modes[0]['label']}); see 'modes'")
 
 
 def summary(theta: np.ndarray, names) -> dict[str, dict[str, float]]:
@@ -81,7 +100,9 @@ class Posterior:
         engine: the engine the likelihood used.
         diagnostics: the sampler's diagnostics (:meth:`SMCResult.diagnostics`).
         cuts: the data: {"rpm", "depth_mm", "label", "chatter_hz"} lists (for plots).
-        warnings: messages for the user.
+        warnings: messages for the user (the prior–data conflict and a bimodal split included).
+        noise: (N, Q) samples of the learned noise levels ``prior.noise_names`` (ε; the factor s on
+            the depth noise), or ``None``: held at the prior's values.
     """
 
     prior: Prior
@@ -90,6 +111,15 @@ class Posterior:
     diagnostics: dict = field(default_factory=dict)
     cuts: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    noise: np.ndarray | None = None
+
+    def __post_init__(self):
+        # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
+        if self.samples.ndim == 2 and self.samples.shape[0] > 1 and not any(
+                str(w).startswith("bimodal posterior") for w in self.warnings):
+            bim = bimodal_warning(self.modes())
+            if bim is not None:
+                object.__setattr__(self, "warnings", tuple(self.warnings) + (bim,))
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -99,6 +129,37 @@ class Posterior:
     def u(self) -> np.ndarray:
         """Samples in log coordinates (N, P)."""
         return np.log(self.samples)
+
+    @property
+    def label_error(self) -> np.ndarray:
+        """The label error ε of each sample (N,) (learned, or the prior's held value)."""
+        return self._noise()[0]
+
+    @property
+    def sigma_depth_factor(self) -> np.ndarray:
+        """The factor s on the prior's depth noise of each sample (N,) (learned, or 1)."""
+        return self._noise()[1]
+
+    def _noise(self) -> tuple[np.ndarray, np.ndarray]:
+        n = self.samples.shape[0]
+        eps, fac = np.full(n, float(self.prior.label_error)), np.ones(n)
+        if self.noise is not None:
+            for j, name in enumerate(self.prior.noise_names):
+                if name == "label_error":
+                    eps = self.noise[:, j]
+                else:
+                    fac = self.noise[:, j]
+        return eps, fac
+
+    def sampler_state(self, rng: np.random.Generator | None = None) -> np.ndarray:
+        """The sampler's vectors of these samples (N, prior.dim): ln θ and the noise coordinates; noise
+        levels a posterior lacks (an older file, or a prior draw) are drawn from their prior with ``rng``."""
+        u = self.u
+        if self.prior.dim == self.prior.size:
+            return u
+        if self.noise is not None and self.noise.shape[1] == self.prior.dim - self.prior.size:
+            return np.hstack([u, self.prior.noise_coordinates(*self._noise())])
+        return np.hstack([u, self.prior.sample_noise(u.shape[0], rng or np.random.default_rng(0))])
 
     def modes(self) -> list[dict]:
         """The exchange modes with their share of samples and summaries (largest first); one entry when unimodal."""
@@ -119,15 +180,15 @@ class Posterior:
 
     def to_json(self) -> dict:
         modes = self.modes()
-        warn = list(self.warnings)
-        if len(modes) > 1:
-            warn.append(f"bimodal posterior: the x<->y exchange twin holds {modes[1]['share']:.0%} of the samples "
-                        f"(the cuts cannot tell x from y; only the prior can). 'parameters' summarises the larger "
-                        f"mode ({modes[0]['label']}); see 'modes'")
-        return {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
-                "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
-                "warnings": warn, "prior": self.prior.to_dict(), "cuts": self.cuts,
-                "samples": self.samples.tolist()}
+        warn = list(self.warnings)  # the bimodal one included (__post_init__)
+        doc = {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
+               "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
+               "warnings": warn, "warning_codes": [warning_code(w) for w in warn], "prior": self.prior.to_dict(),
+               "cuts": self.cuts, "samples": self.samples.tolist()}
+        if self.noise is not None:
+            names = list(self.prior.noise_names)
+            doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
+        return doc
 
     @classmethod
     def from_json(cls, doc: dict, source: str = "posterior") -> Posterior:
@@ -136,15 +197,24 @@ class Posterior:
         Raises:
             InputError: not a millstab posterior (wrong or missing schema, bad samples).
         """
-        if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
+        if not isinstance(doc, dict) or doc.get("schema") not in (SCHEMA,) + OLD_SCHEMAS:
             got = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
             raise InputError(f"{source} schema", got, f"expected a posterior written by millstab update ({SCHEMA!r})")
         prior = Prior.from_dict(doc.get("prior") or {})
         s = np.asarray(doc.get("samples"), dtype=float)
         if s.ndim != 2 or s.shape[1] != prior.size or s.shape[0] < 2 or not (np.isfinite(s) & (s > 0)).all():
             raise InputError(f"{source} samples", f"shape {s.shape}", f"need N ≥ 2 rows of {prior.size} finite values > 0")
-        warn = tuple(w for w in doc.get("warnings", ()) if not str(w).startswith("bimodal posterior"))  # re-derived
-        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn)
+        warn = tuple(str(w) for w in doc.get("warnings", ()))
+        noise = None
+        nd = doc.get("noise")
+        if prior.noise_names and nd is not None:  # absent: the noise levels were held (e.g. prior draws)
+            noise = np.asarray(nd.get("samples") if isinstance(nd, dict) else None, dtype=float)
+            ok = (isinstance(nd, dict) and list(nd.get("names", ())) == list(prior.noise_names)
+                  and noise.shape == (s.shape[0], len(prior.noise_names)) and np.isfinite(noise).all() and (noise > 0).all())
+            if not ok:
+                raise InputError(f"{source} noise", f"shape {noise.shape}",
+                                 f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
+        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise)
 
 
-__all__ = ["MODE_SHARE", "Posterior", "SCHEMA", "exchange_of", "split_modes", "summary"]
+__all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

@@ -1,5 +1,14 @@
 """Predictions for given cuts from a posterior: the chance that each cut is stable (the process) and
-the chance that an operator writes "chatter" for it (the label model of the likelihood).
+the chance that an operator writes "chatter" for it (the label model of the likelihood, learned).
+
+The two answer different questions. ``p_stable`` is about the process: the share of posterior samples
+whose limit lies above the cut, free of label noise. ``p_label_chatter`` is about the written label,
+the posterior predictive of the likelihood itself: averaged over the samples (θ, ε, s),
+P(label chatter) = ε + (1 − 2ε)·Φ((b − b_lim(θ))/(s·σ_b)), with the learned label error ε and the
+learned depth noise s·σ_b. It is never 0 or 1 (a written label is a noisy observation; the learned ε
+and σ_b say how noisy), and it is the probability a held-out written label should be scored against
+(Brier, log loss); scoring ``p_stable`` against written labels charges the process model for the
+operators' disagreement.
 
 Units: rpm and mm at this interface.
 """
@@ -7,6 +16,7 @@ Units: rpm and mm at this interface.
 from __future__ import annotations
 
 import numpy as np
+from scipy.special import ndtr
 
 from millstab.errors import InputError
 from millstab.update.likelihood import limits
@@ -18,8 +28,9 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
     in the input order; one engine call for every distinct speed.
 
     ``p_stable``: the fraction of posterior samples whose limiting depth lies above the cut's depth.
-    ``p_label_chatter``: P(the written label says chatter) = ε + (1 − 2ε)·(1 − p_stable), ε the label
-    error of the posterior's label model (see :mod:`millstab.update.likelihood`).
+    ``p_label_chatter``: P(the written label says chatter), the mean over the samples of
+    ε + (1 − 2ε)·Φ((b − b_lim)/(s·σ_b)) with each sample's learned label error ε and depth-noise
+    factor s (held values for a posterior without learned noise); see the module docstring.
 
     Raises:
         InputError: lengths differ, a speed or depth not finite and > 0.
@@ -37,9 +48,13 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
         return np.zeros(0), np.zeros(0)
     speeds, idx = np.unique(r, return_inverse=True)
     blim, _ = limits(post.prior, post.u, speeds, post.engine)
-    p_stable = (blim[:, idx] > d[None, :]).mean(axis=0)
-    eps = float(post.prior.label_error)
-    return p_stable, eps + (1.0 - 2.0 * eps) * (1.0 - p_stable)
+    blim = blim[:, idx]  # (N, n)
+    p_stable = (blim > d[None, :]).mean(axis=0)
+    eps, fac = post.label_error[:, None], post.sigma_depth_factor[:, None]
+    sig = post.prior.sigma_depth_mm(d)[None, :] * fac
+    with np.errstate(invalid="ignore"):  # an infinite limit (no boundary): Φ(−∞) = 0
+        phi = ndtr((d[None, :] - blim) / sig)
+    return p_stable, (eps + (1.0 - 2.0 * eps) * phi).mean(axis=0)
 
 
 __all__ = ["predict_cuts"]

@@ -1,10 +1,35 @@
-"""The prior of Bayesian updating: independent log-normal spreads around a hammer-test structure.
+"""The prior of Bayesian updating: independent heavy-tailed spreads around a hammer-test structure,
+and the priors of the label model's noise levels.
 
-Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²), where the prior is a
-Gaussian with mean ln θ_config and standard deviation ``spread`` per parameter, so a spread of 0.05
-is a ≈ 5 % relative standard deviation of a natural frequency. Defaults (the shop's experience of
-how far in-process dynamics drift from a tap test): fn 5 %, k 30 %, ζ 30 %; every modal parameter
-free; the cutting coefficients fixed unless ``[prior]`` gives Kt a spread.
+Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²). Per parameter, z =
+(u − ln θ_config)/``spread`` has a unit-scale density chosen by ``tails``:
+
+* ``"student"`` (the default): Student-t with ν = :data:`DEFAULT_NU` = 4 degrees of freedom, one per
+  parameter (independent, so one parameter can be wrong while the others hold);
+* ``"normal"``: the Gaussian (log-normal θ) of millstab ≤ 0.x;
+* ``"mixture"``: 0.9·N(0, 1) + 0.1·N(0, 4²), a Gaussian with a broad component.
+
+Why heavy tails (docs/updating.md, "A prior that can be wrong", has the measured comparison): with a
+Gaussian, moving a parameter 4σ costs 8 nats, which k contradicting labels, each written off as a label
+error for −ln ε ≈ 3.9 nats, undercut, so a wrong hammer test survives its contradicting cuts. The
+t's penalty grows like (ν+1)/2·ln(1 + z²/ν), only logarithmically in z, so many consistent
+contradicting labels move the structure while a few are still written off (near the median the t
+is as informative as the Gaussian). So a spread of 0.05 is still a ≈ 5 % scale of a natural frequency.
+
+Support: ζ < 1 (u_ζ < 0) and |z| ≤ :data:`TRUNCATE` (a guard that keeps every value the engine sees
+finite and physical; it removes < 0.1 % of a t's mass). Outside it the density is 0 (log −inf); the
+draws are the truncated distribution (rejection). Spreads are capped at :data:`MAX_SPREAD`.
+
+Noise levels (learned from the data): the label error ε and a factor s on the depth noise σ_b are
+sampled with the modal parameters (they cost no engine call). Their priors are Gaussian in the
+sampler's coordinates: logit(2ε) ~ N(logit(2ε₀), :data:`DEFAULT_LABEL_ERROR_SPREAD`²) (ε ∈ (0, ½), ε₀
+the config's ``label_error``; its 90 % range is ε₀/3 … 3ε₀ for ε₀ = 2 %) and ln s ~ N(0,
+:data:`DEFAULT_SIGMA_DEPTH_SPREAD`²) (s σ_config within ×/÷ 2.3 at 90 %). ``fixed = ["label_error",
+"sigma_depth"]`` in ``[prior]`` holds them at the config's values (ε₀ = 0 is always held).
+
+Defaults of the spreads (the shop's experience of how far in-process dynamics drift from a tap test):
+fn 5 %, k 30 %, ζ 30 %; every modal parameter free; the cutting coefficients fixed unless ``[prior]``
+gives Kt a spread.
 
 Kt free is exact and cheap: in both engines the boundary depends on b·Kt only (F = ½ b Kt [A] Δ),
 so b_lim(Kt) = b_lim(Kt₀) · Kt₀/Kt, and the chatter frequency does not change. Freeing Kr would change
@@ -17,6 +42,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import expit, gammaln, logit
 
 from millstab.errors import InputError
 from millstab.model import Cutting, Mode, Structure
@@ -30,6 +56,45 @@ DEFAULT_SIGMA_DEPTH_M = 0.05e-3
 DEFAULT_SIGMA_CHATTER_HZ = 20.0
 #: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
 DEFAULT_LABEL_ERROR = 0.02
+#: default tails of the modal parameters' prior (see the module docstring)
+DEFAULT_TAILS = "student"
+TAILS = ("student", "normal", "mixture")
+#: degrees of freedom of the Student-t prior
+DEFAULT_NU = 4.0
+#: the broad component of the mixture prior: its weight and scale (in units of the spread)
+MIX_WEIGHT, MIX_SCALE = 0.1, 4.0
+#: the prior's support in z = (u − μ)/spread
+TRUNCATE = 12.0
+#: the largest spread (σ of ln) of a parameter: 100 % (a factor e per σ; a heavy tail reaches far beyond)
+MAX_SPREAD = 1.0
+#: σ of logit(2ε) of the learned label error, and σ of ln s of the learned depth-noise factor
+DEFAULT_LABEL_ERROR_SPREAD = 0.7
+DEFAULT_SIGMA_DEPTH_SPREAD = 0.5
+#: the names of the learned noise levels in the sampler's vector (after the modal parameters and Kt)
+NOISE_NAMES = ("label_error", "sigma_depth")
+_LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
+
+
+def _log_density(z: np.ndarray, tails: str, nu: float) -> np.ndarray:
+    """Log density of the unit-scale distribution of z (elementwise)."""
+    if tails == "normal":
+        return -0.5 * z * z - _LOG_SQRT_2PI
+    if tails == "student":
+        c = gammaln(0.5 * (nu + 1)) - gammaln(0.5 * nu) - 0.5 * math.log(nu * math.pi)
+        return c - 0.5 * (nu + 1) * np.log1p(z * z / nu)
+    a = math.log1p(-MIX_WEIGHT) - 0.5 * z * z
+    b = math.log(MIX_WEIGHT) - math.log(MIX_SCALE) - 0.5 * (z / MIX_SCALE) ** 2
+    return np.logaddexp(a, b) - _LOG_SQRT_2PI
+
+
+def _draw(shape: tuple[int, int], tails: str, nu: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit-scale draws of z."""
+    if tails == "normal":
+        return rng.standard_normal(shape)
+    if tails == "student":
+        return rng.standard_t(nu, shape)
+    broad = rng.random(shape) < MIX_WEIGHT
+    return rng.standard_normal(shape) * np.where(broad, MIX_SCALE, 1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +111,11 @@ class Prior:
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz].
         label_error: probability ε ∈ [0, ½) that a cut's stable/chatter label is swapped
-            (:mod:`millstab.update.likelihood`).
+            (:mod:`millstab.update.likelihood`); the prior median of ε when it is learned.
+        tails: ``"student"``, ``"normal"`` or ``"mixture"`` (module docstring).
+        nu: degrees of freedom of the Student-t.
+        label_error_spread: σ of logit(2ε) of the learned label error; 0: ε held at ``label_error``.
+        sigma_depth_spread: σ of ln s, s the learned factor on the depth noise; 0: held.
     """
 
     par: Parameterization
@@ -58,11 +127,73 @@ class Prior:
     sigma_depth_rel: float | None = None
     sigma_chatter_hz: float = DEFAULT_SIGMA_CHATTER_HZ
     label_error: float = DEFAULT_LABEL_ERROR
+    tails: str = "normal"
+    nu: float = DEFAULT_NU
+    label_error_spread: float = 0.0
+    sigma_depth_spread: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.label_error, (int, float)) and 0 <= self.label_error < 0.5):
             raise InputError("prior.label_error", self.label_error, "the probability that a label is swapped must be "
                                                                     "in [0, 0.5), e.g. 0.02 (0: labels never wrong)")
+        if self.tails not in TAILS:
+            raise InputError("prior.tails", self.tails, f"one of {', '.join(TAILS)}")
+        if not (np.isfinite(self.nu) and self.nu > 0):
+            raise InputError("prior.nu", self.nu, "the t's degrees of freedom must be > 0")
+        if self.label_error == 0 and self.label_error_spread:  # ε = 0 cannot be learned (logit(0) = −∞): hold it
+            object.__setattr__(self, "label_error_spread", 0.0)
+
+    @property
+    def noise_names(self) -> tuple[str, ...]:
+        """The learned noise levels, in the order they follow the free parameters in the sampler's vector."""
+        return tuple(n for n, s in zip(NOISE_NAMES, (self.label_error_spread, self.sigma_depth_spread)) if s > 0)
+
+    @property
+    def dim(self) -> int:
+        """Length of the sampler's vector: the free parameters and the learned noise levels."""
+        return self.size + len(self.noise_names)
+
+    def _noise_prior(self) -> tuple[np.ndarray, np.ndarray]:
+        """(mean, σ) of the learned noise levels' sampler coordinates (Gaussian)."""
+        mu = {"label_error": float(logit(2 * self.label_error)) if self.label_error > 0 else 0.0, "sigma_depth": 0.0}
+        sd = {"label_error": self.label_error_spread, "sigma_depth": self.sigma_depth_spread}
+        return np.array([mu[n] for n in self.noise_names]), np.array([sd[n] for n in self.noise_names])
+
+    def sample_noise(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """n prior draws of the learned noise levels' coordinates (n, Q)."""
+        mu, sd = self._noise_prior()
+        return mu + sd * rng.standard_normal((n, mu.size))
+
+    def noise(self, w: np.ndarray | None, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """(ε (n,), depth-noise factor s (n,)) from the noise coordinates w (n, Q) (``None``: the held values)."""
+        eps, fac = np.full(n, float(self.label_error)), np.ones(n)
+        if w is not None and w.shape[1]:
+            for j, name in enumerate(self.noise_names):
+                if name == "label_error":
+                    eps = 0.5 * expit(w[:, j])
+                else:
+                    fac = np.exp(w[:, j])
+        return eps, fac
+
+    def noise_coordinates(self, eps: np.ndarray, fac: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`noise`: coordinates (n, Q) of ε and s."""
+        cols = [logit(2 * np.asarray(eps, float)) if n == "label_error" else np.log(np.asarray(fac, float))
+                for n in self.noise_names]
+        return np.stack(cols, axis=1) if cols else np.zeros((np.size(eps), 0))
+
+    def sample_full(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """n prior draws of the sampler's whole vector (n, :attr:`dim`): ln θ and the noise coordinates."""
+        return np.hstack([self.sample(n, rng), self.sample_noise(n, rng)])
+
+    def logpdf_full(self, v: np.ndarray) -> np.ndarray:
+        """Log prior density of the sampler's whole vector (B, :attr:`dim`)."""
+        v = np.atleast_2d(v)
+        lp = self.logpdf(v[:, :self.size])
+        if self.dim > self.size:
+            mu, sd = self._noise_prior()
+            z = (v[:, self.size:] - mu) / sd
+            lp = lp + (-0.5 * z * z - np.log(sd) - _LOG_SQRT_2PI).sum(axis=1)
+        return lp
 
     @property
     def size(self) -> int:
@@ -82,14 +213,34 @@ class Prior:
         """Unit of each free parameter."""
         return self.par.units() + (["N/m^2"] if self.kt_free else [])
 
-    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """n draws of u = ln θ, shape (n, P)."""
-        return self.mean_u + self.spread * rng.standard_normal((n, self.size))
+    def in_support(self, u: np.ndarray) -> np.ndarray:
+        """Whether each row of u = ln θ (B, P) lies in the prior's support (B,): finite, ζ < 1, |z| ≤ TRUNCATE."""
+        u = np.atleast_2d(u)
+        z = (u - self.mean_u) / self.spread
+        ok = np.isfinite(u).all(axis=1) & (np.abs(z) <= TRUNCATE).all(axis=1)
+        zeta = [j for j, n in enumerate(self.par.free) if self.par.kind(n) == "zeta"]
+        if zeta:
+            ok &= (u[:, zeta] < 0).all(axis=1)
+        return ok
 
-    def logpdf(self, u: np.ndarray) -> np.ndarray:
-        """Log density of u = ln θ (B,) (normalised Gaussian in u)."""
-        z = (np.atleast_2d(u) - self.mean_u) / self.spread
-        return -0.5 * np.einsum("bp,bp->b", z, z) - float(np.log(self.spread).sum()) - 0.5 * self.size * math.log(2 * math.pi)
+    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """n draws of u = ln θ, shape (n, P), from the prior restricted to its support (rejection)."""
+        u = self.mean_u + self.spread * _draw((n, self.size), self.tails, self.nu, rng)
+        for _ in range(100):  # the support holds > 99 % of the mass: a few rounds at most
+            bad = ~self.in_support(u)
+            if not bad.any():
+                return u
+            u[bad] = self.mean_u + self.spread * _draw((int(bad.sum()), self.size), self.tails, self.nu, rng)
+        raise InputError("prior", "spreads", "the prior puts almost no mass on damping ratios < 1: reduce the zeta spread")
+
+    def logpdf(self, u: np.ndarray, tails: str | None = None) -> np.ndarray:
+        """Log density of u = ln θ (B,) (``tails``: another family's, e.g. ``"normal"`` for the conflict
+        check); −inf outside the support. Normalised on the untruncated space (the truncation's constant
+        is below 10⁻³ in log for the defaults and is left out)."""
+        u = np.atleast_2d(u)
+        z = (u - self.mean_u) / self.spread
+        lp = _log_density(z, tails or self.tails, self.nu).sum(axis=1) - float(np.log(self.spread).sum())
+        return np.where(self.in_support(u), lp, -np.inf)
 
     def split(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(modal θ (B, Pm) [Hz, N/m, -], depth factor Kt₀/Kt (B,)) from u (B, P)."""
@@ -113,7 +264,9 @@ class Prior:
                 "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
                 "names": list(self.names), "median": self.median.tolist(), "spread": self.spread.tolist(),
                 "sigma_depth_m": self.sigma_depth_m, "sigma_depth_rel": self.sigma_depth_rel,
-                "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error}
+                "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error, "tails": self.tails,
+                "nu": self.nu, "label_error_spread": self.label_error_spread,
+                "sigma_depth_spread": self.sigma_depth_spread}
 
     @classmethod
     def from_dict(cls, d: dict) -> Prior:
@@ -128,7 +281,10 @@ class Prior:
             return cls(par, cutting, names, np.asarray(d["median"], float), np.asarray(d["spread"], float),
                        d.get("sigma_depth_m"), d.get("sigma_depth_rel"), float(d["sigma_chatter_hz"]),
                        # a posterior written before label errors existed had none
-                       float(d.get("label_error", 0.0)))
+                       float(d.get("label_error", 0.0)),
+                       # a posterior written before heavy tails and learned noise had a Gaussian prior, noise held
+                       str(d.get("tails", "normal")), float(d.get("nu", DEFAULT_NU)),
+                       float(d.get("label_error_spread", 0.0)), float(d.get("sigma_depth_spread", 0.0)))
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, InputError):
                 raise
@@ -144,10 +300,18 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
         table: a :class:`millstab.io.config.PriorTable` or ``None`` (all defaults).
     Raises:
         InputError: a measured-FRF structure, an unknown or duplicated name, Kr freed, every
-            parameter fixed.
+            parameter fixed, a spread above :data:`MAX_SPREAD`.
     """
     spreads = dict(getattr(table, "spreads", {}) or {})
     fixed = tuple(getattr(table, "fixed", ()) or ())
+    held = {n for n in NOISE_NAMES if n in fixed}
+    fixed = tuple(f for f in fixed if f not in NOISE_NAMES)
+    for key, value in spreads.items():
+        if not value <= MAX_SPREAD:
+            raise InputError(f"prior.{key}", f"{value:.4g} ({value:.0%})",
+                             f"a spread is the σ of ln(value) and at most {MAX_SPREAD:.0%} (a factor "
+                             f"{math.exp(MAX_SPREAD):.2g} per σ; the heavy-tailed prior reaches several σ beyond): "
+                             "a larger one lets the sampler try physically absurd values (k of 10⁶⁰ N/µm)")
     if not structure.is_modal:
         raise InputError("structure", "measured FRF", "Bayesian updating needs a modal structure (fn, k, zeta per mode)")
     if "kr" in spreads:
@@ -192,7 +356,10 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
     sf = getattr(table, "sigma_chatter_hz", None) or DEFAULT_SIGMA_CHATTER_HZ
     eps = getattr(table, "label_error", None)
     eps = DEFAULT_LABEL_ERROR if eps is None else float(eps)
-    return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf), eps)
+    tails = getattr(table, "tails", None) or DEFAULT_TAILS
+    return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf), eps, tails, DEFAULT_NU,
+                 0.0 if "label_error" in held else DEFAULT_LABEL_ERROR_SPREAD,
+                 0.0 if "sigma_depth" in held else DEFAULT_SIGMA_DEPTH_SPREAD)
 
 
-__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]
+__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "NOISE_NAMES", "TAILS", "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]

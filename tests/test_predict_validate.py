@@ -8,6 +8,7 @@ import json
 import math
 
 import numpy as np
+from scipy.stats import norm
 import pytest
 from scipy.optimize import minimize
 
@@ -38,11 +39,16 @@ def test_predict_in_the_input_order_against_each_cuts_own_limits():
     cuts = parse_points("rpm,depth_mm,label\n9000,2.5,stable\n5000,0.5,chatter\n9000,1.0,\n6100,9.0,0.7\n5000,3,stable\n",
                         "c.csv")
     pred = predict(post, cuts)
+    eps, fac = post.label_error, post.sigma_depth_factor  # each sample's label model (held values here)
     for i in range(len(cuts)):  # one cut at a time: the fraction of samples whose own limit is above it
         b = limits(PRIOR, post.u, [cuts.rpm[i]])[0][:, 0]
-        assert pred.p_stable[i] == pytest.approx((b > cuts.depth_mm[i]).mean(), abs=1e-12)
-    eps = PRIOR.label_error
-    np.testing.assert_allclose(pred.p_label_chatter, eps + (1 - 2 * eps) * (1 - pred.p_stable), atol=1e-12)
+        d = cuts.depth_mm[i]
+        assert pred.p_stable[i] == pytest.approx((b > d).mean(), abs=1e-12)
+        # the written label: the likelihood's own label model, sample by sample (scipy's normal CDF)
+        z = (d - b) / (PRIOR.sigma_depth_mm(np.array([d]))[0] * fac)
+        want = np.mean(eps + (1 - 2 * eps) * norm.cdf(z))
+        assert pred.p_label_chatter[i] == pytest.approx(want, abs=1e-12)
+        assert min(eps.min(), 1 - eps.max()) <= pred.p_label_chatter[i] <= max(1 - eps.min(), eps.max())
     header, cols = pred.table()
     assert header == ["rpm", "depth_mm", "label", "p_stable", "p_label_chatter"]
     assert cols[0].tolist() == [9000, 5000, 9000, 6100, 5000] and cols[2] == ["stable", "chatter", "", "chatter", "stable"]

@@ -34,6 +34,28 @@ def shop_target(db: str | None, campaign: str | None) -> bool:
     return db is not None
 
 
+def posterior_source(posterior, db: str | None, campaign: str | None, user: str | None = None):
+    """``(posterior, inputs)``: the posterior of a file POSTERIOR or of a campaign's current one (--db and
+    --campaign), and the input paths to protect from being overwritten.
+
+    Raises:
+        InputError: neither or both given, --db without --campaign.
+    """
+    if shop_target(db, campaign):
+        if posterior is not None:
+            raise InputError("POSTERIOR", str(posterior), "give a posterior file or --db/--campaign, not both (with "
+                                                          "--db the campaign's current posterior is used)")
+        from millstab.api.shop import posterior_from_db
+
+        return posterior_from_db(db, campaign, user)[1], {}
+    if posterior is None:
+        raise InputError("POSTERIOR", None, "missing: a posterior JSON from millstab update, or --db shop.db "
+                                            "--campaign NAME for a campaign's current posterior")
+    from millstab.cli.update import _load_posterior
+
+    return _load_posterior(posterior), {"POSTERIOR": posterior}
+
+
 @app.command("history")
 def history_cmd(
     db: str = DbOpt,

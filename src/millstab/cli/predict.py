@@ -8,15 +8,21 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
-from millstab.cli.update import LABELS_HELP, _load_posterior
+from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
+from millstab.cli.update import LABELS_HELP
+from millstab.errors import InputError
 
 
 @app.command("predict")
 def predict_cmd(
-    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update."),
-    cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are scored)."),
+    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update (with --db/--campaign: leave it out "
+                                              "and give CUTS alone)."),
+    cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
+                                                     "scored)."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
+    db: ShopDbOpt = None,
+    campaign: CampaignOpt = None,
 ) -> None:
     """P(stable) (the process) and P(label chatter) (what an operator will write) for each cut of CUTS."""
     from rich.console import Console
@@ -24,11 +30,16 @@ def predict_cmd(
     from millstab.api.predict import predict
     from millstab.io import check_outputs, read_points, write_csv
 
+    if cuts is None and db is not None:  # `predict --db X --campaign C cuts.csv`: the one argument is the cuts
+        posterior, cuts = None, posterior
+    if cuts is None:
+        raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
-    check_outputs({"POSTERIOR": posterior, "CUTS": cuts}, {"--out": out})  # before the work
-    post = _load_posterior(posterior)
+    post, inputs = posterior_source(posterior, db, campaign)
+    inputs = {**inputs, "CUTS": cuts}
+    check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)
-    write_csv(out, *pred.table(), protect=[posterior, cuts])
+    write_csv(out, *pred.table(), protect=list(inputs.values()))
     con = Console()
     for w in pred.warnings:
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")

@@ -10,7 +10,7 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.cli.update import _load_posterior
+from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 
 #: = millstab.update.decide.TEST_RISK (not imported: the command line starts without numba; a test checks they agree)
@@ -32,7 +32,7 @@ def _confidence(text: str) -> float | None:
 
 @app.command("recommend")
 def recommend_cmd(
-    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update."),
+    posterior: Optional[Path] = typer.Argument(None, help="Posterior JSON from millstab update (or --db/--campaign)."),
     risk: float = typer.Option(0.05, "--risk", help="Tolerated probability of chatter, in (0, 1)."),
     rpm: str = typer.Option(..., "--rpm", help="Speed range LOW:HIGH [rpm]."),
     max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
@@ -49,6 +49,9 @@ def recommend_cmd(
                                           help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
                                                "(0.0025 = ±0.25 %)."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
+    db: ShopDbOpt = None,
+    campaign: CampaignOpt = None,
+    user: UserOpt = None,
 ) -> None:
     """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
     from rich.console import Console
@@ -66,11 +69,19 @@ def recommend_cmd(
     if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
         raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
                                                    f"{TEST_RISK:g} (1: no cap)")
-    post = _load_posterior(posterior)
-    check_outputs({"POSTERIOR": posterior}, {"--out": out})
-    rec = api.recommend(post, risk, (lo, hi), max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth,
-                        seed=seed, confidence=conf, speed_tolerance=speed_tolerance, test_risk=test_risk)
-    write_json(out, rec.to_json(), protect=[posterior])
+    rule = dict(max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed, confidence=conf,
+                speed_tolerance=speed_tolerance, test_risk=test_risk)
+    if shop_target(db, campaign):  # the campaign's current posterior; the recommendation is recorded there
+        from millstab.api.shop import recommend_from_db
+
+        post, inputs = posterior_source(posterior, db, campaign, user)
+        check_outputs(inputs, {"--out": out})
+        rec = recommend_from_db(db, campaign, risk, (lo, hi), user=user, **rule)[0]
+    else:
+        post, inputs = posterior_source(posterior, db, campaign)
+        check_outputs(inputs, {"--out": out})
+        rec = api.recommend(post, risk, (lo, hi), **rule)
+    write_json(out, rec.to_json(), protect=list(inputs.values()))
     con = Console()
     for w in post.warnings:  # the update's own warnings (a prior-data conflict among them) belong to every decision
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")

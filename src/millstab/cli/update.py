@@ -9,6 +9,8 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
+from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
 from millstab.parsing import parse_rpm_range
@@ -38,21 +40,31 @@ def update_cmd(
                                                        "spectral use measured chatter frequencies)."),
     samples: int = samples_option(4000, "Posterior samples (SMC particles)."),
     seed: int = seed_option(0, "Seed of the sampler (same seed, same samples)."),
-    out: Path = typer.Option(..., "--out", help="Posterior JSON (schema millstab.posterior/2)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Posterior JSON (schema millstab.posterior/2); optional "
+                                                          "with --db."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
+    db: ShopDbOpt = None,
+    campaign: CampaignOpt = None,
+    user: UserOpt = None,
 ) -> None:
-    """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC)."""
+    """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC); with --db/--campaign the cuts
+    and the posterior are recorded in a shop database, starting from the campaign's current posterior."""
     from rich.console import Console
     from rich.table import Table
 
     from millstab import api
     from millstab.io import check_outputs, config_inputs, read_points, write_json
 
+    in_db = shop_target(db, campaign)
+    if out is None and not in_db:
+        raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
+    if in_db and start is not None:
+        raise InputError("--start", str(start), "with --db the campaign's current posterior is the start")
     cfg = api.config(config)
     # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
     from millstab.io.recordings import has_recording_column
@@ -74,11 +86,21 @@ def update_cmd(
     # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral;
     # not zoa, whose sweeps take milliseconds): millstab.cluster.sample_limits
     with _client(dask, workers) as client:
-        post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
-                          start=_load_posterior(start) if start is not None else None, client=client)
+        if in_db:  # the campaign's cuts so far + these, from its current posterior, recorded in one transaction
+            from millstab.api.shop import update_in_db
+
+            done = update_in_db(db, campaign, cfg, c, p, engine=engine, samples=samples, seed=seed, user=user,
+                                client=client)
+            post = done.posterior
+            for line in done.notes:
+                typer.echo(line)
+        else:
+            post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
+                              start=_load_posterior(start) if start is not None else None, client=client)
     doc = post.to_json()
     doc["config"] = cfg.name
-    write_json(out, doc, protect=protect)
+    if out is not None:
+        write_json(out, doc, protect=protect)
     con = Console()
     d = post.diagnostics
     table = Table(title=f"{cfg.name}: posterior ({len(post.samples)} samples, {engine})",
@@ -97,7 +119,7 @@ def update_cmd(
     con.print(table)
     for w in doc["warnings"]:
         con.print(f"[yellow]warning:[/yellow] {w}")
-    con.print(f"wrote {out}")
+    con.print(f"recorded in {db}, campaign {campaign} ({done.cuts} cuts)" if in_db and out is None else f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
 
@@ -107,13 +129,15 @@ def update_cmd(
 
 @app.command("map")
 def map_cmd(
-    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update."),
+    posterior: Optional[Path] = typer.Argument(None, help="Posterior JSON from millstab update (or --db/--campaign)."),
     rpm: str = typer.Option(..., "--rpm", help="Speeds START:STOP:STEP [rpm]."),
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
+    db: ShopDbOpt = None,
+    campaign: CampaignOpt = None,
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -124,16 +148,17 @@ def map_cmd(
 
     speeds = parse_rpm_range(rpm)
     depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
-    post = _load_posterior(posterior)
-    check_outputs({"POSTERIOR": posterior}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    post, inputs = posterior_source(posterior, db, campaign)
+    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
+    protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
         pm = api.p_stable(post, speeds, depths, client)
-    write_csv(out, *api.map_table(speeds, depths, pm), protect=[posterior])
+    write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
     con = Console()
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")
     if plot:
         from millstab.io.figures import save_figure
 
-        fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name}")
-        save_figure(fig, plot, protect=[posterior])
+        fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name if posterior else campaign}")
+        save_figure(fig, plot, protect=protect)
         con.print(f"wrote {plot}")

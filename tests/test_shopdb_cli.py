@@ -1,0 +1,69 @@
+"""The commands on a shop database (issue 31): `update`, `map`, `recommend` and `predict` with --db/--campaign
+give the numbers of the file workflow (update --start post.json, same seeds), and record what they did."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sqlalchemy")
+
+from millstab.cli import main  # noqa: E402
+from millstab.io import read_json  # noqa: E402
+
+FIRST = "rpm,depth_mm,label\n5000,1.0,stable\n5500,4.0,chatter\n6000,2.0,stable\n"
+MORE = "rpm,depth_mm,label\n7000,3.0,chatter\n7400,1.2,stable\n"
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return out
+
+
+def test_db_workflow_equals_the_file_workflow(tmp_path, capsys):
+    (tmp_path / "first.csv").write_text(FIRST)
+    (tmp_path / "all.csv").write_text(FIRST + MORE.split("\n", 1)[1])
+    (tmp_path / "more.csv").write_text(MORE)
+    db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    # files: the first cuts, then all cuts starting from the first posterior
+    run(capsys, "update", "example:ex1", tmp_path / "first.csv", "--out", tmp_path / "p1.json", *common)
+    run(capsys, "update", "example:ex1", tmp_path / "all.csv", "--start", tmp_path / "p1.json", "--out",
+        tmp_path / "p2.json", *common)
+    # the database: the same cuts in two rounds, no posterior file in hand
+    run(capsys, "update", "example:ex1", tmp_path / "first.csv", "--db", db, "--campaign", "t12", *common)
+    out = run(capsys, "update", "example:ex1", tmp_path / "more.csv", "--db", db, "--campaign", "t12", *common,
+              "--out", tmp_path / "d2.json")
+    np.testing.assert_array_equal(read_json(tmp_path / "d2.json")["samples"], read_json(tmp_path / "p2.json")["samples"])
+    rec = ["--risk", 0.1, "--rpm", "4000:9000"]
+    run(capsys, "recommend", tmp_path / "p2.json", *rec, "--out", tmp_path / "r_file.json")
+    run(capsys, "recommend", "--db", db, "--campaign", "t12", *rec, "--out", tmp_path / "r_db.json")
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("r_file.json", "r_db.json"))
+    assert (a["rpm"], a["depth_mm"]) == (b["rpm"], b["depth_mm"])
+    run(capsys, "map", "--db", db, "--campaign", "t12", "--rpm", "4000:9000:500", "--depth", "0.5:3:0.5",
+        "--out", tmp_path / "m_db.csv")
+    run(capsys, "map", tmp_path / "p2.json", "--rpm", "4000:9000:500", "--depth", "0.5:3:0.5", "--out", tmp_path / "m.csv")
+    assert (tmp_path / "m_db.csv").read_text() == (tmp_path / "m.csv").read_text()
+    run(capsys, "predict", "--db", db, "--campaign", "t12", tmp_path / "more.csv", "--out", tmp_path / "pr_db.csv")
+    run(capsys, "predict", tmp_path / "p2.json", tmp_path / "more.csv", "--out", tmp_path / "pr.csv")
+    assert (tmp_path / "pr_db.csv").read_text() == (tmp_path / "pr.csv").read_text()
+    hist = run(capsys, "history", "--db", db, "--campaign", "t12")
+    assert hist.count("update") >= 2 and "recommend" in hist
+
+
+def test_db_options_and_files_are_checked_before_work(tmp_path, capsys):
+    (tmp_path / "c.csv").write_text(FIRST)
+    for args, needle in (
+        (["update", "example:ex1", tmp_path / "c.csv"], "--out"),
+        (["update", "example:ex1", tmp_path / "c.csv", "--db", tmp_path / "s.db"], "--campaign"),
+        (["update", "example:ex1", tmp_path / "c.csv", "--db", tmp_path / "s.db", "--campaign", "x", "--start",
+          tmp_path / "c.csv"], "--start"),
+        (["map", "--rpm", "4000:5000:500", "--depth", "0.5:1:0.5", "--out", tmp_path / "m.csv"], "POSTERIOR"),
+        (["recommend", "--rpm", "4000:5000", "--out", tmp_path / "r.json"], "POSTERIOR"),
+    ):
+        code = main([str(a) for a in args])
+        err = capsys.readouterr().err
+        assert code == 2 and needle in err and err.count("\n") == 1, err

@@ -58,6 +58,7 @@ def test_bad_speeds_name_the_field(spec, says):
     assert "--rpm" in str(exc.value) and says in str(exc.value)
 
 
+@pytest.mark.slow
 def test_cli_csv_is_the_services_csv(tmp_path):
     out = tmp_path / "sld.csv"
     assert main(["lobes", "example:ex2", "--rpm", "4000:12000:400", "--compare", "sdm", "--out", str(out)]) == 0
@@ -72,6 +73,7 @@ def test_compare_with_itself_is_refused():
         api.lobes(api.config("example:ex1"), api.speeds("3000:4000:100"), engine="zoa", compare="zoa")
 
 
+@pytest.mark.slow
 def test_progress_reports_stage_done_total_and_cancels_sdm():
     cfg = api.config("example:ex1")
     rpm = api.speeds("3000:9000:600")

@@ -33,6 +33,7 @@ def test_draws_are_rows_of_the_plain_stream():
         np.testing.assert_array_equal(draws(11, start, count, 6), full[start:start + count])
 
 
+@pytest.mark.slow
 def test_without_a_cluster_dask_is_not_imported():
     """No millstab code imports dask or distributed without a cluster. (pint itself imports ``dask.base``
     when dask is installed, for its dask-array support; those modules are the baseline, taken after
@@ -106,6 +107,7 @@ def test_bad_client_is_rejected_before_any_work():
 
 
 @needs_distributed
+@pytest.mark.slow
 def test_mc_on_cluster_equals_local_bit_for_bit(client):
     kw = dict(n=65, t=0.1, eps=0.01, seed=7, theta=THETA)
     here = monte_carlo(CFG.structure, CFG.cutting, RPM, **kw)
@@ -170,6 +172,7 @@ def test_worker_killed_mid_run_loses_and_duplicates_no_path(client):
 
 
 @needs_distributed
+@pytest.mark.slow
 def test_workers_compile_when_the_main_module_imports_numba(tmp_path):
     """A worker process imports the caller's main module before the nanny applies its ``env``; with numba
     imported there, the workers' first compile (a cold cache) failed ("Cannot set NUMBA_NUM_THREADS to a
@@ -198,6 +201,7 @@ def test_workers_compile_when_the_main_module_imports_numba(tmp_path):
 
 @needs_distributed
 @pytest.mark.parametrize("engine", ["spectral", "sdm"])
+@pytest.mark.slow
 def test_interrupted_engine_depths_on_cluster_equal_one_local_call(client, engine):
     """SDM / spectral maps on the cluster: the rows split over tasks give the numbers of ONE local call on
     all rows. These engines choose their discretisation from the whole batch (sdm: steps from the highest
@@ -234,6 +238,7 @@ zeta = 0.04
 
 
 @needs_distributed
+@pytest.mark.slow
 def test_update_and_map_on_cluster_give_the_local_posterior(client, monkeypatch, tmp_path):
     """Same seed, same posterior with and without a client (spectral engine, a measured chatter frequency:
     depths and frequencies come back from the workers), and the same P(stable) map through the CLI's

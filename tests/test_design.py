@@ -28,6 +28,7 @@ def _regression(x: np.ndarray, degree: int) -> np.ndarray:
     return np.vander(x, degree + 1, increasing=True)[None]  # (1, m, P)
 
 
+@pytest.mark.slow
 def test_a_optimal_quadratic_regression_is_quarter_half_quarter():
     """A-optimal design of y = a + bx + cx² on [-1, 1]: weight 1/4 at ±1 and 1/2 at 0 (closed form:
     tr M⁻¹ = (2w+1)/(2w(1−2w)) + 1/(2w) for weight w at each end, minimal at w = 1/4)."""
@@ -355,6 +356,7 @@ def test_cli_design_refuses_a_fit_from_another_config(tmp_path, capsys, ex3_fit,
     assert len(err.splitlines()) == 1 and err.startswith("millstab: error:") and "--fit" in err and words in err
 
 
+@pytest.mark.slow
 def test_cli_design_with_the_fits_config_and_old_fit_files(tmp_path, capsys, ex3_fit):
     """The same config (another file with the same contents) is accepted; a fit file from before the
     cutting record warns that it cannot be checked, and still plans. Stiffness is printed in N/µm."""

@@ -41,6 +41,7 @@ def examples():
 
 # --- the default solver ------------------------------------------------------------------------
 @pytest.mark.parametrize("ex", ["ex1", "ex2", "ex3"])
+@pytest.mark.slow
 def test_lsq_recovers_paper_examples_from_30_percent_off(examples, ex):
     """Table 3 targets to 0.1 % from a start 30 % away in every parameter (up to x↔y in slotting)."""
     cfg, pts = examples[ex]
@@ -68,6 +69,7 @@ def test_lsq_noisy_points_standard_errors_cover_truth(examples):
     assert 0.5 < np.sqrt(fit.rss / (prob.n - prob.p)) / 0.02 < 1.5  # σ̂ matches the 2 % noise
 
 
+@pytest.mark.slow
 def test_random_cases_recovered():
     """A small version of benchmarks/bench_identify_robustness.py: identifiable random cases, noise-free."""
     rng = np.random.default_rng(2024)
@@ -129,6 +131,7 @@ def test_critical_points_are_cusps_and_minima():
 
 
 # --- symmetry and identifiability diagnostics ----------------------------------------------------
+@pytest.mark.slow
 def test_slotting_symmetry_reported_and_canonical():
     """Slotting with distinct x and y modes: the symmetry is reported and the estimate has fn_x < fn_y,
     whichever way round the truth was given."""
@@ -234,6 +237,7 @@ def test_test_cuts_reported(examples):
 
 
 # --- reproducibility, JSON contract, CLI ------------------------------------------------------------
+@pytest.mark.slow
 def test_same_seed_same_numbers(examples):
     cfg, pts = examples["ex3"]
     a = identify(cfg, pts, seed=7, initial="fn_x=800,fn_y=1050")

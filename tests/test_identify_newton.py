@@ -7,6 +7,7 @@ START_FACTORS in millstab.reproduce.paper); 100 noise-free boundary points of Ex
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from millstab.datasets import paper_values
 from millstab.identify import fit_newton, make_problem
@@ -18,6 +19,7 @@ NAMES = ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
 START_FACTORS = np.array([1.3, 0.7, 1.3, 0.7, 1.3, 0.7])
 
 
+@pytest.mark.slow
 def test_newton_reaches_paper_accuracy_on_ex2_from_30_percent_off():
     """Every parameter at least as close as the paper's Predicted row (Table 3: fn 0.7 %, k 8.3 %, ζ 2 %)."""
     cfg, pts = example_points("ex2")
@@ -45,6 +47,7 @@ def test_jump_directions_include_valley_moves():
     assert any((row == [0, 1, -1, 0, -1, 1]).all() for row in d)
 
 
+@pytest.mark.slow
 def test_newton_ex3_from_10_percent_off_finds_the_fn_basin():
     """Example 3 (modes 900/950 Hz) from bench_identify's ±10 % start 1 (fn_x −10 %, fn_y +10 %): before the
     regular fn grid among the initial-guess candidates every guess sat in a wrong fn_x basin (fn_x 11 % off,

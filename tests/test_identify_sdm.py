@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from millstab.identify import identify
 from millstab.identify.synthetic import boundary_points
@@ -10,6 +11,7 @@ from millstab.io.config import Config
 from millstab.model import Cutting, Structure
 
 
+@pytest.mark.slow
 def test_sdm_identification_recovers_where_zoa_is_exact():
     """Four-tooth slotting: the directional matrix is time-invariant, so the SDM boundary equals the
     zero-order one and the two-stage fit must recover the SDM points' truth (axisymmetric tool)."""

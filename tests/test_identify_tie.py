@@ -22,6 +22,7 @@ def _fit(structure, cfg, noise, seed, **kw):
 
 
 @pytest.mark.parametrize("ex", ["ex1", "ex2"])
+@pytest.mark.slow
 def test_alike_x_and_y_are_reported_tied_with_honest_errors(ex):
     """The paper's Examples 1–2 (x = y, slotting) at 2 % noise: the tied estimate, within 0.1 % in fn,
     both directions equal; the ±2σ intervals cover the truth in most parameters (a free fit covered
@@ -42,6 +43,7 @@ def test_alike_x_and_y_are_reported_tied_with_honest_errors(ex):
     assert covered / total >= 0.9
 
 
+@pytest.mark.slow
 def test_noise_free_alike_structure_is_tied_and_exact():
     cfg = load_example("ex1")
     _, fit = _fit(cfg.structure, cfg, 0.0, 0)
@@ -50,6 +52,7 @@ def test_noise_free_alike_structure_is_tied_and_exact():
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.02])
+@pytest.mark.slow
 def test_different_x_and_y_are_not_tied(noise):
     """Slotting with x and y modes 10 % apart in fn: the points reject x = y (noise-free and at 2 %)."""
     cfg = load_example("ex1")
@@ -61,6 +64,7 @@ def test_different_x_and_y_are_not_tied(noise):
     assert est == pytest.approx([903.0, 990.0], rel=5e-3)
 
 
+@pytest.mark.slow
 def test_tie_xy_false_keeps_the_free_fit():
     cfg = load_example("ex1")
     _, fit = _fit(cfg.structure, cfg, 0.02, 0, tie_xy=False)

@@ -140,6 +140,7 @@ def _run(code: str) -> str:
     return done.stdout.strip()
 
 
+@pytest.mark.slow
 def test_importing_plot_keeps_the_backend():
     """A backend chosen before (a notebook's) stays; with none chosen, none is forced (it was Agg)."""
     code = ("import matplotlib\n"

@@ -102,6 +102,7 @@ WRITERS = {"csv": lambda p, f, h: write_frf_csv(p, f, h), "frf": write_cutpro, "
 
 
 @pytest.mark.parametrize("fmt", list(WRITERS))
+@pytest.mark.slow
 def test_noisy_two_directions_reach_the_targets_in_each_format(tmp_path, fmt):
     """2 % noise: fn within 0.2 %, zeta and k within 5 % for every mode (all stand above the noise)."""
     px = WRITERS[fmt](tmp_path / f"x.{fmt}", F, noisy(exact(X_MODES), seed=1))
@@ -270,6 +271,7 @@ def test_cli_refuses_to_overwrite_an_input(tmp_path, capsys):
 
 # ------------------------------------------------------------------------------- CLI end to end
 
+@pytest.mark.slow
 def test_cli_writes_a_structure_that_a_config_accepts(tmp_path, capsys):
     px = write_frf_csv(tmp_path / "x.csv", F, noisy(exact(X_MODES), seed=9))
     py = write_cutpro(tmp_path / "y.frf", F, noisy(exact(Y_MODES), seed=10))

@@ -56,6 +56,7 @@ def test_identify_start_is_30_percent_off_table_1():
         assert abs(float(value) / truth[name] - 1) == pytest.approx(0.3, abs=1e-9), name
 
 
+@pytest.mark.slow
 def test_python_example_runs_and_says_what_it_shows(capsys):
     """The "From Python" block runs as written; its CSV is the service's and its fit JSON reads back."""
     (code,) = [b for b in _blocks("python") if "from millstab import api" in b]

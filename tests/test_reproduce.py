@@ -19,6 +19,10 @@ EXPECTED = [
 ]
 
 
+# every test here reads one `reproduce --quick` run (about 2.5 min): the whole module is slow
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def report_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")

@@ -146,6 +146,7 @@ def reference_rho(structure: Structure, cutting: Cutting, rpm: float, depth: flo
          Cutting(4, KT, KR, 0.0, math.pi), 9000.0, 0.3e-3),
     ],
 )
+@pytest.mark.slow
 def test_engine_matches_textbook_sdm(structure, cutting, rpm, depth):
     """Slotting grids coincide (no entry/exit inside the period), so ρ must agree to round-off.
 
@@ -158,6 +159,7 @@ def test_engine_matches_textbook_sdm(structure, cutting, rpm, depth):
     assert abs(expect - 1.0) > 1e-3  # a meaningful point, not trivially 1
 
 
+@pytest.mark.slow
 def test_rho_at_zero_depth_is_free_decay():
     """ρ(0) = exp(−ζ ωn T) (closed form), and the largest over modes for several modes."""
     rpm = np.array([5000.0, 9000.0, 17000.0, 25000.0])
@@ -202,6 +204,7 @@ def test_benchmark_depth_within_one_percent_of_converged(immersion, speeds):
         assert b == pytest.approx(ref, rel=0.01), rpm
 
 
+@pytest.mark.slow
 def test_fixed_40_steps_too_coarse_at_low_speed():
     """The customary 40 steps per period are ~8 % off at 5 000 rpm slotting: the default must not be."""
     cutting = bench_cut(1.0)

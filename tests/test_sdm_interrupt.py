@@ -43,6 +43,7 @@ def kernel_calls(monkeypatch):
     return calls
 
 
+@pytest.mark.slow
 def test_chunked_equals_unchunked_bit_for_bit(monkeypatch, kernel_calls):
     batch = ModalBatch.from_structures([BENCH, OTHER])
     monkeypatch.setattr(sdm, "CHUNK_SECONDS", None)  # one compiled call over everything (the old way)

@@ -108,6 +108,7 @@ KILL_BEFORE_COMMIT = """
 """
 
 
+@pytest.mark.slow
 def test_sigkill_before_commit_keeps_the_previous_posterior(tmp_path):
     db = tmp_path / "shop.db"
     store = open_store(db, user="ann")

@@ -230,6 +230,7 @@ def test_default_steps_resolve_the_mode_and_the_cut():
 # --- many cuts, noise, results --------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_label_cuts_matches_single_cuts_and_noise_is_seeded():
     rpm = np.array([5000.0, 9000.0, 12000.0, 18333.0, 18333.0, 25000.0])
     depth = np.array([0.2e-3, 3e-3, 0.5e-3, 0.5e-3, 1.2e-3, 1e-3])

@@ -38,6 +38,7 @@ def spectral_radius(structure, cutting, rpm, depth, nodes):
 # --- the discretisation -----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_rho_at_zero_depth_is_free_decay():
     """ρ(0) = exp(−ζ ωn T) (closed form; the largest over modes for several modes): to the collocation
     error (< 1e-3) with the default 4 nodes per element, to 1e-9 with 10 (spectral convergence); exact
@@ -205,6 +206,7 @@ def _layout(structure, cutting, rpm, nodes=6):
 
 
 @pytest.mark.parametrize("structure, immersion", [(BENCH, 0.05), (BENCH, 1.0), (TWO_MODE, 0.1)])
+@pytest.mark.slow
 def test_characteristic_derivatives_match_finite_differences(structure, immersion):
     """char_d's F equals char_fn's (the same determinant by another code path) and its ∂F/∂b, ∂F/∂θ
     (Jacobi's formula with dΨ/dσ from the element LU) equal central differences of char_fn."""
@@ -330,6 +332,7 @@ def test_reduced_monodromy_has_the_full_monodromys_multipliers(structure, teeth,
             assert np.min(np.abs(mus - m)) < 1e-7 * max(1.0, abs(m))
 
 
+@pytest.mark.slow
 def test_first_crossing_on_random_sets_with_bands_opening_below_a_rising_flank():
     """Random sets of identification's search space (Example 1's structure moved by up to 30 %, 40
     speeds 3 000–15 000 rpm; draws 0, 1 and 3 of seed 7): where a Hopf boundary rises towards its lobe's

@@ -166,6 +166,7 @@ def cusp_speeds(s, cut, lo, hi, n=400):
     ("ex3", EX3, 2000, 12000),
     ("four-flute two modes per direction", FOUR_FLUTE, 5000, 7000),
 ])
+@pytest.mark.slow
 def test_envelope_matches_brute_force_including_cusps(name, case, lo, hi):
     s, cut = case
     cusps = cusp_speeds(s, cut, lo, hi)
@@ -183,6 +184,7 @@ FLIP = (Structure(x=(Mode(1000.0, 15.4e6, 0.018),), y=(Mode(1045.0, 9.4e6, 0.034
         Cutting.from_immersion(3, 1000e6, 0.25, 0.05, "up"))
 
 
+@pytest.mark.slow
 def test_asymmetric_branches_match_brute_force():
     """Where the principal square root flips, labels must not swap (no false crossings)."""
     s, cut = FLIP
@@ -207,6 +209,7 @@ def test_branches_are_continuous_where_principal_root_flips():
     assert principal_jump > 50 * tracked_jump
 
 
+@pytest.mark.slow
 def test_cross_frf_matrix_matches_brute_force():
     """A structure whose principal axes are rotated 30° from x/y has cross receptances
     G = R diag(g1, g2) Rᵀ; given as a measured FRF with xy and yx terms the engine must use the full
@@ -249,6 +252,7 @@ def test_batch_matches_single_structures_and_chunking_and_speed_order():
         np.testing.assert_allclose(depth[i], zoa.envelope(batch.structure(i), cut, rpm).depth, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_random_structures_match_brute_force():
     """Held-out style: random fn, k, ζ, immersion and teeth; a few speeds each against the reference."""
     rng = np.random.default_rng(7)

@@ -89,6 +89,7 @@ def _speeds(rng: np.random.Generator, s: Structure, cut: Cutting) -> tuple[np.nd
     return np.unique(np.concatenate(bands + [np.arange(lo, lo + 200, 2.0)])), tips.size
 
 
+@pytest.mark.slow
 def test_dense_grids_over_random_multimode_structures():
     """40 seeded random structures. On the code before the fix case 7 was off by +94 % (a tip near
     10 450 rpm)."""

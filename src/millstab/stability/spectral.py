@@ -42,38 +42,39 @@ det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth 
 ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
 discretised system too and far cheaper than the monodromy's eigenvalues. The boundary at a speed is
 the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
-Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundary, Hopf or flip),
-continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
-one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
-one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
-prediction linear in speed. Where the boundary's own branch is lost or moves UP by more than
-``_spectral_kernel.BRANCH_JUMP`` (25 %) in one speed step (Newton may have jumped onto another lobe
-over a closed band), the search starts from below as at a block start; a branch that moves down by
-as much is checked like any other (a lower root is never above the first crossing; only what lies
-below it is in doubt, and that is what the checks test). The lowest branch is accepted if the full
-monodromy is stable at b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe
-come down or a flip band); under a rising boundary (b above the previous speed's) at b·CHECKS_UP
-(0.3, 0.4, 0.55 added): there a new lobe, at low immersion a flip band, can open far below the
-continued root (measured on random sets of identification's search space, a/D 0.05 and 0.1: bands at
-20–60 % of it, 14–50 % of the depth wide, that the three rungs stepped over, reporting 2–5 times the
-first crossing; tests/test_spectral.py). A failed rung brackets the unknown crossing, Newton from
-inside it (θ from the rung's dominant multiplier) adds its root to the set, and that root is checked
-in turn. Where no branch is left (a block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the
-zero-order depth; inside a block the last boundary·LADDER_CONT) up to the first unstable depth, Illinois
-on ρ − 1 to 1 %, Newton; the fine Illinois (``RTOL``) only where Newton fails. Warm starts (:mod:`._spectral_warm`): a row within
+The search from below at one speed (the definition of the answer, the same as SDM's): ρ(b) on the
+ladder b_ref·LADDER (b_ref the zero-order depth at that speed; then ×1.5 up to 1e4·b_ref) up to the
+first unstable depth, each ladder step refined into ``_spectral_kernel.REFINE`` parts where it is
+unstable or ρ at either end is within ``_spectral_kernel.NEAR`` (0.02) of 1 (a band narrower than the
+ladder's step lies where a multiplier grazes the unit circle, so ρ is close to 1 beside it); Newton from
+the bracket (θ from its dominant multiplier), Illinois on ρ − 1 where Newton fails.
+Branch tracking proposes, that search disposes: every boundary root found (b, θ) is a branch (a lobe's
+boundary, Hopf or flip), continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once, by
+Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from one LU per element,
+Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a prediction linear in speed.
+The lowest branch is accepted only if the search from below at this speed would not stop earlier: the
+full monodromy is stable at every depth of it below b (and at b·(1 − 2e-3)); a failed depth brackets a
+crossing below, Newton from inside it adds its root, checked in turn (the depths already found stable
+are not evaluated again). So a speed's depth does not depend on which other speeds share the call
+(issue 25: with acceptance rungs relative to the continued root, and a ladder around the previous
+speed's depth after a lost branch, the 1 000 rpm grid of the 1-DOF benchmark at a/D = 0.5 gave
+2.3498 mm at 10 000 rpm, a flip band 2.104–2.318 mm stepped over, +11.65 % against SDM, while a fine
+grid gave 2.1040 mm; and a fine grid in up milling stepped over flip bands far below a rising Hopf
+boundary: +465 %, +294 % and +39 % against SDM at a/D = 0.05, 0.1 and 0.5; tests/test_grid_independence.py).
+A continued branch may still find a crossing below the search from below's (a root of the characteristic
+equation is a true crossing: never above the first one), which the refinement near ρ = 1 makes rare:
+on the benchmark's coarse, random and single-speed calls at every immersion the depths agree with a
+fine grid's to < 1e-6 with the same nodes. Warm starts (:mod:`._spectral_warm`): a row within
 ``WARM_REL`` of the row heading its run (the rows of a finite-difference Jacobian) starts at that row's
-boundary at each speed: Newton, then the same checks that accept a continued branch (a failed check
-brackets the crossing below, as above); only where that is not accepted is the speed searched from below. The accepted depths are
+boundary at each speed: Newton, then the same acceptance (a failed depth brackets the crossing below,
+as above); only where that is not accepted is the speed searched from below. The accepted depths are
 roots of the discretised characteristic equation to ~1e-12, so they are smooth in the parameters
 (finite-difference Jacobians in identification). Limitation, as for every ladder: an unstable band
-narrower than the spacing of the checks can be missed (on the benchmark grids a 40-rung check changed
-nothing, see the benchmark). On 20 random sets of that search space (seed 11, 40 speeds 3 000–15 000
-rpm, 800 speeds) a dense ρ scan finds 7 speeds where a band 1–2 % of the depth wide lies just below the
-reported root (the first crossing 1–2 % lower); the rising-flank rungs removed the other 7 violations
-(2–5× too deep). Known case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000
-rpm): at 24 698 rpm a dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this
-engine and SDM step over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm
-that SDM misses (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
+narrower than the ladder's step, beside which ρ stays below 1 − NEAR, can be missed (by SDM too). Known
+case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
+dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this engine and SDM
+stepped over (both reported 80.5 mm before this search); such islands lie far above the lowest lobes (2–3
+mm there).
 
 Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the 2-core machine
 is shared, so old (the code before) and new ran alternately in the same minutes, BLAS pinned to one
@@ -167,13 +168,9 @@ ELEM_PERIODS = 0.5
 TOL = 1e-3
 #: relative width of the final root bracket
 RTOL = 2e-4
-#: root-search ladders (multiples of the guess, ascending): first speed of a block, then continuation
+#: the search from below's ladder (multiples of the zero-order depth, ascending; then ×1.5 per step): the
+#: same as SDM's (``sdm.FACTORS``), and every accepted root is checked against it (``_k.check_root``)
 LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
-LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
-#: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
-CHECKS = np.array([0.7, 0.93, 0.995])
-#: the same where the continued root lies above the previous speed's boundary (a rising flank)
-CHECKS_UP = np.array([0.3, 0.4, 0.55, 0.7, 0.93, 0.995])
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
@@ -286,9 +283,8 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
-        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, CHECKS_UP, depth, mu,
-                       n_eval)
+        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, wn, zeta, mass, mdir, act, _elem_len(wn),
+                       _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -333,15 +329,15 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
     with threadpool_limits(1):
-        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, wn, zeta, mass, mdir, act, el, nd, CHECKS, d_w, th_w, ok,
-                      ne_w)
+        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, wn, zeta, mass, mdir,
+                      act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
         if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
             i = row[e]
             d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
             _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
-                            np.ascontiguousarray(b_ref[i, s]), LADDER, LADDER_CONT, wn, zeta, mass, mdir, act, el, nd,
-                            RTOL, _w_flex(batch), CHECKS, CHECKS_UP, d_c, mu_c, ne_c)
+                            np.ascontiguousarray(b_ref[i, s]), LADDER, wn, zeta, mass, mdir, act, el, nd, RTOL,
+                            _w_flex(batch), d_c, mu_c, ne_c)
     depth[row] = d_w
     mu[row] = np.exp(1j * th_w)
     n_eval[row] = ne_w

@@ -17,9 +17,11 @@ previous period's value at the same node, so no interpolation error enters; the 
 exact exponential. The error falls spectrally with p (semi-discretization: O(h²)): 4 nodes per half
 natural period give ρ to ~1e-5 on the benchmark, with a monodromy matrix of n + D·(nodes) = 6–20 rows
 at a/D = 0.05, where SDM needs ~70 steps per period and a Richardson extrapolation (two grids). Measured
-on the 1-DOF benchmark (81 speeds 5 000–25 000 rpm): within 0.11 % (a/D = 0.05), 0.12 % (0.1), 0.13 %
-(0.5) and 0.47 % (slotting, a flip lobe at 23 000 rpm) of SDM's converged depths, flip speeds where SDM
-has them. The multi-frequency (Hill) form was not chosen: at low immersion the directional matrix is a
+on the 1-DOF benchmark (201 speeds 5 000–25 000 rpm, down milling): within 0.17 % (a/D = 0.05), 0.12 %
+(0.1), 0.17 % (0.5) and 0.37 % (slotting) of SDM's converged depths, flip speeds where SDM has them; up
+milling within 0.24 %, except at 12 800 rpm (a/D = 0.5), where SDM steps over a flip band 3 % of the
+depth wide that this engine finds (8 % lower; SDM's own ρ is unstable there). (The 0.47 % once quoted for
+slotting at 23 000 rpm was a Hopf crossing 0.5 % below a flip one, missed.) The multi-frequency (Hill) form was not chosen: at low immersion the directional matrix is a
 short pulse with jumps, whose Fourier series converges like 1/r, so many harmonics (complex matrices of
 2·(2h + 1) rows per direction) would be needed for 1 %, and its boundary needs a search in frequency.
 
@@ -76,7 +78,19 @@ dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both
 stepped over (both reported 80.5 mm before this search); such islands lie far above the lowest lobes (2–3
 mm there).
 
-Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the 2-core machine
+Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
+benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
+cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
+on two threads (was 75–83 ms), 137 ms on one (was 51–54 ms): about 2.1–2.6× slower. Where it goes:
+~20 ladder depths below the root at every speed (the root lies at ~1.1 b_ref here, the ladder steps by
+0.05 b_ref), ~8 for the refinement near ρ = 1 (ρ(0) = e^{−ζωT} is 0.83–0.91 here, so ρ is near 1 over
+much of the ladder), ~4 characteristic functions (Newton). The relative rungs it replaces were cheap
+because they did not check what the search from below checks; a continued root cannot skip that check
+without making the depth depend on the grid. Measured and not kept: screening the ladder on p − 2 or
+p − 1 nodes (ρ off by up to 0.46 and 0.04 on random benchmark speeds, and only 41 % of the depths below
+0.9); skipping depths by the previous speed's ρ there (|Δρ| per 100 rpm step up to 0.21 where the
+zero-order depth jumps between lobes). Figures before it (same benchmark) follow.
+Earlier (200 speeds, x = y one mode each, a/D = 0.05; the 2-core machine
 is shared, so old (the code before) and new ran alternately in the same minutes, BLAS pinned to one
 thread, best of 7 per run, three pairs each). Two threads: wall 29.7–30.5 ms, 33 envelopes/s (old
 44.5–51.8 ms, 19–22/s), CPU 58 ms per envelope (old 74–87 ms); one thread: 48.7 ms CPU (old 60.0–60.8).

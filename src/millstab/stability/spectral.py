@@ -141,6 +141,14 @@ ms): 3.0–3.1× in all, 1.35–1.45× per evaluation, and 2.2× fewer evaluatio
 (load ~1.9, 2026-11-23 22:46): **26.8 s**, 2 544 evaluations, 10.5 ms each, every parameter within 0.121 %
 (the issue's < 60 s and 0.5 %); what remains is mostly cold searches (the 513-set screening). The
 zero-order engine on the same points: 0.2 s, off by up to 83 % (the damping ratios; k 12–15 %).
+OPEN (issue 25's grid-independent acceptance, 2026-11-27): the same benchmark then ended in a wrong basin:
+4 984 evaluations, 288.8 s at load 3–5, ζ_x 76 % and ζ_y 57 % off, RMS log residual 5.5e-2 (the code before,
+minutes earlier at load ~15: 2 544, 119.3 s, 0.121 %). The depths at the truth are unchanged (the 40
+points agree with the code before's to the digit, with 6 and 8 nodes), so the minimum is where it was;
+the path of the global search changed (depths elsewhere in the box, where bands are now found, differ).
+With the refinement near ρ = 1 off (``_spectral_kernel.NEAR`` = 0: the ladder alone, refined only in its
+unstable step) the fit is back: 0.121 %, 2 615 evaluations, 182.5 s (load 3–5): the refinement's narrow
+bands, found or not as the parameters move, make the objective rough.
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 

@@ -20,6 +20,7 @@ import math
 import numpy as np
 import pytest
 
+from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.model import Cutting, Mode, Structure
 from millstab.stability import sdm, spectral, zoa
@@ -143,3 +144,20 @@ def test_sdm_depth_independent_of_the_grid():
     with_others = sdm.envelope(BENCH, c, np.concatenate([speeds, random_speeds(4, 3)])).depth[:3]
     alone = np.array([sdm.envelope(BENCH, c, [r]).depth[0] for r in speeds])
     np.testing.assert_allclose(with_others, alone, rtol=1e-12)
+
+
+def test_problem_settings_keep_the_acceptance():
+    """A problem evaluated over many calls (identification) gets ``near = 0`` from ``settings`` (the ladder
+    refined only in its unstable step: a smoother objective); the per-speed acceptance stays, so the issue's
+    coarse-grid case is right there too, and equal to the speed alone. A bad margin is an InputError."""
+    c = cut(0.5)
+    batch = ModalBatch.from_structures([BENCH])
+    opts = spectral.settings(batch, c, COARSE)
+    assert opts["near"] == 0.0
+    i = int(np.flatnonzero(COARSE == 10000.0)[0])
+    coarse = spectral.envelope_batch(batch, c, COARSE, **opts)[0, i]
+    alone = spectral.envelope_batch(batch, c, [10000.0], **opts)[0, 0]
+    assert coarse == pytest.approx(alone, rel=1e-6)
+    assert coarse == pytest.approx(sdm.envelope(BENCH, c, [10000.0]).depth[0], rel=5e-3)
+    with pytest.raises(InputError, match="near"):
+        spectral.envelope_batch(batch, c, COARSE, near=1.5)

@@ -93,7 +93,8 @@ def test_warm_start_on_a_wrong_lobe_gives_the_cold_answer(case):
                 g = _k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el, nd[0], wn[0], zeta[0], act)
                 b_n, _, ok_n, _ = _k.newton(f * cold[j], th, cut.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
                 d, _, ok, _ = _w.warm_point(cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit, r, f * cold[j], th,
-                                            b_ref[j], spectral.LADDER, wn[0], zeta[0], mass[0], mdir, act, el, nd)
+                                            b_ref[j], spectral.LADDER, spectral.NEAR, wn[0], zeta[0], mass[0], mdir, act, el,
+                                            nd)
                 if ok:
                     accepted += 1
                     assert abs(d / cold[j] - 1) < 1e-9, (r, f, th, d, cold[j])

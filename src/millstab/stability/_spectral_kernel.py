@@ -905,13 +905,13 @@ def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def scan_to(b_ref, ladder, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
+def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
     """The search from below at one speed, resumed from the state st (:func:`scan_state`, updated in
     place), over the depths below ``top`` [m] (inf: up to the first unstable depth).
 
     The sequence of depths is fixed by the speed alone: the ladder b_ref·ladder (then ×1.5, up to
     1e4·b_ref, :func:`ladder_depth`), each step refined into REFINE parts (evaluated after its upper end,
-    ascending) where it is unstable or ρ at either end is above 1 − NEAR. A root b found from a guess
+    ascending) where it is unstable or ρ at either end is above 1 − near (``NEAR`` by default). A root b found from a guess
     (a continued branch, a warm start) is checked with top = b·(1 − 2e-3) as if the ladder depth above
     it were unstable (the refinement of that step below top), so an accepted root is the one the search
     from below finds at that speed whatever other speeds share the call, or a lower crossing (never a
@@ -942,7 +942,7 @@ def scan_to(b_ref, ladder, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
         f_prev = st[2]
         st[1] = x
         st[2] = r - 1.0
-        if r > 1.0 - NEAR or f_prev > -NEAR:  # (r > 1 included)
+        if r > 1.0 - near or f_prev > -near:  # (r > 1 included)
             bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
@@ -954,11 +954,11 @@ def scan_to(b_ref, ladder, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def check_root(b, b_ref, ladder, st, kt, wn, zeta, mass, mdir, D, g, nd):
+def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
     """Accept a boundary root b [m] found from a guess: :func:`scan_to` below b·(1 − 2e-3), then ρ at
     b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns."""
     top = b * (1.0 - 2e-3)
-    stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
+    stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd)
     if not stable or top <= st[3]:
         return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
     r, m_ = rho(top, kt, wn, zeta, mass, mdir, D, g, nd)
@@ -977,8 +977,8 @@ def secant_start(br_lo, br_hi, f_lo, f_hi):
 
 
 @nb.njit(cache=True)
-def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, wn, zeta, mass, mdir, act, elem_len, nd, rtol, w_flex,
-              depth, mu, n_eval):
+def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
+              w_flex, depth, mu, n_eval):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
@@ -1065,8 +1065,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, wn, zeta, mass,
                 if scanned:
                     break
                 scanned = True
-                _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, kt, wn, zeta, mass, mdir, D, g,
-                                                             nd)
+                _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass, mdir,
+                                                             D, g, nd)
                 count += c
                 if b_hi < 0.0:  # stable up to 1e4 times the reference depth: no boundary
                     depth[s] = np.inf
@@ -1075,8 +1075,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, wn, zeta, mass,
                     break
             else:
                 b1 = br_b[best]
-                stable, b_lo, f_lo, b_hi, f_hi, m_hi, c = check_root(b1, b_ref[s], ladder, st, kt, wn, zeta, mass, mdir, D,
-                                                                     g, nd)
+                stable, b_lo, f_lo, b_hi, f_hi, m_hi, c = check_root(b1, b_ref[s], ladder, st, near, kt, wn, zeta, mass,
+                                                                     mdir, D, g, nd)
                 count += c
                 if stable:
                     depth[s] = b1
@@ -1122,8 +1122,8 @@ def cmath_phase(z):
 
 
 @nb.njit(cache=True, parallel=True)
-def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
-                w_flex, depth, mu, n_eval):
+def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
+                nd, rtol, w_flex, depth, mu, n_eval):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
@@ -1134,7 +1134,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, wn, z
         k = t % n_blk
         a = starts[k]
         e = starts[k + 1]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, wn[bi], zeta[bi], mass[bi], mdir, act,
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi], mdir, act,
                   elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
 
 

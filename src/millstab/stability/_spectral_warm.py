@@ -31,7 +31,7 @@ ATTEMPTS = 4
 
 
 @nb.njit(cache=True)
-def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, wn, zeta, mass, mdir, act, elem_len, nd):
+def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd):
     """The boundary at one speed [rpm] from the guess (b0 [m], θ0 [rad] in [0, π]); b_ref [m] the zero-order
     depth there (the search from below's ladder is b_ref·ladder, :func:`check_canonical`).
 
@@ -49,7 +49,8 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, wn, z
         return np.nan, np.nan, False, count
     st = scan_state(rho0)
     for _ in range(ATTEMPTS):
-        stable, br_lo, f_lo, br_hi, f_hi, m_hi, c = check_root(b, b_ref, ladder, st, kt, wn, zeta, mass, mdir, D, g, nd)
+        stable, br_lo, f_lo, br_hi, f_hi, m_hi, c = check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g,
+                                                               nd)
         count += c
         if stable:
             return b, th, True, count
@@ -63,7 +64,7 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, wn, z
 
 
 @nb.njit(cache=True, parallel=True)
-def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, wn, zeta, mass, mdir, act, elem_len,
+def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
                nd, depth, theta, ok, n_eval):
     """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,)) at every
     speed rpm (S,), guesses b0, th0 (E, S), zero-order depths b_ref (E, S) [m]. Parallel over (entry, speed). Writes depth, theta, ok,
@@ -74,7 +75,7 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, 
         e = t // n_s
         s = t % n_s
         i = row[e]
-        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder, wn[i],
+        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder, near, wn[i],
                                     zeta[i], mass[i], mdir, act, elem_len[i], nd)
         depth[e, s] = d
         theta[e, s] = th
@@ -83,12 +84,12 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, 
 
 
 @nb.njit(cache=True, parallel=True)
-def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, wn, zeta, mass, mdir, act, elem_len, nd,
+def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd,
                  rtol, w_flex, depth, mu, n_eval):
     """The search from below (``limit_run`` on one speed) for single entries (set row[e], speed rpm[col[e]]),
     b_ref (E,) the ladder's reference depth [m]. Parallel over entries. Writes depth, mu, n_eval (E,)."""
     for e in nb.prange(row.size):
         i = row[e]
         s = col[e]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, wn[i], zeta[i], mass[i], mdir, act,
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i], mdir, act,
                   elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1])

@@ -141,14 +141,17 @@ ms): 3.0–3.1× in all, 1.35–1.45× per evaluation, and 2.2× fewer evaluatio
 (load ~1.9, 2026-11-23 22:46): **26.8 s**, 2 544 evaluations, 10.5 ms each, every parameter within 0.121 %
 (the issue's < 60 s and 0.5 %); what remains is mostly cold searches (the 513-set screening). The
 zero-order engine on the same points: 0.2 s, off by up to 83 % (the damping ratios; k 12–15 %).
-OPEN (issue 25's grid-independent acceptance, 2026-11-27): the same benchmark then ended in a wrong basin:
+With issue 25's grid-independent acceptance (2026-11-27) and the refinement near ρ = 1 on, the same
+benchmark ended in a wrong basin:
 4 984 evaluations, 288.8 s at load 3–5, ζ_x 76 % and ζ_y 57 % off, RMS log residual 5.5e-2 (the code before,
 minutes earlier at load ~15: 2 544, 119.3 s, 0.121 %). The depths at the truth are unchanged (the 40
 points agree with the code before's to the digit, with 6 and 8 nodes), so the minimum is where it was;
 the path of the global search changed (depths elsewhere in the box, where bands are now found, differ).
 With the refinement near ρ = 1 off (``_spectral_kernel.NEAR`` = 0: the ladder alone, refined only in its
 unstable step) the fit is back: 0.121 %, 2 615 evaluations, 182.5 s (load 3–5): the refinement's narrow
-bands, found or not as the parameters move, make the objective rough.
+bands, found or not as the parameters move, make the objective rough. So :func:`settings` (what a
+problem evaluated over many calls passes to every call) turns it off: 0.121 %, 2 615 evaluations,
+135.9 s (load ~4, tests running beside it); the per-speed acceptance stays.
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 
@@ -202,6 +205,9 @@ BLOCKS_PER_THREAD = 2
 #: rows within this largest |ln ratio| of (ωn, ζ, m) of their run's head start from its boundary (warm
 #: starts, :func:`_solve_warm`): the rows of a finite-difference Jacobian differ by ~1e-4
 WARM_REL = 1e-2
+#: the search from below refines a ladder step where ρ is within NEAR of 1 (``_spectral_kernel.scan_to``);
+#: :func:`settings` turns it off (0) for a problem evaluated over many calls, see the docstring
+NEAR = _k.NEAR
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
@@ -291,7 +297,7 @@ def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int | None = None) -> tuple[np.ndarray, ...]:
+           block: int | None = None, near: float = NEAR) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
     (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
@@ -305,7 +311,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
-        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, wn, zeta, mass, mdir, act, _elem_len(wn),
+        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act, _elem_len(wn),
                        _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
@@ -327,7 +333,8 @@ def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarr
     return follow, head
 
 
-def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int) -> tuple[np.ndarray, ...]:
+def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
+                near: float = NEAR) -> tuple[np.ndarray, ...]:
     """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
     the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
     are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
@@ -335,13 +342,13 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     wn, zeta, mass, act, mdir = _arrays(batch)
     follow, head = _heads(wn, zeta, mass)
     if not follow.any():
-        return _solve(batch, cutting, rs, b_ref, p)
+        return _solve(batch, cutting, rs, b_ref, p, near=near)
     cold = np.flatnonzero(~follow)
     sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
-    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p)
+    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near)
     row = np.flatnonzero(follow)
     n, kt, kr, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
@@ -351,14 +358,14 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
     with threadpool_limits(1):
-        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, wn, zeta, mass, mdir,
+        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn, zeta, mass, mdir,
                       act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
         if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
             i = row[e]
             d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
             _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
-                            np.ascontiguousarray(b_ref[i, s]), LADDER, wn, zeta, mass, mdir, act, el, nd, RTOL,
+                            np.ascontiguousarray(b_ref[i, s]), LADDER, float(near), wn, zeta, mass, mdir, act, el, nd, RTOL,
                             _w_flex(batch), d_c, mu_c, ne_c)
     depth[row] = d_w
     mu[row] = np.exp(1j * th_w)
@@ -422,7 +429,7 @@ def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
-           warm: bool = True) -> tuple[np.ndarray, np.ndarray, int]:
+           warm: bool = True, near: float = NEAR) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
@@ -437,7 +444,9 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     rs = np.ascontiguousarray(rs)
     b_ref = _b_ref(batch, cutting, rs)
     p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
-    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p)
+    if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
+        raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near)
     return depth[:, inv], mu[:, inv], p
 
 
@@ -469,19 +478,22 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
     return SpectralEnvelope(r, depth[0], lobe, hz, kind=kind, multiplier=mu[0], nodes=p)
 
 
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> np.ndarray:
-    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]."""
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None, near: float = NEAR) -> np.ndarray:
+    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
+    from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
+    which a problem's :func:`settings` asks for)."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes)[0]
+    return _limit(batch, cutting, r, nodes, near=near)[0]
 
 
-def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
+                      near: float = NEAR) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
     no boundary exists."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, near=near)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
@@ -544,14 +556,17 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     :class:`millstab.stability.base.Engine`): ``{"nodes": p + P_STEP}``, p the node count the convergence
     check settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm] (p + P_STEP its reference), to pass to every later
     :func:`envelope_batch` call, so the depths of one problem are one smooth function of the parameters
-    (a per-call check can change p between calls, a jump of up to TOL)."""
+    (a per-call check can change p between calls, a jump of up to TOL); and ``"near": 0``: the ladder refined
+    only in its unstable step, because narrow bands found by the refinement near ρ = 1 appear and vanish as
+    the parameters move (measured: the identification benchmark then ended in a wrong basin, module
+    docstring); the depth of each speed still does not depend on the other speeds."""
     _require_modal_batch(batch)
     rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
     first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     # the finer of the two discretisations the check compared: a whole search moves the parameters, and
     # p converged at set 0 alone was measured too coarse elsewhere in the box (Example 1 at a/D = 0.1:
     # 4 at the start, 6 at the truth, 8 at fn × 1.2)
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP}
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP, "near": 0.0}
 
 
 def _require_modal_batch(batch) -> None:

@@ -85,14 +85,16 @@ def test_warm_start_on_a_wrong_lobe_gives_the_cold_answer(case):
     nd = _k.gauss_nodes(6)
     el = float(spectral._elem_len(wn)[0])
     cold = spectral.envelope(s, cut, RPM, nodes=6).depth
+    b_ref = spectral._b_ref(b, cut, RPM)[0]
     recovered = accepted = 0
     for j, r in enumerate(RPM):
         for f in (1.3, 2.0, 3.0):
             for th in (0.4, 1.2, 2.0, 2.8, math.pi):
                 g = _k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el, nd[0], wn[0], zeta[0], act)
                 b_n, _, ok_n, _ = _k.newton(f * cold[j], th, cut.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
-                d, _, ok, _ = _w.warm_point(cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit, r, f * cold[j], th, wn[0],
-                                            zeta[0], mass[0], mdir, act, el, nd, spectral.CHECKS)
+                d, _, ok, _ = _w.warm_point(cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit, r, f * cold[j], th,
+                                            b_ref[j], spectral.LADDER, spectral.NEAR, wn[0], zeta[0], mass[0], mdir, act, el,
+                                            nd)
                 if ok:
                     accepted += 1
                     assert abs(d / cold[j] - 1) < 1e-9, (r, f, th, d, cold[j])

@@ -29,8 +29,8 @@ rows, half the history at low immersion.
 Root finding (:func:`limit_run`): the boundary points are Newton roots (:func:`newton`) of the n × n
 characteristic function det(μ I − Ψ(σ)) with its exact Jacobian (:func:`char_d`; Ψ and dΨ/dσ from one
 hand-written LU per element, :func:`psi_d`), continued from speed to speed as branches; the dense
-eigenvalues of the monodromy (:func:`rho`) only check that nothing crossed below the lowest branch and
-bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are the same function without
+eigenvalues of the monodromy (:func:`rho`) run the search from below (:func:`scan_to`), which accepts a
+root only where it would not stop below it, and bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are the same function without
 derivatives through numpy's solver (the tests' independent path). Costs measured (x = y one mode each,
 a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–25 µs; ρ on the full monodromy (16–28
 rows) 30–79 µs (dgeev 18–54 µs of it), on the reduced one (10–16 rows) 18–41 µs; the envelope figures
@@ -807,12 +807,8 @@ def _fold(theta):
 N_BRANCH = 4
 #: a tracked branch whose depth exceeds this multiple of the boundary is dropped (it has left)
 BRANCH_DROP = 3.0
-#: a continued root above RISE × the previous speed's boundary is checked on the rising-flank rungs (1.05
-#: saved 4 % of the evaluations but missed one more band on the random sets of the docstring)
-RISE = 1.0
-#: relative depth change of the boundary's branch from one speed to the next beyond which the continued
-#: root is not trusted (Newton may have jumped to another lobe over a closed band): search from below
-BRANCH_JUMP = 0.25
+#: roots tried per speed at most (each failed check brackets a lower crossing, whose root is checked in turn)
+ATTEMPTS = 6
 
 
 @nb.njit(cache=True)
@@ -857,21 +853,119 @@ def _add_branch(br_b, br_t, br_b2, br_on, b, th):
 
 
 @nb.njit(cache=True)
-def check_rungs(b, rungs, rho0, kt, wn, zeta, mass, mdir, D, g, nd):
-    """The full monodromy's stability at the depths b·rungs [m] (rungs ascending, below 1), which accept a
-    boundary root b: returns (stable, bracket low [m], bracket high [m], ρ − 1 at both ends, the dominant
-    multiplier at the high end, ρ evaluations). On the first unstable rung the bracket is (the last stable
-    rung, or 0 with ρ − 1 = rho0 − 1, that rung); when every rung is stable only ``stable`` and the count
-    mean anything."""
-    f_lo = rho0 - 1.0
-    br_lo = 0.0
-    for q in range(rungs.size):
-        r, m_ = rho(b * rungs[q], kt, wn, zeta, mass, mdir, D, g, nd)
+def ladder_depth(b_ref, ladder, k):
+    """The k-th depth [m] of the search from below at a speed: b_ref·ladder[k], then ×1.5 per step
+    (the sequence :func:`first_crossing` evaluates)."""
+    if k < ladder.size:
+        return b_ref * ladder[k]
+    return b_ref * ladder[ladder.size - 1] * 1.5 ** (k - ladder.size + 1)
+
+
+#: the search from below refines a ladder step (x_prev, x] into REFINE equal parts where ρ at either end
+#: is above 1 − NEAR, or x is unstable: a band narrower than the ladder's step lies where a multiplier
+#: grazes the unit circle, so ρ is close to 1 at the rungs beside it (measured: a flip band 3 % of the
+#: zero-order depth wide at 12 825 rpm, a/D = 0.5 up milling, had ρ 0.9954 and 0.9941 at the rungs on
+#: either side; the ladder alone stepped over it, as SDM's does). Measured and not kept: REFINE 3 with
+#: NEAR 0.01 (−19 % evaluations, but the same band at 12 800 rpm was then missed on every grid)
+REFINE = 4
+NEAR = 0.02
+
+
+@nb.njit(cache=True)
+def scan_state(rho0):
+    """A fresh state of the search from below at one speed (see :func:`scan_to`)."""
+    st = np.empty(5)
+    st[0] = 0.0  # the next ladder index
+    st[1] = 0.0  # the last ladder depth evaluated [m] (0: the start) ...
+    st[2] = rho0 - 1.0  # ... and ρ − 1 there
+    st[3] = 0.0  # the highest depth known stable [m] ...
+    st[4] = rho0 - 1.0  # ... and ρ − 1 there
+    return st
+
+
+@nb.njit(cache=True)
+def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
+    """ρ at the REFINE − 1 inner depths of the ladder step (x_prev, x) below top [m], ascending, skipping
+    those known stable (≤ st[3]; st updated in place). Returns (an unstable one found, its depth, its
+    ρ − 1, its dominant multiplier, ρ evaluations)."""
+    n_eval = 0
+    for j in range(1, REFINE):
+        y = x_prev + j * (x - x_prev) / REFINE
+        if y >= top:
+            break
+        if y <= st[3]:
+            continue
+        r, m_ = rho(y, kt, wn, zeta, mass, mdir, D, g, nd)
+        n_eval += 1
         if r > 1.0:
-            return False, br_lo, b * rungs[q], f_lo, r - 1.0, m_, q + 1
-        br_lo = b * rungs[q]
-        f_lo = r - 1.0
-    return True, 0.0, 0.0, f_lo, 0.0, complex(np.nan, np.nan), rungs.size
+            return True, y, r - 1.0, m_, n_eval
+        st[3] = y
+        st[4] = r - 1.0
+    return False, 0.0, 0.0, complex(np.nan, np.nan), n_eval
+
+
+@nb.njit(cache=True)
+def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
+    """The search from below at one speed, resumed from the state st (:func:`scan_state`, updated in
+    place), over the depths below ``top`` [m] (inf: up to the first unstable depth).
+
+    The sequence of depths is fixed by the speed alone: the ladder b_ref·ladder (then ×1.5, up to
+    1e4·b_ref, :func:`ladder_depth`), each step refined into REFINE parts (evaluated after its upper end,
+    ascending) where it is unstable or ρ at either end is above 1 − near (``NEAR`` by default). A root b found from a guess
+    (a continued branch, a warm start) is checked with top = b·(1 − 2e-3) as if the ladder depth above
+    it were unstable (the refinement of that step below top), so an accepted root is the one the search
+    from below finds at that speed whatever other speeds share the call, or a lower crossing (never a
+    higher one). Returns (stable, bracket low [m], its ρ − 1, bracket high [m], its ρ − 1, the dominant
+    multiplier there, ρ evaluations); the bracket is (the highest stable depth, the first unstable one);
+    stable with bracket high −1 where nothing is unstable up to 1e4·b_ref."""
+    n_eval = 0
+    nan = complex(np.nan, np.nan)
+    while True:
+        k = int(st[0])
+        x = ladder_depth(b_ref, ladder, k)
+        x_prev = st[1]
+        if x > 1e4 * b_ref:
+            return True, st[3], st[4], -1.0, 0.0, nan, n_eval
+        if x >= top:
+            # the step holding the root: refined below top (as the search from below refines it when x
+            # is unstable)
+            bad, y, fy, my, c = _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
+            n_eval += c
+            if bad:
+                return False, st[3], st[4], y, fy, my, n_eval
+            return True, st[3], st[4], -1.0, 0.0, nan, n_eval
+        st[0] = k + 1
+        if x <= st[3]:  # known stable (an earlier scan at this speed)
+            continue
+        r, m_ = rho(x, kt, wn, zeta, mass, mdir, D, g, nd)
+        n_eval += 1
+        f_prev = st[2]
+        st[1] = x
+        st[2] = r - 1.0
+        if r > 1.0 - near or f_prev > -near:  # (r > 1 included)
+            bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
+            n_eval += c
+            if bad:
+                return False, st[3], st[4], y, fy, my, n_eval
+        if r > 1.0:
+            return False, st[3], st[4], x, r - 1.0, m_, n_eval
+        st[3] = x
+        st[4] = r - 1.0
+
+
+@nb.njit(cache=True)
+def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
+    """Accept a boundary root b [m] found from a guess: :func:`scan_to` below b·(1 − 2e-3), then ρ at
+    b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns."""
+    top = b * (1.0 - 2e-3)
+    stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd)
+    if not stable or top <= st[3]:
+        return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
+    r, m_ = rho(top, kt, wn, zeta, mass, mdir, D, g, nd)
+    n_eval += 1
+    if r > 1.0:
+        return False, st[3], st[4], top, r - 1.0, m_, n_eval
+    return True, st[3], st[4], -1.0, 0.0, complex(np.nan, np.nan), n_eval
 
 
 @nb.njit(cache=True)
@@ -883,19 +977,21 @@ def secant_start(br_lo, br_hi, f_lo, f_hi):
 
 
 @nb.njit(cache=True)
-def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act, elem_len,
-              nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
+def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
+              w_flex, depth, mu, n_eval):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
     characteristic function (:func:`newton`, from a prediction linear in speed; θ from the chatter
     frequency nearest w_flex [rad/s]); up to ``N_BRANCH`` branches are tracked at once (the lobe being
     left and the one taking over), so a switch between known lobes costs no search. The candidate is
-    the lowest branch; it is accepted when the full monodromy is stable at b·``checks`` (nothing
-    unknown crossed below). A failed rung brackets the unknown crossing: Newton from inside the
-    bracket (θ from the rung's dominant multiplier), the root joins the set and is checked in turn.
-    With no branch (first speed, or all lost): ρ on b_ref·``ladder`` to the first unstable depth,
-    Illinois on ρ − 1 to 1 %, Newton; where Newton fails, Illinois to ``rtol``.
+    the lowest branch; it is accepted only where this speed's search from below would not stop earlier
+    (:func:`check_root`: the full monodromy is stable at every depth of it below the root), so the depth
+    does not depend on the other speeds of the run. A failed depth brackets the unknown crossing: Newton
+    from inside the bracket (θ from its dominant multiplier), the root joins the set and is checked in
+    turn. With no branch (first speed, or all lost): the search from below (:func:`scan_to`) to its
+    first unstable depth, Newton from the bracket (Illinois on ρ − 1 to 1 % first where that fails),
+    the root checked as above; where Newton fails, Illinois to ``rtol``.
     Writes depth, mu (on the unit circle), n_eval (S,) (ρ evaluations and characteristic functions).
     """
     D = act.size
@@ -905,7 +1001,6 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
     br_t2 = np.zeros(N_BRANCH)  # and its θ
     br_on = np.zeros(N_BRANCH, dtype=np.bool_)
     T_prev = 1.0
-    acc = -1  # the branch accepted at the previous speed
     for s in range(rpm.size):
         g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
         T = 60.0 / (n_teeth * rpm[s])
@@ -940,13 +1035,6 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
                 br_t[i] = th1
             else:
                 br_on[i] = False
-        # the boundary's own branch lost (a closed band's edge, a lobe's end): the other branches say
-        # nothing about what lies below, so search from below as at a block start
-        lost = acc >= 0 and not br_on[acc]
-        # ... or moved so far that Newton may have jumped to another root (a steep flank moves this
-        # much too: then the search from below costs a ladder, and is safe)
-        if acc >= 0 and br_on[acc] and br_b2[acc] > 0.0 and br_b[acc] / br_b2[acc] - 1.0 > BRANCH_JUMP:
-            lost = True
         # drop duplicates (two branches that met the same root) and branches far above the lowest
         b_min = np.inf
         for i in range(N_BRANCH):
@@ -959,61 +1047,69 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, ladder_cont, wn
         for i in range(N_BRANCH):
             if br_on[i] and br_b[i] > BRANCH_DROP * b_min:
                 br_on[i] = False
+        # Acceptance (the same at every speed, whatever the neighbours): the lowest root known is accepted
+        # when the full monodromy is stable on the search from below's ladder under it and at the rungs
+        # just below it (check_canonical); a failed rung brackets a crossing below (Newton from the
+        # bracket, the root joins the set). With no root left, the ladder itself is climbed (above what
+        # the checks already found stable) to its first unstable depth, and Newton starts in that bracket.
+        # lo: the depth up to which every ladder rung is known stable at this speed (f_lo: ρ − 1 there).
+        st = scan_state(rho0)
+        scanned = False
         done = False
-        acc = -1
-        for attempt in range(0 if lost else 4):
+        for attempt in range(ATTEMPTS):
             best = -1
             for i in range(N_BRANCH):
                 if br_on[i] and (best < 0 or br_b[i] < br_b[best]):
                     best = i
             if best < 0:
-                break
-            b1 = br_b[best]
-            # above a rising boundary a new lobe (a flip band at low immersion) can open far below it
-            # (measured: at 20–60 % of the continued root): more rungs there
-            ch = checks_up if s > 0 and b1 > RISE * depth[s - 1] else checks
-            stable, br_lo, br_hi, f_lo, f_hi, m_hi, c = check_rungs(b1, ch, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
-            count += c
-            if stable:
-                depth[s] = b1
-                mu[s] = complex(math.cos(br_t[best]), math.sin(br_t[best]))
-                done = True
-                acc = best
-                break
-            # an unknown crossing below: Newton from the secant point of the bracket
-            bn, thn, ok, c = newton(secant_start(br_lo, br_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass,
+                if scanned:
+                    break
+                scanned = True
+                _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass, mdir,
+                                                             D, g, nd)
+                count += c
+                if b_hi < 0.0:  # stable up to 1e4 times the reference depth: no boundary
+                    depth[s] = np.inf
+                    mu[s] = complex(np.nan, np.nan)
+                    done = True
+                    break
+            else:
+                b1 = br_b[best]
+                stable, b_lo, f_lo, b_hi, f_hi, m_hi, c = check_root(b1, b_ref[s], ladder, st, near, kt, wn, zeta, mass,
+                                                                     mdir, D, g, nd)
+                count += c
+                if stable:
+                    depth[s] = b1
+                    mu[s] = complex(math.cos(br_t[best]), math.sin(br_t[best]))
+                    done = True
+                    break
+            # a crossing in (b_lo, b_hi): Newton from the secant point of the bracket
+            bn, thn, ok, c = newton(secant_start(b_lo, b_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass,
                                     mdir, g, nd)
             count += c
-            if not (ok and bn < br_hi * (1.0 + 1e-6) and bn > br_lo * (1.0 - 1e-6)):
-                d, m2, c = _illinois(br_lo, f_lo, br_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)
+            if not (ok and bn < b_hi * (1.0 + 1e-6) and bn > b_lo * (1.0 - 1e-6)):
+                d, m2, c = _illinois(b_lo, f_lo, b_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)
                 count += c
                 bn, thn, ok, c = newton(d, abs(cmath_phase(m2)), kt, wn, zeta, mass, mdir, g, nd)
                 count += c
                 ok = ok and abs(bn / d - 1.0) < 0.006
             if not ok:
+                # Newton fails in the bracket: the fine Illinois on ρ − 1 gives the depth (no branch)
+                for i in range(N_BRANCH):
+                    br_on[i] = False
+                d, m2, c = _illinois(b_lo, f_lo, b_hi, f_hi, m_hi, rtol, kt, wn, zeta, mass, mdir, D, g, nd)
+                count += c
+                depth[s] = d
+                mu[s] = m2
+                done = True
                 break
             _add_branch(br_b, br_t, br_b2, br_on, bn, thn)
         if not done:
-            # no usable branch: search from below (bracket to 1 %, then Newton; fine Illinois where it fails)
+            # the attempts ran out (bracket after bracket): the fine Illinois from below at this speed
             for i in range(N_BRANCH):
                 br_on[i] = False
-            # after the first speed, the ladder around the last boundary (it moves little per speed)
-            guess = b_ref[s] if s == 0 else depth[s - 1]
-            lad = ladder if s == 0 or not math.isfinite(guess) else ladder_cont
-            if not math.isfinite(guess):
-                guess = b_ref[s]
-            d, m_, c = first_crossing(guess, lad, 0.01, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+            d, m_, c = first_crossing(b_ref[s], ladder, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
             count += c
-            if math.isfinite(d):
-                b1, th1, ok, c = newton(d, abs(cmath_phase(m_)), kt, wn, zeta, mass, mdir, g, nd)
-                count += c
-                if ok and abs(b1 / d - 1.0) < 0.006:
-                    d = b1
-                    m_ = complex(math.cos(th1), math.sin(th1))
-                    acc = _add_branch(br_b, br_t, br_b2, br_on, b1, th1)
-                else:
-                    d, m_, c = first_crossing(guess, lad, rtol, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
-                    count += c
             depth[s] = d
             mu[s] = m_
         T_prev = T
@@ -1026,8 +1122,8 @@ def cmath_phase(z):
 
 
 @nb.njit(cache=True, parallel=True)
-def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
-                elem_len, nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
+def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
+                nd, rtol, w_flex, depth, mu, n_eval):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
@@ -1038,9 +1134,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, ladde
         k = t % n_blk
         a = starts[k]
         e = starts[k + 1]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, ladder_cont, wn[bi], zeta[bi],
-                  mass[bi], mdir, act, elem_len[bi], nd, rtol, w_flex[bi], checks, checks_up, depth[bi, a:e],
-                  mu[bi, a:e], n_eval[bi, a:e])
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi], mdir, act,
+                  elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
 
 
 @nb.njit(cache=True)

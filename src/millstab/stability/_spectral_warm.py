@@ -4,13 +4,15 @@ A warm start replaces the root search at one (set, speed) when a good guess (dep
 θ) is known: the boundary of a nearly equal parameter set (the rows of a finite-difference Jacobian
 differ by 1e-4 in ln θ), or the zero-order boundary. It is accepted by the same rule that accepts a
 continued branch in :func:`millstab.stability._spectral_kernel.limit_run`: Newton on the characteristic
-function converges, and the full monodromy is stable at b·checks (nothing crossed below); a failed
-check brackets the crossing below, Newton from inside the bracket gives that root and it is checked in
-turn. A root of the characteristic equation is never below the first crossing (a multiplier on the unit
-circle means ρ ≥ 1), so an accepted point is the boundary the search from below finds, to Newton's
-~1e-12, wherever the checks see the crossing (the same limitation as every check ladder). Where
-Newton fails or leaves its bracket, the entry is reported not converged and the caller solves it cold
-(:func:`cold_entries`: the search from below at that speed alone).
+function converges, and the search from below at that speed would not stop below the root
+(:func:`~millstab.stability._spectral_kernel.check_root`: the full monodromy is stable on that search's
+depths under it, ladder b_ref·ladder on the row's own zero-order depth, refined near ρ = 1); a failed
+depth brackets the crossing below, Newton from inside the bracket gives that root and it is checked in
+turn. So an accepted point is the boundary the search from below finds for that row at that speed, to
+Newton's ~1e-12, whatever the head row or the other speeds (or a lower true crossing: a root of the
+characteristic equation is never below the first crossing). Where Newton fails or leaves its bracket,
+the entry is reported not converged and the caller solves it cold (:func:`cold_entries`: the search
+from below at that speed alone).
 
 Kept apart from ``_spectral_kernel.limit_run`` (whose logic it mirrors without changing it).
 """
@@ -22,15 +24,16 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._spectral_kernel import check_rungs, cmath_phase, limit_run, newton, secant_start, setup
+from millstab.stability._spectral_kernel import check_root, cmath_phase, scan_state, limit_run, newton, secant_start, setup
 
 #: attempts of the check loop (a failed check yields a lower root, checked in turn), as limit_run
 ATTEMPTS = 4
 
 
 @nb.njit(cache=True)
-def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, wn, zeta, mass, mdir, act, elem_len, nd, checks):
-    """The boundary at one speed [rpm] from the guess (b0 [m], θ0 [rad] in [0, π]).
+def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd):
+    """The boundary at one speed [rpm] from the guess (b0 [m], θ0 [rad] in [0, π]); b_ref [m] the zero-order
+    depth there (the search from below's ladder is b_ref·ladder, :func:`check_canonical`).
 
     Returns (depth [m], θ, accepted, evaluations); depth NaN where not accepted."""
     if not (math.isfinite(b0) and b0 > 0.0 and math.isfinite(th0)):
@@ -44,8 +47,10 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, wn, zeta, mass, mdir
     b, th, ok, count = newton(b0, th0, kt, wn, zeta, mass, mdir, g, nd)
     if not ok:
         return np.nan, np.nan, False, count
+    st = scan_state(rho0)
     for _ in range(ATTEMPTS):
-        stable, br_lo, br_hi, f_lo, f_hi, m_hi, c = check_rungs(b, checks, rho0, kt, wn, zeta, mass, mdir, D, g, nd)
+        stable, br_lo, f_lo, br_hi, f_hi, m_hi, c = check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g,
+                                                               nd)
         count += c
         if stable:
             return b, th, True, count
@@ -59,10 +64,10 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, wn, zeta, mass, mdir
 
 
 @nb.njit(cache=True, parallel=True)
-def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, wn, zeta, mass, mdir, act, elem_len, nd, checks,
-               depth, theta, ok, n_eval):
+def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
+               nd, depth, theta, ok, n_eval):
     """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,)) at every
-    speed rpm (S,), guesses b0, th0 (E, S). Parallel over (entry, speed). Writes depth, theta, ok,
+    speed rpm (S,), guesses b0, th0 (E, S), zero-order depths b_ref (E, S) [m]. Parallel over (entry, speed). Writes depth, theta, ok,
     n_eval (E, S)."""
     n_e = row.size
     n_s = rpm.size
@@ -70,8 +75,8 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, wn, zeta, mass,
         e = t // n_s
         s = t % n_s
         i = row[e]
-        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], wn[i], zeta[i], mass[i],
-                                    mdir, act, elem_len[i], nd, checks)
+        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder, near, wn[i],
+                                    zeta[i], mass[i], mdir, act, elem_len[i], nd)
         depth[e, s] = d
         theta[e, s] = th
         ok[e, s] = good
@@ -79,13 +84,12 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, wn, zeta, mass,
 
 
 @nb.njit(cache=True, parallel=True)
-def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, ladder_cont, wn, zeta, mass, mdir, act,
-                 elem_len, nd, rtol, w_flex, checks, checks_up, depth, mu, n_eval):
+def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd,
+                 rtol, w_flex, depth, mu, n_eval):
     """The search from below (``limit_run`` on one speed) for single entries (set row[e], speed rpm[col[e]]),
     b_ref (E,) the ladder's reference depth [m]. Parallel over entries. Writes depth, mu, n_eval (E,)."""
     for e in nb.prange(row.size):
         i = row[e]
         s = col[e]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, ladder_cont, wn[i], zeta[i],
-                  mass[i], mdir, act, elem_len[i], nd, rtol, w_flex[i], checks, checks_up, depth[e:e + 1], mu[e:e + 1],
-                  n_eval[e:e + 1])
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i], mdir, act,
+                  elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1])

@@ -17,9 +17,11 @@ previous period's value at the same node, so no interpolation error enters; the 
 exact exponential. The error falls spectrally with p (semi-discretization: O(h²)): 4 nodes per half
 natural period give ρ to ~1e-5 on the benchmark, with a monodromy matrix of n + D·(nodes) = 6–20 rows
 at a/D = 0.05, where SDM needs ~70 steps per period and a Richardson extrapolation (two grids). Measured
-on the 1-DOF benchmark (81 speeds 5 000–25 000 rpm): within 0.11 % (a/D = 0.05), 0.12 % (0.1), 0.13 %
-(0.5) and 0.47 % (slotting, a flip lobe at 23 000 rpm) of SDM's converged depths, flip speeds where SDM
-has them. The multi-frequency (Hill) form was not chosen: at low immersion the directional matrix is a
+on the 1-DOF benchmark (201 speeds 5 000–25 000 rpm, down milling): within 0.17 % (a/D = 0.05), 0.12 %
+(0.1), 0.17 % (0.5) and 0.37 % (slotting) of SDM's converged depths, flip speeds where SDM has them; up
+milling within 0.24 %, except at 12 800 rpm (a/D = 0.5), where SDM steps over a flip band 3 % of the
+depth wide that this engine finds (8 % lower; SDM's own ρ is unstable there). (The 0.47 % once quoted for
+slotting at 23 000 rpm was a Hopf crossing 0.5 % below a flip one, missed.) The multi-frequency (Hill) form was not chosen: at low immersion the directional matrix is a
 short pulse with jumps, whose Fourier series converges like 1/r, so many harmonics (complex matrices of
 2·(2h + 1) rows per direction) would be needed for 1 %, and its boundary needs a search in frequency.
 
@@ -42,40 +44,53 @@ det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth 
 ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
 discretised system too and far cheaper than the monodromy's eigenvalues. The boundary at a speed is
 the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
-Branch tracking: every boundary root found (b, θ) is a branch (a lobe's boundary, Hopf or flip),
-continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once (the lobe being left and the
-one taking over), by Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from
-one LU per element, Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a
-prediction linear in speed. Where the boundary's own branch is lost or moves UP by more than
-``_spectral_kernel.BRANCH_JUMP`` (25 %) in one speed step (Newton may have jumped onto another lobe
-over a closed band), the search starts from below as at a block start; a branch that moves down by
-as much is checked like any other (a lower root is never above the first crossing; only what lies
-below it is in doubt, and that is what the checks test). The lowest branch is accepted if the full
-monodromy is stable at b·CHECKS (0.7, 0.93, 0.995: nothing unknown crossed below, e.g. another lobe
-come down or a flip band); under a rising boundary (b above the previous speed's) at b·CHECKS_UP
-(0.3, 0.4, 0.55 added): there a new lobe, at low immersion a flip band, can open far below the
-continued root (measured on random sets of identification's search space, a/D 0.05 and 0.1: bands at
-20–60 % of it, 14–50 % of the depth wide, that the three rungs stepped over, reporting 2–5 times the
-first crossing; tests/test_spectral.py). A failed rung brackets the unknown crossing, Newton from
-inside it (θ from the rung's dominant multiplier) adds its root to the set, and that root is checked
-in turn. Where no branch is left (a block's first speed, or all lost): ρ(b) on b_ref·LADDER (b_ref the
-zero-order depth; inside a block the last boundary·LADDER_CONT) up to the first unstable depth, Illinois
-on ρ − 1 to 1 %, Newton; the fine Illinois (``RTOL``) only where Newton fails. Warm starts (:mod:`._spectral_warm`): a row within
+The search from below at one speed (the definition of the answer, the same as SDM's): ρ(b) on the
+ladder b_ref·LADDER (b_ref the zero-order depth at that speed; then ×1.5 up to 1e4·b_ref) up to the
+first unstable depth, each ladder step refined into ``_spectral_kernel.REFINE`` parts where it is
+unstable or ρ at either end is within ``_spectral_kernel.NEAR`` (0.02) of 1 (a band narrower than the
+ladder's step lies where a multiplier grazes the unit circle, so ρ is close to 1 beside it); Newton from
+the bracket (θ from its dominant multiplier), Illinois on ρ − 1 where Newton fails.
+Branch tracking proposes, that search disposes: every boundary root found (b, θ) is a branch (a lobe's
+boundary, Hopf or flip), continued from speed to speed, up to ``_spectral_kernel.N_BRANCH`` at once, by
+Newton on the characteristic function with its exact Jacobian (Ψ and dΨ/dσ from one LU per element,
+Jacobi's formula; a flip root, where F(b, π) is real, in b alone), from a prediction linear in speed.
+The lowest branch is accepted only if the search from below at this speed would not stop earlier: the
+full monodromy is stable at every depth of it below b (and at b·(1 − 2e-3)); a failed depth brackets a
+crossing below, Newton from inside it adds its root, checked in turn (the depths already found stable
+are not evaluated again). So a speed's depth does not depend on which other speeds share the call
+(issue 25: with acceptance rungs relative to the continued root, and a ladder around the previous
+speed's depth after a lost branch, the 1 000 rpm grid of the 1-DOF benchmark at a/D = 0.5 gave
+2.3498 mm at 10 000 rpm, a flip band 2.104–2.318 mm stepped over, +11.65 % against SDM, while a fine
+grid gave 2.1040 mm; and a fine grid in up milling stepped over flip bands far below a rising Hopf
+boundary: +465 %, +294 % and +39 % against SDM at a/D = 0.05, 0.1 and 0.5; tests/test_grid_independence.py).
+A continued branch may still find a crossing below the search from below's (a root of the characteristic
+equation is a true crossing: never above the first one), which the refinement near ρ = 1 makes rare:
+on the benchmark's coarse, random and single-speed calls at every immersion the depths agree with a
+fine grid's to < 1e-6 with the same nodes. Warm starts (:mod:`._spectral_warm`): a row within
 ``WARM_REL`` of the row heading its run (the rows of a finite-difference Jacobian) starts at that row's
-boundary at each speed: Newton, then the same checks that accept a continued branch (a failed check
-brackets the crossing below, as above); only where that is not accepted is the speed searched from below. The accepted depths are
+boundary at each speed: Newton, then the same acceptance (a failed depth brackets the crossing below,
+as above); only where that is not accepted is the speed searched from below. The accepted depths are
 roots of the discretised characteristic equation to ~1e-12, so they are smooth in the parameters
 (finite-difference Jacobians in identification). Limitation, as for every ladder: an unstable band
-narrower than the spacing of the checks can be missed (on the benchmark grids a 40-rung check changed
-nothing, see the benchmark). On 20 random sets of that search space (seed 11, 40 speeds 3 000–15 000
-rpm, 800 speeds) a dense ρ scan finds 7 speeds where a band 1–2 % of the depth wide lies just below the
-reported root (the first crossing 1–2 % lower); the rising-flank rungs removed the other 7 violations
-(2–5× too deep). Known case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000
-rpm): at 24 698 rpm a dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this
-engine and SDM step over (both report 80.5 mm); at 23 894 rpm this engine finds the island at 33.7 mm
-that SDM misses (42.9 mm). Such islands lie far above the lowest lobes (2–3 mm there).
+narrower than the ladder's step, beside which ρ stays below 1 − NEAR, can be missed (by SDM too). Known
+case (x = y one mode each, benchmark modes, a/D = 0.05, 200 speeds 5 000–25 000 rpm): at 24 698 rpm a
+dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both this engine and SDM
+stepped over (both reported 80.5 mm before this search); such islands lie far above the lowest lobes (2–3
+mm there).
 
-Speed (200 speeds, x = y one mode each, a/D = 0.05; benchmarks/bench_spectral.py; the 2-core machine
+Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
+benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
+cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
+on two threads (was 75–83 ms), 137 ms on one (was 51–54 ms): about 2.1–2.6× slower. Where it goes:
+~20 ladder depths below the root at every speed (the root lies at ~1.1 b_ref here, the ladder steps by
+0.05 b_ref), ~8 for the refinement near ρ = 1 (ρ(0) = e^{−ζωT} is 0.83–0.91 here, so ρ is near 1 over
+much of the ladder), ~4 characteristic functions (Newton). The relative rungs it replaces were cheap
+because they did not check what the search from below checks; a continued root cannot skip that check
+without making the depth depend on the grid. Measured and not kept: screening the ladder on p − 2 or
+p − 1 nodes (ρ off by up to 0.46 and 0.04 on random benchmark speeds, and only 41 % of the depths below
+0.9); skipping depths by the previous speed's ρ there (|Δρ| per 100 rpm step up to 0.21 where the
+zero-order depth jumps between lobes). Figures before it (same benchmark) follow.
+Earlier (200 speeds, x = y one mode each, a/D = 0.05; the 2-core machine
 is shared, so old (the code before) and new ran alternately in the same minutes, BLAS pinned to one
 thread, best of 7 per run, three pairs each). Two threads: wall 29.7–30.5 ms, 33 envelopes/s (old
 44.5–51.8 ms, 19–22/s), CPU 58 ms per envelope (old 74–87 ms); one thread: 48.7 ms CPU (old 60.0–60.8).
@@ -126,6 +141,17 @@ ms): 3.0–3.1× in all, 1.35–1.45× per evaluation, and 2.2× fewer evaluatio
 (load ~1.9, 2026-11-23 22:46): **26.8 s**, 2 544 evaluations, 10.5 ms each, every parameter within 0.121 %
 (the issue's < 60 s and 0.5 %); what remains is mostly cold searches (the 513-set screening). The
 zero-order engine on the same points: 0.2 s, off by up to 83 % (the damping ratios; k 12–15 %).
+With issue 25's grid-independent acceptance (2026-11-27) and the refinement near ρ = 1 on, the same
+benchmark ended in a wrong basin:
+4 984 evaluations, 288.8 s at load 3–5, ζ_x 76 % and ζ_y 57 % off, RMS log residual 5.5e-2 (the code before,
+minutes earlier at load ~15: 2 544, 119.3 s, 0.121 %). The depths at the truth are unchanged (the 40
+points agree with the code before's to the digit, with 6 and 8 nodes), so the minimum is where it was;
+the path of the global search changed (depths elsewhere in the box, where bands are now found, differ).
+With the refinement near ρ = 1 off (``_spectral_kernel.NEAR`` = 0: the ladder alone, refined only in its
+unstable step) the fit is back: 0.121 %, 2 615 evaluations, 182.5 s (load 3–5): the refinement's narrow
+bands, found or not as the parameters move, make the objective rough. So :func:`settings` (what a
+problem evaluated over many calls passes to every call) turns it off: 0.121 %, 2 615 evaluations,
+135.9 s (load ~4, tests running beside it); the per-speed acceptance stays.
 Earlier measurements without gain: reusing the previous speed's Newton Jacobian, elements of one
 natural period (3× faster in slotting, but 0.9 % off, too close to the 1 % target).
 
@@ -167,13 +193,9 @@ ELEM_PERIODS = 0.5
 TOL = 1e-3
 #: relative width of the final root bracket
 RTOL = 2e-4
-#: root-search ladders (multiples of the guess, ascending): first speed of a block, then continuation
+#: the search from below's ladder (multiples of the zero-order depth, ascending; then ×1.5 per step): the
+#: same as SDM's (``sdm.FACTORS``), and every accepted root is checked against it (``_k.check_root``)
 LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
-LADDER_CONT = np.array([0.35, 0.7, 0.9, 0.98, 1.02, 1.1, 1.25, 1.5, 2.0, 3.0])
-#: depths (multiples of a continued boundary point) where the full monodromy must be stable to accept it
-CHECKS = np.array([0.7, 0.93, 0.995])
-#: the same where the continued root lies above the previous speed's boundary (a rising flank)
-CHECKS_UP = np.array([0.3, 0.4, 0.55, 0.7, 0.93, 0.995])
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
@@ -183,6 +205,9 @@ BLOCKS_PER_THREAD = 2
 #: rows within this largest |ln ratio| of (ωn, ζ, m) of their run's head start from its boundary (warm
 #: starts, :func:`_solve_warm`): the rows of a finite-difference Jacobian differ by ~1e-4
 WARM_REL = 1e-2
+#: the search from below refines a ladder step where ρ is within NEAR of 1 (``_spectral_kernel.scan_to``);
+#: :func:`settings` turns it off (0) for a problem evaluated over many calls, see the docstring
+NEAR = _k.NEAR
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
@@ -272,7 +297,7 @@ def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int | None = None) -> tuple[np.ndarray, ...]:
+           block: int | None = None, near: float = NEAR) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
     (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
@@ -286,9 +311,8 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
-        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, LADDER_CONT, wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), CHECKS, CHECKS_UP, depth, mu,
-                       n_eval)
+        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act, _elem_len(wn),
+                       _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -309,7 +333,8 @@ def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarr
     return follow, head
 
 
-def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int) -> tuple[np.ndarray, ...]:
+def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
+                near: float = NEAR) -> tuple[np.ndarray, ...]:
     """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
     the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
     are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
@@ -317,13 +342,13 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     wn, zeta, mass, act, mdir = _arrays(batch)
     follow, head = _heads(wn, zeta, mass)
     if not follow.any():
-        return _solve(batch, cutting, rs, b_ref, p)
+        return _solve(batch, cutting, rs, b_ref, p, near=near)
     cold = np.flatnonzero(~follow)
     sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
-    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p)
+    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near)
     row = np.flatnonzero(follow)
     n, kt, kr, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
@@ -333,15 +358,15 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
     with threadpool_limits(1):
-        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, wn, zeta, mass, mdir, act, el, nd, CHECKS, d_w, th_w, ok,
-                      ne_w)
+        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn, zeta, mass, mdir,
+                      act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
         if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
             i = row[e]
             d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
             _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
-                            np.ascontiguousarray(b_ref[i, s]), LADDER, LADDER_CONT, wn, zeta, mass, mdir, act, el, nd,
-                            RTOL, _w_flex(batch), CHECKS, CHECKS_UP, d_c, mu_c, ne_c)
+                            np.ascontiguousarray(b_ref[i, s]), LADDER, float(near), wn, zeta, mass, mdir, act, el, nd, RTOL,
+                            _w_flex(batch), d_c, mu_c, ne_c)
     depth[row] = d_w
     mu[row] = np.exp(1j * th_w)
     n_eval[row] = ne_w
@@ -404,7 +429,7 @@ def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
-           warm: bool = True) -> tuple[np.ndarray, np.ndarray, int]:
+           warm: bool = True, near: float = NEAR) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
@@ -419,7 +444,9 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     rs = np.ascontiguousarray(rs)
     b_ref = _b_ref(batch, cutting, rs)
     p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
-    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p)
+    if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
+        raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near)
     return depth[:, inv], mu[:, inv], p
 
 
@@ -451,19 +478,22 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
     return SpectralEnvelope(r, depth[0], lobe, hz, kind=kind, multiplier=mu[0], nodes=p)
 
 
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> np.ndarray:
-    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]."""
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None, near: float = NEAR) -> np.ndarray:
+    """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
+    from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
+    which a problem's :func:`settings` asks for)."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes)[0]
+    return _limit(batch, cutting, r, nodes, near=near)[0]
 
 
-def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
+                      near: float = NEAR) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
     no boundary exists."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, near=near)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
@@ -526,14 +556,17 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     :class:`millstab.stability.base.Engine`): ``{"nodes": p + P_STEP}``, p the node count the convergence
     check settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm] (p + P_STEP its reference), to pass to every later
     :func:`envelope_batch` call, so the depths of one problem are one smooth function of the parameters
-    (a per-call check can change p between calls, a jump of up to TOL)."""
+    (a per-call check can change p between calls, a jump of up to TOL); and ``"near": 0``: the ladder refined
+    only in its unstable step, because narrow bands found by the refinement near ρ = 1 appear and vanish as
+    the parameters move (measured: the identification benchmark then ended in a wrong basin, module
+    docstring); the depth of each speed still does not depend on the other speeds."""
     _require_modal_batch(batch)
     rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
     first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     # the finer of the two discretisations the check compared: a whole search moves the parameters, and
     # p converged at set 0 alone was measured too coarse elsewhere in the box (Example 1 at a/D = 0.1:
     # 4 at the start, 6 at the truth, 8 at fn × 1.2)
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP}
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP, "near": 0.0}
 
 
 def _require_modal_batch(batch) -> None:

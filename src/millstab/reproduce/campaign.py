@@ -129,7 +129,10 @@ def virtual_campaign(ctx) -> None:
         "over 100 calibration campaigns (--calibrate: truth drawn from the prior, labels from the likelihood's own "
         "noise model, 1 000 samples) the recommendation after 10 cuts was truly stable in 98, at a median 0.93 of "
         "the best truly stable cut's productivity (≥ 0.85 and stable in 77), the 90 % intervals covered the truth "
-        "in 86–92 % per parameter and the Brier score beat the prior's in 91; from the hammer-test SLD alone 14 "
+        "in 86–92 % per parameter and the Brier score beat the prior's in 91 (measured with the Gaussian prior "
+        "and no cap on the next test's risk; with the default cap --test-risk 0.5, 40 campaigns of 500 samples: "
+        "all 40 stable, median 0.94, ≥ 0.85 and stable in 34, the tests that chattered down from 57 % to 45 %; "
+        "with the default Student-t prior, 12 campaigns: 12 stable, median 0.91); from the hammer-test SLD alone 14 "
         "of 100 were stable, after ten evenly spaced cuts 93 at a median 0.67. With labels from the time-domain "
         "simulation and a hammer test off the truth (25 slotting campaigns) 25 were stable at a median 0.94 "
         "(the hammer-test SLD alone: 5). With model error (a/D 0.1, the same simulated labels, 50 campaigns "
@@ -141,9 +144,15 @@ def virtual_campaign(ctx) -> None:
     rep.check(f"Virtual campaign: after {CUTS} tool-chosen cuts the recommendation at risk {RISK:g} is truly stable",
               f"{camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm, true limit "
               f"{truth([camp.rec_rpm[-1]])[0]:.2f} mm", fin_ok)
-    rep.check(f"Virtual campaign: after {CUTS} cuts its productivity is ≥ 85 % of the best truly stable cut under "
-              "the same constraints (±0.25 % speed error)", f"{fin_p:.2f} (of the exact best: {fin_exact:.2f})",
-              fin_p >= 0.85)
+    # one campaign is an anecdote: "≥ 85 % of the best after 10 cuts" holds in most campaigns, not all (34 of 40
+    # calibration campaigns with the default --test-risk 0.5, docs/updating.md), so it is reported, not checked;
+    # what one campaign must show is that the cuts paid
+    p0 = camp.rec_productivity[0] if camp.rec_stable[0] else 0.0
+    rep.check(f"Virtual campaign: after {CUTS} cuts the truly stable recommendation is more productive than the one "
+              "from the hammer test alone (0 cuts; a chattering one counts as 0)",
+              f"{p0:.2f} → {fin_p:.2f} of the best truly stable cut (±0.25 % speed error; of the exact best: "
+              f"{fin_exact:.2f}); ≥ 85 % {'reached' if fin_p >= 0.85 else 'not reached'} in this campaign",
+              fin_ok and fin_p > p0)
     rep.check("Virtual campaign: the P(stable) map's Brier score after the cuts beats the prior's",
               f"{camp.brier[0]:.4f} → {camp.brier[-1]:.4f}", camp.brier[-1] < camp.brier[0])
 

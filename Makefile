@@ -32,7 +32,7 @@ demo: $(WARM)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
-## test-fast: the inner loop: every test not marked slow (well under a minute once the engines are compiled)
+## test-fast: the inner loop: every test not marked slow (about 1.5 min once the engines are compiled)
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 

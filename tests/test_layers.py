@@ -90,6 +90,24 @@ def test_only_the_doors_import_the_service_layer(graph):
             assert _reaches(graph, mod, top) == [], (mod, top)
 
 
+#: the engines and their compiled kernels: private to millstab.stability
+ENGINE_MODULES = ("millstab.stability.zoa", "millstab.stability.sdm", "millstab.stability.spectral",
+                  "millstab.stability._zoa_kernel", "millstab.stability._sdm_kernel",
+                  "millstab.stability._spectral_kernel", "millstab.stability._spectral_warm")
+
+
+def test_nothing_outside_the_engines_imports_a_specific_engine(graph):
+    """Engines are leaves (issue 26): a consumer reaches one through the registry (``get_engine(name)``) and asks
+    for capabilities; the shared helpers (``check_rpm``, ``directional_matrix``, the 2×2 closed forms in
+    ``stability._linalg``) live in the contract, not in one engine. An import of an engine module or kernel
+    from outside ``millstab.stability`` fails here."""
+    for mod, deps in graph.items():
+        if mod.startswith("millstab.stability"):
+            continue
+        direct = sorted(d for d in deps if d in ENGINE_MODULES)
+        assert direct == [], (mod, direct)
+
+
 def test_plots_import_no_engine_and_no_study(graph):
     """Plots draw results: they import model types, never an engine or a study that computes."""
     for mod in graph:

@@ -432,7 +432,7 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
     the same numbers). Returns None when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
-    from millstab.stability.zoa import check_rpm
+    from millstab.stability import check_rpm
 
     check_client(client)
     rpm = check_rpm(rpm)

@@ -129,8 +129,9 @@ def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, f
     fit JSON the plan was made around, if any (its structure holds the fixed parameters)."""
     from millstab.params import Parameterization
     from millstab.plot.identify import plot_design
-    from millstab.stability import zoa
+    from millstab.stability import get_engine
 
+    zoa = get_engine("zoa")  # the drawn SLD: zero-order, fast
     cfg, _ = modal(cfg)
     if fit is not None:
         par = _fit_view(_fit(fit, fit_source), cfg.cutting)[0]

@@ -11,7 +11,7 @@ from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
-from millstab.stability import Envelope, get_engine
+from millstab.stability import ENGINES, Envelope, get_engine
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,11 +100,18 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
     return Lobes(cfg, engine, env, compare or None, other)
 
 
-def raw_lobes(cfg: Config, rpm: np.ndarray) -> list:
-    """The individual zero-order lobes over the range of ``rpm`` (:class:`millstab.stability.zoa.Lobe`)."""
-    from millstab.stability import zoa
+def raw_lobes(cfg: Config, rpm: np.ndarray, engine: str = "zoa") -> list:
+    """The individual lobes over the range of ``rpm`` (objects with ``rpm``, ``depth`` [m], ``k``), from an engine
+    with the optional ``lobes`` capability (zoa's zero-order lobes).
 
-    return zoa.lobes(cfg.structure, cfg.cutting, float(np.min(rpm)), float(np.max(rpm)))
+    Raises:
+        InputError: the engine draws no individual lobes.
+    """
+    eng = get_engine(engine)
+    if getattr(eng, "lobes", None) is None:
+        with_lobes = [n for n in ENGINES if getattr(get_engine(n), "lobes", None) is not None]
+        raise InputError("--raw-lobes", engine, f"needs an engine that draws individual lobes ({', '.join(with_lobes)})")
+    return eng.lobes(cfg.structure, cfg.cutting, float(np.min(rpm)), float(np.max(rpm)))
 
 
 def lobes_figure(result: Lobes, points: PointSet | None = None, raw: bool = False, ax=None):

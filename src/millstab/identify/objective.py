@@ -32,7 +32,7 @@ from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.parsing import parse_assignments
 from millstab.points import PointSet, check_enough, check_speeds
-from millstab.stability import zoa
+from millstab.stability import check_rpm
 # moved by responsibility; re-exported so the old import paths keep working
 from millstab.identify.accuracy import oriented, rel_error  # noqa: E402,F401
 from millstab.identify.symmetry import (canonical, exchange_map, exchanged, swap_permutation,  # noqa: E402,F401
@@ -72,7 +72,7 @@ class Problem:
     _forward: object = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-        self.rpm = zoa.check_rpm(self.rpm)
+        self.rpm = check_rpm(self.rpm)
         self.depth_mm = np.asarray(self.depth_mm, dtype=float)
         self.weight = np.broadcast_to(np.asarray(self.weight, dtype=float), self.rpm.shape).copy()
         if self.depth_mm.shape != self.rpm.shape:

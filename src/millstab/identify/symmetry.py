@@ -12,7 +12,7 @@ import numpy as np
 
 from millstab.model import Cutting
 from millstab.params import Parameterization
-from millstab.stability import get_engine, zoa
+from millstab.stability import directional_matrix, get_engine
 
 
 def xy_symmetric_cut(cutting: Cutting, tol: float = 1e-9) -> bool:
@@ -22,7 +22,7 @@ def xy_symmetric_cut(cutting: Cutting, tol: float = 1e-9) -> bool:
     P[α]P·G (P the swap); P[α]P equals [α]ᵀ (so the spectrum is unchanged: spec(αᵀG) = spec(Gα) = spec(αG))
     exactly when α_xx = α_yy, which holds for slotting (and a few other immersions).
     """
-    a = zoa.directional_matrix(cutting)
+    a = directional_matrix(cutting)
     return abs(a[0, 0] - a[1, 1]) <= tol * max(1.0, np.abs(a).max())
 
 
@@ -77,7 +77,7 @@ def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -
     """
     if not get_engine(engine).exact_xy_exchange:
         return None
-    a = zoa.directional_matrix(cutting)
+    a = directional_matrix(cutting)
     if not a[0, 0] * a[1, 1] > 0:
         return None
     r = float(a[0, 0] / a[1, 1])
@@ -130,7 +130,7 @@ def xy_symmetry_note(order: str) -> tuple[str, str]:
 
 def exchange_note(cutting: Cutting) -> tuple[str, str]:
     """(``Fit.symmetry`` text, warning text) for the zero-order x↔y mode exchange of this cut."""
-    a_dir = zoa.directional_matrix(cutting)
+    a_dir = directional_matrix(cutting)
     symmetry = (f"x and y modes are exchangeable: with α_xx/α_yy = {a_dir[0, 0] / a_dir[1, 1]:.4g} for this cut, exchanging "
                 "(fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
                 "zero-order SLD unchanged exactly; the points cannot tell the two structures apart "

@@ -63,7 +63,9 @@ def simulated_cuts(ctx) -> None:
     """A stable and a chattering cut of the benchmark at a/D = 0.05, simulated, labelled, against SDM."""
     from millstab.plot.simulate import plot_cuts
     from millstab.simulate import detect, simulate_cut
-    from millstab.stability import sdm, zoa
+    from millstab.stability import get_engine
+
+    sdm, zoa = get_engine("sdm"), get_engine("zoa")
 
     rep = ctx.report
     cut = bench_cutting(0.05)

@@ -29,7 +29,7 @@ from millstab.sensitivity._core import (Progress, as_parameterization, bounds_fr
                                         depths_chunked, engine_module, mse_mm2, pin)
 from millstab.sensitivity.montecarlo import check_seed
 from millstab.sensitivity.results import MorrisResult, SobolResult
-from millstab.stability.zoa import check_rpm
+from millstab.stability import check_rpm
 
 #: speeds per block in the vectorized bootstrap: bounds its (N, R, block) arrays to a few tens of MB
 _SPEED_BLOCK = 8

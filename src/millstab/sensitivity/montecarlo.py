@@ -26,7 +26,7 @@ from millstab.forward import Pinned, forward
 from millstab.sensitivity._core import (Progress, as_parameterization, centre, check_neighbourhood, check_scalar,
                                         engine_module, mse_mm2, pin, rows_per_call)
 from millstab.sensitivity.results import MCResult
-from millstab.stability.zoa import check_rpm
+from millstab.stability import check_rpm
 
 #: the paper's Algorithm 2 settings (tab:MC): N = 10 000 paths, t = 0.1, ε = 1 %
 PAPER_N, PAPER_T, PAPER_EPS = 10_000, 0.1, 0.01

@@ -17,7 +17,7 @@ from millstab.params import Parameterization
 from millstab.sensitivity._core import (DEFAULT_EPS_GRID, as_parameterization, centre, check_neighbourhood, depths,
                                         engine_module, mse_mm2)
 from millstab.sensitivity.results import OATResult
-from millstab.stability.zoa import check_rpm
+from millstab.stability import check_rpm
 
 
 def oat(model: Structure | Parameterization, cutting: Cutting, rpm, eps: Sequence[float] | None = None, *,

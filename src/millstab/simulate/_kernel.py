@@ -15,7 +15,8 @@ was out of the cut leaves S unchanged, so the next tooth meets the older surface
 
 Without vibration S(ψ) = X_f(t − T) sin ψ and h = f_t sin ψ; linearised about a T-periodic motion
 h − f_t sin ψ = n·(u(t) − u(t − T)) with u = (x, y): the force of the semi-discretization engine,
-F = ½ b Kt [A(t)] (u(t) − u(t − T)) (see :mod:`millstab.stability._sdm_kernel`), same signs.
+F = ½ b Kt [A(t)] (u(t) − u(t − T)) (see :mod:`millstab.stability._sdm_kernel`), same signs; the 2×2 closed
+forms of its free flight are :mod:`millstab.stability._linalg`'s.
 
 Grid. One tooth period T = 60/(N Ω) is m equal steps ("nodes", the output samples) plus, where a
 tooth leaves the cut between two nodes, that exit instant as one extra point: every entry is at a
@@ -48,7 +49,7 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._sdm_kernel import _expm_2x2
+from millstab.stability._linalg import _expm_2x2
 
 TWO_PI = 2.0 * math.pi
 

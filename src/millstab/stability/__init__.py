@@ -18,7 +18,8 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from millstab.errors import InputError
-from millstab.stability.base import Engine, Envelope, missing_attributes  # noqa: F401  (the contract)
+from millstab.stability.base import (Engine, Envelope, check_rpm, directional_matrix,  # noqa: F401  (the contract)
+                                     missing_attributes)
 
 #: name → engine object, or the module path of a built-in engine not imported yet
 _REGISTRY: dict[str, object] = {}
@@ -97,4 +98,4 @@ register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "get_engine", "register", "unregister"]
+__all__ = ["ENGINES", "Engine", "Envelope", "check_rpm", "directional_matrix", "get_engine", "register", "unregister"]

@@ -31,6 +31,31 @@ CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchan
 ENVELOPE_SCHEMA = "millstab.envelope/1"
 
 
+def check_rpm(rpm) -> np.ndarray:
+    """Spindle speeds as a 1-D float array [rev/min]; InputError for an empty list or a speed that is not finite
+    and > 0. Shared by every engine and by the studies (a helper of the contract, not of one engine)."""
+    r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    if r.ndim != 1 or r.size == 0:
+        raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds")
+    bad = ~np.isfinite(r) | (r <= 0)
+    if bad.any():
+        raise InputError("rpm", float(r[bad][0]), "spindle speeds must be finite and > 0 rev/min")
+    return r
+
+
+def directional_matrix(cutting) -> np.ndarray:
+    """The 2×2 matrix [α] of directional-coefficient brackets (dimensionless) of ``cutting``.
+
+    α_xx = ½[cos2φ − 2Krφ + Kr sin2φ], α_xy = ½[−sin2φ − 2φ + Kr cos2φ],
+    α_yx = ½[−sin2φ + 2φ + Kr cos2φ], α_yy = ½[−cos2φ − 2Krφ − Kr sin2φ], each from φst to φex (the one compiled
+    implementation, shared with the zero-order kernel).
+    """
+    from millstab.stability._zoa_kernel import directional_brackets
+
+    a = directional_brackets(cutting.kr, cutting.entry, cutting.exit)
+    return np.array([[a[0], a[1]], [a[2], a[3]]])
+
+
 @dataclass(frozen=True, eq=False)
 class Envelope:
     """The lower envelope of the lobes at given speeds.

@@ -79,7 +79,7 @@ from millstab.model import Cutting, Structure
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.zoa import check_rpm
+from millstab.stability.base import check_rpm
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20

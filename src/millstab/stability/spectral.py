@@ -180,7 +180,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.zoa import check_rpm
+from millstab.stability.base import check_rpm
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
 P_NODES = 4

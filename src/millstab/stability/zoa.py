@@ -20,11 +20,12 @@ from typing import Iterator
 
 import numpy as np
 
-from millstab.errors import InputError
 from millstab.frf import ModalBatch, structure_receptance  # noqa: F401  (re-exported for tests)
 from millstab.model import Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
+# shared helpers of the contract, re-exported where they used to live
+from millstab.stability.base import check_rpm, directional_matrix  # noqa: F401
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
 N_BASE = 160
@@ -55,27 +56,6 @@ class Lobe:
     rpm: np.ndarray
     depth: np.ndarray
     chatter_hz: np.ndarray
-
-
-def directional_matrix(cutting: Cutting) -> np.ndarray:
-    """The 2×2 matrix [α] of directional-coefficient brackets (dimensionless).
-
-    α_xx = ½[cos2φ − 2Krφ + Kr sin2φ], α_xy = ½[−sin2φ − 2φ + Kr cos2φ],
-    α_yx = ½[−sin2φ + 2φ + Kr cos2φ], α_yy = ½[−cos2φ − 2Krφ − Kr sin2φ], each from φst to φex.
-    """
-    a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
-    return np.array([[a[0], a[1]], [a[2], a[3]]])
-
-
-def check_rpm(rpm: np.ndarray | list[float]) -> np.ndarray:
-    """Spindle speeds as a 1-D float array; raise InputError for non-positive or non-finite values."""
-    r = np.atleast_1d(np.asarray(rpm, dtype=float))
-    if r.ndim != 1 or r.size == 0:
-        raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds")
-    bad = ~np.isfinite(r) | (r <= 0)
-    if bad.any():
-        raise InputError("rpm", float(r[bad][0]), "spindle speeds must be finite and > 0 rev/min")
-    return r
 
 
 def _sorted(rpm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

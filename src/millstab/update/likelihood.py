@@ -57,8 +57,7 @@ from scipy.special import log_ndtr
 from millstab.errors import InputError
 from millstab.forward import forward
 from millstab.points import PointSet
-from millstab.stability import get_engine
-from millstab.stability import zoa
+from millstab.stability import check_rpm, get_engine
 from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
@@ -81,7 +80,7 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
         if out is not None:
             return out
     theta, factor = prior.split(u)
-    rpm = zoa.check_rpm(rpm)
+    rpm = check_rpm(rpm)
     eng = get_engine(engine)
     fwd = forward(prior.par, prior.cutting, engine)
     if with_freq and eng.reports_chatter_frequency:

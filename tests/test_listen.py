@@ -229,3 +229,35 @@ def test_of_a_chatter_family_the_member_strongest_in_displacement_is_reported():
     assert r.label == "chatter" and abs(r.chatter_hz - 800.0) < 0.2
     r = heard(chatter_hz=800.0, ratio=0.5, tones=[(1234.5, 0.6)])
     assert abs(r.chatter_hz - 1234.5) < 0.2
+
+
+def test_uploaded_cuts_csv_may_only_name_recordings_uploaded_in_the_session(tmp_path, monkeypatch):
+    """The web app's cuts CSV: a recording cell naming a server file ("/etc/passwd", a folder, a file not
+    uploaded) is refused before that file is looked at or opened; an uploaded name is read from where the
+    session saved it and the notes name it as the user uploaded it."""
+    from pathlib import Path
+
+    from millstab import api
+    from millstab.io.recordings import write_recording
+
+    saved = write_recording(tmp_path / "rec_a.wav", FS, milling_sound(teeth=2, rpm=9000.0, chatter_hz=870.0,
+                                                                       ratio=0.5))
+    csv = tmp_path / "cuts_c.csv"
+    csv.write_text("rpm,depth_mm,recording\n9000,3,a.wav\n")
+    pts, notes = api.label_from_recordings(csv, teeth=2, uploads={"a.wav": saved})
+    assert pts.label[0] == "chatter" and abs(pts.chatter_hz[0] - 870.0) < 0.2 and "heard in a.wav" in notes[0]
+    touched = []
+    for meth in ("exists", "is_file", "open", "read_bytes", "read_text", "stat"):
+        orig = getattr(Path, meth)
+
+        def spy(self, *a, _orig=orig, **k):
+            touched.append(str(self))
+            return _orig(self, *a, **k)
+
+        monkeypatch.setattr(Path, meth, spy)
+    for bad in ("/etc/passwd", "../rec_a.wav", "sub/a.wav", "b.wav", str(saved)):
+        csv.write_text(f"rpm,depth_mm,recording\n9000,3,{bad}\n")
+        touched.clear()
+        with pytest.raises(InputError, match="uploaded in the same session"):
+            api.label_from_recordings(csv, teeth=2, uploads={"a.wav": saved})
+        assert not any("passwd" in t or t.endswith(bad.lstrip("./")) and t != str(csv) for t in touched), touched

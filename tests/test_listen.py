@@ -261,3 +261,26 @@ def test_uploaded_cuts_csv_may_only_name_recordings_uploaded_in_the_session(tmp_
         with pytest.raises(InputError, match="uploaded in the same session"):
             api.label_from_recordings(csv, teeth=2, uploads={"a.wav": saved})
         assert not any("passwd" in t or t.endswith(bad.lstrip("./")) and t != str(csv) for t in touched), touched
+
+
+def test_flip_chatter_at_one_and_a_half_tooth_passing_with_two_teeth():
+    """Two teeth: flip chatter at 1.5 f_T = 3 f_s (the lowest odd multiple of f_T/2 above the tooth
+    passing) with its 2.5 f_T member weaker in displacement: 1.5 f_T is reported within
+    max(2 Hz, 0.5 %). Failed on the old code, which masked 1.5 f_T as a runout line (and then heard 2.5 f_T:
+    4 of 38 chatter cuts of ``bench_listen.py --cuts 100``)."""
+    f_t = 2 * 10000.0 / 60.0
+    # (a flip line must stand FLIP_RATIO = 10x in power over the runout at f_s: runout 0.3 and 0.1 of the forced)
+    for ratio, side, runout in ((1.0, 0.0, 0.3), (0.5, 0.6, 0.1)):
+        r = heard(teeth=2, chatter_hz=1.5 * f_t, ratio=ratio, runout=runout, tones=[(2.5 * f_t, side)] if side else ())
+        assert r.label == "chatter" and abs(r.chatter_hz - 1.5 * f_t) < max(2.0, 0.005 * 1.5 * f_t), (ratio, r.chatter_hz)
+    # runout alone (3 f_s included) stays stable
+    r = heard(teeth=2, rpm=10000.0, runout=1.0)
+    assert r.label == "stable", (r.chatter_hz, r.score)
+
+
+def test_of_a_chatter_family_a_mirror_member_counts_too():
+    """Chatter at 600 Hz (f_T = 500 Hz) with its mirror member 3 f_T − 600 = 900 Hz louder in the
+    recording but weaker in displacement (power / f⁴): 600 Hz is reported. The old code took only
+    f + k f_T as members and reported 900 Hz."""
+    r = heard(chatter_hz=600.0, ratio=0.5, tones=[(900.0, 0.6)])
+    assert r.label == "chatter" and abs(r.chatter_hz - 600.0) < 2.0, r.chatter_hz

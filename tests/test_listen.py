@@ -284,3 +284,24 @@ def test_of_a_chatter_family_a_mirror_member_counts_too():
     f + k f_T as members and reported 900 Hz."""
     r = heard(chatter_hz=600.0, ratio=0.5, tones=[(900.0, 0.6)])
     assert r.label == "chatter" and abs(r.chatter_hz - 600.0) < 2.0, r.chatter_hz
+
+
+def test_random_hand_made_cuts_hear_the_chatter_frequency_within_the_tolerance():
+    """Issue 29's target on hand-made signals: 2-4 teeth, 3 000-20 000 rpm read up to 1 % off, chatter
+    200-4 000 Hz at 0.16-4 × the forced vibration (clear of the true spindle harmonics by 15 Hz: a line on
+    one is masked, a documented limit), hum, noise, 44.1/48 kHz, 1.5-5 s: every one is chatter within
+    max(2 Hz, 0.5 %) (48 of 48 such cases measured with seed 1; 14 here to keep the test short)."""
+    rng = np.random.default_rng(7)
+    done = 0
+    while done < 14:
+        teeth, rpm, fs = int(rng.integers(2, 5)), float(rng.uniform(3000, 20000)), int(rng.choice([44100, 48000]))
+        true_rpm, fc = rpm * (1 + float(rng.uniform(-0.01, 0.01))), float(rng.uniform(200, 4000))
+        f_s = true_rpm / 60.0
+        if abs(fc - round(fc / f_s) * f_s) < 15:
+            continue
+        x = milling_sound(fs=fs, seconds=float(rng.uniform(1.5, 5)), rpm=rpm, true_rpm=true_rpm, teeth=teeth,
+                          chatter_hz=fc, ratio=float(10 ** rng.uniform(-0.8, 0.6)), hum=float(rng.choice([0, 0.3, 1.0])),
+                          mains=float(rng.choice([50.0, 60.0])), noise=float(rng.uniform(0.01, 0.2)), seed=done)
+        r = listen(x, fs, rpm, teeth)
+        assert r.label == "chatter" and abs(r.chatter_hz - fc) <= max(2.0, 0.005 * fc), (teeth, rpm, fc, r.chatter_hz)
+        done += 1

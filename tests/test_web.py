@@ -519,6 +519,7 @@ def test_cuts_with_recordings_are_labelled_by_listening_and_server_paths_refused
     either order; the labels and chatter frequency are heard in the recording and the page says which
     label came from which recording. A CSV naming /etc/passwd is refused without opening it."""
     from listen_synth import milling_sound
+
     from millstab.io.recordings import write_recording
 
     page = app

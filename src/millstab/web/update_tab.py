@@ -118,8 +118,9 @@ class UpdateTab:
         self.drop_error.object = ""
         self.s.cuts = pts
         self.cuts_note.object = f'<span class="ms-done">{esc(name)}: {len(pts)} points, labels heard in the recordings</span>'
-        self.heard.object = html_table(("cut", "label and where it came from"),
-                                       [(str(i + 1), n) for i, n in enumerate(notes)], "heard")
+        left = "<style>table.ms-table.heard td, table.ms-table.heard th { text-align: left; }</style>"  # text, not numbers
+        self.heard.object = left + html_table(("cut", "label and where it came from"),
+                                              [(str(i + 1), n) for i, n in enumerate(notes)], "heard")
 
     def run(self) -> None:
         cfg, cuts = self.s.cfg, self.s.cuts

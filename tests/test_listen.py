@@ -229,3 +229,79 @@ def test_of_a_chatter_family_the_member_strongest_in_displacement_is_reported():
     assert r.label == "chatter" and abs(r.chatter_hz - 800.0) < 0.2
     r = heard(chatter_hz=800.0, ratio=0.5, tones=[(1234.5, 0.6)])
     assert abs(r.chatter_hz - 1234.5) < 0.2
+
+
+def test_uploaded_cuts_csv_may_only_name_recordings_uploaded_in_the_session(tmp_path, monkeypatch):
+    """The web app's cuts CSV: a recording cell naming a server file ("/etc/passwd", a folder, a file not
+    uploaded) is refused before that file is looked at or opened; an uploaded name is read from where the
+    session saved it and the notes name it as the user uploaded it."""
+    from pathlib import Path
+
+    from millstab import api
+    from millstab.io.recordings import write_recording
+
+    saved = write_recording(tmp_path / "rec_a.wav", FS, milling_sound(teeth=2, rpm=9000.0, chatter_hz=870.0,
+                                                                       ratio=0.5))
+    csv = tmp_path / "cuts_c.csv"
+    csv.write_text("rpm,depth_mm,recording\n9000,3,a.wav\n")
+    pts, notes = api.label_from_recordings(csv, teeth=2, uploads={"a.wav": saved})
+    assert pts.label[0] == "chatter" and abs(pts.chatter_hz[0] - 870.0) < 0.2 and "heard in a.wav" in notes[0]
+    touched = []
+    for meth in ("exists", "is_file", "open", "read_bytes", "read_text", "stat"):
+        orig = getattr(Path, meth)
+
+        def spy(self, *a, _orig=orig, **k):
+            touched.append(str(self))
+            return _orig(self, *a, **k)
+
+        monkeypatch.setattr(Path, meth, spy)
+    for bad in ("/etc/passwd", "../rec_a.wav", "sub/a.wav", "b.wav", str(saved)):
+        csv.write_text(f"rpm,depth_mm,recording\n9000,3,{bad}\n")
+        touched.clear()
+        with pytest.raises(InputError, match="uploaded in the same session"):
+            api.label_from_recordings(csv, teeth=2, uploads={"a.wav": saved})
+        assert not any("passwd" in t or t.endswith(bad.lstrip("./")) and t != str(csv) for t in touched), touched
+
+
+def test_flip_chatter_at_one_and_a_half_tooth_passing_with_two_teeth():
+    """Two teeth: flip chatter at 1.5 f_T = 3 f_s (the lowest odd multiple of f_T/2 above the tooth
+    passing) with its 2.5 f_T member weaker in displacement: 1.5 f_T is reported within
+    max(2 Hz, 0.5 %). Failed on the old code, which masked 1.5 f_T as a runout line (and then heard 2.5 f_T:
+    4 of 38 chatter cuts of ``bench_listen.py --cuts 100``)."""
+    f_t = 2 * 10000.0 / 60.0
+    # (a flip line must stand FLIP_RATIO = 10x in power over the runout at f_s: runout 0.3 and 0.1 of the forced)
+    for ratio, side, runout in ((1.0, 0.0, 0.3), (0.5, 0.6, 0.1)):
+        r = heard(teeth=2, chatter_hz=1.5 * f_t, ratio=ratio, runout=runout, tones=[(2.5 * f_t, side)] if side else ())
+        assert r.label == "chatter" and abs(r.chatter_hz - 1.5 * f_t) < max(2.0, 0.005 * 1.5 * f_t), (ratio, r.chatter_hz)
+    # runout alone (3 f_s included) stays stable
+    r = heard(teeth=2, rpm=10000.0, runout=1.0)
+    assert r.label == "stable", (r.chatter_hz, r.score)
+
+
+def test_of_a_chatter_family_a_mirror_member_counts_too():
+    """Chatter at 600 Hz (f_T = 500 Hz) with its mirror member 3 f_T − 600 = 900 Hz louder in the
+    recording but weaker in displacement (power / f⁴): 600 Hz is reported. The old code took only
+    f + k f_T as members and reported 900 Hz."""
+    r = heard(chatter_hz=600.0, ratio=0.5, tones=[(900.0, 0.6)])
+    assert r.label == "chatter" and abs(r.chatter_hz - 600.0) < 2.0, r.chatter_hz
+
+
+def test_random_hand_made_cuts_hear_the_chatter_frequency_within_the_tolerance():
+    """Issue 29's target on hand-made signals: 2-4 teeth, 3 000-20 000 rpm read up to 1 % off, chatter
+    200-4 000 Hz at 0.16-4 × the forced vibration (clear of the true spindle harmonics by 15 Hz: a line on
+    one is masked, a documented limit), hum, noise, 44.1/48 kHz, 1.5-5 s: every one is chatter within
+    max(2 Hz, 0.5 %) (48 of 48 such cases measured with seed 1; 14 here to keep the test short)."""
+    rng = np.random.default_rng(7)
+    done = 0
+    while done < 14:
+        teeth, rpm, fs = int(rng.integers(2, 5)), float(rng.uniform(3000, 20000)), int(rng.choice([44100, 48000]))
+        true_rpm, fc = rpm * (1 + float(rng.uniform(-0.01, 0.01))), float(rng.uniform(200, 4000))
+        f_s = true_rpm / 60.0
+        if abs(fc - round(fc / f_s) * f_s) < 15:
+            continue
+        x = milling_sound(fs=fs, seconds=float(rng.uniform(1.5, 5)), rpm=rpm, true_rpm=true_rpm, teeth=teeth,
+                          chatter_hz=fc, ratio=float(10 ** rng.uniform(-0.8, 0.6)), hum=float(rng.choice([0, 0.3, 1.0])),
+                          mains=float(rng.choice([50.0, 60.0])), noise=float(rng.uniform(0.01, 0.2)), seed=done)
+        r = listen(x, fs, rpm, teeth)
+        assert r.label == "chatter" and abs(r.chatter_hz - fc) <= max(2.0, 0.005 * fc), (teeth, rpm, fc, r.chatter_hz)
+        done += 1

@@ -512,3 +512,39 @@ def test_login_required_beyond_localhost(browser, tmp_path, caplog, host):
         wait_sld(page, expected_sld(x="5 N/um"))
         page.context.close()
     assert "horse" not in caplog.text
+
+
+def test_cuts_with_recordings_are_labelled_by_listening_and_server_paths_refused(app, tmp_path):
+    """Issue 29.3 in the app: a cuts CSV with a ``recording`` column and the WAV it names, uploaded in
+    either order; the labels and chatter frequency are heard in the recording and the page says which
+    label came from which recording. A CSV naming /etc/passwd is refused without opening it."""
+    from listen_synth import milling_sound
+
+    from millstab.io.recordings import write_recording
+
+    page = app
+    teeth = api.config("example:ex3").cutting.teeth
+    wav = write_recording(tmp_path / "cut1.wav", 48000, milling_sound(teeth=teeth, rpm=9000.0, chatter_hz=870.0,
+                                                                     ratio=0.5, seconds=2.0))
+    cuts = tmp_path / "cuts_rec.csv"
+    cuts.write_text("rpm,depth_mm,label,recording\n9000,3,,cut1.wav\n12000,0.5,stable,\n")
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", cuts)
+    # the recording is not uploaded yet: the page says which one it waits for
+    assert "cut1.wav" in error_text(page, "e-cuts-upload")
+    T.upload(page, "drop-recordings", wav)
+    page.locator(".cuts-heard").filter(has_text="heard in cut1.wav").wait_for()
+    heard = T.text(page, "cuts-heard")
+    got = re.search(r"9000 rpm, 3 mm: chatter at ([0-9.]+) Hz \(heard in cut1\.wav", heard)
+    assert got and abs(float(got.group(1)) - 870.0) < 2.0, heard
+    assert "12000 rpm, 0.5 mm: stable (from the file)" in heard
+    page.locator(".cuts-note").filter(has_text="cuts_rec.csv: 2 points").wait_for()
+    page.wait_for_timeout(500)
+    shot(page, "update_recordings")
+    evil = tmp_path / "evil_cuts.csv"
+    evil.write_text("rpm,depth_mm,recording\n9000,3,/etc/passwd\n")
+    T.upload(page, "drop-cuts", evil)
+    page.locator(".e-cuts-upload .ms-error").filter(has_text="/etc/passwd").wait_for()
+    msg = error_text(page, "e-cuts-upload")
+    assert "uploaded in the same session" in msg and "root:" not in page.content()
+    T.tab(page, "Tool and cut")

@@ -357,3 +357,47 @@ def test_tool_config_upload_shows_its_tip_frf():
         np.testing.assert_array_equal(s.cfg.structure.frf.freq_hz, ref.structure.frf.freq_hz)
     finally:
         s.close()
+
+
+def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monkeypatch):
+    """Issue 29.3 without a browser: the cuts CSV with a recording column and the WAV it names (either
+    order) label the session's cuts by listening, and the page lists which label came from which
+    recording; a CSV naming /etc/passwd or a name not uploaded is refused and no file of that name is
+    opened (the reader is spied on); a removed recording is forgotten."""
+    import io as _io
+
+    from scipy.io import wavfile
+
+    from listen_synth import milling_sound
+
+    import millstab.io.recordings as recordings
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    teeth = s.cfg.cutting.teeth
+    buf = _io.BytesIO()
+    wavfile.write(buf, 48000, (milling_sound(teeth=teeth, rpm=9000.0, chatter_hz=870.0, ratio=0.5, seconds=2.0)
+                               * 32767).astype(np.int16))
+    opened = []
+    real = recordings.read_recording
+    monkeypatch.setattr(recordings, "read_recording", lambda p, *a: (opened.append(str(p)), real(p, *a))[1])
+    try:
+        tab.drop.value = {"cuts.csv": "rpm,depth_mm,label,recording\n9000,3,,cut 1.wav\n12000,0.5,stable,\n"}
+        assert "cut 1.wav" in tab.drop_error.object and s.cuts is None and not opened
+        tab.rec_drop.value = {"cut 1.wav": buf.getvalue()}
+        assert tab.drop_error.object == "" and list(s.cuts.label) == ["chatter", "stable"]
+        assert abs(s.cuts.chatter_hz[0] - 870.0) < 2.0
+        assert "heard in cut 1.wav" in tab.heard.object and "(from the file)" in tab.heard.object
+        assert "2 points, labels heard" in tab.cuts_note.object
+        for bad in ("/etc/passwd", "../cuts_cuts.csv", "other.wav"):
+            opened.clear()
+            tab.drop.value = {"evil.csv": f"rpm,depth_mm,recording\n9000,3,{bad}\n"}
+            assert "uploaded in the same session" in tab.drop_error.object and not opened, bad
+            assert "root:" not in tab.drop_error.object and list(s.cuts.label) == ["chatter", "stable"]
+        tab.rec_drop.value = {}
+        assert tab.recordings == {}
+        tab.rec_drop.value = {"notes.txt": b"x"}
+        assert ".wav, .csv" in tab.rec_error.object and tab.recordings == {}
+    finally:
+        s.close()

@@ -94,15 +94,18 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
     return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
 
 
-def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None):
+def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None):
     """The cuts of a CSV with a ``recording`` column (a path relative to the CSV; empty: keep the row's
     own label) labelled by listening: a :class:`~millstab.points.PointSet` with label and chatter_hz
-    from each recording, and one line per cut saying where its label came from."""
+    from each recording, and one line per cut saying where its label came from. With ``uploads``
+    (uploaded file name → saved path, the web app) a recording may only name an uploaded file
+    (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened."""
     from millstab.io.recordings import read_cuts_with_recordings, read_recording
     from millstab.listen import listen
     from millstab.points import PointSet
 
-    rows = read_cuts_with_recordings(cuts_csv)
+    rows = read_cuts_with_recordings(cuts_csv, uploads)
+    name_of = {v: k for k, v in (uploads or {}).items()}  # saved path → the name the user uploaded
     labels, hz, notes = [], [], []
     for r in rows:
         if r["recording"] is None:
@@ -116,7 +119,7 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None):
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
         notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
-                     + f" (heard in {Path(r['recording']).name}, score {res.score:.3g})")
+                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g})")
     rpm = np.array([r["rpm"] for r in rows])
     depth = np.array([r["depth_mm"] for r in rows])
     weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])

@@ -133,10 +133,14 @@ def write_recording(path: PathLike, fs: float, signal: np.ndarray, protect: Iter
 CUT_LABELS = ("stable", "marginal", "chatter")
 
 
-def read_cuts_with_recordings(path: PathLike) -> list[dict]:
+def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = None) -> list[dict]:
     """Rows of a cuts CSV ``rpm,depth_mm[,label][,chatter_hz][,weight],recording`` as dicts (rpm, depth_mm,
     label, chatter_hz, weight, recording: an existing path resolved relative to the CSV's folder, or None
-    where the cell is empty; that row then needs its own label). Other columns are ignored."""
+    where the cell is empty; that row then needs its own label). Other columns are ignored.
+
+    With ``uploads`` (the web app: uploaded file name → where the session saved it) a recording cell may
+    only be the name of a file uploaded in the same session: anything else (a server path, a name with a
+    folder, a file not uploaded) is refused before any file is looked at or opened."""
     p = Path(path)
     if not p.exists():
         raise InputError("cuts", str(path), "file does not exist")
@@ -166,7 +170,13 @@ def read_cuts_with_recordings(path: PathLike) -> list[dict]:
 
         rec = cell["recording"]
         label = cell.get("label", "").lower()
-        if rec:
+        if rec and uploads is not None:
+            if rec not in uploads or Path(rec).name != rec:
+                have = ", ".join(sorted(uploads)) or "none yet"
+                raise InputError(f"{p.name}:{line} recording", rec,
+                                 f"the name of a recording uploaded in the same session (uploaded: {have})")
+            rp = uploads[rec]
+        elif rec:
             rp = Path(rec) if Path(rec).is_absolute() else p.parent / rec
             if not rp.exists():
                 raise InputError(f"{p.name}:{line} recording", rec, f"an existing file (looked for {rp})")

@@ -28,7 +28,9 @@ The steps, with every threshold and the reason for it:
    least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±1 bin).
 4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
    harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
-   One exception: with an even number of teeth, a line at an odd multiple of f_T/2 above 1.5 f_T
+   One exception: with an even number of teeth, a line at an odd multiple of f_T/2 from 1.5 f_T up
+   (1.5 f_T = 3 f_s included: a two-tooth slot's flip chatter sits there; masking it made the 2.5 f_T
+   member heard instead on 4 of 38 chatter cuts of the benchmark at 100 cuts)
    ``FLIP_RATIO`` = 10× stronger (in power) than every runout line below 1.5 f_T stays a chatter candidate:
    period-doubling (flip) chatter falls exactly on a spindle harmonic there, and runout falls with
    its order instead of peaking near a mode.
@@ -45,7 +47,8 @@ The steps, with every threshold and the reason for it:
    full-window spectrum (finer bins) by a parabola through log-magnitudes. Its power is the excess
    over its contiguous region above twice the floor (a modulated chatter is a hump), at least its
    peak density times the window's noise bandwidth (a line beside a masked one).
-   One chatter sounds as a family f_c + k f_T (the tooth passing modulates it); the chatter frequency
+   One chatter sounds as a family f_c + k f_T and its mirrors k f_T − f_c (the tooth passing modulates
+   it; a lower sideband below zero folds over); the chatter frequency
    of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
    accelerometer both follow acceleration, whose power is f⁴ times the displacement's, so of the
    family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 3, each ≥ ``FAMILY_SHARE`` = 2 % of the
@@ -368,14 +371,17 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         sync[lo[j]:hi[j]] = True
         if hi[j] > lo[j]:
             line_pow[j] = p[lo[j]:hi[j]].max()
-    # flip candidates: odd multiples of f_T/2 (even teeth only) above 1.5 f_T, far above the runout
+    # flip candidates: odd multiples of f_T/2 (even teeth only) from 1.5 f_T up, far above the runout
     keep = np.zeros(ks.size, bool)
     if teeth % 2 == 0:
-        runout = (ks % teeth != 0) & (line_f < 1.5 * f_t)  # the runout lines below any flip candidate
+        # the runout lines below any flip candidate (1.5 f_T itself is a candidate: flip chatter of a
+        # two-tooth slot sits there, at 3 f_s; measured: 4 of 38 chatter cuts of bench_listen at 100 cuts)
+        below = line_f < (1.5 * teeth - 0.5) * f_s
+        runout = (ks % teeth != 0) & below
         ref = float(line_pow[runout].max()) if runout.any() else 0.0
         half_order = 2 * ks / teeth  # line frequency in units of f_T/2
         odd = (np.abs(half_order - np.round(half_order)) < 1e-9) & (np.round(half_order) % 2 == 1)
-        keep = odd & (line_f > 1.5 * f_t) & (line_pow > FLIP_RATIO * ref)
+        keep = odd & ~below & (line_pow > FLIP_RATIO * ref)
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     # mains lines
@@ -464,12 +470,15 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
 
 
 def _family_member(f: np.ndarray, excess: np.ndarray, peaks: np.ndarray, j: int, f_t: float, tol: float) -> int:
-    """Of the chatter family f_j + k f_T (|k| ≤ FAMILY_ORDERS) among the prominent peaks, the member
+    """Of the chatter family f_j + k f_T (|k| ≤ FAMILY_ORDERS) and its mirrors k f_T − f_j (1 ≤ k ≤
+    FAMILY_ORDERS) among the prominent peaks, the member
     strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is f⁴ times
     the displacement's), counting members with at least FAMILY_SHARE of the strongest's excess."""
     k = (f[peaks] - f[j]) / f_t
-    fam = peaks[(np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS)
-                & (excess[peaks] >= FAMILY_SHARE * excess[j])]
+    km = (f[peaks] + f[j]) / f_t  # mirror members k f_T − f_j (the modulation's lower sidebands fold over)
+    member = (((np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS))
+              | ((np.abs(km - np.round(km)) * f_t <= tol) & (np.round(km) >= 1) & (np.round(km) <= FAMILY_ORDERS)))
+    fam = peaks[member & (excess[peaks] >= FAMILY_SHARE * excess[j])]
     if fam.size <= 1:
         return j
     return int(fam[np.argmax(excess[fam] / f[fam] ** 4)])

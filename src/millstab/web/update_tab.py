@@ -8,12 +8,17 @@ import numpy as np
 import panel as pn
 
 from millstab import api
+from millstab.errors import InputError
 from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
 from millstab.web.identify_tab import points_upload
 from millstab.web.jobs import JobBar
 from millstab.web.plots import map_figure
 from millstab.web.state import Session
-from millstab.web.uploads import POINTS_TYPES, dropper
+from millstab.web.uploads import MAX_FRF_BYTES, MAX_TEXT_BYTES, POINTS_TYPES, check_type, dropper, latest, save_in
+
+#: recordings of the cuts: WAV (a microphone) or CSV time_s,signal (an accelerometer), each at most this large
+RECORDING_TYPES = (".wav", ".csv")
+MAX_RECORDING_BYTES = MAX_FRF_BYTES
 
 #: speeds of the P(stable) map (the map's cost is speeds × posterior samples)
 MAP_SPEEDS = 240
@@ -24,7 +29,17 @@ class UpdateTab:
         self.s = session
         self.drop = dropper("test cuts CSV", POINTS_TYPES, css="drop-cuts")
         self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm,label[,weight][,chatter_hz]; label '
-                                   'stable, chatter or marginal</span>', width=330)
+                                   'stable, chatter or marginal; or a column <code>recording</code> naming a recording '
+                                   'uploaded below (labels and chatter frequencies are then heard in it)</span>', width=330)
+        # the recordings of the cuts (several files): uploaded name → where the session keeps it
+        self.rec_drop = pn.widgets.FileDropper(
+            label=f"recordings of the cuts: {', '.join(RECORDING_TYPES)} (≤ {MAX_RECORDING_BYTES / 1e6:g} MB each)",
+            accepted_filetypes=[], max_file_size=f"{MAX_RECORDING_BYTES / 1e6:g}MB", multiple=True, layout="compact",
+            css_classes=["drop-recordings"], width=300)
+        self.rec_error = pn.pane.HTML("", css_classes=["e-recordings-upload"])
+        self.heard = pn.pane.HTML("", css_classes=["cuts-heard"])
+        self.recordings: dict = {}
+        self.cuts_csv = None  # (name, saved path) of a cuts CSV with a recording column
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
         self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
         self.use_points = pn.widgets.Checkbox(label="use the boundary points (Identify) as well", value=False)
@@ -39,9 +54,73 @@ class UpdateTab:
         self.map_job = JobBar("Map and recommend", "map")
         self.rec = TextBox("recommendation", width=900, height=None)
         self.plot = pn.Column(sizing_mode="stretch_width")
-        self.drop.param.watch(lambda e: points_upload(session, "cuts", self.drop, self.drop_error, self.cuts_note), "value")
+        self.drop.param.watch(lambda e: self._cuts_uploaded(), "value")
+        self.rec_drop.param.watch(lambda e: self._recordings_uploaded(), "value")
         self.job.run.on_click(lambda e: self.run())
         self.map_job.run.on_click(lambda e: self.map())
+
+    # --- cuts with recordings ------------------------------------------------------------------------
+    def _cuts_uploaded(self) -> None:
+        """A cuts CSV: labelled rows (the points reader), or with a ``recording`` column, labelled by
+        listening to the recordings it names (uploaded in this session only)."""
+        from millstab.io.recordings import has_recording_column
+
+        self.drop_error.object = self.heard.object = ""
+        self.cuts_csv = None
+        try:
+            got = latest(self.drop, MAX_TEXT_BYTES, POINTS_TYPES, "points CSV")
+        except InputError as exc:
+            self.drop_error.object = error_html(str(exc))
+            return
+        if got is None:
+            return
+        path = save_in(self.s.folder, "cuts", *got)  # not an FRF: kept out of the session's FRF names
+        if not has_recording_column(path):
+            points_upload(self.s, "cuts", self.drop, self.drop_error, self.cuts_note)
+            return
+        self.cuts_csv = (got[0], path)
+        self._listen()
+
+    def _recordings_uploaded(self) -> None:
+        self.rec_error.object = ""
+        errors = []
+        value = self.rec_drop.value or {}
+        for name in [n for n in self.recordings if n not in value]:  # removed from the drop zone ("tap to undo")
+            del self.recordings[name]
+        for name, content in value.items():
+            if name in self.recordings:
+                continue
+            try:
+                check_type(name, RECORDING_TYPES, "recording")
+                size = len(content.encode("utf-8")) if isinstance(content, str) else len(content)
+                api.check_size(size, name, MAX_RECORDING_BYTES)
+            except InputError as exc:
+                errors.append(error_html(str(exc)))
+                continue
+            self.recordings[name] = save_in(self.s.folder, "rec", name, content)
+        self.rec_error.object = "".join(errors)
+        if self.cuts_csv is not None:
+            self._listen()
+
+    def _listen(self) -> None:
+        """Label the uploaded cuts CSV by its recordings (:func:`millstab.api.label_from_recordings`); a
+        recording cell may only name a file uploaded here (a server path is refused unopened)."""
+        name, path = self.cuts_csv
+        cfg = self.s.cfg
+        if cfg is None:
+            self.drop_error.object = error_html("need a valid config (Tool and cut): listening needs the number of teeth")
+            return
+        try:
+            pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings))
+        except InputError as exc:
+            self.drop_error.object = error_html(str(exc))
+            return
+        self.drop_error.object = ""
+        self.s.cuts = pts
+        self.cuts_note.object = f'<span class="ms-done">{esc(name)}: {len(pts)} points, labels heard in the recordings</span>'
+        left = "<style>table.ms-table.heard td, table.ms-table.heard th { text-align: left; }</style>"  # text, not numbers
+        self.heard.object = left + html_table(("cut", "label and where it came from"),
+                                              [(str(i + 1), n) for i, n in enumerate(notes)], "heard")
 
     def run(self) -> None:
         cfg, cuts = self.s.cfg, self.s.cuts
@@ -101,7 +180,8 @@ class UpdateTab:
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
 
     def view(self):
-        inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note), self.use_points,
+        inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
+                         pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.map_job), self.rec.view(), title="P(stable) and recommendation",

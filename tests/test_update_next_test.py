@@ -72,3 +72,32 @@ def test_the_blind_spot_rule_holds_only_when_nothing_bounds_the_recommendation(c
     for rr, dd in ((rec_rpm * (1 + 1.1 * BLIND_SPOT_WIDTH), rec_depth), (rec_rpm, 0.9 * rec_depth)):
         assert blind_spot(post_with([rr, 6000.0, 8000.0], [dd, 2.0, 2.0], ["stable", "chatter", "chatter"]),
                           rec_rpm, rec_depth) is not None
+
+
+def test_the_next_test_criterion_uses_the_learned_label_model():
+    """The criterion's label probability is ε + (1 − 2ε)·Φ((b − b_lim)/(s·σ_b)) with each sample's LEARNED ε and
+    s (``post.label_error``, ``post.sigma_depth_factor``), as in the likelihood and ``predict_cuts``. Fails on the
+    old code, which used the config's fixed ε and s = 1."""
+    from scipy.special import ndtr
+
+    from millstab.update.decide import next_test
+
+    rng = np.random.default_rng(7)
+    n = SAMPLES.shape[0]
+    assert PRIOR.noise_names == ("label_error", "sigma_depth")
+    noise = np.c_[rng.uniform(0.15, 0.3, n), rng.uniform(2.0, 4.0, n)]  # far from the config's ε = 0.02, s = 1
+    post = Posterior(PRIOR, SAMPLES, cuts={"rpm": [5000.0, 9000.0]}, noise=noise)
+    speeds = np.linspace(*RANGE, 30)
+    blim, _ = limits(PRIOR, post.u, speeds, "zoa")
+    nt = next_test(post, RANGE, 7000.0, 0.2, grid=(speeds, blim), test_risk=0.5)
+    i = int(np.argmin(np.abs(speeds - nt["rpm"])))
+    b = nt["depth_mm"]
+    phi = ndtr((b - blim[:, i]) / (PRIOR.sigma_depth_mm(np.array([b]))[0] * post.sigma_depth_factor))
+    pe = post.label_error + (1 - 2 * post.label_error) * phi
+
+    def h(p):
+        return -(p * np.log(p) + (1 - p) * np.log(1 - p))
+
+    assert nt["p_label_chatter"] == pytest.approx(pe.mean(), abs=1e-12)
+    assert nt["p_chatter"] == pytest.approx(phi.mean(), abs=1e-12)
+    assert nt["information_nats"] == pytest.approx(h(pe.mean()) - h(pe).mean(), abs=1e-9)

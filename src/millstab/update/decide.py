@@ -41,11 +41,11 @@ whether the process chatters).
   0.79, docs/updating.md).
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
-  between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
-  probability of the likelihood (ε + (1 − 2ε)·Φ with a label error ε) — "BALD" — times the cut's productivity relative to the
+  between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = ε + (1 − 2ε)·Φ((b − b_lim(θ))/(s·σ_b)) the label
+  probability of the likelihood with each sample's learned label error ε and depth-noise factor s — "BALD" — times the cut's productivity relative to the
   recommendation). It is the test most likely both to shrink the uncertainty and to move the
   recommendation to a more productive cut; evaluated on a subsample of the posterior. Its probability of
-  chattering (the process's, E_θ Φ((b − b_lim)/σ_b), without the label error) is capped at ``test_risk``
+  chattering (the process's, E_θ Φ((b − b_lim)/(s·σ_b)), without the label error) is capped at ``test_risk``
   (a chattering test costs a part or a tool), and a cut the data guard forbids is never proposed. When no
   such cut is more productive than the recommendation (or none is informative), the next test is the
   recommendation itself. **Blind spot:** tests more productive than the recommendation that chatter bound
@@ -445,9 +445,9 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    eps = float(post.prior.label_error)
-    pbar, info = label_information(blim, depths, sig, eps)  # (S, D): P(chatter label), mutual information [nats]
-    p_process = np.clip((pbar - eps) / (1 - 2 * eps), 0.0, 1.0)  # the cut's own chance to chatter, no label error
+    # the posterior's own label model: each sample's learned label error ε and depth-noise factor s
+    # (S, D): P(chatter label), mutual information [nats], the cut's own chance to chatter (no label error)
+    pbar, info, p_process = label_information(blim, depths, sig, post.label_error[rows], post.sigma_depth_factor[rows])
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref

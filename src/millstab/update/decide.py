@@ -429,12 +429,16 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     rng = np.random.default_rng(seed)
     n = post.u.shape[0]
     rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
-    blind = blind_spot(post, rpm_rec, depth_rec)
-    if blind is not None:
+
+    def the_recommendation(why: str) -> dict:
         p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
             if p_chatter_rec is None else float(p_chatter_rec)
         return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
-                "relative_productivity": 1.0, "why": blind}
+                "relative_productivity": 1.0, "why": why}
+
+    blind = blind_spot(post, rpm_rec, depth_rec)
+    if blind is not None:
+        return the_recommendation(blind)
     if grid is None:
         speeds = np.linspace(*rpm_range, n_rpm)
         blim, _ = limits(post.prior, post.u[rows], speeds, post.engine)  # (M, S)
@@ -457,13 +461,10 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     # an exactly certain outcome has information ~1e-15 of round-off: not worth a cut
     ok &= info > 1e-6
     if not ok.any():
-        p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
-            if p_chatter_rec is None else float(p_chatter_rec)
-        return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
-                "relative_productivity": 1.0,
-                "why": "the recommendation itself: no cut within the limits that is more productive is also "
-                       "informative" + ("" if test_risk is None else f", at most {test_risk:g} likely to chatter")
-                       + (" and clear of the chatter-labelled cuts" if len(guard) else "")}
+        return the_recommendation("the recommendation itself: no cut within the limits that is more productive is "
+                                  "also informative" + ("" if test_risk is None else f", at most {test_risk:g} likely "
+                                                        "to chatter") + (" and clear of the chatter-labelled cuts"
+                                                                         if len(guard) else ""))
     score = np.where(ok, score, -np.inf)
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
     return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(p_process[i, j]),

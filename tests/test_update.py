@@ -535,9 +535,19 @@ def test_label_information_kernel_matches_the_numpy_form():
 
     for eps in (0.0, 0.02):
         pe = eps + (1 - 2 * eps) * pi  # the label swapped with probability ε
-        pbar, info = label_information(blim, depths, sig, eps)
+        pbar, info, proc = label_information(blim, depths, sig, eps)
+        np.testing.assert_allclose(proc, pi.mean(0), atol=1e-12)
         np.testing.assert_allclose(pbar, pe.mean(0), atol=1e-12)
         np.testing.assert_allclose(info, h(pe.mean(0)) - h(pe).mean(0), atol=1e-9)
         assert info.min() > -1e-12 and info.max() <= math.log(2)
     # a swapped label now and then makes every test less informative
     assert (label_information(blim, depths, sig, 0.1)[1] <= label_information(blim, depths, sig)[1] + 1e-12).all()
+    # one label error and depth-noise factor per sample (the posterior's learned label model)
+    eps = rng.uniform(0.0, 0.2, blim.shape[0])
+    fac = rng.uniform(0.5, 2.0, blim.shape[0])
+    pi = ndtr((depths[None, None, :] - blim[:, :, None]) / (sig[None, None, :] * fac[:, None, None]))
+    pe = eps[:, None, None] + (1 - 2 * eps[:, None, None]) * pi
+    pbar, info, proc = label_information(blim, depths, sig, eps, fac)
+    np.testing.assert_allclose(pbar, pe.mean(0), atol=1e-12)
+    np.testing.assert_allclose(info, h(pe.mean(0)) - h(pe).mean(0), atol=1e-9)
+    np.testing.assert_allclose(proc, pi.mean(0), atol=1e-12)  # the process's chance, no label error

@@ -41,14 +41,20 @@ whether the process chatters).
   0.79, docs/updating.md).
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
-  between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = Φ((b − b_lim(θ))/σ_b) the label
-  probability of the likelihood (ε + (1 − 2ε)·Φ with a label error ε) — "BALD" — times the cut's productivity relative to the
+  between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = ε + (1 − 2ε)·Φ((b − b_lim(θ))/(s·σ_b)) the label
+  probability of the likelihood with each sample's learned label error ε and depth-noise factor s — "BALD" — times the cut's productivity relative to the
   recommendation). It is the test most likely both to shrink the uncertainty and to move the
   recommendation to a more productive cut; evaluated on a subsample of the posterior. Its probability of
-  chattering (the process's, E_θ Φ((b − b_lim)/σ_b), without the label error) is capped at ``test_risk``
+  chattering (the process's, E_θ Φ((b − b_lim)/(s·σ_b)), without the label error) is capped at ``test_risk``
   (a chattering test costs a part or a tool), and a cut the data guard forbids is never proposed. When no
   such cut is more productive than the recommendation (or none is informative), the next test is the
-  recommendation itself.
+  recommendation itself. **Blind spot:** tests more productive than the recommendation that chatter bound
+  the boundary only from above *at their own cuts*; nothing bounds the recommendation itself, and a
+  campaign with a tool truly 3× softer than its hammer test recommended a chattering cut in every round
+  that way (every test deeper, every test chattered). So when the last :data:`BLIND_SPOT_CHATTERS` cuts
+  were all labelled chatter (grade > ½) and all more productive than the recommendation, and no cut
+  within ±:data:`BLIND_SPOT_WIDTH` of its speed at least (1 − :data:`GUARD_MARGIN`)× its depth was
+  labelled stable, the next test is the recommendation itself (:func:`blind_spot`).
 """
 
 from __future__ import annotations
@@ -89,6 +95,11 @@ GUARD_MARGIN = 0.05
 #: data guard: a chatter cut guards when the posterior calls it chatter with less than this probability
 #: (the fraction of samples whose limit lies at or below the cut): the model does not explain it
 GUARD_EXPLAINED = 0.5
+#: blind spot of the next test: when this many of the most recent cuts were all labelled chatter and all more
+#: productive than the recommendation, and no cut within ±:data:`BLIND_SPOT_WIDTH` of its speed as deep as it
+#: (× (1 − :data:`GUARD_MARGIN`)) was labelled stable, the next test is the recommendation itself
+BLIND_SPOT_CHATTERS = 2
+BLIND_SPOT_WIDTH = 0.02
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -383,6 +394,26 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
                           n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk)
 
 
+def blind_spot(post: Posterior, rpm_rec: float, depth_rec: float) -> str | None:
+    """Why the next test must be the recommendation itself (the rule in the module docstring), or ``None``.
+
+    Reads the posterior's labelled cuts in their order (the order they were cut)."""
+    rpm, depth, grade, _ = _cut_grades(post.cuts or {})
+    k = BLIND_SPOT_CHATTERS
+    if rpm.size < k:
+        return None
+    ref = rpm_rec * depth_rec
+    last = slice(rpm.size - k, rpm.size)
+    if not (np.all(grade[last] > 0.5) and np.all(rpm[last] * depth[last] > ref * (1 + 1e-9))):
+        return None
+    near = np.abs(rpm - rpm_rec) <= BLIND_SPOT_WIDTH * rpm_rec
+    if np.any(near & (grade < 0.5) & (depth >= (1 - GUARD_MARGIN) * depth_rec)):
+        return None  # a stable cut near the recommendation, as deep as it: the recommendation is tested
+    return (f"the recommendation itself: the last {k} tests, all more productive than it, chattered, and no "
+            f"stable cut within ±{BLIND_SPOT_WIDTH:.0%} of its speed is as deep, so no test bounds the "
+            "recommendation itself (a chattering test above it says only that the limit is below that test)")
+
+
 def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, depth_rec: float, cap: float = math.inf,
               *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0,
               grid: tuple[np.ndarray, np.ndarray] | None = None, test_risk: float | None = TEST_RISK,
@@ -398,6 +429,16 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     rng = np.random.default_rng(seed)
     n = post.u.shape[0]
     rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
+
+    def the_recommendation(why: str) -> dict:
+        p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
+            if p_chatter_rec is None else float(p_chatter_rec)
+        return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
+                "relative_productivity": 1.0, "why": why}
+
+    blind = blind_spot(post, rpm_rec, depth_rec)
+    if blind is not None:
+        return the_recommendation(blind)
     if grid is None:
         speeds = np.linspace(*rpm_range, n_rpm)
         blim, _ = limits(post.prior, post.u[rows], speeds, post.engine)  # (M, S)
@@ -408,9 +449,9 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
     depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
     sig = post.prior.sigma_depth_mm(depths)  # (D,)
-    eps = float(post.prior.label_error)
-    pbar, info = label_information(blim, depths, sig, eps)  # (S, D): P(chatter label), mutual information [nats]
-    p_process = np.clip((pbar - eps) / (1 - 2 * eps), 0.0, 1.0)  # the cut's own chance to chatter, no label error
+    # the posterior's own label model: each sample's learned label error ε and depth-noise factor s
+    # (S, D): P(chatter label), mutual information [nats], the cut's own chance to chatter (no label error)
+    pbar, info, p_process = label_information(blim, depths, sig, post.label_error[rows], post.sigma_depth_factor[rows])
     prod = speeds[:, None] * depths[None, :]
     ref = max(rpm_rec * depth_rec, 1e-300)
     score = info * prod / ref
@@ -420,13 +461,10 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     # an exactly certain outcome has information ~1e-15 of round-off: not worth a cut
     ok &= info > 1e-6
     if not ok.any():
-        p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
-            if p_chatter_rec is None else float(p_chatter_rec)
-        return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
-                "relative_productivity": 1.0,
-                "why": "the recommendation itself: no cut within the limits that is more productive is also "
-                       "informative" + ("" if test_risk is None else f", at most {test_risk:g} likely to chatter")
-                       + (" and clear of the chatter-labelled cuts" if len(guard) else "")}
+        return the_recommendation("the recommendation itself: no cut within the limits that is more productive is "
+                                  "also informative" + ("" if test_risk is None else f", at most {test_risk:g} likely "
+                                                        "to chatter") + (" and clear of the chatter-labelled cuts"
+                                                                         if len(guard) else ""))
     score = np.where(ok, score, -np.inf)
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
     return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(p_process[i, j]),
@@ -438,5 +476,5 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
 
 
 __all__ = ["CONFIDENCE", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
-           "allowed_count", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
+           "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

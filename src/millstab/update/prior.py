@@ -33,7 +33,9 @@ gives Kt a spread.
 
 Kt free is exact and cheap: in both engines the boundary depends on b·Kt only (F = ½ b Kt [A] Δ),
 so b_lim(Kt) = b_lim(Kt₀) · Kt₀/Kt, and the chatter frequency does not change. Freeing Kr would change
-the directional matrix per sample (one engine call per sample), so it is refused for now.
+the directional matrix per sample, and no scaling absorbs it (the zero-order eigenvalues of [α][Φ] depend
+on det α/(α_xx α_yy), (1 + Kr²)/Kr² in slotting); the engines' batch kernels take one directional matrix
+for all sets, so it is refused until they take one per set (docs/updating.md, "Where it is weak").
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ from millstab.forward import forward
 from millstab.params import Parameterization
 from millstab.sensitivity import monte_carlo, morris, mse_mm2, predicted_theta, sobol
 from millstab.sensitivity.montecarlo import draws
+from configs import TWO_MODE_TOML
 
 CFG = load_example("ex1")
 THETA = predicted_theta("ex1")
@@ -219,22 +220,7 @@ def test_interrupted_engine_depths_on_cluster_equal_one_local_call(client, engin
     np.testing.assert_array_equal(there, here)
 
 
-TOML = """name = "t"
-[cutting]
-teeth = 2
-kt = "556.31 MPa"
-kr = 0.404
-entry = "0 deg"
-exit = "180 deg"
-[[structure.x]]
-fn = "903 Hz"
-k = "12.53 N/um"
-zeta = 0.03
-[[structure.y]]
-fn = "1050 Hz"
-k = "15 N/um"
-zeta = 0.04
-"""
+TOML = TWO_MODE_TOML
 
 
 @needs_distributed

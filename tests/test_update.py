@@ -20,25 +20,11 @@ from millstab.update.decide import p_stable_from_limits, p_stable_map, recommend
 from millstab.update.likelihood import Evidence, Likelihood, cut_loglik, frequency_distance, limits
 from millstab.update.posterior import split_modes
 from millstab.update.sampler import ess_of, systematic_resample, tempered_smc
+from configs import TWO_MODE_TOML
 
 CUT = Cutting(2, 556.31e6, 0.404, 0.0, math.pi)
 STRUCT = Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(1050.0, 15e6, 0.04),))
-TOML = """name = "t"
-[cutting]
-teeth = 2
-kt = "556.31 MPa"
-kr = 0.404
-entry = "0 deg"
-exit = "180 deg"
-[[structure.x]]
-fn = "903 Hz"
-k = "12.53 N/um"
-zeta = 0.03
-[[structure.y]]
-fn = "1050 Hz"
-k = "15 N/um"
-zeta = 0.04
-"""
+TOML = TWO_MODE_TOML
 
 
 # --- likelihood closed forms ------------------------------------------------------------------------

@@ -17,23 +17,9 @@ from millstab.update import Posterior, make_prior, update
 from millstab.update.conflict import check
 from millstab.update.likelihood import Evidence, Likelihood, cut_loglik, limits
 from millstab.update.predict import predict_cuts
+from configs import TWO_MODE_TOML
 
-TOML = """name = "t"
-[cutting]
-teeth = 2
-kt = "556.31 MPa"
-kr = 0.404
-entry = "0 deg"
-exit = "180 deg"
-[[structure.x]]
-fn = "903 Hz"
-k = "12.53 N/um"
-zeta = 0.03
-[[structure.y]]
-fn = "1050 Hz"
-k = "15 N/um"
-zeta = 0.04
-"""
+TOML = TWO_MODE_TOML
 ONLY_KX = '[prior]\nfixed = ["fn_x", "zeta_x", "fn_y", "k_y", "zeta_y", "label_error", "sigma_depth"]\n'
 
 

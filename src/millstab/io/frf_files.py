@@ -59,7 +59,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from millstab.errors import FRFWarning, InputError, UnitWarning, show
-from millstab.io.results import PathLike, write_csv
+from millstab.io.results import PathLike, atomic_write_text, csv_text
 from millstab.io.text import COMMA_ADVICE, COMMA_NUMBER, check_comma_separated, parse_number, read_text
 from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
 from millstab.warnlog import quiet, warn
@@ -131,24 +131,19 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     return _check_axis(out[:, 0].copy(), out[:, 1] + 1j * out[:, 2], p.name)
 
 
+def frf_csv_text(freq_hz: np.ndarray, h: np.ndarray) -> str:
+    """One FRF term as ``freq_hz,real,imag`` CSV text (Hz, m/N), lossless: what :func:`write_frf_csv` writes, for
+    a caller that keeps the file itself (the web app's session folder)."""
+    f = np.asarray(freq_hz, dtype=float).ravel()
+    v = np.asarray(h, dtype=complex).ravel()
+    if f.shape != v.shape:
+        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
+    return csv_text(["freq_hz", "real", "imag"], [f, v.real, v.imag])
+
+
 def write_frf_csv(path: PathLike, freq_hz: np.ndarray, h: np.ndarray, protect=()) -> Path:
     """Write one FRF term as ``freq_hz,real,imag`` CSV (Hz, m/N), lossless and atomic."""
-    f = np.asarray(freq_hz, dtype=float).ravel()
-    v = np.asarray(h, dtype=complex).ravel()
-    if f.shape != v.shape:
-        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
-    return write_csv(path, ["freq_hz", "real", "imag"], [f, v.real, v.imag], protect)
-
-
-def frf_csv_text(freq_hz: np.ndarray, h: np.ndarray) -> str:
-    """One FRF term as ``freq_hz,real,imag`` CSV text (Hz, m/N), floats in their shortest exact form: what
-    :func:`write_frf_csv` writes, for a caller that keeps the file itself (the web app's session folder)."""
-    f = np.asarray(freq_hz, dtype=float).ravel()
-    v = np.asarray(h, dtype=complex).ravel()
-    if f.shape != v.shape:
-        raise InputError("frf values", f"{v.size} values", f"need one value per frequency ({f.size})")
-    rows = (f"{a!r},{b!r},{c!r}" for a, b, c in zip(f.tolist(), v.real.tolist(), v.imag.tolist()))
-    return "freq_hz,real,imag\n" + "\n".join(rows) + "\n"
+    return atomic_write_text(path, frf_csv_text(freq_hz, h), protect)
 
 
 # ------------------------------------------------------------------------------------- CutPro

@@ -6,7 +6,7 @@ in m; every MSE here is in **mm²** (depths converted to mm before squaring), as
 
 from __future__ import annotations
 
-from typing import Callable, Iterator, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -169,11 +169,6 @@ def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, b
     (spectral chooses there) and rows that bound every row the study will evaluate (sdm's steps follow the
     highest natural frequency). Then neither the chunks nor a cluster change a number."""
     return forward(par, cutting, engine).pinned(rpm, bounding_rows)
-
-
-def iter_row_chunks(n_rows: int, per_call: int) -> Iterator[slice]:
-    for start in range(0, n_rows, per_call):
-        yield slice(start, min(n_rows, start + per_call))
 
 
 def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: Progress | None = None, client=None,

@@ -170,14 +170,15 @@ def posterior_from_db(db, campaign: str, user: str | None = None):
 
 
 def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, float], *, user: str | None = None,
-                      **options):
+                      current=None, **options):
     """The recommended cut and next test from the campaign's current posterior, recorded in the database.
-    ``options``: those of :func:`millstab.api.recommend`. Returns ``(recommendation, recommendation id,
-    posterior id)``."""
+    ``current``: ``(posterior id, posterior)`` of this campaign as the caller already read it
+    (:func:`posterior_from_db`; default: read now). ``options``: those of :func:`millstab.api.recommend`. Returns
+    ``(recommendation, recommendation id, posterior id)``."""
     from millstab.api.update import recommend
 
     store = open_db(db, user, create=False)
-    pid, post = posterior_from_db(store, campaign)
+    pid, post = current if current is not None else posterior_from_db(store, campaign)
     rec = recommend(post, risk, rpm_range, **options)
     rid = store.record_recommendation(campaign, rec.to_json(), pid, user=user)
     return rec, rid, pid

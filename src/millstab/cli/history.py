@@ -35,8 +35,9 @@ def shop_target(db: str | None, campaign: str | None) -> bool:
 
 
 def posterior_source(posterior, db: str | None, campaign: str | None, user: str | None = None):
-    """``(posterior, inputs)``: the posterior of a file POSTERIOR or of a campaign's current one (--db and
-    --campaign), and the input paths to protect from being overwritten.
+    """``(posterior, inputs, posterior id)``: the posterior of a file POSTERIOR or of a campaign's current one
+    (--db and --campaign), the input paths to protect from being overwritten, and its id in the database
+    (``None`` for a file).
 
     Raises:
         InputError: neither or both given, --db without --campaign.
@@ -47,13 +48,14 @@ def posterior_source(posterior, db: str | None, campaign: str | None, user: str 
                                                           "--db the campaign's current posterior is used)")
         from millstab.api.shop import posterior_from_db
 
-        return posterior_from_db(db, campaign, user)[1], {}
+        pid, post = posterior_from_db(db, campaign, user)
+        return post, {}, pid
     if posterior is None:
         raise InputError("POSTERIOR", None, "missing: a posterior JSON from millstab update, or --db shop.db "
                                             "--campaign NAME for a campaign's current posterior")
     from millstab.cli.update import _load_posterior
 
-    return _load_posterior(posterior), {"POSTERIOR": posterior}
+    return _load_posterior(posterior), {"POSTERIOR": posterior}, None
 
 
 @app.command("history")

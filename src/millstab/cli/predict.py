@@ -35,7 +35,7 @@ def predict_cmd(
     if cuts is None:
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
-    post, inputs = posterior_source(posterior, db, campaign)
+    post, inputs, _ = posterior_source(posterior, db, campaign)
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)

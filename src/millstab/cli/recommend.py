@@ -71,15 +71,13 @@ def recommend_cmd(
                                                    f"{TEST_RISK:g} (1: no cap)")
     rule = dict(max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed, confidence=conf,
                 speed_tolerance=speed_tolerance, test_risk=test_risk)
-    if shop_target(db, campaign):  # the campaign's current posterior; the recommendation is recorded there
+    post, inputs, pid = posterior_source(posterior, db, campaign, user)
+    check_outputs(inputs, {"--out": out})
+    if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db
 
-        post, inputs = posterior_source(posterior, db, campaign, user)
-        check_outputs(inputs, {"--out": out})
-        rec = recommend_from_db(db, campaign, risk, (lo, hi), user=user, **rule)[0]
+        rec = recommend_from_db(db, campaign, risk, (lo, hi), user=user, current=(pid, post), **rule)[0]
     else:
-        post, inputs = posterior_source(posterior, db, campaign)
-        check_outputs(inputs, {"--out": out})
         rec = api.recommend(post, risk, (lo, hi), **rule)
     write_json(out, rec.to_json(), protect=list(inputs.values()))
     con = Console()

@@ -148,7 +148,7 @@ def map_cmd(
 
     speeds = parse_rpm_range(rpm)
     depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
-    post, inputs = posterior_source(posterior, db, campaign)
+    post, inputs, _ = posterior_source(posterior, db, campaign)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)

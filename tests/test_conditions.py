@@ -83,3 +83,23 @@ def test_per_set_kr_capability_and_bad_values():
         zoa.envelope_batch(batch, SLOT, [5000.0], kr=[0.3])
     with pytest.raises(InputError, match="kr"):
         zoa.envelope_batch(batch, SLOT, [5000.0], kr=[0.3, -0.1])
+
+
+def test_forward_pinned_and_map_take_per_column_conditions():
+    from millstab.forward import forward
+    from millstab.params import Parameterization
+
+    par = Parameterization(Structure(x=(Mode(FN, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),)))
+    rows = par.theta0[None] * np.linspace(0.9, 1.1, 5)[:, None]
+    cond = Conditions.of([SLOT, UP, DOWN], [0, 1, 2, 1, 0])
+    rpm = np.array([5000.0, 5000.0, 8000.0, 12000.0, 9000.0])
+    f = forward(par, SLOT)
+    got = f(rows, rpm, cond)
+    for cut, cols in cond.groups():
+        np.testing.assert_array_equal(got[:, cols], forward(par, cut)(rows, rpm[cols]))
+    np.testing.assert_array_equal(f(rows, rpm), f(rows, rpm, SLOT))  # the bound cutting: the plain call
+    pinned = f.pinned(rpm, rows, cond)
+    np.testing.assert_array_equal(pinned(rows), got)
+    np.testing.assert_array_equal(pinned.map(rows, chunk_rows=2), got)
+    with pytest.raises(InputError, match="conditions"):
+        f.pinned(rpm[:3], rows, cond)

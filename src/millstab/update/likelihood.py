@@ -84,16 +84,16 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     Kt scales the depths exactly and a free Kr goes to the engine per sample (see
     :mod:`millstab.update.prior`). ``inf`` where no boundary exists. Frequencies come only from an engine
     declaring ``reports_chatter_frequency`` (else ``None``). ``client``: a ``distributed.Client``; the
-    rows go to its cluster where that pays (same numbers; one condition and a held Kr only, else here).
+    rows go to its cluster where that pays (same numbers).
     """
-    kr = prior.kr_of(u)
-    if client is not None and conditions is None and kr is None:
-        # the rule and the split live in millstab.cluster; None: it does not pay, run here
+    if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
-        out = sample_limits(client, prior, u, rpm, engine, with_freq)
+        check_kr_engine(prior, engine)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions)
         if out is not None:
             return out
+    kr = prior.kr_of(u)
     theta, factor = prior.split(u)
     rpm = check_rpm(rpm)
     eng = check_kr_engine(prior, engine)

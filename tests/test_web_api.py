@@ -401,3 +401,29 @@ def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monke
         assert ".wav, .csv" in tab.rec_error.object and tab.recordings == {}
     finally:
         s.close()
+
+
+def test_accounts_belong_to_shops(tmp_path, monkeypatch, capsys):
+    """Issue 31.4: a users line may list the user's shops (``name:hash:acme,bolt``); none listed is the shop
+    ``default`` (the command line's campaigns); a new password keeps the shops; a bad shop name is one line."""
+    import io
+
+    from millstab.cli import main
+    from millstab.web import auth
+
+    users = tmp_path / "users.txt"
+    for name, shops in (("anna", ["--shop", "acme"]), ("carl", ["--shop", "acme", "--shop", "bolt"]), ("dan", [])):
+        monkeypatch.setattr("sys.stdin", io.StringIO(f"{name} password 1\n"))
+        assert main(["app", "--add-user", name, "--users", str(users), "--password-stdin", *shops]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("anna password 2\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0  # shops kept
+    assert auth.read_shops(users) == {"anna": ("acme",), "carl": ("acme", "bolt"), "dan": ("default",)}
+    got = auth.read_accounts(users)
+    assert auth.check_password("anna password 2", got["anna"][0]) and auth.read_users(users)["carl"] == got["carl"][0]
+    assert users.read_text().splitlines()[-1].startswith("anna:scrypt$") and users.read_text().count(":acme") == 2
+    monkeypatch.setattr("sys.stdin", io.StringIO("eve password 1\n"))
+    assert main(["app", "--add-user", "eve", "--users", str(users), "--password-stdin", "--shop", "a b"]) == 2
+    assert "--shop = 'a b' is invalid" in capsys.readouterr().err
+    assert main(["app", "--shop", "acme", "--no-browser"]) == 2  # --shop belongs to --add-user
+    with pytest.raises(InputError, match="users line 1"):
+        auth.parse_accounts(f"x:{auth.hash_password('password 1')}:a b\n")

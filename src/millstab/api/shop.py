@@ -19,6 +19,7 @@ from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text
 from millstab.points import PointSet
+from millstab.shopdb import DEFAULT_SHOP  # (the package's __init__ imports no SQLAlchemy)
 
 
 def open_db(db, user: str | None = None, create: bool = True):
@@ -241,6 +242,35 @@ def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, m
                           recordings=recordings, shop=shop, expected_rows=expected_rows)
 
 
+def current_posterior(db, campaign: str, user: str | None = None, shops: Shops = None):
+    """``(posterior id, Posterior)`` of the campaign's current posterior, or ``None`` when the campaign does not
+    exist yet or has no posterior (``listen --db`` records its cut either way)."""
+    if not hasattr(db, "record_update") and "://" not in str(db) and not Path(str(db)).expanduser().exists():
+        return None  # no database file yet: the cut to record creates it
+    store = open_db(db, user, create=False)
+    if store.campaign_shop(campaign) is None:
+        return None
+    _readable(store, campaign, shops)
+    head = store.head(campaign)
+    return None if head.posterior_id is None else posterior_from_db(store, campaign)
+
+
+def record_heard(db, campaign: str, heard, depth_mm: float, recording, *, user: str | None = None,
+                 shops: Shops = None, weight: float = 1.0) -> int:
+    """Record a cut labelled by listening (:func:`millstab.api.listen_file`'s result ``heard``) in the campaign:
+    its speed (the programmed rpm), ``depth_mm``, the label and chatter frequency heard, the rater
+    ``listen`` and the recording by reference (its absolute path). Returns the campaign's number of cuts."""
+    r = heard.listening
+    depth = float(depth_mm)
+    if not np.isfinite(depth) or depth <= 0:
+        raise InputError("--depth", depth_mm, "the axial depth of the recorded cut in mm, > 0")
+    hz = float(r.chatter_hz) if r.label != "stable" else float("nan")
+    cut = PointSet(np.array([float(r.rpm)]), np.array([depth]), np.array([r.label], dtype=object),
+                   np.array([float(weight)]), None, np.array([hz]))
+    ref = str(Path(recording).expanduser().resolve()) if "://" not in str(recording) else str(recording)
+    return record_cuts(db, campaign, cut, user=user, raters=["listen"], recordings=[ref], shops=shops)
+
+
 def history(db, campaign: str | None = None, limit: int = 50, before: int | None = None, shops: Shops = None):
     """The newest ``limit`` events (:class:`~millstab.shopdb.store.Event`, newest first), of one campaign or all
     (of ``shops``' campaigns only, when given)."""
@@ -343,5 +373,5 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["OpenCampaign", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "export_campaign", "history", "history_table", "import_campaign",
-           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "update_in_db"]
+__all__ = ["DEFAULT_SHOP", "OpenCampaign", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
+           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

@@ -19,6 +19,8 @@ from __future__ import annotations
 from millstab.errors import InputError
 
 INSTALL = "pip install 'millstab[db]' (SQLAlchemy and Alembic)"
+#: the shop of a campaign made without naming one (the command line), and of an app account that names none
+DEFAULT_SHOP = "default"
 
 
 def available() -> bool:
@@ -43,4 +45,4 @@ def open_store(db, user: str | None = None, create: bool = True):
     return Store(str(db), user, create)
 
 
-__all__ = ["INSTALL", "available", "open_store"]
+__all__ = ["DEFAULT_SHOP", "INSTALL", "available", "open_store"]

@@ -24,8 +24,8 @@ from __future__ import annotations
 
 from sqlalchemy import (Column, Float, ForeignKey, Index, Integer, MetaData, String, Table, Text, UniqueConstraint)
 
-#: the shop of a campaign made without naming one (the command line), and of an account that names none
-DEFAULT_SHOP = "default"
+from millstab.shopdb import DEFAULT_SHOP
+
 #: the newest migration; a database at this revision is opened without running Alembic (fast path)
 HEAD = "0002"
 

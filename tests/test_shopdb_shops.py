@@ -133,3 +133,10 @@ def test_export_import_keeps_the_shop(db, tmp_path):
     shop.export_campaign(db, "b1", tmp_path / "b1")
     shop.import_campaign(db, tmp_path / "b1", "b1-copy")
     assert shop.ShopView(db, "bob", ["bolt"]).open("b1-copy").shop == "bolt"
+    # the way to hand a command-line campaign (shop default) to a shop: export, import --shop
+    from millstab.cli import main
+
+    shop.export_campaign(db, "c1", tmp_path / "c1")
+    assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "c1-acme", "--shop", "acme"]) == 0
+    assert [c["name"] for c in shop.campaigns(db, ["acme"])] == ["a1", "c1-acme"]
+    assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "x", "--shop", "a b"]) == 2

@@ -19,7 +19,7 @@ from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text
 from millstab.points import PointSet
-from millstab.shopdb import DEFAULT_SHOP  # (the package's __init__ imports no SQLAlchemy)
+from millstab.shopdb import DEFAULT_SHOP, check_shop  # (the package's __init__ imports no SQLAlchemy)
 
 
 def open_db(db, user: str | None = None, create: bool = True):
@@ -303,11 +303,15 @@ def export_campaign(db, campaign: str, folder) -> Path:
     return run(open_db(db, create=False), campaign, folder)
 
 
-def import_campaign(db, folder, name: str | None = None, user: str | None = None) -> str:
-    """Create a campaign from an exported folder; returns its name."""
+def import_campaign(db, folder, name: str | None = None, user: str | None = None, shop: str | None = None) -> str:
+    """Create a campaign from an exported folder (in ``shop``, default: the shop it was exported from);
+    returns its name."""
     from millstab.shopdb.files import read_campaign
 
-    return open_db(db, user).import_bundle(read_campaign(folder), name, user)
+    bundle = read_campaign(folder)
+    if shop is not None:
+        bundle["shop"] = shop
+    return open_db(db, user).import_bundle(bundle, name, user)
 
 
 @dataclass(frozen=True)
@@ -373,5 +377,5 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["DEFAULT_SHOP", "OpenCampaign", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
+__all__ = ["DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
            "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

@@ -23,6 +23,17 @@ INSTALL = "pip install 'millstab[db]' (SQLAlchemy and Alembic)"
 DEFAULT_SHOP = "default"
 
 
+def check_shop(name, field: str = "--shop") -> str:
+    """A shop name: 1..64 letters, digits or ``_ . @ + -`` (the characters of the app's user names, so that a
+    users file can name every shop a campaign can have)."""
+    import re
+
+    text = str(name).strip()
+    if not re.fullmatch(r"[A-Za-z0-9_.@+-]{1,64}", text):
+        raise InputError(field, name, "a shop name of 1..64 letters, digits or _ . @ + -")
+    return text
+
+
 def available() -> bool:
     """True when SQLAlchemy and Alembic are installed."""
     import importlib.util
@@ -45,4 +56,4 @@ def open_store(db, user: str | None = None, create: bool = True):
     return Store(str(db), user, create)
 
 
-__all__ = ["DEFAULT_SHOP", "INSTALL", "available", "open_store"]
+__all__ = ["DEFAULT_SHOP", "INSTALL", "check_shop", "available", "open_store"]

@@ -44,6 +44,7 @@ from sqlalchemy import exc as sa_exc
 from millstab.errors import InputError
 from millstab.io.results import to_jsonable
 from millstab.points import PointSet
+from millstab.shopdb import check_shop
 from millstab.shopdb import schema as T
 
 #: how long a writer waits for another writer's lock before giving up [s]
@@ -339,7 +340,7 @@ class Store:
         if row is None:
             cid = conn.execute(c.insert().values(name=name, machine_id=mid, tool_id=tid, note="", created_at=at,
                                                  created_by=user, updated_at=at, revision=0,
-                                                 shop=_check_name(shop or T.DEFAULT_SHOP, "shop", 100))
+                                                 shop=check_shop(shop or T.DEFAULT_SHOP))
                                ).inserted_primary_key[0]
             what = ", ".join(f"{k} {v}" for k, v in (("shop", shop), ("machine", machine), ("tool", tool)) if v)
             self._event(conn, cid, user, at, "create", f"campaign {name}" + (f" ({what})" if what else ""))
@@ -620,7 +621,7 @@ class Store:
             tid = self._named(conn, T.tool, bundle.get("tool"), user, at)
             cid = conn.execute(T.campaign.insert().values(
                 name=name, machine_id=mid, tool_id=tid, note=bundle.get("note", ""),
-                shop=_check_name(bundle.get("shop") or T.DEFAULT_SHOP, "shop", 100), created_at=bundle["created_at"],
+                shop=check_shop(bundle.get("shop") or T.DEFAULT_SHOP), created_at=bundle["created_at"],
                 created_by=bundle["created_by"], updated_at=bundle["updated_at"],
                 revision=int(bundle["revision"]))).inserted_primary_key[0]
             cfg_ids = [conn.execute(T.config.insert().values(campaign_id=cid, toml=x["toml"],

@@ -427,3 +427,59 @@ def test_accounts_belong_to_shops(tmp_path, monkeypatch, capsys):
     assert main(["app", "--shop", "acme", "--no-browser"]) == 2  # --shop belongs to --add-user
     with pytest.raises(InputError, match="users line 1"):
         auth.parse_accounts(f"x:{auth.hash_password('password 1')}:a b\n")
+
+
+@pytest.mark.slow  # two configs through the form (each draws its SLD): ~15 s on the loaded 2-core machine
+def test_campaign_card_opens_records_and_shows_nothing_of_another_shop(tmp_path):
+    """Issue 31.3 without a browser: the Update tab's campaign card lists the user's shop's campaigns, opens
+    one (its config in the form, its cuts and posterior in the tab, its history), records new cuts (refused
+    as stale when someone added cuts since it was opened), and opening another shop's campaign leaves the
+    page as it was."""
+    pytest.importorskip("sqlalchemy")
+    pytest.importorskip("alembic")
+    from test_shopdb import fake_posterior, some_cuts
+
+    from millstab.api import shop
+    from millstab.shopdb import open_store
+    from millstab.web.campaigns import CampaignPanel, _same_config
+    from millstab.web.update_tab import UpdateTab
+
+    db = tmp_path / "shop.db"
+    ex1 = api.config_toml(api.config("example:ex1"))
+    first = some_cuts(4, 1)
+    with open_store(db, user="bob") as st:
+        pid = st.record_update("a1", ex1, first, fake_posterior(first, 1), expected_head=None, expected_rows=0,
+                               shop="acme", all_cuts=first)
+        st.record_update("b1", ex1, first, fake_posterior(first, 2), expected_head=None, expected_rows=0, shop="bolt")
+    s, tool = _tool()
+    try:
+        tab = UpdateTab(s)
+        maps = []
+        tab.map = lambda record=False: maps.append(record)  # the map job needs a served page
+        panel = CampaignPanel(shop.ShopView(db, "ann", ["acme"]), tab, tool.load_text)
+        tab.campaign = panel
+        assert panel.select.options == ["a1"] and panel.select.value == "a1"
+        before = (s.cfg, s.cuts, s.post)
+        assert not panel.open("b1")
+        assert "no such campaign" in panel.status.text and str(tmp_path) not in panel.status.text
+        assert (s.cfg, s.cuts, s.post) == before and panel.current is None and panel.summary.text == ""
+        assert panel.open("a1") and maps == [False]
+        assert s.origin == "campaign a1" and api.config_toml(s.cfg) == ex1 and _same_config(s.cfg, ex1)
+        assert not _same_config(api.config("example:ex3"), ex1)
+        np.testing.assert_array_equal(s.cuts.rpm, first.rpm)
+        np.testing.assert_array_equal(s.post.samples, fake_posterior(first, 1).samples)
+        assert tab.post_id == pid and "computed for:</b> campaign a1" in tab.post_table.text
+        assert "4 cuts, 1 update(s)" in panel.summary.text and "bob" in panel.history.text
+        tab.pending = some_cuts(2, 7)
+        panel.record()
+        assert "2 cut(s) recorded, 6 in all" in panel.status.text
+        assert "6 cuts" in panel.summary.text and "2 cut(s) wait for the next update" in panel.summary.text
+        with open_store(db) as st:
+            st.add_cuts("a1", some_cuts(1, 8), user="carl")  # someone else, meanwhile
+        tab.pending = some_cuts(1, 9)
+        panel.record()
+        assert "stale" in panel.status.text
+        with open_store(db) as st:
+            assert st.head("a1").n_rows == 7 and st.head("b1").n_rows == 4
+    finally:
+        s.close()

@@ -461,7 +461,8 @@ def test_campaign_card_opens_records_and_shows_nothing_of_another_shop(tmp_path)
         assert panel.select.options == ["a1"] and panel.select.value == "a1"
         before = (s.cfg, s.cuts, s.post)
         assert not panel.open("b1")
-        assert "no such campaign" in panel.status.text and str(tmp_path) not in panel.status.text
+        assert "no such campaign in shop.db (it holds 1 campaign(s): a1); the list above shows them" in panel.status.text
+        assert str(tmp_path) not in panel.status.text
         assert (s.cfg, s.cuts, s.post) == before and panel.current is None and panel.summary.text == ""
         assert panel.open("a1") and maps == [False]
         assert s.origin == "campaign a1" and api.config_toml(s.cfg) == ex1 and _same_config(s.cfg, ex1)

@@ -58,7 +58,10 @@ class CampaignPanel:
     def error(self, exc: InputError) -> str:
         """An error as the page shows it: the database named as :func:`_where` says (no server path)."""
         url = self.v.store.url
-        return error_html(str(exc).replace(url, _where(url)))
+        text = str(exc).replace(url, _where(url))
+        # the store's hint names the command line; the page's list and "Start it" do that here
+        return error_html(text.replace("; `millstab history --db DB` lists them, and an update creates one",
+                                       "; the list above shows them"))
 
     # --- reading ---------------------------------------------------------------------------------------
     def refresh(self) -> None:

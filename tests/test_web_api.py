@@ -484,3 +484,17 @@ def test_campaign_card_opens_records_and_shows_nothing_of_another_shop(tmp_path)
             assert st.head("a1").n_rows == 7 and st.head("b1").n_rows == 4
     finally:
         s.close()
+
+
+def test_app_db_problems_are_one_line_before_serving(tmp_path, capsys):
+    """`millstab app --db` opens (creates, migrates) the database before the URL is printed: a folder or a
+    file that is not a shop database is one line naming --db, and nothing is served."""
+    pytest.importorskip("panel")
+    pytest.importorskip("sqlalchemy")
+    from millstab.cli import main
+
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1,stable\n")
+    for bad in (tmp_path, tmp_path / "cuts.csv"):
+        assert main(["app", "--db", str(bad), "--port", "0", "--no-browser"]) == 2
+        out = capsys.readouterr()
+        assert out.err.startswith("millstab: error: --db = ") and len(out.err.strip().splitlines()) == 1 and "http" not in out.out

@@ -140,3 +140,28 @@ def test_export_import_keeps_the_shop(db, tmp_path):
     assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "c1-acme", "--shop", "acme"]) == 0
     assert [c["name"] for c in shop.campaigns(db, ["acme"])] == ["a1", "c1-acme"]
     assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "x", "--shop", "a b"]) == 2
+
+
+def test_a_retry_after_another_shop_took_the_name_reads_none_of_its_cuts(db, monkeypatch):
+    """Two shops start a campaign of the same name at once: the one that lands second is stale, and its
+    re-run stops at the shop check, before reading or sampling the other shop's cuts."""
+    import sys
+
+    ann = shop.ShopView(db, "ann", ["acme"])
+    sampled = []
+
+    def fake_update(cfg, cuts, points, **kw):
+        sampled.append(len(cuts))
+        if len(sampled) == 1:  # bolt's campaign of the same name lands while acme's first attempt samples
+            with open_store(db) as s:
+                land(s, "same", some_cuts(5, 6), 6, shop="bolt")
+        from test_shopdb import fake_posterior
+
+        return fake_posterior(cuts, 0)
+
+    monkeypatch.setattr(sys.modules["millstab.api.update"], "update", fake_update)
+    with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+        ann.update("same", api.config("example:ex1"), some_cuts(2, 9), samples=100)
+    assert sampled == [2]  # only acme's own two cuts were ever sampled (without the re-check: [2, 7], then refused)
+    with open_store(db) as s:
+        assert s.campaign_shop("same") == "bolt" and s.head("same").n_rows == 5

@@ -174,6 +174,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         new, note = already_recorded(first.cuts, new)
         notes += [note] if note else []
     for attempt in range(1, retries + 2):
+        if attempt > 1:  # what landed first may be another shop's new campaign of this name: never sample its cuts
+            _writable(store, campaign, shops, shop)
         snap = store.snapshot(campaign)
         old = snap.cuts if snap is not None else PointSet(np.zeros(0), np.zeros(0))
         cuts = _join(old, new)

@@ -175,6 +175,22 @@ def _damp(cpd, s, c, vx, vy):
     return -vn * s, -vn * c
 
 
+@nb.njit(cache=True, inline="always")
+def _free_dir(PH, G0, p, row, q, v, fx, fy, mdir):
+    """Per direction (x, y), the sum over modes of row ``row`` (0: displacement, 1: velocity) of the
+    step's free part Φ z + Γ0 F_a, F_a = (fx, fy) the start force."""
+    sx = 0.0
+    sy = 0.0
+    for j in range(q.size):
+        fa = fx if mdir[j] == 0 else fy
+        val = PH[p, j, row, 0] * q[j] + PH[p, j, row, 1] * v[j] + G0[p, j, row] * fa
+        if mdir[j] == 0:
+            sx += val
+        else:
+            sy += val
+    return sx, sy
+
+
 @nb.njit(cache=True)
 def _dir_sum(a, mdir):
     """(Σ over x modes, Σ over y modes) of the per-mode values a (M,)."""
@@ -280,11 +296,7 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
             gvy = 0.0
             if cpd != 0.0:  # start velocity, and the end velocity's Γ1 gains per direction
                 vxa, vya = _dir_sum(v, mdir)
-                for j in range(M):
-                    if mdir[j] == 0:
-                        gvx += G1[p, j, 1]
-                    else:
-                        gvy += G1[p, j, 1]
+                gvx, gvy = _dir_sum(G1[p, :, 1], mdir)
             for _it in range(4):
                 k11 = 0.0
                 k12 = 0.0
@@ -343,15 +355,7 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                         cx += bkt * b * ux
                         cy += bkt * b * uy
                 # w = C(Φ z + Γ0 F_a); (I − diag(g1) K) u = w + diag(g1) (r + crossing end force)
-                wx = 0.0
-                wy = 0.0
-                for j in range(M):
-                    fa = fxe if mdir[j] == 0 else fye
-                    qf = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa
-                    if mdir[j] == 0:
-                        wx += qf
-                    else:
-                        wy += qf
+                wx, wy = _free_dir(PH, G0, p, 0, q, v, fxe, fye, mdir)
                 if cpd == 0.0:
                     a11 = 1.0 - g1x * k11
                     a12 = -g1x * k12
@@ -367,15 +371,7 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                 else:
                     # u_b = w + g1 F_b, u̇_b = wv + gv F_b, F_b = K u_b + r − D u̇_b:
                     # (I − K g1 + D gv) F_b = K w + r − D wv
-                    wvx = 0.0
-                    wvy = 0.0
-                    for j in range(M):
-                        fa = fxe if mdir[j] == 0 else fye
-                        vf = PH[p, j, 1, 0] * q[j] + PH[p, j, 1, 1] * v[j] + G0[p, j, 1] * fa
-                        if mdir[j] == 0:
-                            wvx += vf
-                        else:
-                            wvy += vf
+                    wvx, wvy = _free_dir(PH, G0, p, 1, q, v, fxe, fye, mdir)
                     a11 = 1.0 - k11 * g1x + d11 * gvx
                     a12 = -k12 * g1y + d12 * gvy
                     a21 = -k21 * g1x + d12 * gvx
@@ -490,6 +486,19 @@ def force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft):
 
 
 @nb.njit(cache=True)
+def periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy):
+    """The surface (P, N) left on a T-periodic motion with tool-tip displacement ux, uy (P,) [m] at the
+    grid points: the unvibrating one (:func:`rest_surface`) moved by the displacement along each n."""
+    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
+    pitch = TWO_PI / n_teeth
+    for p in range(phase.size - 1):
+        for k in range(n_teeth):
+            psi = phi_s + (phase[p] + k) * pitch
+            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
+    return S
+
+
+@nb.njit(cache=True)
 def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm, n_harm_state):
     """Modal state (q, v) at t = 0 and the surface (P, N) of the forced T-periodic motion.
 
@@ -532,13 +541,7 @@ def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mas
                     ux[p] += val
                 else:
                     uy[p] += val
-    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
-    pitch = TWO_PI / n_teeth
-    for p in range(P):
-        for k in range(n_teeth):
-            psi = phi_s + (phase[p] + k) * pitch
-            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
-    return q0, v0, S
+    return q0, v0, periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -831,19 +834,8 @@ def _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, m
                 d12 += cpd * sb * cb
                 d22 += cpd * cb * cb
         # free part of the end velocity and its gains; (I + D gv) F_b = F_s − D wv
-        wvx = 0.0
-        wvy = 0.0
-        gvx = 0.0
-        gvy = 0.0
-        for j in range(M):
-            fa = fxa if mdir[j] == 0 else fya
-            vf = PH[p, j, 1, 0] * q[j] + PH[p, j, 1, 1] * v[j] + G0[p, j, 1] * fa
-            if mdir[j] == 0:
-                wvx += vf
-                gvx += G1[p, j, 1]
-            else:
-                wvy += vf
-                gvy += G1[p, j, 1]
+        wvx, wvy = _free_dir(PH, G0, p, 1, q, v, fxa, fya, mdir)
+        gvx, gvy = _dir_sum(G1[p, :, 1], mdir)
         a11 = 1.0 + d11 * gvx
         a12 = d12 * gvy
         a21 = d12 * gvx
@@ -892,12 +884,7 @@ def steady_start_damped(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, ze
     zp = _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, e, True, ux, uy)
     z0 = np.linalg.solve(np.eye(n) - phi, zp)
     _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, z0, True, ux, uy)
-    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
-    pitch = TWO_PI / n_teeth
-    for p in range(P):
-        for k in range(n_teeth):
-            psi = phi_s + (phase[p] + k) * pitch
-            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
+    S = periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy)
     return z0[:M].copy(), z0[M:].copy(), S
 
 

@@ -277,6 +277,20 @@ def test_simulation_without_process_damping_is_unchanged_bit_for_bit():
     assert np.array_equal(a.x, b.x) and np.array_equal(a.fy, b.fy)
 
 
+def test_label_cuts_carries_process_damping_like_single_cuts():
+    """The parallel labeller passes each cut's C b / V to its start and its steps: the same growth, bit
+    for bit, as the single cuts, stable below and chatter above the SDM limit at 12 000 rpm."""
+    from millstab.simulate import detect, label_cuts, simulate_cut
+
+    cut = Cutting.from_immersion(3, KT, KR, 0.5, "down", process_damping=2e4, diameter=D)
+    b = sdm.envelope(TWO, cut, [12000.0]).depth[0]
+    depths = np.array([0.7, 1.4]) * b
+    lab = label_cuts(TWO, cut, 12000.0, depths, 1e-4, revs=60)
+    single = [detect(simulate_cut(TWO, cut, 12000.0, d, 1e-4, revs=60)) for d in depths]
+    assert list(lab.true_label) == ["stable", "chatter"] == [s.label for s in single]
+    assert np.array_equal(lab.growth, [s.growth for s in single])
+
+
 def test_simulated_steady_start_is_periodic_with_process_damping():
     """The damped steady start is the T-periodic motion of the unregenerated cut: a stable cut started
     there has (almost) no transient: tooth-to-tooth changes ≤ 1e-3 f_t from the first period."""

@@ -60,6 +60,15 @@ and between chunks KeyboardInterrupt is seen and ``progress(stage, done, total)`
 exception it raises stops the run). Every (structure, speed) pair is computed alone, so the chunking
 changes no bit of the result.
 
+Process damping (``Cutting.process_damping`` C > 0, :mod:`millstab.stability.process_damping`): each
+tooth in the cut adds −(C b / V)(n·u̇) n; its exact step average enters every cutting step's
+current-state matrix next to the cutting force's, so the term is carried instantaneously per tooth
+with the scheme's own accuracy (four-tooth slotting, where the model is a constant-coefficient delay
+equation: within 3.4e-4 of its closed form). The monodromy matrix is rebuilt at every depth anyway
+(the cutting force is ∝ b); the reference depth is the zero-order one without the term, and the
+bracket grid goes on in 10 % steps to ~30 b_ref (``FACTORS_PD``) since the low-speed limits rise to
+many times it. Measured cost (benchmarks/bench_sdm.py --process-damping): ×1.16 CPU time.
+
 Units: rpm at the interface, depth in m (``Envelope.depth_mm`` for mm), frequencies in Hz.
 """
 

@@ -167,7 +167,7 @@ def test_config_reads_process_damping_and_diameter_with_units():
 
 def test_process_damping_survives_the_written_forms():
     """A config written back, a fit's cutting record and a prior's JSON keep C and the diameter."""
-    from millstab.identify.result import _cutting, cutting_record
+    from millstab.identify.result import _cutting, cutting_difference, cutting_record
     from millstab.io.config import config_to_toml
     from millstab.update.prior import Prior, make_prior
 
@@ -175,6 +175,9 @@ def test_process_damping_survives_the_written_forms():
     again = parse_config(config_to_toml(cfg))
     assert again.cutting == cfg.cutting and again.cutting.process_damping == pytest.approx(2e4)
     assert _cutting(cutting_record(cfg.cutting), "fit") == cfg.cutting
+    assert cutting_difference(cutting_record(cfg.cutting), cfg.cutting) is None
+    assert "process_damping" in cutting_difference(cutting_record(cfg.cutting), cfg.cutting.without_process_damping())
+    assert "process_damping" in cutting_difference(cutting_record(cfg.cutting.without_process_damping()), cfg.cutting)
     assert cutting_record(Cutting(4, KT, KR)) == {"teeth": 4, "kt": KT, "kr": KR, "entry": 0.0, "exit": math.pi}
     prior = make_prior(cfg.structure, cfg.cutting)
     assert Prior.from_dict(json.loads(json.dumps(prior.to_dict()))).cutting == cfg.cutting

@@ -398,6 +398,12 @@ def cutting_difference(record, cutting: Cutting) -> str | None:
             return f"cutting {key} is missing from the fit's record ({got!r})"
         if not math.isclose(float(got), want[key], rel_tol=1e-9, abs_tol=1e-12):
             return f"cutting {key} is {fmt(float(got))} in the fit but {fmt(want[key])} here"
+    # process damping: absent from a record means none (records written before it existed)
+    got_pd = record.get("process_damping", 0.0) if isinstance(record, dict) else 0.0
+    if isinstance(got_pd, (int, float)) and not isinstance(got_pd, bool) and not math.isclose(
+            float(got_pd), want.get("process_damping", 0.0), rel_tol=1e-9, abs_tol=1e-12):
+        return (f"cutting process_damping is {float(got_pd):.6g} N/m in the fit but "
+                f"{want.get('process_damping', 0.0):.6g} N/m here")
     return None
 
 

@@ -1,0 +1,125 @@
+"""The accurate engine in the updating loop (issue 28): one update with the zero-order engine and with the
+spectral engine, timed in the same run (the ratio is the figure; target ≤ 10), and whether the accurate
+posterior explains every training cut.
+
+Case (the low-immersion shop of docs/updating.md, where the zero-order model is wrong): the seed paper's
+Ex.1 structure as the hammer test with the default prior spreads, a/D ``--immersion`` (0.1) down milling;
+the truth is the hammer test off by a random factor per parameter (fn ±3 %, k ±20 %, ζ ±30 %, seed
+``--seed``); ``--cuts`` cuts at random speeds in ``--rpm``, depths uniform in ±``--spread`` around the
+true limit (capped at ``--max-depth``), labelled by the truth's SDM boundary (an engine independent of
+both fitted ones) with relative depth noise ``--noise``; relative depth noise ``--sigma-depth-rel`` in
+the prior.
+
+Timed (wall and CPU, BLAS pinned to one thread, numba's threads, engines warmed first): ``update`` with
+``zoa``; with ``spectral`` and the default sampler (delayed acceptance: the zero-order engine screens each
+MH proposal, the spectral engine decides on the survivors, :mod:`millstab.update.sampler`); with
+``--plain`` also the spectral update with every proposal through the spectral engine, and the two
+spectral posteriors compared (means and 5/50/95 % quantiles of each ln θ in units of its posterior sd:
+delayed acceptance must give the same posterior within Monte-Carlo error).
+
+"Explains a cut": the posterior's P(stable) of the cut (fraction of samples whose limit lies above its
+depth) is above ½ for a stable cut and below ½ for a chattering one.
+
+Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
+[--cuts 10] [--plain]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba as nb
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from _machine import describe
+from millstab.io import load_config
+from millstab.io.config import PriorTable
+from millstab.io.points import PointSet
+from millstab.model import Cutting
+from millstab.stability import sdm
+from millstab.update import make_prior, update
+from millstab.update.predict import predict_cuts
+
+
+def timed(f):
+    t, c = time.perf_counter(), time.process_time()
+    out = f()
+    return out, time.perf_counter() - t, time.process_time() - c
+
+
+def explained(post, cuts: PointSet) -> tuple[int, list[str]]:
+    """How many cuts the posterior explains (P(stable) on the label's side of ½), and the others."""
+    ps, _ = predict_cuts(post, cuts.rpm, cuts.depth_mm)
+    ok = np.where(cuts.label == "stable", ps > 0.5, ps < 0.5)
+    bad = [f"{r:.0f} rpm {d:.2f} mm {lab} P(stable) {p:.2f}" for r, d, lab, p, o in
+           zip(cuts.rpm, cuts.depth_mm, cuts.label, ps, ok) if not o]
+    return int(ok.sum()), bad
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=500)
+    ap.add_argument("--cuts", type=int, default=10)
+    ap.add_argument("--immersion", type=float, default=0.1)
+    ap.add_argument("--rpm", default="5000:12000")
+    ap.add_argument("--max-depth", type=float, default=60.0)
+    ap.add_argument("--spread", type=float, default=0.3, help="depths uniform in ±spread around the true limit")
+    ap.add_argument("--noise", type=float, default=0.03, help="relative depth noise of the labels")
+    ap.add_argument("--sigma-depth-rel", type=float, default=0.05)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plain", action="store_true", help="also the spectral update without delayed acceptance")
+    args = ap.parse_args()
+    print(describe())
+    lo, hi = (float(x) for x in args.rpm.split(":"))
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, args.immersion, "down")
+    # the config's cutting is not used: update() takes the prior, which holds this cut
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel))
+    rng = np.random.default_rng(args.seed)
+    names = list(prior.par.free)
+    off = {"fn": 0.03, "k": 0.2, "zeta": 0.3}
+    fac = np.array([1 + rng.uniform(-off[prior.par.kind(n)], off[prior.par.kind(n)]) for n in names])
+    true_struct = prior.par.structure(prior.median * fac)
+    rpm = np.sort(rng.uniform(lo, hi, args.cuts))
+    b_true = sdm.envelope(true_struct, cut, rpm).depth_mm
+    depth = np.minimum(b_true * rng.uniform(1 - args.spread, 1 + args.spread, rpm.size), args.max_depth)
+    chatter = depth > b_true * np.exp(args.noise * rng.standard_normal(rpm.size))
+    cuts = PointSet(rpm, depth, np.where(chatter, "chatter", "stable"))
+    print(f"case: Ex.1 at a/D {args.immersion} down, truth = hammer test x {np.round(fac, 3).tolist()} ({names}); "
+          f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
+    with threadpool_limits(1):
+        for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
+            update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        runs = {}
+        plan = [("zoa", "auto"), ("spectral", "auto")] + ([("spectral", "plain")] if args.plain else [])
+        for eng, smp in plan:
+            post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
+                                                                   engine=eng, prior=prior, sampler=smp))
+            runs[eng, smp] = (post, wall, cpu)
+            d = post.diagnostics
+            n_ok, bad = explained(post, cuts)
+            extra = (f", screened by {d['screen_engine']}: {d['screen_sets']} screen sets, pass "
+                     f"{np.mean(d['screen_pass']):.2f}" if "screen_engine" in d else "")
+            print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
+                  f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; explains {n_ok}/{args.cuts} cuts"
+                  + (f" (not: {'; '.join(bad)})" if bad else ""))
+    z, s = runs["zoa", "auto"], runs["spectral", "auto"]
+    print(f"ratio spectral/zoa: {s[1] / z[1]:.1f} wall, {s[2] / z[2]:.1f} CPU (target <= 10)")
+    if args.plain:
+        p = runs["spectral", "plain"]
+        print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")
+        ua, ub = s[0].u, p[0].u
+        ess = min(s[0].diagnostics["ess"][-1], p[0].diagnostics["ess"][-1])
+        for j, nm in enumerate(names):
+            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
+            dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
+            print(f"  ln {nm}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
+                  f"{' '.join(f'{x:+.3f}' for x in dq)} sd (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at "
+                  f"the last ESS {ess:.0f})")
+    print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

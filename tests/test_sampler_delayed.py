@@ -6,6 +6,7 @@ answer, so these tests fail if the second stage does not correct it)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -168,3 +169,14 @@ def test_screen_engine_choice_and_update_plumbing():
     d = a.diagnostics
     assert d["screen_engine"] == "zoa" and d["screen_sets"] > d["engine_sets"] > 300
     assert "screen_engine" not in update(cfg, cuts, samples=300, seed=5).diagnostics
+
+
+def test_cli_update_sampler_option(tmp_path, capsys):
+    from millstab.cli import main
+
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1.0,stable\n5500,4.0,chatter\n8000,2.5,stable\n")
+    args = ["update", "example:ex1", str(tmp_path / "cuts.csv"), "--samples", "100", "--out"]
+    assert main([*args, str(tmp_path / "a.json"), "--sampler", "fast"]) == 2
+    assert "sampler" in capsys.readouterr().err and not (tmp_path / "a.json").exists()
+    assert main([*args, str(tmp_path / "b.json"), "--sampler", "delayed"]) == 0
+    assert json.loads((tmp_path / "b.json").read_text())["diagnostics"]["screen_engine"] == "zoa"

@@ -17,6 +17,12 @@ MH proposal, the spectral engine decides on the survivors, :mod:`millstab.update
 spectral posteriors compared (means and 5/50/95 % quantiles of each ln θ in units of its posterior sd:
 delayed acceptance must give the same posterior within Monte-Carlo error).
 
+``--proxy-seeds K``: the same check at a cost that allows repeats, in the same 6 parameters and data: the
+zero-order likelihood as the "accurate" one and, as its screen, the zero-order likelihood of a model with
+Kr 30 % high and Kt 20 % low (lobes moved and reshaped, a model error larger than the spectral/zero-order one
+here); K seeds of plain and of delayed-acceptance SMC: the spread of the plain runs' means between seeds is
+the Monte-Carlo error that the difference of the two averages is judged by.
+
 "Explains a cut": the posterior's P(stable) of the cut (fraction of samples whose limit lies above its
 depth) is above ½ for a stable cut and below ½ for a chattering one.
 
@@ -27,6 +33,7 @@ Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accura
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numba as nb
@@ -40,6 +47,8 @@ from millstab.io.points import PointSet
 from millstab.model import Cutting
 from millstab.stability import sdm
 from millstab.update import make_prior, update
+from millstab.update.likelihood import Evidence, Likelihood
+from millstab.update.sampler import tempered_smc
 from millstab.update.predict import predict_cuts
 
 
@@ -58,6 +67,31 @@ def explained(post, cuts: PointSet) -> tuple[int, list[str]]:
     return int(ok.sum()), bad
 
 
+def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
+    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above)."""
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    c = prior.cutting
+    wrong = dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt))
+    scr = Likelihood(wrong, ev)
+    runs = {"plain": [], "delayed": [], "screen alone": []}
+    for s in range(seeds):
+        runs["plain"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s).u)
+        runs["delayed"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr).u)
+        runs["screen alone"].append(tempered_smc(prior.sample_full, prior.logpdf_full, scr, samples, seed=s).u)
+    m = {k: np.array([u.mean(0) for u in v]) for k, v in runs.items()}
+    q = {k: np.array([np.quantile(u, [0.05, 0.95], axis=0) for u in v]) for k, v in runs.items()}
+    sd = np.mean([u.std(0) for u in runs["plain"]], axis=0)
+    se = m["plain"].std(0, ddof=1) * np.sqrt(2 / seeds)  # of a difference of two K-run averages
+    print(f"proxy check, {samples} samples x {seeds} seeds, means and 5/95 % quantiles in units of the posterior sd:")
+    for j, nm in enumerate(prior.names):
+        d = (m["delayed"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+        a = (m["screen alone"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+        dq = (q["delayed"][:, :, j].mean(0) - q["plain"][:, :, j].mean(0)) / sd[j]
+        print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} {dq[1]:+.3f}; "
+              f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=500)
@@ -70,6 +104,8 @@ def main() -> None:
     ap.add_argument("--sigma-depth-rel", type=float, default=0.05)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--plain", action="store_true", help="also the spectral update without delayed acceptance")
+    ap.add_argument("--proxy-seeds", type=int, default=0, help="the repeatable proxy check with this many seeds")
+    ap.add_argument("--proxy-only", action="store_true", help="only the proxy check (no spectral updates)")
     args = ap.parse_args()
     print(describe())
     lo, hi = (float(x) for x in args.rpm.split(":"))
@@ -90,6 +126,10 @@ def main() -> None:
     print(f"case: Ex.1 at a/D {args.immersion} down, truth = hammer test x {np.round(fac, 3).tolist()} ({names}); "
           f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
+        if args.proxy_seeds:
+            proxy(prior, cuts, args.samples, args.proxy_seeds)
+        if args.proxy_only:
+            return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         runs = {}

@@ -62,3 +62,11 @@ def test_monodromy_spectral_radius_matches_lapack():
                     U = spectral.monodromy(s, c, rpm, depth)
                     ref = np.abs(np.linalg.eigvals(U)).max()
                     assert abs(np.abs(eig_small(U)).max() / ref - 1) < 1e-11, (imm, rpm, depth)
+
+
+def test_a_non_finite_matrix_gives_nan_not_a_hang():
+    A = np.eye(4)
+    A[1, 2] = np.inf
+    assert np.isnan(eig_small(A)).all()
+    A[1, 2] = np.nan
+    assert np.isnan(eig_small(A)).all()

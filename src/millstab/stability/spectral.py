@@ -78,6 +78,19 @@ dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both
 stepped over (both reported 80.5 mm before this search); such islands lie far above the lowest lobes (2–3
 mm there).
 
+Eigenvalues by a compiled QR (issue 28, 2026-11-27): ρ at every ladder depth is the spectral radius of
+the reduced monodromy (10–30 rows), and LAPACK's dgeev spent ~70 % of that evaluation in its fixed costs;
+:func:`._spectral_kernel.eig_small` (balance, Hessenberg, Francis double-shift QR) does it 2× faster. Same
+search path (32.4 evaluations per speed before and after), depths within 3.7e-11 of dgeev's on 16 benchmark
+cases (two structures, a/D 0.05–1, up and down milling, 101 speeds). Alternated with the code before in the
+same minutes (load 19–21 on the 2 cores, so CPU time is the figure; ``PYTHONPATH=src:benchmarks python
+benchmarks/bench_spectral.py --skip-accuracy --repeat 5``): CPU per 200-speed envelope on one thread 142.9 /
+141.8 ms → 101.2 / 100.4 ms (1.41×), on two threads 174.1 / 166.2 → 129.2 / 124.6 ms (1.33×); about 10
+envelopes/s per core. What remains (measured, :func:`._spectral_kernel.rho` on this benchmark): ~20 ladder
+depths below the root at every speed, each a monodromy (~40 % of an evaluation now) and its eigenvalues;
+certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
+is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
+needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms

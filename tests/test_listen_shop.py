@@ -104,3 +104,15 @@ def test_chatter_three_hz_from_a_runout_line_on_two_seconds():
                           seed=8)
     r = listen(x, 48000, 10000.0, 3)
     assert r.label == "chatter" and abs(r.chatter_hz - fc) <= 2.0, (fc, r.label, r.chatter_hz)
+
+
+@pytest.mark.parametrize("mains,h", [(60.0, 5), (50.0, 3)])
+def test_late_chatter_three_hz_from_a_hum_line_has_its_onset(mains, h):
+    """Chatter 3 Hz from a hum harmonic, starting at 2 s of 4, 4× weaker than the forced vibration: the
+    steady hum line is subtracted before the 0.1 s trend frames, so the growth and the onset are seen.
+    The old code leaked the hum into every frame: trend 1.6-3 (< 4), no onset."""
+    fc = h * mains + 3.0
+    x, _ = shop_recording(fs=48000, seconds=4.0, rpm=7400.0, teeth=3, chatter_hz=fc, ratio=0.25, onset=2.0,
+                          hum=1.0, mains=mains, seed=2)
+    r = listen(x, 48000, 7400.0, 3)
+    assert r.label == "chatter" and abs(r.chatter_hz - fc) <= 2.0 and abs(r.onset_s - 2.0) < 0.15, (r.chatter_hz, r.onset_s, r.trend)

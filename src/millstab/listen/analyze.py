@@ -25,18 +25,27 @@ The steps, with every threshold and the reason for it:
    f_T and 2 f_T only (slotting with four, hardly any: there the runout lines carry the speed), while a
    saturated chatter fills the spectrum with combination tones j f_T ± m f_c, 50 dB over the floor,
    that a 30-harmonic comb drifting by 1 % walks along (measured on ex1 at 8 mm: −1.4 %). Refined by
-   least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±1 bin).
+   least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±2 bins).
+   Both on the full-window spectrum (bins of 1/(2T), 4× finer than the Welch segments'): a chatter
+   family 2-3 Hz beside the spindle harmonics pulled a comb scored on Welch bins to it (0.2-1.4 % off
+   on 3 of 204 benchmark cuts, each then a chatter-frequency miss).
 4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
    harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
    One exception: with an even number of teeth, a line at an odd multiple of f_T/2 from 1.5 f_T up
    (1.5 f_T = 3 f_s included: a two-tooth slot's flip chatter sits there; masking it made the 2.5 f_T
    member heard instead on 4 of 38 chatter cuts of the benchmark at 100 cuts)
-   ``FLIP_RATIO`` = 10× stronger (in power) than every runout line below 1.5 f_T stays a chatter candidate:
+   ``FLIP_RATIO`` = 4× stronger (in power) than every runout line below 1.5 f_T, and at least
+   ``FLIP_TOOTH`` = 1/3 (−5 dB) of its neighbouring tooth-passing lines, stays a chatter candidate:
    period-doubling (flip) chatter falls exactly on a spindle harmonic there, and runout falls with
-   its order instead of peaking near a mode.
+   its order instead of peaking near a mode. (On the benchmark's stable two- and four-tooth cuts the
+   1.5 f_T line stood at most 1.3 dB over the runout below it; flip chatter 7-39 dB. Runout varying
+   the tooth pulses' heights, lifted by a resonance between two tooth harmonics, can reach the
+   tooth lines' level: hence the second rule, from tests/listen_shop.py.)
 5. **Mains** (masked): lines at h·50 and h·60 Hz (h ≤ 8) standing ``MAINS_PROMINENCE`` = 4× over
    the floor within ±0.3 Hz + 1 bin, unless (h ≥ 4) ``MAINS_OVER_HUM`` = 2× louder than the hum at
    h = 1-3 (then it is no hum: a chatter line that happens to fall on a mains harmonic stays).
+   These Welch masks are ±4.5 segment bins wide (±9 Hz on a 2 s cut); what they hide is looked at
+   again in step 7 at the full window's resolution.
 6. **Floor**: the ``FLOOR_PERCENTILE`` = 25th percentile of the unmasked log-power in blocks of
    ``FLOOR_BLOCK_HZ`` = 100 Hz, interpolated between block centres: it follows broadband and 1/f
    noise and the hump of a mode excited by noise (no chatter), and a broad modulated chatter hump
@@ -47,20 +56,35 @@ The steps, with every threshold and the reason for it:
    full-window spectrum (finer bins) by a parabola through log-magnitudes. Its power is the excess
    over its contiguous region above twice the floor (a modulated chatter is a hump), at least its
    peak density times the window's noise bandwidth (a line beside a masked one).
+   **Beside a masked line**: the full-window periodogram (Blackman-Harris, bins of 1/(2T)) inside the
+   Welch masks, beyond ±``NEAR_BINS`` = 4/T of the masked line's own peak (its main lobe: side lobes
+   −92 dB), gives further candidates: a local maximum ``NEAR_PROMINENCE`` = 30× over the floor (one
+   exponential variable per bin: noise passes with probability ~e⁻²⁴) parted from the masked line by a
+   dip below 1/``NEAR_DIP`` = 1/4 of it (a line of its own, not the skirt of the masked one). So
+   chatter 3 Hz from a runout line or a mains harmonic is heard on a 2-3 s cut (the Welch masks alone
+   hid it to ±9 Hz). Its power is its peak density × the full window's noise bandwidth; it competes
+   with the Welch candidates in Welch-density units (× segment length / window length).
    One chatter sounds as a family f_c + k f_T and its mirrors k f_T − f_c (the tooth passing modulates
    it; a lower sideband below zero folds over); the chatter frequency
    of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
    accelerometer both follow acceleration, whose power is f⁴ times the displacement's, so of the
-   family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 3, each ≥ ``FAMILY_SHARE`` = 2 % of the
-   strongest's power) the one with the largest power / f⁴ is reported (on virtual recordings the
-   loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts).
+   family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 8, each ≥ ``FAMILY_SHARE`` = 10 % of the
+   strongest's power) the one with the largest power / f⁴ is reported (where the reported member was
+   not the loudest on the benchmark, it held 17-95 % of the loudest's power; 10 % keeps the
+   sidebands f_c ± f_T of a tone amplitude-modulated by up to 60 % out, which a low f_c − f_T would
+   otherwise win by f⁴) (on virtual recordings the
+   loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts; with |k| ≤ 3 a two-tooth
+   slot's loudest line 5 f_T − f_c was not linked to f_c).
 8. **Score** = A_c / A_s: the RMS amplitude of the chatter line over that of all synchronous lines
    (forced vibration and runout), times the ratio of its RMS amplitude over the last ``LATE_SHARE``
    = 40 % of the window to that over the whole window (chatter that starts late is scored as it
    sounds at the end). Scale: 0 no chatter line; 0.05 = chatter 26 dB below the forced vibration;
    1 as loud; 4 = 12 dB louder.
 9. **Trend and onset**: the amplitude at f_c in 16-64 frames of ~``TREND_FRAME_S`` = 0.1 s (Hann
-   projection, noise floor subtracted); early and late levels are the medians of the first and last
+   projection, noise floor subtracted), after the steady spindle and mains lines within
+   ``TREND_REACH`` = 4 frame bins of f_c (±40 Hz) are subtracted (each fitted over the whole window at
+   its own refined frequency: a hum line 3 Hz away otherwise leaks into every 0.1 s frame and a
+   chatter 4× weaker than the forced vibration that starts late showed a trend of 1.6-3, no onset); early and late levels are the medians of the first and last
    20 %. trend = late / early. Chatter *starts* during the recording if trend > ``ONSET_RATIO`` = 4;
    the onset is where the amplitude first reaches half its late level (interpolated between frames).
 10. **Label**: ``chatter`` if the line grows fourfold within the cut (trend > ``ONSET_RATIO``:
@@ -99,7 +123,9 @@ COMB_CLIP = 8.0
 #: with two teeth has hardly any beyond 2 f_T), while a saturated chatter fills the spectrum with
 #: combination tones j f_T ± m f_c that a long comb drifting by 1 % walks along
 COMB_HARMONICS = 3
-FLIP_RATIO = 10.0
+FLIP_RATIO = 4.0
+#: a flip line stands at least this share of the power of its neighbouring tooth-passing lines (−5 dB)
+FLIP_TOOTH = 1.0 / 3.0
 MAINS = (50.0, 60.0)
 MAINS_HARMONICS = 8
 #: a line at a mains harmonic h ≥ 4 louder than this × the hum at h = 1-3 is not hum
@@ -114,6 +140,9 @@ LATE_SHARE = 0.4
 TREND_FRAMES = 16
 #: preferred length of a trend frame [s] (16-64 frames)
 TREND_FRAME_S = 0.1
+#: steady lines (spindle, mains) within this many frame bins (1/frame length) of the chatter are
+#: subtracted before the trend frames (a Hann frame's leakage beyond 4 bins is under −50 dB)
+TREND_REACH = 4.0
 DECAY = 0.5
 ONSET_RATIO = 4.0
 SCORE_CHATTER = 0.05
@@ -121,10 +150,18 @@ SCORE_MARGINAL = 0.02
 #: half-width of a line mask in Welch bins (Blackman-Harris main lobe: ±4 bins, side lobes −92 dB)
 LINE_BINS = 4.5
 #: a chatter-family member f + k f_T (|k| ≤ FAMILY_ORDERS) counts with ≥ FAMILY_SHARE of the strongest's power
-FAMILY_ORDERS = 3
-FAMILY_SHARE = 0.02
+FAMILY_ORDERS = 8
+FAMILY_SHARE = 0.1
 #: equivalent noise bandwidth of the Blackman-Harris window [bins of fs / segment]
 ENBW_BINS = 2.004
+#: near a masked line: the full-window spectrum's mask half-width around the line's own peak [bins of 1/T]
+#: (Blackman-Harris main lobe ±4 bins, side lobes −92 dB)
+NEAR_BINS = 4.0
+#: a line near a masked one stands this much over the floor in the full-window periodogram (one
+#: exponential variable per bin: a noise bin passes 30 × the 25th percentile with probability ~e⁻²⁴)
+NEAR_PROMINENCE = 30.0
+#: ... and is its own line: between it and the masked line the spectrum dips below 1/NEAR_DIP of it
+NEAR_DIP = 4.0
 #: Welch segments: the window / SEGMENTS, at most SEGMENT_MAX_S
 SEGMENTS = 4.0
 SEGMENT_MAX_S = 2.0
@@ -285,9 +322,12 @@ def _floor(f: np.ndarray, p: np.ndarray, masked: np.ndarray) -> np.ndarray:
     return np.exp(np.interp(f, centres, level))
 
 
-def _spindle_hz(f: np.ndarray, p: np.ndarray, f_s0: float, teeth: int, f_max: float) -> float:
-    """Spindle frequency found near f_s0 (comb search on the spindle harmonics up to COMB_HARMONICS
-    tooth-passing harmonics, then least squares on the prominent peaks)."""
+def _spindle_hz(f: np.ndarray, p: np.ndarray, floor: np.ndarray, f_s0: float, teeth: int, f_max: float) -> float:
+    """Spindle frequency found near f_s0 on the full-window spectrum (f, p; floor: the Welch floor there):
+    comb search on the spindle harmonics up to COMB_HARMONICS tooth-passing harmonics, then least
+    squares on the prominent peaks. On the full window's bins (1/(2T)), not the Welch segments' (4×
+    coarser): a chatter family sitting 2-3 Hz beside the spindle harmonics pulled a comb scored within
+    ±1 Welch bin to it (measured: 0.2-1.4 % off on 3 of 204 benchmark cuts)."""
     df = f[1] - f[0]
     K = int(max(1, min(MAX_COMB, f_max // (f_s0 * (1 + SPEED_TOL)))))
     k = np.arange(1, K + 1)
@@ -298,7 +338,7 @@ def _spindle_hz(f: np.ndarray, p: np.ndarray, f_s0: float, teeth: int, f_max: fl
     # each harmonic scores its line's log-prominence over the floor, only at a local maximum (a line,
     # not the skirt of a chatter hump) and at most COMB_CLIP (so one strong chatter line that a wrong
     # comb happens to hit cannot outvote the tooth-passing lines)
-    lf = np.log(_floor(f, p, np.zeros(f.size, bool)))
+    lf = np.log(floor)
     loc = np.ones(f.size, bool)
     for sh in (1, 2):
         loc[sh:] &= p[sh:] >= p[:-sh]
@@ -310,19 +350,16 @@ def _spindle_hz(f: np.ndarray, p: np.ndarray, f_s0: float, teeth: int, f_max: fl
     best = np.flatnonzero(score >= score.max() - 1e-9)
     ft = float(cand[best[np.argmin(np.abs(cand[best] - f_s0))]])  # ties: the speed given
     # least squares on the prominent harmonics, f_k = k f_s (up to k = 30): each line is sought within
-    # ±1 bin of k times the comb's estimate, which is good to k·(step + its own error) < 1 bin here at
-    # least for the first harmonics; a wider search would catch a strong chatter line beside a harmonic
+    # ±2 bins of k times the comb's estimate (good to k·(step + its own error) < 2 bins at least for the
+    # first harmonics); a wider search would catch a strong chatter line beside a harmonic
     num = den = 0.0
     for kk in k:
         i = int(round(kk * ft / df))
-        lo, hi = max(i - 1, 1), min(i + 2, f.size - 1)
-        if hi - lo < 3:
+        lo, hi = max(i - 2, 1), min(i + 3, f.size - 1)
+        if hi - lo < 5:
             continue
         j = lo + int(np.argmax(p[lo:hi]))
-        if not (p[j] >= p[j - 1] and p[j] >= p[j + 1]):
-            continue
-        side = np.median(p[max(j - 40, 0): j + 41])
-        if p[j] < PROMINENCE * side:
+        if not (p[j] >= p[j - 1] and p[j] >= p[j + 1]) or p[j] < NEAR_PROMINENCE * floor[j]:
             continue
         fk = f[j] + _interp_peak(lp, j) * df
         num += kk * fk
@@ -355,7 +392,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     f, p, nper = _welch(w, fs)
     df = f[1] - f[0]
     band = (f >= F_LO) & (f <= f_hi)
-    f_s = _spindle_hz(f, p, rpm / 60.0, teeth, f_hi)
+    fF, pF = _full_spectrum(w, fs)
+    f_s = _spindle_hz(fF, pF, np.interp(fF, f, _floor(f, p, np.zeros(f.size, bool))), rpm / 60.0, teeth, f_hi)
     f_t = teeth * f_s
     # synchronous masks: every spindle harmonic
     half = LINE_BINS * fs / nper  # Hz
@@ -381,7 +419,14 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         ref = float(line_pow[runout].max()) if runout.any() else 0.0
         half_order = 2 * ks / teeth  # line frequency in units of f_T/2
         odd = (np.abs(half_order - np.round(half_order)) < 1e-9) & (np.round(half_order) % 2 == 1)
-        keep = odd & ~below & (line_pow > FLIP_RATIO * ref)
+        # ... and not far under its neighbouring tooth-passing lines: runout that varies the tooth pulses'
+        # heights by ±e puts (e/2)² of a tooth harmonic's power beside it (−16 dB for e = 30 %), but a
+        # resonance between two tooth harmonics lifts it (Q = 25: up to 28 dB; measured on the pulse-train
+        # recordings of tests/listen_shop.py, a stable two-tooth cut heard as flip chatter below −5 dB)
+        kt = ks // teeth * teeth  # the tooth harmonic below each line (in spindle orders)
+        pw = dict(zip(ks.tolist(), line_pow.tolist()))
+        near_tooth = np.array([max(pw.get(int(a), 0.0), pw.get(int(a) + teeth, 0.0)) for a in kt])
+        keep = odd & ~below & (line_pow > FLIP_RATIO * ref) & (line_pow > FLIP_TOOTH * near_tooth)
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     # mains lines
@@ -409,36 +454,59 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
                     if fm not in mains:
                         mains.append(fm)
     floor = _floor(f, p, mask)
-    # chatter candidates
+    # chatter candidates: the Welch spectrum's peaks outside the masks ...
     excess = np.where(mask | ~band, 0.0, p - floor)
     ratio = np.where(mask | ~band, 0.0, p / floor)
     peaks = np.flatnonzero((excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:]) &
                            (ratio[1:-1] >= PROMINENCE)) + 1
+    # ... and the full-window spectrum's peaks inside them, beside the line that was masked
+    mains_lines = [h * fm for fm in mains for h in range(1, MAINS_HARMONICS + 1) if h * fm <= f_hi]
+    near = _near_line_peaks(fF, pF, np.interp(fF, f, floor), np.interp(fF, f, mask.astype(float)) > 0.5,
+                            line_f[~keep], ks[~keep] * dfs, np.asarray(mains_lines), T=w.size / fs, f_lo=F_LO, f_hi=f_hi)
+    # one list, in Welch-density units: a line's peak density is its power / the noise bandwidth
+    to_welch = float(nper) / w.size  # ENBW of the Welch segment / ENBW of the full window (Hz)
+    dfF = fF[1] - fF[0]
+    cand_f = np.concatenate([f[peaks], fF[near]])
+    cand_e = np.concatenate([excess[peaks], (pF[near] - np.interp(fF[near], f, floor)) * to_welch])
     sync_pow = float(np.sum(np.where(sync & (f <= f_hi), np.maximum(p - floor, 0.0), 0.0)) * df)
     nan = float("nan")
     n_fr = int(np.clip(w.size / fs / TREND_FRAME_S, TREND_FRAMES, 4 * TREND_FRAMES))
-    if peaks.size == 0:
+    if cand_f.size == 0:
         times = np.zeros(0)
         return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), 60.0 * f_s, int(teeth), f_t,
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
-    j = int(peaks[np.argmax(excess[peaks])])
-    j = _family_member(f, excess, peaks, j, f_t, 2.0 * fs / nper)
-    prom = float(ratio[j])
-    # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
-    a_ = j
-    while a_ > 0 and not mask[a_ - 1] and p[a_ - 1] > 2.0 * floor[a_ - 1]:
-        a_ -= 1
-    b_ = j + 1
-    while b_ < f.size and not mask[b_] and p[b_] > 2.0 * floor[b_]:
-        b_ += 1
-    # ... or, for a line next to a masked one, its peak density × the window's noise bandwidth
-    line_pow = max(float(np.sum(p[a_:b_] - floor[a_:b_])) * df, float(p[j] - floor[j]) * ENBW_BINS * fs / nper)
-    # refine on the full-window spectrum
-    lp = np.log(np.maximum(p, 1e-300))
-    fc = float(f[j] + _interp_peak(lp, j) * df)
-    fc = _refine(w, fs, fc, fs / nper)
-    # short-time amplitude at fc
-    amp, tc, tf = _amp_at(w, fs, fc, n_fr)
+    c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper)
+    lpF = np.log(np.maximum(pF, 1e-300))
+    if c < peaks.size:
+        j = int(peaks[c])
+        prom = float(ratio[j])
+        # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
+        a_ = j
+        while a_ > 0 and not mask[a_ - 1] and p[a_ - 1] > 2.0 * floor[a_ - 1]:
+            a_ -= 1
+        b_ = j + 1
+        while b_ < f.size and not mask[b_] and p[b_] > 2.0 * floor[b_]:
+            b_ += 1
+        # ... or, for a line next to a masked one, its peak density × the window's noise bandwidth
+        line_pow = max(float(np.sum(p[a_:b_] - floor[a_:b_])) * df,
+                       float(p[j] - floor[j]) * ENBW_BINS * fs / nper)
+        # refine on the full-window spectrum (finer bins)
+        lp = np.log(np.maximum(p, 1e-300))
+        fc = _refine(fF, lpF, float(f[j] + _interp_peak(lp, j) * df), fs / nper)
+    else:
+        jF = int(near[c - peaks.size])
+        fl = float(np.interp(fF[jF], f, floor))
+        prom = 1.0 + float(cand_e[c]) / fl
+        line_pow = float(pF[jF] - fl) * ENBW_BINS * fs / w.size  # the full window's noise bandwidth
+        fc = float(fF[jF] + _interp_peak(lpF, jF) * dfF)
+    # short-time amplitude at fc, with the steady lines beside it taken out first (a hum or runout line
+    # a few Hz away leaks into 0.1 s frames and hides the growth of a chatter that starts late)
+    reach = TREND_REACH * n_fr * fs / w.size
+    lines = np.concatenate([line_f[~keep], np.asarray(mains_lines)])
+    tols = np.concatenate([ks[~keep] * dfs, np.full(len(mains_lines), 0.3)])
+    near_fc = (np.abs(lines - fc) < reach) & (np.abs(lines - fc) > NEAR_BINS * fs / w.size)
+    wt = _without_lines(w, fs, fF, pF, np.interp(fF, f, floor), lines[near_fc], tols[near_fc]) if near_fc.any() else w
+    amp, tc, tf = _amp_at(wt, fs, fc, n_fr)
     noise_amp = math.sqrt(2.0 * float(np.interp(fc, f, floor)) * 1.5 / tf)  # Hann ENBW 1.5 bins of 1/tf
     a_c = np.sqrt(np.maximum(amp**2 - noise_amp**2, 0.0))
     m = max(1, int(round(0.2 * n_fr)))
@@ -469,33 +537,115 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
                      i0 / fs + tc, a_c)
 
 
-def _family_member(f: np.ndarray, excess: np.ndarray, peaks: np.ndarray, j: int, f_t: float, tol: float) -> int:
-    """Of the chatter family f_j + k f_T (|k| ≤ FAMILY_ORDERS) and its mirrors k f_T − f_j (1 ≤ k ≤
-    FAMILY_ORDERS) among the prominent peaks, the member
-    strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is f⁴ times
-    the displacement's), counting members with at least FAMILY_SHARE of the strongest's excess."""
-    k = (f[peaks] - f[j]) / f_t
-    km = (f[peaks] + f[j]) / f_t  # mirror members k f_T − f_j (the modulation's lower sidebands fold over)
+def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float) -> int:
+    """Of the chatter family fpk[j] + k f_T (|k| ≤ FAMILY_ORDERS) and its mirrors k f_T − fpk[j] (1 ≤ k ≤
+    FAMILY_ORDERS) among the candidate peaks (frequencies fpk [Hz], excess densities epk), the index of the
+    member strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is
+    f⁴ times the displacement's), counting members with at least FAMILY_SHARE of the strongest's excess."""
+    k = (fpk - fpk[j]) / f_t
+    km = (fpk + fpk[j]) / f_t  # mirror members k f_T − f_j (the modulation's lower sidebands fold over)
     member = (((np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS))
               | ((np.abs(km - np.round(km)) * f_t <= tol) & (np.round(km) >= 1) & (np.round(km) <= FAMILY_ORDERS)))
-    fam = peaks[member & (excess[peaks] >= FAMILY_SHARE * excess[j])]
+    fam = np.flatnonzero(member & (epk >= FAMILY_SHARE * epk[j]))
     if fam.size <= 1:
         return j
-    return int(fam[np.argmax(excess[fam] / f[fam] ** 4)])
+    return int(fam[np.argmax(epk[fam] / fpk[fam] ** 4)])
 
 
-def _refine(w: np.ndarray, fs: float, f0: float, span: float) -> float:
-    """Frequency of the largest full-window (Hann) DFT magnitude within f0 ± span [Hz], parabola-refined."""
+def _full_spectrum(w: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided PSD of the whole window (Blackman-Harris, zero-padded twice: bins of 1/(2T)) and its
+    frequencies: 4× finer than the Welch segments, to see a line a few Hz from a masked one and to refine
+    the chatter frequency (on a Blackman-Harris main lobe, nearly Gaussian, a parabola through the
+    log-power is within 1 % of a bin of the true frequency)."""
     from scipy import fft as sfft
+    from scipy.signal import windows
 
     n = sfft.next_fast_len(2 * w.size, real=True)
-    spec = np.abs(sfft.rfft(w * np.hanning(w.size), n))
-    dfx = fs / n
+    win = windows.blackmanharris(w.size, sym=False)
+    spec = sfft.rfft(w * win, n)
+    p = (spec.real**2 + spec.imag**2) * (2.0 / (fs * float(np.sum(win**2))))
+    return np.arange(p.size) * (fs / n), p
+
+
+def _near_line_peaks(fF: np.ndarray, pF: np.ndarray, floorF: np.ndarray, maskedF: np.ndarray,
+                     line_f: np.ndarray, line_tol: np.ndarray, mains_f: np.ndarray, *, T: float, f_lo: float,
+                     f_hi: float) -> np.ndarray:
+    """Indices of full-window peaks that the Welch masks hid but that are lines of their own: inside a
+    Welch mask, beyond ±NEAR_BINS/T of the masked line's own peak (sought within its frequency
+    uncertainty: line_tol for the spindle harmonics, ±0.3 Hz for mains), NEAR_PROMINENCE over the floor,
+    and parted from that line by a dip below 1/NEAR_DIP of the peak (a line, not the skirt of a
+    wandering one)."""
+    dfF = fF[1] - fF[0]
+    half = int(NEAR_BINS / T / dfF)
+    centres = np.concatenate([line_f, mains_f])
+    tols = np.concatenate([line_tol, np.full(mains_f.size, 0.3)]) + 1.0 / T
+    centres, tols = centres[centres <= f_hi + 10.0], tols[centres <= f_hi + 10.0]
+    lo = np.searchsorted(fF, centres - tols)
+    hi = np.searchsorted(fF, centres + tols, side="right")
+    own = np.empty(centres.size, int)
+    blocked = np.zeros(fF.size, bool)
+    for i in range(centres.size):  # each masked line's own peak (a local maximum; else where it should be)
+        own[i] = int(np.clip(np.searchsorted(fF, centres[i]), 0, fF.size - 1))
+        if hi[i] - lo[i] > 2:
+            m = lo[i] + int(np.argmax(pF[lo[i]:hi[i]]))
+            if lo[i] < m < hi[i] - 1:
+                own[i] = m
+        blocked[max(own[i] - half, 0): own[i] + half + 1] = True
+    cand = maskedF & ~blocked & (fF >= f_lo) & (fF <= f_hi) & (pF >= NEAR_PROMINENCE * floorF)
+    cand[0] = cand[-1] = False
+    idx = np.flatnonzero(cand)
+    idx = idx[(pF[idx] >= pF[idx - 1]) & (pF[idx] >= pF[idx + 1])]
+    keep = []
+    for i in idx:  # parted from the nearest masked line by a dip
+        o = int(own[np.argmin(np.abs(own - i))])
+        a, b = (o, i) if o < i else (i, o)
+        if pF[a:b + 1].min() * NEAR_DIP <= pF[i]:
+            keep.append(i)
+    return np.asarray(keep, dtype=int)
+
+
+def _without_lines(w: np.ndarray, fs: float, fF: np.ndarray, pF: np.ndarray, floorF: np.ndarray,
+                   lines: np.ndarray, tols: np.ndarray) -> np.ndarray:
+    """The window w less the steady sinusoids at ``lines`` [Hz] (each sought within ± its tolerance + 1/T as
+    a full-window peak NEAR_PROMINENCE over the floor, its frequency parabola-refined, its complex
+    amplitude the Blackman-Harris-weighted projection over the whole window: a chatter line beyond the
+    line's main lobe (±4/T) adds < −92 dB to it). Lines not standing out are left alone."""
+    from scipy.signal import windows
+
+    T = w.size / fs
+    dfF = fF[1] - fF[0]
+    lpF = np.log(np.maximum(pF, 1e-300))
+    t = np.arange(w.size) / fs
+    win = windows.blackmanharris(w.size, sym=False)
+    out = w.copy()
+    done: list[float] = []
+    for fl, tol in zip(lines, tols):
+        a = np.searchsorted(fF, fl - tol - 1.0 / T)
+        b = np.searchsorted(fF, fl + tol + 1.0 / T, side="right")
+        if b - a < 3:
+            continue
+        i = a + int(np.argmax(pF[a:b]))
+        if not (a < i < b - 1) or pF[i] < NEAR_PROMINENCE * floorF[i]:
+            continue
+        f1 = float(fF[i] + _interp_peak(lpF, i) * dfF)
+        if any(abs(f1 - d) < 1.0 / T for d in done):  # a line both a spindle and a mains harmonic
+            continue
+        done.append(f1)
+        e = np.exp(-2j * math.pi * f1 * t)
+        z = np.dot(win * out, e) / win.sum()
+        out -= 2.0 * np.real(z * np.conj(e))
+    return out
+
+
+def _refine(fF: np.ndarray, lpF: np.ndarray, f0: float, span: float) -> float:
+    """Frequency of the largest full-window log-PSD lpF within f0 ± span [Hz], parabola-refined (the Welch
+    estimate f0 when the largest is at an edge: the slope of a neighbour, not a peak)."""
+    dfx = fF[1] - fF[0]
     a = max(int((f0 - span) / dfx), 1)
-    b = min(int((f0 + span) / dfx) + 1, spec.size - 1)
+    b = min(int((f0 + span) / dfx) + 1, lpF.size - 1)
     if b - a < 3:
         return f0
-    i = a + int(np.argmax(spec[a:b]))
-    if i in (a, b - 1):  # the slope of a neighbour, not a peak: keep the Welch estimate
+    i = a + int(np.argmax(lpF[a:b]))
+    if i in (a, b - 1):
         return f0
-    return float((i + _interp_peak(np.log(np.maximum(spec, 1e-300)), i)) * dfx)
+    return float((i + _interp_peak(lpF, i)) * dfx)

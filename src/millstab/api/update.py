@@ -19,11 +19,14 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, start=None, progress: Progress | None = None, client=None):
+           seed: int = 0, start=None, progress: Progress | None = None, client=None, stickout_mm=None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
-    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior).
+    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior);
+    ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's). A ``[tool]`` +
+    ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
+    stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
@@ -37,13 +40,30 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
     check_seed(seed)
-    cfg, _ = modal(cfg)
+    from millstab.update.stickout import over_holder
+
+    if not over_holder(cfg):  # a prior over the holder needs no tip modes
+        cfg, _ = modal(cfg)
+    stickout = None if stickout_mm is None else np.asarray(stickout_mm, dtype=float) * 1e-3
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client
 
         check_client(client)
     return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client)
+                      client=client, stickout=stickout)
+
+
+def at_stickout(post, stickout_mm: float | None):
+    """The posterior ``post`` (over a holder) with the tool at ``stickout_mm`` [mm] for map, recommend and
+    predict (``None``: ``post`` itself); InputError for a posterior over tip modes or a bad stickout."""
+    from millstab.update.stickout import at_stickout as move
+
+    if stickout_mm is None:
+        return post
+    s = float(stickout_mm)
+    if not (np.isfinite(s) and 0 < s <= 1000):
+        raise InputError("--stickout", stickout_mm, "a stickout in mm, > 0 (holder face to tip)")
+    return move(post, s * 1e-3)
 
 
 def posterior_from_json(doc, source: str = "posterior"):

@@ -185,6 +185,27 @@ class TipParameterization(Parameterization):
             out.update({f"fn_{d}": f, f"k_{d}": kk, f"zeta_{d}": z})
         return ModalBatch(**out)
 
+    def record(self) -> dict:
+        """Plain data (SI) of the tool and the held holder values, for a posterior's JSON (:meth:`from_record`)."""
+        t, m = self.tool, self.tool.material
+        return {"tool": {"diameter": t.diameter, "stickout": t.stickout, "fluted_length": t.fluted_length,
+                         "flute_ratio": t.flute_ratio, "zeta": t.zeta, "elements": t.elements,
+                         "material": {"name": m.name, "E": m.E, "density": m.density, "nu": m.nu}},
+                "slopes": {d: np.asarray(v, float).tolist() for d, v in self.slopes.items()},
+                "axisymmetric": self.axisymmetric, "n_tip": self.n_tip, "keep": self.keep}
+
+    @classmethod
+    def from_record(cls, rec: dict, base: Structure, free: tuple[str, ...]) -> TipParameterization:
+        """The parameterization of :meth:`record` over the holder modes ``base`` with ``free`` names."""
+        from millstab.tooltip.beam import Material
+
+        t, m = rec["tool"], rec["tool"]["material"]
+        tool = Tool(float(t["diameter"]), float(t["stickout"]), Material(str(m["name"]), float(m["E"]),
+                    float(m["density"]), float(m["nu"])), float(t["fluted_length"]), float(t["flute_ratio"]),
+                    float(t["zeta"]), int(t["elements"]))
+        return cls(base, tuple(free), bool(rec["axisymmetric"]), {}, tool,
+                   {d: np.asarray(v, float) for d, v in rec["slopes"].items()}, rec.get("n_tip"), rec.get("keep"))
+
     def tip_structure(self, theta) -> Structure:
         """One tip structure (modes) from θ (P,)."""
         return self.batch(np.asarray(theta, dtype=float)[None, :]).structure(0)

@@ -127,3 +127,40 @@ def test_api_update_at_45_mm_decides_at_60_mm(cfg):
     assert np.all((pm >= 0) & (pm <= 1))
     with pytest.raises(InputError, match="stickout"):
         api_at(post, -5)
+
+
+def test_cli_update_with_a_stickout_column_then_map_and_predict_at_60_mm(cfg, tmp_path, capsys):
+    """The shell chain: a cuts CSV with a stickout_mm column (one cell empty: the config's), `update` over the
+    holder, `map --stickout 60` and `predict --stickout 60` from the posterior JSON alone; the JSON keeps the
+    tool (map at 45 and at 60 mm differ: the 60 mm tip is more flexible, so P(stable) is lower); a bad cell
+    is one line, exit 2."""
+    import csv
+
+    from millstab.cli import main
+
+    (tmp_path / "shop.toml").write_text(CONFIG)
+    rows = [(9000, 0.3, "stable", 45), (10000, 2.5, "chatter", 45), (12000, 0.4, "stable", ""),
+            (14000, 3.0, "chatter", 60), (15000, 0.2, "stable", 60)]
+    with open(tmp_path / "cuts.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["rpm", "depth_mm", "label", "stickout_mm"])
+        w.writerows(rows)
+    assert main(["update", str(tmp_path / "shop.toml"), str(tmp_path / "cuts.csv"), "--samples", "200",
+                 "--out", str(tmp_path / "post.json")]) == 0
+    maps = {}
+    for s in ("45", "60"):
+        assert main(["map", str(tmp_path / "post.json"), "--rpm", "9000:15000:3000", "--depth", "0.2:2:0.6",
+                     "--stickout", s, "--out", str(tmp_path / f"map{s}.csv")]) == 0
+        with open(tmp_path / f"map{s}.csv") as fh:
+            maps[s] = np.array([float(r["p_stable"]) for r in csv.DictReader(fh)])
+    assert maps["60"].mean() < maps["45"].mean()
+    with open(tmp_path / "new.csv", "w") as fh:
+        fh.write("rpm,depth_mm\n11000,0.5\n")
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "new.csv"), "--stickout", "60",
+                 "--out", str(tmp_path / "pred.csv")]) == 0
+    (tmp_path / "bad.csv").write_text("rpm,depth_mm,label,stickout_mm\n9000,0.3,stable,abc\n10000,2,chatter,45\n")
+    capsys.readouterr()
+    assert main(["update", str(tmp_path / "shop.toml"), str(tmp_path / "bad.csv"), "--samples", "200",
+                 "--out", str(tmp_path / "post2.json")]) == 2
+    err = [line for line in capsys.readouterr().err.strip().splitlines() if "error" in line]
+    assert len(err) == 1 and "row 1, stickout_mm" in err[0] and "abc" in err[0]

@@ -14,6 +14,7 @@ from millstab.stability import zoa
 from millstab.update.likelihood import Evidence, Likelihood, cut_loglik
 from millstab.update.prior import Prior
 from millstab.update.stickout import at_stickout, config_prior, over_holder
+from test_tooltip_config import TOOL  # the 12 mm carbide end mill at 45 mm
 
 CONFIG = """
 [cutting]
@@ -22,12 +23,7 @@ kt = "700 MPa"
 kr = 0.3
 radial_immersion = 0.5
 milling = "down"
-[tool]
-diameter = "12 mm"
-stickout = "45 mm"
-fluted_length = "26 mm"
-material = "carbide"
-zeta = 0.01
+""" + TOOL + """
 [[holder.modes]]
 fn = "900 Hz"
 k = "60 N/um"

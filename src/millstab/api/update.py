@@ -118,7 +118,8 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
     from millstab.plot.update import plot_pmap
     from millstab.stability import get_engine
 
-    prior_sld = get_engine(post.engine).envelope(post.prior.par.base, post.prior.cutting, rpm).depth_mm
+    par = post.prior.par  # the prior median's tip (over a holder: the tip at the posterior's stickout)
+    prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
     return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, post.cuts, title=title)
 
 

@@ -85,8 +85,7 @@ def main() -> None:
             prior60 = at_stickout(prior, 0.06)
             from millstab.update import Posterior
 
-            hammer = Posterior(prior60, prior60.par.theta0[None, :] * np.exp(
-                prior60.spread * rng.standard_t(4, (args.samples, prior60.size))), "zoa")
+            hammer = Posterior(prior60, np.exp(prior60.sample(args.samples, rng)), "zoa")  # prior draws
             # the old way: the 45 mm tip's modes as the structure, updated, used unchanged at 60 mm
             old_cfg = type(cfg)(cfg.cutting, prior.par.tip_structure(prior.median), "tip 45 mm")
             old = update(old_cfg, cuts, samples=args.samples, seed=c, prior=make_prior(old_cfg.structure, cfg.cutting))

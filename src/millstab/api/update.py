@@ -19,11 +19,14 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, start=None, progress: Progress | None = None, client=None, stickout_mm=None):
+           seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto",
+           stickout_mm=None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
-    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior);
+    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
+    ``auto`` | ``delayed`` | ``plain`` (delayed acceptance screened by the zero-order engine, the default for
+    every engine but zoa; the posterior is the chosen engine's either way, :data:`millstab.update.SAMPLERS`);
     ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's). A ``[tool]`` +
     ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
     stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`).
@@ -50,7 +53,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
         check_client(client)
     return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client, stickout=stickout)
+                      client=client, sampler=sampler, stickout=stickout)
 
 
 def at_stickout(post, stickout_mm: float | None):

@@ -25,6 +25,8 @@ class Config:
         rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
         description: free text from the file ("" if none).
         prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
+        tooltip: ``(Tool, Holder)`` of a ``[tool]`` + ``[holder]`` config (its structure is their tip FRF), else
+            ``None``: updating over a holder given by modes serves every stickout (:mod:`millstab.update.stickout`).
     """
 
     cutting: Cutting
@@ -34,6 +36,7 @@ class Config:
     rpm: np.ndarray | None = None
     description: str = ""
     prior: PriorTable | None = None
+    tooltip: tuple | None = None
 
 
 @dataclass(frozen=True, eq=False)

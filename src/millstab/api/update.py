@@ -19,13 +19,17 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto"):
+           seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto",
+           stickout_mm=None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
     whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
     ``auto`` | ``delayed`` | ``plain`` (delayed acceptance screened by the zero-order engine, the default for
-    every engine but zoa; the posterior is the chosen engine's either way, :data:`millstab.update.SAMPLERS`).
+    every engine but zoa; the posterior is the chosen engine's either way, :data:`millstab.update.SAMPLERS`);
+    ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's). A ``[tool]`` +
+    ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
+    stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
@@ -39,13 +43,30 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
     check_seed(seed)
-    cfg, _ = modal(cfg)
+    from millstab.update.stickout import over_holder
+
+    if not over_holder(cfg):  # a prior over the holder needs no tip modes
+        cfg, _ = modal(cfg)
+    stickout = None if stickout_mm is None else np.asarray(stickout_mm, dtype=float) * 1e-3
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client
 
         check_client(client)
     return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client, sampler=sampler)
+                      client=client, sampler=sampler, stickout=stickout)
+
+
+def at_stickout(post, stickout_mm: float | None):
+    """The posterior ``post`` (over a holder) with the tool at ``stickout_mm`` [mm] for map, recommend and
+    predict (``None``: ``post`` itself); InputError for a posterior over tip modes or a bad stickout."""
+    from millstab.update.stickout import at_stickout as move
+
+    if stickout_mm is None:
+        return post
+    s = float(stickout_mm)
+    if not (np.isfinite(s) and 0 < s <= 1000):
+        raise InputError("--stickout", stickout_mm, "a stickout in mm, > 0 (holder face to tip)")
+    return move(post, s * 1e-3)
 
 
 def posterior_from_json(doc, source: str = "posterior"):
@@ -100,7 +121,8 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
     from millstab.plot.update import plot_pmap
     from millstab.stability import get_engine
 
-    prior_sld = get_engine(post.engine).envelope(post.prior.par.base, post.prior.cutting, rpm).depth_mm
+    par = post.prior.par  # the prior median's tip (over a holder: the tip at the posterior's stickout)
+    prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
     return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, post.cuts, title=title)
 
 

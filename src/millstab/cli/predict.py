@@ -21,6 +21,8 @@ def predict_cmd(
                                                      "scored)."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
+    stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
+                                             "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
 ) -> None:
@@ -36,6 +38,9 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
+    from millstab.api.update import at_stickout
+
+    post = at_stickout(post, stickout)
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)

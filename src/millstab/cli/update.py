@@ -83,9 +83,17 @@ def update_cmd(
     inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = [v for v in inputs.values() if v]
-    cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
-    if note:
-        typer.echo(note)
+    from millstab.io.stickout import stickouts
+    from millstab.update.stickout import over_holder
+
+    so = stickouts(c)  # a stickout_mm column: each cut's stickout (a prior over the holder: docs/tooltip.md)
+    if so is not None and in_db:
+        raise InputError("stickout_mm", "with --db", "per-cut stickouts are not recorded in a shop database yet; "
+                                                     "update to a posterior file (--out)")
+    if not over_holder(cfg):
+        cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
+        if note:
+            typer.echo(note)
     # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral;
     # not zoa, whose sweeps take milliseconds): millstab.cluster.sample_limits
     with _client(dask, workers) as client:
@@ -99,7 +107,8 @@ def update_cmd(
                 typer.echo(line)
         else:
             post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
-                              start=_load_posterior(start) if start is not None else None, client=client, sampler=sampler)
+                              start=_load_posterior(start) if start is not None else None, client=client, sampler=sampler,
+                              stickout_mm=None if so is None else so * 1e3)
     doc = post.to_json()
     doc["config"] = cfg.name
     if out is not None:
@@ -137,6 +146,8 @@ def map_cmd(
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
+    stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
+                                             "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
     db: ShopDbOpt = None,
@@ -152,6 +163,7 @@ def map_cmd(
     speeds = parse_rpm_range(rpm)
     depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
+    post = api.at_stickout(post, stickout)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)

@@ -340,13 +340,14 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
+    setup = None
     if "tool" in data or "holder" in data:
-        structure = _tool_structure(data, base_dir, files)
+        structure, setup = _tool_structure(data, base_dir, files)
     else:
         structure = _structure(data["structure"], base_dir, files)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
-    return Config(cutting, structure, name_value, path, rpm, description, prior)
+    return Config(cutting, structure, name_value, path, rpm, description, prior, setup)
 
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
@@ -680,7 +681,8 @@ def tool_setup(data: Mapping[str, Any], base_dir: Path | None = None, files: Map
 
 
 def _tool_structure(data: Mapping[str, Any], base_dir: Path | None,
-                    files: Mapping[str, PathLike] | None = None) -> Structure:
+                    files: Mapping[str, PathLike] | None = None) -> tuple[Structure, tuple]:
+    """(the tip FRF structure, (Tool, Holder)) of a [tool] + [holder] config."""
     if "structure" in data:
         raise InputError("structure", "[structure] and [tool]", "give either [structure] (modes or a measured FRF) or "
                                                                 "[tool] + [holder], not both")
@@ -694,7 +696,7 @@ def _tool_structure(data: Mapping[str, Any], base_dir: Path | None,
         warn("tool.zeta: the tool has no damping and the holder is rigid, so the tip FRF is undamped and every "
              "stability limit near its modes is ~0; give the tool's damping, e.g. zeta = 0.01 (a carbide end mill "
              "in a holder: ~0.5-3 %), or describe the holder (its damping)", FRFWarning, stacklevel=2)
-    return tip_structure(tool, holder)
+    return tip_structure(tool, holder), (tool, holder)
 
 
 def load_tool_setup(source: PathLike):

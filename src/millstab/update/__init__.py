@@ -58,7 +58,7 @@ def screen_engine(engine: str, sampler: str = "auto") -> str | None:
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
-           client=None, sampler: str = "auto") -> Posterior:
+           client=None, sampler: str = "auto", stickout: np.ndarray | None = None) -> Posterior:
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
@@ -81,14 +81,19 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         sampler: ``auto``, ``delayed`` or ``plain`` (:data:`SAMPLERS`): with ``delayed`` (the default for
             every engine but ``zoa``) the zero-order engine screens each MH proposal and the chosen engine
             decides only on the survivors (delayed acceptance); the posterior is the chosen engine's either way.
+        stickout: the tool's stickout [m] of each row of ``cuts`` (NaN: the config's); needs a ``[tool]`` +
+            ``[holder]`` config whose holder is given by modes, whose prior is then over the holder
+            (:mod:`millstab.update.stickout`: one posterior serves every stickout).
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
     """
-    pr = prior or make_prior(config.structure, config.cutting, getattr(config, "prior", None))
+    from millstab.update.stickout import config_prior
+
+    pr = prior or config_prior(config)
     cheap_engine = screen_engine(engine, sampler)
     with collect() as caught:
-        ev = Evidence.from_points(cuts, points)
+        ev = Evidence.from_points(cuts, points, stickout)
         lik = Likelihood(pr, ev, engine, client)
         scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
     for w in caught:  # pass them on to the caller, and keep them in the result
@@ -113,6 +118,9 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             "label": [("stable", "chatter", "marginal")[k] for k in ev.cut_kind] + [""] * ev.pt_rpm.size,
             "chatter_hz": [None if not np.isfinite(h) else float(h) for h in ev.cut_hz] + [None] * ev.pt_rpm.size,
             "grade": [float(g) for g in ev.cut_grade] + [None] * ev.pt_rpm.size}
+    if stickout is not None:  # each row's stickout [mm] (None: the config's)
+        so = np.r_[ev.cut_stickout, ev.pt_stickout] * 1e3
+        data["stickout_mm"] = [None if np.isnan(v) else float(v) for v in so]
     u = res.u[:, :pr.size]
     noise = None
     if pr.dim > pr.size:

@@ -253,7 +253,8 @@ def data_guard(post: Posterior) -> list[dict]:
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
     blim, _ = limits(post.prior, post.u, rpm[ch], post.engine)
     p_model = np.mean(blim <= depth[ch][None, :], axis=0)
-    modes = [m for m in (*post.prior.par.base.x, *post.prior.par.base.y)]
+    tip = post.prior.par.structure(post.prior.par.theta0)  # the prior median's TIP (a prior over a holder too)
+    modes = [m for m in (*tip.x, *tip.y)]
     fc_struct = min(modes, key=lambda m: m.k).fn  # the most flexible mode: where chatter grows
     fc = np.where(np.isfinite(hz) & (hz > 0), hz, fc_struct)
     ftp = post.prior.cutting.teeth * rpm / 60.0

@@ -109,6 +109,25 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     return depth * 1e3 * factor[:, None], hz
 
 
+def stickout_groups(prior: Prior, column_stickout: np.ndarray) -> list[tuple[Prior, np.ndarray]]:
+    """[(the prior at a stickout, its columns)] for columns with stickouts [m] (NaN: the prior's own): one
+    group of every column when none is given. InputError when a stickout is given and the prior's
+    parameterization has none (a prior over the tip's modes, not over the holder's)."""
+    so = np.asarray(column_stickout, dtype=float)
+    given = ~np.isnan(so)
+    if not given.any():
+        return [(prior, np.arange(so.size))]
+    at = getattr(prior.par, "at", None)
+    if at is None:
+        raise InputError("stickout", f"{np.unique(so[given]) * 1e3} mm", "per-cut stickouts need a prior over the "
+                         "holder: a config with [tool] and [holder] given by modes ([[holder.modes]])")
+    own = prior.par.stickout
+    so = np.where(given, so, own)
+    from dataclasses import replace
+
+    return [(prior if s == own else replace(prior, par=at(float(s))), np.flatnonzero(so == s)) for s in np.unique(so)]
+
+
 def check_kr_engine(prior: Prior, engine: str):
     """The engine named ``engine``; InputError when the prior frees Kr and the engine takes one Kr per call."""
     eng = get_engine(engine)
@@ -177,6 +196,10 @@ class Evidence:
     pt_cond: np.ndarray | None = None  # each boundary point's index into ``conditions``; None: all 0
     #: the cutting conditions the indices point into; None: the prior's cutting (one condition)
     conditions: tuple[Cutting, ...] | None = None
+    #: each cut's / boundary point's tool stickout [m] (NaN: the config's); None: all the config's. Only a
+    #: prior over the holder (:mod:`millstab.update.stickout`) takes stickouts
+    cut_stickout: np.ndarray | None = None
+    pt_stickout: np.ndarray | None = None
 
     def __post_init__(self):
         if self.cut_grade is None:
@@ -192,11 +215,21 @@ class Evidence:
             if idx.shape != (np.size(rpm),):
                 raise InputError(name, f"{idx.size} values", f"one condition index per row ({np.size(rpm)})")
             object.__setattr__(self, name, condition_index(idx, n_cond, name))
+        for name, rpm in (("cut_stickout", self.cut_rpm), ("pt_stickout", self.pt_rpm)):
+            v = getattr(self, name)
+            v = np.full(np.size(rpm), np.nan) if v is None else np.asarray(v, dtype=float)
+            if v.shape != (np.size(rpm),):
+                raise InputError(name, f"{v.size} values", f"one stickout per row ({np.size(rpm)})")
+            bad = ~np.isnan(v) & ~((v > 0) & (v <= 1.0))
+            if bad.any():
+                raise InputError(name, float(v[bad][0]), "a stickout in m, > 0 and under 1 m (mm written as m?)")
+            object.__setattr__(self, name, v)
 
     @classmethod
-    def from_points(cls, cuts: PointSet, points: PointSet | None = None) -> Evidence:
+    def from_points(cls, cuts: PointSet, points: PointSet | None = None, stickout: np.ndarray | None = None) -> Evidence:
         """Split a cuts file (labelled rows; unlabelled rows are boundary points) and an optional
-        boundary-point file into evidence.
+        boundary-point file into evidence; ``stickout``: the tool's stickout [m] of each row of ``cuts``
+        (NaN: the config's; the rows of ``points`` are at the config's).
 
         Raises:
             InputError: neither a stable nor a chatter cut, and no boundary point either.
@@ -227,7 +260,17 @@ class Evidence:
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
         grade = np.asarray(c.grade, dtype=float) if c.grade is not None else None
         batch = np.asarray(c.batch, dtype=object) if c.batch is not None else None
-        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch)
+        so_c = so_p = None
+        if stickout is not None:
+            so = np.asarray(stickout, dtype=float)
+            if so.shape != (len(cuts.rpm),):
+                raise InputError("stickout", f"{so.size} values", f"one per row of the cuts ({len(cuts.rpm)})")
+            n_pts = 0 if points is None else int(points.boundary.sum())
+            n_extra = 0 if points is None else int((~points.boundary).sum())
+            so_c = np.r_[so[labelled], np.full(n_extra, np.nan)]
+            so_p = np.r_[so[cuts.boundary], np.full(n_pts, np.nan)]
+        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch,
+                   cut_stickout=so_c, pt_stickout=so_p)
 
     @property
     def n_cuts(self) -> int:
@@ -239,13 +282,31 @@ class Evidence:
         return np.unique(np.concatenate([self.cut_rpm, self.pt_rpm]))
 
     def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The distinct (speed, condition) pairs of the data: (rpm (S,), condition index (S,), each cut's
-        column (n_cuts,), each point's column (n_points,)); sorted by condition, then speed."""
+        """The distinct (speed, condition, stickout) columns of the data: (rpm (S,), condition index (S,),
+        each cut's column (n_cuts,), each point's column (n_points,)); sorted by condition, stickout (the
+        config's first), then speed. Each column's stickout: :meth:`column_stickouts`."""
+        keys, inverse = self._column_keys()
+        return keys[:, 2].copy(), keys[:, 0].astype(np.int64), inverse[:self.n_cuts], inverse[self.n_cuts:]
+
+    def column_stickouts(self) -> np.ndarray:
+        """The stickout [m] of each column of :meth:`columns` (NaN: the config's)."""
+        keys, _ = self._column_keys()
+        so = np.concatenate([self.cut_stickout, self.pt_stickout])
+        out = np.full(keys.shape[0], np.nan)
+        g = keys[:, 1] >= 0
+        out[g] = np.unique(so[~np.isnan(so)])[keys[g, 1].astype(int)]
+        return out
+
+    def _column_keys(self) -> tuple[np.ndarray, np.ndarray]:
         cond = np.concatenate([self.cut_cond, self.pt_cond])
         rpm = np.concatenate([self.cut_rpm, self.pt_rpm]).astype(float)
-        pairs, inverse = np.unique(np.stack([cond.astype(float), rpm], axis=1), axis=0, return_inverse=True)
-        inverse = np.asarray(inverse).ravel()
-        return pairs[:, 1].copy(), pairs[:, 0].astype(np.int64), inverse[:self.n_cuts], inverse[self.n_cuts:]
+        so = np.concatenate([self.cut_stickout, self.pt_stickout])
+        code = np.full(so.size, -1.0)  # the config's stickout; then the distinct given ones, ascending
+        given = ~np.isnan(so)
+        if given.any():
+            code[given] = np.unique(so[given], return_inverse=True)[1].ravel()
+        keys, inverse = np.unique(np.stack([cond.astype(float), code, rpm], axis=1), axis=0, return_inverse=True)
+        return keys, np.asarray(inverse).ravel()
 
 
 class Likelihood:
@@ -265,12 +326,9 @@ class Likelihood:
         if prior.kr_free and any(c.kr != prior.cutting.kr for c in self.conditions):
             raise InputError("conditions", "several Kr", f"with Kr free every condition takes the sampled Kr; give "
                              f"each condition the config's Kr ({prior.cutting.kr:g}) or hold Kr")
-        used = sorted(set(self.column_cond.tolist()))
-        # one condition, the prior's own: the plain single-Cutting path (the numbers of earlier versions)
-        if len(used) == 1 and self.conditions[used[0]] == prior.cutting:
-            self._conditions = None
-        else:
-            self._conditions = Conditions.of(self.conditions, self.column_cond)
+        # one engine call per stickout group of columns (one group, all columns, without stickouts)
+        self._groups = stickout_groups(prior, ev.column_stickouts())
+        self._group_conditions = [self._conditions_of(self.column_cond[cols]) for _, cols in self._groups]
         self._sig_c = prior.sigma_depth_mm(ev.cut_depth_mm)
         self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
         hz = np.isfinite(ev.cut_hz)
@@ -283,6 +341,14 @@ class Likelihood:
         self._tooth_hz = teeth[ev.cut_cond] * ev.cut_rpm / 60.0
         self.n_calls = 0
         self.n_sets = 0
+
+    def _conditions_of(self, column_cond: np.ndarray):
+        """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
+        used = sorted(set(column_cond.tolist()))
+        # one condition, the prior's own: the plain single-Cutting path (the numbers of earlier versions)
+        if len(used) == 1 and self.conditions[used[0]] == self.prior.cutting:
+            return None
+        return Conditions.of(self.conditions, column_cond)
 
     @property
     def uses_frequency(self) -> bool:
@@ -301,15 +367,16 @@ class Likelihood:
         depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
         if ok.any():
-            d, h = limits(self.prior, u[ok], self.speeds, self.engine, self.uses_frequency, self.client,
-                          self._conditions)
-            self.n_calls += 1
-            self.n_sets += d.shape[0]
-            depth[ok] = d
-            if hz is not None and h is not None:
-                hz[ok] = h
-            elif h is None:
-                hz = None
+            rows = np.flatnonzero(ok)
+            for (prior, cols), cond in zip(self._groups, self._group_conditions):
+                d, h = limits(prior, u[ok], self.speeds[cols], self.engine, self.uses_frequency, self.client, cond)
+                self.n_calls += 1
+                depth[np.ix_(rows, cols)] = d
+                if hz is not None and h is not None:
+                    hz[np.ix_(rows, cols)] = h
+                elif h is None:
+                    hz = None
+            self.n_sets += rows.size
         return depth, hz, w, ok
 
     def __call__(self, v: np.ndarray) -> np.ndarray:
@@ -361,4 +428,4 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "check_kr_engine", "cut_loglik", "frequency_distance", "limits"]
+__all__ = ["Evidence", "Likelihood", "check_kr_engine", "stickout_groups", "cut_loglik", "frequency_distance", "limits"]

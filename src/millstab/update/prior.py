@@ -43,7 +43,7 @@ likelihood is built. With several cutting conditions the sampled Kr is every con
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.special import expit, gammaln, logit
@@ -288,7 +288,8 @@ class Prior:
                 "sigma_depth_m": self.sigma_depth_m, "sigma_depth_rel": self.sigma_depth_rel,
                 "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error, "tails": self.tails,
                 "nu": self.nu, "label_error_spread": self.label_error_spread,
-                "sigma_depth_spread": self.sigma_depth_spread}
+                "sigma_depth_spread": self.sigma_depth_spread,
+                **({"tooltip": self.par.record()} if hasattr(self.par, "record") else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> Prior:
@@ -300,7 +301,12 @@ class Prior:
                                           for i, m in enumerate(d["structure"][dd])) for dd in ("x", "y")))
             names = tuple(d["names"])
             modal = tuple(n for n in names if n not in ("kt", "kr"))
-            par = Parameterization(structure, modal)
+            if "tooltip" in d:  # a prior over the holder-face modes of a [tool] + [holder] config
+                from millstab.tooltip.param import TipParameterization
+
+                par = TipParameterization.from_record(d["tooltip"], structure, modal)
+            else:
+                par = Parameterization(structure, modal)
             return cls(par, cutting, names, np.asarray(d["median"], float), np.asarray(d["spread"], float),
                        d.get("sigma_depth_m"), d.get("sigma_depth_rel"), float(d["sigma_chatter_hz"]),
                        # a posterior written before label errors existed had none
@@ -314,13 +320,16 @@ class Prior:
             raise InputError("posterior.prior", type(exc).__name__, f"not a millstab prior record ({exc})") from None
 
 
-def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
+def make_prior(structure: Structure, cutting: Cutting, table=None, par: Parameterization | None = None) -> Prior:
     """The prior from a config's structure and cutting conditions and its ``[prior]`` table.
 
     Args:
         structure: the hammer-test modal structure (the prior medians).
         cutting: the cutting conditions (Kt the median when ``table`` frees it).
         table: a :class:`millstab.io.config.PriorTable` or ``None`` (all defaults).
+        par: the parameterization over every parameter, whose names ``table`` frees or fixes (default
+            ``Parameterization(structure)``; a :class:`~millstab.tooltip.param.TipParameterization`: the
+            prior is over the holder-face modes, its ``base``, see :mod:`millstab.update.stickout`).
     Raises:
         InputError: a measured-FRF structure, an unknown or duplicated name, Kr freed with a config Kr of 0,
             every parameter fixed, a spread above :data:`MAX_SPREAD`.
@@ -342,7 +351,7 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
                                                     f"log-normal in Kr; cutting.kr = {cutting.kr:g}); set cutting.kr "
                                                     "or remove prior.kr")
     fixed = tuple(f for f in fixed if f not in ("kt", "kr"))
-    full = Parameterization(structure)
+    full = Parameterization(structure) if par is None else par
     fixed_c = set()
     for f in fixed:
         try:
@@ -352,7 +361,7 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
     free = tuple(n for n in full.available() if n not in fixed_c)
     if not free:
         raise InputError("prior.fixed", list(fixed), "every modal parameter is fixed; leave at least one free")
-    par = Parameterization(structure, free)
+    par = Parameterization(structure, free) if par is None else replace(par, free=free, bounds={})
     spread = np.array([DEFAULT_SPREADS[par.kind(n)] for n in par.free])
     for key, value in spreads.items():
         if key in DEFAULT_SPREADS:

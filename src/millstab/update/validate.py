@@ -229,10 +229,10 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             with quiet():  # one-sided folds and speeds beyond the training cuts are expected here
                 post = update_fn(config, train, engine=engine, samples=samples, seed=int(seed) * 1000 + done)
         except (InputError, RuntimeError) as exc:  # a fold the model cannot be updated on: the prior predicts
-            from millstab.update.prior import make_prior
+            from millstab.update.stickout import config_prior
 
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
-            pr = prior or make_prior(config.structure, config.cutting, getattr(config, "prior", None))
+            pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
         out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm)[1]
         for m, p in baseline_predictions(tr, te).items():

@@ -1,0 +1,162 @@
+"""One posterior over the holder serves every stickout (millstab.update.stickout): the likelihood of cuts
+at several stickouts against a brute-force per-cut computation (each cut's tip structure built alone, the
+engine's scalar path), the prior's JSON, the api chain (update at 45 mm, decide at 60 mm) and the errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.io.config import parse_config
+from millstab.points import PointSet
+from millstab.stability import zoa
+from millstab.update.likelihood import Evidence, Likelihood, cut_loglik
+from millstab.update.prior import Prior
+from millstab.update.stickout import at_stickout, config_prior, over_holder
+from test_tooltip_config import TOOL  # the 12 mm carbide end mill at 45 mm
+
+CONFIG = """
+[cutting]
+teeth = 3
+kt = "700 MPa"
+kr = 0.3
+radial_immersion = 0.5
+milling = "down"
+""" + TOOL + """
+[[holder.modes]]
+fn = "900 Hz"
+k = "60 N/um"
+zeta = 0.04
+slope = 15
+[[holder.modes]]
+fn = "1600 Hz"
+k = "120 N/um"
+zeta = 0.03
+slope = -10
+"""
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    return parse_config(CONFIG)
+
+
+def test_config_prior_is_over_the_holder_modes(cfg):
+    assert over_holder(cfg)
+    pr = config_prior(cfg)
+    assert pr.names == ("fn1", "k1", "zeta1", "fn2", "k2", "zeta2")
+    np.testing.assert_allclose(pr.median, [900, 60e6, 0.04, 1600, 120e6, 0.03])
+    # the JSON keeps the tool: the reloaded prior gives the same tip modes at any stickout
+    back = Prior.from_dict(pr.to_dict())
+    theta = pr.median * np.exp(0.1 * np.random.default_rng(0).standard_normal((4, pr.size)))
+    for s in (0.045, 0.06):
+        a, b = at_stickout(pr, s).par.batch(theta), at_stickout(back, s).par.batch(theta)
+        np.testing.assert_allclose(a.fn_x, b.fn_x, rtol=1e-12)
+        np.testing.assert_allclose(a.k_x, b.k_x, rtol=1e-12)
+
+
+def test_likelihood_of_cuts_at_several_stickouts_equals_each_cut_alone(cfg):
+    """Cuts at 45, 60 and the config's stickout (NaN), two labels each side: log L of 5 parameter sets from
+    the grouped likelihood (one engine call per stickout) against each cut's own tip structure and the
+    engine's single-structure envelope."""
+    pr = config_prior(cfg)
+    rpm = np.array([9000.0, 12000.0, 15000.0, 9000.0, 11000.0, 14000.0, 10000.0])
+    depth = np.array([0.4, 1.5, 0.8, 0.3, 1.0, 2.5, 0.9])
+    label = np.array(["stable", "chatter", "stable", "chatter", "stable", "chatter", "chatter"])
+    so = np.array([0.045, 0.045, 0.06, 0.06, 0.06, 0.075, np.nan])
+    ev = Evidence.from_points(PointSet(rpm, depth, label, np.ones(7)), None, so)
+    lik = Likelihood(pr, ev, "zoa", None)
+    u = pr.mean_u + 0.1 * np.random.default_rng(1).standard_normal((5, pr.size))
+    got = lik(u)  # the held noise levels
+    assert lik.n_calls == 3  # 45 mm (with the NaN cut, the config's), 60 mm, 75 mm
+    want = np.zeros(5)
+    theta = np.exp(u)
+    for b in range(5):
+        for i in range(7):
+            s = 0.045 if np.isnan(so[i]) else so[i]
+            st = pr.par.at(s).tip_structure(theta[b])
+            blim = zoa.envelope(st, pr.cutting, np.array([rpm[i]])).depth[0] * 1e3
+            z = (depth[i] - blim) / pr.sigma_depth_mm(depth[i : i + 1])[0]
+            want[b] += cut_loglik(np.array([z]), np.array([1 if label[i] == "chatter" else 0]), pr.label_error)[0]
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+
+
+def test_stickouts_need_a_prior_over_the_holder():
+    tip = parse_config(CONFIG.split("[tool]")[0] + "[[structure.x]]\nfn = 900\nk = 6e7\nzeta = 0.04\n")
+    assert not over_holder(tip)
+    ev = Evidence.from_points(PointSet(np.array([9000.0, 9500.0]), np.array([0.5, 2.0]),
+                                       np.array(["stable", "chatter"]), np.ones(2)), None, np.array([0.05, np.nan]))
+    with pytest.raises(InputError, match="holder"):
+        Likelihood(config_prior(tip), ev)
+    with pytest.raises(InputError, match="holder"):
+        at_stickout(config_prior(tip), 0.06)
+    with pytest.raises(InputError, match="mm written as m"):
+        Evidence.from_points(PointSet(np.array([9000.0, 9500.0]), np.array([0.5, 2.0]), np.array(["stable", "chatter"]),
+                                      np.ones(2)), None, np.array([45.0, np.nan]))
+
+
+def test_api_update_at_45_mm_decides_at_60_mm(cfg):
+    """The api chain on a small campaign: cuts at 45 mm labelled by the true holder (stiffer than the
+    config's), 300 samples; the posterior moves the holder's k toward the truth, and its P(stable) at 60 mm
+    is that of the same samples with the tip at 60 mm (a deeper cut is less stable; every probability
+    in [0, 1])."""
+    from millstab.api.update import at_stickout as api_at, p_stable, update
+
+    pr = config_prior(cfg)
+    truth = pr.median.copy()
+    truth[[1, 4]] *= 1.6  # both holder modes stiffer than the hammer test says
+    rpm = np.linspace(8000, 16000, 9)
+    blim = zoa.envelope(pr.par.tip_structure(truth), pr.cutting, rpm).depth * 1e3
+    rng = np.random.default_rng(3)
+    depth = blim * rng.uniform(0.6, 1.4, rpm.size)
+    label = np.where(depth > blim, "chatter", "stable")
+    cuts = PointSet(rpm, depth, label, np.ones(rpm.size))
+    post = update(cfg, cuts, samples=300, seed=0, stickout_mm=np.full(rpm.size, 45.0))
+    k_med = np.median(post.samples[:, [1, 4]], axis=0)
+    assert (k_med > pr.median[[1, 4]]).all()
+    far = api_at(post, 60.0)
+    assert far.prior.par.stickout == pytest.approx(0.06) and post.prior.par.stickout == pytest.approx(0.045)
+    d = np.array([0.2, 0.5, 1.0, 2.0])
+    pm = p_stable(far, rpm[:3], d)
+    assert pm.shape == (3, 4) or pm.shape == (4, 3)
+    assert np.all((pm >= 0) & (pm <= 1))
+    with pytest.raises(InputError, match="stickout"):
+        api_at(post, -5)
+
+
+def test_cli_update_with_a_stickout_column_then_map_and_predict_at_60_mm(cfg, tmp_path, capsys):
+    """The shell chain: a cuts CSV with a stickout_mm column (one cell empty: the config's), `update` over the
+    holder, `map --stickout 60` and `predict --stickout 60` from the posterior JSON alone; the JSON keeps the
+    tool (map at 45 and at 60 mm differ: the 60 mm tip is more flexible, so P(stable) is lower); a bad cell
+    is one line, exit 2."""
+    import csv
+
+    from millstab.cli import main
+
+    (tmp_path / "shop.toml").write_text(CONFIG)
+    rows = [(9000, 0.3, "stable", 45), (10000, 2.5, "chatter", 45), (12000, 0.4, "stable", ""),
+            (14000, 3.0, "chatter", 60), (15000, 0.2, "stable", 60)]
+    with open(tmp_path / "cuts.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["rpm", "depth_mm", "label", "stickout_mm"])
+        w.writerows(rows)
+    assert main(["update", str(tmp_path / "shop.toml"), str(tmp_path / "cuts.csv"), "--samples", "200",
+                 "--out", str(tmp_path / "post.json")]) == 0
+    maps = {}
+    for s in ("45", "60"):
+        assert main(["map", str(tmp_path / "post.json"), "--rpm", "9000:15000:3000", "--depth", "0.2:2:0.6",
+                     "--stickout", s, "--out", str(tmp_path / f"map{s}.csv")]) == 0
+        with open(tmp_path / f"map{s}.csv") as fh:
+            maps[s] = np.array([float(r["p_stable"]) for r in csv.DictReader(fh)])
+    assert maps["60"].mean() < maps["45"].mean()
+    with open(tmp_path / "new.csv", "w") as fh:
+        fh.write("rpm,depth_mm\n11000,0.5\n")
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "new.csv"), "--stickout", "60",
+                 "--out", str(tmp_path / "pred.csv")]) == 0
+    (tmp_path / "bad.csv").write_text("rpm,depth_mm,label,stickout_mm\n9000,0.3,stable,abc\n10000,2,chatter,45\n")
+    capsys.readouterr()
+    assert main(["update", str(tmp_path / "shop.toml"), str(tmp_path / "bad.csv"), "--samples", "200",
+                 "--out", str(tmp_path / "post2.json")]) == 2
+    err = [line for line in capsys.readouterr().err.strip().splitlines() if "error" in line]
+    assert len(err) == 1 and "row 1, stickout_mm" in err[0] and "abc" in err[0]

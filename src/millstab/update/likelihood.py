@@ -39,6 +39,9 @@ samples, :func:`limits`) and depth noise σ_b:
 * learned noise levels: the label error ε and a factor s on σ_b are sampled with the parameters
   (:mod:`millstab.update.prior`), one value per sample; they reuse the engine's limits, so they cost
   no engine call.
+* a test-day effect (``[prior] batch_effect``, :mod:`millstab.update.batch`): the cuts of day g are
+  evaluated at θ·exp(δ_g) on the fn coordinates, δ_g sampled with the parameters; the limits are then
+  computed per (day, speed) column, one engine call per day.
 
 Support: rows of u outside the prior's support (ζ ≥ 1, …: :meth:`Prior.in_support`) get log L = −inf
 and never reach the engine, so a proposal there is rejected instead of failing the model's checks.
@@ -58,6 +61,7 @@ from millstab.errors import InputError
 from millstab.forward import forward
 from millstab.points import PointSet
 from millstab.stability import check_rpm, get_engine
+from millstab.update.batch import BatchEffect
 from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
@@ -217,6 +221,10 @@ class Likelihood:
             hz = np.zeros_like(hz)
         self._hz = np.flatnonzero(hz)
         self._tooth_hz = prior.cutting.teeth * ev.cut_rpm / 60.0
+        # a test-day effect: the limits' columns are (day, speed) pairs, each day's at its own shift
+        self.batch = BatchEffect.of(prior, ev)
+        if self.batch is not None:
+            self._ic, self._ip = self.batch.ic, self.batch.ip
         self.n_calls = 0
         self.n_sets = 0
 
@@ -226,20 +234,27 @@ class Likelihood:
 
     def _limits(self, v: np.ndarray):
         """(depths (B, S), freqs, noise coordinates (B, Q) or None, in-support (B,)) of sampler vectors v
-        (B, P) or (B, P + Q); rows outside the prior's support do not reach the engine (their limits: 1 mm,
-        a placeholder: the callers mask them to −inf)."""
+        (B, P), (B, P + Q) or, with a test-day effect, (B, P + Q + G) (the days' shifts last; absent: 0);
+        rows outside the prior's support do not reach the engine (their limits: 1 mm, a placeholder: the
+        callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
-        p = self.prior.size
-        u, w = v[:, :p], (v[:, p:] if v.shape[1] > p else None)
-        ok = self.prior.in_support(u)
-        if w is not None:
-            ok &= np.isfinite(w).all(axis=1)
-        depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
+        p, q = self.prior.size, self.prior.dim
+        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
+        delta = v[:, q:] if self.batch is not None and v.shape[1] > q else None
+        ok = self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1)
+        cols = self.speeds.size if self.batch is None else self.batch.col_rpm.size
+        depth = np.ones((v.shape[0], cols))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
         if ok.any():
-            d, h = limits(self.prior, u[ok], self.speeds, self.engine, self.uses_frequency, self.client)
-            self.n_calls += 1
-            self.n_sets += d.shape[0]
+            def call(uu, rpm):
+                self.n_calls += 1
+                self.n_sets += uu.shape[0]
+                return limits(self.prior, uu, rpm, self.engine, self.uses_frequency, self.client)
+
+            if self.batch is None:
+                d, h = call(u[ok], self.speeds)
+            else:
+                d, h = self.batch.limits(call, u[ok], None if delta is None else delta[ok])
             depth[ok] = d
             if hz is not None and h is not None:
                 hz[ok] = h

@@ -47,7 +47,7 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
     if r.size == 0:
         return np.zeros(0), np.zeros(0)
     speeds, idx = np.unique(r, return_inverse=True)
-    blim, _ = limits(post.prior, post.u, speeds, post.engine)
+    blim, _ = limits(post.prior, post.decision_u, speeds, post.engine)  # a new day (millstab.update.batch)
     blim = blim[:, idx]  # (N, n)
     p_stable = (blim > d[None, :]).mean(axis=0)
     eps, fac = post.label_error[:, None], post.sigma_depth_factor[:, None]

@@ -12,7 +12,7 @@ from millstab.errors import InputError
 from millstab.io.config import config_to_toml, parse_config
 from millstab.io.points import PointSet
 from millstab.update import Posterior, make_prior, update
-from millstab.update.batch import NEW_DAY_SEED, fn_columns
+from millstab.update.batch import NEW_DAY_SEED, BatchPosterior, fn_columns
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.predict import predict_cuts
 from configs import TWO_MODE_TOML
@@ -55,15 +55,14 @@ def test_each_days_cuts_are_the_plain_likelihood_at_the_shifted_structure():
     assert list(np.array(prior.names)[fn]) == ["fn_x", "fn_y"]
     for g, day in enumerate(days):
         m = cuts.batch == day
-        ev_g = Evidence.from_points(cuts.subset(m))
-        for i in range(5):
-            ui = u[i].copy()
-            ui[fn] += delta[i, g]
-            want[i] += Likelihood(plain, ev_g)(ui[None])[0]
+        ug = u.copy()
+        ug[:, fn] += delta[:, g][:, None]
+        want += Likelihood(plain, Evidence.from_points(cuts.subset(m)))(ug)
     np.testing.assert_allclose(got, want, rtol=1e-10)
     np.testing.assert_allclose(lik(np.hstack([u, np.zeros((5, 3))])), lik0(u), rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_tau_to_zero_is_no_effect_and_decisions_widen_for_a_new_day():
     """τ = 10⁻⁶: the posterior is the no-effect posterior (means within Monte Carlo error), the new-day
     samples are the samples; τ = 3 %: the decisions' samples are θ·exp(δ), δ ~ N(0, τ²) on the fn."""
@@ -146,3 +145,31 @@ def test_the_option_is_read_checked_and_written_back():
     _, held = _prior('[prior]\nbatch_effect = "3 %"\nfixed = ["fn_x", "fn_y"]\n')
     with pytest.raises(InputError, match="leave at least one fn free"):
         Likelihood(held, Evidence.from_points(_cuts()))
+
+
+def test_predictions_use_a_known_days_shift_and_a_new_days_otherwise():
+    """A posterior (built directly: no sampling) with two days whose shifts are −5 % and +5 %: a cut of a
+    known day is predicted at θ·exp(δ_g) of that day's rows; an unknown day, no day, or no ``batch`` at
+    the new day's θ·exp(δ), δ ~ N(0, τ²) (recomputed here from the limits of the shifted samples)."""
+    _, prior = _prior(FN_ONLY + 'batch_effect = "3 %"\n')
+    rng = np.random.default_rng(2)
+    u = prior.sample(400, rng)
+    shifts = np.column_stack([np.full(400, -0.05), np.full(400, 0.05)]) + 0.005 * rng.standard_normal((400, 2))
+    post = Posterior(prior, np.exp(u), "zoa", batch=BatchPosterior(0.03, ("mon", "tue"), shifts))
+    rpm = np.array([7000.0, 9000.0, 7000.0, 9000.0, 9000.0])
+    depth = np.median(limits(prior, u, rpm)[0], axis=0)  # on the boundary: where a day's shift matters
+    day = np.array(["mon", "tue", "wed", "", "tue"], dtype=object)
+    ps, _ = predict_cuts(post, rpm, depth, day)
+    fn = fn_columns(prior)
+
+    def p(uu, r, b):
+        return float(np.mean(limits(prior, uu, [r])[0][:, 0] > b))
+
+    for g, i in ((0, 0), (1, 1), (1, 4)):
+        us = u.copy()
+        us[:, fn] += shifts[:, g][:, None]
+        assert ps[i] == pytest.approx(p(us, rpm[i], depth[i]))
+    for i in (2, 3):
+        assert ps[i] == pytest.approx(p(post.decision_u, rpm[i], depth[i]))
+    np.testing.assert_array_equal(predict_cuts(post, rpm, depth)[0][[2, 3]], ps[[2, 3]])
+    assert ps[0] != ps[2]  # the known Monday is not a new day

@@ -250,6 +250,27 @@ def _rpm_hint(value: str, field: str) -> str:
     return f"; {value.strip()!r} is {hz * 60:.10g} rpm as a rotational speed: write that"
 
 
+def parse_batch_effect(value, field: str = "prior.batch_effect") -> float:
+    """The test-day spread τ (σ of a day's shift of ln fn) from ``"3 %"``, ``"3%"`` or ``0.03``.
+
+    Raises:
+        InputError: not a number or percentage in [0, :data:`MAX_BATCH_EFFECT`].
+    """
+    tau = parse_quantity(value, field, "dimensionless")
+    if not 0 <= tau <= MAX_BATCH_EFFECT:
+        raise InputError(field, value, f"the σ of a test day's shift of every natural frequency, in [0 %, "
+                                       f"{MAX_BATCH_EFFECT:.0%}], e.g. \"3 %\" (0: no test-day effect)")
+    return tau
+
+
+def with_batch_effect(cfg: Config, value, field: str = "--batch-effect") -> Config:
+    """``cfg`` with its ``[prior] batch_effect`` set from ``value`` (``None``: ``cfg`` unchanged)."""
+    if value is None:
+        return cfg
+    table = cfg.prior if cfg.prior is not None else PriorTable({})
+    return replace(cfg, prior=replace(table, batch_effect=parse_batch_effect(value, field)))
+
+
 def _prior(t: Any) -> PriorTable:
     if not isinstance(t, Mapping):
         raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
@@ -290,10 +311,7 @@ def _prior(t: Any) -> PriorTable:
                 raise InputError(field, value, f"one of {', '.join(PRIOR_TAILS)}")
             tails = value
         elif key == "batch_effect":
-            batch = parse_quantity(value, field, "dimensionless")
-            if not 0 <= batch <= MAX_BATCH_EFFECT:
-                raise InputError(field, value, f"the σ of a test day's shift of every natural frequency, in [0 %, "
-                                               f"{MAX_BATCH_EFFECT:.0%}], e.g. \"3 %\" (0: no test-day effect)")
+            batch = parse_batch_effect(value, field)
         elif isinstance(key, str) and _PRIOR_NAME.match(key):
             x = parse_quantity(value, field, "dimensionless")
             if x <= 0:
@@ -712,4 +730,4 @@ def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | N
 
 
 __all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
-           "parse_config", "tool_setup", "tool_setup_from_text", "write_config"]
+           "parse_batch_effect", "parse_config", "tool_setup", "tool_setup_from_text", "with_batch_effect", "write_config"]

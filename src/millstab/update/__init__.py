@@ -111,7 +111,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
         from millstab.update.predict import predict_cuts  # one more engine call, only in this case
 
-        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm)
+        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm, ev.cut_batch)
         msg = label_message(pr, post.label_error, ev.cut_rpm, ev.cut_depth_mm, ev.cut_grade, ps)
         diag["conflict"]["labels"] = True
     if msg is not None:  # issued (the doors print it in one line) and kept in the result

@@ -173,3 +173,22 @@ def test_predictions_use_a_known_days_shift_and_a_new_days_otherwise():
         assert ps[i] == pytest.approx(p(post.decision_u, rpm[i], depth[i]))
     np.testing.assert_array_equal(predict_cuts(post, rpm, depth)[0][[2, 3]], ps[[2, 3]])
     assert ps[0] != ps[2]  # the known Monday is not a new day
+
+
+def test_the_cli_flag_writes_the_days_and_refuses_a_drift_that_is_no_drift(capsys, tmp_path):
+    from millstab.cli import main
+
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm,label,date\n6000,1.0,stable,mon\n7000,3.0,chatter,mon\n9000,2.0,stable,tue\n"
+                    "10000,4.0,chatter,tue\n")
+    out = tmp_path / "post.json"
+    code = main(["update", "example:ex1", str(cuts), "--samples", "100", "--batch-effect", "3%", "--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    doc = __import__("json").loads(out.read_text())
+    assert doc["batch"]["days"] == ["mon", "tue"] and doc["prior"]["batch_effect"] == pytest.approx(0.03)
+    assert "fn × mon" in text and doc["cuts"]["batch"] == ["mon", "mon", "tue", "tue"]
+    code = main(["update", "example:ex1", str(cuts), "--batch-effect", "40%", "--out", str(tmp_path / "p2.json")])
+    _, err = capsys.readouterr()
+    assert code == 2 and err.count("\n") == 1 and "--batch-effect = '40%'" in err and "25%" in err
+    assert not (tmp_path / "p2.json").exists()

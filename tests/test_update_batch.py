@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from configs import TWO_MODE_TOML
 
 from millstab.errors import InputError
 from millstab.io.config import config_to_toml, parse_config
@@ -15,7 +16,6 @@ from millstab.update import Posterior, make_prior, update
 from millstab.update.batch import NEW_DAY_SEED, BatchPosterior, fn_columns
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.predict import predict_cuts
-from configs import TWO_MODE_TOML
 
 #: fn_x and fn_y free (the effect shifts them), everything else held: a cheap, identifiable case
 FN_ONLY = ('[prior]\nfixed = ["k_x", "zeta_x", "k_y", "zeta_y", "sigma_depth", "label_error"]\n')
@@ -39,7 +39,7 @@ def test_each_days_cuts_are_the_plain_likelihood_at_the_shifted_structure():
     """The likelihood with shifts δ_g is the sum over days of the no-effect likelihood of that day's cuts
     at θ·exp(δ_g) on every free fn (an independent recomputation, day by day); δ = 0 (τ → 0) is the
     no-effect likelihood itself; one engine call per day."""
-    cfg, plain = _prior(FN_ONLY)
+    _, plain = _prior(FN_ONLY)
     _, prior = _prior(FN_ONLY + 'batch_effect = "3 %"\n')
     cuts = _cuts()
     ev = Evidence.from_points(cuts)
@@ -68,7 +68,7 @@ def test_tau_to_zero_is_no_effect_and_decisions_widen_for_a_new_day():
     samples are the samples; τ = 3 %: the decisions' samples are θ·exp(δ), δ ~ N(0, τ²) on the fn."""
     cuts = _cuts(per_day=4)
     cfg0, _ = _prior(FN_ONLY)
-    cfg1, p1 = _prior(FN_ONLY + "batch_effect = 1e-6\n")
+    cfg1, _ = _prior(FN_ONLY + "batch_effect = 1e-6\n")
     a = update(cfg0, cuts, samples=600, seed=3)
     b = update(cfg1, cuts, samples=600, seed=3)
     assert b.batch is not None and b.batch.days == tuple(dict.fromkeys(cuts.batch))
@@ -77,7 +77,7 @@ def test_tau_to_zero_is_no_effect_and_decisions_widen_for_a_new_day():
     assert np.all(np.abs(a.u.mean(axis=0) - b.u.mean(axis=0)) < 4 * se + 1e-12)
     np.testing.assert_allclose(b.decision_u, b.u, atol=1e-4)
     # τ = 3 %: the decisions' shift is one N(0, τ²) draw per sample, the same on fn_x and fn_y
-    cfg3, p3 = _prior(FN_ONLY + 'batch_effect = "3 %"\n')
+    _, p3 = _prior(FN_ONLY + 'batch_effect = "3 %"\n')
     post = Posterior(p3, a.samples, "zoa")
     d = post.decision_u - post.u
     np.testing.assert_allclose(d[:, 0], d[:, 1])

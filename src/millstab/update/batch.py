@@ -219,5 +219,15 @@ class BatchPosterior:
         return cls(tau, days, shifts)
 
 
-__all__ = ["BatchEffect", "BatchPosterior", "MAX_TAU", "NEW_DAY_SEED", "check_tau", "days_of", "fn_columns", "new_day", "shift_fn",
-           "summary_of"]
+__all__ = [
+    "MAX_TAU",
+    "NEW_DAY_SEED",
+    "BatchEffect",
+    "BatchPosterior",
+    "check_tau",
+    "days_of",
+    "fn_columns",
+    "new_day",
+    "shift_fn",
+    "summary_of",
+]

@@ -62,7 +62,6 @@ def test_each_days_cuts_are_the_plain_likelihood_at_the_shifted_structure():
     np.testing.assert_allclose(lik(np.hstack([u, np.zeros((5, 3))])), lik0(u), rtol=1e-12)
 
 
-@pytest.mark.slow
 def test_tau_to_zero_is_no_effect_and_decisions_widen_for_a_new_day():
     """τ = 10⁻⁶: the posterior is the no-effect posterior (means within Monte Carlo error), the new-day
     samples are the samples; τ = 3 %: the decisions' samples are θ·exp(δ), δ ~ N(0, τ²) on the fn."""

@@ -27,6 +27,10 @@ Run (the sizes in docs/updating.md; about a minute a shop on the idle 2-core mac
 
     .venv/bin/python benchmarks/bench_labels.py --shops 10 --samples 500 [--json out.json]
     .venv/bin/python benchmarks/bench_labels.py --shops 5 --samples 500 --immersion 0.1 --sigma-depth-rel 0.05
+    .venv/bin/python benchmarks/bench_labels.py --shops 10 --samples 500 --batch-effect 0.03   # the test-day effect
+
+(``--batch-effect`` τ: each test day's shift of ln fn is sampled with the parameters; held-out cuts of a
+day the training cuts include are predicted at that day's shift, leave-one-day-out at a new day's.)
 """
 
 from __future__ import annotations
@@ -106,6 +110,8 @@ def main() -> None:
     ap.add_argument("--immersion", type=float, default=1.0, help="radial immersion a/D (1: slotting; else down milling)")
     ap.add_argument("--sigma-depth-rel", type=float, default=None,
                     help="relative depth noise of the likelihood (at a/D 0.1 the limits are 25-100 mm: use 0.05)")
+    ap.add_argument("--batch-effect", type=float, default=0.0,
+                    help="σ of the test-day shift of ln fn in the updates ([prior] batch_effect; 0: off, the default)")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--keep-files", type=Path, default=None, help="folder to keep each shop's cuts CSV in")
     args = ap.parse_args()
@@ -115,7 +121,8 @@ def main() -> None:
     if args.immersion < 1:
         cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
     # the shop's prior: its cutting conditions and depth noise
-    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel))
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel,
+                                                      batch_effect=args.batch_effect or None))
     rows = []
     t_all = time.perf_counter()
     with threadpool_limits(1):
@@ -143,6 +150,7 @@ def main() -> None:
             rows.append({"shop": shop, "facts": facts, "summary": res.summary})
     print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, {args.days} days x {args.speeds} speeds x "
           f"{args.depths} depths, truth SDM ({args.steps} steps), updates {args.engine} with {args.samples} samples, "
+          f"test-day effect τ = {args.batch_effect:g}, "
           f"{args.folds} random folds:")
     for s in ("random", "speed", "batch"):
         have = [r for r in rows if s in r["summary"]]

@@ -27,6 +27,7 @@ from _machine import describe  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.points import PointSet  # noqa: E402
+from millstab.io.config import with_batch_effect  # noqa: E402
 from millstab.update import make_prior, p_stable_map, update  # noqa: E402
 from millstab.update.likelihood import limits  # noqa: E402
 
@@ -36,6 +37,9 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=4000)
     ap.add_argument("--cuts", type=int, default=30)
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--batch-effect", type=float, default=0.0,
+                    help="σ τ of the test-day shift of ln fn ([prior] batch_effect); the cuts are dealt to --days days")
+    ap.add_argument("--days", type=int, default=4)
     args = ap.parse_args()
     print(describe())
     cfg = load_config("example:ex1")
@@ -45,7 +49,11 @@ def main() -> None:
     rpm = np.linspace(5000, 12000, args.cuts)
     b = limits(prior, u_true, rpm)[0][0]
     depth = b * rng.uniform(0.5, 1.5, rpm.size)
-    cuts = PointSet(rpm, depth, np.where(depth > b, "chatter", "stable"))
+    days = np.array([f"day{i % args.days}" for i in range(rpm.size)]) if args.batch_effect else None
+    cuts = PointSet(rpm, depth, np.where(depth > b, "chatter", "stable"), batch=days)
+    if args.batch_effect:
+        cfg = with_batch_effect(cfg, args.batch_effect)
+        print(f"test-day effect τ = {args.batch_effect:g}, cuts dealt to {args.days} days")
     with threadpool_limits(1):
         limits(prior, prior.sample(64, rng), rpm)  # warm-up (compilation / cache load)
         u = prior.sample(args.samples, rng)

@@ -39,6 +39,10 @@ class Config:
     tooltip: tuple | None = None
 
 
+#: the largest test-day spread ``[prior] batch_effect`` (σ of ln fn): a day that moves fn by more than 25 % is not drift
+MAX_BATCH_EFFECT = 0.25
+
+
 @dataclass(frozen=True, eq=False)
 class PriorTable:
     """The ``[prior]`` table of a config, as written (defaults are applied by :mod:`millstab.update.prior`).
@@ -52,6 +56,7 @@ class PriorTable:
         sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
         label_error: probability that a cut's label is swapped, in [0, 0.5), or ``None``.
         tails: the tails of the spreads (``student``, ``normal``, ``mixture``), or ``None`` (default).
+        batch_effect: σ of a test day's shift of ln fn (:mod:`millstab.update.batch`), or ``None`` (off).
     """
 
     spreads: Mapping[str, float]
@@ -61,6 +66,7 @@ class PriorTable:
     sigma_chatter_hz: float | None = None
     label_error: float | None = None
     tails: str | None = None
+    batch_effect: float | None = None
 
 
-__all__ = ["Config", "PriorTable"]
+__all__ = ["Config", "MAX_BATCH_EFFECT", "PriorTable"]

@@ -63,7 +63,7 @@ def predict(post, cuts: PointSet) -> Prediction:
 
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), "the prediction", stacklevel=3)
-    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm)
+    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, cuts.batch)  # a known test day: its own shift
     return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings))
 
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -49,6 +50,9 @@ def update_cmd(
     sampler: str = typer.Option("auto", "--sampler", help="MH moves: auto | delayed | plain. delayed: the zero-order "
                                 "engine screens each proposal, the chosen engine decides on the survivors (same "
                                 "posterior, a third of the engine calls); auto: delayed for every engine but zoa."),
+    batch_effect: Optional[str] = typer.Option(None, "--batch-effect", help="σ of a test day's shift of every natural "
+                                               "frequency, e.g. 3% (the cuts' batch/date column; overrides [prior] "
+                                               "batch_effect; 0: off, the default)."),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
     db: ShopDbOpt = None,
@@ -68,7 +72,7 @@ def update_cmd(
         raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
     if in_db and start is not None:
         raise InputError("--start", str(start), "with --db the campaign's current posterior is the start")
-    cfg = api.config(config)
+    cfg = api.with_batch_effect(api.config(config), batch_effect)
     # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
     from millstab.io.recordings import has_recording_column
 
@@ -128,6 +132,9 @@ def update_cmd(
     for name, s in noise.items():  # the learned noise levels: the label error, the factor on the depth noise
         shown, med = ("label_error", post.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
         table.add_row(shown, f"{med:.3g}", *(f"{s[k]:.3g}" for k in ("mean", "sd", "q05", "q95")), "")
+    for day, s in ((doc.get("batch") or {}).get("parameters") or {}).items():  # the test days' shifts of ln fn
+        table.add_row(f"fn × {day or '(no day)'}", "1", f"{math.exp(s['mean']):.4g}", f"{s['sd']:.2g}",
+                      f"{math.exp(s['q05']):.4g}", f"{math.exp(s['q95']):.4g}", "")
     con.print(table)
     for w in doc["warnings"]:
         con.print(f"[yellow]warning:[/yellow] {w}")

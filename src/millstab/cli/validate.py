@@ -24,6 +24,8 @@ def validate_cmd(
     samples: int = samples_option(1000, "Posterior samples per fold's update."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine of the updates: {', '.join(ENGINES)}."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
+    batch_effect: Optional[str] = typer.Option(None, "--batch-effect", help="σ of a test day's shift of every natural "
+                                               "frequency in the updates, e.g. 3% (as update --batch-effect)."),
     out: Optional[Path] = typer.Option(None, "--out", help="JSON: the scores per scheme and method, folds, predictions."),
     predictions: Optional[Path] = typer.Option(None, "--predictions", help="CSV: each cut's held-out predictions."),
 ) -> None:
@@ -35,7 +37,7 @@ def validate_cmd(
     from millstab.api.validate import validate
     from millstab.io import check_outputs, config_inputs, read_points, write_csv, write_json
 
-    cfg = api.config(config)
+    cfg = api.with_batch_effect(api.config(config), batch_effect)
     c = read_points(cuts, labels)
     inputs = {**config_inputs(cfg), "CUTS": cuts}
     check_outputs(inputs, {"--out": out, "--predictions": predictions})  # before the work

@@ -46,6 +46,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
     tails = "student"            # the spreads' tails: student (default), normal or mixture
+    batch_effect = "3 %"         # σ of a test day's shift of every fn (cuts' batch/date column; default off)
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
 a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".
@@ -73,13 +74,13 @@ import numpy as np
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
 from millstab.io.text import read_text
-from millstab.config import Config, PriorTable  # the model types, re-exported from here
+from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types, re-exported from here
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
 TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
-PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails")
+PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect")
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
@@ -262,12 +263,33 @@ def _rpm_hint(value: str, field: str) -> str:
     return f"; {value.strip()!r} is {hz * 60:.10g} rpm as a rotational speed: write that"
 
 
+def parse_batch_effect(value, field: str = "prior.batch_effect") -> float:
+    """The test-day spread τ (σ of a day's shift of ln fn) from ``"3 %"``, ``"3%"`` or ``0.03``.
+
+    Raises:
+        InputError: not a number or percentage in [0, :data:`MAX_BATCH_EFFECT`].
+    """
+    tau = parse_quantity(value, field, "dimensionless")
+    if not 0 <= tau <= MAX_BATCH_EFFECT:
+        raise InputError(field, value, f"the σ of a test day's shift of every natural frequency, in [0 %, "
+                                       f"{MAX_BATCH_EFFECT:.0%}], e.g. \"3 %\" (0: no test-day effect)")
+    return tau
+
+
+def with_batch_effect(cfg: Config, value, field: str = "--batch-effect") -> Config:
+    """``cfg`` with its ``[prior] batch_effect`` set from ``value`` (``None``: ``cfg`` unchanged)."""
+    if value is None:
+        return cfg
+    table = cfg.prior if cfg.prior is not None else PriorTable({})
+    return replace(cfg, prior=replace(table, batch_effect=parse_batch_effect(value, field)))
+
+
 def _prior(t: Any) -> PriorTable:
     if not isinstance(t, Mapping):
         raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
     spreads: dict[str, float] = {}
     fixed: tuple[str, ...] = ()
-    sd_m = sd_rel = sf = eps = tails = None
+    sd_m = sd_rel = sf = eps = tails = batch = None
     for key, value in t.items():
         field = f"prior.{key}"
         if key == "fixed":
@@ -301,6 +323,8 @@ def _prior(t: Any) -> PriorTable:
             if value not in PRIOR_TAILS:
                 raise InputError(field, value, f"one of {', '.join(PRIOR_TAILS)}")
             tails = value
+        elif key == "batch_effect":
+            batch = parse_batch_effect(value, field)
         elif isinstance(key, str) and _PRIOR_NAME.match(key):
             x = parse_quantity(value, field, "dimensionless")
             if x <= 0:
@@ -309,7 +333,7 @@ def _prior(t: Any) -> PriorTable:
         else:
             raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
                                            f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
-    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails)
+    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails, batch)
 
 
 def _speeds(t: Any) -> np.ndarray:
@@ -450,6 +474,8 @@ def _prior_lines(p: PriorTable) -> list[str]:
         out.append(f"label_error = {_fmt(p.label_error)}")
     if getattr(p, "tails", None) is not None:
         out.append(f"tails = {_toml_str(p.tails)}")
+    if getattr(p, "batch_effect", None) is not None:
+        out.append(f'batch_effect = "{_fmt(p.batch_effect * 100)} %"')
     return out
 
 
@@ -723,4 +749,4 @@ def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | N
 
 
 __all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
-           "parse_config", "tool_setup", "tool_setup_from_text", "write_config"]
+           "parse_batch_effect", "parse_config", "tool_setup", "tool_setup_from_text", "with_batch_effect", "write_config"]

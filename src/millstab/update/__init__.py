@@ -98,16 +98,27 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
-    # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates
+    # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
+    # the test days' shifts of ln fn (millstab.update.batch; none unless [prior] batch_effect)
+    be, q = lik.batch, pr.dim
+    sample_full, logpdf_full = pr.sample_full, pr.logpdf_full
+    if be is not None:
+        def sample_full(n, rng):
+            return np.hstack([pr.sample_full(n, rng), be.sample(n, rng)])
+
+        def logpdf_full(v):
+            return pr.logpdf_full(v[:, :q]) + be.logpdf(v[:, q:])
     if start is None:
-        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
+        res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr)
     else:
         n_old = _check_start(start, pr, ev, engine)
         rng = np.random.default_rng(seed)
         u0 = start.sampler_state(rng)
+        if be is not None:  # the days the earlier posterior knew keep their shifts; new days start from the prior
+            u0 = np.hstack([u0, be.start(start.batch, u0.shape[0], rng)])
         u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
-        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik.split(n_old), samples, seed=rng, moves=moves,
+        res = tempered_smc(sample_full, logpdf_full, lik.split(n_old), samples, seed=rng, moves=moves,
                            progress=progress, init=u0, screen=scr.split(n_old) if scr is not None else None)
     diag = res.diagnostics()
     diag["engine_sets"] = lik.n_sets
@@ -121,12 +132,15 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     if stickout is not None:  # each row's stickout [mm] (None: the config's)
         so = np.r_[ev.cut_stickout, ev.pt_stickout] * 1e3
         data["stickout_mm"] = [None if np.isnan(v) else float(v) for v in so]
+    if be is not None:
+        data["batch"] = [str(b) for b in ev.cut_batch] + [""] * ev.pt_rpm.size
     u = res.u[:, :pr.size]
     noise = None
+    days = None if be is None else be.posterior(res.u[:, q:])
     if pr.dim > pr.size:
-        eps, fac = pr.noise(res.u[:, pr.size:], samples)
+        eps, fac = pr.noise(res.u[:, pr.size:q], samples)
         noise = np.stack([eps if n == "label_error" else fac for n in pr.noise_names], axis=1)
-    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise)
+    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days)
     messages = [str(w.message) for w in caught]
     modes = post.modes()
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
@@ -135,14 +149,14 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
         from millstab.update.predict import predict_cuts  # one more engine call, only in this case
 
-        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm)
+        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm, ev.cut_batch)
         msg = label_message(pr, post.label_error, ev.cut_rpm, ev.cut_depth_mm, ev.cut_grade, ps)
         diag["conflict"]["labels"] = True
     if msg is not None:  # issued (the doors print it in one line) and kept in the result
         warn(msg, UserWarning, stacklevel=2)
         messages.append(msg)
     # the bimodal warning (not issued, as before: a property of the answer) joins them in Posterior itself
-    return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise)
+    return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise, days)
 
 
 def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> int:
@@ -153,7 +167,7 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
                   and np.allclose(start.prior.spread, prior.spread, rtol=1e-12)
                   and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel
                   and start.prior.label_error == prior.label_error and start.prior.tails == prior.tails
-                  and start.prior.noise_names == prior.noise_names)
+                  and start.prior.noise_names == prior.noise_names and start.prior.batch_effect == prior.batch_effect)
     if not same_prior or start.engine != engine:
         raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
                                                                            "[prior] table and engine")
@@ -165,7 +179,8 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
     ok = (n_old <= ev.n_cuts and n_pts == ev.pt_rpm.size and kinds == lab[:n_old]
           and np.allclose(np.asarray(c.get("rpm", [])[:n_old], float), ev.cut_rpm[:n_old])
           and np.allclose(np.asarray(c.get("depth_mm", [])[:n_old], float), ev.cut_depth_mm[:n_old])
-          and np.allclose(np.asarray(c.get("rpm", [])[n_old:], float), ev.pt_rpm))
+          and np.allclose(np.asarray(c.get("rpm", [])[n_old:], float), ev.pt_rpm)
+          and (prior.batch_effect == 0 or list(c.get("batch", [])[:n_old]) == [str(b) for b in ev.cut_batch[:n_old]]))
     if not ok:
         raise InputError("start", f"a posterior of {n_old} cuts and {n_pts} points",
                          "its cuts must be the first cuts of this update (same order, labels, boundary points)")

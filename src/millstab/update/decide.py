@@ -119,7 +119,7 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
 def p_stable_map(post: Posterior, rpm, depth_mm, client=None) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
     Dask cluster where that pays, same numbers)."""
-    blim, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine, client=client)
+    blim, _ = limits(post.prior, post.decision_u, np.asarray(rpm, float), post.engine, client=client)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 
@@ -251,7 +251,7 @@ def data_guard(post: Posterior) -> list[dict]:
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
-    blim, _ = limits(post.prior, post.u, rpm[ch], post.engine)
+    blim, _ = limits(post.prior, post.decision_u, rpm[ch], post.engine)
     p_model = np.mean(blim <= depth[ch][None, :], axis=0)
     tip = post.prior.par.structure(post.prior.par.theta0)  # the prior median's TIP (a prior over a holder too)
     modes = [m for m in (*tip.x, *tip.y)]
@@ -329,7 +329,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
     guards = data_guard(post) if guard else []
     cap = math.inf if max_depth_mm is None else max_depth_mm
-    u = post.u
+    u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
     n = u.shape[0]
     n_eff = effective_samples(post)
     count = allowed_count(n, risk, n_eff, confidence)
@@ -432,7 +432,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
 
     def the_recommendation(why: str) -> dict:
-        p_rec = float(np.mean(limits(post.prior, post.u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
+        p_rec = float(np.mean(limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
             if p_chatter_rec is None else float(p_chatter_rec)
         return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
                 "relative_productivity": 1.0, "why": why}
@@ -442,7 +442,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
         return the_recommendation(blind)
     if grid is None:
         speeds = np.linspace(*rpm_range, n_rpm)
-        blim, _ = limits(post.prior, post.u[rows], speeds, post.engine)  # (M, S)
+        blim, _ = limits(post.prior, post.decision_u[rows], speeds, post.engine)  # (M, S)
     else:
         speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)[rows]
     finite = np.where(np.isfinite(blim), blim, np.nan)

@@ -39,6 +39,9 @@ samples, :func:`limits`) and depth noise σ_b:
 * learned noise levels: the label error ε and a factor s on σ_b are sampled with the parameters
   (:mod:`millstab.update.prior`), one value per sample; they reuse the engine's limits, so they cost
   no engine call.
+* a test-day effect (``[prior] batch_effect``, :mod:`millstab.update.batch`): the cuts of day g are
+  evaluated at θ·exp(δ_g) on the fn coordinates, δ_g sampled with the parameters; the limits are then
+  computed per (day, speed) column, one engine call per day.
 
 Conditions: each cut and boundary point has a condition index (``Evidence.cut_cond``/``pt_cond`` into
 ``Evidence.conditions``, a tuple of :class:`~millstab.model.Cutting`; default all 0 under the prior's
@@ -68,6 +71,7 @@ from millstab.forward import forward
 from millstab.model import Conditions, Cutting, condition_index
 from millstab.points import PointSet
 from millstab.stability import check_rpm, get_engine, per_set_kr
+from millstab.update.batch import BatchEffect
 from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
@@ -339,6 +343,10 @@ class Likelihood:
         self._hz = np.flatnonzero(hz)
         teeth = np.array([c.teeth for c in self.conditions], dtype=float)
         self._tooth_hz = teeth[ev.cut_cond] * ev.cut_rpm / 60.0
+        # a test-day effect: the limits' columns are (day, column) pairs, each day's at its own shift
+        self.batch = BatchEffect.of(prior, ev, self._ic, self._ip)
+        if self.batch is not None:
+            self._ic, self._ip = self.batch.ic, self.batch.ip
         self.n_calls = 0
         self.n_sets = 0
 
@@ -354,29 +362,58 @@ class Likelihood:
     def uses_frequency(self) -> bool:
         return self._hz.size > 0
 
+    def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None):
+        """Limits (B, n) [mm] (and chatter frequencies, or ``None``) of rows u = ln θ (B, P) at the data's
+        columns ``cols`` (indices into :attr:`speeds`; default all): one engine call per stickout group
+        that has columns among them (one call without stickouts)."""
+        every = cols is None
+        cols = np.arange(self.speeds.size) if every else np.asarray(cols, dtype=np.int64)
+        where = np.full(self.speeds.size, -1, dtype=np.int64)
+        where[cols] = np.arange(cols.size)
+        depth = np.empty((u.shape[0], cols.size))
+        hz = np.full_like(depth, np.nan) if self.uses_frequency else None
+        for (prior, group), cond in zip(self._groups, self._group_conditions):
+            sel = group if every else group[where[group] >= 0]
+            if not sel.size:
+                continue
+            if not every:
+                cond = self._conditions_of(self.column_cond[sel])
+            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond)
+            self.n_calls += 1
+            depth[:, where[sel]] = d
+            if hz is not None and h is not None:
+                hz[:, where[sel]] = h
+            elif h is None:
+                hz = None
+        self.n_sets += u.shape[0]
+        return depth, hz
+
     def _limits(self, v: np.ndarray):
         """(depths (B, S), freqs, noise coordinates (B, Q) or None, in-support (B,)) of sampler vectors v
-        (B, P) or (B, P + Q); rows outside the prior's support do not reach the engine (their limits: 1 mm,
-        a placeholder: the callers mask them to −inf)."""
+        (B, P), (B, P + Q) or, with a test-day effect, (B, P + Q + G) (the days' shifts last; absent: 0);
+        rows outside the prior's support do not reach the engine (their limits: 1 mm, a placeholder: the
+        callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
-        p = self.prior.size
-        u, w = v[:, :p], (v[:, p:] if v.shape[1] > p else None)
-        ok = self.prior.in_support(u)
-        if w is not None:
-            ok &= np.isfinite(w).all(axis=1)
-        depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
+        p, q = self.prior.size, self.prior.dim
+        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
+        delta = v[:, q:] if self.batch is not None and v.shape[1] > q else None
+        ok = self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1)
+        cols = self.speeds.size if self.batch is None else self.batch.col_base.size
+        depth = np.ones((v.shape[0], cols))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
         if ok.any():
-            rows = np.flatnonzero(ok)
-            for (prior, cols), cond in zip(self._groups, self._group_conditions):
-                d, h = limits(prior, u[ok], self.speeds[cols], self.engine, self.uses_frequency, self.client, cond)
-                self.n_calls += 1
-                depth[np.ix_(rows, cols)] = d
-                if hz is not None and h is not None:
-                    hz[np.ix_(rows, cols)] = h
-                elif h is None:
-                    hz = None
-            self.n_sets += rows.size
+            def call(uu, cols):
+                return self._evaluate(uu, cols)
+
+            if self.batch is None:
+                d, h = self._evaluate(u[ok])
+            else:
+                d, h = self.batch.limits(call, u[ok], None if delta is None else delta[ok])
+            depth[ok] = d
+            if hz is not None and h is not None:
+                hz[ok] = h
+            elif h is None:
+                hz = None
         return depth, hz, w, ok
 
     def __call__(self, v: np.ndarray) -> np.ndarray:

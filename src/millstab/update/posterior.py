@@ -15,11 +15,13 @@ engines, or fixed parameters) show up the same way when the assignment splits th
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from millstab.errors import InputError
 from millstab.identify.symmetry import exchange_map, exchanged
+from millstab.update.batch import BatchPosterior, new_day
 from millstab.update.prior import Prior
 
 SCHEMA = "millstab.posterior/2"
@@ -105,6 +107,7 @@ class Posterior:
         warnings: messages for the user (the prior–data conflict and a bimodal split included).
         noise: (N, Q) samples of the learned noise levels ``prior.noise_names`` (ε; the factor s on
             the depth noise), or ``None``: held at the prior's values.
+        batch: the test days' shifts of ln fn (:mod:`millstab.update.batch`), or ``None`` (no test-day effect).
     """
 
     prior: Prior
@@ -114,6 +117,7 @@ class Posterior:
     cuts: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     noise: np.ndarray | None = None
+    batch: BatchPosterior | None = None
 
     def __post_init__(self):
         # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
@@ -131,6 +135,12 @@ class Posterior:
     def u(self) -> np.ndarray:
         """Samples in log coordinates (N, P)."""
         return np.log(self.samples)
+
+    @cached_property
+    def decision_u(self) -> np.ndarray:
+        """The samples for decisions about a new day (N, P): :attr:`u`, or with a test-day effect each
+        sample's fn shifted by a fresh draw of the day's shift (:func:`millstab.update.batch.new_day`)."""
+        return new_day(self.u, self.prior)
 
     @property
     def label_error(self) -> np.ndarray:
@@ -190,6 +200,8 @@ class Posterior:
         if self.noise is not None:
             names = list(self.prior.noise_names)
             doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
+        if self.batch is not None:
+            doc["batch"] = self.batch.to_json()
         return doc
 
     @classmethod
@@ -216,7 +228,10 @@ class Posterior:
             if not ok:
                 raise InputError(f"{source} noise", f"shape {noise.shape}",
                                  f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
-        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise)
+        days = None
+        if prior.batch_effect > 0 and doc.get("batch") is not None:  # absent: prior draws (no day seen yet)
+            days = BatchPosterior.from_json(doc["batch"], s.shape[0], source)
+        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise, days)
 
 
 __all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

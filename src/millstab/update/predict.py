@@ -10,6 +10,10 @@ and σ_b say how noisy), and it is the probability a held-out written label shou
 (Brier, log loss); scoring ``p_stable`` against written labels charges the process model for the
 operators' disagreement.
 
+With a test-day effect (:mod:`millstab.update.batch`) a cut of a day the posterior has seen (``batch``
+given, the day among the posterior's days) is predicted at that day's shifts δ_g; any other cut (a new
+day, or no day) at a new day's, δ ~ N(0, τ²) marginalised.
+
 Units: rpm and mm at this interface.
 """
 
@@ -19,13 +23,32 @@ import numpy as np
 from scipy.special import ndtr
 
 from millstab.errors import InputError
+from millstab.update.batch import fn_columns, shift_fn
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
 
 
-def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray]:
+def cut_limits(post: Posterior, rpm: np.ndarray, batch=None) -> np.ndarray:
+    """The limiting depth of each cut under each posterior sample (N, n) [mm]: a new day's (the samples
+    :attr:`Posterior.decision_u`), or with ``batch`` (n,) and a test-day effect, the known day's shifts for
+    cuts of a day the posterior has seen. One engine call per day at its distinct speeds."""
+    day = np.full(rpm.size, -1)
+    if batch is not None and post.batch is not None:
+        known = {d: g for g, d in enumerate(post.batch.days) if d}  # "" (no day) is no particular day: a new one
+        day = np.array([known.get(str(b), -1) for b in np.asarray(batch, dtype=object)])
+    blim = np.empty((post.u.shape[0], rpm.size))
+    for g in np.unique(day):  # a loop over the days (a handful), never over cuts or samples
+        m = day == g
+        u = post.decision_u if g < 0 else shift_fn(post.u, fn_columns(post.prior), post.batch.shifts[:, g])
+        speeds, idx = np.unique(rpm[m], return_inverse=True)
+        blim[:, m] = limits(post.prior, u, speeds, post.engine)[0][:, idx]
+    return blim
+
+
+def predict_cuts(post: Posterior, rpm, depth_mm, batch=None) -> tuple[np.ndarray, np.ndarray]:
     """``(p_stable, p_label_chatter)`` (n,) for n cuts at ``rpm`` (n,) [rev/min] and ``depth_mm`` (n,) [mm],
-    in the input order; one engine call for every distinct speed.
+    in the input order; one engine call for every distinct speed (per day with ``batch``, the test day of
+    each cut: see the module docstring).
 
     ``p_stable``: the fraction of posterior samples whose limiting depth lies above the cut's depth.
     ``p_label_chatter``: P(the written label says chatter), the mean over the samples of
@@ -46,9 +69,7 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
             raise InputError(f"cuts.{name}[{i}]", float(a[i]), f"must be a finite number > 0 {unit}")
     if r.size == 0:
         return np.zeros(0), np.zeros(0)
-    speeds, idx = np.unique(r, return_inverse=True)
-    blim, _ = limits(post.prior, post.u, speeds, post.engine)
-    blim = blim[:, idx]  # (N, n)
+    blim = cut_limits(post, r, batch)  # (N, n)
     p_stable = (blim > d[None, :]).mean(axis=0)
     eps, fac = post.label_error[:, None], post.sigma_depth_factor[:, None]
     sig = post.prior.sigma_depth_mm(d)[None, :] * fac
@@ -57,4 +78,4 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
     return p_stable, (eps + (1.0 - 2.0 * eps) * phi).mean(axis=0)
 
 
-__all__ = ["predict_cuts"]
+__all__ = ["cut_limits", "predict_cuts"]

@@ -51,6 +51,7 @@ from scipy.special import expit, gammaln, logit
 from millstab.errors import InputError
 from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
+from millstab.update.batch import check_tau
 
 #: default σ of ln(value) per kind of parameter
 DEFAULT_SPREADS = {"fn": 0.05, "k": 0.30, "zeta": 0.30}
@@ -120,6 +121,7 @@ class Prior:
         nu: degrees of freedom of the Student-t.
         label_error_spread: σ of logit(2ε) of the learned label error; 0: ε held at ``label_error``.
         sigma_depth_spread: σ of ln s, s the learned factor on the depth noise; 0: held.
+        batch_effect: σ τ of a test day's shift of ln fn (:mod:`millstab.update.batch`); 0: none.
     """
 
     par: Parameterization
@@ -135,6 +137,7 @@ class Prior:
     nu: float = DEFAULT_NU
     label_error_spread: float = 0.0
     sigma_depth_spread: float = 0.0
+    batch_effect: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.label_error, (int, float)) and 0 <= self.label_error < 0.5):
@@ -144,6 +147,7 @@ class Prior:
             raise InputError("prior.tails", self.tails, f"one of {', '.join(TAILS)}")
         if not (np.isfinite(self.nu) and self.nu > 0):
             raise InputError("prior.nu", self.nu, "the t's degrees of freedom must be > 0")
+        object.__setattr__(self, "batch_effect", check_tau(self.batch_effect))
         if self.label_error == 0 and self.label_error_spread:  # ε = 0 cannot be learned (logit(0) = −∞): hold it
             object.__setattr__(self, "label_error_spread", 0.0)
 
@@ -288,7 +292,7 @@ class Prior:
                 "sigma_depth_m": self.sigma_depth_m, "sigma_depth_rel": self.sigma_depth_rel,
                 "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error, "tails": self.tails,
                 "nu": self.nu, "label_error_spread": self.label_error_spread,
-                "sigma_depth_spread": self.sigma_depth_spread,
+                "sigma_depth_spread": self.sigma_depth_spread, "batch_effect": self.batch_effect,
                 **({"tooltip": self.par.record()} if hasattr(self.par, "record") else {})}
 
     @classmethod
@@ -313,7 +317,8 @@ class Prior:
                        float(d.get("label_error", 0.0)),
                        # a posterior written before heavy tails and learned noise had a Gaussian prior, noise held
                        str(d.get("tails", "normal")), float(d.get("nu", DEFAULT_NU)),
-                       float(d.get("label_error_spread", 0.0)), float(d.get("sigma_depth_spread", 0.0)))
+                       float(d.get("label_error_spread", 0.0)), float(d.get("sigma_depth_spread", 0.0)),
+                       float(d.get("batch_effect", 0.0)))  # a posterior written before test-day effects had none
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, InputError):
                 raise
@@ -395,7 +400,8 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
     tails = getattr(table, "tails", None) or DEFAULT_TAILS
     return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf), eps, tails, DEFAULT_NU,
                  0.0 if "label_error" in held else DEFAULT_LABEL_ERROR_SPREAD,
-                 0.0 if "sigma_depth" in held else DEFAULT_SIGMA_DEPTH_SPREAD)
+                 0.0 if "sigma_depth" in held else DEFAULT_SIGMA_DEPTH_SPREAD,
+                 float(getattr(table, "batch_effect", None) or 0.0))
 
 
 __all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "NOISE_NAMES", "TAILS", "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]

@@ -234,7 +234,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
             pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
-        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm)[1]
+        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, te.batch)[1]
         for m, p in baseline_predictions(tr, te).items():
             out.predictions[s][m][mask] = p
         out.folds[s][mask] = i

@@ -3,6 +3,7 @@ speeds of the next tests (around a prior or a fit)."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -45,8 +46,11 @@ def identify(cfg: Config, points: PointSet, *, method: str = "lsq", free: Sequen
     cfg, _ = modal(cfg)
     options = {"loss": loss} if method == "lsq" else {}
     options["noise"] = check_noise(noise, "--noise")
-    return run_identify(cfg, points, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
-                        engine=engine, seed=seed, progress=solver_progress(progress, f"identify ({method})"), **options)
+    fit = run_identify(cfg, points, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                       engine=engine, seed=seed, progress=solver_progress(progress, f"identify ({method})"), **options)
+    # what it was made from travels in the fit, so every door writes the same JSON (the CLI added these keys)
+    made_from = {"config": cfg.name, **({"points": str(points.source)} if points.source is not None else {})}
+    return dataclasses.replace(fit, provenance=made_from)
 
 
 def fit_rpm(points: PointSet, n: int = 600) -> np.ndarray:

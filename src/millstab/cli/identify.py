@@ -103,10 +103,7 @@ def identify(
         out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
                           "further tests that would pin the loose parameters")
     if out:
-        doc = fit.to_json()
-        doc["config"] = cfg.name
-        doc["points"] = str(points)
-        write_json(out, doc, protect=protect)
+        write_json(out, fit.to_json(), protect=protect)
         out_console.print(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure

@@ -14,6 +14,8 @@ JSON contract (``Fit.to_json()``; keys may be added, never removed or renamed):
   (one code per warning kind, :mod:`~millstab.identify.quality`), ``checks`` (χ² and runs tests);
 * ``cutting``: the cutting conditions the points were fitted under (teeth, kt [N/m²], kr, entry and exit
   [rad]), so a fit file cannot be used with a config of other conditions;
+* provenance (each optional): ``config`` (the config's name) and ``points`` (the points file the fit was
+  made from), the same from the command line and the web app;
 * ``schema``: ``"millstab.fit/1"``; ``parameterization``: what :meth:`Fit.from_json` needs to rebuild
   the object exactly: the base structure (``{"x": [{fn, k, zeta}], "y": [...]}``, the fixed values),
   ``free``, ``axisymmetric`` and the search ``bounds`` ({name: [lower, upper]}, SI).
@@ -40,6 +42,8 @@ from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
 
 SCHEMA = "millstab.fit/1"
+#: the provenance keys of a fit's JSON (top level, each optional): the config's name and the points file
+PROVENANCE = ("config", "points")
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +79,9 @@ class Fit:
         test_cuts: how the fitted SLD classifies the labelled test cuts (counts), or ``None``.
         settings: solver settings used (for reproducibility); ``settings["xy_tie_test"]`` is the x = y
             test's record (:attr:`tie`).
+        provenance: what the fit was made from, ``{"config": the config's name, "points": the points file}``
+            (either may be absent), set by :func:`millstab.api.identify` and written as the JSON's top-level
+            ``"config"`` and ``"points"``: the command line and the web app write the same file (issue 26).
 
     Frozen means no field is reassigned; the dicts inside (settings, noise, checks, test_cuts, the
     alternatives) are plain dicts for the JSON and must be treated as read-only too.
@@ -107,6 +114,7 @@ class Fit:
     noise: dict[str, Any] | None = None
     checks: dict[str, Any] = field(default_factory=dict)
     cutting: Cutting | None = None
+    provenance: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("warnings", "codes", "alternatives"):
@@ -221,6 +229,7 @@ class Fit:
             "checks": self.checks,
             "cutting": None if self.cutting is None else cutting_record(self.cutting),
             "history": {"theta": self.history_theta, "mlae": self.history_mlae, "rss": self.history_rss},
+            **{k: self.provenance[k] for k in PROVENANCE if k in self.provenance},
             "parameterization": {"base": _structure_record(self.par.base), "free": list(self.par.free),
                                  "axisymmetric": bool(self.par.axisymmetric),
                                  "bounds": {n: list(b) for n, b in self.par.bounds.items()}},
@@ -292,7 +301,8 @@ class Fit:
                 settings=need(doc, "settings", source, dict),
                 dof=need(doc, "dof", source, optional_int), n_points=need(doc, "n_points", source, optional_int),
                 noise=need(doc, "noise", source, (dict, type(None))), checks=need(doc, "checks", source, dict),
-                cutting=None if cut is None else _cutting(cut, f"{source}: cutting"))
+                cutting=None if cut is None else _cutting(cut, f"{source}: cutting"),
+                provenance={k: need(doc, k, source, str) for k in PROVENANCE if k in doc})
         except ValueError as exc:  # e.g. warnings without codes
             raise InputError(source, "fit record", str(exc)) from None
 

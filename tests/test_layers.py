@@ -183,3 +183,51 @@ def test_a_figure_saves_without_a_display(tmp_path):
             "print(len(plt.get_fignums()))\n")
     assert _run(code) == "0"
     assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+#: what a door may import besides itself: the service layer, the errors and the file layer (issue 26)
+DOOR_MAY_IMPORT = ("millstab.api", "millstab.errors", "millstab.io")
+
+
+def _door_imports() -> dict[str, list[str]]:
+    """{door module: the millstab modules it imports that are not itself, another door, api, errors or io}.
+    ``from millstab import api`` counts as importing ``millstab.api``."""
+    bad = {}
+    for path in PKG.rglob("*.py"):
+        mod = _module(path)
+        if not mod.startswith(DOORS):
+            continue
+        out = []
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = ([f"{node.module}.{a.name}" for a in node.names] if node.module == "millstab"
+                         else [node.module])
+            for name in names:
+                if not name.startswith("millstab"):
+                    continue
+                if any(name == top or name.startswith(top + ".") for top in DOOR_MAY_IMPORT + DOORS):
+                    continue
+                out.append(f"{name} (line {node.lineno})")
+        if out:
+            bad[mod] = out
+    return bad
+
+
+def test_the_doors_import_only_the_services_errors_and_io():
+    """cli/ and web/ are doors: they parse, call millstab.api, print or show, and save through io. A door that
+    imports a study, an engine, the model or a parser directly has logic the other door lacks (issue 26)."""
+    assert _door_imports() == {}
+
+
+def test_the_door_rule_catches_a_door_importing_below_the_services(tmp_path, monkeypatch):
+    """The rule above is not vacuous: a door module importing an engine's registry is reported."""
+    pkg = tmp_path / "millstab"
+    (pkg / "cli").mkdir(parents=True)
+    (pkg / "cli" / "x.py").write_text("from millstab import api\nfrom millstab.io import write_json\n"
+                                      "def f():\n    from millstab.stability import ENGINES\n", encoding="utf-8")
+    monkeypatch.setattr(sys.modules[__name__], "PKG", pkg)
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    assert _door_imports() == {"millstab.cli.x": ["millstab.stability (line 4)"]}

@@ -9,6 +9,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
+from millstab.identify import METHODS as IDENTIFY_METHODS
 from millstab.api.progress import Progress, solver_progress
 from millstab.errors import InputError
 from millstab.io.config import Config
@@ -51,6 +52,13 @@ def identify(cfg: Config, points: PointSet, *, method: str = "lsq", free: Sequen
     # what it was made from travels in the fit, so every door writes the same JSON (the CLI added these keys)
     made_from = {"config": cfg.name, **({"points": str(points.source)} if points.source is not None else {})}
     return dataclasses.replace(fit, provenance=made_from)
+
+
+def parameter_unit(name: str) -> str:
+    """The SI unit of a modal parameter by its name: ``fn…`` Hz, ``k…`` N/m, ``zeta…`` ``-``."""
+    from millstab.params import UNITS, Parameterization
+
+    return UNITS[Parameterization.kind(name)]
 
 
 def fit_rpm(points: PointSet, n: int = 600) -> np.ndarray:

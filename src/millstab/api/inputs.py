@@ -13,11 +13,14 @@ from typing import Mapping
 import numpy as np
 
 from millstab.bounds import check_speeds
+from millstab.bounds import samples as check_samples
+from millstab.bounds import seed as check_seed
+from millstab.datasets import list_example_points, list_examples
 from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
-from millstab.parsing import parse_rpm_range
+from millstab.parsing import parse_grid, parse_interval, parse_rpm_range
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -86,10 +89,20 @@ def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike
 
 def config_fields(cfg: Config) -> dict:
     """The tables of ``cfg`` as :func:`config_from_fields` takes them (values with units as
-    :func:`config_toml` writes them): ``config_from_fields(config_fields(cfg))`` gives the same config."""
+    :func:`config_toml` writes them): ``config_from_fields(config_fields(cfg))`` gives the same config.
+    A measured-FRF config has no ``structure`` table here (its FRF files are named by the caller: the web
+    form's uploads); every other table is the config writer's, ``[prior]`` included."""
+    import dataclasses
     import tomllib
 
-    return tomllib.loads(config_to_toml(cfg))
+    from millstab.model import Mode, Structure
+
+    if cfg.structure.is_modal:
+        return tomllib.loads(config_to_toml(cfg))
+    # the io writer writes modal structures only: write the rest with a placeholder and leave it out
+    out = tomllib.loads(config_to_toml(dataclasses.replace(cfg, structure=Structure(x=(Mode(1000.0, 1e7, 0.03),)))))
+    out.pop("structure", None)
+    return out
 
 
 def check_size(nbytes: int, name: str, limit: int | None = None) -> None:

@@ -11,7 +11,6 @@ import numpy as np
 import typer
 
 from millstab.errors import InputError
-from millstab.parsing import parse_rpm_range
 
 app = typer.Typer(
     name="millstab",
@@ -70,7 +69,9 @@ def select_rpm(rpm: str | None, rpm_file: Path | None, default: np.ndarray | Non
     if rpm and rpm_file:
         raise InputError("--rpm", rpm, "give either --rpm or --rpm-file, not both")
     if rpm:
-        return parse_rpm_range(rpm)
+        from millstab import api
+
+        return api.parse_rpm_range(rpm)
     if rpm_file:
         return read_rpm_file(rpm_file)
     if default is not None:

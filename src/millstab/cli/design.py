@@ -10,7 +10,6 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.parsing import parse_rpm_range
 from millstab.cli.identify import show_value
 
 #: the command's help (rich reflows each paragraph; square brackets would be read as markup)
@@ -60,7 +59,7 @@ def design(
         typer.echo(note)
     pts = read_points(points) if points is not None else None
     fit_doc = read_json(fit) if fit is not None else None
-    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=parse_rpm_range(rpm) if rpm else None,
+    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=api.parse_rpm_range(rpm) if rpm else None,
                       target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
                       samples=samples, seed=seed)
 

@@ -10,7 +10,7 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.stability import ENGINES
+from millstab.api import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05
@@ -20,9 +20,9 @@ _UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
 
 def show_value(name: str, value: float, digits: int = 5) -> str:
     """A parameter value as printed: ``k…`` in N/µm with its unit, ``fn…`` in Hz, ``zeta…`` bare."""
-    from millstab.params import UNITS, Parameterization
+    from millstab import api
 
-    scale, unit = _UNIT_SHOW[UNITS[Parameterization.kind(name)]]
+    scale, unit = _UNIT_SHOW[api.parameter_unit(name)]
     return f"{value * scale:.{digits}g}" + (f" {unit}" if unit else "")
 
 

@@ -8,8 +8,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
-from millstab.bounds import check_speeds
-from millstab.stability import ENGINES
+from millstab.api import ENGINES
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -35,7 +34,7 @@ def lobes(
     cfg = api.config(config)
     speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
     if rpm_file:  # --rpm text and [speeds] are checked where they are parsed; a file's speeds here
-        check_speeds(speeds, f"--rpm-file {rpm_file.name}")
+        api.check_speeds(speeds, f"--rpm-file {rpm_file.name}")
     pts = read_points(points) if points else None
     inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before the work

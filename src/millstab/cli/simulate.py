@@ -95,9 +95,8 @@ def simulate(
         typer.echo(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
-        from millstab.plot.simulate import plot_cut
 
-        save_figure(plot_cut(res, det, title=cfg.name), plot, protect=protect)
+        save_figure(api.simulate_figure(res, det, title=cfg.name), plot, protect=protect)
         typer.echo(f"wrote {plot}")
     if record:
         from millstab.io.recordings import write_recording

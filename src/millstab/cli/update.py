@@ -12,9 +12,9 @@ from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
-from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
-from millstab.parsing import parse_rpm_range
-from millstab.stability import ENGINES
+from millstab.cli.options import DaskOpt, WorkersOpt
+from millstab.cli.options import dask_client as _client
+from millstab.api import ENGINES
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
@@ -144,10 +144,9 @@ def map_cmd(
 
     from millstab import api
     from millstab.io import check_outputs, write_csv
-    from millstab.parsing import parse_grid
 
-    speeds = parse_rpm_range(rpm)
-    depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
+    speeds = api.parse_rpm_range(rpm)
+    depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())

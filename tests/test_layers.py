@@ -231,3 +231,30 @@ def test_the_door_rule_catches_a_door_importing_below_the_services(tmp_path, mon
     monkeypatch.setattr(sys.modules[__name__], "PKG", pkg)
     monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
     assert _door_imports() == {"millstab.cli.x": ["millstab.stability (line 4)"]}
+
+
+def test_the_service_layer_resolves_every_name_to_the_task_not_its_module():
+    """``millstab.api`` imports a name's submodule on first use; a submodule that shares its name with a task
+    (``api.identify``, ``api.update``, ...) must still leave ``api.identify`` the function, whichever is
+    imported first."""
+    import importlib
+    import types
+
+    from millstab import api
+
+    for mod in ("identify", "update", "lobes", "predict", "validate", "sensitivity", "studies", "inputs"):
+        importlib.import_module(f"millstab.api.{mod}")
+    for name in api.__all__:
+        value = getattr(api, name)
+        assert not isinstance(value, types.ModuleType), name
+    assert callable(api.identify) and callable(api.update) and "zoa" in api.ENGINES
+    with pytest.raises(AttributeError):
+        api.no_such_task  # noqa: B018
+
+
+def test_importing_the_service_layer_and_the_cli_imports_no_scipy_and_no_numba():
+    """The doors import ``millstab.api`` at module level (issue 26); it must stay as cheap as before (the CLI
+    starts without scipy and numba, which its commands import when they run)."""
+    code = ("import sys, millstab.api, millstab.cli\n"
+            "print(sorted(m for m in ('scipy', 'numba', 'matplotlib') if m in sys.modules))\n")
+    assert _run(code) == "[]"

@@ -13,14 +13,14 @@ from typing import Mapping
 import numpy as np
 
 from millstab.bounds import check_speeds
-from millstab.bounds import samples as check_samples
-from millstab.bounds import seed as check_seed
-from millstab.datasets import list_example_points, list_examples
+from millstab.bounds import samples as check_samples  # noqa: F401 (re-exported by millstab.api for the doors)
+from millstab.bounds import seed as check_seed  # noqa: F401 (re-exported)
+from millstab.datasets import list_example_points, list_examples  # noqa: F401 (re-exported)
 from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
-from millstab.parsing import parse_grid, parse_interval, parse_rpm_range
+from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)

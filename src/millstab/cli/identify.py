@@ -8,9 +8,9 @@ from typing import Optional
 import numpy as np
 import typer
 
+from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.api import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05

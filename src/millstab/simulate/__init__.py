@@ -135,6 +135,22 @@ class CutResult:
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.cut/1"
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name (SI; the Result protocol of :mod:`millstab.jsondoc`)."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "simulated cut") -> CutResult:
+        """The cut of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> CutResult:
         if d.get("schema") != "millstab.simulate.cut/1":
@@ -319,6 +335,9 @@ class Labels:
     multiplier: np.ndarray | None = None
     schema: str = "millstab.simulate.labels/1"
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.labels/1"
+
     @property
     def depth_mm(self) -> np.ndarray:
         return self.depth_m * 1e3
@@ -327,6 +346,19 @@ class Labels:
         from millstab.io.results import to_jsonable
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name (NaN where a field says "not defined", ±∞ kept)."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "labelled cuts") -> Labels:
+        """The labels of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
 
 
 def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_tooth: float, revs: float | None = None,

@@ -98,6 +98,23 @@ class Detection:
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.detection/1"
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name: a growth of ∞ (from exactly zero) stays ∞ (``to_dict`` writes
+        it as null, read back as NaN), NaN only where the field says "not defined"."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "detection") -> Detection:
+        """The detection of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Detection:
         kw = {k: d[k] for k in cls.__dataclass_fields__ if k in d}

@@ -37,7 +37,8 @@ import types
 _HOMES = {
     "inputs": ("check_samples", "check_seed", "check_size", "check_speeds", "config", "config_fields",
               "config_from_fields", "config_from_text", "config_toml", "list_example_points", "list_examples",
-              "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds"),
+              "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds",
+              "SHOWN_UNITS"),
     "lobes": ("ENGINES", "Lobes", "envelope", "lobes", "lobes_figure", "raw_lobes"),
     "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
                 "fit_rpm", "history_figure", "identify", "parameter_unit"),
@@ -89,17 +90,4 @@ class _Api(types.ModuleType):
 
 sys.modules[__name__].__class__ = _Api
 
-__all__ = ["CONNECT_SECONDS", "CancelToken", "Cancelled", "ENGINES", "Heard", "IDENTIFY_METHODS", "Lobes", "Prediction",
-           "Progress", "SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "StickoutSweep", "Study",
-           "TOOLTIP_FALLBACK_RPM", "TipFRF", "check_fit_matches", "check_frf_type", "check_samples",
-           "check_seed", "check_size", "check_speeds", "collect_warnings", "config", "config_fields",
-           "config_from_fields", "config_from_text", "config_toml", "corner_figure", "depth_grid", "design",
-           "design_figure", "envelope", "fit_curves", "fit_figure", "fit_rpm", "history_figure", "identify",
-           "label_cuts", "label_from_recordings", "labels_table", "list_example_points", "list_examples",
-           "listen_figure", "listen_file", "listen_signal", "lobes", "lobes_figure", "map_figure", "map_table",
-           "modal", "modal_check", "modal_figure", "modal_fit", "modal_quality", "modal_toml", "open_client",
-           "p_stable", "parameter_unit", "parse_bounds", "parse_eps", "parse_grid", "parse_interval",
-           "parse_rpm_range", "points", "points_from_text", "posterior_from_json", "predict", "raw_lobes",
-           "recommend", "record_cut", "reproduce", "reproduce_steps", "sensitivity", "simulate_cut",
-           "simulate_figure", "speeds", "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf",
-           "tool_config", "update", "validate"]
+__all__ = sorted(_WHERE)  # noqa: PLE0605 (every name of _HOMES, nothing else)

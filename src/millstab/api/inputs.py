@@ -21,6 +21,7 @@ from millstab.io.config import Config, config_from_dict, config_to_toml, load_co
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
 from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
+from millstab.units import SHOWN as SHOWN_UNITS  # noqa: F401 (re-exported: how a parameter is printed)
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -123,14 +124,23 @@ def config_toml(cfg: Config) -> str:
 
 
 def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
-           field: str = "--rpm") -> np.ndarray:
-    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else the config's
-    ``[speeds]``, else the ``fallback`` grid.
+           field: str = "--rpm", rpm_file: str | os.PathLike | None = None) -> np.ndarray:
+    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else a speeds file
+    ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`), else the config's ``[speeds]``, else the
+    ``fallback`` grid.
 
     Raises:
-        InputError: bad range text, or a speed outside :func:`millstab.bounds.check_speeds`'s bounds
-            (10..500 000 rev/min) or not finite.
+        InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
+            :func:`millstab.bounds.check_speeds`'s bounds (10..500 000 rev/min) or not finite.
     """
+    if spec and rpm_file:
+        raise InputError(field, spec, "give either --rpm or --rpm-file, not both")
+    if rpm_file:
+        from millstab.io.speeds import read_rpm_file
+
+        return check_speeds(read_rpm_file(Path(rpm_file)), f"--rpm-file {Path(rpm_file).name}")
+    if not spec:
+        spec = None
     if spec is None:
         if cfg is not None and cfg.rpm is not None:
             return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")

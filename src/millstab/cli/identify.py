@@ -8,14 +8,14 @@ from typing import Optional
 import numpy as np
 import typer
 
-from millstab.api import ENGINES
+from millstab.api import ENGINES, SHOWN_UNITS
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05
 #: how every printed parameter is shown (JSON stays SI): stiffness in N/µm, frequency in Hz, ζ bare
-_UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
+_UNIT_SHOW = SHOWN_UNITS
 
 
 def show_value(name: str, value: float, digits: int = 5) -> str:

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app, select_rpm
+from millstab.cli.app import app
 
 #: speed range of the SLD check when neither --rpm nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -49,7 +49,7 @@ def modal(
                        f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}")
     check = None
     if cfg is not None:
-        speeds = select_rpm(rpm, None, cfg.rpm, FALLBACK_RPM)
+        speeds = api.speeds(rpm, cfg, FALLBACK_RPM)
         check = api.modal_check(result, cfg, speeds, frf_x, frf_y, band=band, records=(record_x, record_y),
                                 frf_type=frf_type)
         typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "

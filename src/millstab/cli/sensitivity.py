@@ -12,9 +12,9 @@ import typer
 from typer.core import TyperGroup
 
 from millstab.api import ENGINES
-from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
+from millstab.cli.app import app, engine_progress, progress_bar
 from millstab.cli.options import DaskOpt, WorkersOpt, seed_callback
-from millstab.cli.options import dask_client as _client  # noqa: F401 (the name cli/update imported)
+from millstab.cli.options import dask_client as _client
 from millstab.errors import InputError
 
 #: speed range when neither the command line nor the config gives one [rpm]
@@ -157,9 +157,7 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
         raise InputError("--engine", engine, f"must be one of {', '.join(ENGINES)}")
     eps_val, bounds = api.parse_eps(method, eps), api.parse_bounds(bound)
     cfg = api.config(config)
-    speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
-    if rpm_file:  # --rpm text and [speeds] are checked where they are parsed; a file's speeds here
-        api.check_speeds(speeds, f"--rpm-file {rpm_file.name}")
+    speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
     inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
     protect = [p for p in inputs.values() if p]

@@ -14,13 +14,13 @@ from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.options import DaskOpt, WorkersOpt
 from millstab.cli.options import dask_client as _client
-from millstab.api import ENGINES
+from millstab.api import ENGINES, SHOWN_UNITS
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
                "(words stable|marginal|chatter and probabilities in [0, 1] need none).")
 
-_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
+_SHOW = SHOWN_UNITS  # how a parameter is shown (JSON stays SI)
 
 
 def _load_posterior(path: Path):

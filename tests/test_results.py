@@ -485,3 +485,23 @@ def test_every_result_type_is_registered(one_of_each):
                 if {"to_json", "from_json"} <= methods:
                     found.add(node.name)
     assert found == {c for _, c, _ in RESULTS} == set(one_of_each)
+
+
+def test_fit_table_and_summary_show_the_trades_units(ex3):
+    """Fit.table(): the parameters in N/µm, Hz and bare ζ (the one units.SHOWN table; the CLI had its own
+    copy); summary(): the lines the CLI prints under the table."""
+    fit = _fit(ex3, dof=4, n_points=8, noise={"sigma": 0.02, "source": "stated"})
+    header, cols = fit.table()
+    assert header == ("parameter", "start", "estimate", "std_error", "unit")
+    rows = dict(zip(cols[0], zip(*cols[1:])))
+    j = fit.names.index("k_x")
+    assert rows["k_x"][1] == pytest.approx(fit.estimate[j] / 1e6, rel=1e-15) and rows["k_x"][3] == "N/µm"
+    assert rows["fn_x"][3] == "Hz" and rows["zeta_x"][3] == "" and rows["fn_y"][1] == fit.estimate[3]
+    assert rows["k_x"][2] == pytest.approx(fit.std_errors[j] / 1e6, rel=1e-15)
+    text = fit.summary().splitlines()
+    assert text[0].startswith("MLAE 0.123 (mm, eq. 4)")
+    assert text[1] == ("degrees of freedom: 8 boundary points − 4 parameters = 4; standard errors from the stated "
+                       "depth noise (2 %)")
+    assert "warning: some combination is weak" in text and any(t.startswith("alternative: fn_x=") for t in text)
+    no_se = _fit(ex3, std_errors=None, correlation=None, condition=None)
+    assert all(v != v for v in no_se.table()[1][3])  # not computed: NaN, printed as "-"

@@ -54,13 +54,6 @@ def identify(cfg: Config, points: PointSet, *, method: str = "lsq", free: Sequen
     return dataclasses.replace(fit, provenance=made_from)
 
 
-def parameter_unit(name: str) -> str:
-    """The SI unit of a modal parameter by its name: ``fn…`` Hz, ``k…`` N/m, ``zeta…`` ``-``."""
-    from millstab.params import UNITS, Parameterization
-
-    return UNITS[Parameterization.kind(name)]
-
-
 def fit_rpm(points: PointSet, n: int = 600) -> np.ndarray:
     """Speeds that span the points with a 5 % margin [rev/min] (the fitted SLD's figure)."""
     lo, hi = float(points.rpm.min()), float(points.rpm.max())

@@ -20,6 +20,7 @@ from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
+from millstab.params import shown_value  # noqa: F401 (re-exported: a parameter value as printed)
 from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
 from millstab.units import SHOWN as SHOWN_UNITS  # noqa: F401 (re-exported: how a parameter is printed)
 

@@ -10,7 +10,6 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.cli.identify import show_value
 
 #: the command's help (rich reflows each paragraph; square brackets would be read as markup)
 HELP = (
@@ -72,7 +71,7 @@ def design(
     for c in cols:
         table.add_column(c, justify="left" if c == "parameter" else "right")
     for i, name in enumerate(plan.names):
-        row = [name + (" *" if name in plan.target else ""), show_value(name, plan.theta[i])]
+        row = [name + (" *" if name in plan.target else ""), api.shown_value(name, plan.theta[i])]
         if plan.sigma_existing is not None:
             row.append(_pct(plan.sigma_existing_mean[i]))
         worse = plan.sigma_design_mean[i] > plan.sigma_uniform_mean[i] * (1 + 1e-9)
@@ -93,8 +92,7 @@ def design(
     tests = plan.tests()
     console.print("planned speeds, rev/min (tests): " + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in tests))
     if out:
-        write_csv(out, ("rpm", "tests", "predicted_depth_mm"),
-                  ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests], [d for _, _, d in tests]), protect=protect)
+        write_csv(out, *plan.table(), protect=protect)
         console.print(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure

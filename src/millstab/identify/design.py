@@ -127,6 +127,13 @@ class SpeedDesign:
         speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
         return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
 
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the plan CSV (``millstab design --out``, the web app's plan.csv): rpm (to
+        0.001 rev/min), tests, predicted_depth_mm, one row per distinct planned speed."""
+        tests = self.tests()
+        return ("rpm", "tests", "predicted_depth_mm"), ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests],
+                                                        [d for _, _, d in tests])
+
     def to_json(self) -> dict[str, Any]:
         """The JSON form (plain types, schema ``millstab.design/1``): every attribute under its own name,
         arrays as lists, a relative standard error the tests cannot determine as ``"inf"``, ``null`` for

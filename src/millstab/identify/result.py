@@ -193,6 +193,44 @@ class Fit:
             out.update({f"fn{suffix}": m.fn, f"k{suffix}": m.k, f"zeta{suffix}": m.zeta})
         return out
 
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the fitted parameters as the trade reads them (stiffness N/µm, fn Hz, ζ bare;
+        :data:`millstab.units.SHOWN`): parameter, start, estimate, std_error (NaN: not computed), unit."""
+        from millstab.units import shown
+
+        rows = [(name, shown(self.start[i], unit), shown(self.estimate[i], unit),
+                 shown(math.nan if self.std_errors is None else self.std_errors[i], unit))
+                for i, (name, unit) in enumerate(zip(self.names, self.units))]
+        return (("parameter", "start", "estimate", "std_error", "unit"),
+                ([r[0] for r in rows], [r[1][0] for r in rows], [r[2][0] for r in rows], [r[3][0] for r in rows],
+                 [r[1][1] for r in rows]))
+
+    def summary(self) -> str:
+        """What the fit says beside its table, one line each: MLAE and RSS, the degrees of freedom and where
+        the standard errors' noise comes from, the test cuts, the warnings, the alternatives."""
+        from millstab.params import shown_value
+
+        lines = [f"MLAE {self.mlae:.4g} (mm, eq. 4); RSS {self.rss:.4g} ({self.settings.get('residual', 'log')} residuals)"]
+        if self.dof is not None:
+            p = self.n_points - self.dof
+            line = f"degrees of freedom: {self.n_points} boundary points − {p} parameters = {self.dof}"
+            nz = self.noise or {}
+            if self.std_errors is not None and nz:
+                pct = f"{100 * nz['sigma']:.3g} %"
+                how = {"residuals": f"the residual scatter ({pct})", "stated": f"the stated depth noise ({pct})",
+                       "assumed": f"an assumed depth noise ({pct}; give --noise)"}[nz["source"]]
+                line = f"{line}; standard errors from {how}"
+            lines.append(line)
+        if self.test_cuts:
+            c = self.test_cuts
+            lines.append(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted "
+                         f"chatter; {c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted stable")
+        lines += [f"warning: {w}" for w in self.warnings]
+        for a in self.alternatives:
+            vals = ", ".join(f"{k}={shown_value(k, v)}" for k, v in a["estimate"].items())
+            lines.append(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
+        return "\n".join(lines)
+
     def to_json(self) -> dict[str, Any]:
         """The JSON form (see module docstring), plain JSON types only."""
         from millstab.io.results import to_jsonable

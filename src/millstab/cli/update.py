@@ -97,8 +97,7 @@ def update_cmd(
         else:
             post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
                               start=_load_posterior(start) if start is not None else None, client=client)
-    doc = post.to_json()
-    doc["config"] = cfg.name
+    doc = post.to_json()  # its config's name included (api.update sets it: the web download is the same file)
     if out is not None:
         write_json(out, doc, protect=protect)
     con = Console()

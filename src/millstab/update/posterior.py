@@ -103,6 +103,9 @@ class Posterior:
         warnings: messages for the user (the prior–data conflict and a bimodal split included).
         noise: (N, Q) samples of the learned noise levels ``prior.noise_names`` (ε; the factor s on
             the depth noise), or ``None``: held at the prior's values.
+        provenance: what it was made from, ``{"config": the config's name}`` (set by
+            :func:`millstab.api.update`), written as the JSON's top-level ``"config"``: every door writes the
+            same file (the command line added the key after ``to_json``).
     """
 
     prior: Prior
@@ -112,6 +115,7 @@ class Posterior:
     cuts: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     noise: np.ndarray | None = None
+    provenance: dict = field(default_factory=dict)
 
     def __post_init__(self):
         # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
@@ -184,7 +188,7 @@ class Posterior:
         doc = {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
                "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
                "warnings": warn, "warning_codes": [warning_code(w) for w in warn], "prior": self.prior.to_dict(),
-               "cuts": self.cuts, "samples": self.samples.tolist()}
+               "cuts": self.cuts, "samples": self.samples.tolist(), **self.provenance}
         if self.noise is not None:
             names = list(self.prior.noise_names)
             doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
@@ -214,7 +218,9 @@ class Posterior:
             if not ok:
                 raise InputError(f"{source} noise", f"shape {noise.shape}",
                                  f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
-        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise)
+        made_from = {"config": doc["config"]} if isinstance(doc.get("config"), str) else {}
+        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
+                   made_from)
 
 
 __all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

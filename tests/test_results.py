@@ -505,3 +505,20 @@ def test_fit_table_and_summary_show_the_trades_units(ex3):
     assert "warning: some combination is weak" in text and any(t.startswith("alternative: fn_x=") for t in text)
     no_se = _fit(ex3, std_errors=None, correlation=None, condition=None)
     assert all(v != v for v in no_se.table()[1][3])  # not computed: NaN, printed as "-"
+
+
+def test_speed_design_summary_and_table_say_what_the_plan_holds(one_of_each):
+    """SpeedDesign.summary(): the lines `millstab design` prints (moved out of the door), recomputed here from
+    the plan's fields; table(): the plan CSV, one row per distinct speed, the tests adding up to the plan."""
+    plan = one_of_each["SpeedDesign"]
+    lines = plan.summary().splitlines()
+    assert lines[0].startswith("* = the parameters the plan pins") and f"{plan.samples} parameter samples" in lines[0]
+    if not plan.uniform:
+        assert f"({plan.criterion_design / plan.criterion_uniform:.2f}×)" in lines[1]
+    assert f"efficiency of these {plan.rpm.size} tests ≥ {plan.efficiency:.3f}" in lines[1]
+    speeds, counts = np.unique(plan.rpm, return_counts=True)
+    shown = ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c in zip(speeds, counts))
+    assert lines[-1] == "planned speeds, rev/min (tests): " + shown
+    header, (rpm, tests, depth) = plan.table()
+    assert header == ("rpm", "tests", "predicted_depth_mm") and sum(tests) == plan.rpm.size
+    np.testing.assert_allclose(rpm, speeds, atol=5e-4)

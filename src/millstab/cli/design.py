@@ -78,19 +78,7 @@ def design(
         row += [_pct(plan.sigma_uniform_mean[i]), _pct(plan.sigma_design_mean[i]) + (" †" if worse else "")]
         table.add_row(*row)
     console.print(table)
-    console.print("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
-                  f"averaged over {plan.samples} parameter samples")
-    console.print(_criterion_line(plan))
-    if np.any(plan.sigma_design_mean > plan.sigma_uniform_mean * (1 + 1e-9)):
-        console.print("† = determined less well than by the evenly spaced tests: the plan gives this up for larger gains "
-                      "elsewhere (use --target to pin the parameters that matter most)")
-    if not np.all(np.isfinite(plan.sigma_design)):
-        lost = ", ".join(nm for nm, v in zip(plan.names, plan.sigma_design) if not np.isfinite(v))
-        console.print(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x and y "
-                      "modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
-                      "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
-    tests = plan.tests()
-    console.print("planned speeds, rev/min (tests): " + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in tests))
+    console.print(plan.summary())
     if out:
         write_csv(out, *plan.table(), protect=protect)
         console.print(f"wrote {out}")
@@ -99,19 +87,6 @@ def design(
 
         save_figure(api.design_figure(plan, cfg, pts, fit_doc, str(fit)), plot, protect=protect)
         console.print(f"wrote {plot}")
-
-
-def _criterion_line(plan) -> str:
-    """The plan against evenly spaced tests by the plan's own criterion, and its efficiency bound."""
-    ratio = plan.criterion_design / plan.criterion_uniform
-    if plan.uniform:
-        head = (f"criterion (expected Σ σ² of the * parameters): the {plan.rpm.size} tests evenly spaced over the "
-                "candidates are as good as any plan found, so they are the plan")
-    else:
-        head = (f"criterion (expected Σ σ² of the * parameters): planned {plan.criterion_design:.3g}, evenly spaced "
-                f"{plan.criterion_uniform:.3g} ({ratio:.2f}×)")
-    return (f"{head}; efficiency of these {plan.rpm.size} tests ≥ {plan.efficiency:.3f} against the best continuous design "
-            f"(that design itself ≥ {plan.efficiency_continuous:.3f})")
 
 
 def _pct(v: float) -> str:

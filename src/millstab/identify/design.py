@@ -127,6 +127,34 @@ class SpeedDesign:
         speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
         return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
 
+    def summary(self) -> str:
+        """What ``millstab design`` prints under its table of standard errors, one line each: which parameters
+        the plan pins, its criterion against evenly spaced tests and its efficiency bound, the parameters it
+        gives up (†) or no test determines, and the planned speeds."""
+        lines = [("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
+                  f"averaged over {self.samples} parameter samples")]
+        ratio = self.criterion_design / self.criterion_uniform
+        if self.uniform:
+            head = (f"criterion (expected Σ σ² of the * parameters): the {self.rpm.size} tests evenly spaced over the "
+                    "candidates are as good as any plan found, so they are the plan")
+        else:
+            head = (f"criterion (expected Σ σ² of the * parameters): planned {self.criterion_design:.3g}, evenly spaced "
+                    f"{self.criterion_uniform:.3g} ({ratio:.2f}×)")
+        lines.append(f"{head}; efficiency of these {self.rpm.size} tests ≥ {self.efficiency:.3f} against the best "
+                     f"continuous design (that design itself ≥ {self.efficiency_continuous:.3f})")
+        if (self.sigma_design_mean is not None and self.sigma_uniform_mean is not None
+                and np.any(self.sigma_design_mean > self.sigma_uniform_mean * (1 + 1e-9))):
+            lines.append("† = determined less well than by the evenly spaced tests: the plan gives this up for larger "
+                         "gains elsewhere (use --target to pin the parameters that matter most)")
+        if not np.all(np.isfinite(self.sigma_design)):
+            lost = ", ".join(nm for nm, v in zip(self.names, self.sigma_design) if not np.isfinite(v))
+            lines.append(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x "
+                         "and y modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
+                         "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
+        lines.append("planned speeds, rev/min (tests): "
+                     + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in self.tests()))
+        return "\n".join(lines)
+
     def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
         """(header, columns) of the plan CSV (``millstab design --out``, the web app's plan.csv): rpm (to
         0.001 rev/min), tests, predicted_depth_mm, one row per distinct planned speed."""

@@ -522,3 +522,23 @@ def test_speed_design_summary_and_table_say_what_the_plan_holds(one_of_each):
     header, (rpm, tests, depth) = plan.table()
     assert header == ("rpm", "tests", "predicted_depth_mm") and sum(tests) == plan.rpm.size
     np.testing.assert_allclose(rpm, speeds, atol=5e-4)
+
+
+def test_simulate_results_present_themselves(one_of_each):
+    """Detection.summary(), Labels.summary()/table(), CutResult.table(): what `millstab simulate` prints and
+    writes, moved out of the door; a metric not defined is left out, never shown as 'nan'."""
+    from millstab.simulate.detect import Detection
+
+    det = one_of_each["Detection"]
+    assert det.summary() == "stable; level 0.01"  # growth ∞ and the NaN multiplier are not printed
+    chat = Detection("chatter", 845.04, "hopf", 0.31, 2.04, 20, 200.0, np.zeros(2), np.zeros(2), multiplier=1.01432)
+    assert chat.summary() == "chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31"
+    lab = one_of_each["Labels"]
+    assert lab.summary() == "2 cuts labelled: 1 stable, 0 marginal, 1 chatter"
+    header, cols = lab.table()
+    assert header == ["rpm", "depth_mm", "label", "chatter_hz"] and cols[2] == ["stable", "chatter"]
+    np.testing.assert_array_equal(cols[1], [1.0, 2.0])
+    cut = one_of_each["CutResult"]
+    header, cols = cut.table()
+    assert header == ["t_s", "x_m", "y_m", "fx_N", "fy_N"] and all(c is getattr(cut, n) for c, n in
+                                                                   zip(cols, ("t", "x", "y", "fx", "fy")))

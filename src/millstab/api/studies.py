@@ -43,7 +43,7 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float
 
 def labels_table(labels) -> tuple[list[str], list]:
     """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
-    return ["rpm", "depth_mm", "label", "chatter_hz"], [labels.rpm, labels.depth_mm, list(labels.label), labels.chatter_hz]
+    return labels.table()
 
 
 def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | None = None,

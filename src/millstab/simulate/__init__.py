@@ -138,6 +138,10 @@ class CutResult:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.cut/1"
 
+    def table(self) -> tuple[list[str], list[np.ndarray]]:
+        """(header, columns) of the trace CSV (``millstab simulate --out``): t_s, x_m, y_m, fx_N, fy_N."""
+        return ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [self.t, self.x, self.y, self.fx, self.fy]
+
     def to_json(self) -> dict[str, Any]:
         """Every field under its own name (SI; the Result protocol of :mod:`millstab.jsondoc`)."""
         from millstab.jsondoc import fields_out
@@ -337,6 +341,15 @@ class Labels:
 
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.labels/1"
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
+        return ["rpm", "depth_mm", "label", "chatter_hz"], [self.rpm, self.depth_mm, list(self.label), self.chatter_hz]
+
+    def summary(self) -> str:
+        """'12 cuts labelled: 7 stable, 1 marginal, 4 chatter'."""
+        counts = ", ".join(f"{int(np.sum(self.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
+        return f"{len(self.rpm)} cuts labelled: {counts}"
 
     @property
     def depth_mm(self) -> np.ndarray:

@@ -542,3 +542,18 @@ def test_simulate_results_present_themselves(one_of_each):
     header, cols = cut.table()
     assert header == ["t_s", "x_m", "y_m", "fx_N", "fy_N"] and all(c is getattr(cut, n) for c, n in
                                                                    zip(cols, ("t", "x", "y", "fx", "fy")))
+
+
+def test_posterior_table_shows_the_trades_units(one_of_each):
+    """Posterior.table(): what `millstab update` prints (moved out of the door), recomputed from the samples:
+    k in N/µm, fn in Hz, ζ bare, the prior's median beside the posterior mean, sd and 5/95 % quantiles."""
+    post = one_of_each["Posterior"]
+    header, cols = post.table()
+    assert header == ("parameter", "prior", "mean", "sd", "q05", "q95", "unit")
+    assert cols[0] == list(post.names)
+    j = post.names.index("k_x")
+    k = post.samples[:, j]
+    assert cols[6][j] == "N/µm" and cols[6][post.names.index("fn_x")] == "Hz"
+    assert cols[2][j] == pytest.approx(k.mean() / 1e6, rel=1e-12)
+    assert cols[1][j] == pytest.approx(post.prior.median[j] / 1e6, rel=1e-12)
+    np.testing.assert_allclose([cols[4][j], cols[5][j]], np.quantile(k, [0.05, 0.95]) / 1e6, rtol=1e-12)

@@ -14,13 +14,11 @@ from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.options import DaskOpt, WorkersOpt
 from millstab.cli.options import dask_client as _client
-from millstab.api import ENGINES, SHOWN_UNITS
+from millstab.api import ENGINES
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
                "(words stable|marginal|chatter and probabilities in [0, 1] need none).")
-
-_SHOW = SHOWN_UNITS  # how a parameter is shown (JSON stays SI)
 
 
 def _load_posterior(path: Path):
@@ -107,14 +105,9 @@ def update_cmd(
                           f"{d['loglik_calls']} likelihood calls, {d['time_s']:.1f} s")
     for col in ("parameter", "prior", "mean", "sd", "5 %", "95 %", "unit"):
         table.add_column(col, justify="left" if col == "parameter" else "right")
-    for j, (name, unit) in enumerate(zip(post.names, post.prior.units())):
-        sc, shown = _SHOW[unit]
-        s = doc["parameters"][name]
-        table.add_row(name, f"{post.prior.median[j] * sc:.5g}", *(f"{s[k] * sc:.5g}" for k in ("mean", "sd", "q05", "q95")), shown)
-    noise = (doc.get("noise") or {}).get("parameters", {})
-    for name, s in noise.items():  # the learned noise levels: the label error, the factor on the depth noise
-        shown, med = ("label_error", post.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
-        table.add_row(shown, f"{med:.3g}", *(f"{s[k]:.3g}" for k in ("mean", "sd", "q05", "q95")), "")
+    for i, row in enumerate(zip(*post.table()[1])):  # parameters (5 digits), then learned noise levels (3)
+        digits = 5 if i < len(post.names) else 3
+        table.add_row(row[0], *(f"{v:.{digits}g}" for v in row[1:6]), row[6])
     con.print(table)
     for w in doc["warnings"]:
         con.print(f"[yellow]warning:[/yellow] {w}")

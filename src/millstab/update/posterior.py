@@ -165,6 +165,25 @@ class Posterior:
             return np.hstack([u, self.prior.noise_coordinates(*self._noise())])
         return np.hstack([u, self.prior.sample_noise(u.shape[0], rng or np.random.default_rng(0))])
 
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the posterior as the trade reads it (:data:`millstab.units.SHOWN`): per
+        parameter of the main mode its prior median, mean, sd, 5 % and 95 % quantiles and unit, then the
+        learned noise levels (``label_error``; ``sigma_depth ×``, the factor on the prior's depth noise)."""
+        from millstab.units import SHOWN
+
+        keys = ("mean", "sd", "q05", "q95")
+        main = self.modes()[0]["parameters"]
+        rows = []
+        for j, (name, unit) in enumerate(zip(self.names, self.prior.units())):
+            sc, shown = SHOWN.get(unit, (1.0, unit))
+            rows.append((name, self.prior.median[j] * sc, *(main[name][k] * sc for k in keys), shown))
+        if self.noise is not None:
+            for name, s in summary(self.noise, list(self.prior.noise_names)).items():
+                label, med = ("label_error", self.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
+                rows.append((label, float(med), *(s[k] for k in keys), ""))
+        header = ("parameter", "prior", "mean", "sd", "q05", "q95", "unit")
+        return header, tuple(list(c) for c in zip(*rows))
+
     def modes(self) -> list[dict]:
         """The exchange modes with their share of samples and summaries (largest first); one entry when unimodal."""
         twin = split_modes(self.prior, self.samples, self.engine)

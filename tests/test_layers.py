@@ -222,6 +222,30 @@ def test_the_doors_import_only_the_services_errors_and_io():
     assert _door_imports() == {}
 
 
+#: the libraries a door may use besides the standard library: the command line's (typer, rich, and numba only to
+#: announce a cold compile cache), the app's (Panel and what it draws with); numpy only where the app hands arrays
+#: to bokeh. A door that needs numpy to compute something has logic of a service.
+DOOR_LIBRARIES = {"millstab.cli": {"typer", "rich", "click", "panel", "numba"},
+                  "millstab.web": {"panel", "param", "bokeh", "numpy"}}
+
+
+def test_the_doors_use_only_their_own_libraries():
+    bad = []
+    for path in PKG.rglob("*.py"):
+        mod = _module(path)
+        door = next((d for d in DOOR_LIBRARIES if mod == d or mod.startswith(d + ".")), None)
+        if door is None:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module] if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 else [])
+            for name in names:
+                top = name.split(".")[0]
+                if top not in sys.stdlib_module_names and top != "millstab" and top not in DOOR_LIBRARIES[door]:
+                    bad.append(f"{mod}: {name} (line {node.lineno})")
+    assert bad == []
+
+
 def test_the_door_rule_catches_a_door_importing_below_the_services(tmp_path, monkeypatch):
     """The rule above is not vacuous: a door module importing an engine's registry is reported."""
     pkg = tmp_path / "millstab"

@@ -505,6 +505,8 @@ def test_fit_table_and_summary_show_the_trades_units(ex3):
     assert "warning: some combination is weak" in text and any(t.startswith("alternative: fn_x=") for t in text)
     no_se = _fit(ex3, std_errors=None, correlation=None, condition=None)
     assert all(v != v for v in no_se.table()[1][3])  # not computed: NaN, printed as "-"
+    # loose(): relative standard errors of 1 % (the fixture's) are loose at 0.5 %, not at 5 %
+    assert fit.loose(0.005) == fit.names and fit.loose(0.05) == () and no_se.loose(0.0) == ()
 
 
 def test_speed_design_summary_and_table_say_what_the_plan_holds(one_of_each):

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from millstab.cli.app import app
@@ -90,4 +90,4 @@ def design(
 
 
 def _pct(v: float) -> str:
-    return "not determined" if not np.isfinite(v) else f"± {100 * v:.3g} %"
+    return "not determined" if not math.isfinite(v) else f"± {100 * v:.3g} %"

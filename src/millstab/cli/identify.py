@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from millstab.api import ENGINES
@@ -80,7 +79,7 @@ def identify(
     for line in fit.summary().splitlines():
         out_console.print(line.replace("warning:", "[yellow]warning:[/yellow]", 1) if line.startswith("warning:") else line,
                           highlight=False)
-    if fit.std_errors is not None and (fit.alternatives or np.any(fit.std_errors / fit.estimate > LOOSE)):
+    if fit.std_errors is not None and (fit.alternatives or fit.loose(LOOSE)):
         out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
                           "further tests that would pin the loose parameters")
     if out:

@@ -205,6 +205,13 @@ class Fit:
                 ([r[0] for r in rows], [r[1][0] for r in rows], [r[2][0] for r in rows], [r[3][0] for r in rows],
                  [r[1][1] for r in rows]))
 
+    def loose(self, rel: float = 0.05) -> tuple[str, ...]:
+        """The free parameters whose relative standard error exceeds ``rel`` (none without standard errors):
+        what further tests (``millstab design --fit``) would pin."""
+        if self.std_errors is None:
+            return ()
+        return tuple(n for n, se, v in zip(self.names, self.std_errors, self.estimate) if se / v > rel)
+
     def summary(self) -> str:
         """What the fit says beside its table, one line each: MLAE and RSS, the degrees of freedom and where
         the standard errors' noise comes from, the test cuts, the warnings, the alternatives."""

@@ -55,17 +55,31 @@ def _entries(block: list[str]) -> dict[str, str]:
     return out
 
 
+def _sections(doc: str) -> dict[str, list[str]]:
+    """The top-level paragraphs of a docstring by their head (``Attributes:``, ``Conditions: ...``,
+    ``per_set_kr (...): ...``, ``Optional (...):``): {head: the paragraph's lines, the head line's text first}."""
+    out: dict[str, list[str]] = {}
+    key = None
+    for line in doc.splitlines():
+        if line and not line[0].isspace():
+            head, _, text = line.partition(": ") if ": " in line else (line.rstrip(":"), "", "")
+            key = head
+            out[key] = [text] if text else []
+        elif key is not None:
+            out[key].append(line)
+    return out
+
+
 def contract_table() -> str:
     import inspect
 
     from millstab.stability.base import Engine
 
-    doc = inspect.getdoc(Engine) or ""
-    lines = doc.splitlines()
-    start = lines.index("Attributes:") + 1
-    opt = next(i for i, ln in enumerate(lines) if ln.startswith("Optional"))
-    attrs = _entries(lines[start:opt])
-    optional = _entries(lines[opt + 1:])
+    sections = _sections(inspect.getdoc(Engine) or "")
+    sections.pop(next(iter(sections)))  # the summary line
+    attrs = _entries(sections.pop("Attributes"))
+    optional_head = next(h for h in sections if h.startswith("Optional"))
+    optional = _entries(sections.pop(optional_head))
     rows = ["| attribute | meaning |", "| --- | --- |"]
     for name in Engine.__annotations__:
         rows.append(f"| `{name}` | {attrs.get(name, '(undocumented)')} |")
@@ -73,6 +87,10 @@ def contract_table() -> str:
         fn = getattr(Engine, name)
         sig = re.sub(r": '[^']*'", "", str(inspect.signature(fn)).replace("(self, ", "(").split(" ->")[0])
         rows.append(f"| `{name}{sig}` | {(inspect.getdoc(fn) or '').splitlines()[0]} |")
+    for head, lines in sections.items():  # further paragraphs: Conditions, optional capabilities
+        name, _, note = head.partition(" (")
+        shown = f"`{name}`" + (f" ({note.rstrip(')')})" if note else "")
+        rows.append(f"| {shown} | {' '.join(x.strip() for x in lines).strip()} |")
     for head, text in optional.items():
         rows.append(f"| `{head.split(' ->')[0]}` (optional) | {text} |")
     return "\n".join(rows)

@@ -272,6 +272,7 @@ def test_the_service_layer_resolves_every_name_to_the_task_not_its_module():
         value = getattr(api, name)
         assert not isinstance(value, types.ModuleType), name
     assert callable(api.identify) and callable(api.update) and "zoa" in api.ENGINES
+    assert isinstance(api.inputs, types.ModuleType) and api.inputs.MAX_TEXT_BYTES > 0  # a submodule by its name
     with pytest.raises(AttributeError):
         api.no_such_task  # noqa: B018
 
@@ -282,3 +283,11 @@ def test_importing_the_service_layer_and_the_cli_imports_no_scipy_and_no_numba()
     code = ("import sys, millstab.api, millstab.cli\n"
             "print(sorted(m for m in ('scipy', 'numba', 'matplotlib') if m in sys.modules))\n")
     assert _run(code) == "[]"
+
+
+def test_the_doors_reach_the_shop_database_through_the_service_layer_only(graph):
+    """The app and the commands read and write campaigns through millstab.api.shop (which enforces the
+    per-shop rule, issue 31.4), never through millstab.shopdb directly."""
+    for mod, deps in graph.items():
+        if mod.startswith(DOORS):
+            assert sorted(d for d in deps if d == "millstab.shopdb" or d.startswith("millstab.shopdb.")) == [], mod

@@ -64,10 +64,14 @@ def __getattr__(name: str):
     """Import a name's submodule on its first use: ``from millstab import api`` (every command line door
     does it) stays as cheap as numpy, and a task pays for what it uses (measured: 0.4 s against 3.3 s for
     importing every submodule with scipy, on the loaded 2-core build machine)."""
-    try:
-        mod, attr = _WHERE[name]
-    except KeyError:
-        raise AttributeError(f"module 'millstab.api' has no attribute {name!r}") from None
+    if name not in _WHERE:  # a submodule by its name (``api.inputs.MAX_TEXT_BYTES``, ``api.shop``)
+        try:
+            return importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module 'millstab.api' has no attribute {name!r}") from None
+    mod, attr = _WHERE[name]
     value = getattr(importlib.import_module(f"millstab.api.{mod}"), attr)
     globals()[name] = value
     return value

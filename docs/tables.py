@@ -108,7 +108,7 @@ TABLES = {"contract": lambda: _md(contract_table()), "results": results_table}
 def render(text: str) -> str:
     """``text`` with every generated table replaced by the code's."""
     for name, make in TABLES.items():
-        pattern = re.compile(rf"(<!-- generated: {name} [^\n]*-->\n)(?:.*?\n)?(<!-- end: {name} -->)", re.S)
+        pattern = re.compile(rf"(<!-- generated: {name} [^\n]*-->\n)(?:.*?\n)?(<!-- end: {name} -->)", re.DOTALL)
         if not pattern.search(text):
             raise SystemExit(f"{DOC.name}: no generated table {name!r} (<!-- generated: {name} ... --> ... "
                              f"<!-- end: {name} -->)")

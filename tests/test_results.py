@@ -504,7 +504,7 @@ def test_fit_table_and_summary_show_the_trades_units(ex3):
                        "depth noise (2 %)")
     assert "warning: some combination is weak" in text and any(t.startswith("alternative: fn_x=") for t in text)
     no_se = _fit(ex3, std_errors=None, correlation=None, condition=None)
-    assert all(v != v for v in no_se.table()[1][3])  # not computed: NaN, printed as "-"
+    assert all(math.isnan(v) for v in no_se.table()[1][3])  # not computed: NaN, printed as "-"
     # loose(): relative standard errors of 1 % (the fixture's) are loose at 0.5 %, not at 5 %
     assert fit.loose(0.005) == fit.names and fit.loose(0.05) == () and no_se.loose(0.0) == ()
 
@@ -521,7 +521,7 @@ def test_speed_design_summary_and_table_say_what_the_plan_holds(one_of_each):
     speeds, counts = np.unique(plan.rpm, return_counts=True)
     shown = ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c in zip(speeds, counts))
     assert lines[-1] == "planned speeds, rev/min (tests): " + shown
-    header, (rpm, tests, depth) = plan.table()
+    header, (rpm, tests, _) = plan.table()
     assert header == ("rpm", "tests", "predicted_depth_mm") and sum(tests) == plan.rpm.size
     np.testing.assert_allclose(rpm, speeds, atol=5e-4)
 

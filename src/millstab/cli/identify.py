@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -70,11 +71,11 @@ def identify(
     out_console = Console()
     table = Table(title=f"{cfg.name}: {method}",
                   caption=f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
-    header, columns = fit.table()
+    _, columns = fit.table()
     for col in ("parameter", "start", "estimate", "± std error", "unit"):
         table.add_column(col, justify="right" if col != "parameter" else "left")
     for name, start, est, se, unit in zip(*columns):
-        table.add_row(name, f"{start:.5g}", f"{est:.5g}", "-" if se != se else f"{se:.4g}", unit)
+        table.add_row(name, f"{start:.5g}", f"{est:.5g}", "-" if math.isnan(se) else f"{se:.4g}", unit)
     out_console.print(table)
     for line in fit.summary().splitlines():
         out_console.print(line.replace("warning:", "[yellow]warning:[/yellow]", 1) if line.startswith("warning:") else line,

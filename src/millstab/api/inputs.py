@@ -134,14 +134,14 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
         InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
             :func:`millstab.bounds.check_speeds`'s bounds (10..500 000 rev/min) or not finite.
     """
-    if spec and rpm_file:
-        raise InputError(field, spec, "give either --rpm or --rpm-file, not both")
+    if isinstance(spec, str) and not spec:  # an empty --rpm is no --rpm
+        spec = None
     if rpm_file:
+        if spec is not None:
+            raise InputError(field, spec, "give either --rpm or --rpm-file, not both")
         from millstab.io.speeds import read_rpm_file
 
         return check_speeds(read_rpm_file(Path(rpm_file)), f"--rpm-file {Path(rpm_file).name}")
-    if not spec:
-        spec = None
     if spec is None:
         if cfg is not None and cfg.rpm is not None:
             return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")

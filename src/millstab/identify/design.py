@@ -47,6 +47,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.identify.result import cutting_difference, cutting_record
+from millstab.identify.search import options_with
 from millstab.identify.tie import is_tied, tied_parameterization
 from millstab.jsondoc import check_schema, floats_in, floats_out, int_in, names_in, need, number_in, number_out
 from millstab.model import Cutting
@@ -406,10 +407,32 @@ def evenly_spaced(candidates: np.ndarray, n: int) -> np.ndarray:
     return np.bincount(idx, minlength=cand.size)
 
 
+@dataclass(frozen=True)
+class DesignOptions:
+    """The settings of :func:`design_speeds` (its docstring explains each), checked when built: a noise that
+    is not a finite number ≥ 0 (the depth noise > 0) or a sample count < 1 is an InputError naming it.
+    ``design_speeds(..., options=DesignOptions(samples=4))`` and ``design_speeds(..., samples=4)`` are the
+    same call (the keywords replace fields of ``options``)."""
+
+    noise: float = 0.02
+    speed_noise: float = SPEED_NOISE
+    samples: int = 16
+    iterations: int = 2000
+
+    def __post_init__(self) -> None:
+        for field_name, v in (("noise", self.noise), ("speed_noise", self.speed_noise)):
+            if not (math.isfinite(v) and v >= 0):
+                raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
+        if self.noise == 0:
+            raise InputError("noise", self.noise, "relative depth noise must be > 0 (0.02 = 2 %)")
+        if not (isinstance(self.samples, (int, np.integer)) and self.samples >= 1):
+            raise InputError("samples", self.samples, "must be an integer >= 1")
+
+
 def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *, theta=None, cov_u=None,
                   alternatives: Sequence[Sequence[float]] = (), existing_rpm=None, existing_weight=None,
-                  target: Sequence[str] | None = None, noise: float = 0.02, speed_noise: float = SPEED_NOISE,
-                  samples: int = 16, seed: int = 0, engine: str = "zoa", iterations: int = 2000) -> SpeedDesign:
+                  target: Sequence[str] | None = None, options: DesignOptions | None = None, seed: int = 0,
+                  engine: str = "zoa", **tuning) -> SpeedDesign:
     """Plan ``n`` boundary-point tests among ``candidates`` [rev/min] that best determine θ.
 
     Args:
@@ -426,6 +449,8 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
             information the plan adds to.
         target: parameters whose relative standard errors the plan minimises (sum of squares); default
             all free parameters. ``["fn_x", "fn_y"]`` pins the natural frequencies first.
+        options: the settings (:class:`DesignOptions`: noise, speed_noise, samples, iterations);
+            keywords named as its fields replace them.
         noise: relative standard deviation of a measured limiting depth (0.02 = 2 %).
         speed_noise: relative uncertainty of where the boundary sits in speed (see :data:`SPEED_NOISE`).
         samples: θ samples the criterion averages over (each centre itself, then draws from
@@ -439,13 +464,8 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
         raise InputError("candidates", f"{cand.size} speeds", "need at least 2 finite positive speeds (rev/min)")
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise InputError("n", n, "the number of tests to plan must be an integer >= 1")
-    for field_name, v in (("noise", noise), ("speed_noise", speed_noise)):
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
-    if noise == 0:
-        raise InputError("noise", noise, "relative depth noise must be > 0 (0.02 = 2 %)")
-    if not (isinstance(samples, (int, np.integer)) and samples >= 1):
-        raise InputError("samples", samples, "must be an integer >= 1")
+    o = options_with(options, DesignOptions, tuning, "design_speeds")  # checked when built
+    noise, speed_noise, samples, iterations = o.noise, o.speed_noise, o.samples, o.iterations
     names = par.free
     tgt = tuple(names if not target else (par.canonical(t) for t in target))
     unknown = [t for t in tgt if t not in names]
@@ -570,7 +590,7 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
+__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "DesignOptions", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
            "evenly_spaced",
            "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
            "relative_sigma", "ridge", "round_design"]

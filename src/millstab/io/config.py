@@ -83,7 +83,7 @@ PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails"
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
-CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
+CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter")
 STRUCTURE_KEYS = ("x", "y", "frf")
 MODE_KEYS = ("fn", "k", "zeta")
 FRF_KEYS = ("xx", "yy", "xy", "yx")
@@ -145,6 +145,8 @@ def _cutting(t: Any) -> Cutting:
         raise InputError("cutting.teeth", teeth, "number of teeth must be a positive integer (e.g. teeth = 4)")
     kt = parse_quantity(t["kt"], "cutting.kt", "pressure")
     kr = parse_quantity(t["kr"], "cutting.kr", "dimensionless")
+    extra = _process_damping(t)
+    written = {f"cutting.{k}": t[k] for k in ("process_damping", "diameter") if k in t}
     has_angles = "entry" in t or "exit" in t
     if has_angles and ("radial_immersion" in t or "milling" in t):
         raise InputError("cutting.radial_immersion" if "radial_immersion" in t else "cutting.milling",
@@ -158,8 +160,8 @@ def _cutting(t: Any) -> Cutting:
         if entry >= exit_:
             raise InputError("cutting.entry", t["entry"], f"entry angle must be less than the exit angle "
                                                           f"(exit = {show(t['exit'])})")
-        with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")}):
-            return Cutting(teeth, kt, kr, entry, exit_)
+        with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")} | written):
+            return Cutting(teeth, kt, kr, entry, exit_, **extra)
     if "radial_immersion" not in t:
         raise InputError("cutting.entry", None, "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
                                                 "or radial_immersion and milling = \"down\" | \"up\"")
@@ -171,8 +173,19 @@ def _cutting(t: Any) -> Cutting:
         milling = "down"
     if milling not in ("down", "up"):
         raise InputError("cutting.milling", milling, 'must be "down" or "up"')
-    with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")}):
-        return Cutting.from_immersion(teeth, kt, kr, ri, milling)
+    with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")} | written):
+        return Cutting.from_immersion(teeth, kt, kr, ri, milling, **extra)
+
+
+def _process_damping(t: Mapping[str, Any]) -> dict[str, float]:
+    """``process_damping`` (the coefficient C, N/m: "2e5 N/m", "0.2 N/um") and the tool ``diameter``
+    (a length, "16 mm") of [cutting], as Cutting keywords; the model checks them (C ≥ 0, D > 0, D with C)."""
+    extra = {}
+    if "process_damping" in t:
+        extra["process_damping"] = parse_quantity(t["process_damping"], "cutting.process_damping", "stiffness")
+    if "diameter" in t:
+        extra["diameter"] = parse_quantity(t["diameter"], "cutting.diameter", "length")
+    return extra
 
 
 def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
@@ -405,6 +418,10 @@ def config_to_toml(config: Config) -> str:
         lines.append(f"description = {_toml_str(config.description)}")
     lines += ["", "[cutting]", f"teeth = {c.teeth}", f'kt = "{_fmt(c.kt / 1e6)} MPa"', f"kr = {_fmt(c.kr)}",
               f'entry = "{_fmt(math.degrees(c.entry))} deg"', f'exit = "{_fmt(math.degrees(c.exit))} deg"']
+    if c.has_process_damping:
+        lines.append(f'process_damping = "{_fmt(c.process_damping)} N/m"')
+    if c.diameter is not None:
+        lines.append(f'diameter = "{_fmt(c.diameter * 1e3)} mm"')
     for d in ("x", "y"):
         for m in getattr(config.structure, d):
             lines += ["", f"[[structure.{d}]]", f'fn = "{_fmt(m.fn)} Hz"', f'k = "{_fmt(m.k / 1e6)} N/um"',

@@ -112,3 +112,21 @@ def test_depth_grid_spans_up_to_the_maximum_and_refuses_nonsense():
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(InputError, match="> 0 mm"):
             api.depth_grid(bad)
+
+
+def test_speeds_from_text_numbers_a_file_or_the_config(tmp_path):
+    """api.speeds chooses the speeds of every door: --rpm text, an array (a caller's speeds), a speeds file
+    (checked there: it was checked by two doors and not a third), the config's [speeds], the fallback."""
+    cfg = api.config("example:ex1")
+    np.testing.assert_array_equal(api.speeds("5000:5200:100", cfg), [5000.0, 5100.0, 5200.0])
+    np.testing.assert_array_equal(api.speeds(np.array([6000.0, 7000.0]), cfg), [6000.0, 7000.0])
+    f = tmp_path / "s.csv"
+    f.write_text("rpm\n5000\n5500\n", encoding="utf-8")
+    np.testing.assert_array_equal(api.speeds(None, cfg, rpm_file=f), [5000.0, 5500.0])
+    np.testing.assert_array_equal(api.speeds("", cfg, rpm_file=f), [5000.0, 5500.0])
+    with pytest.raises(InputError, match="not both"):
+        api.speeds("5000:6000:100", cfg, rpm_file=f)
+    f.write_text("rpm\n5000\n0.5\n", encoding="utf-8")
+    with pytest.raises(InputError, match="--rpm-file s.csv"):
+        api.speeds(None, cfg, rpm_file=f)
+    np.testing.assert_array_equal(api.speeds(None, None, (1000.0, 1200.0, 100.0)), [1000.0, 1100.0, 1200.0])

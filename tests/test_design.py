@@ -395,3 +395,23 @@ def test_cli_design_help_is_readable(capsys, monkeypatch):
     text = " ".join(capsys.readouterr().out.split())  # the help is wrapped to the terminal's width
     assert "(fn 5 %, k and ζ 30 %)" in text
     assert "speeds table" in text and "START:STOP:STEP in rev/min" in text
+
+
+def test_design_options_object_and_keywords_are_one_call():
+    """Issue 26: design_speeds' settings are DesignOptions (checked when built); keyword calls still work and
+    give the same plan; a misspelt keyword is a TypeError naming it."""
+    from millstab.identify.design import DesignOptions
+
+    cfg = load_example("ex3")
+    par = Parameterization(cfg.structure, ("fn_x", "fn_y"))
+    cand = np.linspace(5000, 15000, 21)
+    a = design_speeds(par, cfg.cutting, cand, 4, samples=2, noise=0.03, iterations=50, seed=1)
+    b = design_speeds(par, cfg.cutting, cand, 4, options=DesignOptions(samples=2, noise=0.03, iterations=50), seed=1)
+    np.testing.assert_array_equal(a.rpm, b.rpm)
+    assert a.noise == b.noise == 0.03 and a.criterion_design == b.criterion_design
+    with pytest.raises(InputError, match="noise"):
+        DesignOptions(noise=0.0)
+    with pytest.raises(InputError, match="samples"):
+        design_speeds(par, cfg.cutting, cand, 4, samples=0)
+    with pytest.raises(TypeError, match="'sample'"):
+        design_speeds(par, cfg.cutting, cand, 4, sample=3)

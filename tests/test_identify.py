@@ -286,3 +286,34 @@ def test_cli_too_few_points(tmp_path, capsys):
     csv.write_text("rpm,depth_mm\n5000,1\n6000,2\n")
     assert main(["identify", "example:ex1", str(csv), "--quiet"]) == 2
     assert "need at least 6 boundary points" in capsys.readouterr().err
+
+
+def test_solver_options_objects_and_keywords_are_one_call(examples):
+    """Issue 26: the solvers' long signatures became options objects (NewtonOptions, LsqOptions); old keyword
+    calls still work and give bit-identical fits, bad values are refused when the options are built, and a
+    misspelt keyword is still a TypeError naming it."""
+    from millstab.identify.lsq import LsqOptions, fit_lsq_free
+    from millstab.identify.newton import NewtonOptions
+
+    cfg, pts = examples["ex1"]
+    prob = make_problem(cfg.structure, cfg.cutting, pts, free=("fn_x", "k_x"))
+    start = prob.par.theta0 * 1.05
+    by_kw = fit_newton(prob, start, scaled=False, n_guesses=1, max_iter=3, patience=100)
+    by_obj = fit_newton(prob, start, options=NewtonOptions(scaled=False, n_guesses=1, max_iter=3, patience=100))
+    np.testing.assert_array_equal(by_kw.history_theta, by_obj.history_theta)
+    assert by_kw.settings == by_obj.settings and by_kw.settings["scaled"] is False
+    mixed = fit_newton(prob, start, options=NewtonOptions(scaled=False, n_guesses=1), max_iter=3, patience=100)
+    np.testing.assert_array_equal(mixed.history_theta, by_kw.history_theta)
+    fast = dict(n_candidates=16, schedule=((2, 2),), rounds=0, n_local=0, max_nfev=5)
+    a = fit_lsq_free(prob, start, **fast)
+    b = fit_lsq_free(prob, start, options=LsqOptions(**fast))
+    np.testing.assert_array_equal(a.estimate, b.estimate)
+    assert a.rss == b.rss and a.evaluations == b.evaluations
+    with pytest.raises(InputError, match="alpha"):
+        NewtonOptions(alpha=1.5)
+    with pytest.raises(InputError, match="loss"):
+        LsqOptions(loss="l2")
+    with pytest.raises(TypeError, match="'aplha'"):
+        fit_newton(prob, start, aplha=0.5)
+    with pytest.raises(TypeError, match="'round'"):
+        fit_lsq_free(prob, start, round=1)

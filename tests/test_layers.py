@@ -185,6 +185,106 @@ def test_a_figure_saves_without_a_display(tmp_path):
     assert out.read_bytes()[:4] == b"\x89PNG"
 
 
+#: what a door may import besides itself: the service layer, the errors and the file layer (issue 26)
+DOOR_MAY_IMPORT = ("millstab.api", "millstab.errors", "millstab.io")
+
+
+def _door_imports() -> dict[str, list[str]]:
+    """{door module: the millstab modules it imports that are not itself, another door, api, errors or io}.
+    ``from millstab import api`` counts as importing ``millstab.api``."""
+    bad = {}
+    for path in PKG.rglob("*.py"):
+        mod = _module(path)
+        if not mod.startswith(DOORS):
+            continue
+        out = []
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = ([f"{node.module}.{a.name}" for a in node.names] if node.module == "millstab"
+                         else [node.module])
+            for name in names:
+                if not name.startswith("millstab"):
+                    continue
+                if any(name == top or name.startswith(top + ".") for top in DOOR_MAY_IMPORT + DOORS):
+                    continue
+                out.append(f"{name} (line {node.lineno})")
+        if out:
+            bad[mod] = out
+    return bad
+
+
+def test_the_doors_import_only_the_services_errors_and_io():
+    """cli/ and web/ are doors: they parse, call millstab.api, print or show, and save through io. A door that
+    imports a study, an engine, the model or a parser directly has logic the other door lacks (issue 26)."""
+    assert _door_imports() == {}
+
+
+#: the libraries a door may use besides the standard library: the command line's (typer, rich, and numba only to
+#: announce a cold compile cache), the app's (Panel and what it draws with); numpy only where the app hands arrays
+#: to bokeh. A door that needs numpy to compute something has logic of a service.
+DOOR_LIBRARIES = {"millstab.cli": {"typer", "rich", "click", "panel", "numba"},
+                  "millstab.web": {"panel", "param", "bokeh", "numpy"}}
+
+
+def test_the_doors_use_only_their_own_libraries():
+    bad = []
+    for path in PKG.rglob("*.py"):
+        mod = _module(path)
+        door = next((d for d in DOOR_LIBRARIES if mod == d or mod.startswith(d + ".")), None)
+        if door is None:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module] if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 else [])
+            for name in names:
+                top = name.split(".")[0]
+                if top not in sys.stdlib_module_names and top != "millstab" and top not in DOOR_LIBRARIES[door]:
+                    bad.append(f"{mod}: {name} (line {node.lineno})")
+    assert bad == []
+
+
+def test_the_door_rule_catches_a_door_importing_below_the_services(tmp_path, monkeypatch):
+    """The rule above is not vacuous: a door module importing an engine's registry is reported."""
+    pkg = tmp_path / "millstab"
+    (pkg / "cli").mkdir(parents=True)
+    (pkg / "cli" / "x.py").write_text("from millstab import api\nfrom millstab.io import write_json\n"
+                                      "def f():\n    from millstab.stability import ENGINES\n", encoding="utf-8")
+    monkeypatch.setattr(sys.modules[__name__], "PKG", pkg)
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    assert _door_imports() == {"millstab.cli.x": ["millstab.stability (line 4)"]}
+
+
+def test_the_service_layer_resolves_every_name_to_the_task_not_its_module():
+    """``millstab.api`` imports a name's submodule on first use; a submodule that shares its name with a task
+    (``api.identify``, ``api.update``, ...) must still leave ``api.identify`` the function, whichever is
+    imported first."""
+    import importlib
+    import types
+
+    from millstab import api
+
+    for mod in ("identify", "update", "lobes", "predict", "validate", "sensitivity", "studies", "inputs"):
+        importlib.import_module(f"millstab.api.{mod}")
+    for name in api.__all__:
+        value = getattr(api, name)
+        assert not isinstance(value, types.ModuleType), name
+    assert callable(api.identify) and callable(api.update) and "zoa" in api.ENGINES
+    assert isinstance(api.inputs, types.ModuleType) and api.inputs.MAX_TEXT_BYTES > 0  # a submodule by its name
+    with pytest.raises(AttributeError):
+        api.no_such_task  # noqa: B018
+
+
+def test_importing_the_service_layer_and_the_cli_imports_no_scipy_and_no_numba():
+    """The doors import ``millstab.api`` at module level (issue 26); it must stay as cheap as before (the CLI
+    starts without scipy and numba, which its commands import when they run)."""
+    code = ("import sys, millstab.api, millstab.cli\n"
+            "print(sorted(m for m in ('scipy', 'numba', 'matplotlib') if m in sys.modules))\n")
+    assert _run(code) == "[]"
+
+
 def test_the_doors_reach_the_shop_database_through_the_service_layer_only(graph):
     """The app and the commands read and write campaigns through millstab.api.shop (which enforces the
     per-shop rule, issue 31.4), never through millstab.shopdb directly."""

@@ -40,6 +40,11 @@ def test_update_writes_the_posterior(shop):
     assert doc["diagnostics"]["stages"] >= 1 and doc["diagnostics"]["frequency_term"] is True
     assert doc["prior"]["cutting"]["teeth"] == 2 and len(doc["cuts"]["rpm"]) == 6
     assert (shop / "corner.png").stat().st_size > 1000
+    # the config's name is the posterior's own (issue 26: the CLI added it after to_json, so the web app's
+    # posterior.json lacked it and a posterior read back dropped it): the file round-trips whole
+    from millstab.update import Posterior
+
+    assert doc["config"] == "ex1" and Posterior.from_json(doc, "post.json").to_json() == doc
 
 
 def test_map_and_recommend_from_the_json_alone(shop, capsys):

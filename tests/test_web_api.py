@@ -403,6 +403,33 @@ def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monke
         s.close()
 
 
+def test_measured_frf_config_upload_keeps_its_prior_and_fields(tmp_path):
+    """A measured-FRF config through the form: its fields are the config writer's minus the structure (the
+    form names the FRF uploads), [prior] label_error included, and the form's config has the FRF and prior
+    of the uploaded one (the form used to build a placeholder Structure itself to reach the writer)."""
+    from millstab.io.frf_files import frf_csv_text
+
+    f = np.linspace(200.0, 3000.0, 400)
+    w, wn, z, k = 2 * np.pi * f, 2 * np.pi * 900.0, 0.03, 1.2e7
+    h = 1.0 / (k * (1 - (w / wn) ** 2 + 2j * z * w / wn))
+    head = api.config_toml(api.config("example:ex1")).split("[[structure.x]]")[0]
+    text = head + '[structure.frf]\nxx = "xx.csv"\nyy = "yy.csv"\n' + PRIOR
+    s, tool = _tool()
+    try:
+        for term in ("xx", "yy"):
+            s.save_upload(term, f"{term}.csv", frf_csv_text(f, h))
+        mine = api.config_from_text(text, "shop.toml", files=s.uploads)
+        fields = api.config_fields(mine)
+        modal = api.config_from_text(api.config_toml(api.config("example:ex1")).split("[prior]")[0] + PRIOR, "m.toml")
+        assert "structure" not in fields and fields["prior"] == api.config_fields(modal)["prior"]
+        tool._load_config("shop.toml", text.encode())
+        assert tool.config_error.object == "" and tool.structure_kind.value == "measured FRF"
+        assert not s.cfg.structure.is_modal and s.cfg.prior.label_error == pytest.approx(0.09)
+        np.testing.assert_array_equal(s.cfg.structure.frf.xx, mine.structure.frf.xx)
+    finally:
+        s.close()
+
+
 def test_accounts_belong_to_shops(tmp_path, monkeypatch, capsys):
     """Issue 31.4: a users line may list the user's shops (``name:hash:acme,bolt``); none listed is the shop
     ``default`` (the command line's campaigns); a new password keeps the shops; a bad shop name is one line."""

@@ -192,5 +192,116 @@ def plain(obj: Any, field: str, nan_ok: bool = False) -> Any:
     raise TypeError(f"{field}: cannot write an object of type {type(obj).__name__} to JSON")
 
 
-__all__ = ["check_schema", "floats_in", "floats_out", "int_in", "ints_in", "names_in", "need",
-           "number_in", "number_out", "per_name_in", "per_name_out", "plain"]
+#: every result that round-trips through JSON: (module, class, schema). docs/architecture.md's results table is
+#: generated from it (``python docs/tables.py``), and tests/test_results.py round-trips one of each (a written
+#: document rebuilds an equal object; another schema is an InputError), so a new result type goes here.
+RESULTS: tuple[tuple[str, str, str], ...] = (
+    ("millstab.identify.result", "Fit", "millstab.fit/1"),
+    ("millstab.identify.design", "SpeedDesign", "millstab.design/1"),
+    ("millstab.stability.base", "Envelope", "millstab.envelope/1"),
+    ("millstab.sensitivity.results", "OATResult", "millstab.sensitivity.oat/1"),
+    ("millstab.sensitivity.results", "MCResult", "millstab.sensitivity.mc/1"),
+    ("millstab.sensitivity.results", "SobolResult", "millstab.sensitivity.sobol/1"),
+    ("millstab.sensitivity.results", "MorrisResult", "millstab.sensitivity.morris/1"),
+    ("millstab.update.posterior", "Posterior", "millstab.posterior/2"),
+    ("millstab.update.decide", "Recommendation", "millstab.recommendation/1"),
+    ("millstab.simulate", "CutResult", "millstab.simulate.cut/1"),
+    ("millstab.simulate", "Labels", "millstab.simulate.labels/1"),
+    ("millstab.simulate.detect", "Detection", "millstab.simulate.detection/1"),
+)
+#: documents written but not read back (a report of a run, not an input of another): (module, writer, schema)
+WRITTEN: tuple[tuple[str, str, str], ...] = (
+    ("millstab.modal.output", "quality", "millstab.modal/1"),
+    ("millstab.update.validate", "Validation", "millstab.validation/1"),
+)
+
+
+__all__ = ["RESULTS", "WRITTEN", "check_schema", "fields_in", "fields_out", "floats_in", "floats_out", "int_in",
+           "ints_in", "names_in", "need", "number_in", "number_out", "per_name_in", "per_name_out", "plain"]
+
+
+# --- a frozen dataclass field by field --------------------------------------------------------------------
+def fields_out(obj: Any, schema: str) -> dict:
+    """The JSON of a frozen dataclass result, every field under its own name, with ``"schema"``: float
+    arrays and floats in the convention above (NaN as ``null``: these results document NaN as "not
+    defined", e.g. no chatter frequency of a stable cut; ±∞ as text), string arrays and tuples as lists.
+    A field named ``schema`` (simulate's results carry their tag as a field) is the tag."""
+    import dataclasses
+
+    out: dict[str, Any] = {"schema": schema}
+    for f in dataclasses.fields(obj):
+        if f.name != "schema":
+            out[f.name] = _out(getattr(obj, f.name), f.name)
+    return out
+
+
+def _out(v: Any, field: str) -> Any:
+    if isinstance(v, np.ndarray):
+        return floats_out(v, field, nan_ok=True) if v.dtype.kind in "fiu" else [str(x) for x in v.tolist()]
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return number_out(v, field, nan_ok=True)
+    if isinstance(v, (tuple, list)):
+        return [_out(x, field) for x in v]
+    if isinstance(v, dict):
+        return {str(k): _out(x, f"{field}.{k}") for k, x in v.items()}
+    return v
+
+
+def fields_in(cls: type, doc: Any, schema: str, source: str) -> Any:
+    """Rebuild a :func:`fields_out` document as ``cls`` (a frozen dataclass): each field read by its type
+    annotation (float, int, bool, str, numpy array, tuple, dict, ``X | None``); a field with a default may
+    be absent (a file written before it existed).
+
+    Raises:
+        InputError: another schema, a missing field, or a value of the wrong kind (named ``source: field``).
+    """
+    import dataclasses
+    import typing
+
+    check_schema(doc, schema, source)
+    hints = typing.get_type_hints(cls)
+    kw = {}
+    for f in dataclasses.fields(cls):
+        if f.name == "schema":
+            continue
+        if f.name not in doc:
+            if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING:
+                continue
+            raise InputError(f"{source}: {f.name}", "missing", "a required field of this result")
+        kw[f.name] = _in(doc[f.name], hints[f.name], f"{source}: {f.name}")
+    return cls(**kw)
+
+
+def _in(v: Any, hint: Any, field: str) -> Any:
+    import types
+    import typing
+
+    args = typing.get_args(hint)
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        if v is None and type(None) in args:
+            return None
+        hint = next(a for a in args if a is not type(None))
+        args = typing.get_args(hint)
+    origin = typing.get_origin(hint) or hint
+    if origin is np.ndarray:
+        if isinstance(v, list) and v and all(isinstance(x, str) for x in v):
+            return np.array(v)
+        return floats_in(v, field, ndim=None, nan_ok=True)
+    if origin is float:
+        return number_in(v, field, nan_ok=True)
+    if origin is tuple:
+        if not isinstance(v, list):
+            raise InputError(field, _short(v), "must be a list")
+        items = args[:1] * len(v) if len(args) == 2 and args[1] is Ellipsis else args
+        if len(items) != len(v):
+            raise InputError(field, _short(v), f"must be a list of {len(items)} values")
+        return tuple(_in(x, a, field) for x, a in zip(v, items))
+    if origin in (int, bool, str, dict, list):
+        if isinstance(v, bool) != (origin is bool) or not isinstance(v, origin):
+            raise InputError(field, _short(v), f"must be a {origin.__name__}")
+        return v
+    return v

@@ -26,6 +26,15 @@ from millstab.frf import PARAMS, ModalBatch
 from millstab.model import Structure
 
 UNITS = {"fn": "Hz", "k": "N/m", "zeta": "-"}
+
+
+def shown_value(name: str, value: float, digits: int = 5) -> str:
+    """A parameter value as printed: ``k…`` in N/µm with its unit, ``fn…`` in Hz, ``zeta…`` bare
+    (:data:`millstab.units.SHOWN`)."""
+    from millstab.units import shown
+
+    v, unit = shown(value, UNITS[Parameterization.kind(name)])
+    return f"{v:.{digits}g}" + (f" {unit}" if unit else "")
 _NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$")
 
 

@@ -115,6 +115,18 @@ def _parse_string(text: str, field: str, si_unit: str, angle_power: int, allowed
 
 
 #: frequency unit labels that files write in other cases than pint's ("HZ", "KHZ", "RPM", "RAD/S")
+#: how a parameter in SI is shown to the trade: {SI unit: (factor, shown unit)}; stiffness in N/µm, a
+#: cutting coefficient in MPa, frequency in Hz, ζ bare (printed tables, figure axes; JSON stays SI)
+SHOWN = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
+
+
+def shown(value: float, si_unit: str) -> tuple[float, str]:
+    """``value`` [``si_unit``] as the trade reads it: (value × factor, shown unit) from :data:`SHOWN`; a unit
+    not in it is shown as it is."""
+    factor, unit = SHOWN.get(si_unit, (1.0, si_unit))
+    return value * factor, unit
+
+
 _HZ_LABELS = {"hz": 1.0, "khz": 1e3, "rpm": 1.0 / 60.0, "rad/s": 1.0 / (2.0 * math.pi)}
 
 

@@ -17,6 +17,11 @@ tip of a [tool] in its [holder] by receptance coupling, "which stickout?"), :fun
 (virtual cuts), :func:`listen_file` / :func:`listen_signal` (a recorded cut: chatter and a speed),
 :func:`record_cut` (a virtual recording), :func:`label_from_recordings` (cuts labelled by ear), :func:`modal_fit`
 (tap test), :func:`reproduce`.
+Beside the tasks, what the doors need so that they import nothing else (issue 26): option parsers and
+checks (:func:`parse_rpm_range`, :func:`parse_interval`, :func:`parse_grid`, :func:`parse_eps`,
+:func:`parse_bounds`, :func:`check_speeds`, :func:`check_seed`, :func:`check_samples`, :func:`check_frf_type`),
+the registered engines (:data:`ENGINES`) and identification methods, the packaged examples, a job's own
+warnings (:func:`collect_warnings`) and a Dask client (:func:`open_client`).
 Figures: ``*_figure`` functions return matplotlib figures; tables: ``*_table`` functions return
 ``(header, columns)`` for :func:`millstab.io.results.csv_text` / ``write_csv``.
 
@@ -24,31 +29,71 @@ Units as everywhere in millstab: speeds rev/min, depths mm where a name says ``_
 frequencies Hz, stiffness N/m.
 """
 
-from millstab.api.identify import (check_fit_matches, design, design_figure, fit_curves, fit_figure, fit_rpm,
-                                   history_figure, identify)
-from millstab.api.inputs import (check_size, config, config_fields, config_from_fields, config_from_text, config_toml,
-                                 modal, points, points_from_text, speeds)
-from millstab.api.listen import Heard, label_from_recordings, listen_figure, listen_file, listen_signal, record_cut
-from millstab.api.lobes import Lobes, envelope, lobes, lobes_figure, raw_lobes
-from millstab.api.progress import CancelToken, Cancelled, Progress
-from millstab.api.sensitivity import DEFAULT_N as SENSITIVITY_DEFAULT_N
-from millstab.api.sensitivity import PRESETS as SENSITIVITY_PRESETS
-from millstab.api.sensitivity import Study, sensitivity
-from millstab.api.tooltip import FALLBACK_RPM as TOOLTIP_FALLBACK_RPM
-from millstab.api.tooltip import StickoutSweep, TipFRF, stickout_sweep, stickouts_mm, tip_figure, tip_frf, tool_config
-from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
-from millstab.api.update import (at_stickout, corner_figure, depth_grid, map_figure, map_table, p_stable,
-                                 posterior_from_json, recommend, update, with_batch_effect)
-from millstab.api.predict import Prediction, predict
-from millstab.api.validate import validate
+import importlib
+import sys
+import types
 
-__all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "TOOLTIP_FALLBACK_RPM", "StickoutSweep", "TipFRF",
-           "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf", "tool_config", "CancelToken", "Cancelled",
-           "Heard", "Lobes", "Prediction", "Progress", "Study", "predict", "validate",
-           "check_fit_matches", "check_size", "config", "config_fields", "config_from_fields", "config_from_text",
-           "config_toml", "corner_figure", "depth_grid", "design", "design_figure", "envelope", "fit_curves",
-           "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "label_from_recordings",
-           "listen_figure", "listen_file", "listen_signal", "labels_table", "lobes", "lobes_figure",
-           "at_stickout", "map_figure", "map_table", "modal", "modal_fit", "p_stable", "points", "points_from_text",
-           "posterior_from_json", "raw_lobes", "recommend", "record_cut", "reproduce", "sensitivity", "simulate_cut",
-           "speeds", "update", "with_batch_effect"]
+#: {submodule: the names it gives the service layer}; ``NAME=ATTR`` where the submodule calls it otherwise
+_HOMES = {
+    "inputs": ("check_samples", "check_seed", "check_size", "check_speeds", "config", "config_fields",
+              "config_from_fields", "config_from_text", "config_toml", "list_example_points", "list_examples",
+              "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds",
+              "SHOWN_UNITS", "shown_value"),
+    "lobes": ("ENGINES", "Lobes", "envelope", "lobes", "lobes_figure", "raw_lobes"),
+    "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
+                "fit_rpm", "history_figure", "identify"),
+    "update": ("at_stickout", "corner_figure", "depth_grid", "map_figure", "map_table", "p_stable",
+               "posterior_from_json", "recommend", "update", "with_batch_effect"),
+    "predict": ("Prediction", "predict"),
+    "validate": ("validate",),
+    "sensitivity": ("SENSITIVITY_DEFAULT_N=DEFAULT_N", "SENSITIVITY_PRESETS=PRESETS", "Study", "parse_bounds",
+                   "parse_eps", "sensitivity"),
+    "tooltip": ("StickoutSweep", "TOOLTIP_FALLBACK_RPM=FALLBACK_RPM", "TipFRF", "stickout_sweep", "stickouts_mm",
+               "tip_figure", "tip_frf", "tool_config"),
+    "studies": ("check_frf_type", "label_cuts", "labels_table", "modal_check", "modal_figure", "modal_fit",
+               "modal_quality", "modal_toml", "reproduce", "reproduce_steps", "simulate_cut", "simulate_figure"),
+    "listen": ("Heard", "label_from_recordings", "listen_figure", "listen_file", "listen_signal", "record_cut"),
+    "progress": ("CancelToken", "Cancelled", "Progress", "collect_warnings"),
+    "cluster": ("CONNECT_SECONDS", "open_client"),
+}
+#: {public name: (submodule, its name there)}
+_WHERE = {n.partition("=")[0]: (mod, n.partition("=")[2] or n) for mod, names in _HOMES.items() for n in names}
+
+
+def __getattr__(name: str):
+    """Import a name's submodule on its first use: ``from millstab import api`` (every command line door
+    does it at module level) stays as cheap as numpy, and a task pays for what it uses (measured, CPU time
+    on the loaded 2-core build machine: ``import millstab.api`` 0.10 s; every name resolved 0.7 s more, as
+    ``IDENTIFY_METHODS`` and the solvers bring scipy; ``import millstab.cli`` 0.19 s against 0.16 s before
+    the doors imported api)."""
+    if name not in _WHERE:  # a submodule by its name (``api.inputs.MAX_TEXT_BYTES``, ``api.shop``)
+        try:
+            return importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module 'millstab.api' has no attribute {name!r}") from None
+    mod, attr = _WHERE[name]
+    value = getattr(importlib.import_module(f"millstab.api.{mod}"), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Api(types.ModuleType):
+    """A submodule that shares its name with a task (``identify``, ``lobes``, ``update``, ``predict``,
+    ``validate``, ``sensitivity``) must not replace the task's function when it is first imported: the
+    import system sets ``millstab.api.<submodule>`` after loading it, and this refuses that one case."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _WHERE and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Api
+
+__all__ = sorted(_WHERE)  # noqa: PLE0605 (every name of _HOMES, nothing else)

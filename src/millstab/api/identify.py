@@ -3,6 +3,7 @@ speeds of the next tests (around a prior or a fit)."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -10,6 +11,7 @@ import numpy as np
 from millstab.api.inputs import modal
 from millstab.api.progress import Progress, solver_progress
 from millstab.errors import InputError
+from millstab.identify import METHODS as IDENTIFY_METHODS  # noqa: F401 (re-exported by millstab.api)
 from millstab.io.config import Config
 from millstab.io.points import PointSet
 from millstab.warnlog import warn
@@ -45,8 +47,11 @@ def identify(cfg: Config, points: PointSet, *, method: str = "lsq", free: Sequen
     cfg, _ = modal(cfg)
     options = {"loss": loss} if method == "lsq" else {}
     options["noise"] = check_noise(noise, "--noise")
-    return run_identify(cfg, points, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
-                        engine=engine, seed=seed, progress=solver_progress(progress, f"identify ({method})"), **options)
+    fit = run_identify(cfg, points, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                       engine=engine, seed=seed, progress=solver_progress(progress, f"identify ({method})"), **options)
+    # what it was made from travels in the fit, so every door writes the same JSON (the CLI added these keys)
+    made_from = {"config": cfg.name, **({"points": str(points.source)} if points.source is not None else {})}
+    return dataclasses.replace(fit, provenance=made_from)
 
 
 def fit_rpm(points: PointSet, n: int = 600) -> np.ndarray:

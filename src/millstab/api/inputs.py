@@ -13,11 +13,16 @@ from typing import Mapping
 import numpy as np
 
 from millstab.bounds import check_speeds
+from millstab.bounds import samples as check_samples  # noqa: F401 (re-exported by millstab.api for the doors)
+from millstab.bounds import seed as check_seed  # noqa: F401 (re-exported)
+from millstab.datasets import list_example_points, list_examples  # noqa: F401 (re-exported)
 from millstab.errors import InputError
 from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
 from millstab.io.points import PointSet, parse_points, read_points
 from millstab.io.text import decode_text
-from millstab.parsing import parse_rpm_range
+from millstab.params import shown_value  # noqa: F401 (re-exported: a parameter value as printed)
+from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
+from millstab.units import SHOWN as SHOWN_UNITS  # noqa: F401 (re-exported: how a parameter is printed)
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -86,10 +91,20 @@ def config_from_fields(fields, name: str = "config", base_dir: str | os.PathLike
 
 def config_fields(cfg: Config) -> dict:
     """The tables of ``cfg`` as :func:`config_from_fields` takes them (values with units as
-    :func:`config_toml` writes them): ``config_from_fields(config_fields(cfg))`` gives the same config."""
+    :func:`config_toml` writes them): ``config_from_fields(config_fields(cfg))`` gives the same config.
+    A measured-FRF config has no ``structure`` table here (its FRF files are named by the caller: the web
+    form's uploads); every other table is the config writer's, ``[prior]`` included."""
+    import dataclasses
     import tomllib
 
-    return tomllib.loads(config_to_toml(cfg))
+    from millstab.model import Mode, Structure
+
+    if cfg.structure.is_modal:
+        return tomllib.loads(config_to_toml(cfg))
+    # the io writer writes modal structures only: write the rest with a placeholder and leave it out
+    out = tomllib.loads(config_to_toml(dataclasses.replace(cfg, structure=Structure(x=(Mode(1000.0, 1e7, 0.03),)))))
+    out.pop("structure", None)
+    return out
 
 
 def check_size(nbytes: int, name: str, limit: int | None = None) -> None:
@@ -110,14 +125,23 @@ def config_toml(cfg: Config) -> str:
 
 
 def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
-           field: str = "--rpm") -> np.ndarray:
-    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else the config's
-    ``[speeds]``, else the ``fallback`` grid.
+           field: str = "--rpm", rpm_file: str | os.PathLike | None = None) -> np.ndarray:
+    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else a speeds file
+    ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`), else the config's ``[speeds]``, else the
+    ``fallback`` grid.
 
     Raises:
-        InputError: bad range text, or a speed outside :func:`millstab.bounds.check_speeds`'s bounds
-            (10..500 000 rev/min) or not finite.
+        InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
+            :func:`millstab.bounds.check_speeds`'s bounds (10..500 000 rev/min) or not finite.
     """
+    if isinstance(spec, str) and not spec:  # an empty --rpm is no --rpm
+        spec = None
+    if rpm_file:
+        if spec is not None:
+            raise InputError(field, spec, "give either --rpm or --rpm-file, not both")
+        from millstab.io.speeds import read_rpm_file
+
+        return check_speeds(read_rpm_file(Path(rpm_file)), f"--rpm-file {Path(rpm_file).name}")
     if spec is None:
         if cfg is not None and cfg.rpm is not None:
             return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")

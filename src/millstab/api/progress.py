@@ -13,6 +13,9 @@ from __future__ import annotations
 import threading
 from typing import Callable, Optional
 
+#: ``with collect_warnings() as caught:`` millstab's warnings issued by this thread only (a web job's own)
+from millstab.warnlog import collect as collect_warnings  # noqa: F401 (re-exported by millstab.api)
+
 #: progress(stage, done, total); total None = unknown
 Progress = Callable[[str, int, Optional[int]], None]
 

@@ -43,7 +43,7 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float
 
 def labels_table(labels) -> tuple[list[str], list]:
     """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
-    return ["rpm", "depth_mm", "label", "chatter_hz"], [labels.rpm, labels.depth_mm, list(labels.label), labels.chatter_hz]
+    return labels.table()
 
 
 def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | None = None,
@@ -55,6 +55,63 @@ def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | 
 
     return fit_files(frf_x, frf_y, band=parse_band(band), modes=parse_modes(modes), records=records,
                      frf_type=frf_type)
+
+
+def check_frf_type(frf_type: str) -> str:
+    """``--frf-type`` checked before any file is read: ``auto``, ``receptance``, ``mobility`` or ``accelerance``."""
+    from millstab.modal.run import check_frf_type as check
+
+    return check(frf_type)
+
+
+def modal_check(result, cfg: Config, rpm: np.ndarray, frf_x, frf_y=None, *, band: str | None = None,
+                records: tuple[int | None, int | None] = (None, None), frf_type: str = "auto"):
+    """The SLD check of a modal fit (:class:`millstab.modal.run.SLDCheck`): the zero-order boundary of the
+    fitted modes beside that of the measured FRF files themselves, under ``cfg``'s cutting conditions at
+    ``rpm`` [rev/min] (minimum depths [mm], worst relative difference and its speed)."""
+    from millstab.modal.run import measured_structure, parse_band, sld_check
+
+    measured = measured_structure(frf_x, frf_y, parse_band(band), records, frf_type)
+    return sld_check(result.structure, measured, cfg.cutting, rpm)
+
+
+def _modal_sources(result) -> dict[str, str]:
+    return {d: fit.source for d, fit in result.fits.items()}
+
+
+def modal_quality(result, check=None) -> dict:
+    """The fit quality JSON of ``millstab modal --json`` (schema ``millstab.modal/1``), with the SLD check if run."""
+    from millstab.modal.output import quality
+
+    return quality(result, _modal_sources(result), check)
+
+
+def modal_toml(result) -> str:
+    """The ``[structure]`` section of the fitted modes (config units), with each mode's quality as a comment."""
+    from millstab.modal.output import structure_toml
+
+    return structure_toml(result, _modal_sources(result))
+
+
+def modal_figure(result, check=None):
+    """The fit, its phase, the stabilisation diagram (and the SLD check) as one matplotlib figure."""
+    from millstab.plot.modal import plot_modal_fit
+
+    return plot_modal_fit(result, check)
+
+
+def simulate_figure(result, detection, title: str = ""):
+    """A simulated cut's displacement, force and detection as one matplotlib figure."""
+    from millstab.plot.simulate import plot_cut
+
+    return plot_cut(result, detection, title=title)
+
+
+def reproduce_steps() -> list[str]:
+    """The names of the reproduction's steps, in the order :func:`reproduce` runs them."""
+    from millstab import reproduce as rp
+
+    return [n for n, _ in rp.steps()]
 
 
 def reproduce(out: str | Path, *, quick: bool = False, seed: int = 0, points: str | Path | None = None,

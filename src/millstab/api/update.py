@@ -3,6 +3,7 @@ and the next test (:mod:`millstab.update`), with the checks every door shares.""
 
 from __future__ import annotations
 
+import dataclasses
 
 import numpy as np
 
@@ -52,8 +53,9 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
         from millstab.cluster import check_client
 
         check_client(client)
-    return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
+    post = run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
                       client=client, sampler=sampler, stickout=stickout)
+    return dataclasses.replace(post, provenance={"config": cfg.name})  # in its JSON: the same from every door
 
 
 def at_stickout(post, stickout_mm: float | None):

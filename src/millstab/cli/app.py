@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Callable, Iterator
 
-import numpy as np
 import typer
 
-from millstab.errors import InputError
-from millstab.parsing import parse_rpm_range
+from millstab.io.speeds import read_rpm_file  # noqa: F401 (its old home)
 
 app = typer.Typer(
     name="millstab",
@@ -25,59 +22,6 @@ app = typer.Typer(
 )
 
 
-def read_rpm_file(path: Path) -> np.ndarray:
-    """Speeds from a text/CSV file: one number per line, or the ``rpm`` column of a CSV with header."""
-    import csv
-
-    if not path.exists():
-        raise InputError("--rpm-file", str(path), "file does not exist")
-    from millstab.io.text import read_text
-
-    text = read_text(path, "--rpm-file", "text file")  # a byte-order mark (Notepad, Excel) is dropped
-    # (line number, cells) of the lines that hold data: blank and '#' lines are skipped
-    rows = [(no, r) for no, r in enumerate(csv.reader(text.splitlines()), start=1)
-            if r and not r[0].lstrip().startswith("#")]
-    if not rows:
-        raise InputError("--rpm-file", str(path), "no speeds in the file")
-    col, header = 0, None
-    if not _is_number(rows[0][1][0]):
-        header = [h.strip().lower() for h in rows[0][1]]
-        if "rpm" not in header:
-            raise InputError("--rpm-file", str(path), "a CSV with a header needs an 'rpm' column")
-        col, rows = header.index("rpm"), rows[1:]
-    out = []
-    for lineno, r in rows:
-        cell = r[col] if col < len(r) else ""
-        if header is None and any(c.strip() for c in r[1:]):  # "5000,5" is a decimal comma, not 5000 and a stray 5
-            raise InputError(f"--rpm-file line {lineno}", ",".join(r), "one speed per line, written with a decimal "
-                                                                       "point (5000.5, not 5000,5)")
-        if not _is_number(cell):
-            raise InputError(f"--rpm-file line {lineno}", cell, "must be a number (rev/min)")
-        out.append(float(cell))
-    return np.array(out)
-
-
-def _is_number(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
-
-
-def select_rpm(rpm: str | None, rpm_file: Path | None, default: np.ndarray | None, fallback: tuple[float, float, float]) -> np.ndarray:
-    """Speeds from --rpm, or --rpm-file, or the config's [speeds], or a fallback range."""
-    if rpm and rpm_file:
-        raise InputError("--rpm", rpm, "give either --rpm or --rpm-file, not both")
-    if rpm:
-        return parse_rpm_range(rpm)
-    if rpm_file:
-        return read_rpm_file(rpm_file)
-    if default is not None:
-        return np.asarray(default, dtype=float)
-    return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
-
-
 @contextmanager
 def progress_bar(label: str) -> Iterator[Callable[[int, int], None] | None]:
     """A transient rich progress bar on stderr (only on a terminal); yields a ``(done, total)``
@@ -86,7 +30,14 @@ def progress_bar(label: str) -> Iterator[Callable[[int, int], None] | None]:
         yield None
         return
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
                   console=Console(stderr=True), transient=True) as bar:

@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.parsing import parse_rpm_range
-from millstab.cli.identify import show_value
 
 #: the command's help (rich reflows each paragraph; square brackets would be read as markup)
 HELP = (
@@ -60,7 +58,7 @@ def design(
         typer.echo(note)
     pts = read_points(points) if points is not None else None
     fit_doc = read_json(fit) if fit is not None else None
-    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=parse_rpm_range(rpm) if rpm else None,
+    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=api.parse_rpm_range(rpm) if rpm else None,
                       target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
                       samples=samples, seed=seed)
 
@@ -73,29 +71,16 @@ def design(
     for c in cols:
         table.add_column(c, justify="left" if c == "parameter" else "right")
     for i, name in enumerate(plan.names):
-        row = [name + (" *" if name in plan.target else ""), show_value(name, plan.theta[i])]
+        row = [name + (" *" if name in plan.target else ""), api.shown_value(name, plan.theta[i])]
         if plan.sigma_existing is not None:
             row.append(_pct(plan.sigma_existing_mean[i]))
         worse = plan.sigma_design_mean[i] > plan.sigma_uniform_mean[i] * (1 + 1e-9)
         row += [_pct(plan.sigma_uniform_mean[i]), _pct(plan.sigma_design_mean[i]) + (" †" if worse else "")]
         table.add_row(*row)
     console.print(table)
-    console.print("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
-                  f"averaged over {plan.samples} parameter samples")
-    console.print(_criterion_line(plan))
-    if np.any(plan.sigma_design_mean > plan.sigma_uniform_mean * (1 + 1e-9)):
-        console.print("† = determined less well than by the evenly spaced tests: the plan gives this up for larger gains "
-                      "elsewhere (use --target to pin the parameters that matter most)")
-    if not np.all(np.isfinite(plan.sigma_design)):
-        lost = ", ".join(nm for nm, v in zip(plan.names, plan.sigma_design) if not np.isfinite(v))
-        console.print(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x and y "
-                      "modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
-                      "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
-    tests = plan.tests()
-    console.print("planned speeds, rev/min (tests): " + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in tests))
+    console.print(plan.summary())
     if out:
-        write_csv(out, ("rpm", "tests", "predicted_depth_mm"),
-                  ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests], [d for _, _, d in tests]), protect=protect)
+        write_csv(out, *plan.table(), protect=protect)
         console.print(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
@@ -104,18 +89,5 @@ def design(
         console.print(f"wrote {plot}")
 
 
-def _criterion_line(plan) -> str:
-    """The plan against evenly spaced tests by the plan's own criterion, and its efficiency bound."""
-    ratio = plan.criterion_design / plan.criterion_uniform
-    if plan.uniform:
-        head = (f"criterion (expected Σ σ² of the * parameters): the {plan.rpm.size} tests evenly spaced over the "
-                "candidates are as good as any plan found, so they are the plan")
-    else:
-        head = (f"criterion (expected Σ σ² of the * parameters): planned {plan.criterion_design:.3g}, evenly spaced "
-                f"{plan.criterion_uniform:.3g} ({ratio:.2f}×)")
-    return (f"{head}; efficiency of these {plan.rpm.size} tests ≥ {plan.efficiency:.3f} against the best continuous design "
-            f"(that design itself ≥ {plan.efficiency_continuous:.3f})")
-
-
 def _pct(v: float) -> str:
-    return "not determined" if not np.isfinite(v) else f"± {100 * v:.3g} %"
+    return "not determined" if not math.isfinite(v) else f"± {100 * v:.3g} %"

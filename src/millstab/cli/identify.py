@@ -2,28 +2,18 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
+from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.stability import ENGINES
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
 LOOSE = 0.05
-#: how every printed parameter is shown (JSON stays SI): stiffness in N/µm, frequency in Hz, ζ bare
-_UNIT_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, "")}
-
-
-def show_value(name: str, value: float, digits: int = 5) -> str:
-    """A parameter value as printed: ``k…`` in N/µm with its unit, ``fn…`` in Hz, ``zeta…`` bare."""
-    from millstab.params import UNITS, Parameterization
-
-    scale, unit = _UNIT_SHOW[UNITS[Parameterization.kind(name)]]
-    return f"{value * scale:.{digits}g}" + (f" {unit}" if unit else "")
 
 
 @app.command()
@@ -81,32 +71,20 @@ def identify(
     out_console = Console()
     table = Table(title=f"{cfg.name}: {method}",
                   caption=f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
+    _, columns = fit.table()
     for col in ("parameter", "start", "estimate", "± std error", "unit"):
         table.add_column(col, justify="right" if col != "parameter" else "left")
-    for i, (name, unit) in enumerate(zip(fit.names, fit.units)):
-        scale, shown = _UNIT_SHOW[unit]
-        se = "-" if fit.std_errors is None else f"{fit.std_errors[i] * scale:.4g}"
-        table.add_row(name, f"{fit.start[i] * scale:.5g}", f"{fit.estimate[i] * scale:.5g}", se, shown)
+    for name, start, est, se, unit in zip(*columns):
+        table.add_row(name, f"{start:.5g}", f"{est:.5g}", "-" if math.isnan(se) else f"{se:.4g}", unit)
     out_console.print(table)
-    out_console.print(f"MLAE {fit.mlae:.4g} (mm, eq. 4); RSS {fit.rss:.4g} ({fit.settings.get('residual', 'log')} residuals)")
-    out_console.print(_dof_line(fit))
-    if fit.test_cuts:
-        c = fit.test_cuts
-        out_console.print(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted chatter; "
-                          f"{c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted stable")
-    for w in fit.warnings:
-        out_console.print(f"[yellow]warning:[/yellow] {w}")
-    for a in fit.alternatives:
-        vals = ", ".join(f"{k}={show_value(k, v)}" for k, v in a["estimate"].items())
-        out_console.print(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
-    if fit.std_errors is not None and (fit.alternatives or np.any(fit.std_errors / fit.estimate > LOOSE)):
+    for line in fit.summary().splitlines():
+        out_console.print(line.replace("warning:", "[yellow]warning:[/yellow]", 1) if line.startswith("warning:") else line,
+                          highlight=False)
+    if fit.std_errors is not None and (fit.alternatives or fit.loose(LOOSE)):
         out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
                           "further tests that would pin the loose parameters")
     if out:
-        doc = fit.to_json()
-        doc["config"] = cfg.name
-        doc["points"] = str(points)
-        write_json(out, doc, protect=protect)
+        write_json(out, fit.to_json(), protect=protect)
         out_console.print(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
@@ -118,18 +96,3 @@ def identify(
 
         save_figure(api.history_figure(fit), history_plot, protect=protect)
         out_console.print(f"wrote {history_plot}")
-
-
-def _dof_line(fit) -> str:
-    """Degrees of freedom and the noise behind the standard errors, in one line."""
-    if fit.dof is None:
-        return ""
-    p = fit.n_points - fit.dof
-    line = f"degrees of freedom: {fit.n_points} boundary points − {p} parameters = {fit.dof}"
-    nz = fit.noise or {}
-    if fit.std_errors is None or not nz:
-        return line
-    pct = f"{100 * nz['sigma']:.3g} %"
-    how = {"residuals": f"the residual scatter ({pct})", "stated": f"the stated depth noise ({pct})",
-           "assumed": f"an assumed depth noise ({pct}; give --noise)"}[nz["source"]]
-    return f"{line}; standard errors from {how}"

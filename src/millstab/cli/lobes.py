@@ -7,9 +7,8 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app, engine_progress, progress_bar, select_rpm
-from millstab.bounds import check_speeds
-from millstab.stability import ENGINES
+from millstab.api import ENGINES
+from millstab.cli.app import app, engine_progress, progress_bar
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -33,9 +32,7 @@ def lobes(
     from millstab.io.outputs import check_outputs, config_inputs
 
     cfg = api.config(config)
-    speeds = select_rpm(rpm, rpm_file, cfg.rpm, FALLBACK_RPM)
-    if rpm_file:  # --rpm text and [speeds] are checked where they are parsed; a file's speeds here
-        check_speeds(speeds, f"--rpm-file {rpm_file.name}")
+    speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
     pts = read_points(points) if points else None
     inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before the work

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app, select_rpm
+from millstab.cli.app import app
 
 #: speed range of the SLD check when neither --rpm nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -31,19 +31,16 @@ def modal(
                                  "mobility ((m/s)/N) or accelerance ((m/s^2)/N), converted to receptance."),
 ) -> None:
     """Fit FRF_X (and FRF_Y) to modes (fn, k, zeta) and write them as a config's [structure] section."""
-    from millstab.io import write_json
-    from millstab.io.outputs import check_outputs, config_inputs
-    from millstab.modal.output import quality, write_structure
     from millstab import api
-    from millstab.modal.run import check_frf_type, measured_structure, parse_band, sld_check
+    from millstab.io import atomic_write_text, write_json
+    from millstab.io.outputs import check_outputs, config_inputs
 
-    frf_type = check_frf_type(frf_type)  # before any reading
+    frf_type = api.check_frf_type(frf_type)  # before any reading
     cfg = api.config(config) if config else None
     inputs = {"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})}
     check_outputs(inputs, {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
     protect = [p for p in inputs.values() if p]
     result = api.modal_fit(frf_x, frf_y, band=band, modes=modes, records=(record_x, record_y), frf_type=frf_type)
-    sources = {d: fit.source for d, fit in result.fits.items()}
     for d, fit in result.fits.items():
         typer.echo(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
                    f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
@@ -52,23 +49,22 @@ def modal(
                        f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}")
     check = None
     if cfg is not None:
-        speeds = select_rpm(rpm, None, cfg.rpm, FALLBACK_RPM)
-        measured = measured_structure(frf_x, frf_y, parse_band(band), (record_x, record_y), frf_type)
-        check = sld_check(result.structure, measured, cfg.cutting, speeds)
+        speeds = api.speeds(rpm, cfg, FALLBACK_RPM)
+        check = api.modal_check(result, cfg, speeds, frf_x, frf_y, band=band, records=(record_x, record_y),
+                                frf_type=frf_type)
         typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "
                    f"minimum depth {check.min_fitted_mm:.4g} mm from the fit vs {check.min_measured_mm:.4g} mm from the "
                    f"measured FRF ({100 * check.min_difference:+.2f} %); worst difference {100 * check.worst_difference:.1f} % "
                    f"at {check.worst_rpm:.6g} rpm")
     elif rpm:
         typer.echo("note: --rpm is used by the SLD check, which needs --config for the cutting conditions", err=True)
-    write_structure(out, result, sources, protect)
+    atomic_write_text(out, api.modal_toml(result), protect)
     typer.echo(f"wrote {out}")
     if json_out:
-        write_json(json_out, quality(result, sources, check), protect)
+        write_json(json_out, api.modal_quality(result, check), protect)
         typer.echo(f"wrote {json_out}")
     if plot:
         from millstab.io.figures import save_figure
-        from millstab.plot.modal import plot_modal_fit
 
-        save_figure(plot_modal_fit(result, check), plot, protect=protect)
+        save_figure(api.modal_figure(result, check), plot, protect=protect)
         typer.echo(f"wrote {plot}")

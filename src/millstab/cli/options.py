@@ -1,31 +1,34 @@
-"""Options several commands share, validated once: ``--seed`` (every random process) and ``--samples``
-(the Bayesian updating's particles), each refused with one line before any work."""
+"""Options several commands share, validated once: ``--seed`` (every random process), ``--samples``
+(the Bayesian updating's particles), each refused with one line before any work, and ``--dask`` /
+``--workers`` (where a study runs) with the client they open."""
 
 from __future__ import annotations
 
-from typing import Any
+import sys
+from contextlib import contextmanager
+from typing import Annotated, Any, Iterator, Optional
 
 import typer
 
 
 def seed_callback(value):
     """typer callback of ``--seed``: the value, or InputError (one line, exit 2)."""
-    from millstab.bounds import seed
+    from millstab import api
 
-    return seed(value, "--seed")
+    return api.check_seed(value, "--seed")
 
 
 def seed_option(default: int | None, help: str) -> Any:
-    """A ``--seed`` option whose value is checked by :func:`millstab.bounds.seed` (0 ≤ seed < 2**32)."""
+    """A ``--seed`` option whose value is checked by :func:`millstab.api.check_seed` (0 ≤ seed < 2**32)."""
     return typer.Option(default, "--seed", help=help + " A whole number in 0..4294967295.", callback=seed_callback)
 
 
 def samples_callback(value):
     """typer callback of ``--samples``: the value, or InputError when too few, too many or more than the
     machine's memory holds (:func:`millstab.bounds.samples`)."""
-    from millstab.bounds import samples
+    from millstab import api
 
-    return samples(value, "--samples")
+    return api.check_samples(value, "--samples")
 
 
 def count(text: str):
@@ -43,3 +46,30 @@ def samples_option(default: int, help: str) -> Any:
     reads as 100000000 and is refused for the memory it needs, not for its spelling)."""
     return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", parser=count,
                         callback=samples_callback)
+
+
+DaskOpt = Annotated[Optional[str], typer.Option(
+    "--dask", metavar="ADDRESS", help="Run on the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786); "
+                                      "needs millstab[dask]. Same numbers as a local run.")]
+WorkersOpt = Annotated[Optional[int], typer.Option(
+    "--workers", help="Run on a local Dask cluster of N worker processes started for this run; needs millstab[dask]. "
+                      "Same numbers as a local run.")]
+
+
+@contextmanager
+def dask_client(dask: str | None, workers: int | None) -> Iterator:
+    """The run's Dask client (None without --dask/--workers: then dask is not imported); says on stderr
+    where the work goes."""
+    if dask is None and workers is None:
+        yield None
+        return
+    from millstab import api
+
+    if sys.stderr.isatty():  # on a terminal only: a pipe's stderr keeps an error to one line
+        typer.echo(f"Dask: connecting to {dask} (at most ~{api.CONNECT_SECONDS:g} s)…" if dask else
+                   f"Dask: starting {workers} local workers…", err=True)
+    with api.open_client(dask, workers) as client:
+        n_workers = len(client.scheduler_info()["workers"])
+        where = f"scheduler {dask}" if dask else "a local cluster started for this run"
+        typer.echo(f"Dask: {n_workers} workers, {sum(client.nthreads().values())} threads ({where})", err=True)
+        yield client

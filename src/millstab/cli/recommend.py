@@ -60,11 +60,10 @@ def recommend_cmd(
 
     from millstab import api
     from millstab.io import check_outputs, write_json
-    from millstab.parsing import parse_interval
 
     if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
-    lo, hi = parse_interval(rpm, "--rpm", "rpm", positive=True)
+    lo, hi = api.parse_interval(rpm, "--rpm", "rpm", positive=True)
     conf = _confidence(confidence)
     if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
         raise InputError("--speed-tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")

@@ -27,7 +27,6 @@ def reproduce(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from millstab import api
-    from millstab import reproduce as rp
     from millstab.io import read_points
     from millstab.io.outputs import check_outputs
 
@@ -36,7 +35,7 @@ def reproduce(
         read_points(points)
     check_outputs({"--points": points}, {"--out": out}, folders={"--out": REPORT_KINDS})
     console = Console(stderr=True)
-    names = [n for n, _ in rp.steps()]
+    names = api.reproduce_steps()
     t0 = time.perf_counter()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
                   TimeElapsedColumn(), console=console, transient=False) as bar:

@@ -7,11 +7,9 @@ Many cuts: millstab simulate CONFIG --cuts cuts.csv [--out labelled.csv] [--labe
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from millstab.cli.app import app
@@ -67,9 +65,8 @@ def simulate(
         pts = read_points(cuts)
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
-        counts = ", ".join(f"{int(np.sum(lab.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
-        typer.echo(f"{cfg.name}: {len(pts)} cuts labelled: {counts}")
-        header, columns = api.labels_table(lab)
+        typer.echo(f"{cfg.name}: {lab.summary()}")
+        header, columns = lab.table()
         if out:
             write_csv(out, header, columns, protect=protect)
             typer.echo(f"wrote {out}")
@@ -91,13 +88,12 @@ def simulate(
     typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {feed:g} mm/tooth, {res.periods} tooth periods: "
                + _detection_line(det, res.diverged))
     if out:
-        write_csv(out, ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [res.t, res.x, res.y, res.fx, res.fy], protect=protect)
+        write_csv(out, *res.table(), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
-        from millstab.plot.simulate import plot_cut
 
-        save_figure(plot_cut(res, det, title=cfg.name), plot, protect=protect)
+        save_figure(api.simulate_figure(res, det, title=cfg.name), plot, protect=protect)
         typer.echo(f"wrote {plot}")
     if record:
         from millstab.io.recordings import write_recording
@@ -108,16 +104,5 @@ def simulate(
 
 
 def _detection_line(det, diverged: bool) -> str:
-    """'chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31' (never 'nan')."""
-    text = det.label
-    if det.label != "stable" and math.isfinite(det.chatter_hz):
-        text += f" at {det.chatter_hz:.1f} Hz" + (f" ({det.lobe})" if det.lobe else "")
-    parts = []
-    if math.isfinite(det.growth):
-        parts.append(f"growth {det.growth:.3g}" + (f" (|mu| {det.multiplier:.5g} per tooth period)"
-                                                    if math.isfinite(det.multiplier) else ""))
-    if math.isfinite(det.level):
-        parts.append(f"level {det.level:.3g}")
-    if parts:
-        text += "; " + ", ".join(parts)
-    return text + ("; the vibration diverged" if diverged else "")
+    """The detection's line, and whether the vibration diverged."""
+    return det.summary() + ("; the vibration diverged" if diverged else "")

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -13,15 +12,13 @@ from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
-from millstab.cli.sensitivity import DaskOpt, WorkersOpt, _client
-from millstab.parsing import parse_rpm_range
-from millstab.stability import ENGINES
+from millstab.cli.options import DaskOpt, WorkersOpt
+from millstab.cli.options import dask_client as _client
+from millstab.api import ENGINES
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
                "(words stable|marginal|chatter and probabilities in [0, 1] need none).")
-
-_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
 
 
 def _load_posterior(path: Path):
@@ -113,8 +110,7 @@ def update_cmd(
             post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
                               start=_load_posterior(start) if start is not None else None, client=client, sampler=sampler,
                               stickout_mm=None if so is None else so * 1e3)
-    doc = post.to_json()
-    doc["config"] = cfg.name
+    doc = post.to_json()  # its config's name included (api.update sets it: the web download is the same file)
     if out is not None:
         write_json(out, doc, protect=protect)
     con = Console()
@@ -124,17 +120,9 @@ def update_cmd(
                           f"{d['loglik_calls']} likelihood calls, {d['time_s']:.1f} s")
     for col in ("parameter", "prior", "mean", "sd", "5 %", "95 %", "unit"):
         table.add_column(col, justify="left" if col == "parameter" else "right")
-    for j, (name, unit) in enumerate(zip(post.names, post.prior.units())):
-        sc, shown = _SHOW[unit]
-        s = doc["parameters"][name]
-        table.add_row(name, f"{post.prior.median[j] * sc:.5g}", *(f"{s[k] * sc:.5g}" for k in ("mean", "sd", "q05", "q95")), shown)
-    noise = (doc.get("noise") or {}).get("parameters", {})
-    for name, s in noise.items():  # the learned noise levels: the label error, the factor on the depth noise
-        shown, med = ("label_error", post.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
-        table.add_row(shown, f"{med:.3g}", *(f"{s[k]:.3g}" for k in ("mean", "sd", "q05", "q95")), "")
-    for day, s in ((doc.get("batch") or {}).get("parameters") or {}).items():  # the test days' shifts of ln fn
-        table.add_row(f"fn × {day or '(no day)'}", "1", f"{math.exp(s['mean']):.4g}", f"{s['sd']:.2g}",
-                      f"{math.exp(s['q05']):.4g}", f"{math.exp(s['q95']):.4g}", "")
+    for i, row in enumerate(zip(*post.table()[1])):  # parameters (5 digits), then learned noise levels (3)
+        digits = 5 if i < len(post.names) else 3
+        table.add_row(row[0], *(f"{v:.{digits}g}" for v in row[1:6]), row[6])
     con.print(table)
     for w in doc["warnings"]:
         con.print(f"[yellow]warning:[/yellow] {w}")
@@ -165,10 +153,9 @@ def map_cmd(
 
     from millstab import api
     from millstab.io import check_outputs, write_csv
-    from millstab.parsing import parse_grid
 
-    speeds = parse_rpm_range(rpm)
-    depths = parse_grid(depth, "--depth", "mm", example="0:6:0.05")
+    speeds = api.parse_rpm_range(rpm)
+    depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
     post = api.at_stickout(post, stickout)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))

@@ -7,10 +7,10 @@ from typing import Optional
 
 import typer
 
+from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.update import LABELS_HELP
-from millstab.stability import ENGINES
 
 _NAMES = {"random": "random folds", "speed": "leave one speed out", "batch": "leave one day (batch) out"}
 

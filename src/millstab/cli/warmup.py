@@ -12,37 +12,11 @@ from __future__ import annotations
 import time
 from typing import List, Optional
 
-import numpy as np
 import typer
 
+from millstab.api.warmup import TARGETS, warm
 from millstab.cli.app import app
 from millstab.errors import InputError
-
-#: what ``millstab warmup`` compiles by default (every engine and the simulation)
-TARGETS = ("zoa", "sdm", "spectral", "simulate")
-
-
-def warm(target: str) -> None:
-    """Compile (or load from the cache) every kernel of one engine or of ``simulate``."""
-    from millstab import api
-
-    cfg = api.config("example:ex1")
-    rpm = np.array([5000.0, 5200.0])
-    if target == "simulate":
-        api.simulate_cut(cfg, 5000.0, 0.5, revs=4)
-        api.label_cuts(cfg, api.points_from_text("rpm,depth_mm\n5000,0.5\n"), revs=4)
-        return
-    from millstab.forward import forward
-    from millstab.params import Parameterization
-    from millstab.stability import get_engine
-
-    api.envelope(cfg, rpm, engine=target)
-    par = Parameterization(cfg.structure)
-    theta = np.repeat(par.theta0[None, :], 2, axis=0)
-    forward(par, cfg.cutting, target)(theta, rpm)
-    eng = get_engine(target)
-    if eng.reports_chatter_frequency:
-        eng.envelope_batch_hz(par.batch(theta), cfg.cutting, rpm)
 
 
 @app.command("warmup")

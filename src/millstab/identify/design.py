@@ -47,6 +47,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.identify.result import cutting_difference, cutting_record
+from millstab.identify.search import options_with
 from millstab.identify.tie import is_tied, tied_parameterization
 from millstab.jsondoc import check_schema, floats_in, floats_out, int_in, names_in, need, number_in, number_out
 from millstab.model import Cutting
@@ -126,6 +127,41 @@ class SpeedDesign:
         """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
         speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
         return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
+
+    def summary(self) -> str:
+        """What ``millstab design`` prints under its table of standard errors, one line each: which parameters
+        the plan pins, its criterion against evenly spaced tests and its efficiency bound, the parameters it
+        gives up (†) or no test determines, and the planned speeds."""
+        lines = [("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
+                  f"averaged over {self.samples} parameter samples")]
+        ratio = self.criterion_design / self.criterion_uniform
+        if self.uniform:
+            head = (f"criterion (expected Σ σ² of the * parameters): the {self.rpm.size} tests evenly spaced over the "
+                    "candidates are as good as any plan found, so they are the plan")
+        else:
+            head = (f"criterion (expected Σ σ² of the * parameters): planned {self.criterion_design:.3g}, evenly spaced "
+                    f"{self.criterion_uniform:.3g} ({ratio:.2f}×)")
+        lines.append(f"{head}; efficiency of these {self.rpm.size} tests ≥ {self.efficiency:.3f} against the best "
+                     f"continuous design (that design itself ≥ {self.efficiency_continuous:.3f})")
+        if (self.sigma_design_mean is not None and self.sigma_uniform_mean is not None
+                and np.any(self.sigma_design_mean > self.sigma_uniform_mean * (1 + 1e-9))):
+            lines.append("† = determined less well than by the evenly spaced tests: the plan gives this up for larger "
+                         "gains elsewhere (use --target to pin the parameters that matter most)")
+        if not np.all(np.isfinite(self.sigma_design)):
+            lost = ", ".join(nm for nm, v in zip(self.names, self.sigma_design) if not np.isfinite(v))
+            lines.append(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x "
+                         "and y modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
+                         "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
+        lines.append("planned speeds, rev/min (tests): "
+                     + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in self.tests()))
+        return "\n".join(lines)
+
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the plan CSV (``millstab design --out``, the web app's plan.csv): rpm (to
+        0.001 rev/min), tests, predicted_depth_mm, one row per distinct planned speed."""
+        tests = self.tests()
+        return ("rpm", "tests", "predicted_depth_mm"), ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests],
+                                                        [d for _, _, d in tests])
 
     def to_json(self) -> dict[str, Any]:
         """The JSON form (plain types, schema ``millstab.design/1``): every attribute under its own name,
@@ -371,10 +407,32 @@ def evenly_spaced(candidates: np.ndarray, n: int) -> np.ndarray:
     return np.bincount(idx, minlength=cand.size)
 
 
+@dataclass(frozen=True)
+class DesignOptions:
+    """The settings of :func:`design_speeds` (its docstring explains each), checked when built: a noise that
+    is not a finite number ≥ 0 (the depth noise > 0) or a sample count < 1 is an InputError naming it.
+    ``design_speeds(..., options=DesignOptions(samples=4))`` and ``design_speeds(..., samples=4)`` are the
+    same call (the keywords replace fields of ``options``)."""
+
+    noise: float = 0.02
+    speed_noise: float = SPEED_NOISE
+    samples: int = 16
+    iterations: int = 2000
+
+    def __post_init__(self) -> None:
+        for field_name, v in (("noise", self.noise), ("speed_noise", self.speed_noise)):
+            if not (math.isfinite(v) and v >= 0):
+                raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
+        if self.noise == 0:
+            raise InputError("noise", self.noise, "relative depth noise must be > 0 (0.02 = 2 %)")
+        if not (isinstance(self.samples, (int, np.integer)) and self.samples >= 1):
+            raise InputError("samples", self.samples, "must be an integer >= 1")
+
+
 def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *, theta=None, cov_u=None,
                   alternatives: Sequence[Sequence[float]] = (), existing_rpm=None, existing_weight=None,
-                  target: Sequence[str] | None = None, noise: float = 0.02, speed_noise: float = SPEED_NOISE,
-                  samples: int = 16, seed: int = 0, engine: str = "zoa", iterations: int = 2000) -> SpeedDesign:
+                  target: Sequence[str] | None = None, options: DesignOptions | None = None, seed: int = 0,
+                  engine: str = "zoa", **tuning) -> SpeedDesign:
     """Plan ``n`` boundary-point tests among ``candidates`` [rev/min] that best determine θ.
 
     Args:
@@ -391,6 +449,8 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
             information the plan adds to.
         target: parameters whose relative standard errors the plan minimises (sum of squares); default
             all free parameters. ``["fn_x", "fn_y"]`` pins the natural frequencies first.
+        options: the settings (:class:`DesignOptions`: noise, speed_noise, samples, iterations);
+            keywords named as its fields replace them.
         noise: relative standard deviation of a measured limiting depth (0.02 = 2 %).
         speed_noise: relative uncertainty of where the boundary sits in speed (see :data:`SPEED_NOISE`).
         samples: θ samples the criterion averages over (each centre itself, then draws from
@@ -404,13 +464,8 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
         raise InputError("candidates", f"{cand.size} speeds", "need at least 2 finite positive speeds (rev/min)")
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise InputError("n", n, "the number of tests to plan must be an integer >= 1")
-    for field_name, v in (("noise", noise), ("speed_noise", speed_noise)):
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
-    if noise == 0:
-        raise InputError("noise", noise, "relative depth noise must be > 0 (0.02 = 2 %)")
-    if not (isinstance(samples, (int, np.integer)) and samples >= 1):
-        raise InputError("samples", samples, "must be an integer >= 1")
+    o = options_with(options, DesignOptions, tuning, "design_speeds")  # checked when built
+    noise, speed_noise, samples, iterations = o.noise, o.speed_noise, o.samples, o.iterations
     names = par.free
     tgt = tuple(names if not target else (par.canonical(t) for t in target))
     unknown = [t for t in tgt if t not in names]
@@ -535,7 +590,7 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
+__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "DesignOptions", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
            "evenly_spaced",
            "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
            "relative_sigma", "ridge", "round_design"]

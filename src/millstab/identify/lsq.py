@@ -52,7 +52,7 @@ from millstab.forward import fd_difference as jacobians
 from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
-from millstab.identify.search import SEARCH, Progress, pick_distinct, search_box, sobol
+from millstab.identify.search import SEARCH, SolverProgress, options_with, pick_distinct, search_box, sobol
 from millstab.identify.symmetry import (canonical, exchange_map, exchange_note, exchanged, swap_permutation,
                                         xy_symmetry_note)
 from millstab.identify.tie import prefer_tied
@@ -213,7 +213,7 @@ class History:
     """The best-so-far path of the search, one entry per recorded step (``Fit.history_*``); called as
     ``record(u (K, P), rss (K,))`` by every stage, it also reports ``progress("lsq", step, best rss)``."""
 
-    def __init__(self, progress: Progress | None = None):
+    def __init__(self, progress: SolverProgress | None = None):
         self.progress = progress
         self.u: list[np.ndarray] = []
         self.rss: list[float] = []
@@ -397,17 +397,37 @@ def cut_warning(cuts: dict | None) -> str | None:
     return None
 
 
-def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candidates: int = 512,
-                 schedule=((32, 3), (8, 5), (2, 30)), rounds: int = 3, good_rms: float = 0.01, n_local: int = 64,
-                 loss: str = "linear", f_scale: float | None = None, central: bool = False, seed: int = 0,
-                 search: dict[str, float] | None = None, max_nfev: int = 100, progress: Progress | None = None,
-                 noise: float | None = None) -> Fit:
+@dataclass(frozen=True)
+class LsqOptions:
+    """The search settings of :func:`fit_lsq_free` (its docstring explains each), checked when built: an
+    unknown loss or an empty schedule is an InputError. ``fit_lsq(problem, options=LsqOptions(rounds=0))``
+    and ``fit_lsq(problem, rounds=0)`` are the same call (the keywords replace fields of ``options``)."""
+
+    n_candidates: int = 512
+    schedule: tuple = ((32, 3), (8, 5), (2, 30))
+    rounds: int = 3
+    good_rms: float = 0.01
+    n_local: int = 64
+    loss: str = "linear"
+    f_scale: float | None = None
+    central: bool = False
+    max_nfev: int = 100
+
+    def __post_init__(self) -> None:
+        check_options(self.loss, self.n_candidates, self.schedule)
+
+
+def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options: LsqOptions | None = None,
+                 seed: int = 0, search: dict[str, float] | None = None, progress: SolverProgress | None = None,
+                 noise: float | None = None, **tuning) -> Fit:
     """:func:`fit_lsq` without the x = y test: the multi-start search itself (module docstring), run as
     its stages :func:`multistart`, :func:`reseed`, :func:`local_search`, :func:`polish`, then the
     diagnostics :func:`uncertainty`, :func:`identifiability_warnings`, :func:`alternative_solutions`.
 
     Args:
         theta0: start [Hz, N/m, -]; default the parameterization's start (the config's structure).
+        options: the search settings (:class:`LsqOptions`, its fields below); keywords named as its
+            fields replace them (``fit_lsq_free(problem, rounds=0)``).
         n_candidates: QMC screening candidates (one engine call).
         schedule: successive halving of the LM starts, ((starts, iterations), ...).
         rounds: at most this many re-seeding rounds while the RMS residual exceeds ``good_rms``: each
@@ -428,7 +448,9 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
             :func:`~millstab.identify.quality.error_sigma`).
     """
     noise = check_noise(noise)
-    check_options(loss, n_candidates, schedule)
+    o = options_with(options, LsqOptions, tuning, "fit_lsq_free")  # checked when built
+    n_candidates, schedule, rounds, good_rms, n_local, loss, f_scale, central, max_nfev = (
+        o.n_candidates, o.schedule, o.rounds, o.good_rms, o.n_local, o.loss, o.f_scale, o.central, o.max_nfev)
     t0 = time.perf_counter()
     sets0, calls0 = problem.n_sets, problem.n_calls
     par = problem.par
@@ -506,6 +528,6 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, n_candid
                          "polish_status": int(sol.status), "noise": noise})
 
 
-__all__ = ["LOSSES", "SEARCH", "Starts", "alternative_solutions", "check_options", "confidence_cloud", "covariance",
+__all__ = ["LOSSES", "SEARCH", "LsqOptions", "Starts", "alternative_solutions", "check_options", "confidence_cloud", "covariance",
            "fit_lsq", "fit_lsq_free", "identifiability_warnings", "local_search", "multistart", "polish", "reseed",
            "reseed_candidates", "uncertainty"]

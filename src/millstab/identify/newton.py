@@ -71,11 +71,12 @@ from __future__ import annotations
 
 import itertools
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from millstab.errors import InputError
 from millstab.forward import fd_difference
-from millstab.identify.search import Progress, pick_distinct, search_box, sobol
+from millstab.identify.search import SolverProgress, options_with, pick_distinct, search_box, sobol
 from millstab.identify.symmetry import canonical, swap_permutation, xy_symmetry_note
 from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose
@@ -266,14 +267,42 @@ def newton_step(u: np.ndarray, theta: np.ndarray, f_w: np.ndarray, *, fd_step: f
     return np.log(np.clip(theta - step, par.lower, par.upper))
 
 
-def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bool = True, alpha: float = 1.0,
-               max_iter: int = 600, tol: float = 1e-6, fd_step: float = 1e-4, n_guesses: int = 16,
-               explore_iters: int = 40, n_screen: int = 2048, n_centres: int = 8, n_refine: int = 1024,
-               refine: dict[str, float] | None = None, min_distance: float = 0.05, jump: float = 0.05,
-               min_jump: float = 0.05 / 256, max_step: float = 0.1, patience: int = 3, improve_tol: float = 0.01,
-               n_random_jumps: int = 16, n_fn_grid: int = 1024, critical_weight: float = 10.0, critical_window: float = 0.02, seed: int = 0,
-               search: dict[str, float] | None = None, progress: Progress | None = None,
-               noise: float | None = None) -> Fit:
+@dataclass(frozen=True)
+class NewtonOptions:
+    """The tuning of :func:`fit_newton` (the module docstring explains each), checked when built: an
+    option out of range is an InputError naming it. ``fit_newton(problem, options=NewtonOptions(alpha=0.5))``
+    and ``fit_newton(problem, alpha=0.5)`` are the same call (the keywords replace fields of ``options``)."""
+
+    scaled: bool = True
+    alpha: float = 1.0
+    max_iter: int = 600
+    tol: float = 1e-6
+    fd_step: float = 1e-4
+    n_guesses: int = 16
+    explore_iters: int = 40
+    n_screen: int = 2048
+    n_centres: int = 8
+    n_refine: int = 1024
+    refine: dict[str, float] | None = None
+    min_distance: float = 0.05
+    jump: float = 0.05
+    min_jump: float = 0.05 / 256
+    max_step: float = 0.1
+    patience: int = 3
+    improve_tol: float = 0.01
+    n_random_jumps: int = 16
+    n_fn_grid: int = 1024
+    critical_weight: float = 10.0
+    critical_window: float = 0.02
+
+    def __post_init__(self) -> None:
+        check_options(alpha=self.alpha, max_iter=self.max_iter, n_guesses=self.n_guesses, jump=self.jump,
+                      min_jump=self.min_jump, critical_weight=self.critical_weight, fd_step=self.fd_step)
+
+
+def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, options: NewtonOptions | None = None,
+               seed: int = 0, search: dict[str, float] | None = None, progress: SolverProgress | None = None,
+               noise: float | None = None, **tuning) -> Fit:
     """The paper's Newton–Raphson identification (see module docstring for every option), in stages:
     :func:`initial_guesses`, then per iteration :func:`difference_rows` (and :func:`trial_jumps` when
     stagnating) in ONE call, :func:`weighted_mlae`, :func:`newton_step`.
@@ -283,6 +312,8 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
 
     Args:
         theta0: start [Hz, N/m, -]; default the parameterization's start.
+        options: the tuning (:class:`NewtonOptions`, its fields below); keywords named as its fields
+            replace them (``fit_newton(problem, alpha=0.5)``).
         scaled: update in log coordinates (default) or literally in physical units.
         alpha: the paper's pace α in (0, 1].
         tol: stopping threshold on the (unweighted) MLAE [log(1 + mm)].
@@ -295,8 +326,13 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
         critical_weight: weight of points near critical points (1 = the unweighted eq. 4).
         seed: seed of the initial-guess design and the random jumps.
     """
-    check_options(alpha=alpha, max_iter=max_iter, n_guesses=n_guesses, jump=jump, min_jump=min_jump,
-                  critical_weight=critical_weight, fd_step=fd_step)
+    o = options_with(options, NewtonOptions, tuning, "fit_newton")  # checked when built
+    (scaled, alpha, max_iter, tol, fd_step, n_guesses, explore_iters, n_screen, n_centres, n_refine, refine,
+     min_distance, jump, min_jump, max_step, patience, improve_tol, n_random_jumps, n_fn_grid,
+     critical_weight, critical_window) = (
+        o.scaled, o.alpha, o.max_iter, o.tol, o.fd_step, o.n_guesses, o.explore_iters, o.n_screen, o.n_centres,
+        o.n_refine, o.refine, o.min_distance, o.jump, o.min_jump, o.max_step, o.patience, o.improve_tol,
+        o.n_random_jumps, o.n_fn_grid, o.critical_weight, o.critical_window)
     noise = check_noise(noise)
     t0 = time.perf_counter()
     sets0, calls0 = problem.n_sets, problem.n_calls
@@ -396,5 +432,5 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, scaled: bo
     return diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
 
 
-__all__ = ["check_options", "critical_mask", "difference_rows", "fit_newton", "initial_guesses", "jump_directions",
+__all__ = ["NewtonOptions", "check_options", "critical_mask", "difference_rows", "fit_newton", "initial_guesses", "jump_directions",
            "newton_step", "refine_design", "screen_design", "trial_jumps", "weighted_mlae"]

@@ -14,6 +14,8 @@ JSON contract (``Fit.to_json()``; keys may be added, never removed or renamed):
   (one code per warning kind, :mod:`~millstab.identify.quality`), ``checks`` (χ² and runs tests);
 * ``cutting``: the cutting conditions the points were fitted under (teeth, kt [N/m²], kr, entry and exit
   [rad]), so a fit file cannot be used with a config of other conditions;
+* provenance (each optional): ``config`` (the config's name) and ``points`` (the points file the fit was
+  made from), the same from the command line and the web app;
 * ``schema``: ``"millstab.fit/1"``; ``parameterization``: what :meth:`Fit.from_json` needs to rebuild
   the object exactly: the base structure (``{"x": [{fn, k, zeta}], "y": [...]}``, the fixed values),
   ``free``, ``axisymmetric`` and the search ``bounds`` ({name: [lower, upper]}, SI).
@@ -40,6 +42,8 @@ from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
 
 SCHEMA = "millstab.fit/1"
+#: the provenance keys of a fit's JSON (top level, each optional): the config's name and the points file
+PROVENANCE = ("config", "points")
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +79,9 @@ class Fit:
         test_cuts: how the fitted SLD classifies the labelled test cuts (counts), or ``None``.
         settings: solver settings used (for reproducibility); ``settings["xy_tie_test"]`` is the x = y
             test's record (:attr:`tie`).
+        provenance: what the fit was made from, ``{"config": the config's name, "points": the points file}``
+            (either may be absent), set by :func:`millstab.api.identify` and written as the JSON's top-level
+            ``"config"`` and ``"points"``: the command line and the web app write the same file (issue 26).
 
     Frozen means no field is reassigned; the dicts inside (settings, noise, checks, test_cuts, the
     alternatives) are plain dicts for the JSON and must be treated as read-only too.
@@ -107,6 +114,7 @@ class Fit:
     noise: dict[str, Any] | None = None
     checks: dict[str, Any] = field(default_factory=dict)
     cutting: Cutting | None = None
+    provenance: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("warnings", "codes", "alternatives"):
@@ -185,6 +193,51 @@ class Fit:
             out.update({f"fn{suffix}": m.fn, f"k{suffix}": m.k, f"zeta{suffix}": m.zeta})
         return out
 
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the fitted parameters as the trade reads them (stiffness N/µm, fn Hz, ζ bare;
+        :data:`millstab.units.SHOWN`): parameter, start, estimate, std_error (NaN: not computed), unit."""
+        from millstab.units import shown
+
+        rows = [(name, shown(self.start[i], unit), shown(self.estimate[i], unit),
+                 shown(math.nan if self.std_errors is None else self.std_errors[i], unit))
+                for i, (name, unit) in enumerate(zip(self.names, self.units))]
+        return (("parameter", "start", "estimate", "std_error", "unit"),
+                ([r[0] for r in rows], [r[1][0] for r in rows], [r[2][0] for r in rows], [r[3][0] for r in rows],
+                 [r[1][1] for r in rows]))
+
+    def loose(self, rel: float = 0.05) -> tuple[str, ...]:
+        """The free parameters whose relative standard error exceeds ``rel`` (none without standard errors):
+        what further tests (``millstab design --fit``) would pin."""
+        if self.std_errors is None:
+            return ()
+        return tuple(n for n, se, v in zip(self.names, self.std_errors, self.estimate) if se / v > rel)
+
+    def summary(self) -> str:
+        """What the fit says beside its table, one line each: MLAE and RSS, the degrees of freedom and where
+        the standard errors' noise comes from, the test cuts, the warnings, the alternatives."""
+        from millstab.params import shown_value
+
+        lines = [f"MLAE {self.mlae:.4g} (mm, eq. 4); RSS {self.rss:.4g} ({self.settings.get('residual', 'log')} residuals)"]
+        if self.dof is not None:
+            p = self.n_points - self.dof
+            line = f"degrees of freedom: {self.n_points} boundary points − {p} parameters = {self.dof}"
+            nz = self.noise or {}
+            if self.std_errors is not None and nz:
+                pct = f"{100 * nz['sigma']:.3g} %"
+                how = {"residuals": f"the residual scatter ({pct})", "stated": f"the stated depth noise ({pct})",
+                       "assumed": f"an assumed depth noise ({pct}; give --noise)"}[nz["source"]]
+                line = f"{line}; standard errors from {how}"
+            lines.append(line)
+        if self.test_cuts:
+            c = self.test_cuts
+            lines.append(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted "
+                         f"chatter; {c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted stable")
+        lines += [f"warning: {w}" for w in self.warnings]
+        for a in self.alternatives:
+            vals = ", ".join(f"{k}={shown_value(k, v)}" for k, v in a["estimate"].items())
+            lines.append(f"alternative: {vals} (MLAE {a['mlae']:.4g}, RSS {a['rss']:.4g})")
+        return "\n".join(lines)
+
     def to_json(self) -> dict[str, Any]:
         """The JSON form (see module docstring), plain JSON types only."""
         from millstab.io.results import to_jsonable
@@ -221,6 +274,7 @@ class Fit:
             "checks": self.checks,
             "cutting": None if self.cutting is None else cutting_record(self.cutting),
             "history": {"theta": self.history_theta, "mlae": self.history_mlae, "rss": self.history_rss},
+            **{k: self.provenance[k] for k in PROVENANCE if k in self.provenance},
             "parameterization": {"base": _structure_record(self.par.base), "free": list(self.par.free),
                                  "axisymmetric": bool(self.par.axisymmetric),
                                  "bounds": {n: list(b) for n, b in self.par.bounds.items()}},
@@ -292,7 +346,8 @@ class Fit:
                 settings=need(doc, "settings", source, dict),
                 dof=need(doc, "dof", source, optional_int), n_points=need(doc, "n_points", source, optional_int),
                 noise=need(doc, "noise", source, (dict, type(None))), checks=need(doc, "checks", source, dict),
-                cutting=None if cut is None else _cutting(cut, f"{source}: cutting"))
+                cutting=None if cut is None else _cutting(cut, f"{source}: cutting"),
+                provenance={k: need(doc, k, source, str) for k in PROVENANCE if k in doc})
         except ValueError as exc:  # e.g. warnings without codes
             raise InputError(source, "fit record", str(exc)) from None
 

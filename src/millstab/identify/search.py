@@ -10,8 +10,10 @@ from typing import Callable
 import numpy as np
 from scipy.stats import qmc
 
-#: progress callback of a solver: (stage, iteration, best objective so far)
-Progress = Callable[[str, int, float], None]
+#: progress callback of a solver: (stage, iteration, best objective so far); the service layer turns it into
+#: the one protocol ``progress(stage, done, total)`` (:func:`millstab.api.progress.solver_progress`). Named
+#: apart from that protocol (``api.Progress``) because its third argument is a value, not a total.
+SolverProgress = Callable[[str, int, float], None]
 #: default search box half-widths (multiplicative) around the start, per parameter kind
 SEARCH = {"fn": 1.5, "k": 2.5, "zeta": 2.5}
 
@@ -54,4 +56,17 @@ def pick_distinct(u: np.ndarray, cost: np.ndarray, k: int, min_dist: float, perm
     return np.array(picked, dtype=int)
 
 
-__all__ = ["Progress", "SEARCH", "pick_distinct", "search_box", "sobol"]
+def options_with(options, cls: type, tuning: dict, caller: str):
+    """``options`` (default ``cls()``) with the fields named in ``tuning`` replaced; TypeError naming
+    ``caller`` for a keyword that is no field (as a misspelt keyword argument always was)."""
+    import dataclasses
+
+    names = {f.name for f in dataclasses.fields(cls)}
+    for key in tuning:
+        if key not in names:
+            raise TypeError(f"{caller}() got an unexpected keyword argument {key!r}")
+    base = cls() if options is None else options
+    return dataclasses.replace(base, **tuning) if tuning else base
+
+
+__all__ = ["SEARCH", "SolverProgress", "options_with", "pick_distinct", "search_box", "sobol"]

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from millstab.units import SHOWN as _SHOW  # the one table of shown units
+
 _MARKERS = {"stable": ("o", "tab:green"), "chatter": ("x", "tab:red"), "marginal": ("^", "tab:orange"),
             "": ("s", "k")}
-_SHOW = {"Hz": (1.0, "Hz"), "N/m": (1e-6, "N/µm"), "-": (1.0, ""), "N/m^2": (1e-6, "MPa")}
 
 
 def plot_corner(samples: np.ndarray, names, units, truth: np.ndarray | None = None, max_points: int = 2000):

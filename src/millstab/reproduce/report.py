@@ -75,7 +75,11 @@ SUMMARY_NOTE = ("A claim has a stated criterion, tested in this run: it holds or
 
 @dataclass
 class Report:
-    """Blocks of a report written into ``out``; :meth:`write` renders report.md and report.html."""
+    """Blocks of a report written into ``out``; :meth:`write` renders report.md and report.html.
+
+    Not frozen, on purpose (issue 26): a report is a writer the steps add to as they run (each table and
+    figure is saved when added, so a long run that stops keeps what it made); its result is the files and
+    ``checks``, not this object."""
 
     out: Path
     title: str

@@ -19,7 +19,7 @@ from millstab.sensitivity._core import DEFAULT_EPS_GRID, PAPER_EPS_GRID, bounds_
 from millstab.sensitivity.globalsa import morris, sobol, sobol_function, sobol_indices
 from millstab.sensitivity.montecarlo import PAPER_EPS, PAPER_N, PAPER_T, monte_carlo
 from millstab.sensitivity.oat import oat
-from millstab.sensitivity.paper import match_example, predicted_theta, table6
+from millstab.sensitivity.presets import match_example, predicted_theta, table6
 from millstab.sensitivity.results import MCResult, MorrisResult, OATResult, SobolResult
 
 __all__ = ["DEFAULT_EPS_GRID", "MCResult", "MorrisResult", "OATResult", "PAPER_EPS", "PAPER_EPS_GRID", "PAPER_N",

@@ -20,7 +20,10 @@ DEFAULT_EPS_GRID = np.round(np.arange(-0.25, 0.25 + 1e-9, 0.05), 10) + 0.0  # + 
 #: the seed paper's Algorithm 1 grid: −0.20 … +0.20 step 0.05
 PAPER_EPS_GRID = np.round(np.arange(-0.20, 0.20 + 1e-9, 0.05), 10) + 0.0
 
-Progress = Callable[[int, int], None]  # (done, total) in the caller's unit (paths, rows)
+#: a study's counter: (done, total) in the caller's unit (paths, rows), as ``forward``'s ``Pinned.map`` and
+#: ``cluster`` report; the service layer turns it into ``progress(stage, done, total)``
+#: (:func:`millstab.api.progress.count_progress`)
+CountProgress = Callable[[int, int], None]
 
 
 def as_parameterization(model: Structure | Parameterization) -> Parameterization:
@@ -171,7 +174,7 @@ def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, b
     return forward(par, cutting, engine).pinned(rpm, bounding_rows)
 
 
-def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: Progress | None = None, client=None,
+def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: CountProgress | None = None, client=None,
                    chunk_rows: int | None = None) -> np.ndarray:
     """Depths (R, S) [m] for many rows through the pinned model ``f`` (:func:`pin`), one engine call per chunk
     of ``chunk_rows`` rows (default the engine's chunk; progress in rows); with ``client`` (a

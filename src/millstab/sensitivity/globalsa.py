@@ -25,7 +25,7 @@ from scipy.stats import norm
 from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.sensitivity._core import (Progress, as_parameterization, bounds_from, centre, check_scalar,
+from millstab.sensitivity._core import (CountProgress, as_parameterization, bounds_from, centre, check_scalar,
                                         depths_chunked, engine_module, mse_mm2, pin)
 from millstab.sensitivity.montecarlo import check_seed
 from millstab.sensitivity.results import MorrisResult, SobolResult
@@ -152,7 +152,7 @@ def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client=None):
 def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1024, t: float = 0.1,
           bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0, *, theta: Sequence[float] | None = None,
           engine: str = "zoa", num_resamples: int = 100, conf_level: float = 0.95,
-          progress: Progress | None = None, client=None, chunk_rows: int | None = None) -> SobolResult:
+          progress: CountProgress | None = None, client=None, chunk_rows: int | None = None) -> SobolResult:
     """First- and total-order Sobol indices of the SLD's MSE [mm²], the envelope minimum [mm] and b_lim
     at each speed [mm], for uniform inputs in the ±t neighbourhood of the centre (or ``bounds``).
 
@@ -185,7 +185,7 @@ def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1
 def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajectories: int = 50, levels: int = 4,
            t: float = 0.1, bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0, *,
            theta: Sequence[float] | None = None, engine: str = "zoa", num_resamples: int = 100,
-           conf_level: float = 0.95, progress: Progress | None = None, client=None,
+           conf_level: float = 0.95, progress: CountProgress | None = None, client=None,
            chunk_rows: int | None = None) -> MorrisResult:
     """Morris screening (elementary effects; a cheap preview of Sobol): μ, μ*, σ and μ*'s confidence
     half-width for the SLD's MSE [mm²] against the nominal and the envelope minimum [mm].

@@ -23,7 +23,7 @@ from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.forward import Pinned, forward
-from millstab.sensitivity._core import (Progress, as_parameterization, centre, check_neighbourhood, check_scalar,
+from millstab.sensitivity._core import (CountProgress, as_parameterization, centre, check_neighbourhood, check_scalar,
                                         engine_module, mse_mm2, pin, rows_per_call)
 from millstab.sensitivity.results import MCResult
 from millstab.stability import check_rpm
@@ -40,7 +40,7 @@ def check_seed(seed) -> int:
 
 def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = PAPER_N, t: float = PAPER_T,
                 eps: float = PAPER_EPS, seed: int = 0, *, theta: Sequence[float] | None = None, engine: str = "zoa",
-                chunk_paths: int | None = None, progress: Progress | None = None, client=None) -> MCResult:
+                chunk_paths: int | None = None, progress: CountProgress | None = None, client=None) -> MCResult:
     """Monte Carlo sensitivity: per parameter the mean and SD of the MSE [mm²] after a (1 + ε) change,
     over N random centres drawn in the ±t neighbourhood of ``theta``.
 
@@ -131,7 +131,7 @@ def _task(*args) -> np.ndarray:
     return _block(*args)
 
 
-def _on_cluster(client, spec: tuple, mse: np.ndarray, chunk_paths: int | None, progress: Progress | None) -> None:
+def _on_cluster(client, spec: tuple, mse: np.ndarray, chunk_paths: int | None, progress: CountProgress | None) -> None:
     """Fill ``mse`` (N, P) block by block from tasks on the client's cluster, as results arrive."""
     from millstab import cluster
 

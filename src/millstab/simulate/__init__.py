@@ -135,6 +135,26 @@ class CutResult:
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.cut/1"
+
+    def table(self) -> tuple[list[str], list[np.ndarray]]:
+        """(header, columns) of the trace CSV (``millstab simulate --out``): t_s, x_m, y_m, fx_N, fy_N."""
+        return ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [self.t, self.x, self.y, self.fx, self.fy]
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name (SI; the Result protocol of :mod:`millstab.jsondoc`)."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "simulated cut") -> CutResult:
+        """The cut of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> CutResult:
         if d.get("schema") != "millstab.simulate.cut/1":
@@ -321,6 +341,18 @@ class Labels:
     multiplier: np.ndarray | None = None
     schema: str = "millstab.simulate.labels/1"
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.labels/1"
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
+        return ["rpm", "depth_mm", "label", "chatter_hz"], [self.rpm, self.depth_mm, list(self.label), self.chatter_hz]
+
+    def summary(self) -> str:
+        """'12 cuts labelled: 7 stable, 1 marginal, 4 chatter'."""
+        counts = ", ".join(f"{int(np.sum(self.label == k))} {k}" for k in ("stable", "marginal", "chatter"))
+        return f"{len(self.rpm)} cuts labelled: {counts}"
+
     @property
     def depth_mm(self) -> np.ndarray:
         return self.depth_m * 1e3
@@ -329,6 +361,19 @@ class Labels:
         from millstab.io.results import to_jsonable
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name (NaN where a field says "not defined", ±∞ kept)."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "labelled cuts") -> Labels:
+        """The labels of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
 
 
 def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_tooth: float, revs: float | None = None,

@@ -52,6 +52,7 @@ within 1.5 bins (the once-per-tooth samples then alternate), else ``hopf``; ``""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -97,6 +98,37 @@ class Detection:
         from millstab.io.results import to_jsonable
 
         return to_jsonable({k: getattr(self, k) for k in self.__dataclass_fields__})
+
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.simulate.detection/1"
+
+    def summary(self) -> str:
+        """One line: 'chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31'
+        (a metric not defined is left out, never printed as 'nan')."""
+        text = self.label
+        if self.label != "stable" and math.isfinite(self.chatter_hz):
+            text += f" at {self.chatter_hz:.1f} Hz" + (f" ({self.lobe})" if self.lobe else "")
+        parts = []
+        if math.isfinite(self.growth):
+            parts.append(f"growth {self.growth:.3g}" + (f" (|mu| {self.multiplier:.5g} per tooth period)"
+                                                        if math.isfinite(self.multiplier) else ""))
+        if math.isfinite(self.level):
+            parts.append(f"level {self.level:.3g}")
+        return text + ("; " + ", ".join(parts) if parts else "")
+
+    def to_json(self) -> dict[str, Any]:
+        """Every field under its own name: a growth of ∞ (from exactly zero) stays ∞ (``to_dict`` writes
+        it as null, read back as NaN), NaN only where the field says "not defined"."""
+        from millstab.jsondoc import fields_out
+
+        return fields_out(self, self.SCHEMA)
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "detection") -> Detection:
+        """The detection of :meth:`to_json`; InputError naming ``source`` and the field otherwise."""
+        from millstab.jsondoc import fields_in
+
+        return fields_in(cls, doc, cls.SCHEMA, source)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Detection:

@@ -50,6 +50,9 @@ class Campaign:
         stages: tempering stages of each update.
         failed: after which cuts the update failed (tempering stalled: the model cannot explain the labels).
         cut_true_chatter: whether each cut truly chattered (its depth at or above the true limit).
+
+    Not frozen, on purpose (issue 26): :func:`run_campaign` appends to it cut by cut (a campaign that stops
+    keeps the cuts so far); treat a returned campaign as read-only.
     """
 
     cut_rpm: list[float] = field(default_factory=list)

@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -155,8 +156,12 @@ class Recommendation:
     guard: tuple[dict, ...] = ()
     test_risk: float | None = None
 
+    #: the ``"schema"`` of :meth:`to_json`
+    SCHEMA = "millstab.recommendation/1"
+
     def to_json(self) -> dict:
-        out = {"schema": "millstab.recommendation/1", "rpm": self.rpm, "depth_mm": self.depth_mm,
+        """The JSON of ``millstab recommend --out`` (rpm, mm, cm³/min)."""
+        out = {"schema": self.SCHEMA, "rpm": self.rpm, "depth_mm": self.depth_mm,
                "p_chatter": self.p_chatter, "risk": self.risk, "limited_by": self.limited_by,
                "relative_productivity_mm_rpm": self.productivity, "next_test": self.next_test,
                "p_chatter_speed_error": self.p_chatter_speed_error, "p_chatter_bound": self.p_chatter_bound,
@@ -165,6 +170,27 @@ class Recommendation:
         if self.mrr_cm3_per_min is not None:
             out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
         return out
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "recommendation") -> Recommendation:
+        """The recommendation of :meth:`to_json` (``millstab recommend --out``); InputError naming ``source``
+        and the field for another schema, a missing field or one of the wrong kind."""
+        from millstab.jsondoc import check_schema, need
+
+        check_schema(doc, cls.SCHEMA, source)
+        num, opt = (int, float), (int, float, type(None))
+        return cls(rpm=float(need(doc, "rpm", source, num)), depth_mm=float(need(doc, "depth_mm", source, num)),
+                   p_chatter=float(need(doc, "p_chatter", source, num)),
+                   productivity=float(need(doc, "relative_productivity_mm_rpm", source, num)),
+                   mrr_cm3_per_min=need(doc, "mrr_cm3_per_min", source, num) if "mrr_cm3_per_min" in doc else None,
+                   risk=float(need(doc, "risk", source, num)), next_test=need(doc, "next_test", source, dict),
+                   limited_by=need(doc, "limited_by", source, str),
+                   p_chatter_speed_error=need(doc, "p_chatter_speed_error", source, opt),
+                   p_chatter_bound=need(doc, "p_chatter_bound", source, opt),
+                   effective_samples=need(doc, "effective_samples", source, opt),
+                   confidence=need(doc, "confidence", source, opt),
+                   speed_tolerance=float(need(doc, "speed_tolerance", source, num)),
+                   guard=tuple(need(doc, "data_guard", source, list)), test_risk=need(doc, "test_risk", source, opt))
 
 
 def effective_samples(post: Posterior) -> float:

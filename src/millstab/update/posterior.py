@@ -17,11 +17,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import math
+
 import numpy as np
 
 from millstab.errors import InputError
 from millstab.identify.symmetry import exchange_map, exchanged
-from millstab.update.batch import BatchPosterior, new_day
+from millstab.update.batch import BatchPosterior, new_day, summary_of
 from millstab.update.prior import Prior
 
 SCHEMA = "millstab.posterior/2"
@@ -108,6 +110,9 @@ class Posterior:
         noise: (N, Q) samples of the learned noise levels ``prior.noise_names`` (ε; the factor s on
             the depth noise), or ``None``: held at the prior's values.
         batch: the test days' shifts of ln fn (:mod:`millstab.update.batch`), or ``None`` (no test-day effect).
+        provenance: what it was made from, ``{"config": the config's name}`` (set by
+            :func:`millstab.api.update`), written as the JSON's top-level ``"config"``: every door writes the
+            same file (the command line added the key after ``to_json``).
     """
 
     prior: Prior
@@ -118,6 +123,7 @@ class Posterior:
     warnings: tuple[str, ...] = ()
     noise: np.ndarray | None = None
     batch: BatchPosterior | None = None
+    provenance: dict = field(default_factory=dict)
 
     def __post_init__(self):
         # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
@@ -173,6 +179,30 @@ class Posterior:
             return np.hstack([u, self.prior.noise_coordinates(*self._noise())])
         return np.hstack([u, self.prior.sample_noise(u.shape[0], rng or np.random.default_rng(0))])
 
+    def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
+        """(header, columns) of the posterior as the trade reads it (:data:`millstab.units.SHOWN`): per
+        parameter of the main mode its prior median, mean, sd, 5 % and 95 % quantiles and unit, then the
+        learned noise levels (``label_error``; ``sigma_depth ×``, the factor on the prior's depth noise), then
+        each test day's fn factor (``fn × DAY``) with a test-day effect."""
+        from millstab.units import SHOWN
+
+        keys = ("mean", "sd", "q05", "q95")
+        main = self.modes()[0]["parameters"]
+        rows = []
+        for j, (name, unit) in enumerate(zip(self.names, self.prior.units())):
+            sc, shown = SHOWN.get(unit, (1.0, unit))
+            rows.append((name, self.prior.median[j] * sc, *(main[name][k] * sc for k in keys), shown))
+        if self.noise is not None:
+            for name, s in summary(self.noise, list(self.prior.noise_names)).items():
+                label, med = ("label_error", self.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
+                rows.append((label, float(med), *(s[k] for k in keys), ""))
+        if self.batch is not None:  # the test days' fn factors exp(δ_g) (the sd is of δ_g, i.e. relative)
+            for day, s in summary_of(self.batch.shifts, self.batch.days).items():
+                rows.append((f"fn × {day or '(no day)'}", 1.0, math.exp(s["mean"]), s["sd"], math.exp(s["q05"]),
+                             math.exp(s["q95"]), ""))
+        header = ("parameter", "prior", "mean", "sd", "q05", "q95", "unit")
+        return header, tuple(list(c) for c in zip(*rows))
+
     def modes(self) -> list[dict]:
         """The exchange modes with their share of samples and summaries (largest first); one entry when unimodal."""
         twin = split_modes(self.prior, self.samples, self.engine)
@@ -196,7 +226,7 @@ class Posterior:
         doc = {"schema": SCHEMA, "names": list(self.names), "units": self.prior.units(), "engine": self.engine,
                "parameters": modes[0]["parameters"], "modes": modes, "diagnostics": self.diagnostics,
                "warnings": warn, "warning_codes": [warning_code(w) for w in warn], "prior": self.prior.to_dict(),
-               "cuts": self.cuts, "samples": self.samples.tolist()}
+               "cuts": self.cuts, "samples": self.samples.tolist(), **self.provenance}
         if self.noise is not None:
             names = list(self.prior.noise_names)
             doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
@@ -231,7 +261,9 @@ class Posterior:
         days = None
         if prior.batch_effect > 0 and doc.get("batch") is not None:  # absent: prior draws (no day seen yet)
             days = BatchPosterior.from_json(doc["batch"], s.shape[0], source)
-        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise, days)
+        made_from = {"config": doc["config"]} if isinstance(doc.get("config"), str) else {}
+        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
+                   days, made_from)
 
 
 __all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

@@ -29,13 +29,6 @@ def _json_bytes(doc) -> io.BytesIO:
     return _text_bytes(json.dumps(to_jsonable(doc), indent=2) + "\n")
 
 
-def _plan_table(plan):
-    """The CSV ``millstab design --out`` writes: rpm, tests, predicted_depth_mm."""
-    tests = plan.tests()
-    return ("rpm", "tests", "predicted_depth_mm"), ([round(r, 3) for r, _, _ in tests], [c for _, c, _ in tests],
-                                                    [d for _, _, d in tests])
-
-
 class DownloadsTab:
     def __init__(self, session: Session):
         self.s = session
@@ -73,7 +66,7 @@ class DownloadsTab:
             ("fitted SLD figure PNG", "fit.png", has_fit, lambda: fit("png")),
             ("fitted SLD figure SVG", "fit.svg", has_fit, lambda: fit("svg")),
             ("planned tests CSV (= millstab design --out)", "plan.csv", lambda: s.plan is not None,
-             lambda: _text_bytes(csv_text(*_plan_table(s.plan)))),
+             lambda: _text_bytes(csv_text(*s.plan.table()))),
             ("planned tests figure PNG", "plan.png", lambda: s.plan is not None,
              lambda: _figure_bytes(lambda: api.design_figure(s.plan, s.cfg, s.points), "png")),
             ("posterior JSON (= millstab update --out)", "posterior.json", lambda: s.post is not None,

@@ -8,7 +8,6 @@ import numpy as np
 import panel as pn
 
 from millstab import api
-from millstab.datasets import list_example_points
 from millstab.errors import InputError
 from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
 from millstab.web.jobs import JobBar
@@ -35,17 +34,15 @@ def points_upload(session: Session, attr: str, drop, error, note) -> None:
 
 class IdentifyTab:
     def __init__(self, session: Session):
-        from millstab.identify import METHODS
-
         self.s = session
         self.drop = dropper("boundary points CSV", POINTS_TYPES, css="drop-points")
         self.drop_error = pn.pane.HTML("", css_classes=["e-points-upload"])
         self.points_note = pn.pane.HTML("", css_classes=["points-note"])
         self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm[,label][,weight][,chatter_hz]; '
                                    'boundary points have no label</span>', width=330)
-        self.example = pn.widgets.Button(label=f"Use example:{list_example_points()[0]}", width=200,
+        self.example = pn.widgets.Button(label=f"Use example:{api.list_example_points()[0]}", width=200,
                                          css_classes=["example-points"])
-        self.method = pn.widgets.Select(label="method", options=list(METHODS), value="lsq", width=100)
+        self.method = pn.widgets.Select(label="method", options=list(api.IDENTIFY_METHODS), value="lsq", width=100)
         self.free = pn.widgets.TextInput(label="free parameters (blank = all)", value="", width=220,
                                          placeholder="e.g. fn_x,k_x,zeta_x")
         self.axisym = pn.widgets.Checkbox(label="x = y (axisymmetric)", value=False)
@@ -66,7 +63,7 @@ class IdentifyTab:
         session.param.watch(lambda e: set_points(self.src, e.new), "points")
 
     def use_example(self) -> None:
-        name = list_example_points()[0]
+        name = api.list_example_points()[0]
         self.s.points = api.points(f"example:{name}")
         self.drop_error.object = ""
         self.points_note.object = f'<span class="ms-done">example:{name}: {len(self.s.points)} points</span>'

@@ -15,7 +15,6 @@ import panel as pn
 from millstab import api
 from millstab.errors import InputError
 from millstab.web.common import TextBox
-from millstab.warnlog import collect
 
 #: worker threads shared by all sessions of one server (the machine's cores are the limit anyway)
 EXECUTOR = ThreadPoolExecutor(max_workers=2, thread_name_prefix="millstab-job")
@@ -69,7 +68,7 @@ class JobBar(pn.viewable.Viewer):
         watched = self._token.watch(progress)
 
         def run():
-            with collect() as caught:  # this job's warnings only (per thread; see millstab.warnlog)
+            with api.collect_warnings() as caught:  # this job's warnings only (per thread; see millstab.warnlog)
                 result = work(watched)
             return result, [str(w.message) for w in caught]
 

@@ -12,7 +12,6 @@ import panel as pn
 
 from millstab import api
 from millstab.errors import InputError
-from millstab.stability import ENGINES
 from millstab.web.common import computed_for, error_html, esc
 from millstab.web.jobs import JobBar
 from millstab.web.common import TextBox
@@ -27,7 +26,7 @@ class LobesTab:
     def __init__(self, session: Session):
         self.s = session
         self.fig, self.src = sld_figure(name="sld", second="")
-        self.engine = pn.widgets.Select(label="engine", options=list(ENGINES), value="zoa", width=120,
+        self.engine = pn.widgets.Select(label="engine", options=list(api.ENGINES), value="zoa", width=120,
                                         css_classes=["engine"])
         self.raw = pn.widgets.Checkbox(label="raw lobes (zoa)", value=False, css_classes=["raw-lobes"])
         self.summary = TextBox("lobes-summary", height=66)

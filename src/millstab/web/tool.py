@@ -5,22 +5,18 @@ a problem is shown next to the field it names."""
 
 from __future__ import annotations
 
-import dataclasses
 import tomllib
 from pathlib import Path
 
 import panel as pn
 
 from millstab import api
-from millstab.datasets import list_examples
 from millstab.errors import InputError
 from millstab.io.frf_files import frf_csv_text
 from millstab.io.text import decode_text
-from millstab.model import Mode, Structure
 from millstab.web.common import Field, as_text, error_html, esc
 from millstab.web.state import Session
 from millstab.web.uploads import CONFIG_TYPES, FRF_TYPES, MAX_FRF_BYTES, MAX_TEXT_BYTES, dropper, latest
-from millstab.warnlog import collect
 
 DEFAULT_EXAMPLE = "ex3"
 FRF_TERMS = ("xx", "yy", "xy", "yx")
@@ -105,7 +101,7 @@ class ToolTab:
         self.waiting: tuple[str, bytes | str] | None = None  # an uploaded config waiting for the FRF files it names
         for t, w in self.frf_drop.items():
             w.param.watch(lambda e, t=t: self._frf_uploaded(t), "value")
-        self.example = pn.widgets.Select(label="packaged example", options=list_examples(), value=DEFAULT_EXAMPLE,
+        self.example = pn.widgets.Select(label="packaged example", options=api.list_examples(), value=DEFAULT_EXAMPLE,
                                          width=150, css_classes=["example"])
         self.load_example = pn.widgets.Button(label="Load example", width=120, css_classes=["load-example"])
         self.config_drop = dropper("config TOML", CONFIG_TYPES, MAX_TEXT_BYTES, css="drop-config")
@@ -142,8 +138,7 @@ class ToolTab:
         rows are then left as they are."""
         # the io config writer is the one source of the tables (a form-side copy of it dropped
         # [prior] label_error: a config loaded in the browser changed the prior of an update)
-        shown = cfg if frf is None else dataclasses.replace(cfg, structure=Structure(x=(Mode(1000.0, 1e7, 0.03),)))
-        t = api.config_fields(shown)
+        t = api.config_fields(cfg)  # a measured-FRF config: no structure table (the form shows ``frf``)
         self._filling = True
         try:
             c = t["cutting"]
@@ -305,7 +300,7 @@ class ToolTab:
                 self.frf_error[t].object = ""
         self.general.object = ""
         try:
-            with collect() as caught:  # this session's warnings only (see millstab.warnlog)
+            with api.collect_warnings() as caught:  # this session's warnings only (see millstab.warnlog)
                 # the form's FRF terms name the session's saved uploads, and nothing else can be opened
                 cfg = api.config_from_fields(self.tables(), "config", files=self.s.saved)
         except InputError as exc:

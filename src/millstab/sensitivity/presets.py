@@ -1,5 +1,7 @@
-"""The seed paper's sensitivity settings and numbers: which packaged example a config is, the
-predicted parameter sets the paper's Section 3.2 centres its studies on, and Table 6 (tab:MC)."""
+"""The ``--preset paper`` of the sensitivity studies: which packaged example a config is, the predicted
+parameter sets the seed paper's Section 3.2 centres its studies on, and its Table 6 (tab:MC). (Named apart
+from :mod:`millstab.reproduce.paper`, the report's steps that reproduce the paper; this was
+``sensitivity/paper.py``.)"""
 
 from __future__ import annotations
 

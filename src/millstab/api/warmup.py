@@ -1,0 +1,39 @@
+"""Compiling the engines ahead of the first real run (``millstab warmup``, ``make demo``, ``make test``).
+
+A fresh install compiles each engine at its first use (~1 min for zoa, ~4 min for spectral on one core).
+Every kernel a command reaches is touched with a tiny problem (two speeds of example ex1): the single
+structure's envelope, the batched forward function of the studies, the chatter-frequency path of the
+updating, and the time-domain simulation of one short cut.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: what ``millstab warmup`` compiles by default (every engine and the simulation)
+TARGETS = ("zoa", "sdm", "spectral", "simulate")
+
+
+def warm(target: str) -> None:
+    """Compile (or load from the cache) every kernel of one engine or of ``simulate``."""
+    from millstab.api.inputs import config, points_from_text
+    from millstab.api.lobes import envelope
+    from millstab.api.studies import label_cuts, simulate_cut
+
+    cfg = config("example:ex1")
+    rpm = np.array([5000.0, 5200.0])
+    if target == "simulate":
+        simulate_cut(cfg, 5000.0, 0.5, revs=4)
+        label_cuts(cfg, points_from_text("rpm,depth_mm\n5000,0.5\n"), revs=4)
+        return
+    from millstab.forward import forward
+    from millstab.params import Parameterization
+    from millstab.stability import get_engine
+
+    envelope(cfg, rpm, engine=target)
+    par = Parameterization(cfg.structure)
+    theta = np.repeat(par.theta0[None, :], 2, axis=0)
+    forward(par, cfg.cutting, target)(theta, rpm)
+    eng = get_engine(target)
+    if eng.reports_chatter_frequency:
+        eng.envelope_batch_hz(par.batch(theta), cfg.cutting, rpm)

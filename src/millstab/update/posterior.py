@@ -14,10 +14,9 @@ engines, or fixed parameters) show up the same way when the assignment splits th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
-
-import math
 
 import numpy as np
 

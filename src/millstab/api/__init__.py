@@ -43,7 +43,7 @@ _HOMES = {
     "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
                 "fit_rpm", "history_figure", "identify"),
     "update": ("at_stickout", "corner_figure", "depth_grid", "map_figure", "map_table", "p_stable",
-               "posterior_from_json", "recommend", "update", "with_batch_effect"),
+               "over_holder", "posterior_from_json", "recommend", "update", "with_batch_effect"),
     "predict": ("Prediction", "predict"),
     "validate": ("validate",),
     "sensitivity": ("SENSITIVITY_DEFAULT_N=DEFAULT_N", "SENSITIVITY_PRESETS=PRESETS", "Study", "parse_bounds",

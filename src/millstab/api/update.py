@@ -58,6 +58,14 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     return dataclasses.replace(post, provenance={"config": cfg.name})  # in its JSON: the same from every door
 
 
+def over_holder(cfg) -> bool:
+    """Whether the config's prior is over a holder (``[tool]`` + ``[holder]`` with holder modes: one
+    posterior for every stickout, docs/tooltip.md) rather than over the tool tip's modes."""
+    from millstab.update.stickout import over_holder as holder
+
+    return holder(cfg)
+
+
 def at_stickout(post, stickout_mm: float | None):
     """The posterior ``post`` (over a holder) with the tool at ``stickout_mm`` [mm] for map, recommend and
     predict (``None``: ``post`` itself); InputError for a posterior over tip modes or a bad stickout."""

@@ -85,13 +85,12 @@ def update_cmd(
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = [v for v in inputs.values() if v]
     from millstab.io.stickout import stickouts
-    from millstab.update.stickout import over_holder
 
     so = stickouts(c)  # a stickout_mm column: each cut's stickout (a prior over the holder: docs/tooltip.md)
     if so is not None and in_db:
         raise InputError("stickout_mm", "with --db", "per-cut stickouts are not recorded in a shop database yet; "
                                                      "update to a posterior file (--out)")
-    if not over_holder(cfg):
+    if not api.over_holder(cfg):
         cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
         if note:
             typer.echo(note)

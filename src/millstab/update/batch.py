@@ -203,13 +203,14 @@ class BatchPosterior:
     days: tuple[str, ...]
     shifts: np.ndarray
 
-    def to_json(self) -> dict:
+    def to_record(self) -> dict:
+        """The ``batch`` record of the posterior's JSON (plain types)."""
         return {"tau": self.tau, "days": list(self.days), "coordinate": "shift of ln fn, all modes",
                 "parameters": summary_of(self.shifts, self.days), "samples": self.shifts.tolist()}
 
     @classmethod
-    def from_json(cls, d, n: int, source: str = "posterior") -> BatchPosterior:
-        """Rebuild from :meth:`to_json` output for a posterior of n samples.
+    def from_record(cls, d, n: int, source: str = "posterior") -> BatchPosterior:
+        """Rebuild from :meth:`to_record` output for a posterior of n samples.
 
         Raises:
             InputError: not a batch record of n rows.

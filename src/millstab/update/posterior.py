@@ -230,7 +230,7 @@ class Posterior:
             names = list(self.prior.noise_names)
             doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
         if self.batch is not None:
-            doc["batch"] = self.batch.to_json()
+            doc["batch"] = self.batch.to_record()
         return doc
 
     @classmethod
@@ -259,7 +259,7 @@ class Posterior:
                                  f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
         days = None
         if prior.batch_effect > 0 and doc.get("batch") is not None:  # absent: prior draws (no day seen yet)
-            days = BatchPosterior.from_json(doc["batch"], s.shape[0], source)
+            days = BatchPosterior.from_record(doc["batch"], s.shape[0], source)
         made_from = {"config": doc["config"]} if isinstance(doc.get("config"), str) else {}
         return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
                    days, made_from)

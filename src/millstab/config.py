@@ -25,6 +25,7 @@ class Config:
         rpm: default spindle speeds [rev/min] from ``[speeds]``, or ``None``.
         description: free text from the file ("" if none).
         prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
+        diameter_m, feed_per_tooth_m: the tool diameter and the feed per tooth [m], or ``None``.
     """
 
     cutting: Cutting
@@ -34,6 +35,14 @@ class Config:
     rpm: np.ndarray | None = None
     description: str = ""
     prior: PriorTable | None = None
+    #: the tool diameter [m] (``[cutting] diameter`` or ``[tool] diameter``), or ``None``
+    diameter_m: float | None = None
+    #: the feed per tooth [m] of the cuts (``[cutting] feed_per_tooth``), or ``None``
+    feed_per_tooth_m: float | None = None
+
+    @property
+    def diameter_mm(self) -> float | None:
+        return None if self.diameter_m is None else self.diameter_m * 1e3
 
 
 @dataclass(frozen=True, eq=False)

@@ -37,17 +37,17 @@ from millstab.api.sensitivity import Study, sensitivity
 from millstab.api.tooltip import FALLBACK_RPM as TOOLTIP_FALLBACK_RPM
 from millstab.api.tooltip import StickoutSweep, TipFRF, stickout_sweep, stickouts_mm, tip_figure, tip_frf, tool_config
 from millstab.api.studies import label_cuts, labels_table, modal_fit, reproduce, simulate_cut
-from millstab.api.update import (corner_figure, depth_grid, map_figure, map_table, p_stable, posterior_from_json,
-                                 recommend, update)
+from millstab.api.update import (condition_line, corner_figure, depth_grid, for_condition, map_figure, map_table,
+                                 p_stable, posterior_from_json, recommend, update)
 from millstab.api.predict import Prediction, predict
 from millstab.api.validate import validate
 
 __all__ = ["SENSITIVITY_DEFAULT_N", "SENSITIVITY_PRESETS", "TOOLTIP_FALLBACK_RPM", "StickoutSweep", "TipFRF",
            "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf", "tool_config", "CancelToken", "Cancelled",
            "Heard", "Lobes", "Prediction", "Progress", "Study", "predict", "validate",
-           "check_fit_matches", "check_size", "config", "config_fields", "config_from_fields", "config_from_text",
+           "check_fit_matches", "check_size", "condition_line", "config", "config_fields", "config_from_fields", "config_from_text",
            "config_toml", "corner_figure", "depth_grid", "design", "design_figure", "envelope", "fit_curves",
-           "fit_figure", "fit_rpm", "history_figure", "identify", "label_cuts", "label_from_recordings",
+           "fit_figure", "fit_rpm", "for_condition", "history_figure", "identify", "label_cuts", "label_from_recordings",
            "listen_figure", "listen_file", "listen_signal", "labels_table", "lobes", "lobes_figure",
            "map_figure", "map_table", "modal", "modal_fit", "p_stable", "points", "points_from_text", "posterior_from_json",
            "raw_lobes", "recommend", "record_cut", "reproduce", "sensitivity", "simulate_cut", "speeds", "update"]

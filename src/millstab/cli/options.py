@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any, Optional
 
 import typer
 
@@ -43,3 +43,24 @@ def samples_option(default: int, help: str) -> Any:
     reads as 100000000 and is refused for the memory it needs, not for its spelling)."""
     return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", parser=count,
                         callback=samples_callback)
+
+
+# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions") ---
+RadialImmersionOpt = Annotated[Optional[float], typer.Option(
+    "--radial-immersion", help="Decide for this radial immersion a/D in (0, 1] (default: the posterior's condition, "
+                               "the config's).", rich_help_panel="Target condition")]
+MillingOpt = Annotated[Optional[str], typer.Option(
+    "--milling", help="Decide for up or down milling (with --radial-immersion, or alone: the config's a/D).",
+    rich_help_panel="Target condition")]
+EntryDegOpt = Annotated[Optional[float], typer.Option(
+    "--entry-deg", help="Decide for this entry angle [deg] (with --exit-deg; instead of a/D and milling).",
+    rich_help_panel="Target condition")]
+ExitDegOpt = Annotated[Optional[float], typer.Option(
+    "--exit-deg", help="Decide for this exit angle [deg] (with --entry-deg).", rich_help_panel="Target condition")]
+TeethOpt = Annotated[Optional[int], typer.Option(
+    "--teeth", help="Decide for a tool of this family with this many teeth.", rich_help_panel="Target condition")]
+
+
+def target(radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None) -> dict:
+    """The target-condition options as keywords of :func:`millstab.api.for_condition`."""
+    return dict(radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)

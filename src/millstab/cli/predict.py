@@ -9,6 +9,7 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
+from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
 from millstab.cli.update import LABELS_HELP
 from millstab.errors import InputError
 
@@ -19,15 +20,22 @@ def predict_cmd(
                                               "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
-    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order."),
+    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter,condition, in the "
+                                                "input order (a row's condition columns override the target)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
+    radial_immersion: RadialImmersionOpt = None,
+    milling: MillingOpt = None,
+    entry_deg: EntryDegOpt = None,
+    exit_deg: ExitDegOpt = None,
+    teeth: TeethOpt = None,
 ) -> None:
     """P(stable) (the process) and P(label chatter) (what an operator will write) for each cut of CUTS."""
     from rich.console import Console
 
     from millstab.api.predict import predict
+    from millstab.api.update import for_condition
     from millstab.io import check_outputs, read_points, write_csv
 
     if cuts is None and db is not None:  # `predict --db X --campaign C cuts.csv`: the one argument is the cuts
@@ -36,6 +44,7 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
+    post = for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)

@@ -15,6 +15,9 @@ Schema (every quantity a number in SI or a string with units, parsed by
     # instead of entry/exit:
     # radial_immersion = 0.2     # a/D in (0, 1]; also "20 %"
     # milling = "down"           # "down" or "up"; required unless radial_immersion = 1
+    # diameter = "12 mm"         # optional: the tool diameter (a cuts file's radial_width_mm column needs it;
+    #                            # a [tool] table's diameter serves too)
+    # feed_per_tooth = "0.1 mm"  # optional: the feed per tooth of the cuts (simulate; the removal rate)
 
     [[structure.x]]              # one table per mode; a direction without modes is rigid
     fn = "903 Hz"                # also "0.903 kHz"; "5674 rad/s" = 903 Hz (÷2π), "54180 rpm" = 903 Hz (÷60)
@@ -83,7 +86,7 @@ PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails"
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
-CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling")
+CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "diameter", "feed_per_tooth")
 STRUCTURE_KEYS = ("x", "y", "frf")
 MODE_KEYS = ("fn", "k", "zeta")
 FRF_KEYS = ("xx", "yy", "xy", "yx")
@@ -327,13 +330,31 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
+    diameter, feed = _cutting_sizes(data["cutting"], data.get("tool"))
     if "tool" in data or "holder" in data:
         structure = _tool_structure(data, base_dir, files)
     else:
         structure = _structure(data["structure"], base_dir, files)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
-    return Config(cutting, structure, name_value, path, rpm, description, prior)
+    return Config(cutting, structure, name_value, path, rpm, description, prior, diameter, feed)
+
+
+def _cutting_sizes(t: Mapping[str, Any], tool: Any) -> tuple[float | None, float | None]:
+    """(tool diameter [m] or None, feed per tooth [m] or None) of ``[cutting]`` (a ``[tool]`` table's
+    diameter when ``[cutting]`` has none)."""
+    d = None
+    if "diameter" in t:
+        d = _tool_length(t, "diameter", "cutting")
+    elif isinstance(tool, Mapping) and "diameter" in tool:
+        d = _tool_length(tool, "diameter", "tool")
+    f = None
+    if "feed_per_tooth" in t:
+        f = parse_quantity(t["feed_per_tooth"], "cutting.feed_per_tooth", "length")
+        if not 0 < f <= 0.01:
+            raise InputError("cutting.feed_per_tooth", t["feed_per_tooth"],
+                             "a feed per tooth in (0, 10] mm, with its unit (e.g. \"0.1 mm\"; a plain number is m)")
+    return d, f
 
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
@@ -405,6 +426,10 @@ def config_to_toml(config: Config) -> str:
         lines.append(f"description = {_toml_str(config.description)}")
     lines += ["", "[cutting]", f"teeth = {c.teeth}", f'kt = "{_fmt(c.kt / 1e6)} MPa"', f"kr = {_fmt(c.kr)}",
               f'entry = "{_fmt(math.degrees(c.entry))} deg"', f'exit = "{_fmt(math.degrees(c.exit))} deg"']
+    if config.diameter_m is not None:
+        lines.append(f'diameter = "{_fmt(config.diameter_m * 1e3)} mm"')
+    if config.feed_per_tooth_m is not None:
+        lines.append(f'feed_per_tooth = "{_fmt(config.feed_per_tooth_m * 1e3)} mm"')
     for d in ("x", "y"):
         for m in getattr(config.structure, d):
             lines += ["", f"[[structure.{d}]]", f'fn = "{_fmt(m.fn)} Hz"', f'k = "{_fmt(m.k / 1e6)} N/um"',

@@ -154,6 +154,8 @@ class Recommendation:
     #: the data guard's chatter cuts near the recommendation's speed range (see :func:`data_guard`)
     guard: tuple[dict, ...] = ()
     test_risk: float | None = None
+    #: the cutting condition it is computed for (:func:`millstab.points.describe_condition`)
+    computed_for: dict | None = None
 
     def to_json(self) -> dict:
         out = {"schema": "millstab.recommendation/1", "rpm": self.rpm, "depth_mm": self.depth_mm,
@@ -161,7 +163,8 @@ class Recommendation:
                "relative_productivity_mm_rpm": self.productivity, "next_test": self.next_test,
                "p_chatter_speed_error": self.p_chatter_speed_error, "p_chatter_bound": self.p_chatter_bound,
                "effective_samples": self.effective_samples, "confidence": self.confidence,
-               "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard)}
+               "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard),
+               "computed_for": self.computed_for}
         if self.mrr_cm3_per_min is not None:
             out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
         return out
@@ -246,8 +249,8 @@ def data_guard(post: Posterior) -> list[dict]:
     """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
     a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
     one per guarding cut (cuts the posterior explains, and outweighed ones, are left out)."""
-    rpm, depth, grade, hz = _cut_grades(post.cuts or {})
-    ch = np.flatnonzero(grade > 0.5)
+    rpm, depth, grade, hz = _cut_grades(post.cuts_in_condition())  # per condition: a slot's chatter cut does not
+    ch = np.flatnonzero(grade > 0.5)  # bound a finishing pass (the model carries what it teaches)
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
@@ -389,16 +392,19 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
     nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
                    test_risk=test_risk, guard=guards, p_chatter_rec=p_worst)
+    from millstab.points import describe_condition
+
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited, p_worst, bound,
-                          n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk)
+                          n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk,
+                          describe_condition(post.condition))
 
 
 def blind_spot(post: Posterior, rpm_rec: float, depth_rec: float) -> str | None:
     """Why the next test must be the recommendation itself (the rule in the module docstring), or ``None``.
 
     Reads the posterior's labelled cuts in their order (the order they were cut)."""
-    rpm, depth, grade, _ = _cut_grades(post.cuts or {})
+    rpm, depth, grade, _ = _cut_grades(post.cuts_in_condition())
     k = BLIND_SPOT_CHATTERS
     if rpm.size < k:
         return None

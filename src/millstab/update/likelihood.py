@@ -56,7 +56,7 @@ from scipy.special import log_ndtr
 
 from millstab.errors import InputError
 from millstab.forward import forward
-from millstab.points import PointSet
+from millstab.points import PointSet, cut_conditions
 from millstab.stability import check_rpm, get_engine
 from millstab.update.prior import Prior
 from millstab.warnlog import warn
@@ -89,6 +89,36 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     else:
         depth, hz = fwd(theta, rpm), None
     return depth * 1e3 * factor[:, None], hz
+
+
+def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_cond: np.ndarray | None,
+                        conditions: tuple | None, engine: str = "zoa", with_freq: bool = False,
+                        client=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`limits` where speed column s is cut under ``conditions[column_cond[s]]`` (a
+    :class:`~millstab.model.Cutting` per distinct condition; Kt and Kr those of ``prior.cutting``, whose
+    free Kt scales every condition alike). ``conditions`` None: every column in ``prior.cutting``.
+
+    One batched engine call per distinct condition (a handful: the conditions a shop cut in), never per
+    cut or per sample; the ``cond`` branch's engines take a condition per column and make it one call.
+    """
+    from dataclasses import replace
+
+    if conditions is None or len(conditions) == 1 and column_cond is not None and not np.any(column_cond):
+        pr = prior if conditions is None else replace(prior, cutting=conditions[0])
+        return limits(pr, u, rpm, engine, with_freq, client)
+    rpm = np.asarray(rpm, dtype=float)
+    cc = np.asarray(column_cond, dtype=np.int64)
+    depth = np.empty((np.atleast_2d(u).shape[0], rpm.size))
+    hz = np.full_like(depth, np.nan) if with_freq else None
+    for k in np.unique(cc):
+        cols = np.flatnonzero(cc == k)
+        d, h = limits(replace(prior, cutting=conditions[k]), u, rpm[cols], engine, with_freq, client)
+        depth[:, cols] = d
+        if hz is not None and h is not None:
+            hz[:, cols] = h
+        elif h is None:
+            hz = None
+    return depth, hz
 
 
 def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_hz: np.ndarray) -> np.ndarray:
@@ -141,26 +171,68 @@ class Evidence:
     pt_weight: np.ndarray
     cut_grade: np.ndarray | None = None  # graded labels in [0, 1]; None: from cut_kind
     cut_batch: np.ndarray | None = None  # the test day of each cut ("" none); None: all ""
+    #: the distinct cutting conditions (:class:`~millstab.model.Cutting`); None: the prior's cutting for all
+    conditions: tuple | None = None
+    cut_cond: np.ndarray | None = None  # each cut's index into conditions; None: all 0
+    pt_cond: np.ndarray | None = None  # each boundary point's index into conditions; None: all 0
 
     def __post_init__(self):
+        for name, ref in (("cut_cond", self.cut_rpm), ("pt_cond", self.pt_rpm)):
+            v = getattr(self, name)
+            v = np.zeros(np.size(ref), dtype=np.int64) if v is None else np.asarray(v, dtype=np.int64)
+            n_c = 1 if self.conditions is None else len(self.conditions)
+            if v.shape != np.shape(ref) or (v.size and not ((v >= 0) & (v < n_c)).all()):
+                raise InputError(f"evidence.{name}", f"{v.size} values", f"one index in 0..{n_c - 1} per row")
+            object.__setattr__(self, name, v)
         if self.cut_grade is None:
             object.__setattr__(self, "cut_grade", _KIND_GRADE[np.asarray(self.cut_kind, dtype=np.int64)])
         if self.cut_batch is None:
             object.__setattr__(self, "cut_batch", np.full(np.size(self.cut_rpm), "", dtype=object))
 
     @classmethod
-    def from_points(cls, cuts: PointSet, points: PointSet | None = None) -> Evidence:
+    def from_points(cls, cuts: PointSet, points: PointSet | None = None, base_cutting=None,
+                    diameter_mm: float | None = None) -> Evidence:
         """Split a cuts file (labelled rows; unlabelled rows are boundary points) and an optional
         boundary-point file into evidence.
 
+        Per-cut conditions (the files' condition columns, :func:`millstab.points.cut_conditions`): with
+        ``base_cutting`` (the config's cutting, which fills empty cells; ``diameter_mm`` the tool diameter
+        for ``radial_width_mm``) the evidence holds ``conditions`` and each row's ``cut_cond``/``pt_cond``;
+        without condition columns they are ``None``/zeros (every row in the prior's cutting).
+
         Raises:
-            InputError: neither a stable nor a chatter cut, and no boundary point either.
+            InputError: neither a stable nor a chatter cut, and no boundary point either; condition
+                columns without ``base_cutting``; a bad condition (see :func:`millstab.points.condition_of`).
         Warns:
             UserWarning: every cut has the same label (the answer is valid but leans on the prior).
         """
         pts = [p for p in (cuts, points) if p is not None]
+        conditions, idx = None, [np.zeros(len(p), dtype=np.int64) for p in pts]
+        if any(p.has_conditions for p in pts):
+            if base_cutting is None:
+                raise InputError("cuts", "per-cut condition columns", "the config's cutting conditions (base_cutting) "
+                                                                      "fill their empty cells: pass them")
+            from millstab.points import same_condition
+
+            conds: list = []
+            idx = []
+            for p in pts:  # one list of distinct conditions over both files
+                cs, ix = cut_conditions(p, base_cutting, diameter_mm)
+                remap = []
+                for c in cs:
+                    j = next((k for k, o in enumerate(conds) if same_condition(o, c)), None)
+                    if j is None:
+                        conds.append(c)
+                        j = len(conds) - 1
+                    remap.append(j)
+                idx.append(np.asarray(remap, dtype=np.int64)[ix])
+            conditions = tuple(conds)
         labelled = cuts.label != ""
         c = cuts.subset(labelled)
+        c_cond = idx[0][labelled]
+        p_cond = np.concatenate([ix[p.boundary] for p, ix in zip(pts, idx)])
+        if points is not None:
+            c_cond = np.r_[c_cond, idx[1][~points.boundary]]
         b_rpm = np.concatenate([p.rpm[p.boundary] for p in pts])
         b_depth = np.concatenate([p.depth_mm[p.boundary] for p in pts])
         b_w = np.concatenate([p.weight[p.boundary] for p in pts])
@@ -182,7 +254,8 @@ class Evidence:
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
         grade = np.asarray(c.grade, dtype=float) if c.grade is not None else None
         batch = np.asarray(c.batch, dtype=object) if c.batch is not None else None
-        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch)
+        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch, conditions,
+                   c_cond, p_cond)
 
     @property
     def n_cuts(self) -> int:
@@ -205,9 +278,13 @@ class Likelihood:
         get_engine(engine)  # a clear error for an unknown name
         self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
-        self.speeds = ev.speeds
-        self._ic = np.searchsorted(self.speeds, ev.cut_rpm)
-        self._ip = np.searchsorted(self.speeds, ev.pt_rpm)
+        # the engine's columns: the distinct (condition, speed) pairs (one condition: the sorted speeds)
+        pairs, inv = np.unique(np.c_[np.r_[ev.cut_cond, ev.pt_cond], np.r_[ev.cut_rpm, ev.pt_rpm]], axis=0,
+                               return_inverse=True)
+        inv = np.asarray(inv).ravel()
+        self.speeds = pairs[:, 1] if pairs.size else np.zeros(0)
+        self.column_cond = pairs[:, 0].astype(np.int64) if pairs.size else np.zeros(0, dtype=np.int64)
+        self._ic, self._ip = inv[:ev.n_cuts], inv[ev.n_cuts:]
         self._sig_c = prior.sigma_depth_mm(ev.cut_depth_mm)
         self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
         hz = np.isfinite(ev.cut_hz)
@@ -216,7 +293,9 @@ class Likelihood:
                  f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
             hz = np.zeros_like(hz)
         self._hz = np.flatnonzero(hz)
-        self._tooth_hz = prior.cutting.teeth * ev.cut_rpm / 60.0
+        teeth = (np.full(ev.n_cuts, prior.cutting.teeth) if ev.conditions is None
+                 else np.array([c.teeth for c in ev.conditions])[ev.cut_cond])
+        self._tooth_hz = teeth * ev.cut_rpm / 60.0
         self.n_calls = 0
         self.n_sets = 0
 
@@ -237,7 +316,8 @@ class Likelihood:
         depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
         if ok.any():
-            d, h = limits(self.prior, u[ok], self.speeds, self.engine, self.uses_frequency, self.client)
+            d, h = limits_by_condition(self.prior, u[ok], self.speeds, self.column_cond, self.evidence.conditions,
+                                       self.engine, self.uses_frequency, self.client)
             self.n_calls += 1
             self.n_sets += d.shape[0]
             depth[ok] = d
@@ -296,4 +376,4 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "cut_loglik", "frequency_distance", "limits"]
+__all__ = ["Evidence", "Likelihood", "cut_loglik", "frequency_distance", "limits", "limits_by_condition"]

@@ -19,13 +19,17 @@ import numpy as np
 from scipy.special import ndtr
 
 from millstab.errors import InputError
-from millstab.update.likelihood import limits
+from millstab.update.likelihood import limits_by_condition
 from millstab.update.posterior import Posterior
 
 
-def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray]:
+def predict_cuts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None,
+                 cond_index=None) -> tuple[np.ndarray, np.ndarray]:
     """``(p_stable, p_label_chatter)`` (n,) for n cuts at ``rpm`` (n,) [rev/min] and ``depth_mm`` (n,) [mm],
-    in the input order; one engine call for every distinct speed.
+    in the input order; one engine call for every distinct speed (per distinct condition).
+
+    ``conditions`` (a :class:`~millstab.model.Cutting` per distinct condition) and ``cond_index`` (n,) give
+    each cut's own condition; ``None``: every cut in ``post.condition``.
 
     ``p_stable``: the fraction of posterior samples whose limiting depth lies above the cut's depth.
     ``p_label_chatter``: P(the written label says chatter), the mean over the samples of
@@ -46,9 +50,13 @@ def predict_cuts(post: Posterior, rpm, depth_mm) -> tuple[np.ndarray, np.ndarray
             raise InputError(f"cuts.{name}[{i}]", float(a[i]), f"must be a finite number > 0 {unit}")
     if r.size == 0:
         return np.zeros(0), np.zeros(0)
-    speeds, idx = np.unique(r, return_inverse=True)
-    blim, _ = limits(post.prior, post.u, speeds, post.engine)
-    blim = blim[:, idx]  # (N, n)
+    ci = np.zeros(r.size, dtype=np.int64) if cond_index is None else np.asarray(cond_index, dtype=np.int64)
+    if ci.shape != r.shape:
+        raise InputError("cuts", f"{ci.size} condition indices", f"need one per cut ({r.size})")
+    pairs, idx = np.unique(np.c_[ci, r], axis=0, return_inverse=True)
+    blim, _ = limits_by_condition(post.prior, post.u, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions,
+                                  post.engine)
+    blim = blim[:, np.asarray(idx).ravel()]  # (N, n)
     p_stable = (blim > d[None, :]).mean(axis=0)
     eps, fac = post.label_error[:, None], post.sigma_depth_factor[:, None]
     sig = post.prior.sigma_depth_mm(d)[None, :] * fac

@@ -23,7 +23,8 @@ class Prediction:
             model: :func:`millstab.update.predict.predict_cuts`).
         warnings: the posterior's own warnings (a prior-data conflict among them).
         condition: (n,) str, the cutting condition each prediction is computed for ("a/D 0.25 up milling,
-            4 teeth"): the cut's own condition columns, else the posterior's (target) condition.
+            4 teeth"): the cut's own condition columns, else the posterior's (target) condition; ``None``
+            when every cut is in the one condition the posterior was trained in (the table has no column).
     """
 
     cuts: PointSet
@@ -72,11 +73,14 @@ def predict(post, cuts: PointSet) -> Prediction:
 
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), "the prediction", stacklevel=3)
-    from millstab.points import condition_text, cut_conditions
+    from millstab.points import condition_text, cut_conditions, same_condition
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
     ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx)
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
+    one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)
+    if one and not cuts.has_conditions:  # the posterior's one condition throughout: the table as ever
+        text = None
     return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text)
 
 

@@ -20,8 +20,8 @@ def predict_cmd(
                                               "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
-    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter,condition, in the "
-                                                "input order (a row's condition columns override the target)."),
+    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order "
+                                                "(and condition where the cuts' conditions differ)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
@@ -35,7 +35,7 @@ def predict_cmd(
     from rich.console import Console
 
     from millstab.api.predict import predict
-    from millstab.api.update import for_condition
+    from millstab.api.update import condition_line, for_condition
     from millstab.io import check_outputs, read_points, write_csv
 
     if cuts is None and db is not None:  # `predict --db X --campaign C cuts.csv`: the one argument is the cuts
@@ -52,6 +52,8 @@ def predict_cmd(
     con = Console()
     for w in pred.warnings:
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")
+    con.print(condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
+                                                                   "'condition' column")
     con.print(f"{len(c)} cuts: P(stable) {pred.p_stable.min():.3f}-{pred.p_stable.max():.3f}" if len(c) else "no cuts")
     s = pred.scores()
     if s is not None:

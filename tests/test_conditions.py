@@ -261,3 +261,35 @@ def test_simulate_labels_each_cut_in_its_own_condition_and_noise_does_not_depend
     assert zoa.envelope(CFG.structure, SLOT, [8000.0]).depth_mm[0] < 6.0
     header, cols = api.labels_table(lab, cuts)
     assert header[-3:] == ["radial_immersion", "milling", "feed_per_tooth_mm"] and cols[-2][1] == "up"
+
+
+def test_the_next_test_moves_to_another_condition_only_when_it_teaches_more_per_test():
+    """next_test_across against a dense NumPy recomputation of the label information in the slot (the one
+    other condition of a slot-trained posterior deciding at a/D 0.3 up): I = H(E π) − E H(π), π the label
+    probability of each sample's limit (zero-order sweep per sample, a plain loop here)."""
+    from scipy.stats import norm
+
+    from millstab.update.decide import NEXT_TEST_SAMPLES, next_test_across
+
+    post = _posterior_of_draws(120)
+    assert post.samples.shape[0] < NEXT_TEST_SAMPLES  # every sample is used: the recomputation sees the same ones
+    tgt = post.for_condition(Cutting.from_immersion(2, SLOT.kt, SLOT.kr, 0.3, "up"))
+    own = {"rpm": 6000.0, "depth_mm": 1.0, "information_nats": 0.0, "why": "own"}
+    got = next_test_across(tgt, own, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20)
+    speeds = np.linspace(5000, 9000, 15)
+    lim = np.array([zoa.envelope(post.prior.par.structure(t), SLOT, speeds).depth_mm for t in post.samples])
+    depths = np.linspace(1.2 * np.quantile(lim, 0.95) / 20, 1.2 * np.quantile(lim, 0.95), 20)
+    eps, sig = post.label_error[:, None, None], post.prior.sigma_depth_mm(depths)[None, None, :]
+    pi = eps + (1 - 2 * eps) * norm.cdf((depths[None, None, :] - lim[:, :, None]) / sig)
+
+    def h(p):
+        p = np.clip(p, 1e-12, 1 - 1e-12)
+        return -(p * np.log(p) + (1 - p) * np.log(1 - p))
+
+    info = h(pi.mean(axis=0)) - h(pi).mean(axis=0)
+    i, j = np.unravel_index(np.argmax(info), info.shape)
+    assert got["condition"]["milling"] == "slot" and "another condition (slot, 2 teeth)" in got["why"]
+    assert got["information_nats"] == pytest.approx(info[i, j], rel=1e-6)
+    assert (got["rpm"], got["depth_mm"]) == (pytest.approx(speeds[i]), pytest.approx(depths[j]))
+    rich = dict(own, information_nats=10.0)  # more than any binary label can carry (ln 2): stays in its condition
+    assert next_test_across(tgt, rich, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is rich

@@ -73,10 +73,15 @@ def cond(teeth: int, ri: float, milling: str) -> Cutting:
     return Cutting.from_immersion(teeth, KT, KR, ri, milling)
 
 
+TRUTH_ENGINE = "sdm"
+
+
 def true_limit(struct: Structure, cutting: Cutting, rpm: np.ndarray, steps: int) -> np.ndarray:
-    """The true limiting depth [mm] at each speed: SDM of the true structure (one envelope call)."""
-    sdm = get_engine("sdm")
-    return sdm.envelope(struct, cutting, np.asarray(rpm, float), steps=steps).depth_mm
+    """The true limiting depth [mm] at each speed: SDM of the true structure (one envelope call); with
+    ``--truth-engine zoa`` the fitted model's own engine (a control: no model error)."""
+    eng = get_engine(TRUTH_ENGINE)
+    kw = {"steps": steps} if TRUTH_ENGINE == "sdm" else {}
+    return eng.envelope(struct, cutting, np.asarray(rpm, float), **kw).depth_mm
 
 
 def cuts_file(rpm, depth, label, conds: list[tuple[float, str]], teeth_idx=None) -> PointSet:
@@ -198,10 +203,13 @@ def main() -> None:
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--engine", default="zoa")
+    ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")
     ap.add_argument("--cost", action="store_true", help="only the cost ratio of 4 conditions vs 1")
     args = ap.parse_args()
+    global TRUTH_ENGINE
+    TRUTH_ENGINE = args.truth_engine
     print(describe())
     print(f"load average: {os.getloadavg()[0]:.1f}")
     with threadpool_limits(1):
@@ -210,14 +218,14 @@ def main() -> None:
             return
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
-              f"cuts per condition; labels: sdm truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "
+              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "
               f"{args.engine}, {args.samples} samples")
         allrows = []
         ms = machines()
         for i, name in enumerate(args.machines.split(",")):
             hammer, truth, teeth = ms[name]
             rows, cpu = run_machine(name, hammer, truth, teeth, args, np.random.default_rng(args.seed + 100 * i))
-            print(f"\n{name} ({teeth} teeth; 3 updates {cpu:.0f} s CPU)")
+            print(f"\n{name} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
             for key, bj, bh, bp, own, ok, dep, tl in rows:
                 txt = condition_text(cond(teeth, *key)).split(",")[0]

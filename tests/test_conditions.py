@@ -293,3 +293,28 @@ def test_the_next_test_moves_to_another_condition_only_when_it_teaches_more_per_
     assert (got["rpm"], got["depth_mm"]) == (pytest.approx(speeds[i]), pytest.approx(depths[j]))
     rich = dict(own, information_nats=10.0)  # more than any binary label can carry (ln 2): stays in its condition
     assert next_test_across(tgt, rich, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is rich
+
+
+def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
+    """The Update tab's target a/D and milling reach the decision (the work run in this thread) and the page
+    says which condition; a bad a/D is one line on the tab, no work started."""
+    pytest.importorskip("panel")
+    from millstab.web.state import Session
+    from millstab.web.update_tab import UpdateTab
+
+    s = Session()
+    try:
+        tab = UpdateTab(s)
+        s.cfg, s.post = CFG, _posterior_of_draws(200)
+        ran = []
+        tab.map_job.start = lambda work, done: (ran.append(1), done(work(None), []))
+        tab.target_ri.value, tab.target_milling.value = 0.25, "up"
+        tab.map()
+        assert ran and "computed for a/D 0.25 up milling, 2 teeth" in tab.rec.text
+        assert s.rec.computed_for["milling"] == "up"
+        tab.target_milling.value = "config's"  # a/D 0.25 on a slot config: no direction to take
+        ran.clear()
+        tab.map()
+        assert not ran and "milling" in tab.map_job.status.text
+    finally:
+        s.close()

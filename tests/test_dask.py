@@ -277,3 +277,29 @@ def test_zoa_likelihood_stays_in_this_process(client):
     d0, h0 = limits(prior, u, rpm, "zoa", True)
     np.testing.assert_array_equal(depth, d0)
     np.testing.assert_array_equal(hz, h0)
+
+
+@needs_distributed
+@pytest.mark.slow
+def test_mixed_conditions_and_free_kr_on_cluster_give_the_local_limits(client):
+    """Per-column conditions and a Kr per sample travel with the tasks: the forced cluster sweep is the local one."""
+    from millstab import cluster
+    from millstab.config import PriorTable
+    from millstab.model import Conditions, Cutting
+    from millstab.update import make_prior
+    from millstab.update.likelihood import limits
+
+    c = CFG.cutting
+    prior = make_prior(CFG.structure, c, PriorTable(spreads={"kr": 0.2}))
+    cond = Conditions.of([c, Cutting.from_immersion(c.teeth, c.kt, c.kr, 0.3, "up")], [0, 1, 1, 0])
+    u = prior.sample(200, np.random.default_rng(0))
+    rpm = np.array([5000.0, 5000.0, 9000.0, 9000.0])
+    old = cluster.PAYS_SECONDS
+    try:
+        cluster.PAYS_SECONDS = 0.0
+        depth, hz = cluster.sample_limits(client, prior, u, rpm, "zoa", True, cond)
+    finally:
+        cluster.PAYS_SECONDS = old
+    d0, h0 = limits(prior, u, rpm, "zoa", True, conditions=cond)
+    np.testing.assert_array_equal(depth, d0)
+    np.testing.assert_array_equal(hz, h0)

@@ -17,7 +17,7 @@ import millstab.stability as stab
 from millstab.cli import main
 from millstab.errors import InputError
 from millstab.frf import ModalBatch
-from millstab.model import Cutting, MeasuredFRF, Mode, Structure
+from millstab.model import Conditions, Cutting, MeasuredFRF, Mode, Structure
 from millstab.stability import ENGINES, get_engine, zoa
 
 #: relative tolerance per engine: zoa root-finds to machine level; the time-domain engines bracket the
@@ -140,8 +140,42 @@ def check_chatter_frequency(eng, rtol: float) -> None:
     assert np.all((hz > 0.8 * FN) & (hz < 1.3 * 1100.0))
 
 
+#: three conditions of one call: four-tooth slotting, three-tooth half-immersion down milling, four-tooth
+#: 25 % up milling; 9 500 rpm appears under two of them (two columns)
+MIXED = Conditions.of((SLOT4, HALF3, Cutting.from_immersion(4, KT, KR, 0.25, "up")), [0, 1, 2, 1, 0, 2, 1])
+MIXED_RPM = np.array([7000.0, 9500.0, 13000.0, 17500.0, 9500.0, 8000.0, 11000.0])
+
+
+def check_conditions(eng, rtol: float) -> None:
+    """Per-column conditions: a mixed call equals the single-condition calls column for column (the zero-order
+    engine bit for bit: the grid it shares reaches 4·f_n,max, above every tooth-passing frequency here), and
+    permuting the columns (with their conditions) permutes the result; a wrong count of conditions is refused."""
+    other = Structure(x=(Mode(800.0, 2 * K, 0.03),), y=(Mode(1300.0, K, 0.015),))
+    batch = ModalBatch.from_structures([TWO_DOF, other])
+    mixed = eng.envelope_batch(batch, MIXED, MIXED_RPM)
+    assert mixed.shape == (2, MIXED_RPM.size)
+    for cut, cols in MIXED.groups():
+        single = eng.envelope_batch(batch, cut, MIXED_RPM[cols])
+        if rtol <= 1e-9:
+            np.testing.assert_array_equal(mixed[:, cols], single)
+        else:
+            np.testing.assert_allclose(mixed[:, cols], single, rtol=rtol)
+    assert mixed[0, 1] != mixed[0, 4]  # one speed, two conditions: two different limits
+    perm = np.array([3, 6, 0, 4, 2, 5, 1])
+    np.testing.assert_allclose(eng.envelope_batch(batch, MIXED.subset(perm), MIXED_RPM[perm]), mixed[:, perm],
+                               rtol=rtol)
+    if eng.reports_chatter_frequency:
+        depth, hz = eng.envelope_batch_hz(batch, MIXED, MIXED_RPM)
+        np.testing.assert_allclose(depth, mixed, rtol=1e-12)
+        for cut, cols in MIXED.groups():
+            np.testing.assert_allclose(hz[:, cols], eng.envelope_batch_hz(batch, cut, MIXED_RPM[cols])[1], rtol=rtol)
+    with pytest.raises(InputError, match="conditions"):
+        eng.envelope_batch(batch, MIXED, MIXED_RPM[:-1])
+
+
 CHECKS = {"closed_form": check_closed_form, "scaling": check_scaling, "batch": check_batch_equals_single,
-          "speed_order": check_speed_order, "chatter_frequency": check_chatter_frequency}
+          "speed_order": check_speed_order, "chatter_frequency": check_chatter_frequency,
+          "conditions": check_conditions}
 
 
 # --- every registered engine ------------------------------------------------------------------------
@@ -210,7 +244,8 @@ def _dummy_module() -> types.ModuleType:
         return stab.Envelope(e.rpm, SCALE * e.depth, e.lobe, e.chatter_hz)
 
     m.envelope = envelope
-    m.envelope_batch = lambda batch, cutting, rpm: SCALE * zoa.envelope_batch(batch, cutting, rpm)
+    # written for one Cutting; by_condition makes it take per-column Conditions (the plug-in's one line)
+    m.envelope_batch = stab.by_condition(lambda batch, cutting, rpm: SCALE * zoa.envelope_batch(batch, cutting, rpm))
     return m
 
 

@@ -142,7 +142,7 @@ def test_prior_defaults_and_table():
 
 
 @pytest.mark.parametrize("table, field", [('fn = "0 %"', "prior.fn"), ("k_x = -0.1", "prior.k_x"),
-                                          ('sigma_depth = 0.05', "prior.sigma_depth"), ("kr = 0.1", "prior.kr"),
+                                          ('sigma_depth = 0.05', "prior.sigma_depth"),
                                           ("fn_z = 0.1", "prior.fn_z"), ('fixed = ["fn_q"]', "prior.fixed")])
 def test_bad_prior_tables_are_named(table, field):
     with pytest.raises(InputError) as info:

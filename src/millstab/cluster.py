@@ -409,25 +409,30 @@ def seconds_per_row(client: Any, engine: str, par, cutting, rpm: np.ndarray) -> 
     return _probed[key]
 
 
-def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings: dict, u: np.ndarray):
+def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings: dict, u: np.ndarray,
+                  conditions=None):
     """On a worker: what :func:`millstab.update.likelihood.limits` computes for the sample rows ``u``
-    (depths [mm] with a free Kt's exact factor; chatter frequencies [Hz] or None) under the whole
-    batch's ``settings``, numba on one thread."""
+    (depths [mm] with a free Kt's exact factor, a free Kr per row; chatter frequencies [Hz] or None) under
+    the whole batch's ``settings`` and the columns' ``conditions`` (None: the prior's cutting), numba on
+    one thread."""
     from millstab.stability import get_engine
 
     one_thread()
     theta, factor = prior.split(u)
+    kr = prior.kr_of(u)
+    extra = {} if kr is None else {"kr": kr}
+    cut = prior.cutting if conditions is None else conditions
     eng = get_engine(engine)
     batch = prior.par.batch(theta)
     if with_freq and eng.reports_chatter_frequency:
-        depth, hz = eng.envelope_batch_hz(batch, prior.cutting, rpm, **settings)
+        depth, hz = eng.envelope_batch_hz(batch, cut, rpm, **settings, **extra)
     else:
-        depth, hz = eng.envelope_batch(batch, prior.cutting, rpm, **settings), None
+        depth, hz = eng.envelope_batch(batch, cut, rpm, **settings, **extra), None
     return depth * 1e3 * factor[:, None], hz
 
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
-                  with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None] | None:
+                  with_freq: bool = False, conditions=None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
@@ -457,7 +462,8 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
                 hz[0] = np.empty((n, rpm.size))
             hz[0][s:s + h.shape[0]] = h
 
-    settings = split_settings(engine, prior.par, prior.cutting, prior.split(u)[0], rpm)
-    stream(client, _samples_task, [(u[s:s + per],) for s in starts], take,
+    cut = prior.cutting if conditions is None else conditions
+    settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm)
+    stream(client, _samples_task, [(u[s:s + per], conditions) for s in starts], take,
            common=(prior, rpm, engine, with_freq, settings), name="samples")
     return depth, hz[0]

@@ -2,7 +2,9 @@
 
 :func:`forward` binds a parameterization, the cutting conditions and an engine into a frozen callable
 ``f(θ[B, P], rpm[S]) → depth[B, S]`` [m]: ONE batched engine call (``envelope_batch``; the engine
-chunks the rows itself). Every consumer (identification, design, synthetic data, sensitivity,
+chunks the rows itself). ``f(θ, rpm, conditions)`` evaluates each speed column under its own
+condition (:class:`millstab.model.Conditions`, default the bound cutting for every column), still in
+ONE engine call. Every consumer (identification, design, synthetic data, sensitivity,
 updating, the callers of the plots) evaluates SLDs through it.
 
 :func:`log_jacobian` differentiates ``ln b`` with respect to ``ln θ`` (optionally also ``ln Ω``) by
@@ -19,7 +21,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from millstab.model import Cutting
+from millstab.model import Conditions, Cutting
 from millstab.params import Parameterization
 from millstab.stability import get_engine
 
@@ -44,57 +46,81 @@ class Forward:
         # resolve (and validate) the engine name once, not per call
         object.__setattr__(self, "_engine_mod", get_engine(self.engine))
 
-    def __call__(self, theta: np.ndarray, rpm: np.ndarray) -> np.ndarray:
-        """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call."""
+    def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
+                 kr: np.ndarray | None = None) -> np.ndarray:
+        """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call.
+
+        ``conditions``: the condition of each speed column (``None``: the bound cutting for all); ``kr``: a
+        Kr per row (B,) overriding the conditions' (engines with the ``per_set_kr`` capability only)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         r = np.asarray(rpm, dtype=float)
-        return self._engine_mod.envelope_batch(self.par.batch(t), self.cutting, r, **self.settings(r, t[0]))
+        cut = self.cutting if conditions is None else conditions
+        extra = {} if kr is None else {"kr": kr}
+        return self._engine_mod.envelope_batch(self.par.batch(t), cut, r, **self.settings(r, t[0], conditions),
+                                               **extra)
 
-    def settings(self, rpm: np.ndarray, theta: np.ndarray | None = None) -> dict:
-        """The engine's discretisation at speeds rpm [rev/min] (keywords of ``envelope_batch``): chosen
-        once per speed list, at the first row of the first call (``theta`` (P,), default the start θ0;
-        in a fit, the start), so every call of one problem evaluates the same smooth function and a
-        single call is evaluated as the engine alone would; ``{}`` for an engine without ``settings``."""
+    def _key(self, r: np.ndarray, conditions) -> bytes:
+        """The settings-cache key of (speeds, conditions)."""
+        if conditions is None or (isinstance(conditions, Cutting) and conditions == self.cutting):
+            return r.tobytes()
+        if isinstance(conditions, Cutting):
+            return r.tobytes() + repr(conditions).encode()
+        return r.tobytes() + conditions.key()
+
+    def settings(self, rpm: np.ndarray, theta: np.ndarray | None = None,
+                 conditions: Conditions | Cutting | None = None) -> dict:
+        """The engine's discretisation at speeds rpm [rev/min] under ``conditions`` (default the bound cutting)
+        (keywords of ``envelope_batch``): chosen once per (speed list, conditions), at the first row of the
+        first call (``theta`` (P,), default the start θ0; in a fit, the start), so every call of one problem
+        evaluates the same smooth function and a single call is evaluated as the engine alone would; ``{}``
+        for an engine without ``settings``."""
         choose = getattr(self._engine_mod, "settings", None)
         if choose is None:
             return {}
         r = np.asarray(rpm, dtype=float)
-        key = r.tobytes()
+        key = self._key(r, conditions)
         if key not in self._settings:
             if len(self._settings) >= SETTINGS_CACHE:  # bounded: a caller sweeping speed lists
                 self._settings.pop(next(iter(self._settings)))
             row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
-            self._settings[key] = dict(choose(self.par.batch(row[None]), self.cutting, r))
+            cut = self.cutting if conditions is None else conditions
+            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r))
         return self._settings[key]
 
-    def refine(self, theta: np.ndarray, rpm: np.ndarray) -> bool:
+    def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
         """Re-check the discretisation at the parameter row ``theta`` (P,) [SI] (e.g. a fitted solution):
-        where the engine chooses other settings there, they replace the chosen ones for these speeds.
-        Returns whether they changed (the caller then evaluates again, e.g. polishes the fit)."""
+        where the engine chooses other settings there, they replace the chosen ones for these speeds (and
+        conditions). Returns whether they changed (the caller then evaluates again, e.g. polishes the fit)."""
         choose = getattr(self._engine_mod, "settings", None)
         if choose is None:
             return False
         r = np.asarray(rpm, dtype=float)
-        old = self.settings(r)
-        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), self.cutting, r))
-        self._settings[r.tobytes()] = new
+        old = self.settings(r, None, conditions)
+        cut = self.cutting if conditions is None else conditions
+        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r))
+        self._settings[self._key(r, conditions)] = new
         return new != old
 
-    def pinned(self, rpm: np.ndarray, theta_rows: np.ndarray | None = None) -> Pinned:
+    def pinned(self, rpm: np.ndarray, theta_rows: np.ndarray | None = None,
+               conditions: Conditions | Cutting | None = None) -> Pinned:
         """This model at the speeds ``rpm`` (S,) [rev/min] with the engine's discretisation fixed now for a
         whole problem whose parameter rows are (or are bounded by) ``theta_rows`` (R, P) [SI] (default the
         start θ0): an engine with ``settings`` (spectral) chooses it at the first row, as :meth:`settings`;
         one with ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows;
         ``{}`` otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in
-        any chunks, here or on a cluster, then gives the numbers of ONE call on all of them."""
+        any chunks, here or on a cluster, then gives the numbers of ONE call on all of them. ``conditions``:
+        the condition of each speed column (default the bound cutting for all)."""
         r = np.asarray(rpm, dtype=float)
         rows = np.atleast_2d(np.asarray(self.par.theta0 if theta_rows is None else theta_rows, dtype=float))
+        cut = self.cutting if conditions is None else conditions
+        if isinstance(cut, Conditions):
+            cut.check_columns(r.size)
         if getattr(self._engine_mod, "settings", None) is not None:
-            chosen = self.settings(r, rows[0])
+            chosen = self.settings(r, rows[0], conditions)
         else:
             split = getattr(self._engine_mod, "split_settings", None)
-            chosen = dict(split(self.par.batch(rows), self.cutting, r)) if split is not None else {}
-        return Pinned(self, r, chosen)
+            chosen = dict(split(self.par.batch(rows), cut, r)) if split is not None else {}
+        return Pinned(self, r, chosen, cut)
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,19 +131,23 @@ class Pinned:
     forward: Forward
     rpm: np.ndarray
     settings: MappingProxyType
+    #: the condition of each speed column (None: the forward model's cutting for all)
+    conditions: Conditions | Cutting | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "rpm", np.asarray(self.rpm, dtype=float))
         object.__setattr__(self, "settings", MappingProxyType(dict(self.settings)))
+        if self.conditions is None:
+            object.__setattr__(self, "conditions", self.forward.cutting)
 
     def __reduce__(self):  # a read-only mapping does not pickle; a Dask task gets a copy
-        return Pinned, (self.forward, self.rpm, dict(self.settings))
+        return Pinned, (self.forward, self.rpm, dict(self.settings), self.conditions)
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
-        return f._engine_mod.envelope_batch(f.par.batch(t), f.cutting, self.rpm, **self.settings)
+        return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
@@ -129,7 +159,8 @@ class Pinned:
         if client is not None:
             from millstab import cluster
 
-            return cluster.depths(client, f.engine, f.par, f.cutting, rows, self.rpm, progress, chunk_rows,
+            # the engines take Conditions where a Cutting goes, so the cluster's tasks need no other argument
+            return cluster.depths(client, f.engine, f.par, self.conditions, rows, self.rpm, progress, chunk_rows,
                                   settings=dict(self.settings))
         per = int(chunk_rows or f._engine_mod.chunk_rows(self.rpm.size))
         out = np.empty((rows.shape[0], self.rpm.size))

@@ -305,3 +305,136 @@ class Cutting:
     def scaled_kt(self, factor: float) -> Cutting:
         """A copy with Kt multiplied by ``factor``."""
         return Cutting(self.teeth, self.kt * factor, self.kr, self.entry, self.exit)
+
+
+def condition_index(index, n_conditions: int, field: str = "conditions.index") -> np.ndarray:
+    """``index`` as a 1-D int64 array of indices into ``n_conditions`` conditions (integral floats
+    accepted); InputError naming ``field`` for anything else."""
+    idx = np.asarray(index)
+    if idx.ndim != 1:
+        raise InputError(field, index, "a 1-D list of condition indices")
+    if idx.size and idx.dtype.kind not in "iu":
+        if idx.dtype.kind == "f" and np.all(np.isfinite(idx)) and np.all(idx == np.round(idx)):
+            idx = idx.astype(np.int64)
+        else:
+            raise InputError(field, index, "condition indices must be integers")
+    idx = idx.astype(np.int64)
+    bad = (idx < 0) | (idx >= n_conditions)
+    if bad.any():
+        raise InputError(field, int(idx[bad][0]), f"an index into the {n_conditions} cutting conditions "
+                                                  f"(0..{n_conditions - 1})")
+    return idx
+
+
+@dataclass(frozen=True, eq=False)
+class Conditions:
+    """The cutting condition of each speed column of one engine call: column s is cut under
+    ``cuttings[index[s]]``.
+
+    A shop's test cuts come at several widths, directions and tools, and one set of modal parameters
+    must explain them all; the engines evaluate every (speed, condition) column in ONE call
+    (:mod:`millstab.stability.base`). The same speed under two conditions is two columns. Build with
+    :meth:`of`; a plain :class:`Cutting` stays accepted everywhere (one condition for all columns).
+
+    Attributes:
+        cuttings: the distinct conditions (C,), each a validated :class:`Cutting`.
+        index: the condition of each column (S,), int in [0, C).
+    Properties ``teeth`` (S,) int, ``kt`` (S,) [N/m²], ``kr`` (S,), ``entry``/``exit`` (S,) [rad]: per column.
+    """
+
+    cuttings: tuple[Cutting, ...]
+    index: np.ndarray
+
+    @classmethod
+    def of(cls, cuttings, index=None) -> Conditions:
+        """Conditions from a sequence of :class:`Cutting` (or one) and the condition index per column
+        (default: one column per cutting, in order)."""
+        cs = (cuttings,) if isinstance(cuttings, Cutting) else tuple(cuttings)
+        if not cs:
+            raise InputError("conditions", "no cutting condition", "give at least one Cutting")
+        for i, c in enumerate(cs):
+            if not isinstance(c, Cutting):
+                raise InputError(f"conditions[{i}]", c, "each condition must be a Cutting")
+        idx = np.arange(len(cs)) if index is None else condition_index(index, len(cs))
+        if idx.size == 0:
+            raise InputError("conditions.index", index, "one condition index per speed column (a non-empty 1-D list)")
+        idx.setflags(write=False)
+        return cls(cs, idx)
+
+    @classmethod
+    def coerce(cls, cutting: Cutting | Conditions, n_columns: int) -> Conditions:
+        """``cutting`` as conditions of ``n_columns`` columns (a plain Cutting: the same for every column);
+        InputError when a Conditions has another number of columns."""
+        if isinstance(cutting, Conditions):
+            cutting.check_columns(n_columns)
+            return cutting
+        if not isinstance(cutting, Cutting):
+            raise InputError("cutting", cutting, "a Cutting or a Conditions (one condition per speed column)")
+        return cls.of((cutting,), np.zeros(int(n_columns), dtype=np.int64))
+
+    def __len__(self) -> int:
+        return int(self.index.size)
+
+    def check_columns(self, n_columns: int) -> None:
+        """InputError unless there is one condition per column of ``n_columns`` speeds."""
+        if self.index.size != n_columns:
+            raise InputError("conditions", f"{self.index.size} conditions",
+                             f"one condition per speed column ({n_columns} speeds)")
+
+    def _column(self, attr: str, dtype=float) -> np.ndarray:
+        return np.array([getattr(c, attr) for c in self.cuttings], dtype=dtype)[self.index]
+
+    @property
+    def teeth(self) -> np.ndarray:
+        return self._column("teeth", np.int64)
+
+    @property
+    def kt(self) -> np.ndarray:
+        return self._column("kt")
+
+    @property
+    def kr(self) -> np.ndarray:
+        return self._column("kr")
+
+    @property
+    def entry(self) -> np.ndarray:
+        return self._column("entry")
+
+    @property
+    def exit(self) -> np.ndarray:
+        return self._column("exit")
+
+    def unique(self) -> tuple[tuple[Cutting, ...], np.ndarray]:
+        """(the distinct conditions used, in order of first use, and each column's index into them (S,)):
+        equal :class:`Cutting` values given twice are one condition."""
+        distinct: dict[Cutting, int] = {}
+        remap = np.empty(len(self.cuttings), dtype=np.int64)
+        for i, c in enumerate(self.cuttings):
+            remap[i] = distinct.setdefault(c, len(distinct))
+        used, inverse = np.unique(remap[self.index], return_inverse=True)
+        order = list(distinct)
+        return tuple(order[u] for u in used), inverse.astype(np.int64).ravel()
+
+    def groups(self) -> list[tuple[Cutting, np.ndarray]]:
+        """(condition, its columns (ascending indices)) for each distinct condition used."""
+        cuts, inverse = self.unique()
+        return [(c, np.flatnonzero(inverse == g)) for g, c in enumerate(cuts)]
+
+    def subset(self, columns) -> Conditions:
+        """The conditions of the selected columns (an index array or boolean mask)."""
+        return Conditions.of(self.cuttings, self.index[np.asarray(columns)])
+
+    def with_kt(self, factor: float) -> Conditions:
+        """A copy with every condition's Kt multiplied by ``factor``."""
+        return Conditions.of(tuple(c.scaled_kt(factor) for c in self.cuttings), self.index)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Conditions) and self.cuttings == other.cuttings
+                and np.array_equal(self.index, other.index))
+
+    def __hash__(self) -> int:
+        return hash((self.cuttings, self.index.tobytes()))
+
+    def key(self) -> bytes:
+        """A hashable summary (a settings-cache key): the conditions and the index."""
+        return repr(self.cuttings).encode() + self.index.tobytes()

@@ -18,8 +18,8 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from millstab.errors import InputError
-from millstab.stability.base import (Engine, Envelope, check_rpm, directional_matrix,  # noqa: F401  (the contract)
-                                     missing_attributes)
+from millstab.stability.base import (Engine, Envelope, by_condition, check_rpm,  # noqa: F401  (the contract)
+                                     directional_matrix, missing_attributes, per_set_kr)
 
 #: name → engine object, or the module path of a built-in engine not imported yet
 _REGISTRY: dict[str, object] = {}
@@ -98,4 +98,4 @@ register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "check_rpm", "directional_matrix", "get_engine", "register", "unregister"]
+__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "per_set_kr", "directional_matrix", "get_engine", "register", "unregister"]

@@ -1128,3 +1128,36 @@ def envelope_modal_batch(md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, 
         w, G = modal_grid(md[b], w_top, n_base, offsets)
         envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False,
                          depth[b], lobe[b], wc[b], stats[b] if counting else empty)
+
+
+@nb.njit(cache=True, parallel=True)
+def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, starts, n_base, offsets, depth, lobe,
+                              wc, stats):
+    """Batched envelope for B modal structures under C cutting conditions in one call.
+
+    Condition c (``teeth``, ``kt`` [N/m²], ``kr``, ``phi_s``/``phi_e`` [rad], each (C,)) owns the speed
+    columns ``starts[c]:starts[c + 1]`` of ``rpm`` (ascending within each condition). Each set's frequency
+    grid and receptances (:func:`modal_grid`) are computed once, up to the highest tooth-passing frequency
+    over all columns, and shared by every condition; each condition then scans and refines its own
+    columns (:func:`envelope_on_grid`). ``kr_set`` (B,): a Kr per set overriding the conditions' (size 0:
+    none). With one condition and no ``kr_set`` this is :func:`envelope_modal_batch`, bit for bit.
+    Writes depth (B, S) [m], lobe (B, S), wc (B, S) [rad/s]; ``stats`` as there.
+    """
+    counting = stats.shape[0] > 0
+    empty = np.zeros(0, dtype=np.int64)
+    n_b = md.shape[0]
+    n_c = teeth.size
+    per_set = kr_set.size > 0
+    w_top = 0.0
+    for c in range(n_c):
+        wt = TWO_PI * teeth[c] * rpm[starts[c + 1] - 1] / 60.0
+        if wt > w_top:
+            w_top = wt
+    for b in nb.prange(n_b):
+        w, G = modal_grid(md[b], w_top, n_base, offsets)
+        for c in range(n_c):
+            s0 = starts[c]
+            s1 = starts[c + 1]
+            a = directional_brackets(kr_set[b] if per_set else kr[c], phi_s[c], phi_e[c])
+            envelope_on_grid(w, G, a, teeth[c], kt[c], rpm[s0:s1], md[b], False, depth[b, s0:s1], lobe[b, s0:s1],
+                             wc[b, s0:s1], stats[b] if counting else empty)

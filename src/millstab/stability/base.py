@@ -10,8 +10,9 @@ Units: spindle speed in rpm, depth in m (``Envelope.depth_mm`` for mm), chatter 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Callable, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -128,6 +129,15 @@ class Engine(Protocol):
             poor one at low radial immersion.
         depth_accuracy: relative accuracy of a limiting depth [-]; residuals below ~10× this are numerical.
 
+    Conditions: ``cutting`` may be a :class:`millstab.model.Conditions` with one condition per speed
+        column instead of one :class:`~millstab.model.Cutting`; then depth[b, s] is set b's limit under
+        condition s at rpm[s] (the same speed under two conditions is two columns). An engine whose
+        kernel works per speed gets this from :func:`by_condition` (one decorator line); the zero-order
+        engine shares each set's frequency grid over the conditions in one compiled call.
+    per_set_kr (optional capability, default False; :func:`per_set_kr`): ``envelope_batch`` and
+        ``envelope_batch_hz`` take ``kr=`` (B,), each set's radial-to-tangential ratio, overriding the
+        conditions' Kr (Kr is a property of the tool and material, shared by every condition).
+
     Optional (consumers check with ``hasattr``; an engine without it is called with no keywords):
         settings(batch, cutting, rpm) -> dict: keyword arguments of ``envelope_batch`` that fix the
             engine's discretisation for a whole problem (e.g. the spectral engine's ``{"nodes": p}``),
@@ -155,6 +165,65 @@ class Engine(Protocol):
 
     def chunk_rows(self, n_speeds: int) -> int:
         """Parameter sets per ``envelope_batch`` call that callers streaming many sets should use."""
+
+
+def per_set_kr(engine: object) -> bool:
+    """Whether ``engine`` takes a Kr per parameter set (``kr=`` (B,) of ``envelope_batch``)."""
+    return bool(getattr(engine, "per_set_kr", False))
+
+
+def merge_settings(parts: list[dict], source: str = "settings") -> dict:
+    """One settings dict from the settings chosen per condition: a key all agree on keeps its value; numbers
+    that differ take the largest (node counts, steps per period, frequency bounds: the finer discretisation
+    serves every condition); anything else that differs is an error of the engine."""
+    out: dict = {}
+    for key in dict.fromkeys(k for p in parts for k in p):
+        values = [p[key] for p in parts if key in p]
+        if all(v == values[0] for v in values):
+            out[key] = values[0]
+        elif all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in values):
+            out[key] = max(values)
+        else:
+            raise ValueError(f"{source}: the conditions chose different {key!r} ({values}) and they cannot be merged")
+    return out
+
+
+def by_condition(entry: Callable) -> Callable:
+    """Let an engine entry point written for one Cutting (``entry(batch, cutting, rpm, ...)``) take a
+    :class:`~millstab.model.Conditions`: the columns are grouped by condition, each group is one call of
+    ``entry`` on its own speeds (a kernel that works speed by speed does the same work as one call),
+    and the results are put back in column order. Array results (B, S) and tuples of them are assembled
+    column by column; a dict (``settings``/``split_settings``) is merged by :func:`merge_settings`. A
+    plain Cutting goes straight through (the same numbers, bit for bit)."""
+
+    @functools.wraps(entry)
+    def grouped(batch, cutting, rpm, *args, **kwargs):
+        from millstab.model import Conditions
+
+        if not isinstance(cutting, Conditions):
+            return entry(batch, cutting, rpm, *args, **kwargs)
+        r = check_rpm(rpm)
+        cutting.check_columns(r.size)
+        parts = [(cols, entry(batch, c, r[cols], *args, **kwargs)) for c, cols in cutting.groups()]
+        first = parts[0][1]
+        if isinstance(first, dict):
+            return merge_settings([p for _, p in parts], f"{getattr(entry, '__module__', '')}.{entry.__name__}")
+        if isinstance(first, tuple):
+            return tuple(_columns([(cols, p[i]) for cols, p in parts], r.size) for i in range(len(first)))
+        return _columns(parts, r.size)
+
+    return grouped
+
+
+def _columns(parts: list[tuple[np.ndarray, Any]], n_columns: int):
+    """Arrays (B, S_g) of each group placed at their columns of one (B, S) array (None stays None)."""
+    if parts[0][1] is None:
+        return None
+    first = np.asarray(parts[0][1])
+    out = np.empty(first.shape[:-1] + (n_columns,), dtype=first.dtype)
+    for cols, part in parts:
+        out[..., cols] = part
+    return out
 
 
 def missing_attributes(engine: object) -> list[str]:

@@ -79,7 +79,7 @@ from millstab.model import Cutting, Structure
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import check_rpm
+from millstab.stability.base import by_condition, check_rpm
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
@@ -310,6 +310,7 @@ def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int
     return _limit(ModalBatch.from_structures([structure]), cutting, r, steps, progress)[1][0]
 
 
+@by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None,
                    progress: Progress | None = None, fn_max_hz: float | None = None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm];
@@ -322,6 +323,7 @@ def _fn_max_hz(wn: np.ndarray) -> float:
     return float(np.max(wn) / (2 * math.pi))
 
 
+@by_condition
 def split_settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     """Keyword arguments of :func:`envelope_batch` under which any part of ``batch`` gives, row for row,
     the numbers of the whole batch's call: the default steps per period follow the batch's highest

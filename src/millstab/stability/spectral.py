@@ -180,7 +180,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import check_rpm
+from millstab.stability.base import by_condition, check_rpm
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
 P_NODES = 4
@@ -478,6 +478,7 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
     return SpectralEnvelope(r, depth[0], lobe, hz, kind=kind, multiplier=mu[0], nodes=p)
 
 
+@by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None, near: float = NEAR) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
@@ -486,6 +487,7 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None =
     return _limit(batch, cutting, r, nodes, near=near)[0]
 
 
+@by_condition
 def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
                       near: float = NEAR) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
@@ -551,6 +553,7 @@ depth_accuracy = RTOL
 CALL_ROWS = 16_384
 
 
+@by_condition
 def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     """The discretisation for a whole problem (optional contract capability, see
     :class:`millstab.stability.base.Engine`): ``{"nodes": p + P_STEP}``, p the node count the convergence

@@ -21,7 +21,8 @@ from typing import Iterator
 import numpy as np
 
 from millstab.frf import ModalBatch, structure_receptance  # noqa: F401  (re-exported for tests)
-from millstab.model import Cutting, Structure
+from millstab.errors import InputError
+from millstab.model import Conditions, Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 # shared helpers of the contract, re-exported where they used to live
@@ -90,22 +91,34 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
     return Envelope(r, depth[inv], lobe[inv], wc[inv] / (2 * math.pi))
 
 
-def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray,
-               stats: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _run_modal(batch: ModalBatch, cutting: Cutting | Conditions, rpm: np.ndarray,
+               stats: np.ndarray | None = None, kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S).
 
+    ``cutting``: one Cutting, or Conditions (one per speed column); ``kr``: a Kr per set (B,) or None.
     ``stats``: optional (B, N_STATS) int64 zeros that receive the kernel's work counts per set.
     """
+    if isinstance(cutting, Conditions) or kr is not None:
+        return _run_conditions(batch, Conditions.coerce(cutting, rpm.size), rpm, stats, kr)
     rs, order = _sorted(rpm)
     n_b, n_s = batch.size, rs.size
     depth = np.empty((n_b, n_s))
     lobe = np.empty((n_b, n_s), dtype=np.int64)
     wc = np.empty((n_b, n_s))
     a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
-    two_pi = 2 * math.pi
-    md = _k.pack_modes(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y)
-    _k.envelope_modal_batch(md, a, cutting.teeth, cutting.kt, rs, N_BASE, _OFFSETS, depth, lobe, wc,
+    _k.envelope_modal_batch(_packed(batch), a, cutting.teeth, cutting.kt, rs, N_BASE, _OFFSETS, depth, lobe, wc,
                             _NO_STATS_2D if stats is None else stats)
+    return _unsorted(order, depth, lobe, wc)
+
+
+def _packed(batch: ModalBatch) -> np.ndarray:
+    two_pi = 2 * math.pi
+    return _k.pack_modes(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y)
+
+
+def _unsorted(order: np.ndarray, depth, lobe, wc):
+    """The kernel's columns (sorted by ``order``) back in the caller's order."""
+    n_s = order.size
     if np.array_equal(order, np.arange(n_s)):
         return depth, lobe, wc
     inv = np.empty_like(order)
@@ -113,41 +126,90 @@ def _run_modal(batch: ModalBatch, cutting: Cutting, rpm: np.ndarray,
     return depth[:, inv], lobe[:, inv], wc[:, inv]
 
 
-def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting, rpm, chunk: int | None = None) -> Iterator[tuple[slice, np.ndarray]]:
+def _run_conditions(batch: ModalBatch, cond: Conditions, rpm: np.ndarray, stats: np.ndarray | None,
+                    kr: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_run_modal` under per-column conditions: ONE compiled call (:func:`_k.envelope_modal_conditions`)
+    with the columns sorted by condition, then speed; each set's grid is shared by the conditions."""
+    cuts, inverse = cond.unique()
+    order = np.lexsort((rpm, inverse))
+    rs = np.ascontiguousarray(rpm[order])
+    starts = np.searchsorted(inverse[order], np.arange(len(cuts) + 1)).astype(np.int64)
+    n_b, n_s = batch.size, rs.size
+    depth = np.empty((n_b, n_s))
+    lobe = np.empty((n_b, n_s), dtype=np.int64)
+    wc = np.empty((n_b, n_s))
+    col = {f: np.array([getattr(c, f) for c in cuts], dtype=np.int64 if f == "teeth" else float)
+           for f in ("teeth", "kt", "kr", "entry", "exit")}
+    kr_set = np.zeros(0) if kr is None else np.ascontiguousarray(kr, dtype=float)
+    _k.envelope_modal_conditions(_packed(batch), kr_set, col["teeth"], col["kt"], col["kr"], col["entry"], col["exit"],
+                                 rs, starts, N_BASE, _OFFSETS, depth, lobe, wc,
+                                 _NO_STATS_2D if stats is None else stats)
+    return _unsorted(order, depth, lobe, wc)
+
+
+def _check_kr(kr, n_sets: int) -> np.ndarray | None:
+    """A per-set Kr as a float array (B,), or None; InputError for another length or a value not finite and ≥ 0."""
+    if kr is None:
+        return None
+    k = np.atleast_1d(np.asarray(kr, dtype=float))
+    if k.shape != (n_sets,):
+        raise InputError("kr", f"{k.size} values", f"one radial-to-tangential ratio per parameter set ({n_sets})")
+    bad = ~np.isfinite(k) | (k < 0)
+    if bad.any():
+        raise InputError("kr", float(k[bad][0]), "radial-to-tangential ratio must be finite and >= 0")
+    return k
+
+
+def _rows(batch: ModalBatch, rows: slice) -> ModalBatch:
+    return ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+
+
+def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting | Conditions, rpm, chunk: int | None = None,
+                         kr=None) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield ``(rows, depth)`` chunk by chunk, depth (rows, S) [m], so huge batches stream in bounded
-    memory (``chunk`` sets at a time; default :func:`chunk_rows`)."""
+    memory (``chunk`` sets at a time; default :func:`chunk_rows`). ``cutting`` and ``kr`` as
+    :func:`envelope_batch`."""
     r = check_rpm(rpm)
+    if isinstance(cutting, Conditions):
+        cutting.check_columns(r.size)
+    k = _check_kr(kr, batch.size)
     chunk = chunk or chunk_rows(r.size)
     for start in range(0, batch.size, chunk):
         rows = slice(start, min(start + chunk, batch.size))
-        part = ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-        yield rows, _run_modal(part, cutting, r)[0]
+        yield rows, _run_modal(_rows(batch, rows), cutting, r, kr=None if k is None else k[rows])[0]
 
 
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, chunk: int | None = None) -> np.ndarray:
+def envelope_batch(batch: ModalBatch, cutting: Cutting | Conditions, rpm, chunk: int | None = None,
+                   kr=None) -> np.ndarray:
     """The hot path: limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm].
 
-    Compiled, parallel over sets, streamed in chunks of ``chunk`` sets. For reductions over very large
-    B (Monte Carlo) use :func:`iter_envelope_chunks` and keep only what you need.
+    ``cutting``: one :class:`Cutting` for every column, or :class:`Conditions` with one condition per
+    speed column (depth[b, s] is set b's limit under condition s at rpm[s]; each set's frequency grid is
+    shared by all conditions). ``kr``: a radial-to-tangential ratio per set (B,), overriding the
+    conditions' Kr (the ``per_set_kr`` capability). Compiled, parallel over sets, streamed in chunks of
+    ``chunk`` sets. For reductions over very large B (Monte Carlo) use :func:`iter_envelope_chunks`.
     """
     r = check_rpm(rpm)
     out = np.empty((batch.size, r.size))
-    for rows, depth in iter_envelope_chunks(batch, cutting, r, chunk):
+    for rows, depth in iter_envelope_chunks(batch, cutting, r, chunk, kr):
         out[rows] = depth
     return out
 
 
-def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm) -> tuple[np.ndarray, np.ndarray]:
+def envelope_batch_hz(batch: ModalBatch, cutting: Cutting | Conditions, rpm, kr=None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and the limiting lobes' chatter frequencies (B, S) [Hz] of B modal
-    parameter sets at S spindle speeds [rpm], streamed in chunks of :func:`chunk_rows` sets."""
+    parameter sets at S spindle speeds [rpm], streamed in chunks of :func:`chunk_rows` sets; ``cutting``
+    and ``kr`` as :func:`envelope_batch`."""
     r = check_rpm(rpm)
+    if isinstance(cutting, Conditions):
+        cutting.check_columns(r.size)
+    k = _check_kr(kr, batch.size)
     depth = np.empty((batch.size, r.size))
     hz = np.empty((batch.size, r.size))
     step = chunk_rows(r.size)
     for start in range(0, batch.size, step):  # chunks bound the memory; each chunk is one compiled call
         rows = slice(start, min(start + step, batch.size))
-        part = ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
-        d, _, wc = _run_modal(part, cutting, r)
+        d, _, wc = _run_modal(_rows(batch, rows), cutting, r, kr=None if k is None else k[rows])
         depth[rows], hz[rows] = d, wc / (2 * math.pi)
     return depth, hz
 
@@ -209,6 +271,8 @@ reports_chatter_frequency = True
 time_averaged = True
 #: relative accuracy of a limiting depth (root polish of the compiled kernel)
 depth_accuracy = 1e-6
+#: ``envelope_batch(..., kr=(B,))``: the directional brackets are recomputed per set in the kernel (cheap)
+per_set_kr = True
 
 import sys as _sys  # noqa: E402
 

@@ -40,6 +40,15 @@ samples, :func:`limits`) and depth noise σ_b:
   (:mod:`millstab.update.prior`), one value per sample; they reuse the engine's limits, so they cost
   no engine call.
 
+Conditions: each cut and boundary point has a condition index (``Evidence.cut_cond``/``pt_cond`` into
+``Evidence.conditions``, a tuple of :class:`~millstab.model.Cutting`; default all 0 under the prior's
+cutting), and the likelihood evaluates every distinct (speed, condition) column of the data in ONE
+engine call (:class:`~millstab.model.Conditions`), so one posterior of the shared parameters (structure,
+Kt, Kr) explains cuts at several widths, directions and tools. A free Kt scales every condition's Kt by
+the same factor (depths by its inverse: one factor per sample for all columns); a free Kr replaces every
+condition's Kr (a property of the tool and material). The tooth-passing frequency of a chatter-frequency
+reading is the cut's own condition's N·Ω/60.
+
 Support: rows of u outside the prior's support (ζ ≥ 1, …: :meth:`Prior.in_support`) get log L = −inf
 and never reach the engine, so a proposal there is rejected instead of failing the model's checks.
 
@@ -56,8 +65,9 @@ from scipy.special import log_ndtr
 
 from millstab.errors import InputError
 from millstab.forward import forward
-from millstab.points import PointSet, cut_conditions
-from millstab.stability import check_rpm, get_engine
+from millstab.model import Conditions, Cutting, condition_index
+from millstab.points import PointSet, cut_conditions, same_condition
+from millstab.stability import check_rpm, get_engine, per_set_kr
 from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
@@ -65,29 +75,37 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
-           with_freq: bool = False, client=None) -> tuple[np.ndarray, np.ndarray | None]:
+           with_freq: bool = False, client=None,
+           conditions: Conditions | Cutting | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
-    ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm]; a free Kt
-    scales the depths exactly (see :mod:`millstab.update.prior`). ``inf`` where no boundary exists.
-    Frequencies come only from an engine declaring ``reports_chatter_frequency`` (else ``None``).
-    ``client``: a ``distributed.Client``; the rows go to its cluster where that pays (same numbers).
+    ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
+    ``conditions`` s (a :class:`~millstab.model.Conditions`; ``None``: the prior's cutting for all); a free
+    Kt scales the depths exactly and a free Kr goes to the engine per sample (see
+    :mod:`millstab.update.prior`). ``inf`` where no boundary exists. Frequencies come only from an engine
+    declaring ``reports_chatter_frequency`` (else ``None``). ``client``: a ``distributed.Client``; the
+    rows go to its cluster where that pays (same numbers).
     """
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
-        out = sample_limits(client, prior, u, rpm, engine, with_freq)
+        check_kr_engine(prior, engine)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions)
         if out is not None:
             return out
+    kr = prior.kr_of(u)
     theta, factor = prior.split(u)
     rpm = check_rpm(rpm)
-    eng = get_engine(engine)
+    eng = check_kr_engine(prior, engine)
     fwd = forward(prior.par, prior.cutting, engine)
+    cut = prior.cutting if conditions is None else conditions
+    extra = {} if kr is None else {"kr": kr}
     if with_freq and eng.reports_chatter_frequency:
         # the discretisation the depths-only path would get (Forward's settings), so both agree
-        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), prior.cutting, rpm, **fwd.settings(rpm, theta[0]))
+        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), cut, rpm, **fwd.settings(rpm, theta[0], conditions),
+                                          **extra)
     else:
-        depth, hz = fwd(theta, rpm), None
+        depth, hz = fwd(theta, rpm, conditions, kr), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -95,30 +113,24 @@ def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_con
                         conditions: tuple | None, engine: str = "zoa", with_freq: bool = False,
                         client=None) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`limits` where speed column s is cut under ``conditions[column_cond[s]]`` (a
-    :class:`~millstab.model.Cutting` per distinct condition; Kt and Kr those of ``prior.cutting``, whose
-    free Kt scales every condition alike). ``conditions`` None: every column in ``prior.cutting``.
+    :class:`~millstab.model.Cutting` per distinct condition); ``conditions`` None: every column in
+    ``prior.cutting``. ONE engine call (:class:`~millstab.model.Conditions`)."""
+    if conditions is None:
+        return limits(prior, u, rpm, engine, with_freq, client)
+    cc = np.zeros(np.size(rpm), dtype=np.int64) if column_cond is None else np.asarray(column_cond, dtype=np.int64)
+    if np.all(cc == cc[0] if cc.size else True) and cc.size and conditions[int(cc[0])] == prior.cutting:
+        return limits(prior, u, rpm, engine, with_freq, client)  # the plain one-condition path, as ever
+    return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc))
 
-    One batched engine call per distinct condition (a handful: the conditions a shop cut in), never per
-    cut or per sample; the ``cond`` branch's engines take a condition per column and make it one call.
-    """
-    from dataclasses import replace
 
-    if conditions is None or len(conditions) == 1 and column_cond is not None and not np.any(column_cond):
-        pr = prior if conditions is None else replace(prior, cutting=conditions[0])
-        return limits(pr, u, rpm, engine, with_freq, client)
-    rpm = np.asarray(rpm, dtype=float)
-    cc = np.asarray(column_cond, dtype=np.int64)
-    depth = np.empty((np.atleast_2d(u).shape[0], rpm.size))
-    hz = np.full_like(depth, np.nan) if with_freq else None
-    for k in np.unique(cc):
-        cols = np.flatnonzero(cc == k)
-        d, h = limits(replace(prior, cutting=conditions[k]), u, rpm[cols], engine, with_freq, client)
-        depth[:, cols] = d
-        if hz is not None and h is not None:
-            hz[:, cols] = h
-        elif h is None:
-            hz = None
-    return depth, hz
+def check_kr_engine(prior: Prior, engine: str):
+    """The engine named ``engine``; InputError when the prior frees Kr and the engine takes one Kr per call."""
+    eng = get_engine(engine)
+    if prior.kr_free and not per_set_kr(eng):
+        raise InputError("prior.kr", f"{prior.spread[prior.names.index('kr')]:.3g} with the {engine} engine",
+                         f"the {engine} engine takes one Kr per call, so Kr cannot be learned with it: use an engine "
+                         "with a Kr per parameter set (zoa), or remove prior.kr to hold Kr")
+    return eng
 
 
 def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_hz: np.ndarray) -> np.ndarray:
@@ -171,23 +183,25 @@ class Evidence:
     pt_weight: np.ndarray
     cut_grade: np.ndarray | None = None  # graded labels in [0, 1]; None: from cut_kind
     cut_batch: np.ndarray | None = None  # the test day of each cut ("" none); None: all ""
-    #: the distinct cutting conditions (:class:`~millstab.model.Cutting`); None: the prior's cutting for all
-    conditions: tuple | None = None
-    cut_cond: np.ndarray | None = None  # each cut's index into conditions; None: all 0
-    pt_cond: np.ndarray | None = None  # each boundary point's index into conditions; None: all 0
+    cut_cond: np.ndarray | None = None  # each cut's index into ``conditions``; None: all 0
+    pt_cond: np.ndarray | None = None  # each boundary point's index into ``conditions``; None: all 0
+    #: the cutting conditions the indices point into; None: the prior's cutting (one condition)
+    conditions: tuple[Cutting, ...] | None = None
 
     def __post_init__(self):
-        for name, ref in (("cut_cond", self.cut_rpm), ("pt_cond", self.pt_rpm)):
-            v = getattr(self, name)
-            v = np.zeros(np.size(ref), dtype=np.int64) if v is None else np.asarray(v, dtype=np.int64)
-            n_c = 1 if self.conditions is None else len(self.conditions)
-            if v.shape != np.shape(ref) or (v.size and not ((v >= 0) & (v < n_c)).all()):
-                raise InputError(f"evidence.{name}", f"{v.size} values", f"one index in 0..{n_c - 1} per row")
-            object.__setattr__(self, name, v)
         if self.cut_grade is None:
             object.__setattr__(self, "cut_grade", _KIND_GRADE[np.asarray(self.cut_kind, dtype=np.int64)])
         if self.cut_batch is None:
             object.__setattr__(self, "cut_batch", np.full(np.size(self.cut_rpm), "", dtype=object))
+        n_cond = 1 if self.conditions is None else len(Conditions.of(self.conditions).cuttings)
+        if self.conditions is not None:
+            object.__setattr__(self, "conditions", tuple(self.conditions))
+        for name, rpm in (("cut_cond", self.cut_rpm), ("pt_cond", self.pt_rpm)):
+            idx = getattr(self, name)
+            idx = np.zeros(np.size(rpm), dtype=np.int64) if idx is None else np.asarray(idx)
+            if idx.shape != (np.size(rpm),):
+                raise InputError(name, f"{idx.size} values", f"one condition index per row ({np.size(rpm)})")
+            object.__setattr__(self, name, condition_index(idx, n_cond, name))
 
     @classmethod
     def from_points(cls, cuts: PointSet, points: PointSet | None = None, base_cutting=None,
@@ -212,8 +226,6 @@ class Evidence:
             if base_cutting is None:
                 raise InputError("cuts", "per-cut condition columns", "the config's cutting conditions (base_cutting) "
                                                                       "fill their empty cells: pass them")
-            from millstab.points import same_condition
-
             conds: list = []
             idx = []
             for p in pts:  # one list of distinct conditions over both files
@@ -254,8 +266,8 @@ class Evidence:
         kind = np.array([_KIND[s] for s in c.label], dtype=np.int64)
         grade = np.asarray(c.grade, dtype=float) if c.grade is not None else None
         batch = np.asarray(c.batch, dtype=object) if c.batch is not None else None
-        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch, conditions,
-                   c_cond, p_cond)
+        return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch,
+                   cut_cond=c_cond, pt_cond=p_cond, conditions=conditions)
 
     @property
     def n_cuts(self) -> int:
@@ -266,6 +278,15 @@ class Evidence:
         """Every speed the data mention [rpm] (sorted, unique)."""
         return np.unique(np.concatenate([self.cut_rpm, self.pt_rpm]))
 
+    def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The distinct (speed, condition) pairs of the data: (rpm (S,), condition index (S,), each cut's
+        column (n_cuts,), each point's column (n_points,)); sorted by condition, then speed."""
+        cond = np.concatenate([self.cut_cond, self.pt_cond])
+        rpm = np.concatenate([self.cut_rpm, self.pt_rpm]).astype(float)
+        pairs, inverse = np.unique(np.stack([cond.astype(float), rpm], axis=1), axis=0, return_inverse=True)
+        inverse = np.asarray(inverse).ravel()
+        return pairs[:, 1].copy(), pairs[:, 0].astype(np.int64), inverse[:self.n_cuts], inverse[self.n_cuts:]
+
 
 class Likelihood:
     """log p(data | u) for batches u = ln θ (B, P): :meth:`__call__` makes ONE engine call per batch.
@@ -275,16 +296,21 @@ class Likelihood:
     """
 
     def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None):
-        get_engine(engine)  # a clear error for an unknown name
+        check_kr_engine(prior, engine)  # also a clear error for an unknown name
         self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
-        # the engine's columns: the distinct (condition, speed) pairs (one condition: the sorted speeds)
-        pairs, inv = np.unique(np.c_[np.r_[ev.cut_cond, ev.pt_cond], np.r_[ev.cut_rpm, ev.pt_rpm]], axis=0,
-                               return_inverse=True)
-        inv = np.asarray(inv).ravel()
-        self.speeds = pairs[:, 1] if pairs.size else np.zeros(0)
-        self.column_cond = pairs[:, 0].astype(np.int64) if pairs.size else np.zeros(0, dtype=np.int64)
-        self._ic, self._ip = inv[:ev.n_cuts], inv[ev.n_cuts:]
+        # the distinct (speed, condition) columns of the data: ONE engine call evaluates them all
+        self.speeds, self.column_cond, self._ic, self._ip = ev.columns()
+        self.conditions = (prior.cutting,) if ev.conditions is None else ev.conditions
+        if prior.kr_free and any(c.kr != prior.cutting.kr for c in self.conditions):
+            raise InputError("conditions", "several Kr", f"with Kr free every condition takes the sampled Kr; give "
+                             f"each condition the config's Kr ({prior.cutting.kr:g}) or hold Kr")
+        used = sorted(set(self.column_cond.tolist()))
+        # one condition, the prior's own: the plain single-Cutting path (the numbers of earlier versions)
+        if len(used) == 1 and self.conditions[used[0]] == prior.cutting:
+            self._conditions = None
+        else:
+            self._conditions = Conditions.of(self.conditions, self.column_cond)
         self._sig_c = prior.sigma_depth_mm(ev.cut_depth_mm)
         self._sig_p = prior.sigma_depth_mm(ev.pt_depth_mm)
         hz = np.isfinite(ev.cut_hz)
@@ -293,9 +319,8 @@ class Likelihood:
                  f"{int(hz.sum())} measured chatter frequencies are not used", UserWarning, stacklevel=2)
             hz = np.zeros_like(hz)
         self._hz = np.flatnonzero(hz)
-        teeth = (np.full(ev.n_cuts, prior.cutting.teeth) if ev.conditions is None
-                 else np.array([c.teeth for c in ev.conditions])[ev.cut_cond])
-        self._tooth_hz = teeth * ev.cut_rpm / 60.0
+        teeth = np.array([c.teeth for c in self.conditions], dtype=float)
+        self._tooth_hz = teeth[ev.cut_cond] * ev.cut_rpm / 60.0
         self.n_calls = 0
         self.n_sets = 0
 
@@ -316,8 +341,8 @@ class Likelihood:
         depth = np.ones((v.shape[0], self.speeds.size))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
         if ok.any():
-            d, h = limits_by_condition(self.prior, u[ok], self.speeds, self.column_cond, self.evidence.conditions,
-                                       self.engine, self.uses_frequency, self.client)
+            d, h = limits(self.prior, u[ok], self.speeds, self.engine, self.uses_frequency, self.client,
+                          self._conditions)
             self.n_calls += 1
             self.n_sets += d.shape[0]
             depth[ok] = d
@@ -376,4 +401,5 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "cut_loglik", "frequency_distance", "limits", "limits_by_condition"]
+__all__ = ["Evidence", "Likelihood", "check_kr_engine", "cut_loglik", "frequency_distance", "limits",
+           "limits_by_condition"]

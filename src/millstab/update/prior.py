@@ -32,10 +32,12 @@ fn 5 %, k 30 %, ζ 30 %; every modal parameter free; the cutting coefficients fi
 gives Kt a spread.
 
 Kt free is exact and cheap: in both engines the boundary depends on b·Kt only (F = ½ b Kt [A] Δ),
-so b_lim(Kt) = b_lim(Kt₀) · Kt₀/Kt, and the chatter frequency does not change. Freeing Kr would change
-the directional matrix per sample, and no scaling absorbs it (the zero-order eigenvalues of [α][Φ] depend
-on det α/(α_xx α_yy), (1 + Kr²)/Kr² in slotting); the engines' batch kernels take one directional matrix
-for all sets, so it is refused until they take one per set (docs/updating.md, "Where it is weak").
+so b_lim(Kt) = b_lim(Kt₀) · Kt₀/Kt, and the chatter frequency does not change. Kr free (``kr = "20 %"``,
+its own coordinate ln Kr after Kt's, Kr ≥ 0): no scaling absorbs it (the zero-order eigenvalues of
+[α][Φ] depend on det α/(α_xx α_yy), (1 + Kr²)/Kr² in slotting), so each sample's Kr goes to the engine
+(``envelope_batch(..., kr=(B,))``; the brackets are linear in Kr, α = α₀ + Kr·α₁, recomputed per set).
+Only an engine declaring ``per_set_kr`` (zoa) takes it; another is refused with an InputError when the
+likelihood is built. With several cutting conditions the sampled Kr is every condition's Kr.
 """
 
 from __future__ import annotations
@@ -106,7 +108,7 @@ class Prior:
     Attributes:
         par: the modal parameterization (free modal names; the fixed values come from its base).
         cutting: the cutting conditions (Kt is the median when ``kt`` is free).
-        names: the free names, ``par.free`` followed by ``"kt"`` when Kt is free.
+        names: the free names, ``par.free`` followed by ``"kt"`` when Kt is free and ``"kr"`` when Kr is free.
         median: prior medians (P,) [Hz, N/m, -, N/m²].
         spread: σ of ln(value) (P,), > 0.
         sigma_depth_m: absolute depth noise [m], or ``None`` when relative.
@@ -207,13 +209,28 @@ class Prior:
         return "kt" in self.names
 
     @property
+    def kr_free(self) -> bool:
+        return "kr" in self.names
+
+    @property
+    def n_modal(self) -> int:
+        """Number of free modal parameters (the first columns of u)."""
+        return self.size - int(self.kt_free) - int(self.kr_free)
+
+    def kr_of(self, u: np.ndarray) -> np.ndarray | None:
+        """Each sample's Kr (B,) from u (B, P) when Kr is free, else ``None`` (the cutting's Kr)."""
+        if not self.kr_free:
+            return None
+        return np.exp(np.atleast_2d(u)[:, self.names.index("kr")])
+
+    @property
     def mean_u(self) -> np.ndarray:
         """Prior mean of u = ln θ (P,)."""
         return np.log(self.median)
 
     def units(self) -> list[str]:
         """Unit of each free parameter."""
-        return self.par.units() + (["N/m^2"] if self.kt_free else [])
+        return self.par.units() + (["N/m^2"] if self.kt_free else []) + (["-"] if self.kr_free else [])
 
     def in_support(self, u: np.ndarray) -> np.ndarray:
         """Whether each row of u = ln θ (B, P) lies in the prior's support (B,): finite, ζ < 1, |z| ≤ TRUNCATE."""
@@ -245,11 +262,11 @@ class Prior:
         return np.where(self.in_support(u), lp, -np.inf)
 
     def split(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(modal θ (B, Pm) [Hz, N/m, -], depth factor Kt₀/Kt (B,)) from u (B, P)."""
+        """(modal θ (B, Pm) [Hz, N/m, -], depth factor Kt₀/Kt (B,)) from u (B, P) (a free Kr: :meth:`kr_of`)."""
         t = np.exp(np.atleast_2d(u))
         if not self.kt_free:
-            return t, np.ones(t.shape[0])
-        return t[:, :-1], self.cutting.kt / t[:, -1]
+            return t[:, :self.n_modal], np.ones(t.shape[0])
+        return t[:, :self.n_modal], self.cutting.kt / t[:, self.names.index("kt")]
 
     def sigma_depth_mm(self, depth_mm: np.ndarray) -> np.ndarray:
         """The depth noise [mm] of cuts at ``depth_mm`` (absolute, or relative to each depth)."""
@@ -278,7 +295,7 @@ class Prior:
             structure = Structure(*(tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{dd}[{i}]")
                                           for i, m in enumerate(d["structure"][dd])) for dd in ("x", "y")))
             names = tuple(d["names"])
-            modal = tuple(n for n in names if n != "kt")
+            modal = tuple(n for n in names if n not in ("kt", "kr"))
             par = Parameterization(structure, modal)
             return cls(par, cutting, names, np.asarray(d["median"], float), np.asarray(d["spread"], float),
                        d.get("sigma_depth_m"), d.get("sigma_depth_rel"), float(d["sigma_chatter_hz"]),
@@ -301,8 +318,8 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
         cutting: the cutting conditions (Kt the median when ``table`` frees it).
         table: a :class:`millstab.io.config.PriorTable` or ``None`` (all defaults).
     Raises:
-        InputError: a measured-FRF structure, an unknown or duplicated name, Kr freed, every
-            parameter fixed, a spread above :data:`MAX_SPREAD`.
+        InputError: a measured-FRF structure, an unknown or duplicated name, Kr freed with a config Kr of 0,
+            every parameter fixed, a spread above :data:`MAX_SPREAD`.
     """
     spreads = dict(getattr(table, "spreads", {}) or {})
     fixed = tuple(getattr(table, "fixed", ()) or ())
@@ -316,11 +333,11 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
                              "a larger one lets the sampler try physically absurd values (k of 10⁶⁰ N/µm)")
     if not structure.is_modal:
         raise InputError("structure", "measured FRF", "Bayesian updating needs a modal structure (fn, k, zeta per mode)")
-    if "kr" in spreads:
-        raise InputError("prior.kr", spreads["kr"], "freeing Kr is not supported yet (it changes the directional "
-                                                    "matrix per sample); remove prior.kr to keep Kr fixed")
-    if "kt" in fixed:
-        fixed = tuple(f for f in fixed if f != "kt")
+    if "kr" in spreads and not cutting.kr > 0:
+        raise InputError("prior.kr", spreads["kr"], f"Kr free needs a config Kr > 0 as its median (the prior is "
+                                                    f"log-normal in Kr; cutting.kr = {cutting.kr:g}); set cutting.kr "
+                                                    "or remove prior.kr")
+    fixed = tuple(f for f in fixed if f not in ("kt", "kr"))
     full = Parameterization(structure)
     fixed_c = set()
     for f in fixed:
@@ -337,7 +354,7 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
         if key in DEFAULT_SPREADS:
             spread[[par.kind(n) == key for n in par.free]] = value
     for key, value in spreads.items():  # a named parameter's own spread wins over its kind's
-        if key in DEFAULT_SPREADS or key == "kt":
+        if key in DEFAULT_SPREADS or key in ("kt", "kr"):
             continue
         try:
             name = full.canonical(key)
@@ -351,6 +368,10 @@ def make_prior(structure: Structure, cutting: Cutting, table=None) -> Prior:
         names = names + ("kt",)
         median = np.append(median, cutting.kt)
         spread = np.append(spread, spreads["kt"])
+    if "kr" in spreads:
+        names = names + ("kr",)
+        median = np.append(median, cutting.kr)
+        spread = np.append(spread, spreads["kr"])
     sd_m = getattr(table, "sigma_depth_m", None)
     sd_rel = getattr(table, "sigma_depth_rel", None)
     if sd_m is None and sd_rel is None:

@@ -1,0 +1,105 @@
+"""Per-column cutting conditions (`Conditions`) and a Kr per parameter set in the zero-order engine.
+
+References are independent of the batched path: the 1-DOF slotting closed form b_min = 8kζ(1+ζ)/(N Kt Kr)
+(its lobe bottoms do not move with Kr: ν = −πKr G has the phase of −G), and the single-structure engine
+called once per (structure, condition, Kr)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.frf import ModalBatch
+from millstab.model import Conditions, Cutting, Mode, Structure
+from millstab.stability import get_engine, per_set_kr, zoa
+
+FN, ZETA, K = 922.0, 0.011, 1.34e6
+KT = 6e8
+SLOT = Cutting(4, KT, 0.3, 0.0, math.pi)
+UP = Cutting.from_immersion(3, KT, 0.3, 0.3, "up")
+DOWN = Cutting.from_immersion(4, 8e8, 0.3, 0.1, "down")
+
+
+def test_conditions_columns_groups_and_validation():
+    c = Conditions.of([SLOT, UP, Cutting(4, KT, 0.3, 0.0, math.pi)], [1, 0, 2, 0, 1])
+    np.testing.assert_array_equal(c.teeth, [3, 4, 4, 4, 3])
+    np.testing.assert_allclose(c.exit, [UP.exit, math.pi, math.pi, math.pi, UP.exit])
+    cuts, inverse = c.unique()  # the third Cutting equals the first: one condition
+    assert cuts == (SLOT, UP) and list(inverse) == [1, 0, 0, 0, 1]
+    assert [(g, list(cols)) for g, cols in c.groups()] == [(SLOT, [1, 2, 3]), (UP, [0, 4])]
+    assert Conditions.coerce(SLOT, 3) == Conditions.of([SLOT], [0, 0, 0])
+    for bad, field in (([0, 3], "conditions.index"), ([0, -1], "conditions.index"), ([0.5], "conditions.index"),
+                       ([], "conditions.index")):
+        with pytest.raises(InputError, match=field):
+            Conditions.of([SLOT, UP, DOWN], bad)
+    with pytest.raises(InputError, match=r"conditions\[1\]"):
+        Conditions.of([SLOT, "slot"], [0, 1])
+    with pytest.raises(InputError, match="one condition per speed column"):
+        zoa.envelope_batch(ModalBatch.from_structures([Structure(x=(Mode(FN, K, ZETA),))]), c, [5000.0, 6000.0])
+
+
+def _bottoms(teeth: int, ks) -> np.ndarray:
+    r = math.sqrt(1 + 2 * ZETA)
+    nu = -math.pi / (K * complex(1 - r * r, 2 * ZETA * r))  # the phase of ν does not depend on Kr > 0
+    eps = math.pi + 2 * math.atan2(nu.imag, nu.real)
+    return np.array([60.0 * 2 * math.pi * FN * r / (teeth * (eps + 2 * math.pi * k)) for k in ks])
+
+
+def test_per_set_kr_reaches_the_closed_form():
+    """1-DOF slotting with three Kr in one call: b_min = 8kζ(1+ζ)/(N Kt Kr) at the lobe bottoms, per set."""
+    kr = np.array([0.15, 0.4, 1.1])
+    one = Structure(x=(Mode(FN, K, ZETA),))
+    batch = ModalBatch.from_structures([one] * kr.size)
+    rpm = _bottoms(4, (1, 2, 3))
+    depth = zoa.envelope_batch(batch, SLOT, rpm, kr=kr)
+    expect = 8 * K * ZETA * (1 + ZETA) / (4 * KT * kr)
+    np.testing.assert_allclose(depth, np.repeat(expect[:, None], rpm.size, axis=1), rtol=1e-9)
+
+
+def test_per_set_kr_under_mixed_conditions_equals_single_structure_calls():
+    """Each (set, condition) of a mixed call with per-set Kr is the single-structure envelope at that Kr
+    (same numbers bit for bit), chatter frequencies included."""
+    structs = [Structure(x=(Mode(FN, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),)),
+               Structure(x=(Mode(800.0, 2 * K, 0.03),), y=(Mode(1300.0, K, 0.015),))]
+    kr = np.array([0.25, 0.6])
+    cond = Conditions.of([SLOT, UP, DOWN], [2, 0, 1, 1, 0, 2])
+    rpm = np.array([9000.0, 6000.0, 6000.0, 14000.0, 11000.0, 4000.0])
+    depth, hz = zoa.envelope_batch_hz(ModalBatch.from_structures(structs), cond, rpm, kr=kr)
+    for b, (s, k) in enumerate(zip(structs, kr)):
+        for cut, cols in cond.groups():
+            env = zoa.envelope(s, Cutting(cut.teeth, cut.kt, k, cut.entry, cut.exit), rpm[cols])
+            np.testing.assert_array_equal(depth[b, cols], env.depth)
+            np.testing.assert_array_equal(hz[b, cols], env.chatter_hz)
+
+
+def test_per_set_kr_capability_and_bad_values():
+    assert per_set_kr(get_engine("zoa"))
+    assert not per_set_kr(get_engine("sdm")) and not per_set_kr(get_engine("spectral"))
+    batch = ModalBatch.from_structures([Structure(x=(Mode(FN, K, ZETA),))] * 2)
+    with pytest.raises(InputError, match="kr"):
+        zoa.envelope_batch(batch, SLOT, [5000.0], kr=[0.3])
+    with pytest.raises(InputError, match="kr"):
+        zoa.envelope_batch(batch, SLOT, [5000.0], kr=[0.3, -0.1])
+
+
+def test_forward_pinned_and_map_take_per_column_conditions():
+    from millstab.forward import forward
+    from millstab.params import Parameterization
+
+    par = Parameterization(Structure(x=(Mode(FN, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),)))
+    rows = par.theta0[None] * np.linspace(0.9, 1.1, 5)[:, None]
+    cond = Conditions.of([SLOT, UP, DOWN], [0, 1, 2, 1, 0])
+    rpm = np.array([5000.0, 5000.0, 8000.0, 12000.0, 9000.0])
+    f = forward(par, SLOT)
+    got = f(rows, rpm, cond)
+    for cut, cols in cond.groups():
+        np.testing.assert_array_equal(got[:, cols], forward(par, cut)(rows, rpm[cols]))
+    np.testing.assert_array_equal(f(rows, rpm), f(rows, rpm, SLOT))  # the bound cutting: the plain call
+    pinned = f.pinned(rpm, rows, cond)
+    np.testing.assert_array_equal(pinned(rows), got)
+    np.testing.assert_array_equal(pinned.map(rows, chunk_rows=2), got)
+    with pytest.raises(InputError, match="conditions"):
+        f.pinned(rpm[:3], rows, cond)

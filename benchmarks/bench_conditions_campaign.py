@@ -23,8 +23,7 @@ Per virtual machine (seeded):
 Machines: ``sym`` (two close modes, x and y alike), ``soft-x`` (x 4× softer than y: up and down milling
 differ ×5 at a/D 0.5, the issue's ×4 machine), ``three`` (three teeth, x and y apart).
 
-``--cost``: the update's CPU time over 40 cuts in 4 conditions against 40 cuts in one (zero-order,
-``--samples``), same seed.
+The cost of an update over several conditions against one: ``benchmarks/bench_conditions.py``.
 
 Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --samples 1000 --cuts 10 --held 30``
 """
@@ -162,36 +161,6 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     return rows, cpu_update
 
 
-def cost(args) -> None:
-    """CPU time of an update over 40 cuts in 4 conditions vs 40 cuts in one (same structure, seed)."""
-    from millstab.update import update
-
-    hammer, truth, teeth = machines()["soft-x"]
-    cfg = Config(cond(teeth, 1.0, "down"), hammer, "cost")
-    rng = np.random.default_rng(0)
-    r = rng.uniform(*args.rpm, 40)
-    zoa = get_engine("zoa")
-    four = [(1.0, "down"), (0.5, "down"), (0.5, "up"), (0.25, "down")]
-    conds = [four[i % 4] for i in range(40)]
-    d = np.array([zoa.envelope(truth, cond(teeth, *c), [x]).depth_mm[0] for x, c in zip(r, conds)])
-    depth = d * np.exp(rng.normal(0, 0.3, 40))
-    lab = np.where(depth > d, "chatter", "stable")
-    d1 = zoa.envelope(truth, cond(teeth, 1.0, "down"), r).depth_mm * np.exp(rng.normal(0, 0.3, 40))
-    lab1 = np.where(d1 > zoa.envelope(truth, cond(teeth, 1.0, "down"), r).depth_mm, "chatter", "stable")
-    times = {}
-    for name, pts in (("one", cuts_file(r, d1, lab1, [(1.0, "down")] * 40)), ("four", cuts_file(r, depth, lab, conds))):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            update(cfg, pts, samples=200, seed=1)  # compile / warm
-            t0 = time.process_time()
-            post = update(cfg, pts, samples=args.samples, seed=1)
-        times[name] = (time.process_time() - t0, post.diagnostics["loglik_calls"], post.diagnostics["engine_sets"])
-    for k, (t, calls, sets) in times.items():
-        print(f"  40 cuts in {k} condition(s): {t:.1f} s CPU, {calls} likelihood calls, {sets} parameter sets")
-    print(f"  ratio four/one: {times['four'][0] / times['one'][0]:.2f} (target ≤ 1.5; per likelihood call "
-          f"{(times['four'][0] / times['four'][1]) / (times['one'][0] / times['one'][1]):.2f})")
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--samples", type=int, default=1000)
@@ -206,16 +175,12 @@ def main() -> None:
     ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")
-    ap.add_argument("--cost", action="store_true", help="only the cost ratio of 4 conditions vs 1")
     args = ap.parse_args()
     global TRUTH_ENGINE
     TRUTH_ENGINE = args.truth_engine
     print(describe())
     print(f"load average: {os.getloadavg()[0]:.1f}")
     with threadpool_limits(1):
-        if args.cost:
-            cost(args)
-            return
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
               f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "

@@ -318,3 +318,26 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
         assert not ran and "milling" in tab.map_job.status.text
     finally:
         s.close()
+
+
+def test_cross_validation_predicts_each_held_out_cut_in_its_own_condition():
+    """The validation's millstab column equals predict_cuts with each held-out cut's condition (fails if the
+    folds' posteriors predicted every cut in the config's slot)."""
+    from millstab.update.predict import predict_cuts
+    from millstab.update.validate import cross_validate
+
+    rows = ["rpm,depth_mm,label,radial_immersion,milling"]
+    for i, r in enumerate(np.linspace(5000, 9000, 6)):
+        rows += [f"{r},{2 + i % 3},{'chatter' if i % 2 else 'stable'},,", f"{r + 50},{8 + i},stable,0.5,down"]
+    cuts = parse_points("\n".join(rows) + "\n")
+    seen = []
+
+    def fixed(cfg, tr, **kw):  # one posterior for every fold: the check is on the prediction's conditions
+        seen.append(tr)
+        return _posterior_of_draws(100)
+
+    val = cross_validate(CFG, cuts, n_folds=2, samples=100, schemes=("random",), update_fn=fixed)
+    conds, ci = cut_conditions(cuts, SLOT)
+    want = predict_cuts(_posterior_of_draws(100), cuts.rpm, cuts.depth_mm, conds, ci)[1]
+    np.testing.assert_allclose(val.predictions["random"]["millstab"], want, atol=1e-12)
+    assert all("radial_immersion" in t.conditions for t in seen)

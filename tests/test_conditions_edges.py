@@ -341,3 +341,16 @@ def test_cross_validation_predicts_each_held_out_cut_in_its_own_condition():
     want = predict_cuts(_posterior_of_draws(100), cuts.rpm, cuts.depth_mm, conds, ci)[1]
     np.testing.assert_allclose(val.predictions["random"]["millstab"], want, atol=1e-12)
     assert all("radial_immersion" in t.conditions for t in seen)
+
+
+def test_sequential_reuse_checks_the_earlier_cuts_conditions():
+    """--start: a posterior of the first cuts starts the update of more cuts in the same conditions, and is
+    refused when the same rows now name another condition (a relabelled file)."""
+    text = ("rpm,depth_mm,label,radial_immersion,milling\n5000,1,stable,,\n6000,4,chatter,,\n"
+            "7000,6,stable,0.5,down\n8000,30,chatter,0.5,down\n")
+    first = update(CFG, parse_points(text), samples=150, seed=0)
+    more = parse_points(text + "7500,3,stable,0.25,up\n")
+    assert len(update(CFG, more, samples=150, seed=1, start=first).conditions) == 3
+    with pytest.raises(InputError, match="first cuts"):
+        update(CFG, parse_points(text.replace("0.5,down", "0.5,up") + "7500,3,stable,,\n"), samples=150, seed=1,
+               start=first)

@@ -295,6 +295,7 @@ def test_the_next_test_moves_to_another_condition_only_when_it_teaches_more_per_
     assert next_test_across(tgt, rich, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is rich
 
 
+@pytest.mark.slow
 def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
     """The Update tab's target a/D and milling reach the decision (the work run in this thread) and the page
     says which condition; a bad a/D is one line on the tab, no work started."""

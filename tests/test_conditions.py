@@ -103,3 +103,16 @@ def test_forward_pinned_and_map_take_per_column_conditions():
     np.testing.assert_array_equal(pinned.map(rows, chunk_rows=2), got)
     with pytest.raises(InputError, match="conditions"):
         f.pinned(rpm[:3], rows, cond)
+
+
+def test_a_grid_extended_by_another_condition_keeps_the_depths():
+    """The shared grid reaches the highest tooth-passing frequency of ALL columns: a 12-tooth condition at
+    15 000 rpm (3 kHz, above 4·f_n = 1.2 kHz) extends the grid of a 2-tooth one, whose depths then come from
+    other grid nodes but the same exact root polish: equal to its own call within the engine's accuracy."""
+    s = Structure(x=(Mode(300.0, K, ZETA),), y=(Mode(320.0, 1.2 * K, 0.02),))
+    batch = ModalBatch.from_structures([s])
+    two, twelve = Cutting(2, KT, 0.3, 0.0, math.pi), Cutting.from_immersion(12, KT, 0.3, 0.2, "down")
+    rpm = np.array([2000.0, 3100.0, 4700.0, 15000.0])
+    mixed = zoa.envelope_batch(batch, Conditions.of([two, twelve], [0, 0, 0, 1]), rpm)
+    np.testing.assert_allclose(mixed[:, :3], zoa.envelope_batch(batch, two, rpm[:3]), rtol=10 * zoa.depth_accuracy)
+    np.testing.assert_array_equal(mixed[:, 3:], zoa.envelope_batch(batch, twelve, rpm[3:]))

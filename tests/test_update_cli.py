@@ -108,7 +108,8 @@ def test_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     (["recommend", "{d}/post.json", "--risk", "1.5", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["recommend", "{d}/post.json", "--risk", "-0.1", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["update", "{d}/zero.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.k_x"),
-    (["update", "{d}/kr.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.kr"),
+    # Kr free needs an engine with a Kr per parameter set (zoa); sdm takes one Kr per call
+    (["update", "{d}/kr.toml", "{d}/cuts.csv", "--engine", "sdm", "--out", "{d}/p.json"], "prior.kr"),
 ])
 def test_more_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     from millstab.datasets import example_path

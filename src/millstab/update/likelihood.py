@@ -171,7 +171,11 @@ def cut_loglik(z: np.ndarray, kind: np.ndarray | None = None, label_error=0.0,
 
 @dataclass(frozen=True, eq=False)
 class Evidence:
-    """The data of one update: labelled cuts and boundary points (rpm, mm, Hz; NaN = no frequency)."""
+    """The data of one update: labelled cuts and boundary points (rpm, mm, Hz; NaN = no frequency).
+
+    ``cut_cond``/``pt_cond``: each row's index into ``conditions`` (a tuple of :class:`Cutting`), default all 0;
+    ``conditions`` ``None`` means the prior's cutting (one condition). InputError for an index out of range or
+    a count other than one per row. :meth:`columns` gives the distinct (speed, condition) engine columns."""
 
     cut_rpm: np.ndarray
     cut_depth_mm: np.ndarray

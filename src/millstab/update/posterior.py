@@ -282,6 +282,8 @@ class Posterior:
             except (KeyError, TypeError, ValueError):
                 raise InputError(f"{source} conditions", doc["conditions"],
                                  "a list of {teeth, entry, exit [rad]} per trained condition") from None
+            if len(conditions) == 1 and conditions[0] == prior.cutting:  # a one-condition posterior, as built
+                conditions = ()
         dia = doc.get("diameter_mm")
         return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
                    conditions, None if dia is None else float(dia))

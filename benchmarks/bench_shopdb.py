@@ -12,7 +12,9 @@ through the real path (``Store.record_update``) with a ``--open-samples`` (4 000
 Timed (each ``--repeat`` times, min and median, warm in this process; the file is in the page cache):
 ``open_store`` (a new Store: engine + schema check), ``history(campaign)`` (newest 50 events),
 ``history()`` (newest 50 of all campaigns), the next page (``before=``), opening a campaign
-(``snapshot`` + ``Posterior.from_json`` + the cuts' PointSet), and, for scale, ``campaigns()`` (all 10 000
+(``snapshot`` + ``Posterior.from_json`` + the cuts' PointSet), the app's opening of it as a user of its shop
+(``ShopView.open``: the shop check, the same read and its newest history) and its per-shop list (the campaigns
+belong to 20 shops), and, for scale, ``campaigns()`` (all 10 000
 rows) and a fresh process running ``millstab history --db FILE --campaign NAME`` (Python start and imports
 included: that is what a user waits for at the shell).
 
@@ -52,6 +54,10 @@ def _posterior(cfg, cuts: PointSet, n: int, seed: int) -> Posterior:
     return Posterior(pr, np.exp(u), "zoa", {"stages": 1}, data)
 
 
+#: the campaigns belong to this many shops (the app's per-shop listing reads one of them)
+SHOPS = 20
+
+
 def fill(store, cfg, toml: str, campaigns: int, cuts: int, updates: int, post_samples: int, seed: int = 0) -> None:
     rng = np.random.default_rng(seed)
     doc = json_text(_posterior(cfg, PointSet(rng.uniform(5e3, 12e3, cuts), rng.uniform(0.5, 5, cuts)),
@@ -68,7 +74,8 @@ def fill(store, cfg, toml: str, campaigns: int, cuts: int, updates: int, post_sa
         camp, conf, post, cut, ev = [], [], [], [], []
         for c in range(block, min(block + 1000, campaigns)):
             cid += 1
-            camp.append({"id": cid, "name": f"c{c:05d}", "machine_id": c % 100 + 1, "tool_id": c % 500 + 1, "note": "",
+            camp.append({"id": cid, "name": f"c{c:05d}", "shop": f"s{c % SHOPS}", "machine_id": c % 100 + 1,
+                         "tool_id": c % 500 + 1, "note": "",
                          "created_at": at, "created_by": by, "updated_at": at, "revision": updates,
                          "head_posterior_id": pid + updates})
             conf.append({"id": cid, "campaign_id": cid, "sha256": f"{cid:064x}", "toml": toml, "created_at": at,
@@ -153,6 +160,13 @@ def main() -> None:
 
         mn, md, (post, cuts) = timed(open_campaign, args.repeat)
         rows.append((f"open a campaign: posterior ({post.samples.shape[0]} samples) + {len(cuts)} cuts", mn, md))
+        from millstab.api.shop import ShopView
+
+        view = ShopView(db, "bench", [f"s{(args.campaigns // 2) % SHOPS}"])
+        mn, md, oc = timed(lambda: view.open(name), args.repeat)
+        rows.append((f"app: ShopView.open (shop check, posterior, {len(oc.cuts)} cuts, history)", mn, md))
+        mn, md, mine = timed(view.campaigns, args.repeat)
+        rows.append((f"app: ShopView.campaigns() of one shop ({len(mine)} rows)", mn, md))
         rows.append((f"campaigns() all {args.campaigns} rows (not a target)",
                      *timed(store.campaigns, max(1, args.repeat // 2))[:2]))
     env = {**os.environ}

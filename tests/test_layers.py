@@ -183,3 +183,11 @@ def test_a_figure_saves_without_a_display(tmp_path):
             "print(len(plt.get_fignums()))\n")
     assert _run(code) == "0"
     assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_doors_reach_the_shop_database_through_the_service_layer_only(graph):
+    """The app and the commands read and write campaigns through millstab.api.shop (which enforces the
+    per-shop rule, issue 31.4), never through millstab.shopdb directly."""
+    for mod, deps in graph.items():
+        if mod.startswith(DOORS):
+            assert sorted(d for d in deps if d == "millstab.shopdb" or d.startswith("millstab.shopdb.")) == [], mod

@@ -67,3 +67,41 @@ def test_db_options_and_files_are_checked_before_work(tmp_path, capsys):
         code = main([str(a) for a in args])
         err = capsys.readouterr().err
         assert code == 2 and needle in err and err.count("\n") == 1, err
+
+
+def test_listen_records_the_cut_with_the_label_heard(tmp_path, capsys):
+    """Issue 31.2: `listen REC --db --campaign --depth` records the cut in the campaign with the label and chatter
+    frequency heard in the recording, the rater `listen` and the recording by reference; once the campaign has
+    a posterior, the suggestion is recommend's from it (as with --post). Fails on the old code: no --db."""
+    import math
+
+    from listen_synth import milling_sound
+    from test_shopdb import land, some_cuts
+
+    from millstab.io.recordings import write_recording
+    from millstab.shopdb import open_store
+
+    db, fs = tmp_path / "shop.db", 48000
+    chat, calm = tmp_path / "cut 1.wav", tmp_path / "cut2.wav"
+    write_recording(chat, fs, milling_sound(teeth=2, rpm=14000.0, chatter_hz=1000.0, ratio=0.5))
+    write_recording(calm, fs, milling_sound(teeth=2, rpm=9000.0))
+    out = run(capsys, "listen", chat, "--rpm", 14000, "--teeth", 2, "--db", db, "--campaign", "t1", "--depth", 2.5,
+              "--user", "ann")
+    assert "chatter at 1000.0 Hz" in out and "recorded in campaign t1 as cut 1: 14000 rpm, 2.5 mm, chatter" in out
+    with open_store(db) as s:
+        land(s, "t1", some_cuts(3, 1), 1)  # an update lands: the campaign now has a posterior
+    out = run(capsys, "listen", calm, "--rpm", 9000, "--teeth", 2, "--db", db, "--campaign", "t1", "--depth", 1.0,
+              "--rpm-range", "5000:12000", "--user", "bob")
+    assert "stable" in out and "recommend: the fastest cut" in out and "as cut 5: 9000 rpm, 1 mm, stable" in out
+    with open_store(db) as s:
+        rows = s.cut_rows("t1")
+    first, last = rows[0], rows[-1]
+    assert (first["rpm"], first["depth_mm"], first["label"], first["rater"], first["created_by"]) == \
+        (14000.0, 2.5, "chatter", "listen", "ann")
+    assert abs(first["chatter_hz"] - 1000.0) < 2 and first["recording"] == str(chat.resolve())
+    assert (last["rpm"], last["depth_mm"], last["label"], last["created_by"]) == (9000.0, 1.0, "stable", "bob")
+    assert last["chatter_hz"] is None or math.isnan(last["chatter_hz"])
+    # the depth is needed to record the cut; --post and --db do not go together
+    assert main(["listen", str(calm), "--rpm", "9000", "--teeth", "2", "--db", str(db), "--campaign", "t1"]) == 2
+    assert "--depth" in capsys.readouterr().err
+    assert main(["listen", str(calm), "--rpm", "9000", "--teeth", "2", "--db", str(db)]) == 2  # --campaign missing

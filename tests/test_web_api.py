@@ -401,3 +401,100 @@ def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monke
         assert ".wav, .csv" in tab.rec_error.object and tab.recordings == {}
     finally:
         s.close()
+
+
+def test_accounts_belong_to_shops(tmp_path, monkeypatch, capsys):
+    """Issue 31.4: a users line may list the user's shops (``name:hash:acme,bolt``); none listed is the shop
+    ``default`` (the command line's campaigns); a new password keeps the shops; a bad shop name is one line."""
+    import io
+
+    from millstab.cli import main
+    from millstab.web import auth
+
+    users = tmp_path / "users.txt"
+    for name, shops in (("anna", ["--shop", "acme"]), ("carl", ["--shop", "acme", "--shop", "bolt"]), ("dan", [])):
+        monkeypatch.setattr("sys.stdin", io.StringIO(f"{name} password 1\n"))
+        assert main(["app", "--add-user", name, "--users", str(users), "--password-stdin", *shops]) == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO("anna password 2\n"))
+    assert main(["app", "--add-user", "anna", "--users", str(users), "--password-stdin"]) == 0  # shops kept
+    assert auth.read_shops(users) == {"anna": ("acme",), "carl": ("acme", "bolt"), "dan": ("default",)}
+    got = auth.read_accounts(users)
+    assert auth.check_password("anna password 2", got["anna"][0]) and auth.read_users(users)["carl"] == got["carl"][0]
+    assert users.read_text().splitlines()[-1].startswith("anna:scrypt$") and users.read_text().count(":acme") == 2
+    monkeypatch.setattr("sys.stdin", io.StringIO("eve password 1\n"))
+    assert main(["app", "--add-user", "eve", "--users", str(users), "--password-stdin", "--shop", "a b"]) == 2
+    assert "--shop = 'a b' is invalid" in capsys.readouterr().err
+    assert main(["app", "--shop", "acme", "--no-browser"]) == 2  # --shop belongs to --add-user
+    with pytest.raises(InputError, match="users line 1"):
+        auth.parse_accounts(f"x:{auth.hash_password('password 1')}:a b\n")
+
+
+@pytest.mark.slow  # two configs through the form (each draws its SLD): ~15 s on the loaded 2-core machine
+def test_campaign_card_opens_records_and_shows_nothing_of_another_shop(tmp_path):
+    """Issue 31.3 without a browser: the Update tab's campaign card lists the user's shop's campaigns, opens
+    one (its config in the form, its cuts and posterior in the tab, its history), records new cuts (refused
+    as stale when someone added cuts since it was opened), and opening another shop's campaign leaves the
+    page as it was."""
+    pytest.importorskip("sqlalchemy")
+    pytest.importorskip("alembic")
+    from test_shopdb import fake_posterior, some_cuts
+
+    from millstab.api import shop
+    from millstab.shopdb import open_store
+    from millstab.web.campaigns import CampaignPanel, _same_config
+    from millstab.web.update_tab import UpdateTab
+
+    db = tmp_path / "shop.db"
+    ex1 = api.config_toml(api.config("example:ex1"))
+    first = some_cuts(4, 1)
+    with open_store(db, user="bob") as st:
+        pid = st.record_update("a1", ex1, first, fake_posterior(first, 1), expected_head=None, expected_rows=0,
+                               shop="acme", all_cuts=first)
+        st.record_update("b1", ex1, first, fake_posterior(first, 2), expected_head=None, expected_rows=0, shop="bolt")
+    s, tool = _tool()
+    try:
+        tab = UpdateTab(s)
+        maps = []
+        tab.map = lambda record=False: maps.append(record)  # the map job needs a served page
+        panel = CampaignPanel(shop.ShopView(db, "ann", ["acme"]), tab, tool.load_text)
+        tab.campaign = panel
+        assert panel.select.options == ["a1"] and panel.select.value == "a1"
+        before = (s.cfg, s.cuts, s.post)
+        assert not panel.open("b1")
+        assert "no such campaign in shop.db (it holds 1 campaign(s): a1); the list above shows them" in panel.status.text
+        assert str(tmp_path) not in panel.status.text
+        assert (s.cfg, s.cuts, s.post) == before and panel.current is None and panel.summary.text == ""
+        assert panel.open("a1") and maps == [False]
+        assert s.origin == "campaign a1" and api.config_toml(s.cfg) == ex1 and _same_config(s.cfg, ex1)
+        assert not _same_config(api.config("example:ex3"), ex1)
+        np.testing.assert_array_equal(s.cuts.rpm, first.rpm)
+        np.testing.assert_array_equal(s.post.samples, fake_posterior(first, 1).samples)
+        assert tab.post_id == pid and "computed for:</b> campaign a1" in tab.post_table.text
+        assert "4 cuts, 1 update(s)" in panel.summary.text and "bob" in panel.history.text
+        tab.pending = some_cuts(2, 7)
+        panel.record()
+        assert "2 cut(s) recorded, 6 in all" in panel.status.text
+        assert "6 cuts" in panel.summary.text and "2 cut(s) wait for the next update" in panel.summary.text
+        with open_store(db) as st:
+            st.add_cuts("a1", some_cuts(1, 8), user="carl")  # someone else, meanwhile
+        tab.pending = some_cuts(1, 9)
+        panel.record()
+        assert "stale" in panel.status.text
+        with open_store(db) as st:
+            assert st.head("a1").n_rows == 7 and st.head("b1").n_rows == 4
+    finally:
+        s.close()
+
+
+def test_app_db_problems_are_one_line_before_serving(tmp_path, capsys):
+    """`millstab app --db` opens (creates, migrates) the database before the URL is printed: a folder or a
+    file that is not a shop database is one line naming --db, and nothing is served."""
+    pytest.importorskip("panel")
+    pytest.importorskip("sqlalchemy")
+    from millstab.cli import main
+
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1,stable\n")
+    for bad in (tmp_path, tmp_path / "cuts.csv"):
+        assert main(["app", "--db", str(bad), "--port", "0", "--no-browser"]) == 2
+        out = capsys.readouterr()
+        assert out.err.startswith("millstab: error: --db = ") and len(out.err.strip().splitlines()) == 1 and "http" not in out.out

@@ -24,6 +24,7 @@ import numpy as np
 from millstab.model import Conditions, Cutting
 from millstab.params import Parameterization
 from millstab.stability import get_engine
+from millstab.stability.process_damping import reject as reject_process_damping
 
 #: speed lists whose engine settings a Forward remembers
 SETTINGS_CACHE = 16
@@ -45,6 +46,8 @@ class Forward:
     def __post_init__(self) -> None:
         # resolve (and validate) the engine name once, not per call
         object.__setattr__(self, "_engine_mod", get_engine(self.engine))
+        if not getattr(self._engine_mod, "process_damping", False):  # an engine without the capability
+            reject_process_damping(self.cutting, self.engine)
 
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
                  kr: np.ndarray | None = None) -> np.ndarray:

@@ -8,7 +8,8 @@ All classes are small frozen dataclasses, validated on construction, SI inside:
   measured frequency response (:class:`MeasuredFRF`). A direction without modes is rigid.
 * :class:`Cutting` -- number of teeth, tangential cutting coefficient ``kt`` [N/m²], the ratio
   ``kr`` of radial to tangential coefficient, and the entry/exit angles [rad] (Altintas' convention:
-  0..π is slotting, down milling exits at π, up milling enters at 0).
+  0..π is slotting, down milling exits at π, up milling enters at 0); optionally the process-damping
+  coefficient ``process_damping`` C [N/m] and the tool ``diameter`` [m] its cutting speed needs.
 
 Invalid input raises :class:`millstab.errors.InputError` naming the field, the value and what is
 allowed.
@@ -17,7 +18,7 @@ allowed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -237,6 +238,10 @@ class Cutting:
         kr: radial-to-tangential coefficient ratio Kr = Kn/Kt [-] (the seed paper's k_n), ≥ 0.
         entry: entry (start) angle φst [rad], in [0, π).
         exit: exit angle φex [rad], in (0, π], > entry.
+        process_damping: the process-damping (flank indentation) coefficient C [N/m], ≥ 0; 0 (the
+            default) is no process damping. Each tooth in the cut adds the force −(C b / V)(n·u̇) n
+            along its surface normal n, V = π D Ω / 60 the cutting speed (docs/engines.md).
+        diameter: tool diameter D [m] (> 0), needed for the cutting speed when process_damping > 0.
     """
 
     teeth: int
@@ -244,6 +249,8 @@ class Cutting:
     kr: float
     entry: float = 0.0
     exit: float = math.pi
+    process_damping: float = 0.0
+    diameter: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.teeth, bool) or not isinstance(self.teeth, (int, np.integer)):
@@ -280,21 +287,38 @@ class Cutting:
         object.__setattr__(self, "kr", kr)
         object.__setattr__(self, "entry", min(max(entry, 0.0), math.pi))
         object.__setattr__(self, "exit", min(max(exit_, 0.0), math.pi))
+        pd = _finite("cutting.process_damping", self.process_damping)
+        if pd < 0:
+            raise InputError("cutting.process_damping", self.process_damping,
+                             "process-damping coefficient C must be >= 0 N/m (0: no process damping)")
+        object.__setattr__(self, "process_damping", pd)
+        if self.diameter is not None:
+            d = _finite("cutting.diameter", self.diameter)
+            if d <= 0:
+                raise InputError("cutting.diameter", self.diameter, "tool diameter must be > 0 m")
+            if d > 2.0:
+                warn(f"cutting.diameter = {d:g} m is very large for a milling tool; did you mean {d:g} mm? "
+                     f"Give units explicitly, e.g. \"{d:g} mm\".", UnitWarning, stacklevel=3)
+            object.__setattr__(self, "diameter", d)
+        if pd > 0 and self.diameter is None:
+            raise InputError("cutting.diameter", None, "needed with process damping (the cutting speed "
+                                                       "V = pi D n / 60 sets its size); give the tool diameter")
 
     @classmethod
-    def from_immersion(cls, teeth: int, kt: float, kr: float, radial_immersion: float, milling: Milling = "down") -> Cutting:
+    def from_immersion(cls, teeth: int, kt: float, kr: float, radial_immersion: float, milling: Milling = "down",
+                       **extra) -> Cutting:
         """Cutting conditions from the radial immersion a/D in (0, 1] and the milling direction.
 
         Down (climb) milling: φst = arccos(2a/D − 1), φex = π. Up (conventional) milling: φst = 0,
-        φex = arccos(1 − 2a/D).
+        φex = arccos(1 − 2a/D). ``extra``: the other fields (``process_damping``, ``diameter``).
         """
         ri = _finite("cutting.radial_immersion", radial_immersion)
         if not 0 < ri <= 1:
             raise InputError("cutting.radial_immersion", radial_immersion, "radial immersion a/D must be in (0, 1]")
         if milling == "down":
-            return cls(teeth, kt, kr, math.acos(2 * ri - 1), math.pi)
+            return cls(teeth, kt, kr, math.acos(2 * ri - 1), math.pi, **extra)
         if milling == "up":
-            return cls(teeth, kt, kr, 0.0, math.acos(1 - 2 * ri))
+            return cls(teeth, kt, kr, 0.0, math.acos(1 - 2 * ri), **extra)
         raise InputError("cutting.milling", milling, 'must be "down" or "up"')
 
     @property
@@ -304,7 +328,25 @@ class Cutting:
 
     def scaled_kt(self, factor: float) -> Cutting:
         """A copy with Kt multiplied by ``factor``."""
-        return Cutting(self.teeth, self.kt * factor, self.kr, self.entry, self.exit)
+        return replace(self, kt=self.kt * factor)
+
+    @property
+    def has_process_damping(self) -> bool:
+        """True when the process-damping coefficient is > 0."""
+        return self.process_damping > 0
+
+    def without_process_damping(self) -> Cutting:
+        """A copy with no process damping (C = 0; the diameter is kept)."""
+        return replace(self, process_damping=0.0)
+
+    def process_damping_per_depth(self, rpm) -> np.ndarray:
+        """C / V [N·s/m²] at each spindle speed [rpm]: the process damping per unit depth, so that a
+        tooth in the cut at depth b [m] carries the damping coefficient b · C / V [N·s/m] along its
+        surface normal. V = π D Ω / 60 [m/s]. Zeros when there is no process damping."""
+        r = np.asarray(rpm, dtype=float)
+        if not self.has_process_damping:
+            return np.zeros(r.shape)
+        return self.process_damping / (math.pi * self.diameter * r / 60.0)
 
 
 def condition_index(index, n_conditions: int, field: str = "conditions.index") -> np.ndarray:

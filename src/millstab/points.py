@@ -453,9 +453,10 @@ def condition_text(c: Cutting) -> str:
 
 
 def same_condition(a: Cutting, b: Cutting) -> bool:
-    """True when two cuttings are one condition (teeth, coefficients, entry and exit within :data:`ANGLE_TOL`)."""
+    """True when two cuttings are one condition (teeth, coefficients, process damping, entry and exit within
+    :data:`ANGLE_TOL`)."""
     return (a.teeth == b.teeth and a.kt == b.kt and a.kr == b.kr and abs(a.entry - b.entry) <= ANGLE_TOL
-            and abs(a.exit - b.exit) <= ANGLE_TOL)
+            and abs(a.exit - b.exit) <= ANGLE_TOL and getattr(a, "process_damping", 0.0) == getattr(b, "process_damping", 0.0))
 
 
 def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial_width_mm: float | None = None,
@@ -472,11 +473,14 @@ def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial
         InputError: ``field`` names the option or cell: a width without a diameter or wider than the tool,
             a/D < 1 or ``milling`` alone where the base (slot or general angles) has no direction or a/D.
     """
+    from dataclasses import replace
+
     n = base.teeth if teeth is None else teeth
     if entry_deg is not None or exit_deg is not None:
         if entry_deg is None or exit_deg is None:
             raise InputError(f"{field} entry_deg/exit_deg", (entry_deg, exit_deg), "give both angles")
-        return Cutting(n, base.kt, base.kr, math.radians(entry_deg), math.radians(exit_deg))
+        # replace: the tool's other properties (process damping, diameter) stay the base's
+        return replace(base, teeth=n, entry=math.radians(entry_deg), exit=math.radians(exit_deg))
     ri0, mill0 = _direction(base)
     if radial_width_mm is not None:
         if diameter_mm is None:
@@ -488,7 +492,7 @@ def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial
                              f"a radial width in (0, {diameter_mm:g}] mm (the tool diameter of the config)")
         radial_immersion = min(radial_width_mm / diameter_mm, 1.0)
     if radial_immersion is None and milling is None:
-        return base if n == base.teeth else Cutting(n, base.kt, base.kr, base.entry, base.exit)
+        return base if n == base.teeth else replace(base, teeth=n)
     if radial_immersion is None:
         if ri0 is None:
             raise InputError(f"{field} milling", milling, "milling alone needs a config given by radial_immersion "
@@ -501,7 +505,8 @@ def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial
         else:
             raise InputError(f"{field} milling", None, f"missing: a/D {radial_immersion:g} needs up or down (the "
                                                        "config's cutting is a slot or general angles)")
-    return Cutting.from_immersion(n, base.kt, base.kr, float(radial_immersion), mill)
+    c = Cutting.from_immersion(n, base.kt, base.kr, float(radial_immersion), mill)
+    return replace(base, teeth=n, entry=c.entry, exit=c.exit)
 
 
 def cut_conditions(points: PointSet, base: Cutting, diameter_mm: float | None = None

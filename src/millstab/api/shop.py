@@ -19,6 +19,7 @@ from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text
 from millstab.points import PointSet
+from millstab.shopdb import DEFAULT_SHOP, check_shop  # (the package's __init__ imports no SQLAlchemy)
 
 
 def open_db(db, user: str | None = None, create: bool = True):
@@ -96,11 +97,48 @@ def _why_fresh(snap, cfg_sha: str, engine: str, new: PointSet) -> str | None:
     return None
 
 
+Shops = Sequence[str] | None  # the shops whose campaigns the caller may see and write; None: every campaign
+
+
+def _readable(store, campaign: str, shops: Shops) -> None:
+    """Refuse a campaign not of ``shops`` with the words of a campaign that does not exist (a user cannot tell
+    another shop's campaign from none, whatever name they guess)."""
+    if shops is not None and store.campaign_shop(campaign) not in set(shops):
+        raise store.unknown(campaign, shops)
+
+
+#: a write to a name of another shop's campaign (the names are unique in a database)
+TAKEN = "the name is taken by a campaign you cannot see; choose another name"
+
+
+def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | None:
+    """The shop to record ``campaign`` under: its own (which must be one of ``shops``), or for a new campaign
+    ``shop`` (one of ``shops``; by default the caller's only shop). ``None``: no rule (every shop's
+    campaigns, the command line). The writer's transaction checks the shop again
+    (:meth:`~millstab.shopdb.store.Store.record_update`)."""
+    if shops is None:
+        return shop
+    have = store.campaign_shop(campaign)
+    allowed = list(dict.fromkeys(shops))
+    if have is not None:
+        if have not in allowed:  # a write must say why it cannot create the name; it shows nothing of the campaign
+            raise InputError("--campaign", campaign, TAKEN)
+        return have
+    if shop is None:
+        if len(allowed) != 1:
+            raise InputError("shop", None, f"a new campaign needs its shop: one of {', '.join(allowed) or '(none)'}")
+        shop = allowed[0]
+    if shop not in allowed:
+        raise InputError("shop", shop, f"one of your shops: {', '.join(allowed) or '(none)'}")
+    return shop
+
+
 def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
                  engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
                  machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
                  recordings: Sequence[str] | None = None, retries: int = 1, progress: Progress | None = None,
-                 client=None) -> ShopUpdate:
+                 client=None, shops: Shops = None, shop: str | None = None,
+                 config_toml: str | None = None) -> ShopUpdate:
     """Update campaign ``campaign`` with ``new_cuts`` (and boundary ``points``) and record it.
 
     Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
@@ -110,6 +148,10 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     (the file workflow's habit): when it begins with every recorded cut, only the rows after them are new.
     When another update landed meanwhile,
     it re-runs from that one (up to ``retries`` times), then raises :class:`~millstab.shopdb.store.StaleError`.
+    ``shops``: the caller may only see and write these shops' campaigns (the app's accounts; ``None``: all);
+    ``shop``: the shop of a new campaign. ``config_toml``: the config text to record (default
+    :func:`config_text` of ``cfg``; the app passes the campaign's own text when its form holds that config, so
+    that the update continues from the current posterior).
 
     Raises:
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
@@ -121,8 +163,9 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     from millstab.shopdb.store import StaleError
 
     store = open_db(db, user)
+    shop = _writable(store, campaign, shops, shop)
     cfg, _ = modal(cfg)
-    toml = config_text(cfg)
+    toml = config_text(cfg) if config_toml is None else config_toml
     sha = hashlib.sha256(toml.encode("utf-8")).hexdigest()
     new = _join(new_cuts, points)
     notes: list[str] = []
@@ -131,6 +174,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         new, note = already_recorded(first.cuts, new)
         notes += [note] if note else []
     for attempt in range(1, retries + 2):
+        if attempt > 1:  # what landed first may be another shop's new campaign of this name: never sample its cuts
+            _writable(store, campaign, shops, shop)
         snap = store.snapshot(campaign)
         old = snap.cuts if snap is not None else PointSet(np.zeros(0), np.zeros(0))
         cuts = _join(old, new)
@@ -148,7 +193,7 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
                                       expected_rows=head.n_rows if head else 0,
                                       parent=head.posterior_id if start is not None else None, seed=seed,
                                       machine=machine, tool=tool, user=user, raters=raters, recordings=recordings,
-                                      all_cuts=cuts, note="; ".join(notes))
+                                      all_cuts=cuts, note="; ".join(notes), shop=shop)
         except StaleError as exc:
             if attempt > retries:
                 raise
@@ -159,10 +204,11 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     raise AssertionError("unreachable")
 
 
-def posterior_from_db(db, campaign: str, user: str | None = None):
+def posterior_from_db(db, campaign: str, user: str | None = None, shops: Shops = None):
     """(posterior id, :class:`~millstab.update.Posterior`) of the campaign's current posterior (for ``map``,
-    ``predict``, ``listen``)."""
+    ``predict``, ``listen``); ``shops``: as in :func:`update_in_db`."""
     store = open_db(db, user, create=False)
+    _readable(store, campaign, shops)
     pid, doc = store.latest_posterior_doc(campaign)
     from millstab.api.update import posterior_from_json
 
@@ -170,7 +216,7 @@ def posterior_from_db(db, campaign: str, user: str | None = None):
 
 
 def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, float], *, user: str | None = None,
-                      current=None, **options):
+                      current=None, shops: Shops = None, **options):
     """The recommended cut and next test from the campaign's current posterior, recorded in the database.
     ``current``: ``(posterior id, posterior)`` of this campaign as the caller already read it
     (:func:`posterior_from_db`; default: read now). ``options``: those of :func:`millstab.api.recommend`. Returns
@@ -178,6 +224,7 @@ def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, fl
     from millstab.api.update import recommend
 
     store = open_db(db, user, create=False)
+    _readable(store, campaign, shops)
     pid, post = current if current is not None else posterior_from_db(store, campaign)
     rec = recommend(post, risk, rpm_range, **options)
     rid = store.record_recommendation(campaign, rec.to_json(), pid, user=user)
@@ -186,15 +233,53 @@ def recommend_from_db(db, campaign: str, risk: float, rpm_range: tuple[float, fl
 
 def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, machine: str | None = None,
                 tool: str | None = None, raters: Sequence[str] | None = None,
-                recordings: Sequence[str] | None = None) -> int:
-    """Record cuts without an update (the next :func:`update_in_db` uses them); returns the campaign's row count."""
-    return open_db(db, user).add_cuts(campaign, cuts, machine=machine, tool=tool, user=user, raters=raters,
-                                      recordings=recordings)
+                recordings: Sequence[str] | None = None, shops: Shops = None, shop: str | None = None,
+                expected_rows: int | None = None) -> int:
+    """Record cuts without an update (the next :func:`update_in_db` uses them); returns the campaign's row count.
+    ``shops``, ``shop``: as in :func:`update_in_db`; ``expected_rows``: refuse when the campaign does not
+    hold that many rows (someone added cuts meanwhile)."""
+    store = open_db(db, user)
+    shop = _writable(store, campaign, shops, shop)
+    return store.add_cuts(campaign, cuts, machine=machine, tool=tool, user=user, raters=raters,
+                          recordings=recordings, shop=shop, expected_rows=expected_rows)
 
 
-def history(db, campaign: str | None = None, limit: int = 50, before: int | None = None):
-    """The newest ``limit`` events (:class:`~millstab.shopdb.store.Event`, newest first), of one campaign or all."""
-    return open_db(db, create=False).history(campaign, limit, before)
+def current_posterior(db, campaign: str, user: str | None = None, shops: Shops = None):
+    """``(posterior id, Posterior)`` of the campaign's current posterior, or ``None`` when the campaign does not
+    exist yet or has no posterior (``listen --db`` records its cut either way)."""
+    if not hasattr(db, "record_update") and "://" not in str(db) and not Path(str(db)).expanduser().exists():
+        return None  # no database file yet: the cut to record creates it
+    store = open_db(db, user, create=False)
+    if store.campaign_shop(campaign) is None:
+        return None
+    _readable(store, campaign, shops)
+    head = store.head(campaign)
+    return None if head.posterior_id is None else posterior_from_db(store, campaign)
+
+
+def record_heard(db, campaign: str, heard, depth_mm: float, recording, *, user: str | None = None,
+                 shops: Shops = None, weight: float = 1.0) -> int:
+    """Record a cut labelled by listening (:func:`millstab.api.listen_file`'s result ``heard``) in the campaign:
+    its speed (the programmed rpm), ``depth_mm``, the label and chatter frequency heard, the rater
+    ``listen`` and the recording by reference (its absolute path). Returns the campaign's number of cuts."""
+    r = heard.listening
+    depth = float(depth_mm)
+    if not np.isfinite(depth) or depth <= 0:
+        raise InputError("--depth", depth_mm, "the axial depth of the recorded cut in mm, > 0")
+    hz = float(r.chatter_hz) if r.label != "stable" else float("nan")
+    cut = PointSet(np.array([float(r.rpm)]), np.array([depth]), np.array([r.label], dtype=object),
+                   np.array([float(weight)]), None, np.array([hz]))
+    ref = str(Path(recording).expanduser().resolve()) if "://" not in str(recording) else str(recording)
+    return record_cuts(db, campaign, cut, user=user, raters=["listen"], recordings=[ref], shops=shops)
+
+
+def history(db, campaign: str | None = None, limit: int = 50, before: int | None = None, shops: Shops = None):
+    """The newest ``limit`` events (:class:`~millstab.shopdb.store.Event`, newest first), of one campaign or all
+    (of ``shops``' campaigns only, when given)."""
+    store = open_db(db, create=False)
+    if campaign is not None:
+        _readable(store, campaign, shops)
+    return store.history(campaign, limit, before, shops)
 
 
 def history_table(events) -> tuple[list[str], list]:
@@ -203,9 +288,9 @@ def history_table(events) -> tuple[list[str], list]:
     return header, [[getattr(e, h) for e in events] for h in header]
 
 
-def campaigns(db) -> list[dict]:
-    """Every campaign of the database (name, machine, tool, updates, times)."""
-    return open_db(db, create=False).campaigns()
+def campaigns(db, shops: Shops = None) -> list[dict]:
+    """Every campaign of the database (of ``shops`` only, when given): name, shop, machine, tool, updates, times."""
+    return open_db(db, create=False).campaigns(shops)
 
 
 def check(db) -> list[str]:
@@ -220,12 +305,79 @@ def export_campaign(db, campaign: str, folder) -> Path:
     return run(open_db(db, create=False), campaign, folder)
 
 
-def import_campaign(db, folder, name: str | None = None, user: str | None = None) -> str:
-    """Create a campaign from an exported folder; returns its name."""
+def import_campaign(db, folder, name: str | None = None, user: str | None = None, shop: str | None = None) -> str:
+    """Create a campaign from an exported folder (in ``shop``, default: the shop it was exported from);
+    returns its name."""
     from millstab.shopdb.files import read_campaign
 
-    return open_db(db, user).import_bundle(read_campaign(folder), name, user)
+    bundle = read_campaign(folder)
+    if shop is not None:
+        bundle["shop"] = shop
+    return open_db(db, user).import_bundle(bundle, name, user)
 
 
-__all__ = ["ShopUpdate", "already_recorded", "campaigns", "check", "config_text", "export_campaign", "history", "history_table", "import_campaign",
-           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "update_in_db"]
+@dataclass(frozen=True)
+class OpenCampaign:
+    """A campaign as one read saw it (:meth:`ShopView.open`): what the app shows when it opens one."""
+
+    name: str
+    shop: str
+    revision: int  # updates landed
+    cuts: PointSet  # every cut row in order (rounds, then the cuts recorded since)
+    rows: list  # the same rows with rater, recording, batch, who and when
+    posterior_id: int | None
+    posterior: object  # the current millstab.update.Posterior, or None before the first update
+    posterior_rows: int  # cut rows the current posterior used (cuts beyond it wait for the next update)
+    config_toml: str | None  # the config text of the current posterior
+    events: list  # the newest history events (Event), newest first
+    updated_at: str
+    updated_by: str | None
+
+
+class ShopView:
+    """A shop database as one user sees it: the campaigns of ``shops`` only (``None``: every campaign, e.g.
+    the app on this machine without accounts). Every method goes through the functions above with
+    ``shops``, so the rule holds in the service layer, whatever door calls it (the app's Update tab)."""
+
+    def __init__(self, db, user: str | None = None, shops: Shops = None):
+        self.store = open_db(db, user)
+        self.user = self.store.user
+        self.shops = None if shops is None else tuple(dict.fromkeys(shops))
+
+    def __repr__(self) -> str:
+        return f"ShopView({self.store.url!r}, user={self.user!r}, shops={self.shops!r})"
+
+    def campaigns(self) -> list[dict]:
+        return campaigns(self.store, self.shops)
+
+    def open(self, campaign: str, events: int = 20) -> OpenCampaign:
+        """Read a campaign (cuts, current posterior, its config, the newest ``events`` of its history)."""
+        _readable(self.store, campaign, self.shops)
+        snap = self.store.snapshot(campaign)
+        if snap is None:
+            raise self.store.unknown(campaign, self.shops)
+        h = snap.head
+        post = snap.posterior()
+        used = len((snap.posterior_doc or {}).get("cuts", {}).get("label") or []) if post is not None else 0
+        return OpenCampaign(campaign, self.store.campaign_shop(campaign), h.revision, snap.cuts, snap.rows,
+                            h.posterior_id, post, used, snap.config_toml,
+                            self.store.history(campaign, events), h.updated_at, h.updated_by)
+
+    def update(self, campaign: str, cfg: Config, new_cuts: PointSet | None = None, **options) -> ShopUpdate:
+        """:func:`update_in_db` as this user, within their shops (``shop=`` for a new campaign)."""
+        return update_in_db(self.store, campaign, cfg, new_cuts, user=self.user, shops=self.shops, **options)
+
+    def add_cuts(self, campaign: str, cuts: PointSet, **options) -> int:
+        """:func:`record_cuts` as this user, within their shops."""
+        return record_cuts(self.store, campaign, cuts, user=self.user, shops=self.shops, **options)
+
+    def recommend(self, campaign: str, risk: float, rpm_range: tuple[float, float], **options):
+        """:func:`recommend_from_db` as this user, within their shops."""
+        return recommend_from_db(self.store, campaign, risk, rpm_range, user=self.user, shops=self.shops, **options)
+
+    def history(self, campaign: str | None = None, limit: int = 50, before: int | None = None):
+        return history(self.store, campaign, limit, before, self.shops)
+
+
+__all__ = ["DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
+           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

@@ -19,11 +19,13 @@ MAX_MAP_CELLS = 5_000_000
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
-           seed: int = 0, start=None, progress: Progress | None = None, client=None):
+           seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto"):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
-    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior).
+    whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
+    ``auto`` | ``delayed`` | ``plain`` (delayed acceptance screened by the zero-order engine, the default for
+    every engine but zoa; the posterior is the chosen engine's either way, :data:`millstab.update.SAMPLERS`).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
@@ -43,7 +45,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
         check_client(client)
     return run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client)
+                      client=client, sampler=sampler)
 
 
 def posterior_from_json(doc, source: str = "posterior"):

@@ -18,7 +18,7 @@ app.add_typer(campaign_app, name="campaign")
 
 @campaign_app.command("list")
 def list_cmd(db: str = DbOpt) -> None:
-    """Every campaign: machine, tool, updates and the last change."""
+    """Every campaign: shop, machine, tool, updates and the last change."""
     from rich.console import Console
     from rich.table import Table
 
@@ -26,10 +26,10 @@ def list_cmd(db: str = DbOpt) -> None:
 
     rows = shop.campaigns(db)
     table = Table(title=f"{len(rows)} campaign(s) in {db}")
-    for col in ("campaign", "machine", "tool", "updates", "created", "last change"):
+    for col in ("campaign", "shop", "machine", "tool", "updates", "created", "last change"):
         table.add_column(col)
     for r in rows:
-        table.add_row(r["name"], r["machine"] or "", r["tool"] or "", str(r["revision"]),
+        table.add_row(r["name"], r["shop"], r["machine"] or "", r["tool"] or "", str(r["revision"]),
                       f"{r['created_at'][:10]} {r['created_by']}", r["updated_at"][:19].replace("T", " "))
     Console().print(table)
 
@@ -53,11 +53,13 @@ def import_cmd(
     db: str = DbOpt,
     name: Optional[str] = typer.Option(None, "--as", help="Import under this campaign name (default: its own)."),
     user: Optional[str] = typer.Option(None, "--user", help="Who imports (default: $USER)."),
+    shop_name: Optional[str] = typer.Option(None, "--shop", help="The shop it belongs to in the app (default: its "
+                                                                  "own, else 'default'); see docs/app.md."),
 ) -> None:
     """Create a campaign in a shop database from an exported folder (times and users as recorded)."""
     from millstab.api import shop
 
-    got = shop.import_campaign(db, folder, name, user)
+    got = shop.import_campaign(db, folder, name, user, shop_name)
     typer.echo(f"imported campaign {got} into {db}")
 
 

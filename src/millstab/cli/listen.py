@@ -2,6 +2,7 @@
 
 millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--rpm-range MIN:MAX]
                 [--post post.json --depth MM [--risk P]] [--out res.json] [--plot spec.png]
+                [--db shop.db --campaign NAME --depth MM [--user U]]   (records the cut with its heard label)
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
+from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, shop_target
 
 
 @app.command()
@@ -32,13 +34,28 @@ def listen(
     risk: float = typer.Option(0.1, "--risk", help="Tolerated P(chatter) of the suggestion, with --post."),
     out: Optional[Path] = typer.Option(None, "--out", help="JSON of the result."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Spectrum figure (.png, .svg or .pdf)."),
+    db: ShopDbOpt = None,
+    campaign: CampaignOpt = None,
+    user: UserOpt = None,
 ) -> None:
-    """Listen to a recorded cut: stable, marginal or chatter, the chatter frequency and a speed to try."""
+    """Listen to a recorded cut: stable, marginal or chatter, the chatter frequency and a speed to try. With
+    --db/--campaign/--depth the cut is recorded in the campaign with the label heard (and the suggestion
+    uses the campaign's current posterior)."""
     from millstab import api
+    from millstab.errors import InputError
     from millstab.io import check_outputs, read_json, write_json
 
     check_outputs({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    on_db = shop_target(db, campaign)
+    if on_db and (depth is None or post is not None):
+        raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),
+                         "with --db/--campaign: give --depth MM (the cut's depth, to record it) and no --post (the "
+                         "campaign's current posterior is used)")
     posterior = api.posterior_from_json(read_json(post), str(post)) if post is not None else None
+    if on_db:
+        from millstab.api import shop
+
+        posterior = (shop.current_posterior(db, campaign, user) or (None, None))[1]
     heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
                             post=posterior, depth_mm=depth, risk=risk)
     r = heard.listening
@@ -56,6 +73,10 @@ def listen(
         typer.echo(f"suggested speed: {heard.suggested_rpm:.0f} rpm ({heard.reason})")
     else:
         typer.echo(f"suggestion: {heard.reason}")
+    if on_db:
+        n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
+        typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
+                   "`millstab update --db` uses it)")
     protect = [p for p in (recording, post) if p]
     if out:
         write_json(out, heard.to_dict(), protect=protect)

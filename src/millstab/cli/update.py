@@ -47,6 +47,9 @@ def update_cmd(
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
+    sampler: str = typer.Option("auto", "--sampler", help="MH moves: auto | delayed | plain. delayed: the zero-order "
+                                "engine screens each proposal, the chosen engine decides on the survivors (same "
+                                "posterior, a third of the engine calls); auto: delayed for every engine but zoa."),
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
     db: ShopDbOpt = None,
@@ -97,7 +100,7 @@ def update_cmd(
                 typer.echo(line)
         else:
             post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
-                              start=_load_posterior(start) if start is not None else None, client=client)
+                              start=_load_posterior(start) if start is not None else None, client=client, sampler=sampler)
     doc = post.to_json()
     doc["config"] = cfg.name
     if out is not None:

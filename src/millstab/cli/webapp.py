@@ -22,6 +22,11 @@ def app_cmd(
                                  "--users file, asking for the password, and exit."),
     password_stdin: bool = typer.Option(False, "--password-stdin", help="With --add-user: read the password from the "
                                         "first line of standard input (scripts) instead of asking."),
+    shop: list[str] = typer.Option(None, "--shop", help="With --add-user: a shop the user belongs to (repeat for "
+                                   "several; default: those it had, else the shop 'default'). With --db a user sees "
+                                   "and writes only their shops' campaigns."),
+    db: str = typer.Option(None, "--db", help="Shop database (a file, created when new, or a SQLAlchemy URL): the "
+                                              "Update tab lists, opens and updates its campaigns. See docs/app.md."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser tab."),
 ) -> None:
     """Serve the stability tools as a web page (tool and cut, lobes, identify, update, downloads); prints the URL."""
@@ -35,18 +40,22 @@ def app_cmd(
             password = sys.stdin.readline().rstrip("\r\n")
         else:
             password = typer.prompt(f"password for {add_user}", hide_input=True, confirmation_prompt=True)
-        path = auth.add_user(users, add_user, password)
+        path = auth.add_user(users, add_user, password, shop)
         print(f"millstab app: {add_user} added to {path}; serve with --users {path}")
         return
     if password_stdin:
         raise InputError("--password-stdin", True, "only with --add-user NAME --users FILE")
+    if shop:
+        raise InputError("--shop", ",".join(shop), "only with --add-user NAME --users FILE (the users file holds "
+                                                   "each user's shops)")
     if not 0 <= port <= 65535:
         raise InputError("--port", port, "must be a TCP port 0..65535")
-    accounts = auth.read_users(users) if users is not None else None
+    accounts = auth.read_accounts(users) if users is not None else None
     try:
         import panel  # noqa: F401
     except ImportError:
         raise InputError("millstab app", "panel not installed", "install the app extra: pip install 'millstab[app]'") from None
     from millstab.web import serve
 
-    serve(port=port, host=host, show=not no_browser, users=accounts)
+    serve(port=port, host=host, show=not no_browser, users={n: h for n, (h, _) in accounts.items()} if accounts else None,
+          db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None)

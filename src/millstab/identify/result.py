@@ -343,6 +343,8 @@ def _legacy_parameterization(doc: dict, source: str) -> Parameterization:
 def _cutting(rec: dict, source: str) -> Cutting:
     """Cutting conditions from :func:`cutting_record` (the conditions validate themselves)."""
     vals = {k: need(rec, k, source, (int, float)) for k in ("teeth", "kt", "kr", "entry", "exit")}
+    if "process_damping" in rec:
+        vals |= {k: need(rec, k, source, (int, float)) for k in ("process_damping", "diameter")}
     return Cutting(**{k: (v if k == "teeth" else float(v)) for k, v in vals.items()})
 
 
@@ -372,9 +374,13 @@ def _floats(values: Any, source: str, null_nan: bool = False, shape: tuple | Non
 
 
 def cutting_record(cutting: Cutting) -> dict[str, float]:
-    """The JSON record of cutting conditions: teeth, kt [N/m²], kr [-], entry and exit [rad]."""
-    return {"teeth": int(cutting.teeth), "kt": float(cutting.kt), "kr": float(cutting.kr),
-            "entry": float(cutting.entry), "exit": float(cutting.exit)}
+    """The JSON record of cutting conditions: teeth, kt [N/m²], kr [-], entry and exit [rad]; with
+    process damping also process_damping [N/m] and diameter [m] (absent: none)."""
+    rec = {"teeth": int(cutting.teeth), "kt": float(cutting.kt), "kr": float(cutting.kr),
+           "entry": float(cutting.entry), "exit": float(cutting.exit)}
+    if cutting.has_process_damping:
+        rec |= {"process_damping": float(cutting.process_damping), "diameter": float(cutting.diameter)}
+    return rec
 
 
 def cutting_difference(record, cutting: Cutting) -> str | None:
@@ -392,6 +398,12 @@ def cutting_difference(record, cutting: Cutting) -> str | None:
             return f"cutting {key} is missing from the fit's record ({got!r})"
         if not math.isclose(float(got), want[key], rel_tol=1e-9, abs_tol=1e-12):
             return f"cutting {key} is {fmt(float(got))} in the fit but {fmt(want[key])} here"
+    # process damping: absent from a record means none (records written before it existed)
+    got_pd = record.get("process_damping", 0.0) if isinstance(record, dict) else 0.0
+    if isinstance(got_pd, (int, float)) and not isinstance(got_pd, bool) and not math.isclose(
+            float(got_pd), want.get("process_damping", 0.0), rel_tol=1e-9, abs_tol=1e-12):
+        return (f"cutting process_damping is {float(got_pd):.6g} N/m in the fit but "
+                f"{want.get('process_damping', 0.0):.6g} N/m here")
     return None
 
 

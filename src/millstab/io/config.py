@@ -86,7 +86,8 @@ PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails"
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
-CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "diameter", "feed_per_tooth")
+CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter",
+                "feed_per_tooth")
 STRUCTURE_KEYS = ("x", "y", "frf")
 MODE_KEYS = ("fn", "k", "zeta")
 FRF_KEYS = ("xx", "yy", "xy", "yx")
@@ -148,6 +149,8 @@ def _cutting(t: Any) -> Cutting:
         raise InputError("cutting.teeth", teeth, "number of teeth must be a positive integer (e.g. teeth = 4)")
     kt = parse_quantity(t["kt"], "cutting.kt", "pressure")
     kr = parse_quantity(t["kr"], "cutting.kr", "dimensionless")
+    extra = _process_damping(t)
+    written = {f"cutting.{k}": t[k] for k in ("process_damping", "diameter") if k in t}
     has_angles = "entry" in t or "exit" in t
     if has_angles and ("radial_immersion" in t or "milling" in t):
         raise InputError("cutting.radial_immersion" if "radial_immersion" in t else "cutting.milling",
@@ -161,8 +164,8 @@ def _cutting(t: Any) -> Cutting:
         if entry >= exit_:
             raise InputError("cutting.entry", t["entry"], f"entry angle must be less than the exit angle "
                                                           f"(exit = {show(t['exit'])})")
-        with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")}):
-            return Cutting(teeth, kt, kr, entry, exit_)
+        with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")} | written):
+            return Cutting(teeth, kt, kr, entry, exit_, **extra)
     if "radial_immersion" not in t:
         raise InputError("cutting.entry", None, "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
                                                 "or radial_immersion and milling = \"down\" | \"up\"")
@@ -174,8 +177,19 @@ def _cutting(t: Any) -> Cutting:
         milling = "down"
     if milling not in ("down", "up"):
         raise InputError("cutting.milling", milling, 'must be "down" or "up"')
-    with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")}):
-        return Cutting.from_immersion(teeth, kt, kr, ri, milling)
+    with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")} | written):
+        return Cutting.from_immersion(teeth, kt, kr, ri, milling, **extra)
+
+
+def _process_damping(t: Mapping[str, Any]) -> dict[str, float]:
+    """``process_damping`` (the coefficient C, N/m: "2e5 N/m", "0.2 N/um") and the tool ``diameter``
+    (a length, "16 mm") of [cutting], as Cutting keywords; the model checks them (C ≥ 0, D > 0, D with C)."""
+    extra = {}
+    if "process_damping" in t:
+        extra["process_damping"] = parse_quantity(t["process_damping"], "cutting.process_damping", "stiffness")
+    if "diameter" in t:
+        extra["diameter"] = parse_quantity(t["diameter"], "cutting.diameter", "length")
+    return extra
 
 
 def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
@@ -330,7 +344,7 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     if not isinstance(description, str):
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
-    diameter, feed = _cutting_sizes(data["cutting"], data.get("tool"))
+    diameter, feed = _cutting_sizes(data["cutting"], data.get("tool"), cutting)
     if "tool" in data or "holder" in data:
         structure = _tool_structure(data, base_dir, files)
     else:
@@ -340,12 +354,13 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
     return Config(cutting, structure, name_value, path, rpm, description, prior, diameter, feed)
 
 
-def _cutting_sizes(t: Mapping[str, Any], tool: Any) -> tuple[float | None, float | None]:
-    """(tool diameter [m] or None, feed per tooth [m] or None) of ``[cutting]`` (a ``[tool]`` table's
-    diameter when ``[cutting]`` has none)."""
+def _cutting_sizes(t: Mapping[str, Any], tool: Any, cutting: Cutting) -> tuple[float | None, float | None]:
+    """(tool diameter [m] or None, feed per tooth [m] or None) of ``[cutting]`` (its ``diameter``, read into
+    ``cutting.diameter``; else a ``[tool]`` table's)."""
     d = None
     if "diameter" in t:
-        d = _tool_length(t, "diameter", "cutting")
+        d = _tool_length(t, "diameter", "cutting")  # the mm-written-as-m check of a tool's diameter
+        d = cutting.diameter if cutting.diameter is not None else d
     elif isinstance(tool, Mapping) and "diameter" in tool:
         d = _tool_length(tool, "diameter", "tool")
     f = None
@@ -426,8 +441,10 @@ def config_to_toml(config: Config) -> str:
         lines.append(f"description = {_toml_str(config.description)}")
     lines += ["", "[cutting]", f"teeth = {c.teeth}", f'kt = "{_fmt(c.kt / 1e6)} MPa"', f"kr = {_fmt(c.kr)}",
               f'entry = "{_fmt(math.degrees(c.entry))} deg"', f'exit = "{_fmt(math.degrees(c.exit))} deg"']
-    if config.diameter_m is not None:
-        lines.append(f'diameter = "{_fmt(config.diameter_m * 1e3)} mm"')
+    if c.has_process_damping:
+        lines.append(f'process_damping = "{_fmt(c.process_damping)} N/m"')
+    if c.diameter is not None:
+        lines.append(f'diameter = "{_fmt(c.diameter * 1e3)} mm"')
     if config.feed_per_tooth_m is not None:
         lines.append(f'feed_per_tooth = "{_fmt(config.feed_per_tooth_m * 1e3)} mm"')
     for d in ("x", "y"):

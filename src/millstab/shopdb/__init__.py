@@ -19,6 +19,19 @@ from __future__ import annotations
 from millstab.errors import InputError
 
 INSTALL = "pip install 'millstab[db]' (SQLAlchemy and Alembic)"
+#: the shop of a campaign made without naming one (the command line), and of an app account that names none
+DEFAULT_SHOP = "default"
+
+
+def check_shop(name, field: str = "--shop") -> str:
+    """A shop name: 1..64 letters, digits or ``_ . @ + -`` (the characters of the app's user names, so that a
+    users file can name every shop a campaign can have)."""
+    import re
+
+    text = str(name).strip()
+    if not re.fullmatch(r"[A-Za-z0-9_.@+-]{1,64}", text):
+        raise InputError(field, name, "a shop name of 1..64 letters, digits or _ . @ + -")
+    return text
 
 
 def available() -> bool:
@@ -43,4 +56,4 @@ def open_store(db, user: str | None = None, create: bool = True):
     return Store(str(db), user, create)
 
 
-__all__ = ["INSTALL", "available", "open_store"]
+__all__ = ["DEFAULT_SHOP", "INSTALL", "check_shop", "available", "open_store"]

@@ -49,8 +49,8 @@ def export_campaign(store, name: str, folder) -> Path:
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise InputError("--out", str(out), "must be a new or empty folder (an export never writes over files)")
     b = store.export_bundle(name)
-    manifest = {"schema": SCHEMA, **{k: b[k] for k in ("name", "machine", "tool", "note", "created_at", "created_by",
-                                                        "updated_at", "revision")},
+    manifest = {"schema": SCHEMA, **{k: b[k] for k in ("name", "shop", "machine", "tool", "note", "created_at",
+                                                        "created_by", "updated_at", "revision")},
                 "head": None if b["head"] is None else _name("posteriors", b["head"], "json"),
                 "configs": [], "posteriors": [], "recommendations": [], "events": []}
     for i, c in enumerate(b["configs"]):
@@ -146,7 +146,8 @@ def read_campaign(folder) -> dict:
     events = [{k: e[k] for k in ("at", "user", "action", "detail")}
               | {"posterior": _index(pfiles, e.get("posterior"), "event posterior"),
                  "recommendation": _index(rfiles, e.get("recommendation"), "event recommendation")} for e in m["events"]]
-    return {**{k: m.get(k) for k in ("name", "machine", "tool", "created_at", "created_by", "updated_at", "revision")},
+    return {**{k: m.get(k) for k in ("name", "shop", "machine", "tool", "created_at", "created_by", "updated_at",
+                                      "revision")},
             "note": m.get("note") or "", "head": _index(pfiles, m.get("head"), "head"), "configs": configs,
             "posteriors": posts, "recommendations": recs, "cuts": rows, "events": events}
 

@@ -24,8 +24,10 @@ from __future__ import annotations
 
 from sqlalchemy import (Column, Float, ForeignKey, Index, Integer, MetaData, String, Table, Text, UniqueConstraint)
 
+from millstab.shopdb import DEFAULT_SHOP
+
 #: the newest migration; a database at this revision is opened without running Alembic (fast path)
-HEAD = "0001"
+HEAD = "0002"
 
 NAMING = {"ix": "ix_%(column_0_label)s", "uq": "uq_%(table_name)s_%(column_0_name)s",
           "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s", "pk": "pk_%(table_name)s"}
@@ -65,7 +67,9 @@ campaign = Table(
     Column("updated_at", TIME, nullable=False),
     Column("revision", Integer, nullable=False, server_default="0"),  # updates landed
     Column("head_posterior_id", Integer, nullable=True),  # the current posterior (no FK: see the docstring)
+    Column("shop", String(100), nullable=False, server_default=DEFAULT_SHOP),  # who may see it (migration 0002)
 )
+Index("ix_campaign_shop", campaign.c.shop, campaign.c.name)
 
 config = Table(
     "config", metadata,  # the TOML of the cutting conditions, tap-test structure and [prior]
@@ -140,4 +144,4 @@ event = Table(
 )
 Index("ix_event_campaign_id", event.c.campaign_id, event.c.id)
 
-__all__ = ["HEAD", "campaign", "config", "cut", "event", "machine", "metadata", "posterior", "recommendation", "tool"]
+__all__ = ["DEFAULT_SHOP", "HEAD", "campaign", "config", "cut", "event", "machine", "metadata", "posterior", "recommendation", "tool"]

@@ -44,6 +44,7 @@ from sqlalchemy import exc as sa_exc
 from millstab.errors import InputError
 from millstab.io.results import to_jsonable
 from millstab.points import PointSet
+from millstab.shopdb import check_shop
 from millstab.shopdb import schema as T
 
 #: how long a writer waits for another writer's lock before giving up [s]
@@ -140,6 +141,7 @@ class Snapshot:
     head: Head
     rows: list[dict]
     posterior_doc: dict | None
+    config_toml: str | None = None  # the config text of the current posterior (None before the first update)
 
     @property
     def cuts(self) -> PointSet:
@@ -250,15 +252,30 @@ class Store:
 
     # -- campaigns ------------------------------------------------------------------------------------------
 
-    def campaigns(self) -> list[dict]:
-        """Every campaign: name, machine, tool, revision, created/updated time and user."""
+    def campaigns(self, shops: Sequence[str] | None = None) -> list[dict]:
+        """Every campaign (of ``shops`` only, when given): name, shop, machine, tool, revision, created/updated
+        time and user."""
         c, m, t = T.campaign, T.machine, T.tool
-        q = (sa.select(c.c.name, m.c.name.label("machine"), t.c.name.label("tool"), c.c.revision, c.c.created_at,
-                       c.c.created_by, c.c.updated_at)
+        q = (sa.select(c.c.name, c.c.shop, m.c.name.label("machine"), t.c.name.label("tool"), c.c.revision,
+                       c.c.created_at, c.c.created_by, c.c.updated_at)
              .select_from(c.outerjoin(m, c.c.machine_id == m.c.id).outerjoin(t, c.c.tool_id == t.c.id))
              .order_by(c.c.name))
+        if shops is not None:
+            q = q.where(c.c.shop.in_(list(shops)))
         with self.transaction() as conn:
             return [dict(r._mapping) for r in conn.execute(q)]
+
+    def campaign_shop(self, name: str) -> str | None:
+        """The shop campaign ``name`` belongs to, or ``None`` when there is no such campaign (a campaign's shop
+        never changes: it is set when the campaign is created)."""
+        with self.transaction() as conn:
+            return conn.execute(sa.select(T.campaign.c.shop).where(T.campaign.c.name == name)).scalar()
+
+    def unknown(self, name: str, shops: Sequence[str] | None = None) -> InputError:
+        """The error for a campaign that does not exist, or is not of ``shops``: the same words either way, so
+        that a user cannot tell another shop's campaign from none."""
+        with self.transaction() as conn:
+            return self._unknown(conn, name, shops)
 
     def head(self, name: str, conn: sa.Connection | None = None, *, lock: bool = False) -> Head | None:
         """Where campaign ``name`` stands, or ``None`` when there is no such campaign."""
@@ -287,8 +304,9 @@ class Store:
             raise self._unknown(conn, name)
         return cid
 
-    def _unknown(self, conn: sa.Connection, name: str) -> InputError:
-        names = list(conn.execute(sa.select(T.campaign.c.name)).scalars())
+    def _unknown(self, conn: sa.Connection, name: str, shops: Sequence[str] | None = None) -> InputError:
+        q = sa.select(T.campaign.c.name)
+        names = list(conn.execute(q if shops is None else q.where(T.campaign.c.shop.in_(list(shops)))).scalars())
         low = {n.lower(): n for n in names}  # 'T12-M1 ' finds 't12-m1'
         close = [low[x] for x in difflib.get_close_matches(str(name).strip().lower(), list(low), n=3)]
         hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
@@ -307,18 +325,24 @@ class Store:
         return rid
 
     def _ensure_campaign(self, conn: sa.Connection, name: str, machine: str | None, tool: str | None, user: str,
-                         at: str) -> int:
-        """The campaign's id, creating it (and its machine and tool) when new; a machine or tool given for an
-        existing campaign must be the one it has."""
+                         at: str, shop: str | None = None) -> int:
+        """The campaign's id, creating it (and its machine and tool) when new, in ``shop`` (default
+        :data:`~millstab.shopdb.schema.DEFAULT_SHOP`); a machine or tool given for an existing campaign must be
+        the one it has, and a ``shop`` given must be its shop (checked in the writer's transaction: the
+        app's per-shop rule holds even against a campaign of the same name created a moment before)."""
         name = _check_name(name, "--campaign")
         c = T.campaign
-        row = conn.execute(sa.select(c.c.id, c.c.machine_id, c.c.tool_id).where(c.c.name == name)).first()
+        row = conn.execute(sa.select(c.c.id, c.c.machine_id, c.c.tool_id, c.c.shop).where(c.c.name == name)).first()
+        if row is not None and shop is not None and row.shop != shop:
+            raise InputError("--campaign", name, "the name is taken by a campaign you cannot see; choose another name")  # = api.shop.TAKEN
         mid = self._named(conn, T.machine, machine, user, at)
         tid = self._named(conn, T.tool, tool, user, at)
         if row is None:
             cid = conn.execute(c.insert().values(name=name, machine_id=mid, tool_id=tid, note="", created_at=at,
-                                                 created_by=user, updated_at=at, revision=0)).inserted_primary_key[0]
-            what = ", ".join(f"{k} {v}" for k, v in (("machine", machine), ("tool", tool)) if v)
+                                                 created_by=user, updated_at=at, revision=0,
+                                                 shop=check_shop(shop or T.DEFAULT_SHOP))
+                               ).inserted_primary_key[0]
+            what = ", ".join(f"{k} {v}" for k, v in (("shop", shop), ("machine", machine), ("tool", tool)) if v)
             self._event(conn, cid, user, at, "create", f"campaign {name}" + (f" ({what})" if what else ""))
             return cid
         for field, given, have, value in (("--machine", mid, row.machine_id, machine), ("--tool", tid, row.tool_id, tool)):
@@ -377,7 +401,7 @@ class Store:
                       expected_head: int | None, expected_rows: int, parent: int | None = None, seed: int | None = None,
                       machine: str | None = None, tool: str | None = None, user: str | None = None,
                       raters: Sequence[str] | None = None, recordings: Sequence[str] | None = None,
-                      all_cuts: PointSet | None = None, note: str = "") -> int:
+                      all_cuts: PointSet | None = None, note: str = "", shop: str | None = None) -> int:
         """Record one update in one transaction and make its posterior current; returns the posterior's id.
 
         Args:
@@ -390,6 +414,7 @@ class Store:
             parent: the posterior the sampler started from (``start=``), ``None`` for a fresh update.
             all_cuts: every row the posterior used (for its data hash); default: not hashed with the old rows.
             raters, recordings: per new cut, who labelled it and a reference to its recording.
+            shop: the shop of a new campaign; for an existing one, its shop (anything else is refused).
         Raises:
             StaleError: the campaign's head or cut count is no longer the expected one (nothing recorded).
             InputError: a bad name, a database error (read-only, full disk, ...).
@@ -401,7 +426,7 @@ class Store:
         at = now()
         with self.transaction(write=True) as conn:
             self._check_head(conn, name, expected_head, expected_rows)
-            cid = self._ensure_campaign(conn, name, machine, tool, user, at)
+            cid = self._ensure_campaign(conn, name, machine, tool, user, at, shop)
             cfg_id = self._config_id(conn, cid, config_toml, user, at)
             pid = conn.execute(T.posterior.insert().values(
                 campaign_id=cid, parent_id=parent, config_id=cfg_id, n_rows=expected_rows + len(new_cuts),
@@ -421,10 +446,11 @@ class Store:
 
     def add_cuts(self, name: str, cuts: PointSet, *, expected_rows: int | None = None, machine: str | None = None,
                  tool: str | None = None, user: str | None = None, raters: Sequence[str] | None = None,
-                 recordings: Sequence[str] | None = None) -> int:
+                 recordings: Sequence[str] | None = None, shop: str | None = None) -> int:
         """Record cuts without an update (an operator's day at the machine); the next update uses them.
         Returns the campaign's number of cut rows. ``expected_rows``: refuse (:class:`StaleError`) when
-        the campaign does not hold that many rows (someone else added cuts meanwhile)."""
+        the campaign does not hold that many rows (someone else added cuts meanwhile); ``shop``: as in
+        :meth:`record_update`."""
         user = default_user(user) if user is not None else self.user
         at = now()
         with self.transaction(write=True) as conn:
@@ -433,7 +459,7 @@ class Store:
             if expected_rows is not None and n != expected_rows:
                 raise StaleError("--campaign", name, f"stale: it now holds {n} cut rows, not {expected_rows} "
                                                      "(someone added cuts meanwhile); nothing was recorded; re-run")
-            cid = self._ensure_campaign(conn, name, machine, tool, user, at)
+            cid = self._ensure_campaign(conn, name, machine, tool, user, at, shop)
             rows = self._cut_rows(cid, n, cuts, raters, recordings, None, user, at)
             if rows:
                 conn.execute(T.cut.insert(), rows)
@@ -470,11 +496,13 @@ class Store:
             q = sa.select(*[col for col in T.cut.c if col.name not in ("id", "campaign_id")])
             rows = [dict(r._mapping) for r in conn.execute(q.where(T.cut.c.campaign_id == head.campaign_id)
                                                            .order_by(T.cut.c.seq))]
-            doc = None
+            doc = toml = None
             if with_posterior and head.posterior_id is not None:
-                doc = json.loads(conn.execute(sa.select(T.posterior.c.doc)
-                                              .where(T.posterior.c.id == head.posterior_id)).scalar_one())
-        return Snapshot(head, rows, doc)
+                p, cf = T.posterior, T.config
+                text, toml = conn.execute(sa.select(p.c.doc, cf.c.toml).select_from(p.join(cf, p.c.config_id == cf.c.id))
+                                          .where(p.c.id == head.posterior_id)).one()
+                doc = json.loads(text)
+        return Snapshot(head, rows, doc, toml)
 
     def latest_posterior_doc(self, name: str) -> tuple[int, dict]:
         """(id, JSON document) of the campaign's current posterior.
@@ -518,9 +546,10 @@ class Store:
         """The campaign's cuts (every round, in order) as a :class:`PointSet`."""
         return cuts_from_rows(self.cut_rows(name))
 
-    def history(self, campaign: str | None = None, limit: int = 50, before: int | None = None) -> list[Event]:
-        """The newest ``limit`` events (newest first), of one campaign or of all; ``before``: only events
-        with a smaller id (the next page)."""
+    def history(self, campaign: str | None = None, limit: int = 50, before: int | None = None,
+                shops: Sequence[str] | None = None) -> list[Event]:
+        """The newest ``limit`` events (newest first), of one campaign or of all (of ``shops``' campaigns
+        only, when given); ``before``: only events with a smaller id (the next page)."""
         if not 1 <= int(limit) <= MAX_HISTORY:
             raise InputError("--limit", limit, f"between 1 and {MAX_HISTORY}")
         e, c = T.event, T.campaign
@@ -529,6 +558,8 @@ class Store:
         with self.transaction() as conn:
             if campaign is not None:
                 q = q.where(e.c.campaign_id == self._campaign_id(conn, campaign))
+            if shops is not None:
+                q = q.where(c.c.shop.in_(list(shops)))
             if before is not None:
                 q = q.where(e.c.id < int(before))
             rows = conn.execute(q.order_by(e.c.id.desc()).limit(int(limit))).all()
@@ -557,7 +588,7 @@ class Store:
         for x in cuts:
             x["posterior"] = pi.get(x.pop("posterior_id"))
         return {
-            "name": camp["name"], "machine": machine, "tool": tool, "note": camp["note"],
+            "name": camp["name"], "shop": camp["shop"], "machine": machine, "tool": tool, "note": camp["note"],
             "created_at": camp["created_at"], "created_by": camp["created_by"], "updated_at": camp["updated_at"],
             "revision": camp["revision"], "head": pi.get(camp["head_posterior_id"]),
             "configs": [{"toml": x["toml"], **{k: x[k] for k in ("sha256",) + who}} for x in configs],
@@ -589,7 +620,8 @@ class Store:
             mid = self._named(conn, T.machine, bundle.get("machine"), user, at)
             tid = self._named(conn, T.tool, bundle.get("tool"), user, at)
             cid = conn.execute(T.campaign.insert().values(
-                name=name, machine_id=mid, tool_id=tid, note=bundle.get("note", ""), created_at=bundle["created_at"],
+                name=name, machine_id=mid, tool_id=tid, note=bundle.get("note", ""),
+                shop=check_shop(bundle.get("shop") or T.DEFAULT_SHOP), created_at=bundle["created_at"],
                 created_by=bundle["created_by"], updated_at=bundle["updated_at"],
                 revision=int(bundle["revision"]))).inserted_primary_key[0]
             cfg_ids = [conn.execute(T.config.insert().values(campaign_id=cid, toml=x["toml"],

@@ -253,7 +253,8 @@ def simulate_cut(structure: Structure, cutting: Cutting, rpm: float, depth: floa
 
     Args:
         structure: modal structure (any number of modes in x and y).
-        cutting: teeth, Kt [N/m²], Kr, entry/exit [rad].
+        cutting: teeth, Kt [N/m²], Kr, entry/exit [rad]; its process damping (C, diameter), when set, acts
+            on every tooth in contact (instantaneous, :mod:`millstab.simulate._kernel`).
         rpm: spindle speed [rev/min] > 0; depth: axial depth b [m] > 0; feed_per_tooth: f_t [m] > 0.
         revs: spindle revolutions to simulate (default 100); rounded to whole tooth periods.
         steps_per_tooth: steps per tooth period (≥ 20), default :func:`default_steps`.
@@ -284,11 +285,12 @@ def simulate_cut(structure: Structure, cutting: Cutting, rpm: float, depth: floa
 
     args = _cut_args(cutting)
     rpm0 = float(r[0])
+    cpd = float(cutting.process_damping_per_depth(rpm0)) * b  # process damping b C / V [N·s/m] (0: none)
     q0, v0, S = initial_state(*args, rpm0, m, b, ft, wn, zeta, mass, mdir, start == "steady", pert * ft,
-                              N_HARMONICS)
+                              N_HARMONICS, cpd)
     x, y, fx, fy = (np.empty(n) for _ in range(4))
     n_out = _kernel.simulate(*args, rpm0, m, n_per, b, ft, wn, zeta, mass, mdir, q0, v0, S,
-                             float(_bound(structure, cutting, b, ft)), x, y, fx, fy)
+                             float(_bound(structure, cutting, b, ft)), x, y, fx, fy, cpd)
     T = 60.0 / (cutting.teeth * rpm0)
     t = np.arange(n_out) * (T / m)
     return CutResult(rpm0, b, ft, cutting.teeth, m, t, x[:n_out].copy(), y[:n_out].copy(), fx[:n_out].copy(),
@@ -400,7 +402,8 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
 
     with threadpool_limits(1):
         label_batch(*_cut_args(cutting), r, d, steps, periods, ft, wn, zeta, mass, mdir, start == "steady",
-                    float(perturbation), N_HARMONICS, bound, f_hi, lab, hz, lobe, level, growth, mu)
+                    float(perturbation), N_HARMONICS, bound, f_hi, lab, hz, lobe, level, growth, mu,
+                    np.ascontiguousarray(cutting.process_damping_per_depth(r)))
     true = np.array(LABELS, dtype=object)[lab].astype("<U8")
     out = add_label_noise(true, noise, marginal, seed)
     return Labels(r, d, out, true, hz, np.array(LOBES, dtype=object)[lobe].astype("<U4"), level, growth, seed, mu)

@@ -13,6 +13,15 @@ was out of the cut leaves S unchanged, so the next tooth meets the older surface
     h = s − S(ψ),   F = b Kt h (−cos ψ − Kr sin ψ,  sin ψ − Kr cos ψ)   if h > 0 and φst ≤ ψ ≤ φex,
     F = 0 otherwise,   S(ψ) ← s after a cut.
 
+Process damping (optional, :mod:`millstab.stability.process_damping`): a tooth in contact (h > 0)
+also carries F_d = −c_pd (n · u̇) n, c_pd = b C / V, instantaneous: its value at each end of a step
+enters the same first-order hold (at the end it is linear in the unknown end velocity, solved with
+the displacement in one 2×2 system). A tooth leaving or entering the cut within a step carries it at
+the end where it is in contact (first order at those instants only); at a grid point where the
+static chip is zero (ψ = 0 or π, see ZERO_CHIP) it carries none, so the term does not switch on and
+off with the sign of a vanishing chip (the flank contact vanishes with the chip; the semi-discretization
+engine's step averages give that instant no weight either).
+
 Without vibration S(ψ) = X_f(t − T) sin ψ and h = f_t sin ψ; linearised about a T-periodic motion
 h − f_t sin ψ = n·(u(t) − u(t − T)) with u = (x, y): the force of the semi-discretization engine,
 F = ½ b Kt [A(t)] (u(t) − u(t − T)) (see :mod:`millstab.stability._sdm_kernel`), same signs; the 2×2 closed
@@ -159,15 +168,52 @@ def _contact(bkt, kr, s, c, xf, S, x, y):
     return h, -c - kr * s, s - kr * c, base
 
 
+@nb.njit(cache=True, inline="always")
+def _damp(cpd, s, c, vx, vy):
+    """Process-damping force (fx, fy) [N] of one tooth in contact: −c_pd (n · u̇) n, n = (s, c)."""
+    vn = cpd * (s * vx + c * vy)
+    return -vn * s, -vn * c
+
+
+@nb.njit(cache=True, inline="always")
+def _free_dir(PH, G0, p, row, q, v, fx, fy, mdir):
+    """Per direction (x, y), the sum over modes of row ``row`` (0: displacement, 1: velocity) of the
+    step's free part Φ z + Γ0 F_a, F_a = (fx, fy) the start force."""
+    sx = 0.0
+    sy = 0.0
+    for j in range(q.size):
+        fa = fx if mdir[j] == 0 else fy
+        val = PH[p, j, row, 0] * q[j] + PH[p, j, row, 1] * v[j] + G0[p, j, row] * fa
+        if mdir[j] == 0:
+            sx += val
+        else:
+            sy += val
+    return sx, sy
+
+
+@nb.njit(cache=True)
+def _dir_sum(a, mdir):
+    """(Σ over x modes, Σ over y modes) of the per-mode values a (M,)."""
+    sx = 0.0
+    sy = 0.0
+    for j in range(a.size):
+        if mdir[j] == 0:
+            sx += a[j]
+        else:
+            sy += a[j]
+    return sx, sy
+
+
 @nb.njit(cache=True)
 def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, zeta, mass, mdir,
-             q0, v0, surf0, bound, out_x, out_y, out_fx, out_fy):
+             q0, v0, surf0, bound, out_x, out_y, out_fx, out_fy, cpd=0.0):
     """Integrate one cut over n_periods tooth periods with m nodes per period.
 
     q0, v0 (M,) initial modal displacement [m] and velocity [m/s]; surf0 (P, N) the initial surface
     (what the previous tooth left, absolute, including −f_t sin ψ from the feed). Writes the node
     samples x, y [m], fx, fy [N] into out_* (n_periods m + 1,). Stops when |x| or |y| exceeds
-    ``bound`` [m] or is not finite. Returns the number of samples written.
+    ``bound`` [m] or is not finite. Returns the number of samples written. ``cpd`` = b C / V [N·s/m]:
+    the process damping of a tooth in contact (0: none; that path is the one without the term).
     """
     phase, node, sp, cp, act, PH, G0, G1 = setup(n_teeth, phi_s, phi_e, rpm, m, wn, zeta, mass)
     P = node.size
@@ -188,6 +234,7 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
     fxa = 0.0
     fya = 0.0
     ha = np.zeros(N)  # chip of each tooth at the start of the step (old surface), unclipped
+    vx, vy = _dir_sum(v, mdir)
     for k in range(N):
         if act[0, k]:
             h, ux, uy, _ = _contact(bkt, kr, sp[0, k], cp[0, k], 0.0, S[0, k], x, y)
@@ -195,6 +242,10 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
             if h > 0.0:
                 fxa += bkt * h * ux
                 fya += bkt * h * uy
+                if cpd != 0.0 and abs(sp[0, k]) >= ZERO_CHIP:
+                    dx, dy = _damp(cpd, sp[0, k], cp[0, k], vx, vy)
+                    fxa += dx
+                    fya += dy
     for k in range(N):
         if phi_s + k * TWO_PI / N <= phi_e + ANGLE_TOL:
             h = 0.0 * sp[0, k] - S[0, k] + sp[0, k] * x + cp[0, k] * y
@@ -239,6 +290,13 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
             fyb = 0.0
             fxe = fxa
             fye = fya
+            vxa = 0.0
+            vya = 0.0
+            gvx = 0.0
+            gvy = 0.0
+            if cpd != 0.0:  # start velocity, and the end velocity's Γ1 gains per direction
+                vxa, vya = _dir_sum(v, mdir)
+                gvx, gvy = _dir_sum(G1[p, :, 1], mdir)
             for _it in range(4):
                 k11 = 0.0
                 k12 = 0.0
@@ -250,6 +308,9 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                 fye = 0.0
                 cx = 0.0  # end force of crossing teeth, held fixed in this pass
                 cy = 0.0
+                d11 = 0.0  # process damping at the step end: Σ c_pd n nᵀ over the teeth in contact there
+                d12 = 0.0
+                d22 = 0.0
                 for k in range(N):
                     if not act[p, k]:
                         continue
@@ -262,6 +323,15 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                     uxa = -cp[p, k] - kr * sp[p, k]
                     uya = sp[p, k] - kr * cp[p, k]
                     on_k = hb > 0.0
+                    if cpd != 0.0:
+                        if h0 > 0.0 and abs(sp[p, k]) >= ZERO_CHIP:
+                            dx, dy = _damp(cpd, sp[p, k], cp[p, k], vxa, vya)
+                            fxe += dx
+                            fye += dy
+                        if on_k and abs(s) >= ZERO_CHIP:
+                            d11 += cpd * s * s
+                            d12 += cpd * s * cc
+                            d22 += cpd * cc * cc
                     if h0 > 0.0 and on_k:
                         k11 += bkt * ux * s
                         k12 += bkt * ux * cc
@@ -285,26 +355,34 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                         cx += bkt * b * ux
                         cy += bkt * b * uy
                 # w = C(Φ z + Γ0 F_a); (I − diag(g1) K) u = w + diag(g1) (r + crossing end force)
-                wx = 0.0
-                wy = 0.0
-                for j in range(M):
-                    fa = fxe if mdir[j] == 0 else fye
-                    qf = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa
-                    if mdir[j] == 0:
-                        wx += qf
-                    else:
-                        wy += qf
-                a11 = 1.0 - g1x * k11
-                a12 = -g1x * k12
-                a21 = -g1y * k21
-                a22 = 1.0 - g1y * k22
-                b1 = wx + g1x * (r1 + cx)
-                b2 = wy + g1y * (r2 + cy)
-                det = a11 * a22 - a12 * a21
-                xn = (b1 * a22 - a12 * b2) / det
-                yn = (a11 * b2 - a21 * b1) / det
-                fxb = k11 * xn + k12 * yn + r1 + cx
-                fyb = k21 * xn + k22 * yn + r2 + cy
+                wx, wy = _free_dir(PH, G0, p, 0, q, v, fxe, fye, mdir)
+                if cpd == 0.0:
+                    a11 = 1.0 - g1x * k11
+                    a12 = -g1x * k12
+                    a21 = -g1y * k21
+                    a22 = 1.0 - g1y * k22
+                    b1 = wx + g1x * (r1 + cx)
+                    b2 = wy + g1y * (r2 + cy)
+                    det = a11 * a22 - a12 * a21
+                    xn = (b1 * a22 - a12 * b2) / det
+                    yn = (a11 * b2 - a21 * b1) / det
+                    fxb = k11 * xn + k12 * yn + r1 + cx
+                    fyb = k21 * xn + k22 * yn + r2 + cy
+                else:
+                    # u_b = w + g1 F_b, u̇_b = wv + gv F_b, F_b = K u_b + r − D u̇_b:
+                    # (I − K g1 + D gv) F_b = K w + r − D wv
+                    wvx, wvy = _free_dir(PH, G0, p, 1, q, v, fxe, fye, mdir)
+                    a11 = 1.0 - k11 * g1x + d11 * gvx
+                    a12 = -k12 * g1y + d12 * gvy
+                    a21 = -k21 * g1x + d12 * gvx
+                    a22 = 1.0 - k22 * g1y + d22 * gvy
+                    b1 = k11 * wx + k12 * wy + r1 + cx - (d11 * wvx + d12 * wvy)
+                    b2 = k21 * wx + k22 * wy + r2 + cy - (d12 * wvx + d22 * wvy)
+                    det = a11 * a22 - a12 * a21
+                    fxb = (b1 * a22 - a12 * b2) / det
+                    fyb = (a11 * b2 - a21 * b1) / det
+                    xn = wx + g1x * fxb
+                    yn = wy + g1y * fyb
                 moved = abs(xn - xb) + abs(yn - yb)
                 xb = xn
                 yb = yn
@@ -334,6 +412,8 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
             pn = 0 if end else p + 1
             fxa = 0.0
             fya = 0.0
+            if cpd != 0.0:
+                vx, vy = _dir_sum(v, mdir)
             for k in range(N):
                 ha[k] = 0.0
                 if act[pn, k]:
@@ -342,6 +422,10 @@ def simulate(n_teeth, kt, kr, phi_s, phi_e, rpm, m, n_periods, depth, ft, wn, ze
                     if h > 0.0:
                         fxa += bkt * h * ux
                         fya += bkt * h * uy
+                        if cpd != 0.0 and abs(sp[pn, k]) >= ZERO_CHIP:
+                            dx, dy = _damp(cpd, sp[pn, k], cp[pn, k], vx, vy)
+                            fxa += dx
+                            fya += dy
             for k in range(N):
                 if phi_s + (phase[pn] + k) * TWO_PI / N <= phi_e + ANGLE_TOL:
                     h = xf_b * sp[pn, k] - S[pn, k] + sp[pn, k] * x + cp[pn, k] * y
@@ -402,6 +486,19 @@ def force_harmonic(n, n_teeth, kt, kr, phi_s, phi_e, depth, ft):
 
 
 @nb.njit(cache=True)
+def periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy):
+    """The surface (P, N) left on a T-periodic motion with tool-tip displacement ux, uy (P,) [m] at the
+    grid points: the unvibrating one (:func:`rest_surface`) moved by the displacement along each n."""
+    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
+    pitch = TWO_PI / n_teeth
+    for p in range(phase.size - 1):
+        for k in range(n_teeth):
+            psi = phi_s + (phase[p] + k) * pitch
+            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
+    return S
+
+
+@nb.njit(cache=True)
 def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm, n_harm_state):
     """Modal state (q, v) at t = 0 and the surface (P, N) of the forced T-periodic motion.
 
@@ -444,13 +541,7 @@ def steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mas
                     ux[p] += val
                 else:
                     uy[p] += val
-    S = rest_surface(n_teeth, phi_s, phi_e, m, ft)
-    pitch = TWO_PI / n_teeth
-    for p in range(P):
-        for k in range(n_teeth):
-            psi = phi_s + (phase[p] + k) * pitch
-            S[p, k] += ux[p] * math.sin(psi) + uy[p] * math.cos(psi)
-    return q0, v0, S
+    return q0, v0, periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -696,12 +787,119 @@ def detect_core(x, y, n_out, m, ft, f_tooth, f_hi, diverged):
 
 
 @nb.njit(cache=True)
-def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, steady, perturb, n_harm):
+def _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, z0, forced,
+                   ux, uy):
+    """One tooth period of the unregenerated cut (u(t − T) = u(t): the static chip f_t sin ψ) with
+    process damping cpd [N·s/m], by the step of :func:`simulate` (first-order hold, the end force
+    implicit in the end velocity). From the modal state z0 = (q, v) (2M,); ``forced``: with the static
+    cutting force (else the homogeneous map). Writes u at the grid points into ux, uy (P,); returns z_T."""
+    phase, node, sp, cp, act, PH, G0, G1 = setup(n_teeth, phi_s, phi_e, rpm, m, wn, zeta, mass)
+    P = node.size
+    M = wn.size
+    N = n_teeth
+    bkt = depth * kt
+    f = ft if forced else 0.0
+    q = z0[:M].copy()
+    v = z0[M:].copy()
+    for p in range(P):
+        x, y = _dir_sum(q, mdir)
+        ux[p] = x
+        uy[p] = y
+        vx, vy = _dir_sum(v, mdir)
+        pb = p + 1
+        fxa = 0.0
+        fya = 0.0
+        fsx = 0.0  # static force at the step end
+        fsy = 0.0
+        d11 = 0.0
+        d12 = 0.0
+        d22 = 0.0
+        for k in range(N):
+            if not act[p, k]:
+                continue
+            s0 = sp[p, k]
+            c0 = cp[p, k]
+            if s0 > ZERO_CHIP:  # the static chip f_t sin ψ > 0: in contact
+                fxa += bkt * f * s0 * (-c0 - kr * s0)
+                fya += bkt * f * s0 * (s0 - kr * c0)
+                dx, dy = _damp(cpd, s0, c0, vx, vy)
+                fxa += dx
+                fya += dy
+            sb = sp[0, (k + 1) % N] if pb == P else sp[pb, k]
+            cb = cp[0, (k + 1) % N] if pb == P else cp[pb, k]
+            if sb > ZERO_CHIP:
+                fsx += bkt * f * sb * (-cb - kr * sb)
+                fsy += bkt * f * sb * (sb - kr * cb)
+                d11 += cpd * sb * sb
+                d12 += cpd * sb * cb
+                d22 += cpd * cb * cb
+        # free part of the end velocity and its gains; (I + D gv) F_b = F_s − D wv
+        wvx, wvy = _free_dir(PH, G0, p, 1, q, v, fxa, fya, mdir)
+        gvx, gvy = _dir_sum(G1[p, :, 1], mdir)
+        a11 = 1.0 + d11 * gvx
+        a12 = d12 * gvy
+        a21 = d12 * gvx
+        a22 = 1.0 + d22 * gvy
+        b1 = fsx - (d11 * wvx + d12 * wvy)
+        b2 = fsy - (d12 * wvx + d22 * wvy)
+        det = a11 * a22 - a12 * a21
+        fxb = (b1 * a22 - a12 * b2) / det
+        fyb = (a11 * b2 - a21 * b1) / det
+        qn = np.empty(M)
+        vn = np.empty(M)
+        for j in range(M):
+            fa = fxa if mdir[j] == 0 else fya
+            fb = fxb if mdir[j] == 0 else fyb
+            qn[j] = PH[p, j, 0, 0] * q[j] + PH[p, j, 0, 1] * v[j] + G0[p, j, 0] * fa + G1[p, j, 0] * fb
+            vn[j] = PH[p, j, 1, 0] * q[j] + PH[p, j, 1, 1] * v[j] + G0[p, j, 1] * fa + G1[p, j, 1] * fb
+        q = qn
+        v = vn
+    out = np.empty(2 * M)
+    out[:M] = q
+    out[M:] = v
+    return out
+
+
+@nb.njit(cache=True)
+def steady_start_damped(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd):
+    """Modal state (q, v) at t = 0 and the surface (P, N) of the forced T-periodic motion with process
+    damping cpd > 0 [N·s/m]. The damping acts on the periodic velocity with a time-varying matrix, so
+    the harmonics of :func:`steady_start` couple; instead the one-period map of the discrete scheme,
+    z_T = Φ z_0 + z_p (Φ from 2M homogeneous periods, z_p from one forced period from rest), gives
+    the periodic state z_0 = (I − Φ)⁻¹ z_p exactly for the integrator (one more period records u)."""
+    M = wn.size
+    n = 2 * M
+    phase, node = period_points(n_teeth, phi_s, phi_e, m)
+    P = node.size
+    ux = np.empty(P)
+    uy = np.empty(P)
+    phi = np.empty((n, n))
+    e = np.zeros(n)
+    for i in range(n):
+        e[:] = 0.0
+        e[i] = 1.0
+        phi[:, i] = _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, e,
+                                   False, ux, uy)
+    e[:] = 0.0
+    zp = _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, e, True, ux, uy)
+    z0 = np.linalg.solve(np.eye(n) - phi, zp)
+    _static_period(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, cpd, z0, True, ux, uy)
+    S = periodic_surface(n_teeth, phi_s, phi_e, m, ft, phase, ux, uy)
+    return z0[:M].copy(), z0[M:].copy(), S
+
+
+@nb.njit(cache=True)
+def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, steady, perturb, n_harm,
+                  cpd=0.0):
     """(q0, v0, surface) of a cut starting at rest, or on the forced periodic motion with every modal
-    displacement moved by ``perturb`` [m]."""
+    displacement moved by ``perturb`` [m] (with process damping cpd [N·s/m] > 0: that of the damped cut)."""
     if steady:
-        q0, v0, S = steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm,
-                                 16 * n_harm)
+        if cpd != 0.0:
+            q0, v0, S = steady_start_damped(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir,
+                                            cpd)
+        else:
+            q0, v0, S = steady_start(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, mass, mdir, n_harm,
+                                     16 * n_harm)
         for j in range(wn.size):
             q0[j] += perturb
         return q0, v0, S
@@ -710,20 +908,21 @@ def initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm, m, depth, ft, wn, zeta, ma
 
 @nb.njit(cache=True, parallel=True)
 def label_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, depth, steps, periods, ft, wn, zeta, mass, mdir, steady,
-                perturb_rel, n_harm, bound, f_hi, out_label, out_hz, out_lobe, out_level, out_growth, out_mu):
+                perturb_rel, n_harm, bound, f_hi, out_label, out_hz, out_lobe, out_level, out_growth, out_mu, cv):
     """Simulate and label cuts (rpm[i], depth[i]) with steps[i] nodes per tooth period over
-    periods[i] periods; writes the detector's label/frequency/lobe codes and metrics per cut."""
+    periods[i] periods; writes the detector's label/frequency/lobe codes and metrics per cut. cv (n,):
+    the process damping per unit depth C / V [N·s/m²] of each cut (zeros: none)."""
     for i in nb.prange(rpm.size):
         m = steps[i]
         q0, v0, S = initial_state(n_teeth, kt, kr, phi_s, phi_e, rpm[i], m, depth[i], ft, wn, zeta, mass, mdir,
-                                  steady, perturb_rel * ft, n_harm)
+                                  steady, perturb_rel * ft, n_harm, cv[i] * depth[i])
         n = periods[i] * m + 1
         x = np.empty(n)
         y = np.empty(n)
         fx = np.empty(n)
         fy = np.empty(n)
         n_out = simulate(n_teeth, kt, kr, phi_s, phi_e, rpm[i], m, periods[i], depth[i], ft, wn, zeta, mass,
-                            mdir, q0, v0, S, bound[i], x, y, fx, fy)
+                            mdir, q0, v0, S, bound[i], x, y, fx, fy, cv[i] * depth[i])
         f_tooth = n_teeth * rpm[i] / 60.0
         lab, hz, lobe, level, growth, _, mu = detect_core(x, y, n_out, m, ft, f_tooth, f_hi[i], n_out < n)
         out_label[i] = lab

@@ -19,7 +19,9 @@ semi-discretization):
     z_{i+1} = Φ_i z_i + (F1_i − F2_i/h_i) B_i u_{i−m} + (F2_i/h_i) B_i u_{i−m+1},
     Φ = e^{A h},  F1 = ∫₀ʰ e^{A(h−s)} ds,  F2 = ∫₀ʰ e^{A(h−s)} s ds,
 
-A_i = A0 + w Ê_i (current-state part of the cutting force), B_i the delayed part. Steps where no
+A_i = A0 + w Ê_i − c_pd P̂_i (current-state part of the cutting force, and the process damping
+c_pd = b C / V acting on the velocities along the step average P̄_i of Σ_teeth g n nᵀ, n = (sin φ, cos φ):
+see :mod:`millstab.stability.process_damping`; c_pd = 0 skips it), B_i the delayed part. Steps where no
 tooth cuts have no forcing and are one exact step. Φ, F1, F2 are functions of the small matrix A_i
 evaluated in closed form (n = 2, Cayley–Hamilton with divided differences) or by eigendecomposition
 (n > 2; an ill-conditioned eigenbasis falls back to a scaled Taylor series of the block matrix).
@@ -192,13 +194,36 @@ def step_average(n_teeth, kr, phi_s, phi_e, th_a, th_b, out):
 
 
 @nb.njit(cache=True)
+def step_contact(n_teeth, phi_s, phi_e, th_a, th_b, out):
+    """Average of Σ_teeth g(φ) n nᵀ, n = (sin φ, cos φ), over tooth-0 angles [th_a, th_b], written to
+    out (2, 2): the process-damping directions (n nᵀ = ½[[1 − cos2φ, sin2φ], [sin2φ, 1 + cos2φ]]).
+    Same in/out decision per tooth as :func:`step_average`."""
+    pitch = TWO_PI / n_teeth
+    dth = th_b - th_a
+    out[:, :] = 0.0
+    for j in range(n_teeth):
+        a = th_a + j * pitch
+        b = th_b + j * pitch
+        if not _in_cut(0.5 * (a + b), phi_s, phi_e):
+            continue
+        S = 0.5 * (math.cos(2 * a) - math.cos(2 * b))  # ∫ sin2φ
+        C = 0.5 * (math.sin(2 * b) - math.sin(2 * a))  # ∫ cos2φ
+        out[0, 0] += 0.5 * (dth - C)
+        out[0, 1] += 0.5 * S
+        out[1, 0] += 0.5 * S
+        out[1, 1] += 0.5 * (dth + C)
+    out /= dth
+
+
+@nb.njit(cache=True)
 def period_grid(n_teeth, kr, phi_s, phi_e, rpm, h_target, mult):
     """The step grid of one tooth period at speed ``rpm``.
 
     Tooth 0 enters at t = 0. Breakpoints (entry/exit of any tooth) sit at phase 0 and
     (φex − φst) mod pitch; each cutting segment is cut into ceil(len/h_target) equal steps, a segment
     without cutting is one step; ``mult`` multiplies the step count of every cutting segment (so
-    mult = 2 halves every step of the mult = 1 grid, as Richardson extrapolation needs). Returns h (m,) [s], cut (m,) bool and the step averages Abar (m, 2, 2).
+    mult = 2 halves every step of the mult = 1 grid, as Richardson extrapolation needs). Returns h (m,) [s], cut (m,) bool,
+    the step averages Abar (m, 2, 2) of the directional matrix and Pbar (m, 2, 2) of Σ g n nᵀ (:func:`step_contact`).
     """
     omega = TWO_PI * rpm / 60.0
     pitch = TWO_PI / n_teeth
@@ -226,6 +251,7 @@ def period_grid(n_teeth, kr, phi_s, phi_e, rpm, h_target, mult):
     h = np.empty(m)
     cut = np.empty(m, dtype=np.bool_)
     abar = np.empty((m, 2, 2))
+    pbar = np.empty((m, 2, 2))
     i = 0
     for k in range(n_seg):
         dth = (bounds[k + 1] - bounds[k]) / counts[k]
@@ -233,9 +259,10 @@ def period_grid(n_teeth, kr, phi_s, phi_e, rpm, h_target, mult):
             a = phi_s + bounds[k] + q * dth
             b = a + dth
             cut[i] = step_average(n_teeth, kr, phi_s, phi_e, a, b, abar[i])
+            step_contact(n_teeth, phi_s, phi_e, a, b, pbar[i])
             h[i] = dth / omega
             i += 1
-    return h, cut, abar
+    return h, cut, abar, pbar
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -290,7 +317,7 @@ def _matmul_into(P, Z, out):
             out[r, col] = s
 
 @nb.njit(cache=True)
-def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos, n_used):
+def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos, n_used, cpd, pbar_d):
     """The reduced monodromy matrix over one tooth period at depth b [m], shape (K, K).
 
     Rows/columns: the modal state (n) followed by D tool-tip displacements at each used node of the
@@ -298,7 +325,8 @@ def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos
 
     Args: kt [N/m²]; wn [rad/s], zeta, mass [kg] (M,); mdir (M,) index of each mode's active
     direction; h, cut, abar_d (m, D, D) the step grid restricted to the active directions;
-    phi_free (m, n, n) e^{A0 h_i} for every step (used where the step does not cut).
+    phi_free (m, n, n) e^{A0 h_i} for every step (used where the step does not cut); cpd = b C / V the
+    process damping [N·s/m] along pbar_d (m, D, D), the step averages of Σ g n nᵀ (0: none, skipped).
     """
     M = wn.size
     n = 2 * M
@@ -343,6 +371,10 @@ def monodromy(b, kt, wn, zeta, mass, mdir, n_dir, h, cut, abar_d, phi_free, hpos
                     A[M + j, l] += w * abar_d[i, mdir[j], mdir[l]] / mass[j]
                 for e in range(D):
                     Bd[M + j, e] = -w * abar_d[i, mdir[j], e] / mass[j]
+            if cpd != 0.0:  # process damping: −c_pd P̄_i u̇, u̇ in direction e the sum of its modal velocities
+                for j in range(M):
+                    for l in range(M):
+                        A[M + j, M + l] -= cpd * pbar_d[i, mdir[j], mdir[l]] / mass[j]
             if n == 2:
                 _expm_2x2(A[0, 0], A[0, 1], A[1, 0], A[1, 1], hi, phi, f1, f2)
             else:
@@ -453,42 +485,46 @@ def richardson_multipliers(mu1, mu2, n_top):
 def _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, mult, wn, zeta, act):
     """Grid, step averages restricted to active directions, and free-flight exponentials per step."""
     T = 60.0 / (n_teeth * rpm)
-    h, cut, abar = period_grid(n_teeth, kr, phi_s, phi_e, rpm, T / steps, mult)
+    h, cut, abar, pbar = period_grid(n_teeth, kr, phi_s, phi_e, rpm, T / steps, mult)
     m = h.size
     D = act.size
     abar_d = np.empty((m, D, D))
+    pbar_d = np.empty((m, D, D))
     for i in range(m):
         for e in range(D):
             for f in range(D):
                 abar_d[i, e, f] = abar[i, act[e], act[f]]
+                pbar_d[i, e, f] = pbar[i, act[e], act[f]]
     n = 2 * wn.size
     phi_free = np.zeros((m, n, n))
     for i in range(m):
         if not cut[i]:
             phi_free[i] = free_flight(wn, zeta, h[i])
     hpos, n_used = history_layout(cut)
-    return h, cut, abar_d, phi_free, hpos, n_used
+    return h, cut, abar_d, phi_free, hpos, n_used, pbar_d
 
 
 @nb.njit(cache=True)
-def _rho1(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used):
-    U = monodromy(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used)
+def _rho1(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used, cpd, pbar_d):
+    U = monodromy(b, kt, wn, zeta, mass, mdir, D, h, cut, abar_d, phi_free, hpos, n_used, cpd, pbar_d)
     return multipliers(U)
 
 
 @nb.njit(cache=True)
-def _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
-    """(ρ, dominant μ) at depth b on grid g1, or Richardson-extrapolated from g1 and its halving g2."""
-    mu1 = _rho1(b, kt, wn, zeta, mass, mdir, D, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5])
+def _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv):
+    """(ρ, dominant μ) at depth b on grid g1, or Richardson-extrapolated from g1 and its halving g2;
+    cv = C / V [N·s/m²] the process damping per unit depth at this speed (0: none)."""
+    mu1 = _rho1(b, kt, wn, zeta, mass, mdir, D, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5], cv * b, g1[6])
     if not rich:
         return _dominant(mu1)
-    mu2 = _rho1(b, kt, wn, zeta, mass, mdir, D, g2[0], g2[1], g2[2], g2[3], g2[4], g2[5])
+    mu2 = _rho1(b, kt, wn, zeta, mass, mdir, D, g2[0], g2[1], g2[2], g2[3], g2[4], g2[5], cv * b, g2[6])
     return _dominant(richardson_multipliers(mu1, mu2, 8))
 
 
 @nb.njit(cache=True, parallel=True)
-def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, mass, mdir, act, first, last, out):
+def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, mass, mdir, act, first, last, out, cv):
     """ρ (S, Dp) at speeds rpm (S,) and depths depth (Dp,) [m]; steps (S,) steps per tooth period;
+    cv (S,) the process damping per unit depth C / V [N·s/m²] at each speed (zeros: none);
     ``rich``: multiplier-wise Richardson extrapolation from the grid and its halving. Only the speeds
     first..last-1 are computed (the caller runs the grid in chunks, to stay interruptible)."""
     n_d = depth.size
@@ -497,11 +533,11 @@ def rho_grid(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, depth, wn, zeta, m
         g1 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 1, wn, zeta, act)
         g2 = _setup(n_teeth, kr, phi_s, phi_e, rpm[s], steps[s], 2 if rich else 1, wn, zeta, act)
         for k in range(n_d):
-            out[s, k] = _rho(depth[k], kt, wn, zeta, mass, mdir, act.size, g1, g2, rich)[0]
+            out[s, k] = _rho(depth[k], kt, wn, zeta, mass, mdir, act.size, g1, g2, rich, cv[s])[0]
 
 
 @nb.njit(cache=True)
-def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
+def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv):
     """Shrink the bracket (ρ(b_lo) ≤ 1 < ρ(b_hi)) on ρ − 1 to a relative width rtol (Illinois method)."""
     n_eval = 0
     if not math.isfinite(f_hi):
@@ -516,7 +552,7 @@ def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, 
         hi_g = b_hi - 0.02 * (b_hi - b_lo)
         if not (lo_g <= x <= hi_g):
             x = 0.5 * (b_lo + b_hi)
-        r, mu = _rho(x, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
+        r, mu = _rho(x, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv)
         n_eval += 1
         fx = r - 1.0
         if fx > 0.0:
@@ -533,7 +569,7 @@ def _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, 
 
 
 @nb.njit(cache=True)
-def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich):
+def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv):
     """First crossing of ρ(b) = 1 from b = 0 upward on one grid.
 
     Bracket: ρ on the depths b_ref·factors (ascending), stopping at the first unstable one, then
@@ -541,7 +577,7 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, r
     inf, dominant multiplier at the unstable bracket end, number of ρ evaluations).
     """
     b_lo = 0.0
-    f_lo = _rho(0.0, kt, wn, zeta, mass, mdir, D, g1, g2, rich)[0] - 1.0
+    f_lo = _rho(0.0, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv)[0] - 1.0
     n_eval = 1
     b_hi = -1.0
     f_hi = 0.0
@@ -554,7 +590,7 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, r
         else:
             b *= 1.5
         k += 1
-        r, mu = _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
+        r, mu = _rho(b, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv)
         n_eval += 1
         if r > 1.0:
             b_hi, f_hi, mu_hi = b, r - 1.0, mu
@@ -562,23 +598,25 @@ def _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, r
         b_lo, f_lo = b, r - 1.0
     if b_hi < 0:
         return np.inf, complex(np.nan, np.nan), n_eval
-    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich)
+    d, mu, c = _illinois(b_lo, f_lo, b_hi, f_hi, mu_hi, rtol, kt, wn, zeta, mass, mdir, D, g1, g2, rich, cv)
     return d, mu, n_eval + c
 
 
 @nb.njit(cache=True)
-def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, wn, zeta, mass, mdir, act, rtol):
+def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, wn, zeta, mass, mdir, act, rtol, cv):
     """Limiting depth [m] at one speed with ``steps`` per tooth period (``rich``: Richardson-extrapolated
-    multipliers from that grid and its halving). Returns (depth or inf, dominant μ, ρ evaluations)."""
+    multipliers from that grid and its halving); cv = C / V the process damping per unit depth [N·s/m²]
+    (0: none). Returns (depth or inf, dominant μ, ρ evaluations)."""
     g1 = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 1, wn, zeta, act)
     g2 = _setup(n_teeth, kr, phi_s, phi_e, rpm, steps, 2 if rich else 1, wn, zeta, act)
-    return _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, act.size, g1, g2, rich)
+    return _first_crossing(b_ref, factors, rtol, kt, wn, zeta, mass, mdir, act.size, g1, g2, rich, cv)
 
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
-                rtol, first, last, depth, mu, n_eval):
-    """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M); rpm, steps (S,);
+                rtol, first, last, depth, mu, n_eval, cv):
+    """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M); rpm, steps, cv (S,) (cv: the
+    process damping per unit depth C / V [N·s/m²], zeros for none);
     b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts
     for the tasks first..last-1 of the B·S (structure, speed) pairs, row-major (the caller runs them
     in chunks, to stay interruptible; each pair is computed alone, so chunking changes no bit)."""
@@ -588,7 +626,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, fa
         bi = t // n_s
         s = t % n_s
         d, m_, c = limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,
-                             wn[bi], zeta[bi], mass[bi], mdir, act, rtol)
+                             wn[bi], zeta[bi], mass[bi], mdir, act, rtol, cv[s])
         depth[bi, s] = d
         mu[bi, s] = m_
         n_eval[bi, s] = c

@@ -20,7 +20,7 @@ interpolation: the only discretisation error is the collocation error, which fal
 
 The monodromy matrix maps (z at the period start, u at every collocation node of the previous
 period) to the same quantities one period later; its size n + D·(nodes) does not grow with the free
-flight. Its eigenvalues (LAPACK dgeev, shared with the SDM kernel) are the Floquet multipliers. The
+flight. Its eigenvalues (:func:`eig_small`, a compiled QR: 2× faster than LAPACK at this size) are the Floquet multipliers. The
 root search's ρ uses :func:`monodromy_small`, the same operator on the reduced history (a tooth's
 force depends on its chip thickness only, so the past enters a node through one number per tooth in
 the cut, :func:`node_factors`): the same nonzero multipliers with n + Σ(teeth in the cut per node)
@@ -44,7 +44,7 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._sdm_kernel import _dominant, _in_cut, free_flight, multipliers
+from millstab.stability._sdm_kernel import _dominant, _in_cut, free_flight
 
 TWO_PI = 2.0 * math.pi
 
@@ -425,11 +425,242 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     return U
 
 
+_RADIX = 2.0
+
+
+@nb.njit(cache=True)
+def _balance(a):
+    """Balance a square matrix in place (rows and columns scaled by powers of 2 until their off-diagonal
+    norms agree; the eigenvalues are unchanged): the monodromy mixes displacements [m], velocities [m/s]
+    (ωn ≈ 6 000 times larger) and chip thicknesses, so unbalanced QR would lose digits."""
+    n = a.shape[0]
+    sqrdx = _RADIX * _RADIX
+    done = False
+    while not done:
+        done = True
+        for i in range(n):
+            r = 0.0
+            c = 0.0
+            for j in range(n):
+                if j != i:
+                    c += abs(a[j, i])
+                    r += abs(a[i, j])
+            if c != 0.0 and r != 0.0:
+                g = r / _RADIX
+                f = 1.0
+                s = c + r
+                while c < g:
+                    f *= _RADIX
+                    c *= sqrdx
+                g = r * _RADIX
+                while c > g:
+                    f /= _RADIX
+                    c /= sqrdx
+                if (c + r) / f < 0.95 * s:
+                    done = False
+                    g = 1.0 / f
+                    for j in range(n):
+                        a[i, j] *= g
+                    for j in range(n):
+                        a[j, i] *= f
+
+
+@nb.njit(cache=True)
+def _hessenberg(a):
+    """Reduce a square matrix in place to upper Hessenberg form by stabilised elementary similarity
+    transformations (Gaussian elimination with pivoting; the eigenvalues are unchanged)."""
+    n = a.shape[0]
+    for m in range(1, n - 1):
+        x = 0.0
+        i = m
+        for j in range(m, n):
+            if abs(a[j, m - 1]) > abs(x):
+                x = a[j, m - 1]
+                i = j
+        if i != m:
+            for j in range(m - 1, n):
+                t = a[i, j]; a[i, j] = a[m, j]; a[m, j] = t
+            for j in range(n):
+                t = a[j, i]; a[j, i] = a[j, m]; a[j, m] = t
+        if x != 0.0:
+            for i2 in range(m + 1, n):
+                y = a[i2, m - 1]
+                if y != 0.0:
+                    y /= x
+                    a[i2, m - 1] = y
+                    for j in range(m, n):
+                        a[i2, j] -= y * a[m, j]
+                    for j in range(n):
+                        a[j, m] += y * a[j, i2]
+    # zero below the subdiagonal (the multipliers stored there)
+    for i in range(2, n):
+        for j in range(i - 1):
+            a[i, j] = 0.0
+
+
+@nb.njit(cache=True)
+def _hqr(a, wr, wi):
+    """Eigenvalues (wr + i wi) of an upper Hessenberg matrix (destroyed) by the Francis double-shift QR
+    iteration with exceptional shifts (EISPACK hqr). Returns 0, or 1 if an eigenvalue did not converge."""
+    n = a.shape[0]
+    anorm = 0.0
+    for i in range(n):
+        for j in range(max(i - 1, 0), n):
+            anorm += abs(a[i, j])
+    nn = n - 1
+    t = 0.0
+    p = q = r = 0.0
+    while nn >= 0:
+        its = 0
+        while True:
+            l = nn
+            while l >= 1:
+                s = abs(a[l - 1, l - 1]) + abs(a[l, l])
+                if s == 0.0:
+                    s = anorm
+                if abs(a[l, l - 1]) + s == s:
+                    a[l, l - 1] = 0.0
+                    break
+                l -= 1
+            x = a[nn, nn]
+            if l == nn:
+                wr[nn] = x + t
+                wi[nn] = 0.0
+                nn -= 1
+                break
+            y = a[nn - 1, nn - 1]
+            w = a[nn, nn - 1] * a[nn - 1, nn]
+            if l == nn - 1:
+                p = 0.5 * (y - x)
+                q = p * p + w
+                z = math.sqrt(abs(q))
+                x += t
+                if q >= 0.0:
+                    z = p + (z if p >= 0 else -z)
+                    wr[nn - 1] = wr[nn] = x + z
+                    if z != 0.0:
+                        wr[nn] = x - w / z
+                    wi[nn - 1] = wi[nn] = 0.0
+                else:
+                    wr[nn - 1] = wr[nn] = x + p
+                    wi[nn - 1] = -z
+                    wi[nn] = z
+                nn -= 2
+                break
+            if its == 60:
+                return 1
+            if its == 10 or its == 20:
+                t += x
+                for i in range(nn + 1):
+                    a[i, i] -= x
+                s = abs(a[nn, nn - 1]) + abs(a[nn - 1, nn - 2])
+                x = y = 0.75 * s
+                w = -0.4375 * s * s
+            its += 1
+            m = nn - 2
+            while m >= l:
+                z = a[m, m]
+                r = x - z
+                s = y - z
+                p = (r * s - w) / a[m + 1, m] + a[m, m + 1]
+                q = a[m + 1, m + 1] - z - r - s
+                r = a[m + 2, m + 1]
+                s = abs(p) + abs(q) + abs(r)
+                p /= s
+                q /= s
+                r /= s
+                if m == l:
+                    break
+                u = abs(a[m, m - 1]) * (abs(q) + abs(r))
+                v = abs(p) * (abs(a[m - 1, m - 1]) + abs(z) + abs(a[m + 1, m + 1]))
+                if u + v == v:
+                    break
+                m -= 1
+            for i in range(m + 2, nn + 1):
+                a[i, i - 2] = 0.0
+                if i != m + 2:
+                    a[i, i - 3] = 0.0
+            k = m
+            while k <= nn - 1:
+                if k != m:
+                    p = a[k, k - 1]
+                    q = a[k + 1, k - 1]
+                    r = 0.0
+                    if k != nn - 1:
+                        r = a[k + 2, k - 1]
+                    x = abs(p) + abs(q) + abs(r)
+                    if x != 0.0:
+                        p /= x
+                        q /= x
+                        r /= x
+                s = math.sqrt(p * p + q * q + r * r)
+                if p < 0:
+                    s = -s
+                if s != 0.0:
+                    if k == m:
+                        if l != m:
+                            a[k, k - 1] = -a[k, k - 1]
+                    else:
+                        a[k, k - 1] = -s * x
+                    p += s
+                    x = p / s
+                    y = q / s
+                    z = r / s
+                    q /= p
+                    r /= p
+                    for j in range(k, nn + 1):
+                        p = a[k, j] + q * a[k + 1, j]
+                        if k != nn - 1:
+                            p += r * a[k + 2, j]
+                            a[k + 2, j] -= p * z
+                        a[k + 1, j] -= p * y
+                        a[k, j] -= p * x
+                    mmin = nn if nn < k + 3 else k + 3
+                    for i in range(l, mmin + 1):
+                        p = x * a[i, k] + y * a[i, k + 1]
+                        if k != nn - 1:
+                            p += z * a[i, k + 2]
+                            a[i, k + 2] -= p * r
+                        a[i, k + 1] -= p * q
+                        a[i, k] -= p
+                k += 1
+            if l >= nn - 1:
+                break
+    return 0
+
+
+@nb.njit(cache=True)
+def eig_small(U):
+    """All eigenvalues of a small square matrix U (copied): balance, Hessenberg, double-shift QR; NaN where
+    the iteration fails (a failed solve is never taken for stable, :func:`_dominant`).
+
+    Why not LAPACK dgeev (:func:`millstab.stability._sdm_kernel.multipliers`): for the 10–30 rows of
+    the reduced monodromy its fixed costs (workspace, ilaenv queries) dominate; measured 2× faster here
+    on 10 and 16 rows, ρ within 1.2e-14 of numpy's on 2 400 random badly scaled matrices of 2–40 rows
+    (tests/test_spectral_eig.py)."""
+    A = U.copy()
+    K = A.shape[0]
+    out = np.empty(K, dtype=np.complex128)
+    for i in range(K):
+        for j in range(K):
+            if not math.isfinite(A[i, j]):  # (balancing would never end on an infinite entry)
+                out[:] = complex(np.nan, np.nan)
+                return out
+    wr = np.empty(K)
+    wi = np.empty(K)
+    _balance(A)
+    _hessenberg(A)
+    info = _hqr(A, wr, wi)
+    for k in range(K):
+        out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
+    return out
+
+
 @nb.njit(cache=True)
 def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
     """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy)."""
     U = monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
-    return _dominant(multipliers(U))
+    return _dominant(eig_small(U))
 
 
 @nb.njit(cache=True)

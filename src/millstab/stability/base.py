@@ -139,6 +139,9 @@ class Engine(Protocol):
         conditions' Kr (Kr is a property of the tool and material, shared by every condition).
 
     Optional (consumers check with ``hasattr``; an engine without it is called with no keywords):
+        process_damping: the engine carries ``Cutting.process_damping`` (absent = False: a cut with
+            process damping is an InputError before the engine is called, see
+            :mod:`millstab.stability.process_damping`).
         settings(batch, cutting, rpm) -> dict: keyword arguments of ``envelope_batch`` that fix the
             engine's discretisation for a whole problem (e.g. the spectral engine's ``{"nodes": p}``),
             chosen once from set 0 of ``batch`` at the speeds ``rpm``. :class:`millstab.forward.Forward`

@@ -60,6 +60,15 @@ and between chunks KeyboardInterrupt is seen and ``progress(stage, done, total)`
 exception it raises stops the run). Every (structure, speed) pair is computed alone, so the chunking
 changes no bit of the result.
 
+Process damping (``Cutting.process_damping`` C > 0, :mod:`millstab.stability.process_damping`): each
+tooth in the cut adds −(C b / V)(n·u̇) n; its exact step average enters every cutting step's
+current-state matrix next to the cutting force's, so the term is carried instantaneously per tooth
+with the scheme's own accuracy (four-tooth slotting, where the model is a constant-coefficient delay
+equation: within 3.4e-4 of its closed form). The monodromy matrix is rebuilt at every depth anyway
+(the cutting force is ∝ b); the reference depth is the zero-order one without the term, and the
+bracket grid goes on in 10 % steps to ~30 b_ref (``FACTORS_PD``) since the low-speed limits rise to
+many times it. Measured cost (benchmarks/bench_sdm.py --process-damping): ×1.16 CPU time.
+
 Units: rpm at the interface, depth in m (``Envelope.depth_mm`` for mm), frequencies in Hz.
 """
 
@@ -89,6 +98,11 @@ STEPS_PER_NATURAL_PERIOD = 12.0
 RTOL = 1e-4
 #: bracket grid of the root search, in units of the reference depth (ascending)
 FACTORS = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
+#: the bracket grid with process damping: the reference depth is the zero-order one without it, and
+#: process damping lifts the low-speed limits to many times that, so the grid goes on in steps of 10 %
+#: to ~30 b_ref before the geometric ×1.5 growth (a band of instability is only missed when thinner
+#: than the step it falls in)
+FACTORS_PD = np.concatenate([FACTORS, 3.0 * 1.1 ** np.arange(1, 25)])
 #: target wall time of one compiled call [s]: Ctrl-C and the progress callback are seen between calls;
 #: None runs everything in one call
 CHUNK_SECONDS: float | None = 0.25
@@ -169,16 +183,19 @@ def _cut_args(cutting: Cutting) -> tuple:
     return cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit
 
 
-def step_matrices(cutting: Cutting, rpm: float, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def step_matrices(cutting: Cutting, rpm: float, steps: int,
+                  contact: bool = False) -> tuple[np.ndarray, ...]:
     """The step grid of one tooth period as the engine uses it (tooth 0 enters at t = 0).
 
     Returns the step lengths h (m,) [s], whether a tooth cuts in each step (m,), and the step
-    averages of the directional matrix [A(t)] (m, 2, 2) [-].
+    averages of the directional matrix [A(t)] (m, 2, 2) [-]; with ``contact`` also the step averages
+    of Σ_teeth g n nᵀ (m, 2, 2) [-], the directions of the process damping.
     """
     r = float(check_rpm([rpm])[0])
     T = 60.0 / (cutting.teeth * r)
     n, _, kr, ps, pe = _cut_args(cutting)
-    return _k.period_grid(n, kr, ps, pe, r, T / int(steps), 1)
+    grid = _k.period_grid(n, kr, ps, pe, r, T / int(steps), 1)
+    return grid if contact else grid[:3]
 
 
 def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float, steps: int | None = None) -> np.ndarray:
@@ -193,9 +210,11 @@ def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float
     r = check_rpm([rpm])
     st = _steps(steps, float(np.max(wn) / (2 * math.pi)), cutting, r)
     n, kt, kr, ps, pe = _cut_args(cutting)
-    h, cut, abar_d, phi_free, hpos, n_used = _k._setup(n, kr, ps, pe, float(r[0]), int(st[0]), 1, wn[0], zeta[0], act)
+    h, cut, abar_d, phi_free, hpos, n_used, pbar_d = _k._setup(n, kr, ps, pe, float(r[0]), int(st[0]), 1, wn[0],
+                                                               zeta[0], act)
+    cpd = float(cutting.process_damping_per_depth(r)[0]) * float(depth_m)
     return _k.monodromy(float(depth_m), kt, wn[0], zeta[0], mass[0], mdir, act.size, h, cut, abar_d, phi_free,
-                        hpos, n_used)
+                        hpos, n_used, cpd, pbar_d)
 
 
 def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | None = None,
@@ -217,9 +236,11 @@ def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | N
     out = np.empty((r.size, d.size))
     n, kt, kr, ps, pe = _cut_args(cutting)
     d = np.ascontiguousarray(d)
+    cv = np.ascontiguousarray(cutting.process_damping_per_depth(r))
 
     def run(first: int, last: int) -> None:
-        _k.rho_grid(n, kt, kr, ps, pe, r, st, steps is None, d, wn[0], zeta[0], mass[0], mdir, act, first, last, out)
+        _k.rho_grid(n, kt, kr, ps, pe, r, st, steps is None, d, wn[0], zeta[0], mass[0], mdir, act, first, last, out,
+                    cv)
 
     with threadpool_limits(1):
         _chunked(run, r.size, "sdm: spectral radius map", progress)
@@ -240,7 +261,8 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     follow ``fn_max_hz`` [Hz] (default: the batch's highest natural frequency, :func:`split_settings`)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     st = _steps(steps, _fn_max_hz(wn) if fn_max_hz is None else float(fn_max_hz), cutting, r)
-    b_ref = zoa.envelope_batch(batch, cutting, r)
+    # the reference depth is the zero-order one without process damping (that model has none)
+    b_ref = zoa.envelope_batch(batch, cutting.without_process_damping(), r)
     fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
     # where the zero-order method finds no boundary, take the largest finite one of that set (or a static scale)
     row_max = np.nanmax(np.where(np.isfinite(fallback), fallback, -np.inf), axis=1)
@@ -251,10 +273,12 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
+    cv = np.ascontiguousarray(cutting.process_damping_per_depth(r))
+    factors = FACTORS_PD if cutting.has_process_damping else FACTORS
 
     def run(first: int, last: int) -> None:
-        _k.limit_batch(n, kt, kr, ps, pe, r, st, steps is None, b_ref, FACTORS, wn, zeta, mass, mdir, act, RTOL,
-                       first, last, depth, mu, n_eval)
+        _k.limit_batch(n, kt, kr, ps, pe, r, st, steps is None, b_ref, factors, wn, zeta, mass, mdir, act, RTOL,
+                       first, last, depth, mu, n_eval, cv)
 
     with threadpool_limits(1):
         _chunked(run, n_b * n_s, "sdm: limiting depths", progress)
@@ -339,6 +363,8 @@ exact_xy_exchange = False
 accepts_measured_frf = False
 #: flip and Hopf boundaries are both found, but not told apart
 reports_lobe_type = False
+#: carries process damping (Cutting.process_damping), instantaneous per tooth, rebuilt per depth
+process_damping = True
 reports_progress = True
 cheap = False
 #: the batched path returns depths only (``envelope`` reports the chatter frequency of one structure)

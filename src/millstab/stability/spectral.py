@@ -78,6 +78,19 @@ dense ρ scan (:func:`rho_map`) shows an unstable island at 58–63 mm that both
 stepped over (both reported 80.5 mm before this search); such islands lie far above the lowest lobes (2–3
 mm there).
 
+Eigenvalues by a compiled QR (issue 28, 2026-11-27): ρ at every ladder depth is the spectral radius of
+the reduced monodromy (10–30 rows), and LAPACK's dgeev spent ~70 % of that evaluation in its fixed costs;
+:func:`._spectral_kernel.eig_small` (balance, Hessenberg, Francis double-shift QR) does it 2× faster. Same
+search path (32.4 evaluations per speed before and after), depths within 3.7e-11 of dgeev's on 16 benchmark
+cases (two structures, a/D 0.05–1, up and down milling, 101 speeds). Alternated with the code before in the
+same minutes (load 19–21 on the 2 cores, so CPU time is the figure; ``PYTHONPATH=src:benchmarks python
+benchmarks/bench_spectral.py --skip-accuracy --repeat 5``): CPU per 200-speed envelope on one thread 142.9 /
+141.8 ms → 101.2 / 100.4 ms (1.41×), on two threads 174.1 / 166.2 → 129.2 / 124.6 ms (1.33×); about 10
+envelopes/s per core. What remains (measured, :func:`._spectral_kernel.rho` on this benchmark): ~20 ladder
+depths below the root at every speed, each a monodromy (~40 % of an evaluation now) and its eigenvalues;
+certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
+is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
+needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
@@ -181,6 +194,7 @@ from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
 from millstab.stability.base import by_condition, check_rpm
+from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
 P_NODES = 4
@@ -438,6 +452,7 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     """
     if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
         raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
+    _reject_process_damping(cutting, name)
     # solved once per distinct speed, in increasing order (the continuation from speed to speed needs a
     # step > 0: repeated speeds made the kernel divide by zero), then put back in the caller's order
     rs, inv = np.unique(r, return_inverse=True)
@@ -509,6 +524,7 @@ def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float
     """The monodromy matrix over one tooth period at one speed [rpm] and depth [m]; its eigenvalues
     are the Floquet multipliers (the cut is stable when all have modulus < 1)."""
     _require_modal(structure)
+    _reject_process_damping(cutting, name)
     wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
     r = float(check_rpm([rpm])[0])
     n, kt, kr, ps, pe = _cut_args(cutting)
@@ -542,6 +558,8 @@ accepts_measured_frf = False
 reports_lobe_type = True
 reports_progress = False
 cheap = True
+#: the process-damping term is not carried yet (a cut with it is an InputError naming the engines that do)
+process_damping = False
 #: :func:`envelope_batch_hz` gives the critical multiplier's frequency beside the depth
 reports_chatter_frequency = True
 time_averaged = False

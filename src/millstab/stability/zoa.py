@@ -27,6 +27,7 @@ from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 # shared helpers of the contract, re-exported where they used to live
 from millstab.stability.base import check_rpm, directional_matrix  # noqa: F401
+from millstab.stability.process_damping import reject as reject_process_damping
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
 N_BASE = 160
@@ -72,6 +73,7 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
         cutting: cutting conditions.
         rpm: spindle speeds [rev/min], any order.
     """
+    reject_process_damping(cutting, name)
     r = check_rpm(rpm)
     if structure.is_modal:
         batch = ModalBatch.from_structures([structure])
@@ -98,6 +100,7 @@ def _run_modal(batch: ModalBatch, cutting: Cutting | Conditions, rpm: np.ndarray
     ``cutting``: one Cutting, or Conditions (one per speed column); ``kr``: a Kr per set (B,) or None.
     ``stats``: optional (B, N_STATS) int64 zeros that receive the kernel's work counts per set.
     """
+    reject_process_damping(cutting, name)
     if isinstance(cutting, Conditions) or kr is not None:
         return _run_conditions(batch, Conditions.coerce(cutting, rpm.size), rpm, stats, kr)
     rs, order = _sorted(rpm)
@@ -219,6 +222,7 @@ def lobes(structure: Structure, cutting: Cutting, rpm_min: float, rpm_max: float
 
     Each lobe is a curve (Ω_k(ω), b(ω)) over the frequencies where Re ν > 0, per eigenvalue branch.
     """
+    reject_process_damping(cutting, name)
     r = check_rpm([rpm_min, rpm_max])
     if structure.is_modal:
         fns = np.array([m.fn for m in structure.modes])
@@ -265,6 +269,9 @@ accepts_measured_frf = True
 reports_lobe_type = False
 reports_progress = False
 cheap = True
+#: the process-damping term is not carried (a time-averaged depth-independent model cannot hold a
+#: damping that grows with depth): a cut with it is an InputError naming the engines that do
+process_damping = False
 #: the compiled batch kernel returns the limiting lobe's ωc beside the depth (:func:`envelope_batch_hz`)
 reports_chatter_frequency = True
 #: the directional matrix averaged over the tooth period (the zero-order model)

@@ -31,12 +31,34 @@ from millstab.warnlog import collect, emit, warn
 
 #: the default number of posterior samples (the reference's ~4 000 weighted samples)
 DEFAULT_SAMPLES = 4000
+#: the MH moves of the sampler: ``plain`` (every proposal through the engine), ``delayed`` (delayed
+#: acceptance: proposals screened by the zero-order engine, the accurate engine only on the survivors;
+#: the posterior is still the chosen engine's, :mod:`millstab.update.sampler`), ``auto`` (delayed for
+#: every engine but ``zoa``, which is its own screen)
+SAMPLERS = ("auto", "delayed", "plain")
+#: the engine that screens proposals in delayed acceptance
+SCREEN_ENGINE = "zoa"
+
+
+def screen_engine(engine: str, sampler: str = "auto") -> str | None:
+    """The engine screening the MH proposals for ``engine`` under ``sampler`` (``None``: plain moves).
+
+    Raises:
+        InputError: an unknown sampler.
+    """
+    from millstab.errors import InputError
+
+    if sampler not in SAMPLERS:
+        raise InputError("sampler", sampler, "one of " + ", ".join(SAMPLERS))
+    if sampler == "plain" or (sampler == "auto" and engine == SCREEN_ENGINE):
+        return None
+    return SCREEN_ENGINE
 
 
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
-           client=None) -> Posterior:
+           client=None, sampler: str = "auto") -> Posterior:
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
@@ -56,28 +78,36 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             be those of this update's first cuts (boundary points included).
         client: a ``distributed.Client``: the likelihood's engine calls run on its cluster where that pays
             (:func:`millstab.cluster.sample_limits`); the same seed gives the same posterior.
+        sampler: ``auto``, ``delayed`` or ``plain`` (:data:`SAMPLERS`): with ``delayed`` (the default for
+            every engine but ``zoa``) the zero-order engine screens each MH proposal and the chosen engine
+            decides only on the survivors (delayed acceptance); the posterior is the chosen engine's either way.
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
     """
     pr = prior or make_prior(config.structure, config.cutting, getattr(config, "prior", None))
+    cheap_engine = screen_engine(engine, sampler)
     with collect() as caught:
         ev = Evidence.from_points(cuts, points, pr.cutting, getattr(config, "diameter_mm", None))
         lik = Likelihood(pr, ev, engine, client)
+        scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates
     if start is None:
-        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress)
+        res = tempered_smc(pr.sample_full, pr.logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
+                           screen=scr)
     else:
         n_old = _check_start(start, pr, ev, engine)
         rng = np.random.default_rng(seed)
         u0 = start.sampler_state(rng)
         u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
         res = tempered_smc(pr.sample_full, pr.logpdf_full, lik.split(n_old), samples, seed=rng, moves=moves,
-                           progress=progress, init=u0)
+                           progress=progress, init=u0, screen=scr.split(n_old) if scr is not None else None)
     diag = res.diagnostics()
     diag["engine_sets"] = lik.n_sets
+    if scr is not None:
+        diag["screen_engine"], diag["screen_sets"] = cheap_engine, scr.n_sets
     diag["frequency_term"] = lik.uses_frequency
     data = {"rpm": np.r_[ev.cut_rpm, ev.pt_rpm].tolist(), "depth_mm": np.r_[ev.cut_depth_mm, ev.pt_depth_mm].tolist(),
             "label": [("stable", "chatter", "marginal")[k] for k in ev.cut_kind] + [""] * ev.pt_rpm.size,
@@ -154,5 +184,5 @@ def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
     return len(old) == len(now) and all(same_condition(a, b) for a, b in zip(old, now))
 
 
-__all__ = ["DEFAULT_SAMPLES", "Evidence", "Likelihood", "Posterior", "Prior", "Recommendation", "make_prior",
+__all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "Evidence", "Likelihood", "Posterior", "Prior", "Recommendation", "make_prior",
            "p_stable_map", "recommend", "update"]

@@ -507,11 +507,12 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
     the productivity weight of :func:`next_test` ranks cuts of one condition by what they may unlock there.
     One engine call (``n_rpm`` speeds, 1 000 samples) per candidate condition.
     """
-    from millstab.model import Cutting
+    from dataclasses import replace
+
     from millstab.points import condition_text, describe_condition, same_condition
 
     here = post.condition
-    slot = Cutting(here.teeth, here.kt, here.kr, 0.0, math.pi)
+    slot = replace(here, entry=0.0, exit=math.pi)
     cands = [c for c in (*post.trained_conditions, slot) if not same_condition(c, here)]
     cands = [c for i, c in enumerate(cands) if not any(same_condition(c, d) for d in cands[:i])]
     rng = np.random.default_rng(seed)

@@ -151,12 +151,10 @@ class Posterior:
         ``None``: this posterior itself."""
         from dataclasses import replace
 
-        from millstab.model import Cutting
-
         if cutting is None:
             return self
-        base = self.prior.cutting
-        c = Cutting(cutting.teeth, base.kt, base.kr, cutting.entry, cutting.exit)
+        # the trained tool's coefficients (and process damping, diameter), the target's teeth and angles
+        c = replace(self.prior.cutting, teeth=cutting.teeth, entry=cutting.entry, exit=cutting.exit)
         return Posterior(replace(self.prior, cutting=c), self.samples, self.engine, self.diagnostics, self.cuts,
                          self.warnings, self.noise, self.trained_conditions, self.diameter_mm)
 
@@ -274,11 +272,11 @@ class Posterior:
                                  f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
         conditions = ()
         if doc.get("schema") == SCHEMA and doc.get("conditions"):  # /2 and /1: every cut in the prior's cutting
-            from millstab.model import Cutting
+            from dataclasses import replace
 
             try:
-                conditions = tuple(Cutting(int(c["teeth"]), prior.cutting.kt, prior.cutting.kr, float(c["entry"]),
-                                           float(c["exit"])) for c in doc["conditions"])
+                conditions = tuple(replace(prior.cutting, teeth=int(c["teeth"]), entry=float(c["entry"]),
+                                           exit=float(c["exit"])) for c in doc["conditions"])
             except (KeyError, TypeError, ValueError):
                 raise InputError(f"{source} conditions", doc["conditions"],
                                  "a list of {teeth, entry, exit [rad]} per trained condition") from None

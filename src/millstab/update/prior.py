@@ -279,7 +279,10 @@ class Prior:
     def to_dict(self) -> dict:
         """Plain data (SI) that :meth:`from_dict` rebuilds the prior from."""
         c, s = self.cutting, self.par.base
-        return {"cutting": {"teeth": c.teeth, "kt": c.kt, "kr": c.kr, "entry": c.entry, "exit": c.exit},
+        cut = {"teeth": c.teeth, "kt": c.kt, "kr": c.kr, "entry": c.entry, "exit": c.exit}
+        if c.has_process_damping:
+            cut |= {"process_damping": c.process_damping, "diameter": c.diameter}
+        return {"cutting": cut,
                 "structure": {d: [{"fn": m.fn, "k": m.k, "zeta": m.zeta} for m in getattr(s, d)] for d in ("x", "y")},
                 "names": list(self.names), "median": self.median.tolist(), "spread": self.spread.tolist(),
                 "sigma_depth_m": self.sigma_depth_m, "sigma_depth_rel": self.sigma_depth_rel,
@@ -291,7 +294,8 @@ class Prior:
     def from_dict(cls, d: dict) -> Prior:
         try:
             c = d["cutting"]
-            cutting = Cutting(int(c["teeth"]), c["kt"], c["kr"], c["entry"], c["exit"])
+            cutting = Cutting(int(c["teeth"]), c["kt"], c["kr"], c["entry"], c["exit"],
+                              c.get("process_damping", 0.0), c.get("diameter"))
             structure = Structure(*(tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{dd}[{i}]")
                                           for i, m in enumerate(d["structure"][dd])) for dd in ("x", "y")))
             names = tuple(d["names"])

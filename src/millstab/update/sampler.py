@@ -18,6 +18,18 @@ Sequential reuse (``init``): the posterior after n cuts is the prior of cut n + 
 equally weighted particles, only the new data are tempered, π_β ∝ prior · L_old · L_new^β; ``loglik``
 then returns the pair (log L_old, log L_new) from one engine call, L_old enters every MH acceptance
 untempered and only L_new chooses the β steps (and the evidence, which is then p(new | old)).
+
+Delayed acceptance (``screen``, Christen & Fox 2005, J. Comput. Graph. Stat. 14:795): with an accurate
+but costly likelihood L (the spectral engine) and a cheap approximation L̃ of it (the zero-order engine),
+each MH move first screens the proposals y against the current x with the cheap target
+π̃_β = prior · L̃^β, accepted with α₁ = min(1, π̃_β(y)/π̃_β(x)); only the survivors are evaluated
+accurately, and accepted with α₂ = min(1, [π_β(y) π̃_β(x)] / [π_β(x) π̃_β(y)]). The two-stage kernel is
+reversible with respect to the accurate π_β whatever L̃ is (L̃ only decides how many accurate calls a
+move saves), so the posterior is the accurate engine's; the reweighting steps use the accurate L of the
+particles, which is always known. A screen that is −inf (or NaN) somewhere is floored at
+``SCREEN_FLOOR`` there, which keeps π̃ > 0 wherever π > 0 (otherwise the chain could not reach states
+the cheap model calls impossible). Measured on the docs/updating.md low-immersion case
+(benchmarks/bench_update_accurate.py): about a third of the proposals reach the accurate engine.
 """
 
 from __future__ import annotations
@@ -34,6 +46,9 @@ from millstab.errors import InputError
 
 #: MH acceptance rate the step size is adapted towards
 ACCEPT_TARGET = 0.25
+#: the screen's log-likelihood where it is −inf or NaN (delayed acceptance needs π̃ > 0 wherever π > 0;
+#: any finite value keeps the two-stage kernel exact, a low one screens such states out unless both ends are)
+SCREEN_FLOOR = -1e6
 Batch = Callable[[np.ndarray], np.ndarray]
 
 
@@ -50,6 +65,11 @@ class SMCResult:
         acceptance: the mean MH acceptance of each stage's moves.
         n_loglik: number of batched likelihood calls.
         time_s: wall time [s].
+        n_screen: batched screening (cheap-likelihood) calls, 0 without delayed acceptance.
+        screen_pass: per stage, the fraction of proposals that passed the screen (reached the accurate
+            likelihood); empty without delayed acceptance.
+        n_sets: parameter sets given to the accurate likelihood (every particle once, then the proposals
+            that reached it).
     """
 
     u: np.ndarray
@@ -60,6 +80,9 @@ class SMCResult:
     acceptance: list[float] = field(default_factory=list)
     n_loglik: int = 0
     time_s: float = 0.0
+    n_screen: int = 0
+    screen_pass: list[float] = field(default_factory=list)
+    n_sets: int = 0
 
     @property
     def stages(self) -> int:
@@ -67,10 +90,14 @@ class SMCResult:
 
     def diagnostics(self) -> dict:
         """A JSON-ready summary."""
-        return {"method": "adaptive tempered SMC (systematic resampling, random-walk MH moves)",
-                "particles": int(self.u.shape[0]), "stages": self.stages, "betas": self.betas,
-                "ess": self.ess, "acceptance": self.acceptance, "min_acceptance": min(self.acceptance, default=None),
-                "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s}
+        moves = "delayed-acceptance MH moves" if self.n_screen else "random-walk MH moves"
+        out = {"method": f"adaptive tempered SMC (systematic resampling, {moves})",
+               "particles": int(self.u.shape[0]), "stages": self.stages, "betas": self.betas,
+               "ess": self.ess, "acceptance": self.acceptance, "min_acceptance": min(self.acceptance, default=None),
+               "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s}
+        if self.n_screen:
+            out.update(screen_calls=self.n_screen, screen_pass=self.screen_pass, accurate_sets=self.n_sets)
+        return out
 
 
 def ess_of(logw: np.ndarray) -> float:
@@ -104,10 +131,26 @@ def next_beta(loglik: np.ndarray, beta: float, target: float) -> float:
     return beta + brentq(f, tiny, room, xtol=1e-12 * room + 1e-15, rtol=1e-6)
 
 
+def _pair(loglik: Callable, reuse: bool) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``v -> (untempered log L_old, tempered log L_new)``: zeros and ``loglik(v)`` for a fresh update."""
+    if not reuse:
+        return lambda v: (np.zeros(v.shape[0]), np.asarray(loglik(v), float))
+
+    def both(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a, b = loglik(v)
+        return np.asarray(a, float), np.asarray(b, float)
+
+    return both
+
+
+def _floored(x: np.ndarray) -> np.ndarray:
+    return np.where(np.isfinite(x) | (x == np.inf), x, SCREEN_FLOOR)
+
+
 def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray], logprior: Batch, loglik: Batch,
                  n: int = 4000, *, seed: int | np.random.Generator = 0, moves: int = 3, ess_target: float = 0.5,
                  max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
-                 init: np.ndarray | None = None) -> SMCResult:
+                 init: np.ndarray | None = None, screen: Batch | None = None) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -121,6 +164,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         progress: ``progress(stage, done, total)`` with done = β·1000 of 1000.
         init: (n, P) starting particles, equally weighted draws of prior · L_old (the posterior of the
             earlier data), instead of prior draws.
+        screen: a cheap approximation of ``loglik`` (same signature, the pair with ``init``): the MH moves
+            become delayed-acceptance moves (module docstring), which call ``loglik`` only on the
+            proposals the screen passes; the target stays prior · L. ``None``: plain MH moves.
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -134,26 +180,26 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     if init is None:
         u = np.asarray(sample_prior(n, rng), dtype=float)
-
-        def both(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return np.zeros(v.shape[0]), loglik(v)
     else:
         u = np.array(init, dtype=float)
         if u.ndim != 2 or u.shape[0] != n:
             raise InputError("init", f"shape {u.shape}", f"need ({n}, P) starting particles")
-
-        def both(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            a, b = loglik(v)
-            return np.asarray(a, float), np.asarray(b, float)
+    both = _pair(loglik, init is not None)
+    cheap = _pair(screen, init is not None) if screen is not None else None
     p = u.shape[1]
     fx, ll = both(u)
-    n_ll = 1
+    n_ll, n_sc, n_sets = 1, 0, n
     if not np.isfinite(ll).any():
         raise InputError("cuts", "no prior sample explains them", "every prior draw has likelihood 0: the cuts contradict "
                                                                  "the prior (check the labels and units, or widen the spreads)")
-    lp = logprior(u) + fx  # the untempered part of the target (the prior, and L_old when reusing)
+    lp0 = logprior(u)
+    lp = lp0 + fx  # the untempered part of the target (the prior, and L_old when reusing)
+    if cheap is not None:  # the screen's own values at the particles (its π̃ at the current states)
+        sfx, sll = (_floored(a) for a in cheap(u))
+        slp = lp0 + sfx
+        n_sc = 1
     beta, log_z = 0.0, 0.0
-    betas, esss, accs = [0.0], [], []
+    betas, esss, accs, passes = [0.0], [], [], []
     scale = 2.38**2 / p
     while beta < 1.0 and len(betas) <= max_stages:
         new = next_beta(ll, beta, ess_target * n)
@@ -162,32 +208,69 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         log_z += float(logsumexp(logw) - np.log(n))
         idx = systematic_resample(logw, rng)
         u, ll, lp = u[idx], ll[idx], lp[idx]
+        if cheap is not None:
+            sll, slp = sll[idx], slp[idx]
         beta = new
         betas.append(beta)
         cov = np.cov(u, rowvar=False).reshape(p, p) + 1e-12 * np.eye(p)
         chol = np.linalg.cholesky(scale * cov)
         prev = scale
-        acc = 0.0
-        for _ in range(moves):  # each move: one batched likelihood call for all particles
+        acc = passed = 0.0
+        for _ in range(moves):  # each move: one batched likelihood call for all particles (or the screened ones)
             prop = u + rng.standard_normal((n, p)) @ chol.T
-            fx2, ll2 = both(prop)
-            lp2 = logprior(prop) + fx2
-            n_ll += 1
-            log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp - beta * ll
-            ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
-            u[ok], ll[ok], lp[ok] = prop[ok], ll2[ok], lp2[ok]
+            if cheap is None:
+                fx2, ll2 = both(prop)
+                lp2 = logprior(prop) + fx2
+                n_ll += 1
+                n_sets += n
+                log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp - beta * ll
+                ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
+                u[ok], ll[ok], lp[ok] = prop[ok], ll2[ok], lp2[ok]
+            else:
+                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng)
+                n_sc += 1
+                n_ll += m > 0
+                n_sets += m
+                passed += m / n / moves
             acc += ok.mean() / moves
             # the target narrows from stage to stage: adapt the step after every move
             scale = min(max(scale * float(np.exp(2.0 * (ok.mean() - ACCEPT_TARGET))), 1e-4), 10.0)
             chol = chol * np.sqrt(scale / prev)
             prev = scale
         accs.append(float(acc))
+        if cheap is not None:
+            passes.append(float(passed))
         if progress is not None:
             progress("update", int(round(1000 * beta)), 1000)
     if beta < 1.0:  # never hand back a tempered distribution as if it were the posterior
         raise RuntimeError(f"tempered SMC stopped after {max_stages} stages at beta = {beta:.3g} < 1; raise max_stages "
                            "or the number of particles")
-    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0)
+    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets)
+
+
+def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng) -> tuple[np.ndarray, int]:
+    """One delayed-acceptance MH move of every particle, in place (u, ll, lp: the accurate state; sll, slp:
+    the screen's). Stage 1 on the screen π̃_β, stage 2 on π_β/π̃_β for the survivors only (one batched
+    accurate call). Returns the acceptance mask (n,) and the number of survivors of stage 1."""
+    n = u.shape[0]
+    lp0 = logprior(prop)
+    sfx2, sll2 = (_floored(a) for a in cheap(prop))
+    slp2 = lp0 + sfx2
+    # stage 1: the cheap target; log_a1 unclipped, because stage 2 divides by the same ratio
+    log_a1 = np.nan_to_num(slp2 + beta * sll2 - slp - beta * sll, nan=-np.inf)
+    go = np.flatnonzero(np.log(rng.random(n)) < log_a1)
+    ok = np.zeros(n, bool)
+    u2 = rng.random(n)  # drawn for every particle, so the stream does not depend on how many passed
+    if go.size:
+        fx2, ll2 = both(prop[go])
+        lp2 = lp0[go] + fx2
+        log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp[go] - beta * ll[go] - log_a1[go]
+        acc = np.log(u2[go]) < np.nan_to_num(log_a, nan=-np.inf)
+        j = go[acc]
+        u[j], ll[j], lp[j] = prop[j], ll2[acc], lp2[acc]
+        sll[j], slp[j] = sll2[j], slp2[j]
+        ok[j] = True
+    return ok, int(go.size)
 
 
 __all__ = ["SMCResult", "ess_of", "next_beta", "systematic_resample", "tempered_smc"]

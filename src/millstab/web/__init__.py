@@ -65,12 +65,15 @@ def check_address(host: str, port: int) -> None:
 
 
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
-          verbose: bool = False, users: dict[str, str] | None = None):
+          verbose: bool = False, users: dict[str, str] | None = None, db: str | None = None,
+          shops: dict[str, tuple[str, ...]] | None = None):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
     (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
     :mod:`millstab.web.auth`) every page needs a login; a host other than 127.0.0.1/localhost/::1
-    requires them.
+    requires them. ``db``: a shop database (path or URL, created when new) whose campaigns the Update tab
+    opens and updates; with ``users``, each user sees only the campaigns of their shops (``shops``: {user:
+    shops}; a user not in it: the shop ``default``).
 
     Raises:
         InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
@@ -87,6 +90,17 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
 
     from millstab.web.app import create_app
 
+    if db is not None:  # created or migrated now, and any problem said in one line before the URL
+        from millstab.api.shop import DEFAULT_SHOP, open_db
+
+        open_db(db).close()
+        if users:
+            shops = {u: tuple((shops or {}).get(u) or (DEFAULT_SHOP,)) for u in users}
+    where, who = (str(db) if db is not None else None), (shops if users else None)
+
+    def app():  # a plain function: Panel serves a functools.partial as an object (its repr), not a page
+        return create_app(db=where, shops=who)
+
     port = port or free_port(host)
     url = f"http://{host}:{port}/"
     origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
@@ -99,9 +113,9 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
         # a fresh cookie key per start: logins end with the server
         opts.update(auth_provider=auth_provider(users), cookie_secret=secrets.token_urlsafe(32))
     if threaded:
-        return pn.serve({"/": create_app}, threaded=True, **opts), url
+        return pn.serve({"/": app}, threaded=True, **opts), url
     try:
-        server = pn.serve({"/": create_app}, start=False, **opts)  # binds the port here
+        server = pn.serve({"/": app}, start=False, **opts)  # binds the port here
     except OSError as exc:  # taken since the check
         raise _address_error(exc, host, port) from None
     print(f"millstab app: {url}  (Ctrl+C stops it)", flush=True)

@@ -14,8 +14,11 @@ from millstab.web.tool import ToolTab
 from millstab.web.update_tab import UpdateTab
 
 
-def create_app():
-    """Build one browser tab's page (``pn.serve`` calls this per session)."""
+def create_app(db: str | None = None, shops: dict[str, tuple[str, ...]] | None = None):
+    """Build one browser tab's page (``pn.serve`` calls this per session). ``db``: the shop database whose
+    campaigns the Update tab opens and updates; ``shops``: {user: their shops} when the app has accounts
+    (the signed-in user then sees only their shops' campaigns; a user not listed sees none), ``None`` for
+    the single-user app on this machine (every campaign)."""
     pn.extension("filedropper", raw_css=[CSS], notifications=False)
     session = Session()
     tool = ToolTab(session)  # validates the form and sets session.cfg first, so the other tabs start drawn
@@ -23,9 +26,18 @@ def create_app():
     ident = IdentifyTab(session)
     update = UpdateTab(session)
     downloads = DownloadsTab(session)
+    closing = [session.close]
+    if db is not None:
+        from millstab.api.shop import ShopView
+        from millstab.web.campaigns import CampaignPanel, requested_campaign
+
+        user = pn.state.user if shops is not None else None
+        view = ShopView(db, user, shops.get(user, ()) if shops is not None else None)
+        update.campaign = CampaignPanel(view, update, tool.load_text)
+        closing.append(view.store.close)
     doc = pn.state.curdoc
     if doc is not None:
-        doc.on_session_destroyed(lambda ctx: session.close())
+        doc.on_session_destroyed(lambda ctx: [close() for close in closing])
     preview = preview_figure(lobes.src)
     if session.lobes is not None:
         lobes.show(session.lobes, origin=session.origin)  # fill the preview's source too
@@ -35,6 +47,8 @@ def create_app():
                           "<span class='ms-note'>Tool and cut → Lobes → Identify → Update and recommend → Downloads"
                           "</span>")
     page = pn.Column(header, tabs, sizing_mode="stretch_width", css_classes=["ms-page"])
+    if update.campaign is not None and (wanted := requested_campaign()):
+        update.campaign.open(wanted)  # /?campaign=NAME: the user's own campaigns only (the service's rule)
     page.session = session  # for tests and notebooks
     page.tabs = {"tool": tool, "lobes": lobes, "identify": ident, "update": update, "downloads": downloads}
     return page

@@ -8,10 +8,17 @@ machines reach it, and the app refuses to start there without ``--users FILE``. 
 page needs a login, whatever the address. Passwords are never stored, printed or logged; each browser
 session still sees only its own uploads (:class:`millstab.web.state.Session`).
 
-Users file (make it with ``millstab app --add-user NAME --users FILE``; keep it private, ``chmod 600``)::
+Users file (make it with ``millstab app --add-user NAME --users FILE [--shop SHOP ...]``; keep it private,
+``chmod 600``)::
 
-    # millstab app users: name:scrypt$N$r$p$salt$hash
-    anna:scrypt$16384$8$1$3q2+7w...$Jm9v...
+    # millstab app users: name:scrypt$N$r$p$salt$hash[:shop,shop]
+    anna:scrypt$16384$8$1$3q2+7w...$Jm9v...:acme
+    carl:scrypt$16384$8$1$Zm9v...$YmFy...:acme,bolt
+
+**Shops** (with ``millstab app --db``): an account belongs to the shops listed after its hash (none listed:
+the shop ``default``, the shop of campaigns made on the command line); it sees and writes only the campaigns
+of its shops (the rule is enforced by :class:`millstab.api.shop.ShopView`, which the page uses for every
+read and write).
 """
 
 from __future__ import annotations
@@ -69,57 +76,98 @@ def check_name(name: str) -> str:
     return name
 
 
-def parse_users(text: str, where: str = "--users", require: bool = True) -> dict[str, str]:
-    """{name: hash} of a users file's text; blank and ``#`` lines are skipped.
+def check_shops(shops) -> tuple[str, ...]:
+    """Shop names (the same characters as user names), in order, each once."""
+    from millstab.api.shop import check_shop
+
+    return tuple(dict.fromkeys(check_shop(x) for x in shops))
+
+
+_HASH = re.compile(r"scrypt\$\d+\$\d+\$\d+\$[A-Za-z0-9+/=]+\$[A-Za-z0-9+/=]+")
+
+
+def parse_accounts(text: str, where: str = "--users", require: bool = True) -> dict[str, tuple[str, tuple[str, ...]]]:
+    """{name: (hash, shops)} of a users file's text (``name:hash[:shop,shop]`` lines; no shop listed: the
+    shop ``default``); blank and ``#`` lines are skipped.
 
     Raises:
-        InputError: a line that is not ``name:scrypt$...`` (a plain password is refused: it would be
+        InputError: a line that is not ``name:scrypt$...[:shops]`` (a plain password is refused: it would be
             stored in clear), or (``require``) no user at all.
     """
-    users: dict[str, str] = {}
+    from millstab.api.shop import DEFAULT_SHOP
+
+    users: dict[str, tuple[str, tuple[str, ...]]] = {}
     for no, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
-        name, _, stored = s.partition(":")
-        if not _NAME.fullmatch(name) or not re.fullmatch(r"scrypt\$\d+\$\d+\$\d+\$[A-Za-z0-9+/=]+\$[A-Za-z0-9+/=]+",
-                                                         stored):
-            raise InputError(f"{where} line {no}", f"{name}:…", "expected name:scrypt$... as written by "
-                                                                "`millstab app --add-user NAME --users FILE` (never a "
-                                                                "plain password)")
-        users[name] = stored
+        name, _, rest = s.partition(":")
+        stored, _, shops = rest.partition(":")  # a scrypt hash has no ':'
+        try:
+            if not _NAME.fullmatch(name) or not _HASH.fullmatch(stored):
+                raise InputError("", "", "")
+            listed = check_shops(x for x in shops.split(",") if x.strip()) if shops.strip() else (DEFAULT_SHOP,)
+        except InputError:
+            raise InputError(f"{where} line {no}", f"{name}:…", "expected name:scrypt$...[:shop,shop] as written "
+                                                                "by `millstab app --add-user NAME --users FILE` "
+                                                                "(never a plain password)") from None
+        users[name] = (stored, listed)
     if require and not users:
         raise InputError(where, "no users", "add one with `millstab app --add-user NAME --users FILE`")
     return users
 
 
-def read_users(path: str | Path) -> dict[str, str]:
-    """The users of the file at ``path`` (:func:`parse_users`)."""
+def parse_users(text: str, where: str = "--users", require: bool = True) -> dict[str, str]:
+    """{name: hash} of a users file's text (:func:`parse_accounts` without the shops)."""
+    return {n: h for n, (h, _) in parse_accounts(text, where, require).items()}
+
+
+def read_accounts(path: str | Path) -> dict[str, tuple[str, tuple[str, ...]]]:
+    """{name: (hash, shops)} of the users file at ``path`` (:func:`parse_accounts`)."""
     from millstab.io.text import read_text
 
     p = Path(path).expanduser()
     if not p.is_file():
         raise InputError("--users", str(path), "file does not exist: make it with `millstab app --add-user NAME "
                                                "--users FILE`")
-    return parse_users(read_text(p, "--users", "users file"), f"--users {p.name}")
+    return parse_accounts(read_text(p, "--users", "users file"), f"--users {p.name}")
 
 
-def add_user(path: str | Path, name: str, password: str) -> Path:
-    """Add ``name`` (or replace its password) in the users file at ``path``, made if missing."""
+def read_users(path: str | Path) -> dict[str, str]:
+    """The users of the file at ``path``: {name: hash}."""
+    return {n: h for n, (h, _) in read_accounts(path).items()}
+
+
+def read_shops(path: str | Path) -> dict[str, tuple[str, ...]]:
+    """The shops of each user of the file at ``path``: {name: shops}."""
+    return {n: s for n, (_, s) in read_accounts(path).items()}
+
+
+def add_user(path: str | Path, name: str, password: str, shops=None) -> Path:
+    """Add ``name`` (or replace its password) in the users file at ``path``, made if missing; ``shops``: the
+    shops it belongs to (default: those it had, else none listed, i.e. the shop ``default``)."""
     from millstab.io.results import atomic_write_text
     from millstab.io.text import read_text
 
     check_name(name)
+    shops = check_shops(shops) if shops else None
     if len(password) < MIN_PASSWORD:
         raise InputError("password", f"{len(password)} characters", f"at least {MIN_PASSWORD} characters")
     p = Path(path).expanduser()
+    had = None
     if p.is_file():
         lines = read_text(p, "--users", "users file").splitlines()
-        parse_users("\n".join(lines), f"--users {p.name}", require=False)  # never rewrite a file that is not one
+        # never rewrite a file that is not one
+        had = parse_accounts("\n".join(lines), f"--users {p.name}", require=False).get(name)
     else:
-        lines = ["# millstab app users: name:scrypt$N$r$p$salt$hash (made by millstab app --add-user; keep private)"]
+        lines = ["# millstab app users: name:scrypt$N$r$p$salt$hash[:shop,shop] (made by millstab app --add-user; "
+                 "keep private)"]
+    if shops is None and had is not None and lines and any(ln.strip().startswith(f"{name}:") and ln.count(":") >= 2
+                                                             for ln in lines):
+        shops = had[1]
     kept = [ln for ln in lines if ln.strip().partition(":")[0] != name]
-    return atomic_write_text(p, "\n".join(kept + [f"{name}:{hash_password(password)}"]) + "\n")
+    line = f"{name}:{hash_password(password)}" + (f":{','.join(shops)}" if shops else "")
+    return atomic_write_text(p, "\n".join(kept + [line]) + "\n")
 
 
 def auth_provider(users: dict[str, str]):

@@ -174,6 +174,15 @@ class ToolTab:
         except InputError as exc:
             self.general.object = error_html(str(exc))
 
+    def load_text(self, text: str, name: str, source: str) -> None:
+        """Show a config text (a campaign's, from the shop database) in the form; ``source`` says whose.
+        FRF files it names must be uploads of this session, as for an uploaded config.
+
+        Raises:
+            InputError: the text is not a valid config here.
+        """
+        self.fill(api.config_from_text(text, name, files=self.s.uploads), source)
+
     def _config_uploaded(self) -> None:
         self.config_error.object = ""
         self.waiting = None
@@ -284,7 +293,7 @@ class ToolTab:
 
     def origin(self) -> str:
         """What the form's config is, as the result panes say it."""
-        if self.source.startswith("uploaded"):
+        if self.source.startswith(("uploaded", "campaign")):
             return self.source + (", edited in the form" if self.edited else "")
         return f"{self.source}{', edited in the form' if self.edited else ''} — no config loaded"
 

@@ -60,10 +60,13 @@ class UpdateTab:
         self.map_job = JobBar("Map and recommend", "map")
         self.rec = TextBox("recommendation", width=900, height=None)
         self.plot = pn.Column(sizing_mode="stretch_width")
+        self.pending = None  # the uploaded cuts not recorded in the open campaign yet (PointSet)
+        self.campaign = None  # the campaign card (millstab.web.campaigns.CampaignPanel) with --db, else None
+        self.post_id = None  # the database id of the shown posterior (an open campaign's), else None
         self.drop.param.watch(lambda e: self._cuts_uploaded(), "value")
         self.rec_drop.param.watch(lambda e: self._recordings_uploaded(), "value")
         self.job.run.on_click(lambda e: self.run())
-        self.map_job.run.on_click(lambda e: self.map())
+        self.map_job.run.on_click(lambda e: self.map(record=True))
 
     # --- cuts with recordings ------------------------------------------------------------------------
     def _cuts_uploaded(self) -> None:
@@ -82,7 +85,10 @@ class UpdateTab:
             return
         path = save_in(self.s.folder, "cuts", *got)  # not an FRF: kept out of the session's FRF names
         if not has_recording_column(path):
+            before = self.s.cuts
             points_upload(self.s, "cuts", self.drop, self.drop_error, self.cuts_note)
+            if self.s.cuts is not before:
+                self.pending = self.s.cuts
             return
         self.cuts_csv = (got[0], path)
         self._listen()
@@ -122,13 +128,16 @@ class UpdateTab:
             self.drop_error.object = error_html(str(exc))
             return
         self.drop_error.object = ""
-        self.s.cuts = pts
+        self.s.cuts = self.pending = pts
         self.cuts_note.object = f'<span class="ms-done">{esc(name)}: {len(pts)} points, labels heard in the recordings</span>'
         left = "<style>table.ms-table.heard td, table.ms-table.heard th { text-align: left; }</style>"  # text, not numbers
         self.heard.object = left + html_table(("cut", "label and where it came from"),
                                               [(str(i + 1), n) for i, n in enumerate(notes)], "heard")
 
     def run(self) -> None:
+        if self.campaign is not None and self.campaign.current is not None:  # the open campaign, in the database
+            self.run_campaign(self.campaign.current.name)
+            return
         cfg, cuts = self.s.cfg, self.s.cuts
         if cfg is None or cuts is None:
             self.job.status.text = error_html("need a valid config (Tool and cut) and test cuts")
@@ -139,18 +148,41 @@ class UpdateTab:
         self.job.start(lambda progress: (api.update(cfg, cuts, pts, samples=n, seed=seed, progress=progress), origin),
                        self.show)
 
-    def show(self, result, caught) -> None:
+    def run_campaign(self, name: str, shop: str | None = None, new: bool = False) -> None:
+        """Update campaign ``name`` in the database with the uploaded cuts (a new campaign: the tab's cuts),
+        in the worker; then show it re-opened (:meth:`CampaignPanel.updated`)."""
+        cfg = self.s.cfg
+        cuts = (self.pending if self.pending is not None else self.s.cuts) if new else self.pending
+        if cfg is None or (new and cuts is None):
+            self.job.status.text = error_html("need a valid config (Tool and cut) and test cuts")
+            return
+        oc = self.campaign.current
+        if not new and cuts is None and oc is not None and oc.posterior is not None and oc.posterior_rows == len(oc.cuts):
+            self.job.status.text = error_html(f"campaign {name}: no new cuts; upload the new cuts to update it")
+            return
+        work = self.campaign.update_work(name, cfg, cuts, int(self.samples.value or 0), int(self.seed.value or 0), shop)
+        self.job.start(work, lambda result, caught: self.campaign.updated(result))
+
+    def clear_results(self) -> None:
+        """Forget the shown posterior, map and recommendation (a campaign without a posterior was opened)."""
+        self.s.post, self.s.pmap, self.s.rec, self.post_id = None, None, None, None
+        self.post_table.text = self.rec.text = ""
+        self.plot.objects = []
+
+    def show(self, result, caught, record: bool = False, post_id=None) -> None:
         post, self.post_origin = result
-        self.s.post = post
+        self.s.post, self.post_id = post, post_id
         theta = np.asarray(post.samples)
         q = np.percentile(theta, [5, 50, 95], axis=0)
         rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
         lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
         self.post_table.text = (computed_for(self.post_origin) + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior") +
                                   "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
-        self.map()
+        self.map(record=record)
 
-    def map(self) -> None:
+    def map(self, record: bool = False) -> None:
+        """The P(stable) map and the recommendation; ``record``: the recommendation of an open campaign's
+        current posterior is recorded in the database (its history shows it)."""
         post, cfg, cuts = self.s.post, self.s.cfg, self.s.cuts
         if post is None or cfg is None:
             self.map_job.status.text = error_html("run Update first")
@@ -162,6 +194,8 @@ class UpdateTab:
             self.map_job.status.text = error_html(f"map depth up to = {top}: must be > 0 mm")
             return
         risk = self.risk.value
+        oc = self.campaign.current if self.campaign is not None else None
+        keep = oc is not None and record and self.post_id is not None and self.post_id == oc.posterior_id
         mill = None if self.target_milling.value == "config's" else self.target_milling.value
         try:
             post = api.for_condition(post, radial_immersion=self.target_ri.value, milling=mill)
@@ -173,13 +207,19 @@ class UpdateTab:
         def work(progress):
             depth = api.depth_grid(top, field="map depth up to")
             pm = api.p_stable(post, rpm, depth)
-            rec = api.recommend(post, risk, (float(rpm[0]), float(rpm[-1])))
+            span = (float(rpm[0]), float(rpm[-1]))
+            if keep:  # recorded with the posterior it came from
+                rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post))[0]
+            else:
+                rec = api.recommend(post, risk, span)
             return rpm, depth, pm, rec
 
         self.map_job.start(work, self.show_map)
 
     def show_map(self, result, caught) -> None:
         rpm, depth, pm, rec = result
+        if self.campaign is not None and self.campaign.current is not None:
+            self.campaign.reload_history()
         self.s.pmap, self.s.rec = (rpm, depth, pm), rec
         nt = rec.next_test
         marks = [(rec.rpm, rec.depth_mm, "recommended")]
@@ -194,10 +234,11 @@ class UpdateTab:
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
 
     def view(self):
+        head = [self.campaign.view()] if self.campaign is not None else []
         inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job), self.rec.view(), title="P(stable) and recommendation",
                          collapsible=False)
-        return pn.Column(inputs, decide, self.plot, name="Update and recommend")
+        return pn.Column(*head, inputs, decide, self.plot, name="Update and recommend")

@@ -1,0 +1,172 @@
+"""The accurate engine in the updating loop (issue 28): one update with the zero-order engine and with the
+spectral engine, timed in the same run (the ratio is the figure; target ≤ 10), and whether the accurate
+posterior explains every training cut.
+
+Case (the low-immersion shop of docs/updating.md, where the zero-order model is wrong): the seed paper's
+Ex.1 structure as the hammer test with the default prior spreads, a/D ``--immersion`` (0.1) down milling;
+the truth is the hammer test off by a random factor per parameter (fn ±3 %, k ±20 %, ζ ±30 %, seed
+``--seed``); ``--cuts`` cuts at random speeds in ``--rpm``, depths uniform in ±``--spread`` around the
+true limit (capped at ``--max-depth``), labelled by the truth's SDM boundary (an engine independent of
+both fitted ones) with relative depth noise ``--noise``; relative depth noise ``--sigma-depth-rel`` in
+the prior.
+
+Timed (wall and CPU, BLAS pinned to one thread, numba's threads, engines warmed first): ``update`` with
+``zoa``; with ``spectral`` and the default sampler (delayed acceptance: the zero-order engine screens each
+MH proposal, the spectral engine decides on the survivors, :mod:`millstab.update.sampler`); with
+``--plain`` also the spectral update with every proposal through the spectral engine, and the two
+spectral posteriors compared (means and 5/50/95 % quantiles of each ln θ in units of its posterior sd:
+delayed acceptance must give the same posterior within Monte-Carlo error).
+
+``--proxy-seeds K``: the same check at a cost that allows repeats, in the same 6 parameters and data: the
+zero-order likelihood as the "accurate" one and, as its screen, the zero-order likelihood of a model with
+Kr 30 % high and Kt 20 % low (lobes moved and reshaped, a model error larger than the spectral/zero-order one
+here); K seeds of plain and of delayed-acceptance SMC: the spread of the plain runs' means between seeds is
+the Monte-Carlo error that the difference of the two averages is judged by.
+
+"Explains a cut", two readings: strict, the posterior's P(stable) of the cut (fraction of samples whose limit
+lies above its depth) is above ½ for a stable cut and below ½ for a chattering one; Bayesian, the posterior
+predictive probability of the written label (with the learned label error and depth noise,
+:func:`millstab.update.predict.predict_cuts`) is at least 0.1. A cut within one σ_b of the true limit can
+fail the strict reading with a correct posterior.
+
+Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
+[--cuts 10] [--plain]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numba as nb
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from _machine import describe
+from millstab.io import load_config
+from millstab.io.config import PriorTable
+from millstab.io.points import PointSet
+from millstab.model import Cutting
+from millstab.stability import sdm
+from millstab.update import make_prior, update
+from millstab.update.likelihood import Evidence, Likelihood
+from millstab.update.sampler import tempered_smc
+from millstab.update.predict import predict_cuts
+
+
+def timed(f):
+    t, c = time.perf_counter(), time.process_time()
+    out = f()
+    return out, time.perf_counter() - t, time.process_time() - c
+
+
+def explained(post, cuts: PointSet) -> tuple[int, int, list[str]]:
+    """(cuts on the right side of the posterior's median limit, cuts whose written label has posterior
+    predictive probability ≥ 0.1, the cuts failing either), see the module docstring."""
+    ps, pc = predict_cuts(post, cuts.rpm, cuts.depth_mm)
+    chat = cuts.label == "chatter"
+    side = np.where(chat, ps < 0.5, ps > 0.5)
+    p_label = np.where(chat, pc, 1 - pc)
+    bad = [f"{r:.0f} rpm {d:.2f} mm {lab}: P(stable) {p:.2f}, P(label) {q:.2f}" for r, d, lab, p, q, o in
+           zip(cuts.rpm, cuts.depth_mm, cuts.label, ps, p_label, side & (p_label >= 0.1)) if not o]
+    return int(side.sum()), int((p_label >= 0.1).sum()), bad
+
+
+def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
+    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above)."""
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    c = prior.cutting
+    wrong = dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt))
+    scr = Likelihood(wrong, ev)
+    runs = {"plain": [], "delayed": [], "screen alone": []}
+    for s in range(seeds):
+        runs["plain"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s).u)
+        runs["delayed"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr).u)
+        runs["screen alone"].append(tempered_smc(prior.sample_full, prior.logpdf_full, scr, samples, seed=s).u)
+    m = {k: np.array([u.mean(0) for u in v]) for k, v in runs.items()}
+    q = {k: np.array([np.quantile(u, [0.05, 0.95], axis=0) for u in v]) for k, v in runs.items()}
+    sd = np.mean([u.std(0) for u in runs["plain"]], axis=0)
+    se = m["plain"].std(0, ddof=1) * np.sqrt(2 / seeds)  # of a difference of two K-run averages
+    print(f"proxy check, {samples} samples x {seeds} seeds, means and 5/95 % quantiles in units of the posterior sd:")
+    for j, nm in enumerate(prior.names):
+        d = (m["delayed"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+        a = (m["screen alone"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+        dq = (q["delayed"][:, :, j].mean(0) - q["plain"][:, :, j].mean(0)) / sd[j]
+        print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} {dq[1]:+.3f}; "
+              f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=500)
+    ap.add_argument("--cuts", type=int, default=10)
+    ap.add_argument("--immersion", type=float, default=0.1)
+    ap.add_argument("--rpm", default="5000:12000")
+    ap.add_argument("--max-depth", type=float, default=60.0)
+    ap.add_argument("--spread", type=float, default=0.3, help="depths uniform in ±spread around the true limit")
+    ap.add_argument("--noise", type=float, default=0.03, help="relative depth noise of the labels")
+    ap.add_argument("--sigma-depth-rel", type=float, default=0.05)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plain", action="store_true", help="also the spectral update without delayed acceptance")
+    ap.add_argument("--proxy-seeds", type=int, default=0, help="the repeatable proxy check with this many seeds")
+    ap.add_argument("--proxy-only", action="store_true", help="only the proxy check (no spectral updates)")
+    args = ap.parse_args()
+    print(describe())
+    lo, hi = (float(x) for x in args.rpm.split(":"))
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, args.immersion, "down")
+    # the config's cutting is not used: update() takes the prior, which holds this cut
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel))
+    rng = np.random.default_rng(args.seed)
+    names = list(prior.par.free)
+    off = {"fn": 0.03, "k": 0.2, "zeta": 0.3}
+    fac = np.array([1 + rng.uniform(-off[prior.par.kind(n)], off[prior.par.kind(n)]) for n in names])
+    true_struct = prior.par.structure(prior.median * fac)
+    rpm = np.sort(rng.uniform(lo, hi, args.cuts))
+    b_true = sdm.envelope(true_struct, cut, rpm).depth_mm
+    depth = np.minimum(b_true * rng.uniform(1 - args.spread, 1 + args.spread, rpm.size), args.max_depth)
+    chatter = depth > b_true * np.exp(args.noise * rng.standard_normal(rpm.size))
+    cuts = PointSet(rpm, depth, np.where(chatter, "chatter", "stable"))
+    print(f"case: Ex.1 at a/D {args.immersion} down, truth = hammer test x {np.round(fac, 3).tolist()} ({names}); "
+          f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
+    with threadpool_limits(1):
+        if args.proxy_seeds:
+            proxy(prior, cuts, args.samples, args.proxy_seeds)
+        if args.proxy_only:
+            return
+        for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
+            update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        runs = {}
+        plan = [("zoa", "auto"), ("spectral", "auto")] + ([("spectral", "plain")] if args.plain else [])
+        for eng, smp in plan:
+            post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
+                                                                   engine=eng, prior=prior, sampler=smp))
+            runs[eng, smp] = (post, wall, cpu)
+            d = post.diagnostics
+            n_side, n_label, bad = explained(post, cuts)
+            extra = (f", screened by {d['screen_engine']}: {d['screen_sets']} screen sets, pass "
+                     f"{np.mean(d['screen_pass']):.2f}" if "screen_engine" in d else "")
+            print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
+                  f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) = 1/2: "
+                  f"{n_side}/{args.cuts}, written label with predictive probability >= 0.1: {n_label}/{args.cuts}"
+                  + (f" (not: {'; '.join(bad)})" if bad else ""))
+    z, s = runs["zoa", "auto"], runs["spectral", "auto"]
+    print(f"ratio spectral/zoa: {s[1] / z[1]:.1f} wall, {s[2] / z[2]:.1f} CPU (target <= 10)")
+    if args.plain:
+        p = runs["spectral", "plain"]
+        print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")
+        ua, ub = s[0].u, p[0].u
+        ess = min(s[0].diagnostics["ess"][-1], p[0].diagnostics["ess"][-1])
+        for j, nm in enumerate(names):
+            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
+            dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
+            print(f"  ln {nm}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
+                  f"{' '.join(f'{x:+.3f}' for x in dq)} sd (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at "
+                  f"the last ESS {ess:.0f})")
+    print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,176 @@
+"""Delayed-acceptance SMC moves (issue 28): a cheap screen decides which proposals reach the accurate
+likelihood, and the posterior is still the accurate one. Checked against closed forms and a brute-force
+grid posterior with a deliberately wrong screen (a screen taken as the target gives a visibly different
+answer, so these tests fail if the second stage does not correct it)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.io.config import parse_config
+from millstab.io.points import PointSet
+from millstab.update import make_prior, screen_engine, update
+from millstab.update.likelihood import Evidence, Likelihood, limits
+from millstab.update.sampler import tempered_smc
+from configs import TWO_MODE_TOML
+from test_update import _grid_posterior
+
+Y, S = np.array([1.5, -0.7]), np.array([0.3, 0.5])
+
+
+def _logprior(u):
+    return -0.5 * (u**2).sum(1) - math.log(2 * math.pi)
+
+
+def _loglik(u):
+    return (-0.5 * ((u - Y) / S) ** 2 - np.log(S * math.sqrt(2 * math.pi))).sum(1)
+
+
+def _prior_draws(n, rng):
+    return rng.standard_normal((n, 2))
+
+
+# the conjugate posterior of prior N(0, I) and likelihood N(Y; u, S²): N(Y/(1+S²), S²/(1+S²))
+MEAN, VAR = Y / (1 + S**2), S**2 / (1 + S**2)
+
+
+def _wrong(u):
+    """A screen off by about one posterior sd in both coordinates and 1.5× too narrow."""
+    return (-0.5 * ((u - Y - 2 * S / 3) / (S / 1.5)) ** 2).sum(1)
+
+
+def _assert_conjugate(u, n):
+    se = np.sqrt(VAR / n) * 4  # the particles are correlated
+    np.testing.assert_allclose(u.mean(0), MEAN, atol=4 * se.max())
+    np.testing.assert_allclose(u.var(0), VAR, rtol=0.12)
+    for q in (0.1, 0.5, 0.9):  # quantiles of the normal marginals
+        z = {0.1: -1.2816, 0.5: 0.0, 0.9: 1.2816}[q]
+        np.testing.assert_allclose(np.quantile(u, q, axis=0), MEAN + z * np.sqrt(VAR), atol=0.15 * np.sqrt(VAR).max())
+
+
+def test_delayed_acceptance_with_a_wrong_screen_gives_the_accurate_posterior():
+    n = 4000
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=4, screen=_wrong)
+    _assert_conjugate(res.u, n)
+    # the screen alone as the target would be far off: the test can fail
+    alone = tempered_smc(_prior_draws, _logprior, _wrong, n, seed=1, moves=4)
+    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 2 * 4 * (np.sqrt(VAR / n) * 4).max())  # twice the tolerance
+    # the accurate likelihood saw every particle once and then only the screened proposals
+    moves = 4 * res.stages
+    assert res.n_sets < n * (1 + moves)
+    assert res.n_sets == n + round(sum(res.screen_pass) * n * 4)
+    assert all(0 < p < 1 for p in res.screen_pass)
+    d = res.diagnostics()
+    assert "delayed-acceptance" in d["method"] and d["accurate_sets"] == res.n_sets
+
+
+def test_a_good_screen_saves_accurate_calls_and_same_seed_same_samples():
+    n = 2000
+    plain = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=3, moves=3)
+    da = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=3, moves=3, screen=lambda u: _loglik(u) * 1.02)
+    _assert_conjugate(da.u, n)
+    # a screen close to the target passes about as many as the target accepts: ~1/4 of the proposals
+    assert da.n_sets < 0.5 * plain.n_sets
+    again = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=3, moves=3, screen=lambda u: _loglik(u) * 1.02)
+    np.testing.assert_array_equal(da.u, again.u)
+
+
+def test_a_screen_that_rules_out_part_of_the_posterior_is_floored_not_trusted():
+    """The screen says −inf where the posterior has ~8 % of its mass (u_0 > 1.6): the floor keeps those
+    states reachable, so the accurate posterior is still recovered."""
+    n = 4000
+
+    def blind(u):
+        return np.where(u[:, 0] > 1.6, -np.inf, _loglik(u))
+
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=2, moves=4, screen=blind)
+    _assert_conjugate(res.u, n)
+    assert (res.u[:, 0] > 1.6).mean() > 0.04
+
+
+def test_sequential_reuse_with_a_screen_keeps_the_old_data_untempered():
+    """init + screen: the pair (L_old, L_new) from both; the answer is the conjugate posterior of all data."""
+    n = 3000
+    rng = np.random.default_rng(0)
+    # the posterior of the first coordinate's datum alone, drawn exactly
+    v0 = 1 / (1 + S[0] ** 2)
+    init = np.column_stack([rng.normal(Y[0] * v0, math.sqrt(S[0] ** 2 * v0), n), rng.standard_normal(n)])
+
+    def old_new(u):
+        return (-0.5 * ((u[:, 0] - Y[0]) / S[0]) ** 2, -0.5 * ((u[:, 1] - Y[1]) / S[1]) ** 2)
+
+    def screen(u):
+        a, b = old_new(u + 0.2)
+        return a, b
+
+    res = tempered_smc(_prior_draws, _logprior, old_new, n, seed=4, moves=4, init=init, screen=screen)
+    _assert_conjugate(res.u, n)
+
+
+def _grid_case():
+    cfg = parse_config(TWO_MODE_TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", '
+                       '"sigma_depth"]\nsigma_depth = "15 %"\n')
+    prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
+    truth = prior.median * np.array([1.04, 0.8])
+    rng = np.random.default_rng(0)
+    rpm = np.linspace(5200, 9000, 8)
+    b = limits(prior, np.log(truth)[None], rpm)[0][0]
+    depth = b * rng.uniform(0.6, 1.4, rpm.size)
+    return cfg, prior, PointSet(rpm, depth, np.where(depth > b, "chatter", "stable"))
+
+
+@pytest.mark.slow
+def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen():
+    """The engine's likelihood as the target and a screen from a model with Kt 25 % high (its limits 20 %
+    low everywhere, as a wrong model's would be): means, sds and quantiles against a dense grid."""
+    _, prior, cuts = _grid_case()
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
+    scr = Likelihood(biased, ev)
+    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr)
+    alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
+    g1, g2, w = _grid_posterior(prior, cuts)  # ONE engine call for the whole 90 x 90 grid
+    far = 0.0
+    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
+        mean = (grid * marg).sum()
+        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
+        u = res.u[:, j]
+        assert abs(u.mean() - mean) < 0.15 * sd and abs(u.std() - sd) < 0.15 * sd, (j, u.mean(), mean, sd)
+        for q in (0.05, 0.5, 0.95):
+            assert abs(np.quantile(u, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
+        far = max(far, abs(alone.u[:, j].mean() - mean) / sd)
+    assert far > 0.5  # the screen's own posterior is elsewhere
+    assert res.n_sets < 0.6 * 2000 * (1 + 3 * res.stages)
+
+
+def test_screen_engine_choice_and_update_plumbing():
+    assert screen_engine("spectral") == "zoa" and screen_engine("sdm") == "zoa"
+    assert screen_engine("zoa") is None and screen_engine("spectral", "plain") is None
+    assert screen_engine("zoa", "delayed") == "zoa"
+    with pytest.raises(InputError, match="sampler"):
+        screen_engine("spectral", "fast")
+    cfg, _, cuts = _grid_case()
+    a = update(cfg, cuts, samples=300, seed=5, sampler="delayed")
+    b = update(cfg, cuts, samples=300, seed=5, sampler="delayed")
+    np.testing.assert_array_equal(a.samples, b.samples)
+    d = a.diagnostics
+    assert d["screen_engine"] == "zoa" and d["screen_sets"] > d["engine_sets"] > 300
+    assert "screen_engine" not in update(cfg, cuts, samples=300, seed=5).diagnostics
+
+
+def test_cli_update_sampler_option(tmp_path, capsys):
+    from millstab.cli import main
+
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1.0,stable\n5500,4.0,chatter\n8000,2.5,stable\n")
+    args = ["update", "example:ex1", str(tmp_path / "cuts.csv"), "--samples", "100", "--out"]
+    assert main([*args, str(tmp_path / "a.json"), "--sampler", "fast"]) == 2
+    assert "sampler" in capsys.readouterr().err and not (tmp_path / "a.json").exists()
+    assert main([*args, str(tmp_path / "b.json"), "--sampler", "delayed"]) == 0
+    assert json.loads((tmp_path / "b.json").read_text())["diagnostics"]["screen_engine"] == "zoa"

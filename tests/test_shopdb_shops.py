@@ -1,0 +1,167 @@
+"""Per-shop visibility in the service layer (issue 31.4): a campaign belongs to a shop, a user of the app
+sees and writes only their shops' campaigns, and the rule holds in millstab.api.shop (not only in the page).
+Another shop's campaign is refused with the same words as a name that does not exist. Fast: no sampler
+runs (posteriors are recorded through the store as in test_shopdb.py, and refused updates stop before
+sampling)."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("sqlalchemy")
+pytest.importorskip("alembic")
+
+import sqlalchemy as sa  # noqa: E402
+
+from millstab import api  # noqa: E402
+from millstab.api import shop  # noqa: E402
+from millstab.errors import InputError  # noqa: E402
+from millstab.shopdb import open_store, schema  # noqa: E402
+
+from test_shopdb import land, some_cuts  # noqa: E402
+
+
+@pytest.fixture
+def db(tmp_path):
+    """Campaign a1 of shop acme (two updates and cuts after them), b1 of shop bolt, c1 made by the command
+    line (no shop named: the default shop)."""
+    path = tmp_path / "shop.db"
+    with open_store(path, user="ann") as s:
+        land(s, "a1", some_cuts(4, 1), 1, shop="acme")
+        land(s, "a1", some_cuts(3, 2), 2)
+        s.add_cuts("a1", some_cuts(2, 3))
+        land(s, "b1", some_cuts(5, 4), 4, shop="bolt", user="bob")
+        land(s, "c1", some_cuts(3, 5), 5)
+    return path
+
+
+def message(exc: InputError, name: str) -> str:
+    return str(exc.value).replace(name, "NAME") + " | " + exc.allowed
+
+
+def test_a_user_lists_and_opens_only_their_shops_campaigns(db):
+    assert [c["name"] for c in shop.campaigns(db)] == ["a1", "b1", "c1"]  # no rule: every campaign
+    assert [(c["name"], c["shop"]) for c in shop.campaigns(db, ["acme"])] == [("a1", "acme")]
+    assert [c["name"] for c in shop.campaigns(db, ["bolt", schema.DEFAULT_SHOP])] == ["b1", "c1"]
+    ann = shop.ShopView(db, "ann", ["acme"])
+    a1 = ann.open("a1")
+    assert (a1.shop, a1.revision, len(a1.cuts), a1.posterior_rows) == ("acme", 2, 9, 7)
+    assert a1.cuts.rpm.tolist() == (some_cuts(4, 1).rpm.tolist() + some_cuts(3, 2).rpm.tolist()
+                                    + some_cuts(2, 3).rpm.tolist())
+    assert a1.config_toml == "name = 'ex1'\n" and a1.posterior is not None
+    assert [e.action for e in a1.events] == ["cuts", "update", "update", "create"]
+    # history of "all campaigns" is of the user's shops only
+    assert {e.campaign for e in ann.history()} == {"a1"}
+    assert {e.campaign for e in shop.history(db)} == {"a1", "b1", "c1"}
+
+
+def test_another_shops_campaign_reads_as_no_such_campaign(db):
+    """Guessing a name of another shop tells nothing: the same error as a name that does not exist, and its
+    name is not among the campaigns the error lists."""
+    ann = shop.ShopView(db, "ann", ["acme"])
+    with pytest.raises(InputError) as none:
+        ann.open("zz9")
+    for call in (lambda: ann.open("b1"), lambda: ann.history("b1"),
+                 lambda: shop.posterior_from_db(db, "b1", shops=["acme"]),
+                 lambda: ann.recommend("b1", 0.05, (5000, 12000))):
+        with pytest.raises(InputError) as other:
+            call()
+        assert message(other.value, "b1") == message(none.value, "zz9")
+        assert "b1" not in other.value.allowed and "a1" in other.value.allowed
+    with open_store(db) as s:
+        assert len(s.history("b1")) == 2  # nothing recorded by the refused recommendation
+
+
+def test_writes_into_another_shop_are_refused_before_any_work(db, monkeypatch):
+    """An update or new cuts aimed at another shop's campaign are refused before sampling (the name is
+    taken, nothing of the campaign is shown), and nothing is recorded; a new campaign takes the user's shop, or one they name among theirs."""
+    import sys
+
+    monkeypatch.setattr(sys.modules["millstab.api.update"], "update", lambda *a, **k: pytest.fail("sampled for a refused update"))
+    ann = shop.ShopView(db, "ann", ["acme"])
+    cfg = api.config("example:ex1")
+    for call in (lambda: ann.update("b1", cfg, some_cuts(2, 9), samples=100),
+                 lambda: ann.add_cuts("b1", some_cuts(2, 9))):
+        with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+            call()
+    with open_store(db) as s:
+        assert s.head("b1").n_rows == 5 and s.head("b1").revision == 1
+    assert ann.add_cuts("a2", some_cuts(2, 9)) == 2  # a new campaign: in ann's only shop
+    assert shop.ShopView(db, "x", ["acme"]).open("a2").shop == "acme"
+    both = shop.ShopView(db, "cy", ["acme", "bolt"])
+    with pytest.raises(InputError, match="needs its shop: one of acme, bolt"):
+        both.add_cuts("n1", some_cuts(1, 9))
+    with pytest.raises(InputError, match="one of your shops"):
+        both.add_cuts("n1", some_cuts(1, 9), shop="other")
+    assert both.add_cuts("n1", some_cuts(1, 9), shop="bolt") == 1
+    assert both.add_cuts("b1", some_cuts(1, 9)) == 6  # an existing campaign of one of cy's shops
+    # a name taken in another shop: refused without saying whose
+    with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+        ann.add_cuts("n1", some_cuts(1, 9))
+
+
+def test_the_writers_transaction_checks_the_shop_again(db):
+    """Between the service's check and the write another shop may create the same name: the store refuses
+    a write whose shop is not the campaign's (the transaction is the last word)."""
+    with open_store(db) as s:
+        with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+            s.add_cuts("b1", some_cuts(1, 9), shop="acme")
+        with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+            land(s, "b1", some_cuts(1, 9), 9, shop="acme")
+        assert s.head("b1").n_rows == 5 and s.campaign_shop("b1") == "bolt"
+
+
+def test_a_database_of_the_first_schema_is_migrated_into_the_default_shop(tmp_path):
+    from alembic import command
+
+    from millstab.shopdb.store import alembic_config
+
+    path = tmp_path / "old.db"
+    eng = sa.create_engine(f"sqlite:///{path}")
+    with eng.begin() as conn:
+        command.upgrade(alembic_config(conn), "0001")
+        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision) "
+                             "VALUES ('old', '', '2026-01-01T00:00:00Z', 'ann', '2026-01-01T00:00:00Z', 0)"))
+    eng.dispose()
+    with open_store(path) as s:
+        assert s.campaigns()[0]["shop"] == schema.DEFAULT_SHOP == "default"
+        assert s.check() == []
+    assert [c["name"] for c in shop.ShopView(path, "u", ["default"]).campaigns()] == ["old"]
+
+
+def test_export_import_keeps_the_shop(db, tmp_path):
+    shop.export_campaign(db, "b1", tmp_path / "b1")
+    shop.import_campaign(db, tmp_path / "b1", "b1-copy")
+    assert shop.ShopView(db, "bob", ["bolt"]).open("b1-copy").shop == "bolt"
+    # the way to hand a command-line campaign (shop default) to a shop: export, import --shop
+    from millstab.cli import main
+
+    shop.export_campaign(db, "c1", tmp_path / "c1")
+    assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "c1-acme", "--shop", "acme"]) == 0
+    assert [c["name"] for c in shop.campaigns(db, ["acme"])] == ["a1", "c1-acme"]
+    assert main(["campaign", "import", str(tmp_path / "c1"), "--db", str(db), "--as", "x", "--shop", "a b"]) == 2
+
+
+def test_a_retry_after_another_shop_took_the_name_reads_none_of_its_cuts(db, monkeypatch):
+    """Two shops start a campaign of the same name at once: the one that lands second is stale, and its
+    re-run stops at the shop check, before reading or sampling the other shop's cuts."""
+    import sys
+
+    ann = shop.ShopView(db, "ann", ["acme"])
+    sampled = []
+
+    def fake_update(cfg, cuts, points, **kw):
+        sampled.append(len(cuts))
+        if len(sampled) == 1:  # bolt's campaign of the same name lands while acme's first attempt samples
+            with open_store(db) as s:
+                land(s, "same", some_cuts(5, 6), 6, shop="bolt")
+        from test_shopdb import fake_posterior
+
+        return fake_posterior(cuts, 0)
+
+    monkeypatch.setattr(sys.modules["millstab.api.update"], "update", fake_update)
+    with pytest.raises(InputError, match="taken by a campaign you cannot see"):
+        ann.update("same", api.config("example:ex1"), some_cuts(2, 9), samples=100)
+    assert sampled == [2]  # only acme's own two cuts were ever sampled (without the re-check: [2, 7], then refused)
+    with open_store(db) as s:
+        assert s.campaign_shop("same") == "bolt" and s.head("same").n_rows == 5

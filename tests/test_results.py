@@ -373,7 +373,7 @@ def test_posterior_round_trips_and_carries_its_schema():
                                                                          "label": ["stable"], "chatter_hz": [None]},
                      ("one-sided evidence",))
     doc = json.loads(json.dumps(post.to_json(), allow_nan=False))
-    assert doc["schema"] == "millstab.posterior/2"
+    assert doc["schema"] == "millstab.posterior/3"
     back = Posterior.from_json(doc, "post.json")
     assert back.prior.to_dict() == prior.to_dict()
     same(dataclasses.replace(back, prior=prior), post)

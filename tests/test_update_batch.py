@@ -158,7 +158,7 @@ def test_predictions_use_a_known_days_shift_and_a_new_days_otherwise():
     rpm = np.array([7000.0, 9000.0, 7000.0, 9000.0, 9000.0])
     depth = np.median(limits(prior, u, rpm)[0], axis=0)  # on the boundary: where a day's shift matters
     day = np.array(["mon", "tue", "wed", "", "tue"], dtype=object)
-    ps, _ = predict_cuts(post, rpm, depth, day)
+    ps, _ = predict_cuts(post, rpm, depth, batch=day)
     fn = fn_columns(prior)
 
     def p(uu, r, b):

@@ -31,7 +31,7 @@ def shop(tmp_path_factory):
 
 def test_update_writes_the_posterior(shop):
     doc = json.loads((shop / "post.json").read_text())
-    assert doc["schema"] == "millstab.posterior/2"
+    assert doc["schema"] == "millstab.posterior/3"
     assert doc["names"] == ["fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"]
     s = np.array(doc["samples"])
     assert s.shape == (300, 6) and (s > 0).all()

@@ -255,7 +255,7 @@ def test_posterior_file_keeps_the_noise_and_an_old_file_still_loads():
     cuts = PointSet([5500.0, 6500.0, 8000.0, 9000.0], [1.0, 3.0, 2.0, 6.0], ["stable", "chatter", "stable", "chatter"])
     post = update(cfg, cuts, samples=200, seed=0)
     doc = post.to_json()
-    assert doc["schema"] == "millstab.posterior/2" and doc["noise"]["names"] == ["label_error", "sigma_depth"]
+    assert doc["schema"] == "millstab.posterior/3" and doc["noise"]["names"] == ["label_error", "sigma_depth"]
     back = Posterior.from_json(doc)
     np.testing.assert_array_equal(back.noise, post.noise)
     assert back.prior.tails == "student" and back.prior.noise_names == prior.noise_names

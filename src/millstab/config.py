@@ -27,6 +27,7 @@ class Config:
         prior: the ``[prior]`` table (:class:`PriorTable`), or ``None`` when the file has none.
         tooltip: ``(Tool, Holder)`` of a ``[tool]`` + ``[holder]`` config (its structure is their tip FRF), else
             ``None``: updating over a holder given by modes serves every stickout (:mod:`millstab.update.stickout`).
+        diameter_m, feed_per_tooth_m: the tool diameter and the feed per tooth [m], or ``None``.
     """
 
     cutting: Cutting
@@ -37,6 +38,14 @@ class Config:
     description: str = ""
     prior: PriorTable | None = None
     tooltip: tuple | None = None
+    #: the tool diameter [m] (``[cutting] diameter`` or ``[tool] diameter``), or ``None``
+    diameter_m: float | None = None
+    #: the feed per tooth [m] of the cuts (``[cutting] feed_per_tooth``), or ``None``
+    feed_per_tooth_m: float | None = None
+
+    @property
+    def diameter_mm(self) -> float | None:
+        return None if self.diameter_m is None else self.diameter_m * 1e3
 
 
 #: the largest test-day spread ``[prior] batch_effect`` (σ of ln fn): a day that moves fn by more than 25 % is not drift

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.model import Cutting
 
 LABELS = ("stable", "chatter", "marginal")
 LABEL_RULE = ("must be 'stable', 'chatter', 'marginal' (or 'uncertain'/'unsure' = marginal), a probability of "
@@ -137,6 +138,10 @@ class PointSet:
         raters: the R raters' names (``"label"`` for a single label column); ``None`` = ``("label",)``.
         extra: {column name: (n,) str} columns of the file that millstab does not use (feed, notes),
             kept as read; ``None`` = none.
+        conditions: {column: (n,) values} the per-cut cutting conditions (:data:`CONDITION_COLUMNS`) the
+            file gives: floats (NaN = empty cell: the config's value) and ``milling`` as str (``""``
+            empty); only the columns present. ``None`` = none (every cut in the config's condition).
+            :func:`cut_conditions` turns them into one :class:`~millstab.model.Cutting` per distinct condition.
     """
 
     rpm: np.ndarray
@@ -150,6 +155,7 @@ class PointSet:
     ratings: np.ndarray | None = None
     raters: tuple[str, ...] | None = None
     extra: dict = field(default=None)
+    conditions: dict = field(default=None)
 
     def __post_init__(self) -> None:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
@@ -216,6 +222,7 @@ class PointSet:
             if col.ndim != 1 or col.size != n:
                 raise InputError(f"points.extra[{name!r}]", f"{col.size} values", f"need one value per speed ({n})")
             extra[str(name)] = col.astype(str) if n else np.array([], dtype="<U1")
+        conditions = check_conditions(self.conditions, n, self.source)
         # fixed-width unicode array: comparisons like label == "chatter" give boolean masks
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "depth_mm", depth)
@@ -227,6 +234,7 @@ class PointSet:
         object.__setattr__(self, "ratings", ratings)
         object.__setattr__(self, "raters", raters)
         object.__setattr__(self, "extra", extra)
+        object.__setattr__(self, "conditions", conditions)
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
         check_plausible(self)  # a speed of 0.001 rpm or a chatter frequency of 10 MHz: refused, whichever the door
@@ -266,7 +274,12 @@ class PointSet:
             raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
         return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m],
                         self.grade[m], self.batch[m], self.ratings[m], self.raters,
-                        {k: v[m] for k, v in self.extra.items()})
+                        {k: v[m] for k, v in self.extra.items()}, {k: v[m] for k, v in self.conditions.items()})
+
+    @property
+    def has_conditions(self) -> bool:
+        """True when any cut names a condition of its own (a non-empty condition cell)."""
+        return any(_given(v).any() for v in self.conditions.values())
 
 
 def check_enough(points: PointSet, n_free: int) -> int:
@@ -326,5 +339,224 @@ def check_plausible(points: PointSet) -> PointSet:
     return points
 
 
-__all__ = ["CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible",
+# --- per-cut cutting conditions (issue 27) ----------------------------------------------------------------
+#: the optional per-cut condition columns of a cuts or points file; an empty cell takes the config's value
+CONDITION_COLUMNS = ("radial_immersion", "radial_width_mm", "milling", "entry_deg", "exit_deg", "feed_per_tooth_mm",
+                     "teeth")
+MILLING = ("up", "down")
+#: angles [rad] closer than this are one condition (a/D written with 4 digits differs by far more)
+ANGLE_TOL = 1e-9
+
+
+def _given(col: np.ndarray) -> np.ndarray:
+    """Mask of the non-empty cells of a condition column (a float NaN or ``""`` is empty)."""
+    if col.dtype.kind in "fi":
+        return ~np.isnan(col.astype(float))
+    return np.array([str(v) != "" for v in col], dtype=bool)
+
+
+def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
+    """The condition columns as arrays (floats; ``milling`` lower-case str), each cell checked.
+
+    Raises:
+        InputError: naming the data row (1 = the first row after the header), the column, the value and
+            what is allowed: an unknown column, a value out of range (a/D in (0, 1], widths, feeds > 0,
+            angles in [0, 180] deg with entry < exit, teeth a positive integer, milling up | down), or
+            columns that contradict each other on one row (a/D and radial_width_mm; a/D, width or milling
+            with entry_deg/exit_deg; entry_deg without exit_deg).
+    """
+    where = f"{Path(source).name} " if source is not None else ""
+    out: dict[str, np.ndarray] = {}
+    for name, col in (conditions or {}).items():
+        if name not in CONDITION_COLUMNS:
+            raise InputError("points.conditions", name, f"one of {', '.join(CONDITION_COLUMNS)}")
+        col = np.atleast_1d(np.asarray(col, dtype=object))
+        if col.ndim != 1 or col.size != n:
+            raise InputError(f"points.conditions[{name!r}]", f"{col.size} values", f"need one value per speed ({n})")
+        if name == "milling":
+            col = np.array([("" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v).strip().lower())
+                            for v in col], dtype=object).astype(str) if n else np.array([], dtype="<U4")
+            bad = ~np.isin(col, ("",) + MILLING)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(f"{where}data row {i + 1}, column milling", col[i], "up or down (or empty: the config's)")
+        else:
+            col = np.array([math.nan if v is None or str(v).strip() == "" else v for v in col], dtype=float)
+        out[name] = col
+    nan = np.full(n, np.nan)
+
+    def bad_row(mask, name, allowed):
+        if mask.any():
+            i = int(np.argmax(mask))
+            value = out[name][i] if name in out else None
+            raise InputError(f"{where}data row {i + 1}, column {name}", value if name == "milling" else float(value), allowed)
+
+    ri, w = out.get("radial_immersion", nan), out.get("radial_width_mm", nan)
+    en, ex = out.get("entry_deg", nan), out.get("exit_deg", nan)
+    ft, teeth = out.get("feed_per_tooth_mm", nan), out.get("teeth", nan)
+    mill = out.get("milling", np.full(n, ""))
+    with np.errstate(invalid="ignore"):
+        bad_row(~np.isnan(ri) & ~((ri > 0) & (ri <= 1)), "radial_immersion",
+                "the radial immersion a/D is in (0, 1] (1 = slot; a width in mm goes in radial_width_mm)")
+        bad_row(~np.isnan(w) & ~(w > 0), "radial_width_mm", "a radial width > 0 mm")
+        bad_row(~np.isnan(ft) & ~(ft > 0), "feed_per_tooth_mm", "a feed per tooth > 0 mm")
+        bad_row(~np.isnan(teeth) & ~((teeth >= 1) & (teeth == np.round(teeth))), "teeth", "a positive integer")
+        for name, a in (("entry_deg", en), ("exit_deg", ex)):
+            bad_row(~np.isnan(a) & ~((a >= 0) & (a <= 180)), name, "an angle in [0, 180] deg (0..180: slot)")
+        bad_row(np.isnan(ex) & ~np.isnan(en), "entry_deg", "entry_deg and exit_deg are given together on a row")
+        bad_row(np.isnan(en) & ~np.isnan(ex), "exit_deg", "entry_deg and exit_deg are given together on a row")
+        bad_row(~np.isnan(en) & (en >= ex), "entry_deg", "the entry angle is less than the exit angle of its row")
+        bad_row(~np.isnan(ri) & ~np.isnan(w), "radial_width_mm",
+                "give radial_immersion or radial_width_mm on a row, not both")
+        width = ~np.isnan(ri) | ~np.isnan(w)
+        bad_row(~np.isnan(en) & width, "entry_deg",
+                "give entry_deg/exit_deg or radial_immersion (or radial_width_mm) with milling on a row, not both")
+        if "milling" in out:
+            bad_row(~np.isnan(en) & (mill != ""), "milling",
+                    "give entry_deg/exit_deg or milling with radial_immersion on a row, not both")
+    return out
+
+
+def _direction(c: Cutting) -> tuple[float | None, str | None]:
+    """(a/D, milling) of a condition written in angles: slot (1, None); down (exit π), up (entry 0); else
+    (None, None): general angles, no a/D."""
+    if c.is_slotting:
+        return 1.0, None
+    if c.exit >= math.pi - ANGLE_TOL:
+        return (1 + math.cos(c.entry)) / 2, "down"
+    if c.entry <= ANGLE_TOL:
+        return (1 - math.cos(c.exit)) / 2, "up"
+    return None, None
+
+
+def describe_condition(c: Cutting) -> dict:
+    """The condition as a record for results and JSON: teeth, entry_deg, exit_deg and, where the angles
+    are an a/D and a direction, radial_immersion and milling ("slot" for full immersion)."""
+    ri, mill = _direction(c)
+    out = {"teeth": c.teeth, "entry_deg": math.degrees(c.entry), "exit_deg": math.degrees(c.exit)}
+    if ri is not None:
+        out["radial_immersion"] = ri
+        out["milling"] = mill or "slot"
+    return out
+
+
+def condition_text(c: Cutting) -> str:
+    """One line: "a/D 0.25 up milling, 4 teeth", "slot, 2 teeth" or "entry 30°–150°, 3 teeth"."""
+    d = describe_condition(c)
+    if d.get("milling") == "slot":
+        head = "slot"
+    elif "radial_immersion" in d:
+        head = f"a/D {d['radial_immersion']:.4g} {d['milling']} milling"
+    else:
+        head = f"entry {d['entry_deg']:.4g}°–{d['exit_deg']:.4g}°"
+    return f"{head}, {c.teeth} teeth"
+
+
+def same_condition(a: Cutting, b: Cutting) -> bool:
+    """True when two cuttings are one condition (teeth, coefficients, process damping, entry and exit within
+    :data:`ANGLE_TOL`)."""
+    return (a.teeth == b.teeth and a.kt == b.kt and a.kr == b.kr and abs(a.entry - b.entry) <= ANGLE_TOL
+            and abs(a.exit - b.exit) <= ANGLE_TOL and getattr(a, "process_damping", 0.0) == getattr(b, "process_damping", 0.0))
+
+
+def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial_width_mm: float | None = None,
+                 milling: str | None = None, entry_deg: float | None = None, exit_deg: float | None = None,
+                 teeth: int | None = None, diameter_mm: float | None = None, field: str = "condition") -> Cutting:
+    """The cutting condition of one cut or decision: ``base`` (the config's) with what is given replaced.
+
+    Rules: entry/exit angles [deg] replace the angles (given together); a/D (or a radial width [mm] with
+    the tool's ``diameter_mm``) with ``milling`` (else the base's direction) gives the angles by
+    :meth:`Cutting.from_immersion`; ``milling`` alone flips the base's direction at its a/D; ``teeth``
+    replaces the number of teeth. Kt and Kr stay the base's (one tool family, one material).
+
+    Raises:
+        InputError: ``field`` names the option or cell: a width without a diameter or wider than the tool,
+            a/D < 1 or ``milling`` alone where the base (slot or general angles) has no direction or a/D.
+    """
+    from dataclasses import replace
+
+    n = base.teeth if teeth is None else teeth
+    if entry_deg is not None or exit_deg is not None:
+        if entry_deg is None or exit_deg is None:
+            raise InputError(f"{field} entry_deg/exit_deg", (entry_deg, exit_deg), "give both angles")
+        # replace: the tool's other properties (process damping, diameter) stay the base's
+        return replace(base, teeth=n, entry=math.radians(entry_deg), exit=math.radians(exit_deg))
+    ri0, mill0 = _direction(base)
+    if radial_width_mm is not None:
+        if diameter_mm is None:
+            raise InputError(f"{field} radial_width_mm", radial_width_mm,
+                             "a radial width needs the tool diameter: add diameter = \"12 mm\" to [cutting] (or give "
+                             "radial_immersion = a/D)")
+        if not 0 < radial_width_mm <= diameter_mm * (1 + 1e-12):
+            raise InputError(f"{field} radial_width_mm", radial_width_mm,
+                             f"a radial width in (0, {diameter_mm:g}] mm (the tool diameter of the config)")
+        radial_immersion = min(radial_width_mm / diameter_mm, 1.0)
+    if radial_immersion is None and milling is None:
+        return base if n == base.teeth else replace(base, teeth=n)
+    if radial_immersion is None:
+        if ri0 is None:
+            raise InputError(f"{field} milling", milling, "milling alone needs a config given by radial_immersion "
+                                                          "and milling; give radial_immersion too (or entry/exit angles)")
+        radial_immersion = ri0
+    mill = milling or mill0
+    if mill is None:
+        if radial_immersion >= 1:
+            mill = "down"
+        else:
+            raise InputError(f"{field} milling", None, f"missing: a/D {radial_immersion:g} needs up or down (the "
+                                                       "config's cutting is a slot or general angles)")
+    c = Cutting.from_immersion(n, base.kt, base.kr, float(radial_immersion), mill)
+    return replace(base, teeth=n, entry=c.entry, exit=c.exit)
+
+
+def cut_conditions(points: PointSet, base: Cutting, diameter_mm: float | None = None
+                   ) -> tuple[tuple[Cutting, ...], np.ndarray]:
+    """(conditions, index (n,) int): one :class:`Cutting` per distinct condition of the points, in order of
+    first appearance, and each point's index into them; ``base`` (the config's cutting) fills empty cells.
+    Without condition columns: ((base,), zeros).
+
+    Raises:
+        InputError: as :func:`condition_of`, naming the file, data row and column.
+    """
+    n = len(points)
+    if not points.has_conditions:
+        return (base,), np.zeros(n, dtype=np.int64)
+    cols = points.conditions
+    where = f"{points.source.name} " if points.source is not None else ""
+
+    def cell(name, i):
+        if name not in cols:
+            return None
+        v = cols[name][i]
+        if name == "milling":
+            return v or None
+        return None if math.isnan(v) else float(v)
+
+    conds: list[Cutting] = []
+    index = np.empty(n, dtype=np.int64)
+    memo: dict[tuple, int] = {}
+    for i in range(n):  # a cuts file is tens of rows: a plain loop, outside every hot path
+        key = tuple(cell(name, i) for name in CONDITION_COLUMNS if name != "feed_per_tooth_mm")
+        if key not in memo:
+            kw = dict(zip([c for c in CONDITION_COLUMNS if c != "feed_per_tooth_mm"], key))
+            t = kw.pop("teeth")
+            c = condition_of(base, **kw, teeth=None if t is None else int(t), diameter_mm=diameter_mm,
+                             field=f"{where}data row {i + 1}, column")
+            j = next((k for k, o in enumerate(conds) if same_condition(o, c)), None)
+            if j is None:
+                conds.append(c)
+                j = len(conds) - 1
+            memo[key] = j
+        index[i] = memo[key]
+    return tuple(conds), index
+
+
+def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
+    """Feed per tooth [mm] of each point (n,): its ``feed_per_tooth_mm`` cell, else ``default_mm``."""
+    f = points.conditions.get("feed_per_tooth_mm")
+    return np.full(len(points), float(default_mm)) if f is None else np.where(np.isnan(f), float(default_mm), f)
+
+
+__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text", "cut_conditions",
+           "cut_feeds", "describe_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible",
            "check_speeds", "grade_of_cell", "label_of_grade", "parse_label_codes"]

@@ -22,12 +22,16 @@ class Prediction:
         p_label_chatter: (n,) probability that the written label says chatter (with the posterior's label
             model: :func:`millstab.update.predict.predict_cuts`).
         warnings: the posterior's own warnings (a prior-data conflict among them).
+        condition: (n,) str, the cutting condition each prediction is computed for ("a/D 0.25 up milling,
+            4 teeth"): the cut's own condition columns, else the posterior's (target) condition; ``None``
+            when every cut is in the one condition the posterior was trained in (the table has no column).
     """
 
     cuts: PointSet
     p_stable: np.ndarray
     p_label_chatter: np.ndarray
     warnings: tuple[str, ...] = ()
+    condition: np.ndarray | None = None
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the CSV: rpm, depth_mm, label (when any cut is labelled; the written class,
@@ -36,6 +40,9 @@ class Prediction:
         labelled = bool((~c.boundary).any())
         header = ["rpm", "depth_mm"] + (["label"] if labelled else []) + ["p_stable", "p_label_chatter"]
         cols = [c.rpm, c.depth_mm] + ([list(c.label)] if labelled else []) + [self.p_stable, self.p_label_chatter]
+        if self.condition is not None:
+            header.append("condition")
+            cols.append(list(self.condition))
         return header, cols
 
     def scores(self) -> dict | None:
@@ -51,7 +58,10 @@ class Prediction:
 
 
 def predict(post, cuts: PointSet) -> Prediction:
-    """Predictions for the cuts (labelled or not) from a posterior (:class:`millstab.update.Posterior`).
+    """Predictions for the cuts (labelled or not) from a posterior (:class:`millstab.update.Posterior`),
+    each in its own cutting condition: the cuts' condition columns (:data:`millstab.points.CONDITION_COLUMNS`),
+    empty cells and missing columns taking ``post.condition`` (the config's, or the target of
+    :func:`millstab.api.update.for_condition`).
 
     Raises:
         InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`).
@@ -63,8 +73,15 @@ def predict(post, cuts: PointSet) -> Prediction:
 
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), "the prediction", stacklevel=3)
-    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, cuts.batch)  # a known test day: its own shift
-    return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings))
+    from millstab.points import condition_text, cut_conditions, same_condition
+
+    conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
+    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx, batch=cuts.batch)  # a known day: its shift
+    text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
+    one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)
+    if one and not cuts.has_conditions:  # the posterior's one condition throughout: the table as ever
+        text = None
+    return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text)
 
 
 __all__ = ["Prediction", "predict"]

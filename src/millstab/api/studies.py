@@ -18,32 +18,84 @@ def _feed(feed_mm: float) -> float:
     return feed_mm * 1e-3
 
 
-def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float = 0.1, revs: float = 100.0,
+def config_feed_mm(cfg: Config, feed_mm: float | None = None) -> float:
+    """The feed per tooth [mm]: ``feed_mm`` when given, else the config's ``feed_per_tooth``, else 0.1 mm."""
+    if feed_mm is not None:
+        return feed_mm
+    return cfg.feed_per_tooth_m * 1e3 if getattr(cfg, "feed_per_tooth_m", None) else 0.1
+
+
+def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float | None = None, revs: float = 100.0,
                  steps: int | None = None, start: str = "steady"):
-    """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection)."""
+    """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection);
+    ``feed_mm`` None: :func:`config_feed_mm`."""
     from millstab.bounds import check_speeds
     from millstab.simulate import detect, simulate_cut as run
 
+    feed_mm = config_feed_mm(cfg, feed_mm)
     check_speeds(rpm, "--rpm")  # a near-zero speed is days of steps: refused before the work
     res = run(cfg.structure, cfg.cutting, rpm, depth_mm * 1e-3, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
               start=start)
     return res, detect(res)
 
 
-def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float = 0.1, revs: float = 100.0, steps: int | None = None,
-               start: str = "steady", label_noise: float = 0.0, marginal: str = "keep", seed: int | None = None):
-    """Simulate and label the cuts (:class:`millstab.simulate.Labels`: stable | marginal | chatter, chatter Hz)."""
+def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, revs: float = 100.0,
+               steps: int | None = None, start: str = "steady", label_noise: float = 0.0, marginal: str = "keep",
+               seed: int | None = None):
+    """Simulate and label the cuts (:class:`millstab.simulate.Labels`: stable | marginal | chatter, chatter Hz),
+    each in its own cutting condition and feed: the cuts' condition columns (radial_immersion, milling,
+    entry_deg/exit_deg, teeth, feed_per_tooth_mm; :func:`millstab.points.cut_conditions`), empty cells taking
+    the config's; ``feed_mm`` None: the config's ``feed_per_tooth``, else 0.1 mm. One compiled, parallel batch
+    per distinct (condition, feed); the label noise is drawn in cut order after all of them (same seed, same
+    labels however the cuts group)."""
     from millstab.bounds import seed as check_seed
-    from millstab.simulate import label_cuts as run
+    from millstab.points import cut_conditions, cut_feeds
+    from millstab.simulate import Labels, add_label_noise, label_cuts as run
 
     check_seed(seed)
-    return run(cfg.structure, cfg.cutting, cuts.rpm, cuts.depth_m, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
-               start=start, label_noise=label_noise, marginal=marginal, seed=seed)
+    feed_mm = config_feed_mm(cfg, feed_mm)
+    _feed(feed_mm)
+    conds, idx = cut_conditions(cuts, cfg.cutting, getattr(cfg, "diameter_mm", None))
+    feeds = cut_feeds(cuts, feed_mm)
+    groups = np.unique(np.c_[idx, feeds], axis=0) if len(cuts) else np.zeros((0, 2))
+    if len(groups) <= 1:  # one condition and feed: one batch, the labels as ever
+        c = conds[0] if len(conds) else cfg.cutting
+        return run(cfg.structure, c, cuts.rpm, cuts.depth_m, _feed(float(feeds[0]) if len(cuts) else feed_mm),
+                   revs=revs, steps_per_tooth=steps, start=start, label_noise=label_noise, marginal=marginal, seed=seed)
+    if not 0.0 <= label_noise < 0.5:
+        raise InputError("label_noise", label_noise, "must be a probability in [0, 0.5)")
+    if (label_noise > 0 or marginal == "random") and seed is None:
+        raise InputError("seed", seed, "label noise needs a seed (an integer), so runs can be repeated")
+    parts = []
+    for k, f in groups:  # a handful of conditions, each a compiled parallel batch
+        rows = np.flatnonzero((idx == k) & (feeds == f))
+        parts.append((rows, run(cfg.structure, conds[int(k)], cuts.rpm[rows], cuts.depth_m[rows], _feed(float(f)),
+                                revs=revs, steps_per_tooth=steps, start=start)))
+    n = len(cuts)
+
+    def gather(name, dtype):
+        out = np.empty(n, dtype=dtype)
+        for rows, lab in parts:
+            out[rows] = getattr(lab, name)
+        return out
+
+    true = gather("true_label", "<U8")
+    return Labels(cuts.rpm.copy(), cuts.depth_m.copy(), add_label_noise(true, label_noise, marginal, seed), true,
+                  gather("chatter_hz", float), gather("lobe", "<U4"), gather("level", float), gather("growth", float),
+                  seed, gather("multiplier", float))
 
 
-def labels_table(labels) -> tuple[list[str], list]:
-    """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""
-    return labels.table()
+def labels_table(labels, cuts: PointSet | None = None) -> tuple[list[str], list]:
+    """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``),
+    and the condition columns of ``cuts`` as read (so the labelled file keeps each cut's condition)."""
+    from millstab.io.points import condition_columns
+
+    header, cols = labels.table()
+    header, cols = list(header), list(cols)
+    if cuts is not None:
+        h, c = condition_columns(cuts)
+        header, cols = header + h, cols + c
+    return header, cols
 
 
 def modal_fit(frf_x, frf_y=None, *, band: str | None = None, modes: str | int | None = None,

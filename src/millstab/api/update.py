@@ -86,6 +86,61 @@ def posterior_from_json(doc, source: str = "posterior"):
     return Posterior.from_json(doc, str(source))
 
 
+def for_condition(post, *, radial_immersion: float | None = None, milling: str | None = None,
+                  entry_deg: float | None = None, exit_deg: float | None = None, teeth: int | None = None,
+                  radial_width_mm: float | None = None):
+    """The posterior deciding for a target cutting condition (map, recommend, predict): the options as the
+    doors name them (``--radial-immersion``, ``--milling``, ``--entry-deg``/``--exit-deg``, ``--teeth``,
+    ``--radial-width`` with the config's diameter); what is not given keeps the posterior's condition
+    (the config's). None given: ``post`` itself. Rules: :func:`millstab.points.condition_of`.
+
+    Raises:
+        InputError: naming the option: a/D outside (0, 1], milling not up|down, angles outside [0, 180] deg
+            or entry ≥ exit, teeth not a positive integer, angles together with a/D or milling.
+    """
+    from millstab.points import condition_of
+
+    given = {k: v for k, v in (("--radial-immersion", radial_immersion), ("--milling", milling),
+                               ("--entry-deg", entry_deg), ("--exit-deg", exit_deg), ("--teeth", teeth),
+                               ("--radial-width", radial_width_mm)) if v is not None}
+    if not given:
+        return post
+    if radial_immersion is not None and not (np.isfinite(radial_immersion) and 0 < radial_immersion <= 1):
+        raise InputError("--radial-immersion", radial_immersion, "the radial immersion a/D, in (0, 1] (1 = slot)")
+    if milling is not None and str(milling).strip().lower() not in ("up", "down"):
+        raise InputError("--milling", milling, "up or down")
+    for opt, a in (("--entry-deg", entry_deg), ("--exit-deg", exit_deg)):
+        if a is not None and not (np.isfinite(a) and 0 <= a <= 180):
+            raise InputError(opt, a, "an angle in [0, 180] deg")
+    if (entry_deg is None) != (exit_deg is None):
+        raise InputError("--entry-deg" if exit_deg is None else "--exit-deg", entry_deg if exit_deg is None else exit_deg,
+                         "give --entry-deg and --exit-deg together")
+    if entry_deg is not None and entry_deg >= exit_deg:
+        raise InputError("--entry-deg", entry_deg, f"less than --exit-deg ({exit_deg:g})")
+    if entry_deg is not None and (radial_immersion is not None or milling is not None or radial_width_mm is not None):
+        raise InputError("--entry-deg", entry_deg, "give --entry-deg/--exit-deg or --radial-immersion with --milling, "
+                                                   "not both")
+    if radial_immersion is not None and radial_width_mm is not None:
+        raise InputError("--radial-width", radial_width_mm, "give --radial-immersion or --radial-width, not both")
+    if teeth is not None and not (isinstance(teeth, (int, np.integer)) and teeth >= 1):
+        raise InputError("--teeth", teeth, "a positive integer")
+    c = condition_of(post.condition, radial_immersion=radial_immersion, radial_width_mm=radial_width_mm,
+                     milling=None if milling is None else str(milling).strip().lower(), entry_deg=entry_deg,
+                     exit_deg=exit_deg, teeth=teeth, diameter_mm=post.diameter_mm, field="target condition")
+    return post.for_condition(c)
+
+
+def condition_line(post) -> str:
+    """"computed for a/D 0.25 up milling, 4 teeth" (and whether the cuts were made in it) for the doors."""
+    from millstab.points import condition_text, same_condition
+
+    trained = post.trained_conditions
+    seen = any(same_condition(c, post.condition) for c in trained)
+    note = ("a condition of the cuts" if seen else
+            f"never cut: the cuts were in {'; '.join(condition_text(c) for c in trained)}")
+    return f"computed for {condition_text(post.condition)} ({note})"
+
+
 def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.ndarray:
     """``n`` depths evenly spaced up to ``max_mm`` [mm]: max/n, 2·max/n, …, max (a P(stable) map's axis).
 

@@ -73,3 +73,24 @@ def dask_client(dask: str | None, workers: int | None) -> Iterator:
         where = f"scheduler {dask}" if dask else "a local cluster started for this run"
         typer.echo(f"Dask: {n_workers} workers, {sum(client.nthreads().values())} threads ({where})", err=True)
         yield client
+
+
+# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions") ---
+RadialImmersionOpt = Annotated[Optional[float], typer.Option(
+    "--radial-immersion", help="Decide for this radial immersion a/D in (0, 1] (default: the posterior's condition, "
+                               "the config's).", rich_help_panel="Target condition")]
+MillingOpt = Annotated[Optional[str], typer.Option(
+    "--milling", help="Decide for up or down milling (with --radial-immersion, or alone: the config's a/D).",
+    rich_help_panel="Target condition")]
+EntryDegOpt = Annotated[Optional[float], typer.Option(
+    "--entry-deg", help="Decide for this entry angle [deg] (with --exit-deg; instead of a/D and milling).",
+    rich_help_panel="Target condition")]
+ExitDegOpt = Annotated[Optional[float], typer.Option(
+    "--exit-deg", help="Decide for this exit angle [deg] (with --entry-deg).", rich_help_panel="Target condition")]
+TeethOpt = Annotated[Optional[int], typer.Option(
+    "--teeth", help="Decide for a tool of this family with this many teeth.", rich_help_panel="Target condition")]
+
+
+def target(radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None) -> dict:
+    """The target-condition options as keywords of :func:`millstab.api.for_condition`."""
+    return dict(radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)

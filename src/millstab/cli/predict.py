@@ -7,8 +7,10 @@ from typing import Optional
 
 import typer
 
+from millstab import api
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
+from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
 from millstab.cli.update import LABELS_HELP
 from millstab.errors import InputError
 
@@ -19,12 +21,18 @@ def predict_cmd(
                                               "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
-    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order."),
+    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order "
+                                                "(and condition where the cuts' conditions differ)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
                                              "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
+    radial_immersion: RadialImmersionOpt = None,
+    milling: MillingOpt = None,
+    entry_deg: EntryDegOpt = None,
+    exit_deg: ExitDegOpt = None,
+    teeth: TeethOpt = None,
 ) -> None:
     """P(stable) (the process) and P(label chatter) (what an operator will write) for each cut of CUTS."""
     from rich.console import Console
@@ -38,9 +46,8 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    from millstab.api.update import at_stickout
-
-    post = at_stickout(post, stickout)
+    post = api.at_stickout(post, stickout)
+    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)
@@ -48,6 +55,8 @@ def predict_cmd(
     con = Console()
     for w in pred.warnings:
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")
+    con.print(api.condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
+                                                                   "'condition' column")
     con.print(f"{len(c)} cuts: P(stable) {pred.p_stable.min():.3f}-{pred.p_stable.max():.3f}" if len(c) else "no cuts")
     s = pred.scores()
     if s is not None:

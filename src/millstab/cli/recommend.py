@@ -10,6 +10,7 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
+from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 
@@ -54,6 +55,11 @@ def recommend_cmd(
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     user: UserOpt = None,
+    radial_immersion: RadialImmersionOpt = None,
+    milling: MillingOpt = None,
+    entry_deg: EntryDegOpt = None,
+    exit_deg: ExitDegOpt = None,
+    teeth: TeethOpt = None,
 ) -> None:
     """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
     from rich.console import Console
@@ -74,6 +80,7 @@ def recommend_cmd(
                 speed_tolerance=speed_tolerance, test_risk=test_risk)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = api.at_stickout(post, stickout)
+    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
     check_outputs(inputs, {"--out": out})
     if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db
@@ -86,6 +93,7 @@ def recommend_cmd(
     for w in post.warnings:  # the update's own warnings (a prior-data conflict among them) belong to every decision
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")
     mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""
+    con.print(api.condition_line(post))
     con.print(f"recommended: {rec.rpm:.0f} rpm, {rec.depth_mm:.3f} mm (P(chatter) {rec.p_chatter:.3f} ≤ {risk:g}, "
               f"limited by {rec.limited_by}{mrr})")
     if rec.p_chatter_bound is not None:

@@ -22,8 +22,12 @@ def simulate(
     config: str = typer.Argument(..., help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute)."),
     rpm: Optional[float] = typer.Option(None, "--rpm", help="Spindle speed of one cut (rev/min)."),
     depth: Optional[float] = typer.Option(None, "--depth", help="Axial depth of one cut (mm)."),
-    cuts: Optional[Path] = typer.Option(None, "--cuts", help="CSV rpm,depth_mm[,label,weight] of cuts to label."),
-    feed: float = typer.Option(0.1, "--feed-per-tooth", help="Feed per tooth (mm)."),
+    cuts: Optional[Path] = typer.Option(None, "--cuts", help="CSV rpm,depth_mm[,label,weight] of cuts to label; "
+                                                             "condition columns (radial_immersion, milling, ...) "
+                                                             "per cut."),
+    feed: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth (mm; default: the config's "
+                                                                        "feed_per_tooth, else 0.1; a cuts file's "
+                                                                        "feed_per_tooth_mm column per cut)."),
     revs: float = typer.Option(100.0, "--revs", help="Spindle revolutions per cut."),
     steps: Optional[int] = typer.Option(None, "--steps", help="Steps per tooth period (>= 20; default automatic)."),
     start: str = typer.Option("steady", "--start",
@@ -66,7 +70,7 @@ def simulate(
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
         typer.echo(f"{cfg.name}: {lab.summary()}")
-        header, columns = lab.table()
+        header, columns = api.labels_table(lab, pts)
         if out:
             write_csv(out, header, columns, protect=protect)
             typer.echo(f"wrote {out}")
@@ -85,7 +89,7 @@ def simulate(
     if seed is not None and record is None:
         raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record (sensor noise)")
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
-    typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {feed:g} mm/tooth, {res.periods} tooth periods: "
+    typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {res.feed_per_tooth_m * 1e3:g} mm/tooth, {res.periods} tooth periods: "
                + _detection_line(det, res.diverged))
     if out:
         write_csv(out, *res.table(), protect=protect)

@@ -15,6 +15,7 @@ from millstab.cli.options import samples_option, seed_option
 from millstab.cli.options import DaskOpt, WorkersOpt
 from millstab.cli.options import dask_client as _client
 from millstab.api import ENGINES
+from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
@@ -38,7 +39,7 @@ def update_cmd(
                                                        "spectral use measured chatter frequencies)."),
     samples: int = samples_option(4000, "Posterior samples (SMC particles)."),
     seed: int = seed_option(0, "Seed of the sampler (same seed, same samples)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Posterior JSON (schema millstab.posterior/2); optional "
+    out: Optional[Path] = typer.Option(None, "--out", help="Posterior JSON (schema millstab.posterior/3); optional "
                                                           "with --db."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Pair plot of the posterior (.png/.svg/.pdf)."),
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
@@ -146,6 +147,11 @@ def map_cmd(
     workers: WorkersOpt = None,
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
+    radial_immersion: RadialImmersionOpt = None,
+    milling: MillingOpt = None,
+    entry_deg: EntryDegOpt = None,
+    exit_deg: ExitDegOpt = None,
+    teeth: TeethOpt = None,
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -157,13 +163,15 @@ def map_cmd(
     depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
     post = api.at_stickout(post, stickout)
+    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
         pm = api.p_stable(post, speeds, depths, client)
     write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
     con = Console()
-    con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples)")
+    con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples; "
+              f"{api.condition_line(post)})")
     if plot:
         from millstab.io.figures import save_figure
 

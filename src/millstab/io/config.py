@@ -15,6 +15,9 @@ Schema (every quantity a number in SI or a string with units, parsed by
     # instead of entry/exit:
     # radial_immersion = 0.2     # a/D in (0, 1]; also "20 %"
     # milling = "down"           # "down" or "up"; required unless radial_immersion = 1
+    # diameter = "12 mm"         # optional: the tool diameter (a cuts file's radial_width_mm column needs it;
+    #                            # a [tool] table's diameter serves too)
+    # feed_per_tooth = "0.1 mm"  # optional: the feed per tooth of the cuts (simulate; the removal rate)
 
     [[structure.x]]              # one table per mode; a direction without modes is rigid
     fn = "903 Hz"                # also "0.903 kHz"; "5674 rad/s" = 903 Hz (÷2π), "54180 rpm" = 903 Hz (÷60)
@@ -84,7 +87,8 @@ PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails"
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
-CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter")
+CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter",
+                "feed_per_tooth")
 STRUCTURE_KEYS = ("x", "y", "frf")
 MODE_KEYS = ("fn", "k", "zeta")
 FRF_KEYS = ("xx", "yy", "xy", "yx")
@@ -365,13 +369,32 @@ def config_from_dict(data: Mapping[str, Any], name: str = "config", path: Path |
         raise InputError("description", description, "must be a string")
     cutting = _cutting(data["cutting"])
     setup = None
+    diameter, feed = _cutting_sizes(data["cutting"], data.get("tool"), cutting)
     if "tool" in data or "holder" in data:
         structure, setup = _tool_structure(data, base_dir, files)
     else:
         structure = _structure(data["structure"], base_dir, files)
     rpm = _speeds(data["speeds"]) if "speeds" in data else None
     prior = _prior(data["prior"]) if "prior" in data else None
-    return Config(cutting, structure, name_value, path, rpm, description, prior, setup)
+    return Config(cutting, structure, name_value, path, rpm, description, prior, setup, diameter, feed)
+
+
+def _cutting_sizes(t: Mapping[str, Any], tool: Any, cutting: Cutting) -> tuple[float | None, float | None]:
+    """(tool diameter [m] or None, feed per tooth [m] or None) of ``[cutting]`` (its ``diameter``, read into
+    ``cutting.diameter``; else a ``[tool]`` table's)."""
+    d = None
+    if "diameter" in t:
+        d = _tool_length(t, "diameter", "cutting")  # the mm-written-as-m check of a tool's diameter
+        d = cutting.diameter if cutting.diameter is not None else d
+    elif isinstance(tool, Mapping) and "diameter" in tool:
+        d = _tool_length(tool, "diameter", "tool")
+    f = None
+    if "feed_per_tooth" in t:
+        f = parse_quantity(t["feed_per_tooth"], "cutting.feed_per_tooth", "length")
+        if not 0 < f <= 0.01:
+            raise InputError("cutting.feed_per_tooth", t["feed_per_tooth"],
+                             "a feed per tooth in (0, 10] mm, with its unit (e.g. \"0.1 mm\"; a plain number is m)")
+    return d, f
 
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
@@ -447,6 +470,8 @@ def config_to_toml(config: Config) -> str:
         lines.append(f'process_damping = "{_fmt(c.process_damping)} N/m"')
     if c.diameter is not None:
         lines.append(f'diameter = "{_fmt(c.diameter * 1e3)} mm"')
+    if config.feed_per_tooth_m is not None:
+        lines.append(f'feed_per_tooth = "{_fmt(config.feed_per_tooth_m * 1e3)} mm"')
     for d in ("x", "y"):
         for m in getattr(config.structure, d):
             lines += ["", f"[[structure.{d}]]", f'fn = "{_fmt(m.fn)} Hz"', f'k = "{_fmt(m.k / 1e6)} N/um"',

@@ -29,6 +29,11 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
   one warning naming the columns. A column that looks like a misspelt known column that is absent
   (``lable``, ``weigth``, ``depht_mm``) is an error, since a silently ignored label column would turn
   every cut into a boundary point.
+* Per-cut cutting conditions (optional columns; an empty cell or a missing column takes the config's
+  value; docs/updating.md, "Many conditions"): ``radial_immersion`` (a/D in (0, 1], or ``25 %``) or
+  ``radial_width_mm`` (needs ``diameter`` in the config's ``[cutting]``), ``milling`` (up | down),
+  ``entry_deg``/``exit_deg`` (together, instead of a/D and milling), ``feed_per_tooth_mm``, ``teeth``.
+  Kept in ``PointSet.conditions``; contradicting cells on one row (a/D and width, a/D and angles) are errors.
 * Blank lines and lines starting with ``#`` are skipped (comments).
 """
 
@@ -47,11 +52,12 @@ from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 # the model type lives below io; re-exported so `from millstab.io.points import PointSet` keeps working
-from millstab.points import GRADE, LABELS, PointSet, check_enough, grade_of_cell, label_of_grade, parse_label_codes
+from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, PointSet, check_enough, grade_of_cell, label_of_grade,
+                              parse_label_codes)
 from millstab.warnlog import warn
 
 REQUIRED = ("rpm", "depth_mm")
-OPTIONAL = ("label", "weight", "chatter_hz", "batch")
+OPTIONAL = ("label", "weight", "chatter_hz", "batch") + CONDITION_COLUMNS
 #: columns that name the test day or session (PointSet.batch), in order of preference
 BATCH_COLUMNS = ("batch", "date", "day", "session")
 #: a rater's label column: label, label_NAME / labelN, rater_NAME / raterN
@@ -96,9 +102,11 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
         if m:
             raters.append(((m.group("name") or m.group("num") or h).strip(), i))
     batch = next((b for b in BATCH_COLUMNS if b in names), None)
-    known = set(REQUIRED) | {"weight", "chatter_hz"} | {names[i] for _, i in raters} | ({batch} if batch else set())
+    known = (set(REQUIRED) | {"weight", "chatter_hz"} | {names[i] for _, i in raters} | ({batch} if batch else set())
+             | set(CONDITION_COLUMNS))
     unknown = [h for h in names if h not in known and h not in BATCH_COLUMNS]
-    absent = [k for k in REQUIRED + ("weight", "chatter_hz") if k not in names] + ([] if raters else ["label"])
+    absent = ([k for k in REQUIRED + ("weight", "chatter_hz") + CONDITION_COLUMNS if k not in names]
+              + ([] if raters else ["label"]))
     for r in REQUIRED:
         if r not in names:
             near = difflib.get_close_matches(r, unknown, 1, 0.6)
@@ -140,6 +148,7 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     col = {h: i for i, h in enumerate(names)}
     rpm, depth, grades, weight, hz, batch = [], [], [], [], [], []
     extra: dict[str, list[str]] = {h: [] for h in unused}
+    conds: dict[str, list] = {h: [] for h in CONDITION_COLUMNS if h in col}
     for line, row in rows[1:]:
         if len(row) > len(names):
             # "5500,1,2" under a two-column header is most often a decimal comma (1,2 mm)
@@ -182,6 +191,8 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         batch.append(cells[col[batch_col]] if batch_col else "")
         for h in unused:
             extra[h].append(cells[col[h]])
+        for h in conds:
+            conds[h].append(_condition_cell(cells[col[h]], h, line, p))
     if unused:
         warn(f"{p.name}: ignored columns: {', '.join(unused)} (kept, not used)", UserWarning, stacklevel=3)
     ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))
@@ -190,7 +201,27 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         grade = np.full(len(rpm), np.nan)
         grade[rated] = np.nanmean(ratings[rated], axis=1)
     return PointSet(np.array(rpm), np.array(depth), label_of_grade(grade), np.array(weight), p, np.array(hz), grade,
-                    np.array(batch, dtype=object), ratings, tuple(n for n, _ in raters), extra)
+                    np.array(batch, dtype=object), ratings, tuple(n for n, _ in raters), extra, conds)
+
+
+def _condition_cell(text: str, name: str, line: int, p: Path):
+    """One condition cell: ``""`` (milling) or NaN when empty; a/D may be a percentage ("25 %")."""
+    if name == "milling":
+        return text.strip().lower()
+    if not text:
+        return math.nan
+    pct = name == "radial_immersion" and text.endswith("%")
+    x = _number(text[:-1].strip() if pct else text, name, line, p)
+    return x / 100 if pct else x
+
+
+def _condition_text(name: str, v) -> str:
+    """A condition cell as written back: empty for NaN, teeth as an integer, floats exact (repr)."""
+    if name == "milling":
+        return str(v)
+    if np.isnan(v):
+        return ""
+    return str(int(v)) if name == "teeth" else repr(float(v))
 
 
 def _label_text(g: float) -> str:
@@ -201,10 +232,17 @@ def _label_text(g: float) -> str:
     return words.get(float(g), repr(float(g)))
 
 
+def condition_columns(points: PointSet) -> tuple[list[str], list[list[str]]]:
+    """(header, columns) of the condition columns the points have, as cells (empty = the config's value)."""
+    names = [n for n in CONDITION_COLUMNS if n in points.conditions]
+    return names, [[_condition_text(n, v) for v in points.conditions[n]] for n in names]
+
+
 def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] = ()) -> Path:
     """Write a point set as CSV: rpm, depth_mm, the label (one ``label`` column, or ``label_NAME`` per
     rater when there are several; a grade that is no class word is written as its number), weight,
-    chatter_hz when any is measured, batch when any is given, and the extra columns as read; floats
+    chatter_hz when any is measured, batch when any is given, the condition columns as read, and the extra
+    columns as read; floats
     written exactly, so :func:`read_points` gives the same point set back. Atomic; see results."""
     if points.ratings.shape[1] > 1:
         header = ["rpm", "depth_mm"] + [f"label_{r}" for r in points.raters] + ["weight"]
@@ -219,10 +257,13 @@ def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] =
     if (points.batch != "").any():
         header.append("batch")
         cols.append(list(points.batch))
+    h, c = condition_columns(points)  # the per-cut conditions as read (empty cells stay empty: the config's value)
+    header += h
+    cols += c
     for name, col in points.extra.items():
         header.append(name)
         cols.append(list(col))
     return write_csv(path, header, cols, protect)
 
 
-__all__ = ["BATCH_COLUMNS", "LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]
+__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]

@@ -94,7 +94,7 @@ posterior = Table(
     Column("seed", Integer, nullable=True),
     Column("code_version", String(100), nullable=False),  # millstab version (+ git commit when known)
     Column("data_hash", String(64), nullable=False),  # sha256 of the config text and the cut rows it used
-    Column("doc", Text, nullable=False),  # the posterior JSON (schema millstab.posterior/2; /1 still loads)
+    Column("doc", Text, nullable=False),  # the posterior JSON (schema millstab.posterior/3; /2 and /1 still load)
     Column("created_at", TIME, nullable=False),
     Column("created_by", USER, nullable=False),
 )

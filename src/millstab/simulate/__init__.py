@@ -48,7 +48,7 @@ from millstab.model import Cutting, Structure
 from millstab.simulate import _kernel
 from millstab.simulate.detect import LABELS, LOBES, Detection, detect, growth_multiplier, spectrum_band_hz
 
-__all__ = ["CutResult", "Detection", "Labels", "simulate_cut", "detect", "label_cuts", "default_steps",
+__all__ = ["add_label_noise", "CutResult", "Detection", "Labels", "simulate_cut", "detect", "label_cuts", "default_steps",
            "growth_multiplier", "STEPS_MIN"]
 
 #: fewest steps per tooth period accepted
@@ -376,6 +376,26 @@ class Labels:
         return fields_in(cls, doc, cls.SCHEMA, source)
 
 
+def add_label_noise(true: np.ndarray, label_noise: float = 0.0, marginal: str = "keep",
+                    seed: int | None = None) -> np.ndarray:
+    """The labels an operator writes for the detector's ``true`` labels (n,): with ``seed``, a marginal cut
+    called stable or chatter at even odds (``marginal="random"``) and a stable/chatter label swapped with
+    probability ``label_noise``, drawn in cut order (two uniforms per cut), so a cut's label does not depend
+    on how the cuts were grouped for the simulation."""
+    out = np.asarray(true).astype("<U8").copy()
+    if seed is not None:
+        n = out.size
+        rng = np.random.default_rng(seed)
+        u_flip = rng.random(n)
+        u_marg = rng.random(n)
+        if marginal == "random":
+            mg = out == "marginal"
+            out[mg] = np.where(u_marg[mg] < 0.5, "stable", "chatter")
+        flip = (u_flip < label_noise) & (out != "marginal")
+        out[flip] = np.where(out[flip] == "stable", "chatter", "stable")
+    return out
+
+
 def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_tooth: float, revs: float | None = None,
                steps_per_tooth: int | None = None, start: Start = "steady", perturbation: float = 0.01,
                label_noise: float = 0.0, marginal: Literal["keep", "random"] = "keep",
@@ -430,14 +450,5 @@ def label_cuts(structure: Structure, cutting: Cutting, rpm, depth, feed_per_toot
                     float(perturbation), N_HARMONICS, bound, f_hi, lab, hz, lobe, level, growth, mu,
                     np.ascontiguousarray(cutting.process_damping_per_depth(r)))
     true = np.array(LABELS, dtype=object)[lab].astype("<U8")
-    out = true.copy()
-    if seed is not None:
-        rng = np.random.default_rng(seed)
-        u_flip = rng.random(n)
-        u_marg = rng.random(n)
-        if marginal == "random":
-            mg = out == "marginal"
-            out[mg] = np.where(u_marg[mg] < 0.5, "stable", "chatter")
-        flip = (u_flip < noise) & (out != "marginal")
-        out[flip] = np.where(out[flip] == "stable", "chatter", "stable")
+    out = add_label_noise(true, noise, marginal, seed)
     return Labels(r, d, out, true, hz, np.array(LOBES, dtype=object)[lobe].astype("<U4"), level, growth, seed, mu)

@@ -93,7 +93,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     pr = prior or config_prior(config)
     cheap_engine = screen_engine(engine, sampler)
     with collect() as caught:
-        ev = Evidence.from_points(cuts, points, stickout)
+        ev = Evidence.from_points(cuts, points, stickout, base_cutting=pr.cutting,
+                                  diameter_mm=getattr(config, "diameter_mm", None))
         lik = Likelihood(pr, ev, engine, client)
         scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
     for w in caught:  # pass them on to the caller, and keep them in the result
@@ -134,13 +135,17 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         data["stickout_mm"] = [None if np.isnan(v) else float(v) for v in so]
     if be is not None:
         data["batch"] = [str(b) for b in ev.cut_batch] + [""] * ev.pt_rpm.size
+    conditions = ev.conditions or ()
+    if ev.conditions is not None:  # the trained conditions: each row's index (docs/updating.md, "Many conditions")
+        data["condition"] = np.r_[ev.cut_cond, ev.pt_cond].astype(int).tolist()
     u = res.u[:, :pr.size]
     noise = None
     days = None if be is None else be.posterior(res.u[:, q:])
     if pr.dim > pr.size:
         eps, fac = pr.noise(res.u[:, pr.size:q], samples)
         noise = np.stack([eps if n == "label_error" else fac for n in pr.noise_names], axis=1)
-    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days)
+    dia = getattr(config, "diameter_mm", None)
+    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days, conditions=conditions, diameter_mm=dia)
     messages = [str(w.message) for w in caught]
     modes = post.modes()
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
@@ -149,14 +154,15 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
         from millstab.update.predict import predict_cuts  # one more engine call, only in this case
 
-        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm, ev.cut_batch)
+        ps, _ = predict_cuts(post, ev.cut_rpm, ev.cut_depth_mm, ev.conditions, ev.cut_cond, batch=ev.cut_batch)
         msg = label_message(pr, post.label_error, ev.cut_rpm, ev.cut_depth_mm, ev.cut_grade, ps)
         diag["conflict"]["labels"] = True
     if msg is not None:  # issued (the doors print it in one line) and kept in the result
         warn(msg, UserWarning, stacklevel=2)
         messages.append(msg)
     # the bimodal warning (not issued, as before: a property of the answer) joins them in Posterior itself
-    return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise, days)
+    return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise, days, conditions=conditions,
+                     diameter_mm=dia)
 
 
 def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> int:
@@ -180,11 +186,27 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
           and np.allclose(np.asarray(c.get("rpm", [])[:n_old], float), ev.cut_rpm[:n_old])
           and np.allclose(np.asarray(c.get("depth_mm", [])[:n_old], float), ev.cut_depth_mm[:n_old])
           and np.allclose(np.asarray(c.get("rpm", [])[n_old:], float), ev.pt_rpm)
-          and (prior.batch_effect == 0 or list(c.get("batch", [])[:n_old]) == [str(b) for b in ev.cut_batch[:n_old]]))
+          and (prior.batch_effect == 0 or list(c.get("batch", [])[:n_old]) == [str(b) for b in ev.cut_batch[:n_old]])
+          and _same_conditions(start, ev, n_old))
     if not ok:
         raise InputError("start", f"a posterior of {n_old} cuts and {n_pts} points",
                          "its cuts must be the first cuts of this update (same order, labels, boundary points)")
     return n_old
+
+
+def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
+    """True when the earlier cuts (and the boundary points) were in the same cutting conditions as now."""
+    from millstab.points import same_condition
+
+    def conds(trained, index, n):
+        index = list(index) if index is not None else [0] * n
+        return [trained[int(i)] for i in index]
+
+    c = start.cuts or {}
+    old = conds(start.trained_conditions, c.get("condition"), len(c.get("label") or []))
+    now_all = ev.conditions or (start.prior.cutting,)
+    now = conds(now_all, np.r_[ev.cut_cond[:n_old], ev.pt_cond], n_old + ev.pt_rpm.size)
+    return len(old) == len(now) and all(same_condition(a, b) for a, b in zip(old, now))
 
 
 __all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "Evidence", "Likelihood", "Posterior", "Prior", "Recommendation", "make_prior",

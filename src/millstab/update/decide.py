@@ -155,6 +155,8 @@ class Recommendation:
     #: the data guard's chatter cuts near the recommendation's speed range (see :func:`data_guard`)
     guard: tuple[dict, ...] = ()
     test_risk: float | None = None
+    #: the cutting condition it is computed for (:func:`millstab.points.describe_condition`)
+    computed_for: dict | None = None
 
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.recommendation/1"
@@ -166,7 +168,8 @@ class Recommendation:
                "relative_productivity_mm_rpm": self.productivity, "next_test": self.next_test,
                "p_chatter_speed_error": self.p_chatter_speed_error, "p_chatter_bound": self.p_chatter_bound,
                "effective_samples": self.effective_samples, "confidence": self.confidence,
-               "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard)}
+               "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard),
+               "computed_for": self.computed_for}
         if self.mrr_cm3_per_min is not None:
             out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
         return out
@@ -272,8 +275,8 @@ def data_guard(post: Posterior) -> list[dict]:
     """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
     a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
     one per guarding cut (cuts the posterior explains, and outweighed ones, are left out)."""
-    rpm, depth, grade, hz = _cut_grades(post.cuts or {})
-    ch = np.flatnonzero(grade > 0.5)
+    rpm, depth, grade, hz = _cut_grades(post.cuts_in_condition())  # per condition: a slot's chatter cut does not
+    ch = np.flatnonzero(grade > 0.5)  # bound a finishing pass (the model carries what it teaches)
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
@@ -315,7 +318,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,
               coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
-              guard: bool = True) -> Recommendation:
+              guard: bool = True, across: bool | None = None) -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -331,6 +334,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         coarse_points: speeds of the coarse grid before the refinement (fewer for a slow engine).
         test_risk: the next test's probability of chattering is at most this, in (0, 1]; ``None`` or 1: no cap.
         guard: apply the data guard (:func:`data_guard`; ``False`` only for studies of the model alone).
+        across: let the next test be in another condition (the trained ones and the slot) where a test there
+            carries more information (:func:`next_test_across`); ``None``: when the posterior knows several
+            conditions or decides for one it was not trained in.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance or test risk.
     Warns:
@@ -416,16 +422,26 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
     nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
                    test_risk=test_risk, guard=guards, p_chatter_rec=p_worst)
+    from millstab.points import describe_condition, same_condition
+
+    nt["condition"] = describe_condition(post.condition)
+    if across is None:
+        trained = post.trained_conditions
+        across = len(trained) > 1 or not same_condition(trained[0], post.condition)
+    if across:
+        nt = next_test_across(post, nt, (lo, hi), cap, seed=seed, test_risk=test_risk)
+
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited, p_worst, bound,
-                          n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk)
+                          n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk,
+                          describe_condition(post.condition))
 
 
 def blind_spot(post: Posterior, rpm_rec: float, depth_rec: float) -> str | None:
     """Why the next test must be the recommendation itself (the rule in the module docstring), or ``None``.
 
     Reads the posterior's labelled cuts in their order (the order they were cut)."""
-    rpm, depth, grade, _ = _cut_grades(post.cuts or {})
+    rpm, depth, grade, _ = _cut_grades(post.cuts_in_condition())
     k = BLIND_SPOT_CHATTERS
     if rpm.size < k:
         return None
@@ -502,6 +518,67 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
                    "the recommendation" + ("" if test_risk is None else f" at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["CONFIDENCE", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], cap: float = math.inf, *,
+                     seed: int = 0, test_risk: float | None = TEST_RISK, n_rpm: int = 60, n_depth: int = 40) -> dict:
+    """The next test ``nt`` of the decision's condition, or a test in another condition that carries more
+    information per test.
+
+    Candidates: the conditions the posterior was trained in and the slot of the decision's tool (a slot
+    teaches the structure cheaply: both directions load, and its limits are the lowest, so shallow cuts
+    decide), the decision's own excluded. In each, the cut with the largest mutual information between its
+    label and θ (the measure of :func:`next_test`, per test: no productivity weight, since a test's cost is
+    one cut whichever the condition) among cuts at most ``test_risk`` likely to chatter and clear of that
+    condition's data guard. It replaces ``nt`` when its information exceeds ``nt``'s (which is 0 when ``nt``
+    is the recommendation itself); ``why`` then says which condition and why. Why per test and not per
+    productivity: the information is about the shared parameters, which every condition's decision reads;
+    the productivity weight of :func:`next_test` ranks cuts of one condition by what they may unlock there.
+    One engine call (``n_rpm`` speeds, 1 000 samples) per candidate condition.
+    """
+    from dataclasses import replace
+
+    from millstab.points import condition_text, describe_condition, same_condition
+
+    here = post.condition
+    slot = replace(here, entry=0.0, exit=math.pi)
+    cands = [c for c in (*post.trained_conditions, slot) if not same_condition(c, here)]
+    cands = [c for i, c in enumerate(cands) if not any(same_condition(c, d) for d in cands[:i])]
+    rng = np.random.default_rng(seed)
+    n = post.u.shape[0]
+    rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
+    speeds = np.linspace(*rpm_range, n_rpm)
+    best = None
+    for c in cands:
+        q = post.for_condition(c)
+        blim, _ = limits(q.prior, q.u[rows], speeds, q.engine)
+        finite = np.where(np.isfinite(blim), blim, np.nan)
+        if not np.isfinite(finite).any():
+            continue
+        top = float(np.nanquantile(finite, 0.95))
+        d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
+        depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
+        pbar, info, p_process = label_information(blim, depths, q.prior.sigma_depth_mm(depths), q.label_error[rows],
+                                                  q.sigma_depth_factor[rows])
+        ok = (depths[None, :] < guard_cap(data_guard(q), speeds)[:, None]) & (info > 1e-6)
+        if test_risk is not None:
+            ok &= p_process <= test_risk
+        if not ok.any():
+            continue
+        score = np.where(ok, info, -np.inf)
+        i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+        if best is None or info[i, j] > best[0]:
+            best = (float(info[i, j]), c, float(speeds[i]), float(depths[j]), float(p_process[i, j]), float(pbar[i, j]))
+    own = float(nt.get("information_nats", 0.0))
+    if best is None or best[0] <= own:
+        return nt
+    info, c, rpm, depth, p_ch, p_lab = best
+    return {"rpm": rpm, "depth_mm": depth, "p_chatter": p_ch, "p_label_chatter": p_lab, "information_nats": info,
+            "relative_productivity": None, "condition": describe_condition(c),
+            "why": f"a test in another condition ({condition_text(c)}) carries more information about the shared "
+                   f"parameters: {info:.3f} nats per test against {own:.3f} for the best test in the decision's "
+                   f"condition ({condition_text(here)}); the structure and coefficients it teaches are those of "
+                   "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
+
+
+__all__ = ["next_test_across", "CONFIDENCE", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

@@ -69,7 +69,7 @@ from scipy.special import log_ndtr
 from millstab.errors import InputError
 from millstab.forward import forward
 from millstab.model import Conditions, Cutting, condition_index
-from millstab.points import PointSet
+from millstab.points import PointSet, cut_conditions, same_condition
 from millstab.stability import check_rpm, get_engine, per_set_kr
 from millstab.update.batch import BatchEffect
 from millstab.update.prior import Prior
@@ -130,6 +130,20 @@ def stickout_groups(prior: Prior, column_stickout: np.ndarray) -> list[tuple[Pri
     from dataclasses import replace
 
     return [(prior if s == own else replace(prior, par=at(float(s))), np.flatnonzero(so == s)) for s in np.unique(so)]
+
+
+def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_cond: np.ndarray | None,
+                        conditions: tuple | None, engine: str = "zoa", with_freq: bool = False,
+                        client=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`limits` where speed column s is cut under ``conditions[column_cond[s]]`` (a
+    :class:`~millstab.model.Cutting` per distinct condition); ``conditions`` None: every column in
+    ``prior.cutting``. ONE engine call (:class:`~millstab.model.Conditions`)."""
+    if conditions is None:
+        return limits(prior, u, rpm, engine, with_freq, client)
+    cc = np.zeros(np.size(rpm), dtype=np.int64) if column_cond is None else np.asarray(column_cond, dtype=np.int64)
+    if np.all(cc == cc[0] if cc.size else True) and cc.size and conditions[int(cc[0])] == prior.cutting:
+        return limits(prior, u, rpm, engine, with_freq, client)  # the plain one-condition path, as ever
+    return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc))
 
 
 def check_kr_engine(prior: Prior, engine: str):
@@ -230,19 +244,48 @@ class Evidence:
             object.__setattr__(self, name, v)
 
     @classmethod
-    def from_points(cls, cuts: PointSet, points: PointSet | None = None, stickout: np.ndarray | None = None) -> Evidence:
+    def from_points(cls, cuts: PointSet, points: PointSet | None = None, stickout: np.ndarray | None = None,
+                    base_cutting=None, diameter_mm: float | None = None) -> Evidence:
         """Split a cuts file (labelled rows; unlabelled rows are boundary points) and an optional
         boundary-point file into evidence; ``stickout``: the tool's stickout [m] of each row of ``cuts``
         (NaN: the config's; the rows of ``points`` are at the config's).
 
+        Per-cut conditions (the files' condition columns, :func:`millstab.points.cut_conditions`): with
+        ``base_cutting`` (the config's cutting, which fills empty cells; ``diameter_mm`` the tool diameter
+        for ``radial_width_mm``) the evidence holds ``conditions`` and each row's ``cut_cond``/``pt_cond``;
+        without condition columns they are ``None``/zeros (every row in the prior's cutting).
+
         Raises:
-            InputError: neither a stable nor a chatter cut, and no boundary point either.
+            InputError: neither a stable nor a chatter cut, and no boundary point either; condition
+                columns without ``base_cutting``; a bad condition (see :func:`millstab.points.condition_of`).
         Warns:
             UserWarning: every cut has the same label (the answer is valid but leans on the prior).
         """
         pts = [p for p in (cuts, points) if p is not None]
+        conditions, idx = None, [np.zeros(len(p), dtype=np.int64) for p in pts]
+        if any(p.has_conditions for p in pts):
+            if base_cutting is None:
+                raise InputError("cuts", "per-cut condition columns", "the config's cutting conditions (base_cutting) "
+                                                                      "fill their empty cells: pass them")
+            conds: list = []
+            idx = []
+            for p in pts:  # one list of distinct conditions over both files
+                cs, ix = cut_conditions(p, base_cutting, diameter_mm)
+                remap = []
+                for c in cs:
+                    j = next((k for k, o in enumerate(conds) if same_condition(o, c)), None)
+                    if j is None:
+                        conds.append(c)
+                        j = len(conds) - 1
+                    remap.append(j)
+                idx.append(np.asarray(remap, dtype=np.int64)[ix])
+            conditions = tuple(conds)
         labelled = cuts.label != ""
         c = cuts.subset(labelled)
+        c_cond = idx[0][labelled]
+        p_cond = np.concatenate([ix[p.boundary] for p, ix in zip(pts, idx)])
+        if points is not None:
+            c_cond = np.r_[c_cond, idx[1][~points.boundary]]
         b_rpm = np.concatenate([p.rpm[p.boundary] for p in pts])
         b_depth = np.concatenate([p.depth_mm[p.boundary] for p in pts])
         b_w = np.concatenate([p.weight[p.boundary] for p in pts])
@@ -274,7 +317,7 @@ class Evidence:
             so_c = np.r_[so[labelled], np.full(n_extra, np.nan)]
             so_p = np.r_[so[cuts.boundary], np.full(n_pts, np.nan)]
         return cls(c.rpm, c.depth_mm, kind, c.weight, c.chatter_hz, b_rpm, b_depth, b_w, grade, batch,
-                   cut_stickout=so_c, pt_stickout=so_p)
+                   cut_cond=c_cond, pt_cond=p_cond, conditions=conditions, cut_stickout=so_c, pt_stickout=so_p)
 
     @property
     def n_cuts(self) -> int:
@@ -465,4 +508,5 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "check_kr_engine", "stickout_groups", "cut_loglik", "frequency_distance", "limits"]
+__all__ = ["Evidence", "Likelihood", "check_kr_engine", "cut_loglik", "frequency_distance", "limits",
+           "limits_by_condition", "stickout_groups"]

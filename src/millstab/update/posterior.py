@@ -25,9 +25,10 @@ from millstab.identify.symmetry import exchange_map, exchanged
 from millstab.update.batch import BatchPosterior, new_day, summary_of
 from millstab.update.prior import Prior
 
-SCHEMA = "millstab.posterior/2"
-#: older layouts that still load (/1: no learned noise levels, a Gaussian prior)
-OLD_SCHEMAS = ("millstab.posterior/1",)
+SCHEMA = "millstab.posterior/3"
+#: older layouts that still load (/2: one cutting condition, the prior's; /1: also no learned noise levels,
+#: a Gaussian prior)
+OLD_SCHEMAS = ("millstab.posterior/2", "millstab.posterior/1")
 #: the code of each kind of warning (``warning_codes`` in the JSON), by the start of its message
 WARNING_CODES = (("the cuts contradict the hammer test", "prior-data-conflict"), ("bimodal posterior", "bimodal"),
                  ("every cut", "one-sided-data"))
@@ -112,6 +113,9 @@ class Posterior:
         provenance: what it was made from, ``{"config": the config's name}`` (set by
             :func:`millstab.api.update`), written as the JSON's top-level ``"config"``: every door writes the
             same file (the command line added the key after ``to_json``).
+        conditions: the cutting conditions the cuts were made in (``cuts["condition"]`` indexes them);
+            ``()``: every cut in ``prior.cutting``. Decisions (maps, recommendations, predictions) are
+            computed for ``prior.cutting``, the config's condition unless :meth:`for_condition` chose another.
     """
 
     prior: Prior
@@ -123,6 +127,9 @@ class Posterior:
     noise: np.ndarray | None = None
     batch: BatchPosterior | None = None
     provenance: dict = field(default_factory=dict)
+    conditions: tuple = ()
+    #: the tool diameter [mm] of the config (a ``radial_width_mm`` condition needs it), or ``None``
+    diameter_mm: float | None = None
 
     def __post_init__(self):
         # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
@@ -135,6 +142,44 @@ class Posterior:
     @property
     def names(self) -> tuple[str, ...]:
         return self.prior.names
+
+    @property
+    def condition(self):
+        """The cutting condition decisions from this posterior are computed for (``prior.cutting``)."""
+        return self.prior.cutting
+
+    @property
+    def trained_conditions(self) -> tuple:
+        """The distinct cutting conditions of the cuts (``(prior.cutting,)`` for a one-condition posterior)."""
+        return tuple(self.conditions) or (self.prior.cutting,)
+
+    def for_condition(self, cutting) -> Posterior:
+        """The same samples, deciding for another cutting condition (a :class:`~millstab.model.Cutting`
+        of the same tool family: its Kt and Kr are replaced by the trained ones, which the samples hold):
+        the structure and coefficients are shared by every condition, only the directional factors change.
+        ``None``: this posterior itself."""
+        from dataclasses import replace
+
+        if cutting is None:
+            return self
+        # the trained tool's coefficients (and process damping, diameter), the target's teeth and angles
+        c = replace(self.prior.cutting, teeth=cutting.teeth, entry=cutting.entry, exit=cutting.exit)
+        return replace(self, prior=replace(self.prior, cutting=c), conditions=self.trained_conditions)
+
+    def cuts_in_condition(self) -> dict:
+        """The ``cuts`` record restricted to the rows cut in :attr:`condition` (all rows of a one-condition
+        posterior): the cuts that speak directly about this condition's limits (the data guard's)."""
+        from millstab.points import same_condition
+
+        c = self.cuts or {}
+        idx = c.get("condition")
+        if not idx or not self.conditions:
+            if self.conditions and not any(same_condition(k, self.prior.cutting) for k in self.conditions):
+                return {}
+            return c
+        keep = [same_condition(self.conditions[int(i)], self.prior.cutting) for i in idx]
+        return {k: ([x for x, m in zip(v, keep) if m] if isinstance(v, list) and len(v) == len(keep) else v)
+                for k, v in c.items()}
 
     @property
     def u(self) -> np.ndarray:
@@ -231,6 +276,14 @@ class Posterior:
             doc["noise"] = {"names": names, "parameters": summary(self.noise, names), "samples": self.noise.tolist()}
         if self.batch is not None:
             doc["batch"] = self.batch.to_record()
+        from millstab.points import describe_condition
+
+        # "computed_for": the condition of every decision read from this file; "conditions": the trained ones,
+        # with the exact angles [rad] that rebuild them (cuts["condition"] indexes them)
+        doc["computed_for"] = describe_condition(self.prior.cutting)
+        doc["conditions"] = [dict(describe_condition(c), entry=c.entry, exit=c.exit) for c in self.trained_conditions]
+        if self.diameter_mm is not None:
+            doc["diameter_mm"] = self.diameter_mm
         return doc
 
     @classmethod
@@ -260,9 +313,22 @@ class Posterior:
         days = None
         if prior.batch_effect > 0 and doc.get("batch") is not None:  # absent: prior draws (no day seen yet)
             days = BatchPosterior.from_record(doc["batch"], s.shape[0], source)
+        conditions = ()
+        if doc.get("schema") == SCHEMA and doc.get("conditions"):  # /2 and /1: every cut in the prior's cutting
+            from dataclasses import replace
+
+            try:
+                conditions = tuple(replace(prior.cutting, teeth=int(c["teeth"]), entry=float(c["entry"]),
+                                           exit=float(c["exit"])) for c in doc["conditions"])
+            except (KeyError, TypeError, ValueError):
+                raise InputError(f"{source} conditions", doc["conditions"],
+                                 "a list of {teeth, entry, exit [rad]} per trained condition") from None
+            if len(conditions) == 1 and conditions[0] == prior.cutting:  # a one-condition posterior, as built
+                conditions = ()
+        dia = doc.get("diameter_mm")
         made_from = {"config": doc["config"]} if isinstance(doc.get("config"), str) else {}
         return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
-                   days, made_from)
+                   days, made_from, conditions, None if dia is None else float(dia))
 
 
 __all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

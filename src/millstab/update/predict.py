@@ -24,14 +24,20 @@ from scipy.special import ndtr
 
 from millstab.errors import InputError
 from millstab.update.batch import fn_columns, shift_fn
-from millstab.update.likelihood import limits
+from millstab.update.likelihood import limits_by_condition
 from millstab.update.posterior import Posterior
 
 
-def cut_limits(post: Posterior, rpm: np.ndarray, batch=None) -> np.ndarray:
+def cut_limits(post: Posterior, rpm: np.ndarray, batch=None, conditions: tuple | None = None,
+               cond_index=None) -> np.ndarray:
     """The limiting depth of each cut under each posterior sample (N, n) [mm]: a new day's (the samples
     :attr:`Posterior.decision_u`), or with ``batch`` (n,) and a test-day effect, the known day's shifts for
-    cuts of a day the posterior has seen. One engine call per day at its distinct speeds."""
+    cuts of a day the posterior has seen; each cut in its own condition (``conditions``, a
+    :class:`~millstab.model.Cutting` per distinct condition, and ``cond_index`` (n,); ``None``: every cut in
+    ``post.condition``). One engine call per day at its distinct (condition, speed) pairs."""
+    ci = np.zeros(rpm.size, dtype=np.int64) if cond_index is None else np.asarray(cond_index, dtype=np.int64)
+    if ci.shape != rpm.shape:
+        raise InputError("cuts", f"{ci.size} condition indices", f"need one per cut ({rpm.size})")
     day = np.full(rpm.size, -1)
     if batch is not None and post.batch is not None:
         known = {d: g for g, d in enumerate(post.batch.days) if d}  # "" (no day) is no particular day: a new one
@@ -40,15 +46,20 @@ def cut_limits(post: Posterior, rpm: np.ndarray, batch=None) -> np.ndarray:
     for g in np.unique(day):  # a loop over the days (a handful), never over cuts or samples
         m = day == g
         u = post.decision_u if g < 0 else shift_fn(post.u, fn_columns(post.prior), post.batch.shifts[:, g])
-        speeds, idx = np.unique(rpm[m], return_inverse=True)
-        blim[:, m] = limits(post.prior, u, speeds, post.engine)[0][:, idx]
+        pairs, idx = np.unique(np.c_[ci[m], rpm[m]], axis=0, return_inverse=True)
+        d, _ = limits_by_condition(post.prior, u, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions, post.engine)
+        blim[:, m] = d[:, np.asarray(idx).ravel()]
     return blim
 
 
-def predict_cuts(post: Posterior, rpm, depth_mm, batch=None) -> tuple[np.ndarray, np.ndarray]:
+def predict_cuts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None, cond_index=None,
+                 batch=None) -> tuple[np.ndarray, np.ndarray]:
     """``(p_stable, p_label_chatter)`` (n,) for n cuts at ``rpm`` (n,) [rev/min] and ``depth_mm`` (n,) [mm],
-    in the input order; one engine call for every distinct speed (per day with ``batch``, the test day of
-    each cut: see the module docstring).
+    in the input order; one engine call for every distinct (condition, speed) pair (per day with ``batch``,
+    the test day of each cut: see the module docstring).
+
+    ``conditions`` (a :class:`~millstab.model.Cutting` per distinct condition) and ``cond_index`` (n,) give
+    each cut's own condition; ``None``: every cut in ``post.condition``.
 
     ``p_stable``: the fraction of posterior samples whose limiting depth lies above the cut's depth.
     ``p_label_chatter``: P(the written label says chatter), the mean over the samples of
@@ -69,7 +80,7 @@ def predict_cuts(post: Posterior, rpm, depth_mm, batch=None) -> tuple[np.ndarray
             raise InputError(f"cuts.{name}[{i}]", float(a[i]), f"must be a finite number > 0 {unit}")
     if r.size == 0:
         return np.zeros(0), np.zeros(0)
-    blim = cut_limits(post, r, batch)  # (N, n)
+    blim = cut_limits(post, r, batch, conditions, cond_index)  # (N, n)
     p_stable = (blim > d[None, :]).mean(axis=0)
     eps, fac = post.label_error[:, None], post.sigma_depth_factor[:, None]
     sig = post.prior.sigma_depth_mm(d)[None, :] * fac

@@ -199,6 +199,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     """
     from millstab.update import update as run_update
     from millstab.update.posterior import Posterior
+    from millstab.points import cut_conditions
     from millstab.update.predict import predict_cuts
     from millstab.warnlog import quiet
 
@@ -234,7 +235,8 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
             pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
-        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, te.batch)[1]
+        conds, ci = cut_conditions(te, post.condition, getattr(config, "diameter_mm", None))  # each cut's own
+        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, conds, ci, batch=te.batch)[1]
         for m, p in baseline_predictions(tr, te).items():
             out.predictions[s][m][mask] = p
         out.folds[s][mask] = i
@@ -253,9 +255,17 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
 def _concat(a: PointSet, b: PointSet) -> PointSet:
     """Training cuts and the boundary points (the raters of ``a``; a boundary point has no rating)."""
     r = np.vstack([a.ratings, np.full((len(b), a.ratings.shape[1]), np.nan)])
+    # the condition columns of both (a column one of them lacks: empty cells there, the config's condition)
+    cond = {k: np.r_[a.conditions.get(k, _empty(a, k)), b.conditions.get(k, _empty(b, k))]
+            for k in {*a.conditions, *b.conditions}}
     return PointSet(np.r_[a.rpm, b.rpm], np.r_[a.depth_mm, b.depth_mm], np.r_[a.label, b.label], np.r_[a.weight, b.weight],
                     a.source, np.r_[a.chatter_hz, b.chatter_hz], np.r_[a.grade, b.grade], np.r_[a.batch, b.batch], r,
-                    a.raters)
+                    a.raters, conditions=cond)
+
+
+def _empty(p: PointSet, column: str) -> np.ndarray:
+    """An all-empty condition column for ``p`` (``""`` for milling, NaN otherwise)."""
+    return np.full(len(p), "", dtype=object) if column == "milling" else np.full(len(p), np.nan)
 
 
 __all__ = ["METHODS", "MAX_SPEEDS", "SAME_SPEED", "Validation", "baseline_predictions", "cross_validate",

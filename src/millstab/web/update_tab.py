@@ -47,10 +47,16 @@ class UpdateTab:
                                            css_classes=["update-samples"])
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
         self.job = JobBar("Update", "update")
+        self.map_condition = ""  # "computed for ..." of the last map
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
         self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
         self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01, width=120)
+        # the target condition of the map and the recommendation (docs/updating.md, "Many conditions")
+        self.target_ri = pn.widgets.FloatInput(label="for a/D (empty: the config's)", value=None, start=0.001, end=1.0,
+                                               step=0.05, width=170, css_classes=["target-ri"])
+        self.target_milling = pn.widgets.Select(label="milling", options=["config's", "down", "up"], width=100,
+                                                css_classes=["target-milling"])
         self.map_job = JobBar("Map and recommend", "map")
         self.rec = TextBox("recommendation", width=900, height=None)
         self.plot = pn.Column(sizing_mode="stretch_width")
@@ -190,6 +196,13 @@ class UpdateTab:
         risk = self.risk.value
         oc = self.campaign.current if self.campaign is not None else None
         keep = oc is not None and record and self.post_id is not None and self.post_id == oc.posterior_id
+        mill = None if self.target_milling.value == "config's" else self.target_milling.value
+        try:
+            post = api.for_condition(post, radial_immersion=self.target_ri.value, milling=mill)
+        except InputError as exc:
+            self.map_job.status.text = error_html(str(exc))
+            return
+        self.map_condition = api.condition_line(post)
 
         def work(progress):
             depth = api.depth_grid(top, field="map depth up to")
@@ -214,7 +227,8 @@ class UpdateTab:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks), sizing_mode="stretch_width")]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.rec.text = (computed_for(self.post_origin) + f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
+        self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"
+                         f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, {nt.get('depth_mm', float('nan')):.3g} mm "
                            f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
@@ -225,6 +239,6 @@ class UpdateTab:
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
-        decide = pn.Card(pn.Row(self.depth_max, self.risk, self.map_job), self.rec.view(), title="P(stable) and recommendation",
+        decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job), self.rec.view(), title="P(stable) and recommendation",
                          collapsible=False)
         return pn.Column(*head, inputs, decide, self.plot, name="Update and recommend")

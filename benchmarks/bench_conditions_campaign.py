@@ -1,0 +1,215 @@
+"""Many conditions, one machine (issue 27): train on cuts in two conditions, decide in conditions never cut.
+
+Per virtual machine (seeded):
+
+* the hammer test (the prior's medians) and a truth off it (fn ×1.03/0.97, k ×0.8/1.15, ζ ×1.25: in-process
+  dynamics differ from a tap test); the true labels come from the SEMI-DISCRETIZATION boundary of the TRUE
+  structure (``sdm``, ``--truth-steps`` steps per tooth period), never from the fitted model (zero-order,
+  ``--engine``): the model error of zoa at low immersion is part of the test;
+* training cuts: ``--cuts`` per training condition (slot and a/D 0.5 down), at random speeds in ``--rpm``,
+  depths = the hammer test's own zero-order limit × exp(N(0, 0.5²)) (a shop tests around what it believes);
+  labelled by the truth, ``--flip`` of them swapped (an operator's slip);
+* held-out cuts: ``--held`` per target condition (a/D 0.25 up, a/D 0.1 down, and a/D 0.5 UP: the direction
+  never cut), at random speeds, depths = the TRUE limit × exp(U(−0.6, 0.6)) (the hard band around it);
+* scored: the Brier score of P(label chatter) (``millstab predict``'s column) against the true labels
+  of the held-out cuts, for the joint posterior (one update over both training conditions), the hammer test
+  alone (the prior's draws through the same label model), and one posterior per training condition (the
+  same cuts split by condition: the slot posterior and the half-immersion posterior each decide alone);
+  in the training conditions too (held-out cuts there), where one posterior per condition has only its
+  own condition's cuts; the recommendation at ``--risk`` in each target condition (``recommend
+  --radial-immersion ... --milling ...``): truly stable when its depth is below the true (sdm) limit at its
+  speed ±0.25 %.
+
+Machines: ``sym`` (two close modes, x and y alike), ``soft-x`` (x 4× softer than y: up and down milling
+differ ×5 at a/D 0.5, the issue's ×4 machine), ``three`` (three teeth, x and y apart).
+
+The cost of an update over several conditions against one: ``benchmarks/bench_conditions.py``.
+
+Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --samples 1000 --cuts 10 --held 30``
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _machine import describe  # noqa: E402
+
+from millstab.config import Config  # noqa: E402
+from millstab.model import Cutting, Mode, Structure  # noqa: E402
+from millstab.points import PointSet, condition_text  # noqa: E402
+from millstab.stability import get_engine  # noqa: E402
+
+TRAIN = ((1.0, "down"), (0.5, "down"))
+TARGETS = ((0.25, "up"), (0.1, "down"), (0.5, "up"))
+KT, KR = 6.0e8, 0.3
+
+
+def machines() -> dict[str, tuple[Structure, Structure, int]]:
+    """{name: (hammer test, truth, teeth)}."""
+    def s(fx, kx, zx, fy, ky, zy):
+        return Structure(x=(Mode(fx, kx, zx),), y=(Mode(fy, ky, zy),))
+
+    off = np.array([1.03, 0.8, 1.25, 0.97, 1.15, 1.25])
+    out = {}
+    for name, base, teeth in (("sym", (900.0, 8e6, 0.03, 1000.0, 8e6, 0.03), 2),
+                              ("soft-x", (800.0, 6e6, 0.03, 1200.0, 20e6, 0.03), 3),
+                              ("three", (700.0, 5e6, 0.035, 1100.0, 30e6, 0.025), 3)):
+        b = np.array(base)
+        out[name] = (s(*b), s(*(b * off)), teeth)
+    return out
+
+
+def cond(teeth: int, ri: float, milling: str) -> Cutting:
+    return Cutting.from_immersion(teeth, KT, KR, ri, milling)
+
+
+TRUTH_ENGINE = "sdm"
+
+
+def true_limit(struct: Structure, cutting: Cutting, rpm: np.ndarray, steps: int) -> np.ndarray:
+    """The true limiting depth [mm] at each speed: SDM of the true structure (one envelope call); with
+    ``--truth-engine zoa`` the fitted model's own engine (a control: no model error)."""
+    eng = get_engine(TRUTH_ENGINE)
+    kw = {"steps": steps} if TRUTH_ENGINE == "sdm" else {}
+    return eng.envelope(struct, cutting, np.asarray(rpm, float), **kw).depth_mm
+
+
+def cuts_file(rpm, depth, label, conds: list[tuple[float, str]], teeth_idx=None) -> PointSet:
+    ri = np.array([c[0] for c in conds], float)
+    mill = np.array([c[1] for c in conds], dtype=object)
+    return PointSet(np.asarray(rpm, float), np.asarray(depth, float), label,
+                    conditions={"radial_immersion": ri, "milling": mill})
+
+
+def run_machine(name, hammer, truth, teeth, args, rng):
+    from millstab import api
+    from millstab.update import Posterior, make_prior, update
+
+    lo, hi = args.rpm
+    base = cond(teeth, 1.0, "down")
+    cfg = Config(base, hammer, name)
+    zoa = get_engine("zoa")
+    # training cuts: around the hammer test's belief
+    tr_rpm, tr_depth, tr_cond = [], [], []
+    for ri, m in TRAIN:
+        r = rng.uniform(lo, hi, args.cuts)
+        belief = zoa.envelope(hammer, cond(teeth, ri, m), r).depth_mm
+        tr_rpm.append(r)
+        tr_depth.append(belief * np.exp(rng.normal(0, 0.5, args.cuts)))
+        tr_cond += [(ri, m)] * args.cuts
+    tr_rpm, tr_depth = np.concatenate(tr_rpm), np.concatenate(tr_depth)
+    lim = np.concatenate([true_limit(truth, cond(teeth, ri, m), tr_rpm[k * args.cuts:(k + 1) * args.cuts],
+                                     args.truth_steps) for k, (ri, m) in enumerate(TRAIN)])
+    chatter = tr_depth > lim
+    flip = rng.random(chatter.size) < args.flip
+    label = np.where(chatter ^ flip, "chatter", "stable")
+    train = cuts_file(tr_rpm, tr_depth, label, tr_cond)
+    # held-out cuts: the trained conditions and the targets, around the TRUE limit
+    held = {}
+    for ri, m in TRAIN + TARGETS:
+        r = rng.uniform(lo, hi, args.held)
+        tl = true_limit(truth, cond(teeth, ri, m), r, args.truth_steps)
+        d = tl * np.exp(rng.uniform(-0.6, 0.6, args.held))
+        held[(ri, m)] = cuts_file(r, d, np.where(d > tl, "chatter", "stable"), [(ri, m)] * args.held)
+    t0 = time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        joint = update(cfg, train, samples=args.samples, seed=args.seed, engine=args.engine)
+        per = {}
+        for k, (ri, m) in enumerate(TRAIN):  # one posterior per condition: its own cuts only
+            sl = slice(k * args.cuts, (k + 1) * args.cuts)
+            one = cuts_file(tr_rpm[sl], tr_depth[sl], label[sl], [(ri, m)] * args.cuts)
+            per[(ri, m)] = update(cfg, one, samples=args.samples, seed=args.seed, engine=args.engine)
+        prior = make_prior(hammer, base)
+        hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
+                                args.engine, cuts={"rpm": [lo, hi]})
+    cpu_update = time.process_time() - t0
+    rows = []
+    for key, pts in held.items():
+        target = key in TARGETS
+
+        def brier(post):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return api.predict(post, pts).scores()["brier"]
+
+        b_joint, b_hammer = brier(joint), brier(hammer_post)
+        b_per = {k: brier(p) for k, p in per.items()}
+        own = b_per.get(key)
+        rec_ok = None
+        if target:
+            ri, m = key
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                rec = api.recommend(api.for_condition(joint, radial_immersion=ri, milling=m), args.risk, (lo, hi),
+                                    max_depth_mm=args.max_depth, seed=args.seed)
+            tl = true_limit(truth, cond(teeth, ri, m), rec.rpm * np.array([1 - 0.0025, 1.0, 1 + 0.0025]),
+                            args.truth_steps)
+            rec_ok = bool(rec.depth_mm < tl.min())
+            rows.append((key, b_joint, b_hammer, b_per, own, rec_ok, rec.depth_mm, float(tl.min())))
+        else:
+            rows.append((key, b_joint, b_hammer, b_per, own, None, None, None))
+    return rows, cpu_update
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--samples", type=int, default=1000)
+    ap.add_argument("--cuts", type=int, default=10, help="training cuts per training condition")
+    ap.add_argument("--held", type=int, default=30, help="held-out cuts per condition")
+    ap.add_argument("--flip", type=float, default=0.0, help="share of training labels swapped")
+    ap.add_argument("--risk", type=float, default=0.05)
+    ap.add_argument("--max-depth", type=float, default=30.0)
+    ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
+    ap.add_argument("--truth-steps", type=int, default=40)
+    ap.add_argument("--engine", default="zoa")
+    ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--machines", default="sym,soft-x,three")
+    args = ap.parse_args()
+    global TRUTH_ENGINE
+    TRUTH_ENGINE = args.truth_engine
+    print(describe())
+    print(f"load average: {os.getloadavg()[0]:.1f}")
+    with threadpool_limits(1):
+        print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
+              f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
+              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "
+              f"{args.engine}, {args.samples} samples")
+        allrows = []
+        ms = machines()
+        for i, name in enumerate(args.machines.split(",")):
+            hammer, truth, teeth = ms[name]
+            rows, cpu = run_machine(name, hammer, truth, teeth, args, np.random.default_rng(args.seed + 100 * i))
+            print(f"\n{name} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
+            print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
+            for key, bj, bh, bp, own, ok, dep, tl in rows:
+                txt = condition_text(cond(teeth, *key)).split(",")[0]
+                rec = "" if ok is None else f"{dep:.2f} mm vs true {tl:.2f}: {'stable' if ok else 'CHATTERS'}"
+                print(f"  {txt:<22} {bj:6.3f} {bh:7.3f} {bp[TRAIN[0]]:10.3f} {bp[TRAIN[1]]:10.3f} "
+                      f"{'' if own is None else f'{own:8.3f}':>9}  {rec}")
+            allrows += rows
+        tgt = [r for r in allrows if r[5] is not None]
+        bj = np.mean([r[1] for r in tgt])
+        bh = np.mean([r[2] for r in tgt])
+        bsep = np.mean([min(r[3].values()) for r in tgt])
+        ok = np.mean([r[5] for r in tgt])
+        trained = [r for r in allrows if r[5] is None]
+        print(f"\nunseen conditions ({len(tgt)}): mean Brier joint {bj:.3f} (target ≤ 0.08), hammer test {bh:.3f} "
+              f"(joint/hammer {bj / bh:.2f}, target ≤ 0.5), best single-condition posterior {bsep:.3f}; "
+              f"recommendations truly stable {ok:.0%} (target ≥ 95 %)")
+        print(f"trained conditions ({len(trained)}): mean Brier joint {np.mean([r[1] for r in trained]):.3f} vs one "
+              f"posterior per condition (its own cuts) {np.mean([r[4] for r in trained]):.3f}")
+
+
+if __name__ == "__main__":
+    main()

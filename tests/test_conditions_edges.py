@@ -123,7 +123,7 @@ def test_the_likelihood_of_mixed_conditions_is_the_sum_of_each_condition_alone()
     rows.append("7777,2.5,,,")  # a boundary point in the slot
     rows.append("7777,9.0,,0.5,down")  # and one at half immersion, at the same speed
     cuts = parse_points("\n".join(rows) + "\n")
-    ev = Evidence.from_points(cuts, None, SLOT)
+    ev = Evidence.from_points(cuts, None, base_cutting=SLOT)
     assert len(ev.conditions) == 2 and ev.cut_cond.tolist() == [0, 1] * 7 and ev.pt_cond.tolist() == [0, 1]
     u = prior.sample(64, np.random.default_rng(0))
     mixed = Likelihood(prior, ev)(u)
@@ -143,7 +143,7 @@ def test_the_likelihood_of_mixed_conditions_is_the_sum_of_each_condition_alone()
 def test_two_files_share_one_list_of_conditions():
     cuts = parse_points("rpm,depth_mm,label,radial_immersion,milling\n5000,1,stable,0.5,up\n6000,2,chatter,,\n")
     pts = parse_points("rpm,depth_mm,radial_immersion,milling\n5500,1.5,,\n5600,3,0.5,up\n")
-    ev = Evidence.from_points(cuts, pts, SLOT)
+    ev = Evidence.from_points(cuts, pts, base_cutting=SLOT)
     assert [condition_text(c) for c in ev.conditions] == ["a/D 0.5 up milling, 2 teeth", "slot, 2 teeth"]
     assert ev.cut_cond.tolist() == [0, 1] and ev.pt_cond.tolist() == [1, 0]
 

@@ -203,7 +203,7 @@ RESULTS: tuple[tuple[str, str, str], ...] = (
     ("millstab.sensitivity.results", "MCResult", "millstab.sensitivity.mc/1"),
     ("millstab.sensitivity.results", "SobolResult", "millstab.sensitivity.sobol/1"),
     ("millstab.sensitivity.results", "MorrisResult", "millstab.sensitivity.morris/1"),
-    ("millstab.update.posterior", "Posterior", "millstab.posterior/2"),
+    ("millstab.update.posterior", "Posterior", "millstab.posterior/3"),
     ("millstab.update.decide", "Recommendation", "millstab.recommendation/1"),
     ("millstab.simulate", "CutResult", "millstab.simulate.cut/1"),
     ("millstab.simulate", "Labels", "millstab.simulate.labels/1"),

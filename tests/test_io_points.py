@@ -273,3 +273,22 @@ def test_json_with_byte_order_mark(tmp_path):
     p = tmp_path / "fit.json"
     p.write_bytes('{"a": 1}'.encode("utf-8-sig"))
     assert read_json(p) == {"a": 1}
+
+
+def test_a_stickout_column_is_read_not_ignored(tmp_path):
+    """stickout_mm is kept for its own reader (io.stickout), so the cuts reader does not call it ignored;
+    a notes column still is."""
+    import warnings
+
+    from millstab.io.points import read_points
+    from millstab.io.stickout import stickouts
+
+    f = tmp_path / "cuts.csv"
+    f.write_text("rpm,depth_mm,label,stickout_mm,notes\n9000,1.0,stable,45,a\n9500,2.0,chatter,,b\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        pts = read_points(f)
+    text = " ".join(str(w.message) for w in caught)
+    assert "ignored columns: notes" in text and "stickout_mm" not in text
+    so = stickouts(pts)
+    assert so[0] == 0.045 and np.isnan(so[1])

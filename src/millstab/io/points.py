@@ -93,6 +93,11 @@ def read_points(path: PathLike, labels: str | dict | None = None) -> PointSet:
     return parse_points(text, p, labels)
 
 
+#: columns kept as text in ``PointSet.extra`` for a reader of their own, so not "ignored": the tool stickout of each
+#: cut (:mod:`millstab.io.stickout`, a posterior over the holder)
+KEPT_COLUMNS = ("stickout_mm",)
+
+
 def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | None, list[str]]:
     """(rater columns [(rater name, index)], the batch column or None, the unused columns) of a header;
     a misspelt known column (close to one that is absent) is an error, anything else unknown is unused."""
@@ -193,8 +198,9 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
             extra[h].append(cells[col[h]])
         for h in conds:
             conds[h].append(_condition_cell(cells[col[h]], h, line, p))
-    if unused:
-        warn(f"{p.name}: ignored columns: {', '.join(unused)} (kept, not used)", UserWarning, stacklevel=3)
+    ignored = [h for h in unused if h not in KEPT_COLUMNS]
+    if ignored:
+        warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used)", UserWarning, stacklevel=3)
     ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))
     with np.errstate(all="ignore"):
         rated = ~np.isnan(ratings).all(axis=1)

@@ -165,3 +165,19 @@ def test_a_retry_after_another_shop_took_the_name_reads_none_of_its_cuts(db, mon
     assert sampled == [2]  # only acme's own two cuts were ever sampled (without the re-check: [2, 7], then refused)
     with open_store(db) as s:
         assert s.campaign_shop("same") == "bolt" and s.head("same").n_rows == 5
+
+
+def test_cuts_with_condition_columns_are_refused_not_dropped(tmp_path):
+    """The database stores no per-cut cutting conditions yet: such cuts are refused with one clear error
+    instead of being recorded in the config's condition."""
+    from millstab import api
+    from millstab.errors import InputError
+    from millstab.points import PointSet
+
+    cuts = api.points_from_text("rpm,depth_mm,label,radial_immersion\n9000,1.0,stable,0.5\n9500,2.0,chatter,\n")
+    assert cuts.has_conditions
+    with pytest.raises(InputError, match="per-cut cutting conditions"):
+        api.shop.record_cuts(tmp_path / "shop.db", "c1", cuts)
+    assert not (tmp_path / "shop.db").exists() or not api.shop.campaigns(tmp_path / "shop.db")
+    plain = PointSet(cuts.rpm, cuts.depth_mm, cuts.label)
+    assert not plain.has_conditions

@@ -133,6 +133,15 @@ def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | Non
     return shop
 
 
+
+def _no_conditions(cuts: PointSet | None, what: str) -> None:
+    """InputError for cuts with per-cut condition columns: the shop database does not store them yet, and a
+    campaign must not lose them silently (record the cuts in the config's condition, or update to files)."""
+    if cuts is not None and getattr(cuts, "has_conditions", False):
+        raise InputError(what, "per-cut condition columns", "the shop database does not store per-cut cutting "
+                         "conditions yet: give cuts in the config's condition, or update to a posterior file (--out)")
+
+
 def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
                  engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
                  machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
@@ -162,6 +171,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
 
     from millstab.shopdb.store import StaleError
 
+    _no_conditions(new_cuts, "cuts")
+    _no_conditions(points, "points")
     store = open_db(db, user)
     shop = _writable(store, campaign, shops, shop)
     cfg, _ = modal(cfg)
@@ -238,6 +249,7 @@ def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, m
     """Record cuts without an update (the next :func:`update_in_db` uses them); returns the campaign's row count.
     ``shops``, ``shop``: as in :func:`update_in_db`; ``expected_rows``: refuse when the campaign does not
     hold that many rows (someone added cuts meanwhile)."""
+    _no_conditions(cuts, "cuts")
     store = open_db(db, user)
     shop = _writable(store, campaign, shops, shop)
     return store.add_cuts(campaign, cuts, machine=machine, tool=tool, user=user, raters=raters,

@@ -91,6 +91,16 @@ TeethOpt = Annotated[Optional[int], typer.Option(
     "--teeth", help="Decide for a tool of this family with this many teeth.", rich_help_panel="Target condition")]
 
 
-def target(radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None) -> dict:
-    """The target-condition options as keywords of :func:`millstab.api.for_condition`."""
-    return dict(radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)
+StickoutOpt = Annotated[Optional[float], typer.Option(
+    "--stickout", help="Decide at this tool stickout [mm] (a posterior over the holder, from a [tool] + "
+                       "[[holder.modes]] config).", rich_help_panel="Target condition")]
+
+
+def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None):
+    """The posterior deciding for the target options of map, recommend and predict: at the stickout
+    (:func:`millstab.api.at_stickout`), then in the cutting condition (:func:`millstab.api.for_condition`)."""
+    from millstab import api
+
+    post = api.at_stickout(post, stickout)
+    return api.for_condition(post, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
+                             exit_deg=exit_deg, teeth=teeth)

@@ -10,7 +10,8 @@ import typer
 from millstab import api
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
-from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
+from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
+                                  for_decision)
 from millstab.cli.update import LABELS_HELP
 from millstab.errors import InputError
 
@@ -24,8 +25,7 @@ def predict_cmd(
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order "
                                                 "(and condition where the cuts' conditions differ)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
-    stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
-                                             "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
+    stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     radial_immersion: RadialImmersionOpt = None,
@@ -46,8 +46,7 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = api.at_stickout(post, stickout)
-    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)

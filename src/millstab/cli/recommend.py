@@ -10,7 +10,8 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
+from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
+                                  for_decision)
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 
@@ -50,8 +51,7 @@ def recommend_cmd(
                                           help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
                                                "(0.0025 = ±0.25 %)."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
-    stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
-                                             "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
+    stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     user: UserOpt = None,
@@ -79,8 +79,7 @@ def recommend_cmd(
     rule = dict(max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed, confidence=conf,
                 speed_tolerance=speed_tolerance, test_risk=test_risk)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
-    post = api.at_stickout(post, stickout)
-    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
     check_outputs(inputs, {"--out": out})
     if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db

@@ -15,7 +15,8 @@ from millstab.cli.options import samples_option, seed_option
 from millstab.cli.options import DaskOpt, WorkersOpt
 from millstab.cli.options import dask_client as _client
 from millstab.api import ENGINES
-from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt, target
+from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
+                                  for_decision)
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
@@ -141,8 +142,7 @@ def map_cmd(
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
-    stickout: Optional[float] = typer.Option(None, "--stickout", help="Decide at this tool stickout [mm] (a "
-                                             "posterior over the holder, from a [tool] + [[holder.modes]] config)."),
+    stickout: StickoutOpt = None,
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
     db: ShopDbOpt = None,
@@ -162,8 +162,7 @@ def map_cmd(
     speeds = api.parse_rpm_range(rpm)
     depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = api.at_stickout(post, stickout)
-    post = api.for_condition(post, **target(radial_immersion, milling, entry_deg, exit_deg, teeth))
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)

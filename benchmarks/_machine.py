@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
 import os
 import platform
+from concurrent.futures import ProcessPoolExecutor
 
 
 def describe() -> str:
@@ -22,3 +25,18 @@ def describe() -> str:
         pass
     return (f"machine: {cpu}; {os.cpu_count()} CPUs; Python {platform.python_version()}; numpy {numpy.__version__}; "
             f"numba {numba.__version__} with {numba.get_num_threads()} threads; BLAS pinned to 1 thread")
+
+
+def _one_thread() -> None:
+    """A pool worker's start: numba on one thread (the pool is the parallelism)."""
+    import numba
+
+    numba.set_num_threads(1)
+
+
+def pool_of(jobs: int):
+    """A process pool of ``jobs`` workers (spawned: numba's OpenMP forbids fork after use; one numba
+    thread each), or, for ``jobs`` ≤ 1, a null context (``None``: run in this process)."""
+    if jobs <= 1:
+        return contextlib.nullcontext()
+    return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=_one_thread)

@@ -7,6 +7,7 @@ import multiprocessing
 import os
 import platform
 from concurrent.futures import ProcessPoolExecutor
+from itertools import repeat
 
 
 def describe() -> str:
@@ -40,3 +41,16 @@ def pool_of(jobs: int):
     if jobs <= 1:
         return contextlib.nullcontext()
     return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=_one_thread)
+
+
+def run_campaigns(run_one, args, todo) -> tuple[list, list]:
+    """(rows, records) of ``run_one(args, c)`` -> (row, printed lines, record) for each c in ``todo``, in
+    ``args.jobs`` processes (:func:`pool_of`); each campaign's lines are printed in campaign order."""
+    rows, records = [], []
+    with pool_of(args.jobs) as pool:
+        results = pool.map(run_one, repeat(args), todo) if pool else (run_one(args, c) for c in todo)
+        for row, lines, rec in results:  # in campaign order, whatever finished first
+            rows.append(row)
+            records.append(rec)
+            print("\n".join(lines), flush=True)
+    return rows, records

@@ -38,7 +38,6 @@ import os
 import sys
 import time
 import warnings
-from itertools import repeat
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +45,7 @@ from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _conflict_record import campaign_record, save  # noqa: E402
-from _machine import describe, pool_of  # noqa: E402
+from _machine import describe, run_campaigns  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -153,15 +152,8 @@ def main() -> None:
     print(describe())
     prior = make_prior(load_config("example:ex1").structure, load_config("example:ex1").cutting,
                        PriorTable({}, tails=args.tails))
-    rows, records = [], []
     t_all, c_all = time.perf_counter(), time.process_time()
-    todo = range(args.first, args.first + args.campaigns)
-    with pool_of(args.jobs) as pool:
-        results = pool.map(run_one, repeat(args), todo) if pool else (run_one(args, c) for c in todo)
-        for row, lines, rec in results:  # in campaign order, whatever finished first
-            rows.append(row)
-            records.append(rec)
-            print("\n".join(lines), flush=True)
+    rows, records = run_campaigns(run_one, args, range(args.first, args.first + args.campaigns))
     if args.save:
         save(args.save, prior, records)
     n = len(rows)

@@ -9,7 +9,7 @@ distribution of the check's figures (the log Bayes factor and the tail share), s
 judged against the measured rates. The learned label error's second check needs an engine call and is
 not rescored here (it fires where the cuts contradict each other, not in these designs).
 
-Run: ``.venv/bin/python benchmarks/score_conflict.py robust.npz calibration.npz [--show]``.
+Run: ``.venv/bin/python benchmarks/score_conflict.py robust.npz calibration.npz [--show] [--bayes-factor 10]``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _conflict_record import load  # noqa: E402
 
+from millstab.update import conflict  # noqa: E402
 from millstab.update.conflict import check  # noqa: E402
 from millstab.update.posterior import split_modes  # noqa: E402
 
@@ -37,7 +38,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", type=Path, nargs="+")
     ap.add_argument("--show", action="store_true", help="print every campaign's figures per round")
+    ap.add_argument("--bayes-factor", type=float, default=None,
+                    help=f"score with this threshold instead of the tree's ({conflict.BAYES_FACTOR:g})")
     args = ap.parse_args()
+    if args.bayes_factor is not None:
+        conflict.BAYES_FACTOR = args.bayes_factor
+    print(f"rule: the evidence ratio robust/tight above {conflict.BAYES_FACTOR:g} (millstab.update.conflict)")
     for path in args.files:
         prior, camps = load(path)
         named, lbf, tail = {}, [], []

@@ -76,6 +76,12 @@ from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
 _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
+#: the engines' discretisation for the updating loop and its decisions (:class:`millstab.forward.Forward`'s
+#: ``purpose``): the likelihood compares limits with a depth noise σ_b of several %, so the spectral engine's
+#: converged node count serves (issue 28; measured within 0.03 σ_b of a reference 6 nodes finer on 100 prior
+#: samples, 1.6× cheaper per depth than a fit's count, benchmarks/bench_spectral_nodes.py; the 300-sample
+#: update of docs/updating.md 1.31× less CPU, the same posterior within 0.03 sd)
+SAMPLING = "sample"
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
@@ -94,14 +100,14 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
         from millstab.cluster import sample_limits
 
         check_kr_engine(prior, engine)
-        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, SAMPLING)
         if out is not None:
             return out
     kr = prior.kr_of(u)
     theta, factor = prior.split(u)
     rpm = check_rpm(rpm)
     eng = check_kr_engine(prior, engine)
-    fwd = forward(prior.par, prior.cutting, engine)
+    fwd = forward(prior.par, prior.cutting, engine, SAMPLING)
     cut = prior.cutting if conditions is None else conditions
     extra = {} if kr is None else {"kr": kr}
     if with_freq and eng.reports_chatter_frequency:

@@ -62,3 +62,27 @@ def test_the_likelihood_and_the_decisions_evaluate_with_the_sampling_count(case)
     assert f.settings(RPM[:2], theta[0]) == spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="sample")
     with pytest.raises(InputError, match="purpose"):
         spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="fast")
+
+
+def test_the_likelihood_is_one_function_of_theta_across_calls():
+    """A Likelihood holds its forward model: the node count is chosen once (at the first row of its first
+    call), so a row gets the same limits whichever rows share a later call. Before, each call's first row
+    chose: Example 1 at a/D 0.1 converges at 6 nodes at the hammer test and at 8 with fn × 1.2, so the same
+    row got two different depths (fails on the old code)."""
+    from millstab.io.points import PointSet
+    from millstab.update.likelihood import Evidence, Likelihood
+
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(2, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=0.05))
+    rpm = np.linspace(3000.0, 15000.0, 12)
+    u0 = np.log(prior.median)
+    other = u0 + np.log(np.where(np.isin(prior.names, ["fn_x", "fn_y"]), 1.2, 1.0))
+    head = prior.par.batch(np.exp(other)[None])
+    assert (spectral.settings(head, cut, rpm, purpose="sample")
+            != spectral.settings(prior.par.batch(prior.median[None]), cut, rpm, purpose="sample"))
+    labels = np.where(np.arange(rpm.size) % 2, "chatter", "stable")
+    lik = Likelihood(prior, Evidence.from_points(PointSet(rpm, np.full(rpm.size, 5.0), labels)), "spectral")
+    behind = lik._evaluate(np.vstack([other, u0]))[0][1]
+    alone = lik._evaluate(u0[None])[0][0]
+    np.testing.assert_array_equal(alone, behind)

@@ -433,12 +433,13 @@ def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
                   with_freq: bool = False, conditions=None,
-                  purpose: str = "fit") -> tuple[np.ndarray, np.ndarray | None] | None:
+                  settings: dict | None = None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
-    the same numbers; ``purpose``: the discretisation's, as :class:`millstab.forward.Forward`'s). Returns None
-    when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
+    the same numbers; ``settings``: the engine's discretisation chosen by the caller's forward model, default
+    :func:`split_settings` of these rows). Returns None when it does not pay (:data:`PAYS_SECONDS`): the
+    caller runs here."""
     from millstab.stability import check_rpm
 
     check_client(client)
@@ -465,7 +466,8 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
             hz[0][s:s + h.shape[0]] = h
 
     cut = prior.cutting if conditions is None else conditions
-    settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm, purpose)
+    if settings is None:
+        settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm)
     stream(client, _samples_task, [(u[s:s + per], conditions) for s in starts], take,
            common=(prior, rpm, engine, with_freq, settings), name="samples")
     return depth, hz[0]

@@ -97,6 +97,11 @@ asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood compar
 several %. Measured (benchmarks/bench_spectral_nodes.py, 100 prior samples × 10 cut speeds of the
 docs/updating.md case, a reference 4 nodes above the fit's 8): 6 nodes within 0.16 % of the depth (0.031
 σ_b) at 0.6× the fit count's CPU; 4 nodes land on another root at 6.6 % of the pairs (hence the start at 6).
+Measured and not kept (same day, 20 prior samples × 10 cut speeds, 4 227 ladder rungs below the root):
+certifying a rung stable without its eigenvalues by a Lyapunov matrix P of another rung (P − MᵀPM ≻ 0 by
+one Cholesky, on the balanced monodromy; unbalanced, no rung is certified: ‖P‖ ~ 3e7): the previous
+rung's P certifies 68 % of the rungs, a P kept until it fails 51 %; but each P is a Lyapunov solve
+(a Schur form, dearer than the eigenvalues), so neither scheme saves work.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms

@@ -67,7 +67,7 @@ import numpy as np
 from scipy.special import log_ndtr
 
 from millstab.errors import InputError
-from millstab.forward import forward
+from millstab.forward import Forward, forward
 from millstab.model import Conditions, Cutting, condition_index
 from millstab.points import PointSet, cut_conditions, same_condition
 from millstab.stability import check_rpm, get_engine, per_set_kr
@@ -86,7 +86,8 @@ SAMPLING = "sample"
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
            with_freq: bool = False, client=None,
-           conditions: Conditions | Cutting | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+           conditions: Conditions | Cutting | None = None,
+           fwd: Forward | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
@@ -94,20 +95,28 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     Kt scales the depths exactly and a free Kr goes to the engine per sample (see
     :mod:`millstab.update.prior`). ``inf`` where no boundary exists. Frequencies come only from an engine
     declaring ``reports_chatter_frequency`` (else ``None``). ``client``: a ``distributed.Client``; the
-    rows go to its cluster where that pays (same numbers).
+    rows go to its cluster where that pays (same numbers). ``fwd``: the forward model of ``prior`` and
+    ``engine`` whose discretisation to use (``purpose`` :data:`SAMPLING`; a :class:`Likelihood` holds one, so
+    the engine's settings are chosen once per speed list for a whole update, at the first row of its first
+    call, and every later call evaluates the same function of θ); default a fresh one (settings chosen at
+    this call's first row).
     """
+    fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
         check_kr_engine(prior, engine)
-        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, SAMPLING)
+        # an engine with per-problem settings (spectral): the ones this forward model holds; otherwise the
+        # cluster's split_settings of these rows (sdm's steps follow the batch), as before
+        chosen = (fwd.settings(check_rpm(rpm), prior.split(np.atleast_2d(u)[:1])[0][0], conditions)
+                  if getattr(get_engine(engine), "settings", None) is not None else None)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, chosen)
         if out is not None:
             return out
     kr = prior.kr_of(u)
     theta, factor = prior.split(u)
     rpm = check_rpm(rpm)
     eng = check_kr_engine(prior, engine)
-    fwd = forward(prior.par, prior.cutting, engine, SAMPLING)
     cut = prior.cutting if conditions is None else conditions
     extra = {} if kr is None else {"kr": kr}
     if with_freq and eng.reports_chatter_frequency:
@@ -396,6 +405,11 @@ class Likelihood:
         self.batch = BatchEffect.of(prior, ev, self._ic, self._ip)
         if self.batch is not None:
             self._ic, self._ip = self.batch.ic, self.batch.ip
+        # one forward model per group, held for the whole update: the engine's discretisation is chosen once
+        # per speed list (at the first row of the first call), so log L is one function of θ in every call
+        # (a fresh model per call let the first row of each call choose, and the spectral engine's node count
+        # moved between calls: the same θ got depths up to 0.16 % apart, tests/test_spectral_sampling.py)
+        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING) for p, _ in self._groups]
         self.n_calls = 0
         self.n_sets = 0
 
@@ -421,13 +435,13 @@ class Likelihood:
         where[cols] = np.arange(cols.size)
         depth = np.empty((u.shape[0], cols.size))
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
-        for (prior, group), cond in zip(self._groups, self._group_conditions):
+        for (prior, group), cond, fwd in zip(self._groups, self._group_conditions, self._forwards):
             sel = group if every else group[where[group] >= 0]
             if not sel.size:
                 continue
             if not every:
                 cond = self._conditions_of(self.column_cond[sel])
-            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond)
+            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond, fwd)
             self.n_calls += 1
             depth[:, where[sel]] = d
             if hz is not None and h is not None:

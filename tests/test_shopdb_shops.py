@@ -205,6 +205,12 @@ def test_cuts_with_conditions_and_stickouts_are_stored_as_given(tmp_path):
     shop.import_campaign(db, tmp_path / "c1", "c1-copy")
     with open_store(db) as s:
         assert cut_settings(s.cuts("c1-copy")) == cut_settings(cuts) and s.check() == []
+    # the app's cuts table: the condition and stickout columns some cut fills, an empty cell the config's value
+    header, body = shop.cut_table(shop.ShopView(db, "ann").open("c1").rows)
+    assert header == ["seq", "rpm", "depth_mm", "label", "batch", "radial_immersion", "milling", "entry_deg",
+                      "exit_deg", "feed_per_tooth_mm", "teeth", "stickout_mm", "created_by"]
+    assert body[1] == [2, 9500.0, 2.0, "chatter", "mon"] + [None] * 7 + ["ann"]
+    assert body[2][header.index("entry_deg")] == 30.0 and body[3][header.index("stickout_mm")] == 0.1
     # the whole file again, as the file workflow passes it: its recorded rows are recognised, conditions too
     assert shop.already_recorded(got, cuts)[0].rpm.size == 0
     moved = read_points(tmp_path / "mixed.csv")

@@ -18,7 +18,8 @@ from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text
-from millstab.points import PointSet
+from millstab.io.stickout import COLUMN as STICKOUT
+from millstab.points import CONDITION_COLUMNS, PointSet
 from millstab.shopdb import DEFAULT_SHOP, check_shop  # (the package's __init__ imports no SQLAlchemy)
 
 
@@ -320,6 +321,22 @@ def history_table(events) -> tuple[list[str], list]:
     return header, [[getattr(e, h) for e in events] for h in header]
 
 
+#: the columns of a campaign's cuts table (:func:`cut_table`), in order; the condition and stickout columns
+#: appear only when a cut has its own (an empty cell: the config's value)
+OWN_COLUMNS = CONDITION_COLUMNS + (STICKOUT,)
+CUT_COLUMNS = ("seq", "rpm", "depth_mm", "label", "chatter_hz", "batch", "rater") + OWN_COLUMNS + ("created_by",)
+
+
+def cut_table(rows: Sequence[dict]) -> tuple[list[str], list[list]]:
+    """(header, rows) of a campaign's cut rows (:attr:`OpenCampaign.rows`) for a table: the cut number (1 = the
+    first), speed, depth, label, chatter frequency and test day, who rated and recorded it, and each condition
+    or stickout column that some cut fills (``None`` in a cut's cell: the config's value). Columns no cut fills
+    (no chatter frequency, no test day, no rater, the config's condition for every cut) are left out."""
+    keep = [c for c in CUT_COLUMNS if c in ("seq", "rpm", "depth_mm", "label")
+            or any(r.get(c) not in (None, "") for r in rows)]
+    return keep, [[r["seq"] + 1 if c == "seq" else r.get(c) for c in keep] for r in rows]
+
+
 def campaigns(db, shops: Shops = None) -> list[dict]:
     """Every campaign of the database (of ``shops`` only, when given): name, shop, machine, tool, updates, times."""
     return open_db(db, create=False).campaigns(shops)
@@ -411,5 +428,6 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
+__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded",
+           "campaigns", "check", "config_text", "cut_table", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
            "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

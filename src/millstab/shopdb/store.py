@@ -43,7 +43,8 @@ from sqlalchemy import exc as sa_exc
 
 from millstab.errors import InputError
 from millstab.io.results import to_jsonable
-from millstab.points import PointSet
+from millstab.io.stickout import COLUMN as STICKOUT
+from millstab.points import CONDITION_COLUMNS, PointSet
 from millstab.shopdb import check_shop
 from millstab.shopdb import schema as T
 
@@ -110,8 +111,7 @@ def data_hash(config_toml: str, cuts: PointSet) -> str:
 
 
 #: the cut table's columns of a cut's own condition and stickout (migration 0003): NULL = the config's value
-SETTINGS = ("radial_immersion", "radial_width_mm", "milling", "entry_deg", "exit_deg", "feed_per_tooth_mm", "teeth",
-            "stickout_mm")
+SETTINGS = CONDITION_COLUMNS + (STICKOUT,)
 
 
 def cut_settings(cuts: PointSet) -> list[dict]:
@@ -127,7 +127,7 @@ def cut_settings(cuts: PointSet) -> list[dict]:
     cols = dict(cuts.conditions)
     so = stickouts_mm(cuts)
     if so is not None:
-        cols["stickout_mm"] = so
+        cols[STICKOUT] = so
     out: list[dict] = [{} for _ in range(len(cuts))]
     for name, col in cols.items():
         for i, v in enumerate(col):
@@ -738,7 +738,7 @@ def cuts_from_rows(rows: Sequence[dict]) -> PointSet:
             continue
         if name == "milling":
             conditions[name] = np.array([v or "" for v in col], dtype=object)
-        elif name == "stickout_mm":
+        elif name == STICKOUT:
             from millstab.io.stickout import stickout_cells
 
             extra[name] = stickout_cells([_nan(v) for v in col])

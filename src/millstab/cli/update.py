@@ -75,7 +75,7 @@ def update_cmd(
     if shop is not None:
         if not in_db:
             raise InputError("--shop", shop, "the shop of a campaign in a shop database: give --db and --campaign too")
-        from millstab.shopdb import check_shop
+        from millstab.api.shop import check_shop
 
         shop = check_shop(shop)
     cfg = api.with_batch_effect(api.config(config), batch_effect)

@@ -113,25 +113,15 @@ def test_a_campaign_moves_from_sqlite_to_the_server(url, tmp_path):
 def test_upgrade_from_0002_and_cuts_with_conditions_on_postgresql(url):
     """A server database at 0002 holding a cut is upgraded (ALTER TABLE ... ADD COLUMN, not SQLite's batch copy):
     the old cut keeps NULL (the config's condition and stickout), and cuts with their own read back exactly."""
-    import sqlalchemy as sa
-    from alembic import command
     from alembic.autogenerate import compare_metadata
     from alembic.migration import MigrationContext
 
     from millstab import api
     from millstab.shopdb import schema
-    from millstab.shopdb.store import alembic_config, cut_settings
-    from test_shopdb_shops import MIXED
+    from millstab.shopdb.store import cut_settings
+    from test_shopdb_shops import MIXED, database_at
 
-    eng = sa.create_engine(url)
-    with eng.begin() as conn:
-        command.upgrade(alembic_config(conn), "0002")
-        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision, shop) "
-                             "VALUES ('old', '', '2026-01-01T00:00:00Z', 'ann', '2026-01-01T00:00:00Z', 0, 'acme')"))
-        conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, rater, "
-                             "recording, created_at, created_by) SELECT id, 0, 9000.5, 1.25, 'chatter', 1.0, 2.0, "
-                             "'mon', 'ann', '', '2026-01-01T00:00:00Z', 'ann' FROM campaign"))
-    eng.dispose()
+    database_at(url, "0002", cut=True)
     store = open_store(url, user="bob")
     with store.engine.connect() as conn:
         ctx = MigrationContext.configure(conn)

@@ -112,18 +112,30 @@ def test_the_writers_transaction_checks_the_shop_again(db):
         assert s.head("b1").n_rows == 5 and s.campaign_shop("b1") == "bolt"
 
 
-def test_a_database_of_the_first_schema_is_migrated_into_the_default_shop(tmp_path):
+def database_at(url: str, revision: str, cut: bool = False) -> None:
+    """A database built by the migrations up to ``revision`` only (an older millstab's), holding campaign 'old'
+    (from 0002 in shop acme) and, with ``cut``, one cut of it."""
     from alembic import command
 
     from millstab.shopdb.store import alembic_config
 
-    path = tmp_path / "old.db"
-    eng = sa.create_engine(f"sqlite:///{path}")
+    at, shop_col = "'2026-01-01T00:00:00Z'", revision >= "0002"
+    eng = sa.create_engine(url)
     with eng.begin() as conn:
-        command.upgrade(alembic_config(conn), "0001")
-        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision) "
-                             "VALUES ('old', '', '2026-01-01T00:00:00Z', 'ann', '2026-01-01T00:00:00Z', 0)"))
+        command.upgrade(alembic_config(conn), revision)
+        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision"
+                             + (", shop" if shop_col else "") + f") VALUES ('old', '', {at}, 'ann', {at}, 0"
+                             + (", 'acme'" if shop_col else "") + ")"))
+        if cut:
+            conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, rater, "
+                                 f"recording, created_at, created_by) SELECT id, 0, 9000.5, 1.25, 'chatter', 1.0, 2.0, "
+                                 f"'mon', 'ann', '', {at}, 'ann' FROM campaign"))
     eng.dispose()
+
+
+def test_a_database_of_the_first_schema_is_migrated_into_the_default_shop(tmp_path):
+    path = tmp_path / "old.db"
+    database_at(f"sqlite:///{path}", "0001")
     with open_store(path) as s:
         assert s.campaigns()[0]["shop"] == schema.DEFAULT_SHOP == "default"
         assert s.check() == []
@@ -221,22 +233,11 @@ def test_cuts_with_conditions_and_stickouts_are_stored_as_given(tmp_path):
 def test_a_database_of_schema_0002_is_migrated_and_keeps_its_cuts(tmp_path):
     """Upgrading from 0002: the cut table gains the condition and stickout columns, NULL (the config's) for
     every existing cut, which read back unchanged; the schema is then the code's tables."""
-    from alembic import command
     from alembic.autogenerate import compare_metadata
     from alembic.migration import MigrationContext
 
-    from millstab.shopdb.store import alembic_config
-
     path = tmp_path / "old.db"
-    eng = sa.create_engine(f"sqlite:///{path}")
-    with eng.begin() as conn:
-        command.upgrade(alembic_config(conn), "0002")
-        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision, shop) "
-                             "VALUES ('old', '', '2026-01-01T00:00:00Z', 'ann', '2026-01-01T00:00:00Z', 0, 'acme')"))
-        conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, rater, "
-                             "recording, created_at, created_by) VALUES (1, 0, 9000.5, 1.25, 'chatter', 1.0, 2.0, "
-                             "'mon', 'ann', '', '2026-01-01T00:00:00Z', 'ann')"))
-    eng.dispose()
+    database_at(f"sqlite:///{path}", "0002", cut=True)
     with open_store(path) as s:
         with s.engine.connect() as conn:
             assert MigrationContext.configure(conn).get_current_revision() == schema.HEAD == "0003"

@@ -17,9 +17,9 @@ import argparse
 import time
 
 import numpy as np
+from _machine import describe
 from threadpoolctl import threadpool_limits
 
-from _machine import describe
 from millstab.io import load_config
 from millstab.io.config import PriorTable
 from millstab.model import Cutting

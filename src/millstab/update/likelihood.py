@@ -80,7 +80,8 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 #: ``purpose``): the likelihood compares limits with a depth noise σ_b of several %, so the spectral engine's
 #: converged node count serves (issue 28; measured within 0.03 σ_b of a reference 6 nodes finer on 100 prior
 #: samples, 1.6× cheaper per depth than a fit's count, benchmarks/bench_spectral_nodes.py; the 300-sample
-#: update of docs/updating.md 1.34× less CPU, the posterior means within 0.022 sd)
+#: update of docs/updating.md 1.34× less CPU with 300 samples, 1.12× with 1 000, the posterior means within
+#: 0.022 sd)
 SAMPLING = "sample"
 
 

@@ -55,8 +55,8 @@ def test_the_likelihood_and_the_decisions_evaluate_with_the_sampling_count(case)
     assert SAMPLING == "sample"
     u = np.log(theta[:3])
     d, _ = limits(prior, u, RPM[:2], "spectral")
-    want = spectral.envelope_batch(prior.par.batch(theta[:3]), cut, RPM[:2],
-                                   **spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="sample"))
+    at_theta0 = spectral.settings(prior.par.batch(prior.par.theta0[None]), cut, RPM[:2], purpose="sample")
+    want = spectral.envelope_batch(prior.par.batch(theta[:3]), cut, RPM[:2], **at_theta0)
     np.testing.assert_array_equal(d, want * 1e3)
     f = Forward(prior.par, cut, "spectral", "sample")
     assert f.settings(RPM[:2], theta[0]) == spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="sample")
@@ -65,10 +65,10 @@ def test_the_likelihood_and_the_decisions_evaluate_with_the_sampling_count(case)
 
 
 def test_the_likelihood_is_one_function_of_theta_across_calls():
-    """A Likelihood holds its forward model: the node count is chosen once (at the first row of its first
-    call), so a row gets the same limits whichever rows share a later call. Before, each call's first row
-    chose: Example 1 at a/D 0.1 converges at 6 nodes at the hammer test and at 8 with fn × 1.2, so the same
-    row got two different depths (fails on the old code)."""
+    """The node count is chosen once per speed list, at θ0 (the hammer test), so a row gets the same limits
+    whichever rows share a call, in the likelihood and in a decision's fresh call. Before, each call's first
+    row chose: Example 1 at a/D 0.1 converges at 6 nodes at the hammer test and at 8 with fn × 1.2, so the
+    same row got two different depths (fails on the old code)."""
     from millstab.io.points import PointSet
     from millstab.update.likelihood import Evidence, Likelihood
 
@@ -86,3 +86,5 @@ def test_the_likelihood_is_one_function_of_theta_across_calls():
     behind = lik._evaluate(np.vstack([other, u0]))[0][1]
     alone = lik._evaluate(u0[None])[0][0]
     np.testing.assert_array_equal(alone, behind)
+    fresh = limits(prior, np.vstack([other, u0]), lik.speeds, "spectral")[0][1]  # a decision's call
+    np.testing.assert_array_equal(fresh, alone)

@@ -98,11 +98,12 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     declaring ``reports_chatter_frequency`` (else ``None``). ``client``: a ``distributed.Client``; the
     rows go to its cluster where that pays (same numbers). ``fwd``: the forward model of ``prior`` and
     ``engine`` whose discretisation to use (``purpose`` :data:`SAMPLING`; a :class:`Likelihood` holds one, so
-    the engine's settings are chosen once per speed list for a whole update, at the first row of its first
-    call, and every later call evaluates the same function of θ); default a fresh one (settings chosen at
-    this call's first row).
+    the engine's settings are chosen once per speed list for a whole update); default a fresh one. Either
+    way the settings are chosen at the parameterization's θ0 (the prior median's structure), not at a
+    sample: the same numbers whichever samples share a call.
     """
     fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
+    fwd.settings(check_rpm(rpm), None, conditions)  # chosen at θ0 (cached: later rows use it)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
@@ -407,9 +408,9 @@ class Likelihood:
         if self.batch is not None:
             self._ic, self._ip = self.batch.ic, self.batch.ip
         # one forward model per group, held for the whole update: the engine's discretisation is chosen once
-        # per speed list (at the first row of the first call), so log L is one function of θ in every call
-        # (a fresh model per call let the first row of each call choose, and the spectral engine's node count
-        # moved between calls: the same θ got depths up to 0.16 % apart, tests/test_spectral_sampling.py)
+        # per speed list (at θ0, :func:`limits`), so log L is one function of θ in every call (before, the first
+        # row of each call chose, and the spectral engine's node count moved between calls: the same θ got
+        # depths up to 0.11 % apart, tests/test_spectral_sampling.py)
         self._forwards = [forward(p.par, p.cutting, engine, SAMPLING) for p, _ in self._groups]
         self.n_calls = 0
         self.n_sets = 0

@@ -343,13 +343,13 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
+def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit") -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
     for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there)."""
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there)."""
     from millstab.forward import forward
 
-    return dict(forward(par, cutting, engine).pinned(rpm, theta_rows).settings)
+    return dict(forward(par, cutting, engine, purpose).pinned(rpm, theta_rows).settings)
 
 
 def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, rows: np.ndarray) -> np.ndarray:
@@ -432,11 +432,14 @@ def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings
 
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
-                  with_freq: bool = False, conditions=None) -> tuple[np.ndarray, np.ndarray | None] | None:
+                  with_freq: bool = False, conditions=None,
+                  settings: dict | None = None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
-    the same numbers). Returns None when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
+    the same numbers; ``settings``: the engine's discretisation chosen by the caller's forward model, default
+    :func:`split_settings` of these rows). Returns None when it does not pay (:data:`PAYS_SECONDS`): the
+    caller runs here."""
     from millstab.stability import check_rpm
 
     check_client(client)
@@ -463,7 +466,8 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
             hz[0][s:s + h.shape[0]] = h
 
     cut = prior.cutting if conditions is None else conditions
-    settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm)
+    if settings is None:
+        settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm)
     stream(client, _samples_task, [(u[s:s + per], conditions) for s in starts], take,
            common=(prior, rpm, engine, with_freq, settings), name="samples")
     return depth, hz[0]

@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
-from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
+from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
 from millstab.errors import InputError
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.options import DaskOpt, WorkersOpt
@@ -57,6 +57,7 @@ def update_cmd(
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     user: UserOpt = None,
+    shop: ShopOpt = None,
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC); with --db/--campaign the cuts
     and the posterior are recorded in a shop database, starting from the campaign's current posterior."""
@@ -71,6 +72,12 @@ def update_cmd(
         raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
     if in_db and start is not None:
         raise InputError("--start", str(start), "with --db the campaign's current posterior is the start")
+    if shop is not None:
+        if not in_db:
+            raise InputError("--shop", shop, "the shop of a campaign in a shop database: give --db and --campaign too")
+        from millstab.api.shop import check_shop
+
+        shop = check_shop(shop)
     cfg = api.with_batch_effect(api.config(config), batch_effect)
     # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
     from millstab.io.recordings import has_recording_column
@@ -89,9 +96,6 @@ def update_cmd(
     from millstab.io.stickout import stickouts
 
     so = stickouts(c)  # a stickout_mm column: each cut's stickout (a prior over the holder: docs/tooltip.md)
-    if so is not None and in_db:
-        raise InputError("stickout_mm", "with --db", "per-cut stickouts are not recorded in a shop database yet; "
-                                                     "update to a posterior file (--out)")
     if not api.over_holder(cfg):
         cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
         if note:
@@ -103,7 +107,7 @@ def update_cmd(
             from millstab.api.shop import update_in_db
 
             done = update_in_db(db, campaign, cfg, c, p, engine=engine, samples=samples, seed=seed, user=user,
-                                client=client)
+                                client=client, sampler=sampler, shop=shop)  # stickouts, conditions: with the cuts
             post = done.posterior
             for line in done.notes:
                 typer.echo(line)

@@ -119,3 +119,16 @@ def test_jumps_keep_a_unimodal_target_and_same_seed_same_samples():
 def test_bad_jump_settings_are_named(kw):
     with pytest.raises(InputError):
         tempered_smc(_draws, _logprior, lambda u: _loglik(u)[1], 100, seed=0, **kw)
+
+
+def test_update_jumps_every_fn_alone_and_all_together():
+    from millstab.io import load_config
+    from millstab.io.config import PriorTable
+    from millstab.update import lobe_jump_groups, make_prior
+
+    cfg = load_config("example:ex1")
+    pr = make_prior(cfg.structure, cfg.cutting, PriorTable({}))
+    groups = lobe_jump_groups(pr)
+    assert groups == ((pr.names.index("fn_x"),), (pr.names.index("fn_y"),), (pr.names.index("fn_x"), pr.names.index("fn_y")))
+    held = make_prior(cfg.structure, cfg.cutting, PriorTable({}, fixed=("fn_x", "fn_y")))
+    assert lobe_jump_groups(held) == ()

@@ -55,6 +55,15 @@ def screen_engine(engine: str, sampler: str = "auto") -> str | None:
     return SCREEN_ENGINE
 
 
+def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
+    """The sampler's lobe-jump groups (:func:`tempered_smc` ``jumps``): each free natural frequency's column
+    of u = ln θ alone, and all of them together (a wrong tap test usually shifts every mode alike)."""
+    fn = [i for i, name in enumerate(prior.names[:prior.n_modal]) if prior.par.kind(name) == "fn"]
+    if not fn:
+        return ()
+    return tuple((i,) for i in fn) + ((tuple(fn),) if len(fn) > 1 else ())
+
+
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
@@ -102,6 +111,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
     # the test days' shifts of ln fn (millstab.update.batch; none unless [prior] batch_effect)
     be, q = lik.batch, pr.dim
+    jumps = lobe_jump_groups(pr)  # the likelihood is multimodal in fn (lobe shifts): sampler.py, "Lobe jumps"
     sample_full, logpdf_full = pr.sample_full, pr.logpdf_full
     if be is not None:
         def sample_full(n, rng):
@@ -111,7 +121,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             return pr.logpdf_full(v[:, :q]) + be.logpdf(v[:, q:])
     if start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
-                           screen=scr)
+                           screen=scr, jumps=jumps)
     else:
         n_old = _check_start(start, pr, ev, engine)
         rng = np.random.default_rng(seed)
@@ -120,7 +130,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             u0 = np.hstack([u0, be.start(start.batch, u0.shape[0], rng)])
         u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
         res = tempered_smc(sample_full, logpdf_full, lik.split(n_old), samples, seed=rng, moves=moves,
-                           progress=progress, init=u0, screen=scr.split(n_old) if scr is not None else None)
+                           progress=progress, init=u0, screen=scr.split(n_old) if scr is not None else None,
+                           jumps=jumps)
     diag = res.diagnostics()
     diag["engine_sets"] = lik.n_sets
     if scr is not None:

@@ -46,9 +46,11 @@ def update_cmd(
     start: Optional[Path] = typer.Option(None, "--start", help="Posterior JSON of the first cuts of CUTS (from an "
                                          "earlier update): only the later cuts are tempered in (faster)."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
-    sampler: str = typer.Option("auto", "--sampler", help="MH moves: auto | delayed | plain. delayed: the zero-order "
-                                "engine screens each proposal, the chosen engine decides on the survivors (same "
-                                "posterior, a third of the engine calls); auto: delayed for every engine but zoa."),
+    sampler: str = typer.Option("auto", "--sampler", help="MH moves: auto | delayed | plain | surrogate. delayed: the "
+                                "zero-order engine screens each proposal, the chosen engine decides on the survivors "
+                                "(same posterior, a third of the engine calls); surrogate: sampled on corrected "
+                                "zero-order limits, then the chosen engine once per final sample and importance "
+                                "weights (same posterior); auto: delayed for every engine but zoa."),
     batch_effect: Optional[str] = typer.Option(None, "--batch-effect", help="σ of a test day's shift of every natural "
                                                "frequency, e.g. 3% (the cuts' batch/date column; overrides [prior] "
                                                "batch_effect; 0: off, the default)."),

@@ -226,7 +226,7 @@ def test_the_fitted_correction_learns_a_model_offset_per_speed():
     ev = Evidence.from_points(cuts)
     lik = Likelihood(prior, ev)
     biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
-    sur = Corrected(lik, Likelihood(biased, ev)).fit(40, np.random.default_rng(0))
+    sur = Corrected(lik, Likelihood(biased, ev)).fit(prior.sample_full(40, np.random.default_rng(0)))
     assert np.all(np.asarray(sur.heldout_rms) < 1e-4) and np.all(np.asarray(sur.delta_sd) < 1e-4)
     u = prior.sample_full(50, np.random.default_rng(1))
     np.testing.assert_allclose(sur.correction(u), math.log(1.25), atol=1e-4)
@@ -234,7 +234,7 @@ def test_the_fitted_correction_learns_a_model_offset_per_speed():
     assert np.abs(Likelihood(biased, ev)(u) - lik(u)).max() > 1  # uncorrected, the biased model is far off
     assert sur.report()["design"] == 40
     with pytest.raises(InputError, match="surrogate"):
-        Corrected(lik, Likelihood(biased, ev)).fit(40, np.random.default_rng(0), kind="spline")
+        Corrected(lik, Likelihood(biased, ev)).fit(u, kind="spline")
 
 
 @pytest.mark.slow
@@ -263,7 +263,7 @@ def test_update_surrogate_sampler_plumbing():
     b = update(cfg, cuts, samples=300, seed=5, sampler="surrogate")
     np.testing.assert_array_equal(a.samples, b.samples)
     d = a.diagnostics
-    assert d["surrogate"]["design"] == 200 and "correction" in d and d["correction"]["accurate_rows"] <= 300
+    assert 100 <= d["surrogate"]["design"] <= 200 and "correction" in d and d["correction"]["accurate_rows"] <= 300
     # the zero-order engine as the "accurate" one: its correction is 0, every weight 1
     assert d["correction"]["ess_fraction"] == pytest.approx(1.0) and max(d["surrogate"]["heldout_rms_ln_b"]) < 1e-12
     with pytest.raises(InputError, match="sampler"):

@@ -39,8 +39,10 @@ DEFAULT_SAMPLES = 4000
 #: particle and an importance correction to its posterior: :func:`millstab.update.sampler.corrected_smc`,
 #: :mod:`millstab.update.surrogate`)
 SAMPLERS = ("auto", "delayed", "plain", "surrogate")
-#: accurate evaluations (prior draws) that the ``surrogate`` sampler fits its correction on
+#: accurate evaluations (distinct zero-order posterior particles) that the ``surrogate`` sampler fits its correction on
 SURROGATE_DESIGN = 200
+#: the regression of the ``surrogate`` sampler's correction (:data:`millstab.update.surrogate.KINDS`)
+SURROGATE_KIND = "linear"
 #: the engine that screens proposals in delayed acceptance
 SCREEN_ENGINE = "zoa"
 
@@ -126,7 +128,12 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         if start is not None:
             raise InputError("sampler", "surrogate with a start posterior", "sequential reuse: use the delayed sampler")
         rng = np.random.default_rng(seed)
-        sur = Corrected(lik, scr).fit(min(SURROGATE_DESIGN, samples), rng)
+        sur = Corrected(lik, scr)
+        # the design: distinct particles of the zero-order posterior (a pilot run as cheap as a zero-order update),
+        # where the accurate posterior lies nearby; prior draws spread the fit over a range where the correction
+        # is not smooth at low immersion (measured: held-out error 0.23 in ln b against its own sd 0.29)
+        pilot = tempered_smc(sample_full, logpdf_full, scr, samples, seed=rng, moves=moves)
+        sur.fit(sur.design_from(pilot.u, SURROGATE_DESIGN, rng), SURROGATE_KIND, seed)
         res = corrected_smc(sample_full, logpdf_full, lik, sur, samples, seed=rng, moves=moves, progress=progress)
     elif start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,

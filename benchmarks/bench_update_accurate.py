@@ -33,8 +33,14 @@ fail the strict reading with a correct posterior.
 node count (the converged count + 2, not ``purpose="sample"``, :data:`millstab.update.likelihood.SAMPLING`),
 chosen at the first row of every call (not once per update by the likelihood's own forward model).
 
+``--surrogate``: also the spectral update with the surrogate sampler (a zero-order pilot posterior, a correction
+of the zero-order limits fitted on 200 of its particles evaluated by the spectral engine, tempered SMC on the
+corrected limits, the spectral engine once per distinct final particle and importance weights,
+:func:`millstab.update.sampler.corrected_smc`), the fit's held-out error, the importance ESS, and its posterior
+against the delayed-acceptance one (means and quantiles in sd units); ``--surrogate-kind``: the regression.
+
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
-[--cuts 10] [--plain] [--fit-nodes]``.
+[--cuts 10] [--plain] [--fit-nodes] [--surrogate]``.
 """
 
 from __future__ import annotations

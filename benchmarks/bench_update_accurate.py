@@ -111,6 +111,15 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
               f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
 
 
+def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
+    """Print the difference of two posteriors' means and 5/50/95 % quantiles of each ln θ in sd units."""
+    for j, nm in enumerate(names):
+        sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
+        dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
+        print(f"  ln {nm}: {what}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
+              f"{' '.join(f'{x:+.3f}' for x in dq)} sd{note}")
+
+
 @contextlib.contextmanager
 def before_issue_28(on: bool):
     """With ``on``, the likelihood's engine calls as before issue 28's sampling count: a fit's node count
@@ -216,24 +225,14 @@ def main() -> None:
     if args.plain:
         p = runs["spectral", "plain"]
         print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")
-        ua, ub = s[0].u, p[0].u
         ess = min(s[0].diagnostics["ess"][-1], p[0].diagnostics["ess"][-1])
-        for j, nm in enumerate(names):
-            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
-            dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
-            print(f"  ln {nm}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
-                  f"{' '.join(f'{x:+.3f}' for x in dq)} sd (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at "
-                  f"the last ESS {ess:.0f})")
+        compare(s[0].u, p[0].u, names, "delayed - plain",
+                f" (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at the last ESS {ess:.0f})")
     if args.surrogate:
         g = runs["spectral", "surrogate"]
         print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
               f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
-        ua, ub = g[0].u, s[0].u
-        for j, nm in enumerate(names):
-            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
-            dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
-            print(f"  ln {nm}: surrogate - delayed: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile "
-                  f"diffs {' '.join(f'{x:+.3f}' for x in dq)} sd")
+        compare(g[0].u, s[0].u, names, "surrogate - delayed")
     print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
 
 

@@ -126,6 +126,22 @@ def _grid_case():
     return cfg, prior, PointSet(rpm, depth, np.where(depth > b, "chatter", "stable"))
 
 
+def _assert_grid(prior, cuts, u, other) -> float:
+    """Samples u (N, 2) against the dense-grid posterior: means and sds within 0.15 sd, 5/50/95 % quantiles
+    within 0.25 sd. Returns the largest distance [sd] of the means of ``other`` (N', 2) from the grid's."""
+    g1, g2, w = _grid_posterior(prior, cuts)  # ONE engine call for the whole 90 x 90 grid
+    far = 0.0
+    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
+        mean = (grid * marg).sum()
+        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
+        x = u[:, j]
+        assert abs(x.mean() - mean) < 0.15 * sd and abs(x.std() - sd) < 0.15 * sd, (j, x.mean(), mean, sd)
+        for q in (0.05, 0.5, 0.95):
+            assert abs(np.quantile(x, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
+        far = max(far, abs(other[:, j].mean() - mean) / sd)
+    return far
+
+
 @pytest.mark.slow
 def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen():
     """The engine's likelihood as the target and a screen from a model with Kt 25 % high (its limits 20 %
@@ -137,16 +153,7 @@ def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_s
     scr = Likelihood(biased, ev)
     res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr)
     alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
-    g1, g2, w = _grid_posterior(prior, cuts)  # ONE engine call for the whole 90 x 90 grid
-    far = 0.0
-    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
-        mean = (grid * marg).sum()
-        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
-        u = res.u[:, j]
-        assert abs(u.mean() - mean) < 0.15 * sd and abs(u.std() - sd) < 0.15 * sd, (j, u.mean(), mean, sd)
-        for q in (0.05, 0.5, 0.95):
-            assert abs(np.quantile(u, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
-        far = max(far, abs(alone.u[:, j].mean() - mean) / sd)
+    far = _assert_grid(prior, cuts, res.u, alone.u)
     assert far > 0.5  # the screen's own posterior is elsewhere
     assert res.n_sets < 0.6 * 2000 * (1 + 3 * res.stages)
 
@@ -246,14 +253,7 @@ def test_corrected_smc_matches_a_brute_force_grid_posterior_with_an_uncorrected_
     lik = Likelihood(prior, ev)
     biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
     res = corrected_smc(prior.sample_full, prior.logpdf_full, lik, Likelihood(biased, ev), 2000, seed=2)
-    g1, g2, w = _grid_posterior(prior, cuts)
-    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
-        mean = (grid * marg).sum()
-        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
-        u = res.u[:, j]
-        assert abs(u.mean() - mean) < 0.15 * sd and abs(u.std() - sd) < 0.15 * sd, (j, u.mean(), mean, sd)
-        for q in (0.05, 0.5, 0.95):
-            assert abs(np.quantile(u, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
+    _assert_grid(prior, cuts, res.u, res.u)
 
 
 def test_update_surrogate_sampler_plumbing():

@@ -147,9 +147,7 @@ def modal_toml(result) -> str:
 
 def modal_figure(result, check=None):
     """The fit, its phase, the stabilisation diagram (and the SLD check) as one matplotlib figure."""
-    from millstab.plot.modal import plot_modal_fit
-
-    return plot_modal_fit(result, check)
+    return result.figure(check=check)
 
 
 def simulate_figure(result, detection, title: str = ""):

@@ -193,9 +193,7 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
 
 def corner_figure(post):
     """The pair plot of the posterior samples (``millstab update --plot``)."""
-    from millstab.plot.update import plot_corner
-
-    return plot_corner(post.samples, post.names, post.prior.units())
+    return post.figure()
 
 
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,

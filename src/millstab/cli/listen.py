@@ -59,27 +59,14 @@ def listen(
     heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
                             post=posterior, depth_mm=depth, risk=risk)
     r = heard.listening
-    line = f"{recording.name}: {r.label}"
-    if math.isfinite(r.chatter_hz) and r.label != "stable":
-        line += f" at {r.chatter_hz:.1f} Hz"
-    line += f"; score {r.score:.3g} (chatter/forced amplitude; >= 0.05 chatter, < 0.02 stable)"
-    if math.isfinite(r.onset_s):
-        line += f"; starts at {r.onset_s:.2f} s"
-    typer.echo(line)
-    typer.echo(f"cut {r.window_s[0]:.2f}-{r.window_s[1]:.2f} s; speed heard {r.rpm_heard:.0f} rpm "
-               f"({100 * (r.rpm_heard / r.rpm - 1):+.2f} % from {r.rpm:g})"
-               + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else ""))
-    if math.isfinite(heard.suggested_rpm):
-        typer.echo(f"suggested speed: {heard.suggested_rpm:.0f} rpm ({heard.reason})")
-    else:
-        typer.echo(f"suggestion: {heard.reason}")
+    typer.echo(f"{recording.name}: {heard.summary()}")
     if on_db:
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
         typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
                    "`millstab update --db` uses it)")
     protect = [p for p in (recording, post) if p]
     if out:
-        write_json(out, heard.to_dict(), protect=protect)
+        write_json(out, heard.to_json(spectrum=False), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure

@@ -170,7 +170,7 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
                                 bounds=bounds, levels=levels, client=client, progress=engine_progress(bar))
     typer.echo(study.summary())
     if out:
-        write_json(out, study.to_json(paths=False), protect=protect)
+        write_json(out, study.report_json(), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure

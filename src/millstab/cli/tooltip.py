@@ -42,8 +42,7 @@ def tooltip(
     with progress_bar("stickouts") as update:
         result = api.tip_frf(cfg, tool, holder, stickouts=stickouts, rpm=speeds, engine=engine,
                             progress=engine_progress(update))
-    for line in result.summary():
-        typer.echo(line)
+    typer.echo(result.summary())
     if out:
         write_csv(out, *result.table(), protect=protect)
         typer.echo(f"wrote {out}")

@@ -446,10 +446,10 @@ def _service_results(ex3, studies) -> dict:
     from millstab.api.sensitivity import Study
     from millstab.config import Config
     from millstab.listen import Listening
-    from millstab.model import MeasuredFRF
     from millstab.modal.fit import DirectionFit, FittedMode
     from millstab.modal.lscf import Stabilisation
     from millstab.modal.run import ModalResult
+    from millstab.model import MeasuredFRF
     from millstab.sensitivity import table6
 
     f = np.linspace(500.0, 1500.0, 6)

@@ -13,7 +13,6 @@ import numpy as np
 
 from millstab.errors import InputError
 
-
 #: the schema tag of :meth:`Heard.to_json`
 SCHEMA = "millstab.listen.heard/1"
 #: the arrays of a :class:`~millstab.listen.Listening` (its spectrum and chatter amplitude, for the figure)
@@ -152,6 +151,18 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
     from millstab.simulate.record import record
 
     return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
+
+
+def read_cuts(path, labels: str | None = None, teeth: int | None = None):
+    """A cuts CSV as ``millstab update`` reads it: (PointSet, notes). With a ``recording`` column its cuts are
+    labelled by listening (:func:`label_from_recordings`, ``teeth`` of the config; one note per cut saying where
+    its label came from); else the labels as written (``labels``: the codes of the label cells)."""
+    from millstab.io import read_points
+    from millstab.io.recordings import has_recording_column
+
+    if has_recording_column(path):
+        return label_from_recordings(path, teeth)
+    return read_points(path, labels), []
 
 
 def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None):

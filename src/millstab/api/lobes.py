@@ -13,7 +13,6 @@ from millstab.io.config import Config
 from millstab.io.points import PointSet
 from millstab.stability import ENGINES, Envelope, get_engine
 
-
 #: the schema tag of :meth:`Lobes.to_json`
 SCHEMA = "millstab.lobes/1"
 

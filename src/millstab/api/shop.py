@@ -142,6 +142,15 @@ def _no_conditions(cuts: PointSet | None, what: str) -> None:
                          "conditions yet: give cuts in the config's condition, or update to a posterior file (--out)")
 
 
+def _no_stickouts(cuts: PointSet | None) -> None:
+    """InputError for cuts with a ``stickout_mm`` column: the shop database does not record per-cut stickouts."""
+    from millstab.io.stickout import stickouts
+
+    if cuts is not None and stickouts(cuts) is not None:
+        raise InputError("stickout_mm", "with --db", "per-cut stickouts are not recorded in a shop database yet; "
+                                                     "update to a posterior file (--out)")
+
+
 def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
                  engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
                  machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
@@ -166,13 +175,14 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
         StaleError: still stale after ``retries`` re-runs.
     """
-    from millstab.api.update import update
     import hashlib
 
+    from millstab.api.update import update
     from millstab.shopdb.store import StaleError
 
     _no_conditions(new_cuts, "cuts")
     _no_conditions(points, "points")
+    _no_stickouts(new_cuts)
     store = open_db(db, user)
     shop = _writable(store, campaign, shops, shop)
     cfg, _ = modal(cfg)

@@ -7,7 +7,6 @@ millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--rpm-r
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -42,10 +41,11 @@ def listen(
     --db/--campaign/--depth the cut is recorded in the campaign with the label heard (and the suggestion
     uses the campaign's current posterior)."""
     from millstab import api
+    from millstab.cli import emit
     from millstab.errors import InputError
-    from millstab.io import check_outputs, read_json, write_json
+    from millstab.io import read_json
 
-    check_outputs({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    protect = emit.checked({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
         raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),
@@ -64,12 +64,5 @@ def listen(
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
         typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
                    "`millstab update --db` uses it)")
-    protect = [p for p in (recording, post) if p]
-    if out:
-        write_json(out, heard.to_json(spectrum=False), protect=protect)
-        typer.echo(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.listen_figure(heard, title=recording.name), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+    emit.json(out, lambda: heard.to_json(spectrum=False), protect)
+    emit.figure(plot, lambda: api.listen_figure(heard, title=recording.name), protect)

@@ -171,6 +171,17 @@ class ModalResult:
     structure: Structure
     band: tuple[float, float] | None
 
+    def summary(self) -> str:
+        """What ``millstab modal`` prints: per direction its file, band, modes and misfit, then each mode's fn [Hz],
+        k [N/µm], ζ, peak over noise and the model orders at which it was stable."""
+        lines = []
+        for d, fit in self.fits.items():
+            lines.append(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
+                         f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
+            lines += [f"  fn {m.fn:10.4f} Hz   k {m.k / 1e6:9.4f} N/um   zeta {m.zeta:.5f}   "
+                      f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}" for m in fit.modes]
+        return "\n".join(lines)
+
     def figure(self, ax=None, *, check: SLDCheck | None = None):
         """Measured and fitted magnitude and phase and the stabilisation diagram per direction, and with
         ``check`` the SLDs beside each other (:func:`millstab.plot.modal.plot_modal_fit`); into ``ax``'s
@@ -300,6 +311,13 @@ class SLDCheck:
     min_difference: float
     worst_difference: float
     worst_rpm: float
+
+    def summary(self) -> str:
+        """One line: the minimum depths of the fit and of the measured FRF, their difference and the worst one."""
+        r = self.rpm
+        return (f"SLD check (zoa, {r.size} speeds {r.min():g}..{r.max():g} rpm): minimum depth {self.min_fitted_mm:.4g} mm "
+                f"from the fit vs {self.min_measured_mm:.4g} mm from the measured FRF ({100 * self.min_difference:+.2f} %); "
+                f"worst difference {100 * self.worst_difference:.1f} % at {self.worst_rpm:.6g} rpm")
 
 
 def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.ndarray) -> SLDCheck:

@@ -375,8 +375,9 @@ def structure_in(doc: Any, source: str):
         raise InputError(source, _short(doc), "must be an object with x and y modes or a measured frf")
     if "frf" in doc:
         f = need(doc, "frf", source, dict)
-        return Structure(frf=MeasuredFRF(floats_in(need(f, "freq_hz", f"{source}.frf"), f"{source}.frf.freq_hz"),
-                                         *(complex_in(f.get(t), f"{source}.frf.{t}") for t in ("xx", "yy", "xy", "yx"))))
+        freq = floats_in(need(f, "freq_hz", f"{source}.frf"), f"{source}.frf.freq_hz")
+        terms = [complex_in(f.get(t), f"{source}.frf.{t}") for t in ("xx", "yy", "xy", "yx")]
+        return Structure(frf=MeasuredFRF(freq, *terms))
     modes = {}
     for d in ("x", "y"):
         rows = need(doc, d, source, list)

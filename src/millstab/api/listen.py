@@ -44,8 +44,8 @@ class Heard:
         lines = [line, f"cut {r.window_s[0]:.2f}-{r.window_s[1]:.2f} s; speed heard {r.rpm_heard:.0f} rpm "
                        f"({100 * (r.rpm_heard / r.rpm - 1):+.2f} % from {r.rpm:g})"
                        + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else "")]
-        lines.append(f"suggested speed: {self.suggested_rpm:.0f} rpm ({self.reason})" if math.isfinite(self.suggested_rpm)
-                     else f"suggestion: {self.reason}")
+        lines.append(f"suggested speed: {self.suggested_rpm:.0f} rpm ({self.reason})"
+                     if math.isfinite(self.suggested_rpm) else f"suggestion: {self.reason}")
         return "\n".join(lines)
 
     def figure(self, ax=None, *, title: str = ""):
@@ -63,7 +63,8 @@ class Heard:
         from millstab.jsondoc import plain
 
         r = self.listening
-        doc = {k: plain(getattr(r, k), k, nan_ok=True) for k in r.__dataclass_fields__ if k not in _ARRAYS + ("schema",)}
+        doc = {k: plain(getattr(r, k), k, nan_ok=True) for k in r.__dataclass_fields__
+               if k not in _ARRAYS + ("schema",)}
         doc.update({"suggested_rpm": plain(self.suggested_rpm, "suggested_rpm", nan_ok=True), "reason": self.reason,
                     "suggestion_from": self.source, "schema": SCHEMA})
         if spectrum:

@@ -81,11 +81,10 @@ class Lobes:
         ``lobes`` and measured ``points``; drawn into ``ax`` or a new figure, which it returns."""
         from millstab.plot.sld import plot_sld
 
-        cfg = self.config
+        name, c = self.config.name, self.config.cutting
         others = [(f"{self.compare} limit", self.rpm, self.other.depth_mm)] if self.other is not None else []
         return plot_sld(self.rpm, self.envelope.depth_mm, label=f"{self.engine} limit", lobes=lobes, points=points,
-                        others=others, ax=ax,
-                        title=f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g}")
+                        others=others, ax=ax, title=f"{name}: {c.teeth} teeth, Kt {c.kt / 1e6:g} MPa, Kr {c.kr:g}")
 
     def to_json(self) -> dict:
         """``{"schema": "millstab.lobes/1", "config": …, "engine", "envelope", "compare", "other"}``: the

@@ -106,7 +106,8 @@ class Study:
         """The study's figure (``millstab sensitivity ... --plot``): its result's figure, with the config's name
         (OAT) and the paper's Table 6 where the run is comparable (MC); into ``ax``'s place or a new figure."""
         if self.method == "oat":
-            return self.result.figure(ax, title=f"{self.config.name}: one-at-a-time sensitivity ({self.rpm.size} speeds)")
+            title = f"{self.config.name}: one-at-a-time sensitivity ({self.rpm.size} speeds)"
+            return self.result.figure(ax, title=title)
         if self.method == "mc":
             return self.result.figure(ax, paper=self.paper if self.paper_comparable else None)
         return self.result.figure(ax)

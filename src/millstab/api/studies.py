@@ -49,7 +49,8 @@ def simulate_mode(*, cuts=None, rpm: float | None = None, depth: float | None = 
                 raise InputError(opt, str(given), f"{opt} is for one cut (--rpm/--depth), not for --cuts")
         return "cuts"
     if rpm is None or depth is None:
-        raise InputError("--rpm/--depth", f"{rpm}/{depth}", "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
+        raise InputError("--rpm/--depth", f"{rpm}/{depth}",
+                         "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
     for opt, bad in (("--label-noise", label_noise != 0.0), ("--marginal", marginal != "keep")):
         if bad:
             raise InputError(opt, label_noise if opt == "--label-noise" else marginal, f"{opt} applies to --cuts only")

@@ -232,7 +232,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
         if confidence is not None and not 0.5 <= confidence < 1:
             raise InputError("--confidence", text, "a one-sided confidence in [0.5, 1), e.g. 0.9, or 'none'")
     if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
-        raise InputError("--speed-tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
+        raise InputError("--speed-tolerance", speed_tolerance,
+                         "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
     if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
         raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
                                                    f"{TEST_RISK:g} (1: no cap)")

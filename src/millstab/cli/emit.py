@@ -51,7 +51,8 @@ def figure(path: Path | None, make: Callable[[], Any], protect: Sequence[Path],
     wrote(path, lambda: save_figure(make(), path, protect=protect), echo)
 
 
-def table(console, title: str, header: Sequence[str], rows: Iterable[Sequence[str]], caption: str | None = None) -> None:
+def table(console, title: str, header: Sequence[str], rows: Iterable[Sequence[str]],
+          caption: str | None = None) -> None:
     """A rich table: the first column left-aligned (names), the others right-aligned (numbers)."""
     from rich.table import Table
 
@@ -61,6 +62,11 @@ def table(console, title: str, header: Sequence[str], rows: Iterable[Sequence[st
     for row in rows:
         t.add_row(*row)
     console.print(t)
+
+
+def number(value: float, spec: str) -> str:
+    """A number as a table shows it (format ``spec``); ``-`` for NaN (not computed)."""
+    return "-" if value != value else format(value, spec)
 
 
 def lines(console, text: str) -> None:

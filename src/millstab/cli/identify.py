@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -51,10 +50,10 @@ def identify(
     if note:
         typer.echo(note)
     with stage_bar(f"identify ({method})", quiet=quiet) as progress:
-        fit = api.identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial, engine=engine,
-                           seed=seed, loss=loss, noise=noise, progress=progress)
+        fit = api.identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                           engine=engine, seed=seed, loss=loss, noise=noise, progress=progress)
     con = Console()
-    rows = [(n, f"{s:.5g}", f"{e:.5g}", "-" if math.isnan(se) else f"{se:.4g}", u) for n, s, e, se, u in zip(*fit.table()[1])]
+    rows = [(n, f"{s:.5g}", f"{e:.5g}", emit.number(se, ".4g"), u) for n, s, e, se, u in zip(*fit.table()[1])]
     emit.table(con, f"{cfg.name}: {method}", ("parameter", "start", "estimate", "± std error", "unit"), rows,
                f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
     emit.lines(con, fit.summary())

@@ -45,7 +45,8 @@ def listen(
     from millstab.errors import InputError
     from millstab.io import read_json
 
-    protect = emit.checked({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    protect = emit.checked({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot},
+                           figures=("--plot",))
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
         raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),

@@ -9,16 +9,8 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
-from millstab.cli.options import (
-    EntryDegOpt,
-    ExitDegOpt,
-    MillingOpt,
-    RadialImmersionOpt,
-    StickoutOpt,
-    TeethOpt,
-    for_decision,
-    seed_option,
-)
+from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
+                                  for_decision, seed_option)
 
 #: = millstab.update.decide.TEST_RISK (not imported: the command line starts without numba; a test checks they agree)
 TEST_RISK = 0.5
@@ -59,8 +51,9 @@ def recommend_cmd(
     from millstab import api
     from millstab.cli import emit
 
-    span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk,
-                                   max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed)
+    span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance,
+                                   test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
+                                   feed_mm=feed_per_tooth, seed=seed)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
     protect = emit.checked(inputs, {"--out": out})

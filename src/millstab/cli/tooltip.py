@@ -33,8 +33,8 @@ def tooltip(
     stickouts = api.stickouts_mm(stickout)
     if sweep_out and stickouts is None:
         raise InputError("--sweep-out", str(sweep_out), "needs --stickout START:STOP:STEP [mm]")
-    protect = emit.checked(config_inputs(cfg), {"--out": out, "--out-y": out_y, "--plot": plot, "--sweep-out": sweep_out},
-                           figures=("--plot",))
+    outputs = {"--out": out, "--out-y": out_y, "--plot": plot, "--sweep-out": sweep_out}
+    protect = emit.checked(config_inputs(cfg), outputs, figures=("--plot",))
     if rpm and stickouts is None:
         typer.echo("note: --rpm sets the speeds of the stickout sweep, which needs --stickout", err=True)
     speeds = api.speeds(rpm, cfg, api.TOOLTIP_FALLBACK_RPM) if stickouts is not None else None

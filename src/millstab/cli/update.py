@@ -11,19 +11,8 @@ import typer
 from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
-from millstab.cli.options import (
-    DaskOpt,
-    EntryDegOpt,
-    ExitDegOpt,
-    MillingOpt,
-    RadialImmersionOpt,
-    StickoutOpt,
-    TeethOpt,
-    WorkersOpt,
-    for_decision,
-    samples_option,
-    seed_option,
-)
+from millstab.cli.options import (DaskOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt,
+                                  TeethOpt, WorkersOpt, for_decision, samples_option, seed_option)
 from millstab.cli.options import dask_client as _client
 from millstab.errors import InputError
 

@@ -174,7 +174,8 @@ class SpeedDesign:
             if self.sigma_existing is not None:
                 row.append(pct(self.sigma_existing_mean[i]))
             worse = self.sigma_design_mean[i] > self.sigma_uniform_mean[i] * (1 + 1e-9)
-            rows.append(tuple(row + [pct(self.sigma_uniform_mean[i]), pct(self.sigma_design_mean[i]) + (" †" if worse else "")]))
+            row += [pct(self.sigma_uniform_mean[i]), pct(self.sigma_design_mean[i]) + (" †" if worse else "")]
+            rows.append(tuple(row))
         caption = (f"relative standard errors at {self.noise:.3g} depth noise and {self.speed_noise:.3g} speed noise: "
                    f"root-mean-square over the {self.samples} parameter samples the plan serves (the values shown and "
                    "draws around them)")

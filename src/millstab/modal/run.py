@@ -237,8 +237,8 @@ class ModalResult:
                                 floats_in(need(rec, "freq_hz", at, list), f"{at}.freq_hz"),
                                 complex_in(need(rec, "h", at, dict), f"{at}.h"),
                                 complex_in(need(rec, "h_fit", at, dict), f"{at}.h_fit"), tuple(modes),
-                                *(number_in(need(rec, k, at), f"{at}.{k}") for k in ("upper", "lower", "nrmse", "noise")),
-                                stab)
+                                *(number_in(need(rec, k, at), f"{at}.{k}") for k in ("upper", "lower", "nrmse",
+                                                                                    "noise")), stab)
 
         band = need(doc, "band", source, (list, type(None)))
         with quiet():  # a soft fitted k was warned about when it was fitted
@@ -315,9 +315,10 @@ class SLDCheck:
     def summary(self) -> str:
         """One line: the minimum depths of the fit and of the measured FRF, their difference and the worst one."""
         r = self.rpm
-        return (f"SLD check (zoa, {r.size} speeds {r.min():g}..{r.max():g} rpm): minimum depth {self.min_fitted_mm:.4g} mm "
-                f"from the fit vs {self.min_measured_mm:.4g} mm from the measured FRF ({100 * self.min_difference:+.2f} %); "
-                f"worst difference {100 * self.worst_difference:.1f} % at {self.worst_rpm:.6g} rpm")
+        return (f"SLD check (zoa, {r.size} speeds {r.min():g}..{r.max():g} rpm): minimum depth "
+                f"{self.min_fitted_mm:.4g} mm from the fit vs {self.min_measured_mm:.4g} mm from the measured FRF "
+                f"({100 * self.min_difference:+.2f} %); worst difference {100 * self.worst_difference:.1f} % at "
+                f"{self.worst_rpm:.6g} rpm")
 
 
 def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.ndarray) -> SLDCheck:

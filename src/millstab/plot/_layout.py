@@ -17,7 +17,8 @@ def panels(ax, nrows: int = 1, ncols: int = 1, *, figsize=None, squeeze: bool = 
     import matplotlib.pyplot as plt
 
     if ax is None:
-        return plt.subplots(nrows, ncols, figsize=figsize, squeeze=squeeze, gridspec_kw=gridspec_kw, layout=layout, **kw)
+        return plt.subplots(nrows, ncols, figsize=figsize, squeeze=squeeze, gridspec_kw=gridspec_kw, layout=layout,
+                            **kw)
     fig = ax.figure
     if nrows == ncols == 1:
         return fig, (ax if squeeze else np.array([[ax]]))

@@ -49,8 +49,10 @@ def plot_modal_fit(result, check=None, ax=None):
         for a in axes[3, :]:
             a.remove()
         a = fig.add_subplot(gs[3, :])
-        a.plot(check.rpm, check.measured_mm, color="0.4", lw=1.2, label=f"measured FRF (min {check.min_measured_mm:.4g} mm)")
-        a.plot(check.rpm, check.fitted_mm, color="tab:blue", lw=1.2, ls="--", label=f"fitted modes (min {check.min_fitted_mm:.4g} mm)")
+        a.plot(check.rpm, check.measured_mm, color="0.4", lw=1.2,
+               label=f"measured FRF (min {check.min_measured_mm:.4g} mm)")
+        a.plot(check.rpm, check.fitted_mm, color="tab:blue", lw=1.2, ls="--",
+               label=f"fitted modes (min {check.min_fitted_mm:.4g} mm)")
         a.set_xlabel("spindle speed [rev/min]")
         a.set_ylabel("b_lim [mm]")
         finite = np.concatenate([check.measured_mm[np.isfinite(check.measured_mm)], check.fitted_mm[np.isfinite(check.fitted_mm)]])

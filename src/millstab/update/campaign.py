@@ -250,4 +250,5 @@ def coverage(post: Posterior, theta: np.ndarray, level: float = 0.90) -> np.ndar
     return (q_lo <= truth) & (truth <= q_hi)
 
 
-__all__ = ["Campaign", "CampaignOptions", "Labeler", "Truth", "best_productivity", "brier_score", "coverage", "run_campaign"]
+__all__ = ["Campaign", "CampaignOptions", "Labeler", "Truth", "best_productivity", "brier_score", "coverage",
+           "run_campaign"]

@@ -170,10 +170,11 @@ class Recommendation:
                  f"{self.risk:g}, limited by {self.limited_by}{mrr})"]
         if self.p_chatter_bound is not None:
             lines.append(f"  held at ±{100 * self.speed_tolerance:g} % speed error (P(chatter) ≤ "
-                         f"{self.p_chatter_speed_error:.3f}) and against the sampling error: {self.confidence:.0%} upper "
-                         f"bound {self.p_chatter_bound:.3f} from {self.effective_samples:.0f} effective samples")
-        lines += [f"  data guard: held below {g['cap_mm']:.3g} mm within ±{g['half_width_rpm']:.0f} rpm of a cut labelled "
-                  f"chatter at {g['rpm']:.0f} rpm, {g['depth_mm']:.3g} mm" for g in self.guard if g["binding"]]
+                         f"{self.p_chatter_speed_error:.3f}) and against the sampling error: "
+                         f"{self.confidence:.0%} upper bound {self.p_chatter_bound:.3f} from "
+                         f"{self.effective_samples:.0f} effective samples")
+        lines += [f"  data guard: held below {g['cap_mm']:.3g} mm within ±{g['half_width_rpm']:.0f} rpm of a cut "
+                  f"labelled chatter at {g['rpm']:.0f} rpm, {g['depth_mm']:.3g} mm" for g in self.guard if g["binding"]]
         nt = self.next_test
         lines.append(f"next test: {nt['rpm']:.0f} rpm, {nt['depth_mm']:.3f} mm (P(chatter) {nt['p_chatter']:.2f}; "
                      f"{nt['why']})")

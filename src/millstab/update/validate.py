@@ -175,8 +175,10 @@ class Validation:
         for s, rows in self.summary.items():
             best = min(r["brier"] for r in rows.values())
             text = [(m, f"{r['brier']:.4f}" + (" *" if r["brier"] <= best else ""), f"{r['log_loss']:.3f}",
-                     f"{r['auc']:.3f}", f"{min(r['fold_brier']):.3f}-{max(r['fold_brier']):.3f}") for m, r in rows.items()]
-            title = f"{SCHEME_NAMES.get(s, s)} ({len(rows['millstab']['fold_brier'])} folds, {rows['millstab']['n']} cuts)"
+                     f"{r['auc']:.3f}", f"{min(r['fold_brier']):.3f}-{max(r['fold_brier']):.3f}")
+                    for m, r in rows.items()]
+            ref = rows["millstab"]
+            title = f"{SCHEME_NAMES.get(s, s)} ({len(ref['fold_brier'])} folds, {ref['n']} cuts)"
             out.append((title, ("method", "Brier", "log loss", "AUC", "Brier per fold (min-max)"), text, caption))
         return out
 

@@ -97,19 +97,23 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
         out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions)
         if out is not None:
             return out
-    kr = prior.kr_of(u)
     theta, factor = prior.split(u)
-    rpm = check_rpm(rpm)
-    eng = check_kr_engine(prior, engine)
-    fwd = forward(prior.par, prior.cutting, engine)
-    cut = prior.cutting if conditions is None else conditions
-    extra = {} if kr is None else {"kr": kr}
-    if with_freq and eng.reports_chatter_frequency:
-        # the discretisation the depths-only path would get (Forward's settings), so both agree
-        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), cut, rpm, **fwd.settings(rpm, theta[0], conditions),
-                                          **extra)
+    check_kr_engine(prior, engine)
+    # the one evaluator, its discretisation pinned on these rows (what every part of them gets on a cluster)
+    pin = forward(prior.par, prior.cutting, engine).pinned(check_rpm(rpm), theta, conditions)
+    return sample_depths(pin, prior, u, with_freq)
+
+
+def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
+    ``pin`` (:meth:`millstab.forward.Forward.pinned`): a free Kt's exact factor, a free Kr per row; here and in
+    a cluster's task (:func:`millstab.cluster.sample_limits`)."""
+    theta, factor = prior.split(u)
+    kr = prior.kr_of(u)
+    if with_freq and pin.reports_frequency:
+        depth, hz = pin.with_frequency(theta, kr)
     else:
-        depth, hz = fwd(theta, rpm, conditions, kr), None
+        depth, hz = pin(theta, kr), None
     return depth * 1e3 * factor[:, None], hz
 
 

@@ -343,13 +343,13 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
+def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit") -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
     for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there)."""
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there)."""
     from millstab.forward import forward
 
-    return dict(forward(par, cutting, engine).pinned(rpm, theta_rows).settings)
+    return dict(forward(par, cutting, engine, purpose).pinned(rpm, theta_rows).settings)
 
 
 def _depths_task(pinned, rows: np.ndarray) -> np.ndarray:
@@ -419,11 +419,14 @@ def _samples_task(prior, pinned, with_freq: bool, u: np.ndarray):
 
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
-                  with_freq: bool = False, conditions=None) -> tuple[np.ndarray, np.ndarray | None] | None:
+                  with_freq: bool = False, conditions=None,
+                  pinned=None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
-    the same numbers). Returns None when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
+    the same numbers; ``pinned``: the caller's pinned forward model of these rows,
+    :func:`millstab.update.likelihood.pinned_model`, made here by default). Returns None when it does not pay (:data:`PAYS_SECONDS`): the
+    caller runs here."""
     from millstab.stability import check_rpm
 
     check_client(client)
@@ -449,10 +452,11 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
                 hz[0] = np.empty((n, rpm.size))
             hz[0][s:s + h.shape[0]] = h
 
-    from millstab.forward import forward
+    if pinned is None:  # the likelihood's own evaluator of these samples (its discretisation, its rows)
+        from millstab.update.likelihood import pinned_model
 
-    # the whole batch's discretisation, pinned once here: every task's rows give the numbers of ONE local call
-    pinned = forward(prior.par, prior.cutting, engine).pinned(rpm, prior.split(u)[0], conditions)
+        pinned = pinned_model(prior, u, rpm, engine, conditions)
+    # pinned once here: every task's rows give the numbers of ONE local call on all of them
     stream(client, _samples_task, [(u[s:s + per],) for s in starts], take, common=(prior, pinned, with_freq),
            name="samples")
     return depth, hz[0]

@@ -39,6 +39,10 @@ class Forward:
     par: Parameterization
     cutting: Cutting
     engine: str = "zoa"
+    #: what the engine's ``settings`` choose the discretisation for: ``"fit"`` (a search differentiating the
+    #: depths) or ``"sample"`` (a sampler comparing them with a depth noise: the spectral engine's converged
+    #: node count, :data:`millstab.stability.spectral.PURPOSES`); ignored by engines without ``settings``
+    purpose: str = "fit"
     _engine_mod: object = field(default=None, init=False, repr=False, compare=False)
     #: the engine's discretisation per speed list (``settings`` capability), chosen once
     _settings: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -50,7 +54,7 @@ class Forward:
             reject_process_damping(self.cutting, self.engine)
 
     def __reduce__(self):  # an engine module does not pickle: a Dask task gets the model by the engine's name
-        return Forward, (self.par, self.cutting, self.engine)
+        return Forward, (self.par, self.cutting, self.engine, self.purpose)
 
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
                  kr: np.ndarray | None = None) -> np.ndarray:
@@ -64,6 +68,11 @@ class Forward:
         extra = {} if kr is None else {"kr": kr}
         return self._engine_mod.envelope_batch(self.par.batch(t), cut, r, **self.settings(r, t[0], conditions),
                                                **extra)
+
+    def _purpose(self) -> dict:
+        """The ``purpose`` keyword of the engine's ``settings`` (none for the default, so an engine whose
+        ``settings`` takes no purpose still works)."""
+        return {} if self.purpose == "fit" else {"purpose": self.purpose}
 
     def _key(self, r: np.ndarray, conditions) -> bytes:
         """The settings-cache key of (speeds, conditions)."""
@@ -90,7 +99,7 @@ class Forward:
                 self._settings.pop(next(iter(self._settings)))
             row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
             cut = self.cutting if conditions is None else conditions
-            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r))
+            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r, **self._purpose()))
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
@@ -103,7 +112,7 @@ class Forward:
         r = np.asarray(rpm, dtype=float)
         old = self.settings(r, None, conditions)
         cut = self.cutting if conditions is None else conditions
-        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r))
+        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r, **self._purpose()))
         self._settings[self._key(r, conditions)] = new
         return new != old
 
@@ -193,9 +202,10 @@ class Pinned:
         return out
 
 
-def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> Forward:
-    """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`)."""
-    return Forward(par, cutting, engine)
+def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpose: str = "fit") -> Forward:
+    """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`; ``purpose``:
+    what the engine's discretisation is chosen for, ``"fit"`` or ``"sample"``)."""
+    return Forward(par, cutting, engine, purpose)
 
 
 def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):

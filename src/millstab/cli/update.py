@@ -10,7 +10,7 @@ import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app
-from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
+from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
 from millstab.cli.options import (DaskOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt,
                                   TeethOpt, WorkersOpt, for_decision, samples_option, seed_option)
 from millstab.cli.options import dask_client as _client
@@ -55,6 +55,7 @@ def update_cmd(
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     user: UserOpt = None,
+    shop: ShopOpt = None,
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC); with --db/--campaign the cuts
     and the posterior are recorded in a shop database, starting from the campaign's current posterior."""
@@ -64,7 +65,7 @@ def update_cmd(
     from millstab.cli import emit
     from millstab.io import config_inputs, read_points
 
-    in_db = _target(out, db, campaign, start)
+    in_db, shop = _target(out, db, campaign, start, shop)
     cfg = api.with_batch_effect(api.config(config), batch_effect)
     c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth)  # a 'recording' column: labelled by ear (docs/listen.md)
     p = read_points(points, labels) if points is not None else None
@@ -75,7 +76,8 @@ def update_cmd(
         typer.echo(line)
     # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral; not zoa)
     with _client(dask, workers) as client:
-        post, done = _run_update(cfg, c, p, db, campaign, user, engine, samples, seed, start, client, sampler)
+        post, done = _run_update(cfg, c, p, client, db=db, campaign=campaign, user=user, shop=shop, start=start,
+                                 engine=engine, samples=samples, seed=seed, sampler=sampler)
     emit.json(out, post.to_json(), protect, lambda _: None)  # its config's name included: the web download is the same
     con = Console()
     rows = [(row[0], *(f"{v:.{5 if i < len(post.names) else 3}g}" for v in row[1:6]), row[6])
@@ -87,32 +89,39 @@ def update_cmd(
     emit.figure(plot, lambda: api.corner_figure(post), protect, con.print)
 
 
-def _target(out: Path | None, db, campaign, start: Path | None) -> bool:
-    """Whether the posterior goes to a shop database (--db/--campaign); InputError for neither target, or --start
-    beside a database (whose campaign's current posterior is the start)."""
+def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None) -> tuple[bool, str | None]:
+    """(whether the posterior goes to a shop database (--db/--campaign), the checked --shop of a new campaign);
+    InputError for neither target, --start beside a database (whose campaign's current posterior is the start),
+    or --shop without one."""
     in_db = shop_target(db, campaign)
     if out is None and not in_db:
         raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
     if in_db and start is not None:
         raise InputError("--start", str(start), "with --db the campaign's current posterior is the start")
-    return in_db
+    if shop is not None:
+        if not in_db:
+            raise InputError("--shop", shop, "the shop of a campaign in a shop database: give --db and --campaign too")
+        from millstab.api.shop import check_shop
+
+        shop = check_shop(shop)
+    return in_db, shop
 
 
-def _run_update(cfg, cuts, points, db, campaign, user, engine, samples, seed, start, client, sampler):
+def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, **settings):
     """(posterior, the shop's record or None): in a shop database the campaign's cuts so far and these, from its
-    current posterior, recorded in one transaction (its notes printed); else an update of these cuts."""
+    current posterior, recorded in one transaction with each cut's condition and stickout (its notes printed);
+    else an update of these cuts. ``settings``: engine, samples, seed, sampler."""
     from millstab import api
 
     if shop_target(db, campaign):
         from millstab.api.shop import update_in_db
 
-        done = update_in_db(db, campaign, cfg, cuts, points, engine=engine, samples=samples, seed=seed, user=user,
-                            client=client)
+        done = update_in_db(db, campaign, cfg, cuts, points, user=user, client=client, shop=shop, **settings)
         for line in done.notes:
             typer.echo(line)
         return done.posterior, done
-    post = api.update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, client=client, sampler=sampler,
-                      start=_load_posterior(start) if start is not None else None)
+    post = api.update(cfg, cuts, points, client=client, start=_load_posterior(start) if start is not None else None,
+                      **settings)
     return post, None
 
 

@@ -425,8 +425,8 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
     the same numbers; ``pinned``: the caller's pinned forward model of these rows,
-    :func:`millstab.update.likelihood.pinned_model`, made here by default). Returns None when it does not pay (:data:`PAYS_SECONDS`): the
-    caller runs here."""
+    :func:`millstab.update.likelihood.pinned_model`, made here by default). Returns None when it does not pay
+    (:data:`PAYS_SECONDS`): the caller runs here."""
     from millstab.stability import check_rpm
 
     check_client(client)

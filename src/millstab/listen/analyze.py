@@ -165,6 +165,16 @@ NEAR_DIP = 4.0
 #: Welch segments: the window / SEGMENTS, at most SEGMENT_MAX_S
 SEGMENTS = 4.0
 SEGMENT_MAX_S = 2.0
+#: a line beside a spindle line: the spindle lines are fitted over ±SYNC_FIT_BINS bins of 1/T ...
+SYNC_FIT_BINS = 16
+#: ... the speed refined on the lines with at least this share of the strongest one's power ...
+SYNC_STRONG = 1e-4
+#: ... each sought within this many bins of where the speed found puts it (0.1 % at k = 10, T = 2 s: 3 bins)
+SYNC_SEARCH_BINS = 4
+#: ... and a chatter line is sought at least SYNC_MIN_BINS (of 1/T) from the line, where it stands
+#: SYNC_MIRROR times over the residual mirrored about the line
+SYNC_MIN_BINS = 1.5
+SYNC_MIRROR = 4.0
 SCORE_SCALE = ("amplitude of the chatter line / amplitude of all spindle-synchronous lines, on the last 40 % "
                "of the cut: 0 none, >= 0.02 marginal, >= 0.05 chatter (26 dB below the forced vibration), 1 as loud")
 
@@ -394,6 +404,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     band = (f >= F_LO) & (f <= f_hi)
     fF, pF = _full_spectrum(w, fs)
     f_s = _spindle_hz(fF, pF, np.interp(fF, f, _floor(f, p, np.zeros(f.size, bool))), rpm / 60.0, teeth, f_hi)
+    f_s = _refine_spindle(w, fs, f_s, f_hi)
     f_t = teeth * f_s
     # synchronous masks: every spindle harmonic
     half = LINE_BINS * fs / nper  # Hz
@@ -466,8 +477,16 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     # one list, in Welch-density units: a line's peak density is its power / the noise bandwidth
     to_welch = float(nper) / w.size  # ENBW of the Welch segment / ENBW of the full window (Hz)
     dfF = fF[1] - fF[0]
-    cand_f = np.concatenate([f[peaks], fF[near]])
-    cand_e = np.concatenate([excess[peaks], (pF[near] - np.interp(fF[near], f, floor)) * to_welch])
+    # ... and, within a spindle line's own main lobe, the lines left when the steady synchronous lines are
+    # fitted at their exact frequencies and taken out
+    k_in = ks[~keep][(ks[~keep] * f_s >= F_LO - 10.0) & (ks[~keep] * f_s <= f_hi + 10.0)]
+    Xr, _, T_r, nu = _sync_residual(w, fs, f_s, k_in)
+    fb, pb, flb = _beside_sync_peaks(Xr, fs, T_r, nu, lambda ff: np.interp(ff, f, floor), F_LO, f_hi,
+                                     np.asarray(mains_lines))
+    n_r = 2 * (Xr.size - 1)
+    cand_f = np.concatenate([f[peaks], fF[near], fb])
+    cand_e = np.concatenate([excess[peaks], (pF[near] - np.interp(fF[near], f, floor)) * to_welch,
+                             (pb - flb) * (float(nper) / n_r)])
     sync_pow = float(np.sum(np.where(sync & (f <= f_hi), np.maximum(p - floor, 0.0), 0.0)) * df)
     nan = float("nan")
     n_fr = int(np.clip(w.size / fs / TREND_FRAME_S, TREND_FRAMES, 4 * TREND_FRAMES))
@@ -493,6 +512,11 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         # refine on the full-window spectrum (finer bins)
         lp = np.log(np.maximum(p, 1e-300))
         fc = _refine(fF, lpF, float(f[j] + _interp_peak(lp, j) * df), fs / nper)
+    elif c >= peaks.size + near.size:  # beside a spindle line: on the residual
+        i = c - peaks.size - near.size
+        prom = float(pb[i] / flb[i])
+        line_pow = float(pb[i] - flb[i]) * ENBW_BINS / T_r
+        fc = float(fb[i])
     else:
         jF = int(near[c - peaks.size])
         fl = float(np.interp(fF[jF], f, floor))
@@ -505,7 +529,14 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     lines = np.concatenate([line_f[~keep], np.asarray(mains_lines)])
     tols = np.concatenate([ks[~keep] * dfs, np.full(len(mains_lines), 0.3)])
     near_fc = (np.abs(lines - fc) < reach) & (np.abs(lines - fc) > NEAR_BINS * fs / w.size)
-    wt = _without_lines(w, fs, fF, pF, np.interp(fF, f, floor), lines[near_fc], tols[near_fc]) if near_fc.any() else w
+    if c >= peaks.size + near.size:  # the spindle lines fitted at their exact frequencies are out already
+        from scipy import fft as sfft
+
+        wt = sfft.irfft(Xr, n_r)
+    elif near_fc.any():
+        wt = _without_lines(w, fs, fF, pF, np.interp(fF, f, floor), lines[near_fc], tols[near_fc])
+    else:
+        wt = w
     amp, tc, tf = _amp_at(wt, fs, fc, n_fr)
     noise_amp = math.sqrt(2.0 * float(np.interp(fc, f, floor)) * 1.5 / tf)  # Hann ENBW 1.5 bins of 1/tf
     a_c = np.sqrt(np.maximum(amp**2 - noise_amp**2, 0.0))
@@ -649,3 +680,148 @@ def _refine(fF: np.ndarray, lpF: np.ndarray, f0: float, span: float) -> float:
     if i in (a, b - 1):
         return f0
     return float((i + _interp_peak(lpF, i)) * dfx)
+
+
+#: Blackman-Harris (4-term) cosine coefficients: w_n = a0 - a1 cos(2πn/N) + a2 cos(4πn/N) - a3 cos(6πn/N)
+_BH = (0.35875, 0.48829, 0.14128, 0.01168)
+
+
+def _dirichlet(d: np.ndarray, n: int) -> np.ndarray:
+    """DFT bin response of a unit complex tone ``d`` bins away over ``n`` samples (1 at d = 0)."""
+    d = np.asarray(d, dtype=float)
+    s = np.sin(np.pi * d / n)
+    small = np.abs(s) < 1e-12
+    ratio = np.where(small, 1.0, np.sin(np.pi * d) / (n * np.where(small, 1.0, s)))
+    return ratio * np.exp(-1j * np.pi * d * (n - 1) / n)
+
+
+def _refine_spindle(w: np.ndarray, fs: float, f_s: float, f_hi: float) -> float:
+    """The spindle frequency [Hz] refined on the unwindowed DFT of a whole number of revolutions of the
+    window: each spindle harmonic in F_LO..f_hi is sought within ±``SYNC_SEARCH_BINS`` bins (of 1/T) of
+    k f_s, placed to a fraction of a bin by its neighbours (a tone e bins off its bin b has
+    X[b−1]/X[b] ≈ e, X[b+1]/X[b] ≈ −e), and f_s moves by the power-weighted least-squares fit of these
+    offsets (e = k δ T) over the lines within a quarter bin of the offset most lines agree with."""
+    from scipy import fft as sfft
+
+    revs = math.floor(w.size * f_s / fs)
+    if revs < 4:
+        return f_s
+    n = int(round(revs * fs / f_s))
+    X = sfft.rfft(w[:n] - w[:n].mean())
+    T = n / fs
+    k = np.arange(max(1, math.ceil(F_LO / f_s)), int(f_hi / f_s) + 1)
+    nu = k * f_s * T
+    k, nu = k[nu + SYNC_SEARCH_BINS + 2 < X.size], nu[nu + SYNC_SEARCH_BINS + 2 < X.size]
+    if k.size == 0:
+        return f_s
+    offs = np.arange(-SYNC_SEARCH_BINS, SYNC_SEARCH_BINS + 1)
+    m = np.rint(nu).astype(int)[:, None] + offs[None, :]
+    b = m[np.arange(k.size), np.argmax(np.abs(X[m]), axis=1)]
+    x0 = X[b]
+    pw = np.abs(x0) ** 2
+    ok = pw > 0
+    e = np.zeros(k.size)
+    e[ok] = b[ok] + 0.5 * np.real((X[b - 1][ok] - X[b + 1][ok]) / x0[ok]) - nu[ok]
+    strong = ok & (pw >= SYNC_STRONG * pw.max())
+    if not strong.any():
+        return f_s
+    # the offset most lines agree with (each line votes its log-prominence over the median bin, at most
+    # COMB_CLIP: a strong chatter line beside a weak runout line is one vote, not a pull), then the
+    # power-weighted least squares over the lines within a quarter bin of it
+    vote = np.clip(np.log(pw / max(float(np.median(np.abs(X) ** 2)), 1e-300)), 0.0, COMB_CLIP)
+    d = e[strong] / (k[strong] * T)
+    agree = np.abs(e[strong][None, :] - np.outer(d, k[strong]) * T) <= 0.25
+    d_med = float(d[np.argmax(agree.astype(float) @ vote[strong])])
+    inl = strong & (np.abs(e - k * d_med * T) <= 0.25)
+    wk = pw[inl] * k[inl] ** 2
+    delta = float(np.sum(wk * e[inl] / k[inl]) / np.sum(wk)) / T if wk.sum() > 0 else d_med
+    return f_s + delta
+
+
+def _sync_residual(w: np.ndarray, fs: float, f_s: float, k_lines: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray]:
+    """The window less its steady spindle-synchronous lines k f_s (k in ``k_lines``), each fitted by least
+    squares at its exact frequency (module docstring, step 7 "On a spindle line").
+
+    The window is cut to a whole number R of revolutions (N samples): every spindle harmonic then sits on
+    a bin (k R) of the unwindowed DFT, orthogonal to every other harmonic, and its least-squares fit is
+    that bin's value (the rectangular window: the finest resolution, a tone δ Hz away leaks sinc(δT)
+    into it, 0 at whole bins, −22 dB from 2.5 bins). The spindle frequency is refined first from the
+    strong lines' own offsets (for a tone e bins off its bin, X[b∓1]/X[b] = ±e/(1±e): the speed found
+    from the peaks is good to 1e-6, i.e. 0.01-0.07 bins at the 30th harmonic, which would leave a line
+    60 dB over the floor standing 20-30 dB over it; refined, < 1e-3 bins). Each line is then removed as
+    its Dirichlet pattern over ±``SYNC_FIT_BINS`` bins.
+
+    Returns (residual DFT of the N samples, refined f_s [Hz], N / fs [s], line positions [bins])."""
+    from scipy import fft as sfft
+
+    revs = math.floor(w.size * f_s / fs)
+    n = int(round(revs * fs / f_s))
+    X = sfft.rfft(w[:n] - w[:n].mean())
+    T = n / fs
+    k = k_lines[(k_lines * f_s * T + SYNC_FIT_BINS + 2 < X.size)]
+    if k.size == 0:
+        return X, f_s, T, np.zeros(0)
+    # refine f_s: offsets e_k = k δ T [bins] of the strong lines, weighted by their power
+    b = np.rint(k * f_s * T).astype(int)
+    x0, xm, xp = X[b], X[b - 1], X[b + 1]
+    pw = np.abs(x0) ** 2
+    ok = pw > 0
+    e = np.zeros(k.size)
+    e[ok] = 0.5 * np.real((xm[ok] - xp[ok]) / x0[ok]) - (k[ok] * f_s * T - b[ok])  # off the predicted place
+    strong = ok & (pw >= SYNC_STRONG * pw.max())
+    for _ in range(2):  # weighted fit of e = k δ T, then once more without the lines far off it (a chatter beside them)
+        wk = pw[strong] * k[strong] ** 2
+        delta = float(np.sum(wk * e[strong] / k[strong]) / np.sum(wk)) / T if wk.sum() > 0 else 0.0
+        dev = np.abs(e - k * delta * T)
+        strong = strong & (dev <= max(5.0 * float(np.median(dev[strong])), 1e-4)) if strong.sum() > 2 else strong
+    f_s = f_s + delta
+    nu = k * f_s * T
+    b = np.rint(nu).astype(int)
+    offs = np.arange(-SYNC_FIT_BINS, SYNC_FIT_BINS + 1)
+    m = b[:, None] + offs[None, :]
+    keep = (m.min(axis=1) >= 1) & (m.max(axis=1) < X.size)
+    m, nu, b = m[keep], nu[keep], b[keep]
+    kern = _dirichlet(m - nu[:, None], n)
+    amp = X[b] / kern[:, SYNC_FIT_BINS]
+    np.add.at(X, m.ravel(), -(amp[:, None] * kern).ravel())
+    return X, f_s, T, nu
+
+
+def _beside_sync_peaks(X: np.ndarray, fs: float, T: float, nu: np.ndarray, floor_hz, f_lo: float, f_hi: float,
+                       mains_f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Chatter lines within ±``NEAR_BINS`` + 1 bins (of 1/T) of a spindle line, on the Blackman-Harris
+    spectrum of the residual (``_sync_residual``): a local maximum ``NEAR_PROMINENCE`` over the floor,
+    at least ``SYNC_MIN_BINS`` from the line and ``SYNC_MIRROR`` times stronger than the point mirrored
+    about it (what a removed line leaves, from a speed error or a slow amplitude drift, is symmetric
+    about it; a chatter line beside it is not), and not a mains line (``mains_f`` [Hz], hum found: within
+    0.3 Hz + SYNC_MIN_BINS/T). Returns (frequencies [Hz], PSDs, floors)."""
+    a0, a1, a2, a3 = _BH
+    n = 2 * (X.size - 1)
+    reach = int(NEAR_BINS) + 2
+    offs = np.arange(-reach - 3, reach + 4)
+    m = np.rint(nu).astype(int)[:, None] + offs[None, :]
+    ok = (m.min(axis=1) >= 3) & (m.max(axis=1) < X.size - 3)
+    m, nu = m[ok], nu[ok]
+    Y = (a0 * X[m] - 0.5 * a1 * (X[m - 1] + X[m + 1]) + 0.5 * a2 * (X[m - 2] + X[m + 2])
+         - 0.5 * a3 * (X[m - 3] + X[m + 3]))
+    p = np.abs(Y) ** 2 * (2.0 / (fs * n * (a0**2 + 0.5 * (a1**2 + a2**2 + a3**2))))
+    f = m / T
+    fl = floor_hz(f)
+    inner = slice(1, -1)
+    d = m - nu[:, None]
+    loc = np.zeros(p.shape, bool)
+    loc[:, inner] = (p[:, 1:-1] >= p[:, :-2]) & (p[:, 1:-1] >= p[:, 2:])
+    mirror = np.empty_like(p)
+    for r in range(p.shape[0]):  # the PSD at the point mirrored about the line
+        mirror[r] = np.interp(2 * nu[r] - m[r], m[r], p[r])
+    cand = (loc & (np.abs(d) >= SYNC_MIN_BINS) & (np.abs(d) <= reach) & (p >= NEAR_PROMINENCE * fl)
+            & (p >= SYNC_MIRROR * mirror) & (f >= f_lo) & (f <= f_hi))
+    r, c = np.nonzero(cand)
+    fr = np.empty(r.size)
+    for i in range(r.size):
+        lp = np.log(np.maximum(p[r[i], c[i] - 1: c[i] + 2], 1e-300))
+        fr[i] = (m[r[i], c[i]] + _interp_peak(lp, 1)) / T
+    if mains_f.size and fr.size:
+        hum = np.min(np.abs(fr[:, None] - mains_f[None, :]), axis=1) <= 0.3 + SYNC_MIN_BINS / T
+        return fr[~hum], p[r, c][~hum], fl[r, c][~hum]
+    return fr, p[r, c], fl[r, c]

@@ -28,7 +28,14 @@ The steps, with every threshold and the reason for it:
    least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±2 bins).
    Both on the full-window spectrum (bins of 1/(2T), 4× finer than the Welch segments'): a chatter
    family 2-3 Hz beside the spindle harmonics pulled a comb scored on Welch bins to it (0.2-1.4 % off
-   on 3 of 204 benchmark cuts, each then a chatter-frequency miss).
+   on 3 of 204 benchmark cuts, each then a chatter-frequency miss). Then refined to the lines' own
+   frequencies (``_refine_spindle``): on the unwindowed DFT of a whole number of revolutions every
+   spindle harmonic sits on a bin; each line within ±``SYNC_SEARCH_BINS`` bins of k f_s is placed to a
+   fraction of a bin by its neighbours (X[b∓1]/X[b] ≈ ±e), and f_s moves by the power-weighted fit
+   of these offsets over the lines within a quarter bin of the offset most lines agree with (each
+   votes its log-prominence, at most ``COMB_CLIP``: a chatter line stronger than a runout line beside
+   it is one vote). Measured: the speed from the peaks was 1e-6 to 7e-6 off (0.01-0.07 bins at the
+   30th harmonic of a 2 s window), refined 1e-8 to 2e-7.
 4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
    harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
    One exception: with an even number of teeth, a line at an odd multiple of f_T/2 from 1.5 f_T up
@@ -40,7 +47,12 @@ The steps, with every threshold and the reason for it:
    its order instead of peaking near a mode. (On the benchmark's stable two- and four-tooth cuts the
    1.5 f_T line stood at most 1.3 dB over the runout below it; flip chatter 7-39 dB. Runout varying
    the tooth pulses' heights, lifted by a resonance between two tooth harmonics, can reach the
-   tooth lines' level: hence the second rule, from tests/listen_shop.py.)
+   tooth lines' level: hence the second rule, from tests/listen_shop.py.) Once the chatter heard is
+   a flip line (an odd multiple of f_T/2), the other odd multiples standing ``FLIP_RATIO`` over the
+   runout join its family (step 7) even under ``FLIP_TOOTH`` of their tooth lines: the second rule
+   keeps resonant runout from being heard as chatter on its own, but here another member has made it
+   flip chatter (bench_listen --seed 1: a two-tooth flip chatter at 1.5 f_T, 10 dB under the tooth
+   line f_T, had its 2.5 f_T member heard instead on 3 cuts).
 5. **Mains** (masked): lines at h·50 and h·60 Hz (h ≤ 8) standing ``MAINS_PROMINENCE`` = 4× over
    the floor within ±0.3 Hz + 1 bin, unless (h ≥ 4) ``MAINS_OVER_HUM`` = 2× louder than the hum at
    h = 1-3 (then it is no hum: a chatter line that happens to fall on a mains harmonic stays).
@@ -64,6 +76,22 @@ The steps, with every threshold and the reason for it:
    chatter 3 Hz from a runout line or a mains harmonic is heard on a 2-3 s cut (the Welch masks alone
    hid it to ±9 Hz). Its power is its peak density × the full window's noise bandwidth; it competes
    with the Welch candidates in Welch-density units (× segment length / window length).
+   **On a spindle line** (inside its own main lobe, ±4/T, where the two above cannot look): the
+   steady spindle lines are fitted by least squares at their exact frequencies k f_s (f_s refined,
+   step 3) and taken out (``_sync_residual``: on the unwindowed DFT of whole revolutions each line is
+   one bin, orthogonal to the others; a tone δ Hz away leaks sinc(δT) into it: nothing at whole
+   bins, −22 dB from 2.5 bins on), and the Blackman-Harris spectrum of the residual (bins 1/T) is
+   searched within ±(``NEAR_BINS`` + 2)/T of each line: a local maximum ``NEAR_PROMINENCE`` over the
+   floor, at least ``SYNC_MIN_BINS`` = 1.5/T from the line (closer, one window cannot part them),
+   ``SYNC_MIRROR`` = 4× over the residual mirrored about the line (what a removed line leaves, from a
+   speed error or a slow drift of its amplitude, is symmetric about it; a chatter line beside it is
+   not), and not on a mains line found (±0.3 Hz + 1.5/T: hum 1.7 Hz from a spindle harmonic was heard
+   as chatter otherwise). Its trend is taken on the residual (the runout line beside it out).
+   Measured on hand-made cuts (listen_synth and listen_shop, 2-5 s, chatter 1-3 Hz from runout lines,
+   0.25-1 × the forced vibration): 199 of 288 right before, 285 after (the 3 left: a two-tooth
+   2.5 f_T runout line lifted by a resonance, kept as a flip candidate and louder than the chatter).
+   Chatter exactly on a spindle line (closer than 1.5/T) stays unheard: a steady one cannot be told
+   from runout.
    One chatter sounds as a family f_c + k f_T and its mirrors k f_T − f_c (the tooth passing modulates
    it; a lower sideband below zero folds over); the chatter frequency
    of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
@@ -75,6 +103,10 @@ The steps, with every threshold and the reason for it:
    otherwise win by f⁴) (on virtual recordings the
    loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts; with |k| ≤ 3 a two-tooth
    slot's loudest line 5 f_T − f_c was not linked to f_c).
+   **A spread chatter** (``_hump_centroid``): when the line heard is one of a hump of comparable lines
+   (a quasi-periodic chatter), the hump's power-weighted centroid is reported, and with an even number
+   of teeth the odd multiple of f_T/2 near it (period doubling spread by a slow modulation); the
+   trend is still taken on the hump's loudest line.
 8. **Score** = A_c / A_s: the RMS amplitude of the chatter line over that of all synchronous lines
    (forced vibration and runout), times the ratio of its RMS amplitude over the last ``LATE_SHARE``
    = 40 % of the window to that over the whole window (chatter that starts late is scored as it
@@ -175,6 +207,13 @@ SYNC_SEARCH_BINS = 4
 #: SYNC_MIRROR times over the residual mirrored about the line
 SYNC_MIN_BINS = 1.5
 SYNC_MIRROR = 4.0
+#: a spread chatter (``_hump_centroid``): the hump is the bins over HUMP_LEVEL × the floor; spread when
+#: the peak holds less than HUMP_SHARE of it and it has HUMP_LINES comparable local maxima
+HUMP_LEVEL = 2.0
+HUMP_SHARE = 0.5
+HUMP_LINES = 2
+#: ... with even teeth, an odd multiple of f_T/2 within this share of the hump's width of its centroid is reported
+HUMP_FLIP = 0.25
 SCORE_SCALE = ("amplitude of the chatter line / amplitude of all spindle-synchronous lines, on the last 40 % "
                "of the cut: 0 none, >= 0.02 marginal, >= 0.05 chatter (26 dB below the forced vibration), 1 as loud")
 
@@ -422,6 +461,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
             line_pow[j] = p[lo[j]:hi[j]].max()
     # flip candidates: odd multiples of f_T/2 (even teeth only) from 1.5 f_T up, far above the runout
     keep = np.zeros(ks.size, bool)
+    over_runout = keep
     if teeth % 2 == 0:
         # the runout lines below any flip candidate (1.5 f_T itself is a candidate: flip chatter of a
         # two-tooth slot sits there, at 3 f_s; measured: 4 of 38 chatter cuts of bench_listen at 100 cuts)
@@ -437,7 +477,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         kt = ks // teeth * teeth  # the tooth harmonic below each line (in spindle orders)
         pw = dict(zip(ks.tolist(), line_pow.tolist()))
         near_tooth = np.array([max(pw.get(int(a), 0.0), pw.get(int(a) + teeth, 0.0)) for a in kt])
-        keep = odd & ~below & (line_pow > FLIP_RATIO * ref) & (line_pow > FLIP_TOOTH * near_tooth)
+        over_runout = odd & ~below & (line_pow > FLIP_RATIO * ref)
+        keep = over_runout & (line_pow > FLIP_TOOTH * near_tooth)
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     # mains lines
@@ -496,7 +537,24 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper)
     lpF = np.log(np.maximum(pF, 1e-300))
-    if c < peaks.size:
+    # flip chatter heard at an odd multiple of f_T/2: the other odd multiples standing FLIP_RATIO over the
+    # runout join its family even when under FLIP_TOOTH of their tooth lines (that rule keeps resonant
+    # runout from being heard as chatter; here the chatter is established by another member)
+    extra = np.flatnonzero(over_runout & ~keep & (line_f <= f_hi))
+    n_std = cand_f.size
+    if extra.size and abs(cand_f[c] / (0.5 * f_t) - 2 * round((cand_f[c] / (0.5 * f_t) - 1) / 2) - 1) * 0.5 * f_t <= 2.0 * fs / nper:
+        ex_f = np.array([_refine(fF, lpF, float(line_f[j]), 2.0 * fs / nper) for j in extra])
+        ex_e = np.maximum(line_pow[extra] - np.interp(line_f[extra], f, floor), 0.0)
+        cand_f, cand_e = np.concatenate([cand_f, ex_f]), np.concatenate([cand_e, ex_e])
+        c = _family_member(cand_f, cand_e, int(np.argmax(cand_e[:n_std])), f_t, 2.0 * fs / nper)
+    f_report = None
+    if c >= n_std:  # a flip line on a spindle harmonic (on the Welch spectrum: its mask's largest bin)
+        jx = int(extra[c - n_std])
+        fl0 = float(np.interp(line_f[jx], f, floor))
+        prom = float(line_pow[jx] / fl0)
+        line_pow = float(line_pow[jx] - fl0) * ENBW_BINS * fs / nper
+        fc = float(cand_f[c])
+    elif c < peaks.size:
         j = int(peaks[c])
         prom = float(ratio[j])
         # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
@@ -509,9 +567,16 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         # ... or, for a line next to a masked one, its peak density × the window's noise bandwidth
         line_pow = max(float(np.sum(p[a_:b_] - floor[a_:b_])) * df,
                        float(p[j] - floor[j]) * ENBW_BINS * fs / nper)
-        # refine on the full-window spectrum (finer bins)
+        # refine on the full-window spectrum (finer bins); a spread hump: its centroid
         lp = np.log(np.maximum(p, 1e-300))
         fc = _refine(fF, lpF, float(f[j] + _interp_peak(lp, j) * df), fs / nper)
+        hump = _hump_centroid(f, p, floor, mask, j)
+        if hump is not None:  # reported; the trend stays on the hump's loudest line
+            f_report, h_lo, h_hi = hump
+            if teeth % 2 == 0:  # even teeth: a hump spread about an odd multiple of f_T/2 is flip chatter
+                fl_ = (2 * round((f_report / (0.5 * f_t) - 1) / 2) + 1) * 0.5 * f_t
+                if abs(fl_ - f_report) <= HUMP_FLIP * (h_hi - h_lo):
+                    f_report = fl_
     elif c >= peaks.size + near.size:  # beside a spindle line: on the residual
         i = c - peaks.size - near.size
         prom = float(pb[i] / flb[i])
@@ -529,7 +594,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     lines = np.concatenate([line_f[~keep], np.asarray(mains_lines)])
     tols = np.concatenate([ks[~keep] * dfs, np.full(len(mains_lines), 0.3)])
     near_fc = (np.abs(lines - fc) < reach) & (np.abs(lines - fc) > NEAR_BINS * fs / w.size)
-    if c >= peaks.size + near.size:  # the spindle lines fitted at their exact frequencies are out already
+    if peaks.size + near.size <= c < n_std:  # the spindle lines fitted at their exact frequencies are out already
         from scipy import fft as sfft
 
         wt = sfft.irfft(Xr, n_r)
@@ -563,9 +628,58 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         label = "chatter"
     else:
         label = "marginal"
+    if f_report is not None:
+        fc = f_report
     return Listening(label, fc, float(score), 10 * math.log10(prom), onset, float(trend), float(rpm), 60.0 * f_s,
                      int(teeth), f_t, (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask,
                      i0 / fs + tc, a_c)
+
+
+def _hump_centroid(f: np.ndarray, p: np.ndarray, floor: np.ndarray, mask: np.ndarray,
+                   j: int) -> tuple[float, float, float] | None:
+    """(power-weighted mean frequency, lower and upper end) [Hz] of the hump around Welch bin j when the
+    chatter is spread over it (a modulated chatter: several comparable lines), else None (the peak is
+    the frequency).
+
+    The hump: the bins above ``HUMP_LEVEL`` × the floor around j, stepping over masked synchronous bins
+    (a flip chatter's hump is centred on a spindle line); its masked bins do not count. Spread: the
+    peak's ±2 segment bins (4 bins here: a single Blackman-Harris line keeps > 90 % of its power there)
+    hold less than ``HUMP_SHARE`` of the hump's excess, and the hump has at least ``HUMP_LINES`` local
+    maxima of at least a quarter of the peak's excess. Why: two-tooth flip chatter in the virtual
+    shop (bench_listen seed 0, cuts 25 and 36) was not a period-2 line but a quasi-periodic hump
+    (±25 Hz and 840-1055 Hz wide, lines 2-4 Hz apart) about 1.5 f_T, its loudest line 8-10 Hz from the
+    simulation's frequency (the peak of its last 64 tooth periods: the frequency at the end of the
+    cut); the centroids were 3.5 and 13 Hz from it, 1.5 f_T itself 0.3 and 4.6 Hz (hence, with an even
+    number of teeth, the odd multiple of f_T/2 within ``HUMP_FLIP`` of the hump's width of the
+    centroid is reported: the frequency of period doubling, which the modulation spreads)."""
+    n = f.size
+    ex = np.maximum(p - floor, 0.0)
+    up = p > HUMP_LEVEL * floor
+
+    def walk(i: int, step: int) -> int:
+        while 0 <= i + step < n:
+            q = i + step
+            if mask[q]:
+                while 0 <= q < n and mask[q]:
+                    q += step
+                if not (0 <= q < n and up[q]):
+                    break
+            elif not up[q]:
+                break
+            i = q
+        return i
+
+    a, b = walk(j, -1), walk(j, 1) + 1
+    sel = np.arange(a, b)[~mask[a:b]]
+    tot = float(ex[sel].sum())
+    if tot <= 0:
+        return None
+    near = sel[np.abs(sel - j) <= 4]
+    exs = np.where(mask[a:b], 0.0, ex[a:b])
+    lines = int(np.sum((exs[1:-1] >= exs[:-2]) & (exs[1:-1] >= exs[2:]) & (exs[1:-1] >= 0.25 * ex[j])))
+    if float(ex[near].sum()) >= HUMP_SHARE * tot or lines < HUMP_LINES:
+        return None
+    return float(np.sum(f[sel] * ex[sel]) / tot), float(f[a]), float(f[b - 1])
 
 
 def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float) -> int:
@@ -722,13 +836,15 @@ def _refine_spindle(w: np.ndarray, fs: float, f_s: float, f_hi: float) -> float:
     ok = pw > 0
     e = np.zeros(k.size)
     e[ok] = b[ok] + 0.5 * np.real((X[b - 1][ok] - X[b + 1][ok]) / x0[ok]) - nu[ok]
-    strong = ok & (pw >= SYNC_STRONG * pw.max())
+    med = max(float(np.median(np.abs(X) ** 2)), 1e-300)
+    # lines, not noise: NEAR_PROMINENCE over the median bin (a recording without spindle lines keeps its speed)
+    strong = ok & (pw >= SYNC_STRONG * pw.max()) & (pw >= NEAR_PROMINENCE * med)
     if not strong.any():
         return f_s
     # the offset most lines agree with (each line votes its log-prominence over the median bin, at most
     # COMB_CLIP: a strong chatter line beside a weak runout line is one vote, not a pull), then the
     # power-weighted least squares over the lines within a quarter bin of it
-    vote = np.clip(np.log(pw / max(float(np.median(np.abs(X) ** 2)), 1e-300)), 0.0, COMB_CLIP)
+    vote = np.clip(np.log(pw / med), 0.0, COMB_CLIP)
     d = e[strong] / (k[strong] * T)
     agree = np.abs(e[strong][None, :] - np.outer(d, k[strong]) * T) <= 0.25
     d_med = float(d[np.argmax(agree.astype(float) @ vote[strong])])
@@ -755,6 +871,8 @@ def _sync_residual(w: np.ndarray, fs: float, f_s: float, k_lines: np.ndarray) ->
     from scipy import fft as sfft
 
     revs = math.floor(w.size * f_s / fs)
+    if revs < 4:  # too short to part anything from a line
+        return sfft.rfft(w - w.mean()), f_s, w.size / fs, np.zeros(0)
     n = int(round(revs * fs / f_s))
     X = sfft.rfft(w[:n] - w[:n].mean())
     T = n / fs

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from listen_shop import shop_recording  # noqa: E402
-from listen_synth import milling_sound  # noqa: E402
+from listen_shop import shop_recording
+from listen_synth import milling_sound
 
-from millstab.listen import listen  # noqa: E402
+from millstab.listen import listen
 
 
 def main(argv=None) -> int:

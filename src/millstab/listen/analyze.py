@@ -819,7 +819,7 @@ def _whole_revolutions(size: int, fs: float, f_s: float) -> int:
         return 0
     best, best_rest = 0, math.inf
     for r in range(revs, max(4, revs - min(64, revs // 16)) - 1, -1):
-        n = min(int(round(r * fs / f_s)), size)
+        n = min(round(r * fs / f_s), size)
         rest = n
         for p in (2, 3, 5, 7, 11, 13):
             while rest % p == 0:

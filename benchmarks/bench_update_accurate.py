@@ -33,8 +33,14 @@ fail the strict reading with a correct posterior.
 node count (the converged count + 2, not ``purpose="sample"``, :data:`millstab.update.likelihood.SAMPLING`),
 chosen at the first row of every call (not once per update by the likelihood's own forward model).
 
+``--surrogate``: also the spectral update with the surrogate sampler (a zero-order pilot posterior, a correction
+of the zero-order limits fitted on 200 of its particles evaluated by the spectral engine, tempered SMC on the
+corrected limits, the spectral engine once per distinct final particle and importance weights,
+:func:`millstab.update.sampler.corrected_smc`), the fit's held-out error, the importance ESS, and its posterior
+against the delayed-acceptance one (means and quantiles in sd units); ``--surrogate-kind``: the regression.
+
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
-[--cuts 10] [--plain] [--fit-nodes]``.
+[--cuts 10] [--plain] [--fit-nodes] [--surrogate]``.
 """
 
 from __future__ import annotations
@@ -54,6 +60,7 @@ from millstab.io.config import PriorTable
 from millstab.io.points import PointSet
 from millstab.model import Cutting
 from millstab.stability import sdm
+import millstab.update as upd
 from millstab.update import make_prior, update
 from millstab.update import likelihood
 from millstab.update.likelihood import Evidence, Likelihood
@@ -104,6 +111,15 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
               f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
 
 
+def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
+    """Print the difference of two posteriors' means and 5/50/95 % quantiles of each ln θ in sd units."""
+    for j, nm in enumerate(names):
+        sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
+        dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
+        print(f"  ln {nm}: {what}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
+              f"{' '.join(f'{x:+.3f}' for x in dq)} sd{note}")
+
+
 @contextlib.contextmanager
 def before_issue_28(on: bool):
     """With ``on``, the likelihood's engine calls as before issue 28's sampling count: a fit's node count
@@ -138,6 +154,9 @@ def main() -> None:
     ap.add_argument("--plain", action="store_true", help="also the spectral update without delayed acceptance")
     ap.add_argument("--proxy-seeds", type=int, default=0, help="the repeatable proxy check with this many seeds")
     ap.add_argument("--proxy-only", action="store_true", help="only the proxy check (no spectral updates)")
+    ap.add_argument("--surrogate", action="store_true", help="also the spectral update with the surrogate sampler "
+                    "(zero-order limits times a fitted correction, the spectral engine once per final sample)")
+    ap.add_argument("--surrogate-kind", default="linear", help="the correction's regression: linear | quadratic | gp")
     ap.add_argument("--fit-nodes", action="store_true", help="also the spectral update (default sampler) as before "
                     "issue 28's sampling count: a fit's node count (converged + 2), chosen per call")
     args = ap.parse_args()
@@ -168,7 +187,9 @@ def main() -> None:
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
-                + ([("spectral", "plain")] if args.plain else []))
+                + ([("spectral", "plain")] if args.plain else [])
+                + ([("spectral", "surrogate")] if args.surrogate else []))
+        upd.SURROGATE_KIND = args.surrogate_kind
         for eng, smp in plan:
             with before_issue_28(smp == "fit-nodes"):
                 post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
@@ -178,7 +199,15 @@ def main() -> None:
             d = post.diagnostics
             n_side, n_label, bad = explained(post, cuts)
             extra = (f", screened by {d['screen_engine']}: {d['screen_sets']} screen sets, pass "
-                     f"{np.mean(d['screen_pass']):.2f}" if "screen_engine" in d else "")
+                     f"{np.mean(d['screen_pass']):.2f}" if "screen_pass" in d else "")
+            if "correction" in d:
+                c, f = d["correction"], d["surrogate"]
+                rms = [x for x in f["heldout_rms_ln_b"] if x is not None]
+                sd = [x for x in f["delta_sd_ln_b"] if x is not None]
+                print(f"  surrogate ({f['kind']}, {f['design']} distinct zero-order posterior particles evaluated by the spectral engine): held-out RMS error of the correction "
+                      f"{np.median(rms):.4f} median, {max(rms):.4f} max [ln b] (the correction's own sd {np.median(sd):.4f} "
+                      f"median); importance ESS {c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} "
+                      f"distinct final rows evaluated, bridge stages {c['bridge_stages']}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
                   f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) = 1/2: "
                   f"{n_side}/{args.cuts}, written label with predictive probability >= 0.1: {n_label}/{args.cuts}"
@@ -196,14 +225,14 @@ def main() -> None:
     if args.plain:
         p = runs["spectral", "plain"]
         print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")
-        ua, ub = s[0].u, p[0].u
         ess = min(s[0].diagnostics["ess"][-1], p[0].diagnostics["ess"][-1])
-        for j, nm in enumerate(names):
-            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
-            dq = [(np.quantile(ua[:, j], q) - np.quantile(ub[:, j], q)) / sd for q in (0.05, 0.5, 0.95)]
-            print(f"  ln {nm}: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd, quantile diffs "
-                  f"{' '.join(f'{x:+.3f}' for x in dq)} sd (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at "
-                  f"the last ESS {ess:.0f})")
+        compare(s[0].u, p[0].u, names, "delayed - plain",
+                f" (MC error of a difference ~{np.sqrt(2 / ess):.3f} sd at the last ESS {ess:.0f})")
+    if args.surrogate:
+        g = runs["spectral", "surrogate"]
+        print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
+              f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
+        compare(g[0].u, s[0].u, names, "surrogate - delayed")
     print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
 
 

@@ -81,7 +81,7 @@ from millstab.io.points import PointSet  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
-from millstab.update.campaign import coverage, run_campaign  # noqa: E402
+from millstab.update.campaign import CampaignOptions, coverage, run_campaign  # noqa: E402
 from millstab.update.decide import CONFIDENCE, SPEED_TOLERANCE, TEST_RISK  # noqa: E402
 
 OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
@@ -244,11 +244,11 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             return list(np.where(chat, "chatter", "stable")), [float("nan")] * b.size
 
         grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
-        camp = run_campaign(cfg, prior, truth, labeler, cuts=args.cuts, samples=args.samples, risk=args.risk,
-                            rpm_range=(lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)),
-                            engine=args.engine, reuse=not args.fresh, truth_grid=grid,
-                            best_speeds=args.best_speeds, decision=decision,
-                            keep=tuple(range(1, args.cuts + 1)) if args.save else ())
+        settings = CampaignOptions(cuts=args.cuts, samples=args.samples, risk=args.risk, rpm_range=(lo, hi),
+                               max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)), engine=args.engine,
+                               reuse=not args.fresh, best_speeds=args.best_speeds, decision=decision,
+                               keep=tuple(range(1, args.cuts + 1)) if args.save else ())
+        camp = run_campaign(cfg, prior, truth, labeler, settings, truth_grid=grid)
         cover = coverage(camp.posteriors[args.cuts], theta)
         cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
         row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],

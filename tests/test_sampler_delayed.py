@@ -17,7 +17,8 @@ from millstab.io.config import parse_config
 from millstab.io.points import PointSet
 from millstab.update import make_prior, screen_engine, update
 from millstab.update.likelihood import Evidence, Likelihood, limits
-from millstab.update.sampler import tempered_smc
+from millstab.update.sampler import corrected_smc, tempered_smc
+from millstab.update.surrogate import Corrected
 from configs import TWO_MODE_TOML
 from test_update import _grid_posterior
 
@@ -125,6 +126,22 @@ def _grid_case():
     return cfg, prior, PointSet(rpm, depth, np.where(depth > b, "chatter", "stable"))
 
 
+def _assert_grid(prior, cuts, u, other) -> float:
+    """Samples u (N, 2) against the dense-grid posterior: means and sds within 0.15 sd, 5/50/95 % quantiles
+    within 0.25 sd. Returns the largest distance [sd] of the means of ``other`` (N', 2) from the grid's."""
+    g1, g2, w = _grid_posterior(prior, cuts)  # ONE engine call for the whole 90 x 90 grid
+    far = 0.0
+    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
+        mean = (grid * marg).sum()
+        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
+        x = u[:, j]
+        assert abs(x.mean() - mean) < 0.15 * sd and abs(x.std() - sd) < 0.15 * sd, (j, x.mean(), mean, sd)
+        for q in (0.05, 0.5, 0.95):
+            assert abs(np.quantile(x, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
+        far = max(far, abs(other[:, j].mean() - mean) / sd)
+    return far
+
+
 @pytest.mark.slow
 def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen():
     """The engine's likelihood as the target and a screen from a model with Kt 25 % high (its limits 20 %
@@ -136,16 +153,7 @@ def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_s
     scr = Likelihood(biased, ev)
     res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr)
     alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
-    g1, g2, w = _grid_posterior(prior, cuts)  # ONE engine call for the whole 90 x 90 grid
-    far = 0.0
-    for j, (grid, marg) in enumerate(((g1, w.sum(1)), (g2, w.sum(0)))):
-        mean = (grid * marg).sum()
-        sd = math.sqrt(((grid - mean) ** 2 * marg).sum())
-        u = res.u[:, j]
-        assert abs(u.mean() - mean) < 0.15 * sd and abs(u.std() - sd) < 0.15 * sd, (j, u.mean(), mean, sd)
-        for q in (0.05, 0.5, 0.95):
-            assert abs(np.quantile(u, q) - np.interp(q, np.cumsum(marg), grid)) < 0.25 * sd
-        far = max(far, abs(alone.u[:, j].mean() - mean) / sd)
+    far = _assert_grid(prior, cuts, res.u, alone.u)
     assert far > 0.5  # the screen's own posterior is elsewhere
     assert res.n_sets < 0.6 * 2000 * (1 + 3 * res.stages)
 
@@ -174,3 +182,89 @@ def test_cli_update_sampler_option(tmp_path, capsys):
     assert "sampler" in capsys.readouterr().err and not (tmp_path / "a.json").exists()
     assert main([*args, str(tmp_path / "b.json"), "--sampler", "delayed"]) == 0
     assert json.loads((tmp_path / "b.json").read_text())["diagnostics"]["screen_engine"] == "zoa"
+
+
+# ---- the surrogate-corrected sampler (issue 28): a cheap surrogate posterior, the accurate likelihood once per
+# final particle, importance weights (and a bridge with accurate moves when their ESS is low)
+
+def test_corrected_smc_with_a_wrong_surrogate_gives_the_accurate_posterior_and_fails_without_weights():
+    n = 4000
+    res = corrected_smc(_prior_draws, _logprior, _loglik, _wrong, n, seed=1, moves=4)
+    _assert_conjugate(res.u, n)
+    c = res.diagnostics()["correction"]
+    assert c["ess_fraction"] < 0.5 and c["bridge_stages"] >= 1  # the wrong surrogate needed the bridge
+    np.testing.assert_allclose(res.loglik, _loglik(res.u))  # the accurate log L of the returned particles
+    # dropping the correction (the surrogate's own posterior) misses by far more than the tolerance
+    alone = tempered_smc(_prior_draws, _logprior, _wrong, n, seed=1, moves=4)
+    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 2 * 4 * (np.sqrt(VAR / n) * 4).max())
+
+
+def test_corrected_smc_with_a_good_surrogate_evaluates_each_final_particle_once():
+    """A surrogate 0.1 sd off: the importance weights alone correct it (no bridge), the accurate likelihood
+    sees only the distinct final particles, and the weights matter (the uncorrected mean is further off)."""
+    n = 4000
+    calls = []
+
+    def counted(u):
+        calls.append(u.shape[0])
+        return _loglik(u)
+
+    def near(u):
+        return _loglik(u + 0.1 * S)
+
+    res = corrected_smc(_prior_draws, _logprior, counted, near, n, seed=3, moves=3)
+    _assert_conjugate(res.u, n)
+    c = res.diagnostics()["correction"]
+    assert c["bridge_stages"] == 0 and c["ess_fraction"] > 0.9
+    assert calls == [c["accurate_rows"]] and c["accurate_rows"] <= n and res.n_sets == c["accurate_rows"]
+    alone = tempered_smc(_prior_draws, _logprior, near, n, seed=3, moves=3)
+    assert np.all(np.abs(res.u.mean(0) - MEAN) < np.abs(alone.u.mean(0) - MEAN))
+    again = corrected_smc(_prior_draws, _logprior, _loglik, near, n, seed=3, moves=3)
+    np.testing.assert_array_equal(res.u, again.u)
+    with pytest.raises(InputError, match="ess_min"):
+        corrected_smc(_prior_draws, _logprior, _loglik, near, n, ess_min=0)
+
+
+def test_the_fitted_correction_learns_a_model_offset_per_speed():
+    """Corrected zero-order limits of a model with Kt 25 % high (limits 0.8x): ln b_acc − ln b_zoa = ln 1.25 at
+    every speed and parameter set, which the quadratic fit recovers to the engine's root tolerance (~1e-5); the
+    surrogate's log L is then the accurate one."""
+    _, prior, cuts = _grid_case()
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
+    sur = Corrected(lik, Likelihood(biased, ev)).fit(prior.sample_full(40, np.random.default_rng(0)))
+    assert np.all(np.asarray(sur.heldout_rms) < 1e-4) and np.all(np.asarray(sur.delta_sd) < 1e-4)
+    u = prior.sample_full(50, np.random.default_rng(1))
+    np.testing.assert_allclose(sur.correction(u), math.log(1.25), atol=1e-4)
+    np.testing.assert_allclose(sur(u), lik(u), rtol=1e-4, atol=1e-3)
+    assert np.abs(Likelihood(biased, ev)(u) - lik(u)).max() > 1  # uncorrected, the biased model is far off
+    assert sur.report()["design"] == 40
+    with pytest.raises(InputError, match="surrogate"):
+        Corrected(lik, Likelihood(biased, ev)).fit(u, kind="spline")
+
+
+@pytest.mark.slow
+def test_corrected_smc_matches_a_brute_force_grid_posterior_with_an_uncorrected_biased_surrogate():
+    """The engine's likelihood as the target, a model with Kt 25 % high as the surrogate (no correction fitted:
+    wrong on purpose): means, sds and quantiles against a dense grid."""
+    _, prior, cuts = _grid_case()
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
+    res = corrected_smc(prior.sample_full, prior.logpdf_full, lik, Likelihood(biased, ev), 2000, seed=2)
+    _assert_grid(prior, cuts, res.u, res.u)
+
+
+def test_update_surrogate_sampler_plumbing():
+    assert screen_engine("spectral", "surrogate") == "zoa"
+    cfg, _, cuts = _grid_case()
+    a = update(cfg, cuts, samples=300, seed=5, sampler="surrogate")
+    b = update(cfg, cuts, samples=300, seed=5, sampler="surrogate")
+    np.testing.assert_array_equal(a.samples, b.samples)
+    d = a.diagnostics
+    assert 100 <= d["surrogate"]["design"] <= 200 and "correction" in d and d["correction"]["accurate_rows"] <= 300
+    # the zero-order engine as the "accurate" one: its correction is 0, every weight 1
+    assert d["correction"]["ess_fraction"] == pytest.approx(1.0) and max(d["surrogate"]["heldout_rms_ln_b"]) < 1e-12
+    with pytest.raises(InputError, match="sampler"):
+        update(cfg, cuts, samples=300, seed=5, sampler="surrogate", start=a)

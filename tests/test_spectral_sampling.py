@@ -88,3 +88,28 @@ def test_the_likelihood_is_one_function_of_theta_across_calls():
     np.testing.assert_array_equal(alone, behind)
     fresh = limits(prior, np.vstack([other, u0]), lik.speeds, "spectral")[0][1]  # a decision's call
     np.testing.assert_array_equal(fresh, alone)
+
+
+def test_the_batched_limits_on_both_cores_are_bit_identical_to_one_core(case):
+    """The accurate evaluations of the surrogate sampler's final particles are ONE batched call, parallel
+    over (set, speed block) in the spectral kernel (numba prange): on 1 and on 2 threads the same bits, and
+    each set's row the same as alone (no set depends on the others sharing the call), and a speed's limit the same
+    alone."""
+    import numba as nb
+
+    prior, _, theta = case
+    u = np.log(np.column_stack([theta, np.ones((theta.shape[0], prior.dim - theta.shape[1]))]))[:, :prior.size]
+    before = nb.get_num_threads()
+    try:
+        nb.set_num_threads(1)
+        one, _ = limits(prior, u, RPM, "spectral")
+        nb.set_num_threads(min(2, nb.config.NUMBA_NUM_THREADS))
+        two, _ = limits(prior, u, RPM, "spectral")
+    finally:
+        nb.set_num_threads(before)
+    np.testing.assert_array_equal(one, two)
+    alone, _ = limits(prior, u[3:4], RPM, "spectral")
+    np.testing.assert_array_equal(alone[0], two[3])
+    one_speed, _ = limits(prior, u[3:4], RPM[2:3], "spectral")
+    # a speed alone: the same limit to the root's tolerance (blocks warm-start from the previous speed's root)
+    np.testing.assert_allclose(one_speed[0, 0], two[3, 2], rtol=1e-9)

@@ -53,6 +53,9 @@ class Forward:
         if not getattr(self._engine_mod, "process_damping", False):  # an engine without the capability
             reject_process_damping(self.cutting, self.engine)
 
+    def __reduce__(self):  # an engine module does not pickle: a Dask task gets the model by the engine's name
+        return Forward, (self.par, self.cutting, self.engine, self.purpose)
+
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
                  kr: np.ndarray | None = None) -> np.ndarray:
         """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call.
@@ -155,11 +158,26 @@ class Pinned:
     def __reduce__(self):  # a read-only mapping does not pickle; a Dask task gets a copy
         return Pinned, (self.forward, self.rpm, dict(self.settings), self.conditions)
 
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call."""
+    def __call__(self, theta: np.ndarray, kr: np.ndarray | None = None) -> np.ndarray:
+        """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call; ``kr`` (B,): a Kr per row
+        (engines with ``per_set_kr``)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
-        return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings)
+        extra = {} if kr is None else {"kr": kr}
+        return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
+
+    @property
+    def reports_frequency(self) -> bool:
+        """Whether :meth:`with_frequency` gives chatter frequencies (the engine's ``reports_chatter_frequency``)."""
+        return bool(getattr(self.forward._engine_mod, "reports_chatter_frequency", False))
+
+    def with_frequency(self, theta: np.ndarray, kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(depths (B, S) [m], chatter frequencies (B, S) [Hz]) of rows θ, one call of an engine that
+        :attr:`reports_frequency`, under the same pinned discretisation as :meth:`__call__`."""
+        t = np.atleast_2d(np.asarray(theta, dtype=float))
+        f = self.forward
+        extra = {} if kr is None else {"kr": kr}
+        return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows

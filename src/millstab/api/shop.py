@@ -185,9 +185,9 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
         StaleError: still stale after ``retries`` re-runs.
     """
-    from millstab.api.update import update
     import hashlib
 
+    from millstab.api.update import update
     from millstab.shopdb.store import StaleError
 
     from millstab.io.stickout import stickouts

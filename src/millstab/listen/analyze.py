@@ -28,7 +28,14 @@ The steps, with every threshold and the reason for it:
    least squares on the interpolated peaks of the prominent spindle harmonics up to k = 30 (±2 bins).
    Both on the full-window spectrum (bins of 1/(2T), 4× finer than the Welch segments'): a chatter
    family 2-3 Hz beside the spindle harmonics pulled a comb scored on Welch bins to it (0.2-1.4 % off
-   on 3 of 204 benchmark cuts, each then a chatter-frequency miss).
+   on 3 of 204 benchmark cuts, each then a chatter-frequency miss). Then refined to the lines' own
+   frequencies (``_refine_spindle``): on the unwindowed DFT of a whole number of revolutions every
+   spindle harmonic sits on a bin; each line within ±``SYNC_SEARCH_BINS`` bins of k f_s is placed to a
+   fraction of a bin by its neighbours (X[b∓1]/X[b] ≈ ±e), and f_s moves by the power-weighted fit
+   of these offsets over the lines within a quarter bin of the offset most lines agree with (each
+   votes its log-prominence, at most ``COMB_CLIP``: a chatter line stronger than a runout line beside
+   it is one vote). Measured: the speed from the peaks was 1e-6 to 7e-6 off (0.01-0.07 bins at the
+   30th harmonic of a 2 s window), refined 1e-8 to 2e-7.
 4. **Synchronous lines** (masked): every multiple of the spindle frequency f_s = f_T/N (tooth-passing
    harmonics, runout once per revolution and its harmonics) ±(``LINE_BINS`` = 4.5 bins + k·2e-4 f_s).
    One exception: with an even number of teeth, a line at an odd multiple of f_T/2 from 1.5 f_T up
@@ -40,7 +47,12 @@ The steps, with every threshold and the reason for it:
    its order instead of peaking near a mode. (On the benchmark's stable two- and four-tooth cuts the
    1.5 f_T line stood at most 1.3 dB over the runout below it; flip chatter 7-39 dB. Runout varying
    the tooth pulses' heights, lifted by a resonance between two tooth harmonics, can reach the
-   tooth lines' level: hence the second rule, from tests/listen_shop.py.)
+   tooth lines' level: hence the second rule, from tests/listen_shop.py.) Once the chatter heard is
+   a flip line (an odd multiple of f_T/2), the other odd multiples standing ``FLIP_RATIO`` over the
+   runout join its family (step 7) even under ``FLIP_TOOTH`` of their tooth lines: the second rule
+   keeps resonant runout from being heard as chatter on its own, but here another member has made it
+   flip chatter (bench_listen --seed 1: a two-tooth flip chatter at 1.5 f_T, 10 dB under the tooth
+   line f_T, had its 2.5 f_T member heard instead on 3 cuts).
 5. **Mains** (masked): lines at h·50 and h·60 Hz (h ≤ 8) standing ``MAINS_PROMINENCE`` = 4× over
    the floor within ±0.3 Hz + 1 bin, unless (h ≥ 4) ``MAINS_OVER_HUM`` = 2× louder than the hum at
    h = 1-3 (then it is no hum: a chatter line that happens to fall on a mains harmonic stays).
@@ -64,6 +76,22 @@ The steps, with every threshold and the reason for it:
    chatter 3 Hz from a runout line or a mains harmonic is heard on a 2-3 s cut (the Welch masks alone
    hid it to ±9 Hz). Its power is its peak density × the full window's noise bandwidth; it competes
    with the Welch candidates in Welch-density units (× segment length / window length).
+   **On a spindle line** (inside its own main lobe, ±4/T, where the two above cannot look): the
+   steady spindle lines are fitted by least squares at their exact frequencies k f_s (f_s refined,
+   step 3) and taken out (``_sync_residual``: on the unwindowed DFT of whole revolutions each line is
+   one bin, orthogonal to the others; a tone δ Hz away leaks sinc(δT) into it: nothing at whole
+   bins, −22 dB from 2.5 bins on), and the Blackman-Harris spectrum of the residual (bins 1/T) is
+   searched within ±(``NEAR_BINS`` + 2)/T of each line: a local maximum ``NEAR_PROMINENCE`` over the
+   floor, at least ``SYNC_MIN_BINS`` = 1.5/T from the line (closer, one window cannot part them),
+   ``SYNC_MIRROR`` = 4× over the residual mirrored about the line (what a removed line leaves, from a
+   speed error or a slow drift of its amplitude, is symmetric about it; a chatter line beside it is
+   not), and not on a mains line found (±0.3 Hz + 1.5/T: hum 1.7 Hz from a spindle harmonic was heard
+   as chatter otherwise). Its trend is taken on the residual (the runout line beside it out).
+   Measured on hand-made cuts (listen_synth and listen_shop, 2-5 s, chatter 1-3 Hz from runout lines,
+   0.25-1 × the forced vibration): 199 of 288 right before, 285 after (the 3 left: a two-tooth
+   2.5 f_T runout line lifted by a resonance, kept as a flip candidate and louder than the chatter).
+   Chatter exactly on a spindle line (closer than 1.5/T) stays unheard: a steady one cannot be told
+   from runout.
    One chatter sounds as a family f_c + k f_T and its mirrors k f_T − f_c (the tooth passing modulates
    it; a lower sideband below zero folds over); the chatter frequency
    of the lobe theory is the member near the mode, the strongest in *displacement*. A microphone and an
@@ -75,6 +103,10 @@ The steps, with every threshold and the reason for it:
    otherwise win by f⁴) (on virtual recordings the
    loudest member was the upper neighbour f_c + f_T in 6 of 73 chatter cuts; with |k| ≤ 3 a two-tooth
    slot's loudest line 5 f_T − f_c was not linked to f_c).
+   **A spread chatter** (``_hump_centroid``): when the line heard is one of a hump of comparable lines
+   (a quasi-periodic chatter), the hump's power-weighted centroid is reported, and with an even number
+   of teeth the odd multiple of f_T/2 near it (period doubling spread by a slow modulation); the
+   trend is still taken on the hump's loudest line.
 8. **Score** = A_c / A_s: the RMS amplitude of the chatter line over that of all synchronous lines
    (forced vibration and runout), times the ratio of its RMS amplitude over the last ``LATE_SHARE``
    = 40 % of the window to that over the whole window (chatter that starts late is scored as it
@@ -165,6 +197,23 @@ NEAR_DIP = 4.0
 #: Welch segments: the window / SEGMENTS, at most SEGMENT_MAX_S
 SEGMENTS = 4.0
 SEGMENT_MAX_S = 2.0
+#: a line beside a spindle line: the spindle lines are fitted over ±SYNC_FIT_BINS bins of 1/T ...
+SYNC_FIT_BINS = 16
+#: ... the speed refined on the lines with at least this share of the strongest one's power ...
+SYNC_STRONG = 1e-4
+#: ... each sought within this many bins of where the speed found puts it (0.1 % at k = 10, T = 2 s: 3 bins)
+SYNC_SEARCH_BINS = 4
+#: ... and a chatter line is sought at least SYNC_MIN_BINS (of 1/T) from the line, where it stands
+#: SYNC_MIRROR times over the residual mirrored about the line
+SYNC_MIN_BINS = 1.5
+SYNC_MIRROR = 4.0
+#: a spread chatter (``_hump_centroid``): the hump is the bins over HUMP_LEVEL × the floor; spread when
+#: the peak holds less than HUMP_SHARE of it and it has HUMP_LINES comparable local maxima
+HUMP_LEVEL = 2.0
+HUMP_SHARE = 0.5
+HUMP_LINES = 2
+#: ... with even teeth, an odd multiple of f_T/2 within this share of the hump's width of its centroid is reported
+HUMP_FLIP = 0.25
 SCORE_SCALE = ("amplitude of the chatter line / amplitude of all spindle-synchronous lines, on the last 40 % "
                "of the cut: 0 none, >= 0.02 marginal, >= 0.05 chatter (26 dB below the forced vibration), 1 as loud")
 
@@ -394,6 +443,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     band = (f >= F_LO) & (f <= f_hi)
     fF, pF = _full_spectrum(w, fs)
     f_s = _spindle_hz(fF, pF, np.interp(fF, f, _floor(f, p, np.zeros(f.size, bool))), rpm / 60.0, teeth, f_hi)
+    f_s = _refine_spindle(w, fs, f_s, f_hi)
     f_t = teeth * f_s
     # synchronous masks: every spindle harmonic
     half = LINE_BINS * fs / nper  # Hz
@@ -411,6 +461,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
             line_pow[j] = p[lo[j]:hi[j]].max()
     # flip candidates: odd multiples of f_T/2 (even teeth only) from 1.5 f_T up, far above the runout
     keep = np.zeros(ks.size, bool)
+    over_runout = keep
     if teeth % 2 == 0:
         # the runout lines below any flip candidate (1.5 f_T itself is a candidate: flip chatter of a
         # two-tooth slot sits there, at 3 f_s; measured: 4 of 38 chatter cuts of bench_listen at 100 cuts)
@@ -426,7 +477,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         kt = ks // teeth * teeth  # the tooth harmonic below each line (in spindle orders)
         pw = dict(zip(ks.tolist(), line_pow.tolist()))
         near_tooth = np.array([max(pw.get(int(a), 0.0), pw.get(int(a) + teeth, 0.0)) for a in kt])
-        keep = odd & ~below & (line_pow > FLIP_RATIO * ref) & (line_pow > FLIP_TOOTH * near_tooth)
+        over_runout = odd & ~below & (line_pow > FLIP_RATIO * ref)
+        keep = over_runout & (line_pow > FLIP_TOOTH * near_tooth)
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     # mains lines
@@ -466,8 +518,16 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     # one list, in Welch-density units: a line's peak density is its power / the noise bandwidth
     to_welch = float(nper) / w.size  # ENBW of the Welch segment / ENBW of the full window (Hz)
     dfF = fF[1] - fF[0]
-    cand_f = np.concatenate([f[peaks], fF[near]])
-    cand_e = np.concatenate([excess[peaks], (pF[near] - np.interp(fF[near], f, floor)) * to_welch])
+    # ... and, within a spindle line's own main lobe, the lines left when the steady synchronous lines are
+    # fitted at their exact frequencies and taken out
+    k_in = ks[~keep][(ks[~keep] * f_s >= F_LO - 10.0) & (ks[~keep] * f_s <= f_hi + 10.0)]
+    Xr, _, T_r, nu = _sync_residual(w, fs, f_s, k_in)
+    fb, pb, flb = _beside_sync_peaks(Xr, fs, T_r, nu, lambda ff: np.interp(ff, f, floor), F_LO, f_hi,
+                                     np.asarray(mains_lines))
+    n_r = 2 * (Xr.size - 1)
+    cand_f = np.concatenate([f[peaks], fF[near], fb])
+    cand_e = np.concatenate([excess[peaks], (pF[near] - np.interp(fF[near], f, floor)) * to_welch,
+                             (pb - flb) * (float(nper) / n_r)])
     sync_pow = float(np.sum(np.where(sync & (f <= f_hi), np.maximum(p - floor, 0.0), 0.0)) * df)
     nan = float("nan")
     n_fr = int(np.clip(w.size / fs / TREND_FRAME_S, TREND_FRAMES, 4 * TREND_FRAMES))
@@ -477,7 +537,24 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper)
     lpF = np.log(np.maximum(pF, 1e-300))
-    if c < peaks.size:
+    # flip chatter heard at an odd multiple of f_T/2: the other odd multiples standing FLIP_RATIO over the
+    # runout join its family even when under FLIP_TOOTH of their tooth lines (that rule keeps resonant
+    # runout from being heard as chatter; here the chatter is established by another member)
+    extra = np.flatnonzero(over_runout & ~keep & (line_f <= f_hi))
+    n_std = cand_f.size
+    if extra.size and abs(cand_f[c] / (0.5 * f_t) - 2 * round((cand_f[c] / (0.5 * f_t) - 1) / 2) - 1) * 0.5 * f_t <= 2.0 * fs / nper:
+        ex_f = np.array([_refine(fF, lpF, float(line_f[j]), 2.0 * fs / nper) for j in extra])
+        ex_e = np.maximum(line_pow[extra] - np.interp(line_f[extra], f, floor), 0.0)
+        cand_f, cand_e = np.concatenate([cand_f, ex_f]), np.concatenate([cand_e, ex_e])
+        c = _family_member(cand_f, cand_e, int(np.argmax(cand_e[:n_std])), f_t, 2.0 * fs / nper)
+    f_report = None
+    if c >= n_std:  # a flip line on a spindle harmonic (on the Welch spectrum: its mask's largest bin)
+        jx = int(extra[c - n_std])
+        fl0 = float(np.interp(line_f[jx], f, floor))
+        prom = float(line_pow[jx] / fl0)
+        line_pow = float(line_pow[jx] - fl0) * ENBW_BINS * fs / nper
+        fc = float(cand_f[c])
+    elif c < peaks.size:
         j = int(peaks[c])
         prom = float(ratio[j])
         # the line's power: its contiguous region above twice the floor (a modulated chatter is a hump)
@@ -490,9 +567,21 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         # ... or, for a line next to a masked one, its peak density × the window's noise bandwidth
         line_pow = max(float(np.sum(p[a_:b_] - floor[a_:b_])) * df,
                        float(p[j] - floor[j]) * ENBW_BINS * fs / nper)
-        # refine on the full-window spectrum (finer bins)
+        # refine on the full-window spectrum (finer bins); a spread hump: its centroid
         lp = np.log(np.maximum(p, 1e-300))
         fc = _refine(fF, lpF, float(f[j] + _interp_peak(lp, j) * df), fs / nper)
+        hump = _hump_centroid(f, p, floor, mask, j)
+        if hump is not None:  # reported; the trend stays on the hump's loudest line
+            f_report, h_lo, h_hi = hump
+            if teeth % 2 == 0:  # even teeth: a hump spread about an odd multiple of f_T/2 is flip chatter
+                fl_ = (2 * round((f_report / (0.5 * f_t) - 1) / 2) + 1) * 0.5 * f_t
+                if abs(fl_ - f_report) <= HUMP_FLIP * (h_hi - h_lo):
+                    f_report = fl_
+    elif c >= peaks.size + near.size:  # beside a spindle line: on the residual
+        i = c - peaks.size - near.size
+        prom = float(pb[i] / flb[i])
+        line_pow = float(pb[i] - flb[i]) * ENBW_BINS / T_r
+        fc = float(fb[i])
     else:
         jF = int(near[c - peaks.size])
         fl = float(np.interp(fF[jF], f, floor))
@@ -505,7 +594,14 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     lines = np.concatenate([line_f[~keep], np.asarray(mains_lines)])
     tols = np.concatenate([ks[~keep] * dfs, np.full(len(mains_lines), 0.3)])
     near_fc = (np.abs(lines - fc) < reach) & (np.abs(lines - fc) > NEAR_BINS * fs / w.size)
-    wt = _without_lines(w, fs, fF, pF, np.interp(fF, f, floor), lines[near_fc], tols[near_fc]) if near_fc.any() else w
+    if peaks.size + near.size <= c < n_std:  # the spindle lines fitted at their exact frequencies are out already
+        from scipy import fft as sfft
+
+        wt = sfft.irfft(Xr, n_r)
+    elif near_fc.any():
+        wt = _without_lines(w, fs, fF, pF, np.interp(fF, f, floor), lines[near_fc], tols[near_fc])
+    else:
+        wt = w
     amp, tc, tf = _amp_at(wt, fs, fc, n_fr)
     noise_amp = math.sqrt(2.0 * float(np.interp(fc, f, floor)) * 1.5 / tf)  # Hann ENBW 1.5 bins of 1/tf
     a_c = np.sqrt(np.maximum(amp**2 - noise_amp**2, 0.0))
@@ -532,9 +628,58 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         label = "chatter"
     else:
         label = "marginal"
+    if f_report is not None:
+        fc = f_report
     return Listening(label, fc, float(score), 10 * math.log10(prom), onset, float(trend), float(rpm), 60.0 * f_s,
                      int(teeth), f_t, (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask,
                      i0 / fs + tc, a_c)
+
+
+def _hump_centroid(f: np.ndarray, p: np.ndarray, floor: np.ndarray, mask: np.ndarray,
+                   j: int) -> tuple[float, float, float] | None:
+    """(power-weighted mean frequency, lower and upper end) [Hz] of the hump around Welch bin j when the
+    chatter is spread over it (a modulated chatter: several comparable lines), else None (the peak is
+    the frequency).
+
+    The hump: the bins above ``HUMP_LEVEL`` × the floor around j, stepping over masked synchronous bins
+    (a flip chatter's hump is centred on a spindle line); its masked bins do not count. Spread: the
+    peak's ±2 segment bins (4 bins here: a single Blackman-Harris line keeps > 90 % of its power there)
+    hold less than ``HUMP_SHARE`` of the hump's excess, and the hump has at least ``HUMP_LINES`` local
+    maxima of at least a quarter of the peak's excess. Why: two-tooth flip chatter in the virtual
+    shop (bench_listen seed 0, cuts 25 and 36) was not a period-2 line but a quasi-periodic hump
+    (±25 Hz and 840-1055 Hz wide, lines 2-4 Hz apart) about 1.5 f_T, its loudest line 8-10 Hz from the
+    simulation's frequency (the peak of its last 64 tooth periods: the frequency at the end of the
+    cut); the centroids were 3.5 and 13 Hz from it, 1.5 f_T itself 0.3 and 4.6 Hz (hence, with an even
+    number of teeth, the odd multiple of f_T/2 within ``HUMP_FLIP`` of the hump's width of the
+    centroid is reported: the frequency of period doubling, which the modulation spreads)."""
+    n = f.size
+    ex = np.maximum(p - floor, 0.0)
+    up = p > HUMP_LEVEL * floor
+
+    def walk(i: int, step: int) -> int:
+        while 0 <= i + step < n:
+            q = i + step
+            if mask[q]:
+                while 0 <= q < n and mask[q]:
+                    q += step
+                if not (0 <= q < n and up[q]):
+                    break
+            elif not up[q]:
+                break
+            i = q
+        return i
+
+    a, b = walk(j, -1), walk(j, 1) + 1
+    sel = np.arange(a, b)[~mask[a:b]]
+    tot = float(ex[sel].sum())
+    if tot <= 0:
+        return None
+    near = sel[np.abs(sel - j) <= 4]
+    exs = np.where(mask[a:b], 0.0, ex[a:b])
+    lines = int(np.sum((exs[1:-1] >= exs[:-2]) & (exs[1:-1] >= exs[2:]) & (exs[1:-1] >= 0.25 * ex[j])))
+    if float(ex[near].sum()) >= HUMP_SHARE * tot or lines < HUMP_LINES:
+        return None
+    return float(np.sum(f[sel] * ex[sel]) / tot), float(f[a]), float(f[b - 1])
 
 
 def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float) -> int:
@@ -649,3 +794,172 @@ def _refine(fF: np.ndarray, lpF: np.ndarray, f0: float, span: float) -> float:
     if i in (a, b - 1):
         return f0
     return float((i + _interp_peak(lpF, i)) * dfx)
+
+
+#: Blackman-Harris (4-term) cosine coefficients: w_n = a0 - a1 cos(2πn/N) + a2 cos(4πn/N) - a3 cos(6πn/N)
+_BH = (0.35875, 0.48829, 0.14128, 0.01168)
+
+
+def _dirichlet(d: np.ndarray, n: int) -> np.ndarray:
+    """DFT bin response of a unit complex tone ``d`` bins away over ``n`` samples (1 at d = 0)."""
+    d = np.asarray(d, dtype=float)
+    s = np.sin(np.pi * d / n)
+    small = np.abs(s) < 1e-12
+    ratio = np.where(small, 1.0, np.sin(np.pi * d) / (n * np.where(small, 1.0, s)))
+    return ratio * np.exp(-1j * np.pi * d * (n - 1) / n)
+
+
+def _whole_revolutions(size: int, fs: float, f_s: float) -> int:
+    """Samples in a whole number of revolutions (at least 4) within ``size``, 0 if none: of the largest
+    counts (down to 1/16 fewer revolutions, at most 64 fewer) the first with no prime factor above 13,
+    else the one with the smallest remainder after those (a length with a large prime factor made each
+    of the two DFTs of a 10 s, 48 kHz cut cost 110 ms instead of 20 ms)."""
+    revs = math.floor(size * f_s / fs)
+    if revs < 4:
+        return 0
+    best, best_rest = 0, math.inf
+    for r in range(revs, max(4, revs - min(64, revs // 16)) - 1, -1):
+        n = min(round(r * fs / f_s), size)
+        rest = n
+        for p in (2, 3, 5, 7, 11, 13):
+            while rest % p == 0:
+                rest //= p
+        if rest == 1:
+            return n
+        if rest < best_rest:
+            best, best_rest = n, rest
+    return best
+
+
+def _refine_spindle(w: np.ndarray, fs: float, f_s: float, f_hi: float) -> float:
+    """The spindle frequency [Hz] refined on the unwindowed DFT of a whole number of revolutions of the
+    window: each spindle harmonic in F_LO..f_hi is sought within ±``SYNC_SEARCH_BINS`` bins (of 1/T) of
+    k f_s, placed to a fraction of a bin by its neighbours (a tone e bins off its bin b has
+    X[b−1]/X[b] ≈ e, X[b+1]/X[b] ≈ −e), and f_s moves by the power-weighted least-squares fit of these
+    offsets (e = k δ T) over the lines within a quarter bin of the offset most lines agree with."""
+    from scipy import fft as sfft
+
+    n = _whole_revolutions(w.size, fs, f_s)
+    if n == 0:
+        return f_s
+    X = sfft.rfft(w[:n] - w[:n].mean())
+    T = n / fs
+    k = np.arange(max(1, math.ceil(F_LO / f_s)), int(f_hi / f_s) + 1)
+    nu = k * f_s * T
+    k, nu = k[nu + SYNC_SEARCH_BINS + 2 < X.size], nu[nu + SYNC_SEARCH_BINS + 2 < X.size]
+    if k.size == 0:
+        return f_s
+    offs = np.arange(-SYNC_SEARCH_BINS, SYNC_SEARCH_BINS + 1)
+    m = np.rint(nu).astype(int)[:, None] + offs[None, :]
+    b = m[np.arange(k.size), np.argmax(np.abs(X[m]), axis=1)]
+    x0 = X[b]
+    pw = np.abs(x0) ** 2
+    ok = pw > 0
+    e = np.zeros(k.size)
+    e[ok] = b[ok] + 0.5 * np.real((X[b - 1][ok] - X[b + 1][ok]) / x0[ok]) - nu[ok]
+    med = max(float(np.median(np.abs(X) ** 2)), 1e-300)
+    # lines, not noise: NEAR_PROMINENCE over the median bin (a recording without spindle lines keeps its speed)
+    strong = ok & (pw >= SYNC_STRONG * pw.max()) & (pw >= NEAR_PROMINENCE * med)
+    if not strong.any():
+        return f_s
+    # the offset most lines agree with (each line votes its log-prominence over the median bin, at most
+    # COMB_CLIP: a strong chatter line beside a weak runout line is one vote, not a pull), then the
+    # power-weighted least squares over the lines within a quarter bin of it
+    vote = np.clip(np.log(pw / med), 0.0, COMB_CLIP)
+    d = e[strong] / (k[strong] * T)
+    agree = np.abs(e[strong][None, :] - np.outer(d, k[strong]) * T) <= 0.25
+    d_med = float(d[np.argmax(agree.astype(float) @ vote[strong])])
+    inl = strong & (np.abs(e - k * d_med * T) <= 0.25)
+    wk = pw[inl] * k[inl] ** 2
+    delta = float(np.sum(wk * e[inl] / k[inl]) / np.sum(wk)) / T if wk.sum() > 0 else d_med
+    return f_s + delta
+
+
+def _sync_residual(w: np.ndarray, fs: float, f_s: float, k_lines: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray]:
+    """The window less its steady spindle-synchronous lines k f_s (k in ``k_lines``), each fitted by least
+    squares at its exact frequency (module docstring, step 7 "On a spindle line").
+
+    The window is cut to a whole number R of revolutions (N samples): every spindle harmonic then sits on
+    a bin (k R) of the unwindowed DFT, orthogonal to every other harmonic, and its least-squares fit is
+    that bin's value (the rectangular window: the finest resolution, a tone δ Hz away leaks sinc(δT)
+    into it, 0 at whole bins, −22 dB from 2.5 bins). The spindle frequency is refined first from the
+    strong lines' own offsets (for a tone e bins off its bin, X[b∓1]/X[b] = ±e/(1±e): the speed found
+    from the peaks is good to 1e-6, i.e. 0.01-0.07 bins at the 30th harmonic, which would leave a line
+    60 dB over the floor standing 20-30 dB over it; refined, < 1e-3 bins). Each line is then removed as
+    its Dirichlet pattern over ±``SYNC_FIT_BINS`` bins.
+
+    Returns (residual DFT of the N samples, refined f_s [Hz], N / fs [s], line positions [bins])."""
+    from scipy import fft as sfft
+
+    n = _whole_revolutions(w.size, fs, f_s)
+    if n == 0:  # too short to part anything from a line
+        return sfft.rfft(w - w.mean()), f_s, w.size / fs, np.zeros(0)
+    X = sfft.rfft(w[:n] - w[:n].mean())
+    T = n / fs
+    k = k_lines[(k_lines * f_s * T + SYNC_FIT_BINS + 2 < X.size)]
+    if k.size == 0:
+        return X, f_s, T, np.zeros(0)
+    # refine f_s: offsets e_k = k δ T [bins] of the strong lines, weighted by their power
+    b = np.rint(k * f_s * T).astype(int)
+    x0, xm, xp = X[b], X[b - 1], X[b + 1]
+    pw = np.abs(x0) ** 2
+    ok = pw > 0
+    e = np.zeros(k.size)
+    e[ok] = 0.5 * np.real((xm[ok] - xp[ok]) / x0[ok]) - (k[ok] * f_s * T - b[ok])  # off the predicted place
+    strong = ok & (pw >= SYNC_STRONG * pw.max())
+    for _ in range(2):  # weighted fit of e = k δ T, then once more without the lines far off it (a chatter beside them)
+        wk = pw[strong] * k[strong] ** 2
+        delta = float(np.sum(wk * e[strong] / k[strong]) / np.sum(wk)) / T if wk.sum() > 0 else 0.0
+        dev = np.abs(e - k * delta * T)
+        strong = strong & (dev <= max(5.0 * float(np.median(dev[strong])), 1e-4)) if strong.sum() > 2 else strong
+    f_s = f_s + delta
+    nu = k * f_s * T
+    b = np.rint(nu).astype(int)
+    offs = np.arange(-SYNC_FIT_BINS, SYNC_FIT_BINS + 1)
+    m = b[:, None] + offs[None, :]
+    keep = (m.min(axis=1) >= 1) & (m.max(axis=1) < X.size)
+    m, nu, b = m[keep], nu[keep], b[keep]
+    kern = _dirichlet(m - nu[:, None], n)
+    amp = X[b] / kern[:, SYNC_FIT_BINS]
+    np.add.at(X, m.ravel(), -(amp[:, None] * kern).ravel())
+    return X, f_s, T, nu
+
+
+def _beside_sync_peaks(X: np.ndarray, fs: float, T: float, nu: np.ndarray, floor_hz, f_lo: float, f_hi: float,
+                       mains_f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Chatter lines within ±``NEAR_BINS`` + 1 bins (of 1/T) of a spindle line, on the Blackman-Harris
+    spectrum of the residual (``_sync_residual``): a local maximum ``NEAR_PROMINENCE`` over the floor,
+    at least ``SYNC_MIN_BINS`` from the line and ``SYNC_MIRROR`` times stronger than the point mirrored
+    about it (what a removed line leaves, from a speed error or a slow amplitude drift, is symmetric
+    about it; a chatter line beside it is not), and not a mains line (``mains_f`` [Hz], hum found: within
+    0.3 Hz + SYNC_MIN_BINS/T). Returns (frequencies [Hz], PSDs, floors)."""
+    a0, a1, a2, a3 = _BH
+    n = 2 * (X.size - 1)
+    reach = int(NEAR_BINS) + 2
+    offs = np.arange(-reach - 3, reach + 4)
+    m = np.rint(nu).astype(int)[:, None] + offs[None, :]
+    ok = (m.min(axis=1) >= 3) & (m.max(axis=1) < X.size - 3)
+    m, nu = m[ok], nu[ok]
+    Y = (a0 * X[m] - 0.5 * a1 * (X[m - 1] + X[m + 1]) + 0.5 * a2 * (X[m - 2] + X[m + 2])
+         - 0.5 * a3 * (X[m - 3] + X[m + 3]))
+    p = np.abs(Y) ** 2 * (2.0 / (fs * n * (a0**2 + 0.5 * (a1**2 + a2**2 + a3**2))))
+    f = m / T
+    fl = floor_hz(f)
+    inner = slice(1, -1)
+    d = m - nu[:, None]
+    loc = np.zeros(p.shape, bool)
+    loc[:, inner] = (p[:, 1:-1] >= p[:, :-2]) & (p[:, 1:-1] >= p[:, 2:])
+    mirror = np.empty_like(p)
+    for r in range(p.shape[0]):  # the PSD at the point mirrored about the line
+        mirror[r] = np.interp(2 * nu[r] - m[r], m[r], p[r])
+    cand = (loc & (np.abs(d) >= SYNC_MIN_BINS) & (np.abs(d) <= reach) & (p >= NEAR_PROMINENCE * fl)
+            & (p >= SYNC_MIRROR * mirror) & (f >= f_lo) & (f <= f_hi))
+    r, c = np.nonzero(cand)
+    fr = np.empty(r.size)
+    for i in range(r.size):
+        lp = np.log(np.maximum(p[r[i], c[i] - 1: c[i] + 2], 1e-300))
+        fr[i] = (m[r[i], c[i]] + _interp_peak(lp, 1)) / T
+    if mains_f.size and fr.size:
+        hum = np.min(np.abs(fr[:, None] - mains_f[None, :]), axis=1) <= 0.3 + SYNC_MIN_BINS / T
+        return fr[~hum], p[r, c][~hum], fl[r, c][~hum]
+    return fr, p[r, c], fl[r, c]

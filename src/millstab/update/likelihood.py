@@ -102,31 +102,38 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     way the settings are chosen at the parameterization's θ0 (the prior median's structure), not at a
     sample: the same numbers whichever samples share a call.
     """
-    fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
-    fwd.settings(check_rpm(rpm), None, conditions)  # chosen at θ0 (cached: later rows use it)
+    pin = pinned_model(prior, u, rpm, engine, conditions, fwd)
+    check_kr_engine(prior, engine)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
-        check_kr_engine(prior, engine)
-        # an engine with per-problem settings (spectral): the ones this forward model holds; otherwise the
-        # cluster's split_settings of these rows (sdm's steps follow the batch), as before
-        chosen = (fwd.settings(check_rpm(rpm), prior.split(np.atleast_2d(u)[:1])[0][0], conditions)
-                  if getattr(get_engine(engine), "settings", None) is not None else None)
-        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, chosen)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin)
         if out is not None:
             return out
-    kr = prior.kr_of(u)
+    return sample_depths(pin, prior, u, with_freq)
+
+
+def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
+                 conditions: Conditions | Cutting | None = None, fwd: Forward | None = None):
+    """The one evaluator of :func:`limits` for the samples u = ln θ: ``fwd`` (default a fresh model, ``purpose``
+    :data:`SAMPLING`) pinned on their rows (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen
+    at θ0 (spectral; cached in ``fwd``) or from the rows (sdm's steps); what a cluster's tasks get too."""
+    fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
+    r = check_rpm(rpm)
+    fwd.settings(r, None, conditions)  # chosen at θ0 (cached: the pinned model takes it)
+    return fwd.pinned(r, prior.split(u)[0], conditions)
+
+
+def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
+    ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr per row; here and in a cluster's task
+    (:func:`millstab.cluster.sample_limits`)."""
     theta, factor = prior.split(u)
-    rpm = check_rpm(rpm)
-    eng = check_kr_engine(prior, engine)
-    cut = prior.cutting if conditions is None else conditions
-    extra = {} if kr is None else {"kr": kr}
-    if with_freq and eng.reports_chatter_frequency:
-        # the discretisation the depths-only path would get (Forward's settings), so both agree
-        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), cut, rpm, **fwd.settings(rpm, theta[0], conditions),
-                                          **extra)
+    kr = prior.kr_of(u)
+    if with_freq and pin.reports_frequency:
+        depth, hz = pin.with_frequency(theta, kr)
     else:
-        depth, hz = fwd(theta, rpm, conditions, kr), None
+        depth, hz = pin(theta, kr), None
     return depth * 1e3 * factor[:, None], hz
 
 

@@ -104,6 +104,7 @@ class SMCResult:
     n_screen: int = 0
     screen_pass: list[float] = field(default_factory=list)
     n_sets: int = 0
+    extra: dict = field(default_factory=dict)
 
     @property
     def stages(self) -> int:
@@ -118,6 +119,7 @@ class SMCResult:
                "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s}
         if self.n_screen:
             out.update(screen_calls=self.n_screen, screen_pass=self.screen_pass, accurate_sets=self.n_sets)
+        out.update(self.extra)
         return out
 
 
@@ -325,4 +327,75 @@ def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng) -
     return ok, int(go.size)
 
 
-__all__ = ["SMCResult", "ess_of", "next_beta", "systematic_resample", "tempered_smc"]
+def corrected_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray], logprior: Batch, loglik: Batch,
+                  surrogate: Batch, n: int = 4000, *, seed: int | np.random.Generator = 0, moves: int = 3,
+                  ess_target: float = 0.5, ess_min: float = 0.5, max_stages: int = 200,
+                  progress: Callable[[str, int, int], None] | None = None) -> SMCResult:
+    """Sample p(u | data) ∝ prior(u) L(u) with a cheap surrogate L̃ of L, evaluating L about once per particle.
+
+    1. tempered SMC on the surrogate posterior prior · L̃ (no call of ``loglik``);
+    2. ONE batched call of the accurate ``loglik`` at the final particles' distinct rows, and importance
+       weights w = L/L̃ (a surrogate that is −inf or NaN where L is not is floored at ``SCREEN_FLOOR``, as in
+       delayed acceptance, so no state of the accurate posterior is weightless by the surrogate's fault);
+    3. the ESS of w ≥ ``ess_min`` · n: resample (systematic) to equal weights, done (the usual case with a good
+       surrogate: L is evaluated once per distinct final particle and never again);
+       otherwise a tempered bridge π_γ ∝ prior · L̃ · (L/L̃)^γ, γ 0 → 1 chosen by :func:`next_beta` (the first
+       step reuses the evaluations of 2), each stage with ``moves`` delayed-acceptance MH moves screened by the
+       surrogate posterior (exact for π_γ whatever L̃ is).
+
+    Either way the particles are equally weighted draws of the accurate posterior prior · L (importance
+    sampling is exact as n → ∞ wherever L̃ > 0 where L > 0; the bridge's moves are π_γ-invariant), and the
+    log evidence is the surrogate's plus log mean w (and the bridge's increments). ``loglik`` and
+    ``surrogate`` are batched ``u (B, P) -> (B,)``; ``ess_min`` ∈ (0, 1]: the ESS fraction below which the
+    bridge runs (1: always). The diagnostics add ``correction``: the ESS of w (count and fraction), the
+    distinct rows evaluated accurately, the bridge's stages and the surrogate sampler's own stages.
+    """
+    if not 0 < ess_min <= 1:
+        raise InputError("ess_min", ess_min, "must be in (0, 1]")
+    t0 = time.perf_counter()
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    first = tempered_smc(sample_prior, logprior, surrogate, n, seed=rng, moves=moves, ess_target=ess_target,
+                         max_stages=max_stages, progress=progress)
+    u, ls = first.u, _floored(first.loglik)
+    rows, inv = np.unique(u, axis=0, return_inverse=True)  # resampling duplicates: evaluate each state once
+    ll = np.asarray(loglik(rows), float)[np.asarray(inv).ravel()]
+    ll = np.where(np.isnan(ll), -np.inf, ll)
+    logw = ll - ls
+    ess = ess_of(logw)
+    if not np.isfinite(logw).any():
+        raise InputError("cuts", "no surrogate posterior sample explains them under the accurate model",
+                         "every final particle has accurate likelihood 0: the surrogate is far off (run the delayed sampler)")
+    log_z = first.log_evidence + float(logsumexp(logw) - np.log(n))
+    n_sets, n_ll, bridge = rows.shape[0], 1, 0
+    if ess >= ess_min * n:
+        idx = systematic_resample(logw, rng)
+        u, ll = u[idx], ll[idx]
+        betas, esss, accs, n_sc, passes = first.betas, first.ess + [ess], first.acceptance, first.n_screen, []
+    else:
+        start = u.copy()
+
+        def pair(v):  # (untempered log L̃, tempered log L/L̃); the first call is at the start: reuse step 2
+            if v.shape == start.shape and np.array_equal(v, start):
+                return ls, logw
+            s = _floored(np.asarray(surrogate(v), float))
+            a = np.asarray(loglik(v), float)
+            return s, np.where(np.isfinite(a), a, -np.inf) - s
+
+        # plain MH moves on π_γ: screened by a wrong surrogate, delayed-acceptance moves stay exact but mix too
+        # slowly to fill the tails a too-narrow surrogate left empty (measured on the conjugate test case: the
+        # variance 14 % short after 3 stages of 12 screened moves, right with 3 plain moves)
+        res = tempered_smc(sample_prior, logprior, pair, n, seed=rng, moves=moves, ess_target=ess_target,
+                           max_stages=max_stages, init=start)
+        u, ll = res.u, res.loglik + _floored(np.asarray(surrogate(res.u), float))
+        log_z = first.log_evidence + res.log_evidence
+        betas, esss, accs = first.betas + res.betas[1:], first.ess + res.ess, first.acceptance + res.acceptance
+        n_sc, passes = first.n_screen + res.n_screen, res.screen_pass
+        n_sets += res.n_sets - n
+        n_ll += res.n_loglik - 1
+        bridge = res.stages
+    extra = {"correction": {"ess": ess, "ess_fraction": ess / n, "ess_min": ess_min, "accurate_rows": int(rows.shape[0]),
+                            "bridge_stages": bridge, "surrogate_stages": first.stages}}
+    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets, extra)
+
+
+__all__ = ["SMCResult", "corrected_smc", "ess_of", "next_beta", "systematic_resample", "tempered_smc"]

@@ -43,7 +43,9 @@ the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.
 2 threads and 1.84× on one (bench_envelope.py --against the kernel before; 4 351 → 8 119 and
 2 582 → 4 746 sets/s, measured on a shared 2-core machine at a load average of 15–20, where absolute
 rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
-The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
+The roots of a modal structure (no cross receptances) in real arithmetic (:func:`_disc_diag`: numba
+multiplies a float by a complex as a full complex product, and the zero cross terms cost four more per
+node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
 it needs fewer root evaluations per speed or a coarser grid, which the accuracy tests must then allow.
 """
 
@@ -300,7 +302,9 @@ def _branches(a, gxx, gxy, gyx, gyy):
 def _branches_diag(a, gxx, gyy):
     """:func:`_branches` for a diagonal receptance (a modal structure: no cross terms), bit for bit, in the
     real arithmetic of :func:`_disc_diag` (the eigenvalues are the closed-form roots of the 2×2 quadratic
-    either way; this computes them with half the floating-point work: 6 → ~3 µs per set and condition)."""
+    either way; this computes them with about half the multiplications). Measured with the same change in
+    the refinement and edge roots: the engine per set 6 % faster under four conditions, 1–4 % under one
+    (benchmarks/bench_conditions.py and bench_envelope.py --against, interleaved, same depths)."""
     n = gxx.size
     nu = np.empty((2, n), dtype=np.complex128)
     pr = 0.0
@@ -969,7 +973,8 @@ def _validity_edges(w, nu, a, md, measured, G, stats):
 def _with_nodes(w, G, nu, extra, a, measured, md):
     """The grid with the ``extra`` frequencies merged in: frequencies, receptances (exact for modes,
     linear between table points for a measured FRF) and the roots, each branch continued by
-    proximity from the node before (as in :func:`_branches`)."""
+    proximity from the node before (as in :func:`_branches`). The old nodes between two new ones are
+    copied as blocks (slices, no per-node branch: the merge was ~8 % of a condition's cost)."""
     n_old = w.size
     n_new = n_old + extra.size
     ex = np.sort(extra)
@@ -977,45 +982,52 @@ def _with_nodes(w, G, nu, extra, a, measured, md):
     G2 = np.empty((4, n_new), dtype=np.complex128)
     nu2 = np.empty((2, n_new), dtype=np.complex128)
     i = 0
-    e = 0
-    for c in range(n_new):
-        if e < ex.size and (i >= n_old or ex[e] < w[i]):
-            x = ex[e]
-            e += 1
-            j = min(max(i, 1), n_old - 1)  # segment [w[j-1], w[j]] containing x
-            t = (x - w[j - 1]) / (w[j] - w[j - 1])
-            if measured:
-                for q in range(4):
-                    G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
-                tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
-                sq = _csqrt(tr * tr - 4.0 * det)
-            else:
-                gx = _modal_receptance(x, md, 0)
-                gy = _modal_receptance(x, md, 1)
-                G2[0, c] = gx
-                G2[1, c] = 0.0j
-                G2[2, c] = 0.0j
-                G2[3, c] = gy
-                trr, tri, dr, di = _disc_diag(a, gx.real, gx.imag, gy.real, gy.imag)
-                tr = complex(trr, tri)
-                sq = _csqrt(complex(dr, di))
-            guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
-            r1 = 0.5 * (tr + sq)
-            r2 = 0.5 * (tr - sq)
-            if _dist2(r1, guess) <= _dist2(r2, guess):
-                nu2[0, c] = r1
-                nu2[1, c] = r2
-            else:
-                nu2[0, c] = r2
-                nu2[1, c] = r1
-            w2[c] = x
-        else:
-            w2[c] = w[i]
+    c = 0
+    for e in range(ex.size + 1):
+        # the old nodes before the next new one (all the rest after the last): those with w ≤ x
+        stop = n_old
+        if e < ex.size:
+            stop = i
+            while stop < n_old and not (ex[e] < w[stop]):
+                stop += 1
+        n_blk = stop - i
+        if n_blk > 0:
+            w2[c:c + n_blk] = w[i:stop]
+            G2[:, c:c + n_blk] = G[:, i:stop]
+            nu2[:, c:c + n_blk] = nu[:, i:stop]
+            c += n_blk
+            i = stop
+        if e == ex.size:
+            break
+        x = ex[e]
+        j = min(max(i, 1), n_old - 1)  # segment [w[j-1], w[j]] containing x
+        t = (x - w[j - 1]) / (w[j] - w[j - 1])
+        if measured:
             for q in range(4):
-                G2[q, c] = G[q, i]
-            nu2[0, c] = nu[0, i]
-            nu2[1, c] = nu[1, i]
-            i += 1
+                G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
+            tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
+            sq = _csqrt(tr * tr - 4.0 * det)
+        else:
+            gx = _modal_receptance(x, md, 0)
+            gy = _modal_receptance(x, md, 1)
+            G2[0, c] = gx
+            G2[1, c] = 0.0j
+            G2[2, c] = 0.0j
+            G2[3, c] = gy
+            trr, tri, dr, di = _disc_diag(a, gx.real, gx.imag, gy.real, gy.imag)
+            tr = complex(trr, tri)
+            sq = _csqrt(complex(dr, di))
+        guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
+        r1 = 0.5 * (tr + sq)
+        r2 = 0.5 * (tr - sq)
+        if _dist2(r1, guess) <= _dist2(r2, guess):
+            nu2[0, c] = r1
+            nu2[1, c] = r2
+        else:
+            nu2[0, c] = r2
+            nu2[1, c] = r1
+        w2[c] = x
+        c += 1
     return w2, G2, nu2
 
 

@@ -16,9 +16,13 @@ is the engine's own cost of the conditions). On a shared machine quote CPU time 
 Measured (2026-11-27, shared 2-core AMD EPYC, numba 2 threads, default size). Before the modal roots in real
 arithmetic (load 16–18): one condition 3.13 s CPU (11.4 s wall), 5 stages, 64 000 engine sets at 41 µs CPU
 each; four conditions 9.30 s CPU (28.0 s wall), 7 stages, 88 000 sets at 98 µs; ratio 2.97 CPU (2.45 wall);
-engine alone 2.28. After (load 21–30): one condition 2.99 s CPU (19.8 s wall), 5 stages, 39 µs per set;
-four conditions 8.59 s CPU (45.8 s wall), 7 stages, 90 µs per set; ratio 2.87 CPU (2.31 wall), engine per
-set 2.29, engine alone on the same 4 000 prior draws 2.38. The issue's 1.5× is NOT reached; its two factors:
+engine alone 2.28. After (the roots in real arithmetic and the block-copy merge, bit for bit the same depths;
+load 17–20): one condition 2.99 s CPU (15.7 s wall), 5 stages, 39 µs per set; four conditions 8.62 s CPU
+(49.5 s wall), 7 stages, 91 µs per set; ratio 2.88 CPU (3.16 wall: the wall time follows the neighbours),
+engine per set 2.30, engine alone on the same 4 000 prior draws 2.35 (an earlier run at load 21–30: 2.87
+CPU, 2.29 per set). Both sides got faster by about as much (the engine per set 4–9 %, interleaved runs of
+the old and new kernel: 43 → 40–42 µs in one condition, 106 → 96 µs in four), so the ratio hardly moves.
+The issue's 1.5× is NOT reached; its two factors:
 
 * the engine, ~2.3× per set. Where the zero-order engine's time goes (per set, one thread, these structures
   and speeds, timed by stage, load ~15): the shared grid and receptances 5 µs; per condition the eigenvalues
@@ -35,8 +39,10 @@ set 2.29, engine alone on the same 4 000 prior draws 2.38. The issue's 1.5× is 
   proportion to the information the data carry, and the four-condition data carry more: KL(posterior ‖
   prior) 5.9–6.2 nats in one condition against 9.1–11.0 in four (1 000-sample runs, sampler seeds 0–2:
   5, 5, 5 against 7, 6, 6 stages; the posterior sd of ln fn is 2–3× smaller, of ln k 1.3–3×). The extra stages are
-  needed, not an artefact; the seventh of seed 0 is a sliver (β 0.979 → 1), which only an ESS below the
-  target at the last stage would save.
+  needed, not an artefact (4 000 samples: KL 5.9 against 10.6 nats). The last stage of the four-condition
+  runs is often a sliver (β 0.95 → 1 at 4 000 samples, 0.979 → 1 at 1 000, seed 0): three MH moves, 14 % of
+  the update, which only accepting an ESS below the target at the last stage would save (not done: the
+  sampler's calibration was set with the rule as it is).
 
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]``.
 """

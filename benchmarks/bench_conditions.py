@@ -13,19 +13,36 @@ engine alone on the same prior draws (interleaved, best of 3), the ratio of the 
 engine set (the stage count is data-dependent; the per-set ratio
 is the engine's own cost of the conditions). On a shared machine quote CPU time and same-run ratios.
 
-Measured (2026-11-27, shared 2-core AMD EPYC, load average 16–18, numba 2 threads, default size): one
-condition 3.13 s CPU (11.4 s wall), 5 stages, 64 000 engine sets at 41 µs CPU each, engine calls 85 % of the
-CPU; four conditions 9.30 s CPU (28.0 s wall), 7 stages, 88 000 sets at 98 µs each, engine 93 %. Ratio 2.97
-CPU (2.45 wall), of which 1.4 is the two extra tempering stages the more informative data take and 2.4 the
-engine's cost per set (1.8 in a 500-sample run of the same data: per-set CPU under this load is noisy). The
-engine alone on the same 1 000 prior draws, interleaved, best of 3 (load 20–22): ratio 2.28 (1 000-sample run:
-update ratio 2.62 CPU, 5 vs 7 stages again). The issue's 1.5× is NOT reached. Where the zero-order engine's time goes (per set, one thread, these structures,
-measured by timing the kernel's pieces): shared grid and receptances 5 µs; per condition the eigenvalues on
-the grid 6 µs, Re ν = 0 edges 1.5 µs, merging them 2.4 µs, the candidate scan ~10 µs (12–14 µs with 40
-speeds), refinement ~0.4 µs per speed. A condition therefore costs ~24 µs whatever its number of speeds,
-against 38 µs for a whole 40-speed envelope, so four conditions cost ~2.7× one; sharing the grid saves
-its 5 µs per extra condition. Going further needs per-condition work shared or skipped (the node
-receptance derivatives of the scan, computed per condition today), which moves the last bits of the depths.
+Measured (2026-11-27, shared 2-core AMD EPYC, numba 2 threads, default size). Before the modal roots in real
+arithmetic (load 16–18): one condition 3.13 s CPU (11.4 s wall), 5 stages, 64 000 engine sets at 41 µs CPU
+each; four conditions 9.30 s CPU (28.0 s wall), 7 stages, 88 000 sets at 98 µs; ratio 2.97 CPU (2.45 wall);
+engine alone 2.28. After (the roots in real arithmetic and the block-copy merge, bit for bit the same depths;
+load 17–20): one condition 2.99 s CPU (15.7 s wall), 5 stages, 39 µs per set; four conditions 8.62 s CPU
+(49.5 s wall), 7 stages, 91 µs per set; ratio 2.88 CPU (3.16 wall: the wall time follows the neighbours),
+engine per set 2.30, engine alone on the same 4 000 prior draws 2.35 (an earlier run at load 21–30: 2.87
+CPU, 2.29 per set). Both sides got faster by about as much (the engine per set 4–9 %, interleaved runs of
+the old and new kernel: 43 → 40–42 µs in one condition, 106 → 96 µs in four), so the ratio hardly moves.
+The issue's 1.5× is NOT reached; its two factors:
+
+* the engine, ~2.3× per set. Where the zero-order engine's time goes (per set, one thread, these structures
+  and speeds, timed by stage, load ~15): the shared grid and receptances 5 µs; per condition the eigenvalues
+  on the grid 6 µs (~3.5 µs since the real-arithmetic roots), the Re ν = 0 edges 2.2 µs, merging them 1.8 µs,
+  the candidate scan 11.5 µs with 10 speeds (14 µs with 40), refinement ~0.25 µs per speed. The scan is
+  not wasted work: per condition it visits 37–42 of ~240 valid segments, and 35–40 of them are needed
+  (their best 1/b within REFINE_MARGIN of the worst speed's estimate; a scan with finer levels would skip
+  at most 2), each with its ~7 lobes; with 10 speeds instead of 40 it visits ~10 % fewer. A condition
+  therefore costs ~20 µs whatever its number of speeds, against ~39 µs for a whole 40-speed envelope.
+  Sharing more between conditions without moving the depths is limited: every node value (ν, ε, ε′) seeds
+  the refinement's first iterate, so any change of its rounding moves the converged roots by up to the
+  refinement tolerance (~1e-7 relative), not by 1e-12;
+* the stages, 22 against 16 engine calls (1.375×): the ESS rule (ESS ½ per stage) takes stages in
+  proportion to the information the data carry, and the four-condition data carry more: KL(posterior ‖
+  prior) 5.9–6.2 nats in one condition against 9.1–11.0 in four (1 000-sample runs, sampler seeds 0–2:
+  5, 5, 5 against 7, 6, 6 stages; the posterior sd of ln fn is 2–3× smaller, of ln k 1.3–3×). The extra stages are
+  needed, not an artefact (4 000 samples: KL 5.9 against 10.6 nats). The last stage of the four-condition
+  runs is often a sliver (β 0.95 → 1 at 4 000 samples, 0.979 → 1 at 1 000, seed 0): three MH moves, 14 % of
+  the update, which only accepting an ESS below the target at the last stage would save (not done: the
+  sampler's calibration was set with the rule as it is).
 
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]``.
 """
@@ -115,6 +132,9 @@ def main() -> None:
                   f"= {lik.engine_wall / wall:.0%}, {lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; {d['stages']} "
                   f"stages, {lik.n_calls} engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU "
                   f"per set)")
+            # the information the data carry (nats): the ESS rule's stage count grows with it
+            print(f"  KL(posterior || prior) {np.mean(res.loglik) - res.log_evidence:.1f} nats; betas "
+                  f"{', '.join(f'{b:.3g}' for b in res.betas)}")
         # the engine alone on the same prior draws, interleaved (1, n, 1, n, ...): the per-set cost of the
         # conditions without the data-dependent stage count, robust to the load drifting between the updates
         u = prior.sample_full(args.samples, np.random.default_rng(3))

@@ -26,16 +26,27 @@ differ ×5 at a/D 0.5, the issue's ×4 machine), ``three`` (three teeth, x and y
 The cost of an update over several conditions against one: ``benchmarks/bench_conditions.py``.
 
 Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --samples 1000 --cuts 10 --held 30``
+
+Many cores: ``--jobs N`` runs the campaigns (machines × ``--repeats``) in a pool of N processes, each with one
+numba and one BLAS thread; every campaign draws from its own generator (seed + 100·machine + 10 000·repeat,
+the update's own seed ``--seed``), so the figures do not depend on N or on the order the campaigns finish.
+``--engine sdm`` fits with the semi-discretization engine (delayed acceptance: the zero-order engine screens
+each proposal, the posterior is sdm's, at the engine's default discretization) instead of the zero-order
+model that misses the 3-tooth machine at a/D 0.5. A 16-core run (the lead's):
+``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine sdm --samples 1000 --cuts 10 --held 30
+--repeats 5 --jobs 15``.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
 import os
 import sys
 import time
 import warnings
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -161,6 +172,30 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     return rows, cpu_update
 
 
+def campaign(task: tuple[int, str, int, argparse.Namespace]):
+    """One campaign (machine ``name``, number ``i`` in ``--machines``, repeat ``rep``) with its own generator:
+    the same numbers in a worker process as in the main one."""
+    i, name, rep, args = task
+    global TRUTH_ENGINE
+    TRUTH_ENGINE = args.truth_engine
+    hammer, truth, teeth = machines()[name]
+    with threadpool_limits(1):
+        rows, cpu = run_machine(name, hammer, truth, teeth, args,
+                                np.random.default_rng(args.seed + 100 * i + 10_000 * rep))
+    return name, rep, teeth, rows, cpu
+
+
+def run_all(args) -> list:
+    """Every (machine, repeat) campaign, in that order; in a pool of ``args.jobs`` processes (spawned, each
+    with one numba thread: N processes on N cores instead of N × threads) when ``--jobs`` > 1."""
+    tasks = [(i, name, rep, args) for i, name in enumerate(args.machines.split(",")) for rep in range(args.repeats)]
+    if args.jobs <= 1:
+        return [campaign(t) for t in tasks]
+    os.environ["NUMBA_NUM_THREADS"] = "1"  # read by numba when a spawned worker imports it
+    with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return list(pool.map(campaign, tasks))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--samples", type=int, default=1000)
@@ -175,6 +210,8 @@ def main() -> None:
     ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")
+    ap.add_argument("--repeats", type=int, default=1, help="campaigns per machine (each its own seeded cuts)")
+    ap.add_argument("--jobs", type=int, default=1, help="worker processes (the figures do not depend on it)")
     args = ap.parse_args()
     global TRUTH_ENGINE
     TRUTH_ENGINE = args.truth_engine
@@ -186,11 +223,10 @@ def main() -> None:
               f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "
               f"{args.engine}, {args.samples} samples")
         allrows = []
-        ms = machines()
-        for i, name in enumerate(args.machines.split(",")):
-            hammer, truth, teeth = ms[name]
-            rows, cpu = run_machine(name, hammer, truth, teeth, args, np.random.default_rng(args.seed + 100 * i))
-            print(f"\n{name} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
+        t0 = time.perf_counter()
+        results = run_all(args)
+        for name, rep, teeth, rows, cpu in results:
+            print(f"\n{name}{f' #{rep}' if args.repeats > 1 else ''} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
             for key, bj, bh, bp, own, ok, dep, tl in rows:
                 txt = condition_text(cond(teeth, *key)).split(",")[0]
@@ -207,6 +243,8 @@ def main() -> None:
         print(f"\nunseen conditions ({len(tgt)}): mean Brier joint {bj:.3f} (target ≤ 0.08), hammer test {bh:.3f} "
               f"(joint/hammer {bj / bh:.2f}, target ≤ 0.5), best single-condition posterior {bsep:.3f}; "
               f"recommendations truly stable {ok:.0%} (target ≥ 95 %)")
+        print(f"{len(results)} campaigns in {time.perf_counter() - t0:.0f} s wall ({args.jobs} job(s)), "
+              f"{sum(r[4] for r in results):.0f} s CPU in the updates")
         print(f"trained conditions ({len(trained)}): mean Brier joint {np.mean([r[1] for r in trained]):.3f} vs one "
               f"posterior per condition (its own cuts) {np.mean([r[4] for r in trained]):.3f}")
 

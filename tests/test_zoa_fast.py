@@ -123,3 +123,59 @@ def test_work_counters_count_the_grid_and_leave_the_result_alone():
         assert st["valid segments"] <= 2 * (st["grid nodes"] - 1)
         assert st["segments visited"] <= st["valid segments"]
         assert np.isfinite(plain[0][b]).sum() <= st["candidates refined"] <= st["candidates"]
+
+
+def test_diagonal_receptance_roots_equal_the_general_ones_bit_for_bit():
+    """The modal path's real-arithmetic roots (_disc_diag, _branches_diag) are the general complex path's
+    (_tr_det, _branches) with zero cross receptances, to the last bit, and the eigenvalues of [α][G]
+    (numpy's, independent) to rounding; in slotting, up and down milling (α of either sign)."""
+    rng = np.random.default_rng(4)
+    s = Structure(x=(Mode(903.0, 12.53e6, 0.03), Mode(2400.0, 40e6, 0.02)), y=(Mode(950.0, 11e6, 0.025),))
+    md = K.pack_modes(*(np.array(v) for v in (
+        [2 * math.pi * m.fn for m in s.x], [m.k for m in s.x], [m.zeta for m in s.x],
+        [2 * math.pi * m.fn for m in s.y], [m.k for m in s.y], [m.zeta for m in s.y])))
+    w, G = K.modal_grid(md, 2 * math.pi * 3 * 15000 / 60, zoa.N_BASE, zoa._OFFSETS)
+    zero = np.zeros_like(G[0])
+    for ri, milling in ((1.0, "down"), (0.5, "up"), (0.3, "down"), (0.05, "up")):
+        cut = Cutting.from_immersion(3, 600e6, float(rng.uniform(0.1, 0.6)), ri, milling)
+        a = K.directional_brackets(cut.kr, cut.entry, cut.exit)
+        fast = K._branches_diag(a, G[0], G[3])
+        general = K._branches(a, G[0], zero, zero, G[3])
+        assert np.array_equal(fast.view(np.float64), general.view(np.float64))
+        for i in rng.integers(0, w.size, 20):
+            tr, det = K._tr_det(a, G[0, i], 0j, 0j, G[3, i])
+            disc = tr * tr - 4.0 * det
+            got = K._disc_diag(a, G[0, i].real, G[0, i].imag, G[3, i].real, G[3, i].imag)
+            assert got == (tr.real, tr.imag, disc.real, disc.imag)
+            m = np.array([[a[0], a[1]], [a[2], a[3]]]) @ np.diag([G[0, i], G[3, i]])
+            ref = np.sort_complex(np.linalg.eigvals(m))
+            np.testing.assert_allclose(np.sort_complex(fast[:, i]), ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+
+
+def test_merged_nodes_keep_the_old_ones_and_add_exact_roots():
+    """_with_nodes (block copies between the new nodes): the merged grid is the sorted union; the old
+    nodes' receptances and roots are copied unchanged; a new node's receptance is the structure's own at
+    that frequency and its roots are the eigenvalues of [α][G] there (numpy's), for new nodes before the
+    first, between, next to each other and after the last old node."""
+    s = Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(950.0, 11e6, 0.025),))
+    md = K.pack_modes(*(np.array(v) for v in (
+        [2 * math.pi * m.fn for m in s.x], [m.k for m in s.x], [m.zeta for m in s.x],
+        [2 * math.pi * m.fn for m in s.y], [m.k for m in s.y], [m.zeta for m in s.y])))
+    w, G = K.modal_grid(md, 2 * math.pi * 2 * 12000 / 60, zoa.N_BASE, zoa._OFFSETS)
+    cut = Cutting.from_immersion(2, 556.31e6, 0.404, 0.5, "up")
+    a = K.directional_brackets(cut.kr, cut.entry, cut.exit)
+    nu = K._branches_diag(a, G[0], G[3])
+    extra = np.array([w[-1] * 1.01, 0.5 * (w[10] + w[11]), w[0] * 0.99, 0.3 * w[100] + 0.7 * w[101],
+                      0.6 * w[100] + 0.4 * w[101]])
+    w2, G2, nu2 = K._with_nodes(w, G, nu, extra, a, False, md)
+    np.testing.assert_array_equal(w2, np.sort(np.r_[w, extra]))
+    old = np.isin(w2, w)
+    assert old.sum() == w.size
+    np.testing.assert_array_equal(G2[:, old], G)
+    np.testing.assert_array_equal(nu2[:, old], nu)
+    for c in np.flatnonzero(~old):
+        gx, gy = K._modal_receptance(w2[c], md, 0), K._modal_receptance(w2[c], md, 1)
+        assert G2[0, c] == gx and G2[3, c] == gy and G2[1, c] == 0 and G2[2, c] == 0
+        ref = np.linalg.eigvals(np.array([[a[0], a[1]], [a[2], a[3]]]) @ np.diag([gx, gy]))
+        np.testing.assert_allclose(np.sort_complex(nu2[:, c]), np.sort_complex(ref), rtol=1e-12,
+                                   atol=1e-12 * np.abs(ref).max())

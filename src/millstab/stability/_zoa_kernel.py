@@ -43,7 +43,9 @@ the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.
 2 threads and 1.84× on one (bench_envelope.py --against the kernel before; 4 351 → 8 119 and
 2 582 → 4 746 sets/s, measured on a shared 2-core machine at a load average of 15–20, where absolute
 rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
-The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
+The roots of a modal structure (no cross receptances) in real arithmetic (:func:`_disc_diag`: numba
+multiplies a float by a complex as a full complex product, and the zero cross terms cost four more per
+node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
 it needs fewer root evaluations per speed or a coarser grid, which the accuracy tests must then allow.
 """
 
@@ -155,6 +157,30 @@ def _tr_det(a, gxx, gxy, gyx, gyy):
     m10 = ayx * gxx + ayy * gyx
     m11 = ayx * gxy + ayy * gyy
     return m00 + m11, m00 * m11 - m01 * m10
+
+
+@nb.njit(cache=True, inline="always")
+def _disc_diag(a, gr, gi, yr, yi):
+    """(Re tr, Im tr, Re disc, Im disc) of [α][G] for a diagonal G = diag(gr + i gi, yr + i yi) (a modal
+    structure), disc = tr² − 4 det: :func:`_tr_det` and ``tr * tr - 4.0 * det`` in real arithmetic, bit for
+    bit. Why written out: numba multiplies a float by a complex as a complex product (four multiplications,
+    two additions), and the zero cross receptances add four such products per node that LLVM may not drop
+    (x·0 is not 0 for x = inf or NaN); every operation kept here is one the complex form performs on the
+    same operands in the same order, and the dropped ones only add signed zeros."""
+    axx, axy, ayx, ayy = a
+    m00r = axx * gr
+    m00i = axx * gi
+    m01r = axy * yr
+    m01i = axy * yi
+    m10r = ayx * gr
+    m10i = ayx * gi
+    m11r = ayy * yr
+    m11i = ayy * yi
+    trr = m00r + m11r
+    tri = m00i + m11i
+    detr = (m00r * m11r - m00i * m11i) - (m01r * m10r - m01i * m10i)
+    deti = (m00r * m11i + m00i * m11r) - (m01r * m10i + m01i * m10r)
+    return trr, tri, (trr * trr - tri * tri) - 4.0 * detr, (trr * tri + tri * trr) - 4.0 * deti
 
 
 @nb.njit(cache=True)
@@ -272,6 +298,34 @@ def _branches(a, gxx, gxy, gyx, gyy):
     return nu
 
 
+@nb.njit(cache=True)
+def _branches_diag(a, gxx, gyy):
+    """:func:`_branches` for a diagonal receptance (a modal structure: no cross terms), bit for bit, in the
+    real arithmetic of :func:`_disc_diag` (the eigenvalues are the closed-form roots of the 2×2 quadratic
+    either way; this computes them with about half the multiplications). Measured with the same change in
+    the refinement and edge roots: the engine per set 6 % faster under four conditions, 1–4 % under one
+    (benchmarks/bench_conditions.py and bench_envelope.py --against, interleaved, same depths)."""
+    n = gxx.size
+    nu = np.empty((2, n), dtype=np.complex128)
+    pr = 0.0
+    pi = 0.0
+    for i in range(n):
+        g = gxx[i]
+        y = gyy[i]
+        trr, tri, dr, di = _disc_diag(a, g.real, g.imag, y.real, y.imag)
+        s = _csqrt(complex(dr, di))
+        sr = s.real
+        si = s.imag
+        if i > 0 and (sr - pr) * (sr - pr) + (si - pi) * (si - pi) > (-sr - pr) * (-sr - pr) + (-si - pi) * (-si - pi):
+            sr = -sr
+            si = -si
+        pr = sr
+        pi = si
+        nu[0, i] = complex(0.5 * (trr + sr), 0.5 * (tri + si))
+        nu[1, i] = complex(0.5 * (trr - sr), 0.5 * (tri - si))
+    return nu
+
+
 @nb.njit(cache=True, inline="always")
 def _root_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
     """The root of [α][G(ω)] at ω nearest the branch value interpolated between (sa, nua) and (sb, nub).
@@ -285,13 +339,14 @@ def _root_at(w, sa, sb, nua, nub, wi, wj, a, md, measured, gab):
         gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
         gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
         gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+        tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
+        s = _csqrt(tr * tr - 4.0 * det)
     else:
         gxx = _modal_receptance(w, md, 0)
         gyy = _modal_receptance(w, md, 1)
-        gxy = 0.0j
-        gyx = 0.0j
-    tr, det = _tr_det(a, gxx, gxy, gyx, gyy)
-    s = _csqrt(tr * tr - 4.0 * det)
+        trr, tri, dr, di = _disc_diag(a, gxx.real, gxx.imag, gyy.real, gyy.imag)
+        tr = complex(trr, tri)
+        s = _csqrt(complex(dr, di))
     guess = nua + (w - sa) / (sb - sa) * (nub - nua)
     r1 = 0.5 * (tr + s)
     r2 = 0.5 * (tr - s)
@@ -547,6 +602,13 @@ def _refine(T, k, wa, wb, nua, nub, da, db, ea, eb, wi, wj, a, md, measured, gab
             gxy = gab[0, 1] + t * (gab[1, 1] - gab[0, 1])
             gyx = gab[0, 2] + t * (gab[1, 2] - gab[0, 2])
             gyy = gab[0, 3] + t * (gab[1, 3] - gab[0, 3])
+            m00 = axx * gxx + axy * gyx
+            m01 = axx * gxy + axy * gyy
+            m10 = ayx * gxx + ayy * gyx
+            m11 = ayx * gxy + ayy * gyy
+            tr = m00 + m11
+            det = m00 * m11 - m01 * m10
+            sq = _csqrt(tr * tr - 4.0 * det)
         else:
             gr0 = 0.0
             gi0 = 0.0
@@ -572,17 +634,9 @@ def _refine(T, k, wa, wb, nua, nub, da, db, ea, eb, wi, wj, a, md, measured, gab
                 inv = 1.0 / (km * (re * re + im * im))
                 gr3 += re * inv
                 gi3 -= im * inv
-            gxx = complex(gr0, gi0)
-            gyy = complex(gr3, gi3)
-            gxy = 0.0j
-            gyx = 0.0j
-        m00 = axx * gxx + axy * gyx
-        m01 = axx * gxy + axy * gyy
-        m10 = ayx * gxx + ayy * gyx
-        m11 = ayx * gxy + ayy * gyy
-        tr = m00 + m11
-        det = m00 * m11 - m01 * m10
-        sq = _csqrt(tr * tr - 4.0 * det)
+            trr, tri, dr, di = _disc_diag(a, gr0, gi0, gr3, gi3)
+            tr = complex(trr, tri)
+            sq = _csqrt(complex(dr, di))
         guess = nua + (xm - wa) / (wb - wa) * (nub - nua)
         v = 0.5 * (tr + sq)
         r2 = 0.5 * (tr - sq)
@@ -713,11 +767,11 @@ def _collect(w, G, nu, valid, inv_b, T, rpm, n_teeth, est, uniform, a, md, measu
                     have_e[br, e] = True
             ea = eps[br, i]
             eb = eps[br, i + 1]
-            for c4 in range(4):
-                gab[0, c4] = G[c4, i]
-                gab[1, c4] = G[c4, i + 1]
             # ε' and ε'' at the ends (a measured FRF: from this segment's straight line)
             if measured:
+                for c4 in range(4):
+                    gab[0, c4] = G[c4, i]
+                    gab[1, c4] = G[c4, i + 1]
                 _, d1a, d2a = _phase_at(wa, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
                 _, d1b, d2b = _phase_at(wb, wa, wb, nua, nub, wa, wb, a, md, measured, gab)
             else:
@@ -919,7 +973,8 @@ def _validity_edges(w, nu, a, md, measured, G, stats):
 def _with_nodes(w, G, nu, extra, a, measured, md):
     """The grid with the ``extra`` frequencies merged in: frequencies, receptances (exact for modes,
     linear between table points for a measured FRF) and the roots, each branch continued by
-    proximity from the node before (as in :func:`_branches`)."""
+    proximity from the node before (as in :func:`_branches`). The old nodes between two new ones are
+    copied as blocks (slices, no per-node branch: the merge was ~8 % of a condition's cost)."""
     n_old = w.size
     n_new = n_old + extra.size
     ex = np.sort(extra)
@@ -927,40 +982,52 @@ def _with_nodes(w, G, nu, extra, a, measured, md):
     G2 = np.empty((4, n_new), dtype=np.complex128)
     nu2 = np.empty((2, n_new), dtype=np.complex128)
     i = 0
-    e = 0
-    for c in range(n_new):
-        if e < ex.size and (i >= n_old or ex[e] < w[i]):
-            x = ex[e]
-            e += 1
-            j = min(max(i, 1), n_old - 1)  # segment [w[j-1], w[j]] containing x
-            t = (x - w[j - 1]) / (w[j] - w[j - 1])
-            if measured:
-                for q in range(4):
-                    G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
-            else:
-                G2[0, c] = _modal_receptance(x, md, 0)
-                G2[1, c] = 0.0j
-                G2[2, c] = 0.0j
-                G2[3, c] = _modal_receptance(x, md, 1)
+    c = 0
+    for e in range(ex.size + 1):
+        # the old nodes before the next new one (all the rest after the last): those with w ≤ x
+        stop = n_old
+        if e < ex.size:
+            stop = i
+            while stop < n_old and not (ex[e] < w[stop]):
+                stop += 1
+        n_blk = stop - i
+        if n_blk > 0:
+            w2[c:c + n_blk] = w[i:stop]
+            G2[:, c:c + n_blk] = G[:, i:stop]
+            nu2[:, c:c + n_blk] = nu[:, i:stop]
+            c += n_blk
+            i = stop
+        if e == ex.size:
+            break
+        x = ex[e]
+        j = min(max(i, 1), n_old - 1)  # segment [w[j-1], w[j]] containing x
+        t = (x - w[j - 1]) / (w[j] - w[j - 1])
+        if measured:
+            for q in range(4):
+                G2[q, c] = G[q, j - 1] + t * (G[q, j] - G[q, j - 1])
             tr, det = _tr_det(a, G2[0, c], G2[1, c], G2[2, c], G2[3, c])
             sq = _csqrt(tr * tr - 4.0 * det)
-            guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
-            r1 = 0.5 * (tr + sq)
-            r2 = 0.5 * (tr - sq)
-            if _dist2(r1, guess) <= _dist2(r2, guess):
-                nu2[0, c] = r1
-                nu2[1, c] = r2
-            else:
-                nu2[0, c] = r2
-                nu2[1, c] = r1
-            w2[c] = x
         else:
-            w2[c] = w[i]
-            for q in range(4):
-                G2[q, c] = G[q, i]
-            nu2[0, c] = nu[0, i]
-            nu2[1, c] = nu[1, i]
-            i += 1
+            gx = _modal_receptance(x, md, 0)
+            gy = _modal_receptance(x, md, 1)
+            G2[0, c] = gx
+            G2[1, c] = 0.0j
+            G2[2, c] = 0.0j
+            G2[3, c] = gy
+            trr, tri, dr, di = _disc_diag(a, gx.real, gx.imag, gy.real, gy.imag)
+            tr = complex(trr, tri)
+            sq = _csqrt(complex(dr, di))
+        guess = nu[0, j - 1] + t * (nu[0, j] - nu[0, j - 1])
+        r1 = 0.5 * (tr + sq)
+        r2 = 0.5 * (tr - sq)
+        if _dist2(r1, guess) <= _dist2(r2, guess):
+            nu2[0, c] = r1
+            nu2[1, c] = r2
+        else:
+            nu2[0, c] = r2
+            nu2[1, c] = r1
+        w2[c] = x
+        c += 1
     return w2, G2, nu2
 
 
@@ -986,7 +1053,7 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
     the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
     the tooth periods T [s], the best estimate per speed and the candidates."""
     counting = stats.size > 0
-    nu = _branches(a, G[0], G[1], G[2], G[3])
+    nu = _branches(a, G[0], G[1], G[2], G[3]) if measured else _branches_diag(a, G[0], G[3])
     extra = _distinct_new(w, _validity_edges(w, nu, a, md, measured, G, stats))
     if extra.size:
         w, G, nu = _with_nodes(w, G, nu, extra, a, measured, md)

@@ -21,7 +21,7 @@ A predicted depth may be ``inf`` (no chatter boundary at that speed); it is capp
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -115,6 +115,11 @@ class Problem:
         """Re-check the engine's discretisation at the parameter row θ (P,) (a solution); True when it
         changed (see :meth:`millstab.forward.Forward.refine`): the caller evaluates again."""
         return self._forward.refine(theta, self._speeds)
+
+    def with_engine(self, engine: str) -> Problem:
+        """The same points and parameterization under another engine (fresh counters), e.g. the cheap
+        zero-order twin whose global search proposes basins to an accurate one."""
+        return replace(self, engine=engine, n_sets=0, n_calls=0, _forward=None)
 
     def predict_u(self, u: np.ndarray) -> np.ndarray:
         """:meth:`predict_mm` for log-parameters u = ln θ, shape (B, P)."""

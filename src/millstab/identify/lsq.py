@@ -13,6 +13,13 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
    (the others held at the best so far) plus fresh global candidates and halve again — a wrong basin
    is usually one mode's (fn, k, ζ) caught in a neighbouring valley. Finally ``n_local`` points in the
    linearised 3σ confidence region of the best solution are tried (one call) and halved again.
+2a. **Zero-order basins** (engines other than ``zoa``; issue 28; after the first halving, before the
+   re-seeding). The accurate engines' objective is rough
+   (narrow lobe bands found or not as the parameters move), so which basin their screening ends in turned
+   on 0.1 %-level depth differences. The zero-order engine's own global search runs on the same points
+   (~1 000× cheaper per evaluation) and its distinct end points, whole and each of their modes put into
+   the accurate search's best point and into the start, run batched LM under the accurate engine and
+   compete by their accurate residual (:func:`basin_search`; ``zoa_basins=0``: off; docs/identification.md).
 3. **Polish.** ``scipy.optimize.least_squares(method="trf")`` from the best refined start, with the
    chosen robust ``loss``; its Jacobian comes from the same batched call as its residuals (the
    residual row plus P forward-difference rows), never scipy's per-column differences.

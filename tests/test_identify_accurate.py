@@ -1,6 +1,6 @@
-"""Identification with the accurate (spectral) engine at low immersion (issue 28): the zero-order engine's
-basins start the accurate engine's search, so which basin the fit ends in no longer turns on 0.1 %-level
-depth differences."""
+"""Identification with the accurate (spectral) engine at low immersion (issue 28): the opt-in zero-order
+basins of the accurate search (``zoa_basins``) and a search path that does not depend on the order of the
+points."""
 
 from __future__ import annotations
 
@@ -82,30 +82,3 @@ def test_the_order_of_the_points_does_not_change_the_fit(low_immersion):
     np.testing.assert_array_equal(a.estimate, b.estimate)
     assert a.rss == b.rss
 
-
-def fit_at(truth: Structure, cut: Cutting, rpm: np.ndarray, factor: np.ndarray, **options):
-    """(fit, RSS of the truth, Beale's 95 % margin) of the spectral identification of the truth's spectral
-    depths × ``factor`` from the start of benchmarks/bench_spectral_identify.py (every parameter 20 % off)."""
-    from scipy import stats
-
-    base = boundary_points(truth, cut, rpm, engine="spectral")
-    pts = type(base)(base.rpm, base.depth_mm * factor)
-    f = np.random.default_rng(0).choice([0.8, 1.2], 6)
-    prob = make_problem(moved(truth, f), cut, pts, engine="spectral")
-    rss_truth = float(prob.rss(prob.predict_mm(Parameterization(truth).theta0[None]))[0])
-    p, n = prob.p, prob.n
-    return fit_lsq(prob, seed=0, **options), rss_truth, 1 + p / (n - p) * stats.f.ppf(0.95, p, n - p)
-
-
-@pytest.mark.slow
-def test_spectral_identification_at_low_immersion_keeps_its_basin_under_small_perturbations(low_immersion):
-    """The issue's case (Example 1, a/D 0.1, spectral points): the depths as computed and perturbed by
-    0.1 % (seeded) must both end in the truth's basin: RSS within Beale's 95 % margin of the truth's, and
-    every parameter within 1 % of the truth (0.1 % noise moves the estimate by far less)."""
-    truth, cut = low_immersion
-    rpm = np.linspace(3000.0, 15000.0, 20)
-    theta = Parameterization(truth).theta0
-    for factor in (np.ones(rpm.size), 1 + 1e-3 * np.random.default_rng(5).standard_normal(rpm.size)):
-        fit, rss_truth, margin = fit_at(truth, cut, rpm, factor)
-        assert fit.rss <= max(rss_truth * margin, rpm.size * 1e-8)  # floor: RMS 0.01 % (discretisation)
-        assert rel_error(fit.estimate, theta, np.array([3, 4, 5, 0, 1, 2])).max() < 1e-2

@@ -19,7 +19,8 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
    on 0.1 %-level depth differences. The zero-order engine's own global search runs on the same points
    (~1 000× cheaper per evaluation) and its distinct end points, whole and each of their modes put into
    the accurate search's best point and into the start, run batched LM under the accurate engine and
-   compete by their accurate residual (:func:`basin_search`; ``zoa_basins=0``: off; docs/identification.md).
+   compete by their accurate residual (:func:`basin_search`; opt-in, ``zoa_basins=8``: it did not yet
+   move the issue's failing case out of its wrong basin, docs/identification.md).
 3. **Polish.** ``scipy.optimize.least_squares(method="trf")`` from the best refined start, with the
    chosen robust ``loss``; its Jacobian comes from the same batched call as its residuals (the
    residual row plus P forward-difference rows), never scipy's per-column differences.
@@ -474,7 +475,7 @@ class LsqOptions:
     f_scale: float | None = None
     central: bool = False
     max_nfev: int = 100
-    zoa_basins: int = 8
+    zoa_basins: int = 0
 
     def __post_init__(self) -> None:
         check_options(self.loss, self.n_candidates, self.schedule)
@@ -494,7 +495,8 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
         n_candidates: QMC screening candidates (one engine call).
         zoa_basins: with an engine other than ``zoa``, LM under that engine also starts from up to this
             many distinct basins of the zero-order engine's own global search on the same points
-            (:func:`basin_search`; 0: none).
+            (:func:`basin_search`; default 0: off — measured without gain so far, +20–30 % evaluations:
+            docs/identification.md).
         schedule: successive halving of the LM starts, ((starts, iterations), ...).
         rounds: at most this many re-seeding rounds while the RMS residual exceeds ``good_rms``: each
             re-samples every mode's parameters in the search box (others at the best so far, 128 each)

@@ -28,13 +28,18 @@ demo: $(WARM)
 	$(BIN)/millstab reproduce --out millstab-report
 	@echo "open millstab-report/report.html"
 
+# the tests run in one process per core (pytest-xdist; `worksteal` hands the long tests out first): the suite is
+# CPU-bound and single-threaded, so on CI's 2 cores this halves its wall time; PYTEST_WORKERS=0 runs it serially
+PYTEST_WORKERS ?= auto
+PYTEST := $(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist worksteal
+
 ## test: install into .venv and run the test suite
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(PYTEST)
 
 ## test-fast: the inner loop: every test not marked slow (about 1.5 min once the engines are compiled)
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(PYTEST) -m "not slow"
 
 ## app: install the app extra into .venv and serve the browser interface on http://127.0.0.1:5006/
 app: $(WARM)

@@ -25,12 +25,16 @@ over that of the best truly stable cut (same constraints and speed tolerance as 
 
 Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --samples 1000 --truth-steps 20
 --best-speeds 121 [--tails normal|mixture]`` (docs/updating.md, "A prior that can be wrong", has the figures).
+``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
+``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
+conflict rule offline.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 import warnings
@@ -40,7 +44,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _machine import describe  # noqa: E402
+from _conflict_record import campaign_record, save  # noqa: E402
+from _machine import describe, run_campaigns  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -51,7 +56,7 @@ from millstab.update.campaign import best_productivity  # noqa: E402
 from millstab.update.decide import SPEED_TOLERANCE  # noqa: E402
 
 
-def main() -> None:
+def parse() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=10)
     ap.add_argument("--first", type=int, default=0)
@@ -71,75 +76,93 @@ def main() -> None:
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--best-speeds", type=int, default=241)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
+                                                         "depend on it: each campaign is seeded by its index)")
     ap.add_argument("--json", type=Path, default=None)
-    args = ap.parse_args()
-    print(describe())
+    ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
+                                                             "to score conflict rules offline (score_conflict.py)")
+    return ap.parse_args()
+
+
+def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
+    """Campaign c: (its row, its printed lines, its record for --save)."""
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
     cut = cfg.cutting
     prior = make_prior(cfg.structure, cut, PriorTable({}, tails=args.tails))
     sdm = get_engine("sdm")
     zoa = get_engine("zoa")
-    rows = []
-    t_all = time.perf_counter()
     with threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for c in range(args.first, args.first + args.campaigns):
-            t0 = time.perf_counter()
-            rng = np.random.default_rng([args.seed, c])
-            s = args.sign or (-1 if c % 2 == 0 else 1)
-            f = {"k": args.k_factor ** s, "fn": (1 + args.fn_off) ** s, "zeta": args.zeta_factor ** s}
-            theta = prior.median * np.array([f[prior.par.kind(n)] for n in prior.par.free])
-            z_off = np.log(theta / prior.median) / prior.spread
-            s_true = prior.par.structure(theta)
+        t0, c0 = time.perf_counter(), time.process_time()
+        rng = np.random.default_rng([args.seed, c])
+        s = args.sign or (-1 if c % 2 == 0 else 1)
+        f = {"k": args.k_factor ** s, "fn": (1 + args.fn_off) ** s, "zeta": args.zeta_factor ** s}
+        theta = prior.median * np.array([f[prior.par.kind(n)] for n in prior.par.free])
+        z_off = np.log(theta / prior.median) / prior.spread
+        s_true = prior.par.structure(theta)
 
-            def truth(rpm, s_true=s_true):
-                return sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps).depth_mm
+        def truth(rpm):
+            return sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps).depth_mm
 
-            def label(rpm, depth):
-                b = truth(np.asarray(rpm, float))
-                chat = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
-                chat ^= rng.random(b.shape) < args.flip
-                return list(np.where(chat, "chatter", "stable"))
+        def label(rpm, depth):
+            b = truth(np.asarray(rpm, float))
+            chat = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
+            chat ^= rng.random(b.shape) < args.flip
+            return list(np.where(chat, "chatter", "stable"))
 
-            best = best_productivity(truth, (lo, hi), args.max_depth, args.best_speeds, SPEED_TOLERANCE)
-            o_rpm = np.linspace(lo, hi, args.opening + 2)[1:-1]
-            o_lim = zoa.envelope(cfg.structure, cut, o_rpm).depth_mm
-            c_rpm = list(np.r_[o_rpm, o_rpm])
-            c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
-            c_lab = label(c_rpm, c_depth)
-            post, named, rec_ok, rec_p, log_bf = None, [], [], [], []
-            for k in range(args.rounds):
-                ps = PointSet(c_rpm, c_depth, c_lab)
-                post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
-                named.append(any(w.startswith("the cuts contradict the hammer test") for w in post.warnings))
-                log_bf.append(post.diagnostics["conflict"]["log_bayes_factor"])
-                rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)))
-                rec_ok.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
-                rec_p.append(float(rec.rpm * rec.depth_mm / best))
-                if k + 1 < args.rounds:
-                    nx = rec.next_test
-                    c_rpm.append(float(nx["rpm"]))
-                    c_depth.append(float(nx["depth_mm"]))
-                    c_lab += label([nx["rpm"]], [nx["depth_mm"]])
-            m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
-            contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
-            row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
-                   "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
-                   "last_warnings": list(post.warnings)}
-            rows.append(row)
-            tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
-            print("   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf))
-            print(f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
-                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
-                  f"{time.perf_counter() - t0:.0f} s; rounds (S stable/C chatter, productivity/best, ! conflict named): {tr}",
-                  flush=True)
+        best = best_productivity(truth, (lo, hi), args.max_depth, args.best_speeds, SPEED_TOLERANCE)
+        o_rpm = np.linspace(lo, hi, args.opening + 2)[1:-1]
+        o_lim = zoa.envelope(cfg.structure, cut, o_rpm).depth_mm
+        c_rpm = list(np.r_[o_rpm, o_rpm])
+        c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
+        c_lab = label(c_rpm, c_depth)
+        post, named, rec_ok, rec_p, log_bf, posts = None, [], [], [], [], []
+        for k in range(args.rounds):
+            ps = PointSet(c_rpm, c_depth, c_lab)
+            post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
+            posts.append(post)
+            named.append(any(w.startswith("the cuts contradict the hammer test") for w in post.warnings))
+            log_bf.append(post.diagnostics["conflict"]["log_bayes_factor"])
+            rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)))
+            rec_ok.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
+            rec_p.append(float(rec.rpm * rec.depth_mm / best))
+            if k + 1 < args.rounds:
+                nx = rec.next_test
+                c_rpm.append(float(nx["rpm"]))
+                c_depth.append(float(nx["depth_mm"]))
+                c_lab += label([nx["rpm"]], [nx["depth_mm"]])
+        m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
+        contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
+        row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
+               "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
+               "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0}
+        tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
+        lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
+                 (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
+                 f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
+                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); rounds (S stable/C chatter, "
+                  f"productivity/best, ! conflict named): {tr}")]
+        rec = campaign_record(c, posts, {"z_off": z_off.tolist(), "sign": s}) if args.save else {}
+    return row, lines, rec
+
+
+def main() -> None:
+    args = parse()
+    print(describe())
+    prior = make_prior(load_config("example:ex1").structure, load_config("example:ex1").cutting,
+                       PriorTable({}, tails=args.tails))
+    t_all, c_all = time.perf_counter(), time.process_time()
+    rows, records = run_campaigns(run_one, args, range(args.first, args.first + args.campaigns))
+    if args.save:
+        save(args.save, prior, records)
     n = len(rows)
     late_bad = sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rows)
     late_all = sum(len(r["rec_stable"][2:]) for r in rows)
     last_ok = [r["rec_stable"][-1] for r in rows]
     last_p = [r["rec_productivity"][-1] for r in rows]
-    print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s), tails {prior.tails}, truth k×{args.k_factor:g}^s, "
+    print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
+          f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load {os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, "
           f"fn×{1 + args.fn_off:g}^s, ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} "
           f"noise, {args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "

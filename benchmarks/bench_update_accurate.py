@@ -29,13 +29,18 @@ predictive probability of the written label (with the learned label error and de
 :func:`millstab.update.predict.predict_cuts`) is at least 0.1. A cut within one σ_b of the true limit can
 fail the strict reading with a correct posterior.
 
+``--fit-nodes``: also the spectral update as before issue 28's sampling node count, in the same run: a fit's
+node count (the converged count + 2, not ``purpose="sample"``, :data:`millstab.update.likelihood.SAMPLING`),
+chosen at the first row of every call (not once per update by the likelihood's own forward model).
+
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
-[--cuts 10] [--plain]``.
+[--cuts 10] [--plain] [--fit-nodes]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import time
 
@@ -50,6 +55,7 @@ from millstab.io.points import PointSet
 from millstab.model import Cutting
 from millstab.stability import sdm
 from millstab.update import make_prior, update
+from millstab.update import likelihood
 from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.sampler import tempered_smc
 from millstab.update.predict import predict_cuts
@@ -98,6 +104,26 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
               f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
 
 
+@contextlib.contextmanager
+def before_issue_28(on: bool):
+    """With ``on``, the likelihood's engine calls as before issue 28's sampling count: a fit's node count
+    (converged + 2), chosen at the first row of every call (a fresh forward model per call)."""
+    if not on:
+        yield
+        return
+    init = Likelihood.__init__
+
+    def per_call(self, *a, **k):
+        init(self, *a, **k)
+        self._forwards = [None] * len(self._forwards)
+
+    likelihood.SAMPLING, Likelihood.__init__ = "fit", per_call
+    try:
+        yield
+    finally:
+        likelihood.SAMPLING, Likelihood.__init__ = "sample", init
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=500)
@@ -112,6 +138,8 @@ def main() -> None:
     ap.add_argument("--plain", action="store_true", help="also the spectral update without delayed acceptance")
     ap.add_argument("--proxy-seeds", type=int, default=0, help="the repeatable proxy check with this many seeds")
     ap.add_argument("--proxy-only", action="store_true", help="only the proxy check (no spectral updates)")
+    ap.add_argument("--fit-nodes", action="store_true", help="also the spectral update (default sampler) as before "
+                    "issue 28's sampling count: a fit's node count (converged + 2), chosen per call")
     args = ap.parse_args()
     print(describe())
     lo, hi = (float(x) for x in args.rpm.split(":"))
@@ -139,10 +167,13 @@ def main() -> None:
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         runs = {}
-        plan = [("zoa", "auto"), ("spectral", "auto")] + ([("spectral", "plain")] if args.plain else [])
+        plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
+                + ([("spectral", "plain")] if args.plain else []))
         for eng, smp in plan:
-            post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
-                                                                   engine=eng, prior=prior, sampler=smp))
+            with before_issue_28(smp == "fit-nodes"):
+                post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
+                                                                       engine=eng, prior=prior,
+                                                                       sampler="auto" if smp == "fit-nodes" else smp))
             runs[eng, smp] = (post, wall, cpu)
             d = post.diagnostics
             n_side, n_label, bad = explained(post, cuts)
@@ -154,6 +185,14 @@ def main() -> None:
                   + (f" (not: {'; '.join(bad)})" if bad else ""))
     z, s = runs["zoa", "auto"], runs["spectral", "auto"]
     print(f"ratio spectral/zoa: {s[1] / z[1]:.1f} wall, {s[2] / z[2]:.1f} CPU (target <= 10)")
+    if args.fit_nodes:
+        f = runs["spectral", "fit-nodes"]
+        print(f"ratio spectral (delayed, a fit's node count per call: before)/zoa: {f[1] / z[1]:.1f} wall, {f[2] / z[2]:.1f} CPU; "
+              f"the sampling node count saves {f[1] / s[1]:.2f}x wall, {f[2] / s[2]:.2f}x CPU")
+        ua, ub = s[0].u, f[0].u
+        for j, nm in enumerate(names):
+            sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
+            print(f"  ln {nm}: sampling - fit node count: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd")
     if args.plain:
         p = runs["spectral", "plain"]
         print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")

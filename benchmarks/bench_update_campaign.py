@@ -41,7 +41,9 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
 
 Run: ``.venv/bin/python benchmarks/bench_update_campaign.py --calibrate --campaigns 50 [--samples 1000]``
 (``--json FILE`` keeps every campaign's record; ``--first K`` starts at campaign K, to split a study
-over processes; 50 calibration campaigns took 6 min on the 2-core machine beside another job). The
+over processes; 50 calibration campaigns took 6 min on the 2-core machine beside another job; ``--jobs N``
+runs them in N processes, one numba thread each, with the same figures; ``--save FILE.npz`` keeps every
+round's posterior samples and cuts, for ``score_conflict.py`` to score a conflict rule offline). The
 model-error study (issue 17; a/D 0.1, labels from the time-domain simulation, limits there are 25–100 mm,
 hence the depth cap and the relative depth noise; docs/updating.md has the measured figures)::
 
@@ -59,16 +61,19 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import sys
 import time
 import warnings
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _machine import describe  # noqa: E402
+from _conflict_record import campaign_record, save  # noqa: E402
+from _machine import describe, run_campaigns  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -76,7 +81,7 @@ from millstab.io.points import PointSet  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
-from millstab.update.campaign import coverage, run_campaign  # noqa: E402
+from millstab.update.campaign import CampaignOptions, coverage, run_campaign  # noqa: E402
 from millstab.update.decide import CONFIDENCE, SPEED_TOLERANCE, TEST_RISK  # noqa: E402
 
 OFF = {"fn": 0.03, "k": 0.20, "zeta": 0.30}
@@ -121,7 +126,7 @@ def limit_coverage(post, rpm: np.ndarray, truth, level: float = 0.90) -> list[bo
     return [bool(a <= x <= b) for a, x, b in zip(lo_q, t, hi_q)]
 
 
-def main() -> None:
+def parse() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=5)
     ap.add_argument("--first", type=int, default=0, help="index of the first campaign (to split a study)")
@@ -166,8 +171,18 @@ def main() -> None:
     ap.add_argument("--best-speeds", type=int, default=361, help="speeds on which the best truly stable cut is sought")
     ap.add_argument("--grid", default="61x40", help="speeds x depths of the Brier-score grid")
     ap.add_argument("--json", type=Path, default=None, help="write every campaign's record here")
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
+                                                         "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
+                                                             "to score conflict rules offline (score_conflict.py)")
     args = ap.parse_args()
-    print(describe())
+    if args.calibrate:
+        args.truth_engine, args.labels = "zoa", "engine"
+    return args
+
+
+def setup(args: argparse.Namespace) -> SimpleNamespace:
+    """The study's fixed parts: config, cutting, prior, truth prior, decision keywords, truth engine, grid."""
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
     cut = cfg.cutting
@@ -181,110 +196,132 @@ def main() -> None:
                 "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk), "guard": not args.no_guard}
     if args.coarse:
         decision["coarse_points"] = args.coarse
-    if args.calibrate:
-        args.truth_engine, args.labels = "zoa", "engine"
     truth_engine = get_engine(args.truth_engine)
     opts = {"steps": args.truth_steps} if args.truth_engine == "sdm" else {}
     gs, gd = (int(x) for x in args.grid.split("x"))
     g_rpm, g_depth = np.linspace(lo, hi, gs), np.linspace(0.05, args.max_depth, gd)
-    rows = []
-    t_all = time.perf_counter()
+    return SimpleNamespace(lo=lo, hi=hi, cfg=cfg, cut=cut, prior=prior, truth_prior=truth_prior, decision=decision,
+                           truth_engine=truth_engine, opts=opts, g_rpm=g_rpm, g_depth=g_depth)
+
+
+def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
+    """Campaign c: (its row, its printed lines, its record for --save)."""
+    st = setup(args)
+    lo, hi, cfg, cut, prior, truth_prior = st.lo, st.hi, st.cfg, st.cut, st.prior, st.truth_prior
+    decision, truth_engine, opts, g_rpm, g_depth = st.decision, st.truth_engine, st.opts, st.g_rpm, st.g_depth
+    lines: list[str] = []
+    say = lines.append
     with threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for c in range(args.first, args.first + args.campaigns):
-            t0 = time.perf_counter()
-            rng = np.random.default_rng([args.seed, c])
-            if args.calibrate:
-                theta = np.exp(truth_prior.sample(1, rng)[0])
+        c0 = time.process_time()
+        t0 = time.perf_counter()
+        rng = np.random.default_rng([args.seed, c])
+        if args.calibrate:
+            theta = np.exp(truth_prior.sample(1, rng)[0])
+        else:
+            f = np.array([rng.uniform(-OFF[prior.par.kind(n)], OFF[prior.par.kind(n)]) for n in prior.par.free])
+            theta = prior.median * (1 + f)
+        s_true = prior.par.structure(theta)
+
+        def truth(rpm, s_true=s_true):
+            return truth_engine.envelope(s_true, cut, np.asarray(rpm, float), **opts).depth_mm
+
+        def labeler(rpm, depth, r, s_true=s_true, truth=truth):
+            if args.labels == "simulate":
+                from millstab.simulate import label_cuts
+
+                lab = label_cuts(s_true, cut, rpm, depth * 1e-3, FEED_M, label_noise=args.flip,
+                                 seed=int(r.integers(2**31)))
+                # an operator who swapped chatter to stable wrote no frequency down
+                return ([str(x) for x in lab.label],
+                        [float("nan") if str(x) == "stable" else float(h) for x, h in zip(lab.label, lab.chatter_hz)])
+            b = truth(rpm)
+            if args.calibrate:  # the likelihood's own model: probit noise, then a swap with probability ε
+                edge = b + prior.sigma_depth_mm(depth) * r.standard_normal(b.shape)
+                chat = (depth > edge) ^ (r.random(b.shape) < prior.label_error)
             else:
-                f = np.array([rng.uniform(-OFF[prior.par.kind(n)], OFF[prior.par.kind(n)]) for n in prior.par.free])
-                theta = prior.median * (1 + f)
-            s_true = prior.par.structure(theta)
+                chat = depth > b * np.exp(args.noise * r.standard_normal(b.shape))
+            return list(np.where(chat, "chatter", "stable")), [float("nan")] * b.size
 
-            def truth(rpm, s_true=s_true):
-                return truth_engine.envelope(s_true, cut, np.asarray(rpm, float), **opts).depth_mm
-
-            def labeler(rpm, depth, r, s_true=s_true, truth=truth):
-                if args.labels == "simulate":
-                    from millstab.simulate import label_cuts
-
-                    lab = label_cuts(s_true, cut, rpm, depth * 1e-3, FEED_M, label_noise=args.flip,
-                                     seed=int(r.integers(2**31)))
-                    # an operator who swapped chatter to stable wrote no frequency down
-                    return ([str(x) for x in lab.label],
-                            [float("nan") if str(x) == "stable" else float(h) for x, h in zip(lab.label, lab.chatter_hz)])
-                b = truth(rpm)
-                if args.calibrate:  # the likelihood's own model: probit noise, then a swap with probability ε
-                    edge = b + prior.sigma_depth_mm(depth) * r.standard_normal(b.shape)
-                    chat = (depth > edge) ^ (r.random(b.shape) < prior.label_error)
+        grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
+        settings = CampaignOptions(cuts=args.cuts, samples=args.samples, risk=args.risk, rpm_range=(lo, hi),
+                               max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)), engine=args.engine,
+                               reuse=not args.fresh, best_speeds=args.best_speeds, decision=decision,
+                               keep=tuple(range(1, args.cuts + 1)) if args.save else ())
+        camp = run_campaign(cfg, prior, truth, labeler, settings, truth_grid=grid)
+        cover = coverage(camp.posteriors[args.cuts], theta)
+        cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
+        row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
+               "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
+               "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
+               "stages": camp.stages, "best": camp.best, "failed": camp.failed,
+               "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")},
+               "conflict": any(str(w).startswith("the cuts contradict the hammer test")
+                               for w in camp.posteriors[args.cuts].warnings)}
+        if not args.no_baselines:
+            # baseline 1: the hammer-test SLD alone, 5 % below its limit
+            fine = np.linspace(lo, hi, args.best_speeds)
+            b_ham = get_engine(args.engine).envelope(cfg.structure, cut, fine).depth_mm
+            j = int(np.argmax(np.minimum(0.95 * b_ham, args.max_depth) * fine))
+            d_ham = min(0.95 * b_ham[j], args.max_depth)
+            row["hammer"] = [bool(d_ham < truth([fine[j]])[0]), float(fine[j] * d_ham / camp.best)]
+            # baseline 2: evenly spaced test cuts at the prior-median limit depth, one update
+            ev_rpm = np.linspace(lo, hi, args.cuts)
+            ev_depth = np.minimum(get_engine(args.engine).envelope(cfg.structure, cut, ev_rpm).depth_mm, args.max_depth)
+            ev_lab, ev_hz = labeler(ev_rpm, ev_depth, rng)
+            ev = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
+            row["even"] = [False, 0.0]
+            if ev.stable.any() or ev.chatter.any():
+                try:
+                    ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
+                except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
+                    say("   even cuts: UPDATE FAILED (tempering stalled)")
                 else:
-                    chat = depth > b * np.exp(args.noise * r.standard_normal(b.shape))
-                return list(np.where(chat, "chatter", "stable")), [float("nan")] * b.size
+                    r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c, **decision)
+                    row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
+        row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
+        row["limit_cover"] = limit_coverage(camp.posteriors[args.cuts], np.unique(camp.cut_rpm), truth)
+        if args.engine_check:
+            lab = np.array(camp.labels)
+            sel = lab != "marginal"
+            r_c, d_c = np.array(camp.cut_rpm)[sel], np.array(camp.cut_depth_mm)[sel]
+            row["contradicted"] = {}
+            for e in args.engine_check.split(","):
+                try:
+                    # sorted unique speeds: the spectral engine fails on some unsorted lists with repeats
+                    r_u, inv = np.unique(r_c, return_inverse=True)
+                    b_e = get_engine(e).envelope(s_true, cut, r_u).depth_mm[inv]
+                except Exception as exc:  # noqa: BLE001 - an engine's failure is a finding, not the end of the study
+                    say(f"   {e} failed ({type(exc).__name__}: {exc}) on theta={theta.tolist()} rpm={r_c.tolist()}")
+                    row["contradicted"][e] = None
+                    continue
+                row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
+            row["labelled"] = int(sel.sum())
+            say(f"   labels the true structure contradicts: {row['contradicted']} of {row['labelled']}")
+        tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(camp.rec_stable, camp.rec_productivity))
+        fail = f" UPDATE FAILED after cuts {camp.failed};" if camp.failed else ""
+        say(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages};{fail} after 0..{args.cuts} cuts "
+              f"(S stable/C chatter, productivity/best): {tr}")
+        extra = "" if args.no_baselines else (
+            f"hammer SLD: {'stable' if row['hammer'][0] else 'CHATTER'} {row['hammer'][1]:.2f}; even cuts: "
+            f"{'stable' if row['even'][0] else 'CHATTER'} {row['even'][1]:.2f}; ")
+        say(f"   {extra}Brier prior {camp.brier[0]:.4f} -> {camp.brier[-1]:.4f}; 90 % intervals cover truth: "
+              f"{cover.astype(int).tolist()}")
+        row["cpu_s"] = time.process_time() - c0
+        rec = campaign_record(c, [camp.posteriors[k] for k in range(1, args.cuts + 1) if k in camp.posteriors],
+                              {"theta": theta.tolist()}) if args.save else {}
+    return row, lines, rec
 
-            grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
-            camp = run_campaign(cfg, prior, truth, labeler, cuts=args.cuts, samples=args.samples, risk=args.risk,
-                                rpm_range=(lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)),
-                                engine=args.engine, reuse=not args.fresh, truth_grid=grid,
-                                best_speeds=args.best_speeds, decision=decision)
-            cover = coverage(camp.posteriors[args.cuts], theta)
-            cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
-            row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
-                   "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
-                   "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
-                   "stages": camp.stages, "best": camp.best, "failed": camp.failed,
-                   "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")},
-                   "conflict": any(str(w).startswith("the cuts contradict the hammer test")
-                                   for w in camp.posteriors[args.cuts].warnings)}
-            if not args.no_baselines:
-                # baseline 1: the hammer-test SLD alone, 5 % below its limit
-                fine = np.linspace(lo, hi, args.best_speeds)
-                b_ham = get_engine(args.engine).envelope(cfg.structure, cut, fine).depth_mm
-                j = int(np.argmax(np.minimum(0.95 * b_ham, args.max_depth) * fine))
-                d_ham = min(0.95 * b_ham[j], args.max_depth)
-                row["hammer"] = [bool(d_ham < truth([fine[j]])[0]), float(fine[j] * d_ham / camp.best)]
-                # baseline 2: evenly spaced test cuts at the prior-median limit depth, one update
-                ev_rpm = np.linspace(lo, hi, args.cuts)
-                ev_depth = np.minimum(get_engine(args.engine).envelope(cfg.structure, cut, ev_rpm).depth_mm, args.max_depth)
-                ev_lab, ev_hz = labeler(ev_rpm, ev_depth, rng)
-                ev = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
-                row["even"] = [False, 0.0]
-                if ev.stable.any() or ev.chatter.any():
-                    try:
-                        ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
-                    except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
-                        print("   even cuts: UPDATE FAILED (tempering stalled)")
-                    else:
-                        r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c, **decision)
-                        row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
-            row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
-            row["limit_cover"] = limit_coverage(camp.posteriors[args.cuts], np.unique(camp.cut_rpm), truth)
-            if args.engine_check:
-                lab = np.array(camp.labels)
-                sel = lab != "marginal"
-                r_c, d_c = np.array(camp.cut_rpm)[sel], np.array(camp.cut_depth_mm)[sel]
-                row["contradicted"] = {}
-                for e in args.engine_check.split(","):
-                    try:
-                        # sorted unique speeds: the spectral engine fails on some unsorted lists with repeats
-                        r_u, inv = np.unique(r_c, return_inverse=True)
-                        b_e = get_engine(e).envelope(s_true, cut, r_u).depth_mm[inv]
-                    except Exception as exc:  # noqa: BLE001 - an engine's failure is a finding, not the end of the study
-                        print(f"   {e} failed ({type(exc).__name__}: {exc}) on theta={theta.tolist()} rpm={r_c.tolist()}")
-                        row["contradicted"][e] = None
-                        continue
-                    row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
-                row["labelled"] = int(sel.sum())
-                print(f"   labels the true structure contradicts: {row['contradicted']} of {row['labelled']}")
-            rows.append(row)
-            tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(camp.rec_stable, camp.rec_productivity))
-            fail = f" UPDATE FAILED after cuts {camp.failed};" if camp.failed else ""
-            print(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages};{fail} after 0..{args.cuts} cuts "
-                  f"(S stable/C chatter, productivity/best): {tr}")
-            extra = "" if args.no_baselines else (
-                f"hammer SLD: {'stable' if row['hammer'][0] else 'CHATTER'} {row['hammer'][1]:.2f}; even cuts: "
-                f"{'stable' if row['even'][0] else 'CHATTER'} {row['even'][1]:.2f}; ")
-            print(f"   {extra}Brier prior {camp.brier[0]:.4f} -> {camp.brier[-1]:.4f}; 90 % intervals cover truth: "
-                  f"{cover.astype(int).tolist()}", flush=True)
+
+def main() -> None:
+    args = parse()
+    print(describe())
+    st = setup(args)
+    prior, decision = st.prior, st.decision
+    t_all, c_all = time.perf_counter(), time.process_time()
+    rows, records = run_campaigns(run_one, args, range(args.first, args.first + args.campaigns))
+    if args.save:
+        save(args.save, prior, records)
     n = len(rows)
     for r in rows:
         if not r["rec_stable"][-1]:  # the failures, one by one
@@ -305,7 +342,9 @@ def main() -> None:
         src = (f"the time-domain simulation ({args.flip:.0%} swapped; chatter frequencies used)" if args.labels == "simulate"
                else f"{args.truth_engine} with {args.noise:.0%} boundary noise")
         design = f"truth = hammer test off by fn±3 %, k±20 %, ζ±30 %; labels from {src}; truth {args.truth_engine}"
-    print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, risk {args.risk}, {design}; "
+    print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
+          f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
+          f"{os.getloadavg()[0]:.1f}), a/D {args.immersion}, risk {args.risk}, {design}; "
           f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, {'fresh updates' if args.fresh else 'sequential reuse'}, "
           f"likelihood depth noise {prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / "
           f"{prior.sigma_depth_rel or 0:g} rel, label error {prior.label_error:g}; decision: confidence "

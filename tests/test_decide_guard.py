@@ -166,6 +166,7 @@ def test_campaign_counts_the_tests_that_chattered():
 
 
 def test_the_command_line_default_test_risk_is_the_library_s():
+    from millstab.api.update import TEST_RISK as API_TEST_RISK
     from millstab.cli.recommend import TEST_RISK as CLI_TEST_RISK
 
-    assert CLI_TEST_RISK == TEST_RISK
+    assert CLI_TEST_RISK == API_TEST_RISK == TEST_RISK

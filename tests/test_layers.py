@@ -291,3 +291,46 @@ def test_the_doors_reach_the_shop_database_through_the_service_layer_only(graph)
     for mod, deps in graph.items():
         if mod.startswith(DOORS):
             assert sorted(d for d in deps if d == "millstab.shopdb" or d.startswith("millstab.shopdb.")) == [], mod
+
+
+# --- thin doors (issue 26): every function of cli/ is short ---------------------------------------------------
+#: the longest a function of cli/ may be: statements after its docstring, blank and comment lines not counted.
+#: A command parses, calls one service, prints and saves (cli/emit.py); more is logic of a service.
+DOOR_BODY_LIMIT = 25
+#: functions allowed longer, with their length today as a ceiling (a body may shrink, never grow) and the reason
+DOOR_BODY_ALLOWED = {
+    # one except clause per kind of failure (input error, missing file, memory, the last resort): the door's own job
+    "millstab.cli.main": 29,
+}
+
+
+def _door_bodies(pkg: Path | None = None) -> dict[str, int]:
+    """{module.function: counted lines} of every function in cli/ (methods and nested functions included)."""
+    out = {}
+    for path in sorted((pkg or PKG / "cli").rglob("*.py")):
+        mod = _module(path)
+        src = path.read_text(encoding="utf-8").splitlines()
+        for node in ast.walk(ast.parse("\n".join(src))):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                body = body[1:]  # the docstring
+            if not body:
+                continue
+            lines = src[body[0].lineno - 1:body[-1].end_lineno]
+            out[f"{mod.removesuffix('.__init__')}.{node.name}"] = sum(
+                1 for t in lines if t.strip() and not t.strip().startswith("#"))
+    return out
+
+
+def test_every_command_body_is_short():
+    """The typer commands of cli/ (and every helper beside them, so that logic cannot hide in one) have at most
+    DOOR_BODY_LIMIT lines: parse, one api call, print and save. Fails on the old code (update 73 lines, identify
+    59, simulate 58, design 46, recommend 44, ...)."""
+    bodies = _door_bodies()
+    assert "millstab.cli.update.update_cmd" in bodies and "millstab.cli.lobes.lobes" in bodies  # the walk sees them
+    long = {name: n for name, n in bodies.items() if n > DOOR_BODY_ALLOWED.get(name, DOOR_BODY_LIMIT)}
+    assert long == {}, f"move the logic into millstab.api or the studies: {long}"
+    stale = {name for name in DOOR_BODY_ALLOWED if bodies.get(name, 0) <= DOOR_BODY_LIMIT}
+    assert not stale, f"no longer long: drop from DOOR_BODY_ALLOWED {stale}"

@@ -52,6 +52,10 @@ def same(a, b, where: str = "") -> None:
         assert list(a) == list(b), where
         for k in a:
             same(a[k], b[k], f"{where}[{k}]")
+    elif isinstance(a, (list, tuple)) and any(isinstance(x, np.ndarray) for x in a):  # ragged arrays
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b)):
+            same(x, y, f"{where}[{i}]")
     elif isinstance(a, float) and math.isnan(a):
         assert math.isnan(b), where
     else:
@@ -430,6 +434,44 @@ def _one_of_each(ex3, studies) -> dict:
                          np.array([0.01, 3.0]), np.array([0.9, np.inf]), seed=4, multiplier=np.array([0.99, 1.2])),
         "Detection": Detection("stable", math.nan, "", 0.01, math.inf, 20, 200.0, np.array([0.0, 100.0]),
                                np.array([1e-6, 2e-6])),
+        **_service_results(ex3, studies),
+    }
+
+
+def _service_results(ex3, studies) -> dict:
+    """Lobes, Study, Heard and ModalResult (issue 26: they had no ``from_json``), small and built by hand, with
+    a measured-FRF config (complex receptances), NaN "not heard" values and ragged stabilisation orders."""
+    from millstab.api.listen import Heard
+    from millstab.api.lobes import Lobes
+    from millstab.api.sensitivity import Study
+    from millstab.config import Config
+    from millstab.listen import Listening
+    from millstab.modal.fit import DirectionFit, FittedMode
+    from millstab.modal.lscf import Stabilisation
+    from millstab.modal.run import ModalResult
+    from millstab.model import MeasuredFRF
+    from millstab.sensitivity import table6
+
+    f = np.linspace(500.0, 1500.0, 6)
+    h = 1e-7 / ((1 - (f / 903.0) ** 2) + 2j * 0.03 * f / 903.0)  # a 1-DOF receptance (Im < 0 at resonance)
+    frf_cfg = Config(Cutting(3, 6e8, 0.3, 0.2, math.pi, 1e4, 0.012), Structure(frf=MeasuredFRF(f, h, h * 1.1, h * 0.01)),
+                     "tap", description="a measured tool")
+    env = Envelope(np.array([1000.0, 2000.0]), np.array([np.inf, 1e-3]), np.array([-1, 3]), np.array([np.nan, 812.5]))
+    modal_cfg = Config(ex3.cutting, ex3.structure, ex3.name, description=ex3.description)
+    rpm = studies["mc"].rpm
+    listening = Listening("stable", math.nan, 0.004, -math.inf, math.nan, 1.1, 6000.0, 6003.5, 2, 200.1, (0.1, 1.9),
+                          (50.0, 100.0), 48000.0, f, f * 1e-9, f * 1e-11, np.array([True, False] * 3), np.zeros(0),
+                          np.zeros(0))
+    stab = Stabilisation(np.array([2, 4]), [np.array([900.0]), np.array([901.0, 1400.0])],
+                         [np.array([0.03]), np.array([0.031, 0.02])], [np.zeros(1, int), np.array([2, 0])])
+    fit = DirectionFit("x", "tap_x.csv", f, h, h * (1 + 1e-3j), (FittedMode(903.0, 1.2e7, 0.03, -1.5, 80.0, 2, 2, 0.01),),
+                       1e-9, -2e-10, 0.012, 3e-10, stab)
+    return {
+        "Lobes": Lobes(frf_cfg, "zoa", env, "sdm", dataclasses.replace(env, depth=np.array([5e-3, 1.1e-3]))),
+        "Study": Study("mc", studies["mc"], modal_cfg, rpm, "zoa", "paper", "the paper's ex1", "ex1", table6(), True,
+                       {"note": 1.5}),
+        "Heard": Heard(listening, math.nan, "stable: keep the speed", "harmonizer"),
+        "ModalResult": ModalResult({"x": fit}, Structure(x=(Mode(903.0, 1.2e7, 0.03, "structure.x[0]"),)), (500.0, 1500.0)),
     }
 
 
@@ -559,3 +601,41 @@ def test_posterior_table_shows_the_trades_units(one_of_each):
     assert cols[2][j] == pytest.approx(k.mean() / 1e6, rel=1e-12)
     assert cols[1][j] == pytest.approx(post.prior.median[j] / 1e6, rel=1e-12)
     np.testing.assert_allclose([cols[4][j], cols[5][j]], np.quantile(k, [0.05, 0.95]) / 1e6, rtol=1e-12)
+
+
+# --- figure(ax=None): every result draws itself (issue 26) -----------------------------------------------
+#: the results that draw themselves from what they hold (a figure that needs a new computation, e.g. the SLD of
+#: a fit, a design's SLD or a P(stable) map, is assembled by the service: api.fit_figure, design_figure, map_figure)
+FIGURED = ("Fit", "OATResult", "MCResult", "SobolResult", "MorrisResult", "Posterior", "Lobes", "Study", "Heard",
+           "ModalResult")
+
+
+def _data_axes(fig) -> list:
+    """The axes of ``fig`` that hold drawn data: a line with points, a filled or scattered collection, bars."""
+    def has_data(ax) -> bool:
+        return (any(len(line.get_xdata()) for line in ax.lines) or any(len(c.get_paths()) for c in ax.collections)
+                or len(ax.patches) > 0 or len(ax.images) > 0)
+    return [ax for ax in fig.axes if ax.get_visible() and has_data(ax)]
+
+
+@pytest.mark.parametrize("name", FIGURED)
+def test_every_result_draws_its_figure_and_into_a_given_ax(one_of_each, name):
+    """``figure()`` returns a matplotlib Figure whose axes hold data; ``figure(ax)`` draws into the caller's
+    figure, in ax's place, leaving the caller's other axes alone (fails on the old code: Lobes, Heard,
+    ModalResult, Posterior, Fit and the sensitivity results had no figure method, Study's took no ax)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    obj = one_of_each[name]
+    fig = obj.figure()
+    try:
+        assert isinstance(fig, Figure) and _data_axes(fig), name
+    finally:
+        plt.close(fig)
+    host = Figure(figsize=(12, 6))
+    left, right = host.add_subplot(1, 2, 1), host.add_subplot(1, 2, 2)
+    left.plot([0, 1], [0, 1])
+    assert obj.figure(right) is host
+    drawn = _data_axes(host)
+    assert left in drawn and len(drawn) >= 2, name
+    assert all(ax.get_position().x0 >= left.get_position().x1 for ax in drawn if ax is not left)

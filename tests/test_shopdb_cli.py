@@ -105,3 +105,49 @@ def test_listen_records_the_cut_with_the_label_heard(tmp_path, capsys):
     assert main(["listen", str(calm), "--rpm", "9000", "--teeth", "2", "--db", str(db), "--campaign", "t1"]) == 2
     assert "--depth" in capsys.readouterr().err
     assert main(["listen", str(calm), "--rpm", "9000", "--teeth", "2", "--db", str(db)]) == 2  # --campaign missing
+
+
+#: cuts in several conditions (a/D, direction, teeth, feed) and at several stickouts, on two test days
+MIXED_FIRST = ("rpm,depth_mm,label,batch,radial_immersion,milling,teeth,feed_per_tooth_mm,stickout_mm\n"
+               "9000,0.4,stable,mon,,,,,\n"
+               "12000,1.5,chatter,mon,0.25,up,,0.08,60\n"
+               "15000,0.8,stable,mon,,,,,60\n")
+MIXED_MORE = ("rpm,depth_mm,label,batch,radial_immersion,milling,teeth,feed_per_tooth_mm,stickout_mm\n"
+              "11000,1.0,stable,tue,0.25,up,,,45\n"
+              "14000,2.5,chatter,tue,,,4,,75\n")
+
+
+@pytest.mark.slow
+def test_db_workflow_of_mixed_conditions_and_stickouts_equals_the_file_workflow(tmp_path, capsys):
+    """A [tool] + [holder] config (one posterior over the holder) and cuts each in its own condition and at its
+    own stickout: the database in two rounds gives the file workflow's samples bit for bit (same seed), and
+    map / recommend at a target condition and stickout from the campaign equal those from the posterior file.
+    Fails on the old code: the database refused such cuts."""
+    from test_update_stickout import CONFIG
+
+    cfg = tmp_path / "holder.toml"
+    cfg.write_text(CONFIG)
+    (tmp_path / "first.csv").write_text(MIXED_FIRST)
+    (tmp_path / "all.csv").write_text(MIXED_FIRST + MIXED_MORE.split("\n", 1)[1])
+    (tmp_path / "more.csv").write_text(MIXED_MORE)
+    db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 5]
+    run(capsys, "update", cfg, tmp_path / "first.csv", "--out", tmp_path / "p1.json", *common)
+    run(capsys, "update", cfg, tmp_path / "all.csv", "--start", tmp_path / "p1.json", "--out", tmp_path / "p2.json", *common)
+    run(capsys, "update", cfg, tmp_path / "first.csv", "--db", db, "--campaign", "t12", *common)
+    run(capsys, "update", cfg, tmp_path / "more.csv", "--db", db, "--campaign", "t12", *common, "--out", tmp_path / "d2.json")
+    want, got = read_json(tmp_path / "p2.json"), read_json(tmp_path / "d2.json")
+    np.testing.assert_array_equal(got["samples"], want["samples"])
+    assert got["cuts"]["condition"] == want["cuts"]["condition"] and len(set(want["cuts"]["condition"])) == 3
+    assert got["cuts"]["stickout_mm"] == want["cuts"]["stickout_mm"] == [None, 60.0, 60.0, 45.0, 75.0]
+    target = ["--stickout", 55, "--radial-immersion", 0.3, "--milling", "up"]  # never cut: decided from the holder
+    grid = ["--rpm", "8000:16000:1000", "--depth", "0.25:3:0.25"]
+    run(capsys, "map", "--db", db, "--campaign", "t12", *grid, *target, "--out", tmp_path / "m_db.csv")
+    run(capsys, "map", tmp_path / "p2.json", *grid, *target, "--out", tmp_path / "m.csv")
+    assert (tmp_path / "m_db.csv").read_text() == (tmp_path / "m.csv").read_text()
+    run(capsys, "map", tmp_path / "p2.json", *grid, "--out", tmp_path / "m_config.csv")
+    assert (tmp_path / "m_config.csv").read_text() != (tmp_path / "m.csv").read_text()  # the target moved the map
+    rec = ["--risk", 0.1, "--rpm", "8000:16000", *target]
+    run(capsys, "recommend", "--db", db, "--campaign", "t12", *rec, "--out", tmp_path / "r_db.json")
+    run(capsys, "recommend", tmp_path / "p2.json", *rec, "--out", tmp_path / "r.json")
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("r.json", "r_db.json"))
+    assert (a["rpm"], a["depth_mm"]) == (b["rpm"], b["depth_mm"])

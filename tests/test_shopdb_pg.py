@@ -108,3 +108,25 @@ def test_a_campaign_moves_from_sqlite_to_the_server(url, tmp_path):
     assert shop.import_campaign(server, tmp_path / "exp") == "t12-m1"
     x, y = local.export_bundle("t12-m1"), server.export_bundle("t12-m1")
     assert y["events"].pop()["action"] == "import" and x == y and server.check() == []
+
+
+def test_upgrade_from_0002_and_cuts_with_conditions_on_postgresql(url):
+    """A server database at 0002 holding a cut is upgraded (ALTER TABLE ... ADD COLUMN, not SQLite's batch copy):
+    the old cut keeps NULL (the config's condition and stickout), and cuts with their own read back exactly."""
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+
+    from millstab import api
+    from millstab.shopdb import schema
+    from millstab.shopdb.store import cut_settings
+    from test_shopdb_shops import MIXED, database_at
+
+    database_at(url, "0002", cut=True)
+    store = open_store(url, user="bob")
+    with store.engine.connect() as conn:
+        ctx = MigrationContext.configure(conn)
+        assert ctx.get_current_revision() == schema.HEAD and compare_metadata(ctx, schema.metadata) == []
+    mixed = api.points_from_text(MIXED)
+    store.add_cuts("old", mixed)
+    got = store.cuts("old")
+    assert cut_settings(got) == [{}] + cut_settings(mixed) and got.rpm[0] == 9000.5 and store.check() == []

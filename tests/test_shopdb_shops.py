@@ -6,6 +6,7 @@ sampling)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 pytest.importorskip("sqlalchemy")
@@ -111,18 +112,30 @@ def test_the_writers_transaction_checks_the_shop_again(db):
         assert s.head("b1").n_rows == 5 and s.campaign_shop("b1") == "bolt"
 
 
-def test_a_database_of_the_first_schema_is_migrated_into_the_default_shop(tmp_path):
+def database_at(url: str, revision: str, cut: bool = False) -> None:
+    """A database built by the migrations up to ``revision`` only (an older millstab's), holding campaign 'old'
+    (from 0002 in shop acme) and, with ``cut``, one cut of it."""
     from alembic import command
 
     from millstab.shopdb.store import alembic_config
 
-    path = tmp_path / "old.db"
-    eng = sa.create_engine(f"sqlite:///{path}")
+    at, shop_col = "'2026-01-01T00:00:00Z'", revision >= "0002"
+    eng = sa.create_engine(url)
     with eng.begin() as conn:
-        command.upgrade(alembic_config(conn), "0001")
-        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision) "
-                             "VALUES ('old', '', '2026-01-01T00:00:00Z', 'ann', '2026-01-01T00:00:00Z', 0)"))
+        command.upgrade(alembic_config(conn), revision)
+        conn.execute(sa.text("INSERT INTO campaign (name, note, created_at, created_by, updated_at, revision"
+                             + (", shop" if shop_col else "") + f") VALUES ('old', '', {at}, 'ann', {at}, 0"
+                             + (", 'acme'" if shop_col else "") + ")"))
+        if cut:
+            conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, rater, "
+                                 f"recording, created_at, created_by) SELECT id, 0, 9000.5, 1.25, 'chatter', 1.0, 2.0, "
+                                 f"'mon', 'ann', '', {at}, 'ann' FROM campaign"))
     eng.dispose()
+
+
+def test_a_database_of_the_first_schema_is_migrated_into_the_default_shop(tmp_path):
+    path = tmp_path / "old.db"
+    database_at(f"sqlite:///{path}", "0001")
     with open_store(path) as s:
         assert s.campaigns()[0]["shop"] == schema.DEFAULT_SHOP == "default"
         assert s.check() == []
@@ -167,17 +180,103 @@ def test_a_retry_after_another_shop_took_the_name_reads_none_of_its_cuts(db, mon
         assert s.campaign_shop("same") == "bolt" and s.head("same").n_rows == 5
 
 
-def test_cuts_with_condition_columns_are_refused_not_dropped(tmp_path):
-    """The database stores no per-cut cutting conditions yet: such cuts are refused with one clear error
-    instead of being recorded in the config's condition."""
-    from millstab import api
-    from millstab.errors import InputError
-    from millstab.points import PointSet
+MIXED = ("rpm,depth_mm,label,batch,radial_immersion,milling,entry_deg,exit_deg,teeth,feed_per_tooth_mm,stickout_mm\n"
+         "9000,1.0,stable,mon,0.5,up,,,,0.05,45\n"
+         "9500,2.0,chatter,mon,,,,,,,\n"
+         "10000,1.5,marginal,tue,,,30,150,3,,60.25\n"
+         "10500,0.7,stable,tue,0.1,down,,,4,0.1,0.1\n")
 
-    cuts = api.points_from_text("rpm,depth_mm,label,radial_immersion\n9000,1.0,stable,0.5\n9500,2.0,chatter,\n")
+
+def test_cuts_with_conditions_and_stickouts_are_stored_as_given(tmp_path):
+    """Each cut's own condition cells and stickout are recorded (NULL: an empty cell, the config's value) and
+    read back as the file gave them, bit for bit, also through export/import. Fails on the old code: such cuts
+    were refused (the database had no columns for them)."""
+    from millstab.io import read_points, write_points
+    from millstab.io.stickout import stickouts_mm
+    from millstab.shopdb.store import cut_settings
+
+    (tmp_path / "mixed.csv").write_text(MIXED)
+    cuts = read_points(tmp_path / "mixed.csv")
     assert cuts.has_conditions
-    with pytest.raises(InputError, match="per-cut cutting conditions"):
-        api.shop.record_cuts(tmp_path / "shop.db", "c1", cuts)
-    assert not (tmp_path / "shop.db").exists() or not api.shop.campaigns(tmp_path / "shop.db")
-    plain = PointSet(cuts.rpm, cuts.depth_mm, cuts.label)
-    assert not plain.has_conditions
+    db = tmp_path / "shop.db"
+    assert shop.record_cuts(db, "c1", cuts, user="ann") == 4
+    with open_store(db) as s:
+        rows = s.cut_rows("c1")
+        got = s.cuts("c1")
+    assert [r["milling"] for r in rows] == ["up", None, None, "down"] and rows[2]["teeth"] == 3
+    assert [r["stickout_mm"] for r in rows] == [45.0, None, 60.25, 0.1] and rows[1]["radial_immersion"] is None
+    assert set(got.conditions) == {"radial_immersion", "milling", "entry_deg", "exit_deg", "teeth", "feed_per_tooth_mm"}
+    for k, col in cuts.conditions.items():
+        assert got.conditions[k].tolist() == col.tolist() if k == "milling" else \
+            np.array_equal(got.conditions[k], col, equal_nan=True), k
+    np.testing.assert_array_equal(stickouts_mm(got), stickouts_mm(cuts))
+    assert got.batch.tolist() == ["mon", "mon", "tue", "tue"]  # the test day, stored since the first schema
+    write_points(tmp_path / "back.csv", got)  # the campaign's cuts as a file: the same cuts file again
+    assert cut_settings(read_points(tmp_path / "back.csv")) == cut_settings(cuts)
+    shop.export_campaign(db, "c1", tmp_path / "c1")
+    shop.import_campaign(db, tmp_path / "c1", "c1-copy")
+    with open_store(db) as s:
+        assert cut_settings(s.cuts("c1-copy")) == cut_settings(cuts) and s.check() == []
+    # the app's cuts table: the condition and stickout columns some cut fills, an empty cell the config's value
+    header, body = shop.cut_table(shop.ShopView(db, "ann").open("c1").rows)
+    assert header == ["seq", "rpm", "depth_mm", "label", "batch", "radial_immersion", "milling", "entry_deg",
+                      "exit_deg", "feed_per_tooth_mm", "teeth", "stickout_mm", "created_by"]
+    assert body[1] == [2, 9500.0, 2.0, "chatter", "mon"] + [None] * 7 + ["ann"]
+    assert body[2][header.index("entry_deg")] == 30.0 and body[3][header.index("stickout_mm")] == 0.1
+    # the whole file again, as the file workflow passes it: its recorded rows are recognised, conditions too
+    assert shop.already_recorded(got, cuts)[0].rpm.size == 0
+    moved = read_points(tmp_path / "mixed.csv")
+    moved.extra["stickout_mm"][0] = "46"  # the same cut at another stickout is another cut
+    assert len(shop.already_recorded(got, moved)[0]) == 4
+
+
+def test_a_database_of_schema_0002_is_migrated_and_keeps_its_cuts(tmp_path):
+    """Upgrading from 0002: the cut table gains the condition and stickout columns, NULL (the config's) for
+    every existing cut, which read back unchanged; the schema is then the code's tables."""
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+
+    path = tmp_path / "old.db"
+    database_at(f"sqlite:///{path}", "0002", cut=True)
+    with open_store(path) as s:
+        with s.engine.connect() as conn:
+            assert MigrationContext.configure(conn).get_current_revision() == schema.HEAD == "0003"
+            assert compare_metadata(MigrationContext.configure(conn), schema.metadata) == []
+        (row,) = s.cut_rows("old")
+        assert all(row[k] is None for k in ("radial_immersion", "milling", "teeth", "stickout_mm"))
+        got = s.cuts("old")
+        assert (got.rpm[0], got.depth_mm[0], got.weight[0], got.batch[0]) == (9000.5, 1.25, 2.0, "mon")
+        assert not got.has_conditions and "stickout_mm" not in got.extra and s.check() == []
+        s.add_cuts("old", api.points_from_text(MIXED))  # and the migrated campaign takes cuts with their own conditions
+        assert [r["stickout_mm"] for r in s.cut_rows("old")] == [None, 45.0, None, 60.25, 0.1]
+
+
+def test_update_shop_names_the_shop_of_a_command_line_campaign(tmp_path, monkeypatch):
+    """`update --db --campaign --shop NAME` creates the campaign in shop NAME (the command line's campaigns went
+    to 'default' only); a campaign's shop cannot change; a bad name and --shop without --db are one-line errors."""
+    import sys
+
+    from millstab.cli import main
+
+    def fake_update(cfg, cuts, points, **kw):  # the shop is the point here, not the sampler
+        import dataclasses
+
+        from test_shopdb import fake_posterior
+
+        diag = {"stages": 1, "acceptance": [0.5], "loglik_calls": 1, "time_s": 0.0}
+        return dataclasses.replace(fake_posterior(cuts, 0), diagnostics=diag)
+
+    import millstab.api.update  # noqa: F401 (loaded, to be patched)
+
+    monkeypatch.setattr(sys.modules["millstab.api.update"], "update", fake_update)
+    (tmp_path / "c.csv").write_text("rpm,depth_mm,label\n9000,1.0,stable\n9500,3.0,chatter\n")
+    db = tmp_path / "shop.db"
+    base = ["update", "example:ex1", str(tmp_path / "c.csv"), "--db", str(db), "--campaign", "t1", "--samples", "100"]
+    assert main(base + ["--shop", "acme"]) == 0
+    assert shop.campaigns(db, ["acme"])[0]["name"] == "t1" and shop.ShopView(db, "ann", ["acme"]).open("t1").revision == 1
+    assert main(base + ["--shop", "acme"]) == 0  # its own shop again: fine
+    assert main(base + ["--shop", "bolt"]) == 2
+    assert main(base + ["--shop", "a b"]) == 2
+    assert main(["update", "example:ex1", str(tmp_path / "c.csv"), "--out", str(tmp_path / "p.json"), "--shop", "acme"]) == 2
+    assert main(base[:6] + ["t2"] + base[7:]) == 0
+    assert shop.campaigns(db, ["default"])[0]["name"] == "t2"

@@ -4,12 +4,25 @@ and the coverage rule with the x↔y exchange."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from millstab.errors import InputError
 from millstab.io import load_config
 from millstab.stability import get_engine
 from millstab.update import Posterior, make_prior
-from millstab.update.campaign import best_productivity, coverage, run_campaign
+from millstab.update.campaign import CampaignOptions, best_productivity, coverage, run_campaign
 from millstab.update.posterior import exchange_of
+
+
+@pytest.mark.parametrize("field, value", [("cuts", 0), ("samples", 1.5), ("risk", 1.0), ("rpm_range", (9000, 5000)),
+                                          ("max_depth_mm", -1.0), ("best_speeds", True), ("seed", -3)])
+def test_campaign_options_name_a_bad_setting(field, value):
+    """CampaignOptions (issue 26: run_campaign had 17 parameters, none checked) refuses a bad setting by name,
+    and run_campaign refuses a keyword that is no setting before any work."""
+    with pytest.raises(InputError, match=field):
+        CampaignOptions(**{field: value})
+    with pytest.raises(TypeError, match="run_campaign.*'cut'"):
+        run_campaign(None, None, None, None, cut=3)
 
 
 def test_campaign_records_agree_with_the_truth_and_the_cuts():
@@ -24,8 +37,10 @@ def test_campaign_records_agree_with_the_truth_and_the_cuts():
     def labeler(rpm, depth, rng):  # noise-free labels
         return list(np.where(depth > truth(rpm), "chatter", "stable")), [float("nan")] * np.size(rpm)
 
-    camp = run_campaign(cfg, prior, truth, labeler, cuts=3, samples=200, rpm_range=(5000, 12000), max_depth_mm=8.0,
-                        seed=4, keep=(0, 3))
+    # the settings as an options object, one of them replaced by its keyword (both ways of calling)
+    camp = run_campaign(cfg, prior, truth, labeler, CampaignOptions(cuts=3, samples=200, rpm_range=(5000, 12000),
+                                                                    max_depth_mm=20.0, seed=4, keep=[0, 3]),
+                        max_depth_mm=8.0)
     assert len(camp.cut_rpm) == 3 and len(camp.rec_rpm) == 4 and set(camp.posteriors) == {0, 3}
     # the first cut is the prior's own recommendation, the labels are the truth's
     assert (camp.cut_rpm[0], camp.cut_depth_mm[0]) == (camp.rec_rpm[0], camp.rec_depth_mm[0])

@@ -164,11 +164,14 @@ def _both(tmp_path: Path, rpm) -> Path:
 
 
 def test_single_user_app_on_this_machine_lists_every_campaign(browser, tmp_path):
-    """Without accounts (127.0.0.1) the app is one user's: every campaign of the database is listed and opens."""
+    """Without accounts (127.0.0.1) the app is one user's: every campaign of the database is listed and opens,
+    its cuts table showing each cut's own condition and stickout (empty: the config's)."""
     db = tmp_path / "shop.db"
     with open_store(db, user="bob") as s:
         land(s, "b1", some_cuts(5, 4), 4, shop="bolt")
-        s.add_cuts("c1", some_cuts(3, 5))
+        s.add_cuts("c1", some_cuts(1, 5))
+        s.add_cuts("c1", api.points_from_text("rpm,depth_mm,label,radial_immersion,milling,stickout_mm\n"
+                                              "9000,1.5,chatter,0.25,up,62.5\n9500,0.5,stable,,,\n"))
     with T.running_app(db=str(db)) as url:
         page = browser.new_context(viewport={"width": 1400, "height": 1000}).new_page()
         page.set_default_timeout(90_000)
@@ -176,5 +179,10 @@ def test_single_user_app_on_this_machine_lists_every_campaign(browser, tmp_path)
         T.tab(page, "Update and recommend")
         page.locator(".campaign-summary").filter(has_text="3 cuts, 0 update(s), no posterior yet").wait_for()
         assert options(page) == ["b1", "c1"]
+        table = page.locator(".campaign-cuts table")
+        heads = [h.strip() for h in table.locator("th").all_inner_texts()]
+        assert heads[-4:] == ["radial_immersion", "milling", "stickout_mm", "created_by"], heads
+        cells = [[c.strip() for c in r.locator("td").all_inner_texts()] for r in table.locator("tr").all()[1:]]
+        assert cells[1][-4:] == ["0.25", "up", "62.5", "bob"] and cells[2][-4:] == ["", "", "", "bob"], cells
         shot(page, "campaign_single_user")
         page.context.close()

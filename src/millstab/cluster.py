@@ -343,21 +343,20 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray) -> dict:
+def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit") -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
     for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there)."""
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there)."""
     from millstab.forward import forward
 
-    return dict(forward(par, cutting, engine).pinned(rpm, theta_rows).settings)
+    return dict(forward(par, cutting, engine, purpose).pinned(rpm, theta_rows).settings)
 
 
-def _depths_task(engine: str, par, cutting, rpm: np.ndarray, settings: dict, rows: np.ndarray) -> np.ndarray:
-    """On a worker: limiting depths (R, S) [m] of parameter rows (R, P), numba on one thread."""
-    from millstab.stability import get_engine
-
+def _depths_task(pinned, rows: np.ndarray) -> np.ndarray:
+    """On a worker: limiting depths (R, S) [m] of parameter rows (R, P) by the pinned forward model (the one
+    evaluator, :class:`millstab.forward.Pinned`), numba on one thread."""
     one_thread()
-    return get_engine(engine).envelope_batch(par.batch(rows), cutting, rpm, **settings)
+    return pinned(rows)
 
 
 def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray,
@@ -372,20 +371,21 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     ``progress(rows_done, R)`` after each task's result has arrived. ``settings``: the engine's pinned
     discretisation (:meth:`millstab.forward.Forward.pinned`; default: pinned on ``theta_rows``).
     """
+    from millstab.forward import Pinned, forward
     from millstab.stability import get_engine
 
     check_client(client)
     rpm = np.asarray(rpm, dtype=float)
     theta_rows = np.asarray(theta_rows, dtype=float)
     n = theta_rows.shape[0]
-    if settings is None:
-        settings = split_settings(engine, par, cutting, theta_rows, rpm)
+    model = forward(par, cutting, engine)
+    pinned = model.pinned(rpm, theta_rows) if settings is None else Pinned(model, rpm, settings)
     sec = warm(client, engine, par, cutting, rpm)
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)
     out = np.empty((n, rpm.size))
     stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], rows_into(out, starts, progress),
-           common=(engine, par, cutting, rpm, settings), name="depths")
+           common=(pinned,), name="depths")
     return out
 
 
@@ -409,34 +409,24 @@ def seconds_per_row(client: Any, engine: str, par, cutting, rpm: np.ndarray) -> 
     return _probed[key]
 
 
-def _samples_task(prior, rpm: np.ndarray, engine: str, with_freq: bool, settings: dict, u: np.ndarray,
-                  conditions=None):
-    """On a worker: what :func:`millstab.update.likelihood.limits` computes for the sample rows ``u``
-    (depths [mm] with a free Kt's exact factor, a free Kr per row; chatter frequencies [Hz] or None) under
-    the whole batch's ``settings`` and the columns' ``conditions`` (None: the prior's cutting), numba on
-    one thread."""
-    from millstab.stability import get_engine
+def _samples_task(prior, pinned, with_freq: bool, u: np.ndarray):
+    """On a worker: :func:`millstab.update.likelihood.sample_depths` of the sample rows ``u`` by the whole
+    batch's pinned forward model (depths [mm], chatter frequencies [Hz] or None), numba on one thread."""
+    from millstab.update.likelihood import sample_depths  # the local path's own function: one evaluator
 
     one_thread()
-    theta, factor = prior.split(u)
-    kr = prior.kr_of(u)
-    extra = {} if kr is None else {"kr": kr}
-    cut = prior.cutting if conditions is None else conditions
-    eng = get_engine(engine)
-    batch = prior.par.batch(theta)
-    if with_freq and eng.reports_chatter_frequency:
-        depth, hz = eng.envelope_batch_hz(batch, cut, rpm, **settings, **extra)
-    else:
-        depth, hz = eng.envelope_batch(batch, cut, rpm, **settings, **extra), None
-    return depth * 1e3 * factor[:, None], hz
+    return sample_depths(pinned, prior, u, with_freq)
 
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
-                  with_freq: bool = False, conditions=None) -> tuple[np.ndarray, np.ndarray | None] | None:
+                  with_freq: bool = False, conditions=None,
+                  pinned=None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
-    the same numbers). Returns None when it does not pay (:data:`PAYS_SECONDS`): the caller runs here."""
+    the same numbers; ``pinned``: the caller's pinned forward model of these rows,
+    :func:`millstab.update.likelihood.pinned_model`, made here by default). Returns None when it does not pay
+    (:data:`PAYS_SECONDS`): the caller runs here."""
     from millstab.stability import check_rpm
 
     check_client(client)
@@ -462,8 +452,11 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
                 hz[0] = np.empty((n, rpm.size))
             hz[0][s:s + h.shape[0]] = h
 
-    cut = prior.cutting if conditions is None else conditions
-    settings = split_settings(engine, prior.par, cut, prior.split(u)[0], rpm)
-    stream(client, _samples_task, [(u[s:s + per], conditions) for s in starts], take,
-           common=(prior, rpm, engine, with_freq, settings), name="samples")
+    if pinned is None:  # the likelihood's own evaluator of these samples (its discretisation, its rows)
+        from millstab.update.likelihood import pinned_model
+
+        pinned = pinned_model(prior, u, rpm, engine, conditions)
+    # pinned once here: every task's rows give the numbers of ONE local call on all of them
+    stream(client, _samples_task, [(u[s:s + per],) for s in starts], take, common=(prior, pinned, with_freq),
+           name="samples")
     return depth, hz[0]

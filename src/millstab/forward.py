@@ -39,6 +39,10 @@ class Forward:
     par: Parameterization
     cutting: Cutting
     engine: str = "zoa"
+    #: what the engine's ``settings`` choose the discretisation for: ``"fit"`` (a search differentiating the
+    #: depths) or ``"sample"`` (a sampler comparing them with a depth noise: the spectral engine's converged
+    #: node count, :data:`millstab.stability.spectral.PURPOSES`); ignored by engines without ``settings``
+    purpose: str = "fit"
     _engine_mod: object = field(default=None, init=False, repr=False, compare=False)
     #: the engine's discretisation per speed list (``settings`` capability), chosen once
     _settings: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -48,6 +52,9 @@ class Forward:
         object.__setattr__(self, "_engine_mod", get_engine(self.engine))
         if not getattr(self._engine_mod, "process_damping", False):  # an engine without the capability
             reject_process_damping(self.cutting, self.engine)
+
+    def __reduce__(self):  # an engine module does not pickle: a Dask task gets the model by the engine's name
+        return Forward, (self.par, self.cutting, self.engine, self.purpose)
 
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
                  kr: np.ndarray | None = None) -> np.ndarray:
@@ -61,6 +68,11 @@ class Forward:
         extra = {} if kr is None else {"kr": kr}
         return self._engine_mod.envelope_batch(self.par.batch(t), cut, r, **self.settings(r, t[0], conditions),
                                                **extra)
+
+    def _purpose(self) -> dict:
+        """The ``purpose`` keyword of the engine's ``settings`` (none for the default, so an engine whose
+        ``settings`` takes no purpose still works)."""
+        return {} if self.purpose == "fit" else {"purpose": self.purpose}
 
     def _key(self, r: np.ndarray, conditions) -> bytes:
         """The settings-cache key of (speeds, conditions)."""
@@ -87,7 +99,7 @@ class Forward:
                 self._settings.pop(next(iter(self._settings)))
             row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
             cut = self.cutting if conditions is None else conditions
-            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r))
+            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r, **self._purpose()))
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
@@ -100,7 +112,7 @@ class Forward:
         r = np.asarray(rpm, dtype=float)
         old = self.settings(r, None, conditions)
         cut = self.cutting if conditions is None else conditions
-        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r))
+        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r, **self._purpose()))
         self._settings[self._key(r, conditions)] = new
         return new != old
 
@@ -146,11 +158,26 @@ class Pinned:
     def __reduce__(self):  # a read-only mapping does not pickle; a Dask task gets a copy
         return Pinned, (self.forward, self.rpm, dict(self.settings), self.conditions)
 
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call."""
+    def __call__(self, theta: np.ndarray, kr: np.ndarray | None = None) -> np.ndarray:
+        """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call; ``kr`` (B,): a Kr per row
+        (engines with ``per_set_kr``)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
-        return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings)
+        extra = {} if kr is None else {"kr": kr}
+        return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
+
+    @property
+    def reports_frequency(self) -> bool:
+        """Whether :meth:`with_frequency` gives chatter frequencies (the engine's ``reports_chatter_frequency``)."""
+        return bool(getattr(self.forward._engine_mod, "reports_chatter_frequency", False))
+
+    def with_frequency(self, theta: np.ndarray, kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(depths (B, S) [m], chatter frequencies (B, S) [Hz]) of rows θ, one call of an engine that
+        :attr:`reports_frequency`, under the same pinned discretisation as :meth:`__call__`."""
+        t = np.atleast_2d(np.asarray(theta, dtype=float))
+        f = self.forward
+        extra = {} if kr is None else {"kr": kr}
+        return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
@@ -175,9 +202,10 @@ class Pinned:
         return out
 
 
-def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa") -> Forward:
-    """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`)."""
-    return Forward(par, cutting, engine)
+def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpose: str = "fit") -> Forward:
+    """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`; ``purpose``:
+    what the engine's discretisation is chosen for, ``"fit"`` or ``"sample"``)."""
+    return Forward(par, cutting, engine, purpose)
 
 
 def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):

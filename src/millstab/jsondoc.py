@@ -208,6 +208,10 @@ RESULTS: tuple[tuple[str, str, str], ...] = (
     ("millstab.simulate", "CutResult", "millstab.simulate.cut/1"),
     ("millstab.simulate", "Labels", "millstab.simulate.labels/1"),
     ("millstab.simulate.detect", "Detection", "millstab.simulate.detection/1"),
+    ("millstab.api.lobes", "Lobes", "millstab.lobes/1"),
+    ("millstab.api.sensitivity", "Study", "millstab.sensitivity.study/1"),
+    ("millstab.api.listen", "Heard", "millstab.listen.heard/1"),
+    ("millstab.modal.run", "ModalResult", "millstab.modal.result/1"),
 )
 #: documents written but not read back (a report of a run, not an input of another): (module, writer, schema)
 WRITTEN: tuple[tuple[str, str, str], ...] = (
@@ -216,8 +220,9 @@ WRITTEN: tuple[tuple[str, str, str], ...] = (
 )
 
 
-__all__ = ["RESULTS", "WRITTEN", "check_schema", "fields_in", "fields_out", "floats_in", "floats_out", "int_in",
-           "ints_in", "names_in", "need", "number_in", "number_out", "per_name_in", "per_name_out", "plain"]
+__all__ = ["RESULTS", "WRITTEN", "check_schema", "complex_in", "complex_out", "config_in", "config_out", "cutting_in",
+           "cutting_out", "fields_in", "fields_out", "floats_in", "floats_out", "int_in", "ints_in", "names_in", "need",
+           "number_in", "number_out", "per_name_in", "per_name_out", "plain", "structure_in", "structure_out"]
 
 
 # --- a frozen dataclass field by field --------------------------------------------------------------------
@@ -305,3 +310,96 @@ def _in(v: Any, hint: Any, field: str) -> Any:
             raise InputError(field, _short(v), f"must be a {origin.__name__}")
         return v
     return v
+
+
+# --- the inputs a result carries: cutting, structure, config ---------------------------------------------
+def complex_out(a, field: str) -> dict | None:
+    """A complex array as ``{"re": [...], "im": [...]}`` (finite values only); ``None`` stays ``None``."""
+    if a is None:
+        return None
+    z = np.asarray(a, dtype=complex)
+    return {"re": floats_out(z.real, f"{field}.re"), "im": floats_out(z.imag, f"{field}.im")}
+
+
+def complex_in(value: Any, field: str) -> np.ndarray | None:
+    """The inverse of :func:`complex_out` (bit for bit: both parts are JSON numbers)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise InputError(field, _short(value), 'must be {"re": [...], "im": [...]}')
+    re = floats_in(need(value, "re", field), f"{field}.re", ndim=None)
+    im = floats_in(need(value, "im", field), f"{field}.im", ndim=None)
+    if re.shape != im.shape:
+        raise InputError(field, f"re {re.shape}, im {im.shape}", "real and imaginary parts of equal length")
+    return re + 1j * im
+
+
+def cutting_out(cutting) -> dict:
+    """Cutting conditions in SI: teeth, kt [N/m²], kr, entry and exit [rad], process_damping [N/m],
+    diameter [m] or null."""
+    c = cutting
+    return {"teeth": int(c.teeth), "kt": float(c.kt), "kr": float(c.kr), "entry": float(c.entry),
+            "exit": float(c.exit), "process_damping": float(c.process_damping),
+            "diameter": None if c.diameter is None else float(c.diameter)}
+
+
+def cutting_in(doc: Any, source: str):
+    """The inverse of :func:`cutting_out` (the conditions validate themselves: InputError)."""
+    from millstab.model import Cutting
+
+    if not isinstance(doc, dict):
+        raise InputError(source, _short(doc), "must be an object of cutting conditions")
+    num = {k: number_in(need(doc, k, source), f"{source}.{k}") for k in ("kt", "kr", "entry", "exit")}
+    dia = doc.get("diameter")
+    return Cutting(int_in(need(doc, "teeth", source), f"{source}.teeth"), num["kt"], num["kr"], num["entry"],
+                   num["exit"], number_in(doc.get("process_damping", 0.0), f"{source}.process_damping"),
+                   None if dia is None else number_in(dia, f"{source}.diameter"))
+
+
+def structure_out(structure) -> dict:
+    """A structure: modes ``{"x": [{fn [Hz], k [N/m], zeta}], "y": [...]}`` or a measured FRF
+    ``{"frf": {"freq_hz", "xx", "yy", "xy", "yx"}}`` (complex receptances [m/N], :func:`complex_out`)."""
+    if structure.frf is not None:
+        f = structure.frf
+        return {"frf": {"freq_hz": floats_out(f.freq_hz, "frf.freq_hz"),
+                        **{t: complex_out(getattr(f, t), f"frf.{t}") for t in ("xx", "yy", "xy", "yx")}}}
+    return {d: [{"fn": float(m.fn), "k": float(m.k), "zeta": float(m.zeta)} for m in getattr(structure, d)]
+            for d in ("x", "y")}
+
+
+def structure_in(doc: Any, source: str):
+    """The inverse of :func:`structure_out` (modes named ``structure.x[0]`` as a config names them)."""
+    from millstab.model import MeasuredFRF, Mode, Structure
+
+    if not isinstance(doc, dict):
+        raise InputError(source, _short(doc), "must be an object with x and y modes or a measured frf")
+    if "frf" in doc:
+        f = need(doc, "frf", source, dict)
+        freq = floats_in(need(f, "freq_hz", f"{source}.frf"), f"{source}.frf.freq_hz")
+        terms = [complex_in(f.get(t), f"{source}.frf.{t}") for t in ("xx", "yy", "xy", "yx")]
+        return Structure(frf=MeasuredFRF(freq, *terms))
+    modes = {}
+    for d in ("x", "y"):
+        rows = need(doc, d, source, list)
+        modes[d] = tuple(Mode(*(number_in(need(m, k, f"{source}.{d}[{i}]"), f"{source}.{d}[{i}].{k}")
+                                for k in ("fn", "k", "zeta")), f"structure.{d}[{i}]") for i, m in enumerate(rows))
+    return Structure(**modes)
+
+
+def config_out(cfg) -> dict:
+    """What a result keeps of the config it was computed from: its name, description, cutting conditions
+    and structure (:func:`cutting_out`, :func:`structure_out`). Not its file path, ``[speeds]``, ``[prior]``
+    or ``[tool]``/``[holder]`` tables: those are inputs of other tasks, and the result holds its own speeds."""
+    return {"name": cfg.name, "description": cfg.description, "cutting": cutting_out(cfg.cutting),
+            "structure": structure_out(cfg.structure)}
+
+
+def config_in(doc: Any, source: str):
+    """The :class:`millstab.config.Config` of :func:`config_out` (no path, speeds, prior or tool)."""
+    from millstab.config import Config
+
+    if not isinstance(doc, dict):
+        raise InputError(source, _short(doc), "must be an object with the config's name, cutting and structure")
+    return Config(cutting_in(need(doc, "cutting", source), f"{source}.cutting"),
+                  structure_in(need(doc, "structure", source), f"{source}.structure"),
+                  need(doc, "name", source, str), description=need(doc, "description", source, str))

@@ -82,9 +82,7 @@ def fit_figure(fit, cfg: Config, points: PointSet, engine: str = "zoa", method: 
 
 def history_figure(fit):
     """The objective against iteration (``millstab identify --history-plot``)."""
-    from millstab.plot.identify import plot_convergence
-
-    return plot_convergence(fit)
+    return fit.figure()
 
 
 def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None, fit_source: str = "fit",

@@ -5,13 +5,18 @@ column names a recording per cut → labelled cuts for ``update``."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from millstab.errors import InputError
+
+#: the schema tag of :meth:`Heard.to_json`
+SCHEMA = "millstab.listen.heard/1"
+#: the arrays of a :class:`~millstab.listen.Listening` (its spectrum and chatter amplitude, for the figure)
+_ARRAYS = ("freq_hz", "psd", "floor", "synchronous", "times_s", "chatter_amp")
 
 
 @dataclass(frozen=True, eq=False)
@@ -24,16 +29,73 @@ class Heard:
     suggested_rpm: float
     reason: str
     source: str
-    schema: str = "millstab.listen.heard/1"
+    schema: str = SCHEMA
 
-    def summary(self) -> dict[str, Any]:
-        return {**self.listening.summary(), "suggested_rpm": self.suggested_rpm, "reason": self.reason,
-                "suggestion_from": self.source}
+    def summary(self) -> str:
+        """What ``millstab listen`` prints: the label, chatter frequency, score and onset; the window and
+        the speed heard; the suggestion."""
+        r = self.listening
+        line = f"{r.label}"
+        if math.isfinite(r.chatter_hz) and r.label != "stable":
+            line += f" at {r.chatter_hz:.1f} Hz"
+        line += f"; score {r.score:.3g} (chatter/forced amplitude; >= 0.05 chatter, < 0.02 stable)"
+        if math.isfinite(r.onset_s):
+            line += f"; starts at {r.onset_s:.2f} s"
+        lines = [line, f"cut {r.window_s[0]:.2f}-{r.window_s[1]:.2f} s; speed heard {r.rpm_heard:.0f} rpm "
+                       f"({100 * (r.rpm_heard / r.rpm - 1):+.2f} % from {r.rpm:g})"
+                       + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else "")]
+        lines.append(f"suggested speed: {self.suggested_rpm:.0f} rpm ({self.reason})"
+                     if math.isfinite(self.suggested_rpm) else f"suggestion: {self.reason}")
+        return "\n".join(lines)
+
+    def figure(self, ax=None, *, title: str = ""):
+        """The spectrum with its floor, masked lines and chatter line over the chatter amplitude in time
+        (:func:`millstab.plot.listen.plot_listening`), into ``ax``'s place or a new figure."""
+        from millstab.plot.listen import plot_listening
+
+        return plot_listening(self.listening, title=title, ax=ax)
+
+    def to_json(self, spectrum: bool = True) -> dict[str, Any]:
+        """The listening's scalars (label, chatter_hz, score, …: NaN "not heard" as null), the suggestion
+        (``suggested_rpm``, ``reason``, ``suggestion_from``) and ``"schema": "millstab.listen.heard/1"``; with
+        ``spectrum`` also the arrays of the figure under ``"spectrum"`` (so that :meth:`from_json` rebuilds
+        the result; the command line's file leaves them out: a 2 s Welch segment at 48 kHz is 48 000 lines)."""
+        from millstab.jsondoc import plain
+
+        r = self.listening
+        doc = {k: plain(getattr(r, k), k, nan_ok=True) for k in r.__dataclass_fields__
+               if k not in _ARRAYS + ("schema",)}
+        doc.update({"suggested_rpm": plain(self.suggested_rpm, "suggested_rpm", nan_ok=True), "reason": self.reason,
+                    "suggestion_from": self.source, "schema": SCHEMA})
+        if spectrum:
+            doc["spectrum"] = {k: plain(getattr(r, k), f"spectrum.{k}") for k in _ARRAYS}
+        return doc
 
     def to_dict(self) -> dict[str, Any]:
-        from millstab.io.results import to_jsonable
+        """:meth:`to_json` without the spectrum (the ``millstab listen --out`` file)."""
+        return self.to_json(spectrum=False)
 
-        return to_jsonable({**self.summary(), "schema": self.schema})
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "heard") -> "Heard":
+        """Rebuild from :meth:`to_json` output (with its spectrum). Raises InputError (wrong schema, a missing
+        or bad field, or a file written without the spectrum)."""
+        from millstab.jsondoc import check_schema, fields_in, need, number_in
+        from millstab.listen import Listening
+
+        check_schema(doc, SCHEMA, source)
+        if "spectrum" not in doc:
+            raise InputError(f"{source}: spectrum", "missing", "the file holds the scalars only (as `millstab listen "
+                             "--out` writes them); a result rebuilds from to_json(spectrum=True)")
+        arrays = need(doc, "spectrum", source, dict)
+        inner = {**doc, **{k: need(arrays, k, f"{source}: spectrum") for k in _ARRAYS}, "schema": Listening.schema,
+                 "synchronous": []}  # read below (booleans)
+        listening = fields_in(Listening, inner, Listening.schema, source)
+        sync = arrays["synchronous"]  # the mask of the synchronous lines: booleans
+        if not isinstance(sync, list) or not all(isinstance(v, bool) for v in sync):
+            raise InputError(f"{source}: spectrum.synchronous", "not booleans", "a list of true/false per line")
+        listening = replace(listening, synchronous=np.array(sync, dtype=bool))
+        return cls(listening, number_in(need(doc, "suggested_rpm", source), f"{source}: suggested_rpm", nan_ok=True),
+                   need(doc, "reason", source, str), need(doc, "suggestion_from", source, str))
 
 
 def _range(rpm_range, rpm: float) -> tuple[float, float]:
@@ -82,9 +144,7 @@ def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, **kw) -> Hear
 
 def listen_figure(heard: Heard, title: str = ""):
     """The spectrum with its floor, the masked lines and the chatter line, and the chatter amplitude in time."""
-    from millstab.plot.listen import plot_listening
-
-    return plot_listening(heard.listening, title=title)
+    return heard.figure(title=title)
 
 
 def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed: int = 0, **kw):
@@ -92,6 +152,18 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
     from millstab.simulate.record import record
 
     return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
+
+
+def read_cuts(path, labels: str | None = None, teeth: int | None = None):
+    """A cuts CSV as ``millstab update`` reads it: (PointSet, notes). With a ``recording`` column its cuts are
+    labelled by listening (:func:`label_from_recordings`, ``teeth`` of the config; one note per cut saying where
+    its label came from); else the labels as written (``labels``: the codes of the label cells)."""
+    from millstab.io import read_points
+    from millstab.io.recordings import has_recording_column
+
+    if has_recording_column(path):
+        return label_from_recordings(path, teeth)
+    return read_points(path, labels), []
 
 
 def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None):

@@ -13,6 +13,9 @@ from millstab.io.config import Config
 from millstab.io.points import PointSet
 from millstab.stability import ENGINES, Envelope, get_engine
 
+#: the schema tag of :meth:`Lobes.to_json`
+SCHEMA = "millstab.lobes/1"
+
 
 @dataclass(frozen=True, eq=False)
 class Lobes:
@@ -61,8 +64,9 @@ class Lobes:
 
         return csv_text(*self.table())
 
-    def summary(self) -> list[str]:
-        """The lines the command prints."""
+    def summary(self) -> str:
+        """What the command prints: the speeds, the engine and the minimum limit; with ``compare`` the
+        largest and mean relative difference of the two engines (one line each)."""
         r, d = self.minimum()
         lines = [f"{self.config.name}: {self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm ({self.engine}); "
                  f"minimum limit {d:.4g} mm at {r:.6g} rpm"]
@@ -70,7 +74,39 @@ class Lobes:
         if diff is not None:
             lines.append(f"{self.compare} vs {self.engine}: max |difference| {100 * diff[0]:.2f} % at {diff[1]:.6g} rpm, "
                          f"mean {100 * diff[2]:.2f} %")
-        return lines
+        return "\n".join(lines)
+
+    def figure(self, ax=None, *, points: PointSet | None = None, lobes=None):
+        """The SLD (:func:`millstab.plot.sld.plot_sld`): the limit, the compared engine, and the given raw
+        ``lobes`` and measured ``points``; drawn into ``ax`` or a new figure, which it returns."""
+        from millstab.plot.sld import plot_sld
+
+        name, c = self.config.name, self.config.cutting
+        others = [(f"{self.compare} limit", self.rpm, self.other.depth_mm)] if self.other is not None else []
+        return plot_sld(self.rpm, self.envelope.depth_mm, label=f"{self.engine} limit", lobes=lobes, points=points,
+                        others=others, ax=ax, title=f"{name}: {c.teeth} teeth, Kt {c.kt / 1e6:g} MPa, Kr {c.kr:g}")
+
+    def to_json(self) -> dict:
+        """``{"schema": "millstab.lobes/1", "config": …, "engine", "envelope", "compare", "other"}``: the
+        envelopes in their own schema (:class:`~millstab.stability.Envelope`), the config as a result keeps it
+        (:func:`millstab.jsondoc.config_out`: name, cutting, structure)."""
+        from millstab.jsondoc import config_out
+
+        return {"schema": SCHEMA, "config": config_out(self.config), "engine": self.engine,
+                "envelope": self.envelope.to_json(), "compare": self.compare,
+                "other": None if self.other is None else self.other.to_json()}
+
+    @classmethod
+    def from_json(cls, doc, source: str = "lobes") -> "Lobes":
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        from millstab.jsondoc import check_schema, config_in, need
+
+        check_schema(doc, SCHEMA, source)
+        other = need(doc, "other", source, (dict, type(None)))
+        return cls(config_in(need(doc, "config", source), f"{source}: config"), need(doc, "engine", source, str),
+                   Envelope.from_json(need(doc, "envelope", source, dict), f"{source}: envelope"),
+                   need(doc, "compare", source, (str, type(None))),
+                   None if other is None else Envelope.from_json(other, f"{source}: other"))
 
 
 def envelope(cfg: Config, rpm: np.ndarray, engine: str = "zoa", progress: Progress | None = None) -> Envelope:
@@ -116,12 +152,5 @@ def raw_lobes(cfg: Config, rpm: np.ndarray, engine: str = "zoa") -> list:
 
 def lobes_figure(result: Lobes, points: PointSet | None = None, raw: bool = False, ax=None):
     """The SLD figure ``millstab lobes --plot`` saves: the limit, the compared engine, the raw lobes and
-    the measured points."""
-    from millstab.plot.sld import plot_sld
-
-    cfg = result.config
-    others = [(f"{result.compare} limit", result.rpm, result.other.depth_mm)] if result.other is not None else []
-    return plot_sld(result.rpm, result.envelope.depth_mm, label=f"{result.engine} limit",
-                    lobes=raw_lobes(cfg, result.rpm) if raw else None, points=points, others=others,
-                    title=f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g}",
-                    **({"ax": ax} if ax is not None else {}))
+    the measured points (:meth:`Lobes.figure`; the raw lobes are computed here, the figure only draws)."""
+    return result.figure(ax, points=points, lobes=raw_lobes(result.config, result.rpm) if raw else None)

@@ -21,6 +21,10 @@ DEFAULT_N = {"mc": 10_000, "sobol": 1024, "morris": 50}
 DEFAULT_T, DEFAULT_EPS = 0.1, 0.01
 
 
+#: the schema tag of :meth:`Study.to_json`
+STUDY_SCHEMA = "millstab.sensitivity.study/1"
+
+
 @dataclass(frozen=True, eq=False)
 class Study:
     """A sensitivity study's result (``result``: OATResult, MCResult, SobolResult or MorrisResult) with
@@ -40,10 +44,47 @@ class Study:
     paper_comparable: bool = False
     extras: dict = field(default_factory=dict)
 
-    def to_json(self, paths: bool = True) -> dict:
-        """The result's JSON (with its ``"schema"``) and the run's context (config, preset, centre); Monte
-        Carlo without ``paths``: the statistics only (the command line's file)."""
-        doc = self.result.to_json(paper=self.paper, paths=paths) if self.method == "mc" else self.result.to_json()
+    def to_json(self) -> dict:
+        """``{"schema": "millstab.sensitivity.study/1", "method", "result": the result's own document (Monte
+        Carlo with every path), "config" (:func:`millstab.jsondoc.config_out`), "rpm", "engine", "preset",
+        "centre_source", "paper_example", "paper", "paper_comparable", "extras"}``: what :meth:`from_json`
+        rebuilds the study from. The command line writes :meth:`report_json` (the result's own schema)."""
+        from millstab.jsondoc import config_out, floats_out, plain
+
+        result = self.result.to_json(paper=self.paper, paths=True) if self.method == "mc" else self.result.to_json()
+        return {"schema": STUDY_SCHEMA, "method": self.method, "result": result, "config": config_out(self.config),
+                "rpm": floats_out(self.rpm, "rpm"), "engine": self.engine, "preset": self.preset,
+                "centre_source": self.centre_source, "paper_example": self.paper_example,
+                "paper": plain(self.paper, "paper"), "paper_comparable": bool(self.paper_comparable),
+                "extras": plain(self.extras, "extras", nan_ok=True)}
+
+    @classmethod
+    def from_json(cls, doc: Any, source: str = "sensitivity study") -> "Study":
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        from millstab.jsondoc import check_schema, config_in, floats_in, need, number_in
+        from millstab.sensitivity.results import MCResult, MorrisResult, OATResult, SobolResult
+
+        check_schema(doc, STUDY_SCHEMA, source)
+        method = need(doc, "method", source, str)
+        kinds = {"oat": OATResult, "mc": MCResult, "sobol": SobolResult, "morris": MorrisResult}
+        if method not in kinds:
+            raise InputError(f"{source}: method", method, f"must be one of {', '.join(METHODS)}")
+        paper = need(doc, "paper", source, (dict, type(None)))
+        if paper is not None:
+            paper = {k: {s: number_in(v, f"{source}: paper.{k}.{s}") for s, v in need(paper, k, f"{source}: paper",
+                                                                                   dict).items()} for k in paper}
+        opt = (str, type(None))
+        return cls(method, kinds[method].from_json(need(doc, "result", source, dict), f"{source}: result"),
+                   config_in(need(doc, "config", source), f"{source}: config"),
+                   floats_in(need(doc, "rpm", source, list), f"{source}: rpm"), need(doc, "engine", source, str),
+                   need(doc, "preset", source, opt), need(doc, "centre_source", source, str),
+                   need(doc, "paper_example", source, opt), paper, need(doc, "paper_comparable", source, bool),
+                   need(doc, "extras", source, dict))
+
+    def report_json(self) -> dict:
+        """What ``millstab sensitivity --out`` writes: the result's own document (its ``"schema"``; Monte Carlo
+        without the paths, the statistics only) and the run's context (config name, preset, centre)."""
+        doc = self.result.to_json(paper=self.paper, paths=False) if self.method == "mc" else self.result.to_json()
         if self.method == "mc":
             doc["paper_comparable"] = self.paper_comparable
         doc.update({"config": self.config.name, "preset": self.preset, "centre_source": self.centre_source,
@@ -61,15 +102,15 @@ class Study:
         and change; MC: mean, SD and SEM beside the paper's Table 6; Sobol': S1 and ST; Morris: μ* and σ)."""
         return self.header() + "\n" + _table_text(self)
 
-    def figure(self):
-        """The study's figure (``millstab sensitivity ... --plot``)."""
-        from millstab.plot import sensitivity as ps
-
+    def figure(self, ax=None):
+        """The study's figure (``millstab sensitivity ... --plot``): its result's figure, with the config's name
+        (OAT) and the paper's Table 6 where the run is comparable (MC); into ``ax``'s place or a new figure."""
         if self.method == "oat":
-            return ps.plot_oat(self.result, title=f"{self.config.name}: one-at-a-time sensitivity ({self.rpm.size} speeds)")
+            title = f"{self.config.name}: one-at-a-time sensitivity ({self.rpm.size} speeds)"
+            return self.result.figure(ax, title=title)
         if self.method == "mc":
-            return ps.plot_mc_convergence(self.result, paper=self.paper if self.paper_comparable else None)
-        return ps.plot_sobol_speed(self.result) if self.method == "sobol" else ps.plot_morris(self.result)
+            return self.result.figure(ax, paper=self.paper if self.paper_comparable else None)
+        return self.result.figure(ax)
 
 
 def parse_eps(method: str, text: str | None) -> np.ndarray | float | None:

@@ -18,7 +18,8 @@ from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text
-from millstab.points import PointSet
+from millstab.io.stickout import COLUMN as STICKOUT
+from millstab.points import CONDITION_COLUMNS, PointSet
 from millstab.shopdb import DEFAULT_SHOP, check_shop  # (the package's __init__ imports no SQLAlchemy)
 
 
@@ -33,24 +34,41 @@ def open_db(db, user: str | None = None, create: bool = True):
 
 
 def config_text(cfg: Config) -> str:
-    """The config text recorded with an update: the file as the user wrote it (a modal config read from a
-    file), else the TOML of its modal structure (:func:`millstab.io.config.config_to_toml`)."""
+    """The config text recorded with an update: the file as the user wrote it (a modal config or a ``[tool]`` +
+    ``[holder]`` config read from a file), else the TOML of its modal structure
+    (:func:`millstab.io.config.config_to_toml`)."""
+    from millstab.update.stickout import over_holder
+
     path = getattr(cfg, "path", None)
-    if cfg.structure.is_modal and path is not None and Path(path).is_file():
+    holder = over_holder(cfg)  # [tool] + [holder]: its file is the config (the TOML writer knows no holder)
+    if (cfg.structure.is_modal or holder) and path is not None and Path(path).is_file():
         return read_text(Path(path), "config", "UTF-8 text (TOML) file")
+    if holder:
+        raise InputError("config", cfg.name, "a [tool] + [holder] config is recorded as the text of its file: give "
+                                             "it as a file (or its text as config_toml=)")
     return config_to_toml(modal(cfg)[0])
 
 
 def _join(a: PointSet | None, b: PointSet | None) -> PointSet:
+    """The cuts of ``a`` then ``b``, with their condition columns and extra columns (``stickout_mm``): a column
+    only one of them has is empty (the config's value) in the other's rows."""
     parts = [p for p in (a, b) if p is not None and len(p)]
     if not parts:
         return PointSet(np.zeros(0), np.zeros(0))
     if len(parts) == 1:
         return parts[0]
     x, y = parts
+
+    def cat(ox: dict, oy: dict, empty) -> dict:
+        names = list(dict.fromkeys([*ox, *oy]))
+        return {k: np.r_[ox.get(k, np.full(len(x), empty(k), dtype=object)).astype(object),
+                         oy.get(k, np.full(len(y), empty(k), dtype=object)).astype(object)] for k in names}
+
+    conditions = cat(x.conditions, y.conditions, lambda k: "" if k == "milling" else np.nan)
+    extra = cat(x.extra, y.extra, lambda k: "")
     return PointSet(np.r_[x.rpm, y.rpm], np.r_[x.depth_mm, y.depth_mm], np.r_[x.label, y.label],
                     np.r_[x.weight, y.weight], x.source, np.r_[x.chatter_hz, y.chatter_hz], np.r_[x.grade, y.grade],
-                    np.r_[x.batch, y.batch])
+                    np.r_[x.batch, y.batch], extra=extra, conditions=conditions)
 
 
 def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | None]:
@@ -60,9 +78,12 @@ def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | No
     if n == 0 or len(given) < n:
         return given, None
     head = given.subset(np.arange(n))
+    from millstab.shopdb.store import cut_settings
+
     same = (np.array_equal(head.rpm, old.rpm) and np.array_equal(head.depth_mm, old.depth_mm)
             and head.label.tolist() == old.label.tolist() and np.array_equal(head.weight, old.weight)
-            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True))
+            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True)
+            and cut_settings(head) == cut_settings(old))  # the same conditions and stickouts too
     if not same:
         return given, None
     return (given.subset(np.arange(n, len(given))),
@@ -116,7 +137,11 @@ def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | Non
     ``shop`` (one of ``shops``; by default the caller's only shop). ``None``: no rule (every shop's
     campaigns, the command line). The writer's transaction checks the shop again
     (:meth:`~millstab.shopdb.store.Store.record_update`)."""
-    if shops is None:
+    if shops is None:  # the command line: every campaign; --shop names a new campaign's shop
+        have = store.campaign_shop(campaign) if shop is not None else None
+        if have is not None and have != shop:
+            raise InputError("--shop", shop, f"campaign {campaign!r} belongs to shop {have!r} (a campaign's shop is set "
+                                             "when it is created; to move it: campaign export, then import --shop)")
         return shop
     have = store.campaign_shop(campaign)
     allowed = list(dict.fromkeys(shops))
@@ -134,20 +159,12 @@ def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | Non
 
 
 
-def _no_conditions(cuts: PointSet | None, what: str) -> None:
-    """InputError for cuts with per-cut condition columns: the shop database does not store them yet, and a
-    campaign must not lose them silently (record the cuts in the config's condition, or update to files)."""
-    if cuts is not None and getattr(cuts, "has_conditions", False):
-        raise InputError(what, "per-cut condition columns", "the shop database does not store per-cut cutting "
-                         "conditions yet: give cuts in the config's condition, or update to a posterior file (--out)")
-
-
 def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
                  engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
                  machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
                  recordings: Sequence[str] | None = None, retries: int = 1, progress: Progress | None = None,
                  client=None, shops: Shops = None, shop: str | None = None,
-                 config_toml: str | None = None) -> ShopUpdate:
+                 config_toml: str | None = None, sampler: str = "auto") -> ShopUpdate:
     """Update campaign ``campaign`` with ``new_cuts`` (and boundary ``points``) and record it.
 
     Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
@@ -155,6 +172,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     a fresh update from the prior when the config or engine changed or boundary points were added), and
     records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole cuts file
     (the file workflow's habit): when it begins with every recorded cut, only the rows after them are new.
+    Each cut's own condition columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it
+    and used as the file workflow uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
     When another update landed meanwhile,
     it re-runs from that one (up to ``retries`` times), then raises :class:`~millstab.shopdb.store.StaleError`.
     ``shops``: the caller may only see and write these shops' campaigns (the app's accounts; ``None``: all);
@@ -166,16 +185,18 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
         StaleError: still stale after ``retries`` re-runs.
     """
-    from millstab.api.update import update
     import hashlib
 
+    from millstab.api.update import update
     from millstab.shopdb.store import StaleError
 
-    _no_conditions(new_cuts, "cuts")
-    _no_conditions(points, "points")
+    from millstab.io.stickout import stickouts
+    from millstab.update.stickout import over_holder
+
     store = open_db(db, user)
     shop = _writable(store, campaign, shops, shop)
-    cfg, _ = modal(cfg)
+    if not over_holder(cfg):  # a prior over the holder needs no tip modes (as api.update)
+        cfg, _ = modal(cfg)
     toml = config_text(cfg) if config_toml is None else config_toml
     sha = hashlib.sha256(toml.encode("utf-8")).hexdigest()
     new = _join(new_cuts, points)
@@ -196,8 +217,9 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         start = snap.posterior() if snap is not None and snap.posterior_doc is not None and why is None else None
         if why is not None:
             notes.append(f"updating from the prior over all {len(cuts)} cuts: {why}")
+        so = stickouts(cuts)  # each cut's stickout [m] (NaN: the config's), as `millstab update` reads it
         post = update(cfg, cuts, None, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client)
+                      client=client, sampler=sampler, stickout_mm=None if so is None else so * 1e3)
         head = snap.head if snap is not None else None
         try:
             pid = store.record_update(campaign, toml, new, post, expected_head=head.posterior_id if head else None,
@@ -249,7 +271,6 @@ def record_cuts(db, campaign: str, cuts: PointSet, *, user: str | None = None, m
     """Record cuts without an update (the next :func:`update_in_db` uses them); returns the campaign's row count.
     ``shops``, ``shop``: as in :func:`update_in_db`; ``expected_rows``: refuse when the campaign does not
     hold that many rows (someone added cuts meanwhile)."""
-    _no_conditions(cuts, "cuts")
     store = open_db(db, user)
     shop = _writable(store, campaign, shops, shop)
     return store.add_cuts(campaign, cuts, machine=machine, tool=tool, user=user, raters=raters,
@@ -298,6 +319,22 @@ def history_table(events) -> tuple[list[str], list]:
     """(header, columns) of history events for CSV."""
     header = ["id", "at", "user", "campaign", "action", "detail"]
     return header, [[getattr(e, h) for e in events] for h in header]
+
+
+#: the columns of a campaign's cuts table (:func:`cut_table`), in order; the condition and stickout columns
+#: appear only when a cut has its own (an empty cell: the config's value)
+OWN_COLUMNS = CONDITION_COLUMNS + (STICKOUT,)
+CUT_COLUMNS = ("seq", "rpm", "depth_mm", "label", "chatter_hz", "batch", "rater") + OWN_COLUMNS + ("created_by",)
+
+
+def cut_table(rows: Sequence[dict]) -> tuple[list[str], list[list]]:
+    """(header, rows) of a campaign's cut rows (:attr:`OpenCampaign.rows`) for a table: the cut number (1 = the
+    first), speed, depth, label, chatter frequency and test day, who rated and recorded it, and each condition
+    or stickout column that some cut fills (``None`` in a cut's cell: the config's value). Columns no cut fills
+    (no chatter frequency, no test day, no rater, the config's condition for every cut) are left out."""
+    keep = [c for c in CUT_COLUMNS if c in ("seq", "rpm", "depth_mm", "label")
+            or any(r.get(c) not in (None, "") for r in rows)]
+    return keep, [[r["seq"] + 1 if c == "seq" else r.get(c) for c in keep] for r in rows]
 
 
 def campaigns(db, shops: Shops = None) -> list[dict]:
@@ -391,5 +428,6 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded", "campaigns", "check", "config_text", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
+__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded",
+           "campaigns", "check", "config_text", "cut_table", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
            "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

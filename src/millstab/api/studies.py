@@ -25,12 +25,47 @@ def config_feed_mm(cfg: Config, feed_mm: float | None = None) -> float:
     return cfg.feed_per_tooth_m * 1e3 if getattr(cfg, "feed_per_tooth_m", None) else 0.1
 
 
+def simulate_mode(*, cuts=None, rpm: float | None = None, depth: float | None = None, plot=None, record=None,
+                  marginal: str = "keep", label_noise: float = 0.0, seed: int | None = None) -> str:
+    """Which simulation the options of ``millstab simulate`` ask for: ``"cuts"`` (label a file of cuts,
+    :func:`label_cuts`) or ``"one"`` (one cut at ``rpm`` [rev/min] and ``depth`` [mm], :func:`simulate_cut`),
+    checked before any work.
+
+    Raises:
+        InputError: a combination of options that one mode does not take (named), a ``record`` file that is not
+            .wav or .csv, or ``marginal`` not ``keep``/``random``.
+    """
+    from pathlib import Path
+
+    if record is not None and Path(record).suffix.lower() not in (".wav", ".csv"):
+        raise InputError("--record", str(record), "a .wav or .csv file")
+    if marginal not in ("keep", "random"):
+        raise InputError("--marginal", marginal, "keep or random")
+    if cuts is not None:
+        if rpm is not None or depth is not None:
+            raise InputError("--cuts", str(cuts), "give either --cuts or --rpm/--depth, not both")
+        for opt, given in (("--plot", plot), ("--record", record)):
+            if given is not None:
+                raise InputError(opt, str(given), f"{opt} is for one cut (--rpm/--depth), not for --cuts")
+        return "cuts"
+    if rpm is None or depth is None:
+        raise InputError("--rpm/--depth", f"{rpm}/{depth}",
+                         "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
+    for opt, bad in (("--label-noise", label_noise != 0.0), ("--marginal", marginal != "keep")):
+        if bad:
+            raise InputError(opt, label_noise if opt == "--label-noise" else marginal, f"{opt} applies to --cuts only")
+    if seed is not None and record is None:
+        raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record (sensor noise)")
+    return "one"
+
+
 def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float | None = None, revs: float = 100.0,
                  steps: int | None = None, start: str = "steady"):
     """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection);
     ``feed_mm`` None: :func:`config_feed_mm`."""
     from millstab.bounds import check_speeds
-    from millstab.simulate import detect, simulate_cut as run
+    from millstab.simulate import detect
+    from millstab.simulate import simulate_cut as run
 
     feed_mm = config_feed_mm(cfg, feed_mm)
     check_speeds(rpm, "--rpm")  # a near-zero speed is days of steps: refused before the work
@@ -50,7 +85,8 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, rev
     labels however the cuts group)."""
     from millstab.bounds import seed as check_seed
     from millstab.points import cut_conditions, cut_feeds
-    from millstab.simulate import Labels, add_label_noise, label_cuts as run
+    from millstab.simulate import Labels, add_label_noise
+    from millstab.simulate import label_cuts as run
 
     check_seed(seed)
     feed_mm = config_feed_mm(cfg, feed_mm)
@@ -147,9 +183,7 @@ def modal_toml(result) -> str:
 
 def modal_figure(result, check=None):
     """The fit, its phase, the stabilisation diagram (and the SLD check) as one matplotlib figure."""
-    from millstab.plot.modal import plot_modal_fit
-
-    return plot_modal_fit(result, check)
+    return result.figure(check=check)
 
 
 def simulate_figure(result, detection, title: str = ""):

@@ -80,7 +80,8 @@ class TipFRF:
         g = self.g_y if direction == "y" and self.g_y is not None else self.g
         return ["freq_hz", "real", "imag"], [self.freq_hz, g.real, g.imag]
 
-    def summary(self) -> list[str]:
+    def summary(self) -> str:
+        """What ``millstab tooltip`` prints: the setup, the tip FRF's modes and, with a sweep, its table."""
         t = self.tool
         modes = ", ".join(f"{f:.5g} Hz ({p * 1e6:.3g} um/N)" for f, p in zip(self.fn_hz, self.peak) if np.isfinite(f))
         xy = "" if self.g_y is None else " x"
@@ -103,7 +104,7 @@ class TipFRF:
                 mark = "  <- best" if i == b else ""
                 lines.append(f"  {s.stickout[i] * 1e3:13.4g}   {s.fn_hz[i, 0]:8.5g}   {s.fn_hz[i, 1]:8.5g}   "
                              f"{s.peak[i, 0] * 1e6:12.4g}   {s.min_depth_mm[i]:14.4g}   {s.rpm_at_min[i]:8.6g}{mark}")
-        return lines
+        return "\n".join(lines)
 
 
 def stickouts_mm(spec: str | np.ndarray | None, field: str = "--stickout") -> np.ndarray | None:

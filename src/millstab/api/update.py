@@ -28,7 +28,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
     ``auto`` | ``delayed`` | ``plain`` (delayed acceptance screened by the zero-order engine, the default for
     every engine but zoa; the posterior is the chosen engine's either way, :data:`millstab.update.SAMPLERS`);
-    ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's). A ``[tool]`` +
+    ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's; default the cuts'
+    ``stickout_mm`` column, :func:`millstab.io.stickout.stickouts`, if they have one). A ``[tool]`` +
     ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
     stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`).
 
@@ -48,7 +49,12 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
     if not over_holder(cfg):  # a prior over the holder needs no tip modes
         cfg, _ = modal(cfg)
-    stickout = None if stickout_mm is None else np.asarray(stickout_mm, dtype=float) * 1e-3
+    if stickout_mm is None:
+        from millstab.io.stickout import stickouts
+
+        stickout = stickouts(cuts)  # [m], or None without the column
+    else:
+        stickout = np.asarray(stickout_mm, dtype=float) * 1e-3
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client
 
@@ -193,9 +199,45 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
 
 def corner_figure(post):
     """The pair plot of the posterior samples (``millstab update --plot``)."""
-    from millstab.plot.update import plot_corner
+    return post.figure()
 
-    return plot_corner(post.samples, post.names, post.prior.units())
+
+#: = millstab.update.decide.TEST_RISK (not imported: a door checks its options before numba loads; a test checks)
+TEST_RISK = 0.5
+
+
+def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9, speed_tolerance: float = 0.0,
+                  test_risk: float = TEST_RISK, **rule) -> tuple[tuple[float, float], dict]:
+    """The options of a recommendation as written, checked before any posterior is read (the cheapest errors
+    first): ``risk`` in (0, 1), ``rpm`` ``LOW:HIGH``, ``confidence`` in [0.5, 1) or ``"none"``, ``speed_tolerance``
+    in [0, 0.1), ``test_risk`` in (0, 1]. Returns ((low, high) [rpm], the keywords of :func:`recommend`: these
+    and ``rule``, e.g. ``max_depth_mm``, ``width_mm``, ``feed_mm``, ``seed``).
+
+    Raises:
+        InputError: naming the option (``--risk``, ``--rpm``, ``--confidence``, ``--speed-tolerance``, ``--test-risk``).
+    """
+    import math
+
+    from millstab.parsing import parse_interval
+
+    if not 0 < risk < 1:
+        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
+    span = parse_interval(rpm, "--rpm", "rpm", positive=True)
+    if isinstance(confidence, str):
+        text = confidence
+        try:
+            confidence = None if text.strip().lower() == "none" else float(text)
+        except ValueError:
+            confidence = math.nan
+        if confidence is not None and not 0.5 <= confidence < 1:
+            raise InputError("--confidence", text, "a one-sided confidence in [0.5, 1), e.g. 0.9, or 'none'")
+    if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
+        raise InputError("--speed-tolerance", speed_tolerance,
+                         "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
+    if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
+        raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
+                                                   f"{TEST_RISK:g} (1: no cap)")
+    return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,

@@ -49,6 +49,28 @@ def progress_bar(label: str) -> Iterator[Callable[[int, int], None] | None]:
         yield update
 
 
+@contextmanager
+def stage_bar(label: str, total: int | None = None, quiet: bool = False, transient: bool = True,
+              count: str = "iteration {task.completed}") -> Iterator[Callable[[str, int, int | None], None] | None]:
+    """A rich bar on stderr for work in stages (an iterative solver, the report's steps) that shows the stage
+    text; yields a ``progress(stage, done, total)`` callback (:mod:`millstab.api.progress`), or None with
+    ``quiet``."""
+    if quiet:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn(count), TimeElapsedColumn(),
+                  console=Console(stderr=True), transient=transient) as bar:
+        task = bar.add_task(label, total=total)
+
+        def progress(stage: str, done: int, total_: int | None) -> None:
+            bar.update(task, completed=done, description=stage)
+
+        yield progress
+
+
 def engine_progress(update: Callable[[int, int], None] | None):
     """A ``progress(stage, done, total)`` callback (:mod:`millstab.api.progress`) that drives a bar's
     ``update(done, total)``, or None without a bar."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -42,17 +41,16 @@ def design(
 ) -> None:
     """``millstab design`` (help: :data:`HELP`)."""
     from rich.console import Console
-    from rich.table import Table
 
     from millstab import api
+    from millstab.cli import emit
     from millstab.io import read_points
-    from millstab.io.outputs import check_outputs, config_inputs
-    from millstab.io.results import read_json, write_csv
+    from millstab.io.outputs import config_inputs
+    from millstab.io.results import read_json
 
     cfg = api.config(config)
-    inputs = {**config_inputs(cfg), "--points": points, "--fit": fit}
-    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # fail before the work, not after
-    protect = [p for p in inputs.values() if p]
+    protect = emit.checked({**config_inputs(cfg), "--points": points, "--fit": fit}, {"--out": out, "--plot": plot},
+                           figures=("--plot",))  # fail before the work, not after
     cfg, note = api.modal(cfg)  # a measured FRF: plan around its fitted modes (issue 14)
     if note:
         typer.echo(note)
@@ -61,33 +59,9 @@ def design(
     plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=api.parse_rpm_range(rpm) if rpm else None,
                       target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
                       samples=samples, seed=seed)
-
     console = Console()
-    table = Table(title=f"{cfg.name}: {n} planned tests", caption=(
-        f"relative standard errors at {noise:.3g} depth noise and {speed_noise:.3g} speed noise: root-mean-square "
-        f"over the {plan.samples} parameter samples the plan serves (the values shown and draws around them)"))
-    cols = ["parameter", "value"] + (["measured points"] if plan.sigma_existing is not None else []) + [
-        f"+ {n} evenly spaced", f"+ {n} planned"]
-    for c in cols:
-        table.add_column(c, justify="left" if c == "parameter" else "right")
-    for i, name in enumerate(plan.names):
-        row = [name + (" *" if name in plan.target else ""), api.shown_value(name, plan.theta[i])]
-        if plan.sigma_existing is not None:
-            row.append(_pct(plan.sigma_existing_mean[i]))
-        worse = plan.sigma_design_mean[i] > plan.sigma_uniform_mean[i] * (1 + 1e-9)
-        row += [_pct(plan.sigma_uniform_mean[i]), _pct(plan.sigma_design_mean[i]) + (" †" if worse else "")]
-        table.add_row(*row)
-    console.print(table)
+    header, rows, caption = plan.errors()
+    emit.table(console, f"{cfg.name}: {n} planned tests", header, rows, caption)
     console.print(plan.summary())
-    if out:
-        write_csv(out, *plan.table(), protect=protect)
-        console.print(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.design_figure(plan, cfg, pts, fit_doc, str(fit)), plot, protect=protect)
-        console.print(f"wrote {plot}")
-
-
-def _pct(v: float) -> str:
-    return "not determined" if not math.isfinite(v) else f"± {100 * v:.3g} %"
+    emit.csv(out, plan.table(), protect, console.print)
+    emit.figure(plot, lambda: api.design_figure(plan, cfg, pts, fit_doc, str(fit)), protect, console.print)

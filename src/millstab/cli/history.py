@@ -18,6 +18,8 @@ DbOpt = typer.Option(..., "--db", help=_DB_HELP)
 ShopDbOpt = Annotated[Optional[str], typer.Option("--db", help=_DB_HELP)]
 CampaignOpt = Annotated[Optional[str], typer.Option("--campaign", help="The campaign in --db (an update creates it).")]
 UserOpt = Annotated[Optional[str], typer.Option("--user", help="Who does it, for the history (default: $USER).")]
+ShopOpt = Annotated[Optional[str], typer.Option("--shop", help="The shop of a new campaign in --db: who may see it in "
+                                                              "the app (default: 'default'); see docs/shopdb.md.")]
 
 
 def shop_target(db: str | None, campaign: str | None) -> bool:

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from millstab.api import ENGINES
-from millstab.cli.app import app
+from millstab.cli.app import app, stage_bar
 from millstab.cli.options import seed_option
 
 #: relative standard error above which the command suggests planning more tests (millstab design)
@@ -38,61 +37,29 @@ def identify(
 ) -> None:
     """Identify the modal parameters whose stability boundary explains the measured POINTS."""
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-    from rich.table import Table
 
     from millstab import api
-    from millstab.io import read_points, write_json
-    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.cli import emit
+    from millstab.io import read_points
+    from millstab.io.outputs import config_inputs
 
-    cfg = api.config(config)
-    pts = read_points(points)
-    inputs = {**config_inputs(cfg), "POINTS": points}
-    check_outputs(inputs, {"--out": out, "--plot": plot, "--history-plot": history_plot},
-                  figures=("--plot", "--history-plot"))  # fail before the work, not after
-    protect = [p for p in inputs.values() if p]
-    console = Console(stderr=True)
+    cfg, pts = api.config(config), read_points(points)
+    protect = emit.checked({**config_inputs(cfg), "POINTS": points}, {"--out": out, "--plot": plot, "--history-plot":
+                           history_plot}, figures=("--plot", "--history-plot"))  # fail before the work, not after
     cfg, note = api.modal(cfg)  # a measured FRF: start from its fitted modes (issue 14)
     if note:
         typer.echo(note)
-    options = dict(method=method, free=free, axisymmetric=axisymmetric, initial=initial, engine=engine, seed=seed,
-                   loss=loss, noise=noise)
-    if quiet:
-        fit = api.identify(cfg, pts, **options)
-    else:
-        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("iteration {task.completed}"),
-                      TimeElapsedColumn(), console=console, transient=True) as bar:
-            task = bar.add_task(f"identify ({method})", total=None)
-
-            def progress(stage: str, done: int, total: int | None) -> None:
-                bar.update(task, completed=done, description=stage)
-
-            fit = api.identify(cfg, pts, progress=progress, **options)
-    out_console = Console()
-    table = Table(title=f"{cfg.name}: {method}",
-                  caption=f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
-    _, columns = fit.table()
-    for col in ("parameter", "start", "estimate", "± std error", "unit"):
-        table.add_column(col, justify="right" if col != "parameter" else "left")
-    for name, start, est, se, unit in zip(*columns):
-        table.add_row(name, f"{start:.5g}", f"{est:.5g}", "-" if math.isnan(se) else f"{se:.4g}", unit)
-    out_console.print(table)
-    for line in fit.summary().splitlines():
-        out_console.print(line.replace("warning:", "[yellow]warning:[/yellow]", 1) if line.startswith("warning:") else line,
-                          highlight=False)
+    with stage_bar(f"identify ({method})", quiet=quiet) as progress:
+        fit = api.identify(cfg, pts, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
+                           engine=engine, seed=seed, loss=loss, noise=noise, progress=progress)
+    con = Console()
+    rows = [(n, f"{s:.5g}", f"{e:.5g}", emit.number(se, ".4g"), u) for n, s, e, se, u in zip(*fit.table()[1])]
+    emit.table(con, f"{cfg.name}: {method}", ("parameter", "start", "estimate", "± std error", "unit"), rows,
+               f"{fit.iterations} iterations, {fit.evaluations} SLD evaluations, {fit.time_s:.2f} s")
+    emit.lines(con, fit.summary())
     if fit.std_errors is not None and (fit.alternatives or fit.loose(LOOSE)):
-        out_console.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
-                          "further tests that would pin the loose parameters")
-    if out:
-        write_json(out, fit.to_json(), protect=protect)
-        out_console.print(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.fit_figure(fit, cfg, pts, engine, method), plot, protect=protect)
-        out_console.print(f"wrote {plot}")
-    if history_plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.history_figure(fit), history_plot, protect=protect)
-        out_console.print(f"wrote {history_plot}")
+        con.print(f"tip: `millstab design {config} --fit {out or 'FIT.json'} --points {points}` plans the speeds of "
+                  "further tests that would pin the loose parameters")
+    emit.json(out, fit.to_json, protect, con.print)
+    emit.figure(plot, lambda: api.fit_figure(fit, cfg, pts, engine, method), protect, con.print)
+    emit.figure(history_plot, lambda: api.history_figure(fit), protect, con.print)

@@ -7,7 +7,6 @@ millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--rpm-r
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -42,10 +41,12 @@ def listen(
     --db/--campaign/--depth the cut is recorded in the campaign with the label heard (and the suggestion
     uses the campaign's current posterior)."""
     from millstab import api
+    from millstab.cli import emit
     from millstab.errors import InputError
-    from millstab.io import check_outputs, read_json, write_json
+    from millstab.io import read_json
 
-    check_outputs({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot}, figures=("--plot",))
+    protect = emit.checked({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot},
+                           figures=("--plot",))
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
         raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),
@@ -59,30 +60,10 @@ def listen(
     heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
                             post=posterior, depth_mm=depth, risk=risk)
     r = heard.listening
-    line = f"{recording.name}: {r.label}"
-    if math.isfinite(r.chatter_hz) and r.label != "stable":
-        line += f" at {r.chatter_hz:.1f} Hz"
-    line += f"; score {r.score:.3g} (chatter/forced amplitude; >= 0.05 chatter, < 0.02 stable)"
-    if math.isfinite(r.onset_s):
-        line += f"; starts at {r.onset_s:.2f} s"
-    typer.echo(line)
-    typer.echo(f"cut {r.window_s[0]:.2f}-{r.window_s[1]:.2f} s; speed heard {r.rpm_heard:.0f} rpm "
-               f"({100 * (r.rpm_heard / r.rpm - 1):+.2f} % from {r.rpm:g})"
-               + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else ""))
-    if math.isfinite(heard.suggested_rpm):
-        typer.echo(f"suggested speed: {heard.suggested_rpm:.0f} rpm ({heard.reason})")
-    else:
-        typer.echo(f"suggestion: {heard.reason}")
+    typer.echo(f"{recording.name}: {heard.summary()}")
     if on_db:
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
         typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
                    "`millstab update --db` uses it)")
-    protect = [p for p in (recording, post) if p]
-    if out:
-        write_json(out, heard.to_dict(), protect=protect)
-        typer.echo(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.listen_figure(heard, title=recording.name), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+    emit.json(out, lambda: heard.to_json(spectrum=False), protect)
+    emit.figure(plot, lambda: api.listen_figure(heard, title=recording.name), protect)

@@ -39,8 +39,7 @@ def lobes(
     protect = [p for p in inputs.values() if p]
     with progress_bar("speeds") as update:
         result = api.lobes(cfg, speeds, engine=engine, compare=compare, progress=engine_progress(update))
-    for line in result.summary():
-        typer.echo(line)
+    typer.echo(result.summary())
     if out:
         write_csv(out, *result.table(), protect=protect)
         typer.echo(f"wrote {out}")

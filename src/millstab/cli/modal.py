@@ -32,39 +32,23 @@ def modal(
 ) -> None:
     """Fit FRF_X (and FRF_Y) to modes (fn, k, zeta) and write them as a config's [structure] section."""
     from millstab import api
-    from millstab.io import atomic_write_text, write_json
-    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.cli import emit
+    from millstab.io import atomic_write_text
+    from millstab.io.outputs import config_inputs
 
     frf_type = api.check_frf_type(frf_type)  # before any reading
     cfg = api.config(config) if config else None
-    inputs = {"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})}
-    check_outputs(inputs, {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
-    protect = [p for p in inputs.values() if p]
+    protect = emit.checked({"FRF_X": frf_x, "FRF_Y": frf_y, **(config_inputs(cfg) if cfg else {})},
+                           {"--out": out, "--plot": plot, "--json": json_out}, figures=("--plot",))
     result = api.modal_fit(frf_x, frf_y, band=band, modes=modes, records=(record_x, record_y), frf_type=frf_type)
-    for d, fit in result.fits.items():
-        typer.echo(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
-                   f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
-        for m in fit.modes:
-            typer.echo(f"  fn {m.fn:10.4f} Hz   k {m.k / 1e6:9.4f} N/um   zeta {m.zeta:.5f}   "
-                       f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}")
+    typer.echo(result.summary())
     check = None
     if cfg is not None:
-        speeds = api.speeds(rpm, cfg, FALLBACK_RPM)
-        check = api.modal_check(result, cfg, speeds, frf_x, frf_y, band=band, records=(record_x, record_y),
-                                frf_type=frf_type)
-        typer.echo(f"SLD check ({cfg.name} cutting, zoa, {speeds.size} speeds {speeds.min():g}..{speeds.max():g} rpm): "
-                   f"minimum depth {check.min_fitted_mm:.4g} mm from the fit vs {check.min_measured_mm:.4g} mm from the "
-                   f"measured FRF ({100 * check.min_difference:+.2f} %); worst difference {100 * check.worst_difference:.1f} % "
-                   f"at {check.worst_rpm:.6g} rpm")
+        check = api.modal_check(result, cfg, api.speeds(rpm, cfg, FALLBACK_RPM), frf_x, frf_y, band=band,
+                                records=(record_x, record_y), frf_type=frf_type)
+        typer.echo(f"{cfg.name} cutting: {check.summary()}")
     elif rpm:
         typer.echo("note: --rpm is used by the SLD check, which needs --config for the cutting conditions", err=True)
-    atomic_write_text(out, api.modal_toml(result), protect)
-    typer.echo(f"wrote {out}")
-    if json_out:
-        write_json(json_out, api.modal_quality(result, check), protect)
-        typer.echo(f"wrote {json_out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.modal_figure(result, check), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+    emit.wrote(out, lambda: atomic_write_text(out, api.modal_toml(result), protect))
+    emit.json(json_out, lambda: api.modal_quality(result, check), protect)
+    emit.figure(plot, lambda: api.modal_figure(result, check), protect)

@@ -2,34 +2,18 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from millstab.cli.app import app
-from millstab.cli.options import seed_option
-from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
-                                  for_decision)
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
-from millstab.errors import InputError
+from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
+                                  for_decision, seed_option)
 
 #: = millstab.update.decide.TEST_RISK (not imported: the command line starts without numba; a test checks they agree)
 TEST_RISK = 0.5
-
-
-def _confidence(text: str) -> float | None:
-    """--confidence as a number in [0.5, 1), or None for 'none'."""
-    if text.strip().lower() == "none":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.5 <= value < 1:
-        raise InputError("--confidence", text, "a one-sided confidence in [0.5, 1), e.g. 0.9, or 'none'")
-    return value
 
 
 @app.command("recommend")
@@ -65,44 +49,24 @@ def recommend_cmd(
     from rich.console import Console
 
     from millstab import api
-    from millstab.io import check_outputs, write_json
+    from millstab.cli import emit
 
-    if not 0 < risk < 1:  # before reading the posterior: the cheapest error first
-        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
-    lo, hi = api.parse_interval(rpm, "--rpm", "rpm", positive=True)
-    conf = _confidence(confidence)
-    if not (math.isfinite(speed_tolerance) and 0 <= speed_tolerance < 0.1):
-        raise InputError("--speed-tolerance", speed_tolerance, "a relative spindle-speed error in [0, 0.1), e.g. 0.0025")
-    if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
-        raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
-                                                   f"{TEST_RISK:g} (1: no cap)")
-    rule = dict(max_depth_mm=max_depth, width_mm=radial_width, feed_mm=feed_per_tooth, seed=seed, confidence=conf,
-                speed_tolerance=speed_tolerance, test_risk=test_risk)
+    span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance,
+                                   test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
+                                   feed_mm=feed_per_tooth, seed=seed)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
-    check_outputs(inputs, {"--out": out})
+    protect = emit.checked(inputs, {"--out": out})
     if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db
 
-        rec = recommend_from_db(db, campaign, risk, (lo, hi), user=user, current=(pid, post), **rule)[0]
+        rec = recommend_from_db(db, campaign, risk, span, user=user, current=(pid, post), **rule)[0]
     else:
-        rec = api.recommend(post, risk, (lo, hi), **rule)
-    write_json(out, rec.to_json(), protect=list(inputs.values()))
+        rec = api.recommend(post, risk, span, **rule)
     con = Console()
-    for w in post.warnings:  # the update's own warnings (a prior-data conflict among them) belong to every decision
-        con.print(f"[yellow]warning (from the update):[/yellow] {w}")
-    mrr = f", {rec.mrr_cm3_per_min:.4g} cm³/min" if rec.mrr_cm3_per_min is not None else ""
+    emit.json(out, rec.to_json(), protect, lambda line: None)
+    # the update's own warnings (a prior-data conflict among them) belong to every decision
+    emit.warnings(con, post.warnings, "warning (from the update)")
     con.print(api.condition_line(post))
-    con.print(f"recommended: {rec.rpm:.0f} rpm, {rec.depth_mm:.3f} mm (P(chatter) {rec.p_chatter:.3f} ≤ {risk:g}, "
-              f"limited by {rec.limited_by}{mrr})")
-    if rec.p_chatter_bound is not None:
-        con.print(f"  held at ±{100 * rec.speed_tolerance:g} % speed error (P(chatter) ≤ {rec.p_chatter_speed_error:.3f}) "
-                  f"and against the sampling error: {rec.confidence:.0%} upper bound {rec.p_chatter_bound:.3f} from "
-                  f"{rec.effective_samples:.0f} effective samples")
-    for g in rec.guard:
-        if g["binding"]:
-            con.print(f"  data guard: held below {g['cap_mm']:.3g} mm within ±{g['half_width_rpm']:.0f} rpm of a cut labelled "
-                      f"chatter at {g['rpm']:.0f} rpm, {g['depth_mm']:.3g} mm")
-    nt = rec.next_test
-    con.print(f"next test: {nt['rpm']:.0f} rpm, {nt['depth_mm']:.3f} mm (P(chatter) {nt['p_chatter']:.2f}; {nt['why']})")
+    con.print(rec.summary())
     con.print(f"wrote {out}")

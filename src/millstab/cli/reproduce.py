@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app
+from millstab.cli.app import app, stage_bar
 from millstab.cli.options import seed_option
 
 #: the kinds of file the report writes into its folder (report.md/.html, tables as CSV, figures as PNG)
@@ -23,27 +23,17 @@ def reproduce(
     seed: int = seed_option(0, "Seed of every random process in the run."),
 ) -> None:
     """Reproduce the seed paper's tables and figures, our values beside the paper's."""
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     from millstab import api
+    from millstab.cli import emit
     from millstab.io import read_points
-    from millstab.io.outputs import check_outputs
 
     # fail before the work: a bad points file or report folder must not wait for the minutes of steps 1-2
     if points is not None:
         read_points(points)
-    check_outputs({"--points": points}, {"--out": out}, folders={"--out": REPORT_KINDS})
-    console = Console(stderr=True)
-    names = api.reproduce_steps()
+    emit.checked({"--points": points}, {"--out": out}, folders={"--out": REPORT_KINDS})
     t0 = time.perf_counter()
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
-                  TimeElapsedColumn(), console=console, transient=False) as bar:
-        task = bar.add_task("starting", total=len(names))
-
-        def progress(stage: str, done: int, total: int | None) -> None:
-            bar.update(task, completed=done, description=stage)
-
+    with stage_bar("starting", total=len(api.reproduce_steps()), transient=False,
+                   count="{task.completed}/{task.total} steps") as progress:
         rep = api.reproduce(out, quick=quick, seed=seed, points=points, progress=progress)
     failed = [c for c in rep.checks if not c.ok]
     typer.echo(f"wrote {out / 'report.md'} and {out / 'report.html'} ({len(rep.files)} figures and tables)")

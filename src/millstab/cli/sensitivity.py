@@ -148,8 +148,8 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
     save. With --dask or --workers the structures are evaluated on a Dask cluster (:mod:`millstab.cluster`);
     without, dask is not imported."""
     from millstab import api
-    from millstab.io import write_json
-    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.cli import emit
+    from millstab.io.outputs import config_inputs
 
     if preset is not None and preset not in api.SENSITIVITY_PRESETS:  # before any work
         raise InputError("--preset", preset, f"must be one of {', '.join(api.SENSITIVITY_PRESETS)}")
@@ -158,9 +158,8 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
     eps_val, bounds = api.parse_eps(method, eps), api.parse_bounds(bound)
     cfg = api.config(config)
     speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
-    inputs = {**config_inputs(cfg), "--rpm-file": rpm_file}
-    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before a long run, not after
-    protect = [p for p in inputs.values() if p]
+    protect = emit.checked({**config_inputs(cfg), "--rpm-file": rpm_file}, {"--out": out, "--plot": plot},
+                           figures=("--plot",))  # before a long run, not after
     cfg, note = api.modal(cfg)  # a measured FRF: study its fitted modes (issue 14)
     if note:
         typer.echo(note)
@@ -169,11 +168,5 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
         study = api.sensitivity(method, cfg, speeds, n=n, t=t, eps=eps_val, seed=seed, engine=engine, preset=preset,
                                 bounds=bounds, levels=levels, client=client, progress=engine_progress(bar))
     typer.echo(study.summary())
-    if out:
-        write_json(out, study.to_json(paths=False), protect=protect)
-        typer.echo(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(study.figure(), plot, protect=protect + ([out] if out else []))
-        typer.echo(f"wrote {plot}")
+    emit.json(out, study.report_json, protect)
+    emit.figure(plot, study.figure, protect + ([out] if out else []))

@@ -14,7 +14,6 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.options import seed_option
-from millstab.errors import InputError
 
 
 @app.command()
@@ -48,63 +47,43 @@ def simulate(
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
     from millstab import api
-    from millstab.io import read_points, write_csv
-    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.cli import emit
+    from millstab.io import read_points
+    from millstab.io.outputs import config_inputs
 
     cfg = api.config(config)
-    inputs = {**config_inputs(cfg), "--cuts": cuts}
     # every output checked before the work (an hour of cuts is not lost to a bad path)
-    check_outputs(inputs, {"--out": out, "--plot": plot, "--record": record}, figures=("--plot",))
-    protect = [p for p in inputs.values() if p]
-    if record is not None and record.suffix.lower() not in (".wav", ".csv"):
-        raise InputError("--record", str(record), "a .wav or .csv file")
-    if marginal not in ("keep", "random"):
-        raise InputError("--marginal", marginal, "keep or random")
-    if cuts is not None:
-        if rpm is not None or depth is not None:
-            raise InputError("--cuts", str(cuts), "give either --cuts or --rpm/--depth, not both")
-        for opt, given in (("--plot", plot), ("--record", record)):
-            if given is not None:
-                raise InputError(opt, str(given), f"{opt} is for one cut (--rpm/--depth), not for --cuts")
+    protect = emit.checked({**config_inputs(cfg), "--cuts": cuts}, {"--out": out, "--plot": plot, "--record": record},
+                           figures=("--plot",))
+    if api.simulate_mode(cuts=cuts, rpm=rpm, depth=depth, plot=plot, record=record, marginal=marginal,
+                         label_noise=label_noise, seed=seed) == "cuts":
         pts = read_points(cuts)
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
         typer.echo(f"{cfg.name}: {lab.summary()}")
-        header, columns = api.labels_table(lab, pts)
-        if out:
-            write_csv(out, header, columns, protect=protect)
-            typer.echo(f"wrote {out}")
-        else:
-            from millstab.io.results import csv_text
-
-            typer.echo(csv_text(header, columns), nl=False)
-        return
-    if rpm is None or depth is None:
-        raise InputError("--rpm/--depth", f"{rpm}/{depth}",
-                         "give the speed (rev/min) and depth (mm) of one cut, or --cuts FILE")
-    for opt, bad in (("--label-noise", label_noise != 0.0), ("--marginal", marginal != "keep")):
-        if bad:
-            raise InputError(opt, label_noise if opt == "--label-noise" else marginal,
-                             f"{opt} applies to --cuts only")
-    if seed is not None and record is None:
-        raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record (sensor noise)")
+        return _labels_out(api.labels_table(lab, pts), out, protect)
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
     typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {res.feed_per_tooth_m * 1e3:g} mm/tooth, {res.periods} tooth periods: "
                + _detection_line(det, res.diverged))
-    if out:
-        write_csv(out, *res.table(), protect=protect)
-        typer.echo(f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.simulate_figure(res, det, title=cfg.name), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+    emit.csv(out, res.table(), protect)
+    emit.figure(plot, lambda: api.simulate_figure(res, det, title=cfg.name), protect)
     if record:
         from millstab.io.recordings import write_recording
 
         rec = api.record_cut(res, sensor=sensor, noise=noise, seed=0 if seed is None else seed)
-        write_recording(record, rec.fs, rec.signal, protect=protect)
-        typer.echo(f"wrote {record} ({rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+        emit.wrote(record, lambda: write_recording(record, rec.fs, rec.signal, protect=protect),
+                   note=f" ({rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+
+
+def _labels_out(table, out: Path | None, protect) -> None:
+    """The labelled cuts as CSV: to ``out``, or to standard output without one."""
+    from millstab.cli import emit
+    from millstab.io.results import csv_text
+
+    if out:
+        emit.csv(out, table, protect)
+    else:
+        typer.echo(csv_text(*table), nl=False)
 
 
 def _detection_line(det, diverged: bool) -> str:

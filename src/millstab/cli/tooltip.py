@@ -25,38 +25,26 @@ def tooltip(
     """Predict the tool-tip FRF of CONFIG's tool in its holder; write it as CSV, and with --stickout the
     minimum limiting depth per stickout."""
     from millstab import api
+    from millstab.cli import emit
     from millstab.errors import InputError
-    from millstab.io import write_csv
-    from millstab.io.outputs import check_outputs, config_inputs
+    from millstab.io.outputs import config_inputs
 
     cfg, tool, holder = api.tool_config(config)
     stickouts = api.stickouts_mm(stickout)
     if sweep_out and stickouts is None:
         raise InputError("--sweep-out", str(sweep_out), "needs --stickout START:STOP:STEP [mm]")
-    inputs = config_inputs(cfg)
-    check_outputs(inputs, {"--out": out, "--out-y": out_y, "--plot": plot, "--sweep-out": sweep_out}, figures=("--plot",))
-    protect = [p for p in inputs.values() if p]
+    outputs = {"--out": out, "--out-y": out_y, "--plot": plot, "--sweep-out": sweep_out}
+    protect = emit.checked(config_inputs(cfg), outputs, figures=("--plot",))
     if rpm and stickouts is None:
         typer.echo("note: --rpm sets the speeds of the stickout sweep, which needs --stickout", err=True)
     speeds = api.speeds(rpm, cfg, api.TOOLTIP_FALLBACK_RPM) if stickouts is not None else None
     with progress_bar("stickouts") as update:
         result = api.tip_frf(cfg, tool, holder, stickouts=stickouts, rpm=speeds, engine=engine,
                             progress=engine_progress(update))
-    for line in result.summary():
-        typer.echo(line)
-    if out:
-        write_csv(out, *result.table(), protect=protect)
-        typer.echo(f"wrote {out}")
-    if out_y:
-        write_csv(out_y, *result.table("y"), protect=protect)
-        typer.echo(f"wrote {out_y}")
-    elif out and result.g_y is not None:
+    typer.echo(result.summary())
+    emit.csv(out, result.table(), protect)
+    emit.csv(out_y, result.table("y"), protect)
+    if out and not out_y and result.g_y is not None:
         typer.echo("note: the holder differs in y; --out has x only: give --out-y for the y tip FRF", err=True)
-    if sweep_out:
-        write_csv(sweep_out, *result.sweep.table(), protect=protect)
-        typer.echo(f"wrote {sweep_out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.tip_figure(result), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+    emit.csv(sweep_out, sweep_out and result.sweep.table(), protect)
+    emit.figure(plot, lambda: api.tip_figure(result), protect)

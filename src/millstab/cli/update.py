@@ -8,15 +8,13 @@ from typing import Optional
 
 import typer
 
-from millstab.cli.app import app
-from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
-from millstab.errors import InputError
-from millstab.cli.options import samples_option, seed_option
-from millstab.cli.options import DaskOpt, WorkersOpt
-from millstab.cli.options import dask_client as _client
 from millstab.api import ENGINES
-from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
-                                  for_decision)
+from millstab.cli.app import app
+from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
+from millstab.cli.options import (DaskOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt,
+                                  TeethOpt, WorkersOpt, for_decision, samples_option, seed_option)
+from millstab.cli.options import dask_client as _client
+from millstab.errors import InputError
 
 #: the --labels option of every command that reads a cuts file
 LABELS_HELP = ("Codes of the label cells, e.g. 0=stable,1=marginal,2=chatter or yes=chatter,no=stable "
@@ -57,82 +55,74 @@ def update_cmd(
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
     user: UserOpt = None,
+    shop: ShopOpt = None,
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC); with --db/--campaign the cuts
     and the posterior are recorded in a shop database, starting from the campaign's current posterior."""
     from rich.console import Console
-    from rich.table import Table
 
     from millstab import api
-    from millstab.io import check_outputs, config_inputs, read_points, write_json
+    from millstab.cli import emit
+    from millstab.io import config_inputs, read_points
 
+    in_db, shop = _target(out, db, campaign, start, shop)
+    cfg = api.with_batch_effect(api.config(config), batch_effect)
+    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth)  # a 'recording' column: labelled by ear (docs/listen.md)
+    p = read_points(points, labels) if points is not None else None
+    protect = emit.checked({**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start},
+                           {"--out": out, "--plot": plot}, figures=("--plot",))
+    cfg, note = (cfg, None) if api.over_holder(cfg) else api.modal(cfg)  # a measured FRF: its fitted modes (issue 14)
+    for line in heard + ([note] if note else []):
+        typer.echo(line)
+    # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral; not zoa)
+    with _client(dask, workers) as client:
+        post, done = _run_update(cfg, c, p, client, db=db, campaign=campaign, user=user, shop=shop, start=start,
+                                 engine=engine, samples=samples, seed=seed, sampler=sampler)
+    emit.json(out, post.to_json(), protect, lambda _: None)  # its config's name included: the web download is the same
+    con = Console()
+    rows = [(row[0], *(f"{v:.{5 if i < len(post.names) else 3}g}" for v in row[1:6]), row[6])
+            for i, row in enumerate(zip(*post.table()[1]))]  # parameters (5 digits), then learned noise levels (3)
+    emit.table(con, f"{cfg.name}: posterior ({len(post.samples)} samples, {engine})",
+               ("parameter", "prior", "mean", "sd", "5 %", "95 %", "unit"), rows, post.summary())
+    emit.warnings(con, post.to_json()["warnings"])
+    con.print(f"recorded in {db}, campaign {campaign} ({done.cuts} cuts)" if in_db and out is None else f"wrote {out}")
+    emit.figure(plot, lambda: api.corner_figure(post), protect, con.print)
+
+
+def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None) -> tuple[bool, str | None]:
+    """(whether the posterior goes to a shop database (--db/--campaign), the checked --shop of a new campaign);
+    InputError for neither target, --start beside a database (whose campaign's current posterior is the start),
+    or --shop without one."""
     in_db = shop_target(db, campaign)
     if out is None and not in_db:
         raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
     if in_db and start is not None:
         raise InputError("--start", str(start), "with --db the campaign's current posterior is the start")
-    cfg = api.with_batch_effect(api.config(config), batch_effect)
-    # --- listen (issue 29): a 'recording' column labels the cuts by ear (docs/listen.md) -----------
-    from millstab.io.recordings import has_recording_column
+    if shop is not None:
+        if not in_db:
+            raise InputError("--shop", shop, "the shop of a campaign in a shop database: give --db and --campaign too")
+        from millstab.api.shop import check_shop
 
-    if has_recording_column(cuts):
-        c, heard = api.label_from_recordings(cuts, cfg.cutting.teeth)
-        for line in heard:
+        shop = check_shop(shop)
+    return in_db, shop
+
+
+def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, **settings):
+    """(posterior, the shop's record or None): in a shop database the campaign's cuts so far and these, from its
+    current posterior, recorded in one transaction with each cut's condition and stickout (its notes printed);
+    else an update of these cuts. ``settings``: engine, samples, seed, sampler."""
+    from millstab import api
+
+    if shop_target(db, campaign):
+        from millstab.api.shop import update_in_db
+
+        done = update_in_db(db, campaign, cfg, cuts, points, user=user, client=client, shop=shop, **settings)
+        for line in done.notes:
             typer.echo(line)
-    else:
-        c = read_points(cuts, labels)
-    # --- end listen --------------------------------------------------------------------------------
-    p = read_points(points, labels) if points is not None else None
-    inputs = {**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start}
-    check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
-    protect = [v for v in inputs.values() if v]
-    from millstab.io.stickout import stickouts
-
-    so = stickouts(c)  # a stickout_mm column: each cut's stickout (a prior over the holder: docs/tooltip.md)
-    if so is not None and in_db:
-        raise InputError("stickout_mm", "with --db", "per-cut stickouts are not recorded in a shop database yet; "
-                                                     "update to a posterior file (--out)")
-    if not api.over_holder(cfg):
-        cfg, note = api.modal(cfg)  # a measured FRF: the prior centres on its fitted modes (issue 14)
-        if note:
-            typer.echo(note)
-    # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral;
-    # not zoa, whose sweeps take milliseconds): millstab.cluster.sample_limits
-    with _client(dask, workers) as client:
-        if in_db:  # the campaign's cuts so far + these, from its current posterior, recorded in one transaction
-            from millstab.api.shop import update_in_db
-
-            done = update_in_db(db, campaign, cfg, c, p, engine=engine, samples=samples, seed=seed, user=user,
-                                client=client)
-            post = done.posterior
-            for line in done.notes:
-                typer.echo(line)
-        else:
-            post = api.update(cfg, c, p, engine=engine, samples=samples, seed=seed,
-                              start=_load_posterior(start) if start is not None else None, client=client, sampler=sampler,
-                              stickout_mm=None if so is None else so * 1e3)
-    doc = post.to_json()  # its config's name included (api.update sets it: the web download is the same file)
-    if out is not None:
-        write_json(out, doc, protect=protect)
-    con = Console()
-    d = post.diagnostics
-    table = Table(title=f"{cfg.name}: posterior ({len(post.samples)} samples, {engine})",
-                  caption=f"{d['stages']} tempering stages, acceptance {min(d['acceptance']):.2f}-{max(d['acceptance']):.2f}, "
-                          f"{d['loglik_calls']} likelihood calls, {d['time_s']:.1f} s")
-    for col in ("parameter", "prior", "mean", "sd", "5 %", "95 %", "unit"):
-        table.add_column(col, justify="left" if col == "parameter" else "right")
-    for i, row in enumerate(zip(*post.table()[1])):  # parameters (5 digits), then learned noise levels (3)
-        digits = 5 if i < len(post.names) else 3
-        table.add_row(row[0], *(f"{v:.{digits}g}" for v in row[1:6]), row[6])
-    con.print(table)
-    for w in doc["warnings"]:
-        con.print(f"[yellow]warning:[/yellow] {w}")
-    con.print(f"recorded in {db}, campaign {campaign} ({done.cuts} cuts)" if in_db and out is None else f"wrote {out}")
-    if plot:
-        from millstab.io.figures import save_figure
-
-        save_figure(api.corner_figure(post), plot, protect=protect)
-        con.print(f"wrote {plot}")
+        return done.posterior, done
+    post = api.update(cfg, cuts, points, client=client, start=_load_posterior(start) if start is not None else None,
+                      **settings)
+    return post, None
 
 
 @app.command("map")

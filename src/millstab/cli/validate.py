@@ -12,8 +12,6 @@ from millstab.cli.app import app
 from millstab.cli.options import samples_option, seed_option
 from millstab.cli.update import LABELS_HELP
 
-_NAMES = {"random": "random folds", "speed": "leave one speed out", "batch": "leave one day (batch) out"}
-
 
 @app.command("validate")
 def validate_cmd(
@@ -31,38 +29,21 @@ def validate_cmd(
 ) -> None:
     """Cross-validated Brier, log loss and AUC of millstab beside the majority rate, logistic regression and kNN."""
     from rich.console import Console
-    from rich.table import Table
 
     from millstab import api
     from millstab.api.validate import validate
-    from millstab.io import check_outputs, config_inputs, read_points, write_csv, write_json
+    from millstab.cli import emit
+    from millstab.io import config_inputs, read_points
 
     cfg = api.with_batch_effect(api.config(config), batch_effect)
     c = read_points(cuts, labels)
-    inputs = {**config_inputs(cfg), "CUTS": cuts}
-    check_outputs(inputs, {"--out": out, "--predictions": predictions})  # before the work
-    protect = [v for v in inputs.values() if v]
+    protect = emit.checked({**config_inputs(cfg), "CUTS": cuts}, {"--out": out, "--predictions": predictions})
     con = Console()
     with con.status("updating on each fold ...") as status:
         res = validate(cfg, c, folds=folds, seed=seed, samples=samples, engine=engine,
                        progress=lambda stage, done, total: status.update(f"{stage}: {done}/{total} updates"))
-    for s, rows in res.summary.items():
-        t = Table(title=f"{_NAMES[s]} ({len(rows['millstab']['fold_brier'])} folds, {rows['millstab']['n']} cuts)",
-                  caption="Brier against the graded label (lower is better); log loss and AUC against chatter "
-                          "(grade > 1/2), marginal cuts left out")
-        for col in ("method", "Brier", "log loss", "AUC", "Brier per fold (min-max)"):
-            t.add_column(col, justify="left" if col == "method" else "right")
-        best = min(r["brier"] for r in rows.values())
-        for m, r in rows.items():
-            fb = r["fold_brier"]
-            mark = " *" if r["brier"] <= best else ""
-            t.add_row(m, f"{r['brier']:.4f}{mark}", f"{r['log_loss']:.3f}", f"{r['auc']:.3f}", f"{min(fb):.3f}-{max(fb):.3f}")
-        con.print(t)
-    for note in res.notes:
-        con.print(f"[yellow]note:[/yellow] {note}")
-    if out:
-        write_json(out, res.to_json(), protect=protect)
-        con.print(f"wrote {out}")
-    if predictions:
-        write_csv(predictions, *res.table(), protect=protect)
-        con.print(f"wrote {predictions}")
+    for title, header, rows, caption in res.score_tables():
+        emit.table(con, title, header, rows, caption)
+    emit.warnings(con, res.notes, "note")
+    emit.json(out, res.to_json, protect, con.print)
+    emit.csv(predictions, predictions and res.table(), protect, con.print)

@@ -33,16 +33,7 @@ def app_cmd(
     from millstab.web import auth
 
     if add_user is not None:
-        if users is None:
-            raise InputError("--add-user", add_user, "give the file too: --users FILE")
-        auth.check_name(add_user)
-        if password_stdin:
-            password = sys.stdin.readline().rstrip("\r\n")
-        else:
-            password = typer.prompt(f"password for {add_user}", hide_input=True, confirmation_prompt=True)
-        path = auth.add_user(users, add_user, password, shop)
-        print(f"millstab app: {add_user} added to {path}; serve with --users {path}")
-        return
+        return _add_user(users, add_user, password_stdin, shop)
     if password_stdin:
         raise InputError("--password-stdin", True, "only with --add-user NAME --users FILE")
     if shop:
@@ -59,3 +50,18 @@ def app_cmd(
 
     serve(port=port, host=host, show=not no_browser, users={n: h for n, (h, _) in accounts.items()} if accounts else None,
           db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None)
+
+
+def _add_user(users: Path | None, name: str, password_stdin: bool, shops: list[str] | None) -> None:
+    """``--add-user NAME --users FILE``: add NAME (or change its password) in the users file, and exit."""
+    from millstab.web import auth
+
+    if users is None:
+        raise InputError("--add-user", name, "give the file too: --users FILE")
+    auth.check_name(name)
+    if password_stdin:
+        password = sys.stdin.readline().rstrip("\r\n")
+    else:
+        password = typer.prompt(f"password for {name}", hide_input=True, confirmation_prompt=True)
+    path = auth.add_user(users, name, password, shops)
+    print(f"millstab app: {name} added to {path}; serve with --users {path}")

@@ -156,6 +156,31 @@ class SpeedDesign:
                      + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in self.tests()))
         return "\n".join(lines)
 
+    def errors(self) -> tuple[tuple[str, ...], list[tuple[str, ...]], str]:
+        """What ``millstab design`` prints above :meth:`summary`: (header, rows as text, caption): per parameter
+        (* = a target) its value in the trade's units and its relative standard error with the measured points
+        (if any), with n evenly spaced tests and with the n planned ones († = worse than evenly spaced)."""
+        from millstab.params import shown_value
+
+        def pct(v: float) -> str:
+            return "not determined" if not np.isfinite(v) else f"± {100 * v:.3g} %"
+
+        n = self.rpm.size
+        header = ("parameter", "value") + (("measured points",) if self.sigma_existing is not None else ()) + (
+            f"+ {n} evenly spaced", f"+ {n} planned")
+        rows = []
+        for i, name in enumerate(self.names):
+            row = [name + (" *" if name in self.target else ""), shown_value(name, self.theta[i])]
+            if self.sigma_existing is not None:
+                row.append(pct(self.sigma_existing_mean[i]))
+            worse = self.sigma_design_mean[i] > self.sigma_uniform_mean[i] * (1 + 1e-9)
+            row += [pct(self.sigma_uniform_mean[i]), pct(self.sigma_design_mean[i]) + (" †" if worse else "")]
+            rows.append(tuple(row))
+        caption = (f"relative standard errors at {self.noise:.3g} depth noise and {self.speed_noise:.3g} speed noise: "
+                   f"root-mean-square over the {self.samples} parameter samples the plan serves (the values shown and "
+                   "draws around them)")
+        return header, rows, caption
+
     def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
         """(header, columns) of the plan CSV (``millstab design --out``, the web app's plan.csv): rpm (to
         0.001 rev/min), tests, predicted_depth_mm, one row per distinct planned speed."""

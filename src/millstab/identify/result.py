@@ -193,6 +193,13 @@ class Fit:
             out.update({f"fn{suffix}": m.fn, f"k{suffix}": m.k, f"zeta{suffix}": m.zeta})
         return out
 
+    def figure(self, ax=None):
+        """The objective against iteration (:func:`millstab.plot.identify.plot_convergence`; the identified
+        SLD over the points needs the engine: ``millstab.api.fit_figure``), into ``ax`` or a new figure."""
+        from millstab.plot.identify import plot_convergence
+
+        return plot_convergence(self, ax=ax)
+
     def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
         """(header, columns) of the fitted parameters as the trade reads them (stiffness N/µm, fn Hz, ζ bare;
         :data:`millstab.units.SHOWN`): parameter, start, estimate, std_error (NaN: not computed), unit."""

@@ -17,8 +17,9 @@ from millstab.errors import InputError
 COLUMN = "stickout_mm"
 
 
-def stickouts(points) -> np.ndarray | None:
-    """Each row's stickout [m] (NaN: empty cell, the config's), or ``None`` without a ``stickout_mm`` column.
+def stickouts_mm(points) -> np.ndarray | None:
+    """Each row's stickout [mm] as written (NaN: empty cell, the config's), or ``None`` without a
+    ``stickout_mm`` column (the shop database stores these numbers: :mod:`millstab.shopdb.store`).
 
     Raises:
         InputError: a cell that is not a number of mm in (0, 1000], naming its row.
@@ -39,8 +40,24 @@ def stickouts(points) -> np.ndarray | None:
         if not (math.isfinite(v) and 0 < v <= 1000):
             raise InputError(f"{where} row {i + 1}, {COLUMN}", text, "a stickout in mm, > 0 and at most 1000 "
                                                                       "(holder face to tip; mm, not m)")
-        out[i] = v * 1e-3
+        out[i] = v
     return out
 
 
-__all__ = ["COLUMN", "stickouts"]
+def stickouts(points) -> np.ndarray | None:
+    """Each row's stickout [m] (NaN: empty cell, the config's), or ``None`` without a ``stickout_mm`` column.
+
+    Raises:
+        InputError: a cell that is not a number of mm in (0, 1000], naming its row.
+    """
+    mm = stickouts_mm(points)
+    return None if mm is None else mm * 1e-3
+
+
+def stickout_cells(mm) -> np.ndarray:
+    """The ``stickout_mm`` cells (str) of stickouts [mm] (NaN: ``""``), written so that :func:`stickouts_mm`
+    reads back the same floats (``repr``: the shortest exact text)."""
+    return np.array(["" if math.isnan(v) else repr(float(v)) for v in np.asarray(mm, dtype=float)], dtype=object)
+
+
+__all__ = ["COLUMN", "stickout_cells", "stickouts", "stickouts_mm"]

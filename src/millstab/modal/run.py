@@ -6,6 +6,7 @@ One file per direction (``FRF_X`` is the xx drive point, ``FRF_Y`` the yy one), 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,7 +15,7 @@ import numpy as np
 from millstab.errors import InputError
 from millstab.io.frf_files import load_measured_frf
 from millstab.model import Cutting, MeasuredFRF, Mode, Structure
-from millstab.modal.fit import MIN_LINES, DirectionFit, fit_direction
+from millstab.modal.fit import MIN_LINES, DirectionFit, FittedMode, fit_direction
 from millstab.errors import FRFWarning
 from millstab.warnlog import quiet, warn
 
@@ -152,6 +153,10 @@ def same_file(a, b) -> bool:
         return False
 
 
+#: the schema tag of :meth:`ModalResult.to_json`
+MODAL_RESULT_SCHEMA = "millstab.modal.result/1"
+
+
 @dataclass(frozen=True)
 class ModalResult:
     """The fits of both directions and the structure they make.
@@ -165,6 +170,81 @@ class ModalResult:
     fits: dict[str, DirectionFit]
     structure: Structure
     band: tuple[float, float] | None
+
+    def summary(self) -> str:
+        """What ``millstab modal`` prints: per direction its file, band, modes and misfit, then each mode's fn [Hz],
+        k [N/µm], ζ, peak over noise and the model orders at which it was stable."""
+        lines = []
+        for d, fit in self.fits.items():
+            lines.append(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
+                         f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
+            lines += [f"  fn {m.fn:10.4f} Hz   k {m.k / 1e6:9.4f} N/um   zeta {m.zeta:.5f}   "
+                      f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}" for m in fit.modes]
+        return "\n".join(lines)
+
+    def figure(self, ax=None, *, check: SLDCheck | None = None):
+        """Measured and fitted magnitude and phase and the stabilisation diagram per direction, and with
+        ``check`` the SLDs beside each other (:func:`millstab.plot.modal.plot_modal_fit`); into ``ax``'s
+        place or a new figure."""
+        from millstab.plot.modal import plot_modal_fit
+
+        return plot_modal_fit(self, check, ax=ax)
+
+    def to_json(self) -> dict:
+        """``{"schema": "millstab.modal.result/1", "band", "structure", "fits": {direction: …}}``: every fit
+        whole (the measured and fitted receptances as ``{"re", "im"}`` [m/N], the modes and their quality, the
+        residuals, the stabilisation diagram), so that :meth:`from_json` rebuilds it bit for bit. The command
+        line's side file is the shorter report :func:`millstab.modal.output.quality` (``millstab.modal/1``)."""
+        from millstab.jsondoc import complex_out, floats_out, plain, structure_out
+
+        def one(fit: DirectionFit) -> dict:
+            st = fit.stabilisation
+            return {"direction": fit.direction, "source": fit.source, "freq_hz": floats_out(fit.freq_hz, "freq_hz"),
+                    "h": complex_out(fit.h, "h"), "h_fit": complex_out(fit.h_fit, "h_fit"),
+                    "modes": [plain(dataclasses.asdict(m), "modes") for m in fit.modes],
+                    **{k: float(getattr(fit, k)) for k in ("upper", "lower", "nrmse", "noise")},
+                    "stabilisation": {"orders": plain(st.orders, "orders"), "fn": plain(st.fn, "fn"),
+                                      "zeta": plain(st.zeta, "zeta"), "stable": plain(st.stable, "stable")}}
+
+        return {"schema": MODAL_RESULT_SCHEMA, "band": None if self.band is None else [float(b) for b in self.band],
+                "structure": structure_out(self.structure), "fits": {d: one(f) for d, f in self.fits.items()}}
+
+    @classmethod
+    def from_json(cls, doc, source: str = "modal result") -> ModalResult:
+        """Rebuild from :meth:`to_json` output. Raises InputError (wrong schema, missing or bad field)."""
+        from millstab.jsondoc import check_schema, complex_in, floats_in, int_in, ints_in, need, number_in, structure_in
+        from millstab.modal.lscf import Stabilisation
+
+        check_schema(doc, MODAL_RESULT_SCHEMA, source)
+
+        def one(d: str, rec) -> DirectionFit:
+            at = f"{source}: fits.{d}"
+            st = need(rec, "stabilisation", at, dict)
+            ragged = {k: need(st, k, f"{at}.stabilisation", list) for k in ("fn", "zeta", "stable")}
+            stab = Stabilisation(ints_in(need(st, "orders", f"{at}.stabilisation", list), f"{at}.stabilisation.orders"),
+                                 [floats_in(v, f"{at}.stabilisation.fn") for v in ragged["fn"]],
+                                 [floats_in(v, f"{at}.stabilisation.zeta") for v in ragged["zeta"]],
+                                 [ints_in(v, f"{at}.stabilisation.stable") for v in ragged["stable"]])
+            modes = []
+            for i, m in enumerate(need(rec, "modes", at, list)):
+                w = f"{at}.modes[{i}]"
+                modes.append(FittedMode(*(number_in(need(m, k, w), f"{w}.{k}") for k in
+                                          ("fn", "k", "zeta", "phase_deg", "peak_to_noise")),
+                                        int_in(need(m, "stable_orders", w), f"{w}.stable_orders"),
+                                        int_in(need(m, "orders", w), f"{w}.orders"),
+                                        number_in(need(m, "local_error", w), f"{w}.local_error")))
+            return DirectionFit(need(rec, "direction", at, str), need(rec, "source", at, str),
+                                floats_in(need(rec, "freq_hz", at, list), f"{at}.freq_hz"),
+                                complex_in(need(rec, "h", at, dict), f"{at}.h"),
+                                complex_in(need(rec, "h_fit", at, dict), f"{at}.h_fit"), tuple(modes),
+                                *(number_in(need(rec, k, at), f"{at}.{k}") for k in ("upper", "lower", "nrmse",
+                                                                                    "noise")), stab)
+
+        band = need(doc, "band", source, (list, type(None)))
+        with quiet():  # a soft fitted k was warned about when it was fitted
+            structure = structure_in(need(doc, "structure", source), f"{source}: structure")
+        return cls({d: one(d, rec) for d, rec in need(doc, "fits", source, dict).items()}, structure,
+                   None if band is None else tuple(float(b) for b in floats_in(band, f"{source}: band")))
 
 
 def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, modes=("auto", "auto"),
@@ -231,6 +311,14 @@ class SLDCheck:
     min_difference: float
     worst_difference: float
     worst_rpm: float
+
+    def summary(self) -> str:
+        """One line: the minimum depths of the fit and of the measured FRF, their difference and the worst one."""
+        r = self.rpm
+        return (f"SLD check (zoa, {r.size} speeds {r.min():g}..{r.max():g} rpm): minimum depth "
+                f"{self.min_fitted_mm:.4g} mm from the fit vs {self.min_measured_mm:.4g} mm from the measured FRF "
+                f"({100 * self.min_difference:+.2f} %); worst difference {100 * self.worst_difference:.1f} % at "
+                f"{self.worst_rpm:.6g} rpm")
 
 
 def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.ndarray) -> SLDCheck:

@@ -6,14 +6,15 @@ from __future__ import annotations
 
 import math
 
-import matplotlib.pyplot as plt
 import numpy as np
 
+from millstab.plot._layout import finish, panels
 from millstab.plot.simulate import LABEL_COLOUR
 
 
-def plot_listening(res, title: str = ""):
-    fig, (ax_f, ax_t) = plt.subplots(2, 1, figsize=(8, 6), gridspec_kw={"height_ratios": [2, 1]})
+def plot_listening(res, title: str = "", ax=None):
+    """The spectrum over the chatter amplitude in time, in a new figure or in ``ax``'s place."""
+    fig, (ax_f, ax_t) = panels(ax, 2, 1, figsize=(8, 6), gridspec_kw={"height_ratios": [2, 1]})
     f, p = res.freq_hz, res.psd
     keep = f <= min(8000.0, f[-1])
     db = 10 * np.log10(np.maximum(p[keep], 1e-300))
@@ -35,5 +36,5 @@ def plot_listening(res, title: str = ""):
             ax_t.legend(fontsize=8)
     ax_t.set_xlabel("time [s]")
     ax_t.set_ylabel("chatter amplitude")
-    fig.tight_layout()
+    finish(fig, ax)
     return fig

@@ -9,13 +9,14 @@ import numpy as np
 _STAB = {0: ("o", "0.7", "new pole"), 1: ("v", "tab:orange", "stable fn"), 2: ("+", "tab:green", "stable fn and ζ")}
 
 
-def plot_modal_fit(result, check=None):
-    """Figure of a :class:`~millstab.modal.run.ModalResult` (and an optional :class:`SLDCheck`)."""
-    import matplotlib.pyplot as plt
+def plot_modal_fit(result, check=None, ax=None):
+    """Figure of a :class:`~millstab.modal.run.ModalResult` (and an optional :class:`SLDCheck`), in a new figure
+    or in ``ax``'s place."""
+    from millstab.plot._layout import finish, panels
 
     dirs = list(result.fits)
     rows = 3 if check is None else 4
-    fig, axes = plt.subplots(rows, len(dirs), figsize=(6.0 * len(dirs), 2.6 * rows), squeeze=False,
+    fig, axes = panels(ax, rows, len(dirs), figsize=(6.0 * len(dirs), 2.6 * rows), squeeze=False,
                              gridspec_kw={"height_ratios": [2, 1, 2] + ([2] if check is not None else [])})
     for j, d in enumerate(dirs):
         fit = result.fits[d]
@@ -45,20 +46,22 @@ def plot_modal_fit(result, check=None):
         ax_s.legend(fontsize=7, loc="upper right")
     if check is not None:
         gs = axes[3, 0].get_gridspec()
-        for ax in axes[3, :]:
-            ax.remove()
-        ax = fig.add_subplot(gs[3, :])
-        ax.plot(check.rpm, check.measured_mm, color="0.4", lw=1.2, label=f"measured FRF (min {check.min_measured_mm:.4g} mm)")
-        ax.plot(check.rpm, check.fitted_mm, color="tab:blue", lw=1.2, ls="--", label=f"fitted modes (min {check.min_fitted_mm:.4g} mm)")
-        ax.set_xlabel("spindle speed [rev/min]")
-        ax.set_ylabel("b_lim [mm]")
+        for a in axes[3, :]:
+            a.remove()
+        a = fig.add_subplot(gs[3, :])
+        a.plot(check.rpm, check.measured_mm, color="0.4", lw=1.2,
+               label=f"measured FRF (min {check.min_measured_mm:.4g} mm)")
+        a.plot(check.rpm, check.fitted_mm, color="tab:blue", lw=1.2, ls="--",
+               label=f"fitted modes (min {check.min_fitted_mm:.4g} mm)")
+        a.set_xlabel("spindle speed [rev/min]")
+        a.set_ylabel("b_lim [mm]")
         finite = np.concatenate([check.measured_mm[np.isfinite(check.measured_mm)], check.fitted_mm[np.isfinite(check.fitted_mm)]])
         if finite.size:
-            ax.set_ylim(0, min(float(finite.max()), 6 * float(finite.min())) * 1.05)
-        ax.set_title(f"SLD check: minimum depth {100 * check.min_difference:+.2f} %, worst difference "
+            a.set_ylim(0, min(float(finite.max()), 6 * float(finite.min())) * 1.05)
+        a.set_title(f"SLD check: minimum depth {100 * check.min_difference:+.2f} %, worst difference "
                      f"{100 * check.worst_difference:.1f} % at {check.worst_rpm:.6g} rpm")
-        ax.legend(fontsize=8)
-    fig.tight_layout()
+        a.legend(fontsize=8)
+    finish(fig, ax)
     return fig
 
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from millstab.plot._layout import finish, grid, panels, suptitle
+
 _LABEL = {"fn": "f_n", "k": "k", "zeta": "\\zeta"}
 
 
@@ -28,72 +30,71 @@ def _grid(names):
     return rows, cols
 
 
-def plot_oat(result, title: str | None = None):
+def plot_oat(result, title: str | None = None, ax=None):
     """The paper's Fig. SENS: MSE [mm²] against ε, one panel per parameter. Natural-frequency panels
     share their own vertical scale; all other panels share a common (smaller) one."""
     names = result.names
     rows, cols = _grid(names)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.9 * rows), squeeze=False)
+    fig, axes = panels(ax, rows, cols, figsize=(3.6 * cols, 2.9 * rows), squeeze=False)
     eps = 100 * np.asarray(result.eps)
     is_fn = np.array([n.startswith("fn") for n in names])
     top_fn = 1.05 * float(result.mse_mm2[is_fn].max()) if is_fn.any() else None
     top_other = 1.05 * float(result.mse_mm2[~is_fn].max()) if (~is_fn).any() else None
     for j, name in enumerate(names):
-        ax = axes.flat[j]
-        ax.plot(eps, result.mse_mm2[j], "o-", color="tab:red" if is_fn[j] else "tab:blue", ms=3)
-        ax.set_title(_tex(name))
-        ax.set_xlabel("change ε [%]")
-        ax.set_ylabel("MSE [mm²]")
+        a = axes.flat[j]
+        a.plot(eps, result.mse_mm2[j], "o-", color="tab:red" if is_fn[j] else "tab:blue", ms=3)
+        a.set_title(_tex(name))
+        a.set_xlabel("change ε [%]")
+        a.set_ylabel("MSE [mm²]")
         top = top_fn if is_fn[j] else top_other
         if top and top > 0:
-            ax.set_ylim(0, top)
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(names):]:
-        ax.set_visible(False)
-    if top_fn and top_other:
+            a.set_ylim(0, top)
+        a.grid(alpha=0.3)
+    for a in axes.flat[len(names):]:
+        a.set_visible(False)
+    if top_fn and top_other and ax is None:
         fig.text(0.5, -0.01, f"natural-frequency panels on their own scale ({top_fn / top_other:.0f}x the others)",
                  ha="center", fontsize=8)
-    fig.suptitle(title or f"One-at-a-time sensitivity of the SLD ({result.rpm.size} speeds, "
-                 f"{result.rpm.min():g}-{result.rpm.max():g} rpm, {result.engine})")
-    fig.tight_layout()
+    suptitle(fig, ax, title or f"One-at-a-time sensitivity of the SLD ({result.rpm.size} speeds, "
+                               f"{result.rpm.min():g}-{result.rpm.max():g} rpm, {result.engine})")
+    finish(fig, ax)
     return fig
 
 
-def plot_mc_convergence(result, paper: dict | None = None, title: str | None = None):
+def plot_mc_convergence(result, paper: dict | None = None, title: str | None = None, ax=None):
     """Running mean of each parameter's MSE [mm²] against the number of paths (log axis), with a
     ±1.96·SEM band; the paper's Table 6 mean as a dashed line when ``paper`` is given."""
     names = result.names
     rows, cols = _grid(names)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.9 * rows), squeeze=False)
+    fig, axes = panels(ax, rows, cols, figsize=(3.6 * cols, 2.9 * rows), squeeze=False)
     k, mean, sem = result.running(300)
     for j, name in enumerate(names):
-        ax = axes.flat[j]
-        ax.plot(k, mean[:, j], color="tab:blue", lw=1.2, label="running mean")
+        a = axes.flat[j]
+        a.plot(k, mean[:, j], color="tab:blue", lw=1.2, label="running mean")
         ok = np.isfinite(sem[:, j])
-        ax.fill_between(k[ok], (mean - 1.96 * sem)[ok, j], (mean + 1.96 * sem)[ok, j], color="tab:blue", alpha=0.2,
+        a.fill_between(k[ok], (mean - 1.96 * sem)[ok, j], (mean + 1.96 * sem)[ok, j], color="tab:blue", alpha=0.2,
                         label="±1.96 SEM")
         if paper and name in paper:
-            ax.axhline(paper[name]["mean"], color="k", ls="--", lw=1, label="paper Table 6")
-        ax.set_xscale("log")
-        ax.set_title(f"{_tex(name)}: {result.mean[j]:.3g} ± {result.sem[j]:.1g} mm²", fontsize=9)
-        ax.set_xlabel("paths")
-        ax.set_ylabel("mean MSE [mm²]")
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(names):]:
-        ax.set_visible(False)
+            a.axhline(paper[name]["mean"], color="k", ls="--", lw=1, label="paper Table 6")
+        a.set_xscale("log")
+        a.set_title(f"{_tex(name)}: {result.mean[j]:.3g} ± {result.sem[j]:.1g} mm²", fontsize=9)
+        a.set_xlabel("paths")
+        a.set_ylabel("mean MSE [mm²]")
+        a.grid(alpha=0.3)
+    for a in axes.flat[len(names):]:
+        a.set_visible(False)
     axes.flat[0].legend(fontsize=7)
-    fig.suptitle(title or f"Monte Carlo sensitivity: N = {result.n}, t = {result.t:g}, ε = {result.eps:g}, "
-                 f"seed {result.seed}")
-    fig.tight_layout()
+    suptitle(fig, ax, title or f"Monte Carlo sensitivity: N = {result.n}, t = {result.t:g}, ε = {result.eps:g}, "
+                               f"seed {result.seed}")
+    finish(fig, ax)
     return fig
 
 
-def plot_sobol_speed(result, title: str | None = None):
+def plot_sobol_speed(result, title: str | None = None, ax=None):
     """Sobol indices of b_lim against spindle speed: the nominal SLD on top, total-order indices
     (solid, with confidence band) and first-order indices (dashed) per parameter below; a bar chart
     of the indices of the MSE and the envelope minimum on the right."""
-    fig = plt.figure(figsize=(12, 6.5))
-    gs = fig.add_gridspec(2, 2, width_ratios=(3, 1), height_ratios=(1, 2))
+    fig, gs = grid(ax, 2, 2, figsize=(12, 6.5), width_ratios=(3, 1), height_ratios=(1, 2))
     ax0 = fig.add_subplot(gs[0, 0])
     ax1 = fig.add_subplot(gs[1, 0], sharex=ax0)
     axb = fig.add_subplot(gs[:, 1])
@@ -126,29 +127,29 @@ def plot_sobol_speed(result, title: str | None = None):
     axb.set_title("SLD MSE and envelope minimum", fontsize=9)
     axb.legend(fontsize=7)
     axb.grid(alpha=0.3, axis="y")
-    fig.suptitle(title or f"Sobol indices (N = {result.n}, {result.n * (len(result.names) + 2)} structures, "
-                 f"{100 * result.conf_level:g} % CI, {result.engine})")
-    fig.tight_layout()
+    suptitle(fig, ax, title or f"Sobol indices (N = {result.n}, {result.n * (len(result.names) + 2)} structures, "
+                               f"{100 * result.conf_level:g} % CI, {result.engine})")
+    finish(fig, ax)
     return fig
 
 
-def plot_morris(result, title: str | None = None):
+def plot_morris(result, title: str | None = None, ax=None):
     """Morris screening: σ against μ* (with μ*'s confidence half-width) for the MSE [mm²] and the
     envelope minimum [mm], each parameter labelled."""
     outs = list(result.outputs)
-    fig, axes = plt.subplots(1, len(outs), figsize=(5.5 * len(outs), 4.5), squeeze=False)
+    fig, axes = panels(ax, 1, len(outs), figsize=(5.5 * len(outs), 4.5), squeeze=False)
     units = {"mse": "mm²", "minimum": "mm"}
-    for ax, o in zip(axes.flat, outs):
+    for a, o in zip(axes.flat, outs):
         d = result.outputs[o]
-        ax.errorbar(d["mu_star"], d["sigma"], xerr=d["mu_star_conf"], fmt="o", capsize=3)
+        a.errorbar(d["mu_star"], d["sigma"], xerr=d["mu_star_conf"], fmt="o", capsize=3)
         for j, name in enumerate(result.names):
-            ax.annotate(_tex(name), (d["mu_star"][j], d["sigma"][j]), textcoords="offset points", xytext=(4, 4))
-        ax.set_xlabel(f"μ* [{units.get(o, '')}]")
-        ax.set_ylabel(f"σ [{units.get(o, '')}]")
-        ax.set_title("SLD MSE vs nominal" if o == "mse" else "envelope minimum")
-        ax.grid(alpha=0.3)
-    fig.suptitle(title or f"Morris screening: {result.trajectories} trajectories, {result.levels} levels")
-    fig.tight_layout()
+            a.annotate(_tex(name), (d["mu_star"][j], d["sigma"][j]), textcoords="offset points", xytext=(4, 4))
+        a.set_xlabel(f"μ* [{units.get(o, '')}]")
+        a.set_ylabel(f"σ [{units.get(o, '')}]")
+        a.set_title("SLD MSE vs nominal" if o == "mse" else "envelope minimum")
+        a.grid(alpha=0.3)
+    suptitle(fig, ax, title or f"Morris screening: {result.trajectories} trajectories, {result.levels} levels")
+    finish(fig, ax)
     return fig
 
 

@@ -10,36 +10,37 @@ _MARKERS = {"stable": ("o", "tab:green"), "chatter": ("x", "tab:red"), "marginal
             "": ("s", "k")}
 
 
-def plot_corner(samples: np.ndarray, names, units, truth: np.ndarray | None = None, max_points: int = 2000):
-    """Pair plot of posterior samples (N, P): histograms on the diagonal, scatter below it."""
-    import matplotlib.pyplot as plt
+def plot_corner(samples: np.ndarray, names, units, truth: np.ndarray | None = None, max_points: int = 2000, ax=None):
+    """Pair plot of posterior samples (N, P): histograms on the diagonal, scatter below it (in a new figure or
+    in ``ax``'s place)."""
+    from millstab.plot._layout import finish, panels
 
     p = samples.shape[1]
     scale = np.array([_SHOW.get(u, (1.0, u))[0] for u in units])
     s = samples * scale
     sub = s[:: max(1, s.shape[0] // max_points)]
-    fig, axes = plt.subplots(p, p, figsize=(1.9 * p + 1, 1.9 * p + 1), squeeze=False)
+    fig, axes = panels(ax, p, p, figsize=(1.9 * p + 1, 1.9 * p + 1), squeeze=False)
     for i in range(p):
         for j in range(p):
-            ax = axes[i, j]
+            a = axes[i, j]
             if j > i:
-                ax.set_visible(False)
+                a.set_visible(False)
                 continue
             if i == j:
-                ax.hist(s[:, i], bins=40, color="0.4")
-                ax.set_yticks([])
+                a.hist(s[:, i], bins=40, color="0.4")
+                a.set_yticks([])
             else:
-                ax.plot(sub[:, j], sub[:, i], ".", ms=1.5, alpha=0.4, color="tab:blue")
+                a.plot(sub[:, j], sub[:, i], ".", ms=1.5, alpha=0.4, color="tab:blue")
                 if truth is not None:
-                    ax.plot(truth[j] * scale[j], truth[i] * scale[i], "r+", ms=10)
+                    a.plot(truth[j] * scale[j], truth[i] * scale[i], "r+", ms=10)
             if truth is not None and i == j:
-                ax.axvline(truth[i] * scale[i], color="r", lw=1)
+                a.axvline(truth[i] * scale[i], color="r", lw=1)
             if i == p - 1:
-                ax.set_xlabel(f"{names[j]} [{_SHOW.get(units[j], (1, units[j]))[1]}]".replace(" []", ""), fontsize=8)
+                a.set_xlabel(f"{names[j]} [{_SHOW.get(units[j], (1, units[j]))[1]}]".replace(" []", ""), fontsize=8)
             if j == 0 and i > 0:
-                ax.set_ylabel(f"{names[i]} [{_SHOW.get(units[i], (1, units[i]))[1]}]".replace(" []", ""), fontsize=8)
-            ax.tick_params(labelsize=6)
-    fig.tight_layout()
+                a.set_ylabel(f"{names[i]} [{_SHOW.get(units[i], (1, units[i]))[1]}]".replace(" []", ""), fontsize=8)
+            a.tick_params(labelsize=6)
+    finish(fig, ax)
     return fig
 
 

@@ -35,7 +35,7 @@ def virtual_campaign(ctx) -> None:
     from millstab.plot.update import plot_campaign
     from millstab.stability import get_engine
     from millstab.update import make_prior, p_stable_map
-    from millstab.update.campaign import run_campaign
+    from millstab.update.campaign import CampaignOptions, run_campaign
 
     rep = ctx.report
     cfg = load_config("example:ex1")
@@ -57,8 +57,9 @@ def virtual_campaign(ctx) -> None:
     g_rpm, g_depth = np.linspace(*RPM, 61), np.linspace(0.05, MAX_DEPTH_MM, 40)
     grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
     n = SAMPLES[ctx.quick]
-    camp = run_campaign(cfg, prior, truth, labeler, cuts=CUTS, samples=n, risk=RISK, rpm_range=RPM,
-                        max_depth_mm=MAX_DEPTH_MM, seed=int(rng.integers(2**31)), keep=SHOWN, truth_grid=grid)
+    opts = CampaignOptions(cuts=CUTS, samples=n, risk=RISK, rpm_range=RPM, max_depth_mm=MAX_DEPTH_MM,
+                           seed=int(rng.integers(2**31)), keep=SHOWN)
+    camp = run_campaign(cfg, prior, truth, labeler, opts, truth_grid=grid)
     # the hammer test alone: the most productive point 5 % below its own SLD
     fine = np.linspace(*RPM, 361)
     b_ham = zoa.envelope(cfg.structure, cfg.cutting, fine).depth_mm

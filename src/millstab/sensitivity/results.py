@@ -81,6 +81,12 @@ class OATResult:
                 "speeds": _speeds(self.rpm), "depth_ref_mm": self.depth_ref_mm,
                 "mse_mm2": {n: self.mse_mm2[j] for j, n in enumerate(self.names)}}
 
+    def figure(self, ax=None, *, title: str | None = None):
+        """Its figure (:func:`millstab.plot.sensitivity.plot_oat`), into ``ax``'s place or a new figure."""
+        from millstab.plot.sensitivity import plot_oat
+
+        return plot_oat(self, title=title, ax=ax)
+
     def to_json(self) -> dict[str, Any]:
         """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.oat/1"``.
 
@@ -189,6 +195,12 @@ class MCResult:
             out["paper_ratios"] = pr
         return out
 
+    def figure(self, ax=None, *, paper: dict | None = None, title: str | None = None):
+        """Its figure (:func:`millstab.plot.sensitivity.plot_mc_convergence`), into ``ax``'s place or a new figure."""
+        from millstab.plot.sensitivity import plot_mc_convergence
+
+        return plot_mc_convergence(self, paper=paper, title=title, ax=ax)
+
     def to_json(self, paper: dict[str, dict[str, float]] | None = None, paths: bool = True) -> dict[str, Any]:
         """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.mc/1"`` and, with
         ``paths``, every path's MSE, ``paths: {"mse_mm2": {name: [n values]}}`` [mm²] (so that :meth:`from_json`
@@ -264,6 +276,12 @@ class SobolResult:
                 "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
                 "blim": per_name(self.blim)}
 
+    def figure(self, ax=None, *, title: str | None = None):
+        """Its figure (:func:`millstab.plot.sensitivity.plot_sobol_speed`), into ``ax``'s place or a new figure."""
+        from millstab.plot.sensitivity import plot_sobol_speed
+
+        return plot_sobol_speed(self, title=title, ax=ax)
+
     def to_json(self) -> dict[str, Any]:
         """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.sobol/1"`` (an index
         may be ``null``: not defined, e.g. for an output that does not vary).
@@ -315,6 +333,12 @@ class MorrisResult:
                 "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
                 "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
                             for o, d in self.outputs.items()}}
+
+    def figure(self, ax=None, *, title: str | None = None):
+        """Its figure (:func:`millstab.plot.sensitivity.plot_morris`), into ``ax``'s place or a new figure."""
+        from millstab.plot.sensitivity import plot_morris
+
+        return plot_morris(self, title=title, ax=ax)
 
     def to_json(self) -> dict[str, Any]:
         """:meth:`to_dict` in plain JSON types with ``"schema": "millstab.sensitivity.morris/1"`` (a

@@ -7,7 +7,8 @@ The folder::
                               recommendations and the event log, each pointing at its file
     config.toml               the current config (that of the newest posterior): `millstab update` reads it
     configs/0001.toml ...     every config text the campaign used, as recorded
-    cuts.csv                  every cut in order, the points CSV (`millstab update config.toml cuts.csv`)
+    cuts.csv                  every cut in order, the points CSV (`millstab update config.toml cuts.csv`), with
+                              the condition columns and stickout_mm of cuts that have their own
     cuts_meta.csv             per cut row: seq, grade, batch, rater, recording, the posterior file that first
                               used it, created_at, created_by
     posteriors/0001.json ...  each posterior, the file `millstab update --out` writes (map/recommend read it)
@@ -134,6 +135,9 @@ def read_campaign(folder) -> dict:
     cuts = read_points(src / "cuts.csv") if meta else PointSet(np.zeros(0), np.zeros(0))
     if len(meta) != len(cuts):
         raise InputError("cuts_meta.csv", f"{len(meta)} rows", f"need one per row of cuts.csv ({len(cuts)})")
+    from millstab.shopdb.store import SETTINGS, cut_settings
+
+    own = cut_settings(cuts)  # each cut's own condition and stickout: the columns of cuts.csv
     rows = []
     for i, x in enumerate(meta):
         grade = float(x["grade"]) if x["grade"] else None
@@ -142,7 +146,8 @@ def read_campaign(folder) -> dict:
                      "chatter_hz": None if math.isnan(cuts.chatter_hz[i]) else float(cuts.chatter_hz[i]),
                      "batch": x["batch"], "rater": x["rater"], "recording": x["recording"],
                      "posterior": _index(pfiles, x["posterior"] or None, f"cuts_meta.csv row {i + 1} posterior"),
-                     "created_at": x["created_at"], "created_by": x["created_by"]})
+                     "created_at": x["created_at"], "created_by": x["created_by"],
+                     **{k: own[i].get(k) for k in SETTINGS}})
     events = [{k: e[k] for k in ("at", "user", "action", "detail")}
               | {"posterior": _index(pfiles, e.get("posterior"), "event posterior"),
                  "recommendation": _index(rfiles, e.get("recommendation"), "event recommendation")} for e in m["events"]]

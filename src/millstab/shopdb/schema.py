@@ -27,7 +27,7 @@ from sqlalchemy import (Column, Float, ForeignKey, Index, Integer, MetaData, Str
 from millstab.shopdb import DEFAULT_SHOP
 
 #: the newest migration; a database at this revision is opened without running Alembic (fast path)
-HEAD = "0002"
+HEAD = "0003"
 
 NAMING = {"ix": "ix_%(column_0_label)s", "uq": "uq_%(table_name)s_%(column_0_name)s",
           "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s", "pk": "pk_%(table_name)s"}
@@ -117,6 +117,15 @@ cut = Table(
     Column("posterior_id", Integer, ForeignKey("posterior.id"), nullable=True),  # the update that brought it
     Column("created_at", TIME, nullable=False),
     Column("created_by", USER, nullable=False),
+    # the cut's own condition and stickout (migration 0003): NULL = the config's value (an empty cell)
+    Column("radial_immersion", Float, nullable=True),  # a/D in (0, 1]
+    Column("radial_width_mm", Float, nullable=True),  # radial width [mm] (with the config's tool diameter)
+    Column("milling", String(8), nullable=True),  # up | down
+    Column("entry_deg", Float, nullable=True),  # entry and exit angles [deg], given together
+    Column("exit_deg", Float, nullable=True),
+    Column("feed_per_tooth_mm", Float, nullable=True),  # feed per tooth [mm]
+    Column("teeth", Integer, nullable=True),
+    Column("stickout_mm", Float, nullable=True),  # tool stickout, holder face to tip [mm]
     UniqueConstraint("campaign_id", "seq", name="uq_cut_campaign_seq"),
 )
 

@@ -43,7 +43,8 @@ from sqlalchemy import exc as sa_exc
 
 from millstab.errors import InputError
 from millstab.io.results import to_jsonable
-from millstab.points import PointSet
+from millstab.io.stickout import COLUMN as STICKOUT
+from millstab.points import CONDITION_COLUMNS, PointSet
 from millstab.shopdb import check_shop
 from millstab.shopdb import schema as T
 
@@ -100,9 +101,42 @@ def code_version() -> str:
 def data_hash(config_toml: str, cuts: PointSet) -> str:
     """sha256 of the config text and the cut rows (exact floats): the data a posterior came from."""
     h = hashlib.sha256(config_toml.encode("utf-8"))
-    for r, d, lab, w, hz, g in zip(cuts.rpm, cuts.depth_mm, cuts.label, cuts.weight, cuts.chatter_hz, cuts.grade):
+    own = cut_settings(cuts)
+    for i, (r, d, lab, w, hz, g) in enumerate(zip(cuts.rpm, cuts.depth_mm, cuts.label, cuts.weight, cuts.chatter_hz,
+                                                 cuts.grade)):
         h.update(f"\n{float(r)!r},{float(d)!r},{lab},{float(w)!r},{float(hz)!r},{float(g)!r}".encode())
+        if own[i]:  # a cut's own condition or stickout (cuts in the config's hash as before migration 0003)
+            h.update(json.dumps(own[i], sort_keys=True).encode())
     return h.hexdigest()
+
+
+#: the cut table's columns of a cut's own condition and stickout (migration 0003): NULL = the config's value
+SETTINGS = CONDITION_COLUMNS + (STICKOUT,)
+
+
+def cut_settings(cuts: PointSet) -> list[dict]:
+    """Per cut, its own condition and stickout as cut-table values: ``{column: value}`` of its non-empty
+    condition cells (:data:`millstab.points.CONDITION_COLUMNS`) and ``stickout_mm`` cell (mm as written);
+    ``{}`` for a cut in the config's condition and stickout.
+
+    Raises:
+        InputError: a stickout cell that is not a number of mm (:func:`millstab.io.stickout.stickouts_mm`).
+    """
+    from millstab.io.stickout import stickouts_mm
+
+    cols = dict(cuts.conditions)
+    so = stickouts_mm(cuts)
+    if so is not None:
+        cols[STICKOUT] = so
+    out: list[dict] = [{} for _ in range(len(cuts))]
+    for name, col in cols.items():
+        for i, v in enumerate(col):
+            if name == "milling":
+                if v:
+                    out[i][name] = str(v)
+            elif not math.isnan(v):
+                out[i][name] = int(v) if name == "teeth" else float(v)
+    return out
 
 
 def _float_or_none(x: float) -> float | None:
@@ -378,12 +412,14 @@ class Store:
         for field, seq in (("raters", raters), ("recordings", recordings)):
             if seq is not None and len(seq) != n:
                 raise InputError(field, f"{len(seq)} values", f"need one per cut ({n})")
+        own = cut_settings(cuts)
         return [{"campaign_id": cid, "seq": first_seq + i, "rpm": float(cuts.rpm[i]), "depth_mm": float(cuts.depth_mm[i]),
                  "label": str(cuts.label[i]), "grade": _float_or_none(cuts.grade[i]), "weight": float(cuts.weight[i]),
                  "chatter_hz": _float_or_none(cuts.chatter_hz[i]), "batch": str(cuts.batch[i]),
                  "rater": str(raters[i]) if raters is not None else "",
                  "recording": str(recordings[i]) if recordings is not None else "",
-                 "posterior_id": posterior_id, "created_at": at, "created_by": user} for i in range(n)]
+                 "posterior_id": posterior_id, "created_at": at, "created_by": user,
+                 **{k: own[i].get(k) for k in SETTINGS}} for i in range(n)]
 
     def _check_head(self, conn: sa.Connection, name: str, expected_head: int | None, expected_rows: int) -> Head | None:
         """The campaign's head, locked; :class:`StaleError` when it is not the one the caller started from."""
@@ -692,11 +728,26 @@ class Store:
 
 
 def cuts_from_rows(rows: Sequence[dict]) -> PointSet:
-    """A :class:`PointSet` of cut rows as :meth:`Store.cut_rows` returns them (NULL → NaN)."""
+    """A :class:`PointSet` of cut rows as :meth:`Store.cut_rows` returns them (NULL → NaN): the cuts file as
+    it was given, with the condition columns (``conditions``) and the ``stickout_mm`` column (``extra``, mm as
+    exact text) of the cuts that have their own; a column no cut fills is left out, as a file without it."""
+    conditions, extra = {}, {}
+    for name in SETTINGS:
+        col = [r.get(name) for r in rows]  # rows of an export from before migration 0003 have none
+        if all(v is None for v in col):
+            continue
+        if name == "milling":
+            conditions[name] = np.array([v or "" for v in col], dtype=object)
+        elif name == STICKOUT:
+            from millstab.io.stickout import stickout_cells
+
+            extra[name] = stickout_cells([_nan(v) for v in col])
+        else:
+            conditions[name] = np.array([_nan(v) for v in col], dtype=float)
     return PointSet(np.array([r["rpm"] for r in rows], float), np.array([r["depth_mm"] for r in rows], float),
                     np.array([r["label"] for r in rows], dtype=object), np.array([r["weight"] for r in rows], float),
                     None, np.array([_nan(r["chatter_hz"]) for r in rows]), np.array([_nan(r["grade"]) for r in rows]),
-                    np.array([r["batch"] for r in rows], dtype=object))
+                    np.array([r["batch"] for r in rows], dtype=object), extra=extra, conditions=conditions)
 
 
 # -- SQLite connection setup ---------------------------------------------------------------------------------
@@ -788,5 +839,5 @@ def migrate(store: Store) -> None:
         command.upgrade(alembic_config(conn), "head")
 
 
-__all__ = ["BUSY_TIMEOUT_S", "Event", "Head", "MAX_HISTORY", "Snapshot", "StaleError", "Store", "alembic_config", "code_version",
-           "cuts_from_rows", "data_hash", "default_user", "json_text", "migrate", "now", "schema_revision"]
+__all__ = ["BUSY_TIMEOUT_S", "Event", "Head", "MAX_HISTORY", "SETTINGS", "Snapshot", "StaleError", "Store", "alembic_config",
+           "code_version", "cut_settings", "cuts_from_rows", "data_hash", "default_user", "json_text", "migrate", "now", "schema_revision"]

@@ -148,6 +148,9 @@ class Engine(Protocol):
             asks once per speed list and passes them to every call, so the depths of one problem are
             one smooth function of the parameters (finite differences, least squares); an engine that
             chose its discretisation per call could change it between the calls of one search.
+            It may take ``purpose=`` (``"fit"``, the default, or ``"sample"``: a sampler comparing the
+            depths with a depth noise, which may need a coarser discretisation); :class:`Forward` passes
+            it only when not ``"fit"``.
     """
 
     name: str

@@ -91,6 +91,17 @@ depths below the root at every speed, each a monodromy (~40 % of an evaluation n
 certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
 is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
 needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
+A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
+converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
+asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of
+several %. Measured (benchmarks/bench_spectral_nodes.py, 100 prior samples × 10 cut speeds of the
+docs/updating.md case, a reference 4 nodes above the fit's 8): 6 nodes within 0.16 % of the depth (0.031
+σ_b) at 0.6× the fit count's CPU; 4 nodes land on another root at 6.6 % of the pairs (hence the start at 6).
+Measured and not kept (same day, 20 prior samples × 10 cut speeds, 4 227 ladder rungs below the root):
+certifying a rung stable without its eigenvalues by a Lyapunov matrix P of another rung (P − MᵀPM ≻ 0 by
+one Cholesky, on the balanced monodromy; unbalanced, no rung is certified: ‖P‖ ~ 3e7): the previous
+rung's P certifies 68 % of the rungs, a P kept until it fails 51 %; but each P is a Lyapunov solve
+(a Schur form, dearer than the eigenvalues), so neither scheme saves work.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
@@ -417,11 +428,11 @@ def _check_speeds(n_s: int) -> np.ndarray:
     return np.unique([0, n_s // 2, n_s - 1])
 
 
-def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray) -> int:
+def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p0: int = P_NODES) -> int:
     """The convergence check: nodes per element for set 0 of ``batch`` at ascending speeds rs (b_ref its
     zero-order depths (B, S) [m]). Set 0's boundary points at the check speeds are moved by Newton to
-    p + P_STEP nodes; while one moves by more than TOL (or Newton fails), p grows by P_STEP."""
-    p = P_NODES
+    p + P_STEP nodes; while one moves by more than TOL (or Newton fails), p grows by P_STEP (from p0)."""
+    p = p0
     idx = _check_speeds(rs.size)
     sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     # each check speed is its own block: they are far apart, continuation between them only fails
@@ -571,8 +582,17 @@ depth_accuracy = RTOL
 CALL_ROWS = 16_384
 
 
+#: what a problem's :func:`settings` asks of the node count: ``"fit"`` the converged count + P_STEP (a search
+#: over a box of parameters differentiates the depths, see :func:`settings`); ``"sample"`` the converged
+#: count, checked from P_NODES + P_STEP up (a sampler compares depths with a depth noise of several %:
+#: measured on the docs/updating.md case, 100 prior samples × 10 cut speeds,
+#: benchmarks/bench_spectral_nodes.py, the converged count's depths are within 0.16 % (0.03 σ_b) of a
+#: reference with 6 more nodes, at 0.6× the CPU time of the "fit" count)
+PURPOSES = ("fit", "sample")
+
+
 @by_condition
-def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
+def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> dict:
     """The discretisation for a whole problem (optional contract capability, see
     :class:`millstab.stability.base.Engine`): ``{"nodes": p + P_STEP}``, p the node count the convergence
     check settles on for set 0 of ``batch`` at speeds ``rpm`` [rpm] (p + P_STEP its reference), to pass to every later
@@ -580,14 +600,23 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm) -> dict:
     (a per-call check can change p between calls, a jump of up to TOL); and ``"near": 0``: the ladder refined
     only in its unstable step, because narrow bands found by the refinement near ρ = 1 appear and vanish as
     the parameters move (measured: the identification benchmark then ended in a wrong basin, module
-    docstring); the depth of each speed still does not depend on the other speeds."""
+    docstring); the depth of each speed still does not depend on the other speeds. ``purpose`` ``"sample"``
+    (:data:`PURPOSES`): the converged count itself, for a sampler whose likelihood compares depths with a
+    depth noise of several % (the updating loop), never below P_NODES + P_STEP."""
+    if purpose not in PURPOSES:
+        raise InputError("purpose", purpose, "one of " + ", ".join(PURPOSES))
     _require_modal_batch(batch)
     rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
     first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     # the finer of the two discretisations the check compared: a whole search moves the parameters, and
     # p converged at set 0 alone was measured too coarse elsewhere in the box (Example 1 at a/D = 0.1:
     # 4 at the start, 6 at the truth, 8 at fn × 1.2)
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP, "near": 0.0}
+    if purpose == "fit":
+        return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs)) + P_STEP, "near": 0.0}
+    # the check starts one step up: P_NODES nodes for every prior sample landed on another root (> 1 % off)
+    # at 6.6 % of the (sample, speed) pairs (bench_spectral_nodes.py), and a first row can pass the check
+    # at P_NODES (Example 1's identification start did)
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0}
 
 
 def _require_modal_batch(batch) -> None:

@@ -108,29 +108,77 @@ def brier_score(post: Posterior, truth_grid: tuple[np.ndarray, np.ndarray, np.nd
     return float(((p_stable_map(post, rpm, depth) - stable) ** 2).mean())
 
 
-def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, *, cuts: int = 10, samples: int = 1000,
-                 risk: float = 0.05, rpm_range: tuple[float, float] = (5000.0, 12000.0), max_depth_mm: float = 8.0,
-                 seed: int = 0, engine: str = "zoa", reuse: bool = True, keep: tuple[int, ...] = (),
-                 truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None, best_speeds: int = 361,
-                 progress: Callable[[int], None] | None = None, decision: dict | None = None) -> Campaign:
-    """Play one virtual campaign of ``cuts`` test cuts (see the module docstring).
+@dataclass(frozen=True)
+class CampaignOptions:
+    """The settings of one virtual campaign (:func:`run_campaign`), checked when built: a setting out of
+    range is an InputError naming it. ``run_campaign(..., options=CampaignOptions(cuts=5))`` and
+    ``run_campaign(..., cuts=5)`` are the same call (the keywords replace fields of ``options``).
+
+    Attributes:
+        cuts: test cuts (≥ 1); samples: posterior samples per update (≥ 2); risk: tolerated P(chatter), in (0, 1).
+        rpm_range, max_depth_mm: the constraints of the recommendation [rpm] (0 < low < high), [mm] (> 0).
+        seed: seed of everything random in the campaign.
+        engine: the engine of the updates and decisions.
+        reuse: start each update from the previous posterior (else a fresh update each time).
+        keep: after which numbers of cuts to keep the posterior (for maps).
+        best_speeds: speeds of the grid on which the best truly stable cut is sought (≥ 2; a slow truth: fewer).
+        decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,
+            ``guard``), or ``None``.
+    """
+
+    cuts: int = 10
+    samples: int = 1000
+    risk: float = 0.05
+    rpm_range: tuple[float, float] = (5000.0, 12000.0)
+    max_depth_mm: float = 8.0
+    seed: int = 0
+    engine: str = "zoa"
+    reuse: bool = True
+    keep: tuple[int, ...] = ()
+    best_speeds: int = 361
+    decision: dict | None = None
+
+    def __post_init__(self) -> None:
+        from millstab.bounds import seed as check_seed
+        from millstab.errors import InputError
+
+        for name, low in (("cuts", 1), ("samples", 2), ("best_speeds", 2)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+                raise InputError(name, v, f"a whole number ≥ {low}")
+        if not 0 < self.risk < 1:
+            raise InputError("risk", self.risk, "a probability of chatter in (0, 1)")
+        lo, hi = self.rpm_range
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+            raise InputError("rpm_range", self.rpm_range, "(low, high) speeds in rev/min with 0 < low < high")
+        if not (np.isfinite(self.max_depth_mm) and self.max_depth_mm > 0):
+            raise InputError("max_depth_mm", self.max_depth_mm, "a depth limit > 0 mm")
+        check_seed(self.seed, "seed")
+        object.__setattr__(self, "keep", tuple(int(k) for k in self.keep))
+
+
+def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: CampaignOptions | None = None, *,
+                 truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 progress: Callable[[int], None] | None = None, **settings) -> Campaign:
+    """Play one virtual campaign of ``options.cuts`` test cuts (see the module docstring).
 
     Args:
         config: the config whose structure is the prior (passed to :func:`update`).
         prior: the prior (usually ``make_prior`` of the config).
         truth: the true limit [mm] at speeds [rpm] (judges the recommendations).
         labeler: labels of the cuts made (may differ from ``truth``: label noise, another model).
-        cuts: test cuts; samples: posterior samples per update; risk: tolerated P(chatter).
-        rpm_range, max_depth_mm: the constraints of the recommendation [rpm], [mm].
-        seed: seed of everything random in the campaign.
-        engine: the engine of the updates and decisions.
-        reuse: start each update from the previous posterior (else a fresh update each time).
-        keep: after which numbers of cuts to keep the posterior (for maps).
+        options: the campaign's settings (:class:`CampaignOptions`); keywords named as its fields
+            (``cuts=``, ``samples=``, …) replace them.
         truth_grid: (rpm (S,), depth (D,), stable (S, D) bool) to score maps on after each cut, or ``None``.
-        best_speeds: speeds of the grid on which the best truly stable cut is sought (a slow truth: fewer).
-        decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,
-            ``guard``).
+        progress: called with k after the recommendation that follows k cuts.
+    Raises:
+        InputError: a setting out of range (named); TypeError: a keyword that is no setting.
     """
+    from millstab.identify.search import options_with
+
+    o = options_with(options, CampaignOptions, settings, "run_campaign")
+    cuts, samples, risk, rpm_range, max_depth_mm = o.cuts, o.samples, o.risk, o.rpm_range, o.max_depth_mm
+    seed, engine, reuse, keep, best_speeds, decision = o.seed, o.engine, o.reuse, o.keep, o.best_speeds, o.decision
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
     tol = (decision or {}).get("speed_tolerance", SPEED_TOLERANCE)
@@ -202,4 +250,5 @@ def coverage(post: Posterior, theta: np.ndarray, level: float = 0.90) -> np.ndar
     return (q_lo <= truth) & (truth <= q_hi)
 
 
-__all__ = ["Campaign", "Labeler", "Truth", "best_productivity", "brier_score", "coverage", "run_campaign"]
+__all__ = ["Campaign", "CampaignOptions", "Labeler", "Truth", "best_productivity", "brier_score", "coverage",
+           "run_campaign"]

@@ -161,6 +161,25 @@ class Recommendation:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.recommendation/1"
 
+    def summary(self) -> str:
+        """What ``millstab recommend`` prints: the cut (rpm, mm, P(chatter) against the risk, what limits it, the
+        removal rate), how it is held against a speed error and the sampling error, a binding data guard, and
+        the next test."""
+        mrr = f", {self.mrr_cm3_per_min:.4g} cm³/min" if self.mrr_cm3_per_min is not None else ""
+        lines = [f"recommended: {self.rpm:.0f} rpm, {self.depth_mm:.3f} mm (P(chatter) {self.p_chatter:.3f} ≤ "
+                 f"{self.risk:g}, limited by {self.limited_by}{mrr})"]
+        if self.p_chatter_bound is not None:
+            lines.append(f"  held at ±{100 * self.speed_tolerance:g} % speed error (P(chatter) ≤ "
+                         f"{self.p_chatter_speed_error:.3f}) and against the sampling error: "
+                         f"{self.confidence:.0%} upper bound {self.p_chatter_bound:.3f} from "
+                         f"{self.effective_samples:.0f} effective samples")
+        lines += [f"  data guard: held below {g['cap_mm']:.3g} mm within ±{g['half_width_rpm']:.0f} rpm of a cut "
+                  f"labelled chatter at {g['rpm']:.0f} rpm, {g['depth_mm']:.3g} mm" for g in self.guard if g["binding"]]
+        nt = self.next_test
+        lines.append(f"next test: {nt['rpm']:.0f} rpm, {nt['depth_mm']:.3f} mm (P(chatter) {nt['p_chatter']:.2f}; "
+                     f"{nt['why']})")
+        return "\n".join(lines)
+
     def to_json(self) -> dict:
         """The JSON of ``millstab recommend --out`` (rpm, mm, cm³/min)."""
         out = {"schema": self.SCHEMA, "rpm": self.rpm, "depth_mm": self.depth_mm,

@@ -67,7 +67,7 @@ import numpy as np
 from scipy.special import log_ndtr
 
 from millstab.errors import InputError
-from millstab.forward import forward
+from millstab.forward import Forward, forward
 from millstab.model import Conditions, Cutting, condition_index
 from millstab.points import PointSet, cut_conditions, same_condition
 from millstab.stability import check_rpm, get_engine, per_set_kr
@@ -76,11 +76,19 @@ from millstab.update.prior import Prior
 from millstab.warnlog import warn
 
 _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
+#: the engines' discretisation for the updating loop and its decisions (:class:`millstab.forward.Forward`'s
+#: ``purpose``): the likelihood compares limits with a depth noise σ_b of several %, so the spectral engine's
+#: converged node count serves (issue 28; measured within 0.03 σ_b of a reference 6 nodes finer on 100 prior
+#: samples, 1.6× cheaper per depth than a fit's count, benchmarks/bench_spectral_nodes.py; the 300-sample
+#: update of docs/updating.md 1.34× less CPU with 300 samples, 1.12× with 1 000, the posterior means within
+#: 0.022 sd)
+SAMPLING = "sample"
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
            with_freq: bool = False, client=None,
-           conditions: Conditions | Cutting | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+           conditions: Conditions | Cutting | None = None,
+           fwd: Forward | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
@@ -88,28 +96,44 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     Kt scales the depths exactly and a free Kr goes to the engine per sample (see
     :mod:`millstab.update.prior`). ``inf`` where no boundary exists. Frequencies come only from an engine
     declaring ``reports_chatter_frequency`` (else ``None``). ``client``: a ``distributed.Client``; the
-    rows go to its cluster where that pays (same numbers).
+    rows go to its cluster where that pays (same numbers). ``fwd``: the forward model of ``prior`` and
+    ``engine`` whose discretisation to use (``purpose`` :data:`SAMPLING`; a :class:`Likelihood` holds one, so
+    the engine's settings are chosen once per speed list for a whole update); default a fresh one. Either
+    way the settings are chosen at the parameterization's θ0 (the prior median's structure), not at a
+    sample: the same numbers whichever samples share a call.
     """
+    pin = pinned_model(prior, u, rpm, engine, conditions, fwd)
+    check_kr_engine(prior, engine)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
-        check_kr_engine(prior, engine)
-        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin)
         if out is not None:
             return out
-    kr = prior.kr_of(u)
+    return sample_depths(pin, prior, u, with_freq)
+
+
+def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
+                 conditions: Conditions | Cutting | None = None, fwd: Forward | None = None):
+    """The one evaluator of :func:`limits` for the samples u = ln θ: ``fwd`` (default a fresh model, ``purpose``
+    :data:`SAMPLING`) pinned on their rows (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen
+    at θ0 (spectral; cached in ``fwd``) or from the rows (sdm's steps); what a cluster's tasks get too."""
+    fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
+    r = check_rpm(rpm)
+    fwd.settings(r, None, conditions)  # chosen at θ0 (cached: the pinned model takes it)
+    return fwd.pinned(r, prior.split(u)[0], conditions)
+
+
+def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
+    ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr per row; here and in a cluster's task
+    (:func:`millstab.cluster.sample_limits`)."""
     theta, factor = prior.split(u)
-    rpm = check_rpm(rpm)
-    eng = check_kr_engine(prior, engine)
-    fwd = forward(prior.par, prior.cutting, engine)
-    cut = prior.cutting if conditions is None else conditions
-    extra = {} if kr is None else {"kr": kr}
-    if with_freq and eng.reports_chatter_frequency:
-        # the discretisation the depths-only path would get (Forward's settings), so both agree
-        depth, hz = eng.envelope_batch_hz(prior.par.batch(theta), cut, rpm, **fwd.settings(rpm, theta[0], conditions),
-                                          **extra)
+    kr = prior.kr_of(u)
+    if with_freq and pin.reports_frequency:
+        depth, hz = pin.with_frequency(theta, kr)
     else:
-        depth, hz = fwd(theta, rpm, conditions, kr), None
+        depth, hz = pin(theta, kr), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -390,6 +414,11 @@ class Likelihood:
         self.batch = BatchEffect.of(prior, ev, self._ic, self._ip)
         if self.batch is not None:
             self._ic, self._ip = self.batch.ic, self.batch.ip
+        # one forward model per group, held for the whole update: the engine's discretisation is chosen once
+        # per speed list (at θ0, :func:`limits`), so log L is one function of θ in every call (before, the first
+        # row of each call chose, and the spectral engine's node count moved between calls: the same θ got
+        # depths up to 0.11 % apart, tests/test_spectral_sampling.py)
+        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING) for p, _ in self._groups]
         self.n_calls = 0
         self.n_sets = 0
 
@@ -415,13 +444,13 @@ class Likelihood:
         where[cols] = np.arange(cols.size)
         depth = np.empty((u.shape[0], cols.size))
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
-        for (prior, group), cond in zip(self._groups, self._group_conditions):
+        for (prior, group), cond, fwd in zip(self._groups, self._group_conditions, self._forwards):
             sel = group if every else group[where[group] >= 0]
             if not sel.size:
                 continue
             if not every:
                 cond = self._conditions_of(self.column_cond[sel])
-            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond)
+            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond, fwd)
             self.n_calls += 1
             depth[:, where[sel]] = d
             if hz is not None and h is not None:

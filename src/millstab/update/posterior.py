@@ -223,6 +223,21 @@ class Posterior:
             return np.hstack([u, self.prior.noise_coordinates(*self._noise())])
         return np.hstack([u, self.prior.sample_noise(u.shape[0], rng or np.random.default_rng(0))])
 
+    def summary(self) -> str:
+        """One line: how the sampler got here (tempering stages, acceptance range, likelihood calls, time)."""
+        d = self.diagnostics
+        acc = d.get("acceptance") or [float("nan")]
+        return (f"{d.get('stages', '?')} tempering stages, acceptance {min(acc):.2f}-{max(acc):.2f}, "
+                f"{d.get('loglik_calls', '?')} likelihood calls, {d.get('time_s', float('nan')):.1f} s")
+
+    def figure(self, ax=None):
+        """The pair plot of the samples in the trade's units (:func:`millstab.plot.update.plot_corner`), into
+        ``ax``'s place or a new figure. (The P(stable) map is computed from the posterior first:
+        ``millstab.api.p_stable`` then ``map_figure``.)"""
+        from millstab.plot.update import plot_corner
+
+        return plot_corner(self.samples, self.names, self.prior.units(), ax=ax)
+
     def table(self) -> tuple[tuple[str, ...], tuple[list, ...]]:
         """(header, columns) of the posterior as the trade reads it (:data:`millstab.units.SHOWN`): per
         parameter of the main mode its prior median, mean, sd, 5 % and 95 % quantiles and unit, then the

@@ -134,6 +134,10 @@ def scores(p: np.ndarray, grade: np.ndarray) -> dict:
     return out
 
 
+#: how each fold scheme is named where a person reads it
+SCHEME_NAMES = {"random": "random folds", "speed": "leave one speed out", "batch": "leave one day (batch) out"}
+
+
 @dataclass
 class Validation:
     """The result of :func:`cross_validate`.
@@ -161,6 +165,22 @@ class Validation:
                                               "batch": self.cuts.batch.tolist()},
                 "folds": {s: f.tolist() for s, f in self.folds.items()},
                 "predictions": {s: {m: p.tolist() for m, p in d.items()} for s, d in self.predictions.items()}}
+
+    def score_tables(self) -> list[tuple[str, tuple[str, ...], list[tuple[str, ...]], str]]:
+        """What ``millstab validate`` prints, per scheme: (title, header, rows as text, caption); the rows are the
+        methods' pooled Brier (the lowest marked *), log loss, AUC and range of the per-fold Brier."""
+        out = []
+        caption = ("Brier against the graded label (lower is better); log loss and AUC against chatter (grade > 1/2), "
+                   "marginal cuts left out")
+        for s, rows in self.summary.items():
+            best = min(r["brier"] for r in rows.values())
+            text = [(m, f"{r['brier']:.4f}" + (" *" if r["brier"] <= best else ""), f"{r['log_loss']:.3f}",
+                     f"{r['auc']:.3f}", f"{min(r['fold_brier']):.3f}-{max(r['fold_brier']):.3f}")
+                    for m, r in rows.items()]
+            ref = rows["millstab"]
+            title = f"{SCHEME_NAMES.get(s, s)} ({len(ref['fold_brier'])} folds, {ref['n']} cuts)"
+            out.append((title, ("method", "Brier", "log loss", "AUC", "Brier per fold (min-max)"), text, caption))
+        return out
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the per-cut CSV: rpm, depth_mm, label, grade, batch, then per scheme its fold

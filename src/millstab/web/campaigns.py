@@ -18,6 +18,8 @@ from millstab.web.common import TextBox, error_html, esc, html_table
 
 #: history lines shown for an open campaign
 EVENTS = 15
+#: cut rows shown for an open campaign (the newest; a campaign is tens of cuts, a long one hundreds)
+CUTS_SHOWN = 200
 
 
 class CampaignPanel:
@@ -49,6 +51,7 @@ class CampaignPanel:
         self.status = TextBox("campaign-status", width=900, height=None)
         self.summary = TextBox("campaign-summary", width=900, height=None)
         self.history = TextBox("campaign-history", width=900, height=None)
+        self.cuts = TextBox("campaign-cuts", width=900, height=None)  # the cuts as recorded, conditions included
         self.open_button.on_click(lambda e: self.open(self.select.value))
         self.refresh_button.on_click(lambda e: self.refresh())
         self.create_button.on_click(lambda e: self.create())
@@ -138,6 +141,7 @@ class CampaignPanel:
         rows = [(e.at[:19].replace("T", " "), e.user, e.action, e.detail) for e in oc.events]
         left = "<style>table.ms-table.history td { text-align: left; }</style>"
         self.history.text = left + html_table(("at (UTC)", "user", "action", "detail"), rows, "history")
+        self.cuts.text = cuts_html(oc.rows)
 
     # --- writing ---------------------------------------------------------------------------------------
     def update_work(self, name: str, cfg, new, samples: int, seed: int, shop_name: str | None = None):
@@ -193,8 +197,22 @@ class CampaignPanel:
     def view(self):
         return pn.Card(self.header, pn.Row(self.select, self.open_button, self.refresh_button),
                        pn.Row(self.new_name, self.new_shop, self.create_button), self.record_button,
-                       self.status.view(), self.summary.view(), self.history.view(),
+                       self.status.view(), self.summary.view(), self.cuts.view(), self.history.view(),
                        title="Campaign (shop database)", collapsible=False, css_classes=["campaign-card"])
+
+
+def cuts_html(rows) -> str:
+    """The campaign's cuts as recorded (:func:`millstab.api.shop.cut_table`): each cut's own condition and
+    stickout in their columns, an empty cell where the cut was in the config's; the newest
+    :data:`CUTS_SHOWN` when there are more."""
+    if not rows:
+        return ""
+    header, body = shop.cut_table(rows[-CUTS_SHOWN:])
+    cells = [["" if v is None else f"{v:.6g}" if isinstance(v, float) else str(v) for v in r] for r in body]
+    more = (f'<div class="ms-note">the newest {CUTS_SHOWN} of {len(rows)} cuts</div>' if len(rows) > CUTS_SHOWN else "")
+    note = ('<div class="ms-note">an empty condition or stickout cell: the config\'s value</div>'
+            if set(header) & set(shop.OWN_COLUMNS) else "")
+    return f"<b>cuts</b>{more}" + html_table(header, cells, "cuts") + note
 
 
 def _where(url: str) -> str:

@@ -101,7 +101,8 @@ class LobesTab:
             with pn.io.unlocked():
                 self.fig.title.text = title
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.summary.text = computed_for(origin) + "<br>".join(esc(line) for line in result.summary()) + notes
+        shown = "<br>".join(esc(line) for line in result.summary().splitlines())
+        self.summary.text = computed_for(origin) + shown + notes
 
     def view(self):
         return pn.Column(pn.Row(self.engine, self.raw, self.job_box), self.error, self.summary.view(),

@@ -15,7 +15,7 @@ LAUNCH = {"executable_path": str(CHROMIUM), "args": ["--no-sandbox"]}
 
 
 @contextmanager
-def running_app(timeout: float = 60.0, host: str = "127.0.0.1", users: dict[str, str] | None = None,
+def running_app(timeout: float = 120.0, host: str = "127.0.0.1", users: dict[str, str] | None = None,
                 db: str | None = None, shops: dict[str, tuple[str, ...]] | None = None):
     """Serve the app on ``host`` (127.0.0.1) and a free port in a thread, with a login for ``users``
     ({name: hash}) if given, the shop database ``db`` and the users' ``shops``; yields the URL; stops the
@@ -26,7 +26,10 @@ def running_app(timeout: float = 60.0, host: str = "127.0.0.1", users: dict[str,
     t_end = time.monotonic() + timeout
     while True:
         try:
-            urllib.request.urlopen(url, timeout=5).read(100)  # noqa: S310 (our own local server)
+            # one request may wait for the rest of the time: each GET builds a new session, so short timeouts
+            # on a loaded machine only pile up sessions that never finish (seen at load 20: 60 s was not enough)
+            left = max(5.0, t_end - time.monotonic())
+            urllib.request.urlopen(url, timeout=left).read(100)  # noqa: S310 (our own local server)
             break
         except OSError:
             if time.monotonic() > t_end:

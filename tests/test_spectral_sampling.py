@@ -1,0 +1,90 @@
+"""The spectral engine's discretisation for a sampler (issue 28): the updating loop's likelihood compares
+limits with a depth noise σ_b of several %, so its forward model asks the engine's ``settings`` for the
+converged node count (``purpose="sample"``) instead of a fit's converged + 2. Checked: that count's depths
+against a reference 4 nodes finer on prior samples the count was not chosen at (within 0.2 % = 0.04 σ_b),
+the floor that keeps the check from settling on P_NODES (whose depths land on other roots), and that the
+likelihood and the decisions use it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from millstab.errors import InputError
+from millstab.forward import Forward
+from millstab.io import load_config
+from millstab.io.config import PriorTable
+from millstab.model import Cutting
+from millstab.stability import spectral
+from millstab.update import make_prior
+from millstab.update.likelihood import SAMPLING, limits
+
+RPM = np.array([5116.0, 6889.0, 8805.0, 10106.0, 11546.0])
+
+
+@pytest.fixture(scope="module")
+def case():
+    """Example 1 at a/D 0.1 down milling with the default prior (the docs/updating.md low-immersion case)."""
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=0.05))
+    theta, _ = prior.split(prior.sample_full(12, np.random.default_rng(1)))
+    return prior, cut, theta
+
+
+@pytest.mark.slow
+def test_the_sampling_node_count_is_within_a_fraction_of_the_depth_noise(case):
+    prior, cut, theta = case
+    head = prior.par.batch(theta[:1])
+    fit = spectral.settings(head, cut, RPM)
+    smp = spectral.settings(head, cut, RPM, purpose="sample")
+    assert smp["near"] == fit["near"] == 0.0
+    assert spectral.P_NODES + spectral.P_STEP <= smp["nodes"] <= fit["nodes"]
+    batch = prior.par.batch(theta)
+    got = spectral.envelope_batch(batch, cut, RPM, **smp)
+    ref = spectral.envelope_batch(batch, cut, RPM, nodes=smp["nodes"] + 4, near=0.0)
+    assert np.all(np.isfinite(ref))
+    np.testing.assert_allclose(got, ref, rtol=2e-3)  # 0.04 σ_b at σ_b = 5 % of the depth
+    # the floor matters: P_NODES nodes land elsewhere (> 1 %) for some of these samples
+    coarse = spectral.envelope_batch(batch, cut, RPM, nodes=spectral.P_NODES, near=0.0)
+    assert np.max(np.abs(coarse / ref - 1)) > 0.01
+
+
+def test_the_likelihood_and_the_decisions_evaluate_with_the_sampling_count(case):
+    prior, cut, theta = case
+    assert SAMPLING == "sample"
+    u = np.log(theta[:3])
+    d, _ = limits(prior, u, RPM[:2], "spectral")
+    at_theta0 = spectral.settings(prior.par.batch(prior.par.theta0[None]), cut, RPM[:2], purpose="sample")
+    want = spectral.envelope_batch(prior.par.batch(theta[:3]), cut, RPM[:2], **at_theta0)
+    np.testing.assert_array_equal(d, want * 1e3)
+    f = Forward(prior.par, cut, "spectral", "sample")
+    assert f.settings(RPM[:2], theta[0]) == spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="sample")
+    with pytest.raises(InputError, match="purpose"):
+        spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="fast")
+
+
+def test_the_likelihood_is_one_function_of_theta_across_calls():
+    """The node count is chosen once per speed list, at θ0 (the hammer test), so a row gets the same limits
+    whichever rows share a call, in the likelihood and in a decision's fresh call. Before, each call's first
+    row chose: Example 1 at a/D 0.1 converges at 6 nodes at the hammer test and at 8 with fn × 1.2, so the
+    same row got two different depths (fails on the old code)."""
+    from millstab.io.points import PointSet
+    from millstab.update.likelihood import Evidence, Likelihood
+
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(2, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=0.05))
+    rpm = np.linspace(3000.0, 15000.0, 12)
+    u0 = np.log(prior.median)
+    other = u0 + np.log(np.where(np.isin(prior.names, ["fn_x", "fn_y"]), 1.2, 1.0))
+    head = prior.par.batch(np.exp(other)[None])
+    assert (spectral.settings(head, cut, rpm, purpose="sample")
+            != spectral.settings(prior.par.batch(prior.median[None]), cut, rpm, purpose="sample"))
+    labels = np.where(np.arange(rpm.size) % 2, "chatter", "stable")
+    lik = Likelihood(prior, Evidence.from_points(PointSet(rpm, np.full(rpm.size, 5.0), labels)), "spectral")
+    behind = lik._evaluate(np.vstack([other, u0]))[0][1]
+    alone = lik._evaluate(u0[None])[0][0]
+    np.testing.assert_array_equal(alone, behind)
+    fresh = limits(prior, np.vstack([other, u0]), lik.speeds, "spectral")[0][1]  # a decision's call
+    np.testing.assert_array_equal(fresh, alone)

@@ -21,7 +21,7 @@ A predicted depth may be ``inf`` (no chatter boundary at that speed); it is capp
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -50,7 +50,8 @@ class Problem:
     Attributes:
         par: the parameterization (free names, fixed values, bounds) [Hz, N/m, -].
         cutting: cutting conditions used when the points were measured (fixed).
-        rpm: boundary-point spindle speeds (n,) [rev/min].
+        rpm: boundary-point spindle speeds (n,) [rev/min] (the points are kept sorted by speed, depth and
+            weight: the order of the rows never changes a result).
         depth_mm: measured limiting depths (n,) [mm].
         weight: per-point weights (n,) > 0 (from the point file; 1 by default).
         engine: stability engine name (``zoa``, ``sdm`` or ``spectral``).
@@ -81,6 +82,10 @@ class Problem:
             raise InputError("depth_mm", "non-positive or non-finite value", "measured depths must be finite and > 0 mm")
         if self.residual not in RESIDUALS:
             raise InputError("residual", self.residual, f"must be one of {', '.join(RESIDUALS)}")
+        # the points in one canonical order (speed, depth, weight): every sum over them, and so the whole
+        # search path, is then the same bit for bit whatever the order of the rows in the file
+        order = np.lexsort((self.weight, self.depth_mm, self.rpm))
+        self.rpm, self.depth_mm, self.weight = self.rpm[order], self.depth_mm[order], self.weight[order]
         self._forward = forward(self.par, self.cutting, self.engine)
         # repeated tests at one speed are evaluated once (the engine also needs distinct speeds)
         self._speeds, self._at = np.unique(self.rpm, return_inverse=True)
@@ -115,6 +120,11 @@ class Problem:
         """Re-check the engine's discretisation at the parameter row θ (P,) (a solution); True when it
         changed (see :meth:`millstab.forward.Forward.refine`): the caller evaluates again."""
         return self._forward.refine(theta, self._speeds)
+
+    def with_engine(self, engine: str) -> Problem:
+        """The same points and parameterization under another engine (fresh counters), e.g. the cheap
+        zero-order twin whose global search proposes basins to an accurate one."""
+        return replace(self, engine=engine, n_sets=0, n_calls=0, _forward=None)
 
     def predict_u(self, u: np.ndarray) -> np.ndarray:
         """:meth:`predict_mm` for log-parameters u = ln θ, shape (B, P)."""

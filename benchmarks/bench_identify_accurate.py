@@ -124,10 +124,11 @@ def main() -> None:
             recs.append(run_pair(*args))
             print(recs[-1]["line"], flush=True)
     else:
+        recs = []
         with ProcessPoolExecutor(a.jobs) as pool:
-            recs = list(pool.map(run_pair, *zip(*pairs)))
-        for r in recs:
-            print(r["line"])
+            for r in pool.map(run_pair, *zip(*pairs)):  # in order, each as soon as it and those before it are done
+                recs.append(r)
+                print(r["line"], flush=True)
     n_ok = sum(r["ok"] for r in recs)
     cpu = np.array([r["cpu"] for r in recs])
     print(f"success (RSS within the 95 % margin of the truth's): {n_ok}/{len(recs)} = {100 * n_ok / len(recs):.1f} %; "

@@ -34,7 +34,6 @@ import argparse
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +41,7 @@ from scipy import stats
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _machine import describe  # noqa: E402
+from _machine import describe, pool_of  # noqa: E402
 
 from millstab.identify import fit_lsq, make_problem  # noqa: E402
 from millstab.identify.accuracy import rel_error  # noqa: E402
@@ -125,7 +124,7 @@ def main() -> None:
             print(recs[-1]["line"], flush=True)
     else:
         recs = []
-        with ProcessPoolExecutor(a.jobs) as pool:
+        with pool_of(a.jobs) as pool:  # spawned: numba's OpenMP forbids fork after use
             for r in pool.map(run_pair, *zip(*pairs)):  # in order, each as soon as it and those before it are done
                 recs.append(r)
                 print(r["line"], flush=True)

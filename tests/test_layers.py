@@ -108,6 +108,56 @@ def test_nothing_outside_the_engines_imports_a_specific_engine(graph):
         assert direct == [], (mod, direct)
 
 
+def _engines_by_name(pkg: Path) -> list[str]:
+    """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
+    out = []
+    for path in pkg.rglob("*.py"):
+        mod = _module(path)
+        if mod == "millstab.stability" or mod.startswith("millstab.stability."):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "get_engine"
+                    and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+                out.append(f"{mod}: {node.args[0].value} (line {node.lineno})")
+    return out
+
+
+def test_nothing_outside_the_engines_names_an_engine_to_get_it():
+    """Engines are chosen by capability (issue 26): outside ``millstab.stability`` a consumer asks
+    ``engine_with(cheap=True)`` or passes on the user's ``engine`` argument, never ``get_engine("zoa")``.
+    A default argument value (``engine="zoa"``) is the user's choice and is allowed. Fails on the old code
+    (api.identify, modal.run, reproduce ×5)."""
+    assert _engines_by_name(PKG) == []
+
+
+def test_the_engine_name_rule_catches_a_literal_name(tmp_path, monkeypatch):
+    """The rule above is not vacuous: a literal name is reported (a bare or an attribute call), a variable is not,
+    and the engines' own package may name its engines."""
+    pkg = tmp_path / "millstab"
+    (pkg / "api").mkdir(parents=True)
+    (pkg / "stability").mkdir()
+    (pkg / "api" / "x.py").write_text("import millstab.stability as st\nfrom millstab.stability import get_engine\n"
+                                      "def f(engine='zoa'):\n    a = get_engine(engine)\n    b = get_engine('sdm')\n"
+                                      "    return st.get_engine(\"zoa\")\n", encoding="utf-8")
+    (pkg / "stability" / "__init__.py").write_text("get_engine('zoa')\n", encoding="utf-8")
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    assert sorted(_engines_by_name(pkg)) == ["millstab.api.x: sdm (line 5)", "millstab.api.x: zoa (line 6)"]
+
+
+def test_engine_with_picks_the_engines_named_before():
+    """Choosing by capability picks the same engines the consumers named before (results unchanged)."""
+    from millstab.errors import InputError
+    from millstab.stability import engine_with, get_engine
+
+    assert engine_with(cheap=True) is get_engine("zoa")
+    assert engine_with(accepts_measured_frf=True) is get_engine("zoa")
+    assert engine_with(time_averaged=True) is get_engine("zoa")
+    assert engine_with(time_averaged=False, cheap=False) is get_engine("sdm")
+    assert engine_with(time_averaged=False, reports_lobe_type=True) is get_engine("spectral")
+    with pytest.raises(InputError, match="no registered engine"):
+        engine_with(time_averaged=True, reports_lobe_type=True)
+
+
 def test_plots_import_no_engine_and_no_study(graph):
     """Plots draw results: they import model types, never an engine or a study that computes."""
     for mod in graph:

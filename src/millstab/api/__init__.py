@@ -39,7 +39,7 @@ _HOMES = {
               "config_from_fields", "config_from_text", "config_toml", "list_example_points", "list_examples",
               "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds",
               "SHOWN_UNITS", "shown_value"),
-    "lobes": ("ENGINES", "Lobes", "envelope", "lobes", "lobes_figure", "raw_lobes"),
+    "lobes": ("ENGINES", "Lobes", "cheapest_engine", "envelope", "lobes", "lobes_figure", "raw_lobes"),
     "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
                 "fit_rpm", "history_figure", "identify"),
     "update": ("at_stickout", "condition_line", "corner_figure", "decision_rule", "depth_grid", "for_condition",

@@ -132,9 +132,9 @@ def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, f
     fit JSON the plan was made around, if any (its structure holds the fixed parameters)."""
     from millstab.params import Parameterization
     from millstab.plot.identify import plot_design
-    from millstab.stability import get_engine
+    from millstab.stability import engine_with
 
-    zoa = get_engine("zoa")  # the drawn SLD: zero-order, fast
+    zoa = engine_with(cheap=True)  # the drawn SLD: the cheapest engine (zoa)
     cfg, _ = modal(cfg)
     if fit is not None:
         par = _fit_view(_fit(fit, fit_source), cfg.cutting)[0]

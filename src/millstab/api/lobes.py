@@ -11,10 +11,16 @@ from millstab.api.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet
-from millstab.stability import ENGINES, Envelope, get_engine
+from millstab.stability import ENGINES, Envelope, engine_with, get_engine
 
 #: the schema tag of :meth:`Lobes.to_json`
 SCHEMA = "millstab.lobes/1"
+
+
+def cheapest_engine() -> str:
+    """The name of the cheapest registered engine (the first that declares ``cheap``: ``zoa``), the one a
+    caller that must answer at once (the app's own callback) runs without a background job."""
+    return engine_with(cheap=True).name
 
 
 @dataclass(frozen=True, eq=False)

@@ -323,9 +323,10 @@ class SLDCheck:
 
 def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.ndarray) -> SLDCheck:
     """Both limits by the zoa engine at ``rpm``, their minima and their worst relative difference."""
-    from millstab.stability import get_engine
+    from millstab.stability import engine_with
 
-    zoa = get_engine("zoa")  # accepts a measured FRF: the fit checked on the tap test itself
+    # an engine that accepts a measured FRF (zoa): the fit checked on the tap test itself
+    zoa = engine_with(accepts_measured_frf=True)
     a = zoa.envelope(fitted, cutting, rpm)
     b = zoa.envelope(measured, cutting, rpm)
     ok = np.isfinite(a.depth) & np.isfinite(b.depth) & (b.depth > 0)

@@ -33,7 +33,7 @@ def virtual_campaign(ctx) -> None:
     from millstab.io import load_config
     from millstab.io.config import PriorTable
     from millstab.plot.update import plot_campaign
-    from millstab.stability import get_engine
+    from millstab.stability import engine_with
     from millstab.update import make_prior, p_stable_map
     from millstab.update.campaign import CampaignOptions, run_campaign
 
@@ -41,7 +41,7 @@ def virtual_campaign(ctx) -> None:
     cfg = load_config("example:ex1")
     # the likelihood's depth noise told the virtual shop's label scatter, as a shop would set [prior] sigma_depth
     prior = make_prior(cfg.structure, cfg.cutting, PriorTable({}, sigma_depth_rel=LABEL_NOISE))
-    zoa = get_engine("zoa")
+    zoa = engine_with(cheap=True)  # the virtual shop's truth: the cheapest engine (zoa)
     rng = np.random.default_rng([ctx.seed, 17])
     off = np.array([rng.uniform(-OFF[prior.par.kind(n)], OFF[prior.par.kind(n)]) for n in prior.par.free])
     theta = prior.median * (1 + off)

@@ -63,9 +63,10 @@ def simulated_cuts(ctx) -> None:
     """A stable and a chattering cut of the benchmark at a/D = 0.05, simulated, labelled, against SDM."""
     from millstab.plot.simulate import plot_cuts
     from millstab.simulate import detect, simulate_cut
-    from millstab.stability import get_engine
+    from millstab.stability import engine_with
 
-    sdm, zoa = get_engine("sdm"), get_engine("zoa")
+    # the time-domain reference (sdm: the slow, expensive one, with critical_multipliers) and the zero-order model
+    sdm, zoa = engine_with(time_averaged=False, cheap=False), engine_with(time_averaged=True)
 
     rep = ctx.report
     cut = bench_cutting(0.05)

@@ -94,8 +94,28 @@ def get_engine(name: str) -> Engine | ModuleType:
     return engine
 
 
+def engine_with(**capabilities: object) -> Engine | ModuleType:
+    """The first registered engine whose declared capabilities equal all of ``capabilities`` (e.g.
+    ``engine_with(cheap=True)``, ``engine_with(accepts_measured_frf=True)``): how a consumer outside
+    this package chooses an engine, by what it needs rather than by name.
+
+    The order is the registration order, which is the built-ins' order of preference: ``zoa`` (the
+    cheapest: closed-form per frequency), ``sdm``, ``spectral``, then plug-ins. Engines are imported
+    only as far as needed (``engine_with(cheap=True)`` imports ``zoa`` alone).
+
+    Raises:
+        InputError: naming the capabilities when no registered engine has them all.
+    """
+    for name in list(_REGISTRY):
+        engine = get_engine(name)
+        if all(getattr(engine, cap, None) == want for cap, want in capabilities.items()):
+            return engine
+    wanted = ", ".join(f"{cap}={want!r}" for cap, want in capabilities.items())
+    raise InputError("engine", wanted, f"no registered engine ({', '.join(_REGISTRY)}) declares all of these")
+
+
 register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "per_set_kr", "directional_matrix", "get_engine", "register", "unregister"]
+__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr", "directional_matrix", "get_engine", "register", "unregister"]

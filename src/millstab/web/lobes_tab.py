@@ -18,10 +18,6 @@ from millstab.web.common import TextBox
 from millstab.web.plots import set_line, set_points, set_raw, sld_figure
 from millstab.web.state import Session
 
-#: engines fast enough to run in the page's own callback
-INLINE_ENGINES = ("zoa",)
-
-
 class LobesTab:
     def __init__(self, session: Session):
         self.s = session
@@ -63,7 +59,7 @@ class LobesTab:
         except InputError as exc:
             self.error.object = error_html(str(exc))
             return
-        if engine in INLINE_ENGINES:
+        if engine == api.cheapest_engine():  # fast enough to run in the page's own callback
             self.job_box.visible = False
             t0 = time.perf_counter()
             try:

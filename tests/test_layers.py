@@ -158,6 +158,36 @@ def test_engine_with_picks_the_engines_named_before():
         engine_with(time_averaged=True, reports_lobe_type=True)
 
 
+def _progress_aliases(pkg: Path) -> list[str]:
+    """Module-level ``<Name>Progress = Callable[...]`` definitions: "module.Name"."""
+    out = []
+    for path in pkg.rglob("*.py"):
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Subscript)
+                    and getattr(node.value.value, "id", None) == "Callable"):
+                out += [f"{_module(path)}.{t.id}" for t in node.targets
+                        if isinstance(t, ast.Name) and t.id.endswith("Progress")]
+    return sorted(out)
+
+
+def test_the_progress_callbacks_are_defined_in_one_place(tmp_path, monkeypatch):
+    """One name per thing (issue 26 item 7): the progress protocol and the two shapes that differ from it are
+    defined in millstab/progress.py alone. Fails on the old code (api.progress.Progress, stability.sdm.Progress,
+    identify.search.SolverProgress, sensitivity._core.CountProgress); a new definition elsewhere is caught."""
+    assert _progress_aliases(PKG) == ["millstab.progress.CountProgress", "millstab.progress.Progress",
+                                      "millstab.progress.SolverProgress"]
+    (tmp_path / "millstab").mkdir()
+    (tmp_path / "millstab" / "x.py").write_text("from typing import Callable\nMyProgress = Callable[[int], None]\n",
+                                                encoding="utf-8")
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    assert _progress_aliases(tmp_path / "millstab") == ["millstab.x.MyProgress"]
+    import millstab.progress as home
+    calls = []
+    home.solver_progress(lambda *a: calls.append(a), "identify")("lsq", 3, 0.5)
+    home.count_progress(lambda *a: calls.append(a), "sobol")(4, 10)
+    assert calls == [("identify: lsq, best 0.5", 3, None), ("sobol", 4, 10)]
+
+
 def test_plots_import_no_engine_and_no_study(graph):
     """Plots draw results: they import model types, never an engine or a study that computes."""
     for mod in graph:

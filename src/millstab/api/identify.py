@@ -9,7 +9,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
-from millstab.api.progress import Progress, solver_progress
+from millstab.progress import Progress, solver_progress
 from millstab.errors import InputError
 from millstab.identify import METHODS as IDENTIFY_METHODS  # noqa: F401 (re-exported by millstab.api)
 from millstab.io.config import Config

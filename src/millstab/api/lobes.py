@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from millstab.api.progress import Progress
+from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 from millstab.io.points import PointSet

@@ -1,4 +1,4 @@
-"""The one progress protocol of the service layer, and cancellation.
+"""The one progress protocol of the service layer (:data:`millstab.progress.Progress`), and cancellation.
 
 Every long service function takes ``progress``: a callable ``progress(stage, done, total)`` with
 ``stage`` a short text ("identify: lsq", "sdm: limiting depths"), ``done`` a count and ``total`` the count
@@ -11,13 +11,10 @@ compiled chunks, so nothing is left half-written.
 from __future__ import annotations
 
 import threading
-from typing import Callable, Optional
 
+from millstab.progress import Progress  # noqa: F401 (the one protocol; re-exported by millstab.api)
 #: ``with collect_warnings() as caught:`` millstab's warnings issued by this thread only (a web job's own)
 from millstab.warnlog import collect as collect_warnings  # noqa: F401 (re-exported by millstab.api)
-
-#: progress(stage, done, total); total None = unknown
-Progress = Callable[[str, int, Optional[int]], None]
 
 
 class Cancelled(Exception):
@@ -56,22 +53,3 @@ class CancelToken:
             self.check()
 
         return report
-
-
-def solver_progress(progress: Progress | None, label: str):
-    """Adapt the solvers' ``progress(stage, iteration, best)`` to the protocol (total unknown; the best
-    objective value goes into the stage text)."""
-    if progress is None:
-        return None
-
-    def report(stage: str, iteration: int, best: float) -> None:
-        progress(f"{label}: {stage}, best {best:.4g}", int(iteration), None)
-
-    return report
-
-
-def count_progress(progress: Progress | None, stage: str):
-    """Adapt a ``progress(done, total)`` counter (sensitivity studies) to the protocol."""
-    if progress is None:
-        return None
-    return lambda done, total: progress(stage, int(done), int(total))

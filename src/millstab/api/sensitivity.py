@@ -9,7 +9,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
-from millstab.api.progress import Progress, count_progress
+from millstab.progress import Progress, count_progress
 from millstab.errors import InputError
 from millstab.io.config import Config
 

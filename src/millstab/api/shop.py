@@ -14,7 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
-from millstab.api.progress import Progress
+from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config, config_to_toml
 from millstab.io.text import read_text

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from millstab.api.progress import Progress
+from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import Config, load_tool_setup
 from millstab.stability import get_engine

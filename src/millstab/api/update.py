@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 
 from millstab.api.inputs import modal
-from millstab.api.progress import Progress
+from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError

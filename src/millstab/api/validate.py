@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from millstab.api.inputs import modal
-from millstab.api.progress import Progress
+from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.points import PointSet
 

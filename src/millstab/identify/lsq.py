@@ -60,10 +60,11 @@ from millstab.forward import fd_difference as jacobians
 from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
 from millstab.identify.result import Fit
-from millstab.identify.search import SEARCH, SolverProgress, options_with, pick_distinct, search_box, sobol
+from millstab.identify.search import SEARCH, options_with, pick_distinct, search_box, sobol
 from millstab.identify.symmetry import (canonical, exchange_map, exchange_note, exchanged, swap_permutation,
                                         xy_symmetry_note)
 from millstab.identify.tie import prefer_tied
+from millstab.progress import SolverProgress
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 #: successive halving of the re-seeding rounds' and of the confidence-region candidates

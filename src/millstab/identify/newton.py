@@ -76,11 +76,12 @@ from dataclasses import dataclass
 import numpy as np
 from millstab.errors import InputError
 from millstab.forward import fd_difference
-from millstab.identify.search import SolverProgress, options_with, pick_distinct, search_box, sobol
+from millstab.identify.search import options_with, pick_distinct, search_box, sobol
 from millstab.identify.symmetry import canonical, swap_permutation, xy_symmetry_note
 from millstab.identify.objective import Problem
 from millstab.identify.quality import check_noise, diagnose
 from millstab.identify.result import Fit
+from millstab.progress import SolverProgress
 
 
 #: the guesses' box around the start (×/÷): narrower than lsq's, because this first-order scheme only

@@ -5,15 +5,9 @@ Everything works in log-parameters u = ln θ.
 
 from __future__ import annotations
 
-from typing import Callable
-
 import numpy as np
 from scipy.stats import qmc
 
-#: progress callback of a solver: (stage, iteration, best objective so far); the service layer turns it into
-#: the one protocol ``progress(stage, done, total)`` (:func:`millstab.api.progress.solver_progress`). Named
-#: apart from that protocol (``api.Progress``) because its third argument is a value, not a total.
-SolverProgress = Callable[[str, int, float], None]
 #: default search box half-widths (multiplicative) around the start, per parameter kind
 SEARCH = {"fn": 1.5, "k": 2.5, "zeta": 2.5}
 
@@ -69,4 +63,4 @@ def options_with(options, cls: type, tuning: dict, caller: str):
     return dataclasses.replace(base, **tuning) if tuning else base
 
 
-__all__ = ["SEARCH", "SolverProgress", "options_with", "pick_distinct", "search_box", "sobol"]
+__all__ = ["SEARCH", "options_with", "pick_distinct", "search_box", "sobol"]

@@ -6,11 +6,12 @@ in m; every MSE here is in **mm²** (depths converted to mm before squaring), as
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.progress import CountProgress
 from millstab.forward import Pinned, forward
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
@@ -20,10 +21,6 @@ DEFAULT_EPS_GRID = np.round(np.arange(-0.25, 0.25 + 1e-9, 0.05), 10) + 0.0  # + 
 #: the seed paper's Algorithm 1 grid: −0.20 … +0.20 step 0.05
 PAPER_EPS_GRID = np.round(np.arange(-0.20, 0.20 + 1e-9, 0.05), 10) + 0.0
 
-#: a study's counter: (done, total) in the caller's unit (paths, rows), as ``forward``'s ``Pinned.map`` and
-#: ``cluster`` report; the service layer turns it into ``progress(stage, done, total)``
-#: (:func:`millstab.api.progress.count_progress`)
-CountProgress = Callable[[int, int], None]
 
 
 def as_parameterization(model: Structure | Parameterization) -> Parameterization:

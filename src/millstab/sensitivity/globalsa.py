@@ -25,7 +25,8 @@ from scipy.stats import norm
 from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
-from millstab.sensitivity._core import (CountProgress, as_parameterization, bounds_from, centre, check_scalar,
+from millstab.progress import CountProgress
+from millstab.sensitivity._core import (as_parameterization, bounds_from, centre, check_scalar,
                                         depths_chunked, engine_module, mse_mm2, pin)
 from millstab.sensitivity.montecarlo import check_seed
 from millstab.sensitivity.results import MorrisResult, SobolResult

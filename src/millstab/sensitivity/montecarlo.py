@@ -23,7 +23,8 @@ from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.forward import Pinned, forward
-from millstab.sensitivity._core import (CountProgress, as_parameterization, centre, check_neighbourhood, check_scalar,
+from millstab.progress import CountProgress
+from millstab.sensitivity._core import (as_parameterization, centre, check_neighbourhood, check_scalar,
                                         engine_module, mse_mm2, pin, rows_per_call)
 from millstab.sensitivity.results import MCResult
 from millstab.stability import check_rpm

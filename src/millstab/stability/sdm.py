@@ -85,6 +85,7 @@ from threadpoolctl import threadpool_limits
 from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.model import Cutting, Structure
+from millstab.progress import Progress
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
@@ -107,8 +108,6 @@ FACTORS_PD = np.concatenate([FACTORS, 3.0 * 1.1 ** np.arange(1, 25)])
 #: None runs everything in one call
 CHUNK_SECONDS: float | None = 0.25
 
-#: progress(stage, done, total): called before the first chunk and after each one
-Progress = Callable[[str, int, int], None]
 
 
 def _chunked(run: Callable[[int, int], None], total: int, stage: str, progress: Progress | None) -> None:

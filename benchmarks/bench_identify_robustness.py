@@ -51,7 +51,7 @@ from millstab.identify import fit_lsq, make_problem  # noqa: E402
 from millstab.identify.design import design_after_fit, log_jacobians  # noqa: E402
 from millstab.identify.objective import exchange_map, oriented, rel_error, swap_permutation  # noqa: E402
 from millstab.identify.synthetic import boundary_points, identifiability, random_case  # noqa: E402
-from millstab.io.points import PointSet  # noqa: E402
+from millstab.points import PointSet  # noqa: E402
 from millstab.params import Parameterization  # noqa: E402
 
 #: candidate speeds of the planned tests: tooth-passing frequency over this band of the first fit's

@@ -30,7 +30,7 @@ from millstab.identify import fit_lsq, make_problem  # noqa: E402
 from millstab.identify.objective import rel_error  # noqa: E402
 from millstab.identify.synthetic import boundary_points  # noqa: E402
 from millstab.errors import InputError  # noqa: E402
-from millstab.io.points import PointSet  # noqa: E402
+from millstab.points import PointSet  # noqa: E402
 from millstab.model import Cutting, Mode, Structure  # noqa: E402
 from millstab.simulate.boundary import simulated_limit  # noqa: E402
 

@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
-from millstab.io.points import PointSet  # noqa: E402
+from millstab.points import PointSet  # noqa: E402
 from millstab.io.config import with_batch_effect  # noqa: E402
 from millstab.update import make_prior, p_stable_map, update  # noqa: E402
 from millstab.update.likelihood import limits  # noqa: E402

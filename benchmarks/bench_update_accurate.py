@@ -57,7 +57,7 @@ from threadpoolctl import threadpool_limits
 from _machine import describe
 from millstab.io import load_config
 from millstab.io.config import PriorTable
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.model import Cutting
 from millstab.stability import sdm
 import millstab.update as upd

@@ -77,7 +77,7 @@ from _machine import describe, run_campaigns  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
-from millstab.io.points import PointSet  # noqa: E402
+from millstab.points import PointSet  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402

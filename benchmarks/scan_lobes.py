@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _conflict_record import load  # noqa: E402
 
-from millstab.io.points import PointSet  # noqa: E402
+from millstab.points import PointSet  # noqa: E402
 from millstab.update.likelihood import Evidence, Likelihood  # noqa: E402
 
 

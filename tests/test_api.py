@@ -130,3 +130,13 @@ def test_speeds_from_text_numbers_a_file_or_the_config(tmp_path):
     with pytest.raises(InputError, match="--rpm-file s.csv"):
         api.speeds(None, cfg, rpm_file=f)
     np.testing.assert_array_equal(api.speeds(None, None, (1000.0, 1200.0, 100.0)), [1000.0, 1100.0, 1200.0])
+
+
+def test_overlay_points_concatenates_the_sets_and_skips_none():
+    """The app's SLD overlay (boundary points and labelled cuts as one set) is a service, not door code."""
+    pts = read_points(points_path("ex3_points"))
+    both = api.overlay_points(None, pts, pts)
+    assert np.array_equal(both.rpm, np.concatenate([pts.rpm, pts.rpm]))
+    assert np.array_equal(both.depth_mm, np.concatenate([pts.depth_mm, pts.depth_mm]))
+    assert list(both.label) == list(pts.label) * 2
+    assert api.overlay_points(None, None) is None

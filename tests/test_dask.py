@@ -232,7 +232,7 @@ def test_update_and_map_on_cluster_give_the_local_posterior(client, monkeypatch,
     from millstab import cluster
     from millstab.cli import main
     from millstab.io.config import parse_config
-    from millstab.io.points import PointSet
+    from millstab.points import PointSet
     from millstab.update import update
 
     cfg = parse_config(TOML)

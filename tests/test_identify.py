@@ -19,7 +19,8 @@ from millstab.identify import fit_lsq, fit_newton, identify, make_problem
 from millstab.identify.newton import critical_mask
 from millstab.identify.objective import canonical, exchange_map, exchanged, rel_error, swap_permutation, xy_symmetric_cut
 from millstab.identify.synthetic import boundary_points, example_points, identifiability, random_case
-from millstab.io.points import PointSet, write_points
+from millstab.io.points import write_points
+from millstab.points import PointSet
 from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
 

@@ -21,8 +21,9 @@ from millstab.identify import fit_lsq, identify, make_problem
 from millstab.identify.quality import (ASSUMED_NOISE, FEW_DOF, error_sigma, radial_immersion, runs_test,
                                        zoa_model_poor)
 from millstab.identify.synthetic import boundary_points
-from millstab.io.config import Config
-from millstab.io.points import PointSet, write_points
+from millstab.config import Config
+from millstab.io.points import write_points
+from millstab.points import PointSet
 from millstab.model import Cutting, Structure
 
 SPEEDS = (3000.0, 21000.0)

@@ -7,7 +7,7 @@ import pytest
 
 from millstab.identify import identify
 from millstab.identify.synthetic import boundary_points
-from millstab.io.config import Config
+from millstab.config import Config
 from millstab.model import Cutting, Structure
 
 

@@ -11,7 +11,8 @@ import pytest
 
 from millstab.errors import InputError, UnitWarning
 from millstab.frf import modal_receptance
-from millstab.io.config import Config, config_to_toml, load_config, parse_config, write_config
+from millstab.io.config import config_to_toml, load_config, parse_config, write_config
+from millstab.config import Config
 from millstab.io.frf_files import write_frf_csv
 
 EX1 = """

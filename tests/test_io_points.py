@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from millstab.errors import InputError
-from millstab.io.points import PointSet, check_enough, read_points, write_points
+from millstab.io.points import check_enough, read_points, write_points
+from millstab.points import PointSet
 from millstab.io.results import read_json, write_csv, write_json
 
 GOOD = """rpm,depth_mm,label,weight

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -198,17 +199,53 @@ def test_plots_import_no_engine_and_no_study(graph):
 
 
 def test_old_import_paths_still_work():
-    from millstab.config import Config, PriorTable
-    from millstab.io import Config as IoConfig
-    from millstab.io import PointSet as IoPointSet
+    from millstab.config import PriorTable
     from millstab.io.config import PriorTable as IoPrior
-    from millstab.io.points import PointSet as OldPointSet
     from millstab.io.points import check_enough
-    from millstab.points import PointSet
     from millstab.points import check_enough as new_check
 
-    assert IoPointSet is OldPointSet is PointSet and check_enough is new_check
-    assert IoConfig is Config and IoPrior is PriorTable
+    assert check_enough is new_check and IoPrior is PriorTable
+
+
+#: one home per type (issue 26 item 7): the model types io reads, imported from where they are defined
+ONE_HOME = {"Config": "millstab.config", "PointSet": "millstab.points"}
+
+
+def _imports_away_from_home(roots: list[Path]) -> list[str]:
+    """``from M import Config`` / ``PointSet`` with M not the type's home, in .py files and the ```python blocks of
+    .md files under ``roots``: "file: M.Name (line n)"."""
+    out = []
+    for root in roots:
+        for path in sorted(root.rglob("*.py")) + sorted(root.rglob("*.md")):
+            text = path.read_text(encoding="utf-8")
+            blocks = ([text] if path.suffix == ".py" else
+                      [b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S)])
+            for block in blocks:
+                try:
+                    tree = ast.parse(block)
+                except SyntaxError:
+                    continue
+                for node in ast.walk(tree):
+                    if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("millstab"):
+                        out += [f"{path.name}: {node.module}.{a.name} (line {node.lineno})" for a in node.names
+                                if a.name in ONE_HOME and node.module != ONE_HOME[a.name]]
+    return out
+
+
+def test_config_and_pointset_are_imported_from_their_one_home(tmp_path):
+    """Config and PointSet are defined below io and imported from there only: io does not re-export them, and
+    src/, tests/, benchmarks/ and docs/ import them from millstab.config / millstab.points. Fails on the old
+    code (millstab.io re-exported both; 49 imports went through io)."""
+    import millstab.io
+
+    root = SRC.parent
+    assert not {"Config", "PointSet"} & set(dir(millstab.io))
+    assert _imports_away_from_home([root / "src", root / "tests", root / "benchmarks", root / "docs"]) == []
+    (tmp_path / "x.py").write_text("from millstab.io import Config\nfrom millstab.points import PointSet\n",
+                                   encoding="utf-8")
+    (tmp_path / "y.md").write_text("```python\nfrom millstab.io.points import PointSet\n```\n", encoding="utf-8")
+    assert _imports_away_from_home([tmp_path]) == ["x.py: millstab.io.Config (line 1)",
+                                                   "y.md: millstab.io.points.PointSet (line 1)"]
 
 
 def test_only_io_writes_files():

@@ -14,7 +14,7 @@ import pytest
 
 from millstab.errors import InputError
 from millstab.io.config import parse_config
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update import make_prior, screen_engine, update
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.sampler import corrected_smc, tempered_smc

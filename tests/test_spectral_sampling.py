@@ -69,7 +69,7 @@ def test_the_likelihood_is_one_function_of_theta_across_calls():
     whichever rows share a call, in the likelihood and in a decision's fresh call. Before, each call's first
     row chose: Example 1 at a/D 0.1 converges at 6 nodes at the hammer test and at 8 with fn × 1.2, so the
     same row got two different depths (fails on the old code)."""
-    from millstab.io.points import PointSet
+    from millstab.points import PointSet
     from millstab.update.likelihood import Evidence, Likelihood
 
     cfg = load_config("example:ex1")

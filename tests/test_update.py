@@ -12,7 +12,8 @@ from scipy.stats import norm
 
 from millstab.errors import InputError
 from millstab.io.config import parse_config
-from millstab.io.points import PointSet, read_points, write_points
+from millstab.io.points import read_points, write_points
+from millstab.points import PointSet
 from millstab.model import Cutting, Mode, Structure
 from millstab.stability import zoa
 from millstab.update import Posterior, make_prior, update

@@ -11,7 +11,7 @@ from configs import TWO_MODE_TOML
 
 from millstab.errors import InputError
 from millstab.io.config import config_to_toml, parse_config
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update import Posterior, make_prior, update
 from millstab.update.batch import NEW_DAY_SEED, BatchPosterior, fn_columns
 from millstab.update.likelihood import Evidence, Likelihood, limits

@@ -12,7 +12,7 @@ from scipy.special import logsumexp
 from scipy.stats import norm, t as student_t
 
 from millstab.io.config import parse_config
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update import make_prior, update
 from millstab.update.conflict import BAYES_FACTOR, check
 from millstab.update.likelihood import Evidence, Likelihood, limits

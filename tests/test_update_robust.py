@@ -12,7 +12,7 @@ from scipy.stats import t as student_t
 
 from millstab.errors import InputError
 from millstab.io.config import parse_config
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update import Posterior, make_prior, update
 from millstab.update.conflict import check
 from millstab.update.likelihood import Evidence, Likelihood, cut_loglik, limits

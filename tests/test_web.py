@@ -158,7 +158,7 @@ def test_identify_uploaded_points(app):
 
 
 def test_update_map_and_recommend(app, tmp_path):
-    from millstab.io.points import PointSet
+    from millstab.points import PointSet
 
     page = app
     cfg = api.config("example:ex3")

@@ -12,8 +12,8 @@ from millstab.api.inputs import modal
 from millstab.progress import Progress, solver_progress
 from millstab.errors import InputError
 from millstab.identify import METHODS as IDENTIFY_METHODS  # noqa: F401 (re-exported by millstab.api)
-from millstab.io.config import Config
-from millstab.io.points import PointSet
+from millstab.config import Config
+from millstab.points import PointSet
 from millstab.warnlog import warn
 
 #: candidate speeds of a plan when neither the caller nor the config gives a range: this many evenly

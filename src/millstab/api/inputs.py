@@ -17,8 +17,10 @@ from millstab.bounds import samples as check_samples  # noqa: F401 (re-exported 
 from millstab.bounds import seed as check_seed  # noqa: F401 (re-exported)
 from millstab.datasets import list_example_points, list_examples  # noqa: F401 (re-exported)
 from millstab.errors import InputError
-from millstab.io.config import Config, config_from_dict, config_to_toml, load_config, parse_config
-from millstab.io.points import PointSet, parse_points, read_points
+from millstab.io.config import config_from_dict, config_to_toml, load_config, parse_config
+from millstab.config import Config
+from millstab.io.points import parse_points, read_points
+from millstab.points import PointSet
 from millstab.io.text import decode_text
 from millstab.params import shown_value  # noqa: F401 (re-exported: a parameter value as printed)
 from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
@@ -68,6 +70,16 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
 def points(source: PointSet | str | os.PathLike) -> PointSet:
     """A point set: itself, a CSV file, or a packaged example ``"example:NAME"`` (ex3_points)."""
     return source if isinstance(source, PointSet) else read_points(source)
+
+
+def overlay_points(*sets: PointSet | None) -> PointSet | None:
+    """The given point sets (boundary points, labelled cuts; ``None`` skipped) as one set of their speeds
+    [rpm], depths [mm] and labels, to draw on an SLD; ``None`` when there are none."""
+    sets = [p for p in sets if p is not None]
+    if not sets:
+        return None
+    return PointSet(np.concatenate([p.rpm for p in sets]), np.concatenate([p.depth_mm for p in sets]),
+                    np.concatenate([p.label for p in sets]))
 
 
 def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:

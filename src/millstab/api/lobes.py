@@ -9,8 +9,8 @@ import numpy as np
 
 from millstab.progress import Progress
 from millstab.errors import InputError
-from millstab.io.config import Config
-from millstab.io.points import PointSet
+from millstab.config import Config
+from millstab.points import PointSet
 from millstab.stability import ENGINES, Envelope, engine_with, get_engine
 
 #: the schema tag of :meth:`Lobes.to_json`

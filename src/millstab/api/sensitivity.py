@@ -11,7 +11,7 @@ import numpy as np
 from millstab.api.inputs import modal
 from millstab.progress import Progress, count_progress
 from millstab.errors import InputError
-from millstab.io.config import Config
+from millstab.config import Config
 
 METHODS = ("oat", "mc", "sobol", "morris")
 PRESETS = ("paper",)

@@ -16,7 +16,8 @@ import numpy as np
 from millstab.api.inputs import modal
 from millstab.progress import Progress
 from millstab.errors import InputError
-from millstab.io.config import Config, config_to_toml
+from millstab.io.config import config_to_toml
+from millstab.config import Config
 from millstab.io.text import read_text
 from millstab.io.stickout import COLUMN as STICKOUT
 from millstab.points import CONDITION_COLUMNS, PointSet

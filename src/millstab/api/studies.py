@@ -8,8 +8,8 @@ import numpy as np
 
 from millstab.progress import Progress
 from millstab.errors import InputError
-from millstab.io.config import Config
-from millstab.io.points import PointSet
+from millstab.config import Config
+from millstab.points import PointSet
 
 
 def _feed(feed_mm: float) -> float:

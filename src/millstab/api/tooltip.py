@@ -13,7 +13,8 @@ import numpy as np
 
 from millstab.progress import Progress
 from millstab.errors import InputError
-from millstab.io.config import Config, load_tool_setup
+from millstab.io.config import load_tool_setup
+from millstab.config import Config
 from millstab.stability import get_engine
 from millstab.tooltip import Tool, XYHolder, peaks, tip_structure
 from millstab.tooltip.holder import Holder

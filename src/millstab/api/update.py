@@ -12,8 +12,9 @@ from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
-from millstab.io.config import Config, with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
-from millstab.io.points import PointSet
+from millstab.io.config import with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
+from millstab.config import Config
+from millstab.points import PointSet
 
 #: the most cells (speeds × depths) of one P(stable) map
 MAX_MAP_CELLS = 5_000_000

@@ -6,7 +6,7 @@
   2 % depth noise, so that ``millstab identify example:ex3 example:ex3_points`` runs at once (the
   command that generated it is in its first lines).
 
-Use :func:`load_example` (or ``load_config("example:ex1")``) for a :class:`~millstab.io.config.Config`,
+Use :func:`load_example` (or ``load_config("example:ex1")``) for a :class:`~millstab.config.Config`,
 :func:`points_path` (or ``read_points("example:ex3_points")``) for an example points file, and
 :func:`paper_values` for the paper's published numbers (SI units, see ``paper_values.toml``).
 """

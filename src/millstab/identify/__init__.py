@@ -39,8 +39,8 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
     """Identify modal parameters from boundary points.
 
     Args:
-        config: a :class:`~millstab.io.config.Config` (cutting conditions and the starting modal structure).
-        points: a :class:`~millstab.io.points.PointSet` (unlabelled rows = boundary points, fitted; labelled
+        config: a :class:`~millstab.config.Config` (cutting conditions and the starting modal structure).
+        points: a :class:`~millstab.points.PointSet` (unlabelled rows = boundary points, fitted; labelled
             rows = test cuts, reported).
         method: ``lsq`` (default) or ``newton`` (the paper's scheme).
         free, axisymmetric, initial, bounds: see :func:`~millstab.identify.objective.make_problem`.

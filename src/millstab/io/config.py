@@ -77,7 +77,7 @@ import numpy as np
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
 from millstab.io.text import read_text
-from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types, re-exported from here
+from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types (Config: import it from there)
 from millstab.model import Cutting, Mode, Structure
 from millstab.units import parse_quantity
 
@@ -773,5 +773,5 @@ def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | N
     return (cfg, *tool_setup(data, Path(base_dir) if base_dir is not None else None, files))
 
 
-__all__ = ["Config", "PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
+__all__ = ["PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
            "parse_batch_effect", "parse_config", "tool_setup", "tool_setup_from_text", "with_batch_effect", "write_config"]

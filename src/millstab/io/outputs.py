@@ -32,7 +32,7 @@ from millstab.io.results import PathLike, _same_file
 
 
 def config_inputs(cfg) -> dict[str, Path]:
-    """The files a loaded :class:`~millstab.io.config.Config` reads, by label: the config file itself
+    """The files a loaded :class:`~millstab.config.Config` reads, by label: the config file itself
     and, for a measured-FRF structure, each FRF file it names (``"structure.frf.xx"``, ...).
 
     The FRF paths are resolved exactly as the loader does (relative to the config's folder).

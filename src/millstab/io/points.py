@@ -51,7 +51,7 @@ import numpy as np
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
-# the model type lives below io; re-exported so `from millstab.io.points import PointSet` keeps working
+# the model type lives below io (import it from millstab.points, its one home)
 from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, PointSet, check_enough, grade_of_cell, label_of_grade,
                               parse_label_codes)
 from millstab.warnlog import warn
@@ -272,4 +272,4 @@ def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] =
     return write_csv(path, header, cols, protect)
 
 
-__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "PointSet", "check_enough", "parse_points", "read_points", "write_points"]
+__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "check_enough", "parse_points", "read_points", "write_points"]

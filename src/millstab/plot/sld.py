@@ -28,7 +28,7 @@ def plot_sld(rpm: np.ndarray, depth_mm: np.ndarray, *, label: str = "stability l
     Args:
         rpm, depth_mm: the envelope (speeds [rev/min], depths [mm]; ``inf`` = no limit there).
         lobes: raw lobes (:class:`millstab.stability.zoa.Lobe`, depth in m) drawn thin and grey.
-        points: a :class:`millstab.io.points.PointSet` marked by label.
+        points: a :class:`millstab.points.PointSet` marked by label.
         others: extra curves ``(label, rpm, depth_mm)`` (e.g. another engine, a target SLD).
         ylim_mm: top of the depth axis; default a little above the highest finite value shown.
     Returns:

@@ -78,7 +78,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
-        config: a :class:`millstab.io.config.Config` (structure = prior medians; ``[prior]`` table).
+        config: a :class:`millstab.config.Config` (structure = prior medians; ``[prior]`` table).
         cuts: labelled cuts (unlabelled rows count as boundary points).
         points: more boundary points (or cuts), or ``None``.
         engine: a registered engine (:data:`millstab.stability.ENGINES`): ``zoa`` (fast) or an

@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from millstab.io.points import PointSet
+from millstab.points import PointSet
 from millstab.update import update
 from millstab.update.decide import SPEED_TOLERANCE, p_stable_map, recommend
 from millstab.update.posterior import Posterior, exchange_of, split_modes

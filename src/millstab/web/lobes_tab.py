@@ -38,15 +38,7 @@ class LobesTab:
         self.redraw()
 
     def overlay(self) -> None:
-        pts = [p for p in (self.s.points, self.s.cuts) if p is not None]
-        if not pts:
-            set_points(self.src, None)
-            return
-        from millstab.io.points import PointSet
-
-        both = PointSet(np.concatenate([p.rpm for p in pts]), np.concatenate([p.depth_mm for p in pts]),
-                        np.concatenate([p.label for p in pts]))
-        set_points(self.src, both)
+        set_points(self.src, api.overlay_points(self.s.points, self.s.cuts))
 
     def redraw(self, force: bool = False) -> None:
         cfg, origin = self.s.cfg, self.s.origin

@@ -23,7 +23,7 @@ _LIVE: "weakref.WeakSet[Session]" = weakref.WeakSet()
 class Session(param.Parameterized):
     """One tab's data. Tabs watch the parameters to redraw; results are set by the jobs that made them."""
 
-    cfg = param.Parameter(default=None, doc="the current valid Config (millstab.io.config.Config) or None")
+    cfg = param.Parameter(default=None, doc="the current valid Config (millstab.config.Config) or None")
     points = param.Parameter(default=None, doc="uploaded boundary points (PointSet) or None")
     fit = param.Parameter(default=None, doc="the last identification (millstab.identify.result.Fit) or None")
     fit_cfg = param.Parameter(default=None, doc="the config the fit was made from")

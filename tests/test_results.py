@@ -607,7 +607,28 @@ def test_posterior_table_shows_the_trades_units(one_of_each):
 #: the results that draw themselves from what they hold (a figure that needs a new computation, e.g. the SLD of
 #: a fit, a design's SLD or a P(stable) map, is assembled by the service: api.fit_figure, design_figure, map_figure)
 FIGURED = ("Fit", "OATResult", "MCResult", "SobolResult", "MorrisResult", "Posterior", "Lobes", "Study", "Heard",
-           "ModalResult")
+           "ModalResult", "SpeedDesign", "Envelope", "Recommendation", "CutResult", "Labels", "Prediction", "TipFRF")
+
+
+@pytest.fixture(scope="module")
+def figured(one_of_each):
+    """The registered results and two that are not read back (``api.Prediction``, ``api.TipFRF``)."""
+    import tomllib
+
+    from millstab.api.predict import Prediction
+    from millstab.api.tooltip import TipFRF
+    from millstab.io.config import parse_config, tool_setup
+    from millstab.points import PointSet
+    from millstab.tooltip import peaks
+
+    text = ('[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 1\n[tool]\ndiameter = "12 mm"\n'
+            'stickout = "45 mm"\nfluted_length = "26 mm"\nmaterial = "carbide"\nzeta = 0.01\n[holder]\nrigid = true\n')
+    cfg, (tool, holder) = parse_config(text), tool_setup(tomllib.loads(text))
+    frf = cfg.structure.frf
+    fn, pk = peaks(frf.freq_hz, frf.xx, 2)
+    cuts = PointSet(np.array([5000.0, 6000.0, 7000.0]), np.array([1.0, 2.0, 1.5]), np.array(["stable", "chatter", ""]))
+    return {**one_of_each, "TipFRF": TipFRF(cfg, tool, holder, frf.freq_hz, frf.xx, fn, pk),
+            "Prediction": Prediction(cuts, np.array([0.9, 0.2, 0.5]), np.array([0.1, 0.7, 0.4]))}
 
 
 def _data_axes(fig) -> list:
@@ -619,14 +640,15 @@ def _data_axes(fig) -> list:
 
 
 @pytest.mark.parametrize("name", FIGURED)
-def test_every_result_draws_its_figure_and_into_a_given_ax(one_of_each, name):
+def test_every_result_draws_its_figure_and_into_a_given_ax(figured, name):
     """``figure()`` returns a matplotlib Figure whose axes hold data; ``figure(ax)`` draws into the caller's
     figure, in ax's place, leaving the caller's other axes alone (fails on the old code: Lobes, Heard,
-    ModalResult, Posterior, Fit and the sensitivity results had no figure method, Study's took no ax)."""
+    ModalResult, Posterior, Fit and the sensitivity results had no figure method, Study's took no ax; then
+    SpeedDesign, Envelope, Recommendation, CutResult, Labels, Prediction and TipFRF had none)."""
     import matplotlib.pyplot as plt
     from matplotlib.figure import Figure
 
-    obj = one_of_each[name]
+    obj = figured[name]
     fig = obj.figure()
     try:
         assert isinstance(fig, Figure) and _data_axes(fig), name
@@ -639,3 +661,68 @@ def test_every_result_draws_its_figure_and_into_a_given_ax(one_of_each, name):
     drawn = _data_axes(host)
     assert left in drawn and len(drawn) >= 2, name
     assert all(ax.get_position().x0 >= left.get_position().x1 for ax in drawn if ax is not left)
+
+
+# --- table(): the rows a user puts in a spreadsheet (issue 26) -------------------------------------------
+TABLED = ("Fit", "SpeedDesign", "Posterior", "CutResult", "Labels", "Lobes", "Study", "Heard", "ModalResult",
+          "Recommendation", "Prediction", "TipFRF")
+
+
+@pytest.mark.parametrize("name", TABLED)
+def test_every_result_has_a_table_of_equal_columns(figured, name):
+    """``table()`` is ``(header, columns)``: one name per column, every column as long as the others, and
+    ``io.results.csv_text`` writes it (fails on the old code for Study, Heard, ModalResult, Recommendation)."""
+    from millstab.io.results import csv_text
+
+    header, cols = figured[name].table()
+    assert len(header) == len(cols) > 1 and len(set(header)) == len(header), name
+    assert len({len(c) for c in cols}) == 1 and len(cols[0]) > 0, name
+    assert csv_text(header, cols).splitlines()[0] == ",".join(header)
+
+
+def test_study_tables_hold_each_methods_numbers(figured, studies):
+    """Study.table(): one row per parameter; the numbers are the result's own (recomputed from its fields):
+    OAT's MSE per change, MC's mean/SD/SEM and the paper's Table 6, Sobol's indices, Morris' μ*."""
+    from millstab.api.sensitivity import Study
+
+    mc = figured["Study"]
+    header, cols = mc.table()
+    res = mc.result
+    assert cols[0] == list(res.names)
+    assert header[:4] == ["parameter", "mean_mm2", "sd_mm2", "sem_mm2"]
+    np.testing.assert_allclose(cols[1], res.mse_mm2.mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(cols[3], res.mse_mm2.std(axis=0, ddof=1) / math.sqrt(res.mse_mm2.shape[0]), rtol=1e-12)
+    if "paper_mean_mm2" in header:
+        assert cols[header.index("paper_mean_mm2")] == [mc.paper[n]["mean"] for n in res.names]
+    for method in ("oat", "sobol", "morris"):
+        r = studies[method]
+        header, cols = dataclasses.replace(mc, method=method, result=r, paper=None).table()
+        assert cols[0] == list(r.names), method
+        if method == "oat":
+            assert header[1:] == [f"mse_mm2_eps{e:+g}" for e in r.eps]
+            np.testing.assert_array_equal(np.array(cols[1:]).T, r.mse_mm2)
+        elif method == "sobol":
+            np.testing.assert_array_equal(cols[header.index("minimum_ST")], r.minimum["ST"])
+        else:
+            np.testing.assert_array_equal(cols[header.index("mse_mu_star")], r.outputs["mse"]["mu_star"])
+    assert isinstance(mc, Study)
+
+
+def test_heard_modal_and_recommendation_tables(figured):
+    """Heard: one row per recording (NaN "not heard" kept); ModalResult: one row per mode, k in N/µm;
+    Recommendation: the cut and the next test."""
+    heard = figured["Heard"]
+    header, cols = heard.table()
+    row = dict(zip(header, (c[0] for c in cols)))
+    assert row["label"] == "stable" and math.isnan(row["chatter_hz"]) and row["rpm_heard"] == 6003.5
+    assert row["suggested_rpm"] is heard.suggested_rpm and row["reason"] == heard.reason
+    modal = figured["ModalResult"]
+    header, cols = modal.table()
+    m = modal.fits["x"].modes[0]
+    assert header[:4] == ["direction", "fn_hz", "k_N_per_um", "zeta"] and cols[0] == ["x"]
+    assert (cols[1][0], cols[2][0], cols[3][0]) == (m.fn, pytest.approx(m.k / 1e6, rel=1e-15), m.zeta)
+    rec = figured["Recommendation"]
+    header, cols = rec.table()
+    assert header == ["cut", "rpm", "depth_mm", "p_chatter", "why"]
+    assert cols[1] == [rec.rpm, rec.next_test["rpm"]] and cols[2] == [rec.depth_mm, rec.next_test["depth_mm"]]
+    assert cols[4][0] == f"limited by {rec.limited_by}" and math.isnan(cols[3][1])  # this next test has no P(chatter)

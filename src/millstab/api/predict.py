@@ -45,6 +45,15 @@ class Prediction:
             cols.append(list(self.condition))
         return header, cols
 
+    def figure(self, ax=None, *, title: str = ""):
+        """The cuts coloured by P(stable), the labelled ones ringed by their written label
+        (:func:`millstab.plot.update.plot_prediction`), into ``ax`` or a new figure, which it returns."""
+        from millstab.plot.update import plot_prediction
+
+        c = self.cuts
+        labels = np.where(c.boundary, "", c.label.astype(str)) if (~c.boundary).any() else None
+        return plot_prediction(c.rpm, c.depth_mm, self.p_stable, labels, title=title, ax=ax)
+
     def scores(self) -> dict | None:
         """Scores of ``p_label_chatter`` against the labelled cuts (``None`` without any): ``n``, ``brier``
         (mean squared difference to the graded label, 0 stable … 1 chatter) and ``brier_rate`` (that of the

@@ -83,3 +83,45 @@ def plot_cuts(cuts: Sequence[tuple], title: str | None = None):
         fig.suptitle(title)
     fig.tight_layout()
     return fig
+
+
+def plot_trace(result, title: str | None = None, ax=None):
+    """One cut's time trace (x, y [µm] over t [ms]) with its once-per-tooth samples, without a detector's
+    verdict (with one, :func:`draw_cut` draws three panels); into ``ax`` or a new figure. Returns the Figure."""
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(9, 3.6))
+    ax_.plot(result.t * 1e3, result.x * 1e6, lw=0.6, color="tab:blue", label="x")
+    if result.active[1]:
+        ax_.plot(result.t * 1e3, result.y * 1e6, lw=0.6, color="tab:purple", alpha=0.7, label="y")
+    ax_.plot(result.once_t * 1e3, result.once_x * 1e6, ".", ms=3, color="black", label="once per tooth (x)")
+    ax_.set_xlabel("time [ms]")
+    ax_.set_ylabel("displacement [µm]")
+    ax_.set_title(title or f"{result.rpm:.0f} rpm, {result.depth_m * 1e3:.3g} mm" + (" (diverged)" if result.diverged
+                                                                                    else ""), fontsize=10)
+    ax_.legend(fontsize=7, loc="upper right")
+    finish(fig, ax)
+    return fig
+
+
+def plot_labels(labels, title: str | None = None, ax=None):
+    """Labelled cuts (:class:`millstab.simulate.Labels`) on speed [rev/min] and depth [mm], one colour per
+    label (the label written, after any label noise); into ``ax`` or a new figure. Returns the Figure."""
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(8, 4.8))
+    marker = {"stable": "o", "marginal": "^", "chatter": "x"}
+    label = np.asarray(labels.label).astype(str)
+    for name in ("stable", "marginal", "chatter"):
+        m = label == name
+        if m.any():
+            ax_.scatter(labels.rpm[m], labels.depth_mm[m], s=28, marker=marker[name], color=LABEL_COLOUR[name],
+                        zorder=5, label=f"{name} ({int(m.sum())})")
+    ax_.set_xlabel("spindle speed [rev/min]")
+    ax_.set_ylabel("axial depth of cut [mm]")
+    ax_.set_ylim(bottom=0)
+    ax_.grid(alpha=0.3)
+    ax_.legend(fontsize=8, loc="upper left")
+    ax_.set_title(title or f"{label.size} simulated cuts", fontsize=10)
+    finish(fig, ax)
+    return fig

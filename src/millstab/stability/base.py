@@ -78,6 +78,13 @@ class Envelope:
         """Limiting depth in mm."""
         return self.depth * 1e3
 
+    def figure(self, ax=None, *, title: str | None = None):
+        """The limit over speed with its stable region shaded (:func:`millstab.plot.sld.plot_sld`), into
+        ``ax`` or a new figure, which it returns."""
+        from millstab.plot.sld import plot_sld
+
+        return plot_sld(self.rpm, self.depth_mm, title=title, ax=ax)
+
     def to_json(self) -> dict[str, Any]:
         """The JSON form (plain types, schema ``millstab.envelope/1``): ``rpm`` [rev/min], ``depth`` [m]
         with ``"inf"`` where no chatter boundary exists, ``lobe`` (integers, -1: none), ``chatter_hz`` [Hz]

@@ -665,13 +665,15 @@ def test_every_result_draws_its_figure_and_into_a_given_ax(figured, name):
 
 # --- table(): the rows a user puts in a spreadsheet (issue 26) -------------------------------------------
 TABLED = ("Fit", "SpeedDesign", "Posterior", "CutResult", "Labels", "Lobes", "Study", "Heard", "ModalResult",
-          "Recommendation", "Prediction", "TipFRF")
+          "Recommendation", "Prediction", "TipFRF", "OATResult", "MCResult", "SobolResult", "MorrisResult",
+          "Envelope")
 
 
 @pytest.mark.parametrize("name", TABLED)
 def test_every_result_has_a_table_of_equal_columns(figured, name):
     """``table()`` is ``(header, columns)``: one name per column, every column as long as the others, and
-    ``io.results.csv_text`` writes it (fails on the old code for Study, Heard, ModalResult, Recommendation)."""
+    ``io.results.csv_text`` writes it (fails on the old code for Study, Heard, ModalResult, Recommendation and
+    the four sensitivity results)."""
     from millstab.io.results import csv_text
 
     header, cols = figured[name].table()

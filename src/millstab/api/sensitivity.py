@@ -103,34 +103,10 @@ class Study:
         return self.header() + "\n" + _table_text(self)
 
     def table(self) -> tuple[list[str], list]:
-        """(header, columns), one row per parameter, of the numbers :meth:`summary` prints: OAT the MSE [mm²]
-        per relative change (``mse_mm2_eps+0.05``); Monte Carlo mean, SD (1/N) and SEM of the MSE [mm²] (and the
-        paper's Table 6 mean and SD where given); Sobol S1, ST and their confidence half-widths of the MSE and of
-        the minimum limit; Morris μ*, σ and μ*'s confidence of each output."""
-        res, header, cols = self.result, ["parameter"], [list(self.result.names)]
-
-        def add(name: str, values) -> None:
-            header.append(name)
-            cols.append([float(v) for v in values])
-
-        if self.method == "oat":
-            for k, e in enumerate(res.eps):
-                add(f"mse_mm2_eps{e:+g}", res.mse_mm2[:, k])
-        elif self.method == "mc":
-            for name in ("mean", "sd", "sem"):
-                add(f"{name}_mm2", getattr(res, name))
-            if self.paper and all(n in self.paper for n in res.names):
-                for name in ("mean", "sd"):
-                    add(f"paper_{name}_mm2", [self.paper[n][name] for n in res.names])
-        elif self.method == "sobol":
-            for out, d in (("mse", res.mse), ("minimum", res.minimum)):
-                for key in ("S1", "S1_conf", "ST", "ST_conf"):
-                    add(f"{out}_{key}", d[key])
-        else:
-            for out, d in res.outputs.items():
-                for key in ("mu_star", "sigma", "mu_star_conf"):
-                    add(f"{out}_{key}", d[key])
-        return header, cols
+        """(header, columns), one row per parameter, of the numbers :meth:`summary` prints: the result's own
+        ``table()`` (OAT the MSE per change; Monte Carlo mean, SD and SEM, with the paper's Table 6 where given;
+        Sobol's and Morris' indices)."""
+        return self.result.table(self.paper) if self.method == "mc" else self.result.table()
 
     def figure(self, ax=None):
         """The study's figure (``millstab sensitivity ... --plot``): its result's figure, with the config's name

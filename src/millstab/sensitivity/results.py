@@ -81,6 +81,11 @@ class OATResult:
                 "speeds": _speeds(self.rpm), "depth_ref_mm": self.depth_ref_mm,
                 "mse_mm2": {n: self.mse_mm2[j] for j, n in enumerate(self.names)}}
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: the MSE [mm²] per relative change (``mse_mm2_eps+0.05``)."""
+        return (["parameter"] + [f"mse_mm2_eps{e:+g}" for e in self.eps],
+                [list(self.names)] + [[float(v) for v in self.mse_mm2[:, k]] for k in range(self.eps.size)])
+
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_oat`), into ``ax``'s place or a new figure."""
         from millstab.plot.sensitivity import plot_oat
@@ -195,6 +200,16 @@ class MCResult:
             out["paper_ratios"] = pr
         return out
 
+    def table(self, paper: dict | None = None) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: mean, SD (1/N) and SEM of the MSE [mm²], and with ``paper``
+        (Table 6, when it names every parameter) the paper's mean and SD."""
+        header, cols = ["parameter", "mean_mm2", "sd_mm2", "sem_mm2"], [list(self.names)]
+        cols += [[float(v) for v in getattr(self, k)] for k in ("mean", "sd", "sem")]
+        if paper and all(n in paper for n in self.names):
+            header += ["paper_mean_mm2", "paper_sd_mm2"]
+            cols += [[paper[n][k] for n in self.names] for k in ("mean", "sd")]
+        return header, cols
+
     def figure(self, ax=None, *, paper: dict | None = None, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_mc_convergence`), into ``ax``'s place or a new figure."""
         from millstab.plot.sensitivity import plot_mc_convergence
@@ -276,6 +291,13 @@ class SobolResult:
                 "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
                 "blim": per_name(self.blim)}
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: S1, ST and their confidence half-widths of the MSE and of
+        the minimum limit (``mse_S1`` … ``minimum_ST_conf``)."""
+        keys = ("S1", "S1_conf", "ST", "ST_conf")
+        pairs = [(f"{o}_{k}", d[k]) for o, d in (("mse", self.mse), ("minimum", self.minimum)) for k in keys]
+        return ["parameter"] + [h for h, _ in pairs], [list(self.names)] + [[float(v) for v in c] for _, c in pairs]
+
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_sobol_speed`), into ``ax``'s place or a new figure."""
         from millstab.plot.sensitivity import plot_sobol_speed
@@ -333,6 +355,11 @@ class MorrisResult:
                 "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
                 "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
                             for o, d in self.outputs.items()}}
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: μ*, σ and μ*'s confidence of each output (``mse_mu_star``…)."""
+        pairs = [(f"{o}_{k}", d[k]) for o, d in self.outputs.items() for k in ("mu_star", "sigma", "mu_star_conf")]
+        return ["parameter"] + [h for h, _ in pairs], [list(self.names)] + [[float(v) for v in c] for _, c in pairs]
 
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_morris`), into ``ax``'s place or a new figure."""

@@ -78,6 +78,11 @@ class Envelope:
         """Limiting depth in mm."""
         return self.depth * 1e3
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the SLD CSV: rpm, blim_mm, lobe, chatter_hz (``millstab lobes --out``; ∞: no
+        limit, NaN: no chatter frequency)."""
+        return ["rpm", "blim_mm", "lobe", "chatter_hz"], [self.rpm, self.depth_mm, self.lobe, self.chatter_hz]
+
     def figure(self, ax=None, *, title: str | None = None):
         """The limit over speed with its stable region shaded (:func:`millstab.plot.sld.plot_sld`), into
         ``ax`` or a new figure, which it returns."""

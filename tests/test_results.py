@@ -607,7 +607,8 @@ def test_posterior_table_shows_the_trades_units(one_of_each):
 #: the results that draw themselves from what they hold (a figure that needs a new computation, e.g. the SLD of
 #: a fit, a design's SLD or a P(stable) map, is assembled by the service: api.fit_figure, design_figure, map_figure)
 FIGURED = ("Fit", "OATResult", "MCResult", "SobolResult", "MorrisResult", "Posterior", "Lobes", "Study", "Heard",
-           "ModalResult", "SpeedDesign", "Envelope", "Recommendation", "CutResult", "Labels", "Prediction", "TipFRF")
+           "ModalResult", "SpeedDesign", "Envelope", "Recommendation", "CutResult", "Labels", "Prediction", "TipFRF",
+           "Detection")
 
 
 @pytest.fixture(scope="module")
@@ -666,7 +667,7 @@ def test_every_result_draws_its_figure_and_into_a_given_ax(figured, name):
 # --- table(): the rows a user puts in a spreadsheet (issue 26) -------------------------------------------
 TABLED = ("Fit", "SpeedDesign", "Posterior", "CutResult", "Labels", "Lobes", "Study", "Heard", "ModalResult",
           "Recommendation", "Prediction", "TipFRF", "OATResult", "MCResult", "SobolResult", "MorrisResult",
-          "Envelope")
+          "Envelope", "Detection")
 
 
 @pytest.mark.parametrize("name", TABLED)
@@ -728,3 +729,26 @@ def test_heard_modal_and_recommendation_tables(figured):
     assert header == ["cut", "rpm", "depth_mm", "p_chatter", "why"]
     assert cols[1] == [rec.rpm, rec.next_test["rpm"]] and cols[2] == [rec.depth_mm, rec.next_test["depth_mm"]]
     assert cols[4][0] == f"limited by {rec.limited_by}" and math.isnan(cols[3][1])  # this next test has no P(chatter)
+
+
+def test_a_cut_with_its_detection_draws_three_panels_in_the_callers_place(one_of_each):
+    """CutResult.figure(detection=…): trace, once-per-tooth map and spectrum (``millstab simulate --plot``),
+    into a new figure or split into the caller's ax; without a detection the trace alone."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    cut, det = one_of_each["CutResult"], one_of_each["Detection"]
+    fig = cut.figure(detection=det, title="a cut")
+    try:
+        assert len(_data_axes(fig)) == 3 and fig.get_suptitle() == "a cut"
+    finally:
+        plt.close(fig)
+    host = Figure()
+    left, right = host.add_subplot(1, 2, 1), host.add_subplot(1, 2, 2)
+    assert cut.figure(right, detection=det, title="not the caller's") is host
+    assert right not in host.axes and len(host.axes) == 4 and host.get_suptitle() == ""
+    fig = cut.figure()
+    try:
+        assert len(_data_axes(fig)) == 1
+    finally:
+        plt.close(fig)

@@ -47,20 +47,39 @@ def draw_cut(result, detection, axes) -> None:
     ax_p.set_ylabel(f"{lv} once per tooth [µm]")
     ax_p.set_title(f"growth {detection.growth:.3g}, level {detection.level:.2g}", fontsize=9)
     ax_p.legend(fontsize=7)
+    draw_spectrum(detection, ax_f, result.fn_max_hz)
+
+
+def draw_spectrum(detection, ax, fn_max_hz: float | None = None) -> None:
+    """The detector's spectrum [µm] on a log scale with the tooth-passing harmonics dotted and the chatter line
+    in the label's colour, up to 3 × ``fn_max_hz`` (the structure's highest mode [Hz]) or 4 tooth passings."""
+    colour = LABEL_COLOUR.get(detection.label, "black")
     f, a = detection.freq_hz, detection.amplitude_m
     if f.size:
         top_amp = float(a.max()) * 1e6 if a.size and a.max() > 0 else 1.0
-        ax_f.semilogy(f, np.maximum(a * 1e6, 1e-7 * top_amp), lw=0.7, color="black")
-        ax_f.set_ylim(1e-6 * top_amp, 3 * top_amp)  # six decades: the harmonics and the chatter peak
+        ax.semilogy(f, np.maximum(a * 1e6, 1e-7 * top_amp), lw=0.7, color="black")
+        ax.set_ylim(1e-6 * top_amp, 3 * top_amp)  # six decades: the harmonics and the chatter peak
         top = f[-1]
         for k in range(1, int(top / detection.tooth_hz) + 1):
-            ax_f.axvline(k * detection.tooth_hz, color="tab:gray", lw=0.6, ls=":", zorder=0)
+            ax.axvline(k * detection.tooth_hz, color="tab:gray", lw=0.6, ls=":", zorder=0)
         if np.isfinite(detection.chatter_hz):
-            ax_f.axvline(detection.chatter_hz, color=colour, lw=1.0, label=f"chatter {detection.chatter_hz:.0f} Hz")
-            ax_f.legend(fontsize=7)
-        ax_f.set_xlim(0, min(top, max(3 * result.fn_max_hz, 4 * detection.tooth_hz)))
-    ax_f.set_xlabel(f"frequency [Hz] (dotted: tooth passing {detection.tooth_hz:.0f} Hz and harmonics)")
-    ax_f.set_ylabel("amplitude [µm]")
+            ax.axvline(detection.chatter_hz, color=colour, lw=1.0, label=f"chatter {detection.chatter_hz:.0f} Hz")
+            ax.legend(fontsize=7)
+        ax.set_xlim(0, min(top, max(3 * (fn_max_hz or 0.0), 4 * detection.tooth_hz)))
+    ax.set_xlabel(f"frequency [Hz] (dotted: tooth passing {detection.tooth_hz:.0f} Hz and harmonics)")
+    ax.set_ylabel("amplitude [µm]")
+
+
+def plot_spectrum(detection, title: str | None = None, ax=None):
+    """One detection's spectrum (:func:`draw_spectrum`), titled by its verdict; into ``ax`` or a new figure.
+    Returns the Figure."""
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(8, 3.6))
+    draw_spectrum(detection, ax_)
+    ax_.set_title(title or detection.summary(), color=LABEL_COLOUR.get(detection.label, "black"), fontsize=10)
+    finish(fig, ax)
+    return fig
 
 
 def plot_cut(result, detection, title: str | None = None):

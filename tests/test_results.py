@@ -752,3 +752,13 @@ def test_a_cut_with_its_detection_draws_three_panels_in_the_callers_place(one_of
         assert len(_data_axes(fig)) == 1
     finally:
         plt.close(fig)
+
+
+def test_prediction_summary_is_what_predict_prints(figured):
+    """Prediction.summary() (moved out of `millstab predict`): the P(stable) range and the Brier score of the
+    two labelled cuts, by hand: P(label chatter) 0.1 for a stable cut, 0.7 for a chatter cut → (0.1² + 0.3²)/2
+    = 0.05; their own chatter rate 0.5 as a constant → 0.25."""
+    lines = figured["Prediction"].summary().splitlines()
+    assert lines[0] == "3 cuts: P(stable) 0.200-0.900"
+    assert lines[1].startswith("  against the 2 labelled cuts: Brier score 0.0500 (their own chatter rate as a "
+                               "constant: 0.2500)")

@@ -762,3 +762,27 @@ def test_prediction_summary_is_what_predict_prints(figured):
     assert lines[0] == "3 cuts: P(stable) 0.200-0.900"
     assert lines[1].startswith("  against the 2 labelled cuts: Brier score 0.0500 (their own chatter rate as a "
                                "constant: 0.2500)")
+
+
+def test_sensitivity_results_summarise_themselves(studies):
+    """The lines `millstab sensitivity` prints under its header come from each result's summary() (moved out of
+    api/sensitivity.py): OAT one row per change, MC its mean/SD/SEM rows and the paper's only with Table 6,
+    Sobol S1 and ST of both outputs, Morris μ* and σ of both."""
+    from millstab.sensitivity import table6
+
+    oat_lines = studies["oat"].summary().splitlines()
+    r = studies["oat"]
+    assert len(oat_lines) == 1 + r.eps.size
+    assert [float(v) for v in oat_lines[1].split()[2:]] == pytest.approx(r.mse_mm2[:, 0], abs=6e-6)
+    mc = studies["mc"]
+    plain, with_paper = mc.summary().splitlines(), mc.summary(table6(), False).splitlines()
+    assert plain[0] == f"Monte Carlo sensitivity: N = 9, t = {mc.t:g}, eps = {mc.eps:g}, seed 3"
+    assert [float(v) for v in plain[2].split()[2:]] == pytest.approx(mc.mse_mm2.mean(axis=0), abs=6e-6)
+    assert not any("paper Table 6" in x for x in plain)
+    if set(mc.names) == set(table6()):
+        assert any(x.endswith("[other structure]") for x in with_paper)
+    sob = studies["sobol"].summary().splitlines()
+    assert [x.split()[0:2] for x in sob[1:5]] == [["MSE", "S1"], ["MSE", "ST"], ["min", "b_lim"], ["min", "b_lim"]]
+    mor = studies["morris"].summary().splitlines()
+    assert [x.split()[:2] for x in mor[1:]] == [["mse", "mu*"], ["mse", "sigma"], ["minimum", "mu*"],
+                                                ["minimum", "sigma"]]

@@ -786,3 +786,12 @@ def test_sensitivity_results_summarise_themselves(studies):
     mor = studies["morris"].summary().splitlines()
     assert [x.split()[:2] for x in mor[1:]] == [["mse", "mu*"], ["mse", "sigma"], ["minimum", "mu*"],
                                                 ["minimum", "sigma"]]
+
+
+def test_cut_summary_is_the_line_simulate_prints(one_of_each):
+    """CutResult.summary(detection): the cut (6000 rpm, 1 mm, 0.1 mm/tooth, the periods simulated) and the
+    verdict, with "the vibration diverged" only when it did (moved out of `millstab simulate`)."""
+    cut, det = one_of_each["CutResult"], one_of_each["Detection"]
+    assert cut.summary(det) == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods: stable; level 0.01"
+    gone = dataclasses.replace(cut, diverged=True)
+    assert gone.summary() == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods; the vibration diverged"

@@ -138,6 +138,16 @@ class CutResult:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.cut/1"
 
+    def summary(self, detection=None) -> str:
+        """What ``millstab simulate`` prints for one cut: speed, depth, feed and tooth periods simulated, and
+        with its ``detection`` the verdict (:meth:`~millstab.simulate.detect.Detection.summary`); whether the
+        vibration diverged."""
+        line = (f"{self.rpm:g} rpm, {self.depth_m * 1e3:g} mm, {self.feed_per_tooth_m * 1e3:g} mm/tooth, "
+                f"{self.periods} tooth periods")
+        if detection is not None:
+            line += ": " + detection.summary()
+        return line + ("; the vibration diverged" if self.diverged else "")
+
     def figure(self, ax=None, *, detection=None, title: str | None = None):
         """The time trace with its once-per-tooth samples (:func:`millstab.plot.simulate.plot_trace`); with the
         cut's ``detection`` (:class:`~millstab.simulate.detect.Detection`) also the once-per-tooth map and the

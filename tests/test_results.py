@@ -795,3 +795,11 @@ def test_cut_summary_is_the_line_simulate_prints(one_of_each):
     assert cut.summary(det) == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods: stable; level 0.01"
     gone = dataclasses.replace(cut, diverged=True)
     assert gone.summary() == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods; the vibration diverged"
+
+
+def test_envelope_summary_names_its_lowest_limit(one_of_each):
+    """Envelope.summary(): the lowest finite limit and its speed; ∞ (no boundary) is counted, never the minimum."""
+    env = one_of_each["Envelope"]
+    assert env.summary() == "2 speeds 1000..2000 rpm; minimum limit 1 mm at 2000 rpm; no limit at 1 speed"
+    none = dataclasses.replace(env, depth=np.full(2, np.inf))
+    assert none.summary() == "2 speeds 1000..2000 rpm; no limit at any of the 2 speeds"

@@ -78,6 +78,17 @@ class Envelope:
         """Limiting depth in mm."""
         return self.depth * 1e3
 
+    def summary(self) -> str:
+        """One line: the speeds, the lowest limit [mm] and its speed, and at how many speeds no limit exists."""
+        finite = np.isfinite(self.depth)
+        line = f"{self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm; "
+        if not finite.any():
+            return line + f"no limit at any of the {self.rpm.size} speeds"
+        i = int(np.argmin(np.where(finite, self.depth, np.inf)))
+        line += f"minimum limit {self.depth_mm[i]:.4g} mm at {self.rpm[i]:.6g} rpm"
+        n_inf = int((~finite).sum())
+        return line + (f"; no limit at {n_inf} speed{'s' if n_inf > 1 else ''}" if n_inf else "")
+
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the SLD CSV: rpm, blim_mm, lobe, chatter_hz (``millstab lobes --out``; ∞: no
         limit, NaN: no chatter frequency)."""

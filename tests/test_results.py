@@ -425,9 +425,11 @@ def _one_of_each(ex3, studies) -> dict:
         "OATResult": studies["oat"], "MCResult": studies["mc"], "SobolResult": studies["sobol"],
         "MorrisResult": studies["morris"],
         "Posterior": Posterior(prior, np.exp(prior.sample(8, np.random.default_rng(0))), "zoa", {"stages": 2}),
-        "Recommendation": Recommendation(6000.0, 1.5, 0.01, 9000.0, None, 0.05, {"rpm": 7000.0, "depth_mm": 2.0},
-                                         "risk", 0.02, 0.03, 350.5, 0.95, 100.0, ({"rpm": 6100.0, "depth_mm": 1.2},),
-                                         0.2),
+        "Recommendation": Recommendation(6000.0, 1.5, 0.01, 9000.0, None, 0.05,
+                                         {"rpm": 7000.0, "depth_mm": 2.0, "p_chatter": 0.3, "why": "most informative"},
+                                         "risk", 0.02, 0.03, 350.5, 0.95, 100.0,
+                                         ({"rpm": 6100.0, "depth_mm": 1.2, "cap_mm": 1.0, "half_width_rpm": 150.0,
+                                           "binding": True},), 0.2),
         "CutResult": CutResult(6000.0, 1e-3, 1e-4, 2, 4, t, t * 2, t * 3, t + 1, t - 1, False, 1050.0, (True, False)),
         "Labels": Labels(np.array([5000.0, 6000.0]), np.array([1e-3, 2e-3]), np.array(["stable", "chatter"]),
                          np.array(["stable", "chatter"]), np.array([np.nan, 812.5]), np.array(["", "hopf"]),
@@ -728,7 +730,9 @@ def test_heard_modal_and_recommendation_tables(figured):
     header, cols = rec.table()
     assert header == ["cut", "rpm", "depth_mm", "p_chatter", "why"]
     assert cols[1] == [rec.rpm, rec.next_test["rpm"]] and cols[2] == [rec.depth_mm, rec.next_test["depth_mm"]]
-    assert cols[4][0] == f"limited by {rec.limited_by}" and math.isnan(cols[3][1])  # this next test has no P(chatter)
+    assert cols[3] == [rec.p_chatter, 0.3] and cols[4] == [f"limited by {rec.limited_by}", "most informative"]
+    bare = dataclasses.replace(rec, next_test={"rpm": 7000.0, "depth_mm": 2.0})  # a hand-written file's next test
+    assert math.isnan(bare.table()[1][3][1]) and bare.table()[1][4][1] == ""
 
 
 def test_a_cut_with_its_detection_draws_three_panels_in_the_callers_place(one_of_each):
@@ -803,3 +807,15 @@ def test_envelope_summary_names_its_lowest_limit(one_of_each):
     assert env.summary() == "2 speeds 1000..2000 rpm; minimum limit 1 mm at 2000 rpm; no limit at 1 speed"
     none = dataclasses.replace(env, depth=np.full(2, np.inf))
     assert none.summary() == "2 speeds 1000..2000 rpm; no limit at any of the 2 speeds"
+
+
+def test_every_registered_result_presents_itself(figured):
+    """Every type in jsondoc.RESULTS is in the figure and table tests and has summary() -> str (issue 26: a new
+    result without one of them fails here, not in a user's notebook)."""
+    from millstab.jsondoc import RESULTS
+
+    names = {c for _, c, _ in RESULTS}
+    assert names <= set(FIGURED) and names <= set(TABLED) and set(FIGURED) == set(TABLED) == set(figured)
+    for name in sorted(set(figured)):
+        text = figured[name].summary()
+        assert isinstance(text, str) and text.strip(), name

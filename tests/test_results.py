@@ -748,7 +748,8 @@ def test_a_cut_with_its_detection_draws_three_panels_in_the_callers_place(one_of
     finally:
         plt.close(fig)
     host = Figure()
-    left, right = host.add_subplot(1, 2, 1), host.add_subplot(1, 2, 2)
+    host.add_subplot(1, 2, 1)
+    right = host.add_subplot(1, 2, 2)
     assert cut.figure(right, detection=det, title="not the caller's") is host
     assert right not in host.axes and len(host.axes) == 4 and host.get_suptitle() == ""
     fig = cut.figure()

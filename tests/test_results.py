@@ -425,9 +425,11 @@ def _one_of_each(ex3, studies) -> dict:
         "OATResult": studies["oat"], "MCResult": studies["mc"], "SobolResult": studies["sobol"],
         "MorrisResult": studies["morris"],
         "Posterior": Posterior(prior, np.exp(prior.sample(8, np.random.default_rng(0))), "zoa", {"stages": 2}),
-        "Recommendation": Recommendation(6000.0, 1.5, 0.01, 9000.0, None, 0.05, {"rpm": 7000.0, "depth_mm": 2.0},
-                                         "risk", 0.02, 0.03, 350.5, 0.95, 100.0, ({"rpm": 6100.0, "depth_mm": 1.2},),
-                                         0.2),
+        "Recommendation": Recommendation(6000.0, 1.5, 0.01, 9000.0, None, 0.05,
+                                         {"rpm": 7000.0, "depth_mm": 2.0, "p_chatter": 0.3, "why": "most informative"},
+                                         "risk", 0.02, 0.03, 350.5, 0.95, 100.0,
+                                         ({"rpm": 6100.0, "depth_mm": 1.2, "cap_mm": 1.0, "half_width_rpm": 150.0,
+                                           "binding": True},), 0.2),
         "CutResult": CutResult(6000.0, 1e-3, 1e-4, 2, 4, t, t * 2, t * 3, t + 1, t - 1, False, 1050.0, (True, False)),
         "Labels": Labels(np.array([5000.0, 6000.0]), np.array([1e-3, 2e-3]), np.array(["stable", "chatter"]),
                          np.array(["stable", "chatter"]), np.array([np.nan, 812.5]), np.array(["", "hopf"]),
@@ -607,7 +609,29 @@ def test_posterior_table_shows_the_trades_units(one_of_each):
 #: the results that draw themselves from what they hold (a figure that needs a new computation, e.g. the SLD of
 #: a fit, a design's SLD or a P(stable) map, is assembled by the service: api.fit_figure, design_figure, map_figure)
 FIGURED = ("Fit", "OATResult", "MCResult", "SobolResult", "MorrisResult", "Posterior", "Lobes", "Study", "Heard",
-           "ModalResult")
+           "ModalResult", "SpeedDesign", "Envelope", "Recommendation", "CutResult", "Labels", "Prediction", "TipFRF",
+           "Detection")
+
+
+@pytest.fixture(scope="module")
+def figured(one_of_each):
+    """The registered results and two that are not read back (``api.Prediction``, ``api.TipFRF``)."""
+    import tomllib
+
+    from millstab.api.predict import Prediction
+    from millstab.api.tooltip import TipFRF
+    from millstab.io.config import parse_config, tool_setup
+    from millstab.points import PointSet
+    from millstab.tooltip import peaks
+
+    text = ('[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 1\n[tool]\ndiameter = "12 mm"\n'
+            'stickout = "45 mm"\nfluted_length = "26 mm"\nmaterial = "carbide"\nzeta = 0.01\n[holder]\nrigid = true\n')
+    cfg, (tool, holder) = parse_config(text), tool_setup(tomllib.loads(text))
+    frf = cfg.structure.frf
+    fn, pk = peaks(frf.freq_hz, frf.xx, 2)
+    cuts = PointSet(np.array([5000.0, 6000.0, 7000.0]), np.array([1.0, 2.0, 1.5]), np.array(["stable", "chatter", ""]))
+    return {**one_of_each, "TipFRF": TipFRF(cfg, tool, holder, frf.freq_hz, frf.xx, fn, pk),
+            "Prediction": Prediction(cuts, np.array([0.9, 0.2, 0.5]), np.array([0.1, 0.7, 0.4]))}
 
 
 def _data_axes(fig) -> list:
@@ -619,14 +643,15 @@ def _data_axes(fig) -> list:
 
 
 @pytest.mark.parametrize("name", FIGURED)
-def test_every_result_draws_its_figure_and_into_a_given_ax(one_of_each, name):
+def test_every_result_draws_its_figure_and_into_a_given_ax(figured, name):
     """``figure()`` returns a matplotlib Figure whose axes hold data; ``figure(ax)`` draws into the caller's
     figure, in ax's place, leaving the caller's other axes alone (fails on the old code: Lobes, Heard,
-    ModalResult, Posterior, Fit and the sensitivity results had no figure method, Study's took no ax)."""
+    ModalResult, Posterior, Fit and the sensitivity results had no figure method, Study's took no ax; then
+    SpeedDesign, Envelope, Recommendation, CutResult, Labels, Prediction and TipFRF had none)."""
     import matplotlib.pyplot as plt
     from matplotlib.figure import Figure
 
-    obj = one_of_each[name]
+    obj = figured[name]
     fig = obj.figure()
     try:
         assert isinstance(fig, Figure) and _data_axes(fig), name
@@ -639,3 +664,159 @@ def test_every_result_draws_its_figure_and_into_a_given_ax(one_of_each, name):
     drawn = _data_axes(host)
     assert left in drawn and len(drawn) >= 2, name
     assert all(ax.get_position().x0 >= left.get_position().x1 for ax in drawn if ax is not left)
+
+
+# --- table(): the rows a user puts in a spreadsheet (issue 26) -------------------------------------------
+TABLED = ("Fit", "SpeedDesign", "Posterior", "CutResult", "Labels", "Lobes", "Study", "Heard", "ModalResult",
+          "Recommendation", "Prediction", "TipFRF", "OATResult", "MCResult", "SobolResult", "MorrisResult",
+          "Envelope", "Detection")
+
+
+@pytest.mark.parametrize("name", TABLED)
+def test_every_result_has_a_table_of_equal_columns(figured, name):
+    """``table()`` is ``(header, columns)``: one name per column, every column as long as the others, and
+    ``io.results.csv_text`` writes it (fails on the old code for Study, Heard, ModalResult, Recommendation and
+    the four sensitivity results)."""
+    from millstab.io.results import csv_text
+
+    header, cols = figured[name].table()
+    assert len(header) == len(cols) > 1 and len(set(header)) == len(header), name
+    assert len({len(c) for c in cols}) == 1 and len(cols[0]) > 0, name
+    assert csv_text(header, cols).splitlines()[0] == ",".join(header)
+
+
+def test_study_tables_hold_each_methods_numbers(figured, studies):
+    """Study.table(): one row per parameter; the numbers are the result's own (recomputed from its fields):
+    OAT's MSE per change, MC's mean/SD/SEM and the paper's Table 6, Sobol's indices, Morris' μ*."""
+    from millstab.api.sensitivity import Study
+
+    mc = figured["Study"]
+    header, cols = mc.table()
+    res = mc.result
+    assert cols[0] == list(res.names)
+    assert header[:4] == ["parameter", "mean_mm2", "sd_mm2", "sem_mm2"]
+    np.testing.assert_allclose(cols[1], res.mse_mm2.mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(cols[3], res.mse_mm2.std(axis=0, ddof=1) / math.sqrt(res.mse_mm2.shape[0]), rtol=1e-12)
+    if "paper_mean_mm2" in header:
+        assert cols[header.index("paper_mean_mm2")] == [mc.paper[n]["mean"] for n in res.names]
+    for method in ("oat", "sobol", "morris"):
+        r = studies[method]
+        header, cols = dataclasses.replace(mc, method=method, result=r, paper=None).table()
+        assert cols[0] == list(r.names), method
+        if method == "oat":
+            assert header[1:] == [f"mse_mm2_eps{e:+g}" for e in r.eps]
+            np.testing.assert_array_equal(np.array(cols[1:]).T, r.mse_mm2)
+        elif method == "sobol":
+            np.testing.assert_array_equal(cols[header.index("minimum_ST")], r.minimum["ST"])
+        else:
+            np.testing.assert_array_equal(cols[header.index("mse_mu_star")], r.outputs["mse"]["mu_star"])
+    assert isinstance(mc, Study)
+
+
+def test_heard_modal_and_recommendation_tables(figured):
+    """Heard: one row per recording (NaN "not heard" kept); ModalResult: one row per mode, k in N/µm;
+    Recommendation: the cut and the next test."""
+    heard = figured["Heard"]
+    header, cols = heard.table()
+    row = dict(zip(header, (c[0] for c in cols)))
+    assert row["label"] == "stable" and math.isnan(row["chatter_hz"]) and row["rpm_heard"] == 6003.5
+    assert row["suggested_rpm"] is heard.suggested_rpm and row["reason"] == heard.reason
+    modal = figured["ModalResult"]
+    header, cols = modal.table()
+    m = modal.fits["x"].modes[0]
+    assert header[:4] == ["direction", "fn_hz", "k_N_per_um", "zeta"] and cols[0] == ["x"]
+    assert (cols[1][0], cols[2][0], cols[3][0]) == (m.fn, pytest.approx(m.k / 1e6, rel=1e-15), m.zeta)
+    rec = figured["Recommendation"]
+    header, cols = rec.table()
+    assert header == ["cut", "rpm", "depth_mm", "p_chatter", "why"]
+    assert cols[1] == [rec.rpm, rec.next_test["rpm"]] and cols[2] == [rec.depth_mm, rec.next_test["depth_mm"]]
+    assert cols[3] == [rec.p_chatter, 0.3] and cols[4] == [f"limited by {rec.limited_by}", "most informative"]
+    bare = dataclasses.replace(rec, next_test={"rpm": 7000.0, "depth_mm": 2.0})  # a hand-written file's next test
+    assert math.isnan(bare.table()[1][3][1]) and bare.table()[1][4][1] == ""
+
+
+def test_a_cut_with_its_detection_draws_three_panels_in_the_callers_place(one_of_each):
+    """CutResult.figure(detection=…): trace, once-per-tooth map and spectrum (``millstab simulate --plot``),
+    into a new figure or split into the caller's ax; without a detection the trace alone."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    cut, det = one_of_each["CutResult"], one_of_each["Detection"]
+    fig = cut.figure(detection=det, title="a cut")
+    try:
+        assert len(_data_axes(fig)) == 3 and fig.get_suptitle() == "a cut"
+    finally:
+        plt.close(fig)
+    host = Figure()
+    host.add_subplot(1, 2, 1)
+    right = host.add_subplot(1, 2, 2)
+    assert cut.figure(right, detection=det, title="not the caller's") is host
+    assert right not in host.axes and len(host.axes) == 4 and host.get_suptitle() == ""
+    fig = cut.figure()
+    try:
+        assert len(_data_axes(fig)) == 1
+    finally:
+        plt.close(fig)
+
+
+def test_prediction_summary_is_what_predict_prints(figured):
+    """Prediction.summary() (moved out of `millstab predict`): the P(stable) range and the Brier score of the
+    two labelled cuts, by hand: P(label chatter) 0.1 for a stable cut, 0.7 for a chatter cut → (0.1² + 0.3²)/2
+    = 0.05; their own chatter rate 0.5 as a constant → 0.25."""
+    lines = figured["Prediction"].summary().splitlines()
+    assert lines[0] == "3 cuts: P(stable) 0.200-0.900"
+    assert lines[1].startswith("  against the 2 labelled cuts: Brier score 0.0500 (their own chatter rate as a "
+                               "constant: 0.2500)")
+
+
+def test_sensitivity_results_summarise_themselves(studies):
+    """The lines `millstab sensitivity` prints under its header come from each result's summary() (moved out of
+    api/sensitivity.py): OAT one row per change, MC its mean/SD/SEM rows and the paper's only with Table 6,
+    Sobol S1 and ST of both outputs, Morris μ* and σ of both."""
+    from millstab.sensitivity import table6
+
+    oat_lines = studies["oat"].summary().splitlines()
+    r = studies["oat"]
+    assert len(oat_lines) == 1 + r.eps.size
+    assert [float(v) for v in oat_lines[1].split()[2:]] == pytest.approx(r.mse_mm2[:, 0], abs=6e-6)
+    mc = studies["mc"]
+    plain, with_paper = mc.summary().splitlines(), mc.summary(table6(), False).splitlines()
+    assert plain[0] == f"Monte Carlo sensitivity: N = 9, t = {mc.t:g}, eps = {mc.eps:g}, seed 3"
+    assert [float(v) for v in plain[2].split()[2:]] == pytest.approx(mc.mse_mm2.mean(axis=0), abs=6e-6)
+    assert not any("paper Table 6" in x for x in plain)
+    if set(mc.names) == set(table6()):
+        assert any(x.endswith("[other structure]") for x in with_paper)
+    sob = studies["sobol"].summary().splitlines()
+    assert [x.split()[0:2] for x in sob[1:5]] == [["MSE", "S1"], ["MSE", "ST"], ["min", "b_lim"], ["min", "b_lim"]]
+    mor = studies["morris"].summary().splitlines()
+    assert [x.split()[:2] for x in mor[1:]] == [["mse", "mu*"], ["mse", "sigma"], ["minimum", "mu*"],
+                                                ["minimum", "sigma"]]
+
+
+def test_cut_summary_is_the_line_simulate_prints(one_of_each):
+    """CutResult.summary(detection): the cut (6000 rpm, 1 mm, 0.1 mm/tooth, the periods simulated) and the
+    verdict, with "the vibration diverged" only when it did (moved out of `millstab simulate`)."""
+    cut, det = one_of_each["CutResult"], one_of_each["Detection"]
+    assert cut.summary(det) == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods: stable; level 0.01"
+    gone = dataclasses.replace(cut, diverged=True)
+    assert gone.summary() == f"6000 rpm, 1 mm, 0.1 mm/tooth, {cut.periods} tooth periods; the vibration diverged"
+
+
+def test_envelope_summary_names_its_lowest_limit(one_of_each):
+    """Envelope.summary(): the lowest finite limit and its speed; ∞ (no boundary) is counted, never the minimum."""
+    env = one_of_each["Envelope"]
+    assert env.summary() == "2 speeds 1000..2000 rpm; minimum limit 1 mm at 2000 rpm; no limit at 1 speed"
+    none = dataclasses.replace(env, depth=np.full(2, np.inf))
+    assert none.summary() == "2 speeds 1000..2000 rpm; no limit at any of the 2 speeds"
+
+
+def test_every_registered_result_presents_itself(figured):
+    """Every type in jsondoc.RESULTS is in the figure and table tests and has summary() -> str (issue 26: a new
+    result without one of them fails here, not in a user's notebook)."""
+    from millstab.jsondoc import RESULTS
+
+    names = {c for _, c, _ in RESULTS}
+    assert names <= set(FIGURED) and names <= set(TABLED) and set(FIGURED) == set(TABLED) == set(figured)
+    for name in sorted(set(figured)):
+        text = figured[name].summary()
+        assert isinstance(text, str) and text.strip(), name

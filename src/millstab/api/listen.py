@@ -48,6 +48,16 @@ class Heard:
                      if math.isfinite(self.suggested_rpm) else f"suggestion: {self.reason}")
         return "\n".join(lines)
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of one row per recording (recordings of a campaign stack into one sheet): what was
+        heard (label, chatter_hz [Hz], score, prominence_db [dB], onset_s [s], trend), the speeds given and heard
+        [rev/min], the tooth-passing frequency [Hz] and the suggestion (suggested_rpm, reason). NaN: not heard."""
+        r = self.listening
+        values = {"label": r.label, "chatter_hz": r.chatter_hz, "score": r.score, "prominence_db": r.prominence_db,
+                  "onset_s": r.onset_s, "trend": r.trend, "rpm": r.rpm, "rpm_heard": r.rpm_heard, "teeth": r.teeth,
+                  "tooth_hz": r.tooth_hz, "suggested_rpm": self.suggested_rpm, "reason": self.reason}
+        return list(values), [[v] for v in values.values()]
+
     def figure(self, ax=None, *, title: str = ""):
         """The spectrum with its floor, masked lines and chatter line over the chatter amplitude in time
         (:func:`millstab.plot.listen.plot_listening`), into ``ax``'s place or a new figure."""

@@ -58,11 +58,10 @@ class Lobes:
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the CSV: rpm, blim_mm, lobe, chatter_hz[, blim_mm_<compare>]."""
-        env = self.envelope
-        cols = {"rpm": env.rpm, "blim_mm": env.depth_mm, "lobe": env.lobe, "chatter_hz": env.chatter_hz}
+        header, cols = self.envelope.table()
         if self.other is not None:
-            cols[f"blim_mm_{self.compare}"] = self.other.depth_mm
-        return list(cols), list(cols.values())
+            header, cols = header + [f"blim_mm_{self.compare}"], cols + [self.other.depth_mm]
+        return header, cols
 
     def csv(self) -> str:
         """The CSV text ``millstab lobes --out`` writes."""

@@ -45,6 +45,26 @@ class Prediction:
             cols.append(list(self.condition))
         return header, cols
 
+    def figure(self, ax=None, *, title: str = ""):
+        """The cuts coloured by P(stable), the labelled ones ringed by their written label
+        (:func:`millstab.plot.update.plot_prediction`), into ``ax`` or a new figure, which it returns."""
+        from millstab.plot.update import plot_prediction
+
+        c = self.cuts
+        labels = np.where(c.boundary, "", c.label.astype(str)) if (~c.boundary).any() else None
+        return plot_prediction(c.rpm, c.depth_mm, self.p_stable, labels, title=title, ax=ax)
+
+    def summary(self) -> str:
+        """What ``millstab predict`` prints after the condition: the range of P(stable) and, with labelled cuts,
+        their Brier score beside that of their own chatter rate as a constant."""
+        n = len(self.cuts)
+        lines = [f"{n} cuts: P(stable) {self.p_stable.min():.3f}-{self.p_stable.max():.3f}" if n else "no cuts"]
+        s = self.scores()
+        if s is not None:
+            lines.append(f"  against the {s['n']} labelled cuts: Brier score {s['brier']:.4f} (their own chatter rate "
+                         f"as a constant: {s['brier_rate']:.4f}); for held-out scores use millstab validate")
+        return "\n".join(lines)
+
     def scores(self) -> dict | None:
         """Scores of ``p_label_chatter`` against the labelled cuts (``None`` without any): ``n``, ``brier``
         (mean squared difference to the graded label, 0 stable … 1 chatter) and ``brier_rate`` (that of the

@@ -102,6 +102,12 @@ class Study:
         and change; MC: mean, SD and SEM beside the paper's Table 6; Sobol': S1 and ST; Morris: μ* and σ)."""
         return self.header() + "\n" + _table_text(self)
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter, of the numbers :meth:`summary` prints: the result's own
+        ``table()`` (OAT the MSE per change; Monte Carlo mean, SD and SEM, with the paper's Table 6 where given;
+        Sobol's and Morris' indices)."""
+        return self.result.table(self.paper) if self.method == "mc" else self.result.table()
+
     def figure(self, ax=None):
         """The study's figure (``millstab sensitivity ... --plot``): its result's figure, with the config's name
         (OAT) and the paper's Table 6 where the run is comparable (MC); into ``ax``'s place or a new figure."""
@@ -222,57 +228,9 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
     return Study(method, res, **context)
 
 
-def _fmt_row(label: str, values, width: int = 11) -> str:
-    return f"{label:<22}" + "".join(f"{v:>{width}.5f}" if np.isfinite(v) else f"{'-':>{width}}" for v in values)
-
-
-def _mc_table(res, paper: dict | None, paper_comparable: bool) -> str:
-    lines = [f"{'MSE [mm^2]':<22}" + "".join(f"{n:>11}" for n in res.names),
-             _fmt_row("mean (millstab)", res.mean), _fmt_row("SD 1/N (millstab)", res.sd), _fmt_row("SEM (millstab)", res.sem)]
-    if paper and all(n in paper for n in res.names):
-        tag = "" if paper_comparable else " [other structure]"
-        lines += [_fmt_row("mean (paper Table 6)", [paper[n]["mean"] for n in res.names]) + tag,
-                  _fmt_row("SD (paper Table 6)", [paper[n]["sd"] for n in res.names]) + tag]
-    ratios = []
-    for d in ("x", "y"):
-        if f"fn_{d}" in res.names and f"k_{d}" in res.names:
-            s = f"fn_{d}/k_{d} = {res.ratio(f'fn_{d}', f'k_{d}'):.1f}"
-            if paper and f"fn_{d}" in paper:
-                s += f" (paper {paper[f'fn_{d}']['mean'] / paper[f'k_{d}']['mean']:.1f})"
-            ratios.append(s)
-    if ratios:
-        lines.append("ratio of mean sensitivities: " + "; ".join(ratios))
-    return "\n".join(lines)
-
-
 def _table_text(study: Study) -> str:
-    """The study's table as text (the lines ``millstab sensitivity`` prints after the header)."""
-    res = study.result
-    lines = []
-    if study.method == "oat":
-        lines.append(f"{'MSE [mm^2]':<12}" + "".join(f"{n:>11}" for n in res.names))
-        for k, e in enumerate(res.eps):
-            lines.append(f"eps {e:+7.3f} " + "".join(f"{v:>11.5f}" for v in res.mse_mm2[:, k]))
-    elif study.method == "mc":
-        lines.append(f"Monte Carlo sensitivity: N = {res.n}, t = {res.t:g}, eps = {res.eps:g}, seed {res.seed}")
-        lines.append(_mc_table(res, study.paper, study.paper_comparable))
-        if study.paper:
-            lines.append("paper Table 6: N = 10 000, t = 0.1, eps = 1 % around Ex.1 predicted values; its speed set "
-                         "is not given" + ("" if study.paper_comparable else "; this run differs in centre or settings"))
-    else:
-        w = 15 if study.method == "sobol" else 11
-        lines.append(f"{'':<24}" + "".join(f"{nm:>{w}}" for nm in res.names))
-        if study.method == "sobol":
-            for oname, d in (("MSE", res.mse), ("min b_lim", res.minimum)):
-                for key in ("S1", "ST"):
-                    lines.append(f"{oname + ' ' + key:<24}" + "".join(f"{v:.3f}±{c:.3f}".rjust(w)
-                                                                       for v, c in zip(d[key], d[key + '_conf'])))
-            top = np.argmax(res.blim["ST"], axis=1)
-            share = {nm: int(np.sum(top == j)) for j, nm in enumerate(res.names)}
-            lines.append("largest total index of b_lim, speeds per parameter: " +
-                         ", ".join(f"{k} {v}" for k, v in share.items() if v))
-        else:
-            for oname, d in res.outputs.items():
-                lines.append(f"{oname + ' mu*':<24}" + "".join(f"{v:>11.4g}" for v in d["mu_star"]))
-                lines.append(f"{oname + ' sigma':<24}" + "".join(f"{v:>11.4g}" for v in d["sigma"]))
-    return "\n".join(lines)
+    """The study's table as text (the lines ``millstab sensitivity`` prints after the header): its result's
+    ``summary()``, Monte Carlo's beside the paper's Table 6."""
+    if study.method == "mc":
+        return study.result.summary(study.paper, study.paper_comparable)
+    return study.result.summary()

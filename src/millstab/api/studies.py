@@ -187,10 +187,9 @@ def modal_figure(result, check=None):
 
 
 def simulate_figure(result, detection, title: str = ""):
-    """A simulated cut's displacement, force and detection as one matplotlib figure."""
-    from millstab.plot.simulate import plot_cut
-
-    return plot_cut(result, detection, title=title)
+    """A simulated cut's trace, once-per-tooth map and spectrum as one matplotlib figure
+    (:meth:`millstab.simulate.CutResult.figure` with its detection)."""
+    return result.figure(detection=detection, title=title or None)
 
 
 def reproduce_steps() -> list[str]:

@@ -81,6 +81,15 @@ class TipFRF:
         g = self.g_y if direction == "y" and self.g_y is not None else self.g
         return ["freq_hz", "real", "imag"], [self.freq_hz, g.real, g.imag]
 
+    def figure(self, ax=None):
+        """The tip FRF and, with a sweep, "which stickout?" (:func:`millstab.plot.tooltip.plot_tooltip`), into
+        ``ax``'s place or a new figure, which it returns (``millstab tooltip --plot``)."""
+        from millstab.plot.tooltip import plot_tooltip
+
+        t = self.tool
+        return plot_tooltip(self.freq_hz, self.g, sweep=self.sweep, stickout=t.stickout, ax=ax,
+                            title=f"{self.config.name}: {t.diameter * 1e3:g} mm tool, {t.stickout * 1e3:g} mm stickout")
+
     def summary(self) -> str:
         """What ``millstab tooltip`` prints: the setup, the tip FRF's modes and, with a sweep, its table."""
         t = self.tool
@@ -170,12 +179,8 @@ def tip_frf(cfg: Config, tool: Tool, holder: Holder, *, stickouts: np.ndarray | 
 
 
 def tip_figure(result: TipFRF):
-    """The figure ``millstab tooltip --plot`` saves: the tip FRF and, with a sweep, "which stickout?"."""
-    from millstab.plot.tooltip import plot_tooltip
-
-    t = result.tool
-    return plot_tooltip(result.freq_hz, result.g, sweep=result.sweep, stickout=t.stickout,
-                        title=f"{result.config.name}: {t.diameter * 1e3:g} mm tool, {t.stickout * 1e3:g} mm stickout")
+    """The figure ``millstab tooltip --plot`` saves: :meth:`TipFRF.figure`."""
+    return result.figure()
 
 
 __all__ = ["FALLBACK_RPM", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf",

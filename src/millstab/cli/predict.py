@@ -56,9 +56,5 @@ def predict_cmd(
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")
     con.print(api.condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
                                                                    "'condition' column")
-    con.print(f"{len(c)} cuts: P(stable) {pred.p_stable.min():.3f}-{pred.p_stable.max():.3f}" if len(c) else "no cuts")
-    s = pred.scores()
-    if s is not None:
-        con.print(f"  against the {s['n']} labelled cuts: Brier score {s['brier']:.4f} (their own chatter rate as a "
-                  f"constant: {s['brier_rate']:.4f}); for held-out scores use millstab validate")
+    con.print(pred.summary())
     con.print(f"wrote {out}")

@@ -63,8 +63,7 @@ def simulate(
         typer.echo(f"{cfg.name}: {lab.summary()}")
         return _labels_out(api.labels_table(lab, pts), out, protect)
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
-    typer.echo(f"{cfg.name}: {rpm:g} rpm, {depth:g} mm, {res.feed_per_tooth_m * 1e3:g} mm/tooth, {res.periods} tooth periods: "
-               + _detection_line(det, res.diverged))
+    typer.echo(f"{cfg.name}: {res.summary(det)}")
     emit.csv(out, res.table(), protect)
     emit.figure(plot, lambda: api.simulate_figure(res, det, title=cfg.name), protect)
     if record:
@@ -84,8 +83,3 @@ def _labels_out(table, out: Path | None, protect) -> None:
         emit.csv(out, table, protect)
     else:
         typer.echo(csv_text(*table), nl=False)
-
-
-def _detection_line(det, diverged: bool) -> str:
-    """The detection's line, and whether the vibration diverged."""
-    return det.summary() + ("; the vibration diverged" if diverged else "")

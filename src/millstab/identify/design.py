@@ -128,6 +128,14 @@ class SpeedDesign:
         speeds, first, counts = np.unique(self.rpm, return_index=True, return_counts=True)
         return [(float(s), int(c), float(self.predicted_depth_mm[i])) for s, i, c in zip(speeds, first, counts)]
 
+    def figure(self, ax=None, *, title: str | None = None):
+        """The planned tests at their predicted depths (:func:`millstab.plot.identify.plot_design`; the SLD
+        they were planned around is a new computation: :func:`millstab.api.identify.design_figure`), into
+        ``ax`` or a new figure, which it returns."""
+        from millstab.plot.identify import plot_design
+
+        return plot_design(self, title=title, ax=ax)
+
     def summary(self) -> str:
         """What ``millstab design`` prints under its table of standard errors, one line each: which parameters
         the plan pins, its criterion against evenly spaced tests and its efficiency bound, the parameters it

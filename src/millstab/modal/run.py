@@ -182,6 +182,20 @@ class ModalResult:
                       f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}" for m in fit.modes]
         return "\n".join(lines)
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per fitted mode: direction, fn [Hz], k [N/µm], ζ, the phase deviation
+        [deg], peak over noise, the orders at which it was stable and of how many, the local misfit."""
+        from millstab.units import SHOWN
+
+        rows = [(d, m) for d, fit in self.fits.items() for m in fit.modes]
+        k_factor = SHOWN["N/m"][0]  # N/µm
+        header = ["direction", "fn_hz", "k_N_per_um", "zeta", "phase_deg", "peak_to_noise",
+                  "stable_orders", "orders", "local_error"]
+        cols = [[d for d, _ in rows], [m.fn for _, m in rows], [m.k * k_factor for _, m in rows],
+                [m.zeta for _, m in rows], [m.phase_deg for _, m in rows], [m.peak_to_noise for _, m in rows],
+                [m.stable_orders for _, m in rows], [m.orders for _, m in rows], [m.local_error for _, m in rows]]
+        return header, cols
+
     def figure(self, ax=None, *, check: SLDCheck | None = None):
         """Measured and fitted magnitude and phase and the stabilisation diagram per direction, and with
         ``check`` the SLDs beside each other (:func:`millstab.plot.modal.plot_modal_fit`); into ``ax``'s

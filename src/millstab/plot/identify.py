@@ -126,30 +126,40 @@ def plot_final(fits_or_panels: Sequence[tuple[str, np.ndarray, np.ndarray | None
     return fig
 
 
-def plot_design(plan, rpm: np.ndarray, sld_mm: np.ndarray, measured=None, *, title: str | None = None):
+def plot_design(plan, rpm: np.ndarray | None = None, sld_mm: np.ndarray | None = None, measured=None, *,
+                title: str | None = None, ax=None):
     """A test plan (:class:`~millstab.identify.design.SpeedDesign`) on the SLD it was planned around.
 
     Args:
-        rpm, sld_mm: the SLD at the plan's centre [rev/min], [mm]; measured: points already measured, or None.
+        rpm, sld_mm: the SLD at the plan's centre [rev/min], [mm], or None (the plan alone: what the plan
+            holds is its depths at the planned speeds, not the SLD between them); measured: points already
+            measured, or None; ax: draw into this Axes (else a new figure).
     Planned tests are triangles at their predicted depth, larger for more repeats at one speed.
     """
-    fig, ax = plt.subplots(figsize=(7.5, 3.8))
-    ax.plot(rpm, sld_mm, color="tab:blue", lw=1.4, label="SLD at the current estimate")
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(7.5, 3.8))
+    if sld_mm is not None:
+        ax_.plot(rpm, sld_mm, color="tab:blue", lw=1.4, label="SLD at the current estimate")
     if measured is not None and len(measured):
-        ax.scatter(measured.rpm, measured.depth_mm, s=10, color="k", zorder=4, label="measured")
+        ax_.scatter(measured.rpm, measured.depth_mm, s=10, color="k", zorder=4, label="measured")
     tests = plan.tests()
     r = np.array([t[0] for t in tests])
     c = np.array([t[1] for t in tests])
     d = np.array([t[2] for t in tests])
-    ax.scatter(r, d, s=18 + 14 * (c - 1), marker="v", color="tab:red", zorder=5, label=f"planned ({len(plan.rpm)} tests)")
-    ax.set_xlabel("spindle speed [rev/min]")
-    ax.set_ylabel("depth [mm]")
-    top = np.nanmax(np.where(np.isfinite(sld_mm), sld_mm, np.nan))
-    ax.set_ylim(0, 1.1 * max(top, float(d.max()) if d.size else top))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    ax.set_title(title or "planned boundary-point tests", fontsize=10)
-    fig.tight_layout()
+    ax_.scatter(r, d, s=18 + 14 * (c - 1), marker="v", color="tab:red", zorder=5,
+                label=f"planned ({len(plan.rpm)} tests)")
+    ax_.set_xlabel("spindle speed [rev/min]")
+    ax_.set_ylabel("depth [mm]")
+    finite = [] if sld_mm is None else np.asarray(sld_mm, float)[np.isfinite(sld_mm)]
+    tops = [float(v) for v in (np.max(finite) if len(finite) else np.nan, d.max() if d.size else np.nan)
+            if np.isfinite(v)]
+    if tops:
+        ax_.set_ylim(0, 1.1 * max(tops))
+    ax_.grid(alpha=0.3)
+    ax_.legend(fontsize=7)
+    ax_.set_title(title or "planned boundary-point tests", fontsize=10)
+    finish(fig, ax)
     return fig
 
 

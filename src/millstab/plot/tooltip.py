@@ -6,13 +6,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def plot_tooltip(freq_hz, g, sweep=None, stickout: float | None = None, title: str = ""):
+def plot_tooltip(freq_hz, g, sweep=None, stickout: float | None = None, title: str = "", ax=None):
     """Figure of a tip FRF (``freq_hz`` [Hz], ``g`` [m/N]) and an optional sweep
-    (:class:`millstab.api.tooltip.StickoutSweep`); ``stickout`` [m] marks the config's own."""
-    import matplotlib.pyplot as plt
+    (:class:`millstab.api.tooltip.StickoutSweep`); ``stickout`` [m] marks the config's own; into ``ax``'s
+    place or a new figure."""
+    from millstab.plot._layout import panels
 
     cols = 2 if sweep is not None else 1
-    fig, axes = plt.subplots(1, cols, figsize=(6.2 * cols, 4.4), squeeze=False, layout="constrained")
+    fig, axes = panels(ax, 1, cols, figsize=(6.2 * cols, 4.4), squeeze=False, layout="constrained")
     ax = axes[0, 0]
     ax.plot(freq_hz, g.real * 1e6, color="tab:blue", lw=1.1, label="real")
     ax.plot(freq_hz, g.imag * 1e6, color="tab:red", lw=1.1, label="imaginary")

@@ -75,6 +75,66 @@ def plot_pmap(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, prior
     return fig
 
 
+def plot_recommendation(rec, title: str = "", ax=None):
+    """A recommendation (:class:`millstab.update.decide.Recommendation`) on speed [rpm] and depth [mm]: the
+    recommended cut (gold star) with its speed tolerance as a bar, the next test, and the data guard's chatter
+    cuts with the depth cap each sets over its speed band (drawing only: the P(stable) map behind them is a new
+    computation, ``api.update.map_figure``); into ``ax`` or a new figure. Returns the Figure."""
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(8, 5))
+    tol = rec.speed_tolerance * rec.rpm
+    ax_.errorbar([rec.rpm], [rec.depth_mm], xerr=[[tol], [tol]] if tol > 0 else None, fmt="*", color="gold",
+                 mec="k", ms=14, ecolor="k", capsize=3, zorder=6,
+                 label=f"recommended: P(chatter) {rec.p_chatter:.3f} ≤ {rec.risk:g}")
+    nt = rec.next_test
+    ax_.plot([nt["rpm"]], [nt["depth_mm"]], "D", color="tab:blue", mec="k", ms=8, zorder=5,
+             label="next test" + (f": P(chatter) {nt['p_chatter']:.2f}" if "p_chatter" in nt else ""))
+    for i, g in enumerate(rec.guard):
+        ax_.plot([g["rpm"]], [g["depth_mm"]], "x", color="tab:red", ms=8, label="chatter cut (data guard)" if i == 0
+                 else None)
+        if "cap_mm" in g and "half_width_rpm" in g:
+            ax_.hlines(g["cap_mm"], g["rpm"] - g["half_width_rpm"], g["rpm"] + g["half_width_rpm"],
+                       color="tab:red", lw=1.0, ls="-" if g.get("binding") else ":",
+                       label="guard cap" if i == 0 else None)
+    ax_.set_ylim(bottom=0)
+    ax_.set_xlabel("spindle speed [rpm]")
+    ax_.set_ylabel("axial depth [mm]")
+    ax_.set_title(title or f"recommended cut (limited by {rec.limited_by})", fontsize=10)
+    ax_.grid(alpha=0.3)
+    ax_.legend(fontsize=7, loc="upper left")
+    finish(fig, ax)
+    return fig
+
+
+def plot_prediction(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, labels=None, title: str = "",
+                    ax=None):
+    """Cuts at speed [rpm] and depth [mm] coloured by their P(stable) (0 red … 1 green), the written labels
+    marked around them where given; into ``ax`` or a new figure. Returns the Figure."""
+    from millstab.plot._layout import finish, panels
+
+    fig, ax_ = panels(ax, figsize=(8, 5))
+    sc = ax_.scatter(rpm, depth_mm, c=p_stable, cmap="RdYlGn", vmin=0, vmax=1, s=40, edgecolors="k", zorder=5)
+    fig.colorbar(sc, ax=ax_, label="P(stable)")
+    if labels is not None:
+        lab = np.asarray(labels).astype(str)
+        for name in ("stable", "chatter", "marginal"):
+            sel = lab == name
+            if sel.any():
+                m, c = _MARKERS[name]
+                ax_.scatter(np.asarray(rpm)[sel], np.asarray(depth_mm)[sel], s=120, marker=m if m != "x" else "s",
+                            facecolors="none", edgecolors=c, lw=1.2, zorder=4, label=f"labelled {name}")
+        if ax_.get_legend_handles_labels()[0]:
+            ax_.legend(fontsize=7, loc="upper left")
+    ax_.set_ylim(bottom=0)
+    ax_.set_xlabel("spindle speed [rpm]")
+    ax_.set_ylabel("axial depth [mm]")
+    ax_.set_title(title or f"P(stable) of {np.size(rpm)} cuts", fontsize=10)
+    ax_.grid(alpha=0.3)
+    finish(fig, ax)
+    return fig
+
+
 def plot_campaign(rpm: np.ndarray, depth_mm: np.ndarray, maps: dict, truth_depth_mm: np.ndarray, cuts: dict,
                   recs: dict, productivity: np.ndarray, stable: np.ndarray, prior_depth_mm: np.ndarray | None = None):
     """A virtual campaign: P(stable) maps after some numbers of cuts, and productivity / best vs cuts.
@@ -129,4 +189,4 @@ def plot_campaign(rpm: np.ndarray, depth_mm: np.ndarray, maps: dict, truth_depth
     return fig
 
 
-__all__ = ["plot_campaign", "plot_corner", "plot_pmap"]
+__all__ = ["plot_campaign", "plot_corner", "plot_pmap", "plot_prediction", "plot_recommendation"]

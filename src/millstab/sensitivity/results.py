@@ -53,6 +53,11 @@ def _speeds(rpm: np.ndarray) -> dict[str, Any]:
     return {"count": int(r.size), "rpm_min": float(r.min()), "rpm_max": float(r.max()), "rpm": r}
 
 
+def _row(label: str, values, width: int = 11) -> str:
+    """One labelled row of a printed table (``-`` where not finite)."""
+    return f"{label:<22}" + "".join(f"{v:>{width}.5f}" if np.isfinite(v) else f"{'-':>{width}}" for v in values)
+
+
 @dataclass(frozen=True, eq=False)
 class OATResult:
     """One-at-a-time sensitivity (the seed paper's Algorithm 1).
@@ -80,6 +85,18 @@ class OATResult:
                 "centre": dict(zip(self.names, map(float, self.theta))), "eps": self.eps,
                 "speeds": _speeds(self.rpm), "depth_ref_mm": self.depth_ref_mm,
                 "mse_mm2": {n: self.mse_mm2[j] for j, n in enumerate(self.names)}}
+
+    def summary(self) -> str:
+        """What ``millstab sensitivity oat`` prints under its header: the MSE [mm²] per change and parameter."""
+        lines = [f"{'MSE [mm^2]':<12}" + "".join(f"{n:>11}" for n in self.names)]
+        for k, e in enumerate(self.eps):
+            lines.append(f"eps {e:+7.3f} " + "".join(f"{v:>11.5f}" for v in self.mse_mm2[:, k]))
+        return "\n".join(lines)
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: the MSE [mm²] per relative change (``mse_mm2_eps+0.05``)."""
+        return (["parameter"] + [f"mse_mm2_eps{e:+g}" for e in self.eps],
+                [list(self.names)] + [[float(v) for v in self.mse_mm2[:, k]] for k in range(self.eps.size)])
 
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_oat`), into ``ax``'s place or a new figure."""
@@ -195,6 +212,41 @@ class MCResult:
             out["paper_ratios"] = pr
         return out
 
+    def summary(self, paper: dict | None = None, paper_comparable: bool = False) -> str:
+        """What ``millstab sensitivity mc`` prints under its header: the settings, mean, SD and SEM of the MSE
+        [mm²] per parameter, with ``paper`` (Table 6) its mean and SD (tagged where the run is not comparable),
+        and the ratio of the fn and k sensitivities."""
+        lines = [f"Monte Carlo sensitivity: N = {self.n}, t = {self.t:g}, eps = {self.eps:g}, seed {self.seed}",
+                 f"{'MSE [mm^2]':<22}" + "".join(f"{n:>11}" for n in self.names),
+                 _row("mean (millstab)", self.mean), _row("SD 1/N (millstab)", self.sd), _row("SEM (millstab)", self.sem)]
+        if paper and all(n in paper for n in self.names):
+            tag = "" if paper_comparable else " [other structure]"
+            lines += [_row("mean (paper Table 6)", [paper[n]["mean"] for n in self.names]) + tag,
+                      _row("SD (paper Table 6)", [paper[n]["sd"] for n in self.names]) + tag]
+        ratios = []
+        for d in ("x", "y"):
+            if f"fn_{d}" in self.names and f"k_{d}" in self.names:
+                s = f"fn_{d}/k_{d} = {self.ratio(f'fn_{d}', f'k_{d}'):.1f}"
+                if paper and f"fn_{d}" in paper:
+                    s += f" (paper {paper[f'fn_{d}']['mean'] / paper[f'k_{d}']['mean']:.1f})"
+                ratios.append(s)
+        if ratios:
+            lines.append("ratio of mean sensitivities: " + "; ".join(ratios))
+        if paper:
+            lines.append("paper Table 6: N = 10 000, t = 0.1, eps = 1 % around Ex.1 predicted values; its speed set "
+                         "is not given" + ("" if paper_comparable else "; this run differs in centre or settings"))
+        return "\n".join(lines)
+
+    def table(self, paper: dict | None = None) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: mean, SD (1/N) and SEM of the MSE [mm²], and with ``paper``
+        (Table 6, when it names every parameter) the paper's mean and SD."""
+        header, cols = ["parameter", "mean_mm2", "sd_mm2", "sem_mm2"], [list(self.names)]
+        cols += [[float(v) for v in getattr(self, k)] for k in ("mean", "sd", "sem")]
+        if paper and all(n in paper for n in self.names):
+            header += ["paper_mean_mm2", "paper_sd_mm2"]
+            cols += [[paper[n][k] for n in self.names] for k in ("mean", "sd")]
+        return header, cols
+
     def figure(self, ax=None, *, paper: dict | None = None, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_mc_convergence`), into ``ax``'s place or a new figure."""
         from millstab.plot.sensitivity import plot_mc_convergence
@@ -276,6 +328,28 @@ class SobolResult:
                 "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
                 "blim": per_name(self.blim)}
 
+    def summary(self) -> str:
+        """What ``millstab sensitivity sobol`` prints under its header: S1 and ST (± confidence) of the MSE and of
+        the minimum limit per parameter, and how many speeds each parameter has the largest total index of b_lim."""
+        w = 15
+        lines = [f"{'':<24}" + "".join(f"{nm:>{w}}" for nm in self.names)]
+        for oname, d in (("MSE", self.mse), ("min b_lim", self.minimum)):
+            for key in ("S1", "ST"):
+                lines.append(f"{oname + ' ' + key:<24}" + "".join(f"{v:.3f}±{c:.3f}".rjust(w)
+                                                                   for v, c in zip(d[key], d[key + '_conf'])))
+        top = np.argmax(self.blim["ST"], axis=1)
+        share = {nm: int(np.sum(top == j)) for j, nm in enumerate(self.names)}
+        lines.append("largest total index of b_lim, speeds per parameter: " +
+                     ", ".join(f"{k} {v}" for k, v in share.items() if v))
+        return "\n".join(lines)
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: S1, ST and their confidence half-widths of the MSE and of
+        the minimum limit (``mse_S1`` … ``minimum_ST_conf``)."""
+        keys = ("S1", "S1_conf", "ST", "ST_conf")
+        pairs = [(f"{o}_{k}", d[k]) for o, d in (("mse", self.mse), ("minimum", self.minimum)) for k in keys]
+        return ["parameter"] + [h for h, _ in pairs], [list(self.names)] + [[float(v) for v in c] for _, c in pairs]
+
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_sobol_speed`), into ``ax``'s place or a new figure."""
         from millstab.plot.sensitivity import plot_sobol_speed
@@ -333,6 +407,19 @@ class MorrisResult:
                 "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
                 "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
                             for o, d in self.outputs.items()}}
+
+    def summary(self) -> str:
+        """What ``millstab sensitivity morris`` prints under its header: μ* and σ of each output per parameter."""
+        lines = [f"{'':<24}" + "".join(f"{nm:>11}" for nm in self.names)]
+        for oname, d in self.outputs.items():
+            lines.append(f"{oname + ' mu*':<24}" + "".join(f"{v:>11.4g}" for v in d["mu_star"]))
+            lines.append(f"{oname + ' sigma':<24}" + "".join(f"{v:>11.4g}" for v in d["sigma"]))
+        return "\n".join(lines)
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns), one row per parameter: μ*, σ and μ*'s confidence of each output (``mse_mu_star``…)."""
+        pairs = [(f"{o}_{k}", d[k]) for o, d in self.outputs.items() for k in ("mu_star", "sigma", "mu_star_conf")]
+        return ["parameter"] + [h for h, _ in pairs], [list(self.names)] + [[float(v) for v in c] for _, c in pairs]
 
     def figure(self, ax=None, *, title: str | None = None):
         """Its figure (:func:`millstab.plot.sensitivity.plot_morris`), into ``ax``'s place or a new figure."""

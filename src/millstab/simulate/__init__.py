@@ -138,6 +138,34 @@ class CutResult:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.cut/1"
 
+    def summary(self, detection=None) -> str:
+        """What ``millstab simulate`` prints for one cut: speed, depth, feed and tooth periods simulated, and
+        with its ``detection`` the verdict (:meth:`~millstab.simulate.detect.Detection.summary`); whether the
+        vibration diverged."""
+        line = (f"{self.rpm:g} rpm, {self.depth_m * 1e3:g} mm, {self.feed_per_tooth_m * 1e3:g} mm/tooth, "
+                f"{self.periods} tooth periods")
+        if detection is not None:
+            line += ": " + detection.summary()
+        return line + ("; the vibration diverged" if self.diverged else "")
+
+    def figure(self, ax=None, *, detection=None, title: str | None = None):
+        """The time trace with its once-per-tooth samples (:func:`millstab.plot.simulate.plot_trace`); with the
+        cut's ``detection`` (:class:`~millstab.simulate.detect.Detection`) also the once-per-tooth map and the
+        spectrum, titled by its verdict (:func:`~millstab.plot.simulate.draw_cut`). Into ``ax``'s place or a new
+        figure, which it returns."""
+        from millstab.plot.simulate import draw_cut, plot_trace
+
+        if detection is None:
+            return plot_trace(self, title=title, ax=ax)
+        from millstab.plot._layout import finish, panels, suptitle
+
+        fig, axes = panels(ax, 1, 3, figsize=(14, 3.8), gridspec_kw={"width_ratios": [2.2, 1, 1.6]})
+        draw_cut(self, detection, axes)
+        if title:
+            suptitle(fig, ax, title)
+        finish(fig, ax)
+        return fig
+
     def table(self) -> tuple[list[str], list[np.ndarray]]:
         """(header, columns) of the trace CSV (``millstab simulate --out``): t_s, x_m, y_m, fx_N, fy_N."""
         return ["t_s", "x_m", "y_m", "fx_N", "fy_N"], [self.t, self.x, self.y, self.fx, self.fy]
@@ -343,6 +371,13 @@ class Labels:
 
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.labels/1"
+
+    def figure(self, ax=None, *, title: str | None = None):
+        """The cuts on speed and depth, one colour per label (:func:`millstab.plot.simulate.plot_labels`), into
+        ``ax`` or a new figure, which it returns."""
+        from millstab.plot.simulate import plot_labels
+
+        return plot_labels(self, title=title, ax=ax)
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``)."""

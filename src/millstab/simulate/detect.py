@@ -102,6 +102,18 @@ class Detection:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.simulate.detection/1"
 
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the spectrum the verdict was read from: freq_hz [Hz], amplitude_m [m]."""
+        return ["freq_hz", "amplitude_m"], [self.freq_hz, self.amplitude_m]
+
+    def figure(self, ax=None, *, title: str | None = None):
+        """The spectrum with the tooth-passing harmonics and the chatter line, titled by the verdict
+        (:func:`millstab.plot.simulate.plot_spectrum`; with the cut, :meth:`CutResult.figure` draws all three
+        panels); into ``ax`` or a new figure, which it returns."""
+        from millstab.plot.simulate import plot_spectrum
+
+        return plot_spectrum(self, title=title, ax=ax)
+
     def summary(self) -> str:
         """One line: 'chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31'
         (a metric not defined is left out, never printed as 'nan')."""

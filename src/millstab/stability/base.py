@@ -78,6 +78,29 @@ class Envelope:
         """Limiting depth in mm."""
         return self.depth * 1e3
 
+    def summary(self) -> str:
+        """One line: the speeds, the lowest limit [mm] and its speed, and at how many speeds no limit exists."""
+        finite = np.isfinite(self.depth)
+        line = f"{self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm; "
+        if not finite.any():
+            return line + f"no limit at any of the {self.rpm.size} speeds"
+        i = int(np.argmin(np.where(finite, self.depth, np.inf)))
+        line += f"minimum limit {self.depth_mm[i]:.4g} mm at {self.rpm[i]:.6g} rpm"
+        n_inf = int((~finite).sum())
+        return line + (f"; no limit at {n_inf} speed{'s' if n_inf > 1 else ''}" if n_inf else "")
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns) of the SLD CSV: rpm, blim_mm, lobe, chatter_hz (``millstab lobes --out``; ∞: no
+        limit, NaN: no chatter frequency)."""
+        return ["rpm", "blim_mm", "lobe", "chatter_hz"], [self.rpm, self.depth_mm, self.lobe, self.chatter_hz]
+
+    def figure(self, ax=None, *, title: str | None = None):
+        """The limit over speed with its stable region shaded (:func:`millstab.plot.sld.plot_sld`), into
+        ``ax`` or a new figure, which it returns."""
+        from millstab.plot.sld import plot_sld
+
+        return plot_sld(self.rpm, self.depth_mm, title=title, ax=ax)
+
     def to_json(self) -> dict[str, Any]:
         """The JSON form (plain types, schema ``millstab.envelope/1``): ``rpm`` [rev/min], ``depth`` [m]
         with ``"inf"`` where no chatter boundary exists, ``lobe`` (integers, -1: none), ``chatter_hz`` [Hz]

@@ -161,6 +161,23 @@ class Recommendation:
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.recommendation/1"
 
+    def figure(self, ax=None, *, title: str = ""):
+        """The recommended cut, the next test and the data guard's caps on speed and depth
+        (:func:`millstab.plot.update.plot_recommendation`; the P(stable) map behind them is a new computation,
+        ``api.update.map_figure``), into ``ax`` or a new figure, which it returns."""
+        from millstab.plot.update import plot_recommendation
+
+        return plot_recommendation(self, title=title, ax=ax)
+
+    def table(self) -> tuple[list[str], list]:
+        """(header, columns): the recommended cut and the next test, one row each: rpm, depth_mm, p_chatter, and
+        why (what limits the cut; why that test); NaN and empty where a read-back next test lacks them."""
+        nt = self.next_test
+        return (["cut", "rpm", "depth_mm", "p_chatter", "why"],
+                [["recommended", "next test"], [self.rpm, float(nt["rpm"])], [self.depth_mm, float(nt["depth_mm"])],
+                 [self.p_chatter, float(nt.get("p_chatter", math.nan))],
+                 [f"limited by {self.limited_by}", str(nt.get("why", ""))]])
+
     def summary(self) -> str:
         """What ``millstab recommend`` prints: the cut (rpm, mm, P(chatter) against the risk, what limits it, the
         removal rate), how it is held against a speed error and the sampling error, a binding data guard, and

@@ -188,7 +188,10 @@ def test_update_from_an_earlier_posterior(shop, capsys):
                  "--start", str(shop / "early.json"), "--out", str(shop / "seq.json")]) == 0
     seq = json.loads((shop / "seq.json").read_text())
     fresh = json.loads((shop / "post.json").read_text())
-    assert len(seq["cuts"]["rpm"]) == 6 and seq["diagnostics"]["stages"] < fresh["diagnostics"]["stages"]
+    # only the new cuts are tempered in: never more stages than the fresh update (fewer is typical, not certain:
+    # with the lobe-jump moves' random stream both took 2 stages here)
+    assert len(seq["cuts"]["rpm"]) == 6 and seq["diagnostics"]["stages"] <= fresh["diagnostics"]["stages"]
+    assert seq["diagnostics"]["started_from_cuts"] == 3 and fresh["diagnostics"]["started_from_cuts"] == 0
     (shop / "other.csv").write_text(CUTS.replace("6000,2.0", "6100,2.0"))
     capsys.readouterr()
     assert main(["update", "example:ex1", str(shop / "other.csv"), "--start", str(shop / "early.json"),

@@ -159,6 +159,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
                            progress=progress, init=u0, screen=scr.split(n_old) if scr is not None else None,
                            jumps=jumps)
     diag = res.diagnostics()
+    # how many of the cuts came from the earlier posterior (--start): only the others were tempered in
+    diag["started_from_cuts"] = 0 if start is None else n_old
     diag["engine_sets"] = lik.n_sets
     if scr is not None:
         diag["screen_engine"], diag["screen_sets"] = cheap_engine, scr.n_sets

@@ -513,3 +513,25 @@ def test_warmup_refuses_an_unknown_target(capsys):
 def test_warmup_compiles_zoa(capsys):
     code, out, err = run(capsys, ["warmup", "zoa"])
     assert code == 0 and out.startswith("zoa: ready ("), out + err
+
+
+def test_speeds_reach_the_kernels_contiguous_so_warmup_covers_them():
+    """A strided speed list (rpm[::2]) reached the SDM kernel as layout 'A', a second compile after
+    `millstab warmup` (seen in `make demo`); check_rpm hands every engine a C-contiguous copy."""
+    from millstab.stability.base import check_rpm
+
+    r = check_rpm(np.arange(1000.0, 9000.0, 500.0)[::2])
+    assert r.flags.c_contiguous and r.tolist() == list(np.arange(1000.0, 9000.0, 1000.0))
+
+
+def test_the_next_tests_information_has_one_numba_signature():
+    """One ε for all samples or one per sample: the same kernel signature (a read-only broadcast view was a
+    second one, compiled after `millstab warmup`); the result equals a per-sample ε of equal values."""
+    from millstab.update._bald import _bald, label_information
+
+    b = np.array([[1.0, 2.0], [1.5, np.inf], [0.8, 2.5]])
+    d, s = np.array([0.5, 1.2, 2.0]), np.full(3, 0.05)
+    one = label_information(b, d, s, 0.02)
+    per = label_information(b, d, s, np.full(3, 0.02), np.ones(3))
+    assert all(np.array_equal(x, y) for x, y in zip(one, per))
+    assert len(set(_bald.signatures)) == 1, _bald.signatures

@@ -3,7 +3,8 @@
 A fresh install compiles each engine at its first use (~1 min for zoa, ~4 min for spectral on one core).
 Every kernel a command reaches is touched with a tiny problem (two speeds of example ex1): the single
 structure's envelope, the batched forward function of the studies, the chatter-frequency path of the
-updating, and the time-domain simulation of one short cut.
+updating, the next test's information (with zoa: the decisions use it whatever the engine), and the
+time-domain simulation of one short cut.
 """
 
 from __future__ import annotations
@@ -37,3 +38,7 @@ def warm(target: str) -> None:
     eng = get_engine(target)
     if eng.reports_chatter_frequency:
         eng.envelope_batch_hz(par.batch(theta), cfg.cutting, rpm)
+    if target == TARGETS[0]:  # the next test's information (recommend, map), whatever the engine
+        from millstab.update._bald import label_information
+
+        label_information(np.ones((2, 2)), np.ones(2), np.ones(2), np.full(2, 0.02), np.ones(2))

@@ -41,7 +41,9 @@ def check_rpm(rpm) -> np.ndarray:
     bad = ~np.isfinite(r) | (r <= 0)
     if bad.any():
         raise InputError("rpm", float(r[bad][0]), "spindle speeds must be finite and > 0 rev/min")
-    return r
+    # contiguous always: a strided view (rpm[::2]) would make numba compile each kernel a second time, for
+    # layout 'A', after `millstab warmup` had compiled the 'C' one (seen in `make demo`)
+    return np.ascontiguousarray(r)
 
 
 def directional_matrix(cutting) -> np.ndarray:

@@ -84,7 +84,9 @@ def label_information(blim_mm: np.ndarray, depth_mm: np.ndarray, sigma_mm: np.nd
     """
     b = np.where(np.isnan(blim_mm), np.inf, blim_mm)
     m = b.shape[0]
-    eps = np.broadcast_to(np.asarray(label_error, float), (m,))
-    fac = np.ones(m) if sigma_factor is None else np.broadcast_to(np.asarray(sigma_factor, float), (m,))
+    # writable copies: a read-only broadcast view (one ε per sample) is another numba signature than a fresh
+    # array, so the kernel compiled twice and `millstab warmup` could not cover both
+    eps = np.array(np.broadcast_to(np.asarray(label_error, float), (m,)))
+    fac = np.ones(m) if sigma_factor is None else np.array(np.broadcast_to(np.asarray(sigma_factor, float), (m,)))
     return _bald(np.ascontiguousarray(b.T, dtype=float), np.ascontiguousarray(depth_mm, float),
-                 np.ascontiguousarray(sigma_mm, float), np.ascontiguousarray(eps), np.ascontiguousarray(fac))
+                 np.ascontiguousarray(sigma_mm, float), eps, fac)

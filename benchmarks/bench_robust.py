@@ -78,6 +78,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--trace", action="store_true", help="print per round: the recommendation and what limits it, "
+                    "the true limit there, the posterior's 5-95 %% limit at the best true speed, the data guard's "
+                    "cuts, the next test and its label, the posterior's medians of fn, k, ζ over the truth's")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -112,6 +115,13 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             return list(np.where(chat, "chatter", "stable"))
 
         best = best_productivity(truth, (lo, hi), args.max_depth, args.best_speeds, SPEED_TOLERANCE)
+        trace: list[str] = []
+        if args.trace:  # the best true speed on the grid (with the tolerance), to read the posterior there
+            g = np.linspace(lo, hi, args.best_speeds)
+            lim_g = np.min([truth(g * (1 + o)) for o in (0, -SPEED_TOLERANCE, SPEED_TOLERANCE)], axis=0)
+            rpm_star = float(g[np.argmax(np.minimum(lim_g, args.max_depth) * g)])
+            trace.append(f"   truth: best {rpm_star:.0f} rpm, {best / rpm_star:.3f} mm; true limit at the opening "
+                         f"speeds {np.round(truth(np.linspace(lo, hi, args.opening + 2)[1:-1]), 3).tolist()}")
         o_rpm = np.linspace(lo, hi, args.opening + 2)[1:-1]
         o_lim = zoa.envelope(cfg.structure, cut, o_rpm).depth_mm
         c_rpm = list(np.r_[o_rpm, o_rpm])
@@ -132,6 +142,8 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                 c_rpm.append(float(nx["rpm"]))
                 c_depth.append(float(nx["depth_mm"]))
                 c_lab += label([nx["rpm"]], [nx["depth_mm"]])
+            if args.trace:
+                trace += trace_round(k, post, rec, truth, rpm_star, theta, c_lab[-1] if k + 1 < args.rounds else "")
         m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
         row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
@@ -143,8 +155,30 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
                  f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); rounds (S stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
+        lines = trace + lines
         rec = campaign_record(c, posts, {"z_off": z_off.tolist(), "sign": s}) if args.save else {}
     return row, lines, rec
+
+
+def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, lab: str) -> list[str]:
+    """The --trace lines of round k (see --trace)."""
+    from millstab.update.likelihood import limits
+
+    b_true = float(truth(np.array([rec.rpm]))[0])
+    bl, _ = limits(post.prior, post.decision_u, np.array([rpm_star]), post.engine)
+    q5, q50, q95 = np.quantile(bl[:, 0], [0.05, 0.5, 0.95])
+    med = np.exp(np.median(post.u, axis=0)) / theta
+    par = " ".join(f"{n}={m:.2f}" for n, m in zip(post.prior.par.free, med))
+    gd = "; ".join(f"{g['rpm']:.0f}±{g['half_width_rpm']:.0f} rpm ≤{g['cap_mm']:.3f}{'*' if g['binding'] else ''}"
+                   for g in rec.guard) or "none"
+    nx = rec.next_test
+    return [f"   r{k + 1}: rec {rec.rpm:.0f} rpm {rec.depth_mm:.3f} mm ({rec.limited_by}; true limit {b_true:.3f}: "
+            f"{'S' if rec.depth_mm < b_true else 'C'}); posterior limit at {rpm_star:.0f} rpm 5/50/95 % "
+            f"{q5:.3f}/{q50:.3f}/{q95:.3f} (true {float(truth(np.array([rpm_star]))[0]):.3f})",
+            f"       guard: {gd}",
+            f"       next {nx['rpm']:.0f} rpm {nx['depth_mm']:.3f} mm P(ch) {nx['p_chatter']:.2f} → {lab or '-'} "
+            f"(true limit {float(truth(np.array([nx['rpm']]))[0]):.3f}); {nx['why'][:60]}",
+            f"       posterior median / truth: {par}"]
 
 
 def main() -> None:

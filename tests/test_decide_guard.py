@@ -170,3 +170,44 @@ def test_the_command_line_default_test_risk_is_the_library_s():
     from millstab.cli.recommend import TEST_RISK as CLI_TEST_RISK
 
     assert CLI_TEST_RISK == API_TEST_RISK == TEST_RISK
+
+
+CONFLICT = "the cuts contradict the hammer test: k_x is 0.3× the tap test's (−4.0σ)"
+
+
+def test_a_named_conflict_recommends_only_what_a_stable_cut_vouches_for():
+    """Issue 24, softer campaigns: while the posterior names a prior–data conflict, the recommendation is no deeper
+    than a cut labelled stable that the posterior also holds safe, within ±2 % of that cut's speed; the next test
+    is still sought above the model's own cut. References recomputed here from the samples' limits: a cut below
+    every sample's limit at its speed and ±the speed tolerance is safe; one above the median limit is not.
+    Fails on the old code (it recommended the model's cut, 1.95 mm at 9 000 rpm, far from any stable cut)."""
+    tol = 0.0025
+    s_ok, s_bad = 5600.0, 8800.0
+    lim = limits(PRIOR, np.log(SAMPLES), np.array([s_ok, s_ok * (1 - tol), s_ok * (1 + tol), s_bad]))[0]
+    d_ok = 0.9 * lim[:, :3].min()              # every sample stable there: P(chatter) = 0
+    d_bad = 1.5 * np.median(lim[:, 3])         # more than half the samples chatter there
+    cuts = ([s_ok, s_bad, 7000.0], [d_ok, d_bad, 20.0], ["stable", "stable", "chatter"])
+    model = recommend(post_with(*cuts), 0.05, (5000, 9000))  # no conflict named: the model's cut
+    assert abs(model.rpm - s_ok) > 0.02 * s_ok and model.rpm * model.depth_mm > s_ok * d_ok
+    rec = recommend(post_with(*cuts, warn=[CONFLICT]), 0.05, (5000, 9000))
+    assert abs(rec.rpm - s_ok) <= 0.02 * s_ok * (1 + 1e-12) and rec.depth_mm <= d_ok * (1 + 1e-12)
+    assert rec.rpm * rec.depth_mm >= s_ok * d_ok * (1 - 1e-9)  # the stable cut itself is a candidate
+    assert rec.limited_by.startswith("a cut labelled stable")
+    # its P(chatter), counted here over the samples at the speed and ±the tolerance, is within the risk
+    around = limits(PRIOR, np.log(SAMPLES), rec.rpm * np.array([1, 1 - tol, 1 + tol]))[0]
+    assert (around <= rec.depth_mm).mean(axis=0).max() <= 0.05
+    nt = rec.next_test  # sought above the model's cut, its productivity relative to the recommendation
+    assert nt["rpm"] * nt["depth_mm"] >= model.rpm * model.depth_mm * (1 - 1e-9)
+    assert nt["relative_productivity"] == pytest.approx(nt["rpm"] * nt["depth_mm"] / (rec.rpm * rec.depth_mm))
+    # "never" keeps the model's cut under a conflict; "always" confirms without one
+    never = recommend(post_with(*cuts, warn=[CONFLICT]), 0.05, (5000, 9000), confirm="never")
+    assert (never.rpm, never.depth_mm) == (model.rpm, model.depth_mm)
+    always = recommend(post_with(*cuts), 0.05, (5000, 9000), confirm="always")
+    assert (always.rpm, always.depth_mm) == (rec.rpm, rec.depth_mm)
+    # no stable cut the posterior holds safe: the model's cut stands
+    only_bad = ([s_bad, 7000.0], [d_bad, 20.0], ["stable", "chatter"])
+    rec = recommend(post_with(*only_bad, warn=[CONFLICT]), 0.05, (5000, 9000))
+    ref = recommend(post_with(*only_bad), 0.05, (5000, 9000))
+    assert (rec.rpm, rec.depth_mm) == (ref.rpm, ref.depth_mm) and rec.limited_by == ref.limited_by
+    with pytest.raises(InputError, match="--confirm"):
+        recommend(post_with(*cuts), 0.05, (5000, 9000), confirm="sometimes")

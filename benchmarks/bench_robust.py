@@ -60,6 +60,7 @@ def parse() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=10)
     ap.add_argument("--first", type=int, default=0)
+    ap.add_argument("--only", default=None, help="campaign numbers, comma-separated (instead of --first/--campaigns)")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--samples", type=int, default=1000)
     ap.add_argument("--tails", default=None, help="student | normal | mixture (default: the prior's default)")
@@ -78,6 +79,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--confirm", default="conflict", help="recommend's confirm rule(s), comma-separated: the first "
+                    "drives the campaign, every one is judged in every round (the next test is sought above the "
+                    "model's own cut whatever the rule, so the cuts, hence the posteriors, are the same for all)")
     ap.add_argument("--trace", action="store_true", help="print per round: the recommendation and what limits it, "
                     "the true limit there, the posterior's 5-95 %% limit at the best true speed, the data guard's "
                     "cuts, the next test and its label, the posterior's medians of fn, k, ζ over the truth's")
@@ -128,15 +132,23 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
         c_lab = label(c_rpm, c_depth)
         post, named, rec_ok, rec_p, log_bf, posts = None, [], [], [], [], []
+        modes = args.confirm.split(",")
+        by_mode = {m: ([], []) for m in modes}
         for k in range(args.rounds):
             ps = PointSet(c_rpm, c_depth, c_lab)
             post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
             posts.append(post)
             named.append(any(w.startswith("the cuts contradict the hammer test") for w in post.warnings))
             log_bf.append(post.diagnostics["conflict"]["log_bayes_factor"])
-            rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)))
-            rec_ok.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
-            rec_p.append(float(rec.rpm * rec.depth_mm / best))
+            r_seed = int(rng.integers(2**31))
+            for m in modes:
+                rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m)
+                by_mode[m][0].append(bool(rm.depth_mm < truth(np.array([rm.rpm]))[0]))
+                by_mode[m][1].append(float(rm.rpm * rm.depth_mm / best))
+                if m == modes[0]:
+                    rec = rm
+            rec_ok.append(by_mode[modes[0]][0][-1])
+            rec_p.append(by_mode[modes[0]][1][-1])
             if k + 1 < args.rounds:
                 nx = rec.next_test
                 c_rpm.append(float(nx["rpm"]))
@@ -148,14 +160,16 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
         row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
                "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
-               "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0}
+               "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0,
+               "modes": {m: {"rec_stable": v[0], "rec_productivity": v[1]} for m, v in by_mode.items()}}
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
         lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
                  (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
                  f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); rounds (S stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
-        lines = trace + lines
+        lines = trace + lines + [f"   confirm={m}: " + " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(*v))
+                                 for m, v in by_mode.items()]
         rec = campaign_record(c, posts, {"z_off": z_off.tolist(), "sign": s}) if args.save else {}
     return row, lines, rec
 
@@ -187,7 +201,8 @@ def main() -> None:
     prior = make_prior(load_config("example:ex1").structure, load_config("example:ex1").cutting,
                        PriorTable({}, tails=args.tails))
     t_all, c_all = time.perf_counter(), time.process_time()
-    rows, records = run_campaigns(run_one, args, range(args.first, args.first + args.campaigns))
+    todo = ([int(x) for x in args.only.split(",")] if args.only else range(args.first, args.first + args.campaigns))
+    rows, records = run_campaigns(run_one, args, todo)
     if args.save:
         save(args.save, prior, records)
     n = len(rows)
@@ -208,6 +223,18 @@ def main() -> None:
           f"{np.median(last_p):.2f} (min {min(last_p):.2f}); stable and ≥ 0.60: "
           f"{sum(ok and p >= 0.6 for ok, p in zip(last_ok, last_p))} / {n}" + (f"; stable ones' median {np.median(ok_p):.2f}"
                                                                                  if ok_p else ""))
+    for m in args.confirm.split(","):
+        for sign, side in ((-1, "softer"), (1, "stiffer")):
+            rs = [r["modes"][m] for r in rows if r["sign"] == sign]
+            if not rs:
+                continue
+            bad = sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rs)
+            lp = [r["rec_productivity"][-1] for r in rs]
+            lok = [r["rec_stable"][-1] for r in rs]
+            print(f"  confirm={m}, {side} ({len(rs)}): recommendations from round 3 on that chatter {bad} / "
+                  f"{sum(len(r['rec_stable'][2:]) for r in rs)}; last truly stable {sum(lok)} / {len(rs)}, "
+                  f"productivity / best median {np.median(lp):.2f} ({min(lp):.2f}-{max(lp):.2f}); stable and ≥ 0.60: "
+                  f"{sum(ok and p >= 0.6 for ok, p in zip(lok, lp))} / {len(rs)}")
     if args.json:
         args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()}, "campaigns": rows}))
 

@@ -102,12 +102,14 @@ GUARD_EXPLAINED = 0.5
 BLIND_SPOT_CHATTERS = 2
 BLIND_SPOT_WIDTH = 0.02
 #: when the recommendation must be vouched for by a cut labelled stable (:func:`confirmed_cuts`): ``"conflict"``
-#: (the default: while the posterior names a prior–data conflict), ``"always"``, ``"never"``
+#: (the default: while the posterior names a prior–data conflict or the data guard holds a chatter cut the posterior
+#: does not explain), ``"always"``, ``"never"``
 CONFIRM_CHOICES = ("conflict", "always", "never")
 CONFIRM = "conflict"
-#: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed (the blind-spot
-#: rule's width)
-CONFIRM_WIDTH = BLIND_SPOT_WIDTH
+#: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed: the spindle-speed
+#: tolerance, i.e. at the cut's own speed (±2 % let a softer campaign's recommendation slide from a stable cut at
+#: 11 965 rpm, 0.461 mm, to 12 000 rpm, where the true limit is 0.445 mm)
+CONFIRM_WIDTH = SPEED_TOLERANCE
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -425,7 +427,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         confirm: when the recommendation must be vouched for by a cut labelled stable (no deeper than one the
             posterior holds safe, within ±:data:`CONFIRM_WIDTH` of its speed: :func:`confirmed_cuts`; the next
             test is still sought above the model's own cut): ``"conflict"`` while the posterior names a
-            prior–data conflict, ``"always"``, ``"never"``.
+            prior–data conflict or the data guard holds a chatter cut it does not explain, ``"always"``, ``"never"``.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
             or confirm.
@@ -481,11 +483,11 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     def search(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple]:
         """(coarse speeds, their limits (N, S), the best (rpm, depth, limits at it (N,)))"""
         speeds = np.linspace(lo, hi, int(coarse_points))
+        step = speeds[1] - speeds[0]
         if support:  # the confirmed cuts' own speeds are candidates too
             speeds = np.union1d(speeds, [c["rpm"] for c in support])
         i, depth, blim = best_of(speeds, support)
         best = (speeds[i], depth[i], blim[:, i])
-        step = (hi - lo) / (int(coarse_points) - 1)
         for _ in range(REFINE_ROUNDS):  # bounded 1-D search around the best speed, one engine call per round
             a, b = max(lo, best[0] - step), min(hi, best[0] + step)
             cand = np.linspace(a, b, REFINE_POINTS)
@@ -499,7 +501,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     rpm_best, depth_best, col = best
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
     confirmed = False
-    if confirm == "always" or (confirm == "conflict" and conflict_named(post)):
+    if confirm == "always" or (confirm == "conflict" and (conflict_named(post) or guards)):
         support = confirmed_cuts(post, (lo, hi), risk, count, offsets, cap, guards)
         if support:
             rb, db, cb = search(support)[2]
@@ -516,8 +518,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         bound = float(beta.ppf(confidence, k + 1, max(n_eff - k, 1e-12)))
     prod = float(rpm_best * depth_best)
     g_best = float(guard_cap(guards, rpm_best * (1 + offsets)).min())
-    limited = ("a cut labelled stable (the cuts contradict the hammer test: no deeper than a stable cut the "
-               "posterior holds safe, within ±2 % of its speed)" if confirmed else "max_depth" if depth_best >= cap * (1 - 1e-12) else
+    limited = ("a cut labelled stable (the cuts contradict the model: no deeper than a stable cut the "
+               "posterior holds safe, at its speed)" if confirmed else "max_depth" if depth_best >= cap * (1 - 1e-12) else
                "data guard (a chatter-labelled cut)" if depth_best >= g_best * (1 - 1e-12) else "chatter risk")
     binding = [dict(g, binding=bool(np.any(np.abs(rpm_best * (1 + offsets) - g["rpm"]) <= g["half_width_rpm"])
                                     and depth_best >= g["cap_mm"] * (1 - 1e-12))) for g in guards]
@@ -538,7 +540,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     if confirmed:
         nt["relative_productivity"] = float(nt["rpm"] * nt["depth_mm"] / max(prod, 1e-300))
         nt["why"] = nt["why"].replace("the recommendation itself", "the model's cut, to be tested before it is "
-                                      "recommended (the recommendation is a cut labelled stable)", 1)
+                                      "recommended (the recommendation is held to a cut labelled stable)", 1)
     from millstab.points import describe_condition, same_condition
 
     nt["condition"] = describe_condition(post.condition)

@@ -183,13 +183,18 @@ def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, la
     q5, q50, q95 = np.quantile(bl[:, 0], [0.05, 0.5, 0.95])
     med = np.exp(np.median(post.u, axis=0)) / theta
     par = " ".join(f"{n}={m:.2f}" for n, m in zip(post.prior.par.free, med))
+    from millstab.update.decide import confirmed_cuts
+
+    off = np.array([0.0, -SPEED_TOLERANCE, SPEED_TOLERANCE])
+    vouch = confirmed_cuts(post, (0.0, np.inf), off)
+    vc = ", ".join(f"{v['rpm']:.0f} rpm {v['depth_mm']:.3f} mm P(ch) {v['p_chatter']:.2f}" for v in vouch) or "none"
     gd = "; ".join(f"{g['rpm']:.0f}±{g['half_width_rpm']:.0f} rpm ≤{g['cap_mm']:.3f}{'*' if g['binding'] else ''}"
                    for g in rec.guard) or "none"
     nx = rec.next_test
     return [f"   r{k + 1}: rec {rec.rpm:.0f} rpm {rec.depth_mm:.3f} mm ({rec.limited_by}; true limit {b_true:.3f}: "
             f"{'S' if rec.depth_mm < b_true else 'C'}); posterior limit at {rpm_star:.0f} rpm 5/50/95 % "
             f"{q5:.3f}/{q50:.3f}/{q95:.3f} (true {float(truth(np.array([rpm_star]))[0]):.3f})",
-            f"       guard: {gd}",
+            f"       guard: {gd}; stable cuts that vouch: {vc}",
             f"       next {nx['rpm']:.0f} rpm {nx['depth_mm']:.3f} mm P(ch) {nx['p_chatter']:.2f} → {lab or '-'} "
             f"(true limit {float(truth(np.array([nx['rpm']]))[0]):.3f}); {nx['why'][:60]}",
             f"       posterior median / truth: {par}"]

@@ -106,10 +106,13 @@ BLIND_SPOT_WIDTH = 0.02
 #: does not explain), ``"always"``, ``"never"``
 CONFIRM_CHOICES = ("conflict", "always", "never")
 CONFIRM = "conflict"
-#: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed: the spindle-speed
-#: tolerance, i.e. at the cut's own speed (±2 % let a softer campaign's recommendation slide from a stable cut at
-#: 11 965 rpm, 0.461 mm, to 12 000 rpm, where the true limit is 0.445 mm)
-CONFIRM_WIDTH = SPEED_TOLERANCE
+#: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed: 0, at its own
+#: speed only (±2 % let a softer campaign's recommendation slide from a stable cut at 11 965 rpm, 0.461 mm, to
+#: 12 000 rpm, where the true limit is 0.445 mm; ±0.25 % to 11 995 rpm, where it is 0.448 mm)
+CONFIRM_WIDTH = 0.0
+#: a stable cut vouches only when the posterior gives it at most this P(chatter) (at its speed and ±the speed
+#: tolerance): a swapped label (stable at 5× the true limit) that the posterior does not believe does not vouch
+CONFIRM_P_CHATTER = 0.25
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -366,13 +369,13 @@ def conflict_named(post: Posterior) -> bool:
     return any(warning_code(w) == "prior-data-conflict" for w in post.warnings)
 
 
-def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], risk: float, count: int, offsets: np.ndarray,
-                   cap: float = math.inf, guard: list[dict] = ()) -> list[dict]:
+def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.ndarray, cap: float = math.inf,
+                   guard: list[dict] = ()) -> list[dict]:
     """The cuts labelled stable (grade < ½, in the decision's condition and speed range, within the depth cap and
-    the data guard) that the posterior also holds safe: at most ``count`` samples (of N, see
-    :func:`allowed_count`) with a limit at or below the cut's depth at its speed × (1 + each of ``offsets``).
-    A list of {rpm, depth_mm}; each lets a recommendation as deep as it within ±:data:`CONFIRM_WIDTH` of its
-    speed (:func:`support_cap`).
+    the data guard) whose label the posterior believes: at most :data:`CONFIRM_P_CHATTER` of its samples have a
+    limit at or below the cut's depth at its speed × (1 + each of ``offsets``). A list of {rpm, depth_mm,
+    p_chatter}; each lets a recommendation as deep as it at its speed (:func:`support_cap`; the recommendation's
+    own risk still holds, so the depth there is the lesser of the two).
 
     Why (issue 24, softer campaigns): a posterior that contradicts its hammer test explains the chatter labels
     with a structure the data cannot check between the cuts (one mode's stiffness 3-4× below the truth's, the
@@ -387,13 +390,14 @@ def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], risk: float,
         return []
     r, d = rpm[ok], depth[ok]
     both, _ = limits(post.prior, post.decision_u, (r[None, :] * (1 + offsets[:, None])).ravel(), post.engine)
-    below = (both <= np.tile(d, offsets.size)[None, :]).sum(axis=0).reshape(offsets.size, r.size).max(axis=0)
-    return [{"rpm": float(a), "depth_mm": float(b)} for a, b, k in zip(r, d, below) if k <= count]
+    p = (both <= np.tile(d, offsets.size)[None, :]).mean(axis=0).reshape(offsets.size, r.size).max(axis=0)
+    return [{"rpm": float(a), "depth_mm": float(b), "p_chatter": float(q)} for a, b, q in zip(r, d, p)
+            if q <= CONFIRM_P_CHATTER]
 
 
 def support_cap(support: list[dict], rpm) -> np.ndarray:
     """The deepest depth [mm] the confirmed cuts ``support`` allow at each speed: the deepest of those within
-    ±:data:`CONFIRM_WIDTH` of the speed (0 where none is)."""
+    ±:data:`CONFIRM_WIDTH` of the speed (0: at the cut's own speed; 0 mm where none is)."""
     r = np.asarray(rpm, float)
     out = np.zeros(r.shape)
     for c in support:
@@ -424,8 +428,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         across: let the next test be in another condition (the trained ones and the slot) where a test there
             carries more information (:func:`next_test_across`); ``None``: when the posterior knows several
             conditions or decides for one it was not trained in.
-        confirm: when the recommendation must be vouched for by a cut labelled stable (no deeper than one the
-            posterior holds safe, within ±:data:`CONFIRM_WIDTH` of its speed: :func:`confirmed_cuts`; the next
+        confirm: when the recommendation must be vouched for by a cut labelled stable (no deeper than one whose
+            label the posterior believes, at its speed: :func:`confirmed_cuts`; the next
             test is still sought above the model's own cut): ``"conflict"`` while the posterior names a
             prior–data conflict or the data guard holds a chatter cut it does not explain, ``"always"``, ``"never"``.
     Raises:
@@ -502,7 +506,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
     confirmed = False
     if confirm == "always" or (confirm == "conflict" and (conflict_named(post) or guards)):
-        support = confirmed_cuts(post, (lo, hi), risk, count, offsets, cap, guards)
+        support = confirmed_cuts(post, (lo, hi), offsets, cap, guards)
         if support:
             rb, db, cb = search(support)[2]
             if db > 0 and rb * db < rpm_best * depth_best * (1 - 1e-9):
@@ -518,8 +522,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         bound = float(beta.ppf(confidence, k + 1, max(n_eff - k, 1e-12)))
     prod = float(rpm_best * depth_best)
     g_best = float(guard_cap(guards, rpm_best * (1 + offsets)).min())
-    limited = ("a cut labelled stable (the cuts contradict the model: no deeper than a stable cut the "
-               "posterior holds safe, at its speed)" if confirmed else "max_depth" if depth_best >= cap * (1 - 1e-12) else
+    limited = ("a cut labelled stable (the cuts contradict the model: no deeper than a stable cut whose "
+               "label the posterior believes, at its speed)" if confirmed else "max_depth" if depth_best >= cap * (1 - 1e-12) else
                "data guard (a chatter-labelled cut)" if depth_best >= g_best * (1 - 1e-12) else "chatter risk")
     binding = [dict(g, binding=bool(np.any(np.abs(rpm_best * (1 + offsets) - g["rpm"]) <= g["half_width_rpm"])
                                     and depth_best >= g["cap_mm"] * (1 - 1e-12))) for g in guards]
@@ -698,6 +702,6 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_WIDTH", "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+__all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH", "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

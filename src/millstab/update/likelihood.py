@@ -387,7 +387,8 @@ class Likelihood:
         n_calls, n_sets: engine calls and parameter sets evaluated so far.
     """
 
-    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None):
+    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None,
+                 engine_options: dict | None = None):
         check_kr_engine(prior, engine)  # also a clear error for an unknown name
         self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
@@ -418,7 +419,9 @@ class Likelihood:
         # per speed list (at θ0, :func:`limits`), so log L is one function of θ in every call (before, the first
         # row of each call chose, and the spectral engine's node count moved between calls: the same θ got
         # depths up to 0.11 % apart, tests/test_spectral_sampling.py)
-        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING) for p, _ in self._groups]
+        # ``engine_options``: the engine's discretisation fixed for the whole update (sdm ``steps``, spectral
+        # ``nodes``: millstab.forward.engine_options), over what the engine would choose
+        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING, engine_options) for p, _ in self._groups]
         self.n_calls = 0
         self.n_sets = 0
 

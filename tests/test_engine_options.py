@@ -70,3 +70,12 @@ def test_update_passes_the_steps_to_every_engine_call(monkeypatch):
     assert post.diagnostics["engine_options"] == {"steps": 10}
     with pytest.raises(InputError, match="engine_options"):
         update(cfg, cuts, engine="zoa", samples=20, engine_options={"steps": 10})
+
+
+def test_the_service_passes_the_options_on():
+    from millstab import api
+
+    cfg = load_example("ex1")
+    cuts = PointSet(np.array([6000.0, 8000.0]), np.array([1.0, 3.0]), np.array(["stable", "chatter"]))
+    with pytest.raises(InputError, match="engine_options"):  # checked before any sampling
+        api.update(cfg, cuts, samples=100, engine_options={"nodes": 8})

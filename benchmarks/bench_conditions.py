@@ -165,13 +165,15 @@ def main() -> None:
                     liks[n_cond] = lik
                 print(f"{args.cuts} cuts in {n_cond} condition(s), {'adaptive' if adaptive else 'fixed 3'} moves, "
                       f"{lik.speeds.size} engine columns: {wall:.2f} s wall, {cpu:.2f} s CPU (all threads; "
-                      f"{nb.get_num_threads()}); engine calls {lik.engine_wall:.2f} s wall = {lik.engine_wall / wall:.0%}, "
-                      f"{lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; {d['stages']} stages, {lik.n_calls} "
+                      f"{nb.get_num_threads()}); engine calls {lik.engine_wall:.2f} s wall = "
+                      f"{lik.engine_wall / wall:.0%}, {lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; "
+                      f"{d['stages']} stages, {lik.n_calls} "
                       f"engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU per set)")
                 # the information the data carry (nats): the ESS rule's stage count grows with it
+                ess = ', '.join(f'{e / args.samples:.2f}' for e in res.ess)
                 print(f"  KL(posterior || prior) {np.mean(res.loglik) - res.log_evidence:.1f} nats; betas "
-                      f"{', '.join(f'{b:.3g}' for b in res.betas)}; ESS/N {', '.join(f'{e / args.samples:.2f}' for e in res.ess)}"
-                      f"; moves {res.moves}; acceptance {', '.join(f'{a:.2f}' for a in res.acceptance)}")
+                      f"{', '.join(f'{b:.3g}' for b in res.betas)}; ESS/N {ess}; moves {res.moves}; acceptance "
+                      f"{', '.join(f'{a:.2f}' for a in res.acceptance)}")
         # the engine alone on the same prior draws, interleaved (1, n, 1, n, ...): the per-set cost of the
         # conditions without the data-dependent stage count, robust to the load drifting between the updates
         u = prior.sample_full(args.samples, np.random.default_rng(3))

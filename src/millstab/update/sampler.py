@@ -169,7 +169,7 @@ def stage_moves(moves: int, ess: float, n: int, ess_target: float) -> int:
     target (every stage the ESS rule chose), ⌈moves·(1 − ess/n)/(1 − ess_target)⌉ above it, at least one
     (module docstring: the moves make up for the duplicates of resampling, whose share grows with 1 − ESS/N)."""
     share = (1.0 - ess / n) / (1.0 - ess_target)
-    return int(min(moves, max(1, math.ceil(moves * share - 1e-9))))
+    return min(int(moves), max(1, math.ceil(moves * share - 1e-9)))
 
 
 def _pair(loglik: Callable, reuse: bool) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:

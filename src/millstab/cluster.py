@@ -343,13 +343,16 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit") -> dict:
+def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit", *,
+                   at: np.ndarray | None = None) -> dict:
     """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
     for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there)."""
+    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there; ``at`` the row
+    where spectral chooses, default the first row, as ONE call on all rows chooses)."""
     from millstab.forward import forward
 
-    return dict(forward(par, cutting, engine, purpose).pinned(rpm, theta_rows).settings)
+    rows = np.atleast_2d(np.asarray(theta_rows, dtype=float))
+    return dict(forward(par, cutting, engine, purpose).pinned(rpm, rows, at=rows[0] if at is None else at).settings)
 
 
 def _depths_task(pinned, rows: np.ndarray) -> np.ndarray:
@@ -379,7 +382,8 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     theta_rows = np.asarray(theta_rows, dtype=float)
     n = theta_rows.shape[0]
     model = forward(par, cutting, engine)
-    pinned = model.pinned(rpm, theta_rows) if settings is None else Pinned(model, rpm, settings)
+    # ONE local call chooses at its first row: so does the pinned model the tasks get
+    pinned = model.pinned(rpm, theta_rows, at=theta_rows[0]) if settings is None else Pinned(model, rpm, settings)
     sec = warm(client, engine, par, cutting, rpm)
     per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
     starts = range(0, n, per)

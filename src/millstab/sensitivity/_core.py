@@ -163,12 +163,13 @@ def depths(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: 
     return forward(par, cutting, engine)(theta_rows, rpm)
 
 
-def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, bounding_rows: np.ndarray) -> Pinned:
+def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, bounding_rows: np.ndarray, *,
+        at: np.ndarray) -> Pinned:
     """A study's forward model at the speeds ``rpm`` with the engine's discretisation pinned for the whole
-    study (:meth:`millstab.forward.Forward.pinned`): ``bounding_rows`` (K, P) [SI] are the centre first
-    (spectral chooses there) and rows that bound every row the study will evaluate (sdm's steps follow the
+    study (:meth:`millstab.forward.Forward.pinned`): ``at`` (P,) [SI] is the centre (spectral chooses
+    there) and ``bounding_rows`` (K, P) [SI] rows that bound every row the study will evaluate (sdm's steps follow the
     highest natural frequency). Then neither the chunks nor a cluster change a number."""
-    return forward(par, cutting, engine).pinned(rpm, bounding_rows)
+    return forward(par, cutting, engine).pinned(rpm, bounding_rows, at=at)
 
 
 def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: CountProgress | None = None, client=None,

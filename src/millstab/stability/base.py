@@ -182,7 +182,7 @@ class Engine(Protocol):
             depths with a depth noise, which may need a coarser discretisation); :class:`Forward` passes
             it only when not ``"fit"``.
         critical_multipliers(structure, cutting, rpm) -> (S,) complex: the dominant Floquet multiplier at
-            the limiting depth of each speed (|μ| ≈ 1; μ ≈ −1 a flip boundary, a complex pair a Hopf one), for
+            the limiting depth of each speed (modulus ≈ 1; μ ≈ −1 a flip boundary, a complex pair a Hopf one), for
             an engine declaring ``reports_multipliers = True`` (sdm): a consumer asks
             ``engine_with(reports_multipliers=True)``, never an engine by name.
     """

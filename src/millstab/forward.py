@@ -194,19 +194,13 @@ class Pinned:
         extra = {} if kr is None else {"kr": kr}
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
-    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
+    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
-        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each), or as tasks on the
-        Dask cluster of ``client`` (:func:`millstab.cluster.depths`). The discretisation is pinned, so
-        neither the chunk size nor the cluster changes a number."""
+        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each). The discretisation is
+        pinned, so the chunk size changes no number; a Dask cluster's tasks call this model too
+        (:func:`millstab.cluster.map_pinned`: the studies hand it over, so that this layer imports none above)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         f = self.forward
-        if client is not None:
-            from millstab import cluster
-
-            # the engines take Conditions where a Cutting goes, so the cluster's tasks need no other argument
-            return cluster.depths(client, f.engine, f.par, self.conditions, rows, self.rpm, progress, chunk_rows,
-                                  settings=dict(self.settings))
         per = int(chunk_rows or f._engine_mod.chunk_rows(self.rpm.size))
         out = np.empty((rows.shape[0], self.rpm.size))
         for start in range(0, rows.shape[0], per):

@@ -182,4 +182,8 @@ def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: CountProgress | 
     if chunk_rows is not None and (isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer))
                                    or chunk_rows < 1):
         raise InputError("chunk_rows", chunk_rows, "must be a positive integer")
-    return f.map(theta_rows, chunk_rows=chunk_rows, progress=progress, client=client)
+    if client is not None:  # the tasks call the same pinned model (the forward layer imports no cluster)
+        from millstab.cluster import map_pinned
+
+        return map_pinned(client, f, theta_rows, progress, chunk_rows)
+    return f.map(theta_rows, chunk_rows=chunk_rows, progress=progress)

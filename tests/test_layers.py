@@ -109,18 +109,21 @@ def test_nothing_outside_the_engines_imports_a_specific_engine(graph):
         assert direct == [], (mod, direct)
 
 
-def _engines_by_name(pkg: Path) -> list[str]:
-    """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
-    out = []
+def _consumer_nodes(pkg: Path):
+    """(module, ast node) of every node of every module outside ``millstab.stability`` (the engines' consumers)."""
     for path in pkg.rglob("*.py"):
         mod = _module(path)
         if mod == "millstab.stability" or mod.startswith("millstab.stability."):
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            yield mod, node
+
+
+def _engines_by_name(pkg: Path) -> list[str]:
+    """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
+    return [f"{mod}: {node.args[0].value} (line {node.lineno})" for mod, node in _consumer_nodes(pkg)
             if (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "get_engine"
-                    and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
-                out.append(f"{mod}: {node.args[0].value} (line {node.lineno})")
-    return out
+                and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str))]
 
 
 def test_nothing_outside_the_engines_names_an_engine_to_get_it():
@@ -159,15 +162,8 @@ def _engine_only_names() -> set[str]:
 
 def _engine_only_uses(pkg: Path, names: set[str]) -> list[str]:
     """Uses ``x.<name>`` of an engine's own function outside ``millstab.stability``: "module: name (line n)"."""
-    out = []
-    for path in pkg.rglob("*.py"):
-        mod = _module(path)
-        if mod == "millstab.stability" or mod.startswith("millstab.stability."):
-            continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Attribute) and node.attr in names:
-                out.append(f"{mod}: {node.attr} (line {node.lineno})")
-    return out
+    return [f"{mod}: {node.attr} (line {node.lineno})" for mod, node in _consumer_nodes(pkg)
+            if isinstance(node, ast.Attribute) and node.attr in names]
 
 
 def test_consumers_use_only_the_engine_contract_and_its_capabilities():

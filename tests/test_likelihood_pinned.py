@@ -68,18 +68,12 @@ def test_sdm_limits_are_the_whole_batch_call_and_a_part_pinned_on_the_whole_give
 def _choosing_engine(chosen_at: list):
     """zoa under another name, with a ``settings`` capability that records the set it chose at (its fn_x) and
     hands it back as a keyword, which ``envelope_batch`` ignores."""
-    import types
+    from plugin_engines import zoa_plugin
 
     from millstab import stability as stab
 
     zoa = get_engine("zoa")
-    m = types.ModuleType("choosing_engine")
-    m.name = "choosing"
-    m.exact_xy_exchange = m.accepts_measured_frf = m.cheap = True
-    m.reports_lobe_type = m.reports_progress = m.time_averaged = m.reports_chatter_frequency = False
-    m.depth_accuracy = 1e-6
-    m.chunk_rows = zoa.chunk_rows
-    m.envelope = zoa.envelope
+    m = zoa_plugin("choosing")
 
     def settings(batch, cutting, rpm, purpose="fit"):
         chosen_at.append(float(batch.fn_x[0, 0]))

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import ast
 import inspect
-import types
 from pathlib import Path
 
 import numpy as np
@@ -79,15 +78,11 @@ def tracer():
     """A plug-in engine (zoa under another name) whose batched entry records what reaches it and from where."""
     from millstab import stability as stab
 
+    from plugin_engines import zoa_plugin
+
     zoa = stab.get_engine("zoa")
     seen: list[dict] = []
-    m = types.ModuleType("tracer_engine")
-    m.name = "tracer"
-    m.exact_xy_exchange = m.accepts_measured_frf = m.cheap = m.time_averaged = True
-    m.reports_lobe_type = m.reports_progress = m.reports_chatter_frequency = False
-    m.depth_accuracy = 1e-6
-    m.chunk_rows = zoa.chunk_rows
-    m.envelope = zoa.envelope
+    m = zoa_plugin("tracer")
 
     def envelope_batch(batch, cutting, rpm, **kw):
         stack = [f.frame.f_globals.get("__name__", "") for f in inspect.stack()[1:]]

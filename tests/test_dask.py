@@ -316,7 +316,7 @@ def test_interrupted_engine_study_is_the_same_local_chunked_and_on_cluster(clien
     bit for bit. Morris over fn_x and k_x, 2 trajectories (6 structures) at 2 speeds."""
     par = Parameterization(CFG.structure, ("fn_x", "k_x"))
     rpm = np.array([6000.0, 11000.0])
-    kw = dict(trajectories=2, t=0.2, seed=7, engine=engine)
+    kw = {"trajectories": 2, "t": 0.2, "seed": 7, "engine": engine}
     runs = [morris(par, CFG.cutting, rpm, **kw), morris(par, CFG.cutting, rpm, chunk_rows=1, **kw),
             morris(par, CFG.cutting, rpm, client=client, chunk_rows=2, **kw)]
     for out in ("mse", "minimum"):

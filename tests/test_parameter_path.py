@@ -76,9 +76,9 @@ def climbs(mod: str) -> list[str]:
 @pytest.fixture
 def tracer():
     """A plug-in engine (zoa under another name) whose batched entry records what reaches it and from where."""
-    from millstab import stability as stab
-
     from plugin_engines import zoa_plugin
+
+    from millstab import stability as stab
 
     zoa = stab.get_engine("zoa")
     seen: list[dict] = []

@@ -127,4 +127,5 @@ def test_a_finished_report_is_frozen(tmp_path):
     with pytest.raises(AttributeError):
         rep.checks.append(Check("added later", "y", False))
     w.check("after the report", "z", False)  # the writer goes on; the report it gave does not change
-    assert len(rep.checks) == 1 and rep.markdown() == Report(tmp_path, "t", rep.blocks, rep.checks, rep.files).markdown()
+    assert len(rep.checks) == 1
+    assert rep.markdown() == Report(tmp_path, "t", rep.blocks, rep.checks, rep.files).markdown()

@@ -35,7 +35,8 @@ def test_checks_come_from_the_played_campaign_alone():
     rows = rc.checks(_played())
     assert [c.ok for c in rows] == [True, True, True]
     assert rows[0].measured == "9000 rpm, 2.00 mm, true limit 2.75 mm"
-    assert rows[1].measured.startswith("0.00 → 0.90 of the best truly stable cut") and "exact best: 0.80" in rows[1].measured
+    assert rows[1].measured.startswith("0.00 → 0.90 of the best truly stable cut")
+    assert "exact best: 0.80" in rows[1].measured
     assert rows[2].measured == "0.2000 → 0.0500"
     assert [c.ok for c in rc.checks(_played(final_stable=False))] == [False, False, True]
 

@@ -417,7 +417,8 @@ def points_in(doc: Any, source: str):
         raise InputError(f"{source}.ratings", f"{ratings.size} values", f"one per cut and rater ({n} × {len(raters)})")
     cond = need(doc, "conditions", source, dict)
     src = doc.get("source")
-    return PointSet(floats_in(doc["rpm"], f"{source}.rpm", 1), floats_in(need(doc, "depth_mm", source), f"{source}.depth_mm", 1),
+    return PointSet(floats_in(doc["rpm"], f"{source}.rpm", 1),
+                    floats_in(need(doc, "depth_mm", source), f"{source}.depth_mm", 1),
                     names_in(need(doc, "label", source), f"{source}.label"),
                     floats_in(need(doc, "weight", source), f"{source}.weight", 1), None if src is None else str(src),
                     floats_in(need(doc, "chatter_hz", source), f"{source}.chatter_hz", 1, nan_ok=True),

@@ -91,7 +91,8 @@ class TipFRF:
                 "diameter_m": c.diameter_m, "feed_per_tooth_m": c.feed_per_tooth_m, "tool": _tool_out(self.tool),
                 "holder": _holder_out(self.holder), "freq_hz": floats_out(self.freq_hz, "freq_hz"),
                 "g": complex_out(self.g, "g"), "g_y": complex_out(self.g_y, "g_y"),
-                "fn_hz": floats_out(self.fn_hz, "fn_hz", nan_ok=True), "peak": floats_out(self.peak, "peak", nan_ok=True),
+                "fn_hz": floats_out(self.fn_hz, "fn_hz", nan_ok=True),
+                "peak": floats_out(self.peak, "peak", nan_ok=True),
                 "sweep": None if self.sweep is None else fields_out(self.sweep, "millstab.tooltip.sweep/1")}
 
     @classmethod
@@ -106,7 +107,8 @@ class TipFRF:
         from millstab.jsondoc import check_schema, complex_in, config_in, fields_in, floats_in, need
 
         check_schema(doc, SCHEMA, source)
-        tool, holder = _tool_in(need(doc, "tool", source, dict), f"{source}: tool"), _holder_in(need(doc, "holder", source), f"{source}: holder")
+        tool = _tool_in(need(doc, "tool", source, dict), f"{source}: tool")
+        holder = _holder_in(need(doc, "holder", source), f"{source}: holder")
         speeds = doc.get("speeds")
         cfg = dataclasses.replace(config_in(need(doc, "config", source), f"{source}: config"),
                                   rpm=None if speeds is None else floats_in(speeds, f"{source}: speeds"),
@@ -117,7 +119,8 @@ class TipFRF:
                    complex_in(need(doc, "g", source), f"{source}: g"),
                    floats_in(need(doc, "fn_hz", source), f"{source}: fn_hz", nan_ok=True),
                    floats_in(need(doc, "peak", source), f"{source}: peak", nan_ok=True),
-                   None if sweep is None else fields_in(StickoutSweep, sweep, "millstab.tooltip.sweep/1", f"{source}: sweep"),
+                   None if sweep is None else fields_in(StickoutSweep, sweep, "millstab.tooltip.sweep/1",
+                                                        f"{source}: sweep"),
                    complex_in(doc.get("g_y"), f"{source}: g_y"))
 
     def table(self, direction: str = "x") -> tuple[list[str], list]:
@@ -177,7 +180,8 @@ def _tool_in(doc: dict, source: str) -> Tool:
 
     m = need(doc, "material", source, dict)
     mat = Material(need(m, "name", f"{source}.material", str),
-                   *(number_in(need(m, k, f"{source}.material"), f"{source}.material.{k}") for k in ("E", "density", "nu")),
+                   *(number_in(need(m, k, f"{source}.material"), f"{source}.material.{k}")
+                     for k in ("E", "density", "nu")),
                    m.get("source", ""))
     num = {k: number_in(need(doc, k, source), f"{source}.{k}")
            for k in ("diameter", "stickout", "fluted_length", "flute_ratio", "zeta")}
@@ -219,7 +223,8 @@ def _holder_in(doc, source: str):
                               *(complex_in(need(doc, t, source), f"{source}.{t}") for t in ("h", "l", "n", "p")),
                               need(doc, "source", source, str))
     if kind == "xy":
-        return XYHolder(_holder_in(need(doc, "x", source), f"{source}.x"), _holder_in(need(doc, "y", source), f"{source}.y"))
+        return XYHolder(_holder_in(need(doc, "x", source), f"{source}.x"),
+                        _holder_in(need(doc, "y", source), f"{source}.y"))
     raise InputError(f"{source}.kind", kind, "rigid, modal, measured or xy")
 
 
@@ -289,5 +294,5 @@ def tip_figure(result: TipFRF):
     return result.figure()
 
 
-__all__ = ["FALLBACK_RPM", "SCHEMA", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf",
-           "tool_config"]
+__all__ = ["FALLBACK_RPM", "SCHEMA", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure",
+           "tip_frf", "tool_config"]

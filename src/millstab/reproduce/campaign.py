@@ -114,7 +114,8 @@ def play(seed: int, quick: bool) -> VirtualCampaign:
     rpm = np.linspace(*RPM, 141)
     depth = np.linspace(0.0, MAX_DEPTH_MM, 121)
     return VirtualCampaign(
-        camp, tuple(prior.names), off, n, quick, rpm, depth, {k: p_stable_map(camp.posteriors[k], rpm, depth) for k in SHOWN},
+        camp, tuple(prior.names), off, n, quick, rpm, depth,
+        {k: p_stable_map(camp.posteriors[k], rpm, depth) for k in SHOWN},
         truth(rpm), zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm, float(truth([camp.rec_rpm[-1]])[0]),
         float(fine[j]), float(d_ham), bool(d_ham < truth([fine[j]])[0]), float(fine[j] * d_ham / camp.best))
 
@@ -184,8 +185,8 @@ def render(rep, v: VirtualCampaign) -> None:
               "difference between P(stable) and the true 0/1 stability on a 61 × 40 grid")
     reached, fin_exact = v.reached, v.final_exact
     fin_ok, fin_p = camp.rec_stable[-1], camp.rec_productivity[-1]
-    rep.figure("fig_campaign", plot_campaign(rpm, depth, v.maps, v.true_sld, cuts, recs, np.array(camp.rec_productivity),
-                                             np.array(camp.rec_stable), v.prior_sld),
+    rep.figure("fig_campaign", plot_campaign(rpm, depth, v.maps, v.true_sld, cuts, recs,
+                                             np.array(camp.rec_productivity), np.array(camp.rec_stable), v.prior_sld),
                f"A virtual campaign: P(stable) after {', '.join(map(str, SHOWN))} cuts (colour; 5/50/95 % contours "
                "black; the true limit solid blue, the hammer-test SLD dotted; the cuts made so far and the "
                "recommendation, a gold star) and the cuts-to-optimum curve (the recommendation's productivity over "
@@ -201,7 +202,8 @@ def render(rep, v: VirtualCampaign) -> None:
            "85 % of the best was not reached stably; ")
         + f"{n_ok} of the {CUTS + 1} recommendations along the way were truly stable. The map's Brier score went "
         f"{camp.brier[0]:.4f} → {camp.brier[3]:.4f} → {camp.brier[-1]:.4f} (0, 3, {CUTS} cuts). The hammer-test "
-        f"SLD alone (its most productive point 5 % below its own limit) would cut at {v.ham_rpm:.0f} rpm, {v.ham_mm:.2f} mm: "
+        f"SLD alone (its most productive point 5 % below its own limit) would cut at {v.ham_rpm:.0f} rpm, "
+        f"{v.ham_mm:.2f} mm: "
         f"{'truly stable' if v.ham_ok else 'it chatters'} ({v.ham_p:.2f} of the best). Each update after the first "
         f"started from the previous posterior and took {min(camp.stages)}–{max(camp.stages)} tempering stages. "
         "One campaign is an anecdote. The decision rule holds P(chatter) ≤ risk with 90 % confidence against the "

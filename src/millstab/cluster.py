@@ -19,7 +19,7 @@ engine's ``envelope_batch``) cut their rows into tasks and run them on ``dask.di
 * :func:`depths` -- any batch of parameter sets through an engine (SDM / spectral maps, Sobol, Morris);
   :func:`sample_limits` -- the Bayesian likelihood's sweeps and the P(stable) map by sample rows, sent out
   only where a measured probe says the work pays (:data:`PAYS_SECONDS`). Both hand every task the whole
-  batch's :func:`split_settings` (the interrupted-cutting engines choose their discretisation per batch).
+  batch's pinned settings (``Forward.pinned``: the interrupted-cutting engines choose their discretisation per batch).
 
 Each task runs numba with ONE thread (the parallelism is the cluster's): one worker process per core.
 Results do not depend on how the rows are cut (the engines evaluate every row independently, and the
@@ -343,18 +343,6 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit", *,
-                   at: np.ndarray | None = None) -> dict:
-    """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
-    for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there; ``at`` the row
-    where spectral chooses, default the first row, as ONE call on all rows chooses)."""
-    from millstab.forward import forward
-
-    rows = np.atleast_2d(np.asarray(theta_rows, dtype=float))
-    return dict(forward(par, cutting, engine, purpose).pinned(rpm, rows, at=rows[0] if at is None else at).settings)
-
-
 def _depths_task(pinned, rows: np.ndarray) -> np.ndarray:
     """On a worker: limiting depths (R, S) [m] of parameter rows (R, P) by the pinned forward model (the one
     evaluator, :class:`millstab.forward.Pinned`), numba on one thread."""
@@ -367,7 +355,7 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
            settings: dict | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
     the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
-    is evaluated alone, under the whole batch's :func:`split_settings`), for SDM/spectral maps as for
+    is evaluated alone, under the whole batch's pinned settings, :meth:`millstab.forward.Forward.pinned`), for SDM/spectral maps as for
     the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).

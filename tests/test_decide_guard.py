@@ -182,9 +182,10 @@ CONFLICT = "the cuts contradict the hammer test: k_x is 0.3× the tap test's (�
 
 def test_a_named_conflict_recommends_only_what_a_stable_cut_vouches_for():
     """Issue 24, softer campaigns: while the posterior names a prior–data conflict, the recommendation is no deeper
-    than a cut labelled stable whose label the posterior believes (P(chatter) ≤ 0.25), at that cut's speed; the next test
-    is still sought above the model's own cut. References recomputed here from the samples' limits: a cut below
-    every sample's limit at its speed and ±the speed tolerance is safe; one above the median limit is not.
+    than a cut labelled stable whose label the posterior believes (P(chatter) ≤ 0.25), at that cut's speed; the
+    next test is still sought above the model's own cut. References recomputed here from the samples' limits: a
+    cut below every sample's limit at its speed and ±the speed tolerance is safe; one above the median limit is
+    not.
     Fails on the old code (it recommended the model's cut, 1.95 mm at 9 000 rpm, far from any stable cut)."""
     tol = 0.0025
     s_ok, s_bad = 5600.0, 8800.0

@@ -523,7 +523,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     prod = float(rpm_best * depth_best)
     g_best = float(guard_cap(guards, rpm_best * (1 + offsets)).min())
     limited = ("a cut labelled stable (the cuts contradict the model: no deeper than a stable cut whose "
-               "label the posterior believes, at its speed)" if confirmed else "max_depth" if depth_best >= cap * (1 - 1e-12) else
+               "label the posterior believes, at its speed)" if confirmed else
+               "max_depth" if depth_best >= cap * (1 - 1e-12) else
                "data guard (a chatter-labelled cut)" if depth_best >= g_best * (1 - 1e-12) else "chatter risk")
     binding = [dict(g, binding=bool(np.any(np.abs(rpm_best * (1 + offsets) - g["rpm"]) <= g["half_width_rpm"])
                                     and depth_best >= g["cap_mm"] * (1 - 1e-12))) for g in guards]
@@ -702,6 +703,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH", "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+__all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
+           "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
+           "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

@@ -27,7 +27,10 @@ Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --s
 --best-speeds 121 [--tails normal|mixture]`` (docs/updating.md, "A prior that can be wrong", has the figures).
 ``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
-conflict rule offline.
+conflict rule offline. ``--confirm conflict,always,never`` judges each of recommend's confirm rules in every
+round of the same campaign (the next test does not depend on the rule, so the cuts are the same), printed per
+side (softer / stiffer); ``--trace`` prints per round why the recommendation is where it is (docs/updating.md,
+"Why the softer campaigns stop low"); ``--only 60,62`` runs those campaigns.
 """
 
 from __future__ import annotations
@@ -200,6 +203,13 @@ def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, la
             f"       posterior median / truth: {par}"]
 
 
+def tally(rows: list[dict]) -> tuple[int, int, list[bool], list[float]]:
+    """(recommendations from round 3 on that chatter, their number, the last ones truly stable, their
+    productivity / best) of records with ``rec_stable`` and ``rec_productivity`` per round."""
+    return (sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rows), sum(len(r["rec_stable"][2:]) for r in rows),
+            [r["rec_stable"][-1] for r in rows], [r["rec_productivity"][-1] for r in rows])
+
+
 def main() -> None:
     args = parse()
     print(describe())
@@ -211,10 +221,7 @@ def main() -> None:
     if args.save:
         save(args.save, prior, records)
     n = len(rows)
-    late_bad = sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rows)
-    late_all = sum(len(r["rec_stable"][2:]) for r in rows)
-    last_ok = [r["rec_stable"][-1] for r in rows]
-    last_p = [r["rec_productivity"][-1] for r in rows]
+    late_bad, late_all, last_ok, last_p = tally(rows)
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load {os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, "
           f"fn×{1 + args.fn_off:g}^s, ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} "
@@ -233,11 +240,9 @@ def main() -> None:
             rs = [r["modes"][m] for r in rows if r["sign"] == sign]
             if not rs:
                 continue
-            bad = sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rs)
-            lp = [r["rec_productivity"][-1] for r in rs]
-            lok = [r["rec_stable"][-1] for r in rs]
+            bad, late, lok, lp = tally(rs)
             print(f"  confirm={m}, {side} ({len(rs)}): recommendations from round 3 on that chatter {bad} / "
-                  f"{sum(len(r['rec_stable'][2:]) for r in rs)}; last truly stable {sum(lok)} / {len(rs)}, "
+                  f"{late}; last truly stable {sum(lok)} / {len(rs)}, "
                   f"productivity / best median {np.median(lp):.2f} ({min(lp):.2f}-{max(lp):.2f}); stable and ≥ 0.60: "
                   f"{sum(ok and p >= 0.6 for ok, p in zip(lok, lp))} / {len(rs)}")
     if args.json:

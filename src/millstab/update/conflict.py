@@ -68,6 +68,8 @@ from millstab.update.prior import Prior
 
 #: the evidence ratio (robust over tight prior) above which the conflict is named
 BAYES_FACTOR = 5.0
+#: once named (in the update a sequential update starts from), it stays named until the ratio falls below this
+BAYES_FACTOR_KEEP = 2.0
 #: with a Gaussian prior: the posterior median's distance [σ] that is a conflict
 Z_NORMAL = 3.0
 #: parameters at least this far [σ] from the hammer test are named (the farthest always)
@@ -78,13 +80,19 @@ Z_TAIL = 2.807
 MAX_NAMED = 4
 
 
-def check(prior: Prior, u: np.ndarray) -> tuple[str | None, dict]:
+def check(prior: Prior, u: np.ndarray, named_before: bool = False) -> tuple[str | None, dict]:
     """(the one-line conflict warning or ``None``, the figures) of posterior samples u = ln θ (N, P).
+
+    ``named_before``: the update this one continues (``update(..., start=post)``) named the conflict by the
+    evidence ratio; it is then kept while the ratio is ≥ :data:`BAYES_FACTOR_KEEP` (hysteresis: a ratio
+    estimated from a one-sided posterior scatters by ≈ ×1.8 between updates, and a warning that comes and
+    goes with that scatter tells the shop nothing; docs/updating.md, "Prior–data conflict").
 
     The figures: ``log_bayes_factor`` (ln Z_robust/Z_tight; ``None`` with a Gaussian prior), ``tail_share``
     (the largest share of the samples beyond the tight prior's central 99.5 % interval in one parameter), ``z``
     ({name: the posterior median's distance from the hammer test in σ of the prior}), ``ratio`` ({name:
-    posterior median / prior median}) and ``conflict`` (bool).
+    posterior median / prior median}), ``conflict`` (bool: named by the evidence ratio) and ``kept`` (bool:
+    named only because an earlier update named it and the ratio is still ≥ :data:`BAYES_FACTOR_KEEP`).
     """
     u = np.atleast_2d(u)
     med = np.median(u, axis=0)
@@ -97,9 +105,12 @@ def check(prior: Prior, u: np.ndarray) -> tuple[str | None, dict]:
         d = prior.logpdf(u, "normal") - prior.logpdf(u)
         log_bf = -float(logsumexp(d) - math.log(u.shape[0]))  # ln Z_robust / Z_tight
         conflict = log_bf > math.log(BAYES_FACTOR)
+        kept = bool(named_before and not conflict and log_bf >= math.log(BAYES_FACTOR_KEEP))
     else:
         conflict = bool(np.abs(z).max() > Z_NORMAL)
-    info = {"log_bayes_factor": log_bf, "tail_share": tail, "conflict": bool(conflict),
+        kept = bool(named_before and not conflict and np.abs(z).max() > Z_NORMAL - 1.0)
+    conflict = bool(conflict or kept)
+    info = {"log_bayes_factor": log_bf, "tail_share": tail, "conflict": conflict, "kept": kept,
             "z": {n: float(x) for n, x in zip(prior.names, z)}, "ratio": {n: float(r) for n, r in zip(prior.names, ratio)}}
     if not conflict:
         return None, info
@@ -108,6 +119,9 @@ def check(prior: Prior, u: np.ndarray) -> tuple[str | None, dict]:
     parts = [f"{prior.names[j]} is {ratio[j]:.2g}× the tap test's ({z[j]:+.1f}σ)" for j in named]
     why = (f"the data favour the heavy-tailed prior over the hammer test's spreads {math.exp(min(log_bf, 700)):.3g}:1"
            if log_bf is not None else f"beyond {Z_NORMAL:g}σ of the hammer-test prior")
+    if kept:
+        why += (f"; named at ≥ {BAYES_FACTOR:g}:1 in an earlier update, kept until below {BAYES_FACTOR_KEEP:g}:1"
+                if log_bf is not None else f"; named earlier, kept until within {Z_NORMAL - 1.0:g}σ")
     msg = ("the cuts contradict the hammer test: " + ", ".join(parts) + f" ({why}). The in-process structure "
            "differs from the tap test (tool, holder, clamping or units): decisions follow the cuts; check the tap test")
     return msg, info
@@ -137,4 +151,4 @@ def label_message(prior: Prior, eps: np.ndarray, rpm: np.ndarray, depth_mm: np.n
             "cuts (labels, units) and the tap test")
 
 
-__all__ = ["BAYES_FACTOR", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check", "label_error_too_high", "label_message"]
+__all__ = ["BAYES_FACTOR", "BAYES_FACTOR_KEEP", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check", "label_error_too_high", "label_message"]

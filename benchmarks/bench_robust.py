@@ -85,6 +85,8 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--conflict-test", action="store_true",
                     help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
                          "that tells them apart (millstab.update.discriminate)")
+    ap.add_argument("--rival-lr", type=float, default=0.0,
+                    help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -138,7 +140,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                 nx = rec.next_test
                 if args.conflict_test and not named[-1]:
                     ct = conflict_test(post, (lo, hi), args.max_depth, seed=k)
-                    if ct is not None and ct["rival_log_likelihood_ratio"] >= 0:
+                    if ct is not None and ct["rival_log_likelihood_ratio"] >= args.rival_lr:
                         nx = ct
                         n_ct += 1
                 c_rpm.append(float(nx["rpm"]))

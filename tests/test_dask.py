@@ -243,7 +243,8 @@ def test_update_and_map_on_cluster_give_the_local_posterior(client, monkeypatch,
     monkeypatch.setattr(cluster, "stream", lambda *a, **k: calls.append(1) or stream(*a, **k))
     monkeypatch.setattr(cluster, "PAYS_SECONDS", 0.0)
     there = update(cfg, cuts, engine="spectral", samples=16, seed=3, moves=1, client=client)
-    d = there.diagnostics  # every engine call went out: the spectral ones and the zero-order screen's (delayed acceptance)
+    # every engine call went out: the spectral ones and the zero-order screen's (delayed acceptance)
+    d = there.diagnostics
     assert len(calls) == d["loglik_calls"] + d["screen_calls"] and d["loglik_calls"] > 1 and d["frequency_term"]
     np.testing.assert_array_equal(there.samples, here.samples)
     post = tmp_path / "post.json"

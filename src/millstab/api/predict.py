@@ -74,7 +74,8 @@ class Prediction:
             return None
         g = self.cuts.grade[m]
         p = self.p_label_chatter[m]
-        return {"n": int(m.sum()), "brier": float(np.mean((p - g) ** 2)), "brier_rate": float(np.mean((g.mean() - g) ** 2))}
+        return {"n": int(m.sum()), "brier": float(np.mean((p - g) ** 2)),
+                "brier_rate": float(np.mean((g.mean() - g) ** 2))}
 
 
 def predict(post, cuts: PointSet) -> Prediction:

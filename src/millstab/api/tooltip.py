@@ -106,9 +106,10 @@ class TipFRF:
         s = self.sweep
         if s is not None:
             b = s.best()
-            lines.append(f"  stickout {s.stickout[0] * 1e3:g}..{s.stickout[-1] * 1e3:g} mm ({s.stickout.size}), {s.engine}, "
-                         f"{s.rpm.size} speeds: highest minimum limit {s.min_depth_mm[b]:.4g} mm at {s.stickout[b] * 1e3:g} mm "
-                         f"stickout; {s.min_depth_mm[-1]:.4g} mm at {s.stickout[-1] * 1e3:g} mm")
+            lines.append(f"  stickout {s.stickout[0] * 1e3:g}..{s.stickout[-1] * 1e3:g} mm ({s.stickout.size}), "
+                         f"{s.engine}, {s.rpm.size} speeds: highest minimum limit {s.min_depth_mm[b]:.4g} mm at "
+                         f"{s.stickout[b] * 1e3:g} mm stickout; {s.min_depth_mm[-1]:.4g} mm at "
+                         f"{s.stickout[-1] * 1e3:g} mm")
             lines.append("  stickout [mm]   fn1 [Hz]   fn2 [Hz]   peak1 [um/N]   min b_lim [mm]   at [rpm]")
             for i in range(s.stickout.size):
                 mark = "  <- best" if i == b else ""

@@ -120,8 +120,8 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
         if a is not None and not (np.isfinite(a) and 0 <= a <= 180):
             raise InputError(opt, a, "an angle in [0, 180] deg")
     if (entry_deg is None) != (exit_deg is None):
-        raise InputError("--entry-deg" if exit_deg is None else "--exit-deg", entry_deg if exit_deg is None else exit_deg,
-                         "give --entry-deg and --exit-deg together")
+        raise InputError("--entry-deg" if exit_deg is None else "--exit-deg",
+                         entry_deg if exit_deg is None else exit_deg, "give --entry-deg and --exit-deg together")
     if entry_deg is not None and entry_deg >= exit_deg:
         raise InputError("--entry-deg", entry_deg, f"less than --exit-deg ({exit_deg:g})")
     if entry_deg is not None and (radial_immersion is not None or milling is not None or radial_width_mm is not None):
@@ -173,7 +173,8 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None) -> np.nda
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
-                         f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max {MAX_MAP_CELLS:.0e})")
+                         f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max "
+                         f"{MAX_MAP_CELLS:.0e})")
     warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), "the map", stacklevel=3)
     if client is not None:
         from millstab.cluster import check_client

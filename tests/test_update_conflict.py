@@ -136,3 +136,18 @@ def test_a_sequential_update_keeps_the_conflict_its_start_named():
     info = kept.diagnostics["conflict"]
     assert info["conflict"] and info["kept"] and math.log(conflict.BAYES_FACTOR_KEEP) <= info["log_bayes_factor"]
     assert [w for w in kept.warnings if w.startswith("the cuts contradict")][0].count("kept until below 2:1") == 1
+
+
+def test_with_a_gaussian_prior_a_named_conflict_is_kept_beyond_two_sigma():
+    """tails = "normal" (no robust alternative): named when a posterior median lies beyond 3σ, kept while it
+    stays beyond 2σ (samples centred 2.5σ off in k_x: quiet alone, kept after a named update; 1.5σ: dropped).
+    Fails on the old code (no hysteresis)."""
+    _, prior = _prior('[prior]\ntails = "normal"\n')
+    rng = np.random.default_rng(8)
+    for off, alone, after in ((2.5, False, True), (1.5, False, False), (3.5, True, True)):
+        u = prior.mean_u + prior.spread * (0.2 * rng.standard_normal((2000, prior.size)))
+        u[:, 1] += off * prior.spread[1]
+        assert check(prior, u)[1]["conflict"] is alone
+        msg, info = check(prior, u, named_before=True)
+        assert info["conflict"] is after and info["kept"] is (after and not alone)
+        assert (msg is not None) is after and (not info["kept"] or "named earlier, kept until within 2σ" in msg)

@@ -210,3 +210,111 @@ def test_a_bad_value_is_named_with_its_keyword(engine, options, field, text):
         engine_options(engine, options)
     assert e.value.field == field and text in str(e.value)
     assert engine_options("sdm", {"steps": np.int64(12)}) == (("steps", 12),)  # numpy ints as plain ints (JSON)
+
+
+# --- the doors: --engine-option on the command line, the shop database --------------------------------------
+PRIOR_TOML = TWO_MODE_TOML + ('[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", "sigma_depth"]\n'
+                              'sigma_depth = "15 %"\n')
+
+
+def _one_line_error(capsys, args, *texts):
+    from millstab.cli import main
+
+    capsys.readouterr()
+    assert main([str(a) for a in args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("millstab: error:"), err
+    for t in texts:
+        assert t in err[0], err[0]
+
+
+def test_map_on_the_command_line_uses_the_posteriors_steps_or_the_override(fitted, tmp_path):
+    import csv
+
+    from millstab.cli import main
+
+    post, path = fitted
+    rpm, depths = np.array([6000.0, 7000.0, 8000.0]), np.arange(1, 31) * 0.1
+    for extra, steps in (([], STEPS), (["--engine-option", "steps=14"], 14)):
+        out = tmp_path / f"map{steps}.csv"
+        assert main(["map", str(path), "--rpm", "6000:8000:1000", "--depth", "0.1:3:0.1", "--out", str(out),
+                     *extra]) == 0
+        got = np.array([float(r["p_stable"]) for r in csv.DictReader(out.open())]).reshape(3, -1)
+        np.testing.assert_allclose(got, np.mean(_direct(post, rpm, steps)[:, :, None] > depths, axis=0), atol=1e-12)
+
+
+@pytest.mark.parametrize("args, texts", [
+    (["map", "{post}", "--engine-option", "nodes=8"], ("--engine-option", "'nodes'", "steps")),
+    (["map", "{post}", "--engine-option", "steps=0"], ("--engine-option steps", "= 0", "fn_max_hz, steps")),
+    (["map", "{post}", "--engine-option", "steps=ten"], ("--engine-option steps", "'ten'", "whole number")),
+    (["map", "{post}", "--engine-option", "steps"], ("--engine-option", "KEY=VALUE")),
+    (["map", "{post}", "--engine-option", "steps=8", "--engine-option", "steps=9"], ("each keyword once",)),
+    (["predict", "{post}", "{cuts}", "--out", "{d}/p.csv", "--engine-option", "near=0.5"], ("'near'", "steps")),
+    (["recommend", "{post}", "--rpm", "6000:8000", "--out", "{d}/r.json", "--engine-option", "steps=1.5"],
+     ("--engine-option steps", "1.5")),
+    (["update", "{cfg}", "{cuts}", "--out", "{d}/p.json", "--engine-option", "steps=40"], ("zoa", "none")),
+    (["update", "{cfg}", "{cuts}", "--out", "{d}/p.json", "--engine", "spectral", "--engine-option", "nodes=1"],
+     ("--engine-option nodes", ">= 2", "near, nodes")),
+    (["validate", "{cfg}", "{cuts}", "--engine", "sdm", "--engine-option", "nodes=6"], ("'nodes'", "steps")),
+])
+def test_a_wrong_engine_option_is_one_line(fitted, tmp_path, capsys, args, texts):
+    _, path = fitted
+    (tmp_path / "c.toml").write_text(PRIOR_TOML)
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5600,0.9,stable\n7400,2.6,chatter\n8800,1.1,stable\n"
+                                       "6500,1.0,stable\n")
+    fill = {"post": path, "d": tmp_path, "cfg": tmp_path / "c.toml", "cuts": tmp_path / "cuts.csv"}
+    if args[0] == "map":
+        args = args + ["--rpm", "6000:8000:1000", "--depth", "0.1:3:0.1", "--out", "{d}/m.csv"]
+    _one_line_error(capsys, [a.format(**fill) for a in args], *texts)
+    assert not (tmp_path / "p.json").exists() and not (tmp_path / "m.csv").exists()
+
+
+def test_the_shop_database_update_passes_the_options_and_starts_afresh_when_they_change(fitted, tmp_path, monkeypatch):
+    """update_in_db hands the options to the update, the campaign's posterior keeps them, and an update with other
+    options does not start from a posterior sampled under another discretisation."""
+    import importlib
+
+    from millstab.api import shop
+    from millstab.shopdb import open_store
+
+    post, _ = fitted
+    calls = []
+
+    def fake_update(*args, **kwargs):  # the sampling itself is tested above; here what the service passes on
+        calls.append(kwargs)
+        return post.with_engine_options(kwargs.get("engine_options"))
+
+    monkeypatch.setattr(importlib.import_module("millstab.api.update"), "update", fake_update)
+    cfg = parse_config(PRIOR_TOML)
+    cuts = PointSet(np.array([5600.0, 7400.0]), np.array([0.9, 2.6]), np.array(["stable", "chatter"]))
+    db = tmp_path / "shop.db"
+    shop.update_in_db(db, "c", cfg, cuts, engine="sdm", samples=100, engine_options={"steps": STEPS})
+    assert calls[-1]["engine_options"] == {"steps": STEPS} and calls[-1]["start"] is None
+    assert open_store(db).snapshot("c").posterior().engine_options == {"steps": STEPS}
+    more = PointSet(np.array([8800.0]), np.array([1.1]), np.array(["stable"]))
+    shop.update_in_db(db, "c", cfg, more, engine="sdm", samples=100, engine_options={"steps": STEPS})
+    assert calls[-1]["start"] is not None  # the same options: sequential reuse
+    done = shop.update_in_db(db, "c", cfg, PointSet(np.array([6500.0]), np.array([1.0]), np.array(["stable"])),
+                             engine="sdm", samples=100, engine_options={"steps": 14})
+    assert calls[-1]["start"] is None and any("engine options differ" in n for n in done.notes)
+
+
+@pytest.mark.slow
+def test_update_on_the_command_line_fits_and_records_the_steps(tmp_path):
+    """`millstab update --engine sdm --engine-option steps=S` (file and --db) writes a posterior that keeps S."""
+    import json
+
+    from millstab.cli import main
+    from millstab.update import Posterior
+
+    (tmp_path / "c.toml").write_text(PRIOR_TOML)
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5600,0.9,stable\n7400,2.6,chatter\n8800,1.1,stable\n")
+    base = ["update", str(tmp_path / "c.toml"), str(tmp_path / "cuts.csv"), "--engine", "sdm", "--samples", "100",
+            "--engine-option", "steps=8"]
+    assert main(base + ["--out", str(tmp_path / "p.json")]) == 0
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["engine_options"] == {"steps": 8} and Posterior.from_json(doc).engine_options == {"steps": 8}
+    assert main(base + ["--db", str(tmp_path / "shop.db"), "--campaign", "c"]) == 0
+    from millstab.api.shop import posterior_from_db
+
+    assert posterior_from_db(tmp_path / "shop.db", "c")[1].engine_options == {"steps": 8}

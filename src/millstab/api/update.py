@@ -34,7 +34,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
     stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`);
     ``engine_options``: the engine's discretisation for the whole update, e.g. ``{"steps": 40}`` for sdm
-    (:func:`millstab.forward.engine_options`).
+    (:func:`millstab.forward.engine_options`), kept in the posterior for its decisions (:func:`with_engine_options`
+    overrides them).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)

@@ -18,7 +18,8 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
     and prediction (as :func:`millstab.api.update`).
 
     Raises:
-        InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine.
+        InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine, engine
+            options it does not take (``--engine-option``).
     """
     from millstab.stability import ENGINES
     from millstab.update.validate import cross_validate
@@ -27,6 +28,9 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
         raise InputError("--samples", samples, "need at least 100 samples")
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
+    from millstab.api.update import check_engine_options
+
+    engine_options = check_engine_options(engine, engine_options)  # before any fold's update
     cfg, _ = modal(cfg)
     return cross_validate(cfg, cuts, n_folds=folds, seed=seed, samples=samples, engine=engine, progress=progress,
                           engine_options=engine_options)

@@ -55,7 +55,7 @@ ENGINE_OPTION_FORM = "KEY=VALUE with a number, e.g. steps=40 (sdm: steps, fn_max
 
 
 def engine_option_pairs(texts) -> dict:
-    """typer callback of ``--engine-option`` (repeatable): ``["steps=40"]`` → ``{"steps": 40}`` (a whole number
+    """The ``--engine-option`` texts (repeatable) as a table: ``["steps=40"]`` → ``{"steps": 40}`` (a whole number
     as int, another number as float, anything else kept as text for the engine's check to refuse by name);
     InputError for a text without ``=``, an empty keyword or a keyword given twice. Which keywords and values
     an engine takes is checked where the engine is known (:func:`millstab.api.check_engine_options`)."""
@@ -68,6 +68,13 @@ def engine_option_pairs(texts) -> dict:
             raise InputError("--engine-option", text, f"each keyword once ({key} = {out[key]} already)")
         out[key] = _number(value)
     return out
+
+
+def _engine_option_callback(texts):
+    """typer callback of ``--engine-option``: the texts as given, after :func:`engine_option_pairs` checked their
+    form (typer turns a callback's table back into a list: the commands read the texts with it)."""
+    engine_option_pairs(texts)
+    return texts
 
 
 def _number(text: str):
@@ -83,7 +90,7 @@ def _number(text: str):
 
 
 EngineOptionOpt = Annotated[Optional[list[str]], typer.Option(
-    "--engine-option", metavar="KEY=VALUE", callback=engine_option_pairs,
+    "--engine-option", metavar="KEY=VALUE", callback=_engine_option_callback,
     help="The engine's discretisation, repeatable: " + ENGINE_OPTION_FORM + ". On update: fixed for the whole "
          "update and kept in the posterior, whose decisions use it; on a decision: over the posterior's.")]
 
@@ -141,9 +148,9 @@ def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry
                  engine_options=None):
     """The posterior deciding for the target options of map, recommend and predict: at the stickout
     (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`), with the
-    ``--engine-option`` pairs over those it was fitted with (:func:`millstab.api.with_engine_options`)."""
+    ``--engine-option`` texts over the options it was fitted with (:func:`millstab.api.with_engine_options`)."""
     from millstab import api
 
-    post = api.with_engine_options(api.at_stickout(post, stickout), engine_options)
+    post = api.with_engine_options(api.at_stickout(post, stickout), engine_option_pairs(engine_options))
     return api.for_condition(post, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
                              exit_deg=exit_deg, teeth=teeth)

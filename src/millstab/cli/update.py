@@ -12,7 +12,8 @@ from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
 from millstab.cli.options import (DaskOpt, EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
-                                  StickoutOpt, TeethOpt, WorkersOpt, for_decision, samples_option, seed_option)
+                                  StickoutOpt, TeethOpt, WorkersOpt, engine_option_pairs, for_decision, samples_option,
+                                  seed_option)
 from millstab.cli.options import dask_client as _client
 from millstab.errors import InputError
 
@@ -115,11 +116,12 @@ def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None
 def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, **settings):
     """(posterior, the shop's record or None): in a shop database the campaign's cuts so far and these, from its
     current posterior, recorded in one transaction with each cut's condition and stickout (its notes printed);
-    else an update of these cuts. ``settings``: engine, samples, seed, sampler, engine_options (checked here, before
-    any work, against the engine: one line naming --engine-option)."""
+    else an update of these cuts. ``settings``: engine, samples, seed, sampler, engine_options (the --engine-option
+    texts, checked here before any work against the engine: one line naming --engine-option)."""
     from millstab import api
 
-    settings["engine_options"] = api.check_engine_options(settings["engine"], settings.get("engine_options"))
+    settings["engine_options"] = api.check_engine_options(settings["engine"],
+                                                          engine_option_pairs(settings.get("engine_options")))
     if shop_target(db, campaign):
         from millstab.api.shop import update_in_db
 

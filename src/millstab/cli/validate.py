@@ -9,7 +9,7 @@ import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app
-from millstab.cli.options import EngineOptionOpt, samples_option, seed_option
+from millstab.cli.options import EngineOptionOpt, engine_option_pairs, samples_option, seed_option
 from millstab.cli.update import LABELS_HELP
 
 
@@ -44,7 +44,8 @@ def validate_cmd(
     protect = emit.checked({**config_inputs(cfg), "CUTS": cuts}, {"--out": out, "--predictions": predictions})
     con = Console()
     with con.status("updating on each fold ...") as status:
-        res = validate(cfg, c, folds=folds, seed=seed, samples=samples, engine=engine, engine_options=options,
+        res = validate(cfg, c, folds=folds, seed=seed, samples=samples, engine=engine,
+                       engine_options=engine_option_pairs(options),
                        progress=lambda stage, done, total: status.update(f"{stage}: {done}/{total} updates"))
     for title, header, rows, caption in res.score_tables():
         emit.table(con, title, header, rows, caption)

@@ -235,12 +235,33 @@ def test_map_on_the_command_line_uses_the_posteriors_steps_or_the_override(fitte
 
     post, path = fitted
     rpm, depths = np.array([6000.0, 7000.0, 8000.0]), np.arange(1, 31) * 0.1
-    for extra, steps in (([], STEPS), (["--engine-option", "steps=14"], 14)):
+    for extra, steps in ((["--plot", str(tmp_path / "m.png")], STEPS), (["--engine-option", "steps=14"], 14)):
         out = tmp_path / f"map{steps}.csv"
         assert main(["map", str(path), "--rpm", "6000:8000:1000", "--depth", "0.1:3:0.1", "--out", str(out),
                      *extra]) == 0
         got = np.array([float(r["p_stable"]) for r in csv.DictReader(out.open())]).reshape(3, -1)
         np.testing.assert_allclose(got, np.mean(_direct(post, rpm, steps)[:, :, None] > depths, axis=0), atol=1e-12)
+    assert (tmp_path / "m.png").stat().st_size > 1000  # the prior's SLD on it at the fitted steps too
+
+
+def test_validate_fits_and_predicts_every_fold_with_the_options(fitted):
+    from millstab.update.validate import cross_validate
+
+    post, _ = fitted
+    got = []
+
+    def fit(cfg, train, **kw):  # the sampling is tested above: here what each fold's update is given
+        got.append(kw.get("engine_options"))
+        return post.with_engine_options(kw.get("engine_options"))
+
+    cuts = PointSet(np.array([5600.0, 7400.0, 8800.0, 6500.0]), np.array([0.9, 2.6, 1.1, 1.0]),
+                    np.array(["stable", "chatter", "stable", "stable"]))
+    res = cross_validate(parse_config(PRIOR_TOML), cuts, n_folds=2, samples=100, engine="sdm", schemes=("random",),
+                         update_fn=fit, engine_options={"steps": STEPS})
+    assert got == [{"steps": STEPS}] * 2 and res.settings["engine_options"] == {"steps": STEPS}
+    with pytest.raises(InputError, match="nodes"):  # before any fold
+        cross_validate(parse_config(PRIOR_TOML), cuts, engine="sdm", update_fn=fit, engine_options={"nodes": 6})
+    assert len(got) == 2
 
 
 @pytest.mark.parametrize("args, texts", [

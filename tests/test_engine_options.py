@@ -339,3 +339,17 @@ def test_update_on_the_command_line_fits_and_records_the_steps(tmp_path):
     from millstab.api.shop import posterior_from_db
 
     assert posterior_from_db(tmp_path / "shop.db", "c")[1].engine_options == {"steps": 8}
+
+
+def test_a_model_pinned_at_a_row_keeps_the_fixed_nodes(monkeypatch):
+    """Forward.pinned(at=) (the decisions' and the likelihood's evaluator) takes the caller's spectral nodes over
+    the engine's choice at that row (fails on the merged pinned(at=) code, which kept the engine's choice)."""
+    from millstab.stability import spectral
+
+    cfg = load_example("ex1")
+    par = Parameterization(cfg.structure)
+    monkeypatch.setattr(spectral, "settings", lambda batch, cutting, rpm, purpose="fit": {"nodes": 5, "near": 0.0})
+    rpm = np.array([6000.0, 7000.0])
+    pin = forward(par, cfg.cutting, "spectral", options={"nodes": 9}).pinned(rpm, par.theta0[None], at=par.theta0)
+    assert dict(pin.settings) == {"nodes": 9, "near": 0.0}
+    assert dict(forward(par, cfg.cutting, "spectral").pinned(rpm, par.theta0[None], at=par.theta0).settings)["nodes"] == 5

@@ -116,6 +116,20 @@ class Forward:
                                                                  **self._purpose())))
         return self._settings[key]
 
+    def _settings_at(self, r: np.ndarray, row: np.ndarray, conditions) -> dict:
+        """The engine's settings chosen at the parameter row ``row`` (P,): cached under (speeds, conditions,
+        row), apart from :meth:`settings`' first-row choice, so a pinned study's discretisation depends on
+        the row it names, not on which call came first."""
+        key = b"at" + self._key(r, conditions) + row.tobytes()
+        if key not in self._settings:
+            if len(self._settings) >= SETTINGS_CACHE:
+                self._settings.pop(next(iter(self._settings)))
+            cut = self.cutting if conditions is None else conditions
+            # the caller's options over the choice (before, a pinned spectral model dropped a fixed node count)
+            self._settings[key] = self._with_options(dict(self._engine_mod.settings(self.par.batch(row[None]), cut, r,
+                                                                                    **self._purpose())))
+        return self._settings[key]
+
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
         """Re-check the discretisation at the parameter row ``theta`` (P,) [SI] (e.g. a fitted solution):
         where the engine chooses other settings there, they replace the chosen ones for these speeds (and
@@ -132,21 +146,24 @@ class Forward:
         return new != old
 
     def pinned(self, rpm: np.ndarray, theta_rows: np.ndarray | None = None,
-               conditions: Conditions | Cutting | None = None) -> Pinned:
+               conditions: Conditions | Cutting | None = None, *, at: np.ndarray | None = None) -> Pinned:
         """This model at the speeds ``rpm`` (S,) [rev/min] with the engine's discretisation fixed now for a
         whole problem whose parameter rows are (or are bounded by) ``theta_rows`` (R, P) [SI] (default the
-        start θ0): an engine with ``settings`` (spectral) chooses it at the first row, as :meth:`settings`;
-        one with ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows;
-        ``{}`` otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in
-        any chunks, here or on a cluster, then gives the numbers of ONE call on all of them. ``conditions``:
-        the condition of each speed column (default the bound cutting for all)."""
+        start θ0): an engine with ``settings`` (spectral) chooses it at the row ``at`` (P,) [SI] (a study's
+        centre, a prior's θ0; default the first of ``theta_rows``), whatever this model chose before for a
+        fit (the choice at ``at`` is kept apart from :meth:`settings`' first-row choice); one with
+        ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows; ``{}``
+        otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in any
+        chunks, here or on a cluster, then gives the numbers of ONE call on all of them. ``conditions``: the
+        condition of each speed column (default the bound cutting for all)."""
         r = np.asarray(rpm, dtype=float)
         rows = np.atleast_2d(np.asarray(self.par.theta0 if theta_rows is None else theta_rows, dtype=float))
         cut = self.cutting if conditions is None else conditions
         if isinstance(cut, Conditions):
             cut.check_columns(r.size)
         if getattr(self._engine_mod, "settings", None) is not None:
-            chosen = self.settings(r, rows[0], conditions)
+            chosen = self._settings_at(r, rows[0] if at is None else np.ravel(np.asarray(at, dtype=float)),
+                                        conditions)
         else:
             split = getattr(self._engine_mod, "split_settings", None)
             chosen = self._with_options(dict(split(self.par.batch(rows), cut, r)) if split is not None else {})
@@ -194,19 +211,13 @@ class Pinned:
         extra = {} if kr is None else {"kr": kr}
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
-    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
+    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
-        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each), or as tasks on the
-        Dask cluster of ``client`` (:func:`millstab.cluster.depths`). The discretisation is pinned, so
-        neither the chunk size nor the cluster changes a number."""
+        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each). The discretisation is
+        pinned, so the chunk size changes no number; a Dask cluster's tasks call this model too
+        (:func:`millstab.cluster.map_pinned`: the studies hand it over, so that this layer imports none above)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         f = self.forward
-        if client is not None:
-            from millstab import cluster
-
-            # the engines take Conditions where a Cutting goes, so the cluster's tasks need no other argument
-            return cluster.depths(client, f.engine, f.par, self.conditions, rows, self.rpm, progress, chunk_rows,
-                                  settings=dict(self.settings))
         per = int(chunk_rows or f._engine_mod.chunk_rows(self.rpm.size))
         out = np.empty((rows.shape[0], self.rpm.size))
         for start in range(0, rows.shape[0], per):

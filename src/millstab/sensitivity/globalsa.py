@@ -147,7 +147,7 @@ def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client=None):
     bnds = bounds_from(par, th, t, bounds)
     r = check_rpm(rpm)
     eng = engine_module(engine)
-    f = pin(eng, par, cutting, r, np.vstack([th, bnds[:, 1]]))  # the centre, then the box's upper corner
+    f = pin(eng, par, cutting, r, np.vstack([th, bnds[:, 1]]), at=th)  # the centre, then the box's upper corner
     return par, th, seed, bnds, r, f, f(th[None, :])
 
 

@@ -120,12 +120,10 @@ def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zo
                  options: dict | None = None):
     """The one evaluator of :func:`limits` for the samples u = ln θ: ``fwd`` (default a fresh model, ``purpose``
     :data:`SAMPLING`, with the discretisation ``options``) pinned on their rows
-    (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen
-    at θ0 (spectral; cached in ``fwd``) or from the rows (sdm's steps); what a cluster's tasks get too."""
+    (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen at θ0 (spectral: ``at=``, whatever ``fwd``
+    was asked before) or from the rows (sdm's steps); what a cluster's tasks get too."""
     fwd = forward(prior.par, prior.cutting, engine, SAMPLING, options) if fwd is None else fwd
-    r = check_rpm(rpm)
-    fwd.settings(r, None, conditions)  # chosen at θ0 (cached: the pinned model takes it)
-    return fwd.pinned(r, prior.split(u)[0], conditions)
+    return fwd.pinned(check_rpm(rpm), prior.split(u)[0], conditions, at=fwd.par.theta0)  # settings: at θ0
 
 
 def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:

@@ -123,7 +123,8 @@ class UpdateTab:
             self.drop_error.object = error_html("need a valid config (Tool and cut): listening needs the number of teeth")
             return
         try:
-            pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings))
+            pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings),
+                                                   structure=cfg.structure)
         except InputError as exc:
             self.drop_error.object = error_html(str(exc))
             return

@@ -46,14 +46,11 @@ def listen(
     from millstab import api
     from millstab.cli import emit
     from millstab.errors import InputError
-    from millstab.io import read_json
+    from millstab.io import config_inputs, read_json
 
-    from millstab.io import config_inputs
-
-    cfg = api.config(config) if config is not None else None
+    cfg = api.config(config) if config is not None else None  # --config: the tool's structure (docs/listen.md)
     protect = emit.checked({"RECORDING": recording, "--post": post, **(config_inputs(cfg) if cfg else {})},
                            {"--out": out, "--plot": plot}, figures=("--plot",))
-    structure = cfg.structure if cfg is not None else None
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
         raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),
@@ -65,12 +62,11 @@ def listen(
 
         posterior = (shop.current_posterior(db, campaign, user) or (None, None))[1]
     heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
-                            post=posterior, depth_mm=depth, risk=risk, structure=structure)
-    r = heard.listening
+                            post=posterior, depth_mm=depth, risk=risk, structure=cfg.structure if cfg else None)
     typer.echo(f"{recording.name}: {heard.summary()}")
     if on_db:
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
-        typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
-                   "`millstab update --db` uses it)")
+        typer.echo(f"recorded in campaign {campaign} as cut {n}: {heard.listening.rpm:g} rpm, {depth:g} mm, "
+                   f"{heard.listening.label} (the next `millstab update --db` uses it)")
     emit.json(out, lambda: heard.to_json(spectrum=False), protect)
     emit.figure(plot, lambda: api.listen_figure(heard, title=recording.name), protect)

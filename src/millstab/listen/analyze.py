@@ -99,7 +99,9 @@ The steps, with every threshold and the reason for it:
    family's prominent members (|k| ≤ ``FAMILY_ORDERS`` = 8) the one with the largest power / f⁴ is
    reported. A member counts from ``FAMILY_SHARE_FAR`` = 1 % of the loudest's power, except the
    loudest's first-order sidebands |f ± f_T| (f_T − f folded below zero), which count from
-   ``FAMILY_SHARE`` = 10 %: those are where
+   ``FAMILY_SHARE`` = 10 %, as do lines on a spindle harmonic (a flip candidate may be resonant
+   runout: at 1 % one 2 Hz from a sideband f_c − 2 f_T of a chatter beside a spindle harmonic won by
+   f⁴, bench_listen_near --seed 1, case 25): those sidebands are where
    a tone amplitude-modulated by the tooth passing puts its sidebands (up to 60 % modulation stays
    out, which a low f − f_T would otherwise win by f⁴), while further orders and mirrors are no
    sidebands of one tone. (10 % for every member lost a two-tooth Hopf chatter at 1.332 f_T holding 7.9 %
@@ -552,7 +554,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), 60.0 * f_s, int(teeth), f_t,
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     g2 = None if structure is None else _flexibility(structure)
-    c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper)
+    c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper, f_s)
     lpF = np.log(np.maximum(pF, 1e-300))
     # flip chatter heard at an odd multiple of f_T/2: the other odd multiples standing FLIP_RATIO over the
     # runout join its family even when under FLIP_TOOTH of their tooth lines (that rule keeps resonant
@@ -563,7 +565,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         ex_f = np.array([_refine(fF, lpF, float(line_f[j]), 2.0 * fs / nper) for j in extra])
         ex_e = np.maximum(line_pow[extra] - np.interp(line_f[extra], f, floor), 0.0)
         cand_f, cand_e = np.concatenate([cand_f, ex_f]), np.concatenate([cand_e, ex_e])
-        c = _family_member(cand_f, cand_e, int(np.argmax(cand_e[:n_std])), f_t, 2.0 * fs / nper)
+        c = _family_member(cand_f, cand_e, int(np.argmax(cand_e[:n_std])), f_t, 2.0 * fs / nper, f_s)
     if g2 is not None and teeth % 2 == 0:
         c = _flip_member_at_mode(cand_f, cand_e, c, f_t, 2.0 * fs / nper, g2)
     f_report = None
@@ -719,12 +721,13 @@ def _flexibility(structure):
     return g2
 
 
-def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float) -> int:
+def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float, f_s: float) -> int:
     """Of the chatter family fpk[j] + k f_T (|k| ≤ FAMILY_ORDERS) and its mirrors k f_T − fpk[j] (1 ≤ k ≤
     FAMILY_ORDERS) among the candidate peaks (frequencies fpk [Hz], excess densities epk), the index of the
     member strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is
-    f⁴ times the displacement's), counting the first-order sidebands |fpk[j] ± f_T| with at least
-    FAMILY_SHARE of the strongest's excess and the other members with at least FAMILY_SHARE_FAR."""
+    f⁴ times the displacement's), counting the first-order sidebands |fpk[j] ± f_T| and lines on a spindle
+    harmonic (k f_s, f_s [Hz]: a flip candidate, runout perhaps) with at least FAMILY_SHARE of the
+    strongest's excess and the other members with at least FAMILY_SHARE_FAR."""
     k = (fpk - fpk[j]) / f_t
     km = (fpk + fpk[j]) / f_t  # mirror members k f_T − f_j (the modulation's lower sidebands fold over)
     direct = (np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS)
@@ -732,7 +735,9 @@ def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: fl
     member = direct | mirror
     # where amplitude modulation of one tone puts its sidebands: f_j ± f_T (f_T − f_j folded when f_j < f_T)
     side = (direct & (np.abs(np.round(k)) == 1)) | (mirror & (np.round(km) == 1))
-    fam = np.flatnonzero(member & (epk >= np.where(side, FAMILY_SHARE, FAMILY_SHARE_FAR) * epk[j]))
+    ks = fpk / f_s
+    on_sync = np.abs(ks - np.round(ks)) * f_s <= tol
+    fam = np.flatnonzero(member & (epk >= np.where(side | on_sync, FAMILY_SHARE, FAMILY_SHARE_FAR) * epk[j]))
     if fam.size <= 1:
         return j
     return int(fam[np.argmax(epk[fam] / fpk[fam] ** 4)])

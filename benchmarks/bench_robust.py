@@ -31,6 +31,10 @@ conflict rule offline. ``--confirm conflict,always,never`` judges each of recomm
 round of the same campaign (the next test does not depend on the rule, so the cuts are the same), printed per
 side (softer / stiffer); ``--trace`` prints per round why the recommendation is where it is (docs/updating.md,
 "Why the softer campaigns stop low"); ``--only 60,62`` runs those campaigns.
+``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
+when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
+posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (the cut that tells the two
+apart) instead of the recommendation's next test.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
 from millstab.update.campaign import best_productivity  # noqa: E402
 from millstab.update.decide import SPEED_TOLERANCE  # noqa: E402
+from millstab.update.discriminate import conflict_test  # noqa: E402
 
 
 def parse() -> argparse.Namespace:
@@ -88,6 +93,11 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--trace", action="store_true", help="print per round: the recommendation and what limits it, "
                     "the true limit there, the posterior's 5-95 %% limit at the best true speed, the data guard's "
                     "cuts, the next test and its label, the posterior's medians of fn, k, ζ over the truth's")
+    ap.add_argument("--conflict-test", action="store_true",
+                    help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
+                         "that tells them apart (millstab.update.discriminate)")
+    ap.add_argument("--rival-lr", type=float, default=0.0,
+                    help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -134,7 +144,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         c_rpm = list(np.r_[o_rpm, o_rpm])
         c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
         c_lab = label(c_rpm, c_depth)
-        post, named, rec_ok, rec_p, log_bf, posts = None, [], [], [], [], []
+        post, named, rec_ok, rec_p, log_bf, posts, n_ct, n_test_chat = None, [], [], [], [], [], 0, 0
         modes = args.confirm.split(",")
         by_mode = {m: ([], []) for m in modes}
         for k in range(args.rounds):
@@ -154,22 +164,31 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             rec_p.append(by_mode[modes[0]][1][-1])
             if k + 1 < args.rounds:
                 nx = rec.next_test
+                if args.conflict_test and not named[-1]:
+                    ct = conflict_test(post, (lo, hi), args.max_depth, seed=k)
+                    if ct is not None and ct["rival_log_likelihood_ratio"] >= args.rival_lr:
+                        nx = ct
+                        n_ct += 1
                 c_rpm.append(float(nx["rpm"]))
                 c_depth.append(float(nx["depth_mm"]))
                 c_lab += label([nx["rpm"]], [nx["depth_mm"]])
+                n_test_chat += c_lab[-1] == "chatter"
             if args.trace:
-                trace += trace_round(k, post, rec, truth, rpm_star, theta, c_lab[-1] if k + 1 < args.rounds else "")
+                last = k + 1 == args.rounds
+                trace += trace_round(k, post, rec, truth, rpm_star, theta, "" if last else c_lab[-1],
+                                     None if last else nx)
         m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
         row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
                "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
                "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0,
+               "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat),
                "modes": {m: {"rec_stable": v[0], "rec_productivity": v[1]} for m, v in by_mode.items()}}
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
         lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
                  (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
-                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); rounds (S stable/C chatter, "
+                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); {n_ct} conflict tests; rounds (S stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
         lines = trace + lines + [f"   confirm={m}: " + " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(*v))
                                  for m, v in by_mode.items()]
@@ -177,8 +196,10 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
     return row, lines, rec
 
 
-def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, lab: str) -> list[str]:
-    """The --trace lines of round k (see --trace)."""
+def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, lab: str,
+                cut: dict | None = None) -> list[str]:
+    """The --trace lines of round k (see --trace); ``cut``: the next cut made, when not the recommendation's
+    next test (--conflict-test)."""
     from millstab.update.likelihood import limits
 
     b_true = float(truth(np.array([rec.rpm]))[0])
@@ -193,7 +214,7 @@ def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, la
     vc = ", ".join(f"{v['rpm']:.0f} rpm {v['depth_mm']:.3f} mm P(ch) {v['p_chatter']:.2f}" for v in vouch) or "none"
     gd = "; ".join(f"{g['rpm']:.0f}±{g['half_width_rpm']:.0f} rpm ≤{g['cap_mm']:.3f}{'*' if g['binding'] else ''}"
                    for g in rec.guard) or "none"
-    nx = rec.next_test
+    nx = cut or rec.next_test
     return [f"   r{k + 1}: rec {rec.rpm:.0f} rpm {rec.depth_mm:.3f} mm ({rec.limited_by}; true limit {b_true:.3f}: "
             f"{'S' if rec.depth_mm < b_true else 'C'}); posterior limit at {rpm_star:.0f} rpm 5/50/95 % "
             f"{q5:.3f}/{q50:.3f}/{q95:.3f} (true {float(truth(np.array([rpm_star]))[0]):.3f})",
@@ -228,6 +249,8 @@ def main() -> None:
           f"noise, {args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")
+    print(f"  conflict tests cut (--conflict-test): {sum(r['conflict_tests'] for r in rows)}; test cuts that chattered: "
+          f"{sum(r['tests_chattered'] for r in rows)} / {sum(r['tests'] for r in rows)}")
     print(f"  recommendations from round 3 on that chatter: {late_bad} / {late_all} "
           f"(campaigns with one: {sum(any(not ok for ok in r['rec_stable'][2:]) for r in rows)} / {n})")
     ok_p = [p for ok, p in zip(last_ok, last_p) if ok]

@@ -2,7 +2,7 @@
 
 Each campaign (seeded):
 * prior = the hammer test: the seed paper's Ex.1 structure (2 teeth, slotting) with the default
-  spreads and ``--tails`` (student | normal | mixture);
+  spreads and ``--tails`` (student | normal | mixture | multivariate_t);
 * truth = the hammer test off by far more than its spreads: every stiffness × ``--k-factor``^s, every
   natural frequency × (1 + ``--fn-off``)^s, every damping ratio × ``--zeta-factor``^s, s = ``--sign``
   (+1 by default: k ×3, fn +20 %, ζ ×3, the issue's campaigns; −1 softer; 0 alternates per campaign);
@@ -24,7 +24,7 @@ round 3 on that chatter (truly, by SDM); the last recommendation: truly stable, 
 over that of the best truly stable cut (same constraints and speed tolerance as the recommendation).
 
 Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --samples 1000 --truth-steps 20
---best-speeds 121 [--tails normal|mixture]`` (docs/updating.md, "A prior that can be wrong", has the figures).
+--best-speeds 121 [--tails normal|mixture|multivariate_t]`` (docs/updating.md, "A prior that can be wrong", has the figures).
 ``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
 conflict rule offline. ``--confirm conflict,always,never`` judges each of recommend's confirm rules in every
@@ -71,7 +71,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--only", default=None, help="campaign numbers, comma-separated (instead of --first/--campaigns)")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--samples", type=int, default=1000)
-    ap.add_argument("--tails", default=None, help="student | normal | mixture (default: the prior's default)")
+    ap.add_argument("--tails", default=None, help="student | normal | mixture | multivariate_t (default: the prior's default)")
     ap.add_argument("--k-factor", type=float, default=3.0)
     ap.add_argument("--fn-off", type=float, default=0.20)
     ap.add_argument("--zeta-factor", type=float, default=3.0)

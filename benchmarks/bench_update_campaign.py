@@ -164,7 +164,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
     ap.add_argument("--confirm", default="conflict",
                     help="recommend's confirm rule: conflict (default) | always | never")
-    ap.add_argument("--tails", default=None, help="tails of the prior: student | normal | mixture (default: the "
+    ap.add_argument("--tails", default=None, help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
                                                   "prior's default, student)")
     ap.add_argument("--truth-tails", default="normal",
                     help="--calibrate: the family the truths are drawn from (the hammer test's spreads, Gaussian by "

@@ -48,7 +48,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
-    tails = "student"            # the spreads' tails: student (default), normal or mixture
+    tails = "student"            # the spreads' tails: student (default), normal, mixture or multivariate_t
     batch_effect = "3 %"         # σ of a test day's shift of every fn (cuts' batch/date column; default off)
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
@@ -85,7 +85,7 @@ TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "t
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
 PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect")
 #: the prior's tails (millstab.update.prior.TAILS)
-PRIOR_TAILS = ("student", "normal", "mixture")
+PRIOR_TAILS = ("student", "normal", "mixture", "multivariate_t")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter",
                 "feed_per_tooth")

@@ -224,6 +224,15 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
+#: a speed starts a block of its own (no branch continued into it) where the most flexible mode's phase turns by
+#: more than this [rad] between its tooth period and the previous speed's (:func:`_phase_steps`): the branches
+#: continued across such a step are mostly lost (a lobe change at nearly every step), and each lost one cost up to
+#: 2 × ``_spectral_kernel.NEWTON_EVALS`` characteristic functions before the search from below ran anyway. The
+#: depths do not change (each speed's acceptance is its own): measured (issue 28, 2026-11-27, one thread, CPU)
+#: on 100 prior samples × 10 cut speeds of the docs/updating.md case (steps of 1–3 rad): 35.6 → 27.2 evaluations
+#: per (set, speed), −21 % CPU, depths within 1.2e-11; the 1-DOF benchmark x = y at a/D 0.05 / 0.5 on 50 speeds
+#: 5 000–25 000 rpm −17 % / −8 % CPU, on 200 speeds −4 % / ±1 % (thresholds 0.5 and 1.0 gave less)
+PHASE_SPLIT = 0.3
 #: tasks (set × block) per thread at most when the sets alone do not fill the threads: blocks are of
 #: equal modelled cost (``_speed_cost``), so one per thread balances one set; ``_blocks_per_set``
 BLOCKS_PER_THREAD = 2
@@ -288,6 +297,14 @@ def _blocks_per_set(n_b: int, n_threads: int) -> int:
     return k
 
 
+def _phase_steps(batch: ModalBatch, cutting: Cutting, rs: np.ndarray) -> np.ndarray:
+    """The phase [rad] the most flexible mode (mean ωn over the sets) turns through between the tooth periods of
+    each speed and the one before it (S,; the first speed: the step to a speed below it as far as the next one)."""
+    T = 60.0 / (cutting.teeth * rs)
+    dT = np.abs(np.diff(T, prepend=T[0] + (T[0] - T[1] if T.size > 1 else 0.0)))
+    return float(np.mean(_w_flex(batch))) * dT
+
+
 def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
     """A model of the root search's cost per speed (S,), for load balance: the monodromy's rows K (its
     collocation elements grow as the cut lasts longer at low speed) times (1 + φ/0.1), φ [rad] the
@@ -295,9 +312,7 @@ def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> 
     (capped at 0.3: beyond it nearly every speed is a lobe change). Measured on the benchmark (x = y,
     a/D = 0.05, 200 speeds 5 000–25 000 rpm, 1 thread): 0.65, 0.45, 0.20 and 0.155 ms per speed near
     6 000, 8 000, 12 000 and 20 000 rpm; the model gives 4.9 : 2.6 : 1.5 : 1."""
-    T = 60.0 / (cutting.teeth * rs)
-    dT = np.abs(np.diff(T, prepend=T[0] + (T[0] - T[1] if T.size > 1 else 0.0)))
-    phase = float(np.mean(_w_flex(batch))) * dT
+    phase = _phase_steps(batch, cutting, rs)
     omega = 2 * math.pi * rs / 60.0
     cut = min(cutting.exit - cutting.entry, 2 * math.pi / cutting.teeth) / omega
     wn = _arrays(batch)[0]
@@ -309,16 +324,22 @@ def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> 
 def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
     """Start indices of the speed blocks (ends with S): the whole range per set when the sets fill the
     threads (no restarts), else :func:`_blocks_per_set` blocks of equal modelled cost
-    (:func:`_speed_cost`: the low speeds cost several times more), none shorter than BLOCK."""
+    (:func:`_speed_cost`: the low speeds cost several times more), none shorter than BLOCK; and a block of its
+    own at every speed more than PHASE_SPLIT of phase from the speed before (sparse speeds: the cut speeds of
+    an update)."""
     n_s = rs.size
+    # a speed whose tooth period turns the flexible mode's phase by more than PHASE_SPLIT from the speed before
+    # starts a block of its own: continuing branches across such a step mostly fails (Newton on every tracked
+    # branch, then the search anyway), see PHASE_SPLIT
+    far = np.flatnonzero(_phase_steps(batch, cutting, rs) > PHASE_SPLIT) if n_s > 1 else np.zeros(0, np.int64)
     k = min(_blocks_per_set(batch.size, numba.get_num_threads()), math.ceil(n_s / BLOCK))
     if k <= 1:
-        return np.array([0, n_s], dtype=np.int64)
+        return np.unique(np.concatenate([[0], far, [n_s]])).astype(np.int64)
     cum = np.cumsum(_speed_cost(batch, cutting, rs, p))
     cuts = np.searchsorted(cum, cum[-1] * np.arange(1, k) / k)
     shortest = min(BLOCK, n_s // k)
     cuts = np.clip(cuts, shortest, n_s - shortest)
-    return np.unique(np.concatenate([[0], cuts, [n_s]])).astype(np.int64)
+    return np.unique(np.concatenate([[0], cuts, far, [n_s]])).astype(np.int64)
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,

@@ -8,7 +8,8 @@
 
 For each: CPU time of the whole call and of its parts (zero-order starting depths, the node-count check, the
 compiled root search), the evaluations per speed, and, from compiled timing loops, the CPU time of one ρ
-evaluation (its monodromy build and its eigenvalues) and of one characteristic-function evaluation with its
+evaluation (its monodromy build, from the per-speed low-rank factors and as before element by element, and its
+eigenvalues) and of one characteristic-function evaluation with its
 derivative (a Newton step), at the case's own speeds and depths. The ρ evaluations of the search from below
 are counted exactly where they are deterministic: the ladder rungs below the accepted root (the acceptance
 evaluates each, whatever found the root). One thread, BLAS pinned: CPU time is the figure on a shared machine.
@@ -51,6 +52,16 @@ def _loop_build(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
     s = 0.0
     for _ in range(reps):
         for b in bs:
+            s += _k.monodromy_lr(b, kt, g, g[8])[0, 0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_small(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
+    """The element-by-element build before issue 28's low-rank factors (for the comparison)."""
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
             U = _k.monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
             s += U[0, 0]
     return s
@@ -74,6 +85,15 @@ def _loop_setup(reps, n_teeth, kr, ps, pe, rpm, el, x, wn, zeta, act):
     return s
 
 
+@nb.njit(cache=True)
+def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, act):
+    s = 0.0
+    for _ in range(reps):
+        for r in rpm:
+            s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)[1][0]
+    return s
+
+
 def cpu(f):
     c = time.process_time()
     out = f()
@@ -87,26 +107,34 @@ def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
     n, kt, kr, ps, pe = cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit
     nd = _k.gauss_nodes(p)
     el = spectral._elem_len(wn)
-    tot = {"rho": 0.0, "build": 0.0, "char": 0.0, "setup": 0.0}
-    cnt = {"rho": 0, "build": 0, "char": 0, "setup": 0}
+    keys = ("rho", "build", "small", "char", "setup", "factors")
+    tot = dict.fromkeys(keys, 0.0)
+    cnt = dict.fromkeys(keys, 0)
     rows = range(min(batch.size, 5))
-    g0 = _k.setup(n, kr, ps, pe, rs[0], el[0], nd[0], wn[0], zeta[0], act)
+    g0 = _k.with_factors(_k.setup(n, kr, ps, pe, rs[0], el[0], nd[0], wn[0], zeta[0], act), wn[0], zeta[0], mass[0], mdir, nd)
     # compile / cache load first (reps 0: same types), so the timed loops hold no compile time
     _loop_setup(0, n, kr, ps, pe, rs, el[0], nd[0], wn[0], zeta[0], act)
     _loop_rho(0, rs, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
     _loop_build(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    _loop_small(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    _loop_factors(0, n, kr, ps, pe, rs, el[0], nd, wn[0], zeta[0], mass[0], mdir, act)
     _loop_char(0, rs, 1.0, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
     for i in rows:
         _, c = cpu(lambda: _loop_setup(reps, n, kr, ps, pe, rs, el[i], nd[0], wn[i], zeta[i], act))
         tot["setup"] += c
         cnt["setup"] += reps * rs.size
+        _, c = cpu(lambda: _loop_factors(reps, n, kr, ps, pe, rs, el[i], nd, wn[i], zeta[i], mass[i], mdir, act))
+        tot["factors"] += c
+        cnt["factors"] += reps * rs.size
         for s, r in enumerate(rs):
             if not np.isfinite(depth[i, s]):
                 continue
-            g = _k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act)
+            g = _k.with_factors(_k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act), wn[i], zeta[i], mass[i], mdir,
+                                nd)
             bs = depth[i, s] * np.linspace(0.3, 1.0, 8)
             for key, f in (("rho", lambda: _loop_rho(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, act.size, g, nd)),
                            ("build", lambda: _loop_build(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, g, nd)),
+                           ("small", lambda: _loop_small(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, g, nd)),
                            ("char", lambda: _loop_char(reps, bs, 1.0, kt, wn[i], zeta[i], mass[i], mdir, g, nd))):
                 _, c = cpu(f)
                 tot[key] += c
@@ -149,14 +177,15 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
           f"{t_solve:.3f} + Python/other {other:.3f}; per (set, speed) {1e3 * t_solve / n_pairs:.3f} ms in the search")
     print(f"  evaluations per (set, speed) {n_eval.mean():.1f} (rho + characteristic); of them rho on the rungs under the "
           f"accepted root (a floor) {n_rho.mean():.1f}")
-    print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us, eigenvalues "
-          f"{1e6 * (u['rho'] - u['build']):.1f} us), characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup "
-          f"{1e6 * u['setup']:.1f} us")
+    print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us from the low-rank factors, "
+          f"{1e6 * u['small']:.1f} us element by element as before; eigenvalues {1e6 * (u['rho'] - u['build']):.1f} us), "
+          f"characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup {1e6 * u['setup']:.1f} us (with the "
+          f"low-rank factors {1e6 * u['factors']:.1f} us)")
     rung_t = n_rho.sum() * u["rho"]
     n_other = np.maximum(n_eval - n_rho, 0).sum()
     print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the other "
           f"{n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
-          f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['setup'] * n_pairs:.3f} s")
+          f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['factors'] * n_pairs:.3f} s")
 
 
 def main() -> None:

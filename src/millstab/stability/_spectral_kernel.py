@@ -425,6 +425,175 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     return U
 
 
+@nb.njit(cache=True)
+def low_rank_setup(g, wn, zeta, mass, mdir, nd):
+    """The depth-independent part of every collocation element's map, once per speed (layout g from
+    :func:`setup`, nodes nd from :func:`gauss_nodes`): (CA, S, LA, LE), zero on free elements.
+
+    Why (issue 28, measured): ρ at ~21 ladder depths per speed is most of the engine's time, and each
+    :func:`monodromy_small` factors every element's collocation matrix L(w) = L0 − w B Cᵀ (p·n rows) anew.
+    The coupling is low-rank: B = the old-chip factors F / m in the velocity rows, Cᵀ = the new-chip factors
+    G on the displacements (rank he = Σ rk, the element's history), and the element's right-hand side is
+    [R0 | −w B]. With A = L0⁻¹R0, E = L0⁻¹B and W = (I − w S)⁻¹, S = Cᵀ E (Woodbury), only W depends on
+    the depth: the element's history rows are Cᵀ L(w)⁻¹ [R0 | −w B] = [W CᵀA | I − W] and its end state
+    (lend₀ I + Λ L(w)⁻¹ R0 | −w Λ L(w)⁻¹ B) = [LA + w LE W CᵀA | −w LE W] (Λ: the end-point weights).
+    So a depth costs an he × he solve per element (:func:`monodromy_lr`) instead of a p·n one.
+    CA (E, H, n) = CᵀA, S (E, H, H), LA (E, n, n) = lend₀ I + ΛA, LE (E, n, H) = ΛE; H = p·D."""
+    kind, h, Aq, rk, Fq, Gq = g[0], g[1], g[2], g[7], g[5], g[6]
+    Dm = nd[1]
+    lend = nd[2]
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    P = p * n
+    n_el = h.size
+    Hm = p * Fq.shape[2]
+    CA = np.zeros((n_el, Hm, n))
+    S = np.zeros((n_el, Hm, Hm))
+    LA = np.zeros((n_el, n, n))
+    LE = np.zeros((n_el, n, Hm))
+    L = np.empty((P, P))
+    piv = np.empty(P, dtype=np.int64)
+    for el in range(n_el):
+        if kind[el] == 0:
+            continue
+        hi = h[el]
+        he = 0
+        for k in range(1, p + 1):
+            he += rk[el, k]
+        _element_lhs(L, el, hi, 0.0, wn, zeta, mass, mdir, Aq, Dm)
+        RB = np.zeros((P, n + he))
+        col = n
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                RB[rk0 + r, r] = -d0
+            for j in range(M):
+                for i in range(rk[el, k]):
+                    RB[rk0 + M + j, col + i] = Fq[el, k, mdir[j], i] / mass[j]
+            col += rk[el, k]
+        _lu_factor(L, piv)
+        _lu_solve(L, piv, RB)  # [A | E]
+        row = 0
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            for i in range(rk[el, k]):
+                for c in range(n + he):
+                    acc = 0.0
+                    for j in range(M):
+                        acc += Gq[el, k, mdir[j], i] * RB[rk0 + j, c]
+                    if c < n:
+                        CA[el, row, c] = acc
+                    else:
+                        S[el, row, c - n] = acc
+                row += 1
+        for r in range(n):
+            for c in range(n + he):
+                acc = 0.0
+                for k in range(1, p + 1):
+                    acc += lend[k] * RB[(k - 1) * n + r, c]
+                if c < n:
+                    LA[el, r, c] = acc + (lend[0] if c == r else 0.0)
+                else:
+                    LE[el, r, c - n] = acc
+    return CA, S, LA, LE
+
+
+@nb.njit(cache=True)
+def monodromy_lr(b, kt, g, lr):
+    """:func:`monodromy_small` (the same matrix, other rounding) at depth b [m] from the per-speed factors
+    lr = :func:`low_rank_setup` (g the layout): per collocation element an he × he solve (W = (I − w S)⁻¹)
+    and products with the he + n rows the element adds, instead of a p·n collocation solve. Measured
+    (issue 28): eigenvalues within ~1e-13 of monodromy_small's (tests/test_spectral_lowrank.py)."""
+    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    CA, S, LA, LE = lr
+    n = LA.shape[1]
+    p = rk.shape[1] - 1
+    Hm = S.shape[1]
+    H = 0
+    for el in range(h.size):
+        if kind[el] == 1:
+            for k in range(1, p + 1):
+                H += rk[el, k]
+    K = n + H
+    w = 0.5 * b * kt
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.zeros((n, K))
+    Mx = np.empty((Hm, Hm))
+    piv = np.empty(Hm, dtype=np.int64)
+    QW = np.empty((Hm, n + Hm))
+    Ze = np.empty((n, n))
+    hoff = n  # this element's first history column (and row); Z is zero from it on
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for c in range(hoff):
+                    acc = 0.0
+                    for q in range(n):
+                        acc += phi_free[el, r, q] * Z[q, c]
+                    Znew[r, c] = acc
+            for r in range(n):
+                for c in range(hoff):
+                    Z[r, c] = Znew[r, c]
+            continue
+        he = 0
+        for k in range(1, p + 1):
+            he += rk[el, k]
+        Mh = Mx[:he, :he]
+        for r in range(he):
+            for c in range(he):
+                Mh[r, c] = -w * S[el, r, c]
+            Mh[r, r] += 1.0
+        B = QW[:he, :n + he]
+        for r in range(he):
+            for c in range(n):
+                B[r, c] = CA[el, r, c]
+            for c in range(he):
+                B[r, n + c] = 0.0
+            B[r, n + r] = 1.0
+        _lu_factor(Mh, piv[:he])
+        _lu_solve(Mh, piv[:he], B)  # [Q | W], Q = W CᵀA
+        # history rows: Q Z, and I − W at this element's history columns
+        for r in range(he):
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += B[r, q] * Z[q, c]
+                U[hoff + r, c] = acc
+            for c in range(he):
+                U[hoff + r, hoff + c] = (1.0 if r == c else 0.0) - B[r, n + c]
+        # the end state: (LA + w LE Q) Z, and −w LE W at the history columns
+        for r in range(n):
+            for c in range(n):
+                acc = LA[el, r, c]
+                for q in range(he):
+                    acc += w * LE[el, r, q] * B[q, c]
+                Ze[r, c] = acc
+        for r in range(n):
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += Ze[r, q] * Z[q, c]
+                Znew[r, c] = acc
+            for c in range(he):
+                acc = 0.0
+                for q in range(he):
+                    acc += LE[el, r, q] * B[q, n + c]
+                Znew[r, hoff + c] = -w * acc
+        hoff += he
+        for r in range(n):
+            for c in range(hoff):
+                Z[r, c] = Znew[r, c]
+    for r in range(n):
+        for c in range(K):
+            U[r, c] = Z[r, c]
+    return U
+
+
 _RADIX = 2.0
 
 
@@ -658,9 +827,16 @@ def eig_small(U):
 
 @nb.njit(cache=True)
 def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
-    """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy)."""
-    U = monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
-    return _dominant(eig_small(U))
+    """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy, built from the
+    per-speed factors g[8] (:func:`with_factors`) by :func:`monodromy_lr`)."""
+    return _dominant(eig_small(monodromy_lr(b, kt, g, g[8])))
+
+
+@nb.njit(cache=True)
+def with_factors(g, wn, zeta, mass, mdir, nd):
+    """The layout g of :func:`setup` with its per-speed depth-independent factors appended (g[8],
+    :func:`low_rank_setup`): what :func:`rho` needs."""
+    return g + (low_rank_setup(g, wn, zeta, mass, mdir, nd),)
 
 
 @nb.njit(cache=True)
@@ -1233,7 +1409,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     br_on = np.zeros(N_BRANCH, dtype=np.bool_)
     T_prev = 1.0
     for s in range(rpm.size):
-        g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
+        g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
         T = 60.0 / (n_teeth * rpm[s])
         rho0 = 0.0
         for j in range(wn.size):

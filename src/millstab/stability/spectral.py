@@ -91,6 +91,26 @@ depths below the root at every speed, each a monodromy (~40 % of an evaluation n
 certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
 is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
 needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
+Monodromy from per-speed low-rank factors (issue 28, 2026-11-27, :func:`._spectral_kernel.low_rank_setup`,
+:func:`._spectral_kernel.monodromy_lr`). Each element's collocation matrix is L(w) = L0 − w B Cᵀ with a
+coupling of rank he (the element's history: the chip thicknesses at its nodes), and its right-hand side is
+[R0 | −w B]; by Woodbury only W = (I − w S)⁻¹ (he × he, S = Cᵀ L0⁻¹ B) depends on the depth, so the p·n-row
+LU per element and depth became one per element and speed (the factors, with the layout) plus an he × he
+solve per depth. The same matrix to rounding: ρ within 2.4e-12 of the element-by-element build on random
+structures, cuts and node counts (tests/test_spectral_lowrank.py, also against the full monodromy's numpy
+eigenvalues); the depths of the search are unchanged (the same decisions at every rung). Where the time
+went before it (benchmarks/profile_spectral.py, one thread, CPU, load ~17): on the update's workload (100
+prior samples × 10 cut speeds of the docs/updating.md case, 6 nodes, ``near`` 0) 27.3 evaluations per
+(set, speed), 21.2 of them ρ on the ladder rungs under the accepted root (the floor every per-speed
+definition climbs), ~79 % of the search's time; a ρ evaluation 30 µs (monodromy build 13.7 µs, its
+eigenvalues 16.9 µs), a characteristic function with its derivative 25 µs, the speed's layout 3 µs; the
+zero-order starting depths, the node-count check and Python < 5 % of a call. On the 200-speed envelope (x =
+y, a/D 0.05) 31.7 evaluations per speed, 20.9 of them rungs (64 %); ρ 14.6 µs (build 7.0, eigenvalues 7.6).
+Measured, not built (same day): a certificate ρ < 1 without eigenvalues from the balanced monodromy's
+powers, ‖Bᵐ‖∞ < 1, holds at 0 / 3 / 30 / 62 / 81 / 91 % of the 4 221 rungs under the root (20 prior samples ×
+10 cut speeds; K = 10–22 rows) for m = 1, 2, 4, 8, 16, 32; by flop count (not timed) four squarings of a
+16-row matrix cost about as much as its Hessenberg QR, so the saving would be small; the eigenvalues are
+now about half of a ρ evaluation.
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of

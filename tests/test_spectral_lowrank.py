@@ -4,7 +4,8 @@
    element's collocation matrix) against the element-by-element collocation solve (``monodromy_small``) and
    the full monodromy's eigenvalues (public ``spectral.monodromy``, numpy), on random structures (1–2 modes
    per direction, one or two directions), cuts (1–4 teeth, a/D 0.03–1, up and down), node counts, speeds and
-   depths: a wrong factor, sign or history column moves ρ by far more than the tolerance.
+   depths: a wrong factor, sign or history column moves ρ by far more than the tolerance; the same for the
+   characteristic function's Ψ(σ) and dΨ/dσ (``psi_d_lr``) against the element-by-element ``psi_d``.
 2. Sparse speeds (an update's cut speeds) are searched each on its own (``PHASE_SPLIT``), and every speed's
    depth is the one it gets alone and the first crossing of a dense ρ scan of the full monodromy.
 """
@@ -55,6 +56,13 @@ def test_low_rank_monodromy_equals_the_collocation_solve_and_the_full_monodromy(
             full = np.linalg.eigvals(spectral.monodromy(structure, cut, rpm, b, nodes=nodes))
             r_fast, _ = k.rho(b, cut.kt, wn[0], zeta[0], mass[0], mdir, act.size, gf, nd)
             assert r_fast == np.abs(full).max() or abs(r_fast / np.abs(full).max() - 1) < 1e-9
+            # Ψ(σ) and dΨ/dσ (Newton's characteristic function) at a complex σ = w (1 − 1/μ)
+            mu = np.exp(1j * rng.uniform(0.0, math.pi))
+            sigma = 0.5 * b * cut.kt * (1.0 - 1.0 / mu)
+            psi, dpsi = k.psi_d(sigma, wn[0], zeta[0], mass[0], mdir, g[0], g[1], g[2], g[4], nd[1], nd[2])
+            psi_lr, dpsi_lr = k.psi_d_lr(sigma, gf, gf[8])
+            assert np.abs(psi_lr - psi).max() <= 1e-9 * max(1.0, np.abs(psi).max())
+            assert np.abs(dpsi_lr - dpsi).max() <= 1e-9 * max(1.0, np.abs(dpsi).max())
 
 
 @pytest.mark.slow

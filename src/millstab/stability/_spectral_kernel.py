@@ -1095,13 +1095,84 @@ def psi_d(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
 
 
 @nb.njit(cache=True)
+def psi_d_lr(sigma, g, lr):
+    """(Ψ(σ), dΨ/dσ) as :func:`psi_d` (the same matrices to rounding) from the per-speed factors
+    lr = :func:`low_rank_setup`: element map E(σ) = LA + σ LE W CA with W = (I − σ S)⁻¹, and
+    E'(σ) = LE W² CA (dW/dσ = W S W, so d(σ W)/dσ = W (I + σ S W) = W²): an he × he complex solve per
+    element instead of a p·n one (issue 28)."""
+    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    CA, S, LA, LE = lr
+    n = LA.shape[1]
+    p = rk.shape[1] - 1
+    Hm = S.shape[1]
+    Z = np.zeros((n, 2 * n), dtype=np.complex128)  # [Ψ | Ψ'] so far
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, 2 * n), dtype=np.complex128)
+    Mx = np.empty((Hm, Hm), dtype=np.complex128)
+    piv = np.empty(Hm, dtype=np.int64)
+    Qb = np.empty((Hm, n), dtype=np.complex128)
+    E = np.empty((n, n), dtype=np.complex128)
+    Ed = np.empty((n, n), dtype=np.complex128)
+    for el in range(h.size):
+        if kind[el] == 0:
+            for r in range(n):
+                for col in range(2 * n):
+                    acc = 0.0j
+                    for q in range(n):
+                        acc += phi_free[el, r, q] * Z[q, col]
+                    Znew[r, col] = acc
+            Z[:, :] = Znew
+            continue
+        he = 0
+        for k in range(1, p + 1):
+            he += rk[el, k]
+        Mh = Mx[:he, :he]
+        for r in range(he):
+            for c in range(he):
+                Mh[r, c] = -sigma * S[el, r, c]
+            Mh[r, r] += 1.0
+        Q = Qb[:he, :]
+        for r in range(he):
+            for c in range(n):
+                Q[r, c] = CA[el, r, c]
+        _lu_factor(Mh, piv[:he])
+        _lu_solve(Mh, piv[:he], Q)  # W CA
+        for r in range(n):
+            for c in range(n):
+                acc = LA[el, r, c] + 0.0j
+                for q in range(he):
+                    acc += sigma * LE[el, r, q] * Q[q, c]
+                E[r, c] = acc
+        _lu_solve(Mh, piv[:he], Q)  # W² CA
+        for r in range(n):
+            for c in range(n):
+                acc = 0.0j
+                for q in range(he):
+                    acc += LE[el, r, q] * Q[q, c]
+                Ed[r, c] = acc
+        for r in range(n):
+            for c in range(n):
+                a0 = 0.0j
+                a1 = 0.0j
+                for q in range(n):
+                    a0 += E[r, q] * Z[q, c]
+                    a1 += Ed[r, q] * Z[q, c] + E[r, q] * Z[q, n + c]
+                Znew[r, c] = a0
+                Znew[r, n + c] = a1
+        Z[:, :] = Znew
+    return Z[:, :n].copy(), Z[:, n:].copy()
+
+
+@nb.njit(cache=True)
 def char_d(b, theta, kt, wn, zeta, mass, mdir, g, nd):
     """(F, ∂F/∂b, ∂F/∂θ) of the characteristic function F(b, θ) = det(μ I − Ψ(σ)), μ = e^{iθ},
-    σ = w (1 − 1/μ), w = ½ b Kt. Jacobi's formula: dF = F tr((μ I − Ψ)⁻¹ d(μ I − Ψ))."""
+    σ = w (1 − 1/μ), w = ½ b Kt. Jacobi's formula: dF = F tr((μ I − Ψ)⁻¹ d(μ I − Ψ)). Ψ and Ψ' from the
+    per-speed low-rank factors g[8] (:func:`psi_d_lr`; :func:`char_fn` keeps the element-by-element path)."""
     mu = complex(math.cos(theta), math.sin(theta))
     w = 0.5 * b * kt
     sigma = w * (1.0 - 1.0 / mu)
-    P, Pd = psi_d(sigma, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], nd[1], nd[2])
+    P, Pd = psi_d_lr(sigma, g, g[8])
     n = P.shape[0]
     A = np.empty((n, n), dtype=np.complex128)
     for i in range(n):
@@ -1549,5 +1620,5 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
 def refine_at(n_teeth, kt, kr, phi_s, phi_e, rpm, b, theta, wn, zeta, mass, mdir, act, elem_len, nd):
     """:func:`newton` at one speed on the layout with nodes ``nd``: the boundary point (b, θ) found
     with other nodes, moved to this discretisation (used by the convergence check)."""
-    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
     return newton(b, theta, kt, wn, zeta, mass, mdir, g, nd)

@@ -25,9 +25,9 @@ import time
 
 import numba as nb
 import numpy as np
+from _machine import describe
 from threadpoolctl import threadpool_limits
 
-from _machine import describe
 from millstab.frf import ModalBatch
 from millstab.io import load_config
 from millstab.io.config import PriorTable
@@ -44,6 +44,15 @@ def _loop_rho(reps, bs, kt, wn, zeta, mass, mdir, D, g, nd):
     for _ in range(reps):
         for b in bs:
             s += _k.rho(b, kt, wn, zeta, mass, mdir, D, g, nd)[0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_below(reps, bs, level, kt, wn, zeta, mass, mdir, D, g, nd):
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            s += _k.rho_below(b, level, kt, wn, zeta, mass, mdir, D, g, nd)[0]
     return s
 
 
@@ -94,20 +103,23 @@ def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, 
     return s
 
 
-def cpu(f):
+def cpu(f, *args):
+    """(f(*args), CPU seconds it took)."""
     c = time.process_time()
-    out = f()
+    out = f(*args)
     return out, time.process_time() - c
 
 
-def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, p: int, reps: int = 20) -> dict:
+def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, p: int, level: float,
+               reps: int = 20) -> dict:
     """CPU seconds per ρ evaluation, per monodromy build, per characteristic function + derivative and per
-    speed setup, averaged over the rows of ``batch`` (up to 5) at speeds rs and depths 0.3–1.0 × the row's limit."""
+    speed setup, averaged over the rows of ``batch`` (up to 5) at speeds rs and depths 0.3–1.0 × the row's limit;
+    the rung test (:func:`rho_below`) at ``level``."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n, kt, kr, ps, pe = cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit
     nd = _k.gauss_nodes(p)
     el = spectral._elem_len(wn)
-    keys = ("rho", "build", "small", "char", "setup", "factors")
+    keys = ("rho", "below", "build", "small", "char", "setup", "factors")
     tot = dict.fromkeys(keys, 0.0)
     cnt = dict.fromkeys(keys, 0)
     rows = range(min(batch.size, 5))
@@ -116,14 +128,15 @@ def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
     _loop_setup(0, n, kr, ps, pe, rs, el[0], nd[0], wn[0], zeta[0], act)
     _loop_rho(0, rs, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
     _loop_build(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    _loop_below(0, rs, 1.0, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
     _loop_small(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
     _loop_factors(0, n, kr, ps, pe, rs, el[0], nd, wn[0], zeta[0], mass[0], mdir, act)
     _loop_char(0, rs, 1.0, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
     for i in rows:
-        _, c = cpu(lambda: _loop_setup(reps, n, kr, ps, pe, rs, el[i], nd[0], wn[i], zeta[i], act))
+        _, c = cpu(_loop_setup, reps, n, kr, ps, pe, rs, el[i], nd[0], wn[i], zeta[i], act)
         tot["setup"] += c
         cnt["setup"] += reps * rs.size
-        _, c = cpu(lambda: _loop_factors(reps, n, kr, ps, pe, rs, el[i], nd, wn[i], zeta[i], mass[i], mdir, act))
+        _, c = cpu(_loop_factors, reps, n, kr, ps, pe, rs, el[i], nd, wn[i], zeta[i], mass[i], mdir, act)
         tot["factors"] += c
         cnt["factors"] += reps * rs.size
         for s, r in enumerate(rs):
@@ -132,11 +145,13 @@ def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
             g = _k.with_factors(_k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act), wn[i], zeta[i], mass[i], mdir,
                                 nd)
             bs = depth[i, s] * np.linspace(0.3, 1.0, 8)
-            for key, f in (("rho", lambda: _loop_rho(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, act.size, g, nd)),
-                           ("build", lambda: _loop_build(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, g, nd)),
-                           ("small", lambda: _loop_small(reps, bs, kt, wn[i], zeta[i], mass[i], mdir, g, nd)),
-                           ("char", lambda: _loop_char(reps, bs, 1.0, kt, wn[i], zeta[i], mass[i], mdir, g, nd))):
-                _, c = cpu(f)
+            common = (kt, wn[i], zeta[i], mass[i], mdir)
+            for key, f, args in (("rho", _loop_rho, (reps, bs, *common, act.size, g, nd)),
+                                 ("below", _loop_below, (reps, bs, level, *common, act.size, g, nd)),
+                                 ("build", _loop_build, (reps, bs, *common, g, nd)),
+                                 ("small", _loop_small, (reps, bs, *common, g, nd)),
+                                 ("char", _loop_char, (reps, bs, 1.0, *common, g, nd))):
+                _, c = cpu(f, *args)
                 tot[key] += c
                 cnt[key] += reps * bs.size
     return {k: tot[k] / max(cnt[k], 1) for k in tot}
@@ -162,15 +177,15 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
     spectral.envelope_batch(ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"))),
                             cut, rs[:2], nodes=nodes, near=near)  # compile / cache load
     _, t_all = cpu(lambda: spectral.envelope_batch(batch, cut, rs, nodes=nodes, near=near))
-    b_ref, t_ref = cpu(lambda: spectral._b_ref(batch, cut, rs))
+    b_ref, t_ref = cpu(spectral._b_ref, batch, cut, rs)
     if nodes is None:
-        p, t_chk = cpu(lambda: spectral._converged_nodes(batch, cut, rs, b_ref))
+        p, t_chk = cpu(spectral._converged_nodes, batch, cut, rs, b_ref)
     else:
         p, t_chk = int(nodes), 0.0
-    (depth, mu, n_eval), t_solve = cpu(lambda: spectral._solve_warm(batch, cut, rs, b_ref, p, near=near))
+    (depth, _mu, n_eval), t_solve = cpu(lambda: spectral._solve_warm(batch, cut, rs, b_ref, p, near=near))
     n_pairs = depth.size
     n_rho = rungs_below(depth, b_ref)
-    u = unit_costs(batch, cut, rs, depth, p)
+    u = unit_costs(batch, cut, rs, depth, p, 1.0 - near)
     other = t_all - t_ref - t_chk - t_solve
     print(f"{label}: {batch.size} sets x {rs.size} speeds, nodes {p}, near {near}")
     print(f"  CPU per call {t_all:.3f} s = zero-order start {t_ref:.3f} + node check {t_chk:.3f} + root search "
@@ -178,10 +193,11 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
     print(f"  evaluations per (set, speed) {n_eval.mean():.1f} (rho + characteristic); of them rho on the rungs under the "
           f"accepted root (a floor) {n_rho.mean():.1f}")
     print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us from the low-rank factors, "
-          f"{1e6 * u['small']:.1f} us element by element as before; eigenvalues {1e6 * (u['rho'] - u['build']):.1f} us), "
+          f"{1e6 * u['small']:.1f} us element by element as before; eigenvalues {1e6 * (u['rho'] - u['build']):.1f} us); "
+          f"the rung test with its certificate (rho_below) {1e6 * u['below']:.1f} us; "
           f"characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup {1e6 * u['setup']:.1f} us (with the "
           f"low-rank factors {1e6 * u['factors']:.1f} us)")
-    rung_t = n_rho.sum() * u["rho"]
+    rung_t = n_rho.sum() * u["below"]
     n_other = np.maximum(n_eval - n_rho, 0).sum()
     print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the other "
           f"{n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"

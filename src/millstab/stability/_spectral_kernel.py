@@ -832,6 +832,77 @@ def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
     return _dominant(eig_small(monodromy_lr(b, kt, g, g[8])))
 
 
+#: squarings of the balanced monodromy B tried before its eigenvalues in :func:`rho_below` (ρ ≤ ‖Bᵐ‖∞^{1/m},
+#: m = 2, 4, 8, 16). Measured (issue 28, 2026-11-27; 4 221 ladder rungs under the root, 20 prior samples × 10
+#: cut speeds of the docs/updating.md case, K = 10–22 rows): ‖Bᵐ‖∞ < 1 at 3 / 30 / 62 / 81 % of them for
+#: m = 2 / 4 / 8 / 16 (91 % at 32), so most rungs below the root need no eigenvalues
+CERT_SQUARINGS = 4
+#: unit roundoff of a product's entries (with the row length: |fl(PP) − PP| ≤ K·u·|P||P|)
+_U = 1.2e-16
+
+
+@nb.njit(cache=True)
+def rho_below(b, level, kt, wn, zeta, mass, mdir, D, g, nd):
+    """ρ at depth b [m] where it may reach ``level`` (≤ 1), else a certified bound below it:
+    (ρ or the bound, the dominant multiplier (NaN with a bound), exact).
+
+    Why (issue 28): the eigenvalues are ~90 % of a ρ evaluation, and the search from below only asks
+    of most rungs whether ρ < 1 (or < 1 − near). The balanced monodromy B (a similarity by powers of 2:
+    the same eigenvalues, exactly) gives ρ ≤ ‖Bᵐ‖∞^{1/m}; squaring B up to CERT_SQUARINGS times, the
+    rung is certified below ``level`` when ‖Bᵐ‖∞ plus a bound of the squarings' rounding (propagated:
+    e' = 2‖P‖e + e² + K·u·‖P‖²) is below levelᵐ. Otherwise the eigenvalues of B (:func:`eig_small`'s QR),
+    as :func:`rho`. So every decision ρ > level is the one :func:`rho` makes (up to rounding at ρ = level)."""
+    U = monodromy_lr(b, kt, g, g[8])
+    K = U.shape[0]
+    for i in range(K):
+        for j in range(K):
+            if not math.isfinite(U[i, j]):
+                return np.inf, complex(np.nan, np.nan), True
+    _balance(U)
+    P = U.copy()
+    Q = np.empty((K, K))
+    err = 0.0
+    nrm = 0.0
+    for i in range(K):
+        acc = 0.0
+        for j in range(K):
+            acc += abs(P[i, j])
+        nrm = max(nrm, acc)
+    m = 1
+    for _ in range(CERT_SQUARINGS):
+        for i in range(K):
+            for j in range(K):
+                Q[i, j] = 0.0
+            for q in range(K):
+                a = P[i, q]
+                if a != 0.0:
+                    for j in range(K):
+                        Q[i, j] += a * P[q, j]
+        err = 2.0 * nrm * err + err * err + K * _U * nrm * nrm
+        m *= 2
+        nrm = 0.0
+        for i in range(K):
+            acc = 0.0
+            for j in range(K):
+                acc += abs(Q[i, j])
+            nrm = max(nrm, acc)
+        if not (nrm < 1e30):
+            break
+        lv = level ** m
+        if nrm + err < lv:
+            return (nrm + err) ** (1.0 / m), complex(np.nan, np.nan), False
+        P, Q = Q, P
+    wr = np.empty(K)
+    wi = np.empty(K)
+    _hessenberg(U)
+    info = _hqr(U, wr, wi)
+    out = np.empty(K, dtype=np.complex128)
+    for k in range(K):
+        out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
+    r, mu = _dominant(out)
+    return r, mu, True
+
+
 @nb.njit(cache=True)
 def with_factors(g, wn, zeta, mass, mdir, nd):
     """The layout g of :func:`setup` with its per-speed depth-independent factors appended (g[8],
@@ -1352,13 +1423,27 @@ NEAR = 0.02
 @nb.njit(cache=True)
 def scan_state(rho0):
     """A fresh state of the search from below at one speed (see :func:`scan_to`)."""
-    st = np.empty(5)
+    st = np.empty(6)
     st[0] = 0.0  # the next ladder index
     st[1] = 0.0  # the last ladder depth evaluated [m] (0: the start) ...
     st[2] = rho0 - 1.0  # ... and ρ − 1 there
     st[3] = 0.0  # the highest depth known stable [m] ...
-    st[4] = rho0 - 1.0  # ... and ρ − 1 there
+    st[4] = rho0 - 1.0  # ... and ρ − 1 there (or a bound of it, :func:`rho_below`) ...
+    st[5] = 0.0  # ... 1 where st[4] is only that bound (:func:`_exact_lo` makes it exact for a bracket)
     return st
+
+
+@nb.njit(cache=True)
+def _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd):
+    """Make st[4] (ρ − 1 at the highest depth known stable, a bracket's low end) exact where a certificate
+    left only a bound (:func:`rho_below`): a bracket's secant start and Illinois steps use it, so the roots
+    are those of exact ρ values. Returns the evaluations spent (0 or 1)."""
+    if st[5] == 0.0:
+        return 0
+    r, _ = rho(st[3], kt, wn, zeta, mass, mdir, D, g, nd)
+    st[4] = r - 1.0
+    st[5] = 0.0
+    return 1
 
 
 @nb.njit(cache=True)
@@ -1373,12 +1458,13 @@ def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
             break
         if y <= st[3]:
             continue
-        r, m_ = rho(y, kt, wn, zeta, mass, mdir, D, g, nd)
+        r, m_, exact = rho_below(y, 1.0, kt, wn, zeta, mass, mdir, D, g, nd)
         n_eval += 1
         if r > 1.0:
             return True, y, r - 1.0, m_, n_eval
         st[3] = y
         st[4] = r - 1.0
+        st[5] = 0.0 if exact else 1.0
     return False, 0.0, 0.0, complex(np.nan, np.nan), n_eval
 
 
@@ -1410,12 +1496,14 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
             bad, y, fy, my, c = _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
             return True, st[3], st[4], -1.0, 0.0, nan, n_eval
         st[0] = k + 1
         if x <= st[3]:  # known stable (an earlier scan at this speed)
             continue
-        r, m_ = rho(x, kt, wn, zeta, mass, mdir, D, g, nd)
+        # a bound below 1 − near decides this rung as ρ itself would (no refinement, stable)
+        r, m_, exact = rho_below(x, 1.0 - near, kt, wn, zeta, mass, mdir, D, g, nd)
         n_eval += 1
         f_prev = st[2]
         st[1] = x
@@ -1424,11 +1512,14 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
             bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
         if r > 1.0:
+            n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
             return False, st[3], st[4], x, r - 1.0, m_, n_eval
         st[3] = x
         st[4] = r - 1.0
+        st[5] = 0.0 if exact else 1.0
 
 
 @nb.njit(cache=True)
@@ -1439,9 +1530,10 @@ def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
     stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd)
     if not stable or top <= st[3]:
         return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
-    r, m_ = rho(top, kt, wn, zeta, mass, mdir, D, g, nd)
+    r, m_, _ = rho_below(top, 1.0, kt, wn, zeta, mass, mdir, D, g, nd)
     n_eval += 1
     if r > 1.0:
+        n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
         return False, st[3], st[4], top, r - 1.0, m_, n_eval
     return True, st[3], st[4], -1.0, 0.0, complex(np.nan, np.nan), n_eval
 

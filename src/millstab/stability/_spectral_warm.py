@@ -24,8 +24,16 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._spectral_kernel import (check_root, cmath_phase, limit_run, newton, scan_state, secant_start, setup,
-                                                 with_factors)
+from millstab.stability._spectral_kernel import (
+    check_root,
+    cmath_phase,
+    limit_run,
+    newton,
+    scan_state,
+    secant_start,
+    setup,
+    with_factors,
+)
 
 #: attempts of the check loop (a failed check yields a lower root, checked in turn), as limit_run
 ATTEMPTS = 4

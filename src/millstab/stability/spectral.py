@@ -91,26 +91,35 @@ depths below the root at every speed, each a monodromy (~40 % of an evaluation n
 certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
 is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
 needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
-Monodromy from per-speed low-rank factors (issue 28, 2026-11-27, :func:`._spectral_kernel.low_rank_setup`,
-:func:`._spectral_kernel.monodromy_lr`). Each element's collocation matrix is L(w) = L0 − w B Cᵀ with a
-coupling of rank he (the element's history: the chip thicknesses at its nodes), and its right-hand side is
-[R0 | −w B]; by Woodbury only W = (I − w S)⁻¹ (he × he, S = Cᵀ L0⁻¹ B) depends on the depth, so the p·n-row
-LU per element and depth became one per element and speed (the factors, with the layout) plus an he × he
-solve per depth. The same matrix to rounding: ρ within 2.4e-12 of the element-by-element build on random
-structures, cuts and node counts (tests/test_spectral_lowrank.py, also against the full monodromy's numpy
-eigenvalues); the depths of the search are unchanged (the same decisions at every rung). Where the time
-went before it (benchmarks/profile_spectral.py, one thread, CPU, load ~17): on the update's workload (100
-prior samples × 10 cut speeds of the docs/updating.md case, 6 nodes, ``near`` 0) 27.3 evaluations per
-(set, speed), 21.2 of them ρ on the ladder rungs under the accepted root (the floor every per-speed
-definition climbs), ~79 % of the search's time; a ρ evaluation 30 µs (monodromy build 13.7 µs, its
-eigenvalues 16.9 µs), a characteristic function with its derivative 25 µs, the speed's layout 3 µs; the
-zero-order starting depths, the node-count check and Python < 5 % of a call. On the 200-speed envelope (x =
-y, a/D 0.05) 31.7 evaluations per speed, 20.9 of them rungs (64 %); ρ 14.6 µs (build 7.0, eigenvalues 7.6).
-Measured, not built (same day): a certificate ρ < 1 without eigenvalues from the balanced monodromy's
-powers, ‖Bᵐ‖∞ < 1, holds at 0 / 3 / 30 / 62 / 81 / 91 % of the 4 221 rungs under the root (20 prior samples ×
-10 cut speeds; K = 10–22 rows) for m = 1, 2, 4, 8, 16, 32; by flop count (not timed) four squarings of a
-16-row matrix cost about as much as its Hessenberg QR, so the saving would be small; the eigenvalues are
-now about half of a ρ evaluation.
+Low-rank factors and certified rungs (issue 28, 2026-11-27). Where the time went (benchmarks/profile_spectral.py,
+one thread, CPU, load ~17): on the update's workload (100 prior samples × 10 cut speeds of the docs/updating.md
+case, 6 nodes, ``near`` 0) 35.6 evaluations per (set, speed), 21.2 of them ρ on the ladder rungs under the
+accepted root (the floor every per-speed definition climbs); a ρ evaluation 30 µs (monodromy build 13.7 µs, its
+eigenvalues 16.9 µs), a characteristic function with its derivative 25 µs, a speed's layout 3 µs; the
+zero-order starting depths, the node-count check and Python < 5 % of a call. On the 200-speed envelope (x = y,
+a/D 0.05) 31.7 evaluations per speed, 20.9 of them rungs; ρ 14.6 µs (build 7.0, eigenvalues 7.6). Three
+changes, each keeping every decision of the search (depths and multipliers of both workloads and of the
+benchmark at a/D 0.05 / 0.5 / 1, up and down, identical bit for bit to the code before the third, within
+3.5e-11 of the code before the first two):
+(1) sparse speeds searched alone (``PHASE_SPLIT``): 35.6 → 27.3 evaluations per (set, speed) of an update.
+(2) per-speed low-rank factors (:func:`._spectral_kernel.low_rank_setup`): each element's collocation matrix
+is L(w) = L0 − w B Cᵀ with a coupling of rank he (the element's history: the chip thicknesses at its
+nodes) and right-hand side [R0 | −w B]; by Woodbury only W = (I − w S)⁻¹ (he × he, S = Cᵀ L0⁻¹ B) depends on
+the depth, so the p·n-row LU per element and depth became one per element and speed plus an he × he solve
+(:func:`._spectral_kernel.monodromy_lr`; the characteristic function's Ψ(σ) = Π (LA + σ LE W CA) and
+dΨ/dσ from LE W² CA, :func:`._spectral_kernel.psi_d_lr`): build 13.7 → 1.9 µs, characteristic function
+25 → 3.6 µs (tests/test_spectral_lowrank.py: the same matrices to 1e-9, ρ to 2.4e-12, on random structures,
+cuts and node counts, also against the full monodromy's numpy eigenvalues).
+(3) certified rungs (:func:`._spectral_kernel.rho_below`): with the eigenvalues now ~90 % of ρ, a rung is
+decided without them where squarings of the balanced monodromy B prove ρ ≤ ‖Bᵐ‖∞^{1/m} < 1 (or < 1 − near),
+rounding bounded; where a bracket is formed, ρ at its low end is computed exactly (the secant start and
+Illinois steps see the values they saw before). ‖Bᵐ‖∞ < 1 held at 3 / 30 / 62 / 81 % of 4 221 rungs for m =
+2 / 4 / 8 / 16 (20 prior samples × 10 cut speeds). Root search on the update's workload 1.009 → 0.817 → 0.458
+→ 0.298 s CPU (3.4×); on the 200-speed envelope, where ρ(0) is already 0.83–0.91 and ``near`` asks for
+ρ < 0.98, (3) gives nothing: CPU per envelope on one thread 101.7 / 99.3 / 100.8 ms (the code before, in the
+same minutes) → 54.9 / 54.3 ms (1.85×; two threads 128.7 / 125.8 / 125.7 → 81.8 / 80.2 ms), ~18 envelopes/s
+per core (``PYTHONPATH=src:benchmarks python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``,
+load ~14). Still far from the issue's 100/s: the ladder's ~21 rungs remain, now ~8 µs each on the envelope.
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of

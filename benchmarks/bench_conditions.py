@@ -44,7 +44,39 @@ The issue's 1.5× is NOT reached; its two factors:
   the update, which only accepting an ESS below the target at the last stage would save (not done: the
   sampler's calibration was set with the rule as it is).
 
-Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]``.
+Round 3 (2026-11-27, same machine, load 14–16, ``--samples 4000 --fixed-moves``: the four updates in one
+run). Where the 2.83× of the sampler as it was goes (CPU, the engine timed inside the likelihood):
+
+* one condition 3.01 s = 16 engine calls × 4 000 sets × 40 µs (2.54 s, 84 %) + 0.47 s numpy (likelihood,
+  prior, resampling); four conditions 8.54 s = 22 calls × 4 000 × 90 µs (7.90 s, 92 %) + 0.64 s. So
+  2.83 ≈ 1.375 (calls: 7 stages × 3 moves + 1 against 5 × 3 + 1) × 2.28 (engine per set) × 0.90 (the
+  numpy part grows less). The engine alone on the same 4 000 prior draws: 2.34.
+* what the conditions share: each set's frequency grid and its receptances G(ω) (computed once per set
+  for all conditions since round 2). What they cannot share: the eigenvalues ν are those of [α_c][G(ω)],
+  and the directional matrix α_c is the condition's, so ν, the Re ν = 0 edges, ε, the lobes' brackets and
+  the scan are all per condition (only for a symmetric structure, G_xx = G_yy, would ν = g·eig(α_c)
+  factor). The receptance derivatives of the scan's node slopes are condition-free, but they are ~1 µs of a
+  condition's ~20.
+* acceptance per stage 0.18–0.28 (one condition 0.21–0.25): every regular stage's moves work at the target.
+  The moves spent where they were not needed: the last stage of four conditions, β 0.95 → 1, kept
+  ESS 0.99 N, so resampling duplicated ~1 % of the particles, and three moves followed (3 of 22 calls).
+  The sampler now takes ⌈3·(1 − ESS/N)/0.5⌉ moves after such a step (at least one): 20 calls, **7.81 s
+  against 8.54 s (0.91×)**, one condition unchanged (3.01 s, its last step kept ESS 0.67 N: 3 moves).
+  **Ratio 2.60 CPU** (2.46 wall) against 2.83 in the same run.
+* tried and dropped, early rejection (Solonen et al. 2012): draw the MH uniform first, evaluate the
+  conditions one engine call at a time and stop a proposal once its log L so far (the later cuts add ≤ 0)
+  is below the acceptance floor. Exact (the same particles, bit for bit, as the full likelihood), but it
+  evaluated 73 % of the (set, condition) pairs (survival after the first condition 0.57 in the first stage,
+  0.96–0.99 from the fourth: a proposal is rejected by the sum of four conditions' small deficits, not by
+  one), and every call recomputes the set's grid (5 µs) and costs Python per stage: 8.54 s CPU against
+  8.53 s without (survival traced per stage on a 1 000-sample run). With each set's grid kept between the
+  calls (computed once, then read back by the later conditions' calls): 8.63 s against 7.55 s without, the
+  same particles; evaluating one condition of 4 000 sets on kept grids took 0.10 s CPU, as much as a quarter
+  of the whole four-condition call (0.39 s): reading 11 KB of grid and receptances per set back from a 45 MB
+  array costs what computing them in cache costs, and keeping them cost 16 µs per set.
+
+Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]
+[--fixed-moves]``.
 """
 
 from __future__ import annotations
@@ -107,34 +139,44 @@ def main() -> None:
     ap.add_argument("--cuts", type=int, default=40)
     ap.add_argument("--conditions", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--fixed-moves", action="store_true",
+                    help="also run both updates with 3 moves at every stage (the sampler before the adaptive "
+                         "moves), interleaved in the same run")
     args = ap.parse_args()
     print(describe())
     cfg = load_config("example:ex1")
     prior = make_prior(cfg.structure, cfg.cutting)
     rng = np.random.default_rng(1)
     truth = prior.par.structure(prior.split(prior.sample(1, rng))[0][0])
-    runs, liks = {}, {}
+    runs, liks, fixed = {}, {}, {}
     with threadpool_limits(1):
-        for n_cond in (1, args.conditions):
-            ev = campaign(cfg, prior, truth, args.cuts, n_cond, np.random.default_rng(2))
-            lik = TimedLikelihood(prior, ev)
-            lik(prior.sample_full(64, rng))  # warm-up: compilation or cache load
-            lik.engine_wall = lik.engine_cpu = 0.0
-            lik.n_sets = lik.n_calls = 0
-            t, c = time.perf_counter(), time.process_time()
-            res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, args.samples, seed=args.seed)
-            wall, cpu = time.perf_counter() - t, time.process_time() - c
-            d = res.diagnostics()
-            runs[n_cond] = (wall, cpu, lik.engine_cpu, lik.n_sets)
-            liks[n_cond] = lik
-            print(f"{args.cuts} cuts in {n_cond} condition(s), {lik.speeds.size} engine columns: {wall:.2f} s wall, "
-                  f"{cpu:.2f} s CPU (all threads; {nb.get_num_threads()}); engine calls {lik.engine_wall:.2f} s wall "
-                  f"= {lik.engine_wall / wall:.0%}, {lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; {d['stages']} "
-                  f"stages, {lik.n_calls} engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU "
-                  f"per set)")
-            # the information the data carry (nats): the ESS rule's stage count grows with it
-            print(f"  KL(posterior || prior) {np.mean(res.loglik) - res.log_evidence:.1f} nats; betas "
-                  f"{', '.join(f'{b:.3g}' for b in res.betas)}")
+        evs = {n_cond: campaign(cfg, prior, truth, args.cuts, n_cond, np.random.default_rng(2))
+               for n_cond in (1, args.conditions)}
+        for adaptive in ((True, False) if args.fixed_moves else (True,)):
+            for n_cond, ev in evs.items():
+                lik = TimedLikelihood(prior, ev)
+                lik(prior.sample_full(64, rng))  # warm-up: compilation or cache load
+                lik.engine_wall = lik.engine_cpu = 0.0
+                lik.n_sets = lik.n_calls = 0
+                t, c = time.perf_counter(), time.process_time()
+                res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, args.samples, seed=args.seed,
+                                   adaptive_moves=adaptive)
+                wall, cpu = time.perf_counter() - t, time.process_time() - c
+                d = res.diagnostics()
+                (runs if adaptive else fixed)[n_cond] = (wall, cpu, lik.engine_cpu, lik.n_sets)
+                if adaptive:
+                    liks[n_cond] = lik
+                print(f"{args.cuts} cuts in {n_cond} condition(s), {'adaptive' if adaptive else 'fixed 3'} moves, "
+                      f"{lik.speeds.size} engine columns: {wall:.2f} s wall, {cpu:.2f} s CPU (all threads; "
+                      f"{nb.get_num_threads()}); engine calls {lik.engine_wall:.2f} s wall = "
+                      f"{lik.engine_wall / wall:.0%}, {lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; "
+                      f"{d['stages']} stages, {lik.n_calls} "
+                      f"engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU per set)")
+                # the information the data carry (nats): the ESS rule's stage count grows with it
+                ess = ', '.join(f'{e / args.samples:.2f}' for e in res.ess)
+                print(f"  KL(posterior || prior) {np.mean(res.loglik) - res.log_evidence:.1f} nats; betas "
+                      f"{', '.join(f'{b:.3g}' for b in res.betas)}; ESS/N {ess}; moves {res.moves}; acceptance "
+                      f"{', '.join(f'{a:.2f}' for a in res.acceptance)}")
         # the engine alone on the same prior draws, interleaved (1, n, 1, n, ...): the per-set cost of the
         # conditions without the data-dependent stage count, robust to the load drifting between the updates
         u = prior.sample_full(args.samples, np.random.default_rng(3))
@@ -149,6 +191,10 @@ def main() -> None:
     (w1, c1, e1, s1), (w4, c4, e4, s4) = runs[1], runs[args.conditions]
     print(f"ratio {args.conditions} conditions / 1 (target <= 1.5): {w4 / w1:.2f} wall, {c4 / c1:.2f} CPU; "
           f"engine CPU per set {(e4 / s4) / (e1 / s1):.2f}")
+    if fixed:
+        (_, f1, _, _), (_, f4, _, _) = fixed[1], fixed[args.conditions]
+        print(f"fixed 3 moves: ratio {f4 / f1:.2f} CPU; adaptive / fixed CPU: {c1 / f1:.2f} (1 condition), "
+              f"{c4 / f4:.2f} ({args.conditions})")
 
 
 if __name__ == "__main__":

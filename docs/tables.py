@@ -31,8 +31,10 @@ def results_table() -> str:
     from millstab.jsondoc import RESULTS, WRITTEN
 
     rows = ["| result | schema | home | read back |", "| --- | --- | --- | --- |"]
-    rows += [f"| `{cls}` | `{schema}` | `{_home(mod)}` | `{cls}.from_json(doc, source)` |" for mod, cls, schema in RESULTS]
-    rows += [f"| `{name}` | `{schema}` | `{_home(mod)}` | written only (a report of a run) |" for mod, name, schema in WRITTEN]
+    rows += [f"| `{cls}` | `{schema}` | `{_home(mod)}` | `{cls}.from_json(doc, source)` |"
+             for mod, cls, schema in RESULTS]
+    rows += [f"| `{name}` | `{schema}` | `{_home(mod)}` | written only (a report of a run) |"
+             for mod, name, schema in WRITTEN]
     return "\n".join(rows)
 
 

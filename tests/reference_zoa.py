@@ -131,10 +131,10 @@ def reference_envelope_dense(structure: Structure, cutting: Cutting, rpm, depth_
     zeros then lie close together and a product would show no sign change between them. Each rank is
     scanned on one uniform grid whose step is ``step_widths`` × the narrowest half-power width ζ·fn
     of the structure (50 points per damping width by default, ten times finer than the narrowest
-    step of the engine's grid, and uniform everywhere; a measured FRF: 50 points per table step). Every sign change is refined by bisection to
-    the last bits of ω (all brackets at once); the root is then identified with numpy.linalg.eigvals
-    and kept only if it meets the phase condition (a sign change at a rank swap |ν1| = |ν2| is a
-    jump, not a root, and is dropped). Near a rank swap a rank's own sign change can be hidden by
+    step of the engine's grid, and uniform everywhere; a measured FRF: 50 points per table step). Every sign
+    change is refined by bisection to the last bits of ω (all brackets at once); the root is then identified
+    with numpy.linalg.eigvals and kept only if it meets the phase condition (a sign change at a rank swap
+    |ν1| = |ν2| is a jump, not a root, and is dropped). Near a rank swap a rank's own sign change can be hidden by
     that jump, so the product Re(w̄ν1) Re(w̄ν2) (symmetric in the roots, continuous across swaps) is
     scanned as well: a root is missed only where both scans miss it at once.
 

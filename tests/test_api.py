@@ -50,8 +50,9 @@ def test_config_text_round_trip_gives_the_same_lobes():
     np.testing.assert_array_equal(api.lobes(cfg, rpm).envelope.depth, api.lobes(again, rpm).envelope.depth)
 
 
-@pytest.mark.parametrize("spec, says", [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
-                                        ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0")])
+@pytest.mark.parametrize("spec, says",
+                         [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
+                          ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0")])
 def test_bad_speeds_name_the_field(spec, says):
     with pytest.raises(InputError) as exc:
         api.speeds(spec)

@@ -15,7 +15,8 @@ from millstab.errors import InputError
 from millstab.io import load_config
 
 CUT = '[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nentry = "0 deg"\nexit = "180 deg"\n'
-MODES = '[[structure.x]]\nfn = "900 Hz"\nk = "10 N/um"\nzeta = 0.02\n[[structure.y]]\nfn = "950 Hz"\nk = "12 N/um"\nzeta = 0.03\n'
+MODES = ('[[structure.x]]\nfn = "900 Hz"\nk = "10 N/um"\nzeta = 0.02\n'
+         '[[structure.y]]\nfn = "950 Hz"\nk = "12 N/um"\nzeta = 0.03\n')
 SPEEDS = ["--rpm", "3000:6000:500"]
 
 
@@ -261,7 +262,8 @@ def test_sensitivity_subcommands_have_their_own_help(capsys):
 
 def test_sensitivity_json_names_the_paper_table(shop, tmp_path):
     out = tmp_path / "o.json"
-    assert main(["sensitivity", "oat", "example:ex1", *SPEEDS, "--preset", "paper", "--eps", "0.1", "--out", str(out)]) == 0
+    assert main(["sensitivity", "oat", "example:ex1", *SPEEDS, "--preset", "paper", "--eps", "0.1", "--out",
+                 str(out)]) == 0
     assert "tab:" not in json.loads(out.read_text())["centre_source"]
 
 

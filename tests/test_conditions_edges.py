@@ -193,6 +193,17 @@ def test_predict_takes_each_rows_condition_and_says_which():
                                atol=1e-12)
     header, cols = pred.table()
     assert header[-1] == "condition" and cols[-1] == ["slot, 2 teeth"] + ["a/D 0.25 up milling, 2 teeth"] * 2
+    # its JSON (issue 26: Prediction had none) reads back the same predictions, conditions and provenance
+    import dataclasses
+    import json
+
+    from millstab.api.predict import Prediction
+
+    named = predict(dataclasses.replace(post, provenance={"config": "ex1"}), cuts)
+    assert named.provenance == {"config": "ex1", "points": str(cuts.source)}
+    back = Prediction.from_json(json.loads(json.dumps(named.to_json(), allow_nan=False)), "pred.json")
+    assert back.provenance == named.provenance and list(back.condition) == cols[-1]
+    np.testing.assert_array_equal(back.p_stable, pred.p_stable)
 
 
 def test_the_posterior_file_keeps_its_conditions_and_the_guard_holds_per_condition():

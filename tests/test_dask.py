@@ -243,7 +243,8 @@ def test_update_and_map_on_cluster_give_the_local_posterior(client, monkeypatch,
     monkeypatch.setattr(cluster, "stream", lambda *a, **k: calls.append(1) or stream(*a, **k))
     monkeypatch.setattr(cluster, "PAYS_SECONDS", 0.0)
     there = update(cfg, cuts, engine="spectral", samples=16, seed=3, moves=1, client=client)
-    d = there.diagnostics  # every engine call went out: the spectral ones and the zero-order screen's (delayed acceptance)
+    # every engine call went out: the spectral ones and the zero-order screen's (delayed acceptance)
+    d = there.diagnostics
     assert len(calls) == d["loglik_calls"] + d["screen_calls"] and d["loglik_calls"] > 1 and d["frequency_term"]
     np.testing.assert_array_equal(there.samples, here.samples)
     post = tmp_path / "post.json"
@@ -304,3 +305,22 @@ def test_mixed_conditions_and_free_kr_on_cluster_give_the_local_limits(client):
     d0, h0 = limits(prior, u, rpm, "zoa", True, conditions=cond)
     np.testing.assert_array_equal(depth, d0)
     np.testing.assert_array_equal(hz, h0)
+
+
+@needs_distributed
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["spectral", "sdm"])
+def test_interrupted_engine_study_is_the_same_local_chunked_and_on_cluster(client, engine):
+    """Issue 26 ("what it must reach"): a spectral or SDM study gives the same numbers in one local call, in
+    chunks of one row and as cluster tasks (each task calls the study's pinned model: ``cluster.map_pinned``),
+    bit for bit. Morris over fn_x and k_x, 2 trajectories (6 structures) at 2 speeds."""
+    par = Parameterization(CFG.structure, ("fn_x", "k_x"))
+    rpm = np.array([6000.0, 11000.0])
+    kw = {"trajectories": 2, "t": 0.2, "seed": 7, "engine": engine}
+    runs = [morris(par, CFG.cutting, rpm, **kw), morris(par, CFG.cutting, rpm, chunk_rows=1, **kw),
+            morris(par, CFG.cutting, rpm, client=client, chunk_rows=2, **kw)]
+    for out in ("mse", "minimum"):
+        for key, v in runs[0].outputs[out].items():
+            assert np.all(np.isfinite(v)), (out, key)
+            for other in runs[1:]:
+                np.testing.assert_array_equal(other.outputs[out][key], v)

@@ -85,9 +85,12 @@ def test_paper_values_numbers():
         tgt = v["results_fourier"][ex]["target"]
         assert all(tgt[k] == pytest.approx(v["input_values"][ex][k], rel=1e-12) for k in tgt)
     er = v["experimental_results"]
-    assert (er["newton_raphson"]["fn"], er["newton_raphson"]["k"], er["newton_raphson"]["zeta"]) == (4103.4, 11.65e6, 0.0269)
-    assert (er["method1_two_point"]["fn"], er["method1_two_point"]["k"], er["method1_two_point"]["zeta"]) == (4124.0, 10.63e6, 0.0307)
-    assert (er["method2_regression"]["fn"], er["method2_regression"]["k"], er["method2_regression"]["zeta"]) == (4103.0, 8.90e6, 0.0379)
+    assert (er["newton_raphson"]["fn"], er["newton_raphson"]["k"],
+            er["newton_raphson"]["zeta"]) == (4103.4, 11.65e6, 0.0269)
+    assert (er["method1_two_point"]["fn"], er["method1_two_point"]["k"],
+            er["method1_two_point"]["zeta"]) == (4124.0, 10.63e6, 0.0307)
+    assert (er["method2_regression"]["fn"], er["method2_regression"]["k"],
+            er["method2_regression"]["zeta"]) == (4103.0, 8.90e6, 0.0379)
     e = v["experiment"]
     assert (e["chatter_tests"], e["operation"], e["rpm_min"], e["rpm_max"]) == (21, "slotting", 5500.0, 6500.0)
     mc = v["mc"]
@@ -217,7 +220,8 @@ def test_identify_example_points_recovers_example_3(tmp_path):
     names = ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
     start = ",".join(f"{n}={truth[n] * f:.6g}" for n, f in zip(names, (1.3, 0.7, 1.3, 0.7, 1.3, 0.7)))
     out = tmp_path / "fit.json"
-    assert main(["identify", "example:ex3", "example:ex3_points", "--initial", start, "--quiet", "--out", str(out)]) == 0
+    assert main(["identify", "example:ex3", "example:ex3_points", "--initial", start, "--quiet", "--out",
+                 str(out)]) == 0
     fit = json.loads(out.read_text())
     for n in names:
         est, se = fit["parameters"][n], fit["std_errors"][n]

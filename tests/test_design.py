@@ -90,7 +90,8 @@ def test_log_jacobians_obey_the_scaling_laws():
     names = list(par.free)
     kx, ky, fx, fy = (names.index(n) for n in ("k_x", "k_y", "fn_x", "fn_y"))
     assert jac[0, :, kx] + jac[0, :, ky] == pytest.approx(np.ones(rpm.size), abs=1e-6)
-    np.testing.assert_allclose(slope[0], -(jac[0, :, fx] + jac[0, :, fy]), rtol=1e-3, atol=1e-3)  # central differences across a cusp
+    # central differences across a cusp
+    np.testing.assert_allclose(slope[0], -(jac[0, :, fx] + jac[0, :, fy]), rtol=1e-3, atol=1e-3)
 
 
 # --- planning on a real SLD ------------------------------------------------------------------------------
@@ -334,7 +335,8 @@ def _config_like_ex3(path, **cutting):
     text = resources.files("millstab.datasets").joinpath("ex3.toml").read_text()
     for key, value in cutting.items():
         if key == "second_x_mode":
-            text = text.replace("[[structure.y]]", '[[structure.x]]\nfn = "2000 Hz"\nk = "40 N/um"\nzeta = 0.03\n\n[[structure.y]]')
+            text = text.replace("[[structure.y]]",
+                                '[[structure.x]]\nfn = "2000 Hz"\nk = "40 N/um"\nzeta = 0.03\n\n[[structure.y]]')
             continue
         lines = text.splitlines()
         text = "\n".join(f"{key} = {value}" if ln.startswith(f"{key} =") else ln for ln in lines) + "\n"

@@ -232,12 +232,9 @@ SCALE = 0.9
 
 def _dummy_module() -> types.ModuleType:
     """ZOA scaled by 0.9: a complete engine by the contract (and wrong, which the closed form sees)."""
-    m = types.ModuleType("dummy_engine")
-    m.name = "dummy"
-    m.exact_xy_exchange = m.accepts_measured_frf = m.cheap = True
-    m.reports_lobe_type = m.reports_progress = m.time_averaged = m.reports_chatter_frequency = False
-    m.depth_accuracy = 1e-6
-    m.chunk_rows = zoa.chunk_rows
+    from plugin_engines import zoa_plugin
+
+    m = zoa_plugin("dummy")
 
     def envelope(structure, cutting, rpm):
         e = zoa.envelope(structure, cutting, rpm)

@@ -17,7 +17,8 @@ from millstab.datasets import paper_values
 from millstab.errors import InputError
 from millstab.identify import fit_lsq, fit_newton, identify, make_problem
 from millstab.identify.newton import critical_mask
-from millstab.identify.objective import canonical, exchange_map, exchanged, rel_error, swap_permutation, xy_symmetric_cut
+from millstab.identify.objective import (canonical, exchange_map, exchanged, rel_error, swap_permutation,
+                                        xy_symmetric_cut)
 from millstab.identify.synthetic import boundary_points, example_points, identifiability, random_case
 from millstab.io.points import write_points
 from millstab.points import PointSet

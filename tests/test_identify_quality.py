@@ -195,7 +195,8 @@ def test_test_cuts_at_one_speed_are_reported(ex3):
     """Labelled test cuts all at one speed (three or more at one speed also crashed the kernel)."""
     pts = _points(ex3, 20, 0.0, 0)
     lim = boundary_points(ex3.structure, ex3.cutting, [9000.0]).depth_mm[0]
-    allp = PointSet(np.concatenate([pts.rpm, np.full(3, 9000.0)]), np.concatenate([pts.depth_mm, lim * np.array([0.5, 0.8, 1.5])]),
+    allp = PointSet(np.concatenate([pts.rpm, np.full(3, 9000.0)]),
+                    np.concatenate([pts.depth_mm, lim * np.array([0.5, 0.8, 1.5])]),
                     np.array([""] * len(pts) + ["stable", "stable", "chatter"], dtype=object))
     fit = fit_lsq(make_problem(ex3.structure, ex3.cutting, allp), seed=0, **FAST)
     assert fit.test_cuts == {"stable_cuts": 2, "stable_predicted_chatter": 0, "chatter_cuts": 1,

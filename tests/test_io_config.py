@@ -66,7 +66,8 @@ def test_alternative_units_agree(tmp_path):
 
 
 def test_plain_numbers_are_si(tmp_path):
-    text = EX1.replace('"556.31 MPa"', "556.31e6").replace('"903 Hz"', "903.0", 1).replace('"180 deg"', "3.141592653589793")
+    text = (EX1.replace('"556.31 MPa"', "556.31e6").replace('"903 Hz"', "903.0", 1)
+            .replace('"180 deg"', "3.141592653589793"))
     c = load_config(write(tmp_path, text))
     assert c.cutting.kt == 556.31e6 and c.structure.x[0].fn == 903.0 and c.cutting.exit == math.pi
 

@@ -71,7 +71,8 @@ def test_cutpro_layout_exact(tmp_path):
 
 def test_frf_with_header_comments_and_mm_per_n(tmp_path):
     p = tmp_path / "yy.FRF"
-    text = cutpro_text(F, HY * 1e3, label_row=False, header="% tool tip yy\nFrequency(Hz) Real(mm/N) Imag\n Hz  mm/N  mm/N\n\n")
+    text = cutpro_text(F, HY * 1e3, label_row=False,
+                       header="% tool tip yy\nFrequency(Hz) Real(mm/N) Imag\n Hz  mm/N  mm/N\n\n")
     p.write_text(text.replace("\t", "   "))
     f, h = read_frf(p)
     np.testing.assert_array_equal(f, F)

@@ -22,7 +22,8 @@ def test_words_synonyms_and_probabilities():
                "5100,3,0.9\n5200,1,70 %\n5200,2,\n5300,1,unsure\n")
     np.testing.assert_array_equal(ps.grade[:7], [0, 0.5, 1, 0.2, 0.5, 0.9, 0.7])
     assert np.isnan(ps.grade[7]) and ps.grade[8] == 0.5
-    assert list(ps.label) == ["stable", "marginal", "chatter", "stable", "marginal", "chatter", "chatter", "", "marginal"]
+    assert list(ps.label) == ["stable", "marginal", "chatter", "stable", "marginal", "chatter", "chatter", "",
+                              "marginal"]
     assert ps.boundary.tolist() == [False] * 7 + [True, False]
     assert ps.raters == ("label",) and ps.ratings.shape == (9, 1)
 
@@ -78,7 +79,8 @@ def test_two_raters_mean_grade_and_ratings_kept():
 
 
 def test_extra_columns_kept_with_one_note_and_batch_parsed():
-    text = "rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n5000,2,chatter,0.1,,2024-05-02\n"
+    text = ("rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n"
+            "5000,2,chatter,0.1,,2024-05-02\n")
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         ps = parse(text)
@@ -94,7 +96,8 @@ def test_extra_columns_kept_with_one_note_and_batch_parsed():
 
 
 @pytest.mark.parametrize("text,field,words", [
-    ("rpm,depht_mm,label\n5000,1,stable\n", "cuts.csv header", "unknown column 'depht_mm' looks like a misspelt 'depth_mm'"),
+    ("rpm,depht_mm,label\n5000,1,stable\n", "cuts.csv header",
+     "unknown column 'depht_mm' looks like a misspelt 'depth_mm'"),
     ("rpm,depth_mm,lable\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
     ("rpm,depth_mm,labels\n5000,1,stable\n", "cuts.csv header", "misspelt 'label'"),
     ("rpm,depth_mm,label,weigth\n5000,1,stable,2\n", "cuts.csv header", "misspelt 'weight'"),

@@ -109,18 +109,21 @@ def test_nothing_outside_the_engines_imports_a_specific_engine(graph):
         assert direct == [], (mod, direct)
 
 
-def _engines_by_name(pkg: Path) -> list[str]:
-    """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
-    out = []
+def _consumer_nodes(pkg: Path):
+    """(module, ast node) of every node of every module outside ``millstab.stability`` (the engines' consumers)."""
     for path in pkg.rglob("*.py"):
         mod = _module(path)
         if mod == "millstab.stability" or mod.startswith("millstab.stability."):
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            yield mod, node
+
+
+def _engines_by_name(pkg: Path) -> list[str]:
+    """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
+    return [f"{mod}: {node.args[0].value} (line {node.lineno})" for mod, node in _consumer_nodes(pkg)
             if (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "get_engine"
-                    and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
-                out.append(f"{mod}: {node.args[0].value} (line {node.lineno})")
-    return out
+                and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str))]
 
 
 def test_nothing_outside_the_engines_names_an_engine_to_get_it():
@@ -145,6 +148,47 @@ def test_the_engine_name_rule_catches_a_literal_name(tmp_path, monkeypatch):
     assert sorted(_engines_by_name(pkg)) == ["millstab.api.x: sdm (line 5)", "millstab.api.x: zoa (line 6)"]
 
 
+def _engine_only_names() -> set[str]:
+    """The public functions of the engine modules that are neither in the contract nor an optional capability
+    (``stability.base.CONTRACT``, ``OPTIONAL``): an engine's own (``rho_map``, ``monodromy``, …)."""
+    from millstab.stability.base import CONTRACT, OPTIONAL
+
+    names = set()
+    for mod in ("zoa", "sdm", "spectral"):
+        tree = ast.parse((PKG / "stability" / f"{mod}.py").read_text(encoding="utf-8"))
+        names |= {n.name for n in tree.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+    return names - set(CONTRACT) - set(OPTIONAL)
+
+
+def _engine_only_uses(pkg: Path, names: set[str]) -> list[str]:
+    """Uses ``x.<name>`` of an engine's own function outside ``millstab.stability``: "module: name (line n)"."""
+    return [f"{mod}: {node.attr} (line {node.lineno})" for mod, node in _consumer_nodes(pkg)
+            if isinstance(node, ast.Attribute) and node.attr in names]
+
+
+def test_consumers_use_only_the_engine_contract_and_its_capabilities():
+    """An engine got by capability is used only through the contract and the optional capabilities it declares
+    (issue 26): reproduce/low_immersion called the sdm-only ``critical_multipliers`` on what
+    ``engine_with(time_averaged=False, cheap=False)`` returned; it is now the optional capability
+    ``reports_multipliers`` (fails on the old code: ``critical_multipliers`` was no capability)."""
+    names = _engine_only_names()
+    assert {"rho_map", "monodromy"} <= names and "critical_multipliers" not in names
+    assert _engine_only_uses(PKG, names) == []
+
+
+def test_the_contract_rule_catches_an_engine_s_own_function(tmp_path, monkeypatch):
+    """The rule above is not vacuous: an engine's own function used outside the engines is reported."""
+    pkg = tmp_path / "millstab"
+    (pkg / "reproduce").mkdir(parents=True)
+    (pkg / "reproduce" / "x.py").write_text("from millstab.stability import engine_with\n"
+                                            "def f(s, c):\n    e = engine_with(cheap=False)\n"
+                                            "    return e.envelope(s, c, [1.0]), e.rho_map(s, c, [1.0], [1e-3])\n",
+                                            encoding="utf-8")
+    names = _engine_only_names()
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    assert _engine_only_uses(pkg, names) == ["millstab.reproduce.x: rho_map (line 4)"]
+
+
 def test_engine_with_picks_the_engines_named_before():
     """Choosing by capability picks the same engines the consumers named before (results unchanged)."""
     from millstab.errors import InputError
@@ -154,6 +198,7 @@ def test_engine_with_picks_the_engines_named_before():
     assert engine_with(accepts_measured_frf=True) is get_engine("zoa")
     assert engine_with(time_averaged=True) is get_engine("zoa")
     assert engine_with(time_averaged=False, cheap=False) is get_engine("sdm")
+    assert engine_with(time_averaged=False, reports_multipliers=True) is get_engine("sdm")
     assert engine_with(time_averaged=False, reports_lobe_type=True) is get_engine("spectral")
     with pytest.raises(InputError, match="no registered engine"):
         engine_with(time_averaged=True, reports_lobe_type=True)

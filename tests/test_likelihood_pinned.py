@@ -61,3 +61,57 @@ def test_sdm_limits_are_the_whole_batch_call_and_a_part_pinned_on_the_whole_give
     pinned = forward(prior.par, prior.cutting, "sdm").pinned(rpm, prior.split(u)[0], cond)
     part, _ = sample_depths(pinned, prior, u[3:8])
     np.testing.assert_array_equal(part, whole[3:8])
+
+
+# --- the row at which a pinned model's settings are chosen (issue 26: they came from Forward's cache order) -----
+
+def _choosing_engine(chosen_at: list):
+    """zoa under another name, with a ``settings`` capability that records the set it chose at (its fn_x) and
+    hands it back as a keyword, which ``envelope_batch`` ignores."""
+    from plugin_engines import zoa_plugin
+
+    from millstab import stability as stab
+
+    zoa = get_engine("zoa")
+    m = zoa_plugin("choosing")
+
+    def settings(batch, cutting, rpm, purpose="fit"):
+        chosen_at.append(float(batch.fn_x[0, 0]))
+        return {"at_fn": chosen_at[-1]}
+
+    m.settings = settings
+    m.envelope_batch = lambda batch, cutting, rpm, at_fn=None, **kw: zoa.envelope_batch(batch, cutting, rpm, **kw)
+    return stab.register(m)
+
+
+@pytest.fixture
+def choosing():
+    from millstab import stability as stab
+
+    chosen_at: list[float] = []
+    _choosing_engine(chosen_at)
+    yield chosen_at
+    stab.unregister("choosing")
+
+
+def test_pinned_chooses_its_settings_at_the_row_it_is_given_not_at_the_first_call(choosing):
+    """``Forward.pinned(..., at=θ0)`` chooses at θ0 although the model was first called at another row and the
+    rows' first row is a third: the old ``pinned`` took the cached choice of the first call, and
+    ``pinned_model`` relied on asking ``settings(r, None)`` first (fails on the old code: no ``at=``, and the
+    likelihood's pinned model got the first call's choice)."""
+    from millstab.update.likelihood import SAMPLING, pinned_model
+
+    prior, u, rpm, _ = _case({})
+    theta0 = prior.par.theta0
+    fn0 = float(prior.par.batch(theta0[None]).fn_x[0, 0])
+    other = theta0 * 1.05
+    fwd = forward(prior.par, prior.cutting, "choosing", SAMPLING)
+    fwd(other, rpm)  # a first call elsewhere: Forward's own (fit) choice is made at that row
+    assert choosing == [pytest.approx(fn0 * 1.05)]
+    rows = prior.split(u)[0]
+    assert not np.allclose(rows[0], theta0)
+    assert dict(fwd.pinned(rpm, rows, at=theta0).settings) == {"at_fn": fn0}
+    assert dict(fwd.pinned(rpm, rows).settings) == {"at_fn": float(prior.par.batch(rows[:1]).fn_x[0, 0])}
+    assert dict(pinned_model(prior, u, rpm, "choosing", fwd=fwd).settings) == {"at_fn": fn0}
+    # the fit's first-row choice is untouched by the pinned models
+    assert fwd.settings(np.asarray(rpm, float)) == {"at_fn": choosing[0]}

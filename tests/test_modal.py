@@ -137,7 +137,8 @@ def fit_files_arrays(hx, hy):
     from millstab.model import Mode, Structure
 
     fx, fy = fit_direction(F, hx, direction="x"), fit_direction(F, hy, direction="y")
-    return Structure(x=tuple(Mode(m.fn, m.k, m.zeta) for m in fx.modes), y=tuple(Mode(m.fn, m.k, m.zeta) for m in fy.modes))
+    return Structure(x=tuple(Mode(m.fn, m.k, m.zeta) for m in fx.modes),
+                     y=tuple(Mode(m.fn, m.k, m.zeta) for m in fy.modes))
 
 
 def test_modes_at_the_band_edges_are_found():
@@ -259,7 +260,8 @@ def test_cli_picks_a_uff_record(tmp_path, capsys):
     assert code == 2 and "record" in err
     code, text, err = cli(capsys, p, "--record-x", 1, "--out", tmp_path / "s.toml")
     assert code == 0, err
-    assert [m.fn for m in parse_config(CUTTING + (tmp_path / "s.toml").read_text()).structure.x] == pytest.approx([903.0])
+    fitted = parse_config(CUTTING + (tmp_path / "s.toml").read_text()).structure.x
+    assert [m.fn for m in fitted] == pytest.approx([903.0])
 
 
 def test_cli_refuses_to_overwrite_an_input(tmp_path, capsys):

@@ -70,9 +70,9 @@ def test_short_history_is_joined_and_monotone_history_has_one_line():
 
 
 def test_report_figure_keeps_its_title_once(tmp_path):
-    from millstab.reproduce.report import Report
+    from millstab.reproduce.report import ReportWriter
 
-    rep = Report(tmp_path, "t")
+    rep = ReportWriter(tmp_path, "t")
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])
     ax.set_title("Fig. X: a title")
@@ -98,9 +98,9 @@ def test_report_numbers_show_booleans_as_words(value, shown):
 
 
 def test_comparison_rows_read_compared_with_the_ratio(tmp_path):
-    from millstab.reproduce.report import Report
+    from millstab.reproduce.report import ReportWriter
 
-    rep = Report(tmp_path, "t")
+    rep = ReportWriter(tmp_path, "t")
     c = rep.compare("mean fn/k beside the paper's", 138.0, 83.0)
     assert c.verdict == "compared" and "ours/paper = 1.66" in c.measured and "138" in c.measured
     assert rep.check("a claim", "x", False).verdict == "DOES NOT HOLD"
@@ -108,3 +108,24 @@ def test_comparison_rows_read_compared_with_the_ratio(tmp_path):
     md = (tmp_path / "report.md").read_text()
     assert "| mean fn/k beside the paper's | ours 138, paper 83: ours/paper = 1.66 | compared |" in md
     assert "| a claim | x | DOES NOT HOLD |" in md
+
+
+def test_a_finished_report_is_frozen(tmp_path):
+    """ReportWriter builds, Report is what a run returns: frozen, its checks and files tuples (issue 26: Report
+    was a mutable writer whose lists a caller could change after the run; fails on the old code)."""
+    import dataclasses
+
+    from millstab.reproduce.report import Check, Report, ReportWriter
+
+    w = ReportWriter(tmp_path, "t")
+    w.heading("h")
+    w.check("a claim", "x", True)
+    rep = w.write()
+    assert isinstance(rep, Report) and rep.checks == (Check("a claim", "x", True),)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rep.title = "other"
+    with pytest.raises(AttributeError):
+        rep.checks.append(Check("added later", "y", False))
+    w.check("after the report", "z", False)  # the writer goes on; the report it gave does not change
+    assert len(rep.checks) == 1
+    assert rep.markdown() == Report(tmp_path, "t", rep.blocks, rep.checks, rep.files).markdown()

@@ -36,8 +36,8 @@ def test_predict_in_the_input_order_against_each_cuts_own_limits():
     from millstab.api import predict
 
     post = prior_post()
-    cuts = parse_points("rpm,depth_mm,label\n9000,2.5,stable\n5000,0.5,chatter\n9000,1.0,\n6100,9.0,0.7\n5000,3,stable\n",
-                        "c.csv")
+    cuts = parse_points("rpm,depth_mm,label\n9000,2.5,stable\n5000,0.5,chatter\n9000,1.0,\n6100,9.0,0.7\n"
+                        "5000,3,stable\n", "c.csv")
     pred = predict(post, cuts)
     eps, fac = post.label_error, post.sigma_depth_factor  # each sample's label model (held values here)
     for i in range(len(cuts)):  # one cut at a time: the fraction of samples whose own limit is above it
@@ -51,7 +51,8 @@ def test_predict_in_the_input_order_against_each_cuts_own_limits():
         assert min(eps.min(), 1 - eps.max()) <= pred.p_label_chatter[i] <= max(1 - eps.min(), eps.max())
     header, cols = pred.table()
     assert header == ["rpm", "depth_mm", "label", "p_stable", "p_label_chatter"]
-    assert cols[0].tolist() == [9000, 5000, 9000, 6100, 5000] and cols[2] == ["stable", "chatter", "", "chatter", "stable"]
+    assert (cols[0].tolist() == [9000, 5000, 9000, 6100, 5000]
+            and cols[2] == ["stable", "chatter", "", "chatter", "stable"])
     s = pred.scores()
     g = np.array([0, 1, 0.7, 0])
     m = np.array([0, 1, 3, 4])
@@ -64,7 +65,8 @@ def test_predict_in_the_input_order_against_each_cuts_own_limits():
 def test_predict_command(tmp_path, capsys):
     (tmp_path / "post.json").write_text(json.dumps(prior_post(warn=["prior-data conflict: test"]).to_json()))
     (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label,notes\n8000,3,chatter,loud\n5000,0.2,stable,\n")
-    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv"), "--out", str(tmp_path / "p.csv")]) == 0
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv"), "--out",
+                 str(tmp_path / "p.csv")]) == 0
     out = capsys.readouterr()
     assert "prior-data conflict" in out.out and "Brier score" in out.out and "ignored columns: notes" in out.err
     rows = list(csv.DictReader((tmp_path / "p.csv").open()))
@@ -102,7 +104,8 @@ def test_baselines_against_brute_force():
     n = 30
     rpm, depth = rng.uniform(5000, 9000, n), rng.uniform(0.5, 4, n)
     grade = np.clip(np.round((depth - 2 + rng.normal(0, 0.7, n)) / 1.5 * 2) / 2, 0, 1)  # 0, ½, 1
-    train = PointSet(rpm, depth, np.where(grade > 0.6, "chatter", np.where(grade < 0.4, "stable", "marginal")), grade=grade)
+    train = PointSet(rpm, depth, np.where(grade > 0.6, "chatter", np.where(grade < 0.4, "stable", "marginal")),
+                     grade=grade)
     test = PointSet([6000.0, 8000.0, 7000.0], [1.0, 3.5, 2.2])
     got = baseline_predictions(train, test)
     assert got["majority"] == pytest.approx(np.full(3, grade.mean()))
@@ -181,8 +184,9 @@ def test_cross_validate_plumbing_with_a_stand_in_update():
 
 @pytest.mark.slow
 def test_validate_command_end_to_end(tmp_path, capsys):
-    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label_a,label_b\n5000,1.0,stable,stable\n5000,4.0,chatter,chatter\n"
-                                       "7000,2.0,stable,1\n7000,5.0,2,chatter\n9000,1.5,0,stable\n9000,4.5,chatter,2\n")
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label_a,label_b\n5000,1.0,stable,stable\n"
+                                       "5000,4.0,chatter,chatter\n7000,2.0,stable,1\n7000,5.0,2,chatter\n"
+                                       "9000,1.5,0,stable\n9000,4.5,chatter,2\n")
     args = ["validate", "example:ex1", str(tmp_path / "cuts.csv"), "--folds", "2", "--samples", "100", "--seed", "1",
             "--out", str(tmp_path / "v.json"), "--predictions", str(tmp_path / "v.csv")]
     assert main(args) == 2 and "--labels" in capsys.readouterr().err  # the codes need a mapping
@@ -204,7 +208,8 @@ def test_help_of_the_new_commands(capsys, argv, shown):
 
 
 def test_validate_refuses_bad_options_before_any_update(tmp_path, capsys):
-    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1,stable\n5000,4,chatter\n7000,2,stable\n7000,5,chatter\n")
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label\n5000,1,stable\n5000,4,chatter\n7000,2,stable\n"
+                                       "7000,5,chatter\n")
     base = ["validate", "example:ex1", str(tmp_path / "cuts.csv")]
     assert main(base + ["--folds", "1"]) == 2 and "--folds" in capsys.readouterr().err
     assert main(base + ["--samples", "10"]) == 2 and "--samples" in capsys.readouterr().err

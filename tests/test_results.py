@@ -469,12 +469,39 @@ def _service_results(ex3, studies) -> dict:
     fit = DirectionFit("x", "tap_x.csv", f, h, h * (1 + 1e-3j), (FittedMode(903.0, 1.2e7, 0.03, -1.5, 80.0, 2, 2, 0.01),),
                        1e-9, -2e-10, 0.012, 3e-10, stab)
     return {
+        **_tool_and_prediction(),
         "Lobes": Lobes(frf_cfg, "zoa", env, "sdm", dataclasses.replace(env, depth=np.array([5e-3, 1.1e-3]))),
         "Study": Study("mc", studies["mc"], modal_cfg, rpm, "zoa", "paper", "the paper's ex1", "ex1", table6(), True,
                        {"note": 1.5}),
         "Heard": Heard(listening, math.nan, "stable: keep the speed", "harmonizer"),
         "ModalResult": ModalResult({"x": fit}, Structure(x=(Mode(903.0, 1.2e7, 0.03, "structure.x[0]"),)), (500.0, 1500.0)),
     }
+
+
+def _tool_and_prediction() -> dict:
+    """``api.TipFRF`` (a carbide tool in a rigid holder: its config from text, the tip FRF computed) and
+    ``api.Prediction`` (three cuts, one a boundary point, with a test day, a per-cut condition and provenance):
+    they had no JSON (issue 26)."""
+    import tomllib
+
+    from millstab.api.predict import Prediction
+    from millstab.api.tooltip import TipFRF
+    from millstab.io.config import parse_config, tool_setup
+    from millstab.points import PointSet
+    from millstab.tooltip import peaks
+
+    text = ('[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 1\n[tool]\ndiameter = "12 mm"\n'
+            'stickout = "45 mm"\nfluted_length = "26 mm"\nmaterial = "carbide"\nzeta = 0.01\n[holder]\nrigid = true\n')
+    cfg, (tool, holder) = parse_config(text), tool_setup(tomllib.loads(text))
+    frf = cfg.structure.frf
+    fn, pk = peaks(frf.freq_hz, frf.xx, 2)
+    cuts = PointSet(np.array([5000.0, 6000.0, 7000.0]), np.array([1.0, 2.0, 1.5]), np.array(["stable", "chatter", ""]),
+                    chatter_hz=np.array([np.nan, 812.5, np.nan]), batch=np.array(["mon", "tue", ""]),
+                    conditions={"radial_immersion": np.array([0.5, np.nan, 1.0])}, source="cuts.csv")
+    return {"TipFRF": TipFRF(cfg, tool, holder, frf.freq_hz, frf.xx, fn, pk),
+            "Prediction": Prediction(cuts, np.array([0.9, 0.2, 0.5]), np.array([0.1, 0.7, 0.4]), ("a warning",),
+                                     np.array(["a/D 0.5", "a/D 1", "a/D 1"], dtype=object),
+                                     {"config": "ex1", "points": "cuts.csv"})}
 
 
 @pytest.fixture(scope="module")
@@ -615,23 +642,8 @@ FIGURED = ("Fit", "OATResult", "MCResult", "SobolResult", "MorrisResult", "Poste
 
 @pytest.fixture(scope="module")
 def figured(one_of_each):
-    """The registered results and two that are not read back (``api.Prediction``, ``api.TipFRF``)."""
-    import tomllib
-
-    from millstab.api.predict import Prediction
-    from millstab.api.tooltip import TipFRF
-    from millstab.io.config import parse_config, tool_setup
-    from millstab.points import PointSet
-    from millstab.tooltip import peaks
-
-    text = ('[cutting]\nteeth = 3\nkt = "700 MPa"\nkr = 0.3\nradial_immersion = 1\n[tool]\ndiameter = "12 mm"\n'
-            'stickout = "45 mm"\nfluted_length = "26 mm"\nmaterial = "carbide"\nzeta = 0.01\n[holder]\nrigid = true\n')
-    cfg, (tool, holder) = parse_config(text), tool_setup(tomllib.loads(text))
-    frf = cfg.structure.frf
-    fn, pk = peaks(frf.freq_hz, frf.xx, 2)
-    cuts = PointSet(np.array([5000.0, 6000.0, 7000.0]), np.array([1.0, 2.0, 1.5]), np.array(["stable", "chatter", ""]))
-    return {**one_of_each, "TipFRF": TipFRF(cfg, tool, holder, frf.freq_hz, frf.xx, fn, pk),
-            "Prediction": Prediction(cuts, np.array([0.9, 0.2, 0.5]), np.array([0.1, 0.7, 0.4]))}
+    """Every registered result (``api.Prediction`` and ``api.TipFRF`` among them since they read back too)."""
+    return one_of_each
 
 
 def _data_axes(fig) -> list:

@@ -61,11 +61,13 @@ def test_delayed_acceptance_with_a_wrong_screen_gives_the_accurate_posterior():
     _assert_conjugate(res.u, n)
     # the screen alone as the target would be far off: the test can fail
     alone = tempered_smc(_prior_draws, _logprior, _wrong, n, seed=1, moves=4)
-    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 2 * 4 * (np.sqrt(VAR / n) * 4).max())  # twice the tolerance
+    # 1.5× the tolerance: the screen's own posterior is 0.26 and 0.23 off, 2.3× and 2.03× the tolerance, so
+    # "twice" sat within the Monte Carlo error of the second coordinate (another random stream failed it)
+    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 1.5 * 4 * (np.sqrt(VAR / n) * 4).max())
     # the accurate likelihood saw every particle once and then only the screened proposals
     moves = 4 * res.stages
     assert res.n_sets < n * (1 + moves)
-    assert res.n_sets == n + round(sum(res.screen_pass) * n * 4)
+    assert res.n_sets == n + round(sum(p * m for p, m in zip(res.screen_pass, res.moves)) * n)
     assert all(0 < p < 1 for p in res.screen_pass)
     d = res.diagnostics()
     assert "delayed-acceptance" in d["method"] and d["accurate_sets"] == res.n_sets
@@ -196,7 +198,7 @@ def test_corrected_smc_with_a_wrong_surrogate_gives_the_accurate_posterior_and_f
     np.testing.assert_allclose(res.loglik, _loglik(res.u))  # the accurate log L of the returned particles
     # dropping the correction (the surrogate's own posterior) misses by far more than the tolerance
     alone = tempered_smc(_prior_draws, _logprior, _wrong, n, seed=1, moves=4)
-    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 2 * 4 * (np.sqrt(VAR / n) * 4).max())
+    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 1.5 * 4 * (np.sqrt(VAR / n) * 4).max())  # see the test above
 
 
 def test_corrected_smc_with_a_good_surrogate_evaluates_each_final_particle_once():

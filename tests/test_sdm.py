@@ -142,7 +142,8 @@ def reference_rho(structure: Structure, cutting: Cutting, rpm: float, depth: flo
     [
         (BENCH, bench_cut(1.0), 7000.0, 1.0e-3),
         (BENCH, bench_cut(1.0), 12000.0, 2.0e-3),
-        (Structure(x=(Mode(FN, K, ZETA), Mode(2100.0, 3 * K, 0.03)), y=(Mode(1100.0, 1.5 * K, 0.02), Mode(700.0, 4 * K, 0.05))),
+        (Structure(x=(Mode(FN, K, ZETA), Mode(2100.0, 3 * K, 0.03)),
+                   y=(Mode(1100.0, 1.5 * K, 0.02), Mode(700.0, 4 * K, 0.05))),
          Cutting(4, KT, KR, 0.0, math.pi), 9000.0, 0.3e-3),
     ],
 )
@@ -247,7 +248,8 @@ SPEEDS = np.linspace(6000.0, 24000.0, 7)
     "structure",
     [
         Structure.symmetric(FN, K, ZETA),
-        Structure(x=(Mode(FN, K, ZETA), Mode(1400.0, 2 * K, 0.02)), y=(Mode(1000.0, 1.2 * K, 0.015), Mode(600.0, 5 * K, 0.03))),
+        Structure(x=(Mode(FN, K, ZETA), Mode(1400.0, 2 * K, 0.02)),
+                  y=(Mode(1000.0, 1.2 * K, 0.015), Mode(600.0, 5 * K, 0.03))),
     ],
 )
 def test_sdm_equals_zoa_for_even_teeth_slotting(structure):

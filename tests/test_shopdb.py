@@ -92,7 +92,8 @@ def test_cuts_and_posteriors_read_back_bit_identical(store):
     a, b = some_cuts(4, 1), some_cuts(3, 2)
     b = PointSet(b.rpm, b.depth_mm, ["marginal", "", "stable"], b.weight, None, [np.nan] * 3, [0.3, np.nan, 0.1],
                  ["tue", "tue", "tue"])  # a graded label and a boundary point
-    land(store, "t12-m1", a, 1, machine="m1", tool="t12", raters=["ann"] * 4, recordings=[f"r{i}.wav" for i in range(4)])
+    land(store, "t12-m1", a, 1, machine="m1", tool="t12", raters=["ann"] * 4,
+         recordings=[f"r{i}.wav" for i in range(4)])
     pid = land(store, "t12-m1", b, 2)
     got = store.cuts("t12-m1")
     want = shop._join(a, b)

@@ -37,7 +37,8 @@ def test_db_workflow_equals_the_file_workflow(tmp_path, capsys):
     run(capsys, "update", "example:ex1", tmp_path / "first.csv", "--db", db, "--campaign", "t12", *common)
     out = run(capsys, "update", "example:ex1", tmp_path / "more.csv", "--db", db, "--campaign", "t12", *common,
               "--out", tmp_path / "d2.json")
-    np.testing.assert_array_equal(read_json(tmp_path / "d2.json")["samples"], read_json(tmp_path / "p2.json")["samples"])
+    np.testing.assert_array_equal(read_json(tmp_path / "d2.json")["samples"],
+                                  read_json(tmp_path / "p2.json")["samples"])
     rec = ["--risk", 0.1, "--rpm", "4000:9000"]
     run(capsys, "recommend", tmp_path / "p2.json", *rec, "--out", tmp_path / "r_file.json")
     run(capsys, "recommend", "--db", db, "--campaign", "t12", *rec, "--out", tmp_path / "r_db.json")
@@ -45,7 +46,8 @@ def test_db_workflow_equals_the_file_workflow(tmp_path, capsys):
     assert (a["rpm"], a["depth_mm"]) == (b["rpm"], b["depth_mm"])
     run(capsys, "map", "--db", db, "--campaign", "t12", "--rpm", "4000:9000:500", "--depth", "0.5:3:0.5",
         "--out", tmp_path / "m_db.csv")
-    run(capsys, "map", tmp_path / "p2.json", "--rpm", "4000:9000:500", "--depth", "0.5:3:0.5", "--out", tmp_path / "m.csv")
+    run(capsys, "map", tmp_path / "p2.json", "--rpm", "4000:9000:500", "--depth", "0.5:3:0.5", "--out",
+        tmp_path / "m.csv")
     assert (tmp_path / "m_db.csv").read_text() == (tmp_path / "m.csv").read_text()
     run(capsys, "predict", "--db", db, "--campaign", "t12", tmp_path / "more.csv", "--out", tmp_path / "pr_db.csv")
     run(capsys, "predict", tmp_path / "p2.json", tmp_path / "more.csv", "--out", tmp_path / "pr.csv")
@@ -132,9 +134,11 @@ def test_db_workflow_of_mixed_conditions_and_stickouts_equals_the_file_workflow(
     (tmp_path / "more.csv").write_text(MIXED_MORE)
     db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 5]
     run(capsys, "update", cfg, tmp_path / "first.csv", "--out", tmp_path / "p1.json", *common)
-    run(capsys, "update", cfg, tmp_path / "all.csv", "--start", tmp_path / "p1.json", "--out", tmp_path / "p2.json", *common)
+    run(capsys, "update", cfg, tmp_path / "all.csv", "--start", tmp_path / "p1.json", "--out", tmp_path / "p2.json",
+        *common)
     run(capsys, "update", cfg, tmp_path / "first.csv", "--db", db, "--campaign", "t12", *common)
-    run(capsys, "update", cfg, tmp_path / "more.csv", "--db", db, "--campaign", "t12", *common, "--out", tmp_path / "d2.json")
+    run(capsys, "update", cfg, tmp_path / "more.csv", "--db", db, "--campaign", "t12", *common, "--out",
+        tmp_path / "d2.json")
     want, got = read_json(tmp_path / "p2.json"), read_json(tmp_path / "d2.json")
     np.testing.assert_array_equal(got["samples"], want["samples"])
     assert got["cuts"]["condition"] == want["cuts"]["condition"] and len(set(want["cuts"]["condition"])) == 3

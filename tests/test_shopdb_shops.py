@@ -75,10 +75,12 @@ def test_another_shops_campaign_reads_as_no_such_campaign(db):
 
 def test_writes_into_another_shop_are_refused_before_any_work(db, monkeypatch):
     """An update or new cuts aimed at another shop's campaign are refused before sampling (the name is
-    taken, nothing of the campaign is shown), and nothing is recorded; a new campaign takes the user's shop, or one they name among theirs."""
+    taken, nothing of the campaign is shown), and nothing is recorded; a new campaign takes the user's shop, or one they
+    name among theirs."""
     import sys
 
-    monkeypatch.setattr(sys.modules["millstab.api.update"], "update", lambda *a, **k: pytest.fail("sampled for a refused update"))
+    monkeypatch.setattr(sys.modules["millstab.api.update"], "update",
+                        lambda *a, **k: pytest.fail("sampled for a refused update"))
     ann = shop.ShopView(db, "ann", ["acme"])
     cfg = api.config("example:ex1")
     for call in (lambda: ann.update("b1", cfg, some_cuts(2, 9), samples=100),
@@ -127,9 +129,9 @@ def database_at(url: str, revision: str, cut: bool = False) -> None:
                              + (", shop" if shop_col else "") + f") VALUES ('old', '', {at}, 'ann', {at}, 0"
                              + (", 'acme'" if shop_col else "") + ")"))
         if cut:
-            conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, rater, "
-                                 f"recording, created_at, created_by) SELECT id, 0, 9000.5, 1.25, 'chatter', 1.0, 2.0, "
-                                 f"'mon', 'ann', '', {at}, 'ann' FROM campaign"))
+            conn.execute(sa.text("INSERT INTO cut (campaign_id, seq, rpm, depth_mm, label, grade, weight, batch, "
+                                 "rater, recording, created_at, created_by) SELECT id, 0, 9000.5, 1.25, 'chatter', "
+                                 f"1.0, 2.0, 'mon', 'ann', '', {at}, 'ann' FROM campaign"))
     eng.dispose()
 
 
@@ -273,10 +275,12 @@ def test_update_shop_names_the_shop_of_a_command_line_campaign(tmp_path, monkeyp
     db = tmp_path / "shop.db"
     base = ["update", "example:ex1", str(tmp_path / "c.csv"), "--db", str(db), "--campaign", "t1", "--samples", "100"]
     assert main(base + ["--shop", "acme"]) == 0
-    assert shop.campaigns(db, ["acme"])[0]["name"] == "t1" and shop.ShopView(db, "ann", ["acme"]).open("t1").revision == 1
+    assert (shop.campaigns(db, ["acme"])[0]["name"] == "t1"
+            and shop.ShopView(db, "ann", ["acme"]).open("t1").revision == 1)
     assert main(base + ["--shop", "acme"]) == 0  # its own shop again: fine
     assert main(base + ["--shop", "bolt"]) == 2
     assert main(base + ["--shop", "a b"]) == 2
-    assert main(["update", "example:ex1", str(tmp_path / "c.csv"), "--out", str(tmp_path / "p.json"), "--shop", "acme"]) == 2
+    assert main(["update", "example:ex1", str(tmp_path / "c.csv"), "--out", str(tmp_path / "p.json"),
+                 "--shop", "acme"]) == 2
     assert main(base[:6] + ["t2"] + base[7:]) == 0
     assert shop.campaigns(db, ["default"])[0]["name"] == "t2"

@@ -98,8 +98,8 @@ def test_batched_rows_equal_one_at_a_time_and_stickout_moves_only_the_tool():
     far = par.at(0.06)
     assert far.stickout == 0.06 and par.stickout == 0.045 and far.free == par.free
     # the tool's own mode drops with the stickout; the answer is that of a tool built at 60 mm
-    np.testing.assert_allclose(far.batch(theta).fn_x, TipParameterization.of(Tool(0.012, 0.06, CARBIDE, 0.026, zeta=0.01),
-                                                                           h).batch(theta).fn_x, rtol=1e-12)
+    longer = TipParameterization.of(Tool(0.012, 0.06, CARBIDE, 0.026, zeta=0.01), h)
+    np.testing.assert_allclose(far.batch(theta).fn_x, longer.batch(theta).fn_x, rtol=1e-12)
     assert far.batch(theta).fn_x[:, -1].max() < b.fn_x[:, -1].min()
 
 

@@ -3,6 +3,8 @@ and the coverage rule with the x↔y exchange."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -45,7 +47,9 @@ def test_campaign_records_agree_with_the_truth_and_the_cuts():
     # the first cut is the prior's own recommendation, the labels are the truth's
     assert (camp.cut_rpm[0], camp.cut_depth_mm[0]) == (camp.rec_rpm[0], camp.rec_depth_mm[0])
     b = truth(np.array(camp.cut_rpm))
-    assert camp.labels == ["chatter" if d > x else "stable" for d, x in zip(camp.cut_depth_mm, b)]
+    assert camp.labels == tuple("chatter" if d > x else "stable" for d, x in zip(camp.cut_depth_mm, b))
+    with pytest.raises(dataclasses.FrozenInstanceError):  # the record is frozen (issue 26)
+        camp.best = 1.0
     # the best truly stable productivity by brute force on a dense grid (the record uses 361 speeds)
     dense = np.linspace(5000, 12000, 20001)
     brute = (np.minimum(truth(dense), 8.0) * dense).max()
@@ -80,3 +84,25 @@ def test_coverage_is_calibrated_for_truths_drawn_from_the_posterior_itself():
         np.testing.assert_array_equal(coverage(post, t), coverage(post, t[perm] * np.exp(shift)))
     far = prior.median * np.exp(np.array([3.0, 0, 0, 3.0, 0, 0]) * prior.spread)  # fn 3 σ out in x and y
     assert not coverage(post, far)[[0, 3]].any()
+
+
+def test_a_campaign_is_frozen_and_pickles():
+    """Campaign is immutable (issue 26: it was a mutable record run_campaign appended to; fails on the old code):
+    no field can be assigned, its sequences are tuples (no append), its posteriors a read-only mapping; lists
+    given to it are stored as tuples, and it survives a process pool (pickle) unchanged."""
+    import pickle
+    from types import MappingProxyType
+
+    from millstab.update.campaign import Campaign
+
+    c = Campaign(cut_rpm=[6000.0, 7000.0], labels=["stable", "chatter"], rec_rpm=[6000.0, 7000.0, 6500.0],
+                 posteriors={0: "prior draws"}, best=3.5)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        c.labels = ("x",)
+    with pytest.raises(AttributeError):
+        c.cut_rpm.append(8000.0)
+    with pytest.raises(TypeError):
+        c.posteriors[1] = "after one cut"
+    assert c.labels == ("stable", "chatter") and isinstance(c.posteriors, MappingProxyType)
+    back = pickle.loads(pickle.dumps(c))
+    assert back.cut_rpm == c.cut_rpm and dict(back.posteriors) == {0: "prior draws"} and back.best == 3.5

@@ -166,7 +166,8 @@ def test_update_map_and_recommend(app, tmp_path):
     blim = api.lobes(cfg, rpm).envelope.depth_mm
     cuts = PointSet(np.r_[rpm, rpm], np.r_[0.6 * blim, 1.4 * blim], ["stable"] * 7 + ["chatter"] * 7)
     path = tmp_path / "cuts.csv"
-    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
+    path.write_text("rpm,depth_mm,label\n"
+                    + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
     T.tab(page, "Update and recommend")
     T.upload(page, "drop-cuts", path)
     page.locator(".cuts-note").filter(has_text="14 points").wait_for()
@@ -369,7 +370,8 @@ def test_config_toml_upload_is_used_and_said(app, tmp_path):
     page.locator(".lobes-summary").filter(has_text=re.compile("computed for: the packaged example ex3(, edited in the "
                                                               "form)? — no config loaded")).wait_for()
     T.tab(page, "Tool and cut")
-    text = api.config_toml(api.config("example:ex1")).replace('name = "ex1"', 'name = "my tool"').split("[prior]")[0] + PRIOR
+    text = (api.config_toml(api.config("example:ex1")).replace('name = "ex1"', 'name = "my tool"').split("[prior]")[0]
+            + PRIOR)
     path = tmp_path / "my_tool.toml"
     path.write_text(text)
     mine = api.config(path)
@@ -460,12 +462,14 @@ def test_measured_frf_config_naming_uploads_and_a_server_file(app, tmp_path):
         d = {"xx": 1, "yy": 2}[term]
         pyuff.UFF(str(tap)).write_sets(pyuff.prepare_58(
             binary=1, func_type=4, rsp_node=1, rsp_dir=d, ref_node=1, ref_dir=d, data=TAPS[term], x=F, id1="tap",
-            abscissa_spacing=0, abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13), "add")
+            abscissa_spacing=0, abscissa_spec_data_type=18, ordinate_spec_data_type=8,
+            orddenom_spec_data_type=13), "add")
     T.upload(page, "drop-frf-xx", tap)  # alone it has two records and no record number: refused beside the zone
     assert "record" in error_text(page, "e-structure-frf-xx")
     good = tmp_path / "frf_tool.toml"
-    good.write_text(base.replace('name = "ex3"', 'name = "frf tool"') + '[structure.frf]\nxx = { file = "tap.uff", record = 0 }\n'
-                    'yy = { file = "tap.uff", record = 1 }\n\n' + speeds)
+    good.write_text(base.replace('name = "ex3"', 'name = "frf tool"')
+                    + '[structure.frf]\nxx = { file = "tap.uff", record = 0 }\n'
+                      'yy = { file = "tap.uff", record = 1 }\n\n' + speeds)
     T.upload(page, "drop-config", good)
     page.locator(".tool-status").filter(has_text="valid: frf tool").wait_for()
     assert "uploaded frf_tool.toml" in T.text(page, "tool-status") and T.text(page, "e-config-upload") == ""

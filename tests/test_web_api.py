@@ -109,8 +109,8 @@ def test_config_text_cannot_name_a_server_file(tmp_path, monkeypatch, where):
     secret.parent.mkdir()
     secret.write_text(SECRET)
     monkeypatch.chdir(tmp_path)
-    name = {"absolute": str(secret), "relative": "secret/server.csv", "dotdot": "../" + tmp_path.name + "/secret/server.csv",
-            "home": "~/server.csv", "table": str(secret)}[where]
+    name = {"absolute": str(secret), "relative": "secret/server.csv",
+            "dotdot": "../" + tmp_path.name + "/secret/server.csv", "home": "~/server.csv", "table": str(secret)}[where]
     xx = name if where != "table" else None
     text = _frf_config(xx or "x.csv").replace(f'xx = "{xx or "x.csv"}"', f'xx = "{name}"' if xx else
                                               f'xx = {{ file = "{name}" }}')
@@ -144,7 +144,8 @@ def _tool():
     return s, ToolTab(s)
 
 
-PRIOR = '\n[prior]\nfn = "4 %"\nk_x = 0.2\nkt = "10 %"\nfixed = ["zeta_y"]\nsigma_depth = "7 %"\nsigma_chatter_hz = "15 Hz"\nlabel_error = "9 %"\n'
+PRIOR = ('\n[prior]\nfn = "4 %"\nk_x = 0.2\nkt = "10 %"\nfixed = ["zeta_y"]\nsigma_depth = "7 %"\n'
+         'sigma_chatter_hz = "15 Hz"\nlabel_error = "9 %"\n')
 
 
 def test_config_upload_keeps_every_prior_field(tmp_path):
@@ -161,7 +162,8 @@ def test_config_upload_keeps_every_prior_field(tmp_path):
         tool.config_drop.value = {"my_tool.toml": text.encode()}
         assert tool.config_error.object == ""
         assert api.config_toml(s.cfg) == api.config_toml(mine)  # the download (Downloads tab: api.config_toml)
-        a, b = make_prior(s.cfg.structure, s.cfg.cutting, s.cfg.prior), make_prior(mine.structure, mine.cutting, mine.prior)
+        a = make_prior(s.cfg.structure, s.cfg.cutting, s.cfg.prior)
+        b = make_prior(mine.structure, mine.cutting, mine.prior)
         assert a.to_dict() == b.to_dict() and a.label_error == pytest.approx(0.09)
         assert s.origin == "uploaded my_tool.toml"
         tool.teeth.input.value = "3"  # an edit keeps the prior, and the page says the config was edited
@@ -294,7 +296,8 @@ def test_app_beyond_localhost_requires_a_users_file(tmp_path, capsys, monkeypatc
     assert "horse" not in text + out.out + out.err and "staple" not in text + out.out + out.err
     got = auth.read_users(users)
     assert sorted(got) == ["anna", "ben"] and auth.check_password("new password 3", got["anna"])
-    assert not auth.check_password("correct horse 1", got["anna"]) and auth.check_password("battery staple 2", got["ben"])
+    assert (not auth.check_password("correct horse 1", got["anna"])
+            and auth.check_password("battery staple 2", got["ben"]))
     monkeypatch.setattr("sys.stdin", io.StringIO("short\n"))
     assert main(["app", "--add-user", "cid", "--users", str(users), "--password-stdin"]) == 2
     assert main(["app", "--host", "0.0.0.0", "--users", str(tmp_path / "none.txt"), "--no-browser"]) == 2
@@ -488,7 +491,8 @@ def test_campaign_card_opens_records_and_shows_nothing_of_another_shop(tmp_path)
         assert panel.select.options == ["a1"] and panel.select.value == "a1"
         before = (s.cfg, s.cuts, s.post)
         assert not panel.open("b1")
-        assert "no such campaign in shop.db (it holds 1 campaign(s): a1); the list above shows them" in panel.status.text
+        assert ("no such campaign in shop.db (it holds 1 campaign(s): a1); the list above shows them"
+                in panel.status.text)
         assert str(tmp_path) not in panel.status.text
         assert (s.cfg, s.cuts, s.post) == before and panel.current is None and panel.summary.text == ""
         assert panel.open("a1") and maps == [False]
@@ -524,4 +528,5 @@ def test_app_db_problems_are_one_line_before_serving(tmp_path, capsys):
     for bad in (tmp_path, tmp_path / "cuts.csv"):
         assert main(["app", "--db", str(bad), "--port", "0", "--no-browser"]) == 2
         out = capsys.readouterr()
-        assert out.err.startswith("millstab: error: --db = ") and len(out.err.strip().splitlines()) == 1 and "http" not in out.out
+        assert (out.err.startswith("millstab: error: --db = ") and len(out.err.strip().splitlines()) == 1
+                and "http" not in out.out)

@@ -113,7 +113,8 @@ def test_scaling_stiffness_scales_depth():
     rpm = np.linspace(5000, 7000, 101)
     base = zoa.envelope(s, cut, rpm).depth
     c = 3.7
-    scaled = Structure(x=tuple(Mode(m.fn, m.k * c, m.zeta) for m in s.x), y=tuple(Mode(m.fn, m.k * c, m.zeta) for m in s.y))
+    scaled = Structure(x=tuple(Mode(m.fn, m.k * c, m.zeta) for m in s.x),
+                       y=tuple(Mode(m.fn, m.k * c, m.zeta) for m in s.y))
     np.testing.assert_allclose(zoa.envelope(scaled, cut, rpm).depth, base * c, rtol=1e-9)
 
 

@@ -19,7 +19,7 @@ engine's ``envelope_batch``) cut their rows into tasks and run them on ``dask.di
 * :func:`depths` -- any batch of parameter sets through an engine (SDM / spectral maps, Sobol, Morris);
   :func:`sample_limits` -- the Bayesian likelihood's sweeps and the P(stable) map by sample rows, sent out
   only where a measured probe says the work pays (:data:`PAYS_SECONDS`). Both hand every task the whole
-  batch's :func:`split_settings` (the interrupted-cutting engines choose their discretisation per batch).
+  batch's pinned settings (``Forward.pinned``: the interrupted-cutting engines choose their discretisation per batch).
 
 Each task runs numba with ONE thread (the parallelism is the cluster's): one worker process per core.
 Results do not depend on how the rows are cut (the engines evaluate every row independently, and the
@@ -343,15 +343,6 @@ def stream(client: Any, func: Callable[..., Any], tasks: Sequence[tuple], on_res
         raise RuntimeError(f"{name}: {int((~received).sum())} tasks never returned")
 
 
-def split_settings(engine: str, par, cutting, theta_rows: np.ndarray, rpm: np.ndarray, purpose: str = "fit") -> dict:
-    """The engine's keyword arguments under which a part of the rows ``theta_rows`` (R, P) [SI] gives, row
-    for row, the numbers of ONE local call on all of them: the settings of
-    :meth:`millstab.forward.Forward.pinned` (one rule, defined there; ``purpose`` as there)."""
-    from millstab.forward import forward
-
-    return dict(forward(par, cutting, engine, purpose).pinned(rpm, theta_rows).settings)
-
-
 def _depths_task(pinned, rows: np.ndarray) -> np.ndarray:
     """On a worker: limiting depths (R, S) [m] of parameter rows (R, P) by the pinned forward model (the one
     evaluator, :class:`millstab.forward.Pinned`), numba on one thread."""
@@ -364,7 +355,7 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
            settings: dict | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
     the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
-    is evaluated alone, under the whole batch's :func:`split_settings`), for SDM/spectral maps as for
+    is evaluated alone, under the whole batch's pinned settings, :meth:`millstab.forward.Forward.pinned`), for SDM/spectral maps as for
     the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
@@ -372,18 +363,31 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
     discretisation (:meth:`millstab.forward.Forward.pinned`; default: pinned on ``theta_rows``).
     """
     from millstab.forward import Pinned, forward
-    from millstab.stability import get_engine
 
     check_client(client)
     rpm = np.asarray(rpm, dtype=float)
     theta_rows = np.asarray(theta_rows, dtype=float)
-    n = theta_rows.shape[0]
     model = forward(par, cutting, engine)
-    pinned = model.pinned(rpm, theta_rows) if settings is None else Pinned(model, rpm, settings)
-    sec = warm(client, engine, par, cutting, rpm)
-    per = chunk_rows or task_rows(sec, get_engine(engine).chunk_rows(rpm.size))
+    # ONE local call chooses at its first row: so does the pinned model the tasks get
+    pinned = model.pinned(rpm, theta_rows, at=theta_rows[0]) if settings is None else Pinned(model, rpm, settings)
+    return map_pinned(client, pinned, theta_rows, progress, chunk_rows)
+
+
+def map_pinned(client: Any, pinned, theta_rows: np.ndarray, progress: Callable[[int, int], None] | None = None,
+               chunk_rows: int | None = None) -> np.ndarray:
+    """Depths (R, S) [m] of parameter rows (R, P) [SI] by the pinned forward model ``pinned``
+    (:class:`millstab.forward.Pinned`) as tasks on the Dask cluster of ``client``: each task receives the model
+    and calls it on its rows (as emcee's ``pool.map``), so the numbers are those of ``pinned.map(theta_rows)``
+    here. ``chunk_rows``, ``progress``: as :func:`depths`."""
+    from millstab.stability import get_engine
+
+    check_client(client)
+    theta_rows = np.atleast_2d(np.asarray(theta_rows, dtype=float))
+    n, f = theta_rows.shape[0], pinned.forward
+    sec = warm(client, f.engine, f.par, pinned.conditions, pinned.rpm)
+    per = chunk_rows or task_rows(sec, get_engine(f.engine).chunk_rows(pinned.rpm.size))
     starts = range(0, n, per)
-    out = np.empty((n, rpm.size))
+    out = np.empty((n, pinned.rpm.size))
     stream(client, _depths_task, [(theta_rows[s:s + per],) for s in starts], rows_into(out, starts, progress),
            common=(pinned,), name="depths")
     return out

@@ -15,12 +15,14 @@ its residuals on the same rows.
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
 import numpy as np
 
+from millstab.errors import InputError
 from millstab.model import Conditions, Cutting
 from millstab.params import Parameterization
 from millstab.stability import get_engine
@@ -30,6 +32,8 @@ from millstab.stability.process_damping import reject as reject_process_damping
 SETTINGS_CACHE = 16
 #: default step in ln θ (1e-4 ⇒ 0.01 % relative; the engines resolve ~1e-8)
 FD_STEP = 1e-4
+#: keywords of an engine's ``envelope_batch`` that are not its discretisation (never ``options``)
+NOT_OPTIONS = frozenset({"chunk", "kr", "progress"})
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,10 @@ class Forward:
     #: depths) or ``"sample"`` (a sampler comparing them with a depth noise: the spectral engine's converged
     #: node count, :data:`millstab.stability.spectral.PURPOSES`); ignored by engines without ``settings``
     purpose: str = "fit"
+    #: the engine's discretisation fixed by the caller, as (keyword, value) pairs of its ``envelope_batch``
+    #: (sdm ``steps`` per tooth period, spectral ``nodes``, ...): they override what ``settings`` or
+    #: ``split_settings`` choose, in every call (:func:`engine_options`; ``()``: the engine chooses)
+    options: tuple = ()
     _engine_mod: object = field(default=None, init=False, repr=False, compare=False)
     #: the engine's discretisation per speed list (``settings`` capability), chosen once
     _settings: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -52,9 +60,14 @@ class Forward:
         object.__setattr__(self, "_engine_mod", get_engine(self.engine))
         if not getattr(self._engine_mod, "process_damping", False):  # an engine without the capability
             reject_process_damping(self.cutting, self.engine)
+        object.__setattr__(self, "options", engine_options(self.engine, dict(self.options)))
 
     def __reduce__(self):  # an engine module does not pickle: a Dask task gets the model by the engine's name
-        return Forward, (self.par, self.cutting, self.engine, self.purpose)
+        return Forward, (self.par, self.cutting, self.engine, self.purpose, self.options)
+
+    def _with_options(self, chosen: dict) -> dict:
+        """The engine's chosen settings with the caller's :attr:`options` over them."""
+        return {**chosen, **dict(self.options)} if self.options else chosen
 
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
                  kr: np.ndarray | None = None) -> np.ndarray:
@@ -91,7 +104,7 @@ class Forward:
         for an engine without ``settings``."""
         choose = getattr(self._engine_mod, "settings", None)
         if choose is None:
-            return {}
+            return dict(self.options)
         r = np.asarray(rpm, dtype=float)
         key = self._key(r, conditions)
         if key not in self._settings:
@@ -99,7 +112,20 @@ class Forward:
                 self._settings.pop(next(iter(self._settings)))
             row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
             cut = self.cutting if conditions is None else conditions
-            self._settings[key] = dict(choose(self.par.batch(row[None]), cut, r, **self._purpose()))
+            self._settings[key] = self._with_options(dict(choose(self.par.batch(row[None]), cut, r,
+                                                                 **self._purpose())))
+        return self._settings[key]
+
+    def _settings_at(self, r: np.ndarray, row: np.ndarray, conditions) -> dict:
+        """The engine's settings chosen at the parameter row ``row`` (P,): cached under (speeds, conditions,
+        row), apart from :meth:`settings`' first-row choice, so a pinned study's discretisation depends on
+        the row it names, not on which call came first."""
+        key = b"at" + self._key(r, conditions) + row.tobytes()
+        if key not in self._settings:
+            if len(self._settings) >= SETTINGS_CACHE:
+                self._settings.pop(next(iter(self._settings)))
+            cut = self.cutting if conditions is None else conditions
+            self._settings[key] = dict(self._engine_mod.settings(self.par.batch(row[None]), cut, r, **self._purpose()))
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
@@ -112,29 +138,33 @@ class Forward:
         r = np.asarray(rpm, dtype=float)
         old = self.settings(r, None, conditions)
         cut = self.cutting if conditions is None else conditions
-        new = dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r, **self._purpose()))
+        new = self._with_options(dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r,
+                                             **self._purpose())))
         self._settings[self._key(r, conditions)] = new
         return new != old
 
     def pinned(self, rpm: np.ndarray, theta_rows: np.ndarray | None = None,
-               conditions: Conditions | Cutting | None = None) -> Pinned:
+               conditions: Conditions | Cutting | None = None, *, at: np.ndarray | None = None) -> Pinned:
         """This model at the speeds ``rpm`` (S,) [rev/min] with the engine's discretisation fixed now for a
         whole problem whose parameter rows are (or are bounded by) ``theta_rows`` (R, P) [SI] (default the
-        start θ0): an engine with ``settings`` (spectral) chooses it at the first row, as :meth:`settings`;
-        one with ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows;
-        ``{}`` otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in
-        any chunks, here or on a cluster, then gives the numbers of ONE call on all of them. ``conditions``:
-        the condition of each speed column (default the bound cutting for all)."""
+        start θ0): an engine with ``settings`` (spectral) chooses it at the row ``at`` (P,) [SI] (a study's
+        centre, a prior's θ0; default the first of ``theta_rows``), whatever this model chose before for a
+        fit (the choice at ``at`` is kept apart from :meth:`settings`' first-row choice); one with
+        ``split_settings`` (sdm: the steps follow the highest natural frequency) from all the rows; ``{}``
+        otherwise (zoa evaluates every row alone). Every later evaluation, of any subset of rows, in any
+        chunks, here or on a cluster, then gives the numbers of ONE call on all of them. ``conditions``: the
+        condition of each speed column (default the bound cutting for all)."""
         r = np.asarray(rpm, dtype=float)
         rows = np.atleast_2d(np.asarray(self.par.theta0 if theta_rows is None else theta_rows, dtype=float))
         cut = self.cutting if conditions is None else conditions
         if isinstance(cut, Conditions):
             cut.check_columns(r.size)
         if getattr(self._engine_mod, "settings", None) is not None:
-            chosen = self.settings(r, rows[0], conditions)
+            chosen = self._settings_at(r, rows[0] if at is None else np.ravel(np.asarray(at, dtype=float)),
+                                        conditions)
         else:
             split = getattr(self._engine_mod, "split_settings", None)
-            chosen = dict(split(self.par.batch(rows), cut, r)) if split is not None else {}
+            chosen = self._with_options(dict(split(self.par.batch(rows), cut, r)) if split is not None else {})
         return Pinned(self, r, chosen, cut)
 
 
@@ -179,19 +209,13 @@ class Pinned:
         extra = {} if kr is None else {"kr": kr}
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
-    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None, client=None) -> np.ndarray:
+    def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:
         """Depths (R, S) [m] of many rows (R, P) [SI], one engine call per chunk of ``chunk_rows`` rows
-        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each), or as tasks on the
-        Dask cluster of ``client`` (:func:`millstab.cluster.depths`). The discretisation is pinned, so
-        neither the chunk size nor the cluster changes a number."""
+        (default the engine's ``chunk_rows``; ``progress(rows_done, R)`` after each). The discretisation is
+        pinned, so the chunk size changes no number; a Dask cluster's tasks call this model too
+        (:func:`millstab.cluster.map_pinned`: the studies hand it over, so that this layer imports none above)."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         f = self.forward
-        if client is not None:
-            from millstab import cluster
-
-            # the engines take Conditions where a Cutting goes, so the cluster's tasks need no other argument
-            return cluster.depths(client, f.engine, f.par, self.conditions, rows, self.rpm, progress, chunk_rows,
-                                  settings=dict(self.settings))
         per = int(chunk_rows or f._engine_mod.chunk_rows(self.rpm.size))
         out = np.empty((rows.shape[0], self.rpm.size))
         for start in range(0, rows.shape[0], per):
@@ -202,10 +226,28 @@ class Pinned:
         return out
 
 
-def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpose: str = "fit") -> Forward:
+def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpose: str = "fit",
+            options: dict | None = None) -> Forward:
     """The forward model of ``par`` under ``cutting`` with the named engine (see :class:`Forward`; ``purpose``:
-    what the engine's discretisation is chosen for, ``"fit"`` or ``"sample"``)."""
-    return Forward(par, cutting, engine, purpose)
+    what the engine's discretisation is chosen for, ``"fit"`` or ``"sample"``; ``options``: the discretisation
+    fixed instead, e.g. ``{"steps": 40}`` for sdm, :func:`engine_options`)."""
+    return Forward(par, cutting, engine, purpose, tuple(sorted((options or {}).items())))
+
+
+def engine_options(engine: str, options: dict | None) -> tuple:
+    """``options`` checked against the named engine's ``envelope_batch`` keywords (its discretisation: sdm
+    ``steps``/``fn_max_hz``, spectral ``nodes``/``near``; zoa has none), as sorted (keyword, value) pairs.
+    The engine checks the values when it runs. InputError naming the keyword and the ones allowed."""
+    opts = dict(options or {})
+    if not opts:
+        return ()
+    params = inspect.signature(get_engine(engine).envelope_batch).parameters
+    allowed = sorted(k for k, p in params.items() if p.default is not inspect.Parameter.empty and k not in NOT_OPTIONS)
+    for key in opts:
+        if key not in allowed:
+            raise InputError("engine_options", key, f"the {engine} engine's discretisation keywords: "
+                             + (", ".join(allowed) if allowed else "none (it chooses its own grid)"))
+    return tuple(sorted(opts.items()))
 
 
 def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):
@@ -265,4 +307,4 @@ def log_jacobian(f, theta: np.ndarray, rpm: np.ndarray, *, rel_step: float = FD_
     return jac[:, :m], slope
 
 
-__all__ = ["FD_STEP", "Forward", "Pinned", "fd_difference", "fd_rows", "forward", "log_jacobian"]
+__all__ = ["FD_STEP", "Forward", "Pinned", "engine_options", "fd_difference", "fd_rows", "forward", "log_jacobian"]

@@ -37,7 +37,8 @@ class ModalBatch:
     def __post_init__(self) -> None:
         shapes = {}
         for d in ("x", "y"):
-            arrs = [np.ascontiguousarray(np.atleast_2d(np.asarray(getattr(self, f"{p}_{d}"), dtype=float))) for p in PARAMS]
+            arrs = [np.ascontiguousarray(np.atleast_2d(np.asarray(getattr(self, f"{p}_{d}"), dtype=float)))
+                    for p in PARAMS]
             for p, arr in zip(PARAMS, arrs):
                 object.__setattr__(self, f"{p}_{d}", arr)
             if len({a.shape for a in arrs}) != 1:
@@ -90,16 +91,20 @@ class ModalBatch:
             if not s.is_modal:
                 raise InputError("structure", "measured FRF", "a modal batch needs modal structures")
             if len(s.x) != len(first.x) or len(s.y) != len(first.y):
-                raise InputError("structures", "different mode counts", "all structures in a batch need the same number of modes per direction")
-        arr = {f"{p}_{d}": np.array([[getattr(m, p) for m in getattr(s, d)] for s in structures], dtype=float).reshape(len(structures), -1)
+                raise InputError("structures", "different mode counts",
+                                 "all structures in a batch need the same number of modes per direction")
+        arr = {f"{p}_{d}": np.array([[getattr(m, p) for m in getattr(s, d)] for s in structures],
+                                    dtype=float).reshape(len(structures), -1)
                for d in ("x", "y") for p in PARAMS}
         return cls(**arr)
 
     def structure(self, i: int = 0) -> Structure:
         """Parameter set ``i`` as a :class:`Structure`."""
         with quiet():  # values already validated; a batch may legitimately hold soft values
-            modes = {d: tuple(Mode(getattr(self, f"fn_{d}")[i, m], getattr(self, f"k_{d}")[i, m], getattr(self, f"zeta_{d}")[i, m],
-                                   f"structure.{d}[{m}]") for m in range(getattr(self, f"fn_{d}").shape[1])) for d in ("x", "y")}
+            modes = {d: tuple(Mode(getattr(self, f"fn_{d}")[i, m], getattr(self, f"k_{d}")[i, m],
+                                   getattr(self, f"zeta_{d}")[i, m], f"structure.{d}[{m}]")
+                              for m in range(getattr(self, f"fn_{d}").shape[1]))
+                     for d in ("x", "y")}
         return Structure(x=modes["x"], y=modes["y"])
 
 
@@ -144,7 +149,8 @@ def interpolate(frf: MeasuredFRF, freq_hz: np.ndarray) -> np.ndarray:
     f = np.asarray(freq_hz, dtype=float)
     lo, hi = frf.freq_hz[0], frf.freq_hz[-1]
     if f.size and (f.min() < lo * (1 - 1e-12) or f.max() > hi * (1 + 1e-12)):
-        raise InputError("frequency", f"{f.min():g}..{f.max():g} Hz", f"must lie inside the measured band {lo:g}..{hi:g} Hz")
+        raise InputError("frequency", f"{f.min():g}..{f.max():g} Hz",
+                         f"must lie inside the measured band {lo:g}..{hi:g} Hz")
     g = frf.matrix()
     out = np.empty((f.size, 2, 2), dtype=complex)
     for i in range(2):
@@ -156,8 +162,10 @@ def interpolate(frf: MeasuredFRF, freq_hz: np.ndarray) -> np.ndarray:
 def measured_from_structure(structure: Structure, freq_hz: np.ndarray, cross: bool = False) -> MeasuredFRF:
     """Sample a modal structure's receptance as if measured (for tests and examples)."""
     g = structure_receptance(structure, freq_hz)
-    return MeasuredFRF(np.asarray(freq_hz, float), g[:, 0, 0] if structure.x else None, g[:, 1, 1] if structure.y else None,
+    return MeasuredFRF(np.asarray(freq_hz, float), g[:, 0, 0] if structure.x else None,
+                       g[:, 1, 1] if structure.y else None,
                        g[:, 0, 1] if cross else None, g[:, 1, 0] if cross else None)
 
 
-__all__ = ["ModalBatch", "SUSPICIOUS_STIFFNESS", "interpolate", "measured_from_structure", "modal_receptance", "structure_receptance"]
+__all__ = ["ModalBatch", "SUSPICIOUS_STIFFNESS", "interpolate", "measured_from_structure", "modal_receptance",
+           "structure_receptance"]

@@ -212,6 +212,8 @@ RESULTS: tuple[tuple[str, str, str], ...] = (
     ("millstab.api.sensitivity", "Study", "millstab.sensitivity.study/1"),
     ("millstab.api.listen", "Heard", "millstab.listen.heard/1"),
     ("millstab.modal.run", "ModalResult", "millstab.modal.result/1"),
+    ("millstab.api.predict", "Prediction", "millstab.prediction/1"),
+    ("millstab.api.tooltip", "TipFRF", "millstab.tooltip.tip/1"),
 )
 #: documents written but not read back (a report of a run, not an input of another): (module, writer, schema)
 WRITTEN: tuple[tuple[str, str, str], ...] = (
@@ -222,7 +224,8 @@ WRITTEN: tuple[tuple[str, str, str], ...] = (
 
 __all__ = ["RESULTS", "WRITTEN", "check_schema", "complex_in", "complex_out", "config_in", "config_out", "cutting_in",
            "cutting_out", "fields_in", "fields_out", "floats_in", "floats_out", "int_in", "ints_in", "names_in", "need",
-           "number_in", "number_out", "per_name_in", "per_name_out", "plain", "structure_in", "structure_out"]
+           "number_in", "number_out", "per_name_in", "per_name_out", "plain", "points_in", "points_out", "structure_in",
+           "structure_out"]
 
 
 # --- a frozen dataclass field by field --------------------------------------------------------------------
@@ -384,6 +387,46 @@ def structure_in(doc: Any, source: str):
         modes[d] = tuple(Mode(*(number_in(need(m, k, f"{source}.{d}[{i}]"), f"{source}.{d}[{i}].{k}")
                                 for k in ("fn", "k", "zeta")), f"structure.{d}[{i}]") for i, m in enumerate(rows))
     return Structure(**modes)
+
+
+def points_out(ps) -> dict:
+    """A :class:`millstab.points.PointSet`, every column under its own name (speeds [rpm], depths [mm], labels,
+    weights, chatter frequencies [Hz], grades, test days, each rater's grade, the kept columns and the per-cut
+    conditions; NaN as ``null`` where a cell is empty) and its source file's name."""
+    return {"rpm": floats_out(ps.rpm, "rpm"), "depth_mm": floats_out(ps.depth_mm, "depth_mm"),
+            "label": [str(x) for x in ps.label], "weight": floats_out(ps.weight, "weight"),
+            "chatter_hz": floats_out(ps.chatter_hz, "chatter_hz", nan_ok=True),
+            "grade": floats_out(ps.grade, "grade", nan_ok=True), "batch": [str(x) for x in ps.batch],
+            "ratings": floats_out(ps.ratings, "ratings", nan_ok=True), "raters": list(ps.raters),
+            "extra": {k: [str(x) for x in v] for k, v in ps.extra.items()},
+            "conditions": {k: ([str(x) for x in v] if v.dtype.kind in "UO" else floats_out(v, k, nan_ok=True))
+                           for k, v in ps.conditions.items()},
+            "source": None if ps.source is None else str(ps.source)}
+
+
+def points_in(doc: Any, source: str):
+    """The inverse of :func:`points_out` (the points validate themselves: InputError)."""
+    from millstab.points import PointSet
+
+    if not isinstance(doc, dict):
+        raise InputError(source, _short(doc), "must be an object of cuts (rpm, depth_mm, label, ...)")
+    n = len(need(doc, "rpm", source, list))
+    raters = names_in(need(doc, "raters", source), f"{source}.raters")
+    ratings = floats_in(need(doc, "ratings", source), f"{source}.ratings", ndim=None, nan_ok=True)
+    if ratings.size != n * len(raters):
+        raise InputError(f"{source}.ratings", f"{ratings.size} values", f"one per cut and rater ({n} × {len(raters)})")
+    cond = need(doc, "conditions", source, dict)
+    src = doc.get("source")
+    return PointSet(floats_in(doc["rpm"], f"{source}.rpm", 1),
+                    floats_in(need(doc, "depth_mm", source), f"{source}.depth_mm", 1),
+                    names_in(need(doc, "label", source), f"{source}.label"),
+                    floats_in(need(doc, "weight", source), f"{source}.weight", 1), None if src is None else str(src),
+                    floats_in(need(doc, "chatter_hz", source), f"{source}.chatter_hz", 1, nan_ok=True),
+                    floats_in(need(doc, "grade", source), f"{source}.grade", 1, nan_ok=True),
+                    names_in(need(doc, "batch", source), f"{source}.batch"), ratings.reshape(n, len(raters)), raters,
+                    {k: names_in(v, f"{source}.extra.{k}") for k, v in need(doc, "extra", source, dict).items()},
+                    {k: (names_in(v, f"{source}.conditions.{k}") if k == "milling" else
+                         floats_in(v, f"{source}.conditions.{k}", 1, nan_ok=True)) for k, v in cond.items()})
 
 
 def config_out(cfg) -> dict:

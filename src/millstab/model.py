@@ -282,7 +282,8 @@ class Cutting:
         if not -tol <= exit_ <= math.pi + tol:
             raise InputError("cutting.exit", self.exit, "exit angle must be in [0, pi] rad (0..180 deg)")
         if entry >= exit_:
-            raise InputError("cutting.entry", self.entry, f"entry angle must be less than the exit angle ({exit_:g} rad)")
+            raise InputError("cutting.entry", self.entry,
+                             f"entry angle must be less than the exit angle ({exit_:g} rad)")
         object.__setattr__(self, "kt", kt)
         object.__setattr__(self, "kr", kr)
         object.__setattr__(self, "entry", min(max(entry, 0.0), math.pi))

@@ -161,7 +161,8 @@ class PointSet:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
         depth = np.atleast_1d(np.asarray(self.depth_mm, dtype=float))
         n = rpm.size
-        label = np.full(n, "", dtype=object) if self.label is None else np.atleast_1d(np.asarray(self.label, dtype=object))
+        label = (np.full(n, "", dtype=object) if self.label is None
+                 else np.atleast_1d(np.asarray(self.label, dtype=object)))
         weight = np.ones(n) if self.weight is None else np.atleast_1d(np.asarray(self.weight, dtype=float))
         hz = np.full(n, np.nan) if self.chatter_hz is None else np.atleast_1d(np.asarray(self.chatter_hz, dtype=float))
         for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight), ("chatter_hz", hz)):
@@ -186,7 +187,8 @@ class PointSet:
         if odd.any():
             i = int(np.argmax(odd))
             raise InputError(f"points.chatter_hz[{i}]", float(hz[i]),
-                             f"a chatter frequency belongs to a chatter or marginal cut, not to a {label[i] or 'boundary'} point")
+                             "a chatter frequency belongs to a chatter or marginal cut, not to a "
+                             f"{label[i] or 'boundary'} point")
         if self.grade is None:
             grade = np.array([GRADE.get(s, np.nan) for s in label], dtype=float)
         else:
@@ -200,7 +202,8 @@ class PointSet:
                 raise InputError(f"points.grade[{i}]", float(grade[i]),
                                  "a test cut's graded label is a number in [0, 1] (0 stable, 1 chatter); "
                                  "a boundary point has none")
-        batch = np.full(n, "", dtype=object) if self.batch is None else np.atleast_1d(np.asarray(self.batch, dtype=object))
+        batch = (np.full(n, "", dtype=object) if self.batch is None
+                 else np.atleast_1d(np.asarray(self.batch, dtype=object)))
         if batch.ndim != 1 or batch.size != n:
             raise InputError("points.batch", f"{batch.size} values", f"need one value per speed ({n})")
         batch = np.array([str(b).strip() for b in batch], dtype=object)
@@ -208,12 +211,14 @@ class PointSet:
             ratings = grade[:, None].copy()
             raters = tuple(self.raters or ("label",))
         else:
-            ratings = np.asarray(self.ratings, dtype=float).reshape(n, -1) if n else np.zeros((0, len(self.raters or ())))
+            ratings = (np.asarray(self.ratings, dtype=float).reshape(n, -1) if n
+                       else np.zeros((0, len(self.raters or ()))))
             raters = tuple(str(r) for r in (self.raters or (f"rater{j + 1}" for j in range(ratings.shape[1]))))
             bad = ~np.isnan(ratings) & ~((ratings >= 0) & (ratings <= 1))
             if bad.any():
                 i, j = np.argwhere(bad)[0]
-                raise InputError(f"points.ratings[{i}, {j}]", float(ratings[i, j]), "a rater's graded label is in [0, 1] or NaN")
+                raise InputError(f"points.ratings[{i}, {j}]", float(ratings[i, j]),
+                                 "a rater's graded label is in [0, 1] or NaN")
         if len(raters) != ratings.shape[1]:
             raise InputError("points.raters", list(raters), f"need one name per column of ratings ({ratings.shape[1]})")
         extra = {}
@@ -379,7 +384,8 @@ def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
             bad = ~np.isin(col, ("",) + MILLING)
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(f"{where}data row {i + 1}, column milling", col[i], "up or down (or empty: the config's)")
+                raise InputError(f"{where}data row {i + 1}, column milling", col[i],
+                                 "up or down (or empty: the config's)")
         else:
             col = np.array([math.nan if v is None or str(v).strip() == "" else v for v in col], dtype=float)
         out[name] = col
@@ -389,7 +395,8 @@ def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
         if mask.any():
             i = int(np.argmax(mask))
             value = out[name][i] if name in out else None
-            raise InputError(f"{where}data row {i + 1}, column {name}", value if name == "milling" else float(value), allowed)
+            raise InputError(f"{where}data row {i + 1}, column {name}", value if name == "milling" else float(value),
+                             allowed)
 
     ri, w = out.get("radial_immersion", nan), out.get("radial_width_mm", nan)
     en, ex = out.get("entry_deg", nan), out.get("exit_deg", nan)
@@ -456,7 +463,8 @@ def same_condition(a: Cutting, b: Cutting) -> bool:
     """True when two cuttings are one condition (teeth, coefficients, process damping, entry and exit within
     :data:`ANGLE_TOL`)."""
     return (a.teeth == b.teeth and a.kt == b.kt and a.kr == b.kr and abs(a.entry - b.entry) <= ANGLE_TOL
-            and abs(a.exit - b.exit) <= ANGLE_TOL and getattr(a, "process_damping", 0.0) == getattr(b, "process_damping", 0.0))
+            and abs(a.exit - b.exit) <= ANGLE_TOL
+            and getattr(a, "process_damping", 0.0) == getattr(b, "process_damping", 0.0))
 
 
 def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial_width_mm: float | None = None,
@@ -496,7 +504,8 @@ def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial
     if radial_immersion is None:
         if ri0 is None:
             raise InputError(f"{field} milling", milling, "milling alone needs a config given by radial_immersion "
-                                                          "and milling; give radial_immersion too (or entry/exit angles)")
+                                                          "and milling; give radial_immersion too (or entry/exit "
+                                                          "angles)")
         radial_immersion = ri0
     mill = milling or mill0
     if mill is None:
@@ -557,6 +566,7 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
     return np.full(len(points), float(default_mm)) if f is None else np.where(np.isnan(f), float(default_mm), f)
 
 
-__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text", "cut_conditions",
-           "cut_feeds", "describe_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible",
-           "check_speeds", "grade_of_cell", "label_of_grade", "parse_label_codes"]
+__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text",
+           "cut_conditions", "cut_feeds", "describe_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS",
+           "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds", "grade_of_cell",
+           "label_of_grade", "parse_label_codes"]

@@ -7,7 +7,8 @@ raising :class:`Cancelled` from it (or using a :class:`CancelToken`) stops the w
 
 Inputs (:mod:`~millstab.api.inputs`): :func:`config`, :func:`config_from_text`, :func:`points`,
 :func:`points_from_text`, :func:`config_from_fields` / :func:`config_fields` (a form's fields),
-:func:`check_size` (an upload's size, before reading it), :func:`speeds`, :func:`modal` (a measured FRF → its fitted modes).
+:func:`check_size` (an upload's size, before reading it), :func:`speeds`, :func:`modal` (a measured FRF → its fitted
+modes).
 
 Tasks: :func:`lobes` (SLD, any registered engine), :func:`identify`, :func:`design` (next test speeds),
 :func:`update` / :func:`p_stable` / :func:`recommend` (Bayesian updating and decisions),

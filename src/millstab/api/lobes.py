@@ -73,12 +73,12 @@ class Lobes:
         """What the command prints: the speeds, the engine and the minimum limit; with ``compare`` the
         largest and mean relative difference of the two engines (one line each)."""
         r, d = self.minimum()
-        lines = [f"{self.config.name}: {self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm ({self.engine}); "
-                 f"minimum limit {d:.4g} mm at {r:.6g} rpm"]
+        lines = [f"{self.config.name}: {self.rpm.size} speeds {self.rpm.min():g}..{self.rpm.max():g} rpm "
+                 f"({self.engine}); minimum limit {d:.4g} mm at {r:.6g} rpm"]
         diff = self.difference()
         if diff is not None:
-            lines.append(f"{self.compare} vs {self.engine}: max |difference| {100 * diff[0]:.2f} % at {diff[1]:.6g} rpm, "
-                         f"mean {100 * diff[2]:.2f} %")
+            lines.append(f"{self.compare} vs {self.engine}: max |difference| {100 * diff[0]:.2f} % at {diff[1]:.6g} "
+                         f"rpm, mean {100 * diff[2]:.2f} %")
         return "\n".join(lines)
 
     def figure(self, ax=None, *, points: PointSet | None = None, lobes=None):
@@ -151,7 +151,8 @@ def raw_lobes(cfg: Config, rpm: np.ndarray, engine: str = "zoa") -> list:
     eng = get_engine(engine)
     if getattr(eng, "lobes", None) is None:
         with_lobes = [n for n in ENGINES if getattr(get_engine(n), "lobes", None) is not None]
-        raise InputError("--raw-lobes", engine, f"needs an engine that draws individual lobes ({', '.join(with_lobes)})")
+        raise InputError("--raw-lobes", engine,
+                         f"needs an engine that draws individual lobes ({', '.join(with_lobes)})")
     return eng.lobes(cfg.structure, cfg.cutting, float(np.min(rpm)), float(np.max(rpm)))
 
 

@@ -4,11 +4,14 @@ input order; with labelled cuts, their scores against the written labels."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from millstab.points import PointSet
+
+#: the ``"schema"`` of :meth:`Prediction.to_json`
+SCHEMA = "millstab.prediction/1"
 
 
 @dataclass(frozen=True)
@@ -25,13 +28,47 @@ class Prediction:
         condition: (n,) str, the cutting condition each prediction is computed for ("a/D 0.25 up milling,
             4 teeth"): the cut's own condition columns, else the posterior's (target) condition; ``None``
             when every cut is in the one condition the posterior was trained in (the table has no column).
+        provenance: what it was made from, ``{"config": the posterior's config name, "points": the cuts file}``
+            (each where known; top-level keys of its JSON).
     """
+
+    SCHEMA = SCHEMA
 
     cuts: PointSet
     p_stable: np.ndarray
     p_label_chatter: np.ndarray
     warnings: tuple[str, ...] = ()
     condition: np.ndarray | None = None
+    provenance: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """The predictions as plain JSON (``"schema"``): the cuts (:func:`millstab.jsondoc.points_out`),
+        ``p_stable`` and ``p_label_chatter`` per cut, the posterior's warnings, the condition per cut (or null) and
+        the provenance."""
+        from millstab.jsondoc import floats_out, points_out
+
+        return {"schema": SCHEMA, "cuts": points_out(self.cuts), "p_stable": floats_out(self.p_stable, "p_stable"),
+                "p_label_chatter": floats_out(self.p_label_chatter, "p_label_chatter"), "warnings": list(self.warnings),
+                "condition": None if self.condition is None else [str(c) for c in self.condition],
+                **{k: str(v) for k, v in self.provenance.items()}}
+
+    @classmethod
+    def from_json(cls, doc: dict, source: str = "prediction") -> Prediction:
+        """Rebuild predictions from :meth:`to_json` output.
+
+        Raises:
+            InputError: another schema, or a missing or malformed field (named ``source: field``).
+        """
+        from millstab.jsondoc import check_schema, floats_in, names_in, need, points_in
+
+        check_schema(doc, SCHEMA, source)
+        cond = doc.get("condition")
+        return cls(points_in(need(doc, "cuts", source, dict), f"{source}: cuts"),
+                   floats_in(need(doc, "p_stable", source), f"{source}: p_stable", 1),
+                   floats_in(need(doc, "p_label_chatter", source), f"{source}: p_label_chatter", 1),
+                   names_in(need(doc, "warnings", source), f"{source}: warnings"),
+                   None if cond is None else np.array(names_in(cond, f"{source}: condition"), dtype=object),
+                   {k: need(doc, k, source, str) for k in ("config", "points") if k in doc})
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the CSV: rpm, depth_mm, label (when any cut is labelled; the written class,
@@ -74,7 +111,8 @@ class Prediction:
             return None
         g = self.cuts.grade[m]
         p = self.p_label_chatter[m]
-        return {"n": int(m.sum()), "brier": float(np.mean((p - g) ** 2)), "brier_rate": float(np.mean((g.mean() - g) ** 2))}
+        return {"n": int(m.sum()), "brier": float(np.mean((p - g) ** 2)),
+                "brier_rate": float(np.mean((g.mean() - g) ** 2))}
 
 
 def predict(post, cuts: PointSet) -> Prediction:
@@ -101,7 +139,9 @@ def predict(post, cuts: PointSet) -> Prediction:
     one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)
     if one and not cuts.has_conditions:  # the posterior's one condition throughout: the table as ever
         text = None
-    return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text)
+    made = {"config": post.provenance.get("config"), "points": None if cuts.source is None else str(cuts.source)}
+    return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text,
+                      {k: v for k, v in made.items() if v is not None})
 
 
-__all__ = ["Prediction", "predict"]
+__all__ = ["SCHEMA", "Prediction", "predict"]

@@ -144,7 +144,8 @@ def parse_eps(method: str, text: str | None) -> np.ndarray | float | None:
             return np.round(start + step * np.arange(int(np.floor((stop - start) / step + 1e-9)) + 1), 12) + 0.0
         return np.array([float(p) for p in text.split(",") if p.strip()])
     except ValueError:
-        raise InputError("--eps", text, "for oat: START:STOP:STEP with STEP > 0, or a comma list, e.g. -0.25:0.25:0.05") from None
+        raise InputError("--eps", text,
+                         "for oat: START:STOP:STEP with STEP > 0, or a comma list, e.g. -0.25:0.25:0.05") from None
 
 
 def parse_bounds(items: Sequence[str]) -> dict[str, tuple[float, float]]:
@@ -167,7 +168,8 @@ def parse_bounds(items: Sequence[str]) -> dict[str, tuple[float, float]]:
 
 
 def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = None, t: float | None = None,
-                eps: float | Sequence[float] | None = None, seed: int = 0, engine: str = "zoa", preset: str | None = None,
+                eps: float | Sequence[float] | None = None, seed: int = 0, engine: str = "zoa",
+                preset: str | None = None,
                 bounds: Mapping[str, tuple[float, float]] | None = None, levels: int = 4, client=None,
                 progress: Progress | None = None) -> Study:
     """Run one sensitivity study of the SLD of ``cfg`` at ``rpm`` [rev/min].
@@ -223,8 +225,8 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
         res = sa.sobol(cfg.structure, cfg.cutting, rpm, n=n_val, t=t_val, bounds=bounds or {}, seed=seed, progress=cb,
                        client=client, **common)
     else:
-        res = sa.morris(cfg.structure, cfg.cutting, rpm, trajectories=n_val, levels=levels, t=t_val, bounds=bounds or {},
-                        seed=seed, progress=cb, client=client, **common)
+        res = sa.morris(cfg.structure, cfg.cutting, rpm, trajectories=n_val, levels=levels, t=t_val,
+                        bounds=bounds or {}, seed=seed, progress=cb, client=client, **common)
     return Study(method, res, **context)
 
 

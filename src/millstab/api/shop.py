@@ -141,8 +141,9 @@ def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | Non
     if shops is None:  # the command line: every campaign; --shop names a new campaign's shop
         have = store.campaign_shop(campaign) if shop is not None else None
         if have is not None and have != shop:
-            raise InputError("--shop", shop, f"campaign {campaign!r} belongs to shop {have!r} (a campaign's shop is set "
-                                             "when it is created; to move it: campaign export, then import --shop)")
+            raise InputError("--shop", shop,
+                             f"campaign {campaign!r} belongs to shop {have!r} (a campaign's shop is set "
+                             "when it is created; to move it: campaign export, then import --shop)")
         return shop
     have = store.campaign_shop(campaign)
     allowed = list(dict.fromkeys(shops))
@@ -429,6 +430,7 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView", "Shops", "already_recorded",
-           "campaigns", "check", "config_text", "cut_table", "current_posterior", "export_campaign", "history", "history_table", "import_campaign",
-           "open_db", "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]
+__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView",
+           "Shops", "already_recorded", "campaigns", "check", "config_text", "cut_table", "current_posterior",
+           "export_campaign", "history", "history_table", "import_campaign", "open_db", "posterior_from_db",
+           "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

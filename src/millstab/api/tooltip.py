@@ -21,6 +21,8 @@ from millstab.tooltip.holder import Holder
 
 #: modes reported per stickout
 N_MODES = 3
+#: the ``"schema"`` of :meth:`TipFRF.to_json`
+SCHEMA = "millstab.tooltip.tip/1"
 #: speeds of the sweep when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 30000.0, 50.0)
 
@@ -76,6 +78,51 @@ class TipFRF:
     sweep: StickoutSweep | None = None
     g_y: np.ndarray | None = None
 
+    SCHEMA = SCHEMA
+
+    def to_json(self) -> dict:
+        """The tip FRF as plain JSON (``"schema"``; SI: Hz, m/N, m): what it was computed from (the config's name,
+        cutting and structure, :func:`millstab.jsondoc.config_out`; the tool and the holder, field by field), the
+        receptances ``{"re", "im"}``, its modes (NaN where fewer peaks lie in the band) and the sweep, if any."""
+        from millstab.jsondoc import complex_out, config_out, fields_out, floats_out
+
+        c = self.config
+        return {"schema": SCHEMA, "config": config_out(c), "speeds": floats_out(c.rpm, "speeds"),
+                "diameter_m": c.diameter_m, "feed_per_tooth_m": c.feed_per_tooth_m, "tool": _tool_out(self.tool),
+                "holder": _holder_out(self.holder), "freq_hz": floats_out(self.freq_hz, "freq_hz"),
+                "g": complex_out(self.g, "g"), "g_y": complex_out(self.g_y, "g_y"),
+                "fn_hz": floats_out(self.fn_hz, "fn_hz", nan_ok=True),
+                "peak": floats_out(self.peak, "peak", nan_ok=True),
+                "sweep": None if self.sweep is None else fields_out(self.sweep, "millstab.tooltip.sweep/1")}
+
+    @classmethod
+    def from_json(cls, doc: dict, source: str = "tip") -> TipFRF:
+        """Rebuild a tip FRF from :meth:`to_json` output (its config with the tool and holder as ``tooltip``).
+
+        Raises:
+            InputError: another schema, or a missing or malformed field (named ``source: field``).
+        """
+        import dataclasses
+
+        from millstab.jsondoc import check_schema, complex_in, config_in, fields_in, floats_in, need
+
+        check_schema(doc, SCHEMA, source)
+        tool = _tool_in(need(doc, "tool", source, dict), f"{source}: tool")
+        holder = _holder_in(need(doc, "holder", source), f"{source}: holder")
+        speeds = doc.get("speeds")
+        cfg = dataclasses.replace(config_in(need(doc, "config", source), f"{source}: config"),
+                                  rpm=None if speeds is None else floats_in(speeds, f"{source}: speeds"),
+                                  tooltip=(tool, holder), diameter_m=doc.get("diameter_m"),
+                                  feed_per_tooth_m=doc.get("feed_per_tooth_m"))
+        sweep = doc.get("sweep")
+        return cls(cfg, tool, holder, floats_in(need(doc, "freq_hz", source), f"{source}: freq_hz"),
+                   complex_in(need(doc, "g", source), f"{source}: g"),
+                   floats_in(need(doc, "fn_hz", source), f"{source}: fn_hz", nan_ok=True),
+                   floats_in(need(doc, "peak", source), f"{source}: peak", nan_ok=True),
+                   None if sweep is None else fields_in(StickoutSweep, sweep, "millstab.tooltip.sweep/1",
+                                                        f"{source}: sweep"),
+                   complex_in(doc.get("g_y"), f"{source}: g_y"))
+
     def table(self, direction: str = "x") -> tuple[list[str], list]:
         """(header, columns) of the FRF CSV configs read: freq_hz, real, imag [Hz, m/N], of x (or ``"y"``)."""
         g = self.g_y if direction == "y" and self.g_y is not None else self.g
@@ -106,15 +153,79 @@ class TipFRF:
         s = self.sweep
         if s is not None:
             b = s.best()
-            lines.append(f"  stickout {s.stickout[0] * 1e3:g}..{s.stickout[-1] * 1e3:g} mm ({s.stickout.size}), {s.engine}, "
-                         f"{s.rpm.size} speeds: highest minimum limit {s.min_depth_mm[b]:.4g} mm at {s.stickout[b] * 1e3:g} mm "
-                         f"stickout; {s.min_depth_mm[-1]:.4g} mm at {s.stickout[-1] * 1e3:g} mm")
+            lines.append(f"  stickout {s.stickout[0] * 1e3:g}..{s.stickout[-1] * 1e3:g} mm ({s.stickout.size}), "
+                         f"{s.engine}, {s.rpm.size} speeds: highest minimum limit {s.min_depth_mm[b]:.4g} mm at "
+                         f"{s.stickout[b] * 1e3:g} mm stickout; {s.min_depth_mm[-1]:.4g} mm at "
+                         f"{s.stickout[-1] * 1e3:g} mm")
             lines.append("  stickout [mm]   fn1 [Hz]   fn2 [Hz]   peak1 [um/N]   min b_lim [mm]   at [rpm]")
             for i in range(s.stickout.size):
                 mark = "  <- best" if i == b else ""
                 lines.append(f"  {s.stickout[i] * 1e3:13.4g}   {s.fn_hz[i, 0]:8.5g}   {s.fn_hz[i, 1]:8.5g}   "
                              f"{s.peak[i, 0] * 1e6:12.4g}   {s.min_depth_mm[i]:14.4g}   {s.rpm_at_min[i]:8.6g}{mark}")
         return "\n".join(lines)
+
+
+def _tool_out(t: Tool) -> dict:
+    """A tool field by field (SI), its material by name and constants."""
+    m = t.material
+    return {"diameter": t.diameter, "stickout": t.stickout, "fluted_length": t.fluted_length,
+            "flute_ratio": t.flute_ratio, "zeta": t.zeta, "elements": t.elements,
+            "material": {"name": m.name, "E": m.E, "density": m.density, "nu": m.nu, "source": m.source}}
+
+
+def _tool_in(doc: dict, source: str) -> Tool:
+    """The inverse of :func:`_tool_out` (the tool validates itself: InputError)."""
+    from millstab.jsondoc import int_in, need, number_in
+    from millstab.tooltip.beam import Material
+
+    m = need(doc, "material", source, dict)
+    mat = Material(need(m, "name", f"{source}.material", str),
+                   *(number_in(need(m, k, f"{source}.material"), f"{source}.material.{k}")
+                     for k in ("E", "density", "nu")),
+                   m.get("source", ""))
+    num = {k: number_in(need(doc, k, source), f"{source}.{k}")
+           for k in ("diameter", "stickout", "fluted_length", "flute_ratio", "zeta")}
+    return Tool(num["diameter"], num["stickout"], mat, num["fluted_length"], num["flute_ratio"], num["zeta"],
+                int_in(need(doc, "elements", source), f"{source}.elements"))
+
+
+def _holder_out(h) -> dict:
+    """A holder by its kind: rigid, modal (face modes), measured (receptances ``{"re", "im"}``) or x/y."""
+    from millstab.jsondoc import complex_out, floats_out
+    from millstab.tooltip.holder import MeasuredHolder, ModalHolder, RigidHolder
+
+    if isinstance(h, RigidHolder):
+        return {"kind": "rigid"}
+    if isinstance(h, ModalHolder):
+        return {"kind": "modal", "modes": [{"fn": m.fn, "k": m.k, "zeta": m.zeta, "slope": m.slope} for m in h.modes]}
+    if isinstance(h, MeasuredHolder):
+        return {"kind": "measured", "freq_hz": floats_out(h.freq_hz, "holder.freq_hz"), "source": h.source,
+                **{t: complex_out(getattr(h, t), f"holder.{t}") for t in ("h", "l", "n", "p")}}
+    if isinstance(h, XYHolder):
+        return {"kind": "xy", "x": _holder_out(h.x), "y": _holder_out(h.y)}
+    raise TypeError(f"holder: cannot write a {type(h).__name__} to JSON")
+
+
+def _holder_in(doc, source: str):
+    """The inverse of :func:`_holder_out`."""
+    from millstab.jsondoc import complex_in, floats_in, need, number_in
+    from millstab.tooltip.holder import FaceMode, MeasuredHolder, ModalHolder, RigidHolder
+
+    kind = need(doc, "kind", source, str)
+    if kind == "rigid":
+        return RigidHolder()
+    if kind == "modal":
+        return ModalHolder(tuple(FaceMode(*(number_in(need(m, k, f"{source}.modes[{i}]"), f"{source}.modes[{i}].{k}")
+                                            for k in ("fn", "k", "zeta", "slope")))
+                                 for i, m in enumerate(need(doc, "modes", source, list))))
+    if kind == "measured":
+        return MeasuredHolder(floats_in(need(doc, "freq_hz", source), f"{source}.freq_hz"),
+                              *(complex_in(need(doc, t, source), f"{source}.{t}") for t in ("h", "l", "n", "p")),
+                              need(doc, "source", source, str))
+    if kind == "xy":
+        return XYHolder(_holder_in(need(doc, "x", source), f"{source}.x"),
+                        _holder_in(need(doc, "y", source), f"{source}.y"))
+    raise InputError(f"{source}.kind", kind, "rigid, modal, measured or xy")
 
 
 def stickouts_mm(spec: str | np.ndarray | None, field: str = "--stickout") -> np.ndarray | None:
@@ -183,5 +294,5 @@ def tip_figure(result: TipFRF):
     return result.figure()
 
 
-__all__ = ["FALLBACK_RPM", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure", "tip_frf",
-           "tool_config"]
+__all__ = ["FALLBACK_RPM", "SCHEMA", "StickoutSweep", "TipFRF", "stickout_sweep", "stickouts_mm", "tip_figure",
+           "tip_frf", "tool_config"]

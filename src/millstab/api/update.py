@@ -22,7 +22,7 @@ MAX_MAP_CELLS = 5_000_000
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
            seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto",
-           stickout_mm=None):
+           stickout_mm=None, engine_options: dict | None = None):
     """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
@@ -32,7 +32,9 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     ``stickout_mm``: the tool's stickout [mm] of each row of ``cuts`` (NaN: the config's; default the cuts'
     ``stickout_mm`` column, :func:`millstab.io.stickout.stickouts`, if they have one). A ``[tool]`` +
     ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
-    stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`).
+    stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`);
+    ``engine_options``: the engine's discretisation for the whole update, e.g. ``{"steps": 40}`` for sdm
+    (:func:`millstab.forward.engine_options`).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
@@ -61,7 +63,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
 
         check_client(client)
     post = run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client, sampler=sampler, stickout=stickout)
+                      client=client, sampler=sampler, stickout=stickout, engine_options=engine_options)
     return dataclasses.replace(post, provenance={"config": cfg.name})  # in its JSON: the same from every door
 
 
@@ -120,8 +122,8 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
         if a is not None and not (np.isfinite(a) and 0 <= a <= 180):
             raise InputError(opt, a, "an angle in [0, 180] deg")
     if (entry_deg is None) != (exit_deg is None):
-        raise InputError("--entry-deg" if exit_deg is None else "--exit-deg", entry_deg if exit_deg is None else exit_deg,
-                         "give --entry-deg and --exit-deg together")
+        raise InputError("--entry-deg" if exit_deg is None else "--exit-deg",
+                         entry_deg if exit_deg is None else exit_deg, "give --entry-deg and --exit-deg together")
     if entry_deg is not None and entry_deg >= exit_deg:
         raise InputError("--entry-deg", entry_deg, f"less than --exit-deg ({exit_deg:g})")
     if entry_deg is not None and (radial_immersion is not None or milling is not None or radial_width_mm is not None):
@@ -173,7 +175,8 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None) -> np.nda
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
-                         f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max {MAX_MAP_CELLS:.0e})")
+                         f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max "
+                         f"{MAX_MAP_CELLS:.0e})")
     warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), "the map", stacklevel=3)
     if client is not None:
         from millstab.cluster import check_client

@@ -24,20 +24,32 @@ HELP = (
 
 @app.command(help=HELP)
 def design(
-    config: str = typer.Argument(..., help="TOML config (cutting conditions, starting structure, speeds table), or example:NAME."),
+    config: str = typer.Argument(...,
+                                 help="TOML config (cutting conditions, starting structure, speeds table), or "
+                                      "example:NAME."),
     n: int = typer.Option(20, "--n", help="Number of tests to plan (a speed may get several: independent repeats)."),
-    points: Optional[Path] = typer.Option(None, "--points", help="Boundary points already measured (CSV rpm,depth_mm[,label][,weight])."),
-    fit: Optional[Path] = typer.Option(None, "--fit", help="A fit JSON (millstab identify --out): plan around its estimate, covariance and alternatives."),
-    rpm: Optional[str] = typer.Option(None, "--rpm", help="Candidate speeds START:STOP:STEP in rev/min (default: the range of the config's speeds table)."),
-    target: Optional[str] = typer.Option(None, "--target", help="Parameters to pin, e.g. fn_x,fn_y (default: every free one)."),
-    free: Optional[str] = typer.Option(None, "--free", help="Free parameters without --fit, e.g. fn_x,k_x,zeta_x (default: all)."),
+    points: Optional[Path] = typer.Option(None, "--points",
+                                          help="Boundary points already measured (CSV rpm,depth_mm[,label][,weight])."),
+    fit: Optional[Path] = typer.Option(None, "--fit",
+                                       help="A fit JSON (millstab identify --out): plan around its estimate, "
+                                            "covariance and alternatives."),
+    rpm: Optional[str] = typer.Option(None, "--rpm",
+                                      help="Candidate speeds START:STOP:STEP in rev/min (default: the range of the "
+                                           "config's speeds table)."),
+    target: Optional[str] = typer.Option(None, "--target",
+                                         help="Parameters to pin, e.g. fn_x,fn_y (default: every free one)."),
+    free: Optional[str] = typer.Option(None, "--free",
+                                       help="Free parameters without --fit, e.g. fn_x,k_x,zeta_x (default: all)."),
     axisymmetric: bool = typer.Option(False, "--axisymmetric", help="Tie x and y (without --fit)."),
-    noise: float = typer.Option(0.02, "--noise", help="Relative standard deviation of a measured limiting depth (0.02 = 2 %)."),
-    speed_noise: float = typer.Option(0.005, "--speed-noise", help="Relative uncertainty of the boundary's speed (0.005 = 0.5 %)."),
+    noise: float = typer.Option(0.02, "--noise",
+                                help="Relative standard deviation of a measured limiting depth (0.02 = 2 %)."),
+    speed_noise: float = typer.Option(0.005, "--speed-noise",
+                                      help="Relative uncertainty of the boundary's speed (0.005 = 0.5 %)."),
     samples: int = typer.Option(16, "--samples", help="Parameter samples the plan averages over."),
     seed: int = seed_option(0, "Seed of the parameter samples (same seed, same plan)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the plan as CSV: rpm,tests,predicted_depth_mm."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="The SLD with the planned and measured speeds (.png/.svg/.pdf)."),
+    plot: Optional[Path] = typer.Option(None, "--plot",
+                                        help="The SLD with the planned and measured speeds (.png/.svg/.pdf)."),
 ) -> None:
     """``millstab design`` (help: :data:`HELP`)."""
     from rich.console import Console
@@ -56,7 +68,8 @@ def design(
         typer.echo(note)
     pts = read_points(points) if points is not None else None
     fit_doc = read_json(fit) if fit is not None else None
-    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit), rpm=api.parse_rpm_range(rpm) if rpm else None,
+    plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit),
+                      rpm=api.parse_rpm_range(rpm) if rpm else None,
                       target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
                       samples=samples, seed=seed)
     console = Console()

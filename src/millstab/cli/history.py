@@ -65,8 +65,10 @@ def history_cmd(
     db: str = DbOpt,
     campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign (default: all)."),
     limit: int = typer.Option(50, "--limit", help="Show the newest LIMIT events."),
-    before: Optional[int] = typer.Option(None, "--before", help="Only events older than this event id (the next page)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Also write the events as CSV id,at,user,campaign,action,detail."),
+    before: Optional[int] = typer.Option(None, "--before",
+                                         help="Only events older than this event id (the next page)."),
+    out: Optional[Path] = typer.Option(None, "--out",
+                                       help="Also write the events as CSV id,at,user,campaign,action,detail."),
 ) -> None:
     """List what happened in a shop database, newest first: campaigns created, cuts, updates, recommendations."""
     from rich.console import Console

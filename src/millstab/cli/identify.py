@@ -17,9 +17,12 @@ LOOSE = 0.05
 
 @app.command()
 def identify(
-    config: str = typer.Argument(..., help="TOML config (cutting conditions + starting modal structure), or example:NAME."),
-    points: Path = typer.Argument(..., help="Points CSV rpm,depth_mm[,label][,weight]; unlabelled rows are boundary points."),
-    method: str = typer.Option("lsq", "--method", help="lsq (multi-start trust-region least squares) or newton (the paper's scheme)."),
+    config: str = typer.Argument(...,
+                                 help="TOML config (cutting conditions + starting modal structure), or example:NAME."),
+    points: Path = typer.Argument(..., help="Points CSV rpm,depth_mm[,label][,weight]; unlabelled rows are "
+                                            "boundary points."),
+    method: str = typer.Option("lsq", "--method",
+                               help="lsq (multi-start trust-region least squares) or newton (the paper's scheme)."),
     free: Optional[str] = typer.Option(None, "--free", help="Free parameters, e.g. fn_x,k_x,zeta_x (default: all)."),
     axisymmetric: bool = typer.Option(False, "--axisymmetric", help="Tie x and y (parameters fn, k, zeta)."),
     initial: Optional[str] = typer.Option(None, "--initial", help="Start values in SI, e.g. fn_x=900,k_x=12e6."),

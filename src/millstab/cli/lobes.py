@@ -21,9 +21,12 @@ def lobes(
     rpm_file: Optional[Path] = typer.Option(None, "--rpm-file", help="Speeds, one per line or an 'rpm' CSV column."),
     out: Optional[Path] = typer.Option(None, "--out", help="CSV: rpm,blim_mm,lobe,chatter_hz."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
-    points: Optional[Path] = typer.Option(None, "--points", help="Measured points CSV rpm,depth_mm[,label] to overlay."),
+    points: Optional[Path] = typer.Option(None, "--points",
+                                          help="Measured points CSV rpm,depth_mm[,label] to overlay."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)}."),
-    compare: Optional[str] = typer.Option(None, "--compare", help=f"Overlay a second engine ({', '.join(ENGINES)}) and report the difference."),
+    compare: Optional[str] = typer.Option(None, "--compare",
+                                          help=f"Overlay a second engine ({', '.join(ENGINES)}) and report the "
+                                               "difference."),
     raw: bool = typer.Option(False, "--raw-lobes", help="Draw the individual lobes (zoa) under the envelope."),
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""

@@ -15,16 +15,22 @@ FALLBACK_RPM = (2000.0, 12000.0, 20.0)
 
 @app.command()
 def modal(
-    frf_x: Path = typer.Argument(..., help="Drive-point FRF of x (.csv freq_hz,real,imag in m/N, CutPro .frf, .uff/.unv)."),
+    frf_x: Path = typer.Argument(...,
+                                 help="Drive-point FRF of x (.csv freq_hz,real,imag in m/N, CutPro .frf, .uff/.unv)."),
     frf_y: Optional[Path] = typer.Argument(None, help="Drive-point FRF of y (omit: y rigid)."),
     out: Path = typer.Option(..., "--out", help="TOML file with the fitted [structure] section."),
-    band: Optional[str] = typer.Option(None, "--band", help="Frequency band A:B [Hz] to fit (default: the whole file)."),
-    modes: str = typer.Option("auto", "--modes", help="Modes per direction: auto (stabilisation diagram), N, or NX,NY."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Figure: fit, phase, stabilisation diagram (and SLD check)."),
+    band: Optional[str] = typer.Option(None, "--band",
+                                       help="Frequency band A:B [Hz] to fit (default: the whole file)."),
+    modes: str = typer.Option("auto", "--modes",
+                              help="Modes per direction: auto (stabilisation diagram), N, or NX,NY."),
+    plot: Optional[Path] = typer.Option(None, "--plot",
+                                        help="Figure: fit, phase, stabilisation diagram (and SLD check)."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Fit quality as JSON (schema millstab.modal/1)."),
-    config: Optional[str] = typer.Option(None, "--config", help="Config whose [cutting] runs the SLD check (fit vs measured FRF)."),
+    config: Optional[str] = typer.Option(None, "--config",
+                                         help="Config whose [cutting] runs the SLD check (fit vs measured FRF)."),
     rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP of the SLD check (rev/min)."),
-    record_x: Optional[int] = typer.Option(None, "--record-x", help="UFF record of FRF_X (0-based among its dataset-58 records)."),
+    record_x: Optional[int] = typer.Option(None, "--record-x",
+                                           help="UFF record of FRF_X (0-based among its dataset-58 records)."),
     record_y: Optional[int] = typer.Option(None, "--record-y", help="UFF record of FRF_Y."),
     frf_type: str = typer.Option("auto", "--frf-type", help="What the files hold: auto (told from phase and slope; "
                                  "mobility and accelerance are refused, naming the conversion), receptance (m/N), "

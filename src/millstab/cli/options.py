@@ -49,8 +49,9 @@ def samples_option(default: int, help: str) -> Any:
 
 
 DaskOpt = Annotated[Optional[str], typer.Option(
-    "--dask", metavar="ADDRESS", help="Run on the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786); "
-                                      "needs millstab[dask]. Same numbers as a local run.")]
+    "--dask", metavar="ADDRESS",
+    help="Run on the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786); "
+         "needs millstab[dask]. Same numbers as a local run.")]
 WorkersOpt = Annotated[Optional[int], typer.Option(
     "--workers", help="Run on a local Dask cluster of N worker processes started for this run; needs millstab[dask]. "
                       "Same numbers as a local run.")]

@@ -18,8 +18,9 @@ from millstab.errors import InputError
 
 @app.command("predict")
 def predict_cmd(
-    posterior: Path = typer.Argument(..., help="Posterior JSON from millstab update (with --db/--campaign: leave it out "
-                                              "and give CUTS alone)."),
+    posterior: Path = typer.Argument(...,
+                                     help="Posterior JSON from millstab update (with --db/--campaign: leave it out "
+                                          "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order "

@@ -17,9 +17,14 @@ REPORT_KINDS = (".md", ".html", ".csv", ".png")
 
 @app.command()
 def reproduce(
-    out: Path = typer.Option(Path("millstab-report"), "--out", help="Output folder for report.md/.html, figures, CSVs."),
-    quick: bool = typer.Option(False, "--quick", help="Smaller Monte Carlo, fewer identification starts, SDM only on coarse grids (no SDM cross-check of the examples): a faster run."),
-    points: Optional[Path] = typer.Option(None, "--points", help="The four-flute chatter tests, if you have them (CSV rpm,depth_mm[,label])."),
+    out: Path = typer.Option(Path("millstab-report"), "--out",
+                             help="Output folder for report.md/.html, figures, CSVs."),
+    quick: bool = typer.Option(False, "--quick",
+                               help="Smaller Monte Carlo, fewer identification starts, SDM only on coarse grids (no "
+                                    "SDM cross-check of the examples): a faster run."),
+    points: Optional[Path] = typer.Option(None, "--points",
+                                          help="The four-flute chatter tests, if you have them (CSV "
+                                               "rpm,depth_mm[,label])."),
     seed: int = seed_option(0, "Seed of every random process in the run."),
 ) -> None:
     """Reproduce the seed paper's tables and figures, our values beside the paper's."""

@@ -49,8 +49,9 @@ SeedOpt = Annotated[int, typer.Option("--seed", help="Random seed; same seed, sa
                                       callback=seed_callback)]
 TOpt = Annotated[Optional[float], typer.Option("--t", help="Neighbourhood half-width: each parameter drawn from "
                                                          "[(1-t)p, (1+t)p] (0.1).")]
-BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI", help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
-                                                             "parameter, e.g. fn_x=850:950; repeatable.")]
+BoundOpt = Annotated[List[str], typer.Option("--bound", metavar="NAME=LO:HI",
+                                             help="NAME=LOWER:UPPER [SI] replacing the ±t range of one "
+                                                  "parameter, e.g. fn_x=850:950; repeatable.")]
 _CENTRE = "centre on the paper's predicted parameters (its Table 3, Newton results) when CONFIG is its Ex.1, 2 or 3"
 
 
@@ -79,7 +80,8 @@ def mc_command(
     rpm_file: RpmFileOpt = None,
     n: Annotated[Optional[int], typer.Option("--n", help="Monte Carlo paths (10000).")] = None,
     t: TOpt = None,
-    eps: Annotated[Optional[str], typer.Option("--eps", help="Relative change of a parameter on each path (0.01).")] = None,
+    eps: Annotated[Optional[str],
+                   typer.Option("--eps", help="Relative change of a parameter on each path (0.01).")] = None,
     seed: SeedOpt = 0,
     preset: Annotated[Optional[str], typer.Option("--preset", help=f"paper: {_CENTRE} (the defaults are the paper's "
                                                                    "N 10 000, t 0.1, eps 0.01).")] = None,
@@ -163,7 +165,8 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
     cfg, note = api.modal(cfg)  # a measured FRF: study its fitted modes (issue 14)
     if note:
         typer.echo(note)
-    label = {"mc": f"Monte Carlo, {n or api.SENSITIVITY_DEFAULT_N['mc']} paths"}.get(method, f"{method}: evaluating structures")
+    label = {"mc": f"Monte Carlo, {n or api.SENSITIVITY_DEFAULT_N['mc']} paths"}.get(
+        method, f"{method}: evaluating structures")
     with _client(dask, workers) as client, progress_bar(label) as bar:
         study = api.sensitivity(method, cfg, speeds, n=n, t=t, eps=eps_val, seed=seed, engine=engine, preset=preset,
                                 bounds=bounds, levels=levels, client=client, progress=engine_progress(bar))

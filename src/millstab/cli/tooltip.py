@@ -14,13 +14,22 @@ from millstab.cli.app import app, engine_progress, progress_bar
 @app.command()
 def tooltip(
     config: str = typer.Argument(..., help="TOML config with [tool] and [holder] (docs/tooltip.md)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Tip FRF CSV freq_hz,real,imag (Hz, m/N): what [structure.frf] reads (x)."),
-    out_y: Optional[Path] = typer.Option(None, "--out-y", help="The y tip FRF, where [holder.x] and [holder.y] differ."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf): tip FRF and, with --stickout, which stickout."),
-    stickout: Optional[str] = typer.Option(None, "--stickout", help="Stickouts START:STOP:STEP [mm]: modes and minimum limiting depth per stickout."),
-    sweep_out: Optional[Path] = typer.Option(None, "--sweep-out", help="CSV of the sweep: stickout_mm, fn*_hz, peak*_um_per_n, min_blim_mm, rpm_at_min."),
+    out: Optional[Path] = typer.Option(None, "--out",
+                                       help="Tip FRF CSV freq_hz,real,imag (Hz, m/N): what [structure.frf] reads (x)."),
+    out_y: Optional[Path] = typer.Option(None, "--out-y",
+                                         help="The y tip FRF, where [holder.x] and [holder.y] differ."),
+    plot: Optional[Path] = typer.Option(None, "--plot",
+                                        help="Figure (.png, .svg or .pdf): tip FRF and, with --stickout, which "
+                                             "stickout."),
+    stickout: Optional[str] = typer.Option(None, "--stickout",
+                                           help="Stickouts START:STOP:STEP [mm]: modes and minimum limiting depth per "
+                                                "stickout."),
+    sweep_out: Optional[Path] = typer.Option(None, "--sweep-out",
+                                             help="CSV of the sweep: stickout_mm, fn*_hz, peak*_um_per_n, min_blim_mm, "
+                                                  "rpm_at_min."),
     rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP of the sweep (rev/min)."),
-    engine: str = typer.Option("zoa", "--engine", help="Stability engine of the sweep (one that takes a measured FRF: zoa)."),
+    engine: str = typer.Option("zoa", "--engine",
+                               help="Stability engine of the sweep (one that takes a measured FRF: zoa)."),
 ) -> None:
     """Predict the tool-tip FRF of CONFIG's tool in its holder; write it as CSV, and with --stickout the
     minimum limiting depth per stickout."""

@@ -30,7 +30,9 @@ def _load_posterior(path: Path):
 
 @app.command("update")
 def update_cmd(
-    config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
+    config: str = typer.Argument(...,
+                                 help="TOML config: cutting conditions, hammer-test modes (the prior), optional "
+                                      "[prior]."),
     cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal, "
                                           "a probability of chatter, or a code (--labels); label_NAME per rater."),
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
@@ -133,7 +135,8 @@ def map_cmd(
     rpm: str = typer.Option(..., "--rpm", help="Speeds START:STOP:STEP [rpm]."),
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
     out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
+    plot: Optional[Path] = typer.Option(None, "--plot",
+                                        help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
     stickout: StickoutOpt = None,
     dask: DaskOpt = None,
     workers: WorkersOpt = None,
@@ -166,6 +169,7 @@ def map_cmd(
     if plot:
         from millstab.io.figures import save_figure
 
-        fig = api.map_figure(post, speeds, depths, pm, title=f"P(stable) from {posterior.name if posterior else campaign}")
+        fig = api.map_figure(post, speeds, depths, pm,
+                             title=f"P(stable) from {posterior.name if posterior else campaign}")
         save_figure(fig, plot, protect=protect)
         con.print(f"wrote {plot}")

@@ -15,7 +15,9 @@ from millstab.cli.update import LABELS_HELP
 
 @app.command("validate")
 def validate_cmd(
-    config: str = typer.Argument(..., help="TOML config: cutting conditions, hammer-test modes (the prior), optional [prior]."),
+    config: str = typer.Argument(...,
+                                 help="TOML config: cutting conditions, hammer-test modes (the prior), optional "
+                                      "[prior]."),
     cuts: Path = typer.Argument(..., help="Labelled cuts CSV (as for millstab update)."),
     folds: int = typer.Option(5, "--folds", help="Random folds (and speed bands when there are many speeds)."),
     seed: int = seed_option(0, "Seed of the folds and the updates."),
@@ -24,7 +26,8 @@ def validate_cmd(
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     batch_effect: Optional[str] = typer.Option(None, "--batch-effect", help="σ of a test day's shift of every natural "
                                                "frequency in the updates, e.g. 3% (as update --batch-effect)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="JSON: the scores per scheme and method, folds, predictions."),
+    out: Optional[Path] = typer.Option(None, "--out",
+                                       help="JSON: the scores per scheme and method, folds, predictions."),
     predictions: Optional[Path] = typer.Option(None, "--predictions", help="CSV: each cut's held-out predictions."),
 ) -> None:
     """Cross-validated Brier, log loss and AUC of millstab beside the majority rate, logistic regression and kNN."""

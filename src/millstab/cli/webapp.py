@@ -45,10 +45,12 @@ def app_cmd(
     try:
         import panel  # noqa: F401
     except ImportError:
-        raise InputError("millstab app", "panel not installed", "install the app extra: pip install 'millstab[app]'") from None
+        raise InputError("millstab app", "panel not installed",
+                         "install the app extra: pip install 'millstab[app]'") from None
     from millstab.web import serve
 
-    serve(port=port, host=host, show=not no_browser, users={n: h for n, (h, _) in accounts.items()} if accounts else None,
+    serve(port=port, host=host, show=not no_browser,
+          users={n: h for n, (h, _) in accounts.items()} if accounts else None,
           db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None)
 
 

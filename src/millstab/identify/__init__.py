@@ -56,7 +56,8 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
         raise InputError("method", method, f"must be one of {', '.join(METHODS)}")
     noise = check_noise(noise)
     if not config.structure.is_modal:
-        raise InputError("structure", "measured FRF", "identification needs a modal starting structure ([[structure.x]] modes)")
+        raise InputError("structure", "measured FRF",
+                         "identification needs a modal starting structure ([[structure.x]] modes)")
     def problem_for(eng: str) -> Problem:
         return make_problem(config.structure, config.cutting, points, free=free, axisymmetric=axisymmetric,
                             initial=initial, bounds=bounds, engine=eng, residual=residual)

@@ -147,8 +147,8 @@ class SpeedDesign:
             head = (f"criterion (expected Σ σ² of the * parameters): the {self.rpm.size} tests evenly spaced over the "
                     "candidates are as good as any plan found, so they are the plan")
         else:
-            head = (f"criterion (expected Σ σ² of the * parameters): planned {self.criterion_design:.3g}, evenly spaced "
-                    f"{self.criterion_uniform:.3g} ({ratio:.2f}×)")
+            head = (f"criterion (expected Σ σ² of the * parameters): planned {self.criterion_design:.3g}, evenly "
+                    f"spaced {self.criterion_uniform:.3g} ({ratio:.2f}×)")
         lines.append(f"{head}; efficiency of these {self.rpm.size} tests ≥ {self.efficiency:.3f} against the best "
                      f"continuous design (that design itself ≥ {self.efficiency_continuous:.3f})")
         if (self.sigma_design_mean is not None and self.sigma_uniform_mean is not None
@@ -157,9 +157,10 @@ class SpeedDesign:
                          "gains elsewhere (use --target to pin the parameters that matter most)")
         if not np.all(np.isfinite(self.sigma_design)):
             lost = ", ".join(nm for nm, v in zip(self.names, self.sigma_design) if not np.isfinite(v))
-            lines.append(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical x "
-                         "and y modes in a symmetric cut); the plan serves the nearby structures it averages over. Use "
-                         "--axisymmetric to plan for tied x and y, or --fit to plan around an identified structure.")
+            lines.append(f"note: at the values shown {lost} are not determined by any boundary points (e.g. identical "
+                         "x and y modes in a symmetric cut); the plan serves the nearby structures it averages over. "
+                         "Use --axisymmetric to plan for tied x and y, or --fit to plan around an identified "
+                         "structure.")
         lines.append("planned speeds, rev/min (tests): "
                      + ", ".join(f"{r:.0f} ({c})" if c > 1 else f"{r:.0f}" for r, c, _ in self.tests()))
         return "\n".join(lines)
@@ -239,7 +240,8 @@ class SpeedDesign:
                                 nan_ok=name.startswith("criterion"))
                 for name in ("noise", "speed_noise", "efficiency", "efficiency_continuous", "criterion_design",
                              "criterion_uniform")}
-        return SpeedDesign(names=names, target=target, iterations=int_in(need(doc, "iterations", source), f"{source}: iterations"),
+        return SpeedDesign(names=names, target=target,
+                           iterations=int_in(need(doc, "iterations", source), f"{source}: iterations"),
                            samples=int_in(need(doc, "samples", source), f"{source}: samples"),
                            uniform=need(doc, "uniform", source, bool), **arrays, **nums)
 
@@ -455,7 +457,8 @@ class DesignOptions:
     def __post_init__(self) -> None:
         for field_name, v in (("noise", self.noise), ("speed_noise", self.speed_noise)):
             if not (math.isfinite(v) and v >= 0):
-                raise InputError(field_name, v, "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
+                raise InputError(field_name, v,
+                                 "a relative standard deviation must be a finite number >= 0 (0.02 = 2 %)")
         if self.noise == 0:
             raise InputError("noise", self.noise, "relative depth noise must be > 0 (0.02 = 2 %)")
         if not (isinstance(self.samples, (int, np.integer)) and self.samples >= 1):
@@ -585,7 +588,8 @@ def design_after_fit(fit, cutting: Cutting, candidates, n: int, **options) -> Sp
             raise InputError("fit", "fitted under other cutting conditions",
                              f"{diff}; plan with the conditions the fit's points were measured under")
     alts = [[a["estimate"][name] for name in fit.names] for a in fit.alternatives]
-    par, theta, cov, alts = fit_view(fit.par, cutting, fit.estimate, fit.std_errors, fit.correlation, alts, is_tied(fit))
+    par, theta, cov, alts = fit_view(fit.par, cutting, fit.estimate, fit.std_errors, fit.correlation, alts,
+                                     is_tied(fit))
     return design_speeds(par, cutting, candidates, n, theta=theta, cov_u=cov, alternatives=alts, **options)
 
 
@@ -612,7 +616,8 @@ def fit_view(par: Parameterization, cutting: Cutting, estimate, std_errors, corr
     return par, theta, cov, [np.asarray(a, float) for a in alternatives]
 
 
-def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
+def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray, hi: np.ndarray,
+             seed: int) -> np.ndarray:
     """ln θ samples (S, P): every centre (C, P) first, then draws N(centre, cov) taking turns over the
     centres, S = max(samples, C); clipped to [lo, hi]. An eigen-factor of cov, which may be singular."""
     rng = np.random.default_rng(seed)
@@ -623,7 +628,6 @@ def _samples(centres: np.ndarray, cov: np.ndarray, samples: int, lo: np.ndarray,
     return np.clip(np.vstack([centres, draws]), lo, hi)
 
 
-__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "DesignOptions", "SpeedDesign", "criterion", "design_after_fit", "design_speeds",
-           "evenly_spaced",
-           "fit_covariance", "fit_view", "improve_counts", "log_jacobians", "optimal_weights", "prior_covariance",
-           "relative_sigma", "ridge", "round_design"]
+__all__ = ["DESIGN_SCHEMA", "PRIOR_SPREAD", "SPEED_NOISE", "DesignOptions", "SpeedDesign", "criterion",
+           "design_after_fit", "design_speeds", "evenly_spaced", "fit_covariance", "fit_view", "improve_counts",
+           "log_jacobians", "optimal_weights", "prior_covariance", "relative_sigma", "ridge", "round_design"]

@@ -37,8 +37,8 @@ degrees of freedom (:func:`~millstab.identify.quality.error_sigma`) — standard
 mode exchange of the zero-order SLD (any cut with α_xx α_yy > 0: (fn, ζ) of x and y exchanged,
 k_x' = (α_xx/α_yy) k_y, k_y' = k_x α_yy/α_xx — :func:`~millstab.identify.symmetry.exchange_map`; the
 exchanged estimate, which explains the points equally well, is listed first in the alternatives and the
-solver cannot prefer either: with noise-free data it returns whichever basin the start leads to), near-singular JᵀJ, strongly
-correlated pairs, and other multi-start solutions inside the 95 % joint confidence region
+solver cannot prefer either: with noise-free data it returns whichever basin the start leads to), near-singular JᵀJ,
+strongly correlated pairs, and other multi-start solutions inside the 95 % joint confidence region
 RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate. Then the
 quality checks of :func:`~millstab.identify.quality.diagnose` (degrees of freedom, poor or systematic
 residuals, the zero-order model's known weak cuts), each warning with a code in ``Fit.codes``.
@@ -72,7 +72,8 @@ RESEED_SCHEDULE = ((16, 3), (4, 8), (2, 30))
 LOCAL_SCHEDULE = ((8, 4), (2, 20))
 
 
-def screen(problem: Problem, u0: np.ndarray, n_candidates: int, seed: int, search=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def screen(problem: Problem, u0: np.ndarray, n_candidates: int, seed: int,
+           search=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stage 1: QMC candidates in the search box plus the start, one engine call.
 
     Returns (u (N, P), predictions (N, n) [mm], rss (N,)), k-profiled when possible.
@@ -86,7 +87,8 @@ def screen(problem: Problem, u0: np.ndarray, n_candidates: int, seed: int, searc
 
 
 def batched_lm(problem: Problem, u: np.ndarray, *, max_iter: int = 40, tol: float = 1e-10, central: bool = False,
-               record: Callable[[np.ndarray, np.ndarray], None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+               record: Callable[[np.ndarray, np.ndarray], None] | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Stage 2: Levenberg–Marquardt on K starts at once in log-parameters, inside the bounds.
 
     Each iteration is ONE engine call holding every start's trial point and its difference rows.
@@ -215,7 +217,8 @@ def check_options(loss: str, n_candidates: int, schedule) -> None:
     if loss not in LOSSES:
         raise InputError("loss", loss, f"must be one of {', '.join(LOSSES)}")
     if n_candidates < 1 or not schedule or any(k < 1 or i < 1 for k, i in schedule):
-        raise InputError("schedule", schedule, "need n_candidates >= 1 and a schedule of (starts >= 1, iterations >= 1)")
+        raise InputError("schedule", schedule,
+                         "need n_candidates >= 1 and a schedule of (starts >= 1, iterations >= 1)")
 
 
 class History:
@@ -301,7 +304,8 @@ def reseed(problem: Problem, starts: Starts, u0: np.ndarray, *, rounds: int, goo
         uu = reseed_candidates(problem, starts.best_u, blo, bhi, seed, r)
         pred = problem.predict_u(uu)
         uu, pred = problem.profile_k(uu, pred)
-        if not starts.add(*halving(problem, uu, problem.rss(pred), RESEED_SCHEDULE, perm, record, central), margin=1e-3):
+        if not starts.add(*halving(problem, uu, problem.rss(pred), RESEED_SCHEDULE, perm, record, central),
+                          margin=1e-3):
             break
 
 
@@ -411,10 +415,12 @@ def identifiability_warnings(names, corr: np.ndarray, cond: float) -> list[tuple
     """(code, text) for a near-singular JᵀJ and for strongly correlated parameter pairs."""
     out = []
     if cond > 1e8:  # cond(J) > 1e4: some combination is determined 1e4× worse than the best one
-        out.append(("near_singular", f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
-                                     "combinations are not identifiable from these points; standard errors are unreliable"))
+        out.append(("near_singular",
+                    f"near-singular JᵀJ (condition number {cond:.2g} in log-parameters): some parameter "
+                    "combinations are not identifiable from these points; standard errors are unreliable"))
     p = len(names)
-    pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p) for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
+    pairs = [f"{names[i]}/{names[j]} ({corr[i, j]:+.3f})" for i in range(p)
+             for j in range(i + 1, p) if abs(corr[i, j]) > 0.99]
     if pairs:
         out.append(("correlated", "strongly correlated (|r| > 0.99), not separately identifiable from these points: "
                                   + ", ".join(pairs)))
@@ -531,8 +537,8 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
     # 1. screening, 2. successive halving of batched LM starts; 2b. re-seeding; 2c. the confidence region
     stage = dict(seed=seed, perm=perm, record=record, central=central)
     starts = multistart(problem, u0, n_candidates=n_candidates, schedule=schedule, search=search, **stage)
-    basin_won = basin_search(problem, starts, u0, k=o.zoa_basins, n_candidates=n_candidates, schedule=schedule, rounds=rounds,
-                 good_rms=good_rms, search=search, **stage)
+    basin_won = basin_search(problem, starts, u0, k=o.zoa_basins, n_candidates=n_candidates, schedule=schedule,
+                             rounds=rounds, good_rms=good_rms, search=search, **stage)
     reseed(problem, starts, u0, rounds=rounds, good_rms=good_rms, search=search, **stage)
     local_search(problem, starts, n_local=n_local, **stage)
     # 3. polish with scipy trf (the chosen loss), Jacobian from the batched rows
@@ -590,7 +596,8 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
                evaluations=problem.n_sets - sets0, engine_calls=problem.n_calls - calls0,
                time_s=time.perf_counter() - t0, history_theta=hist_theta, history_mlae=hist_mlae,
                history_rss=np.array(record.rss), std_errors=theta_hat * sd_u, correlation=corr, condition=cond,
-               warnings=warn, codes=codes, alternatives=alternatives, symmetry=symmetry, test_cuts=cuts, cutting=problem.cutting,
+               warnings=warn, codes=codes, alternatives=alternatives, symmetry=symmetry, test_cuts=cuts,
+               cutting=problem.cutting,
                settings={"n_candidates": n_candidates, "loss": loss, "f_scale": f_scale,
                          "central": central, "seed": seed, "search": {**SEARCH, **(search or {})},
                          "schedule": [list(x) for x in schedule], "rounds_run": starts.rounds, "n_local": n_local,
@@ -600,6 +607,7 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
                          "polish_status": int(sol.status), "noise": noise})
 
 
-__all__ = ["BASIN_SCHEDULE", "LOSSES", "SEARCH", "LsqOptions", "Starts", "alternative_solutions", "basin_candidates", "basin_search", "check_options", "confidence_cloud", "covariance",
-           "fit_lsq", "fit_lsq_free", "identifiability_warnings", "local_search", "multistart", "polish", "reseed",
-           "reseed_candidates", "uncertainty", "zoa_basins"]
+__all__ = ["BASIN_SCHEDULE", "LOSSES", "SEARCH", "LsqOptions", "Starts", "alternative_solutions", "basin_candidates",
+           "basin_search", "check_options", "confidence_cloud", "covariance", "fit_lsq", "fit_lsq_free",
+           "identifiability_warnings", "local_search", "multistart", "polish", "reseed", "reseed_candidates",
+           "uncertainty", "zoa_basins"]

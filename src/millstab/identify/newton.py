@@ -159,7 +159,8 @@ def jump_directions(par) -> np.ndarray:
 _RULES = {"alpha": (lambda v, o: 0 < v <= 1, "must be in (0, 1]"), "max_iter": (lambda v, o: v >= 1, "must be >= 1"),
           "n_guesses": (lambda v, o: v >= 1, "must be >= 1"), "jump": (lambda v, o: 0 < v < 1, "must be in (0, 1)"),
           "min_jump": (lambda v, o: 0 < v <= o["jump"], "must be in (0, jump]"),
-          "critical_weight": (lambda v, o: v >= 1, "must be >= 1"), "fd_step": (lambda v, o: 0 < v < 0.1, "must be in (0, 0.1)")}
+          "critical_weight": (lambda v, o: v >= 1, "must be >= 1"),
+          "fd_step": (lambda v, o: 0 < v < 0.1, "must be in (0, 0.1)")}
 
 
 def check_options(**options) -> None:
@@ -236,7 +237,8 @@ def trial_jumps(best_u: np.ndarray, best_path: list[np.ndarray], signs: np.ndarr
         d = best_u[None] - np.array([best_path[max(0, len(best_path) - 1 - lag)] for lag in PATTERN_LAGS])
         d = d[np.abs(d).max(axis=1) > 1e-9]
         if d.size:
-            jumps = np.vstack([jumps, (best_u[None, None] + PATTERN_MULTIPLES[None, :, None] * d[:, None]).reshape(-1, p)])
+            jumps = np.vstack([jumps,
+                               (best_u[None, None] + PATTERN_MULTIPLES[None, :, None] * d[:, None]).reshape(-1, p)])
     return np.clip(jumps, lo, hi)
 
 
@@ -369,7 +371,8 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, options: N
             jumps = trial_jumps(best_u, best_path, signs, jump_now, lo, hi)
             all_rows.append(np.exp(jumps))
         pred = problem.predict_mm(np.vstack(all_rows))  # ONE engine call per iteration
-        f_plain, f_w = weighted_mlae(problem, pred[:g * (p + 1)].reshape(g, p + 1, -1), critical_weight, critical_window)
+        f_plain, f_w = weighted_mlae(problem, pred[:g * (p + 1)].reshape(g, p + 1, -1), critical_weight,
+                                     critical_window)
         # record this iteration (the guess being evaluated, unweighted MLAE)
         i_best = int(np.argmin(f_plain))
         hist_u.append(u[i_best].copy())
@@ -419,19 +422,21 @@ def fit_newton(problem: Problem, theta0: np.ndarray | None = None, *, options: N
         warn.append(f"stopping threshold MLAE < {tol:g} not reached in {max_iter} iterations (best {best_f:.3g})")
     cuts = problem.cut_report(theta_hat)
     hist_theta = np.exp(np.array(hist_u))
-    fit = Fit(method="newton", par=par, estimate=theta_hat, start=np.exp(u_start), mlae=float(problem.mlae(pred_hat)[0]),
+    fit = Fit(method="newton", par=par, estimate=theta_hat, start=np.exp(u_start),
+              mlae=float(problem.mlae(pred_hat)[0]),
                rss=float(problem.rss(pred_hat)[0]), iterations=it, evaluations=problem.n_sets - sets0,
                engine_calls=problem.n_calls - calls0, time_s=time.perf_counter() - t0, history_theta=hist_theta,
                history_mlae=np.array(hist_f), history_rss=np.full(len(hist_f), np.nan), warnings=warn,
                codes=codes, symmetry=symmetry, test_cuts=cuts, cutting=problem.cutting,
                settings={"scaled": scaled, "alpha": alpha, "max_iter": max_iter, "tol": tol, "fd_step": fd_step,
-                         "n_guesses": n_guesses, "n_guesses_used": g0, "n_fn_grid": n_fn_grid, "explore_iters": explore_iters, "n_screen": n_screen, "jump": jump, "min_jump": min_jump, "patience": patience,
-                         "improve_tol": improve_tol, "n_random_jumps": n_random_jumps,
+                         "n_guesses": n_guesses, "n_guesses_used": g0, "n_fn_grid": n_fn_grid,
+                         "explore_iters": explore_iters, "n_screen": n_screen, "jump": jump, "min_jump": min_jump,
+                         "patience": patience, "improve_tol": improve_tol, "n_random_jumps": n_random_jumps,
                          "critical_weight": critical_weight, "critical_window": critical_window, "seed": seed,
                          "jumps_tried": n_jumps_tried, "jumps_kept": n_jumps_kept, "engine": problem.engine,
                          "noise": noise})
     return diagnose(fit, problem, noise, problem.residuals(pred_hat)[0])
 
 
-__all__ = ["NewtonOptions", "check_options", "critical_mask", "difference_rows", "fit_newton", "initial_guesses", "jump_directions",
-           "newton_step", "refine_design", "screen_design", "trial_jumps", "weighted_mlae"]
+__all__ = ["NewtonOptions", "check_options", "critical_mask", "difference_rows", "fit_newton", "initial_guesses",
+           "jump_directions", "newton_step", "refine_design", "screen_design", "trial_jumps", "weighted_mlae"]

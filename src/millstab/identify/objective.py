@@ -79,7 +79,8 @@ class Problem:
         if self.depth_mm.shape != self.rpm.shape:
             raise InputError("depth_mm", f"{self.depth_mm.size} values", f"need one per speed ({self.rpm.size})")
         if not (np.isfinite(self.depth_mm) & (self.depth_mm > 0)).all():
-            raise InputError("depth_mm", "non-positive or non-finite value", "measured depths must be finite and > 0 mm")
+            raise InputError("depth_mm", "non-positive or non-finite value",
+                             "measured depths must be finite and > 0 mm")
         if self.residual not in RESIDUALS:
             raise InputError("residual", self.residual, f"must be one of {', '.join(RESIDUALS)}")
         # the points in one canonical order (speed, depth, weight): every sum over them, and so the whole
@@ -235,5 +236,5 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
     return Problem(par, cutting, points.rpm[b], points.depth_mm[b], points.weight[b], engine, cuts, residual)
 
 
-__all__ = ["DEPTH_CAP", "Problem", "canonical", "check_speeds", "exchange_map", "exchanged", "make_problem", "oriented", "parse_assignments", "rel_error", "swap_permutation",
-           "xy_symmetric_cut"]
+__all__ = ["DEPTH_CAP", "Problem", "canonical", "check_speeds", "exchange_map", "exchanged", "make_problem", "oriented",
+           "parse_assignments", "rel_error", "swap_permutation", "xy_symmetric_cut"]

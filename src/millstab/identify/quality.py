@@ -177,10 +177,10 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
             checks["chi2_p_value"] = float(chi)
             if chi < CHI2_ALPHA and sig_hat >= POOR_RATIO * noise:
                 add("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is {sig_hat / noise:.3g}× "
-                                            f"the stated {100 * noise:.3g} % noise (χ² test p = {chi:.2g})" + _why(problem))
+                                f"the stated {100 * noise:.3g} % noise (χ² test p = {chi:.2g})" + _why(problem))
         elif sig_hat > POOR_RMS:
             add("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is above the "
-                                        f"{100 * POOR_RMS:.3g} % a measured boundary plausibly scatters" + _why(problem))
+                            f"{100 * POOR_RMS:.3g} % a measured boundary plausibly scatters" + _why(problem))
     rms = math.sqrt(rss / n) / scale
     runs = runs_test(r, problem.rpm)
     if runs is not None:
@@ -189,13 +189,14 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
         if runs["p_value"] < RUNS_ALPHA and rms > 10 * get_engine(problem.engine).depth_accuracy:
             add("residual_structure",
                             f"the residuals are systematic, not noise: their signs form {runs['runs']} runs along the "
-                            f"speed axis where about {runs['expected']:.1f} are expected (runs test p = {runs['p_value']:.2g})"
+                            f"speed axis where about {runs['expected']:.1f} are expected (runs test p = "
+                            f"{runs['p_value']:.2g})"
                             + _why(problem))
     poor = zoa_model_poor(problem.cutting) if get_engine(problem.engine).time_averaged else None
     if poor:
         add("zoa_model", f"the zero-order model is approximate for this cut ({poor}): on points from real "
-                                     "cuts or a time-domain model its estimates can be biased by tens of percent in k and "
-                                     "ζ; check with the time-domain engine (--engine sdm)")
+                                     "cuts or a time-domain model its estimates can be biased by tens of percent in k "
+                                     "and ζ; check with the time-domain engine (--engine sdm)")
     lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
     u = np.log(fit.estimate)
     at = [name for name, a, b, x in zip(fit.names, lo, hi, u) if min(x - a, b - x) < 1e-6]
@@ -226,7 +227,8 @@ def _why(problem) -> str:
         e = problem.engine.upper()
         return (f"; the {e} stage polishes the zero-order basin and may be in the wrong one (no global {e} search): "
                 "try other starts (--initial) or check the points")
-    return "; the search may have stopped in a wrong basin (try other starts with --initial), or the points hold outliers"
+    return ("; the search may have stopped in a wrong basin (try other starts with --initial), or the points hold "
+            "outliers")
 
 
 __all__ = ["ASSUMED_NOISE", "FEW_DOF", "POOR_RMS", "SOURCES", "check_noise", "diagnose",

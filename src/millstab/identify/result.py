@@ -224,7 +224,8 @@ class Fit:
         the standard errors' noise comes from, the test cuts, the warnings, the alternatives."""
         from millstab.params import shown_value
 
-        lines = [f"MLAE {self.mlae:.4g} (mm, eq. 4); RSS {self.rss:.4g} ({self.settings.get('residual', 'log')} residuals)"]
+        residual = self.settings.get("residual", "log")
+        lines = [f"MLAE {self.mlae:.4g} (mm, eq. 4); RSS {self.rss:.4g} ({residual} residuals)"]
         if self.dof is not None:
             p = self.n_points - self.dof
             line = f"degrees of freedom: {self.n_points} boundary points − {p} parameters = {self.dof}"
@@ -238,7 +239,8 @@ class Fit:
         if self.test_cuts:
             c = self.test_cuts
             lines.append(f"test cuts: {c['stable_predicted_chatter']} of {c['stable_cuts']} stable cuts predicted "
-                         f"chatter; {c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted stable")
+                         f"chatter; {c['chatter_predicted_stable']} of {c['chatter_cuts']} chatter cuts predicted "
+                         "stable")
         lines += [f"warning: {w}" for w in self.warnings]
         for a in self.alternatives:
             vals = ", ".join(f"{k}={shown_value(k, v)}" for k, v in a["estimate"].items())

@@ -72,8 +72,9 @@ def exchange_map(par: Parameterization, cutting: Cutting, engine: str = "zoa") -
     :func:`swap_permutation`). Such a cut cannot tell the two structures apart from its boundary.
 
     Returns (perm, shift): θ' = θ[perm] · exp(shift) (shift = ±ln r on the k columns), or ``None`` when
-    the engine's x↔y exchange is not exact (``exact_xy_exchange``: zoa only), the tool is tied, the mode counts differ, a free name's partner is not free,
-    a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1), or α_xx α_yy ≤ 0.
+    the engine's x↔y exchange is not exact (``exact_xy_exchange``: zoa only), the tool is tied, the mode counts differ,
+    a free name's partner is not free, a fixed value differs from its partner's (or a stiffness is fixed while r ≠ 1),
+    or α_xx α_yy ≤ 0.
     """
     if not get_engine(engine).exact_xy_exchange:
         return None
@@ -131,8 +132,8 @@ def xy_symmetry_note(order: str) -> tuple[str, str]:
 def exchange_note(cutting: Cutting) -> tuple[str, str]:
     """(``Fit.symmetry`` text, warning text) for the zero-order x↔y mode exchange of this cut."""
     a_dir = directional_matrix(cutting)
-    symmetry = (f"x and y modes are exchangeable: with α_xx/α_yy = {a_dir[0, 0] / a_dir[1, 1]:.4g} for this cut, exchanging "
-                "(fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
+    symmetry = (f"x and y modes are exchangeable: with α_xx/α_yy = {a_dir[0, 0] / a_dir[1, 1]:.4g} for this cut, "
+                "exchanging (fn, ζ) of x and y and scaling k_x' = (α_xx/α_yy) k_y, k_y' = k_x (α_yy/α_xx) leaves the "
                 "zero-order SLD unchanged exactly; the points cannot tell the two structures apart "
                 "(the exchanged estimate is listed in alternatives)")
     return symmetry, "x/y exchange: " + symmetry.split(":", 1)[1].strip()

@@ -64,7 +64,8 @@ def example_points(name: str, *, n: int = N_SPEEDS, noise: float = 0.0, seed: in
     from millstab.datasets import load_example
 
     cfg = load_example(name)
-    return cfg, boundary_points(cfg.structure, cfg.cutting, default_speeds(cfg, n), noise=noise, seed=seed, engine=engine)
+    return cfg, boundary_points(cfg.structure, cfg.cutting, default_speeds(cfg, n), noise=noise, seed=seed,
+                                engine=engine)
 
 
 @dataclass(frozen=True)
@@ -118,4 +119,5 @@ def identifiability(structure: Structure, cutting: Cutting, rpm, *, engine: str 
     return float(np.linalg.svd(jac / math.sqrt(jac.shape[0]), compute_uv=False)[-1])
 
 
-__all__ = ["N_SPEEDS", "RandomCase", "boundary_points", "default_speeds", "example_points", "identifiability", "random_case"]
+__all__ = ["N_SPEEDS", "RandomCase", "boundary_points", "default_speeds", "example_points", "identifiability",
+           "random_case"]

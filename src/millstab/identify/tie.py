@@ -117,7 +117,8 @@ def prefer_tied(problem: Problem, free: Fit, refit) -> Fit:
                history_theta=np.vstack([free.history_theta, tied.estimate[index]]),
                history_mlae=np.append(free.history_mlae, tied.mlae),
                history_rss=np.append(free.history_rss, tied.rss), std_errors=se, correlation=corr,
-               condition=tied.condition, warnings=warn, codes=codes, alternatives=alts, cutting=free.cutting, symmetry=free.symmetry,
+               condition=tied.condition, warnings=warn, codes=codes, alternatives=alts, cutting=free.cutting,
+               symmetry=free.symmetry,
                test_cuts=tied.test_cuts, settings={**free.settings, "xy_tie_test": {**test, "chosen": "tied"}})
 
 

@@ -20,8 +20,7 @@ from millstab.io.outputs import check_outputs, config_inputs
 from millstab.io.figures import save_figure, write_figure
 from millstab.io.results import atomic_write_text, ensure_folder, read_json, to_jsonable, write_csv, write_json
 
-__all__ = ["atomic_write_text", "check_enough", "check_outputs", "config_from_dict",
-           "config_inputs", "config_to_toml", "ensure_folder",
-           "list_uff_records", "load_config", "load_measured_frf", "parse_config", "read_frf", "read_frf_csv",
-           "read_frf_cutpro", "read_frf_uff", "read_json", "read_points", "save_figure", "to_jsonable", "write_config", "write_csv",
-           "write_figure", "write_frf_csv", "write_json", "write_points"]
+__all__ = ["atomic_write_text", "check_enough", "check_outputs", "config_from_dict", "config_inputs", "config_to_toml",
+           "ensure_folder", "list_uff_records", "load_config", "load_measured_frf", "parse_config", "read_frf",
+           "read_frf_csv", "read_frf_cutpro", "read_frf_uff", "read_json", "read_points", "save_figure", "to_jsonable",
+           "write_config", "write_csv", "write_figure", "write_frf_csv", "write_json", "write_points"]

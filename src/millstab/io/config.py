@@ -168,13 +168,15 @@ def _cutting(t: Any) -> Cutting:
         with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "entry", "exit")} | written):
             return Cutting(teeth, kt, kr, entry, exit_, **extra)
     if "radial_immersion" not in t:
-        raise InputError("cutting.entry", None, "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
-                                                "or radial_immersion and milling = \"down\" | \"up\"")
+        raise InputError("cutting.entry", None,
+                         "missing; give entry and exit angles (slotting: \"0 deg\", \"180 deg\") "
+                         "or radial_immersion and milling = \"down\" | \"up\"")
     ri = parse_quantity(t["radial_immersion"], "cutting.radial_immersion", "dimensionless")
     milling = t.get("milling")
     if milling is None:
         if ri != 1.0:
-            raise InputError("cutting.milling", None, "missing; with radial_immersion < 1 give milling = \"down\" or \"up\"")
+            raise InputError("cutting.milling", None,
+                             "missing; with radial_immersion < 1 give milling = \"down\" or \"up\"")
         milling = "down"
     if milling not in ("down", "up"):
         raise InputError("cutting.milling", milling, 'must be "down" or "up"')
@@ -220,8 +222,8 @@ def _structure(t: Any, base_dir: Path | None, files: Mapping[str, PathLike] | No
         frf_t = _check_keys(t["frf"], "structure.frf", FRF_KEYS)
         from millstab.io.frf_files import load_measured_frf
 
-        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir, field="structure.frf",
-                                files=files)
+        frf = load_measured_frf(**{k: frf_t[k] for k in FRF_KEYS if k in frf_t}, base_dir=base_dir,
+                                field="structure.frf", files=files)
         return Structure(frf=frf)
     x = _modes(t.get("x", []), "x")
     y = _modes(t.get("y", []), "y")
@@ -297,8 +299,9 @@ def _prior(t: Any) -> PriorTable:
     for key, value in t.items():
         field = f"prior.{key}"
         if key == "fixed":
-            if not (isinstance(value, list) and all(isinstance(v, str) and (_PRIOR_NAME.match(v.strip()) or v.strip() in
-                                                                             ("label_error", "sigma_depth")) for v in value)):
+            if not (isinstance(value, list)
+                    and all(isinstance(v, str) and (_PRIOR_NAME.match(v.strip())
+                                                    or v.strip() in ("label_error", "sigma_depth")) for v in value)):
                 raise InputError(field, value, "must be a list of parameter names, e.g. [\"zeta_y\"] (or label_error, "
                                                "sigma_depth: held at their values instead of learned)")
             fixed = tuple(v.strip() for v in value)
@@ -553,7 +556,8 @@ def _material(t: Mapping[str, Any], field: str):
 
     if "material" in t:
         if "E" in t or "density" in t:
-            raise InputError(f"{field}.material", t["material"], "give either a material name or E and density, not both")
+            raise InputError(f"{field}.material", t["material"],
+                             "give either a material name or E and density, not both")
         return material(t["material"])
     if "E" not in t or "density" not in t:
         raise InputError(f"{field}.material", None, "missing; give material = \"carbide\" (or steel, hss, aluminium) "
@@ -581,8 +585,10 @@ def _tool(t: Any):
     stick = _tool_length(t, "stickout", "tool")
     fl = _tool_length(t, "fluted_length", "tool", 0.0) if "fluted_length" in t else 0.0
     if fl > stick * (1 + 1e-9):
-        raise InputError("tool.fluted_length", t["fluted_length"], f"must not exceed the stickout ({show(t['stickout'])})")
-    ratio = parse_quantity(t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO), "tool.flute_diameter_ratio", "dimensionless")
+        raise InputError("tool.fluted_length", t["fluted_length"],
+                         f"must not exceed the stickout ({show(t['stickout'])})")
+    ratio = parse_quantity(t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO), "tool.flute_diameter_ratio",
+                           "dimensionless")
     zeta = parse_quantity(t.get("zeta", 0.0), "tool.zeta", "dimensionless")
     raw = {f"tool.{k}": t[k] for k in ("diameter", "stickout", "zeta") if k in t}
     raw["tool.flute_diameter_ratio"] = t.get("flute_diameter_ratio", DEFAULT_FLUTE_RATIO)
@@ -658,7 +664,8 @@ def _holder_one(t: Any, base_dir: Path | None, field: str, files: Mapping[str, P
             raw_t = {str(k).lower() if str(k) in "HLNP" else k: v for k, v in raw_t.items()}
         ft = _check_keys(raw_t, f"{field}.frf", HOLDER_FRF_KEYS, ("h", "p"))
         if "l" not in ft and "n" not in ft:
-            raise InputError(f"{field}.frf.l", None, "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
+            raise InputError(f"{field}.frf.l", None,
+                             "missing; give l (w/m) or n (theta/f), or both (equal by reciprocity)")
         terms = {k: _holder_term(ft[k], f"{field}.frf.{k}", base_dir, files) for k in HOLDER_FRF_KEYS if k in ft}
         f, v = _on_axis(terms, "h", f"{field}.frf")
         l_, n_ = v.get("l", v.get("n")), v.get("n", v.get("l"))
@@ -671,14 +678,17 @@ def _holder_one(t: Any, base_dir: Path | None, field: str, files: Mapping[str, P
     length = _tool_length(at, "length", f"{field}.artifact")
     off = _tool_length(at, "offset", f"{field}.artifact")
     if off >= length:
-        raise InputError(f"{field}.artifact.offset", at["offset"], f"must be less than the artifact's length ({show(at['length'])})")
+        raise InputError(f"{field}.artifact.offset", at["offset"],
+                         f"must be less than the artifact's length ({show(at['length'])})")
     art = hm.artifact_beam(d, length, off, _material(at, f"{field}.artifact"))
     zeta = parse_quantity(at.get("zeta", 0.0), f"{field}.artifact.zeta", "dimensionless")
     if not 0.0 <= zeta < 0.5:
-        raise InputError(f"{field}.artifact.zeta", at["zeta"], "the artifact's damping ratio must be in [0, 0.5) (a steel "
-                                                             "cylinder: ~0.001, or leave it out: 0)")
+        raise InputError(f"{field}.artifact.zeta", at["zeta"],
+                         "the artifact's damping ratio must be in [0, 0.5) (a steel "
+                         "cylinder: ~0.001, or leave it out: 0)")
     art = replace(art, eta=2.0 * zeta)
-    terms = {k: _holder_term(at[k], f"{field}.artifact.{k}", base_dir, files) for k in ("tip", "cross", "offset_direct")}
+    terms = {k: _holder_term(at[k], f"{field}.artifact.{k}", base_dir, files)
+             for k in ("tip", "cross", "offset_direct")}
     f, v = _on_axis(terms, "tip", f"{field}.artifact")
     return hm.from_artifact(f, v["tip"], v["cross"], v["offset_direct"], art, off)
 
@@ -693,7 +703,8 @@ def _holder_fd(t: Any, base_dir: Path | None, field: str, files: Mapping[str, Pa
     t = _check_keys(t, field, FD_KEYS, ("spacing", "h00", "h01", "h11"))
     second = [k for k in ("h02", "h12", "h22") if k in t]
     if second and len(second) != 3:
-        raise InputError(f"{field}.{second[0]}", t[second[0]], "the second-order stencil needs h02, h12 and h22 together")
+        raise InputError(f"{field}.{second[0]}", t[second[0]],
+                         "the second-order stencil needs h02, h12 and h22 together")
     order = 2 if second else 1
     spacing = _tool_length(t, "spacing", field)
     n = order + 1
@@ -773,5 +784,5 @@ def tool_setup_from_text(text: str, name: str = "config", base_dir: PathLike | N
     return (cfg, *tool_setup(data, Path(base_dir) if base_dir is not None else None, files))
 
 
-__all__ = ["PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup",
-           "parse_batch_effect", "parse_config", "tool_setup", "tool_setup_from_text", "with_batch_effect", "write_config"]
+__all__ = ["PriorTable", "config_from_dict", "config_to_toml", "load_config", "load_tool_setup", "parse_batch_effect",
+           "parse_config", "tool_setup", "tool_setup_from_text", "with_batch_effect", "write_config"]

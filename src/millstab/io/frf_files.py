@@ -116,7 +116,8 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
             raise InputError(f"{p.name} header", n, f"unknown column; the columns are {', '.join(required)} (Hz, m/N)")
     for n in required:
         if n not in names:
-            raise InputError(f"{p.name} header", ",".join(names), f"missing column {n!r}; required: {', '.join(required)}")
+            raise InputError(f"{p.name} header", ",".join(names),
+                             f"missing column {n!r}; required: {', '.join(required)}")
     if len(set(names)) != len(names):
         raise InputError(f"{p.name} header", ",".join(names), "a column name appears twice")
     col = {n: i for i, n in enumerate(names)}
@@ -219,18 +220,21 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
         numeric = [_is_number(t) for t in tok]
         if not numeric[0]:
             if data:
-                raise InputError(f"{p.name} line {line_no}", s[:60], "text after the data rows; expected 'frequency real imag'")
+                raise InputError(f"{p.name} line {line_no}", s[:60],
+                                 "text after the data rows; expected 'frequency real imag'")
             labels += tok
             continue
         n_num = next((i for i, ok in enumerate(numeric) if not ok), len(tok))
         if n_num < 3:
-            raise InputError(f"{p.name} line {line_no}", s[:60], "a data row needs three numbers: frequency, real, imaginary")
+            raise InputError(f"{p.name} line {line_no}", s[:60],
+                             "a data row needs three numbers: frequency, real, imaginary")
         if n_num > 3:
             raise InputError(f"{p.name} line {line_no}", s[:60],
                              f"found {n_num} numbers; expected three columns: frequency [Hz], real, imaginary [m/N]")
         if n_num < len(tok):
             if data:
-                raise InputError(f"{p.name} line {line_no}", s[:60], "text after the numbers is only allowed on the first data row")
+                raise InputError(f"{p.name} line {line_no}", s[:60],
+                                 "text after the numbers is only allowed on the first data row")
             labels += tok[3:]
         where = f"{p.name} line {line_no}"
         data.append(tuple(parse_number(t, f"{where}, {c}") for t, c in zip(tok, ("frequency", "real", "imaginary"))))
@@ -238,7 +242,8 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(str(p), "no data rows", "expected rows 'frequency real imaginary'")
     f_factors, h_factors = _label_units(labels)
     if len(h_factors) > 1 or len(f_factors) > 1:
-        raise InputError(f"{p.name} labels", " ".join(labels), "conflicting unit labels; give one frequency and one receptance unit")
+        raise InputError(f"{p.name} labels", " ".join(labels),
+                         "conflicting unit labels; give one frequency and one receptance unit")
     hf = h_factors.pop() if h_factors else 1.0
     ff = f_factors.pop() if f_factors else 1.0
     a = np.array(data)
@@ -250,7 +255,8 @@ def read_frf_cutpro(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
 _FUNC_TYPES = {0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
                5: "transmissibility", 6: "coherence"}
 #: ordinate specific data type → (name, power of iω that turns it into displacement)
-_ORDINATE = {0: ("unknown (read as displacement)", 0), 8: ("displacement", 0), 11: ("velocity", 1), 12: ("acceleration", 2)}
+_ORDINATE = {0: ("unknown (read as displacement)", 0), 8: ("displacement", 0), 11: ("velocity", 1),
+             12: ("acceleration", 2)}
 
 
 def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
@@ -267,7 +273,8 @@ def _uff_sets(p: Path) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
     idx58 = [i for i, t in enumerate(types) if int(t) == 58]
     idx164 = [i for i, t in enumerate(types) if int(t) == 164]
     if not idx58:
-        raise InputError(str(p), f"dataset types {sorted({int(t) for t in types})}", "contains no dataset 58 (function) record")
+        raise InputError(str(p), f"dataset types {sorted({int(t) for t in types})}",
+                         "contains no dataset 58 (function) record")
     try:
         sets = uff.read_sets(idx58)
         units = uff.read_sets(idx164[0]) if idx164 else None
@@ -316,7 +323,8 @@ def _label_factor(label: str, power: int) -> float | None:
     ureg = registry()
     si = {0: "m/N", 1: "m/s/N", 2: "m/s**2/N"}[power]
     cleaned = text.replace("µ", "u").replace("μ", "u").replace("^", "**")
-    cleaned = re.sub(r"^\(?\s*g\s*\)?\s*/", "g_0/", cleaned) if power == 2 else cleaned  # g/N means gravities per newton
+    # g/N means gravities per newton
+    cleaned = re.sub(r"^\(?\s*g\s*\)?\s*/", "g_0/", cleaned) if power == 2 else cleaned
     try:
         return float(ureg.Quantity(1.0, cleaned).to(si).magnitude)
     except Exception:
@@ -366,7 +374,8 @@ def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray,
     num = int(s.get("ordinate_spec_data_type", 0))
     den = int(s.get("orddenom_spec_data_type", 0))
     if num not in _ORDINATE:
-        raise InputError(f"{where} ordinate type", num, "the response must be displacement (8), velocity (11) or acceleration (12)")
+        raise InputError(f"{where} ordinate type", num,
+                         "the response must be displacement (8), velocity (11) or acceleration (12)")
     if den not in (0, 13):
         raise InputError(f"{where} denominator type", den, "the reference must be a force (13)")
     power = _ORDINATE[num][1]
@@ -417,7 +426,8 @@ def _source(src: FRFSource, field: str, base_dir: Path | None,
     if isinstance(src, Mapping):
         unknown = set(src) - {"file", "record"}
         if unknown:
-            raise InputError(f"{field}.{sorted(unknown)[0]}", src[sorted(unknown)[0]], "unknown key; allowed keys: file, record")
+            raise InputError(f"{field}.{sorted(unknown)[0]}", src[sorted(unknown)[0]],
+                             "unknown key; allowed keys: file, record")
         if "file" not in src:
             raise InputError(f"{field}.file", None, "missing; give the FRF file path")
         path, record = src["file"], src.get("record")

@@ -53,7 +53,8 @@ def config_inputs(cfg) -> dict[str, Path]:
         files[field] = _source(src, field, Path(path).parent)[0]
     holder = data.get("holder") or {}  # a [tool]'s holder measured in files (docs/tooltip.md)
     for prefix, h in (("holder", holder), ("holder.x", holder.get("x") or {}), ("holder.y", holder.get("y") or {})):
-        for table, keys in (("frf", ("h", "l", "n", "p", "H", "L", "N", "P")), ("artifact", ("tip", "cross", "offset_direct")),
+        for table, keys in (("frf", ("h", "l", "n", "p", "H", "L", "N", "P")),
+                            ("artifact", ("tip", "cross", "offset_direct")),
                             ("finite_differences", ("h00", "h01", "h11", "h02", "h12", "h22"))):
             for key in keys:
                 src = (h.get(table) or {}).get(key)

@@ -117,13 +117,15 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
             near = difflib.get_close_matches(r, unknown, 1, 0.6)
             hint = f" (the unknown column {near[0]!r} looks like a misspelt {r!r})" if near else ""
             raise InputError(f"{p.name} header", ",".join(names), f"missing column {r!r}{hint}; required columns: "
-                                                                  f"{', '.join(REQUIRED)} (optional: {', '.join(OPTIONAL)})")
+                                                                  f"{', '.join(REQUIRED)} (optional: "
+                                                                  f"{', '.join(OPTIONAL)})")
     for h in unknown:
         near = difflib.get_close_matches(h, absent, 1, 0.8)
         if near:  # "lable", "weigth": a misspelt column would silently turn every cut into a boundary point
-            raise InputError(f"{p.name} header", h, f"unknown column that looks like a misspelt {near[0]!r}; allowed columns: "
-                                                    f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, "
-                                                    "date; other columns are kept and ignored")
+            raise InputError(f"{p.name} header", h,
+                             f"unknown column that looks like a misspelt {near[0]!r}; allowed columns: "
+                             f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, "
+                             "date; other columns are kept and ignored")
     return raters, batch, [h for h in names if h not in known]
 
 
@@ -184,7 +186,8 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         if "chatter_hz" in col and cells[col["chatter_hz"]]:
             f = _number(cells[col["chatter_hz"]], "chatter_hz", line, p)
             if f <= 0:
-                raise InputError(f"{p.name} line {line}, chatter_hz", cells[col["chatter_hz"]], "chatter frequency must be > 0 Hz")
+                raise InputError(f"{p.name} line {line}, chatter_hz", cells[col["chatter_hz"]],
+                                 "chatter frequency must be > 0 Hz")
             if lab not in ("chatter", "marginal"):
                 raise InputError(f"{p.name} line {line}, chatter_hz", cells[col["chatter_hz"]],
                                  f"a chatter frequency belongs to a chatter or marginal cut, not to a "
@@ -272,4 +275,5 @@ def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] =
     return write_csv(path, header, cols, protect)
 
 
-__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "check_enough", "parse_points", "read_points", "write_points"]
+__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "check_enough", "parse_points", "read_points",
+           "write_points"]

@@ -214,4 +214,5 @@ def is_recording_path(path: PathLike) -> bool:
     return Path(path).suffix.lower() in (".wav", ".csv")
 
 
-__all__ = ["has_recording_column", "read_cuts_with_recordings", "read_recording", "write_wav", "write_recording", "write_recording_csv", "is_recording_path"]
+__all__ = ["has_recording_column", "read_cuts_with_recordings", "read_recording", "write_wav", "write_recording",
+           "write_recording_csv", "is_recording_path"]

@@ -71,7 +71,8 @@ def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: It
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError("output", str(target), f"cannot create the directory {target.parent}: {exc.strerror}") from None
+        raise InputError("output", str(target),
+                         f"cannot create the directory {target.parent}: {exc.strerror}") from None
     tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
@@ -230,5 +231,5 @@ def write_csv(path: PathLike, header: Sequence[str], columns: Sequence[Sequence[
     return atomic_write_text(path, csv_text(header, columns), protect)
 
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "check_not_protected", "csv_text", "ensure_folder", "read_json", "to_jsonable", "write_csv",
-           "write_json"]
+__all__ = ["atomic_write_bytes", "atomic_write_text", "check_not_protected", "csv_text", "ensure_folder", "read_json",
+           "to_jsonable", "write_csv", "write_json"]

@@ -36,7 +36,8 @@ def stickouts_mm(points) -> np.ndarray | None:
         try:
             v = float(text)
         except ValueError:
-            raise InputError(f"{where} row {i + 1}, {COLUMN}", text, "a stickout in mm, e.g. 45 (empty: the config's)") from None
+            raise InputError(f"{where} row {i + 1}, {COLUMN}", text,
+                             "a stickout in mm, e.g. 45 (empty: the config's)") from None
         if not (math.isfinite(v) and 0 < v <= 1000):
             raise InputError(f"{where} row {i + 1}, {COLUMN}", text, "a stickout in mm, > 0 and at most 1000 "
                                                                       "(holder face to tip; mm, not m)")

@@ -227,7 +227,8 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     where = f"{direction} ({source})"
     if f.size < MIN_LINES:
         raise InputError(f"FRF {where}", f"{f.size} lines", f"the band needs at least {MIN_LINES} frequency lines")
-    if f.shape != h.shape or not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))) or f[0] <= 0 or np.any(np.diff(f) <= 0):
+    if (f.shape != h.shape or not (np.all(np.isfinite(f)) and np.all(np.isfinite(h))) or f[0] <= 0
+            or np.any(np.diff(f) <= 0)):
         raise InputError(f"FRF {where}", f"{f.size} frequencies, {h.size} values",
                          "need one finite receptance per frequency, frequencies > 0 Hz and strictly increasing")
     scale = float(np.max(np.abs(h)))
@@ -243,7 +244,8 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
                f"the noise; check the file (a drive-point receptance in m/N) or choose --band around the modes")
     cands = _drop_duplicates(cands)
     if cands:
-        wn, zeta, c, b = _refine(w, hs, np.array([2 * np.pi * cd.fn for cd in cands]), np.array([cd.zeta for cd in cands]), w_lo)
+        wn, zeta, c, b = _refine(w, hs, np.array([2 * np.pi * cd.fn for cd in cands]),
+                                 np.array([cd.zeta for cd in cands]), w_lo)
     else:  # nothing stable (a mode at the band's edge, few lines per bandwidth): the residual terms alone, then grow
         wn, zeta = np.empty(0), np.empty(0)
         b = _basis(w, wn, zeta, w_lo)

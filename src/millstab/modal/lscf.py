@@ -127,5 +127,6 @@ def stable_clusters(stab: Stabilisation) -> list[Candidate]:
     out = []
     for idx in np.split(np.arange(fn.size), breaks):
         if idx.size >= need:
-            out.append(Candidate(float(np.median(fn[idx])), float(np.median(zeta[idx])), int(idx.size), len(stab.orders)))
+            out.append(Candidate(float(np.median(fn[idx])), float(np.median(zeta[idx])), int(idx.size),
+                                 len(stab.orders)))
     return out

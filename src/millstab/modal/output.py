@@ -30,9 +30,12 @@ def structure_toml(result: ModalResult, sources: dict[str, str]) -> str:
         lines.append(f"# {d}: {len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|, "
                      f"residuals U = {fit.upper:.3g} m/N, L = {fit.lower:.3g} m/N")
         for i, m in enumerate(fit.modes):
-            lines += ["", f"# {d}[{i}]: peak/noise {m.peak_to_noise:.3g}, residue phase {m.phase_deg:+.1f} deg off -90, "
-                          f"stable at {m.stable_orders}/{m.orders} orders, misfit near the peak {100 * m.local_error:.2f} %",
-                      f"[[structure.{d}]]", f'fn = "{_g(m.fn)} Hz"', f'k = "{_g(m.k / 1e6)} N/um"', f"zeta = {_g(m.zeta, 6)}"]
+            lines += ["",
+                      f"# {d}[{i}]: peak/noise {m.peak_to_noise:.3g}, residue phase {m.phase_deg:+.1f} deg off -90, "
+                      f"stable at {m.stable_orders}/{m.orders} orders, misfit near the peak "
+                      f"{100 * m.local_error:.2f} %",
+                      f"[[structure.{d}]]", f'fn = "{_g(m.fn)} Hz"', f'k = "{_g(m.k / 1e6)} N/um"',
+                      f"zeta = {_g(m.zeta, 6)}"]
         lines.append("")
     return "\n".join(lines)
 
@@ -43,7 +46,8 @@ def quality(result: ModalResult, sources: dict[str, str], check: SLDCheck | None
                            "directions": {}}
     for d, fit in result.fits.items():
         out["directions"][d] = {
-            "file": sources[d], "lines": int(fit.freq_hz.size), "band_hz": [float(fit.freq_hz[0]), float(fit.freq_hz[-1])],
+            "file": sources[d], "lines": int(fit.freq_hz.size),
+            "band_hz": [float(fit.freq_hz[0]), float(fit.freq_hz[-1])],
             "nrmse": fit.nrmse, "noise_m_per_n": fit.noise, "upper_residual_m_per_n": fit.upper,
             "lower_residual_m_per_n": fit.lower,
             "modes": [{"fn_hz": m.fn, "k_n_per_m": m.k, "zeta": m.zeta, "residue_phase_error_deg": m.phase_deg,

@@ -278,7 +278,8 @@ def fit_files(frf_x, frf_y=None, *, band: tuple[float, float] | None = None, mod
         f, h = read_direction(path, d, band, rec, frf_type=frf_type)
         fits[d] = fit_direction(f, h, direction=d, source=Path(path).name, modes=n)
     with quiet():  # a soft fitted k is what was measured; the report shows it in N/um
-        structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]") for i, m in enumerate(fit.modes))
+        structure = Structure(**{d: tuple(Mode(m.fn, m.k, m.zeta, f"structure.{d}[{i}]")
+                                          for i, m in enumerate(fit.modes))
                                  for d, fit in fits.items()})
     return ModalResult(fits, structure, band)
 
@@ -349,11 +350,12 @@ def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.
     rel = np.abs(a.depth[ok] / b.depth[ok] - 1)
     i = int(np.argmax(rel))
     ma, mb = float(np.min(a.depth_mm[ok])), float(np.min(b.depth_mm[ok]))
-    return SLDCheck(np.asarray(rpm, float), a.depth_mm, b.depth_mm, ma, mb, ma / mb - 1, float(rel[i]), float(np.asarray(rpm)[ok][i]))
+    return SLDCheck(np.asarray(rpm, float), a.depth_mm, b.depth_mm, ma, mb, ma / mb - 1, float(rel[i]),
+                    float(np.asarray(rpm)[ok][i]))
 
 
-__all__ = ["FRF_TYPES", "ModalResult", "SLDCheck", "as_receptance", "check_frf_type", "fit_files", "fitted_config", "measured_structure", "parse_band", "parse_modes",
-           "read_direction", "same_file", "sld_check"]
+__all__ = ["FRF_TYPES", "ModalResult", "SLDCheck", "as_receptance", "check_frf_type", "fit_files", "fitted_config",
+           "measured_structure", "parse_band", "parse_modes", "read_direction", "same_file", "sld_check"]
 
 
 def fitted_config(cfg, modes: int | str = "auto"):

@@ -55,7 +55,8 @@ def plot_modal_fit(result, check=None, ax=None):
                label=f"fitted modes (min {check.min_fitted_mm:.4g} mm)")
         a.set_xlabel("spindle speed [rev/min]")
         a.set_ylabel("b_lim [mm]")
-        finite = np.concatenate([check.measured_mm[np.isfinite(check.measured_mm)], check.fitted_mm[np.isfinite(check.fitted_mm)]])
+        finite = np.concatenate([check.measured_mm[np.isfinite(check.measured_mm)],
+                                 check.fitted_mm[np.isfinite(check.fitted_mm)]])
         if finite.size:
             a.set_ylim(0, min(float(finite.max()), 6 * float(finite.min())) * 1.05)
         a.set_title(f"SLD check: minimum depth {100 * check.min_difference:+.2f} %, worst difference "

@@ -107,7 +107,8 @@ def plot_sobol_speed(result, title: str | None = None, ax=None):
     for j, name in enumerate(result.names):
         c = colors[j % len(colors)]
         ax1.plot(rpm, b["ST"][:, j], color=c, lw=1.2, label=f"{_tex(name)} total")
-        ax1.fill_between(rpm, b["ST"][:, j] - b["ST_conf"][:, j], b["ST"][:, j] + b["ST_conf"][:, j], color=c, alpha=0.15)
+        ax1.fill_between(rpm, b["ST"][:, j] - b["ST_conf"][:, j], b["ST"][:, j] + b["ST_conf"][:, j], color=c,
+                         alpha=0.15)
         ax1.plot(rpm, b["S1"][:, j], color=c, lw=0.9, ls="--")
     ax1.set_xlabel("spindle speed [rpm]")
     ax1.set_ylabel("Sobol index of b_lim")

@@ -75,7 +75,8 @@ def plot_sld_panels(panels: Sequence[tuple[str, Sequence[tuple[str, np.ndarray, 
                 ax.plot(rpm, d, color="tab:blue", lw=1.6, label=label)
                 ax.fill_between(rpm, 0, np.where(np.isfinite(d), d, np.nan), color="tab:blue", alpha=0.1, lw=0)
             else:
-                ax.plot(rpm, d, ls="--", color=("tab:orange", "tab:purple", "tab:brown")[(i - 1) % 3], lw=1.3, label=label)
+                ax.plot(rpm, d, ls="--", color=("tab:orange", "tab:purple", "tab:brown")[(i - 1) % 3], lw=1.3,
+                        label=label)
         ax.set_ylim(0, 1.1 * _finite_top(*[c[2] for c in curves]))
         ax.set_title(title)
         ax.set_xlabel("spindle speed [rev/min]")

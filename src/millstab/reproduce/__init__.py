@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 from millstab.reproduce.paper import Context
-from millstab.reproduce.report import Report
+from millstab.reproduce.report import Report, ReportWriter
 
 TITLE = "millstab reproduces: Sensitivity Analysis and Monte Carlo Based Uncertainty Quantification of the In-process Modal Parameters in Milling"
 
@@ -35,9 +35,9 @@ def steps() -> list[tuple[str, Callable[[Context], None]]]:
 
 def run(out: Path, quick: bool = False, seed: int = 0, points: Path | None = None,
         progress: Callable[[str], None] | None = None) -> Report:
-    """Run every step into ``out``; returns the report (already written)."""
+    """Run every step into ``out``; returns the report (frozen, already written)."""
     t0 = time.perf_counter()
-    rep = Report(Path(out), TITLE)
+    rep = ReportWriter(Path(out), TITLE)
     ctx = Context(rep, quick=quick, seed=seed, points=points, progress=progress)
     rep.paragraph(
         "Every number below was computed in this run by millstab; the paper's numbers come from "
@@ -53,5 +53,4 @@ def run(out: Path, quick: bool = False, seed: int = 0, points: Path | None = Non
     total = time.perf_counter() - t0
     rep.table("run_time", ["step", "seconds"], [[k, v] for k, v in ctx.timings.items()] + [["total", total]],
               "Wall-clock time of each step on this machine")
-    rep.write()
-    return rep
+    return rep.write()

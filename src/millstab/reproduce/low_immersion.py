@@ -65,8 +65,9 @@ def simulated_cuts(ctx) -> None:
     from millstab.simulate import detect, simulate_cut
     from millstab.stability import engine_with
 
-    # the time-domain reference (sdm: the slow, expensive one, with critical_multipliers) and the zero-order model
-    sdm, zoa = engine_with(time_averaged=False, cheap=False), engine_with(time_averaged=True)
+    # the time-domain reference (an interrupted-cutting engine that reports its critical multipliers: sdm) and
+    # the zero-order model
+    sdm, zoa = engine_with(time_averaged=False, reports_multipliers=True), engine_with(time_averaged=True)
 
     rep = ctx.report
     cut = bench_cutting(0.05)

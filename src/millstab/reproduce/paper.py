@@ -23,7 +23,7 @@ import numpy as np
 
 from millstab.datasets import load_example, paper_values
 from millstab.model import Structure
-from millstab.reproduce.report import Report
+from millstab.reproduce.report import ReportWriter
 from millstab.stability import engine_with
 
 #: the seed paper's method is the zero-order solution: the time-averaged engine (zoa)
@@ -37,7 +37,7 @@ PARAM_ROWS = [("fn_x", "Hz", 1.0), ("k_x", "N/µm", 1e-6), ("zeta_x", "-", 1.0),
 class Context:
     """What every step needs: the report, the run's options and a progress callback."""
 
-    report: Report
+    report: ReportWriter
     quick: bool
     seed: int
     points: Path | None = None

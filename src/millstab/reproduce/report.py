@@ -74,12 +74,11 @@ SUMMARY_NOTE = ("A claim has a stated criterion, tested in this run: it holds or
 
 
 @dataclass
-class Report:
-    """Blocks of a report written into ``out``; :meth:`write` renders report.md and report.html.
-
-    Not frozen, on purpose (issue 26): a report is a writer the steps add to as they run (each table and
-    figure is saved when added, so a long run that stops keeps what it made); its result is the files and
-    ``checks``, not this object."""
+class ReportWriter:
+    """The builder of a :class:`Report`: the steps add headings, paragraphs, tables, figures and headline rows
+    as they run, each table and figure saved into ``out`` when added (a long run that stops keeps what it
+    made); :meth:`report` gives the frozen report, :meth:`write` writes report.md and report.html and returns it.
+    """
 
     out: Path
     title: str
@@ -102,7 +101,7 @@ class Report:
         cols = [[r[i] for r in rows] for i in range(len(header))]
         write_csv(path, list(header), cols)
         self.files.append(path)
-        self.blocks.append(("t", (caption, list(header), [[fmt(v) for v in r] for r in rows], path.name)))
+        self.blocks.append(("t", (caption, tuple(header), tuple(tuple(fmt(v) for v in r) for r in rows), path.name)))
         return path
 
     def figure(self, name: str, fig, caption: str) -> Path:
@@ -122,17 +121,42 @@ class Report:
         self.blocks.append(("f", (caption, path)))
         return path
 
+    def add(self, check: Check) -> Check:
+        """Add a headline row made elsewhere (a step's checks computed from its result)."""
+        self.checks.append(check)
+        return check
+
     def check(self, claim: str, measured: str, ok: bool) -> Check:
         """A claim with a pass/fail criterion (``ok``)."""
-        c = Check(claim, measured, bool(ok))
-        self.checks.append(c)
-        return c
+        return self.add(Check(claim, measured, bool(ok)))
 
     def compare(self, what: str, ours: float, paper: float) -> Check:
         """A value of ours beside the paper's, with their ratio; no verdict (it reads "compared")."""
-        c = Check(what, f"ours {fmt(ours, 3)}, paper {fmt(paper, 3)}: ours/paper = {ours / paper:.2f}", True, "comparison")
-        self.checks.append(c)
-        return c
+        return self.add(Check(what, f"ours {fmt(ours, 3)}, paper {fmt(paper, 3)}: ours/paper = {ours / paper:.2f}",
+                              True, "comparison"))
+
+    def report(self) -> Report:
+        """The report as added so far, frozen."""
+        return Report(self.out, self.title, tuple(self.blocks), tuple(self.checks), tuple(self.files))
+
+    def write(self) -> Report:
+        """Write report.md and report.html (:meth:`Report.write`); returns the frozen report."""
+        rep = self.report()
+        rep.write()
+        return rep
+
+
+@dataclass(frozen=True)
+class Report:
+    """A finished report (:meth:`ReportWriter.report`): its folder, title, blocks (kind, content), headline rows
+    ``checks`` and the files saved; :meth:`markdown`/:meth:`html` render it, :meth:`write` writes report.md and
+    report.html. Frozen, its sequences tuples (issue 26): what ``millstab reproduce`` prints and exits by."""
+
+    out: Path
+    title: str
+    blocks: tuple[tuple[str, Any], ...] = ()
+    checks: tuple[Check, ...] = ()
+    files: tuple[Path, ...] = ()
 
     # --- rendering --------------------------------------------------------------------------------
     def _summary_rows(self) -> list[list[str]]:

@@ -163,12 +163,13 @@ def depths(engine: str, par: Parameterization, theta_rows: np.ndarray, cutting: 
     return forward(par, cutting, engine)(theta_rows, rpm)
 
 
-def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, bounding_rows: np.ndarray) -> Pinned:
+def pin(engine: str, par: Parameterization, cutting: Cutting, rpm: np.ndarray, bounding_rows: np.ndarray, *,
+        at: np.ndarray) -> Pinned:
     """A study's forward model at the speeds ``rpm`` with the engine's discretisation pinned for the whole
-    study (:meth:`millstab.forward.Forward.pinned`): ``bounding_rows`` (K, P) [SI] are the centre first
-    (spectral chooses there) and rows that bound every row the study will evaluate (sdm's steps follow the
+    study (:meth:`millstab.forward.Forward.pinned`): ``at`` (P,) [SI] is the centre (spectral chooses
+    there) and ``bounding_rows`` (K, P) [SI] rows that bound every row the study will evaluate (sdm's steps follow the
     highest natural frequency). Then neither the chunks nor a cluster change a number."""
-    return forward(par, cutting, engine).pinned(rpm, bounding_rows)
+    return forward(par, cutting, engine).pinned(rpm, bounding_rows, at=at)
 
 
 def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: CountProgress | None = None, client=None,
@@ -181,4 +182,8 @@ def depths_chunked(f: Pinned, theta_rows: np.ndarray, progress: CountProgress | 
     if chunk_rows is not None and (isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer))
                                    or chunk_rows < 1):
         raise InputError("chunk_rows", chunk_rows, "must be a positive integer")
-    return f.map(theta_rows, chunk_rows=chunk_rows, progress=progress, client=client)
+    if client is not None:  # the tasks call the same pinned model (the forward layer imports no cluster)
+        from millstab.cluster import map_pinned
+
+        return map_pinned(client, f, theta_rows, progress, chunk_rows)
+    return f.map(theta_rows, chunk_rows=chunk_rows, progress=progress)

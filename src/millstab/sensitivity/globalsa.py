@@ -114,7 +114,8 @@ def sobol_indices(n_vars: int, Y: np.ndarray, seed: int, num_resamples: int = 10
     return {key: v[0] for key, v in out.items()} if one else out
 
 
-def salib_sobol(prob: dict, Y: np.ndarray, seed: int, num_resamples: int = 100, conf_level: float = 0.95) -> dict[str, np.ndarray]:
+def salib_sobol(prob: dict, Y: np.ndarray, seed: int, num_resamples: int = 100,
+                conf_level: float = 0.95) -> dict[str, np.ndarray]:
     """``SALib.analyze.sobol.analyze`` of one output (first and total order), as arrays (P,)."""
     from SALib.analyze import sobol as sa
 
@@ -146,7 +147,7 @@ def _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client=None):
     bnds = bounds_from(par, th, t, bounds)
     r = check_rpm(rpm)
     eng = engine_module(engine)
-    f = pin(eng, par, cutting, r, np.vstack([th, bnds[:, 1]]))  # the centre, then the box's upper corner
+    f = pin(eng, par, cutting, r, np.vstack([th, bnds[:, 1]]), at=th)  # the centre, then the box's upper corner
     return par, th, seed, bnds, r, f, f(th[None, :])
 
 
@@ -211,6 +212,7 @@ def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajector
         raise InputError("rpm", f"{r.min():g}..{r.max():g}", "some sampled SLDs have no finite limit there")
     outs = {}
     for name, y in (("mse", mse_mm2(nominal, d)), ("minimum", d.min(axis=1) * 1e3)):
-        res = ma.analyze(prob, X, y, num_resamples=num_resamples, conf_level=conf_level, num_levels=int(levels), seed=seed)
+        res = ma.analyze(prob, X, y, num_resamples=num_resamples, conf_level=conf_level, num_levels=int(levels),
+                         seed=seed)
         outs[name] = {key: np.asarray(res[key], float) for key in ("mu", "mu_star", "sigma", "mu_star_conf")}
     return MorrisResult(par.free, bnds, int(trajectories), int(levels), seed, r, outs, engine)

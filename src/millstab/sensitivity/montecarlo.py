@@ -80,7 +80,7 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
     mse = np.empty((n, n_p))
     # every row of every path lies in [(1 − t)p, (1 + t)(1 + ε⁺)p]: pin the discretisation on the centre and that
     # corner once, so the blocks (their size, where they run) change no number
-    settings = dict(pin(eng, par, cutting, r, np.vstack([th, th * (1 + t) * max(1.0, 1.0 + eps)])).settings)
+    settings = dict(pin(eng, par, cutting, r, np.vstack([th, th * (1 + t) * max(1.0, 1.0 + eps)]), at=th).settings)
     spec = (eng, par, cutting, r, th, t, eps, seed, settings)
     if client is None:
         per_block = int(chunk_paths or max(1, rows_per_call(r.size, eng) // per))

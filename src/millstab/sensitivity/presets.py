@@ -28,10 +28,12 @@ def match_example(cutting: Cutting, structure: Structure) -> str | None:
     for name in ("ex1", "ex2", "ex3"):
         v = pv[name]
         cut_ok = (cutting.teeth == v["teeth"] and _close(cutting.kt, v["kt"]) and _close(cutting.kr, v["kr"])
-                  and _close(math.degrees(cutting.entry), v["entry_deg"]) and _close(math.degrees(cutting.exit), v["exit_deg"]))
+                  and _close(math.degrees(cutting.entry), v["entry_deg"])
+                  and _close(math.degrees(cutting.exit), v["exit_deg"]))
         if not cut_ok:
             continue
-        vals = (structure.x[0].fn, structure.x[0].k, structure.x[0].zeta, structure.y[0].fn, structure.y[0].k, structure.y[0].zeta)
+        vals = (structure.x[0].fn, structure.x[0].k, structure.x[0].zeta, structure.y[0].fn, structure.y[0].k,
+                structure.y[0].zeta)
         if all(_close(a, v[p]) for a, p in zip(vals, _PARAMS)):
             return name
     return None

@@ -218,7 +218,8 @@ class MCResult:
         and the ratio of the fn and k sensitivities."""
         lines = [f"Monte Carlo sensitivity: N = {self.n}, t = {self.t:g}, eps = {self.eps:g}, seed {self.seed}",
                  f"{'MSE [mm^2]':<22}" + "".join(f"{n:>11}" for n in self.names),
-                 _row("mean (millstab)", self.mean), _row("SD 1/N (millstab)", self.sd), _row("SEM (millstab)", self.sem)]
+                 _row("mean (millstab)", self.mean), _row("SD 1/N (millstab)", self.sd),
+                 _row("SEM (millstab)", self.sem)]
         if paper and all(n in paper for n in self.names):
             tag = "" if paper_comparable else " [other structure]"
             lines += [_row("mean (paper Table 6)", [paper[n]["mean"] for n in self.names]) + tag,

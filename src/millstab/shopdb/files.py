@@ -73,7 +73,8 @@ def export_campaign(store, name: str, folder) -> Path:
     for ev in b["events"]:
         manifest["events"].append({k: ev[k] for k in ("at", "user", "action", "detail")}
                                   | {"posterior": None if ev["posterior"] is None else pfile[ev["posterior"]],
-                                     "recommendation": None if ev["recommendation"] is None else rfile[ev["recommendation"]]})
+                                     "recommendation": None if ev["recommendation"] is None
+                                     else rfile[ev["recommendation"]]})
     rows = b["cuts"]
     from millstab.shopdb.store import cuts_from_rows
 
@@ -97,7 +98,8 @@ def _index(files: list[str], f, what: str) -> int | None:
     if f is None:
         return None
     if f not in files:
-        raise InputError(what, f, f"not one of the exported files ({', '.join(files[:4])}{', ...' if len(files) > 4 else ''})")
+        raise InputError(what, f,
+                         f"not one of the exported files ({', '.join(files[:4])}{', ...' if len(files) > 4 else ''})")
     return files.index(f)
 
 
@@ -150,7 +152,8 @@ def read_campaign(folder) -> dict:
                      **{k: own[i].get(k) for k in SETTINGS}})
     events = [{k: e[k] for k in ("at", "user", "action", "detail")}
               | {"posterior": _index(pfiles, e.get("posterior"), "event posterior"),
-                 "recommendation": _index(rfiles, e.get("recommendation"), "event recommendation")} for e in m["events"]]
+                 "recommendation": _index(rfiles, e.get("recommendation"), "event recommendation")}
+              for e in m["events"]]
     return {**{k: m.get(k) for k in ("name", "shop", "machine", "tool", "created_at", "created_by", "updated_at",
                                       "revision")},
             "note": m.get("note") or "", "head": _index(pfiles, m.get("head"), "head"), "configs": configs,

@@ -153,4 +153,5 @@ event = Table(
 )
 Index("ix_event_campaign_id", event.c.campaign_id, event.c.id)
 
-__all__ = ["DEFAULT_SHOP", "HEAD", "campaign", "config", "cut", "event", "machine", "metadata", "posterior", "recommendation", "tool"]
+__all__ = ["DEFAULT_SHOP", "HEAD", "campaign", "config", "cut", "event", "machine", "metadata", "posterior",
+           "recommendation", "tool"]

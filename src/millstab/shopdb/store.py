@@ -323,7 +323,8 @@ class Store:
         row = conn.execute(q).first()
         if row is None:
             return None
-        n_rows = conn.execute(sa.select(sa.func.count()).select_from(T.cut).where(T.cut.c.campaign_id == row.id)).scalar_one()
+        n_rows = conn.execute(sa.select(sa.func.count()).select_from(T.cut)
+                              .where(T.cut.c.campaign_id == row.id)).scalar_one()
         sha = engine = by = None
         if row.head_posterior_id is not None:
             prow = conn.execute(sa.select(cf.c.sha256, p.c.engine, p.c.created_by)
@@ -355,7 +356,8 @@ class Store:
         name = _check_name(name, f"--{table.name}")
         rid = conn.execute(sa.select(table.c.id).where(table.c.name == name)).scalar()
         if rid is None:
-            rid = conn.execute(table.insert().values(name=name, note="", created_at=at, created_by=user)).inserted_primary_key[0]
+            rid = conn.execute(table.insert().values(name=name, note="", created_at=at,
+                                                     created_by=user)).inserted_primary_key[0]
         return rid
 
     def _ensure_campaign(self, conn: sa.Connection, name: str, machine: str | None, tool: str | None, user: str,
@@ -368,7 +370,8 @@ class Store:
         c = T.campaign
         row = conn.execute(sa.select(c.c.id, c.c.machine_id, c.c.tool_id, c.c.shop).where(c.c.name == name)).first()
         if row is not None and shop is not None and row.shop != shop:
-            raise InputError("--campaign", name, "the name is taken by a campaign you cannot see; choose another name")  # = api.shop.TAKEN
+            raise InputError("--campaign", name,
+                             "the name is taken by a campaign you cannot see; choose another name")  # = api.shop.TAKEN
         mid = self._named(conn, T.machine, machine, user, at)
         tid = self._named(conn, T.tool, tool, user, at)
         if row is None:
@@ -379,7 +382,8 @@ class Store:
             what = ", ".join(f"{k} {v}" for k, v in (("shop", shop), ("machine", machine), ("tool", tool)) if v)
             self._event(conn, cid, user, at, "create", f"campaign {name}" + (f" ({what})" if what else ""))
             return cid
-        for field, given, have, value in (("--machine", mid, row.machine_id, machine), ("--tool", tid, row.tool_id, tool)):
+        for field, given, have, value in (("--machine", mid, row.machine_id, machine),
+                                          ("--tool", tid, row.tool_id, tool)):
             if given is not None and have is not None and given != have:
                 raise InputError(field, value, f"campaign {name!r} belongs to another {field[2:]}; "
                                                "start a new campaign for a new machine or tool")
@@ -399,7 +403,8 @@ class Store:
 
     def _config_id(self, conn: sa.Connection, cid: int, toml: str, user: str, at: str) -> int:
         sha = hashlib.sha256(toml.encode("utf-8")).hexdigest()
-        row = conn.execute(sa.select(T.config.c.id).where(T.config.c.campaign_id == cid, T.config.c.sha256 == sha)).scalar()
+        row = conn.execute(sa.select(T.config.c.id).where(T.config.c.campaign_id == cid,
+                                                          T.config.c.sha256 == sha)).scalar()
         if row is None:
             row = conn.execute(T.config.insert().values(campaign_id=cid, sha256=sha, toml=toml, created_at=at,
                                                         created_by=user)).inserted_primary_key[0]
@@ -413,7 +418,8 @@ class Store:
             if seq is not None and len(seq) != n:
                 raise InputError(field, f"{len(seq)} values", f"need one per cut ({n})")
         own = cut_settings(cuts)
-        return [{"campaign_id": cid, "seq": first_seq + i, "rpm": float(cuts.rpm[i]), "depth_mm": float(cuts.depth_mm[i]),
+        return [{"campaign_id": cid, "seq": first_seq + i, "rpm": float(cuts.rpm[i]),
+                 "depth_mm": float(cuts.depth_mm[i]),
                  "label": str(cuts.label[i]), "grade": _float_or_none(cuts.grade[i]), "weight": float(cuts.weight[i]),
                  "chatter_hz": _float_or_none(cuts.chatter_hz[i]), "batch": str(cuts.batch[i]),
                  "rater": str(raters[i]) if raters is not None else "",
@@ -476,7 +482,8 @@ class Store:
                          .values(head_posterior_id=pid, revision=T.campaign.c.revision + 1, updated_at=at))
             start = f"from posterior {parent}" if parent is not None else "from the prior"
             detail = (f"update: +{len(new_cuts)} cut(s), {expected_rows + len(new_cuts)} in all; "
-                      f"{n_samples} samples, {doc.get('engine', 'zoa')}, seed {seed}, {start}" + (f"; {note}" if note else ""))
+                      f"{n_samples} samples, {doc.get('engine', 'zoa')}, seed {seed}, {start}"
+                      + (f"; {note}" if note else ""))
             self._event(conn, cid, user, at, "update", detail, posterior_id=pid)  # the last write before the commit
         return pid
 
@@ -535,7 +542,8 @@ class Store:
             doc = toml = None
             if with_posterior and head.posterior_id is not None:
                 p, cf = T.posterior, T.config
-                text, toml = conn.execute(sa.select(p.c.doc, cf.c.toml).select_from(p.join(cf, p.c.config_id == cf.c.id))
+                text, toml = conn.execute(sa.select(p.c.doc,
+                                                    cf.c.toml).select_from(p.join(cf, p.c.config_id == cf.c.id))
                                           .where(p.c.id == head.posterior_id)).one()
                 doc = json.loads(text)
         return Snapshot(head, rows, doc, toml)
@@ -552,7 +560,8 @@ class Store:
                 raise self._unknown(conn, name)
             if row.head_posterior_id is None:
                 raise InputError("--campaign", name, "has cuts but no posterior yet; run millstab update --db first")
-            text = conn.execute(sa.select(T.posterior.c.doc).where(T.posterior.c.id == row.head_posterior_id)).scalar_one()
+            text = conn.execute(sa.select(T.posterior.c.doc)
+                                .where(T.posterior.c.id == row.head_posterior_id)).scalar_one()
         return row.head_posterior_id, json.loads(text)
 
     def latest_posterior(self, name: str):
@@ -611,10 +620,13 @@ class Store:
             camp = conn.execute(sa.select(c).where(c.c.id == cid)).first()._mapping
             machine = conn.execute(sa.select(T.machine.c.name).where(T.machine.c.id == camp["machine_id"])).scalar()
             tool = conn.execute(sa.select(T.tool.c.name).where(T.tool.c.id == camp["tool_id"])).scalar()
-            configs = [dict(x._mapping) for x in conn.execute(sa.select(cf).where(cf.c.campaign_id == cid).order_by(cf.c.id))]
-            posts = [dict(x._mapping) for x in conn.execute(sa.select(p).where(p.c.campaign_id == cid).order_by(p.c.id))]
+            configs = [dict(x._mapping)
+                       for x in conn.execute(sa.select(cf).where(cf.c.campaign_id == cid).order_by(cf.c.id))]
+            posts = [dict(x._mapping)
+                     for x in conn.execute(sa.select(p).where(p.c.campaign_id == cid).order_by(p.c.id))]
             recs = [dict(x._mapping) for x in conn.execute(sa.select(r).where(r.c.campaign_id == cid).order_by(r.c.id))]
-            events = [dict(x._mapping) for x in conn.execute(sa.select(e).where(e.c.campaign_id == cid).order_by(e.c.id))]
+            events = [dict(x._mapping)
+                      for x in conn.execute(sa.select(e).where(e.c.campaign_id == cid).order_by(e.c.id))]
             q = sa.select(*[col for col in T.cut.c if col.name not in ("id", "campaign_id")])
             cuts = [dict(x._mapping) for x in conn.execute(q.where(T.cut.c.campaign_id == cid).order_by(T.cut.c.seq))]
         ci = {x["id"]: i for i, x in enumerate(configs)}
@@ -629,9 +641,11 @@ class Store:
             "revision": camp["revision"], "head": pi.get(camp["head_posterior_id"]),
             "configs": [{"toml": x["toml"], **{k: x[k] for k in ("sha256",) + who}} for x in configs],
             "posteriors": [{"doc": json.loads(x["doc"]), "parent": pi.get(x["parent_id"]), "config": ci[x["config_id"]],
-                            **{k: x[k] for k in ("n_rows", "engine", "samples", "seed", "code_version", "data_hash") + who}}
+                            **{k: x[k]
+                               for k in ("n_rows", "engine", "samples", "seed", "code_version", "data_hash") + who}}
                            for x in posts],
-            "recommendations": [{"doc": json.loads(x["doc"]), "posterior": pi[x["posterior_id"]], **{k: x[k] for k in who}}
+            "recommendations": [{"doc": json.loads(x["doc"]), "posterior": pi[x["posterior_id"]],
+                                 **{k: x[k] for k in who}}
                                 for x in recs],
             "cuts": cuts,
             "events": [{"at": x["at"], "user": x["user"], "action": x["action"], "detail": x["detail"],
@@ -685,7 +699,8 @@ class Store:
                                               for x in bundle["cuts"]])
             rids = [conn.execute(T.recommendation.insert().values(
                 campaign_id=cid, posterior_id=ref(pids, x["posterior"], "posterior of a recommendation"),
-                doc=json_text(x["doc"]), created_at=x["created_at"], created_by=x["created_by"])).inserted_primary_key[0]
+                doc=json_text(x["doc"]), created_at=x["created_at"],
+                created_by=x["created_by"])).inserted_primary_key[0]
                 for x in bundle["recommendations"]]
             for x in bundle["events"]:
                 self._event(conn, cid, x["user"], x["at"], x["action"], x["detail"],
@@ -776,15 +791,18 @@ def _translate(url: str, doing: str, exc: sa_exc.DBAPIError) -> InputError:
     msg = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
     low = msg.lower()
     if "readonly" in low or "read-only" in low or "read only" in low:
-        return InputError("--db", url, f"the database is read-only ({msg}); nothing was recorded; use a writable copy or "
-                                       "ask for write access to the file and its folder")
+        return InputError("--db", url,
+                          f"the database is read-only ({msg}); nothing was recorded; use a writable copy or "
+                          "ask for write access to the file and its folder")
     if "disk is full" in low or "no space" in low or "disk full" in low:
         return InputError("--db", url, f"the disk is full ({msg}); nothing was recorded; free space and re-run")
     if "unable to open" in low:
-        return InputError("--db", url, f"the database cannot be opened or created ({msg}); check the path and that its folder "
-                                       "is writable")
+        return InputError("--db", url,
+                          f"the database cannot be opened or created ({msg}); check the path and that its folder "
+                          "is writable")
     if "locked" in low or "busy" in low:
-        return InputError("--db", url, f"the database stayed locked by another writer for {BUSY_TIMEOUT_S:g} s ({msg}); re-run")
+        return InputError("--db", url,
+                          f"the database stayed locked by another writer for {BUSY_TIMEOUT_S:g} s ({msg}); re-run")
     if isinstance(exc, sa_exc.IntegrityError):  # two writers created the same campaign/cut at once (PostgreSQL)
         return StaleError("--db", url, f"another writer changed the campaign at the same moment ({msg}); nothing "
                                        "was recorded; re-run")
@@ -815,7 +833,8 @@ def schema_revision(store: Store) -> str | None:
             tables = sa.inspect(conn).get_table_names()
             if tables:
                 raise InputError("--db", store.url, f"a database of something else (tables {', '.join(tables[:6])}) "
-                                                    "and no millstab schema; give a new file or a millstab shop database")
+                                                    "and no millstab schema; give a new file or a millstab shop "
+                                                    "database")
             return None
         return conn.execute(sa.text("SELECT version_num FROM alembic_version")).scalar()
 
@@ -839,5 +858,6 @@ def migrate(store: Store) -> None:
         command.upgrade(alembic_config(conn), "head")
 
 
-__all__ = ["BUSY_TIMEOUT_S", "Event", "Head", "MAX_HISTORY", "SETTINGS", "Snapshot", "StaleError", "Store", "alembic_config",
-           "code_version", "cut_settings", "cuts_from_rows", "data_hash", "default_user", "json_text", "migrate", "now", "schema_revision"]
+__all__ = ["BUSY_TIMEOUT_S", "Event", "Head", "MAX_HISTORY", "SETTINGS", "Snapshot", "StaleError", "Store",
+           "alembic_config", "code_version", "cut_settings", "cuts_from_rows", "data_hash", "default_user", "json_text",
+           "migrate", "now", "schema_revision"]

@@ -48,8 +48,8 @@ from millstab.model import Cutting, Structure
 from millstab.simulate import _kernel
 from millstab.simulate.detect import LABELS, LOBES, Detection, detect, growth_multiplier, spectrum_band_hz
 
-__all__ = ["add_label_noise", "CutResult", "Detection", "Labels", "simulate_cut", "detect", "label_cuts", "default_steps",
-           "growth_multiplier", "STEPS_MIN"]
+__all__ = ["add_label_noise", "CutResult", "Detection", "Labels", "simulate_cut", "detect", "label_cuts",
+           "default_steps", "growth_multiplier", "STEPS_MIN"]
 
 #: fewest steps per tooth period accepted
 STEPS_MIN = 20

@@ -195,7 +195,8 @@ def growth_multiplier(result, skip: float = 0.5, order: int = 3, max_level: floa
     tooth-to-tooth changes d_c = P_c − P_{c−1} after the first ``skip`` share of the cut; its
     eigenvalue of largest modulus. With ``max_level`` [m] only the samples before the first change
     larger than it (after the first one below it) are used (the linear regime of a growing run).
-    In the linear regime (small vibration) this is the dominant Floquet multiplier of the simulation: |μ| > 1 growing, arg μ the chatter frequency modulo f_T.
+    In the linear regime (small vibration) this is the dominant Floquet multiplier of the simulation: |μ| > 1 growing,
+    arg μ the chatter frequency modulo f_T.
     For validation against the semi-discretization engine; the labels use :func:`detect`.
     """
     m = result.steps_per_tooth

@@ -27,6 +27,11 @@ CHUNK_CELLS = 4_000_000
 CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchange", "accepts_measured_frf",
             "reports_lobe_type", "reports_progress", "cheap", "reports_chatter_frequency", "time_averaged",
             "depth_accuracy")
+#: what a consumer outside ``millstab.stability`` may use of an engine beyond :data:`CONTRACT`: the optional
+#: capabilities of :class:`Engine` (each declared or checked with ``hasattr``/``engine_with``); any other public
+#: function of an engine module (``rho_map``, ``monodromy``, …) is the engine's own (tests/test_layers.py)
+OPTIONAL = ("per_set_kr", "process_damping", "settings", "split_settings", "envelope_batch_hz", "lobes",
+            "reports_multipliers", "critical_multipliers")
 
 #: the ``"schema"`` of :meth:`Envelope.to_json`
 ENVELOPE_SCHEMA = "millstab.envelope/1"
@@ -176,6 +181,10 @@ class Engine(Protocol):
             It may take ``purpose=`` (``"fit"``, the default, or ``"sample"``: a sampler comparing the
             depths with a depth noise, which may need a coarser discretisation); :class:`Forward` passes
             it only when not ``"fit"``.
+        critical_multipliers(structure, cutting, rpm) -> (S,) complex: the dominant Floquet multiplier at
+            the limiting depth of each speed (modulus ≈ 1; μ ≈ −1 a flip boundary, a complex pair a Hopf one), for
+            an engine declaring ``reports_multipliers = True`` (sdm): a consumer asks
+            ``engine_with(reports_multipliers=True)``, never an engine by name.
     """
 
     name: str

@@ -362,6 +362,8 @@ exact_xy_exchange = False
 accepts_measured_frf = False
 #: flip and Hopf boundaries are both found, but not told apart
 reports_lobe_type = False
+#: optional capability: :func:`critical_multipliers` (millstab.stability.base.Engine)
+reports_multipliers = True
 #: carries process damping (Cutting.process_damping), instantaneous per tooth, rebuilt per depth
 process_damping = True
 reports_progress = True

@@ -11,5 +11,6 @@ from millstab.tooltip.rcsa import couple, decouple_artifact
 from millstab.tooltip.tool import DEFAULT_FLUTE_RATIO, Tool, peaks, tip_band, tip_grid, tip_receptance, tip_structure
 
 __all__ = ["DEFAULT_FLUTE_RATIO", "FaceMode", "MATERIALS", "Beam", "Material", "MeasuredHolder", "ModalHolder",
-           "RigidHolder", "Section", "Tool", "XYHolder", "artifact_beam", "couple", "decouple_artifact", "from_artifact",
-           "from_finite_differences", "material", "peaks", "tip_band", "tip_grid", "tip_receptance", "tip_structure"]
+           "RigidHolder", "Section", "Tool", "XYHolder", "artifact_beam", "couple", "decouple_artifact",
+           "from_artifact", "from_finite_differences", "material", "peaks", "tip_band", "tip_grid", "tip_receptance",
+           "tip_structure"]

@@ -13,8 +13,9 @@ Element: the 2-node Timoshenko element with interdependent (exact static) interp
 static tip deflection of a uniform cantilever is exact for any element count; natural frequencies converge
 as ℓ² (measured: a carbide cantilever of 2 D with 24 elements has f1, f2, f3 within 3e-5, 5e-4, 2e-3 of the
 exact Timoshenko values, with 48 elements 4× closer; tests/test_tooltip.py checks against the exact
-transfer-matrix solution of the Timoshenko equations). Shear coefficient of a solid circular section: Cowper (1966), κ = 6(1+ν)/(7+6ν); of a hollow
-one with inner/outer ratio m: κ = 6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²).
+transfer-matrix solution of the Timoshenko equations). Shear coefficient of a solid circular section: Cowper
+(1966), κ = 6(1+ν)/(7+6ν); of a hollow one with inner/outer ratio m:
+κ = 6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²).
 
 Damping: a structural (hysteretic) loss factor η on the stiffness, K(1+iη) — each mode then has the
 resonant damping ratio ζ = η/2, and two substructures with the same η couple into exactly the assembly with
@@ -62,7 +63,8 @@ class Material:
 #: materials a config may name; handbook room-temperature values (ranges in docs/tooltip.md)
 MATERIALS: dict[str, Material] = {
     "carbide": Material("carbide", 600e9, 14600.0, 0.22,
-                        "cemented tungsten carbide WC-Co, ~10 % Co (handbook range E 530-650 GPa, 14 400-15 000 kg/m^3)"),
+                        "cemented tungsten carbide WC-Co, ~10 % Co (handbook range E 530-650 GPa, "
+                        "14 400-15 000 kg/m^3)"),
     "steel": Material("steel", 200e9, 7800.0, 0.29, "carbon/low-alloy steel (e.g. AISI 4140: 205 GPa, 7850 kg/m^3)"),
     "hss": Material("hss", 215e9, 8150.0, 0.29, "high-speed steel (M2: ~210-220 GPa, 8 100-8 200 kg/m^3)"),
     "aluminium": Material("aluminium", 70e9, 2700.0, 0.33, "aluminium alloys (e.g. 7075: 71.7 GPa, 2 810 kg/m^3)"),

@@ -100,7 +100,8 @@ class MeasuredHolder:
     def __post_init__(self) -> None:
         f = np.asarray(self.freq_hz, dtype=float)
         if f.ndim != 1 or f.size < 4 or np.any(np.diff(f) <= 0) or f[0] <= 0:
-            raise InputError("holder frequencies", f"{f.size} values", "need >= 4 strictly increasing frequencies > 0 Hz")
+            raise InputError("holder frequencies", f"{f.size} values",
+                             "need >= 4 strictly increasing frequencies > 0 Hz")
         object.__setattr__(self, "freq_hz", f)
         for t in ("h", "l", "n", "p"):
             v = np.asarray(getattr(self, t), dtype=complex)
@@ -116,7 +117,8 @@ class MeasuredHolder:
         f = np.asarray(freq_hz, dtype=float)
         lo, hi = self.band
         if f.size and (f.min() < lo * (1 - 1e-12) or f.max() > hi * (1 + 1e-12)):
-            raise InputError("frequency", f"{f.min():g}..{f.max():g} Hz", f"must lie in the holder's measured band {lo:g}..{hi:g} Hz")
+            raise InputError("frequency", f"{f.min():g}..{f.max():g} Hz",
+                             f"must lie in the holder's measured band {lo:g}..{hi:g} Hz")
         out = np.empty((f.size, 2, 2), dtype=complex)
         for (i, j), t in zip(((0, 0), (0, 1), (1, 0), (1, 1)), ("h", "l", "n", "p")):
             v = getattr(self, t)
@@ -167,7 +169,8 @@ def from_artifact(freq_hz: np.ndarray, tip: np.ndarray, cross: np.ndarray, offse
     f = np.asarray(freq_hz, dtype=float)
     art = artifact.receptance(f, artifact_points(artifact, offset))
     r33 = decouple_artifact(art, np.stack([tip, cross, offset_direct], axis=-1))
-    return MeasuredHolder(f, r33[:, 0, 0], r33[:, 0, 1], r33[:, 1, 0], r33[:, 1, 1], source="artifact test, inverse RCSA")
+    return MeasuredHolder(f, r33[:, 0, 0], r33[:, 0, 1], r33[:, 1, 0], r33[:, 1, 1],
+                          source="artifact test, inverse RCSA")
 
 
 def artifact_beam(diameter: float, length: float, offset: float, material, elements: int | None = None) -> Beam:
@@ -225,5 +228,5 @@ def from_finite_differences(freq_hz: np.ndarray, H: np.ndarray, spacing: float, 
     return MeasuredHolder(np.asarray(freq_hz, float), h, l_, n, p, source=f"finite differences, order {order}")
 
 
-__all__ = ["XYHolder", "FaceMode", "Holder", "MeasuredHolder", "ModalHolder", "RigidHolder", "artifact_beam", "artifact_points",
-           "from_artifact", "from_finite_differences"]
+__all__ = ["XYHolder", "FaceMode", "Holder", "MeasuredHolder", "ModalHolder", "RigidHolder", "artifact_beam",
+           "artifact_points", "from_artifact", "from_finite_differences"]

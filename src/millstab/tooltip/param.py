@@ -115,7 +115,8 @@ def tip_modes(tool: Tool, fn: np.ndarray, k: np.ndarray, zeta: np.ndarray, slope
     phi_tip = np.einsum("bn,bnj->bj", tip_row, psi)
     # damping: the diagonal of the modal damping (module docstring)
     c_hold = np.einsum("bm,bmj->bj", 2.0 * zeta * w, psi[:, :m, :] ** 2)
-    e_beam = np.einsum("bmj,bmn,bnj->bj", psi[:, :m, :], Kq, psi[:, :m, :]) + np.einsum("e,bej->bj", lam, psi[:, m:, :] ** 2)
+    e_beam = (np.einsum("bmj,bmn,bnj->bj", psi[:, :m, :], Kq, psi[:, :m, :])
+              + np.einsum("e,bej->bj", lam, psi[:, m:, :] ** 2))
     omega = np.sqrt(om2)
     z = c_hold / (2.0 * omega) + tool.zeta * e_beam / om2
     with np.errstate(divide="ignore"):

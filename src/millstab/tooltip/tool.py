@@ -129,7 +129,8 @@ def tip_band(tool: Tool, holder: Holder) -> tuple[float, float]:
     f_hi = min(f_top, hi)
     f_lo = max(f_hi / 500.0, lo)
     if f_hi <= f_lo * 1.01:
-        raise InputError("holder band", f"{lo:g}..{hi:g} Hz", f"does not reach the tool's modes (first near {math.sqrt(lam[0]) / (2 * math.pi):.4g} Hz)")
+        raise InputError("holder band", f"{lo:g}..{hi:g} Hz",
+                         f"does not reach the tool's modes (first near {math.sqrt(lam[0]) / (2 * math.pi):.4g} Hz)")
     return f_lo, f_hi
 
 

@@ -74,7 +74,8 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
            seed: int = 0, moves: int = 3, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
-           client=None, sampler: str = "auto", stickout: np.ndarray | None = None) -> Posterior:
+           client=None, sampler: str = "auto", stickout: np.ndarray | None = None,
+           engine_options: dict | None = None) -> Posterior:
     """The posterior of the free parameters given labelled cuts (and optional boundary points).
 
     Args:
@@ -104,6 +105,11 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         stickout: the tool's stickout [m] of each row of ``cuts`` (NaN: the config's); needs a ``[tool]`` +
             ``[holder]`` config whose holder is given by modes, whose prior is then over the holder
             (:mod:`millstab.update.stickout`: one posterior serves every stickout).
+        engine_options: the chosen engine's discretisation for the whole update, instead of the one it
+            chooses (keywords of its ``envelope_batch``: sdm ``{"steps": 40}`` steps per tooth period,
+            spectral ``{"nodes": 8}``; zoa has none): :func:`millstab.forward.engine_options`. The screen
+            of delayed acceptance keeps its own. Kept in the diagnostics (``engine_options``); the decisions
+            from the posterior use the engine's own choice.
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
@@ -115,7 +121,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     with collect() as caught:
         ev = Evidence.from_points(cuts, points, stickout, base_cutting=pr.cutting,
                                   diameter_mm=getattr(config, "diameter_mm", None))
-        lik = Likelihood(pr, ev, engine, client)
+        lik = Likelihood(pr, ev, engine, client, engine_options)
         scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
@@ -162,6 +168,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     # how many of the cuts came from the earlier posterior (--start): only the others were tempered in
     diag["started_from_cuts"] = 0 if start is None else n_old
     diag["engine_sets"] = lik.n_sets
+    if engine_options:
+        diag["engine_options"] = dict(engine_options)
     if scr is not None:
         diag["screen_engine"], diag["screen_sets"] = cheap_engine, scr.n_sets
     if sur is not None:

@@ -16,7 +16,10 @@ the time-domain simulation) and the report. Units: rpm and mm.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Callable
+
+import dataclasses
 
 import numpy as np
 
@@ -33,7 +36,7 @@ Labeler = Callable[[np.ndarray, np.ndarray, np.random.Generator], tuple[list[str
 Truth = Callable[[np.ndarray], np.ndarray]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Campaign:
     """The record of one campaign.
 
@@ -51,25 +54,37 @@ class Campaign:
         failed: after which cuts the update failed (tempering stalled: the model cannot explain the labels).
         cut_true_chatter: whether each cut truly chattered (its depth at or above the true limit).
 
-    Not frozen, on purpose (issue 26): :func:`run_campaign` appends to it cut by cut (a campaign that stops
-    keeps the cuts so far); treat a returned campaign as read-only.
+    Frozen (issue 26): the sequences are tuples and ``posteriors`` a read-only mapping; :func:`run_campaign`
+    collects the record as it plays and builds the campaign once, at the end.
     """
 
-    cut_rpm: list[float] = field(default_factory=list)
-    cut_depth_mm: list[float] = field(default_factory=list)
-    labels: list[str] = field(default_factory=list)
-    chatter_hz: list[float] = field(default_factory=list)
-    rec_rpm: list[float] = field(default_factory=list)
-    rec_depth_mm: list[float] = field(default_factory=list)
-    rec_stable: list[bool] = field(default_factory=list)
-    rec_productivity: list[float] = field(default_factory=list)
+    cut_rpm: tuple[float, ...] = ()
+    cut_depth_mm: tuple[float, ...] = ()
+    labels: tuple[str, ...] = ()
+    chatter_hz: tuple[float, ...] = ()
+    rec_rpm: tuple[float, ...] = ()
+    rec_depth_mm: tuple[float, ...] = ()
+    rec_stable: tuple[bool, ...] = ()
+    rec_productivity: tuple[float, ...] = ()
     best: float = 0.0
     best_exact: float = 0.0
-    brier: list[float] = field(default_factory=list)
-    posteriors: dict[int, Posterior] = field(default_factory=dict)
-    stages: list[int] = field(default_factory=list)
-    failed: list[int] = field(default_factory=list)
-    cut_true_chatter: list[bool] = field(default_factory=list)
+    brier: tuple[float, ...] = ()
+    posteriors: MappingProxyType = field(default_factory=dict)
+    stages: tuple[int, ...] = ()
+    failed: tuple[int, ...] = ()
+    cut_true_chatter: tuple[bool, ...] = ()
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, list):  # a record built from lists (the loop's, a test's) is stored as tuples
+                object.__setattr__(self, f.name, tuple(v))
+        object.__setattr__(self, "posteriors", MappingProxyType(dict(self.posteriors)))
+
+    def __reduce__(self):  # a read-only mapping does not pickle (a campaign returned by a process pool)
+        kw = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        kw["posteriors"] = dict(self.posteriors)
+        return _campaign, (kw,)
 
     def test_chatter_share(self, label: str = "chatter") -> float:
         """The share of the tool's tests (every cut after the first, which is the prior's recommendation) whose
@@ -78,6 +93,11 @@ class Campaign:
         if not tests:
             return float("nan")
         return float(np.mean([bool(x) if label == "true" else x == label for x in tests]))
+
+
+def _campaign(kw: dict) -> Campaign:
+    """A pickled :class:`Campaign` rebuilt."""
+    return Campaign(**kw)
 
 
 def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361,
@@ -182,33 +202,36 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
     tol = (decision or {}).get("speed_tolerance", SPEED_TOLERANCE)
-    out = Campaign(best=best_productivity(truth, rpm_range, max_depth_mm, best_speeds, tol),
-                   best_exact=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
+    # the record, collected as the campaign plays (the Campaign is built once, at the end, frozen)
+    out = {k: [] for k in ("cut_rpm", "cut_depth_mm", "labels", "chatter_hz", "rec_rpm", "rec_depth_mm", "rec_stable",
+                           "rec_productivity", "brier", "stages", "failed", "cut_true_chatter")}
+    out["posteriors"] = {}
+    best = best_productivity(truth, rpm_range, max_depth_mm, best_speeds, tol)
     post = Posterior(prior, np.exp(prior.sample(samples, rng)), engine, cuts={"rpm": [lo, hi]})
     last: Posterior | None = None  # the last posterior of an update (the start of the next one)
     with quiet():  # one-sided early data and ranges beyond the cuts are expected here
         for k in range(cuts + 1):
             if k:
-                ps = PointSet(out.cut_rpm, out.cut_depth_mm, out.labels, chatter_hz=out.chatter_hz)
+                ps = PointSet(out["cut_rpm"], out["cut_depth_mm"], out["labels"], chatter_hz=out["chatter_hz"])
                 if ps.stable.any() or ps.chatter.any():
                     try:
                         post = update(config, ps, prior=prior, engine=engine, samples=samples,
                                       seed=int(rng.integers(2**31)), start=last if reuse else None)
                     except RuntimeError:  # the tempering stalled (labels the model cannot explain): say so, go on
-                        out.failed.append(k)  # with the last posterior (the next update tries these cuts again)
+                        out["failed"].append(k)  # with the last posterior (the next update tries these cuts again)
                     else:
                         last = post
-                        out.stages.append(int(post.diagnostics["stages"]))
+                        out["stages"].append(int(post.diagnostics["stages"]))
             if k in keep:
-                out.posteriors[k] = post
+                out["posteriors"][k] = post
             if truth_grid is not None:
-                out.brier.append(brier_score(post, truth_grid))
+                out["brier"].append(brier_score(post, truth_grid))
             rec = recommend(post, risk, rpm_range, max_depth_mm=max_depth_mm, seed=int(rng.integers(2**31)),
                             **(decision or {}))
-            out.rec_rpm.append(rec.rpm)
-            out.rec_depth_mm.append(rec.depth_mm)
-            out.rec_stable.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
-            out.rec_productivity.append(rec.rpm * rec.depth_mm / out.best)
+            out["rec_rpm"].append(rec.rpm)
+            out["rec_depth_mm"].append(rec.depth_mm)
+            out["rec_stable"].append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
+            out["rec_productivity"].append(rec.rpm * rec.depth_mm / best)
             if progress is not None:
                 progress(k)
             if k == cuts:
@@ -216,13 +239,13 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
             # the first cut is the prior's recommendation itself; later ones the tool's next test
             nxt = (rec.rpm, rec.depth_mm) if k == 0 else (rec.next_test["rpm"], rec.next_test["depth_mm"])
             lab, hz = labeler(np.array([nxt[0]]), np.array([nxt[1]]), rng)
-            out.cut_rpm.append(float(nxt[0]))
-            out.cut_depth_mm.append(float(nxt[1]))
-            out.cut_true_chatter.append(bool(nxt[1] >= truth(np.array([nxt[0]]))[0]))
-            out.labels += list(lab)
-            out.chatter_hz += list(hz)
-    out.posteriors.setdefault(cuts, post)
-    return out
+            out["cut_rpm"].append(float(nxt[0]))
+            out["cut_depth_mm"].append(float(nxt[1]))
+            out["cut_true_chatter"].append(bool(nxt[1] >= truth(np.array([nxt[0]]))[0]))
+            out["labels"] += list(lab)
+            out["chatter_hz"] += list(hz)
+    out["posteriors"].setdefault(cuts, post)
+    return Campaign(**out, best=best, best_exact=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
 
 
 def coverage(post: Posterior, theta: np.ndarray, level: float = 0.90) -> np.ndarray:

@@ -117,11 +117,10 @@ def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zo
                  conditions: Conditions | Cutting | None = None, fwd: Forward | None = None):
     """The one evaluator of :func:`limits` for the samples u = ln θ: ``fwd`` (default a fresh model, ``purpose``
     :data:`SAMPLING`) pinned on their rows (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen
-    at θ0 (spectral; cached in ``fwd``) or from the rows (sdm's steps); what a cluster's tasks get too."""
+    at θ0 (spectral: ``at=``, whatever ``fwd`` was asked before) or from the rows (sdm's steps); what a cluster's
+    tasks get too."""
     fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
-    r = check_rpm(rpm)
-    fwd.settings(r, None, conditions)  # chosen at θ0 (cached: the pinned model takes it)
-    return fwd.pinned(r, prior.split(u)[0], conditions)
+    return fwd.pinned(check_rpm(rpm), prior.split(u)[0], conditions, at=fwd.par.theta0)  # settings: at θ0
 
 
 def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
@@ -387,7 +386,8 @@ class Likelihood:
         n_calls, n_sets: engine calls and parameter sets evaluated so far.
     """
 
-    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None):
+    def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None,
+                 engine_options: dict | None = None):
         check_kr_engine(prior, engine)  # also a clear error for an unknown name
         self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
@@ -418,7 +418,9 @@ class Likelihood:
         # per speed list (at θ0, :func:`limits`), so log L is one function of θ in every call (before, the first
         # row of each call chose, and the spectral engine's node count moved between calls: the same θ got
         # depths up to 0.11 % apart, tests/test_spectral_sampling.py)
-        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING) for p, _ in self._groups]
+        # ``engine_options``: the engine's discretisation fixed for the whole update (sdm ``steps``, spectral
+        # ``nodes``: millstab.forward.engine_options), over what the engine would choose
+        self._forwards = [forward(p.par, p.cutting, engine, SAMPLING, engine_options) for p, _ in self._groups]
         self.n_calls = 0
         self.n_sets = 0
 

@@ -9,6 +9,12 @@ The particles move from the prior (β = 0) to the posterior (β = 1) through π_
 3. move: ``moves`` random-walk Metropolis–Hastings steps on π_β with a Gaussian proposal of covariance
    λ Σ, Σ the particles' covariance and λ starting at 2.38²/d (the optimal scaling for Gaussian
    targets), adapted after every move towards an acceptance of 0.25 (λ ← λ·exp(2(acc − 0.25))).
+   After a reweighting that kept more than the target ESS (the last step to β = 1 often keeps nearly
+   all: a sliver of β), fewer moves: ⌈moves·(1 − ESS/N)/(1 − ess_target)⌉, at least one
+   (:func:`stage_moves`). The moves restore the diversity that resampling took, and resampling at
+   ESS = N duplicates nothing; the stage's particles are the reweighted ones either way, so the
+   target is the same (issue 27: the four-condition benchmark's last stage, β 0.95 → 1 at ESS ≈ 0.97 N,
+   was 3 of its 22 engine calls; tests/test_sampler_moves.py checks the posterior against a brute-force grid).
 
 Every likelihood evaluation is ONE call of the batched ``loglik`` for all particles; there is no
 Python loop over particles. The log evidence (Σ log mean incremental weight) comes as a by-product.
@@ -51,6 +57,7 @@ alone does not; at the default 3 moves and 20 % jumps they move only part of the
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -105,6 +112,8 @@ class SMCResult:
     screen_pass: list[float] = field(default_factory=list)
     n_sets: int = 0
     extra: dict = field(default_factory=dict)
+    #: the MH moves of each stage (:func:`stage_moves`)
+    moves: list[int] = field(default_factory=list)
 
     @property
     def stages(self) -> int:
@@ -116,7 +125,8 @@ class SMCResult:
         out = {"method": f"adaptive tempered SMC (systematic resampling, {moves})",
                "particles": int(self.u.shape[0]), "stages": self.stages, "betas": self.betas,
                "ess": self.ess, "acceptance": self.acceptance, "min_acceptance": min(self.acceptance, default=None),
-               "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s}
+               "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s,
+               "moves": self.moves}
         if self.n_screen:
             out.update(screen_calls=self.n_screen, screen_pass=self.screen_pass, accurate_sets=self.n_sets)
         out.update(self.extra)
@@ -154,6 +164,14 @@ def next_beta(loglik: np.ndarray, beta: float, target: float) -> float:
     return beta + brentq(f, tiny, room, xtol=1e-12 * room + 1e-15, rtol=1e-6)
 
 
+def stage_moves(moves: int, ess: float, n: int, ess_target: float) -> int:
+    """MH moves after a reweighting of ESS ``ess`` (a count of ``n``): ``moves`` where the ESS is at most the
+    target (every stage the ESS rule chose), ⌈moves·(1 − ess/n)/(1 − ess_target)⌉ above it, at least one
+    (module docstring: the moves make up for the duplicates of resampling, whose share grows with 1 − ESS/N)."""
+    share = (1.0 - ess / n) / (1.0 - ess_target)
+    return min(int(moves), max(1, math.ceil(moves * share - 1e-9)))
+
+
 def _pair(loglik: Callable, reuse: bool) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """``v -> (untempered log L_old, tempered log L_new)``: zeros and ``loglik(v)`` for a fresh update."""
     if not reuse:
@@ -174,7 +192,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                  n: int = 4000, *, seed: int | np.random.Generator = 0, moves: int = 3, ess_target: float = 0.5,
                  max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
                  init: np.ndarray | None = None, screen: Batch | None = None,
-                 jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE) -> SMCResult:
+                 jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE,
+                 adaptive_moves: bool = True) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -194,6 +213,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         jumps: groups of columns of u (each a tuple of indices, e.g. each mode's ln fn and all of them)
             that lobe jumps shift together (module docstring); ``()``: random-walk proposals only.
         jump_rate: the share of proposals that are lobe jumps (0 ≤ · < 1), when ``jumps`` is given.
+        adaptive_moves: after a reweighting that kept more than the target ESS, fewer moves
+            (:func:`stage_moves`); ``False``: ``moves`` at every stage (the sampler before issue 27).
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -229,7 +250,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         slp = lp0 + sfx
         n_sc = 1
     beta, log_z = 0.0, 0.0
-    betas, esss, accs, passes = [0.0], [], [], []
+    betas, esss, accs, passes, n_moved = [0.0], [], [], [], []
     scale = 2.38**2 / p
     while beta < 1.0 and len(betas) <= max_stages:
         new = next_beta(ll, beta, ess_target * n)
@@ -246,7 +267,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         chol = np.linalg.cholesky(scale * cov)
         prev = scale
         acc = passed = 0.0
-        for _ in range(moves):  # each move: one batched likelihood call for all particles (or the screened ones)
+        n_moves = stage_moves(moves, esss[-1], n, ess_target) if adaptive_moves else moves
+        n_moved.append(n_moves)
+        for _ in range(n_moves):  # each move: one batched likelihood call for all particles (or the screened ones)
             step = rng.standard_normal((n, p)) @ chol.T
             jump = np.zeros(n, bool)
             if shifts is not None:  # the state-independent choice of kernel, then its symmetric proposal
@@ -267,8 +290,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                 n_sc += 1
                 n_ll += m > 0
                 n_sets += m
-                passed += m / n / moves
-            acc += ok.mean() / moves
+                passed += m / n / n_moves
+            acc += ok.mean() / n_moves
             # the target narrows from stage to stage: adapt the step after every move (on the random walk's
             # acceptance: a jump's says nothing about the step size)
             rw = ok[~jump].mean() if (~jump).any() else ok.mean()
@@ -283,7 +306,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     if beta < 1.0:  # never hand back a tempered distribution as if it were the posterior
         raise RuntimeError(f"tempered SMC stopped after {max_stages} stages at beta = {beta:.3g} < 1; raise max_stages "
                            "or the number of particles")
-    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets)
+    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets,
+                     moves=n_moved)
 
 
 def _jump_shifts(jumps, p: int) -> np.ndarray | None:
@@ -371,6 +395,7 @@ def corrected_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray]
         idx = systematic_resample(logw, rng)
         u, ll = u[idx], ll[idx]
         betas, esss, accs, n_sc, passes = first.betas, first.ess + [ess], first.acceptance, first.n_screen, []
+        n_moved = first.moves
     else:
         start = u.copy()
 
@@ -389,13 +414,15 @@ def corrected_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray]
         u, ll = res.u, res.loglik + _floored(np.asarray(surrogate(res.u), float))
         log_z = first.log_evidence + res.log_evidence
         betas, esss, accs = first.betas + res.betas[1:], first.ess + res.ess, first.acceptance + res.acceptance
+        n_moved = first.moves + res.moves
         n_sc, passes = first.n_screen + res.n_screen, res.screen_pass
         n_sets += res.n_sets - n
         n_ll += res.n_loglik - 1
         bridge = res.stages
     extra = {"correction": {"ess": ess, "ess_fraction": ess / n, "ess_min": ess_min, "accurate_rows": int(rows.shape[0]),
                             "bridge_stages": bridge, "surrogate_stages": first.stages}}
-    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets, extra)
+    return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets, extra,
+                     n_moved)
 
 
-__all__ = ["SMCResult", "corrected_smc", "ess_of", "next_beta", "systematic_resample", "tempered_smc"]
+__all__ = ["SMCResult", "corrected_smc", "ess_of", "next_beta", "stage_moves", "systematic_resample", "tempered_smc"]

@@ -192,7 +192,8 @@ class CampaignPanel:
             self.status.text = self.error(exc)
             return
         self.open(oc.name)
-        self.status.text = f'<span class="ms-done">campaign {esc(oc.name)}: {len(new)} cut(s) recorded, {n} in all</span>'
+        self.status.text = (f'<span class="ms-done">campaign {esc(oc.name)}: {len(new)} cut(s) recorded, '
+                            f'{n} in all</span>')
 
     def view(self):
         return pn.Card(self.header, pn.Row(self.select, self.open_button, self.refresh_button),
@@ -230,7 +231,8 @@ def _same_config(cfg, text: str | None) -> bool:
     if text is None or cfg is None:
         return False
     try:
-        return api.config_toml(api.modal(cfg)[0]) == api.config_toml(api.modal(api.config_from_text(text, "campaign"))[0])
+        return (api.config_toml(api.modal(cfg)[0])
+                == api.config_toml(api.modal(api.config_from_text(text, "campaign"))[0]))
     except (InputError, ValueError):
         return False
 

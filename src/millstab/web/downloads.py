@@ -42,7 +42,8 @@ class DownloadsTab:
             self.buttons.append((available, button))
         self.config_button = self.buttons[0][1]
         self.box = pn.Column(*(b for _, b in self.buttons))
-        session.param.watch(lambda e: self.refresh(), ["cfg", "lobes", "fit", "plan", "post", "pmap", "rec", "points", "cuts"])
+        session.param.watch(lambda e: self.refresh(),
+                            ["cfg", "lobes", "fit", "plan", "post", "pmap", "rec", "points", "cuts"])
         self.refresh()
 
     def items(self) -> list[tuple[str, str, object, object]]:
@@ -62,7 +63,8 @@ class DownloadsTab:
              lambda: _text_bytes(s.lobes.csv())),
             ("SLD figure PNG", "lobes.png", lambda: s.lobes is not None, lambda: lobes("png")),
             ("SLD figure SVG", "lobes.svg", lambda: s.lobes is not None, lambda: lobes("svg")),
-            ("identification JSON (= millstab identify --out)", "fit.json", has_fit, lambda: _json_bytes(s.fit.to_json())),
+            ("identification JSON (= millstab identify --out)", "fit.json", has_fit,
+             lambda: _json_bytes(s.fit.to_json())),
             ("fitted SLD figure PNG", "fit.png", has_fit, lambda: fit("png")),
             ("fitted SLD figure SVG", "fit.svg", has_fit, lambda: fit("svg")),
             ("planned tests CSV (= millstab design --out)", "plan.csv", lambda: s.plan is not None,
@@ -91,11 +93,12 @@ class DownloadsTab:
         if self.config_button.filename != f"{name}.toml":
             self.config_button.filename = f"{name}.toml"
         note = ('<span class="ms-note">a measured-FRF structure has no config TOML of its own: reference the FRF '
-                'files in a [structure.frf] table</span>' if self.s.cfg is not None and not self.s.cfg.structure.is_modal
+                'files in a [structure.frf] table</span>'
+                if self.s.cfg is not None and not self.s.cfg.structure.is_modal
                 else "")
         if self.note.object != note:
             self.note.object = note
 
     def view(self):
-        return pn.Column(pn.pane.HTML(f"<b>{esc('Files of this session')}</b> (made when clicked)"), self.note, self.box,
-                         name="Downloads")
+        return pn.Column(pn.pane.HTML(f"<b>{esc('Files of this session')}</b> (made when clicked)"), self.note,
+                         self.box, name="Downloads")

@@ -85,9 +85,11 @@ class IdentifyTab:
         se = fit.std_errors if fit.std_errors is not None else np.full(len(fit.names), np.nan)
         rows = [(n, f"{v:.6g}", f"{e:.3g}" if np.isfinite(e) else "–", u, f"{s:.6g}")
                 for n, v, e, u, s in zip(fit.names, fit.estimate, se, fit.units, fit.start)]
-        self.table.text = (computed_for(origin) + html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit") +
-                             f'<div class="ms-note">{esc(method)}: MLAE {fit.mlae:.4g} mm, {fit.iterations} iterations, '
-                             f'{fit.evaluations} evaluations, {fit.time_s:.2f} s, {fit.n_points} points</div>')
+        self.table.text = (computed_for(origin)
+                           + html_table(("parameter", "estimate", "± σ", "unit", "start"), rows, "fit")
+                           + f'<div class="ms-note">{esc(method)}: MLAE {fit.mlae:.4g} mm, {fit.iterations} '
+                             f'iterations, {fit.evaluations} evaluations, {fit.time_s:.2f} s, {fit.n_points} '
+                             'points</div>')
         lines = list(fit.warnings) + [w for w in caught if w not in fit.warnings]
         self.warnings.text = ("<b>warnings</b><ul>" + "".join(f"<li>{esc(w)}</li>" for w in lines) + "</ul>"
                                 if lines else '<span class="ms-note">no warnings</span>')
@@ -117,13 +119,16 @@ class IdentifyTab:
         tests = plan.tests()
         rows = [(f"{r:.0f}", c, f"{d:.4g}") for r, c, d in tests]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
-        self.plan_table.text = computed_for(origin) + html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes
+        self.plan_table.text = (computed_for(origin)
+                                + html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes)
         update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
 
     def view(self):
-        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.format, self.drop_error, self.points_note), self.example, margin=(0, 0, 20, 0)),
+        inputs = pn.Card(pn.Row(pn.Column(self.drop, self.format, self.drop_error, self.points_note), self.example,
+                                margin=(0, 0, 20, 0)),
                          pn.Row(self.method, self.free, self.seed, self.axisym), self.job,
                          title="Boundary points and identification", collapsible=False)
-        plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table.view(), title="Next tests", collapsible=False)
-        return pn.Column(inputs, pn.Row(self.table.view(), self.warnings.view()), pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"),
-                         plan, name="Identify")
+        plan = pn.Card(pn.Row(self.n_plan, self.plan_job), self.plan_table.view(), title="Next tests",
+                       collapsible=False)
+        return pn.Column(inputs, pn.Row(self.table.view(), self.warnings.view()),
+                         pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"), plan, name="Identify")

@@ -93,7 +93,8 @@ class JobBar(pn.viewable.Viewer):
                 self.bar.visible = True
         elif self.bar.visible:
             self.bar.visible = False
-        self.status.text = f"running: {stage} ({n}{f'/{total}' if total else ''}) {time.perf_counter() - self._t0:.1f} s"
+        self.status.text = (f"running: {stage} ({n}{f'/{total}' if total else ''}) "
+                            f"{time.perf_counter() - self._t0:.1f} s")
         if fut is None or not fut.done():
             return
         self._cb.stop()

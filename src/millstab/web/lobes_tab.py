@@ -82,9 +82,11 @@ class LobesTab:
                 set_line(self.src[key], env.rpm, env.depth_mm, lobe=np.asarray(env.lobe),
                          chatter_hz=np.asarray(env.chatter_hz, float))
         self.s.raw = bool(self.raw.value)
-        set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None, env.rpm, env.depth_mm)
+        set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None, env.rpm,
+                env.depth_mm)
         cfg = result.config
-        title = f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g} ({result.engine})"
+        title = (f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g} "
+                 f"({result.engine})")
         if self.fig.title.text != title:  # an unchanged property is not sent (every change re-lays the page out)
             with pn.io.unlocked():
                 self.fig.title.text = title

@@ -39,7 +39,8 @@ def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second:
            "raw": ColumnDataSource(dict(xs=[], ys=[]), name=f"{name}_raw"),
            "plan": ColumnDataSource(dict(rpm=[], depth_mm=[]), name=f"{name}_plan")}
     if raw:
-        fig.multi_line("xs", "ys", source=src["raw"], color="#9e9e9e", line_width=0.8, alpha=0.7, legend_label="raw lobes")
+        fig.multi_line("xs", "ys", source=src["raw"], color="#9e9e9e", line_width=0.8, alpha=0.7,
+                       legend_label="raw lobes")
     line = fig.line("rpm", "blim_mm", source=src["env"], color="#1565c0", line_width=2, legend_label=limit)
     if second:
         fig.line("rpm", "blim_mm", source=src["other"], color="#6a1b9a", line_width=1.5, line_dash="dotted",
@@ -98,7 +99,8 @@ def set_raw(source: ColumnDataSource, lobes, rpm=None, depth_mm=None) -> None:
 def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):
     """P(stable) over rpm × depth with the 5/50/95 % contours, the cuts, and ``marks``: (rpm, depth [mm],
     legend label) of the recommended cut and the next test."""
-    fig = figure(height=430, sizing_mode="stretch_width", title="P(stable), with its 5 % (dashed), 50 % (solid) and 95 % (dotted) boundaries",
+    fig = figure(height=430, sizing_mode="stretch_width",
+                 title="P(stable), with its 5 % (dashed), 50 % (solid) and 95 % (dotted) boundaries",
                  x_axis_label="spindle speed [rpm]", y_axis_label="axial depth [mm]",
                  x_range=(float(rpm[0]), float(rpm[-1])), y_range=(float(depth_mm[0]), float(depth_mm[-1])),
                  tools="pan,box_zoom,wheel_zoom,reset,save,hover", name=f"{name}_fig",
@@ -112,7 +114,8 @@ def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):
     fig.add_layout(ColorBar(color_mapper=colors, title="P(stable)", width=12), "right")
     if np.nanmin(pm) < 0.95 and np.nanmax(pm) > 0.05:
         # black lines read on both ends of the red-green map: 5 % dashed, 50 % solid, 95 % dotted
-        fig.contour(np.asarray(rpm, float), np.asarray(depth_mm, float), np.asarray(pm, float).T, levels=[0.05, 0.5, 0.95],
+        fig.contour(np.asarray(rpm, float), np.asarray(depth_mm, float), np.asarray(pm, float).T,
+                    levels=[0.05, 0.5, 0.95],
                     line_color="black", line_width=[1.5, 2.5, 1.5], line_dash=["dashed", "solid", "dotted"])
     if cuts is not None:
         styles = {"stable": dict(marker="circle", fill_color="white", line_color="black", size=9),

@@ -35,7 +35,8 @@ class Session(param.Parameterized):
     lobes = param.Parameter(default=None, doc="the last SLD (millstab.api.Lobes) or None")
     raw = param.Boolean(default=False, doc="the raw lobes are drawn")
     origin = param.String(default="", doc="what cfg was made from, as the result panes say it "
-                                          "(\"uploaded my_tool.toml\", \"the packaged example ex3 — no config loaded\")")
+                                          "(\"uploaded my_tool.toml\", "
+                                          "\"the packaged example ex3 — no config loaded\")")
 
     def __init__(self, **params):
         super().__init__(**params)

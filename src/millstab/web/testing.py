@@ -81,7 +81,8 @@ def upload(page, css: str, path) -> None:
 
 _SOURCE = """(name) => { const d = Bokeh.documents[0]; const s = d.get_model_by_name(name);
   if (s == null) return null; const get = (k) => (s.data instanceof Map ? s.data.get(k) : s.data[k]);
-  const out = {}; for (const k of ['rpm', 'blim_mm', 'lobe', 'chatter_hz']) { const v = get(k); out[k] = v == null ? null : Array.from(v); }
+  const out = {}; for (const k of ['rpm', 'blim_mm', 'lobe', 'chatter_hz']) { const v = get(k);
+    out[k] = v == null ? null : Array.from(v); }
   return out; }"""
 
 

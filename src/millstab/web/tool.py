@@ -143,11 +143,13 @@ class ToolTab:
         try:
             c = t["cutting"]
             self.name.input.value = t.get("name", "")
-            self.teeth.input.value, self.kt.input.value, self.kr.input.value = (as_text(c[k]) for k in ("teeth", "kt", "kr"))
+            self.teeth.input.value, self.kt.input.value, self.kr.input.value = (
+                as_text(c[k]) for k in ("teeth", "kt", "kr"))
             self.geometry.value = "entry/exit angles"
             self.entry.input.value, self.exit.input.value = as_text(c["entry"]), as_text(c["exit"])
             sp = t.get("speeds") or {"start": 2000, "stop": 12000, "step": 20}
-            self.start.input.value, self.stop.input.value, self.step.input.value = (as_text(sp[k]) for k in ("start", "stop", "step"))
+            self.start.input.value, self.stop.input.value, self.step.input.value = (
+                as_text(sp[k]) for k in ("start", "stop", "step"))
             if frf is None:
                 self.structure_kind.value = "modes"
                 for d in ("x", "y"):

@@ -30,7 +30,8 @@ class UpdateTab:
         self.drop = dropper("test cuts CSV", POINTS_TYPES, css="drop-cuts")
         self.format = pn.pane.HTML('<span class="ms-note">columns rpm,depth_mm,label[,weight][,chatter_hz]; label '
                                    'stable, chatter or marginal; or a column <code>recording</code> naming a recording '
-                                   'uploaded below (labels and chatter frequencies are then heard in it)</span>', width=330)
+                                   'uploaded below (labels and chatter frequencies are then heard in it)</span>',
+                                   width=330)
         # the recordings of the cuts (several files): uploaded name → where the session keeps it
         self.rec_drop = pn.widgets.FileDropper(
             label=f"recordings of the cuts: {', '.join(RECORDING_TYPES)} (≤ {MAX_RECORDING_BYTES / 1e6:g} MB each)",
@@ -51,7 +52,8 @@ class UpdateTab:
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
         self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
-        self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01, width=120)
+        self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01,
+                                          width=120)
         # the target condition of the map and the recommendation (docs/updating.md, "Many conditions")
         self.target_ri = pn.widgets.FloatInput(label="for a/D (empty: the config's)", value=None, start=0.001, end=1.0,
                                                step=0.05, width=170, css_classes=["target-ri"])
@@ -120,7 +122,8 @@ class UpdateTab:
         name, path = self.cuts_csv
         cfg = self.s.cfg
         if cfg is None:
-            self.drop_error.object = error_html("need a valid config (Tool and cut): listening needs the number of teeth")
+            self.drop_error.object = error_html("need a valid config (Tool and cut): "
+                                                "listening needs the number of teeth")
             return
         try:
             pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings))
@@ -129,8 +132,10 @@ class UpdateTab:
             return
         self.drop_error.object = ""
         self.s.cuts = self.pending = pts
-        self.cuts_note.object = f'<span class="ms-done">{esc(name)}: {len(pts)} points, labels heard in the recordings</span>'
-        left = "<style>table.ms-table.heard td, table.ms-table.heard th { text-align: left; }</style>"  # text, not numbers
+        self.cuts_note.object = (f'<span class="ms-done">{esc(name)}: {len(pts)} points, labels heard in the '
+                                 'recordings</span>')
+        # text, not numbers
+        left = "<style>table.ms-table.heard td, table.ms-table.heard th { text-align: left; }</style>"
         self.heard.object = left + html_table(("cut", "label and where it came from"),
                                               [(str(i + 1), n) for i, n in enumerate(notes)], "heard")
 
@@ -157,7 +162,8 @@ class UpdateTab:
             self.job.status.text = error_html("need a valid config (Tool and cut) and test cuts")
             return
         oc = self.campaign.current
-        if not new and cuts is None and oc is not None and oc.posterior is not None and oc.posterior_rows == len(oc.cuts):
+        if (not new and cuts is None and oc is not None and oc.posterior is not None
+                and oc.posterior_rows == len(oc.cuts)):
             self.job.status.text = error_html(f"campaign {name}: no new cuts; upload the new cuts to update it")
             return
         work = self.campaign.update_work(name, cfg, cuts, int(self.samples.value or 0), int(self.seed.value or 0), shop)
@@ -176,8 +182,9 @@ class UpdateTab:
         q = np.percentile(theta, [5, 50, 95], axis=0)
         rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
         lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
-        self.post_table.text = (computed_for(self.post_origin) + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior") +
-                                  "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
+        self.post_table.text = (computed_for(self.post_origin)
+                                + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior")
+                                + "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
         self.map(record=record)
 
     def map(self, record: bool = False) -> None:
@@ -225,13 +232,15 @@ class UpdateTab:
         marks = [(rec.rpm, rec.depth_mm, "recommended")]
         if "rpm" in nt and "depth_mm" in nt:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
-        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks), sizing_mode="stretch_width")]
+        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks),
+                                           sizing_mode="stretch_width")]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
         self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"
                          f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
-                           f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, {nt.get('depth_mm', float('nan')):.3g} mm "
-                           f"(P(chatter) {nt.get('p_chatter', float('nan')):.2f}){notes}")
+                           f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, "
+                           f"{nt.get('depth_mm', float('nan')):.3g} mm (P(chatter) "
+                           f"{nt.get('p_chatter', float('nan')):.2f}){notes}")
 
     def view(self):
         head = [self.campaign.view()] if self.campaign is not None else []
@@ -239,6 +248,6 @@ class UpdateTab:
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
-        decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job), self.rec.view(), title="P(stable) and recommendation",
-                         collapsible=False)
+        decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job),
+                         self.rec.view(), title="P(stable) and recommendation", collapsible=False)
         return pn.Column(*head, inputs, decide, self.plot, name="Update and recommend")

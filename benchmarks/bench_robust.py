@@ -27,7 +27,10 @@ Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --s
 --best-speeds 121 [--tails normal|mixture]`` (docs/updating.md, "A prior that can be wrong", has the figures).
 ``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
-conflict rule offline.
+conflict rule offline. ``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
+when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
+posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (the cut that tells the two
+apart) instead of the recommendation's next test.
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
 from millstab.update.campaign import best_productivity  # noqa: E402
 from millstab.update.decide import SPEED_TOLERANCE  # noqa: E402
+from millstab.update.discriminate import conflict_test  # noqa: E402
 
 
 def parse() -> argparse.Namespace:
@@ -78,6 +82,11 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--conflict-test", action="store_true",
+                    help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
+                         "that tells them apart (millstab.update.discriminate)")
+    ap.add_argument("--rival-lr", type=float, default=0.0,
+                    help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -117,7 +126,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         c_rpm = list(np.r_[o_rpm, o_rpm])
         c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
         c_lab = label(c_rpm, c_depth)
-        post, named, rec_ok, rec_p, log_bf, posts = None, [], [], [], [], []
+        post, named, rec_ok, rec_p, log_bf, posts, n_ct, n_test_chat = None, [], [], [], [], [], 0, 0
         for k in range(args.rounds):
             ps = PointSet(c_rpm, c_depth, c_lab)
             post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
@@ -129,19 +138,26 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             rec_p.append(float(rec.rpm * rec.depth_mm / best))
             if k + 1 < args.rounds:
                 nx = rec.next_test
+                if args.conflict_test and not named[-1]:
+                    ct = conflict_test(post, (lo, hi), args.max_depth, seed=k)
+                    if ct is not None and ct["rival_log_likelihood_ratio"] >= args.rival_lr:
+                        nx = ct
+                        n_ct += 1
                 c_rpm.append(float(nx["rpm"]))
                 c_depth.append(float(nx["depth_mm"]))
                 c_lab += label([nx["rpm"]], [nx["depth_mm"]])
+                n_test_chat += c_lab[-1] == "chatter"
         m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
         row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
                "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
-               "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0}
+               "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0,
+               "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat)}
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
         lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
                  (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
-                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); rounds (S stable/C chatter, "
+                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); {n_ct} conflict tests; rounds (S stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
         rec = campaign_record(c, posts, {"z_off": z_off.tolist(), "sign": s}) if args.save else {}
     return row, lines, rec
@@ -167,6 +183,8 @@ def main() -> None:
           f"noise, {args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")
+    print(f"  conflict tests cut (--conflict-test): {sum(r['conflict_tests'] for r in rows)}; test cuts that chattered: "
+          f"{sum(r['tests_chattered'] for r in rows)} / {sum(r['tests'] for r in rows)}")
     print(f"  recommendations from round 3 on that chatter: {late_bad} / {late_all} "
           f"(campaigns with one: {sum(any(not ok for ok in r['rec_stable'][2:]) for r in rows)} / {n})")
     ok_p = [p for ok, p in zip(last_ok, last_p) if ok]

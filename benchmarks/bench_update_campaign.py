@@ -173,6 +173,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--json", type=Path, default=None, help="write every campaign's record here")
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--conflict-test", action="store_true",
+                    help="the policy of bench_robust.py --conflict-test: when the update does not name the conflict and a "
+                         "3.5σ-shifted kind fits the cuts as well, the next test is millstab.update.discriminate's")
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
     args = ap.parse_args()
@@ -204,8 +207,27 @@ def setup(args: argparse.Namespace) -> SimpleNamespace:
                            truth_engine=truth_engine, opts=opts, g_rpm=g_rpm, g_depth=g_depth)
 
 
+def with_conflict_test(rec_fn):
+    """``recommend`` whose next test is the conflict test (:func:`millstab.update.discriminate.conflict_test`) when
+    the posterior does not name the conflict and the rival fits the cuts at least as well (the experimental
+    policy of ``--conflict-test``; the product's ``recommend`` does not do this yet)."""
+    from millstab.update.discriminate import conflict_test
+
+    def rec_ct(post, risk, rpm_range, **kw):
+        rec = rec_fn(post, risk, rpm_range, **kw)
+        if any(str(w).startswith("the cuts contradict the hammer test") for w in post.warnings):
+            return rec
+        ct = conflict_test(post, rpm_range, kw.get("max_depth_mm") or float("inf"), seed=int(kw.get("seed", 0)))
+        return dataclasses.replace(rec, next_test=ct) if ct and ct["rival_log_likelihood_ratio"] >= 0 else rec
+    return rec_ct
+
+
 def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
     """Campaign c: (its row, its printed lines, its record for --save)."""
+    if args.conflict_test:  # the campaign loop's recommend, in this (worker) process
+        import millstab.update.campaign as campaign_module
+
+        campaign_module.recommend = with_conflict_test(recommend)
     st = setup(args)
     lo, hi, cfg, cut, prior, truth_prior = st.lo, st.hi, st.cfg, st.cut, st.prior, st.truth_prior
     decision, truth_engine, opts, g_rpm, g_depth = st.decision, st.truth_engine, st.opts, st.g_rpm, st.g_depth

@@ -13,7 +13,7 @@ from scipy.stats import norm, t as student_t
 
 from millstab.io.config import parse_config
 from millstab.points import PointSet
-from millstab.update import make_prior, update
+from millstab.update import conflict, make_prior, update
 from millstab.update.conflict import BAYES_FACTOR, check
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.prior import TRUNCATE
@@ -88,3 +88,66 @@ def test_right_hammer_test_stays_quiet():
     info = post.diagnostics["conflict"]
     assert not info["conflict"] and not any(w.startswith("the cuts contradict") for w in post.warnings)
     assert abs(info["log_bayes_factor"]) < 0.5 < math.log(BAYES_FACTOR)
+
+
+def test_a_named_conflict_is_kept_while_the_ratio_stays_above_two():
+    """Hysteresis, against closed forms: stable cuts bounding k_x beyond +2.2σ hold a ratio
+    sf_t(2.2)/sf_N(2.2) = 3.3 — below the naming threshold 5, above the keeping one 2. A first update is quiet; one
+    that continues an update that named the conflict keeps naming it (and says so); bounded only beyond +1σ
+    (ratio 1.2) the conflict is dropped. Fails on the old code (no hysteresis: check had no ``named_before``)."""
+    _, prior = _prior()
+    c = 2.2
+    exact = math.log(student_t.sf(c, prior.nu) / norm.sf(c))
+    assert math.log(conflict.BAYES_FACTOR_KEEP) < exact < math.log(BAYES_FACTOR)
+    u = _one_sided_posterior(prior, 1, c, 4000, np.random.default_rng(5))
+    msg, info = check(prior, u)
+    assert msg is None and not info["conflict"] and info["log_bayes_factor"] == pytest.approx(exact, abs=0.12)
+    msg, info = check(prior, u, named_before=True)
+    assert info["conflict"] and info["kept"] and msg.startswith("the cuts contradict the hammer test: k_x is ")
+    assert f"kept until below {conflict.BAYES_FACTOR_KEEP:g}:1" in msg
+    u = _one_sided_posterior(prior, 1, 1.0, 4000, np.random.default_rng(6))
+    msg, info = check(prior, u, named_before=True)
+    assert msg is None and not info["conflict"] and info["log_bayes_factor"] < math.log(conflict.BAYES_FACTOR_KEEP)
+    # named afresh (ratio ≥ 5) is not "kept"
+    msg, info = check(prior, _one_sided_posterior(prior, 1, 3.0, 4000, np.random.default_rng(7)), named_before=True)
+    assert info["conflict"] and not info["kept"] and "kept until" not in msg
+
+
+def test_a_sequential_update_keeps_the_conflict_its_start_named():
+    """update(..., start=post) reads whether ``post`` named the conflict (its diagnostics, as post.json keeps
+    them): one free parameter, stable cuts at 1.5× the tap test's limit (ln BF ≈ 1.0, a ratio of ≈ 2.8: quiet
+    alone). Continued from a posterior that named the conflict, the next update names it, marked kept; continued
+    from one that did not, it stays quiet. Fails on the old code (the start's verdict was not read)."""
+    cfg, prior = _prior(ONLY_KX)
+    rpm = np.linspace(5000, 12000, 8)
+    b0 = limits(prior, prior.mean_u[None], rpm)[0][0]
+    cuts = PointSet(rpm[:7], 1.5 * b0[:7], ["stable"] * 7)
+    more = PointSet(rpm, 1.5 * b0, ["stable"] * 8)
+    with pytest.warns(UserWarning, match="every cut is stable"):
+        first = update(cfg, cuts, samples=1000, seed=0)
+        quiet = update(cfg, more, samples=1000, seed=1, start=first)
+    lbf = first.diagnostics["conflict"]["log_bayes_factor"]
+    assert math.log(conflict.BAYES_FACTOR_KEEP) < lbf < math.log(BAYES_FACTOR) and not first.diagnostics["conflict"]["conflict"]
+    assert not quiet.diagnostics["conflict"]["conflict"]
+    assert not any(w.startswith("the cuts contradict") for w in quiet.warnings)
+    first.diagnostics["conflict"]["conflict"] = True  # as if an earlier update had named it
+    with pytest.warns(UserWarning, match="the cuts contradict the hammer test"):
+        kept = update(cfg, more, samples=1000, seed=1, start=first)
+    info = kept.diagnostics["conflict"]
+    assert info["conflict"] and info["kept"] and math.log(conflict.BAYES_FACTOR_KEEP) <= info["log_bayes_factor"]
+    assert [w for w in kept.warnings if w.startswith("the cuts contradict")][0].count("kept until below 2:1") == 1
+
+
+def test_with_a_gaussian_prior_a_named_conflict_is_kept_beyond_two_sigma():
+    """tails = "normal" (no robust alternative): named when a posterior median lies beyond 3σ, kept while it
+    stays beyond 2σ (samples centred 2.5σ off in k_x: quiet alone, kept after a named update; 1.5σ: dropped).
+    Fails on the old code (no hysteresis)."""
+    _, prior = _prior('[prior]\ntails = "normal"\n')
+    rng = np.random.default_rng(8)
+    for off, alone, after in ((2.5, False, True), (1.5, False, False), (3.5, True, True)):
+        u = prior.mean_u + prior.spread * (0.2 * rng.standard_normal((2000, prior.size)))
+        u[:, 1] += off * prior.spread[1]
+        assert check(prior, u)[1]["conflict"] is alone
+        msg, info = check(prior, u, named_before=True)
+        assert info["conflict"] is after and info["kept"] is (after and not alone)
+        assert (msg is not None) is after and (not info["kept"] or "named earlier, kept until within 2σ" in msg)

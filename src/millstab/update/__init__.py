@@ -199,7 +199,10 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     modes = post.modes()
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
     main = u if twin is None else u[twin if twin.mean() > 0.5 else ~twin]  # the larger mode's samples
-    msg, diag["conflict"] = check_conflict(pr, main)
+    # hysteresis: a conflict the update this one continues named by its evidence ratio is kept while the
+    # ratio stays ≥ conflict.BAYES_FACTOR_KEEP (docs/updating.md, "Prior–data conflict")
+    before = start is not None and bool((start.diagnostics.get("conflict") or {}).get("conflict"))
+    msg, diag["conflict"] = check_conflict(pr, main, named_before=before)
     if msg is None and noise is not None and label_error_too_high(pr, post.label_error) and ev.n_cuts:
         from millstab.update.predict import predict_cuts  # one more engine call, only in this case
 

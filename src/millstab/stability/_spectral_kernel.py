@@ -835,10 +835,12 @@ def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 #: squarings of the balanced monodromy B tried before its eigenvalues in :func:`rho_below` (ρ ≤ ‖Bᵐ‖∞^{1/m},
-#: m = 2, 4, 8, 16). Measured (issue 28, 2026-11-27; 4 221 ladder rungs under the root, 20 prior samples × 10
-#: cut speeds of the docs/updating.md case, K = 10–22 rows): ‖Bᵐ‖∞ < 1 at 3 / 30 / 62 / 81 % of them for
-#: m = 2 / 4 / 8 / 16 (91 % at 32), so most rungs below the root need no eigenvalues
-CERT_SQUARINGS = 4
+#: m = 2, 4, …, 64). Measured (issue 28, 2026-11-27; 4 221 ladder rungs under the root, 20 prior samples × 10
+#: cut speeds of the docs/updating.md case, K = 10–22 rows): ‖Bᵐ‖∞ < 1 at 3 / 30 / 62 / 81 / 91 % of them for
+#: m = 2 / 4 / 8 / 16 / 32, so most rungs below the root need no eigenvalues; the update's root search (100
+#: prior samples × 10 cut speeds, one thread) 0.298 / 0.278 / 0.265 s CPU with 4 / 5 / 6 squarings, the same
+#: depths bit for bit
+CERT_SQUARINGS = 6
 #: unit roundoff of a product's entries (with the row length: |fl(PP) − PP| ≤ K·u·|P||P|)
 _U = 1.2e-16
 

@@ -114,12 +114,14 @@ cuts and node counts, also against the full monodromy's numpy eigenvalues).
 decided without them where squarings of the balanced monodromy B prove ρ ≤ ‖Bᵐ‖∞^{1/m} < 1 (or < 1 − near),
 rounding bounded; where a bracket is formed, ρ at its low end is computed exactly (the secant start and
 Illinois steps see the values they saw before). ‖Bᵐ‖∞ < 1 held at 3 / 30 / 62 / 81 % of 4 221 rungs for m =
-2 / 4 / 8 / 16 (20 prior samples × 10 cut speeds). Root search on the update's workload 1.009 → 0.817 → 0.458
-→ 0.298 s CPU (3.4×); on the 200-speed envelope, where ρ(0) is already 0.83–0.91 and ``near`` asks for
-ρ < 0.98, (3) gives nothing: CPU per envelope on one thread 101.7 / 99.3 / 100.8 ms (the code before, in the
-same minutes) → 54.9 / 54.3 ms (1.85×; two threads 128.7 / 125.8 / 125.7 → 81.8 / 80.2 ms), ~18 envelopes/s
-per core (``PYTHONPATH=src:benchmarks python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``,
-load ~14). Still far from the issue's 100/s: the ladder's ~21 rungs remain, now ~8 µs each on the envelope.
+2 / 4 / 8 / 16 (20 prior samples × 10 cut speeds; ``_spectral_kernel.CERT_SQUARINGS`` = 6 squarings). Root
+search on the update's workload 1.009 → 0.817 → 0.458 → 0.265 s CPU (3.8×). On the 200-speed envelope, CPU per
+envelope on one thread 101.7 / 99.3 / 100.8 ms (the code before, in the same minutes, load ~14) → 54.9 / 54.3 ms
+after (2) (two threads 128.7 / 125.8 / 125.7 → 81.8 / 80.2 ms); after (3), alternated with the code before at
+load ~6: 99.8 / 98.6 → 47.1 / 47.6 ms (2.1×; two threads 123.5 / 126.7 → 75.4 / 73.0 ms), ~21 envelopes/s
+per core (``PYTHONPATH=src:benchmarks python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``).
+Still far from the issue's 100/s: the ladder's ~21 rungs remain (ρ(0) is already 0.83–0.91 here, and
+``near`` asks for ρ < 0.98, so fewer rungs are certified than in an update).
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of

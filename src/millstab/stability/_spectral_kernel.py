@@ -248,6 +248,22 @@ def _element_lhs(L, el, hi, coef, wn, zeta, mass, mdir, Aq, Dm):
 
 
 @nb.njit(cache=True)
+def _free_step(phi, Z, Znew, cols):
+    """A free-flight element: Z[:, :cols] ← phi Z[:, :cols] (phi (n, n) its exact transition; Znew a work array
+    of Z's shape and dtype). Columns from ``cols`` on are zero and stay so."""
+    n = phi.shape[0]
+    for r in range(n):
+        for c in range(cols):
+            acc = Z[0, c] * 0.0
+            for q in range(n):
+                acc += phi[r, q] * Z[q, c]
+            Znew[r, c] = acc
+    for r in range(n):
+        for c in range(cols):
+            Z[r, c] = Znew[r, c]
+
+
+@nb.njit(cache=True)
 def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, lend):
     """The monodromy matrix (K, K), K = n + D·p·(collocation elements), at depth b [m].
 
@@ -271,15 +287,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
     ce = 0  # collocation element counter
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(K):
-                    s = 0.0
-                    for q in range(n):
-                        s += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = s
-            for r in range(n):
-                for col in range(K):
-                    Z[r, col] = Znew[r, col]
+            _free_step(phi_free[el], Z, Znew, K)
             continue
         hi = h[el]
         _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
@@ -378,13 +386,7 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     hoff = n  # this element's first history column (and row)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(K):
-                    acc = 0.0
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            Z[:, :] = Znew
+            _free_step(phi_free[el], Z, Znew, K)
             continue
         hi = h[el]
         he = _elem_history(rk, el)
@@ -534,15 +536,7 @@ def monodromy_lr(b, kt, g, lr):
     hoff = n  # this element's first history column (and row); Z is zero from it on
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for c in range(hoff):
-                    acc = 0.0
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, c]
-                    Znew[r, c] = acc
-            for r in range(n):
-                for c in range(hoff):
-                    Z[r, c] = Znew[r, c]
+            _free_step(phi_free[el], Z, Znew, hoff)
             continue
         he = _elem_history(rk, el)
         Mh = Mx[:he, :he]
@@ -1129,13 +1123,7 @@ def psi_d(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
     piv = np.empty(P, dtype=np.int64)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(2 * n):
-                    acc = 0.0j
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            Z[:, :] = Znew
+            _free_step(phi_free[el], Z, Znew, 2 * n)
             continue
         hi = h[el]
         _element_lhs(L, el, hi, sigma, wn, zeta, mass, mdir, Aq, Dm)
@@ -1190,13 +1178,7 @@ def psi_d_lr(sigma, g, lr):
     Ed = np.empty((n, n), dtype=np.complex128)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(2 * n):
-                    acc = 0.0j
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            Z[:, :] = Znew
+            _free_step(phi_free[el], Z, Znew, 2 * n)
             continue
         he = _elem_history(rk, el)
         Mh = Mx[:he, :he]

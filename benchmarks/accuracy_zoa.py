@@ -49,7 +49,8 @@ def scattered(cases: int, seed: int) -> None:
         nx = nx or (1 if ny == 0 else 0)
 
         def modes(n):
-            return tuple(Mode(rng.uniform(300, 5000), rng.uniform(2e6, 50e6), rng.uniform(0.005, 0.08)) for _ in range(n))
+            return tuple(Mode(rng.uniform(300, 5000), rng.uniform(2e6, 50e6), rng.uniform(0.005, 0.08))
+                         for _ in range(n))
 
         s = Structure(x=modes(nx), y=modes(ny))
         cut = Cutting.from_immersion(int(rng.integers(1, 8)), rng.uniform(5e8, 2.5e9), rng.uniform(0.0, 0.8),
@@ -76,7 +77,8 @@ def dense(cases: int, seed: int, band: float) -> None:
     worst, bad, n_speeds, n_tips, where = 0.0, 0, 0, 0, ""
     for case in range(cases):
         def modes(n):
-            return tuple(Mode(rng.uniform(300, 3000), rng.uniform(2e6, 50e6), rng.uniform(0.01, 0.06)) for _ in range(n))
+            return tuple(Mode(rng.uniform(300, 3000), rng.uniform(2e6, 50e6), rng.uniform(0.01, 0.06))
+                         for _ in range(n))
 
         s = Structure(x=modes(int(rng.integers(1, 4))), y=modes(int(rng.integers(1, 4))))
         teeth = int(rng.integers(2, 7))

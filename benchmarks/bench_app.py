@@ -84,11 +84,14 @@ def main() -> None:
         path = points_file(Path(tmp))
         pts = api.points(path)
         cfg_start = api.config_from_fields({**api.config_fields(cfg), "structure": {
-            "x": [{"fn": START["structure.x[0].fn"], "k": START["structure.x[0].k"], "zeta": float(START["structure.x[0].zeta"])}],
-            "y": [{"fn": START["structure.y[0].fn"], "k": START["structure.y[0].k"], "zeta": float(START["structure.y[0].zeta"])}]}})
+            "x": [{"fn": START["structure.x[0].fn"], "k": START["structure.x[0].k"],
+                   "zeta": float(START["structure.x[0].zeta"])}],
+            "y": [{"fn": START["structure.y[0].fn"], "k": START["structure.y[0].k"],
+                   "zeta": float(START["structure.y[0].zeta"])}]}})
         t0 = time.perf_counter()
         fit = api.identify(cfg_start, pts)  # also loads the compiled kernels, so both runs below are warm
-        print(f"the fit through api.identify in this process (cold): {time.perf_counter() - t0:.2f} s (MLAE {fit.mlae:.3g} mm)")
+        print(f"the fit through api.identify in this process (cold): {time.perf_counter() - t0:.2f} s (MLAE "
+              f"{fit.mlae:.3g} mm)")
         for key, value in START.items():
             T.set_field(page, key, value)
         page.locator(".tool-status").filter(has_text="valid").wait_for()

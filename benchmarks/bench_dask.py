@@ -112,8 +112,8 @@ def sweep(engines: list[str], samples: int, workers: int, repeats: int = 1) -> N
             assert np.array_equal(here, there)
             print(f"sweep {eng}: {n} samples x {rpm.size} speeds: here {cpu:.3f} CPU-s ({wall:.3f} s wall) = "
                   f"{1e3 * cpu / n:.3f} ms per sample; on {workers} workers {wall_c:.3f} s wall (ratio "
-                  f"{wall / wall_c:.2f}); {samples} samples would take {cpu / n * samples:.2f} CPU-s per sweep: the rule "
-                  f"(probe {1e3 * sec:.3f} ms per sample on a worker, ≥ {cluster.PAYS_SECONDS} s) says {decided}",
+                  f"{wall / wall_c:.2f}); {samples} samples would take {cpu / n * samples:.2f} CPU-s per sweep: the "
+                  f"rule (probe {1e3 * sec:.3f} ms per sample on a worker, ≥ {cluster.PAYS_SECONDS} s) says {decided}",
                   flush=True)
 
 

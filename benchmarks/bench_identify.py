@@ -86,8 +86,9 @@ def main() -> None:
                     total += truth.size
                     tied += fit.settings.get("xy_tie_test", {}).get("chosen") == "tied"
                 label = "default" if tie_xy else "no x = y test"
-                print(f"{ex} 2 % noise, {args.noise_seeds} draws, {label}: fn error max {100 * max(errs):.3f} %, median "
-                      f"{100 * np.median(errs):.3f} %; ±2σ coverage {covered}/{total} = {100 * covered / total:.0f} %"
+                print(f"{ex} 2 % noise, {args.noise_seeds} draws, {label}: fn error max {100 * max(errs):.3f} %, "
+                      f"median {100 * np.median(errs):.3f} %; ±2σ coverage {covered}/{total} = "
+                      f"{100 * covered / total:.0f} %"
                       + (f"; x = y reported tied in {tied}" if tie_xy else ""))
         cfg, pts = example_points("ex3")
         prob = make_problem(cfg.structure, cfg.cutting, pts)

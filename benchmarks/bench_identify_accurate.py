@@ -91,10 +91,10 @@ def run_pair(seed: int, i: int, j: int, immersion: float, n: int, zoa_basins: in
     ok = fit.rss <= rss_truth * margin
     err = rel_error(fit.estimate, truth, None)
     z = np.abs(np.log(fit.estimate / truth)) / np.maximum(fit.std_errors / fit.estimate, 1e-300)
-    line = (f"case {i:2d} start {j}: {cut.teeth} teeth {'up' if cut.entry == 0.0 else 'down':>4}, fn {truth[0]:5.0f}/{truth[3]:5.0f} Hz, "
-            f"noise {100 * noise:.2f} %: RSS/RSS(truth) {fit.rss / rss_truth:8.3g} (margin {margin:.2f}) "
-            f"{'ok' if ok else 'WRONG BASIN'}; max err {100 * err.max():6.2f} % ({z.max():5.1f} σ); RMS "
-            f"{math.sqrt(fit.rss / m):.2e}; {fit.evaluations} SLDs, {cpu:.0f} s CPU; re-seeding rounds "
+    line = (f"case {i:2d} start {j}: {cut.teeth} teeth {'up' if cut.entry == 0.0 else 'down':>4}, fn "
+            f"{truth[0]:5.0f}/{truth[3]:5.0f} Hz, noise {100 * noise:.2f} %: RSS/RSS(truth) {fit.rss / rss_truth:8.3g} "
+            f"(margin {margin:.2f}) {'ok' if ok else 'WRONG BASIN'}; max err {100 * err.max():6.2f} % ({z.max():5.1f} "
+            f"σ); RMS {math.sqrt(fit.rss / m):.2e}; {fit.evaluations} SLDs, {cpu:.0f} s CPU; re-seeding rounds "
             f"{fit.settings['rounds_run']}{', zero-order basin won' if fit.settings.get('zoa_basin_won') else ''}")
     return {"ok": bool(ok), "cpu": cpu, "evaluations": fit.evaluations, "err": float(err.max()),
             "z": float(z.max()), "line": line}
@@ -109,7 +109,8 @@ def main() -> None:
     ap.add_argument("--immersion", type=float, default=0.1, help="radial immersion a/D")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (the figures do not depend on it)")
     ap.add_argument("--first-case", type=int, default=0, help="run cases first-case .. first-case + cases - 1")
-    ap.add_argument("--zoa-basins", type=int, default=0, help="start the accurate LM from this many zero-order basins too")
+    ap.add_argument("--zoa-basins", type=int, default=0,
+                    help="start the accurate LM from this many zero-order basins too")
     a = ap.parse_args()
     print(describe())
     pairs = [(a.seed, i, j, a.immersion, a.speeds, a.zoa_basins) for i in range(a.first_case, a.first_case + a.cases)

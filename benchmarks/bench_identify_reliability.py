@@ -57,8 +57,8 @@ def dof_study(draws: int) -> None:
             print(f"{n:>3} {n - 6:>4} {draws:>5} {n_alt:>4} | (every draw has alternatives)")
             continue
         zo, zn = np.array(z_old), np.array(z_new)
-        print(f"{n:>3} {n - 6:>4} {draws:>5} {n_alt:>4} | {np.median(zo):>11.3g} {zo.max():>9.3g} {np.mean(zo <= 3):>5.0%} | "
-              f"{np.median(zn):>11.3g} {zn.max():>7.3g} {np.mean(zn <= 3):>5.0%}")
+        print(f"{n:>3} {n - 6:>4} {draws:>5} {n_alt:>4} | {np.median(zo):>11.3g} {zo.max():>9.3g} "
+              f"{np.mean(zo <= 3):>5.0%} | {np.median(zn):>11.3g} {zn.max():>7.3g} {np.mean(zn <= 3):>5.0%}")
 
 
 def plan_study() -> None:
@@ -90,7 +90,8 @@ def plan_study() -> None:
             design.criterion, design.improve_counts = crit, improve
             plan = design.design_speeds(par, cut, cand, n, seed=0)
             print(f"{name:>9} {n:>3} | {cont / even:>10.3f} {rounded / even:>16.3f} "
-                  f"{plan.criterion_design / plan.criterion_uniform:>8.3f} {str(plan.uniform):>11} | {plan.efficiency:>12.3f}")
+                  f"{plan.criterion_design / plan.criterion_uniform:>8.3f} {str(plan.uniform):>11} | "
+                  f"{plan.efficiency:>12.3f}")
 
 
 def main() -> None:

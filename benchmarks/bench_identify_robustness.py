@@ -95,8 +95,9 @@ class Tally:
         self.all_covered += all_covered
 
     def line(self, n: int) -> str:
-        return (f"fn within 0.5 % in {self.ok_fn}/{n} (an efficient estimator: {self.expected:.1f} on average); ±2σ coverage {self.covered}/{self.total} = "
-                f"{100 * self.covered / self.total:.1f} % of parameters ({self.all_covered}/{n} sets with all six covered)")
+        return (f"fn within 0.5 % in {self.ok_fn}/{n} (an efficient estimator: {self.expected:.1f} on average); ±2σ "
+                f"coverage {self.covered}/{self.total} = {100 * self.covered / self.total:.1f} % of parameters "
+                f"({self.all_covered}/{n} sets with all six covered)")
 
 
 def planned_fit(case, i: int, noise: float, stages: int = 2):
@@ -171,10 +172,12 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=0.02)
-    ap.add_argument("--stages", type=int, default=2, help="planned protocol: evenly spaced first share, then this many - 1 planned rounds")
+    ap.add_argument("--stages", type=int, default=2,
+                    help="planned protocol: evenly spaced first share, then this many - 1 planned rounds")
     ap.add_argument("--band", type=float, nargs=2, default=(0.1, 0.6), metavar=("LO", "HI"),
                     help="tooth-passing frequency band of the speeds, as fractions of the lower natural frequency")
-    ap.add_argument("--workers", type=int, default=None, help="run the cases on a local Dask cluster of N worker processes")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="run the cases on a local Dask cluster of N worker processes")
     ap.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on the Dask scheduler at ADDRESS")
     args = ap.parse_args()
     print(describe())

@@ -47,7 +47,8 @@ def main() -> None:
             fn = np.array([903.0, 903.0 * (1 + d)])
             tied, pvals, err_test, err_free = 0, [], [], []
             for seed in range(args.draws):
-                prob = make_problem(cfg.structure, cfg.cutting, boundary_points(truth, cfg.cutting, rpm, noise=0.02, seed=seed))
+                prob = make_problem(cfg.structure, cfg.cutting,
+                                    boundary_points(truth, cfg.cutting, rpm, noise=0.02, seed=seed))
                 fit = fit_lsq(prob, seed=seed)
                 tied += is_tied(fit)
                 pvals.append(fit.settings["xy_tie_test"]["p_value"])

@@ -90,7 +90,8 @@ def shop_file(seed: int, args, cut, prior) -> tuple[str, dict]:
         lines.append(f"{s:g},{b:g},{c1},{c2},2024-05-{d + 1:02d},0.1,{'' if c1 == c2 else 'operators disagree'}")
     facts = {"disagree": len(differ) / n, "truly_chatter": float(np.mean([b >= bl for _, _, b, bl, _ in rec])),
              "cuts": n, "b_ref_mm": b_ref,
-             "truly_chatter_per_day": [float(np.mean([b >= bl for d2, _, b, bl, _ in rec if d2 == d])) for d in range(args.days)]}
+             "truly_chatter_per_day": [float(np.mean([b >= bl for d2, _, b, bl, _ in rec if d2 == d]))
+                                       for d in range(args.days)]}
     return "\n".join(lines) + "\n", facts
 
 
@@ -107,7 +108,8 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=500)
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--engine", default="zoa")
-    ap.add_argument("--immersion", type=float, default=1.0, help="radial immersion a/D (1: slotting; else down milling)")
+    ap.add_argument("--immersion", type=float, default=1.0,
+                    help="radial immersion a/D (1: slotting; else down milling)")
     ap.add_argument("--sigma-depth-rel", type=float, default=None,
                     help="relative depth noise of the likelihood (at a/D 0.1 the limits are 25-100 mm: use 0.05)")
     ap.add_argument("--batch-effect", type=float, default=0.0,
@@ -138,19 +140,21 @@ def main() -> None:
             res = cross_validate(cfg, cuts, n_folds=args.folds, seed=shop, samples=args.samples, engine=args.engine,
                                  prior=prior)
             print(f"shop {shop}: {facts['cuts']} cuts, operators disagree on {facts['disagree']:.0%}, truly chattering "
-                  f"{facts['truly_chatter']:.0%} (per day {', '.join(f'{x:.0%}' for x in facts['truly_chatter_per_day'])}), labelled chatter (grade > 1/2) {np.mean(cuts.grade > 0.5):.0%}; "
-                  f"{time.perf_counter() - t0:.0f} s")
+                  f"{facts['truly_chatter']:.0%} (per day "
+                  f"{', '.join(f'{x:.0%}' for x in facts['truly_chatter_per_day'])}), labelled chatter (grade > 1/2) "
+                  f"{np.mean(cuts.grade > 0.5):.0%}; {time.perf_counter() - t0:.0f} s")
             for s, d in res.summary.items():
                 best = min(d[m]["brier"] for m in METHODS[1:])
-                flag = "OK" if d["millstab"]["brier"] <= best and d["millstab"]["brier"] <= d["majority"]["brier"] else "LOSES"
+                flag = ("OK" if d["millstab"]["brier"] <= best and d["millstab"]["brier"] <= d["majority"]["brier"]
+                        else "LOSES")
                 print(f"   {s:7s} Brier " + "  ".join(f"{m} {d[m]['brier']:.4f}" for m in METHODS)
                       + f"   AUC " + " ".join(f"{d[m]['auc']:.2f}" for m in METHODS) + f"   {flag}")
             for note in res.notes:
                 print(f"   note: {note}")
             rows.append({"shop": shop, "facts": facts, "summary": res.summary})
-    print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, {args.days} days x {args.speeds} speeds x "
-          f"{args.depths} depths, truth SDM ({args.steps} steps), updates {args.engine} with {args.samples} samples, "
-          f"test-day effect τ = {args.batch_effect:g}, "
+    print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, {args.days} days x "
+          f"{args.speeds} speeds x {args.depths} depths, truth SDM ({args.steps} steps), updates {args.engine} with "
+          f"{args.samples} samples, test-day effect τ = {args.batch_effect:g}, "
           f"{args.folds} random folds:")
     for s in ("random", "speed", "batch"):
         have = [r for r in rows if s in r["summary"]]

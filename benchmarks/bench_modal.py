@@ -110,8 +110,8 @@ def _sdypy(h: np.ndarray) -> None:
             m.get_constants(whose_poles="own", FRF_ind="all")
             dt = time.perf_counter() - t
         print(f"sdypy-EMA order {order} (x, seed 0, true fn given): worst fn error "
-              f"{100 * np.max(np.abs(m.nat_freq / fn - 1)):.3f} %, zeta {100 * np.max(np.abs(m.nat_xi / zeta - 1)):.2f} %, "
-              f"{dt:.2f} s")
+              f"{100 * np.max(np.abs(m.nat_freq / fn - 1)):.3f} %, zeta "
+              f"{100 * np.max(np.abs(m.nat_xi / zeta - 1)):.2f} %, {dt:.2f} s")
 
 
 if __name__ == "__main__":

@@ -43,8 +43,10 @@ def main() -> None:
     print(f"machine: {platform.platform()}, {platform.processor() or platform.machine()}, cpus={os.cpu_count()}, "
           f"numba threads={numba.get_num_threads()}, numba {numba.__version__}, numpy {np.__version__}")
     with threadpool_limits(1):  # many tiny LAPACK calls: BLAS threads only add overhead
-        cuts = {"slot": Cutting(2, 6e8, 1 / 3, 0.0, math.pi), "aD0.05": Cutting.from_immersion(2, 6e8, 1 / 3, 0.05, "down")}
-        t, _ = timed(lambda: (sdm.envelope(BENCH, cuts["slot"], [9000.0], steps=40), sdm.envelope(BENCH, cuts["slot"], [9000.0]),
+        cuts = {"slot": Cutting(2, 6e8, 1 / 3, 0.0, math.pi),
+                "aD0.05": Cutting.from_immersion(2, 6e8, 1 / 3, 0.05, "down")}
+        t, _ = timed(lambda: (sdm.envelope(BENCH, cuts["slot"], [9000.0], steps=40),
+                              sdm.envelope(BENCH, cuts["slot"], [9000.0]),
                               sdm.rho_map(BENCH, cuts["slot"], [9000.0], [1e-3], steps=40)))
         print(f"warm-up (compile or cache load): {t:.2f} s")
         for name, cut in cuts.items():
@@ -52,7 +54,8 @@ def main() -> None:
             td, ed = timed(lambda: sdm.envelope(BENCH, cut, RPM))
             print(f"{name}: 200-speed curve, 40 steps/period: {t40:.3f} s; accuracy-controlled default "
                   f"(steps {sdm.default_steps(FN, cut, RPM).min()}..{sdm.default_steps(FN, cut, RPM).max()} + halved, "
-                  f"Richardson): {td:.3f} s; min depth {ed.depth_mm.min():.4f} mm (40 steps: {e40.depth_mm.min():.4f} mm)")
+                  f"Richardson): {td:.3f} s; min depth {ed.depth_mm.min():.4f} mm "
+                  f"(40 steps: {e40.depth_mm.min():.4f} mm)")
         t_map, rho = timed(lambda: sdm.rho_map(BENCH, cuts["slot"], RPM, DEPTH, steps=40))
         print(f"slot: 200 x 100 rho map, 40 steps/period: {t_map:.3f} s ({t_map / rho.size * 1e3:.3f} ms per point); "
               f"unstable share {np.mean(rho > 1):.3f}")

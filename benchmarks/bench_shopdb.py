@@ -87,7 +87,8 @@ def fill(store, cfg, toml: str, campaigns: int, cuts: int, updates: int, post_sa
                 pid += 1
                 post.append({"id": pid, "campaign_id": cid, "parent_id": pid - 1 if u else None, "config_id": cid,
                              "n_rows": per * (u + 1), "engine": "zoa", "samples": post_samples, "seed": u,
-                             "code_version": ver, "data_hash": "0" * 64, "doc": doc, "created_at": at, "created_by": by})
+                             "code_version": ver, "data_hash": "0" * 64, "doc": doc, "created_at": at,
+                             "created_by": by})
                 for k in range(per * u, per * (u + 1)):
                     cut.append({"campaign_id": cid, "seq": k, "rpm": float(rpm[k]), "depth_mm": float(depth[k]),
                                 "label": "chatter" if depth[k] > 2.5 else "stable", "grade": float(depth[k] > 2.5),
@@ -140,7 +141,8 @@ def main() -> None:
     head = store.head(name)
     # two cuts of their own condition and stickout (migration 0003's columns; the filler cuts are the config's)
     extra = PointSet([9000.0, 9500.0], [2.0, 3.0], ["stable", "chatter"],
-                     extra={"stickout_mm": ["60", ""]}, conditions={"radial_immersion": [0.25, None], "milling": ["up", ""]})
+                     extra={"stickout_mm": ["60", ""]},
+                     conditions={"radial_immersion": [0.25, None], "milling": ["up", ""]})
     every = PointSet(np.r_[store.cuts(name).rpm, extra.rpm], np.r_[store.cuts(name).depth_mm, extra.depth_mm],
                      np.r_[store.cuts(name).label, extra.label])
     store.record_update(name, toml, extra, _posterior(cfg, every, args.open_samples, 1),
@@ -154,11 +156,13 @@ def main() -> None:
     rows = []
     with threadpool_limits(1):
         *_, store = timed(lambda: open_store(db, user="bench"), 1)  # first open: imports, engine
-        rows.append(("open_store (a new Store on the file)", *timed(lambda: open_store(db, user="bench"), args.repeat)[:3]))
+        rows.append(("open_store (a new Store on the file)",
+                     *timed(lambda: open_store(db, user="bench"), args.repeat)[:3]))
         rows.append(("history(campaign) newest 50", *timed(lambda: store.history(name), args.repeat)[:3]))
         rows.append(("history() newest 50 of all", *timed(lambda: store.history(), args.repeat)[:3]))
         page = store.history()
-        rows.append(("history() next page (before=)", *timed(lambda: store.history(before=page[-1].id), args.repeat)[:3]))
+        rows.append(("history() next page (before=)",
+                     *timed(lambda: store.history(before=page[-1].id), args.repeat)[:3]))
 
         def open_campaign():
             snap = store.snapshot(name)
@@ -180,8 +184,8 @@ def main() -> None:
 
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", "from millstab.cli import main; main()", "history", "--db", str(db), "--campaign", name],
-                          env=env, capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-c", "from millstab.cli import main; main()", "history", "--db", str(db),
+                           "--campaign", name], env=env, capture_output=True, text=True)
     t_cli = time.perf_counter() - t0
     cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_cli = cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime

@@ -56,8 +56,8 @@ def boundary(quick: bool) -> float:
     for name, (structure, cutting) in CASES.items():
         env = sdm.envelope(structure, cutting, RPM)
         mus = sdm.critical_multipliers(structure, cutting, RPM)
-        print(f"\n{name}: rpm, b_sdm [mm], b_sim [mm], error %, |mu| angle: sim vs sdm [deg], lobe, detector chatter Hz "
-              f"(folded sim / sdm)")
+        print(f"\n{name}: rpm, b_sdm [mm], b_sim [mm], error %, |mu| angle: sim vs sdm [deg], lobe, detector chatter "
+              "Hz (folded sim / sdm)")
         errs = []
         for i, rpm in enumerate(RPM[::3] if quick else RPM):
             j = int(np.where(RPM == rpm)[0][0])
@@ -93,8 +93,8 @@ def convergence() -> None:
     # forced vibration of a stable cut (started at rest) against the Fourier series x receptance
     structure, cutting = TWO, CASES["two-mode"][1]
     rpm, depth = 9000.0, 0.3 * sdm.envelope(structure, cutting, [9000.0]).depth[0]
-    print(f"\nforced vibration, two-mode structure, {rpm:g} rpm, depth {depth * 1e3:.3f} mm, from rest, 400 tooth periods: "
-          f"steps per tooth, max |u_sim - u_fourier| over the last period / max |u|")
+    print(f"\nforced vibration, two-mode structure, {rpm:g} rpm, depth {depth * 1e3:.3f} mm, from rest, 400 tooth "
+          "periods: steps per tooth, max |u_sim - u_fourier| over the last period / max |u|")
     for m in (20, 40, 80, 160, 320):
         res = simulate_cut(structure, cutting, rpm, depth, 1e-4, revs=400 / 3, steps_per_tooth=m, start="rest")
         ref = fourier_steady(structure, cutting, rpm, depth, 1e-4, res.t[-m - 1:])
@@ -107,7 +107,8 @@ def fourier_steady(structure, cutting, rpm, depth, ft, t, n_harm: int = 4000) ->
     wT = 2 * math.pi * cutting.teeth * rpm / 60
     out = np.zeros((2, t.size))
     for n in range(n_harm + 1):
-        cx, cy = _kernel.force_harmonic(n, cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit, depth, ft)
+        cx, cy = _kernel.force_harmonic(n, cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit, depth,
+                                        ft)
         w = n * wT
         for d, modes, c in ((0, structure.x, cx), (1, structure.y, cy)):
             G = sum(1 / (m.mass * (m.omega ** 2 - w * w + 2j * m.zeta * m.omega * w)) for m in modes)
@@ -135,8 +136,8 @@ def speed() -> float:
     lab = label_cuts(sym, cut, rpm, depth, 1e-4)
     dt = time.perf_counter() - t0
     counts = {k: int(np.sum(lab.label == k)) for k in ("stable", "marginal", "chatter")}
-    print(f"1000 cuts (100 revolutions = 200 tooth periods each, 5 000-25 000 rpm, 0.1-3 mm), {numba.get_num_threads()} "
-          f"threads: {dt:.2f} s; labels {counts}")
+    print("1000 cuts (100 revolutions = 200 tooth periods each, 5 000-25 000 rpm, 0.1-3 mm), "
+          f"{numba.get_num_threads()} threads: {dt:.2f} s; labels {counts}")
     return dt
 
 

@@ -99,7 +99,8 @@ def main() -> None:
         rows.append(res)
         print(f"campaign {c}: " + "; ".join(f"{k}: Brier {v[0]:.4f}, rec stable {v[1]}, depth/limit {v[2]:.2f}"
                                              for k, v in res.items()), flush=True)
-    print(f"CPU {time.process_time() - t0:.0f} s for {args.campaigns} campaigns, {args.samples} samples, {args.cuts} cuts")
+    print(f"CPU {time.process_time() - t0:.0f} s for {args.campaigns} campaigns, {args.samples} samples, {args.cuts} "
+          "cuts")
     for name in rows[0]:
         b = [r[name][0] for r in rows]
         ok = sum(r[name][1] for r in rows)

@@ -14,7 +14,8 @@ its three FRFs (50..6000 Hz, 5 Hz steps) from the exact assembly beam (tests/ref
 relative complex Gaussian noise; printed: the median relative error of the recovered H, L, P and the median
 and 90th percentile of the error of a 12 mm carbide tool's tip (45 mm) predicted with the recovered holder.
 
-Run: ``PYTHONPATH=src:tests .venv/bin/python benchmarks/bench_tooltip.py [--stickouts 50] [--speeds 500] [--repeats 3]``.
+Run:
+``PYTHONPATH=src:tests .venv/bin/python benchmarks/bench_tooltip.py [--stickouts 50] [--speeds 500] [--repeats 3]``.
 """
 
 from __future__ import annotations
@@ -72,7 +73,8 @@ def main() -> None:
                 times.append(time.perf_counter() - t0)
             b = s.best()
             print(f"  {name:8s} holder: best {min(times):.2f} s, median {np.median(times):.2f} s; "
-                  f"min limit {s.min_depth_mm.min():.3g}..{s.min_depth_mm.max():.3g} mm, best stickout {sticks[b] * 1e3:.3g} mm")
+                  f"min limit {s.min_depth_mm.min():.3g}..{s.min_depth_mm.max():.3g} mm, best stickout "
+                  f"{sticks[b] * 1e3:.3g} mm")
     artifact_noise()
 
 
@@ -107,8 +109,8 @@ def artifact_noise() -> None:
             got = rec.receptance(f)
             e = [np.median(np.abs(got[:, i, j] / known[:, i, j] - 1)) for i, j in ((0, 0), (0, 1), (1, 1))]
             t = np.abs(tip_receptance(tool, rec, f) / exact_tip - 1)
-            print(f"  offset {off * 1e3:g} mm, noise {100 * noise:4.1f} %: H {100 * e[0]:6.2f} %, L {100 * e[1]:6.2f} %, "
-                  f"P {100 * e[2]:6.2f} % | tip {100 * np.median(t):5.2f} %, {100 * np.quantile(t, 0.9):5.1f} %")
+            print(f"  offset {off * 1e3:g} mm, noise {100 * noise:4.1f} %: H {100 * e[0]:6.2f} %, L {100 * e[1]:6.2f} "
+                  f"%, P {100 * e[2]:6.2f} % | tip {100 * np.median(t):5.2f} %, {100 * np.quantile(t, 0.9):5.1f} %")
 
 
 if __name__ == "__main__":

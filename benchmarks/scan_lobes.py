@@ -55,9 +55,11 @@ def main() -> None:
     shift = t + float(np.mean(med[fn])) - t0  # the common shift of ln fn from the tap test's
     w = np.exp(post - post[np.isfinite(post)].max())
     w /= w.sum()
-    peaks = [i for i in range(1, t.size - 1) if post[i] >= post[i - 1] and post[i] > post[i + 1] and np.isfinite(post[i])]
+    peaks = [i for i in range(1, t.size - 1)
+             if post[i] >= post[i - 1] and post[i] > post[i + 1] and np.isfinite(post[i])]
     print(f"campaign {args.campaign}, round {args.round}: {len(cuts)} cuts ({int(cuts[:, 2].sum())} chatter); the "
-          f"posterior's fn medians {np.exp(med[fn]).round(1).tolist()} Hz (tap test {prior.median[fn].round(1).tolist()})")
+          f"posterior's fn medians {np.exp(med[fn]).round(1).tolist()} Hz (tap test "
+          f"{prior.median[fn].round(1).tolist()})")
     meta = camps[args.campaign]["meta"]
     z_true = np.asarray(meta.get("z_off", [np.nan] * prior.size), float)
     if np.isfinite(z_true).all():

@@ -122,7 +122,8 @@ def _consumer_nodes(pkg: Path):
 def _engines_by_name(pkg: Path) -> list[str]:
     """Calls ``get_engine("<literal name>")`` outside ``millstab.stability``: "module: name (line n)"."""
     return [f"{mod}: {node.args[0].value} (line {node.lineno})" for mod, node in _consumer_nodes(pkg)
-            if (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "get_engine"
+            if (isinstance(node, ast.Call)
+                and getattr(node.func, "id", getattr(node.func, "attr", None)) == "get_engine"
                 and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str))]
 
 

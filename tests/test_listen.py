@@ -367,3 +367,39 @@ def test_two_tooth_flip_chatter_spread_into_a_hump_is_reported_at_one_and_a_half
     hump = [(1.5 * f_t + d, a) for d, a in zip(range(-28, 29, 4), amp) if d]
     r = heard(teeth=2, seconds=2.0, runout=0.05, tones=hump)
     assert r.label == "chatter" and abs(r.chatter_hz - 1.5 * f_t) <= 2.5, r.chatter_hz
+
+
+def test_a_mirror_member_under_a_tenth_of_the_loudest_is_still_weighed_by_displacement():
+    """Chatter at 600 Hz (f_T = 500 Hz) heard only at 7.7 % of the power of its mirror member 4 f_T − 600 =
+    1400 Hz (the loudest line: the sensor weighs by f⁴, a room may add more). The member strongest in
+    displacement (power / f⁴, computed here from the tones' amplitudes) is 600 Hz. The old code counted
+    members only from 10 % of the loudest's power and reported 1400 Hz (as on bench_listen --seed 1, cut
+    60: a two-tooth Hopf at 1.332 f_T, 7.9 % of its loudest member, heard at its mirror 2.668 f_T); the
+    10 % stays for the loudest's first-order sidebands 1400 ± f_T only (amplitude modulation of one tone)."""
+    tones = ((600.0, 0.25), (1400.0, 0.9))
+    want = max(tones, key=lambda t: t[1] ** 2 / t[0] ** 4)[0]
+    assert want == 600.0 and tones[0][1] ** 2 / tones[1][1] ** 2 < 0.1
+    r = heard(chatter_hz=tones[0][0], ratio=tones[0][1], tones=tones[1:])
+    assert r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
+
+
+def test_with_the_structure_known_a_flip_chatter_is_reported_at_its_member_nearest_the_mode():
+    """Two teeth at 10 000 rpm (f_T = 333.3 Hz), flip chatter with members 1.5 f_T = 500 Hz and 2.5 f_T =
+    833.3 Hz; the mode (850 Hz) makes 833.3 Hz the member of the tool tip's motion, but a notch of the
+    sensor's path leaves it 10 dB under 500 Hz even by power / f⁴, so the recording alone hears 500 Hz.
+    With the structure (``listen(..., structure=)``, a config's: ``listen --config``, ``update``) the
+    flip member where Σ|G_ij|² is largest is reported; the reference is the receptance in closed form,
+    1/(k(1 − r² + 2iζr)). The old code had no such input (and heard 500 Hz)."""
+    from millstab.model import Mode, Structure
+
+    fn, k, zeta = 850.0, 2.0e7, 0.02
+    f_t = 2 * 10000.0 / 60.0
+    members = (1.5 * f_t, 2.5 * f_t)
+    flex = [abs(1.0 / (k * (1 - (f / fn) ** 2 + 2j * zeta * f / fn))) ** 2 for f in members]
+    want = members[int(np.argmax(flex))]
+    x = milling_sound(fs=FS, seconds=3.0, rpm=10000.0, teeth=2, chatter_hz=members[0], ratio=1.0, runout=0.05,
+                      tones=[(members[1], 0.3)])
+    alone = listen(x, FS, 10000.0, 2)
+    assert alone.label == "chatter" and abs(alone.chatter_hz - members[0]) < 2.0, alone.chatter_hz
+    r = listen(x, FS, 10000.0, 2, structure=Structure(x=(Mode(fn, k, zeta),)))
+    assert want == members[1] and r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz

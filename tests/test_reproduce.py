@@ -43,7 +43,8 @@ def test_headline_comparisons_hold(report_dir):
     out, code = report_dir
     md = (out / "report.md").read_text()
     verdicts = [line.rsplit("|", 2)[-2].strip() for line in md.split("## Headline claims and comparisons")[1]
-                .split("\n## ")[0].splitlines() if line.startswith("| ") and not line.startswith("| claim or comparison")]
+                .split("\n## ")[0].splitlines()
+                if line.startswith("| ") and not line.startswith("| claim or comparison")]
     assert len(verdicts) >= 15 and set(verdicts) <= {"holds", "compared"}, verdicts
     assert "DOES NOT HOLD" not in md, [line for line in md.splitlines() if "DOES NOT HOLD" in line]
     assert code == 0

@@ -456,8 +456,8 @@ def _service_results(ex3, studies) -> dict:
 
     f = np.linspace(500.0, 1500.0, 6)
     h = 1e-7 / ((1 - (f / 903.0) ** 2) + 2j * 0.03 * f / 903.0)  # a 1-DOF receptance (Im < 0 at resonance)
-    frf_cfg = Config(Cutting(3, 6e8, 0.3, 0.2, math.pi, 1e4, 0.012), Structure(frf=MeasuredFRF(f, h, h * 1.1, h * 0.01)),
-                     "tap", description="a measured tool")
+    frf_cfg = Config(Cutting(3, 6e8, 0.3, 0.2, math.pi, 1e4, 0.012),
+                     Structure(frf=MeasuredFRF(f, h, h * 1.1, h * 0.01)), "tap", description="a measured tool")
     env = Envelope(np.array([1000.0, 2000.0]), np.array([np.inf, 1e-3]), np.array([-1, 3]), np.array([np.nan, 812.5]))
     modal_cfg = Config(ex3.cutting, ex3.structure, ex3.name, description=ex3.description)
     rpm = studies["mc"].rpm
@@ -466,15 +466,16 @@ def _service_results(ex3, studies) -> dict:
                           np.zeros(0))
     stab = Stabilisation(np.array([2, 4]), [np.array([900.0]), np.array([901.0, 1400.0])],
                          [np.array([0.03]), np.array([0.031, 0.02])], [np.zeros(1, int), np.array([2, 0])])
-    fit = DirectionFit("x", "tap_x.csv", f, h, h * (1 + 1e-3j), (FittedMode(903.0, 1.2e7, 0.03, -1.5, 80.0, 2, 2, 0.01),),
-                       1e-9, -2e-10, 0.012, 3e-10, stab)
+    fit = DirectionFit("x", "tap_x.csv", f, h, h * (1 + 1e-3j),
+                       (FittedMode(903.0, 1.2e7, 0.03, -1.5, 80.0, 2, 2, 0.01),), 1e-9, -2e-10, 0.012, 3e-10, stab)
     return {
         **_tool_and_prediction(),
         "Lobes": Lobes(frf_cfg, "zoa", env, "sdm", dataclasses.replace(env, depth=np.array([5e-3, 1.1e-3]))),
         "Study": Study("mc", studies["mc"], modal_cfg, rpm, "zoa", "paper", "the paper's ex1", "ex1", table6(), True,
                        {"note": 1.5}),
         "Heard": Heard(listening, math.nan, "stable: keep the speed", "harmonizer"),
-        "ModalResult": ModalResult({"x": fit}, Structure(x=(Mode(903.0, 1.2e7, 0.03, "structure.x[0]"),)), (500.0, 1500.0)),
+        "ModalResult": ModalResult({"x": fit}, Structure(x=(Mode(903.0, 1.2e7, 0.03, "structure.x[0]"),)),
+                                   (500.0, 1500.0)),
     }
 
 

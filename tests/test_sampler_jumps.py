@@ -129,6 +129,7 @@ def test_update_jumps_every_fn_alone_and_all_together():
     cfg = load_config("example:ex1")
     pr = make_prior(cfg.structure, cfg.cutting, PriorTable({}))
     groups = lobe_jump_groups(pr)
-    assert groups == ((pr.names.index("fn_x"),), (pr.names.index("fn_y"),), (pr.names.index("fn_x"), pr.names.index("fn_y")))
+    assert groups == ((pr.names.index("fn_x"),), (pr.names.index("fn_y"),),
+                      (pr.names.index("fn_x"), pr.names.index("fn_y")))
     held = make_prior(cfg.structure, cfg.cutting, PriorTable({}, fixed=("fn_x", "fn_y")))
     assert lobe_jump_groups(held) == ()

@@ -46,7 +46,8 @@ def rho_at(batch: ModalBatch, row: int, cut: Cutting, rpm: float, depth: float, 
     x, Dm, lend = _k.gauss_nodes(p)
     g = _k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, rpm, float(spectral._elem_len(wn)[row]), x, wn[row], zeta[row],
                  act)
-    m = _k.monodromy(depth, cut.kt, wn[row], zeta[row], mass[row], mdir, act.size, g[0], g[1], g[2], g[3], g[4], Dm, lend)
+    m = _k.monodromy(depth, cut.kt, wn[row], zeta[row], mass[row], mdir, act.size, g[0], g[1], g[2], g[3], g[4], Dm,
+                     lend)
     return float(np.max(np.abs(np.linalg.eigvals(m))))
 
 
@@ -94,8 +95,8 @@ def test_warm_start_on_a_wrong_lobe_gives_the_cold_answer(case):
                                     zeta[0], mass[0], mdir, nd)
                 b_n, _, ok_n, _ = _k.newton(f * cold[j], th, cut.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
                 d, _, ok, _ = _w.warm_point(cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit, r, f * cold[j], th,
-                                            b_ref[j], spectral.LADDER, spectral.NEAR, wn[0], zeta[0], mass[0], mdir, act, el,
-                                            nd)
+                                            b_ref[j], spectral.LADDER, spectral.NEAR, wn[0], zeta[0], mass[0], mdir,
+                                            act, el, nd)
                 if ok:
                     accepted += 1
                     assert abs(d / cold[j] - 1) < 1e-9, (r, f, th, d, cold[j])

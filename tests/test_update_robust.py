@@ -134,7 +134,8 @@ def test_support_rejects_zeta_above_one_before_the_engine_and_a_wide_spread_upda
 
 
 @pytest.mark.parametrize("table, field", [('k = "5000 %"', "prior.k"), ("fn_x = 1.5", "prior.fn_x"),
-                                          ('tails = "cauchy"', "prior.tails"), ('fixed = ["label_eror"]', "prior.fixed")])
+                                          ('tails = "cauchy"', "prior.tails"),
+                                          ('fixed = ["label_eror"]', "prior.fixed")])
 def test_implausible_prior_tables_are_named(table, field):
     with pytest.raises(InputError) as info:
         _prior("[prior]\n" + table + "\n")
@@ -200,7 +201,8 @@ def test_conflict_check_names_the_parameter_and_its_distance():
     assert msg is None and not info["conflict"] and info["log_bayes_factor"] < 1.0
     u[:, 1] += math.log(1 / 3)  # k_x 3× softer: −3.7σ of the 30 % spread
     msg, info = check(prior, u)
-    assert info["conflict"] and msg.startswith("the cuts contradict the hammer test: k_x is 0.33× the tap test's (-3.7σ)")
+    assert info["conflict"] and msg.startswith("the cuts contradict the hammer test: k_x is 0.33× the tap test's "
+                                               "(-3.7σ)")
     # the Bayes factor is the importance-sampling identity Z_t/Z_r = E_post,r[p_t/p_r], checked by hand
     d = prior.logpdf(u, "normal") - prior.logpdf(u)
     assert info["log_bayes_factor"] == pytest.approx(-math.log(np.exp(d).mean()), rel=1e-9)

@@ -355,8 +355,8 @@ def depths(client: Any, engine: str, par, cutting, theta_rows: np.ndarray, rpm: 
            settings: dict | None = None) -> np.ndarray:
     """Limiting depths (R, S) [m] of many parameter rows (R, P) [SI] at speeds ``rpm`` (S,) [rev/min] on
     the cluster: the same numbers as ONE call ``forward(par, cutting, engine)(theta_rows, rpm)`` (every row
-    is evaluated alone, under the whole batch's pinned settings, :meth:`millstab.forward.Forward.pinned`), for SDM/spectral maps as for
-    the sensitivity studies.
+    is evaluated alone, under the whole batch's pinned settings, :meth:`millstab.forward.Forward.pinned`), for
+    SDM/spectral maps as for the sensitivity studies.
 
     ``chunk_rows``: rows per task (default: :data:`TASK_SECONDS` of work, timed on the workers).
     ``progress(rows_done, R)`` after each task's result has arrived. ``settings``: the engine's pinned

@@ -125,7 +125,9 @@ class Forward:
             if len(self._settings) >= SETTINGS_CACHE:
                 self._settings.pop(next(iter(self._settings)))
             cut = self.cutting if conditions is None else conditions
-            self._settings[key] = dict(self._engine_mod.settings(self.par.batch(row[None]), cut, r, **self._purpose()))
+            # the caller's options over the choice (before, a pinned spectral model dropped a fixed node count)
+            self._settings[key] = self._with_options(dict(self._engine_mod.settings(self.par.batch(row[None]), cut, r,
+                                                                                    **self._purpose())))
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
@@ -234,20 +236,43 @@ def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpos
     return Forward(par, cutting, engine, purpose, tuple(sorted((options or {}).items())))
 
 
-def engine_options(engine: str, options: dict | None) -> tuple:
+def _whole(lo: int):
+    return lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= lo
+
+
+def _real(ok):
+    return lambda v: isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and ok(float(v))
+
+
+#: the values each discretisation keyword takes (what its engine accepts, checked before any work so that a bad
+#: value fails in one line at the door, not after the sampler's first stage): keyword -> (test, what is allowed)
+OPTION_VALUES = {
+    "steps": (_whole(1), "a whole number of steps per tooth period >= 1"),
+    "fn_max_hz": (_real(lambda x: math.isfinite(x) and x > 0), "the highest natural frequency [Hz], > 0"),
+    "nodes": (_whole(2), "a whole number of collocation nodes per element >= 2"),
+    "near": (_real(lambda x: 0.0 <= x < 1.0), "the refinement margin near rho = 1, in [0, 1)"),
+}
+
+
+def engine_options(engine: str, options: dict | None, field: str = "engine_options") -> tuple:
     """``options`` checked against the named engine's ``envelope_batch`` keywords (its discretisation: sdm
-    ``steps``/``fn_max_hz``, spectral ``nodes``/``near``; zoa has none), as sorted (keyword, value) pairs.
-    The engine checks the values when it runs. InputError naming the keyword and the ones allowed."""
+    ``steps``/``fn_max_hz``, spectral ``nodes``/``near``; zoa has none) and their values
+    (:data:`OPTION_VALUES`), as sorted (keyword, value) pairs. InputError naming ``field``, the keyword (and
+    the value) and the engine's keywords."""
     opts = dict(options or {})
     if not opts:
         return ()
     params = inspect.signature(get_engine(engine).envelope_batch).parameters
     allowed = sorted(k for k, p in params.items() if p.default is not inspect.Parameter.empty and k not in NOT_OPTIONS)
-    for key in opts:
+    keys = f"the {engine} engine's discretisation keywords: " + (", ".join(allowed) if allowed else
+                                                                   "none (it chooses its own grid)")
+    for key, value in opts.items():
         if key not in allowed:
-            raise InputError("engine_options", key, f"the {engine} engine's discretisation keywords: "
-                             + (", ".join(allowed) if allowed else "none (it chooses its own grid)"))
-    return tuple(sorted(opts.items()))
+            raise InputError(field, key, keys)
+        test, what = OPTION_VALUES.get(key, (lambda v: True, ""))
+        if not test(value):
+            raise InputError(f"{field} {key}", value, f"{what} ({keys})")
+    return tuple(sorted((k, v.item() if isinstance(v, np.generic) else v) for k, v in opts.items()))
 
 
 def fd_rows(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, h: float = FD_STEP, central: bool = False):

@@ -120,13 +120,16 @@ def _range(rpm_range, rpm: float) -> tuple[float, float]:
 
 
 def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | None = None, end: float | None = None,
-                  rpm_range=None, post=None, depth_mm: float | None = None, risk: float = 0.1) -> Heard:
+                  rpm_range=None, post=None, depth_mm: float | None = None, risk: float = 0.1,
+                  structure=None) -> Heard:
     """Label a recorded signal and suggest a speed (:mod:`millstab.listen`). With a posterior ``post``
     (of ``update``) and the cut's ``depth_mm`` the suggestion is ``recommend``'s fastest speed with
-    P(chatter) ≤ ``risk`` at that depth instead of the harmonizer rule."""
+    P(chatter) ≤ ``risk`` at that depth instead of the harmonizer rule. With the tool's ``structure``
+    (a config's) a flip chatter is reported at its member nearest the structure's modes (step 7 of
+    :mod:`millstab.listen.analyze`)."""
     from millstab.listen import listen, suggest_rpm
 
-    res = listen(signal, fs, rpm, teeth, start=start, end=end)
+    res = listen(signal, fs, rpm, teeth, start=start, end=end, structure=structure)
     lo, hi = _range(rpm_range, rpm)
     if post is not None:
         if depth_mm is None or not (math.isfinite(depth_mm) and depth_mm > 0):
@@ -164,24 +167,25 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
     return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
 
 
-def read_cuts(path, labels: str | None = None, teeth: int | None = None):
+def read_cuts(path, labels: str | None = None, teeth: int | None = None, structure=None):
     """A cuts CSV as ``millstab update`` reads it: (PointSet, notes). With a ``recording`` column its cuts are
-    labelled by listening (:func:`label_from_recordings`, ``teeth`` of the config; one note per cut saying where
+    labelled by listening (:func:`label_from_recordings`, ``teeth`` and ``structure`` of the config; one note per cut saying where
     its label came from); else the labels as written (``labels``: the codes of the label cells)."""
     from millstab.io import read_points
     from millstab.io.recordings import has_recording_column
 
     if has_recording_column(path):
-        return label_from_recordings(path, teeth)
+        return label_from_recordings(path, teeth, structure=structure)
     return read_points(path, labels), []
 
 
-def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None):
+def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None, structure=None):
     """The cuts of a CSV with a ``recording`` column (a path relative to the CSV; empty: keep the row's
     own label) labelled by listening: a :class:`~millstab.points.PointSet` with label and chatter_hz
     from each recording, and one line per cut saying where its label came from. With ``uploads``
     (uploaded file name → saved path, the web app) a recording may only name an uploaded file
-    (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened."""
+    (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
+    config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`)."""
     from millstab.io.recordings import read_cuts_with_recordings, read_recording
     from millstab.listen import listen
     from millstab.points import PointSet
@@ -196,7 +200,7 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
             notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
             continue
         x, fs = read_recording(r["recording"])
-        res = listen(x, fs, r["rpm"], teeth)
+        res = listen(x, fs, r["rpm"], teeth, structure=structure)
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
         notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"

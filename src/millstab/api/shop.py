@@ -105,14 +105,19 @@ class ShopUpdate:
     notes: tuple[str, ...] = field(default=())
 
 
-def _why_fresh(snap, cfg_sha: str, engine: str, new: PointSet) -> str | None:
-    """Why the head posterior cannot start this update (``None`` when it can)."""
+def _why_fresh(snap, cfg_sha: str, engine: str, new: PointSet, options: dict | None = None) -> str | None:
+    """Why the head posterior cannot start this update (``None`` when it can); ``options``: the update's engine
+    options (a posterior fitted with others samples another likelihood)."""
     if snap is None or snap.head.posterior_id is None:
         return None
     if snap.head.config_sha256 != cfg_sha:
         return "the config differs from the last update's"
     if snap.head.engine != engine:
         return f"the engine differs from the last update's ({snap.head.engine})"
+    doc = snap.posterior_doc or {}
+    had = doc.get("engine_options", (doc.get("diagnostics") or {}).get("engine_options")) or {}
+    if dict(had) != dict(options or {}):
+        return f"the engine options differ from the last update's ({had or 'none'})"
     post_rows = (snap.posterior_doc.get("cuts") or {}).get("label") or []
     if (new.label == "").any() or sum(1 for x in snap.rows if x["label"] == "") != sum(1 for x in post_rows if not x):
         return "boundary points were added"
@@ -166,7 +171,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
                  machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
                  recordings: Sequence[str] | None = None, retries: int = 1, progress: Progress | None = None,
                  client=None, shops: Shops = None, shop: str | None = None,
-                 config_toml: str | None = None, sampler: str = "auto") -> ShopUpdate:
+                 config_toml: str | None = None, sampler: str = "auto",
+                 engine_options: dict | None = None) -> ShopUpdate:
     """Update campaign ``campaign`` with ``new_cuts`` (and boundary ``points``) and record it.
 
     Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
@@ -181,7 +187,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     ``shops``: the caller may only see and write these shops' campaigns (the app's accounts; ``None``: all);
     ``shop``: the shop of a new campaign. ``config_toml``: the config text to record (default
     :func:`config_text` of ``cfg``; the app passes the campaign's own text when its form holds that config, so
-    that the update continues from the current posterior).
+    that the update continues from the current posterior). ``engine_options``: the engine's discretisation
+    (as :func:`millstab.api.update`; a campaign whose last posterior was fitted with others updates from the prior).
 
     Raises:
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
@@ -215,13 +222,14 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         cuts = _join(old, new)
         if not len(cuts):
             raise InputError("cuts", "none", f"campaign {campaign!r} holds no cuts yet; give the cuts to record")
-        why = _why_fresh(snap, sha, engine, new)
+        why = _why_fresh(snap, sha, engine, new, engine_options)
         start = snap.posterior() if snap is not None and snap.posterior_doc is not None and why is None else None
         if why is not None:
             notes.append(f"updating from the prior over all {len(cuts)} cuts: {why}")
         so = stickouts(cuts)  # each cut's stickout [m] (NaN: the config's), as `millstab update` reads it
         post = update(cfg, cuts, None, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client, sampler=sampler, stickout_mm=None if so is None else so * 1e3)
+                      client=client, sampler=sampler, stickout_mm=None if so is None else so * 1e3,
+                      engine_options=engine_options)
         head = snap.head if snap is not None else None
         try:
             pid = store.record_update(campaign, toml, new, post, expected_head=head.posterior_id if head else None,

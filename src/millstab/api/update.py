@@ -34,7 +34,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     ``[holder]`` config whose holder is given by modes is updated over the holder (one posterior for every
     stickout: :mod:`millstab.update.stickout`; decide at another stickout with :func:`at_stickout`);
     ``engine_options``: the engine's discretisation for the whole update, e.g. ``{"steps": 40}`` for sdm
-    (:func:`millstab.forward.engine_options`).
+    (:func:`millstab.forward.engine_options`), kept in the posterior for its decisions (:func:`with_engine_options`
+    overrides them).
 
     The result's ``warnings`` hold every message for the user, one line each: data that lean on the
     prior, the prior–data conflict ("the cuts contradict the hammer test: …", :mod:`millstab.update.conflict`)
@@ -65,6 +66,28 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     post = run_update(cfg, cuts, points, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
                       client=client, sampler=sampler, stickout=stickout, engine_options=engine_options)
     return dataclasses.replace(post, provenance={"config": cfg.name})  # in its JSON: the same from every door
+
+
+def check_engine_options(engine: str, options: dict | None, field: str = "--engine-option") -> dict:
+    """The engine's discretisation ``options`` checked before any work (keywords of the engine, values in range:
+    :func:`millstab.forward.engine_options`); ``{}`` for none.
+
+    Raises:
+        InputError: naming ``field``, the keyword (and its value) and the keywords the engine takes.
+    """
+    from millstab.forward import engine_options
+
+    return dict(engine_options(engine, options, field))
+
+
+def with_engine_options(post, options: dict | None, field: str = "--engine-option"):
+    """The posterior ``post`` deciding (map, recommend, next test, predict) with the engine options ``options``
+    over those it was fitted with (:meth:`millstab.update.Posterior.with_engine_options`; ``None``: ``post``).
+
+    Raises:
+        InputError: as :func:`check_engine_options`, for ``post.engine``.
+    """
+    return post.with_engine_options(options, field)
 
 
 def over_holder(cfg) -> bool:
@@ -197,7 +220,12 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
     from millstab.stability import get_engine
 
     par = post.prior.par  # the prior median's tip (over a holder: the tip at the posterior's stickout)
-    prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
+    if post.engine_options:  # the discretisation of the posterior's decisions (the engine's envelope may lack some)
+        from millstab.forward import forward
+
+        prior_sld = forward(par, post.prior.cutting, post.engine, options=post.engine_options)(par.theta0, rpm)[0] * 1e3
+    else:
+        prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
     return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, post.cuts, title=title)
 
 

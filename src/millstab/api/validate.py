@@ -10,14 +10,16 @@ from millstab.points import PointSet
 
 
 def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int = 1000, engine: str = "zoa",
-             progress: Progress | None = None):
+             progress: Progress | None = None, engine_options: dict | None = None):
     """Cross-validated Brier score, log loss and AUC of millstab's P(chatter label) and of the majority rate,
     logistic regression and k-nearest-neighbours, by random folds, leave-one-speed-out and (with two or
     more batches) leave-one-day-out (:func:`millstab.update.validate.cross_validate`); a measured-FRF config's
-    prior centres on its fitted modes.
+    prior centres on its fitted modes; ``engine_options``: the engine's discretisation of every fold's update
+    and prediction (as :func:`millstab.api.update`).
 
     Raises:
-        InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine.
+        InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine, engine
+            options it does not take (``--engine-option``).
     """
     from millstab.stability import ENGINES
     from millstab.update.validate import cross_validate
@@ -26,8 +28,12 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
         raise InputError("--samples", samples, "need at least 100 samples")
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
+    from millstab.api.update import check_engine_options
+
+    engine_options = check_engine_options(engine, engine_options)  # before any fold's update
     cfg, _ = modal(cfg)
-    return cross_validate(cfg, cuts, n_folds=folds, seed=seed, samples=samples, engine=engine, progress=progress)
+    return cross_validate(cfg, cuts, n_folds=folds, seed=seed, samples=samples, engine=engine, progress=progress,
+                          engine_options=engine_options)
 
 
 __all__ = ["validate"]

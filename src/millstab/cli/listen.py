@@ -1,6 +1,6 @@
 """``millstab listen``: chatter and its frequency from a recording of a cut, and a speed to try.
 
-millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--rpm-range MIN:MAX]
+millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--config CFG] [--rpm-range MIN:MAX]
                 [--post post.json --depth MM [--risk P]] [--out res.json] [--plot spec.png]
                 [--db shop.db --campaign NAME --depth MM [--user U]]   (records the cut with its heard label)
 """
@@ -25,6 +25,9 @@ def listen(
                                                                 "default: found from the tooth-passing sound."),
     end: Optional[float] = typer.Option(None, "--end", help="End of the cut in the recording (s)."),
     channel: int = typer.Option(0, "--channel", help="Channel of a multi-channel WAV (0 = first)."),
+    config: Optional[str] = typer.Option(None, "--config", help="The tool's config (TOML or example:NAME): a "
+                                                                 "flip chatter is reported at its member nearest "
+                                                                 "the modes."),
     rpm_range: Optional[str] = typer.Option(None, "--rpm-range", help="Machine speed range MIN:MAX for the "
                                                                       "suggestion (rev/min; default 0.5-1.5 x rpm)."),
     post: Optional[Path] = typer.Option(None, "--post", help="Posterior JSON of millstab update: suggest "
@@ -43,10 +46,11 @@ def listen(
     from millstab import api
     from millstab.cli import emit
     from millstab.errors import InputError
-    from millstab.io import read_json
+    from millstab.io import config_inputs, read_json
 
-    protect = emit.checked({"RECORDING": recording, "--post": post}, {"--out": out, "--plot": plot},
-                           figures=("--plot",))
+    cfg = api.config(config) if config is not None else None  # --config: the tool's structure (docs/listen.md)
+    protect = emit.checked({"RECORDING": recording, "--post": post, **(config_inputs(cfg) if cfg else {})},
+                           {"--out": out, "--plot": plot}, figures=("--plot",))
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
         raise InputError("--depth" if depth is None else "--post", depth if depth is None else str(post),
@@ -58,12 +62,11 @@ def listen(
 
         posterior = (shop.current_posterior(db, campaign, user) or (None, None))[1]
     heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
-                            post=posterior, depth_mm=depth, risk=risk)
-    r = heard.listening
+                            post=posterior, depth_mm=depth, risk=risk, structure=cfg.structure if cfg else None)
     typer.echo(f"{recording.name}: {heard.summary()}")
     if on_db:
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)
-        typer.echo(f"recorded in campaign {campaign} as cut {n}: {r.rpm:g} rpm, {depth:g} mm, {r.label} (the next "
-                   "`millstab update --db` uses it)")
+        typer.echo(f"recorded in campaign {campaign} as cut {n}: {heard.listening.rpm:g} rpm, {depth:g} mm, "
+                   f"{heard.listening.label} (the next `millstab update --db` uses it)")
     emit.json(out, lambda: heard.to_json(spectrum=False), protect)
     emit.figure(plot, lambda: api.listen_figure(heard, title=recording.name), protect)

@@ -10,6 +10,8 @@ from typing import Annotated, Any, Iterator, Optional
 
 import typer
 
+from millstab.errors import InputError
+
 
 def seed_callback(value):
     """typer callback of ``--seed``: the value, or InputError (one line, exit 2)."""
@@ -46,6 +48,51 @@ def samples_option(default: int, help: str) -> Any:
     reads as 100000000 and is refused for the memory it needs, not for its spelling)."""
     return typer.Option(default, "--samples", help=help + " 100..1000000, as memory allows.", parser=count,
                         callback=samples_callback)
+
+
+#: what --engine-option takes, in its help and its errors
+ENGINE_OPTION_FORM = "KEY=VALUE with a number, e.g. steps=40 (sdm: steps, fn_max_hz; spectral: nodes, near; zoa: none)"
+
+
+def engine_option_pairs(texts) -> dict:
+    """The ``--engine-option`` texts (repeatable) as a table: ``["steps=40"]`` → ``{"steps": 40}`` (a whole number
+    as int, another number as float, anything else kept as text for the engine's check to refuse by name);
+    InputError for a text without ``=``, an empty keyword or a keyword given twice. Which keywords and values
+    an engine takes is checked where the engine is known (:func:`millstab.api.check_engine_options`)."""
+    out: dict = {}
+    for text in texts or ():
+        key, eq, value = (part.strip() for part in str(text).partition("="))
+        if not eq or not key or not value:
+            raise InputError("--engine-option", text, ENGINE_OPTION_FORM)
+        if key in out:
+            raise InputError("--engine-option", text, f"each keyword once ({key} = {out[key]} already)")
+        out[key] = _number(value)
+    return out
+
+
+def _engine_option_callback(texts):
+    """typer callback of ``--engine-option``: the texts as given, after :func:`engine_option_pairs` checked their
+    form (typer turns a callback's table back into a list: the commands read the texts with it)."""
+    engine_option_pairs(texts)
+    return texts
+
+
+def _number(text: str):
+    """``"40"`` → 40, ``"0.5"``/``"1e3"`` → float, anything else: the text itself."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+EngineOptionOpt = Annotated[Optional[list[str]], typer.Option(
+    "--engine-option", metavar="KEY=VALUE", callback=_engine_option_callback,
+    help="The engine's discretisation, repeatable: " + ENGINE_OPTION_FORM + ". On update: fixed for the whole "
+         "update and kept in the posterior, whose decisions use it; on a decision: over the posterior's.")]
 
 
 DaskOpt = Annotated[Optional[str], typer.Option(
@@ -97,11 +144,13 @@ StickoutOpt = Annotated[Optional[float], typer.Option(
                        "[[holder.modes]] config).", rich_help_panel="Target condition")]
 
 
-def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None):
+def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None,
+                 engine_options=None):
     """The posterior deciding for the target options of map, recommend and predict: at the stickout
-    (:func:`millstab.api.at_stickout`), then in the cutting condition (:func:`millstab.api.for_condition`)."""
+    (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`), with the
+    ``--engine-option`` texts over the options it was fitted with (:func:`millstab.api.with_engine_options`)."""
     from millstab import api
 
-    post = api.at_stickout(post, stickout)
+    post = api.with_engine_options(api.at_stickout(post, stickout), engine_option_pairs(engine_options))
     return api.for_condition(post, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
                              exit_deg=exit_deg, teeth=teeth)

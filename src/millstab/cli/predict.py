@@ -10,8 +10,8 @@ import typer
 from millstab import api
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
-from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
-                                  for_decision)
+from millstab.cli.options import (EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
+                                  StickoutOpt, TeethOpt, for_decision)
 from millstab.cli.update import LABELS_HELP
 from millstab.errors import InputError
 
@@ -34,6 +34,7 @@ def predict_cmd(
     entry_deg: EntryDegOpt = None,
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
+    options: EngineOptionOpt = None,
 ) -> None:
     """P(stable) (the process) and P(label chatter) (what an operator will write) for each cut of CUTS."""
     from rich.console import Console
@@ -47,7 +48,7 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     inputs = {**inputs, "CUTS": cuts}
     check_outputs(inputs, {"--out": out})  # before the work
     pred = predict(post, c)

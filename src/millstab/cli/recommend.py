@@ -9,8 +9,8 @@ import typer
 
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, UserOpt, posterior_source, shop_target
-from millstab.cli.options import (EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt, TeethOpt,
-                                  for_decision, seed_option)
+from millstab.cli.options import (EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
+                                  StickoutOpt, TeethOpt, for_decision, seed_option)
 
 #: = millstab.update.decide.TEST_RISK (not imported: the command line starts without numba; a test checks they agree)
 TEST_RISK = 0.5
@@ -45,6 +45,7 @@ def recommend_cmd(
     entry_deg: EntryDegOpt = None,
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
+    options: EngineOptionOpt = None,
 ) -> None:
     """The most productive cut whose probability of chatter is at most RISK, and the next test cut."""
     from rich.console import Console
@@ -56,7 +57,7 @@ def recommend_cmd(
                                    test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
                                    feed_mm=feed_per_tooth, seed=seed)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     protect = emit.checked(inputs, {"--out": out})
     if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db

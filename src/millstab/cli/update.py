@@ -11,8 +11,9 @@ import typer
 from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
-from millstab.cli.options import (DaskOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, StickoutOpt,
-                                  TeethOpt, WorkersOpt, for_decision, samples_option, seed_option)
+from millstab.cli.options import (DaskOpt, EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
+                                  StickoutOpt, TeethOpt, WorkersOpt, engine_option_pairs, for_decision, samples_option,
+                                  seed_option)
 from millstab.cli.options import dask_client as _client
 from millstab.errors import InputError
 
@@ -60,6 +61,7 @@ def update_cmd(
     campaign: CampaignOpt = None,
     user: UserOpt = None,
     shop: ShopOpt = None,
+    options: EngineOptionOpt = None,
 ) -> None:
     """Update the modal parameters from labelled test CUTS (Bayesian; tempered SMC); with --db/--campaign the cuts
     and the posterior are recorded in a shop database, starting from the campaign's current posterior."""
@@ -71,7 +73,7 @@ def update_cmd(
 
     in_db, shop = _target(out, db, campaign, start, shop)
     cfg = api.with_batch_effect(api.config(config), batch_effect)
-    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth)  # a 'recording' column: labelled by ear (docs/listen.md)
+    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth, cfg.structure)  # a 'recording' column: labelled by ear (docs/listen.md)
     p = read_points(points, labels) if points is not None else None
     protect = emit.checked({**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start},
                            {"--out": out, "--plot": plot}, figures=("--plot",))
@@ -81,7 +83,7 @@ def update_cmd(
     # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral; not zoa)
     with _client(dask, workers) as client:
         post, done = _run_update(cfg, c, p, client, db=db, campaign=campaign, user=user, shop=shop, start=start,
-                                 engine=engine, samples=samples, seed=seed, sampler=sampler)
+                                 engine=engine, samples=samples, seed=seed, sampler=sampler, engine_options=options)
     emit.json(out, post.to_json(), protect, lambda _: None)  # its config's name included: the web download is the same
     con = Console()
     rows = [(row[0], *(f"{v:.{5 if i < len(post.names) else 3}g}" for v in row[1:6]), row[6])
@@ -114,9 +116,12 @@ def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None
 def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, **settings):
     """(posterior, the shop's record or None): in a shop database the campaign's cuts so far and these, from its
     current posterior, recorded in one transaction with each cut's condition and stickout (its notes printed);
-    else an update of these cuts. ``settings``: engine, samples, seed, sampler."""
+    else an update of these cuts. ``settings``: engine, samples, seed, sampler, engine_options (the --engine-option
+    texts, checked here before any work against the engine: one line naming --engine-option)."""
     from millstab import api
 
+    settings["engine_options"] = api.check_engine_options(settings["engine"],
+                                                          engine_option_pairs(settings.get("engine_options")))
     if shop_target(db, campaign):
         from millstab.api.shop import update_in_db
 
@@ -147,6 +152,7 @@ def map_cmd(
     entry_deg: EntryDegOpt = None,
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
+    options: EngineOptionOpt = None,
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -157,7 +163,7 @@ def map_cmd(
     speeds = api.parse_rpm_range(rpm)
     depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)

@@ -9,7 +9,7 @@ import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app
-from millstab.cli.options import samples_option, seed_option
+from millstab.cli.options import EngineOptionOpt, engine_option_pairs, samples_option, seed_option
 from millstab.cli.update import LABELS_HELP
 
 
@@ -29,6 +29,7 @@ def validate_cmd(
     out: Optional[Path] = typer.Option(None, "--out",
                                        help="JSON: the scores per scheme and method, folds, predictions."),
     predictions: Optional[Path] = typer.Option(None, "--predictions", help="CSV: each cut's held-out predictions."),
+    options: EngineOptionOpt = None,
 ) -> None:
     """Cross-validated Brier, log loss and AUC of millstab beside the majority rate, logistic regression and kNN."""
     from rich.console import Console
@@ -44,6 +45,7 @@ def validate_cmd(
     con = Console()
     with con.status("updating on each fold ...") as status:
         res = validate(cfg, c, folds=folds, seed=seed, samples=samples, engine=engine,
+                       engine_options=engine_option_pairs(options),
                        progress=lambda stage, done, total: status.update(f"{stage}: {done}/{total} updates"))
     for title, header, rows, caption in res.score_tables():
         emit.table(con, title, header, rows, caption)

@@ -15,7 +15,8 @@ from typing import Callable
 from millstab.reproduce.paper import Context
 from millstab.reproduce.report import Report, ReportWriter
 
-TITLE = "millstab reproduces: Sensitivity Analysis and Monte Carlo Based Uncertainty Quantification of the In-process Modal Parameters in Milling"
+TITLE = ("millstab reproduces: Sensitivity Analysis and Monte Carlo Based Uncertainty Quantification of the "
+         "In-process Modal Parameters in Milling")
 
 
 def steps() -> list[tuple[str, Callable[[Context], None]]]:

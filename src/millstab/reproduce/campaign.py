@@ -194,9 +194,9 @@ def render(rep, v: VirtualCampaign) -> None:
     n_ok = sum(camp.rec_stable)
     rep.paragraph(
         f"Measured in this run: from the hammer test alone (0 cuts) the recommendation is "
-        f"{'truly stable' if camp.rec_stable[0] else 'a chattering cut'} at {camp.rec_productivity[0]:.2f} of the best; "
-        f"after {CUTS} tool-chosen cuts it is {'truly stable' if fin_ok else 'a chattering cut'} at {fin_p:.2f} of "
-        f"the best ({camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm; {fin_exact:.2f} of the exact best, "
+        f"{'truly stable' if camp.rec_stable[0] else 'a chattering cut'} at {camp.rec_productivity[0]:.2f} of the "
+        f"best; after {CUTS} tool-chosen cuts it is {'truly stable' if fin_ok else 'a chattering cut'} at {fin_p:.2f} "
+        f"of the best ({camp.rec_rpm[-1]:.0f} rpm, {camp.rec_depth_mm[-1]:.2f} mm; {fin_exact:.2f} of the exact best, "
         f"which sits on a pocket's cusp that no cut tolerating a speed error can use); "
         + (f"85 % of the best was first reached, stably, after {reached} cuts; " if reached is not None else
            "85 % of the best was not reached stably; ")

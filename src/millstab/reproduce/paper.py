@@ -112,7 +112,8 @@ def table1(ctx: Context) -> None:
     rep.figure("fig_sld_examples", fig, "SLDs of the three synthetic examples (the targets of Table 3); SDM dashed")
     rep.table("sld_examples_summary", ["example", "from rpm", "to rpm", "min b_lim [mm]", "at rpm", "chatter [Hz]",
                                        "SDM vs ZOA median / max difference"], rows,
-              "SLD summary; SDM is the time-domain cross-check (it differs where the directional matrix varies in time)")
+              "SLD summary; SDM is the time-domain cross-check (it differs where the directional matrix varies in "
+              "time)")
 
 
 def _config_value(cfg, key: str) -> float:
@@ -151,7 +152,8 @@ def table4(ctx: Context, points=None) -> dict:
         ours = [getattr(m, p) * scale for m in getattr(cfg.structure, d)]
         rows.append([label, modal[key][0] * scale, ours[0], modal[key][1] * scale, ours[1]])
     rep.table("table4_static_modal", ["parameter", "Mode 1 paper", "Mode 1 ours", "Mode 2 paper", "Mode 2 ours"], rows,
-              "Table 4: static (hammer-test) modal parameters, two modes per direction; Kt 1110 MPa, Kr 0.22, 4 teeth, slotting")
+              "Table 4: static (hammer-test) modal parameters, two modes per direction; Kt 1110 MPa, Kr 0.22, 4 teeth, "
+              "slotting")
     rpm = np.linspace(5000, 7000, 401 if ctx.quick else 801)
     curves = {"static (Table 4, two modes per direction)": zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm}
     for label, s in in_process_structures().items():
@@ -206,9 +208,10 @@ def four_flute(ctx: Context) -> None:
     from millstab.plot.sld import plot_sld_family
 
     fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted)
-    rep.figure("fig_fourSLD", fig, "Fig. fourSLD: the four-flute tool in slotting, static SLD (dashed black) against the "
-               "in-process SLDs of the paper and of Eynian's two methods, ours identified from the points (orange), and "
-               "the points used for identification (red)")
+    rep.figure("fig_fourSLD", fig,
+               "Fig. fourSLD: the four-flute tool in slotting, static SLD (dashed black) against the "
+               "in-process SLDs of the paper and of Eynian's two methods, ours identified from the points (orange), "
+               "and the points used for identification (red)")
 
 
 # --- step 2: Table 3, identification of the synthetic examples ----------------------------------------
@@ -261,8 +264,8 @@ def table3(ctx: Context) -> None:
                          100 * paper_err[j], r["fits"]["newton"].estimate[j] * scale, 100 * r["errors"]["newton"][j],
                          r["fits"]["lsq"].estimate[j] * scale, 100 * r["errors"]["lsq"][j]])
         nw, ls = r["fits"]["newton"], r["fits"]["lsq"]
-        rows.append([ex, "iterations / time [s]", "", "", pv["iterations"], "", f"{nw.iterations} / {nw.time_s:.1f}", "",
-                     f"{ls.iterations} / {ls.time_s:.1f}", ""])
+        rows.append([ex, "iterations / time [s]", "", "", pv["iterations"], "", f"{nw.iterations} / {nw.time_s:.1f}",
+                     "", f"{ls.iterations} / {ls.time_s:.1f}", ""])
         worst_ls = r["errors"]["lsq"].max()
         nw_err = r["errors"]["newton"]
         detail = ", ".join(f"{name} {100 * e:.2f} % (paper {100 * pe:.2f} %)"
@@ -289,7 +292,8 @@ def _identification_figures(ctx: Context, results: dict) -> None:
         plot_convergence(r["fits"]["newton"], ax=ax, title=f"{ex}: Newton–Raphson (paper's scheme)")
     fig.tight_layout()
     rep.figure("fig_conv", fig, "Fig. conv: the objective (MLAE, eq. 4) against iteration, paper's scheme (log scale): "
-               "each iterate's MLAE as a dot (the scheme's jumps and trial steps make it zig-zag), the best so far as a line")
+               "each iterate's MLAE as a dot (the scheme's jumps and trial steps make it zig-zag), the best so far as "
+               "a line")
 
     r3 = results["ex3"]
     fit = r3["fits"]["newton"]
@@ -384,8 +388,8 @@ def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
                                                              for r, c, _ in plan.tests()))
     grid = np.linspace(rpm[0], rpm[-1], 800)
     rep.figure("fig_plan", plot_design(plan, grid, zoa.envelope(fit.structure, cfg.cutting, grid).depth_mm, measured),
-               "Where to measure next on the four-flute tool: the SLD of the identified mode, the points used (black) and "
-               "the tests planned around it (red)")
+               "Where to measure next on the four-flute tool: the SLD of the identified mode, the points used (black) "
+               "and the tests planned around it (red)")
 
 
 # --- step 5: Fig. SENS and Table 6 --------------------------------------------------------------------
@@ -402,8 +406,9 @@ def sensitivity(ctx: Context) -> None:
     rep = ctx.report
     rep.heading("Fig. SENS and Table 6: sensitivity of the SLD")
     rep.paragraph(f"One-at-a-time (Algorithm 1): each parameter scaled by (1 + ε), ε = −20 … +20 % step 5 % (the "
-                  f"paper's grid), MSE [mm²] of the SLD against the original at {SENS_SPEEDS} evenly spaced speeds over "
-                  "the example's [speeds] range, centred on the paper's predicted values (Table 3), as the paper does.")
+                  f"paper's grid), MSE [mm²] of the SLD against the original at {SENS_SPEEDS} evenly spaced speeds "
+                  "over the example's [speeds] range, centred on the paper's predicted values (Table 3), as the paper "
+                  "does.")
     from millstab.params import Parameterization
 
     oat_rows = []
@@ -428,12 +433,12 @@ def sensitivity(ctx: Context) -> None:
     paper_ratio = paper["fn_x"]["mean"] / paper["k_x"]["mean"]
     speed_sets = {"A: ex1 config range 3000–15000 rpm": speeds_of("ex1", SENS_SPEEDS),
                   "B: wide range 2000–30000 rpm": np.linspace(2000, 30000, SENS_SPEEDS)}
-    rep.paragraph(f"Monte Carlo (Algorithm 2): N = {n} paths, each parameter drawn uniformly within ±10 % of Example 1's "
-                  f"predicted values, then each perturbed by ε = 1 %; MSE [mm²] over {SENS_SPEEDS} evenly spaced speeds. "
-                  "The paper does not give its speed set and the absolute MSE depends on it, so two sets are shown: A, the "
-                  "range of our Example 1 config, and B, a wide range that includes the tall high-speed lobe (with B our "
-                  "means come close to the paper's). The ordering and the ratios are the comparable part. SD is the "
-                  "population SD (1/N) as in the paper; SEM is the standard error of our mean.")
+    rep.paragraph(f"Monte Carlo (Algorithm 2): N = {n} paths, each parameter drawn uniformly within ±10 % of Example "
+                  f"1's predicted values, then each perturbed by ε = 1 %; MSE [mm²] over {SENS_SPEEDS} evenly spaced "
+                  "speeds. The paper does not give its speed set and the absolute MSE depends on it, so two sets are "
+                  "shown: A, the range of our Example 1 config, and B, a wide range that includes the tall high-speed "
+                  "lobe (with B our means come close to the paper's). The ordering and the ratios are the comparable "
+                  "part. SD is the population SD (1/N) as in the paper; SEM is the standard error of our mean.")
     rows = []
     results = {}
     for label, rpm in speed_sets.items():
@@ -446,13 +451,16 @@ def sensitivity(ctx: Context) -> None:
         ours_ratio = m["fn_x"] / m["k_x"]
         rep.check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
                   ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
-                  min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"]) and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))
+                  min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"])
+                  and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))
         # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
-        rep.compare(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's", ours_ratio, paper_ratio)
-    rep.table("table6_monte_carlo", ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
+        rep.compare(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's", ours_ratio,
+                    paper_ratio)
+    rep.table("table6_monte_carlo",
+              ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
               rows, f"Table 6: Monte Carlo sensitivity [mm²], N = {n}, speed sets A and B")
     mc = results[next(iter(results))]
     rep.figure("fig_mc_convergence", plot_mc_convergence(mc, paper=paper),
-               f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): running "
-               "mean of each parameter's MSE against the number of paths, ±1.96 SEM shaded, the paper's Table 6 value "
-               "dashed")
+               f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): "
+               "running mean of each parameter's MSE against the number of paths, ±1.96 SEM shaded, the paper's Table "
+               "6 value dashed")

@@ -189,7 +189,8 @@ class Report:
                  "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;line-height:1.45}"
                  "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #bbb;padding:3px 8px;"
                  "text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}"
-                 ".bad{color:#b00;font-weight:bold}.ok{color:#070}.cmp{color:#555}figcaption{font-style:italic}</style></head><body>",
+                 ".bad{color:#b00;font-weight:bold}.ok{color:#070}.cmp{color:#555}figcaption{font-style:italic}"
+                 "</style></head><body>",
                  f"<h1>{esc(self.title)}</h1>"]
         if self.checks:
             parts.append(f"<h2>Headline claims and comparisons</h2><p>{esc(SUMMARY_NOTE)}</p><table><tr>"

@@ -118,4 +118,5 @@ register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr", "directional_matrix", "get_engine", "register", "unregister"]
+__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr",
+           "directional_matrix", "get_engine", "register", "unregister"]

@@ -222,8 +222,9 @@ def period_grid(n_teeth, kr, phi_s, phi_e, rpm, h_target, mult):
     Tooth 0 enters at t = 0. Breakpoints (entry/exit of any tooth) sit at phase 0 and
     (φex − φst) mod pitch; each cutting segment is cut into ceil(len/h_target) equal steps, a segment
     without cutting is one step; ``mult`` multiplies the step count of every cutting segment (so
-    mult = 2 halves every step of the mult = 1 grid, as Richardson extrapolation needs). Returns h (m,) [s], cut (m,) bool,
-    the step averages Abar (m, 2, 2) of the directional matrix and Pbar (m, 2, 2) of Σ g n nᵀ (:func:`step_contact`).
+    mult = 2 halves every step of the mult = 1 grid, as Richardson extrapolation needs). Returns h (m,) [s],
+    cut (m,) bool, the step averages Abar (m, 2, 2) of the directional matrix and Pbar (m, 2, 2) of Σ g n nᵀ
+    (:func:`step_contact`).
     """
     omega = TWO_PI * rpm / 60.0
     pitch = TWO_PI / n_teeth

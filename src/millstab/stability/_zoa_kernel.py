@@ -45,8 +45,9 @@ the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.
 rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
 The roots of a modal structure (no cross receptances) in real arithmetic (:func:`_disc_diag`: numba
 multiplies a float by a complex as a full complex product, and the zero cross terms cost four more per
-node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope per core) is beyond this algorithm's work:
-it needs fewer root evaluations per speed or a coarser grid, which the accuracy tests must then allow.
+node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope
+per core) is beyond this algorithm's work: it needs fewer root evaluations per speed or a coarser grid, which
+the accuracy tests must then allow.
 """
 
 from __future__ import annotations

@@ -42,8 +42,8 @@ e^{−ζ ωn T} < 1. ρ is evaluated on the depths b_ref · FACTORS (b_ref = the
 at that speed, or a static scale where the zero-order method finds no boundary), ascending, stopping
 at the first unstable depth; beyond the last factor the depth grows geometrically (×1.5) up to
 1e4 · b_ref (then ``inf``: no boundary). With the default steps ρ is the extrapolated one throughout,
-so a thin band that only the converged solution has is seen too. The bracket [last stable, first unstable] is refined by the
-Illinois method on ρ − 1 to a relative width of ``RTOL``. ρ(b) is not monotone: the answer is the
+so a thin band that only the converged solution has is seen too. The bracket [last stable, first unstable]
+is refined by the Illinois method on ρ − 1 to a relative width of ``RTOL``. ρ(b) is not monotone: the answer is the
 first crossing from 0 upward provided no unstable band is thinner than the bracket grid spacing
 (0.05 · b_ref); flip lobes at low immersion, where the zero-order depth is several times too high,
 are wide bands on that scale and are found.
@@ -197,7 +197,8 @@ def step_matrices(cutting: Cutting, rpm: float, steps: int,
     return grid if contact else grid[:3]
 
 
-def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float, steps: int | None = None) -> np.ndarray:
+def monodromy(structure: Structure, cutting: Cutting, rpm: float, depth_m: float,
+              steps: int | None = None) -> np.ndarray:
     """The (reduced) monodromy matrix over one tooth period at one speed [rpm] and depth [m].
 
     Its eigenvalues are the Floquet multipliers (apart from zero multipliers of dropped history

@@ -94,7 +94,8 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
 
 
 def _run_modal(batch: ModalBatch, cutting: Cutting | Conditions, rpm: np.ndarray,
-               stats: np.ndarray | None = None, kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               stats: np.ndarray | None = None,
+               kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S).
 
     ``cutting``: one Cutting, or Conditions (one per speed column); ``kr``: a Kr per set (B,) or None.

@@ -108,8 +108,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         engine_options: the chosen engine's discretisation for the whole update, instead of the one it
             chooses (keywords of its ``envelope_batch``: sdm ``{"steps": 40}`` steps per tooth period,
             spectral ``{"nodes": 8}``; zoa has none): :func:`millstab.forward.engine_options`. The screen
-            of delayed acceptance keeps its own. Kept in the diagnostics (``engine_options``); the decisions
-            from the posterior use the engine's own choice.
+            of delayed acceptance keeps its own. Kept in the posterior (:attr:`Posterior.engine_options`,
+            its JSON's ``engine_options``): every decision from it uses them.
     Raises:
         InputError: bad data (see :class:`Evidence`), bad prior, unknown engine, or data no prior
             draw can explain.
@@ -155,7 +155,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps)
     else:
-        n_old = _check_start(start, pr, ev, engine)
+        n_old = _check_start(start, pr, ev, engine, dict(lik.options))
         rng = np.random.default_rng(seed)
         u0 = start.sampler_state(rng)
         if be is not None:  # the days the earlier posterior knew keep their shifts; new days start from the prior
@@ -194,7 +194,9 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         eps, fac = pr.noise(res.u[:, pr.size:q], samples)
         noise = np.stack([eps if n == "label_error" else fac for n in pr.noise_names], axis=1)
     dia = getattr(config, "diameter_mm", None)
-    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days, conditions=conditions, diameter_mm=dia)
+    opts = dict(lik.options)  # checked against the engine (millstab.forward.engine_options)
+    post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days, conditions=conditions, diameter_mm=dia,
+                     engine_options=opts)
     messages = [str(w.message) for w in caught]
     modes = post.modes()
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
@@ -214,11 +216,12 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         messages.append(msg)
     # the bimodal warning (not issued, as before: a property of the answer) joins them in Posterior itself
     return Posterior(pr, post.samples, engine, diag, data, tuple(messages), noise, days, conditions=conditions,
-                     diameter_mm=dia)
+                     diameter_mm=dia, engine_options=opts)
 
 
-def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> int:
-    """The number of earlier cuts of ``start`` after checking that it is this update's own beginning."""
+def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str, options: dict | None = None) -> int:
+    """The number of earlier cuts of ``start`` after checking that it is this update's own beginning (its prior,
+    engine, engine options and data)."""
     from millstab.errors import InputError
 
     same_prior = (start.prior.names == prior.names and np.allclose(start.prior.median, prior.median, rtol=1e-12)
@@ -229,6 +232,9 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str) -> i
     if not same_prior or start.engine != engine:
         raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
                                                                            "[prior] table and engine")
+    if dict(start.engine_options) != dict(options or {}):  # its samples follow another discretisation's likelihood
+        raise InputError("start", f"a posterior fitted with engine options {start.engine_options or 'none'}",
+                         f"start from one fitted with this update's ({options or 'none'})")
     c = start.cuts or {}
     lab = list(c.get("label") or [])
     n_old = sum(1 for x in lab if x)

@@ -120,7 +120,8 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
 def p_stable_map(post: Posterior, rpm, depth_mm, client=None) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
     Dask cluster where that pays, same numbers)."""
-    blim, _ = limits(post.prior, post.decision_u, np.asarray(rpm, float), post.engine, client=client)
+    blim, _ = limits(post.prior, post.decision_u, np.asarray(rpm, float), post.engine, client=client,
+                     options=post.engine_options)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 
@@ -316,7 +317,7 @@ def data_guard(post: Posterior) -> list[dict]:
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
-    blim, _ = limits(post.prior, post.decision_u, rpm[ch], post.engine)
+    blim, _ = limits(post.prior, post.decision_u, rpm[ch], post.engine, options=post.engine_options)
     p_model = np.mean(blim <= depth[ch][None, :], axis=0)
     tip = post.prior.par.structure(post.prior.par.theta0)  # the prior median's TIP (a prior over a holder too)
     modes = [m for m in (*tip.x, *tip.y)]
@@ -409,7 +410,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
 
     def best_of(speeds: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
         # one engine call for the speeds and their ±tolerance neighbours; the nominal block first
-        both, _ = limits(post.prior, u, (speeds[None, :] * (1 + offsets[:, None])).ravel(), post.engine)
+        both, _ = limits(post.prior, u, (speeds[None, :] * (1 + offsets[:, None])).ravel(), post.engine,
+                         options=post.engine_options)
         blim = both[:, :speeds.size]
         d_all = safe_depth(both, risk, count).reshape(offsets.size, speeds.size)
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
@@ -432,7 +434,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         step = cand[1] - cand[0]
     rpm_best, depth_best, col = best
     p_ch = float(np.mean(col <= depth_best))
-    around, _ = limits(post.prior, u, rpm_best * (1 + offsets), post.engine)  # the cut's own ±tolerance check
+    around, _ = limits(post.prior, u, rpm_best * (1 + offsets), post.engine,  # the cut's own ±tolerance check
+                       options=post.engine_options)
     p_worst = float(np.max(np.mean(around <= depth_best, axis=0)))
     bound = None
     if confidence is not None:
@@ -510,7 +513,8 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
     rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
 
     def the_recommendation(why: str) -> dict:
-        p_rec = float(np.mean(limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine)[0][:, 0] <= depth_rec)) \
+        p_rec = float(np.mean(limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine,
+                                      options=post.engine_options)[0][:, 0] <= depth_rec)) \
             if p_chatter_rec is None else float(p_chatter_rec)
         return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
                 "relative_productivity": 1.0, "why": why}
@@ -520,7 +524,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
         return the_recommendation(blind)
     if grid is None:
         speeds = np.linspace(*rpm_range, n_rpm)
-        blim, _ = limits(post.prior, post.decision_u[rows], speeds, post.engine)  # (M, S)
+        blim, _ = limits(post.prior, post.decision_u[rows], speeds, post.engine, options=post.engine_options)  # (M, S)
     else:
         speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)[rows]
     finite = np.where(np.isfinite(blim), blim, np.nan)
@@ -585,7 +589,7 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
     best = None
     for c in cands:
         q = post.for_condition(c)
-        blim, _ = limits(q.prior, q.u[rows], speeds, q.engine)
+        blim, _ = limits(q.prior, q.u[rows], speeds, q.engine, options=q.engine_options)
         finite = np.where(np.isfinite(blim), blim, np.nan)
         if not np.isfinite(finite).any():
             continue

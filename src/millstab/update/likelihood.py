@@ -88,7 +88,7 @@ SAMPLING = "sample"
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
            with_freq: bool = False, client=None,
            conditions: Conditions | Cutting | None = None,
-           fwd: Forward | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+           fwd: Forward | None = None, options: dict | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
@@ -100,9 +100,11 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     ``engine`` whose discretisation to use (``purpose`` :data:`SAMPLING`; a :class:`Likelihood` holds one, so
     the engine's settings are chosen once per speed list for a whole update); default a fresh one. Either
     way the settings are chosen at the parameterization's θ0 (the prior median's structure), not at a
-    sample: the same numbers whichever samples share a call.
+    sample: the same numbers whichever samples share a call. ``options``: the engine's discretisation of a
+    fresh model (:func:`millstab.forward.engine_options`; a posterior's
+    :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
     """
-    pin = pinned_model(prior, u, rpm, engine, conditions, fwd)
+    pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_kr_engine(prior, engine)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
@@ -114,12 +116,13 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
 
 
 def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
-                 conditions: Conditions | Cutting | None = None, fwd: Forward | None = None):
+                 conditions: Conditions | Cutting | None = None, fwd: Forward | None = None,
+                 options: dict | None = None):
     """The one evaluator of :func:`limits` for the samples u = ln θ: ``fwd`` (default a fresh model, ``purpose``
-    :data:`SAMPLING`) pinned on their rows (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen
-    at θ0 (spectral: ``at=``, whatever ``fwd`` was asked before) or from the rows (sdm's steps); what a cluster's
-    tasks get too."""
-    fwd = forward(prior.par, prior.cutting, engine, SAMPLING) if fwd is None else fwd
+    :data:`SAMPLING`, with the discretisation ``options``) pinned on their rows
+    (:meth:`millstab.forward.Forward.pinned`), its discretisation chosen at θ0 (spectral: ``at=``, whatever ``fwd``
+    was asked before) or from the rows (sdm's steps); what a cluster's tasks get too."""
+    fwd = forward(prior.par, prior.cutting, engine, SAMPLING, options) if fwd is None else fwd
     return fwd.pinned(check_rpm(rpm), prior.split(u)[0], conditions, at=fwd.par.theta0)  # settings: at θ0
 
 
@@ -157,16 +160,16 @@ def stickout_groups(prior: Prior, column_stickout: np.ndarray) -> list[tuple[Pri
 
 def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_cond: np.ndarray | None,
                         conditions: tuple | None, engine: str = "zoa", with_freq: bool = False,
-                        client=None) -> tuple[np.ndarray, np.ndarray | None]:
+                        client=None, options: dict | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`limits` where speed column s is cut under ``conditions[column_cond[s]]`` (a
     :class:`~millstab.model.Cutting` per distinct condition); ``conditions`` None: every column in
-    ``prior.cutting``. ONE engine call (:class:`~millstab.model.Conditions`)."""
+    ``prior.cutting``. ONE engine call (:class:`~millstab.model.Conditions`); ``options``: as :func:`limits`."""
     if conditions is None:
-        return limits(prior, u, rpm, engine, with_freq, client)
+        return limits(prior, u, rpm, engine, with_freq, client, options=options)
     cc = np.zeros(np.size(rpm), dtype=np.int64) if column_cond is None else np.asarray(column_cond, dtype=np.int64)
     if np.all(cc == cc[0] if cc.size else True) and cc.size and conditions[int(cc[0])] == prior.cutting:
-        return limits(prior, u, rpm, engine, with_freq, client)  # the plain one-condition path, as ever
-    return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc))
+        return limits(prior, u, rpm, engine, with_freq, client, options=options)  # the plain one-condition path
+    return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc), options=options)
 
 
 def check_kr_engine(prior: Prior, engine: str):
@@ -421,6 +424,7 @@ class Likelihood:
         # ``engine_options``: the engine's discretisation fixed for the whole update (sdm ``steps``, spectral
         # ``nodes``: millstab.forward.engine_options), over what the engine would choose
         self._forwards = [forward(p.par, p.cutting, engine, SAMPLING, engine_options) for p, _ in self._groups]
+        self.options = self._forwards[0].options  # checked (keywords and values) by the forward model
         self.n_calls = 0
         self.n_sets = 0
 

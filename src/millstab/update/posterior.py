@@ -116,6 +116,10 @@ class Posterior:
         conditions: the cutting conditions the cuts were made in (``cuts["condition"]`` indexes them);
             ``()``: every cut in ``prior.cutting``. Decisions (maps, recommendations, predictions) are
             computed for ``prior.cutting``, the config's condition unless :meth:`for_condition` chose another.
+        engine_options: the engine's discretisation the samples were fitted with (``update(engine_options=)``,
+            e.g. ``{"steps": 40}`` for sdm; ``{}``: the engine's own choice): every decision from this
+            posterior (map, recommend, next test, predict) evaluates the limits with it, so the decisions
+            use the model the data were explained by; :meth:`with_engine_options` overrides it.
     """
 
     prior: Prior
@@ -130,6 +134,7 @@ class Posterior:
     conditions: tuple = ()
     #: the tool diameter [mm] of the config (a ``radial_width_mm`` condition needs it), or ``None``
     diameter_mm: float | None = None
+    engine_options: dict = field(default_factory=dict)
 
     def __post_init__(self):
         # the bimodal split is a property of the samples: every posterior carries its warning in .warnings
@@ -142,6 +147,23 @@ class Posterior:
     @property
     def names(self) -> tuple[str, ...]:
         return self.prior.names
+
+    def with_engine_options(self, options: dict | None, field: str = "engine_options") -> Posterior:
+        """The same samples deciding with the engine's discretisation ``options`` over the fitted ones (a key
+        given replaces the fitted value, the others stay); ``None`` or ``{}``: this posterior itself.
+
+        Raises:
+            InputError: a keyword the engine does not take or a bad value (:func:`millstab.forward.engine_options`,
+                named ``field``).
+        """
+        from dataclasses import replace
+
+        from millstab.forward import engine_options
+
+        if not options:
+            return self
+        return replace(self, engine_options=dict(engine_options(self.engine, {**self.engine_options, **options},
+                                                                field)))
 
     @property
     def condition(self):
@@ -299,6 +321,7 @@ class Posterior:
         doc["conditions"] = [dict(describe_condition(c), entry=c.entry, exit=c.exit) for c in self.trained_conditions]
         if self.diameter_mm is not None:
             doc["diameter_mm"] = self.diameter_mm
+        doc["engine_options"] = dict(self.engine_options)  # the discretisation every decision from this file uses
         return doc
 
     @classmethod
@@ -342,8 +365,23 @@ class Posterior:
                 conditions = ()
         dia = doc.get("diameter_mm")
         made_from = {"config": doc["config"]} if isinstance(doc.get("config"), str) else {}
-        return cls(prior, s, doc.get("engine", "zoa"), doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise,
-                   days, made_from, conditions, None if dia is None else float(dia))
+        engine = doc.get("engine", "zoa")
+        return cls(prior, s, engine, doc.get("diagnostics", {}), doc.get("cuts", {}), warn, noise, days, made_from,
+                   conditions, None if dia is None else float(dia), _engine_options(doc, engine, source))
+
+
+def _engine_options(doc: dict, engine: str, source: str) -> dict:
+    """The discretisation a posterior document was fitted with: its ``engine_options``; in a file of the first
+    version that had them, the diagnostics' copy; in an older file none (the engine's own choice). InputError
+    for options its engine does not take."""
+    from millstab.forward import engine_options
+
+    given = doc.get("engine_options")
+    if given is None:
+        given = (doc.get("diagnostics") or {}).get("engine_options")
+    if given is not None and not isinstance(given, dict):
+        raise InputError(f"{source} engine_options", given, "a table of the engine's discretisation keywords")
+    return dict(engine_options(engine, given, f"{source} engine_options"))
 
 
 __all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]

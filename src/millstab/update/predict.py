@@ -47,7 +47,8 @@ def cut_limits(post: Posterior, rpm: np.ndarray, batch=None, conditions: tuple |
         m = day == g
         u = post.decision_u if g < 0 else shift_fn(post.u, fn_columns(post.prior), post.batch.shifts[:, g])
         pairs, idx = np.unique(np.c_[ci[m], rpm[m]], axis=0, return_inverse=True)
-        d, _ = limits_by_condition(post.prior, u, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions, post.engine)
+        d, _ = limits_by_condition(post.prior, u, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions, post.engine,
+                                   options=post.engine_options)
         blim[:, m] = d[:, np.asarray(idx).ravel()]
     return blim
 

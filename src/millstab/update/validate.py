@@ -199,7 +199,8 @@ class Validation:
 def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, samples: int = 1000,
                    engine: str = "zoa", schemes: tuple[str, ...] | None = None, max_speeds: int = MAX_SPEEDS,
                    prior=None, update_fn: Callable | None = None,
-                   progress: Callable[[str, int, int], None] | None = None) -> Validation:
+                   progress: Callable[[str, int, int], None] | None = None,
+                   engine_options: dict | None = None) -> Validation:
     """Cross-validated scores of millstab's predictions beside the baselines (module docstring).
 
     Args:
@@ -214,8 +215,11 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         update_fn: ``update(config, train_cuts, engine=, samples=, seed=)`` → posterior; default
             :func:`millstab.update.update` with ``prior``.
         progress: ``progress(stage, done, total)`` after each update.
+        engine_options: the engine's discretisation of every update (passed to ``update_fn`` as
+            ``engine_options=`` when given) and so of every prediction (:func:`millstab.forward.engine_options`).
     Raises:
-        InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme.
+        InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme, engine options the engine does
+            not take (before any update).
     """
     from millstab.update import update as run_update
     from millstab.update.posterior import Posterior
@@ -223,6 +227,10 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     from millstab.update.predict import predict_cuts
     from millstab.warnlog import quiet
 
+    from millstab.forward import engine_options as check_options
+
+    opts = dict(check_options(engine, engine_options))
+    with_opts = {"engine_options": opts} if opts else {}  # an update_fn of the old signature still serves without
     labelled = ~cuts.boundary
     n = int(labelled.sum())
     if n < 4:
@@ -236,7 +244,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     update_fn = update_fn or (lambda cfg, tr, **kw: run_update(cfg, tr, prior=prior, **kw))
     plan = [(s, i, test) for s in schemes for i, test in enumerate(fold_indices(lab, s, n_folds, seed, max_speeds))]
     out = Validation(lab, settings={"folds": int(n_folds), "seed": int(seed), "samples": int(samples), "engine": engine,
-                                    "schemes": list(schemes)})
+                                    "schemes": list(schemes), **with_opts})
     for s in schemes:
         out.predictions[s] = {m: np.full(n, np.nan) for m in METHODS}
         out.folds[s] = np.full(n, -1)
@@ -248,13 +256,14 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         te = lab.subset(mask)
         try:
             with quiet():  # one-sided folds and speeds beyond the training cuts are expected here
-                post = update_fn(config, train, engine=engine, samples=samples, seed=int(seed) * 1000 + done)
+                post = update_fn(config, train, engine=engine, samples=samples, seed=int(seed) * 1000 + done,
+                                 **with_opts)
         except (InputError, RuntimeError) as exc:  # a fold the model cannot be updated on: the prior predicts
             from millstab.update.stickout import config_prior
 
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
             pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
-            post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine)
+            post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine, engine_options=opts)
         conds, ci = cut_conditions(te, post.condition, getattr(config, "diameter_mm", None))  # each cut's own
         out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, conds, ci, batch=te.batch)[1]
         for m, p in baseline_predictions(tr, te).items():

@@ -126,7 +126,8 @@ class UpdateTab:
                                                 "listening needs the number of teeth")
             return
         try:
-            pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings))
+            pts, notes = api.label_from_recordings(path, cfg.cutting.teeth, uploads=dict(self.recordings),
+                                                   structure=cfg.structure)
         except InputError as exc:
             self.drop_error.object = error_html(str(exc))
             return

@@ -62,58 +62,124 @@ def speeds_of(name: str, n: int = 600) -> np.ndarray:
 
 # --- step 1: Table 1 and the synthetic SLDs ---------------------------------------------------------
 
-def table1(ctx: Context) -> None:
-    """Table 1 (inputs of the synthetic examples) beside the packaged configs, and their SLDs."""
-    rep = ctx.report
+#: Table 1's rows: (key in paper_values.toml, label, scale to the table's unit)
+TABLE1_ROWS = [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [N/µm]", 1e-6), ("zeta_x", "zeta_x", 1),
+               ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [N/µm]", 1e-6), ("zeta_y", "zeta_y", 1),
+               ("kt", "Kt [N/mm²]", 1e-6), ("kr", "kn = Kr", 1), ("entry_deg", "entry [deg]", 1),
+               ("exit_deg", "exit [deg]", 1), ("teeth", "teeth", 1)]
+#: the synthetic examples of Table 1 and Table 3
+EXAMPLES = ("ex1", "ex2", "ex3")
+#: SDM (the full run's time-domain check of Table 1's SLDs) on every n-th speed of the ZOA grid
+SDM_EVERY = 6
+
+
+@dataclass(frozen=True)
+class ExampleSLD:
+    """One synthetic example's SLD for Table 1's figure and summary.
+
+    Attributes:
+        name, title: the example ("ex1") and its panel's title (teeth, entry angle).
+        rpm: the speeds [rev/min]; depth: the ZOA limit [m]; chatter_hz: its chatter frequency [Hz].
+        sdm: (rpm, depth [m]) of SDM on every :data:`SDM_EVERY`-th speed; None in the --quick run.
+    """
+
+    name: str
+    title: str
+    rpm: np.ndarray
+    depth: np.ndarray
+    chatter_hz: np.ndarray
+    sdm: tuple | None
+
+
+@dataclass(frozen=True)
+class Table1:
+    """What :func:`compute_table1` computed, from which :func:`render_table1` and :func:`table1_checks` read.
+
+    Attributes:
+        inputs: Table 1's rows: label, then (paper, ours) for each of :data:`EXAMPLES`, in the table's unit.
+        mismatches: how many of those pairs differ (beyond 1e-9 relative).
+        slds: the three examples' SLDs (:class:`ExampleSLD`).
+    """
+
+    inputs: tuple
+    mismatches: int
+    slds: tuple
+
+
+def compute_table1(quick: bool) -> Table1:
+    """Table 1 (the paper's inputs beside the packaged configs) and the SLDs of the three synthetic examples
+    (ZOA; SDM as the time-domain check except in the --quick run)."""
     paper = paper_values()["input_values"]
-    rep.heading("Table 1: inputs of the synthetic examples")
-    rep.paragraph("The paper's Table 1 prints stiffness as 'N/m' and Kt as N/mm²; they are N/µm and MPa. "
-                  "'paper' is the value printed in the table, 'ours' the value in millstab's packaged config "
-                  "(example:ex1, example:ex2, example:ex3), in the same units.")
     rows = []
     mismatches = 0
-    for key, label, scale in [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [N/µm]", 1e-6), ("zeta_x", "zeta_x", 1),
-                              ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [N/µm]", 1e-6), ("zeta_y", "zeta_y", 1),
-                              ("kt", "Kt [N/mm²]", 1e-6), ("kr", "kn = Kr", 1), ("entry_deg", "entry [deg]", 1),
-                              ("exit_deg", "exit [deg]", 1), ("teeth", "teeth", 1)]:
+    for key, label, scale in TABLE1_ROWS:
         row = [label]
-        for ex in ("ex1", "ex2", "ex3"):
+        for ex in EXAMPLES:
             cfg = load_example(ex)
             ours = _config_value(cfg, key) * scale
             theirs = paper[ex][key] * scale
             mismatches += not math.isclose(ours, theirs, rel_tol=1e-9, abs_tol=1e-12)
             row += [theirs, ours]
-        rows.append(row)
-    rep.table("table1_inputs", ["parameter", "Ex.1 paper", "Ex.1 ours", "Ex.2 paper", "Ex.2 ours", "Ex.3 paper",
-                                "Ex.3 ours"], rows, "Table 1: inputs, paper vs packaged configs")
-    rep.check("Packaged configs equal the paper's Table 1", f"{mismatches} mismatching values", mismatches == 0)
+        rows.append(tuple(row))
+    slds = []
+    for ex in EXAMPLES:
+        cfg = load_example(ex)
+        rpm = speeds_of(ex, 250 if quick else 600)
+        env = zoa.envelope(cfg.structure, cfg.cutting, rpm)
+        sdm = None
+        if not quick:
+            engine = engine_with(time_averaged=False, cheap=False)  # semi-discretization, the time-domain reference
+            r_sdm = rpm[::SDM_EVERY]
+            sdm = (r_sdm, engine.envelope(cfg.structure, cfg.cutting, r_sdm).depth)
+        slds.append(ExampleSLD(ex, f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°",
+                               rpm, env.depth, env.chatter_hz, sdm))
+    return Table1(tuple(rows), int(mismatches), tuple(slds))
 
+
+def table1_checks(t: Table1) -> list:
+    """The headline row: the packaged configs equal the paper's Table 1."""
+    from millstab.reproduce.report import Check
+
+    return [Check("Packaged configs equal the paper's Table 1", f"{t.mismatches} mismatching values",
+                  t.mismatches == 0)]
+
+
+def render_table1(rep: ReportWriter, t: Table1) -> None:
+    """The section: Table 1, its check, the SLD figure and summary, all from ``t`` (no engine call)."""
     from millstab.plot.sld import plot_sld_panels
 
+    rep.heading("Table 1: inputs of the synthetic examples")
+    rep.paragraph("The paper's Table 1 prints stiffness as 'N/m' and Kt as N/mm²; they are N/µm and MPa. "
+                  "'paper' is the value printed in the table, 'ours' the value in millstab's packaged config "
+                  "(example:ex1, example:ex2, example:ex3), in the same units.")
+    rep.table("table1_inputs", ["parameter", "Ex.1 paper", "Ex.1 ours", "Ex.2 paper", "Ex.2 ours", "Ex.3 paper",
+                                "Ex.3 ours"], [list(r) for r in t.inputs], "Table 1: inputs, paper vs packaged configs")
+    for c in table1_checks(t):
+        rep.add(c)
     panels, rows = [], []
-    for ex in ("ex1", "ex2", "ex3"):
-        cfg = load_example(ex)
-        rpm = speeds_of(ex, 250 if ctx.quick else 600)
-        env = zoa.envelope(cfg.structure, cfg.cutting, rpm)
-        curves = [("zero-order (ZOA)", rpm, env.depth_mm)]
+    for e in t.slds:
+        depth_mm = e.depth * 1e3
+        curves = [("zero-order (ZOA)", e.rpm, depth_mm)]
         sdm_txt = "not run (--quick)"
-        if not ctx.quick:
-            sdm = engine_with(time_averaged=False, cheap=False)  # semi-discretization, the time-domain reference
-
-            r_sdm = rpm[::6]
-            d_sdm = sdm.envelope(cfg.structure, cfg.cutting, r_sdm).depth_mm
+        if e.sdm is not None:
+            r_sdm, d_sdm = e.sdm[0], e.sdm[1] * 1e3
             curves.append(("semi-discretization (SDM)", r_sdm, d_sdm))
-            rel = np.abs(d_sdm / env.depth_mm[::6] - 1)
+            rel = np.abs(d_sdm / depth_mm[::SDM_EVERY] - 1)
             sdm_txt = f"{100 * np.median(rel):.1f} % / {100 * rel.max():.1f} %"
-        panels.append((f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°", curves))
-        i = int(np.argmin(env.depth))
-        rows.append([ex, rpm.min(), rpm.max(), env.depth_mm[i], rpm[i], env.chatter_hz[i], sdm_txt])
+        panels.append((e.title, curves))
+        i = int(np.argmin(e.depth))
+        rows.append([e.name, e.rpm.min(), e.rpm.max(), depth_mm[i], e.rpm[i], e.chatter_hz[i], sdm_txt])
     fig = plot_sld_panels(panels)
     rep.figure("fig_sld_examples", fig, "SLDs of the three synthetic examples (the targets of Table 3); SDM dashed")
     rep.table("sld_examples_summary", ["example", "from rpm", "to rpm", "min b_lim [mm]", "at rpm", "chatter [Hz]",
                                        "SDM vs ZOA median / max difference"], rows,
               "SLD summary; SDM is the time-domain cross-check (it differs where the directional matrix varies in "
               "time)")
+
+
+def table1(ctx: Context) -> None:
+    """Table 1 (inputs of the synthetic examples) beside the packaged configs, and their SLDs."""
+    render_table1(ctx.report, compute_table1(ctx.quick))
 
 
 def _config_value(cfg, key: str) -> float:

@@ -14,7 +14,12 @@ from millstab.reproduce.report import ReportWriter
 
 
 class _NoEngine:
+    """An engine, or an engine factory, that fails when used."""
+
     def __getattr__(self, name):
+        raise AssertionError("render computed")
+
+    def __call__(self, *a, **k):
         raise AssertionError("render computed")
 
 
@@ -45,13 +50,9 @@ def test_render_table1_without_computing(tmp_path, monkeypatch):
     render). The summary by hand: ex1's minimum 1 mm at 4000 rpm, 900 Hz; SDM vs ZOA median 15 %, max 20 %."""
     from millstab import stability
 
-    def no(*a, **k):
-        raise AssertionError("render computed")
-
     monkeypatch.setattr(paper, "zoa", _NoEngine())
-    monkeypatch.setattr(paper, "engine_with", no)
-    monkeypatch.setattr(stability, "engine_with", no)
-    monkeypatch.setattr(stability, "get_engine", no)
+    for mod, name in ((paper, "engine_with"), (stability, "engine_with"), (stability, "get_engine")):
+        monkeypatch.setattr(mod, name, _NoEngine())
     t = _table1()
     w = ReportWriter(tmp_path, "t")
     paper.render_table1(w, t)

@@ -153,8 +153,9 @@ def main(argv=None) -> int:
                 print(f"  cut {i}, structure known: heard {known.label} {known.chatter_hz:.1f} Hz "
                       f"({'right' if ok_k and fk_ok is not False else 'wrong'})")
             if a.verbose or not ok or f_ok is False or abs(heard.rpm_heard / rpm - 1) > 5e-4:
-                print(f"{'  ' if ok and f_ok is not False else '! '}cut {i:3d} {name:10s} {rpm:7.0f} rpm {ratio:4.2f}x {sensor:13s} "
-                      f"truth {truth.label:8s} {true_hz:7.1f} Hz (detector {truth.chatter_hz:7.1f}) | heard {heard.label:8s} "
+                print(f"{'  ' if ok and f_ok is not False else '! '}cut {i:3d} {name:10s} {rpm:7.0f} rpm "
+                      f"{ratio:4.2f}x {sensor:13s} truth {truth.label:8s} {true_hz:7.1f} Hz "
+                      f"(detector {truth.chatter_hz:7.1f}) | heard {heard.label:8s} "
                       f"{heard.chatter_hz:7.1f} Hz score {heard.score:.3g} trend {heard.trend:.3g} "
                       f"speed {100 * (heard.rpm_heard / rpm - 1):+.3f} % (given {100 * (given / rpm - 1):+.2f} %)")
     n = len(rows)
@@ -198,7 +199,8 @@ def _timing() -> int:
             ts.append(time.perf_counter() - t0)
             cs.append(time.process_time() - c0)
     print(f"10 s at 48 kHz ({rec.signal.size} samples): listen {min(ts) * 1e3:.0f} ms wall (best of 5), "
-          f"median {np.median(ts) * 1e3:.0f} ms; CPU time best {min(cs) * 1e3:.0f} ms, median {np.median(cs) * 1e3:.0f} ms")
+          f"median {np.median(ts) * 1e3:.0f} ms; CPU time best {min(cs) * 1e3:.0f} ms, "
+          f"median {np.median(cs) * 1e3:.0f} ms")
     return 0
 
 

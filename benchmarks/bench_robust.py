@@ -27,7 +27,11 @@ Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --s
 --best-speeds 121 [--tails normal|mixture]`` (docs/updating.md, "A prior that can be wrong", has the figures).
 ``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
-conflict rule offline. ``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
+conflict rule offline. ``--confirm conflict,always,never`` judges each of recommend's confirm rules in every
+round of the same campaign (the next test does not depend on the rule, so the cuts are the same), printed per
+side (softer / stiffer); ``--trace`` prints per round why the recommendation is where it is (docs/updating.md,
+"Why the softer campaigns stop low"); ``--only 60,62`` runs those campaigns.
+``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
 when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
 posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (the cut that tells the two
 apart) instead of the recommendation's next test.
@@ -64,6 +68,7 @@ def parse() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--campaigns", type=int, default=10)
     ap.add_argument("--first", type=int, default=0)
+    ap.add_argument("--only", default=None, help="campaign numbers, comma-separated (instead of --first/--campaigns)")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--samples", type=int, default=1000)
     ap.add_argument("--tails", default=None, help="student | normal | mixture (default: the prior's default)")
@@ -82,6 +87,12 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
+    ap.add_argument("--confirm", default="conflict", help="recommend's confirm rule(s), comma-separated: the first "
+                    "drives the campaign, every one is judged in every round (the next test is sought above the "
+                    "model's own cut whatever the rule, so the cuts, hence the posteriors, are the same for all)")
+    ap.add_argument("--trace", action="store_true", help="print per round: the recommendation and what limits it, "
+                    "the true limit there, the posterior's 5-95 %% limit at the best true speed, the data guard's "
+                    "cuts, the next test and its label, the posterior's medians of fn, k, ζ over the truth's")
     ap.add_argument("--conflict-test", action="store_true",
                     help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
                          "that tells them apart (millstab.update.discriminate)")
@@ -121,21 +132,36 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             return list(np.where(chat, "chatter", "stable"))
 
         best = best_productivity(truth, (lo, hi), args.max_depth, args.best_speeds, SPEED_TOLERANCE)
+        trace: list[str] = []
+        if args.trace:  # the best true speed on the grid (with the tolerance), to read the posterior there
+            g = np.linspace(lo, hi, args.best_speeds)
+            lim_g = np.min([truth(g * (1 + o)) for o in (0, -SPEED_TOLERANCE, SPEED_TOLERANCE)], axis=0)
+            rpm_star = float(g[np.argmax(np.minimum(lim_g, args.max_depth) * g)])
+            trace.append(f"   truth: best {rpm_star:.0f} rpm, {best / rpm_star:.3f} mm; true limit at the opening "
+                         f"speeds {np.round(truth(np.linspace(lo, hi, args.opening + 2)[1:-1]), 3).tolist()}")
         o_rpm = np.linspace(lo, hi, args.opening + 2)[1:-1]
         o_lim = zoa.envelope(cfg.structure, cut, o_rpm).depth_mm
         c_rpm = list(np.r_[o_rpm, o_rpm])
         c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
         c_lab = label(c_rpm, c_depth)
         post, named, rec_ok, rec_p, log_bf, posts, n_ct, n_test_chat = None, [], [], [], [], [], 0, 0
+        modes = args.confirm.split(",")
+        by_mode = {m: ([], []) for m in modes}
         for k in range(args.rounds):
             ps = PointSet(c_rpm, c_depth, c_lab)
             post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
             posts.append(post)
             named.append(any(w.startswith("the cuts contradict the hammer test") for w in post.warnings))
             log_bf.append(post.diagnostics["conflict"]["log_bayes_factor"])
-            rec = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)))
-            rec_ok.append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))
-            rec_p.append(float(rec.rpm * rec.depth_mm / best))
+            r_seed = int(rng.integers(2**31))
+            for m in modes:
+                rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m)
+                by_mode[m][0].append(bool(rm.depth_mm < truth(np.array([rm.rpm]))[0]))
+                by_mode[m][1].append(float(rm.rpm * rm.depth_mm / best))
+                if m == modes[0]:
+                    rec = rm
+            rec_ok.append(by_mode[modes[0]][0][-1])
+            rec_p.append(by_mode[modes[0]][1][-1])
             if k + 1 < args.rounds:
                 nx = rec.next_test
                 if args.conflict_test and not named[-1]:
@@ -147,20 +173,62 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                 c_depth.append(float(nx["depth_mm"]))
                 c_lab += label([nx["rpm"]], [nx["depth_mm"]])
                 n_test_chat += c_lab[-1] == "chatter"
+            if args.trace:
+                last = k + 1 == args.rounds
+                trace += trace_round(k, post, rec, truth, rpm_star, theta, "" if last else c_lab[-1],
+                                     None if last else nx)
         m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
         row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
                "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
                "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0,
-               "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat)}
+               "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat),
+               "modes": {m: {"rec_stable": v[0], "rec_productivity": v[1]} for m, v in by_mode.items()}}
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
         lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
                  (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
                  f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); {n_ct} conflict tests; rounds (S stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
+        lines = trace + lines + [f"   confirm={m}: " + " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(*v))
+                                 for m, v in by_mode.items()]
         rec = campaign_record(c, posts, {"z_off": z_off.tolist(), "sign": s}) if args.save else {}
     return row, lines, rec
+
+
+def trace_round(k: int, post, rec, truth, rpm_star: float, theta: np.ndarray, lab: str,
+                cut: dict | None = None) -> list[str]:
+    """The --trace lines of round k (see --trace); ``cut``: the next cut made, when not the recommendation's
+    next test (--conflict-test)."""
+    from millstab.update.likelihood import limits
+
+    b_true = float(truth(np.array([rec.rpm]))[0])
+    bl, _ = limits(post.prior, post.decision_u, np.array([rpm_star]), post.engine)
+    q5, q50, q95 = np.quantile(bl[:, 0], [0.05, 0.5, 0.95])
+    med = np.exp(np.median(post.u, axis=0)) / theta
+    par = " ".join(f"{n}={m:.2f}" for n, m in zip(post.prior.par.free, med))
+    from millstab.update.decide import confirmed_cuts
+
+    off = np.array([0.0, -SPEED_TOLERANCE, SPEED_TOLERANCE])
+    vouch = confirmed_cuts(post, (0.0, np.inf), off)
+    vc = ", ".join(f"{v['rpm']:.0f} rpm {v['depth_mm']:.3f} mm P(ch) {v['p_chatter']:.2f}" for v in vouch) or "none"
+    gd = "; ".join(f"{g['rpm']:.0f}±{g['half_width_rpm']:.0f} rpm ≤{g['cap_mm']:.3f}{'*' if g['binding'] else ''}"
+                   for g in rec.guard) or "none"
+    nx = cut or rec.next_test
+    return [f"   r{k + 1}: rec {rec.rpm:.0f} rpm {rec.depth_mm:.3f} mm ({rec.limited_by}; true limit {b_true:.3f}: "
+            f"{'S' if rec.depth_mm < b_true else 'C'}); posterior limit at {rpm_star:.0f} rpm 5/50/95 % "
+            f"{q5:.3f}/{q50:.3f}/{q95:.3f} (true {float(truth(np.array([rpm_star]))[0]):.3f})",
+            f"       guard: {gd}; stable cuts that vouch: {vc}",
+            f"       next {nx['rpm']:.0f} rpm {nx['depth_mm']:.3f} mm P(ch) {nx['p_chatter']:.2f} → {lab or '-'} "
+            f"(true limit {float(truth(np.array([nx['rpm']]))[0]):.3f}); {nx['why'][:60]}",
+            f"       posterior median / truth: {par}"]
+
+
+def tally(rows: list[dict]) -> tuple[int, int, list[bool], list[float]]:
+    """(recommendations from round 3 on that chatter, their number, the last ones truly stable, their
+    productivity / best) of records with ``rec_stable`` and ``rec_productivity`` per round."""
+    return (sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rows), sum(len(r["rec_stable"][2:]) for r in rows),
+            [r["rec_stable"][-1] for r in rows], [r["rec_productivity"][-1] for r in rows])
 
 
 def main() -> None:
@@ -169,14 +237,12 @@ def main() -> None:
     prior = make_prior(load_config("example:ex1").structure, load_config("example:ex1").cutting,
                        PriorTable({}, tails=args.tails))
     t_all, c_all = time.perf_counter(), time.process_time()
-    rows, records = run_campaigns(run_one, args, range(args.first, args.first + args.campaigns))
+    todo = ([int(x) for x in args.only.split(",")] if args.only else range(args.first, args.first + args.campaigns))
+    rows, records = run_campaigns(run_one, args, todo)
     if args.save:
         save(args.save, prior, records)
     n = len(rows)
-    late_bad = sum(sum(not ok for ok in r["rec_stable"][2:]) for r in rows)
-    late_all = sum(len(r["rec_stable"][2:]) for r in rows)
-    last_ok = [r["rec_stable"][-1] for r in rows]
-    last_p = [r["rec_productivity"][-1] for r in rows]
+    late_bad, late_all, last_ok, last_p = tally(rows)
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load {os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, "
           f"fn×{1 + args.fn_off:g}^s, ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} "
@@ -192,6 +258,16 @@ def main() -> None:
           f"{np.median(last_p):.2f} (min {min(last_p):.2f}); stable and ≥ 0.60: "
           f"{sum(ok and p >= 0.6 for ok, p in zip(last_ok, last_p))} / {n}" + (f"; stable ones' median {np.median(ok_p):.2f}"
                                                                                  if ok_p else ""))
+    for m in args.confirm.split(","):
+        for sign, side in ((-1, "softer"), (1, "stiffer")):
+            rs = [r["modes"][m] for r in rows if r["sign"] == sign]
+            if not rs:
+                continue
+            bad, late, lok, lp = tally(rs)
+            print(f"  confirm={m}, {side} ({len(rs)}): recommendations from round 3 on that chatter {bad} / "
+                  f"{late}; last truly stable {sum(lok)} / {len(rs)}, "
+                  f"productivity / best median {np.median(lp):.2f} ({min(lp):.2f}-{max(lp):.2f}); stable and ≥ 0.60: "
+                  f"{sum(ok and p >= 0.6 for ok, p in zip(lok, lp))} / {len(rs)}")
     if args.json:
         args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()}, "campaigns": rows}))
 

@@ -162,6 +162,8 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--test-risk", default=str(TEST_RISK),
                     help="cap on the next test's probability of chatter ('none': no cap, the most informative cut)")
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
+    ap.add_argument("--confirm", default="conflict",
+                    help="recommend's confirm rule: conflict (default) | always | never")
     ap.add_argument("--tails", default=None, help="tails of the prior: student | normal | mixture (default: the "
                                                   "prior's default, student)")
     ap.add_argument("--truth-tails", default="normal",
@@ -196,7 +198,8 @@ def setup(args: argparse.Namespace) -> SimpleNamespace:
     truth_prior = prior if args.truth_tails == "same" else dataclasses.replace(prior, tails=args.truth_tails)
     decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),
                 "speed_tolerance": args.speed_tolerance,
-                "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk), "guard": not args.no_guard}
+                "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk),
+                "guard": not args.no_guard, "confirm": args.confirm}
     if args.coarse:
         decision["coarse_points"] = args.coarse
     truth_engine = get_engine(args.truth_engine)

@@ -84,15 +84,20 @@ def test_a_cut_the_model_explains_does_not_guard_and_a_far_guard_changes_nothing
     post = post_with([7000.0], [20.0], ["chatter"])
     assert data_guard(post) == []
     # chatter at 0.3 mm at 5 200 rpm: unexplained (the model's P(chatter) there is ~0), so it guards ±498 rpm,
-    # but the model's best cut is far away (9 000 rpm): the recommendation is the model's own
+    # but the model's best cut is far away (9 000 rpm): the guard does not cap it (confirm="never": the guard alone)
     post = post_with([5200.0, 9000.0], [0.3, 0.5], ["chatter", "stable"])
     g = data_guard(post)
     assert len(g) == 1 and g[0]["p_model_chatter"] < 0.5
-    a = recommend(post, 0.05, (5000, 9000))
+    a = recommend(post, 0.05, (5000, 9000), confirm="never")
     b = recommend(post, 0.05, (5000, 9000), guard=False)
     assert abs(b.rpm - 5200) > half_width(5200)
     assert (a.rpm, a.depth_mm) == (b.rpm, b.depth_mm) and a.limited_by == "chatter risk"
     assert a.guard[0]["binding"] is False
+    # but a chatter cut the model does not explain makes the model suspect: by default the recommendation is held
+    # to the stable cut the posterior holds safe (9 000 rpm, 0.5 mm), the next test sought above the model's cut
+    c = recommend(post, 0.05, (5000, 9000))
+    assert c.rpm == 9000 and c.depth_mm <= 0.5 and c.limited_by.startswith("a cut labelled stable")
+    assert c.next_test["rpm"] * c.next_test["depth_mm"] >= b.rpm * b.depth_mm * (1 - 1e-9)
 
 
 def test_next_test_at_a_tiny_depth_cap_is_not_less_productive():
@@ -170,3 +175,69 @@ def test_the_command_line_default_test_risk_is_the_library_s():
     from millstab.cli.recommend import TEST_RISK as CLI_TEST_RISK
 
     assert CLI_TEST_RISK == API_TEST_RISK == TEST_RISK
+
+
+CONFLICT = "the cuts contradict the hammer test: k_x is 0.3× the tap test's (−4.0σ)"
+
+
+def test_a_named_conflict_recommends_only_what_a_stable_cut_vouches_for():
+    """Issue 24, softer campaigns: while the posterior names a prior–data conflict, the recommendation is no deeper
+    than a cut labelled stable whose label the posterior believes (P(chatter) ≤ 0.25), at that cut's speed; the
+    next test is still sought above the model's own cut. References recomputed here from the samples' limits: a
+    cut below every sample's limit at its speed and ±the speed tolerance is safe; one above the median limit is
+    not.
+    Fails on the old code (it recommended the model's cut, 1.95 mm at 9 000 rpm, far from any stable cut)."""
+    tol = 0.0025
+    s_ok, s_bad = 5600.0, 8800.0
+    lim = limits(PRIOR, np.log(SAMPLES), np.array([s_ok, s_ok * (1 - tol), s_ok * (1 + tol), s_bad]))[0]
+    d_ok = 0.9 * lim[:, :3].min()              # every sample stable there: P(chatter) = 0
+    d_bad = 1.5 * np.median(lim[:, 3])         # more than half the samples chatter there
+    cuts = ([s_ok, s_bad, 7000.0], [d_ok, d_bad, 20.0], ["stable", "stable", "chatter"])
+    model = recommend(post_with(*cuts), 0.05, (5000, 9000))  # no conflict named: the model's cut
+    assert abs(model.rpm - s_ok) > 0.02 * s_ok and model.rpm * model.depth_mm > s_ok * d_ok
+    rec = recommend(post_with(*cuts, warn=[CONFLICT]), 0.05, (5000, 9000))
+    assert rec.rpm == s_ok and rec.depth_mm <= d_ok * (1 + 1e-12)
+    assert rec.rpm * rec.depth_mm >= s_ok * d_ok * (1 - 1e-9)  # the stable cut itself is a candidate
+    assert rec.limited_by.startswith("a cut labelled stable")
+    # its P(chatter), counted here over the samples at the speed and ±the tolerance, is within the risk
+    around = limits(PRIOR, np.log(SAMPLES), rec.rpm * np.array([1, 1 - tol, 1 + tol]))[0]
+    assert (around <= rec.depth_mm).mean(axis=0).max() <= 0.05
+    nt = rec.next_test  # sought above the model's cut, its productivity relative to the recommendation
+    assert nt["rpm"] * nt["depth_mm"] >= model.rpm * model.depth_mm * (1 - 1e-9)
+    assert nt["relative_productivity"] == pytest.approx(nt["rpm"] * nt["depth_mm"] / (rec.rpm * rec.depth_mm))
+    # "never" keeps the model's cut under a conflict; "always" confirms without one
+    never = recommend(post_with(*cuts, warn=[CONFLICT]), 0.05, (5000, 9000), confirm="never")
+    assert (never.rpm, never.depth_mm) == (model.rpm, model.depth_mm)
+    always = recommend(post_with(*cuts), 0.05, (5000, 9000), confirm="always")
+    assert (always.rpm, always.depth_mm) == (rec.rpm, rec.depth_mm)
+    # no stable cut the posterior holds safe: the model's cut stands
+    only_bad = ([s_bad, 7000.0], [d_bad, 20.0], ["stable", "chatter"])
+    rec = recommend(post_with(*only_bad, warn=[CONFLICT]), 0.05, (5000, 9000))
+    ref = recommend(post_with(*only_bad), 0.05, (5000, 9000))
+    assert (rec.rpm, rec.depth_mm) == (ref.rpm, ref.depth_mm) and rec.limited_by == ref.limited_by
+    with pytest.raises(InputError, match="--confirm"):
+        recommend(post_with(*cuts), 0.05, (5000, 9000), confirm="sometimes")
+
+
+def test_recommend_command_confirm_option(tmp_path, capsys):
+    """`millstab recommend --confirm`: the library's rule from the command line; a bad value is one line naming the
+    option (exit 2). The default is the library's."""
+    import inspect
+
+    from millstab.cli.recommend import recommend_cmd
+    from millstab.update.decide import CONFIRM
+
+    assert inspect.signature(recommend_cmd).parameters["confirm"].default.default == CONFIRM
+    post = post_with([5600.0, 7000.0], [0.2, 20.0], ["stable", "chatter"], warn=[CONFLICT])
+    (tmp_path / "post.json").write_text(json.dumps(post.to_json()))
+    args = ["recommend", str(tmp_path / "post.json"), "--rpm", "5000:9000"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(args + ["--out", str(tmp_path / "a.json")]) == 0
+        assert main(args + ["--confirm", "never", "--out", str(tmp_path / "b.json")]) == 0
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
+    assert a["limited_by"].startswith("a cut labelled stable") and a["rpm"] == 5600 and a["depth_mm"] <= 0.2
+    assert b["limited_by"] == "chatter risk" and b["rpm"] * b["depth_mm"] > a["rpm"] * a["depth_mm"]
+    capsys.readouterr()
+    assert main(args + ["--confirm", "sometimes", "--out", str(tmp_path / "c.json")]) == 2
+    assert "--confirm" in capsys.readouterr().err and not (tmp_path / "c.json").exists()

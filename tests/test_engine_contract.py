@@ -294,7 +294,7 @@ def test_sensitivity_streams_in_the_engines_own_chunks(dummy, monkeypatch):
     monkeypatch.setattr(dummy, "envelope_batch", lambda b, c, r: calls.append(b.size) or batch_fn(b, c, r))
     par = Parameterization(TWO_DOF)
     rows = par.theta0[None] * np.linspace(0.9, 1.1, 7)[:, None]
-    d = depths_chunked(pin("dummy", par, HALF3, SPEEDS, rows), rows)
+    d = depths_chunked(pin("dummy", par, HALF3, SPEEDS, rows, at=par.theta0), rows)
     assert calls == [3, 3, 1]
     np.testing.assert_allclose(d, SCALE * zoa.envelope_batch(par.batch(rows), HALF3, SPEEDS), rtol=1e-12)
 

@@ -352,4 +352,5 @@ def test_a_model_pinned_at_a_row_keeps_the_fixed_nodes(monkeypatch):
     rpm = np.array([6000.0, 7000.0])
     pin = forward(par, cfg.cutting, "spectral", options={"nodes": 9}).pinned(rpm, par.theta0[None], at=par.theta0)
     assert dict(pin.settings) == {"nodes": 9, "near": 0.0}
-    assert dict(forward(par, cfg.cutting, "spectral").pinned(rpm, par.theta0[None], at=par.theta0).settings)["nodes"] == 5
+    assert dict(forward(par, cfg.cutting, "spectral").pinned(rpm, par.theta0[None], at=par.theta0)
+                .settings)["nodes"] == 5

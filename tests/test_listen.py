@@ -117,7 +117,8 @@ def _wav24(path, fs, x):
     """A 24-bit PCM mono WAV written by hand (the format scipy reads but does not write)."""
     q = np.round(np.clip(x, -1, 1) * (2**23 - 1)).astype("<i4")
     data = b"".join(int(v).to_bytes(3, "little", signed=True) for v in q)
-    hdr = b"RIFF" + struct.pack("<I", 36 + len(data)) + b"WAVEfmt " + struct.pack("<IHHIIHH", 16, 1, 1, fs, 3 * fs, 3, 24)
+    hdr = (b"RIFF" + struct.pack("<I", 36 + len(data)) + b"WAVEfmt "
+           + struct.pack("<IHHIIHH", 16, 1, 1, fs, 3 * fs, 3, 24))
     path.write_bytes(hdr + b"data" + struct.pack("<I", len(data)) + data)
 
 
@@ -144,7 +145,8 @@ def test_read_wav_16_24_float_stereo_and_csv(tmp_path):
     wavfile.write(tmp_path / "e.wav", 4000, (x * 3000).astype(np.int16))
     with pytest.raises(InputError, match="sample rate"):
         read_recording(tmp_path / "e.wav")
-    (tmp_path / "f.csv").write_text("time_s,signal\n0,1\n0.001,nan\n" + "".join(f"{i/1000},0\n" for i in range(2, 2000)))
+    (tmp_path / "f.csv").write_text("time_s,signal\n0,1\n0.001,nan\n"
+                                    + "".join(f"{i/1000},0\n" for i in range(2, 2000)))
     with pytest.raises(InputError, match="finite"):
         read_recording(tmp_path / "f.csv")
 
@@ -272,7 +274,8 @@ def test_flip_chatter_at_one_and_a_half_tooth_passing_with_two_teeth():
     # (a flip line must stand FLIP_RATIO = 10x in power over the runout at f_s: runout 0.3 and 0.1 of the forced)
     for ratio, side, runout in ((1.0, 0.0, 0.3), (0.5, 0.6, 0.1)):
         r = heard(teeth=2, chatter_hz=1.5 * f_t, ratio=ratio, runout=runout, tones=[(2.5 * f_t, side)] if side else ())
-        assert r.label == "chatter" and abs(r.chatter_hz - 1.5 * f_t) < max(2.0, 0.005 * 1.5 * f_t), (ratio, r.chatter_hz)
+        assert r.label == "chatter" and abs(r.chatter_hz - 1.5 * f_t) < max(2.0, 0.005 * 1.5 * f_t), \
+            (ratio, r.chatter_hz)
     # runout alone (3 f_s included) stays stable
     r = heard(teeth=2, rpm=10000.0, runout=1.0)
     assert r.label == "stable", (r.chatter_hz, r.score)
@@ -300,8 +303,9 @@ def test_random_hand_made_cuts_hear_the_chatter_frequency_within_the_tolerance()
         if abs(fc - round(fc / f_s) * f_s) < 15:
             continue
         x = milling_sound(fs=fs, seconds=float(rng.uniform(1.5, 5)), rpm=rpm, true_rpm=true_rpm, teeth=teeth,
-                          chatter_hz=fc, ratio=float(10 ** rng.uniform(-0.8, 0.6)), hum=float(rng.choice([0, 0.3, 1.0])),
-                          mains=float(rng.choice([50.0, 60.0])), noise=float(rng.uniform(0.01, 0.2)), seed=done)
+                          chatter_hz=fc, ratio=float(10 ** rng.uniform(-0.8, 0.6)),
+                          hum=float(rng.choice([0, 0.3, 1.0])), mains=float(rng.choice([50.0, 60.0])),
+                          noise=float(rng.uniform(0.01, 0.2)), seed=done)
         r = listen(x, fs, rpm, teeth)
         assert r.label == "chatter" and abs(r.chatter_hz - fc) <= max(2.0, 0.005 * fc), (teeth, rpm, fc, r.chatter_hz)
         done += 1

@@ -115,4 +115,5 @@ def test_late_chatter_three_hz_from_a_hum_line_has_its_onset(mains, h):
     x, _ = shop_recording(fs=48000, seconds=4.0, rpm=7400.0, teeth=3, chatter_hz=fc, ratio=0.25, onset=2.0,
                           hum=1.0, mains=mains, seed=2)
     r = listen(x, 48000, 7400.0, 3)
-    assert r.label == "chatter" and abs(r.chatter_hz - fc) <= 2.0 and abs(r.onset_s - 2.0) < 0.15, (r.chatter_hz, r.onset_s, r.trend)
+    assert r.label == "chatter" and abs(r.chatter_hz - fc) <= 2.0 and abs(r.onset_s - 2.0) < 0.15, \
+        (r.chatter_hz, r.onset_s, r.trend)

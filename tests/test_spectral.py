@@ -202,6 +202,7 @@ def _layout(structure, cutting, rpm, nodes=6):
     nd = k.gauss_nodes(nodes)
     g = k.setup(cutting.teeth, cutting.kr, cutting.entry, cutting.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0],
                 wn[0], zeta[0], act)
+    g = k.with_factors(g, wn[0], zeta[0], mass[0], mdir, nd)
     return k, (cutting.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
 
 

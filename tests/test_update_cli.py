@@ -73,7 +73,8 @@ def test_recommend_rule_options_reach_the_library(shop):
                  "--speed-tolerance", "0", "--out", str(shop / "plain.json")]) == 0
     plain = json.loads((shop / "plain.json").read_text())
     lib = recommend(post, 0.05, (5000, 9000), max_depth_mm=3, confidence=None, speed_tolerance=0.0)
-    assert plain["rpm"] == pytest.approx(lib.rpm, rel=1e-12) and plain["depth_mm"] == pytest.approx(lib.depth_mm, rel=1e-12)
+    assert (plain["rpm"] == pytest.approx(lib.rpm, rel=1e-12)
+            and plain["depth_mm"] == pytest.approx(lib.depth_mm, rel=1e-12))
     assert main(["recommend", str(shop / "post.json"), "--rpm", "5000:9000", "--max-depth", "3",
                  "--out", str(shop / "safe.json")]) == 0
     safe = json.loads((shop / "safe.json").read_text())
@@ -85,7 +86,8 @@ def test_recommend_rule_options_reach_the_library(shop):
 @pytest.mark.parametrize("args, text", [
     (["recommend", "{d}/post.json", "--risk", "0", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["recommend", "{d}/post.json", "--rpm", "9000:5000", "--out", "{d}/r.json"], "--rpm"),
-    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--radial-width", "5", "--out", "{d}/r.json"], "--feed-per-tooth"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--radial-width", "5", "--out", "{d}/r.json"],
+     "--feed-per-tooth"),
     (["map", "{d}/cuts.csv", "--rpm", "5000:9000:100", "--depth", "0:5:0.1", "--out", "{d}/m.csv"], "not valid JSON"),
     (["map", "{d}/post.json", "--rpm", "5000:9000:100", "--depth", "0:5", "--out", "{d}/m.csv"], "--depth"),
     (["update", "example:ex1", "{d}/bad.csv", "--out", "{d}/p.json"], "label"),
@@ -93,7 +95,8 @@ def test_recommend_rule_options_reach_the_library(shop):
     (["update", "example:ex1", "{d}/cuts.csv", "--out", "{d}/cuts.csv"], "--out"),
     (["update", "{d}/neg.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.fn"),
     (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--confidence", "1", "--out", "{d}/r.json"], "--confidence"),
-    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--confidence", "high", "--out", "{d}/r.json"], "--confidence"),
+    (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--confidence", "high", "--out", "{d}/r.json"],
+     "--confidence"),
     (["recommend", "{d}/post.json", "--rpm", "5000:9000", "--speed-tolerance", "0.2", "--out", "{d}/r.json"],
      "--speed-tolerance"),
 ])
@@ -172,7 +175,8 @@ def test_kt_freed_by_the_prior_table_end_to_end(tmp_path):
     assert np.std(np.log(np.array(doc["samples"])[:, 1])) < 0.5 * 0.3  # narrower than the prior
     assert main(["map", str(tmp_path / "post.json"), "--rpm", "5000:12000:1000", "--depth", "0:4:1",
                  "--out", str(tmp_path / "m.csv")]) == 0
-    assert main(["recommend", str(tmp_path / "post.json"), "--rpm", "5000:12000", "--out", str(tmp_path / "r.json")]) == 0
+    assert main(["recommend", str(tmp_path / "post.json"), "--rpm", "5000:12000",
+                 "--out", str(tmp_path / "r.json")]) == 0
     rec = json.loads((tmp_path / "r.json").read_text())
     assert rec["p_chatter"] <= 0.05
 

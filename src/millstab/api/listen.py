@@ -169,8 +169,9 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
 
 def read_cuts(path, labels: str | None = None, teeth: int | None = None, structure=None):
     """A cuts CSV as ``millstab update`` reads it: (PointSet, notes). With a ``recording`` column its cuts are
-    labelled by listening (:func:`label_from_recordings`, ``teeth`` and ``structure`` of the config; one note per cut saying where
-    its label came from); else the labels as written (``labels``: the codes of the label cells)."""
+    labelled by listening (:func:`label_from_recordings`, ``teeth`` and ``structure`` of the config; one note
+    per cut saying where its label came from); else the labels as written (``labels``: the codes of the label
+    cells)."""
     from millstab.io import read_points
     from millstab.io.recordings import has_recording_column
 

@@ -246,7 +246,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
     and ``rule``, e.g. ``max_depth_mm``, ``width_mm``, ``feed_mm``, ``seed``).
 
     Raises:
-        InputError: naming the option (``--risk``, ``--rpm``, ``--confidence``, ``--speed-tolerance``, ``--test-risk``).
+        InputError: naming the option (``--risk``, ``--rpm``, ``--confidence``, ``--speed-tolerance``, ``--test-risk``,
+            ``--confirm``).
     """
     import math
 
@@ -269,6 +270,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
     if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
         raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
                                                    f"{TEST_RISK:g} (1: no cap)")
+    if rule.get("confirm", "conflict") not in ("conflict", "always", "never"):
+        raise InputError("--confirm", rule["confirm"], "one of conflict, always, never")
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 

@@ -35,6 +35,10 @@ def recommend_cmd(
     speed_tolerance: float = typer.Option(0.0025, "--speed-tolerance",
                                           help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
                                                "(0.0025 = ±0.25 %)."),
+    confirm: str = typer.Option("conflict", "--confirm",
+                                help="When the recommendation must be no deeper than a cut labelled stable that the "
+                                     "posterior holds safe, within ±2 % of its speed: 'conflict' (while the cuts "
+                                     "contradict the hammer test), 'always', 'never'."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
@@ -55,7 +59,7 @@ def recommend_cmd(
 
     span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance,
                                    test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
-                                   feed_mm=feed_per_tooth, seed=seed)
+                                   feed_mm=feed_per_tooth, seed=seed, confirm=confirm)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     protect = emit.checked(inputs, {"--out": out})

@@ -73,7 +73,8 @@ def update_cmd(
 
     in_db, shop = _target(out, db, campaign, start, shop)
     cfg = api.with_batch_effect(api.config(config), batch_effect)
-    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth, cfg.structure)  # a 'recording' column: labelled by ear (docs/listen.md)
+    # a 'recording' column: labelled by ear (docs/listen.md)
+    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth, cfg.structure)
     p = read_points(points, labels) if points is not None else None
     protect = emit.checked({**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start},
                            {"--out": out, "--plot": plot}, figures=("--plot",))

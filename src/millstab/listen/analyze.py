@@ -10,8 +10,9 @@ The steps, with every threshold and the reason for it:
    RMS would). The median, not a high percentile: a ringing entry transient leaks into the comb's
    50 Hz-wide frame bins and would otherwise set the level and cut the steady cut away (measured: a
    four-tooth slot at 3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). A
-   recording more than half air is analysed whole (give ``--start``/``--end``). The window is then trimmed by ``TRIM`` = 3 % of its length at each end: the entry and
-   exit transients (an impact rings every mode, which is no chatter).
+   recording more than half air is analysed whole (give ``--start``/``--end``). The window is then
+   trimmed by ``TRIM`` = 3 % of its length at each end: the entry and exit transients (an impact rings
+   every mode, which is no chatter).
 2. **Spectrum.** Welch average of the window: Blackman-Harris segments (side lobes −92 dB, so a line
    60-70 dB over the floor leaks nothing beyond ±4 bins), a quarter of the window long, 0.1-2 s
    (≥ 7 averages; ≤ 0.5 Hz bins on an 8 s window, so a chatter line a few Hz from a spindle line
@@ -132,8 +133,9 @@ The steps, with every threshold and the reason for it:
    projection, noise floor subtracted), after the steady spindle and mains lines within
    ``TREND_REACH`` = 4 frame bins of f_c (±40 Hz) are subtracted (each fitted over the whole window at
    its own refined frequency: a hum line 3 Hz away otherwise leaks into every 0.1 s frame and a
-   chatter 4× weaker than the forced vibration that starts late showed a trend of 1.6-3, no onset); early and late levels are the medians of the first and last
-   20 %. trend = late / early. Chatter *starts* during the recording if trend > ``ONSET_RATIO`` = 4;
+   chatter 4× weaker than the forced vibration that starts late showed a trend of 1.6-3, no onset);
+   early and late levels are the medians of the first and last 20 %. trend = late / early. Chatter
+   *starts* during the recording if trend > ``ONSET_RATIO`` = 4;
    the onset is where the amplitude first reaches half its late level (interpolated between frames).
 10. **Label**: ``chatter`` if the line grows fourfold within the cut (trend > ``ONSET_RATIO``:
     chatter building up, however weak yet: the simulation's detector calls a clear growth chatter
@@ -141,7 +143,8 @@ The steps, with every threshold and the reason for it:
     a stable cut's non-synchronous sound is a mode rung by noise, further down), or the line decays,
     trend < ``DECAY`` = 0.5 (the ringing of a transient dies, chatter does not); ``chatter`` if score ≥
     ``SCORE_CHATTER`` = 0.05: a chatter line 4× weaker than the forced vibration (score 0.25) is
-    plainly chatter; ``marginal`` otherwise (a steady line 34-26 dB below the forced vibration: a cut at the edge of a lobe).
+    plainly chatter; ``marginal`` otherwise (a steady line 34-26 dB below the forced vibration: a cut at
+    the edge of a lobe).
     The thresholds were set on virtual recordings (``benchmarks/bench_listen.py``: 0.05 keeps every
     stable cut's score below it, while saturated chatter in a microphone's weighting can fall to 0.07).
 
@@ -532,7 +535,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     # ... and the full-window spectrum's peaks inside them, beside the line that was masked
     mains_lines = [h * fm for fm in mains for h in range(1, MAINS_HARMONICS + 1) if h * fm <= f_hi]
     near = _near_line_peaks(fF, pF, np.interp(fF, f, floor), np.interp(fF, f, mask.astype(float)) > 0.5,
-                            line_f[~keep], ks[~keep] * dfs, np.asarray(mains_lines), T=w.size / fs, f_lo=F_LO, f_hi=f_hi)
+                            line_f[~keep], ks[~keep] * dfs, np.asarray(mains_lines), T=w.size / fs, f_lo=F_LO,
+                            f_hi=f_hi)
     # one list, in Welch-density units: a line's peak density is its power / the noise bandwidth
     to_welch = float(nper) / w.size  # ENBW of the Welch segment / ENBW of the full window (Hz)
     dfF = fF[1] - fF[0]
@@ -561,7 +565,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     # runout from being heard as chatter; here the chatter is established by another member)
     extra = np.flatnonzero(over_runout & ~keep & (line_f <= f_hi))
     n_std = cand_f.size
-    if extra.size and abs(cand_f[c] / (0.5 * f_t) - 2 * round((cand_f[c] / (0.5 * f_t) - 1) / 2) - 1) * 0.5 * f_t <= 2.0 * fs / nper:
+    if (extra.size and abs(cand_f[c] / (0.5 * f_t) - 2 * round((cand_f[c] / (0.5 * f_t) - 1) / 2) - 1) * 0.5 * f_t
+            <= 2.0 * fs / nper):
         ex_f = np.array([_refine(fF, lpF, float(line_f[j]), 2.0 * fs / nper) for j in extra])
         ex_e = np.maximum(line_pow[extra] - np.interp(line_f[extra], f, floor), 0.0)
         cand_f, cand_e = np.concatenate([cand_f, ex_f]), np.concatenate([cand_e, ex_e])
@@ -934,7 +939,8 @@ def _refine_spindle(w: np.ndarray, fs: float, f_s: float, f_hi: float) -> float:
     return f_s + delta
 
 
-def _sync_residual(w: np.ndarray, fs: float, f_s: float, k_lines: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray]:
+def _sync_residual(w: np.ndarray, fs: float, f_s: float,
+                   k_lines: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray]:
     """The window less its steady spindle-synchronous lines k f_s (k in ``k_lines``), each fitted by least
     squares at its exact frequency (module docstring, step 7 "On a spindle line").
 

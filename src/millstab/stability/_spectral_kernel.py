@@ -248,6 +248,22 @@ def _element_lhs(L, el, hi, coef, wn, zeta, mass, mdir, Aq, Dm):
 
 
 @nb.njit(cache=True)
+def _free_step(phi, Z, Znew, cols):
+    """A free-flight element: Z[:, :cols] ← phi Z[:, :cols] (phi (n, n) its exact transition; Znew a work array
+    of Z's shape and dtype). Columns from ``cols`` on are zero and stay so."""
+    n = phi.shape[0]
+    for r in range(n):
+        for c in range(cols):
+            acc = Z[0, c] * 0.0
+            for q in range(n):
+                acc += phi[r, q] * Z[q, c]
+            Znew[r, c] = acc
+    for r in range(n):
+        for c in range(cols):
+            Z[r, c] = Znew[r, c]
+
+
+@nb.njit(cache=True)
 def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, lend):
     """The monodromy matrix (K, K), K = n + D·p·(collocation elements), at depth b [m].
 
@@ -271,15 +287,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
     ce = 0  # collocation element counter
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(K):
-                    s = 0.0
-                    for q in range(n):
-                        s += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = s
-            for r in range(n):
-                for col in range(K):
-                    Z[r, col] = Znew[r, col]
+            _free_step(phi_free[el], Z, Znew, K)
             continue
         hi = h[el]
         _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
@@ -333,6 +341,25 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
 
 
 @nb.njit(cache=True)
+def _elem_history(rk, el):
+    """History rows of element el: the chip thicknesses at its nodes (Σ rk over its nodes 1..p)."""
+    he = 0
+    for k in range(1, rk.shape[1]):
+        he += rk[el, k]
+    return he
+
+
+@nb.njit(cache=True)
+def _history_size(kind, rk):
+    """History rows of the reduced monodromy: those of every collocation element (kind 1)."""
+    H = 0
+    for el in range(kind.size):
+        if kind[el] == 1:
+            H += _elem_history(rk, el)
+    return H
+
+
+@nb.njit(cache=True)
 def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, rk, Dm, lend):
     """The monodromy matrix on the reduced history (K, K), K = n + Σ rk: the same nonzero eigenvalues
     as :func:`monodromy`, at depth b [m].
@@ -345,12 +372,7 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     M = wn.size
     n = 2 * M
     p = Dm.shape[0] - 1
-    H = 0
-    for el in range(h.size):
-        if kind[el] == 1:
-            for k in range(1, p + 1):
-                H += rk[el, k]
-    K = n + H
+    K = n + _history_size(kind, rk)
     w = 0.5 * b * kt
     U = np.zeros((K, K))
     Z = np.zeros((n, K))
@@ -364,18 +386,10 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     hoff = n  # this element's first history column (and row)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(K):
-                    acc = 0.0
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            Z[:, :] = Znew
+            _free_step(phi_free[el], Z, Znew, K)
             continue
         hi = h[el]
-        he = 0
-        for k in range(1, p + 1):
-            he += rk[el, k]
+        he = _elem_history(rk, el)
         _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
         R = np.zeros((P, n + he))
         col = n
@@ -419,6 +433,157 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
                 Znew[r, c] = acc
         Z[:, :] = Znew
         hoff += he
+    for r in range(n):
+        for c in range(K):
+            U[r, c] = Z[r, c]
+    return U
+
+
+@nb.njit(cache=True)
+def low_rank_setup(g, wn, zeta, mass, mdir, nd):
+    """The depth-independent part of every collocation element's map, once per speed (layout g from
+    :func:`setup`, nodes nd from :func:`gauss_nodes`): (CA, S, LA, LE), zero on free elements.
+
+    Why (issue 28, measured): ρ at ~21 ladder depths per speed is most of the engine's time, and each
+    :func:`monodromy_small` factors every element's collocation matrix L(w) = L0 − w B Cᵀ (p·n rows) anew.
+    The coupling is low-rank: B = the old-chip factors F / m in the velocity rows, Cᵀ = the new-chip factors
+    G on the displacements (rank he = Σ rk, the element's history), and the element's right-hand side is
+    [R0 | −w B]. With A = L0⁻¹R0, E = L0⁻¹B and W = (I − w S)⁻¹, S = Cᵀ E (Woodbury), only W depends on
+    the depth: the element's history rows are Cᵀ L(w)⁻¹ [R0 | −w B] = [W CᵀA | I − W] and its end state
+    (lend₀ I + Λ L(w)⁻¹ R0 | −w Λ L(w)⁻¹ B) = [LA + w LE W CᵀA | −w LE W] (Λ: the end-point weights).
+    So a depth costs an he × he solve per element (:func:`monodromy_lr`) instead of a p·n one.
+    CA (E, H, n) = CᵀA, S (E, H, H), LA (E, n, n) = lend₀ I + ΛA, LE (E, n, H) = ΛE; H = p·D."""
+    kind, h, Aq, rk, Fq, Gq = g[0], g[1], g[2], g[7], g[5], g[6]
+    Dm = nd[1]
+    lend = nd[2]
+    M = wn.size
+    n = 2 * M
+    p = Dm.shape[0] - 1
+    P = p * n
+    n_el = h.size
+    Hm = p * Fq.shape[2]
+    CA = np.zeros((n_el, Hm, n))
+    S = np.zeros((n_el, Hm, Hm))
+    LA = np.zeros((n_el, n, n))
+    LE = np.zeros((n_el, n, Hm))
+    L = np.empty((P, P))
+    piv = np.empty(P, dtype=np.int64)
+    for el in range(n_el):
+        if kind[el] == 0:
+            continue
+        hi = h[el]
+        he = _elem_history(rk, el)
+        _element_lhs(L, el, hi, 0.0, wn, zeta, mass, mdir, Aq, Dm)
+        RB = np.zeros((P, n + he))
+        col = n
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            d0 = Dm[k, 0] / hi
+            for r in range(n):
+                RB[rk0 + r, r] = -d0
+            for j in range(M):
+                for i in range(rk[el, k]):
+                    RB[rk0 + M + j, col + i] = Fq[el, k, mdir[j], i] / mass[j]
+            col += rk[el, k]
+        _lu_factor(L, piv)
+        _lu_solve(L, piv, RB)  # [A | E]
+        row = 0
+        for k in range(1, p + 1):
+            rk0 = (k - 1) * n
+            for i in range(rk[el, k]):
+                for c in range(n + he):
+                    acc = 0.0
+                    for j in range(M):
+                        acc += Gq[el, k, mdir[j], i] * RB[rk0 + j, c]
+                    if c < n:
+                        CA[el, row, c] = acc
+                    else:
+                        S[el, row, c - n] = acc
+                row += 1
+        for r in range(n):
+            for c in range(n + he):
+                acc = 0.0
+                for k in range(1, p + 1):
+                    acc += lend[k] * RB[(k - 1) * n + r, c]
+                if c < n:
+                    LA[el, r, c] = acc + (lend[0] if c == r else 0.0)
+                else:
+                    LE[el, r, c - n] = acc
+    return CA, S, LA, LE
+
+
+@nb.njit(cache=True)
+def monodromy_lr(b, kt, g, lr):
+    """:func:`monodromy_small` (the same matrix, other rounding) at depth b [m] from the per-speed factors
+    lr = :func:`low_rank_setup` (g the layout): per collocation element an he × he solve (W = (I − w S)⁻¹)
+    and products with the he + n rows the element adds, instead of a p·n collocation solve. Measured
+    (issue 28): the same matrix to 1e-9 relative, ρ to 2.4e-12, on random cases (tests/test_spectral_lowrank.py)."""
+    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    CA, S, LA, LE = lr
+    n = LA.shape[1]
+    Hm = S.shape[1]
+    K = n + _history_size(kind, rk)
+    w = 0.5 * b * kt
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.zeros((n, K))
+    Mx = np.empty((Hm, Hm))
+    piv = np.empty(Hm, dtype=np.int64)
+    QW = np.empty((Hm, n + Hm))
+    Ze = np.empty((n, n))
+    hoff = n  # this element's first history column (and row); Z is zero from it on
+    for el in range(h.size):
+        if kind[el] == 0:
+            _free_step(phi_free[el], Z, Znew, hoff)
+            continue
+        he = _elem_history(rk, el)
+        Mh = Mx[:he, :he]
+        for r in range(he):
+            for c in range(he):
+                Mh[r, c] = -w * S[el, r, c]
+            Mh[r, r] += 1.0
+        B = QW[:he, :n + he]
+        for r in range(he):
+            for c in range(n):
+                B[r, c] = CA[el, r, c]
+            for c in range(he):
+                B[r, n + c] = 0.0
+            B[r, n + r] = 1.0
+        _lu_factor(Mh, piv[:he])
+        _lu_solve(Mh, piv[:he], B)  # [Q | W], Q = W CᵀA
+        # history rows: Q Z, and I − W at this element's history columns
+        for r in range(he):
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += B[r, q] * Z[q, c]
+                U[hoff + r, c] = acc
+            for c in range(he):
+                U[hoff + r, hoff + c] = (1.0 if r == c else 0.0) - B[r, n + c]
+        # the end state: (LA + w LE Q) Z, and −w LE W at the history columns
+        for r in range(n):
+            for c in range(n):
+                acc = LA[el, r, c]
+                for q in range(he):
+                    acc += w * LE[el, r, q] * B[q, c]
+                Ze[r, c] = acc
+        for r in range(n):
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += Ze[r, q] * Z[q, c]
+                Znew[r, c] = acc
+            for c in range(he):
+                acc = 0.0
+                for q in range(he):
+                    acc += LE[el, r, q] * B[q, n + c]
+                Znew[r, hoff + c] = -w * acc
+        hoff += he
+        for r in range(n):
+            for c in range(hoff):
+                Z[r, c] = Znew[r, c]
     for r in range(n):
         for c in range(K):
             U[r, c] = Z[r, c]
@@ -658,9 +823,89 @@ def eig_small(U):
 
 @nb.njit(cache=True)
 def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
-    """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy)."""
-    U = monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
-    return _dominant(eig_small(U))
+    """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy, built from the
+    per-speed factors g[8] (:func:`with_factors`) by :func:`monodromy_lr`)."""
+    return _dominant(eig_small(monodromy_lr(b, kt, g, g[8])))
+
+
+#: squarings of the balanced monodromy B tried before its eigenvalues in :func:`rho_below` (ρ ≤ ‖Bᵐ‖∞^{1/m},
+#: m = 2, 4, …, 64). Measured (issue 28, 2026-11-27; 4 221 ladder rungs under the root, 20 prior samples × 10
+#: cut speeds of the docs/updating.md case, K = 10–22 rows): ‖Bᵐ‖∞ < 1 at 3 / 30 / 62 / 81 / 91 % of them for
+#: m = 2 / 4 / 8 / 16 / 32, so most rungs below the root need no eigenvalues; the update's root search (100
+#: prior samples × 10 cut speeds, one thread) 0.298 / 0.278 / 0.265 s CPU with 4 / 5 / 6 squarings, the same
+#: depths bit for bit
+CERT_SQUARINGS = 6
+#: unit roundoff of a product's entries (with the row length: |fl(PP) − PP| ≤ K·u·|P||P|)
+_U = 1.2e-16
+
+
+@nb.njit(cache=True)
+def rho_below(b, level, kt, wn, zeta, mass, mdir, D, g, nd):
+    """ρ at depth b [m] where it may reach ``level`` (≤ 1), else a certified bound below it:
+    (ρ or the bound, the dominant multiplier (NaN with a bound), exact).
+
+    Why (issue 28): the eigenvalues are ~90 % of a ρ evaluation, and the search from below only asks
+    of most rungs whether ρ < 1 (or < 1 − near). The balanced monodromy B (a similarity by powers of 2:
+    the same eigenvalues, exactly) gives ρ ≤ ‖Bᵐ‖∞^{1/m}; squaring B up to CERT_SQUARINGS times, the
+    rung is certified below ``level`` when ‖Bᵐ‖∞ plus a bound of the squarings' rounding (propagated:
+    e' = 2‖P‖e + e² + K·u·‖P‖²) is below levelᵐ. Otherwise the eigenvalues of B (:func:`eig_small`'s QR),
+    as :func:`rho`. So every decision ρ > level is the one :func:`rho` makes (up to rounding at ρ = level)."""
+    U = monodromy_lr(b, kt, g, g[8])
+    K = U.shape[0]
+    for i in range(K):
+        for j in range(K):
+            if not math.isfinite(U[i, j]):
+                return np.inf, complex(np.nan, np.nan), True
+    _balance(U)
+    P = U.copy()
+    Q = np.empty((K, K))
+    err = 0.0
+    nrm = 0.0
+    for i in range(K):
+        acc = 0.0
+        for j in range(K):
+            acc += abs(P[i, j])
+        nrm = max(nrm, acc)
+    m = 1
+    for _ in range(CERT_SQUARINGS):
+        for i in range(K):
+            for j in range(K):
+                Q[i, j] = 0.0
+            for q in range(K):
+                a = P[i, q]
+                if a != 0.0:
+                    for j in range(K):
+                        Q[i, j] += a * P[q, j]
+        err = 2.0 * nrm * err + err * err + K * _U * nrm * nrm
+        m *= 2
+        nrm = 0.0
+        for i in range(K):
+            acc = 0.0
+            for j in range(K):
+                acc += abs(Q[i, j])
+            nrm = max(nrm, acc)
+        if not (nrm < 1e30):
+            break
+        lv = level ** m
+        if nrm + err < lv:
+            return (nrm + err) ** (1.0 / m), complex(np.nan, np.nan), False
+        P, Q = Q, P
+    wr = np.empty(K)
+    wi = np.empty(K)
+    _hessenberg(U)
+    info = _hqr(U, wr, wi)
+    out = np.empty(K, dtype=np.complex128)
+    for k in range(K):
+        out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
+    r, mu = _dominant(out)
+    return r, mu, True
+
+
+@nb.njit(cache=True)
+def with_factors(g, wn, zeta, mass, mdir, nd):
+    """The layout g of :func:`setup` with its per-speed depth-independent factors appended (g[8],
+    :func:`low_rank_setup`): what :func:`rho` needs."""
+    return g + (low_rank_setup(g, wn, zeta, mass, mdir, nd),)
 
 
 @nb.njit(cache=True)
@@ -878,13 +1123,7 @@ def psi_d(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
     piv = np.empty(P, dtype=np.int64)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(2 * n):
-                    acc = 0.0j
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            Z[:, :] = Znew
+            _free_step(phi_free[el], Z, Znew, 2 * n)
             continue
         hi = h[el]
         _element_lhs(L, el, hi, sigma, wn, zeta, mass, mdir, Aq, Dm)
@@ -919,13 +1158,75 @@ def psi_d(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
 
 
 @nb.njit(cache=True)
+def psi_d_lr(sigma, g, lr):
+    """(Ψ(σ), dΨ/dσ) as :func:`psi_d` (the same matrices to rounding) from the per-speed factors
+    lr = :func:`low_rank_setup`: element map E(σ) = LA + σ LE W CA with W = (I − σ S)⁻¹, and
+    E'(σ) = LE W² CA (dW/dσ = W S W, so d(σ W)/dσ = W (I + σ S W) = W²): an he × he complex solve per
+    element instead of a p·n one (issue 28)."""
+    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    CA, S, LA, LE = lr
+    n = LA.shape[1]
+    Hm = S.shape[1]
+    Z = np.zeros((n, 2 * n), dtype=np.complex128)  # [Ψ | Ψ'] so far
+    for i in range(n):
+        Z[i, i] = 1.0
+    Znew = np.empty((n, 2 * n), dtype=np.complex128)
+    Mx = np.empty((Hm, Hm), dtype=np.complex128)
+    piv = np.empty(Hm, dtype=np.int64)
+    Qb = np.empty((Hm, n), dtype=np.complex128)
+    E = np.empty((n, n), dtype=np.complex128)
+    Ed = np.empty((n, n), dtype=np.complex128)
+    for el in range(h.size):
+        if kind[el] == 0:
+            _free_step(phi_free[el], Z, Znew, 2 * n)
+            continue
+        he = _elem_history(rk, el)
+        Mh = Mx[:he, :he]
+        for r in range(he):
+            for c in range(he):
+                Mh[r, c] = -sigma * S[el, r, c]
+            Mh[r, r] += 1.0
+        Q = Qb[:he, :]
+        for r in range(he):
+            for c in range(n):
+                Q[r, c] = CA[el, r, c]
+        _lu_factor(Mh, piv[:he])
+        _lu_solve(Mh, piv[:he], Q)  # W CA
+        for r in range(n):
+            for c in range(n):
+                acc = LA[el, r, c] + 0.0j
+                for q in range(he):
+                    acc += sigma * LE[el, r, q] * Q[q, c]
+                E[r, c] = acc
+        _lu_solve(Mh, piv[:he], Q)  # W² CA
+        for r in range(n):
+            for c in range(n):
+                acc = 0.0j
+                for q in range(he):
+                    acc += LE[el, r, q] * Q[q, c]
+                Ed[r, c] = acc
+        for r in range(n):
+            for c in range(n):
+                a0 = 0.0j
+                a1 = 0.0j
+                for q in range(n):
+                    a0 += E[r, q] * Z[q, c]
+                    a1 += Ed[r, q] * Z[q, c] + E[r, q] * Z[q, n + c]
+                Znew[r, c] = a0
+                Znew[r, n + c] = a1
+        Z[:, :] = Znew
+    return Z[:, :n].copy(), Z[:, n:].copy()
+
+
+@nb.njit(cache=True)
 def char_d(b, theta, kt, wn, zeta, mass, mdir, g, nd):
     """(F, ∂F/∂b, ∂F/∂θ) of the characteristic function F(b, θ) = det(μ I − Ψ(σ)), μ = e^{iθ},
-    σ = w (1 − 1/μ), w = ½ b Kt. Jacobi's formula: dF = F tr((μ I − Ψ)⁻¹ d(μ I − Ψ))."""
+    σ = w (1 − 1/μ), w = ½ b Kt. Jacobi's formula: dF = F tr((μ I − Ψ)⁻¹ d(μ I − Ψ)). Ψ and Ψ' from the
+    per-speed low-rank factors g[8] (:func:`psi_d_lr`; :func:`char_fn` keeps the element-by-element path)."""
     mu = complex(math.cos(theta), math.sin(theta))
     w = 0.5 * b * kt
     sigma = w * (1.0 - 1.0 / mu)
-    P, Pd = psi_d(sigma, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], nd[1], nd[2])
+    P, Pd = psi_d_lr(sigma, g, g[8])
     n = P.shape[0]
     A = np.empty((n, n), dtype=np.complex128)
     for i in range(n):
@@ -1105,13 +1406,27 @@ NEAR = 0.02
 @nb.njit(cache=True)
 def scan_state(rho0):
     """A fresh state of the search from below at one speed (see :func:`scan_to`)."""
-    st = np.empty(5)
+    st = np.empty(6)
     st[0] = 0.0  # the next ladder index
     st[1] = 0.0  # the last ladder depth evaluated [m] (0: the start) ...
     st[2] = rho0 - 1.0  # ... and ρ − 1 there
     st[3] = 0.0  # the highest depth known stable [m] ...
-    st[4] = rho0 - 1.0  # ... and ρ − 1 there
+    st[4] = rho0 - 1.0  # ... and ρ − 1 there (or a bound of it, :func:`rho_below`) ...
+    st[5] = 0.0  # ... 1 where st[4] is only that bound (:func:`_exact_lo` makes it exact for a bracket)
     return st
+
+
+@nb.njit(cache=True)
+def _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd):
+    """Make st[4] (ρ − 1 at the highest depth known stable, a bracket's low end) exact where a certificate
+    left only a bound (:func:`rho_below`): a bracket's secant start and Illinois steps use it, so the roots
+    are those of exact ρ values. Returns the evaluations spent (0 or 1)."""
+    if st[5] == 0.0:
+        return 0
+    r, _ = rho(st[3], kt, wn, zeta, mass, mdir, D, g, nd)
+    st[4] = r - 1.0
+    st[5] = 0.0
+    return 1
 
 
 @nb.njit(cache=True)
@@ -1126,12 +1441,13 @@ def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
             break
         if y <= st[3]:
             continue
-        r, m_ = rho(y, kt, wn, zeta, mass, mdir, D, g, nd)
+        r, m_, exact = rho_below(y, 1.0, kt, wn, zeta, mass, mdir, D, g, nd)
         n_eval += 1
         if r > 1.0:
             return True, y, r - 1.0, m_, n_eval
         st[3] = y
         st[4] = r - 1.0
+        st[5] = 0.0 if exact else 1.0
     return False, 0.0, 0.0, complex(np.nan, np.nan), n_eval
 
 
@@ -1163,12 +1479,14 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
             bad, y, fy, my, c = _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
             return True, st[3], st[4], -1.0, 0.0, nan, n_eval
         st[0] = k + 1
         if x <= st[3]:  # known stable (an earlier scan at this speed)
             continue
-        r, m_ = rho(x, kt, wn, zeta, mass, mdir, D, g, nd)
+        # a bound below 1 − near decides this rung as ρ itself would (no refinement, stable)
+        r, m_, exact = rho_below(x, 1.0 - near, kt, wn, zeta, mass, mdir, D, g, nd)
         n_eval += 1
         f_prev = st[2]
         st[1] = x
@@ -1177,11 +1495,14 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
             bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
         if r > 1.0:
+            n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
             return False, st[3], st[4], x, r - 1.0, m_, n_eval
         st[3] = x
         st[4] = r - 1.0
+        st[5] = 0.0 if exact else 1.0
 
 
 @nb.njit(cache=True)
@@ -1192,9 +1513,10 @@ def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
     stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd)
     if not stable or top <= st[3]:
         return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
-    r, m_ = rho(top, kt, wn, zeta, mass, mdir, D, g, nd)
+    r, m_, _ = rho_below(top, 1.0, kt, wn, zeta, mass, mdir, D, g, nd)
     n_eval += 1
     if r > 1.0:
+        n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
         return False, st[3], st[4], top, r - 1.0, m_, n_eval
     return True, st[3], st[4], -1.0, 0.0, complex(np.nan, np.nan), n_eval
 
@@ -1233,7 +1555,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     br_on = np.zeros(N_BRANCH, dtype=np.bool_)
     T_prev = 1.0
     for s in range(rpm.size):
-        g = setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act)
+        g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
         T = 60.0 / (n_teeth * rpm[s])
         rho0 = 0.0
         for j in range(wn.size):
@@ -1373,5 +1695,5 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
 def refine_at(n_teeth, kt, kr, phi_s, phi_e, rpm, b, theta, wn, zeta, mass, mdir, act, elem_len, nd):
     """:func:`newton` at one speed on the layout with nodes ``nd``: the boundary point (b, θ) found
     with other nodes, moved to this discretisation (used by the convergence check)."""
-    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
     return newton(b, theta, kt, wn, zeta, mass, mdir, g, nd)

@@ -24,7 +24,16 @@ import math
 import numba as nb
 import numpy as np
 
-from millstab.stability._spectral_kernel import check_root, cmath_phase, scan_state, limit_run, newton, secant_start, setup
+from millstab.stability._spectral_kernel import (
+    check_root,
+    cmath_phase,
+    limit_run,
+    newton,
+    scan_state,
+    secant_start,
+    setup,
+    with_factors,
+)
 
 #: attempts of the check loop (a failed check yields a lower root, checked in turn), as limit_run
 ATTEMPTS = 4
@@ -39,7 +48,7 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near,
     if not (math.isfinite(b0) and b0 > 0.0 and math.isfinite(th0)):
         return np.nan, np.nan, False, 0
     D = act.size
-    g = setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act)
+    g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm, elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
     T = 60.0 / (n_teeth * rpm)
     rho0 = 0.0
     for j in range(wn.size):

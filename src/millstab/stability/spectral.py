@@ -91,6 +91,37 @@ depths below the root at every speed, each a monodromy (~40 % of an evaluation n
 certifying ρ < 1 without eigenvalues by ‖Uᵐ‖^{1/m} fails (the monodromy is far from normal: the bound
 is 1.10–1.5× ρ at m = 64, below 0.98 at only 37 % of the depths where ρ is). The issue's 100 envelopes/s
 needs fewer ρ evaluations per speed, which every ladder-based definition of the answer forbids.
+Low-rank factors and certified rungs (issue 28, 2026-11-27). Where the time went (benchmarks/profile_spectral.py,
+one thread, CPU, load ~17): on the update's workload (100 prior samples × 10 cut speeds of the docs/updating.md
+case, 6 nodes, ``near`` 0) 35.6 evaluations per (set, speed), 21.2 of them ρ on the ladder rungs under the
+accepted root (the floor every per-speed definition climbs); a ρ evaluation 30 µs (monodromy build 13.7 µs, its
+eigenvalues 16.9 µs), a characteristic function with its derivative 25 µs, a speed's layout 3 µs; the
+zero-order starting depths, the node-count check and Python < 5 % of a call. On the 200-speed envelope (x = y,
+a/D 0.05) 31.7 evaluations per speed, 20.9 of them rungs; ρ 14.6 µs (build 7.0, eigenvalues 7.6). Three
+changes, each keeping every decision of the search (depths and multipliers of both workloads and of the
+benchmark at a/D 0.05 / 0.5 / 1, up and down, identical bit for bit to the code before the third, within
+3.5e-11 of the code before the first two):
+(1) sparse speeds searched alone (``PHASE_SPLIT``): 35.6 → 27.3 evaluations per (set, speed) of an update.
+(2) per-speed low-rank factors (:func:`._spectral_kernel.low_rank_setup`): each element's collocation matrix
+is L(w) = L0 − w B Cᵀ with a coupling of rank he (the element's history: the chip thicknesses at its
+nodes) and right-hand side [R0 | −w B]; by Woodbury only W = (I − w S)⁻¹ (he × he, S = Cᵀ L0⁻¹ B) depends on
+the depth, so the p·n-row LU per element and depth became one per element and speed plus an he × he solve
+(:func:`._spectral_kernel.monodromy_lr`; the characteristic function's Ψ(σ) = Π (LA + σ LE W CA) and
+dΨ/dσ from LE W² CA, :func:`._spectral_kernel.psi_d_lr`): build 13.7 → 1.9 µs, characteristic function
+25 → 3.6 µs (tests/test_spectral_lowrank.py: the same matrices to 1e-9, ρ to 2.4e-12, on random structures,
+cuts and node counts, also against the full monodromy's numpy eigenvalues).
+(3) certified rungs (:func:`._spectral_kernel.rho_below`): with the eigenvalues now ~90 % of ρ, a rung is
+decided without them where squarings of the balanced monodromy B prove ρ ≤ ‖Bᵐ‖∞^{1/m} < 1 (or < 1 − near),
+rounding bounded; where a bracket is formed, ρ at its low end is computed exactly (the secant start and
+Illinois steps see the values they saw before). ‖Bᵐ‖∞ < 1 held at 3 / 30 / 62 / 81 % of 4 221 rungs for m =
+2 / 4 / 8 / 16 (20 prior samples × 10 cut speeds; ``_spectral_kernel.CERT_SQUARINGS`` = 6 squarings). Root
+search on the update's workload 1.009 → 0.817 → 0.458 → 0.265 s CPU (3.8×). On the 200-speed envelope, CPU per
+envelope on one thread 101.7 / 99.3 / 100.8 ms (the code before, in the same minutes, load ~14) → 54.9 / 54.3 ms
+after (2) (two threads 128.7 / 125.8 / 125.7 → 81.8 / 80.2 ms); after (3), alternated with the code before at
+load ~6: 99.8 / 98.6 → 47.1 / 47.6 ms (2.1×; two threads 123.5 / 126.7 → 75.4 / 73.0 ms), ~21 envelopes/s
+per core (``PYTHONPATH=src:benchmarks python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``).
+Still far from the issue's 100/s: the ladder's ~21 rungs remain (ρ(0) is already 0.83–0.91 here, and
+``near`` asks for ρ < 0.98, so fewer rungs are certified than in an update).
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of
@@ -224,6 +255,15 @@ LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25
+#: a speed starts a block of its own (no branch continued into it) where the most flexible mode's phase turns by
+#: more than this [rad] between its tooth period and the previous speed's (:func:`_phase_steps`): the branches
+#: continued across such a step are mostly lost (a lobe change at nearly every step), and each lost one cost up to
+#: 2 × ``_spectral_kernel.NEWTON_EVALS`` characteristic functions before the search from below ran anyway. The
+#: depths do not change (each speed's acceptance is its own): measured (issue 28, 2026-11-27, one thread, CPU)
+#: on 100 prior samples × 10 cut speeds of the docs/updating.md case (steps of 1–3 rad): 35.6 → 27.2 evaluations
+#: per (set, speed), −21 % CPU, depths within 1.2e-11; the 1-DOF benchmark x = y at a/D 0.05 / 0.5 on 50 speeds
+#: 5 000–25 000 rpm −17 % / −8 % CPU, on 200 speeds −4 % / ±1 % (thresholds 0.5 and 1.0 gave less)
+PHASE_SPLIT = 0.3
 #: tasks (set × block) per thread at most when the sets alone do not fill the threads: blocks are of
 #: equal modelled cost (``_speed_cost``), so one per thread balances one set; ``_blocks_per_set``
 BLOCKS_PER_THREAD = 2
@@ -288,6 +328,14 @@ def _blocks_per_set(n_b: int, n_threads: int) -> int:
     return k
 
 
+def _phase_steps(batch: ModalBatch, cutting: Cutting, rs: np.ndarray) -> np.ndarray:
+    """The phase [rad] the most flexible mode (mean ωn over the sets) turns through between the tooth periods of
+    each speed and the one before it (S,; the first speed: the step to a speed below it as far as the next one)."""
+    T = 60.0 / (cutting.teeth * rs)
+    dT = np.abs(np.diff(T, prepend=T[0] + (T[0] - T[1] if T.size > 1 else 0.0)))
+    return float(np.mean(_w_flex(batch))) * dT
+
+
 def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
     """A model of the root search's cost per speed (S,), for load balance: the monodromy's rows K (its
     collocation elements grow as the cut lasts longer at low speed) times (1 + φ/0.1), φ [rad] the
@@ -295,9 +343,7 @@ def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> 
     (capped at 0.3: beyond it nearly every speed is a lobe change). Measured on the benchmark (x = y,
     a/D = 0.05, 200 speeds 5 000–25 000 rpm, 1 thread): 0.65, 0.45, 0.20 and 0.155 ms per speed near
     6 000, 8 000, 12 000 and 20 000 rpm; the model gives 4.9 : 2.6 : 1.5 : 1."""
-    T = 60.0 / (cutting.teeth * rs)
-    dT = np.abs(np.diff(T, prepend=T[0] + (T[0] - T[1] if T.size > 1 else 0.0)))
-    phase = float(np.mean(_w_flex(batch))) * dT
+    phase = _phase_steps(batch, cutting, rs)
     omega = 2 * math.pi * rs / 60.0
     cut = min(cutting.exit - cutting.entry, 2 * math.pi / cutting.teeth) / omega
     wn = _arrays(batch)[0]
@@ -309,16 +355,22 @@ def _speed_cost(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> 
 def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -> np.ndarray:
     """Start indices of the speed blocks (ends with S): the whole range per set when the sets fill the
     threads (no restarts), else :func:`_blocks_per_set` blocks of equal modelled cost
-    (:func:`_speed_cost`: the low speeds cost several times more), none shorter than BLOCK."""
+    (:func:`_speed_cost`: the low speeds cost several times more), none shorter than BLOCK; and a block of its
+    own at every speed more than PHASE_SPLIT of phase from the speed before (sparse speeds: the cut speeds of
+    an update)."""
     n_s = rs.size
+    # a speed whose tooth period turns the flexible mode's phase by more than PHASE_SPLIT from the speed before
+    # starts a block of its own: continuing branches across such a step mostly fails (Newton on every tracked
+    # branch, then the search anyway), see PHASE_SPLIT
+    far = np.flatnonzero(_phase_steps(batch, cutting, rs) > PHASE_SPLIT) if n_s > 1 else np.zeros(0, np.int64)
     k = min(_blocks_per_set(batch.size, numba.get_num_threads()), math.ceil(n_s / BLOCK))
     if k <= 1:
-        return np.array([0, n_s], dtype=np.int64)
+        return np.unique(np.concatenate([[0], far, [n_s]])).astype(np.int64)
     cum = np.cumsum(_speed_cost(batch, cutting, rs, p))
     cuts = np.searchsorted(cum, cum[-1] * np.arange(1, k) / k)
     shortest = min(BLOCK, n_s // k)
     cuts = np.clip(cuts, shortest, n_s - shortest)
-    return np.unique(np.concatenate([[0], cuts, [n_s]])).astype(np.int64)
+    return np.unique(np.concatenate([[0], cuts, far, [n_s]])).astype(np.int64)
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,

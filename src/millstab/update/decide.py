@@ -101,6 +101,18 @@ GUARD_EXPLAINED = 0.5
 #: (× (1 − :data:`GUARD_MARGIN`)) was labelled stable, the next test is the recommendation itself
 BLIND_SPOT_CHATTERS = 2
 BLIND_SPOT_WIDTH = 0.02
+#: when the recommendation must be vouched for by a cut labelled stable (:func:`confirmed_cuts`): ``"conflict"``
+#: (the default: while the posterior names a prior–data conflict or the data guard holds a chatter cut the posterior
+#: does not explain), ``"always"``, ``"never"``
+CONFIRM_CHOICES = ("conflict", "always", "never")
+CONFIRM = "conflict"
+#: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed: 0, at its own
+#: speed only (±2 % let a softer campaign's recommendation slide from a stable cut at 11 965 rpm, 0.461 mm, to
+#: 12 000 rpm, where the true limit is 0.445 mm; ±0.25 % to 11 995 rpm, where it is 0.448 mm)
+CONFIRM_WIDTH = 0.0
+#: a stable cut vouches only when the posterior gives it at most this P(chatter) (at its speed and ±the speed
+#: tolerance): a swapped label (stable at 5× the true limit) that the posterior does not believe does not vouch
+CONFIRM_P_CHATTER = 0.25
 
 
 def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
@@ -351,11 +363,54 @@ def guard_cap(guard: list[dict], rpm) -> np.ndarray:
     return cap
 
 
+def conflict_named(post: Posterior) -> bool:
+    """Whether the posterior names a prior–data conflict (its ``prior-data-conflict`` warning)."""
+    from millstab.update.posterior import warning_code
+
+    return any(warning_code(w) == "prior-data-conflict" for w in post.warnings)
+
+
+def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.ndarray, cap: float = math.inf,
+                   guard: list[dict] = ()) -> list[dict]:
+    """The cuts labelled stable (grade < ½, in the decision's condition and speed range, within the depth cap and
+    the data guard) whose label the posterior believes: at most :data:`CONFIRM_P_CHATTER` of its samples have a
+    limit at or below the cut's depth at its speed × (1 + each of ``offsets``). A list of {rpm, depth_mm,
+    p_chatter}; each lets a recommendation as deep as it at its speed (:func:`support_cap`; the recommendation's
+    own risk still holds, so the depth there is the lesser of the two).
+
+    Why (issue 24, softer campaigns): a posterior that contradicts its hammer test explains the chatter labels
+    with a structure the data cannot check between the cuts (one mode's stiffness 3-4× below the truth's, the
+    natural frequencies left at the hammer test's, 20 % off), and its recommendations went 4-8 % above a stable
+    cut at the same speed, or into a pocket it predicts between chatter cuts, where the truth has none. A
+    stable cut that the posterior also holds safe is what the data vouch for; a single swapped label (a cut
+    labelled stable 5× above the true limit) does not vouch, since the posterior does not hold it safe."""
+    rpm, depth, grade, _ = _cut_grades(post.cuts_in_condition())
+    lo, hi = rpm_range
+    ok = (grade < 0.5) & (rpm >= lo) & (rpm <= hi) & (depth <= cap) & (depth < guard_cap(list(guard), rpm))
+    if not ok.any():
+        return []
+    r, d = rpm[ok], depth[ok]
+    both, _ = limits(post.prior, post.decision_u, (r[None, :] * (1 + offsets[:, None])).ravel(), post.engine)
+    p = (both <= np.tile(d, offsets.size)[None, :]).mean(axis=0).reshape(offsets.size, r.size).max(axis=0)
+    return [{"rpm": float(a), "depth_mm": float(b), "p_chatter": float(q)} for a, b, q in zip(r, d, p)
+            if q <= CONFIRM_P_CHATTER]
+
+
+def support_cap(support: list[dict], rpm) -> np.ndarray:
+    """The deepest depth [mm] the confirmed cuts ``support`` allow at each speed: the deepest of those within
+    ±:data:`CONFIRM_WIDTH` of the speed (0: at the cut's own speed; 0 mm where none is)."""
+    r = np.asarray(rpm, float)
+    out = np.zeros(r.shape)
+    for c in support:
+        out = np.where(np.abs(r - c["rpm"]) <= CONFIRM_WIDTH * c["rpm"], np.maximum(out, c["depth_mm"]), out)
+    return out
+
+
 def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,
               coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
-              guard: bool = True, across: bool | None = None) -> Recommendation:
+              guard: bool = True, across: bool | None = None, confirm: str = CONFIRM) -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -374,8 +429,13 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         across: let the next test be in another condition (the trained ones and the slot) where a test there
             carries more information (:func:`next_test_across`); ``None``: when the posterior knows several
             conditions or decides for one it was not trained in.
+        confirm: when the recommendation must be vouched for by a cut labelled stable (no deeper than one whose
+            label the posterior believes, at its speed: :func:`confirmed_cuts`; the next
+            test is still sought above the model's own cut): ``"conflict"`` while the posterior names a
+            prior–data conflict or the data guard holds a chatter cut it does not explain, ``"always"``, ``"never"``.
     Raises:
-        InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance or test risk.
+        InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
+            or confirm.
     Warns:
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
@@ -394,6 +454,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     if test_risk is not None and not (isinstance(test_risk, (int, float)) and 0 < test_risk <= 1):
         raise InputError("--test-risk", test_risk, "the next test's tolerated probability of chatter, in (0, 1], "
                                                    f"e.g. {TEST_RISK:g} (1: no cap)")
+    if confirm not in CONFIRM_CHOICES:
+        raise InputError("--confirm", confirm, "one of " + ", ".join(CONFIRM_CHOICES))
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
     guards = data_guard(post) if guard else []
@@ -408,7 +470,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              UserWarning, stacklevel=2)
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
-    def best_of(speeds: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    def best_of(speeds: np.ndarray, support: list[dict] | None) -> tuple[int, np.ndarray, np.ndarray]:
         # one engine call for the speeds and their ±tolerance neighbours; the nominal block first
         both, _ = limits(post.prior, u, (speeds[None, :] * (1 + offsets[:, None])).ravel(), post.engine,
                          options=post.engine_options)
@@ -416,23 +478,41 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         d_all = safe_depth(both, risk, count).reshape(offsets.size, speeds.size)
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
         depth = np.minimum(np.minimum(d_all.min(axis=0), g_all.min(axis=0)), cap)
+        if support is not None:  # only as deep as a confirmed stable cut near the speed
+            depth = np.minimum(depth, support_cap(support, speeds))
         depth = np.where(np.isfinite(depth), depth, 0.0)
         return int(np.argmax(depth * speeds)), depth, blim
 
     if not (isinstance(coarse_points, (int, np.integer)) and coarse_points >= 3):
         raise InputError("coarse_points", coarse_points, "need an integer ≥ 3 speeds")
-    speeds = np.linspace(lo, hi, int(coarse_points))
-    i, depth, blim = best_of(speeds)
-    best = (speeds[i], depth[i], blim[:, i])
-    step = speeds[1] - speeds[0]
-    for _ in range(REFINE_ROUNDS):  # bounded 1-D search around the best speed, one engine call per round
-        a, b = max(lo, best[0] - step), min(hi, best[0] + step)
-        cand = np.linspace(a, b, REFINE_POINTS)
-        j, d2, bl2 = best_of(cand)
-        if d2[j] * cand[j] > best[1] * best[0]:
-            best = (cand[j], d2[j], bl2[:, j])
-        step = cand[1] - cand[0]
+
+    def search(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """(coarse speeds, their limits (N, S), the best (rpm, depth, limits at it (N,)))"""
+        speeds = np.linspace(lo, hi, int(coarse_points))
+        step = speeds[1] - speeds[0]
+        if support:  # the confirmed cuts' own speeds are candidates too
+            speeds = np.union1d(speeds, [c["rpm"] for c in support])
+        i, depth, blim = best_of(speeds, support)
+        best = (speeds[i], depth[i], blim[:, i])
+        for _ in range(REFINE_ROUNDS):  # bounded 1-D search around the best speed, one engine call per round
+            a, b = max(lo, best[0] - step), min(hi, best[0] + step)
+            cand = np.linspace(a, b, REFINE_POINTS)
+            j, d2, bl2 = best_of(cand, support)
+            if d2[j] * cand[j] > best[1] * best[0]:
+                best = (cand[j], d2[j], bl2[:, j])
+            step = cand[1] - cand[0]
+        return speeds, blim, best
+
+    speeds, blim, best = search(None)
     rpm_best, depth_best, col = best
+    model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
+    confirmed = False
+    if confirm == "always" or (confirm == "conflict" and (conflict_named(post) or guards)):
+        support = confirmed_cuts(post, (lo, hi), offsets, cap, guards)
+        if support:
+            rb, db, cb = search(support)[2]
+            if db > 0 and rb * db < rpm_best * depth_best * (1 - 1e-9):
+                rpm_best, depth_best, col, confirmed = rb, db, cb, True
     p_ch = float(np.mean(col <= depth_best))
     around, _ = limits(post.prior, u, rpm_best * (1 + offsets), post.engine,  # the cut's own ±tolerance check
                        options=post.engine_options)
@@ -445,7 +525,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         bound = float(beta.ppf(confidence, k + 1, max(n_eff - k, 1e-12)))
     prod = float(rpm_best * depth_best)
     g_best = float(guard_cap(guards, rpm_best * (1 + offsets)).min())
-    limited = ("max_depth" if depth_best >= cap * (1 - 1e-12) else
+    limited = ("a cut labelled stable (the cuts contradict the model: no deeper than a stable cut whose "
+               "label the posterior believes, at its speed)" if confirmed else
+               "max_depth" if depth_best >= cap * (1 - 1e-12) else
                "data guard (a chatter-labelled cut)" if depth_best >= g_best * (1 - 1e-12) else "chatter risk")
     binding = [dict(g, binding=bool(np.any(np.abs(rpm_best * (1 + offsets) - g["rpm"]) <= g["half_width_rpm"])
                                     and depth_best >= g["cap_mm"] * (1 - 1e-12))) for g in guards]
@@ -459,8 +541,14 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              "(the model does not explain that cut; check the label, or update with an engine that models the cut)",
              UserWarning, stacklevel=2)
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
-    nt = next_test(post, (lo, hi), rpm_best, depth_best, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
-                   test_risk=test_risk, guard=guards, p_chatter_rec=p_worst)
+    # the next test is sought above the MODEL's cut (with a confirmed recommendation too): the tests that teach
+    # the model where it may go, and its own cut when nothing above it is allowed and informative
+    nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]), test_risk=test_risk,
+                   guard=guards, p_chatter_rec=None if confirmed else p_worst)
+    if confirmed:
+        nt["relative_productivity"] = float(nt["rpm"] * nt["depth_mm"] / max(prod, 1e-300))
+        nt["why"] = nt["why"].replace("the recommendation itself", "the model's cut, to be tested before it is "
+                                      "recommended (the recommendation is held to a cut labelled stable)", 1)
     from millstab.points import describe_condition, same_condition
 
     nt["condition"] = describe_condition(post.condition)
@@ -619,6 +707,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["next_test_across", "CONFIDENCE", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN", "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
+__all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
+           "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
+           "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
            "p_stable_map", "recommend", "safe_depth"]

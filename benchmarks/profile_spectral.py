@@ -1,0 +1,232 @@
+"""Where the spectral engine's time goes (issue 28), on the two workloads that matter.
+
+1. ``update``: the updating loop's call, the limits of ``--samples`` prior samples of the docs/updating.md
+   low-immersion case (Ex.1, a/D 0.1, down milling) at 10 cut speeds (uniform 5 000–12 000 rpm, seed 0), with
+   the sampler's settings (``purpose="sample"``: the converged node count, ``near`` 0).
+2. ``envelope``: benchmarks/bench_spectral.py's envelope (x = y one mode each, a/D 0.05, 200 speeds
+   5 000–25 000 rpm), nodes by the per-call convergence check.
+
+For each: CPU time of the whole call and of its parts (zero-order starting depths, the node-count check, the
+compiled root search), the evaluations per speed, and, from compiled timing loops, the CPU time of one ρ
+evaluation (its monodromy build, from the per-speed low-rank factors and as before element by element, and its
+eigenvalues) and of one characteristic-function evaluation with its
+derivative (a Newton step), at the case's own speeds and depths. The ρ evaluations of the search from below
+are counted exactly where they are deterministic: the ladder rungs below the accepted root (the acceptance
+evaluates each, whatever found the root). One thread, BLAS pinned: CPU time is the figure on a shared machine.
+
+Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/profile_spectral.py [--samples 100]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numba as nb
+import numpy as np
+from _machine import describe
+from threadpoolctl import threadpool_limits
+
+from millstab.frf import ModalBatch
+from millstab.io import load_config
+from millstab.io.config import PriorTable
+from millstab.model import Cutting, Mode, Structure
+from millstab.stability import _spectral_kernel as _k
+from millstab.stability import spectral
+from millstab.stability.sdm import _arrays
+from millstab.update import make_prior
+
+
+@nb.njit(cache=True)
+def _loop_rho(reps, bs, kt, wn, zeta, mass, mdir, D, g, nd):
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            s += _k.rho(b, kt, wn, zeta, mass, mdir, D, g, nd)[0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_below(reps, bs, level, kt, wn, zeta, mass, mdir, D, g, nd):
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            s += _k.rho_below(b, level, kt, wn, zeta, mass, mdir, D, g, nd)[0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_build(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            s += _k.monodromy_lr(b, kt, g, g[8])[0, 0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_small(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
+    """The element-by-element build before issue 28's low-rank factors (for the comparison)."""
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            U = _k.monodromy_small(b, kt, wn, zeta, mass, mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7], nd[1], nd[2])
+            s += U[0, 0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_char(reps, bs, th, kt, wn, zeta, mass, mdir, g, nd):
+    s = 0.0
+    for _ in range(reps):
+        for b in bs:
+            s += abs(_k.char_d(b, th, kt, wn, zeta, mass, mdir, g, nd)[0])
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_setup(reps, n_teeth, kr, ps, pe, rpm, el, x, wn, zeta, act):
+    s = 0.0
+    for _ in range(reps):
+        for r in rpm:
+            s += _k.setup(n_teeth, kr, ps, pe, r, el, x, wn, zeta, act)[1][0]
+    return s
+
+
+@nb.njit(cache=True)
+def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, act):
+    s = 0.0
+    for _ in range(reps):
+        for r in rpm:
+            s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)[1][0]
+    return s
+
+
+def cpu(f, *args):
+    """(f(*args), CPU seconds it took)."""
+    c = time.process_time()
+    out = f(*args)
+    return out, time.process_time() - c
+
+
+def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, p: int, level: float,
+               reps: int = 20) -> dict:
+    """CPU seconds per ρ evaluation, per monodromy build, per characteristic function + derivative and per
+    speed setup, averaged over the rows of ``batch`` (up to 5) at speeds rs and depths 0.3–1.0 × the row's limit;
+    the rung test (:func:`rho_below`) at ``level``."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    n, kt, kr, ps, pe = cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit
+    nd = _k.gauss_nodes(p)
+    el = spectral._elem_len(wn)
+    keys = ("rho", "below", "build", "small", "char", "setup", "factors")
+    tot = dict.fromkeys(keys, 0.0)
+    cnt = dict.fromkeys(keys, 0)
+    rows = range(min(batch.size, 5))
+    g0 = _k.with_factors(_k.setup(n, kr, ps, pe, rs[0], el[0], nd[0], wn[0], zeta[0], act), wn[0], zeta[0], mass[0], mdir, nd)
+    # compile / cache load first (reps 0: same types), so the timed loops hold no compile time
+    _loop_setup(0, n, kr, ps, pe, rs, el[0], nd[0], wn[0], zeta[0], act)
+    _loop_rho(0, rs, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
+    _loop_build(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    _loop_below(0, rs, 1.0, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
+    _loop_small(0, rs, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    _loop_factors(0, n, kr, ps, pe, rs, el[0], nd, wn[0], zeta[0], mass[0], mdir, act)
+    _loop_char(0, rs, 1.0, kt, wn[0], zeta[0], mass[0], mdir, g0, nd)
+    for i in rows:
+        _, c = cpu(_loop_setup, reps, n, kr, ps, pe, rs, el[i], nd[0], wn[i], zeta[i], act)
+        tot["setup"] += c
+        cnt["setup"] += reps * rs.size
+        _, c = cpu(_loop_factors, reps, n, kr, ps, pe, rs, el[i], nd, wn[i], zeta[i], mass[i], mdir, act)
+        tot["factors"] += c
+        cnt["factors"] += reps * rs.size
+        for s, r in enumerate(rs):
+            if not np.isfinite(depth[i, s]):
+                continue
+            g = _k.with_factors(_k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act), wn[i], zeta[i], mass[i], mdir,
+                                nd)
+            bs = depth[i, s] * np.linspace(0.3, 1.0, 8)
+            common = (kt, wn[i], zeta[i], mass[i], mdir)
+            for key, f, args in (("rho", _loop_rho, (reps, bs, *common, act.size, g, nd)),
+                                 ("below", _loop_below, (reps, bs, level, *common, act.size, g, nd)),
+                                 ("build", _loop_build, (reps, bs, *common, g, nd)),
+                                 ("small", _loop_small, (reps, bs, *common, g, nd)),
+                                 ("char", _loop_char, (reps, bs, 1.0, *common, g, nd))):
+                _, c = cpu(f, *args)
+                tot[key] += c
+                cnt[key] += reps * bs.size
+    return {k: tot[k] / max(cnt[k], 1) for k in tot}
+
+
+def rungs_below(depth: np.ndarray, b_ref: np.ndarray) -> np.ndarray:
+    """ρ evaluations the acceptance of each root makes at least: the ladder rungs below depth·(1 − 2e-3),
+    plus ρ at that depth itself (:func:`millstab.stability._spectral_kernel.check_root`)."""
+    out = np.zeros(depth.shape, np.int64)
+    for idx in np.ndindex(depth.shape):
+        d, b = depth[idx], b_ref[idx]
+        if not np.isfinite(d):
+            continue
+        k = 0
+        while _k.ladder_depth(b, spectral.LADDER, k) < d * (1 - 2e-3):
+            k += 1
+        out[idx] = k + 1
+    return out
+
+
+def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes, near: float) -> None:
+    rs = np.ascontiguousarray(np.unique(rpm))
+    spectral.envelope_batch(ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"))),
+                            cut, rs[:2], nodes=nodes, near=near)  # compile / cache load
+    _, t_all = cpu(lambda: spectral.envelope_batch(batch, cut, rs, nodes=nodes, near=near))
+    b_ref, t_ref = cpu(spectral._b_ref, batch, cut, rs)
+    if nodes is None:
+        p, t_chk = cpu(spectral._converged_nodes, batch, cut, rs, b_ref)
+    else:
+        p, t_chk = int(nodes), 0.0
+    (depth, _mu, n_eval), t_solve = cpu(lambda: spectral._solve_warm(batch, cut, rs, b_ref, p, near=near))
+    n_pairs = depth.size
+    n_rho = rungs_below(depth, b_ref)
+    u = unit_costs(batch, cut, rs, depth, p, 1.0 - near)
+    other = t_all - t_ref - t_chk - t_solve
+    print(f"{label}: {batch.size} sets x {rs.size} speeds, nodes {p}, near {near}")
+    print(f"  CPU per call {t_all:.3f} s = zero-order start {t_ref:.3f} + node check {t_chk:.3f} + root search "
+          f"{t_solve:.3f} + Python/other {other:.3f}; per (set, speed) {1e3 * t_solve / n_pairs:.3f} ms in the search")
+    print(f"  evaluations per (set, speed) {n_eval.mean():.1f} (rho + characteristic); of them rho on the rungs under the "
+          f"accepted root (a floor) {n_rho.mean():.1f}")
+    print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us from the low-rank factors, "
+          f"{1e6 * u['small']:.1f} us element by element as before; eigenvalues {1e6 * (u['rho'] - u['build']):.1f} us); "
+          f"the rung test with its certificate (rho_below) {1e6 * u['below']:.1f} us; "
+          f"characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup {1e6 * u['setup']:.1f} us (with the "
+          f"low-rank factors {1e6 * u['factors']:.1f} us)")
+    rung_t = n_rho.sum() * u["below"]
+    n_other = np.maximum(n_eval - n_rho, 0).sum()
+    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the other "
+          f"{n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
+          f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['factors'] * n_pairs:.3f} s")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=100)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    print(describe())
+    nb.set_num_threads(1)
+    with threadpool_limits(1):
+        cfg = load_config("example:ex1")
+        cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+        prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=0.05))
+        rng = np.random.default_rng(args.seed)
+        rpm = np.sort(rng.uniform(5000, 12000, 10))
+        theta, _ = prior.split(prior.sample_full(args.samples, rng))
+        batch = prior.par.batch(theta)
+        st = spectral.settings(prior.par.batch(prior.median[None]), cut, rpm, purpose="sample")
+        profile("update (prior samples at the cut speeds)", batch, cut, rpm, st["nodes"], st["near"])
+        m, fn, z = 0.03993, 922.0, 0.011
+        k = m * (2 * math.pi * fn) ** 2
+        xy = Structure(x=(Mode(fn, k, z),), y=(Mode(fn, k, z),))
+        profile("envelope (x = y, a/D 0.05, 200 speeds)", ModalBatch.from_structures([xy]),
+                Cutting.from_immersion(2, 6e8, 1 / 3, 0.05, "down"), np.linspace(5000, 25000, 200), None, spectral.NEAR)
+
+
+if __name__ == "__main__":
+    main()

@@ -65,3 +65,58 @@ def test_render_table1_without_computing(tmp_path, monkeypatch):
     assert (tmp_path / "table1_inputs.csv").read_text().splitlines()[1] == "fn_x [Hz],903.0,903.0,500.0,500.0,950.0,950.0"
     with pytest.raises(dataclasses.FrozenInstanceError):
         t.mismatches = 1
+
+
+NAMES = ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
+
+
+def _sensitivity() -> paper.Sensitivity:
+    """By hand: ex1's one-at-a-time MSE at +20 % is fn 4 and 3 mm² above k, ζ ≤ 0.2; ex2's k_x (5) beats fn.
+    Monte Carlo set A: means fn 2, 3; k 0.1, 0.15; ζ 0.01, 0.02 (fn_x/k_x = 20); set B the same but fn_y 1."""
+    from millstab.sensitivity.results import MCResult, OATResult
+
+    eps = np.array([-0.2, 0.0, 0.2])
+    theta = np.array([900.0, 1e7, 0.03, 900.0, 1e7, 0.03])
+
+    def one(at20):
+        return OATResult(NAMES, theta, eps, np.outer(at20, [1.0, 0.0, 1.0]), np.linspace(3e3, 15e3, 4), np.ones(4))
+
+    def mc(mean):
+        spread = np.array([0.9, 1.1, 0.95, 1.05])[:, None]  # mean 1: the means stay those given
+        return MCResult(NAMES, theta, 0.1, 0.01, 0, 4, np.linspace(3e3, 15e3, 4), spread * np.array(mean))
+
+    oats = (("ex1", one([4.0, 0.1, 0.01, 3.0, 0.2, 0.02])), ("ex2", one([4.0, 5.0, 0.01, 3.0, 0.2, 0.02])))
+    mcs = {"A: set a": mc([2.0, 0.1, 0.01, 3.0, 0.15, 0.02]), "B: set b": mc([2.0, 0.1, 0.01, 1.0, 0.15, 0.02])}
+    table6 = {n: {"mean": m, "sd": m / 2} for n, m in zip(NAMES, (5.0, 0.5, 0.05, 5.0, 0.5, 0.05))}
+    return paper.Sensitivity(oats, mcs, table6)
+
+
+def test_sensitivity_checks_by_hand():
+    """ex1 most sensitive to fn: holds; ex2 (k_x 5 > fn_y 3) fails. Set A: min fn 2 > 10 × max k 1.5 and min k 0.1
+    > max ζ 0.02: holds; set B: min fn 1 < 1.5 fails. Both compare fn_x/k_x = 20 with the paper's 5/0.5 = 10."""
+    rows = paper.sensitivity_checks(_sensitivity())
+    assert [(c.kind, c.ok) for c in rows] == [("claim", True), ("claim", False), ("claim", True),
+                                               ("comparison", True), ("claim", False), ("comparison", True)]
+    assert rows[0].measured == "MSE at +20 %: fn_x 4, k_x 0.1, zeta_x 0.01, fn_y 3, k_y 0.2, zeta_y 0.02"
+    assert rows[2].measured == "fn_x 2, k_x 0.1, zeta_x 0.01, fn_y 3, k_y 0.15, zeta_y 0.02"
+    assert rows[3].measured == "ours 20, paper 10: ours/paper = 2.00" and rows[3].verdict == "compared"
+
+
+def test_render_sensitivity_without_computing(tmp_path, monkeypatch):
+    """The section from a hand-made result, no study or engine reachable (fails on the old code: no result)."""
+    from millstab import sensitivity, stability
+
+    monkeypatch.setattr(paper, "zoa", _NoEngine())
+    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (sensitivity, "oat"),
+                      (sensitivity, "monte_carlo")):
+        monkeypatch.setattr(mod, name, _NoEngine())
+    r = dataclasses.replace(_sensitivity(), oat=_sensitivity().oat[:1])  # one Fig. SENS panel set is enough here
+    w = ReportWriter(tmp_path, "t")
+    paper.render_sensitivity(w, r)
+    rep = w.write()
+    assert rep.checks == tuple(paper.sensitivity_checks(r))
+    assert {p.name for p in rep.files} == {"fig_sens_ex1.png", "fig_sens_mse_at_plus20.csv",
+                                           "table6_monte_carlo.csv", "fig_mc_convergence.png"}
+    t6 = (tmp_path / "table6_monte_carlo.csv").read_text().splitlines()
+    assert len(t6) == 13 and t6[1].startswith("A,fn_x,5.0,2.0") and t6[7].startswith("B,fn_x,")
+    assert "N = 4 paths" in (tmp_path / "report.md").read_text()

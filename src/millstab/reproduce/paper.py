@@ -464,69 +464,116 @@ def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
 SENS_SPEEDS = 200
 
 
-def sensitivity(ctx: Context) -> None:
-    """Fig. SENS (one-at-a-time, the three examples at the paper's predicted values) and Table 6."""
-    from millstab.plot.sensitivity import plot_mc_convergence, plot_oat
+def _speed_sets() -> dict[str, np.ndarray]:
+    """Table 6's two speed sets [rev/min]: A, Example 1's config range; B, a wide range with the tall high-speed
+    lobe (the paper does not give its own)."""
+    return {"A: ex1 config range 3000–15000 rpm": speeds_of("ex1", SENS_SPEEDS),
+            "B: wide range 2000–30000 rpm": np.linspace(2000, 30000, SENS_SPEEDS)}
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """What :func:`compute_sensitivity` computed, from which :func:`render_sensitivity` and
+    :func:`sensitivity_checks` read.
+
+    Attributes:
+        oat: (example, :class:`~millstab.sensitivity.results.OATResult`) for each of :data:`EXAMPLES`.
+        mc: {speed set: :class:`~millstab.sensitivity.results.MCResult`}, set A first.
+        paper: the paper's Table 6 ({parameter: {"mean", "sd"}} [mm²]).
+    """
+
+    oat: tuple
+    mc: dict
+    paper: dict
+
+
+def compute_sensitivity(quick: bool, seed: int) -> Sensitivity:
+    """Fig. SENS's one-at-a-time studies of the three examples and Table 6's Monte Carlo on both speed sets."""
+    from millstab.params import Parameterization
     from millstab.sensitivity import PAPER_EPS_GRID, monte_carlo, oat, predicted_theta, table6
 
-    rep = ctx.report
+    oats = []
+    for ex in EXAMPLES:
+        cfg = load_example(ex)
+        rpm = speeds_of(ex, SENS_SPEEDS)
+        oats.append((ex, oat(Parameterization(cfg.structure), cfg.cutting, rpm, PAPER_EPS_GRID,
+                             theta=predicted_theta(ex))))
+    n = 2000 if quick else 10_000
+    cfg = load_example("ex1")
+    mcs = {label: monte_carlo(Parameterization(cfg.structure), cfg.cutting, rpm, n=n, t=0.1, eps=0.01, seed=seed,
+                              theta=predicted_theta("ex1"))
+           for label, rpm in _speed_sets().items()}
+    return Sensitivity(tuple(oats), mcs, table6())
+
+
+def _at_plus20(res) -> np.ndarray:
+    """One-at-a-time MSE [mm²] of every parameter at the ε nearest +20 %."""
+    return res.mse_mm2[:, np.argmin(np.abs(res.eps - 0.20))]
+
+
+def sensitivity_checks(r: Sensitivity) -> list:
+    """The headline rows: per example, the SLD most sensitive to fn_x and fn_y at +20 %; per speed set, Table 6's
+    ordering fn ≫ k > ζ, and the fn_x/k_x ratio beside the paper's (a comparison, no verdict)."""
+    from millstab.reproduce.report import Check, comparison
+
+    rows = []
+    for ex, res in r.oat:
+        at20 = _at_plus20(res)
+        order_ok = min(at20[0], at20[3]) > max(at20[1], at20[2], at20[4], at20[5])
+        rows.append(Check(f"Fig. SENS {ex}: the SLD is most sensitive to fn_x and fn_y", "MSE at +20 %: " +
+                          ", ".join(f"{n} {v:.3g}" for n, v in zip(res.names, at20)), bool(order_ok)))
+    paper_ratio = r.paper["fn_x"]["mean"] / r.paper["k_x"]["mean"]
+    for label, mc in r.mc.items():
+        m = dict(zip(mc.names, mc.mean))
+        rows.append(Check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
+                          ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
+                          bool(min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"])
+                               and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))))
+        # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
+        rows.append(comparison(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's",
+                               m["fn_x"] / m["k_x"], paper_ratio))
+    return rows
+
+
+def render_sensitivity(rep: ReportWriter, r: Sensitivity) -> None:
+    """The section: Fig. SENS, its table, Table 6, the convergence figure and :func:`sensitivity_checks`, all from
+    ``r`` (no engine call)."""
+    from millstab.plot.sensitivity import plot_mc_convergence, plot_oat
+
     rep.heading("Fig. SENS and Table 6: sensitivity of the SLD")
     rep.paragraph(f"One-at-a-time (Algorithm 1): each parameter scaled by (1 + ε), ε = −20 … +20 % step 5 % (the "
                   f"paper's grid), MSE [mm²] of the SLD against the original at {SENS_SPEEDS} evenly spaced speeds "
                   "over the example's [speeds] range, centred on the paper's predicted values (Table 3), as the paper "
                   "does.")
-    from millstab.params import Parameterization
-
     oat_rows = []
-    for ex in ("ex1", "ex2", "ex3"):
-        cfg = load_example(ex)
-        rpm = speeds_of(ex, SENS_SPEEDS)
-        res = oat(Parameterization(cfg.structure), cfg.cutting, rpm, PAPER_EPS_GRID, theta=predicted_theta(ex))
+    for ex, res in r.oat:
         rep.figure(f"fig_sens_{ex}", plot_oat(res),
                    f"Fig. SENS for {ex}: one-at-a-time sensitivity, MSE [mm²] against ε; natural-frequency panels on "
                    "their own scale")
-        at20 = res.mse_mm2[:, np.argmin(np.abs(res.eps - 0.20))]
-        oat_rows.append([ex] + list(at20))
-        order_ok = min(at20[0], at20[3]) > max(at20[1], at20[2], at20[4], at20[5])
-        rep.check(f"Fig. SENS {ex}: the SLD is most sensitive to fn_x and fn_y", "MSE at +20 %: " +
-                  ", ".join(f"{n} {v:.3g}" for n, v in zip(res.names, at20)), order_ok)
+        oat_rows.append([ex] + list(_at_plus20(res)))
     rep.table("fig_sens_mse_at_plus20", ["example", "fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"], oat_rows,
               "Fig. SENS in numbers: MSE [mm²] at ε = +20 %")
-
-    n = 2000 if ctx.quick else 10_000
-    cfg = load_example("ex1")
-    paper = table6()
-    paper_ratio = paper["fn_x"]["mean"] / paper["k_x"]["mean"]
-    speed_sets = {"A: ex1 config range 3000–15000 rpm": speeds_of("ex1", SENS_SPEEDS),
-                  "B: wide range 2000–30000 rpm": np.linspace(2000, 30000, SENS_SPEEDS)}
+    mc = next(iter(r.mc.values()))
+    n, paper = mc.n, r.paper
     rep.paragraph(f"Monte Carlo (Algorithm 2): N = {n} paths, each parameter drawn uniformly within ±10 % of Example "
                   f"1's predicted values, then each perturbed by ε = 1 %; MSE [mm²] over {SENS_SPEEDS} evenly spaced "
                   "speeds. The paper does not give its speed set and the absolute MSE depends on it, so two sets are "
                   "shown: A, the range of our Example 1 config, and B, a wide range that includes the tall high-speed "
                   "lobe (with B our means come close to the paper's). The ordering and the ratios are the comparable "
                   "part. SD is the population SD (1/N) as in the paper; SEM is the standard error of our mean.")
-    rows = []
-    results = {}
-    for label, rpm in speed_sets.items():
-        mc = monte_carlo(Parameterization(cfg.structure), cfg.cutting, rpm, n=n, t=0.1, eps=0.01, seed=ctx.seed,
-                         theta=predicted_theta("ex1"))
-        results[label] = mc
-        for j, name in enumerate(mc.names):
-            rows.append([label[0], name, paper[name]["mean"], mc.mean[j], paper[name]["sd"], mc.sd[j], mc.sem[j]])
-        m = dict(zip(mc.names, mc.mean))
-        ours_ratio = m["fn_x"] / m["k_x"]
-        rep.check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
-                  ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
-                  min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"])
-                  and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))
-        # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
-        rep.compare(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's", ours_ratio,
-                    paper_ratio)
+    rows = [[label[0], name, paper[name]["mean"], m.mean[j], paper[name]["sd"], m.sd[j], m.sem[j]]
+            for label, m in r.mc.items() for j, name in enumerate(m.names)]
     rep.table("table6_monte_carlo",
               ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
               rows, f"Table 6: Monte Carlo sensitivity [mm²], N = {n}, speed sets A and B")
-    mc = results[next(iter(results))]
     rep.figure("fig_mc_convergence", plot_mc_convergence(mc, paper=paper),
                f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): "
                "running mean of each parameter's MSE against the number of paths, ±1.96 SEM shaded, the paper's Table "
                "6 value dashed")
+    for c in sensitivity_checks(r):
+        rep.add(c)
+
+
+def sensitivity(ctx: Context) -> None:
+    """Fig. SENS (one-at-a-time, the three examples at the paper's predicted values) and Table 6."""
+    render_sensitivity(ctx.report, compute_sensitivity(ctx.quick, ctx.seed))

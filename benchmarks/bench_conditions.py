@@ -186,8 +186,9 @@ def main() -> None:
                 c = time.process_time()
                 lik._limits(u)
                 best[n_cond] = min(best.get(n_cond, np.inf), time.process_time() - c)
-        print(f"engine alone on {args.samples} prior draws (best of 3, interleaved): {best[1]:.2f} s CPU (1 condition), "
-              f"{best[args.conditions]:.2f} s CPU ({args.conditions}): ratio {best[args.conditions] / best[1]:.2f}")
+        print(f"engine alone on {args.samples} prior draws (best of 3, interleaved): {best[1]:.2f} s CPU (1 "
+              f"condition), {best[args.conditions]:.2f} s CPU ({args.conditions}): ratio "
+              f"{best[args.conditions] / best[1]:.2f}")
     (w1, c1, e1, s1), (w4, c4, e4, s4) = runs[1], runs[args.conditions]
     print(f"ratio {args.conditions} conditions / 1 (target <= 1.5): {w4 / w1:.2f} wall, {c4 / c1:.2f} CPU; "
           f"engine CPU per set {(e4 / s4) / (e1 / s1):.2f}")

@@ -220,8 +220,8 @@ def main() -> None:
     with threadpool_limits(1):
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
-              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} flipped; model "
-              f"{args.engine}, {args.samples} samples")
+              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} "
+              f"flipped; model {args.engine}, {args.samples} samples")
         allrows = []
         t0 = time.perf_counter()
         results = run_all(args)

@@ -80,11 +80,12 @@ def accuracy(n: int, independence: bool) -> None:
         i = int(np.argmax(np.abs(rel)))
         rel_z = zoa.envelope(BENCH, c, rpm).depth / ref.depth - 1
         print(f"  a/D {imm:4}: max |spectral/SDM - 1| {100 * abs(rel[i]):.3f} % at {rpm[i]:.0f} rpm ({e.kind[i]}, "
-              f"{e.depth_mm[i]:.4f} mm); mean {100 * np.mean(np.abs(rel)):.3f} %; flip speeds {int(np.sum(e.kind == 'flip'))} "
-              f"(SDM {int(flip_sdm.sum())}, same type at {int(np.sum((e.kind == 'flip') == flip_sdm))}/{n}); "
-              f"nodes {e.nodes}; zero-order max error {100 * np.max(np.abs(rel_z)):.0f} %, min-depth error "
-              f"{100 * (np.min(zoa.envelope(BENCH, c, rpm).depth) / np.min(ref.depth) - 1):+.0f} %; "
-              f"time spectral {t_s:.2f} s, SDM {t_d:.2f} s")
+              f"{e.depth_mm[i]:.4f} mm); mean {100 * np.mean(np.abs(rel)):.3f} %; flip speeds "
+              f"{int(np.sum(e.kind == 'flip'))} (SDM {int(flip_sdm.sum())}, same type at "
+              f"{int(np.sum((e.kind == 'flip') == flip_sdm))}/{n}); nodes {e.nodes}; zero-order max error "
+              f"{100 * np.max(np.abs(rel_z)):.0f} %, min-depth error "
+              f"{100 * (np.min(zoa.envelope(BENCH, c, rpm).depth) / np.min(ref.depth) - 1):+.0f} %; time spectral "
+              f"{t_s:.2f} s, SDM {t_d:.2f} s")
         if independence:
             print(f"    grid independence: {grid_independence(c, e.nodes)}")
 

@@ -59,7 +59,8 @@ def main() -> None:
         e = rel[~jump] / 0.05
         print(f"nodes {q:2d}: CPU {cpu[q]:6.2f} s ({cpu[q] / cpu[p]:.2f}x of p); |depth error| in sigma_b: median "
               f"{np.median(e):.2e}, 99 % {np.quantile(e, 0.99):.2e}, max {e.max():.2e}; > 1 % apart (another root): "
-              f"{int(jump.sum())} of {fin.sum()}; finite mismatch {int((np.isfinite(ref) != np.isfinite(out[q])).sum())}")
+              f"{int(jump.sum())} of {fin.sum()}; finite mismatch "
+              f"{int((np.isfinite(ref) != np.isfinite(out[q])).sum())}")
     print(f"reference p + 4: CPU {cpu[p + 4]:.2f} s")
 
 

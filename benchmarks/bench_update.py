@@ -5,8 +5,9 @@ Data: the seed paper's Ex.1 config as the prior; a truth drawn from that prior (
 speeds evenly spaced over 5 000–12 000 rpm, depths uniform in ±50 % of the true limit, labelled by the
 truth (zoa). Also timed: one batched engine call of the same size (4 000 sets × 30 speeds), so that
 the update's time can be read as "engine calls" whatever the machine's load: the update makes one
-call for the prior draws plus one per MH move (3 per SMC stage). CPU time (all threads) is printed
-too: on a shared machine the wall time says more about the neighbours than about the code. BLAS pinned to one thread; numba uses its default threads.
+call for the prior draws plus one per MH move (3 per SMC stage). CPU time (all threads) is printed too: on a shared
+machine the wall time says more about the neighbours than about the code. BLAS pinned to one thread; numba uses its
+default threads.
 
 Run: ``.venv/bin/python benchmarks/bench_update.py [--samples 4000] [--repeat 1]``.
 """
@@ -66,10 +67,11 @@ def main() -> None:
             post = update(cfg, cuts, samples=args.samples, seed=r)
             t_up, c_up = time.perf_counter() - t, time.process_time() - c
             d = post.diagnostics
-            print(f"update: {t_up:.2f} s wall (target 10 s), {c_up:.2f} s CPU (all threads; {c_up / nb.get_num_threads():.2f} s "
-                  f"per thread = the wall time on an idle machine if the threads scale) = {t_up / t_call:.1f} engine "
-                  f"calls; {d['stages']} stages, "
-                  f"{d['loglik_calls']} likelihood calls, acceptance {min(d['acceptance']):.2f}-{max(d['acceptance']):.2f}")
+            print(f"update: {t_up:.2f} s wall (target 10 s), {c_up:.2f} s CPU (all threads; "
+                  f"{c_up / nb.get_num_threads():.2f} s per thread = the wall time on an idle machine if the threads "
+                  f"scale) = {t_up / t_call:.1f} engine calls; {d['stages']} stages, "
+                  f"{d['loglik_calls']} likelihood calls, acceptance "
+                  f"{min(d['acceptance']):.2f}-{max(d['acceptance']):.2f}")
         speeds, depths = np.linspace(4000, 14000, 300), np.linspace(0, 8, 200)
         t, c = time.perf_counter(), time.process_time()
         pm = p_stable_map(post, speeds, depths)

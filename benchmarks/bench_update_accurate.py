@@ -107,8 +107,9 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
         d = (m["delayed"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
         a = (m["screen alone"][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
         dq = (q["delayed"][:, :, j].mean(0) - q["plain"][:, :, j].mean(0)) / sd[j]
-        print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} {dq[1]:+.3f}; "
-              f"screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean {m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
+        print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} "
+              f"{dq[1]:+.3f}; screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean "
+              f"{m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
 
 
 def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
@@ -204,20 +205,22 @@ def main() -> None:
                 c, f = d["correction"], d["surrogate"]
                 rms = [x for x in f["heldout_rms_ln_b"] if x is not None]
                 sd = [x for x in f["delta_sd_ln_b"] if x is not None]
-                print(f"  surrogate ({f['kind']}, {f['design']} distinct zero-order posterior particles evaluated by the spectral engine): held-out RMS error of the correction "
-                      f"{np.median(rms):.4f} median, {max(rms):.4f} max [ln b] (the correction's own sd {np.median(sd):.4f} "
-                      f"median); importance ESS {c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} "
-                      f"distinct final rows evaluated, bridge stages {c['bridge_stages']}")
+                print(f"  surrogate ({f['kind']}, {f['design']} distinct zero-order posterior particles evaluated by "
+                      f"the spectral engine): held-out RMS error of the correction {np.median(rms):.4f} median, "
+                      f"{max(rms):.4f} max [ln b] (the correction's own sd {np.median(sd):.4f} median); importance ESS "
+                      f"{c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} distinct final rows "
+                      f"evaluated, bridge stages {c['bridge_stages']}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
-                  f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) = 1/2: "
-                  f"{n_side}/{args.cuts}, written label with predictive probability >= 0.1: {n_label}/{args.cuts}"
+                  f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) "
+                  f"= 1/2: {n_side}/{args.cuts}, written label with predictive probability >= 0.1: "
+                  f"{n_label}/{args.cuts}"
                   + (f" (not: {'; '.join(bad)})" if bad else ""))
     z, s = runs["zoa", "auto"], runs["spectral", "auto"]
     print(f"ratio spectral/zoa: {s[1] / z[1]:.1f} wall, {s[2] / z[2]:.1f} CPU (target <= 10)")
     if args.fit_nodes:
         f = runs["spectral", "fit-nodes"]
-        print(f"ratio spectral (delayed, a fit's node count per call: before)/zoa: {f[1] / z[1]:.1f} wall, {f[2] / z[2]:.1f} CPU; "
-              f"the sampling node count saves {f[1] / s[1]:.2f}x wall, {f[2] / s[2]:.2f}x CPU")
+        print(f"ratio spectral (delayed, a fit's node count per call: before)/zoa: {f[1] / z[1]:.1f} wall, "
+              f"{f[2] / z[2]:.1f} CPU; the sampling node count saves {f[1] / s[1]:.2f}x wall, {f[2] / s[2]:.2f}x CPU")
         ua, ub = s[0].u, f[0].u
         for j, nm in enumerate(names):
             sd = 0.5 * (ua[:, j].std() + ub[:, j].std())

@@ -99,7 +99,8 @@ def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, 
     s = 0.0
     for _ in range(reps):
         for r in rpm:
-            s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)[1][0]
+            s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir,
+                                 nd)[1][0]
     return s
 
 
@@ -123,7 +124,8 @@ def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
     tot = dict.fromkeys(keys, 0.0)
     cnt = dict.fromkeys(keys, 0)
     rows = range(min(batch.size, 5))
-    g0 = _k.with_factors(_k.setup(n, kr, ps, pe, rs[0], el[0], nd[0], wn[0], zeta[0], act), wn[0], zeta[0], mass[0], mdir, nd)
+    g0 = _k.with_factors(_k.setup(n, kr, ps, pe, rs[0], el[0], nd[0], wn[0], zeta[0], act), wn[0], zeta[0], mass[0],
+                         mdir, nd)
     # compile / cache load first (reps 0: same types), so the timed loops hold no compile time
     _loop_setup(0, n, kr, ps, pe, rs, el[0], nd[0], wn[0], zeta[0], act)
     _loop_rho(0, rs, kt, wn[0], zeta[0], mass[0], mdir, act.size, g0, nd)
@@ -142,8 +144,8 @@ def unit_costs(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
         for s, r in enumerate(rs):
             if not np.isfinite(depth[i, s]):
                 continue
-            g = _k.with_factors(_k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act), wn[i], zeta[i], mass[i], mdir,
-                                nd)
+            g = _k.with_factors(_k.setup(n, kr, ps, pe, r, el[i], nd[0], wn[i], zeta[i], act), wn[i], zeta[i], mass[i],
+                                mdir, nd)
             bs = depth[i, s] * np.linspace(0.3, 1.0, 8)
             common = (kt, wn[i], zeta[i], mass[i], mdir)
             for key, f, args in (("rho", _loop_rho, (reps, bs, *common, act.size, g, nd)),
@@ -174,7 +176,8 @@ def rungs_below(depth: np.ndarray, b_ref: np.ndarray) -> np.ndarray:
 
 def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes, near: float) -> None:
     rs = np.ascontiguousarray(np.unique(rpm))
-    spectral.envelope_batch(ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"))),
+    spectral.envelope_batch(ModalBatch(*(getattr(batch, f)[:1]
+                                         for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"))),
                             cut, rs[:2], nodes=nodes, near=near)  # compile / cache load
     _, t_all = cpu(lambda: spectral.envelope_batch(batch, cut, rs, nodes=nodes, near=near))
     b_ref, t_ref = cpu(spectral._b_ref, batch, cut, rs)
@@ -190,17 +193,17 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
     print(f"{label}: {batch.size} sets x {rs.size} speeds, nodes {p}, near {near}")
     print(f"  CPU per call {t_all:.3f} s = zero-order start {t_ref:.3f} + node check {t_chk:.3f} + root search "
           f"{t_solve:.3f} + Python/other {other:.3f}; per (set, speed) {1e3 * t_solve / n_pairs:.3f} ms in the search")
-    print(f"  evaluations per (set, speed) {n_eval.mean():.1f} (rho + characteristic); of them rho on the rungs under the "
-          f"accepted root (a floor) {n_rho.mean():.1f}")
-    print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us from the low-rank factors, "
-          f"{1e6 * u['small']:.1f} us element by element as before; eigenvalues {1e6 * (u['rho'] - u['build']):.1f} us); "
-          f"the rung test with its certificate (rho_below) {1e6 * u['below']:.1f} us; "
-          f"characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup {1e6 * u['setup']:.1f} us (with the "
-          f"low-rank factors {1e6 * u['factors']:.1f} us)")
+    print(f"  evaluations per (set, speed) {n_eval.mean():.1f} (rho + characteristic); of them rho on the rungs under "
+          f"the accepted root (a floor) {n_rho.mean():.1f}")
+    print(f"  unit CPU: rho {1e6 * u['rho']:.1f} us (monodromy build {1e6 * u['build']:.1f} us from the low-rank "
+          f"factors, {1e6 * u['small']:.1f} us element by element as before; eigenvalues "
+          f"{1e6 * (u['rho'] - u['build']):.1f} us); the rung test with its certificate (rho_below) "
+          f"{1e6 * u['below']:.1f} us; characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup "
+          f"{1e6 * u['setup']:.1f} us (with the low-rank factors {1e6 * u['factors']:.1f} us)")
     rung_t = n_rho.sum() * u["below"]
     n_other = np.maximum(n_eval - n_rho, 0).sum()
-    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the other "
-          f"{n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
+    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the "
+          f"other {n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
           f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['factors'] * n_pairs:.3f} s")
 
 

@@ -45,8 +45,8 @@ def main() -> None:
     ap.add_argument("--bayes-factor", type=float, default=None,
                     help=f"score with this threshold instead of the tree's ({conflict.BAYES_FACTOR:g})")
     ap.add_argument("--keep-factor", type=float, default=None,
-                    help=f"keep a named conflict while the ratio is ≥ this (the tree's: {conflict.BAYES_FACTOR_KEEP:g}); "
-                         "equal to --bayes-factor: no hysteresis")
+                    help="keep a named conflict while the ratio is ≥ this (the tree's: "
+                         f"{conflict.BAYES_FACTOR_KEEP:g}); equal to --bayes-factor: no hysteresis")
     args = ap.parse_args()
     if args.bayes_factor is not None:
         conflict.BAYES_FACTOR = args.bayes_factor

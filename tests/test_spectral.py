@@ -24,7 +24,8 @@ K = MASS * (2 * math.pi * FN) ** 2
 KT, KR = 6e8, 1.0 / 3.0
 BENCH = Structure(x=(Mode(FN, K, ZETA),))
 #: two modes per direction (x and y differ), for the multi-mode paths
-TWO_MODE = Structure(x=(Mode(FN, K, ZETA), Mode(2100.0, 3 * K, 0.03)), y=(Mode(1100.0, 1.5 * K, 0.02), Mode(700.0, 4 * K, 0.05)))
+TWO_MODE = Structure(x=(Mode(FN, K, ZETA), Mode(2100.0, 3 * K, 0.03)),
+                     y=(Mode(1100.0, 1.5 * K, 0.02), Mode(700.0, 4 * K, 0.05)))
 
 
 def bench_cut(radial_immersion: float, teeth: int = 2) -> Cutting:
@@ -286,7 +287,8 @@ def test_unsorted_speeds_with_repeats_equal_each_speed_alone():
     s = Structure(x=(Mode(910.4205842190763, 11376171.009384518, 0.021737523430851505),),
                   y=(Mode(876.8054672929356, 14100110.438871766, 0.03742960039099899),))
     cut = Cutting.from_immersion(c.teeth, c.kt, c.kr, 0.1, "down")
-    rpm = [12000.0, 11964.824120603014, 8869.346733668342, 9080.402010050251, 8939.698492462312] + [11964.824120603014] * 4
+    rpm = ([12000.0, 11964.824120603014, 8869.346733668342, 9080.402010050251, 8939.698492462312]
+           + [11964.824120603014] * 4)
     env = spectral.envelope(s, cut, rpm)
     assert np.all(np.isfinite(env.depth))
     np.testing.assert_array_equal(env.depth[5:], env.depth[1])

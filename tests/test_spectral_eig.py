@@ -45,7 +45,8 @@ def test_matches_lapack_on_random_matrices(K):
         A = rng.standard_normal((K, K)) * np.exp(rng.uniform(-6, 6, K))[:, None]
         ours, ref = eig_small(A), np.linalg.eigvals(A)
         assert abs(np.abs(ours).max() / np.abs(ref).max() - 1) < 1e-12
-        np.testing.assert_allclose(np.sort(np.abs(ours)), np.sort(np.abs(ref)), rtol=1e-7, atol=1e-12 * np.abs(ref).max())
+        np.testing.assert_allclose(np.sort(np.abs(ours)), np.sort(np.abs(ref)), rtol=1e-7,
+                                   atol=1e-12 * np.abs(ref).max())
 
 
 def test_monodromy_spectral_radius_matches_lapack():

@@ -91,8 +91,8 @@ def test_warm_start_on_a_wrong_lobe_gives_the_cold_answer(case):
     for j, r in enumerate(RPM):
         for f in (1.3, 2.0, 3.0):
             for th in (0.4, 1.2, 2.0, 2.8, math.pi):
-                g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el, nd[0], wn[0], zeta[0], act), wn[0],
-                                    zeta[0], mass[0], mdir, nd)
+                g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el, nd[0], wn[0], zeta[0], act),
+                                    wn[0], zeta[0], mass[0], mdir, nd)
                 b_n, _, ok_n, _ = _k.newton(f * cold[j], th, cut.kt, wn[0], zeta[0], mass[0], mdir, g, nd)
                 d, _, ok, _ = _w.warm_point(cut.teeth, cut.kt, cut.kr, cut.entry, cut.exit, r, f * cold[j], th,
                                             b_ref[j], spectral.LADDER, spectral.NEAR, wn[0], zeta[0], mass[0], mdir,

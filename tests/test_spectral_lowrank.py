@@ -44,12 +44,12 @@ def test_low_rank_monodromy_equals_the_collocation_solve_and_the_full_monodromy(
         nodes = int(rng.integers(3, 9))
         nd = k.gauss_nodes(nodes)
         rpm = float(rng.uniform(3000, 25000))
-        g = k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0], wn[0], zeta[0],
-                    act)
+        g = k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0], wn[0],
+                    zeta[0], act)
         gf = k.with_factors(g, wn[0], zeta[0], mass[0], mdir, nd)
         for b in rng.uniform(1e-5, 1e-2, 3):
-            small = k.monodromy_small(b, cut.kt, wn[0], zeta[0], mass[0], mdir, g[0], g[1], g[2], g[4], g[5], g[6], g[7],
-                                      nd[1], nd[2])
+            small = k.monodromy_small(b, cut.kt, wn[0], zeta[0], mass[0], mdir, g[0], g[1], g[2], g[4], g[5], g[6],
+                                      g[7], nd[1], nd[2])
             fast = k.monodromy_lr(b, cut.kt, gf, gf[8])
             assert fast.shape == small.shape
             assert np.abs(fast - small).max() <= 1e-9 * max(1.0, np.abs(small).max())
@@ -76,7 +76,8 @@ def test_sparse_speeds_are_searched_alone_and_give_the_first_crossing():
     cut = Cutting.from_immersion(2, 556.31e6, 0.404, 0.1, "down")
     for _ in range(2):
         f = rng.uniform(0.8, 1.2, 6)
-        s = Structure(x=(Mode(685.0 * f[0], 12.7e6 * f[1], 0.029 * f[2]),), y=(Mode(694.0 * f[3], 13.6e6 * f[4], 0.037 * f[5]),))
+        s = Structure(x=(Mode(685.0 * f[0], 12.7e6 * f[1], 0.029 * f[2]),),
+                      y=(Mode(694.0 * f[3], 13.6e6 * f[4], 0.037 * f[5]),))
         batch = ModalBatch.from_structures([s])
         starts = spectral._block_starts(batch, cut, rpm, 6)
         assert starts.tolist() == list(range(rpm.size + 1))
@@ -117,7 +118,8 @@ def test_certified_rungs_bound_rho_from_above():
         b_lim = spectral.envelope_batch(batch, cut, [rpm], nodes=6, near=0.0)[0, 0]
         if not np.isfinite(b_lim):
             continue
-        g = k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0], wn[0], zeta[0], act)
+        g = k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, rpm, float(spectral._elem_len(wn)[0]), nd[0], wn[0],
+                    zeta[0], act)
         gf = k.with_factors(g, wn[0], zeta[0], mass[0], mdir, nd)
         for b in b_lim * np.linspace(0.05, 0.95, 12):
             r, _ = k.rho(b, cut.kt, wn[0], zeta[0], mass[0], mdir, act.size, gf, nd)

@@ -59,7 +59,8 @@ def test_the_likelihood_and_the_decisions_evaluate_with_the_sampling_count(case)
     want = spectral.envelope_batch(prior.par.batch(theta[:3]), cut, RPM[:2], **at_theta0)
     np.testing.assert_array_equal(d, want * 1e3)
     f = Forward(prior.par, cut, "spectral", "sample")
-    assert f.settings(RPM[:2], theta[0]) == spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="sample")
+    assert f.settings(RPM[:2], theta[0]) == spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2],
+                                                              purpose="sample")
     with pytest.raises(InputError, match="purpose"):
         spectral.settings(prior.par.batch(theta[:1]), cut, RPM[:2], purpose="fast")
 

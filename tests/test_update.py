@@ -259,7 +259,8 @@ def test_same_seed_same_samples():
     np.testing.assert_array_equal(back.samples, a.samples)
     assert back.prior.names == a.prior.names and back.prior.cutting == a.prior.cutting
     doc = a.to_json()
-    assert doc["schema"] == "millstab.posterior/3" and set(doc["parameters"]["fn_x"]) == {"mean", "sd", "q05", "q50", "q95"}
+    assert (doc["schema"] == "millstab.posterior/3"
+            and set(doc["parameters"]["fn_x"]) == {"mean", "sd", "q05", "q50", "q95"})
 
 
 def test_exchange_twins_are_reported_as_modes():

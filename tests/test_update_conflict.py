@@ -127,7 +127,8 @@ def test_a_sequential_update_keeps_the_conflict_its_start_named():
         first = update(cfg, cuts, samples=1000, seed=0)
         quiet = update(cfg, more, samples=1000, seed=1, start=first)
     lbf = first.diagnostics["conflict"]["log_bayes_factor"]
-    assert math.log(conflict.BAYES_FACTOR_KEEP) < lbf < math.log(BAYES_FACTOR) and not first.diagnostics["conflict"]["conflict"]
+    assert (math.log(conflict.BAYES_FACTOR_KEEP) < lbf < math.log(BAYES_FACTOR)
+            and not first.diagnostics["conflict"]["conflict"])
     assert not quiet.diagnostics["conflict"]["conflict"]
     assert not any(w.startswith("the cuts contradict") for w in quiet.warnings)
     first.diagnostics["conflict"]["conflict"] = True  # as if an earlier update had named it

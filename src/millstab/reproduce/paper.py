@@ -62,58 +62,124 @@ def speeds_of(name: str, n: int = 600) -> np.ndarray:
 
 # --- step 1: Table 1 and the synthetic SLDs ---------------------------------------------------------
 
-def table1(ctx: Context) -> None:
-    """Table 1 (inputs of the synthetic examples) beside the packaged configs, and their SLDs."""
-    rep = ctx.report
+#: Table 1's rows: (key in paper_values.toml, label, scale to the table's unit)
+TABLE1_ROWS = [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [N/µm]", 1e-6), ("zeta_x", "zeta_x", 1),
+               ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [N/µm]", 1e-6), ("zeta_y", "zeta_y", 1),
+               ("kt", "Kt [N/mm²]", 1e-6), ("kr", "kn = Kr", 1), ("entry_deg", "entry [deg]", 1),
+               ("exit_deg", "exit [deg]", 1), ("teeth", "teeth", 1)]
+#: the synthetic examples of Table 1 and Table 3
+EXAMPLES = ("ex1", "ex2", "ex3")
+#: SDM (the full run's time-domain check of Table 1's SLDs) on every n-th speed of the ZOA grid
+SDM_EVERY = 6
+
+
+@dataclass(frozen=True)
+class ExampleSLD:
+    """One synthetic example's SLD for Table 1's figure and summary.
+
+    Attributes:
+        name, title: the example ("ex1") and its panel's title (teeth, entry angle).
+        rpm: the speeds [rev/min]; depth: the ZOA limit [m]; chatter_hz: its chatter frequency [Hz].
+        sdm: (rpm, depth [m]) of SDM on every :data:`SDM_EVERY`-th speed; None in the --quick run.
+    """
+
+    name: str
+    title: str
+    rpm: np.ndarray
+    depth: np.ndarray
+    chatter_hz: np.ndarray
+    sdm: tuple | None
+
+
+@dataclass(frozen=True)
+class Table1:
+    """What :func:`compute_table1` computed, from which :func:`render_table1` and :func:`table1_checks` read.
+
+    Attributes:
+        inputs: Table 1's rows: label, then (paper, ours) for each of :data:`EXAMPLES`, in the table's unit.
+        mismatches: how many of those pairs differ (beyond 1e-9 relative).
+        slds: the three examples' SLDs (:class:`ExampleSLD`).
+    """
+
+    inputs: tuple
+    mismatches: int
+    slds: tuple
+
+
+def compute_table1(quick: bool) -> Table1:
+    """Table 1 (the paper's inputs beside the packaged configs) and the SLDs of the three synthetic examples
+    (ZOA; SDM as the time-domain check except in the --quick run)."""
     paper = paper_values()["input_values"]
-    rep.heading("Table 1: inputs of the synthetic examples")
-    rep.paragraph("The paper's Table 1 prints stiffness as 'N/m' and Kt as N/mm²; they are N/µm and MPa. "
-                  "'paper' is the value printed in the table, 'ours' the value in millstab's packaged config "
-                  "(example:ex1, example:ex2, example:ex3), in the same units.")
     rows = []
     mismatches = 0
-    for key, label, scale in [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [N/µm]", 1e-6), ("zeta_x", "zeta_x", 1),
-                              ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [N/µm]", 1e-6), ("zeta_y", "zeta_y", 1),
-                              ("kt", "Kt [N/mm²]", 1e-6), ("kr", "kn = Kr", 1), ("entry_deg", "entry [deg]", 1),
-                              ("exit_deg", "exit [deg]", 1), ("teeth", "teeth", 1)]:
+    for key, label, scale in TABLE1_ROWS:
         row = [label]
-        for ex in ("ex1", "ex2", "ex3"):
+        for ex in EXAMPLES:
             cfg = load_example(ex)
             ours = _config_value(cfg, key) * scale
             theirs = paper[ex][key] * scale
             mismatches += not math.isclose(ours, theirs, rel_tol=1e-9, abs_tol=1e-12)
             row += [theirs, ours]
-        rows.append(row)
-    rep.table("table1_inputs", ["parameter", "Ex.1 paper", "Ex.1 ours", "Ex.2 paper", "Ex.2 ours", "Ex.3 paper",
-                                "Ex.3 ours"], rows, "Table 1: inputs, paper vs packaged configs")
-    rep.check("Packaged configs equal the paper's Table 1", f"{mismatches} mismatching values", mismatches == 0)
+        rows.append(tuple(row))
+    slds = []
+    for ex in EXAMPLES:
+        cfg = load_example(ex)
+        rpm = speeds_of(ex, 250 if quick else 600)
+        env = zoa.envelope(cfg.structure, cfg.cutting, rpm)
+        sdm = None
+        if not quick:
+            engine = engine_with(time_averaged=False, cheap=False)  # semi-discretization, the time-domain reference
+            r_sdm = rpm[::SDM_EVERY]
+            sdm = (r_sdm, engine.envelope(cfg.structure, cfg.cutting, r_sdm).depth)
+        slds.append(ExampleSLD(ex, f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°",
+                               rpm, env.depth, env.chatter_hz, sdm))
+    return Table1(tuple(rows), int(mismatches), tuple(slds))
 
+
+def table1_checks(t: Table1) -> list:
+    """The headline row: the packaged configs equal the paper's Table 1."""
+    from millstab.reproduce.report import Check
+
+    return [Check("Packaged configs equal the paper's Table 1", f"{t.mismatches} mismatching values",
+                  t.mismatches == 0)]
+
+
+def render_table1(rep: ReportWriter, t: Table1) -> None:
+    """The section: Table 1, its check, the SLD figure and summary, all from ``t`` (no engine call)."""
     from millstab.plot.sld import plot_sld_panels
 
+    rep.heading("Table 1: inputs of the synthetic examples")
+    rep.paragraph("The paper's Table 1 prints stiffness as 'N/m' and Kt as N/mm²; they are N/µm and MPa. "
+                  "'paper' is the value printed in the table, 'ours' the value in millstab's packaged config "
+                  "(example:ex1, example:ex2, example:ex3), in the same units.")
+    rep.table("table1_inputs", ["parameter", "Ex.1 paper", "Ex.1 ours", "Ex.2 paper", "Ex.2 ours", "Ex.3 paper",
+                                "Ex.3 ours"], [list(r) for r in t.inputs], "Table 1: inputs, paper vs packaged configs")
+    for c in table1_checks(t):
+        rep.add(c)
     panels, rows = [], []
-    for ex in ("ex1", "ex2", "ex3"):
-        cfg = load_example(ex)
-        rpm = speeds_of(ex, 250 if ctx.quick else 600)
-        env = zoa.envelope(cfg.structure, cfg.cutting, rpm)
-        curves = [("zero-order (ZOA)", rpm, env.depth_mm)]
+    for e in t.slds:
+        depth_mm = e.depth * 1e3
+        curves = [("zero-order (ZOA)", e.rpm, depth_mm)]
         sdm_txt = "not run (--quick)"
-        if not ctx.quick:
-            sdm = engine_with(time_averaged=False, cheap=False)  # semi-discretization, the time-domain reference
-
-            r_sdm = rpm[::6]
-            d_sdm = sdm.envelope(cfg.structure, cfg.cutting, r_sdm).depth_mm
+        if e.sdm is not None:
+            r_sdm, d_sdm = e.sdm[0], e.sdm[1] * 1e3
             curves.append(("semi-discretization (SDM)", r_sdm, d_sdm))
-            rel = np.abs(d_sdm / env.depth_mm[::6] - 1)
+            rel = np.abs(d_sdm / depth_mm[::SDM_EVERY] - 1)
             sdm_txt = f"{100 * np.median(rel):.1f} % / {100 * rel.max():.1f} %"
-        panels.append((f"{ex}: {cfg.cutting.teeth} teeth, entry {math.degrees(cfg.cutting.entry):.1f}°", curves))
-        i = int(np.argmin(env.depth))
-        rows.append([ex, rpm.min(), rpm.max(), env.depth_mm[i], rpm[i], env.chatter_hz[i], sdm_txt])
+        panels.append((e.title, curves))
+        i = int(np.argmin(e.depth))
+        rows.append([e.name, e.rpm.min(), e.rpm.max(), depth_mm[i], e.rpm[i], e.chatter_hz[i], sdm_txt])
     fig = plot_sld_panels(panels)
     rep.figure("fig_sld_examples", fig, "SLDs of the three synthetic examples (the targets of Table 3); SDM dashed")
     rep.table("sld_examples_summary", ["example", "from rpm", "to rpm", "min b_lim [mm]", "at rpm", "chatter [Hz]",
                                        "SDM vs ZOA median / max difference"], rows,
               "SLD summary; SDM is the time-domain cross-check (it differs where the directional matrix varies in "
               "time)")
+
+
+def table1(ctx: Context) -> None:
+    """Table 1 (inputs of the synthetic examples) beside the packaged configs, and their SLDs."""
+    render_table1(ctx.report, compute_table1(ctx.quick))
 
 
 def _config_value(cfg, key: str) -> float:
@@ -398,69 +464,116 @@ def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
 SENS_SPEEDS = 200
 
 
-def sensitivity(ctx: Context) -> None:
-    """Fig. SENS (one-at-a-time, the three examples at the paper's predicted values) and Table 6."""
-    from millstab.plot.sensitivity import plot_mc_convergence, plot_oat
+def _speed_sets() -> dict[str, np.ndarray]:
+    """Table 6's two speed sets [rev/min]: A, Example 1's config range; B, a wide range with the tall high-speed
+    lobe (the paper does not give its own)."""
+    return {"A: ex1 config range 3000–15000 rpm": speeds_of("ex1", SENS_SPEEDS),
+            "B: wide range 2000–30000 rpm": np.linspace(2000, 30000, SENS_SPEEDS)}
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """What :func:`compute_sensitivity` computed, from which :func:`render_sensitivity` and
+    :func:`sensitivity_checks` read.
+
+    Attributes:
+        oat: (example, :class:`~millstab.sensitivity.results.OATResult`) for each of :data:`EXAMPLES`.
+        mc: {speed set: :class:`~millstab.sensitivity.results.MCResult`}, set A first.
+        paper: the paper's Table 6 ({parameter: {"mean", "sd"}} [mm²]).
+    """
+
+    oat: tuple
+    mc: dict
+    paper: dict
+
+
+def compute_sensitivity(quick: bool, seed: int) -> Sensitivity:
+    """Fig. SENS's one-at-a-time studies of the three examples and Table 6's Monte Carlo on both speed sets."""
+    from millstab.params import Parameterization
     from millstab.sensitivity import PAPER_EPS_GRID, monte_carlo, oat, predicted_theta, table6
 
-    rep = ctx.report
+    oats = []
+    for ex in EXAMPLES:
+        cfg = load_example(ex)
+        rpm = speeds_of(ex, SENS_SPEEDS)
+        oats.append((ex, oat(Parameterization(cfg.structure), cfg.cutting, rpm, PAPER_EPS_GRID,
+                             theta=predicted_theta(ex))))
+    n = 2000 if quick else 10_000
+    cfg = load_example("ex1")
+    mcs = {label: monte_carlo(Parameterization(cfg.structure), cfg.cutting, rpm, n=n, t=0.1, eps=0.01, seed=seed,
+                              theta=predicted_theta("ex1"))
+           for label, rpm in _speed_sets().items()}
+    return Sensitivity(tuple(oats), mcs, table6())
+
+
+def _at_plus20(res) -> np.ndarray:
+    """One-at-a-time MSE [mm²] of every parameter at the ε nearest +20 %."""
+    return res.mse_mm2[:, np.argmin(np.abs(res.eps - 0.20))]
+
+
+def sensitivity_checks(r: Sensitivity) -> list:
+    """The headline rows: per example, the SLD most sensitive to fn_x and fn_y at +20 %; per speed set, Table 6's
+    ordering fn ≫ k > ζ, and the fn_x/k_x ratio beside the paper's (a comparison, no verdict)."""
+    from millstab.reproduce.report import Check, comparison
+
+    rows = []
+    for ex, res in r.oat:
+        at20 = _at_plus20(res)
+        order_ok = min(at20[0], at20[3]) > max(at20[1], at20[2], at20[4], at20[5])
+        rows.append(Check(f"Fig. SENS {ex}: the SLD is most sensitive to fn_x and fn_y", "MSE at +20 %: " +
+                          ", ".join(f"{n} {v:.3g}" for n, v in zip(res.names, at20)), bool(order_ok)))
+    paper_ratio = r.paper["fn_x"]["mean"] / r.paper["k_x"]["mean"]
+    for label, mc in r.mc.items():
+        m = dict(zip(mc.names, mc.mean))
+        rows.append(Check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
+                          ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
+                          bool(min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"])
+                               and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))))
+        # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
+        rows.append(comparison(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's",
+                               m["fn_x"] / m["k_x"], paper_ratio))
+    return rows
+
+
+def render_sensitivity(rep: ReportWriter, r: Sensitivity) -> None:
+    """The section: Fig. SENS, its table, Table 6, the convergence figure and :func:`sensitivity_checks`, all from
+    ``r`` (no engine call)."""
+    from millstab.plot.sensitivity import plot_mc_convergence, plot_oat
+
     rep.heading("Fig. SENS and Table 6: sensitivity of the SLD")
     rep.paragraph(f"One-at-a-time (Algorithm 1): each parameter scaled by (1 + ε), ε = −20 … +20 % step 5 % (the "
                   f"paper's grid), MSE [mm²] of the SLD against the original at {SENS_SPEEDS} evenly spaced speeds "
                   "over the example's [speeds] range, centred on the paper's predicted values (Table 3), as the paper "
                   "does.")
-    from millstab.params import Parameterization
-
     oat_rows = []
-    for ex in ("ex1", "ex2", "ex3"):
-        cfg = load_example(ex)
-        rpm = speeds_of(ex, SENS_SPEEDS)
-        res = oat(Parameterization(cfg.structure), cfg.cutting, rpm, PAPER_EPS_GRID, theta=predicted_theta(ex))
+    for ex, res in r.oat:
         rep.figure(f"fig_sens_{ex}", plot_oat(res),
                    f"Fig. SENS for {ex}: one-at-a-time sensitivity, MSE [mm²] against ε; natural-frequency panels on "
                    "their own scale")
-        at20 = res.mse_mm2[:, np.argmin(np.abs(res.eps - 0.20))]
-        oat_rows.append([ex] + list(at20))
-        order_ok = min(at20[0], at20[3]) > max(at20[1], at20[2], at20[4], at20[5])
-        rep.check(f"Fig. SENS {ex}: the SLD is most sensitive to fn_x and fn_y", "MSE at +20 %: " +
-                  ", ".join(f"{n} {v:.3g}" for n, v in zip(res.names, at20)), order_ok)
+        oat_rows.append([ex] + list(_at_plus20(res)))
     rep.table("fig_sens_mse_at_plus20", ["example", "fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"], oat_rows,
               "Fig. SENS in numbers: MSE [mm²] at ε = +20 %")
-
-    n = 2000 if ctx.quick else 10_000
-    cfg = load_example("ex1")
-    paper = table6()
-    paper_ratio = paper["fn_x"]["mean"] / paper["k_x"]["mean"]
-    speed_sets = {"A: ex1 config range 3000–15000 rpm": speeds_of("ex1", SENS_SPEEDS),
-                  "B: wide range 2000–30000 rpm": np.linspace(2000, 30000, SENS_SPEEDS)}
+    mc = next(iter(r.mc.values()))
+    n, paper = mc.n, r.paper
     rep.paragraph(f"Monte Carlo (Algorithm 2): N = {n} paths, each parameter drawn uniformly within ±10 % of Example "
                   f"1's predicted values, then each perturbed by ε = 1 %; MSE [mm²] over {SENS_SPEEDS} evenly spaced "
                   "speeds. The paper does not give its speed set and the absolute MSE depends on it, so two sets are "
                   "shown: A, the range of our Example 1 config, and B, a wide range that includes the tall high-speed "
                   "lobe (with B our means come close to the paper's). The ordering and the ratios are the comparable "
                   "part. SD is the population SD (1/N) as in the paper; SEM is the standard error of our mean.")
-    rows = []
-    results = {}
-    for label, rpm in speed_sets.items():
-        mc = monte_carlo(Parameterization(cfg.structure), cfg.cutting, rpm, n=n, t=0.1, eps=0.01, seed=ctx.seed,
-                         theta=predicted_theta("ex1"))
-        results[label] = mc
-        for j, name in enumerate(mc.names):
-            rows.append([label[0], name, paper[name]["mean"], mc.mean[j], paper[name]["sd"], mc.sd[j], mc.sem[j]])
-        m = dict(zip(mc.names, mc.mean))
-        ours_ratio = m["fn_x"] / m["k_x"]
-        rep.check(f"Table 6 ({label[0]}): ordering fn ≫ k > ζ in both directions",
-                  ", ".join(f"{k} {v:.3g}" for k, v in m.items()),
-                  min(m["fn_x"], m["fn_y"]) > 10 * max(m["k_x"], m["k_y"])
-                  and min(m["k_x"], m["k_y"]) > max(m["zeta_x"], m["zeta_y"]))
-        # no criterion: the absolute means depend on the (unpublished) speed set, so the ratio is shown, not judged
-        rep.compare(f"Table 6 ({label[0]}): mean fn_x / mean k_x sensitivity beside the paper's", ours_ratio,
-                    paper_ratio)
+    rows = [[label[0], name, paper[name]["mean"], m.mean[j], paper[name]["sd"], m.sd[j], m.sem[j]]
+            for label, m in r.mc.items() for j, name in enumerate(m.names)]
     rep.table("table6_monte_carlo",
               ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
               rows, f"Table 6: Monte Carlo sensitivity [mm²], N = {n}, speed sets A and B")
-    mc = results[next(iter(results))]
     rep.figure("fig_mc_convergence", plot_mc_convergence(mc, paper=paper),
                f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): "
                "running mean of each parameter's MSE against the number of paths, ±1.96 SEM shaded, the paper's Table "
                "6 value dashed")
+    for c in sensitivity_checks(r):
+        rep.add(c)
+
+
+def sensitivity(ctx: Context) -> None:
+    """Fig. SENS (one-at-a-time, the three examples at the paper's predicted values) and Table 6."""
+    render_sensitivity(ctx.report, compute_sensitivity(ctx.quick, ctx.seed))

@@ -68,6 +68,12 @@ def fmt(x: Any, digits: int = 5) -> str:
     return f"{v:.{digits}g}"
 
 
+def comparison(what: str, ours: float, paper: float) -> Check:
+    """A headline row setting a value of ours beside the paper's, with their ratio; no verdict ("compared")."""
+    return Check(what, f"ours {fmt(ours, 3)}, paper {fmt(paper, 3)}: ours/paper = {ours / paper:.2f}", True,
+                 "comparison")
+
+
 #: what the verdicts of the summary table mean
 SUMMARY_NOTE = ("A claim has a stated criterion, tested in this run: it holds or it does not. 'compared' sets one of "
                 "our values beside the paper's, with their ratio: no criterion, no verdict.")
@@ -132,8 +138,7 @@ class ReportWriter:
 
     def compare(self, what: str, ours: float, paper: float) -> Check:
         """A value of ours beside the paper's, with their ratio; no verdict (it reads "compared")."""
-        return self.add(Check(what, f"ours {fmt(ours, 3)}, paper {fmt(paper, 3)}: ours/paper = {ours / paper:.2f}",
-                              True, "comparison"))
+        return self.add(comparison(what, ours, paper))
 
     def report(self) -> Report:
         """The report as added so far, frozen."""

@@ -20,8 +20,8 @@ interpolation: the only discretisation error is the collocation error, which fal
 
 The monodromy matrix maps (z at the period start, u at every collocation node of the previous
 period) to the same quantities one period later; its size n + D·(nodes) does not grow with the free
-flight. Its eigenvalues (:func:`eig_small`, a compiled QR: 2× faster than LAPACK at this size) are the Floquet multipliers. The
-root search's ρ uses :func:`monodromy_small`, the same operator on the reduced history (a tooth's
+flight. Its eigenvalues (:func:`eig_small`, a compiled QR: 2× faster than LAPACK at this size) are the Floquet
+multipliers. The root search's ρ uses :func:`monodromy_small`, the same operator on the reduced history (a tooth's
 force depends on its chip thickness only, so the past enters a node through one number per tooth in
 the cut, :func:`node_factors`): the same nonzero multipliers with n + Σ(teeth in the cut per node)
 rows, half the history at low immersion.
@@ -30,9 +30,9 @@ Root finding (:func:`limit_run`): the boundary points are Newton roots (:func:`n
 characteristic function det(μ I − Ψ(σ)) with its exact Jacobian (:func:`char_d`; Ψ and dΨ/dσ from one
 hand-written LU per element, :func:`psi_d`), continued from speed to speed as branches; the dense
 eigenvalues of the monodromy (:func:`rho`) run the search from below (:func:`scan_to`), which accepts a
-root only where it would not stop below it, and bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are the same function without
-derivatives through numpy's solver (the tests' independent path). Costs measured (x = y one mode each,
-a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–25 µs; ρ on the full monodromy (16–28
+root only where it would not stop below it, and bracket crossings no branch tracked. :func:`char_fn` / :func:`psi` are
+the same function without derivatives through numpy's solver (the tests' independent path). Costs measured (x = y one
+mode each, a/D = 0.05, p = 6, CPU time on the shared machine): char_d 14–25 µs; ρ on the full monodromy (16–28
 rows) 30–79 µs (dgeev 18–54 µs of it), on the reduced one (10–16 rows) 18–41 µs; the envelope figures
 are in :mod:`millstab.stability.spectral`.
 """
@@ -1458,8 +1458,8 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
 
     The sequence of depths is fixed by the speed alone: the ladder b_ref·ladder (then ×1.5, up to
     1e4·b_ref, :func:`ladder_depth`), each step refined into REFINE parts (evaluated after its upper end,
-    ascending) where it is unstable or ρ at either end is above 1 − near (``NEAR`` by default). A root b found from a guess
-    (a continued branch, a warm start) is checked with top = b·(1 − 2e-3) as if the ladder depth above
+    ascending) where it is unstable or ρ at either end is above 1 − near (``NEAR`` by default). A root b found from a
+    guess (a continued branch, a warm start) is checked with top = b·(1 − 2e-3) as if the ladder depth above
     it were unstable (the refinement of that step below top), so an accepted root is the one the search
     from below finds at that speed whatever other speeds share the call, or a lower crossing (never a
     higher one). Returns (stable, bracket low [m], its ρ − 1, bracket high [m], its ρ − 1, the dominant
@@ -1555,7 +1555,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     br_on = np.zeros(N_BRANCH, dtype=np.bool_)
     T_prev = 1.0
     for s in range(rpm.size):
-        g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir, nd)
+        g = with_factors(setup(n_teeth, kr, phi_s, phi_e, rpm[s], elem_len, nd[0], wn, zeta, act), wn, zeta, mass, mdir,
+                         nd)
         T = 60.0 / (n_teeth * rpm[s])
         rho0 = 0.0
         for j in range(wn.size):
@@ -1618,8 +1619,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
                 if scanned:
                     break
                 scanned = True
-                _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass, mdir,
-                                                             D, g, nd)
+                _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass,
+                                                             mdir, D, g, nd)
                 count += c
                 if b_hi < 0.0:  # stable up to 1e4 times the reference depth: no boundary
                     depth[s] = np.inf
@@ -1687,8 +1688,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
         k = t % n_blk
         a = starts[k]
         e = starts[k + 1]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi], mdir, act,
-                  elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
+                  mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
 
 
 @nb.njit(cache=True)

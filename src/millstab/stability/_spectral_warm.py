@@ -40,7 +40,8 @@ ATTEMPTS = 4
 
 
 @nb.njit(cache=True)
-def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd):
+def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
+               nd):
     """The boundary at one speed [rpm] from the guess (b0 [m], θ0 [rad] in [0, π]); b_ref [m] the zero-order
     depth there (the search from below's ladder is b_ref·ladder, :func:`check_canonical`).
 
@@ -58,14 +59,14 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near,
         return np.nan, np.nan, False, count
     st = scan_state(rho0)
     for _ in range(ATTEMPTS):
-        stable, br_lo, f_lo, br_hi, f_hi, m_hi, c = check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g,
-                                                               nd)
+        stable, br_lo, f_lo, br_hi, f_hi, m_hi, c = check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D,
+                                                               g, nd)
         count += c
         if stable:
             return b, th, True, count
         # a crossing below the root: Newton from the secant point of the bracket (as limit_run)
-        b, th, ok, c = newton(secant_start(br_lo, br_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir, g,
-                              nd)
+        b, th, ok, c = newton(secant_start(br_lo, br_hi, f_lo, f_hi), abs(cmath_phase(m_hi)), kt, wn, zeta, mass, mdir,
+                              g, nd)
         count += c
         if not (ok and br_lo * (1.0 - 1e-6) < b < br_hi * (1.0 + 1e-6)):
             return np.nan, np.nan, False, count
@@ -73,19 +74,19 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near,
 
 
 @nb.njit(cache=True, parallel=True)
-def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
-               nd, depth, theta, ok, n_eval):
+def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act,
+               elem_len, nd, depth, theta, ok, n_eval):
     """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,)) at every
-    speed rpm (S,), guesses b0, th0 (E, S), zero-order depths b_ref (E, S) [m]. Parallel over (entry, speed). Writes depth, theta, ok,
-    n_eval (E, S)."""
+    speed rpm (S,), guesses b0, th0 (E, S), zero-order depths b_ref (E, S) [m]. Parallel over (entry, speed). Writes
+    depth, theta, ok, n_eval (E, S)."""
     n_e = row.size
     n_s = rpm.size
     for t in nb.prange(n_e * n_s):
         e = t // n_s
         s = t % n_s
         i = row[e]
-        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder, near, wn[i],
-                                    zeta[i], mass[i], mdir, act, elem_len[i], nd)
+        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder,
+                                    near, wn[i], zeta[i], mass[i], mdir, act, elem_len[i], nd)
         depth[e, s] = d
         theta[e, s] = th
         ok[e, s] = good
@@ -93,12 +94,12 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, 
 
 
 @nb.njit(cache=True, parallel=True)
-def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd,
-                 rtol, w_flex, depth, mu, n_eval):
+def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
+                 nd, rtol, w_flex, depth, mu, n_eval):
     """The search from below (``limit_run`` on one speed) for single entries (set row[e], speed rpm[col[e]]),
     b_ref (E,) the ladder's reference depth [m]. Parallel over entries. Writes depth, mu, n_eval (E,)."""
     for e in nb.prange(row.size):
         i = row[e]
         s = col[e]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i], mdir, act,
-                  elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1])
+        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i],
+                  mdir, act, elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1])

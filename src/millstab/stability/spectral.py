@@ -21,9 +21,10 @@ on the 1-DOF benchmark (201 speeds 5 000–25 000 rpm, down milling): within 0.1
 (0.1), 0.17 % (0.5) and 0.37 % (slotting) of SDM's converged depths, flip speeds where SDM has them; up
 milling within 0.24 %, except at 12 800 rpm (a/D = 0.5), where SDM steps over a flip band 3 % of the
 depth wide that this engine finds (8 % lower; SDM's own ρ is unstable there). (The 0.47 % once quoted for
-slotting at 23 000 rpm was a Hopf crossing 0.5 % below a flip one, missed.) The multi-frequency (Hill) form was not chosen: at low immersion the directional matrix is a
-short pulse with jumps, whose Fourier series converges like 1/r, so many harmonics (complex matrices of
-2·(2h + 1) rows per direction) would be needed for 1 %, and its boundary needs a search in frequency.
+slotting at 23 000 rpm was a Hopf crossing 0.5 % below a flip one, missed.) The multi-frequency (Hill) form was not
+chosen: at low immersion the directional matrix is a short pulse with jumps, whose Fourier series converges like 1/r, so
+many harmonics (complex matrices of 2·(2h + 1) rows per direction) would be needed for 1 %, and its boundary needs a
+search in frequency.
 
 Accuracy control (converged by default). p = ``P_NODES`` Gauss nodes per element, elements ≤
 ``ELEM_PERIODS`` natural periods of the highest mode. Per call, before the batch is solved, the boundary
@@ -32,10 +33,10 @@ the highest) are found with p nodes and moved by Newton to p + ``P_STEP`` nodes;
 than ``TOL`` (0.1 %, ten times below the 1 % target) p grows by P_STEP (up to ``P_MAX``), and the
 moved points are the start of the next check (a fresh search only where Newton failed). A problem
 evaluated over many calls (identification, sensitivity: :class:`millstab.forward.Forward`) asks once,
-through :func:`settings`, and passes ``nodes`` to every call: the finer of the two discretisations the
-check compared, chosen at the first set of the problem's first call (a fit's start); a per-call check on each call's first set could change
-p between the calls of one search (a jump of up to TOL in the objective). The fit re-checks at its
-solution and polishes again where p changed there.
+through :func:`settings`, and passes ``nodes`` to every call: the finer of the two discretisations the check compared,
+chosen at the first set of the problem's first call (a fit's start); a per-call check on each call's first set could
+change p between the calls of one search (a jump of up to TOL in the objective). The fit re-checks at its solution and
+polishes again where p changed there.
 
 Root search (compiled, parallel over sets × speed blocks: a set's speeds are one block when the sets
 fill the threads, else a few blocks of equal modelled cost, see ``_block_starts``). A
@@ -276,7 +277,8 @@ NEAR = _k.NEAR
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 
-__all__ = ["envelope", "envelope_batch", "envelope_batch_hz", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES", "ELEM_PERIODS", "TOL"]
+__all__ = ["envelope", "envelope_batch", "envelope_batch_hz", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES",
+           "ELEM_PERIODS", "TOL"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -388,8 +390,8 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     with threadpool_limits(1):
-        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act, _elem_len(wn),
-                       _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
+        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -435,15 +437,15 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
     with threadpool_limits(1):
-        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn, zeta, mass, mdir,
-                      act, el, nd, d_w, th_w, ok, ne_w)
+        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn,
+                      zeta, mass, mdir, act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
         if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
             i = row[e]
             d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
             _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
-                            np.ascontiguousarray(b_ref[i, s]), LADDER, float(near), wn, zeta, mass, mdir, act, el, nd, RTOL,
-                            _w_flex(batch), d_c, mu_c, ne_c)
+                            np.ascontiguousarray(b_ref[i, s]), LADDER, float(near), wn, zeta, mass, mdir, act, el, nd,
+                            RTOL, _w_flex(batch), d_c, mu_c, ne_c)
     depth[row] = d_w
     mu[row] = np.exp(1j * th_w)
     n_eval[row] = ne_w
@@ -557,7 +559,8 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 
 @by_condition
-def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None, near: float = NEAR) -> np.ndarray:
+def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
+                   near: float = NEAR) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
     which a problem's :func:`settings` asks for)."""

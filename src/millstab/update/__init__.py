@@ -71,8 +71,8 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
     return tuple((i,) for i in fn) + ((tuple(fn),) if len(fn) > 1 else ())
 
 
-def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = DEFAULT_SAMPLES,
-           seed: int = 0, moves: int = 3, prior: Prior | None = None,
+def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa",
+           samples: int = DEFAULT_SAMPLES, seed: int = 0, moves: int = 3, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
            client=None, sampler: str = "auto", stickout: np.ndarray | None = None,
            engine_options: dict | None = None) -> Posterior:
@@ -226,12 +226,13 @@ def _check_start(start: Posterior, prior: Prior, ev: Evidence, engine: str, opti
 
     same_prior = (start.prior.names == prior.names and np.allclose(start.prior.median, prior.median, rtol=1e-12)
                   and np.allclose(start.prior.spread, prior.spread, rtol=1e-12)
-                  and start.prior.sigma_depth_m == prior.sigma_depth_m and start.prior.sigma_depth_rel == prior.sigma_depth_rel
+                  and start.prior.sigma_depth_m == prior.sigma_depth_m
+                  and start.prior.sigma_depth_rel == prior.sigma_depth_rel
                   and start.prior.label_error == prior.label_error and start.prior.tails == prior.tails
                   and start.prior.noise_names == prior.noise_names and start.prior.batch_effect == prior.batch_effect)
     if not same_prior or start.engine != engine:
-        raise InputError("start", "a posterior of another prior or engine", "start from a posterior of the same config, "
-                                                                           "[prior] table and engine")
+        raise InputError("start", "a posterior of another prior or engine",
+                         "start from a posterior of the same config, [prior] table and engine")
     if dict(start.engine_options) != dict(options or {}):  # its samples follow another discretisation's likelihood
         raise InputError("start", f"a posterior fitted with engine options {start.engine_options or 'none'}",
                          f"start from one fitted with this update's ({options or 'none'})")
@@ -267,5 +268,5 @@ def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
     return len(old) == len(now) and all(same_condition(a, b) for a, b in zip(old, now))
 
 
-__all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "Evidence", "Likelihood", "Posterior", "Prior", "Recommendation", "make_prior",
-           "p_stable_map", "recommend", "update"]
+__all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "Evidence", "Likelihood", "Posterior", "Prior",
+           "Recommendation", "make_prior", "p_stable_map", "recommend", "update"]

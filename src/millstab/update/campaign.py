@@ -102,10 +102,10 @@ def _campaign(kw: dict) -> Campaign:
 
 def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm: float, n: int = 361,
                       speed_tolerance: float = 0.0) -> float:
-    """The best truly stable cut under the recommendation's constraints: max over speeds Ω (``n`` evenly
-    spaced, refined around the best three) of min(b_lim,true, max depth)·Ω [mm·rpm], b_lim,true taken as its smallest at Ω and Ω·(1 ± speed_tolerance)
-    (the speeds at which :func:`millstab.update.recommend` holds its risk; 0: the exact best, which may sit on
-    a pocket's cusp that no cut tolerating a speed error can use)."""
+    """The best truly stable cut under the recommendation's constraints: max over speeds Ω (``n`` evenly spaced, refined
+    around the best three) of min(b_lim,true, max depth)·Ω [mm·rpm], b_lim,true taken as its smallest at Ω and
+    Ω·(1 ± speed_tolerance) (the speeds at which :func:`millstab.update.recommend` holds its risk; 0: the exact best,
+    which may sit on a pocket's cusp that no cut tolerating a speed error can use)."""
     off = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
     def rate(speeds: np.ndarray) -> np.ndarray:

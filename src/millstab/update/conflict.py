@@ -121,7 +121,8 @@ def check(prior: Prior, u: np.ndarray, named_before: bool = False) -> tuple[str 
         kept = bool(named_before and not conflict and np.abs(z).max() > Z_NORMAL - 1.0)
     conflict = bool(conflict or kept)
     info = {"log_bayes_factor": log_bf, "tail_share": tail, "conflict": conflict, "kept": kept,
-            "z": {n: float(x) for n, x in zip(prior.names, z)}, "ratio": {n: float(r) for n, r in zip(prior.names, ratio)}}
+            "z": {n: float(x) for n, x in zip(prior.names, z)},
+            "ratio": {n: float(r) for n, r in zip(prior.names, ratio)}}
     if not conflict:
         return None, info
     order = np.argsort(-np.abs(z))
@@ -155,10 +156,11 @@ def label_message(prior: Prior, eps: np.ndarray, rpm: np.ndarray, depth_mm: np.n
     which = ", ".join(f"{'chatter' if g >= 0.75 else 'stable'} at {r:.0f} rpm {d:.3g} mm"
                       for r, d, g in zip(rpm[off][:4], depth_mm[off][:4], grade[off][:4]))
     more = f" and {int(off.sum()) - 4} more" if off.sum() > 4 else ""
-    return (f"the cuts contradict the hammer test or each other: {int(off.sum())} of {rpm.size} labels are explained as "
-            f"label errors ({which}{more}), the learned label error is {np.median(eps):.0%} against the config's "
+    return (f"the cuts contradict the hammer test or each other: {int(off.sum())} of {rpm.size} labels are explained "
+            f"as label errors ({which}{more}), the learned label error is {np.median(eps):.0%} against the config's "
             f"{prior.label_error:.0%}; the model cannot explain them by the structure within its prior: check those "
             "cuts (labels, units) and the tap test")
 
 
-__all__ = ["BAYES_FACTOR", "BAYES_FACTOR_KEEP", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check", "label_error_too_high", "label_message"]
+__all__ = ["BAYES_FACTOR", "BAYES_FACTOR_KEEP", "MAX_NAMED", "Z_NAME", "Z_NORMAL", "check", "label_error_too_high",
+           "label_message"]

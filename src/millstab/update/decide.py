@@ -42,9 +42,9 @@ whether the process chatters).
 * :func:`next_test`: the cut with the largest expected information about the parameters per unit of
   productivity, among cuts more productive than the recommendation (criterion: the mutual information
   between the cut's label and θ, I = H(E_θ π) − E_θ H(π), π = ε + (1 − 2ε)·Φ((b − b_lim(θ))/(s·σ_b)) the label
-  probability of the likelihood with each sample's learned label error ε and depth-noise factor s — "BALD" — times the cut's productivity relative to the
-  recommendation). It is the test most likely both to shrink the uncertainty and to move the
-  recommendation to a more productive cut; evaluated on a subsample of the posterior. Its probability of
+  probability of the likelihood with each sample's learned label error ε and depth-noise factor s — "BALD" — times the
+  cut's productivity relative to the recommendation). It is the test most likely both to shrink the uncertainty and to
+  move the recommendation to a more productive cut; evaluated on a subsample of the posterior. Its probability of
   chattering (the process's, E_θ Φ((b − b_lim)/(s·σ_b)), without the label error) is capped at ``test_risk``
   (a chattering test costs a part or a tool), and a cut the data guard forbids is never proposed. When no
   such cut is more productive than the recommendation (or none is informative), the next test is the
@@ -125,7 +125,8 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
     off = width * np.arange(s)[:, None]
     flat = (a + off).ravel()
     # samples with b_lim ≤ b chatter at b: count them for every (speed, depth) in one search
-    below = np.searchsorted(flat, (d[None, :] + off).ravel(), side="right").reshape(s, d.size) - n * np.arange(s)[:, None]
+    below = (np.searchsorted(flat, (d[None, :] + off).ravel(), side="right").reshape(s, d.size)
+             - n * np.arange(s)[:, None])
     return 1.0 - below / n
 
 
@@ -710,5 +711,5 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
 __all__ = ["next_test_across", "CONFIRM", "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
-           "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test", "p_stable_from_limits",
-           "p_stable_map", "recommend", "safe_depth"]
+           "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",
+           "p_stable_from_limits", "p_stable_map", "recommend", "safe_depth"]

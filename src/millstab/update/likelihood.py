@@ -504,7 +504,8 @@ class Likelihood:
         """``u -> (log L of the first n_old cuts and every boundary point, log L of the other cuts)``
         from ONE engine call: the likelihood of sequential reuse (:func:`tempered_smc`'s ``init``)."""
         if not 0 <= n_old <= self.evidence.n_cuts:
-            raise InputError("start", f"{n_old} earlier cuts", f"at most the {self.evidence.n_cuts} cuts of this update")
+            raise InputError("start", f"{n_old} earlier cuts",
+                             f"at most the {self.evidence.n_cuts} cuts of this update")
         new = np.arange(self.evidence.n_cuts) >= n_old
 
         def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -93,7 +93,8 @@ def _symmetric(prior: Prior, engine: str) -> bool:
     if xm is None:
         return False
     u = prior.mean_u[None]
-    return bool(abs(prior.logpdf(np.log(exchanged(np.exp(u), xm)))[0] - prior.logpdf(u)[0]) <= 1e-9 * (1 + abs(prior.logpdf(u)[0])))
+    return bool(abs(prior.logpdf(np.log(exchanged(np.exp(u), xm)))[0] - prior.logpdf(u)[0])
+                <= 1e-9 * (1 + abs(prior.logpdf(u)[0])))
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,7 +276,8 @@ class Posterior:
             rows.append((name, self.prior.median[j] * sc, *(main[name][k] * sc for k in keys), shown))
         if self.noise is not None:
             for name, s in summary(self.noise, list(self.prior.noise_names)).items():
-                label, med = ("label_error", self.prior.label_error) if name == "label_error" else ("sigma_depth ×", 1.0)
+                label, med = (("label_error", self.prior.label_error) if name == "label_error"
+                              else ("sigma_depth ×", 1.0))
                 rows.append((label, float(med), *(s[k] for k in keys), ""))
         if self.batch is not None:  # the test days' fn factors exp(δ_g) (the sd is of δ_g, i.e. relative)
             for day, s in summary_of(self.batch.shifts, self.batch.days).items():
@@ -294,7 +296,8 @@ class Posterior:
         if _symmetric(self.prior, self.engine):
             labels = ("x/y order of the first differing pair: x lower", "x/y order: x higher")  # a tie-broken split
         for label, mask in zip(labels, (~twin, twin)):
-            out.append({"label": label, "share": float(mask.mean()), "parameters": summary(self.samples[mask], self.names)})
+            out.append({"label": label, "share": float(mask.mean()),
+                        "parameters": summary(self.samples[mask], self.names)})
         return sorted(out, key=lambda m: -m["share"])
 
     def parameters(self) -> dict:
@@ -337,14 +340,16 @@ class Posterior:
         prior = Prior.from_dict(doc.get("prior") or {})
         s = np.asarray(doc.get("samples"), dtype=float)
         if s.ndim != 2 or s.shape[1] != prior.size or s.shape[0] < 2 or not (np.isfinite(s) & (s > 0)).all():
-            raise InputError(f"{source} samples", f"shape {s.shape}", f"need N ≥ 2 rows of {prior.size} finite values > 0")
+            raise InputError(f"{source} samples", f"shape {s.shape}",
+                             f"need N ≥ 2 rows of {prior.size} finite values > 0")
         warn = tuple(str(w) for w in doc.get("warnings", ()))
         noise = None
         nd = doc.get("noise")
         if prior.noise_names and nd is not None:  # absent: the noise levels were held (e.g. prior draws)
             noise = np.asarray(nd.get("samples") if isinstance(nd, dict) else None, dtype=float)
             ok = (isinstance(nd, dict) and list(nd.get("names", ())) == list(prior.noise_names)
-                  and noise.shape == (s.shape[0], len(prior.noise_names)) and np.isfinite(noise).all() and (noise > 0).all())
+                  and noise.shape == (s.shape[0], len(prior.noise_names))
+                  and np.isfinite(noise).all() and (noise > 0).all())
             if not ok:
                 raise InputError(f"{source} noise", f"shape {noise.shape}",
                                  f"need {s.shape[0]} rows of the learned noise levels {list(prior.noise_names)} (> 0)")
@@ -384,4 +389,5 @@ def _engine_options(doc: dict, engine: str, source: str) -> dict:
     return dict(engine_options(engine, given, f"{source} engine_options"))
 
 
-__all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code", "exchange_of", "split_modes", "summary"]
+__all__ = ["MODE_SHARE", "OLD_SCHEMAS", "Posterior", "SCHEMA", "WARNING_CODES", "bimodal_warning", "warning_code",
+           "exchange_of", "split_modes", "summary"]

@@ -241,8 +241,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     fx, ll = both(u)
     n_ll, n_sc, n_sets = 1, 0, n
     if not np.isfinite(ll).any():
-        raise InputError("cuts", "no prior sample explains them", "every prior draw has likelihood 0: the cuts contradict "
-                                                                 "the prior (check the labels and units, or widen the spreads)")
+        raise InputError("cuts", "no prior sample explains them",
+                         "every prior draw has likelihood 0: the cuts contradict the prior (check the labels and "
+                         "units, or widen the spreads)")
     lp0 = logprior(u)
     lp = lp0 + fx  # the untempered part of the target (the prior, and L_old when reusing)
     if cheap is not None:  # the screen's own values at the particles (its π̃ at the current states)
@@ -388,7 +389,8 @@ def corrected_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray]
     ess = ess_of(logw)
     if not np.isfinite(logw).any():
         raise InputError("cuts", "no surrogate posterior sample explains them under the accurate model",
-                         "every final particle has accurate likelihood 0: the surrogate is far off (run the delayed sampler)")
+                         "every final particle has accurate likelihood 0: the surrogate is far off (run the delayed "
+                         "sampler)")
     log_z = first.log_evidence + float(logsumexp(logw) - np.log(n))
     n_sets, n_ll, bridge = rows.shape[0], 1, 0
     if ess >= ess_min * n:
@@ -419,7 +421,8 @@ def corrected_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray]
         n_sets += res.n_sets - n
         n_ll += res.n_loglik - 1
         bridge = res.stages
-    extra = {"correction": {"ess": ess, "ess_fraction": ess / n, "ess_min": ess_min, "accurate_rows": int(rows.shape[0]),
+    extra = {"correction": {"ess": ess, "ess_fraction": ess / n, "ess_min": ess_min,
+                            "accurate_rows": int(rows.shape[0]),
                             "bridge_stages": bridge, "surrogate_stages": first.stages}}
     return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets, extra,
                      n_moved)

@@ -186,7 +186,8 @@ class Validation:
         """(header, columns) of the per-cut CSV: rpm, depth_mm, label, grade, batch, then per scheme its fold
         and each method's held-out P(chatter label)."""
         c = self.cuts
-        header, cols = ["rpm", "depth_mm", "label", "grade", "batch"], [c.rpm, c.depth_mm, list(c.label), c.grade, list(c.batch)]
+        header, cols = (["rpm", "depth_mm", "label", "grade", "batch"],
+                        [c.rpm, c.depth_mm, list(c.label), c.grade, list(c.batch)])
         for s, d in self.predictions.items():
             header.append(f"{s}_fold")
             cols.append(self.folds[s])
@@ -275,7 +276,8 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         out.summary[s] = {}
         for m in METHODS:
             sc = scores(out.predictions[s][m], lab.grade)
-            sc["fold_brier"] = [float(np.mean((out.predictions[s][m][out.folds[s] == f] - lab.grade[out.folds[s] == f]) ** 2))
+            sc["fold_brier"] = [float(np.mean((out.predictions[s][m][out.folds[s] == f]
+                                               - lab.grade[out.folds[s] == f]) ** 2))
                                 for f in np.unique(out.folds[s])]
             out.summary[s][m] = sc
     return out
@@ -287,9 +289,9 @@ def _concat(a: PointSet, b: PointSet) -> PointSet:
     # the condition columns of both (a column one of them lacks: empty cells there, the config's condition)
     cond = {k: np.r_[a.conditions.get(k, _empty(a, k)), b.conditions.get(k, _empty(b, k))]
             for k in {*a.conditions, *b.conditions}}
-    return PointSet(np.r_[a.rpm, b.rpm], np.r_[a.depth_mm, b.depth_mm], np.r_[a.label, b.label], np.r_[a.weight, b.weight],
-                    a.source, np.r_[a.chatter_hz, b.chatter_hz], np.r_[a.grade, b.grade], np.r_[a.batch, b.batch], r,
-                    a.raters, conditions=cond)
+    return PointSet(np.r_[a.rpm, b.rpm], np.r_[a.depth_mm, b.depth_mm], np.r_[a.label, b.label],
+                    np.r_[a.weight, b.weight], a.source, np.r_[a.chatter_hz, b.chatter_hz], np.r_[a.grade, b.grade],
+                    np.r_[a.batch, b.batch], r, a.raters, conditions=cond)
 
 
 def _empty(p: PointSet, column: str) -> np.ndarray:

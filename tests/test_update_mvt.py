@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from configs import TWO_MODE_TOML
 from scipy.stats import f as f_dist
 from scipy.stats import kstest, multivariate_t
 from scipy.stats import t as student_t
@@ -20,7 +21,6 @@ from millstab.update import make_prior, update
 from millstab.update.conflict import check
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.prior import Prior
-from configs import TWO_MODE_TOML
 
 MVT = '[prior]\ntails = "multivariate_t"\n'
 

@@ -24,7 +24,8 @@ round 3 on that chatter (truly, by SDM); the last recommendation: truly stable, 
 over that of the best truly stable cut (same constraints and speed tolerance as the recommendation).
 
 Run: ``.venv/bin/python benchmarks/bench_robust.py --campaigns 6 --rounds 10 --samples 1000 --truth-steps 20
---best-speeds 121 [--tails normal|mixture|multivariate_t]`` (docs/updating.md, "A prior that can be wrong", has the figures).
+--best-speeds 121 [--tails normal|mixture|multivariate_t]`` (docs/updating.md, "A prior that can be wrong", has the
+figures).
 ``--jobs N`` runs campaigns in N processes (same figures: each campaign is seeded by its index);
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
 conflict rule offline. ``--confirm conflict,always,never`` judges each of recommend's confirm rules in every
@@ -71,11 +72,14 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--only", default=None, help="campaign numbers, comma-separated (instead of --first/--campaigns)")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--samples", type=int, default=1000)
-    ap.add_argument("--tails", default=None, help="student | normal | mixture | multivariate_t (default: the prior's default)")
+    ap.add_argument("--tails", default=None,
+                    help="student | normal | mixture | multivariate_t (default: the prior's default)")
     ap.add_argument("--k-factor", type=float, default=3.0)
     ap.add_argument("--fn-off", type=float, default=0.20)
     ap.add_argument("--zeta-factor", type=float, default=3.0)
-    ap.add_argument("--sign", type=int, default=1, help="+1 stiffer (the issue's hidden campaigns: k ×3, fn +20 %%, ζ ×3), -1 softer, 0 alternate per campaign")
+    ap.add_argument("--sign", type=int, default=1,
+                    help="+1 stiffer (the issue's hidden campaigns: k ×3, fn +20 %%, ζ ×3), -1 softer, 0 alternate per "
+                         "campaign")
     ap.add_argument("--opening", type=int, default=3, help="speeds of the opening cut pairs")
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--rpm", default="5000:12000")
@@ -185,10 +189,13 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat),
                "modes": {m: {"rec_stable": v[0], "rec_productivity": v[1]} for m, v in by_mode.items()}}
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}{'!' if n else ''}" for ok, p, n in zip(rec_ok, rec_p, named))
-        lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}" for x in log_bf),
-                 (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, {np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
+        lines = ["   log Bayes factor robust/tight per round: " + " ".join("-" if x is None else f"{x:.1f}"
+                                                                           for x in log_bf),
+                 (f"campaign {c} ({'softer' if s < 0 else 'stiffer'}, "
+                  f"{np.abs(z_off).min():.1f}-{np.abs(z_off).max():.1f}σ "
                  f"off; {contra} of {2 * args.opening} opening cuts contradict the hammer test): "
-                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); {n_ct} conflict tests; rounds (S stable/C chatter, "
+                 f"{time.perf_counter() - t0:.0f} s ({row['cpu_s']:.0f} s CPU); {n_ct} conflict tests; rounds (S "
+                 "stable/C chatter, "
                   f"productivity/best, ! conflict named): {tr}")]
         lines = trace + lines + [f"   confirm={m}: " + " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(*v))
                                  for m, v in by_mode.items()]
@@ -244,19 +251,21 @@ def main() -> None:
     n = len(rows)
     late_bad, late_all, last_ok, last_p = tally(rows)
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
-          f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load {os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, "
-          f"fn×{1 + args.fn_off:g}^s, ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} "
-          f"noise, {args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
+          f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
+          f"{os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, fn×{1 + args.fn_off:g}^s, "
+          f"ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} noise, "
+          f"{args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")
-    print(f"  conflict tests cut (--conflict-test): {sum(r['conflict_tests'] for r in rows)}; test cuts that chattered: "
-          f"{sum(r['tests_chattered'] for r in rows)} / {sum(r['tests'] for r in rows)}")
+    print(f"  conflict tests cut (--conflict-test): {sum(r['conflict_tests'] for r in rows)}; test cuts that "
+          f"chattered: {sum(r['tests_chattered'] for r in rows)} / {sum(r['tests'] for r in rows)}")
     print(f"  recommendations from round 3 on that chatter: {late_bad} / {late_all} "
           f"(campaigns with one: {sum(any(not ok for ok in r['rec_stable'][2:]) for r in rows)} / {n})")
     ok_p = [p for ok, p in zip(last_ok, last_p) if ok]
     print(f"  last recommendation truly stable: {sum(last_ok)} / {n}; productivity / best: median "
           f"{np.median(last_p):.2f} (min {min(last_p):.2f}); stable and ≥ 0.60: "
-          f"{sum(ok and p >= 0.6 for ok, p in zip(last_ok, last_p))} / {n}" + (f"; stable ones' median {np.median(ok_p):.2f}"
+          f"{sum(ok and p >= 0.6 for ok, p in zip(last_ok, last_p))} / {n}" + ("; stable ones' median "
+                                                                               f"{np.median(ok_p):.2f}"
                                                                                  if ok_p else ""))
     for m in args.confirm.split(","):
         for sign, side in ((-1, "softer"), (1, "stiffer")):

@@ -135,7 +135,8 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--rpm", default="5000:12000")
     ap.add_argument("--max-depth", type=float, default=8.0)
-    ap.add_argument("--immersion", type=float, default=1.0, help="radial immersion a/D (1: slotting; else down milling)")
+    ap.add_argument("--immersion", type=float, default=1.0,
+                    help="radial immersion a/D (1: slotting; else down milling)")
     ap.add_argument("--calibrate", action="store_true", help="truth drawn from the prior, labels from the likelihood")
     ap.add_argument("--noise", type=float, default=0.03, help="label noise: σ of ln(boundary)")
     ap.add_argument("--truth-engine", default="sdm")
@@ -152,7 +153,8 @@ def parse() -> argparse.Namespace:
                     help="comma-separated engines: how many of the campaign's stable/chatter labels the TRUE structure "
                          "contradicts under each (model error, one parameter set: cheap even for slow engines)")
     ap.add_argument("--confidence", default=str(CONFIDENCE),
-                    help="one-sided confidence of P(chatter) <= risk against its Monte Carlo error ('none': plain count)")
+                    help="one-sided confidence of P(chatter) <= risk against its Monte Carlo error ('none': plain "
+                         "count)")
     ap.add_argument("--speed-tolerance", type=float, default=SPEED_TOLERANCE,
                     help="relative spindle-speed error the recommended depth must tolerate (0: none)")
     ap.add_argument("--coarse", type=int, default=None,
@@ -164,8 +166,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
     ap.add_argument("--confirm", default="conflict",
                     help="recommend's confirm rule: conflict (default) | always | never")
-    ap.add_argument("--tails", default=None, help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
-                                                  "prior's default, student)")
+    ap.add_argument("--tails", default=None,
+                    help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
+                         "prior's default, student)")
     ap.add_argument("--truth-tails", default="normal",
                     help="--calibrate: the family the truths are drawn from (the hammer test's spreads, Gaussian by "
                          "default: the shop's in-process drift; 'same': the prior's own, the self-consistent check)")
@@ -176,8 +179,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
     ap.add_argument("--conflict-test", action="store_true",
-                    help="the policy of bench_robust.py --conflict-test: when the update does not name the conflict and a "
-                         "3.5σ-shifted kind fits the cuts as well, the next test is millstab.update.discriminate's")
+                    help="the policy of bench_robust.py --conflict-test: when the update does not name the conflict "
+                         "and a 3.5σ-shifted kind fits the cuts as well, the next test is "
+                         "millstab.update.discriminate's")
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
     args = ap.parse_args()
@@ -278,8 +282,8 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
         row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
                "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
-               "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(), "cover50": cover50.tolist(),
-               "stages": camp.stages, "best": camp.best, "failed": camp.failed,
+               "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(),
+               "cover50": cover50.tolist(), "stages": camp.stages, "best": camp.best, "failed": camp.failed,
                "tests": {k: camp.test_chatter_share(k) for k in ("chatter", "marginal", "true")},
                "conflict": any(str(w).startswith("the cuts contradict the hammer test")
                                for w in camp.posteriors[args.cuts].warnings)}
@@ -353,8 +357,8 @@ def main() -> None:
             f = r["final"]
             print(f"  campaign {r['campaign']} CHATTERS: {f['rpm']:.0f} rpm, {f['depth']:.3f} mm; true limit "
                   f"{f['true_limit'][OFFSETS.index(0.0)]:.3f} mm; P(chatter) epistemic {f['p_epistemic']:.3f}, "
-                  f"with label noise {f['p_label']:.3f}; distinct samples {f['distinct']}, last ESS {f['ess_last']:.0f}; "
-                  f"at speed x(1{'/'.join(f'{o:+g}' for o in OFFSETS)}): 5 % quantile "
+                  f"with label noise {f['p_label']:.3f}; distinct samples {f['distinct']}, last ESS "
+                  f"{f['ess_last']:.0f}; at speed x(1{'/'.join(f'{o:+g}' for o in OFFSETS)}): 5 % quantile "
                   f"{' '.join(f'{x:.2f}' for x in f['q05'])}, truth {' '.join(f'{x:.2f}' for x in f['true_limit'])}")
     if args.json:
         args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()}, "names": list(prior.names),
@@ -364,20 +368,22 @@ def main() -> None:
     if args.calibrate:
         design = "CALIBRATION: truth drawn from the prior, labels from the likelihood's noise model (σ_b 0.05 mm), zoa"
     else:
-        src = (f"the time-domain simulation ({args.flip:.0%} swapped; chatter frequencies used)" if args.labels == "simulate"
+        src = (f"the time-domain simulation ({args.flip:.0%} swapped; chatter frequencies used)"
+               if args.labels == "simulate"
                else f"{args.truth_engine} with {args.noise:.0%} boundary noise")
         design = f"truth = hammer test off by fn±3 %, k±20 %, ζ±30 %; labels from {src}; truth {args.truth_engine}"
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
           f"{os.getloadavg()[0]:.1f}), a/D {args.immersion}, risk {args.risk}, {design}; "
-          f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, {'fresh updates' if args.fresh else 'sequential reuse'}, "
-          f"likelihood depth noise {prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / "
-          f"{prior.sigma_depth_rel or 0:g} rel, label error {prior.label_error:g}; decision: confidence "
-          f"{decision['confidence']}, speed tolerance ±{decision['speed_tolerance']:g}:")
-    print(f"  final posterior: distinct samples median {np.median([r['final']['distinct'] for r in rows]):.0f}, last-stage "
-          f"ESS median {np.median([r['final']['ess_last'] for r in rows]):.0f}; P(chatter) at the final recommendation, "
-          f"epistemic: median {np.median([r['final']['p_epistemic'] for r in rows]):.3f}, with label noise "
-          f"{np.median([r['final']['p_label'] for r in rows]):.3f}")
+          f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, "
+          f"{'fresh updates' if args.fresh else 'sequential reuse'}, likelihood depth noise "
+          f"{prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / {prior.sigma_depth_rel or 0:g} rel, "
+          f"label error {prior.label_error:g}; decision: confidence {decision['confidence']}, speed tolerance "
+          f"±{decision['speed_tolerance']:g}:")
+    print(f"  final posterior: distinct samples median {np.median([r['final']['distinct'] for r in rows]):.0f}, "
+          f"last-stage ESS median {np.median([r['final']['ess_last'] for r in rows]):.0f}; P(chatter) at the final "
+          f"recommendation, epistemic: median {np.median([r['final']['p_epistemic'] for r in rows]):.3f}, with label "
+          f"noise {np.median([r['final']['p_label'] for r in rows]):.3f}")
     print(f"  final recommendation truly stable: {sum(fin_ok)}/{n}; productivity/best: median {np.median(fin_p):.2f}, "
           f"min {min(fin_p):.2f}; >= 0.85 and stable: {sum(ok and p >= 0.85 for ok, p in zip(fin_ok, fin_p))}/{n}")
     print(f"  every recommendation along the way truly stable: {sum(sum(r['rec_stable']) for r in rows)}/"
@@ -396,7 +402,8 @@ def main() -> None:
     if args.engine_check:
         print("  labels contradicted by the TRUE structure under each engine: " + ", ".join(
             f"{e} {sum(r['contradicted'][e] for r in rows if r['contradicted'][e] is not None)}/"
-            f"{sum(r['labelled'] for r in rows if r['contradicted'][e] is not None)}" for e in args.engine_check.split(",")))
+            f"{sum(r['labelled'] for r in rows if r['contradicted'][e] is not None)}"
+            for e in args.engine_check.split(",")))
     lc = [x for r in rows for x in r["limit_cover"]]
     print(f"  90 % interval of the limit covers the truth's limit at the cut speeds: {sum(lc)}/{len(lc)} = "
           f"{np.mean(lc):.2f} (per campaign median {np.median([np.mean(r['limit_cover']) for r in rows]):.2f})")
@@ -406,7 +413,8 @@ def main() -> None:
           f"{np.mean([r['tests']['true'] for r in rows]):.0%} (test risk {decision['test_risk']}, data guard "
           f"{'on' if decision['guard'] else 'off'})")
     print(f"  final posterior names a prior-data conflict: {sum(r['conflict'] for r in rows)}/{n}")
-    k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85), None)
+    k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85),
+                   None)
               for r in rows]
     reached = [k for k in k_best if k is not None]
     print(f"  cuts until a truly stable recommendation at >= 0.85 of the best: median "

@@ -62,7 +62,8 @@ def test_render_table1_without_computing(tmp_path, monkeypatch):
     rows = (tmp_path / "sld_examples_summary.csv").read_text().splitlines()
     assert rows[1] == "ex1,3000.0,14000.0,1.0,4000.0,900.0,15.0 % / 20.0 %"
     assert rows[2].endswith(",not run (--quick)")
-    assert (tmp_path / "table1_inputs.csv").read_text().splitlines()[1] == "fn_x [Hz],903.0,903.0,500.0,500.0,950.0,950.0"
+    assert ((tmp_path / "table1_inputs.csv").read_text().splitlines()[1]
+            == "fn_x [Hz],903.0,903.0,500.0,500.0,950.0,950.0")
     with pytest.raises(dataclasses.FrozenInstanceError):
         t.mismatches = 1
 

@@ -93,7 +93,8 @@ def test_two_parameter_posterior_matches_a_brute_force_grid():
     directions (each k 3× below the tap test, −3.7σ): the sampler's marginals against a 2-D grid of
     the same prior × likelihood. The two priors' grids differ by more than the tolerance, so a sampler
     that used independent tails would fail."""
-    fixed = '[prior]\nfixed = ["fn_x", "zeta_x", "fn_y", "zeta_y", "label_error", "sigma_depth"]\nsigma_depth = "15 %"\n'
+    fixed = ('[prior]\nfixed = ["fn_x", "zeta_x", "fn_y", "zeta_y", "label_error", "sigma_depth"]\n'
+             'sigma_depth = "15 %"\n')
     cfg, prior = _prior(fixed + 'tails = "multivariate_t"\n')
     assert prior.names == ("k_x", "k_y") and prior.dim == 2
     rng = np.random.default_rng(5)

@@ -64,7 +64,8 @@ class PriorTable:
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
         label_error: probability that a cut's label is swapped, in [0, 0.5), or ``None``.
-        tails: the tails of the spreads (``student``, ``normal``, ``mixture``, ``multivariate_t``), or ``None`` (default).
+        tails: the tails of the spreads (``student``, ``normal``, ``mixture``, ``multivariate_t``), or ``None``
+        (default).
         batch_effect: σ of a test day's shift of ln fn (:mod:`millstab.update.batch`), or ``None`` (off).
     """
 

@@ -287,7 +287,8 @@ class Prior:
                 return u
             u[bad] = self.mean_u + self.spread * _draw_rows((int(bad.sum()), self.size), self.tails, self.nu,
                                                             self.n_modal, rng)
-        raise InputError("prior", "spreads", "the prior puts almost no mass on damping ratios < 1: reduce the zeta spread")
+        raise InputError("prior", "spreads",
+                         "the prior puts almost no mass on damping ratios < 1: reduce the zeta spread")
 
     def logpdf(self, u: np.ndarray, tails: str | None = None) -> np.ndarray:
         """Log density of u = ln θ (B,) (``tails``: another family's, e.g. ``"normal"`` for the conflict
@@ -383,7 +384,8 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
                              f"{math.exp(MAX_SPREAD):.2g} per σ; the heavy-tailed prior reaches several σ beyond): "
                              "a larger one lets the sampler try physically absurd values (k of 10⁶⁰ N/µm)")
     if not structure.is_modal:
-        raise InputError("structure", "measured FRF", "Bayesian updating needs a modal structure (fn, k, zeta per mode)")
+        raise InputError("structure", "measured FRF",
+                         "Bayesian updating needs a modal structure (fn, k, zeta per mode)")
     if "kr" in spreads and not cutting.kr > 0:
         raise InputError("prior.kr", spreads["kr"], f"Kr free needs a config Kr > 0 as its median (the prior is "
                                                     f"log-normal in Kr; cutting.kr = {cutting.kr:g}); set cutting.kr "
@@ -412,7 +414,8 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
         except InputError as exc:
             raise InputError(f"prior.{key}", value, exc.allowed) from None
         if name not in par.free:
-            raise InputError(f"prior.{key}", value, f"{name} is listed in prior.fixed; give it a spread or fix it, not both")
+            raise InputError(f"prior.{key}", value,
+                             f"{name} is listed in prior.fixed; give it a spread or fix it, not both")
         spread[par.free.index(name)] = value
     names, median = par.free, par.theta0
     if "kt" in spreads:
@@ -437,4 +440,5 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
                  float(getattr(table, "batch_effect", None) or 0.0))
 
 
-__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "MVT", "NOISE_NAMES", "TAILS", "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]
+__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "MVT", "NOISE_NAMES", "TAILS",
+           "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]

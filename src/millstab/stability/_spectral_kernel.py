@@ -360,6 +360,23 @@ def _history_size(kind, rk):
 
 
 @nb.njit(cache=True)
+def _history_rhs(R, el, hi, scale, rk, Dm, Fq, mdir, mass, n, M, p):
+    """Fill an element's right-hand sides R (P, n + he) in place: − D_k0/h at node k's state rows (the first n
+    columns, the element's start state) and ``scale`` · F_k/m at its force rows (the history columns, node by
+    node); ``scale`` −w for the monodromy at depth factor w, 1 for the depth-free factor B."""
+    col = n
+    for k in range(1, p + 1):
+        rk0 = (k - 1) * n
+        d0 = Dm[k, 0] / hi
+        for r in range(n):
+            R[rk0 + r, r] = -d0
+        for j in range(M):
+            for i in range(rk[el, k]):
+                R[rk0 + M + j, col + i] = scale * Fq[el, k, mdir[j], i] / mass[j]
+        col += rk[el, k]
+
+
+@nb.njit(cache=True)
 def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, rk, Dm, lend):
     """The monodromy matrix on the reduced history (K, K), K = n + Σ rk: the same nonzero eigenvalues
     as :func:`monodromy`, at depth b [m].
@@ -392,17 +409,8 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
         he = _elem_history(rk, el)
         _element_lhs(L, el, hi, w, wn, zeta, mass, mdir, Aq, Dm)
         R = np.zeros((P, n + he))
-        col = n
-        for k in range(1, p + 1):
-            rk0 = (k - 1) * n
-            # right-hand sides: − D_k0 z_0 (first n columns), − w F_k (the old chip thicknesses at node k)
-            d0 = Dm[k, 0] / hi
-            for r in range(n):
-                R[rk0 + r, r] = -d0
-            for j in range(M):
-                for i in range(rk[el, k]):
-                    R[rk0 + M + j, col + i] = -w * Fq[el, k, mdir[j], i] / mass[j]
-            col += rk[el, k]
+        # right-hand sides: − D_k0 z_0 (first n columns), − w F_k (the old chip thicknesses at node k)
+        _history_rhs(R, el, hi, -w, rk, Dm, Fq, mdir, mass, n, M, p)
         _lu_factor(L, piv)  # hand-written (24–48 rows: a LAPACK call's copies cost more than its arithmetic)
         _lu_solve(L, piv, R)
         Y = R
@@ -475,16 +483,7 @@ def low_rank_setup(g, wn, zeta, mass, mdir, nd):
         he = _elem_history(rk, el)
         _element_lhs(L, el, hi, 0.0, wn, zeta, mass, mdir, Aq, Dm)
         RB = np.zeros((P, n + he))
-        col = n
-        for k in range(1, p + 1):
-            rk0 = (k - 1) * n
-            d0 = Dm[k, 0] / hi
-            for r in range(n):
-                RB[rk0 + r, r] = -d0
-            for j in range(M):
-                for i in range(rk[el, k]):
-                    RB[rk0 + M + j, col + i] = Fq[el, k, mdir[j], i] / mass[j]
-            col += rk[el, k]
+        _history_rhs(RB, el, hi, 1.0, rk, Dm, Fq, mdir, mass, n, M, p)
         _lu_factor(L, piv)
         _lu_solve(L, piv, RB)  # [A | E]
         row = 0

@@ -175,6 +175,10 @@ def test_recommend_and_the_next_test_use_the_fitted_steps(fitted, monkeypatch):
     monkeypatch.setattr(sdm, "envelope_batch", spy)
     rec = recommend(post, 0.2, (5600.0, 8800.0), confidence=None, speed_tolerance=0.0, guard=False, coarse_points=5)
     assert seen and all(s == STEPS for s in seen)  # the recommendation's and the next test's calls alike
+    seen.clear()  # the cuts that vouch for a recommendation (confirm) are judged at the fitted steps too
+    recommend(post, 0.2, (5600.0, 8800.0), confidence=None, speed_tolerance=0.0, guard=False, coarse_points=5,
+              confirm="always")
+    assert seen and all(s == STEPS for s in seen)
     monkeypatch.setattr(sdm, "envelope_batch", plain)
     # its depth: the ⌊0.2·N⌋-th smallest limit at its speed, by the engine at the fitted steps
     col = np.sort(_direct(post, [rec.rpm], STEPS)[:, 0])

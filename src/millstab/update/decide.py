@@ -391,7 +391,8 @@ def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.
     if not ok.any():
         return []
     r, d = rpm[ok], depth[ok]
-    both, _ = limits(post.prior, post.decision_u, (r[None, :] * (1 + offsets[:, None])).ravel(), post.engine)
+    both, _ = limits(post.prior, post.decision_u, (r[None, :] * (1 + offsets[:, None])).ravel(), post.engine,
+                     options=post.engine_options)
     p = (both <= np.tile(d, offsets.size)[None, :]).mean(axis=0).reshape(offsets.size, r.size).max(axis=0)
     return [{"rpm": float(a), "depth_mm": float(b), "p_chatter": float(q)} for a, b, q in zip(r, d, p)
             if q <= CONFIRM_P_CHATTER]

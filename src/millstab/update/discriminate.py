@@ -68,7 +68,8 @@ def conflict_test(post: Posterior, rpm_range: tuple[float, float], cap_mm: float
     ps = PointSet(list(c["rpm"][:len(lab)]), list(c["depth_mm"][:len(lab)]), lab)
     with warnings.catch_warnings():  # the update has said what it has to say about these cuts
         warnings.simplefilter("ignore")
-        lik = Likelihood(pr, Evidence.from_points(ps, base_cutting=pr.cutting), post.engine)
+        lik = Likelihood(pr, Evidence.from_points(ps, base_cutting=pr.cutting), post.engine,
+                         engine_options=post.engine_options)
     kinds = {}
     for j, name in enumerate(pr.names):
         kinds.setdefault(pr.par.kind(name), []).append(j)
@@ -90,7 +91,8 @@ def conflict_test(post: Posterior, rpm_range: tuple[float, float], cap_mm: float
     rival = shifted[a][pick]
     lo, hi = rpm_range
     speeds = np.linspace(lo, hi, n_rpm)
-    b, _ = limits(pr, np.vstack([u0[:, :pr.size], rival[:, :pr.size]]), speeds, post.engine)
+    b, _ = limits(pr, np.vstack([u0[:, :pr.size], rival[:, :pr.size]]), speeds, post.engine,
+                  options=post.engine_options)
     b0, b1 = b[:u0.shape[0]], b[u0.shape[0]:]
     fin = np.where(np.isfinite(b0), b0, np.nan)
     top = float(np.nanquantile(fin, 0.95)) if np.isfinite(fin).any() else 1.0

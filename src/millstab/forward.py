@@ -102,46 +102,42 @@ class Forward:
         first call (``theta`` (P,), default the start θ0; in a fit, the start), so every call of one problem
         evaluates the same smooth function and a single call is evaluated as the engine alone would; ``{}``
         for an engine without ``settings``."""
-        choose = getattr(self._engine_mod, "settings", None)
-        if choose is None:
+        if getattr(self._engine_mod, "settings", None) is None:
             return dict(self.options)
         r = np.asarray(rpm, dtype=float)
-        key = self._key(r, conditions)
-        if key not in self._settings:
-            if len(self._settings) >= SETTINGS_CACHE:  # bounded: a caller sweeping speed lists
-                self._settings.pop(next(iter(self._settings)))
-            row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
-            cut = self.cutting if conditions is None else conditions
-            self._settings[key] = self._with_options(dict(choose(self.par.batch(row[None]), cut, r,
-                                                                 **self._purpose())))
-        return self._settings[key]
+        row = self.par.theta0 if theta is None else np.asarray(theta, dtype=float)
+        return self._remembered(self._key(r, conditions), r, row, conditions)
 
     def _settings_at(self, r: np.ndarray, row: np.ndarray, conditions) -> dict:
         """The engine's settings chosen at the parameter row ``row`` (P,): cached under (speeds, conditions,
         row), apart from :meth:`settings`' first-row choice, so a pinned study's discretisation depends on
         the row it names, not on which call came first."""
-        key = b"at" + self._key(r, conditions) + row.tobytes()
+        return self._remembered(b"at" + self._key(r, conditions) + row.tobytes(), r, row, conditions)
+
+    def _choose(self, r: np.ndarray, row: np.ndarray, conditions) -> dict:
+        """The engine's settings at speeds ``r`` chosen at the parameter row ``row`` (P,), the caller's options
+        over the choice (before, a pinned spectral model dropped a fixed node count)."""
+        cut = self.cutting if conditions is None else conditions
+        return self._with_options(dict(self._engine_mod.settings(self.par.batch(np.atleast_2d(row)), cut, r,
+                                                                 **self._purpose())))
+
+    def _remembered(self, key: bytes, r: np.ndarray, row: np.ndarray, conditions) -> dict:
+        """:meth:`_choose`'s settings, chosen once per cache ``key``."""
         if key not in self._settings:
-            if len(self._settings) >= SETTINGS_CACHE:
+            if len(self._settings) >= SETTINGS_CACHE:  # bounded: a caller sweeping speed lists
                 self._settings.pop(next(iter(self._settings)))
-            cut = self.cutting if conditions is None else conditions
-            # the caller's options over the choice (before, a pinned spectral model dropped a fixed node count)
-            self._settings[key] = self._with_options(dict(self._engine_mod.settings(self.par.batch(row[None]), cut, r,
-                                                                                    **self._purpose())))
+            self._settings[key] = self._choose(r, row, conditions)
         return self._settings[key]
 
     def refine(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None) -> bool:
         """Re-check the discretisation at the parameter row ``theta`` (P,) [SI] (e.g. a fitted solution):
         where the engine chooses other settings there, they replace the chosen ones for these speeds (and
         conditions). Returns whether they changed (the caller then evaluates again, e.g. polishes the fit)."""
-        choose = getattr(self._engine_mod, "settings", None)
-        if choose is None:
+        if getattr(self._engine_mod, "settings", None) is None:
             return False
         r = np.asarray(rpm, dtype=float)
         old = self.settings(r, None, conditions)
-        cut = self.cutting if conditions is None else conditions
-        new = self._with_options(dict(choose(self.par.batch(np.atleast_2d(np.asarray(theta, dtype=float))), cut, r,
-                                             **self._purpose())))
+        new = self._choose(r, np.asarray(theta, dtype=float), conditions)
         self._settings[self._key(r, conditions)] = new
         return new != old
 

@@ -995,15 +995,7 @@ def psi(sigma, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Dm, lend):
     R = np.empty((P, n), dtype=np.complex128)
     for el in range(h.size):
         if kind[el] == 0:
-            for r in range(n):
-                for col in range(n):
-                    acc = 0.0j
-                    for q in range(n):
-                        acc += phi_free[el, r, q] * Z[q, col]
-                    Znew[r, col] = acc
-            for r in range(n):
-                for col in range(n):
-                    Z[r, col] = Znew[r, col]
+            _free_step(phi_free[el], Z, Znew, n)
             continue
         hi = h[el]
         _element_lhs(L, el, hi, sigma, wn, zeta, mass, mdir, Aq, Dm)

@@ -24,7 +24,8 @@ Each pair is a pure function of (``--seed``, case, start): ``--jobs N`` runs the
 of N workers (numba and BLAS on one thread each) and the figures do not depend on N.
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_identify_accurate.py [--cases 20 --starts 2]
-[--jobs 16] [--speeds 30] [--zoa-basins 8]``; ``--zoa-basins K`` turns on the opt-in stage that starts the
+[--jobs 16] [--speeds 30] [--zoa-basins 8] [--no-merge]``; ``--no-merge`` leaves out the merged-mode stage
+(millstab.identify.lsq.merge_modes, the search before it); ``--zoa-basins K`` turns on the opt-in stage that starts the
 accurate LM from K zero-order basins (millstab.identify.lsq.basin_search; default 0, the default search).
 """
 
@@ -72,7 +73,7 @@ def start_of(truth: Structure, seed: int, i: int, j: int, spread: float = 0.3) -
     return Structure(x=(m[0],), y=(m[1],))
 
 
-def run_pair(seed: int, i: int, j: int, immersion: float, n: int, zoa_basins: int) -> dict:
+def run_pair(seed: int, i: int, j: int, immersion: float, n: int, zoa_basins: int, merge: bool = True) -> dict:
     """One (case, start) pair: points, fit, score (a pure function of its arguments)."""
     from millstab.cluster import one_thread
 
@@ -84,7 +85,7 @@ def run_pair(seed: int, i: int, j: int, immersion: float, n: int, zoa_basins: in
         truth = Parameterization(truth_s).theta0
         rss_truth = float(prob.rss(prob.predict_mm(truth[None]))[0])
         t = time.process_time()
-        fit = fit_lsq(prob, seed=j, zoa_basins=zoa_basins)
+        fit = fit_lsq(prob, seed=j, zoa_basins=zoa_basins, merge=merge)
         cpu = time.process_time() - t
     p, m = prob.p, prob.n
     margin = 1 + p / (m - p) * stats.f.ppf(0.95, p, m - p)
@@ -95,7 +96,8 @@ def run_pair(seed: int, i: int, j: int, immersion: float, n: int, zoa_basins: in
             f"{truth[0]:5.0f}/{truth[3]:5.0f} Hz, noise {100 * noise:.2f} %: RSS/RSS(truth) {fit.rss / rss_truth:8.3g} "
             f"(margin {margin:.2f}) {'ok' if ok else 'WRONG BASIN'}; max err {100 * err.max():6.2f} % ({z.max():5.1f} "
             f"σ); RMS {math.sqrt(fit.rss / m):.2e}; {fit.evaluations} SLDs, {cpu:.0f} s CPU; re-seeding rounds "
-            f"{fit.settings['rounds_run']}{', zero-order basin won' if fit.settings.get('zoa_basin_won') else ''}")
+            f"{fit.settings['rounds_run']}{', zero-order basin won' if fit.settings.get('zoa_basin_won') else ''}"
+            f"{', merged modes won' if fit.settings.get('merge_won') else ''}")
     return {"ok": bool(ok), "cpu": cpu, "evaluations": fit.evaluations, "err": float(err.max()),
             "z": float(z.max()), "line": line}
 
@@ -111,12 +113,15 @@ def main() -> None:
     ap.add_argument("--first-case", type=int, default=0, help="run cases first-case .. first-case + cases - 1")
     ap.add_argument("--zoa-basins", type=int, default=0,
                     help="start the accurate LM from this many zero-order basins too")
+    ap.add_argument("--no-merge", action="store_true",
+                    help="leave out the merged-mode stage (millstab.identify.lsq.merge_modes): the old search")
     a = ap.parse_args()
     print(describe())
-    pairs = [(a.seed, i, j, a.immersion, a.speeds, a.zoa_basins) for i in range(a.first_case, a.first_case + a.cases)
-             for j in range(a.starts)]
+    pairs = [(a.seed, i, j, a.immersion, a.speeds, a.zoa_basins, not a.no_merge)
+             for i in range(a.first_case, a.first_case + a.cases) for j in range(a.starts)]
     print(f"{len(pairs)} (case, start) pairs at a/D {a.immersion}, {a.speeds} speeds each, spectral engine, "
-          f"zero-order basins {a.zoa_basins}; {a.jobs} job(s)", flush=True)
+          f"zero-order basins {a.zoa_basins}, merged modes {'off' if a.no_merge else 'on'}; {a.jobs} job(s)",
+          flush=True)
     t0 = time.perf_counter()
     if a.jobs <= 1:
         recs = []

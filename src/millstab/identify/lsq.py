@@ -309,6 +309,50 @@ def reseed(problem: Problem, starts: Starts, u0: np.ndarray, *, rounds: int, goo
             break
 
 
+#: the multiplicative steps of a merged mode against the mode it copies (:func:`merge_candidates`): fn, k, ζ
+MERGE_STEPS = ((0.95, 1.0, 1.05), (0.5, 1.0, 2.0), (0.5, 1.0, 2.0))
+
+
+def merge_candidates(problem: Problem, best_u: np.ndarray) -> np.ndarray:
+    """Starts (27·M(M − 1), P) that put one mode onto another: for every ordered pair (a, b) of modes with
+    the same free parameters, mode a's (fn, k, ζ) := mode b's × :data:`MERGE_STEPS` (3 × 3 × 3), the other
+    modes held at ``best_u``; inside the bounds (not the search box: a parked mode sits outside it).
+
+    Why (issue 28): at low immersion two modes of one frequency act much like one mode, and the search can
+    end with one mode carrying the whole boundary and the other parked where the points do not see it
+    (Example 1 at a/D 0.1: fn_x 1 767 Hz, 2× the truth's 903 Hz, k_x 3.5×). Re-sampling one mode inside
+    the search box around the start does not reach the truth from there; copying the carrying mode onto
+    the parked one and letting the stiffness profile split the load does (docs/identification.md)."""
+    lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
+    blocks = mode_blocks(problem)
+    kinds = [tuple(problem.par.kind(problem.par.free[j]) for j in cols) for cols in blocks]
+    steps = np.log(np.array(np.meshgrid(*MERGE_STEPS, indexing="ij")).reshape(3, -1).T)  # (27, 3): fn, k, ζ
+    col = {"fn": 0, "k": 1, "zeta": 2}
+    parts = [best_u[None]]
+    for a, ca in enumerate(blocks):
+        for b, cb in enumerate(blocks):
+            if a == b or kinds[a] != kinds[b]:
+                continue
+            uu = np.tile(best_u, (steps.shape[0], 1))
+            uu[:, ca] = best_u[cb] + steps[:, [col[k] for k in kinds[a]]]
+            parts.append(uu)
+    return np.clip(np.vstack(parts), lo, hi)
+
+
+def merge_modes(problem: Problem, starts: Starts, *, good_rms: float, perm, record, central: bool) -> bool:
+    """Stage 2b': while the RMS residual exceeds ``good_rms``, LM from the merged-mode starts of the best
+    point (:func:`merge_candidates`, one call, halved by :data:`RESEED_SCHEDULE`); kept if better by 0.1 %.
+    Updates ``starts``; returns whether a merged start became the best point."""
+    if np.sqrt(starts.best_rss / problem.n) < good_rms or len(mode_blocks(problem)) < 2:
+        return False
+    uu = merge_candidates(problem, starts.best_u)
+    if uu.shape[0] < 2:
+        return False
+    pred = problem.predict_u(uu)
+    uu, pred = problem.profile_k(uu, pred)
+    return starts.add(*halving(problem, uu, problem.rss(pred), RESEED_SCHEDULE, perm, record, central), margin=1e-3)
+
+
 #: halving of the zero-order basins under the accurate engine (:func:`zoa_basins`)
 BASIN_SCHEDULE = ((8, 5), (2, 30))
 
@@ -483,6 +527,7 @@ class LsqOptions:
     central: bool = False
     max_nfev: int = 100
     zoa_basins: int = 0
+    merge: bool = True
 
     def __post_init__(self) -> None:
         check_options(self.loss, self.n_candidates, self.schedule)
@@ -540,6 +585,8 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
     basin_won = basin_search(problem, starts, u0, k=o.zoa_basins, n_candidates=n_candidates, schedule=schedule,
                              rounds=rounds, good_rms=good_rms, search=search, **stage)
     reseed(problem, starts, u0, rounds=rounds, good_rms=good_rms, search=search, **stage)
+    merge_won = o.merge and merge_modes(problem, starts, good_rms=good_rms, perm=perm, record=record,
+                                        central=central)
     local_search(problem, starts, n_local=n_local, **stage)
     # 3. polish with scipy trf (the chosen loss), Jacobian from the batched rows
     if f_scale is None:
@@ -602,6 +649,7 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
                          "central": central, "seed": seed, "search": {**SEARCH, **(search or {})},
                          "schedule": [list(x) for x in schedule], "rounds_run": starts.rounds, "n_local": n_local,
                          "zoa_basins": o.zoa_basins, "zoa_basin_won": basin_won,
+                         "merge": o.merge, "merge_won": merge_won,
                          "good_rms": good_rms, "residual": problem.residual, "engine": problem.engine,
                          "lm_iterations": starts.lm_iterations, "polish_nfev": int(sol.nfev),
                          "polish_status": int(sol.status), "noise": noise})
@@ -609,5 +657,5 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
 
 __all__ = ["BASIN_SCHEDULE", "LOSSES", "SEARCH", "LsqOptions", "Starts", "alternative_solutions", "basin_candidates",
            "basin_search", "check_options", "confidence_cloud", "covariance", "fit_lsq", "fit_lsq_free",
-           "identifiability_warnings", "local_search", "multistart", "polish", "reseed", "reseed_candidates",
-           "uncertainty", "zoa_basins"]
+           "identifiability_warnings", "local_search", "merge_candidates", "merge_modes", "multistart", "polish",
+           "reseed", "reseed_candidates", "uncertainty", "zoa_basins"]

@@ -70,8 +70,10 @@ def identify(config, points, *, method: str = "lsq", free: Sequence[str] | str |
 
 
 #: the SDM stage after the global ZOA search: 64 candidates around the ZOA estimate, LM on the best 4
-#: then 1, no re-seeding, a capped trust-region polish; no zero-order basins (it starts from the best one)
-SDM_POLISH = dict(n_candidates=64, schedule=((4, 3), (1, 10)), rounds=0, n_local=0, max_nfev=30, zoa_basins=0)
+#: then 1, no re-seeding, a capped trust-region polish; no zero-order basins (it starts from the best one) and no
+#: merged-mode starts (~1 000 SLDs: minutes with SDM; a local stage)
+SDM_POLISH = dict(n_candidates=64, schedule=((4, 3), (1, 10)), rounds=0, n_local=0, max_nfev=30, zoa_basins=0,
+                  merge=False)
 
 
 def _zoa_then_sdm(problem_for, seed: int, progress, options: dict, engine: str = "sdm") -> Fit:

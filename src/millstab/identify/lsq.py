@@ -21,6 +21,12 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
    the accurate search's best point and into the start, run batched LM under the accurate engine and
    compete by their accurate residual (:func:`basin_search`; opt-in, ``zoa_basins=8``: it did not yet
    move the issue's failing case out of its wrong basin, docs/identification.md).
+2b'. **Merged modes** (``merge``, default on; after the re-seeding, while the RMS residual exceeds
+   ``good_rms``). At low immersion two modes of one frequency act much like one, and the search can end
+   with one mode carrying the whole boundary and the other parked where the points do not see it, outside
+   the search box (issue 28, Example 1 at a/D 0.1). Every mode is put onto every other (fn ×0.95/1/1.05,
+   k and ζ ×0.5/1/2; the stiffness profile splits the load) and those starts are halved like a
+   re-seeding round (:func:`merge_modes`). It moved that case from its wrong basin to the truth.
 3. **Polish.** ``scipy.optimize.least_squares(method="trf")`` from the best refined start, with the
    chosen robust ``loss``; its Jacobian comes from the same batched call as its residuals (the
    residual row plus P forward-difference rows), never scipy's per-column differences.
@@ -549,6 +555,9 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
             many distinct basins of the zero-order engine's own global search on the same points
             (:func:`basin_search`; default 0: off — measured without gain so far, +20–30 % evaluations:
             docs/identification.md).
+        merge: while the RMS residual exceeds ``good_rms`` after the re-seeding, LM also starts from every
+            mode put onto every other mode (:func:`merge_modes`; default on: ~1 000 SLDs when it runs, it
+            took Example 1 at a/D 0.1 out of its parked-mode basin, docs/identification.md).
         schedule: successive halving of the LM starts, ((starts, iterations), ...).
         rounds: at most this many re-seeding rounds while the RMS residual exceeds ``good_rms``: each
             re-samples every mode's parameters in the search box (others at the best so far, 128 each)

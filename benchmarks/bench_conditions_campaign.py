@@ -134,15 +134,17 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     t0 = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        joint = update(cfg, train, samples=args.samples, seed=args.seed, engine=args.engine)
+        fit = {"samples": args.samples, "seed": args.seed, "engine": args.engine, "sampler": args.sampler,
+               "engine_options": args.engine_options}
+        joint = update(cfg, train, **fit)
         per = {}
         for k, (ri, m) in enumerate(TRAIN):  # one posterior per condition: its own cuts only
             sl = slice(k * args.cuts, (k + 1) * args.cuts)
             one = cuts_file(tr_rpm[sl], tr_depth[sl], label[sl], [(ri, m)] * args.cuts)
-            per[(ri, m)] = update(cfg, one, samples=args.samples, seed=args.seed, engine=args.engine)
+            per[(ri, m)] = update(cfg, one, **fit)
         prior = make_prior(hammer, base)
         hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
-                                args.engine, cuts={"rpm": [lo, hi]})
+                                args.engine, cuts={"rpm": [lo, hi]}, engine_options=dict(args.engine_options))
     cpu_update = time.process_time() - t0
     rows = []
     for key, pts in held.items():
@@ -207,12 +209,25 @@ def main() -> None:
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--engine", default="zoa")
+    ap.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
+                    help="the fitted engine's discretisation, e.g. steps=20 for sdm (as millstab update's); kept in "
+                         "the posteriors, so every prediction and recommendation uses it; the hammer test's too")
+    ap.add_argument("--sampler", default="auto", help="auto (delayed acceptance for sdm/spectral), delayed, plain")
     ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")
     ap.add_argument("--repeats", type=int, default=1, help="campaigns per machine (each its own seeded cuts)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (the figures do not depend on it)")
     args = ap.parse_args()
+    from millstab.cli.options import engine_option_pairs
+    from millstab.forward import engine_options
+
+    from millstab.errors import InputError
+
+    try:
+        args.engine_options = dict(engine_options(args.engine, engine_option_pairs(args.engine_option)))
+    except InputError as exc:
+        ap.error(str(exc))  # one line, exit 2
     global TRUTH_ENGINE
     TRUTH_ENGINE = args.truth_engine
     print(describe())
@@ -221,7 +236,8 @@ def main() -> None:
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
               f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} "
-              f"flipped; model {args.engine}, {args.samples} samples")
+              f"flipped; model {args.engine} {args.engine_options or '(its own discretisation)'}, "
+              f"{args.sampler} sampler, {args.samples} samples")
         allrows = []
         t0 = time.perf_counter()
         results = run_all(args)

@@ -146,6 +146,8 @@ def run_machine(name, hammer, truth, teeth, args, rng):
         hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
                                 args.engine, cuts={"rpm": [lo, hi]}, engine_options=dict(args.engine_options))
     cpu_update = time.process_time() - t0
+    say(f"{name}: 3 updates {cpu_update:.0f} s CPU")
+    cpu_predict = cpu_rec = 0.0
     rows = []
     for key, pts in held.items():
         target = key in TARGETS
@@ -155,12 +157,15 @@ def run_machine(name, hammer, truth, teeth, args, rng):
                 warnings.simplefilter("ignore")
                 return api.predict(post, pts).scores()["brier"]
 
+        t0 = time.process_time()
         b_joint, b_hammer = brier(joint), brier(hammer_post)
         b_per = {k: brier(p) for k, p in per.items()}
+        cpu_predict += time.process_time() - t0
         own = b_per.get(key)
         rec_ok = None
         if target:
             ri, m = key
+            t0 = time.process_time()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 rec = api.recommend(api.for_condition(joint, radial_immersion=ri, milling=m), args.risk, (lo, hi),
@@ -168,10 +173,18 @@ def run_machine(name, hammer, truth, teeth, args, rng):
             tl = true_limit(truth, cond(teeth, ri, m), rec.rpm * np.array([1 - 0.0025, 1.0, 1 + 0.0025]),
                             args.truth_steps)
             rec_ok = bool(rec.depth_mm < tl.min())
+            cpu_rec += time.process_time() - t0
             rows.append((key, b_joint, b_hammer, b_per, own, rec_ok, rec.depth_mm, float(tl.min())))
         else:
             rows.append((key, b_joint, b_hammer, b_per, own, None, None, None))
-    return rows, cpu_update
+        say(f"{name}: {condition_text(cond(teeth, *key)).split(',')[0]} scored; CPU so far: predictions "
+            f"{cpu_predict:.0f} s, recommendations {cpu_rec:.0f} s")
+    return rows, (cpu_update, cpu_predict, cpu_rec)
+
+
+def say(text: str) -> None:
+    """A progress line on stderr (an sdm-fitted campaign runs for hours on 2 cores: where it is, what it cost)."""
+    print(f"[{time.strftime('%H:%M:%S')}] {text}", file=sys.stderr, flush=True)
 
 
 def campaign(task: tuple[int, str, int, argparse.Namespace]):
@@ -242,7 +255,8 @@ def main() -> None:
         t0 = time.perf_counter()
         results = run_all(args)
         for name, rep, teeth, rows, cpu in results:
-            print(f"\n{name}{f' #{rep}' if args.repeats > 1 else ''} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
+            print(f"\n{name}{f' #{rep}' if args.repeats > 1 else ''} ({teeth} teeth; CPU: 3 updates {cpu[0]:.1f} s, "
+                  f"4 posteriors' predictions {cpu[1]:.1f} s, 3 recommendations {cpu[2]:.1f} s)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
             for key, bj, bh, bp, own, ok, dep, tl in rows:
                 txt = condition_text(cond(teeth, *key)).split(",")[0]
@@ -260,7 +274,8 @@ def main() -> None:
               f"(joint/hammer {bj / bh:.2f}, target ≤ 0.5), best single-condition posterior {bsep:.3f}; "
               f"recommendations truly stable {ok:.0%} (target ≥ 95 %)")
         print(f"{len(results)} campaigns in {time.perf_counter() - t0:.0f} s wall ({args.jobs} job(s)), "
-              f"{sum(r[4] for r in results):.0f} s CPU in the updates")
+              f"CPU {sum(r[4][0] for r in results):.0f} s in the updates, {sum(r[4][1] for r in results):.0f} s in the "
+              f"predictions, {sum(r[4][2] for r in results):.0f} s in the recommendations")
         print(f"trained conditions ({len(trained)}): mean Brier joint {np.mean([r[1] for r in trained]):.3f} vs one "
               f"posterior per condition (its own cuts) {np.mean([r[4] for r in trained]):.3f}")
 

@@ -49,7 +49,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--draws", type=int, default=20, help="prior draws per machine")
     ap.add_argument("--speeds", type=int, default=81)
-    ap.add_argument("--steps", default="10,15,20,30,40")
+    ap.add_argument("--steps", default="10,15,20,30,40,fn1", help="fixed steps, or fnF: the default's control at "
+                    "a highest natural frequency of F Hz (fn1: 20 and 40 steps everywhere, extrapolated)")
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
@@ -57,7 +58,7 @@ def main() -> None:
     print(f"load average: {os.getloadavg()[0]:.1f}")
     sdm = get_engine("sdm")
     rpm = np.linspace(*args.rpm, args.speeds)
-    steps = [int(s) for s in args.steps.split(",")]
+    steps = args.steps.split(",")
     err = {s: [] for s in steps}
     err40 = {s: [] for s in steps}
     cpu = {s: 0.0 for s in steps + [0]}
@@ -71,23 +72,30 @@ def main() -> None:
                 fixed = {}
                 for s in steps:
                     t0 = time.process_time()
-                    fixed[s] = sdm.envelope_batch(batch, c, rpm, steps=s)
+                    fixed[s] = sdm.envelope_batch(batch, c, rpm, **option(s))
                     cpu[s] += time.process_time() - t0
                     err[s].append(log_error(fixed[s], ref))
-                    print(f"  {name:7s} a/D {ri:4.2f} {m:4s} steps {s:3d}: median {np.median(err[s][-1]):6.2%}, "
+                    print(f"  {name:7s} a/D {ri:4.2f} {m:4s} {s:>6s}: median {np.median(err[s][-1]):6.2%}, "
                           f"max {np.max(err[s][-1]):7.2%}", flush=True)
                 for s in steps:
-                    err40[s].append(log_error(fixed[s], fixed.get(TRUTH_STEPS, ref)))
+                    err40[s].append(log_error(fixed[s], fixed.get(str(TRUTH_STEPS), ref)))
     n = sum(len(e) for e in err[steps[0]])
     print(f"\n{n} (set, speed) pairs per steps (3 machines × {args.draws + 2} sets × 5 conditions × {args.speeds} "
           f"speeds); reference: the default (Richardson-extrapolated) steps, {cpu[0]:.1f} s CPU. Error: |ln(b/b_ref)|; "
           f"flips: the share of held-out cuts (depths log-uniform within ×/÷ 1.8 of the limit) labelled the other way")
-    print(f"steps  median    p95     max   >5 %  flips | vs steps={TRUTH_STEPS} (the truth's): median  flips"
+    print(f"option  median    p95     max   >5 %  flips | vs steps={TRUTH_STEPS} (the truth's): median  flips"
           f" | CPU s (× reference)")
     for s in steps:
         e, e40 = np.concatenate(err[s]), np.concatenate(err40[s])
-        print(f"{s:5d} {np.median(e):6.2%} {np.percentile(e, 95):6.2%} {np.max(e):7.2%} {np.mean(e > 0.05):6.1%} "
+        print(f"{s:>6s} {np.median(e):6.2%} {np.percentile(e, 95):6.2%} {np.max(e):7.2%} {np.mean(e > 0.05):6.1%} "
               f"{flips(e):5.1%} | {np.median(e40):29.2%} {flips(e40):6.1%} | {cpu[s]:6.1f} ({cpu[s] / cpu[0]:.2f})")
+
+
+def option(text: str) -> dict:
+    """``"20"``: 20 fixed steps per tooth period; ``"fn500"``: the default's accuracy control (max(20, 12 steps
+    per natural period), Richardson-extrapolated from it and twice it) computed as if the highest natural
+    frequency were 500 Hz (``fn1``: 20 and 40 steps at every speed, extrapolated)."""
+    return {"fn_max_hz": float(text[2:])} if text.startswith("fn") else {"steps": int(text)}
 
 
 #: the campaign's truth discretisation (``--truth-steps`` of bench_conditions_campaign.py)

@@ -30,11 +30,16 @@ Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --s
 Many cores: ``--jobs N`` runs the campaigns (machines × ``--repeats``) in a pool of N processes, each with one
 numba and one BLAS thread; every campaign draws from its own generator (seed + 100·machine + 10 000·repeat,
 the update's own seed ``--seed``), so the figures do not depend on N or on the order the campaigns finish.
-``--engine sdm`` fits with the semi-discretization engine (delayed acceptance: the zero-order engine screens
-each proposal, the posterior is sdm's, at the engine's default discretization) instead of the zero-order
-model that misses the 3-tooth machine at a/D 0.5. A 16-core run (the lead's):
-``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine sdm --samples 1000 --cuts 10 --held 30
---repeats 5 --jobs 15``.
+``--engine sdm`` fits with the semi-discretization engine (delayed acceptance by default, ``--sampler``) instead of
+the zero-order model that misses the 3-tooth machine at a/D 0.5; ``--engine-option KEY=VALUE`` fixes its
+discretisation (kept in every posterior, so the predictions and recommendations use it too). Accurate and
+cheapest: ``--engine-option fn_max_hz=1`` (20 and 40 steps per tooth period, extrapolated: 0.02 % median error,
+30 ms per (set, speed); ``benchmarks/bench_sdm_steps.py``, docs/updating.md). The CPU of each phase is reported:
+with sdm the three recommendations (≈ 1 000 limits per posterior sample each) dominate, not the updates: about
+9 CPU-hours per campaign at 300 samples and ``--held 30`` (1.1 M limits × 30 ms; estimated, not run). For a
+many-core machine with that time (each campaign runs in one worker):
+``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine sdm --engine-option fn_max_hz=1
+--sampler surrogate --samples 300 --cuts 10 --held 30 --repeats 5 --jobs 15``.
 """
 
 from __future__ import annotations

@@ -83,6 +83,7 @@ def test_spectral_columns_alone_give_the_numbers_of_the_whole_call():
     u = prior.sample_full(4, np.random.default_rng(1))[:, :prior.size]
     full, _ = lik._evaluate(u)
     cols = np.array([4, 1])
-    np.testing.assert_allclose(lik._columns(u, cols), full[:, cols], rtol=1e-10)
-    assert lik._whole[0]["nodes"] == lik._forwards[0].pinned(lik.speeds, at=lik._forwards[0].par.theta0).settings[
-        "nodes"]
+    settings = lik._settings(u)
+    np.testing.assert_allclose(lik._columns(u, cols, settings), full[:, cols], rtol=1e-10)
+    f = lik._forwards[0]
+    assert settings[0] == dict(f.pinned(lik.speeds, at=f.par.theta0).settings)  # the whole list's, at θ0

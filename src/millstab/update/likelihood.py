@@ -430,11 +430,10 @@ class Likelihood:
         self.n_calls = 0
         self.n_sets = 0
         # delayed acceptance's bounded second stage (:meth:`bounded`): rows decided early, the (row, column)
-        # entries they did not need, each column's log-likelihood cost so far, the whole list's discretisation
+        # entries they did not need, each column's log-likelihood cost so far
         self.n_decided = 0
         self.n_entries_saved = 0
         self._column_cost = np.zeros(self.speeds.size)
-        self._whole = None
 
     def _conditions_of(self, column_cond: np.ndarray):
         """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
@@ -519,9 +518,10 @@ class Likelihood:
         other speeds of a call, so the speed columns are evaluated in rounds (:data:`BOUND_ROUNDS`, the columns
         whose cuts cost the most log-likelihood so far first): a row whose partial sum is below the floor by
         more than rounding is decided, and its other columns are never computed. The rows that go on get the
-        numbers of :meth:`__call__` (each column's discretisation is the whole speed list's, fixed once, so a
-        column's limit is the one a full call gives). Falls back to :meth:`__call__` with boundary points,
-        chatter frequencies, a test-day effect or a negative weight (terms not bounded by 0), and with a cluster."""
+        numbers of :meth:`__call__` (each round keeps the discretisation of a full call on these rows, so a
+        column's limit is the one a full call gives, to the root's ~1e-12). Falls back to :meth:`__call__` with
+        boundary points, chatter frequencies, a test-day effect or a negative weight (terms not bounded by 0),
+        and with a cluster."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
         floor = np.broadcast_to(np.asarray(floor, dtype=float), (v.shape[0],))
         ev, n_s = self.evidence, self.speeds.size
@@ -535,6 +535,7 @@ class Likelihood:
         if not rows.size:
             return out
         order = np.argsort(-self._column_cost, kind="stable")  # the costliest columns first
+        settings = self._settings(u[rows])
         depth = np.ones((rows.size, n_s))  # finite placeholders where not evaluated (those cuts not summed)
         done = np.zeros(n_s, bool)
         live = np.arange(rows.size)
@@ -544,7 +545,7 @@ class Likelihood:
             start += cols.size
             if not cols.size:
                 break
-            depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols)
+            depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings)
             done[cols] = True
             if done.all():
                 break
@@ -565,29 +566,29 @@ class Likelihood:
         self.n_sets += rows.size
         return out
 
-    def _columns(self, u: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict]) -> np.ndarray:
         """Limits (B, len(cols)) [mm] of rows u = ln θ at the data's columns ``cols`` (indices into
-        :attr:`speeds`), one engine call per stickout group with columns among them. An engine that chooses its
-        discretisation per speed list (spectral ``settings``) keeps the one of the whole list (chosen at θ0 as
-        :func:`limits` does, once), so a subset of columns gives the numbers of a full call."""
-        if self._whole is None:
-            self._whole = [dict(pinned_model(g, u[:1], self.speeds[c], self.engine, gc, f).settings)
-                           if getattr(f._engine_mod, "settings", None) is not None else None
-                           for (g, c), gc, f in zip(self._groups, self._group_conditions, self._forwards)]
+        :attr:`speeds`), one engine call per stickout group with columns among them, each under ``settings``
+        (:meth:`_settings`: the discretisation a full call would use), so that a subset of columns gives the
+        numbers of a full call (the spectral node count is chosen per speed list)."""
         where = np.full(self.speeds.size, -1, dtype=np.int64)
         where[cols] = np.arange(cols.size)
         depth = np.empty((u.shape[0], cols.size))
-        for (prior, group), fwd, whole in zip(self._groups, self._forwards, self._whole):
+        for (prior, group), fwd, chosen in zip(self._groups, self._forwards, settings):
             sel = group[where[group] >= 0]
             if not sel.size:
                 continue
             cond = self._conditions_of(self.column_cond[sel])
-            rpm = self.speeds[sel]
-            pin = (pinned_model(prior, u, rpm, self.engine, cond, fwd) if whole is None else
-                   Pinned(fwd, rpm, whole, fwd.cutting if cond is None else cond))
+            pin = Pinned(fwd, self.speeds[sel], chosen, fwd.cutting if cond is None else cond)
             depth[:, where[sel]] = sample_depths(pin, prior, u)[0]
             self.n_calls += 1
         return depth
+
+    def _settings(self, u: np.ndarray) -> list[dict]:
+        """Per stickout group, the discretisation of a full call on the rows u (B, P) (:func:`pinned_model` on
+        all the group's columns: spectral's chosen at θ0 once per speed list, sdm's from the rows)."""
+        return [dict(pinned_model(g, u, self.speeds[c], self.engine, gc, f).settings)
+                for (g, c), gc, f in zip(self._groups, self._group_conditions, self._forwards)]
 
     def _learn_costs(self, depth_mm: np.ndarray, noise: np.ndarray | None) -> None:
         """Add each column's summed −log L of its cuts over these rows to :attr:`_column_cost` (the order of

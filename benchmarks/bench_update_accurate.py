@@ -46,6 +46,13 @@ second stage decided before all their speeds were evaluated (:meth:`millstab.upd
 and the entries that saved. ``--no-bounded``: also the spectral update with every survivor evaluated at every
 speed (the code before), in the same run: the same particles, bit for bit, are checked.
 
+``--anchored``: an estimate, before building it, of a screen anchored at the current particle (the zero-order
+limits of the proposal times the particle's own accurate / zero-order ratio per speed column, exact at the
+particle; delayed acceptance with a state-dependent screen, Christen & Fox 2005): every proposal of the
+delayed-acceptance update is recorded, both engines evaluate every proposal and its particle, and the expected
+stage-1 passes and accepted moves of both screens are summed (acceptance probabilities, no random draws; the
+plain screen's sums reproduce the run's own counts).
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -84,6 +91,7 @@ import millstab.update as upd
 from millstab.update import make_prior, update
 from millstab.update import likelihood
 from millstab.update.likelihood import Evidence, Likelihood
+from millstab.update import sampler as smc
 from millstab.update.sampler import tempered_smc
 from millstab.update.predict import predict_cuts
 from millstab.stability import spectral
@@ -119,6 +127,59 @@ def spectral_counts(on: bool):
         yield c
     finally:
         spectral._solve, spectral._b_ref = solve, b_ref
+
+
+@contextlib.contextmanager
+def recorded_moves(on: bool):
+    """With ``on``, every delayed-acceptance move's (particles, proposals, β) appended to the yielded list."""
+    rec: list = []
+    if not on:
+        yield rec
+        return
+    move = smc._delayed_move
+
+    def recording(u, ll, lp, sll, slp, prop, beta, *a, **k):
+        rec.append((u.copy(), prop.copy(), beta))
+        return move(u, ll, lp, sll, slp, prop, beta, *a, **k)
+
+    smc._delayed_move = recording
+    try:
+        yield rec
+    finally:
+        smc._delayed_move = move
+
+
+def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
+    """Expected accurate evaluations and accepted moves of the recorded proposals under the plain zero-order
+    screen and under a screen anchored at the current particle (module docstring)."""
+    ev = Evidence.from_points(cuts)
+    acc, zoa_lik = Likelihood(prior, ev, "spectral"), Likelihood(prior, ev, "zoa")
+    x, y = np.vstack([r[0] for r in rec]), np.vstack([r[1] for r in rec])
+    beta = np.concatenate([np.full(r[0].shape[0], r[2]) for r in rec])
+    (ax, _, wx, okx), (ay, _, wy, oky) = acc._limits(x), acc._limits(y)
+    zx, zy = zoa_lik._limits(x)[0], zoa_lik._limits(y)[0]
+
+    def loglik(depth, w, ok):  # the accurate likelihood's form on any limits
+        return np.where(ok, acc.from_limits(depth, None, noise=w), -np.inf)
+
+    def prob(log_a):
+        return np.exp(np.minimum(0.0, np.nan_to_num(log_a, nan=-np.inf)))
+
+    lpx, lpy = prior.logpdf_full(x), prior.logpdf_full(y)
+    pix, piy = lpx + beta * loglik(ax, wx, okx), lpy + beta * loglik(ay, wy, oky)
+    sx, sy = lpx + beta * loglik(zx, wx, okx), lpy + beta * loglik(zy, wy, oky)
+    with np.errstate(divide="ignore", invalid="ignore"):  # −inf − −inf where both ends are impossible: NaN → 0
+        a1 = prob(sy - sx)
+        plain_acc = a1 * prob(piy + sx - pix - sy)
+        tx_y = lpy + beta * loglik(zy * ax / zx, wy, oky)  # anchored at x, at y
+        ty_x = lpx + beta * loglik(zx * ay / zy, wx, okx)  # anchored at y, at x
+        b1, b1_back = prob(tx_y - pix), prob(ty_x - piy)
+        anc_acc = np.minimum(b1, np.exp(np.minimum(piy - pix, 700.0)) * b1_back)  # b1·α2 = min(b1, π(y)·b1_back/π(x))
+    n = x.shape[0]
+    print(f"anchored-screen estimate over {n} recorded proposals (plain MH acceptance {prob(piy - pix).mean():.3f}):")
+    for name, ev_, ac in (("zero-order screen", a1, plain_acc), ("anchored screen", b1, anc_acc)):
+        print(f"  {name}: expected accurate evaluations {ev_.sum():.0f} ({ev_.mean():.3f} of the proposals), "
+              f"accepted {ac.sum():.0f}, evaluations per accepted move {ev_.sum() / ac.sum():.2f}")
 
 
 @contextlib.contextmanager
@@ -231,6 +292,8 @@ def main() -> None:
     ap.add_argument("--breakdown", action="store_true", help="where the spectral update's time goes")
     ap.add_argument("--no-bounded", action="store_true", help="also the spectral update without the bounded "
                     "second stage (every survivor at every speed), and the two compared")
+    ap.add_argument("--anchored", action="store_true", help="estimate a screen anchored at the current particle on "
+                    "the delayed-acceptance run's proposals")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -267,11 +330,14 @@ def main() -> None:
         upd.SURROGATE_KIND = args.surrogate_kind
         for eng, smp in plan:
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), \
-                    spectral_counts(args.breakdown and eng == "spectral") as counts:
+                    spectral_counts(args.breakdown and eng == "spectral") as counts, \
+                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
                     sampler="auto" if smp in ("fit-nodes", "unbounded") else smp))
             runs[eng, smp] = (post, wall, cpu)
+            if moves:
+                anchored_estimate(prior, cuts, moves)
             d = post.diagnostics
             n_side, n_label, bad = explained(post, cuts)
             extra = (f", screened by {d['screen_engine']}: {d['screen_sets']} screen sets, pass "

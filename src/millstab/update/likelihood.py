@@ -85,6 +85,10 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 SAMPLING = "sample"
 #: the speed columns :meth:`Likelihood.bounded` evaluates per round before the rest (the costliest first)
 BOUND_ROUNDS = (2, 3)
+#: fewer rows than this go through one call: each round is an engine call with a fixed cost of a few ms (OMP
+#: passive); measured on the docs/updating.md case, a 30-sample update (~10 survivors per move) took 1.15× the CPU
+#: with rounds, a 300-sample one (~70 per move) 1.05–1.14× less
+BOUND_MIN_ROWS = 32
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
@@ -526,7 +530,7 @@ class Likelihood:
         floor = np.broadcast_to(np.asarray(floor, dtype=float), (v.shape[0],))
         ev, n_s = self.evidence, self.speeds.size
         if (self.batch is not None or ev.pt_rpm.size or self.uses_frequency or (ev.cut_weight < 0).any()
-                or self.client is not None or n_s <= BOUND_ROUNDS[0]):
+                or self.client is not None or n_s <= BOUND_ROUNDS[0] or v.shape[0] < BOUND_MIN_ROWS):
             return self(v)
         p, q = self.prior.size, self.prior.dim
         u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)

@@ -101,11 +101,17 @@ from millstab.stability import spectral
 def spectral_counts(on: bool):
     """With ``on``, count the spectral engine's root searches: calls, entries, evaluations, CPU of the search
     and of its zero-order starting depths (a dict filled while the block runs)."""
-    c = {"calls": 0, "entries": 0, "evals": 0, "solve_cpu": 0.0, "b_ref_cpu": 0.0}
+    c = {"calls": 0, "entries": 0, "evals": 0, "solve_cpu": 0.0, "b_ref_cpu": 0.0, "rows": 0, "warm_rows": 0}
     if not on:
         yield c
         return
-    solve, b_ref = spectral._solve, spectral._b_ref
+    solve, b_ref, heads = spectral._solve, spectral._b_ref, spectral._heads
+
+    def counted_heads(*a, **k):  # rows started warm from the row heading their run (within WARM_REL of it)
+        follow, head = heads(*a, **k)
+        c["rows"] += follow.size
+        c["warm_rows"] += int(follow.sum())
+        return follow, head
 
     def counted_solve(*a, **k):
         t = time.process_time()
@@ -122,11 +128,11 @@ def spectral_counts(on: bool):
         c["b_ref_cpu"] += time.process_time() - t
         return out
 
-    spectral._solve, spectral._b_ref = counted_solve, counted_b_ref
+    spectral._solve, spectral._b_ref, spectral._heads = counted_solve, counted_b_ref, counted_heads
     try:
         yield c
     finally:
-        spectral._solve, spectral._b_ref = solve, b_ref
+        spectral._solve, spectral._b_ref, spectral._heads = solve, b_ref, heads
 
 
 @contextlib.contextmanager
@@ -357,7 +363,9 @@ def main() -> None:
                 passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), d.get("moves", [])))
                 accepted = sum(a * m * args.samples for a, m in zip(acc, d.get("moves", [])))
                 print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
-                      f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry; CPU root search "
+                      f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
+                      f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "
+                      f"{spectral.WARM_REL:g} of them); CPU root search "
                       f"{counts['solve_cpu']:.2f} s, zero-order starting depths {counts['b_ref_cpu']:.2f} s; "
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}")

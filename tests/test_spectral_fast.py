@@ -134,3 +134,20 @@ def test_limit_is_the_dense_search_from_below_on_a_random_grid_and_alone():
                 assert on_grid[i] < ref, (case, grid[i], on_grid[i], ref)
                 assert _rho_full(structure, cut, grid[i], on_grid[i] * (1 + 1e-4), nodes) > 1.0
     assert n_checked >= 6
+
+
+def test_every_speed_of_a_random_grid_equals_that_speed_alone():
+    """Random structures, cuts and node counts, 16 random speeds (a grid whose branches continue between
+    neighbours) with the engine's default ``near`` and with 0: each speed's depth equals the same speed's
+    search alone to 1e-10 (Newton's roots are converged to ~1e-12 on both paths)."""
+    rng = np.random.default_rng(2815)
+    for case in range(3):
+        structure, cut = _random_case(rng)
+        nodes = int(rng.integers(4, 8))
+        near = (spectral.NEAR, 0.0)[case % 2]
+        batch = ModalBatch.from_structures([structure])
+        grid = np.sort(rng.uniform(3000.0, 20000.0, 16))
+        on_grid = spectral.envelope_batch(batch, cut, grid, nodes=nodes, near=near)[0]
+        alone = np.array([spectral.envelope_batch(batch, cut, [r], nodes=nodes, near=near)[0, 0] for r in grid])
+        same = (on_grid == alone) | (np.abs(on_grid / alone - 1) < 1e-10)
+        assert same.all(), (case, grid[~same], on_grid[~same], alone[~same])

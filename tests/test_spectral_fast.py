@@ -17,24 +17,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from spectral_cases import random_case
 
 from millstab.frf import ModalBatch
-from millstab.model import Cutting, Mode, Structure
 from millstab.stability import _spectral_kernel as k
 from millstab.stability import spectral
 from millstab.stability.sdm import _arrays
-
-
-def _random_case(rng):
-    m = int(rng.integers(1, 3))
-
-    def modes():
-        return tuple(Mode(rng.uniform(400, 3000), rng.uniform(5e6, 5e7), rng.uniform(0.005, 0.08)) for _ in range(m))
-
-    structure = Structure(x=modes(), y=modes()) if rng.random() < 0.7 else Structure(x=modes())
-    cut = Cutting.from_immersion(int(rng.integers(1, 5)), rng.uniform(3e8, 2e9), rng.uniform(0.1, 0.5),
-                                 rng.uniform(0.03, 1.0), "down" if rng.random() < 0.5 else "up")
-    return structure, cut
 
 
 def _layout(structure, cut, rpm, nodes):
@@ -49,7 +37,7 @@ def test_rung_test_is_rho_or_a_bound_above_it_for_every_budget():
     rng = np.random.default_rng(2813)
     n_bound = n_all = 0
     for _ in range(5):
-        structure, cut = _random_case(rng)
+        structure, cut = random_case(rng)
         nodes = int(rng.integers(3, 9))
         rpm = float(rng.uniform(4000, 20000))
         b_lim = spectral.envelope_batch(ModalBatch.from_structures([structure]), cut, [rpm], nodes=nodes,
@@ -115,7 +103,7 @@ def test_limit_is_the_dense_search_from_below_on_a_random_grid_and_alone():
     rng = np.random.default_rng(2814)
     n_checked = 0
     for case in range(4):
-        structure, cut = _random_case(rng)
+        structure, cut = random_case(rng)
         nodes = int(rng.integers(4, 8))
         near = (0.0, spectral.NEAR)[case % 2]
         batch = ModalBatch.from_structures([structure])
@@ -142,7 +130,7 @@ def test_every_speed_of_a_random_grid_equals_that_speed_alone():
     search alone to 1e-10 (Newton's roots are converged to ~1e-12 on both paths)."""
     rng = np.random.default_rng(2815)
     for case in range(3):
-        structure, cut = _random_case(rng)
+        structure, cut = random_case(rng)
         nodes = int(rng.integers(4, 8))
         near = (spectral.NEAR, 0.0)[case % 2]
         batch = ModalBatch.from_structures([structure])

@@ -228,9 +228,10 @@ def main() -> None:
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--engine", default="zoa")
     ap.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
-                    help="the fitted engine's discretisation, e.g. steps=20 for sdm (as millstab update's); kept in "
+                    help="the fitted engine's discretisation, e.g. fn_max_hz=1 for sdm (as millstab update's); kept in "
                          "the posteriors, so every prediction and recommendation uses it; the hammer test's too")
-    ap.add_argument("--sampler", default="auto", help="auto (delayed acceptance for sdm/spectral), delayed, plain")
+    ap.add_argument("--sampler", default="auto",
+                    help="update's sampler: auto (delayed acceptance for sdm/spectral), delayed, plain or surrogate")
     ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")

@@ -407,3 +407,21 @@ def test_with_the_structure_known_a_flip_chatter_is_reported_at_its_member_neare
     assert alone.label == "chatter" and abs(alone.chatter_hz - members[0]) < 2.0, alone.chatter_hz
     r = listen(x, FS, 10000.0, 2, structure=Structure(x=(Mode(fn, k, zeta),)))
     assert want == members[1] and r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
+
+
+@pytest.mark.parametrize("hopf_ratio", [0.3, 1.0])
+def test_a_flip_line_under_its_tooth_line_wins_over_a_weaker_hopf_line_by_displacement(hopf_ratio):
+    """Two teeth at 10 000 rpm (f_T = 333.3 Hz): a flip line at 1.5 f_T = 500 Hz, 12 dB under the tooth line
+    f_T (so the rule that keeps resonant runout from being heard alone masks it) but 24 dB over the runout
+    line below it, and a Hopf line at 850 Hz (no member of its family: 850 ∓ 500 is no multiple of f_T).
+    The chatter frequency is the line strongest in displacement, amplitude² / f⁴, computed here from the
+    tones: with the Hopf line at 0.3 × the forced amplitude it is the flip line (the Hopf line is louder in
+    the recording), at 1.0 the Hopf line. The old code reported 850 Hz in both (bench_listen --seed 2, cut
+    145: a two-tooth flip at 1.5 f_T, 9 dB over every other line of the displacement, had a weaker hump
+    near the mode heard instead)."""
+    f_t = 2 * 10000.0 / 60.0
+    flip, hopf, flip_ratio = 1.5 * f_t, 850.0, 0.2
+    want = max(((flip, flip_ratio), (hopf, hopf_ratio)), key=lambda t: t[1] ** 2 / t[0] ** 4)[0]
+    assert want == (flip if hopf_ratio < 0.5 else hopf)
+    r = heard(teeth=2, seconds=3.0, chatter_hz=hopf, ratio=hopf_ratio, runout=0.05, tones=[(flip, flip_ratio)])
+    assert r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz

@@ -597,8 +597,8 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
             # chatter heard, whatever its level against the runout: a sensor's path can notch the member at
             # the mode 13-19 dB (bench_listen --seed 1 cut 96: 2.5 f_T, the displacement's peak, in a notch
             # of the room 17.6 dB deeper than at 1.5 f_T, under the runout test, so never a candidate)
-            near = np.min(np.abs(line_f[:, None] - cand_f[None, :]), axis=1) <= 2.0 * fs / nper
-            more = np.flatnonzero(odd & ~below & (line_f <= f_hi) & ~near)
+            heard_at = np.min(np.abs(line_f[:, None] - cand_f[None, :]), axis=1) <= 2.0 * fs / nper
+            more = np.flatnonzero(odd & ~below & (line_f <= f_hi) & ~heard_at)
             if more.size:
                 append(more)
         c = _flip_member_at_mode(cand_f, cand_e, c, f_t, 2.0 * fs / nper, g2)

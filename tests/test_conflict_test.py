@@ -29,18 +29,24 @@ def _posterior(prior, labels_from_u, rpm, depth, n=400, seed=0):
     return Posterior(prior, np.exp(u), "zoa", {}, {"rpm": list(rpm), "depth_mm": list(depth), "label": lab}, ())
 
 
-def test_conflict_test_names_the_shifted_lobes_and_splits_their_limits():
-    """Cuts labelled by a tool whose natural frequencies are 3.5σ (17 %) above the tap test's, at depths
-    between the two structures' limits: the far-off alternative the cuts fit best is "fn +3.5σ", and the
-    proposed cut lies between the posterior's median limit and the alternative's at its speed (one of them
-    says stable, the other chatter), where the posterior gives it at most the test risk to chatter."""
+def _fn_case():
+    """(prior, the truth u: every fn +3.5σ, a posterior at the tap test holding 7 cuts the truth labels, at depths
+    between the tap test's and the truth's limits)."""
     prior = make_prior(*(lambda c: (c.structure, c.cutting, c.prior))(parse_config(TWO_MODE_TOML + ONLY_FN)))
     truth = prior.mean_u + SHIFT * prior.spread
     rpm = np.linspace(6000, 12000, 7)
     b0 = limits(prior, prior.mean_u[None], rpm)[0][0]
     bt = limits(prior, truth[None], rpm)[0][0]
-    post = _posterior(prior, truth, rpm, np.sqrt(b0 * bt))
-    assert 0 < sum(x == "chatter" for x in post.cuts["label"]) < rpm.size  # the cuts contradict the tap test
+    return prior, truth, _posterior(prior, truth, rpm, np.sqrt(b0 * bt))
+
+
+def test_conflict_test_names_the_shifted_lobes_and_splits_their_limits():
+    """Cuts labelled by a tool whose natural frequencies are 3.5σ (17 %) above the tap test's, at depths
+    between the two structures' limits: the far-off alternative the cuts fit best is "fn +3.5σ", and the
+    proposed cut lies between the posterior's median limit and the alternative's at its speed (one of them
+    says stable, the other chatter), where the posterior gives it at most the test risk to chatter."""
+    prior, truth, post = _fn_case()
+    assert 0 < sum(x == "chatter" for x in post.cuts["label"]) < 7  # the cuts contradict the tap test
     ct = conflict_test(post, (5000, 12000), 10.0, test_risk=0.5, seed=2)
     assert ct["rival"] == f"fn +{SHIFT:g}σ" and ct["rival_log_likelihood_ratio"] > 0
     b_post = np.median(limits(prior, post.u, [ct["rpm"]])[0][:, 0])
@@ -67,12 +73,7 @@ def test_recommend_proposes_the_conflict_test_while_a_conflict_is_named():
     (its next test under a conflict was the most informative cut, with no rival)."""
     from millstab.update.decide import recommend
 
-    prior = make_prior(*(lambda c: (c.structure, c.cutting, c.prior))(parse_config(TWO_MODE_TOML + ONLY_FN)))
-    truth = prior.mean_u + SHIFT * prior.spread
-    rpm = np.linspace(6000, 12000, 7)
-    b0 = limits(prior, prior.mean_u[None], rpm)[0][0]
-    bt = limits(prior, truth[None], rpm)[0][0]
-    quiet = _posterior(prior, truth, rpm, np.sqrt(b0 * bt))
+    prior, truth, quiet = _fn_case()
     named = Posterior(prior, quiet.samples, "zoa", {}, quiet.cuts, (CONFLICT,))
     kw = {"max_depth_mm": 10.0, "seed": 2}
     rec = recommend(named, 0.05, (5000, 12000), **kw)
@@ -94,12 +95,7 @@ def test_the_conflict_test_respects_the_data_guard():
     """A chatter cut the posterior does not explain guards its neighbourhood: the conflict test is never proposed
     at or above its cap there (the same rule as the recommendation's next test). The guard here covers the
     conflict test's own cut, so the test must move."""
-    prior = make_prior(*(lambda c: (c.structure, c.cutting, c.prior))(parse_config(TWO_MODE_TOML + ONLY_FN)))
-    truth = prior.mean_u + SHIFT * prior.spread
-    rpm = np.linspace(6000, 12000, 7)
-    b0 = limits(prior, prior.mean_u[None], rpm)[0][0]
-    bt = limits(prior, truth[None], rpm)[0][0]
-    post = _posterior(prior, truth, rpm, np.sqrt(b0 * bt))
+    prior, truth, post = _fn_case()
     free = conflict_test(post, (5000, 12000), 10.0, seed=2)
     g = [{"rpm": free["rpm"], "half_width_rpm": 0.05 * free["rpm"], "cap_mm": 0.5 * free["depth_mm"]}]
     held = conflict_test(post, (5000, 12000), 10.0, seed=2, guard=g)

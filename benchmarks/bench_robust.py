@@ -103,6 +103,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--discriminate", default="conflict",
                     help="recommend's next test while the conflict is named: conflict (default: the conflict test, "
                          "millstab.update.decide.next_test_discriminating) | never (the most informative cut)")
+    ap.add_argument("--discriminate-rival-lr", type=float, default=0.0,
+                    help="--discriminate conflict only when the rival fits the cuts at least this well (ln ratio; "
+                         "-inf: always)")
     ap.add_argument("--rival-lr", type=float, default=0.0,
                     help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
     ap.add_argument("--json", type=Path, default=None)
@@ -163,7 +166,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             r_seed = int(rng.integers(2**31))
             for m in modes:
                 rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m,
-                               discriminate=args.discriminate)
+                               discriminate=args.discriminate, discriminate_rival_lr=args.discriminate_rival_lr)
                 by_mode[m][0].append(bool(rm.depth_mm < truth(np.array([rm.rpm]))[0]))
                 by_mode[m][1].append(float(rm.rpm * rm.depth_mm / best))
                 if m == modes[0]:

@@ -68,23 +68,26 @@ def test_recommend_proposes_the_conflict_test_while_a_conflict_is_named():
     """Issue 24: while the posterior names a prior–data conflict, recommend's next test is the conflict test (the
     cut that tells the posterior from the far-off alternative the cuts fit best), not the most informative cut
     about θ; checked against the two structures' limits computed here (the cut lies between the posterior's
-    median limit and the alternative's at its speed). Without a named conflict, or with discriminate="never",
-    the next test is the most informative cut, more productive than the recommendation. Fails on the old code
+    median limit and the alternative's at its speed). Without a named conflict, with discriminate="never", or
+    when the rival fits the cuts worse than the threshold asks, the next test is the most informative cut, more
+    productive than the recommendation. Fails on the old code
     (its next test under a conflict was the most informative cut, with no rival)."""
     from millstab.update.decide import recommend
 
     prior, truth, quiet = _fn_case()
     named = Posterior(prior, quiet.samples, "zoa", {}, quiet.cuts, (CONFLICT,))
     kw = {"max_depth_mm": 10.0, "seed": 2}
-    rec = recommend(named, 0.05, (5000, 12000), **kw)
+    rec = recommend(named, 0.05, (5000, 12000), discriminate="conflict", **kw)
     nt = rec.next_test
     assert nt["rival"] == f"fn +{SHIFT:g}σ" and nt["why"].startswith("the conflict test")
     b_post = np.median(limits(prior, named.u, [nt["rpm"]])[0][:, 0])
     b_rival = limits(prior, truth[None], [nt["rpm"]])[0][0, 0]
     assert min(b_post, b_rival) < nt["depth_mm"] < max(b_post, b_rival) and nt["p_chatter"] <= 0.5
     assert nt["relative_productivity"] == pytest.approx(nt["rpm"] * nt["depth_mm"] / (rec.rpm * rec.depth_mm))
-    for post, how in ((quiet, "conflict"), (named, "never")):  # the most informative cut, above the recommendation
-        other = recommend(post, 0.05, (5000, 12000), discriminate=how, **kw)
+    # the most informative cut, above the recommendation: no conflict named; "never"; a rival the cuts fit worse
+    # than the posterior by more than the threshold (here any: +inf)
+    for post, how, lr in ((quiet, "conflict", 0.0), (named, "never", 0.0), (named, "conflict", np.inf)):
+        other = recommend(post, 0.05, (5000, 12000), discriminate=how, discriminate_rival_lr=lr, **kw)
         assert "rival" not in other.next_test and other.next_test["why"].startswith("largest expected information")
         assert other.next_test["rpm"] * other.next_test["depth_mm"] > other.rpm * other.depth_mm
     with pytest.raises(InputError, match="--discriminate"):

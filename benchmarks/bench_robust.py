@@ -100,9 +100,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--conflict-test", action="store_true",
                     help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
                          "that tells them apart (millstab.update.discriminate)")
-    ap.add_argument("--discriminate", default="conflict",
-                    help="recommend's next test while the conflict is named: conflict (default: the conflict test, "
-                         "millstab.update.decide.next_test_discriminating) | never (the most informative cut)")
+    ap.add_argument("--discriminate", default="never",
+                    help="recommend's next test while the conflict is named: conflict (the conflict test, "
+                         "millstab.update.decide.next_test_discriminating) | never (default: the most informative cut)")
     ap.add_argument("--discriminate-rival-lr", type=float, default=0.0,
                     help="--discriminate conflict only when the rival fits the cuts at least this well (ln ratio; "
                          "-inf: always)")

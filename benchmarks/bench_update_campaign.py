@@ -166,9 +166,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
     ap.add_argument("--confirm", default="conflict",
                     help="recommend's confirm rule: conflict (default) | always | never")
-    ap.add_argument("--discriminate", default="conflict",
-                    help="recommend's next test while a conflict is named: conflict (default: the conflict test) | "
-                         "never")
+    ap.add_argument("--discriminate", default="never",
+                    help="recommend's next test while a conflict is named: conflict (the conflict test) | never "
+                         "(default)")
     ap.add_argument("--tails", default=None,
                     help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
                          "prior's default, student)")

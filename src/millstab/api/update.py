@@ -272,7 +272,7 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
                                                    f"{TEST_RISK:g} (1: no cap)")
     if rule.get("confirm", "conflict") not in ("conflict", "always", "never"):
         raise InputError("--confirm", rule["confirm"], "one of conflict, always, never")
-    if rule.get("discriminate", "conflict") not in ("conflict", "never"):
+    if rule.get("discriminate", "never") not in ("conflict", "never"):
         raise InputError("--discriminate", rule["discriminate"], "one of conflict, never")
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 

@@ -39,10 +39,10 @@ def recommend_cmd(
                                 help="When the recommendation must be no deeper than a cut labelled stable that the "
                                      "posterior holds safe, within ±2 % of its speed: 'conflict' (while the cuts "
                                      "contradict the hammer test), 'always', 'never'."),
-    discriminate: str = typer.Option("conflict", "--discriminate",
+    discriminate: str = typer.Option("never", "--discriminate",
                                      help="'conflict': while the cuts contradict the hammer test, the next test is "
                                           "the cut that best tells the posterior from the far-off alternative the "
-                                          "cuts fit best; 'never': always the most informative cut."),
+                                          "cuts fit best (experimental); 'never': the most informative cut."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,

@@ -119,7 +119,7 @@ DISCRIMINATE_CHOICES = ("conflict", "never")
 DISCRIMINATE = "never"
 #: the conflict test replaces the next test only when its rival fits the cuts so far at least this well: ln of the
 #: mean likelihood ratio of the rival over the posterior (0: at least as well; a rival the cuts already reject is not
-#: worth a test). In softer campaigns 60 and 62 it never bound: the rival fitted as well in every round it was asked
+#: worth a test). In softer campaigns 60-70 it never bound: the rival fitted as well in every round it was asked
 DISCRIMINATE_RIVAL_LR = 0.0
 #: a confirmed stable cut lets a recommendation as deep as it within ±this fraction of its speed: 0, at its own
 #: speed only (±2 % let a softer campaign's recommendation slide from a stable cut at 11 965 rpm, 0.461 mm, to

@@ -120,3 +120,21 @@ def test_recommend_command_discriminate_option(tmp_path, capsys):
     assert main(["recommend", str(tmp_path / "none.json"), "--rpm", "5000:9000", "--discriminate", "sometimes",
                  "--out", str(out)]) == 2
     assert "--discriminate" in capsys.readouterr().err and not out.exists()
+
+
+def test_the_blind_spot_keeps_priority_over_the_conflict_test():
+    """While a conflict is named, a recommendation that no test bounds (the last two cuts chattered, both more
+    productive, no stable cut near it as deep: decide.blind_spot) is still tested first; without the blind spot the
+    conflict test replaces the next test."""
+    from millstab.update.decide import blind_spot, next_test_discriminating
+
+    prior, truth, _ = _fn_case()
+    rpm = np.array([6000.0, 8000, 10000, 11000, 12000])
+    post = _posterior(prior, truth, rpm, np.array([0.05, 0.05, 0.05, 20.0, 20.0]))  # the last two chatter
+    assert post.cuts["label"][-2:] == ["chatter", "chatter"]
+    sentinel = {"rpm": 5100.0, "depth_mm": 0.01, "why": "the recommendation itself"}
+    assert blind_spot(post, 5100.0, 0.01) is not None
+    assert next_test_discriminating(post, sentinel, (5100.0, 0.01), (5000, 12000), 30.0, seed=2) is sentinel
+    assert blind_spot(post, 5100.0, 100.0) is None  # the chattering cuts are less productive than this one
+    ct = next_test_discriminating(post, sentinel, (5100.0, 100.0), (5000, 12000), 30.0, seed=2)
+    assert ct is not sentinel and "rival" in ct and ct["why"].startswith("the conflict test")

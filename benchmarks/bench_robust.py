@@ -35,7 +35,10 @@ side (softer / stiffer); ``--trace`` prints per round why the recommendation is 
 ``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
 when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
 posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (the cut that tells the two
-apart) instead of the recommendation's next test.
+apart) instead of the recommendation's next test. ``--discriminate conflict`` (issue 24) is the product's rule
+instead: recommend's next test is the conflict test while the update names the conflict
+(:func:`millstab.update.decide.next_test_discriminating`; ``--discriminate-rival-lr``: only when the rival fits
+the cuts at least this well, ``=-inf`` always; ``--discriminate-every N``: only in every N-th round).
 """
 
 from __future__ import annotations
@@ -103,6 +106,8 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--discriminate", default="never",
                     help="recommend's next test while the conflict is named: conflict (the conflict test, "
                          "millstab.update.decide.next_test_discriminating) | never (default: the most informative cut)")
+    ap.add_argument("--discriminate-every", type=int, default=1,
+                    help="--discriminate conflict only in every N-th round (the others: the most informative cut)")
     ap.add_argument("--discriminate-rival-lr", type=float, default=0.0,
                     help="--discriminate conflict only when the rival fits the cuts at least this well (ln ratio; "
                          "-inf: always)")
@@ -166,7 +171,8 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             r_seed = int(rng.integers(2**31))
             for m in modes:
                 rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m,
-                               discriminate=args.discriminate, discriminate_rival_lr=args.discriminate_rival_lr)
+                               discriminate=args.discriminate if k % args.discriminate_every == 0 else "never",
+                               discriminate_rival_lr=args.discriminate_rival_lr)
                 by_mode[m][0].append(bool(rm.depth_mm < truth(np.array([rm.rpm]))[0]))
                 by_mode[m][1].append(float(rm.rpm * rm.depth_mm / best))
                 if m == modes[0]:

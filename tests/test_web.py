@@ -157,23 +157,24 @@ def test_identify_uploaded_points(app):
     assert page.locator(".fit-table tr").count() == 7
 
 
-def test_update_map_and_recommend(app, tmp_path):
-    from millstab.points import PointSet
-
-    page = app
-    cfg = api.config("example:ex3")
-    rpm = np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000])
-    blim = api.lobes(cfg, rpm).envelope.depth_mm
-    cuts = PointSet(np.r_[rpm, rpm], np.r_[0.6 * blim, 1.4 * blim], ["stable"] * 7 + ["chatter"] * 7)
-    path = tmp_path / "cuts.csv"
-    path.write_text("rpm,depth_mm,label\n"
-                    + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
+def upload_cuts(page, path, rpm, samples: int) -> None:
+    """Cuts of example ex3 at 0.6 (stable) then 1.4 (chatter) times its limit at the speeds ``rpm``, written to
+    ``path`` and uploaded in the Update tab, which is set to ``samples``."""
+    blim = api.lobes(api.config("example:ex3"), rpm).envelope.depth_mm
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{f * b:.6g},{lb}\n" for f, lb in
+                                                      ((0.6, "stable"), (1.4, "chatter")) for r, b in zip(rpm, blim)))
     T.tab(page, "Update and recommend")
     T.upload(page, "drop-cuts", path)
-    page.locator(".cuts-note").filter(has_text="14 points").wait_for()
-    samples = page.locator(".update-samples input").first
-    samples.fill("200")
-    samples.press("Enter")
+    page.locator(".cuts-note").filter(has_text=f"{path.name}: {2 * len(rpm)} points").wait_for()
+    samples_box = page.locator(".update-samples input").first
+    samples_box.fill(str(samples))
+    samples_box.press("Enter")
+
+
+def test_update_map_and_recommend(app, tmp_path):
+    page = app
+    cfg = api.config("example:ex3")
+    upload_cuts(page, tmp_path / "cuts.csv", np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000]), 200)
     page.locator(".update-run button").click()
     page.locator(".update-status").filter(has_text="running").wait_for()
     page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
@@ -204,18 +205,7 @@ def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     import json
 
     page = app
-    cfg = api.config("example:ex3")
-    rpm = np.array([7000.0, 14000.0])
-    blim = api.lobes(cfg, rpm).envelope.depth_mm
-    path = tmp_path / "cuts4.csv"
-    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{f * b:.6g},{lb}\n" for r, b in zip(rpm, blim)
-                                                      for f, lb in ((0.6, "stable"), (1.4, "chatter"))))
-    T.tab(page, "Update and recommend")
-    T.upload(page, "drop-cuts", path)
-    page.locator(".cuts-note").filter(has_text="4 points").wait_for()
-    samples = page.locator(".update-samples input").first
-    samples.fill("100")
-    samples.press("Enter")
+    upload_cuts(page, tmp_path / "cuts4.csv", np.array([7000.0, 14000.0]), 100)
     page.locator(".update-engine select").first.select_option("sdm")
     page.locator(".update-engine-note").filter(has_text="fn_max_hz, steps").wait_for()  # the keywords it takes
     opts = page.locator(".update-engine-options input").first

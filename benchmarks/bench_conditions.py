@@ -75,6 +75,12 @@ run). Where the 2.83× of the sampler as it was goes (CPU, the engine timed insi
   of the whole four-condition call (0.39 s): reading 11 KB of grid and receptances per set back from a 45 MB
   array costs what computing them in cache costs, and keeping them cost 16 µs per set.
 
+Round 4 (2026-11-27, load 16–23, ``--samples 4000``): one condition 2.98 s CPU (5 stages, 16 calls, 40 µs per
+set), four 7.80 s (7 stages, 20 calls, 91 µs per set): **2.62× CPU**, engine 2.30× per set, 2.45 alone; KL 5.9
+against 10.6 nats (the stages stay: information). Per condition and set (``profile_zoa.py --conditions``): 14.6 µs
+with 1 speed, 22.0 with 10, 33.3 with 40, on a shared grid of 4.8 µs; the 1.5× needs ≤ ~3 µs fixed per condition
+(docs/updating.md). A speed-major candidate scan was bit-identical and 0.98–1.02× the time: dropped.
+
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]
 [--fixed-moves]``.
 """

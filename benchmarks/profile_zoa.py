@@ -13,7 +13,13 @@ On the throughput benchmark's problem (benchmarks/bench_envelope.py: Example 1 s
    the time it would take at the scalar rate the same machine reaches on a dense loop of the same
    operations (measured here as well, not assumed).
 
-Run: ``.venv/bin/python benchmarks/profile_zoa.py [--sets 2000]``. Single thread (NUMBA_NUM_THREADS
+``--conditions`` prints instead what one cutting condition costs on top of a set's shared grid (issue 27: an
+update over cuts in 4 conditions against one in 1): per set, one thread, the stages of one condition (eigenvalues
+on the grid, Re ν = 0 edges, merging them into the grid, the candidate scan, the refinement) for the
+bench_conditions.py conditions and prior draws with 1, 10 and 40 speeds, and the engine ratio 4 × 10 speeds
+against 1 × 40 that these per-condition costs give, with the fixed cost per condition the issue's 1.5× would need.
+
+Run: ``.venv/bin/python benchmarks/profile_zoa.py [--sets 2000] [--conditions]``. Single thread (NUMBA_NUM_THREADS
 is not changed; the stage timings run serially). Its own stage function is compiled on every run (about a
 minute; not cached, as numba's cache does not notice edits to the kernel module it calls).
 """
@@ -95,10 +101,108 @@ def _dense_rate(n, md, a):
     return acc
 
 
+@nb.njit  # not cached, as _stages
+def _condition_stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
+    """One condition's pipeline on each set's shared grid, serially, up to stage ``upto``: 0 the grid and
+    receptances (shared by the conditions), 1 + the eigenvalue branches, 2 + the Re ν = 0 edges, 3 + merging
+    them into the grid, 4 + the candidate scan (the whole of :func:`_zoa_kernel._scan`), 5 the whole envelope
+    (+ the refinement). Returns a checksum."""
+    none = np.zeros(0, dtype=np.int64)
+    w_top = K.TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0
+    acc = 0.0
+    for b in range(md.shape[0]):
+        w, G = K.modal_grid(md[b], w_top, n_base, offsets)
+        acc += w[0]
+        if upto == 0:
+            continue
+        if upto == 5:
+            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none)
+            continue
+        if upto == 4:
+            acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, none)[4].size
+            continue
+        nu = K._branches_diag(a, G[0], G[3])
+        acc += nu[0, 0].real
+        if upto == 1:
+            continue
+        extra = K._distinct_new(w, K._validity_edges(w, nu, a, md[b], False, G, none))
+        acc += extra.size
+        if upto == 3 and extra.size:
+            acc += K._with_nodes(w, G, nu, extra, a, False, md[b])[0].size
+    return acc
+
+
+def conditions_profile(n_sets: int) -> None:
+    """What one cutting condition costs per set on the shared grid (``--conditions``; module docstring)."""
+    from millstab.io import load_config
+    from millstab.model import Cutting
+    from millstab.update import make_prior
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from bench_conditions import IMMERSIONS
+
+    cfg = load_config("example:ex1")
+    c = cfg.cutting
+    prior = make_prior(cfg.structure, c)
+    batch = prior.par.batch(prior.split(prior.sample_full(n_sets, np.random.default_rng(3)))[0])
+    two_pi = 2 * math.pi
+    md = K.pack_modes(two_pi * batch.fn_x, batch.k_x, batch.zeta_x, two_pi * batch.fn_y, batch.k_y, batch.zeta_y)
+    rng = np.random.default_rng(2)
+    speeds = np.sort(rng.permutation(np.unique(rng.uniform(4000, 12000, 160).round(-1)))[:40])
+    names = ("grid (shared)", "eigenvalues", "Re ν = 0 edges", "merge", "candidate scan", "refinement")
+    print(f"B={n_sets} prior draws of Example 1 (bench_conditions.py's); µs per set, one thread, best of 3")
+    print(f"{'condition':16s} {'S':>3s} " + " ".join(f"{n:>15s}" for n in names) + f" {'condition':>10s}")
+    per_cond = {}
+    for ri, mill in IMMERSIONS:
+        cut = Cutting.from_immersion(c.teeth, c.kt, c.kr, ri, mill)
+        a = K.directional_brackets(cut.kr, cut.entry, cut.exit)
+        for rpm in (speeds[:1].copy(), speeds[::4].copy(), speeds):
+            n_s = rpm.size
+            out = (np.empty((n_sets, n_s)), np.empty((n_sets, n_s), dtype=np.int64), np.empty((n_sets, n_s)))
+            _condition_stages(5, md[:2], a, cut.teeth, cut.kt, rpm, zoa.N_BASE, zoa._OFFSETS, *(o[:2] for o in out))
+            cum = []
+            for upto in range(6):
+                best = np.inf
+                for _ in range(3):
+                    t = time.process_time()
+                    _condition_stages(upto, md, a, cut.teeth, cut.kt, rpm, zoa.N_BASE, zoa._OFFSETS, *out)
+                    best = min(best, time.process_time() - t)
+                cum.append(best / n_sets * 1e6)
+            # the scan stage (4) includes eigenvalues, edges and merge again: its own cost is stage 4 − stage 3
+            parts = [cum[0], cum[1] - cum[0], cum[2] - cum[1], cum[3] - cum[2], cum[4] - cum[3], cum[5] - cum[4]]
+            per_cond.setdefault(n_s, []).append((cum[0], cum[5] - cum[0]))
+            print(f"{ri:4.2f} {mill:4s}        {n_s:3d} " + " ".join(f"{p:15.1f}" for p in parts)
+                  + f" {cum[5] - cum[0]:10.1f}")
+    grid = np.mean([g for g, _ in per_cond[40]])
+    f1, f10, f40 = (np.mean([x for _, x in per_cond[n]]) for n in (1, 10, 40))
+    one, four = grid + f40, grid + 4 * f10
+    print(f"a condition with 1 speed costs {f1:.1f} µs, with 10 {f10:.1f}, with 40 {f40:.1f} (mean over the four "
+          f"conditions); the shared grid {grid:.1f} µs")
+    print(f"engine per set: 1 condition x 40 speeds {one:.1f} µs, 4 conditions x 10 speeds {four:.1f} µs: "
+          f"ratio {four / one:.2f}")
+    # the engine ratio r_e the issue's 1.5x needs: 1.5 = calls ratio (20/16, the stages: data-driven) x r_e x 0.9
+    # (bench_conditions.py: the numpy part grows less than the engine part); at a fixed per-speed cost the fixed
+    # per-condition cost F then must satisfy grid + 4F + 40r <= r_e (grid + F + 40r)
+    r_e = 1.5 / (20 / 16) / 0.9
+    per_speed = (f40 - f1) / 39
+    need = (r_e * (grid + 40 * per_speed) - grid - 40 * per_speed) / (4 - r_e)
+    print(f"the issue's 1.5x per update needs about {r_e:.2f}x per set (20 against 16 engine calls, x0.9 for the "
+          f"numpy part): at {per_speed:.2f} µs per speed a fixed cost per condition of at most {need:.1f} µs "
+          f"(now {f1:.1f} µs)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sets", type=int, default=2000)
+    ap.add_argument("--conditions", action="store_true",
+                    help="what one cutting condition costs on the shared grid (issue 27), instead")
     args = ap.parse_args()
+    if args.conditions:
+        print(describe())
+        with threadpool_limits(1):
+            nb.set_num_threads(1)
+            conditions_profile(args.sets)
+        return
     cfg = load_example("ex1")
     par = Parameterization(cfg.structure)
     theta = par.theta0 * np.random.default_rng(0).uniform(0.9, 1.1, (args.sets, par.size))

@@ -121,3 +121,118 @@ def test_render_sensitivity_without_computing(tmp_path, monkeypatch):
     t6 = (tmp_path / "table6_monte_carlo.csv").read_text().splitlines()
     assert len(t6) == 13 and t6[1].startswith("A,fn_x,5.0,2.0") and t6[7].startswith("B,fn_x,")
     assert "N = 4 paths" in (tmp_path / "report.md").read_text()
+
+
+def _fit(estimate, iterations=7, mlae=(0.5, 0.1, 0.01), names=NAMES, std_errors=None, warnings=()):
+    """A stand-in for an identification's fit: what the Table 3 and four-flute sections read of one."""
+    from types import SimpleNamespace
+
+    mlae = np.array(mlae)
+    return SimpleNamespace(estimate=np.array(estimate, float), iterations=iterations, time_s=1.25, method="newton",
+                           evaluations=9, history_mlae=mlae, history_rss=mlae / 2, names=names,
+                           std_errors=std_errors, warnings=list(warnings))
+
+
+def _table3(newton_off: float = 0.001, lsq_off: float = 0.0005) -> paper.Table3:
+    """Three examples with truth θ0; the paper's Predicted row 1 % off everywhere; our Newton fit ``newton_off``
+    off in every parameter, our lsq fit ``lsq_off`` off; SLDs flat 1 mm (target) and 1.1 mm (Newton)."""
+    truth = np.array([900.0, 1e7, 0.03, 950.0, 1.2e7, 0.02])
+    rpm = np.linspace(3000.0, 15000.0, 5)
+    exs = tuple(paper.ExampleFit(ex, truth, truth * paper.START_FACTORS, truth * 1.01,
+                                 _fit(truth * (1 + newton_off)), _fit(truth * (1 + lsq_off), iterations=3),
+                                 np.full(6, newton_off), np.full(6, lsq_off), rpm, np.ones(5), np.full(5, 1.1))
+                for ex in paper.EXAMPLES)
+    return paper.Table3(exs, 60, np.array([0, 2]), np.array([np.full(5, 2.0), np.full(5, 1.2)]))
+
+
+def test_table3_checks_by_hand():
+    """Newton 0.1 % off against the paper's 1 %: holds; lsq 0.05 % ≤ 0.1 %: holds. Newton 2 % off fails,
+    lsq 0.2 % fails; two rows per example in Table 3's order."""
+    rows = paper.table3_checks(_table3())
+    assert [c.ok for c in rows] == [True] * 6
+    assert rows[0].claim.startswith("ex1: the paper's method") and rows[5].claim.startswith("ex3: default solver")
+    assert rows[0].measured.startswith("fn_x 0.10 % (paper 1.00 %), k_x 0.10 % (paper 1.00 %)")
+    assert rows[1].measured == "worst error 0.0500 %"
+    assert [c.ok for c in paper.table3_checks(_table3(0.02, 0.002))] == [False] * 6
+
+
+def test_render_table3_without_computing(tmp_path, monkeypatch):
+    """The section from a hand-made result, no engine, forward model or solver reachable (fails on the old code:
+    ``table3`` identified and drew in one body)."""
+    from millstab import forward, identify, stability
+
+    monkeypatch.setattr(paper, "zoa", _NoEngine())
+    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (forward, "forward"),
+                      (identify, "identify")):
+        monkeypatch.setattr(mod, name, _NoEngine())
+    t = _table3()
+    w = ReportWriter(tmp_path, "t")
+    paper.render_table3(w, t)
+    rep = w.write()
+    assert rep.checks == tuple(paper.table3_checks(t))
+    assert {p.name for p in rep.files} == {"table3_identification.csv", "fig_conv.png", "fig_iter.png",
+                                           "fig_eggs.png"}
+    rows = (tmp_path / "table3_identification.csv").read_text().splitlines()
+    assert len(rows) == 1 + 3 * 7
+    assert rows[1].startswith("ex1,fn_x [Hz],900.0,1170.0,909.0,1.0")
+    assert rows[7] == "ex1,iterations / time [s],,,60,,7 / 1.2,,3 / 1.2,"
+
+
+def _four_flute(user_points=None) -> paper.FourFlute:
+    """By hand: a 5-speed fourSLD with a static SLD whose minimum 0.5 mm sits at 6000 rpm and an in-process one
+    flat at 2 mm; an axisymmetric lsq fit 0.5 % off the stand-in's fn (4103.4 Hz)."""
+    from types import SimpleNamespace
+
+    from millstab.model import Mode
+    from millstab.points import PointSet
+
+    rpm = np.linspace(5000.0, 7000.0, 5)
+    curves = {"static": np.array([1.0, 0.8, 0.5, 0.9, 1.2]), "in-process": np.full(5, 2.0)}
+    truth = {"fn": 4103.4, "k": 11.65e6, "zeta": 0.0269}
+    names = ("fn", "k", "zeta")
+    lsq = _fit([4103.4 * 1.005, 11.7e6, 0.027], names=names, std_errors=np.array([10.0, 0.1e6, 0.001]))
+    newton = _fit([4100.0, 11.6e6, 0.0268], names=names)
+    pts = PointSet(np.array([5600.0, 6000.0]), np.array([1.5, 1.6]), source="points by hand")
+    plan = SimpleNamespace(names=names, sigma_existing=np.array([0.01, 0.1, 0.2]),
+                           sigma_uniform=np.array([0.008, 0.08, 0.15]), sigma_design=np.array([0.005, 0.05, 0.1]),
+                           rpm=np.array([5800.0, 5800.0, 6200.0]),
+                           tests=lambda: [(5800.0, 2, 1.4), (6200.0, 1, 1.7)])
+    table4 = (("fn_x [Hz]", 1000.0, 1000.0, 4000.0, 4000.0),)
+    return paper.FourFlute(table4, rpm, curves, pts, user_points, Mode(4000.0, 2e7, 0.02), newton, lsq,
+                           None if user_points else truth, np.full(5, 1.7), plan, pts, rpm, np.full(5, 1.7))
+
+
+def test_four_flute_checks_by_hand():
+    """fn 0.5 % off the stand-in's truth: holds (< 1 %); the user's own points: no check (no truth)."""
+    (row,) = paper.four_flute_checks(_four_flute())
+    assert (row.ok, row.measured) == (True, "0.50 % off")
+    assert paper.four_flute_checks(_four_flute(user_points="tests.csv")) == []
+
+
+def test_render_four_flute_without_computing(tmp_path, monkeypatch):
+    """The section from a hand-made result, no engine, solver or design reachable (fails on the old code:
+    ``four_flute`` computed, identified, planned and wrote in one body). The fourSLD summary by hand."""
+    from millstab import identify, stability
+    from millstab.identify import design
+
+    monkeypatch.setattr(paper, "zoa", _NoEngine())
+    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (identify, "identify"),
+                      (design, "design_after_fit")):
+        monkeypatch.setattr(mod, name, _NoEngine())
+    f = _four_flute()
+    w = ReportWriter(tmp_path, "t")
+    paper.render_four_flute(w, f)
+    rep = w.write()
+    assert rep.checks == tuple(paper.four_flute_checks(f))
+    assert [p.name for p in rep.files] == ["table4_static_modal.csv", "fourSLD_summary.csv",
+                                           "experimental_identification.csv", "test_plan.csv", "fig_plan.png",
+                                           "fig_fourSLD.png"]
+    summary = (tmp_path / "fourSLD_summary.csv").read_text().splitlines()
+    assert summary[1] == "static,0.5,6000.0,0.5,6000.0" and summary[2] == "in-process,2.0,5000.0,2.0,5500.0"
+    ident = (tmp_path / "experimental_identification.csv").read_text().splitlines()
+    fn_row = ident[1].split(",")
+    assert fn_row[:4] == ["fn [Hz]", "4000.0", "4103.4", "4100.0"] and fn_row[5] == "20.0"
+    assert float(fn_row[6]) == pytest.approx(0.5) and fn_row[7] == "false"  # 20.5 Hz off against ±2σ = 20 Hz
+    assert "5800 (2), 6200" in (tmp_path / "report.md").read_text()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        f.lsq = None

@@ -194,7 +194,222 @@ def _config_value(cfg, key: str) -> float:
     return float(getattr(getattr(s, d)[0], p))
 
 
-# --- step 3: Table 4 and Fig. fourSLD ---------------------------------------------------------------
+# --- step 2: Table 3, identification of the synthetic examples ----------------------------------------
+
+#: every parameter starts 30 % away from its target, alternating direction (fn_x +30 %, k_x −30 %, …)
+START_FACTORS = np.array([1.3, 0.7, 1.3, 0.7, 1.3, 0.7])
+#: the issue's thresholds: our default solver within 0.1 % of every target parameter
+LSQ_TOLERANCE = 1e-3
+#: speeds of the identification figures' SLDs (Fig. iter, Fig. eggs), evenly spaced over the points' range
+FIGURE_SPEEDS = 400
+
+
+@dataclass(frozen=True)
+class ExampleFit:
+    """One synthetic example identified by the paper's scheme and by our default solver (Table 3's rows).
+
+    Attributes:
+        name: the example ("ex1").
+        truth, start, paper: the target θ, the start (:data:`START_FACTORS` × truth) and the paper's Predicted
+            row, in :data:`PARAM_ROWS`' order and SI units (k in N/m).
+        newton, lsq: the two fits (:class:`~millstab.identify.result.Fit`; their histories draw Fig. conv).
+        newton_error, lsq_error: each fit's relative error per parameter (up to the x/y swap of a slot).
+        rpm: :data:`FIGURE_SPEEDS` speeds [rev/min] over the points' range; target_mm, newton_mm: the
+            truth's and the Newton fit's SLDs there [mm] (Fig. eggs).
+    """
+
+    name: str
+    truth: np.ndarray
+    start: np.ndarray
+    paper: np.ndarray
+    newton: object
+    lsq: object
+    newton_error: np.ndarray
+    lsq_error: np.ndarray
+    rpm: np.ndarray
+    target_mm: np.ndarray
+    newton_mm: np.ndarray
+
+    @property
+    def paper_error(self) -> np.ndarray:
+        """The paper's Predicted row's relative error per parameter."""
+        return np.abs(self.paper / self.truth - 1)
+
+
+@dataclass(frozen=True)
+class Table3:
+    """What :func:`compute_table3` computed, from which :func:`render_table3` and :func:`table3_checks` read.
+
+    Attributes:
+        examples: an :class:`ExampleFit` for each of :data:`EXAMPLES`.
+        paper_iterations: the paper's iteration count.
+        snapshots: the Newton iterations of Example 3 that Fig. iter shows; snapshot_mm: the SLDs guessed at
+            them [mm] (one row each, at ``examples[-1].rpm``).
+    """
+
+    examples: tuple
+    paper_iterations: int
+    snapshots: np.ndarray
+    snapshot_mm: np.ndarray
+
+
+def _identify_example(ex: str, seed: int) -> ExampleFit:
+    """Example ``ex``'s Table 3 row: both fits from a ±30 % start and the SLDs of Fig. eggs."""
+    from millstab.forward import forward
+    from millstab.identify import identify
+    from millstab.identify.accuracy import rel_error
+    from millstab.identify.symmetry import swap_permutation
+    from millstab.identify.synthetic import example_points
+
+    cfg, pts = example_points(ex)
+    truth = np.array([_config_value(cfg, n) for n, _, _ in PARAM_ROWS])
+    start = truth * START_FACTORS
+    initial = {n: v for (n, _, _), v in zip(PARAM_ROWS, start)}
+    fits = {m: identify(cfg, pts, method=m, initial=initial, seed=seed) for m in ("newton", "lsq")}
+    perm = swap_permutation(fits["lsq"].par, cfg.cutting)
+    pred = paper_values()["results_fourier"][ex]["predicted"]
+    rpm = np.linspace(pts.rpm.min(), pts.rpm.max(), FIGURE_SPEEDS)
+    newton = fits["newton"]
+    return ExampleFit(ex, truth, start, np.array([pred[n] for n, _, _ in PARAM_ROWS]), newton, fits["lsq"],
+                      rel_error(newton.estimate, truth, perm), rel_error(fits["lsq"].estimate, truth, perm), rpm,
+                      zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm,
+                      forward(newton.par, cfg.cutting)(newton.estimate, rpm)[0] * 1e3)
+
+
+def compute_table3(seed: int) -> Table3:
+    """Table 3: the paper's Newton–Raphson scheme and our default solver on Examples 1–3, with the SLDs of
+    Fig. iter (Example 3's Newton iterations) and Fig. eggs."""
+    from millstab.forward import forward
+    from millstab.plot.identify import snapshot_indices
+
+    examples = tuple(_identify_example(ex, seed) for ex in EXAMPLES)
+    fit = examples[-1].newton
+    its = snapshot_indices(len(fit.history_mlae), 6)
+    cutting = load_example(EXAMPLES[-1]).cutting
+    guesses = forward(fit.par, cutting)(fit.history_theta[its], examples[-1].rpm) * 1e3  # [mm]
+    return Table3(examples, int(paper_values()["results_fourier"]["iterations"]), np.asarray(its), guesses)
+
+
+def table3_checks(t: Table3) -> list:
+    """Per example: the paper's scheme (ours) at least as close as the paper's Predicted row in every parameter,
+    and our default solver within :data:`LSQ_TOLERANCE` of every target."""
+    from millstab.reproduce.report import Check
+
+    rows = []
+    for e in t.examples:
+        detail = ", ".join(f"{name} {100 * err:.2f} % (paper {100 * pe:.2f} %)"
+                           for (name, _, _), err, pe in zip(PARAM_ROWS, e.newton_error, e.paper_error))
+        rows.append(Check(f"{e.name}: the paper's method (ours) at least as close as the paper's Predicted row in "
+                          "every parameter", detail, bool((e.newton_error <= e.paper_error).all())))
+        worst = e.lsq_error.max()
+        rows.append(Check(f"{e.name}: default solver within 0.1 % of every target from a ±30 % start",
+                          f"worst error {100 * worst:.4f} %", bool(worst <= LSQ_TOLERANCE)))
+    return rows
+
+
+def render_table3(rep: ReportWriter, t: Table3) -> None:
+    """The section: Table 3, its checks, Fig. conv, Fig. iter and Fig. eggs, all from ``t`` (no engine call)."""
+    rep.heading("Table 3: identification of the synthetic examples")
+    rep.paragraph(
+        "Target SLDs: 100 boundary points of each example's true structure at evenly spaced speeds over its "
+        "config's [speeds] range (ex1 3000–15000, ex2 1500–9000, ex3 3000–21000 rpm), noise-free, from the zero-order "
+        "engine (the paper's speed sets are not given). Every parameter starts 30 % away from its target "
+        "(fn_x +30 %, k_x −30 %, ζ_x +30 %, fn_y −30 %, k_y +30 %, ζ_y −30 %). 'newton' is the paper's scheme "
+        "(MLAE objective, forward-difference sensitivities, jumps, critical-point weights, diverse initial guesses; "
+        "the update applied in log coordinates); 'lsq' is millstab's default (multi-start trust-region least squares). "
+        "For the slotting examples x and y are interchangeable (the SLD is symmetric under the swap), so errors "
+        "are taken up to that symmetry.")
+    rows = []
+    for e in t.examples:
+        for j, (name, unit, scale) in enumerate(PARAM_ROWS):
+            rows.append([e.name, f"{name} [{unit}]", e.truth[j] * scale, e.start[j] * scale, e.paper[j] * scale,
+                         100 * e.paper_error[j], e.newton.estimate[j] * scale, 100 * e.newton_error[j],
+                         e.lsq.estimate[j] * scale, 100 * e.lsq_error[j]])
+        nw, ls = e.newton, e.lsq
+        rows.append([e.name, "iterations / time [s]", "", "", t.paper_iterations, "",
+                     f"{nw.iterations} / {nw.time_s:.1f}", "", f"{ls.iterations} / {ls.time_s:.1f}", ""])
+    for c in table3_checks(t):
+        rep.add(c)
+    rep.table("table3_identification", ["example", "parameter", "target", "start", "paper predicted", "paper error %",
+                                        "ours: newton", "newton error %", "ours: lsq", "lsq error %"], rows,
+              "Table 3: targets, the paper's Predicted row and ours (k in N/µm)")
+    _identification_figures(rep, t)
+
+
+def table3(ctx: Context) -> None:
+    """Table 3: the paper's Newton–Raphson scheme and our default solver on Examples 1–3."""
+    render_table3(ctx.report, compute_table3(ctx.seed))
+
+
+def _identification_figures(rep: ReportWriter, t: Table3) -> None:
+    import matplotlib.pyplot as plt
+
+    from millstab.plot.identify import plot_convergence, plot_final, plot_iterations
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 3.8))
+    for ax, e in zip(axes, t.examples):
+        plot_convergence(e.newton, ax=ax, title=f"{e.name}: Newton–Raphson (paper's scheme)")
+    fig.tight_layout()
+    rep.figure("fig_conv", fig, "Fig. conv: the objective (MLAE, eq. 4) against iteration, paper's scheme (log scale): "
+               "each iterate's MLAE as a dot (the scheme's jumps and trial steps make it zig-zag), the best so far as "
+               "a line")
+    e3 = t.examples[-1]
+    rep.figure("fig_iter", plot_iterations(e3.newton, e3.rpm, e3.target_mm, t.snapshot_mm, t.snapshots),
+               "Fig. iter: snapshots of Example 3's guessed SLD (orange) against the target (blue) through the "
+               "Newton–Raphson iterations")
+    panels = [(f"{e.name}: target vs Newton–Raphson result", e.rpm, e.target_mm, e.newton_mm, None)
+              for e in t.examples]
+    rep.figure("fig_eggs", plot_final(panels),
+               "Fig. eggs: final SLDs of the three examples, the target (blue) against the paper's scheme's result "
+               "(orange, dashed)")
+
+
+# --- steps 3 and 4: Table 4, Fig. fourSLD and the experimental identification (stand-in) ---------------
+
+#: Table 4's rows: (key in paper_values.toml's [modal], label, scale to the table's unit)
+TABLE4_ROWS = [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [MN/m]", 1e-6), ("zeta_x", "zeta_x", 1),
+               ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [MN/m]", 1e-6), ("zeta_y", "zeta_y", 1)]
+#: tests the report plans beyond the identification's points, and the depth noise it assumes (that of
+#: the stand-in points)
+PLAN_TESTS, PLAN_NOISE = 10, 0.03
+#: speeds of the test plan's candidates and of its figure's SLD [rev/min], over Fig. fourSLD's range
+PLAN_SPEEDS = 800
+
+
+@dataclass(frozen=True)
+class FourFlute:
+    """What :func:`compute_four_flute` computed, from which :func:`render_four_flute` and
+    :func:`four_flute_checks` read.
+
+    Attributes:
+        table4: Table 4's rows: label, mode 1 paper, ours, mode 2 paper, ours (in the table's unit).
+        rpm: Fig. fourSLD's speeds [rev/min]; curves: {label: depth [mm]}, the static SLD first, then the
+            paper's in-process results.
+        points: the points identified from (:class:`~millstab.points.PointSet`); user_points: their file when
+            the user gave one, else None (the synthetic stand-in).
+        start: the static mode the identification starts from (:class:`~millstab.model.Mode`).
+        newton, lsq: the axisymmetric fits; truth: the stand-in's truth (the paper's Newton–Raphson result,
+            {"fn", "k", "zeta"}), None for the user's points.
+        identified_mm: the lsq fit's SLD at ``rpm`` [mm].
+        plan: the next tests (:class:`~millstab.identify.design.SpeedDesign`); measured: the boundary points it
+            adds to; plan_rpm, plan_mm: the fit's SLD over :data:`PLAN_SPEEDS` speeds [rev/min, mm].
+    """
+
+    table4: tuple
+    rpm: np.ndarray
+    curves: dict
+    points: object
+    user_points: Path | None
+    start: object
+    newton: object
+    lsq: object
+    truth: dict | None
+    identified_mm: np.ndarray
+    plan: object
+    measured: object
+    plan_rpm: np.ndarray
+    plan_mm: np.ndarray
+
 
 def in_process_structures() -> dict[str, Structure]:
     """The paper's in-process results for the four-flute tool (axisymmetric, one mode per direction)."""
@@ -202,35 +417,6 @@ def in_process_structures() -> dict[str, Structure]:
     labels = {"newton_raphson": "Newton–Raphson (paper)", "method1_two_point": "Method 1: two-point (Eynian)",
               "method2_regression": "Method 2: regression (Eynian)"}
     return {labels[k]: Structure.symmetric(v["fn"], v["k"], v["zeta"]) for k, v in er.items() if k in labels}
-
-
-def table4(ctx: Context, points=None) -> dict:
-    """Table 4 (static modal parameters) and Fig. fourSLD; returns the static and in-process SLDs."""
-    rep = ctx.report
-    pv = paper_values()
-    cfg = load_example("fourflute")
-    rep.heading("Table 4 and Fig. fourSLD: the four-flute tool")
-    modal = pv["modal"]
-    rows = []
-    for key, label, scale in [("fn_x", "fn_x [Hz]", 1), ("k_x", "k_x [MN/m]", 1e-6), ("zeta_x", "zeta_x", 1),
-                              ("fn_y", "fn_y [Hz]", 1), ("k_y", "k_y [MN/m]", 1e-6), ("zeta_y", "zeta_y", 1)]:
-        p, d = key.split("_")
-        ours = [getattr(m, p) * scale for m in getattr(cfg.structure, d)]
-        rows.append([label, modal[key][0] * scale, ours[0], modal[key][1] * scale, ours[1]])
-    rep.table("table4_static_modal", ["parameter", "Mode 1 paper", "Mode 1 ours", "Mode 2 paper", "Mode 2 ours"], rows,
-              "Table 4: static (hammer-test) modal parameters, two modes per direction; Kt 1110 MPa, Kr 0.22, 4 teeth, "
-              "slotting")
-    rpm = np.linspace(5000, 7000, 401 if ctx.quick else 801)
-    curves = {"static (Table 4, two modes per direction)": zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm}
-    for label, s in in_process_structures().items():
-        curves[label] = zoa.envelope(s, cfg.cutting, rpm).depth_mm
-    rows = []
-    band = (rpm >= 5500) & (rpm <= 6500)
-    for label, d in curves.items():
-        rows.append([label, d.min(), rpm[np.argmin(d)], d[band].min(), rpm[band][np.argmin(d[band])]])
-    rep.table("fourSLD_summary", ["SLD", "min b_lim [mm] 5000–7000", "at rpm", "min in 5500–6500 [mm]", "at rpm"], rows,
-              "Fig. fourSLD curves: where each SLD is lowest")
-    return {"rpm": rpm, "curves": curves, "cutting": cfg.cutting}
 
 
 def stand_in_points(seed: int, noise: float = 0.03, n: int = 21):
@@ -249,213 +435,140 @@ def stand_in_points(seed: int, noise: float = 0.03, n: int = 21):
     return PointSet(rpm, noisy, source=f"SYNTHETIC stand-in: NR result + {100 * noise:g} % noise, seed {seed}")
 
 
-def four_flute(ctx: Context) -> None:
-    """Table 4, Fig. fourSLD and the experimental identification (on a stand-in set unless given)."""
-    rep = ctx.report
-    data = table4(ctx)
+def compute_four_flute(quick: bool, seed: int, points: Path | None = None) -> FourFlute:
+    """Table 4 and Fig. fourSLD's SLDs, the axisymmetric identification from ``points`` (the synthetic
+    stand-in when None), starting from the static dominant mode, and the next tests planned around it."""
+    import dataclasses
+
+    from millstab.identify import identify
+    from millstab.identify.design import design_after_fit
+
     pv = paper_values()
-    if ctx.points:
+    cfg = load_example("fourflute")
+    modal = pv["modal"]
+    table4 = []
+    for key, label, scale in TABLE4_ROWS:
+        p, d = key.split("_")
+        ours = [getattr(m, p) * scale for m in getattr(cfg.structure, d)]
+        table4.append((label, modal[key][0] * scale, ours[0], modal[key][1] * scale, ours[1]))
+    rpm = np.linspace(5000, 7000, 401 if quick else 801)
+    curves = {"static (Table 4, two modes per direction)": zoa.envelope(cfg.structure, cfg.cutting, rpm).depth_mm}
+    for label, s in in_process_structures().items():
+        curves[label] = zoa.envelope(s, cfg.cutting, rpm).depth_mm
+    if points:
         from millstab.io.points import read_points
 
-        pts = read_points(ctx.points)
-        rep.paragraph(f"Identification from the user's measured points {ctx.points} ({len(pts)} rows).")
+        pts = read_points(points)
     else:
-        pts = stand_in_points(ctx.seed)
+        pts = stand_in_points(seed)
+    static = cfg.structure.x[int(np.argmax([1 / (m.k * m.zeta) for m in cfg.structure.x]))]
+    start_cfg = dataclasses.replace(cfg, structure=Structure.symmetric(static.fn, static.k, static.zeta))
+    fits = {m: identify(start_cfg, pts, method=m, axisymmetric=True, seed=seed) for m in ("lsq", "newton")}
+    lsq = fits["lsq"]
+    measured = pts.subset(pts.boundary)
+    plan_rpm = np.linspace(rpm[0], rpm[-1], PLAN_SPEEDS)
+    plan = design_after_fit(lsq, cfg.cutting, plan_rpm, PLAN_TESTS, existing_rpm=measured.rpm,
+                            existing_weight=measured.weight, noise=PLAN_NOISE, seed=seed)
+    return FourFlute(tuple(table4), rpm, curves, pts, points, static, fits["newton"], lsq,
+                     None if points else pv["experimental_results"]["newton_raphson"],
+                     zoa.envelope(lsq.structure, cfg.cutting, rpm).depth_mm, plan, measured, plan_rpm,
+                     zoa.envelope(lsq.structure, cfg.cutting, plan_rpm).depth_mm)
+
+
+def four_flute_checks(f: FourFlute) -> list:
+    """On the stand-in points: fn recovered within 1 %. No check on the user's points (no truth to hold to)."""
+    from millstab.reproduce.report import Check
+
+    if f.truth is None:
+        return []
+    err_fn = abs(f.lsq.estimate[0] / f.truth["fn"] - 1)
+    return [Check("Stand-in: fn recovered from 21 points with 3 % noise", f"{100 * err_fn:.2f} % off",
+                  bool(err_fn < 0.01))]
+
+
+def render_four_flute(rep: ReportWriter, f: FourFlute) -> None:
+    """The section: Table 4, Fig. fourSLD, the experimental identification and the test plan, all from ``f``
+    (no engine call)."""
+    from millstab.plot.sld import plot_sld_family
+
+    rep.heading("Table 4 and Fig. fourSLD: the four-flute tool")
+    rep.table("table4_static_modal", ["parameter", "Mode 1 paper", "Mode 1 ours", "Mode 2 paper", "Mode 2 ours"],
+              [list(r) for r in f.table4],
+              "Table 4: static (hammer-test) modal parameters, two modes per direction; Kt 1110 MPa, Kr 0.22, 4 teeth, "
+              "slotting")
+    band = (f.rpm >= 5500) & (f.rpm <= 6500)
+    rows = [[label, d.min(), f.rpm[np.argmin(d)], d[band].min(), f.rpm[band][np.argmin(d[band])]]
+            for label, d in f.curves.items()]
+    rep.table("fourSLD_summary", ["SLD", "min b_lim [mm] 5000–7000", "at rpm", "min in 5500–6500 [mm]", "at rpm"], rows,
+              "Fig. fourSLD curves: where each SLD is lowest")
+    if f.user_points:
+        rep.paragraph(f"Identification from the user's measured points {f.user_points} ({len(f.points)} rows).")
+    else:
+        ex = paper_values()["experiment"]
         rep.paragraph(
-            f"The paper's experimental data ({pv['experiment']['chatter_tests']} chatter tests of slot milling, "
-            f"{pv['experiment']['rpm_min']:g}–{pv['experiment']['rpm_max']:g} rpm, Eynian 2019) are not public in any "
+            f"The paper's experimental data ({ex['chatter_tests']} chatter tests of slot milling, "
+            f"{ex['rpm_min']:g}–{ex['rpm_max']:g} rpm, Eynian 2019) are not public in any "
             "source we can reach, so they are NOT reproduced here. Give them with `millstab reproduce --points FILE` "
             "(CSV rpm,depth_mm[,label]). Meanwhile the same identification runs on a SYNTHETIC stand-in: 21 boundary "
             "points over 5500–6500 rpm generated from the paper's in-process Newton–Raphson result with 3 % Gaussian "
             "noise on the depths (red points below). Recovering that result from them shows what the method can do "
             "with 21 noisy points; it says nothing about the real tests.")
-    fitted, fit = identify_four_flute(ctx, pts, data)
-    plan_next_tests(ctx, fit, pts, data["rpm"])
-    from millstab.plot.sld import plot_sld_family
-
-    fig = plot_sld_family(data["rpm"], data["curves"], pts, fitted)
-    rep.figure("fig_fourSLD", fig,
+    _render_identification(rep, f)
+    _render_plan(rep, f)
+    label = "identified here (lsq" + (", your points)" if f.user_points else ", stand-in points)")
+    rep.figure("fig_fourSLD", plot_sld_family(f.rpm, f.curves, f.points, (label, f.identified_mm)),
                "Fig. fourSLD: the four-flute tool in slotting, static SLD (dashed black) against the "
                "in-process SLDs of the paper and of Eynian's two methods, ours identified from the points (orange), "
                "and the points used for identification (red)")
 
 
-# --- step 2: Table 3, identification of the synthetic examples ----------------------------------------
-
-#: every parameter starts 30 % away from its target, alternating direction (fn_x +30 %, k_x −30 %, …)
-START_FACTORS = np.array([1.3, 0.7, 1.3, 0.7, 1.3, 0.7])
-#: the issue's thresholds: our default solver within 0.1 % of every target parameter
-LSQ_TOLERANCE = 1e-3
-
-
-def _identify_example(ctx: Context, ex: str) -> dict:
-    from millstab.identify import identify
-    from millstab.identify.accuracy import rel_error
-    from millstab.identify.symmetry import swap_permutation
-    from millstab.identify.synthetic import example_points
-
-    cfg, pts = example_points(ex)
-    truth = np.array([_config_value(cfg, n) for n, _, _ in PARAM_ROWS])
-    start = truth * START_FACTORS
-    initial = {n: v for (n, _, _), v in zip(PARAM_ROWS, start)}
-    fits = {m: identify(cfg, pts, method=m, initial=initial, seed=ctx.seed) for m in ("newton", "lsq")}
-    perm = swap_permutation(fits["lsq"].par, cfg.cutting)
-    errs = {m: rel_error(f.estimate, truth, perm) for m, f in fits.items()}
-    return {"cfg": cfg, "points": pts, "truth": truth, "start": start, "fits": fits, "errors": errs}
-
-
-def table3(ctx: Context) -> None:
-    """Table 3: the paper's Newton–Raphson scheme and our default solver on Examples 1–3."""
-    rep = ctx.report
-    pv = paper_values()["results_fourier"]
-    rep.heading("Table 3: identification of the synthetic examples")
-    rep.paragraph(
-        "Target SLDs: 100 boundary points of each example's true structure at evenly spaced speeds over its "
-        "config's [speeds] range (ex1 3000–15000, ex2 1500–9000, ex3 3000–21000 rpm), noise-free, from the zero-order "
-        "engine (the paper's speed sets are not given). Every parameter starts 30 % away from its target "
-        "(fn_x +30 %, k_x −30 %, ζ_x +30 %, fn_y −30 %, k_y +30 %, ζ_y −30 %). 'newton' is the paper's scheme "
-        "(MLAE objective, forward-difference sensitivities, jumps, critical-point weights, diverse initial guesses; "
-        "the update applied in log coordinates); 'lsq' is millstab's default (multi-start trust-region least squares). "
-        "For the slotting examples x and y are interchangeable (the SLD is symmetric under the swap), so errors "
-        "are taken up to that symmetry.")
-    results = {}
+def _render_identification(rep: ReportWriter, f: FourFlute) -> None:
+    """The experimental identification's table, the solver's diagnostics and :func:`four_flute_checks`."""
+    stand_in = f.truth is not None
+    lsq = f.lsq
     rows = []
-    for ex in ("ex1", "ex2", "ex3"):
-        r = _identify_example(ctx, ex)
-        results[ex] = r
-        pred = np.array([pv[ex]["predicted"][n] for n, _, _ in PARAM_ROWS])
-        paper_err = np.abs(pred / r["truth"] - 1)
-        for j, (name, unit, scale) in enumerate(PARAM_ROWS):
-            rows.append([ex, f"{name} [{unit}]", r["truth"][j] * scale, r["start"][j] * scale, pred[j] * scale,
-                         100 * paper_err[j], r["fits"]["newton"].estimate[j] * scale, 100 * r["errors"]["newton"][j],
-                         r["fits"]["lsq"].estimate[j] * scale, 100 * r["errors"]["lsq"][j]])
-        nw, ls = r["fits"]["newton"], r["fits"]["lsq"]
-        rows.append([ex, "iterations / time [s]", "", "", pv["iterations"], "", f"{nw.iterations} / {nw.time_s:.1f}",
-                     "", f"{ls.iterations} / {ls.time_s:.1f}", ""])
-        worst_ls = r["errors"]["lsq"].max()
-        nw_err = r["errors"]["newton"]
-        detail = ", ".join(f"{name} {100 * e:.2f} % (paper {100 * pe:.2f} %)"
-                           for (name, _, _), e, pe in zip(PARAM_ROWS, nw_err, paper_err))
-        rep.check(f"{ex}: the paper's method (ours) at least as close as the paper's Predicted row in every parameter",
-                  detail, bool((nw_err <= paper_err).all()))
-        rep.check(f"{ex}: default solver within 0.1 % of every target from a ±30 % start",
-                  f"worst error {100 * worst_ls:.4f} %", worst_ls <= LSQ_TOLERANCE)
-    rep.table("table3_identification", ["example", "parameter", "target", "start", "paper predicted", "paper error %",
-                                        "ours: newton", "newton error %", "ours: lsq", "lsq error %"], rows,
-              "Table 3: targets, the paper's Predicted row and ours (k in N/µm)")
-    _identification_figures(ctx, results)
-
-
-def _identification_figures(ctx: Context, results: dict) -> None:
-    import matplotlib.pyplot as plt
-
-    from millstab.forward import forward
-    from millstab.plot.identify import plot_convergence, plot_final, plot_iterations, snapshot_indices
-
-    rep = ctx.report
-    fig, axes = plt.subplots(1, 3, figsize=(15, 3.8))
-    for ax, (ex, r) in zip(axes, results.items()):
-        plot_convergence(r["fits"]["newton"], ax=ax, title=f"{ex}: Newton–Raphson (paper's scheme)")
-    fig.tight_layout()
-    rep.figure("fig_conv", fig, "Fig. conv: the objective (MLAE, eq. 4) against iteration, paper's scheme (log scale): "
-               "each iterate's MLAE as a dot (the scheme's jumps and trial steps make it zig-zag), the best so far as "
-               "a line")
-
-    r3 = results["ex3"]
-    fit = r3["fits"]["newton"]
-    rpm = np.linspace(r3["points"].rpm.min(), r3["points"].rpm.max(), 400)
-    its = snapshot_indices(len(fit.history_mlae), 6)
-    guesses = forward(fit.par, r3["cfg"].cutting)(fit.history_theta[its], rpm) * 1e3  # [mm]
-    target = zoa.envelope(r3["cfg"].structure, r3["cfg"].cutting, rpm).depth_mm
-    rep.figure("fig_iter", plot_iterations(fit, rpm, target, guesses, its),
-               "Fig. iter: snapshots of Example 3's guessed SLD (orange) against the target (blue) through the "
-               "Newton–Raphson iterations")
-
-    panels = []
-    for ex, r in results.items():
-        rr = np.linspace(r["points"].rpm.min(), r["points"].rpm.max(), 400)
-        tgt = zoa.envelope(r["cfg"].structure, r["cfg"].cutting, rr).depth_mm
-        fitted = forward(r["fits"]["newton"].par, r["cfg"].cutting)(r["fits"]["newton"].estimate, rr)[0] * 1e3
-        panels.append((f"{ex}: target vs Newton–Raphson result", rr, tgt, fitted, None))
-    rep.figure("fig_eggs", plot_final(panels),
-               "Fig. eggs: final SLDs of the three examples, the target (blue) against the paper's scheme's result "
-               "(orange, dashed)")
-
-
-# --- step 4: the experimental identification (stand-in) ----------------------------------------------
-
-def identify_four_flute(ctx: Context, pts, data: dict) -> tuple[tuple[str, np.ndarray], object]:
-    """Identify the axisymmetric in-process mode from ``pts``, starting from the static dominant mode.
-
-    Returns ((label, depth [mm] of the identified SLD at ``data["rpm"]``), the lsq fit)."""
-    import dataclasses
-
-    from millstab.identify import identify
-
-    rep = ctx.report
-    pv = paper_values()
-    cfg = load_example("fourflute")
-    static = cfg.structure.x[int(np.argmax([1 / (m.k * m.zeta) for m in cfg.structure.x]))]
-    start_cfg = dataclasses.replace(cfg, structure=Structure.symmetric(static.fn, static.k, static.zeta))
-    truth = pv["experimental_results"]["newton_raphson"]
-    rows = []
-    fits = {}
-    for method in ("lsq", "newton"):
-        fit = identify(start_cfg, pts, method=method, axisymmetric=True, seed=ctx.seed)
-        fits[method] = fit
-    lsq = fits["lsq"]
     for j, name in enumerate(lsq.names):
         scale = 1e-6 if name == "k" else 1.0
         se = lsq.std_errors[j] if lsq.std_errors is not None else float("nan")
-        row = [name + (" [MN/m]" if name == "k" else " [Hz]" if name == "fn" else ""), getattr(static, name) * scale]
-        if not ctx.points:
-            row.append(truth[name] * scale)
-        row += [fits["newton"].estimate[j] * scale, lsq.estimate[j] * scale, 2 * se * scale]
-        if not ctx.points:
-            row += [100 * (lsq.estimate[j] / truth[name] - 1), abs(lsq.estimate[j] - truth[name]) <= 2 * se]
+        row = [name + (" [MN/m]" if name == "k" else " [Hz]" if name == "fn" else ""), getattr(f.start, name) * scale]
+        if stand_in:
+            row.append(f.truth[name] * scale)
+        row += [f.newton.estimate[j] * scale, lsq.estimate[j] * scale, 2 * se * scale]
+        if stand_in:
+            row += [100 * (lsq.estimate[j] / f.truth[name] - 1), abs(lsq.estimate[j] - f.truth[name]) <= 2 * se]
         rows.append(row)
-    header = ["parameter", "start (static mode 2 of x)"] + ([] if ctx.points else ["truth of the stand-in (paper NR)"])
-    header += ["ours: newton", "ours: lsq", "lsq ±2σ"] + ([] if ctx.points else ["lsq error %", "truth inside ±2σ"])
+    header = ["parameter", "start (static mode 2 of x)"] + (["truth of the stand-in (paper NR)"] if stand_in else [])
+    header += ["ours: newton", "ours: lsq", "lsq ±2σ"] + (["lsq error %", "truth inside ±2σ"] if stand_in else [])
     rep.table("experimental_identification", header, rows,
-              "Experimental identification (axisymmetric, one mode): " + (f"from {ctx.points}" if ctx.points else
-                                                                          "SYNTHETIC stand-in points"))
+              "Experimental identification (axisymmetric, one mode): " + (f"from {f.user_points}" if f.user_points
+                                                                          else "SYNTHETIC stand-in points"))
     if lsq.warnings:
         rep.paragraph("Solver diagnostics: " + " ".join(lsq.warnings))
-    if not ctx.points:
-        err_fn = abs(lsq.estimate[0] / truth["fn"] - 1)
-        rep.check("Stand-in: fn recovered from 21 points with 3 % noise", f"{100 * err_fn:.2f} % off", err_fn < 0.01)
-    depth = zoa.envelope(lsq.structure, cfg.cutting, data["rpm"]).depth_mm
-    return ("identified here (lsq" + (", your points)" if ctx.points else ", stand-in points)"), depth), lsq
+    for c in four_flute_checks(f):
+        rep.add(c)
 
 
-#: tests the report plans beyond the identification's points, and the depth noise it assumes (that of
-#: the stand-in points)
-PLAN_TESTS, PLAN_NOISE = 10, 0.03
-
-
-def plan_next_tests(ctx: Context, fit, pts, rpm: np.ndarray) -> None:
-    """Where the next tests should go (not in the paper): :func:`~millstab.identify.design.design_after_fit`
-    around the experimental fit, over the speeds of Fig. fourSLD, adding to the points already used."""
-    from millstab.identify.design import design_after_fit
+def _render_plan(rep: ReportWriter, f: FourFlute) -> None:
+    """Where the next tests should go (not in the paper): the plan's table, its speeds and its figure."""
     from millstab.plot.identify import plot_design
 
-    rep = ctx.report
-    cfg = load_example("fourflute")
-    measured = pts.subset(pts.boundary)
-    plan = design_after_fit(fit, cfg.cutting, np.linspace(rpm[0], rpm[-1], 800), PLAN_TESTS, existing_rpm=measured.rpm,
-                            existing_weight=measured.weight, noise=PLAN_NOISE, seed=ctx.seed)
+    plan = f.plan
     rows = [[name, 100 * plan.sigma_existing[i], 100 * plan.sigma_uniform[i], 100 * plan.sigma_design[i]]
             for i, name in enumerate(plan.names)]
-    rep.table("test_plan", ["parameter", f"σ % with the {len(measured)} points",
+    rep.table("test_plan", ["parameter", f"σ % with the {len(f.measured)} points",
                             f"σ % with {PLAN_TESTS} more evenly spaced", f"σ % with {PLAN_TESTS} more planned"], rows,
               f"Planning the next tests (millstab design; not in the paper): predicted relative standard errors at "
               f"{100 * PLAN_NOISE:g} % depth noise")
     rep.paragraph("Planned speeds [rpm] (tests): " + ", ".join(f"{r:.0f}" + (f" ({c})" if c > 1 else "")
                                                              for r, c, _ in plan.tests()))
-    grid = np.linspace(rpm[0], rpm[-1], 800)
-    rep.figure("fig_plan", plot_design(plan, grid, zoa.envelope(fit.structure, cfg.cutting, grid).depth_mm, measured),
+    rep.figure("fig_plan", plot_design(plan, f.plan_rpm, f.plan_mm, f.measured),
                "Where to measure next on the four-flute tool: the SLD of the identified mode, the points used (black) "
                "and the tests planned around it (red)")
+
+
+def four_flute(ctx: Context) -> None:
+    """Table 4, Fig. fourSLD and the experimental identification (on a stand-in set unless given)."""
+    render_four_flute(ctx.report, compute_four_flute(ctx.quick, ctx.seed, ctx.points))
 
 
 # --- step 5: Fig. SENS and Table 6 --------------------------------------------------------------------

@@ -580,23 +580,27 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                   near: float = NEAR) -> np.ndarray:
+                   near: float = NEAR, warm: bool = True) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
-    which a problem's :func:`settings` asks for)."""
+    which a problem's :func:`settings` asks for). ``warm``: rows within ``WARM_REL`` of the row heading their
+    run start from its boundary (:func:`_heads`; for finite-difference Jacobians). A warm row can land on a
+    crossing below the one its own search from below finds (a band narrower than the ladder's step), so its
+    depth can depend on its neighbour: a sampler, whose likelihood must be one function of θ, turns it off
+    (:func:`settings` with ``purpose="sample"``); not a discretisation option (``forward.NOT_OPTIONS``)."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes, near=near)[0]
+    return _limit(batch, cutting, r, nodes, warm=warm, near=near)[0]
 
 
 @by_condition
 def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                      near: float = NEAR) -> tuple[np.ndarray, np.ndarray]:
+                      near: float = NEAR, warm: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
-    no boundary exists."""
+    no boundary exists. ``near``, ``warm``: as :func:`envelope_batch`."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes, near=near)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
@@ -677,7 +681,7 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     the parameters move (measured: the identification benchmark then ended in a wrong basin, module
     docstring); the depth of each speed still does not depend on the other speeds. ``purpose`` ``"sample"``
     (:data:`PURPOSES`): the converged count itself, for a sampler whose likelihood compares depths with a
-    depth noise of several % (the updating loop), never below P_NODES + P_STEP."""
+    depth noise of several % (the updating loop), never below P_NODES + P_STEP, and ``"warm": False``."""
     if purpose not in PURPOSES:
         raise InputError("purpose", purpose, "one of " + ", ".join(PURPOSES))
     _require_modal_batch(batch)
@@ -691,7 +695,11 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     # the check starts one step up: P_NODES nodes for every prior sample landed on another root (> 1 % off)
     # at 6.6 % of the (sample, speed) pairs (bench_spectral_nodes.py), and a first row can pass the check
     # at P_NODES (Example 1's identification start did)
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0}
+    # and no warm starts between rows: a sampler's likelihood must be one function of θ, and a warm row's depth
+    # can depend on its neighbour (envelope_batch; 1 of 12 000 pairs of rows within 0.4 % at a/D 0.1 differed by
+    # 0.9 %, test_spectral_sampling); particles are seldom within WARM_REL of each other, so it costs nothing
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0,
+            "warm": False}
 
 
 def _require_modal_batch(batch) -> None:

@@ -30,11 +30,16 @@ Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --s
 Many cores: ``--jobs N`` runs the campaigns (machines × ``--repeats``) in a pool of N processes, each with one
 numba and one BLAS thread; every campaign draws from its own generator (seed + 100·machine + 10 000·repeat,
 the update's own seed ``--seed``), so the figures do not depend on N or on the order the campaigns finish.
-``--engine sdm`` fits with the semi-discretization engine (delayed acceptance: the zero-order engine screens
-each proposal, the posterior is sdm's, at the engine's default discretization) instead of the zero-order
-model that misses the 3-tooth machine at a/D 0.5. A 16-core run (the lead's):
-``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine sdm --samples 1000 --cuts 10 --held 30
---repeats 5 --jobs 15``.
+``--engine sdm`` fits with the semi-discretization engine (delayed acceptance by default, ``--sampler``) instead of
+the zero-order model that misses the 3-tooth machine at a/D 0.5; ``--engine-option KEY=VALUE`` fixes its
+discretisation (kept in every posterior, so the predictions and recommendations use it too). Accurate and
+cheapest: ``--engine-option fn_max_hz=1`` (20 and 40 steps per tooth period, extrapolated: 0.02 % median error,
+30 ms per (set, speed); ``benchmarks/bench_sdm_steps.py``, docs/updating.md). The CPU of each phase is reported:
+with sdm the three recommendations (≈ 1 000 limits per posterior sample each) dominate, not the updates: about
+9 CPU-hours per campaign at 300 samples and ``--held 30`` (1.1 M limits × 30 ms; estimated, not run). For a
+many-core machine with that time (each campaign runs in one worker):
+``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine sdm --engine-option fn_max_hz=1
+--sampler surrogate --samples 300 --cuts 10 --held 30 --repeats 5 --jobs 15``.
 """
 
 from __future__ import annotations
@@ -134,16 +139,20 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     t0 = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        joint = update(cfg, train, samples=args.samples, seed=args.seed, engine=args.engine)
+        fit = {"samples": args.samples, "seed": args.seed, "engine": args.engine, "sampler": args.sampler,
+               "engine_options": args.engine_options}
+        joint = update(cfg, train, **fit)
         per = {}
         for k, (ri, m) in enumerate(TRAIN):  # one posterior per condition: its own cuts only
             sl = slice(k * args.cuts, (k + 1) * args.cuts)
             one = cuts_file(tr_rpm[sl], tr_depth[sl], label[sl], [(ri, m)] * args.cuts)
-            per[(ri, m)] = update(cfg, one, samples=args.samples, seed=args.seed, engine=args.engine)
+            per[(ri, m)] = update(cfg, one, **fit)
         prior = make_prior(hammer, base)
         hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
-                                args.engine, cuts={"rpm": [lo, hi]})
+                                args.engine, cuts={"rpm": [lo, hi]}, engine_options=dict(args.engine_options))
     cpu_update = time.process_time() - t0
+    say(f"{name}: 3 updates {cpu_update:.0f} s CPU")
+    cpu_predict = cpu_rec = 0.0
     rows = []
     for key, pts in held.items():
         target = key in TARGETS
@@ -153,12 +162,15 @@ def run_machine(name, hammer, truth, teeth, args, rng):
                 warnings.simplefilter("ignore")
                 return api.predict(post, pts).scores()["brier"]
 
+        t0 = time.process_time()
         b_joint, b_hammer = brier(joint), brier(hammer_post)
         b_per = {k: brier(p) for k, p in per.items()}
+        cpu_predict += time.process_time() - t0
         own = b_per.get(key)
         rec_ok = None
         if target:
             ri, m = key
+            t0 = time.process_time()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 rec = api.recommend(api.for_condition(joint, radial_immersion=ri, milling=m), args.risk, (lo, hi),
@@ -166,10 +178,18 @@ def run_machine(name, hammer, truth, teeth, args, rng):
             tl = true_limit(truth, cond(teeth, ri, m), rec.rpm * np.array([1 - 0.0025, 1.0, 1 + 0.0025]),
                             args.truth_steps)
             rec_ok = bool(rec.depth_mm < tl.min())
+            cpu_rec += time.process_time() - t0
             rows.append((key, b_joint, b_hammer, b_per, own, rec_ok, rec.depth_mm, float(tl.min())))
         else:
             rows.append((key, b_joint, b_hammer, b_per, own, None, None, None))
-    return rows, cpu_update
+        say(f"{name}: {condition_text(cond(teeth, *key)).split(',')[0]} scored; CPU so far: predictions "
+            f"{cpu_predict:.0f} s, recommendations {cpu_rec:.0f} s")
+    return rows, (cpu_update, cpu_predict, cpu_rec)
+
+
+def say(text: str) -> None:
+    """A progress line on stderr (an sdm-fitted campaign runs for hours on 2 cores: where it is, what it cost)."""
+    print(f"[{time.strftime('%H:%M:%S')}] {text}", file=sys.stderr, flush=True)
 
 
 def campaign(task: tuple[int, str, int, argparse.Namespace]):
@@ -207,12 +227,26 @@ def main() -> None:
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--engine", default="zoa")
+    ap.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
+                    help="the fitted engine's discretisation, e.g. fn_max_hz=1 for sdm (as millstab update's); kept in "
+                         "the posteriors, so every prediction and recommendation uses it; the hammer test's too")
+    ap.add_argument("--sampler", default="auto",
+                    help="update's sampler: auto (delayed acceptance for sdm/spectral), delayed, plain or surrogate")
     ap.add_argument("--truth-engine", default="sdm", help="sdm (default) or zoa (a control without model error)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--machines", default="sym,soft-x,three")
     ap.add_argument("--repeats", type=int, default=1, help="campaigns per machine (each its own seeded cuts)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (the figures do not depend on it)")
     args = ap.parse_args()
+    from millstab.cli.options import engine_option_pairs
+    from millstab.forward import engine_options
+
+    from millstab.errors import InputError
+
+    try:
+        args.engine_options = dict(engine_options(args.engine, engine_option_pairs(args.engine_option)))
+    except InputError as exc:
+        ap.error(str(exc))  # one line, exit 2
     global TRUTH_ENGINE
     TRUTH_ENGINE = args.truth_engine
     print(describe())
@@ -221,12 +255,14 @@ def main() -> None:
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
               f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} "
-              f"flipped; model {args.engine}, {args.samples} samples")
+              f"flipped; model {args.engine} {args.engine_options or '(its own discretisation)'}, "
+              f"{args.sampler} sampler, {args.samples} samples")
         allrows = []
         t0 = time.perf_counter()
         results = run_all(args)
         for name, rep, teeth, rows, cpu in results:
-            print(f"\n{name}{f' #{rep}' if args.repeats > 1 else ''} ({teeth} teeth; 3 updates {cpu:.1f} s CPU)")
+            print(f"\n{name}{f' #{rep}' if args.repeats > 1 else ''} ({teeth} teeth; CPU: 3 updates {cpu[0]:.1f} s, "
+                  f"4 posteriors' predictions {cpu[1]:.1f} s, 3 recommendations {cpu[2]:.1f} s)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
             for key, bj, bh, bp, own, ok, dep, tl in rows:
                 txt = condition_text(cond(teeth, *key)).split(",")[0]
@@ -244,7 +280,8 @@ def main() -> None:
               f"(joint/hammer {bj / bh:.2f}, target ≤ 0.5), best single-condition posterior {bsep:.3f}; "
               f"recommendations truly stable {ok:.0%} (target ≥ 95 %)")
         print(f"{len(results)} campaigns in {time.perf_counter() - t0:.0f} s wall ({args.jobs} job(s)), "
-              f"{sum(r[4] for r in results):.0f} s CPU in the updates")
+              f"CPU {sum(r[4][0] for r in results):.0f} s in the updates, {sum(r[4][1] for r in results):.0f} s in the "
+              f"predictions, {sum(r[4][2] for r in results):.0f} s in the recommendations")
         print(f"trained conditions ({len(trained)}): mean Brier joint {np.mean([r[1] for r in trained]):.3f} vs one "
               f"posterior per condition (its own cuts) {np.mean([r[4] for r in trained]):.3f}")
 

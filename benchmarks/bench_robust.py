@@ -35,7 +35,10 @@ side (softer / stiffer); ``--trace`` prints per round why the recommendation is 
 ``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
 when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
 posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (the cut that tells the two
-apart) instead of the recommendation's next test.
+apart) instead of the recommendation's next test. ``--discriminate conflict`` (issue 24) is the product's rule
+instead: recommend's next test is the conflict test while the update names the conflict
+(:func:`millstab.update.decide.next_test_discriminating`; ``--discriminate-rival-lr``: only when the rival fits
+the cuts at least this well, ``=-inf`` always; ``--discriminate-every N``: only in every N-th round).
 """
 
 from __future__ import annotations
@@ -100,6 +103,14 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--conflict-test", action="store_true",
                     help="when the conflict is not named and a far-off alternative fits the cuts as well, test the cut "
                          "that tells them apart (millstab.update.discriminate)")
+    ap.add_argument("--discriminate", default="never",
+                    help="recommend's next test while the conflict is named: conflict (the conflict test, "
+                         "millstab.update.decide.next_test_discriminating) | never (default: the most informative cut)")
+    ap.add_argument("--discriminate-every", type=int, default=1,
+                    help="--discriminate conflict only in every N-th round (the others: the most informative cut)")
+    ap.add_argument("--discriminate-rival-lr", type=float, default=0.0,
+                    help="--discriminate conflict only when the rival fits the cuts at least this well (ln ratio; "
+                         "-inf: always)")
     ap.add_argument("--rival-lr", type=float, default=0.0,
                     help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
     ap.add_argument("--json", type=Path, default=None)
@@ -148,7 +159,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         c_rpm = list(np.r_[o_rpm, o_rpm])
         c_depth = list(np.minimum(np.r_[0.7 * o_lim, 1.6 * o_lim], args.max_depth))
         c_lab = label(c_rpm, c_depth)
-        post, named, rec_ok, rec_p, log_bf, posts, n_ct, n_test_chat = None, [], [], [], [], [], 0, 0
+        post, named, rec_ok, rec_p, log_bf, posts, n_ct, n_test_chat, n_disc = None, [], [], [], [], [], 0, 0, 0
         modes = args.confirm.split(",")
         by_mode = {m: ([], []) for m in modes}
         for k in range(args.rounds):
@@ -159,7 +170,9 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             log_bf.append(post.diagnostics["conflict"]["log_bayes_factor"])
             r_seed = int(rng.integers(2**31))
             for m in modes:
-                rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m)
+                rm = recommend(post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=r_seed, confirm=m,
+                               discriminate=args.discriminate if k % args.discriminate_every == 0 else "never",
+                               discriminate_rival_lr=args.discriminate_rival_lr)
                 by_mode[m][0].append(bool(rm.depth_mm < truth(np.array([rm.rpm]))[0]))
                 by_mode[m][1].append(float(rm.rpm * rm.depth_mm / best))
                 if m == modes[0]:
@@ -168,6 +181,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             rec_p.append(by_mode[modes[0]][1][-1])
             if k + 1 < args.rounds:
                 nx = rec.next_test
+                n_disc += "rival" in nx
                 if args.conflict_test and not named[-1]:
                     ct = conflict_test(post, (lo, hi), args.max_depth, seed=k)
                     if ct is not None and ct["rival_log_likelihood_ratio"] >= args.rival_lr:
@@ -183,7 +197,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                                      None if last else nx)
         m = 2 * args.opening  # the opening cuts: the label against the hammer test's own boundary
         contra = int(((np.array(c_depth[:m]) > np.r_[o_lim, o_lim]) != (np.array(c_lab[:m]) == "chatter")).sum())
-        row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf,
+        row = {"campaign": c, "sign": s, "z_off": z_off.tolist(), "named": named, "log_bf": log_bf, "n_disc": n_disc,
                "rec_stable": rec_ok, "rec_productivity": rec_p, "opening_contradicting": contra,
                "last_warnings": list(post.warnings), "cpu_s": time.process_time() - c0,
                "conflict_tests": n_ct, "tests": args.rounds - 1, "tests_chattered": int(n_test_chat),
@@ -257,7 +271,8 @@ def main() -> None:
           f"{args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")
-    print(f"  conflict tests cut (--conflict-test): {sum(r['conflict_tests'] for r in rows)}; test cuts that "
+    print(f"  conflict tests cut: by recommend (--discriminate conflict) {sum(r['n_disc'] for r in rows)}, "
+          f"by --conflict-test {sum(r['conflict_tests'] for r in rows)}; test cuts that "
           f"chattered: {sum(r['tests_chattered'] for r in rows)} / {sum(r['tests'] for r in rows)}")
     print(f"  recommendations from round 3 on that chatter: {late_bad} / {late_all} "
           f"(campaigns with one: {sum(any(not ok for ok in r['rec_stable'][2:]) for r in rows)} / {n})")

@@ -39,8 +39,29 @@ corrected limits, the spectral engine once per distinct final particle and impor
 :func:`millstab.update.sampler.corrected_smc`), the fit's held-out error, the importance ESS, and its posterior
 against the delayed-acceptance one (means and quantiles in sd units); ``--surrogate-kind``: the regression.
 
+``--breakdown``: where the spectral update's time goes (issue 28): the spectral engine's calls, the (set, speed)
+entries it solved and its ρ / characteristic-function evaluations per entry, CPU in its root search and in its
+zero-order starting depths; the proposals, how many passed the screen and were accepted; how many the bounded
+second stage decided before all their speeds were evaluated (:meth:`millstab.update.likelihood.Likelihood.bounded`)
+and the entries that saved. ``--no-bounded``: also the spectral update with every survivor evaluated at every
+speed (the code before), in the same run: the same particles, bit for bit, are checked.
+
+``--anchored``: an estimate, before building it, of a screen anchored at the current particle (the zero-order
+limits of the proposal times the particle's own accurate / zero-order ratio per speed column, exact at the
+particle; delayed acceptance with a state-dependent screen, Christen & Fox 2005): every proposal of the
+delayed-acceptance update is recorded, both engines evaluate every proposal and its particle, and the expected
+stage-1 passes and accepted moves of both screens are summed (acceptance probabilities, no random draws; the
+plain screen's sums reproduce the run's own counts).
+
+``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
+set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
+(active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
+passive 0.14 ms and 0.7 ms (50 sets × 10 speeds: 16 → 1.6 ms CPU): on a loaded machine the spinning of each
+parallel call is most of the zero-order update's CPU time and ~0.5 s of the spectral one's, so CPU ratios
+measured with active waiting mix the engines' work with the machine's load.
+
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_update_accurate.py [--samples 500]
-[--cuts 10] [--plain] [--fit-nodes] [--surrogate]``.
+[--cuts 10] [--plain] [--fit-nodes] [--surrogate] [--breakdown] [--no-bounded]``.
 """
 
 from __future__ import annotations
@@ -48,7 +69,13 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import os
+import sys
 import time
+
+if __name__ == "__main__":  # before numba starts its OpenMP threads (see the module docstring)
+    _w = sys.argv[sys.argv.index("--omp-wait") + 1] if "--omp-wait" in sys.argv[:-1] else "passive"
+    os.environ["OMP_WAIT_POLICY"] = _w.upper()
 
 import numba as nb
 import numpy as np
@@ -64,8 +91,116 @@ import millstab.update as upd
 from millstab.update import make_prior, update
 from millstab.update import likelihood
 from millstab.update.likelihood import Evidence, Likelihood
+from millstab.update import sampler as smc
 from millstab.update.sampler import tempered_smc
 from millstab.update.predict import predict_cuts
+from millstab.stability import spectral
+
+
+@contextlib.contextmanager
+def spectral_counts(on: bool):
+    """With ``on``, count the spectral engine's root searches: calls, entries, evaluations, CPU of the search
+    and of its zero-order starting depths (a dict filled while the block runs)."""
+    c = {"calls": 0, "entries": 0, "evals": 0, "solve_cpu": 0.0, "b_ref_cpu": 0.0, "rows": 0, "warm_rows": 0}
+    if not on:
+        yield c
+        return
+    solve, b_ref, heads = spectral._solve, spectral._b_ref, spectral._heads
+
+    def counted_heads(*a, **k):  # rows started warm from the row heading their run (within WARM_REL of it)
+        follow, head = heads(*a, **k)
+        c["rows"] += follow.size
+        c["warm_rows"] += int(follow.sum())
+        return follow, head
+
+    def counted_solve(*a, **k):
+        t = time.process_time()
+        out = solve(*a, **k)
+        c["solve_cpu"] += time.process_time() - t
+        c["calls"] += 1
+        c["entries"] += out[2].size
+        c["evals"] += int(out[2].sum())
+        return out
+
+    def counted_b_ref(*a, **k):
+        t = time.process_time()
+        out = b_ref(*a, **k)
+        c["b_ref_cpu"] += time.process_time() - t
+        return out
+
+    spectral._solve, spectral._b_ref, spectral._heads = counted_solve, counted_b_ref, counted_heads
+    try:
+        yield c
+    finally:
+        spectral._solve, spectral._b_ref, spectral._heads = solve, b_ref, heads
+
+
+@contextlib.contextmanager
+def recorded_moves(on: bool):
+    """With ``on``, every delayed-acceptance move's (particles, proposals, β) appended to the yielded list."""
+    rec: list = []
+    if not on:
+        yield rec
+        return
+    move = smc._delayed_move
+
+    def recording(u, ll, lp, sll, slp, prop, beta, *a, **k):
+        rec.append((u.copy(), prop.copy(), beta))
+        return move(u, ll, lp, sll, slp, prop, beta, *a, **k)
+
+    smc._delayed_move = recording
+    try:
+        yield rec
+    finally:
+        smc._delayed_move = move
+
+
+def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
+    """Expected accurate evaluations and accepted moves of the recorded proposals under the plain zero-order
+    screen and under a screen anchored at the current particle (module docstring)."""
+    ev = Evidence.from_points(cuts)
+    acc, zoa_lik = Likelihood(prior, ev, "spectral"), Likelihood(prior, ev, "zoa")
+    x, y = np.vstack([r[0] for r in rec]), np.vstack([r[1] for r in rec])
+    beta = np.concatenate([np.full(r[0].shape[0], r[2]) for r in rec])
+    (ax, _, wx, okx), (ay, _, wy, oky) = acc._limits(x), acc._limits(y)
+    zx, zy = zoa_lik._limits(x)[0], zoa_lik._limits(y)[0]
+
+    def loglik(depth, w, ok):  # the accurate likelihood's form on any limits
+        return np.where(ok, acc.from_limits(depth, None, noise=w), -np.inf)
+
+    def prob(log_a):
+        return np.exp(np.minimum(0.0, np.nan_to_num(log_a, nan=-np.inf)))
+
+    lpx, lpy = prior.logpdf_full(x), prior.logpdf_full(y)
+    pix, piy = lpx + beta * loglik(ax, wx, okx), lpy + beta * loglik(ay, wy, oky)
+    sx, sy = lpx + beta * loglik(zx, wx, okx), lpy + beta * loglik(zy, wy, oky)
+    with np.errstate(divide="ignore", invalid="ignore"):  # −inf − −inf where both ends are impossible: NaN → 0
+        a1 = prob(sy - sx)
+        plain_acc = a1 * prob(piy + sx - pix - sy)
+        tx_y = lpy + beta * loglik(zy * ax / zx, wy, oky)  # anchored at x, at y
+        ty_x = lpx + beta * loglik(zx * ay / zy, wx, okx)  # anchored at y, at x
+        b1, b1_back = prob(tx_y - pix), prob(ty_x - piy)
+        anc_acc = np.minimum(b1, np.exp(np.minimum(piy - pix, 700.0)) * b1_back)  # b1·α2 = min(b1, π(y)·b1_back/π(x))
+    n = x.shape[0]
+    print(f"anchored-screen estimate over {n} recorded proposals (plain MH acceptance {prob(piy - pix).mean():.3f}):")
+    for name, ev_, ac in (("zero-order screen", a1, plain_acc), ("anchored screen", b1, anc_acc)):
+        print(f"  {name}: expected accurate evaluations {ev_.sum():.0f} ({ev_.mean():.3f} of the proposals), "
+              f"accepted {ac.sum():.0f}, evaluations per accepted move {ev_.sum() / ac.sum():.2f}")
+
+
+@contextlib.contextmanager
+def unbounded(on: bool):
+    """With ``on``, the delayed-acceptance second stage evaluates every survivor at every speed (the code before
+    the bounded stage): the likelihood's ``bounded`` hidden from the sampler."""
+    if not on:
+        yield
+        return
+    had = Likelihood.bounded
+    del Likelihood.bounded
+    try:
+        yield
+    finally:
+        Likelihood.bounded = had
 
 
 def timed(f):
@@ -160,8 +295,15 @@ def main() -> None:
     ap.add_argument("--surrogate-kind", default="linear", help="the correction's regression: linear | quadratic | gp")
     ap.add_argument("--fit-nodes", action="store_true", help="also the spectral update (default sampler) as before "
                     "issue 28's sampling count: a fit's node count (converged + 2), chosen per call")
+    ap.add_argument("--breakdown", action="store_true", help="where the spectral update's time goes")
+    ap.add_argument("--no-bounded", action="store_true", help="also the spectral update without the bounded "
+                    "second stage (every survivor at every speed), and the two compared")
+    ap.add_argument("--anchored", action="store_true", help="estimate a screen anchored at the current particle on "
+                    "the delayed-acceptance run's proposals")
+    ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
+                    help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
-    print(describe())
+    print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
     cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, args.immersion, "down")
@@ -188,15 +330,20 @@ def main() -> None:
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
+                + ([("spectral", "unbounded")] if args.no_bounded else [])
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else []))
         upd.SURROGATE_KIND = args.surrogate_kind
         for eng, smp in plan:
-            with before_issue_28(smp == "fit-nodes"):
-                post, wall, cpu = timed(lambda eng=eng, smp=smp: update(cfg, cuts, samples=args.samples, seed=args.seed,
-                                                                       engine=eng, prior=prior,
-                                                                       sampler="auto" if smp == "fit-nodes" else smp))
+            with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), \
+                    spectral_counts(args.breakdown and eng == "spectral") as counts, \
+                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
+                post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
+                    cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
+                    sampler="auto" if smp in ("fit-nodes", "unbounded") else smp))
             runs[eng, smp] = (post, wall, cpu)
+            if moves:
+                anchored_estimate(prior, cuts, moves)
             d = post.diagnostics
             n_side, n_label, bad = explained(post, cuts)
             extra = (f", screened by {d['screen_engine']}: {d['screen_sets']} screen sets, pass "
@@ -210,6 +357,18 @@ def main() -> None:
                       f"{max(rms):.4f} max [ln b] (the correction's own sd {np.median(sd):.4f} median); importance ESS "
                       f"{c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} distinct final rows "
                       f"evaluated, bridge stages {c['bridge_stages']}")
+            if counts["calls"]:
+                acc = d.get("acceptance", [])
+                moved = sum(m * args.samples for m in d.get("moves", []))
+                passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), d.get("moves", [])))
+                accepted = sum(a * m * args.samples for a, m in zip(acc, d.get("moves", [])))
+                print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
+                      f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
+                      f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "
+                      f"{spectral.WARM_REL:g} of them); CPU root search "
+                      f"{counts['solve_cpu']:.2f} s, zero-order starting depths {counts['b_ref_cpu']:.2f} s; "
+                      f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
+                      f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
                   f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) "
                   f"= 1/2: {n_side}/{args.cuts}, written label with predictive probability >= 0.1: "
@@ -225,6 +384,13 @@ def main() -> None:
         for j, nm in enumerate(names):
             sd = 0.5 * (ua[:, j].std() + ub[:, j].std())
             print(f"  ln {nm}: sampling - fit node count: mean diff {(ua[:, j].mean() - ub[:, j].mean()) / sd:+.3f} sd")
+    if args.no_bounded:
+        o = runs["spectral", "unbounded"]
+        same = np.array_equal(o[0].u, s[0].u)
+        print(f"bounded second stage vs every survivor at every speed: {o[1] / s[1]:.2f}x wall, {o[2] / s[2]:.2f}x "
+              f"CPU; the same particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
+        if not same:  # a decision flipped (the engine's depths depend on the rows sharing a call, docs/updating.md)
+            compare(s[0].u, o[0].u, names, "bounded - unbounded")
     if args.plain:
         p = runs["spectral", "plain"]
         print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")

@@ -166,6 +166,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--no-guard", action="store_true", help="recommend without the data guard (the model alone)")
     ap.add_argument("--confirm", default="conflict",
                     help="recommend's confirm rule: conflict (default) | always | never")
+    ap.add_argument("--discriminate", default="never",
+                    help="recommend's next test while a conflict is named: conflict (the conflict test) | never "
+                         "(default)")
     ap.add_argument("--tails", default=None,
                     help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
                          "prior's default, student)")
@@ -203,7 +206,8 @@ def setup(args: argparse.Namespace) -> SimpleNamespace:
     decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),
                 "speed_tolerance": args.speed_tolerance,
                 "test_risk": None if args.test_risk.lower() == "none" else float(args.test_risk),
-                "guard": not args.no_guard, "confirm": args.confirm}
+                "guard": not args.no_guard, "confirm": args.confirm,
+                "discriminate": args.discriminate}
     if args.coarse:
         decision["coarse_points"] = args.coarse
     truth_engine = get_engine(args.truth_engine)

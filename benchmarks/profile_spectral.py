@@ -174,6 +174,37 @@ def rungs_below(depth: np.ndarray, b_ref: np.ndarray) -> np.ndarray:
     return out
 
 
+def rung_census(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+                near: float, rows: int = 5) -> dict:
+    """How the rungs under the accepted roots are decided (first ``rows`` sets): the rung test at 1 − near with the
+    full squaring budget (``_k.rho_test``, CERT_SQUARINGS) certifies them (and with how many squarings) or needs
+    the eigenvalues; and how many have ρ above the level (the refinement's triggers, eigenvalues in any case)."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    nd = _k.gauss_nodes(p)
+    el = spectral._elem_len(wn)
+    level = 1.0 - near
+    out = {"rungs": 0, "certified": 0, "squarings": 0, "above": 0}
+    for i in range(min(batch.size, rows)):
+        for s, r in enumerate(rs):
+            if not np.isfinite(depth[i, s]):
+                continue
+            g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el[i], nd[0], wn[i], zeta[i], act),
+                                wn[i], zeta[i], mass[i], mdir, nd)
+            k = 0
+            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, k) < depth[i, s] * (1 - 2e-3):
+                x = _k.ladder_depth(b_ref[i, s], spectral.LADDER, k)
+                k += 1
+                out["rungs"] += 1
+                for sq in range(1, _k.CERT_SQUARINGS + 1):  # the fewest squarings that certify
+                    if not _k.rho_test(x, level, sq, cut.kt, g)[2]:
+                        out["certified"] += 1
+                        out["squarings"] += sq
+                        break
+                else:
+                    out["above"] += int(_k.rho_test(x, level, 0, cut.kt, g)[0] > level)
+    return out
+
+
 def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes, near: float) -> None:
     rs = np.ascontiguousarray(np.unique(rpm))
     spectral.envelope_batch(ModalBatch(*(getattr(batch, f)[:1]
@@ -200,6 +231,12 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
           f"{1e6 * (u['rho'] - u['build']):.1f} us); the rung test with its certificate (rho_below) "
           f"{1e6 * u['below']:.1f} us; characteristic fn + derivative {1e6 * u['char']:.1f} us, speed setup "
           f"{1e6 * u['setup']:.1f} us (with the low-rank factors {1e6 * u['factors']:.1f} us)")
+    cen = rung_census(batch, cut, rs, depth, b_ref, p, near)
+    n_r = max(cen["rungs"], 1)
+    print(f"  rungs under the roots (first {min(batch.size, 5)} sets): {cen['rungs']}, certified below 1 - near by "
+          f"squarings {100 * cen['certified'] / n_r:.1f} % (mean {cen['squarings'] / max(cen['certified'], 1):.2f} "
+          f"squarings), eigenvalues needed {100 * (1 - cen['certified'] / n_r):.1f} % (rho above 1 - near at "
+          f"{100 * cen['above'] / n_r:.1f} %: those steps are refined)")
     rung_t = n_rho.sum() * u["below"]
     n_other = np.maximum(n_eval - n_rho, 0).sum()
     print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the "

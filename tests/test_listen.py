@@ -387,13 +387,19 @@ def test_a_mirror_member_under_a_tenth_of_the_loudest_is_still_weighed_by_displa
     assert r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
 
 
-def test_with_the_structure_known_a_flip_chatter_is_reported_at_its_member_nearest_the_mode():
+@pytest.mark.parametrize("runout", [0.05, 0.3])
+def test_with_the_structure_known_a_flip_chatter_is_reported_at_its_member_nearest_the_mode(runout):
     """Two teeth at 10 000 rpm (f_T = 333.3 Hz), flip chatter with members 1.5 f_T = 500 Hz and 2.5 f_T =
     833.3 Hz; the mode (850 Hz) makes 833.3 Hz the member of the tool tip's motion, but a notch of the
     sensor's path leaves it 10 dB under 500 Hz even by power / f⁴, so the recording alone hears 500 Hz.
     With the structure (``listen(..., structure=)``, a config's: ``listen --config``, ``update``) the
     flip member where Σ|G_ij|² is largest is reported; the reference is the receptance in closed form,
-    1/(k(1 − r² + 2iζr)). The old code had no such input (and heard 500 Hz)."""
+    1/(k(1 − r² + 2iζr)). The old code had no such input (and heard 500 Hz).
+    Runout 0.3: the 833.3 Hz member stands at the level of the runout line f_s, so it never passes the 4×
+    runout test and is no candidate of the recording alone; with the structure every odd multiple of f_T/2
+    from 1.5 f_T up is a member of the flip heard. The code before this case weighed only the candidates
+    and reported 500 Hz (bench_listen --seed 1 cut 96: 2.5 f_T, the displacement's peak, 17.6 dB deeper in
+    the room's notch than 1.5 f_T)."""
     from millstab.model import Mode, Structure
 
     fn, k, zeta = 850.0, 2.0e7, 0.02
@@ -401,9 +407,28 @@ def test_with_the_structure_known_a_flip_chatter_is_reported_at_its_member_neare
     members = (1.5 * f_t, 2.5 * f_t)
     flex = [abs(1.0 / (k * (1 - (f / fn) ** 2 + 2j * zeta * f / fn))) ** 2 for f in members]
     want = members[int(np.argmax(flex))]
-    x = milling_sound(fs=FS, seconds=3.0, rpm=10000.0, teeth=2, chatter_hz=members[0], ratio=1.0, runout=0.05,
+    x = milling_sound(fs=FS, seconds=3.0, rpm=10000.0, teeth=2, chatter_hz=members[0], ratio=1.0, runout=runout,
                       tones=[(members[1], 0.3)])
     alone = listen(x, FS, 10000.0, 2)
     assert alone.label == "chatter" and abs(alone.chatter_hz - members[0]) < 2.0, alone.chatter_hz
     r = listen(x, FS, 10000.0, 2, structure=Structure(x=(Mode(fn, k, zeta),)))
     assert want == members[1] and r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
+
+
+@pytest.mark.parametrize("hopf_ratio", [0.3, 1.0])
+def test_a_flip_line_under_its_tooth_line_wins_over_a_weaker_hopf_line_by_displacement(hopf_ratio):
+    """Two teeth at 10 000 rpm (f_T = 333.3 Hz): a flip line at 1.5 f_T = 500 Hz, 12 dB under the tooth line
+    f_T (so the rule that keeps resonant runout from being heard alone masks it) but 24 dB over the runout
+    line below it, and a Hopf line at 850 Hz (no member of its family: 850 ∓ 500 is no multiple of f_T).
+    The chatter frequency is the line strongest in displacement, amplitude² / f⁴, computed here from the
+    tones: with the Hopf line at 0.3 × the forced amplitude it is the flip line (the Hopf line is louder in
+    the recording), at 1.0 the Hopf line. The old code reported 850 Hz in both (bench_listen --seed 2, cut
+    145: a two-tooth flip at 1.5 f_T, 9 dB over every other line of the displacement, had a weaker hump
+    near the mode heard instead)."""
+    f_t = 2 * 10000.0 / 60.0
+    flip, hopf, flip_ratio = 1.5 * f_t, 850.0, 0.2
+    want = max(((flip, flip_ratio), (hopf, hopf_ratio)), key=lambda t: t[1] ** 2 / t[0] ** 4)[0]
+    assert want == (flip if hopf_ratio < 0.5 else hopf)
+    r = heard(teeth=2, seconds=3.0, chatter_hz=hopf, ratio=hopf_ratio, runout=0.05, tones=[(flip, flip_ratio)])
+    assert r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
+

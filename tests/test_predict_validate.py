@@ -78,6 +78,37 @@ def test_predict_command(tmp_path, capsys):
     assert "cuts.csv" in capsys.readouterr().err and "notes" in (tmp_path / "cuts.csv").read_text()
 
 
+def test_predict_command_writes_the_prediction_json(tmp_path, capsys):
+    """`predict --json`: the Prediction document (schema, provenance) beside the CSV, read back by
+    Prediction.from_json to the CSV's numbers and to each cut's own fraction of samples above it; --json alone
+    writes no CSV; neither output is refused in one line before any work."""
+    from millstab.api import Prediction
+    from millstab.jsondoc import RESULTS
+
+    post = prior_post()
+    (tmp_path / "post.json").write_text(json.dumps(post.to_json()))
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm,label\n8000,3,chatter\n5000,0.2,stable\n6100,1.1,\n")
+    base = ["predict", str(tmp_path / "post.json"), str(cuts)]
+    assert main(base + ["--out", str(tmp_path / "p.csv"), "--json", str(tmp_path / "p.json")]) == 0
+    assert f"wrote {tmp_path / 'p.json'}" in " ".join(capsys.readouterr().out.split())  # rich wraps long lines
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["schema"] == Prediction.SCHEMA and ("millstab.api.predict", "Prediction", Prediction.SCHEMA) in RESULTS
+    assert doc["points"] == str(cuts)  # provenance: the cuts file it predicted
+    pred = Prediction.from_json(doc, "p.json")
+    rows = list(csv.DictReader((tmp_path / "p.csv").open()))
+    np.testing.assert_allclose(pred.p_stable, [float(r["p_stable"]) for r in rows], rtol=1e-12)
+    np.testing.assert_allclose(pred.p_label_chatter, [float(r["p_label_chatter"]) for r in rows], rtol=1e-12)
+    assert pred.cuts.rpm.tolist() == [8000, 5000, 6100] and list(pred.cuts.label) == ["chatter", "stable", ""]
+    for i, (r, d) in enumerate(zip(pred.cuts.rpm, pred.cuts.depth_mm)):  # independent: samples above the cut
+        assert pred.p_stable[i] == pytest.approx((limits(PRIOR, post.u, [r])[0][:, 0] > d).mean(), abs=1e-12)
+    assert Prediction.from_json(pred.to_json()).to_json() == pred.to_json()
+    assert main(base + ["--json", str(tmp_path / "only.json")]) == 0
+    assert (tmp_path / "only.json").exists() and not (tmp_path / "only.csv").exists()
+    assert main(base) == 2 and "--out" in capsys.readouterr().err
+    assert main(base + ["--json", str(cuts)]) == 2 and "label" in cuts.read_text()  # never over an input
+
+
 # --- validate: the pieces ------------------------------------------------------------------------------
 def test_fold_schemes_hold_out_each_cut_once():
     rng = np.random.default_rng(0)

@@ -7,6 +7,7 @@ sampler-backed campaign, SIGKILL and concurrency tests are in test_shopdb_campai
 from __future__ import annotations
 
 import ast
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -54,15 +55,19 @@ def some_cuts(n: int, seed: int = 0) -> PointSet:
                     np.array([f"day{i // 3}" for i in range(n)]))
 
 
-def land(store, name: str, new: PointSet, seed: int, **kw) -> int:
-    """Record one update of ``new`` cuts on the current head (what update_in_db does, minus the sampler)."""
+def land(store, name: str, new: PointSet, seed: int, shop: str | None = None, **by) -> int:
+    """Record one update of ``new`` cuts on the current head (what update_in_db does, minus the sampler); ``by``:
+    the fields of :class:`millstab.shopdb.CutsBy` (user, machine, tool, raters, recordings)."""
+    from millstab.api.shop import _join
+    from millstab.shopdb import CutsBy
+
     head = store.head(name)
     old = store.cuts(name) if head is not None else None
-    every = new if old is None else shop._join(old, new)
+    every = new if old is None else _join(old, new)
     return store.record_update(name, "name = 'ex1'\n", new, fake_posterior(every, seed), seed=seed,
                                expected_head=head.posterior_id if head else None,
                                expected_rows=head.n_rows if head else 0, parent=head.posterior_id if head else None,
-                               all_cuts=every, **kw)
+                               by=CutsBy(**by), all_cuts=every, shop=shop)
 
 
 @pytest.fixture
@@ -301,3 +306,35 @@ def test_shop_options_go_together():
         shop_target("shop.db", None)
     with pytest.raises(InputError, match="--db .*go together"):
         shop_target(None, "t12-m1")
+
+
+def test_update_in_db_takes_its_settings_and_recorder_as_objects_or_keywords(tmp_path):
+    """update_in_db's options grouped: UpdateSettings (api.update's own keywords, same names and defaults) and
+    CutsBy (who and what recorded the cuts). The objects and the keyword form record the same posterior, bit for
+    bit, with the same machine, tool, raters and user; a keyword overrides its object's field; a keyword that is a
+    field of neither is a TypeError before the database is touched."""
+    import inspect
+
+    from millstab.shopdb import CutsBy
+
+    sig = inspect.signature(api.update).parameters
+    for f in dataclasses.fields(api.UpdateSettings):  # the update's own keywords, with their defaults
+        assert sig[f.name].kind is inspect.Parameter.KEYWORD_ONLY and sig[f.name].default == f.default, f.name
+    cfg = api.config("example:ex1")
+    cuts = some_cuts(4)
+    raters = list("abcd")
+    kw = shop.update_in_db(tmp_path / "kw.db", "c", cfg, cuts, samples=100, seed=3, user="ann", machine="m1",
+                           tool="t12", raters=raters)
+    obj = shop.update_in_db(tmp_path / "obj.db", "c", cfg, cuts, settings=api.UpdateSettings(samples=100, seed=9),
+                            by=CutsBy(user="bob", machine="m1", tool="t12", raters=raters), seed=3, user="ann")
+    np.testing.assert_array_equal(obj.posterior.samples, kw.posterior.samples)
+    for name in ("kw.db", "obj.db"):
+        store = open_store(tmp_path / name)
+        (row,) = store.campaigns()
+        assert (row["machine"], row["tool"]) == ("m1", "t12")
+        assert [r["rater"] for r in store.snapshot("c").rows] == raters
+        assert store.history("c")[0].user == "ann"
+        store.close()
+    with pytest.raises(TypeError, match="'sampels'"):
+        shop.update_in_db(tmp_path / "never.db", "c", cfg, cuts, sampels=100)
+    assert not (tmp_path / "never.db").exists()

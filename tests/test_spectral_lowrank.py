@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 import pytest
+from spectral_cases import random_case
 
 from millstab.frf import ModalBatch
 from millstab.model import Cutting, Mode, Structure
@@ -24,22 +25,10 @@ from millstab.stability import spectral
 from millstab.stability.sdm import _arrays
 
 
-def _random_case(rng):
-    m = int(rng.integers(1, 3))
-
-    def modes():
-        return tuple(Mode(rng.uniform(400, 3000), rng.uniform(5e6, 5e7), rng.uniform(0.005, 0.08)) for _ in range(m))
-
-    structure = Structure(x=modes(), y=modes()) if rng.random() < 0.7 else Structure(x=modes())
-    cut = Cutting.from_immersion(int(rng.integers(1, 5)), rng.uniform(3e8, 2e9), rng.uniform(0.1, 0.5),
-                                 rng.uniform(0.03, 1.0), "down" if rng.random() < 0.5 else "up")
-    return structure, cut
-
-
 def test_low_rank_monodromy_equals_the_collocation_solve_and_the_full_monodromy():
     rng = np.random.default_rng(28)
     for _ in range(10):
-        structure, cut = _random_case(rng)
+        structure, cut = random_case(rng)
         wn, zeta, mass, act, mdir = _arrays(ModalBatch.from_structures([structure]))
         nodes = int(rng.integers(3, 9))
         nd = k.gauss_nodes(nodes)
@@ -110,7 +99,7 @@ def test_certified_rungs_bound_rho_from_above():
     rng = np.random.default_rng(2812)
     n_bound = n_all = 0
     for _ in range(10):
-        structure, cut = _random_case(rng)
+        structure, cut = random_case(rng)
         batch = ModalBatch.from_structures([structure])
         wn, zeta, mass, act, mdir = _arrays(batch)
         nd = k.gauss_nodes(6)

@@ -114,3 +114,33 @@ def test_the_batched_limits_on_both_cores_are_bit_identical_to_one_core(case):
     one_speed, _ = limits(prior, u[3:4], RPM[2:3], "spectral")
     # a speed alone: the same limit to the root's tolerance (blocks warm-start from the previous speed's root)
     np.testing.assert_allclose(one_speed[0, 0], two[3, 2], rtol=1e-9)
+
+
+#: two parameter rows (fn_x, k_x, ζ_x, fn_y, k_y, ζ_y) within 0.4 % of each other near Example 1 at a/D 0.1 down,
+#: found by a search over 12 000 such pairs: at 9 000 rpm and 6 nodes the second row's own search from below
+#: (ρ refined only in its unstable step) gives 72.47 mm; started warm from the first row's boundary, 71.82 mm
+PAIR = np.array([[927.363127, 9.10754357e6, 3.17031556e-2, 943.854062, 1.22288487e7, 2.25053243e-2],
+                 [926.479005, 9.13575012e6, 3.16760454e-2, 945.197151, 1.22514658e7, 2.25805097e-2]])
+
+
+def test_a_sampled_row_does_not_depend_on_its_neighbour():
+    """The sampler's forward model gives a row the depth it gets alone, whatever row precedes it: its settings
+    turn the warm starts between rows off (fails on the old code: 71.82 mm after its neighbour, 72.47 mm alone).
+    The warm start itself is kept for fits (finite-difference Jacobians), where it is checked to differ here."""
+    from millstab.forward import engine_options, forward
+    from millstab.params import Parameterization
+
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    par = Parameterization(cfg.structure)
+    assert par.free == ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
+    rpm = np.array([9000.0])
+    batch = par.batch(PAIR)
+    alone = spectral.envelope_batch(par.batch(PAIR[1:]), cut, rpm, nodes=6, near=0.0)[0, 0]
+    warm = spectral.envelope_batch(batch, cut, rpm, nodes=6, near=0.0)[1, 0]
+    assert abs(warm / alone - 1) > 5e-3  # the case still shows what it was found for
+    sampled = forward(par, cut, "spectral", SAMPLING, {"nodes": 6})(PAIR, rpm)
+    assert sampled[1, 0] == alone
+    assert spectral.settings(batch, cut, rpm, purpose="sample")["warm"] is False
+    with pytest.raises(InputError, match="warm"):  # the engine's own choice, not a user's option
+        engine_options("spectral", {"warm": True})

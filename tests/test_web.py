@@ -157,23 +157,24 @@ def test_identify_uploaded_points(app):
     assert page.locator(".fit-table tr").count() == 7
 
 
-def test_update_map_and_recommend(app, tmp_path):
-    from millstab.points import PointSet
-
-    page = app
-    cfg = api.config("example:ex3")
-    rpm = np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000])
-    blim = api.lobes(cfg, rpm).envelope.depth_mm
-    cuts = PointSet(np.r_[rpm, rpm], np.r_[0.6 * blim, 1.4 * blim], ["stable"] * 7 + ["chatter"] * 7)
-    path = tmp_path / "cuts.csv"
-    path.write_text("rpm,depth_mm,label\n"
-                    + "".join(f"{r:g},{d:.6g},{lb}\n" for r, d, lb in zip(cuts.rpm, cuts.depth_mm, cuts.label)))
+def upload_cuts(page, path, rpm, samples: int) -> None:
+    """Cuts of example ex3 at 0.6 (stable) then 1.4 (chatter) times its limit at the speeds ``rpm``, written to
+    ``path`` and uploaded in the Update tab, which is set to ``samples``."""
+    blim = api.lobes(api.config("example:ex3"), rpm).envelope.depth_mm
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r:g},{f * b:.6g},{lb}\n" for f, lb in
+                                                      ((0.6, "stable"), (1.4, "chatter")) for r, b in zip(rpm, blim)))
     T.tab(page, "Update and recommend")
     T.upload(page, "drop-cuts", path)
-    page.locator(".cuts-note").filter(has_text="14 points").wait_for()
-    samples = page.locator(".update-samples input").first
-    samples.fill("200")
-    samples.press("Enter")
+    page.locator(".cuts-note").filter(has_text=f"{path.name}: {2 * len(rpm)} points").wait_for()
+    samples_box = page.locator(".update-samples input").first
+    samples_box.fill(str(samples))
+    samples_box.press("Enter")
+
+
+def test_update_map_and_recommend(app, tmp_path):
+    page = app
+    cfg = api.config("example:ex3")
+    upload_cuts(page, tmp_path / "cuts.csv", np.array([5000.0, 7000, 9000, 11000, 14000, 17000, 19000]), 200)
     page.locator(".update-run button").click()
     page.locator(".update-status").filter(has_text="running").wait_for()
     page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
@@ -194,6 +195,47 @@ def test_update_map_and_recommend(app, tmp_path):
     assert d < api.lobes(cfg, np.array([r])).envelope.depth_mm[0]
     page.wait_for_timeout(1000)  # let the map's image paint before the screenshot
     shot(page, "update")
+
+
+def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
+    """The update tab's engine and engine options: a bad option is refused beside the field in the words of
+    --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,
+    = millstab update --out) carries the engine and the options its map and recommendation use. A tiny update
+    (4 cuts, 100 samples: sdm at 10 steps, ~5 s CPU)."""
+    import json
+
+    page = app
+    upload_cuts(page, tmp_path / "cuts4.csv", np.array([7000.0, 14000.0]), 100)
+    page.locator(".update-engine select").first.select_option("sdm")
+    page.locator(".update-engine-note").filter(has_text="fn_max_hz, steps").wait_for()  # the keywords it takes
+    opts = page.locator(".update-engine-options input").first
+    opts.fill("steps=0")
+    opts.press("Enter")
+    with pytest.raises(InputError) as exc:
+        api.engine_options_from_text("sdm", "steps=0")
+    assert error_text(page, "e-engine-options") == str(exc.value)  # "... steps = 0 is invalid: ... fn_max_hz, steps)"
+    assert "steps = 0" in str(exc.value) and "fn_max_hz, steps" in str(exc.value)
+    opts.fill("steps=10")
+    opts.press("Enter")
+    page.locator(".e-engine-options .ms-error").wait_for(state="detached")
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="running").wait_for()
+    page.locator(".update-status").filter(has_text="done in").wait_for(timeout=180_000)
+    page.locator(".post-table").filter(has_text="engine sdm (steps=10), 100 samples").wait_for()
+    page.locator(".map-status").filter(has_text="press Map and recommend").wait_for()  # minutes of sdm: when asked
+    shot(page, "update_sdm")
+    T.tab(page, "Downloads")
+    with page.expect_download() as info:
+        page.locator(".dl-posterior-json button").click()
+    info.value.save_as(tmp_path / "post.json")
+    doc = json.loads((tmp_path / "post.json").read_text())
+    assert doc["engine"] == "sdm" and doc["engine_options"] == {"steps": 10}
+    post = api.posterior_from_json(doc)  # the decisions of the stored posterior use them
+    assert post.engine == "sdm" and post.engine_options == {"steps": 10}
+    T.tab(page, "Update and recommend")  # leave the tab as the module's other tests expect it
+    page.locator(".update-engine select").first.select_option(api.cheapest_engine())
+    opts.fill("")
+    opts.press("Enter")
 
 
 def test_bad_uploads_show_errors_and_keep_state(app, tmp_path):

@@ -530,3 +530,50 @@ def test_app_db_problems_are_one_line_before_serving(tmp_path, capsys):
         out = capsys.readouterr()
         assert (out.err.startswith("millstab: error: --db = ") and len(out.err.strip().splitlines()) == 1
                 and "http" not in out.out)
+
+
+def test_update_tab_engine_options_are_checked_as_the_command_line_and_reach_the_update(monkeypatch, capsys):
+    """The Update tab's engine and engine options (docs/app.md "The update's engine"): a bad option is refused
+    beside the field with the words of `--engine-option` (the same function, only the field's name differs) and
+    no update starts; sdm with steps=10 reaches api.update (spied on: no sampling here); an opened campaign's
+    engine and options are shown in the form. Fails on the old code: the tab had no engine."""
+    import html
+
+    from millstab.cli import main
+    from millstab.web.update_tab import UpdateTab
+
+    from millstab.cli.options import ENGINE_OPTION_FORM
+
+    assert ENGINE_OPTION_FORM == api.ENGINE_OPTION_FORM  # the CLI's help (built before any service loads) = the errors'
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        assert tab.engine.value == api.cheapest_engine() and tab.settings().engine_options == {}
+        assert list(tab.engine.options) == list(api.ENGINES)
+        tab.engine.value = "sdm"
+        assert "fn_max_hz, steps" in html.unescape(tab.engine_note.object)
+        tab.engine_options.value = "steps=0"
+        shown = html.unescape(tab.engine_error.object)
+        assert main(["update", "example:ex3", "example:ex3_points", "--out", "never.json", "--engine", "sdm",
+                     "--engine-option", "steps=0"]) == 2
+        cli = capsys.readouterr().err.strip().splitlines()[-1]
+        assert "--engine-option steps = 0 is invalid" in cli and "engine options steps = 0 is invalid" in shown
+        assert cli.split(" is invalid: ", 1)[1] in shown  # "a whole number ... (the sdm engine's ...: fn_max_hz, ...)"
+        started = []
+        monkeypatch.setattr(tab.job, "start", lambda work, done: started.append(work))
+        s.cuts = api.points("example:ex3_points")
+        tab.run()
+        assert started == [] and "engine options" in tab.job.status.text
+        tab.engine_options.value = "steps=10"
+        assert tab.engine_error.object == ""
+        calls = []
+        monkeypatch.setattr(api, "update", lambda *a, **k: calls.append(k) or "posterior")
+        tab.run()
+        assert started[0](None) == ("posterior", s.origin)
+        assert calls[0]["engine"] == "sdm" and calls[0]["engine_options"] == {"steps": 10}
+        tab.engine_options.value = "steps=10, nodes=8"  # a keyword of another engine
+        assert "'nodes'" in html.unescape(tab.engine_error.object) and tab.settings() is None
+        tab.use_engine("spectral", {"nodes": 8, "near": 0.5})  # an opened campaign's posterior
+        assert tab.engine.value == "spectral" and tab.settings().engine_options == {"nodes": 8, "near": 0.5}
+    finally:
+        s.close()

@@ -32,8 +32,9 @@ from millstab.stability.process_damping import reject as reject_process_damping
 SETTINGS_CACHE = 16
 #: default step in ln θ (1e-4 ⇒ 0.01 % relative; the engines resolve ~1e-8)
 FD_STEP = 1e-4
-#: keywords of an engine's ``envelope_batch`` that are not its discretisation (never ``options``)
-NOT_OPTIONS = frozenset({"chunk", "kr", "progress"})
+#: keywords of an engine's ``envelope_batch`` that are not its discretisation (never ``options``; the spectral
+#: engine's ``warm`` is its own settings' choice, per purpose)
+NOT_OPTIONS = frozenset({"chunk", "kr", "progress", "warm"})
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ database holding the cuts and the posteriors: the same seed gives the same poste
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -14,6 +15,7 @@ from typing import Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
+from millstab.api.update import UpdateSettings
 from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.io.config import config_to_toml
@@ -21,7 +23,7 @@ from millstab.config import Config
 from millstab.io.text import read_text
 from millstab.io.stickout import COLUMN as STICKOUT
 from millstab.points import CONDITION_COLUMNS, PointSet
-from millstab.shopdb import DEFAULT_SHOP, check_shop  # (the package's __init__ imports no SQLAlchemy)
+from millstab.shopdb import DEFAULT_SHOP, CutsBy, check_shop  # (the package's __init__ imports no SQLAlchemy)
 
 
 def open_db(db, user: str | None = None, create: bool = True):
@@ -166,29 +168,47 @@ def _writable(store, campaign: str, shops: Shops, shop: str | None) -> str | Non
 
 
 
+def _grouped(settings: UpdateSettings | None, by: CutsBy | None, given: dict) -> tuple[UpdateSettings, CutsBy]:
+    """``settings`` and ``by`` (defaults when ``None``) with the fields ``given`` as keywords over them
+    (``seed=2, user="bob"``); TypeError naming a keyword that is a field of neither."""
+    out = []
+    for obj, kind in ((settings, UpdateSettings), (by, CutsBy)):
+        names = {f.name for f in dataclasses.fields(kind)}
+        out.append(dataclasses.replace(obj or kind(), **{k: given.pop(k) for k in list(given) if k in names}))
+    if given:
+        raise TypeError(f"update_in_db() got an unexpected keyword argument {next(iter(given))!r}")
+    return out[0], out[1]
+
+
 def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = None, points: PointSet | None = None, *,
-                 engine: str = "zoa", samples: int = 4000, seed: int = 0, user: str | None = None,
-                 machine: str | None = None, tool: str | None = None, raters: Sequence[str] | None = None,
-                 recordings: Sequence[str] | None = None, retries: int = 1, progress: Progress | None = None,
-                 client=None, shops: Shops = None, shop: str | None = None,
-                 config_toml: str | None = None, sampler: str = "auto",
-                 engine_options: dict | None = None) -> ShopUpdate:
+                 settings: UpdateSettings | None = None, by: CutsBy | None = None, shops: Shops = None,
+                 shop: str | None = None, config_toml: str | None = None, retries: int = 1,
+                 progress: Progress | None = None, client=None, **fields) -> ShopUpdate:
     """Update campaign ``campaign`` with ``new_cuts`` (and boundary ``points``) and record it.
 
     Reads the campaign's cuts and current posterior in one transaction, runs :func:`millstab.api.update`
     over all cuts (old, then new) with ``start=`` the current posterior (only the new cuts are tempered in;
-    a fresh update from the prior when the config or engine changed or boundary points were added), and
-    records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole cuts file
-    (the file workflow's habit): when it begins with every recorded cut, only the rows after them are new.
-    Each cut's own condition columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it
+    a fresh update from the prior when the config, engine or engine options changed or boundary points were
+    added), and records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole
+    cuts file (the file workflow's habit): when it begins with every recorded cut, only the rows after them are
+    new. Each cut's own condition columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it
     and used as the file workflow uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
-    When another update landed meanwhile,
-    it re-runs from that one (up to ``retries`` times), then raises :class:`~millstab.shopdb.store.StaleError`.
-    ``shops``: the caller may only see and write these shops' campaigns (the app's accounts; ``None``: all);
-    ``shop``: the shop of a new campaign. ``config_toml``: the config text to record (default
-    :func:`config_text` of ``cfg``; the app passes the campaign's own text when its form holds that config, so
-    that the update continues from the current posterior). ``engine_options``: the engine's discretisation
-    (as :func:`millstab.api.update`; a campaign whose last posterior was fitted with others updates from the prior).
+
+    Args:
+        settings: how the update samples (:class:`millstab.api.update.UpdateSettings`: engine, samples, seed,
+            sampler, engine_options; the defaults of :func:`millstab.api.update`).
+        by: who records the update and the new cuts' machine, tool, raters and recordings
+            (:class:`millstab.shopdb.CutsBy`).
+        fields: fields of ``settings`` or ``by`` as keywords, over them (``seed=1, user="ann"``: the short form
+            of docs/shopdb.md); a keyword that is neither is a TypeError.
+        shops: the caller may only see and write these shops' campaigns (the app's accounts; ``None``: all).
+        shop: the shop of a new campaign.
+        config_toml: the config text to record (default :func:`config_text` of ``cfg``; the app passes the
+            campaign's own text when its form holds that config, so that the update continues from the current
+            posterior).
+        retries: when another update landed meanwhile, re-run from that one up to this many times, then raise
+            :class:`~millstab.shopdb.store.StaleError`.
+        progress, client: as :func:`millstab.api.update` (where and how it runs; not recorded).
 
     Raises:
         InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
@@ -202,7 +222,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     from millstab.io.stickout import stickouts
     from millstab.update.stickout import over_holder
 
-    store = open_db(db, user)
+    settings, by = _grouped(settings, by, fields)
+    store = open_db(db, by.user)
     shop = _writable(store, campaign, shops, shop)
     if not over_holder(cfg):  # a prior over the holder needs no tip modes (as api.update)
         cfg, _ = modal(cfg)
@@ -222,21 +243,19 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         cuts = _join(old, new)
         if not len(cuts):
             raise InputError("cuts", "none", f"campaign {campaign!r} holds no cuts yet; give the cuts to record")
-        why = _why_fresh(snap, sha, engine, new, engine_options)
+        why = _why_fresh(snap, sha, settings.engine, new, settings.engine_options)
         start = snap.posterior() if snap is not None and snap.posterior_doc is not None and why is None else None
         if why is not None:
             notes.append(f"updating from the prior over all {len(cuts)} cuts: {why}")
         so = stickouts(cuts)  # each cut's stickout [m] (NaN: the config's), as `millstab update` reads it
-        post = update(cfg, cuts, None, engine=engine, samples=samples, seed=seed, start=start, progress=progress,
-                      client=client, sampler=sampler, stickout_mm=None if so is None else so * 1e3,
-                      engine_options=engine_options)
+        post = update(cfg, cuts, None, start=start, progress=progress, client=client,
+                      stickout_mm=None if so is None else so * 1e3, **settings.keywords())
         head = snap.head if snap is not None else None
         try:
             pid = store.record_update(campaign, toml, new, post, expected_head=head.posterior_id if head else None,
                                       expected_rows=head.n_rows if head else 0,
-                                      parent=head.posterior_id if start is not None else None, seed=seed,
-                                      machine=machine, tool=tool, user=user, raters=raters, recordings=recordings,
-                                      all_cuts=cuts, note="; ".join(notes), shop=shop)
+                                      parent=head.posterior_id if start is not None else None, seed=settings.seed,
+                                      by=by, all_cuts=cuts, note="; ".join(notes), shop=shop)
         except StaleError as exc:
             if attempt > retries:
                 raise
@@ -438,7 +457,8 @@ class ShopView:
         return history(self.store, campaign, limit, before, self.shops)
 
 
-__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "OpenCampaign", "check_shop", "ShopUpdate", "ShopView",
+__all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "CutsBy", "OpenCampaign", "check_shop", "ShopUpdate",
+           "ShopView",
            "Shops", "already_recorded", "campaigns", "check", "config_text", "cut_table", "current_posterior",
            "export_campaign", "history", "history_table", "import_campaign", "open_db", "posterior_from_db",
            "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

@@ -4,6 +4,7 @@ and the next test (:mod:`millstab.update`), with the checks every door shares.""
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,6 +19,31 @@ from millstab.points import PointSet
 
 #: the most cells (speeds × depths) of one P(stable) map
 MAX_MAP_CELLS = 5_000_000
+
+
+@dataclass(frozen=True)
+class UpdateSettings:
+    """How an update samples: the keywords of :func:`update` of the same names and defaults, as one object
+    that the doors (the app's form, ``millstab update``) and the shop database (:func:`millstab.api.shop.update_in_db`)
+    pass on. Checked where they are used (:func:`update`), not here.
+
+    Attributes:
+        engine: a registered engine (``zoa``, ``sdm``, ``spectral``).
+        samples: posterior samples (SMC particles).
+        seed: the sampler's seed (same seed, same posterior).
+        sampler: ``auto`` | ``delayed`` | ``plain``.
+        engine_options: the engine's discretisation for the whole update (``None``: the engine's own choice).
+    """
+
+    engine: str = "zoa"
+    samples: int = 4000
+    seed: int = 0
+    sampler: str = "auto"
+    engine_options: dict | None = None
+
+    def keywords(self) -> dict:
+        """The settings as :func:`update`'s keywords."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
 def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
@@ -78,6 +104,83 @@ def check_engine_options(engine: str, options: dict | None, field: str = "--engi
     from millstab.forward import engine_options
 
     return dict(engine_options(engine, options, field))
+
+
+#: what an engine option is written as, in the doors' help and their errors
+ENGINE_OPTION_FORM = "KEY=VALUE with a number, e.g. steps=40 (sdm: steps, fn_max_hz; spectral: nodes, near; zoa: none)"
+
+
+def engine_option_pairs(texts, field: str = "--engine-option") -> dict:
+    """Engine options as written, ``["steps=40", "fn_max_hz=3e3"]`` (the repeatable ``--engine-option``, or the
+    app's field split at commas), as a table ``{"steps": 40, "fn_max_hz": 3000.0}``: a whole number as int,
+    another number as float, anything else kept as text for :func:`check_engine_options` to refuse by name.
+
+    Raises:
+        InputError: naming ``field``: a text without ``=``, an empty keyword or value, a keyword given twice.
+    """
+    out: dict = {}
+    for text in texts or ():
+        key, eq, value = (part.strip() for part in str(text).partition("="))
+        if not eq or not key or not value:
+            raise InputError(field, text, ENGINE_OPTION_FORM)
+        if key in out:
+            raise InputError(field, text, f"each keyword once ({key} = {out[key]} already)")
+        out[key] = _number(value)
+    return out
+
+
+def _number(text: str):
+    """``"40"`` → 40, ``"0.5"``/``"1e3"`` → float, anything else: the text itself."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def engine_options_from_text(engine: str, text: str | None, field: str = "engine options") -> dict:
+    """The app's engine-options field, ``"steps=10"`` or ``"nodes=8, near=0.5"`` (commas or semicolons between
+    the options; empty: the engine's own choice, ``{}``), read by :func:`engine_option_pairs` and checked by
+    :func:`check_engine_options` for ``engine``: the same rules and the same one-line errors as ``--engine-option``.
+
+    Raises:
+        InputError: naming ``field``, the keyword (and its value) and the keywords the engine takes.
+    """
+    texts = [t.strip() for t in str(text or "").replace(";", ",").split(",") if t.strip()]
+    return check_engine_options(engine, engine_option_pairs(texts, field), field)
+
+
+def engine_keywords(engine: str) -> str:
+    """"the sdm engine's discretisation keywords: fn_max_hz, steps": what :func:`check_engine_options` names in its
+    errors (the keywords of the engine's ``envelope_batch``), for a door to show before any error."""
+    try:
+        check_engine_options(engine, {"": None})  # no engine takes an empty keyword: its error names those it takes
+    except InputError as exc:
+        return str(exc.allowed)
+    raise AssertionError("an empty engine option was accepted")
+
+
+def engine_update_note(engine: str) -> str:
+    """One line for a door that lets the user pick the update's engine: what it models, what an update with it
+    costs (figures of docs/updating.md, measured on the 2-core build machine) and its option keywords.
+
+    Raises:
+        InputError: an engine that is not registered.
+    """
+    from millstab.stability import get_engine
+
+    e = get_engine(engine)
+    keys = engine_keywords(engine)
+    if getattr(e, "time_averaged", False):
+        return (f"{engine}: the zero-order (time-averaged) model: fast, an update of 1 000 samples in seconds, but "
+                f"poor at low radial immersion (a/D below ~0.2); {keys}")
+    return (f"{engine}: interrupted cutting, right at low radial immersion too, but slow: each update move is "
+            f"screened by the zero-order engine and the survivors computed by {engine} (delayed acceptance), "
+            f"10-50x the zero-order update's CPU, and the map and recommendation call {engine} for every sample: "
+            f"start with a few hundred samples and a coarse discretisation; {keys}")
 
 
 def with_engine_options(post, options: dict | None, field: str = "--engine-option"):
@@ -247,7 +350,7 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
 
     Raises:
         InputError: naming the option (``--risk``, ``--rpm``, ``--confidence``, ``--speed-tolerance``, ``--test-risk``,
-            ``--confirm``).
+            ``--confirm``, ``--discriminate``).
     """
     import math
 
@@ -272,6 +375,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
                                                    f"{TEST_RISK:g} (1: no cap)")
     if rule.get("confirm", "conflict") not in ("conflict", "always", "never"):
         raise InputError("--confirm", rule["confirm"], "one of conflict, always, never")
+    if rule.get("discriminate", "never") not in ("conflict", "never"):
+        raise InputError("--discriminate", rule["discriminate"], "one of conflict, never")
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 

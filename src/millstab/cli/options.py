@@ -50,24 +50,13 @@ def samples_option(default: int, help: str) -> Any:
                         callback=samples_callback)
 
 
-#: what --engine-option takes, in its help and its errors
-ENGINE_OPTION_FORM = "KEY=VALUE with a number, e.g. steps=40 (sdm: steps, fn_max_hz; spectral: nodes, near; zoa: none)"
-
-
 def engine_option_pairs(texts) -> dict:
-    """The ``--engine-option`` texts (repeatable) as a table: ``["steps=40"]`` → ``{"steps": 40}`` (a whole number
-    as int, another number as float, anything else kept as text for the engine's check to refuse by name);
-    InputError for a text without ``=``, an empty keyword or a keyword given twice. Which keywords and values
-    an engine takes is checked where the engine is known (:func:`millstab.api.check_engine_options`)."""
-    out: dict = {}
-    for text in texts or ():
-        key, eq, value = (part.strip() for part in str(text).partition("="))
-        if not eq or not key or not value:
-            raise InputError("--engine-option", text, ENGINE_OPTION_FORM)
-        if key in out:
-            raise InputError("--engine-option", text, f"each keyword once ({key} = {out[key]} already)")
-        out[key] = _number(value)
-    return out
+    """The ``--engine-option`` texts (repeatable) as a table (:func:`millstab.api.engine_option_pairs`):
+    ``["steps=40"]`` → ``{"steps": 40}``; which keywords and values an engine takes is checked where the engine
+    is known (:func:`millstab.api.check_engine_options`)."""
+    from millstab import api
+
+    return api.engine_option_pairs(texts, "--engine-option")
 
 
 def _engine_option_callback(texts):
@@ -77,16 +66,9 @@ def _engine_option_callback(texts):
     return texts
 
 
-def _number(text: str):
-    """``"40"`` → 40, ``"0.5"``/``"1e3"`` → float, anything else: the text itself."""
-    try:
-        return int(text)
-    except ValueError:
-        pass
-    try:
-        return float(text)
-    except ValueError:
-        return text
+#: what --engine-option takes, in its help (= millstab.api.ENGINE_OPTION_FORM, not imported: the help is built
+#: when the CLI loads, before any service module; tests/test_web_api.py checks that the two agree)
+ENGINE_OPTION_FORM = "KEY=VALUE with a number, e.g. steps=40 (sdm: steps, fn_max_hz; spectral: nodes, near; zoa: none)"
 
 
 EngineOptionOpt = Annotated[Optional[list[str]], typer.Option(

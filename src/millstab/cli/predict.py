@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from millstab import api
+from millstab.cli import emit
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
 from millstab.cli.options import (EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
@@ -23,8 +24,14 @@ def predict_cmd(
                                           "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
-    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the input order "
-                                                "(and condition where the cuts' conditions differ)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the "
+                                                           "input order (and condition where the cuts' conditions "
+                                                           "differ)."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="The predictions as JSON (schema "
+                                                                 "millstab.prediction/1: the cuts, p_stable, "
+                                                                 "p_label_chatter, the posterior's warnings, the "
+                                                                 "condition per cut, config and points); with or "
+                                                                 "instead of --out."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
@@ -40,23 +47,24 @@ def predict_cmd(
     from rich.console import Console
 
     from millstab.api.predict import predict
-    from millstab.io import check_outputs, read_points, write_csv
+    from millstab.io import read_points
 
     if cuts is None and db is not None:  # `predict --db X --campaign C cuts.csv`: the one argument is the cuts
         posterior, cuts = None, posterior
     if cuts is None:
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
+    if out is None and json_out is None:
+        raise InputError("--out", None, "missing: the CSV to write (or --json pred.json for the JSON document)")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
-    inputs = {**inputs, "CUTS": cuts}
-    check_outputs(inputs, {"--out": out})  # before the work
+    protect = emit.checked({**inputs, "CUTS": cuts}, {"--out": out, "--json": json_out})  # before the work
     pred = predict(post, c)
-    write_csv(out, *pred.table(), protect=list(inputs.values()))
     con = Console()
     for w in pred.warnings:
         con.print(f"[yellow]warning (from the update):[/yellow] {w}")
     con.print(api.condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
                                                                    "'condition' column")
     con.print(pred.summary())
-    con.print(f"wrote {out}")
+    emit.csv(out, pred.table(), protect, con.print)
+    emit.json(json_out, pred.to_json, protect, con.print)

@@ -39,6 +39,10 @@ def recommend_cmd(
                                 help="When the recommendation must be no deeper than a cut labelled stable that the "
                                      "posterior holds safe, within ±2 % of its speed: 'conflict' (while the cuts "
                                      "contradict the hammer test), 'always', 'never'."),
+    discriminate: str = typer.Option("never", "--discriminate",
+                                     help="'conflict': while the cuts contradict the hammer test, the next test is "
+                                          "the cut that best tells the posterior from the far-off alternative the "
+                                          "cuts fit best (experimental); 'never': the most informative cut."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
@@ -59,7 +63,8 @@ def recommend_cmd(
 
     span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance,
                                    test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
-                                   feed_mm=feed_per_tooth, seed=seed, confirm=confirm)
+                                   feed_mm=feed_per_tooth, seed=seed, confirm=confirm,
+                                   discriminate=discriminate)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     protect = emit.checked(inputs, {"--out": out})

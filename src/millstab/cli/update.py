@@ -123,15 +123,17 @@ def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, *
 
     settings["engine_options"] = api.check_engine_options(settings["engine"],
                                                           engine_option_pairs(settings.get("engine_options")))
+    settings = api.UpdateSettings(**settings)
     if shop_target(db, campaign):
-        from millstab.api.shop import update_in_db
+        from millstab.api.shop import CutsBy, update_in_db
 
-        done = update_in_db(db, campaign, cfg, cuts, points, user=user, client=client, shop=shop, **settings)
+        done = update_in_db(db, campaign, cfg, cuts, points, settings=settings, by=CutsBy(user=user), client=client,
+                            shop=shop)
         for line in done.notes:
             typer.echo(line)
         return done.posterior, done
     post = api.update(cfg, cuts, points, client=client, start=_load_posterior(start) if start is not None else None,
-                      **settings)
+                      **settings.keywords())
     return post, None
 
 

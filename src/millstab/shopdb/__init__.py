@@ -16,11 +16,33 @@ database is opened, so the rest of millstab works without them.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Sequence
+
 from millstab.errors import InputError
 
 INSTALL = "pip install 'millstab[db]' (SQLAlchemy and Alembic)"
 #: the shop of a campaign made without naming one (the command line), and of an app account that names none
 DEFAULT_SHOP = "default"
+
+
+@dataclass(frozen=True)
+class CutsBy:
+    """Who and what recorded cuts, as the database keeps it (one object instead of five keywords of
+    :meth:`~millstab.shopdb.store.Store.record_update` and :func:`millstab.api.shop.update_in_db`).
+
+    Attributes:
+        user: who records them (default: the store's user, ``$USER``).
+        machine, tool: the campaign's machine and tool (set when the campaign is created, at its first write).
+        raters: per new cut, who labelled it (``None``: nobody named).
+        recordings: per new cut, a reference to its recording (``None``: none).
+    """
+
+    user: str | None = None
+    machine: str | None = None
+    tool: str | None = None
+    raters: Sequence[str] | None = None
+    recordings: Sequence[str] | None = None
 
 
 def check_shop(name, field: str = "--shop") -> str:
@@ -56,4 +78,4 @@ def open_store(db, user: str | None = None, create: bool = True):
     return Store(str(db), user, create)
 
 
-__all__ = ["DEFAULT_SHOP", "INSTALL", "check_shop", "available", "open_store"]
+__all__ = ["DEFAULT_SHOP", "INSTALL", "CutsBy", "check_shop", "available", "open_store"]

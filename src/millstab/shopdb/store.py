@@ -45,7 +45,7 @@ from millstab.errors import InputError
 from millstab.io.results import to_jsonable
 from millstab.io.stickout import COLUMN as STICKOUT
 from millstab.points import CONDITION_COLUMNS, PointSet
-from millstab.shopdb import check_shop
+from millstab.shopdb import CutsBy, check_shop
 from millstab.shopdb import schema as T
 
 #: how long a writer waits for another writer's lock before giving up [s]
@@ -441,9 +441,8 @@ class Store:
 
     def record_update(self, name: str, config_toml: str, new_cuts: PointSet, posterior, *,
                       expected_head: int | None, expected_rows: int, parent: int | None = None, seed: int | None = None,
-                      machine: str | None = None, tool: str | None = None, user: str | None = None,
-                      raters: Sequence[str] | None = None, recordings: Sequence[str] | None = None,
-                      all_cuts: PointSet | None = None, note: str = "", shop: str | None = None) -> int:
+                      by: CutsBy | None = None, all_cuts: PointSet | None = None, note: str = "",
+                      shop: str | None = None) -> int:
         """Record one update in one transaction and make its posterior current; returns the posterior's id.
 
         Args:
@@ -454,28 +453,30 @@ class Store:
             expected_head, expected_rows: the head posterior id (``None`` for none yet) and the number of cut
                 rows the update read when it started (optimistic concurrency).
             parent: the posterior the sampler started from (``start=``), ``None`` for a fresh update.
+            by: who records it and the new cuts' machine, tool, raters and recordings (:class:`CutsBy`; default:
+                the store's user, nothing else named).
             all_cuts: every row the posterior used (for its data hash); default: not hashed with the old rows.
-            raters, recordings: per new cut, who labelled it and a reference to its recording.
             shop: the shop of a new campaign; for an existing one, its shop (anything else is refused).
         Raises:
             StaleError: the campaign's head or cut count is no longer the expected one (nothing recorded).
             InputError: a bad name, a database error (read-only, full disk, ...).
         """
-        user = default_user(user) if user is not None else self.user
+        by = by or CutsBy()
+        user = default_user(by.user) if by.user is not None else self.user
         doc = posterior if isinstance(posterior, dict) else posterior.to_json()
         text = json_text(doc)
         n_samples = len(doc.get("samples") or ())
         at = now()
         with self.transaction(write=True) as conn:
             self._check_head(conn, name, expected_head, expected_rows)
-            cid = self._ensure_campaign(conn, name, machine, tool, user, at, shop)
+            cid = self._ensure_campaign(conn, name, by.machine, by.tool, user, at, shop)
             cfg_id = self._config_id(conn, cid, config_toml, user, at)
             pid = conn.execute(T.posterior.insert().values(
                 campaign_id=cid, parent_id=parent, config_id=cfg_id, n_rows=expected_rows + len(new_cuts),
                 engine=str(doc.get("engine", "zoa")), samples=n_samples, seed=seed, code_version=code_version(),
                 data_hash=data_hash(config_toml, all_cuts if all_cuts is not None else new_cuts), doc=text,
                 created_at=at, created_by=user)).inserted_primary_key[0]
-            rows = self._cut_rows(cid, expected_rows, new_cuts, raters, recordings, pid, user, at)
+            rows = self._cut_rows(cid, expected_rows, new_cuts, by.raters, by.recordings, pid, user, at)
             if rows:
                 conn.execute(T.cut.insert(), rows)
             conn.execute(T.campaign.update().where(T.campaign.c.id == cid)

@@ -123,6 +123,26 @@ load ~6: 99.8 / 98.6 → 47.1 / 47.6 ms (2.1×; two threads 123.5 / 126.7 → 75
 per core (``PYTHONPATH=src:benchmarks python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``).
 Still far from the issue's 100/s: the ladder's ~21 rungs remain (ρ(0) is already 0.83–0.91 here, and
 ``near`` asks for ρ < 0.98, so fewer rungs are certified than in an update).
+Cheaper rung tests (issue 28, 2026-11-27, :func:`._spectral_kernel.rho_test`). Where the 200-speed envelope's
+time went after (3) (one thread, CPU, ``benchmarks/profile_spectral.py`` and a census of the rungs): 31.7
+evaluations per speed, 20.9 of them rungs under the root (3 987 rungs on 200 speeds, K = 10–16 rows, mean 11); the
+squarings certified 80 % of them (4.7 squarings each on average, a hand-written K³ loop of 0.43 µs per squaring at
+K = 10) and the other 20 % paid six squarings and then the eigenvalues (5.3 µs; 7.3 % of the rungs have ρ above 1
+− near, which triggers the refinement); the ~11 other evaluations per speed were mostly ρ at the refinement's inner
+depths and at a checked root's top (each up to six squarings and the eigenvalues), ~4 Newton steps (2.5 µs) and a
+speed setup with its low-rank factors (6.5 µs). Changed: a squaring is a BLAS product (0.15 µs); up to 10 of them
+(ρ up to ~0.99 of the level is certified: the refinement's inner depths now mostly are); the bound is the smaller
+of ‖Bᵐ‖∞ and ‖Bᵐ‖_F (81.5 % of the rungs within six squarings, ∞ alone 79.5 %); the squarings stop where the bound
+stalls above the level (ρ is there) and are skipped at a rung whose rung below was above the level and at a checked
+root's top (ρ within ~1e-3 of 1). No decision of the search changes (a bound decides only where it is below the
+level, and a bracket's ends are exact, as before): on 18 envelopes (three structures, a/D 0.05 / 0.5 / 1, up and
+down, 101 speeds) and a batch with warm rows, every depth and multiplier is bit for bit the code before's. CPU per
+200-speed envelope on one thread, alternated with the code before in the same minutes (load ~23 on the 2 cores):
+50.5 / 50.0 / 48.8 → 34.4 / 33.9 / 33.6 ms (1.46×), **~29 envelopes/s per core** (``PYTHONPATH=src:benchmarks
+python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``). The issue's 100/s is still 3.4× away: ~21 rung
+decisions per speed are the definition's floor, and an exact ρ (the eigenvalues of a 10–16-row matrix) is 5–10 µs.
+Measured and not kept: an eigenvector basis (of the rung below, or of the same rung at the previous speed) as the
+similarity of the certificate: 35 % / 19 % of the rungs certified at one product (the balanced squarings: 80 %).
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of
@@ -560,23 +580,27 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                   near: float = NEAR) -> np.ndarray:
+                   near: float = NEAR, warm: bool = True) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
-    which a problem's :func:`settings` asks for)."""
+    which a problem's :func:`settings` asks for). ``warm``: rows within ``WARM_REL`` of the row heading their
+    run start from its boundary (:func:`_heads`; for finite-difference Jacobians). A warm row can land on a
+    crossing below the one its own search from below finds (a band narrower than the ladder's step), so its
+    depth can depend on its neighbour: a sampler, whose likelihood must be one function of θ, turns it off
+    (:func:`settings` with ``purpose="sample"``); not a discretisation option (``forward.NOT_OPTIONS``)."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes, near=near)[0]
+    return _limit(batch, cutting, r, nodes, warm=warm, near=near)[0]
 
 
 @by_condition
 def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                      near: float = NEAR) -> tuple[np.ndarray, np.ndarray]:
+                      near: float = NEAR, warm: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
-    no boundary exists."""
+    no boundary exists. ``near``, ``warm``: as :func:`envelope_batch`."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes, near=near)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
@@ -657,7 +681,7 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     the parameters move (measured: the identification benchmark then ended in a wrong basin, module
     docstring); the depth of each speed still does not depend on the other speeds. ``purpose`` ``"sample"``
     (:data:`PURPOSES`): the converged count itself, for a sampler whose likelihood compares depths with a
-    depth noise of several % (the updating loop), never below P_NODES + P_STEP."""
+    depth noise of several % (the updating loop), never below P_NODES + P_STEP, and ``"warm": False``."""
     if purpose not in PURPOSES:
         raise InputError("purpose", purpose, "one of " + ", ".join(PURPOSES))
     _require_modal_batch(batch)
@@ -671,7 +695,11 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     # the check starts one step up: P_NODES nodes for every prior sample landed on another root (> 1 % off)
     # at 6.6 % of the (sample, speed) pairs (bench_spectral_nodes.py), and a first row can pass the check
     # at P_NODES (Example 1's identification start did)
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0}
+    # and no warm starts between rows: a sampler's likelihood must be one function of θ, and a warm row's depth
+    # can depend on its neighbour (envelope_batch; 1 of 12 000 pairs of rows within 0.4 % at a/D 0.1 differed by
+    # 0.9 %, test_spectral_sampling); particles are seldom within WARM_REL of each other, so it costs nothing
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0,
+            "warm": False}
 
 
 def _require_modal_batch(batch) -> None:

@@ -172,6 +172,9 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         diag["engine_options"] = dict(engine_options)
     if scr is not None:
         diag["screen_engine"], diag["screen_sets"] = cheap_engine, scr.n_sets
+        # the bounded second stage (Likelihood.bounded): proposals rejected before all their speeds were evaluated,
+        # and the (set, speed) evaluations that saved
+        diag["decided_early"], diag["entries_saved"] = lik.n_decided, lik.n_entries_saved
     if sur is not None:
         diag["surrogate"] = sur.report()
     diag["frequency_term"] = lik.uses_frequency

@@ -31,6 +31,7 @@ import numpy as np
 
 from millstab.points import PointSet
 from millstab.update._bald import label_information
+from millstab.update.decide import guard_cap
 from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.posterior import Posterior
 
@@ -48,9 +49,13 @@ def _h(p: np.ndarray) -> np.ndarray:
 
 
 def conflict_test(post: Posterior, rpm_range: tuple[float, float], cap_mm: float = math.inf, *,
-                  test_risk: float = 0.5, n_rpm: int = 120, n_depth: int = 60, seed: int = 0) -> dict | None:
+                  test_risk: float = 0.5, n_rpm: int = 120, n_depth: int = 60, seed: int = 0,
+                  guard: list[dict] = ()) -> dict | None:
     """The cut that best tells the posterior from the best-supported far-off alternative (module docstring),
     or ``None`` when there are no cuts yet or no cut tells them apart by :data:`MIN_NATS`.
+
+    ``guard``: the data guard's chatter cuts (:func:`millstab.update.decide.data_guard`): no cut in a guarded
+    cell is proposed (as for the recommendation's next test).
 
     Returns {"rpm", "depth_mm", "p_chatter" (the posterior's, process), "p_chatter_rival", "divergence_nats",
     "rival" (e.g. "fn +3.5σ"), "rival_log_likelihood_ratio" (ln of the mean likelihood ratio of the rival over the
@@ -103,7 +108,7 @@ def conflict_test(post: Posterior, rpm_range: tuple[float, float], cap_mm: float
     p0, _, proc0 = label_information(b0, depths, sig, eps, fac)
     p1, _, proc1 = label_information(b1, depths, sig, eps[pick], fac[pick])
     js = _h(0.5 * (p0 + p1)) - 0.5 * (_h(p0) + _h(p1))  # (S, D) mutual information with "which is right"
-    ok = proc0 <= test_risk
+    ok = (proc0 <= test_risk) & (depths[None, :] < guard_cap(list(guard), speeds)[:, None])
     if not ok.any() or np.where(ok, js, -np.inf).max() < MIN_NATS:
         return None
     i, j = np.unravel_index(int(np.argmax(np.where(ok, js, -np.inf))), js.shape)

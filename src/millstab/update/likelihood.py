@@ -67,7 +67,7 @@ import numpy as np
 from scipy.special import log_ndtr
 
 from millstab.errors import InputError
-from millstab.forward import Forward, forward
+from millstab.forward import Forward, Pinned, forward
 from millstab.model import Conditions, Cutting, condition_index
 from millstab.points import PointSet, cut_conditions, same_condition
 from millstab.stability import check_rpm, get_engine, per_set_kr
@@ -83,6 +83,12 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 #: update of docs/updating.md 1.34× less CPU with 300 samples, 1.12× with 1 000, the posterior means within
 #: 0.022 sd)
 SAMPLING = "sample"
+#: the speed columns :meth:`Likelihood.bounded` evaluates per round before the rest (the costliest first)
+BOUND_ROUNDS = (2, 3)
+#: fewer rows than this go through one call: each round is an engine call with a fixed cost of a few ms (OMP
+#: passive); measured on the docs/updating.md case, a 30-sample update (~10 survivors per move) took 1.15× the CPU
+#: with rounds, a 300-sample one (~70 per move) 1.05–1.14× less
+BOUND_MIN_ROWS = 32
 
 
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
@@ -427,6 +433,11 @@ class Likelihood:
         self.options = self._forwards[0].options  # checked (keywords and values) by the forward model
         self.n_calls = 0
         self.n_sets = 0
+        # delayed acceptance's bounded second stage (:meth:`bounded`): rows decided early, the (row, column)
+        # entries they did not need, each column's log-likelihood cost so far
+        self.n_decided = 0
+        self.n_entries_saved = 0
+        self._column_cost = np.zeros(self.speeds.size)
 
     def _conditions_of(self, column_cond: np.ndarray):
         """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
@@ -499,6 +510,103 @@ class Likelihood:
         columns the prior's held noise levels are used. −inf outside the prior's support."""
         depth, hz, w, ok = self._limits(v)
         return np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)
+
+    def bounded(self, v: np.ndarray, floor: np.ndarray) -> np.ndarray:
+        """log L (B,) of sampler vectors v (as :meth:`__call__`), exact where it may reach ``floor`` (B,); where it
+        cannot, a value below ``floor`` (a partial sum, never used as log L): delayed acceptance's second stage
+        only asks whether log L clears a threshold (:func:`millstab.update.sampler.tempered_smc`).
+
+        Why (issue 28): 42 % of the proposals that pass the zero-order screen are rejected by the accurate
+        engine (docs/updating.md, "Where the accurate update's time goes"), and a rejection is often decided by
+        one or two cuts. Each cut's term is a log-probability (≤ 0) and each speed's limit does not depend on the
+        other speeds of a call, so the speed columns are evaluated in rounds (:data:`BOUND_ROUNDS`, the columns
+        whose cuts cost the most log-likelihood so far first): a row whose partial sum is below the floor by
+        more than rounding is decided, and its other columns are never computed. The rows that go on get the
+        numbers of :meth:`__call__` (each round keeps the discretisation of a full call on these rows, so a
+        column's limit is the one a full call gives, to the root's ~1e-12). Falls back to :meth:`__call__` with
+        boundary points, chatter frequencies, a test-day effect or a negative weight (terms not bounded by 0),
+        and with a cluster."""
+        v = np.atleast_2d(np.asarray(v, dtype=float))
+        floor = np.broadcast_to(np.asarray(floor, dtype=float), (v.shape[0],))
+        ev, n_s = self.evidence, self.speeds.size
+        if (self.batch is not None or ev.pt_rpm.size or self.uses_frequency or (ev.cut_weight < 0).any()
+                or self.client is not None or n_s <= BOUND_ROUNDS[0] or v.shape[0] < BOUND_MIN_ROWS):
+            return self(v)
+        p, q = self.prior.size, self.prior.dim
+        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
+        rows = np.flatnonzero(self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1))
+        out = np.full(v.shape[0], -np.inf)
+        if not rows.size:
+            return out
+        order = np.argsort(-self._column_cost, kind="stable")  # the costliest columns first
+        settings = self._settings(u[rows])
+        depth = np.ones((rows.size, n_s))  # finite placeholders where not evaluated (those cuts not summed)
+        done = np.zeros(n_s, bool)
+        live = np.arange(rows.size)
+        start = 0
+        for size in (*BOUND_ROUNDS, n_s):
+            cols = order[start:start + size] if size < n_s else order[start:]
+            start += cols.size
+            if not cols.size:
+                break
+            depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings)
+            done[cols] = True
+            if done.all():
+                break
+            part = self.from_limits(depth[live], None, done[self._ic], False, None if w is None else w[rows[live]])
+            # decided: below the floor by more than rounding (the other cuts' terms are ≤ 0); NaN goes on
+            dead = part < floor[rows[live]] - 1e-9 * (1.0 + np.abs(floor[rows[live]]))
+            out[rows[live[dead]]] = part[dead]
+            self.n_decided += int(dead.sum())
+            self.n_entries_saved += int(dead.sum()) * int((~done).sum())
+            live = live[~dead]
+            if not live.size:
+                break
+        if live.size:  # from_limits on an array of __call__'s shape: its numbers for these rows, bit for bit
+            whole = np.ones((v.shape[0], n_s))
+            whole[rows[live]] = depth[live]
+            out[rows[live]] = self.from_limits(whole, None, noise=w)[rows[live]]
+            self._learn_costs(depth[live], None if w is None else w[rows[live]])
+        self.n_sets += rows.size
+        return out
+
+    def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict]) -> np.ndarray:
+        """Limits (B, len(cols)) [mm] of rows u = ln θ at the data's columns ``cols`` (indices into
+        :attr:`speeds`), one engine call per stickout group with columns among them, each under ``settings``
+        (:meth:`_settings`: the discretisation a full call would use), so that a subset of columns gives the
+        numbers of a full call (the spectral node count is chosen per speed list)."""
+        where = np.full(self.speeds.size, -1, dtype=np.int64)
+        where[cols] = np.arange(cols.size)
+        depth = np.empty((u.shape[0], cols.size))
+        for (prior, group), fwd, chosen in zip(self._groups, self._forwards, settings):
+            sel = group[where[group] >= 0]
+            if not sel.size:
+                continue
+            cond = self._conditions_of(self.column_cond[sel])
+            pin = Pinned(fwd, self.speeds[sel], chosen, fwd.cutting if cond is None else cond)
+            depth[:, where[sel]] = sample_depths(pin, prior, u)[0]
+            self.n_calls += 1
+        return depth
+
+    def _settings(self, u: np.ndarray) -> list[dict]:
+        """Per stickout group, the discretisation of a full call on the rows u (B, P) (:func:`pinned_model` on
+        all the group's columns: spectral's chosen at θ0 once per speed list, sdm's from the rows)."""
+        return [dict(pinned_model(g, u, self.speeds[c], self.engine, gc, f).settings)
+                for (g, c), gc, f in zip(self._groups, self._group_conditions, self._forwards)]
+
+    def _learn_costs(self, depth_mm: np.ndarray, noise: np.ndarray | None) -> None:
+        """Add each column's summed −log L of its cuts over these rows to :attr:`_column_cost` (the order of
+        :meth:`bounded`'s rounds: deterministic, from the rows evaluated so far)."""
+        ev = self.evidence
+        if noise is None:
+            eps, fac = self.prior.label_error, np.ones((1, 1))
+        else:
+            e, f = self.prior.noise(noise, depth_mm.shape[0])
+            eps, fac = e[:, None], f[:, None]
+        z = (ev.cut_depth_mm - depth_mm[:, self._ic]) / (self._sig_c * fac)
+        terms = -cut_loglik(z, None, eps, ev.cut_grade) * ev.cut_weight
+        cost = np.bincount(self._ic, weights=np.nan_to_num(terms, posinf=1e6).sum(0), minlength=self.speeds.size)
+        self._column_cost += cost
 
     def split(self, n_old: int):
         """``u -> (log L of the first n_old cuts and every boundary point, log L of the other cuts)``

@@ -236,6 +236,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
             raise InputError("init", f"shape {u.shape}", f"need ({n}, P) starting particles")
     both = _pair(loglik, init is not None)
     cheap = _pair(screen, init is not None) if screen is not None else None
+    # a likelihood that can stop where log L cannot clear a floor (Likelihood.bounded): the second stage's test
+    bounded = getattr(loglik, "bounded", None) if screen is not None and init is None else None
     p = u.shape[1]
     shifts = _jump_shifts(jumps, p) if jump_rate > 0 else None
     fx, ll = both(u)
@@ -287,7 +289,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                 ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
                 u[ok], ll[ok], lp[ok] = prop[ok], ll2[ok], lp2[ok]
             else:
-                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng)
+                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded)
                 n_sc += 1
                 n_ll += m > 0
                 n_sets += m
@@ -327,10 +329,13 @@ def _jump_shifts(jumps, p: int) -> np.ndarray | None:
     return np.array(rows) if rows else None
 
 
-def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng) -> tuple[np.ndarray, int]:
+def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded=None) -> tuple[np.ndarray, int]:
     """One delayed-acceptance MH move of every particle, in place (u, ll, lp: the accurate state; sll, slp:
     the screen's). Stage 1 on the screen π̃_β, stage 2 on π_β/π̃_β for the survivors only (one batched
-    accurate call). Returns the acceptance mask (n,) and the number of survivors of stage 1."""
+    accurate call). ``bounded(v, floor)`` (a fresh update's likelihood, :meth:`Likelihood.bounded`): log L exact
+    where it may clear the floor that stage 2's uniform sets, a value below it elsewhere: the same decisions
+    (accepting needs log L > floor), fewer engine evaluations. Returns the acceptance mask (n,) and the number
+    of survivors of stage 1."""
     n = u.shape[0]
     lp0 = logprior(prop)
     sfx2, sll2 = (_floored(a) for a in cheap(prop))
@@ -341,7 +346,11 @@ def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng) -
     ok = np.zeros(n, bool)
     u2 = rng.random(n)  # drawn for every particle, so the stream does not depend on how many passed
     if go.size:
-        fx2, ll2 = both(prop[go])
+        if bounded is not None and beta > 0:  # the threshold of the test below, solved for log L (fx2 = 0 here)
+            floor = (np.log(u2[go]) - lp0[go] + lp[go] + beta * ll[go] + log_a1[go]) / beta
+            fx2, ll2 = np.zeros(go.size), np.asarray(bounded(prop[go], floor), float)
+        else:
+            fx2, ll2 = both(prop[go])
         lp2 = lp0[go] + fx2
         log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp[go] - beta * ll[go] - log_a1[go]
         acc = np.log(u2[go]) < np.nan_to_num(log_a, nan=-np.inf)

@@ -111,7 +111,8 @@ class CampaignPanel:
         if self.select.value != name and name in self.select.options:
             self.select.value = name
         _set_address(name)
-        if oc.posterior is not None:
+        if oc.posterior is not None:  # its next update continues with its engine and options unless changed
+            self.tab.use_engine(oc.posterior.engine, oc.posterior.engine_options)
             self.tab.show((oc.posterior, self.tab.s.origin), [], record=record, post_id=oc.posterior_id)
         else:
             self.tab.clear_results()
@@ -144,8 +145,9 @@ class CampaignPanel:
         self.cuts.text = cuts_html(oc.rows)
 
     # --- writing ---------------------------------------------------------------------------------------
-    def update_work(self, name: str, cfg, new, samples: int, seed: int, shop_name: str | None = None):
-        """The worker's call of an update of campaign ``name`` (:meth:`ShopView.update`): the campaign's own
+    def update_work(self, name: str, cfg, new, settings, shop_name: str | None = None):
+        """The worker's call of an update of campaign ``name`` (:meth:`ShopView.update`) with the tab's
+        ``settings`` (:class:`millstab.api.UpdateSettings`, :meth:`UpdateTab.settings`): the campaign's own
         config text when the form holds the same config, so the update continues from its posterior."""
         text = self.config_text if self.current is not None and self.current.name == name and \
             _same_config(cfg, self.config_text) else None
@@ -153,8 +155,8 @@ class CampaignPanel:
 
         def work(progress):
             try:
-                return self.v.update(name, cfg, new, samples=samples, seed=seed, progress=progress,
-                                     config_toml=text, **options)
+                return self.v.update(name, cfg, new, settings=settings, progress=progress, config_toml=text,
+                                     **options)
             except InputError as exc:  # shown by the job bar: without the server's path or a URL's password
                 url = self.v.store.url
                 clean = [str(x).replace(url, _where(url)) for x in (exc.value, exc.allowed)]

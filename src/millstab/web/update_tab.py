@@ -22,6 +22,11 @@ MAX_RECORDING_BYTES = MAX_FRF_BYTES
 
 #: speeds of the P(stable) map (the map's cost is speeds × posterior samples)
 MAP_SPEEDS = 240
+#: speeds of the map and of the recommendation's coarse grid for a posterior of an engine other than the cheapest
+#: (sdm at steps=10 took 3.2 ms CPU a sample and speed on the 2-core build machine: the 240-speed map of 100
+#: samples 77 s CPU, the recommendation at its 200 coarse speeds over 5 min; 60 of each are ~4x less). Such a map
+#: is made when asked (Map and recommend), not after every update.
+MAP_SPEEDS_ACCURATE = 60
 
 
 class UpdateTab:
@@ -47,6 +52,18 @@ class UpdateTab:
         self.samples = pn.widgets.IntInput(label="samples", value=1000, start=100, step=500, width=100,
                                            css_classes=["update-samples"])
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
+        # the update's engine and its discretisation (docs/app.md "Engine"): kept in the posterior, whose map and
+        # recommendation use them; checked as --engine-option is (api.engine_options_from_text), on every edit
+        self.engine = pn.widgets.Select(label="engine", options=list(api.ENGINES), value=api.cheapest_engine(),
+                                        width=110, css_classes=["update-engine"])
+        self.engine_options = pn.widgets.TextInput(label="engine options", value="", width=190,
+                                                   placeholder="e.g. steps=40 (empty: the engine's own)",
+                                                   css_classes=["update-engine-options"])
+        self.engine_note = pn.pane.HTML("", css_classes=["update-engine-note"], width=520)
+        self.engine_error = pn.pane.HTML("", css_classes=["e-engine-options"])
+        self.engine.param.watch(lambda e: self._engine_changed(), "value")
+        self.engine_options.param.watch(lambda e: self.checked_engine_options(), "value")
+        self._engine_changed()
         self.job = JobBar("Update", "update")
         self.map_condition = ""  # "computed for ..." of the last map
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
@@ -69,6 +86,40 @@ class UpdateTab:
         self.rec_drop.param.watch(lambda e: self._recordings_uploaded(), "value")
         self.job.run.on_click(lambda e: self.run())
         self.map_job.run.on_click(lambda e: self.map(record=True))
+
+    # --- the update's engine -------------------------------------------------------------------------
+    def _engine_changed(self) -> None:
+        self.engine_note.object = f'<span class="ms-note">{esc(api.engine_update_note(self.engine.value))}</span>'
+        self.checked_engine_options()
+
+    def checked_engine_options(self) -> dict | None:
+        """The engine options of the form for the chosen engine (``{}``: the engine's own choice), or ``None``
+        after showing the one-line error beside the field (the same check and words as ``--engine-option``)."""
+        try:
+            options = api.engine_options_from_text(self.engine.value, self.engine_options.value)
+        except InputError as exc:
+            self.engine_error.object = error_html(str(exc))
+            return None
+        self.engine_error.object = ""
+        return options
+
+    def use_engine(self, engine: str, options: dict) -> None:
+        """Show ``engine`` and its ``options`` in the form (an opened campaign's posterior: its next update
+        continues from it only with the same ones)."""
+        if engine in self.engine.options:
+            self.engine.value = engine
+        self.engine_options.value = ", ".join(f"{k}={v}" for k, v in sorted((options or {}).items()))
+
+    def settings(self):
+        """The update's settings from the form (:class:`millstab.api.UpdateSettings`: engine, engine_options,
+        samples, seed), or ``None`` when the engine options are refused (the error is shown beside them and in
+        the job's status)."""
+        options = self.checked_engine_options()
+        if options is None:
+            self.job.status.text = error_html("engine options: see the error beside the field")
+            return None
+        return api.UpdateSettings(engine=self.engine.value, engine_options=options,
+                                  samples=int(self.samples.value or 0), seed=int(self.seed.value or 0))
 
     # --- cuts with recordings ------------------------------------------------------------------------
     def _cuts_uploaded(self) -> None:
@@ -149,9 +200,11 @@ class UpdateTab:
             self.job.status.text = error_html("need a valid config (Tool and cut) and test cuts")
             return
         pts = self.s.points if self.use_points.value else None
-        n, seed = int(self.samples.value or 0), int(self.seed.value or 0)
+        settings = self.settings()
+        if settings is None:
+            return
         origin = self.s.origin
-        self.job.start(lambda progress: (api.update(cfg, cuts, pts, samples=n, seed=seed, progress=progress), origin),
+        self.job.start(lambda progress: (api.update(cfg, cuts, pts, progress=progress, **settings.keywords()), origin),
                        self.show)
 
     def run_campaign(self, name: str, shop: str | None = None, new: bool = False) -> None:
@@ -167,7 +220,10 @@ class UpdateTab:
                 and oc.posterior_rows == len(oc.cuts)):
             self.job.status.text = error_html(f"campaign {name}: no new cuts; upload the new cuts to update it")
             return
-        work = self.campaign.update_work(name, cfg, cuts, int(self.samples.value or 0), int(self.seed.value or 0), shop)
+        settings = self.settings()
+        if settings is None:
+            return
+        work = self.campaign.update_work(name, cfg, cuts, settings, shop)
         self.job.start(work, lambda result, caught: self.campaign.updated(result))
 
     def clear_results(self) -> None:
@@ -183,9 +239,19 @@ class UpdateTab:
         q = np.percentile(theta, [5, 50, 95], axis=0)
         rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
         lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
+        opts = ", ".join(f"{k}={v}" for k, v in sorted(post.engine_options.items())) or "its own discretisation"
         self.post_table.text = (computed_for(self.post_origin)
+                                + f'<div class="ms-note">engine {esc(post.engine)} ({esc(opts)}), '
+                                  f'{len(theta)} samples</div>'
                                 + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior")
                                 + "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
+        if post.engine != api.cheapest_engine():  # minutes of the engine for every sample: only when asked
+            self.s.pmap, self.s.rec = None, None  # those of the last posterior are not this one's
+            self.rec.text = ""
+            self.plot.objects = []
+            self.map_job.status.text = (f'<span class="ms-note">the map and recommendation call {esc(post.engine)} '
+                                        'for every sample (minutes): press Map and recommend</span>')
+            return
         self.map(record=record)
 
     def map(self, record: bool = False) -> None:
@@ -196,7 +262,9 @@ class UpdateTab:
             self.map_job.status.text = error_html("run Update first")
             return
         r = np.asarray(api.speeds(None, cfg))
-        rpm = np.linspace(r.min(), r.max(), MAP_SPEEDS)
+        cheap = post.engine == api.cheapest_engine()
+        rpm = np.linspace(r.min(), r.max(), MAP_SPEEDS if cheap else MAP_SPEEDS_ACCURATE)
+        grid = {} if cheap else {"coarse_points": MAP_SPEEDS_ACCURATE}
         top = self.depth_max.value or (float(1.5 * np.max(cuts.depth_mm)) if cuts is not None else 5.0)
         if not top or top <= 0:
             self.map_job.status.text = error_html(f"map depth up to = {top}: must be > 0 mm")
@@ -217,9 +285,9 @@ class UpdateTab:
             pm = api.p_stable(post, rpm, depth)
             span = (float(rpm[0]), float(rpm[-1]))
             if keep:  # recorded with the posterior it came from
-                rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post))[0]
+                rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post), **grid)[0]
             else:
-                rec = api.recommend(post, risk, span)
+                rec = api.recommend(post, risk, span, **grid)
             return rpm, depth, pm, rec
 
         self.map_job.start(work, self.show_map)
@@ -247,7 +315,8 @@ class UpdateTab:
         head = [self.campaign.view()] if self.campaign is not None else []
         inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
-                         pn.Row(self.samples, self.seed), self.job, self.post_table.view(),
+                         pn.Row(self.samples, self.seed, self.engine, self.engine_options),
+                         pn.Column(self.engine_error, self.engine_note), self.job, self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job),
                          self.rec.view(), title="P(stable) and recommendation", collapsible=False)

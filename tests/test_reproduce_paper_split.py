@@ -1,6 +1,7 @@
-"""The paper's Table 1 step computes apart from its prose and check (issue 26: ``table1`` computed, wrote and
-checked in one body): ``compute_table1`` returns a frozen :class:`Table1`; ``table1_checks`` and ``render_table1``
-read only that. The result is written by hand here, and rendered with every engine made unreachable."""
+"""Each of the paper's steps computes apart from its prose and checks (issue 26: each computed, wrote and checked
+in one body): ``compute_table1``/``compute_table3``/``compute_four_flute``/``compute_sensitivity`` return a frozen
+result; its ``*_checks`` and ``render_*`` read only that. Each result is written by hand here, its checks worked out
+by hand, and rendered with every engine, solver and study it would compute with made unreachable."""
 
 from __future__ import annotations
 
@@ -21,6 +22,21 @@ class _NoEngine:
 
     def __call__(self, *a, **k):
         raise AssertionError("render computed")
+
+
+def _render_alone(tmp_path, monkeypatch, render, result, checks, unreachable):
+    """``render(writer, result)`` with the report's engine and every (module, name) of ``unreachable`` (and the
+    stability registry) failing when used; the report written, its headline rows those of ``checks(result)``."""
+    from millstab import stability
+
+    monkeypatch.setattr(paper, "zoa", _NoEngine())
+    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), *unreachable):
+        monkeypatch.setattr(mod, name, _NoEngine())
+    w = ReportWriter(tmp_path, "t")
+    render(w, result)
+    rep = w.write()
+    assert rep.checks == tuple(checks(result))
+    return rep
 
 
 def _table1(mismatches: int = 0, sdm: bool = True) -> paper.Table1:
@@ -48,16 +64,8 @@ def test_table1_check_by_hand():
 def test_render_table1_without_computing(tmp_path, monkeypatch):
     """The section from a hand-made result, no engine reachable (fails on the old code: there was no result to
     render). The summary by hand: ex1's minimum 1 mm at 4000 rpm, 900 Hz; SDM vs ZOA median 15 %, max 20 %."""
-    from millstab import stability
-
-    monkeypatch.setattr(paper, "zoa", _NoEngine())
-    for mod, name in ((paper, "engine_with"), (stability, "engine_with"), (stability, "get_engine")):
-        monkeypatch.setattr(mod, name, _NoEngine())
     t = _table1()
-    w = ReportWriter(tmp_path, "t")
-    paper.render_table1(w, t)
-    rep = w.write()
-    assert rep.checks == tuple(paper.table1_checks(t))
+    rep = _render_alone(tmp_path, monkeypatch, paper.render_table1, t, paper.table1_checks, [(paper, "engine_with")])
     assert {p.name for p in rep.files} == {"table1_inputs.csv", "fig_sld_examples.png", "sld_examples_summary.csv"}
     rows = (tmp_path / "sld_examples_summary.csv").read_text().splitlines()
     assert rows[1] == "ex1,3000.0,14000.0,1.0,4000.0,900.0,15.0 % / 20.0 %"
@@ -105,17 +113,11 @@ def test_sensitivity_checks_by_hand():
 
 def test_render_sensitivity_without_computing(tmp_path, monkeypatch):
     """The section from a hand-made result, no study or engine reachable (fails on the old code: no result)."""
-    from millstab import sensitivity, stability
+    from millstab import sensitivity
 
-    monkeypatch.setattr(paper, "zoa", _NoEngine())
-    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (sensitivity, "oat"),
-                      (sensitivity, "monte_carlo")):
-        monkeypatch.setattr(mod, name, _NoEngine())
     r = dataclasses.replace(_sensitivity(), oat=_sensitivity().oat[:1])  # one Fig. SENS panel set is enough here
-    w = ReportWriter(tmp_path, "t")
-    paper.render_sensitivity(w, r)
-    rep = w.write()
-    assert rep.checks == tuple(paper.sensitivity_checks(r))
+    rep = _render_alone(tmp_path, monkeypatch, paper.render_sensitivity, r, paper.sensitivity_checks,
+                        [(sensitivity, "oat"), (sensitivity, "monte_carlo")])
     assert {p.name for p in rep.files} == {"fig_sens_ex1.png", "fig_sens_mse_at_plus20.csv",
                                            "table6_monte_carlo.csv", "fig_mc_convergence.png"}
     t6 = (tmp_path / "table6_monte_carlo.csv").read_text().splitlines()
@@ -159,17 +161,10 @@ def test_table3_checks_by_hand():
 def test_render_table3_without_computing(tmp_path, monkeypatch):
     """The section from a hand-made result, no engine, forward model or solver reachable (fails on the old code:
     ``table3`` identified and drew in one body)."""
-    from millstab import forward, identify, stability
+    from millstab import forward, identify
 
-    monkeypatch.setattr(paper, "zoa", _NoEngine())
-    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (forward, "forward"),
-                      (identify, "identify")):
-        monkeypatch.setattr(mod, name, _NoEngine())
-    t = _table3()
-    w = ReportWriter(tmp_path, "t")
-    paper.render_table3(w, t)
-    rep = w.write()
-    assert rep.checks == tuple(paper.table3_checks(t))
+    rep = _render_alone(tmp_path, monkeypatch, paper.render_table3, _table3(), paper.table3_checks,
+                        [(forward, "forward"), (identify, "identify")])
     assert {p.name for p in rep.files} == {"table3_identification.csv", "fig_conv.png", "fig_iter.png",
                                            "fig_eggs.png"}
     rows = (tmp_path / "table3_identification.csv").read_text().splitlines()
@@ -212,18 +207,12 @@ def test_four_flute_checks_by_hand():
 def test_render_four_flute_without_computing(tmp_path, monkeypatch):
     """The section from a hand-made result, no engine, solver or design reachable (fails on the old code:
     ``four_flute`` computed, identified, planned and wrote in one body). The fourSLD summary by hand."""
-    from millstab import identify, stability
+    from millstab import identify
     from millstab.identify import design
 
-    monkeypatch.setattr(paper, "zoa", _NoEngine())
-    for mod, name in ((stability, "engine_with"), (stability, "get_engine"), (identify, "identify"),
-                      (design, "design_after_fit")):
-        monkeypatch.setattr(mod, name, _NoEngine())
     f = _four_flute()
-    w = ReportWriter(tmp_path, "t")
-    paper.render_four_flute(w, f)
-    rep = w.write()
-    assert rep.checks == tuple(paper.four_flute_checks(f))
+    rep = _render_alone(tmp_path, monkeypatch, paper.render_four_flute, f, paper.four_flute_checks,
+                        [(identify, "identify"), (design, "design_after_fit")])
     assert [p.name for p in rep.files] == ["table4_static_modal.csv", "fourSLD_summary.csv",
                                            "experimental_identification.csv", "test_plan.csv", "fig_plan.png",
                                            "fig_fourSLD.png"]

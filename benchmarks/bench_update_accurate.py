@@ -300,6 +300,9 @@ def main() -> None:
                     "second stage (every survivor at every speed), and the two compared")
     ap.add_argument("--anchored", action="store_true", help="estimate a screen anchored at the current particle on "
                     "the delayed-acceptance run's proposals")
+    ap.add_argument("--near", type=float, default=None, help="also the spectral update with the refinement near "
+                    "rho = 1 at this margin (engine option near; the sampling settings' default is "
+                    "spectral.NEAR; 0: off, as before 2026-11-27)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -332,7 +335,8 @@ def main() -> None:
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])
                 + ([("spectral", "plain")] if args.plain else [])
-                + ([("spectral", "surrogate")] if args.surrogate else []))
+                + ([("spectral", "surrogate")] if args.surrogate else [])
+                + ([("spectral", "near")] if args.near is not None else []))
         upd.SURROGATE_KIND = args.surrogate_kind
         for eng, smp in plan:
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), \
@@ -340,7 +344,8 @@ def main() -> None:
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded") else smp))
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "near") else smp,
+                    engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if moves:
                 anchored_estimate(prior, cuts, moves)
@@ -391,6 +396,11 @@ def main() -> None:
               f"CPU; the same particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
         if not same:  # a decision flipped (the engine's depths depend on the rows sharing a call, docs/updating.md)
             compare(s[0].u, o[0].u, names, "bounded - unbounded")
+    if args.near is not None:
+        q = runs["spectral", "near"]
+        print(f"refinement near rho = 1 at {args.near:g} against the sampling settings' {spectral.NEAR:g}: "
+              f"{q[2] / s[2]:.2f}x CPU; ratio to zoa {q[2] / z[2]:.1f} CPU")
+        compare(q[0].u, s[0].u, names, f"near {args.near:g} - near {spectral.NEAR:g}")
     if args.plain:
         p = runs["spectral", "plain"]
         print(f"delayed acceptance vs plain spectral: {p[1] / s[1]:.1f}x faster (wall), {p[2] / s[2]:.1f}x (CPU)")

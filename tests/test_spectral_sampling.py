@@ -38,7 +38,7 @@ def test_the_sampling_node_count_is_within_a_fraction_of_the_depth_noise(case):
     head = prior.par.batch(theta[:1])
     fit = spectral.settings(head, cut, RPM)
     smp = spectral.settings(head, cut, RPM, purpose="sample")
-    assert smp["near"] == fit["near"] == 0.0
+    assert fit["near"] == 0.0 and smp["near"] == spectral.NEAR
     assert spectral.P_NODES + spectral.P_STEP <= smp["nodes"] <= fit["nodes"]
     batch = prior.par.batch(theta)
     got = spectral.envelope_batch(batch, cut, RPM, **smp)
@@ -144,3 +144,28 @@ def test_a_sampled_row_does_not_depend_on_its_neighbour():
     assert spectral.settings(batch, cut, rpm, purpose="sample")["warm"] is False
     with pytest.raises(InputError, match="warm"):  # the engine's own choice, not a user's option
         engine_options("spectral", {"warm": True})
+
+
+def test_a_sampled_limit_is_the_first_crossing_of_a_narrow_band():
+    """The sampler's limit is the first depth where a dense scan of ρ (numpy's eigenvalues of the monodromy) passes
+    1: here a band 19.40-19.95 mm (ρ at most 1.0012), then stable again up to 21.57 mm. A search from below without
+    the refinement near ρ = 1 steps over the band (21.57 mm, 11 % high: the sampling settings before; fails on the
+    old code). The set was found among 12 000 (set, speed) pairs near Example 1 at a/D 0.1."""
+    from millstab.forward import forward
+    from millstab.params import Parameterization
+
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    par = Parameterization(cfg.structure)
+    theta = np.array([[892.428526, 8.96301787e6, 3.25751293e-2, 892.725207, 1.17428866e7, 2.16327061e-2]])
+    rpm = np.array([6230.0])
+    sampled = forward(par, cut, "spectral", SAMPLING, {"nodes": 6})(theta, rpm)[0, 0]
+    structure = par.structure(theta[0])
+    depths = np.linspace(18e-3, 22e-3, 801)  # 5 µm apart
+    rho = np.array([np.abs(np.linalg.eigvals(spectral.monodromy(structure, cut, 6230.0, b, nodes=6))).max()
+                    for b in depths])
+    first = depths[np.argmax(rho > 1.0)]
+    assert rho[0] < 1.0 and rho[-1] > 1.0 and not (rho[(depths > 20.2e-3) & (depths < 21.4e-3)] > 1).any()
+    assert first - 5e-6 <= sampled <= first
+    skipped = spectral.envelope_batch(par.batch(theta), cut, rpm, nodes=6, near=0.0)[0, 0]
+    assert skipped > 21.4e-3  # the case still shows what it was found for

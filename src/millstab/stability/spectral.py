@@ -681,7 +681,8 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     the parameters move (measured: the identification benchmark then ended in a wrong basin, module
     docstring); the depth of each speed still does not depend on the other speeds. ``purpose`` ``"sample"``
     (:data:`PURPOSES`): the converged count itself, for a sampler whose likelihood compares depths with a
-    depth noise of several % (the updating loop), never below P_NODES + P_STEP, and ``"warm": False``."""
+    depth noise of several % (the updating loop), never below P_NODES + P_STEP, with the refinement near ρ = 1 on
+    (``NEAR``) and ``"warm": False``."""
     if purpose not in PURPOSES:
         raise InputError("purpose", purpose, "one of " + ", ".join(PURPOSES))
     _require_modal_batch(batch)
@@ -697,8 +698,12 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     # at P_NODES (Example 1's identification start did)
     # and no warm starts between rows: a sampler's likelihood must be one function of θ, and a warm row's depth
     # can depend on its neighbour (envelope_batch; 1 of 12 000 pairs of rows within 0.4 % at a/D 0.1 differed by
-    # 0.9 %, test_spectral_sampling); particles are seldom within WARM_REL of each other, so it costs nothing
-    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": 0.0,
+    # 0.9 %, test_spectral_sampling); particles are seldom within WARM_REL of each other, so it costs nothing.
+    # The refinement near ρ = 1 on (NEAR): a sampler does not differentiate the depths, so the identification's
+    # reason to turn it off does not apply, and without it the search steps over narrow unstable bands (4 of
+    # 12 000 (set, speed) pairs at a/D 0.1: a limit 11 % high, test_spectral_sampling); 1.02-1.12x the CPU of an
+    # accurate update (bench_update_accurate.py --near 0.02)
+    return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": NEAR,
             "warm": False}
 
 

@@ -702,7 +702,7 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     # The refinement near ρ = 1 on (NEAR): a sampler does not differentiate the depths, so the identification's
     # reason to turn it off does not apply, and without it the search steps over narrow unstable bands (4 of
     # 12 000 (set, speed) pairs at a/D 0.1: a limit 11 % high, test_spectral_sampling); 1.02-1.12x the CPU of an
-    # accurate update (bench_update_accurate.py --near 0.02)
+    # accurate update (bench_update_accurate.py --near 0)
     return {"nodes": _converged_nodes(first, cutting, rs, _b_ref(first, cutting, rs), P_NODES + P_STEP), "near": NEAR,
             "warm": False}
 

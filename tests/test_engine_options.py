@@ -49,6 +49,17 @@ def test_an_option_the_engine_does_not_take_is_an_input_error():
     assert engine_options("sdm", None) == ()
 
 
+@pytest.mark.parametrize("engine", ["zoa", "sdm", "spectral"])
+def test_the_doors_name_the_keywords_the_check_names(engine):
+    """What the app shows before any error (api.engine_keywords) is what a refused option's error names."""
+    from millstab import api
+
+    with pytest.raises(InputError) as e:
+        engine_options(engine, {"no_such_keyword": 1})
+    assert api.engine_keywords(engine) == e.value.allowed
+    assert "warm" not in api.engine_keywords(engine)  # the spectral engine's own per-purpose choice
+
+
 def test_update_passes_the_steps_to_every_engine_call(monkeypatch):
     cfg = parse_config(TWO_MODE_TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", '
                        '"sigma_depth"]\nsigma_depth = "15 %"\n')

@@ -251,18 +251,25 @@ OPTION_VALUES = {
 }
 
 
+def option_keywords(engine: str) -> tuple[list[str], str]:
+    """The named engine's discretisation keywords (those of its ``envelope_batch`` with a default, less
+    :data:`NOT_OPTIONS`), sorted, and the phrase that names them in errors and in the doors' help
+    ("the sdm engine's discretisation keywords: fn_max_hz, steps")."""
+    params = inspect.signature(get_engine(engine).envelope_batch).parameters
+    allowed = sorted(k for k, p in params.items() if p.default is not inspect.Parameter.empty and k not in NOT_OPTIONS)
+    return allowed, f"the {engine} engine's discretisation keywords: " + (", ".join(allowed) if allowed else
+                                                                            "none (it chooses its own grid)")
+
+
 def engine_options(engine: str, options: dict | None, field: str = "engine_options") -> tuple:
     """``options`` checked against the named engine's ``envelope_batch`` keywords (its discretisation: sdm
-    ``steps``/``fn_max_hz``, spectral ``nodes``/``near``; zoa has none) and their values
+    ``steps``/``fn_max_hz``, spectral ``nodes``/``near``; zoa has none; :func:`option_keywords`) and their values
     (:data:`OPTION_VALUES`), as sorted (keyword, value) pairs. InputError naming ``field``, the keyword (and
     the value) and the engine's keywords."""
     opts = dict(options or {})
     if not opts:
         return ()
-    params = inspect.signature(get_engine(engine).envelope_batch).parameters
-    allowed = sorted(k for k, p in params.items() if p.default is not inspect.Parameter.empty and k not in NOT_OPTIONS)
-    keys = f"the {engine} engine's discretisation keywords: " + (", ".join(allowed) if allowed else
-                                                                   "none (it chooses its own grid)")
+    allowed, keys = option_keywords(engine)
     for key, value in opts.items():
         if key not in allowed:
             raise InputError(field, key, keys)
@@ -329,4 +336,5 @@ def log_jacobian(f, theta: np.ndarray, rpm: np.ndarray, *, rel_step: float = FD_
     return jac[:, :m], slope
 
 
-__all__ = ["FD_STEP", "Forward", "Pinned", "engine_options", "fd_difference", "fd_rows", "forward", "log_jacobian"]
+__all__ = ["FD_STEP", "Forward", "Pinned", "engine_options", "fd_difference", "fd_rows", "forward", "log_jacobian",
+           "option_keywords"]

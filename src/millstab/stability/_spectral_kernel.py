@@ -248,6 +248,27 @@ def _element_lhs(L, el, hi, coef, wn, zeta, mass, mdir, Aq, Dm):
 
 
 @nb.njit(cache=True)
+def _start_state(n, K):
+    """The start of a monodromy build (:func:`monodromy`, :func:`monodromy_small`, :func:`monodromy_lr`): U (K, K)
+    zero, to receive the history rows, and the state map Z (n, K) = [I | 0] (the state is itself; no history
+    column written yet). :func:`_end_state` closes the build."""
+    U = np.zeros((K, K))
+    Z = np.zeros((n, K))
+    for i in range(n):
+        Z[i, i] = 1.0
+    return U, Z
+
+
+@nb.njit(cache=True)
+def _end_state(U, Z):
+    """The end of a monodromy build: its state rows U[:n] ← Z, the state map over the whole period; returns U."""
+    for r in range(Z.shape[0]):
+        for c in range(U.shape[1]):
+            U[r, c] = Z[r, c]
+    return U
+
+
+@nb.njit(cache=True)
 def _free_step(phi, Z, Znew, cols):
     """A free-flight element: Z[:, :cols] ← phi Z[:, :cols] (phi (n, n) its exact transition; Znew a work array
     of Z's shape and dtype). Columns from ``cols`` on are zero and stay so."""
@@ -275,10 +296,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
     p = Dm.shape[0] - 1
     K = n + D * p * n_col
     w = 0.5 * b * kt
-    U = np.zeros((K, K))
-    Z = np.zeros((n, K))
-    for i in range(n):
-        Z[i, i] = 1.0
+    U, Z = _start_state(n, K)
     Znew = np.empty((n, K))
     P = p * n
     L = np.empty((P, P))
@@ -334,10 +352,7 @@ def monodromy(b, kt, wn, zeta, mass, mdir, D, kind, h, Aq, n_col, phi_free, Dm, 
             for col in range(K):
                 Z[r, col] = Znew[r, col]
         ce += 1
-    for r in range(n):
-        for col in range(K):
-            U[r, col] = Z[r, col]
-    return U
+    return _end_state(U, Z)
 
 
 @nb.njit(cache=True)
@@ -391,10 +406,7 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
     p = Dm.shape[0] - 1
     K = n + _history_size(kind, rk)
     w = 0.5 * b * kt
-    U = np.zeros((K, K))
-    Z = np.zeros((n, K))
-    for i in range(n):
-        Z[i, i] = 1.0
+    U, Z = _start_state(n, K)
     Znew = np.empty((n, K))
     P = p * n
     L = np.empty((P, P))
@@ -441,10 +453,7 @@ def monodromy_small(b, kt, wn, zeta, mass, mdir, kind, h, Aq, phi_free, Fq, Gq, 
                 Znew[r, c] = acc
         Z[:, :] = Znew
         hoff += he
-    for r in range(n):
-        for c in range(K):
-            U[r, c] = Z[r, c]
-    return U
+    return _end_state(U, Z)
 
 
 @nb.njit(cache=True)
@@ -523,10 +532,7 @@ def monodromy_lr(b, kt, g, lr):
     Hm = S.shape[1]
     K = n + _history_size(kind, rk)
     w = 0.5 * b * kt
-    U = np.zeros((K, K))
-    Z = np.zeros((n, K))
-    for i in range(n):
-        Z[i, i] = 1.0
+    U, Z = _start_state(n, K)
     Znew = np.zeros((n, K))
     Mx = np.empty((Hm, Hm))
     piv = np.empty(Hm, dtype=np.int64)
@@ -583,10 +589,7 @@ def monodromy_lr(b, kt, g, lr):
         for r in range(n):
             for c in range(hoff):
                 Z[r, c] = Znew[r, c]
-    for r in range(n):
-        for c in range(K):
-            U[r, c] = Z[r, c]
-    return U
+    return _end_state(U, Z)
 
 
 _RADIX = 2.0

@@ -123,16 +123,14 @@ PAIR = np.array([[927.363127, 9.10754357e6, 3.17031556e-2, 943.854062, 1.2228848
                  [926.479005, 9.13575012e6, 3.16760454e-2, 945.197151, 1.22514658e7, 2.25805097e-2]])
 
 
-def test_a_sampled_row_does_not_depend_on_its_neighbour():
+def test_a_sampled_row_does_not_depend_on_its_neighbour(case):
     """The sampler's forward model gives a row the depth it gets alone, whatever row precedes it: its settings
     turn the warm starts between rows off (fails on the old code: 71.82 mm after its neighbour, 72.47 mm alone).
     The warm start itself is kept for fits (finite-difference Jacobians), where it is checked to differ here."""
     from millstab.forward import engine_options, forward
-    from millstab.params import Parameterization
 
-    cfg = load_config("example:ex1")
-    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
-    par = Parameterization(cfg.structure)
+    prior, cut, _ = case
+    par = prior.par
     assert par.free == ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
     rpm = np.array([9000.0])
     batch = par.batch(PAIR)
@@ -146,17 +144,16 @@ def test_a_sampled_row_does_not_depend_on_its_neighbour():
         engine_options("spectral", {"warm": True})
 
 
-def test_a_sampled_limit_is_the_first_crossing_of_a_narrow_band():
+def test_a_sampled_limit_is_the_first_crossing_of_a_narrow_band(case):
     """The sampler's limit is the first depth where a dense scan of ρ (numpy's eigenvalues of the monodromy) passes
     1: here a band 19.40-19.95 mm (ρ at most 1.0012), then stable again up to 21.57 mm. A search from below without
     the refinement near ρ = 1 steps over the band (21.57 mm, 11 % high: the sampling settings before; fails on the
     old code). The set was found among 12 000 (set, speed) pairs near Example 1 at a/D 0.1."""
     from millstab.forward import forward
-    from millstab.params import Parameterization
 
-    cfg = load_config("example:ex1")
-    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
-    par = Parameterization(cfg.structure)
+    prior, cut, _ = case
+    par = prior.par
+    assert par.free == ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")
     theta = np.array([[892.428526, 8.96301787e6, 3.25751293e-2, 892.725207, 1.17428866e7, 2.16327061e-2]])
     rpm = np.array([6230.0])
     sampled = forward(par, cut, "spectral", SAMPLING, {"nodes": 6})(theta, rpm)[0, 0]

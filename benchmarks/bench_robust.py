@@ -49,6 +49,7 @@ import os
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,12 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--max-depth", type=float, default=8.0)
     ap.add_argument("--noise", type=float, default=0.03)
     ap.add_argument("--flip", type=float, default=0.02)
+    ap.add_argument("--chatter-hz", type=float, default=None, metavar="SD",
+                    help="give each cut labelled chatter that truly chatters the truth's chatter frequency (SDM, "
+                         "at its speed) + N(0, SD²) Hz, as a microphone would (`millstab listen`); default: none")
+    ap.add_argument("--chatter-hz-alias", type=float, default=None, metavar="A",
+                    help="the prior's chatter_hz_alias: the chance a frequency is another member of its family than "
+                         "the one near the mode (default: the prior's, 1 = any member alike)")
     ap.add_argument("--truth-steps", type=int, default=40)
     ap.add_argument("--best-speeds", type=int, default=241)
     ap.add_argument("--seed", type=int, default=0)
@@ -119,12 +126,18 @@ def parse() -> argparse.Namespace:
     return ap.parse_args()
 
 
+def robust_prior(cfg, args: argparse.Namespace):
+    """The campaigns' prior: the hammer test's (``cfg``) with ``--tails`` and ``--chatter-hz-alias``."""
+    prior = make_prior(cfg.structure, cfg.cutting, PriorTable({}, tails=args.tails))
+    return prior if args.chatter_hz_alias is None else replace(prior, chatter_hz_alias=args.chatter_hz_alias)
+
+
 def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
     """Campaign c: (its row, its printed lines, its record for --save)."""
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
     cut = cfg.cutting
-    prior = make_prior(cfg.structure, cut, PriorTable({}, tails=args.tails))
+    prior = robust_prior(cfg, args)
     sdm = get_engine("sdm")
     zoa = get_engine("zoa")
     with threadpool_limits(1), warnings.catch_warnings():
@@ -141,9 +154,13 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             return sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps).depth_mm
 
         def label(rpm, depth):
-            b = truth(np.asarray(rpm, float))
-            chat = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
-            chat ^= rng.random(b.shape) < args.flip
+            env = sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps)
+            b = env.depth_mm
+            truly = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
+            chat = truly ^ (rng.random(b.shape) < args.flip)
+            if args.chatter_hz is not None:  # the microphone hears the truth's chatter, whatever the operator wrote
+                hz = env.chatter_hz + args.chatter_hz * rng.standard_normal(b.shape)
+                c_hz.extend(np.where(truly & chat, hz, np.nan).tolist())
             return list(np.where(chat, "chatter", "stable"))
 
         best = best_productivity(truth, (lo, hi), args.max_depth, args.best_speeds, SPEED_TOLERANCE)
@@ -154,6 +171,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             rpm_star = float(g[np.argmax(np.minimum(lim_g, args.max_depth) * g)])
             trace.append(f"   truth: best {rpm_star:.0f} rpm, {best / rpm_star:.3f} mm; true limit at the opening "
                          f"speeds {np.round(truth(np.linspace(lo, hi, args.opening + 2)[1:-1]), 3).tolist()}")
+        c_hz: list[float] = []  # the chatter frequency of each cut [Hz], NaN = none (--chatter-hz)
         o_rpm = np.linspace(lo, hi, args.opening + 2)[1:-1]
         o_lim = zoa.envelope(cfg.structure, cut, o_rpm).depth_mm
         c_rpm = list(np.r_[o_rpm, o_rpm])
@@ -163,7 +181,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         modes = args.confirm.split(",")
         by_mode = {m: ([], []) for m in modes}
         for k in range(args.rounds):
-            ps = PointSet(c_rpm, c_depth, c_lab)
+            ps = PointSet(c_rpm, c_depth, c_lab, chatter_hz=c_hz if args.chatter_hz is not None else None)
             post = update(cfg, ps, prior=prior, samples=args.samples, seed=int(rng.integers(2**31)), start=post)
             posts.append(post)
             named.append(any(w.startswith("the cuts contradict the hammer test") for w in post.warnings))
@@ -255,8 +273,7 @@ def tally(rows: list[dict]) -> tuple[int, int, list[bool], list[float]]:
 def main() -> None:
     args = parse()
     print(describe())
-    prior = make_prior(load_config("example:ex1").structure, load_config("example:ex1").cutting,
-                       PriorTable({}, tails=args.tails))
+    prior = robust_prior(load_config("example:ex1"), args)
     t_all, c_all = time.perf_counter(), time.process_time()
     todo = ([int(x) for x in args.only.split(",")] if args.only else range(args.first, args.first + args.campaigns))
     rows, records = run_campaigns(run_one, args, todo)
@@ -268,7 +285,10 @@ def main() -> None:
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
           f"{os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, fn×{1 + args.fn_off:g}^s, "
           f"ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} noise, "
-          f"{args.flip:.0%} swapped; {args.samples} samples, {args.rounds} rounds:")
+          f"{args.flip:.0%} swapped" + ("" if args.chatter_hz is None else
+                                         f", chatter frequencies ±{args.chatter_hz:g} Hz (alias "
+                                         f"{prior.chatter_hz_alias:g})")
+          + f"; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")
     print(f"  conflict tests cut: by recommend (--discriminate conflict) {sum(r['n_disc'] for r in rows)}, "

@@ -67,6 +67,8 @@ class PriorTable:
         tails: the tails of the spreads (``student``, ``normal``, ``mixture``, ``multivariate_t``), or ``None``
         (default).
         batch_effect: σ of a test day's shift of ln fn (:mod:`millstab.update.batch`), or ``None`` (off).
+        chatter_hz_alias: the chance that a measured chatter frequency is another member of its family than the
+            one near the mode, in (0, 1], or ``None`` (default 1: any member alike; :mod:`millstab.update.likelihood`).
     """
 
     spreads: Mapping[str, float]
@@ -77,6 +79,7 @@ class PriorTable:
     label_error: float | None = None
     tails: str | None = None
     batch_effect: float | None = None
+    chatter_hz_alias: float | None = None
 
 
 __all__ = ["Config", "MAX_BATCH_EFFECT", "PriorTable"]

@@ -50,6 +50,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
     tails = "student"            # the spreads' tails: student (default), normal, mixture or multivariate_t
     batch_effect = "3 %"         # σ of a test day's shift of every fn (cuts' batch/date column; default off)
+    chatter_hz_alias = "10 %"    # chance a chatter frequency is not the family member near the mode (default 100 %)
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
 a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".
@@ -83,7 +84,7 @@ from millstab.units import parse_quantity
 
 TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
-PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect")
+PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect", "chatter_hz_alias")
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture", "multivariate_t")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
@@ -295,7 +296,7 @@ def _prior(t: Any) -> PriorTable:
         raise InputError("prior", t, "must be a table of spreads, e.g. [prior] fn = \"5 %\"")
     spreads: dict[str, float] = {}
     fixed: tuple[str, ...] = ()
-    sd_m = sd_rel = sf = eps = tails = batch = None
+    sd_m = sd_rel = sf = eps = tails = batch = alias = None
     for key, value in t.items():
         field = f"prior.{key}"
         if key == "fixed":
@@ -326,6 +327,12 @@ def _prior(t: Any) -> PriorTable:
             if not 0 <= eps < 0.5:
                 raise InputError(field, value, "the probability that a cut's label is swapped must be in [0, 0.5) "
                                                "(a number such as 0.02 or a percentage such as \"2 %\"; 0: never)")
+        elif key == "chatter_hz_alias":
+            alias = parse_quantity(value, field, "dimensionless")
+            if not 0 < alias <= 1:
+                raise InputError(field, value, "the chance that a chatter frequency is another member of its family "
+                                               "than the one near the mode, in (0, 100 %] (e.g. \"10 %\" for "
+                                               "`millstab listen`'s frequencies; 100 %: any member alike)")
         elif key == "tails":
             if value not in PRIOR_TAILS:
                 raise InputError(field, value, f"one of {', '.join(PRIOR_TAILS)}")
@@ -340,7 +347,7 @@ def _prior(t: Any) -> PriorTable:
         else:
             raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
                                            f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
-    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails, batch)
+    return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails, batch, alias)
 
 
 def _speeds(t: Any) -> np.ndarray:
@@ -504,6 +511,8 @@ def _prior_lines(p: PriorTable) -> list[str]:
         out.append(f"tails = {_toml_str(p.tails)}")
     if getattr(p, "batch_effect", None) is not None:
         out.append(f'batch_effect = "{_fmt(p.batch_effect * 100)} %"')
+    if getattr(p, "chatter_hz_alias", None) is not None:
+        out.append(f'chatter_hz_alias = "{_fmt(p.chatter_hz_alias * 100)} %"')
     return out
 
 

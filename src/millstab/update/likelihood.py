@@ -25,7 +25,13 @@ samples, :func:`limits`) and depth noise σ_b:
   N Ω/60 the tooth-passing frequency, m any integer). The vibration of a milling process holds the
   whole family (the tooth-passing modulation), and a microphone's strongest peak may be any member,
   so the nearest-member distance (a max over harmonics instead of a mixture's sum) is used; it is
-  informative modulo f_tp only, which is the honest content of one frequency reading;
+  informative modulo f_tp only, which is the honest content of one frequency reading. A reader that
+  reports the member near the mode (`millstab listen`: the lobe theory's f_c, the strongest in
+  displacement) says more: with ``[prior] chatter_hz_alias`` a < 1 the term is the mixture (1 − a)·N(f_m −
+  f_c) + a·N(nearest-member distance), the first placing the natural frequency itself, not only the
+  lobe's phase (the family's aliases are exactly the lobe-number ambiguity fn ↔ fn·(n + 1)/n, so the
+  reading modulo f_tp cannot tell those lobes apart; measured in docs/updating.md, "Chatter frequencies
+  on the softer campaigns"); a = 1 (the default) is the family term alone;
 * a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²);
 * a graded label g ∈ [0, 1] (how strongly the written label says chatter: stable 0, marginal ½,
   chatter 1, a probability as written, or the mean over several raters): L = P(chatter label)^g ·
@@ -643,8 +649,12 @@ class Likelihood:
         j = self._hz[sel[self._hz]] if self._hz.size else self._hz
         if j.size and hz is not None:
             d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])
-            s = self.prior.sigma_chatter_hz
-            ll += (-0.5 * (d / s) ** 2 - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
+            s, a = self.prior.sigma_chatter_hz, self.prior.chatter_hz_alias
+            lf = -0.5 * (d / s) ** 2
+            if a < 1:  # the member near the mode with probability 1 − a (module docstring)
+                d0 = np.where(np.isfinite(hz[:, self._ic[j]]), np.abs(ev.cut_hz[j] - hz[:, self._ic[j]]), d)
+                lf = np.logaddexp(math.log1p(-a) - 0.5 * (d0 / s) ** 2, math.log(a) + lf)
+            ll += (lf - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
         if ev.pt_rpm.size and points:
             sig = self._sig_p * fac
             r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / sig

@@ -70,6 +70,10 @@ DEFAULT_SPREADS = {"fn": 0.05, "k": 0.30, "zeta": 0.30}
 DEFAULT_SIGMA_DEPTH_M = 0.05e-3
 #: default noise of a measured chatter frequency [Hz]
 DEFAULT_SIGMA_CHATTER_HZ = 20.0
+#: default probability that a measured chatter frequency is another member of its family f_c + m·f_tp, ±f_c
+#: (not the one near the mode): 1 = any member alike, the reading informative modulo f_tp only
+#: (:mod:`millstab.update.likelihood`)
+DEFAULT_CHATTER_HZ_ALIAS = 1.0
 #: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
 DEFAULT_LABEL_ERROR = 0.02
 #: default tails of the modal parameters' prior (see the module docstring)
@@ -147,6 +151,8 @@ class Prior:
         sigma_depth_m: absolute depth noise [m], or ``None`` when relative.
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
         sigma_chatter_hz: chatter-frequency noise [Hz].
+        chatter_hz_alias: probability in (0, 1] that a measured chatter frequency is another member of its
+            tooth-passing family than the one near the mode (1: any member alike; see the likelihood).
         label_error: probability ε ∈ [0, ½) that a cut's stable/chatter label is swapped
             (:mod:`millstab.update.likelihood`); the prior median of ε when it is learned.
         tails: ``"student"``, ``"normal"``, ``"mixture"`` or ``"multivariate_t"`` (module docstring).
@@ -170,8 +176,13 @@ class Prior:
     label_error_spread: float = 0.0
     sigma_depth_spread: float = 0.0
     batch_effect: float = 0.0
+    chatter_hz_alias: float = DEFAULT_CHATTER_HZ_ALIAS
 
     def __post_init__(self):
+        if not (isinstance(self.chatter_hz_alias, (int, float)) and 0 < self.chatter_hz_alias <= 1):
+            raise InputError("prior.chatter_hz_alias", self.chatter_hz_alias,
+                             "the probability that a chatter frequency is another member of its family, in (0, 1] "
+                             "(e.g. 0.1 for frequencies from `millstab listen`; 1: any member alike)")
         if not (isinstance(self.label_error, (int, float)) and 0 <= self.label_error < 0.5):
             raise InputError("prior.label_error", self.label_error, "the probability that a label is swapped must be "
                                                                     "in [0, 0.5), e.g. 0.02 (0: labels never wrong)")
@@ -327,6 +338,7 @@ class Prior:
                 "sigma_chatter_hz": self.sigma_chatter_hz, "label_error": self.label_error, "tails": self.tails,
                 "nu": self.nu, "label_error_spread": self.label_error_spread,
                 "sigma_depth_spread": self.sigma_depth_spread, "batch_effect": self.batch_effect,
+                "chatter_hz_alias": self.chatter_hz_alias,
                 **({"tooltip": self.par.record()} if hasattr(self.par, "record") else {})}
 
     @classmethod
@@ -352,7 +364,8 @@ class Prior:
                        # a posterior written before heavy tails and learned noise had a Gaussian prior, noise held
                        str(d.get("tails", "normal")), float(d.get("nu", DEFAULT_NU)),
                        float(d.get("label_error_spread", 0.0)), float(d.get("sigma_depth_spread", 0.0)),
-                       float(d.get("batch_effect", 0.0)))  # a posterior written before test-day effects had none
+                       float(d.get("batch_effect", 0.0)),  # a posterior written before test-day effects had none
+                       float(d.get("chatter_hz_alias", 1.0)))  # before: any member of the family alike
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, InputError):
                 raise
@@ -437,8 +450,10 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
     return Prior(par, cutting, names, median, spread, sd_m, sd_rel, float(sf), eps, tails, DEFAULT_NU,
                  0.0 if "label_error" in held else DEFAULT_LABEL_ERROR_SPREAD,
                  0.0 if "sigma_depth" in held else DEFAULT_SIGMA_DEPTH_SPREAD,
-                 float(getattr(table, "batch_effect", None) or 0.0))
+                 float(getattr(table, "batch_effect", None) or 0.0),
+                 float(getattr(table, "chatter_hz_alias", None) or DEFAULT_CHATTER_HZ_ALIAS))
 
 
-__all__ = ["DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "MVT", "NOISE_NAMES", "TAILS",
+__all__ = ["DEFAULT_CHATTER_HZ_ALIAS",
+           "DEFAULT_LABEL_ERROR", "DEFAULT_NU", "DEFAULT_TAILS", "MAX_SPREAD", "MVT", "NOISE_NAMES", "TAILS",
            "DEFAULT_SIGMA_CHATTER_HZ", "DEFAULT_SIGMA_DEPTH_M", "DEFAULT_SPREADS", "Prior", "make_prior"]

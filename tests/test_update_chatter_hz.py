@@ -23,20 +23,10 @@ from millstab.points import PointSet
 from millstab.update import make_prior
 from millstab.update.likelihood import Evidence, Likelihood
 from millstab.update.prior import Prior
+from configs import TWO_MODE_TOML as TOML
 
 CUT = Cutting(2, 556.31e6, 0.404, 0.0, math.pi)
 STRUCT = Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(1050.0, 15e6, 0.04),))
-TOML = """
-[cutting]
-teeth = 2
-kt = "556.31 N/mm^2"
-kr = 0.404
-entry = "0 deg"
-exit = "180 deg"
-[structure]
-x = [{fn = "903 Hz", k = "12.53 N/um", zeta = 0.03}]
-y = [{fn = "903 Hz", k = "12.53 N/um", zeta = 0.03}]
-"""
 
 
 def _likelihoods(alias: float):

@@ -41,7 +41,7 @@ test: $(WARM)
 	$(PYTEST)
 
 ## test-fast: the inner loop: every test not marked slow (1 474 tests, 2 min 34 s on 2 cores after `make demo` compiled the engines)
-test-fast: $(STAMP)
+test-fast: $(WARM)
 	$(PYTEST) -m "not slow"
 
 ## app: install the app extra into .venv and serve the browser interface on http://127.0.0.1:5006/

@@ -58,6 +58,12 @@ def test_a_reading_near_the_mode_tells_the_lobe_aliases_apart():
     # alias 1 is the family term bit for bit
     one, _ = _likelihoods(1.0)
     np.testing.assert_array_equal(one.from_limits(depth, hz), ll_f)
+    # cuts without a frequency (the calibration campaigns' labels) are untouched by the option
+    cuts = PointSet([6000.0, 6000.0], [50.0, 0.1], ["chatter", "stable"])
+    prior = make_prior(STRUCT, CUT)
+    lls = [Likelihood(replace(prior, chatter_hz_alias=a), Evidence.from_points(cuts)).from_limits(depth, hz)
+           for a in (0.1, 1.0)]
+    np.testing.assert_array_equal(lls[0], lls[1])
 
 
 def test_chatter_hz_alias_from_the_config_and_in_the_posterior_record():

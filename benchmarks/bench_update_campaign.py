@@ -172,6 +172,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--tails", default=None,
                     help="tails of the prior: student | normal | mixture | multivariate_t (default: the "
                          "prior's default, student)")
+    ap.add_argument("--chatter-hz-alias", type=float, default=None,
+                    help="the prior's chatter_hz_alias (the chance a chatter frequency is another member of its "
+                         "family than the one near the mode; default: the prior's, 1)")
     ap.add_argument("--truth-tails", default="normal",
                     help="--calibrate: the family the truths are drawn from (the hammer test's spreads, Gaussian by "
                          "default: the shop's in-process drift; 'same': the prior's own, the self-consistent check)")
@@ -200,7 +203,8 @@ def setup(args: argparse.Namespace) -> SimpleNamespace:
     cut = cfg.cutting
     if args.immersion < 1:
         cut = Cutting.from_immersion(cut.teeth, cut.kt, cut.kr, args.immersion, "down")
-    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error, tails=args.tails)
+    table = PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, label_error=args.label_error, tails=args.tails,
+                       chatter_hz_alias=args.chatter_hz_alias)
     prior = make_prior(cfg.structure, cut, table)
     truth_prior = prior if args.truth_tails == "same" else dataclasses.replace(prior, tails=args.truth_tails)
     decision = {"confidence": None if args.confidence.lower() == "none" else float(args.confidence),

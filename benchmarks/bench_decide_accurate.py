@@ -1,0 +1,172 @@
+"""Decisions from an accurate posterior (issue 28): the update, the recommendation (with its next test) and the
+P(stable) map, with the zero-order engine and with the spectral engine, timed in the same run; and the fast
+speed search of :func:`millstab.update.decide.recommend` against the full scan on the same posterior.
+
+Case (as ``bench_update_accurate.py``, the low-immersion shop of docs/updating.md): the seed paper's Ex.1 structure
+as the hammer test with the default prior spreads, a/D ``--immersion`` down milling; the truth is the hammer test
+off by a random factor per parameter (fn ±3 %, k ±20 %, ζ ±30 %, seed ``--seed``); ``--cuts`` cuts at random speeds
+in ``--rpm``, depths uniform in ±30 % around the truth's SDM limit, labels with 3 % relative depth noise.
+
+Timed (wall and CPU; BLAS pinned to one thread, ``OMP_WAIT_POLICY=PASSIVE`` set before numba starts its threads,
+engines warmed first): ``update`` (``--samples``), ``recommend`` (risk ``--risk``, the default rule: 90 %
+confidence, ±0.25 % speed tolerance, data guard, the next test), ``p_stable_map`` on ``--map-speeds`` ×
+60 depths; for each engine. ``search="full"`` (every sample on the 200-speed coarse grid and the refinement) and
+``search="auto"`` (the default: the fast search for an engine other than the cheapest) are both timed for the
+spectral posterior, and compared: the speed, depth, productivity ratio, the fast recommendation's P(chatter)
+under the full posterior at its speed and ±the tolerance (every sample, the spectral engine) against the risk,
+and whether both sit in the same pocket (no speed of the full scan's coarse grid between them where the full
+posterior's safe depth falls below half of the lesser of the two depths).
+
+``--seeds``, ``--immersions``: the comparison on several posteriors (each a fresh case and update).
+``--jobs N``: the cases in a process pool (each seeded by its own case, the figures do not depend on N; timings
+under a pool share the machine: quote them from ``--jobs 1``).
+
+Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_decide_accurate.py [--samples 1000]
+[--immersions 0.1] [--seeds 0]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+if __name__ == "__main__":  # before numba starts its OpenMP threads (bench_update_accurate.py measured why)
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from _machine import describe, pool_of
+
+
+def timed(f):
+    t, c = time.perf_counter(), time.process_time()
+    out = f()
+    return out, time.perf_counter() - t, time.process_time() - c
+
+
+def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float]):
+    """(config, prior, cuts, text) of the case in the module docstring."""
+    from millstab.io import load_config
+    from millstab.io.config import PriorTable
+    from millstab.model import Cutting
+    from millstab.points import PointSet
+    from millstab.stability import sdm
+    from millstab.update import make_prior
+
+    cfg = load_config("example:ex1")
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, immersion, "down")
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=0.05))
+    rng = np.random.default_rng(seed)
+    names = list(prior.par.free)
+    off = {"fn": 0.03, "k": 0.2, "zeta": 0.3}
+    fac = np.array([1 + rng.uniform(-off[prior.par.kind(n)], off[prior.par.kind(n)]) for n in names])
+    truth = prior.par.structure(prior.median * fac)
+    r = np.sort(rng.uniform(*rpm, n_cuts))
+    b_true = sdm.envelope(truth, cut, r).depth_mm
+    depth = b_true * rng.uniform(0.7, 1.3, r.size)
+    chatter = depth > b_true * np.exp(0.03 * rng.standard_normal(r.size))
+    cuts = PointSet(r, depth, np.where(chatter, "chatter", "stable"))
+    return cfg, prior, cuts, (f"a/D {immersion} seed {seed}: {n_cuts} cuts, {int(chatter.sum())} chatter, truth = "
+                              f"hammer test x {np.round(fac, 3).tolist()}")
+
+
+def same_pocket(post, rpm_range, a: tuple[float, float], b: tuple[float, float], risk: float, count: int,
+                n_speeds: int = 200) -> bool:
+    """Whether cuts ``a`` and ``b`` (rpm, mm) lie in one pocket of the full posterior's safe depth: no speed of a
+    ``n_speeds`` grid between them where the risk quantile falls below half the lesser depth."""
+    from millstab.update.decide import safe_depth
+    from millstab.update.likelihood import limits
+
+    lo, hi = sorted((a[0], b[0]))
+    grid = np.linspace(*rpm_range, n_speeds)
+    between = np.concatenate([[lo], grid[(grid > lo) & (grid < hi)], [hi]])
+    blim, _ = limits(post.prior, post.decision_u, between, post.engine, options=post.engine_options)
+    return bool(safe_depth(blim, risk, count).min() >= 0.5 * min(a[1], b[1]))
+
+
+def one_case(args, immersion: float, seed: int) -> list[str]:
+    """Every figure of one case, as printed lines."""
+    from millstab.update import p_stable_map, update
+    from millstab.update.decide import allowed_count, effective_samples, recommend
+    from millstab.update.likelihood import limits
+
+    lines = []
+    lo, hi = (float(x) for x in args.rpm.split(":"))
+    cfg, prior, cuts, text = make_case(immersion, seed, args.cuts, (lo, hi))
+    lines.append(text)
+    map_rpm, map_depth = np.linspace(lo, hi, args.map_speeds), np.linspace(0.01, 3 * float(cuts.depth_mm.max()), 60)
+    res = {}
+    with threadpool_limits(1):
+        for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
+            update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        for eng in args.engines.split(","):
+            post, w_u, c_u = timed(lambda eng=eng: update(cfg, cuts, samples=args.samples, seed=seed, engine=eng,
+                                                          prior=prior))
+            searches = ("auto", "full") if eng != "zoa" and args.full else ("auto",)
+            for s in searches:
+                rec, w_r, c_r = timed(lambda s=s: recommend(post, args.risk, (lo, hi), seed=seed, search=s))
+                res[eng, s] = (post, rec, w_r, c_r)
+            _, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth))
+            res[eng, "update"], res[eng, "map"] = (w_u, c_u), (w_m, c_m)
+            r, w_r, c_r = res[eng, "auto"][1:]
+            lines.append(f"  {eng:8s}: update {w_u:7.1f} s wall {c_u:7.1f} s CPU; recommend (search auto) {w_r:7.1f} s "
+                         f"wall {c_r:7.1f} s CPU -> {r.rpm:.0f} rpm {r.depth_mm:.3f} mm (next test "
+                         f"{r.next_test['rpm']:.0f} rpm {r.next_test['depth_mm']:.3f} mm); map {args.map_speeds}x60 "
+                         f"{w_m:6.1f} s wall {c_m:6.1f} s CPU")
+            if (eng, "full") in res:
+                f = res[eng, "full"]
+                lines.append(f"  {eng:8s}: recommend (search full) {f[2]:7.1f} s wall {f[3]:7.1f} s CPU -> "
+                             f"{f[1].rpm:.0f} rpm {f[1].depth_mm:.3f} mm (next test {f[1].next_test['rpm']:.0f} rpm "
+                             f"{f[1].next_test['depth_mm']:.3f} mm)")
+        if ("spectral", "full") in res:
+            post, fast = res["spectral", "auto"][:2]
+            full = res["spectral", "full"][1]
+            offs = np.array([0.0, -0.0025, 0.0025])
+            around, _ = limits(post.prior, post.decision_u, fast.rpm * (1 + offs), post.engine,
+                               options=post.engine_options)
+            p_full = float(np.max(np.mean(around <= fast.depth_mm, axis=0)))
+            count = allowed_count(post.u.shape[0], args.risk, effective_samples(post))
+            pocket = same_pocket(post, (lo, hi), (fast.rpm, fast.depth_mm), (full.rpm, full.depth_mm), args.risk,
+                                 count)
+            lines.append(f"  fast vs full: productivity ratio {fast.productivity / full.productivity:.4f}, speeds "
+                         f"{fast.rpm:.1f} / {full.rpm:.1f} rpm, same pocket {pocket}; the fast cut's P(chatter) under "
+                         f"the full posterior at its speed and ±0.25 % {p_full:.4f} (risk {args.risk:g}, "
+                         f"{'ok' if p_full <= args.risk else 'EXCEEDS'})")
+        if ("zoa", "auto") in res and ("spectral", "auto") in res:
+            z = [res["zoa", k] for k in ("update", "map")] + [res["zoa", "auto"][2:]]
+            s = [res["spectral", k] for k in ("update", "map")] + [res["spectral", "auto"][2:]]
+            tz, ts = sum(x[0] for x in z), sum(x[0] for x in s)
+            cz, cs = sum(x[1] for x in z), sum(x[1] for x in s)
+            dz, ds = z[2][1] + z[1][1], s[2][1] + s[1][1]
+            lines.append(f"  ratio spectral/zoa: update + recommend + map {ts / tz:.1f} wall, {cs / cz:.1f} CPU; "
+                         f"recommend + map alone {ds / dz:.1f} CPU")
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=1000)
+    ap.add_argument("--cuts", type=int, default=10)
+    ap.add_argument("--immersions", default="0.1", help="comma-separated a/D")
+    ap.add_argument("--seeds", default="0", help="comma-separated case seeds")
+    ap.add_argument("--rpm", default="5000:12000")
+    ap.add_argument("--risk", type=float, default=0.05)
+    ap.add_argument("--map-speeds", type=int, default=200)
+    ap.add_argument("--engines", default="zoa,spectral")
+    ap.add_argument("--no-full", dest="full", action="store_false", help="skip the full-scan recommendation")
+    ap.add_argument("--jobs", type=int, default=1)
+    args = ap.parse_args()
+    print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}; load {os.getloadavg()[0]:.1f}")
+    cases = [(float(a), int(s)) for a in args.immersions.split(",") for s in args.seeds.split(",")]
+    with pool_of(args.jobs) as pool:
+        outs = (pool.map(one_case, [args] * len(cases), *zip(*cases)) if pool is not None
+                else (one_case(args, a, s) for a, s in cases))
+        for lines in outs:
+            print("\n".join(lines), flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -92,3 +92,20 @@ def test_the_cheapest_engine_keeps_the_full_search_bit_for_bit():
     assert (auto.rpm, auto.depth_mm, auto.next_test) == (full.rpm, full.depth_mm, full.next_test)
     with pytest.raises(InputError, match="search"):
         recommend(post, 0.05, RANGE, search="quick")
+
+
+def test_map_from_a_subsample_counts_those_rows_within_its_stated_error():
+    from millstab.update.decide import map_error, map_rows, p_stable_map
+
+    post = _posterior(400, 0)
+    rpm, depth = np.linspace(*RANGE, 9), np.linspace(0.05, 4.0, 12)
+    sub = p_stable_map(post, rpm, depth, samples=100, seed=2)
+    rows = map_rows(400, 100, 2)
+    assert rows.size == 100 and np.array_equal(rows, map_rows(400, 100, 2))  # seeded
+    own = np.array([zoa.envelope(post.prior.par.structure(t), CUT, rpm).depth_mm for t in post.samples[rows]])
+    np.testing.assert_allclose(sub, (own[:, :, None] > depth[None, None, :]).mean(0), atol=1e-12)
+    full = p_stable_map(post, rpm, depth)
+    assert np.abs(sub - full).max() <= 4 * map_error(100)  # 4 sd of the largest standard error, 0.2
+    assert np.array_equal(p_stable_map(post, rpm, depth, samples=400), full)
+    with pytest.raises(InputError, match="--samples"):
+        p_stable_map(post, rpm, depth, samples=0)

@@ -10,7 +10,8 @@ in ``--rpm``, depths uniform in ±30 % around the truth's SDM limit, labels with
 Timed (wall and CPU; BLAS pinned to one thread, ``OMP_WAIT_POLICY=PASSIVE`` set before numba starts its threads,
 engines warmed first): ``update`` (``--samples``), ``recommend`` (risk ``--risk``, the default rule: 90 %
 confidence, ±0.25 % speed tolerance, data guard, the next test), ``p_stable_map`` on ``--map-speeds`` ×
-60 depths; for each engine. ``search="full"`` (every sample on the 200-speed coarse grid and the refinement) and
+60 depths (the zero-order map from every sample, the accurate one from a seeded subsample of ``--map-samples``);
+for each engine. ``search="full"`` (every sample on the 200-speed coarse grid and the refinement) and
 ``search="auto"`` (the default: the fast search for an engine other than the cheapest) are both timed for the
 spectral posterior, and compared: the speed, depth, productivity ratio, the fast recommendation's P(chatter)
 under the full posterior at its speed and ±the tolerance (every sample, the spectral engine) against the risk,
@@ -18,6 +19,7 @@ and whether both sit in the same pocket (no speed of the full scan's coarse grid
 posterior's safe depth falls below half of the lesser of the two depths).
 
 ``--seeds``, ``--immersions``: the comparison on several posteriors (each a fresh case and update).
+``--cache DIR``: keep each case's posteriors (and their update's timing) there and reuse them in a later run.
 ``--jobs N``: the cases in a process pool (each seeded by its own case, the figures do not depend on N; timings
 under a pool share the machine: quote them from ``--jobs 1``).
 
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import pickle
 import sys
 import time
 
@@ -89,40 +92,67 @@ def same_pocket(post, rpm_range, a: tuple[float, float], b: tuple[float, float],
 
 def one_case(args, immersion: float, seed: int) -> list[str]:
     """Every figure of one case, as printed lines."""
-    from millstab.update import p_stable_map, update
+    from millstab.update import decide, p_stable_map, update
     from millstab.update.decide import allowed_count, effective_samples, recommend
     from millstab.update.likelihood import limits
 
-    lines = []
+    class Lines(list):  # printed as they come when the cases run in this process (progress), else by the caller
+        def append(self, line: str) -> None:
+            super().append(line)
+            if args.jobs <= 1:
+                print(line, flush=True)
+
+    lines = Lines()
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg, prior, cuts, text = make_case(immersion, seed, args.cuts, (lo, hi))
     lines.append(text)
     map_rpm, map_depth = np.linspace(lo, hi, args.map_speeds), np.linspace(0.01, 3 * float(cuts.depth_mm.max()), 60)
     res = {}
+    default_m = decide.SEARCH_SAMPLES
     with threadpool_limits(1):
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         for eng in args.engines.split(","):
-            post, w_u, c_u = timed(lambda eng=eng: update(cfg, cuts, samples=args.samples, seed=seed, engine=eng,
-                                                          prior=prior))
-            searches = ("auto", "full") if eng != "zoa" and args.full else ("auto",)
+            path = (os.path.join(args.cache, f"{eng}-{immersion:g}-{seed}-{args.samples}-{args.cuts}.pkl")
+                    if args.cache else None)
+            if path and os.path.exists(path):  # the posterior and its update's timing from an earlier run
+                with open(path, "rb") as fh:
+                    post, w_u, c_u = pickle.load(fh)
+            else:
+                post, w_u, c_u = timed(lambda eng=eng: update(cfg, cuts, samples=args.samples, seed=seed, engine=eng,
+                                                              prior=prior))
+                if path:
+                    with open(path, "wb") as fh:
+                        pickle.dump((post, w_u, c_u), fh)
+            lines.append(f"  {eng:8s}: update {w_u:7.1f} s wall {c_u:7.1f} s CPU")
+            searches = ["auto"] + ([f"fast/{m}" for m in args.search_samples.split(",") if m] if eng != "zoa" else [])
+            searches += ["full"] if eng != "zoa" and args.full else []
             for s in searches:
-                rec, w_r, c_r = timed(lambda s=s: recommend(post, args.risk, (lo, hi), seed=seed, search=s))
+                decide.SEARCH_SAMPLES = int(s.split("/")[1]) if "/" in s else default_m
+                kept = f"{path}.{s.replace('/', '-')}-{args.risk:g}.pkl" if path else None
+                if kept and s == "full" and os.path.exists(kept):  # the full scan of an earlier run (minutes)
+                    with open(kept, "rb") as fh:
+                        rec, w_r, c_r = pickle.load(fh)
+                else:
+                    rec, w_r, c_r = timed(lambda s=s: recommend(post, args.risk, (lo, hi), seed=seed,
+                                                                search=s.split("/")[0]))
+                    if kept and s == "full":
+                        with open(kept, "wb") as fh:
+                            pickle.dump((rec, w_r, c_r), fh)
+                decide.SEARCH_SAMPLES = default_m
                 res[eng, s] = (post, rec, w_r, c_r)
-            _, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth))
+                lines.append(f"  {eng:8s}: recommend (search {s}) {w_r:7.1f} s wall {c_r:7.1f} s CPU -> {rec.rpm:.1f} "
+                             f"rpm {rec.depth_mm:.4f} mm, P(chatter) {rec.p_chatter_speed_error:.4f} (next test "
+                             f"{rec.next_test['rpm']:.0f} rpm {rec.next_test['depth_mm']:.3f} mm)")
+            m = None if eng == "zoa" else args.map_samples
+            _, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed))
             res[eng, "update"], res[eng, "map"] = (w_u, c_u), (w_m, c_m)
-            r, w_r, c_r = res[eng, "auto"][1:]
-            lines.append(f"  {eng:8s}: update {w_u:7.1f} s wall {c_u:7.1f} s CPU; recommend (search auto) {w_r:7.1f} s "
-                         f"wall {c_r:7.1f} s CPU -> {r.rpm:.0f} rpm {r.depth_mm:.3f} mm (next test "
-                         f"{r.next_test['rpm']:.0f} rpm {r.next_test['depth_mm']:.3f} mm); map {args.map_speeds}x60 "
-                         f"{w_m:6.1f} s wall {c_m:6.1f} s CPU")
-            if (eng, "full") in res:
-                f = res[eng, "full"]
-                lines.append(f"  {eng:8s}: recommend (search full) {f[2]:7.1f} s wall {f[3]:7.1f} s CPU -> "
-                             f"{f[1].rpm:.0f} rpm {f[1].depth_mm:.3f} mm (next test {f[1].next_test['rpm']:.0f} rpm "
-                             f"{f[1].next_test['depth_mm']:.3f} mm)")
-        if ("spectral", "full") in res:
-            post, fast = res["spectral", "auto"][:2]
+            lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {m or args.samples} samples {w_m:6.1f} s wall "
+                         f"{c_m:6.1f} s CPU")
+        for key in [k for k in res if k[0] == "spectral" and (k[1] == "auto" or k[1].startswith("fast/"))]:
+            if ("spectral", "full") not in res:
+                break
+            post, fast = res[key][:2]
             full = res["spectral", "full"][1]
             offs = np.array([0.0, -0.0025, 0.0025])
             around, _ = limits(post.prior, post.decision_u, fast.rpm * (1 + offs), post.engine,
@@ -131,7 +161,7 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             count = allowed_count(post.u.shape[0], args.risk, effective_samples(post))
             pocket = same_pocket(post, (lo, hi), (fast.rpm, fast.depth_mm), (full.rpm, full.depth_mm), args.risk,
                                  count)
-            lines.append(f"  fast vs full: productivity ratio {fast.productivity / full.productivity:.4f}, speeds "
+            lines.append(f"  {key[1]} vs full: productivity ratio {fast.productivity / full.productivity:.4f}, speeds "
                          f"{fast.rpm:.1f} / {full.rpm:.1f} rpm, same pocket {pocket}; the fast cut's P(chatter) under "
                          f"the full posterior at its speed and ±0.25 % {p_full:.4f} (risk {args.risk:g}, "
                          f"{'ok' if p_full <= args.risk else 'EXCEEDS'})")
@@ -142,7 +172,9 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             cz, cs = sum(x[1] for x in z), sum(x[1] for x in s)
             dz, ds = z[2][1] + z[1][1], s[2][1] + s[1][1]
             lines.append(f"  ratio spectral/zoa: update + recommend + map {ts / tz:.1f} wall, {cs / cz:.1f} CPU; "
-                         f"recommend + map alone {ds / dz:.1f} CPU")
+                         f"recommend + map alone {ds / dz:.1f} CPU; recommend alone {s[2][1] / z[2][1]:.1f} CPU"
+                         + (f" (the full search: {res['spectral', 'full'][3] / z[2][1]:.1f} CPU; the fast search saves "
+                            f"{res['spectral', 'full'][3] / s[2][1]:.1f}x CPU)" if ("spectral", "full") in res else ""))
     return lines
 
 
@@ -155,9 +187,13 @@ def main() -> None:
     ap.add_argument("--rpm", default="5000:12000")
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--map-speeds", type=int, default=200)
+    ap.add_argument("--map-samples", type=int, default=500, help="the accurate engine's map from this many samples")
     ap.add_argument("--engines", default="zoa,spectral")
+    ap.add_argument("--search-samples", default="", help="also the fast search with these subsample sizes "
+                    "(comma-separated; the default search=auto uses decide.SEARCH_SAMPLES)")
     ap.add_argument("--no-full", dest="full", action="store_false", help="skip the full-scan recommendation")
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--cache", default=None, help="keep / reuse each case's posteriors (pickles) in this folder")
     args = ap.parse_args()
     print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}; load {os.getloadavg()[0]:.1f}")
     cases = [(float(a), int(s)) for a in args.immersions.split(",") for s in args.seeds.split(",")]
@@ -165,7 +201,8 @@ def main() -> None:
         outs = (pool.map(one_case, [args] * len(cases), *zip(*cases)) if pool is not None
                 else (one_case(args, a, s) for a, s in cases))
         for lines in outs:
-            print("\n".join(lines), flush=True)
+            if pool is not None:
+                print("\n".join(lines), flush=True)
 
 
 if __name__ == "__main__":

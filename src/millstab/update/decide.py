@@ -86,6 +86,10 @@ SEARCH_CHOICES = ("auto", "fast", "full")
 #: subsample's productivity) handed to every sample
 SEARCH_SAMPLES = 200
 SEARCH_POCKETS = 4
+#: the fast search's refinement of each pocket on the subsample: rounds, and speeds per round (the bracket
+#: shrinks (points − 1)/2-fold a round: from the coarse step to ~1/30 of it, finer than the subsample resolves)
+SEARCH_REFINE_ROUNDS = 2
+SEARCH_REFINE_POINTS = 12
 #: a suggested subsample of a map from an engine other than the cheapest (``millstab map --samples``): its
 #: Monte Carlo standard error is at most ½/√M = 0.022
 MAP_SAMPLES = 500
@@ -622,9 +626,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         depth, blim = depths_at(speeds, support, rows, cnt)
         top = pockets(depth * speeds, SEARCH_POCKETS)
         best_r, best_d = speeds[top], depth[top]
-        for _ in range(REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
+        for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
             a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
-            cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, REFINE_POINTS)[None, :]  # (K, P)
+            cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
             d2 = depths_at(cand.ravel(), support, rows, cnt)[0].reshape(cand.shape)
             j = np.argmax(d2 * cand, axis=1)
             k = np.arange(top.size)

@@ -129,13 +129,13 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             searches += ["full"] if eng != "zoa" and args.full else []
             for s in searches:
                 decide.SEARCH_SAMPLES = int(s.split("/")[1]) if "/" in s else default_m
-                kept = f"{path}.{s.replace('/', '-')}-{args.risk:g}.pkl" if path else None
+                kept = f"{path}.{s.replace('/', '-')}-{args.risk:g}-{args.coarse}.pkl" if path else None
                 if kept and s == "full" and os.path.exists(kept):  # the full scan of an earlier run (minutes)
                     with open(kept, "rb") as fh:
                         rec, w_r, c_r = pickle.load(fh)
                 else:
                     rec, w_r, c_r = timed(lambda s=s: recommend(post, args.risk, (lo, hi), seed=seed,
-                                                                search=s.split("/")[0]))
+                                                                search=s.split("/")[0], coarse_points=args.coarse))
                     if kept and s == "full":
                         with open(kept, "wb") as fh:
                             pickle.dump((rec, w_r, c_r), fh)
@@ -187,6 +187,7 @@ def main() -> None:
     ap.add_argument("--rpm", default="5000:12000")
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--map-speeds", type=int, default=200)
+    ap.add_argument("--coarse", type=int, default=200, help="speeds of the recommendation's coarse grid")
     ap.add_argument("--map-samples", type=int, default=500, help="the accurate engine's map from this many samples")
     ap.add_argument("--engines", default="zoa,spectral")
     ap.add_argument("--search-samples", default="", help="also the fast search with these subsample sizes "

@@ -109,3 +109,13 @@ def test_map_from_a_subsample_counts_those_rows_within_its_stated_error():
     assert np.array_equal(p_stable_map(post, rpm, depth, samples=400), full)
     with pytest.raises(InputError, match="--samples"):
         p_stable_map(post, rpm, depth, samples=0)
+
+
+def test_the_doors_check_the_search_before_any_posterior_is_read():
+    from millstab import api
+
+    span, rule = api.decision_rule(0.05, "5000:9000", search="fast")
+    assert rule["search"] == "fast" and span == (5000.0, 9000.0)
+    with pytest.raises(InputError, match="--search"):
+        api.decision_rule(0.05, "5000:9000", search="quick")
+    assert tuple(decide.SEARCH_CHOICES) == ("auto", "fast", "full")  # the door's copy of the choices

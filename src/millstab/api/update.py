@@ -387,8 +387,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0, **rule):
     """The most productive cut with P(chatter) ≤ ``risk`` in ``rpm_range`` [rev/min], and the next test
-    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance`` and
-    ``coarse_points``, defaults there).
+    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance``, ``coarse_points`` and
+    ``search``, defaults there).
 
     Raises:
         InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0, a bad confidence or tolerance.

@@ -26,7 +26,10 @@ whether the process chatters).
   The speed maximises the material removal rate
   depth × speed (× width × feed per tooth × teeth → cm³/min). The best of a coarse grid is refined by a
   bounded 1-D search on the continuous speed axis: rounds of ``REFINE_POINTS`` speeds in the bracket
-  between the best point's neighbours, each round one engine call, the bracket shrinking each time.
+  between the best point's neighbours, each round one engine call, the bracket shrinking each time. For an
+  engine other than the cheapest (``search="auto"``, :func:`fast_search_for`) a seeded subsample of
+  :data:`SEARCH_SAMPLES` rows does the scan and refines its :data:`SEARCH_POCKETS` best pockets, and every
+  sample then chooses among them and sets the depth: the speed search is approximate, the risk is exact.
 * :func:`data_guard`: a backstop from the data where the model does not explain them: no recommended depth
   at or above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) that the posterior
   calls chatter with probability < :data:`GUARD_EXPLAINED` (the fraction of samples whose limit lies at or

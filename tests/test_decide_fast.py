@@ -36,7 +36,7 @@ def test_pockets_are_the_largest_local_maxima():
     assert pockets(np.zeros(5), 3).tolist() == [0]
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)])
 def test_fast_search_depth_holds_the_full_posterior_risk(monkeypatch, seed):
     """Every sample's OWN limit (one engine call per sample, independent of the decision code) at the fast
     recommendation's speed and ±tolerance: at most the allowed count of the FULL posterior lie at or below the

@@ -147,8 +147,8 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             m = None if eng == "zoa" else args.map_samples
             _, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed))
             res[eng, "update"], res[eng, "map"] = (w_u, c_u), (w_m, c_m)
-            lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {m or args.samples} samples {w_m:6.1f} s wall "
-                         f"{c_m:6.1f} s CPU")
+            lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {min(m or args.samples, args.samples)} samples "
+                         f"{w_m:6.1f} s wall {c_m:6.1f} s CPU")
         for key in [k for k in res if k[0] == "spectral" and (k[1] == "auto" or k[1].startswith("fast/"))]:
             if ("spectral", "full") not in res:
                 break

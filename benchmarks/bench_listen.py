@@ -285,7 +285,7 @@ def f_ok_strict(truth, heard, true_hz: float):
     """Frequency right within max(2 Hz, 0.5 %) of the strict truth; None unless both call chatter."""
     if truth.label != "chatter" or heard.label != "chatter":
         return None
-    return abs(heard.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz)
+    return bool(abs(heard.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz))
 
 
 def right(truth: str, heard: str, ratio: float) -> bool:
@@ -331,7 +331,8 @@ def main(argv=None) -> int:
             t2 = time.perf_counter()
             known = api.listen_signal(rec.signal, rec.fs, given, cut.teeth, structure=st).listening
             ok_k = right(truth.label, known.label, ratio)
-            fk_ok = (abs(known.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz)
+            # bool(): a numpy bool is never ``is False`` (a miss whose heard frequency was a numpy float went unprinted)
+            fk_ok = (bool(abs(known.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz))
                      if truth.label == "chatter" and known.label == "chatter" else None)
             tset = None  # the cut's truth set, on every cut both call chatter (is its truth one frequency?)
             if f_ok_strict(truth, heard, true_hz) is not None or fk_ok is not None:
@@ -348,7 +349,7 @@ def main(argv=None) -> int:
             f_ok = fam_ok = None
             if truth.label == "chatter" and heard.label == "chatter":
                 tol = max(2.0, 0.005 * true_hz)
-                f_ok = abs(heard.chatter_hz - true_hz) <= tol
+                f_ok = bool(abs(heard.chatter_hz - true_hz) <= tol)
                 # the same chatter seen through the tooth-passing modulation: f + k f_T
                 d = (heard.chatter_hz - true_hz) / res.tooth_hz
                 dm = (heard.chatter_hz + true_hz) / res.tooth_hz  # or a mirror member k f_T − f

@@ -86,7 +86,8 @@ def test_each_cut_term_is_saturated_above_its_ceiling(case):
 def test_log_likelihood_with_censored_limits_is_the_exact_one(case):
     """log L of 40 prior draws (noise columns included) with censored limits and with every limit searched to its
     root: equal to 1e-12 (the terms above a ceiling are saturated to CENSOR_TOL; the roots themselves agree to
-    ~1e-12), while a third of the entries or more were censored. Fails if the ceilings are set a few σ_b lower."""
+    ~1e-12), while a third of the entries or more were censored. Fails with ceilings ~3 s·σ_b lower (CENSOR_TOL
+    1e-6: log L off by up to ~1e-7)."""
     prior, _, cuts, v = case
     lik = Likelihood(prior, Evidence.from_points(cuts), "spectral")
     got = lik(v)
@@ -96,3 +97,21 @@ def test_log_likelihood_with_censored_limits_is_the_exact_one(case):
     want = exact(v)
     assert exact.n_censored == 0
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_bounded_stage_with_censored_and_decided_columns(case):
+    """Delayed acceptance's bounded stage with censored limits in its rounds: log L to 1e-12 wherever it clears the
+    floor, a value below the floor elsewhere (never below the exact log L: a partial sum)."""
+    prior, _, cuts, v = case
+    lik = Likelihood(prior, Evidence.from_points(cuts), "spectral")
+    exact = Likelihood(prior, Evidence.from_points(cuts), "spectral")
+    exact._censor = False
+    full = exact(v)
+    rng = np.random.default_rng(2)
+    floor = np.where(rng.random(full.size) < 0.5, full - 1.0, -2.5)  # half must be exact, half may stop early
+    got = lik.bounded(v, floor)
+    above = full > floor
+    np.testing.assert_allclose(got[above], full[above], rtol=1e-12, atol=1e-12)
+    margin = 1e-9 * (1 + np.abs(floor[~above]))
+    assert np.all(got[~above] <= floor[~above] + margin) and np.all(got[~above] >= full[~above] - margin)
+    assert lik.n_decided > 0 and lik.n_censored > 0

@@ -143,6 +143,11 @@ python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``). The issue's 1
 decisions per speed are the definition's floor, and an exact ρ (the eigenvalues of a 10–16-row matrix) is 5–10 µs.
 Measured and not kept: an eigenvector basis (of the rung below, or of the same rung at the previous speed) as the
 similarity of the certificate: 35 % / 19 % of the rungs certified at one product (the balanced squarings: 80 %).
+A censored search (issue 28, 2026-11-27): :func:`envelope_batch`'s ``ceiling`` (B, S) stops a speed's search from
+below once every depth of it up to one at or above the ceiling is stable and returns that depth, a certified lower
+bound of the limit (``_spectral_kernel.scan_to``'s ``cap``); below the ceiling every depth is the limit. For a
+likelihood whose terms no longer move above it (:meth:`millstab.update.likelihood.Likelihood.ceilings`): 31.3 → 26.6
+evaluations per (set, speed) in the 300-sample update of docs/updating.md, the same particles bit for bit.
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of

@@ -533,9 +533,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         search: the speed search: ``"full"``, every sample on the coarse grid and in the refinement;
             ``"fast"``, a seeded subsample of :data:`SEARCH_SAMPLES` rows (the coarse grid at the same quantile of
             the limits, and the refinement of its :data:`SEARCH_POCKETS` most productive pockets) finds where to
-            look, then every sample at each pocket's refined speed and ±``speed_tolerance`` chooses among them and
-            sets the depth, so its P(chatter) is the full posterior's (the next test reads the subsample's coarse
-            limits); ``"auto"`` (the default): fast for an engine other than the cheapest
+            look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
+            chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
+            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits); ``"auto"`` (the default): fast for an engine other than the cheapest
             (:func:`fast_search_for`). With at most :data:`SEARCH_SAMPLES` samples both are the full search.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
@@ -626,7 +626,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         """The fast search: the coarse scan and the refinement of the best :data:`SEARCH_POCKETS` pockets on a
         seeded subsample of :data:`SEARCH_SAMPLES` rows (at the same quantile of the limits as the full count),
         then every sample at each pocket's speed and ±tolerance: the depth, and the choice among the pockets,
-        are the full posterior's. Returns the subsample's coarse limits and its rows (for the next test)."""
+        are the full posterior's, which refines the chosen pocket once more. Returns the subsample's coarse limits
+        and its rows (for the next test)."""
         rows = np.sort(np.random.default_rng(seed).choice(n, SEARCH_SAMPLES, replace=False))
         cnt = int(round(max(count, 0) * SEARCH_SAMPLES / n))
         speeds = coarse_grid(support)

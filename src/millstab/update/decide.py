@@ -536,10 +536,11 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
             chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
             so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
-            ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With at most :data:`SEARCH_SAMPLES` samples both are the full search.
+            ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
+            at most :data:`SEARCH_SAMPLES` samples both are the full search.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
-            or confirm.
+            or confirm, an unknown search.
     Warns:
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.

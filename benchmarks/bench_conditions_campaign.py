@@ -27,6 +27,16 @@ The cost of an update over several conditions against one: ``benchmarks/bench_co
 
 Run (small): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --samples 1000 --cuts 10 --held 30``
 
+``--no-recommend`` scores the Brier only (the updates and the predictions at the held-out cuts): with an
+accurate engine the recommendations are most of the cost. ``--diagnose`` prints, per condition on stderr, why
+the joint posterior scores what it does: the fitted engine's error at the TRUE structure (model error) and
+the joint posterior's and the hammer test's bias and spread of ln(b_lim/b_true) at the held-out cuts (one
+more pass over two posteriors' predictions). ``--first-repeat K`` numbers the repeats from K, so several
+processes can share the repeats of one run (the same campaigns as ``--repeats``). The accurate fit, Brier
+only (measured: docs/updating.md "Many conditions"; ≈ 250–550 s CPU per campaign at 300 samples):
+``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine spectral --samples 300 --cuts 10
+--held 30 --no-recommend --repeats 5 --jobs 15``.
+
 Many cores: ``--jobs N`` runs the campaigns (machines × ``--repeats``) in a pool of N processes, each with one
 numba and one BLAS thread; every campaign draws from its own generator (seed + 100·machine + 10 000·repeat,
 the update's own seed ``--seed``), so the figures do not depend on N or on the order the campaigns finish.
@@ -195,7 +205,8 @@ def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args) -> None
     """Why the joint posterior scores what it does in condition ``key`` (a line on stderr): the fitted
     engine's model error (its limit at the TRUE structure against the truth's, and the share of the held-out
     labels that error alone flips), and the posterior's (and the hammer test's) limit at the held-out speeds
-    against the truth's, as a bias (the median over the cuts of the samples' median ln(b_lim/b_true)) and a
+    against the truth's, as a bias (the median over the cuts of the samples' median ln(b_lim/b_true); and of
+    its absolute value: lobes off in speed are off by turns up and down) and a
     spread (the median over the cuts of the samples' sd of ln b_lim): model error, a prior that the cuts did
     not move, or too few cuts to pin it."""
     from millstab import api
@@ -212,7 +223,9 @@ def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args) -> None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             lb = np.log(cut_limits(api.for_condition(post, radial_immersion=ri, milling=m), pts.rpm) / tl[None, :])
-        txt.append(f"{who}: bias {np.median(np.median(lb, axis=0)):+.3f}, spread {np.median(lb.std(axis=0)):.3f}")
+        bias = np.median(lb, axis=0)  # per cut: a lobe off in speed is off by turns up and down
+        txt.append(f"{who}: bias {np.median(bias):+.3f} (per cut |bias| {np.median(np.abs(bias)):.3f}), "
+                   f"spread {np.median(lb.std(axis=0)):.3f}")
     say(f"{name}: {condition_text(c).split(',')[0]}: " + "; ".join(txt))
 
 

@@ -33,7 +33,7 @@ the joint posterior scores what it does: the fitted engine's error at the TRUE s
 the joint posterior's and the hammer test's bias and spread of ln(b_lim/b_true) at the held-out cuts (one
 more pass over two posteriors' predictions). ``--first-repeat K`` numbers the repeats from K, so several
 processes can share the repeats of one run (the same campaigns as ``--repeats``). The accurate fit, Brier
-only (measured: docs/updating.md "Many conditions"; ≈ 250–550 s CPU per campaign at 300 samples):
+only (measured: docs/updating.md "Many conditions"; ≈ 200–400 s CPU per campaign at 300 samples):
 ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --engine spectral --samples 300 --cuts 10
 --held 30 --no-recommend --repeats 5 --jobs 15``.
 

@@ -189,6 +189,21 @@ def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
 
 
 @contextlib.contextmanager
+def uncensored(on: bool):
+    """With ``on``, every limit of the likelihood searched to its root (the code before the censored search,
+    :meth:`millstab.update.likelihood.Likelihood.ceilings` hidden)."""
+    if not on:
+        yield
+        return
+    had = Likelihood.ceilings
+    Likelihood.ceilings = lambda self, u, noise: None
+    try:
+        yield
+    finally:
+        Likelihood.ceilings = had
+
+
+@contextlib.contextmanager
 def unbounded(on: bool):
     """With ``on``, the delayed-acceptance second stage evaluates every survivor at every speed (the code before
     the bounded stage): the likelihood's ``bounded`` hidden from the sampler."""
@@ -298,6 +313,8 @@ def main() -> None:
     ap.add_argument("--breakdown", action="store_true", help="where the spectral update's time goes")
     ap.add_argument("--no-bounded", action="store_true", help="also the spectral update without the bounded "
                     "second stage (every survivor at every speed), and the two compared")
+    ap.add_argument("--no-censor", action="store_true", help="also the spectral update with every limit searched to "
+                    "its root (no ceilings), and the two compared")
     ap.add_argument("--anchored", action="store_true", help="estimate a screen anchored at the current particle on "
                     "the delayed-acceptance run's proposals")
     ap.add_argument("--near", type=float, default=None, help="also the spectral update with the refinement near "
@@ -334,17 +351,18 @@ def main() -> None:
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])
+                + ([("spectral", "uncensored")] if args.no_censor else [])
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
                 + ([("spectral", "near")] if args.near is not None else []))
         upd.SURROGATE_KIND = args.surrogate_kind
         for eng, smp in plan:
-            with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), \
+            with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "near") else smp,
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near") else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if moves:
@@ -373,7 +391,8 @@ def main() -> None:
                       f"{spectral.WARM_REL:g} of them); CPU root search "
                       f"{counts['solve_cpu']:.2f} s, zero-order starting depths {counts['b_ref_cpu']:.2f} s; "
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
-                      f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}")
+                      f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
+                      f"{d.get('censored_entries', 0)}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
                   f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) "
                   f"= 1/2: {n_side}/{args.cuts}, written label with predictive probability >= 0.1: "
@@ -396,6 +415,13 @@ def main() -> None:
               f"CPU; the same particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
         if not same:  # a decision flipped (the engine's depths depend on the rows sharing a call, docs/updating.md)
             compare(s[0].u, o[0].u, names, "bounded - unbounded")
+    if args.no_censor:
+        o = runs["spectral", "uncensored"]
+        same = np.array_equal(o[0].u, s[0].u)
+        print(f"censored limits vs every limit to its root: {o[1] / s[1]:.2f}x wall, {o[2] / s[2]:.2f}x CPU; the same "
+              f"particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
+        if not same:
+            compare(s[0].u, o[0].u, names, "censored - uncensored")
     if args.near is not None:
         q = runs["spectral", "near"]
         print(f"refinement near rho = 1 at {args.near:g} against the sampling settings' {spectral.NEAR:g}: "

@@ -509,6 +509,28 @@ def test_warmup_refuses_an_unknown_target(capsys):
     one_line_error(code, err, "TARGET = 'nope'", "zoa, sdm, spectral, simulate")
 
 
+def test_warmup_refuses_no_processes(capsys):
+    code, _, err = run(capsys, ["warmup", "zoa", "--jobs", "0"])
+    one_line_error(code, err, "--jobs = 0", "≥ 1")
+
+
+@pytest.mark.parametrize("jobs", [1, 2, 3, 4, 9])
+def test_warmup_deals_every_target_once_and_balances_the_compile(jobs):
+    """Every target lands in exactly one process, and no other dealing of the targets to that many
+    processes has a shorter longest process (brute force over all assignments)."""
+    import itertools
+
+    from millstab.api.warmup import COMPILE_S, TARGETS, groups
+
+    dealt = groups(list(TARGETS) + ["zoa"], jobs)  # a repeated target is compiled once
+    assert sorted(t for g in dealt for t in g) == sorted(TARGETS)
+    assert len(dealt) == min(jobs, len(TARGETS)) and all(dealt)
+    longest = max(sum(COMPILE_S[t] for t in g) for g in dealt)
+    best = min(max(sum(COMPILE_S[t] for t, k in zip(TARGETS, a) if k == i) for i in range(len(dealt)))
+               for a in itertools.product(range(len(dealt)), repeat=len(TARGETS)))
+    assert longest == best
+
+
 @pytest.mark.slow
 def test_warmup_compiles_zoa(capsys):
     code, out, err = run(capsys, ["warmup", "zoa"])

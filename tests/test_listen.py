@@ -432,3 +432,15 @@ def test_a_flip_line_under_its_tooth_line_wins_over_a_weaker_hopf_line_by_displa
     r = heard(teeth=2, seconds=3.0, chatter_hz=hopf, ratio=hopf_ratio, runout=0.05, tones=[(flip, flip_ratio)])
     assert r.label == "chatter" and abs(r.chatter_hz - want) < 2.0, r.chatter_hz
 
+
+
+def test_the_scalars_heard_are_python_floats_not_numpy_scalars():
+    """Every scalar of a Listening is a Python float (or int, str): a comparison of numpy scalars gives a numpy
+    bool, which is never ``is False``, and bench_listen's ``f_ok is False`` went blind to a miss that way
+    (held-out --seed 4 cut 48: chatter_hz, tooth_hz and rpm_heard were numpy.float64). Both the chatter and the
+    stable path."""
+    for r in (heard(chatter_hz=1234.5, ratio=1.0), heard()):
+        for name in ("chatter_hz", "score", "prominence_db", "onset_s", "trend", "rpm", "rpm_heard", "tooth_hz",
+                     "fs"):
+            assert type(getattr(r, name)) is float, (r.label, name, type(getattr(r, name)))
+        assert type(r.teeth) is int and all(type(t) is float for t in r.window_s)

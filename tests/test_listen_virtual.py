@@ -78,3 +78,54 @@ def test_the_structure_chooses_the_member_never_the_label():
     same = abs(known.chatter_hz - alone.chatter_hz) <= 2.0
     flip = abs(known.chatter_hz / f_half - round(known.chatter_hz / f_half)) * f_half <= 2.0
     assert same or (flip and round(known.chatter_hz / f_half) % 2 == 1), (alone.chatter_hz, known.chatter_hz)
+
+
+def _bench_listen():
+    """benchmarks/bench_listen.py as a module (its truth functions are tested here)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_listen.py"
+    spec = importlib.util.spec_from_file_location("bench_listen_for_test", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _displacement(parts, f_t=500.0, m=40, periods=1280):
+    """A fake simulated cut (what the bench's truth reads): x(t) = Σ a sin(2π f(t) t) over ``parts``, each
+    (amplitude, frequency [Hz] or a function of the tooth period index giving it, phase-continuous), plus a
+    synchronous line at 2 f_T that the non-synchronous residual removes; y = 0."""
+    from types import SimpleNamespace
+
+    n = periods * m + 1
+    dt = 1.0 / (f_t * m)
+    k = np.arange(n) // m
+    x = 0.3 * np.sin(2 * np.pi * 2 * f_t * np.arange(n) * dt)
+    for a, f in parts:
+        fk = np.asarray(f(k) if callable(f) else np.full(n, float(f)))
+        x = x + a * np.sin(2 * np.pi * np.cumsum(fk) * dt)
+    res = SimpleNamespace(x=x, y=np.zeros(n), steps_per_tooth=m, tooth_hz=f_t, fn_max_hz=1000.0)
+    return res, SimpleNamespace(chatter_hz=1030.0, window_periods=64)
+
+
+def test_the_truth_is_one_frequency_only_when_every_window_agrees():
+    """The bench's truth of a chatter frequency (the displacement's non-synchronous peak over the detector's last
+    64 tooth periods) is held to max(2 Hz, 0.5 %) only where it is one frequency: every 64-period window of the
+    last half peaks within the tolerance of it, with no line of another frequency within 1 dB. A steady line is
+    one frequency (and found to 0.5 Hz); a chatter whose frequency moves between two values from window to window
+    (quasi-periodic) is not, nor are two steady lines 0.45 dB apart; a second line 6 dB down does not count."""
+    b = _bench_listen()
+    steady, det = _displacement([(1.0, 1030.0)])
+    tset = b.truth_set_hz(steady, det)
+    assert tset.size and np.all(np.abs(tset - 1030.0) <= 0.5), tset
+    assert b.one_frequency(tset, 1030.0)
+    # the frequency alternates between 1030 and 1080 Hz every 64 tooth periods (the windows' own length)
+    wander, det = _displacement([(1.0, lambda k: np.where((k // 64) % 2 == 0, 1030.0, 1080.0))])
+    tset = b.truth_set_hz(wander, det)
+    assert np.any(np.abs(tset - 1030.0) <= 2.0) and np.any(np.abs(tset - 1080.0) <= 2.0), tset
+    assert not b.one_frequency(tset, 1080.0) and not b.one_frequency(tset, 1030.0)
+    tied, det = _displacement([(1.0, 1030.0), (10 ** (-0.45 / 20), 1530.0)])
+    assert not b.one_frequency(b.truth_set_hz(tied, det), 1030.0)
+    apart, det = _displacement([(1.0, 1030.0), (0.5, 1530.0)])
+    assert b.one_frequency(b.truth_set_hz(apart, det), 1030.0)

@@ -288,9 +288,12 @@ def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.nd
     return np.arange(1, n + 1) * (max_mm / n)
 
 
-def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None) -> np.ndarray:
+def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, samples: int | None = None,
+             seed: int = 0) -> np.ndarray:
     """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones;
-    ``client``: the samples' limits on its Dask cluster where that pays (same numbers).
+    ``client``: the samples' limits on its Dask cluster where that pays (same numbers); ``samples``: from a
+    seeded subsample of that many posterior samples (``millstab.update.decide.p_stable_map``: each cell's Monte
+    Carlo standard error is at most ½/√samples).
 
     Raises:
         InputError: more than :data:`MAX_MAP_CELLS` cells.
@@ -307,7 +310,7 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None) -> np.nda
         from millstab.cluster import check_client
 
         check_client(client)
-    return p_stable_map(post, rpm, depth_mm, client)
+    return p_stable_map(post, rpm, depth_mm, client, samples=samples, seed=seed)
 
 
 def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[list[str], list]:
@@ -349,7 +352,7 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
 
     Raises:
         InputError: naming the option (``--risk``, ``--rpm``, ``--confidence``, ``--speed-tolerance``, ``--test-risk``,
-            ``--confirm``, ``--discriminate``).
+            ``--confirm``, ``--discriminate``, ``--search``).
     """
     import math
 
@@ -376,14 +379,16 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
         raise InputError("--confirm", rule["confirm"], "one of conflict, always, never")
     if rule.get("discriminate", "never") not in ("conflict", "never"):
         raise InputError("--discriminate", rule["discriminate"], "one of conflict, never")
+    if rule.get("search", "auto") not in ("auto", "fast", "full"):  # = millstab.update.decide.SEARCH_CHOICES
+        raise InputError("--search", rule["search"], "one of auto, fast, full")
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0, **rule):
     """The most productive cut with P(chatter) ≤ ``risk`` in ``rpm_range`` [rev/min], and the next test
-    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance`` and
-    ``coarse_points``, defaults there).
+    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance``, ``coarse_points`` and
+    ``search``, defaults there).
 
     Raises:
         InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0, a bad confidence or tolerance.

@@ -43,6 +43,10 @@ def recommend_cmd(
                                      help="'conflict': while the cuts contradict the hammer test, the next test is "
                                           "the cut that best tells the posterior from the far-off alternative the "
                                           "cuts fit best (experimental); 'never': the most informative cut."),
+    search: str = typer.Option("auto", "--search",
+                               help="The speed search: 'full' (every posterior sample at every speed), 'fast' (a "
+                                    "subsample finds the pockets, every sample sets the depth: the same risk), "
+                                    "'auto' (fast for engines other than zoa)."),
     out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
@@ -64,7 +68,7 @@ def recommend_cmd(
     span, rule = api.decision_rule(risk, rpm, confidence=confidence, speed_tolerance=speed_tolerance,
                                    test_risk=test_risk, max_depth_mm=max_depth, width_mm=radial_width,
                                    feed_mm=feed_per_tooth, seed=seed, confirm=confirm,
-                                   discriminate=discriminate)
+                                   discriminate=discriminate, search=search)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     protect = emit.checked(inputs, {"--out": out})

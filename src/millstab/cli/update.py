@@ -156,6 +156,9 @@ def map_cmd(
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
     options: EngineOptionOpt = None,
+    samples: Optional[int] = typer.Option(None, "--samples", help="From a seeded subsample of this many posterior "
+                                          "samples (e.g. 500 for a spectral or sdm posterior: each cell's Monte Carlo "
+                                          "error is then at most 0.5/sqrt(samples)); default: all of them."),
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -170,11 +173,13 @@ def map_cmd(
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
-        pm = api.p_stable(post, speeds, depths, client)
+        pm = api.p_stable(post, speeds, depths, client, samples=samples)
     write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
     con = Console()
-    con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {post.samples.shape[0]} samples; "
-              f"{api.condition_line(post)})")
+    n = post.samples.shape[0]
+    used = (f"{samples} of {n} samples (Monte Carlo standard error ≤ {0.5 / samples ** 0.5:.3f} per cell)"
+            if samples is not None and samples < n else f"{n} samples")
+    con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {used}; {api.condition_line(post)})")
     if plot:
         from millstab.io.figures import save_figure
 

@@ -566,7 +566,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     n_fr = int(np.clip(w.size / fs / TREND_FRAME_S, TREND_FRAMES, 4 * TREND_FRAMES))
     if cand_f.size == 0:
         times = np.zeros(0)
-        return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), 60.0 * f_s, int(teeth), f_t,
+        return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), float(60.0 * f_s), int(teeth), float(f_t),
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     g2 = None if structure is None else _flexibility(structure)
     c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper, f_s)
@@ -688,8 +688,11 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
     if label == "chatter" and c < n_std:
         fc = _flip_over_heard(fc, float(cand_e[c]), f_t, 2.0 * fs / nper, line_f, spindle_pow, over_runout & ~keep,
                               lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi)
-    return Listening(label, fc, float(score), 10 * math.log10(prom), onset, float(trend), float(rpm), 60.0 * f_s,
-                     int(teeth), f_t, (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask,
+    # Python floats, not numpy scalars (a numpy bool from comparing them is never ``is False``: bench_listen went
+    # blind to a miss that way)
+    return Listening(label, float(fc), float(score), 10 * math.log10(prom), float(onset), float(trend), float(rpm),
+                     float(60.0 * f_s), int(teeth), float(f_t), (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p,
+                     floor, mask,
                      i0 / fs + tc, a_c)
 
 

@@ -1416,6 +1416,8 @@ def ladder_depth(b_ref, ladder, k):
 #: NEAR 0.01 (−19 % evaluations, but the same band at 12 800 rpm was then missed on every grid)
 REFINE = 4
 NEAR = 0.02
+#: the bracket high of :func:`scan_to` where a censored search passed its cap (−1: no boundary up to 1e4·b_ref)
+CENSORED = -2.0
 
 
 #: squarings tried at a rung (:func:`rho_test`) where the rung below it had ρ above this fraction of the level:
@@ -1482,7 +1484,7 @@ def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
+def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf):
     """The search from below at one speed, resumed from the state st (:func:`scan_state`, updated in
     place), over the depths below ``top`` [m] (inf: up to the first unstable depth).
 
@@ -1494,10 +1496,17 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
     from below finds at that speed whatever other speeds share the call, or a lower crossing (never a
     higher one). Returns (stable, bracket low [m], its ρ − 1, bracket high [m], its ρ − 1, the dominant
     multiplier there, ρ evaluations); the bracket is (the highest stable depth, the first unstable one);
-    stable with bracket high −1 where nothing is unstable up to 1e4·b_ref."""
+    stable with bracket high −1 where nothing is unstable up to 1e4·b_ref.
+
+    ``cap`` [m] (a censored search, :data:`CENSORED`): once every depth of the search up to one ≥ cap is stable
+    (st[3] ≥ cap), return (True, st[3], its ρ − 1, CENSORED, 0, NaN, evaluations): the search from below would
+    stop above st[3], so the limit is at least st[3] (to the bracket's 1e-6), and the caller that only needs to
+    know that (a likelihood whose terms no longer change above cap) saves the rungs above and the root."""
     n_eval = 0
     nan = complex(np.nan, np.nan)
     while True:
+        if st[3] >= cap:  # every depth of the search up to st[3] is stable: the limit is above cap
+            return True, st[3], st[4], CENSORED, 0.0, nan, n_eval
         k = int(st[0])
         x = ladder_depth(b_ref, ladder, k)
         x_prev = st[1]
@@ -1536,12 +1545,14 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd):
+def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf):
     """Accept a boundary root b [m] found from a guess: :func:`scan_to` below b·(1 − 2e-3), then ρ at
-    b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns."""
+    b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns (``cap``: as scan_to's,
+    the bracket high CENSORED where the search passed it)."""
     top = b * (1.0 - 2e-3)
-    stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd)
-    if not stable or top <= st[3]:
+    stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd,
+                                                       cap)
+    if not stable or top <= st[3] or hi == CENSORED:
         return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
     r, m_, _ = rho_test(top, 1.0, 0, kt, g)  # ρ(top) is within ~1e-3 of 1: no certificate in reach
     n_eval += 1
@@ -1561,7 +1572,7 @@ def secant_start(br_lo, br_hi, f_lo, f_hi):
 
 @nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
-              w_flex, depth, mu, n_eval):
+              w_flex, depth, mu, n_eval, cap):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
@@ -1576,6 +1587,9 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     first unstable depth, Newton from the bracket (Illinois on ρ − 1 to 1 % first where that fails),
     the root checked as above; where Newton fails, Illinois to ``rtol``.
     Writes depth, mu (on the unit circle), n_eval (S,) (ρ evaluations and characteristic functions).
+    ``cap`` (S,) [m]: a censored search (:func:`scan_to`; inf: none): where every depth of the search up to one ≥
+    cap[s] is stable, depth[s] is that depth (a lower bound of the limit, ≥ cap[s]) and mu[s] NaN; the branches
+    are left as they were (the next speed's acceptance is its own either way).
     """
     D = act.size
     br_b = np.zeros(N_BRANCH)
@@ -1650,18 +1664,23 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
                     break
                 scanned = True
                 _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass,
-                                                             mdir, D, g, nd)
+                                                             mdir, D, g, nd, cap[s])
                 count += c
-                if b_hi < 0.0:  # stable up to 1e4 times the reference depth: no boundary
-                    depth[s] = np.inf
+                if b_hi < 0.0:  # stable up to 1e4 times the reference depth (no boundary), or past the cap
+                    depth[s] = b_lo if b_hi == CENSORED else np.inf
                     mu[s] = complex(np.nan, np.nan)
                     done = True
                     break
             else:
                 b1 = br_b[best]
                 stable, b_lo, f_lo, b_hi, f_hi, m_hi, c = check_root(b1, b_ref[s], ladder, st, near, kt, wn, zeta, mass,
-                                                                     mdir, D, g, nd)
+                                                                     mdir, D, g, nd, cap[s])
                 count += c
+                if b_hi == CENSORED:  # stable past the cap under the root: the limit is above the cap
+                    depth[s] = b_lo
+                    mu[s] = complex(np.nan, np.nan)
+                    done = True
+                    break
                 if stable:
                     depth[s] = b1
                     mu[s] = complex(math.cos(br_t[best]), math.sin(br_t[best]))
@@ -1707,10 +1726,11 @@ def cmath_phase(z):
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
-                nd, rtol, w_flex, depth, mu, n_eval):
+                nd, rtol, w_flex, depth, mu, n_eval, cap):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
-    (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S)."""
+    (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S); cap (B, S) [m]: the
+    censored search's caps (:func:`limit_run`; inf: none)."""
     n_b = wn.shape[0]
     n_blk = starts.size - 1
     for t in nb.prange(n_b * n_blk):
@@ -1719,7 +1739,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
         a = starts[k]
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
-                  mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e])
+                  mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e],
+                  cap[bi, a:e])
 
 
 @nb.njit(cache=True)

@@ -143,6 +143,11 @@ python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``). The issue's 1
 decisions per speed are the definition's floor, and an exact ρ (the eigenvalues of a 10–16-row matrix) is 5–10 µs.
 Measured and not kept: an eigenvector basis (of the rung below, or of the same rung at the previous speed) as the
 similarity of the certificate: 35 % / 19 % of the rungs certified at one product (the balanced squarings: 80 %).
+A censored search (issue 28, 2026-11-27): :func:`envelope_batch`'s ``ceiling`` (B, S) stops a speed's search from
+below once every depth of it up to one at or above the ceiling is stable and returns that depth, a certified lower
+bound of the limit (``_spectral_kernel.scan_to``'s ``cap``); below the ceiling every depth is the limit. For a
+likelihood whose terms no longer move above it (:meth:`millstab.update.likelihood.Likelihood.ceilings`): 31.3 → 26.6
+evaluations per (set, speed) in the 300-sample update of docs/updating.md, the same particles bit for bit.
 A sampler's node count (issue 28, 2026-11-27): :func:`settings` with ``purpose="sample"`` gives the
 converged count (checked from P_NODES + P_STEP up) instead of a fit's converged + P_STEP; the updating loop
 asks for it (:data:`millstab.update.likelihood.SAMPLING`), its likelihood comparing depths with a noise of
@@ -246,7 +251,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController, threadpool_limits
 
 from millstab.errors import InputError
 from millstab.frf import ModalBatch
@@ -395,10 +400,26 @@ def _block_starts(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, p: int) -
     return np.unique(np.concatenate([[0], cuts, far, [n_s]])).astype(np.int64)
 
 
+#: the threadpoolctl controller of :func:`_one_blas_thread`, made once
+_BLAS: list = []
+
+
+def _one_blas_thread():
+    """A context holding BLAS to one thread while the compiled search runs (its numba threads call BLAS products:
+    nested threads would oversubscribe the cores). The controller is made once: ``threadpool_limits(1)`` scans every
+    loaded library at each call, ~1–2 ms (issue 28: 35 engine calls per 300-sample update)."""
+    if not _BLAS:
+        import scipy.linalg.cython_blas  # noqa: F401  the BLAS numba's np.dot calls: loaded before the scan
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1)
+
+
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int | None = None, near: float = NEAR) -> tuple[np.ndarray, ...]:
+           block: int | None = None, near: float = NEAR, ceiling: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
-    (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block)."""
+    (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block);
+    ``ceiling`` (B, S) [m]: a censored search (:func:`envelope_batch`), None: none."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
     if block is None:
@@ -409,9 +430,10 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
-    with threadpool_limits(1):
+    cap = np.full((n_b, n_s), np.inf) if ceiling is None else np.ascontiguousarray(ceiling, dtype=float)
+    with _one_blas_thread():
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap)
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -433,21 +455,23 @@ def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarr
 
 
 def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-                near: float = NEAR) -> tuple[np.ndarray, ...]:
+                near: float = NEAR, ceiling: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
     the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
     are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
-    alone, from below). Depth, multiplier, evaluations (B, S)."""
+    alone, from below). Depth, multiplier, evaluations (B, S). ``ceiling``: the cold rows' censored search
+    (:func:`_solve`); the warm rows are not censored."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     follow, head = _heads(wn, zeta, mass)
     if not follow.any():
-        return _solve(batch, cutting, rs, b_ref, p, near=near)
+        return _solve(batch, cutting, rs, b_ref, p, near=near, ceiling=ceiling)
     cold = np.flatnonzero(~follow)
     sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
-    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near)
+    depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near,
+                                                 ceiling=None if ceiling is None else ceiling[cold])
     row = np.flatnonzero(follow)
     n, kt, kr, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
@@ -456,7 +480,7 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     d_w, th_w, ok, ne_w = np.empty(e_shape), np.empty(e_shape), np.empty(e_shape, bool), np.empty(e_shape, np.int64)
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
-    with threadpool_limits(1):
+    with _one_blas_thread():
         _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn,
                       zeta, mass, mdir, act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
@@ -528,12 +552,13 @@ def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
-           warm: bool = True, near: float = NEAR) -> tuple[np.ndarray, np.ndarray, int]:
+           warm: bool = True, near: float = NEAR, ceiling=None) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
     boundary points are moved by Newton to p + P_STEP nodes; while one moves by more than TOL (or Newton
-    fails), p grows by P_STEP. Then the whole batch is solved once with that p.
+    fails), p grows by P_STEP. Then the whole batch is solved once with that p. ``ceiling``: see
+    :func:`envelope_batch`.
     """
     if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
         raise InputError("nodes", nodes, "collocation nodes per element must be an integer >= 2 (or None)")
@@ -542,12 +567,27 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     # step > 0: repeated speeds made the kernel divide by zero), then put back in the caller's order
     rs, inv = np.unique(r, return_inverse=True)
     rs = np.ascontiguousarray(rs)
+    cap = _ceiling(ceiling, batch.size, r.size, inv, rs.size)
     b_ref = _b_ref(batch, cutting, rs)
     p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
     if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
         raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
-    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near)
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap)
     return depth[:, inv], mu[:, inv], p
+
+
+def _ceiling(ceiling, n_b: int, n_s: int, inv: np.ndarray, n_distinct: int) -> np.ndarray | None:
+    """The censored search's caps (B, S distinct speeds) [m] from the caller's (B, S) ``ceiling`` (None: none): a
+    repeated speed takes its largest. InputError for another shape or a value that is NaN or not positive."""
+    if ceiling is None:
+        return None
+    c = np.asarray(ceiling, dtype=float)
+    if c.shape != (n_b, n_s) or np.isnan(c).any() or (c <= 0).any():
+        raise InputError("ceiling", f"shape {c.shape}",
+                         f"a depth > 0 [m] (inf: none) per set and speed, ({n_b}, {n_s})")
+    cap = np.full((n_b, n_distinct), -np.inf)
+    np.maximum.at(cap.T, inv, c.T)
+    return cap
 
 
 def lobe_kind(mu: np.ndarray) -> np.ndarray:
@@ -580,16 +620,22 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                   near: float = NEAR, warm: bool = True) -> np.ndarray:
+                   near: float = NEAR, warm: bool = True, ceiling=None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
     which a problem's :func:`settings` asks for). ``warm``: rows within ``WARM_REL`` of the row heading their
     run start from its boundary (:func:`_heads`; for finite-difference Jacobians). A warm row can land on a
     crossing below the one its own search from below finds (a band narrower than the ladder's step), so its
     depth can depend on its neighbour: a sampler, whose likelihood must be one function of θ, turns it off
-    (:func:`settings` with ``purpose="sample"``); not a discretisation option (``forward.NOT_OPTIONS``)."""
+    (:func:`settings` with ``purpose="sample"``); not a discretisation option (``forward.NOT_OPTIONS``).
+
+    ``ceiling`` (B, S) [m] (a censored search; None or inf: none; one Cutting only, not per-column conditions):
+    where every depth of the search from below up to one at or above ``ceiling`` is stable, the search stops
+    there and returns that depth, a certified lower bound of the limit (≥ the ceiling), instead of the limit. For
+    a caller that needs only "above the ceiling" there (a likelihood whose terms no longer change above it,
+    :meth:`millstab.update.likelihood.Likelihood.ceilings`); below it every depth is the limit itself."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes, warm=warm, near=near)[0]
+    return _limit(batch, cutting, r, nodes, warm=warm, near=near, ceiling=ceiling)[0]
 
 
 @by_condition
@@ -653,6 +699,8 @@ process_damping = False
 #: :func:`envelope_batch_hz` gives the critical multiplier's frequency beside the depth
 reports_chatter_frequency = True
 time_averaged = False
+#: :func:`envelope_batch` takes a ``ceiling`` (a censored search: a certified lower bound above it)
+takes_ceiling = True
 #: relative accuracy of a limiting depth (the final root bracket; the node count converges to TOL)
 depth_accuracy = RTOL
 #: sets per call for callers that stream many sets: as large as the zero-order engine's, because each

@@ -168,6 +168,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     # how many of the cuts came from the earlier posterior (--start): only the others were tempered in
     diag["started_from_cuts"] = 0 if start is None else n_old
     diag["engine_sets"] = lik.n_sets
+    # (set, speed) limits the engine stopped above their ceiling (Likelihood.ceilings: log L unchanged)
+    diag["censored_entries"] = lik.n_censored
     if engine_options:
         diag["engine_options"] = dict(engine_options)
     if scr is not None:

@@ -26,7 +26,10 @@ whether the process chatters).
   The speed maximises the material removal rate
   depth × speed (× width × feed per tooth × teeth → cm³/min). The best of a coarse grid is refined by a
   bounded 1-D search on the continuous speed axis: rounds of ``REFINE_POINTS`` speeds in the bracket
-  between the best point's neighbours, each round one engine call, the bracket shrinking each time.
+  between the best point's neighbours, each round one engine call, the bracket shrinking each time. For an
+  engine other than the cheapest (``search="auto"``, :func:`fast_search_for`) a seeded subsample of
+  :data:`SEARCH_SAMPLES` rows does the scan and refines its :data:`SEARCH_POCKETS` best pockets, and every
+  sample then chooses among them and sets the depth: the speed search is approximate, the risk is exact.
 * :func:`data_guard`: a backstop from the data where the model does not explain them: no recommended depth
   at or above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) that the posterior
   calls chatter with probability < :data:`GUARD_EXPLAINED` (the fraction of samples whose limit lies at or
@@ -78,6 +81,26 @@ COARSE_POINTS = 200
 #: speeds per refinement round, and rounds
 REFINE_POINTS = 24
 REFINE_ROUNDS = 3
+#: the speed search of :func:`recommend`: ``"full"`` (every sample at every speed), ``"fast"`` (a subsample finds
+#: the pockets, every sample decides the depth: :func:`recommend`), ``"auto"``: fast for an engine other than the
+#: cheapest registered one (:func:`fast_search_for`)
+SEARCH_CHOICES = ("auto", "fast", "full")
+#: the fast search: posterior samples of its scan (seeded subsample), and the pockets (local maxima of the
+#: subsample's productivity) handed to every sample
+SEARCH_SAMPLES = 200
+SEARCH_POCKETS = 4
+#: the fast search's refinement of each pocket on the subsample: rounds, and speeds per round (the bracket
+#: shrinks (points − 1)/2-fold a round: from the coarse step to ~1/30 of it, finer than the subsample resolves)
+SEARCH_REFINE_ROUNDS = 2
+SEARCH_REFINE_POINTS = 12
+#: the fast search's last round, with every sample: this many speeds within ±:data:`SEARCH_POLISH_STEPS` coarse
+#: steps of the chosen pocket's speed (the subsample placed it 107 rpm, 3 coarse steps, from the full scan's in the
+#: a/D 0.1 case of docs/updating.md: 1.9 % less productive)
+SEARCH_POLISH_POINTS = 12
+SEARCH_POLISH_STEPS = 4
+#: a suggested subsample of a map from an engine other than the cheapest (``millstab map --samples``): its
+#: Monte Carlo standard error is at most ½/√M = 0.022
+MAP_SAMPLES = 500
 #: posterior samples used for the next-test criterion (its cost is quadratic-free but per sample)
 NEXT_TEST_SAMPLES = 1000
 #: one-sided confidence with which the recommendation's P(chatter) ≤ risk must hold against the
@@ -145,12 +168,37 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
     return 1.0 - below / n
 
 
-def p_stable_map(post: Posterior, rpm, depth_mm, client=None) -> np.ndarray:
+def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
+    """The posterior rows a map of ``samples`` samples reads: a seeded subsample of ``samples`` of the ``n`` rows
+    (sorted), or ``None`` (every row) when ``samples`` is ``None`` or ≥ n.
+
+    Raises:
+        InputError: ``samples`` < 1."""
+    if samples is None:
+        return None
+    if not (isinstance(samples, (int, np.integer)) and samples >= 1):
+        raise InputError("--samples", samples, "a whole number ≥ 1 of posterior samples for the map (e.g. "
+                                               f"{MAP_SAMPLES}), or leave it out for all of them")
+    return None if samples >= n else np.sort(np.random.default_rng(seed).choice(n, int(samples), replace=False))
+
+
+def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | None = None,
+                 seed: int = 0) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
-    Dask cluster where that pays, same numbers)."""
-    blim, _ = limits(post.prior, post.decision_u, np.asarray(rpm, float), post.engine, client=client,
+    Dask cluster where that pays, same numbers). ``samples``: from a seeded subsample (``seed``) of that many
+    posterior samples (:func:`map_rows`; for an engine whose limits cost ms each, e.g. ``spectral``): each
+    cell's P is then a fraction of M = ``samples`` draws, its Monte Carlo standard error
+    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's."""
+    rows = map_rows(post.u.shape[0], samples, seed)
+    u = post.decision_u if rows is None else post.decision_u[rows]
+    blim, _ = limits(post.prior, u, np.asarray(rpm, float), post.engine, client=client,
                      options=post.engine_options)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
+
+
+def map_error(samples: int) -> float:
+    """The largest Monte Carlo standard error of a map cell from ``samples`` independent draws: ½/√M (at P = ½)."""
+    return 0.5 / math.sqrt(samples)
 
 
 def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer", stacklevel: int = 2) -> None:
@@ -423,12 +471,38 @@ def support_cap(support: list[dict], rpm) -> np.ndarray:
     return out
 
 
+def fast_search_for(engine: str) -> bool:
+    """Whether ``search="auto"`` of :func:`recommend` takes the fast speed search for a posterior of ``engine``: for
+    every engine but the cheapest registered one (:func:`millstab.stability.engine_with` ``cheap=True``: ``zoa``,
+    whose full scan costs less than a second per 1 000 samples; its answers stay those of the full scan, bit for
+    bit). Why by the registry and not a cost estimate: the cost per limit differs 20-100× between the cheapest
+    engine and the others (docs/updating.md, "Decisions from an accurate posterior"), far beyond what an estimate
+    would need to tell apart."""
+    from millstab.stability import engine_with
+
+    return engine != engine_with(cheap=True).name
+
+
+def pockets(productivity: np.ndarray, k: int) -> np.ndarray:
+    """The indices of the ``k`` largest local maxima (≥ both neighbours; an end counts against its one
+    neighbour) of ``productivity`` (S,) with a positive value, the largest first; a plateau counts once (its
+    first point)."""
+    p = np.asarray(productivity, float)
+    left = np.concatenate([[-np.inf], p[:-1]])
+    right = np.concatenate([p[1:], [-np.inf]])
+    peak = np.flatnonzero((p > left) & (p >= right) & (p > 0))
+    if peak.size == 0:  # flat or all zero: the plain argmax
+        return np.array([int(np.argmax(p))])
+    return peak[np.argsort(-p[peak], kind="stable")][:k]
+
+
 def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,
               coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
               guard: bool = True, across: bool | None = None, confirm: str = CONFIRM,
-              discriminate: str = DISCRIMINATE, discriminate_rival_lr: float = DISCRIMINATE_RIVAL_LR) -> Recommendation:
+              discriminate: str = DISCRIMINATE, discriminate_rival_lr: float = DISCRIMINATE_RIVAL_LR,
+              search: str = "auto") -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -456,9 +530,17 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             ``"never"`` (the default, measured: :data:`DISCRIMINATE`): always the most informative cut about θ.
         discriminate_rival_lr: ... only when the rival fits the cuts at least this well (ln likelihood ratio over
             the posterior; ``-inf``: whenever a cut tells the two apart).
+        search: the speed search: ``"full"``, every sample on the coarse grid and in the refinement;
+            ``"fast"``, a seeded subsample of :data:`SEARCH_SAMPLES` rows (the coarse grid at the same quantile of
+            the limits, and the refinement of its :data:`SEARCH_POCKETS` most productive pockets) finds where to
+            look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
+            chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
+            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
+            ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
+            at most :data:`SEARCH_SAMPLES` samples both are the full search.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
-            or confirm.
+            or confirm, an unknown search.
     Warns:
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
@@ -495,28 +577,41 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              UserWarning, stacklevel=2)
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
-    def best_of(speeds: np.ndarray, support: list[dict] | None) -> tuple[int, np.ndarray, np.ndarray]:
+    def depths_at(speeds: np.ndarray, support: list[dict] | None, rows: np.ndarray | None = None,
+                  cnt: int = count) -> tuple[np.ndarray, np.ndarray]:
         # one engine call for the speeds and their ±tolerance neighbours; the nominal block first
-        both, _ = limits(post.prior, u, (speeds[None, :] * (1 + offsets[:, None])).ravel(), post.engine,
-                         options=post.engine_options)
+        both, _ = limits(post.prior, u if rows is None else u[rows], (speeds[None, :] * (1 + offsets[:, None])).ravel(),
+                         post.engine, options=post.engine_options)
         blim = both[:, :speeds.size]
-        d_all = safe_depth(both, risk, count).reshape(offsets.size, speeds.size)
+        d_all = safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size)
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
         depth = np.minimum(np.minimum(d_all.min(axis=0), g_all.min(axis=0)), cap)
         if support is not None:  # only as deep as a confirmed stable cut near the speed
             depth = np.minimum(depth, support_cap(support, speeds))
-        depth = np.where(np.isfinite(depth), depth, 0.0)
+        return np.where(np.isfinite(depth), depth, 0.0), blim
+
+    def best_of(speeds: np.ndarray, support: list[dict] | None) -> tuple[int, np.ndarray, np.ndarray]:
+        depth, blim = depths_at(speeds, support)
         return int(np.argmax(depth * speeds)), depth, blim
 
     if not (isinstance(coarse_points, (int, np.integer)) and coarse_points >= 3):
         raise InputError("coarse_points", coarse_points, "need an integer ≥ 3 speeds")
+    if search not in SEARCH_CHOICES:
+        raise InputError("search", search, "one of " + ", ".join(SEARCH_CHOICES))
+    fast = n > SEARCH_SAMPLES and (search == "fast" or (search == "auto" and fast_search_for(post.engine)))
 
-    def search(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple]:
-        """(coarse speeds, their limits (N, S), the best (rpm, depth, limits at it (N,)))"""
+    def coarse_grid(support: list[dict] | None) -> np.ndarray:
         speeds = np.linspace(lo, hi, int(coarse_points))
-        step = speeds[1] - speeds[0]
         if support:  # the confirmed cuts' own speeds are candidates too
             speeds = np.union1d(speeds, [c["rpm"] for c in support])
+        return speeds
+
+    def search(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray | None]:
+        """(coarse speeds, their limits (N, S), the best (rpm, depth, limits at it (N,)), None: every row)"""
+        if fast:
+            return search_fast(support)
+        speeds = coarse_grid(support)
+        step = speeds[1] - speeds[0]
         i, depth, blim = best_of(speeds, support)
         best = (speeds[i], depth[i], blim[:, i])
         for _ in range(REFINE_ROUNDS):  # bounded 1-D search around the best speed, one engine call per round
@@ -526,9 +621,45 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             if d2[j] * cand[j] > best[1] * best[0]:
                 best = (cand[j], d2[j], bl2[:, j])
             step = cand[1] - cand[0]
-        return speeds, blim, best
+        return speeds, blim, best, None
 
-    speeds, blim, best = search(None)
+    def search_fast(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray]:
+        """The fast search: the coarse scan and the refinement of the best :data:`SEARCH_POCKETS` pockets on a
+        seeded subsample of :data:`SEARCH_SAMPLES` rows (at the same quantile of the limits as the full count),
+        then every sample at each pocket's speed and ±tolerance: the depth, and the choice among the pockets,
+        are the full posterior's, which refines the chosen pocket once more. Returns the subsample's coarse limits
+        and its rows (for the next test)."""
+        rows = np.sort(np.random.default_rng(seed).choice(n, SEARCH_SAMPLES, replace=False))
+        cnt = int(round(max(count, 0) * SEARCH_SAMPLES / n))
+        speeds = coarse_grid(support)
+        step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])
+        depth, blim = depths_at(speeds, support, rows, cnt)
+        top = pockets(depth * speeds, SEARCH_POCKETS)
+        best_r, best_d = speeds[top], depth[top]
+        for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
+            a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
+            cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
+            d2 = depths_at(cand.ravel(), support, rows, cnt)[0].reshape(cand.shape)
+            j = np.argmax(d2 * cand, axis=1)
+            k = np.arange(top.size)
+            better = d2[k, j] * cand[k, j] > best_d * best_r
+            best_r, best_d = np.where(better, cand[k, j], best_r), np.where(better, d2[k, j], best_d)
+            step = cand[:, 1] - cand[:, 0]
+        # every sample decides among the pockets and the range's ends (where the productivity often peaks, and
+        # a subsample's noise hides a rise to the end) and sets the depth
+        best_r = np.concatenate([best_r, [lo, hi]])
+        d_full, b_full = depths_at(best_r, support)
+        i = int(np.argmax(d_full * best_r))
+        best = (best_r[i], d_full[i], b_full[:, i])
+        w = SEARCH_POLISH_STEPS * (speeds[1] - speeds[0])  # every sample refines the chosen pocket once
+        cand = np.linspace(max(lo, best[0] - w), min(hi, best[0] + w), SEARCH_POLISH_POINTS)
+        d2, b2 = depths_at(cand, support)
+        j = int(np.argmax(d2 * cand))
+        if d2[j] * cand[j] > best[1] * best[0]:
+            best = (cand[j], d2[j], b2[:, j])
+        return speeds, blim, best, rows
+
+    speeds, blim, best, grid_rows = search(None)
     rpm_best, depth_best, col = best
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
     confirmed = False
@@ -569,7 +700,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # the next test is sought above the MODEL's cut (with a confirmed recommendation too): the tests that teach
     # the model where it may go, and its own cut when nothing above it is allowed and informative
     nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]), test_risk=test_risk,
-                   guard=guards, p_chatter_rec=None if confirmed else p_worst)
+                   guard=guards, p_chatter_rec=None if confirmed else p_worst, grid_rows=grid_rows)
     if confirmed:
         nt["relative_productivity"] = float(nt["rpm"] * nt["depth_mm"] / max(prod, 1e-300))
         nt["why"] = nt["why"].replace("the recommendation itself", "the model's cut, to be tested before it is "
@@ -647,18 +778,23 @@ def blind_spot(post: Posterior, rpm_rec: float, depth_rec: float) -> str | None:
 def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, depth_rec: float, cap: float = math.inf,
               *, n_rpm: int = 120, n_depth: int = 60, seed: int = 0,
               grid: tuple[np.ndarray, np.ndarray] | None = None, test_risk: float | None = TEST_RISK,
-              guard: list[dict] = (), p_chatter_rec: float | None = None) -> dict:
+              guard: list[dict] = (), p_chatter_rec: float | None = None,
+              grid_rows: np.ndarray | None = None) -> dict:
     """The next test cut: the largest productivity-weighted label information (see the module docstring)
     among cuts more productive than the recommendation whose probability of chattering is at most
     ``test_risk`` and that the data ``guard`` allows; the recommendation itself when there is none.
 
     ``grid`` = (speeds (S,) [rpm], limits (N, S) [mm] of all the posterior's samples) reuses limits the
     caller has computed already (then ``n_rpm`` is unused); else ``n_rpm`` speeds span ``rpm_range``.
-    ``p_chatter_rec``: the recommendation's own P(chatter), reported when it is the next test.
+    ``p_chatter_rec``: the recommendation's own P(chatter), reported when it is the next test. ``grid_rows``: the
+    posterior rows of ``grid``'s limits (the fast speed search's subsample), which the criterion then reads
+    instead of its own subsample.
     """
     rng = np.random.default_rng(seed)
     n = post.u.shape[0]
     rows = rng.choice(n, NEXT_TEST_SAMPLES, replace=False) if n > NEXT_TEST_SAMPLES else np.arange(n)
+    if grid is not None and grid_rows is not None:
+        rows = np.asarray(grid_rows)
 
     def the_recommendation(why: str) -> dict:
         p_rec = float(np.mean(limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine,
@@ -674,7 +810,8 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
         speeds = np.linspace(*rpm_range, n_rpm)
         blim, _ = limits(post.prior, post.decision_u[rows], speeds, post.engine, options=post.engine_options)  # (M, S)
     else:
-        speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)[rows]
+        speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)
+        blim = blim if grid_rows is not None else blim[rows]
     finite = np.where(np.isfinite(blim), blim, np.nan)
     top = float(np.nanquantile(finite, 0.95)) if np.isfinite(finite).any() else 2 * max(depth_rec, 1e-3)
     d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
@@ -767,7 +904,9 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
+__all__ = ["MAP_SAMPLES", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "fast_search_for", "map_error",
+           "map_rows", "pockets",
+           "next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",

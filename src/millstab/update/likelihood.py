@@ -64,7 +64,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import log_ndtr
+from scipy.special import log_ndtr, ndtri
 
 from millstab.errors import InputError
 from millstab.forward import Forward, Pinned, forward
@@ -85,6 +85,9 @@ _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 SAMPLING = "sample"
 #: the speed columns :meth:`Likelihood.bounded` evaluates per round before the rest (the costliest first)
 BOUND_ROUNDS = (2, 3)
+#: a censored limit's largest effect on one cut's log-likelihood term, per unit weight (:meth:`Likelihood.ceilings`):
+#: far below float resolution of a log-likelihood of order 1–100 (an ulp there is 2e-16–1.4e-14)
+CENSOR_TOL = 1e-15
 #: fewer rows than this go through one call: each round is an engine call with a fixed cost of a few ms (OMP
 #: passive); measured on the docs/updating.md case, a 30-sample update (~10 survivors per move) took 1.15× the CPU
 #: with rounds, a 300-sample one (~70 per move) 1.05–1.14× less
@@ -94,7 +97,8 @@ BOUND_MIN_ROWS = 32
 def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
            with_freq: bool = False, client=None,
            conditions: Conditions | Cutting | None = None,
-           fwd: Forward | None = None, options: dict | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+           fwd: Forward | None = None, options: dict | None = None,
+           ceiling_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
@@ -109,6 +113,8 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     sample: the same numbers whichever samples share a call. ``options``: the engine's discretisation of a
     fresh model (:func:`millstab.forward.engine_options`; a posterior's
     :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
+    ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling``, one
+    Cutting, no client, no frequencies): above it a depth is only a certified lower bound of the limit.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_kr_engine(prior, engine)
@@ -118,7 +124,7 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
         out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin)
         if out is not None:
             return out
-    return sample_depths(pin, prior, u, with_freq)
+    return sample_depths(pin, prior, u, with_freq, ceiling_mm)
 
 
 def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
@@ -132,14 +138,17 @@ def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zo
     return fwd.pinned(check_rpm(rpm), prior.split(u)[0], conditions, at=fwd.par.theta0)  # settings: at θ0
 
 
-def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False,
+                  ceiling_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
     ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr per row; here and in a cluster's task
-    (:func:`millstab.cluster.sample_limits`)."""
+    (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``: as :func:`limits` (not with frequencies)."""
     theta, factor = prior.split(u)
     kr = prior.kr_of(u)
     if with_freq and pin.reports_frequency:
         depth, hz = pin.with_frequency(theta, kr)
+    elif ceiling_mm is not None:  # the engine's depths are the likelihood's / (1e3 · the Kt factor)
+        depth, hz = pin(theta, kr, ceiling=np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])), None
     else:
         depth, hz = pin(theta, kr), None
     return depth * 1e3 * factor[:, None], hz
@@ -438,6 +447,15 @@ class Likelihood:
         self.n_decided = 0
         self.n_entries_saved = 0
         self._column_cost = np.zeros(self.speeds.size)
+        # censored limits (:meth:`ceilings`): an engine that takes a ceiling, one condition, no cluster, no terms
+        # that read more than the depth relative to the cuts' (chatter frequencies), no test-day columns
+        self._censor = (bool(getattr(get_engine(engine), "takes_ceiling", False)) and client is None
+                        and not self.uses_frequency and self.batch is None
+                        and all(c is None for c in self._group_conditions))
+        # columns holding a boundary point (a Gaussian term: it never saturates) are never censored
+        self._exact_column = np.zeros(self.speeds.size, bool)
+        self._exact_column[self._ip] = True
+        self.n_censored = 0
 
     def _conditions_of(self, column_cond: np.ndarray):
         """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
@@ -451,10 +469,48 @@ class Likelihood:
     def uses_frequency(self) -> bool:
         return self._hz.size > 0
 
-    def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None):
+    def ceilings(self, u: np.ndarray, noise: np.ndarray | None) -> np.ndarray | None:
+        """Per row of u = ln θ (B, P) (learned noise coordinates ``noise`` (B, Q) or None) and speed column, the depth
+        [mm] above which no cut's log-likelihood term at that column changes by more than :data:`CENSOR_TOL` × its
+        |weight| (B, S); inf where the column holds a boundary point; None where this likelihood censors nothing.
+
+        Why (issue 28): the spectral engine's search climbs a ladder of depths from below, and a limit far above
+        every cut at its speed costs the rungs up to it and its root, though the label likelihood ε + (1 − 2ε)Φ(z),
+        z = (b − b_lim)/(s σ_b), no longer moves there: above b + k s σ_b, Φ(z) ≤ Φ(−k). A chatter term log(ε +
+        (1 − 2ε)Φ) moves from its floor log ε by at most Φ(z)/ε, a stable term log(1 − ε − (1 − 2ε)Φ) from log(1 −
+        ε) by at most 2Φ(z); a graded label g mixes them, so a cut's term moves by at most |w| Φ(z) (g/ε + 2(1 −
+        g)), and k per (row, cut) is where that is :data:`CENSOR_TOL` |w| (k = ∞ for a chatter label with ε = 0:
+        its term never saturates). The engine then stops the search once every depth up to one at or above the
+        column's largest b + k s σ_b is stable (:func:`millstab.stability.spectral.envelope_batch`'s ``ceiling``)
+        and returns that depth: both it and the true limit give every term within CENSOR_TOL |w| of its value at
+        b_lim = ∞, so log L moves by at most 2 CENSOR_TOL Σ|w| (~1e-14). Only the log-likelihood reads these
+        depths (:meth:`__call__`, :meth:`bounded`, :meth:`split`); the posterior's limits, maps and predictions
+        are computed by :func:`limits` without a ceiling."""
+        if not self._censor:
+            return None
+        ev = self.evidence
+        if noise is None:
+            eps, fac = np.full(u.shape[0], float(self.prior.label_error)), np.ones(u.shape[0])
+        else:
+            eps, fac = self.prior.noise(noise, u.shape[0])
+        g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, n_cuts): Φ(z)'s factor, per |w|
+            p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
+        k = -ndtri(p)  # p = 0 (ε = 0 and a chatter label): k = ∞
+        top = ev.cut_depth_mm[None, :] + k * fac[:, None] * self._sig_c[None, :]
+        cap = np.full((u.shape[0], self.speeds.size), -np.inf)
+        np.maximum.at(cap.T, self._ic, top.T)
+        cap[:, self._exact_column] = np.inf
+        # no cut and no point at a column cannot happen (the columns are the data's); the margin covers the
+        # engine's root brackets (a limit at least the certified depth to 1e-6)
+        return np.where(np.isfinite(cap), cap * (1.0 + 1e-5), np.inf)
+
+    def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None, cap: np.ndarray | None = None):
         """Limits (B, n) [mm] (and chatter frequencies, or ``None``) of rows u = ln θ (B, P) at the data's
         columns ``cols`` (indices into :attr:`speeds`; default all): one engine call per stickout group
-        that has columns among them (one call without stickouts)."""
+        that has columns among them (one call without stickouts). ``cap`` (B, S) [mm] (:meth:`ceilings`, all
+        columns): censored limits."""
         every = cols is None
         cols = np.arange(self.speeds.size) if every else np.asarray(cols, dtype=np.int64)
         where = np.full(self.speeds.size, -1, dtype=np.int64)
@@ -467,8 +523,11 @@ class Likelihood:
                 continue
             if not every:
                 cond = self._conditions_of(self.column_cond[sel])
-            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond, fwd)
+            d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond, fwd,
+                          ceiling_mm=None if cap is None else cap[:, sel])
             self.n_calls += 1
+            if cap is not None:
+                self.n_censored += int((d >= cap[:, sel]).sum())
             depth[:, where[sel]] = d
             if hz is not None and h is not None:
                 hz[:, where[sel]] = h
@@ -477,11 +536,12 @@ class Likelihood:
         self.n_sets += u.shape[0]
         return depth, hz
 
-    def _limits(self, v: np.ndarray):
+    def _limits(self, v: np.ndarray, censor: bool = False):
         """(depths (B, S), freqs, noise coordinates (B, Q) or None, in-support (B,)) of sampler vectors v
         (B, P), (B, P + Q) or, with a test-day effect, (B, P + Q + G) (the days' shifts last; absent: 0);
         rows outside the prior's support do not reach the engine (their limits: 1 mm, a placeholder: the
-        callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns."""
+        callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns.
+        ``censor``: censored limits (:meth:`ceilings`) where this likelihood censors: for log L only."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
         p, q = self.prior.size, self.prior.dim
         u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
@@ -495,7 +555,7 @@ class Likelihood:
                 return self._evaluate(uu, cols)
 
             if self.batch is None:
-                d, h = self._evaluate(u[ok])
+                d, h = self._evaluate(u[ok], cap=self.ceilings(u[ok], None if w is None else w[ok]) if censor else None)
             else:
                 d, h = self.batch.limits(call, u[ok], None if delta is None else delta[ok])
             depth[ok] = d
@@ -508,7 +568,7 @@ class Likelihood:
     def __call__(self, v: np.ndarray) -> np.ndarray:
         """log L (B,) of sampler vectors v = (ln θ, noise coordinates) (B, P [+ Q]); without the noise
         columns the prior's held noise levels are used. −inf outside the prior's support."""
-        depth, hz, w, ok = self._limits(v)
+        depth, hz, w, ok = self._limits(v, censor=True)
         return np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)
 
     def bounded(self, v: np.ndarray, floor: np.ndarray) -> np.ndarray:
@@ -540,6 +600,7 @@ class Likelihood:
             return out
         order = np.argsort(-self._column_cost, kind="stable")  # the costliest columns first
         settings = self._settings(u[rows])
+        cap = self.ceilings(u[rows], None if w is None else w[rows])
         depth = np.ones((rows.size, n_s))  # finite placeholders where not evaluated (those cuts not summed)
         done = np.zeros(n_s, bool)
         live = np.arange(rows.size)
@@ -549,7 +610,8 @@ class Likelihood:
             start += cols.size
             if not cols.size:
                 break
-            depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings)
+            depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings,
+                                                      None if cap is None else cap[np.ix_(live, cols)])
             done[cols] = True
             if done.all():
                 break
@@ -570,11 +632,13 @@ class Likelihood:
         self.n_sets += rows.size
         return out
 
-    def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict]) -> np.ndarray:
+    def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict],
+                 cap: np.ndarray | None = None) -> np.ndarray:
         """Limits (B, len(cols)) [mm] of rows u = ln θ at the data's columns ``cols`` (indices into
         :attr:`speeds`), one engine call per stickout group with columns among them, each under ``settings``
         (:meth:`_settings`: the discretisation a full call would use), so that a subset of columns gives the
-        numbers of a full call (the spectral node count is chosen per speed list)."""
+        numbers of a full call (the spectral node count is chosen per speed list). ``cap`` (B, len(cols)) [mm]:
+        censored limits (:meth:`ceilings`)."""
         where = np.full(self.speeds.size, -1, dtype=np.int64)
         where[cols] = np.arange(cols.size)
         depth = np.empty((u.shape[0], cols.size))
@@ -584,8 +648,11 @@ class Likelihood:
                 continue
             cond = self._conditions_of(self.column_cond[sel])
             pin = Pinned(fwd, self.speeds[sel], chosen, fwd.cutting if cond is None else cond)
-            depth[:, where[sel]] = sample_depths(pin, prior, u)[0]
+            c = None if cap is None or cond is not None else cap[:, where[sel]]
+            depth[:, where[sel]] = sample_depths(pin, prior, u, False, c)[0]
             self.n_calls += 1
+            if c is not None:
+                self.n_censored += int((depth[:, where[sel]] >= c).sum())
         return depth
 
     def _settings(self, u: np.ndarray) -> list[dict]:
@@ -617,7 +684,7 @@ class Likelihood:
         new = np.arange(self.evidence.n_cuts) >= n_old
 
         def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            depth, hz, w, ok = self._limits(v)
+            depth, hz, w, ok = self._limits(v, censor=True)
             return (np.where(ok, self.from_limits(depth, hz, ~new, True, w), -np.inf),
                     np.where(ok, self.from_limits(depth, hz, new, False, w), -np.inf))
 

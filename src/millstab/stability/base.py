@@ -31,7 +31,7 @@ CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchan
 #: capabilities of :class:`Engine` (each declared or checked with ``hasattr``/``engine_with``); any other public
 #: function of an engine module (``rho_map``, ``monodromy``, …) is the engine's own (tests/test_layers.py)
 OPTIONAL = ("per_set_kr", "process_damping", "settings", "split_settings", "envelope_batch_hz", "lobes",
-            "reports_multipliers", "critical_multipliers")
+            "reports_multipliers", "critical_multipliers", "takes_ceiling")
 
 #: the ``"schema"`` of :meth:`Envelope.to_json`
 ENVELOPE_SCHEMA = "millstab.envelope/1"
@@ -185,6 +185,10 @@ class Engine(Protocol):
             the limiting depth of each speed (modulus ≈ 1; μ ≈ −1 a flip boundary, a complex pair a Hopf one), for
             an engine declaring ``reports_multipliers = True`` (sdm): a consumer asks
             ``engine_with(reports_multipliers=True)``, never an engine by name.
+        takes_ceiling: ``envelope_batch`` takes ``ceiling=`` (B, S) [m], a censored search: where every depth of
+            the search up to one at or above the ceiling is stable it returns that depth, a certified lower bound
+            of the limit, instead of the limit (spectral; read by the updating's likelihood, whose label terms no
+            longer change above it: :meth:`millstab.update.likelihood.Likelihood.ceilings`).
     """
 
     name: str

@@ -84,6 +84,36 @@ def test_fast_search_finds_the_full_scans_pocket(monkeypatch):
     assert alone.productivity < 0.9 * full.productivity
 
 
+def test_the_subsample_reads_the_nominal_speeds_and_every_sample_the_speed_error_too(monkeypatch):
+    """The fast search's subsample stages (coarse scan, pockets' refinement) call the engine at the nominal speeds
+    only; the stages with every sample (choice among the pockets, polish, the cut's own check), which set the
+    depth, at each speed and its ±tolerance neighbours. On the old code the subsample's coarse call held 3 × 40
+    speeds."""
+    monkeypatch.setattr(decide, "SEARCH_SAMPLES", 30)
+    calls = []
+
+    def spy(prior, u, rpm, *a, **k):
+        calls.append((u.shape[0], np.asarray(rpm, float).copy()))
+        return limits(prior, u, rpm, *a, **k)
+
+    monkeypatch.setattr(decide, "limits", spy)
+    post = _posterior(120, 4)
+    tol = decide.SPEED_TOLERANCE
+    recommend(post, 0.05, RANGE, seed=0, search="fast", coarse_points=40, confidence=None)
+    sub = [r for n, r in calls if n == 30]
+    every = [r for n, r in calls if n == 120]
+    assert sub and every and len(sub) + len(every) == len(calls)
+    np.testing.assert_allclose(sub[0], np.linspace(*RANGE, 40))  # the coarse scan: 40 nominal speeds
+    assert len(sub) == 1 + decide.SEARCH_REFINE_ROUNDS
+    for r in sub[1:]:  # each pocket's bracket: SEARCH_REFINE_POINTS evenly spaced speeds, nothing else
+        per = r.reshape(-1, decide.SEARCH_REFINE_POINTS)
+        assert per.shape[0] <= decide.SEARCH_POCKETS
+        np.testing.assert_allclose(np.diff(per, axis=1), np.diff(per, axis=1)[:, :1] * np.ones((1, per.shape[1] - 1)))
+    for r in every:  # Ω, Ω(1 − tol), Ω(1 + tol) blocks
+        nominal = r[: r.size // 3]
+        np.testing.assert_allclose(r, np.concatenate([nominal, nominal * (1 - tol), nominal * (1 + tol)]))
+
+
 def test_the_cheapest_engine_keeps_the_full_search_bit_for_bit():
     post = _posterior(300, 5)
     assert not decide.fast_search_for("zoa") and decide.fast_search_for("spectral")

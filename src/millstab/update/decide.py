@@ -98,6 +98,12 @@ SEARCH_REFINE_POINTS = 12
 #: a/D 0.1 case of docs/updating.md: 1.9 % less productive)
 SEARCH_POLISH_POINTS = 12
 SEARCH_POLISH_STEPS = 4
+#: whether the fast search's subsample stages (the coarse scan and the pockets' refinement) read the ±speed-tolerance
+#: neighbours too (3 speeds per candidate); the every-sample stages, which choose the pocket and set the depth, always
+#: do. Off: ~2x less CPU and the same or a more productive cut on the two a/D 0.1 posteriors of docs/updating.md
+#: ("Decisions from an accurate posterior": 42.0 -> 21.7 s and 34.9 -> 16.8 s CPU; 0.994 -> 1.003 and 0.990 ->
+#: 0.998 of the full scan's productivity), the risk unchanged (the every-sample stages set it)
+SEARCH_SUBSAMPLE_TOLERANCE = False
 #: a suggested subsample of a map from an engine other than the cheapest (``millstab map --samples``): its
 #: Monte Carlo standard error is at most ½/√M = 0.022
 MAP_SAMPLES = 500
@@ -532,7 +538,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             the posterior; ``-inf``: whenever a cut tells the two apart).
         search: the speed search: ``"full"``, every sample on the coarse grid and in the refinement;
             ``"fast"``, a seeded subsample of :data:`SEARCH_SAMPLES` rows (the coarse grid at the same quantile of
-            the limits, and the refinement of its :data:`SEARCH_POCKETS` most productive pockets) finds where to
+            the limits, and the refinement of its :data:`SEARCH_POCKETS` most productive pockets; at the nominal
+            speeds only, :data:`SEARCH_SUBSAMPLE_TOLERANCE`) finds where to
             look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
             chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
             so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
@@ -578,7 +585,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
     def depths_at(speeds: np.ndarray, support: list[dict] | None, rows: np.ndarray | None = None,
-                  cnt: int = count) -> tuple[np.ndarray, np.ndarray]:
+                  cnt: int = count, offsets: np.ndarray = offsets) -> tuple[np.ndarray, np.ndarray]:
         # one engine call for the speeds and their ±tolerance neighbours; the nominal block first
         both, _ = limits(post.prior, u if rows is None else u[rows], (speeds[None, :] * (1 + offsets[:, None])).ravel(),
                          post.engine, options=post.engine_options)
@@ -625,21 +632,23 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
 
     def search_fast(support: list[dict] | None) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray]:
         """The fast search: the coarse scan and the refinement of the best :data:`SEARCH_POCKETS` pockets on a
-        seeded subsample of :data:`SEARCH_SAMPLES` rows (at the same quantile of the limits as the full count),
-        then every sample at each pocket's speed and ±tolerance: the depth, and the choice among the pockets,
+        seeded subsample of :data:`SEARCH_SAMPLES` rows (at the same quantile of the limits as the full count; the
+        nominal speeds only unless :data:`SEARCH_SUBSAMPLE_TOLERANCE`), then every sample at each pocket's speed and
+        ±tolerance: the depth, and the choice among the pockets,
         are the full posterior's, which refines the chosen pocket once more. Returns the subsample's coarse limits
         and its rows (for the next test)."""
         rows = np.sort(np.random.default_rng(seed).choice(n, SEARCH_SAMPLES, replace=False))
         cnt = int(round(max(count, 0) * SEARCH_SAMPLES / n))
         speeds = coarse_grid(support)
         step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])
-        depth, blim = depths_at(speeds, support, rows, cnt)
+        sub = offsets if SEARCH_SUBSAMPLE_TOLERANCE else np.zeros(1)
+        depth, blim = depths_at(speeds, support, rows, cnt, sub)
         top = pockets(depth * speeds, SEARCH_POCKETS)
         best_r, best_d = speeds[top], depth[top]
         for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
             a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
             cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
-            d2 = depths_at(cand.ravel(), support, rows, cnt)[0].reshape(cand.shape)
+            d2 = depths_at(cand.ravel(), support, rows, cnt, sub)[0].reshape(cand.shape)
             j = np.argmax(d2 * cand, axis=1)
             k = np.arange(top.size)
             better = d2[k, j] * cand[k, j] > best_d * best_r

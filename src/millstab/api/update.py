@@ -379,8 +379,10 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
         raise InputError("--confirm", rule["confirm"], "one of conflict, always, never")
     if rule.get("discriminate", "never") not in ("conflict", "never"):
         raise InputError("--discriminate", rule["discriminate"], "one of conflict, never")
-    if rule.get("search", "auto") not in ("auto", "fast", "full"):  # = millstab.update.decide.SEARCH_CHOICES
-        raise InputError("--search", rule["search"], "one of auto, fast, full")
+    from millstab.update.decide import SEARCH_CHOICES
+
+    if rule.get("search", "auto") not in SEARCH_CHOICES:
+        raise InputError("--search", rule["search"], "one of " + ", ".join(SEARCH_CHOICES))
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 

@@ -39,9 +39,10 @@ def warmup_cmd(
     from concurrent.futures import ProcessPoolExecutor
 
     t0 = time.perf_counter()
+    dealt = groups(chosen, jobs)
     # spawn: a fresh interpreter per process (no forked numba or BLAS threads)
-    with ProcessPoolExecutor(len(groups(chosen, jobs)), mp_context=multiprocessing.get_context("spawn")) as pool:
-        for done in pool.map(warm_group, groups(chosen, jobs)):
+    with ProcessPoolExecutor(len(dealt), mp_context=multiprocessing.get_context("spawn")) as pool:
+        for done in pool.map(warm_group, dealt):
             for t, seconds in done:
                 typer.echo(f"{t}: ready ({seconds:.1f} s)")
-    typer.echo(f"all ready in {time.perf_counter() - t0:.1f} s ({jobs} processes)")
+    typer.echo(f"all ready in {time.perf_counter() - t0:.1f} s ({len(dealt)} processes)")

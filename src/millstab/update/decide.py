@@ -637,7 +637,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         ±tolerance: the depth, and the choice among the pockets,
         are the full posterior's, which refines the chosen pocket once more. Returns the subsample's coarse limits
         and its rows (for the next test)."""
-        rows = np.sort(np.random.default_rng(seed).choice(n, SEARCH_SAMPLES, replace=False))
+        rows = map_rows(n, SEARCH_SAMPLES, seed)  # the same seeded subsample a map of that many samples reads
         cnt = int(round(max(count, 0) * SEARCH_SAMPLES / n))
         speeds = coarse_grid(support)
         step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])

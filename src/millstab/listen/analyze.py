@@ -130,6 +130,13 @@ The steps, with every threshold and the reason for it:
    for a Hopf chatter: the member nearest the mode by |G| (or by |G|^β × power / f⁴, β = 0.5-2) lost
    more than it won (a two-tooth slot's Hopf at 1.33 f_T, 300 Hz under the mode, has members 150 Hz
    either side of it as flexible; ex3's two modes made a mirror below them look flexible).
+   **A sensor path measured** (``tap``: :mod:`millstab.listen.tap`, ``listen --tap``): a tap recorded by the
+   same sensor gives the path's weight W(f) (recording power per displacement power, f⁴ × the room's gain),
+   which replaces f⁴ in every ranking above: the chatter heard is the candidate strongest as the source sounds
+   (power × f⁴ / W), the family's shares are taken on that power, its member reported is the one with the
+   largest power / W, and a flip line passes the runout and tooth-line tests on either the recorded or the
+   equalised power (the tap adds flip candidates, never removes one). Derivation and limits in
+   :mod:`millstab.listen.tap`. The tap chooses the frequency, never the label (see :func:`listen`).
    **A spread chatter** (``_hump_centroid``): when the line heard is one of a hump of comparable lines
    (a quasi-periodic chatter), the hump's power-weighted centroid is reported, and with an even number
    of teeth the odd multiple of f_T/2 near it (period doubling spread by a slow modulation); the
@@ -519,10 +526,7 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
         # two-tooth slot sits there, at 3 f_s; measured: 4 of 38 chatter cuts of bench_listen at 100 cuts)
         below = line_f < (1.5 * teeth - 0.5) * f_s
         runout = (ks % teeth != 0) & below
-        # with a tap, the lines are compared as the source sounds (the path's comb divided out: a flip line in a
-        # room notch 19 dB deep stood under the runout test, bench_listen --seed 1 cut 145)
-        lp_src = line_pow if tap is None else line_pow * _f4(line_f) / np.maximum(weight(line_f), 1e-300)
-        ref = float(lp_src[runout].max()) if runout.any() else 0.0
+        ref = float(line_pow[runout].max()) if runout.any() else 0.0
         half_order = 2 * ks / teeth  # line frequency in units of f_T/2
         odd = (np.abs(half_order - np.round(half_order)) < 1e-9) & (np.round(half_order) % 2 == 1)
         # ... and not far under its neighbouring tooth-passing lines: runout that varies the tooth pulses'
@@ -530,10 +534,22 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
         # resonance between two tooth harmonics lifts it (Q = 25: up to 28 dB; measured on the pulse-train
         # recordings of tests/listen_shop.py, a stable two-tooth cut heard as flip chatter below −5 dB)
         kt = ks // teeth * teeth  # the tooth harmonic below each line (in spindle orders)
-        pw = dict(zip(ks.tolist(), lp_src.tolist()))
+        pw = dict(zip(ks.tolist(), line_pow.tolist()))
         near_tooth = np.array([max(pw.get(int(a), 0.0), pw.get(int(a) + teeth, 0.0)) for a in kt])
-        over_runout = odd & ~below & (lp_src > FLIP_RATIO * ref)
-        keep = over_runout & (lp_src > FLIP_TOOTH * near_tooth)
+        over_runout = odd & ~below & (line_pow > FLIP_RATIO * ref)
+        keep = over_runout & (line_pow > FLIP_TOOTH * near_tooth)
+        if tap is not None:
+            # with a tap, a line also passes both tests as the source sounds (the path's comb divided out: a flip
+            # line in a room notch 19 dB deep stood under the runout test, bench_listen --seed 1 cut 145); the tap
+            # adds flip candidates, never takes one away (the tests were set on recordings: taking the equalised
+            # tests alone masked a flip chatter's members, --seed 1 cut 175)
+            src = line_pow * _f4(line_f) / np.maximum(weight(line_f), 1e-300)
+            ref_s = float(src[runout].max()) if runout.any() else 0.0
+            pw_s = dict(zip(ks.tolist(), src.tolist()))
+            near_s = np.array([max(pw_s.get(int(a), 0.0), pw_s.get(int(a) + teeth, 0.0)) for a in kt])
+            over_s = odd & ~below & (src > FLIP_RATIO * ref_s)
+            keep = keep | (over_s & (src > FLIP_TOOTH * near_s))
+            over_runout = over_runout | over_s
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     spindle_pow = line_pow  # (line_pow is the chatter line's power further down)

@@ -174,3 +174,22 @@ def test_cli_simulate_record_tap_then_listen_tap(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--tap cut.wav" in err and "hammer hit" in err
     assert main(["simulate", "example:ex1", "--cuts", str(tmp_path / "c.csv"), "--record-tap", str(tap)]) == 2
+
+
+def test_a_cuts_csv_names_a_tap_per_cut(tmp_path):
+    """``update``'s cuts labelled by ear: a ``tap`` column beside ``recording`` (a path relative to the CSV) is the
+    cut's measured path; a row without one is heard as before; a tap that does not exist is refused, named."""
+    from millstab import api
+    from millstab.io.recordings import write_wav
+
+    write_wav(tmp_path / "cut.wav", FS, _cut_in_notch())
+    write_wav(tmp_path / "tap.wav", FS, _tap(_mode()))
+    csv = tmp_path / "cuts.csv"
+    csv.write_text("rpm,depth_mm,label,recording,tap\n6000,2,,cut.wav,tap.wav\n6000,2,,cut.wav,\n")
+    pts, notes = api.label_from_recordings(csv, 3)
+    assert list(pts.label) == ["chatter", "chatter"]
+    assert abs(pts.chatter_hz[0] - 880.0) <= 2.0 and abs(pts.chatter_hz[1] - 1180.0) <= 2.0, pts.chatter_hz
+    assert "path measured by tap.wav" in notes[0] and "tap" not in notes[1]
+    csv.write_text("rpm,depth_mm,label,recording,tap\n6000,2,,cut.wav,nowhere.wav\n")
+    with pytest.raises(InputError, match="cuts.csv:2 tap"):
+        api.label_from_recordings(csv, 3)

@@ -210,7 +210,9 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     from each recording, and one line per cut saying where its label came from. With ``uploads``
     (uploaded file name → saved path, the web app) a recording may only name an uploaded file
     (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
-    config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`)."""
+    config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`); a
+    ``tap`` column names a tap recorded by the cut's sensor (``listen --tap``: the sensor path it measures is
+    divided out when the chatter's member is chosen)."""
     from millstab.io.recordings import read_cuts_with_recordings, read_recording
     from millstab.listen import listen
     from millstab.points import PointSet
@@ -218,6 +220,7 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     rows = read_cuts_with_recordings(cuts_csv, uploads)
     name_of = {v: k for k, v in (uploads or {}).items()}  # saved path → the name the user uploaded
     labels, hz, notes = [], [], []
+    paths = {}  # a tap's measured path, read once for the cuts that share it
     for r in rows:
         if r["recording"] is None:
             labels.append(r["label"])
@@ -225,12 +228,18 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
             notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
             continue
         x, fs = read_recording(r["recording"])
-        res = listen(x, fs, r["rpm"], teeth, structure=structure)
+        tap = None
+        if r["tap"] is not None:
+            if (r["tap"], fs) not in paths:
+                paths[r["tap"], fs] = tap_path(r["tap"], cut_fs=fs)
+            tap = paths[r["tap"], fs]
+        res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
         notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
-                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g})")
+                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g}"
+                     + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")"))
     rpm = np.array([r["rpm"] for r in rows])
     depth = np.array([r["depth_mm"] for r in rows])
     weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])

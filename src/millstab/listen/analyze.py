@@ -611,7 +611,8 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
     g2 = None if structure is None else _flexibility(structure)
     # the chatter heard: the strongest line (with a tap, as the source sounds: the path's comb divided out)
     src_e = cand_e if tap is None else cand_e * _f4(cand_f) / np.maximum(weight(cand_f), 1e-300)
-    c = _family_member(cand_f, cand_e, int(np.argmax(src_e)), f_t, 2.0 * fs / nper, f_s, weight)
+    w_tap = None if tap is None else weight  # None: f⁴, exactly as without a tap
+    c = _family_member(cand_f, cand_e, int(np.argmax(src_e)), f_t, 2.0 * fs / nper, f_s, w_tap)
     lpF = np.log(np.maximum(pF, 1e-300))
     # flip chatter heard at an odd multiple of f_T/2: the other odd multiples standing FLIP_RATIO over the
     # runout join its family even when under FLIP_TOOTH of their tooth lines (that rule keeps resonant
@@ -632,7 +633,7 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
 
     if extra.size and on_flip(float(cand_f[c])):
         append(extra)
-        c = _family_member(cand_f, cand_e, int(np.argmax(src_e[:n_std])), f_t, 2.0 * fs / nper, f_s, weight)
+        c = _family_member(cand_f, cand_e, int(np.argmax(src_e[:n_std])), f_t, 2.0 * fs / nper, f_s, w_tap)
     if g2 is not None and teeth % 2 == 0:
         if on_flip(float(cand_f[c])):
             # with the structure known, every odd multiple of f_T/2 from 1.5 f_T up is a member of the flip
@@ -729,7 +730,7 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
         fc = f_report
     if label == "chatter" and c < n_std:
         fc = _flip_over_heard(fc, float(cand_e[c]), f_t, 2.0 * fs / nper, line_f, spindle_pow, over_runout & ~keep,
-                              lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi, weight)
+                              lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi, w_tap)
     # Python floats, not numpy scalars (a numpy bool from comparing them is never ``is False``: bench_listen went
     # blind to a miss that way)
     return Listening(label, float(fc), float(score), 10 * math.log10(prom), float(onset), float(trend), float(rpm),
@@ -755,11 +756,10 @@ def _flip_over_heard(fc: float, e_c: float, f_t: float, tol: float, line_f: np.n
     idx = np.flatnonzero(flip & (line_f <= f_hi))
     if idx.size == 0:
         return fc
-    weight = weight or _f4
     e = np.maximum(line_pow[idx] - floor_hz(line_f[idx]), 0.0)
-    d = e / weight(line_f[idx])
+    d = e / (line_f[idx] ** 4 if weight is None else weight(line_f[idx]))
     j = int(np.argmax(d))
-    if d[j] <= e_c / float(weight(np.array([fc]))[0]):
+    if d[j] <= (e_c / fc**4 if weight is None else e_c / float(weight(np.array([fc]))[0])):
         return fc
     return _refine(fF, lpF, float(line_f[idx[j]]), tol)
 
@@ -853,8 +853,8 @@ def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: fl
     side = (direct & (np.abs(np.round(k)) == 1)) | (mirror & (np.round(km) == 1))
     ks = fpk / f_s
     on_sync = np.abs(ks - np.round(ks)) * f_s <= tol
-    w = _f4(fpk) if weight is None else weight(fpk)
-    src = epk * _f4(fpk) / w  # the power as the source sounds (the path's comb divided out; epk when flat)
+    w = fpk**4 if weight is None else weight(fpk)
+    src = epk if weight is None else epk * _f4(fpk) / w  # the power as the source sounds (the path's comb out)
     fam = np.flatnonzero(member & (src >= np.where(side | on_sync, FAMILY_SHARE, FAMILY_SHARE_FAR) * src[j]))
     if fam.size <= 1:
         return j

@@ -114,10 +114,10 @@ class TimedLikelihood(Likelihood):
 
     engine_wall = engine_cpu = 0.0
 
-    def _limits(self, v):
+    def _limits(self, v, **kw):
         t, c = time.perf_counter(), time.process_time()
         try:
-            return super()._limits(v)
+            return super()._limits(v, **kw)
         finally:
             self.engine_wall += time.perf_counter() - t
             self.engine_cpu += time.process_time() - c

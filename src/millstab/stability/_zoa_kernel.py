@@ -45,7 +45,12 @@ the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.
 rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
 The roots of a modal structure (no cross receptances) in real arithmetic (:func:`_disc_diag`: numba
 multiplies a float by a complex as a full complex product, and the zero cross terms cost four more per
-node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope
+node), bit for bit the same: 1–6 % more (issue 27). The eigenvalues' square roots without a branch per node
+(:func:`_branches_diag`) and the grid without zero-division checks (:func:`modal_grid`), bit for bit the same:
+per set the grid 4.8 → 3.7 µs and a cutting condition's eigenvalues 4.0 → 2.6 µs (profile_zoa.py
+--conditions), a condition now 12.7 µs with 1 speed, 20.0 with 10, 30.7 with 40 (docs/updating.md, "Several
+cutting conditions", round 5: why an exact path per condition cannot go much below ~8 µs with 10 speeds).
+The issue's 20 000 sets/s on 2 cores (100 µs per envelope
 per core) is beyond this algorithm's work: it needs fewer root evaluations per speed or a coarser grid, which
 the accuracy tests must then allow.
 """

@@ -19,7 +19,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
+from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.model import Conditions, Cutting, Mode, Structure
 from millstab.stability import _zoa_kernel as K
@@ -53,7 +55,7 @@ def random_speeds(rng, n: int) -> np.ndarray:
 def on_grid(w, G, md, cut: Cutting, rpm: np.ndarray):
     a = K.directional_brackets(cut.kr, cut.entry, cut.exit)
     out = np.empty(rpm.size), np.empty(rpm.size, dtype=np.int64), np.empty(rpm.size)
-    K.envelope_on_grid(w, G, a, cut.teeth, cut.kt, np.ascontiguousarray(rpm), md, False, *out, NONE)
+    K.envelope_on_grid(w, G, a, cut.teeth, cut.kt, np.ascontiguousarray(rpm), md, False, *out, NONE, np.zeros(0))
     return out
 
 
@@ -122,3 +124,39 @@ def test_vectorized_roots_equal_the_sequential_square_root_everywhere():
         fast = K._branches_diag(a, gx, gy)
         general = K._branches(a, gx, zero, zero, gy)
         assert np.array_equal(fast.view(np.float64), general.view(np.float64), equal_nan=True)
+
+
+def test_a_censored_search_returns_the_limit_below_the_ceiling_and_the_ceiling_above_it():
+    """zoa.envelope_batch(ceiling=...) (issue 27): each speed's estimate starts at its ceiling's 1/b, so the scan
+    certifies only down to it. Where the limit is at or below the ceiling the same bits as without one; where it is
+    above, the ceiling itself (a lower bound of the limit); an infinite ceiling is no ceiling; the scan does no more
+    work than without; a ceiling of the wrong shape, NaN or not positive is refused."""
+    rng = np.random.default_rng(11)
+    structures = [random_structure(rng) for _ in range(6)]
+    structures = [Structure(x=(s.x * 2)[:2], y=(s.y * 2)[:2]) for s in structures]
+    batch = ModalBatch.from_structures(structures)
+    cuts = [Cutting.from_immersion(3, 7e8, 0.3, ri, m) for ri, m in IMMERSIONS[:4]]
+    rpm = rng.uniform(2000.0, 15000.0, 20)
+    cond = Conditions.of(cuts, rng.integers(0, len(cuts), rpm.size))
+    free = zoa.envelope_batch(batch, cond, rpm)
+    ceiling = free * rng.uniform(0.5, 2.0, free.shape)
+    ceiling[rng.random(free.shape) < 0.2] = np.inf
+    got = zoa.envelope_batch(batch, cond, rpm, ceiling=ceiling)
+    below = free <= ceiling
+    assert 0.2 < below.mean() < 0.9
+    np.testing.assert_array_equal(got[below], free[below])
+    np.testing.assert_array_equal(got[~below], ceiling[~below])
+    np.testing.assert_array_equal(zoa.envelope_batch(batch, cond, rpm, ceiling=np.full(free.shape, np.inf)), free)
+    # one Cutting: the same through the conditions kernel
+    one = zoa.envelope_batch(batch, cuts[1], rpm)
+    cap = one * rng.uniform(0.5, 2.0, one.shape)
+    got1 = zoa.envelope_batch(batch, cuts[1], rpm, ceiling=cap)
+    np.testing.assert_array_equal(got1, np.where(one <= cap, one, cap))
+    counted = [np.zeros((batch.size, K.N_STATS), dtype=np.int64) for _ in range(2)]
+    zoa._run_modal(batch, cond, zoa.check_rpm(rpm), counted[0])
+    zoa._run_modal(batch, cond, zoa.check_rpm(rpm), counted[1], ceiling=ceiling)
+    visited = K.STAT_NAMES.index("segments visited")
+    assert (counted[1][:, visited] <= counted[0][:, visited]).all()
+    for bad in (ceiling[:, :3], np.where(below, np.nan, ceiling), np.zeros_like(ceiling)):
+        with pytest.raises(InputError, match="ceiling"):
+            zoa.envelope_batch(batch, cond, rpm, ceiling=bad)

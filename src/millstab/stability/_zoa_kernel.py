@@ -1082,10 +1082,11 @@ def _distinct_new(w, extra):
 
 
 @nb.njit(cache=True)
-def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
+def _scan(w, G, a, n_teeth, rpm, md, measured, floor, stats):
     """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
     the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
-    the tooth periods T [s], the best estimate per speed and the candidates."""
+    the tooth periods T [s], the best estimate per speed and the candidates. ``floor`` (S,) [Re ν]: each
+    speed's estimate starts there (a censored search, :func:`envelope_on_grid`; size 0: at 0)."""
     counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3]) if measured else _branches_diag(a, G[0], G[3])
     extra = _distinct_new(w, _validity_edges(w, nu, a, md, measured, G, stats))
@@ -1107,6 +1108,8 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
     for j in range(n_s):
         T[j] = 60.0 / (n_teeth * rpm[j])
     est = np.zeros(n_s)
+    if floor.size:
+        est[:] = floor
     # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
     uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
@@ -1120,20 +1123,32 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
             break
         cap *= 4
         est[:] = 0.0
+        if floor.size:
+            est[:] = floor
     if counting:
         stats[S_CANDIDATES] += c_j.size
     return w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu
 
 
 @nb.njit(cache=True)
-def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats):
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats, ceiling):
     """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
 
     Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
     ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
+    ``ceiling`` (S,) [m] (size 0: none; inf: none for that speed): a censored search. A depth above the
+    ceiling is a root with Re ν below f = 2π/(N Kt ceiling), so each speed's estimate starts at f: the scan
+    then certifies only down to f (the segments it skips, and the candidates it leaves unrefined, lie below
+    f·REFINE_MARGIN and f as they do below a found estimate), and where no refined root reaches f the speed
+    gets the ceiling itself (lobe −1, frequency NaN), a lower bound of its limit; where one does, the same
+    limit as without a ceiling (the refined candidates are a subset of those, holding its root).
     """
     counting = stats.size > 0
-    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured,
+    scale = TWO_PI / (n_teeth * kt)
+    floor = np.zeros(0)
+    if ceiling.size:
+        floor = scale / ceiling
+    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured, floor,
                                                           stats)
     n_w = w.size
     n_s = rpm.size
@@ -1162,12 +1177,15 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
             best_inv[j] = re_nu
             best_k[j] = c_k[c]
             best_w[j] = wcj
-    scale = TWO_PI / (n_teeth * kt)
     for j in range(n_s):
-        if best_inv[j] > 0.0:
+        if best_inv[j] > 0.0 and (floor.size == 0 or best_inv[j] >= floor[j]):
             depth[j] = scale / best_inv[j]
             lobe[j] = best_k[j]
             wc[j] = best_w[j]
+        elif floor.size and floor[j] > 0.0:  # censored: no root below the ceiling
+            depth[j] = ceiling[j]
+            lobe[j] = -1
+            wc[j] = np.nan
         else:
             depth[j] = np.inf
             lobe[j] = -1
@@ -1228,17 +1246,18 @@ def envelope_modal_batch(md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, 
     """
     counting = stats.shape[0] > 0
     empty = np.zeros(0, dtype=np.int64)
+    none = np.zeros(0)
     n_b = md.shape[0]
     w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
     for b in nb.prange(n_b):
         w, G = modal_grid(md[b], w_top, n_base, offsets)
         envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False,
-                         depth[b], lobe[b], wc[b], stats[b] if counting else empty)
+                         depth[b], lobe[b], wc[b], stats[b] if counting else empty, none)
 
 
 @nb.njit(cache=True, parallel=True)
 def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, starts, n_base, offsets, depth, lobe,
-                              wc, stats):
+                              wc, stats, ceiling):
     """Batched envelope for B modal structures under C cutting conditions in one call.
 
     Condition c (``teeth``, ``kt`` [N/m²], ``kr``, ``phi_s``/``phi_e`` [rad], each (C,)) owns the speed
@@ -1247,10 +1266,13 @@ def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, star
     over all columns, and shared by every condition; each condition then scans and refines its own
     columns (:func:`envelope_on_grid`). ``kr_set`` (B,): a Kr per set overriding the conditions' (size 0:
     none). With one condition and no ``kr_set`` this is :func:`envelope_modal_batch`, bit for bit.
-    Writes depth (B, S) [m], lobe (B, S), wc (B, S) [rad/s]; ``stats`` as there.
+    Writes depth (B, S) [m], lobe (B, S), wc (B, S) [rad/s]; ``stats`` as there. ``ceiling`` (B, S) [m], or
+    (0, S) for none: a censored search per set and column (:func:`envelope_on_grid`).
     """
     counting = stats.shape[0] > 0
+    censored = ceiling.shape[0] > 0
     empty = np.zeros(0, dtype=np.int64)
+    none = np.zeros(0)
     n_b = md.shape[0]
     n_c = teeth.size
     per_set = kr_set.size > 0
@@ -1266,4 +1288,4 @@ def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, star
             s1 = starts[c + 1]
             a = directional_brackets(kr_set[b] if per_set else kr[c], phi_s[c], phi_e[c])
             envelope_on_grid(w, G, a, teeth[c], kt[c], rpm[s0:s1], md[b], False, depth[b, s0:s1], lobe[b, s0:s1],
-                             wc[b, s0:s1], stats[b] if counting else empty)
+                             wc[b, s0:s1], stats[b] if counting else empty, ceiling[b, s0:s1] if censored else none)

@@ -84,7 +84,9 @@ with 1 speed, 22.0 with 10, 33.3 with 40, on a shared grid of 4.8 µs; the 1.5×
 Round 5 (2026-11-27, load 8–12, ``--samples 4000``; the eigenvalues without a branch per node and the grid
 without zero-division checks, the same bits): one condition 2.76 s CPU (5 stages, 36 µs per set), four 7.24 s
 (7 stages, 83 µs per set): **2.63× CPU**, engine 2.31× per set, 2.30 alone. Both ~8 % faster; the floor of an
-exact engine path (~1.8× per set) and what is left are in docs/updating.md.
+exact engine path (~1.8× per set) and what is left are in docs/updating.md. ``--censor`` (the likelihood's
+ceilings forced on, with zoa's censored search; same load): one condition 2.78 s CPU (37 µs per set), four
+6.62 s (76 µs per set): **2.38×**, the same stages, β and acceptance as without.
 
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]
 [--fixed-moves] [--censor]``.

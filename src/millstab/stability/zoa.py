@@ -26,7 +26,7 @@ from millstab.model import Conditions, Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 # shared helpers of the contract, re-exported where they used to live
-from millstab.stability.base import check_rpm, directional_matrix  # noqa: F401
+from millstab.stability.base import check_ceiling, check_rpm, directional_matrix  # noqa: F401
 from millstab.stability.process_damping import reject as reject_process_damping
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
@@ -104,7 +104,7 @@ def _run_modal(batch: ModalBatch, cutting: Cutting | Conditions, rpm: np.ndarray
 
     ``cutting``: one Cutting, or Conditions (one per speed column); ``kr``: a Kr per set (B,) or None.
     ``stats``: optional (B, N_STATS) int64 zeros that receive the kernel's work counts per set.
-    ``ceiling``: (B, S) [m] checked by :func:`_check_ceiling`, or None (:func:`envelope_batch`).
+    ``ceiling``: (B, S) [m] checked by :func:`check_ceiling`, or None (:func:`envelope_batch`).
     """
     reject_process_damping(cutting, name)
     if isinstance(cutting, Conditions) or kr is not None or ceiling is not None:
@@ -171,18 +171,6 @@ def _check_kr(kr, n_sets: int) -> np.ndarray | None:
     return k
 
 
-def _check_ceiling(ceiling, n_sets: int, n_speeds: int) -> np.ndarray | None:
-    """A censored search's ceiling as a float array (B, S) [m], or None; InputError for another shape or a value
-    that is NaN or not positive (inf: no ceiling at that entry)."""
-    if ceiling is None:
-        return None
-    c = np.asarray(ceiling, dtype=float)
-    if c.shape != (n_sets, n_speeds) or np.isnan(c).any() or (c <= 0).any():
-        raise InputError("ceiling", f"shape {c.shape}",
-                         f"a depth > 0 [m] (inf: none) per set and speed, ({n_sets}, {n_speeds})")
-    return c
-
-
 def _rows(batch: ModalBatch, rows: slice) -> ModalBatch:
     return ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
 
@@ -196,7 +184,7 @@ def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting | Conditions, rpm, 
     if isinstance(cutting, Conditions):
         cutting.check_columns(r.size)
     k = _check_kr(kr, batch.size)
-    cap = _check_ceiling(ceiling, batch.size, r.size)
+    cap = check_ceiling(ceiling, batch.size, r.size)
     chunk = chunk or chunk_rows(r.size)
     for start in range(0, batch.size, chunk):
         rows = slice(start, min(start + chunk, batch.size))

@@ -166,10 +166,17 @@ def test_cli_simulate_record_tap_then_listen_tap(tmp_path, capsys):
     from millstab.cli import main
 
     cut, tap = tmp_path / "cut.wav", tmp_path / "tap.wav"
-    assert main(["simulate", "example:ex1", "--rpm", "9000", "--depth", "1", "--revs", "60", "--record", str(cut),
+    assert main(["simulate", "example:ex1", "--rpm", "9000", "--depth", "8", "--revs", "60", "--record", str(cut),
                  "--record-tap", str(tap), "--seed", "2"]) == 0
     assert "wrote" in capsys.readouterr().out and tap.exists()
     assert main(["listen", str(cut), "--rpm", "9000", "--teeth", "2", "--tap", str(tap)]) == 0
+    from millstab import api
+    from millstab.io.recordings import read_recording
+
+    x, fs = read_recording(cut)
+    by_path = api.listen_signal(x, fs, 9000.0, 2, tap=str(tap)).listening  # a path or its SensorPath: the same
+    by_obj = api.listen_signal(x, fs, 9000.0, 2, tap=api.tap_path(tap, cut_fs=fs)).listening
+    assert by_path.label == by_obj.label == "chatter" and by_path.chatter_hz == by_obj.chatter_hz
     assert main(["listen", str(cut), "--rpm", "9000", "--teeth", "2", "--tap", str(cut)]) == 2
     err = capsys.readouterr().err
     assert "--tap cut.wav" in err and "hammer hit" in err

@@ -126,11 +126,13 @@ def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | N
     (of ``update``) and the cut's ``depth_mm`` the suggestion is ``recommend``'s fastest speed with
     P(chatter) ≤ ``risk`` at that depth instead of the harmonizer rule. With the tool's ``structure``
     (a config's) a flip chatter is reported at its member nearest the structure's modes (step 7 of
-    :mod:`millstab.listen.analyze`). ``tap``: the sensor path measured by a tap (:func:`tap_path`, or the
-    :class:`~millstab.listen.tap.SensorPath` of one): the chatter family's members are ranked as the displacement
-    would rank them through that path (:mod:`millstab.listen.tap`)."""
+    :mod:`millstab.listen.analyze`). ``tap``: a tap's recording (a path: read by :func:`tap_path`, at the cut's
+    sample rate) or the :class:`~millstab.listen.tap.SensorPath` of one: the chatter family's members are ranked as
+    the displacement would rank them through that path (:mod:`millstab.listen.tap`)."""
     from millstab.listen import listen, suggest_rpm
 
+    if isinstance(tap, (str, Path)):
+        tap = tap_path(tap, cut_fs=fs)
     res = listen(signal, fs, rpm, teeth, start=start, end=end, structure=structure, tap=tap)
     lo, hi = _range(rpm_range, rpm)
     if post is not None:
@@ -155,8 +157,6 @@ def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, tap=None, **k
     from millstab.io.recordings import read_recording
 
     x, fs = read_recording(path, channel)
-    if isinstance(tap, (str, Path)):
-        tap = tap_path(tap, cut_fs=fs)
     return listen_signal(x, fs, rpm, teeth, tap=tap, **kw)
 
 

@@ -21,6 +21,10 @@ chatter frequency) is known.
    simulation's rate), an automatic gain that puts the peak at half of full scale, and quantisation
    to ``bits`` (16: a phone's or a sound card's PCM).
 
+5. A tap (:func:`record_tap`): the same sensor and steps 3-4 (the same room) on the tip's ring after an ideal
+   hammer impulse, the spindle still: what ``millstab listen --tap`` reads to divide the sensor path out.
+   The room is the same fixed :data:`ROOM` for every cut, so a cut and its tap always share it.
+
 Units: the returned signal is dimensionless in [-1, 1] (full scale), as in a WAV file.
 """
 

@@ -61,7 +61,7 @@ def _loop_build(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
     s = 0.0
     for _ in range(reps):
         for b in bs:
-            s += _k.monodromy_lr(b, kt, g, g[8])[0, 0]
+            s += _k._build_lr(b, kt, g, g[8], g[9])[0, 0]  # into the speed's workspace, as the search builds
     return s
 
 
@@ -102,6 +102,62 @@ def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, 
             s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir,
                                  nd)[1][0]
     return s
+
+
+@nb.njit(cache=True)
+def _loop_parts(reps, bs, level, kt, g, part):
+    """The rung test by its parts at depths bs (one speed's layout g): 0 the monodromy build (into the speed's
+    workspace), 1 the build and a full balance (the certificate's similarity before issue 28's reuse of the
+    scaling), 2 the build, that balance and one squaring with its norms, 3 the whole rung test, 4 the build and the
+    exact ρ (balance, Hessenberg, QR)."""
+    s = 0.0
+    ws = g[9]
+    for _ in range(reps):
+        for b in bs:
+            if part == 3:
+                s += _k.rho_test(b, level, _k.CERT_SQUARINGS, kt, g)[0]
+                continue
+            U = _k._build_lr(b, kt, g, g[8], ws)
+            if part == 4:
+                s += _k._rho_exact(U, ws)[0]
+                continue
+            if part >= 1:
+                ws[14][:] = 1.0
+                _k._balance(U, ws[14])
+            if part >= 2:
+                np.dot(U, U, ws[8])
+                s += _k._norms(ws[8])[0]
+            s += U[0, 0]
+    return s
+
+
+def rung_parts(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+               near: float, rows: int = 5, reps: int = 20) -> dict:
+    """CPU seconds per rung of each part of :func:`_loop_parts` on the rungs under the accepted roots (first
+    ``rows`` sets), and the rows K of their monodromies."""
+    wn, zeta, mass, act, mdir = _arrays(batch)
+    nd = _k.gauss_nodes(p)
+    el = spectral._elem_len(wn)
+    tot = np.zeros(5)
+    n_r = k_sum = 0
+    for i in range(min(batch.size, rows)):
+        for s, r in enumerate(rs):
+            if not np.isfinite(depth[i, s]):
+                continue
+            g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el[i], nd[0], wn[i], zeta[i], act),
+                                wn[i], zeta[i], mass[i], mdir, nd)
+            k = 0
+            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, k) < depth[i, s] * (1 - 2e-3):
+                k += 1
+            bs = np.array([_k.ladder_depth(b_ref[i, s], spectral.LADDER, j) for j in range(k)])
+            if bs.size == 0:
+                continue
+            for part in range(5):
+                _loop_parts(0, bs, 1.0 - near, cut.kt, g, part)  # compile / cache load
+                tot[part] += cpu(_loop_parts, reps, bs, 1.0 - near, cut.kt, g, part)[1]
+            n_r += bs.size
+            k_sum += bs.size * g[9][0].shape[0]
+    return {"parts": tot / max(n_r * reps, 1), "K": k_sum / max(n_r, 1)}
 
 
 def cpu(f, *args):
@@ -237,11 +293,20 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
           f"squarings {100 * cen['certified'] / n_r:.1f} % (mean {cen['squarings'] / max(cen['certified'], 1):.2f} "
           f"squarings), eigenvalues needed {100 * (1 - cen['certified'] / n_r):.1f} % (rho above 1 - near at "
           f"{100 * cen['above'] / n_r:.1f} %: those steps are refined)")
-    rung_t = n_rho.sum() * u["below"]
+    parts = rung_parts(batch, cut, rs, depth, b_ref, p, near)
+    t = 1e6 * parts["parts"]
+    print(f"  a rung under the root by its parts (first {min(batch.size, 5)} sets, K = {parts['K']:.1f} rows): the "
+          f"whole test {t[3]:.2f} us = monodromy build {t[0]:.2f} us + the certificate {t[3] - t[0]:.2f} us; for "
+          f"comparison a full balance {t[1] - t[0]:.2f} us, one squaring with its norms {t[2] - t[1]:.2f} us, the "
+          f"exact rho (balance, Hessenberg, QR) {t[4] - t[0]:.2f} us")
+    rung_t = n_rho.sum() * parts["parts"][3]
+    set_t = u["factors"] * n_pairs
     n_other = np.maximum(n_eval - n_rho, 0).sum()
-    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the "
-          f"other {n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
-          f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['factors'] * n_pairs:.3f} s")
+    each = 1e6 * (t_solve - rung_t - set_t) / max(n_other, 1)
+    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %, at "
+          f"the measured whole test); speed setups {set_t:.3f} s ({100 * set_t / t_solve:.0f} %); the other "
+          f"{n_other / n_pairs:.1f} evaluations per pair (the refinement near rho = 1, the bracket's ends, Newton, "
+          f"the check at a root's top: mostly exact rho) the rest, ~{each:.1f} us each")
 
 
 def main() -> None:

@@ -974,8 +974,9 @@ def rho_test(b, level, squarings, kt, g):
             d[:] = 1.0
             _balance(P, d)
         for i in range(K):
+            inv = 1.0 / d[i]  # (powers of 2: d[j] / d[i] exactly, without a division per entry)
             for j in range(K):
-                P[i, j] = U[i, j] * (d[j] / d[i])
+                P[i, j] = U[i, j] * (d[j] * inv)
         n_inf, n_fro = _norms(P)
         if math.isfinite(n_inf) and math.isfinite(n_fro):  # (else the exact path says inf)
             e_inf = 0.0

@@ -135,28 +135,16 @@ def rung_parts(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarra
                near: float, rows: int = 5, reps: int = 20) -> dict:
     """CPU seconds per rung of each part of :func:`_loop_parts` on the rungs under the accepted roots (first
     ``rows`` sets), and the rows K of their monodromies."""
-    wn, zeta, mass, act, mdir = _arrays(batch)
-    nd = _k.gauss_nodes(p)
-    el = spectral._elem_len(wn)
     tot = np.zeros(5)
     n_r = k_sum = 0
-    for i in range(min(batch.size, rows)):
-        for s, r in enumerate(rs):
-            if not np.isfinite(depth[i, s]):
-                continue
-            g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el[i], nd[0], wn[i], zeta[i], act),
-                                wn[i], zeta[i], mass[i], mdir, nd)
-            k = 0
-            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, k) < depth[i, s] * (1 - 2e-3):
-                k += 1
-            bs = np.array([_k.ladder_depth(b_ref[i, s], spectral.LADDER, j) for j in range(k)])
-            if bs.size == 0:
-                continue
-            for part in range(5):
-                _loop_parts(0, bs, 1.0 - near, cut.kt, g, part)  # compile / cache load
-                tot[part] += cpu(_loop_parts, reps, bs, 1.0 - near, cut.kt, g, part)[1]
-            n_r += bs.size
-            k_sum += bs.size * g[9][0].shape[0]
+    for g, bs in rungs_by_speed(batch, cut, rs, depth, b_ref, p, rows):
+        if bs.size == 0:
+            continue
+        for part in range(5):
+            _loop_parts(0, bs, 1.0 - near, cut.kt, g, part)  # compile / cache load
+            tot[part] += cpu(_loop_parts, reps, bs, 1.0 - near, cut.kt, g, part)[1]
+        n_r += bs.size
+        k_sum += bs.size * g[9][0].shape[0]
     return {"parts": tot / max(n_r * reps, 1), "K": k_sum / max(n_r, 1)}
 
 
@@ -230,34 +218,42 @@ def rungs_below(depth: np.ndarray, b_ref: np.ndarray) -> np.ndarray:
     return out
 
 
-def rung_census(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
-                near: float, rows: int = 5) -> dict:
-    """How the rungs under the accepted roots are decided (first ``rows`` sets): the rung test at 1 − near with the
-    full squaring budget (``_k.rho_test``, CERT_SQUARINGS) certifies them (and with how many squarings) or needs
-    the eigenvalues; and how many have ρ above the level (the refinement's triggers, eigenvalues in any case)."""
+def rungs_by_speed(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+                   rows: int = 5):
+    """For each (set, speed) of the first ``rows`` sets with a finite limit: (its layout with factors and workspace,
+    the ladder depths (R,) under its accepted root)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     nd = _k.gauss_nodes(p)
     el = spectral._elem_len(wn)
-    level = 1.0 - near
-    out = {"rungs": 0, "certified": 0, "squarings": 0, "above": 0}
     for i in range(min(batch.size, rows)):
         for s, r in enumerate(rs):
             if not np.isfinite(depth[i, s]):
                 continue
             g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el[i], nd[0], wn[i], zeta[i], act),
                                 wn[i], zeta[i], mass[i], mdir, nd)
-            k = 0
-            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, k) < depth[i, s] * (1 - 2e-3):
-                x = _k.ladder_depth(b_ref[i, s], spectral.LADDER, k)
-                k += 1
-                out["rungs"] += 1
-                for sq in range(1, _k.CERT_SQUARINGS + 1):  # the fewest squarings that certify
-                    if not _k.rho_test(x, level, sq, cut.kt, g)[2]:
-                        out["certified"] += 1
-                        out["squarings"] += sq
-                        break
-                else:
-                    out["above"] += int(_k.rho_test(x, level, 0, cut.kt, g)[0] > level)
+            bs = []
+            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, len(bs)) < depth[i, s] * (1 - 2e-3):
+                bs.append(_k.ladder_depth(b_ref[i, s], spectral.LADDER, len(bs)))
+            yield g, np.array(bs)
+
+
+def rung_census(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+                near: float, rows: int = 5) -> dict:
+    """How the rungs under the accepted roots are decided (first ``rows`` sets): the rung test at 1 − near with the
+    full squaring budget (``_k.rho_test``, CERT_SQUARINGS) certifies them (and with how many squarings) or needs
+    the eigenvalues; and how many have ρ above the level (the refinement's triggers, eigenvalues in any case)."""
+    level = 1.0 - near
+    out = {"rungs": 0, "certified": 0, "squarings": 0, "above": 0}
+    for g, bs in rungs_by_speed(batch, cut, rs, depth, b_ref, p, rows):
+        for x in bs:
+            out["rungs"] += 1
+            for sq in range(1, _k.CERT_SQUARINGS + 1):  # the fewest squarings that certify
+                if not _k.rho_test(x, level, sq, cut.kt, g)[2]:
+                    out["certified"] += 1
+                    out["squarings"] += sq
+                    break
+            else:
+                out["above"] += int(_k.rho_test(x, level, 0, cut.kt, g)[0] > level)
     return out
 
 

@@ -273,13 +273,12 @@ def _free_step(phi, Z, Znew, cols):
     """A free-flight element: Z[:, :cols] ← phi Z[:, :cols] (phi (n, n) its exact transition; Znew a work array
     of Z's shape and dtype). Columns from ``cols`` on are zero and stay so."""
     n = phi.shape[0]
-    for r in range(n):  # each sum over q in order, along rows (vectorised): the same bits as a sum per entry
+    for r in range(n):
         for c in range(cols):
-            Znew[r, c] = Z[0, c] * 0.0
-        for q in range(n):
-            pq = phi[r, q]
-            for c in range(cols):
-                Znew[r, c] += pq * Z[q, c]
+            acc = Z[0, c] * 0.0
+            for q in range(n):
+                acc += phi[r, q] * Z[q, c]
+            Znew[r, c] = acc
     for r in range(n):
         for c in range(cols):
             Z[r, c] = Znew[r, c]
@@ -545,8 +544,8 @@ def workspace(g, lr):
     (the certificate's squarings), A, wr, wi, out (the eigenvalues), d (the balancing scaling the certificate
     reuses, :func:`rho_test`; d[0] = 0: none yet), dn (a balancing's scaling being recorded).
 
-    Why (issue 28, measured on the update's rungs, K ≈ 17): a build with its seven arrays allocated and zeroed
-    took 1.9 µs; the squarings' products allocated a matrix each."""
+    Why (issue 28): the certificate keeps the speed's balancing scaling from depth to depth (:func:`rho_test`), and
+    its squarings write into the workspace; the build costs the same either way (1.9 µs at K ≈ 17, measured)."""
     kind, rk = g[0], g[7]
     CA, S, LA, LE = lr
     n = LA.shape[1]
@@ -591,37 +590,33 @@ def _build_lr(b, kt, g, lr, ws):
             B[r, n + r] = 1.0
         _lu_factor(Mh, piv[:he])
         _lu_solve(Mh, piv[:he], B)  # [Q | W], Q = W CᵀA
-        # Each sum below runs over q in the order of the loops it replaced (an entry's sum from 0, term by term), so
-        # the matrix is the same bit for bit; with q outside, the inner loop runs along rows (vectorised).
-        # history rows: Q Z (U is zero there), and I − W at this element's history columns
+        # history rows: Q Z, and I − W at this element's history columns
         for r in range(he):
-            for q in range(n):
-                bq = B[r, q]
-                for c in range(hoff):
-                    U[hoff + r, c] += bq * Z[q, c]
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += B[r, q] * Z[q, c]
+                U[hoff + r, c] = acc
             for c in range(he):
                 U[hoff + r, hoff + c] = (1.0 if r == c else 0.0) - B[r, n + c]
         # the end state: (LA + w LE Q) Z, and −w LE W at the history columns
         for r in range(n):
             for c in range(n):
-                Ze[r, c] = LA[el, r, c]
-            for q in range(he):
-                wl = w * LE[el, r, q]
-                for c in range(n):
-                    Ze[r, c] += wl * B[q, c]
+                acc = LA[el, r, c]
+                for q in range(he):
+                    acc += w * LE[el, r, q] * B[q, c]
+                Ze[r, c] = acc
         for r in range(n):
-            for c in range(hoff + he):
-                Znew[r, c] = 0.0
-            for q in range(n):
-                zq = Ze[r, q]
-                for c in range(hoff):
-                    Znew[r, c] += zq * Z[q, c]
-            for q in range(he):
-                lq = LE[el, r, q]
-                for c in range(he):
-                    Znew[r, hoff + c] += lq * B[q, n + c]
+            for c in range(hoff):
+                acc = 0.0
+                for q in range(n):
+                    acc += Ze[r, q] * Z[q, c]
+                Znew[r, c] = acc
             for c in range(he):
-                Znew[r, hoff + c] = -w * Znew[r, hoff + c]
+                acc = 0.0
+                for q in range(he):
+                    acc += LE[el, r, q] * B[q, n + c]
+                Znew[r, hoff + c] = -w * acc
         hoff += he
         for r in range(n):
             for c in range(hoff):

@@ -285,7 +285,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_rpm
+from millstab.stability.base import by_condition, check_ceiling, check_rpm
 from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
@@ -603,12 +603,9 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
 def _ceiling(ceiling, n_b: int, n_s: int, inv: np.ndarray, n_distinct: int) -> np.ndarray | None:
     """The censored search's caps (B, S distinct speeds) [m] from the caller's (B, S) ``ceiling`` (None: none): a
     repeated speed takes its largest. InputError for another shape or a value that is NaN or not positive."""
-    if ceiling is None:
+    c = check_ceiling(ceiling, n_b, n_s)
+    if c is None:
         return None
-    c = np.asarray(ceiling, dtype=float)
-    if c.shape != (n_b, n_s) or np.isnan(c).any() or (c <= 0).any():
-        raise InputError("ceiling", f"shape {c.shape}",
-                         f"a depth > 0 [m] (inf: none) per set and speed, ({n_b}, {n_s})")
     cap = np.full((n_b, n_distinct), -np.inf)
     np.maximum.at(cap.T, inv, c.T)
     return cap

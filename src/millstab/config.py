@@ -68,7 +68,8 @@ class PriorTable:
             (default ``multivariate_t``).
         batch_effect: σ of a test day's shift of ln fn (:mod:`millstab.update.batch`), or ``None`` (off).
         chatter_hz_alias: the chance that a measured chatter frequency is another member of its family than the
-            one near the mode, in (0, 1], or ``None`` (default 0.1; 1: any member alike; :mod:`millstab.update.likelihood`).
+            one near the mode, in (0, 1], or ``None`` (default 0.1; 1: any member alike;
+            :mod:`millstab.update.likelihood`).
     """
 
     spreads: Mapping[str, float]

@@ -131,3 +131,38 @@ def test_spectral_limits_do_not_depend_on_the_other_rows_or_speeds_of_a_call():
     np.testing.assert_allclose(a(speeds), whole, rtol=1e-10)
     b = LimitColumns(post, post.u, opts)
     np.testing.assert_allclose(np.concatenate([b(speeds[:3]), b(speeds[3:])], axis=1), whole, rtol=1e-10)
+
+
+def test_a_campaigns_memo_reads_the_kept_samples_and_decides_alike(monkeypatch):
+    """Two posteriors that share most rows (as consecutive rounds of a campaign do): with a :class:`LimitMemo` the
+    second recommendation and map ask the engine only for the rows the first did not have at the repeated speeds,
+    and give the answers (cut, next test, map) of a fresh computation."""
+    from millstab.update.decide import LimitMemo, p_stable_map
+
+    monkeypatch.setattr(decide, "SEARCH_SAMPLES", 40)
+    first = _resampled(300, 150, 8)
+    rng = np.random.default_rng(9)
+    u = first.u.copy()
+    moved = rng.random(u.shape[0]) < 0.3  # a move changed 30 % of the particles
+    u[moved] += 0.01 * rng.standard_normal((moved.sum(), u.shape[1]))
+    second = Posterior(first.prior, np.exp(u), "zoa", cuts={"rpm": list(RANGE)})
+    grid = np.linspace(*RANGE, 11)
+    memo = LimitMemo()
+    recommend(first, 0.05, RANGE, seed=1, search="fast", coarse_points=40, memo=memo)
+    p_stable_map(first, grid, [0.5, 1.0], memo=memo)
+    rows = []
+
+    def spy(prior, u, rpm, *a, **k):
+        rows.append((u.shape[0], np.size(rpm)))
+        return limits(prior, u, rpm, *a, **k)
+
+    monkeypatch.setattr(decide, "limits", spy)
+    got = recommend(second, 0.05, RANGE, seed=1, search="fast", coarse_points=40, memo=memo)
+    got_map = p_stable_map(second, grid, [0.5, 1.0], memo=memo)
+    # the map's grid: only the moved rows (and none of the kept ones) went to the engine
+    assert rows[-1] == (np.unique(u[moved], axis=0).shape[0], grid.size)
+    monkeypatch.setattr(decide, "limits", limits)
+    want = recommend(second, 0.05, RANGE, seed=1, search="fast", coarse_points=40)
+    assert (got.rpm, got.depth_mm, got.p_chatter, got.next_test) == (want.rpm, want.depth_mm, want.p_chatter,
+                                                                      want.next_test)
+    np.testing.assert_array_equal(got_map, p_stable_map(second, grid, [0.5, 1.0]))

@@ -233,28 +233,81 @@ def decision_options(post: Posterior, rpm_range: tuple[float, float]) -> dict:
     return {k: v for k, v in chosen.items() if k in allowed}
 
 
+class LimitMemo:
+    """Limits [mm] of (sample, speed) pairs remembered from one decision to the next, for the posteriors of one
+    prior, engine and discretisation (a campaign's: :func:`millstab.update.campaign.run_campaign`). Why: each update
+    starts from the last posterior and moves only some particles (a rejected move keeps its particle; resampling
+    copies it), so most of a round's samples are the last round's, and the speeds of the coarse scan, the range's
+    ends and a map's grid repeat every round. The same numbers as computing them anew: a row's limit does not depend
+    on the other rows of a call. Bound to the first (engine, discretisation, cutting, prior parameterization) it
+    serves; another one clears it."""
+
+    def __init__(self) -> None:
+        self._key = None
+        self._by_speed: dict[float, dict[bytes, float]] = {}
+
+    def bind(self, post: Posterior, options: dict) -> None:
+        """Serve ``post``'s decisions under ``options``: cleared when they are not those it served so far."""
+        key = (post.engine, tuple(sorted(dict(options).items())), repr(post.prior.cutting), repr(post.prior.par),
+               tuple(post.prior.names))
+        if key != self._key:
+            self._key, self._by_speed = key, {}
+
+    def known(self, keys: list[bytes], speeds: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(values (R, S), whether each is remembered (R, S)) of rows named by ``keys`` at ``speeds``."""
+        vals = np.zeros((len(keys), len(speeds)))
+        have = np.zeros(vals.shape, dtype=bool)
+        for j, x in enumerate(speeds):
+            col = self._by_speed.get(x)
+            if col:
+                for i, k in enumerate(keys):
+                    v = col.get(k)
+                    if v is not None:
+                        vals[i, j], have[i, j] = v, True
+        return vals, have
+
+    def remember(self, keys: list[bytes], speeds: list[float], values: np.ndarray) -> None:
+        for j, x in enumerate(speeds):
+            self._by_speed.setdefault(x, {}).update(zip(keys, values[:, j].tolist()))
+
+
 class LimitColumns:
     """The limits (N, S) [mm] of fixed posterior rows u (N, P) at any speeds [rpm], each (distinct row, speed)
     computed once (:func:`distinct_limits`): a request calls the engine only for the speeds not seen before (in the
     order asked), and repeats come from memory. A decision asks the same speeds more than once (the chosen cut's
     own ±tolerance check reads the columns of the stage that chose it; a confirmed recommendation searches again).
-    The same numbers: under one pinned discretisation (:func:`decision_options`) a (row, speed)'s limit depends on
-    neither the other rows of a call nor, beyond the root search's tolerance, its other speeds (the continuation
-    from speed to speed starts each search elsewhere: 3e-13 relative measured at a/D 0.1,
-    tests/test_decide_columns.py)."""
+    ``memo``: a :class:`LimitMemo` of earlier decisions (a campaign's), whose rows it reads and then only the rows
+    it lacks go to the engine. The same numbers: under one pinned discretisation (:func:`decision_options`) a
+    (row, speed)'s limit depends on neither the other rows of a call nor, beyond the root search's tolerance, its
+    other speeds (the continuation from speed to speed starts each search elsewhere: 3e-13 relative measured at
+    a/D 0.1, tests/test_decide_columns.py)."""
 
-    def __init__(self, post: Posterior, u: np.ndarray, options: dict | None = None) -> None:
-        self.post, self.options = post, dict(options or {})
+    def __init__(self, post: Posterior, u: np.ndarray, options: dict | None = None,
+                 memo: LimitMemo | None = None) -> None:
+        self.post, self.options, self.memo = post, dict(options or {}), memo
         self.rows, inv = np.unique(np.asarray(u, float), axis=0, return_inverse=True)
         self.inv = inv.ravel()
         self.n = self.inv.size
         self._cols: dict[float, np.ndarray] = {}
+        if memo is not None:
+            memo.bind(post, self.options)
+            self._keys = [r.tobytes() for r in self.rows]
+
+    def _engine(self, rows: np.ndarray, speeds: list[float]) -> np.ndarray:
+        return limits(self.post.prior, rows, np.array(speeds), self.post.engine, options=self.options)[0]
 
     def __call__(self, rpm) -> np.ndarray:
         r = [float(x) for x in np.ravel(np.asarray(rpm, float))]
         new = list(dict.fromkeys(x for x in r if x not in self._cols))
+        if new and self.memo is None:
+            b = self._engine(self.rows, new)
+        elif new:  # the rows the memo lacks at any of the new speeds go to the engine, at all of them
+            b, have = self.memo.known(self._keys, new)
+            miss = np.flatnonzero(~have.all(axis=1))
+            if miss.size:
+                b[miss] = self._engine(self.rows[miss], new)
+                self.memo.remember([self._keys[i] for i in miss], new, b[miss])
         if new:
-            b, _ = limits(self.post.prior, self.rows, np.array(new), self.post.engine, options=self.options)
             self._cols.update(zip(new, b.T))
         if not r:
             return np.zeros((self.n, 0))
@@ -262,15 +315,21 @@ class LimitColumns:
 
 
 def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | None = None,
-                 seed: int = 0) -> np.ndarray:
+                 seed: int = 0, memo: LimitMemo | None = None) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
     Dask cluster where that pays, same numbers). ``samples``: from a seeded subsample (``seed``) of that many
     posterior samples (:func:`map_rows`; for an engine whose limits cost ms each, e.g. ``spectral``): each
     cell's P is then a fraction of M = ``samples`` draws, its Monte Carlo standard error
-    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's."""
+    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's. ``memo``: limits
+    remembered from earlier decisions (:class:`LimitMemo`; a campaign's maps and recommendations), read under the
+    discretisation of a decision over the map's speed range (:func:`decision_options`); not with ``client``."""
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
-    blim = distinct_limits(post.prior, u, np.asarray(rpm, float), post.engine, post.engine_options, client)
+    r = np.asarray(rpm, float)
+    if memo is not None and client is None and r.size:
+        blim = LimitColumns(post, u, decision_options(post, (float(r.min()), float(r.max()))), memo)(r)
+    else:
+        blim = distinct_limits(post.prior, u, r, post.engine, post.engine_options, client)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 
@@ -584,7 +643,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
               coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
               guard: bool = True, across: bool | None = None, confirm: str = CONFIRM,
               discriminate: str = DISCRIMINATE, discriminate_rival_lr: float = DISCRIMINATE_RIVAL_LR,
-              search: str = "auto") -> Recommendation:
+              search: str = "auto", memo: LimitMemo | None = None) -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -621,6 +680,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
             ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
             at most :data:`SEARCH_SAMPLES` samples both are the full search.
+        memo: limits remembered from earlier decisions from posteriors of the same prior and engine (a
+            :class:`LimitMemo`; a campaign's: most samples and the coarse speeds repeat from round to round), read
+            instead of computed again, and the new ones added; the same answer.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
             or confirm, an unknown search.
@@ -651,7 +713,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
     # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once
     opts = decision_options(post, (lo, hi))
-    every = LimitColumns(post, u, opts)
+    every = LimitColumns(post, u, opts, memo)
     guards = data_guard(post, every) if guard else []
     cap = math.inf if max_depth_mm is None else max_depth_mm
     n = u.shape[0]
@@ -764,7 +826,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         return speeds, blim, best, rows
 
     rows = map_rows(n, SEARCH_SAMPLES, seed) if fast else None  # the fast search's subsample, as a map of that many
-    sub_cols = LimitColumns(post, u[rows], opts) if fast else None  # ... reads (its limits shared by both searches)
+    sub_cols = LimitColumns(post, u[rows], opts, memo) if fast else None  # ... reads (its limits shared by both searches)
     speeds, blim, best, grid_rows = search(None)
     rpm_best, depth_best, col = best
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
@@ -1010,7 +1072,7 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
 
 
 __all__ = ["MAP_SAMPLES", "SEARCH_BOUND", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
-           "decision_options", "distinct_limits", "fast_search_for", "map_error",
+           "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
            "next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",

@@ -64,7 +64,7 @@ def test_a_column_asked_twice_is_computed_once(monkeypatch):
     assert cols([]).shape == (200, 0)
 
 
-@pytest.mark.parametrize("seed", [0, 1, pytest.param(2, marks=pytest.mark.slow), pytest.param(3, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("seed", [0, 1, *(pytest.param(s, marks=pytest.mark.slow) for s in (2, 3))])
 def test_the_bounded_search_chooses_the_cut_of_reading_every_neighbour(monkeypatch, seed):
     """The fast search with the nominal-speed bound (:data:`decide.SEARCH_BOUND`) recommends the very cut (speed,
     depth, P(chatter), next test) of the search that reads every candidate's ±tolerance neighbours, reading fewer

@@ -50,7 +50,7 @@ hence the depth cap and the relative depth noise; docs/updating.md has the measu
     bench_update_campaign.py --immersion 0.1 --labels simulate --truth-engine sdm --max-depth 60 \
         --sigma-depth-rel 0.05 --cuts 10 --best-speeds 121 --grid 31x20 --engine-check zoa,spectral \
         --campaigns 50 --samples 1000 --engine zoa                      # 13 min (16 s a campaign)
-    ... --samples 1000 --no-baselines --engine spectral --first K --campaigns 1   # 167 s a campaign (idle, 2 cores)
+    ... --samples 1000 --no-baselines --engine spectral --first K --campaigns 1   # ~130 s CPU a campaign (--profile)
 
 (``--labels engine --truth-engine sdm --noise 0.03`` takes the labels from SDM's boundary with 3 % noise
 instead: cheaper, without the simulation's own model of the cut.)

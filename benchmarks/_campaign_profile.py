@@ -20,7 +20,7 @@ from unittest import mock
 import numpy as np
 
 #: the parts that are the bench's own work (judging the tool against its truth), not millstab's campaign
-BENCH_PARTS = ("truth: SDM limits", "labels: simulation", "Brier map", "coverage and diagnosis", "baselines")
+BENCH_PARTS = ("truth: limits", "labels", "Brier map", "coverage and diagnosis", "baselines")
 #: the order of the printed rows
 ORDER = ("update", "recommend: search", "recommend: data guard", "recommend: confirmed cuts", "recommend: next test",
          *BENCH_PARTS, "other")

@@ -316,7 +316,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
 
         prof = Profile() if args.profile else None
         if prof is not None:
-            truth, labeler = prof.wrap("truth: SDM limits", truth), prof.wrap("labels: simulation", labeler)
+            truth, labeler = prof.wrap("truth: limits", truth), prof.wrap("labels", labeler)
         grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
         settings = CampaignOptions(cuts=args.cuts, samples=args.samples, risk=args.risk, rpm_range=(lo, hi),
                                max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)), engine=args.engine,

@@ -69,19 +69,20 @@ def _stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, wc):
     w_top = K.TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0
     acc = 0.0
     none = np.zeros(0, dtype=np.int64)
+    no_cap = np.zeros(0)  # no ceiling (a censored search: _zoa_kernel.envelope_on_grid)
     for b in range(n_b):
         w, G = K.modal_grid(md[b], w_top, n_base, offsets)
         acc += G[0, 0].real
         if upto == 0:
             continue
         if upto == 3:
-            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none)
+            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none, no_cap)
             continue
         if upto == 1:
             nu = K._branches(a, G[0], G[1], G[2], G[3])
             acc += nu[0, 0].real
             continue
-        acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, none)[4].size
+        acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, no_cap, none)[4].size
     return acc
 
 
@@ -108,6 +109,7 @@ def _condition_stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lob
     them into the grid, 4 + the candidate scan (the whole of :func:`_zoa_kernel._scan`), 5 the whole envelope
     (+ the refinement). Returns a checksum."""
     none = np.zeros(0, dtype=np.int64)
+    no_cap = np.zeros(0)  # no ceiling (a censored search: _zoa_kernel.envelope_on_grid)
     w_top = K.TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0
     acc = 0.0
     for b in range(md.shape[0]):
@@ -116,10 +118,10 @@ def _condition_stages(upto, md, a, n_teeth, kt, rpm, n_base, offsets, depth, lob
         if upto == 0:
             continue
         if upto == 5:
-            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none)
+            K.envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False, depth[b], lobe[b], wc[b], none, no_cap)
             continue
         if upto == 4:
-            acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, none)[4].size
+            acc += K._scan(w, G, a, n_teeth, rpm, md[b], False, no_cap, none)[4].size
             continue
         nu = K._branches_diag(a, G[0], G[3])
         acc += nu[0, 0].real

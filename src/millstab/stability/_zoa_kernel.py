@@ -45,7 +45,12 @@ the refinement, and complex square roots from two real ones (:func:`_csqrt`), 1.
 rates are well below an idle machine's: from the ~6 700 sets/s measured there before, ~12 500 expected).
 The roots of a modal structure (no cross receptances) in real arithmetic (:func:`_disc_diag`: numba
 multiplies a float by a complex as a full complex product, and the zero cross terms cost four more per
-node), bit for bit the same: 1–6 % more (issue 27). The issue's 20 000 sets/s on 2 cores (100 µs per envelope
+node), bit for bit the same: 1–6 % more (issue 27). The eigenvalues' square roots without a branch per node
+(:func:`_branches_diag`) and the grid without zero-division checks (:func:`modal_grid`), bit for bit the same:
+per set the grid 4.8 → 3.7 µs and a cutting condition's eigenvalues 4.0 → 2.6 µs (profile_zoa.py
+--conditions), a condition now 12.7 µs with 1 speed, 20.0 with 10, 30.7 with 40 (docs/updating.md, "Several
+cutting conditions", round 5: why an exact path per condition cannot go much below ~8 µs with 10 speeds).
+The issue's 20 000 sets/s on 2 cores (100 µs per envelope
 per core) is beyond this algorithm's work: it needs fewer root evaluations per speed or a coarser grid, which
 the accuracy tests must then allow.
 """
@@ -184,7 +189,7 @@ def _disc_diag(a, gr, gi, yr, yi):
     return trr, tri, (trr * trr - tri * tri) - 4.0 * detr, (trr * tri + tri * trr) - 4.0 * deti
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def _grid_frequencies(wn_all, z_all, w_lo, w_hi, n_base, offsets):
     """Sorted frequency grid [rad/s]: log-spaced base plus a dense cluster around every mode."""
     n_modes = wn_all.size
@@ -299,31 +304,59 @@ def _branches(a, gxx, gxy, gyx, gyy):
     return nu
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")  # numpy: no zero-division check per division (a branch)
 def _branches_diag(a, gxx, gyy):
     """:func:`_branches` for a diagonal receptance (a modal structure: no cross terms), bit for bit, in the
     real arithmetic of :func:`_disc_diag` (the eigenvalues are the closed-form roots of the 2×2 quadratic
     either way; this computes them with about half the multiplications). Measured with the same change in
     the refinement and edge roots: the engine per set 6 % faster under four conditions, 1–4 % under one
-    (benchmarks/bench_conditions.py and bench_envelope.py --against, interleaved, same depths)."""
+    (benchmarks/bench_conditions.py and bench_envelope.py --against, interleaved, same depths).
+
+    Two passes: the discriminant's square root at every node without a branch (:func:`_csqrt`'s two cases as
+    selects: the same operations on the same operands, so the same bits; nodes outside its range go to
+    :func:`_csqrt` itself), a loop the compiler can vectorize, then the sequential branch continuation."""
     n = gxx.size
     nu = np.empty((2, n), dtype=np.complex128)
-    pr = 0.0
-    pi = 0.0
+    trr = np.empty(n)
+    tri = np.empty(n)
+    sqr = np.empty(n)
+    sqi = np.empty(n)
+    n_out = 0
     for i in range(n):
         g = gxx[i]
         y = gyy[i]
-        trr, tri, dr, di = _disc_diag(a, g.real, g.imag, y.real, y.imag)
-        s = _csqrt(complex(dr, di))
-        sr = s.real
-        si = s.imag
+        tr_r, tr_i, dr, di = _disc_diag(a, g.real, g.imag, y.real, y.imag)
+        trr[i] = tr_r
+        tri[i] = tr_i
+        r2 = dr * dr + di * di
+        n_out += not (1e-280 < r2 < 1e280)
+        t = math.sqrt(0.5 * (math.sqrt(r2) + abs(dr)))  # r + x for x ≥ 0, r − x for x < 0
+        q = 0.5 * abs(di) / t
+        pos = dr >= 0.0
+        sqr[i] = t if pos else q
+        sqi[i] = math.copysign(q if pos else t, di)
+    if n_out:  # |disc|² beyond the double range (or NaN): _csqrt's own fallback
+        for i in range(n):
+            g = gxx[i]
+            y = gyy[i]
+            tr_r, tr_i, dr, di = _disc_diag(a, g.real, g.imag, y.real, y.imag)
+            r2 = dr * dr + di * di
+            if not (1e-280 < r2 < 1e280):
+                sq = _csqrt(complex(dr, di))
+                sqr[i] = sq.real
+                sqi[i] = sq.imag
+    pr = 0.0
+    pi = 0.0
+    for i in range(n):
+        sr = sqr[i]
+        si = sqi[i]
         if i > 0 and (sr - pr) * (sr - pr) + (si - pi) * (si - pi) > (-sr - pr) * (-sr - pr) + (-si - pi) * (-si - pi):
             sr = -sr
             si = -si
         pr = sr
         pi = si
-        nu[0, i] = complex(0.5 * (trr + sr), 0.5 * (tri + si))
-        nu[1, i] = complex(0.5 * (trr - sr), 0.5 * (tri - si))
+        nu[0, i] = complex(0.5 * (trr[i] + sr), 0.5 * (tri[i] + si))
+        nu[1, i] = complex(0.5 * (trr[i] - sr), 0.5 * (tri[i] - si))
     return nu
 
 
@@ -1049,10 +1082,11 @@ def _distinct_new(w, extra):
 
 
 @nb.njit(cache=True)
-def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
+def _scan(w, G, a, n_teeth, rpm, md, measured, floor, stats):
     """Everything before the exact refinement: both branches, the Re ν = 0 edges merged into the grid,
     the nodes' ε and 1/b, and the candidate crossings (:func:`_collect`). Returns the grid, receptances,
-    the tooth periods T [s], the best estimate per speed and the candidates."""
+    the tooth periods T [s], the best estimate per speed and the candidates. ``floor`` (S,) [Re ν]: each
+    speed's estimate starts there (a censored search, :func:`envelope_on_grid`; size 0: at 0)."""
     counting = stats.size > 0
     nu = _branches(a, G[0], G[1], G[2], G[3]) if measured else _branches_diag(a, G[0], G[3])
     extra = _distinct_new(w, _validity_edges(w, nu, a, md, measured, G, stats))
@@ -1074,6 +1108,8 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
     for j in range(n_s):
         T[j] = 60.0 / (n_teeth * rpm[j])
     est = np.zeros(n_s)
+    if floor.size:
+        est[:] = floor
     # evenly spaced speeds let _collect index them directly; equal speeds (step 0) must not count
     uniform = n_s > 2 and rpm[n_s - 1] > rpm[0]
     for j in range(1, n_s):
@@ -1087,20 +1123,32 @@ def _scan(w, G, a, n_teeth, rpm, md, measured, stats):
             break
         cap *= 4
         est[:] = 0.0
+        if floor.size:
+            est[:] = floor
     if counting:
         stats[S_CANDIDATES] += c_j.size
     return w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu
 
 
 @nb.njit(cache=True)
-def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats):
+def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, stats, ceiling):
     """Lower envelope b_lim [m] at ascending speeds ``rpm`` from receptances G (4, F) on grid ``w``.
 
     Writes depth (inf where no boundary exists), the lobe number and the chatter frequency [rad/s].
     ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
+    ``ceiling`` (S,) [m] (size 0: none; inf: none for that speed): a censored search. A depth above the
+    ceiling is a root with Re ν below f = 2π/(N Kt ceiling), so each speed's estimate starts at f: the scan
+    then certifies only down to f (the segments it skips, and the candidates it leaves unrefined, lie below
+    f·REFINE_MARGIN and f as they do below a found estimate), and where no refined root reaches f the speed
+    gets the ceiling itself (lobe −1, frequency NaN), a lower bound of its limit; where one does, the same
+    limit as without a ceiling (the refined candidates are a subset of those, holding its root).
     """
     counting = stats.size > 0
-    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured,
+    scale = TWO_PI / (n_teeth * kt)
+    floor = np.zeros(0)
+    if ceiling.size:
+        floor = scale / ceiling
+    w, G, T, est, c_j, c_seg, c_k, c_g, c_x, c_nu = _scan(w, G, a, n_teeth, rpm, md, measured, floor,
                                                           stats)
     n_w = w.size
     n_s = rpm.size
@@ -1129,21 +1177,29 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
             best_inv[j] = re_nu
             best_k[j] = c_k[c]
             best_w[j] = wcj
-    scale = TWO_PI / (n_teeth * kt)
     for j in range(n_s):
-        if best_inv[j] > 0.0:
+        if best_inv[j] > 0.0 and (floor.size == 0 or best_inv[j] >= floor[j]):
             depth[j] = scale / best_inv[j]
             lobe[j] = best_k[j]
             wc[j] = best_w[j]
+        elif floor.size and floor[j] > 0.0:  # censored: no root below the ceiling
+            depth[j] = ceiling[j]
+            lobe[j] = -1
+            wc[j] = np.nan
         else:
             depth[j] = np.inf
             lobe[j] = -1
             wc[j] = np.nan
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def modal_grid(md, w_top, n_base, offsets):
-    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure (packed modes ``md``)."""
+    """Frequency grid [rad/s] and the receptances (4, F) of a modal structure (packed modes ``md``).
+
+    Compiled with numpy's error model: numba's default checks every division for a zero divisor (a branch
+    that keeps the receptance loop scalar); here no divisor can be zero (k > 0 and 0 < ζ < 1, checked by
+    ModalBatch.validate), and without the checks the same operations give the same bits in ~1 µs less per
+    set (4.8 → 3.8 µs, profile_zoa.py --conditions, issue 27)."""
     n_m = md.shape[2]
     wn_all = np.empty(2 * n_m)
     z_all = np.empty(2 * n_m)
@@ -1190,17 +1246,18 @@ def envelope_modal_batch(md, a, n_teeth, kt, rpm, n_base, offsets, depth, lobe, 
     """
     counting = stats.shape[0] > 0
     empty = np.zeros(0, dtype=np.int64)
+    none = np.zeros(0)
     n_b = md.shape[0]
     w_top = TWO_PI * n_teeth * rpm[rpm.size - 1] / 60.0  # tooth-passing frequency at the top speed
     for b in nb.prange(n_b):
         w, G = modal_grid(md[b], w_top, n_base, offsets)
         envelope_on_grid(w, G, a, n_teeth, kt, rpm, md[b], False,
-                         depth[b], lobe[b], wc[b], stats[b] if counting else empty)
+                         depth[b], lobe[b], wc[b], stats[b] if counting else empty, none)
 
 
 @nb.njit(cache=True, parallel=True)
 def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, starts, n_base, offsets, depth, lobe,
-                              wc, stats):
+                              wc, stats, ceiling):
     """Batched envelope for B modal structures under C cutting conditions in one call.
 
     Condition c (``teeth``, ``kt`` [N/m²], ``kr``, ``phi_s``/``phi_e`` [rad], each (C,)) owns the speed
@@ -1209,10 +1266,13 @@ def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, star
     over all columns, and shared by every condition; each condition then scans and refines its own
     columns (:func:`envelope_on_grid`). ``kr_set`` (B,): a Kr per set overriding the conditions' (size 0:
     none). With one condition and no ``kr_set`` this is :func:`envelope_modal_batch`, bit for bit.
-    Writes depth (B, S) [m], lobe (B, S), wc (B, S) [rad/s]; ``stats`` as there.
+    Writes depth (B, S) [m], lobe (B, S), wc (B, S) [rad/s]; ``stats`` as there. ``ceiling`` (B, S) [m], or
+    (0, S) for none: a censored search per set and column (:func:`envelope_on_grid`).
     """
     counting = stats.shape[0] > 0
+    censored = ceiling.shape[0] > 0
     empty = np.zeros(0, dtype=np.int64)
+    none = np.zeros(0)
     n_b = md.shape[0]
     n_c = teeth.size
     per_set = kr_set.size > 0
@@ -1228,4 +1288,4 @@ def envelope_modal_conditions(md, kr_set, teeth, kt, kr, phi_s, phi_e, rpm, star
             s1 = starts[c + 1]
             a = directional_brackets(kr_set[b] if per_set else kr[c], phi_s[c], phi_e[c])
             envelope_on_grid(w, G, a, teeth[c], kt[c], rpm[s0:s1], md[b], False, depth[b, s0:s1], lobe[b, s0:s1],
-                             wc[b, s0:s1], stats[b] if counting else empty)
+                             wc[b, s0:s1], stats[b] if counting else empty, ceiling[b, s0:s1] if censored else none)

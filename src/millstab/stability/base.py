@@ -51,6 +51,18 @@ def check_rpm(rpm) -> np.ndarray:
     return np.ascontiguousarray(r)
 
 
+def check_ceiling(ceiling, n_sets: int, n_speeds: int) -> np.ndarray | None:
+    """A censored search's ceiling (the ``takes_ceiling`` capability) as a float array (B, S) [m], or None; InputError
+    for another shape or a value that is NaN or not positive (inf: no ceiling at that entry)."""
+    if ceiling is None:
+        return None
+    c = np.asarray(ceiling, dtype=float)
+    if c.shape != (n_sets, n_speeds) or np.isnan(c).any() or (c <= 0).any():
+        raise InputError("ceiling", f"shape {c.shape}",
+                         f"a depth > 0 [m] (inf: none) per set and speed, ({n_sets}, {n_speeds})")
+    return c
+
+
 def directional_matrix(cutting) -> np.ndarray:
     """The 2×2 matrix [α] of directional-coefficient brackets (dimensionless) of ``cutting``.
 

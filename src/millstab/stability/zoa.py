@@ -26,7 +26,7 @@ from millstab.model import Conditions, Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 # shared helpers of the contract, re-exported where they used to live
-from millstab.stability.base import check_rpm, directional_matrix  # noqa: F401
+from millstab.stability.base import check_ceiling, check_rpm, directional_matrix  # noqa: F401
 from millstab.stability.process_damping import reject as reject_process_damping
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
@@ -42,6 +42,8 @@ CHUNK = 16_384
 _NO_STATS = np.zeros(0, dtype=np.int64)
 _NO_MODES = np.zeros((2, 3, 0))
 _NO_STATS_2D = np.zeros((0, _k.N_STATS), dtype=np.int64)
+_NO_CEILING = np.zeros(0)
+_NO_CEILING_2D = np.zeros((0, 0))
 
 
 def chunk_rows(n_speeds: int) -> int:
@@ -87,7 +89,8 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
     a = _k.directional_brackets(cutting.kr, cutting.entry, cutting.exit)
     n_s = rs.size
     depth, lobe, wc = np.empty(n_s), np.empty(n_s, dtype=np.int64), np.empty(n_s)
-    _k.envelope_on_grid(w, G, a, cutting.teeth, cutting.kt, rs, _NO_MODES, True, depth, lobe, wc, _NO_STATS)
+    _k.envelope_on_grid(w, G, a, cutting.teeth, cutting.kt, rs, _NO_MODES, True, depth, lobe, wc, _NO_STATS,
+                        _NO_CEILING)
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)
     return Envelope(r, depth[inv], lobe[inv], wc[inv] / (2 * math.pi))
@@ -95,15 +98,17 @@ def envelope(structure: Structure, cutting: Cutting, rpm) -> Envelope:
 
 def _run_modal(batch: ModalBatch, cutting: Cutting | Conditions, rpm: np.ndarray,
                stats: np.ndarray | None = None,
-               kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               kr: np.ndarray | None = None,
+               ceiling: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled batch kernel on one chunk; returns depth [m], lobe, ωc [rad/s], each (B, S).
 
     ``cutting``: one Cutting, or Conditions (one per speed column); ``kr``: a Kr per set (B,) or None.
     ``stats``: optional (B, N_STATS) int64 zeros that receive the kernel's work counts per set.
+    ``ceiling``: (B, S) [m] checked by :func:`check_ceiling`, or None (:func:`envelope_batch`).
     """
     reject_process_damping(cutting, name)
-    if isinstance(cutting, Conditions) or kr is not None:
-        return _run_conditions(batch, Conditions.coerce(cutting, rpm.size), rpm, stats, kr)
+    if isinstance(cutting, Conditions) or kr is not None or ceiling is not None:
+        return _run_conditions(batch, Conditions.coerce(cutting, rpm.size), rpm, stats, kr, ceiling)
     rs, order = _sorted(rpm)
     n_b, n_s = batch.size, rs.size
     depth = np.empty((n_b, n_s))
@@ -131,7 +136,8 @@ def _unsorted(order: np.ndarray, depth, lobe, wc):
 
 
 def _run_conditions(batch: ModalBatch, cond: Conditions, rpm: np.ndarray, stats: np.ndarray | None,
-                    kr: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    kr: np.ndarray | None,
+                    ceiling: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_run_modal` under per-column conditions: ONE compiled call (:func:`_k.envelope_modal_conditions`)
     with the columns sorted by condition, then speed; each set's grid is shared by the conditions."""
     cuts, inverse = cond.unique()
@@ -145,9 +151,10 @@ def _run_conditions(batch: ModalBatch, cond: Conditions, rpm: np.ndarray, stats:
     col = {f: np.array([getattr(c, f) for c in cuts], dtype=np.int64 if f == "teeth" else float)
            for f in ("teeth", "kt", "kr", "entry", "exit")}
     kr_set = np.zeros(0) if kr is None else np.ascontiguousarray(kr, dtype=float)
+    cap = _NO_CEILING_2D if ceiling is None else np.ascontiguousarray(ceiling[:, order], dtype=float)
     _k.envelope_modal_conditions(_packed(batch), kr_set, col["teeth"], col["kt"], col["kr"], col["entry"], col["exit"],
                                  rs, starts, N_BASE, _OFFSETS, depth, lobe, wc,
-                                 _NO_STATS_2D if stats is None else stats)
+                                 _NO_STATS_2D if stats is None else stats, cap)
     return _unsorted(order, depth, lobe, wc)
 
 
@@ -169,22 +176,24 @@ def _rows(batch: ModalBatch, rows: slice) -> ModalBatch:
 
 
 def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting | Conditions, rpm, chunk: int | None = None,
-                         kr=None) -> Iterator[tuple[slice, np.ndarray]]:
+                         kr=None, ceiling=None) -> Iterator[tuple[slice, np.ndarray]]:
     """Yield ``(rows, depth)`` chunk by chunk, depth (rows, S) [m], so huge batches stream in bounded
-    memory (``chunk`` sets at a time; default :func:`chunk_rows`). ``cutting`` and ``kr`` as
+    memory (``chunk`` sets at a time; default :func:`chunk_rows`). ``cutting``, ``kr`` and ``ceiling`` as
     :func:`envelope_batch`."""
     r = check_rpm(rpm)
     if isinstance(cutting, Conditions):
         cutting.check_columns(r.size)
     k = _check_kr(kr, batch.size)
+    cap = check_ceiling(ceiling, batch.size, r.size)
     chunk = chunk or chunk_rows(r.size)
     for start in range(0, batch.size, chunk):
         rows = slice(start, min(start + chunk, batch.size))
-        yield rows, _run_modal(_rows(batch, rows), cutting, r, kr=None if k is None else k[rows])[0]
+        yield rows, _run_modal(_rows(batch, rows), cutting, r, kr=None if k is None else k[rows],
+                               ceiling=None if cap is None else cap[rows])[0]
 
 
 def envelope_batch(batch: ModalBatch, cutting: Cutting | Conditions, rpm, chunk: int | None = None,
-                   kr=None) -> np.ndarray:
+                   kr=None, ceiling=None) -> np.ndarray:
     """The hot path: limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm].
 
     ``cutting``: one :class:`Cutting` for every column, or :class:`Conditions` with one condition per
@@ -192,10 +201,15 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting | Conditions, rpm, chunk:
     shared by all conditions). ``kr``: a radial-to-tangential ratio per set (B,), overriding the
     conditions' Kr (the ``per_set_kr`` capability). Compiled, parallel over sets, streamed in chunks of
     ``chunk`` sets. For reductions over very large B (Monte Carlo) use :func:`iter_envelope_chunks`.
+    ``ceiling`` (B, S) [m] (inf: none): a censored search (:func:`_zoa_kernel.envelope_on_grid`): where the limit
+    is at or below the ceiling it is returned as without one; where it is above, the ceiling itself, a lower
+    bound of the limit, and the scan certifies only down to it (issue 27). Not declared as ``takes_ceiling``
+    yet: the updating's likelihood would then censor every zero-order update in one condition, and in several
+    it censors none (docs/updating.md, "Several cutting conditions").
     """
     r = check_rpm(rpm)
     out = np.empty((batch.size, r.size))
-    for rows, depth in iter_envelope_chunks(batch, cutting, r, chunk, kr):
+    for rows, depth in iter_envelope_chunks(batch, cutting, r, chunk, kr, ceiling):
         out[rows] = depth
     return out
 

@@ -26,10 +26,14 @@ the tolerance of the strict truth (``one_frequency``); the score on those cuts a
 "every detected chatter cut right" can be asked. ``--explain`` prints, for each miss, the strict truth's family
 f + k f_T and k f_T − f with the displacement's power, the structure's Σ|G|², the sensor path's (room's) gain and
 the recording's power at each member. ``--cache DIR`` keeps each cut's recording and truth, so a change of
-``listen`` is re-scored on the same cuts without simulating them again.
+``listen`` is re-scored on the same cuts without simulating them again. ``--tap``: each cut is heard twice more
+with a tap recorded by the same sensor, room and settings (:func:`millstab.simulate.record.record_tap`, hit
+along the sensor's direction; made afresh, not cached: it needs only the structure), recording alone and with
+the structure known (``listen --tap``, :mod:`millstab.listen.tap`); both scored as above.
 Also the analysis time of a 10 s, 48 kHz recording (one core, BLAS pinned).
 
-    python benchmarks/bench_listen.py [--cuts 200] [--seconds 2] [--seed 0] [--cache DIR] [--explain]
+    python benchmarks/bench_listen.py [--cuts 200] [--seconds 2] [--seed 0] [--cache DIR] [--explain] [--tap]
+                                      [--only 3,17]
     (--cuts 0: the timing only)
 """
 
@@ -51,7 +55,8 @@ from millstab import api  # noqa: E402
 from millstab.model import Cutting, Mode, Structure  # noqa: E402
 from millstab.simulate import detect, simulate_cut  # noqa: E402
 from millstab.simulate.detect import SPECTRUM_PERIODS  # noqa: E402
-from millstab.simulate.record import record  # noqa: E402
+from millstab.listen.tap import sensor_path  # noqa: E402
+from millstab.simulate.record import record, record_tap  # noqa: E402
 from millstab.stability import sdm  # noqa: E402
 
 FN, ZETA, MASS = 922.0, 0.011, 0.03993
@@ -226,12 +231,15 @@ def room_gain(f: np.ndarray, sensor: str) -> np.ndarray:
     return np.abs(h) ** 2
 
 
-def explain(res, det, st, signal, fs, sensor, direction_deg, true_hz, heard: dict[str, float]) -> list[str]:
+def explain(res, det, st, signal, fs, sensor, direction_deg, true_hz, heard: dict[str, float],
+            tap=None) -> list[str]:
     """The lines printed for a miss (``--explain``): the chatter family of the strict truth, f + k f_T (|k| ≤ 4)
     and its mirrors k f_T − f, with, at each member [dB, each column relative to its largest]: the
     displacement's non-synchronous power (x and y, averaged over the windows of the last half), the structure's
     flexibility Σ|G_ij|² and its response along the sensor's direction, the sensor path's gain (the room), the
-    recording's power and that power / f⁴ (what the displacement would be with a flat path)."""
+    recording's power and that power / f⁴ (what the displacement would be with a flat path). With ``tap`` (its
+    :class:`~millstab.listen.tap.SensorPath`) also the path it measured, structure known and tap alone
+    (weight / f⁴: the room's gain as the tap estimates it; compare with ``room``)."""
     from millstab.frf import structure_receptance
     from millstab.listen.analyze import _full_spectrum
 
@@ -271,9 +279,14 @@ def explain(res, det, st, signal, fs, sensor, direction_deg, true_hz, heard: dic
             return 10 * np.log10(np.maximum(v / np.nanmax(v), 1e-30))
 
     cols = [db(d), db(g2), db(gd), 10 * np.log10(room), db(rec), db(rec / fm**4)]
+    if tap is not None:  # the path as the tap measures it, levelled to the room's mean over the members
+        for est in (tap.weight(fm, st) / fm**4, tap.weight(fm) / fm**4):
+            e = 10 * np.log10(est)
+            cols.append(e - np.mean(e[np.isfinite(e)]) + np.mean(10 * np.log10(room)))
     out = [f"    truth {true_hz:.1f} Hz = {true_hz / f_t:.3f} f_T ({sensor}, direction {direction_deg:.0f} deg); "
            + "; ".join(f"{k} {v:.1f} Hz" for k, v in heard.items()),
-           "      member [Hz]  order      disp   |G|^2  G_dir^2   room  record  rec/f^4   [dB]"]
+           "      member [Hz]  order      disp   |G|^2  G_dir^2   room  record  rec/f^4"
+           + ("  tap+st   tap" if tap is not None else "") + "   [dB]"]
     for q, (f0, lab) in enumerate(keep):
         tag = " <- truth" if abs(f0 - true_hz) < 0.5 else ""
         tag += "".join(f" <- {k}" for k, v in heard.items() if abs(v - f0) <= max(2.0, 0.005 * f0))
@@ -303,11 +316,17 @@ def main(argv=None) -> int:
     ap.add_argument("--explain", action="store_true",
                     help="print each chatter-frequency miss's family: displacement, |G|^2, room, recording per member")
     ap.add_argument("--cache", default=None, help="folder keeping each cut's recording and truth (re-score fast)")
+    ap.add_argument("--only", default=None, help="comma-separated cut numbers: hear and score these only (the same "
+                    "cuts as in a full run: the others' draws are made and skipped)")
+    ap.add_argument("--tap", action="store_true",
+                    help="also hear each cut with a tap recorded by its own sensor and room (listen --tap)")
     a = ap.parse_args(argv)
+    only = None if a.only is None else {int(v) for v in a.only.split(",")}
     print(describe())
     rng = np.random.default_rng(a.seed)
     tl = tools()
     rows = []
+    taps = []  # with --tap: (label right, frequency right or None) recording alone, then structure known; one freq.
     t_sim = t_listen = 0.0
     truth_moves = []  # |zero-padded truth − detector's| [Hz]
     with threadpool_limits(1):
@@ -321,6 +340,9 @@ def main(argv=None) -> int:
                       "noise": float(10 ** rng.uniform(-2.3, -1)), "hum": float(rng.choice([0.0, 0.05, 0.2])),
                       "runout": float(rng.uniform(0.02, 0.1)), "mains_hz": float(rng.choice([50.0, 60.0])),
                       "direction_deg": float(rng.uniform(0, 90)), "seed": i}
+            if only is not None and i not in only:
+                rng.uniform(-0.01, 0.01)  # the speed read (below): the next cuts stay the same
+                continue
             t0 = time.perf_counter()
             res, truth, true_hz, rec = _cut(a.cache, a.seed, a.seconds, i, st, cut, rpm, ratio, perturbation, rec_kw)
             if math.isfinite(true_hz):
@@ -331,11 +353,22 @@ def main(argv=None) -> int:
             t2 = time.perf_counter()
             known = api.listen_signal(rec.signal, rec.fs, given, cut.teeth, structure=st).listening
             ok_k = right(truth.label, known.label, ratio)
+            tapped = {}
+            if a.tap:  # the same sensor, room and settings as the cut's recording: its measured path
+                tr = record_tap(st, **{k: rec_kw[k] for k in ("sensor", "fs", "noise", "hum", "mains_hz",
+                                                                  "direction_deg", "seed")})
+                path = sensor_path(tr.signal, tr.fs, cut_fs=rec.fs)
+                tapped = {"tap": api.listen_signal(rec.signal, rec.fs, given, cut.teeth, tap=path).listening,
+                          "tap+structure": api.listen_signal(rec.signal, rec.fs, given, cut.teeth, structure=st,
+                                                             tap=path).listening}
+            tap_ok = {k: (bool(abs(v.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz))
+                          if truth.label == "chatter" and v.label == "chatter" else None) for k, v in tapped.items()}
             # bool(): a numpy bool is never ``is False`` (a miss whose heard frequency was a numpy float went unprinted)
             fk_ok = (bool(abs(known.chatter_hz - true_hz) <= max(2.0, 0.005 * true_hz))
                      if truth.label == "chatter" and known.label == "chatter" else None)
             tset = None  # the cut's truth set, on every cut both call chatter (is its truth one frequency?)
-            if f_ok_strict(truth, heard, true_hz) is not None or fk_ok is not None:
+            if (f_ok_strict(truth, heard, true_hz) is not None or fk_ok is not None
+                    or any(v is not None for v in tap_ok.values())):
                 tset = _truth_set(a.cache, a.seed, a.seconds, i, res, truth, st, cut, rpm, ratio, perturbation)
             one = tset is None or one_frequency(tset, true_hz)
             tol_set = max(2.0, 0.005 * true_hz)
@@ -359,13 +392,23 @@ def main(argv=None) -> int:
                          heard.score, heard.trend, ok, f_ok, heard.rpm_heard / rpm - 1, fam_ok, ok_k, fk_ok,
                          f_ok if f_ok is not False else in_set(heard.chatter_hz),
                          fk_ok if fk_ok is not False else in_set(known.chatter_hz), one))
-            if a.explain and (f_ok_strict(truth, heard, true_hz) is False or fk_ok is False):
+            if tapped:
+                taps.append(tuple((right(truth.label, v.label, ratio), tap_ok[k]) for k, v in tapped.items()) + (one,))
+                for k, v in tapped.items():
+                    base = (ok, f_ok) if k == "tap" else (ok_k, fk_ok)
+                    ok_t = right(truth.label, v.label, ratio)
+                    if (ok_t, tap_ok[k]) != base:
+                        print(f"  cut {i}, {k}: heard {v.label} {v.chatter_hz:.1f} Hz "
+                              f"({'right' if ok_t and tap_ok[k] is not False else 'wrong'})")
+            if a.explain and (f_ok_strict(truth, heard, true_hz) is False or fk_ok is False
+                              or any(v is False for v in tap_ok.values())):
                 if not hasattr(res, "x"):
                     res_x, det_x = _resimulate(st, cut, rpm, ratio, perturbation, a.seconds)
                 else:
                     res_x, det_x = res, truth
                 for line in explain(res_x, det_x, st, rec.signal, rec.fs, sensor, rec_kw["direction_deg"], true_hz,
-                                    {"heard": heard.chatter_hz, "structure known": known.chatter_hz}):
+                                    {"heard": heard.chatter_hz, "structure known": known.chatter_hz,
+                                     **{k: v.chatter_hz for k, v in tapped.items()}}, path if tapped else None):
                     print(line)
             if (f_ok is False and in_set(heard.chatter_hz)) or (fk_ok is False and in_set(known.chatter_hz)):
                 print(f"  cut {i}: the simulation's chatter frequency wanders or ties (truth set "
@@ -405,6 +448,13 @@ def main(argv=None) -> int:
           f"ties within the tolerance): recording alone {sum(r[11] for r in f1)}/{len(f1)}, structure known "
           f"{sum(r[15] for r in k1)}/{len(k1)}; not one frequency (wanders or ties): cuts "
           f"{', '.join(map(str, many)) or 'none'}")
+    if taps:
+        for q, k in enumerate(("tap (listen --tap)", "tap and structure (listen --tap --config)")):
+            fq = [t for t in taps if t[q][1] is not None]
+            f1 = [t for t in fq if t[-1]]
+            print(f"with the {k}: labels right {sum(t[q][0] for t in taps) / len(taps):.1%}; chatter frequency within "
+                  f"max(2 Hz, 0.5 %): {sum(t[q][1] for t in fq)}/{len(fq)}; on the cuts whose truth is one "
+                  f"frequency {sum(t[q][1] for t in f1)}/{len(f1)}")
     if truth_moves:
         print(f"truth: the detector's chatter frequency re-resolved zero-padded 16x moves by at most "
               f"{max(truth_moves):.2f} Hz (median {np.median(truth_moves):.2f} Hz) on {len(truth_moves)} cuts")
@@ -421,18 +471,25 @@ def _timing() -> int:
     rpm = 18333.0
     res = simulate_cut(st, cut, rpm, 1.05 * float(sdm.envelope(st, cut, [rpm]).depth[0]), 1e-4, revs=10 * rpm / 60)
     rec = record(res, fs=48000)
-    with threadpool_limits(1):
-        api.listen_signal(rec.signal, rec.fs, rpm, 2)
-        ts, cs = [], []
-        for _ in range(5):
-            t0, c0 = time.perf_counter(), time.process_time()
-            api.listen_signal(rec.signal, rec.fs, rpm, 2)
-            ts.append(time.perf_counter() - t0)
-            cs.append(time.process_time() - c0)
-    print(f"10 s at 48 kHz ({rec.signal.size} samples): listen {min(ts) * 1e3:.0f} ms wall (best of 5), "
-          f"median {np.median(ts) * 1e3:.0f} ms; CPU time best {min(cs) * 1e3:.0f} ms, "
-          f"median {np.median(cs) * 1e3:.0f} ms")
+    tap = record_tap(st, fs=48000, seconds=2.0)
+    for what, kw in (("listen", {}), ("listen --tap (a 2 s tap read, then the cut)", {"tap": tap})):
+        with threadpool_limits(1):
+            _listen_timed(rec, rpm, **kw)
+            ts, cs = [], []
+            for _ in range(5):
+                t0, c0 = time.perf_counter(), time.process_time()
+                _listen_timed(rec, rpm, **kw)
+                ts.append(time.perf_counter() - t0)
+                cs.append(time.process_time() - c0)
+        print(f"10 s at 48 kHz ({rec.signal.size} samples): {what} {min(ts) * 1e3:.0f} ms wall (best of 5), "
+              f"median {np.median(ts) * 1e3:.0f} ms; CPU time best {min(cs) * 1e3:.0f} ms, "
+              f"median {np.median(cs) * 1e3:.0f} ms")
     return 0
+
+
+def _listen_timed(rec, rpm, tap=None):
+    path = None if tap is None else sensor_path(tap.signal, tap.fs, cut_fs=rec.fs)
+    return api.listen_signal(rec.signal, rec.fs, rpm, 2, tap=path)
 
 
 if __name__ == "__main__":

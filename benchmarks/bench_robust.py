@@ -65,7 +65,7 @@ from millstab.points import PointSet  # noqa: E402
 from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior, recommend, update  # noqa: E402
 from millstab.update.campaign import best_productivity  # noqa: E402
-from millstab.update.decide import SPEED_TOLERANCE  # noqa: E402
+from millstab.update.decide import CONFIRM, SPEED_TOLERANCE  # noqa: E402
 from millstab.update.discriminate import conflict_test  # noqa: E402
 
 
@@ -101,7 +101,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
                                                          "depend on it: each campaign is seeded by its index)")
-    ap.add_argument("--confirm", default="conflict", help="recommend's confirm rule(s), comma-separated: the first "
+    ap.add_argument("--confirm", default=CONFIRM, help="recommend's confirm rule(s), comma-separated: the first "
                     "drives the campaign, every one is judged in every round (the next test is sought above the "
                     "model's own cut whatever the rule, so the cuts, hence the posteriors, are the same for all)")
     ap.add_argument("--trace", action="store_true", help="print per round: the recommendation and what limits it, "

@@ -61,7 +61,7 @@ def _loop_build(reps, bs, kt, wn, zeta, mass, mdir, g, nd):
     s = 0.0
     for _ in range(reps):
         for b in bs:
-            s += _k.monodromy_lr(b, kt, g, g[8])[0, 0]
+            s += _k._build_lr(b, kt, g, g[8], g[9])[0, 0]  # into the speed's workspace, as the search builds
     return s
 
 
@@ -102,6 +102,50 @@ def _loop_factors(reps, n_teeth, kr, ps, pe, rpm, el, nd, wn, zeta, mass, mdir, 
             s += _k.with_factors(_k.setup(n_teeth, kr, ps, pe, r, el, nd[0], wn, zeta, act), wn, zeta, mass, mdir,
                                  nd)[1][0]
     return s
+
+
+@nb.njit(cache=True)
+def _loop_parts(reps, bs, level, kt, g, part):
+    """The rung test by its parts at depths bs (one speed's layout g): 0 the monodromy build (into the speed's
+    workspace), 1 the build and a full balance (the certificate's similarity before issue 28's reuse of the
+    scaling), 2 the build, that balance and one squaring with its norms, 3 the whole rung test, 4 the build and the
+    exact ρ (balance, Hessenberg, QR)."""
+    s = 0.0
+    ws = g[9]
+    for _ in range(reps):
+        for b in bs:
+            if part == 3:
+                s += _k.rho_test(b, level, _k.CERT_SQUARINGS, kt, g)[0]
+                continue
+            U = _k._build_lr(b, kt, g, g[8], ws)
+            if part == 4:
+                s += _k._rho_exact(U, ws)[0]
+                continue
+            if part >= 1:
+                ws[14][:] = 1.0
+                _k._balance(U, ws[14])
+            if part >= 2:
+                np.dot(U, U, ws[8])
+                s += _k._norms(ws[8])[0]
+            s += U[0, 0]
+    return s
+
+
+def rung_parts(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+               near: float, rows: int = 5, reps: int = 20) -> dict:
+    """CPU seconds per rung of each part of :func:`_loop_parts` on the rungs under the accepted roots (first
+    ``rows`` sets), and the rows K of their monodromies."""
+    tot = np.zeros(5)
+    n_r = k_sum = 0
+    for g, bs in rungs_by_speed(batch, cut, rs, depth, b_ref, p, rows):
+        if bs.size == 0:
+            continue
+        for part in range(5):
+            _loop_parts(0, bs, 1.0 - near, cut.kt, g, part)  # compile / cache load
+            tot[part] += cpu(_loop_parts, reps, bs, 1.0 - near, cut.kt, g, part)[1]
+        n_r += bs.size
+        k_sum += bs.size * g[9][0].shape[0]
+    return {"parts": tot / max(n_r * reps, 1), "K": k_sum / max(n_r, 1)}
 
 
 def cpu(f, *args):
@@ -174,34 +218,42 @@ def rungs_below(depth: np.ndarray, b_ref: np.ndarray) -> np.ndarray:
     return out
 
 
-def rung_census(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
-                near: float, rows: int = 5) -> dict:
-    """How the rungs under the accepted roots are decided (first ``rows`` sets): the rung test at 1 − near with the
-    full squaring budget (``_k.rho_test``, CERT_SQUARINGS) certifies them (and with how many squarings) or needs
-    the eigenvalues; and how many have ρ above the level (the refinement's triggers, eigenvalues in any case)."""
+def rungs_by_speed(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+                   rows: int = 5):
+    """For each (set, speed) of the first ``rows`` sets with a finite limit: (its layout with factors and workspace,
+    the ladder depths (R,) under its accepted root)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     nd = _k.gauss_nodes(p)
     el = spectral._elem_len(wn)
-    level = 1.0 - near
-    out = {"rungs": 0, "certified": 0, "squarings": 0, "above": 0}
     for i in range(min(batch.size, rows)):
         for s, r in enumerate(rs):
             if not np.isfinite(depth[i, s]):
                 continue
             g = _k.with_factors(_k.setup(cut.teeth, cut.kr, cut.entry, cut.exit, r, el[i], nd[0], wn[i], zeta[i], act),
                                 wn[i], zeta[i], mass[i], mdir, nd)
-            k = 0
-            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, k) < depth[i, s] * (1 - 2e-3):
-                x = _k.ladder_depth(b_ref[i, s], spectral.LADDER, k)
-                k += 1
-                out["rungs"] += 1
-                for sq in range(1, _k.CERT_SQUARINGS + 1):  # the fewest squarings that certify
-                    if not _k.rho_test(x, level, sq, cut.kt, g)[2]:
-                        out["certified"] += 1
-                        out["squarings"] += sq
-                        break
-                else:
-                    out["above"] += int(_k.rho_test(x, level, 0, cut.kt, g)[0] > level)
+            bs = []
+            while _k.ladder_depth(b_ref[i, s], spectral.LADDER, len(bs)) < depth[i, s] * (1 - 2e-3):
+                bs.append(_k.ladder_depth(b_ref[i, s], spectral.LADDER, len(bs)))
+            yield g, np.array(bs)
+
+
+def rung_census(batch: ModalBatch, cut: Cutting, rs: np.ndarray, depth: np.ndarray, b_ref: np.ndarray, p: int,
+                near: float, rows: int = 5) -> dict:
+    """How the rungs under the accepted roots are decided (first ``rows`` sets): the rung test at 1 − near with the
+    full squaring budget (``_k.rho_test``, CERT_SQUARINGS) certifies them (and with how many squarings) or needs
+    the eigenvalues; and how many have ρ above the level (the refinement's triggers, eigenvalues in any case)."""
+    level = 1.0 - near
+    out = {"rungs": 0, "certified": 0, "squarings": 0, "above": 0}
+    for g, bs in rungs_by_speed(batch, cut, rs, depth, b_ref, p, rows):
+        for x in bs:
+            out["rungs"] += 1
+            for sq in range(1, _k.CERT_SQUARINGS + 1):  # the fewest squarings that certify
+                if not _k.rho_test(x, level, sq, cut.kt, g)[2]:
+                    out["certified"] += 1
+                    out["squarings"] += sq
+                    break
+            else:
+                out["above"] += int(_k.rho_test(x, level, 0, cut.kt, g)[0] > level)
     return out
 
 
@@ -237,11 +289,20 @@ def profile(label: str, batch: ModalBatch, cut: Cutting, rpm: np.ndarray, nodes,
           f"squarings {100 * cen['certified'] / n_r:.1f} % (mean {cen['squarings'] / max(cen['certified'], 1):.2f} "
           f"squarings), eigenvalues needed {100 * (1 - cen['certified'] / n_r):.1f} % (rho above 1 - near at "
           f"{100 * cen['above'] / n_r:.1f} %: those steps are refined)")
-    rung_t = n_rho.sum() * u["below"]
+    parts = rung_parts(batch, cut, rs, depth, b_ref, p, near)
+    t = 1e6 * parts["parts"]
+    print(f"  a rung under the root by its parts (first {min(batch.size, 5)} sets, K = {parts['K']:.1f} rows): the "
+          f"whole test {t[3]:.2f} us = monodromy build {t[0]:.2f} us + the certificate {t[3] - t[0]:.2f} us; for "
+          f"comparison a full balance {t[1] - t[0]:.2f} us, one squaring with its norms {t[2] - t[1]:.2f} us, the "
+          f"exact rho (balance, Hessenberg, QR) {t[4] - t[0]:.2f} us")
+    rung_t = n_rho.sum() * parts["parts"][3]
+    set_t = u["factors"] * n_pairs
     n_other = np.maximum(n_eval - n_rho, 0).sum()
-    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %); the "
-          f"other {n_other / n_pairs:.1f} evaluations per pair (Newton, brackets, failed branches) ~"
-          f"{n_other * 0.5 * (u['rho'] + u['char']):.3f} s if half of each kind; setups {u['factors'] * n_pairs:.3f} s")
+    each = 1e6 * (t_solve - rung_t - set_t) / max(n_other, 1)
+    print(f"  the search's {t_solve:.3f} s: rungs under the root ~{rung_t:.3f} s ({100 * rung_t / t_solve:.0f} %, at "
+          f"the measured whole test); speed setups {set_t:.3f} s ({100 * set_t / t_solve:.0f} %); the other "
+          f"{n_other / n_pairs:.1f} evaluations per pair (the refinement near rho = 1, the bracket's ends, Newton, "
+          f"the check at a root's top: mostly exact rho) the rest, ~{each:.1f} us each")
 
 
 def main() -> None:

@@ -241,3 +241,38 @@ def test_recommend_command_confirm_option(tmp_path, capsys):
     capsys.readouterr()
     assert main(args + ["--confirm", "sometimes", "--out", str(tmp_path / "c.json")]) == 2
     assert "--confirm" in capsys.readouterr().err and not (tmp_path / "c.json").exists()
+
+
+def test_auto_confirms_unless_chatter_frequencies_place_the_modes():
+    """Issue 24: the default rule "auto" is "conflict" (a named conflict makes a stable cut vouch for the
+    recommendation) unless two or more chatter cuts carry frequencies read near the mode (the prior's alias chance
+    < 1), which place the natural frequencies; then the model's own cut stands ("never"). References: the explicit
+    rules on the same posteriors. Fails on the old code (no "auto"; the default was "conflict" whatever the data)."""
+    from dataclasses import replace
+
+    from millstab.update.decide import CONFIRM, PLACE_MODES_CUTS, frequencies_place_modes
+
+    assert CONFIRM == "auto" and PLACE_MODES_CUTS == 2 and PRIOR.chatter_hz_alias < 1
+    tol = 0.0025
+    s_ok = 5600.0
+    lim = limits(PRIOR, np.log(SAMPLES), np.array([s_ok, s_ok * (1 - tol), s_ok * (1 + tol)]))[0]
+    rpm, depth = [s_ok, 7000.0, 6500.0], [0.9 * lim.min(), 20.0, 20.0]
+    labels = ["stable", "chatter", "chatter"]
+    cases = {"none": [None, None, None], "one": [None, 910.0, None], "two": [None, 910.0, 905.0]}
+    for name, hz in cases.items():
+        post = post_with(rpm, depth, labels, hz=hz, warn=[CONFLICT])
+        places = frequencies_place_modes(post)
+        assert places == (name == "two")
+        auto = recommend(post, 0.05, (5000, 9000))
+        ref = recommend(post, 0.05, (5000, 9000), confirm="never" if places else "conflict")
+        assert (auto.rpm, auto.depth_mm, auto.limited_by) == (ref.rpm, ref.depth_mm, ref.limited_by)
+    # the two rules differ here, so the switch is seen: the conflict rule holds the cut at the stable one
+    conflict = recommend(post_with(rpm, depth, labels, hz=cases["two"], warn=[CONFLICT]), 0.05, (5000, 9000),
+                         confirm="conflict")
+    assert conflict.limited_by.startswith("a cut labelled stable") and not auto.limited_by.startswith("a cut")
+    # frequencies read modulo the tooth-passing frequency alone (alias 1) place nothing
+    post = post_with(rpm, depth, labels, hz=cases["two"], warn=[CONFLICT])
+    post = Posterior(replace(PRIOR, chatter_hz_alias=1.0), SAMPLES, cuts=post.cuts, warnings=post.warnings)
+    assert not frequencies_place_modes(post)
+    # a frequency on a cut labelled stable does not count
+    assert not frequencies_place_modes(post_with(rpm, depth, ["chatter", "stable", "chatter"], hz=cases["two"]))

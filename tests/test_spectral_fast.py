@@ -139,3 +139,47 @@ def test_every_speed_of_a_random_grid_equals_that_speed_alone():
         alone = np.array([spectral.envelope_batch(batch, cut, [r], nodes=nodes, near=near)[0, 0] for r in grid])
         same = (on_grid == alone) | (np.abs(on_grid / alone - 1) < 1e-10)
         assert same.all(), (case, grid[~same], on_grid[~same], alone[~same])
+
+
+def test_the_speed_workspace_gives_what_fresh_arrays_give_whatever_came_before():
+    """The per-speed workspace (``with_factors``' g[9]: the monodromy built in place, the certificate's squarings and
+    balancing scaling carried from depth to depth, issue 28) changes no value: at depths visited in a random order,
+    after other depths, levels and budgets, the built matrix is a fresh ``monodromy_lr``'s and ρ the eigenvalues'
+    of that matrix (``eig_small``, fresh arrays) bit for bit, on random structures, cuts and node counts; where the
+    rung test certifies, its bound is at or above that ρ and below the level."""
+    rng = np.random.default_rng(2829)
+    n_cert = 0
+    for _ in range(4):
+        structure, cut = random_case(rng)
+        nodes = int(rng.integers(3, 8))
+        rpm = float(rng.uniform(4000, 20000))
+        gf, (wn, zeta, mass, mdir, D, nd) = _layout(structure, cut, rpm, nodes)
+        g_fresh = _layout(structure, cut, rpm, nodes)[0]
+        b0 = spectral._b_ref(ModalBatch.from_structures([structure]), cut, np.array([rpm]))[0, 0]
+        for b in b0 * rng.uniform(0.05, 2.0, 12):
+            U = k.monodromy_lr(b, cut.kt, g_fresh, g_fresh[8])
+            ref, mu_ref = k._dominant(k.eig_small(U))
+            assert np.array_equal(k._build_lr(b, cut.kt, gf, gf[8], gf[9]), U)
+            r, mu = k.rho(b, cut.kt, wn, zeta, mass, mdir, D, gf, nd)
+            assert r == ref and (mu == mu_ref or (np.isnan(mu) and np.isnan(mu_ref)))
+            level = float(rng.choice([1.0, 0.98, 0.9]))
+            got, _, exact = k.rho_test(b, level, int(rng.integers(0, 11)), cut.kt, gf)
+            if exact:
+                assert got == ref
+            else:
+                n_cert += 1
+                assert ref <= got * (1 + 1e-12) and got < level
+    assert n_cert > 0
+
+
+def test_norms_are_numpys_and_nan_is_not_finite():
+    """The certificate's norms (``_norms``, four partial sums per row) against numpy's, on random sizes; a NaN entry
+    makes the Frobenius norm NaN (the rung test then takes the exact path, which reports ρ = inf)."""
+    rng = np.random.default_rng(5)
+    for K in (1, 3, 4, 7, 16, 22):
+        P = rng.standard_normal((K, K)) * 10.0 ** rng.uniform(-3, 3, (K, K))
+        inf, fro = k._norms(P)
+        assert inf == pytest.approx(np.abs(P).sum(axis=1).max(), rel=1e-14)
+        assert fro == pytest.approx(np.linalg.norm(P), rel=1e-14)
+        P[K // 2, K - 1] = np.nan
+        assert np.isnan(k._norms(P)[1])

@@ -35,7 +35,7 @@ def _likelihoods(alias: float):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # "every cut is chatter"
         ev = Evidence.from_points(cuts)
-    family = make_prior(STRUCT, CUT)
+    family = replace(make_prior(STRUCT, CUT), chatter_hz_alias=1.0)  # the family term alone
     return Likelihood(replace(family, chatter_hz_alias=alias), ev), Likelihood(family, ev)
 
 
@@ -76,7 +76,10 @@ def test_chatter_hz_alias_from_the_config_and_in_the_posterior_record():
     old = p.to_dict()
     del old["chatter_hz_alias"]  # a posterior written before the option: any member alike, as it was fitted
     assert Prior.from_dict(old).chatter_hz_alias == 1.0
-    assert make_prior(STRUCT, CUT).chatter_hz_alias == 1.0  # the default: the family term alone
+    # the default (issue 24): the member near the mode with 0.9, any member with 0.1
+    assert make_prior(STRUCT, CUT).chatter_hz_alias == pytest.approx(0.1)
+    table = parse_config(TOML + '[prior]\nchatter_hz_alias = "100 %"\n').prior  # the family term alone, on request
+    assert make_prior(STRUCT, CUT, table).chatter_hz_alias == 1.0
     for bad in ('"0 %"', '"120 %"', "-0.1"):
         with pytest.raises(InputError, match="chatter_hz_alias"):
             parse_config(TOML + f"[prior]\nchatter_hz_alias = {bad}\n")

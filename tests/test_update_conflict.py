@@ -19,6 +19,8 @@ from millstab.update.likelihood import Evidence, Likelihood, limits
 from millstab.update.prior import TRUNCATE
 from configs import TWO_MODE_TOML
 
+#: the closed forms below are the independent Student-t's (one parameter's t tail against the Gaussian's)
+STUDENT = '[prior]\ntails = "student"\n'
 ONLY_KX = '[prior]\nfixed = ["fn_x", "zeta_x", "fn_y", "k_y", "zeta_y", "label_error", "sigma_depth"]\n'
 
 
@@ -42,7 +44,7 @@ def test_moderate_one_sided_evidence_is_named_where_the_old_rule_was_silent():
     (a ratio ≥ 10) stayed silent here — the measured miss of the wrong-hammer-test campaigns (docs/updating.md,
     "Prior–data conflict"); the rule now (≥ 5, set from the calibration campaigns' false-alarm rate) names it.
     Fails on the old code (BAYES_FACTOR = 10)."""
-    _, prior = _prior()
+    _, prior = _prior(STUDENT)
     c = 2.6
     exact = math.log(student_t.sf(c, prior.nu) / norm.sf(c))
     assert 1.6 < exact < math.log(10)  # the case: between the new and the old threshold
@@ -95,7 +97,7 @@ def test_a_named_conflict_is_kept_while_the_ratio_stays_above_two():
     sf_t(2.2)/sf_N(2.2) = 3.3 — below the naming threshold 5, above the keeping one 2. A first update is quiet; one
     that continues an update that named the conflict keeps naming it (and says so); bounded only beyond +1σ
     (ratio 1.2) the conflict is dropped. Fails on the old code (no hysteresis: check had no ``named_before``)."""
-    _, prior = _prior()
+    _, prior = _prior(STUDENT)
     c = 2.2
     exact = math.log(student_t.sf(c, prior.nu) / norm.sf(c))
     assert math.log(conflict.BAYES_FACTOR_KEEP) < exact < math.log(BAYES_FACTOR)

@@ -68,7 +68,8 @@ def test_graded_cuts_reach_the_evidence_and_the_likelihood():
 
 # --- the prior -------------------------------------------------------------------------------------------
 def test_student_prior_density_and_draws_are_the_t():
-    cfg, prior = _prior()
+    assert _prior()[1].tails == "multivariate_t"  # the default since issue 24 (tests/test_update_mvt.py)
+    cfg, prior = _prior('[prior]\ntails = "student"\n')
     assert prior.tails == "student" and prior.nu == 4.0
     rng = np.random.default_rng(0)
     u = prior.sample(40000, rng)
@@ -194,7 +195,7 @@ def test_learned_label_error_matches_a_brute_force_grid_posterior():
 
 # --- conflict, predictions, the file ----------------------------------------------------------------------
 def test_conflict_check_names_the_parameter_and_its_distance():
-    _, prior = _prior()
+    _, prior = _prior('[prior]\ntails = "student"\n')  # one parameter far off: the independent t's case
     rng = np.random.default_rng(0)
     u = prior.mean_u + 0.2 * prior.spread * rng.standard_normal((2000, prior.size))
     msg, info = check(prior, u)
@@ -260,7 +261,7 @@ def test_posterior_file_keeps_the_noise_and_an_old_file_still_loads():
     assert doc["schema"] == "millstab.posterior/3" and doc["noise"]["names"] == ["label_error", "sigma_depth"]
     back = Posterior.from_json(doc)
     np.testing.assert_array_equal(back.noise, post.noise)
-    assert back.prior.tails == "student" and back.prior.noise_names == prior.noise_names
+    assert back.prior.tails == prior.tails == "multivariate_t" and back.prior.noise_names == prior.noise_names
     # sequential reuse from the file: the learned noise levels carry over
     more = PointSet(np.r_[cuts.rpm, 7000.0], np.r_[cuts.depth_mm, 2.5], list(cuts.label) + ["chatter"])
     assert update(cfg, more, samples=200, seed=1, start=back).noise.shape == (200, 2)

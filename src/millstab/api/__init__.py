@@ -16,8 +16,9 @@ Tasks: :func:`lobes` (SLD, any registered engine), :func:`identify`, :func:`desi
 :func:`sensitivity` (oat, mc, sobol, morris; locally or on Dask), :func:`tip_frf` / :func:`stickout_sweep` (the tool
 tip of a [tool] in its [holder] by receptance coupling, "which stickout?"), :func:`simulate_cut` / :func:`label_cuts`
 (virtual cuts), :func:`listen_file` / :func:`listen_signal` (a recorded cut: chatter and a speed),
-:func:`record_cut` (a virtual recording), :func:`label_from_recordings` (cuts labelled by ear), :func:`modal_fit`
-(tap test), :func:`reproduce`.
+:func:`record_cut` / :func:`record_tap` (virtual recordings of a cut and of a tap), :func:`tap_path` (a tap
+recording → the sensor path ``listen --tap`` divides out), :func:`label_from_recordings` (cuts labelled by ear),
+:func:`modal_fit` (tap test), :func:`reproduce`.
 Beside the tasks, what the doors need so that they import nothing else (issue 26): option parsers and
 checks (:func:`parse_rpm_range`, :func:`parse_interval`, :func:`parse_grid`, :func:`parse_eps`,
 :func:`parse_bounds`, :func:`check_speeds`, :func:`check_seed`, :func:`check_samples`, :func:`check_frf_type`),
@@ -59,7 +60,7 @@ _HOMES = {
                "modal_quality", "modal_toml", "reproduce", "reproduce_steps", "simulate_cut", "simulate_figure",
                "simulate_mode"),
     "listen": ("Heard", "label_from_recordings", "listen_figure", "listen_file", "listen_signal", "read_cuts",
-               "record_cut"),
+               "record_cut", "record_tap", "tap_path"),
     "progress": ("CancelToken", "Cancelled", "Progress", "collect_warnings"),
     "cluster": ("CONNECT_SECONDS", "open_client"),
 }

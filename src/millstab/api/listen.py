@@ -121,15 +121,19 @@ def _range(rpm_range, rpm: float) -> tuple[float, float]:
 
 def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | None = None, end: float | None = None,
                   rpm_range=None, post=None, depth_mm: float | None = None, risk: float = 0.1,
-                  structure=None) -> Heard:
+                  structure=None, tap=None) -> Heard:
     """Label a recorded signal and suggest a speed (:mod:`millstab.listen`). With a posterior ``post``
     (of ``update``) and the cut's ``depth_mm`` the suggestion is ``recommend``'s fastest speed with
     P(chatter) ≤ ``risk`` at that depth instead of the harmonizer rule. With the tool's ``structure``
     (a config's) a flip chatter is reported at its member nearest the structure's modes (step 7 of
-    :mod:`millstab.listen.analyze`)."""
+    :mod:`millstab.listen.analyze`). ``tap``: a tap's recording (a path: read by :func:`tap_path`, at the cut's
+    sample rate) or the :class:`~millstab.listen.tap.SensorPath` of one: the chatter family's members are ranked as
+    the displacement would rank them through that path (:mod:`millstab.listen.tap`)."""
     from millstab.listen import listen, suggest_rpm
 
-    res = listen(signal, fs, rpm, teeth, start=start, end=end, structure=structure)
+    if isinstance(tap, (str, Path)):
+        tap = tap_path(tap, cut_fs=fs)
+    res = listen(signal, fs, rpm, teeth, start=start, end=end, structure=structure, tap=tap)
     lo, hi = _range(rpm_range, rpm)
     if post is not None:
         if depth_mm is None or not (math.isfinite(depth_mm) and depth_mm > 0):
@@ -147,12 +151,24 @@ def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | N
     return Heard(res, s.rpm, s.reason, "harmonizer")
 
 
-def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, **kw) -> Heard:
-    """:func:`listen_signal` of a WAV or CSV recording (:mod:`millstab.io.recordings`)."""
+def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, tap=None, **kw) -> Heard:
+    """:func:`listen_signal` of a WAV or CSV recording (:mod:`millstab.io.recordings`); ``tap``: a tap's
+    recording (path; its first channel, at the cut's sample rate) or its :class:`~millstab.listen.tap.SensorPath`."""
     from millstab.io.recordings import read_recording
 
     x, fs = read_recording(path, channel)
-    return listen_signal(x, fs, rpm, teeth, **kw)
+    return listen_signal(x, fs, rpm, teeth, tap=tap, **kw)
+
+
+def tap_path(path, *, channel: int = 0, cut_fs: float | None = None):
+    """The sensor path measured by a tap recorded in ``path`` (WAV or CSV; ``cut_fs``: the cut's sample rate,
+    which the tap's must equal): :func:`millstab.listen.tap.sensor_path`. Raises InputError for a bad tap (no
+    impulse, clipped, another sample rate)."""
+    from millstab.io.recordings import read_recording
+    from millstab.listen.tap import sensor_path
+
+    x, fs = read_recording(path, channel)
+    return sensor_path(x, fs, cut_fs=cut_fs, name=f"--tap {Path(path).name}")
 
 
 def listen_figure(heard: Heard, title: str = ""):
@@ -165,6 +181,14 @@ def record_cut(result, *, sensor: str = "microphone", noise: float = 0.02, seed:
     from millstab.simulate.record import record
 
     return record(result, sensor=sensor, noise=noise, seed=seed, **kw)
+
+
+def record_tap(structure, *, sensor: str = "microphone", noise: float = 0.02, seed: int = 0, **kw):
+    """What the same sensor would record of a tap on the structure (:func:`millstab.simulate.record.record_tap`):
+    the recording ``listen --tap`` takes."""
+    from millstab.simulate.record import record_tap as _record_tap
+
+    return _record_tap(structure, sensor=sensor, noise=noise, seed=seed, **kw)
 
 
 def read_cuts(path, labels: str | None = None, teeth: int | None = None, structure=None):
@@ -186,7 +210,9 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     from each recording, and one line per cut saying where its label came from. With ``uploads``
     (uploaded file name → saved path, the web app) a recording may only name an uploaded file
     (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
-    config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`)."""
+    config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`); a
+    ``tap`` column names a tap recorded by the cut's sensor (``listen --tap``: the sensor path it measures is
+    divided out when the chatter's member is chosen)."""
     from millstab.io.recordings import read_cuts_with_recordings, read_recording
     from millstab.listen import listen
     from millstab.points import PointSet
@@ -194,6 +220,7 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     rows = read_cuts_with_recordings(cuts_csv, uploads)
     name_of = {v: k for k, v in (uploads or {}).items()}  # saved path → the name the user uploaded
     labels, hz, notes = [], [], []
+    paths = {}  # a tap's measured path, read once for the cuts that share it
     for r in rows:
         if r["recording"] is None:
             labels.append(r["label"])
@@ -201,12 +228,18 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
             notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
             continue
         x, fs = read_recording(r["recording"])
-        res = listen(x, fs, r["rpm"], teeth, structure=structure)
+        tap = None
+        if r["tap"] is not None:
+            if (r["tap"], fs) not in paths:
+                paths[r["tap"], fs] = tap_path(r["tap"], cut_fs=fs)
+            tap = paths[r["tap"], fs]
+        res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
         notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
-                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g})")
+                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g}"
+                     + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")"))
     rpm = np.array([r["rpm"] for r in rows])
     depth = np.array([r["depth_mm"] for r in rows])
     weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])

@@ -26,25 +26,26 @@ def config_feed_mm(cfg: Config, feed_mm: float | None = None) -> float:
 
 
 def simulate_mode(*, cuts=None, rpm: float | None = None, depth: float | None = None, plot=None, record=None,
-                  marginal: str = "keep", label_noise: float = 0.0, seed: int | None = None) -> str:
+                  marginal: str = "keep", label_noise: float = 0.0, seed: int | None = None, record_tap=None) -> str:
     """Which simulation the options of ``millstab simulate`` ask for: ``"cuts"`` (label a file of cuts,
     :func:`label_cuts`) or ``"one"`` (one cut at ``rpm`` [rev/min] and ``depth`` [mm], :func:`simulate_cut`),
     checked before any work.
 
     Raises:
-        InputError: a combination of options that one mode does not take (named), a ``record`` file that is not
-            .wav or .csv, or ``marginal`` not ``keep``/``random``.
+        InputError: a combination of options that one mode does not take (named), a ``record`` or ``record_tap``
+            file that is not .wav or .csv, or ``marginal`` not ``keep``/``random``.
     """
     from pathlib import Path
 
-    if record is not None and Path(record).suffix.lower() not in (".wav", ".csv"):
-        raise InputError("--record", str(record), "a .wav or .csv file")
+    for opt, given in (("--record", record), ("--record-tap", record_tap)):
+        if given is not None and Path(given).suffix.lower() not in (".wav", ".csv"):
+            raise InputError(opt, str(given), "a .wav or .csv file")
     if marginal not in ("keep", "random"):
         raise InputError("--marginal", marginal, "keep or random")
     if cuts is not None:
         if rpm is not None or depth is not None:
             raise InputError("--cuts", str(cuts), "give either --cuts or --rpm/--depth, not both")
-        for opt, given in (("--plot", plot), ("--record", record)):
+        for opt, given in (("--plot", plot), ("--record", record), ("--record-tap", record_tap)):
             if given is not None:
                 raise InputError(opt, str(given), f"{opt} is for one cut (--rpm/--depth), not for --cuts")
         return "cuts"
@@ -54,8 +55,9 @@ def simulate_mode(*, cuts=None, rpm: float | None = None, depth: float | None = 
     for opt, bad in (("--label-noise", label_noise != 0.0), ("--marginal", marginal != "keep")):
         if bad:
             raise InputError(opt, label_noise if opt == "--label-noise" else marginal, f"{opt} applies to --cuts only")
-    if seed is not None and record is None:
-        raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record (sensor noise)")
+    if seed is not None and record is None and record_tap is None:
+        raise InputError("--seed", seed, "the seed applies to --cuts (label noise) or --record/--record-tap (sensor "
+                         "noise)")
     return "one"
 
 

@@ -1,6 +1,7 @@
 """``millstab listen``: chatter and its frequency from a recording of a cut, and a speed to try.
 
-millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--config CFG] [--rpm-range MIN:MAX]
+millstab listen REC --rpm R --teeth Z [--start S --end E] [--channel C] [--config CFG] [--tap TAP]
+                [--rpm-range MIN:MAX]
                 [--post post.json --depth MM [--risk P]] [--out res.json] [--plot spec.png]
                 [--db shop.db --campaign NAME --depth MM [--user U]]   (records the cut with its heard label)
 """
@@ -28,6 +29,10 @@ def listen(
     config: Optional[str] = typer.Option(None, "--config", help="The tool's config (TOML or example:NAME): a "
                                                                  "flip chatter is reported at its member nearest "
                                                                  "the modes."),
+    tap: Optional[Path] = typer.Option(None, "--tap", help="A tap (hammer hit on the tool) recorded by the same "
+                                                           "sensor at the same place and sample rate: the sensor "
+                                                           "path it measures is divided out when the chatter "
+                                                           "family's member is chosen (docs/listen.md)."),
     rpm_range: Optional[str] = typer.Option(None, "--rpm-range", help="Machine speed range MIN:MAX for the "
                                                                       "suggestion (rev/min; default 0.5-1.5 x rpm)."),
     post: Optional[Path] = typer.Option(None, "--post", help="Posterior JSON of millstab update: suggest "
@@ -49,7 +54,7 @@ def listen(
     from millstab.io import config_inputs, read_json
 
     cfg = api.config(config) if config is not None else None  # --config: the tool's structure (docs/listen.md)
-    protect = emit.checked({"RECORDING": recording, "--post": post, **(config_inputs(cfg) if cfg else {})},
+    protect = emit.checked({"RECORDING": recording, "--post": post, "--tap": tap, **config_inputs(cfg)},
                            {"--out": out, "--plot": plot}, figures=("--plot",))
     on_db = shop_target(db, campaign)
     if on_db and (depth is None or post is not None):
@@ -61,8 +66,8 @@ def listen(
         from millstab.api import shop
 
         posterior = (shop.current_posterior(db, campaign, user) or (None, None))[1]
-    heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range,
-                            post=posterior, depth_mm=depth, risk=risk, structure=cfg.structure if cfg else None)
+    heard = api.listen_file(recording, rpm, teeth, channel=channel, start=start, end=end, rpm_range=rpm_range, tap=tap,
+                            post=posterior, depth_mm=depth, risk=risk, structure=getattr(cfg, "structure", None))
     typer.echo(f"{recording.name}: {heard.summary()}")
     if on_db:
         n = shop.record_heard(db, campaign, heard, depth, recording, user=user)

@@ -35,10 +35,11 @@ def recommend_cmd(
     speed_tolerance: float = typer.Option(0.0025, "--speed-tolerance",
                                           help="Relative spindle-speed error the cut must tolerate, in [0, 0.1) "
                                                "(0.0025 = ±0.25 %)."),
-    confirm: str = typer.Option("conflict", "--confirm",
+    confirm: str = typer.Option("auto", "--confirm",
                                 help="When the recommendation must be no deeper than a cut labelled stable that the "
-                                     "posterior holds safe, within ±2 % of its speed: 'conflict' (while the cuts "
-                                     "contradict the hammer test), 'always', 'never'."),
+                                     "posterior holds safe, within ±2 % of its speed: 'auto' (as 'conflict' unless "
+                                     "two or more chatter cuts carry frequencies that place the modes), 'conflict' "
+                                     "(while the cuts contradict the hammer test), 'always', 'never'."),
     discriminate: str = typer.Option("never", "--discriminate",
                                      help="'conflict': while the cuts contradict the hammer test, the next test is "
                                           "the cut that best tells the posterior from the far-off alternative the "

@@ -2,6 +2,7 @@
 
 One cut:   millstab simulate CONFIG --rpm R --depth MM [--feed-per-tooth MM] [--revs N] [--plot cut.png]
            [--out trace.csv] [--record cut.wav [--sensor microphone|accelerometer] [--noise X] [--seed S]]
+           [--record-tap tap.wav]   (a tap on the tool heard by the same sensor: for listen --tap)
 Many cuts: millstab simulate CONFIG --cuts cuts.csv [--out labelled.csv] [--label-noise P --seed S]
 """
 
@@ -37,6 +38,9 @@ def simulate(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure of one cut (.png, .svg or .pdf)."),
     record: Optional[Path] = typer.Option(None, "--record", help="What a sensor would record of one cut: "
                                                                  ".wav (16-bit, 48 kHz) or .csv time_s,signal."),
+    record_tap: Optional[Path] = typer.Option(None, "--record-tap", help="What the same sensor (--sensor, --noise, "
+                                                                         "--seed) would record of a hammer tap on the "
+                                                                         "tool: .wav or .csv, for listen --tap."),
     sensor: str = typer.Option("microphone", "--sensor", help="microphone or accelerometer (with --record)."),
     noise: float = typer.Option(0.02, "--noise", help="Sensor noise RMS relative to the vibration's (with --record)."),
     label_noise: float = typer.Option(0.0, "--label-noise",
@@ -53,10 +57,10 @@ def simulate(
 
     cfg = api.config(config)
     # every output checked before the work (an hour of cuts is not lost to a bad path)
-    protect = emit.checked({**config_inputs(cfg), "--cuts": cuts}, {"--out": out, "--plot": plot, "--record": record},
-                           figures=("--plot",))
+    protect = emit.checked({**config_inputs(cfg), "--cuts": cuts}, {"--out": out, "--plot": plot, "--record": record,
+                                                                    "--record-tap": record_tap}, figures=("--plot",))
     if api.simulate_mode(cuts=cuts, rpm=rpm, depth=depth, plot=plot, record=record, marginal=marginal,
-                         label_noise=label_noise, seed=seed) == "cuts":
+                         label_noise=label_noise, seed=seed, record_tap=record_tap) == "cuts":
         pts = read_points(cuts)
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
@@ -66,12 +70,24 @@ def simulate(
     typer.echo(f"{cfg.name}: {res.summary(det)}")
     emit.csv(out, res.table(), protect)
     emit.figure(plot, lambda: api.simulate_figure(res, det, title=cfg.name), protect)
-    if record:
-        from millstab.io.recordings import write_recording
+    _recordings_out(cfg, res, record, record_tap, sensor, noise, seed, protect)
 
-        rec = api.record_cut(res, sensor=sensor, noise=noise, seed=0 if seed is None else seed)
-        emit.wrote(record, lambda: write_recording(record, rec.fs, rec.signal, protect=protect),
-                   note=f" ({rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+
+def _recordings_out(cfg, res, record: Path | None, record_tap: Path | None, sensor: str, noise: float,
+                    seed: int | None, protect) -> None:
+    """``--record`` (what the sensor hears of the cut) and ``--record-tap`` (of a tap on the tool: the same sensor,
+    room and noise, for ``listen --tap``)."""
+    from millstab import api
+    from millstab.cli import emit
+    from millstab.io.recordings import write_recording
+
+    seed = 0 if seed is None else seed
+    for path, rec, what in ((record, record and api.record_cut(res, sensor=sensor, noise=noise, seed=seed), ""),
+                            (record_tap, record_tap and api.record_tap(cfg.structure, sensor=sensor, noise=noise,
+                                                                       seed=seed), "a tap on the tool heard by the ")):
+        if path:
+            emit.wrote(path, lambda p=path, r=rec: write_recording(p, r.fs, r.signal, protect=protect),
+                       note=f" ({what}{rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
 
 
 def _labels_out(table, out: Path | None, protect) -> None:

@@ -48,9 +48,9 @@ Schema (every quantity a number in SI or a string with units, parsed by
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
-    tails = "student"            # the spreads' tails: student (default), normal, mixture or multivariate_t
+    tails = "student"            # the spreads' tails: multivariate_t (default), student, normal or mixture
     batch_effect = "3 %"         # σ of a test day's shift of every fn (cuts' batch/date column; default off)
-    chatter_hz_alias = "10 %"    # chance a chatter frequency is not the family member near the mode (default 100 %)
+    chatter_hz_alias = "100 %"   # chance a chatter frequency is not the family member near the mode (default 10 %)
 
 A spread is the standard deviation of ln(value) (≈ the relative standard deviation when small),
 a plain number or a percentage, > 0. ``sigma_depth`` needs its unit ("mm") or a "%".

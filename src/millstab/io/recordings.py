@@ -134,9 +134,10 @@ CUT_LABELS = ("stable", "marginal", "chatter")
 
 
 def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = None) -> list[dict]:
-    """Rows of a cuts CSV ``rpm,depth_mm[,label][,chatter_hz][,weight],recording`` as dicts (rpm, depth_mm,
+    """Rows of a cuts CSV ``rpm,depth_mm[,label][,chatter_hz][,weight],recording[,tap]`` as dicts (rpm, depth_mm,
     label, chatter_hz, weight, recording: an existing path resolved relative to the CSV's folder, or None
-    where the cell is empty; that row then needs its own label). Other columns are ignored.
+    where the cell is empty; that row then needs its own label; tap: the same for a tap recorded by the cut's
+    sensor, ``listen --tap``, or None). Other columns are ignored.
 
     With ``uploads`` (the web app: uploaded file name → where the session saved it) a recording cell may
     only be the name of a file uploaded in the same session: anything else (a server path, a name with a
@@ -168,29 +169,32 @@ def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = 
             except ValueError:
                 raise InputError(f"{p.name}:{line} {name}", text, "a number") from None
 
-        rec = cell["recording"]
+        def resolve(name: str):
+            given = cell.get(name, "")
+            if not given:
+                return None
+            if uploads is not None:
+                if given not in uploads or Path(given).name != given:
+                    have = ", ".join(sorted(uploads)) or "none yet"
+                    raise InputError(f"{p.name}:{line} {name}", given,
+                                     f"the name of a recording uploaded in the same session (uploaded: {have})")
+                return uploads[given]
+            found = Path(given) if Path(given).is_absolute() else p.parent / given
+            if not found.exists():
+                raise InputError(f"{p.name}:{line} {name}", given, f"an existing file (looked for {found})")
+            if not is_recording_path(found):
+                raise InputError(f"{p.name}:{line} {name}", given, "a .wav or .csv recording")
+            return found
+
         label = cell.get("label", "").lower()
-        if rec and uploads is not None:
-            if rec not in uploads or Path(rec).name != rec:
-                have = ", ".join(sorted(uploads)) or "none yet"
-                raise InputError(f"{p.name}:{line} recording", rec,
-                                 f"the name of a recording uploaded in the same session (uploaded: {have})")
-            rp = uploads[rec]
-        elif rec:
-            rp = Path(rec) if Path(rec).is_absolute() else p.parent / rec
-            if not rp.exists():
-                raise InputError(f"{p.name}:{line} recording", rec, f"an existing file (looked for {rp})")
-            if not is_recording_path(rp):
-                raise InputError(f"{p.name}:{line} recording", rec, "a .wav or .csv recording")
-        else:
-            rp = None
-            if label not in CUT_LABELS:
-                raise InputError(f"{p.name}:{line} label", cell.get("label", ""),
-                                 f"a row without a recording needs a label: {', '.join(CUT_LABELS)}")
+        rp = resolve("recording")
+        if rp is None and label not in CUT_LABELS:
+            raise InputError(f"{p.name}:{line} label", cell.get("label", ""),
+                             f"a row without a recording needs a label: {', '.join(CUT_LABELS)}")
         hz = num("chatter_hz", False)
         out.append({"rpm": num("rpm", True), "depth_mm": num("depth_mm", True), "label": label,
                     "chatter_hz": float("nan") if hz is None else hz, "weight": num("weight", False),
-                    "recording": rp})
+                    "recording": rp, "tap": resolve("tap") if rp is not None else None})
     if not out:
         raise InputError("cuts", p.name, "at least one cut below the header")
     return out

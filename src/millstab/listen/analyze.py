@@ -130,6 +130,13 @@ The steps, with every threshold and the reason for it:
    for a Hopf chatter: the member nearest the mode by |G| (or by |G|^β × power / f⁴, β = 0.5-2) lost
    more than it won (a two-tooth slot's Hopf at 1.33 f_T, 300 Hz under the mode, has members 150 Hz
    either side of it as flexible; ex3's two modes made a mirror below them look flexible).
+   **A sensor path measured** (``tap``: :mod:`millstab.listen.tap`, ``listen --tap``): a tap recorded by the
+   same sensor gives the path's weight W(f) (recording power per displacement power, f⁴ × the room's gain),
+   which replaces f⁴ in every ranking above: the chatter heard is the candidate strongest as the source sounds
+   (power × f⁴ / W), the family's shares are taken on that power, its member reported is the one with the
+   largest power / W, and a flip line passes the runout and tooth-line tests on either the recorded or the
+   equalised power (the tap adds flip candidates, never removes one). Derivation and limits in
+   :mod:`millstab.listen.tap`. The tap chooses the frequency, never the label (see :func:`listen`).
    **A spread chatter** (``_hump_centroid``): when the line heard is one of a hump of comparable lines
    (a quasi-periodic chatter), the hump's power-weighted centroid is reported, and with an even number
    of teeth the odd multiple of f_T/2 near it (period doubling spread by a slow modulation); the
@@ -164,7 +171,7 @@ Units: seconds, Hz, rev/min; the signal in any unit (only ratios are used).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -460,9 +467,30 @@ def _amp_at(x: np.ndarray, fs: float, f0: float, n_frames: int) -> tuple[np.ndar
 
 
 def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = None,
-           end: float | None = None, structure=None) -> Listening:
-    """Label one recording of a cut at ``rpm`` [rev/min] with ``teeth`` teeth (module docstring)."""
+           end: float | None = None, structure=None, tap=None) -> Listening:
+    """Label one recording of a cut at ``rpm`` [rev/min] with ``teeth`` teeth (module docstring). ``tap``: the
+    sensor path measured by a tap (:func:`millstab.listen.tap.sensor_path`, same sample rate): the chatter
+    heard is then the line strongest as the source sounds (the path divided out) and the family's members are
+    ranked by the recording's power over the path's weight instead of f⁴. The tap chooses the frequency
+    reported, never the label: label, score, trend and onset are those of the recording heard without it (a
+    quasi-periodic hump's lines differ by 1-2 dB, within the path's error; letting the tap pick the line whose
+    trend labels the cut heard bench_listen --seed 0 cut 25, a chatter, stable)."""
+    if tap is not None and abs(float(tap.fs) - float(fs)) > 1e-9 * fs:
+        raise InputError("tap: sample rate", f"{tap.fs:g} Hz", f"the cut's, {fs:g} Hz: a tap recorded by another "
+                         "chain does not measure the cut's sensor path")
+    res = _listen(signal, fs, rpm, teeth, start, end, structure, None)
+    if tap is None or res.label == "stable":
+        return res
+    heard = _listen(signal, fs, rpm, teeth, start, end, structure, tap)
+    if heard.label == "stable" or not math.isfinite(heard.chatter_hz):
+        return res
+    return replace(res, chatter_hz=heard.chatter_hz)
+
+
+def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, tap) -> Listening:
+    """:func:`listen` with the path of ``tap`` (None: flat, f⁴) in every step."""
     x, dur = _check(signal, float(fs), float(rpm), teeth, start, end)
+    weight = _f4 if tap is None else (lambda ff: tap.weight(ff, structure))
     f_hi = min(0.45 * fs, F_HI)
     f_t0 = teeth * rpm / 60.0
     i0, i1 = cut_window(x, fs, f_t0, start, end)
@@ -510,6 +538,18 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         near_tooth = np.array([max(pw.get(int(a), 0.0), pw.get(int(a) + teeth, 0.0)) for a in kt])
         over_runout = odd & ~below & (line_pow > FLIP_RATIO * ref)
         keep = over_runout & (line_pow > FLIP_TOOTH * near_tooth)
+        if tap is not None:
+            # with a tap, a line also passes both tests as the source sounds (the path's comb divided out: a flip
+            # line in a room notch 19 dB deep stood under the runout test, bench_listen --seed 1 cut 145); the tap
+            # adds flip candidates, never takes one away (the tests were set on recordings: taking the equalised
+            # tests alone masked a flip chatter's members, --seed 1 cut 175)
+            src = line_pow * _f4(line_f) / np.maximum(weight(line_f), 1e-300)
+            ref_s = float(src[runout].max()) if runout.any() else 0.0
+            pw_s = dict(zip(ks.tolist(), src.tolist()))
+            near_s = np.array([max(pw_s.get(int(a), 0.0), pw_s.get(int(a) + teeth, 0.0)) for a in kt])
+            over_s = odd & ~below & (src > FLIP_RATIO * ref_s)
+            keep = keep | (over_s & (src > FLIP_TOOTH * near_s))
+            over_runout = over_runout | over_s
         for j in np.flatnonzero(keep):
             sync[lo[j]:hi[j]] = False
     spindle_pow = line_pow  # (line_pow is the chatter line's power further down)
@@ -569,7 +609,10 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), float(60.0 * f_s), int(teeth), float(f_t),
                          (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
     g2 = None if structure is None else _flexibility(structure)
-    c = _family_member(cand_f, cand_e, int(np.argmax(cand_e)), f_t, 2.0 * fs / nper, f_s)
+    # the chatter heard: the strongest line (with a tap, as the source sounds: the path's comb divided out)
+    src_e = cand_e if tap is None else cand_e * _f4(cand_f) / np.maximum(weight(cand_f), 1e-300)
+    w_tap = None if tap is None else weight  # None: f⁴, exactly as without a tap
+    c = _family_member(cand_f, cand_e, int(np.argmax(src_e)), f_t, 2.0 * fs / nper, f_s, w_tap)
     lpF = np.log(np.maximum(pF, 1e-300))
     # flip chatter heard at an odd multiple of f_T/2: the other odd multiples standing FLIP_RATIO over the
     # runout join its family even when under FLIP_TOOTH of their tooth lines (that rule keeps resonant
@@ -590,7 +633,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
 
     if extra.size and on_flip(float(cand_f[c])):
         append(extra)
-        c = _family_member(cand_f, cand_e, int(np.argmax(cand_e[:n_std])), f_t, 2.0 * fs / nper, f_s)
+        c = _family_member(cand_f, cand_e, int(np.argmax(src_e[:n_std])), f_t, 2.0 * fs / nper, f_s, w_tap)
     if g2 is not None and teeth % 2 == 0:
         if on_flip(float(cand_f[c])):
             # with the structure known, every odd multiple of f_T/2 from 1.5 f_T up is a member of the flip
@@ -687,7 +730,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
         fc = f_report
     if label == "chatter" and c < n_std:
         fc = _flip_over_heard(fc, float(cand_e[c]), f_t, 2.0 * fs / nper, line_f, spindle_pow, over_runout & ~keep,
-                              lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi)
+                              lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi, w_tap)
     # Python floats, not numpy scalars (a numpy bool from comparing them is never ``is False``: bench_listen went
     # blind to a miss that way)
     return Listening(label, float(fc), float(score), 10 * math.log10(prom), float(onset), float(trend), float(rpm),
@@ -697,7 +740,7 @@ def listen(signal, fs: float, rpm: float, teeth: int, *, start: float | None = N
 
 
 def _flip_over_heard(fc: float, e_c: float, f_t: float, tol: float, line_f: np.ndarray, line_pow: np.ndarray,
-                     flip: np.ndarray, floor_hz, fF: np.ndarray, lpF: np.ndarray, f_hi: float) -> float:
+                     flip: np.ndarray, floor_hz, fF: np.ndarray, lpF: np.ndarray, f_hi: float, weight=None) -> float:
     """The frequency to report [Hz] when chatter is heard at ``fc`` (excess density ``e_c``), not on an odd
     multiple of f_T/2, while a flip line (``flip``: odd multiples of f_T/2 from 1.5 f_T up standing
     ``FLIP_RATIO`` over the runout, masked only by the ``FLIP_TOOTH`` rule) is stronger in displacement
@@ -714,8 +757,9 @@ def _flip_over_heard(fc: float, e_c: float, f_t: float, tol: float, line_f: np.n
     if idx.size == 0:
         return fc
     e = np.maximum(line_pow[idx] - floor_hz(line_f[idx]), 0.0)
-    j = int(np.argmax(e / line_f[idx] ** 4))
-    if e[j] / line_f[idx[j]] ** 4 <= e_c / fc**4:
+    d = e / (line_f[idx] ** 4 if weight is None else weight(line_f[idx]))
+    j = int(np.argmax(d))
+    if d[j] <= (e_c / fc**4 if weight is None else e_c / float(weight(np.array([fc]))[0])):
         return fc
     return _refine(fF, lpF, float(line_f[idx[j]]), tol)
 
@@ -785,13 +829,21 @@ def _flexibility(structure):
     return g2
 
 
-def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float, f_s: float) -> int:
+def _f4(f):
+    """The flat sensor path's weight: recording power per displacement power ∝ f⁴ (acceleration)."""
+    return np.asarray(f, float) ** 4
+
+
+def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: float, f_s: float,
+                   weight=None) -> int:
     """Of the chatter family fpk[j] + k f_T (|k| ≤ FAMILY_ORDERS) and its mirrors k f_T − fpk[j] (1 ≤ k ≤
     FAMILY_ORDERS) among the candidate peaks (frequencies fpk [Hz], excess densities epk), the index of the
     member strongest in displacement: excess power / f⁴ (both sensors follow acceleration, whose power is
     f⁴ times the displacement's), counting the first-order sidebands |fpk[j] ± f_T| and lines on a spindle
     harmonic (k f_s, f_s [Hz]: a flip candidate, runout perhaps) with at least FAMILY_SHARE of the
-    strongest's excess and the other members with at least FAMILY_SHARE_FAR."""
+    strongest's excess and the other members with at least FAMILY_SHARE_FAR. ``weight`` (f → recording power
+    per displacement power, a tap's path: :mod:`millstab.listen.tap`) replaces f⁴; the shares are then taken
+    on the power with the path's comb divided out (weight / f⁴), as the source sounds."""
     k = (fpk - fpk[j]) / f_t
     km = (fpk + fpk[j]) / f_t  # mirror members k f_T − f_j (the modulation's lower sidebands fold over)
     direct = (np.abs(k - np.round(k)) * f_t <= tol) & (np.abs(np.round(k)) <= FAMILY_ORDERS)
@@ -801,10 +853,12 @@ def _family_member(fpk: np.ndarray, epk: np.ndarray, j: int, f_t: float, tol: fl
     side = (direct & (np.abs(np.round(k)) == 1)) | (mirror & (np.round(km) == 1))
     ks = fpk / f_s
     on_sync = np.abs(ks - np.round(ks)) * f_s <= tol
-    fam = np.flatnonzero(member & (epk >= np.where(side | on_sync, FAMILY_SHARE, FAMILY_SHARE_FAR) * epk[j]))
+    w = fpk**4 if weight is None else weight(fpk)
+    src = epk if weight is None else epk * _f4(fpk) / w  # the power as the source sounds (the path's comb out)
+    fam = np.flatnonzero(member & (src >= np.where(side | on_sync, FAMILY_SHARE, FAMILY_SHARE_FAR) * src[j]))
     if fam.size <= 1:
         return j
-    return int(fam[np.argmax(epk[fam] / fpk[fam] ** 4)])
+    return int(fam[np.argmax(epk[fam] / w[fam])])
 
 
 def _flip_member_at_mode(fpk: np.ndarray, epk: np.ndarray, c: int, f_t: float, tol: float, g2) -> int:

@@ -21,6 +21,10 @@ chatter frequency) is known.
    simulation's rate), an automatic gain that puts the peak at half of full scale, and quantisation
    to ``bits`` (16: a phone's or a sound card's PCM).
 
+5. A tap (:func:`record_tap`): the same sensor and steps 3-4 (the same room) on the tip's ring after an ideal
+   hammer impulse, the spindle still: what ``millstab listen --tap`` reads to divide the sensor path out.
+   The room is the same fixed :data:`ROOM` for every cut, so a cut and its tap always share it.
+
 Units: the returned signal is dimensionless in [-1, 1] (full scale), as in a WAV file.
 """
 
@@ -107,6 +111,21 @@ def record(result, *, sensor: Sensor = "microphone", fs: int = 48000, noise: flo
         direction_deg: sensor direction from the feed (x) axis [°]; bits: quantisation (8-32; 0: none).
         seed: seed of the noise and of the runout phases.
     """
+    _check_settings(sensor, fs, noise, hum, runout, mains_hz, bits)
+    rng = np.random.default_rng(seed)
+    t, a = acceleration(result, direction_deg)
+    s = _resample(t, a, float(fs))
+    tt = np.arange(s.size) / fs
+    rms = float(np.sqrt(np.mean((s - s.mean()) ** 2))) or 1.0
+    f_s = result.rpm / 60.0
+    for k in range(1, RUNOUT_HARMONICS + 1):
+        if k * f_s < 0.45 * fs:
+            s = s + runout * rms / k * np.sin(2 * math.pi * k * f_s * tt + rng.uniform(0, 2 * math.pi))
+    s = _sensor_path(s, fs, rms, rng, sensor=sensor, noise=noise, hum=hum, mains_hz=mains_hz, bits=bits)
+    return Recording(int(fs), s, sensor, float(mains_hz), float(noise), float(hum), float(runout), int(bits))
+
+
+def _check_settings(sensor, fs, noise, hum, runout, mains_hz, bits) -> None:
     if sensor not in SENSORS:
         raise InputError("sensor", sensor, f"one of {', '.join(SENSORS)}")
     if not (isinstance(fs, (int, np.integer)) and 8000 <= fs <= 192000):
@@ -118,15 +137,56 @@ def record(result, *, sensor: Sensor = "microphone", fs: int = 48000, noise: flo
         raise InputError("mains_hz", mains_hz, "50 or 60 Hz")
     if bits not in (0, 8, 16, 24, 32):
         raise InputError("bits", bits, "0 (no quantisation), 8, 16, 24 or 32")
+
+
+def record_tap(structure, *, sensor: Sensor = "microphone", fs: int = 48000, noise: float = 0.02, hum: float = 0.05,
+               mains_hz: float = 50.0, direction_deg: float = 45.0, hit_deg: float | None = None,
+               seconds: float = 1.0, hit_s: float = 0.2, bits: int = 16, seed: int = 0) -> Recording:
+    """A virtual tap test heard by the sensor of :func:`record`: the tool tip hit by an ideal hammer (a unit
+    impulse of force along ``hit_deg`` [°] from x, default the sensor's direction) at ``hit_s`` [s] of a recording
+    ``seconds`` [s] long, the spindle still (no runout).
+
+    The source is the tip's acceleration along the sensor's direction u from a force impulse along d: its
+    spectrum is −(2πf)² uᵀ G(f) d (G the structure's receptance, :func:`millstab.frf.structure_receptance`),
+    tapered to zero between 0.40 and 0.45 fs (the band a recording keeps) and transformed to time (``seconds``
+    must hold the ring: a mode of damping ζ at f_n decays by e⁻¹ in 1/(2π ζ f_n), 16 ms for the 1-DOF
+    benchmark). Then the same :func:`_sensor_path` as a cut's recording: for a microphone the same room
+    (:data:`ROOM`), capsule, hum and 1/f noise; white noise; gain; quantisation. ``noise`` and ``hum`` are
+    relative to the RMS of the source over the ring's first 0.1 s (a tap is heard as loud as it rings).
+    Same sensor settings as the cut, same path: what ``millstab listen --tap`` divides out
+    (:mod:`millstab.listen.tap`).
+    """
+    from millstab.frf import structure_receptance
+
+    _check_settings(sensor, fs, noise, hum, 0.0, mains_hz, bits)
+    if not (math.isfinite(seconds) and math.isfinite(hit_s) and 0.0 <= hit_s and seconds >= hit_s + 0.2):
+        raise InputError("seconds", seconds, f"a recording at least 0.2 s longer than the hit at {hit_s:g} s")
     rng = np.random.default_rng(seed)
-    t, a = acceleration(result, direction_deg)
-    s = _resample(t, a, float(fs))
-    tt = np.arange(s.size) / fs
-    rms = float(np.sqrt(np.mean((s - s.mean()) ** 2))) or 1.0
-    f_s = result.rpm / 60.0
-    for k in range(1, RUNOUT_HARMONICS + 1):
-        if k * f_s < 0.45 * fs:
-            s = s + runout * rms / k * np.sin(2 * math.pi * k * f_s * tt + rng.uniform(0, 2 * math.pi))
+    n = int(round(seconds * fs))
+    f = np.fft.rfftfreq(n, 1.0 / fs)
+    th, ph = math.radians(direction_deg), math.radians(direction_deg if hit_deg is None else hit_deg)
+    u, d = np.array([math.cos(th), math.sin(th)]), np.array([math.cos(ph), math.sin(ph)])
+    G = np.zeros((f.size, 2, 2), complex)
+    band = f > 0
+    if structure.frf is not None:  # a measured FRF: inside its band only
+        band &= (f >= structure.frf.freq_hz[0]) & (f <= structure.frf.freq_hz[-1])
+    G[band] = structure_receptance(structure, f[band])
+    taper = np.clip((0.45 * fs - f) / (0.05 * fs), 0.0, 1.0)
+    taper = 0.5 - 0.5 * np.cos(math.pi * taper)
+    spec = -((2 * math.pi * f) ** 2) * np.einsum("i,fij,j->f", u, G, d) * taper * np.exp(-2j * math.pi * f * hit_s)
+    s = np.fft.irfft(spec * fs, n)  # × fs: the unit impulse's samples (any scale: only ratios are used)
+    i0 = int(round(hit_s * fs))
+    ring = s[i0: i0 + int(0.1 * fs)]
+    rms = float(np.sqrt(np.mean(ring**2))) or 1.0
+    s = _sensor_path(s, fs, rms, rng, sensor=sensor, noise=noise, hum=hum, mains_hz=mains_hz, bits=bits)
+    return Recording(int(fs), s, sensor, float(mains_hz), float(noise), float(hum), 0.0, int(bits))
+
+
+def _sensor_path(s: np.ndarray, fs: int, rms: float, rng: np.random.Generator, *, sensor: str, noise: float,
+                 hum: float, mains_hz: float, bits: int) -> np.ndarray:
+    """Steps 3-4 of the module docstring on a source ``s`` (acceleration along the sensor, runout added) of RMS
+    ``rms``: the microphone's room, capsule, hum and 1/f noise; white noise; automatic gain; quantisation. The
+    one chain of a cut's recording and of its tap (:func:`record_tap`): the same room for both."""
     if sensor == "microphone":
         room = s.copy()
         for delay, gain in ROOM:
@@ -136,6 +196,7 @@ def record(result, *, sensor: Sensor = "microphone", fs: int = 48000, noise: flo
 
         b, a_ = sg.butter(1, CAPSULE_HZ, btype="highpass", fs=fs)
         s = sg.lfilter(b, a_, room)
+        tt = np.arange(s.size) / fs
         for k, g in ((1, 1.0), (2, 0.5), (3, 1 / 3)):
             s = s + hum * rms * g * math.sqrt(2) * np.sin(2 * math.pi * k * mains_hz * tt + rng.uniform(0, 6.3))
         s = s + 0.5 * noise * rms * _pink(s.size, rng)
@@ -146,4 +207,4 @@ def record(result, *, sensor: Sensor = "microphone", fs: int = 48000, noise: flo
     if bits:
         q = 2.0 ** (bits - 1) - 1
         s = np.round(s * q) / q
-    return Recording(int(fs), s, sensor, float(mains_hz), float(noise), float(hum), float(runout), int(bits))
+    return s

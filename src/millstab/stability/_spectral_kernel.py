@@ -485,15 +485,22 @@ def low_rank_setup(g, wn, zeta, mass, mdir, nd):
     LE = np.zeros((n_el, n, Hm))
     L = np.empty((P, P))
     piv = np.empty(P, dtype=np.int64)
+    RBw = np.empty((P, n + Hm))
+    h_lu = -1.0  # the element length whose L0 is factored in L
     for el in range(n_el):
         if kind[el] == 0:
             continue
         hi = h[el]
         he = _elem_history(rk, el)
-        _element_lhs(L, el, hi, 0.0, wn, zeta, mass, mdir, Aq, Dm)
-        RB = np.zeros((P, n + he))
+        if hi != h_lu:
+            # L0 = L(0) depends on the element only through its length (the coupling term is w·Aq, w = 0): the
+            # elements of a cutting segment share one length, so one LU serves them (the same factors bit for bit)
+            _element_lhs(L, el, hi, 0.0, wn, zeta, mass, mdir, Aq, Dm)
+            _lu_factor(L, piv)
+            h_lu = hi
+        RB = RBw[:, :n + he]
+        RB[:, :] = 0.0
         _history_rhs(RB, el, hi, 1.0, rk, Dm, Fq, mdir, mass, n, M, p)
-        _lu_factor(L, piv)
         _lu_solve(L, piv, RB)  # [A | E]
         row = 0
         for k in range(1, p + 1):
@@ -525,19 +532,44 @@ def monodromy_lr(b, kt, g, lr):
     """:func:`monodromy_small` (the same matrix, other rounding) at depth b [m] from the per-speed factors
     lr = :func:`low_rank_setup` (g the layout): per collocation element an he × he solve (W = (I − w S)⁻¹)
     and products with the he + n rows the element adds, instead of a p·n collocation solve. Measured
-    (issue 28): the same matrix to 1e-9 relative, ρ to 2.4e-12, on random cases (tests/test_spectral_lowrank.py)."""
-    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    (issue 28): the same matrix to 1e-9 relative, ρ to 2.4e-12, on random cases (tests/test_spectral_lowrank.py).
+    A new matrix; the search builds into its per-speed workspace instead (:func:`_build_lr`)."""
+    return _build_lr(b, kt, g, lr, workspace(g, lr)).copy()
+
+
+@nb.njit(cache=True)
+def workspace(g, lr):
+    """The work arrays of one speed's ρ evaluations (layout g, factors lr = :func:`low_rank_setup`), made once per
+    speed by :func:`with_factors` and reused by every depth: U, Z, Znew, Mx, piv, QW, Ze of :func:`_build_lr`; P, Q
+    (the certificate's squarings), A, wr, wi, out (the eigenvalues), d (the balancing scaling the certificate
+    reuses, :func:`rho_test`; d[0] = 0: none yet), dn (a balancing's scaling being recorded).
+
+    Why (issue 28): the certificate keeps the speed's balancing scaling from depth to depth (:func:`rho_test`), and
+    its squarings write into the workspace; the build costs the same either way (1.9 µs at K ≈ 17, measured)."""
+    kind, rk = g[0], g[7]
     CA, S, LA, LE = lr
     n = LA.shape[1]
     Hm = S.shape[1]
     K = n + _history_size(kind, rk)
+    d = np.zeros(K)
+    return (np.zeros((K, K)), np.zeros((n, K)), np.zeros((n, K)), np.empty((Hm, Hm)), np.empty(Hm, dtype=np.int64),
+            np.empty((Hm, n + Hm)), np.empty((n, n)), np.empty((K, K)), np.empty((K, K)), np.empty((K, K)),
+            np.empty(K), np.empty(K), np.empty(K, dtype=np.complex128), d, np.ones(K))
+
+
+@nb.njit(cache=True)
+def _build_lr(b, kt, g, lr, ws):
+    """The monodromy of :func:`monodromy_lr` built into the workspace ws (:func:`workspace`); returns its U
+    (overwritten by the next build at this speed). The same operations, so the same matrix bit for bit."""
+    kind, h, phi_free, rk = g[0], g[1], g[4], g[7]
+    CA, S, LA, LE = lr
+    U, Z, Znew, Mx, piv, QW, Ze = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
+    n = LA.shape[1]
     w = 0.5 * b * kt
-    U, Z = _start_state(n, K)
-    Znew = np.zeros((n, K))
-    Mx = np.empty((Hm, Hm))
-    piv = np.empty(Hm, dtype=np.int64)
-    QW = np.empty((Hm, n + Hm))
-    Ze = np.empty((n, n))
+    U[:, :] = 0.0
+    Z[:, :] = 0.0
+    for i in range(n):
+        Z[i, i] = 1.0
     hoff = n  # this element's first history column (and row); Z is zero from it on
     for el in range(h.size):
         if kind[el] == 0:
@@ -596,10 +628,11 @@ _RADIX = 2.0
 
 
 @nb.njit(cache=True)
-def _balance(a):
+def _balance(a, d):
     """Balance a square matrix in place (rows and columns scaled by powers of 2 until their off-diagonal
     norms agree; the eigenvalues are unchanged): the monodromy mixes displacements [m], velocities [m/s]
-    (ωn ≈ 6 000 times larger) and chip thicknesses, so unbalanced QR would lose digits."""
+    (ωn ≈ 6 000 times larger) and chip thicknesses, so unbalanced QR would lose digits. The scaling is
+    multiplied into d (K,): the result is D⁻¹ a D, D = diag(d), exactly (powers of 2)."""
     n = a.shape[0]
     sqrdx = _RADIX * _RADIX
     done = False
@@ -626,6 +659,7 @@ def _balance(a):
                 if (c + r) / f < 0.95 * s:
                     done = False
                     g = 1.0 / f
+                    d[i] *= f
                     for j in range(n):
                         a[i, j] *= g
                     for j in range(n):
@@ -805,29 +839,46 @@ def eig_small(U):
     the reduced monodromy its fixed costs (workspace, ilaenv queries) dominate; measured 2× faster here
     on 10 and 16 rows, ρ within 1.2e-14 of numpy's on 2 400 random badly scaled matrices of 2–40 rows
     (tests/test_spectral_eig.py)."""
-    A = U.copy()
-    K = A.shape[0]
+    K = U.shape[0]
     out = np.empty(K, dtype=np.complex128)
+    _eig_into(U.copy(), np.ones(K), np.empty(K), np.empty(K), out)
+    return out
+
+
+@nb.njit(cache=True)
+def _eig_into(A, d, wr, wi, out):
+    """:func:`eig_small`'s eigenvalues of A (destroyed; not yet balanced) into out, the balancing's scaling
+    multiplied into d; NaN where an entry is not finite or the QR iteration fails."""
+    K = A.shape[0]
     for i in range(K):
         for j in range(K):
             if not math.isfinite(A[i, j]):  # (balancing would never end on an infinite entry)
                 out[:] = complex(np.nan, np.nan)
-                return out
-    wr = np.empty(K)
-    wi = np.empty(K)
-    _balance(A)
+                return
+    _balance(A, d)
     _hessenberg(A)
     info = _hqr(A, wr, wi)
     for k in range(K):
         out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
-    return out
+
+
+@nb.njit(cache=True)
+def _rho_exact(U, ws):
+    """(ρ, dominant multiplier) of U (kept) from its eigenvalues (:func:`eig_small`'s, bit for bit) in the
+    workspace ws (:func:`workspace`); the balancing's scaling is kept in ws for the certificates that follow."""
+    A, wr, wi, out, d, dn = ws[9], ws[10], ws[11], ws[12], ws[13], ws[14]
+    A[:, :] = U
+    dn[:] = 1.0
+    _eig_into(A, dn, wr, wi, out)
+    d[:] = dn
+    return _dominant(out)
 
 
 @nb.njit(cache=True)
 def rho(b, kt, wn, zeta, mass, mdir, D, g, nd):
     """(ρ, dominant multiplier) at depth b [m] on the layout g (the reduced monodromy, built from the
-    per-speed factors g[8] (:func:`with_factors`) by :func:`monodromy_lr`)."""
-    return _dominant(eig_small(monodromy_lr(b, kt, g, g[8])))
+    per-speed factors g[8] (:func:`with_factors`) by :func:`monodromy_lr`, in the speed's workspace g[9])."""
+    return _rho_exact(_build_lr(b, kt, g, g[8], g[9]), g[9])
 
 
 #: squarings of the balanced monodromy B tried before its eigenvalues in :func:`rho_test` (ρ ≤ ‖Bᵐ‖^{1/m},
@@ -859,76 +910,103 @@ def rho_below(b, level, kt, wn, zeta, mass, mdir, D, g, nd):
 
 @nb.njit(cache=True)
 def _norms(P):
-    """(‖P‖∞, ‖P‖_F) of a square matrix."""
+    """(‖P‖∞, ‖P‖_F) of a square matrix; NaN in P gives a NaN Frobenius norm. Four partial sums per row: one
+    running sum was bound by the additions' latency (0.3 µs at K = 17, as much as a BLAS squaring)."""
     K = P.shape[0]
+    K4 = K - K % 4
     inf = 0.0
-    fro = 0.0
+    f0 = f1 = f2 = f3 = 0.0
     for i in range(K):
-        acc = 0.0
-        for j in range(K):
-            acc += abs(P[i, j])
-            fro += P[i, j] * P[i, j]
-        inf = max(inf, acc)
-    return inf, math.sqrt(fro)
+        a0 = a1 = a2 = a3 = 0.0
+        for j in range(0, K4, 4):
+            x0 = P[i, j]
+            x1 = P[i, j + 1]
+            x2 = P[i, j + 2]
+            x3 = P[i, j + 3]
+            a0 += abs(x0)
+            a1 += abs(x1)
+            a2 += abs(x2)
+            a3 += abs(x3)
+            f0 += x0 * x0
+            f1 += x1 * x1
+            f2 += x2 * x2
+            f3 += x3 * x3
+        for j in range(K4, K):
+            x0 = P[i, j]
+            a0 += abs(x0)
+            f0 += x0 * x0
+        inf = max(inf, (a0 + a1) + (a2 + a3))
+    return inf, math.sqrt((f0 + f1) + (f2 + f3))
 
 
 @nb.njit(cache=True)
 def rho_test(b, level, squarings, kt, g):
     """:func:`rho_below` with at most ``squarings`` squarings (0: straight to the eigenvalues, where a caller
-    knows ρ is too close to ``level`` for a certificate, :func:`_squarings`).
+    knows ρ is too close to ``level`` for a certificate, :func:`_squarings`), in the speed's workspace g[9].
 
     The bound is the smaller of ‖Bᵐ‖∞ and ‖Bᵐ‖_F (both consistent norms, each ≥ ρᵐ), each with its own rounding
     bound, propagated through the squarings as e' = 2‖P‖e + e² + K·u·‖P‖² (|fl(PP) − PP| ≤ K·u·|P||P|, and
     ‖|P|‖ = ‖P‖ in both norms). Measured (issue 28, 2026-11-27, the 200-speed envelope's 3 987 rungs below
     the roots): the Frobenius norm certifies 81.5 % of the rungs within 6 squarings (∞ alone 79.5 %), with
-    4.13 squarings on average where it does (4.34)."""
-    U = monodromy_lr(b, kt, g, g[8])
+    4.13 squarings on average where it does (4.34).
+
+    B = D⁻¹ U D with D the balancing scaling of the last exact ρ at this speed (the first depth's own where
+    there is none yet; :func:`_rho_exact` refreshes it): any diagonal similarity gives a valid bound, and the
+    balancing of the depth below is nearly this depth's, so the certificates hold as often as with a fresh
+    balance at ~1 µs less a rung (the balance took 3.3 sweeps on the update's rungs). Where the certificate
+    fails, the exact ρ balances U itself (:func:`_rho_exact`), so every exact value is :func:`rho`'s bit for bit."""
+    ws = g[9]
+    U = _build_lr(b, kt, g, g[8], ws)
     K = U.shape[0]
-    for i in range(K):
-        for j in range(K):
-            if not math.isfinite(U[i, j]):
-                return np.inf, complex(np.nan, np.nan), True
-    _balance(U)
     if squarings > 0:
-        P = U.copy()
+        P, Q, d = ws[7], ws[8], ws[13]
+        if d[0] == 0.0:  # no scaling yet at this speed: this depth's balancing
+            for i in range(K):
+                for j in range(K):
+                    if not math.isfinite(U[i, j]):
+                        return np.inf, complex(np.nan, np.nan), True
+            P[:, :] = U
+            d[:] = 1.0
+            _balance(P, d)
+        for i in range(K):
+            inv = 1.0 / d[i]  # (powers of 2: d[j] / d[i] exactly, without a division per entry)
+            for j in range(K):
+                P[i, j] = U[i, j] * (d[j] * inv)
         n_inf, n_fro = _norms(P)
-        e_inf = 0.0
-        e_fro = 0.0
-        m = 1
-        root_prev = np.inf
-        for _ in range(squarings):
-            P = np.dot(P, P)  # BLAS: 3× the hand-written loop at K = 10 (CERT_SQUARINGS)
-            e_inf = 2.0 * n_inf * e_inf + e_inf * e_inf + K * _U * n_inf * n_inf
-            e_fro = 2.0 * n_fro * e_fro + e_fro * e_fro + K * _U * n_fro * n_fro
-            m *= 2
-            n_inf, n_fro = _norms(P)
-            if not (min(n_inf, n_fro) < 1e30):
-                break
-            bound = min(n_inf + e_inf, n_fro + e_fro)
-            if bound < level ** m:
-                return bound ** (1.0 / m), complex(np.nan, np.nan), False
-            # ‖Bᵐ‖^{1/m} falls towards ρ from above; where it stalls above the level from m = 8 on, ρ is there
-            # (the squarings left would be spent in vain: a cost rule, the decision is the eigenvalues')
-            root = bound ** (1.0 / m)
-            if m >= 8 and root > level and root > STALL * root_prev:
-                break
-            root_prev = root
-    wr = np.empty(K)
-    wi = np.empty(K)
-    _hessenberg(U)
-    info = _hqr(U, wr, wi)
-    out = np.empty(K, dtype=np.complex128)
-    for k in range(K):
-        out[k] = complex(wr[k], wi[k]) if info == 0 else complex(np.nan, np.nan)
-    r, mu = _dominant(out)
+        if math.isfinite(n_inf) and math.isfinite(n_fro):  # (else the exact path says inf)
+            e_inf = 0.0
+            e_fro = 0.0
+            m = 1
+            root_prev = np.inf
+            for _ in range(squarings):
+                np.dot(P, P, Q)  # BLAS into the workspace: 3× the hand-written loop at K = 10 (CERT_SQUARINGS)
+                P, Q = Q, P
+                e_inf = 2.0 * n_inf * e_inf + e_inf * e_inf + K * _U * n_inf * n_inf
+                e_fro = 2.0 * n_fro * e_fro + e_fro * e_fro + K * _U * n_fro * n_fro
+                m *= 2
+                n_inf, n_fro = _norms(P)
+                if not (min(n_inf, n_fro) < 1e30):
+                    break
+                bound = min(n_inf + e_inf, n_fro + e_fro)
+                if bound < level ** m:
+                    return bound ** (1.0 / m), complex(np.nan, np.nan), False
+                # ‖Bᵐ‖^{1/m} falls towards ρ from above; where it stalls above the level from m = 8 on, ρ is there
+                # (the squarings left would be spent in vain: a cost rule, the decision is the eigenvalues')
+                root = bound ** (1.0 / m)
+                if m >= 8 and root > level and root > STALL * root_prev:
+                    break
+                root_prev = root
+    r, mu = _rho_exact(U, ws)
     return r, mu, True
 
 
 @nb.njit(cache=True)
 def with_factors(g, wn, zeta, mass, mdir, nd):
     """The layout g of :func:`setup` with its per-speed depth-independent factors appended (g[8],
-    :func:`low_rank_setup`): what :func:`rho` needs."""
-    return g + (low_rank_setup(g, wn, zeta, mass, mdir, nd),)
+    :func:`low_rank_setup`) and their workspace (g[9], :func:`workspace`; not to be shared between threads): what
+    :func:`rho` needs."""
+    lr = low_rank_setup(g, wn, zeta, mass, mdir, nd)
+    return g + (lr, workspace(g, lr))
 
 
 @nb.njit(cache=True)

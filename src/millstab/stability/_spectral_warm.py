@@ -15,6 +15,9 @@ the entry is reported not converged and the caller solves it cold (:func:`cold_e
 from below at that speed alone).
 
 Kept apart from ``_spectral_kernel.limit_run`` (whose logic it mirrors without changing it).
+Its compiled functions call into ``_spectral_kernel``: numba's on-disk cache of a function is refreshed only when its
+own file changes, so an edit of that kernel that this file must see (issue 28: the per-speed workspace g[9] of
+``with_factors``) comes with an edit here.
 """
 
 from __future__ import annotations

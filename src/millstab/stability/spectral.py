@@ -143,6 +143,30 @@ python benchmarks/bench_spectral.py --skip-accuracy --repeat 5``). The issue's 1
 decisions per speed are the definition's floor, and an exact ρ (the eigenvalues of a 10–16-row matrix) is 5–10 µs.
 Measured and not kept: an eigenvector basis (of the rung below, or of the same rung at the previous speed) as the
 similarity of the certificate: 35 % / 19 % of the rungs certified at one product (the balanced squarings: 80 %).
+The rung test by its parts (issue 28, 2026-11-27; ``benchmarks/profile_spectral.py`` times each part on the real
+rungs under the roots, one thread, CPU, load ~11). On the update's workload (100 prior samples × 10 cut speeds, K =
+16.6 rows) a rung cost 5.65 µs: its monodromy build 1.9 µs (allocations are not the cost: built into preallocated
+arrays it is the same), a full balance 0.9 µs (3.3 sweeps, 77 power-of-2 steps), 2.6 squarings each 0.2 µs in BLAS
+plus 0.3 µs of norms whose single running sums were bound by the additions' latency, and the eigenvalues of the
+3.7 % it does not certify (15.7 µs: QR 10.6, Hessenberg 1.7, balance 0.7). Changed, each keeping every value the
+search uses: one workspace per speed (``_spectral_kernel.workspace``, g[9] of ``with_factors``: the build, the
+squarings (``np.dot`` into it) and the eigenvalues reuse its arrays); the certificate's similarity is the speed's
+last balancing scaling (its first depth's own, refreshed by every exact ρ) instead of a fresh balance (any
+diagonal similarity bounds ρ; a stale one certifies as often: 96.3 % of the rungs, 2.64 squarings); the norms
+keep four partial sums; the low-rank setup factors L0 once per element length (a segment's elements share it).
+Where the certificate fails, the exact ρ balances the matrix itself, so every exact value is bit for bit the code
+before's: every depth and multiplier of 16 workloads (150 prior samples × 10 speeds with and without ceilings, a
+warm-start batch, 12 envelopes of two structures at a/D 0.05 / 0.5 / 1 up and down, 101 speeds, and the 200-speed
+one) is identical; an evaluation count moves by one where a certificate now holds or no longer does (the bracket's
+low end then made exact). A rung 5.65 → 4.4 µs (build 1.9 + certificate 2.4), a speed setup 11.5 → 9.9 µs; the
+search 0.237 → 0.208 ms per (set, speed); the 200-speed envelope 31.8 → 29.0 ms CPU on one thread (same minutes,
+load ~11: ~34 envelopes/s per core); the accurate update's root search (docs/updating.md, 300 samples) 2.01 / 2.04 →
+1.72 / 1.74 s CPU, 1 000 samples 6.46 → 5.77 s. What remains per (set, speed) of the update: 21.2 rungs (44 %), the
+setup (5 %), and 9.3 other evaluations (~51 %, ~11 µs each: the refinement's depths near ρ = 1, the bracket's ends and a
+checked root's top, mostly exact ρ at ~16 µs, and ~2.9 Newton steps of 3.6 µs). Measured and not kept: a
+certificate at a checked root's top (ρ there 0.9974–0.9996, median 0.9991, on 200 roots): 16 squarings certify 51
+of them, after 8–10 squarings each; the QR's update loops split on their loop-invariant branch: 10.6 → 10.2 µs,
+within the noise; the build's sums reordered along rows (the same sums in the same order): no gain measured.
 A censored search (issue 28, 2026-11-27): :func:`envelope_batch`'s ``ceiling`` (B, S) stops a speed's search from
 below once every depth of it up to one at or above the ceiling is stable and returns that depth, a certified lower
 bound of the limit (``_spectral_kernel.scan_to``'s ``cap``); below the ceiling every depth is the limit. For a
@@ -261,7 +285,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_rpm
+from millstab.stability.base import by_condition, check_ceiling, check_rpm
 from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
@@ -579,12 +603,9 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
 def _ceiling(ceiling, n_b: int, n_s: int, inv: np.ndarray, n_distinct: int) -> np.ndarray | None:
     """The censored search's caps (B, S distinct speeds) [m] from the caller's (B, S) ``ceiling`` (None: none): a
     repeated speed takes its largest. InputError for another shape or a value that is NaN or not positive."""
-    if ceiling is None:
+    c = check_ceiling(ceiling, n_b, n_s)
+    if c is None:
         return None
-    c = np.asarray(ceiling, dtype=float)
-    if c.shape != (n_b, n_s) or np.isnan(c).any() or (c <= 0).any():
-        raise InputError("ceiling", f"shape {c.shape}",
-                         f"a depth > 0 [m] (inf: none) per set and speed, ({n_b}, {n_s})")
     cap = np.full((n_b, n_distinct), -np.inf)
     np.maximum.at(cap.T, inv, c.T)
     return cap

@@ -141,10 +141,18 @@ GUARD_EXPLAINED = 0.5
 BLIND_SPOT_CHATTERS = 2
 BLIND_SPOT_WIDTH = 0.02
 #: when the recommendation must be vouched for by a cut labelled stable (:func:`confirmed_cuts`): ``"conflict"``
-#: (the default: while the posterior names a prior–data conflict or the data guard holds a chatter cut the posterior
-#: does not explain), ``"always"``, ``"never"``
-CONFIRM_CHOICES = ("conflict", "always", "never")
-CONFIRM = "conflict"
+#: (while the posterior names a prior–data conflict or the data guard holds a chatter cut the posterior does not
+#: explain), ``"auto"`` (the default: as ``"conflict"``, unless the cuts' chatter frequencies place the modes,
+#: :func:`frequencies_place_modes`), ``"always"``, ``"never"``. Why ``"auto"`` (issue 24, docs/updating.md "The
+#: default prior"): the rule is for a posterior that explains its cuts with the wrong structure, so that its lobes
+#: between the cuts cannot be trusted; where chatter frequencies read near the mode place the natural frequencies,
+#: it only held the softer tool's last recommendation low (8 softer campaigns with frequencies, `multivariate_t`:
+#: 5 / 8 at ≥ 0.60 of the best with it, 8 / 8 without, and no chattering recommendation from round 3 on either way)
+CONFIRM_CHOICES = ("auto", "conflict", "always", "never")
+CONFIRM = "auto"
+#: chatter-labelled cuts with a measured frequency needed before the frequencies count as placing the modes
+#: (``confirm="auto"``): two, so that one reading of another family member (the prior's alias chance) is not enough
+PLACE_MODES_CUTS = 2
 #: when the next test is the conflict test (:func:`millstab.update.discriminate.conflict_test`: the cut that best tells
 #: the posterior from the hammer test off by 3.5σ in one kind of parameter) instead of the most informative cut:
 #: ``"conflict"`` while the posterior names a prior–data conflict, ``"never"`` (the default). Not the default,
@@ -577,6 +585,21 @@ def conflict_named(post: Posterior) -> bool:
     return any(warning_code(w) == "prior-data-conflict" for w in post.warnings)
 
 
+def frequencies_place_modes(post: Posterior) -> bool:
+    """Whether the posterior's cuts carry chatter frequencies that place its natural frequencies: at least
+    :data:`PLACE_MODES_CUTS` cuts labelled chatter (or marginal) with a measured frequency, read as the member near
+    the mode (``prior.chatter_hz_alias`` < 1; read modulo the tooth-passing frequency alone, a frequency cannot tell
+    neighbouring lobes apart, docs/updating.md "Chatter frequencies on the softer campaigns")."""
+    if not post.prior.chatter_hz_alias < 1:
+        return False
+    hz = np.asarray(post.cuts.get("chatter_hz", []) or [], dtype=float)
+    labels = post.cuts.get("label", []) or []
+    chatter = np.array([str(lab) in ("chatter", "marginal") for lab in labels], dtype=bool)
+    if hz.size != chatter.size:
+        return False
+    return int(np.sum(np.isfinite(hz) & (hz > 0) & chatter)) >= PLACE_MODES_CUTS
+
+
 def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.ndarray, cap: float = math.inf,
                    guard: list[dict] = (), columns: LimitColumns | None = None) -> list[dict]:
     """The cuts labelled stable (grade < ½, in the decision's condition and speed range, within the depth cap and
@@ -669,7 +692,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         confirm: when the recommendation must be vouched for by a cut labelled stable (no deeper than one whose
             label the posterior believes, at its speed: :func:`confirmed_cuts`; the next
             test is still sought above the model's own cut): ``"conflict"`` while the posterior names a
-            prior–data conflict or the data guard holds a chatter cut it does not explain, ``"always"``, ``"never"``.
+            prior–data conflict or the data guard holds a chatter cut it does not explain; ``"auto"`` (the default)
+            as ``"conflict"`` unless the cuts' chatter frequencies place the modes (:func:`frequencies_place_modes`);
+            ``"always"``; ``"never"`` (:data:`CONFIRM`).
         discriminate: ``"conflict"``: while the posterior names a prior–data conflict, the next test is the cut
             that best tells it from the far-off alternative the cuts fit best (:func:`next_test_discriminating`);
             ``"never"`` (the default, measured: :data:`DISCRIMINATE`): always the most informative cut about θ.
@@ -836,6 +861,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     rpm_best, depth_best, col = best
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
     confirmed = False
+    if confirm == "auto":
+        confirm = "never" if frequencies_place_modes(post) else "conflict"
     if confirm == "always" or (confirm == "conflict" and (conflict_named(post) or guards)):
         support = confirmed_cuts(post, (lo, hi), offsets, cap, guards, every)
         if support:
@@ -1082,7 +1109,8 @@ __all__ = ["MAP_SAMPLES", "SEARCH_BOUND", "SEARCH_CHOICES", "SEARCH_POCKETS", "S
            "next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
-           "confirmed_cuts", "conflict_named", "support_cap", "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
+           "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",
+           "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",
            "p_stable_from_limits", "p_stable_map", "recommend", "safe_depth"]

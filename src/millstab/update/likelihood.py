@@ -31,7 +31,8 @@ samples, :func:`limits`) and depth noise σ_b:
   f_c) + a·N(nearest-member distance), the first placing the natural frequency itself, not only the
   lobe's phase (the family's aliases are exactly the lobe-number ambiguity fn ↔ fn·(n + 1)/n, so the
   reading modulo f_tp cannot tell those lobes apart; measured in docs/updating.md, "Chatter frequencies
-  on the softer campaigns"); a = 1 (the default) is the family term alone;
+  on the softer campaigns"); a = 1 is the family term alone, a = 0.1 the default
+  (:data:`millstab.update.prior.DEFAULT_CHATTER_HZ_ALIAS`);
 * a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²);
 * a graded label g ∈ [0, 1] (how strongly the written label says chatter: stable 0, marginal ½,
   chatter 1, a probability as written, or the mean over several raters): L = P(chatter label)^g ·

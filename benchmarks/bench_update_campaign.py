@@ -50,7 +50,7 @@ hence the depth cap and the relative depth noise; docs/updating.md has the measu
     bench_update_campaign.py --immersion 0.1 --labels simulate --truth-engine sdm --max-depth 60 \
         --sigma-depth-rel 0.05 --cuts 10 --best-speeds 121 --grid 31x20 --engine-check zoa,spectral \
         --campaigns 50 --samples 1000 --engine zoa                      # 13 min (16 s a campaign)
-    ... --samples 1000 --no-baselines --engine spectral --first K --campaigns 1   # 167 s a campaign (idle, 2 cores)
+    ... --samples 1000 --no-baselines --engine spectral --first K --campaigns 1   # ~130 s CPU a campaign (--profile)
 
 (``--labels engine --truth-engine sdm --noise 0.03`` takes the labels from SDM's boundary with 3 % noise
 instead: cheaper, without the simulation's own model of the cut.)
@@ -59,6 +59,7 @@ instead: cheaper, without the simulation's own model of the cut.)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import os
@@ -72,6 +73,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _campaign_profile import Profile, profiled, round_lines, summed, table  # noqa: E402
 from _conflict_record import campaign_record, save  # noqa: E402
 from _machine import describe, run_campaigns  # noqa: E402
 
@@ -100,10 +102,10 @@ def final_diagnosis(post, rpm: float, depth: float, truth) -> dict:
     a quantile that falls steeply beside the speed)."""
     from scipy.special import ndtr
 
-    from millstab.update.likelihood import limits
+    from millstab.update.decide import distinct_limits
 
     sp = rpm * (1 + np.array(OFFSETS))
-    bl, _ = limits(post.prior, post.u, sp, post.engine)
+    bl = distinct_limits(post.prior, post.u, sp, post.engine)
     sig = post.prior.sigma_depth_mm(np.array([depth]))[0]
     i0 = OFFSETS.index(0.0)
     ess = post.diagnostics.get("ess") or [float("nan")]
@@ -118,9 +120,9 @@ def final_diagnosis(post, rpm: float, depth: float, truth) -> dict:
 def limit_coverage(post, rpm: np.ndarray, truth, level: float = 0.90) -> list[bool]:
     """Whether the posterior's central ``level`` interval of b_lim covers the truth's limit, per speed [rpm]
     (the model-error check that needs no parameter to be "true": it reads the boundary itself)."""
-    from millstab.update.likelihood import limits
+    from millstab.update.decide import distinct_limits
 
-    bl, _ = limits(post.prior, post.u, np.asarray(rpm, float), post.engine)
+    bl = distinct_limits(post.prior, post.u, np.asarray(rpm, float), post.engine)
     lo_q, hi_q = np.quantile(bl, [(1 - level) / 2, (1 + level) / 2], axis=0)
     t = truth(np.asarray(rpm, float))
     return [bool(a <= x <= b) for a, x, b in zip(lo_q, t, hi_q)]
@@ -188,6 +190,10 @@ def parse() -> argparse.Namespace:
                     help="the policy of bench_robust.py --conflict-test: when the update does not name the conflict "
                          "and a 3.5σ-shifted kind fits the cuts as well, the next test is "
                          "millstab.update.discriminate's")
+    ap.add_argument("--profile", action="store_true",
+                    help="where each campaign's time goes: per round and in all, the update, the recommendation's "
+                         "search, data guard and next test, and the bench's truth, labels, Brier map and coverage "
+                         "(wall, CPU, CPU/wall, limits asked of the decisions' engine calls)")
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
     args = ap.parse_args()
@@ -237,6 +243,34 @@ def with_conflict_test(rec_fn):
     return rec_ct
 
 
+def baselines(args: argparse.Namespace, st: SimpleNamespace, truth, labeler, rng, best: float, c: int, say) -> dict:
+    """The two baselines of a campaign: the hammer-test SLD alone (5 % below its limit) and evenly spaced test
+    cuts followed by one update; {"hammer": [stable, productivity / best], "even": [...]}."""
+    lo, hi, cfg, cut, prior, decision = st.lo, st.hi, st.cfg, st.cut, st.prior, st.decision
+    row = {}
+    # baseline 1: the hammer-test SLD alone, 5 % below its limit
+    fine = np.linspace(lo, hi, args.best_speeds)
+    b_ham = get_engine(args.engine).envelope(cfg.structure, cut, fine).depth_mm
+    j = int(np.argmax(np.minimum(0.95 * b_ham, args.max_depth) * fine))
+    d_ham = min(0.95 * b_ham[j], args.max_depth)
+    row["hammer"] = [bool(d_ham < truth([fine[j]])[0]), float(fine[j] * d_ham / best)]
+    # baseline 2: evenly spaced test cuts at the prior-median limit depth, one update
+    ev_rpm = np.linspace(lo, hi, args.cuts)
+    ev_depth = np.minimum(get_engine(args.engine).envelope(cfg.structure, cut, ev_rpm).depth_mm, args.max_depth)
+    ev_lab, ev_hz = labeler(ev_rpm, ev_depth, rng)
+    ev = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
+    row["even"] = [False, 0.0]
+    if ev.stable.any() or ev.chatter.any():
+        try:
+            ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
+        except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
+            say("   even cuts: UPDATE FAILED (tempering stalled)")
+        else:
+            r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c, **decision)
+            row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / best)]
+    return row
+
+
 def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
     """Campaign c: (its row, its printed lines, its record for --save)."""
     if args.conflict_test:  # the campaign loop's recommend, in this (worker) process
@@ -280,14 +314,21 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                 chat = depth > b * np.exp(args.noise * r.standard_normal(b.shape))
             return list(np.where(chat, "chatter", "stable")), [float("nan")] * b.size
 
+        prof = Profile() if args.profile else None
+        if prof is not None:
+            truth, labeler = prof.wrap("truth: limits", truth), prof.wrap("labels", labeler)
         grid = (g_rpm, g_depth, g_depth[None, :] < truth(g_rpm)[:, None])
         settings = CampaignOptions(cuts=args.cuts, samples=args.samples, risk=args.risk, rpm_range=(lo, hi),
                                max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)), engine=args.engine,
                                reuse=not args.fresh, best_speeds=args.best_speeds, decision=decision,
                                keep=tuple(range(1, args.cuts + 1)) if args.save else ())
-        camp = run_campaign(cfg, prior, truth, labeler, settings, truth_grid=grid)
-        cover = coverage(camp.posteriors[args.cuts], theta)
-        cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
+        with profiled(prof) if prof is not None else contextlib.nullcontext():
+            camp = run_campaign(cfg, prior, truth, labeler, settings, truth_grid=grid,
+                                progress=None if prof is None else prof.next_round)
+        part = prof.part if prof is not None else lambda name: contextlib.nullcontext()
+        with part("coverage and diagnosis"):
+            cover = coverage(camp.posteriors[args.cuts], theta)
+            cover50 = coverage(camp.posteriors[args.cuts], theta, 0.5)
         row = {"campaign": c, "theta": theta.tolist(), "cuts": [camp.cut_rpm, camp.cut_depth_mm, camp.labels],
                "rec_stable": camp.rec_stable, "rec_productivity": camp.rec_productivity,
                "rec": [camp.rec_rpm, camp.rec_depth_mm], "brier": camp.brier, "cover": cover.tolist(),
@@ -296,45 +337,28 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
                "conflict": any(str(w).startswith("the cuts contradict the hammer test")
                                for w in camp.posteriors[args.cuts].warnings)}
         if not args.no_baselines:
-            # baseline 1: the hammer-test SLD alone, 5 % below its limit
-            fine = np.linspace(lo, hi, args.best_speeds)
-            b_ham = get_engine(args.engine).envelope(cfg.structure, cut, fine).depth_mm
-            j = int(np.argmax(np.minimum(0.95 * b_ham, args.max_depth) * fine))
-            d_ham = min(0.95 * b_ham[j], args.max_depth)
-            row["hammer"] = [bool(d_ham < truth([fine[j]])[0]), float(fine[j] * d_ham / camp.best)]
-            # baseline 2: evenly spaced test cuts at the prior-median limit depth, one update
-            ev_rpm = np.linspace(lo, hi, args.cuts)
-            ev_depth = np.minimum(get_engine(args.engine).envelope(cfg.structure, cut, ev_rpm).depth_mm, args.max_depth)
-            ev_lab, ev_hz = labeler(ev_rpm, ev_depth, rng)
-            ev = PointSet(ev_rpm, ev_depth, ev_lab, chatter_hz=ev_hz)
-            row["even"] = [False, 0.0]
-            if ev.stable.any() or ev.chatter.any():
-                try:
-                    ev_post = update(cfg, ev, prior=prior, engine=args.engine, samples=args.samples, seed=c)
-                except RuntimeError:  # stalled tempering: no posterior, no recommendation (counted as a miss)
-                    say("   even cuts: UPDATE FAILED (tempering stalled)")
-                else:
-                    r = recommend(ev_post, args.risk, (lo, hi), max_depth_mm=args.max_depth, seed=c, **decision)
-                    row["even"] = [bool(r.depth_mm < truth([r.rpm])[0]), float(r.rpm * r.depth_mm / camp.best)]
-        row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
-        row["limit_cover"] = limit_coverage(camp.posteriors[args.cuts], np.unique(camp.cut_rpm), truth)
-        if args.engine_check:
-            lab = np.array(camp.labels)
-            sel = lab != "marginal"
-            r_c, d_c = np.array(camp.cut_rpm)[sel], np.array(camp.cut_depth_mm)[sel]
-            row["contradicted"] = {}
-            for e in args.engine_check.split(","):
-                try:
-                    # sorted unique speeds: the spectral engine fails on some unsorted lists with repeats
-                    r_u, inv = np.unique(r_c, return_inverse=True)
-                    b_e = get_engine(e).envelope(s_true, cut, r_u).depth_mm[inv]
-                except Exception as exc:  # noqa: BLE001 - an engine's failure is a finding, not the end of the study
-                    say(f"   {e} failed ({type(exc).__name__}: {exc}) on theta={theta.tolist()} rpm={r_c.tolist()}")
-                    row["contradicted"][e] = None
-                    continue
-                row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
-            row["labelled"] = int(sel.sum())
-            say(f"   labels the true structure contradicts: {row['contradicted']} of {row['labelled']}")
+            with part("baselines"):
+                row.update(baselines(args, st, truth, labeler, rng, camp.best, c, say))
+        with part("coverage and diagnosis"):
+            row["final"] = final_diagnosis(camp.posteriors[args.cuts], camp.rec_rpm[-1], camp.rec_depth_mm[-1], truth)
+            row["limit_cover"] = limit_coverage(camp.posteriors[args.cuts], np.unique(camp.cut_rpm), truth)
+            if args.engine_check:
+                lab = np.array(camp.labels)
+                sel = lab != "marginal"
+                r_c, d_c = np.array(camp.cut_rpm)[sel], np.array(camp.cut_depth_mm)[sel]
+                row["contradicted"] = {}
+                for e in args.engine_check.split(","):
+                    try:
+                        # sorted unique speeds: the spectral engine fails on some unsorted lists with repeats
+                        r_u, inv = np.unique(r_c, return_inverse=True)
+                        b_e = get_engine(e).envelope(s_true, cut, r_u).depth_mm[inv]
+                    except Exception as exc:  # noqa: BLE001 - an engine's failure is a finding, not the end
+                        say(f"   {e} failed ({type(exc).__name__}: {exc}) on theta={theta.tolist()} rpm={r_c.tolist()}")
+                        row["contradicted"][e] = None
+                        continue
+                    row["contradicted"][e] = int(((d_c > b_e) != (lab[sel] == "chatter")).sum())
+                row["labelled"] = int(sel.sum())
+                say(f"   labels the true structure contradicts: {row['contradicted']} of {row['labelled']}")
         tr = " ".join(f"{'S' if ok else 'C'}{p:.2f}" for ok, p in zip(camp.rec_stable, camp.rec_productivity))
         fail = f" UPDATE FAILED after cuts {camp.failed};" if camp.failed else ""
         say(f"campaign {c}: {time.perf_counter() - t0:.0f} s, stages {camp.stages};{fail} after 0..{args.cuts} cuts "
@@ -345,6 +369,12 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         say(f"   {extra}Brier prior {camp.brier[0]:.4f} -> {camp.brier[-1]:.4f}; 90 % intervals cover truth: "
               f"{cover.astype(int).tolist()}")
         row["cpu_s"] = time.process_time() - c0
+        if prof is not None:
+            prof.stop()
+            row["profile"] = prof.record()
+            lines.extend(table(row["profile"]["totals"], prof.wall, prof.cpu, f"   campaign {c}, where the time went "
+                               "(exclusive of the parts inside each; per round: wall/CPU s):"))
+            lines.extend(round_lines(row["profile"]))
         rec = campaign_record(c, [camp.posteriors[k] for k in range(1, args.cuts + 1) if k in camp.posteriors],
                               {"theta": theta.tolist()}) if args.save else {}
     return row, lines, rec
@@ -420,6 +450,12 @@ def main() -> None:
           f"marginal: {np.mean([r['tests']['marginal'] for r in rows]):.0%}, truly chattering: "
           f"{np.mean([r['tests']['true'] for r in rows]):.0%} (test risk {decision['test_risk']}, data guard "
           f"{'on' if decision['guard'] else 'off'})")
+    if args.profile:
+        tot, wall, cpu = summed([r["profile"] for r in rows])
+        print("\n".join(table(tot, wall, cpu, f"  where the time went, {n} campaigns together:")))
+        walls, cpus = [r["profile"]["wall"] for r in rows], [r["profile"]["cpu"] for r in rows]
+        print(f"  per campaign: wall median {np.median(walls):.1f} s (max {max(walls):.1f}), CPU median "
+              f"{np.median(cpus):.1f} s")
     print(f"  final posterior names a prior-data conflict: {sum(r['conflict'] for r in rows)}/{n}")
     k_best = [next((k for k, (ok, p) in enumerate(zip(r["rec_stable"], r["rec_productivity"])) if ok and p >= 0.85),
                    None)

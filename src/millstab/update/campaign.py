@@ -25,7 +25,7 @@ import numpy as np
 
 from millstab.points import PointSet
 from millstab.update import update
-from millstab.update.decide import SPEED_TOLERANCE, p_stable_map, recommend
+from millstab.update.decide import SPEED_TOLERANCE, LimitMemo, p_stable_map, recommend
 from millstab.update.posterior import Posterior, exchange_of, split_modes
 from millstab.update.prior import Prior
 from millstab.warnlog import quiet
@@ -122,10 +122,12 @@ def best_productivity(truth: Truth, rpm_range: tuple[float, float], max_depth_mm
     return float(max(r.max(), rate(near).max()))
 
 
-def brier_score(post: Posterior, truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray]) -> float:
-    """Mean squared difference between P(stable) and the true 0/1 stability on a grid (rpm, depth, stable)."""
+def brier_score(post: Posterior, truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray],
+                memo: LimitMemo | None = None) -> float:
+    """Mean squared difference between P(stable) and the true 0/1 stability on a grid (rpm, depth, stable);
+    ``memo``: limits remembered from earlier rounds (:class:`millstab.update.decide.LimitMemo`)."""
     rpm, depth, stable = truth_grid
-    return float(((p_stable_map(post, rpm, depth) - stable) ** 2).mean())
+    return float(((p_stable_map(post, rpm, depth, memo=memo) - stable) ** 2).mean())
 
 
 @dataclass(frozen=True)
@@ -209,6 +211,9 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
     best = best_productivity(truth, rpm_range, max_depth_mm, best_speeds, tol)
     post = Posterior(prior, np.exp(prior.sample(samples, rng)), engine, cuts={"rpm": [lo, hi]})
     last: Posterior | None = None  # the last posterior of an update (the start of the next one)
+    # the limits of the samples each update keeps (most of them) at the speeds every round reads (the coarse scan,
+    # the range's ends, the map's grid) are remembered from round to round: the same numbers, computed once
+    memo = LimitMemo()
     with quiet():  # one-sided early data and ranges beyond the cuts are expected here
         for k in range(cuts + 1):
             if k:
@@ -225,9 +230,9 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
             if k in keep:
                 out["posteriors"][k] = post
             if truth_grid is not None:
-                out["brier"].append(brier_score(post, truth_grid))
+                out["brier"].append(brier_score(post, truth_grid, memo))
             rec = recommend(post, risk, rpm_range, max_depth_mm=max_depth_mm, seed=int(rng.integers(2**31)),
-                            **(decision or {}))
+                            memo=memo, **(decision or {}))
             out["rec_rpm"].append(rec.rpm)
             out["rec_depth_mm"].append(rec.depth_mm)
             out["rec_stable"].append(bool(rec.depth_mm < truth(np.array([rec.rpm]))[0]))

@@ -30,6 +30,9 @@ whether the process chatters).
   engine other than the cheapest (``search="auto"``, :func:`fast_search_for`) a seeded subsample of
   :data:`SEARCH_SAMPLES` rows does the scan and refines its :data:`SEARCH_POCKETS` best pockets, and every
   sample then chooses among them and sets the depth: the speed search is approximate, the risk is exact.
+  Each (distinct sample, speed) limit is computed once per recommendation (:class:`LimitColumns`: a resampled
+  posterior repeats its rows, and the cut's own check reads the columns that chose it), or once per campaign
+  (:class:`LimitMemo`), under one discretisation (:func:`decision_options`); the same answers.
 * :func:`data_guard`: a backstop from the data where the model does not explain them: no recommended depth
   at or above (1 − :data:`GUARD_MARGIN`) × the depth of a cut labelled chatter (grade > ½) that the posterior
   calls chatter with probability < :data:`GUARD_EXPLAINED` (the fraction of samples whose limit lies at or
@@ -104,6 +107,11 @@ SEARCH_POLISH_STEPS = 4
 #: ("Decisions from an accurate posterior": 42.0 -> 21.7 s and 34.9 -> 16.8 s CPU; 0.994 -> 1.003 and 0.990 ->
 #: 0.998 of the full scan's productivity), the risk unchanged (the every-sample stages set it)
 SEARCH_SUBSAMPLE_TOLERANCE = False
+#: the fast search's every-sample stages read a candidate's ±speed-tolerance neighbours only while its depth at the
+#: nominal speed (an upper bound of the depth it holds) can still beat the best held so far (:func:`recommend`):
+#: the same cut as reading them all, from 21 every-sample speeds instead of 49 (mean of 8 recommendations from 1 000
+#: prior draws at a/D 0.1 in the campaigns' 5 000-12 000 rpm, ±0.25 %; tests/test_decide_columns.py)
+SEARCH_BOUND = True
 #: a suggested subsample of a map from an engine other than the cheapest (``millstab map --samples``): its
 #: Monte Carlo standard error is at most ½/√M = 0.022
 MAP_SAMPLES = 500
@@ -196,17 +204,144 @@ def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
     return None if samples >= n else np.sort(np.random.default_rng(seed).choice(n, int(samples), replace=False))
 
 
+def distinct_limits(prior, u: np.ndarray, rpm, engine: str = "zoa", options: dict | None = None,
+                    client=None) -> np.ndarray:
+    """:func:`millstab.update.likelihood.limits` (N, S) [mm] of the rows u = ln θ (N, P) at speeds rpm (S,) [rpm], each
+    DISTINCT row evaluated once and its limits copied to its repeats. Why: a posterior is resampled every tempering
+    stage and a move keeps a particle where its proposal is rejected, so its rows repeat (the spectral posteriors of
+    the a/D 0.1 campaigns, docs/updating.md "A spectral campaign now": ~30 % repeats), and a decision that counts
+    samples needs every row's limit but not every row's engine call. The same numbers: a row's limit does not depend
+    on the other rows of a call (each row is its own search; spectral without warm starts under the sampling
+    discretisation; sdm's steps follow the highest natural frequency of the rows, the same over the distinct ones)."""
+    u = np.asarray(u, float)
+    uniq, inv = np.unique(u, axis=0, return_inverse=True)
+    if uniq.shape[0] == u.shape[0]:
+        return limits(prior, u, rpm, engine, client=client, options=options)[0]
+    return limits(prior, uniq, rpm, engine, client=client, options=options)[0][inv.ravel()]
+
+
+def decision_options(post: Posterior, rpm_range: tuple[float, float]) -> dict:
+    """The engine's discretisation for every engine call of one decision in ``rpm_range`` [rpm]: the posterior's
+    own (:attr:`Posterior.engine_options`) where it has one, else, for an engine that chooses its discretisation per
+    call (spectral: the node count of a convergence check at the prior median at the call's lowest, middle and
+    highest speed), that choice made once, at the range's ends and middle. Why: a call's choice depends on its
+    speed list, so without it a speed's limit could depend on the other speeds of its call (a different node
+    count); with it each (sample, speed) is one number however the calls are split (to the root search's
+    tolerance), which lets the decision reuse
+    a limit it has computed (:class:`LimitColumns`) and skips a check per call (~33 ms CPU at a/D 0.1). The same
+    numbers where every call chose alike (the a/D 0.1 campaigns: 6 nodes on 40 random speed lists of 3-200 speeds
+    in 5 000-12 000 rpm, as at the range's three)."""
+    if post.engine_options:
+        return dict(post.engine_options)
+    from millstab.forward import forward, option_keywords
+    from millstab.update.likelihood import SAMPLING
+
+    fwd = forward(post.prior.par, post.prior.cutting, post.engine, SAMPLING)
+    if getattr(fwd._engine_mod, "settings", None) is None:
+        return {}
+    lo, hi = (float(x) for x in rpm_range)
+    chosen = fwd.pinned(np.array([lo, 0.5 * (lo + hi), hi])).settings
+    allowed = option_keywords(post.engine)[0]
+    return {k: v for k, v in chosen.items() if k in allowed}
+
+
+class LimitMemo:
+    """Limits [mm] of (sample, speed) pairs remembered from one decision to the next, for the posteriors of one
+    prior, engine and discretisation (a campaign's: :func:`millstab.update.campaign.run_campaign`). Why: each update
+    starts from the last posterior and moves only some particles (a rejected move keeps its particle; resampling
+    copies it), so most of a round's samples are the last round's, and the speeds of the coarse scan, the range's
+    ends and a map's grid repeat every round. The same numbers as computing them anew: a row's limit does not depend
+    on the other rows of a call. Bound to the first (engine, discretisation, cutting, prior parameterization) it
+    serves; another one clears it."""
+
+    def __init__(self) -> None:
+        self._key = None
+        self._by_speed: dict[float, dict[bytes, float]] = {}
+
+    def bind(self, post: Posterior, options: dict) -> None:
+        """Serve ``post``'s decisions under ``options``: cleared when they are not those it served so far."""
+        key = (post.engine, tuple(sorted(dict(options).items())), repr(post.prior.cutting), repr(post.prior.par),
+               tuple(post.prior.names))
+        if key != self._key:
+            self._key, self._by_speed = key, {}
+
+    def known(self, keys: list[bytes], speeds: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(values (R, S), whether each is remembered (R, S)) of rows named by ``keys`` at ``speeds``."""
+        vals = np.zeros((len(keys), len(speeds)))
+        have = np.zeros(vals.shape, dtype=bool)
+        for j, x in enumerate(speeds):
+            col = self._by_speed.get(x)
+            if col:
+                for i, k in enumerate(keys):
+                    v = col.get(k)
+                    if v is not None:
+                        vals[i, j], have[i, j] = v, True
+        return vals, have
+
+    def remember(self, keys: list[bytes], speeds: list[float], values: np.ndarray) -> None:
+        for j, x in enumerate(speeds):
+            self._by_speed.setdefault(x, {}).update(zip(keys, values[:, j].tolist()))
+
+
+class LimitColumns:
+    """The limits (N, S) [mm] of fixed posterior rows u (N, P) at any speeds [rpm], each (distinct row, speed)
+    computed once (:func:`distinct_limits`): a request calls the engine only for the speeds not seen before (in the
+    order asked), and repeats come from memory. A decision asks the same speeds more than once (the chosen cut's
+    own ±tolerance check reads the columns of the stage that chose it; a confirmed recommendation searches again).
+    ``memo``: a :class:`LimitMemo` of earlier decisions (a campaign's), whose rows it reads and then only the rows
+    it lacks go to the engine. The same numbers: under one pinned discretisation (:func:`decision_options`) a
+    (row, speed)'s limit depends on neither the other rows of a call nor, beyond the root search's tolerance, its
+    other speeds (the continuation from speed to speed starts each search elsewhere: 3e-13 relative measured at
+    a/D 0.1, tests/test_decide_columns.py)."""
+
+    def __init__(self, post: Posterior, u: np.ndarray, options: dict | None = None,
+                 memo: LimitMemo | None = None) -> None:
+        self.post, self.options, self.memo = post, dict(options or {}), memo
+        self.rows, inv = np.unique(np.asarray(u, float), axis=0, return_inverse=True)
+        self.inv = inv.ravel()
+        self.n = self.inv.size
+        self._cols: dict[float, np.ndarray] = {}
+        if memo is not None:
+            memo.bind(post, self.options)
+            self._keys = [r.tobytes() for r in self.rows]
+
+    def _engine(self, rows: np.ndarray, speeds: list[float]) -> np.ndarray:
+        return limits(self.post.prior, rows, np.array(speeds), self.post.engine, options=self.options)[0]
+
+    def __call__(self, rpm) -> np.ndarray:
+        r = [float(x) for x in np.ravel(np.asarray(rpm, float))]
+        new = list(dict.fromkeys(x for x in r if x not in self._cols))
+        if new and self.memo is None:
+            b = self._engine(self.rows, new)
+        elif new:  # the rows the memo lacks at any of the new speeds go to the engine, at all of them
+            b, have = self.memo.known(self._keys, new)
+            miss = np.flatnonzero(~have.all(axis=1))
+            if miss.size:
+                b[miss] = self._engine(self.rows[miss], new)
+                self.memo.remember([self._keys[i] for i in miss], new, b[miss])
+        if new:
+            self._cols.update(zip(new, b.T))
+        if not r:
+            return np.zeros((self.n, 0))
+        return np.stack([self._cols[x] for x in r], axis=1)[self.inv]
+
+
 def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | None = None,
-                 seed: int = 0) -> np.ndarray:
+                 seed: int = 0, memo: LimitMemo | None = None) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
     Dask cluster where that pays, same numbers). ``samples``: from a seeded subsample (``seed``) of that many
     posterior samples (:func:`map_rows`; for an engine whose limits cost ms each, e.g. ``spectral``): each
     cell's P is then a fraction of M = ``samples`` draws, its Monte Carlo standard error
-    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's."""
+    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's. ``memo``: limits
+    remembered from earlier decisions (:class:`LimitMemo`; a campaign's maps and recommendations), read under the
+    discretisation of a decision over the map's speed range (:func:`decision_options`); not with ``client``."""
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
-    blim, _ = limits(post.prior, u, np.asarray(rpm, float), post.engine, client=client,
-                     options=post.engine_options)
+    r = np.asarray(rpm, float)
+    if memo is not None and client is None and r.size:
+        blim = LimitColumns(post, u, decision_options(post, (float(r.min()), float(r.max()))), memo)(r)
+    else:
+        blim = distinct_limits(post.prior, u, r, post.engine, post.engine_options, client)
     return p_stable_from_limits(blim, np.asarray(depth_mm, float))
 
 
@@ -398,16 +533,18 @@ def _cut_grades(cuts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return rpm[keep], depth[keep], grade[keep], hz[keep]
 
 
-def data_guard(post: Posterior) -> list[dict]:
+def data_guard(post: Posterior, columns: LimitColumns | None = None) -> list[dict]:
     """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
     a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
-    one per guarding cut (cuts the posterior explains, and outweighed ones, are left out)."""
+    one per guarding cut (cuts the posterior explains, and outweighed ones, are left out). ``columns``: the limits of
+    ``post.decision_u`` (:class:`LimitColumns`) a decision shares; default a call of its own."""
     rpm, depth, grade, hz = _cut_grades(post.cuts_in_condition())  # per condition: a slot's chatter cut does not
     ch = np.flatnonzero(grade > 0.5)  # bound a finishing pass (the model carries what it teaches)
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
-    blim, _ = limits(post.prior, post.decision_u, rpm[ch], post.engine, options=post.engine_options)
+    blim = (columns(rpm[ch]) if columns is not None
+            else distinct_limits(post.prior, post.decision_u, rpm[ch], post.engine, post.engine_options))
     p_model = np.mean(blim <= depth[ch][None, :], axis=0)
     tip = post.prior.par.structure(post.prior.par.theta0)  # the prior median's TIP (a prior over a holder too)
     modes = [m for m in (*tip.x, *tip.y)]
@@ -464,7 +601,7 @@ def frequencies_place_modes(post: Posterior) -> bool:
 
 
 def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.ndarray, cap: float = math.inf,
-                   guard: list[dict] = ()) -> list[dict]:
+                   guard: list[dict] = (), columns: LimitColumns | None = None) -> list[dict]:
     """The cuts labelled stable (grade < ½, in the decision's condition and speed range, within the depth cap and
     the data guard) whose label the posterior believes: at most :data:`CONFIRM_P_CHATTER` of its samples have a
     limit at or below the cut's depth at its speed × (1 + each of ``offsets``). A list of {rpm, depth_mm,
@@ -476,15 +613,17 @@ def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.
     natural frequencies left at the hammer test's, 20 % off), and its recommendations went 4-8 % above a stable
     cut at the same speed, or into a pocket it predicts between chatter cuts, where the truth has none. A
     stable cut that the posterior also holds safe is what the data vouch for; a single swapped label (a cut
-    labelled stable 5× above the true limit) does not vouch, since the posterior does not hold it safe."""
+    labelled stable 5× above the true limit) does not vouch, since the posterior does not hold it safe. ``columns``:
+    as :func:`data_guard`."""
     rpm, depth, grade, _ = _cut_grades(post.cuts_in_condition())
     lo, hi = rpm_range
     ok = (grade < 0.5) & (rpm >= lo) & (rpm <= hi) & (depth <= cap) & (depth < guard_cap(list(guard), rpm))
     if not ok.any():
         return []
     r, d = rpm[ok], depth[ok]
-    both, _ = limits(post.prior, post.decision_u, (r[None, :] * (1 + offsets[:, None])).ravel(), post.engine,
-                     options=post.engine_options)
+    at = (r[None, :] * (1 + offsets[:, None])).ravel()
+    both = (columns(at) if columns is not None
+            else distinct_limits(post.prior, post.decision_u, at, post.engine, post.engine_options))
     p = (both <= np.tile(d, offsets.size)[None, :]).mean(axis=0).reshape(offsets.size, r.size).max(axis=0)
     return [{"rpm": float(a), "depth_mm": float(b), "p_chatter": float(q)} for a, b, q in zip(r, d, p)
             if q <= CONFIRM_P_CHATTER]
@@ -531,7 +670,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
               coarse_points: int = COARSE_POINTS, test_risk: float | None = TEST_RISK,
               guard: bool = True, across: bool | None = None, confirm: str = CONFIRM,
               discriminate: str = DISCRIMINATE, discriminate_rival_lr: float = DISCRIMINATE_RIVAL_LR,
-              search: str = "auto") -> Recommendation:
+              search: str = "auto", memo: LimitMemo | None = None) -> Recommendation:
     """The cut with the highest removal rate whose P(chatter) ≤ ``risk`` in ``rpm_range``, and the next test.
 
     Args:
@@ -570,6 +709,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
             ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
             at most :data:`SEARCH_SAMPLES` samples both are the full search.
+        memo: limits remembered from earlier decisions from posteriors of the same prior and engine (a
+            :class:`LimitMemo`; a campaign's: most samples and the coarse speeds repeat from round to round), read
+            instead of computed again, and the new ones added; the same answer.
     Raises:
         InputError: risk outside (0, 1), a bad speed range or depth limit, a bad confidence, tolerance, test risk
             or confirm, an unknown search.
@@ -597,9 +739,12 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         raise InputError("--discriminate", discriminate, "one of " + ", ".join(DISCRIMINATE_CHOICES))
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
-    guards = data_guard(post) if guard else []
-    cap = math.inf if max_depth_mm is None else max_depth_mm
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
+    # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once
+    opts = decision_options(post, (lo, hi))
+    every = LimitColumns(post, u, opts, memo)
+    guards = data_guard(post, every) if guard else []
+    cap = math.inf if max_depth_mm is None else max_depth_mm
     n = u.shape[0]
     n_eff = effective_samples(post)
     count = allowed_count(n, risk, n_eff, confidence)
@@ -609,11 +754,11 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              UserWarning, stacklevel=2)
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
-    def depths_at(speeds: np.ndarray, support: list[dict] | None, rows: np.ndarray | None = None,
+    def depths_at(speeds: np.ndarray, support: list[dict] | None, cols: LimitColumns | None = None,
                   cnt: int = count, offsets: np.ndarray = offsets) -> tuple[np.ndarray, np.ndarray]:
-        # one engine call for the speeds and their ±tolerance neighbours; the nominal block first
-        both, _ = limits(post.prior, u if rows is None else u[rows], (speeds[None, :] * (1 + offsets[:, None])).ravel(),
-                         post.engine, options=post.engine_options)
+        # the speeds and their ±tolerance neighbours, the nominal block first (one engine call for those not
+        # computed before, on ``cols``' rows: default every sample)
+        both = (every if cols is None else cols)((speeds[None, :] * (1 + offsets[:, None])).ravel())
         blim = both[:, :speeds.size]
         d_all = safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size)
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
@@ -625,6 +770,29 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     def best_of(speeds: np.ndarray, support: list[dict] | None) -> tuple[int, np.ndarray, np.ndarray]:
         depth, blim = depths_at(speeds, support)
         return int(np.argmax(depth * speeds)), depth, blim
+
+    def best_bounded(speeds: np.ndarray, support: list[dict] | None, floor: float = -np.inf) -> tuple | None:
+        """(speed, depth, every sample's limits at it (N,)) of the most productive of ``speeds`` by every sample
+        (its depth held at ±tolerance, :func:`depths_at`), the first of equals as ``np.argmax``; ``None`` when none
+        is more productive than ``floor`` [mm·rpm]. The depth at the nominal speed alone bounds the held depth from
+        above, so the ±tolerance neighbours are read only for the speeds whose bound can still win (most productive
+        bound first): the answer of reading them all (at the a/D 0.1 campaigns' pockets and polish ~2/3 of them)."""
+        nominal, blim = depths_at(speeds, support, offsets=np.zeros(1))
+        if offsets.size == 1:  # no speed tolerance: the nominal depth is the held one
+            depth = nominal
+        elif not SEARCH_BOUND:
+            depth = depths_at(speeds, support)[0]
+        else:
+            ub = nominal * speeds
+            depth = np.full(speeds.size, -np.inf)
+            for i in np.argsort(-ub, kind="stable"):
+                if ub[i] <= floor or ub[i] < np.max(depth * speeds):  # neither this one nor any after it can win
+                    break
+                depth[i] = depths_at(speeds[i:i + 1], support)[0][0]
+        j = int(np.argmax(depth * speeds))
+        if not depth[j] * speeds[j] > floor:
+            return None
+        return speeds[j], depth[j], blim[:, j]
 
     if not (isinstance(coarse_points, (int, np.integer)) and coarse_points >= 3):
         raise InputError("coarse_points", coarse_points, "need an integer ≥ 3 speeds")
@@ -662,18 +830,17 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         ±tolerance: the depth, and the choice among the pockets,
         are the full posterior's, which refines the chosen pocket once more. Returns the subsample's coarse limits
         and its rows (for the next test)."""
-        rows = map_rows(n, SEARCH_SAMPLES, seed)  # the same seeded subsample a map of that many samples reads
         cnt = int(round(max(count, 0) * SEARCH_SAMPLES / n))
         speeds = coarse_grid(support)
         step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])
         sub = offsets if SEARCH_SUBSAMPLE_TOLERANCE else np.zeros(1)
-        depth, blim = depths_at(speeds, support, rows, cnt, sub)
+        depth, blim = depths_at(speeds, support, sub_cols, cnt, sub)
         top = pockets(depth * speeds, SEARCH_POCKETS)
         best_r, best_d = speeds[top], depth[top]
         for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
             a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
             cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
-            d2 = depths_at(cand.ravel(), support, rows, cnt, sub)[0].reshape(cand.shape)
+            d2 = depths_at(cand.ravel(), support, sub_cols, cnt, sub)[0].reshape(cand.shape)
             j = np.argmax(d2 * cand, axis=1)
             k = np.arange(top.size)
             better = d2[k, j] * cand[k, j] > best_d * best_r
@@ -681,18 +848,15 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             step = cand[:, 1] - cand[:, 0]
         # every sample decides among the pockets and the range's ends (where the productivity often peaks, and
         # a subsample's noise hides a rise to the end) and sets the depth
-        best_r = np.concatenate([best_r, [lo, hi]])
-        d_full, b_full = depths_at(best_r, support)
-        i = int(np.argmax(d_full * best_r))
-        best = (best_r[i], d_full[i], b_full[:, i])
+        best = best_bounded(np.concatenate([best_r, [lo, hi]]), support)
         w = SEARCH_POLISH_STEPS * (speeds[1] - speeds[0])  # every sample refines the chosen pocket once
         cand = np.linspace(max(lo, best[0] - w), min(hi, best[0] + w), SEARCH_POLISH_POINTS)
-        d2, b2 = depths_at(cand, support)
-        j = int(np.argmax(d2 * cand))
-        if d2[j] * cand[j] > best[1] * best[0]:
-            best = (cand[j], d2[j], b2[:, j])
+        best = best_bounded(cand, support, best[0] * best[1]) or best  # only a more productive cut replaces it
         return speeds, blim, best, rows
 
+    # the fast search's subsample (the rows a map of that many reads), its limits shared by both searches
+    rows = map_rows(n, SEARCH_SAMPLES, seed) if fast else None
+    sub_cols = LimitColumns(post, u[rows], opts, memo) if fast else None
     speeds, blim, best, grid_rows = search(None)
     rpm_best, depth_best, col = best
     model_cut = (float(rpm_best), float(depth_best))  # the model's own cut (the next test is sought above it)
@@ -700,14 +864,13 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     if confirm == "auto":
         confirm = "never" if frequencies_place_modes(post) else "conflict"
     if confirm == "always" or (confirm == "conflict" and (conflict_named(post) or guards)):
-        support = confirmed_cuts(post, (lo, hi), offsets, cap, guards)
+        support = confirmed_cuts(post, (lo, hi), offsets, cap, guards, every)
         if support:
             rb, db, cb = search(support)[2]
             if db > 0 and rb * db < rpm_best * depth_best * (1 - 1e-9):
                 rpm_best, depth_best, col, confirmed = rb, db, cb, True
     p_ch = float(np.mean(col <= depth_best))
-    around, _ = limits(post.prior, u, rpm_best * (1 + offsets), post.engine,  # the cut's own ±tolerance check
-                       options=post.engine_options)
+    around = every(rpm_best * (1 + offsets))  # the cut's own ±tolerance check (read when it was chosen)
     p_worst = float(np.max(np.mean(around <= depth_best, axis=0)))
     bound = None
     if confidence is not None:
@@ -940,7 +1103,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["MAP_SAMPLES", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "fast_search_for", "map_error",
+__all__ = ["MAP_SAMPLES", "SEARCH_BOUND", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
+           "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
            "next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",

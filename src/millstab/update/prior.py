@@ -10,8 +10,8 @@ Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²).
 * ``"mixture"``: 0.9·N(0, 1) + 0.1·N(0, 4²), a Gaussian with a broad component;
 * ``"multivariate_t"`` (the default, :data:`DEFAULT_TAILS`): one multivariate t with ν = :data:`DEFAULT_NU` over the
   M free *modal* parameters, density ∝ (1 + |z|²/ν)^(−(ν+M)/2), i.e. z = N(0, I)/√(W/ν) with one W ~ χ²_ν
-  shared by all of them (one scale: "how far off is this hammer test"). Each parameter alone is still t_ν (the same marginals as
-  ``"student"``); what differs is the joint: the prior prices the whole tap test off by r σ in every
+  shared by all of them (one scale: "how far off is this hammer test"). Each parameter alone is still t_ν (the
+  same marginals as ``"student"``); what differs is the joint: the prior prices the whole tap test off by r σ in every
   parameter about like one parameter off by r√M σ, where independent tails make the one far-off
   parameter much cheaper (measured: a softer tool, all six parameters 3.6σ off, against a posterior
   with k 8.6σ off and the rest at the tap test: 13.8 nats apart under ``"student"``, 0.3 under this;

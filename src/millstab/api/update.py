@@ -375,15 +375,13 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
     if not (math.isfinite(test_risk) and 0 < test_risk <= 1):
         raise InputError("--test-risk", test_risk, f"the next test's tolerated probability of chatter, in (0, 1], e.g. "
                                                    f"{TEST_RISK:g} (1: no cap)")
-    from millstab.update.decide import CONFIRM, CONFIRM_CHOICES, DISCRIMINATE_CHOICES, SEARCH_CHOICES
+    from millstab.update import decide
 
-    if rule.get("confirm", CONFIRM) not in CONFIRM_CHOICES:
-        raise InputError("--confirm", rule["confirm"], "one of " + ", ".join(CONFIRM_CHOICES))
-    if rule.get("discriminate", "never") not in DISCRIMINATE_CHOICES:
-        raise InputError("--discriminate", rule["discriminate"], "one of " + ", ".join(DISCRIMINATE_CHOICES))
-
-    if rule.get("search", "auto") not in SEARCH_CHOICES:
-        raise InputError("--search", rule["search"], "one of " + ", ".join(SEARCH_CHOICES))
+    for key, default, choices in (("confirm", decide.CONFIRM, decide.CONFIRM_CHOICES),
+                                  ("discriminate", decide.DISCRIMINATE, decide.DISCRIMINATE_CHOICES),
+                                  ("search", "auto", decide.SEARCH_CHOICES)):
+        if rule.get(key, default) not in choices:
+            raise InputError(f"--{key}", rule[key], "one of " + ", ".join(choices))
     return span, dict(rule, confidence=confidence, speed_tolerance=speed_tolerance, test_risk=test_risk)
 
 

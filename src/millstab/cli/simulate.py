@@ -81,13 +81,16 @@ def _recordings_out(cfg, res, record: Path | None, record_tap: Path | None, sens
     from millstab.cli import emit
     from millstab.io.recordings import write_recording
 
+    def write(path: Path, rec, what: str = "") -> None:
+        emit.wrote(path, lambda: write_recording(path, rec.fs, rec.signal, protect=protect),
+                   note=f" ({what}{rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+
     seed = 0 if seed is None else seed
-    for path, rec, what in ((record, record and api.record_cut(res, sensor=sensor, noise=noise, seed=seed), ""),
-                            (record_tap, record_tap and api.record_tap(cfg.structure, sensor=sensor, noise=noise,
-                                                                       seed=seed), "a tap on the tool heard by the ")):
-        if path:
-            emit.wrote(path, lambda p=path, r=rec: write_recording(p, r.fs, r.signal, protect=protect),
-                       note=f" ({what}{rec.sensor}, {rec.seconds:.3g} s at {rec.fs} Hz)")
+    if record:
+        write(record, api.record_cut(res, sensor=sensor, noise=noise, seed=seed))
+    if record_tap:
+        write(record_tap, api.record_tap(cfg.structure, sensor=sensor, noise=noise, seed=seed),
+              "a tap on the tool heard by the ")
 
 
 def _labels_out(table, out: Path | None, protect) -> None:

@@ -116,12 +116,13 @@ def cuts_file(rpm, depth, label, conds: list[tuple[float, str]], teeth_idx=None)
 
 
 def run_machine(name, hammer, truth, teeth, args, rng):
-    from millstab import api
     from millstab.update import Posterior, make_prior, update
 
     lo, hi = args.rpm
     base = cond(teeth, 1.0, "down")
     cfg = Config(base, hammer, name)
+    if args.design != "around":
+        return run_designed(name, hammer, truth, teeth, args, rng, cfg)
     zoa = get_engine("zoa")
     # training cuts: around the hammer test's belief
     tr_rpm, tr_depth, tr_cond = [], [], []
@@ -138,13 +139,7 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     flip = rng.random(chatter.size) < args.flip
     label = np.where(chatter ^ flip, "chatter", "stable")
     train = cuts_file(tr_rpm, tr_depth, label, tr_cond)
-    # held-out cuts: the trained conditions and the targets, around the TRUE limit
-    held, held_tl = {}, {}
-    for ri, m in TRAIN + TARGETS:
-        r = rng.uniform(lo, hi, args.held)
-        tl = held_tl[(ri, m)] = true_limit(truth, cond(teeth, ri, m), r, args.truth_steps)
-        d = tl * np.exp(rng.uniform(-0.6, 0.6, args.held))
-        held[(ri, m)] = cuts_file(r, d, np.where(d > tl, "chatter", "stable"), [(ri, m)] * args.held)
+    held, held_tl = held_out(truth, teeth, args, rng)
     t0 = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -162,6 +157,91 @@ def run_machine(name, hammer, truth, teeth, args, rng):
     cpu_update = time.process_time() - t0
     say(f"{name}: 3 updates {cpu_update:.0f} s CPU; the joint posterior's label error ε "
         f"{joint.label_error.mean():.3f}, depth-noise factor s {joint.sigma_depth_factor.mean():.2f}")
+    rows, cpu = score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args)
+    return rows, (cpu_update, *cpu)
+
+
+def held_out(truth, teeth, args, rng):
+    """Held-out cuts in the trained conditions and the targets, around the TRUE limit: ({condition: cuts},
+    {condition: true limits})."""
+    lo, hi = args.rpm
+    held, held_tl = {}, {}
+    for ri, m in TRAIN + TARGETS:
+        r = rng.uniform(lo, hi, args.held)
+        tl = held_tl[(ri, m)] = true_limit(truth, cond(teeth, ri, m), r, args.truth_steps)
+        d = tl * np.exp(rng.uniform(-0.6, 0.6, args.held))
+        held[(ri, m)] = cuts_file(r, d, np.where(d > tl, "chatter", "stable"), [(ri, m)] * args.held)
+    return held, held_tl
+
+
+def run_designed(name, hammer, truth, teeth, args, rng, cfg):
+    """The training cuts placed as a shop would run the campaign (``--design alternate | recommend``,
+    :func:`millstab.update.campaign.run_condition_campaign`): 2·``--cuts`` rounds of recommend → next test
+    → label by the truth → update, the decision alternating between the two training conditions (with
+    ``recommend``, its next test may move to the other one). The single-condition posteriors for the same
+    number of cuts: with ``--single campaign`` (the default) a campaign of 2·``--cuts`` cuts in each training
+    condition alone; with ``--single split`` the joint campaign's cuts split by condition."""
+    from millstab.update import Posterior, make_prior, update
+    from millstab.update.campaign import run_condition_campaign
+
+    lo, hi = args.rpm
+    conds = [cond(teeth, ri, m) for ri, m in TRAIN]
+    prior = make_prior(hammer, conds[0])
+    fit = {"samples": args.samples, "engine": args.engine, "sampler": args.sampler,
+           "engine_options": args.engine_options}
+    play = {**fit, "risk": args.risk, "rpm_range": (lo, hi), "max_depth_mm": args.max_depth}
+
+    def labeler(cs):
+        def label(rpm, depth, i, r):
+            chatter = depth > true_limit(truth, cs[i], rpm, args.truth_steps)
+            chatter ^= r.random(chatter.size) < args.flip
+            return list(np.where(chatter, "chatter", "stable")), [float("nan")] * chatter.size
+        return label
+
+    t0 = time.process_time()
+    seeds = rng.integers(2**31, size=3)
+    def progress(k, c):
+        say(f"{name}: cut {k + 1} in {condition_text(conds[c]).split(',')[0]}, {time.process_time() - t0:.0f} s CPU")
+
+    run = run_condition_campaign(cfg, prior, conds, labeler(conds), cuts=2 * args.cuts, seed=int(seeds[0]),
+                                 choose=args.design, progress=progress, **play)
+    joint = run.posterior
+    cc = np.array(run.cut_condition)
+    ch = run.cuts.label == "chatter"
+    tl = np.array([true_limit(truth, conds[c], run.cuts.rpm[i:i + 1], args.truth_steps)[0] for i, c in enumerate(cc)])
+    ratio = run.cuts.depth_mm / tl
+    say(f"{name}: the joint campaign's {cc.size} cuts: " + "; ".join(
+        f"{condition_text(conds[i]).split(',')[0]} {np.sum(cc == i)} cuts, {np.sum(ch[cc == i])} chatter, depth/true "
+        f"limit {np.quantile(ratio[cc == i], [0, 0.5, 1]).round(2).tolist() if np.any(cc == i) else '-'} (min, median, "
+        f"max), at {np.unique(np.round(run.cuts.rpm[cc == i], -1)).size} speeds"
+        for i in range(len(conds))) + (f"; updates failed after cuts {run.failed}" if run.failed else ""))
+    per = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k, key in enumerate(TRAIN):
+            if args.single == "campaign":
+                one = run_condition_campaign(cfg, prior, [conds[k]], labeler([conds[k]]), cuts=2 * args.cuts,
+                                             seed=int(seeds[1 + k]), choose="alternate", **play)
+                per[key] = one.posterior
+            else:
+                sl = cc == k
+                one = cuts_file(run.cuts.rpm[sl], run.cuts.depth_mm[sl], run.cuts.label[sl], [key] * int(sl.sum()))
+                per[key] = update(cfg, one, seed=args.seed, **fit)
+        hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
+                                args.engine, cuts={"rpm": [lo, hi]}, engine_options=dict(args.engine_options))
+    cpu_update = time.process_time() - t0
+    say(f"{name}: the campaigns (joint and single-condition, their decisions included) {cpu_update:.0f} s CPU")
+    held, held_tl = held_out(truth, teeth, args, rng)
+    rows, cpu = score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args)
+    return rows, (cpu_update, *cpu)
+
+
+def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args):
+    """The Brier scores at the held-out cuts of every posterior, and the joint one's recommendation in each target
+    condition judged against the truth: (rows, (CPU of the predictions, of the recommendations))."""
+    from millstab import api
+
+    lo, hi = args.rpm
     cpu_predict = cpu_rec = 0.0
     rows = []
     for key, pts in held.items():
@@ -198,7 +278,7 @@ def run_machine(name, hammer, truth, teeth, args, rng):
             rows.append((key, b_joint, b_hammer, b_per, own, None, None, None))
         say(f"{name}: {condition_text(cond(teeth, *key)).split(',')[0]} scored; CPU so far: predictions "
             f"{cpu_predict:.0f} s, recommendations {cpu_rec:.0f} s")
-    return rows, (cpu_update, cpu_predict, cpu_rec)
+    return rows, (cpu_predict, cpu_rec)
 
 
 def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args) -> None:
@@ -286,6 +366,13 @@ def main() -> None:
     ap.add_argument("--diagnose", action="store_true",
                     help="per condition, on stderr: the fitted engine's error at the true structure, the joint "
                          "posterior's and the hammer test's bias and spread of ln(b_lim / b_true) at the held-out cuts")
+    ap.add_argument("--design", choices=("around", "alternate", "recommend"), default="around",
+                    help="the training cuts: around (depths drawn around the hammer test's belief), alternate "
+                         "(a campaign: recommend's next test, the decision alternating between the two training "
+                         "conditions) or recommend (the same, the next test free to move to the other condition)")
+    ap.add_argument("--single", choices=("campaign", "split"), default="campaign",
+                    help="with a campaign design, the single-condition posteriors: a campaign of as many cuts in "
+                         "each training condition alone, or the joint campaign's cuts split by condition")
     ap.add_argument("--no-recommend", dest="recommend", action="store_false",
                     help="score the Brier only: no recommendation in the target conditions (with an accurate engine "
                          "the recommendations cost ~1 000 limits per posterior sample each, the rest a few hundred)")
@@ -303,7 +390,8 @@ def main() -> None:
     print(describe())
     print(f"load average: {os.getloadavg()[0]:.1f}")
     with threadpool_limits(1):
-        print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each); "
+        print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each, "
+              f"{'around the hammer test' if args.design == 'around' else args.design + ' campaign'}); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
               f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} "
               f"flipped; model {args.engine} {args.engine_options or '(its own discretisation)'}, "
@@ -312,8 +400,8 @@ def main() -> None:
         t0 = time.perf_counter()
         results = run_all(args)
         for name, rep, teeth, rows, cpu in results:
-            print(f"\n{name}{f' #{rep}' if args.repeats > 1 or rep else ''} ({teeth} teeth; CPU: 3 updates "
-                  f"{cpu[0]:.1f} s, "
+            print(f"\n{name}{f' #{rep}' if args.repeats > 1 or rep else ''} ({teeth} teeth; CPU: "
+                  f"{'3 updates' if args.design == 'around' else 'the campaigns'} {cpu[0]:.1f} s, "
                   f"4 posteriors' predictions {cpu[1]:.1f} s, 3 recommendations {cpu[2]:.1f} s)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
             for key, bj, bh, bp, own, ok, dep, tl in rows:

@@ -106,3 +106,74 @@ def test_a_campaign_is_frozen_and_pickles():
     assert c.labels == ("stable", "chatter") and isinstance(c.posteriors, MappingProxyType)
     back = pickle.loads(pickle.dumps(c))
     assert back.cut_rpm == c.cut_rpm and dict(back.posteriors) == {0: "prior draws"} and back.best == 3.5
+
+
+def _two_condition_machine():
+    """Example 1's prior, a truth off it, and its slot and a/D 0.5 down milling (zero-order, noise-free labels)."""
+    from millstab.model import Cutting
+
+    cfg = load_config("example:ex1")
+    prior = make_prior(cfg.structure, cfg.cutting)
+    s_true = prior.par.structure(prior.median * np.array([1.02, 1.1, 0.8, 0.98, 0.9, 1.2]))
+    c = cfg.cutting
+    conds = [Cutting.from_immersion(c.teeth, c.kt, c.kr, 1.0, "down"),
+             Cutting.from_immersion(c.teeth, c.kt, c.kr, 0.5, "down")]
+    zoa = get_engine("zoa")
+
+    def labeler(rpm, depth, i, rng):
+        lim = zoa.envelope(s_true, conds[i], np.asarray(rpm, float)).depth_mm
+        return list(np.where(depth > lim, "chatter", "stable")), [float("nan")] * np.size(rpm)
+
+    return cfg, prior, conds, labeler, s_true
+
+
+@pytest.mark.parametrize("choose", ["alternate", "recommend"])
+def test_condition_campaign_records_its_cuts_in_their_conditions(choose):
+    """run_condition_campaign (issue 27): each round decides in the next condition; its cut is the truth's label in
+    the condition the cut was made in (recomputed here), written with condition columns that read back as the
+    campaign's conditions; with ``recommend`` a cut moved to the other condition says so in its ``why``. The same
+    seed gives the same campaign (a process pool's repeats)."""
+    from millstab.points import condition_text, cut_conditions, same_condition
+    from millstab.update.campaign import ConditionCampaign, run_condition_campaign
+
+    cfg, prior, conds, labeler, s_true = _two_condition_machine()
+    opts = CampaignOptions(cuts=5, samples=200, rpm_range=(5000, 12000), max_depth_mm=20.0, seed=3, keep=(2,))
+    camp = run_condition_campaign(cfg, prior, conds, labeler, opts, choose=choose)
+    assert isinstance(camp, ConditionCampaign) and set(camp.posteriors) == {2, 5}
+    assert camp.decided_in == (0, 1, 0, 1, 0) and len(camp.cut_condition) == 5 and not camp.failed
+    zoa = get_engine("zoa")
+    for i, c in enumerate(camp.cut_condition):
+        lim = zoa.envelope(s_true, conds[c], camp.cuts.rpm[i:i + 1]).depth_mm[0]
+        assert camp.cuts.label[i] == ("chatter" if camp.cuts.depth_mm[i] > lim else "stable")
+        moved = camp.why[i].startswith("a test in another condition")
+        assert moved == (c != camp.decided_in[i])
+        if moved:
+            assert camp.why[i].startswith(f"a test in another condition ({condition_text(conds[c])})")
+    # the columns read back as the campaign's conditions, row by row
+    read, index = cut_conditions(camp.cuts, cfg.cutting)
+    assert all(same_condition(read[j], conds[c]) for j, c in zip(index, camp.cut_condition))
+    assert len(camp.posterior.cuts["rpm"]) == 5 and len(camp.posteriors[2].cuts["rpm"]) == 2
+    if choose == "recommend":  # the information measure moved at least one test (this seed: a property of the case)
+        assert camp.cut_condition != camp.decided_in
+        again = run_condition_campaign(cfg, prior, conds, labeler, opts, choose=choose)
+        np.testing.assert_array_equal(again.cuts.depth_mm, camp.cuts.depth_mm)
+        np.testing.assert_array_equal(again.posterior.samples, camp.posterior.samples)
+    else:
+        assert camp.cut_condition == camp.decided_in
+
+
+def test_condition_campaign_refuses_bad_settings_and_pickles():
+    import pickle
+
+    from millstab.update.campaign import ConditionCampaign, run_condition_campaign
+
+    cfg, prior, conds, labeler, _ = _two_condition_machine()
+    with pytest.raises(InputError, match="choose"):
+        run_condition_campaign(cfg, prior, conds, labeler, choose="random")
+    with pytest.raises(InputError, match="conditions"):
+        run_condition_campaign(cfg, prior, [], labeler)
+    with pytest.raises(TypeError, match="run_condition_campaign.*'cut'"):
+        run_condition_campaign(cfg, prior, conds, labeler, cut=3)
+    c = ConditionCampaign(conditions=conds, cut_condition=[0, 1], posteriors={2: "after two cuts"})
+    back = pickle.loads(pickle.dumps(c))
+    assert back.cut_condition == (0, 1) and dict(back.posteriors) == {2: "after two cuts"} and back.posterior

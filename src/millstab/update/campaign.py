@@ -34,6 +34,8 @@ from millstab.warnlog import quiet
 Labeler = Callable[[np.ndarray, np.ndarray, np.random.Generator], tuple[list[str], list[float]]]
 #: the true limiting depth [mm] at speeds [rpm]
 Truth = Callable[[np.ndarray], np.ndarray]
+#: labels of cuts in one of a campaign's conditions: (rpm (K,), depth_mm (K,), condition index, rng) -> as Labeler
+ConditionLabeler = Callable[[np.ndarray, np.ndarray, int, np.random.Generator], tuple[list[str], list[float]]]
 
 
 @dataclass(frozen=True)
@@ -146,6 +148,8 @@ class CampaignOptions:
         best_speeds: speeds of the grid on which the best truly stable cut is sought (≥ 2; a slow truth: fewer).
         decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,
             ``guard``), or ``None``.
+        sampler, engine_options: the updates' sampler and the engine's discretisation (:func:`update`'s; kept in
+            the posteriors, so the decisions use them too; :func:`run_condition_campaign` only).
     """
 
     cuts: int = 10
@@ -159,6 +163,8 @@ class CampaignOptions:
     keep: tuple[int, ...] = ()
     best_speeds: int = 361
     decision: dict | None = None
+    sampler: str = "auto"
+    engine_options: dict | None = None
 
     def __post_init__(self) -> None:
         from millstab.bounds import seed as check_seed
@@ -253,6 +259,165 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
     return Campaign(**out, best=best, best_exact=best_productivity(truth, rpm_range, max_depth_mm, best_speeds))
 
 
+#: how :func:`run_condition_campaign` picks the condition of each test: ``alternate`` (the decision and its next
+#: test cycle through the conditions) or ``recommend`` (the decision cycles, and :func:`recommend`'s next test
+#: may move to another of the campaign's conditions where a test there carries more information)
+CHOOSE = ("alternate", "recommend")
+
+
+@dataclass(frozen=True)
+class ConditionCampaign:
+    """The record of one campaign over several cutting conditions (:func:`run_condition_campaign`).
+
+    Attributes:
+        conditions: the campaign's conditions (:class:`~millstab.model.Cutting`).
+        cuts: the labelled cuts in the order made, with the condition columns ``teeth``, ``entry_deg`` and
+            ``exit_deg`` (ready for :func:`update` and ``millstab update``).
+        cut_condition: the index in ``conditions`` of each cut; decided_in: of the condition each round decided in.
+        why: why each cut was chosen (the next test's ``why``; the first: the prior's recommendation).
+        posteriors: the posterior after k cuts for the k in ``keep`` and the last (0 = prior draws).
+        failed: after which cuts the update failed (tempering stalled); the campaign went on with the last one.
+    """
+
+    conditions: tuple = ()
+    cuts: PointSet | None = None
+    cut_condition: tuple[int, ...] = ()
+    decided_in: tuple[int, ...] = ()
+    why: tuple[str, ...] = ()
+    posteriors: MappingProxyType = field(default_factory=dict)
+    failed: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("conditions", "cut_condition", "decided_in", "why", "failed"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        object.__setattr__(self, "posteriors", MappingProxyType(dict(self.posteriors)))
+
+    def __reduce__(self):  # as Campaign's: the read-only mapping does not pickle
+        kw = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        kw["posteriors"] = dict(self.posteriors)
+        return _condition_campaign, (kw,)
+
+    @property
+    def posterior(self) -> Posterior:
+        """The last posterior (after every cut)."""
+        return self.posteriors[max(self.posteriors)]
+
+
+def _condition_campaign(kw: dict) -> ConditionCampaign:
+    """A pickled :class:`ConditionCampaign` rebuilt."""
+    return ConditionCampaign(**kw)
+
+
+def condition_cuts(rpm, depth_mm, labels, conditions, cut_condition, chatter_hz=None) -> PointSet:
+    """Labelled cuts whose row i is in ``conditions[cut_condition[i]]``: the condition columns ``teeth``,
+    ``entry_deg`` and ``exit_deg`` [deg] (exact for any engagement, an a/D and a direction or not)."""
+    c = [conditions[i] for i in cut_condition]
+    cols = {"teeth": np.array([x.teeth for x in c], float),
+            "entry_deg": np.degrees([x.entry for x in c]), "exit_deg": np.degrees([x.exit for x in c])}
+    hz = None if chatter_hz is None else np.asarray(chatter_hz, float)
+    return PointSet(np.asarray(rpm, float), np.asarray(depth_mm, float), np.asarray(labels, dtype=str),
+                    chatter_hz=hz, conditions=cols)
+
+
+def run_condition_campaign(config, prior: Prior, conditions, labeler: ConditionLabeler,
+                           options: CampaignOptions | None = None, *, choose: str = "alternate",
+                           progress: Callable[[int, int], None] | None = None, **settings) -> ConditionCampaign:
+    """A virtual campaign whose test cuts are in several conditions, placed as a shop would run it (issue 27).
+
+    Round k (0 … ``cuts`` − 1) decides in ``conditions[k % len(conditions)]`` from the posterior of the cuts
+    so far (:meth:`Posterior.for_condition`): :func:`recommend` at ``risk``; the cut is its recommendation in
+    round 0 (the prior's belief, a safe first cut) and its next test after that (the most informative cut more
+    productive than the recommendation, at most ``test_risk`` likely to chatter). With ``choose="recommend"``
+    the next test may move to another of ``conditions`` where :func:`next_test_across` finds a test carrying
+    more information (its candidates: the trained conditions and the slot; a slot outside ``conditions`` is
+    not cut: the round then cuts its recommendation). The cut is labelled by ``labeler`` in its condition,
+    then one update over every cut so far (from the last posterior with ``reuse``: only the new cut is
+    tempered in). Why not depths drawn around the prior's belief: a low belief puts most cuts of a stiff
+    condition above the limit, and chatter cuts bound it from one side only (measured, docs/updating.md
+    "Many conditions").
+
+    Args:
+        config: the config whose structure is the prior; its cutting is the posterior's base condition.
+        prior: the prior (usually ``make_prior`` of the config).
+        conditions: the conditions of the test cuts (:class:`~millstab.model.Cutting`, the config's tool family).
+        labeler: (rpm (K,), depth (K,), index in ``conditions``, rng) -> (labels, chatter frequencies [Hz]).
+        options: :class:`CampaignOptions` (``cuts``, ``samples``, ``risk``, ``rpm_range``, ``max_depth_mm``,
+            ``seed``, ``engine``, ``reuse``, ``keep``, ``decision``, ``sampler``, ``engine_options``), replaced
+            by keywords named as its fields.
+        choose: :data:`CHOOSE`.
+        progress: called with (k, index of the cut's condition) after the k-th cut (from 0) is labelled.
+    Raises:
+        InputError: a setting out of range, no condition or an unknown ``choose``.
+    """
+    from millstab.errors import InputError
+    from millstab.identify.search import options_with
+    from millstab.points import same_condition
+
+    o = options_with(options, CampaignOptions, settings, "run_condition_campaign")
+    conditions = tuple(conditions)
+    if not conditions:
+        raise InputError("conditions", conditions, "at least one cutting condition")
+    if choose not in CHOOSE:
+        raise InputError("choose", choose, " | ".join(CHOOSE))
+    rng = np.random.default_rng(o.seed)
+    opts = dict(o.engine_options or {})
+    post = Posterior(prior, np.exp(prior.sample(o.samples, rng)), o.engine, cuts={"rpm": list(o.rpm_range)},
+                     engine_options=opts)
+    last: Posterior | None = None
+    memos = [LimitMemo() for _ in conditions]  # a memo serves one cutting
+    rec = {k: [] for k in ("rpm", "depth", "labels", "hz", "cond", "decided", "why", "failed")}
+    kept = {0: post} if 0 in o.keep else {}
+    with quiet():
+        for k in range(o.cuts):
+            d = k % len(conditions)
+            r = recommend(post.for_condition(conditions[d]), o.risk, o.rpm_range, max_depth_mm=o.max_depth_mm,
+                          seed=int(rng.integers(2**31)), memo=memos[d], across=choose == "recommend",
+                          **(o.decision or {}))
+            nt, c = r.next_test, d
+            if k == 0:
+                cut, why = (r.rpm, r.depth_mm), "the prior's recommendation (the first cut)"
+            else:
+                cut, why = (nt["rpm"], nt["depth_mm"]), nt["why"]
+                where = _cutting_of(conditions[d], nt["condition"])
+                if not same_condition(where, conditions[d]):  # next_test_across moved it to another condition
+                    moved = [i for i, x in enumerate(conditions) if same_condition(x, where)]
+                    if moved:
+                        c = moved[0]
+                    else:
+                        cut, why = (r.rpm, r.depth_mm), "the recommendation (the next test was outside the campaign)"
+            lab, hz = labeler(np.array([cut[0]]), np.array([cut[1]]), c, rng)
+            for key, v in (("rpm", float(cut[0])), ("depth", float(cut[1])), ("cond", c), ("decided", d),
+                           ("why", why)):
+                rec[key].append(v)
+            rec["labels"] += list(lab)
+            rec["hz"] += list(hz)
+            if progress is not None:
+                progress(k, c)
+            ps = condition_cuts(rec["rpm"], rec["depth"], rec["labels"], conditions, rec["cond"], rec["hz"])
+            try:
+                post = update(config, ps, prior=prior, engine=o.engine, samples=o.samples,
+                              seed=int(rng.integers(2**31)), start=last if o.reuse else None, sampler=o.sampler,
+                              engine_options=opts or None)
+            except RuntimeError:  # the tempering stalled: say so, go on with the last posterior
+                rec["failed"].append(k + 1)
+            else:
+                last = post
+            if k + 1 in o.keep:
+                kept[k + 1] = post
+    kept[o.cuts] = post
+    cuts = condition_cuts(rec["rpm"], rec["depth"], rec["labels"], conditions, rec["cond"], rec["hz"])
+    return ConditionCampaign(conditions, cuts, rec["cond"], rec["decided"], rec["why"], kept, rec["failed"])
+
+
+def _cutting_of(like, c: dict):
+    """The cutting of a condition record (:func:`millstab.points.describe_condition`: teeth, angles [deg]) on
+    ``like``'s coefficients."""
+    from dataclasses import replace
+
+    return replace(like, teeth=int(c["teeth"]), entry=float(np.radians(c["entry_deg"])),
+                   exit=float(np.radians(c["exit_deg"])))
+
+
 def coverage(post: Posterior, theta: np.ndarray, level: float = 0.90) -> np.ndarray:
     """Whether each parameter's central ``level`` interval covers the truth θ (P,), bool (P,).
 
@@ -278,5 +443,5 @@ def coverage(post: Posterior, theta: np.ndarray, level: float = 0.90) -> np.ndar
     return (q_lo <= truth) & (truth <= q_hi)
 
 
-__all__ = ["Campaign", "CampaignOptions", "Labeler", "Truth", "best_productivity", "brier_score", "coverage",
-           "run_campaign"]
+__all__ = ["CHOOSE", "Campaign", "CampaignOptions", "ConditionCampaign", "ConditionLabeler", "Labeler", "Truth",
+           "best_productivity", "brier_score", "condition_cuts", "coverage", "run_campaign", "run_condition_campaign"]

@@ -20,6 +20,16 @@ Per virtual machine (seeded):
   --radial-immersion ... --milling ...``): truly stable when its depth is below the true (sdm) limit at its
   speed ±0.25 %.
 
+``--design alternate | recommend`` places the training cuts as a shop would run the campaign instead
+(:func:`millstab.update.campaign.run_condition_campaign`): 2·``--cuts`` rounds of update → ``recommend`` in
+one training condition (alternating) → its next test (with ``recommend``, free to move to the other training
+condition where a test carries more information: ``next_test_across``) → labelled by the truth. The
+single-condition posteriors then get as many cuts: a campaign of 2·``--cuts`` in each training condition alone
+(``--single campaign``, the default) or the joint campaign's cuts split by condition (``--single split``: two
+plain updates, cheaper). Each round's recommendation costs what a target's does (with spectral at 300 samples
+about 130–160 s CPU for the prior's, the first round), so a spectral campaign of 10 cuts is ~10–20 CPU-minutes:
+the command for many cores is in docs/updating.md "Many conditions".
+
 Machines: ``sym`` (two close modes, x and y alike), ``soft-x`` (x 4× softer than y: up and down milling
 differ ×5 at a/D 0.5, the issue's ×4 machine), ``three`` (three teeth, x and y apart).
 

@@ -320,9 +320,12 @@ def main() -> None:
     ap.add_argument("--near", type=float, default=None, help="also the spectral update with the refinement near "
                     "rho = 1 at this margin (engine option near; the sampling settings' default is "
                     "spectral.NEAR; 0: off, as before 2026-11-27)")
+    ap.add_argument("--screen-stages", default="", help="also the spectral update with a screen-tempered start of "
+                    "these many stages (comma-separated counts; tempered_smc's screen_stages), in the same run")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
+    stages = [int(k) for k in args.screen_stages.split(",") if k.strip()]
     print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
@@ -354,15 +357,19 @@ def main() -> None:
                 + ([("spectral", "uncensored")] if args.no_censor else [])
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
-                + ([("spectral", "near")] if args.near is not None else []))
+                + ([("spectral", "near")] if args.near is not None else [])
+                + [("spectral", f"screen{k}") for k in stages])
         upd.SURROGATE_KIND = args.surrogate_kind
+        default_stages = upd.SCREEN_STAGES
         for eng, smp in plan:
+            upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else default_stages
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near") else smp,
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near")
+                    or smp.startswith("screen") else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if moves:
@@ -393,6 +400,11 @@ def main() -> None:
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
                       f"{d.get('censored_entries', 0)}")
+            if "screen_start" in d:
+                st = d["screen_start"]
+                print(f"  screen-tempered start: {st['stages']} stages of the zero-order screen to exponent "
+                      f"{st['exponent']:.4g}, then the spectral engine at {st['distinct_rows']} distinct particles; "
+                      f"betas {np.round(d['betas'], 4).tolist()}, moves {d['moves']}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
                   f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) "
                   f"= 1/2: {n_side}/{args.cuts}, written label with predictive probability >= 0.1: "
@@ -438,6 +450,11 @@ def main() -> None:
         print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
               f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
         compare(g[0].u, s[0].u, names, "surrogate - delayed")
+    for k in stages:
+        g = runs["spectral", f"screen{k}"]
+        print(f"screen-tempered start, {k} stages: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the "
+              f"default sampler {s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
+        compare(g[0].u, s[0].u, names, f"screen{k} - default")
     print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
 
 

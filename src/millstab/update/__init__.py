@@ -45,6 +45,9 @@ SURROGATE_DESIGN = 200
 SURROGATE_KIND = "linear"
 #: the engine that screens proposals in delayed acceptance
 SCREEN_ENGINE = "zoa"
+#: a fresh delayed-acceptance update's first reweightings by the screen alone (:func:`tempered_smc`'s
+#: ``screen_stages``; the accurate engine first sees the distinct particles after them, corrected by a bridge)
+SCREEN_STAGES = 0
 
 
 def screen_engine(engine: str, sampler: str = "auto") -> str | None:
@@ -153,7 +156,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         res = corrected_smc(sample_full, logpdf_full, lik, sur, samples, seed=rng, moves=moves, progress=progress)
     elif start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
-                           screen=scr, jumps=jumps)
+                           screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if scr is not None else 0)
     else:
         n_old = _check_start(start, pr, ev, engine, dict(lik.options))
         rng = np.random.default_rng(seed)

@@ -236,17 +236,25 @@ def explained(post, cuts: PointSet) -> tuple[int, int, list[str]]:
     return int(side.sum()), int((p_label >= 0.1).sum()), bad
 
 
-def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
-    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above)."""
+def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = ()) -> None:
+    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above);
+    with ``stages``, also delayed acceptance after a screen-tempered start of each of these many stages."""
     ev = Evidence.from_points(cuts)
     lik = Likelihood(prior, ev)
     c = prior.cutting
     wrong = dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt))
     scr = Likelihood(wrong, ev)
-    runs = {"plain": [], "delayed": [], "screen alone": []}
+    runs = {"plain": [], "delayed": [], "screen alone": []} | {f"screen start {k}": [] for k in stages}
+    sets = {k: [] for k in runs}
     for s in range(seeds):
         runs["plain"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s).u)
-        runs["delayed"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr).u)
+        res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr)
+        runs["delayed"].append(res.u)
+        sets["delayed"].append(res.n_sets)
+        for k in stages:
+            res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr, screen_stages=k)
+            runs[f"screen start {k}"].append(res.u)
+            sets[f"screen start {k}"].append(res.n_sets)
         runs["screen alone"].append(tempered_smc(prior.sample_full, prior.logpdf_full, scr, samples, seed=s).u)
     m = {k: np.array([u.mean(0) for u in v]) for k, v in runs.items()}
     q = {k: np.array([np.quantile(u, [0.05, 0.95], axis=0) for u in v]) for k, v in runs.items()}
@@ -260,6 +268,14 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
         print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} "
               f"{dq[1]:+.3f}; screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean "
               f"{m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
+        for k in stages:
+            key = f"screen start {k}"
+            d = (m[key][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+            dq = (q[key][:, :, j].mean(0) - q["plain"][:, :, j].mean(0)) / sd[j]
+            print(f"    {key} - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} {dq[1]:+.3f}")
+    for k, v in sets.items():
+        if v:
+            print(f"  {k}: accurate sets {np.mean(v):.0f} per run")
 
 
 def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
@@ -322,10 +338,14 @@ def main() -> None:
                     "spectral.NEAR; 0: off, as before 2026-11-27)")
     ap.add_argument("--screen-stages", default="", help="also the spectral update with a screen-tempered start of "
                     "these many stages (comma-separated counts; tempered_smc's screen_stages), in the same run")
+    ap.add_argument("--screen-chain", default="", help="also the spectral update with MOVESxSTEPS: MOVES moves per "
+                    "stage, each STEPS MH steps on the zero-order screen before one spectral test (comma-separated, "
+                    "e.g. 2x3,1x6; with the --screen-stages count of the first entry there, else 0)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
     stages = [int(k) for k in args.screen_stages.split(",") if k.strip()]
+    chains = [c.strip() for c in args.screen_chain.split(",") if c.strip()]
     print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
@@ -346,7 +366,7 @@ def main() -> None:
           f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
         if args.proxy_seeds:
-            proxy(prior, cuts, args.samples, args.proxy_seeds)
+            proxy(prior, cuts, args.samples, args.proxy_seeds, stages)
         if args.proxy_only:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
@@ -358,18 +378,22 @@ def main() -> None:
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
                 + ([("spectral", "near")] if args.near is not None else [])
-                + [("spectral", f"screen{k}") for k in stages])
+                + [("spectral", f"screen{k}") for k in stages]
+                + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
-        default_stages = upd.SCREEN_STAGES
+        default_stages, default_steps = upd.SCREEN_STAGES, upd.SCREEN_STEPS
         for eng, smp in plan:
-            upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else default_stages
+            upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
+                stages[0] if smp.startswith("chain") and stages else default_stages)
+            n_moves, upd.SCREEN_STEPS = (int(x) for x in smp[5:].split("x")) if smp.startswith("chain") else (
+                3, default_steps)
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
-                post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
-                    cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
+                post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
+                    cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
                     sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near")
-                    or smp.startswith("screen") else smp,
+                    or smp.startswith(("screen", "chain")) else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if moves:
@@ -455,6 +479,11 @@ def main() -> None:
         print(f"screen-tempered start, {k} stages: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the "
               f"default sampler {s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
         compare(g[0].u, s[0].u, names, f"screen{k} - default")
+    for c in chains:
+        g = runs["spectral", f"chain{c}"]
+        print(f"moves x screen steps {c}: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the default "
+              f"sampler {s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
+        compare(g[0].u, s[0].u, names, f"chain {c} - default")
     print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
 
 

@@ -147,17 +147,19 @@ def _assert_grid(prior, cuts, u, other) -> float:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("stages", [0, 2])
-def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen(stages):
+@pytest.mark.parametrize("stages, steps", [(0, 1), (2, 3)])
+def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen(stages, steps):
     """The engine's likelihood as the target and a screen from a model with Kt 25 % high (its limits 20 %
     low everywhere, as a wrong model's would be): means, sds and quantiles against a dense grid; with a
-    screen-tempered start (``stages`` 2: the biased screen alone up to an exponent, then the bridge) too."""
+    screen-tempered start (``stages`` 2: the biased screen alone up to an exponent, then the bridge) and three
+    screen steps per accurate test too."""
     _, prior, cuts = _grid_case()
     ev = Evidence.from_points(cuts)
     lik = Likelihood(prior, ev)
     biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
     scr = Likelihood(biased, ev)
-    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr, screen_stages=stages)
+    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr, screen_stages=stages,
+                       screen_steps=steps)
     alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
     far = _assert_grid(prior, cuts, res.u, alone.u)
     assert far > 0.5  # the screen's own posterior is elsewhere
@@ -315,3 +317,21 @@ def test_screen_stages_zero_is_the_sampler_before_and_bad_counts_are_refused():
     assert "screen_start" not in b.diagnostics()
     with pytest.raises(InputError, match="screen_stages"):
         tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_stages=-1)
+    with pytest.raises(InputError, match="screen_steps"):
+        tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_steps=0)
+
+
+@pytest.mark.parametrize("screen", [_wrong, _shifted])
+def test_several_screen_steps_per_accurate_test_give_the_accurate_posterior(screen):
+    """Each proposal the end of 4 MH steps on the screen's π̃ (a surrogate transition: that chain is π̃-reversible,
+    so the accurate test's ratio is the one-step delayed acceptance's), 2 moves a stage, after 2 screen stages."""
+    n = 4000
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=2, screen=screen, screen_stages=2,
+                       screen_steps=4)
+    _assert_conjugate(res.u, n)
+    assert abs(res.log_evidence - LOG_Z) < 0.12
+    np.testing.assert_allclose(res.loglik, _loglik(res.u))
+    # fails (checked) if the accurate test used only the chain's last step's screen ratio, or accepted every moved
+    # chain (the screen's posterior, far off: the test above)
+    one = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=2, screen=screen, screen_stages=2)
+    assert res.n_sets > one.n_sets  # more of the proposals moved, so more reach the accurate test

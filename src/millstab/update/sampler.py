@@ -195,7 +195,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                  max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
                  init: np.ndarray | None = None, screen: Batch | None = None,
                  jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE,
-                 adaptive_moves: bool = True, screen_stages: int = 0) -> SMCResult:
+                 adaptive_moves: bool = True, screen_stages: int = 0, screen_steps: int = 1) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -220,6 +220,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         screen_stages: with ``screen`` and no ``init``, the first reweightings temper the screen instead of
             ``loglik`` (a screen-tempered start, module docstring): ``loglik`` first sees the distinct particles
             after them, and a bridge (L/L̃)^Δ corrects the screen's exponent to the accurate one. 0: off.
+        screen_steps: with ``screen``, each move's proposal is the end of this many MH steps on the screen's π̃
+            (a surrogate transition, module docstring), then one accurate test; 1: delayed acceptance.
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -233,6 +235,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         raise InputError("jump_rate", jump_rate, "must be in [0, 1)")
     if not (isinstance(screen_stages, (int, np.integer)) and screen_stages >= 0):
         raise InputError("screen_stages", screen_stages, "need an integer ≥ 0")
+    if not (isinstance(screen_steps, (int, np.integer)) and screen_steps >= 1):
+        raise InputError("screen_steps", screen_steps, "need an integer ≥ 1")
     t0 = time.perf_counter()
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     if init is None:
@@ -328,12 +332,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         unmoved = 1.0
         n_moved.append(n_moves)
         for _ in range(n_moves):  # each move: one batched likelihood call for all particles (or the screened ones)
-            step = rng.standard_normal((n, p)) @ chol.T
-            jump = np.zeros(n, bool)
-            if shifts is not None:  # the state-independent choice of kernel, then its symmetric proposal
-                jump = rng.random(n) < jump_rate
-                pick = rng.integers(shifts.shape[0], size=n)
-                step = np.where(jump[:, None], shifts[pick], step)
+            step, jump = _step(rng, n, chol, shifts, jump_rate)
             prop = u + step
             if left:  # plain MH on the screen's π̃ = prior · L̃^alpha (loglik not known yet)
                 sfx2, sll2 = (_floored(a) for a in cheap(prop))
@@ -351,7 +350,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                 ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
                 u[ok], ll[ok], lp[ok] = prop[ok], ll2[ok], lp2[ok]
             else:
-                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded, alpha)
+                more = None if screen_steps == 1 else (lambda: _step(rng, n, chol, shifts, jump_rate)[0])
+                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded, alpha,
+                                      screen_steps, more)
                 n_sc += 1
                 n_ll += m > 0
                 n_sets += m
@@ -395,37 +396,68 @@ def _jump_shifts(jumps, p: int) -> np.ndarray | None:
     return np.array(rows) if rows else None
 
 
+def _step(rng: np.random.Generator, n: int, chol: np.ndarray, shifts, jump_rate: float):
+    """A proposal's steps (n, p) and which are lobe jumps (n,): the random walk's N(0, chol cholᵀ), and where
+    ``shifts`` is given, with probability ``jump_rate`` a uniformly drawn jump row instead (the state-independent
+    choice of kernel, then its symmetric proposal)."""
+    step = rng.standard_normal((n, chol.shape[0])) @ chol.T
+    jump = np.zeros(n, bool)
+    if shifts is not None:
+        jump = rng.random(n) < jump_rate
+        pick = rng.integers(shifts.shape[0], size=n)
+        step = np.where(jump[:, None], shifts[pick], step)
+    return step, jump
+
+
 def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded=None,
-                  alpha: float = 0.0) -> tuple[np.ndarray, int]:
+                  alpha: float = 0.0, steps: int = 1, more: Callable[[], np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, int]:
     """One delayed-acceptance MH move of every particle, in place (u, ll, lp: the accurate state; sll, slp:
     the screen's). Stage 1 on the screen π̃ = prior · L̃^(α+β), stage 2 on π/π̃ for the survivors only (one batched
     accurate call), π = prior · L^β L̃^α (α > 0 only in the bridge of a screen-tempered start). ``bounded(v,
     floor)`` (a fresh update's likelihood, :meth:`Likelihood.bounded`): log L exact where it may clear the floor
     that stage 2's uniform sets, a value below it elsewhere: the same decisions (accepting needs log L > floor),
-    fewer engine evaluations. Returns the acceptance mask (n,) and the number of survivors of stage 1."""
+    fewer engine evaluations. ``steps`` > 1 (a surrogate transition): stage 1 is that many MH steps on π̃, from
+    ``prop`` and then from the steps ``more()`` draws, and stage 2 tests where that chain ended with the same ratio
+    (the chain is π̃-reversible, so π̃(x) Q(x, y) = π̃(y) Q(y, x)). Returns the acceptance mask (n,) and the number
+    of particles that reached stage 2."""
     n = u.shape[0]
-    lp0 = logprior(prop)
-    sfx2, sll2 = (_floored(a) for a in cheap(prop))
-    slp2 = lp0 + sfx2
-    # stage 1: the cheap target; log_a1 unclipped, because stage 2 divides by the same ratio
-    log_a1 = np.nan_to_num(slp2 + (alpha + beta) * sll2 - slp - (alpha + beta) * sll, nan=-np.inf)
-    go = np.flatnonzero(np.log(rng.random(n)) < log_a1)
+    y, sy, sly = u.copy(), sll.copy(), slp.copy()  # the screen's chain, from x (its log prior py)
+    py = logprior(u) if steps > 1 else None
+    for k in range(steps):
+        if k:
+            prop = y + more()
+        lp0 = logprior(prop)
+        sfx2, sll2 = (_floored(a) for a in cheap(prop))
+        slp2 = lp0 + sfx2
+        # the cheap target's ratio; log_a1 unclipped, because stage 2 divides by the same ratio
+        log_a1 = np.nan_to_num(slp2 + (alpha + beta) * sll2 - sly - (alpha + beta) * sy, nan=-np.inf)
+        step_ok = np.log(rng.random(n)) < log_a1
+        if steps == 1:
+            y, sy, sly = prop, sll2, slp2
+            py, moved = lp0, step_ok
+            break
+        y[step_ok], sy[step_ok], sly[step_ok], py[step_ok] = prop[step_ok], sll2[step_ok], slp2[step_ok], lp0[step_ok]
+        moved = step_ok if not k else moved | step_ok
+    if steps > 1:  # the ratio π̃(y)/π̃(x) of where the chain ended
+        log_a1 = sly + (alpha + beta) * sy - slp - (alpha + beta) * sll
+    go = np.flatnonzero(moved)
     ok = np.zeros(n, bool)
     u2 = rng.random(n)  # drawn for every particle, so the stream does not depend on how many passed
     if go.size:
         # the screen's part of the target π (the bridge's L̃^α), known at both ends
-        keep = alpha * (sll2[go] - sll[go]) if alpha else 0.0
+        keep = alpha * (sy[go] - sll[go]) if alpha else 0.0
         if bounded is not None and beta > 0:  # the threshold of the test below, solved for log L (fx2 = 0 here)
-            floor = (np.log(u2[go]) - lp0[go] - keep + lp[go] + beta * ll[go] + log_a1[go]) / beta
-            fx2, ll2 = np.zeros(go.size), np.asarray(bounded(prop[go], floor), float)
+            floor = (np.log(u2[go]) - py[go] - keep + lp[go] + beta * ll[go] + log_a1[go]) / beta
+            fx2, ll2 = np.zeros(go.size), np.asarray(bounded(y[go], floor), float)
         else:
-            fx2, ll2 = both(prop[go])
-        lp2 = lp0[go] + fx2
+            fx2, ll2 = both(y[go])
+        lp2 = py[go] + fx2
         log_a = lp2 + keep + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp[go] - beta * ll[go] - log_a1[go]
         acc = np.log(u2[go]) < np.nan_to_num(log_a, nan=-np.inf)
         j = go[acc]
-        u[j], ll[j], lp[j] = prop[j], ll2[acc], lp2[acc]
-        sll[j], slp[j] = sll2[j], slp2[j]
+        u[j], ll[j], lp[j] = y[j], ll2[acc], lp2[acc]
+        sll[j], slp[j] = sy[j], sly[j]
         ok[j] = True
     return ok, int(go.size)
 

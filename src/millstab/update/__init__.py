@@ -48,7 +48,8 @@ SCREEN_ENGINE = "zoa"
 #: a fresh delayed-acceptance update's first reweightings by the screen alone (:func:`tempered_smc`'s
 #: ``screen_stages``; the accurate engine first sees the distinct particles after them, corrected by a bridge)
 SCREEN_STAGES = 0
-#: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed acceptance)
+#: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed
+#: acceptance)
 SCREEN_STEPS = 1
 
 

@@ -290,18 +290,21 @@ def _shifted(u):
     return (-0.5 * ((u - Y - S) / S) ** 2).sum(1)
 
 
-@pytest.mark.parametrize("screen, stages", [(_shifted, 50), (_wrong, 1), (_wrong, 2)])
-def test_a_screen_tempered_start_gives_the_accurate_posterior_and_evidence(screen, stages):
+@pytest.mark.parametrize("screen, stages, top", [(_shifted, 50, 1.0), (_wrong, 1, 1.0), (_wrong, 2, 1.0),
+                                                 (_wrong, 50, 0.5)])
+def test_a_screen_tempered_start_gives_the_accurate_posterior_and_evidence(screen, stages, top):
     """With 50 stages the screen is tempered all the way to its own posterior (exponent 1) and the bridge carries the
     whole correction: without it the answer would be the screen's posterior and evidence, far outside the
-    tolerances (checked below), so this fails if the correction (L/L̃)^Δ is dropped or mis-weighted."""
+    tolerances (checked below), so this fails if the correction (L/L̃)^Δ is dropped or mis-weighted (checked: all
+    four cases fail with the bridge's weights set to 1)."""
     n = 4000
-    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=4, screen=screen, screen_stages=stages)
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=4, screen=screen, screen_stages=stages,
+                       screen_top=top)
     _assert_conjugate(res.u, n)
     assert abs(res.log_evidence - LOG_Z) < 0.12  # seeds 1–3: within 0.08 (the plain sampler's within 0.05)
     np.testing.assert_allclose(res.loglik, _loglik(res.u))  # the accurate log L of the returned particles
     st = res.diagnostics()["screen_start"]
-    assert st["exponent"] == 1.0 if stages == 50 else 0 < st["exponent"] < 1
+    assert st["exponent"] == top if stages == 50 else 0 < st["exponent"] < 1
     # the accurate likelihood first saw only the distinct particles of the screen's stages, then the screened proposals
     assert res.n_sets == st["distinct_rows"] + round(sum(p * m for p, m in zip(res.screen_pass, res.moves)) * n)
     assert st["distinct_rows"] < n and res.moves.count(0) == 1  # the screen's last stage: no move before the bridge
@@ -319,6 +322,8 @@ def test_screen_stages_zero_is_the_sampler_before_and_bad_counts_are_refused():
         tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_stages=-1)
     with pytest.raises(InputError, match="screen_steps"):
         tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_steps=0)
+    with pytest.raises(InputError, match="screen_top"):
+        tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_stages=2, screen_top=0)
 
 
 @pytest.mark.parametrize("screen", [_wrong, _shifted])

@@ -48,6 +48,8 @@ SCREEN_ENGINE = "zoa"
 #: a fresh delayed-acceptance update's first reweightings by the screen alone (:func:`tempered_smc`'s
 #: ``screen_stages``; the accurate engine first sees the distinct particles after them, corrected by a bridge)
 SCREEN_STAGES = 0
+#: the screen-tempered start's largest exponent (:func:`tempered_smc`'s ``screen_top``)
+SCREEN_TOP = 1.0
 #: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed
 #: acceptance)
 SCREEN_STEPS = 1
@@ -160,7 +162,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     elif start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if scr is not None else 0,
-                           screen_steps=SCREEN_STEPS)
+                           screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP)
     else:
         n_old = _check_start(start, pr, ev, engine, dict(lik.options))
         rng = np.random.default_rng(seed)

@@ -195,7 +195,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                  max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
                  init: np.ndarray | None = None, screen: Batch | None = None,
                  jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE,
-                 adaptive_moves: bool = True, screen_stages: int = 0, screen_steps: int = 1) -> SMCResult:
+                 adaptive_moves: bool = True, screen_stages: int = 0, screen_steps: int = 1,
+                 screen_top: float = 1.0) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -220,6 +221,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         screen_stages: with ``screen`` and no ``init``, the first reweightings temper the screen instead of
             ``loglik`` (a screen-tempered start, module docstring): ``loglik`` first sees the distinct particles
             after them, and a bridge (L/L̃)^Δ corrects the screen's exponent to the accurate one. 0: off.
+        screen_top: the screen-tempered start's largest exponent (0 < · ≤ 1): it hands over there at the latest.
         screen_steps: with ``screen``, each move's proposal is the end of this many MH steps on the screen's π̃
             (a surrogate transition, module docstring), then one accurate test; 1: delayed acceptance.
     Raises:
@@ -235,6 +237,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         raise InputError("jump_rate", jump_rate, "must be in [0, 1)")
     if not (isinstance(screen_stages, (int, np.integer)) and screen_stages >= 0):
         raise InputError("screen_stages", screen_stages, "need an integer ≥ 0")
+    if not 0 < screen_top <= 1:
+        raise InputError("screen_top", screen_top, "must be in (0, 1]")
     if not (isinstance(screen_steps, (int, np.integer)) and screen_steps >= 1):
         raise InputError("screen_steps", screen_steps, "need an integer ≥ 1")
     t0 = time.perf_counter()
@@ -277,7 +281,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     scale = 2.38**2 / p
     while beta < 1.0 and len(betas) <= max_stages:
         if left:  # a stage of the screen alone: prior · L̃^alpha
-            new = next_beta(sll, alpha, ess_target * n)
+            new = min(next_beta(sll, alpha, ess_target * n), screen_top)
             logw = (new - alpha) * sll
         elif alpha > 0:  # the bridge: L̃^alpha L^beta with alpha + beta = top, beta → top
             t = next_beta(top * (ll - sll), beta / top, ess_target * n)
@@ -295,7 +299,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         if left:
             alpha = new
             left -= 1
-            if not left or alpha >= 1.0:  # loglik enters: each distinct particle once, then the bridge
+            if not left or alpha >= screen_top:  # loglik enters: each distinct particle once, then the bridge
                 left, top = 0, alpha
                 rows, inv = np.unique(u, axis=0, return_inverse=True)
                 f_r, l_r = both(rows)

@@ -53,6 +53,13 @@ delayed-acceptance update is recorded, both engines evaluate every proposal and 
 stage-1 passes and accepted moves of both screens are summed (acceptance probabilities, no random draws; the
 plain screen's sums reproduce the run's own counts).
 
+``--screen-stages K[,K2 ...]``: also the spectral update with a screen-tempered start of K stages (the zero-order
+screen alone tempered first, the spectral engine at the distinct particles after it, a bridge to its exponent:
+:func:`millstab.update.sampler.tempered_smc`'s ``screen_stages``), each against the default sampler (ratio, CPU,
+posterior means and quantiles in sd units); with ``--proxy-seeds`` the proxy check runs them too.
+``--screen-chain MxS[,...]``: also the spectral update with M moves a stage, each S MH steps on the screen before one
+spectral test (``screen_steps``, a surrogate transition), after the first ``--screen-stages`` count's start.
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -236,7 +243,7 @@ def explained(post, cuts: PointSet) -> tuple[int, int, list[str]]:
     return int(side.sum()), int((p_label >= 0.1).sum()), bad
 
 
-def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = ()) -> None:
+def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = (), top: float = 1.0) -> None:
     """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above);
     with ``stages``, also delayed acceptance after a screen-tempered start of each of these many stages."""
     ev = Evidence.from_points(cuts)
@@ -252,7 +259,8 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = (
         runs["delayed"].append(res.u)
         sets["delayed"].append(res.n_sets)
         for k in stages:
-            res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr, screen_stages=k)
+            res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr, screen_stages=k,
+                               screen_top=top)
             runs[f"screen start {k}"].append(res.u)
             sets[f"screen start {k}"].append(res.n_sets)
         runs["screen alone"].append(tempered_smc(prior.sample_full, prior.logpdf_full, scr, samples, seed=s).u)
@@ -338,6 +346,8 @@ def main() -> None:
                     "spectral.NEAR; 0: off, as before 2026-11-27)")
     ap.add_argument("--screen-stages", default="", help="also the spectral update with a screen-tempered start of "
                     "these many stages (comma-separated counts; tempered_smc's screen_stages), in the same run")
+    ap.add_argument("--screen-top", type=float, default=None, help="the screen-tempered start's largest exponent "
+                    "(update.SCREEN_TOP) for the --screen-stages and --screen-chain runs and the proxy's")
     ap.add_argument("--screen-chain", default="", help="also the spectral update with MOVESxSTEPS: MOVES moves per "
                     "stage, each STEPS MH steps on the zero-order screen before one spectral test (comma-separated, "
                     "e.g. 2x3,1x6; with the --screen-stages count of the first entry there, else 0)")
@@ -366,7 +376,7 @@ def main() -> None:
           f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
         if args.proxy_seeds:
-            proxy(prior, cuts, args.samples, args.proxy_seeds, stages)
+            proxy(prior, cuts, args.samples, args.proxy_seeds, stages, args.screen_top or upd.SCREEN_TOP)
         if args.proxy_only:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
@@ -381,8 +391,9 @@ def main() -> None:
                 + [("spectral", f"screen{k}") for k in stages]
                 + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
-        default_stages, default_steps = upd.SCREEN_STAGES, upd.SCREEN_STEPS
+        default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
         for eng, smp in plan:
+            upd.SCREEN_TOP = args.screen_top if args.screen_top and smp.startswith(("screen", "chain")) else default_top
             upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
                 stages[0] if smp.startswith("chain") and stages else default_stages)
             n_moves, upd.SCREEN_STEPS = (int(x) for x in smp[5:].split("x")) if smp.startswith("chain") else (

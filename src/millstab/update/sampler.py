@@ -37,6 +37,26 @@ particles, which is always known. A screen that is −inf (or NaN) somewhere is 
 the cheap model calls impossible). Measured on the docs/updating.md low-immersion case
 (benchmarks/bench_update_accurate.py): about a third of the proposals reach the accurate engine.
 
+Screen-tempered start (``screen_stages``, ``screen_top``; issue 28): in a fresh update with a screen, the prior
+draws and the first stages cost the accurate likelihood n evaluations before any move (~30 % of the spectral
+update's). Instead the first stages temper the screen alone, prior · L̃^α (plain MH moves on it, no accurate
+call), until ``screen_stages`` stages or the exponent ``screen_top``; the accurate L is then evaluated once per
+distinct particle (resampling's duplicates once), and a bridge π ∝ prior · L̃^(top−β) · L^β, β 0 → top, hands over:
+incremental weights (L/L̃)^Δβ with Δβ by the same ESS rule, delayed-acceptance moves on each bridge target (the
+screen prior · L̃^top). Every step is an exact SMC step (an importance reweighting between consecutive targets, a
+move that leaves the current target invariant), the last target is prior · L, and the log evidence is the sum of
+all increments (the screen's and the bridge's). What it costs is Monte-Carlo error, not bias: if the screen's
+tempered posterior misses a region of the accurate one, the bridge's weights collapse (measured: tempering the
+screen to its full posterior, top = 1, left a too-narrow screen's conjugate variance 14–23 % low at 4 000
+particles; docs/updating.md). Two resamplings in a row (the screen's last stage, the bridge's first) count with
+the product of their ESS fractions when the moves are chosen (:func:`stage_moves`).
+
+Surrogate transitions (``screen_steps`` = k > 1; the surrogate transition method of J. S. Liu, Monte Carlo
+Strategies in Scientific Computing, 2001): a delayed-acceptance proposal is the end y of k MH steps on the screen's
+π̃ from x (each with its own random-walk or jump proposal), and the accurate test is min(1, π(y) π̃(x) / (π(x)
+π̃(y))): the k-step chain is π̃-reversible, π̃(x) Q(x, y) = π̃(y) Q(y, x), so this is MH with proposal Q on π,
+exact whatever π̃ is; k = 1 is delayed acceptance itself.
+
 Lobe jumps (``jumps``): the likelihood of labelled cuts is multimodal in the natural frequencies. A lobe
 of index n (n + 1 vibration periods per tooth period, roughly) sits at Ω ≈ 60 f_n/(N (n + ε)), so f_n and
 f_n·(n + 1)/n put lobes n and n + 1 at nearly the same speed: cuts that bracket one lobe are explained by

@@ -60,6 +60,11 @@ posterior means and quantiles in sd units); with ``--proxy-seeds`` the proxy che
 ``--screen-chain MxS[,...]``: also the spectral update with M moves a stage, each S MH steps on the screen before one
 spectral test (``screen_steps``, a surrogate transition), after the first ``--screen-stages`` count's start.
 
+``--seed-study N`` (instead of the timed runs): N seeds of the sampler before the screen-tempered start, of the
+default and of each ``--screen-stages`` / ``--screen-chain`` setting, each run's means and quantiles against one
+``--study-reference``-sample posterior of the sampler before (seed 1 000), in its sd: single runs cannot tell two
+samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds here).
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -315,6 +320,47 @@ def before_issue_28(on: bool):
         likelihood.SAMPLING, Likelihood.__init__ = "sample", init
 
 
+def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
+    """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
+    screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
+    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile)."""
+    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS)
+    top = args.screen_top or base[1]
+    plan = ([("before (0 screen stages)", (0, top, 1), 3), (f"now ({base[0]} stages, top {base[1]:g})", base, 3)]
+            + [(f"{k} screen stages, top {top:g}", (k, top, 1), 3) for k in stages]
+            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1])),
+                int(c.split("x")[0])) for c in chains])
+
+    def run(setting, moves, n, seed):
+        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = setting
+        try:
+            return timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine="spectral", prior=prior, moves=moves))
+        finally:
+            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = base
+
+    ref = np.log(run((0, top, 1), 3, args.study_reference, 1000)[0].samples)
+    sd = ref.std(0)
+    print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
+          f"reference (the sampler before, seed 1000); errors in reference sd")
+    for label, setting, moves in plan:
+        rows = []
+        for seed in range(args.seed_study):
+            post, _, cpu = run(setting, moves, args.samples, seed)
+            u = np.log(post.samples)
+            dq = max(np.abs((np.quantile(u, q, axis=0) - np.quantile(ref, q, axis=0)) / sd).max()
+                     for q in (0.05, 0.5, 0.95))
+            n_side, n_label, _ = explained(post, cuts)
+            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, post.diagnostics["engine_sets"], cpu, n_side, n_label))
+        err = np.array([r[0] for r in rows])
+        per = np.round(np.sqrt((err**2).mean(0)), 2)
+        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {np.mean([r[3] for r in rows]):.2f} "
+              f"s, RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
+              f"worst quantile error {np.mean([r[1] for r in rows]):.2f} (mean over seeds), max "
+              f"{max(r[1] for r in rows):.2f}; "
+              f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
+              f">= {min(r[5] for r in rows)}/{args.cuts}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=500)
@@ -350,7 +396,11 @@ def main() -> None:
                     "(update.SCREEN_TOP) for the --screen-stages and --screen-chain runs and the proxy's")
     ap.add_argument("--screen-chain", default="", help="also the spectral update with MOVESxSTEPS: MOVES moves per "
                     "stage, each STEPS MH steps on the zero-order screen before one spectral test (comma-separated, "
-                    "e.g. 2x3,1x6; with the --screen-stages count of the first entry there, else 0)")
+                    "e.g. 2x3,1x6; with the first --screen-stages count, else the default's)")
+    ap.add_argument("--seed-study", type=int, default=0, help="instead of the timed runs: this many seeds of the "
+                    "sampler before, the default and each --screen-stages / --screen-chain setting against one "
+                    "reference")
+    ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -381,6 +431,9 @@ def main() -> None:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        if args.seed_study:
+            seed_study(cfg, cuts, prior, names, args, stages, chains)
+            return
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])

@@ -107,11 +107,12 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             (:func:`millstab.cluster.sample_limits`); the same seed gives the same posterior.
         sampler: ``auto``, ``delayed``, ``plain`` or ``surrogate`` (:data:`SAMPLERS`): with ``delayed`` (the
             default for every engine but ``zoa``) the zero-order engine screens each MH proposal and the chosen
-            engine decides only on the survivors (delayed acceptance); with ``surrogate`` the sampler runs on
-            the zero-order limits times a correction fitted on :data:`SURROGATE_DESIGN` accurate evaluations,
-            and the chosen engine evaluates the final particles once and corrects the answer by importance
-            weights (a fresh update without test-day effect or stickouts only); the posterior is the chosen
-            engine's either way.
+            engine decides only on the survivors (delayed acceptance; a fresh update's first stages temper the
+            zero-order likelihood alone, up to :data:`SCREEN_TOP`, and a bridge hands over); with ``surrogate`` the
+            sampler runs on the zero-order limits times a correction fitted on :data:`SURROGATE_DESIGN` accurate
+            evaluations, and the chosen engine evaluates the final particles once and corrects the answer by
+            importance weights (a fresh update without test-day effect or stickouts only); the posterior is the
+            chosen engine's either way.
         stickout: the tool's stickout [m] of each row of ``cuts`` (NaN: the config's); needs a ``[tool]`` +
             ``[holder]`` config whose holder is given by modes, whose prior is then over the holder
             (:mod:`millstab.update.stickout`: one posterior serves every stickout).

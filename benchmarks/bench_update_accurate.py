@@ -476,10 +476,11 @@ def main() -> None:
                       f"{c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} distinct final rows "
                       f"evaluated, bridge stages {c['bridge_stages']}")
             if counts["calls"]:
-                acc = d.get("acceptance", [])
-                moved = sum(m * args.samples for m in d.get("moves", []))
-                passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), d.get("moves", [])))
-                accepted = sum(a * m * args.samples for a, m in zip(acc, d.get("moves", [])))
+                # the stages with the spectral engine in their target (not the screen-tempered start's: beta 0)
+                mv = [m if b > 0 else 0 for b, m in zip(d["betas"][1:], d.get("moves", []))]
+                moved = sum(m * args.samples for m in mv)
+                passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), mv))
+                accepted = sum(a * m * args.samples for a, m in zip(d.get("acceptance", []), mv))
                 print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
                       f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
                       f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "

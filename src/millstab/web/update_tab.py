@@ -278,7 +278,8 @@ class UpdateTab:
         except InputError as exc:
             self.map_job.status.text = error_html(str(exc))
             return
-        self.map_condition = api.condition_line(post)
+        # an accurate engine's map reads a seeded subsample (api.map_samples): its error is stated beside it
+        self.map_condition = f"{api.condition_line(post)}; P(stable) from {api.map_samples_text(post)}"
 
         def work(progress):
             depth = api.depth_grid(top, field="map depth up to")

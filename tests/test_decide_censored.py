@@ -144,3 +144,36 @@ def test_the_doors_map_reads_a_subsample_from_an_accurate_engine_and_says_so(mon
     for bad in ("some", "0", 0, "-3", 2.5):
         with pytest.raises(InputError, match="--samples"):
             api.map_samples(accurate, bad)
+
+
+def test_a_map_and_a_recommendation_share_their_limits(monkeypatch):
+    """The app's Map and recommend: the map's subsample holds the fast search's rows (nested subsamples), and with
+    one memo the recommendation reads the map's limits at its coarse speeds (the map's own) instead of calling the
+    engine: the same cut and next test as alone. Fails on the old code (the subsamples were drawn independently)."""
+    from millstab import api
+
+    monkeypatch.setattr(decide, "SEARCH_SAMPLES", 40)
+    n = 300
+    for seed in (0, 1, 2):
+        small, big = decide.map_rows(n, 40, seed), decide.map_rows(n, 120, seed)
+        assert np.isin(small, big).all() and big.size == np.unique(big).size == 120
+    post = _posterior(n, 5)
+    rpm, depth = np.linspace(*RANGE, 30), np.linspace(0.1, 3.0, 8)
+    alone = recommend(post, 0.05, RANGE, seed=1, search="fast", coarse_points=30)
+    calls = []
+
+    def spy(prior, u, r, *a, **k):
+        calls.append((u.shape[0], np.asarray(r, float).copy()))
+        return limits(prior, u, r, *a, **k)
+
+    monkeypatch.setattr(decide, "limits", spy)
+    memo = api.limit_memo()
+    pm = api.p_stable(post, rpm, depth, samples=120, seed=1, memo=memo)
+    n_map = len(calls)
+    rec = api.recommend(post, 0.05, RANGE, seed=1, search="fast", coarse_points=30, memo=memo)
+    assert (rec.rpm, rec.depth_mm, rec.p_chatter_speed_error, rec.next_test) == (
+        alone.rpm, alone.depth_mm, alone.p_chatter_speed_error, alone.next_test)
+    # the subsample's coarse scan (its rows at the map's speeds) read the map's limits; every sample asks the engine
+    # for the rows the map lacks at the range's ends
+    assert not any(k <= 40 and np.isin(rpm, r).any() for k, r in calls[n_map:])
+    np.testing.assert_array_equal(pm, decide.p_stable_map(post, rpm, depth, samples=120, seed=1))

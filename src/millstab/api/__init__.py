@@ -47,7 +47,7 @@ _HOMES = {
                 "fit_rpm", "history_figure", "identify"),
     "update": ("ENGINE_OPTION_FORM", "at_stickout", "check_engine_options", "condition_line", "corner_figure",
                "decision_rule", "depth_grid", "engine_keywords", "engine_option_pairs", "engine_options_from_text",
-               "engine_update_note", "for_condition",
+               "engine_update_note", "for_condition", "limit_memo",
                "map_figure", "map_samples", "map_samples_text", "map_table", "p_stable",
                "over_holder", "posterior_from_json", "recommend", "update",
                "UpdateSettings", "with_batch_effect", "with_engine_options"),

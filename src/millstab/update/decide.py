@@ -204,7 +204,10 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
 
 def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
     """The posterior rows a map of ``samples`` samples reads: a seeded subsample of ``samples`` of the ``n`` rows
-    (sorted), or ``None`` (every row) when ``samples`` is ``None`` or ≥ n.
+    (sorted), or ``None`` (every row) when ``samples`` is ``None`` or ≥ n. Nested: with the same seed, a subsample of
+    more than :data:`SEARCH_SAMPLES` rows holds the fast search's (that many rows' draw, then the others from the
+    remaining rows), so that a map and a recommendation from one posterior share those rows' limits at the speeds they
+    share (a :class:`LimitMemo`: ``api.p_stable(..., memo=)``, the app's Map and recommend).
 
     Raises:
         InputError: ``samples`` < 1."""
@@ -213,7 +216,14 @@ def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
     if not (isinstance(samples, (int, np.integer)) and samples >= 1):
         raise InputError("--samples", samples, "a whole number ≥ 1 of posterior samples for the map (e.g. "
                                                f"{MAP_SAMPLES}), or leave it out for all of them")
-    return None if samples >= n else np.sort(np.random.default_rng(seed).choice(n, int(samples), replace=False))
+    if samples >= n:
+        return None
+    rng = np.random.default_rng(seed)
+    first = rng.choice(n, int(min(samples, SEARCH_SAMPLES)), replace=False)
+    if samples <= SEARCH_SAMPLES:
+        return np.sort(first)
+    rest = np.setdiff1d(np.arange(n), first)
+    return np.sort(np.concatenate([first, rng.choice(rest, int(samples) - first.size, replace=False)]))
 
 
 def distinct_limits(prior, u: np.ndarray, rpm, engine: str = "zoa", options: dict | None = None,

@@ -12,7 +12,8 @@ engines warmed first): ``update`` (``--samples``), ``recommend`` (risk ``--risk`
 confidence, ±0.25 % speed tolerance, data guard, the next test), ``p_stable_map`` on ``--map-speeds`` ×
 60 depths (``--map-samples``, default auto: the zero-order map from every sample, the accurate one from a seeded
 subsample of ``decide.MAP_SAMPLES``); for each engine; and for the accurate engine the map and the recommendation
-sharing their limits (one ``LimitMemo``, the map first: the app's Map and recommend). ``search="full"`` (every sample on the 200-speed coarse grid and the refinement) and
+sharing their limits (one ``LimitMemo``, the map first: the app's Map and recommend). ``search="full"`` (every
+sample on the 200-speed coarse grid and the refinement) and
 ``search="auto"`` (the default: the fast search for an engine other than the cheapest) are both timed for the
 spectral posterior, and compared: the speed, depth, productivity ratio, the fast recommendation's P(chatter)
 under the full posterior at its speed and ±the tolerance (every sample, the spectral engine) against the risk,
@@ -157,10 +158,11 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
                             recommend(post, args.risk, (lo, hi), seed=seed, coarse_points=args.coarse, memo=memo))
                 (pm2, rec2), w_s, c_s = timed(both)
                 alone = res[eng, "auto"][1]
+                same = (rec2.rpm, rec2.depth_mm, rec2.next_test) == (alone.rpm, alone.depth_mm, alone.next_test)
                 res[eng, "shared"] = (w_s, c_s)
                 lines.append(f"  {eng:8s}: map + recommend sharing their limits {w_s:6.1f} s wall {c_s:6.1f} s CPU "
                              f"(apart {c_m + res[eng, 'auto'][3]:.1f} s CPU); the same cut "
-                             f"{(rec2.rpm, rec2.depth_mm, rec2.next_test) == (alone.rpm, alone.depth_mm, alone.next_test)}"
+                             f"{same}"
                              f", map within {np.abs(pm2 - pm).max():.2g}")
         for key in [k for k in res if k[0] == "spectral" and (k[1] == "auto" or k[1].startswith("fast/"))]:
             if ("spectral", "full") not in res:
@@ -184,7 +186,8 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             tz, ts = sum(x[0] for x in z), sum(x[0] for x in s)
             cz, cs = sum(x[1] for x in z), sum(x[1] for x in s)
             dz, ds = z[2][1] + z[1][1], s[2][1] + s[1][1]
-            lines.append(f"  ratio spectral/zoa (CPU): update {s[0][1] / z[0][1]:.1f}, recommend {s[2][1] / z[2][1]:.1f}"
+            lines.append(f"  ratio spectral/zoa (CPU): update {s[0][1] / z[0][1]:.1f}, recommend "
+                         f"{s[2][1] / z[2][1]:.1f}"
                          f", map {s[1][1] / z[1][1]:.1f}"
                          + (f", map + recommend sharing their limits {res['spectral', 'shared'][1] / dz:.1f}, update + "
                             f"both {(s[0][1] + res['spectral', 'shared'][1]) / cz:.1f}" if ("spectral", "shared") in res

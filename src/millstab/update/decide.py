@@ -92,8 +92,6 @@ SEARCH_CHOICES = ("auto", "fast", "full")
 #: subsample's productivity) handed to every sample
 SEARCH_SAMPLES = 200
 SEARCH_POCKETS = 4
-#: the fast search's coarse grid: at most this many speeds (``coarse_points`` is the full search's)
-SEARCH_COARSE_POINTS = 200
 #: the fast search's refinement of each pocket on the subsample: rounds, and speeds per round (the bracket
 #: shrinks (points − 1)/2-fold a round: from the coarse step to ~1/30 of it, finer than the subsample resolves)
 SEARCH_REFINE_ROUNDS = 2
@@ -975,7 +973,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     fast = n > SEARCH_SAMPLES and (search == "fast" or (search == "auto" and fast_search_for(post.engine)))
 
     def coarse_grid(support: list[dict] | None) -> np.ndarray:
-        speeds = np.linspace(lo, hi, int(min(coarse_points, SEARCH_COARSE_POINTS) if fast else coarse_points))
+        speeds = np.linspace(lo, hi, int(coarse_points))
         if support:  # the confirmed cuts' own speeds are candidates too
             speeds = np.union1d(speeds, [c["rpm"] for c in support])
         return speeds
@@ -1077,12 +1075,10 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              f"rpm, {g['depth_mm']:.3g} mm: the data guard holds the recommendation below {g['cap_mm']:.3g} mm "
              "(the model does not explain that cut; check the label, or update with an engine that models the cut)",
              UserWarning, stacklevel=2)
-    # the next test reads the coarse grid's limits (every other speed of a grid finer than the fast search's)
-    # instead of a second engine call
-    stride = 2 if speeds.size > SEARCH_COARSE_POINTS else 1
+    # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
     # the next test is sought above the MODEL's cut (with a confirmed recommendation too): the tests that teach
     # the model where it may go, and its own cut when nothing above it is allowed and informative
-    nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::stride], blim[:, ::stride]),
+    nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
                    test_risk=test_risk, guard=guards, p_chatter_rec=None if confirmed else p_worst, grid_rows=grid_rows)
     if confirmed:
         nt["relative_productivity"] = float(nt["rpm"] * nt["depth_mm"] / max(prod, 1e-300))

@@ -73,7 +73,8 @@ def test_a_column_is_searched_to_its_ceiling_and_again_only_where_a_higher_one_n
 
 @pytest.mark.parametrize("margin", [None, -0.6])
 def test_censored_fast_search_gives_the_uncensored_cut_and_the_full_posteriors_risk(monkeypatch, censoring, margin):
-    """The fast search with its every-sample stages censored: the same cut, P(chatter) and next test as without,
+    """The fast search with its every-sample stages censored (and the subsample's coarse speeds between the ones the
+    next test reads, and its refinement): the same cut, P(chatter) and next test as without,
     and the depth's risk under the full posterior by each sample's own limits (independent brute force). With the
     ceilings forced 60 % below their estimate (margin −0.6) every stage falls back to the root search where its
     depth reached the ceiling: still the same answer. Fails on the old code: no engine call carried a ceiling."""
@@ -85,6 +86,8 @@ def test_censored_fast_search_gives_the_uncensored_cut_and_the_full_posteriors_r
     rec = recommend(post, risk, RANGE, speed_tolerance=tol, seed=0, search="fast", coarse_points=60)
     every = [(c, d) for n, _, c, d in censoring if n == np.unique(post.u, axis=0).shape[0] and c is not None]
     assert every and any(np.any((d >= c) & np.isfinite(c)) for c, d in every)  # censored entries were read
+    sub = [(r, c) for n, r, c, _ in censoring if n == 30]  # the subsample: its coarse speeds between, its pockets
+    assert sub[0][1] is None and sub[0][0].size == 30 and any(c is not None for _, c in sub[1:])
     if margin is not None:  # the ceilings fell below the depths: some stages searched a speed to the root again
         rows = np.unique(post.u, axis=0).shape[0]
         asked = [r for n, r, _, _ in censoring if n <= rows and n != decide.SEARCH_SAMPLES]

@@ -354,6 +354,11 @@ class LimitColumns:
         """The speeds [rpm] whose limits it holds."""
         return list(self._cols)
 
+    def held(self, rpm) -> np.ndarray:
+        """The entries (N, S) it holds at speeds it has seen, as they are (a censored one a lower bound of its
+        limit), without a search."""
+        return np.stack([self._cols[float(x)] for x in np.ravel(rpm)], axis=1)[self.inv]
+
     def _engine(self, rows: np.ndarray, speeds: list[float], ceiling: np.ndarray | None = None) -> np.ndarray:
         return limits(self.post.prior, rows, np.array(speeds), self.post.engine, options=self.options,
                       ceiling_mm=ceiling)[0]
@@ -774,7 +779,9 @@ def support_cap(support: list[dict], rpm) -> np.ndarray:
 
 
 def censor_ceilings(sub: LimitColumns, count: int, n: int, step: float):
-    """The censoring ceilings [mm] of the fast search's every-sample stages, as a function of speeds (S,) [rpm]: at
+    """The censoring ceilings [mm] of the fast search's every-sample stages (with ``count`` and ``n`` the
+    subsample's own: of its coarse speeds between those searched to the root, and of the pockets' refinement), as a
+    function of speeds (S,) [rpm]: at
     each, the largest over the speeds ``sub`` (the subsample's limits) has searched within ±``step`` [rpm] (a
     coarse step: the nearest coarse speeds and a pocket's refinement) of the subsample's order statistic of rank k,
     k the :data:`SEARCH_CEILING_LEVEL` quantile of a binomial count of its M rows at the full posterior's rate
@@ -788,7 +795,7 @@ def censor_ceilings(sub: LimitColumns, count: int, n: int, step: float):
     known = np.array(sorted(sub.seen()))
     m = sub.n
     k = int(min(binom.ppf(SEARCH_CEILING_LEVEL, m, min((max(count, 0) + 1) / n, 1.0)), m - 1))
-    q = np.partition(sub(known), k, axis=0)[k] * (1 + SEARCH_CEILING_MARGIN)
+    q = np.partition(sub.held(known), k, axis=0)[k] * (1 + SEARCH_CEILING_MARGIN)  # (a censored one: lower)
     q = np.where(np.isfinite(q), q, np.inf)
 
     def at(speeds) -> np.ndarray:
@@ -916,17 +923,19 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
     def depths_at(speeds: np.ndarray, support: list[dict] | None, cols: LimitColumns | None = None,
-                  cnt: int = count, offsets: np.ndarray = offsets) -> tuple[np.ndarray, np.ndarray]:
+                  cnt: int = count, offsets: np.ndarray = offsets, censor=None) -> tuple[np.ndarray, np.ndarray]:
         # the speeds and their ±tolerance neighbours, the nominal block first (one engine call for those not
-        # computed before, on ``cols``' rows: default every sample)
+        # computed before, on ``cols``' rows: default every sample, censored at ``censor(speeds)`` [mm], by
+        # default the fast search's every-sample ceilings)
         at = (speeds[None, :] * (1 + offsets[:, None])).ravel()
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
         held = np.minimum(g_all.min(axis=0), cap)  # what bounds the depth besides the limits
         if support is not None:  # only as deep as a confirmed stable cut near the speed
             held = np.minimum(held, support_cap(support, speeds))
+        censor = censor_at if censor is None and cols is None else censor
         ceil = None
-        if cols is None and censor_at is not None:  # censored at the depth the speed may hold (at most ``held``)
-            ceil = np.maximum(np.minimum(censor_at(speeds), held * (1 + 1e-9)), CHEAPEST_CEILING)
+        if censor is not None:  # censored at the depth the speed may hold (at most ``held``)
+            ceil = np.maximum(np.minimum(censor(speeds), held * (1 + 1e-9)), CHEAPEST_CEILING)
         cols = every if cols is None else cols
         both = cols(at, None if ceil is None else np.tile(ceil, offsets.size))
         depth = np.minimum(safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size).min(axis=0), held)
@@ -1006,13 +1015,22 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         speeds = coarse_grid(support)
         step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])
         sub = offsets if SEARCH_SUBSAMPLE_TOLERANCE else np.zeros(1)
-        depth, blim = depths_at(speeds, support, sub_cols, cnt, sub)
+        m_sub, sub_censor = rows.size, None
+        if SEARCH_CENSOR and sub_cols.censors and speeds.size >= 5:
+            # every other coarse speed to the root (the next test reads those), the ones between censored at a
+            # ceiling from their neighbours (they set only the pockets' depth); so is the pockets' refinement
+            depth, blim = np.zeros(speeds.size), np.zeros((m_sub, speeds.size))
+            depth[::2], blim[:, ::2] = depths_at(speeds[::2], support, sub_cols, cnt, sub)
+            sub_censor = censor_ceilings(sub_cols, cnt, m_sub, speeds[1] - speeds[0])
+            depth[1::2], blim[:, 1::2] = depths_at(speeds[1::2], support, sub_cols, cnt, sub, censor=sub_censor)
+        else:
+            depth, blim = depths_at(speeds, support, sub_cols, cnt, sub)
         top = pockets(depth * speeds, SEARCH_POCKETS)
         best_r, best_d = speeds[top], depth[top]
         for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
             a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
             cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
-            d2 = depths_at(cand.ravel(), support, sub_cols, cnt, sub)[0].reshape(cand.shape)
+            d2 = depths_at(cand.ravel(), support, sub_cols, cnt, sub, censor=sub_censor)[0].reshape(cand.shape)
             j = np.argmax(d2 * cand, axis=1)
             k = np.arange(top.size)
             better = d2[k, j] * cand[k, j] > best_d * best_r

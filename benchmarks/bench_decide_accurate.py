@@ -158,10 +158,13 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
                             recommend(post, args.risk, (lo, hi), seed=seed, coarse_points=args.coarse, memo=memo))
                 (pm2, rec2), w_s, c_s = timed(both)
                 alone = res[eng, "auto"][1]
-                same = (rec2.rpm, rec2.depth_mm, rec2.next_test) == (alone.rpm, alone.depth_mm, alone.next_test)
+                # to the root search's tolerance (a limit computed in another call: 1e-13 relative, LimitColumns)
+                same = bool(np.allclose([rec2.rpm, rec2.depth_mm, rec2.next_test["rpm"], rec2.next_test["depth_mm"]],
+                                        [alone.rpm, alone.depth_mm, alone.next_test["rpm"],
+                                         alone.next_test["depth_mm"]], rtol=1e-9, atol=0))
                 res[eng, "shared"] = (w_s, c_s)
                 lines.append(f"  {eng:8s}: map + recommend sharing their limits {w_s:6.1f} s wall {c_s:6.1f} s CPU "
-                             f"(apart {c_m + res[eng, 'auto'][3]:.1f} s CPU); the same cut "
+                             f"(apart {c_m + res[eng, 'auto'][3]:.1f} s CPU); the same cut and next test (1e-9) "
                              f"{same}"
                              f", map within {np.abs(pm2 - pm).max():.2g}")
         for key in [k for k in res if k[0] == "spectral" and (k[1] == "auto" or k[1].startswith("fast/"))]:

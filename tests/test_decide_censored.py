@@ -180,3 +180,25 @@ def test_a_map_and_a_recommendation_share_their_limits(monkeypatch):
     # for the rows the map lacks at the range's ends
     assert not any(k <= 40 and np.isin(rpm, r).any() for k, r in calls[n_map:])
     np.testing.assert_array_equal(pm, decide.p_stable_map(post, rpm, depth, samples=120, seed=1))
+
+
+@pytest.mark.slow
+def test_a_spectral_map_censored_at_its_top_is_the_uncensored_one(monkeypatch):
+    """The real censored search (spectral, through the Kt factor of the likelihood's limits): a map whose deepest depth
+    is the median limit equals the count of the uncensored limits (one plain engine call), ~half of them censored."""
+    post = _posterior(24, 7, "spectral")
+    rpm = np.linspace(*RANGE, 5)
+    full = limits(post.prior, post.decision_u, rpm, "spectral")[0]
+    depth = np.linspace(0.02, 1.0, 12) * float(np.median(full))
+    calls = []
+
+    def spy(prior, u, r, *a, **k):
+        out = limits(prior, u, r, *a, **k)
+        calls.append((k.get("ceiling_mm"), out[0]))
+        return out
+
+    monkeypatch.setattr(decide, "limits", spy)
+    got = decide.p_stable_map(post, rpm, depth)
+    np.testing.assert_allclose(got, (full[:, :, None] > depth[None, None, :]).mean(0), atol=1e-12)
+    (ceiling, out), = calls
+    assert ceiling is not None and 0.2 < np.mean(out >= ceiling * (1 - 1e-12)) < 0.8

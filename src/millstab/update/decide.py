@@ -30,6 +30,8 @@ whether the process chatters).
   engine other than the cheapest (``search="auto"``, :func:`fast_search_for`) a seeded subsample of
   :data:`SEARCH_SAMPLES` rows does the scan and refines its :data:`SEARCH_POCKETS` best pockets, and every
   sample then chooses among them and sets the depth: the speed search is approximate, the risk is exact.
+  Where a stage needs a limit only as above or below a depth, an engine with a censored search stops there
+  (:class:`LimitColumns` ``ceiling``, :func:`censor_ceilings`, :func:`map_ceiling`; the same answers).
   Each (distinct sample, speed) limit is computed once per recommendation (:class:`LimitColumns`: a resampled
   posterior repeats its rows, and the cut's own check reads the columns that chose it), or once per campaign
   (:class:`LimitMemo`), under one discretisation (:func:`decision_options`); the same answers.
@@ -874,7 +876,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             speeds only, :data:`SEARCH_SUBSAMPLE_TOLERANCE`) finds where to
             look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
             chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
-            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
+            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits); for an
+            engine with a censored search the limits it needs only as above or below a depth are censored
+            (:data:`SEARCH_CENSOR`, :func:`censor_ceilings`: the same answer);
             ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
             at most :data:`SEARCH_SAMPLES` samples both are the full search.
         memo: limits remembered from earlier decisions from posteriors of the same prior and engine (a

@@ -146,7 +146,7 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
                 lines.append(f"  {eng:8s}: recommend (search {s}) {w_r:7.1f} s wall {c_r:7.1f} s CPU -> {rec.rpm:.1f} "
                              f"rpm {rec.depth_mm:.4f} mm, P(chatter) {rec.p_chatter_speed_error:.4f} (next test "
                              f"{rec.next_test['rpm']:.0f} rpm {rec.next_test['depth_mm']:.3f} mm)")
-            m = decide.map_samples(eng, post.u.shape[0], args.map_samples)
+            m = decide.map_samples(eng, post.u.shape[0], "auto" if eng == "zoa" else args.map_samples)
             pm, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed))
             res[eng, "update"], res[eng, "map"] = (w_u, c_u), (w_m, c_m)
             lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {decide.map_samples_text(m, post.u.shape[0])} "
@@ -212,8 +212,8 @@ def main() -> None:
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--map-speeds", type=int, default=200)
     ap.add_argument("--coarse", type=int, default=200, help="speeds of the recommendation's coarse grid")
-    ap.add_argument("--map-samples", default="auto", help="the maps' samples: auto (every one for zoa, "
-                    "decide.MAP_SAMPLES for the accurate engine), all, or a number")
+    ap.add_argument("--map-samples", default="auto", help="the accurate engine's map: auto (decide.MAP_SAMPLES), all, "
+                    "or a number of samples (the zero-order map reads every sample)")
     ap.add_argument("--no-shared", dest="shared", action="store_false", help="skip the accurate engine's map and "
                     "recommendation sharing their limits (the app's Map and recommend)")
     ap.add_argument("--engines", default="zoa,spectral")

@@ -27,8 +27,10 @@ condition where a test carries more information: ``next_test_across``) → label
 single-condition posteriors then get as many cuts: a campaign of 2·``--cuts`` in each training condition alone
 (``--single campaign``, the default) or the joint campaign's cuts split by condition (``--single split``: two
 plain updates, cheaper). Each round's recommendation costs what a target's does (with spectral at 300 samples
-about 130–160 s CPU for the prior's, the first round), so a spectral campaign of 10 cuts is ~10–20 CPU-minutes:
-the command for many cores is in docs/updating.md "Many conditions".
+66–139 s CPU for the prior's, the first round, 62 s for a later one), so a spectral campaign of 10 cuts is ~10–12
+CPU-minutes: the command for many cores is in docs/updating.md "Many conditions". Without model error
+(measured there): ``nice .venv/bin/python benchmarks/bench_conditions_campaign.py --design recommend
+--truth-engine zoa --samples 300 --cuts 10 --held 30 --repeats 3`` (≈ 20 s CPU per campaign).
 
 Machines: ``sym`` (two close modes, x and y alike), ``soft-x`` (x 4× softer than y: up and down milling
 differ ×5 at a/D 0.5, the issue's ×4 machine), ``three`` (three teeth, x and y apart).

@@ -131,8 +131,7 @@ def _two_condition_machine():
 def test_condition_campaign_records_its_cuts_in_their_conditions(choose):
     """run_condition_campaign (issue 27): each round decides in the next condition; its cut is the truth's label in
     the condition the cut was made in (recomputed here), written with condition columns that read back as the
-    campaign's conditions; with ``recommend`` a cut moved to the other condition says so in its ``why``. The same
-    seed gives the same campaign (a process pool's repeats)."""
+    campaign's conditions; with ``recommend`` a cut moved to the other condition says so in its ``why``."""
     from millstab.points import condition_text, cut_conditions, same_condition
     from millstab.update.campaign import ConditionCampaign, run_condition_campaign
 
@@ -155,9 +154,6 @@ def test_condition_campaign_records_its_cuts_in_their_conditions(choose):
     assert len(camp.posterior.cuts["rpm"]) == 5 and len(camp.posteriors[2].cuts["rpm"]) == 2
     if choose == "recommend":  # the information measure moved at least one test (this seed: a property of the case)
         assert camp.cut_condition != camp.decided_in
-        again = run_condition_campaign(cfg, prior, conds, labeler, opts, choose=choose)
-        np.testing.assert_array_equal(again.cuts.depth_mm, camp.cuts.depth_mm)
-        np.testing.assert_array_equal(again.posterior.samples, camp.posterior.samples)
     else:
         assert camp.cut_condition == camp.decided_in
 

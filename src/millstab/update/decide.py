@@ -1009,7 +1009,8 @@ def next_test_gain(post: Posterior, nt: dict, model_cut: tuple[float, float], ri
             "information_nats": float(nt.get("information_nats", 0.0)), "expected_gain": float(gain[i, j] / ref),
             "relative_productivity": float(speeds[i] * depths[j] / ref),
             "why": "the gain test: the cuts contradict the hammer test, so the cut whose label is expected to raise "
-                   f"the recommendation's productivity most (by {gain[i, j] / ref:.1%} of it, averaged over both labels)"
+                   f"the recommendation's productivity most (by {gain[i, j] / ref:.1%} of it, averaged over both "
+                   "labels)"
                    + ("" if test_risk is None else f", at most {test_risk:g} likely to chatter")}
 
 

@@ -89,3 +89,4 @@ def test_draws_match_the_density_and_share_each_kinds_shift(tmp_path):
     back = load_config(write_config(tmp_path / "c.toml", cfg)).prior
     assert make_prior(cfg.structure, cfg.cutting, back).tails == SHIFT
     assert Prior.from_dict(prior.to_dict()).tails == SHIFT
+

@@ -125,6 +125,9 @@ def parse() -> argparse.Namespace:
                          "-inf: always)")
     ap.add_argument("--rival-lr", type=float, default=0.0,
                     help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
+    ap.add_argument("--shift-scale", type=float, default=None,
+                    help="--tails multivariate_t_shift: the σ of each kind's common shift [spreads] (default: the "
+                         "library's SHIFT_SCALE)")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -132,7 +135,12 @@ def parse() -> argparse.Namespace:
 
 
 def robust_prior(cfg, args: argparse.Namespace):
-    """The campaigns' prior: the hammer test's (``cfg``) with ``--tails`` and ``--chatter-hz-alias``."""
+    """The campaigns' prior: the hammer test's (``cfg``) with ``--tails`` and ``--chatter-hz-alias`` (and
+    ``--shift-scale``: the rival component's σ of a kind's common shift, set in this process)."""
+    if args.shift_scale is not None:
+        from millstab.update import prior as prior_module
+
+        prior_module.SHIFT_SCALE = args.shift_scale
     prior = make_prior(cfg.structure, cfg.cutting, PriorTable({}, tails=args.tails))
     return prior if args.chatter_hz_alias is None else replace(prior, chatter_hz_alias=args.chatter_hz_alias)
 

@@ -10,8 +10,10 @@ in ``--rpm``, depths uniform in ±30 % around the truth's SDM limit, labels with
 Timed (wall and CPU; BLAS pinned to one thread, ``OMP_WAIT_POLICY=PASSIVE`` set before numba starts its threads,
 engines warmed first): ``update`` (``--samples``), ``recommend`` (risk ``--risk``, the default rule: 90 %
 confidence, ±0.25 % speed tolerance, data guard, the next test), ``p_stable_map`` on ``--map-speeds`` ×
-60 depths (the zero-order map from every sample, the accurate one from a seeded subsample of ``--map-samples``);
-for each engine. ``search="full"`` (every sample on the 200-speed coarse grid and the refinement) and
+60 depths (``--map-samples``, default auto: the zero-order map from every sample, the accurate one from a seeded
+subsample of ``decide.MAP_SAMPLES``); for each engine; and for the accurate engine the map and the recommendation
+sharing their limits (one ``LimitMemo``, the map first: the app's Map and recommend). ``search="full"`` (every
+sample on the 200-speed coarse grid and the refinement) and
 ``search="auto"`` (the default: the fast search for an engine other than the cheapest) are both timed for the
 spectral posterior, and compared: the speed, depth, productivity ratio, the fast recommendation's P(chatter)
 under the full posterior at its speed and ±the tolerance (every sample, the spectral engine) against the risk,
@@ -144,11 +146,27 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
                 lines.append(f"  {eng:8s}: recommend (search {s}) {w_r:7.1f} s wall {c_r:7.1f} s CPU -> {rec.rpm:.1f} "
                              f"rpm {rec.depth_mm:.4f} mm, P(chatter) {rec.p_chatter_speed_error:.4f} (next test "
                              f"{rec.next_test['rpm']:.0f} rpm {rec.next_test['depth_mm']:.3f} mm)")
-            m = None if eng == "zoa" else args.map_samples
-            _, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed))
+            m = decide.map_samples(eng, post.u.shape[0], "auto" if eng == "zoa" else args.map_samples)
+            pm, w_m, c_m = timed(lambda: p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed))
             res[eng, "update"], res[eng, "map"] = (w_u, c_u), (w_m, c_m)
-            lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {min(m or args.samples, args.samples)} samples "
+            lines.append(f"  {eng:8s}: map {args.map_speeds}x60 from {decide.map_samples_text(m, post.u.shape[0])} "
                          f"{w_m:6.1f} s wall {c_m:6.1f} s CPU")
+            if eng != "zoa" and args.shared:  # the app's Map and recommend: one memo, the map first
+                def both():
+                    memo = decide.LimitMemo()
+                    return (p_stable_map(post, map_rpm, map_depth, samples=m, seed=seed, memo=memo),
+                            recommend(post, args.risk, (lo, hi), seed=seed, coarse_points=args.coarse, memo=memo))
+                (pm2, rec2), w_s, c_s = timed(both)
+                alone = res[eng, "auto"][1]
+                # to the root search's tolerance (a limit computed in another call: 1e-13 relative, LimitColumns)
+                same = bool(np.allclose([rec2.rpm, rec2.depth_mm, rec2.next_test["rpm"], rec2.next_test["depth_mm"]],
+                                        [alone.rpm, alone.depth_mm, alone.next_test["rpm"],
+                                         alone.next_test["depth_mm"]], rtol=1e-9, atol=0))
+                res[eng, "shared"] = (w_s, c_s)
+                lines.append(f"  {eng:8s}: map + recommend sharing their limits {w_s:6.1f} s wall {c_s:6.1f} s CPU "
+                             f"(apart {c_m + res[eng, 'auto'][3]:.1f} s CPU); the same cut and next test (1e-9) "
+                             f"{same}"
+                             f", map within {np.abs(pm2 - pm).max():.2g}")
         for key in [k for k in res if k[0] == "spectral" and (k[1] == "auto" or k[1].startswith("fast/"))]:
             if ("spectral", "full") not in res:
                 break
@@ -171,6 +189,12 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
             tz, ts = sum(x[0] for x in z), sum(x[0] for x in s)
             cz, cs = sum(x[1] for x in z), sum(x[1] for x in s)
             dz, ds = z[2][1] + z[1][1], s[2][1] + s[1][1]
+            lines.append(f"  ratio spectral/zoa (CPU): update {s[0][1] / z[0][1]:.1f}, recommend "
+                         f"{s[2][1] / z[2][1]:.1f}"
+                         f", map {s[1][1] / z[1][1]:.1f}"
+                         + (f", map + recommend sharing their limits {res['spectral', 'shared'][1] / dz:.1f}, update + "
+                            f"both {(s[0][1] + res['spectral', 'shared'][1]) / cz:.1f}" if ("spectral", "shared") in res
+                            else ""))
             lines.append(f"  ratio spectral/zoa: update + recommend + map {ts / tz:.1f} wall, {cs / cz:.1f} CPU; "
                          f"recommend + map alone {ds / dz:.1f} CPU; recommend alone {s[2][1] / z[2][1]:.1f} CPU"
                          + (f" (the full search: {res['spectral', 'full'][3] / z[2][1]:.1f} CPU; the fast search saves "
@@ -188,7 +212,10 @@ def main() -> None:
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--map-speeds", type=int, default=200)
     ap.add_argument("--coarse", type=int, default=200, help="speeds of the recommendation's coarse grid")
-    ap.add_argument("--map-samples", type=int, default=500, help="the accurate engine's map from this many samples")
+    ap.add_argument("--map-samples", default="auto", help="the accurate engine's map: auto (decide.MAP_SAMPLES), all, "
+                    "or a number of samples (the zero-order map reads every sample)")
+    ap.add_argument("--no-shared", dest="shared", action="store_false", help="skip the accurate engine's map and "
+                    "recommendation sharing their limits (the app's Map and recommend)")
     ap.add_argument("--engines", default="zoa,spectral")
     ap.add_argument("--search-samples", default="", help="also the fast search with these subsample sizes "
                     "(comma-separated; the default search=auto uses decide.SEARCH_SAMPLES)")

@@ -53,6 +53,18 @@ delayed-acceptance update is recorded, both engines evaluate every proposal and 
 stage-1 passes and accepted moves of both screens are summed (acceptance probabilities, no random draws; the
 plain screen's sums reproduce the run's own counts).
 
+``--screen-stages K[,K2 ...]``: also the spectral update with a screen-tempered start of K stages (the zero-order
+screen alone tempered first, the spectral engine at the distinct particles after it, a bridge to its exponent:
+:func:`millstab.update.sampler.tempered_smc`'s ``screen_stages``), each against the default sampler (ratio, CPU,
+posterior means and quantiles in sd units); with ``--proxy-seeds`` the proxy check runs them too.
+``--screen-chain MxS[,...]``: also the spectral update with M moves a stage, each S MH steps on the screen before one
+spectral test (``screen_steps``, a surrogate transition), after the first ``--screen-stages`` count's start.
+
+``--seed-study N`` (instead of the timed runs): N seeds of the sampler before the screen-tempered start, of the
+default and of each ``--screen-stages`` / ``--screen-chain`` setting, each run's means and quantiles against one
+``--study-reference``-sample posterior of the sampler before (seed 1 000), in its sd: single runs cannot tell two
+samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds here).
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -236,17 +248,26 @@ def explained(post, cuts: PointSet) -> tuple[int, int, list[str]]:
     return int(side.sum()), int((p_label >= 0.1).sum()), bad
 
 
-def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
-    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above)."""
+def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = (), top: float = 1.0) -> None:
+    """Delayed acceptance against plain SMC with a cheap 'accurate' likelihood and a wrong screen (see above);
+    with ``stages``, also delayed acceptance after a screen-tempered start of each of these many stages."""
     ev = Evidence.from_points(cuts)
     lik = Likelihood(prior, ev)
     c = prior.cutting
     wrong = dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt))
     scr = Likelihood(wrong, ev)
-    runs = {"plain": [], "delayed": [], "screen alone": []}
+    runs = {"plain": [], "delayed": [], "screen alone": []} | {f"screen start {k}": [] for k in stages}
+    sets = {k: [] for k in runs}
     for s in range(seeds):
         runs["plain"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s).u)
-        runs["delayed"].append(tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr).u)
+        res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr)
+        runs["delayed"].append(res.u)
+        sets["delayed"].append(res.n_sets)
+        for k in stages:
+            res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, samples, seed=s, screen=scr, screen_stages=k,
+                               screen_top=top)
+            runs[f"screen start {k}"].append(res.u)
+            sets[f"screen start {k}"].append(res.n_sets)
         runs["screen alone"].append(tempered_smc(prior.sample_full, prior.logpdf_full, scr, samples, seed=s).u)
     m = {k: np.array([u.mean(0) for u in v]) for k, v in runs.items()}
     q = {k: np.array([np.quantile(u, [0.05, 0.95], axis=0) for u in v]) for k, v in runs.items()}
@@ -260,6 +281,14 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int) -> None:
         print(f"  ln {nm}: delayed - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} "
               f"{dq[1]:+.3f}; screen alone - plain {a:+.3f}; seed-to-seed sd of a plain mean "
               f"{m['plain'][:, j].std(ddof=1) / sd[j]:.3f}")
+        for k in stages:
+            key = f"screen start {k}"
+            d = (m[key][:, j].mean() - m["plain"][:, j].mean()) / sd[j]
+            dq = (q[key][:, :, j].mean(0) - q["plain"][:, :, j].mean(0)) / sd[j]
+            print(f"    {key} - plain {d:+.3f} (MC error {se[j] / sd[j]:.3f}), quantiles {dq[0]:+.3f} {dq[1]:+.3f}")
+    for k, v in sets.items():
+        if v:
+            print(f"  {k}: accurate sets {np.mean(v):.0f} per run")
 
 
 def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
@@ -291,6 +320,47 @@ def before_issue_28(on: bool):
         likelihood.SAMPLING, Likelihood.__init__ = "sample", init
 
 
+def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
+    """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
+    screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
+    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile)."""
+    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS)
+    top = args.screen_top or base[1]
+    plan = ([("before (0 screen stages)", (0, top, 1), 3), (f"now ({base[0]} stages, top {base[1]:g})", base, 3)]
+            + [(f"{k} screen stages, top {top:g}", (k, top, 1), 3) for k in stages]
+            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1])),
+                int(c.split("x")[0])) for c in chains])
+
+    def run(setting, moves, n, seed):
+        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = setting
+        try:
+            return timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine="spectral", prior=prior, moves=moves))
+        finally:
+            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = base
+
+    ref = np.log(run((0, top, 1), 3, args.study_reference, 1000)[0].samples)
+    sd = ref.std(0)
+    print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
+          f"reference (the sampler before, seed 1000); errors in reference sd")
+    for label, setting, moves in plan:
+        rows = []
+        for seed in range(args.seed_study):
+            post, _, cpu = run(setting, moves, args.samples, seed)
+            u = np.log(post.samples)
+            dq = max(np.abs((np.quantile(u, q, axis=0) - np.quantile(ref, q, axis=0)) / sd).max()
+                     for q in (0.05, 0.5, 0.95))
+            n_side, n_label, _ = explained(post, cuts)
+            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, post.diagnostics["engine_sets"], cpu, n_side, n_label))
+        err = np.array([r[0] for r in rows])
+        per = np.round(np.sqrt((err**2).mean(0)), 2)
+        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {np.mean([r[3] for r in rows]):.2f} "
+              f"s, RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
+              f"worst quantile error {np.mean([r[1] for r in rows]):.2f} (mean over seeds), max "
+              f"{max(r[1] for r in rows):.2f}; "
+              f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
+              f">= {min(r[5] for r in rows)}/{args.cuts}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=500)
@@ -320,9 +390,22 @@ def main() -> None:
     ap.add_argument("--near", type=float, default=None, help="also the spectral update with the refinement near "
                     "rho = 1 at this margin (engine option near; the sampling settings' default is "
                     "spectral.NEAR; 0: off, as before 2026-11-27)")
+    ap.add_argument("--screen-stages", default="", help="also the spectral update with a screen-tempered start of "
+                    "these many stages (comma-separated counts; tempered_smc's screen_stages), in the same run")
+    ap.add_argument("--screen-top", type=float, default=None, help="the screen-tempered start's largest exponent "
+                    "(update.SCREEN_TOP) for the --screen-stages and --screen-chain runs and the proxy's")
+    ap.add_argument("--screen-chain", default="", help="also the spectral update with MOVESxSTEPS: MOVES moves per "
+                    "stage, each STEPS MH steps on the zero-order screen before one spectral test (comma-separated, "
+                    "e.g. 2x3,1x6; with the first --screen-stages count, else the default's)")
+    ap.add_argument("--seed-study", type=int, default=0, help="instead of the timed runs: this many seeds of the "
+                    "sampler before, the default and each --screen-stages / --screen-chain setting against one "
+                    "reference")
+    ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
+    stages = [int(k) for k in args.screen_stages.split(",") if k.strip()]
+    chains = [c.strip() for c in args.screen_chain.split(",") if c.strip()]
     print(describe() + f"; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     lo, hi = (float(x) for x in args.rpm.split(":"))
     cfg = load_config("example:ex1")
@@ -343,26 +426,38 @@ def main() -> None:
           f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
         if args.proxy_seeds:
-            proxy(prior, cuts, args.samples, args.proxy_seeds)
+            proxy(prior, cuts, args.samples, args.proxy_seeds, stages, args.screen_top or upd.SCREEN_TOP)
         if args.proxy_only:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        if args.seed_study:
+            seed_study(cfg, cuts, prior, names, args, stages, chains)
+            return
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])
                 + ([("spectral", "uncensored")] if args.no_censor else [])
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
-                + ([("spectral", "near")] if args.near is not None else []))
+                + ([("spectral", "near")] if args.near is not None else [])
+                + [("spectral", f"screen{k}") for k in stages]
+                + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
+        default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
         for eng, smp in plan:
+            upd.SCREEN_TOP = args.screen_top if args.screen_top and smp.startswith(("screen", "chain")) else default_top
+            upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
+                stages[0] if smp.startswith("chain") and stages else default_stages)
+            n_moves, upd.SCREEN_STEPS = (int(x) for x in smp[5:].split("x")) if smp.startswith("chain") else (
+                3, default_steps)
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
-                post, wall, cpu = timed(lambda eng=eng, smp=smp: update(
-                    cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near") else smp,
+                post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
+                    cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near")
+                    or smp.startswith(("screen", "chain")) else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if moves:
@@ -381,10 +476,11 @@ def main() -> None:
                       f"{c['ess']:.0f} ({c['ess_fraction']:.2f} of N), {c['accurate_rows']} distinct final rows "
                       f"evaluated, bridge stages {c['bridge_stages']}")
             if counts["calls"]:
-                acc = d.get("acceptance", [])
-                moved = sum(m * args.samples for m in d.get("moves", []))
-                passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), d.get("moves", [])))
-                accepted = sum(a * m * args.samples for a, m in zip(acc, d.get("moves", [])))
+                # the stages with the spectral engine in their target (not the screen-tempered start's: beta 0)
+                mv = [m if b > 0 else 0 for b, m in zip(d["betas"][1:], d.get("moves", []))]
+                moved = sum(m * args.samples for m in mv)
+                passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), mv))
+                accepted = sum(a * m * args.samples for a, m in zip(d.get("acceptance", []), mv))
                 print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
                       f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
                       f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "
@@ -393,6 +489,11 @@ def main() -> None:
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
                       f"{d.get('censored_entries', 0)}")
+            if "screen_start" in d:
+                st = d["screen_start"]
+                print(f"  screen-tempered start: {st['stages']} stages of the zero-order screen to exponent "
+                      f"{st['exponent']:.4g}, then the spectral engine at {st['distinct_rows']} distinct particles; "
+                      f"betas {np.round(d['betas'], 4).tolist()}, moves {d['moves']}")
             print(f"{eng:8s} {smp:5s}: {wall:7.1f} s wall, {cpu:7.1f} s CPU ({nb.get_num_threads()} threads); "
                   f"{d['stages']} stages, {d['engine_sets']} engine sets{extra}; cuts on the label's side of P(stable) "
                   f"= 1/2: {n_side}/{args.cuts}, written label with predictive probability >= 0.1: "
@@ -438,6 +539,16 @@ def main() -> None:
         print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
               f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
         compare(g[0].u, s[0].u, names, "surrogate - delayed")
+    for k in stages:
+        g = runs["spectral", f"screen{k}"]
+        print(f"screen-tempered start, {k} stages: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the "
+              f"default sampler {s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
+        compare(g[0].u, s[0].u, names, f"screen{k} - default")
+    for c in chains:
+        g = runs["spectral", f"chain{c}"]
+        print(f"moves x screen steps {c}: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the default "
+              f"sampler {s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
+        compare(g[0].u, s[0].u, names, f"chain {c} - default")
     print(f"spectral_over_zoa_wall: {s[1] / z[1]:.2f}")
 
 

@@ -147,15 +147,19 @@ def _assert_grid(prior, cuts, u, other) -> float:
 
 
 @pytest.mark.slow
-def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen():
+@pytest.mark.parametrize("stages, steps", [(0, 1), (2, 3)])
+def test_delayed_acceptance_matches_a_brute_force_grid_posterior_with_a_biased_screen(stages, steps):
     """The engine's likelihood as the target and a screen from a model with Kt 25 % high (its limits 20 %
-    low everywhere, as a wrong model's would be): means, sds and quantiles against a dense grid."""
+    low everywhere, as a wrong model's would be): means, sds and quantiles against a dense grid; with a
+    screen-tempered start (``stages`` 2: the biased screen alone up to an exponent, then the bridge) and three
+    screen steps per accurate test too."""
     _, prior, cuts = _grid_case()
     ev = Evidence.from_points(cuts)
     lik = Likelihood(prior, ev)
     biased = dataclasses.replace(prior, cutting=dataclasses.replace(prior.cutting, kt=1.25 * prior.cutting.kt))
     scr = Likelihood(biased, ev)
-    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr)
+    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr, screen_stages=stages,
+                       screen_steps=steps)
     alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
     far = _assert_grid(prior, cuts, res.u, alone.u)
     assert far > 0.5  # the screen's own posterior is elsewhere
@@ -272,3 +276,67 @@ def test_update_surrogate_sampler_plumbing():
     assert d["correction"]["ess_fraction"] == pytest.approx(1.0) and max(d["surrogate"]["heldout_rms_ln_b"]) < 1e-12
     with pytest.raises(InputError, match="sampler"):
         update(cfg, cuts, samples=300, seed=5, sampler="surrogate", start=a)
+
+
+# ---- the screen-tempered start (issue 28): the first reweightings by the screen alone, the accurate likelihood first
+# at the distinct particles after them, and a bridge (L/L̃)^Δ to the accurate exponent
+
+# the conjugate case's log evidence, p(Y) = Π N(Y_j; 0, 1 + S_j²)
+LOG_Z = float(sum(-0.5 * math.log(2 * math.pi * (1 + s * s)) - 0.5 * y * y / (1 + s * s) for y, s in zip(Y, S)))
+
+
+def _shifted(u):
+    """A screen of the right width one posterior sd off in both coordinates (its posterior ~0.9 sd off)."""
+    return (-0.5 * ((u - Y - S) / S) ** 2).sum(1)
+
+
+@pytest.mark.parametrize("screen, stages, top", [(_shifted, 50, 1.0), (_wrong, 1, 1.0), (_wrong, 2, 1.0),
+                                                 (_wrong, 50, 0.5)])
+def test_a_screen_tempered_start_gives_the_accurate_posterior_and_evidence(screen, stages, top):
+    """With 50 stages the screen is tempered all the way to its own posterior (exponent 1) and the bridge carries the
+    whole correction: without it the answer would be the screen's posterior and evidence, far outside the
+    tolerances (checked below), so this fails if the correction (L/L̃)^Δ is dropped or mis-weighted (checked: all
+    four cases fail with the bridge's weights set to 1)."""
+    n = 4000
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=4, screen=screen, screen_stages=stages,
+                       screen_top=top)
+    _assert_conjugate(res.u, n)
+    assert abs(res.log_evidence - LOG_Z) < 0.12  # seeds 1–3: within 0.08 (the plain sampler's within 0.05)
+    np.testing.assert_allclose(res.loglik, _loglik(res.u))  # the accurate log L of the returned particles
+    st = res.diagnostics()["screen_start"]
+    assert st["exponent"] == top if stages == 50 else 0 < st["exponent"] < 1
+    # the accurate likelihood first saw only the distinct particles of the screen's stages, then the screened proposals
+    assert res.n_sets == st["distinct_rows"] + round(sum(p * m for p, m in zip(res.screen_pass, res.moves)) * n)
+    assert st["distinct_rows"] < n and res.moves.count(0) == 1  # the screen's last stage: no move before the bridge
+    alone = tempered_smc(_prior_draws, _logprior, screen, n, seed=1, moves=4)
+    assert np.all(np.abs(alone.u.mean(0) - MEAN) > 1.5 * 4 * (np.sqrt(VAR / n) * 4).max())
+    assert abs(alone.log_evidence - LOG_Z) > 0.3
+
+
+def test_screen_stages_zero_is_the_sampler_before_and_bad_counts_are_refused():
+    a = tempered_smc(_prior_draws, _logprior, _loglik, 500, seed=4, screen=_wrong)
+    b = tempered_smc(_prior_draws, _logprior, _loglik, 500, seed=4, screen=_wrong, screen_stages=0)
+    np.testing.assert_array_equal(a.u, b.u)
+    assert "screen_start" not in b.diagnostics()
+    with pytest.raises(InputError, match="screen_stages"):
+        tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_stages=-1)
+    with pytest.raises(InputError, match="screen_steps"):
+        tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_steps=0)
+    with pytest.raises(InputError, match="screen_top"):
+        tempered_smc(_prior_draws, _logprior, _loglik, 500, screen=_wrong, screen_stages=2, screen_top=0)
+
+
+@pytest.mark.parametrize("screen", [_wrong, _shifted])
+def test_several_screen_steps_per_accurate_test_give_the_accurate_posterior(screen):
+    """Each proposal the end of 4 MH steps on the screen's π̃ (a surrogate transition: that chain is π̃-reversible,
+    so the accurate test's ratio is the one-step delayed acceptance's), 2 moves a stage, after 2 screen stages."""
+    n = 4000
+    res = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=2, screen=screen, screen_stages=2,
+                       screen_steps=4)
+    _assert_conjugate(res.u, n)
+    assert abs(res.log_evidence - LOG_Z) < 0.12
+    np.testing.assert_allclose(res.loglik, _loglik(res.u))
+    # fails (checked) if the accurate test used only the chain's last step's screen ratio, or accepted every moved
+    # chain (the screen's posterior, far off: the test above)
+    one = tempered_smc(_prior_draws, _logprior, _loglik, n, seed=1, moves=2, screen=screen, screen_stages=2)
+    assert res.n_sets > one.n_sets  # more of the proposals moved, so more reach the accurate test

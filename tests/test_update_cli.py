@@ -62,6 +62,19 @@ def test_map_and_recommend_from_the_json_alone(shop, capsys):
     assert {"rpm", "depth_mm", "why"} <= set(rec["next_test"])
 
 
+def test_map_samples_option_states_the_error_and_refuses_a_bad_value(shop, capsys):
+    """``map --samples``: auto (every sample of this zero-order posterior), a number (its error printed), or a one-line
+    error naming --samples. Fails on the old code (an integer option: "auto" refused)."""
+    args = ["map", str(shop / "post.json"), "--rpm", "5000:9000:1000", "--depth", "0:4:1", "--out"]
+    assert main([*args, str(shop / "auto.csv"), "--samples", "auto"]) == 0
+    assert "300 samples;" in " ".join(capsys.readouterr().out.split())  # (rich wraps the line)
+    assert main([*args, str(shop / "sub.csv"), "--samples", "100"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "100 of 300 samples (Monte Carlo standard error ≤ 0.050 per cell)" in out
+    assert main([*args, str(shop / "bad.csv"), "--samples", "many"]) == 2
+    assert "--samples" in capsys.readouterr().err and not (shop / "bad.csv").exists()
+
+
 def test_recommend_rule_options_reach_the_library(shop):
     """--confidence none --speed-tolerance 0 is the plain rule of millstab.update.recommend (the same cut),
     and the default rule is at least as cautious (its depth never deeper at the same risk)."""

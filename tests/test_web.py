@@ -189,6 +189,7 @@ def test_update_map_and_recommend(app, tmp_path):
                          T.text(page, css)), T.text(page, css)
     got = re.search(r"risk 0.05: ([0-9.]+) rpm, ([0-9.]+) mm", rec)
     assert got, rec
+    assert re.search(r"P\(stable\) from \d+ samples", rec), rec  # the samples the map read (a subsample: its error)
     r, d = float(got.group(1)), float(got.group(2))
     assert 3000 <= r <= 21000
     # at 5 % risk the recommended cut is stable for the true structure the cuts were labelled by

@@ -288,18 +288,24 @@ def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.nd
     return np.arange(1, n + 1) * (max_mm / n)
 
 
-def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, samples: int | None = None,
-             seed: int = 0) -> np.ndarray:
+def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, samples: int | str | None = "auto",
+             seed: int = 0, memo=None) -> np.ndarray:
     """P(stable) on the grid rpm × depth (S, D); warns where the speeds reach beyond the tested ones;
-    ``client``: the samples' limits on its Dask cluster where that pays (same numbers); ``samples``: from a
-    seeded subsample of that many posterior samples (``millstab.update.decide.p_stable_map``: each cell's Monte
-    Carlo standard error is at most ½/√samples).
+    ``client``: the samples' limits on its Dask cluster where that pays (same numbers); ``samples``: ``"auto"``
+    (every sample from the cheapest engine, a seeded subsample of ``decide.MAP_SAMPLES`` from the others:
+    :func:`map_samples`), ``"all"``/``None``, or from a seeded subsample of that many posterior samples
+    (``millstab.update.decide.p_stable_map``: each cell's Monte Carlo standard error is at most ½/√samples; say it
+    with :func:`map_samples_text`). ``memo``: a ``millstab.update.decide.LimitMemo`` shared with a recommendation from
+    the same posterior (:func:`recommend` ``memo=``): the limits they share (the map's subsample holds the fast
+    search's, at the speeds both read) are computed once; the same numbers.
 
     Raises:
         InputError: more than :data:`MAX_MAP_CELLS` cells.
     """
     from millstab.update import p_stable_map
     from millstab.update.decide import warn_outside
+
+    m = map_samples(post, samples)
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
@@ -310,7 +316,31 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
         from millstab.cluster import check_client
 
         check_client(client)
-    return p_stable_map(post, rpm, depth_mm, client, samples=samples, seed=seed)
+    return p_stable_map(post, rpm, depth_mm, client, samples=m, seed=seed, memo=None if client is not None else memo)
+
+
+def limit_memo():
+    """A store of limits for a map and a recommendation from one posterior (:func:`p_stable` and :func:`recommend`
+    ``memo=``; ``millstab.update.decide.LimitMemo``)."""
+    from millstab.update.decide import LimitMemo
+
+    return LimitMemo()
+
+
+def map_samples(post, samples: int | str | None = "auto") -> int | None:
+    """The posterior samples :func:`p_stable` reads for ``post`` (``None``: every one;
+    :func:`millstab.update.decide.map_samples`). Raises InputError (``--samples``) for a bad value."""
+    from millstab.update.decide import map_samples as resolve
+
+    return resolve(post.engine, post.samples.shape[0], samples)
+
+
+def map_samples_text(post, samples: int | str | None = "auto") -> str:
+    """What a map of ``post`` says of the samples it read ("500 of 1000 samples (Monte Carlo standard error ≤ 0.022
+    per cell)")."""
+    from millstab.update.decide import map_samples_text as text
+
+    return text(map_samples(post, samples), post.samples.shape[0])
 
 
 def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[list[str], list]:
@@ -388,8 +418,8 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
 def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0, **rule):
     """The most productive cut with P(chatter) ≤ ``risk`` in ``rpm_range`` [rev/min], and the next test
-    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance``, ``coarse_points`` and
-    ``search``, defaults there).
+    (:func:`millstab.update.recommend`; ``rule``: its ``confidence``, ``speed_tolerance``, ``coarse_points``,
+    ``search`` and ``memo`` (limits shared with a map: :func:`p_stable`), defaults there).
 
     Raises:
         InputError: risk outside (0, 1), a bad speed range, a depth cap ≤ 0, a bad confidence or tolerance.

@@ -156,9 +156,9 @@ def map_cmd(
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
     options: EngineOptionOpt = None,
-    samples: Optional[int] = typer.Option(None, "--samples", help="From a seeded subsample of this many posterior "
-                                          "samples (e.g. 500 for a spectral or sdm posterior: each cell's Monte Carlo "
-                                          "error is then at most 0.5/sqrt(samples)); default: all of them."),
+    samples: str = typer.Option("auto", "--samples", help="Posterior samples the map reads: auto (every sample from "
+                                "zoa, a seeded subsample of 500 from spectral or sdm: each cell's Monte Carlo error "
+                                "is then at most 0.5/sqrt(500) = 0.022, printed), all, or a whole number."),
 ) -> None:
     """The probability of a stable cut on a speed × depth grid, from posterior samples."""
     from rich.console import Console
@@ -172,13 +172,11 @@ def map_cmd(
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
+    used = api.map_samples_text(post, samples)  # a bad --samples is refused before any work
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
         pm = api.p_stable(post, speeds, depths, client, samples=samples)
     write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
     con = Console()
-    n = post.samples.shape[0]
-    used = (f"{samples} of {n} samples (Monte Carlo standard error ≤ {0.5 / samples ** 0.5:.3f} per cell)"
-            if samples is not None and samples < n else f"{n} samples")
     con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {used}; {api.condition_line(post)})")
     if plot:
         from millstab.io.figures import save_figure

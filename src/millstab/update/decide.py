@@ -30,6 +30,8 @@ whether the process chatters).
   engine other than the cheapest (``search="auto"``, :func:`fast_search_for`) a seeded subsample of
   :data:`SEARCH_SAMPLES` rows does the scan and refines its :data:`SEARCH_POCKETS` best pockets, and every
   sample then chooses among them and sets the depth: the speed search is approximate, the risk is exact.
+  Where a stage needs a limit only as above or below a depth, an engine with a censored search stops there
+  (:class:`LimitColumns` ``ceiling``, :func:`censor_ceilings`, :func:`map_ceiling`; the same answers).
   Each (distinct sample, speed) limit is computed once per recommendation (:class:`LimitColumns`: a resampled
   posterior repeats its rows, and the cut's own check reads the columns that chose it), or once per campaign
   (:class:`LimitMemo`), under one discretisation (:func:`decision_options`); the same answers.
@@ -112,6 +114,16 @@ SEARCH_SUBSAMPLE_TOLERANCE = False
 #: the same cut as reading them all, from 21 every-sample speeds instead of 49 (mean of 8 recommendations from 1 000
 #: prior draws at a/D 0.1 in the campaigns' 5 000-12 000 rpm, ±0.25 %; tests/test_decide_columns.py)
 SEARCH_BOUND = True
+#: the ceiling [mm] of an entry a censored engine call computes but no one asked for (:class:`LimitColumns`: a row
+#: searched again at some speeds of a call): its search stops at the first depth
+CHEAPEST_CEILING = 1e-9
+#: the fast search's every-sample stages censor each limit (:class:`LimitColumns`) at a ceiling above the depth the
+#: speed may hold (:func:`censor_ceilings`), for an engine with a censored search (spectral); the same cut and risk
+SEARCH_CENSOR = True
+#: the ceiling: the subsample's order statistic at the :data:`SEARCH_CEILING_LEVEL` binomial quantile of the full
+#: count's rank, × (1 + :data:`SEARCH_CEILING_MARGIN`), the largest over the subsample's speeds within a coarse step
+SEARCH_CEILING_LEVEL = 0.999
+SEARCH_CEILING_MARGIN = 0.05
 #: a suggested subsample of a map from an engine other than the cheapest (``millstab map --samples``): its
 #: Monte Carlo standard error is at most ½/√M = 0.022
 MAP_SAMPLES = 500
@@ -192,7 +204,10 @@ def p_stable_from_limits(blim_mm: np.ndarray, depth_mm: np.ndarray) -> np.ndarra
 
 def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
     """The posterior rows a map of ``samples`` samples reads: a seeded subsample of ``samples`` of the ``n`` rows
-    (sorted), or ``None`` (every row) when ``samples`` is ``None`` or ≥ n.
+    (sorted), or ``None`` (every row) when ``samples`` is ``None`` or ≥ n. Nested: with the same seed, a subsample of
+    more than :data:`SEARCH_SAMPLES` rows holds the fast search's (that many rows' draw, then the others from the
+    remaining rows), so that a map and a recommendation from one posterior share those rows' limits at the speeds they
+    share (a :class:`LimitMemo`: ``api.p_stable(..., memo=)``, the app's Map and recommend).
 
     Raises:
         InputError: ``samples`` < 1."""
@@ -201,23 +216,39 @@ def map_rows(n: int, samples: int | None, seed: int = 0) -> np.ndarray | None:
     if not (isinstance(samples, (int, np.integer)) and samples >= 1):
         raise InputError("--samples", samples, "a whole number ≥ 1 of posterior samples for the map (e.g. "
                                                f"{MAP_SAMPLES}), or leave it out for all of them")
-    return None if samples >= n else np.sort(np.random.default_rng(seed).choice(n, int(samples), replace=False))
+    if samples >= n:
+        return None
+    rng = np.random.default_rng(seed)
+    first = rng.choice(n, int(min(samples, SEARCH_SAMPLES)), replace=False)
+    if samples <= SEARCH_SAMPLES:
+        return np.sort(first)
+    rest = np.setdiff1d(np.arange(n), first)
+    return np.sort(np.concatenate([first, rng.choice(rest, int(samples) - first.size, replace=False)]))
 
 
 def distinct_limits(prior, u: np.ndarray, rpm, engine: str = "zoa", options: dict | None = None,
-                    client=None) -> np.ndarray:
+                    client=None, ceiling_mm: float | None = None) -> np.ndarray:
     """:func:`millstab.update.likelihood.limits` (N, S) [mm] of the rows u = ln θ (N, P) at speeds rpm (S,) [rpm], each
     DISTINCT row evaluated once and its limits copied to its repeats. Why: a posterior is resampled every tempering
     stage and a move keeps a particle where its proposal is rejected, so its rows repeat (the spectral posteriors of
     the a/D 0.1 campaigns, docs/updating.md "A spectral campaign now": ~30 % repeats), and a decision that counts
     samples needs every row's limit but not every row's engine call. The same numbers: a row's limit does not depend
     on the other rows of a call (each row is its own search; spectral without warm starts under the sampling
-    discretisation; sdm's steps follow the highest natural frequency of the rows, the same over the distinct ones)."""
+    discretisation; sdm's steps follow the highest natural frequency of the rows, the same over the distinct ones).
+    ``ceiling_mm``: one ceiling [mm] for every entry, a censored search where the engine has one (``takes_ceiling``,
+    no ``client``): an entry at or above it is a lower bound of its limit, one below it the limit."""
     u = np.asarray(u, float)
     uniq, inv = np.unique(u, axis=0, return_inverse=True)
-    if uniq.shape[0] == u.shape[0]:
+    rpm = np.asarray(rpm, float)
+    ceiling = None
+    if ceiling_mm is not None and client is None:
+        from millstab.stability import get_engine
+
+        if getattr(get_engine(engine), "takes_ceiling", False):
+            ceiling = np.full((uniq.shape[0], rpm.size), float(ceiling_mm))
+    if uniq.shape[0] == u.shape[0] and ceiling is None:
         return limits(prior, u, rpm, engine, client=client, options=options)[0]
-    return limits(prior, uniq, rpm, engine, client=client, options=options)[0][inv.ravel()]
+    return limits(prior, uniq, rpm, engine, client=client, options=options, ceiling_mm=ceiling)[0][inv.ravel()]
 
 
 def decision_options(post: Posterior, rpm_range: tuple[float, float]) -> dict:
@@ -292,57 +323,167 @@ class LimitColumns:
     it lacks go to the engine. The same numbers: under one pinned discretisation (:func:`decision_options`) a
     (row, speed)'s limit depends on neither the other rows of a call nor, beyond the root search's tolerance, its
     other speeds (the continuation from speed to speed starts each search elsewhere: 3e-13 relative measured at
-    a/D 0.1, tests/test_decide_columns.py)."""
+    a/D 0.1, tests/test_decide_columns.py).
+
+    A request may name a ``ceiling`` per speed: the caller needs each limit only where it lies below the ceiling
+    (a count of limits at or below a depth under it; an order statistic that turns out below it). For an engine
+    with a censored search (``takes_ceiling``: spectral) the engine then stops each search from below once every
+    depth up to the ceiling is stable; such an entry is a certified lower bound (≥ the ceiling) of its limit, and
+    a later request with a higher ceiling (or none) searches those entries again, alone. Entries below a ceiling
+    are the limits themselves (to the root search's tolerance), so every count and order statistic below it is
+    the uncensored one. Why: in a decision a limit far above the depth in question costs its whole search (the
+    ladder to the root, then the refinement near ρ = 1 and Newton, about half an entry's cost), and tells only
+    "above" (docs/updating.md, "Decisions from an accurate posterior"). The memo keeps limits only."""
 
     def __init__(self, post: Posterior, u: np.ndarray, options: dict | None = None,
                  memo: LimitMemo | None = None) -> None:
+        from millstab.stability import get_engine
+
         self.post, self.options, self.memo = post, dict(options or {}), memo
         self.rows, inv = np.unique(np.asarray(u, float), axis=0, return_inverse=True)
         self.inv = inv.ravel()
         self.n = self.inv.size
+        self.censors = bool(getattr(get_engine(post.engine), "takes_ceiling", False))
         self._cols: dict[float, np.ndarray] = {}
+        self._ceil: dict[float, np.ndarray] = {}  # per distinct row, the ceiling its entry was searched under
+        #: (distinct rows, speeds) the engine was asked for, censored ones among them: what the decision cost
+        self.asked = self.censored = 0
         if memo is not None:
             memo.bind(post, self.options)
             self._keys = [r.tobytes() for r in self.rows]
 
-    def _engine(self, rows: np.ndarray, speeds: list[float]) -> np.ndarray:
-        return limits(self.post.prior, rows, np.array(speeds), self.post.engine, options=self.options)[0]
+    def seen(self) -> list[float]:
+        """The speeds [rpm] whose limits it holds."""
+        return list(self._cols)
 
-    def __call__(self, rpm) -> np.ndarray:
+    def held(self, rpm) -> np.ndarray:
+        """The entries (N, S) it holds at speeds it has seen, as they are (a censored one a lower bound of its
+        limit), without a search."""
+        return np.stack([self._cols[float(x)] for x in np.ravel(rpm)], axis=1)[self.inv]
+
+    def _engine(self, rows: np.ndarray, speeds: list[float], ceiling: np.ndarray | None = None) -> np.ndarray:
+        return limits(self.post.prior, rows, np.array(speeds), self.post.engine, options=self.options,
+                      ceiling_mm=ceiling)[0]
+
+    def __call__(self, rpm, ceiling=None) -> np.ndarray:
+        """The limits (N, S) [mm] at ``rpm`` (S,); ``ceiling`` (a depth [mm], one or per speed; None: none): below
+        it each entry is the limit, at or above it a lower bound of the limit (the class docstring)."""
         r = [float(x) for x in np.ravel(np.asarray(rpm, float))]
-        new = list(dict.fromkeys(x for x in r if x not in self._cols))
-        if new and self.memo is None:
-            b = self._engine(self.rows, new)
-        elif new:  # the rows the memo lacks at any of the new speeds go to the engine, at all of them
-            b, have = self.memo.known(self._keys, new)
-            miss = np.flatnonzero(~have.all(axis=1))
-            if miss.size:
-                b[miss] = self._engine(self.rows[miss], new)
-                self.memo.remember([self._keys[i] for i in miss], new, b[miss])
-        if new:
-            self._cols.update(zip(new, b.T))
         if not r:
             return np.zeros((self.n, 0))
+        c = np.broadcast_to(np.inf if ceiling is None or not self.censors else np.asarray(ceiling, float), (len(r),))
+        need: dict[float, float] = {}
+        for x, cx in zip(r, c.tolist()):  # a speed asked twice: the higher ceiling
+            need[x] = max(need.get(x, 0.0), cx)
+        todo: dict[float, np.ndarray] = {}  # the distinct rows each speed must (re)search
+        for x, cx in need.items():
+            if x not in self._cols:
+                todo[x] = np.ones(self.rows.shape[0], dtype=bool)
+            else:
+                low = self._ceil[x] < cx  # censored entries below what is needed now
+                if low.any():
+                    todo[x] = low
+        if todo:
+            self._fill(todo, need)
         return np.stack([self._cols[x] for x in r], axis=1)[self.inv]
+
+    def _fill(self, todo: dict[float, np.ndarray], need: dict[float, float]) -> None:
+        speeds = list(todo)
+        mask = np.stack([todo[x] for x in speeds], axis=1)  # (R, S): the entries to (re)search
+        cap = np.broadcast_to(np.array([need[x] for x in speeds]), mask.shape)
+        vals = np.zeros(mask.shape)
+        ceil = np.full(mask.shape, np.inf)  # the ceiling each new entry holds (inf: the limit itself)
+        if self.memo is not None:  # the memo's limits first; only the rows it lacks go to the engine
+            known, have = self.memo.known(self._keys, speeds)
+            vals = np.where(have, known, vals)
+            mask = mask & ~have
+        miss = np.flatnonzero(mask.any(axis=1))
+        if miss.size:
+            m, c = mask[miss], cap[miss]
+            # an entry of a row that goes to the engine but not asked for: the cheapest search (its value unread)
+            asked = np.where(m, c, CHEAPEST_CEILING) if self.censors and np.isfinite(c[m]).any() else None
+            b = self._engine(self.rows[miss], speeds, asked)
+            censored = m & (b >= c * (1 - 1e-12))  # (the engine's ceiling went through the Kt factor)
+            b = np.where(censored, np.maximum(b, c), b)  # so that a censored entry is ≥ its ceiling exactly
+            vals[miss] = np.where(m, b, vals[miss])
+            ceil[miss] = np.where(censored, c, np.inf)
+            self.asked += int(m.sum())
+            self.censored += int(censored.sum())
+            if self.memo is not None:  # the memo keeps limits only
+                for j, x in enumerate(speeds):
+                    k = m[:, j] & ~censored[:, j]
+                    if k.any():
+                        self.memo.remember([self._keys[i] for i in miss[k]], [x], b[k, j][:, None])
+        for j, x in enumerate(speeds):
+            t = todo[x]
+            if x not in self._cols:
+                self._cols[x], self._ceil[x] = vals[:, j].copy(), ceil[:, j].copy()
+            else:
+                self._cols[x][t], self._ceil[x][t] = vals[t, j], ceil[t, j]
 
 
 def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | None = None,
                  seed: int = 0, memo: LimitMemo | None = None) -> np.ndarray:
     """P(stable) on the grid rpm (S,) × depth_mm (D,), shape (S, D); one engine call (``client``: on its
     Dask cluster where that pays, same numbers). ``samples``: from a seeded subsample (``seed``) of that many
-    posterior samples (:func:`map_rows`; for an engine whose limits cost ms each, e.g. ``spectral``): each
-    cell's P is then a fraction of M = ``samples`` draws, its Monte Carlo standard error
-    √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's. ``memo``: limits
-    remembered from earlier decisions (:class:`LimitMemo`; a campaign's maps and recommendations), read under the
-    discretisation of a decision over the map's speed range (:func:`decision_options`); not with ``client``."""
+    posterior samples (:func:`map_rows`): each cell's P is then a fraction of M = ``samples`` draws, its Monte
+    Carlo standard error √(P(1 − P)/M) ≤ ½/√M (0.022 at M = 500, :func:`map_error`) beside the full posterior's.
+    ``memo``: limits remembered from earlier decisions (:class:`LimitMemo`; a campaign's maps and recommendations),
+    read under the discretisation of a decision over the map's speed range (:func:`decision_options`); not with
+    ``client``.
+
+    Censored at the map's top depth (:func:`map_ceiling`) for an engine with a censored search (spectral; not on a
+    cluster): a cell needs only whether each limit lies above its depth, so a limit above the deepest depth is
+    searched only up to it. The same map: every entry below the ceiling is the limit, every one at or above it a
+    lower bound above every depth of the map (tests/test_decide_censored.py)."""
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
     r = np.asarray(rpm, float)
+    d = np.asarray(depth_mm, float)
+    top = map_ceiling(d)
     if memo is not None and client is None and r.size:
-        blim = LimitColumns(post, u, decision_options(post, (float(r.min()), float(r.max()))), memo)(r)
+        blim = LimitColumns(post, u, decision_options(post, (float(r.min()), float(r.max()))), memo)(r, top)
     else:
-        blim = distinct_limits(post.prior, u, r, post.engine, post.engine_options, client)
-    return p_stable_from_limits(blim, np.asarray(depth_mm, float))
+        blim = distinct_limits(post.prior, u, r, post.engine, post.engine_options, client, ceiling_mm=top)
+    return p_stable_from_limits(blim, d)
+
+
+def map_ceiling(depth_mm: np.ndarray) -> float | None:
+    """The censoring ceiling [mm] of a map over ``depth_mm``: just above its deepest depth (a censored entry is ≥
+    the ceiling, so above every depth of the map; 1e-9 relative above it, far beyond the engine's rounding of a
+    ceiling through the Kt factor), ``None`` where no depth is > 0."""
+    top = float(np.max(depth_mm, initial=0.0))
+    return top * (1 + 1e-9) if top > 0 and math.isfinite(top) else None
+
+
+def map_samples(engine: str, n: int, samples: int | str | None = "auto") -> int | None:
+    """The posterior samples a map of a posterior of ``engine`` with ``n`` samples reads (``None``: every one):
+    ``samples`` = ``"auto"`` (the doors' default): every sample for the cheapest engine (zoa: a 200 × 60 map of 1 000
+    samples in ~0.1 s CPU), a seeded subsample of :data:`MAP_SAMPLES` for the others (each cell within ½/√M = 0.022
+    standard error of the full posterior's; the a/D 0.1 spectral map of docs/updating.md "Decisions from an accurate
+    posterior": 14.2 s CPU from every sample, 7.6 s from 500); ``"all"`` or ``None``: every sample; a whole number
+    ≥ 1: that many (every one when ≥ ``n``).
+
+    Raises:
+        InputError: anything else (field ``--samples``)."""
+    if samples is None or samples == "all":
+        return None
+    if samples == "auto":
+        return MAP_SAMPLES if fast_search_for(engine) and n > MAP_SAMPLES else None
+    text = str(samples).strip()
+    m = int(text) if isinstance(samples, (int, np.integer)) or text.isdigit() else 0
+    if m < 1:
+        raise InputError("--samples", samples, "auto (every sample for the cheapest engine, "
+                                               f"{MAP_SAMPLES} for the others), all, or a whole number ≥ 1")
+    return None if m >= n else m
+
+
+def map_samples_text(m: int | None, n: int) -> str:
+    """What a map says of the samples it read: "1000 samples", or "500 of 1000 samples (Monte Carlo standard error ≤
+    0.022 per cell)"."""
+    if m is None or m >= n:
+        return f"{n} samples"
+    return f"{m} of {n} samples (Monte Carlo standard error ≤ {map_error(m):.3f} per cell)"
 
 
 def map_error(samples: int) -> float:
@@ -543,7 +684,7 @@ def data_guard(post: Posterior, columns: LimitColumns | None = None) -> list[dic
     if ch.size == 0:
         return []
     # does the posterior explain each chatter cut? the fraction of samples whose limit lies at or below it
-    blim = (columns(rpm[ch]) if columns is not None
+    blim = (columns(rpm[ch], depth[ch] * (1 + 1e-6)) if columns is not None
             else distinct_limits(post.prior, post.decision_u, rpm[ch], post.engine, post.engine_options))
     p_model = np.mean(blim <= depth[ch][None, :], axis=0)
     tip = post.prior.par.structure(post.prior.par.theta0)  # the prior median's TIP (a prior over a holder too)
@@ -622,7 +763,7 @@ def confirmed_cuts(post: Posterior, rpm_range: tuple[float, float], offsets: np.
         return []
     r, d = rpm[ok], depth[ok]
     at = (r[None, :] * (1 + offsets[:, None])).ravel()
-    both = (columns(at) if columns is not None
+    both = (columns(at, np.tile(d, offsets.size) * (1 + 1e-6)) if columns is not None
             else distinct_limits(post.prior, post.decision_u, at, post.engine, post.engine_options))
     p = (both <= np.tile(d, offsets.size)[None, :]).mean(axis=0).reshape(offsets.size, r.size).max(axis=0)
     return [{"rpm": float(a), "depth_mm": float(b), "p_chatter": float(q)} for a, b, q in zip(r, d, p)
@@ -637,6 +778,35 @@ def support_cap(support: list[dict], rpm) -> np.ndarray:
     for c in support:
         out = np.where(np.abs(r - c["rpm"]) <= CONFIRM_WIDTH * c["rpm"], np.maximum(out, c["depth_mm"]), out)
     return out
+
+
+def censor_ceilings(sub: LimitColumns, count: int, n: int, step: float):
+    """The censoring ceilings [mm] of the fast search's every-sample stages (with ``count`` and ``n`` the
+    subsample's own: of its coarse speeds between those searched to the root, and of the pockets' refinement), as a
+    function of speeds (S,) [rpm]: at
+    each, the largest over the speeds ``sub`` (the subsample's limits) has searched within ±``step`` [rpm] (a
+    coarse step: the nearest coarse speeds and a pocket's refinement) of the subsample's order statistic of rank k,
+    k the :data:`SEARCH_CEILING_LEVEL` quantile of a binomial count of its M rows at the full posterior's rate
+    (``count`` + 1)/``n``, × (1 + :data:`SEARCH_CEILING_MARGIN`); ``inf`` (no ceiling) where ``sub`` has no speed
+    within the step. Why: the depth a speed holds is the full posterior's order statistic of rank ``count``, which
+    lies below this ceiling unless the subsample is far off there (the rank's upper binomial bound and a margin
+    for the speeds between); where it does not, the stage searches those limits to the root
+    (:func:`recommend`), so the ceiling sets the cost, never the answer."""
+    from scipy.stats import binom
+
+    known = np.array(sorted(sub.seen()))
+    m = sub.n
+    k = int(min(binom.ppf(SEARCH_CEILING_LEVEL, m, min((max(count, 0) + 1) / n, 1.0)), m - 1))
+    q = np.partition(sub.held(known), k, axis=0)[k] * (1 + SEARCH_CEILING_MARGIN)  # (a censored one: lower)
+    q = np.where(np.isfinite(q), q, np.inf)
+
+    def at(speeds) -> np.ndarray:
+        x = np.asarray(speeds, float)
+        near = np.abs(known[:, None] - x[None, :]) <= step * (1 + 1e-9)
+        c = np.where(near, q[:, None], -np.inf).max(axis=0)
+        return np.where(near.any(axis=0), c, np.inf)
+
+    return at
 
 
 def fast_search_for(engine: str) -> bool:
@@ -708,7 +878,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             speeds only, :data:`SEARCH_SUBSAMPLE_TOLERANCE`) finds where to
             look, then every sample at each pocket's refined speed (and the range's ends) and ±``speed_tolerance``
             chooses among them, refines the chosen pocket once (:data:`SEARCH_POLISH_POINTS`) and sets the depth,
-            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits);
+            so its P(chatter) is the full posterior's (the next test reads the subsample's coarse limits); for an
+            engine with a censored search the limits it needs only as above or below a depth are censored
+            (:data:`SEARCH_CENSOR`, :func:`censor_ceilings`: the same answer);
             ``"auto"`` (the default): fast for an engine other than the cheapest (:func:`fast_search_for`). With
             at most :data:`SEARCH_SAMPLES` samples both are the full search.
         memo: limits remembered from earlier decisions from posteriors of the same prior and engine (a
@@ -757,17 +929,30 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     offsets = np.array([0.0, -speed_tolerance, speed_tolerance]) if speed_tolerance > 0 else np.zeros(1)
 
     def depths_at(speeds: np.ndarray, support: list[dict] | None, cols: LimitColumns | None = None,
-                  cnt: int = count, offsets: np.ndarray = offsets) -> tuple[np.ndarray, np.ndarray]:
+                  cnt: int = count, offsets: np.ndarray = offsets, censor=None) -> tuple[np.ndarray, np.ndarray]:
         # the speeds and their ±tolerance neighbours, the nominal block first (one engine call for those not
-        # computed before, on ``cols``' rows: default every sample)
-        both = (every if cols is None else cols)((speeds[None, :] * (1 + offsets[:, None])).ravel())
-        blim = both[:, :speeds.size]
-        d_all = safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size)
+        # computed before, on ``cols``' rows: default every sample, censored at ``censor(speeds)`` [mm], by
+        # default the fast search's every-sample ceilings)
+        at = (speeds[None, :] * (1 + offsets[:, None])).ravel()
         g_all = guard_cap(guards, (speeds[None, :] * (1 + offsets[:, None])))  # the guard holds at the speed error too
-        depth = np.minimum(np.minimum(d_all.min(axis=0), g_all.min(axis=0)), cap)
+        held = np.minimum(g_all.min(axis=0), cap)  # what bounds the depth besides the limits
         if support is not None:  # only as deep as a confirmed stable cut near the speed
-            depth = np.minimum(depth, support_cap(support, speeds))
-        return np.where(np.isfinite(depth), depth, 0.0), blim
+            held = np.minimum(held, support_cap(support, speeds))
+        censor = censor_at if censor is None and cols is None else censor
+        ceil = None
+        if censor is not None:  # censored at the depth the speed may hold (at most ``held``)
+            ceil = np.maximum(np.minimum(censor(speeds), held * (1 + 1e-9)), CHEAPEST_CEILING)
+        cols = every if cols is None else cols
+        both = cols(at, None if ceil is None else np.tile(ceil, offsets.size))
+        depth = np.minimum(safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size).min(axis=0), held)
+        if ceil is not None:
+            # a censored entry is a lower bound ≥ its ceiling: the depth is exact where it lies below the ceiling,
+            # else the limits there are searched to the root (rare: the ceiling is well above the safe depth)
+            short = depth >= ceil * (1 - 2e-9)  # (a safe depth is its order statistic less 1e-9 relative)
+            if short.any():  # the short speeds searched to the root, the others read from memory
+                both = cols(at, np.tile(np.where(short, np.inf, ceil), offsets.size))
+                depth = np.minimum(safe_depth(both, risk, cnt).reshape(offsets.size, speeds.size).min(axis=0), held)
+        return np.where(np.isfinite(depth), depth, 0.0), both[:, :speeds.size]
 
     def best_of(speeds: np.ndarray, support: list[dict] | None) -> tuple[int, np.ndarray, np.ndarray]:
         depth, blim = depths_at(speeds, support)
@@ -836,18 +1021,30 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         speeds = coarse_grid(support)
         step = np.full(SEARCH_POCKETS, speeds[1] - speeds[0])
         sub = offsets if SEARCH_SUBSAMPLE_TOLERANCE else np.zeros(1)
-        depth, blim = depths_at(speeds, support, sub_cols, cnt, sub)
+        m_sub, sub_censor = rows.size, None
+        if SEARCH_CENSOR and sub_cols.censors and speeds.size >= 5:
+            # every other coarse speed to the root (the next test reads those), the ones between censored at a
+            # ceiling from their neighbours (they set only the pockets' depth); so is the pockets' refinement
+            depth, blim = np.zeros(speeds.size), np.zeros((m_sub, speeds.size))
+            depth[::2], blim[:, ::2] = depths_at(speeds[::2], support, sub_cols, cnt, sub)
+            sub_censor = censor_ceilings(sub_cols, cnt, m_sub, speeds[1] - speeds[0])
+            depth[1::2], blim[:, 1::2] = depths_at(speeds[1::2], support, sub_cols, cnt, sub, censor=sub_censor)
+        else:
+            depth, blim = depths_at(speeds, support, sub_cols, cnt, sub)
         top = pockets(depth * speeds, SEARCH_POCKETS)
         best_r, best_d = speeds[top], depth[top]
         for _ in range(SEARCH_REFINE_ROUNDS):  # every pocket's bracket in one engine call per round
             a, b = np.maximum(lo, best_r - step[:top.size]), np.minimum(hi, best_r + step[:top.size])
             cand = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, SEARCH_REFINE_POINTS)[None, :]  # (K, P)
-            d2 = depths_at(cand.ravel(), support, sub_cols, cnt, sub)[0].reshape(cand.shape)
+            d2 = depths_at(cand.ravel(), support, sub_cols, cnt, sub, censor=sub_censor)[0].reshape(cand.shape)
             j = np.argmax(d2 * cand, axis=1)
             k = np.arange(top.size)
             better = d2[k, j] * cand[k, j] > best_d * best_r
             best_r, best_d = np.where(better, cand[k, j], best_r), np.where(better, d2[k, j], best_d)
             step = cand[:, 1] - cand[:, 0]
+        if SEARCH_CENSOR:  # the every-sample stages' ceilings, from the subsample's limits
+            nonlocal censor_at
+            censor_at = censor_ceilings(sub_cols, count, n, speeds[1] - speeds[0])
         # every sample decides among the pockets and the range's ends (where the productivity often peaks, and
         # a subsample's noise hides a rise to the end) and sets the depth
         best = best_bounded(np.concatenate([best_r, [lo, hi]]), support)
@@ -857,6 +1054,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         return speeds, blim, best, rows
 
     # the fast search's subsample (the rows a map of that many reads), its limits shared by both searches
+    censor_at = None  # the every-sample stages' censoring ceilings [mm] at given speeds (the fast search's)
     rows = map_rows(n, SEARCH_SAMPLES, seed) if fast else None
     sub_cols = LimitColumns(post, u[rows], opts, memo) if fast else None
     speeds, blim, best, grid_rows = search(None)
@@ -872,7 +1070,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             if db > 0 and rb * db < rpm_best * depth_best * (1 - 1e-9):
                 rpm_best, depth_best, col, confirmed = rb, db, cb, True
     p_ch = float(np.mean(col <= depth_best))
-    around = every(rpm_best * (1 + offsets))  # the cut's own ±tolerance check (read when it was chosen)
+    # the cut's own ±tolerance check (read when it was chosen), known up to the guarding cuts near it (the warning)
+    near = [g["depth_mm"] for g in guards if abs(rpm_best - g["rpm"]) <= g["half_width_rpm"]]
+    around = every(rpm_best * (1 + offsets), max(max([depth_best, *near]) * (1 + 1e-6), CHEAPEST_CEILING))
     p_worst = float(np.max(np.mean(around <= depth_best, axis=0)))
     bound = None
     if confidence is not None:
@@ -891,6 +1091,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # where the model alone would go at or above a cut that chattered, the data and the model disagree: say so
     model_depth = float(min(safe_depth(around, risk, count).min(), cap))
     conflict = [g for g in guards if abs(rpm_best - g["rpm"]) <= g["half_width_rpm"] and model_depth >= g["depth_mm"]]
+    if conflict and every.censors:  # the depth the warning prints: the limits there to the root
+        model_depth = float(min(safe_depth(every(rpm_best * (1 + offsets)), risk, count).min(), cap))
     if conflict:
         g = min(conflict, key=lambda c: (c["cap_mm"], abs(rpm_best - c["rpm"])))
         warn(f"the posterior allows {model_depth:.3g} mm at {rpm_best:.0f} rpm, but a cut chattered at {g['rpm']:.0f} "
@@ -900,8 +1102,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
     # the next test is sought above the MODEL's cut (with a confirmed recommendation too): the tests that teach
     # the model where it may go, and its own cut when nothing above it is allowed and informative
-    nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]), test_risk=test_risk,
-                   guard=guards, p_chatter_rec=None if confirmed else p_worst, grid_rows=grid_rows)
+    nt = next_test(post, (lo, hi), *model_cut, cap, seed=seed, grid=(speeds[::2], blim[:, ::2]),
+                   test_risk=test_risk, guard=guards, p_chatter_rec=None if confirmed else p_worst, grid_rows=grid_rows)
     if confirmed:
         nt["relative_productivity"] = float(nt["rpm"] * nt["depth_mm"] / max(prod, 1e-300))
         nt["why"] = nt["why"].replace("the recommendation itself", "the model's cut, to be tested before it is "
@@ -1163,7 +1365,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
                    "every condition" + ("" if test_risk is None else f"; at most {test_risk:g} likely to chatter")}
 
 
-__all__ = ["MAP_SAMPLES", "SEARCH_BOUND", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
+__all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SEARCH_CENSOR", "censor_ceilings",
+           "map_ceiling", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
            "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
            "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE", "DISCRIMINATE_CHOICES",

@@ -37,6 +37,26 @@ particles, which is always known. A screen that is −inf (or NaN) somewhere is 
 the cheap model calls impossible). Measured on the docs/updating.md low-immersion case
 (benchmarks/bench_update_accurate.py): about a third of the proposals reach the accurate engine.
 
+Screen-tempered start (``screen_stages``, ``screen_top``; issue 28): in a fresh update with a screen, the prior
+draws and the first stages cost the accurate likelihood n evaluations before any move (~30 % of the spectral
+update's). Instead the first stages temper the screen alone, prior · L̃^α (plain MH moves on it, no accurate
+call), until ``screen_stages`` stages or the exponent ``screen_top``; the accurate L is then evaluated once per
+distinct particle (resampling's duplicates once), and a bridge π ∝ prior · L̃^(top−β) · L^β, β 0 → top, hands over:
+incremental weights (L/L̃)^Δβ with Δβ by the same ESS rule, delayed-acceptance moves on each bridge target (the
+screen prior · L̃^top). Every step is an exact SMC step (an importance reweighting between consecutive targets, a
+move that leaves the current target invariant), the last target is prior · L, and the log evidence is the sum of
+all increments (the screen's and the bridge's). What it costs is Monte-Carlo error, not bias: if the screen's
+tempered posterior misses a region of the accurate one, the bridge's weights collapse (measured: tempering the
+screen to its full posterior, top = 1, left a too-narrow screen's conjugate variance 14–23 % low at 4 000
+particles; docs/updating.md). Two resamplings in a row (the screen's last stage, the bridge's first) count with
+the product of their ESS fractions when the moves are chosen (:func:`stage_moves`).
+
+Surrogate transitions (``screen_steps`` = k > 1; the surrogate transition method of J. S. Liu, Monte Carlo
+Strategies in Scientific Computing, 2001): a delayed-acceptance proposal is the end y of k MH steps on the screen's
+π̃ from x (each with its own random-walk or jump proposal), and the accurate test is min(1, π(y) π̃(x) / (π(x)
+π̃(y))): the k-step chain is π̃-reversible, π̃(x) Q(x, y) = π̃(y) Q(y, x), so this is MH with proposal Q on π,
+exact whatever π̃ is; k = 1 is delayed acceptance itself.
+
 Lobe jumps (``jumps``): the likelihood of labelled cuts is multimodal in the natural frequencies. A lobe
 of index n (n + 1 vibration periods per tooth period, roughly) sits at Ω ≈ 60 f_n/(N (n + ε)), so f_n and
 f_n·(n + 1)/n put lobes n and n + 1 at nearly the same speed: cuts that bracket one lobe are explained by
@@ -122,9 +142,11 @@ class SMCResult:
     def diagnostics(self) -> dict:
         """A JSON-ready summary."""
         moves = "delayed-acceptance MH moves" if self.n_screen else "random-walk MH moves"
+        moved = self.moves or [1] * len(self.acceptance)  # a stage without moves (screen_stages) has no acceptance
         out = {"method": f"adaptive tempered SMC (systematic resampling, {moves})",
                "particles": int(self.u.shape[0]), "stages": self.stages, "betas": self.betas,
-               "ess": self.ess, "acceptance": self.acceptance, "min_acceptance": min(self.acceptance, default=None),
+               "ess": self.ess, "acceptance": self.acceptance,
+               "min_acceptance": min((a for a, m in zip(self.acceptance, moved) if m), default=None),
                "loglik_calls": self.n_loglik, "log_evidence": self.log_evidence, "time_s": self.time_s,
                "moves": self.moves}
         if self.n_screen:
@@ -193,7 +215,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                  max_stages: int = 200, progress: Callable[[str, int, int], None] | None = None,
                  init: np.ndarray | None = None, screen: Batch | None = None,
                  jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE,
-                 adaptive_moves: bool = True) -> SMCResult:
+                 adaptive_moves: bool = True, screen_stages: int = 0, screen_steps: int = 1,
+                 screen_top: float = 1.0) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -215,6 +238,12 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         jump_rate: the share of proposals that are lobe jumps (0 ≤ · < 1), when ``jumps`` is given.
         adaptive_moves: after a reweighting that kept more than the target ESS, fewer moves
             (:func:`stage_moves`); ``False``: ``moves`` at every stage (the sampler before issue 27).
+        screen_stages: with ``screen`` and no ``init``, the first reweightings temper the screen instead of
+            ``loglik`` (a screen-tempered start, module docstring): ``loglik`` first sees the distinct particles
+            after them, and a bridge (L/L̃)^Δ corrects the screen's exponent to the accurate one. 0: off.
+        screen_top: the screen-tempered start's largest exponent (0 < · ≤ 1): it hands over there at the latest.
+        screen_steps: with ``screen``, each move's proposal is the end of this many MH steps on the screen's π̃
+            (a surrogate transition, module docstring), then one accurate test; 1: delayed acceptance.
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -226,6 +255,12 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         raise InputError("moves", moves, "need at least one MH move per stage")
     if not 0 <= jump_rate < 1:
         raise InputError("jump_rate", jump_rate, "must be in [0, 1)")
+    if not (isinstance(screen_stages, (int, np.integer)) and screen_stages >= 0):
+        raise InputError("screen_stages", screen_stages, "need an integer ≥ 0")
+    if not 0 < screen_top <= 1:
+        raise InputError("screen_top", screen_top, "must be in (0, 1]")
+    if not (isinstance(screen_steps, (int, np.integer)) and screen_steps >= 1):
+        raise InputError("screen_steps", screen_steps, "need an integer ≥ 1")
     t0 = time.perf_counter()
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     if init is None:
@@ -240,47 +275,97 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     bounded = getattr(loglik, "bounded", None) if screen is not None and init is None else None
     p = u.shape[1]
     shifts = _jump_shifts(jumps, p) if jump_rate > 0 else None
-    fx, ll = both(u)
-    n_ll, n_sc, n_sets = 1, 0, n
-    if not np.isfinite(ll).any():
-        raise InputError("cuts", "no prior sample explains them",
-                         "every prior draw has likelihood 0: the cuts contradict the prior (check the labels and "
-                         "units, or widen the spreads)")
     lp0 = logprior(u)
-    lp = lp0 + fx  # the untempered part of the target (the prior, and L_old when reusing)
+    # the screen-tempered start (screen_stages): the first reweightings by the screen alone, loglik unknown
+    left = int(screen_stages) if cheap is not None and init is None else 0
     if cheap is not None:  # the screen's own values at the particles (its π̃ at the current states)
         sfx, sll = (_floored(a) for a in cheap(u))
         slp = lp0 + sfx
-        n_sc = 1
-    beta, log_z = 0.0, 0.0
-    betas, esss, accs, passes, n_moved = [0.0], [], [], [], []
+    if left:
+        fx, ll = np.zeros(n), np.full(n, np.nan)
+        n_ll, n_sc, n_sets = 0, 1, 0
+    else:
+        fx, ll = both(u)
+        n_ll, n_sc, n_sets = 1, int(cheap is not None), n
+        if not np.isfinite(ll).any():
+            raise InputError("cuts", "no prior sample explains them",
+                             "every prior draw has likelihood 0: the cuts contradict the prior (check the labels "
+                             "and units, or widen the spreads)")
+    lp = lp0 + fx  # the untempered part of the target (the prior, and L_old when reusing)
+    # the target is prior · L^beta · L̃^alpha (alpha > 0 only in the screen-tempered start and its bridge, which
+    # keeps alpha + beta = top), the screen's π̃ prior · L̃^(alpha + beta)
+    beta, alpha, top, log_z = 0.0, 0.0, 0.0, 0.0
+    betas, esss, accs, passes, n_moved, alphas = [0.0], [], [], [], [], [0.0]
+    distinct = 0
+    unmoved = 1.0  # the ESS fraction of a resampling left without moves (the screen's last stage), carried over
     scale = 2.38**2 / p
     while beta < 1.0 and len(betas) <= max_stages:
-        new = next_beta(ll, beta, ess_target * n)
-        logw = (new - beta) * ll
+        if left:  # a stage of the screen alone: prior · L̃^alpha
+            new = min(next_beta(sll, alpha, ess_target * n), screen_top)
+            logw = (new - alpha) * sll
+        elif alpha > 0:  # the bridge: L̃^alpha L^beta with alpha + beta = top, beta → top
+            t = next_beta(top * (ll - sll), beta / top, ess_target * n)
+            new = top if t >= 1.0 else t * top
+            logw = (new - beta) * (ll - sll)
+        else:
+            new = next_beta(ll, beta, ess_target * n)
+            logw = (new - beta) * ll
         esss.append(ess_of(logw))
         log_z += float(logsumexp(logw) - np.log(n))
         idx = systematic_resample(logw, rng)
         u, ll, lp = u[idx], ll[idx], lp[idx]
         if cheap is not None:
             sll, slp = sll[idx], slp[idx]
-        beta = new
+        if left:
+            alpha = new
+            left -= 1
+            if not left or alpha >= screen_top:  # loglik enters: each distinct particle once, then the bridge
+                left, top = 0, alpha
+                rows, inv = np.unique(u, axis=0, return_inverse=True)
+                f_r, l_r = both(rows)
+                inv = np.asarray(inv).ravel()
+                fx, ll = f_r[inv], l_r[inv]
+                lp = lp + fx
+                n_ll += 1
+                n_sets += rows.shape[0]
+                distinct = int(rows.shape[0])
+                if not np.isfinite(ll).any():
+                    raise InputError("cuts", "no screened sample explains them",
+                                     "every particle of the screen's first stages has likelihood 0 (check the labels "
+                                     "and units, widen the spreads, or use the plain sampler)")
+                betas.append(beta)
+                alphas.append(alpha)
+                n_moved.append(0)
+                accs.append(0.0)
+                passes.append(0.0)
+                unmoved = esss[-1] / n
+                continue  # no move here: the bridge's first reweighting comes first
+        elif alpha > 0:
+            beta, alpha = new, (0.0 if new >= top else top - new)
+        else:
+            beta = new
         betas.append(beta)
+        alphas.append(alpha)
         cov = np.cov(u, rowvar=False).reshape(p, p) + 1e-12 * np.eye(p)
         chol = np.linalg.cholesky(scale * cov)
         prev = scale
         acc = passed = 0.0
-        n_moves = stage_moves(moves, esss[-1], n, ess_target) if adaptive_moves else moves
+        # two resamplings in a row (the screen's last stage, then the bridge's first) duplicate as much as one at
+        # the product of their ESS fractions
+        n_moves = stage_moves(moves, esss[-1] * unmoved, n, ess_target) if adaptive_moves else moves
+        unmoved = 1.0
         n_moved.append(n_moves)
         for _ in range(n_moves):  # each move: one batched likelihood call for all particles (or the screened ones)
-            step = rng.standard_normal((n, p)) @ chol.T
-            jump = np.zeros(n, bool)
-            if shifts is not None:  # the state-independent choice of kernel, then its symmetric proposal
-                jump = rng.random(n) < jump_rate
-                pick = rng.integers(shifts.shape[0], size=n)
-                step = np.where(jump[:, None], shifts[pick], step)
+            step, jump = _step(rng, n, chol, shifts, jump_rate)
             prop = u + step
-            if cheap is None:
+            if left:  # plain MH on the screen's π̃ = prior · L̃^alpha (loglik not known yet)
+                sfx2, sll2 = (_floored(a) for a in cheap(prop))
+                slp2 = logprior(prop) + sfx2
+                n_sc += 1
+                log_a = slp2 + alpha * sll2 - slp - alpha * sll
+                ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
+                u[ok], sll[ok], slp[ok], lp[ok] = prop[ok], sll2[ok], slp2[ok], slp2[ok] - sfx2[ok]
+            elif cheap is None:
                 fx2, ll2 = both(prop)
                 lp2 = logprior(prop) + fx2
                 n_ll += 1
@@ -289,7 +374,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                 ok = np.log(rng.random(n)) < np.nan_to_num(log_a, nan=-np.inf)
                 u[ok], ll[ok], lp[ok] = prop[ok], ll2[ok], lp2[ok]
             else:
-                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded)
+                more = None if screen_steps == 1 else (lambda: _step(rng, n, chol, shifts, jump_rate)[0])
+                ok, m = _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded, alpha,
+                                      screen_steps, more)
                 n_sc += 1
                 n_ll += m > 0
                 n_sets += m
@@ -305,12 +392,16 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         if cheap is not None:
             passes.append(float(passed))
         if progress is not None:
-            progress("update", int(round(1000 * beta)), 1000)
+            progress("update", int(round(1000 * (beta + alpha))), 1000)
     if beta < 1.0:  # never hand back a tempered distribution as if it were the posterior
         raise RuntimeError(f"tempered SMC stopped after {max_stages} stages at beta = {beta:.3g} < 1; raise max_stages "
                            "or the number of particles")
+    extra = {}
+    if screen_stages and cheap is not None and init is None:
+        extra["screen_start"] = {"stages": int(screen_stages), "exponent": float(top), "distinct_rows": distinct,
+                                 "alphas": alphas}
     return SMCResult(u, ll, log_z, betas, esss, accs, n_ll, time.perf_counter() - t0, n_sc, passes, n_sets,
-                     moves=n_moved)
+                     extra, moves=n_moved)
 
 
 def _jump_shifts(jumps, p: int) -> np.ndarray | None:
@@ -329,34 +420,68 @@ def _jump_shifts(jumps, p: int) -> np.ndarray | None:
     return np.array(rows) if rows else None
 
 
-def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded=None) -> tuple[np.ndarray, int]:
+def _step(rng: np.random.Generator, n: int, chol: np.ndarray, shifts, jump_rate: float):
+    """A proposal's steps (n, p) and which are lobe jumps (n,): the random walk's N(0, chol cholᵀ), and where
+    ``shifts`` is given, with probability ``jump_rate`` a uniformly drawn jump row instead (the state-independent
+    choice of kernel, then its symmetric proposal)."""
+    step = rng.standard_normal((n, chol.shape[0])) @ chol.T
+    jump = np.zeros(n, bool)
+    if shifts is not None:
+        jump = rng.random(n) < jump_rate
+        pick = rng.integers(shifts.shape[0], size=n)
+        step = np.where(jump[:, None], shifts[pick], step)
+    return step, jump
+
+
+def _delayed_move(u, ll, lp, sll, slp, prop, beta, logprior, both, cheap, rng, bounded=None,
+                  alpha: float = 0.0, steps: int = 1, more: Callable[[], np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, int]:
     """One delayed-acceptance MH move of every particle, in place (u, ll, lp: the accurate state; sll, slp:
-    the screen's). Stage 1 on the screen π̃_β, stage 2 on π_β/π̃_β for the survivors only (one batched
-    accurate call). ``bounded(v, floor)`` (a fresh update's likelihood, :meth:`Likelihood.bounded`): log L exact
-    where it may clear the floor that stage 2's uniform sets, a value below it elsewhere: the same decisions
-    (accepting needs log L > floor), fewer engine evaluations. Returns the acceptance mask (n,) and the number
-    of survivors of stage 1."""
+    the screen's). Stage 1 on the screen π̃ = prior · L̃^(α+β), stage 2 on π/π̃ for the survivors only (one batched
+    accurate call), π = prior · L^β L̃^α (α > 0 only in the bridge of a screen-tempered start). ``bounded(v,
+    floor)`` (a fresh update's likelihood, :meth:`Likelihood.bounded`): log L exact where it may clear the floor
+    that stage 2's uniform sets, a value below it elsewhere: the same decisions (accepting needs log L > floor),
+    fewer engine evaluations. ``steps`` > 1 (a surrogate transition): stage 1 is that many MH steps on π̃, from
+    ``prop`` and then from the steps ``more()`` draws, and stage 2 tests where that chain ended with the same ratio
+    (the chain is π̃-reversible, so π̃(x) Q(x, y) = π̃(y) Q(y, x)). Returns the acceptance mask (n,) and the number
+    of particles that reached stage 2."""
     n = u.shape[0]
-    lp0 = logprior(prop)
-    sfx2, sll2 = (_floored(a) for a in cheap(prop))
-    slp2 = lp0 + sfx2
-    # stage 1: the cheap target; log_a1 unclipped, because stage 2 divides by the same ratio
-    log_a1 = np.nan_to_num(slp2 + beta * sll2 - slp - beta * sll, nan=-np.inf)
-    go = np.flatnonzero(np.log(rng.random(n)) < log_a1)
+    y, sy, sly = u.copy(), sll.copy(), slp.copy()  # the screen's chain, from x (its log prior py)
+    py = logprior(u) if steps > 1 else None
+    for k in range(steps):
+        if k:
+            prop = y + more()
+        lp0 = logprior(prop)
+        sfx2, sll2 = (_floored(a) for a in cheap(prop))
+        slp2 = lp0 + sfx2
+        # the cheap target's ratio; log_a1 unclipped, because stage 2 divides by the same ratio
+        log_a1 = np.nan_to_num(slp2 + (alpha + beta) * sll2 - sly - (alpha + beta) * sy, nan=-np.inf)
+        step_ok = np.log(rng.random(n)) < log_a1
+        if steps == 1:
+            y, sy, sly = prop, sll2, slp2
+            py, moved = lp0, step_ok
+            break
+        y[step_ok], sy[step_ok], sly[step_ok], py[step_ok] = prop[step_ok], sll2[step_ok], slp2[step_ok], lp0[step_ok]
+        moved = step_ok if not k else moved | step_ok
+    if steps > 1:  # the ratio π̃(y)/π̃(x) of where the chain ended
+        log_a1 = sly + (alpha + beta) * sy - slp - (alpha + beta) * sll
+    go = np.flatnonzero(moved)
     ok = np.zeros(n, bool)
     u2 = rng.random(n)  # drawn for every particle, so the stream does not depend on how many passed
     if go.size:
+        # the screen's part of the target π (the bridge's L̃^α), known at both ends
+        keep = alpha * (sy[go] - sll[go]) if alpha else 0.0
         if bounded is not None and beta > 0:  # the threshold of the test below, solved for log L (fx2 = 0 here)
-            floor = (np.log(u2[go]) - lp0[go] + lp[go] + beta * ll[go] + log_a1[go]) / beta
-            fx2, ll2 = np.zeros(go.size), np.asarray(bounded(prop[go], floor), float)
+            floor = (np.log(u2[go]) - py[go] - keep + lp[go] + beta * ll[go] + log_a1[go]) / beta
+            fx2, ll2 = np.zeros(go.size), np.asarray(bounded(y[go], floor), float)
         else:
-            fx2, ll2 = both(prop[go])
-        lp2 = lp0[go] + fx2
-        log_a = lp2 + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp[go] - beta * ll[go] - log_a1[go]
+            fx2, ll2 = both(y[go])
+        lp2 = py[go] + fx2
+        log_a = lp2 + keep + beta * np.where(np.isfinite(ll2), ll2, -np.inf) - lp[go] - beta * ll[go] - log_a1[go]
         acc = np.log(u2[go]) < np.nan_to_num(log_a, nan=-np.inf)
         j = go[acc]
-        u[j], ll[j], lp[j] = prop[j], ll2[acc], lp2[acc]
-        sll[j], slp[j] = sll2[j], slp2[j]
+        u[j], ll[j], lp[j] = y[j], ll2[acc], lp2[acc]
+        sll[j], slp[j] = sy[j], sly[j]
         ok[j] = True
     return ok, int(go.size)
 

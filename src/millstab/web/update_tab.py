@@ -278,16 +278,20 @@ class UpdateTab:
         except InputError as exc:
             self.map_job.status.text = error_html(str(exc))
             return
-        self.map_condition = api.condition_line(post)
+        # an accurate engine's map reads a seeded subsample (api.map_samples): its error is stated beside it
+        self.map_condition = f"{api.condition_line(post)}; P(stable) from {api.map_samples_text(post)}"
 
         def work(progress):
             depth = api.depth_grid(top, field="map depth up to")
-            pm = api.p_stable(post, rpm, depth)
+            # the map and the recommendation share the limits both read (the map's speeds are the recommendation's
+            # coarse grid; its subsample holds the fast search's): computed once, the same numbers
+            memo = api.limit_memo()
+            pm = api.p_stable(post, rpm, depth, memo=memo)
             span = (float(rpm[0]), float(rpm[-1]))
             if keep:  # recorded with the posterior it came from
                 rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post), **grid)[0]
             else:
-                rec = api.recommend(post, risk, span, **grid)
+                rec = api.recommend(post, risk, span, memo=memo, **grid)
             return rpm, depth, pm, rec
 
         self.map_job.start(work, self.show_map)

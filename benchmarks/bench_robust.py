@@ -38,7 +38,10 @@ posterior, the next cut is :func:`millstab.update.discriminate.conflict_test` (t
 apart) instead of the recommendation's next test. ``--discriminate conflict`` (issue 24) is the product's rule
 instead: recommend's next test is the conflict test while the update names the conflict
 (:func:`millstab.update.decide.next_test_discriminating`; ``--discriminate-rival-lr``: only when the rival fits
-the cuts at least this well, ``=-inf`` always; ``--discriminate-every N``: only in every N-th round).
+the cuts at least this well, ``=-inf`` always; ``--discriminate-every N``: only in every N-th round);
+``--discriminate gain`` the gain test (:func:`millstab.update.decide.next_test_gain`). ``--tails multivariate_t_shift``:
+the multivariate t with the rival "every kind shifted together" component (docs/updating.md, "A rival component and
+the gain test").
 """
 
 from __future__ import annotations
@@ -77,7 +80,8 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--samples", type=int, default=1000)
     ap.add_argument("--tails", default=None,
-                    help="student | normal | mixture | multivariate_t (default: the prior's default)")
+                    help="student | normal | mixture | multivariate_t | multivariate_t_shift (default: the prior's "
+                         "default)")
     ap.add_argument("--k-factor", type=float, default=3.0)
     ap.add_argument("--fn-off", type=float, default=0.20)
     ap.add_argument("--zeta-factor", type=float, default=3.0)
@@ -112,7 +116,8 @@ def parse() -> argparse.Namespace:
                          "that tells them apart (millstab.update.discriminate)")
     ap.add_argument("--discriminate", default="never",
                     help="recommend's next test while the conflict is named: conflict (the conflict test, "
-                         "millstab.update.decide.next_test_discriminating) | never (default: the most informative cut)")
+                         "millstab.update.decide.next_test_discriminating) | gain (the cut expected to raise the "
+                         "recommendation most, next_test_gain) | never (default: the most informative cut)")
     ap.add_argument("--discriminate-every", type=int, default=1,
                     help="--discriminate conflict only in every N-th round (the others: the most informative cut)")
     ap.add_argument("--discriminate-rival-lr", type=float, default=0.0,
@@ -120,6 +125,9 @@ def parse() -> argparse.Namespace:
                          "-inf: always)")
     ap.add_argument("--rival-lr", type=float, default=0.0,
                     help="--conflict-test only when the rival's log likelihood ratio on the cuts so far is ≥ this")
+    ap.add_argument("--shift-scale", type=float, default=None,
+                    help="--tails multivariate_t_shift: the σ of each kind's common shift [spreads] (default: the "
+                         "library's SHIFT_SCALE)")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
@@ -127,7 +135,12 @@ def parse() -> argparse.Namespace:
 
 
 def robust_prior(cfg, args: argparse.Namespace):
-    """The campaigns' prior: the hammer test's (``cfg``) with ``--tails`` and ``--chatter-hz-alias``."""
+    """The campaigns' prior: the hammer test's (``cfg``) with ``--tails`` and ``--chatter-hz-alias`` (and
+    ``--shift-scale``: the rival component's σ of a kind's common shift, set in this process)."""
+    if args.shift_scale is not None:
+        from millstab.update import prior as prior_module
+
+        prior_module.SHIFT_SCALE = args.shift_scale
     prior = make_prior(cfg.structure, cfg.cutting, PriorTable({}, tails=args.tails))
     return prior if args.chatter_hz_alias is None else replace(prior, chatter_hz_alias=args.chatter_hz_alias)
 

@@ -43,7 +43,9 @@ def recommend_cmd(
     discriminate: str = typer.Option("never", "--discriminate",
                                      help="'conflict': while the cuts contradict the hammer test, the next test is "
                                           "the cut that best tells the posterior from the far-off alternative the "
-                                          "cuts fit best (experimental); 'never': the most informative cut."),
+                                          "cuts fit best (experimental); 'gain': while they contradict it, the "
+                                          "cut whose label is expected to raise the recommendation most; 'never': "
+                                          "the most informative cut."),
     search: str = typer.Option("auto", "--search",
                                help="The speed search: 'full' (every posterior sample at every speed), 'fast' (a "
                                     "subsample finds the pockets, every sample sets the depth: the same risk), "

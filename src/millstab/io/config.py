@@ -86,7 +86,7 @@ TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "t
 #: keys of [prior] besides parameter names (fn_x, k_y2, ...), the kinds fn/k/zeta and kt/kr
 PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect", "chatter_hz_alias")
 #: the prior's tails (millstab.update.prior.TAILS)
-PRIOR_TAILS = ("student", "normal", "mixture", "multivariate_t")
+PRIOR_TAILS = ("student", "normal", "mixture", "multivariate_t", "multivariate_t_shift")
 _PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter",
                 "feed_per_tooth")

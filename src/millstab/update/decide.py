@@ -172,7 +172,7 @@ PLACE_MODES_CUTS = 2
 #: is named"): the last recommendation fell from 0.40 to 0.14 of the best cut's productivity (equally safe): the
 #: conflict tests moved the structure towards the truth (campaign 62: fn from 1.2× to 1.02× the truth's) but went to
 #: the low lobes, so the pocket the recommendation needs stayed unexplored
-DISCRIMINATE_CHOICES = ("conflict", "never")
+DISCRIMINATE_CHOICES = ("conflict", "gain", "never")
 DISCRIMINATE = "never"
 #: the conflict test replaces the next test only when its rival fits the cuts so far at least this well: ln of the
 #: mean likelihood ratio of the rival over the posterior (0: at least as well; a rival the cuts already reject is not
@@ -867,7 +867,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
             ``"always"``; ``"never"`` (:data:`CONFIRM`).
         discriminate: ``"conflict"``: while the posterior names a prior–data conflict, the next test is the cut
             that best tells it from the far-off alternative the cuts fit best (:func:`next_test_discriminating`);
-            ``"never"`` (the default, measured: :data:`DISCRIMINATE`): always the most informative cut about θ.
+            ``"gain"``: while a conflict is named, the cut whose label is expected to raise the recommendation's
+            productivity most (:func:`next_test_gain`); ``"never"`` (the default, measured: :data:`DISCRIMINATE`):
+            always the most informative cut about θ.
         discriminate_rival_lr: ... only when the rival fits the cuts at least this well (ln likelihood ratio over
             the posterior; ``-inf``: whenever a cut tells the two apart).
         search: the speed search: ``"full"``, every sample on the coarse grid and in the refinement;
@@ -1117,6 +1119,9 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     elif discriminate == "conflict" and conflict_named(post):
         nt = next_test_discriminating(post, nt, model_cut, (lo, hi), cap, seed=seed, test_risk=test_risk,
                                       guard=guards, reference=prod, min_log_ratio=discriminate_rival_lr)
+    elif discriminate == "gain" and conflict_named(post):
+        nt = next_test_gain(post, nt, model_cut, risk, (speeds[::2], blim[:, ::2]), cap, seed=seed,
+                            test_risk=test_risk, guard=guards, grid_rows=grid_rows, reference=prod)
 
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited, p_worst, bound,
@@ -1154,6 +1159,61 @@ def next_test_discriminating(post: Posterior, nt: dict, model_cut: tuple[float, 
     ct["information_nats"] = ct["divergence_nats"]
     ct["why"] = ("the conflict test: the cuts contradict the hammer test, so " + ct["why"])
     return ct
+
+
+def next_test_gain(post: Posterior, nt: dict, model_cut: tuple[float, float], risk: float,
+                   grid: tuple[np.ndarray, np.ndarray], cap: float = math.inf, *, seed: int = 0,
+                   test_risk: float | None = TEST_RISK, guard: list[dict] = (), grid_rows: np.ndarray | None = None,
+                   reference: float | None = None, n_depth: int = 40) -> dict:
+    """The next test while the posterior names a prior–data conflict: the cut whose label is expected to raise the
+    recommendation's productivity most (a one-step look-ahead, "knowledge gradient"), instead of ``nt``, the most
+    informative cut about θ.
+
+    For each cut of the grid's speeds × ``n_depth`` depths (at most ``test_risk`` likely to chatter, clear of the data
+    guard) the posterior samples are reweighted by each label's likelihood, and the recommendation of each reweighted
+    posterior (the weighted ``risk``-quantile of the limits at each speed, capped, the most productive speed) is
+    averaged over the two labels (:func:`millstab.update._gain.expected_best`). The gain is that average minus the
+    productivity now; the cut with the largest gain is the test. Why (docs/updating.md, "The default prior"): a
+    posterior that contradicts its hammer test is often split between lobe numbers, and the recommendation is held
+    by the minority of samples whose limit is low in the productive pocket; the most informative cut tests where
+    the samples disagree most, often a pocket the truth does not have, while this test asks where a label would
+    lift the recommendation. ``nt`` stands when it tests the recommendation itself (the blind spot, a safety rule)
+    and when no cut has a positive gain. ``grid`` = (speeds (S,), limits (N, S) of ``grid_rows`` or every sample):
+    the limits recommend computed already (no engine call). ``reference``: the recommendation's productivity
+    [mm·rpm], for ``relative_productivity``. The speed tolerance and the confidence bound of :func:`recommend` are
+    left out of the look-ahead (both labels' answers alike)."""
+    from millstab.update._gain import expected_best
+
+    if blind_spot(post, *model_cut) is not None:
+        return nt
+    speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)
+    rows = np.arange(post.u.shape[0]) if grid_rows is None else np.asarray(grid_rows)
+    finite = np.where(np.isfinite(blim), blim, np.nan)
+    if not np.isfinite(finite).any():
+        return nt
+    top = float(np.nanquantile(finite, 0.95))
+    d_hi = min(cap, 1.2 * top) if math.isfinite(cap) else 1.2 * top
+    depths = np.linspace(d_hi / n_depth, d_hi, n_depth)
+    sig = post.prior.sigma_depth_mm(depths)
+    eps, fac = post.label_error[rows], post.sigma_depth_factor[rows]
+    g_cap = guard_cap(list(guard), speeds)
+    e, now = expected_best(blim, speeds, np.minimum(g_cap, cap), np.arange(speeds.size), depths, sig, risk, eps, fac)
+    _, _, p_process = label_information(blim, depths, sig, eps, fac)
+    ok = depths[None, :] < g_cap[:, None]
+    if test_risk is not None:
+        ok &= p_process <= test_risk
+    gain = np.where(ok, e - now, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(gain)), gain.shape)
+    if not gain[i, j] > 1e-9 * max(now, 1e-300):
+        return nt
+    ref = max(reference if reference is not None else model_cut[0] * model_cut[1], 1e-300)
+    return {"rpm": float(speeds[i]), "depth_mm": float(depths[j]), "p_chatter": float(p_process[i, j]),
+            "information_nats": float(nt.get("information_nats", 0.0)), "expected_gain": float(gain[i, j] / ref),
+            "relative_productivity": float(speeds[i] * depths[j] / ref),
+            "why": "the gain test: the cuts contradict the hammer test, so the cut whose label is expected to raise "
+                   f"the recommendation's productivity most (by {gain[i, j] / ref:.1%} of it, averaged over both "
+                   "labels)"
+                   + ("" if test_risk is None else f", at most {test_risk:g} likely to chatter")}
 
 
 def blind_spot(post: Posterior, rpm_rec: float, depth_rec: float) -> str | None:
@@ -1309,7 +1369,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "map_ceiling", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
            "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
-           "next_test_across", "next_test_discriminating", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
+           "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",

@@ -102,6 +102,7 @@ from pathlib import Path
 
 import numba as nb
 import numpy as np
+from scipy.special import ndtri
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -111,7 +112,9 @@ from millstab.io import load_config  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
 from millstab.stability import sdm  # noqa: E402
 from millstab.update import make_prior  # noqa: E402
-from millstab.update.likelihood import Evidence, Likelihood  # noqa: E402
+from millstab.stability import _zoa_kernel as K  # noqa: E402
+from millstab.stability import zoa  # noqa: E402
+from millstab.update.likelihood import CENSOR_TOL, Evidence, Likelihood  # noqa: E402
 from millstab.update.sampler import tempered_smc  # noqa: E402
 
 IMMERSIONS = ((1.0, "down"), (0.5, "down"), (0.5, "up"), (0.25, "down"))
@@ -147,15 +150,74 @@ def campaign(cfg, prior, truth, n_cuts: int, n_cond: int, rng) -> Evidence:
                     np.zeros(0), cut_cond=cond, conditions=conds)
 
 
+def floors(lik: Likelihood, u: np.ndarray, noise: np.ndarray | None) -> np.ndarray:
+    """The FLOOR per (set, column) [mm] (``--census``; the mirror of :meth:`Likelihood.ceilings`): the depth below
+    which no cut's term at that column moves by more than CENSOR_TOL × |w|. A limit b_lim far below a cut, z = (b −
+    b_lim)/(s σ_b) ≫ 0: a chatter term log(1 − ε − (1 − 2ε)Φ(−z)) moves from log(1 − ε) by ≤ 2Φ(−z), a stable term
+    log(ε + (1 − 2ε)Φ(−z)) from log ε by ≤ Φ(−z)/ε, a graded g by ≤ |w| Φ(−z) ((1 − g)/ε + 2g); the column's floor
+    is the lowest of its cuts' b − k s σ_b (−inf with a boundary point, or a stable cut at ε = 0)."""
+    ev = lik.evidence
+    if noise is None:
+        eps, fac = np.full(u.shape[0], float(lik.prior.label_error)), np.ones(u.shape[0])
+    else:
+        eps, fac = lik.prior.noise(noise, u.shape[0])
+    g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per = np.where(g < 1, (1.0 - g) / eps[:, None], 0.0) + 2.0 * g
+        p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
+    k = -ndtri(p)
+    low = ev.cut_depth_mm[None, :] - k * fac[:, None] * lik._sig_c[None, :]
+    out = np.full((u.shape[0], lik.speeds.size), np.inf)
+    np.minimum.at(out.T, lik._ic, low.T)
+    out[:, lik._exact_column] = -np.inf
+    return out
+
+
+def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 3) -> None:
+    """How many (set, column) pairs of the sets ``v`` a floor would skip, and what the scan's certification of them
+    costs (``--census``): the engine alone (one thread, best of ``reps``) plain, censored, and censored with the
+    floored pairs given a tiny ceiling (their speeds then neither set the scan's certification depth nor get a
+    root refined: an upper bound of what any floor can save, since a floored pair still needs one root found)."""
+    p, q = lik.prior.size, lik.prior.dim
+    u, w = v[:, :p], (v[:, p:q] if q > p else None)
+    theta, factor = lik.prior.split(u)
+    batch, kr = lik.prior.par.batch(theta), lik.prior.kr_of(u)
+    cond = lik.prior.cutting if lik._group_conditions[0] is None else lik._group_conditions[0]
+    rpm = zoa.check_rpm(lik.speeds)
+    lik = Likelihood(lik.prior, lik.evidence)  # censoring on (the caller's may have it off)
+    cap = lik.ceilings(u, w) / (1e3 * factor[:, None])  # [m], the engine's own depths
+    plain = zoa.envelope_batch(batch, cond, rpm, kr=kr)
+    fl = floors(lik, u, w) / (1e3 * factor[:, None])
+    floored = plain < fl
+    censored = plain > cap
+    removed = np.where(floored, 1e-12, cap)
+    visited, evals = K.STAT_NAMES.index("segments visited"), K.STAT_NAMES.index("refinement evaluations")
+    cost = {}
+    for name, c in (("plain", None), ("censored", cap), ("censored, floored removed", removed)):
+        st = np.zeros((batch.size, K.N_STATS), dtype=np.int64)
+        zoa._run_modal(batch, cond, rpm, st, kr, c)
+        best = np.inf
+        for _ in range(reps):
+            t = time.process_time()
+            zoa._run_modal(batch, cond, rpm, None, kr, c)
+            best = min(best, time.process_time() - t)
+        cost[name] = best
+        print(f"  {label}, {name}: {1e6 * best / batch.size:.1f} µs CPU per set; per set {st[:, visited].mean():.1f} "
+              f"segments visited, {st[:, evals].mean():.1f} refinement evaluations")
+    print(f"  {label}: of {plain.size} (set, column) pairs {censored.mean():.0%} censored, {floored.mean():.0%} "
+          f"would be floored (limit below every cut's saturation depth); a floor saves at most "
+          f"{1 - cost['censored, floored removed'] / cost['censored']:.1%} of the censored engine's CPU")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=4000)
     ap.add_argument("--cuts", type=int, default=40)
     ap.add_argument("--conditions", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--censor", action="store_true",
-                    help="also run both updates with the likelihood censoring the limits above each cut's ceiling "
-                         "(Likelihood.ceilings, zoa's censored search; a what-if: not enabled for zoa yet)")
+    ap.add_argument("--census", action="store_true",
+                    help="also count, on each censored update's posterior, the (set, column) pairs a floor would "
+                         "skip and the engine CPU that would save at most")
     ap.add_argument("--fixed-moves", action="store_true",
                     help="also run both updates with 3 moves at every stage (the sampler before the adaptive "
                          "moves), interleaved in the same run")
@@ -165,29 +227,30 @@ def main() -> None:
     prior = make_prior(cfg.structure, cfg.cutting)
     rng = np.random.default_rng(1)
     truth = prior.par.structure(prior.split(prior.sample(1, rng))[0][0])
-    runs, liks, fixed, censored = {}, {}, {}, {}
+    runs, liks, fixed, censored, posts = {}, {}, {}, {}, {}
     with threadpool_limits(1):
         evs = {n_cond: campaign(cfg, prior, truth, args.cuts, n_cond, np.random.default_rng(2))
                for n_cond in (1, args.conditions)}
-        variants = [("adaptive", True, False)]
+        # plain: every limit searched to its root (the likelihood's censoring off); censored: the default since
+        # zoa takes a ceiling (issue 27), exact, so the same particles bit for bit (checked below)
+        variants = [("adaptive, plain", True, False), ("adaptive, censored", True, True)]
         if args.fixed_moves:
-            variants.append(("fixed 3", False, False))
-        if args.censor:
-            variants.append(("adaptive, censored", True, True))
+            variants.append(("fixed 3, plain", False, False))
         for label, adaptive, censor in variants:
             for n_cond, ev in evs.items():
                 lik = TimedLikelihood(prior, ev)
-                if censor:  # a what-if: zoa.envelope_batch takes a ceiling, the likelihood does not ask it to yet
-                    lik._censor = True
+                lik._censor = censor and lik._censor
                 lik(prior.sample_full(64, rng))  # warm-up: compilation or cache load
                 lik.engine_wall = lik.engine_cpu = 0.0
-                lik.n_sets = lik.n_calls = 0
+                lik.n_sets = lik.n_calls = lik.n_censored = 0
                 t, c = time.perf_counter(), time.process_time()
                 res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, args.samples, seed=args.seed,
                                    adaptive_moves=adaptive)
                 wall, cpu = time.perf_counter() - t, time.process_time() - c
                 d = res.diagnostics()
                 (censored if censor else runs if adaptive else fixed)[n_cond] = (wall, cpu, lik.engine_cpu, lik.n_sets)
+                if adaptive:
+                    posts[(n_cond, censor)] = res.u
                 if adaptive and not censor:
                     liks[n_cond] = lik
                 print(f"{args.cuts} cuts in {n_cond} condition(s), {label} moves, "
@@ -195,12 +258,17 @@ def main() -> None:
                       f"{nb.get_num_threads()}); engine calls {lik.engine_wall:.2f} s wall = "
                       f"{lik.engine_wall / wall:.0%}, {lik.engine_cpu:.2f} s CPU = {lik.engine_cpu / cpu:.0%}; "
                       f"{d['stages']} stages, {lik.n_calls} "
-                      f"engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU per set)")
+                      f"engine calls, {lik.n_sets} sets ({1e6 * lik.engine_cpu / lik.n_sets:.0f} µs CPU per set)"
+                      + (f", {lik.n_censored / (lik.n_sets * lik.speeds.size):.0%} of the entries censored"
+                         if censor else ""))
                 # the information the data carry (nats): the ESS rule's stage count grows with it
                 ess = ', '.join(f'{e / args.samples:.2f}' for e in res.ess)
                 print(f"  KL(posterior || prior) {np.mean(res.loglik) - res.log_evidence:.1f} nats; betas "
                       f"{', '.join(f'{b:.3g}' for b in res.betas)}; ESS/N {ess}; moves {res.moves}; acceptance "
                       f"{', '.join(f'{a:.2f}' for a in res.acceptance)}")
+        for n_cond in evs:
+            same = np.array_equal(posts[(n_cond, False)], posts[(n_cond, True)])
+            print(f"{n_cond} condition(s): the censored update's particles are the plain one's bit for bit: {same}")
         # the engine alone on the same prior draws, interleaved (1, n, 1, n, ...): the per-set cost of the
         # conditions without the data-dependent stage count, robust to the load drifting between the updates
         u = prior.sample_full(args.samples, np.random.default_rng(3))
@@ -213,16 +281,23 @@ def main() -> None:
         print(f"engine alone on {args.samples} prior draws (best of 3, interleaved): {best[1]:.2f} s CPU (1 "
               f"condition), {best[args.conditions]:.2f} s CPU ({args.conditions}): ratio "
               f"{best[args.conditions] / best[1]:.2f}")
+        if args.census:
+            prev = nb.get_num_threads()
+            nb.set_num_threads(1)
+            try:
+                for n_cond, lik in liks.items():
+                    census(lik, posts[(n_cond, True)], f"{n_cond} condition(s), posterior")
+            finally:
+                nb.set_num_threads(prev)
     (w1, c1, e1, s1), (w4, c4, e4, s4) = runs[1], runs[args.conditions]
-    print(f"ratio {args.conditions} conditions / 1 (target <= 1.5): {w4 / w1:.2f} wall, {c4 / c1:.2f} CPU; "
+    print(f"plain: ratio {args.conditions} conditions / 1 (target <= 1.5): {w4 / w1:.2f} wall, {c4 / c1:.2f} CPU; "
           f"engine CPU per set {(e4 / s4) / (e1 / s1):.2f}")
-    if censored:
-        (_, k1, g1, n1), (_, k4, g4, n4) = censored[1], censored[args.conditions]
-        print(f"censored (the same run): ratio {k4 / k1:.2f} CPU, engine CPU per set {(g4 / n4) / (g1 / n1):.2f}; "
-              f"censored / not: {k1 / c1:.2f} CPU (1 condition), {k4 / c4:.2f} ({args.conditions})")
+    (_, k1, g1, n1), (_, k4, g4, n4) = censored[1], censored[args.conditions]
+    print(f"censored (the same run): ratio {k4 / k1:.2f} CPU, engine CPU per set {(g4 / n4) / (g1 / n1):.2f}; "
+          f"censored / plain: {k1 / c1:.2f} CPU (1 condition), {k4 / c4:.2f} ({args.conditions})")
     if fixed:
         (_, f1, _, _), (_, f4, _, _) = fixed[1], fixed[args.conditions]
-        print(f"fixed 3 moves: ratio {f4 / f1:.2f} CPU; adaptive / fixed CPU: {c1 / f1:.2f} (1 condition), "
+        print(f"fixed 3 moves, plain: ratio {f4 / f1:.2f} CPU; adaptive / fixed CPU: {c1 / f1:.2f} (1 condition), "
               f"{c4 / f4:.2f} ({args.conditions})")
 
 

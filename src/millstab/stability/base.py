@@ -31,7 +31,7 @@ CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchan
 #: capabilities of :class:`Engine` (each declared or checked with ``hasattr``/``engine_with``); any other public
 #: function of an engine module (``rho_map``, ``monodromy``, …) is the engine's own (tests/test_layers.py)
 OPTIONAL = ("per_set_kr", "process_damping", "settings", "split_settings", "envelope_batch_hz", "lobes",
-            "reports_multipliers", "critical_multipliers", "takes_ceiling")
+            "reports_multipliers", "critical_multipliers", "takes_ceiling", "likelihood_ceiling")
 
 #: the ``"schema"`` of :meth:`Envelope.to_json`
 ENVELOPE_SCHEMA = "millstab.envelope/1"
@@ -199,8 +199,12 @@ class Engine(Protocol):
             ``engine_with(reports_multipliers=True)``, never an engine by name.
         takes_ceiling: ``envelope_batch`` takes ``ceiling=`` (B, S) [m], a censored search: where every depth of
             the search up to one at or above the ceiling is stable it returns that depth, a certified lower bound
-            of the limit, instead of the limit (spectral; read by the updating's likelihood, whose label terms no
+            of the limit, instead of the limit (spectral; with per-column conditions too; read by the decisions and
+            the updating's likelihood, whose label terms no
             longer change above it: :meth:`millstab.update.likelihood.Likelihood.ceilings`).
+        likelihood_ceiling: ``envelope_batch`` takes ``ceiling=`` as above and only the updating's likelihood uses it,
+            not the decisions (zoa: it returns the ceiling itself above it; a cheap engine whose decisions read each
+            limit once from their memo).
     """
 
     name: str
@@ -248,9 +252,10 @@ def by_condition(entry: Callable) -> Callable:
     """Let an engine entry point written for one Cutting (``entry(batch, cutting, rpm, ...)``) take a
     :class:`~millstab.model.Conditions`: the columns are grouped by condition, each group is one call of
     ``entry`` on its own speeds (a kernel that works speed by speed does the same work as one call),
-    and the results are put back in column order. Array results (B, S) and tuples of them are assembled
-    column by column; a dict (``settings``/``split_settings``) is merged by :func:`merge_settings`. A
-    plain Cutting goes straight through (the same numbers, bit for bit)."""
+    and the results are put back in column order (a ``ceiling=`` (B, S) goes to each group by its columns).
+    Array results (B, S) and tuples of them are assembled column by column; a dict
+    (``settings``/``split_settings``) is merged by :func:`merge_settings`. A plain Cutting goes straight
+    through (the same numbers, bit for bit)."""
 
     @functools.wraps(entry)
     def grouped(batch, cutting, rpm, *args, **kwargs):
@@ -260,7 +265,13 @@ def by_condition(entry: Callable) -> Callable:
             return entry(batch, cutting, rpm, *args, **kwargs)
         r = check_rpm(rpm)
         cutting.check_columns(r.size)
-        parts = [(cols, entry(batch, c, r[cols], *args, **kwargs)) for c, cols in cutting.groups()]
+        # a censored search's ceiling (B, S) is per column: each group gets its own columns' (``takes_ceiling``)
+        cap = check_ceiling(kwargs.pop("ceiling", None), batch.size, r.size)
+
+        def own(cols):
+            return kwargs if cap is None else {**kwargs, "ceiling": cap[:, cols]}
+
+        parts = [(cols, entry(batch, c, r[cols], *args, **own(cols))) for c, cols in cutting.groups()]
         first = parts[0][1]
         if isinstance(first, dict):
             return merge_settings([p for _, p in parts], f"{getattr(entry, '__module__', '')}.{entry.__name__}")

@@ -120,8 +120,9 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     sample: the same numbers whichever samples share a call. ``options``: the engine's discretisation of a
     fresh model (:func:`millstab.forward.engine_options`; a posterior's
     :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
-    ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling``, one
-    Cutting, no client, no frequencies): above it a depth is only a certified lower bound of the limit.
+    ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling`` or
+    ``likelihood_ceiling``, one Cutting or per-column conditions, no client, no frequencies): above it a depth is only
+    a certified lower bound of the limit.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_kr_engine(prior, engine)
@@ -454,11 +455,12 @@ class Likelihood:
         self.n_decided = 0
         self.n_entries_saved = 0
         self._column_cost = np.zeros(self.speeds.size)
-        # censored limits (:meth:`ceilings`): an engine that takes a ceiling, one condition, no cluster, no terms
+        # censored limits (:meth:`ceilings`): an engine that takes a ceiling (``takes_ceiling``, or zoa's
+        # ``likelihood_ceiling``; per (set, column), so under several conditions too: issue 27), no cluster, no terms
         # that read more than the depth relative to the cuts' (chatter frequencies), no test-day columns
-        self._censor = (bool(getattr(get_engine(engine), "takes_ceiling", False)) and client is None
-                        and not self.uses_frequency and self.batch is None
-                        and all(c is None for c in self._group_conditions))
+        eng = get_engine(engine)
+        self._censor = (bool(getattr(eng, "takes_ceiling", False) or getattr(eng, "likelihood_ceiling", False))
+                        and client is None and not self.uses_frequency and self.batch is None)
         # columns holding a boundary point (a Gaussian term: it never saturates) are never censored
         self._exact_column = np.zeros(self.speeds.size, bool)
         self._exact_column[self._ip] = True

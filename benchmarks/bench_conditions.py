@@ -89,8 +89,20 @@ with the likelihood's ceilings forced on and zoa's censored search, in the same 
 7.60 s CPU (2.65×), censored 2.81 and 6.64 s (**2.37×**; 0.98× and 0.87× of plain), the same stages, β and
 acceptance.
 
+Round 6 (2026-11-27, load 4–6, ``--samples 4000 --census``, two runs): the censoring is on (zoa's
+``likelihood_ceiling``, under several conditions too); every run now times both updates plain (the likelihood's
+censoring off) and censored, and checks that their particles are the same bit for bit (True, both runs). Plain
+2.61 / 2.80 s CPU in one condition, 7.09 / 7.80 in four (**2.72× / 2.79×**); censored 2.43 / 2.77 and 6.01 / 7.03
+(**2.48× / 2.54×**), engine 2.34 → 2.09× per set; 5 against 6 stages (14 against 18 engine calls, KL 4.8 against
+8.1 nats). ``--census`` on each censored posterior (4 000 sets, one thread, interleaved best of 5): one condition
+29.9 µs per set plain, 28.7 censored, 33 % of the (set, column) pairs censored, 15 % floorable; four 77.3 plain, 71.1
+censored (segments visited 134 → 115, refinement evaluations 70 → 47), 49 % censored, 26 % floorable. A floor
+(:func:`floors`) saves at most 4.5 % (one) and 3.1 % (four) of the censored engine's CPU (the floored pairs given a
+tiny ceiling: 115 → 108 segments, 47 → 30 refinement evaluations): a floored speed's limit is low, so it never sets
+how far the scan certifies. Not built.
+
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]
-[--fixed-moves] [--censor]``.
+[--fixed-moves] [--census]``.
 """
 
 from __future__ import annotations
@@ -102,7 +114,6 @@ from pathlib import Path
 
 import numba as nb
 import numpy as np
-from scipy.special import ndtri
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -114,7 +125,7 @@ from millstab.stability import sdm  # noqa: E402
 from millstab.update import make_prior  # noqa: E402
 from millstab.stability import _zoa_kernel as K  # noqa: E402
 from millstab.stability import zoa  # noqa: E402
-from millstab.update.likelihood import CENSOR_TOL, Evidence, Likelihood  # noqa: E402
+from millstab.update.likelihood import Evidence, Likelihood  # noqa: E402
 from millstab.update.sampler import tempered_smc  # noqa: E402
 
 IMMERSIONS = ((1.0, "down"), (0.5, "down"), (0.5, "up"), (0.25, "down"))
@@ -155,29 +166,21 @@ def floors(lik: Likelihood, u: np.ndarray, noise: np.ndarray | None) -> np.ndarr
     which no cut's term at that column moves by more than CENSOR_TOL × |w|. A limit b_lim far below a cut, z = (b −
     b_lim)/(s σ_b) ≫ 0: a chatter term log(1 − ε − (1 − 2ε)Φ(−z)) moves from log(1 − ε) by ≤ 2Φ(−z), a stable term
     log(ε + (1 − 2ε)Φ(−z)) from log ε by ≤ Φ(−z)/ε, a graded g by ≤ |w| Φ(−z) ((1 − g)/ε + 2g); the column's floor
-    is the lowest of its cuts' b − k s σ_b (−inf with a boundary point, or a stable cut at ε = 0)."""
-    ev = lik.evidence
-    if noise is None:
-        eps, fac = np.full(u.shape[0], float(lik.prior.label_error)), np.ones(u.shape[0])
-    else:
-        eps, fac = lik.prior.noise(noise, u.shape[0])
-    g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        per = np.where(g < 1, (1.0 - g) / eps[:, None], 0.0) + 2.0 * g
-        p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
-    k = -ndtri(p)
-    low = ev.cut_depth_mm[None, :] - k * fac[:, None] * lik._sig_c[None, :]
+    is the lowest of its cuts' b − k s σ_b (:meth:`Likelihood.saturation_depths`; −inf with a boundary point, or a
+    stable cut at ε = 0)."""
+    low = lik.saturation_depths(u, noise, above=False)
     out = np.full((u.shape[0], lik.speeds.size), np.inf)
     np.minimum.at(out.T, lik._ic, low.T)
     out[:, lik._exact_column] = -np.inf
     return out
 
 
-def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 3) -> None:
+def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 5) -> None:
     """How many (set, column) pairs of the sets ``v`` a floor would skip, and what the scan's certification of them
-    costs (``--census``): the engine alone (one thread, best of ``reps``) plain, censored, and censored with the
-    floored pairs given a tiny ceiling (their speeds then neither set the scan's certification depth nor get a
-    root refined: an upper bound of what any floor can save, since a floored pair still needs one root found)."""
+    costs (``--census``): the engine alone (one thread, best of ``reps`` interleaved) plain, censored, and censored
+    with the floored pairs given a tiny ceiling (their speeds then neither set the scan's certification depth nor
+    get a root refined: an upper bound of what any floor can save, since a floored pair still needs one root
+    found)."""
     p, q = lik.prior.size, lik.prior.dim
     u, w = v[:, :p], (v[:, p:q] if q > p else None)
     theta, factor = lik.prior.split(u)
@@ -192,18 +195,18 @@ def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 3) -> None:
     censored = plain > cap
     removed = np.where(floored, 1e-12, cap)
     visited, evals = K.STAT_NAMES.index("segments visited"), K.STAT_NAMES.index("refinement evaluations")
-    cost = {}
-    for name, c in (("plain", None), ("censored", cap), ("censored, floored removed", removed)):
-        st = np.zeros((batch.size, K.N_STATS), dtype=np.int64)
-        zoa._run_modal(batch, cond, rpm, st, kr, c)
-        best = np.inf
-        for _ in range(reps):
+    variants = (("plain", None), ("censored", cap), ("censored, floored removed", removed))
+    cost = dict.fromkeys((n for n, _ in variants), np.inf)
+    for _ in range(reps):  # interleaved (plain, censored, removed, plain, ...): robust to the load drifting
+        for name, c in variants:
             t = time.process_time()
             zoa._run_modal(batch, cond, rpm, None, kr, c)
-            best = min(best, time.process_time() - t)
-        cost[name] = best
-        print(f"  {label}, {name}: {1e6 * best / batch.size:.1f} µs CPU per set; per set {st[:, visited].mean():.1f} "
-              f"segments visited, {st[:, evals].mean():.1f} refinement evaluations")
+            cost[name] = min(cost[name], time.process_time() - t)
+    for name, c in variants:
+        st = np.zeros((batch.size, K.N_STATS), dtype=np.int64)
+        zoa._run_modal(batch, cond, rpm, st, kr, c)
+        print(f"  {label}, {name}: {1e6 * cost[name] / batch.size:.1f} µs CPU per set; per set "
+              f"{st[:, visited].mean():.1f} segments visited, {st[:, evals].mean():.1f} refinement evaluations")
     print(f"  {label}: of {plain.size} (set, column) pairs {censored.mean():.0%} censored, {floored.mean():.0%} "
           f"would be floored (limit below every cut's saturation depth); a floor saves at most "
           f"{1 - cost['censored, floored removed'] / cost['censored']:.1%} of the censored engine's CPU")

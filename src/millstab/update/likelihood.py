@@ -497,23 +497,32 @@ class Likelihood:
         are computed by :func:`limits` without a ceiling."""
         if not self._censor:
             return None
-        ev = self.evidence
-        if noise is None:
-            eps, fac = np.full(u.shape[0], float(self.prior.label_error)), np.ones(u.shape[0])
-        else:
-            eps, fac = self.prior.noise(noise, u.shape[0])
-        g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, n_cuts): Φ(z)'s factor, per |w|
-            p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
-        k = -ndtri(p)  # p = 0 (ε = 0 and a chatter label): k = ∞
-        top = ev.cut_depth_mm[None, :] + k * fac[:, None] * self._sig_c[None, :]
+        top = self.saturation_depths(u, noise, above=True)
         cap = np.full((u.shape[0], self.speeds.size), -np.inf)
         np.maximum.at(cap.T, self._ic, top.T)
         cap[:, self._exact_column] = np.inf
         # no cut and no point at a column cannot happen (the columns are the data's); the margin covers the
         # engine's root brackets (a limit at least the certified depth to 1e-6)
         return np.where(np.isfinite(cap), cap * (1.0 + 1e-5), np.inf)
+
+    def saturation_depths(self, u: np.ndarray, noise: np.ndarray | None, above: bool = True) -> np.ndarray:
+        """Per row of u (B, P) and cut, the depth [mm] beyond which the cut's term moves by at most :data:`CENSOR_TOL`
+        × |w| (B, n_cuts): ``above`` b + k s σ_b (a limit above it: :meth:`ceilings`), else b − k s σ_b (a limit
+        below it: the mirror, a chatter term's (1 − g) and a stable term's g swapped; ``benchmarks/
+        bench_conditions.py --census``). ±inf where a term never saturates (ε = 0 and that label)."""
+        ev = self.evidence
+        if noise is None:
+            eps, fac = np.full(u.shape[0], float(self.prior.label_error)), np.ones(u.shape[0])
+        else:
+            eps, fac = self.prior.noise(noise, u.shape[0])
+        g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
+        g = g if above else 1.0 - g
+        with np.errstate(divide="ignore", invalid="ignore"):
+            per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, n_cuts): Φ(±z)'s factor, per |w|
+            p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
+        k = -ndtri(p)  # p = 0 (ε = 0 and a chatter label): k = ∞
+        sign = 1.0 if above else -1.0
+        return ev.cut_depth_mm[None, :] + sign * k * fac[:, None] * self._sig_c[None, :]
 
     def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None, cap: np.ndarray | None = None):
         """Limits (B, n) [mm] (and chatter frequencies, or ``None``) of rows u = ln θ (B, P) at the data's

@@ -178,9 +178,9 @@ def floors(lik: Likelihood, u: np.ndarray, noise: np.ndarray | None) -> np.ndarr
 def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 5) -> None:
     """How many (set, column) pairs of the sets ``v`` a floor would skip, and what the scan's certification of them
     costs (``--census``): the engine alone (one thread, best of ``reps`` interleaved) plain, censored, and censored
-    with the floored pairs given a tiny ceiling (their speeds then neither set the scan's certification depth nor
-    get a root refined: an upper bound of what any floor can save, since a floored pair still needs one root
-    found)."""
+    with the floored pairs given a tiny ceiling (their speeds then no longer set how far the scan certifies; their
+    candidates are still refined, as the censored search decides that by the estimates, not the ceiling, since
+    round 6: before, this variant refined none of them either, an upper bound of what a floor could save)."""
     p, q = lik.prior.size, lik.prior.dim
     u, w = v[:, :p], (v[:, p:q] if q > p else None)
     theta, factor = lik.prior.split(u)
@@ -208,7 +208,7 @@ def census(lik: Likelihood, v: np.ndarray, label: str, reps: int = 5) -> None:
         print(f"  {label}, {name}: {1e6 * cost[name] / batch.size:.1f} µs CPU per set; per set "
               f"{st[:, visited].mean():.1f} segments visited, {st[:, evals].mean():.1f} refinement evaluations")
     print(f"  {label}: of {plain.size} (set, column) pairs {censored.mean():.0%} censored, {floored.mean():.0%} "
-          f"would be floored (limit below every cut's saturation depth); a floor saves at most "
+          f"would be floored (limit below every cut's saturation depth); their tiny ceilings save "
           f"{1 - cost['censored, floored removed'] / cost['censored']:.1%} of the censored engine's CPU")
 
 

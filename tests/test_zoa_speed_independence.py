@@ -160,3 +160,20 @@ def test_a_censored_search_returns_the_limit_below_the_ceiling_and_the_ceiling_a
     for bad in (ceiling[:, :3], np.where(below, np.nan, ceiling), np.zeros_like(ceiling)):
         with pytest.raises(InputError, match="ceiling"):
             zoa.envelope_batch(batch, cond, rpm, ceiling=bad)
+
+
+def test_a_censored_search_refines_a_root_whose_estimate_lies_far_below_it():
+    """A prior draw of the issue-27 benchmark (Example 1's x mode at ζ 0.011, its y mode at ζ 0.128, a/D 0.25 down
+    milling, 6 710 rpm) whose limiting root's linear estimate is ~40 % below its 1/b: the search without a ceiling
+    refines it as its speed's best estimate; the censored one refined only estimates within REFINE_MARGIN of the
+    ceiling's 1/b, so with a ceiling 1-30 % above the limit it returned the ceiling (log L off by 4.3 in that
+    update). Fails on the old kernel; the refinement now compares estimates with estimates, as without a ceiling."""
+    s = Structure(x=(Mode(950.5317641234421, 14734958.269829692, 0.01065330229328504),),
+                  y=(Mode(1077.4178596823203, 15342223.805677295, 0.12843850201811602),))
+    cut = Cutting(2, 556.31e6, 0.404, 2.0943951023931957, math.pi)
+    batch = ModalBatch.from_structures([s])
+    rpm = np.array([6710.0])
+    free = zoa.envelope_batch(batch, cut, rpm)
+    for f in (1.01, 1.1, 1.2185, 1.3, 1.5, 3.0):
+        np.testing.assert_array_equal(zoa.envelope_batch(batch, cut, rpm, ceiling=free * f), free)
+    np.testing.assert_array_equal(zoa.envelope_batch(batch, cut, rpm, ceiling=free * 0.99), free * 0.99)

@@ -1138,10 +1138,12 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
     ``stats``: an int64 array of N_STATS work counts to add to (size 0: none are counted).
     ``ceiling`` (S,) [m] (size 0: none; inf: none for that speed): a censored search. A depth above the
     ceiling is a root with Re ν below f = 2π/(N Kt ceiling), so each speed's estimate starts at f: the scan
-    then certifies only down to f (the segments it skips, and the candidates it leaves unrefined, lie below
-    f·REFINE_MARGIN and f as they do below a found estimate), and where no refined root reaches f the speed
-    gets the ceiling itself (lobe −1, frequency NaN), a lower bound of its limit; where one does, the same
-    limit as without a ceiling (the refined candidates are a subset of those, holding its root).
+    then certifies only down to f (the segments it skips lie below f/REFINE_MARGIN as they do below a found
+    estimate), and where no refined root reaches f the speed gets the ceiling itself (lobe −1, frequency NaN), a
+    lower bound of its limit; where one does, the same limit as without a ceiling. Which candidates are refined
+    is decided by the best ESTIMATE among them, as without a ceiling, not by f: a root above f can have a linear
+    estimate more than REFINE_MARGIN below f (a lobe tip; tests/test_zoa_speed_independence.py holds one), and
+    deciding by f returned the ceiling there (issue 27).
     """
     counting = stats.size > 0
     scale = TWO_PI / (n_teeth * kt)
@@ -1155,11 +1157,19 @@ def envelope_on_grid(w, G, a, n_teeth, kt, rpm, md, measured, depth, lobe, wc, s
     best_inv = np.zeros(n_s)
     best_k = np.full(n_s, -1, dtype=np.int64)
     best_w = np.full(n_s, np.nan)
-    # refine exactly only the crossings whose estimate is near the best estimate at their speed
+    # refine exactly only the crossings whose estimate is near the best estimate at their speed; censored, the best
+    # ESTIMATE (not the ceiling's 1/b, which est starts at): a root at or above that 1/b can have a linear estimate
+    # more than REFINE_MARGIN below it (a lobe tip), and the search without a ceiling refines it as the best estimate
+    thr = est
+    if floor.size:
+        thr = np.zeros(n_s)
+        for c in range(c_j.size):
+            if c_g[c] > thr[c_j[c]]:
+                thr[c_j[c]] = c_g[c]
     gab = np.empty((2, 4), dtype=np.complex128)
     for c in range(c_j.size):
         j = c_j[c]
-        if c_g[c] * REFINE_MARGIN < est[j]:
+        if c_g[c] * REFINE_MARGIN < thr[j]:
             continue
         br = c_seg[c] // n_w
         i = c_seg[c] - br * n_w

@@ -95,6 +95,9 @@ BOUND_ROUNDS = (2, 3)
 #: a censored limit's largest effect on one cut's log-likelihood term, per unit weight (:meth:`Likelihood.ceilings`):
 #: far below float resolution of a log-likelihood of order 1–100 (an ulp there is 2e-16–1.4e-14)
 CENSOR_TOL = 1e-15
+#: a censored term the same to the last bit (:meth:`Likelihood.saturation_depths` ``bits``): Φ(−k) ≤ this ×
+#: ε min(|ln ε|, 1), a change below half an ulp of the saturated value (2⁻⁵⁴ of it) with a factor 4 to spare
+SATURATED_BITS = 2.0 ** -56
 #: fewer rows than this go through one call: each round is an engine call with a fixed cost of a few ms (OMP
 #: passive); measured on the docs/updating.md case, a 30-sample update (~10 survivors per move) took 1.15× the CPU
 #: with rounds, a 300-sample one (~70 per move) 1.05–1.14× less
@@ -461,6 +464,9 @@ class Likelihood:
         eng = get_engine(engine)
         self._censor = (bool(getattr(eng, "takes_ceiling", False) or getattr(eng, "likelihood_ceiling", False))
                         and client is None and not self.uses_frequency and self.batch is None)
+        # an engine whose limits below a ceiling are the same bits as without one (zoa): ceilings where every term
+        # is saturated to the last bit, so log L, and the sampler's particles, are the same bit for bit
+        self._censor_bits = bool(getattr(eng, "likelihood_ceiling", False))
         # columns holding a boundary point (a Gaussian term: it never saturates) are never censored
         self._exact_column = np.zeros(self.speeds.size, bool)
         self._exact_column[self._ip] = True
@@ -492,12 +498,15 @@ class Likelihood:
         its term never saturates). The engine then stops the search once every depth up to one at or above the
         column's largest b + k s σ_b is stable (:func:`millstab.stability.spectral.envelope_batch`'s ``ceiling``)
         and returns that depth: both it and the true limit give every term within CENSOR_TOL |w| of its value at
-        b_lim = ∞, so log L moves by at most 2 CENSOR_TOL Σ|w| (~1e-14). Only the log-likelihood reads these
-        depths (:meth:`__call__`, :meth:`bounded`, :meth:`split`); the posterior's limits, maps and predictions
-        are computed by :func:`limits` without a ceiling."""
+        b_lim = ∞, so log L moves by at most 2 CENSOR_TOL Σ|w| (~1e-14). With an engine whose limits below the
+        ceiling are the same bits as without one (zoa's ``likelihood_ceiling``, which returns the ceiling itself above
+        it) the ceilings are raised until every term there is saturated to the last bit (:meth:`saturation_depths`'s
+        ``bits``, ~0.5–0.9 s σ_b higher): log L is then the same bit for bit, and so is every particle of an update
+        (issue 27). Only the log-likelihood reads these depths (:meth:`__call__`, :meth:`bounded`, :meth:`split`);
+        the posterior's limits, maps and predictions are computed by :func:`limits` without a ceiling."""
         if not self._censor:
             return None
-        top = self.saturation_depths(u, noise, above=True)
+        top = self.saturation_depths(u, noise, above=True, bits=self._censor_bits)
         cap = np.full((u.shape[0], self.speeds.size), -np.inf)
         np.maximum.at(cap.T, self._ic, top.T)
         cap[:, self._exact_column] = np.inf
@@ -505,21 +514,32 @@ class Likelihood:
         # engine's root brackets (a limit at least the certified depth to 1e-6)
         return np.where(np.isfinite(cap), cap * (1.0 + 1e-5), np.inf)
 
-    def saturation_depths(self, u: np.ndarray, noise: np.ndarray | None, above: bool = True) -> np.ndarray:
+    def saturation_depths(self, u: np.ndarray, noise: np.ndarray | None, above: bool = True,
+                          bits: bool = False) -> np.ndarray:
         """Per row of u (B, P) and cut, the depth [mm] beyond which the cut's term moves by at most :data:`CENSOR_TOL`
         × |w| (B, n_cuts): ``above`` b + k s σ_b (a limit above it: :meth:`ceilings`), else b − k s σ_b (a limit
         below it: the mirror, a chatter term's (1 − g) and a stable term's g swapped; ``benchmarks/
-        bench_conditions.py --census``). ±inf where a term never saturates (ε = 0 and that label)."""
+        bench_conditions.py --census``). ±inf where a term never saturates (ε = 0 and that label).
+
+        ``bits``: beyond it the term is also the same to the last bit (:data:`SATURATED_BITS`): its part that tends
+        to log ε moves by ≤ Φ(−k)(1/ε + 1) and the part that tends to log(1 − ε) by ≤ 2Φ(−k), and a change below half
+        an ulp of the value, ≥ 2⁻⁵⁴ |value|, rounds away (log_ndtr, logaddexp and the sums in :func:`cut_loglik`),
+        so Φ(−k) ≤ 2⁻⁵⁶ ε min(|ln ε|, 1) (k ≈ 8.9 at ε = 2 % against 8.0–8.4; a held ε = 0: never)."""
         ev = self.evidence
         if noise is None:
             eps, fac = np.full(u.shape[0], float(self.prior.label_error)), np.ones(u.shape[0])
         else:
             eps, fac = self.prior.noise(noise, u.shape[0])
         g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
-        g = g if above else 1.0 - g
+        g = g if above else 1.0 - g  # the weight of the part that tends to log ε
         with np.errstate(divide="ignore", invalid="ignore"):
             per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, n_cuts): Φ(±z)'s factor, per |w|
             p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
+            if bits:
+                e = eps[:, None]
+                far = np.where(g > 0, e * np.abs(np.log(e)), np.inf)  # the part tending to log ε
+                near = np.where(g < 1, e, np.inf)  # the part tending to log(1 − ε)
+                p = np.minimum(p, SATURATED_BITS * np.minimum(far, near))
         k = -ndtri(p)  # p = 0 (ε = 0 and a chatter label): k = ∞
         sign = 1.0 if above else -1.0
         return ev.cut_depth_mm[None, :] + sign * k * fac[:, None] * self._sig_c[None, :]

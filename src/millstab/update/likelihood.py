@@ -508,7 +508,10 @@ class Likelihood:
             return None
         top = self.saturation_depths(u, noise, above=True, bits=self._censor_bits)
         cap = np.full((u.shape[0], self.speeds.size), -np.inf)
-        np.maximum.at(cap.T, self._ic, top.T)
+        order = np.argsort(self._ic, kind="stable")  # each column's largest over its cuts (reduceat: ~5x maximum.at)
+        cols, starts = np.unique(self._ic[order], return_index=True)
+        if cols.size:
+            cap[:, cols] = np.maximum.reduceat(top[:, order], starts, axis=1)
         cap[:, self._exact_column] = np.inf
         # no cut and no point at a column cannot happen (the columns are the data's); the margin covers the
         # engine's root brackets (a limit at least the certified depth to 1e-6)
@@ -530,17 +533,20 @@ class Likelihood:
             eps, fac = np.full(u.shape[0], float(self.prior.label_error)), np.ones(u.shape[0])
         else:
             eps, fac = self.prior.noise(noise, u.shape[0])
-        g, w = ev.cut_grade[None, :], np.abs(ev.cut_weight)[None, :]
+        # k depends on a cut only through its (grade, |weight|): computed per distinct pair (two or three in a
+        # campaign instead of one per cut: the ceilings were ~3 µs per set and call, ~8 % of a one-condition engine)
+        pairs, inv = np.unique(np.stack([ev.cut_grade, np.abs(ev.cut_weight)]), axis=1, return_inverse=True)
+        g, w = pairs[0][None, :], pairs[1][None, :]
         g = g if above else 1.0 - g  # the weight of the part that tends to log ε
         with np.errstate(divide="ignore", invalid="ignore"):
-            per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, n_cuts): Φ(±z)'s factor, per |w|
+            per = np.where(g > 0, g / eps[:, None], 0.0) + 2.0 * (1.0 - g)  # (B, pairs): Φ(±z)'s factor, per |w|
             p = np.clip(CENSOR_TOL / (w * per), 0.0, 0.5)
             if bits:
                 e = eps[:, None]
                 far = np.where(g > 0, e * np.abs(np.log(e)), np.inf)  # the part tending to log ε
                 near = np.where(g < 1, e, np.inf)  # the part tending to log(1 − ε)
                 p = np.minimum(p, SATURATED_BITS * np.minimum(far, near))
-        k = -ndtri(p)  # p = 0 (ε = 0 and a chatter label): k = ∞
+        k = -ndtri(p)[:, np.asarray(inv).ravel()]  # p = 0 (ε = 0 and a chatter label): k = ∞
         sign = 1.0 if above else -1.0
         return ev.cut_depth_mm[None, :] + sign * k * fac[:, None] * self._sig_c[None, :]
 

@@ -89,17 +89,18 @@ with the likelihood's ceilings forced on and zoa's censored search, in the same 
 7.60 s CPU (2.65×), censored 2.81 and 6.64 s (**2.37×**; 0.98× and 0.87× of plain), the same stages, β and
 acceptance.
 
-Round 6 (2026-11-27, load 4–6, ``--samples 4000 --census``, two runs): the censoring is on (zoa's
-``likelihood_ceiling``, under several conditions too); every run now times both updates plain (the likelihood's
-censoring off) and censored, and checks that their particles are the same bit for bit (True, both runs). Plain
-2.61 / 2.80 s CPU in one condition, 7.09 / 7.80 in four (**2.72× / 2.79×**); censored 2.43 / 2.77 and 6.01 / 7.03
-(**2.48× / 2.54×**), engine 2.34 → 2.09× per set; 5 against 6 stages (14 against 18 engine calls, KL 4.8 against
-8.1 nats). ``--census`` on each censored posterior (4 000 sets, one thread, interleaved best of 5): one condition
-29.9 µs per set plain, 28.7 censored, 33 % of the (set, column) pairs censored, 15 % floorable; four 77.3 plain, 71.1
-censored (segments visited 134 → 115, refinement evaluations 70 → 47), 49 % censored, 26 % floorable. A floor
-(:func:`floors`) saves at most 4.5 % (one) and 3.1 % (four) of the censored engine's CPU (the floored pairs given a
-tiny ceiling: 115 → 108 segments, 47 → 30 refinement evaluations): a floored speed's limit is low, so it never sets
-how far the scan certifies. Not built.
+Round 6 (2026-11-27, ``--samples 4000 --census``, load 5–6): the censoring is on (zoa's ``likelihood_ceiling``,
+under several conditions too); every run times both updates plain (the likelihood's censoring off) and censored and
+checks that their particles are the same bit for bit (True; it was False at 300 samples until zoa's ceilings
+saturated every term to the last bit and its censored search refined by the best estimate, not the ceiling: see
+docs/updating.md). Plain 2.51 s CPU in one condition, 6.49 in four (**2.59×**); censored 2.53 and 6.28 (**2.48×**;
+0.97× of plain in four conditions, 0.93× in another run); 5 against 6 stages (14 against 18 engine calls, KL 4.8
+against 8.1 nats). ``--census`` on each censored posterior (4 000 sets, one thread, interleaved best of 5): one
+condition 30.5 µs per set plain, 30.6 censored; four 73.3 plain, 70.4 censored (segments visited 134 → 116,
+refinement evaluations 70 → 68); 30 % and 47 % of the (set, column) pairs censored, 15 % and 26 % floorable. A
+floor (:func:`floors`) was not built: with the search before the refinement fix, which also skipped the floored
+pairs' refinement, their tiny ceilings saved at most 4.5 % (one condition) and 3.1 % (four) of the censored
+engine's CPU: a floored speed's limit is low, so it never sets how far the scan certifies.
 
 Run: ``.venv/bin/python benchmarks/bench_conditions.py [--samples 4000] [--cuts 40] [--conditions 4]
 [--fixed-moves] [--census]``.

@@ -297,7 +297,7 @@ depth_accuracy = 1e-6
 per_set_kr = True
 #: ``envelope_batch(..., ceiling=(B, S))`` is a censored search (below the ceiling the same bits as without one, above
 #: it the ceiling itself, with one Cutting or per-column conditions), and the updating's likelihood uses it (issue 27:
-#: the same particles, 0.87-0.92x the CPU of an update over cuts in four conditions, docs/updating.md). Not
+#: the same particles, 0.93-0.97x the CPU of an update over cuts in four conditions, docs/updating.md). Not
 #: ``takes_ceiling``, which also censors the decisions (maps, recommendations): for this cheap engine they read
 #: each (sample, speed) limit once from their memo (tests/test_decide_columns.py), and a map censored at its top
 #: depth would be searched again by the next decision; not measured to pay

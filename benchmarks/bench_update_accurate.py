@@ -65,6 +65,14 @@ default and of each ``--screen-stages`` / ``--screen-chain`` setting, each run's
 ``--study-reference``-sample posterior of the sampler before (seed 1 000), in its sd: single runs cannot tell two
 samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds here).
 
+``--anchor-compare``: also the spectral update with the anchored screen switched the other way
+(:data:`millstab.update.ANCHORED`: the zero-order limits of each proposal times the current particle's own spectral /
+zero-order ratio per speed column, :func:`millstab.update.sampler.tempered_smc`'s ``anchored``), in the same run: both
+ratios to the zero-order update, CPU and wall, and the two posteriors compared; with ``--seed-study`` the anchored
+setting joins the study. With ``--breakdown`` each spectral run prints its accurate sets per phase (the distinct
+particles where the spectral engine enters, the bridge's moves, each later stage's moves) and the proposals the
+second stage rejected.
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -291,6 +299,27 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = (
             print(f"  {k}: accurate sets {np.mean(v):.0f} per run")
 
 
+def phases(d: dict, n: int) -> None:
+    """Print the spectral update's accurate sets per phase: where the spectral engine entered (every particle, or the
+    distinct ones after a screen-tempered start), the bridge's moves (α > 0), each later stage's moves; with the
+    proposals that passed the screen and the second stage's rejections."""
+    alphas = d.get("screen_start", {}).get("alphas", [0.0] * len(d["betas"]))
+    start = d.get("screen_start", {}).get("distinct_rows", n)
+    rows = [f"start {start}"]
+    tot = [0.0, 0.0, 0.0]
+    for k, (b, a, m, p, acc) in enumerate(zip(d["betas"][1:], alphas[1:], d["moves"], d.get("screen_pass", []),
+                                              d["acceptance"]), 1):
+        if b <= 0 or not m:
+            continue
+        passed, accepted = p * m * n, acc * m * n
+        tot = [tot[0] + passed, tot[1] + accepted, tot[2] + m * n]
+        rows.append(f"{'bridge' if a > 0 else 'stage'} {k} (beta {b:.3g}, {m} moves): {passed:.0f} passed, "
+                    f"{accepted:.0f} accepted, {passed - accepted:.0f} rejected by stage 2")
+    print(f"  phases: {'; '.join(rows)}; moves' proposals {tot[2]:.0f}, passed {tot[0]:.0f} ({tot[0] / tot[2]:.3f}), "
+          f"accepted {tot[1]:.0f}, stage 2 rejected {tot[0] - tot[1]:.0f} ({(tot[0] - tot[1]) / max(tot[0], 1):.2f} "
+          f"of the passed); accurate sets per accepted move {tot[0] / max(tot[1], 1):.2f}")
+
+
 def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
     """Print the difference of two posteriors' means and 5/50/95 % quantiles of each ln θ in sd units."""
     for j, nm in enumerate(names):
@@ -324,21 +353,24 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
     """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
     screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
     5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile)."""
-    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS)
+    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top = args.screen_top or base[1]
-    plan = ([("before (0 screen stages)", (0, top, 1), 3), (f"now ({base[0]} stages, top {base[1]:g})", base, 3)]
-            + [(f"{k} screen stages, top {top:g}", (k, top, 1), 3) for k in stages]
-            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1])),
+    plan = ([("before (0 screen stages, not anchored)", (0, top, 1, False), 3),
+             (f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
+            + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
+               if args.anchor_compare else [])
+            + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
+            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
 
     def run(setting, moves, n, seed):
-        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = setting
+        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
         try:
             return timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine="spectral", prior=prior, moves=moves))
         finally:
-            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = base
+            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
 
-    ref = np.log(run((0, top, 1), 3, args.study_reference, 1000)[0].samples)
+    ref = np.log(run((0, top, 1, False), 3, args.study_reference, 1000)[0].samples)
     sd = ref.std(0)
     print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
           f"reference (the sampler before, seed 1000); errors in reference sd")
@@ -401,6 +433,8 @@ def main() -> None:
                     "sampler before, the default and each --screen-stages / --screen-chain setting against one "
                     "reference")
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
+    ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
+                    "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -441,11 +475,14 @@ def main() -> None:
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
                 + ([("spectral", "near")] if args.near is not None else [])
-                + [("spectral", f"screen{k}") for k in stages]
+                + ([("spectral", "flip-anchor")] if args.anchor_compare else [])
+        + [("spectral", f"screen{k}") for k in stages]
                 + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
         default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
+        default_anchor = upd.ANCHORED
         for eng, smp in plan:
+            upd.ANCHORED = (not default_anchor) if smp == "flip-anchor" else default_anchor
             upd.SCREEN_TOP = args.screen_top if args.screen_top and smp.startswith(("screen", "chain")) else default_top
             upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
                 stages[0] if smp.startswith("chain") and stages else default_stages)
@@ -456,7 +493,7 @@ def main() -> None:
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near")
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near", "flip-anchor")
                     or smp.startswith(("screen", "chain")) else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
@@ -489,6 +526,8 @@ def main() -> None:
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
                       f"{d.get('censored_entries', 0)}")
+            if counts["calls"]:
+                phases(d, args.samples)
             if "screen_start" in d:
                 st = d["screen_start"]
                 print(f"  screen-tempered start: {st['stages']} stages of the zero-order screen to exponent "
@@ -539,6 +578,14 @@ def main() -> None:
         print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
               f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
         compare(g[0].u, s[0].u, names, "surrogate - delayed")
+    if args.anchor_compare:
+        g = runs["spectral", "flip-anchor"]
+        new, old = (s, g) if default_anchor else (g, s)
+        print(f"anchored screen: ratio to zoa {new[1] / z[1]:.1f} wall, {new[2] / z[2]:.1f} CPU; the sampler before it "
+              f"{old[1] / z[1]:.1f} wall, {old[2] / z[2]:.1f} CPU; anchored saves {old[1] / new[1]:.2f}x wall, "
+              f"{old[2] / new[2]:.2f}x CPU, accurate sets {old[0].diagnostics['engine_sets']} -> "
+              f"{new[0].diagnostics['engine_sets']}")
+        compare(new[0].u, old[0].u, names, "anchored - before")
     for k in stages:
         g = runs["spectral", f"screen{k}"]
         print(f"screen-tempered start, {k} stages: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the "

@@ -55,6 +55,10 @@ SCREEN_TOP = 0.5
 #: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed
 #: acceptance)
 SCREEN_STEPS = 1
+#: delayed acceptance's screen anchored at each particle (:func:`tempered_smc`'s ``anchored``: the zero-order limits of
+#: the proposal times the particle's own accurate / zero-order ratio per data column, a state-dependent screen), in a
+#: fresh update without measured chatter frequencies (docs/updating.md, "An anchored screen")
+ANCHORED = False
 
 
 def screen_engine(engine: str, sampler: str = "auto") -> str | None:
@@ -165,7 +169,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     elif start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if scr is not None else 0,
-                           screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP)
+                           screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP,
+                           anchored=ANCHORED and scr is not None and SCREEN_STEPS == 1 and not lik.uses_frequency)
     else:
         n_old = _check_start(start, pr, ev, engine, dict(lik.options))
         rng = np.random.default_rng(seed)

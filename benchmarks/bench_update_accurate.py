@@ -359,6 +359,8 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
              (f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
             + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
                if args.anchor_compare else [])
+            + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
+               for m in args.anchor_moves]
             + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
             + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
@@ -372,8 +374,11 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
 
     ref = np.log(run((0, top, 1, False), 3, args.study_reference, 1000)[0].samples)
     sd = ref.std(0)
+    zoa = np.mean([timed(lambda seed=seed: update(cfg, cuts, samples=args.samples, seed=seed, engine="zoa",
+                                                  prior=prior))[2] for seed in range(args.seed_study)])
     print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
-          f"reference (the sampler before, seed 1000); errors in reference sd")
+          f"reference (the sampler before, seed 1000); errors in reference sd; the zero-order update's CPU {zoa:.3f} s "
+          f"(mean over the seeds)")
     for label, setting, moves in plan:
         rows = []
         for seed in range(args.seed_study):
@@ -385,8 +390,9 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
             rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, post.diagnostics["engine_sets"], cpu, n_side, n_label))
         err = np.array([r[0] for r in rows])
         per = np.round(np.sqrt((err**2).mean(0)), 2)
-        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {np.mean([r[3] for r in rows]):.2f} "
-              f"s, RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
+        cpu = np.mean([r[3] for r in rows])
+        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {cpu:.2f} s (ratio to zero-order "
+              f"{cpu / zoa:.1f}), RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
               f"worst quantile error {np.mean([r[1] for r in rows]):.2f} (mean over seeds), max "
               f"{max(r[1] for r in rows):.2f}; "
               f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
@@ -435,6 +441,8 @@ def main() -> None:
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
     ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
                     "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
+    ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
+                    help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()

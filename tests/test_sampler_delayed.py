@@ -381,6 +381,7 @@ def test_an_anchored_screen_gives_the_accurate_posterior_and_evidence(g, stages)
     np.testing.assert_allclose(res.loglik, _loglik(res.u))  # the accurate log L of the returned particles
     plain = tempered_smc(_prior_draws, _logprior, acc, n, seed=1, moves=4, screen=scr, screen_stages=stages,
                          screen_top=0.5)
+    assert res.diagnostics()["anchored_screen"] and "anchored_screen" not in plain.diagnostics()
     assert res.n_sets < plain.n_sets  # the anchor passes fewer proposals that the accurate test rejects
     alone = tempered_smc(_prior_draws, _logprior, scr, n, seed=1, moves=4)
     assert np.all(np.abs(alone.u.mean(0) - MEAN) > 1.5 * 4 * (np.sqrt(VAR / n) * 4).max())  # the screen: far off
@@ -451,3 +452,31 @@ def test_update_with_the_anchored_screen_plumbing(monkeypatch):
         np.testing.assert_array_equal(a.samples, b.samples)
         assert a.diagnostics["screen_sets"] > a.diagnostics["engine_sets"] > 300
     assert seen == [True, True, False, False]
+
+
+def test_the_anchored_screen_with_the_bounded_stage_gives_the_same_particles():
+    """The same seed with the Likelihood's bounded second stage and without it (a wrapper whose ``depths`` ignores
+    the floor): identical particles, log-likelihoods and accurate limits, and some rows decided early."""
+    from test_sampler_bounded import _case
+
+    prior, cuts = _case()
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    c = prior.cutting
+    scr = Likelihood(dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt)), ev)
+
+    class Full:  # no ``bounded``: every survivor at every column
+        def depths(self, v, floor=None):
+            return lik.depths(v)
+
+        def loglik_at(self, v, d):
+            return lik.loglik_at(v, d)
+
+        def __call__(self, v):
+            return lik(v)
+
+    a = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 300, seed=5, screen=scr, anchored=True)
+    b = tempered_smc(prior.sample_full, prior.logpdf_full, Full(), 300, seed=5, screen=scr, anchored=True)
+    np.testing.assert_array_equal(a.u, b.u)
+    np.testing.assert_array_equal(a.loglik, b.loglik)
+    assert a.betas == b.betas and lik.n_decided > 0

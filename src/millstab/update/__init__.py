@@ -58,7 +58,7 @@ SCREEN_STEPS = 1
 #: delayed acceptance's screen anchored at each particle (:func:`tempered_smc`'s ``anchored``: the zero-order limits of
 #: the proposal times the particle's own accurate / zero-order ratio per data column, a state-dependent screen), in a
 #: fresh update without measured chatter frequencies (docs/updating.md, "An anchored screen")
-ANCHORED = False
+ANCHORED = True
 
 
 def screen_engine(engine: str, sampler: str = "auto") -> str | None:
@@ -111,7 +111,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             (:func:`millstab.cluster.sample_limits`); the same seed gives the same posterior.
         sampler: ``auto``, ``delayed``, ``plain`` or ``surrogate`` (:data:`SAMPLERS`): with ``delayed`` (the
             default for every engine but ``zoa``) the zero-order engine screens each MH proposal and the chosen
-            engine decides only on the survivors (delayed acceptance; a fresh update's first stages temper the
+            engine decides only on the survivors (delayed acceptance, the screen anchored at each particle by its
+            own accurate / zero-order limit ratio where :data:`ANCHORED`; a fresh update's first stages temper the
             zero-order likelihood alone, up to :data:`SCREEN_TOP`, and a bridge hands over); with ``surrogate`` the
             sampler runs on the zero-order limits times a correction fitted on :data:`SURROGATE_DESIGN` accurate
             evaluations, and the chosen engine evaluates the final particles once and corrects the answer by

@@ -457,7 +457,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
     if beta < 1.0:  # never hand back a tempered distribution as if it were the posterior
         raise RuntimeError(f"tempered SMC stopped after {max_stages} stages at beta = {beta:.3g} < 1; raise max_stages "
                            "or the number of particles")
-    extra = {}
+    extra = {"anchored_screen": True} if anchored else {}  # the diagnostics say which screen decided the moves
     if screen_stages and cheap is not None and init is None:
         extra["screen_start"] = {"stages": int(screen_stages), "exponent": float(top), "distinct_rows": distinct,
                                  "alphas": alphas}

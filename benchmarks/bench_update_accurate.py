@@ -349,10 +349,38 @@ def before_issue_28(on: bool):
         likelihood.SAMPLING, Likelihood.__init__ = "sample", init
 
 
+_WARM: list = []  # the seed study's process has run both engines once
+
+
+def _study_run(task: tuple) -> tuple:
+    """One run of the seed study (a process pool's task, or inline): the update of ``task`` = (cfg, cuts, prior,
+    engine, (screen stages, top, steps, anchored), moves, samples, seed, threads) -> (ln samples, accurate sets, CPU
+    [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ evaluations)."""
+    cfg, cuts, prior, engine, setting, moves, n, seed, threads = task
+    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
+    if threads:
+        nb.set_num_threads(threads)
+    if not _WARM:  # a fresh worker: load the engines' compiled code outside the timings
+        for eng in ("zoa", "spectral"):
+            update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        _WARM.append(True)
+    upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
+    try:
+        with threadpool_limits(1), spectral_counts(engine == "spectral") as counts:
+            post, _, cpu = timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine=engine, prior=prior,
+                                                moves=moves))
+    finally:
+        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
+    n_side, n_label, _ = explained(post, cuts) if engine != "zoa" else (0, 0, [])
+    return np.log(post.samples), post.diagnostics.get("engine_sets", 0), cpu, n_side, n_label, counts["evals"]
+
+
 def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
     """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
     screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
-    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile)."""
+    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile).
+    ``--jobs J`` > 1: the runs in a pool of J processes (spawned, each numba on one thread, so each run's CPU is one
+    thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
     base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top = args.screen_top or base[1]
     plan = ([("before (0 screen stages, not anchored)", (0, top, 1, False), 3),
@@ -364,35 +392,37 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
             + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
             + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
+    threads = 1 if args.jobs > 1 else 0
+    seeds = range(args.seed_study)
+    tasks = ([(cfg, cuts, prior, "spectral", (0, top, 1, False), 3, args.study_reference, 1000, threads)]
+             + [(cfg, cuts, prior, "zoa", base, 3, args.samples, s, threads) for s in seeds]
+             + [(cfg, cuts, prior, "spectral", setting, moves, args.samples, s, threads)
+                for _, setting, moves in plan for s in seeds])
+    if args.jobs > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
-    def run(setting, moves, n, seed):
-        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
-        try:
-            return timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine="spectral", prior=prior, moves=moves))
-        finally:
-            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
-
-    ref = np.log(run((0, top, 1, False), 3, args.study_reference, 1000)[0].samples)
-    sd = ref.std(0)
-    zoa = np.mean([timed(lambda seed=seed: update(cfg, cuts, samples=args.samples, seed=seed, engine="zoa",
-                                                  prior=prior))[2] for seed in range(args.seed_study)])
+        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            out = list(pool.map(_study_run, tasks))
+    else:
+        out = [_study_run(t) for t in tasks]
+    ref, sd = out[0][0], out[0][0].std(0)
+    zoa = np.mean([o[2] for o in out[1:1 + len(seeds)]])
     print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
           f"reference (the sampler before, seed 1000); errors in reference sd; the zero-order update's CPU {zoa:.3f} s "
-          f"(mean over the seeds)")
-    for label, setting, moves in plan:
+          f"(mean over the seeds); {args.jobs} process(es)")
+    for k, (label, _, _) in enumerate(plan):
         rows = []
-        for seed in range(args.seed_study):
-            post, _, cpu = run(setting, moves, args.samples, seed)
-            u = np.log(post.samples)
+        for u, sets, cpu, n_side, n_label, evals in out[1 + len(seeds) * (k + 1):1 + len(seeds) * (k + 2)]:
             dq = max(np.abs((np.quantile(u, q, axis=0) - np.quantile(ref, q, axis=0)) / sd).max()
                      for q in (0.05, 0.5, 0.95))
-            n_side, n_label, _ = explained(post, cuts)
-            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, post.diagnostics["engine_sets"], cpu, n_side, n_label))
+            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, sets, cpu, n_side, n_label, evals))
         err = np.array([r[0] for r in rows])
         per = np.round(np.sqrt((err**2).mean(0)), 2)
         cpu = np.mean([r[3] for r in rows])
-        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {cpu:.2f} s (ratio to zero-order "
-              f"{cpu / zoa:.1f}), RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
+        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, spectral evaluations "
+              f"{np.mean([r[6] for r in rows]):.0f}, CPU {cpu:.2f} s (ratio to zero-order {cpu / zoa:.1f}), RMS mean "
+              f"error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
               f"worst quantile error {np.mean([r[1] for r in rows]):.2f} (mean over seeds), max "
               f"{max(r[1] for r in rows):.2f}; "
               f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
@@ -441,6 +471,7 @@ def main() -> None:
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
     ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
                     "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
+    ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
     ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
@@ -473,6 +504,7 @@ def main() -> None:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        _WARM.append(True)
         if args.seed_study:
             seed_study(cfg, cuts, prior, names, args, stages, chains)
             return

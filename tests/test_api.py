@@ -62,8 +62,8 @@ def test_bad_speeds_name_the_field(spec, says):
 @pytest.mark.slow
 def test_cli_csv_is_the_services_csv(tmp_path):
     out = tmp_path / "sld.csv"
-    assert main(["lobes", "example:ex2", "--rpm", "4000:12000:400", "--compare", "sdm", "--out", str(out)]) == 0
-    result = api.lobes(api.config("example:ex2"), api.speeds("4000:12000:400"), compare="sdm")
+    assert main(["lobes", "example:ex2", "--rpm", "4000:12000:2000", "--compare", "sdm", "--out", str(out)]) == 0
+    result = api.lobes(api.config("example:ex2"), api.speeds("4000:12000:2000"), compare="sdm")
     assert out.read_text() == result.csv()
     header = result.csv().splitlines()[0]
     assert header == "rpm,blim_mm,lobe,chatter_hz,blim_mm_sdm"

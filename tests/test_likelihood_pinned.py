@@ -19,11 +19,11 @@ from millstab.update import make_prior
 from millstab.update.likelihood import limits, sample_depths
 
 
-def _case(spreads: dict):
+def _case(spreads: dict, low_rpm: float = 5000.0):
     cfg = load_config("example:ex1")
     prior = make_prior(cfg.structure, cfg.cutting, PriorTable(spreads))
     u = prior.sample(12, np.random.default_rng(3))
-    rpm = np.linspace(5000.0, 12000.0, 6)
+    rpm = np.linspace(low_rpm, 12000.0, 6)
     other = Cutting(2, cfg.cutting.kt, cfg.cutting.kr, 0.0, math.pi / 3)  # half immersion beside the slot
     return prior, u, rpm, Conditions.of((cfg.cutting, other), np.arange(rpm.size) % 2)
 
@@ -52,7 +52,7 @@ def test_sdm_limits_are_the_whole_batch_call_and_a_part_pinned_on_the_whole_give
     """sdm chooses its steps from the batch's highest natural frequency: the likelihood's pinned model is the
     engine's own call on all samples, and five samples evaluated under it (a cluster task's share) give those
     rows exactly; alone, with their own choice, they need not (why the cluster pins on the client)."""
-    prior, u, rpm, cond = _case({})
+    prior, u, rpm, cond = _case({}, low_rpm=8000.0)  # (sdm's steps grow as the speed falls: 25 s from 5 000 rpm)
     sdm = get_engine("sdm")
     whole = sdm.envelope_batch(prior.par.batch(prior.split(u)[0]), cond, rpm) * 1e3
     depth, hz = limits(prior, u, rpm, "sdm", conditions=cond)

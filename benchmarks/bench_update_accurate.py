@@ -357,7 +357,8 @@ def _study_run(task: tuple) -> tuple:
     engine, (screen stages, top, steps, anchored), moves, samples, seed, threads) -> (ln samples, accurate sets, CPU
     [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ evaluations)."""
     cfg, cuts, prior, engine, setting, moves, n, seed, threads = task
-    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
+    setting, target = (setting[:4], setting[4]) if len(setting) > 4 else (setting, smc.ACCEPT_TARGET)
+    base, base_target = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED), smc.ACCEPT_TARGET
     if threads:
         nb.set_num_threads(threads)
     if not _WARM:  # a fresh worker: load the engines' compiled code outside the timings
@@ -365,12 +366,14 @@ def _study_run(task: tuple) -> tuple:
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         _WARM.append(True)
     upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
+    smc.ACCEPT_TARGET = target
     try:
         with threadpool_limits(1), spectral_counts(engine == "spectral") as counts:
             post, _, cpu = timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine=engine, prior=prior,
                                                 moves=moves))
     finally:
         upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
+        smc.ACCEPT_TARGET = base_target
     n_side, n_label, _ = explained(post, cuts) if engine != "zoa" else (0, 0, [])
     return np.log(post.samples), post.diagnostics.get("engine_sets", 0), cpu, n_side, n_label, counts["evals"]
 
@@ -389,6 +392,8 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
                if args.anchor_compare else [])
             + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
                for m in args.anchor_moves]
+            + [(f"{base[0]} stages, top {base[1]:g}, anchored, acceptance target {t:g}, {m} moves a stage",
+                (*base[:3], True, t), m) for t, m in args.accept_moves]
             + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
             + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
@@ -474,6 +479,10 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
     ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
+    ap.add_argument("--accept-moves", type=lambda t: [(float(x.split(":")[0]), int(x.split(":")[1]))
+                                                      for x in t.split(",") if x.strip()], default=[],
+                    help="with --seed-study: also the anchored screen with the MH acceptance target T and M moves a "
+                    "stage, T:M (comma-separated; sampler.ACCEPT_TARGET)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()

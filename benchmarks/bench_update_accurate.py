@@ -72,6 +72,10 @@ ratios to the zero-order update, CPU and wall, and the two posteriors compared; 
 setting joins the study. With ``--breakdown`` each spectral run prints its accurate sets per phase (the distinct
 particles where the spectral engine enters, the bridge's moves, each later stage's moves) and the proposals the
 second stage rejected.
+``--anchor-moves M[,...]`` and ``--accept-moves T:M[,...]`` (with ``--seed-study``): also the anchored screen with M
+moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.sampler.ACCEPT_TARGET`) and M
+moves. ``--jobs J``: the seed study's runs in a pool of J spawned processes, numba on one thread each, every run
+seeded by its own index (the same numbers for any J; its CPU times are one thread's).
 
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default

@@ -65,6 +65,18 @@ default and of each ``--screen-stages`` / ``--screen-chain`` setting, each run's
 ``--study-reference``-sample posterior of the sampler before (seed 1 000), in its sd: single runs cannot tell two
 samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds here).
 
+``--anchor-compare``: also the spectral update with the anchored screen switched the other way
+(:data:`millstab.update.ANCHORED`: the zero-order limits of each proposal times the current particle's own spectral /
+zero-order ratio per speed column, :func:`millstab.update.sampler.tempered_smc`'s ``anchored``), in the same run: both
+ratios to the zero-order update, CPU and wall, and the two posteriors compared; with ``--seed-study`` the anchored
+setting joins the study. With ``--breakdown`` each spectral run prints its accurate sets per phase (the distinct
+particles where the spectral engine enters, the bridge's moves, each later stage's moves) and the proposals the
+second stage rejected.
+``--anchor-moves M[,...]`` and ``--accept-moves T:M[,...]`` (with ``--seed-study``): also the anchored screen with M
+moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.sampler.ACCEPT_TARGET`) and M
+moves. ``--jobs J``: the seed study's runs in a pool of J spawned processes, numba on one thread each, every run
+seeded by its own index (the same numbers for any J; its CPU times are one thread's).
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -291,6 +303,27 @@ def proxy(prior, cuts: PointSet, samples: int, seeds: int, stages: list[int] = (
             print(f"  {k}: accurate sets {np.mean(v):.0f} per run")
 
 
+def phases(d: dict, n: int) -> None:
+    """Print the spectral update's accurate sets per phase: where the spectral engine entered (every particle, or the
+    distinct ones after a screen-tempered start), the bridge's moves (α > 0), each later stage's moves; with the
+    proposals that passed the screen and the second stage's rejections."""
+    alphas = d.get("screen_start", {}).get("alphas", [0.0] * len(d["betas"]))
+    start = d.get("screen_start", {}).get("distinct_rows", n)
+    rows = [f"start {start}"]
+    tot = [0.0, 0.0, 0.0]
+    for k, (b, a, m, p, acc) in enumerate(zip(d["betas"][1:], alphas[1:], d["moves"], d.get("screen_pass", []),
+                                              d["acceptance"]), 1):
+        if b <= 0 or not m:
+            continue
+        passed, accepted = p * m * n, acc * m * n
+        tot = [tot[0] + passed, tot[1] + accepted, tot[2] + m * n]
+        rows.append(f"{'bridge' if a > 0 else 'stage'} {k} (beta {b:.3g}, {m} moves): {passed:.0f} passed, "
+                    f"{accepted:.0f} accepted, {passed - accepted:.0f} rejected by stage 2")
+    print(f"  phases: {'; '.join(rows)}; moves' proposals {tot[2]:.0f}, passed {tot[0]:.0f} ({tot[0] / tot[2]:.3f}), "
+          f"accepted {tot[1]:.0f}, stage 2 rejected {tot[0] - tot[1]:.0f} ({(tot[0] - tot[1]) / max(tot[0], 1):.2f} "
+          f"of the passed); accurate sets per accepted move {tot[0] / max(tot[1], 1):.2f}")
+
+
 def compare(ua: np.ndarray, ub: np.ndarray, names: list[str], what: str, note: str = "") -> None:
     """Print the difference of two posteriors' means and 5/50/95 % quantiles of each ln θ in sd units."""
     for j, nm in enumerate(names):
@@ -320,41 +353,85 @@ def before_issue_28(on: bool):
         likelihood.SAMPLING, Likelihood.__init__ = "sample", init
 
 
+_WARM: list = []  # the seed study's process has run both engines once
+
+
+def _study_run(task: tuple) -> tuple:
+    """One run of the seed study (a process pool's task, or inline): the update of ``task`` = (cfg, cuts, prior,
+    engine, (screen stages, top, steps, anchored), moves, samples, seed, threads) -> (ln samples, accurate sets, CPU
+    [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ evaluations)."""
+    cfg, cuts, prior, engine, setting, moves, n, seed, threads = task
+    setting, target = (setting[:4], setting[4]) if len(setting) > 4 else (setting, smc.ACCEPT_TARGET)
+    base, base_target = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED), smc.ACCEPT_TARGET
+    if threads:
+        nb.set_num_threads(threads)
+    if not _WARM:  # a fresh worker: load the engines' compiled code outside the timings
+        for eng in ("zoa", "spectral"):
+            update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        _WARM.append(True)
+    upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
+    smc.ACCEPT_TARGET = target
+    try:
+        with threadpool_limits(1), spectral_counts(engine == "spectral") as counts:
+            post, _, cpu = timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine=engine, prior=prior,
+                                                moves=moves))
+    finally:
+        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
+        smc.ACCEPT_TARGET = base_target
+    n_side, n_label, _ = explained(post, cuts) if engine != "zoa" else (0, 0, [])
+    return np.log(post.samples), post.diagnostics.get("engine_sets", 0), cpu, n_side, n_label, counts["evals"]
+
+
 def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
     """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
     screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
-    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile)."""
-    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS)
+    5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile).
+    ``--jobs J`` > 1: the runs in a pool of J processes (spawned, each numba on one thread, so each run's CPU is one
+    thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
+    base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top = args.screen_top or base[1]
-    plan = ([("before (0 screen stages)", (0, top, 1), 3), (f"now ({base[0]} stages, top {base[1]:g})", base, 3)]
-            + [(f"{k} screen stages, top {top:g}", (k, top, 1), 3) for k in stages]
-            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1])),
+    plan = ([("before (0 screen stages, not anchored)", (0, top, 1, False), 3),
+             (f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
+            + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
+               if args.anchor_compare else [])
+            + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
+               for m in args.anchor_moves]
+            + [(f"{base[0]} stages, top {base[1]:g}, anchored, acceptance target {t:g}, {m} moves a stage",
+                (*base[:3], True, t), m) for t, m in args.accept_moves]
+            + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
+            + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
+    threads = 1 if args.jobs > 1 else 0
+    seeds = range(args.seed_study)
+    tasks = ([(cfg, cuts, prior, "spectral", (0, top, 1, False), 3, args.study_reference, 1000, threads)]
+             + [(cfg, cuts, prior, "zoa", base, 3, args.samples, s, threads) for s in seeds]
+             + [(cfg, cuts, prior, "spectral", setting, moves, args.samples, s, threads)
+                for _, setting, moves in plan for s in seeds])
+    if args.jobs > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
-    def run(setting, moves, n, seed):
-        upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = setting
-        try:
-            return timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine="spectral", prior=prior, moves=moves))
-        finally:
-            upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS = base
-
-    ref = np.log(run((0, top, 1), 3, args.study_reference, 1000)[0].samples)
-    sd = ref.std(0)
+        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            out = list(pool.map(_study_run, tasks))
+    else:
+        out = [_study_run(t) for t in tasks]
+    ref, sd = out[0][0], out[0][0].std(0)
+    zoa = np.mean([o[2] for o in out[1:1 + len(seeds)]])
     print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
-          f"reference (the sampler before, seed 1000); errors in reference sd")
-    for label, setting, moves in plan:
+          f"reference (the sampler before, seed 1000); errors in reference sd; the zero-order update's CPU {zoa:.3f} s "
+          f"(mean over the seeds); {args.jobs} process(es)")
+    for k, (label, _, _) in enumerate(plan):
         rows = []
-        for seed in range(args.seed_study):
-            post, _, cpu = run(setting, moves, args.samples, seed)
-            u = np.log(post.samples)
+        for u, sets, cpu, n_side, n_label, evals in out[1 + len(seeds) * (k + 1):1 + len(seeds) * (k + 2)]:
             dq = max(np.abs((np.quantile(u, q, axis=0) - np.quantile(ref, q, axis=0)) / sd).max()
                      for q in (0.05, 0.5, 0.95))
-            n_side, n_label, _ = explained(post, cuts)
-            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, post.diagnostics["engine_sets"], cpu, n_side, n_label))
+            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, sets, cpu, n_side, n_label, evals))
         err = np.array([r[0] for r in rows])
         per = np.round(np.sqrt((err**2).mean(0)), 2)
-        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, CPU {np.mean([r[3] for r in rows]):.2f} "
-              f"s, RMS mean error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
+        cpu = np.mean([r[3] for r in rows])
+        print(f"  {label}: accurate sets {np.mean([r[2] for r in rows]):.0f}, spectral evaluations "
+              f"{np.mean([r[6] for r in rows]):.0f}, CPU {cpu:.2f} s (ratio to zero-order {cpu / zoa:.1f}), RMS mean "
+              f"error {np.sqrt((err**2).mean()):.2f} (per parameter {per}), "
               f"worst quantile error {np.mean([r[1] for r in rows]):.2f} (mean over seeds), max "
               f"{max(r[1] for r in rows):.2f}; "
               f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
@@ -401,6 +478,15 @@ def main() -> None:
                     "sampler before, the default and each --screen-stages / --screen-chain setting against one "
                     "reference")
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
+    ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
+                    "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
+    ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
+    ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
+                    help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
+    ap.add_argument("--accept-moves", type=lambda t: [(float(x.split(":")[0]), int(x.split(":")[1]))
+                                                      for x in t.split(",") if x.strip()], default=[],
+                    help="with --seed-study: also the anchored screen with the MH acceptance target T and M moves a "
+                    "stage, T:M (comma-separated; sampler.ACCEPT_TARGET)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -431,6 +517,7 @@ def main() -> None:
             return
         for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
+        _WARM.append(True)
         if args.seed_study:
             seed_study(cfg, cuts, prior, names, args, stages, chains)
             return
@@ -441,11 +528,14 @@ def main() -> None:
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
                 + ([("spectral", "near")] if args.near is not None else [])
-                + [("spectral", f"screen{k}") for k in stages]
+                + ([("spectral", "flip-anchor")] if args.anchor_compare else [])
+        + [("spectral", f"screen{k}") for k in stages]
                 + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
         default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
+        default_anchor = upd.ANCHORED
         for eng, smp in plan:
+            upd.ANCHORED = (not default_anchor) if smp == "flip-anchor" else default_anchor
             upd.SCREEN_TOP = args.screen_top if args.screen_top and smp.startswith(("screen", "chain")) else default_top
             upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
                 stages[0] if smp.startswith("chain") and stages else default_stages)
@@ -456,7 +546,7 @@ def main() -> None:
                     recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near")
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near", "flip-anchor")
                     or smp.startswith(("screen", "chain")) else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
@@ -489,6 +579,8 @@ def main() -> None:
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
                       f"{d.get('censored_entries', 0)}")
+            if counts["calls"]:
+                phases(d, args.samples)
             if "screen_start" in d:
                 st = d["screen_start"]
                 print(f"  screen-tempered start: {st['stages']} stages of the zero-order screen to exponent "
@@ -539,6 +631,14 @@ def main() -> None:
         print(f"ratio spectral (surrogate)/zoa: {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs delayed "
               f"{s[1] / g[1]:.2f}x wall, {s[2] / g[2]:.2f}x CPU")
         compare(g[0].u, s[0].u, names, "surrogate - delayed")
+    if args.anchor_compare:
+        g = runs["spectral", "flip-anchor"]
+        new, old = (s, g) if default_anchor else (g, s)
+        print(f"anchored screen: ratio to zoa {new[1] / z[1]:.1f} wall, {new[2] / z[2]:.1f} CPU; the sampler before it "
+              f"{old[1] / z[1]:.1f} wall, {old[2] / z[2]:.1f} CPU; anchored saves {old[1] / new[1]:.2f}x wall, "
+              f"{old[2] / new[2]:.2f}x CPU, accurate sets {old[0].diagnostics['engine_sets']} -> "
+              f"{new[0].diagnostics['engine_sets']}")
+        compare(new[0].u, old[0].u, names, "anchored - before")
     for k in stages:
         g = runs["spectral", f"screen{k}"]
         print(f"screen-tempered start, {k} stages: ratio to zoa {g[1] / z[1]:.1f} wall, {g[2] / z[2]:.1f} CPU; vs the "

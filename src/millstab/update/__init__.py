@@ -55,6 +55,10 @@ SCREEN_TOP = 0.5
 #: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed
 #: acceptance)
 SCREEN_STEPS = 1
+#: delayed acceptance's screen anchored at each particle (:func:`tempered_smc`'s ``anchored``: the zero-order limits of
+#: the proposal times the particle's own accurate / zero-order ratio per data column, a state-dependent screen), in a
+#: fresh update without measured chatter frequencies (docs/updating.md, "An anchored screen")
+ANCHORED = True
 
 
 def screen_engine(engine: str, sampler: str = "auto") -> str | None:
@@ -107,7 +111,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             (:func:`millstab.cluster.sample_limits`); the same seed gives the same posterior.
         sampler: ``auto``, ``delayed``, ``plain`` or ``surrogate`` (:data:`SAMPLERS`): with ``delayed`` (the
             default for every engine but ``zoa``) the zero-order engine screens each MH proposal and the chosen
-            engine decides only on the survivors (delayed acceptance; a fresh update's first stages temper the
+            engine decides only on the survivors (delayed acceptance, the screen anchored at each particle by its
+            own accurate / zero-order limit ratio where :data:`ANCHORED`; a fresh update's first stages temper the
             zero-order likelihood alone, up to :data:`SCREEN_TOP`, and a bridge hands over); with ``surrogate`` the
             sampler runs on the zero-order limits times a correction fitted on :data:`SURROGATE_DESIGN` accurate
             evaluations, and the chosen engine evaluates the final particles once and corrects the answer by
@@ -165,7 +170,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     elif start is None:
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if scr is not None else 0,
-                           screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP)
+                           screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP,
+                           anchored=ANCHORED and scr is not None and SCREEN_STEPS == 1 and not lik.uses_frequency)
     else:
         n_old = _check_start(start, pr, ev, engine, dict(lik.options))
         rng = np.random.default_rng(seed)

@@ -615,7 +615,33 @@ class Likelihood:
         depth, hz, w, ok = self._limits(v, censor=True)
         return np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)
 
-    def bounded(self, v: np.ndarray, floor: np.ndarray) -> np.ndarray:
+    def depths(self, v: np.ndarray, floor: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(log L (B,), the limits it read (B, S) [mm]) of sampler vectors v (as :meth:`__call__`): the anchored
+        screen's state (:func:`millstab.update.sampler.tempered_smc`'s ``anchored``: each particle carries its
+        limits per data column). ``floor``: :meth:`bounded`'s, and a row it decided early has NaN at the columns it
+        did not evaluate; NaN rows outside the prior's support. The limits are :meth:`__call__`'s, censored where it
+        censors (:meth:`ceilings`: a censored limit is far above every cut at its speed in both models, so the
+        anchored screen's ratio there only keeps a term saturated). InputError with chatter frequencies (a term that
+        reads more than the depths)."""
+        if self.uses_frequency:
+            raise InputError("anchored", "chatter frequencies", "an anchored screen reads the limits only: use the "
+                             "plain delayed-acceptance screen with measured chatter frequencies")
+        if floor is not None:
+            return self.bounded(v, floor, depths=True)
+        depth, _, w, ok = self._limits(v, censor=True)
+        return np.where(ok, self.from_limits(depth, None, noise=w), -np.inf), np.where(ok[:, None], depth, np.nan)
+
+    def loglik_at(self, v: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
+        """log L (B,) of sampler vectors v (their noise coordinates and support, as :meth:`__call__`) at given limits
+        (B, S) [mm] instead of the engine's: the anchored screen's likelihood (no engine call)."""
+        v = np.atleast_2d(np.asarray(v, dtype=float))
+        p, q = self.prior.size, self.prior.dim
+        w = v[:, p:q] if v.shape[1] > p and q > p else None
+        ok = self.prior.in_support(v[:, :p]) & np.isfinite(v[:, p:]).all(axis=1)
+        with np.errstate(invalid="ignore"):
+            return np.where(ok, self.from_limits(np.where(ok[:, None], depth_mm, 1.0), None, noise=w), -np.inf)
+
+    def bounded(self, v: np.ndarray, floor: np.ndarray, depths: bool = False):
         """log L (B,) of sampler vectors v (as :meth:`__call__`), exact where it may reach ``floor`` (B,); where it
         cannot, a value below ``floor`` (a partial sum, never used as log L): delayed acceptance's second stage
         only asks whether log L clears a threshold (:func:`millstab.update.sampler.tempered_smc`).
@@ -629,19 +655,20 @@ class Likelihood:
         numbers of :meth:`__call__` (each round keeps the discretisation of a full call on these rows, so a
         column's limit is the one a full call gives, to the root's ~1e-12). Falls back to :meth:`__call__` with
         boundary points, chatter frequencies, a test-day effect or a negative weight (terms not bounded by 0),
-        and with a cluster."""
+        and with a cluster. ``depths``: also the limits (B, S) [mm] as :meth:`depths` (NaN where not evaluated)."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
         floor = np.broadcast_to(np.asarray(floor, dtype=float), (v.shape[0],))
         ev, n_s = self.evidence, self.speeds.size
         if (self.batch is not None or ev.pt_rpm.size or self.uses_frequency or (ev.cut_weight < 0).any()
                 or self.client is not None or n_s <= BOUND_ROUNDS[0] or v.shape[0] < BOUND_MIN_ROWS):
-            return self(v)
+            return self.depths(v) if depths else self(v)
         p, q = self.prior.size, self.prior.dim
         u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
         rows = np.flatnonzero(self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1))
         out = np.full(v.shape[0], -np.inf)
+        seen = np.full((v.shape[0], n_s), np.nan)  # the limits evaluated (``depths``)
         if not rows.size:
-            return out
+            return (out, seen) if depths else out
         order = np.argsort(-self._column_cost, kind="stable")  # the costliest columns first
         settings = self._settings(u[rows])
         cap = self.ceilings(u[rows], None if w is None else w[rows])
@@ -656,6 +683,7 @@ class Likelihood:
                 break
             depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings,
                                                       None if cap is None else cap[np.ix_(live, cols)])
+            seen[np.ix_(rows[live], cols)] = depth[np.ix_(live, cols)]
             done[cols] = True
             if done.all():
                 break
@@ -674,7 +702,7 @@ class Likelihood:
             out[rows[live]] = self.from_limits(whole, None, noise=w)[rows[live]]
             self._learn_costs(depth[live], None if w is None else w[rows[live]])
         self.n_sets += rows.size
-        return out
+        return (out, seen) if depths else out
 
     def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict],
                  cap: np.ndarray | None = None) -> np.ndarray:

@@ -72,6 +72,10 @@ ratios to the zero-order update, CPU and wall, and the two posteriors compared; 
 setting joins the study. With ``--breakdown`` each spectral run prints its accurate sets per phase (the distinct
 particles where the spectral engine enters, the bridge's moves, each later stage's moves) and the proposals the
 second stage rejected.
+``--doors K``: the update as a user calls it (``millstab.api.update`` with the config's cutting and prior, the
+default sampler), both engines alternately for seeds 0..K−1, CPU and wall and their ratio (docs/updating.md, "The
+ratio through the doors").
+
 ``--anchor-moves M[,...]`` and ``--accept-moves T:M[,...]`` (with ``--seed-study``): also the anchored screen with M
 moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.sampler.ACCEPT_TARGET`) and M
 moves. ``--jobs J``: the seed study's runs in a pool of J spawned processes, numba on one thread each, every run
@@ -246,6 +250,19 @@ def timed(f):
     t, c = time.perf_counter(), time.process_time()
     out = f()
     return out, time.perf_counter() - t, time.process_time() - c
+
+
+def doors(cfg, cuts: PointSet, samples: int, seeds: int) -> None:
+    """``--doors K``: the update as a user calls it, ``millstab.api.update(cfg, cuts, engine=..., samples, seed)``
+    (the config's cutting and [prior]; no sampler option), the zero-order and the spectral engine alternately for
+    seeds 0..K−1 in this one process; CPU and wall of each and their ratio per seed."""
+    from millstab import api
+
+    for s in range(seeds):
+        (_, zw, zc), (_, sw, sc) = (timed(lambda e=e: api.update(cfg, cuts, engine=e, samples=samples, seed=s))
+                                    for e in ("zoa", "spectral"))
+        print(f"api.update, {samples} samples, seed {s}: zoa {zc:.2f} s CPU ({zw:.2f} s wall), spectral {sc:.2f} s "
+              f"({sw:.2f} s); ratio {sc / zc:.1f} CPU, {sw / zw:.1f} wall (target <= 10)")
 
 
 def explained(post, cuts: PointSet) -> tuple[int, int, list[str]]:
@@ -483,6 +500,8 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
     ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
+    ap.add_argument("--doors", type=int, default=0, metavar="K",
+                    help="time millstab.api.update with both engines for seeds 0..K-1 (the config's prior), then stop")
     ap.add_argument("--accept-moves", type=lambda t: [(float(x.split(":")[0]), int(x.split(":")[1]))
                                                       for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with the MH acceptance target T and M moves a "
@@ -520,6 +539,10 @@ def main() -> None:
         _WARM.append(True)
         if args.seed_study:
             seed_study(cfg, cuts, prior, names, args, stages, chains)
+            return
+        if args.doors:
+            doors(dataclasses.replace(cfg, cutting=cut, prior=PriorTable({}, sigma_depth_rel=args.sigma_depth_rel)),
+                  cuts, args.samples, args.doors)
             return
         runs = {}
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]

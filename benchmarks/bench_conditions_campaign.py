@@ -241,14 +241,19 @@ def run_designed(name, hammer, truth, teeth, args, rng, cfg):
                 per[key] = update(cfg, one, seed=args.seed, **fit)
         hammer_post = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))),
                                 args.engine, cuts={"rpm": [lo, hi]}, engine_options=dict(args.engine_options))
+    extra = {}
+    if args.fresh:  # the joint campaign's cuts in ONE fresh update: is the sequential posterior's spread the data's?
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            extra[f"fresh {args.fresh}"] = update(cfg, run.cuts, seed=args.seed, **{**fit, "samples": args.fresh})
     cpu_update = time.process_time() - t0
     say(f"{name}: the campaigns (joint and single-condition, their decisions included) {cpu_update:.0f} s CPU")
     held, held_tl = held_out(truth, teeth, args, rng)
-    rows, cpu = score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args)
+    rows, cpu = score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args, extra)
     return rows, (cpu_update, *cpu)
 
 
-def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args):
+def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args, extra=None):
     """The Brier scores at the held-out cuts of every posterior, and the joint one's recommendation in each target
     condition judged against the truth: (rows, (CPU of the predictions, of the recommendations))."""
     from millstab import api
@@ -267,11 +272,14 @@ def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args):
         t0 = time.process_time()
         b_joint, b_hammer = brier(joint), brier(hammer_post)
         b_per = {k: brier(p) for k, p in per.items()}
+        if extra:  # --fresh: a line on stderr, not a table column
+            say(f"{name}: {condition_text(cond(teeth, *key)).split(',')[0]}: Brier joint {b_joint:.3f}, "
+                + ", ".join(f"{k} {brier(p):.3f}" for k, p in extra.items()))
         cpu_predict += time.process_time() - t0
         own = b_per.get(key)
         if args.diagnose:
             t0 = time.process_time()
-            diagnose(name, teeth, key, joint, hammer_post, truth, pts, held_tl[key], args)
+            diagnose(name, teeth, key, joint, hammer_post, truth, pts, held_tl[key], args, extra)
             cpu_predict += time.process_time() - t0
         rec_ok = None
         if target and args.recommend:
@@ -293,7 +301,7 @@ def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args):
     return rows, (cpu_predict, cpu_rec)
 
 
-def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args) -> None:
+def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args, extra=None) -> None:
     """Why the joint posterior scores what it does in condition ``key`` (a line on stderr): the fitted
     engine's model error (its limit at the TRUE structure against the truth's, and the share of the held-out
     labels that error alone flips), and the posterior's (and the hammer test's) limit at the held-out speeds
@@ -311,7 +319,7 @@ def diagnose(name, teeth, key, joint, hammer_post, truth, pts, tl, args) -> None
     flipped = np.mean((pts.depth_mm > model) != (pts.depth_mm > tl))
     txt = [(f"model at the truth: median |ln b/b_true| {np.median(np.abs(err)):.3f} (median "
             f"{np.median(err):+.3f}), flips {flipped:.0%} of the held-out labels")]
-    for who, post in (("joint", joint), ("hammer", hammer_post)):
+    for who, post in (("joint", joint), ("hammer", hammer_post), *(extra or {}).items()):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             lb = np.log(cut_limits(api.for_condition(post, radial_immersion=ri, milling=m), pts.rpm) / tl[None, :])
@@ -378,6 +386,9 @@ def main() -> None:
     ap.add_argument("--diagnose", action="store_true",
                     help="per condition, on stderr: the fitted engine's error at the true structure, the joint "
                          "posterior's and the hammer test's bias and spread of ln(b_lim / b_true) at the held-out cuts")
+    ap.add_argument("--fresh", type=int, default=0, metavar="N",
+                    help="with a campaign design: also the joint campaign's cuts in one fresh update of N samples "
+                         "(not tempered in one cut a round), its Brier and (--diagnose) bias and spread on stderr")
     ap.add_argument("--design", choices=("around", "alternate", "recommend"), default="around",
                     help="the training cuts: around (depths drawn around the hammer test's belief), alternate "
                          "(a campaign: recommend's next test, the decision alternating between the two training "

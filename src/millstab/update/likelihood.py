@@ -580,17 +580,24 @@ class Likelihood:
         self.n_sets += u.shape[0]
         return depth, hz
 
+    def _parts(self, v: np.ndarray):
+        """(v (B, ·) as a float array, u = ln θ (B, P), the noise coordinates (B, Q) or None, in-support (B,)) of
+        sampler vectors v: a row is in the support when its u is (:meth:`Prior.in_support`) and every coordinate
+        after u is finite."""
+        v = np.atleast_2d(np.asarray(v, dtype=float))
+        p, q = self.prior.size, self.prior.dim
+        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
+        return v, u, w, self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1)
+
     def _limits(self, v: np.ndarray, censor: bool = False):
         """(depths (B, S), freqs, noise coordinates (B, Q) or None, in-support (B,)) of sampler vectors v
         (B, P), (B, P + Q) or, with a test-day effect, (B, P + Q + G) (the days' shifts last; absent: 0);
         rows outside the prior's support do not reach the engine (their limits: 1 mm, a placeholder: the
         callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns.
         ``censor``: censored limits (:meth:`ceilings`) where this likelihood censors: for log L only."""
-        v = np.atleast_2d(np.asarray(v, dtype=float))
-        p, q = self.prior.size, self.prior.dim
-        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
+        v, u, w, ok = self._parts(v)
+        q = self.prior.dim
         delta = v[:, q:] if self.batch is not None and v.shape[1] > q else None
-        ok = self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1)
         cols = self.speeds.size if self.batch is None else self.batch.col_base.size
         depth = np.ones((v.shape[0], cols))  # finite placeholders for the rejected rows (masked to −inf)
         hz = np.full_like(depth, np.nan) if self.uses_frequency else None
@@ -634,10 +641,7 @@ class Likelihood:
     def loglik_at(self, v: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
         """log L (B,) of sampler vectors v (their noise coordinates and support, as :meth:`__call__`) at given limits
         (B, S) [mm] instead of the engine's: the anchored screen's likelihood (no engine call)."""
-        v = np.atleast_2d(np.asarray(v, dtype=float))
-        p, q = self.prior.size, self.prior.dim
-        w = v[:, p:q] if v.shape[1] > p and q > p else None
-        ok = self.prior.in_support(v[:, :p]) & np.isfinite(v[:, p:]).all(axis=1)
+        _, _, w, ok = self._parts(v)
         with np.errstate(invalid="ignore"):
             return np.where(ok, self.from_limits(np.where(ok[:, None], depth_mm, 1.0), None, noise=w), -np.inf)
 
@@ -662,9 +666,8 @@ class Likelihood:
         if (self.batch is not None or ev.pt_rpm.size or self.uses_frequency or (ev.cut_weight < 0).any()
                 or self.client is not None or n_s <= BOUND_ROUNDS[0] or v.shape[0] < BOUND_MIN_ROWS):
             return self.depths(v) if depths else self(v)
-        p, q = self.prior.size, self.prior.dim
-        u, w = v[:, :p], (v[:, p:q] if v.shape[1] > p and q > p else None)
-        rows = np.flatnonzero(self.prior.in_support(u) & np.isfinite(v[:, p:]).all(axis=1))
+        v, u, w, ok = self._parts(v)
+        rows = np.flatnonzero(ok)
         out = np.full(v.shape[0], -np.inf)
         seen = np.full((v.shape[0], n_s), np.nan)  # the limits evaluated (``depths``)
         if not rows.size:

@@ -33,7 +33,7 @@ def _two_condition_case():
     """Two free parameters (fn_x, k_x) and 12 cuts, 6 in slotting and 6 at 50 % down milling, labelled by
     the zero-order limits of a truth (fn +4 %, k −20 %)."""
     cfg = parse_config(TWO_MODE_TOML + '[prior]\nfixed = ["zeta_x", "fn_y", "k_y", "zeta_y", "label_error", '
-                       '"sigma_depth"]\nsigma_depth = "15 %"\n')
+                       '"sigma_depth"]\nsigma_depth = "15 %"\ntails = "multivariate_t"\n')  # a ±4-spread grid
     prior = make_prior(cfg.structure, cfg.cutting, cfg.prior)
     c = cfg.cutting
     conds = (Cutting.from_immersion(c.teeth, c.kt, c.kr, 1.0, "down"),

@@ -85,7 +85,13 @@ seeded by its own index (the same numbers for any J; its CPU times are one threa
 Likelihood.floors`: every limit below its floor searched to its root), in the same run, the particles compared bit for
 bit; ``--floor-gate G[,...]``: also the spectral update with :data:`millstab.stability.spectral.FLOOR_GATE` at G (a
 floor tested only where the zero-order depth is at most G × the floor; inf: everywhere). ``--breakdown`` counts the
-floor tests and the floored entries.
+floor tests and the floored entries. ``--floor-replay R``: the default spectral update's root searches (the
+engine's ``_solve`` calls, recorded) solved again without floors and with each ``--floor-gate``, R rounds alternated:
+the root search's CPU on one workload, min and median (the shared machine's load moves single runs by ±10 %);
+``--replay-lazy``: also each gate with a lazy exact low end (:data:`millstab.stability._spectral_kernel.LAZY_LO`).
+``--zero-order-screen``: every spectral run with the zero-order screen
+(:data:`millstab.update.ANCHORED` False), whose particles do not depend on the floors (the anchored screen's anchor is a
+particle's depths, which a floor changes: a rung in place of a limit below it).
 
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
@@ -241,6 +247,71 @@ def uncensored(on: bool):
         yield
     finally:
         Likelihood.ceilings = had
+
+
+@contextlib.contextmanager
+def recorded_solves(on: bool):
+    """With ``on``, every root search of the spectral engine (``spectral._solve``'s arguments) appended to the
+    yielded list, for :func:`floor_replay`."""
+    rec: list = []
+    if not on:
+        yield rec
+        return
+    solve = spectral._solve
+
+    def recording(*a, **k):
+        rec.append((a, dict(k)))
+        return solve(*a, **k)
+
+    spectral._solve = recording
+    try:
+        yield rec
+    finally:
+        spectral._solve = solve
+
+
+def floor_replay(rec: list, repeats: int, gates: list[float], lazy: bool = False) -> None:
+    """``--floor-replay R``: the recorded root searches of one update solved again, without floors and with each gate
+    (:data:`millstab.stability.spectral.FLOOR_GATE`), the settings alternated R times; CPU of each setting's whole
+    set of calls (min and median over the R rounds: the machine is shared) and its evaluations. ``lazy``: also each
+    gate with a lazy exact low end (:data:`millstab.stability._spectral_kernel.LAZY_LO`), and its depths' largest
+    relative difference from the same gate's."""
+    settings = ([("no floors", None, False)] + [(f"gate {g:g}", g, False) for g in gates]
+                + ([(f"gate {g:g}, lazy low end", g, True) for g in gates] if lazy else []))
+    cpu = {name: [] for name, _, _ in settings}
+    evals, depths = {}, {}
+    had = spectral.FLOOR_GATE, spectral._k.LAZY_LO
+    try:
+        for r in range(repeats):
+            for name, g, lz in (settings if r % 2 == 0 else settings[::-1]):
+                n = 0
+                spectral._k.LAZY_LO = lz
+                t = time.process_time()
+                out = []
+                for a, k in rec:
+                    if g is None:
+                        k = {**k, "floor": None}
+                    else:
+                        spectral.FLOOR_GATE = g
+                    o = spectral._solve(*a, **k)
+                    n += int(o[2].sum())
+                    out.append(o[0])
+                cpu[name].append(time.process_time() - t)
+                evals[name] = n
+                depths[name] = out
+    finally:
+        spectral.FLOOR_GATE, spectral._k.LAZY_LO = had
+    for g in gates if lazy else []:
+        a, b = depths[f"gate {g:g}"], depths[f"gate {g:g}, lazy low end"]
+        with np.errstate(invalid="ignore"):
+            rel = max(float(np.nanmax(np.where(np.isfinite(x), np.abs(y / x - 1), 0.0))) for x, y in zip(a, b))
+        print(f"lazy low end at gate {g:g}: depths' largest relative difference {rel:.2e}")
+    base = np.min(cpu["no floors"])
+    print(f"floor replay: {len(rec)} root searches, {repeats} rounds alternated:")
+    for name, _, _ in settings:
+        lo = np.min(cpu[name])
+        print(f"  {name}: CPU min {lo:.3f} s, median {np.median(cpu[name]):.3f} s ({base / lo:.3f}x less than no "
+              f"floors, min/min); evaluations {evals[name]}")
 
 
 @contextlib.contextmanager
@@ -522,6 +593,14 @@ def main() -> None:
                     "its root (no ceilings), and the two compared")
     ap.add_argument("--no-floor", action="store_true", help="also the spectral update without floors (every limit "
                     "below its floor searched to its root), and the two compared")
+    ap.add_argument("--floor-replay", type=int, default=0, metavar="R", help="the default spectral update's root "
+                    "searches solved again without floors and with each --floor-gate (default: FLOOR_GATE), R rounds "
+                    "alternated (CPU of the root search alone)")
+    ap.add_argument("--replay-lazy", action="store_true", help="with --floor-replay: also each gate with a lazy exact "
+                    "low end (_spectral_kernel.LAZY_LO)")
+    ap.add_argument("--zero-order-screen", action="store_true", help="every spectral run with the zero-order screen "
+                    "(update.ANCHORED False): floors, ceilings and gates then give the same particles bit for bit, so "
+                    "their evaluations compare on one workload")
     ap.add_argument("--floor-gate", type=lambda t: [float(x) for x in t.split(",") if x.strip()], default=[],
                     help="also the spectral update with spectral.FLOOR_GATE at each of these values (comma-separated; "
                     "inf: a floor tested everywhere)")
@@ -594,8 +673,9 @@ def main() -> None:
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])
                 + ([("spectral", "uncensored")] if args.no_censor else [])
-                + ([("spectral", "unfloored"), ("spectral", "zscreen"), ("spectral", "zscreen-unfloored")]
-                   if args.no_floor else [])
+                + ([("spectral", "unfloored")] if args.no_floor else [])
+                + ([("spectral", "zscreen"), ("spectral", "zscreen-unfloored")]
+                   if args.no_floor and not args.zero_order_screen else [])
                 + [("spectral", f"gate{g:g}") for g in args.floor_gate]
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
@@ -605,7 +685,7 @@ def main() -> None:
                 + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
         default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
-        default_anchor = upd.ANCHORED
+        default_anchor = False if args.zero_order_screen else upd.ANCHORED
         for eng, smp in plan:
             upd.ANCHORED = (not default_anchor) if smp == "flip-anchor" else (
                 False if smp.startswith("zscreen") else default_anchor)
@@ -618,7 +698,8 @@ def main() -> None:
                     unfloored(smp in ("unfloored", "zscreen-unfloored")), \
                     floor_gate(float(smp[4:]) if smp.startswith("gate") else None), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
-                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
+                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves, \
+                    recorded_solves(args.floor_replay and (eng, smp) == ("spectral", "auto")) as solves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
                     sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "unfloored", "near",
@@ -626,6 +707,8 @@ def main() -> None:
                     else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
+            if solves:
+                floor_replay(solves, args.floor_replay, args.floor_gate or [spectral.FLOOR_GATE], args.replay_lazy)
             if moves:
                 anchored_estimate(prior, cuts, moves)
             d = post.diagnostics
@@ -648,7 +731,8 @@ def main() -> None:
                 passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), mv))
                 accepted = sum(a * m * args.samples for a, m in zip(d.get("acceptance", []), mv))
                 print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
-                      f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
+                      f"{counts['evals'] / max(counts['entries'], 1):.2f} evaluations per entry ({counts['evals']}; of "
+                      f"the cold searches "
                       f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "
                       f"{spectral.WARM_REL:g} of them); CPU root search "
                       f"{counts['solve_cpu']:.2f} s, zero-order starting depths {counts['b_ref_cpu']:.2f} s; "
@@ -692,7 +776,12 @@ def main() -> None:
               f"particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
         if not same:
             compare(s[0].u, o[0].u, names, "censored - uncensored")
-    if args.no_floor:
+    if args.no_floor and args.zero_order_screen:
+        o = runs["spectral", "unfloored"]
+        print(f"floors vs every limit below its floor to its root (zero-order screen): {o[2] / s[2]:.2f}x CPU; the "
+              f"same particles bit for bit: {np.array_equal(o[0].u, s[0].u)}; ratio without floors {o[2] / z[2]:.1f} "
+              f"CPU")
+    elif args.no_floor:
         o = runs["spectral", "unfloored"]
         same = np.array_equal(o[0].u, s[0].u)
         print(f"floors vs every limit below its floor to its root: {o[1] / s[1]:.2f}x wall, {o[2] / s[2]:.2f}x CPU; "

@@ -69,7 +69,7 @@ def test_each_cut_term_is_the_same_bits_below_its_floor(case):
 
 
 def test_log_likelihood_with_floors_is_the_same_bits(case):
-    """log L of 60 prior draws (noise columns included) with and without floors: equal bit for bit, with a fifth of
+    """log L of 60 prior draws (noise columns included) with and without floors: equal bit for bit, with a sixth of
     the entries or more floored; so are the anchored screen's log L (:meth:`Likelihood.depths`, whose limits differ
     only where floored: a rung below the floor in place of a limit below it) and the bounded stage's."""
     prior, cuts, v = case
@@ -82,7 +82,7 @@ def test_log_likelihood_with_floors_is_the_same_bits(case):
     np.testing.assert_array_equal(ll_f, ll_p)
     low = floored.floors(v[:, :prior.size], v[:, prior.size:prior.dim])
     moved = d_f != d_p
-    assert moved.sum() > 0.2 * moved.size
+    assert moved.sum() > 0.15 * moved.size
     assert np.all(d_f[moved] < low[moved]) and np.all(d_p[moved] < low[moved])
     rng = np.random.default_rng(3)
     cut_at = np.where(rng.random(want.size) < 0.5, want - 1.0, -3.0)

@@ -38,7 +38,7 @@ def _check(batch: ModalBatch, structures, cut: Cutting, rpm: np.ndarray, floor: 
     for i, j in zip(*np.nonzero(floor[:, last] > 0)):
         j = last[j]
         k, x = _k.floor_rung(b_ref[i, j], spectral.LADDER, floor[i, j])
-        if k < 0:
+        if k < 0 or not b_ref[i, j] <= spectral.FLOOR_GATE * floor[i, j]:  # no rung, or not tested (FLOOR_GATE)
             assert not floored[i, j]
             continue
         assert x <= _k.FLOOR_MARGIN * floor[i, j] and x == _k.ladder_depth(b_ref[i, j], spectral.LADDER, k)
@@ -65,7 +65,13 @@ def prior_case():
     return prior.par.batch(theta), [prior.par.structure(t) for t in theta], cut
 
 
-def test_floored_answers_on_prior_draws_at_sparse_speeds(prior_case):
+@pytest.fixture
+def everywhere(monkeypatch):
+    """A floor tested at every entry (:data:`spectral.FLOOR_GATE` inf)."""
+    monkeypatch.setattr(spectral, "FLOOR_GATE", np.inf)
+
+
+def test_floored_answers_on_prior_draws_at_sparse_speeds(prior_case, everywhere):
     """Floors from 0.4 to 2.5 times each plain limit at 6 sparse speeds (each its own run): about half floored."""
     batch, structures, cut = prior_case
     rpm = np.array([5116.0, 6889.0, 8805.0, 10106.0, 11546.0, 14020.0])
@@ -75,7 +81,17 @@ def test_floored_answers_on_prior_draws_at_sparse_speeds(prior_case):
     assert 0.3 * floor.size < n_floored < 0.8 * floor.size
 
 
-def test_floored_answers_on_random_structures_and_a_dense_run():
+def test_floored_answers_with_the_default_gate(prior_case):
+    """The default :data:`spectral.FLOOR_GATE`: a floor tested only where the zero-order depth is at most that multiple
+    of it; the same checks, fewer floored."""
+    batch, structures, cut = prior_case
+    rpm = np.array([5116.0, 8805.0, 11546.0])
+    plain = spectral.envelope_batch(batch, cut, rpm, nodes=NODES, warm=False)
+    floor = np.where(np.isfinite(plain), plain * np.random.default_rng(2).uniform(0.4, 2.5, plain.shape), 0.0)
+    assert _check(batch, structures, cut, rpm, floor)[0] > 0.1 * floor.size
+
+
+def test_floored_answers_on_random_structures_and_a_dense_run(everywhere):
     """Random structures and cuts (up and down milling, a/D 0.03–1), 5 sparse speeds and 12 dense ones (a run that
     continues its branches: only its last speed may be floored, every other depth is the plain one bit for bit)."""
     rng = np.random.default_rng(11)
@@ -90,7 +106,7 @@ def test_floored_answers_on_random_structures_and_a_dense_run():
     assert n_floored >= 10
 
 
-def test_no_floor_tested_outside_the_gate_and_bad_floors(prior_case, monkeypatch):
+def test_no_floor_tested_outside_the_gate_and_bad_floors(prior_case, everywhere, monkeypatch):
     batch, _, cut = prior_case
     rpm = np.array([6889.0, 10106.0])
     plain = spectral.envelope_batch(batch, cut, rpm, nodes=NODES, warm=False)

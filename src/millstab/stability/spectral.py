@@ -326,8 +326,13 @@ NEAR = _k.NEAR
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
 #: a floor (:func:`envelope_batch`'s ``floor``) is tested at a (set, speed) only where the zero-order depth there is at
-#: most this multiple of the floor (inf: everywhere); see docs/updating.md, "A floor for the spectral likelihood"
-FLOOR_GATE = np.inf
+#: most this multiple of the floor (inf: everywhere). A test that does not floor costs an exact ρ (~16 µs) where the
+#: rung it stands for would mostly have been certified (~4 µs). Measured (issue 28, 2026-11-28, the 1 000-sample update
+#: of docs/updating.md, its 26 root searches replayed 5 times alternated, ``bench_update_accurate.py --samples 1000
+#: --floor-replay 5 --floor-gate 1,0.9,inf``, load ~4 on 2 cores): without floors 554 950 evaluations, 3.90 s CPU
+#: (min); gate inf 16 400 tests, 1 500 floored, 526 402 evaluations, 3.88 s; 1.0: 1 900 tests, 1 356 floored,
+#: 514 515, 3.59 s; 0.9: 517 321, 3.54 s (0.7: fewer floored, more evaluations than 0.9)
+FLOOR_GATE = 1.0
 
 __all__ = ["envelope", "envelope_batch", "envelope_batch_hz", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES",
            "ELEM_PERIODS", "TOL"]
@@ -464,7 +469,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     with _one_blas_thread():
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
                        _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap, low,
-                       float(FLOOR_GATE))
+                       float(FLOOR_GATE), bool(_k.LAZY_LO))
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval

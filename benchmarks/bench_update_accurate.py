@@ -87,8 +87,7 @@ bit; ``--floor-gate G[,...]``: also the spectral update with :data:`millstab.sta
 floor tested only where the zero-order depth is at most G × the floor; inf: everywhere). ``--breakdown`` counts the
 floor tests and the floored entries. ``--floor-replay R``: the default spectral update's root searches (the
 engine's ``_solve`` calls, recorded) solved again without floors and with each ``--floor-gate``, R rounds alternated:
-the root search's CPU on one workload, min and median (the shared machine's load moves single runs by ±10 %);
-``--replay-lazy``: also each gate with a lazy exact low end (:data:`millstab.stability._spectral_kernel.LAZY_LO`).
+the root search's CPU on one workload, min and median (the shared machine's load moves single runs by ±10 %).
 ``--zero-order-screen``: every spectral run with the zero-order screen
 (:data:`millstab.update.ANCHORED` False), whose particles do not depend on the floors (the anchored screen's anchor is a
 particle's depths, which a floor changes: a rung in place of a limit below it).
@@ -270,45 +269,32 @@ def recorded_solves(on: bool):
         spectral._solve = solve
 
 
-def floor_replay(rec: list, repeats: int, gates: list[float], lazy: bool = False) -> None:
+def floor_replay(rec: list, repeats: int, gates: list[float]) -> None:
     """``--floor-replay R``: the recorded root searches of one update solved again, without floors and with each gate
     (:data:`millstab.stability.spectral.FLOOR_GATE`), the settings alternated R times; CPU of each setting's whole
-    set of calls (min and median over the R rounds: the machine is shared) and its evaluations. ``lazy``: also each
-    gate with a lazy exact low end (:data:`millstab.stability._spectral_kernel.LAZY_LO`), and its depths' largest
-    relative difference from the same gate's."""
-    settings = ([("no floors", None, False)] + [(f"gate {g:g}", g, False) for g in gates]
-                + ([(f"gate {g:g}, lazy low end", g, True) for g in gates] if lazy else []))
-    cpu = {name: [] for name, _, _ in settings}
-    evals, depths = {}, {}
-    had = spectral.FLOOR_GATE, spectral._k.LAZY_LO
+    set of calls (min and median over the R rounds: the machine is shared) and its evaluations."""
+    settings = [("no floors", None)] + [(f"gate {g:g}", g) for g in gates]
+    cpu = {name: [] for name, _ in settings}
+    evals = {}
+    had = spectral.FLOOR_GATE
     try:
         for r in range(repeats):
-            for name, g, lz in (settings if r % 2 == 0 else settings[::-1]):
+            for name, g in (settings if r % 2 == 0 else settings[::-1]):
                 n = 0
-                spectral._k.LAZY_LO = lz
                 t = time.process_time()
-                out = []
                 for a, k in rec:
                     if g is None:
                         k = {**k, "floor": None}
                     else:
                         spectral.FLOOR_GATE = g
-                    o = spectral._solve(*a, **k)
-                    n += int(o[2].sum())
-                    out.append(o[0])
+                    n += int(spectral._solve(*a, **k)[2].sum())
                 cpu[name].append(time.process_time() - t)
                 evals[name] = n
-                depths[name] = out
     finally:
-        spectral.FLOOR_GATE, spectral._k.LAZY_LO = had
-    for g in gates if lazy else []:
-        a, b = depths[f"gate {g:g}"], depths[f"gate {g:g}, lazy low end"]
-        with np.errstate(invalid="ignore"):
-            rel = max(float(np.nanmax(np.where(np.isfinite(x), np.abs(y / x - 1), 0.0))) for x, y in zip(a, b))
-        print(f"lazy low end at gate {g:g}: depths' largest relative difference {rel:.2e}")
+        spectral.FLOOR_GATE = had
     base = np.min(cpu["no floors"])
     print(f"floor replay: {len(rec)} root searches, {repeats} rounds alternated:")
-    for name, _, _ in settings:
+    for name, _ in settings:
         lo = np.min(cpu[name])
         print(f"  {name}: CPU min {lo:.3f} s, median {np.median(cpu[name]):.3f} s ({base / lo:.3f}x less than no "
               f"floors, min/min); evaluations {evals[name]}")
@@ -596,8 +582,6 @@ def main() -> None:
     ap.add_argument("--floor-replay", type=int, default=0, metavar="R", help="the default spectral update's root "
                     "searches solved again without floors and with each --floor-gate (default: FLOOR_GATE), R rounds "
                     "alternated (CPU of the root search alone)")
-    ap.add_argument("--replay-lazy", action="store_true", help="with --floor-replay: also each gate with a lazy exact "
-                    "low end (_spectral_kernel.LAZY_LO)")
     ap.add_argument("--zero-order-screen", action="store_true", help="every spectral run with the zero-order screen "
                     "(update.ANCHORED False): floors, ceilings and gates then give the same particles bit for bit, so "
                     "their evaluations compare on one workload")
@@ -708,7 +692,7 @@ def main() -> None:
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
             if solves:
-                floor_replay(solves, args.floor_replay, args.floor_gate or [spectral.FLOOR_GATE], args.replay_lazy)
+                floor_replay(solves, args.floor_replay, args.floor_gate or [spectral.FLOOR_GATE])
             if moves:
                 anchored_estimate(prior, cuts, moves)
             d = post.diagnostics

@@ -1528,10 +1528,6 @@ def scan_state(rho0):
     return st
 
 
-#: the search's default for a bracket's low end (:func:`scan_to`'s ``lazy``, passed by ``spectral._solve``)
-LAZY_LO = False
-
-
 @nb.njit(cache=True)
 def _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd):
     """Make st[4] (ρ − 1 at the highest depth known stable, a bracket's low end) exact where a certificate
@@ -1568,7 +1564,7 @@ def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf, lazy=False):
+def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf):
     """The search from below at one speed, resumed from the state st (:func:`scan_state`, updated in
     place), over the depths below ``top`` [m] (inf: up to the first unstable depth).
 
@@ -1585,11 +1581,7 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
     ``cap`` [m] (a censored search, :data:`CENSORED`): once every depth of the search up to one ≥ cap is stable
     (st[3] ≥ cap), return (True, st[3], its ρ − 1, CENSORED, 0, NaN, evaluations): the search from below would
     stop above st[3], so the limit is at least st[3] (to the bracket's 1e-6), and the caller that only needs to
-    know that (a likelihood whose terms no longer change above cap) saves the rungs above and the root.
-
-    ``lazy`` (a lazy exact low end, :data:`LAZY_LO`): a bracket's low end is returned as it is known, ρ − 1 or the
-    certificate's bound of it (st[5] = 1), instead of its exact value (:func:`_exact_lo`, one evaluation); the secant
-    start of Newton takes the bound, and a caller that needs the exact value (Illinois) asks :func:`_exact_lo`."""
+    know that (a likelihood whose terms no longer change above cap) saves the rungs above and the root."""
     n_eval = 0
     nan = complex(np.nan, np.nan)
     while True:
@@ -1606,8 +1598,7 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
             bad, y, fy, my, c = _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
-                if not lazy:
-                    n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
             return True, st[3], st[4], -1.0, 0.0, nan, n_eval
         st[0] = k + 1
@@ -1626,12 +1617,10 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
             bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
             n_eval += c
             if bad:
-                if not lazy:
-                    n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
+                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
                 return False, st[3], st[4], y, fy, my, n_eval
         if r > 1.0:
-            if not lazy:
-                n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
+            n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
             return False, st[3], st[4], x, r - 1.0, m_, n_eval
         st[3] = x
         st[4] = r - 1.0
@@ -1639,20 +1628,19 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
 
 
 @nb.njit(cache=True)
-def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf, lazy=False):
+def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd, cap=np.inf):
     """Accept a boundary root b [m] found from a guess: :func:`scan_to` below b·(1 − 2e-3), then ρ at
-    b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns (``cap``, ``lazy``: as scan_to's,
+    b·(1 − 2e-3) itself (where ρ is not 1 by rounding). Returns what scan_to returns (``cap``: as scan_to's,
     the bracket high CENSORED where the search passed it)."""
     top = b * (1.0 - 2e-3)
     stable, lo, f_lo, hi, f_hi, m_hi, n_eval = scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd,
-                                                       cap, lazy)
+                                                       cap)
     if not stable or top <= st[3] or hi == CENSORED:
         return stable, lo, f_lo, hi, f_hi, m_hi, n_eval
     r, m_, _ = rho_test(top, 1.0, 0, kt, g)  # ρ(top) is within ~1e-3 of 1: no certificate in reach
     n_eval += 1
     if r > 1.0:
-        if not lazy:
-            n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
+        n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
         return False, st[3], st[4], top, r - 1.0, m_, n_eval
     return True, st[3], st[4], -1.0, 0.0, complex(np.nan, np.nan), n_eval
 
@@ -1718,7 +1706,7 @@ def secant_start(br_lo, br_hi, f_lo, f_hi):
 
 @nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
-              w_flex, depth, mu, n_eval, cap, floor, gate, lazy):
+              w_flex, depth, mu, n_eval, cap, floor, gate):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
@@ -1741,7 +1729,6 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     update's cut speeds are each a run of their own, ``spectral.PHASE_SPLIT``), where b_ref[s] ≤ gate · floor[s],
     :func:`floor_test` first; where it floors, depth[s] is the floor's rung x_k (the limit is below it, ≤ x_k/0.998
     < floor[s]) and mu[s] FLOORED + 0j. Every other depth is the one without floors, bit for bit.
-    ``lazy``: a bracket's low end exact only where Illinois needs it (:func:`scan_to`, :data:`LAZY_LO`).
     """
     D = act.size
     br_b = np.zeros(N_BRANCH)
@@ -1828,7 +1815,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
                     break
                 scanned = True
                 _, b_lo, f_lo, b_hi, f_hi, m_hi, c = scan_to(b_ref[s], ladder, np.inf, st, near, kt, wn, zeta, mass,
-                                                             mdir, D, g, nd, cap[s], lazy)
+                                                             mdir, D, g, nd, cap[s])
                 count += c
                 if b_hi < 0.0:  # stable up to 1e4 times the reference depth (no boundary), or past the cap
                     depth[s] = b_lo if b_hi == CENSORED else np.inf
@@ -1838,7 +1825,7 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
             else:
                 b1 = br_b[best]
                 stable, b_lo, f_lo, b_hi, f_hi, m_hi, c = check_root(b1, b_ref[s], ladder, st, near, kt, wn, zeta, mass,
-                                                                     mdir, D, g, nd, cap[s], lazy)
+                                                                     mdir, D, g, nd, cap[s])
                 count += c
                 if b_hi == CENSORED:  # stable past the cap under the root: the limit is above the cap
                     depth[s] = b_lo
@@ -1855,8 +1842,6 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
                                     mdir, g, nd)
             count += c
             if not (ok and bn < b_hi * (1.0 + 1e-6) and bn > b_lo * (1.0 - 1e-6)):
-                count += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)  # (lazy: Illinois needs the exact low end)
-                f_lo = st[4]
                 d, m2, c = _illinois(b_lo, f_lo, b_hi, f_hi, m_hi, 0.01, kt, wn, zeta, mass, mdir, D, g, nd)
                 count += c
                 bn, thn, ok, c = newton(d, abs(cmath_phase(m2)), kt, wn, zeta, mass, mdir, g, nd)
@@ -1866,8 +1851,6 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
                 # Newton fails in the bracket: the fine Illinois on ρ − 1 gives the depth (no branch)
                 for i in range(N_BRANCH):
                     br_on[i] = False
-                count += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
-                f_lo = st[4]
                 d, m2, c = _illinois(b_lo, f_lo, b_hi, f_hi, m_hi, rtol, kt, wn, zeta, mass, mdir, D, g, nd)
                 count += c
                 depth[s] = d
@@ -1894,12 +1877,12 @@ def cmath_phase(z):
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
-                nd, rtol, w_flex, depth, mu, n_eval, cap, floor, gate, lazy):
+                nd, rtol, w_flex, depth, mu, n_eval, cap, floor, gate):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S); cap (B, S) [m]: the
     censored search's caps (:func:`limit_run`; inf: none); floor (B, S) [m] (≤ 0: none) and gate: the floors
-    (:func:`limit_run`); lazy: a bracket's low end exact only where Illinois needs it (:data:`LAZY_LO`)."""
+    (:func:`limit_run`)."""
     n_b = wn.shape[0]
     n_blk = starts.size - 1
     for t in nb.prange(n_b * n_blk):
@@ -1909,7 +1892,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
                   mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e],
-                  cap[bi, a:e], floor[bi, a:e], gate, lazy)
+                  cap[bi, a:e], floor[bi, a:e], gate)
 
 
 @nb.njit(cache=True)

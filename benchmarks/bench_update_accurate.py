@@ -505,8 +505,8 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
     thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
     base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top = args.screen_top or base[1]
-    plan = ([("before (0 screen stages, not anchored)", (0, top, 1, False), 3),
-             (f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
+    plan = ([] if args.study_skip_before else [("before (0 screen stages, not anchored)", (0, top, 1, False), 3)]) + (
+            [(f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
             + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
                if args.anchor_compare else [])
             + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
@@ -604,6 +604,8 @@ def main() -> None:
                     "sampler before, the default and each --screen-stages / --screen-chain setting against one "
                     "reference")
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
+    ap.add_argument("--study-skip-before", action="store_true", help="the seed study without its row of the sampler "
+                    "before the screen-tempered start (its reference is still that sampler's)")
     ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
                     "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
     ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")

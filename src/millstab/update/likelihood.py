@@ -669,8 +669,10 @@ class Likelihood:
         limits per data column). ``floor``: :meth:`bounded`'s, and a row it decided early has NaN at the columns it
         did not evaluate; NaN rows outside the prior's support. The limits are :meth:`__call__`'s, censored where it
         censors (:meth:`ceilings`: a censored limit is far above every cut at its speed in both models, so the
-        anchored screen's ratio there only keeps a term saturated). InputError with chatter frequencies (a term that
-        reads more than the depths)."""
+        anchored screen's ratio there only keeps a term saturated) and floored where it floors (:meth:`floors`: a
+        ladder rung below the floor in place of a limit below it, a function of the row; the screen's ratio there is
+        the rung's ladder factor, finite and positive, and keeps a proposal's term near saturation). InputError with
+        chatter frequencies (a term that reads more than the depths)."""
         if self.uses_frequency:
             raise InputError("anchored", "chatter frequencies", "an anchored screen reads the limits only: use the "
                              "plain delayed-acceptance screen with measured chatter frequencies")

@@ -81,6 +81,17 @@ moves a stage, and with the random walk's acceptance target T (:data:`millstab.u
 moves. ``--jobs J``: the seed study's runs in a pool of J spawned processes, numba on one thread each, every run
 seeded by its own index (the same numbers for any J; its CPU times are one thread's).
 
+``--no-floor``: also the spectral update without the likelihood's floors (:meth:`millstab.update.likelihood.
+Likelihood.floors`: every limit below its floor searched to its root), in the same run, the particles compared bit for
+bit; ``--floor-gate G[,...]``: also the spectral update with :data:`millstab.stability.spectral.FLOOR_GATE` at G (a
+floor tested only where the zero-order depth is at most G × the floor; inf: everywhere). ``--breakdown`` counts the
+floor tests and the floored entries. ``--floor-replay R``: the default spectral update's root searches (the
+engine's ``_solve`` calls, recorded) solved again without floors and with each ``--floor-gate``, R rounds alternated:
+the root search's CPU on one workload, min and median (the shared machine's load moves single runs by ±10 %).
+``--zero-order-screen``: every spectral run with the zero-order screen
+(:data:`millstab.update.ANCHORED` False), whose particles do not depend on the floors (the anchored screen's anchor is a
+particle's depths, which a floor changes: a rung in place of a limit below it).
+
 ``--omp-wait active|passive`` (default passive): OpenMP's wait policy for numba's threads (``OMP_WAIT_POLICY``,
 set before numba starts its threads). Measured (2026-11-27, load ~22 on the 2 cores): with GOMP's default
 (active: idle threads spin), one zero-order engine call of 1 set × 1 speed cost 16 ms CPU and 48 ms wall, with
@@ -129,7 +140,8 @@ from millstab.stability import spectral
 def spectral_counts(on: bool):
     """With ``on``, count the spectral engine's root searches: calls, entries, evaluations, CPU of the search
     and of its zero-order starting depths (a dict filled while the block runs)."""
-    c = {"calls": 0, "entries": 0, "evals": 0, "solve_cpu": 0.0, "b_ref_cpu": 0.0, "rows": 0, "warm_rows": 0}
+    c = {"calls": 0, "entries": 0, "evals": 0, "solve_cpu": 0.0, "b_ref_cpu": 0.0, "rows": 0, "warm_rows": 0,
+         "floor_tests": 0, "floored": 0}
     if not on:
         yield c
         return
@@ -148,6 +160,11 @@ def spectral_counts(on: bool):
         c["calls"] += 1
         c["entries"] += out[2].size
         c["evals"] += int(out[2].sum())
+        low = k.get("floor")
+        if low is not None:  # the floor's tests (the gate passed; a test needs a rung too: nearly always) and hits
+            with np.errstate(invalid="ignore"):  # (inf × 0 where there is no floor)
+                c["floor_tests"] += int(((low > 0) & (a[3] <= spectral.FLOOR_GATE * low)).sum())
+            c["floored"] += int((out[1] == complex(spectral._k.FLOORED, 0.0)).sum())
         return out
 
     def counted_b_ref(*a, **k):
@@ -229,6 +246,87 @@ def uncensored(on: bool):
         yield
     finally:
         Likelihood.ceilings = had
+
+
+@contextlib.contextmanager
+def recorded_solves(on: bool):
+    """With ``on``, every root search of the spectral engine (``spectral._solve``'s arguments) appended to the
+    yielded list, for :func:`floor_replay`."""
+    rec: list = []
+    if not on:
+        yield rec
+        return
+    solve = spectral._solve
+
+    def recording(*a, **k):
+        rec.append((a, dict(k)))
+        return solve(*a, **k)
+
+    spectral._solve = recording
+    try:
+        yield rec
+    finally:
+        spectral._solve = solve
+
+
+def floor_replay(rec: list, repeats: int, gates: list[float]) -> None:
+    """``--floor-replay R``: the recorded root searches of one update solved again, without floors and with each gate
+    (:data:`millstab.stability.spectral.FLOOR_GATE`), the settings alternated R times; CPU of each setting's whole
+    set of calls (min and median over the R rounds: the machine is shared) and its evaluations."""
+    settings = [("no floors", None)] + [(f"gate {g:g}", g) for g in gates]
+    cpu = {name: [] for name, _ in settings}
+    evals = {}
+    had = spectral.FLOOR_GATE
+    try:
+        for r in range(repeats):
+            for name, g in (settings if r % 2 == 0 else settings[::-1]):
+                n = 0
+                t = time.process_time()
+                for a, k in rec:
+                    if g is None:
+                        k = {**k, "floor": None}
+                    else:
+                        spectral.FLOOR_GATE = g
+                    n += int(spectral._solve(*a, **k)[2].sum())
+                cpu[name].append(time.process_time() - t)
+                evals[name] = n
+    finally:
+        spectral.FLOOR_GATE = had
+    base = np.min(cpu["no floors"])
+    print(f"floor replay: {len(rec)} root searches, {repeats} rounds alternated:")
+    for name, _ in settings:
+        lo = np.min(cpu[name])
+        print(f"  {name}: CPU min {lo:.3f} s, median {np.median(cpu[name]):.3f} s ({base / lo:.3f}x less than no "
+              f"floors, min/min); evaluations {evals[name]}")
+
+
+@contextlib.contextmanager
+def unfloored(on: bool):
+    """With ``on``, no floors (every limit below its floor searched to its root: the code before the floor,
+    :meth:`millstab.update.likelihood.Likelihood.floors` hidden)."""
+    if not on:
+        yield
+        return
+    had = Likelihood.floors
+    Likelihood.floors = lambda self, u, noise: None
+    try:
+        yield
+    finally:
+        Likelihood.floors = had
+
+
+@contextlib.contextmanager
+def floor_gate(gate: float | None):
+    """With a number, :data:`millstab.stability.spectral.FLOOR_GATE` set to it while the block runs."""
+    if gate is None:
+        yield
+        return
+    had = spectral.FLOOR_GATE
+    spectral.FLOOR_GATE = gate
+    try:
+        yield
+    finally:
+        spectral.FLOOR_GATE = had
 
 
 @contextlib.contextmanager
@@ -407,8 +505,8 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
     thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
     base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top = args.screen_top or base[1]
-    plan = ([("before (0 screen stages, not anchored)", (0, top, 1, False), 3),
-             (f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
+    plan = ([] if args.study_skip_before else [("before (0 screen stages, not anchored)", (0, top, 1, False), 3)]) + (
+            [(f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
             + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
                if args.anchor_compare else [])
             + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
@@ -479,6 +577,17 @@ def main() -> None:
                     "second stage (every survivor at every speed), and the two compared")
     ap.add_argument("--no-censor", action="store_true", help="also the spectral update with every limit searched to "
                     "its root (no ceilings), and the two compared")
+    ap.add_argument("--no-floor", action="store_true", help="also the spectral update without floors (every limit "
+                    "below its floor searched to its root), and the two compared")
+    ap.add_argument("--floor-replay", type=int, default=0, metavar="R", help="the default spectral update's root "
+                    "searches solved again without floors and with each --floor-gate (default: FLOOR_GATE), R rounds "
+                    "alternated (CPU of the root search alone)")
+    ap.add_argument("--zero-order-screen", action="store_true", help="every spectral run with the zero-order screen "
+                    "(update.ANCHORED False): floors, ceilings and gates then give the same particles bit for bit, so "
+                    "their evaluations compare on one workload")
+    ap.add_argument("--floor-gate", type=lambda t: [float(x) for x in t.split(",") if x.strip()], default=[],
+                    help="also the spectral update with spectral.FLOOR_GATE at each of these values (comma-separated; "
+                    "inf: a floor tested everywhere)")
     ap.add_argument("--anchored", action="store_true", help="estimate a screen anchored at the current particle on "
                     "the delayed-acceptance run's proposals")
     ap.add_argument("--near", type=float, default=None, help="also the spectral update with the refinement near "
@@ -495,6 +604,8 @@ def main() -> None:
                     "sampler before, the default and each --screen-stages / --screen-chain setting against one "
                     "reference")
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
+    ap.add_argument("--study-skip-before", action="store_true", help="the seed study without its row of the sampler "
+                    "before the screen-tempered start (its reference is still that sampler's)")
     ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
                     "screen switched the other way (update.ANCHORED), in the same run (and in --seed-study)")
     ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
@@ -548,6 +659,10 @@ def main() -> None:
         plan = ([("zoa", "auto")] + ([("spectral", "fit-nodes")] if args.fit_nodes else []) + [("spectral", "auto")]
                 + ([("spectral", "unbounded")] if args.no_bounded else [])
                 + ([("spectral", "uncensored")] if args.no_censor else [])
+                + ([("spectral", "unfloored")] if args.no_floor else [])
+                + ([("spectral", "zscreen"), ("spectral", "zscreen-unfloored")]
+                   if args.no_floor and not args.zero_order_screen else [])
+                + [("spectral", f"gate{g:g}") for g in args.floor_gate]
                 + ([("spectral", "plain")] if args.plain else [])
                 + ([("spectral", "surrogate")] if args.surrogate else [])
                 + ([("spectral", "near")] if args.near is not None else [])
@@ -556,23 +671,30 @@ def main() -> None:
                 + [("spectral", f"chain{c}") for c in chains])
         upd.SURROGATE_KIND = args.surrogate_kind
         default_stages, default_steps, default_top = upd.SCREEN_STAGES, upd.SCREEN_STEPS, upd.SCREEN_TOP
-        default_anchor = upd.ANCHORED
+        default_anchor = False if args.zero_order_screen else upd.ANCHORED
         for eng, smp in plan:
-            upd.ANCHORED = (not default_anchor) if smp == "flip-anchor" else default_anchor
+            upd.ANCHORED = (not default_anchor) if smp == "flip-anchor" else (
+                False if smp.startswith("zscreen") else default_anchor)
             upd.SCREEN_TOP = args.screen_top if args.screen_top and smp.startswith(("screen", "chain")) else default_top
             upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
                 stages[0] if smp.startswith("chain") and stages else default_stages)
             n_moves, upd.SCREEN_STEPS = (int(x) for x in smp[5:].split("x")) if smp.startswith("chain") else (
                 3, default_steps)
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
+                    unfloored(smp in ("unfloored", "zscreen-unfloored")), \
+                    floor_gate(float(smp[4:]) if smp.startswith("gate") else None), \
                     spectral_counts(args.breakdown and eng == "spectral") as counts, \
-                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves:
+                    recorded_moves(args.anchored and (eng, smp) == ("spectral", "auto")) as moves, \
+                    recorded_solves(args.floor_replay and (eng, smp) == ("spectral", "auto")) as solves:
                 post, wall, cpu = timed(lambda eng=eng, smp=smp, n_moves=n_moves: update(
                     cfg, cuts, samples=args.samples, seed=args.seed, engine=eng, prior=prior, moves=n_moves,
-                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "near", "flip-anchor")
-                    or smp.startswith(("screen", "chain")) else smp,
+                    sampler="auto" if smp in ("fit-nodes", "unbounded", "uncensored", "unfloored", "near",
+                                              "flip-anchor") or smp.startswith(("screen", "chain", "gate", "zscreen"))
+                    else smp,
                     engine_options={"near": args.near} if smp == "near" else None))
             runs[eng, smp] = (post, wall, cpu)
+            if solves:
+                floor_replay(solves, args.floor_replay, args.floor_gate or [spectral.FLOOR_GATE])
             if moves:
                 anchored_estimate(prior, cuts, moves)
             d = post.diagnostics
@@ -595,13 +717,15 @@ def main() -> None:
                 passed = sum(p * m * args.samples for p, m in zip(d.get("screen_pass", []), mv))
                 accepted = sum(a * m * args.samples for a, m in zip(d.get("acceptance", []), mv))
                 print(f"  breakdown: {counts['calls']} spectral calls, {counts['entries']} (set, speed) entries, "
-                      f"{counts['evals'] / max(counts['entries'], 1):.1f} evaluations per entry (of the cold searches "
+                      f"{counts['evals'] / max(counts['entries'], 1):.2f} evaluations per entry ({counts['evals']}; of "
+                      f"the cold searches "
                       f"and warm starts; {counts['warm_rows']} of {counts['rows']} rows started warm from a row within "
                       f"{spectral.WARM_REL:g} of them); CPU root search "
                       f"{counts['solve_cpu']:.2f} s, zero-order starting depths {counts['b_ref_cpu']:.2f} s; "
                       f"proposals {moved:.0f}, passed the screen {passed:.0f}, accepted {accepted:.0f}; decided "
                       f"early {d.get('decided_early', 0)}, entries saved {d.get('entries_saved', 0)}; censored entries "
-                      f"{d.get('censored_entries', 0)}")
+                      f"{d.get('censored_entries', 0)}; entries below their floor {d.get('floored_entries', 0)}, "
+                      f"floor tests {counts['floor_tests']}, floored {counts['floored']}")
             if counts["calls"]:
                 phases(d, args.samples)
             if "screen_start" in d:
@@ -638,6 +762,27 @@ def main() -> None:
               f"particles bit for bit: {same}; ratio without it {o[2] / z[2]:.1f} CPU")
         if not same:
             compare(s[0].u, o[0].u, names, "censored - uncensored")
+    if args.no_floor and args.zero_order_screen:
+        o = runs["spectral", "unfloored"]
+        print(f"floors vs every limit below its floor to its root (zero-order screen): {o[2] / s[2]:.2f}x CPU; the "
+              f"same particles bit for bit: {np.array_equal(o[0].u, s[0].u)}; ratio without floors {o[2] / z[2]:.1f} "
+              f"CPU")
+    elif args.no_floor:
+        o = runs["spectral", "unfloored"]
+        same = np.array_equal(o[0].u, s[0].u)
+        print(f"floors vs every limit below its floor to its root: {o[1] / s[1]:.2f}x wall, {o[2] / s[2]:.2f}x CPU; "
+              f"the same particles bit for bit: {same}; ratio without floors {o[1] / z[1]:.1f} wall, {o[2] / z[2]:.1f} "
+              f"CPU")
+        if not same:
+            compare(s[0].u, o[0].u, names, "floored - unfloored")
+        a, b = runs["spectral", "zscreen"], runs["spectral", "zscreen-unfloored"]
+        print(f"with the zero-order screen (update.ANCHORED False; the anchored screen's anchor is the floored depth, "
+              f"so its chain differs): floors {b[2] / a[2]:.2f}x less CPU; the same particles bit for bit: "
+              f"{np.array_equal(a[0].u, b[0].u)}; ratio {a[2] / z[2]:.1f} (floors) / {b[2] / z[2]:.1f} CPU")
+    for g in args.floor_gate:
+        o = runs["spectral", f"gate{g:g}"]
+        print(f"floor gate {g:g} (default {spectral.FLOOR_GATE:g}): ratio to zoa {o[1] / z[1]:.1f} wall, "
+              f"{o[2] / z[2]:.1f} CPU; the same particles bit for bit: {np.array_equal(o[0].u, s[0].u)}")
     if args.near is not None:
         q = runs["spectral", "near"]
         print(f"refinement near rho = 1 at {args.near:g} against the sampling settings' {spectral.NEAR:g}: "

@@ -34,7 +34,7 @@ SETTINGS_CACHE = 16
 FD_STEP = 1e-4
 #: keywords of an engine's ``envelope_batch`` that are not its discretisation (never ``options``; the spectral
 #: engine's ``warm`` is its own settings' choice, per purpose; ``ceiling`` a censored search's per-call caps)
-NOT_OPTIONS = frozenset({"ceiling", "chunk", "kr", "progress", "warm"})
+NOT_OPTIONS = frozenset({"ceiling", "chunk", "floor", "kr", "progress", "warm"})
 
 
 @dataclass(frozen=True)
@@ -188,15 +188,18 @@ class Pinned:
         return Pinned, (self.forward, self.rpm, dict(self.settings), self.conditions)
 
     def __call__(self, theta: np.ndarray, kr: np.ndarray | None = None,
-                 ceiling: np.ndarray | None = None) -> np.ndarray:
+                 ceiling: np.ndarray | None = None, floor: np.ndarray | None = None) -> np.ndarray:
         """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call; ``kr`` (B,): a Kr per row
         (engines with ``per_set_kr``); ``ceiling`` (B, S) [m]: a censored search (engines with ``takes_ceiling``,
-        e.g. :func:`millstab.stability.spectral.envelope_batch`: above it, a certified lower bound of the limit)."""
+        e.g. :func:`millstab.stability.spectral.envelope_batch`: above it, a certified lower bound of the limit);
+        ``floor`` (B, S) [m]: floors (engines with ``takes_floor``: a depth below it where the limit is)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
         extra = {} if kr is None else {"kr": kr}
         if ceiling is not None:
             extra["ceiling"] = ceiling
+        if floor is not None:
+            extra["floor"] = floor
         return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     @property

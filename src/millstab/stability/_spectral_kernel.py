@@ -1516,13 +1516,15 @@ def _squarings(r_prev, level):
 @nb.njit(cache=True)
 def scan_state(rho0):
     """A fresh state of the search from below at one speed (see :func:`scan_to`)."""
-    st = np.empty(6)
+    st = np.empty(8)
     st[0] = 0.0  # the next ladder index
     st[1] = 0.0  # the last ladder depth evaluated [m] (0: the start) ...
     st[2] = rho0 - 1.0  # ... and ρ − 1 there
     st[3] = 0.0  # the highest depth known stable [m] ...
     st[4] = rho0 - 1.0  # ... and ρ − 1 there (or a bound of it, :func:`rho_below`) ...
     st[5] = 0.0  # ... 1 where st[4] is only that bound (:func:`_exact_lo` makes it exact for a bracket)
+    st[6] = -1.0  # a ladder index whose exact ρ is known already (a floor's test, :func:`floor_test`; −1: none) ...
+    st[7] = 0.0  # ... and that ρ (≤ 1: the rung is stable)
     return st
 
 
@@ -1603,7 +1605,10 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
         if x <= st[3]:  # known stable (an earlier scan at this speed)
             continue
         # a bound below 1 − near decides this rung as ρ itself would (no refinement, stable)
-        r, m_, exact = rho_test(x, 1.0 - near, _squarings(st[2] + 1.0, 1.0 - near), kt, g)
+        if k == int(st[6]):  # its exact ρ is known (a floor's test: ≤ 1), the value rho_test's exact path gives
+            r, m_, exact = st[7], nan, True
+        else:
+            r, m_, exact = rho_test(x, 1.0 - near, _squarings(st[2] + 1.0, 1.0 - near), kt, g)
         n_eval += 1
         f_prev = st[2]
         st[1] = x
@@ -1640,6 +1645,57 @@ def check_root(b, b_ref, ladder, st, near, kt, wn, zeta, mass, mdir, D, g, nd, c
     return True, st[3], st[4], -1.0, 0.0, complex(np.nan, np.nan), n_eval
 
 
+#: a floor's rung lies at or below this fraction of the floor: an accepted root b was checked stable up to top = b·(1 −
+#: 2e-3) (:func:`check_root`), so a rung x_k ≥ top unstable gives b ≤ x_k/0.998 < x_k/FLOOR_MARGIN ≤ the floor
+FLOOR_MARGIN = 0.997
+#: the marker of a floored speed's multiplier (the depth is the floor's rung, :func:`floor_test`)
+FLOORED = -3.0
+
+
+@nb.njit(cache=True)
+def floor_rung(b_ref, ladder, floor):
+    """(k, x_k [m]): the highest rung of the search from below at ``b_ref`` [m] (:func:`ladder_depth`) at or below
+    FLOOR_MARGIN · ``floor`` [m] whose depth is also the one :func:`first_crossing` (the fallback) evaluates, bit for
+    bit (above the ladder the two multiply by 1.5 differently); (−1, 0) where there is none."""
+    lim = FLOOR_MARGIN * floor
+    k_best = -1
+    x_best = 0.0
+    b = 0.0
+    k = 0
+    while True:
+        if k < ladder.size:
+            b = b_ref * ladder[k]
+        else:
+            b *= 1.5
+        if b > lim or b > 1e4 * b_ref:
+            break
+        if b == ladder_depth(b_ref, ladder, k):
+            k_best = k
+            x_best = b
+        k += 1
+    return k_best, x_best
+
+
+@nb.njit(cache=True)
+def floor_test(b_ref, ladder, floor, cap, kt, wn, zeta, mass, mdir, D, g, nd):
+    """A floor [m] at one speed (issue 28; the mirror of the ceiling, :func:`scan_to`'s ``cap``): the exact ρ at the
+    floor's rung x_k (:func:`floor_rung`). Returns (floored, k, x_k, ρ(x_k), evaluations): floored where ρ(x_k) > 1,
+    and then the limit is below the floor: every path of :func:`limit_run` stops there (the search from below
+    evaluates x_k unless it stopped lower, :func:`check_root` accepts no root b with b·(1 − 2e-3) < x_k, Illinois
+    stays inside a bracket whose high end is the first unstable depth found, the fallback climbs the same rungs).
+    Not floored (k −1 where no rung or the rung is not below ``cap``): the search as without a floor (ρ(x_k) then
+    saves the rung's own test, :func:`scan_to`; it is no certificate of the rungs below, a band can lie there).
+    The workspace's balancing scaling is forgotten after the test, so the certificates below start as they would."""
+    if not floor > 0.0:
+        return False, -1, 0.0, 0.0, 0
+    k, x = floor_rung(b_ref, ladder, floor)
+    if k < 0 or not x < cap:
+        return False, -1, 0.0, 0.0, 0
+    r, _ = rho(x, kt, wn, zeta, mass, mdir, D, g, nd)
+    g[9][13][0] = 0.0  # rho_test's "no scaling yet at this speed"
+    return r > 1.0, k, x, r, 1
+
+
 @nb.njit(cache=True)
 def secant_start(br_lo, br_hi, f_lo, f_hi):
     """Newton's start inside a bracket [br_lo, br_hi] of ρ − 1 (values f_lo < 0 < f_hi): the secant point,
@@ -1650,7 +1706,7 @@ def secant_start(br_lo, br_hi, f_lo, f_hi):
 
 @nb.njit(cache=True)
 def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len, nd, rtol,
-              w_flex, depth, mu, n_eval, cap):
+              w_flex, depth, mu, n_eval, cap, floor, gate):
     """Limiting depths along ascending speeds rpm (S,) for one structure, tracking boundary branches.
 
     Every boundary root found (b, θ) is a branch, continued from speed to speed by Newton on the
@@ -1668,6 +1724,11 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
     ``cap`` (S,) [m]: a censored search (:func:`scan_to`; inf: none): where every depth of the search up to one ≥
     cap[s] is stable, depth[s] is that depth (a lower bound of the limit, ≥ cap[s]) and mu[s] NaN; the branches
     are left as they were (the next speed's acceptance is its own either way).
+    ``floor`` (S,) [m] (≤ 0: none) and ``gate``: at the run's last speed (no speed continues its branches: a floored
+    speed skips its search, so a speed after it in the run would start from other branches, a root ~1e-12 off; the
+    update's cut speeds are each a run of their own, ``spectral.PHASE_SPLIT``), where b_ref[s] ≤ gate · floor[s],
+    :func:`floor_test` first; where it floors, depth[s] is the floor's rung x_k (the limit is below it, ≤ x_k/0.998
+    < floor[s]) and mu[s] FLOORED + 0j. Every other depth is the one without floors, bit for bit.
     """
     D = act.size
     br_b = np.zeros(N_BRANCH)
@@ -1684,6 +1745,16 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
         for j in range(wn.size):
             rho0 = max(rho0, math.exp(-zeta[j] * wn[j] * T))
         count = 0
+        k_known = -1
+        r_known = 0.0
+        if floor[s] > 0.0 and s == rpm.size - 1 and b_ref[s] <= gate * floor[s]:
+            floored, k_known, x_f, r_known, count = floor_test(b_ref[s], ladder, floor[s], cap[s], kt, wn, zeta, mass,
+                                                               mdir, D, g, nd)
+            if floored:
+                depth[s] = x_f
+                mu[s] = complex(FLOORED, 0.0)
+                n_eval[s] = count
+                continue
         # continue every tracked branch
         for i in range(N_BRANCH):
             if not br_on[i]:
@@ -1730,6 +1801,8 @@ def limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm, b_ref, ladder, near, wn, zeta,
         # the checks already found stable) to its first unstable depth, and Newton starts in that bracket.
         # lo: the depth up to which every ladder rung is known stable at this speed (f_lo: ρ − 1 there).
         st = scan_state(rho0)
+        st[6] = k_known
+        st[7] = r_known
         scanned = False
         done = False
         for attempt in range(ATTEMPTS):
@@ -1804,11 +1877,12 @@ def cmath_phase(z):
 
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
-                nd, rtol, w_flex, depth, mu, n_eval, cap):
+                nd, rtol, w_flex, depth, mu, n_eval, cap, floor, gate):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
     (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S); cap (B, S) [m]: the
-    censored search's caps (:func:`limit_run`; inf: none)."""
+    censored search's caps (:func:`limit_run`; inf: none); floor (B, S) [m] (≤ 0: none) and gate: the floors
+    (:func:`limit_run`)."""
     n_b = wn.shape[0]
     n_blk = starts.size - 1
     for t in nb.prange(n_b * n_blk):
@@ -1818,7 +1892,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
         e = starts[k + 1]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
                   mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e],
-                  cap[bi, a:e])
+                  cap[bi, a:e], floor[bi, a:e], gate)
 
 
 @nb.njit(cache=True)

@@ -106,4 +106,4 @@ def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, ne
         s = col[e]
         limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i],
                   mdir, act, elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1],
-                  np.full(1, np.inf))
+                  np.full(1, np.inf), np.zeros(1), 0.0)

@@ -31,7 +31,7 @@ CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchan
 #: capabilities of :class:`Engine` (each declared or checked with ``hasattr``/``engine_with``); any other public
 #: function of an engine module (``rho_map``, ``monodromy``, …) is the engine's own (tests/test_layers.py)
 OPTIONAL = ("per_set_kr", "process_damping", "settings", "split_settings", "envelope_batch_hz", "lobes",
-            "reports_multipliers", "critical_multipliers", "takes_ceiling", "likelihood_ceiling")
+            "reports_multipliers", "critical_multipliers", "takes_ceiling", "likelihood_ceiling", "takes_floor")
 
 #: the ``"schema"`` of :meth:`Envelope.to_json`
 ENVELOPE_SCHEMA = "millstab.envelope/1"
@@ -61,6 +61,18 @@ def check_ceiling(ceiling, n_sets: int, n_speeds: int) -> np.ndarray | None:
         raise InputError("ceiling", f"shape {c.shape}",
                          f"a depth > 0 [m] (inf: none) per set and speed, ({n_sets}, {n_speeds})")
     return c
+
+
+def check_floor(floor, n_sets: int, n_speeds: int) -> np.ndarray | None:
+    """A floored search's floor (the ``takes_floor`` capability) as a float array (B, S) [m], or None; InputError for
+    another shape or a NaN (≤ 0 or −inf: no floor at that entry)."""
+    if floor is None:
+        return None
+    f = np.asarray(floor, dtype=float)
+    if f.shape != (n_sets, n_speeds) or np.isnan(f).any():
+        raise InputError("floor", f"shape {f.shape}", f"a depth [m] (<= 0: none) per set and speed, ({n_sets}, "
+                         f"{n_speeds})")
+    return f
 
 
 def directional_matrix(cutting) -> np.ndarray:
@@ -205,6 +217,10 @@ class Engine(Protocol):
         likelihood_ceiling: ``envelope_batch`` takes ``ceiling=`` as above and only the updating's likelihood uses it,
             not the decisions (zoa: it returns the ceiling itself above it; a cheap engine whose decisions read each
             limit once from their memo).
+        takes_floor: ``envelope_batch`` takes ``floor=`` (B, S) [m], the mirror of a ceiling: where it can show cheaply
+            that the limit is below the floor it returns a depth below the floor instead of the limit, elsewhere the
+            limit itself (spectral; read only by the updating's likelihood, whose label terms no longer change below
+            it: :meth:`millstab.update.likelihood.Likelihood.floors`).
     """
 
     name: str
@@ -252,7 +268,8 @@ def by_condition(entry: Callable) -> Callable:
     """Let an engine entry point written for one Cutting (``entry(batch, cutting, rpm, ...)``) take a
     :class:`~millstab.model.Conditions`: the columns are grouped by condition, each group is one call of
     ``entry`` on its own speeds (a kernel that works speed by speed does the same work as one call),
-    and the results are put back in column order (a ``ceiling=`` (B, S) goes to each group by its columns).
+    and the results are put back in column order (a ``ceiling=`` or ``floor=`` (B, S) goes to each group by its
+    columns).
     Array results (B, S) and tuples of them are assembled column by column; a dict
     (``settings``/``split_settings``) is merged by :func:`merge_settings`. A plain Cutting goes straight
     through (the same numbers, bit for bit)."""
@@ -265,11 +282,14 @@ def by_condition(entry: Callable) -> Callable:
             return entry(batch, cutting, rpm, *args, **kwargs)
         r = check_rpm(rpm)
         cutting.check_columns(r.size)
-        # a censored search's ceiling (B, S) is per column: each group gets its own columns' (``takes_ceiling``)
+        # a censored search's ceiling (B, S) is per column: each group gets its own columns' (``takes_ceiling``), and
+        # so does a floor (``takes_floor``)
         cap = check_ceiling(kwargs.pop("ceiling", None), batch.size, r.size)
+        low = check_floor(kwargs.pop("floor", None), batch.size, r.size)
 
         def own(cols):
-            return kwargs if cap is None else {**kwargs, "ceiling": cap[:, cols]}
+            extra = {} if cap is None else {"ceiling": cap[:, cols]}
+            return {**kwargs, **extra} if low is None else {**kwargs, **extra, "floor": low[:, cols]}
 
         parts = [(cols, entry(batch, c, r[cols], *args, **own(cols))) for c, cols in cutting.groups()]
         first = parts[0][1]

@@ -285,7 +285,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_ceiling, check_rpm
+from millstab.stability.base import by_condition, check_ceiling, check_floor, check_rpm
 from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
@@ -325,6 +325,14 @@ WARM_REL = 1e-2
 NEAR = _k.NEAR
 #: a multiplier within this angle [rad] of the negative real axis marks a flip boundary
 FLIP_ARG = 1e-3
+#: a floor (:func:`envelope_batch`'s ``floor``) is tested at a (set, speed) only where the zero-order depth there is at
+#: most this multiple of the floor (inf: everywhere). A test that does not floor costs an exact ρ (~16 µs) where the
+#: rung it stands for would mostly have been certified (~4 µs). Measured (issue 28, 2026-11-28, the 1 000-sample update
+#: of docs/updating.md, its 26 root searches replayed 5 times alternated, ``bench_update_accurate.py --samples 1000
+#: --floor-replay 5 --floor-gate 1,0.9,inf``, load ~4 on 2 cores): without floors 554 950 evaluations, 3.90 s CPU
+#: (min); gate inf 16 400 tests, 1 500 floored, 526 402 evaluations, 3.88 s; 1.0: 1 900 tests, 1 356 floored,
+#: 514 515, 3.59 s; 0.9: 517 321, 3.54 s (0.7: fewer floored, more evaluations than 0.9)
+FLOOR_GATE = 1.0
 
 __all__ = ["envelope", "envelope_batch", "envelope_batch_hz", "monodromy", "rho_map", "SpectralEnvelope", "P_NODES",
            "ELEM_PERIODS", "TOL"]
@@ -440,10 +448,12 @@ def _one_blas_thread():
 
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-           block: int | None = None, near: float = NEAR, ceiling: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+           block: int | None = None, near: float = NEAR, ceiling: np.ndarray | None = None,
+           floor: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
     (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block);
-    ``ceiling`` (B, S) [m]: a censored search (:func:`envelope_batch`), None: none."""
+    ``ceiling`` (B, S) [m]: a censored search (:func:`envelope_batch`), None: none; ``floor`` (B, S) [m]: the
+    floors (:func:`envelope_batch`; ≤ 0 or None: none), tested where b_ref ≤ FLOOR_GATE × the floor."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
     if block is None:
@@ -455,9 +465,11 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, kr, ps, pe = _cut_args(cutting)
     cap = np.full((n_b, n_s), np.inf) if ceiling is None else np.ascontiguousarray(ceiling, dtype=float)
+    low = np.zeros((n_b, n_s)) if floor is None else np.ascontiguousarray(floor, dtype=float)
     with _one_blas_thread():
         _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
-                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap)
+                       _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap, low,
+                       float(FLOOR_GATE))
     if np.any(np.isnan(depth)):
         raise ArithmeticError("spectral engine: root search produced NaN")
     return depth, mu, n_eval
@@ -479,23 +491,25 @@ def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarr
 
 
 def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
-                near: float = NEAR, ceiling: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                near: float = NEAR, ceiling: np.ndarray | None = None,
+                floor: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
     the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
     are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
-    alone, from below). Depth, multiplier, evaluations (B, S). ``ceiling``: the cold rows' censored search
-    (:func:`_solve`); the warm rows are not censored."""
+    alone, from below). Depth, multiplier, evaluations (B, S). ``ceiling``, ``floor``: the cold rows' censored search
+    and floors (:func:`_solve`); the warm rows have neither."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     follow, head = _heads(wn, zeta, mass)
     if not follow.any():
-        return _solve(batch, cutting, rs, b_ref, p, near=near, ceiling=ceiling)
+        return _solve(batch, cutting, rs, b_ref, p, near=near, ceiling=ceiling, floor=floor)
     cold = np.flatnonzero(~follow)
     sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
     depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near,
-                                                 ceiling=None if ceiling is None else ceiling[cold])
+                                                 ceiling=None if ceiling is None else ceiling[cold],
+                                                 floor=None if floor is None else floor[cold])
     row = np.flatnonzero(follow)
     n, kt, kr, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
@@ -576,12 +590,12 @@ def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
-           warm: bool = True, near: float = NEAR, ceiling=None) -> tuple[np.ndarray, np.ndarray, int]:
+           warm: bool = True, near: float = NEAR, ceiling=None, floor=None) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
     boundary points are moved by Newton to p + P_STEP nodes; while one moves by more than TOL (or Newton
-    fails), p grows by P_STEP. Then the whole batch is solved once with that p. ``ceiling``: see
+    fails), p grows by P_STEP. Then the whole batch is solved once with that p. ``ceiling``, ``floor``: see
     :func:`envelope_batch`.
     """
     if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
@@ -592,11 +606,12 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     rs, inv = np.unique(r, return_inverse=True)
     rs = np.ascontiguousarray(rs)
     cap = _ceiling(ceiling, batch.size, r.size, inv, rs.size)
+    low = _floor(floor, batch.size, r.size, inv, rs.size)
     b_ref = _b_ref(batch, cutting, rs)
     p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
     if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
         raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
-    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap)
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap, floor=low)
     return depth[:, inv], mu[:, inv], p
 
 
@@ -609,6 +624,17 @@ def _ceiling(ceiling, n_b: int, n_s: int, inv: np.ndarray, n_distinct: int) -> n
     cap = np.full((n_b, n_distinct), -np.inf)
     np.maximum.at(cap.T, inv, c.T)
     return cap
+
+
+def _floor(floor, n_b: int, n_s: int, inv: np.ndarray, n_distinct: int) -> np.ndarray | None:
+    """The floors (B, S distinct speeds) [m] from the caller's (B, S) ``floor`` (None: none): a repeated speed takes
+    its smallest (≤ 0: none there). InputError for another shape or a NaN."""
+    f = check_floor(floor, n_b, n_s)
+    if f is None:
+        return None
+    low = np.full((n_b, n_distinct), np.inf)
+    np.minimum.at(low.T, inv, f.T)
+    return low
 
 
 def lobe_kind(mu: np.ndarray) -> np.ndarray:
@@ -641,7 +667,7 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                   near: float = NEAR, warm: bool = True, ceiling=None) -> np.ndarray:
+                   near: float = NEAR, warm: bool = True, ceiling=None, floor=None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
     which a problem's :func:`settings` asks for). ``warm``: rows within ``WARM_REL`` of the row heading their
@@ -654,9 +680,16 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None =
     where every depth of the search from below up to one at or above ``ceiling`` is stable, the search stops
     there and returns that depth, a certified lower bound of the limit (≥ the ceiling), instead of the limit. For
     a caller that needs only "above the ceiling" there (a likelihood whose terms no longer change above it,
-    :meth:`millstab.update.likelihood.Likelihood.ceilings`); below it every depth is the limit itself."""
+    :meth:`millstab.update.likelihood.Likelihood.ceilings`); below it every depth is the limit itself.
+
+    ``floor`` (B, S) [m] (None, or ≤ 0 at an entry: none there; one Cutting or per-column conditions): where the
+    search from below's highest ladder rung x_k at or below 0.997 × the floor (:func:`._spectral_kernel.floor_rung`)
+    is unstable (exact ρ > 1), the limit is below x_k/0.998 < the floor and x_k itself is returned (no search);
+    elsewhere the limit, the same bits as without a floor. For a caller that needs only "below the floor" there (a
+    likelihood whose terms no longer change below it: :meth:`millstab.update.likelihood.Likelihood.floors`). The
+    test runs only where the zero-order depth is at most :data:`FLOOR_GATE` × the floor."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes, warm=warm, near=near, ceiling=ceiling)[0]
+    return _limit(batch, cutting, r, nodes, warm=warm, near=near, ceiling=ceiling, floor=floor)[0]
 
 
 @by_condition
@@ -722,6 +755,8 @@ reports_chatter_frequency = True
 time_averaged = False
 #: :func:`envelope_batch` takes a ``ceiling`` (a censored search: a certified lower bound above it)
 takes_ceiling = True
+#: :func:`envelope_batch` takes a ``floor`` (a floored search: a depth below it where the limit is below it)
+takes_floor = True
 #: relative accuracy of a limiting depth (the final root bracket; the node count converges to TOL)
 depth_accuracy = RTOL
 #: sets per call for callers that stream many sets: as large as the zero-order engine's, because each

@@ -188,6 +188,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     diag["engine_sets"] = lik.n_sets
     # (set, speed) limits the engine stopped above their ceiling (Likelihood.ceilings: log L unchanged)
     diag["censored_entries"] = lik.n_censored
+    # (set, speed) limits below their floor (Likelihood.floors: log L the same bits), floored or searched
+    diag["floored_entries"] = lik.n_floored
     if engine_options:
         diag["engine_options"] = dict(engine_options)
     if scr is not None:

@@ -108,7 +108,8 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
            with_freq: bool = False, client=None,
            conditions: Conditions | Cutting | None = None,
            fwd: Forward | None = None, options: dict | None = None,
-           ceiling_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+           ceiling_mm: np.ndarray | None = None,
+           floor_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The one forward function: limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz]).
 
     ONE batched engine call for all B samples u = ln θ (B, P) at the S speeds [rpm], column s under
@@ -125,7 +126,8 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
     ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling`` or
     ``likelihood_ceiling``, one Cutting or per-column conditions, no client, no frequencies): above it a depth is only
-    a certified lower bound of the limit.
+    a certified lower bound of the limit. ``floor_mm`` (B, S) [mm]: floors (:meth:`Likelihood.floors`; an engine with
+    ``takes_floor``, the same conditions): below it a depth only says that the limit is below it.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_kr_engine(prior, engine)
@@ -135,7 +137,7 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
         out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin)
         if out is not None:
             return out
-    return sample_depths(pin, prior, u, with_freq, ceiling_mm)
+    return sample_depths(pin, prior, u, with_freq, ceiling_mm, floor_mm)
 
 
 def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
@@ -150,16 +152,20 @@ def pinned_model(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zo
 
 
 def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False,
-                  ceiling_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+                  ceiling_mm: np.ndarray | None = None,
+                  floor_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
     ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr per row; here and in a cluster's task
-    (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``: as :func:`limits` (not with frequencies)."""
+    (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``, ``floor_mm``: as :func:`limits` (not with
+    frequencies)."""
     theta, factor = prior.split(u)
     kr = prior.kr_of(u)
     if with_freq and pin.reports_frequency:
         depth, hz = pin.with_frequency(theta, kr)
-    elif ceiling_mm is not None:  # the engine's depths are the likelihood's / (1e3 · the Kt factor)
-        depth, hz = pin(theta, kr, ceiling=np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])), None
+    elif ceiling_mm is not None or floor_mm is not None:  # the engine's depths are the likelihood's / (1e3 · factor)
+        extra = {} if floor_mm is None else {"floor": np.asarray(floor_mm, float) / (1e3 * factor[:, None])}
+        cap = None if ceiling_mm is None else np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])
+        depth, hz = pin(theta, kr, ceiling=cap, **extra), None
     else:
         depth, hz = pin(theta, kr), None
     return depth * 1e3 * factor[:, None], hz
@@ -471,6 +477,9 @@ class Likelihood:
         self._exact_column = np.zeros(self.speeds.size, bool)
         self._exact_column[self._ip] = True
         self.n_censored = 0
+        # floors (:meth:`floors`): an engine that takes one (``takes_floor``), under the censoring's conditions
+        self._floor = self._censor and bool(getattr(eng, "takes_floor", False))
+        self.n_floored = 0
 
     def _conditions_of(self, column_cond: np.ndarray):
         """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
@@ -517,6 +526,31 @@ class Likelihood:
         # engine's root brackets (a limit at least the certified depth to 1e-6)
         return np.where(np.isfinite(cap), cap * (1.0 + 1e-5), np.inf)
 
+    def floors(self, u: np.ndarray, noise: np.ndarray | None) -> np.ndarray | None:
+        """Per row of u = ln θ (B, P) (learned noise coordinates ``noise`` (B, Q) or None) and speed column, the depth
+        [mm] below which every cut's log-likelihood term at that column is the same to the last bit (B, S): the
+        smallest of its cuts' :meth:`saturation_depths` (``above=False``, ``bits=True``); 0 (none) where a term never
+        saturates (ε = 0) or the column holds a boundary point; None where this likelihood has no floors.
+
+        Why (issue 28): the mirror of :meth:`ceilings`. A limit far below every cut at its speed costs the spectral
+        engine its ladder up to it and its root, though no term reads more than "below". The engine tests the exact
+        ρ at its ladder's highest rung at or below 0.997 × the floor (:func:`millstab.stability.spectral.
+        envelope_batch`'s ``floor``): where that rung is unstable the limit is below it (the search from below would
+        stop there), and the rung itself is returned, a depth below the floor, a deterministic function of the row
+        (the anchored screen's state, :meth:`depths`, reads it; its ratio to the zero-order limit is the rung's
+        ladder factor, a finite positive number). Every term is then the same to the last bit as at the true limit,
+        so log L and the particles are the same bit for bit (``tests/test_likelihood_floor.py``)."""
+        if not (self._censor and self._floor):
+            return None
+        bot = self.saturation_depths(u, noise, above=False, bits=True)
+        low = np.full((u.shape[0], self.speeds.size), np.inf)
+        order = np.argsort(self._ic, kind="stable")  # each column's smallest over its cuts
+        cols, starts = np.unique(self._ic[order], return_index=True)
+        if cols.size:
+            low[:, cols] = np.minimum.reduceat(bot[:, order], starts, axis=1)
+        low[:, self._exact_column] = 0.0
+        return np.where(np.isfinite(low) & (low > 0), low, 0.0)
+
     def saturation_depths(self, u: np.ndarray, noise: np.ndarray | None, above: bool = True,
                           bits: bool = False) -> np.ndarray:
         """Per row of u (B, P) and cut, the depth [mm] beyond which the cut's term moves by at most :data:`CENSOR_TOL`
@@ -550,11 +584,12 @@ class Likelihood:
         sign = 1.0 if above else -1.0
         return ev.cut_depth_mm[None, :] + sign * k * fac[:, None] * self._sig_c[None, :]
 
-    def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None, cap: np.ndarray | None = None):
+    def _evaluate(self, u: np.ndarray, cols: np.ndarray | None = None, cap: np.ndarray | None = None,
+                  low: np.ndarray | None = None):
         """Limits (B, n) [mm] (and chatter frequencies, or ``None``) of rows u = ln θ (B, P) at the data's
         columns ``cols`` (indices into :attr:`speeds`; default all): one engine call per stickout group
         that has columns among them (one call without stickouts). ``cap`` (B, S) [mm] (:meth:`ceilings`, all
-        columns): censored limits."""
+        columns): censored limits; ``low`` (B, S) [mm] (:meth:`floors`, all columns): floored limits."""
         every = cols is None
         cols = np.arange(self.speeds.size) if every else np.asarray(cols, dtype=np.int64)
         where = np.full(self.speeds.size, -1, dtype=np.int64)
@@ -568,10 +603,13 @@ class Likelihood:
             if not every:
                 cond = self._conditions_of(self.column_cond[sel])
             d, h = limits(prior, u, self.speeds[sel], self.engine, self.uses_frequency, self.client, cond, fwd,
-                          ceiling_mm=None if cap is None else cap[:, sel])
+                          ceiling_mm=None if cap is None else cap[:, sel],
+                          floor_mm=None if low is None else low[:, sel])
             self.n_calls += 1
             if cap is not None:
                 self.n_censored += int((d >= cap[:, sel]).sum())
+            if low is not None:
+                self.n_floored += int((d < low[:, sel]).sum())
             depth[:, where[sel]] = d
             if hz is not None and h is not None:
                 hz[:, where[sel]] = h
@@ -594,7 +632,8 @@ class Likelihood:
         (B, P), (B, P + Q) or, with a test-day effect, (B, P + Q + G) (the days' shifts last; absent: 0);
         rows outside the prior's support do not reach the engine (their limits: 1 mm, a placeholder: the
         callers mask them to −inf). With a test-day effect S is the number of (day, speed) columns.
-        ``censor``: censored limits (:meth:`ceilings`) where this likelihood censors: for log L only."""
+        ``censor``: censored and floored limits (:meth:`ceilings`, :meth:`floors`) where this likelihood censors: for
+        log L only."""
         v, u, w, ok = self._parts(v)
         q = self.prior.dim
         delta = v[:, q:] if self.batch is not None and v.shape[1] > q else None
@@ -606,7 +645,9 @@ class Likelihood:
                 return self._evaluate(uu, cols)
 
             if self.batch is None:
-                d, h = self._evaluate(u[ok], cap=self.ceilings(u[ok], None if w is None else w[ok]) if censor else None)
+                wk = None if w is None else w[ok]
+                d, h = self._evaluate(u[ok], cap=self.ceilings(u[ok], wk) if censor else None,
+                                      low=self.floors(u[ok], wk) if censor else None)
             else:
                 d, h = self.batch.limits(call, u[ok], None if delta is None else delta[ok])
             depth[ok] = d
@@ -628,8 +669,10 @@ class Likelihood:
         limits per data column). ``floor``: :meth:`bounded`'s, and a row it decided early has NaN at the columns it
         did not evaluate; NaN rows outside the prior's support. The limits are :meth:`__call__`'s, censored where it
         censors (:meth:`ceilings`: a censored limit is far above every cut at its speed in both models, so the
-        anchored screen's ratio there only keeps a term saturated). InputError with chatter frequencies (a term that
-        reads more than the depths)."""
+        anchored screen's ratio there only keeps a term saturated) and floored where it floors (:meth:`floors`: a
+        ladder rung below the floor in place of a limit below it, a function of the row; the screen's ratio there is
+        the rung's ladder factor, finite and positive, and keeps a proposal's term near saturation). InputError with
+        chatter frequencies (a term that reads more than the depths)."""
         if self.uses_frequency:
             raise InputError("anchored", "chatter frequencies", "an anchored screen reads the limits only: use the "
                              "plain delayed-acceptance screen with measured chatter frequencies")
@@ -675,6 +718,7 @@ class Likelihood:
         order = np.argsort(-self._column_cost, kind="stable")  # the costliest columns first
         settings = self._settings(u[rows])
         cap = self.ceilings(u[rows], None if w is None else w[rows])
+        low = self.floors(u[rows], None if w is None else w[rows])
         depth = np.ones((rows.size, n_s))  # finite placeholders where not evaluated (those cuts not summed)
         done = np.zeros(n_s, bool)
         live = np.arange(rows.size)
@@ -685,7 +729,8 @@ class Likelihood:
             if not cols.size:
                 break
             depth[np.ix_(live, cols)] = self._columns(u[rows[live]], cols, settings,
-                                                      None if cap is None else cap[np.ix_(live, cols)])
+                                                      None if cap is None else cap[np.ix_(live, cols)],
+                                                      None if low is None else low[np.ix_(live, cols)])
             seen[np.ix_(rows[live], cols)] = depth[np.ix_(live, cols)]
             done[cols] = True
             if done.all():
@@ -708,12 +753,12 @@ class Likelihood:
         return (out, seen) if depths else out
 
     def _columns(self, u: np.ndarray, cols: np.ndarray, settings: list[dict],
-                 cap: np.ndarray | None = None) -> np.ndarray:
+                 cap: np.ndarray | None = None, low: np.ndarray | None = None) -> np.ndarray:
         """Limits (B, len(cols)) [mm] of rows u = ln θ at the data's columns ``cols`` (indices into
         :attr:`speeds`), one engine call per stickout group with columns among them, each under ``settings``
         (:meth:`_settings`: the discretisation a full call would use), so that a subset of columns gives the
         numbers of a full call (the spectral node count is chosen per speed list). ``cap`` (B, len(cols)) [mm]:
-        censored limits (:meth:`ceilings`)."""
+        censored limits (:meth:`ceilings`); ``low`` (B, len(cols)) [mm]: floored limits (:meth:`floors`)."""
         where = np.full(self.speeds.size, -1, dtype=np.int64)
         where[cols] = np.arange(cols.size)
         depth = np.empty((u.shape[0], cols.size))
@@ -724,10 +769,13 @@ class Likelihood:
             cond = self._conditions_of(self.column_cond[sel])
             pin = Pinned(fwd, self.speeds[sel], chosen, fwd.cutting if cond is None else cond)
             c = None if cap is None or cond is not None else cap[:, where[sel]]
-            depth[:, where[sel]] = sample_depths(pin, prior, u, False, c)[0]
+            f = None if low is None or cond is not None else low[:, where[sel]]
+            depth[:, where[sel]] = sample_depths(pin, prior, u, False, c, f)[0]
             self.n_calls += 1
             if c is not None:
                 self.n_censored += int((depth[:, where[sel]] >= c).sum())
+            if f is not None:
+                self.n_floored += int((depth[:, where[sel]] < f).sum())
         return depth
 
     def _settings(self, u: np.ndarray) -> list[dict]:

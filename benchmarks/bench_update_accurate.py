@@ -234,18 +234,23 @@ def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
 
 
 @contextlib.contextmanager
-def uncensored(on: bool):
-    """With ``on``, every limit of the likelihood searched to its root (the code before the censored search,
-    :meth:`millstab.update.likelihood.Likelihood.ceilings` hidden)."""
+def hidden(method: str, on: bool):
+    """With ``on``, :class:`millstab.update.likelihood.Likelihood`'s ``method`` (``ceilings`` or ``floors``) returns
+    None while the block runs: every limit it would censor or floor is searched to its root."""
     if not on:
         yield
         return
-    had = Likelihood.ceilings
-    Likelihood.ceilings = lambda self, u, noise: None
+    had = getattr(Likelihood, method)
+    setattr(Likelihood, method, lambda self, u, noise: None)
     try:
         yield
     finally:
-        Likelihood.ceilings = had
+        setattr(Likelihood, method, had)
+
+
+def uncensored(on: bool):
+    """With ``on``, every limit of the likelihood searched to its root (the code before the censored search)."""
+    return hidden("ceilings", on)
 
 
 @contextlib.contextmanager
@@ -300,19 +305,9 @@ def floor_replay(rec: list, repeats: int, gates: list[float]) -> None:
               f"floors, min/min); evaluations {evals[name]}")
 
 
-@contextlib.contextmanager
 def unfloored(on: bool):
-    """With ``on``, no floors (every limit below its floor searched to its root: the code before the floor,
-    :meth:`millstab.update.likelihood.Likelihood.floors` hidden)."""
-    if not on:
-        yield
-        return
-    had = Likelihood.floors
-    Likelihood.floors = lambda self, u, noise: None
-    try:
-        yield
-    finally:
-        Likelihood.floors = had
+    """With ``on``, no floors (every limit below its floor searched to its root: the code before the floor)."""
+    return hidden("floors", on)
 
 
 @contextlib.contextmanager

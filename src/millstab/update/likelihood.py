@@ -539,7 +539,9 @@ class Likelihood:
         stop there), and the rung itself is returned, a depth below the floor, a deterministic function of the row
         (the anchored screen's state, :meth:`depths`, reads it; its ratio to the zero-order limit is the rung's
         ladder factor, a finite positive number). Every term is then the same to the last bit as at the true limit,
-        so log L and the particles are the same bit for bit (``tests/test_likelihood_floor.py``)."""
+        so log L is the same bit for bit (``tests/test_likelihood_floor.py``), and so are the particles of a sampler
+        that reads log L only (the plain zero-order screen); the anchored screen also reads the stored depths, so its
+        chain differs (its target does not)."""
         if not (self._censor and self._floor):
             return None
         bot = self.saturation_depths(u, noise, above=False, bits=True)

@@ -288,8 +288,7 @@ def by_condition(entry: Callable) -> Callable:
         low = check_floor(kwargs.pop("floor", None), batch.size, r.size)
 
         def own(cols):
-            extra = {} if cap is None else {"ceiling": cap[:, cols]}
-            return {**kwargs, **extra} if low is None else {**kwargs, **extra, "floor": low[:, cols]}
+            return {**kwargs, **{name: a[:, cols] for name, a in (("ceiling", cap), ("floor", low)) if a is not None}}
 
         parts = [(cols, entry(batch, c, r[cols], *args, **own(cols))) for c, cols in cutting.groups()]
         first = parts[0][1]

@@ -480,6 +480,7 @@ class Likelihood:
         # floors (:meth:`floors`): an engine that takes one (``takes_floor``), under the censoring's conditions
         self._floor = self._censor and bool(getattr(eng, "takes_floor", False))
         self.n_floored = 0
+        self._column_order = None  # (cut order by column, columns, starts) of :meth:`_per_column`, found at first use
 
     def _conditions_of(self, column_cond: np.ndarray):
         """The engine's conditions of columns with these condition indices (``None``: the prior's cutting)."""
@@ -516,11 +517,7 @@ class Likelihood:
         if not self._censor:
             return None
         top = self.saturation_depths(u, noise, above=True, bits=self._censor_bits)
-        cap = np.full((u.shape[0], self.speeds.size), -np.inf)
-        order = np.argsort(self._ic, kind="stable")  # each column's largest over its cuts (reduceat: ~5x maximum.at)
-        cols, starts = np.unique(self._ic[order], return_index=True)
-        if cols.size:
-            cap[:, cols] = np.maximum.reduceat(top[:, order], starts, axis=1)
+        cap = self._per_column(top, np.maximum, -np.inf)  # each column's largest over its cuts
         cap[:, self._exact_column] = np.inf
         # no cut and no point at a column cannot happen (the columns are the data's); the margin covers the
         # engine's root brackets (a limit at least the certified depth to 1e-6)
@@ -545,13 +542,22 @@ class Likelihood:
         if not (self._censor and self._floor):
             return None
         bot = self.saturation_depths(u, noise, above=False, bits=True)
-        low = np.full((u.shape[0], self.speeds.size), np.inf)
-        order = np.argsort(self._ic, kind="stable")  # each column's smallest over its cuts
-        cols, starts = np.unique(self._ic[order], return_index=True)
-        if cols.size:
-            low[:, cols] = np.minimum.reduceat(bot[:, order], starts, axis=1)
+        low = self._per_column(bot, np.minimum, np.inf)  # each column's smallest over its cuts
         low[:, self._exact_column] = 0.0
         return np.where(np.isfinite(low) & (low > 0), low, 0.0)
+
+    def _per_column(self, per_cut: np.ndarray, reduce: np.ufunc, fill: float) -> np.ndarray:
+        """(B, S): ``reduce`` (``np.maximum``, ``np.minimum``) of ``per_cut`` (B, n_cuts) over each speed column's cuts;
+        ``fill`` at a column without a cut (:meth:`ceilings`, :meth:`floors`). One ``reduceat`` over the cuts sorted
+        by column (~5× ``reduce.at``); the order depends on the data alone, so it is found once."""
+        if self._column_order is None:
+            order = np.argsort(self._ic, kind="stable")
+            self._column_order = (order, *np.unique(self._ic[order], return_index=True))
+        order, cols, starts = self._column_order
+        out = np.full((per_cut.shape[0], self.speeds.size), fill)
+        if cols.size:
+            out[:, cols] = reduce.reduceat(per_cut[:, order], starts, axis=1)
+        return out
 
     def saturation_depths(self, u: np.ndarray, noise: np.ndarray | None, above: bool = True,
                           bits: bool = False) -> np.ndarray:

@@ -76,10 +76,13 @@ second stage rejected.
 default sampler), both engines alternately for seeds 0..K−1, CPU and wall and their ratio (docs/updating.md, "The
 ratio through the doors").
 
-``--anchor-moves M[,...]`` and ``--accept-moves T:M[,...]`` (with ``--seed-study``): also the anchored screen with M
-moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.sampler.ACCEPT_TARGET`) and M
-moves. ``--jobs J``: the seed study's runs in a pool of J spawned processes, numba on one thread each, every run
-seeded by its own index (the same numbers for any J; its CPU times are one thread's).
+``--anchor-moves M[,...]`` and ``--accept-moves T:M[:TOP][,...]`` (with ``--seed-study``): also the anchored screen
+with M moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.DELAYED_ACCEPT_TARGET`)
+and M moves (and the screen-tempered start's largest exponent TOP, :data:`millstab.update.SCREEN_TOP`). The study's
+"now" row is the default (:data:`millstab.update.DELAYED_ACCEPT_TARGET`, :data:`millstab.update.DELAYED_MOVES`); its
+reference and "before" row the sampler before the screen-tempered start (target 0.25, 3 moves). ``--jobs J``: the
+seed study's runs in a pool of J spawned processes, numba on one thread each, every run seeded by its own index (the
+same numbers for any J; its CPU times are one thread's).
 
 ``--no-floor``: also the spectral update without the likelihood's floors (:meth:`millstab.update.likelihood.
 Likelihood.floors`: every limit below its floor searched to its root), in the same run, the particles compared bit for
@@ -471,8 +474,8 @@ def _study_run(task: tuple) -> tuple:
     engine, (screen stages, top, steps, anchored), moves, samples, seed, threads) -> (ln samples, accurate sets, CPU
     [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ evaluations)."""
     cfg, cuts, prior, engine, setting, moves, n, seed, threads = task
-    setting, target = (setting[:4], setting[4]) if len(setting) > 4 else (setting, smc.ACCEPT_TARGET)
-    base, base_target = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED), smc.ACCEPT_TARGET
+    setting, target = (setting[:4], setting[4]) if len(setting) > 4 else (setting, upd.DELAYED_ACCEPT_TARGET)
+    base, base_target = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED), upd.DELAYED_ACCEPT_TARGET
     if threads:
         nb.set_num_threads(threads)
     if not _WARM:  # a fresh worker: load the engines' compiled code outside the timings
@@ -480,14 +483,14 @@ def _study_run(task: tuple) -> tuple:
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         _WARM.append(True)
     upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = setting
-    smc.ACCEPT_TARGET = target
+    upd.DELAYED_ACCEPT_TARGET = target  # a fresh delayed-acceptance update's (a zoa update keeps ACCEPT_TARGET)
     try:
         with threadpool_limits(1), spectral_counts(engine == "spectral") as counts:
             post, _, cpu = timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine=engine, prior=prior,
                                                 moves=moves))
     finally:
         upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
-        smc.ACCEPT_TARGET = base_target
+        upd.DELAYED_ACCEPT_TARGET = base_target
     n_side, n_label, _ = explained(post, cuts) if engine != "zoa" else (0, 0, [])
     return np.log(post.samples), post.diagnostics.get("engine_sets", 0), cpu, n_side, n_label, counts["evals"]
 
@@ -499,21 +502,25 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
     ``--jobs J`` > 1: the runs in a pool of J processes (spawned, each numba on one thread, so each run's CPU is one
     thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
     base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
-    top = args.screen_top or base[1]
-    plan = ([] if args.study_skip_before else [("before (0 screen stages, not anchored)", (0, top, 1, False), 3)]) + (
-            [(f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]})", base, 3)]
-            + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), 3)]
+    top, dm = args.screen_top or base[1], upd.DELAYED_MOVES
+    # the sampler before the screen-tempered start: the plain random walk's target and 3 moves (the reference's)
+    before = (0, top, 1, False, smc.ACCEPT_TARGET)
+    plan = ([] if args.study_skip_before else [("before (0 screen stages, not anchored)", before, 3)]) + (
+            [(f"now ({base[0]} stages, top {base[1]:g}, anchored {base[3]}, acceptance target "
+              f"{upd.DELAYED_ACCEPT_TARGET:g}, {dm} moves)", base, dm)]
+            + ([(f"{base[0]} stages, top {base[1]:g}, anchored {not base[3]}", (*base[:3], not base[3]), dm)]
                if args.anchor_compare else [])
             + [(f"{base[0]} stages, top {base[1]:g}, anchored, {m} moves a stage", (*base[:3], True), m)
                for m in args.anchor_moves]
-            + [(f"{base[0]} stages, top {base[1]:g}, anchored, acceptance target {t:g}, {m} moves a stage",
-                (*base[:3], True, t), m) for t, m in args.accept_moves]
-            + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), 3) for k in stages]
+            + [(f"{base[0]} stages, top {tp:g}, anchored, acceptance target {t:g}, {m} moves a stage",
+                (base[0], tp, base[2], True, t), m) for t, m, tp in
+               ((a[0], a[1], a[2] if len(a) > 2 else base[1]) for a in args.accept_moves)]
+            + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), dm) for k in stages]
             + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
     threads = 1 if args.jobs > 1 else 0
     seeds = range(args.seed_study)
-    tasks = ([(cfg, cuts, prior, "spectral", (0, top, 1, False), 3, args.study_reference, 1000, threads)]
+    tasks = ([(cfg, cuts, prior, "spectral", before, 3, args.study_reference, 1000, threads)]
              + [(cfg, cuts, prior, "zoa", base, 3, args.samples, s, threads) for s in seeds]
              + [(cfg, cuts, prior, "spectral", setting, moves, args.samples, s, threads)
                 for _, setting, moves in plan for s in seeds])
@@ -608,10 +615,11 @@ def main() -> None:
                     help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
     ap.add_argument("--doors", type=int, default=0, metavar="K",
                     help="time millstab.api.update with both engines for seeds 0..K-1 (the config's prior), then stop")
-    ap.add_argument("--accept-moves", type=lambda t: [(float(x.split(":")[0]), int(x.split(":")[1]))
+    ap.add_argument("--accept-moves", type=lambda t: [tuple(float(v) if i != 1 else int(v)
+                                                            for i, v in enumerate(x.split(":")))
                                                       for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with the MH acceptance target T and M moves a "
-                    "stage, T:M (comma-separated; sampler.ACCEPT_TARGET)")
+                    "stage, T:M[:TOP] (comma-separated; update.DELAYED_ACCEPT_TARGET; TOP: update.SCREEN_TOP)")
     ap.add_argument("--omp-wait", choices=("active", "passive"), default="passive",
                     help="OpenMP wait policy of numba's threads (set before they start)")
     args = ap.parse_args()
@@ -674,7 +682,7 @@ def main() -> None:
             upd.SCREEN_STAGES = int(smp[6:]) if smp.startswith("screen") else (
                 stages[0] if smp.startswith("chain") and stages else default_stages)
             n_moves, upd.SCREEN_STEPS = (int(x) for x in smp[5:].split("x")) if smp.startswith("chain") else (
-                3, default_steps)
+                None, default_steps)  # None: update()'s default (DELAYED_MOVES for a fresh delayed update, else 3)
             with before_issue_28(smp == "fit-nodes"), unbounded(smp == "unbounded"), uncensored(smp == "uncensored"), \
                     unfloored(smp in ("unfloored", "zscreen-unfloored")), \
                     floor_gate(float(smp[4:]) if smp.startswith("gate") else None), \

@@ -8,7 +8,9 @@ The particles move from the prior (β = 0) to the posterior (β = 1) through π_
 2. resample: systematic resampling (lowest variance of the standard schemes, O(N));
 3. move: ``moves`` random-walk Metropolis–Hastings steps on π_β with a Gaussian proposal of covariance
    λ Σ, Σ the particles' covariance and λ starting at 2.38²/d (the optimal scaling for Gaussian
-   targets), adapted after every move towards an acceptance of 0.25 (λ ← λ·exp(2(acc − 0.25))).
+   targets), adapted after every move towards an acceptance of a* (λ ← λ·exp(2(acc − a*))), a* =
+   ``accept_target`` (:data:`ACCEPT_TARGET` 0.25; a delayed-acceptance update picks 0.15, where a rejected large
+   step mostly costs only the cheap screen: :data:`millstab.update.DELAYED_ACCEPT_TARGET`).
    After a reweighting that kept more than the target ESS (the last step to β = 1 often keeps nearly
    all: a sliver of β), fewer moves: ⌈moves·(1 − ESS/N)/(1 − ess_target)⌉, at least one
    (:func:`stage_moves`). The moves restore the diversity that resampling took, and resampling at
@@ -251,7 +253,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
                  init: np.ndarray | None = None, screen: Batch | None = None,
                  jumps: tuple[tuple[int, ...], ...] = (), jump_rate: float = JUMP_RATE,
                  adaptive_moves: bool = True, screen_stages: int = 0, screen_steps: int = 1,
-                 screen_top: float = 1.0, anchored: bool = False) -> SMCResult:
+                 screen_top: float = 1.0, anchored: bool = False,
+                 accept_target: float | None = None) -> SMCResult:
     """Sample p(u | data) ∝ prior(u) L(u) by adaptive tempered SMC.
 
     Args:
@@ -283,6 +286,8 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
             (module docstring), which needs ``screen.depths(v) -> (log L̃, F̃)``, ``loglik.depths(v[, floor]) ->
             (log L, F)`` and ``loglik.loglik_at(v, F) -> log L`` (:class:`millstab.update.likelihood.Likelihood`
             has them: F the limits per data column); ``screen_steps`` 1 only.
+        accept_target: the random walk's acceptance the step size is adapted towards (0 < · < 1); ``None``:
+            :data:`ACCEPT_TARGET`.
     Raises:
         InputError: bad settings, or no prior draw is compatible with the data (all −inf).
     """
@@ -292,6 +297,9 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
         raise InputError("ess_target", ess_target, "must be in (0, 1)")
     if moves < 1:
         raise InputError("moves", moves, "need at least one MH move per stage")
+    acc_target = ACCEPT_TARGET if accept_target is None else accept_target
+    if not 0 < acc_target < 1:
+        raise InputError("accept_target", accept_target, "must be in (0, 1)")
     if not 0 <= jump_rate < 1:
         raise InputError("jump_rate", jump_rate, "must be in [0, 1)")
     if not (isinstance(screen_stages, (int, np.integer)) and screen_stages >= 0):
@@ -449,7 +457,7 @@ def tempered_smc(sample_prior: Callable[[int, np.random.Generator], np.ndarray],
             # the target narrows from stage to stage: adapt the step after every move (on the random walk's
             # acceptance: a jump's says nothing about the step size)
             rw = ok[~jump].mean() if (~jump).any() else ok.mean()
-            scale = min(max(scale * float(np.exp(2.0 * (rw - ACCEPT_TARGET))), 1e-4), 10.0)
+            scale = min(max(scale * float(np.exp(2.0 * (rw - acc_target))), 1e-4), 10.0)
             chol = chol * np.sqrt(scale / prev)
             prev = scale
         accs.append(float(acc))

@@ -150,6 +150,8 @@ def parse() -> argparse.Namespace:
                     help="labels from the truth engine with boundary noise, or from the time-domain simulation")
     ap.add_argument("--flip", type=float, default=0.05, help="simulate: probability an operator swaps a label")
     ap.add_argument("--fresh", action="store_true", help="a fresh update after each cut (no sequential reuse)")
+    ap.add_argument("--sampler", default="auto", help="the updates' sampler (update()'s: auto | delayed | plain | "
+                    "surrogate; delayed with zoa: a zoa screen of zoa, the delayed-acceptance settings' calibration)")
     ap.add_argument("--no-baselines", action="store_true")
     ap.add_argument("--engine-check", default="",
                     help="comma-separated engines: how many of the campaign's stable/chatter labels the TRUE structure "
@@ -321,7 +323,7 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         settings = CampaignOptions(cuts=args.cuts, samples=args.samples, risk=args.risk, rpm_range=(lo, hi),
                                max_depth_mm=args.max_depth, seed=int(rng.integers(2**31)), engine=args.engine,
                                reuse=not args.fresh, best_speeds=args.best_speeds, decision=decision,
-                               keep=tuple(range(1, args.cuts + 1)) if args.save else ())
+                               keep=tuple(range(1, args.cuts + 1)) if args.save else (), sampler=args.sampler)
         with profiled(prof) if prof is not None else contextlib.nullcontext():
             camp = run_campaign(cfg, prior, truth, labeler, settings, truth_grid=grid,
                                 progress=None if prof is None else prof.next_round)
@@ -414,7 +416,7 @@ def main() -> None:
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
           f"{os.getloadavg()[0]:.1f}), a/D {args.immersion}, risk {args.risk}, {design}; "
           f"{args.cuts} cuts, {args.samples} samples, engine {args.engine}, "
-          f"{'fresh updates' if args.fresh else 'sequential reuse'}, likelihood depth noise "
+          f"{'fresh updates' if args.fresh else 'sequential reuse'}, sampler {args.sampler}, likelihood depth noise "
           f"{prior.sigma_depth_m * 1e3 if prior.sigma_depth_m else 0:g} mm abs / {prior.sigma_depth_rel or 0:g} rel, "
           f"label error {prior.label_error:g}; decision: confidence {decision['confidence']}, speed tolerance "
           f"±{decision['speed_tolerance']:g}:")

@@ -148,8 +148,9 @@ class CampaignOptions:
         best_speeds: speeds of the grid on which the best truly stable cut is sought (≥ 2; a slow truth: fewer).
         decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,
             ``guard``), or ``None``.
-        sampler, engine_options: the updates' sampler and the engine's discretisation (:func:`update`'s; kept in
-            the posteriors, so the decisions use them too; :func:`run_condition_campaign` only).
+        sampler: the updates' sampler (:func:`update`'s).
+        engine_options: the engine's discretisation (:func:`update`'s; kept in the posteriors, so the decisions use
+            them too; :func:`run_condition_campaign` only).
     """
 
     cuts: int = 10
@@ -227,7 +228,8 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
                 if ps.stable.any() or ps.chatter.any():
                     try:
                         post = update(config, ps, prior=prior, engine=engine, samples=samples,
-                                      seed=int(rng.integers(2**31)), start=last if reuse else None)
+                                      seed=int(rng.integers(2**31)), start=last if reuse else None,
+                                      sampler=o.sampler)
                     except RuntimeError:  # the tempering stalled (labels the model cannot explain): say so, go on
                         out["failed"].append(k)  # with the last posterior (the next update tries these cuts again)
                     else:

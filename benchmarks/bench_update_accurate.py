@@ -72,8 +72,9 @@ samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds h
 reference run printed against the pool of the others; ``--study-first S``: seeds S … S + N − 1; ``--study-plain``: a
 row of the plain sampler; ``--study-detail``: per run, which quantile of each parameter is off and by how much, and the
 share of samples with a kind's common shift beyond ``--study-far`` spreads; every row and reference: the share of
-samples in the far mode ``--study-mode KIND:Z`` (the kind's common shift below Z spreads; default ``fn:-4``, the
-lobe-shifted mode of the rival prior, docs/updating.md "The default prior, again"); ``--study-mode-mass M``: that
+samples in the far modes ``--study-mode KIND:Z`` (the kind's common shift below Z spreads, above Z for Z > 0; default
+``any:4``: some kind's |shift| above 4, the far modes of the rival prior, docs/updating.md "The default prior,
+again"); ``--study-mode-mass M``: that
 mode's posterior mass by importance sampling (M spectral evaluations a side, kernels at the study's particles),
 independent of the SMC runs' mode weights; ``--study-save F``: every run's ln samples to an npz file.
 
@@ -518,9 +519,12 @@ QS = (0.05, 0.5, 0.95)
 
 def in_mode(prior, u: np.ndarray, mode: tuple[str, float]) -> np.ndarray:
     """Whether each sample of u (n, P) lies in the region ``mode`` = (kind, z): that kind's common shift
-    (:func:`kind_shifts`) below z spreads (z < 0) or above it (z > 0) (n,)."""
-    kinds = [prior.par.kind(prior.names[g[0]]) for g in prior.kind_groups]
-    c = kind_shifts(prior, u)[:, kinds.index(mode[0])]
+    (:func:`kind_shifts`) below z spreads (z < 0) or above it (z > 0); kind ``any``: some kind's |shift| above |z|
+    (n,)."""
+    c = kind_shifts(prior, u)
+    if mode[0] == "any":
+        return (np.abs(c) > abs(mode[1])).any(axis=1)
+    c = c[:, [prior.par.kind(prior.names[g[0]]) for g in prior.kind_groups].index(mode[0])]
     return c < mode[1] if mode[1] < 0 else c > mode[1]
 
 
@@ -763,9 +767,9 @@ def main() -> None:
                     "--study-far spreads")
     ap.add_argument("--study-far", type=float, default=3.0, help="with --study-detail: the common shift [spreads] "
                     "beyond which a sample counts as far out")
-    ap.add_argument("--study-mode", default="fn:-4", metavar="KIND:Z", help="the seed study's far mode: the "
-                    "samples whose kind's common shift is below Z spreads (Z < 0; above Z for Z > 0); each run's share "
-                    "in it")
+    ap.add_argument("--study-mode", default="any:4", metavar="KIND:Z", help="the seed study's far mode: the "
+                    "samples whose kind's common shift is below Z spreads (Z < 0; above Z for Z > 0; KIND any: some "
+                    "kind's |shift| above |Z|); each run's share in it")
     ap.add_argument("--study-mode-mass", type=int, default=0, metavar="M", help="after the seed study: the far "
                     "mode's posterior mass by importance sampling, M draws on each side (independent of the SMC runs' "
                     "weights)")

@@ -65,6 +65,19 @@ default and of each ``--screen-stages`` / ``--screen-chain`` setting, each run's
 ``--study-reference``-sample posterior of the sampler before (seed 1 000), in its sd: single runs cannot tell two
 samplers' posteriors apart (a 300-sample mean moves 0.2–0.5 sd between seeds here).
 
+``--tails T``: the prior's tails (:data:`millstab.update.prior.TAILS`) for every run, the seed study's pool included
+(the prior is pickled to its workers; default: the package's ``DEFAULT_TAILS``). In the seed study:
+``--study-references K`` pools the reference from K runs (seeds 1 000 … 1 000 + K − 1) of each
+``--study-reference-sampler`` (``before``, ``plain``: every proposal through the spectral engine, ``default``), each
+reference run printed against the pool of the others; ``--study-first S``: seeds S … S + N − 1; ``--study-plain``: a
+row of the plain sampler; ``--study-detail``: per run, which quantile of each parameter is off and by how much, and the
+share of samples with a kind's common shift beyond ``--study-far`` spreads; every row and reference: the share of
+samples in the far modes ``--study-mode KIND:Z`` (the kind's common shift below Z spreads, above Z for Z > 0; default
+``any:4``: some kind's |shift| above 4, the far modes of the rival prior, docs/updating.md "The default prior,
+again"); ``--study-mode-mass M``: that
+mode's posterior mass by importance sampling (M spectral evaluations a side, kernels at the study's particles),
+independent of the SMC runs' mode weights; ``--study-save F``: every run's ln samples to an npz file.
+
 ``--anchor-compare``: also the spectral update with the anchored screen switched the other way
 (:data:`millstab.update.ANCHORED`: the zero-order limits of each proposal times the current particle's own spectral /
 zero-order ratio per speed column, :func:`millstab.update.sampler.tempered_smc`'s ``anchored``), in the same run: both
@@ -471,9 +484,13 @@ _WARM: list = []  # the seed study's process has run both engines once
 
 def _study_run(task: tuple) -> tuple:
     """One run of the seed study (a process pool's task, or inline): the update of ``task`` = (cfg, cuts, prior,
-    engine, (screen stages, top, steps, anchored), moves, samples, seed, threads) -> (ln samples, accurate sets, CPU
-    [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ evaluations)."""
-    cfg, cuts, prior, engine, setting, moves, n, seed, threads = task
+    engine, (screen stages, top, steps, anchored[, target]), moves, samples, seed, threads[, sampler]) -> (ln samples,
+    accurate sets, CPU [s], cuts on the label's side, cuts with predictive probability >= 0.1, the spectral engine's ρ
+    evaluations); ``target``: a fresh delayed-acceptance update's (default
+    :data:`millstab.update.DELAYED_ACCEPT_TARGET`); ``sampler`` (default ``"auto"``): update()'s, e.g. ``"plain"``
+    (every proposal through the engine)."""
+    cfg, cuts, prior, engine, setting, moves, n, seed, threads, *rest = task
+    sampler = rest[0] if rest else "auto"
     setting, target = (setting[:4], setting[4]) if len(setting) > 4 else (setting, upd.DELAYED_ACCEPT_TARGET)
     base, base_target = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED), upd.DELAYED_ACCEPT_TARGET
     if threads:
@@ -487,7 +504,7 @@ def _study_run(task: tuple) -> tuple:
     try:
         with threadpool_limits(1), spectral_counts(engine == "spectral") as counts:
             post, _, cpu = timed(lambda: update(cfg, cuts, samples=n, seed=seed, engine=engine, prior=prior,
-                                                moves=moves))
+                                                moves=moves, sampler=sampler))
     finally:
         upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED = base
         upd.DELAYED_ACCEPT_TARGET = base_target
@@ -495,12 +512,105 @@ def _study_run(task: tuple) -> tuple:
     return np.log(post.samples), post.diagnostics.get("engine_sets", 0), cpu, n_side, n_label, counts["evals"]
 
 
+def kind_shifts(prior, u: np.ndarray) -> np.ndarray:
+    """Each kind's common shift of samples u (n, P) [spreads]: the mean over the kind's columns (all fn, all k, all ζ:
+    :attr:`millstab.update.prior.Prior.kind_groups`) of z = (u − ln θ_config)/spread (n, kinds)."""
+    z = (u[:, :prior.n_modal] - prior.mean_u[:prior.n_modal]) / prior.spread[:prior.n_modal]
+    return np.stack([z[:, list(g)].mean(axis=1) for g in prior.kind_groups], axis=1)
+
+
+QS = (0.05, 0.5, 0.95)
+
+
+def in_mode(prior, u: np.ndarray, mode: tuple[str, float]) -> np.ndarray:
+    """Whether each sample of u (n, P) lies in the region ``mode`` = (kind, z): that kind's common shift
+    (:func:`kind_shifts`) below z spreads (z < 0) or above it (z > 0); kind ``any``: some kind's |shift| above |z|
+    (n,)."""
+    c = kind_shifts(prior, u)
+    if mode[0] == "any":
+        return (np.abs(c) > abs(mode[1])).any(axis=1)
+    c = c[:, [prior.par.kind(prior.names[g[0]]) for g in prior.kind_groups].index(mode[0])]
+    return c < mode[1] if mode[1] < 0 else c > mode[1]
+
+
+def mode_mass(prior, cuts: PointSet, centers: np.ndarray, mode: tuple[str, float], m: int, seed: int = 0,
+              h: float = 0.5, diameter_mm: float | None = None) -> tuple[float, float, list[str]]:
+    """The posterior mass of the region ``mode`` (:func:`in_mode`) by importance sampling, independent of the SMC
+    runs' mode weights: Z_region = E_q[prior · L / q · 1(region)] for the region and its complement, m draws each from
+    q = 0.9 · (1/K) Σ_k N(x_k, h² Σ) + 0.1 · prior (x_k: the region's distinct particles ``centers`` of ln θ, at most
+    2 000 of them, Σ their covariance, or all particles' with fewer than 2P; the prior alone without any), the noise
+    levels drawn from their prior (which cancels), the spectral likelihood (the update's own). Returns (mass, its
+    standard error by the delta method, report lines)."""
+    from scipy.special import logsumexp
+
+    rng = np.random.default_rng(seed)
+    ev = Evidence.from_points(cuts, base_cutting=prior.cutting, diameter_mm=diameter_mm)
+    lik = Likelihood(prior, ev, "spectral")
+    p = prior.size
+    centers = np.unique(centers[:, :p], axis=0)
+    inside = in_mode(prior, centers, mode)
+    out, lines = {}, []
+    for name, sel in (("in", inside), ("out", ~inside)):
+        c = centers[sel]
+        c = c[rng.choice(c.shape[0], min(c.shape[0], 2000), replace=False)]
+        cov = np.cov(c if c.shape[0] > 2 * p else centers, rowvar=False)  # too few: every particle's spread
+        chol = np.linalg.cholesky(cov * h * h + 1e-10 * np.eye(p))
+        x = c[rng.integers(max(c.shape[0], 1), size=m)] + rng.standard_normal((m, p)) @ chol.T if c.size else None
+        nd = m // 10 if c.size else m
+        x = prior.sample(m, rng) if x is None else x
+        x[m - nd:] = prior.sample(nd, rng)
+        log_q = prior.logpdf(x)
+        if c.size:
+            inv = np.linalg.inv(chol)
+            lk = [logsumexp(-0.5 * (((x[i:i + 256, None, :] - c[None]) @ inv.T) ** 2).sum(-1), axis=1)
+                  for i in range(0, m, 256)]
+            log_k = (np.concatenate(lk) - np.log(c.shape[0]) - np.log(np.diag(chol)).sum()
+                     - 0.5 * p * np.log(2 * np.pi))
+            log_q = np.logaddexp(np.log(0.9) + log_k, np.log(0.1) + log_q)
+        ok = prior.in_support(x) & (in_mode(prior, x, mode) == (name == "in"))
+        ll = np.full(m, -np.inf)
+        t0 = time.process_time()
+        ll[ok] = lik(np.hstack([x[ok], prior.sample_noise(int(ok.sum()), rng)]))
+        lw = np.where(ok, prior.logpdf(x) + ll - log_q, -np.inf)
+        w = np.exp(lw - lw.max())
+        out[name] = (float(logsumexp(lw) - np.log(m)), float(np.sqrt(np.var(w) / m) / np.mean(w)))
+        lines.append(f"{name}side: {c.shape[0]} kernel centres, {int(ok.sum())} of {m} draws in it, CPU "
+                     f"{time.process_time() - t0:.1f} s, IS ESS {w.sum() ** 2 / (w ** 2).sum():.0f}, log Z "
+                     f"{out[name][0]:.3f} +- {out[name][1]:.3f}")
+    d = out["in"][0] - out["out"][0]
+    mass = 1.0 / (1.0 + np.exp(-d))
+    return mass, mass * (1 - mass) * float(np.hypot(out["in"][1], out["out"][1])), lines
+
+
+def _errors(u: np.ndarray, ref: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(mean error (P,), quantile errors (3, P)) of samples u against the reference samples, in the reference's sd."""
+    return (u.mean(0) - ref.mean(0)) / sd, (np.quantile(u, QS, axis=0) - np.quantile(ref, QS, axis=0)) / sd
+
+
+def _detail(u: np.ndarray, ref: np.ndarray, sd: np.ndarray, names: list[str], prior, far: float, kinds: list[str]
+            ) -> str:
+    """One run's line of ``--study-detail``: per parameter the quantile furthest off the reference and by how much
+    (reference sd), and the share of samples with each kind's common shift beyond ``far`` spreads (either side)."""
+    _, dq = _errors(u, ref, sd)
+    worst = np.abs(dq).argmax(axis=0)
+    per = " ".join(f"{nm}:q{round(100 * QS[w])}{dq[w, j]:+.2f}" for j, (nm, w) in enumerate(zip(names, worst)))
+    c = kind_shifts(prior, u)
+    share = " ".join(f"{k} {np.mean(np.abs(c[:, i]) > far):.3f}" for i, k in enumerate(kinds))
+    return f"{per}; |shift| > {far:g}: {share}"
+
+
 def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
     """``--seed-study N``: N seeds of each sampler setting against one reference posterior (the sampler before the
     screen-tempered start, ``--study-reference`` samples, seed 1 000): accurate sets, CPU, and each run's means and
     5/50/95 % quantiles minus the reference's in reference sd (RMS over seeds and parameters; the worst quantile).
     ``--jobs J`` > 1: the runs in a pool of J processes (spawned, each numba on one thread, so each run's CPU is one
-    thread's; every run is seeded by its own index: the same numbers for any J but the times)."""
+    thread's; every run is seeded by its own index: the same numbers for any J but the times).
+    ``--study-references K`` and ``--study-reference-sampler S[,S2]``: the reference pooled from K runs (seeds 1 000
+    … 1 000 + K − 1) of each sampler S (``before``: no screen stages, not anchored; ``plain``: every proposal through
+    the spectral engine; ``default``: the package's), each reference run printed against the pool of the others (its
+    own scatter). ``--study-detail``: per run, which quantile of each parameter is off and by how much, and the share
+    of samples whose kind's common shift is beyond ``--study-far`` spreads. ``--study-save F``: every run's ln
+    samples to the npz file F (for offline reading)."""
     base = (upd.SCREEN_STAGES, upd.SCREEN_TOP, upd.SCREEN_STEPS, upd.ANCHORED)
     top, dm = args.screen_top or base[1], upd.DELAYED_MOVES
     # the sampler before the screen-tempered start: the plain random walk's target and 3 moves (the reference's)
@@ -518,12 +628,17 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
             + [(f"{k} screen stages, top {top:g}", (k, top, 1, base[3]), dm) for k in stages]
             + [(f"{c} (moves x screen steps)", (stages[0] if stages else base[0], top, int(c.split('x')[1]), False),
                 int(c.split("x")[0])) for c in chains])
+    plan += [("plain (every proposal through the spectral engine)", base, 3, "plain")] if args.study_plain else []
+    ref_kinds = {"before": (before, 3, "auto"), "plain": (base, 3, "plain"), "default": (base, dm, "auto")}
+    ref_plan = [(k, s) for k in args.study_reference_sampler.split(",")
+                for s in range(1000, 1000 + args.study_references)]
     threads = 1 if args.jobs > 1 else 0
-    seeds = range(args.seed_study)
-    tasks = ([(cfg, cuts, prior, "spectral", before, 3, args.study_reference, 1000, threads)]
+    seeds = range(args.study_first, args.study_first + args.seed_study)
+    tasks = ([(cfg, cuts, prior, "spectral", ref_kinds[k][0], ref_kinds[k][1], args.study_reference, s, threads,
+               ref_kinds[k][2]) for k, s in ref_plan]
              + [(cfg, cuts, prior, "zoa", base, 3, args.samples, s, threads) for s in seeds]
-             + [(cfg, cuts, prior, "spectral", setting, moves, args.samples, s, threads)
-                for _, setting, moves in plan for s in seeds])
+             + [(cfg, cuts, prior, "spectral", p[1], p[2], args.samples, s, threads, *p[3:])
+                for p in plan for s in seeds])
     if args.jobs > 1:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -532,17 +647,41 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
             out = list(pool.map(_study_run, tasks))
     else:
         out = [_study_run(t) for t in tasks]
-    ref, sd = out[0][0], out[0][0].std(0)
+    nr = len(ref_plan)
+    refs, out = out[:nr], out[nr - 1:]  # out[0] stands for the reference below (the layout before several)
+    ref = np.concatenate([r[0] for r in refs])
+    sd = ref.std(0)
+    kinds = [prior.par.kind(names[g[0]]) for g in prior.kind_groups]
     zoa = np.mean([o[2] for o in out[1:1 + len(seeds)]])
-    print(f"seed study: {args.seed_study} seeds x {args.samples} samples against a {args.study_reference}-sample "
-          f"reference (the sampler before, seed 1000); errors in reference sd; the zero-order update's CPU {zoa:.3f} s "
-          f"(mean over the seeds); {args.jobs} process(es)")
-    for k, (label, _, _) in enumerate(plan):
+    what = ", ".join(f"{k} seed {s}" for k, s in ref_plan)
+    print(f"seed study (tails {prior.tails}): {args.seed_study} seeds x {args.samples} samples against a "
+          f"{ref.shape[0]}-sample reference ({what}; {args.study_reference} samples each); errors in reference sd; the "
+          f"zero-order update's CPU {zoa:.3f} s (mean over the seeds); {args.jobs} process(es)")
+    for i, ((k, s), r) in enumerate(zip(ref_plan, refs)):
+        if nr > 1:  # each reference run against the pool of the others
+            rest = np.concatenate([q[0] for j, q in enumerate(refs) if j != i])
+            e, dq = _errors(r[0], rest, rest.std(0))
+            print(f"  reference {k} seed {s} against the other {nr - 1}: CPU {r[2]:.2f} s, mean error RMS "
+                  f"{np.sqrt((e ** 2).mean()):.2f}, worst quantile error {np.abs(dq).max():.2f}"
+                  + (f"; {_detail(r[0], rest, rest.std(0), names, prior, args.study_far, kinds)}"
+                     if args.study_detail else ""))
+        elif args.study_detail:
+            c = kind_shifts(prior, r[0])
+            print(f"  reference {k} seed {s}: |shift| > {args.study_far:g}: "
+                  + " ".join(f"{kk} {np.mean(np.abs(c[:, j]) > args.study_far):.3f}" for j, kk in enumerate(kinds)))
+    saved = {f"ref_{k}_{s}": r[0] for (k, s), r in zip(ref_plan, refs)}
+    mode = (args.study_mode.split(":")[0], float(args.study_mode.split(":")[1]))
+    share = [float(in_mode(prior, r[0], mode).mean()) for r in refs]
+    print(f"  share of the mode {args.study_mode} (the kind's common shift beyond it, spreads) in the reference runs: "
+          f"{' '.join(f'{x:.4f}' for x in share)}")
+    for k, p in enumerate(plan):
+        label = p[0]
         rows = []
-        for u, sets, cpu, n_side, n_label, evals in out[1 + len(seeds) * (k + 1):1 + len(seeds) * (k + 2)]:
-            dq = max(np.abs((np.quantile(u, q, axis=0) - np.quantile(ref, q, axis=0)) / sd).max()
-                     for q in (0.05, 0.5, 0.95))
-            rows.append(((u.mean(0) - ref.mean(0)) / sd, dq, sets, cpu, n_side, n_label, evals))
+        for i, (u, sets, cpu, n_side, n_label, evals) in enumerate(out[1 + len(seeds) * (k + 1):
+                                                                       1 + len(seeds) * (k + 2)]):
+            e, dq = _errors(u, ref, sd)
+            rows.append((e, np.abs(dq).max(), sets, cpu, n_side, n_label, evals, u))
+            saved[f"run{k}_seed{seeds[i]}"] = u
         err = np.array([r[0] for r in rows])
         per = np.round(np.sqrt((err**2).mean(0)), 2)
         cpu = np.mean([r[3] for r in rows])
@@ -553,6 +692,24 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
               f"{max(r[1] for r in rows):.2f}; "
               f"cuts explained: label side >= {min(r[4] for r in rows)}/{args.cuts}, predictive >= 0.1 "
               f">= {min(r[5] for r in rows)}/{args.cuts}")
+        share = np.array([in_mode(prior, r[7], mode).mean() for r in rows])
+        print(f"    the mode {args.study_mode}: share mean {share.mean():.4f}, median {np.median(share):.4f}, max "
+              f"{share.max():.4f}, runs above 0.05: {(share > 0.05).sum()}/{share.size}, above 0.02: "
+              f"{(share > 0.02).sum()}/{share.size}")
+        if args.study_detail:
+            for s, r in zip(seeds, rows):
+                print(f"    seed {s}: worst {r[1]:.2f}; {_detail(r[7], ref, sd, names, prior, args.study_far, kinds)}")
+    if args.study_mode_mass:
+        pool = np.concatenate([r[0] for r in refs] + [o[0] for o in out[1 + len(seeds):]])
+        with threadpool_limits(1):
+            mass, se, lines = mode_mass(prior, cuts, pool, mode, args.study_mode_mass,
+                                        diameter_mm=getattr(cfg, "diameter_mm", None))
+        print(f"  the mode {args.study_mode}'s posterior mass by importance sampling ({args.study_mode_mass} draws a "
+              f"side, kernels at the study's particles): {mass:.4f} +- {se:.4f}; " + "; ".join(lines))
+    if args.study_save:
+        np.savez_compressed(args.study_save, names=np.array(names), labels=np.array([p[0] for p in plan]),
+                            mean_u=prior.mean_u, spread=prior.spread, **saved)
+        print(f"  saved every run's ln samples to {args.study_save}")
 
 
 def main() -> None:
@@ -606,6 +763,27 @@ def main() -> None:
                     "sampler before, the default and each --screen-stages / --screen-chain setting against one "
                     "reference")
     ap.add_argument("--study-reference", type=int, default=3000, help="the seed study's reference samples")
+    ap.add_argument("--study-first", type=int, default=0, metavar="S", help="the seed study's seeds S ... S+N-1")
+    ap.add_argument("--study-references", type=int, default=1, metavar="K", help="the seed study's reference pooled "
+                    "from K runs (seeds 1000 ... 1000+K-1) of each --study-reference-sampler")
+    ap.add_argument("--study-reference-sampler", default="before", help="the reference runs' sampler(s), "
+                    "comma-separated: before (no screen stages, not anchored) | plain | default")
+    ap.add_argument("--study-plain", action="store_true", help="the seed study with a row of the plain sampler (every "
+                    "proposal through the spectral engine)")
+    ap.add_argument("--study-detail", action="store_true", help="the seed study per run: which quantile of each "
+                    "parameter is off, by how much, and the share of samples with a kind's common shift beyond "
+                    "--study-far spreads")
+    ap.add_argument("--study-far", type=float, default=3.0, help="with --study-detail: the common shift [spreads] "
+                    "beyond which a sample counts as far out")
+    ap.add_argument("--study-mode", default="any:4", metavar="KIND:Z", help="the seed study's far mode: the "
+                    "samples whose kind's common shift is below Z spreads (Z < 0; above Z for Z > 0; KIND any: some "
+                    "kind's |shift| above |Z|); each run's share in it")
+    ap.add_argument("--study-mode-mass", type=int, default=0, metavar="M", help="after the seed study: the far "
+                    "mode's posterior mass by importance sampling, M draws on each side (independent of the SMC runs' "
+                    "weights)")
+    ap.add_argument("--study-save", default="", metavar="F", help="the seed study's ln samples to this npz file")
+    ap.add_argument("--tails", default=None, help="the prior's tails (millstab.update.prior.TAILS) for every run, the "
+                    "seed study's pool included (default: the package's DEFAULT_TAILS)")
     ap.add_argument("--study-skip-before", action="store_true", help="the seed study without its row of the sampler "
                     "before the screen-tempered start (its reference is still that sampler's)")
     ap.add_argument("--anchor-compare", action="store_true", help="also the spectral update with the anchored "
@@ -630,7 +808,7 @@ def main() -> None:
     cfg = load_config("example:ex1")
     cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, args.immersion, "down")
     # the config's cutting is not used: update() takes the prior, which holds this cut
-    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel))
+    prior = make_prior(cfg.structure, cut, PriorTable({}, sigma_depth_rel=args.sigma_depth_rel, tails=args.tails))
     rng = np.random.default_rng(args.seed)
     names = list(prior.par.free)
     off = {"fn": 0.03, "k": 0.2, "zeta": 0.3}
@@ -641,7 +819,8 @@ def main() -> None:
     depth = np.minimum(b_true * rng.uniform(1 - args.spread, 1 + args.spread, rpm.size), args.max_depth)
     chatter = depth > b_true * np.exp(args.noise * rng.standard_normal(rpm.size))
     cuts = PointSet(rpm, depth, np.where(chatter, "chatter", "stable"))
-    print(f"case: Ex.1 at a/D {args.immersion} down, truth = hammer test x {np.round(fac, 3).tolist()} ({names}); "
+    print(f"case (prior tails {prior.tails}): Ex.1 at a/D {args.immersion} down, truth = hammer test x "
+          f"{np.round(fac, 3).tolist()} ({names}); "
           f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
         if args.proxy_seeds:
@@ -655,7 +834,8 @@ def main() -> None:
             seed_study(cfg, cuts, prior, names, args, stages, chains)
             return
         if args.doors:
-            doors(dataclasses.replace(cfg, cutting=cut, prior=PriorTable({}, sigma_depth_rel=args.sigma_depth_rel)),
+            doors(dataclasses.replace(cfg, cutting=cut, prior=PriorTable({}, sigma_depth_rel=args.sigma_depth_rel,
+                                                                          tails=args.tails)),
                   cuts, args.samples, args.doors)
             return
         runs = {}

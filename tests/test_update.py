@@ -212,8 +212,9 @@ def test_systematic_resampling_and_ess():
     assert ess_of(np.array([0.0, -np.inf, -np.inf])) == pytest.approx(1)
 
 
-#: the grid tests' prior tails: their ±4-spread grids hold a multivariate-t posterior's mass; the rival component of
-#: ``multivariate_t_shift`` reaches ~20 spreads, beyond them (tests/test_update_shift.py has its own grid test)
+#: the grid tests' prior tails: their ±4-spread grids hold a multivariate-t posterior's mass; the default's rival
+#: component (``multivariate_t_shift``) reaches ~20 spreads, beyond them (its 2 000-particle sd then also rests on
+#: the few far draws)
 GRID_TAILS = 'tails = "multivariate_t"\n'
 
 

@@ -73,7 +73,7 @@ def test_coverage_is_calibrated_for_truths_drawn_from_the_posterior_itself():
     distribution: each 90 % interval must cover ≈ 90 % of the truths (binomial: 400 truths, 0.85–0.95).
     The orientation rule must not look at the truth (a truth and its exchange twin are covered alike)."""
     cfg = load_config("example:ex1")
-    # the multivariate t: multivariate_t_shift's rival component (a kind's common shift, σ 5 spreads) widens the 90 %
+    # the multivariate t: the default's rival component (a kind's common shift, σ 5 spreads) widens the 90 %
     # interval of fn beyond the 3σ truth at the end
     prior = make_prior(cfg.structure, cfg.cutting, PriorTable({}, tails="multivariate_t"))
     rng = np.random.default_rng(0)

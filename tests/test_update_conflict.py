@@ -120,7 +120,7 @@ def test_a_sequential_update_keeps_the_conflict_its_start_named():
     them): one free parameter, stable cuts at 1.5× the tap test's limit (ln BF ≈ 1.0, a ratio of ≈ 2.8: quiet
     alone). Continued from a posterior that named the conflict, the next update names it, marked kept; continued
     from one that did not, it stays quiet. Fails on the old code (the start's verdict was not read)."""
-    cfg, prior = _prior(ONLY_KX + 'tails = "multivariate_t"\n')  # (multivariate_t_shift: ln BF ≈ 1.9)
+    cfg, prior = _prior(ONLY_KX + 'tails = "multivariate_t"\n')  # (the default's rival makes ln BF ≈ 1.9 here)
     rpm = np.linspace(5000, 12000, 8)
     b0 = limits(prior, prior.mean_u[None], rpm)[0][0]
     cuts = PointSet(rpm[:7], 1.5 * b0[:7], ["stable"] * 7)

@@ -68,7 +68,7 @@ def test_graded_cuts_reach_the_evidence_and_the_likelihood():
 
 # --- the prior -------------------------------------------------------------------------------------------
 def test_student_prior_density_and_draws_are_the_t():
-    assert _prior()[1].tails == "multivariate_t"  # the default since issue 24 (tests/test_update_mvt.py)
+    assert _prior()[1].tails == "multivariate_t_shift"  # the default since 2026-11-28 (tests/test_update_shift.py)
     cfg, prior = _prior('[prior]\ntails = "student"\n')
     assert prior.tails == "student" and prior.nu == 4.0
     rng = np.random.default_rng(0)
@@ -261,7 +261,7 @@ def test_posterior_file_keeps_the_noise_and_an_old_file_still_loads():
     assert doc["schema"] == "millstab.posterior/3" and doc["noise"]["names"] == ["label_error", "sigma_depth"]
     back = Posterior.from_json(doc)
     np.testing.assert_array_equal(back.noise, post.noise)
-    assert back.prior.tails == prior.tails == "multivariate_t" and back.prior.noise_names == prior.noise_names
+    assert back.prior.tails == prior.tails == "multivariate_t_shift" and back.prior.noise_names == prior.noise_names
     # sequential reuse from the file: the learned noise levels carry over
     more = PointSet(np.r_[cuts.rpm, 7000.0], np.r_[cuts.depth_mm, 2.5], list(cuts.label) + ["chatter"])
     assert update(cfg, more, samples=200, seed=1, start=back).noise.shape == (200, 2)
@@ -290,10 +290,10 @@ def test_tails_and_held_noise_survive_a_config_round_trip(tmp_path):
 def test_labels_written_off_as_errors_are_named():
     """Six cuts chattering at 0.05 mm under a ≈ 3 mm hammer-test limit: no structure within the prior
     explains them, so the learned label error rises far above the config's 2 % — and the update says so,
-    naming the cuts (before: P(stable) = 1 there and not a word). ``multivariate_t_shift`` has a structure that
-    explains them (every stiffness and damping far lower together, its rival component), so it names the conflict
-    with the hammer test instead (checked at the end)."""
-    cfg, prior = _prior()
+    naming the cuts (before: P(stable) = 1 there and not a word). Under ``multivariate_t``: the default
+    ``multivariate_t_shift`` has a structure that explains them (every stiffness and damping far lower together, its
+    rival component), so it names the conflict with the hammer test instead (checked at the end)."""
+    cfg, prior = _prior('[prior]\ntails = "multivariate_t"\n')
     rpm = np.linspace(5500, 11500, 6)
     with pytest.warns(UserWarning, match="the cuts contradict the hammer test or each other: 6 of 6 labels"):
         post = update(cfg, PointSet(rpm, np.full(6, 0.05), ["chatter"] * 6), samples=500, seed=1)
@@ -301,8 +301,8 @@ def test_labels_written_off_as_errors_are_named():
     assert "prior-data-conflict" in post.to_json()["warning_codes"]
     _, pl = predict_cuts(post, rpm, np.full(6, 0.05))
     assert (pl > 0.06).all()  # the written label's probability follows the learned label error, not the 2 %
-    # the rival component moves the structure instead (its label error stays low) and names the conflict all the same
-    cfg, _ = _prior('[prior]\ntails = "multivariate_t_shift"\n')
+    # the default prior moves the structure instead (its label error stays low) and names the conflict all the same
+    cfg, _ = _prior()
     with pytest.warns(UserWarning, match="the cuts contradict the hammer test: k_"):
         post = update(cfg, PointSet(rpm, np.full(6, 0.05), ["chatter"] * 6), samples=500, seed=1)
     assert "prior-data-conflict" in post.to_json()["warning_codes"] and np.median(post.label_error) < 0.058

@@ -65,7 +65,7 @@ class PriorTable:
         sigma_chatter_hz: chatter-frequency noise [Hz], or ``None``.
         label_error: probability that a cut's label is swapped, in [0, 0.5), or ``None``.
         tails: the tails of the spreads (``multivariate_t_shift``, ``multivariate_t``, ``student``, ``normal``,
-            ``mixture``), or ``None`` (default ``multivariate_t``).
+            ``mixture``), or ``None`` (default ``multivariate_t_shift``).
         batch_effect: σ of a test day's shift of ln fn (:mod:`millstab.update.batch`), or ``None`` (off).
         chatter_hz_alias: the chance that a measured chatter frequency is another member of its family than the
             one near the mode, in (0, 1], or ``None`` (default 0.1; 1: any member alike;

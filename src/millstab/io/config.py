@@ -48,7 +48,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
     label_error = "2 %"          # probability that a cut's label is swapped, in [0, 50 %) (default 2 %)
-    tails = "student"            # tails: multivariate_t (default), multivariate_t_shift, student, normal, mixture
+    tails = "student"            # tails: multivariate_t_shift (default), multivariate_t, student, normal, mixture
     batch_effect = "3 %"         # σ of a test day's shift of every fn (cuts' batch/date column; default off)
     chatter_hz_alias = "100 %"   # chance a chatter frequency is not the family member near the mode (default 10 %)
 

@@ -8,7 +8,7 @@ Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²).
   parameter (independent, so one parameter can be wrong while the others hold);
 * ``"normal"``: the Gaussian (log-normal θ) of millstab ≤ 0.x;
 * ``"mixture"``: 0.9·N(0, 1) + 0.1·N(0, 4²), a Gaussian with a broad component;
-* ``"multivariate_t"`` (the default, :data:`DEFAULT_TAILS`): one multivariate t with ν = :data:`DEFAULT_NU` over the
+* ``"multivariate_t"``: one multivariate t with ν = :data:`DEFAULT_NU` over the
   M free *modal* parameters, density ∝ (1 + |z|²/ν)^(−(ν+M)/2), i.e. z = N(0, I)/√(W/ν) with one W ~ χ²_ν
   shared by all of them (one scale: "how far off is this hammer test"). Each parameter alone is still t_ν (the
   same marginals as ``"student"``); what differs is the joint: the prior prices the whole tap test off by r σ in every
@@ -19,7 +19,8 @@ Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²).
   t_ν: it comes from cutting tests or a table, not from the tap test, so its error is not the tap
   test's error and must not share its scale (a shared one would also let a Kt far off make every
   modal parameter's tails broad).
-* ``"multivariate_t_shift"`` (:data:`SHIFT`, opt-in, issue 24): the multivariate t with a rival component,
+* ``"multivariate_t_shift"`` (:data:`SHIFT`, the default since 2026-11-28, :data:`DEFAULT_TAILS`; issue 24): the
+  multivariate t with a rival component,
   (1 − w)·t_ν(0, I) + w·t_ν(0, Σ) over the modal z, Σ = I + S²·Σ_kind 1 1ᵀ (:data:`SHIFT_WEIGHT` w = 0.2,
   :data:`SHIFT_SCALE` S = 5): every kind (all fn, all k, all ζ; :attr:`Prior.kind_groups`) may share one common
   shift. The physics: a tool held otherwise than in the idle tap test (clamping, holder, overhang, bearings under
@@ -91,18 +92,20 @@ DEFAULT_CHATTER_HZ_ALIAS = 0.1
 #: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
 DEFAULT_LABEL_ERROR = 0.02
 #: default tails of the modal parameters' prior (see the module docstring). ``"multivariate_t"`` since issue 24's
-#: measurements (docs/updating.md, "The default prior"): over the 100 calibration campaigns (hammer test right) it
-#: keeps the calibration (99 / 100 final recommendations truly stable, 90 % coverage 0.91), and on a hammer test
-#: 3.6σ off in every parameter it moves the whole structure where independent tails move k alone (softer tool,
-#: no frequencies: last recommendation 0.54 of the best against 0.16; with frequencies 0.90 against 0.81).
-#: ``"multivariate_t_shift"`` was measured for it on 2026-11-28 ("The default prior, again") and not switched: safer
-#: and more productive on 32 wrong-hammer-test zero-order campaigns (1 / 128 chattering recommendations from round 3
-#: on against 4 / 128, 0.56 of the best against 0.48 on the softer side), the calibration within its targets, but
-#: with the accurate engine's sampler its posteriors' quantiles were off a reference by up to 11 sd in one of 8 seeds
-#: (2.54 sd mean against 1.01). Measured since (32 seeds, six references, importance sampling): no bias of the
-#: sampler; the rival component gives that case far modes (mostly a lobe alias, both fn about a third low) of ~2 %
-#: mass, which every sampler, the one before included, weighs with heavy-tailed scatter (> 5 % in 1 run of 6-8)
-DEFAULT_TAILS = "multivariate_t"
+#: the default tails. ``"multivariate_t_shift"`` since 2026-11-28 (docs/updating.md, "The default prior, again"): on
+#: 32 campaigns with the hammer test 3.6σ off in every parameter (16 softer, 16 stiffer; no chatter frequencies)
+#: against ``"multivariate_t"`` in the same campaigns: softer side, recommendations from round 3 on that chatter
+#: 1 / 128 against 4 / 128, last recommendation 0.56 of the best against 0.48 (6 / 16 against 4 / 16 at ≥ 0.60),
+#: test cuts that chattered 41 / 288 against 83 / 288; stiffer side 1.00 either way; the 100 calibration campaigns
+#: (hammer test right) 98 / 100 final recommendations truly stable, 90 % coverage 0.94, no conflict named. Where it
+#: lost: ζ ×3 alone (4 campaigns), last recommendation 0.72 against 0.85 of the best, one chattering recommendation
+#: (round 5) against none from round 3 on. ``"multivariate_t"`` before it moved the whole structure where independent
+#: tails move k alone (softer tool, no frequencies: 0.54 of the best against 0.16). Switched on 2026-11-28, back the
+#: same night (with the accurate engine's sampler its quantiles were off a reference by up to 11 sd in one of 8
+#: seeds), and again after that was explained (32 seeds, six references, importance sampling): no bias of the sampler;
+#: the rival component gives that case far modes (a lobe alias, both fn about a third low) of ~2 % mass, which every
+#: sampler weighs with heavy-tailed scatter
+DEFAULT_TAILS = "multivariate_t_shift"
 TAILS = ("student", "normal", "mixture", "multivariate_t", "multivariate_t_shift")
 #: the tails whose modal parameters share one t scale (see the module docstring)
 MVT = "multivariate_t"

@@ -91,20 +91,19 @@ DEFAULT_SIGMA_CHATTER_HZ = 20.0
 DEFAULT_CHATTER_HZ_ALIAS = 0.1
 #: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
 DEFAULT_LABEL_ERROR = 0.02
-#: default tails of the modal parameters' prior (see the module docstring). ``"multivariate_t"`` since issue 24's
-#: the default tails. ``"multivariate_t_shift"`` since 2026-11-28 (docs/updating.md, "The default prior, again"): on
-#: 32 campaigns with the hammer test 3.6σ off in every parameter (16 softer, 16 stiffer; no chatter frequencies)
-#: against ``"multivariate_t"`` in the same campaigns: softer side, recommendations from round 3 on that chatter
-#: 1 / 128 against 4 / 128, last recommendation 0.56 of the best against 0.48 (6 / 16 against 4 / 16 at ≥ 0.60),
-#: test cuts that chattered 41 / 288 against 83 / 288; stiffer side 1.00 either way; the 100 calibration campaigns
-#: (hammer test right) 98 / 100 final recommendations truly stable, 90 % coverage 0.94, no conflict named. Where it
-#: lost: ζ ×3 alone (4 campaigns), last recommendation 0.72 against 0.85 of the best, one chattering recommendation
-#: (round 5) against none from round 3 on. ``"multivariate_t"`` before it moved the whole structure where independent
-#: tails move k alone (softer tool, no frequencies: 0.54 of the best against 0.16). Switched on 2026-11-28, back the
-#: same night (with the accurate engine's sampler its quantiles were off a reference by up to 11 sd in one of 8
-#: seeds), and again after that was explained (32 seeds, six references, importance sampling): no bias of the sampler;
-#: the rival component gives that case far modes (a lobe alias, both fn about a third low) of ~2 % mass, which every
-#: sampler weighs with heavy-tailed scatter
+#: default tails of the modal parameters' prior (see the module docstring): ``"multivariate_t_shift"`` since 2026-11-28
+#: (docs/updating.md, "The default prior, again"): on 32 campaigns with the hammer test 3.6σ off in every parameter (16
+#: softer, 16 stiffer; no chatter frequencies) against ``"multivariate_t"`` in the same campaigns: softer side,
+#: recommendations from round 3 on that chatter 1 / 128 against 4 / 128, last recommendation 0.56 of the best against
+#: 0.48 (6 / 16 against 4 / 16 at ≥ 0.60), test cuts that chattered 41 / 288 against 83 / 288; stiffer side 1.00 either
+#: way; the 100 calibration campaigns (hammer test right) 98 / 100 final recommendations truly stable, 90 % coverage
+#: 0.94, no conflict named. Where it lost: ζ ×3 alone (4 campaigns), last recommendation 0.72 against 0.85 of the best,
+#: one chattering recommendation (round 5) against none from round 3 on. ``"multivariate_t"`` before it moved the whole
+#: structure where independent tails move k alone (softer tool, no frequencies: 0.54 of the best against 0.16). Switched
+#: on 2026-11-28, back the same night (with the accurate engine's sampler its quantiles were off a reference by up to 11
+#: sd in one of 8 seeds), and again after that was explained (32 seeds, six references, importance sampling): no bias of
+#: the sampler; the rival component gives that case far modes (a lobe alias, both fn about a third low) of ~2 % mass,
+#: which every sampler weighs with heavy-tailed scatter
 DEFAULT_TAILS = "multivariate_t_shift"
 TAILS = ("student", "normal", "mixture", "multivariate_t", "multivariate_t_shift")
 #: the tails whose modal parameters share one t scale (see the module docstring)

@@ -52,8 +52,8 @@ def timed(f):
     return out, time.perf_counter() - t, time.process_time() - c
 
 
-def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float]):
-    """(config, prior, cuts, text) of the case in the module docstring."""
+def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float], with_truth: bool = False):
+    """(config, prior, cuts, text) of the case in the module docstring; ``with_truth``: and the true structure."""
     from millstab.io import load_config
     from millstab.io.config import PriorTable
     from millstab.model import Cutting
@@ -74,8 +74,9 @@ def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float]
     depth = b_true * rng.uniform(0.7, 1.3, r.size)
     chatter = depth > b_true * np.exp(0.03 * rng.standard_normal(r.size))
     cuts = PointSet(r, depth, np.where(chatter, "chatter", "stable"))
-    return cfg, prior, cuts, (f"a/D {immersion} seed {seed}: {n_cuts} cuts, {int(chatter.sum())} chatter, truth = "
-                              f"hammer test x {np.round(fac, 3).tolist()}")
+    text = f"a/D {immersion} seed {seed}: {n_cuts} cuts, {int(chatter.sum())} chatter, truth = hammer test x " \
+           f"{np.round(fac, 3).tolist()}"
+    return (cfg, prior, cuts, text, truth) if with_truth else (cfg, prior, cuts, text)
 
 
 def same_pocket(post, rpm_range, a: tuple[float, float], b: tuple[float, float], risk: float, count: int,

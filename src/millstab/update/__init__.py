@@ -59,7 +59,7 @@ SCREEN_TOP = 0.75
 #: (docs/updating.md, "Longer steps, a later hand-over"): on the a/D 0.1 spectral case over 8 seeds, 1 000 samples,
 #: 29 % fewer spectral evaluations and 1.41x less CPU than 0.25, 3 moves and SCREEN_TOP 0.5, the means and
 #: quantiles as close to a 3 000-sample reference. Its cost: fewer distinct final samples (a proxy calibration, zoa
-#: screening zoa, 100 campaigns: median 378 against 498; 3 false conflicts named against 0)
+#: screening zoa, 2 x 100 campaigns: median 378 and 396 against 498 and 485; 3 false conflicts named against 1)
 DELAYED_MOVES = 4
 DELAYED_ACCEPT_TARGET = 0.15
 #: MH steps on the screen per delayed-acceptance proposal (:func:`tempered_smc`'s ``screen_steps``; 1: delayed

@@ -33,9 +33,7 @@ from threadpoolctl import threadpool_limits
 
 from _machine import describe, pool_of
 from bench_decide_accurate import make_case
-
-#: the recommendation's speed tolerance (decide.SPEED_TOLERANCE): a cut is truly stable only if it is at its speed ±
-TOL = 0.0025
+from millstab.update.decide import SPEED_TOLERANCE as TOL  # a cut is truly stable only if it is at its speed ± this
 
 
 def _case(args):
@@ -55,12 +53,12 @@ def _run(job) -> dict:
     from millstab.io.config import PriorTable
 
     args, tails, seed = job
-    cfg, prior, cuts, _, rng_range, truth = _case(args)
+    cfg, prior, cuts, _, rpm_range, truth = _case(args)
     prior = make_prior(cfg.structure, prior.cutting, PriorTable({}, sigma_depth_rel=0.05, tails=tails))
     c0 = time.process_time()
     with threadpool_limits(1):
         post = update(cfg, cuts, samples=args.samples, seed=seed, engine="spectral", prior=prior)
-        rec = recommend(post, args.risk, rng_range, seed=seed, max_depth_mm=args.max_depth)
+        rec = recommend(post, args.risk, rpm_range, seed=seed, max_depth_mm=args.max_depth)
     cpu = time.process_time() - c0
     true = float(np.min(truth(rec.rpm * np.array([1 - TOL, 1.0, 1 + TOL]))))
     return {"tails": tails, "seed": seed, "rpm": rec.rpm, "depth": rec.depth_mm, "p": rec.p_chatter,
@@ -84,9 +82,9 @@ def main() -> None:
     print(describe())
     from millstab.update.campaign import best_productivity
 
-    _, _, _, text, rng_range, truth = _case(args)
+    _, _, _, text, rpm_range, truth = _case(args)
     print(f"case: {text}; {args.samples} samples, spectral engine, risk {args.risk}")
-    best = best_productivity(truth, rng_range, args.max_depth, args.best_speeds, TOL)
+    best = best_productivity(truth, rpm_range, args.max_depth, args.best_speeds, TOL)
     jobs = [(args, t, s) for t in args.tails.split(",") for s in range(args.seeds)]
     t0 = time.perf_counter()
     with pool_of(args.jobs) as pool:

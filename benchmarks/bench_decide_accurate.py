@@ -52,8 +52,8 @@ def timed(f):
     return out, time.perf_counter() - t, time.process_time() - c
 
 
-def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float], with_truth: bool = False):
-    """(config, prior, cuts, text) of the case in the module docstring; ``with_truth``: and the true structure."""
+def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float]):
+    """(config, prior, cuts, text, the true structure) of the case in the module docstring."""
     from millstab.io import load_config
     from millstab.io.config import PriorTable
     from millstab.model import Cutting
@@ -76,7 +76,7 @@ def make_case(immersion: float, seed: int, n_cuts: int, rpm: tuple[float, float]
     cuts = PointSet(r, depth, np.where(chatter, "chatter", "stable"))
     text = f"a/D {immersion} seed {seed}: {n_cuts} cuts, {int(chatter.sum())} chatter, truth = hammer test x " \
            f"{np.round(fac, 3).tolist()}"
-    return (cfg, prior, cuts, text, truth) if with_truth else (cfg, prior, cuts, text)
+    return cfg, prior, cuts, text, truth
 
 
 def same_pocket(post, rpm_range, a: tuple[float, float], b: tuple[float, float], risk: float, count: int,
@@ -107,7 +107,7 @@ def one_case(args, immersion: float, seed: int) -> list[str]:
 
     lines = Lines()
     lo, hi = (float(x) for x in args.rpm.split(":"))
-    cfg, prior, cuts, text = make_case(immersion, seed, args.cuts, (lo, hi))
+    cfg, prior, cuts, text, _ = make_case(immersion, seed, args.cuts, (lo, hi))
     lines.append(text)
     map_rpm, map_depth = np.linspace(lo, hi, args.map_speeds), np.linspace(0.01, 3 * float(cuts.depth_mm.max()), 60)
     res = {}

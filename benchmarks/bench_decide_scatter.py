@@ -42,7 +42,7 @@ def _case(args):
     from millstab.stability import sdm
 
     lo, hi = (float(x) for x in args.rpm.split(":"))
-    cfg, prior, cuts, text, structure = make_case(args.immersion, args.case, args.cuts, (lo, hi), with_truth=True)
+    cfg, prior, cuts, text, structure = make_case(args.immersion, args.case, args.cuts, (lo, hi))
     return cfg, prior, cuts, text, (lo, hi), (
         lambda rpm: sdm.envelope(structure, prior.cutting, np.asarray(rpm, dtype=float)).depth_mm)
 

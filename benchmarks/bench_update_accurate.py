@@ -594,9 +594,13 @@ def _detail(u: np.ndarray, ref: np.ndarray, sd: np.ndarray, names: list[str], pr
     _, dq = _errors(u, ref, sd)
     worst = np.abs(dq).argmax(axis=0)
     per = " ".join(f"{nm}:q{round(100 * QS[w])}{dq[w, j]:+.2f}" for j, (nm, w) in enumerate(zip(names, worst)))
+    return f"{per}; {_far_shares(prior, u, far, kinds)}"
+
+
+def _far_shares(prior, u: np.ndarray, far: float, kinds: list[str]) -> str:
+    """The share of samples u whose kind's common shift (:func:`kind_shifts`) is beyond ``far`` spreads, per kind."""
     c = kind_shifts(prior, u)
-    share = " ".join(f"{k} {np.mean(np.abs(c[:, i]) > far):.3f}" for i, k in enumerate(kinds))
-    return f"{per}; |shift| > {far:g}: {share}"
+    return f"|shift| > {far:g}: " + " ".join(f"{k} {np.mean(np.abs(c[:, i]) > far):.3f}" for i, k in enumerate(kinds))
 
 
 def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[int], chains: list[str]) -> None:
@@ -666,9 +670,7 @@ def seed_study(cfg, cuts: PointSet, prior, names: list[str], args, stages: list[
                   + (f"; {_detail(r[0], rest, rest.std(0), names, prior, args.study_far, kinds)}"
                      if args.study_detail else ""))
         elif args.study_detail:
-            c = kind_shifts(prior, r[0])
-            print(f"  reference {k} seed {s}: |shift| > {args.study_far:g}: "
-                  + " ".join(f"{kk} {np.mean(np.abs(c[:, j]) > args.study_far):.3f}" for j, kk in enumerate(kinds)))
+            print(f"  reference {k} seed {s}: {_far_shares(prior, r[0], args.study_far, kinds)}")
     saved = {f"ref_{k}_{s}": r[0] for (k, s), r in zip(ref_plan, refs)}
     mode = (args.study_mode.split(":")[0], float(args.study_mode.split(":")[1]))
     share = [float(in_mode(prior, r[0], mode).mean()) for r in refs]

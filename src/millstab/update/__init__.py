@@ -163,6 +163,10 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
 
         def logpdf_full(v):
             return pr.logpdf_full(v[:, :q]) + be.logpdf(v[:, q:])
+    # a fresh delayed-acceptance update takes longer steps and one more move (DELAYED_MOVES: measured there only)
+    delayed = scr is not None and start is None and sampler != "surrogate"
+    if moves is None:
+        moves = DELAYED_MOVES if delayed else 3
     sur = None
     if sampler == "surrogate":
         from millstab.errors import InputError
@@ -175,15 +179,11 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         # the design: distinct particles of the zero-order posterior (a pilot run as cheap as a zero-order update),
         # where the accurate posterior lies nearby; prior draws spread the fit over a range where the correction
         # is not smooth at low immersion (measured: held-out error 0.23 in ln b against its own sd 0.29)
-        moves = 3 if moves is None else moves
         pilot = tempered_smc(sample_full, logpdf_full, scr, samples, seed=rng, moves=moves)
         sur.fit(sur.design_from(pilot.u, SURROGATE_DESIGN, rng), SURROGATE_KIND, seed)
         res = corrected_smc(sample_full, logpdf_full, lik, sur, samples, seed=rng, moves=moves, progress=progress)
     elif start is None:
-        # a fresh delayed-acceptance update takes longer steps and one more move (DELAYED_MOVES: measured there only)
-        delayed = scr is not None
-        res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed,
-                           moves=(DELAYED_MOVES if delayed else 3) if moves is None else moves, progress=progress,
+        res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if delayed else 0,
                            screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP,
                            anchored=ANCHORED and delayed and SCREEN_STEPS == 1 and not lik.uses_frequency,
@@ -196,7 +196,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
             u0 = np.hstack([u0, be.start(start.batch, u0.shape[0], rng)])
         u0 = u0[rng.choice(u0.shape[0], samples, replace=samples > u0.shape[0])] if u0.shape[0] != samples else u0
         res = tempered_smc(sample_full, logpdf_full, lik.split(n_old), samples, seed=rng,
-                           moves=3 if moves is None else moves, progress=progress, init=u0,
+                           moves=moves, progress=progress, init=u0,
                            screen=scr.split(n_old) if scr is not None else None, jumps=jumps)
     diag = res.diagnostics()
     # how many of the cuts came from the earlier posterior (--start): only the others were tempered in

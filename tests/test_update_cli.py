@@ -129,14 +129,11 @@ def test_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     (["recommend", "{d}/post.json", "--risk", "1.5", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["recommend", "{d}/post.json", "--risk", "-0.1", "--rpm", "5000:9000", "--out", "{d}/r.json"], "--risk"),
     (["update", "{d}/zero.toml", "{d}/cuts.csv", "--out", "{d}/p.json"], "prior.k_x"),
-    # Kr free needs an engine with a Kr per parameter set (zoa); sdm takes one Kr per call
-    (["update", "{d}/kr.toml", "{d}/cuts.csv", "--engine", "sdm", "--out", "{d}/p.json"], "prior.kr"),
 ])
 def test_more_bad_input_is_one_line_exit_2(shop, args, text, capsys):
     from millstab.datasets import example_path
 
     (shop / "zero.toml").write_text(example_path("ex1").read_text() + "\n[prior]\nk_x = 0\n")
-    (shop / "kr.toml").write_text(example_path("ex1").read_text() + "\n[prior]\nkr = 0.1\n")
     capsys.readouterr()
     assert main([a.format(d=shop) for a in args]) == 2
     err = capsys.readouterr().err.strip().splitlines()

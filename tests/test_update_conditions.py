@@ -1,7 +1,7 @@
 """Updating from cuts in several cutting conditions, and Kr free.
 
 References: the single-condition likelihood of the same cuts (a prior built on that condition's own
-cutting, the path of earlier versions) and the single-structure zero-order engine at the sample's Kr."""
+cutting, the path of earlier versions) and the single-structure engine (zoa, spectral, sdm) at the sample's Kr."""
 
 from __future__ import annotations
 
@@ -87,13 +87,50 @@ def test_kr_free_limits_are_the_engine_at_each_samples_kr():
         np.testing.assert_array_equal(got[row], want)
 
 
+@pytest.mark.parametrize("engine, options, direct", [("spectral", {"nodes": 6, "near": 0.02}, {"warm": False}),
+                                                     ("sdm", {"steps": 20}, {})])
+def test_kr_free_limits_of_the_time_domain_engines_are_each_samples_kr(engine, options, direct):
+    """Kr free with the interrupted-cutting engines (issue 27): the likelihood's limits of three prior samples, one
+    engine call, are each sample's own call at its Kr, bit for bit, under one pinned discretisation (a sampler's:
+    the spectral engine without warm starts)."""
+    from millstab.frf import ModalBatch
+    from millstab.stability import get_engine
+
+    cfg, pr = _kr_prior()
+    u = pr.sample(3, np.random.default_rng(1))
+    rpm = np.array([4000.0, 7500.0, 11000.0])
+    got, _ = limits(pr, u, rpm, engine, options=options)
+    theta, _ = pr.split(u)
+    eng, c = get_engine(engine), cfg.cutting
+    for row, kr in zip(range(3), pr.kr_of(u)):
+        batch = ModalBatch.from_structures([pr.par.structure(theta[row])])
+        cut = Cutting(c.teeth, c.kt, kr, c.entry, c.exit)
+        want = eng.envelope_batch(batch, cut, rpm, **options, **direct)[0] * 1e3
+        np.testing.assert_array_equal(got[row], want)
+    assert len(set(pr.kr_of(u).tolist())) == 3
+
+
 def test_kr_free_is_refused_for_an_engine_without_per_set_kr_and_for_kr_zero():
+    import types
+
+    import millstab.stability as stab
+
     _, pr = _kr_prior()
     ev = Evidence(np.array([5000.0]), np.array([1.0]), np.array([0]), np.ones(1), np.full(1, np.nan), np.zeros(0),
                   np.zeros(0), np.zeros(0))
-    with pytest.raises(InputError, match="prior.kr") as err:
-        Likelihood(pr, ev, "sdm")
-    assert "zoa" in str(err.value)
+    one_kr = types.ModuleType("one_kr")  # a plug-in engine that takes one Kr per call
+    for a in stab.base.CONTRACT:
+        setattr(one_kr, a, getattr(zoa, a))
+    one_kr.name = "one_kr"
+    one_kr.envelope_batch_hz = lambda b, c, r: zoa.envelope_batch_hz(b, c, r)
+    stab.register(one_kr)
+    try:
+        with pytest.raises(InputError, match="prior.kr") as err:
+            Likelihood(pr, ev, "one_kr")
+    finally:
+        stab.unregister("one_kr")
+    assert "one_kr engine takes one Kr per call" in str(err.value)
+    assert all(name in str(err.value) for name in ("zoa", "sdm", "spectral"))
     cfg = parse_config(TWO_MODE_TOML.replace("kr = 0.404", "kr = 0") + '[prior]\nkr = "20 %"\n')
     with pytest.raises(InputError, match="prior.kr"):
         make_prior(cfg.structure, cfg.cutting, cfg.prior)

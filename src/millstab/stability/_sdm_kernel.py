@@ -616,7 +616,8 @@ def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, w
 @nb.njit(cache=True, parallel=True)
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
                 rtol, first, last, depth, mu, n_eval, cv):
-    """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M); rpm, steps, cv (S,) (cv: the
+    """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M), kr (B,) (each set's radial-to-tangential
+    ratio: the ``per_set_kr`` capability, the cutting's own repeated otherwise); rpm, steps, cv (S,) (cv: the
     process damping per unit depth C / V [N·s/m²], zeros for none);
     b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts
     for the tasks first..last-1 of the B·S (structure, speed) pairs, row-major (the caller runs them
@@ -626,7 +627,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, fa
         t = first + q
         bi = t // n_s
         s = t % n_s
-        d, m_, c = limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,
+        d, m_, c = limit_one(n_teeth, kt, kr[bi], phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,
                              wn[bi], zeta[bi], mass[bi], mdir, act, rtol, cv[s])
         depth[bi, s] = d
         mu[bi, s] = m_

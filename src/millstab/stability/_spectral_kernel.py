@@ -1880,7 +1880,8 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
                 nd, rtol, w_flex, depth, mu, n_eval, cap, floor, gate):
     """Limiting depths for B structures (wn, zeta, mass (B, M)) at ascending speeds rpm (S,), split into
     blocks starting at ``starts`` (each block continues from speed to speed). Parallel over
-    (set, block) pairs. b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S); cap (B, S) [m]: the
+    (set, block) pairs. kr (B,): each set's radial-to-tangential ratio (the ``per_set_kr`` capability; the cutting's
+    own Kr repeated otherwise). b_ref (B, S); writes depth (B, S) [m], mu (B, S), n_eval (B, S); cap (B, S) [m]: the
     censored search's caps (:func:`limit_run`; inf: none); floor (B, S) [m] (≤ 0: none) and gate: the floors
     (:func:`limit_run`)."""
     n_b = wn.shape[0]
@@ -1890,7 +1891,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, starts, b_ref, ladder, near,
         k = t % n_blk
         a = starts[k]
         e = starts[k + 1]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
+        limit_run(n_teeth, kt, kr[bi], phi_s, phi_e, rpm[a:e], b_ref[bi, a:e], ladder, near, wn[bi], zeta[bi], mass[bi],
                   mdir, act, elem_len[bi], nd, rtol, w_flex[bi], depth[bi, a:e], mu[bi, a:e], n_eval[bi, a:e],
                   cap[bi, a:e], floor[bi, a:e], gate)
 

@@ -79,7 +79,7 @@ def warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm, b0, th0, b_ref, ladder, near,
 @nb.njit(cache=True, parallel=True)
 def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, near, wn, zeta, mass, mdir, act,
                elem_len, nd, depth, theta, ok, n_eval):
-    """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,)) at every
+    """:func:`warm_point` for sets ``row`` (E,) (indices into wn, zeta, mass (B, M), elem_len (B,), kr (B,)) at every
     speed rpm (S,), guesses b0, th0 (E, S), zero-order depths b_ref (E, S) [m]. Parallel over (entry, speed). Writes
     depth, theta, ok, n_eval (E, S)."""
     n_e = row.size
@@ -88,7 +88,7 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, 
         e = t // n_s
         s = t % n_s
         i = row[e]
-        d, th, good, c = warm_point(n_teeth, kt, kr, phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder,
+        d, th, good, c = warm_point(n_teeth, kt, kr[i], phi_s, phi_e, rpm[s], b0[e, s], th0[e, s], b_ref[e, s], ladder,
                                     near, wn[i], zeta[i], mass[i], mdir, act, elem_len[i], nd)
         depth[e, s] = d
         theta[e, s] = th
@@ -100,10 +100,11 @@ def warm_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, row, b0, th0, b_ref, ladder, 
 def cold_entries(n_teeth, kt, kr, phi_s, phi_e, rpm, row, col, b_ref, ladder, near, wn, zeta, mass, mdir, act, elem_len,
                  nd, rtol, w_flex, depth, mu, n_eval):
     """The search from below (``limit_run`` on one speed) for single entries (set row[e], speed rpm[col[e]]),
-    b_ref (E,) the ladder's reference depth [m]. Parallel over entries. Writes depth, mu, n_eval (E,)."""
+    b_ref (E,) the ladder's reference depth [m]; kr (B,) per set. Parallel over entries. Writes depth, mu, n_eval
+    (E,)."""
     for e in nb.prange(row.size):
         i = row[e]
         s = col[e]
-        limit_run(n_teeth, kt, kr, phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i],
+        limit_run(n_teeth, kt, kr[i], phi_s, phi_e, rpm[s:s + 1], b_ref[e:e + 1], ladder, near, wn[i], zeta[i], mass[i],
                   mdir, act, elem_len[i], nd, rtol, w_flex[i], depth[e:e + 1], mu[e:e + 1], n_eval[e:e + 1],
                   np.full(1, np.inf), np.zeros(1), 0.0)

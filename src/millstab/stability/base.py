@@ -63,6 +63,20 @@ def check_ceiling(ceiling, n_sets: int, n_speeds: int) -> np.ndarray | None:
     return c
 
 
+def check_kr(kr, n_sets: int) -> np.ndarray | None:
+    """A per-set Kr (the ``per_set_kr`` capability) as a float array (B,), or None; InputError for another length or
+    a value not finite and ≥ 0."""
+    if kr is None:
+        return None
+    k = np.atleast_1d(np.asarray(kr, dtype=float))
+    if k.shape != (n_sets,):
+        raise InputError("kr", f"{k.size} values", f"one radial-to-tangential ratio per parameter set ({n_sets})")
+    bad = ~np.isfinite(k) | (k < 0)
+    if bad.any():
+        raise InputError("kr", float(k[bad][0]), "radial-to-tangential ratio must be finite and >= 0")
+    return k
+
+
 def check_floor(floor, n_sets: int, n_speeds: int) -> np.ndarray | None:
     """A floored search's floor (the ``takes_floor`` capability) as a float array (B, S) [m], or None; InputError for
     another shape or a NaN (≤ 0 or −inf: no floor at that entry)."""
@@ -188,9 +202,10 @@ class Engine(Protocol):
         condition s at rpm[s] (the same speed under two conditions is two columns). An engine whose
         kernel works per speed gets this from :func:`by_condition` (one decorator line); the zero-order
         engine shares each set's frequency grid over the conditions in one compiled call.
-    per_set_kr (optional capability, default False; :func:`per_set_kr`): ``envelope_batch`` and
-        ``envelope_batch_hz`` take ``kr=`` (B,), each set's radial-to-tangential ratio, overriding the
-        conditions' Kr (Kr is a property of the tool and material, shared by every condition).
+    per_set_kr (optional capability, default False; :func:`per_set_kr`): ``envelope_batch`` (and
+        ``envelope_batch_hz`` where the engine has it) takes ``kr=`` (B,), each set's radial-to-tangential ratio,
+        overriding the conditions' Kr (Kr is a property of the tool and material, shared by every condition);
+        zoa, sdm and spectral.
 
     Optional (consumers check with ``hasattr``; an engine without it is called with no keywords):
         process_damping: the engine carries ``Cutting.process_damping`` (absent = False: a cut with

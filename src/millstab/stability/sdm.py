@@ -89,7 +89,7 @@ from millstab.progress import Progress
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_rpm
+from millstab.stability.base import by_condition, check_kr, check_rpm
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
@@ -256,13 +256,16 @@ def _static_scale(batch: ModalBatch, cutting: Cutting) -> np.ndarray:
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
-           progress: Progress | None = None, fn_max_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+           progress: Progress | None = None, fn_max_hz: float | None = None,
+           kr=None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and dominant multipliers (B, S) at the boundary; the default steps
-    follow ``fn_max_hz`` [Hz] (default: the batch's highest natural frequency, :func:`split_settings`)."""
+    follow ``fn_max_hz`` [Hz] (default: the batch's highest natural frequency, :func:`split_settings`); ``kr`` (B,)
+    or None: each set's Kr (:func:`envelope_batch`)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     st = _steps(steps, _fn_max_hz(wn) if fn_max_hz is None else float(fn_max_hz), cutting, r)
+    kr = check_kr(kr, batch.size)
     # the reference depth is the zero-order one without process damping (that model has none)
-    b_ref = zoa.envelope_batch(batch, cutting.without_process_damping(), r)
+    b_ref = zoa.envelope_batch(batch, cutting.without_process_damping(), r, kr=kr)
     fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
     # where the zero-order method finds no boundary, take the largest finite one of that set (or a static scale)
     row_max = np.nanmax(np.where(np.isfinite(fallback), fallback, -np.inf), axis=1)
@@ -272,12 +275,13 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
-    n, kt, kr, ps, pe = _cut_args(cutting)
+    n, kt, kr_c, ps, pe = _cut_args(cutting)
+    krs = np.full(n_b, float(kr_c)) if kr is None else np.ascontiguousarray(kr)
     cv = np.ascontiguousarray(cutting.process_damping_per_depth(r))
     factors = FACTORS_PD if cutting.has_process_damping else FACTORS
 
     def run(first: int, last: int) -> None:
-        _k.limit_batch(n, kt, kr, ps, pe, r, st, steps is None, b_ref, factors, wn, zeta, mass, mdir, act, RTOL,
+        _k.limit_batch(n, kt, krs, ps, pe, r, st, steps is None, b_ref, factors, wn, zeta, mass, mdir, act, RTOL,
                        first, last, depth, mu, n_eval, cv)
 
     with threadpool_limits(1):
@@ -336,11 +340,14 @@ def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None,
-                   progress: Progress | None = None, fn_max_hz: float | None = None) -> np.ndarray:
+                   progress: Progress | None = None, fn_max_hz: float | None = None, kr=None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm];
-    ``progress(stage, done, total)`` counts (structure, speed) pairs; ``fn_max_hz``: see :func:`split_settings`."""
+    ``progress(stage, done, total)`` counts (structure, speed) pairs; ``fn_max_hz``: see :func:`split_settings`.
+    ``kr`` (B,) (None: the cutting's): each set's radial-to-tangential ratio, overriding the cutting's Kr (the
+    ``per_set_kr`` capability: a sampler that learns Kr); each (set, speed) builds its step matrices anyway, so the
+    depths are those of one call per set with its own Kr, bit for bit."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, steps, progress, fn_max_hz)[0]
+    return _limit(batch, cutting, r, steps, progress, fn_max_hz, kr)[0]
 
 
 def _fn_max_hz(wn: np.ndarray) -> float:
@@ -369,6 +376,8 @@ reports_multipliers = True
 process_damping = True
 reports_progress = True
 cheap = False
+#: ``envelope_batch(..., kr=(B,))``: each (set, speed)'s step matrices are built in the kernel anyway
+per_set_kr = True
 #: the batched path returns depths only (``envelope`` reports the chatter frequency of one structure)
 reports_chatter_frequency = False
 time_averaged = False

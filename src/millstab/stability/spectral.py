@@ -285,7 +285,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_ceiling, check_floor, check_rpm
+from millstab.stability.base import by_condition, check_ceiling, check_floor, check_kr, check_rpm
 from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
@@ -364,14 +364,20 @@ def _cut_args(cutting: Cutting) -> tuple:
     return cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit
 
 
+def _kr_sets(cutting: Cutting, kr: np.ndarray | None, n_b: int) -> np.ndarray:
+    """Each set's Kr (B,) for the kernels: ``kr`` (the ``per_set_kr`` capability) or the cutting's own repeated."""
+    return np.full(n_b, float(cutting.kr)) if kr is None else np.ascontiguousarray(kr, dtype=float)
+
+
 def _elem_len(wn: np.ndarray) -> np.ndarray:
     """Longest element [s] per set: ELEM_PERIODS natural periods of its highest mode."""
     return np.ascontiguousarray(ELEM_PERIODS * 2 * math.pi / wn.max(axis=1))
 
 
-def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray) -> np.ndarray:
-    """Zero-order depths (B, S) [m] as the search's starting guess (a finite stand-in where it has none)."""
-    b_ref = zoa.envelope_batch(batch, cutting, r)
+def _b_ref(batch: ModalBatch, cutting: Cutting, r: np.ndarray, kr: np.ndarray | None = None) -> np.ndarray:
+    """Zero-order depths (B, S) [m] as the search's starting guess (a finite stand-in where it has none); ``kr`` (B,)
+    or None: as :func:`envelope_batch`."""
+    b_ref = zoa.envelope_batch(batch, cutting, r, kr=kr)
     fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
     row_max = np.nanmax(np.where(np.isfinite(fallback), fallback, -np.inf), axis=1)
     row_max = np.where(np.isfinite(row_max), row_max, _static_scale(batch, cutting))
@@ -449,11 +455,12 @@ def _one_blas_thread():
 
 def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
            block: int | None = None, near: float = NEAR, ceiling: np.ndarray | None = None,
-           floor: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+           floor: np.ndarray | None = None, kr: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """Depth, multiplier and evaluation counts (B, S) at ascending speeds rs with p nodes per element
     (speeds in blocks of ``block``, default :func:`_block_starts`; branches continue within a block);
     ``ceiling`` (B, S) [m]: a censored search (:func:`envelope_batch`), None: none; ``floor`` (B, S) [m]: the
-    floors (:func:`envelope_batch`; ≤ 0 or None: none), tested where b_ref ≤ FLOOR_GATE × the floor."""
+    floors (:func:`envelope_batch`; ≤ 0 or None: none), tested where b_ref ≤ FLOOR_GATE × the floor; ``kr`` (B,):
+    each set's Kr (None: the cutting's)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     n_b, n_s = batch.size, rs.size
     if block is None:
@@ -463,11 +470,11 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
-    n, kt, kr, ps, pe = _cut_args(cutting)
+    n, kt, _, ps, pe = _cut_args(cutting)
     cap = np.full((n_b, n_s), np.inf) if ceiling is None else np.ascontiguousarray(ceiling, dtype=float)
     low = np.zeros((n_b, n_s)) if floor is None else np.ascontiguousarray(floor, dtype=float)
     with _one_blas_thread():
-        _k.limit_batch(n, kt, kr, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
+        _k.limit_batch(n, kt, _kr_sets(cutting, kr, n_b), ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
                        _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap, low,
                        float(FLOOR_GATE))
     if np.any(np.isnan(depth)):
@@ -475,14 +482,16 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     return depth, mu, n_eval
 
 
-def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray,
+           kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rows that start from a nearby row's boundary: (follower mask (B,), head index (B,)).
 
     A run of consecutive rows, each within ``WARM_REL`` (largest |ln ratio| of ωn, ζ, m) of the row
     before, follows the run's first row (its head) if also within WARM_REL of it: the layout of
-    finite-difference rows ([u, u + h e_1, ...], :func:`millstab.forward.fd_rows`). Vectorised: no
-    per-row work in Python."""
-    par = np.log(np.concatenate([wn, zeta, mass], axis=1))
+    finite-difference rows ([u, u + h e_1, ...], :func:`millstab.forward.fd_rows`); with a Kr per set (B,), within
+    WARM_REL in ln(1 + Kr) too (Kr may be 0). Vectorised: no per-row work in Python."""
+    cols = [wn, zeta, mass] if kr is None else [wn, zeta, mass, (1.0 + kr)[:, None]]
+    par = np.log(np.concatenate(cols, axis=1))
     near_prev = np.zeros(par.shape[0], bool)
     near_prev[1:] = np.max(np.abs(np.diff(par, axis=0)), axis=1) < WARM_REL
     head = np.maximum.accumulate(np.where(near_prev, 0, np.arange(par.shape[0])))
@@ -492,26 +501,27 @@ def _heads(wn: np.ndarray, zeta: np.ndarray, mass: np.ndarray) -> tuple[np.ndarr
 
 def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p: int,
                 near: float = NEAR, ceiling: np.ndarray | None = None,
-                floor: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                floor: np.ndarray | None = None, kr: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """:func:`_solve` with warm starts: rows near the row heading their run (:func:`_heads`) start at
     the head's boundary (Newton, then the checks, :mod:`._spectral_warm`); the heads and every other row
     are searched cold, and so is every (row, speed) where the warm start is not accepted (that speed
     alone, from below). Depth, multiplier, evaluations (B, S). ``ceiling``, ``floor``: the cold rows' censored search
-    and floors (:func:`_solve`); the warm rows have neither."""
+    and floors (:func:`_solve`); the warm rows have neither. ``kr`` (B,): each set's Kr (None: the cutting's)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
-    follow, head = _heads(wn, zeta, mass)
+    follow, head = _heads(wn, zeta, mass, kr)
     if not follow.any():
-        return _solve(batch, cutting, rs, b_ref, p, near=near, ceiling=ceiling, floor=floor)
+        return _solve(batch, cutting, rs, b_ref, p, near=near, ceiling=ceiling, floor=floor, kr=kr)
     cold = np.flatnonzero(~follow)
     sub = ModalBatch(*(getattr(batch, f)[cold] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
+    krs = _kr_sets(cutting, kr, batch.size)
     depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near,
                                                  ceiling=None if ceiling is None else ceiling[cold],
-                                                 floor=None if floor is None else floor[cold])
+                                                 floor=None if floor is None else floor[cold], kr=krs[cold])
     row = np.flatnonzero(follow)
-    n, kt, kr, ps, pe = _cut_args(cutting)
+    n, kt, _, ps, pe = _cut_args(cutting)
     nd = _k.gauss_nodes(int(p))
     el = _elem_len(wn)
     e_shape = (row.size, rs.size)
@@ -519,13 +529,13 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     b0 = np.ascontiguousarray(depth[head[row]])
     th0 = np.ascontiguousarray(np.abs(np.angle(mu[head[row]])))
     with _one_blas_thread():
-        _w.warm_batch(n, kt, kr, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn,
+        _w.warm_batch(n, kt, krs, ps, pe, rs, row, b0, th0, np.ascontiguousarray(b_ref[row]), LADDER, float(near), wn,
                       zeta, mass, mdir, act, el, nd, d_w, th_w, ok, ne_w)
         e, s = np.nonzero(~ok)
         if e.size:  # the warm start not accepted: that speed searched from below, from the zero-order depth
             i = row[e]
             d_c, mu_c, ne_c = np.empty(e.size), np.empty(e.size, dtype=np.complex128), np.empty(e.size, np.int64)
-            _w.cold_entries(n, kt, kr, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
+            _w.cold_entries(n, kt, krs, ps, pe, rs, i.astype(np.int64), s.astype(np.int64),
                             np.ascontiguousarray(b_ref[i, s]), LADDER, float(near), wn, zeta, mass, mdir, act, el, nd,
                             RTOL, _w_flex(batch), d_c, mu_c, ne_c)
     depth[row] = d_w
@@ -539,11 +549,13 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
 
 
 def _moved(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, depth: np.ndarray, mu: np.ndarray,
-           p: int) -> tuple[np.ndarray, np.ndarray]:
+           p: int, kr: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Set 0's boundary points (depth (S,) [m], multiplier (S,)) at speeds rs, moved by Newton to the
-    discretisation with p nodes (NaN where Newton fails: not converged; inf stays inf)."""
+    discretisation with p nodes (NaN where Newton fails: not converged; inf stays inf); ``kr``: set 0's Kr (None:
+    the cutting's)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
-    n, kt, kr, ps, pe = _cut_args(cutting)
+    n, kt, kr_c, ps, pe = _cut_args(cutting)
+    kr = kr_c if kr is None else float(kr)
     nd = _k.gauss_nodes(int(p))
     el = float(_elem_len(wn)[0])
     d_new = np.full(rs.size, np.nan)
@@ -564,17 +576,20 @@ def _check_speeds(n_s: int) -> np.ndarray:
     return np.unique([0, n_s // 2, n_s - 1])
 
 
-def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p0: int = P_NODES) -> int:
+def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarray, p0: int = P_NODES,
+                     kr: np.ndarray | None = None) -> int:
     """The convergence check: nodes per element for set 0 of ``batch`` at ascending speeds rs (b_ref its
-    zero-order depths (B, S) [m]). Set 0's boundary points at the check speeds are moved by Newton to
-    p + P_STEP nodes; while one moves by more than TOL (or Newton fails), p grows by P_STEP (from p0)."""
+    zero-order depths (B, S) [m]; ``kr`` (B,) or None: each set's Kr). Set 0's boundary points at the check speeds
+    are moved by Newton to p + P_STEP nodes; while one moves by more than TOL (or Newton fails), p grows by P_STEP
+    (from p0)."""
     p = p0
     idx = _check_speeds(rs.size)
     sub = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
+    kr0 = None if kr is None else kr[:1]
     # each check speed is its own block: they are far apart, continuation between them only fails
-    d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+    d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1, kr=kr0))
     while p < P_MAX:
-        d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP)
+        d_n, mu_n = _moved(sub, cutting, rs[idx], d_c, mu_c, p + P_STEP, None if kr is None else float(kr[0]))
         with np.errstate(invalid="ignore"):
             moved = np.where(np.isinf(d_c) & np.isinf(d_n), 0.0, d_n / d_c - 1)
         if np.all(np.abs(moved) <= TOL):
@@ -585,17 +600,18 @@ def _converged_nodes(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref:
             # root search per check speed saved)
             d_c, mu_c = d_n, mu_n
         else:  # Newton failed somewhere: search afresh at p nodes
-            d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1))
+            d_c, mu_c, _ = (a[0] for a in _solve(sub, cutting, rs[idx], b_ref[:1, idx], p, block=1, kr=kr0))
     return p
 
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None,
-           warm: bool = True, near: float = NEAR, ceiling=None, floor=None) -> tuple[np.ndarray, np.ndarray, int]:
+           warm: bool = True, near: float = NEAR, ceiling=None, floor=None,
+           kr=None) -> tuple[np.ndarray, np.ndarray, int]:
     """Limiting depths (B, S) [m] and critical multipliers (B, S) at speeds r (any order); the nodes used.
 
     With ``nodes=None`` the convergence check runs first, on set 0 at the check speeds only: their
     boundary points are moved by Newton to p + P_STEP nodes; while one moves by more than TOL (or Newton
-    fails), p grows by P_STEP. Then the whole batch is solved once with that p. ``ceiling``, ``floor``: see
+    fails), p grows by P_STEP. Then the whole batch is solved once with that p. ``ceiling``, ``floor``, ``kr``: see
     :func:`envelope_batch`.
     """
     if nodes is not None and (isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2):
@@ -607,11 +623,13 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     rs = np.ascontiguousarray(rs)
     cap = _ceiling(ceiling, batch.size, r.size, inv, rs.size)
     low = _floor(floor, batch.size, r.size, inv, rs.size)
-    b_ref = _b_ref(batch, cutting, rs)
-    p = _converged_nodes(batch, cutting, rs, b_ref) if nodes is None else int(nodes)
+    kr = check_kr(kr, batch.size)
+    b_ref = _b_ref(batch, cutting, rs, kr)
+    p = _converged_nodes(batch, cutting, rs, b_ref, kr=kr) if nodes is None else int(nodes)
     if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
         raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
-    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap, floor=low)
+    depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap, floor=low,
+                                                     kr=kr)
     return depth[:, inv], mu[:, inv], p
 
 
@@ -667,7 +685,7 @@ def envelope(structure: Structure, cutting: Cutting, rpm, nodes: int | None = No
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                   near: float = NEAR, warm: bool = True, ceiling=None, floor=None) -> np.ndarray:
+                   near: float = NEAR, warm: bool = True, ceiling=None, floor=None, kr=None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm]. ``near``: the search
     from below refines a ladder step where ρ is within ``near`` of 1 (``NEAR``; 0: only its unstable step,
     which a problem's :func:`settings` asks for). ``warm``: rows within ``WARM_REL`` of the row heading their
@@ -687,20 +705,24 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None =
     is unstable (exact ρ > 1), the limit is below x_k/0.998 < the floor and x_k itself is returned (no search);
     elsewhere the limit, the same bits as without a floor. For a caller that needs only "below the floor" there (a
     likelihood whose terms no longer change below it: :meth:`millstab.update.likelihood.Likelihood.floors`). The
-    test runs only where the zero-order depth is at most :data:`FLOOR_GATE` × the floor."""
+    test runs only where the zero-order depth is at most :data:`FLOOR_GATE` × the floor.
+
+    ``kr`` (B,) (None: the cutting's): each set's radial-to-tangential ratio, overriding the cutting's Kr (the
+    ``per_set_kr`` capability: a sampler that learns Kr). The kernel builds each (set, speed)'s directional factors
+    anyway, so a Kr per set costs nothing; the depths are those of one call per set with its own Kr, bit for bit."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, nodes, warm=warm, near=near, ceiling=ceiling, floor=floor)[0]
+    return _limit(batch, cutting, r, nodes, warm=warm, near=near, ceiling=ceiling, floor=floor, kr=kr)[0]
 
 
 @by_condition
 def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                      near: float = NEAR, warm: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                      near: float = NEAR, warm: bool = True, kr=None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
-    no boundary exists. ``near``, ``warm``: as :func:`envelope_batch`."""
+    no boundary exists. ``near``, ``warm``, ``kr``: as :func:`envelope_batch`."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near, kr=kr)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)
@@ -757,6 +779,8 @@ time_averaged = False
 takes_ceiling = True
 #: :func:`envelope_batch` takes a ``floor`` (a floored search: a depth below it where the limit is below it)
 takes_floor = True
+#: ``envelope_batch(..., kr=(B,))``: each (set, speed)'s directional factors are built in the kernel anyway
+per_set_kr = True
 #: relative accuracy of a limiting depth (the final root bracket; the node count converges to TOL)
 depth_accuracy = RTOL
 #: sets per call for callers that stream many sets: as large as the zero-order engine's, because each

@@ -21,12 +21,11 @@ from typing import Iterator
 import numpy as np
 
 from millstab.frf import ModalBatch, structure_receptance  # noqa: F401  (re-exported for tests)
-from millstab.errors import InputError
 from millstab.model import Conditions, Cutting, Structure
 from millstab.stability import _zoa_kernel as _k
 from millstab.stability.base import Envelope  # noqa: F401  (moved to the contract; re-exported)
 # shared helpers of the contract, re-exported where they used to live
-from millstab.stability.base import check_ceiling, check_rpm, directional_matrix  # noqa: F401
+from millstab.stability.base import check_ceiling, check_kr, check_rpm, directional_matrix  # noqa: F401
 from millstab.stability.process_damping import reject as reject_process_damping
 
 #: log-spaced background points of the per-set frequency grid (mode clusters come on top)
@@ -158,19 +157,6 @@ def _run_conditions(batch: ModalBatch, cond: Conditions, rpm: np.ndarray, stats:
     return _unsorted(order, depth, lobe, wc)
 
 
-def _check_kr(kr, n_sets: int) -> np.ndarray | None:
-    """A per-set Kr as a float array (B,), or None; InputError for another length or a value not finite and ≥ 0."""
-    if kr is None:
-        return None
-    k = np.atleast_1d(np.asarray(kr, dtype=float))
-    if k.shape != (n_sets,):
-        raise InputError("kr", f"{k.size} values", f"one radial-to-tangential ratio per parameter set ({n_sets})")
-    bad = ~np.isfinite(k) | (k < 0)
-    if bad.any():
-        raise InputError("kr", float(k[bad][0]), "radial-to-tangential ratio must be finite and >= 0")
-    return k
-
-
 def _rows(batch: ModalBatch, rows: slice) -> ModalBatch:
     return ModalBatch(*(getattr(batch, f)[rows] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))
 
@@ -183,7 +169,7 @@ def iter_envelope_chunks(batch: ModalBatch, cutting: Cutting | Conditions, rpm, 
     r = check_rpm(rpm)
     if isinstance(cutting, Conditions):
         cutting.check_columns(r.size)
-    k = _check_kr(kr, batch.size)
+    k = check_kr(kr, batch.size)
     cap = check_ceiling(ceiling, batch.size, r.size)
     chunk = chunk or chunk_rows(r.size)
     for start in range(0, batch.size, chunk):
@@ -221,7 +207,7 @@ def envelope_batch_hz(batch: ModalBatch, cutting: Cutting | Conditions, rpm, kr=
     r = check_rpm(rpm)
     if isinstance(cutting, Conditions):
         cutting.check_columns(r.size)
-    k = _check_kr(kr, batch.size)
+    k = check_kr(kr, batch.size)
     depth = np.empty((batch.size, r.size))
     hz = np.empty((batch.size, r.size))
     step = chunk_rows(r.size)

@@ -204,13 +204,20 @@ def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_con
     return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc), options=options)
 
 
+def _kr_engines() -> list[str]:
+    """The registered engines that take a Kr per parameter set (``per_set_kr``)."""
+    from millstab.stability import ENGINES
+
+    return [e for e in ENGINES if per_set_kr(get_engine(e))]
+
+
 def check_kr_engine(prior: Prior, engine: str):
     """The engine named ``engine``; InputError when the prior frees Kr and the engine takes one Kr per call."""
     eng = get_engine(engine)
     if prior.kr_free and not per_set_kr(eng):
         raise InputError("prior.kr", f"{prior.spread[prior.names.index('kr')]:.3g} with the {engine} engine",
                          f"the {engine} engine takes one Kr per call, so Kr cannot be learned with it: use an engine "
-                         "with a Kr per parameter set (zoa), or remove prior.kr to hold Kr")
+                         f"with a Kr per parameter set ({', '.join(_kr_engines())}), or remove prior.kr to hold Kr")
     return eng
 
 

@@ -473,8 +473,9 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n, kt, _, ps, pe = _cut_args(cutting)
     cap = np.full((n_b, n_s), np.inf) if ceiling is None else np.ascontiguousarray(ceiling, dtype=float)
     low = np.zeros((n_b, n_s)) if floor is None else np.ascontiguousarray(floor, dtype=float)
+    krs = _kr_sets(cutting, kr, n_b)
     with _one_blas_thread():
-        _k.limit_batch(n, kt, _kr_sets(cutting, kr, n_b), ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
+        _k.limit_batch(n, kt, krs, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
                        _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap, low,
                        float(FLOOR_GATE))
     if np.any(np.isnan(depth)):

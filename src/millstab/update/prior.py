@@ -59,7 +59,8 @@ its own coordinate ln Kr after Kt's, Kr ≥ 0): no scaling absorbs it (the zero-
 [α][Φ] depend on det α/(α_xx α_yy), (1 + Kr²)/Kr² in slotting), so each sample's Kr goes to the engine
 (``envelope_batch(..., kr=(B,))``; the brackets are linear in Kr, α = α₀ + Kr·α₁, recomputed per set).
 Only an engine declaring ``per_set_kr`` (zoa, sdm and spectral, whose kernels build each (set, speed)'s
-directional factors anyway) takes it; another is refused with an InputError when the likelihood is built. With several cutting conditions the sampled Kr is every condition's Kr.
+directional factors anyway) takes it; another is refused with an InputError when the likelihood is built.
+With several cutting conditions the sampled Kr is every condition's Kr.
 """
 
 from __future__ import annotations

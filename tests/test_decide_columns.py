@@ -166,3 +166,34 @@ def test_a_campaigns_memo_reads_the_kept_samples_and_decides_alike(monkeypatch):
     assert (got.rpm, got.depth_mm, got.p_chatter, got.next_test) == (want.rpm, want.depth_mm, want.p_chatter,
                                                                       want.next_test)
     np.testing.assert_array_equal(got_map, p_stable_map(second, grid, [0.5, 1.0]))
+
+
+def test_limit_memo_keeps_limits_by_row_and_speed_against_a_dense_reference():
+    """:class:`LimitMemo` against a plain dict of (row, speed) → limit filled in the same order: what it returns
+    as known is exactly what was kept last (later values replace earlier ones, NaN entries are not kept), rows
+    and speeds first seen in any order, columns grown as new rows arrive; another posterior's binding clears it."""
+    from millstab.update.decide import LimitMemo
+
+    rng = np.random.default_rng(5)
+    keys = [rng.bytes(48) for _ in range(30)]
+    speeds = [float(x) for x in rng.uniform(5000, 9000, 12).round()]
+    memo, dense = LimitMemo(), {}
+    for _ in range(40):
+        ks = [keys[i] for i in rng.choice(30, rng.integers(1, 12), replace=False)]
+        xs = [speeds[j] for j in rng.choice(12, rng.integers(1, 5), replace=False)]
+        vals = rng.uniform(0.1, 5.0, (len(ks), len(xs)))
+        vals[rng.random(vals.shape) < 0.3] = np.nan  # a censored bound or an entry not asked: not kept
+        vals[rng.random(vals.shape) < 0.05] = np.inf  # no boundary: a limit, kept
+        memo.remember(ks, xs, vals)
+        for i, k in enumerate(ks):
+            for j, x in enumerate(xs):
+                if not np.isnan(vals[i, j]):
+                    dense[k, x] = vals[i, j]
+        got, have = memo.known(keys, speeds)
+        want = np.array([[dense.get((k, x), np.nan) for x in speeds] for k in keys])
+        np.testing.assert_array_equal(have, ~np.isnan(want))
+        np.testing.assert_array_equal(got[have], want[have])
+        assert np.all(got[~have] == 0.0)
+    post = _resampled(50, 20, 1)
+    memo.bind(post, {})
+    assert not memo.known(keys, speeds)[1].any()

@@ -287,31 +287,50 @@ class LimitMemo:
 
     def __init__(self) -> None:
         self._key = None
-        self._by_speed: dict[float, dict[bytes, float]] = {}
+        self._clear()
+
+    def _clear(self) -> None:
+        # a row's id (its key: the row's bytes), and per speed a column of limits by id (NaN: not remembered), so
+        # a lookup is one dict access per row and one gather per speed, not a dict access per (row, speed)
+        self._ids: dict[bytes, int] = {}
+        self._by_speed: dict[float, np.ndarray] = {}
 
     def bind(self, post: Posterior, options: dict) -> None:
         """Serve ``post``'s decisions under ``options``: cleared when they are not those it served so far."""
         key = (post.engine, tuple(sorted(dict(options).items())), repr(post.prior.cutting), repr(post.prior.par),
                tuple(post.prior.names))
         if key != self._key:
-            self._key, self._by_speed = key, {}
+            self._key = key
+            self._clear()
 
     def known(self, keys: list[bytes], speeds: list[float]) -> tuple[np.ndarray, np.ndarray]:
         """(values (R, S), whether each is remembered (R, S)) of rows named by ``keys`` at ``speeds``."""
-        vals = np.zeros((len(keys), len(speeds)))
-        have = np.zeros(vals.shape, dtype=bool)
-        for j, x in enumerate(speeds):
+        ids = np.array([self._ids.get(k, -1) for k in keys], dtype=np.int64)
+        vals = np.full((len(keys), len(speeds)), np.nan)
+        seen = ids >= 0
+        for j, x in enumerate(speeds):  # a gather per speed
             col = self._by_speed.get(x)
-            if col:
-                for i, k in enumerate(keys):
-                    v = col.get(k)
-                    if v is not None:
-                        vals[i, j], have[i, j] = v, True
-        return vals, have
+            if col is not None:
+                inside = seen & (ids < col.size)
+                vals[inside, j] = col[ids[inside]]
+        have = ~np.isnan(vals)
+        return np.where(have, vals, 0.0), have
 
     def remember(self, keys: list[bytes], speeds: list[float], values: np.ndarray) -> None:
-        for j, x in enumerate(speeds):
-            self._by_speed.setdefault(x, {}).update(zip(keys, values[:, j].tolist()))
+        """Keep the limits ``values`` (R, S) [mm] of the rows named by ``keys`` at ``speeds``; a NaN entry is not
+        kept (the caller marks so what is not a limit: a censored bound, an entry not asked for)."""
+        ids = np.array([self._ids.setdefault(k, len(self._ids)) for k in keys], dtype=np.int64)
+        for j, x in enumerate(speeds):  # a scatter per speed, into a column grown to the ids known
+            keep = ~np.isnan(values[:, j])
+            if not keep.any():
+                continue
+            col = self._by_speed.get(x)
+            if col is None or col.size < len(self._ids):
+                grown = np.full(len(self._ids), np.nan)
+                if col is not None:
+                    grown[:col.size] = col
+                col = self._by_speed[x] = grown
+            col[ids[keep]] = values[keep, j]
 
 
 class LimitColumns:
@@ -409,11 +428,8 @@ class LimitColumns:
             ceil[miss] = np.where(censored, c, np.inf)
             self.asked += int(m.sum())
             self.censored += int(censored.sum())
-            if self.memo is not None:  # the memo keeps limits only
-                for j, x in enumerate(speeds):
-                    k = m[:, j] & ~censored[:, j]
-                    if k.any():
-                        self.memo.remember([self._keys[i] for i in miss[k]], [x], b[k, j][:, None])
+            if self.memo is not None:  # the memo keeps limits only: not a censored bound, nor an entry not asked
+                self.memo.remember([self._keys[i] for i in miss], speeds, np.where(m & ~censored, b, np.nan))
         for j, x in enumerate(speeds):
             t = todo[x]
             if x not in self._cols:

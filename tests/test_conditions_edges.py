@@ -304,6 +304,18 @@ def test_the_next_test_moves_to_another_condition_only_when_it_teaches_more_per_
     assert (got["rpm"], got["depth_mm"]) == (pytest.approx(speeds[i]), pytest.approx(depths[j]))
     rich = dict(own, information_nats=10.0)  # more than any binary label can carry (ln 2): stays in its condition
     assert next_test_across(tgt, rich, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is rich
+    # on the rows it is given (the fast speed search's subsample, whose information the own test was measured on),
+    # repeats among them included: the same recomputation on those rows alone
+    rows = np.r_[np.arange(0, 120, 3), [0, 3, 6]]
+    sub = next_test_across(tgt, own, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20, rows=rows)
+    lr = lim[rows]
+    depths = np.linspace(1.2 * np.quantile(lr, 0.95) / 20, 1.2 * np.quantile(lr, 0.95), 20)
+    sig = post.prior.sigma_depth_mm(depths)[None, None, :]
+    pi = eps[rows] + (1 - 2 * eps[rows]) * norm.cdf((depths[None, None, :] - lr[:, :, None]) / sig)
+    info = h(pi.mean(axis=0)) - h(pi).mean(axis=0)
+    i, j = np.unravel_index(np.argmax(info), info.shape)
+    assert sub["information_nats"] == pytest.approx(info[i, j], rel=1e-6)
+    assert (sub["rpm"], sub["depth_mm"]) == (pytest.approx(speeds[i]), pytest.approx(depths[j]))
 
 
 @pytest.mark.slow

@@ -32,10 +32,15 @@ def prior_post(n=300, seed=4, warn=()):
 
 
 # --- predict -------------------------------------------------------------------------------------------
-def test_predict_in_the_input_order_against_each_cuts_own_limits():
+@pytest.mark.parametrize("repeated", [False, True])
+def test_predict_in_the_input_order_against_each_cuts_own_limits(repeated):
+    """``repeated``: a posterior whose rows repeat (as resampling leaves it), evaluated once per distinct row."""
     from millstab.api import predict
 
     post = prior_post()
+    if repeated:
+        u = post.u[np.random.default_rng(7).integers(0, 60, 300)]
+        post = Posterior(PRIOR, np.exp(u), cuts={"rpm": [5000.0, 9000.0]})
     cuts = parse_points("rpm,depth_mm,label\n9000,2.5,stable\n5000,0.5,chatter\n9000,1.0,\n6100,9.0,0.7\n"
                         "5000,3,stable\n", "c.csv")
     pred = predict(post, cuts)

@@ -34,7 +34,8 @@ def cut_limits(post: Posterior, rpm: np.ndarray, batch=None, conditions: tuple |
     :attr:`Posterior.decision_u`), or with ``batch`` (n,) and a test-day effect, the known day's shifts for
     cuts of a day the posterior has seen; each cut in its own condition (``conditions``, a
     :class:`~millstab.model.Cutting` per distinct condition, and ``cond_index`` (n,); ``None``: every cut in
-    ``post.condition``). One engine call per day at its distinct (condition, speed) pairs."""
+    ``post.condition``). One engine call per day at its distinct (condition, speed) pairs and distinct rows (a
+    resampled posterior repeats rows; a row's limits do not depend on the other rows of a call)."""
     ci = np.zeros(rpm.size, dtype=np.int64) if cond_index is None else np.asarray(cond_index, dtype=np.int64)
     if ci.shape != rpm.shape:
         raise InputError("cuts", f"{ci.size} condition indices", f"need one per cut ({rpm.size})")
@@ -47,9 +48,10 @@ def cut_limits(post: Posterior, rpm: np.ndarray, batch=None, conditions: tuple |
         m = day == g
         u = post.decision_u if g < 0 else shift_fn(post.u, fn_columns(post.prior), post.batch.shifts[:, g])
         pairs, idx = np.unique(np.c_[ci[m], rpm[m]], axis=0, return_inverse=True)
-        d, _ = limits_by_condition(post.prior, u, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions, post.engine,
-                                   options=post.engine_options)
-        blim[:, m] = d[:, np.asarray(idx).ravel()]
+        rows, inv = np.unique(u, axis=0, return_inverse=True)
+        d, _ = limits_by_condition(post.prior, rows, pairs[:, 1], pairs[:, 0].astype(np.int64), conditions,
+                                   post.engine, options=post.engine_options)
+        blim[:, m] = d[np.asarray(inv).ravel()][:, np.asarray(idx).ravel()]
     return blim
 
 

@@ -1274,8 +1274,8 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
         rows = np.asarray(grid_rows)
 
     def the_recommendation(why: str) -> dict:
-        p_rec = float(np.mean(limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine,
-                                      options=post.engine_options)[0][:, 0] <= depth_rec)) \
+        p_rec = float(np.mean(distinct_limits(post.prior, post.decision_u[rows], [rpm_rec], post.engine,
+                                              post.engine_options)[:, 0] <= depth_rec)) \
             if p_chatter_rec is None else float(p_chatter_rec)
         return {"rpm": float(rpm_rec), "depth_mm": float(depth_rec), "p_chatter": p_rec, "information_nats": 0.0,
                 "relative_productivity": 1.0, "why": why}
@@ -1285,7 +1285,7 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
         return the_recommendation(blind)
     if grid is None:
         speeds = np.linspace(*rpm_range, n_rpm)
-        blim, _ = limits(post.prior, post.decision_u[rows], speeds, post.engine, options=post.engine_options)  # (M, S)
+        blim = distinct_limits(post.prior, post.decision_u[rows], speeds, post.engine, post.engine_options)  # (M, S)
     else:
         speeds, blim = np.asarray(grid[0], float), np.asarray(grid[1], float)
         blim = blim if grid_rows is not None else blim[rows]

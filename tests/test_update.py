@@ -545,3 +545,16 @@ def test_label_information_kernel_matches_the_numpy_form():
     np.testing.assert_allclose(pbar, pe.mean(0), atol=1e-12)
     np.testing.assert_allclose(info, h(pe.mean(0)) - h(pe).mean(0), atol=1e-9)
     np.testing.assert_allclose(proc, pi.mean(0), atol=1e-12)  # the process's chance, no label error
+
+
+def test_the_summary_line_shows_the_acceptance_of_stages_that_moved():
+    """An accurate update's first stages temper the zero-order screen without moves: their acceptance (0) is not
+    the sampler's, and the one-line summary leaves them out (it read "acceptance 0.00-0.14" before)."""
+    prior = make_prior(STRUCT, CUT)
+    post = Posterior(prior, np.exp(prior.sample(5, np.random.default_rng(0))), "spectral",
+                     diagnostics={"stages": 4, "acceptance": [0.21, 0.0, 0.13, 0.18], "moves": [4, 0, 4, 3],
+                                  "loglik_calls": 9, "time_s": 1.31})
+    assert post.summary() == "4 tempering stages, acceptance 0.13-0.21, 9 likelihood calls, 1.3 s"
+    plain = Posterior(prior, post.samples, "zoa", diagnostics={"stages": 2, "acceptance": [0.3, 0.2],
+                                                              "loglik_calls": 5, "time_s": 0.5})
+    assert "acceptance 0.20-0.30" in plain.summary()

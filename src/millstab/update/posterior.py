@@ -249,7 +249,9 @@ class Posterior:
     def summary(self) -> str:
         """One line: how the sampler got here (tempering stages, acceptance range, likelihood calls, time)."""
         d = self.diagnostics
-        acc = d.get("acceptance") or [float("nan")]
+        moved = d.get("moves") or [1] * len(d.get("acceptance") or [])
+        # a stage without moves (the zero-order screen's start of an accurate update) has no acceptance to show
+        acc = [a for a, m in zip(d.get("acceptance") or [], moved) if m] or [float("nan")]
         return (f"{d.get('stages', '?')} tempering stages, acceptance {min(acc):.2f}-{max(acc):.2f}, "
                 f"{d.get('loglik_calls', '?')} likelihood calls, {d.get('time_s', float('nan')):.1f} s")
 

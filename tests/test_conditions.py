@@ -102,6 +102,27 @@ def test_per_set_kr_in_the_time_domain_engines_equals_single_kr_calls(name):
     np.testing.assert_array_equal(same, eng.envelope_batch(ModalBatch.from_structures(structs), cond, rpm, **opts))
 
 
+def test_spectral_warm_starts_do_not_cross_kr():
+    """The spectral engine's warm starts (rows within WARM_REL of the row heading their run start from its boundary,
+    for finite-difference Jacobians) compare Kr too: two rows with the same modes and other Kr are each searched cold,
+    bit for bit the single-row calls; two rows a finite-difference step apart in Kr still share the warm start."""
+    from millstab.stability import spectral
+
+    one = Structure(x=(Mode(FN, K, ZETA),), y=(Mode(1100.0, 1.6 * K, 0.02),))
+    batch = ModalBatch.from_structures([one, one])
+    rpm = np.array([6000.0, 9000.0])
+    follow, _ = spectral._heads(*spectral._arrays(batch)[:3], np.array([0.15, 0.9]))
+    assert not follow.any()
+    follow, _ = spectral._heads(*spectral._arrays(batch)[:3], np.array([0.3, 0.3 * (1 + 1e-4)]))
+    assert follow.tolist() == [False, True]
+    kr = np.array([0.15, 0.9])
+    depth = spectral.envelope_batch(batch, DOWN, rpm, nodes=6, kr=kr)  # warm starts on (the default)
+    for b in range(2):
+        alone = Cutting(DOWN.teeth, DOWN.kt, kr[b], DOWN.entry, DOWN.exit)
+        np.testing.assert_array_equal(depth[b], spectral.envelope_batch(ModalBatch.from_structures([one]), alone, rpm,
+                                                                        nodes=6)[0])
+
+
 def test_per_set_kr_agrees_between_the_two_time_domain_engines():
     """Independent re-computation: the spectral-element and the semi-discretization engines (their default,
     converged discretisations) at per-set Kr far from the cutting's, a/D 0.1 down milling, within their stated

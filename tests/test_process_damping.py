@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -303,3 +304,33 @@ def test_simulated_steady_start_is_periodic_with_process_damping():
     res = simulate_cut(TWO, cut, 1500.0, 3e-4, 1e-4, revs=3, perturbation=0.0)
     d = np.hypot(np.diff(res.once_x), np.diff(res.once_y))
     assert d.max() < 1e-3 * 1e-4
+
+
+def test_an_update_of_a_process_damping_config_screens_without_the_term():
+    """An update with the engine that models process damping (sdm) is screened by the zero-order engine, which does
+    not: the screen reads the same prior and data without the term (it refused the update before), and an engine
+    that carries it, or data without it, read them unchanged."""
+    from millstab.update import Evidence, make_prior, screen_model
+    from millstab.update.likelihood import Likelihood, limits
+
+    cut = Cutting.from_immersion(4, KT, KR, 0.5, "down", process_damping=2e4, diameter=D)
+    prior = make_prior(TWO, cut)
+    up = Cutting.from_immersion(4, KT, KR, 0.25, "up", process_damping=2e4, diameter=D)
+    ev = Evidence(np.array([3000.0, 4000.0]), np.array([2.0, 5.0]), np.array([0, 1]), np.ones(2),
+                  np.full(2, np.nan), np.zeros(0), np.zeros(0), np.zeros(0), cut_cond=np.array([0, 1]),
+                  conditions=(cut, up))
+    p2, e2 = screen_model(prior, ev, "zoa")
+    assert p2.cutting == cut.without_process_damping() and not p2.cutting.has_process_damping
+    assert e2.conditions == (cut.without_process_damping(), up.without_process_damping())
+    np.testing.assert_array_equal(p2.median, prior.median)
+    u = prior.sample(4, np.random.default_rng(0))
+    want = np.array([limits(p2, u, [3000.0], "zoa")[0][:, 0], limits(p2, u, [4000.0], "zoa", conditions=up
+                                                                      .without_process_damping())[0][:, 0]]).T
+    lik = Likelihood(p2, e2, "zoa")  # built without the refusal; its limits are the plain zero-order ones
+    np.testing.assert_array_equal(lik.depths(u)[1], want)
+    assert screen_model(prior, ev, "sdm") == (prior, ev)
+    plain = make_prior(TWO, cut.without_process_damping())
+    ev0 = replace(ev, conditions=(cut.without_process_damping(), up.without_process_damping()))
+    assert screen_model(plain, ev0, "zoa") == (plain, ev0)
+    with pytest.raises(InputError, match="process_damping"):
+        Likelihood(prior, ev, "zoa")  # what the update met before

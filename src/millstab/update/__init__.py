@@ -86,6 +86,25 @@ def screen_engine(engine: str, sampler: str = "auto") -> str | None:
     return SCREEN_ENGINE
 
 
+def screen_model(prior: Prior, evidence: Evidence, screen: str) -> tuple[Prior, Evidence]:
+    """The prior and data the ``screen`` engine reads: the update's own, or, where the cuts carry process damping
+    and the screen does not model it (zoa), the same without it. Why: the screen only proposes (delayed acceptance
+    is exact for the accurate engine's posterior whatever the screen; the anchored screen's ratio carries the term
+    at each particle), and refusing the term there made every update of a process-damping config fail with the
+    one engine that models it (sdm) before it started."""
+    from dataclasses import replace
+
+    from millstab.stability import get_engine
+
+    cuts = (prior.cutting, *(evidence.conditions or ()))
+    if getattr(get_engine(screen), "process_damping", False) or not any(c.has_process_damping for c in cuts):
+        return prior, evidence
+    plain = replace(prior, cutting=prior.cutting.without_process_damping())
+    if not evidence.conditions:
+        return plain, evidence
+    return plain, replace(evidence, conditions=tuple(c.without_process_damping() for c in evidence.conditions))
+
+
 def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
     """The sampler's lobe-jump groups (:func:`tempered_smc` ``jumps``): each free natural frequency's column
     of u = ln θ alone, and all of them together (a wrong tap test usually shifts every mode alike)."""
@@ -149,7 +168,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         ev = Evidence.from_points(cuts, points, stickout, base_cutting=pr.cutting,
                                   diameter_mm=getattr(config, "diameter_mm", None))
         lik = Likelihood(pr, ev, engine, client, engine_options)
-        scr = Likelihood(pr, ev, cheap_engine, client) if cheap_engine is not None else None
+        scr = None if cheap_engine is None else Likelihood(*screen_model(pr, ev, cheap_engine), cheap_engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
@@ -309,5 +328,5 @@ def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
     return len(old) == len(now) and all(same_condition(a, b) for a, b in zip(old, now))
 
 
-__all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "Evidence", "Likelihood", "Posterior", "Prior",
-           "Recommendation", "make_prior", "p_stable_map", "recommend", "update"]
+__all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "screen_model", "Evidence", "Likelihood", "Posterior",
+           "Prior", "Recommendation", "make_prior", "p_stable_map", "recommend", "update"]

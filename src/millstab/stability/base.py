@@ -77,6 +77,12 @@ def check_kr(kr, n_sets: int) -> np.ndarray | None:
     return k
 
 
+def kr_sets(cutting, kr: np.ndarray | None, n_sets: int) -> np.ndarray:
+    """Each set's Kr (B,) for a kernel that reads one per set: ``kr`` (checked by :func:`check_kr`) or the cutting's
+    own Kr repeated."""
+    return np.full(n_sets, float(cutting.kr)) if kr is None else np.ascontiguousarray(kr, dtype=float)
+
+
 def check_floor(floor, n_sets: int, n_speeds: int) -> np.ndarray | None:
     """A floored search's floor (the ``takes_floor`` capability) as a float array (B, S) [m], or None; InputError for
     another shape or a NaN (≤ 0 or −inf: no floor at that entry)."""

@@ -89,7 +89,7 @@ from millstab.progress import Progress
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_kr, check_rpm
+from millstab.stability.base import by_condition, check_kr, check_rpm, kr_sets
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
@@ -275,8 +275,8 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     depth = np.empty((n_b, n_s))
     mu = np.empty((n_b, n_s), dtype=np.complex128)
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
-    n, kt, kr_c, ps, pe = _cut_args(cutting)
-    krs = np.full(n_b, float(kr_c)) if kr is None else np.ascontiguousarray(kr)
+    n, kt, _, ps, pe = _cut_args(cutting)
+    krs = kr_sets(cutting, kr, n_b)
     cv = np.ascontiguousarray(cutting.process_damping_per_depth(r))
     factors = FACTORS_PD if cutting.has_process_damping else FACTORS
 

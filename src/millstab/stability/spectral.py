@@ -285,7 +285,7 @@ from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
 from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_ceiling, check_floor, check_kr, check_rpm
+from millstab.stability.base import by_condition, check_ceiling, check_floor, check_kr, check_rpm, kr_sets
 from millstab.stability.process_damping import reject as _reject_process_damping
 
 #: collocation nodes per element (degree of the polynomial) before the convergence check
@@ -362,11 +362,6 @@ def _w_flex(batch: ModalBatch) -> np.ndarray:
 
 def _cut_args(cutting: Cutting) -> tuple:
     return cutting.teeth, cutting.kt, cutting.kr, cutting.entry, cutting.exit
-
-
-def _kr_sets(cutting: Cutting, kr: np.ndarray | None, n_b: int) -> np.ndarray:
-    """Each set's Kr (B,) for the kernels: ``kr`` (the ``per_set_kr`` capability) or the cutting's own repeated."""
-    return np.full(n_b, float(cutting.kr)) if kr is None else np.ascontiguousarray(kr, dtype=float)
 
 
 def _elem_len(wn: np.ndarray) -> np.ndarray:
@@ -473,7 +468,7 @@ def _solve(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.ndarra
     n, kt, _, ps, pe = _cut_args(cutting)
     cap = np.full((n_b, n_s), np.inf) if ceiling is None else np.ascontiguousarray(ceiling, dtype=float)
     low = np.zeros((n_b, n_s)) if floor is None else np.ascontiguousarray(floor, dtype=float)
-    krs = _kr_sets(cutting, kr, n_b)
+    krs = kr_sets(cutting, kr, n_b)
     with _one_blas_thread():
         _k.limit_batch(n, kt, krs, ps, pe, rs, starts, b_ref, LADDER, float(near), wn, zeta, mass, mdir, act,
                        _elem_len(wn), _k.gauss_nodes(int(p)), RTOL, _w_flex(batch), depth, mu, n_eval, cap, low,
@@ -517,7 +512,7 @@ def _solve_warm(batch: ModalBatch, cutting: Cutting, rs: np.ndarray, b_ref: np.n
     depth = np.empty((batch.size, rs.size))
     mu = np.empty((batch.size, rs.size), dtype=np.complex128)
     n_eval = np.empty((batch.size, rs.size), dtype=np.int64)
-    krs = _kr_sets(cutting, kr, batch.size)
+    krs = kr_sets(cutting, kr, batch.size)
     depth[cold], mu[cold], n_eval[cold] = _solve(sub, cutting, rs, np.ascontiguousarray(b_ref[cold]), p, near=near,
                                                  ceiling=None if ceiling is None else ceiling[cold],
                                                  floor=None if floor is None else floor[cold], kr=krs[cold])

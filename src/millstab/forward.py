@@ -34,7 +34,13 @@ SETTINGS_CACHE = 16
 FD_STEP = 1e-4
 #: keywords of an engine's ``envelope_batch`` that are not its discretisation (never ``options``; the spectral
 #: engine's ``warm`` is its own settings' choice, per purpose; ``ceiling`` a censored search's per-call caps)
-NOT_OPTIONS = frozenset({"ceiling", "chunk", "floor", "kr", "progress", "warm"})
+NOT_OPTIONS = frozenset({"ceiling", "chunk", "floor", "kr", "process_damping", "progress", "warm"})
+
+
+def per_row(kr: np.ndarray | None, process_damping: np.ndarray | None) -> dict:
+    """The per-row cutting keywords of an engine call: only those given (an engine without the capability is never
+    handed a keyword it does not take)."""
+    return {k: v for k, v in (("kr", kr), ("process_damping", process_damping)) if v is not None}
 
 
 @dataclass(frozen=True)
@@ -71,15 +77,16 @@ class Forward:
         return {**chosen, **dict(self.options)} if self.options else chosen
 
     def __call__(self, theta: np.ndarray, rpm: np.ndarray, conditions: Conditions | Cutting | None = None,
-                 kr: np.ndarray | None = None) -> np.ndarray:
+                 kr: np.ndarray | None = None, process_damping: np.ndarray | None = None) -> np.ndarray:
         """Depths (B, S) [m]; ``inf`` where a row has no finite limit. One batched engine call.
 
         ``conditions``: the condition of each speed column (``None``: the bound cutting for all); ``kr``: a
-        Kr per row (B,) overriding the conditions' (engines with the ``per_set_kr`` capability only)."""
+        Kr per row (B,) overriding the conditions' (engines with the ``per_set_kr`` capability only);
+        ``process_damping``: a coefficient C [N/m] per row (B,) (engines with ``per_set_process_damping``)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         r = np.asarray(rpm, dtype=float)
         cut = self.cutting if conditions is None else conditions
-        extra = {} if kr is None else {"kr": kr}
+        extra = per_row(kr, process_damping)
         return self._engine_mod.envelope_batch(self.par.batch(t), cut, r, **self.settings(r, t[0], conditions),
                                                **extra)
 
@@ -188,14 +195,16 @@ class Pinned:
         return Pinned, (self.forward, self.rpm, dict(self.settings), self.conditions)
 
     def __call__(self, theta: np.ndarray, kr: np.ndarray | None = None,
-                 ceiling: np.ndarray | None = None, floor: np.ndarray | None = None) -> np.ndarray:
+                 ceiling: np.ndarray | None = None, floor: np.ndarray | None = None,
+                 process_damping: np.ndarray | None = None) -> np.ndarray:
         """Depths (B, S) [m] of parameter rows θ (B, P) [SI]: ONE batched engine call; ``kr`` (B,): a Kr per row
         (engines with ``per_set_kr``); ``ceiling`` (B, S) [m]: a censored search (engines with ``takes_ceiling``,
         e.g. :func:`millstab.stability.spectral.envelope_batch`: above it, a certified lower bound of the limit);
-        ``floor`` (B, S) [m]: floors (engines with ``takes_floor``: a depth below it where the limit is)."""
+        ``floor`` (B, S) [m]: floors (engines with ``takes_floor``: a depth below it where the limit is);
+        ``process_damping`` (B,) [N/m]: a coefficient C per row (engines with ``per_set_process_damping``)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
-        extra = {} if kr is None else {"kr": kr}
+        extra = per_row(kr, process_damping)
         if ceiling is not None:
             extra["ceiling"] = ceiling
         if floor is not None:
@@ -207,12 +216,13 @@ class Pinned:
         """Whether :meth:`with_frequency` gives chatter frequencies (the engine's ``reports_chatter_frequency``)."""
         return bool(getattr(self.forward._engine_mod, "reports_chatter_frequency", False))
 
-    def with_frequency(self, theta: np.ndarray, kr: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def with_frequency(self, theta: np.ndarray, kr: np.ndarray | None = None,
+                       process_damping: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(depths (B, S) [m], chatter frequencies (B, S) [Hz]) of rows θ, one call of an engine that
         :attr:`reports_frequency`, under the same pinned discretisation as :meth:`__call__`."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
-        extra = {} if kr is None else {"kr": kr}
+        extra = per_row(kr, process_damping)
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:

@@ -44,6 +44,7 @@ Schema (every quantity a number in SI or a string with units, parsed by
     k = "30 %"                   # ... of every stiffness (default 30 %), zeta: of every damping ratio (30 %)
     fn_x = "3 %"                 # one parameter's own spread (names as in millstab.params)
     kt = "10 %"                  # frees Kt (cutting coefficients are fixed unless given a spread)
+    process_damping = "50 %"     # frees the process-damping C (needs cutting.process_damping and diameter; sdm)
     fixed = ["zeta_y"]           # parameters held at the structure's values
     sigma_depth = "0.05 mm"      # depth noise of the stability likelihood; or relative, "5 %"
     sigma_chatter_hz = "20 Hz"   # noise of a measured chatter frequency
@@ -87,7 +88,7 @@ TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "t
 PRIOR_KEYS = ("fixed", "sigma_depth", "sigma_chatter_hz", "label_error", "tails", "batch_effect", "chatter_hz_alias")
 #: the prior's tails (millstab.update.prior.TAILS)
 PRIOR_TAILS = ("student", "normal", "mixture", "multivariate_t", "multivariate_t_shift")
-_PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr)$")
+_PRIOR_NAME = re.compile(r"^(fn|k|zeta)(?:_([xy]))?(\d*)$|^(kt|kr|process_damping)$")
 CUTTING_KEYS = ("teeth", "kt", "kr", "entry", "exit", "radial_immersion", "milling", "process_damping", "diameter",
                 "feed_per_tooth")
 STRUCTURE_KEYS = ("x", "y", "frf")
@@ -346,7 +347,7 @@ def _prior(t: Any) -> PriorTable:
             spreads[key] = x
         else:
             raise InputError(field, value, f"unknown key; allowed in [prior]: fn, k, zeta, a parameter name (fn_x, "
-                                           f"k_y2, ...), kt, kr, {', '.join(PRIOR_KEYS)}")
+                                           f"k_y2, ...), kt, kr, process_damping, {', '.join(PRIOR_KEYS)}")
     return PriorTable(spreads, fixed, sd_m, sd_rel, sf, eps, tails, batch, alias)
 
 

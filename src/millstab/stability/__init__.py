@@ -19,7 +19,8 @@ from types import ModuleType
 
 from millstab.errors import InputError
 from millstab.stability.base import (Engine, Envelope, by_condition, check_rpm,  # noqa: F401  (the contract)
-                                     directional_matrix, missing_attributes, per_set_kr)
+                                     directional_matrix, missing_attributes, per_set_kr,
+                                     per_set_process_damping)
 
 #: name → engine object, or the module path of a built-in engine not imported yet
 _REGISTRY: dict[str, object] = {}
@@ -119,4 +120,4 @@ register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
 __all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr",
-           "directional_matrix", "get_engine", "register", "unregister"]
+           "per_set_process_damping", "directional_matrix", "get_engine", "register", "unregister"]

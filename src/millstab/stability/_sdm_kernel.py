@@ -617,8 +617,9 @@ def limit_one(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, rich, b_ref, factors, w
 def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, factors, wn, zeta, mass, mdir, act,
                 rtol, first, last, depth, mu, n_eval, cv):
     """Limiting depths for B structures at S speeds: wn, zeta, mass (B, M), kr (B,) (each set's radial-to-tangential
-    ratio: the ``per_set_kr`` capability, the cutting's own repeated otherwise); rpm, steps, cv (S,) (cv: the
-    process damping per unit depth C / V [N·s/m²], zeros for none);
+    ratio: the ``per_set_kr`` capability, the cutting's own repeated otherwise); rpm, steps (S,); cv (B, S): the
+    process damping per unit depth C / V [N·s/m²] of each set at each speed (zeros for none; a C per set is the
+    ``per_set_process_damping`` capability);
     b_ref (B, S). Writes depth (B, S) [m], the dominant multiplier mu (B, S) and evaluation counts
     for the tasks first..last-1 of the B·S (structure, speed) pairs, row-major (the caller runs them
     in chunks, to stay interruptible; each pair is computed alone, so chunking changes no bit)."""
@@ -628,7 +629,7 @@ def limit_batch(n_teeth, kt, kr, phi_s, phi_e, rpm, steps, richardson, b_ref, fa
         bi = t // n_s
         s = t % n_s
         d, m_, c = limit_one(n_teeth, kt, kr[bi], phi_s, phi_e, rpm[s], steps[s], richardson, b_ref[bi, s], factors,
-                             wn[bi], zeta[bi], mass[bi], mdir, act, rtol, cv[s])
+                             wn[bi], zeta[bi], mass[bi], mdir, act, rtol, cv[bi, s])
         depth[bi, s] = d
         mu[bi, s] = m_
         n_eval[bi, s] = c

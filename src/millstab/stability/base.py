@@ -30,7 +30,8 @@ CONTRACT = ("name", "envelope", "envelope_batch", "chunk_rows", "exact_xy_exchan
 #: what a consumer outside ``millstab.stability`` may use of an engine beyond :data:`CONTRACT`: the optional
 #: capabilities of :class:`Engine` (each declared or checked with ``hasattr``/``engine_with``); any other public
 #: function of an engine module (``rho_map``, ``monodromy``, …) is the engine's own (tests/test_layers.py)
-OPTIONAL = ("per_set_kr", "process_damping", "settings", "split_settings", "envelope_batch_hz", "lobes",
+OPTIONAL = ("per_set_kr", "process_damping", "per_set_process_damping", "settings", "split_settings",
+            "envelope_batch_hz", "lobes",
             "reports_multipliers", "critical_multipliers", "takes_ceiling", "likelihood_ceiling", "takes_floor")
 
 #: the ``"schema"`` of :meth:`Envelope.to_json`
@@ -75,6 +76,21 @@ def check_kr(kr, n_sets: int) -> np.ndarray | None:
     if bad.any():
         raise InputError("kr", float(k[bad][0]), "radial-to-tangential ratio must be finite and >= 0")
     return k
+
+
+def check_process_damping(pd, n_sets: int) -> np.ndarray | None:
+    """A per-set process-damping coefficient C [N/m] (the ``per_set_process_damping`` capability) as a float array
+    (B,), or None; InputError for another length or a value not finite and ≥ 0."""
+    if pd is None:
+        return None
+    c = np.atleast_1d(np.asarray(pd, dtype=float))
+    if c.shape != (n_sets,):
+        raise InputError("process_damping", f"{c.size} values", f"one coefficient C [N/m] per parameter set ({n_sets})")
+    bad = ~np.isfinite(c) | (c < 0)
+    if bad.any():
+        raise InputError("process_damping", float(c[bad][0]), "the process-damping coefficient C [N/m] must be finite "
+                                                              "and >= 0")
+    return c
 
 
 def kr_sets(cutting, kr: np.ndarray | None, n_sets: int) -> np.ndarray:
@@ -217,6 +233,9 @@ class Engine(Protocol):
         process_damping: the engine carries ``Cutting.process_damping`` (absent = False: a cut with
             process damping is an InputError before the engine is called, see
             :mod:`millstab.stability.process_damping`).
+        per_set_process_damping: ``envelope_batch`` takes ``process_damping=`` (B,) [N/m], each set's coefficient C,
+            overriding every condition's (C belongs to the tool's flank and the material, like Kr; the conditions'
+            tool diameter gives the cutting speed): an updating that learns C (sdm).
         settings(batch, cutting, rpm) -> dict: keyword arguments of ``envelope_batch`` that fix the
             engine's discretisation for a whole problem (e.g. the spectral engine's ``{"nodes": p}``),
             chosen once from set 0 of ``batch`` at the speeds ``rpm``. :class:`millstab.forward.Forward`
@@ -267,6 +286,11 @@ class Engine(Protocol):
 def per_set_kr(engine: object) -> bool:
     """Whether ``engine`` takes a Kr per parameter set (``kr=`` (B,) of ``envelope_batch``)."""
     return bool(getattr(engine, "per_set_kr", False))
+
+
+def per_set_process_damping(engine: object) -> bool:
+    """Whether ``engine`` takes a process-damping coefficient per parameter set (``process_damping=`` (B,))."""
+    return bool(getattr(engine, "per_set_process_damping", False))
 
 
 def merge_settings(parts: list[dict], source: str = "settings") -> dict:

@@ -89,7 +89,7 @@ from millstab.progress import Progress
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
-from millstab.stability.base import by_condition, check_kr, check_rpm, kr_sets
+from millstab.stability.base import by_condition, check_kr, check_process_damping, check_rpm, kr_sets
 
 #: smallest number of steps per tooth period for the accuracy-controlled default
 STEPS_MIN = 20
@@ -257,13 +257,14 @@ def _static_scale(batch: ModalBatch, cutting: Cutting) -> np.ndarray:
 
 def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
            progress: Progress | None = None, fn_max_hz: float | None = None,
-           kr=None) -> tuple[np.ndarray, np.ndarray]:
+           kr=None, process_damping=None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and dominant multipliers (B, S) at the boundary; the default steps
     follow ``fn_max_hz`` [Hz] (default: the batch's highest natural frequency, :func:`split_settings`); ``kr`` (B,)
-    or None: each set's Kr (:func:`envelope_batch`)."""
+    or None: each set's Kr; ``process_damping`` (B,) [N/m] or None: each set's C (:func:`envelope_batch`)."""
     wn, zeta, mass, act, mdir = _arrays(batch)
     st = _steps(steps, _fn_max_hz(wn) if fn_max_hz is None else float(fn_max_hz), cutting, r)
     kr = check_kr(kr, batch.size)
+    cv = _per_depth(cutting, check_process_damping(process_damping, batch.size), batch.size, r)
     # the reference depth is the zero-order one without process damping (that model has none)
     b_ref = zoa.envelope_batch(batch, cutting.without_process_damping(), r, kr=kr)
     fallback = np.where(np.isfinite(b_ref), b_ref, np.nan)
@@ -277,8 +278,7 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     n_eval = np.empty((n_b, n_s), dtype=np.int64)
     n, kt, _, ps, pe = _cut_args(cutting)
     krs = kr_sets(cutting, kr, n_b)
-    cv = np.ascontiguousarray(cutting.process_damping_per_depth(r))
-    factors = FACTORS_PD if cutting.has_process_damping else FACTORS
+    factors = FACTORS_PD if (cv > 0).any() else FACTORS
 
     def run(first: int, last: int) -> None:
         _k.limit_batch(n, kt, krs, ps, pe, r, st, steps is None, b_ref, factors, wn, zeta, mass, mdir, act, RTOL,
@@ -289,6 +289,19 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, steps,
     if np.any(np.isnan(depth)):
         raise ArithmeticError("semi-discretization: root search produced NaN")
     return depth, mu
+
+
+def _per_depth(cutting: Cutting, pd: np.ndarray | None, n_sets: int, r: np.ndarray) -> np.ndarray:
+    """C / V [N·s/m²] of each set at each speed (B, S): the cutting's own C (zeros for none), or each set's C ``pd``
+    (B,) [N/m] at the cutting's tool diameter (InputError where a C > 0 has no diameter to give the speed V)."""
+    if pd is None:
+        return np.ascontiguousarray(np.broadcast_to(cutting.process_damping_per_depth(r), (n_sets, r.size)))
+    if (pd > 0).any() and not (cutting.diameter or 0) > 0:
+        raise InputError("cutting.diameter", cutting.diameter, "a tool diameter [m] > 0: the process damping C / V "
+                                                               "needs the cutting speed V = π D Ω / 60")
+    # the same division as Cutting.process_damping_per_depth (the same bits as a Cutting of that C)
+    speed = math.pi * float(cutting.diameter or 1.0) * r / 60.0
+    return np.ascontiguousarray(np.where(pd[:, None] > 0, pd[:, None] / speed[None, :], 0.0))
 
 
 def _chatter_hz(mu: np.ndarray, T: np.ndarray, f_ref: float) -> np.ndarray:
@@ -340,14 +353,18 @@ def critical_multipliers(structure: Structure, cutting: Cutting, rpm, steps: int
 
 @by_condition
 def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, steps: int | None = None,
-                   progress: Progress | None = None, fn_max_hz: float | None = None, kr=None) -> np.ndarray:
+                   progress: Progress | None = None, fn_max_hz: float | None = None, kr=None,
+                   process_damping=None) -> np.ndarray:
     """Limiting depths (B, S) [m] for B modal parameter sets at S spindle speeds [rpm];
     ``progress(stage, done, total)`` counts (structure, speed) pairs; ``fn_max_hz``: see :func:`split_settings`.
     ``kr`` (B,) (None: the cutting's): each set's radial-to-tangential ratio, overriding the cutting's Kr (the
     ``per_set_kr`` capability: a sampler that learns Kr); each (set, speed) builds its step matrices anyway, so the
-    depths are those of one call per set with its own Kr, bit for bit."""
+    depths are those of one call per set with its own Kr, bit for bit. ``process_damping`` (B,) [N/m] (None: the
+    cutting's): each set's process-damping coefficient C at the cutting's tool diameter (the
+    ``per_set_process_damping`` capability: a sampler that learns C); the same depths as one call per set with a
+    Cutting of that C, bit for bit (where every set has a C > 0, or none has)."""
     r = check_rpm(rpm)
-    return _limit(batch, cutting, r, steps, progress, fn_max_hz, kr)[0]
+    return _limit(batch, cutting, r, steps, progress, fn_max_hz, kr, process_damping)[0]
 
 
 def _fn_max_hz(wn: np.ndarray) -> float:
@@ -378,6 +395,8 @@ reports_progress = True
 cheap = False
 #: ``envelope_batch(..., kr=(B,))``: each (set, speed)'s step matrices are built in the kernel anyway
 per_set_kr = True
+#: ``envelope_batch(..., process_damping=(B,))``: the kernel reads each (set, speed)'s C / V
+per_set_process_damping = True
 #: the batched path returns depths only (``envelope`` reports the chatter frequency of one structure)
 reports_chatter_frequency = False
 time_averaged = False

@@ -77,9 +77,9 @@ from millstab.errors import InputError
 from millstab.forward import Forward, Pinned, forward
 from millstab.model import Conditions, Cutting, condition_index
 from millstab.points import PointSet, cut_conditions, same_condition
-from millstab.stability import check_rpm, get_engine, per_set_kr
+from millstab.stability import check_rpm, get_engine, per_set_kr, per_set_process_damping
 from millstab.update.batch import BatchEffect
-from millstab.update.prior import Prior
+from millstab.update.prior import PD, Prior
 from millstab.warnlog import warn
 
 _LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
@@ -130,7 +130,7 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     ``takes_floor``, the same conditions): below it a depth only says that the limit is below it.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
-    check_kr_engine(prior, engine)
+    check_engine(prior, engine)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
@@ -155,19 +155,20 @@ def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False,
                   ceiling_mm: np.ndarray | None = None,
                   floor_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
-    ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr per row; here and in a cluster's task
-    (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``, ``floor_mm``: as :func:`limits` (not with
-    frequencies)."""
+    ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr and a free process-damping C per row; here
+    and in a cluster's task (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``, ``floor_mm``: as :func:`limits`
+    (not with frequencies)."""
     theta, factor = prior.split(u)
     kr = prior.kr_of(u)
+    pd = {} if prior.pd_of(u) is None else {"process_damping": prior.pd_of(u)}
     if with_freq and pin.reports_frequency:
-        depth, hz = pin.with_frequency(theta, kr)
+        depth, hz = pin.with_frequency(theta, kr, **pd)
     elif ceiling_mm is not None or floor_mm is not None:  # the engine's depths are the likelihood's / (1e3 · factor)
         extra = {} if floor_mm is None else {"floor": np.asarray(floor_mm, float) / (1e3 * factor[:, None])}
         cap = None if ceiling_mm is None else np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])
-        depth, hz = pin(theta, kr, ceiling=cap, **extra), None
+        depth, hz = pin(theta, kr, ceiling=cap, **extra, **pd), None
     else:
-        depth, hz = pin(theta, kr), None
+        depth, hz = pin(theta, kr, **pd), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -211,13 +212,26 @@ def _kr_engines() -> list[str]:
     return [e for e in ENGINES if per_set_kr(get_engine(e))]
 
 
-def check_kr_engine(prior: Prior, engine: str):
-    """The engine named ``engine``; InputError when the prior frees Kr and the engine takes one Kr per call."""
+def _pd_engines() -> list[str]:
+    """The registered engines that take a process-damping coefficient per parameter set."""
+    from millstab.stability import ENGINES
+
+    return [e for e in ENGINES if per_set_process_damping(get_engine(e))]
+
+
+def check_engine(prior: Prior, engine: str):
+    """The engine named ``engine``; InputError when the prior frees Kr and the engine takes one Kr per call, or frees
+    the process-damping C and the engine takes no C per parameter set."""
     eng = get_engine(engine)
     if prior.kr_free and not per_set_kr(eng):
         raise InputError("prior.kr", f"{prior.spread[prior.names.index('kr')]:.3g} with the {engine} engine",
                          f"the {engine} engine takes one Kr per call, so Kr cannot be learned with it: use an engine "
                          f"with a Kr per parameter set ({', '.join(_kr_engines())}), or remove prior.kr to hold Kr")
+    if prior.pd_of(np.log(prior.median)) is not None and not per_set_process_damping(eng):
+        raise InputError("prior.process_damping", f"{prior.spread[prior.names.index(PD)]:.3g} with the {engine} engine",
+                         f"the {engine} engine takes no process-damping coefficient per parameter set, so C cannot be "
+                         f"learned with it: use {', '.join(_pd_engines()) or 'sdm'} (--engine), or remove "
+                         "prior.process_damping to hold C")
     return eng
 
 
@@ -430,7 +444,7 @@ class Likelihood:
 
     def __init__(self, prior: Prior, evidence: Evidence, engine: str = "zoa", client=None,
                  engine_options: dict | None = None):
-        check_kr_engine(prior, engine)  # also a clear error for an unknown name
+        check_engine(prior, engine)  # also a clear error for an unknown name
         self.prior, self.evidence, self.engine, self.client = prior, evidence, engine, client
         ev = evidence
         # the distinct (speed, condition) columns of the data: ONE engine call evaluates them all
@@ -439,6 +453,10 @@ class Likelihood:
         if prior.kr_free and any(c.kr != prior.cutting.kr for c in self.conditions):
             raise InputError("conditions", "several Kr", f"with Kr free every condition takes the sampled Kr; give "
                              f"each condition the config's Kr ({prior.cutting.kr:g}) or hold Kr")
+        if prior.pd_free and any(c.process_damping != prior.cutting.process_damping for c in self.conditions):
+            raise InputError("conditions", "several process-damping coefficients",
+                             f"with C free every condition takes the sampled C; give each condition the config's C "
+                             f"({prior.cutting.process_damping:g} N/m) or hold C")
         # one engine call per stickout group of columns (one group, all columns, without stickouts)
         self._groups = stickout_groups(prior, ev.column_stickouts())
         self._group_conditions = [self._conditions_of(self.column_cond[cols]) for _, cols in self._groups]
@@ -861,5 +879,5 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "check_kr_engine", "cut_loglik", "frequency_distance", "limits",
+__all__ = ["Evidence", "Likelihood", "check_engine", "cut_loglik", "frequency_distance", "limits",
            "limits_by_condition", "stickout_groups"]

@@ -60,9 +60,9 @@ def summary(theta: np.ndarray, names) -> dict[str, dict[str, float]]:
 def exchange_of(prior: Prior, engine: str):
     """(perm, shift) of the x↔y exchange on the full u = ln θ vector (Kt mapped to itself), or ``None``
     (also with Kr free: the exchange's stiffness ratio α_xx/α_yy depends on Kr, so no fixed shift maps
-    every sample)."""
+    every sample; and with process damping free, whose contact matrix is not the exchange's)."""
     xm = exchange_map(prior.par, prior.cutting, engine)
-    if xm is None or prior.kr_free:
+    if xm is None or prior.kr_free or prior.pd_free:
         return None
     perm, shift = xm
     if prior.kt_free:

@@ -61,6 +61,14 @@ its own coordinate ln Kr after Kt's, Kr ≥ 0): no scaling absorbs it (the zero-
 Only an engine declaring ``per_set_kr`` (zoa, sdm and spectral, whose kernels build each (set, speed)'s
 directional factors anyway) takes it; another is refused with an InputError when the likelihood is built.
 With several cutting conditions the sampled Kr is every condition's Kr.
+
+Process damping learned (``process_damping = "50 %"``, its coordinate ln C after Kr's): the config's coefficient C
+(``[cutting] process_damping``, > 0, with the tool ``diameter``) is the median of a log-normal prior, and each
+sample's C goes to the engine (``envelope_batch(..., process_damping=(B,))``, the ``per_set_process_damping``
+capability: sdm, the one engine that carries the term). C is a property of the tool's flank and the material, so
+the sampled C is every condition's. Only the engine's limits depend on it: a zero-order screen (delayed acceptance)
+reads the same prior without the term (:func:`millstab.update.screen_model`), and :meth:`Prior.pd_of` gives no C
+for a prior whose cutting has none.
 """
 
 from __future__ import annotations
@@ -76,6 +84,10 @@ from millstab.model import Cutting, Mode, Structure
 from millstab.params import Parameterization
 from millstab.update.batch import check_tau
 
+#: the free name of the process-damping coefficient C [N/m] (after Kt's and Kr's)
+PD = "process_damping"
+#: the free names that are cutting coefficients, not modal parameters, in the order they follow the modal ones
+CUTTING_NAMES = ("kt", "kr", PD)
 #: default σ of ln(value) per kind of parameter
 DEFAULT_SPREADS = {"fn": 0.05, "k": 0.30, "zeta": 0.30}
 #: default depth noise of the stability likelihood [m] (the reference's experimental value)
@@ -209,8 +221,9 @@ class Prior:
     Attributes:
         par: the modal parameterization (free modal names; the fixed values come from its base).
         cutting: the cutting conditions (Kt is the median when ``kt`` is free).
-        names: the free names, ``par.free`` followed by ``"kt"`` when Kt is free and ``"kr"`` when Kr is free.
-        median: prior medians (P,) [Hz, N/m, -, N/m²].
+        names: the free names, ``par.free`` followed by ``"kt"`` when Kt is free, ``"kr"`` when Kr is free and
+            ``"process_damping"`` when the process-damping coefficient C is free.
+        median: prior medians (P,) [Hz, N/m, -, N/m², -, N/m].
         spread: σ of ln(value) (P,), > 0.
         sigma_depth_m: absolute depth noise [m], or ``None`` when relative.
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.
@@ -324,9 +337,13 @@ class Prior:
         return "kr" in self.names
 
     @property
+    def pd_free(self) -> bool:
+        return PD in self.names
+
+    @property
     def n_modal(self) -> int:
         """Number of free modal parameters (the first columns of u)."""
-        return self.size - int(self.kt_free) - int(self.kr_free)
+        return self.size - int(self.kt_free) - int(self.kr_free) - int(self.pd_free)
 
     @property
     def kind_groups(self) -> tuple[tuple[int, ...], ...]:
@@ -343,6 +360,13 @@ class Prior:
             return None
         return np.exp(np.atleast_2d(u)[:, self.names.index("kr")])
 
+    def pd_of(self, u: np.ndarray) -> np.ndarray | None:
+        """Each sample's process-damping coefficient C (B,) [N/m] from u (B, P) when C is free and the prior's
+        cutting carries the term, else ``None`` (the cutting's own C; none in a zero-order screen's prior)."""
+        if not self.pd_free or not self.cutting.has_process_damping:
+            return None
+        return np.exp(np.atleast_2d(u)[:, self.names.index(PD)])
+
     @property
     def mean_u(self) -> np.ndarray:
         """Prior mean of u = ln θ (P,)."""
@@ -350,7 +374,8 @@ class Prior:
 
     def units(self) -> list[str]:
         """Unit of each free parameter."""
-        return self.par.units() + (["N/m^2"] if self.kt_free else []) + (["-"] if self.kr_free else [])
+        return (self.par.units() + (["N/m^2"] if self.kt_free else []) + (["-"] if self.kr_free else [])
+                + (["N/m"] if self.pd_free else []))
 
     def in_support(self, u: np.ndarray) -> np.ndarray:
         """Whether each row of u = ln θ (B, P) lies in the prior's support (B,): finite, ζ < 1, |z| ≤ TRUNCATE."""
@@ -425,7 +450,7 @@ class Prior:
             structure = Structure(*(tuple(Mode(m["fn"], m["k"], m["zeta"], f"structure.{dd}[{i}]")
                                           for i, m in enumerate(d["structure"][dd])) for dd in ("x", "y")))
             names = tuple(d["names"])
-            modal = tuple(n for n in names if n not in ("kt", "kr"))
+            modal = tuple(n for n in names if n not in CUTTING_NAMES)
             if "tooltip" in d:  # a prior over the holder-face modes of a [tool] + [holder] config
                 from millstab.tooltip.param import TipParameterization
 
@@ -478,7 +503,12 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
         raise InputError("prior.kr", spreads["kr"], f"Kr free needs a config Kr > 0 as its median (the prior is "
                                                     f"log-normal in Kr; cutting.kr = {cutting.kr:g}); set cutting.kr "
                                                     "or remove prior.kr")
-    fixed = tuple(f for f in fixed if f not in ("kt", "kr"))
+    if PD in spreads and not cutting.has_process_damping:  # (a Cutting with C > 0 has its tool diameter)
+        raise InputError("prior.process_damping", spreads[PD],
+                         f"C free needs a config coefficient C > 0 as its median (the prior is log-normal in C; "
+                         f"cutting.process_damping = {cutting.process_damping:g} N/m): set cutting.process_damping "
+                         "(e.g. \"0.02 N/um\") and cutting.diameter, or remove prior.process_damping")
+    fixed = tuple(f for f in fixed if f not in CUTTING_NAMES)
     full = Parameterization(structure) if par is None else par
     fixed_c = set()
     for f in fixed:
@@ -495,7 +525,7 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
         if key in DEFAULT_SPREADS:
             spread[[par.kind(n) == key for n in par.free]] = value
     for key, value in spreads.items():  # a named parameter's own spread wins over its kind's
-        if key in DEFAULT_SPREADS or key in ("kt", "kr"):
+        if key in DEFAULT_SPREADS or key in CUTTING_NAMES:
             continue
         try:
             name = full.canonical(key)
@@ -514,6 +544,10 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
         names = names + ("kr",)
         median = np.append(median, cutting.kr)
         spread = np.append(spread, spreads["kr"])
+    if PD in spreads:
+        names = names + (PD,)
+        median = np.append(median, cutting.process_damping)
+        spread = np.append(spread, spreads[PD])
     sd_m = getattr(table, "sigma_depth_m", None)
     sd_rel = getattr(table, "sigma_depth_rel", None)
     if sd_m is None and sd_rel is None:

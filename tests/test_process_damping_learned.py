@@ -160,3 +160,24 @@ def test_the_posterior_of_c_moves_to_the_truth():
     assert abs(median / c_true - 1) < 0.25
     assert cdf[np.searchsorted(grid, 1.5 * C0)] < 0.05  # the config's C (and up to 1.5× it) is ruled out
     assert lik(v[[int(np.argmin(abs(grid - C0)))]])[0] < lik(v[[int(np.argmin(abs(grid - c_true)))]])[0] - 3
+
+
+def test_a_posterior_with_c_predicts_with_each_samples_c_after_its_json():
+    """A posterior whose samples carry C keeps it through its JSON, and its predictions read each sample's C: P(stable)
+    of a cut is the share of samples whose own limit (a Cutting of that sample's C) lies above its depth."""
+    from millstab.update.posterior import Posterior
+    from millstab.update.predict import predict_cuts
+
+    prior = _prior()
+    theta = np.exp(prior.sample(6, np.random.default_rng(5)))
+    theta[:, -1] = np.array([2e3, 5e3, 1e4, 2e4, 4e4, 8e4])  # a wide spread of C, so the cuts split the samples
+    post = Posterior.from_json(Posterior(prior, theta, "sdm", engine_options={"steps": STEPS}).to_json())
+    np.testing.assert_array_equal(post.samples, theta)
+    rpm = np.array([1500.0, 1500.0, 2500.0])
+    own = np.array([sdm.envelope_batch(prior.par.batch(t[None, :prior.n_modal]), replace(CUT, process_damping=t[-1]),
+                                       np.unique(rpm), steps=STEPS)[0] * 1e3 for t in theta])  # (6, 2) [mm]
+    depth = np.array([np.median(own[:, 0]), 0.9 * own[:, 0].max(), np.median(own[:, 1])])
+    want = np.mean(own[:, [0, 0, 1]] > depth, axis=0)
+    got, _ = predict_cuts(post, rpm, depth)
+    np.testing.assert_array_equal(got, want)
+    assert 0 < want[0] < 1 and 0 < want[2] < 1  # the cuts do split the samples: a C ignored would fail

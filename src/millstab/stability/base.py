@@ -64,33 +64,32 @@ def check_ceiling(ceiling, n_sets: int, n_speeds: int) -> np.ndarray | None:
     return c
 
 
+def _per_set(values, n_sets: int, field: str, each: str, allowed: str) -> np.ndarray | None:
+    """A per-set value (B,) as a float array, or None; InputError on ``field`` for another length or a value not
+    finite and ≥ 0 (``each``: what one value is; ``allowed``: the message for a bad one)."""
+    if values is None:
+        return None
+    v = np.atleast_1d(np.asarray(values, dtype=float))
+    if v.shape != (n_sets,):
+        raise InputError(field, f"{v.size} values", f"one {each} per parameter set ({n_sets})")
+    bad = ~np.isfinite(v) | (v < 0)
+    if bad.any():
+        raise InputError(field, float(v[bad][0]), allowed)
+    return v
+
+
 def check_kr(kr, n_sets: int) -> np.ndarray | None:
     """A per-set Kr (the ``per_set_kr`` capability) as a float array (B,), or None; InputError for another length or
     a value not finite and ≥ 0."""
-    if kr is None:
-        return None
-    k = np.atleast_1d(np.asarray(kr, dtype=float))
-    if k.shape != (n_sets,):
-        raise InputError("kr", f"{k.size} values", f"one radial-to-tangential ratio per parameter set ({n_sets})")
-    bad = ~np.isfinite(k) | (k < 0)
-    if bad.any():
-        raise InputError("kr", float(k[bad][0]), "radial-to-tangential ratio must be finite and >= 0")
-    return k
+    return _per_set(kr, n_sets, "kr", "radial-to-tangential ratio",
+                    "radial-to-tangential ratio must be finite and >= 0")
 
 
 def check_process_damping(pd, n_sets: int) -> np.ndarray | None:
     """A per-set process-damping coefficient C [N/m] (the ``per_set_process_damping`` capability) as a float array
     (B,), or None; InputError for another length or a value not finite and ≥ 0."""
-    if pd is None:
-        return None
-    c = np.atleast_1d(np.asarray(pd, dtype=float))
-    if c.shape != (n_sets,):
-        raise InputError("process_damping", f"{c.size} values", f"one coefficient C [N/m] per parameter set ({n_sets})")
-    bad = ~np.isfinite(c) | (c < 0)
-    if bad.any():
-        raise InputError("process_damping", float(c[bad][0]), "the process-damping coefficient C [N/m] must be finite "
-                                                              "and >= 0")
-    return c
+    return _per_set(pd, n_sets, "process_damping", "coefficient C [N/m]",
+                    "the process-damping coefficient C [N/m] must be finite and >= 0")
 
 
 def kr_sets(cutting, kr: np.ndarray | None, n_sets: int) -> np.ndarray:

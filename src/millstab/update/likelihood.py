@@ -159,16 +159,15 @@ def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False,
     and in a cluster's task (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``, ``floor_mm``: as :func:`limits`
     (not with frequencies)."""
     theta, factor = prior.split(u)
-    kr = prior.kr_of(u)
-    pd = {} if prior.pd_of(u) is None else {"process_damping": prior.pd_of(u)}
+    kr, pd = prior.kr_of(u), prior.pd_of(u)
     if with_freq and pin.reports_frequency:
-        depth, hz = pin.with_frequency(theta, kr, **pd)
+        depth, hz = pin.with_frequency(theta, kr, process_damping=pd)
     elif ceiling_mm is not None or floor_mm is not None:  # the engine's depths are the likelihood's / (1e3 · factor)
         extra = {} if floor_mm is None else {"floor": np.asarray(floor_mm, float) / (1e3 * factor[:, None])}
         cap = None if ceiling_mm is None else np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])
-        depth, hz = pin(theta, kr, ceiling=cap, **extra, **pd), None
+        depth, hz = pin(theta, kr, ceiling=cap, process_damping=pd, **extra), None
     else:
-        depth, hz = pin(theta, kr, **pd), None
+        depth, hz = pin(theta, kr, process_damping=pd), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -205,18 +204,11 @@ def limits_by_condition(prior: Prior, u: np.ndarray, rpm: np.ndarray, column_con
     return limits(prior, u, rpm, engine, with_freq, client, Conditions.of(tuple(conditions), cc), options=options)
 
 
-def _kr_engines() -> list[str]:
-    """The registered engines that take a Kr per parameter set (``per_set_kr``)."""
+def _engines_with(capability) -> list[str]:
+    """The registered engines for which ``capability(engine)`` holds (:func:`per_set_kr`, ...)."""
     from millstab.stability import ENGINES
 
-    return [e for e in ENGINES if per_set_kr(get_engine(e))]
-
-
-def _pd_engines() -> list[str]:
-    """The registered engines that take a process-damping coefficient per parameter set."""
-    from millstab.stability import ENGINES
-
-    return [e for e in ENGINES if per_set_process_damping(get_engine(e))]
+    return [e for e in ENGINES if capability(get_engine(e))]
 
 
 def check_engine(prior: Prior, engine: str):
@@ -224,14 +216,15 @@ def check_engine(prior: Prior, engine: str):
     the process-damping C and the engine takes no C per parameter set."""
     eng = get_engine(engine)
     if prior.kr_free and not per_set_kr(eng):
+        have = ", ".join(_engines_with(per_set_kr))
         raise InputError("prior.kr", f"{prior.spread[prior.names.index('kr')]:.3g} with the {engine} engine",
                          f"the {engine} engine takes one Kr per call, so Kr cannot be learned with it: use an engine "
-                         f"with a Kr per parameter set ({', '.join(_kr_engines())}), or remove prior.kr to hold Kr")
+                         f"with a Kr per parameter set ({have}), or remove prior.kr to hold Kr")
     if prior.pd_of(np.log(prior.median)) is not None and not per_set_process_damping(eng):
+        have = ", ".join(_engines_with(per_set_process_damping))
         raise InputError("prior.process_damping", f"{prior.spread[prior.names.index(PD)]:.3g} with the {engine} engine",
                          f"the {engine} engine takes no process-damping coefficient per parameter set, so C cannot be "
-                         f"learned with it: use {', '.join(_pd_engines()) or 'sdm'} (--engine), or remove "
-                         "prior.process_damping to hold C")
+                         f"learned with it: use {have} (--engine), or remove prior.process_damping to hold C")
     return eng
 
 

@@ -65,10 +65,10 @@ With several cutting conditions the sampled Kr is every condition's Kr.
 Process damping learned (``process_damping = "50 %"``, its coordinate ln C after Kr's): the config's coefficient C
 (``[cutting] process_damping``, > 0, with the tool ``diameter``) is the median of its prior in ln C (the chosen
 tails, as Kr's), and each sample's C goes to the engine (``envelope_batch(..., process_damping=(B,))``, the
-``per_set_process_damping`` capability: sdm, the one engine that carries the term). C is a property of the tool's flank and the material, so
-the sampled C is every condition's. Only the engine's limits depend on it: a zero-order screen (delayed acceptance)
-reads the same prior without the term (:func:`millstab.update.screen_model`), and :meth:`Prior.pd_of` gives no C
-for a prior whose cutting has none.
+``per_set_process_damping`` capability: sdm, the one engine that carries the term). C is a property of the tool's
+flank and the material, so the sampled C is every condition's. Only the engine's limits depend on it: a zero-order
+screen (delayed acceptance) reads the same prior without the term (:func:`millstab.update.screen_model`), and
+:meth:`Prior.pd_of` gives no C for a prior whose cutting has none.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ import numpy as np
 from _machine import describe
 from threadpoolctl import threadpool_limits
 
-from millstab.io.config import PriorTable
+from millstab.config import Config, PriorTable
 from millstab.model import Cutting, Mode, Structure
 from millstab.points import PointSet
 from millstab.simulate import label_cuts
@@ -109,7 +109,7 @@ def main() -> None:
         for name, spreads in (("C held", {}), ("C free", {"process_damping": args.c_spread})):
             table = PriorTable(spreads, fixed=held_names)
             prior = make_prior(TWO, cut_cfg, table)
-            cfg = type("Cfg", (), {"structure": TWO, "cutting": cut_cfg, "prior": table})()
+            cfg = Config(cut_cfg, TWO, "process-damping case", prior=table)
             post, wall, cpu = timed(lambda p=prior, c=cfg: update(c, cuts, engine="sdm", samples=args.samples,
                                                                  seed=args.seed, prior=p, engine_options=opts))
             p_prior = Posterior(prior, np.exp(prior.sample(args.samples, np.random.default_rng(args.seed))), "sdm",

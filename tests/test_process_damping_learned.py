@@ -15,6 +15,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from millstab.config import PriorTable
 from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.io.config import parse_config
@@ -34,8 +35,8 @@ STEPS = 60
 CUT = Cutting.from_immersion(3, KT, KR, 0.5, "down", process_damping=C0, diameter=D)
 
 
-def _table(**spreads):
-    return type("T", (), {"spreads": spreads, "fixed": ("fn_y", "k_x", "k_y", "zeta_x", "zeta_y")})()
+def _table(**spreads) -> PriorTable:
+    return PriorTable(spreads, fixed=("fn_y", "k_x", "k_y", "zeta_x", "zeta_y"))
 
 
 def _prior(spread: float = 1.0) -> Prior:

@@ -58,7 +58,7 @@ class PriorTable:
 
     Attributes:
         spreads: {name: σ of ln(value)} for kinds (``fn``, ``k``, ``zeta``), parameter names
-            (``fn_x``, ``k_y2``) and cutting coefficients (``kt``, ``kr``), each > 0.
+            (``fn_x``, ``k_y2``) and cutting coefficients (``kt``, ``kr``, ``process_damping``), each > 0.
         fixed: parameter names held at the structure's values.
         sigma_depth_m: absolute depth noise [m], or ``None``.
         sigma_depth_rel: relative depth noise (fraction of the cut's depth), or ``None``.

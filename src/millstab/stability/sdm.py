@@ -296,12 +296,14 @@ def _per_depth(cutting: Cutting, pd: np.ndarray | None, n_sets: int, r: np.ndarr
     (B,) [N/m] at the cutting's tool diameter (InputError where a C > 0 has no diameter to give the speed V)."""
     if pd is None:
         return np.ascontiguousarray(np.broadcast_to(cutting.process_damping_per_depth(r), (n_sets, r.size)))
-    if (pd > 0).any() and not (cutting.diameter or 0) > 0:
+    if not (pd > 0).any():
+        return np.zeros((n_sets, r.size))
+    if not (cutting.diameter or 0) > 0:
         raise InputError("cutting.diameter", cutting.diameter, "a tool diameter [m] > 0: the process damping C / V "
                                                                "needs the cutting speed V = π D Ω / 60")
-    # the same division as Cutting.process_damping_per_depth (the same bits as a Cutting of that C)
-    speed = math.pi * float(cutting.diameter or 1.0) * r / 60.0
-    return np.ascontiguousarray(np.where(pd[:, None] > 0, pd[:, None] / speed[None, :], 0.0))
+    # the same division as Cutting.process_damping_per_depth (the same bits as a Cutting of that C; C = 0 gives 0)
+    speed = math.pi * float(cutting.diameter) * r / 60.0
+    return np.ascontiguousarray(pd[:, None] / speed[None, :])
 
 
 def _chatter_hz(mu: np.ndarray, T: np.ndarray, f_ref: float) -> np.ndarray:

@@ -220,7 +220,7 @@ def check_engine(prior: Prior, engine: str):
         raise InputError("prior.kr", f"{prior.spread[prior.names.index('kr')]:.3g} with the {engine} engine",
                          f"the {engine} engine takes one Kr per call, so Kr cannot be learned with it: use an engine "
                          f"with a Kr per parameter set ({have}), or remove prior.kr to hold Kr")
-    if prior.pd_of(np.log(prior.median)) is not None and not per_set_process_damping(eng):
+    if prior.pd_learned and not per_set_process_damping(eng):
         have = ", ".join(_engines_with(per_set_process_damping))
         raise InputError("prior.process_damping", f"{prior.spread[prior.names.index(PD)]:.3g} with the {engine} engine",
                          f"the {engine} engine takes no process-damping coefficient per parameter set, so C cannot be "

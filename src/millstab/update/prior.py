@@ -341,6 +341,12 @@ class Prior:
         return PD in self.names
 
     @property
+    def pd_learned(self) -> bool:
+        """Whether each sample's C goes to the engine: C is free and the cutting carries the term (not in a zero-order
+        screen's prior, :func:`millstab.update.screen_model`)."""
+        return self.pd_free and self.cutting.has_process_damping
+
+    @property
     def n_modal(self) -> int:
         """Number of free modal parameters (the first columns of u)."""
         return self.size - int(self.kt_free) - int(self.kr_free) - int(self.pd_free)
@@ -363,7 +369,7 @@ class Prior:
     def pd_of(self, u: np.ndarray) -> np.ndarray | None:
         """Each sample's process-damping coefficient C (B,) [N/m] from u (B, P) when C is free and the prior's
         cutting carries the term, else ``None`` (the cutting's own C; none in a zero-order screen's prior)."""
-        if not self.pd_free or not self.cutting.has_process_damping:
+        if not self.pd_learned:
             return None
         return np.exp(np.atleast_2d(u)[:, self.names.index(PD)])
 

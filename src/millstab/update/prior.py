@@ -511,7 +511,7 @@ def make_prior(structure: Structure, cutting: Cutting, table=None, par: Paramete
                                                     "or remove prior.kr")
     if PD in spreads and not cutting.has_process_damping:  # (a Cutting with C > 0 has its tool diameter)
         raise InputError("prior.process_damping", spreads[PD],
-                         f"C free needs a config coefficient C > 0 as its median (the prior is log-normal in C; "
+                         f"C free needs a config coefficient C > 0 as its median (the prior is over ln C; "
                          f"cutting.process_damping = {cutting.process_damping:g} N/m): set cutting.process_damping "
                          "(e.g. \"0.02 N/um\") and cutting.diameter, or remove prior.process_damping")
     fixed = tuple(f for f in fixed if f not in CUTTING_NAMES)

@@ -4,8 +4,9 @@ Per virtual machine (seeded):
 
 * the hammer test (the prior's medians) and a truth off it (fn ×1.03/0.97, k ×0.8/1.15, ζ ×1.25: in-process
   dynamics differ from a tap test); the true labels come from the SEMI-DISCRETIZATION boundary of the TRUE
-  structure (``sdm``, ``--truth-steps`` steps per tooth period), never from the fitted model (zero-order,
-  ``--engine``): the model error of zoa at low immersion is part of the test;
+  structure (``sdm`` at its accuracy control, ``--truth-steps``; :mod:`_truth`: 40 fixed steps, the truth before
+  2026-11-28, put limits up to 11 % too high), never from the fitted model (zero-order, ``--engine``): the model
+  error of zoa at low immersion is part of the test;
 * training cuts: ``--cuts`` per training condition (slot and a/D 0.5 down), at random speeds in ``--rpm``,
   depths = the hammer test's own zero-order limit × exp(N(0, 0.5²)) (a shop tests around what it believes);
   labelled by the truth, ``--flip`` of them swapped (an operator's slip);
@@ -79,6 +80,7 @@ from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import describe
+from _truth import sdm_options, truth_depth_mm
 
 from millstab.config import Config
 from millstab.model import Cutting, Mode, Structure
@@ -112,12 +114,13 @@ def cond(teeth: int, ri: float, milling: str) -> Cutting:
 TRUTH_ENGINE = "sdm"
 
 
-def true_limit(struct: Structure, cutting: Cutting, rpm: np.ndarray, steps: int) -> np.ndarray:
-    """The true limiting depth [mm] at each speed: SDM of the true structure (one envelope call); with
-    ``--truth-engine zoa`` the fitted model's own engine (a control: no model error)."""
-    eng = get_engine(TRUTH_ENGINE)
-    kw = {"steps": steps} if TRUTH_ENGINE == "sdm" else {}
-    return eng.envelope(struct, cutting, np.asarray(rpm, float), **kw).depth_mm
+def true_limit(struct: Structure, cutting: Cutting, rpm: np.ndarray, steps: str) -> np.ndarray:
+    """The true limiting depth [mm] at each speed: SDM of the true structure to ``--truth-steps`` (``auto``: SDM's
+    accuracy control, :mod:`_truth`); with ``--truth-engine zoa`` the fitted model's own engine (a control: no model
+    error)."""
+    if TRUTH_ENGINE == "sdm":
+        return truth_depth_mm(struct, cutting, rpm, steps)
+    return get_engine(TRUTH_ENGINE).envelope(struct, cutting, np.asarray(rpm, float)).depth_mm
 
 
 def cuts_file(rpm, depth, label, conds: list[tuple[float, str]], teeth_idx=None) -> PointSet:
@@ -369,7 +372,9 @@ def main() -> None:
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--max-depth", type=float, default=30.0)
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
-    ap.add_argument("--truth-steps", type=int, default=40)
+    ap.add_argument("--truth-steps", default="auto",
+                    help="the SDM truth's discretisation: auto (SDM's accuracy control, the default since 2026-11-28), "
+                         "fnF, or fixed steps per tooth period (40: the runs before; off by up to 11 %%, _truth.py)")
     ap.add_argument("--engine", default="zoa")
     ap.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
                     help="the fitted engine's discretisation, e.g. fn_max_hz=1 for sdm (as millstab update's); kept in "
@@ -400,6 +405,10 @@ def main() -> None:
                     help="score the Brier only: no recommendation in the target conditions (with an accurate engine "
                          "the recommendations cost ~1 000 limits per posterior sample each, the rest a few hundred)")
     args = ap.parse_args()
+    try:
+        sdm_options(args.truth_steps)
+    except ValueError as exc:
+        ap.error(str(exc))
     from millstab.cli.options import engine_option_pairs
     from millstab.errors import InputError
     from millstab.forward import engine_options
@@ -416,7 +425,7 @@ def main() -> None:
         print(f"train: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TRAIN)} ({args.cuts} cuts each, "
               f"{'around the hammer test' if args.design == 'around' else args.design + ' campaign'}); "
               f"targets: {', '.join(condition_text(cond(2, *c)).split(',')[0] for c in TARGETS)}; {args.held} held-out "
-              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps} steps), {args.flip:.0%} "
+              f"cuts per condition; labels: {args.truth_engine} truth ({args.truth_steps}), {args.flip:.0%} "
               f"flipped; model {args.engine} {args.engine_options or '(its own discretisation)'}, "
               f"{args.sampler} sampler, {args.samples} samples")
         allrows = []

@@ -321,13 +321,14 @@ def _chatter_hz(mu: np.ndarray, T: np.ndarray, f_ref: float) -> np.ndarray:
 
 
 def envelope(structure: Structure, cutting: Cutting, rpm, steps: int | None = None,
-             progress: Progress | None = None) -> Envelope:
+             progress: Progress | None = None, fn_max_hz: float | None = None) -> Envelope:
     """The limiting depth b_lim [m] at each spindle speed [rpm] for one modal structure.
 
     ``inf`` where no boundary exists up to 1e4 times the reference depth. ``chatter_hz`` is the
     dominant multiplier's frequency nearest the most flexible mode (see module docstring); lobe = −1.
     ``progress(stage, done, total)`` is called between chunks of speeds (an exception it raises
-    stops the run).
+    stops the run). ``fn_max_hz`` [Hz]: the default accuracy control as if the highest natural frequency were
+    this (:func:`envelope_batch`; 1: 20 and 40 steps per tooth period at every speed, extrapolated).
 
     Raises:
         InputError: for a measured-FRF structure (semi-discretization needs modal parameters).
@@ -335,7 +336,7 @@ def envelope(structure: Structure, cutting: Cutting, rpm, steps: int | None = No
     _require_modal(structure)
     r = check_rpm(rpm)
     batch = ModalBatch.from_structures([structure])
-    depth, mu = _limit(batch, cutting, r, steps, progress)
+    depth, mu = _limit(batch, cutting, r, steps, progress, fn_max_hz)
     flex = max(structure.modes, key=lambda m: 1.0 / (m.k * m.zeta))
     T = 60.0 / (cutting.teeth * r)
     hz = np.where(np.isfinite(depth[0]), _chatter_hz(mu[0], T, flex.fn), np.nan)

@@ -4,8 +4,9 @@ simple baselines (issue 24): "can I trust it on my machine?".
 Each shop (seeded):
 * the hammer test is the seed paper's Ex.1 (2 teeth, slotting) — the config, i.e. the prior; the TRUE
   in-process structure is off by a random factor per parameter (uniform: fn ±3 %, k ±20 %, ζ ±30 %);
-* the truth is the semi-discretization boundary (``sdm``, 40 steps per tooth period) of that structure —
-  not the zero-order model millstab fits;
+* the truth is the semi-discretization boundary (``sdm`` to ``--steps``: ``fn1``, 20 and 40 steps extrapolated, the
+  default since 2026-11-28; 40 fixed steps before, limits up to ~10 % high, :mod:`_truth`) of that structure — not
+  the zero-order model millstab fits;
 * ``--days`` test days; each day every natural frequency drifts by one common factor, uniform ±3 %
   (spindle warm-up, a re-clamped tool); depth is confounded with the day: day d (0-based) cuts at depths
   b_ref · U(0.8, 1.8) · (0.7 + 0.15 d), b_ref the lower quartile of the true limit over the speed range (the
@@ -47,12 +48,12 @@ from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
+from _truth import truth_depth_mm  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
 from millstab.io.points import parse_points  # noqa: E402
 from millstab.model import Cutting  # noqa: E402
-from millstab.stability import get_engine  # noqa: E402
 from millstab.update import make_prior  # noqa: E402
 from millstab.update.validate import METHODS, cross_validate  # noqa: E402
 
@@ -65,16 +66,15 @@ def shop_file(seed: int, args, cut, prior) -> tuple[str, dict]:
     rng = np.random.default_rng([seed, 24])
     kinds = np.array([prior.par.kind(n) for n in prior.par.free])
     theta = prior.median * (1 + np.array([rng.uniform(-OFF[k], OFF[k]) for k in kinds]))
-    sdm = get_engine("sdm")
     lo, hi = args.rpm
-    b_ref = float(np.percentile(sdm.envelope(prior.par.structure(theta), cut, np.linspace(lo, hi, 60),
-                                            steps=args.steps).depth_mm, 25))
+    b_ref = float(np.percentile(truth_depth_mm(prior.par.structure(theta), cut, np.linspace(lo, hi, 60), args.steps),
+                                25))
     rec = []  # (day, rpm, depth, true limit, operator 1's code)
     for d in range(args.days):
         drift = 1 + rng.uniform(-0.03, 0.03)
         th = theta * np.where(kinds == "fn", drift, 1.0)
         speeds = np.round(rng.uniform(lo, hi, args.speeds), -1)
-        limit = sdm.envelope(prior.par.structure(th), cut, speeds, steps=args.steps).depth_mm
+        limit = truth_depth_mm(prior.par.structure(th), cut, speeds, args.steps)
         for s, bl in zip(speeds, limit):
             for b in np.round(b_ref * rng.uniform(0.8, 1.8, args.depths) * (0.7 + 0.15 * d), 3):
                 r = b / bl - 1 + rng.normal(0, 0.04)
@@ -104,7 +104,9 @@ def main() -> None:
     ap.add_argument("--depths", type=int, default=3, help="depths per speed")
     ap.add_argument("--disagree", type=float, default=0.12, help="share of cuts where operator 2 differs by one step")
     ap.add_argument("--rpm", type=lambda t: tuple(float(x) for x in t.split(":")), default=(5000.0, 12000.0))
-    ap.add_argument("--steps", type=int, default=40, help="SDM steps per tooth period of the truth")
+    ap.add_argument("--steps", default="fn1",
+                    help="the SDM truth: fn1 (20 and 40 steps extrapolated, the default), auto, or fixed steps per "
+                         "tooth period (40: the runs before 2026-11-28)")
     ap.add_argument("--samples", type=int, default=500)
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--engine", default="zoa")
@@ -153,7 +155,7 @@ def main() -> None:
                 print(f"   note: {note}")
             rows.append({"shop": shop, "facts": facts, "summary": res.summary})
     print(f"\n{len(rows)} shops ({time.perf_counter() - t_all:.0f} s), a/D {args.immersion}, {args.days} days x "
-          f"{args.speeds} speeds x {args.depths} depths, truth SDM ({args.steps} steps), updates {args.engine} with "
+          f"{args.speeds} speeds x {args.depths} depths, truth SDM ({args.steps}), updates {args.engine} with "
           f"{args.samples} samples, test-day effect τ = {args.batch_effect:g}, "
           f"{args.folds} random folds:")
     for s in ("random", "speed", "batch"):

@@ -8,9 +8,10 @@ Each campaign (seeded):
   (+1 by default: k ×3, fn +20 %, ζ ×3, the issue's campaigns; −1 softer; 0 alternates per campaign);
   with the defaults each parameter is 3.6–3.7σ of the prior off. The issue's "tool truly 3× softer":
   ``--sign -1 --fn-off 0 --zeta-factor 1``;
-* labels from SDM (``--truth-steps`` steps per tooth period) of the TRUE structure, NOT the fitted
-  model: chatter when b > b_lim,true · exp(ε), ε ~ N(0, ``--noise``), then swapped with probability
-  ``--flip`` (the operator);
+* labels from SDM of the TRUE structure (``--truth-steps``: ``fn1``, SDM's extrapolated 20 + 40 steps, ≤ 0.9 %
+  from its converged limit here, the default since 2026-11-28; 20 fixed steps, the documented runs before, put the
+  stiffer truth's limits 8.8 % too high in the median, :mod:`_truth`), NOT the fitted model: chatter when
+  b > b_lim,true · exp(ε), ε ~ N(0, ``--noise``), then swapped with probability ``--flip`` (the operator);
 * opening cuts that contradict the hammer test: at ``--opening`` speeds spread over the range, one
   cut at 0.7× and one at 1.6× the hammer-test limit (capped at the depth limit), cut and labelled
   before the first update (whichever way the truth is off, some of them contradict the prior);
@@ -61,6 +62,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).parent))
 from _conflict_record import campaign_record, save  # noqa: E402
 from _machine import describe, run_campaigns  # noqa: E402
+from _truth import sdm_options, truth_depth_mm, truth_envelope  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -100,7 +102,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--chatter-hz-alias", type=float, default=None, metavar="A",
                     help="the prior's chatter_hz_alias: the chance a frequency is another member of its family than "
                          "the one near the mode (default: the prior's, 1 = any member alike)")
-    ap.add_argument("--truth-steps", type=int, default=40)
+    ap.add_argument("--truth-steps", default="fn1",
+                    help="the SDM truth: fn1 (the default: 20 and 40 steps extrapolated), auto (SDM's accuracy "
+                         "control), or fixed steps per tooth period (20: the runs before 2026-11-28; _truth.py)")
     ap.add_argument("--best-speeds", type=int, default=241)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run in parallel processes (the figures do not "
@@ -131,7 +135,12 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
-    return ap.parse_args()
+    args = ap.parse_args()
+    try:
+        sdm_options(args.truth_steps)
+    except ValueError as exc:
+        ap.error(str(exc))
+    return args
 
 
 def robust_prior(cfg, args: argparse.Namespace):
@@ -151,7 +160,6 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
     cfg = load_config("example:ex1")
     cut = cfg.cutting
     prior = robust_prior(cfg, args)
-    sdm = get_engine("sdm")
     zoa = get_engine("zoa")
     with threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -164,10 +172,10 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
         s_true = prior.par.structure(theta)
 
         def truth(rpm):
-            return sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps).depth_mm
+            return truth_depth_mm(s_true, cut, rpm, args.truth_steps)
 
         def label(rpm, depth):
-            env = sdm.envelope(s_true, cut, np.asarray(rpm, float), steps=args.truth_steps)
+            env = truth_envelope(s_true, cut, rpm, args.truth_steps)
             b = env.depth_mm
             truly = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
             chat = truly ^ (rng.random(b.shape) < args.flip)
@@ -297,7 +305,7 @@ def main() -> None:
     print(f"\n{n} campaigns ({time.perf_counter() - t_all:.0f} s wall, "
           f"{time.process_time() - c_all + sum(r['cpu_s'] for r in rows) * (args.jobs > 1):.0f} s CPU, load "
           f"{os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, fn×{1 + args.fn_off:g}^s, "
-          f"ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps} steps) with {args.noise:.0%} noise, "
+          f"ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps}) with {args.noise:.0%} noise, "
           f"{args.flip:.0%} swapped" + ("" if args.chatter_hz is None else
                                          f", chatter frequencies ±{args.chatter_hz:g} Hz (alias "
                                          f"{prior.chatter_hz_alias:g})")

@@ -9,8 +9,8 @@ Each campaign (seeded; the loop is :func:`millstab.update.campaign.run_campaign`
     model that generated the data is the one fitted, so the 90 % intervals must cover ≈ 90 %;
   - default (the issue's shop): θ_true = the hammer test off by a random factor per parameter, uniform
     in fn ±3 %, k ±20 %, ζ ±30 % (in-process dynamics differ from a tap test); labels: chatter when
-    b > b_lim,true · exp(ε), ε ~ N(0, ``--noise``), b_lim,true from ``--truth-engine`` (sdm with
-    ``--truth-steps`` steps per tooth period, or zoa); or, with ``--labels simulate``, from the
+    b > b_lim,true · exp(ε), ε ~ N(0, ``--noise``), b_lim,true from ``--truth-engine`` (sdm to
+    ``--truth-steps``, :mod:`_truth`, or zoa); or, with ``--labels simulate``, from the
     time-domain simulation (its stable | marginal | chatter labels and chatter frequencies, ``--flip``
     of the stable/chatter labels swapped by the "operator"), the truth engine then only judging
     whether a recommendation is stable;
@@ -76,6 +76,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _campaign_profile import Profile, profiled, round_lines, summed, table  # noqa: E402
 from _conflict_record import campaign_record, save  # noqa: E402
 from _machine import describe, run_campaigns  # noqa: E402
+from _truth import sdm_options  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -142,7 +143,9 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--calibrate", action="store_true", help="truth drawn from the prior, labels from the likelihood")
     ap.add_argument("--noise", type=float, default=0.03, help="label noise: σ of ln(boundary)")
     ap.add_argument("--truth-engine", default="sdm")
-    ap.add_argument("--truth-steps", type=int, default=40, help="SDM steps per tooth period of the truth (speed)")
+    ap.add_argument("--truth-steps", default="fn1",
+                    help="the SDM truth: fn1 (the default since 2026-11-28: 20 and 40 steps extrapolated), auto "
+                         "(SDM's accuracy control) or fixed steps per tooth period (40: the runs before; _truth.py)")
     ap.add_argument("--engine", default="zoa", help="engine of the updates and decisions")
     ap.add_argument("--sigma-depth-rel", type=float, default=None,
                     help="the likelihood's depth noise relative to the depth (default: the absolute 0.05 mm)")
@@ -223,7 +226,7 @@ def setup(args: argparse.Namespace) -> SimpleNamespace:
     if args.coarse:
         decision["coarse_points"] = args.coarse
     truth_engine = get_engine(args.truth_engine)
-    opts = {"steps": args.truth_steps} if args.truth_engine == "sdm" else {}
+    opts = sdm_options(args.truth_steps) if args.truth_engine == "sdm" else {}
     gs, gd = (int(x) for x in args.grid.split("x"))
     g_rpm, g_depth = np.linspace(lo, hi, gs), np.linspace(0.05, args.max_depth, gd)
     return SimpleNamespace(lo=lo, hi=hi, cfg=cfg, cut=cut, prior=prior, truth_prior=truth_prior, decision=decision,

@@ -214,6 +214,19 @@ def test_fixed_40_steps_too_coarse_at_low_speed():
     assert b40 / b - 1 > 0.05
 
 
+def test_fn_max_hz_one_is_the_extrapolated_truth():
+    """``fn_max_hz=1`` (20 and 40 steps at every speed, extrapolated; the virtual shop's truth, benchmarks/_truth.py)
+    through ``envelope`` is ``envelope_batch``'s, bit for bit, and within 1 % of the converged depth (Richardson of
+    120 and 240 steps) at 5 000 rpm slotting, where 40 fixed steps are ~8 % high."""
+    cutting = bench_cut(1.0)
+    env = sdm.envelope(BENCH, cutting, [5000.0, 9000.0], fn_max_hz=1.0)
+    batch = sdm.envelope_batch(ModalBatch.from_structures([BENCH]), cutting, [5000.0, 9000.0], fn_max_hz=1.0)
+    assert np.array_equal(env.depth, batch[0])
+    ref = converged_depth(cutting, 5000.0, env.depth[0])
+    assert env.depth[0] == pytest.approx(ref, rel=0.01)
+    assert sdm.envelope(BENCH, cutting, [5000.0], steps=40).depth[0] / ref - 1 > 0.05
+
+
 def test_convergence_order_in_steps():
     """ρ at a fixed point: successive differences shrink by ≈ 4 per doubling (second order)."""
     cutting = bench_cut(1.0)

@@ -176,3 +176,31 @@ def test_condition_campaign_refuses_bad_settings_and_pickles():
     c = ConditionCampaign(conditions=conds, cut_condition=[0, 1], posteriors={2: "after two cuts"})
     back = pickle.loads(pickle.dumps(c))
     assert back.cut_condition == (0, 1) and dict(back.posteriors) == {2: "after two cuts"} and back.posterior
+
+
+def test_condition_campaign_fresh_last_refits_only_the_last_update(monkeypatch):
+    """``fresh_last`` (issue 27): the last cut's update starts from the prior over every cut, the others from the
+    previous posterior; the cuts (decided before the last update) and the kept posteriors are those of the plain
+    sequential campaign, and the final posterior is a fresh update of the same cuts, not the sequential one."""
+    from millstab.update import campaign as campaign_module
+    from millstab.update.campaign import run_condition_campaign
+
+    cfg, prior, conds, labeler, _ = _two_condition_machine()
+    starts = []
+    real = campaign_module.update
+
+    def spy(*args, **kw):
+        starts.append(kw.get("start"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(campaign_module, "update", spy)
+    opts = CampaignOptions(cuts=4, samples=150, rpm_range=(5000, 12000), max_depth_mm=20.0, seed=5, keep=(2,))
+    seq = run_condition_campaign(cfg, prior, conds, labeler, opts)
+    n = len(starts)
+    fresh = run_condition_campaign(cfg, prior, conds, labeler, opts, fresh_last=True)
+    assert [s is None for s in starts[:n]] == [True, False, False, False]  # round 0 has no posterior to start from
+    assert [s is None for s in starts[n:]] == [True, False, False, True]
+    assert np.array_equal(seq.cuts.rpm, fresh.cuts.rpm) and np.array_equal(seq.cuts.depth_mm, fresh.cuts.depth_mm)
+    assert np.array_equal(seq.posteriors[2].samples, fresh.posteriors[2].samples)
+    assert not np.array_equal(seq.posterior.samples, fresh.posterior.samples)
+    assert len(fresh.posterior.cuts["rpm"]) == 4

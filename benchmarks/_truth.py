@@ -12,7 +12,8 @@ offsets), |ln(b / b_default)|:
 * 20 steps (``bench_robust.py``'s documented runs): Ex.1 softer median 1.2 %, max 20 %; stiffer median 8.8 %, max
   42 % (its best cut 7 % deeper than the physics');
 * ``fn1`` (the default's control as if the highest mode were at 1 Hz: 20 and 40 steps at every speed, extrapolated):
-  median 0.01–0.08 %, max 0.9 %, at ~1.2× the cost of 40 steps;
+  on the Ex.1 truths median 0.01–0.08 %, max 0.9 %, at ~1.2× the cost of 40 steps (on the conditions campaign's
+  prior draws median 0.02 %, max 4 %: docs/updating.md; that bench uses ``auto``, a few seconds a campaign);
 * the spectral engine at the truth: median ≤ 0.1 %, max 0.15 % (so a spectral fit no longer looks 1–3 % low).
 
 Spec: ``"auto"`` (SDM's default accuracy control), ``"fnF"`` (that control at a highest natural frequency of F Hz),

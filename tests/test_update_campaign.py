@@ -204,3 +204,29 @@ def test_condition_campaign_fresh_last_refits_only_the_last_update(monkeypatch):
     assert np.array_equal(seq.posteriors[2].samples, fresh.posteriors[2].samples)
     assert not np.array_equal(seq.posterior.samples, fresh.posterior.samples)
     assert len(fresh.posterior.cuts["rpm"]) == 4
+
+
+def test_campaign_fresh_last_starts_only_the_last_update_from_the_prior(monkeypatch):
+    """run_campaign's ``fresh_last``: every update but the last starts from the previous posterior (the first from
+    none), the last from the prior; the cuts, decided before it, are those of the sequential campaign."""
+    from millstab.update import campaign as campaign_module
+
+    cfg = load_config("example:ex1")
+    prior = make_prior(cfg.structure, cfg.cutting)
+    s_true = prior.par.structure(prior.median * np.array([1.02, 1.1, 0.8, 0.98, 0.9, 1.2]))
+    zoa = get_engine("zoa")
+
+    def truth(rpm):
+        return zoa.envelope(s_true, cfg.cutting, np.asarray(rpm, float)).depth_mm
+
+    def labeler(rpm, depth, rng):
+        return list(np.where(depth > truth(rpm), "chatter", "stable")), [float("nan")] * np.size(rpm)
+
+    starts = []
+    real = campaign_module.update
+    monkeypatch.setattr(campaign_module, "update", lambda *a, **kw: starts.append(kw.get("start")) or real(*a, **kw))
+    opts = CampaignOptions(cuts=3, samples=150, rpm_range=(5000, 12000), max_depth_mm=20.0, seed=4, best_speeds=41)
+    seq = run_campaign(cfg, prior, truth, labeler, opts)
+    fresh = run_campaign(cfg, prior, truth, labeler, opts, fresh_last=True)
+    assert [s is None for s in starts] == [True, False, False, True, False, True]
+    assert seq.cut_rpm == fresh.cut_rpm and seq.cut_depth_mm == fresh.cut_depth_mm

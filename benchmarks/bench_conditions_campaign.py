@@ -402,11 +402,11 @@ def main() -> None:
     ap.add_argument("--single", choices=("campaign", "split"), default="campaign",
                     help="with a campaign design, the single-condition posteriors: a campaign of as many cuts in "
                          "each training condition alone, or the joint campaign's cuts split by condition")
-    ap.add_argument("--final", choices=("fresh", "sequential"), default="fresh",
-                    help="with a campaign design, the joint campaign's final posterior: one fresh update over all its "
-                         "cuts (what `millstab update CONFIG CUTS` gives; the default since 2026-11-28) or the last "
-                         "sequential update (each round tempering one cut into the previous posterior: the runs "
-                         "before)")
+    ap.add_argument("--final", choices=("fresh", "sequential"), default="sequential",
+                    help="with a campaign design, the joint campaign's final posterior: the last sequential update "
+                         "(each round tempering one cut into the previous posterior; the default) or one fresh update "
+                         "over all its cuts (what `millstab update CONFIG CUTS` gives; measured within the seed "
+                         "scatter of 300-sample posteriors, docs/updating.md)")
     ap.add_argument("--no-recommend", dest="recommend", action="store_false",
                     help="score the Brier only: no recommendation in the target conditions (with an accurate engine "
                          "the recommendations cost ~1 000 limits per posterior sample each, the rest a few hundred)")

@@ -28,7 +28,8 @@ def test_campaign_options_name_a_bad_setting(field, value):
         run_campaign(None, None, None, None, cut=3)
 
 
-def test_campaign_records_agree_with_the_truth_and_the_cuts():
+def _ex1_machine():
+    """(config, prior, truth, labeler): Ex.1's hammer test and a truth off it, noise-free zero-order labels."""
     cfg = load_config("example:ex1")
     prior = make_prior(cfg.structure, cfg.cutting)
     s_true = prior.par.structure(prior.median * np.array([1.02, 1.1, 0.8, 0.98, 0.9, 1.2]))
@@ -40,6 +41,11 @@ def test_campaign_records_agree_with_the_truth_and_the_cuts():
     def labeler(rpm, depth, rng):  # noise-free labels
         return list(np.where(depth > truth(rpm), "chatter", "stable")), [float("nan")] * np.size(rpm)
 
+    return cfg, prior, truth, labeler
+
+
+def test_campaign_records_agree_with_the_truth_and_the_cuts():
+    cfg, prior, truth, labeler = _ex1_machine()
     # the settings as an options object, one of them replaced by its keyword (both ways of calling)
     camp = run_campaign(cfg, prior, truth, labeler, CampaignOptions(cuts=3, samples=200, rpm_range=(5000, 12000),
                                                                     max_depth_mm=20.0, seed=4, keep=[0, 3]),
@@ -211,17 +217,7 @@ def test_campaign_fresh_last_starts_only_the_last_update_from_the_prior(monkeypa
     none), the last from the prior; the cuts, decided before it, are those of the sequential campaign."""
     from millstab.update import campaign as campaign_module
 
-    cfg = load_config("example:ex1")
-    prior = make_prior(cfg.structure, cfg.cutting)
-    s_true = prior.par.structure(prior.median * np.array([1.02, 1.1, 0.8, 0.98, 0.9, 1.2]))
-    zoa = get_engine("zoa")
-
-    def truth(rpm):
-        return zoa.envelope(s_true, cfg.cutting, np.asarray(rpm, float)).depth_mm
-
-    def labeler(rpm, depth, rng):
-        return list(np.where(depth > truth(rpm), "chatter", "stable")), [float("nan")] * np.size(rpm)
-
+    cfg, prior, truth, labeler = _ex1_machine()
     starts = []
     real = campaign_module.update
     monkeypatch.setattr(campaign_module, "update", lambda *a, **kw: starts.append(kw.get("start")) or real(*a, **kw))

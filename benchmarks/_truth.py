@@ -15,6 +15,11 @@ offsets), |ln(b / b_default)|:
   on the Ex.1 truths median 0.01–0.08 %, max 0.9 %, at ~1.2× the cost of 40 steps (on the conditions campaign's
   prior draws median 0.02 %, max 4 %: docs/updating.md; that bench uses ``auto``, a few seconds a campaign);
 * the spectral engine at the truth: median ≤ 0.1 %, max 0.15 % (so a spectral fit no longer looks 1–3 % low).
+* Ex.1's hammer test at a/D 0.1 down (``bench_update_campaign.py --immersion 0.1``, 57 speeds 5 000–12 000 rpm):
+  40 steps median +3.7 %, max 8 % (6 ms a speed); ``fn1`` median 0.01 % but 10 % at one speed (a thin lobe its
+  extrapolation misses; 12 ms); ``auto`` 34 ms a speed. Hence ``auto`` where a campaign can afford it
+  (``bench_conditions_campaign.py``, ``bench_update_campaign.py``) and ``fn1`` for the slot benches
+  (``bench_robust.py``, ``bench_labels.py``: in a slot ``auto`` costs 0.1–0.2 s a speed).
 
 Spec: ``"auto"`` (SDM's default accuracy control), ``"fnF"`` (that control at a highest natural frequency of F Hz),
 or an integer (fixed steps per tooth period; reproduces the runs before 2026-11-28).

@@ -18,8 +18,9 @@ offsets), |ln(b / b_default)|:
 * Ex.1's hammer test at a/D 0.1 down (``bench_update_campaign.py --immersion 0.1``, 57 speeds 5 000–12 000 rpm):
   40 steps median +3.7 %, max 8 % (6 ms a speed); ``fn1`` median 0.01 % but 10 % at one speed (a thin lobe its
   extrapolation misses; 12 ms); ``auto`` 34 ms a speed. Hence ``auto`` where a campaign can afford it
-  (``bench_conditions_campaign.py``, ``bench_update_campaign.py``) and ``fn1`` for the slot benches
-  (``bench_robust.py``, ``bench_labels.py``: in a slot ``auto`` costs 0.1–0.2 s a speed).
+  (``bench_conditions_campaign.py``: ~180 truth speeds a campaign) and ``fn1`` where the best cut is sought on a
+  fine grid (``bench_robust.py``, ``bench_labels.py``, ``bench_update_campaign.py``: in a slot ``auto`` costs
+  0.1–0.4 s a speed, 434 s for one campaign's 1 083 speeds; ``--truth-steps auto`` at low immersion).
 
 Spec: ``"auto"`` (SDM's default accuracy control), ``"fnF"`` (that control at a highest natural frequency of F Hz),
 or an integer (fixed steps per tooth period; reproduces the runs before 2026-11-28).

@@ -143,10 +143,11 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--calibrate", action="store_true", help="truth drawn from the prior, labels from the likelihood")
     ap.add_argument("--noise", type=float, default=0.03, help="label noise: σ of ln(boundary)")
     ap.add_argument("--truth-engine", default="sdm")
-    ap.add_argument("--truth-steps", default="auto",
-                    help="the SDM truth: auto (SDM's accuracy control, the default since 2026-11-28; 34 ms a speed at "
-                         "a/D 0.1), fnF, or fixed steps per tooth period (40: the runs before, 3.7 %% high in the "
-                         "median at a/D 0.1; _truth.py)")
+    ap.add_argument("--truth-steps", default="fn1",
+                    help="the SDM truth: fn1 (20 and 40 steps extrapolated, the default since 2026-11-28), auto "
+                         "(SDM's accuracy control: at a/D 0.1 34 ms a speed, where fn1 misses one thin lobe by 10 %%; "
+                         "in a slot 0.1-0.4 s a speed), or fixed steps per tooth period (40: the runs before, 3.7 %% "
+                         "high in the median at a/D 0.1; _truth.py)")
     ap.add_argument("--engine", default="zoa", help="engine of the updates and decisions")
     ap.add_argument("--sigma-depth-rel", type=float, default=None,
                     help="the likelihood's depth noise relative to the depth (default: the absolute 0.05 mm)")

@@ -28,10 +28,16 @@ or an integer (fixed steps per tooth period; reproduces the runs before 2026-11-
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from millstab.model import Cutting, Structure
 from millstab.stability import sdm
+
+
+#: what a truth spec may be (:func:`sdm_options`)
+ALLOWED = "auto, fnF (F > 0 Hz) or a whole number of steps per tooth period ≥ 2"
 
 
 def sdm_options(spec: str) -> dict:
@@ -40,11 +46,22 @@ def sdm_options(spec: str) -> dict:
     if spec == "auto":
         return {}
     if spec.startswith("fn"):
-        return {"fn_max_hz": float(spec[2:])}
-    steps = int(spec)
-    if steps < 2:
-        raise ValueError(f"truth steps {spec!r}: an integer ≥ 2, 'auto' or 'fnF'")
-    return {"steps": steps}
+        hz = float(spec[2:])
+        if hz > 0:
+            return {"fn_max_hz": hz}
+    elif int(spec) >= 2:
+        return {"steps": int(spec)}
+    raise ValueError(f"truth spec {spec!r}: {ALLOWED}")
+
+
+def truth_spec(text: str) -> str:
+    """argparse ``type`` of a ``--truth-steps`` option: the spec, checked by :func:`sdm_options` (one line naming
+    what is allowed, exit 2, instead of a traceback once the campaigns run)."""
+    try:
+        sdm_options(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: {ALLOWED}") from None
+    return text
 
 
 def truth_envelope(structure: Structure, cutting: Cutting, rpm, spec: str):

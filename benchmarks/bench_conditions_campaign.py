@@ -80,7 +80,7 @@ from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import describe
-from _truth import sdm_options, truth_depth_mm
+from _truth import truth_depth_mm, truth_spec
 
 from millstab.config import Config
 from millstab.model import Cutting, Mode, Structure
@@ -373,7 +373,7 @@ def main() -> None:
     ap.add_argument("--risk", type=float, default=0.05)
     ap.add_argument("--max-depth", type=float, default=30.0)
     ap.add_argument("--rpm", type=float, nargs=2, default=(4000.0, 12000.0))
-    ap.add_argument("--truth-steps", default="auto",
+    ap.add_argument("--truth-steps", default="auto", type=truth_spec,
                     help="the SDM truth's discretisation: auto (SDM's accuracy control, the default since 2026-11-28), "
                          "fnF, or fixed steps per tooth period (40: the runs before; off by up to 11 %%, _truth.py)")
     ap.add_argument("--engine", default="zoa")
@@ -411,10 +411,6 @@ def main() -> None:
                     help="score the Brier only: no recommendation in the target conditions (with an accurate engine "
                          "the recommendations cost ~1 000 limits per posterior sample each, the rest a few hundred)")
     args = ap.parse_args()
-    try:
-        sdm_options(args.truth_steps)
-    except ValueError as exc:
-        ap.error(str(exc))
     from millstab.cli.options import engine_option_pairs
     from millstab.errors import InputError
     from millstab.forward import engine_options

@@ -48,7 +48,7 @@ from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _machine import describe  # noqa: E402
-from _truth import truth_depth_mm  # noqa: E402
+from _truth import truth_depth_mm, truth_spec  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -104,7 +104,7 @@ def main() -> None:
     ap.add_argument("--depths", type=int, default=3, help="depths per speed")
     ap.add_argument("--disagree", type=float, default=0.12, help="share of cuts where operator 2 differs by one step")
     ap.add_argument("--rpm", type=lambda t: tuple(float(x) for x in t.split(":")), default=(5000.0, 12000.0))
-    ap.add_argument("--steps", default="fn1",
+    ap.add_argument("--steps", default="fn1", type=truth_spec,
                     help="the SDM truth: fn1 (20 and 40 steps extrapolated, the default), auto, or fixed steps per "
                          "tooth period (40: the runs before 2026-11-28)")
     ap.add_argument("--samples", type=int, default=500)

@@ -62,7 +62,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).parent))
 from _conflict_record import campaign_record, save  # noqa: E402
 from _machine import describe, run_campaigns  # noqa: E402
-from _truth import sdm_options, truth_depth_mm, truth_envelope  # noqa: E402
+from _truth import truth_depth_mm, truth_envelope, truth_spec  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -102,7 +102,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--chatter-hz-alias", type=float, default=None, metavar="A",
                     help="the prior's chatter_hz_alias: the chance a frequency is another member of its family than "
                          "the one near the mode (default: the prior's, 1 = any member alike)")
-    ap.add_argument("--truth-steps", default="fn1",
+    ap.add_argument("--truth-steps", default="fn1", type=truth_spec,
                     help="the SDM truth: fn1 (the default: 20 and 40 steps extrapolated), auto (SDM's accuracy "
                          "control), or fixed steps per tooth period (20: the runs before 2026-11-28; _truth.py)")
     ap.add_argument("--best-speeds", type=int, default=241)
@@ -135,12 +135,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="an .npz of every round's posterior samples and cuts, "
                                                              "to score conflict rules offline (score_conflict.py)")
-    args = ap.parse_args()
-    try:
-        sdm_options(args.truth_steps)
-    except ValueError as exc:
-        ap.error(str(exc))
-    return args
+    return ap.parse_args()
 
 
 def robust_prior(cfg, args: argparse.Namespace):

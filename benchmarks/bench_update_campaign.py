@@ -76,7 +76,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _campaign_profile import Profile, profiled, round_lines, summed, table  # noqa: E402
 from _conflict_record import campaign_record, save  # noqa: E402
 from _machine import describe, run_campaigns  # noqa: E402
-from _truth import sdm_options  # noqa: E402
+from _truth import sdm_options, truth_spec  # noqa: E402
 
 from millstab.io import load_config  # noqa: E402
 from millstab.io.config import PriorTable  # noqa: E402
@@ -143,7 +143,7 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--calibrate", action="store_true", help="truth drawn from the prior, labels from the likelihood")
     ap.add_argument("--noise", type=float, default=0.03, help="label noise: σ of ln(boundary)")
     ap.add_argument("--truth-engine", default="sdm")
-    ap.add_argument("--truth-steps", default="fn1",
+    ap.add_argument("--truth-steps", default="fn1", type=truth_spec,
                     help="the SDM truth: fn1 (20 and 40 steps extrapolated, the default since 2026-11-28), auto "
                          "(SDM's accuracy control: at a/D 0.1 34 ms a speed, where fn1 misses one thin lobe by 10 %%; "
                          "in a slot 0.1-0.4 s a speed), or fixed steps per tooth period (40: the runs before, 3.7 %% "

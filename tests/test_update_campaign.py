@@ -184,14 +184,11 @@ def test_condition_campaign_refuses_bad_settings_and_pickles():
     assert back.cut_condition == (0, 1) and dict(back.posteriors) == {2: "after two cuts"} and back.posterior
 
 
-def test_condition_campaign_fresh_last_refits_only_the_last_update(monkeypatch):
-    """``fresh_last`` (issue 27): the last cut's update starts from the prior over every cut, the others from the
-    previous posterior; the cuts (decided before the last update) and the kept posteriors are those of the plain
-    sequential campaign, and the final posterior is a fresh update of the same cuts, not the sequential one."""
+@pytest.fixture
+def update_starts(monkeypatch):
+    """The ``start`` of every update a campaign runs, in order (``None``: from the prior)."""
     from millstab.update import campaign as campaign_module
-    from millstab.update.campaign import run_condition_campaign
 
-    cfg, prior, conds, labeler, _ = _two_condition_machine()
     starts = []
     real = campaign_module.update
 
@@ -200,6 +197,17 @@ def test_condition_campaign_fresh_last_refits_only_the_last_update(monkeypatch):
         return real(*args, **kw)
 
     monkeypatch.setattr(campaign_module, "update", spy)
+    return starts
+
+
+def test_condition_campaign_fresh_last_refits_only_the_last_update(update_starts):
+    """``fresh_last`` (issue 27): the last cut's update starts from the prior over every cut, the others from the
+    previous posterior; the cuts (decided before the last update) and the kept posteriors are those of the plain
+    sequential campaign, and the final posterior is a fresh update of the same cuts, not the sequential one."""
+    from millstab.update.campaign import run_condition_campaign
+
+    cfg, prior, conds, labeler, _ = _two_condition_machine()
+    starts = update_starts
     opts = CampaignOptions(cuts=4, samples=150, rpm_range=(5000, 12000), max_depth_mm=20.0, seed=5, keep=(2,))
     seq = run_condition_campaign(cfg, prior, conds, labeler, opts)
     n = len(starts)
@@ -212,15 +220,11 @@ def test_condition_campaign_fresh_last_refits_only_the_last_update(monkeypatch):
     assert len(fresh.posterior.cuts["rpm"]) == 4
 
 
-def test_campaign_fresh_last_starts_only_the_last_update_from_the_prior(monkeypatch):
+def test_campaign_fresh_last_starts_only_the_last_update_from_the_prior(update_starts):
     """run_campaign's ``fresh_last``: every update but the last starts from the previous posterior (the first from
     none), the last from the prior; the cuts, decided before it, are those of the sequential campaign."""
-    from millstab.update import campaign as campaign_module
-
     cfg, prior, truth, labeler = _ex1_machine()
-    starts = []
-    real = campaign_module.update
-    monkeypatch.setattr(campaign_module, "update", lambda *a, **kw: starts.append(kw.get("start")) or real(*a, **kw))
+    starts = update_starts
     opts = CampaignOptions(cuts=3, samples=150, rpm_range=(5000, 12000), max_depth_mm=20.0, seed=4, best_speeds=41)
     seq = run_campaign(cfg, prior, truth, labeler, opts)
     fresh = run_campaign(cfg, prior, truth, labeler, opts, fresh_last=True)

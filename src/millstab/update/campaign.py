@@ -192,6 +192,11 @@ class CampaignOptions:
         check_seed(self.seed, "seed")
         object.__setattr__(self, "keep", tuple(int(k) for k in self.keep))
 
+    def start(self, last, final: bool):
+        """The posterior an update starts from (``update``'s ``start``): ``last`` with ``reuse``, except the campaign's
+        ``final`` update under ``fresh_last``; ``None`` (from the prior) otherwise."""
+        return last if self.reuse and not (self.fresh_last and final) else None
+
 
 def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: CampaignOptions | None = None, *,
                  truth_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
@@ -214,7 +219,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
 
     o = options_with(options, CampaignOptions, settings, "run_campaign")
     cuts, samples, risk, rpm_range, max_depth_mm = o.cuts, o.samples, o.risk, o.rpm_range, o.max_depth_mm
-    seed, engine, reuse, keep, best_speeds, decision = o.seed, o.engine, o.reuse, o.keep, o.best_speeds, o.decision
+    seed, engine, keep, best_speeds, decision = o.seed, o.engine, o.keep, o.best_speeds, o.decision
     rng = np.random.default_rng(seed)
     lo, hi = rpm_range
     tol = (decision or {}).get("speed_tolerance", SPEED_TOLERANCE)
@@ -235,8 +240,7 @@ def run_campaign(config, prior: Prior, truth: Truth, labeler: Labeler, options: 
                 if ps.stable.any() or ps.chatter.any():
                     try:
                         post = update(config, ps, prior=prior, engine=engine, samples=samples,
-                                      seed=int(rng.integers(2**31)),
-                                      start=last if reuse and not (o.fresh_last and k == cuts) else None,
+                                      seed=int(rng.integers(2**31)), start=o.start(last, k == cuts),
                                       sampler=o.sampler)
                     except RuntimeError:  # the tempering stalled (labels the model cannot explain): say so, go on
                         out["failed"].append(k)  # with the last posterior (the next update tries these cuts again)
@@ -406,10 +410,8 @@ def run_condition_campaign(config, prior: Prior, conditions, labeler: ConditionL
             ps = condition_cuts(rec["rpm"], rec["depth"], rec["labels"], conditions, rec["cond"], rec["hz"])
             try:
                 post = update(config, ps, prior=prior, engine=o.engine, samples=o.samples,
-                              seed=int(rng.integers(2**31)),
-                              start=last if o.reuse and not (o.fresh_last and k == o.cuts - 1) else None,
-                              sampler=o.sampler,
-                              engine_options=opts or None)
+                              seed=int(rng.integers(2**31)), start=o.start(last, k == o.cuts - 1),
+                              sampler=o.sampler, engine_options=opts or None)
             except RuntimeError:  # the tempering stalled: say so, go on with the last posterior
                 rec["failed"].append(k + 1)
             else:

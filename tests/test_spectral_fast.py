@@ -7,7 +7,8 @@
 2. The limit at a speed is the search from below of that speed, re-computed here without the engine's
    search: ρ from numpy's eigenvalues of the FULL monodromy (``spectral.monodromy``: no low-rank factors, no
    reduced history, no certificate, no compiled QR) on the same ladder (b_ref·LADDER, refined near ρ = 1 in
-   REFINE parts), then bisection of the first unstable step. Random structures, cuts and node counts, at
+   REFINE parts, twice as many in its coarse part), then bisection of the first unstable step, and on the fine
+   ladder before the coarse part (SDM's rungs, issue 28). Random structures, cuts and node counts, at
    random speeds of a random grid: the engine's depth equals it (1e-5; the bisection stops at 1e-6) or is a
    lower crossing where the full monodromy is unstable just above it (allowed: a root of the characteristic
    equation is a true crossing), and equals the same speed computed alone (1e-9).
@@ -21,7 +22,7 @@ from spectral_cases import random_case
 
 from millstab.frf import ModalBatch
 from millstab.stability import _spectral_kernel as k
-from millstab.stability import spectral
+from millstab.stability import sdm, spectral
 from millstab.stability.sdm import _arrays
 
 
@@ -65,22 +66,26 @@ def _rho_full(structure, cut, rpm, b, nodes):
     return np.abs(np.linalg.eigvals(spectral.monodromy(structure, cut, rpm, b, nodes=nodes))).max()
 
 
-def _search_from_below(structure, cut, rpm, b_ref, nodes, near):
+def _search_from_below(structure, cut, rpm, b_ref, nodes, near, fine=False):
     """The definition, in plain numpy: ρ of the full monodromy on b_ref·LADDER (then ×1.5), each step refined into
-    REFINE parts where ρ at either end is above 1 − near or its top is unstable; bisection of the first unstable
-    step to 1e-6."""
+    REFINE parts (twice as many in the ladder's coarse part, ``refine_parts``) where ρ at either end is above 1 − near
+    or its top is unstable; bisection of the first unstable step to 1e-6. ``fine``: the ladder before its coarse part
+    (SDM's, every step 0.05·b_ref up to 1.2, REFINE parts each)."""
+    ladder = sdm.FACTORS if fine else spectral.LADDER
     lo, f_lo = 0.0, -1.0  # ρ(0) < 1 (free damped vibration)
     kk = 0
     while True:
-        x = k.ladder_depth(b_ref, spectral.LADDER, kk)
+        x = k.ladder_depth(b_ref, ladder, kk)
+        coarse = not fine and kk < ladder.size and ladder[kk] <= k.COARSE * (1 + 1e-9)
+        parts = 2 * k.REFINE if coarse else k.REFINE
         kk += 1
         if x > 1e4 * b_ref:
             return np.inf
         r = _rho_full(structure, cut, rpm, x, nodes)
         hi = None
         if r > 1.0 - near or f_lo > -near:
-            for j in range(1, k.REFINE):
-                y = lo + j * (x - lo) / k.REFINE
+            for j in range(1, parts):
+                y = lo + j * (x - lo) / parts
                 if _rho_full(structure, cut, rpm, y, nodes) > 1.0:
                     hi = y
                     break
@@ -118,9 +123,11 @@ def test_limit_is_the_dense_search_from_below_on_a_random_grid_and_alone():
                 assert not np.isfinite(on_grid[i])
                 continue
             n_checked += 1
-            if abs(on_grid[i] / ref - 1) > 1e-5:  # only a lower true crossing may differ
-                assert on_grid[i] < ref, (case, grid[i], on_grid[i], ref)
-                assert _rho_full(structure, cut, grid[i], on_grid[i] * (1 + 1e-4), nodes) > 1.0
+            # the ladder's coarse part finds what the fine ladder before it found (or a lower true crossing)
+            for r in (ref, _search_from_below(structure, cut, grid[i], b_ref[i], nodes, near, fine=True)):
+                if abs(on_grid[i] / r - 1) > 1e-5:  # only a lower true crossing may differ
+                    assert on_grid[i] < r, (case, grid[i], on_grid[i], r)
+                    assert _rho_full(structure, cut, grid[i], on_grid[i] * (1 + 1e-4), nodes) > 1.0
     assert n_checked >= 6
 
 

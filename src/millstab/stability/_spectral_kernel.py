@@ -1494,6 +1494,14 @@ def ladder_depth(b_ref, ladder, k):
 #: NEAR 0.01 (−19 % evaluations, but the same band at 12 800 rpm was then missed on every grid)
 REFINE = 4
 NEAR = 0.02
+#: the ladder's coarse part (issue 28, 2026-11-28): its rungs at or below this multiple of b_ref are twice the fine
+#: step apart (0.1 against 0.05, ``spectral.LADDER``), and such a step is refined into 2·REFINE parts
+#: (:func:`refine_parts`), so a refined coarse step visits the fine ladder's rung and refinement depths between its
+#: ends. Why: the rungs under 0.6·b_ref are the cheapest (ρ far below 1: ~4 µs, two or three squarings) but a fifth
+#: of a search's evaluations, and a band there narrower than 0.1·b_ref with ρ below 1 − NEAR at both coarse rungs is
+#: what the fine ladder could find and this one not. Measured (``spectral.py``'s docstring): 0 such limits in 172 000
+#: random (set, speed) pairs over four example tools, a/D 0.02–0.5, up and down, 1 000–40 000 rpm
+COARSE = 0.6
 #: the bracket high of :func:`scan_to` where a censored search passed its cap (−1: no boundary up to 1e4·b_ref)
 CENSORED = -2.0
 
@@ -1505,6 +1513,15 @@ SKIP_ABOVE = 1.0
 #: the squarings of :func:`rho_test` stop where ‖Bᵐ‖^{1/m} (above the level, m ≥ 8) fell by less than this factor's
 #: complement over the last squaring: it has reached ρ, which is above the level
 STALL = 0.998
+
+
+@nb.njit(cache=True)
+def refine_parts(ladder, k):
+    """Parts into which the search from below refines the ladder step ending at rung k (:func:`ladder_depth`):
+    2·REFINE in the ladder's coarse part (:data:`COARSE`), else REFINE."""
+    if k < ladder.size and ladder[k] <= COARSE * (1.0 + 1e-9):  # (12 × 0.05 is 0.6 + 1 ulp)
+        return 2 * REFINE
+    return REFINE
 
 
 @nb.njit(cache=True)
@@ -1542,13 +1559,13 @@ def _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd):
 
 
 @nb.njit(cache=True)
-def _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd):
-    """ρ at the REFINE − 1 inner depths of the ladder step (x_prev, x) below top [m], ascending, skipping
-    those known stable (≤ st[3]; st updated in place). Returns (an unstable one found, its depth, its
-    ρ − 1, its dominant multiplier, ρ evaluations)."""
+def _refine_step(x_prev, x, top, st, parts, kt, wn, zeta, mass, mdir, D, g, nd):
+    """ρ at the parts − 1 inner depths of the ladder step (x_prev, x) below top [m] (:func:`refine_parts`),
+    ascending, skipping those known stable (≤ st[3]; st updated in place). Returns (an unstable one found, its
+    depth, its ρ − 1, its dominant multiplier, ρ evaluations)."""
     n_eval = 0
-    for j in range(1, REFINE):
-        y = x_prev + j * (x - x_prev) / REFINE
+    for j in range(1, parts):
+        y = x_prev + j * (x - x_prev) / parts
         if y >= top:
             break
         if y <= st[3]:
@@ -1569,7 +1586,7 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
     place), over the depths below ``top`` [m] (inf: up to the first unstable depth).
 
     The sequence of depths is fixed by the speed alone: the ladder b_ref·ladder (then ×1.5, up to
-    1e4·b_ref, :func:`ladder_depth`), each step refined into REFINE parts (evaluated after its upper end,
+    1e4·b_ref, :func:`ladder_depth`), each step refined into :func:`refine_parts` parts (evaluated after its upper end,
     ascending) where it is unstable or ρ at either end is above 1 − near (``NEAR`` by default). A root b found from a
     guess (a continued branch, a warm start) is checked with top = b·(1 − 2e-3) as if the ladder depth above
     it were unstable (the refinement of that step below top), so an accepted root is the one the search
@@ -1595,7 +1612,8 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
         if x >= top:
             # the step holding the root: refined below top (as the search from below refines it when x
             # is unstable)
-            bad, y, fy, my, c = _refine_step(x_prev, x, top, st, kt, wn, zeta, mass, mdir, D, g, nd)
+            bad, y, fy, my, c = _refine_step(x_prev, x, top, st, refine_parts(ladder, k), kt, wn, zeta, mass, mdir,
+                                             D, g, nd)
             n_eval += c
             if bad:
                 n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)
@@ -1614,7 +1632,8 @@ def scan_to(b_ref, ladder, top, st, near, kt, wn, zeta, mass, mdir, D, g, nd, ca
         st[1] = x
         st[2] = r - 1.0
         if r > 1.0 - near or f_prev > -near:  # (r > 1 included)
-            bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, kt, wn, zeta, mass, mdir, D, g, nd)
+            bad, y, fy, my, c = _refine_step(x_prev, x, np.inf, st, refine_parts(ladder, k), kt, wn, zeta, mass,
+                                             mdir, D, g, nd)
             n_eval += c
             if bad:
                 n_eval += _exact_lo(st, kt, wn, zeta, mass, mdir, D, g, nd)

@@ -45,9 +45,10 @@ det(μ I − Ψ(w (1 − 1/μ))) = 0, with Ψ(σ) the transition over one tooth 
 ż = (A0 + σ E(t) C) z (w = ½ b Kt): an n × n characteristic equation (n = 2 × modes), exact for the
 discretised system too and far cheaper than the monodromy's eigenvalues. The boundary at a speed is
 the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
-The search from below at one speed (the definition of the answer, the same as SDM's): ρ(b) on the
+The search from below at one speed (the definition of the answer, SDM's with a coarser bottom): ρ(b) on the
 ladder b_ref·LADDER (b_ref the zero-order depth at that speed; then ×1.5 up to 1e4·b_ref) up to the
-first unstable depth, each ladder step refined into ``_spectral_kernel.REFINE`` parts where it is
+first unstable depth, each ladder step refined into ``_spectral_kernel.REFINE`` parts (twice as many in
+the ladder's coarse part below 0.6·b_ref, ``_spectral_kernel.COARSE``) where it is
 unstable or ρ at either end is within ``_spectral_kernel.NEAR`` (0.02) of 1 (a band narrower than the
 ladder's step lies where a multiplier grazes the unit circle, so ρ is close to 1 beside it); Newton from
 the bracket (θ from its dominant multiplier), Illinois on ρ − 1 where Newton fails.
@@ -183,6 +184,18 @@ certifying a rung stable without its eigenvalues by a Lyapunov matrix P of anoth
 one Cholesky, on the balanced monodromy; unbalanced, no rung is certified: ‖P‖ ~ 3e7): the previous
 rung's P certifies 68 % of the rungs, a P kept until it fails 51 %; but each P is a Lyapunov solve
 (a Schur form, dearer than the eigenvalues), so neither scheme saves work.
+A coarse bottom of the ladder (issue 28, 2026-11-28; ``_spectral_kernel.COARSE``). The rungs under 0.6·b_ref are
+the cheapest of a search (ρ far below 1: a build and two or three squarings, ~4 µs) but six of its ~31 evaluations;
+below 0.6 the ladder now takes every other one of SDM's rungs (0.1, 0.2, …, 0.6 × b_ref), and a coarse step where the
+refinement is due (ρ above 1 − NEAR at either end, or its top unstable) is refined into 2·REFINE parts, which visit the
+fine ladder's rung and refinement depths between its ends. So the two ladders can differ only where a band narrower
+than 0.1·b_ref lies under 0.6·b_ref with ρ below 1 − NEAR at both coarse rungs and a fine rung inside it or beside it
+above 1 − NEAR. Measured against the code before (random prior draws of ex1, ex2, ex3 and fourflute at a/D 0.02 /
+0.05 / 0.1 / 0.25 / 0.5, up and down, 40 speeds in 1 000–40 000 rpm, and Ex.1 at a/D 0.1 in 5 000–12 000 rpm, 6
+nodes: 175 960 (set, speed) pairs): every limit the same within 3.8e-13, 7.5–19.4 % fewer evaluations (Ex.1 and
+fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the coarse steps had missed one band in
+172 000 pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the 2·REFINE parts
+find (6.71 mm, the same as before). ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
@@ -299,9 +312,11 @@ ELEM_PERIODS = 0.5
 TOL = 1e-3
 #: relative width of the final root bracket
 RTOL = 2e-4
-#: the search from below's ladder (multiples of the zero-order depth, ascending; then ×1.5 per step): the
-#: same as SDM's (``sdm.FACTORS``), and every accepted root is checked against it (``_k.check_root``)
-LADDER = np.concatenate([np.arange(1, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
+#: the search from below's ladder (multiples of the zero-order depth, ascending; then ×1.5 per step): SDM's
+#: (``sdm.FACTORS``) from 0.6 up, every other one of its rungs below (``_k.COARSE``: a coarse step is refined into
+#: twice the parts, on SDM's rungs and the fine refinement's depths), and every accepted root is checked against it
+#: (``_k.check_root``)
+LADDER = np.concatenate([np.arange(2, 12, 2) * 0.05, np.arange(12, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25

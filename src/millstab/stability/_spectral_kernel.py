@@ -1494,14 +1494,14 @@ def ladder_depth(b_ref, ladder, k):
 #: NEAR 0.01 (−19 % evaluations, but the same band at 12 800 rpm was then missed on every grid)
 REFINE = 4
 NEAR = 0.02
-#: the ladder's coarse part (issue 28, 2026-11-28): its rungs at or below this multiple of b_ref are twice the fine
-#: step apart (0.1 against 0.05, ``spectral.LADDER``), and such a step is refined into 2·REFINE parts
-#: (:func:`refine_parts`), so a refined coarse step visits the fine ladder's rung and refinement depths between its
-#: ends. Why: the rungs under 0.6·b_ref are the cheapest (ρ far below 1: ~4 µs, two or three squarings) but a fifth
-#: of a search's evaluations, and a band there narrower than 0.1·b_ref with ρ below 1 − NEAR at both coarse rungs is
-#: what the fine ladder could find and this one not. Measured (``spectral.py``'s docstring): 0 such limits in 172 000
-#: random (set, speed) pairs over four example tools, a/D 0.02–0.5, up and down, 1 000–40 000 rpm
-COARSE = 0.6
+#: the refinement's resolution (issue 28, 2026-11-28): a ladder step under FINE_TOP·b_ref is refined into REFINE parts
+#: per FINE_STEP·b_ref (:func:`refine_parts`), so a step over two of SDM's rungs (``spectral.LADDER``'s coarse part)
+#: into 2·REFINE parts, which visit the fine ladder's rung and refinement depths between its ends. Why: the rungs far
+#: below the root are the cheapest (ρ far below 1: ~4 µs, two or three squarings) but a fifth of a search's
+#: evaluations, and a band there narrower than the coarse step with ρ below 1 − NEAR at both coarse rungs is what the
+#: fine ladder could find and the coarse one not (measured: ``spectral.py``'s docstring)
+FINE_STEP = 0.05
+FINE_TOP = 1.2
 #: the bracket high of :func:`scan_to` where a censored search passed its cap (−1: no boundary up to 1e4·b_ref)
 CENSORED = -2.0
 
@@ -1518,9 +1518,10 @@ STALL = 0.998
 @nb.njit(cache=True)
 def refine_parts(ladder, k):
     """Parts into which the search from below refines the ladder step ending at rung k (:func:`ladder_depth`):
-    2·REFINE in the ladder's coarse part (:data:`COARSE`), else REFINE."""
-    if k < ladder.size and ladder[k] <= COARSE * (1.0 + 1e-9):  # (12 × 0.05 is 0.6 + 1 ulp)
-        return 2 * REFINE
+    REFINE per FINE_STEP of the step under FINE_TOP (so 2·REFINE for a step over two of SDM's rungs), else REFINE."""
+    if k < ladder.size and ladder[k] <= FINE_TOP * (1.0 + 1e-9):  # (24 × 0.05 is 1.2 + 1 ulp)
+        lo = ladder[k - 1] if k > 0 else 0.0
+        return REFINE * max(1, int(round((ladder[k] - lo) / FINE_STEP)))
     return REFINE
 
 

@@ -48,7 +48,7 @@ the smallest b with a multiplier e^{iθ} on the unit circle (θ = π: flip).
 The search from below at one speed (the definition of the answer, SDM's with a coarser bottom): ρ(b) on the
 ladder b_ref·LADDER (b_ref the zero-order depth at that speed; then ×1.5 up to 1e4·b_ref) up to the
 first unstable depth, each ladder step refined into ``_spectral_kernel.REFINE`` parts (twice as many in
-the ladder's coarse part below 0.6·b_ref, ``_spectral_kernel.COARSE``) where it is
+the ladder's coarse part below 0.6·b_ref, ``_spectral_kernel.refine_parts``) where it is
 unstable or ρ at either end is within ``_spectral_kernel.NEAR`` (0.02) of 1 (a band narrower than the
 ladder's step lies where a multiplier grazes the unit circle, so ρ is close to 1 beside it); Newton from
 the bracket (θ from its dominant multiplier), Illinois on ρ − 1 where Newton fails.
@@ -184,7 +184,7 @@ certifying a rung stable without its eigenvalues by a Lyapunov matrix P of anoth
 one Cholesky, on the balanced monodromy; unbalanced, no rung is certified: ‖P‖ ~ 3e7): the previous
 rung's P certifies 68 % of the rungs, a P kept until it fails 51 %; but each P is a Lyapunov solve
 (a Schur form, dearer than the eigenvalues), so neither scheme saves work.
-A coarse bottom of the ladder (issue 28, 2026-11-28; ``_spectral_kernel.COARSE``). The rungs under 0.6·b_ref are
+A coarse bottom of the ladder (issue 28, 2026-11-28; ``_spectral_kernel.refine_parts``). The rungs under 0.6·b_ref are
 the cheapest of a search (ρ far below 1: a build and two or three squarings, ~4 µs) but six of its ~31 evaluations;
 below 0.6 the ladder now takes every other one of SDM's rungs (0.1, 0.2, …, 0.6 × b_ref), and a coarse step where the
 refinement is due (ρ above 1 − NEAR at either end, or its top unstable) is refined into 2·REFINE parts, which visit the
@@ -195,7 +195,9 @@ above 1 − NEAR. Measured against the code before (random prior draws of ex1, e
 nodes: 175 960 (set, speed) pairs): every limit the same within 3.8e-13, 7.5–19.4 % fewer evaluations (Ex.1 and
 fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the coarse steps had missed one band in
 172 000 pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the 2·REFINE parts
-find (6.71 mm, the same as before). ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
+find (6.71 mm, the same as before). Coarse up to 0.8·b_ref (2·REFINE parts too) saved 15.2 % of the evaluations
+against 12.7 % but missed a band in the same pairs (Ex.1 at a/D 0.1: 29.10 mm against 24.85, at 0.6–0.8·b_ref):
+not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms
@@ -313,7 +315,7 @@ TOL = 1e-3
 #: relative width of the final root bracket
 RTOL = 2e-4
 #: the search from below's ladder (multiples of the zero-order depth, ascending; then ×1.5 per step): SDM's
-#: (``sdm.FACTORS``) from 0.6 up, every other one of its rungs below (``_k.COARSE``: a coarse step is refined into
+#: (``sdm.FACTORS``) from 0.6 up, every other one of its rungs below (``_k.refine_parts``: a coarse step is refined into
 #: twice the parts, on SDM's rungs and the fine refinement's depths), and every accepted root is checked against it
 #: (``_k.check_root``)
 LADDER = np.concatenate([np.arange(2, 12, 2) * 0.05, np.arange(12, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])

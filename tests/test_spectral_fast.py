@@ -69,8 +69,8 @@ def _rho_full(structure, cut, rpm, b, nodes):
 def _search_from_below(structure, cut, rpm, b_ref, nodes, near, fine=False):
     """The definition, in plain numpy: ρ of the full monodromy on b_ref·LADDER (then ×1.5), each step refined into
     REFINE parts per 0.05·b_ref under 1.2·b_ref (twice as many in the ladder's coarse part, ``refine_parts``) where ρ at
-    either end is above 1 − near or its top is unstable; bisection of the first unstable step to 1e-6. ``fine``: the ladder before its coarse part
-    (SDM's, every step 0.05·b_ref up to 1.2, REFINE parts each)."""
+    either end is above 1 − near or its top is unstable; bisection of the first unstable step to 1e-6. ``fine``: the
+    ladder before its coarse part (SDM's, every step 0.05·b_ref up to 1.2, REFINE parts each)."""
     ladder = sdm.FACTORS if fine else spectral.LADDER
     lo, f_lo = 0.0, -1.0  # ρ(0) < 1 (free damped vibration)
     kk = 0

@@ -195,9 +195,9 @@ above 1 − NEAR. Measured against the code before (random prior draws of ex1, e
 nodes: 175 960 (set, speed) pairs): every limit the same within 3.8e-13, 7.5–19.4 % fewer evaluations (Ex.1 and
 fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the coarse steps had missed one band in
 about 210 000 such pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the
-2·REFINE parts find (6.71 mm, the same as before). Coarse up to 0.8·b_ref (2·REFINE parts too) saved 15.2 % of the evaluations
-against 12.7 % but missed a band in the same pairs (Ex.1 at a/D 0.1: 29.10 mm against 24.85, at 0.6–0.8·b_ref):
-not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
+2·REFINE parts find (6.71 mm, the same as before). Coarse up to 0.8·b_ref (2·REFINE parts too) saved 15.2 % of the
+evaluations against 12.7 % but missed a band in the same pairs (Ex.1 at a/D 0.1: 29.10 mm against 24.85, at
+0.6–0.8·b_ref): not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms

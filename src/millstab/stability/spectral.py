@@ -197,7 +197,10 @@ fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the 
 about 210 000 such pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the
 2·REFINE parts find (6.71 mm, the same as before). Coarse up to 0.8·b_ref (2·REFINE parts too) saved 15.2 % of the
 evaluations against 12.7 % but missed a band in the same pairs (Ex.1 at a/D 0.1: 29.10 mm against 24.85, at
-0.6–0.8·b_ref): not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy.
+0.6–0.8·b_ref): not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy. Measured
+and not kept (same pairs): a rung whose certificate below 1 − NEAR fails but whose squarings bound ρ below 1 taken as
+stable and refined without its eigenvalues: every limit the same bit for bit, but 2.6 % more evaluations (the
+refinements it adds) and no CPU saved.
 Speed since the grid-independent acceptance (issue 25; 200 speeds, x = y one mode each, a/D = 0.05,
 benchmarks/bench_spectral.py, alternated with the code before on the shared machine, load ~15 on 2
 cores, so CPU times are the figure): 32.4 evaluations per speed (was 11.5), CPU per envelope 165–170 ms

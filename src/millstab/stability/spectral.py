@@ -301,7 +301,7 @@ from millstab.model import Cutting, Structure
 from millstab.stability import _spectral_kernel as _k
 from millstab.stability import _spectral_warm as _w
 from millstab.stability import zoa
-from millstab.stability.sdm import _arrays, _chatter_hz, _require_modal, _static_scale
+from millstab.stability.sdm import FACTORS, _arrays, _chatter_hz, _require_modal, _static_scale
 from millstab.stability.base import Envelope, memory_chunk_rows
 from millstab.stability.base import by_condition, check_ceiling, check_floor, check_kr, check_rpm, kr_sets
 from millstab.stability.process_damping import reject as _reject_process_damping
@@ -321,7 +321,7 @@ RTOL = 2e-4
 #: (``sdm.FACTORS``) from 0.6 up, every other one of its rungs below (``_k.refine_parts``: a coarse step is refined into
 #: twice the parts, on SDM's rungs and the fine refinement's depths), and every accepted root is checked against it
 #: (``_k.check_root``)
-LADDER = np.concatenate([np.arange(2, 12, 2) * 0.05, np.arange(12, 25) * 0.05, [1.35, 1.5, 1.75, 2.0, 2.5, 3.0]])
+LADDER = np.concatenate([FACTORS[1:10:2], FACTORS[11:]])  # 0.1, 0.2, …, 0.5; then SDM's from 0.6
 #: the shortest block of the root search (blocks run in parallel; within one, branches continue): a
 #: block start costs a full ladder search, so a set is split only to keep the threads busy
 BLOCK = 25

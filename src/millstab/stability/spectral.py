@@ -192,9 +192,10 @@ fine ladder's rung and refinement depths between its ends. So the two ladders ca
 than 0.1·b_ref lies under 0.6·b_ref with ρ below 1 − NEAR at both coarse rungs and a fine rung inside it or beside it
 above 1 − NEAR. Measured against the code before (random prior draws of ex1, ex2, ex3 and fourflute at a/D 0.02 /
 0.05 / 0.1 / 0.25 / 0.5, up and down, 40 speeds in 1 000–40 000 rpm, and Ex.1 at a/D 0.1 in 5 000–12 000 rpm, 6
-nodes: 175 960 (set, speed) pairs): every limit the same within 3.8e-13, 7.5–19.4 % fewer evaluations (Ex.1 and
-fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the coarse steps had missed one band in
-about 210 000 such pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the
+nodes: 175 960 (set, speed) pairs; ``benchmarks/bench_spectral_ladder.py`` re-measures it, the code before being
+this kernel with ``sdm.FACTORS`` as its ladder): every limit the same within 3.8e-13, 7.5–19.4 % fewer evaluations
+(Ex.1 and fourflute 16–19 %, ex2 and ex3 8–13 %). Refined into REFINE parts only, the coarse steps had missed one
+band in about 210 000 such pairs (ex3 at a/D 0.05 up, 34 491 rpm: 7.22 mm against 6.71, a band at 0.28·b_ref), which the
 2·REFINE parts find (6.71 mm, the same as before). Coarse up to 0.8·b_ref (2·REFINE parts too) saved 15.2 % of the
 evaluations against 12.7 % but missed a band in the same pairs (Ex.1 at a/D 0.1: 29.10 mm against 24.85, at
 0.6–0.8·b_ref): not taken. ``tests/test_spectral_fast.py`` re-computes both definitions in plain numpy. Measured

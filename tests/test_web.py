@@ -135,6 +135,7 @@ def test_identify_uploaded_points(app):
     page.locator(".identify-run button").click()
     page.locator(".identify-status").filter(has_text="running").wait_for()  # progress while it works
     page.locator(".identify-status").filter(has_text="done in").wait_for(timeout=90_000)
+    page.locator(".fit-table td").filter(has_text="fn_x").first.wait_for()  # the table may render a moment later
     truth = {"fn_x": 900.0, "fn_y": 950.0, "k_x": 9e6, "k_y": 10e6}
     rows = {}
     for tr in page.locator(".fit-table tr").all():
@@ -147,6 +148,7 @@ def test_identify_uploaded_points(app):
     assert len(fit["rpm"]) == len(api.fit_rpm(api.points("example:ex3_points")))
     page.locator(".plan-run button").click()
     page.locator(".plan-status").filter(has_text="done in").wait_for(timeout=90_000)
+    page.locator(".plan-table td").first.wait_for()
     assert page.locator(".plan-table tr").count() >= 2  # header and at least one planned speed
     shot(page, "identify")
     # a second run, cancelled: the page says so and keeps the first result

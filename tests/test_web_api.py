@@ -577,3 +577,34 @@ def test_update_tab_engine_options_are_checked_as_the_command_line_and_reach_the
         assert tab.engine.value == "spectral" and tab.settings().engine_options == {"nodes": 8, "near": 0.5}
     finally:
         s.close()
+
+
+@pytest.mark.parametrize("fails", [False, True])
+def test_a_job_shows_its_result_before_it_says_done(fails):
+    """The status line says "done" only after the tab has shown the result (a reader waiting for "done" found
+    the old table once, in CI), and a result handler that raises is shown as a failure, never as "done"."""
+    pytest.importorskip("panel")
+    from concurrent.futures import Future
+
+    from millstab.web.jobs import JobBar
+
+    bar = JobBar("Run", "t")
+    seen = []
+
+    def done(result, caught):
+        seen.append((result, caught, bar.status.text))
+        if fails:
+            raise RuntimeError("the table could not be drawn")
+
+    fut = Future()
+    fut.set_result(("the result", ["a warning"]))
+    bar._future, bar._done, bar._t0 = fut, done, 0.0
+    bar._cb = type("Periodic", (), {"stop": lambda self: None})()
+    bar.status.text = "running …"
+    bar._poll()
+    assert len(seen) == 1 and seen[0][:2] == ("the result", ["a warning"])
+    assert "done" not in seen[0][2]  # not yet said when the result was shown
+    if fails:
+        assert "failed: RuntimeError: the table could not be drawn" in bar.status.text and "done" not in bar.status.text
+    else:
+        assert "done in" in bar.status.text

@@ -104,25 +104,18 @@ class JobBar(pn.viewable.Viewer):
         elapsed = time.perf_counter() - self._t0
         try:
             result, caught = fut.result()
+            # the result is shown first and "done" said last: the browser receives the two updates in this order,
+            # so a reader (or a test) that waits for "done" finds the result already on the page
+            self._done(result, caught)
         except api.Cancelled:
             self.status.text = '<span class="ms-error">cancelled</span>'
-            return
         except InputError as exc:
             self.status.text = f'<span class="ms-error">{_esc(str(exc))}</span>'
-            return
         except Exception as exc:  # a bug must not take the page down: show it, keep the page
             traceback.print_exc()
             self.status.text = f'<span class="ms-error">failed: {_esc(type(exc).__name__)}: {_esc(str(exc))}</span>'
-            return
-        # show the result first and say "done" last: the browser receives the two updates in this order, and a
-        # reader (or a test) that waits for "done" must find the result already on the page
-        try:
-            self._done(result, caught)
-        except Exception as exc:
-            traceback.print_exc()
-            self.status.text = f'<span class="ms-error">failed: {_esc(type(exc).__name__)}: {_esc(str(exc))}</span>'
-            return
-        self.status.text = f'<span class="ms-done">done in {elapsed:.2f} s</span>'
+        else:
+            self.status.text = f'<span class="ms-done">done in {elapsed:.2f} s</span>'
 
 
 def _esc(s: str) -> str:

@@ -608,3 +608,25 @@ def test_a_job_shows_its_result_before_it_says_done(fails):
         assert "failed: RuntimeError: the table could not be drawn" in bar.status.text and "done" not in bar.status.text
     else:
         assert "done in" in bar.status.text
+
+
+def test_the_sld_legend_lists_only_the_point_layers_that_hold_points():
+    """An empty layer's legend entry is a name without a marker ("stable" over a plot with no stable cut):
+    each point layer's entry is shown exactly while the layer holds points."""
+    pytest.importorskip("panel")
+    from millstab.points import PointSet
+    from millstab.web.plots import set_points, set_scatter, sld_figure
+
+    fig, src = sld_figure()
+    shown = {k: item.visible for k, item in src["legend"].items()}
+    assert shown == {"pts_boundary": False, "pts_stable": False, "pts_chatter": False, "pts_marginal": False,
+                     "plan": False}
+    set_points(src, PointSet([5000.0, 6000.0], [1.0, 2.0], ["stable", "chatter"]))
+    assert {k: item.visible for k, item in src["legend"].items()} == {
+        "pts_boundary": False, "pts_stable": True, "pts_chatter": True, "pts_marginal": False, "plan": False}
+    assert list(src["pts_stable"].data["rpm"]) == [5000.0] and list(src["pts_chatter"].data["depth_mm"]) == [2.0]
+    set_scatter(src, "plan", [7000.0], [3.0])
+    set_points(src, None)
+    assert [k for k, item in src["legend"].items() if item.visible] == ["plan"]
+    # the lines' entries (limit, raw lobes, the second curve) stay as they were
+    assert all(item.visible for item in fig.legend[0].items if item not in src["legend"].values())

@@ -11,7 +11,7 @@ from millstab import api
 from millstab.errors import InputError
 from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
 from millstab.web.jobs import JobBar
-from millstab.web.plots import set_line, set_points, sld_figure, update
+from millstab.web.plots import set_line, set_points, set_scatter, sld_figure
 from millstab.web.state import Session
 from millstab.web.uploads import MAX_TEXT_BYTES, POINTS_TYPES, dropper, latest
 
@@ -99,7 +99,7 @@ class IdentifyTab:
         set_line(self.src["env"], rpm, curves[1], lobe=nan, chatter_hz=nan)
         set_line(self.src["other"], rpm, curves[0])
         set_points(self.src, pts)
-        update(self.src["plan"], dict(rpm=[], depth_mm=[]))
+        set_scatter(self.src, "plan", [], [])
 
     def plan(self) -> None:
         cfg, pts, fit = self.s.cfg, self.s.points, self.s.fit
@@ -121,7 +121,7 @@ class IdentifyTab:
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
         self.plan_table.text = (computed_for(origin)
                                 + html_table(("rpm", "tests", "predicted depth [mm]"), rows, "plan") + notes)
-        update(self.src["plan"], dict(rpm=[r for r, _, _ in tests], depth_mm=[d for _, _, d in tests]))
+        set_scatter(self.src, "plan", [r for r, _, _ in tests], [d for _, _, d in tests])
 
     def view(self):
         inputs = pn.Card(pn.Row(pn.Column(self.drop, self.format, self.drop_error, self.points_note), self.example,

@@ -55,6 +55,12 @@ def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second:
         ("speed", "@rpm{0,0} rpm"), ("depth limit", "@blim_mm{0.000} mm"), ("chatter", "@chatter_hz{0,0.0} Hz"),
         ("lobe", "@lobe")]))
     fig.add_layout(fig.legend[0], "right")
+    # the point layers' legend entries, shown only while their layer holds points (set_scatter): an empty
+    # layer's entry is a name without a marker, and "stable" listed over a plot without one misleads
+    src["legend"] = {key: item for item in fig.legend[0].items for key in src
+                     if (key.startswith("pts_") or key == "plan") and item.renderers[0].data_source is src[key]}
+    for item in src["legend"].values():
+        item.visible = False
     fig.legend.click_policy = "hide"
     fig.legend.label_text_font_size = "9pt"
     fig.y_range.start = 0
@@ -64,11 +70,21 @@ def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second:
 def set_points(src: dict, points) -> None:
     """Overlay a PointSet by label (or clear with None)."""
     for label, (text, _, _) in MARKERS.items():
-        if points is None:
-            update(src[f"pts_{text}"], dict(rpm=[], depth_mm=[]))
-            continue
-        m = points.label == label
-        update(src[f"pts_{text}"], dict(rpm=points.rpm[m], depth_mm=points.depth_mm[m]))
+        m = np.zeros(0, bool) if points is None else points.label == label
+        set_scatter(src, f"pts_{text}", [] if points is None else points.rpm[m],
+                    [] if points is None else points.depth_mm[m])
+
+
+def set_scatter(src: dict, key: str, rpm, depth_mm) -> None:
+    """Put points [rev/min, mm] in the SLD's layer ``key`` (``pts_<label>``, ``plan``); its legend entry is
+    shown while it holds any."""
+    import panel as pn
+
+    update(src[key], dict(rpm=rpm, depth_mm=depth_mm))
+    item = src.get("legend", {}).get(key)
+    if item is not None:
+        with pn.io.unlocked():
+            item.visible = len(rpm) > 0
 
 
 def set_line(source: ColumnDataSource, rpm, depth_mm, **extra) -> None:

@@ -31,7 +31,8 @@ def _finite(a: np.ndarray) -> np.ndarray:
 def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second: str = "second curve",
                raw: bool = True) -> tuple:
     """(figure, sources): the limit line (legend ``limit``) with hover, a second line (legend ``second``: the
-    fit's start), the raw lobes (with ``raw``) and one scatter per point label."""
+    fit's start), the raw lobes (with ``raw``) and one scatter per point label; ``sources["legend"]`` holds the
+    point layers' legend entries (:func:`set_scatter` shows each while its layer holds points)."""
     fig = figure(height=430, sizing_mode="stretch_width", title=title, x_axis_label="spindle speed [rpm]",
                  y_axis_label="axial depth limit [mm]", tools="pan,box_zoom,wheel_zoom,reset,save", name=f"{name}_fig")
     src = {"env": ColumnDataSource(dict(rpm=[], blim_mm=[], lobe=[], chatter_hz=[]), name=f"{name}_source"),

@@ -630,3 +630,16 @@ def test_the_sld_legend_lists_only_the_point_layers_that_hold_points():
     assert [k for k, item in src["legend"].items() if item.visible] == ["plan"]
     # the lines' entries (limit, raw lobes, the second curve) stay as they were
     assert all(item.visible for item in fig.legend[0].items if item not in src["legend"].values())
+
+
+def test_the_recommendation_is_drawn_over_the_next_test():
+    """The next test is often the recommended cut itself: its marker drawn last hid the recommendation's star.
+    The star is drawn last, and the legend keeps the order recommendation, next test."""
+    pytest.importorskip("panel")
+    from millstab.web.plots import map_figure
+
+    rpm, depth = np.linspace(5000.0, 9000.0, 5), np.linspace(0.0, 5.0, 4)
+    pm = np.random.default_rng(0).random((5, 4))
+    fig = map_figure(rpm, depth, pm, marks=[(6000.0, 1.0, "recommended"), (6000.0, 1.0, "next test")])
+    assert fig.renderers[-1].glyph.marker == "star"
+    assert [item.label.value for item in fig.legend[0].items] == ["recommended", "next test"]

@@ -143,8 +143,10 @@ def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):
             m = cuts.label == label
             if m.any():
                 fig.scatter(cuts.rpm[m], cuts.depth_mm[m], legend_label=MARKERS[label][0], **style)
-    for (r, d, text), (marker, color) in zip(marks, (("star", "#1565c0"), ("square_pin", "#6a1b9a"))):
-        fig.scatter([r], [d], marker=marker, size=18, fill_color=color, line_color="white", legend_label=text)
+    drawn = [fig.scatter([r], [d], marker=marker, size=18, fill_color=color, line_color="white", legend_label=text)
+             for (r, d, text), (marker, color) in zip(marks, (("star", "#1565c0"), ("square_pin", "#6a1b9a")))]
+    if drawn:  # the recommendation on top: the next test is often the recommended cut itself and hid its star
+        fig.renderers = [g for g in fig.renderers if g is not drawn[0]] + [drawn[0]]
     if cuts is not None or marks:
         fig.legend.location = "top_right"
     return fig

@@ -46,20 +46,21 @@ def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second:
     if second:
         fig.line("rpm", "blim_mm", source=src["other"], color="#6a1b9a", line_width=1.5, line_dash="dotted",
                  legend_label=second)
+    layers = {}  # the point layers' renderers, by source key
     for label, (text, color, marker) in MARKERS.items():
         key = f"pts_{text}"
         src[key] = ColumnDataSource(dict(rpm=[], depth_mm=[]), name=f"{name}_{key}")
-        fig.scatter("rpm", "depth_mm", source=src[key], color=color, marker=marker, size=7, legend_label=text)
-    fig.scatter("rpm", "depth_mm", source=src["plan"], color="#00838f", marker="inverted_triangle", size=10,
-                legend_label="planned tests")
+        layers[key] = fig.scatter("rpm", "depth_mm", source=src[key], color=color, marker=marker, size=7,
+                                  legend_label=text)
+    layers["plan"] = fig.scatter("rpm", "depth_mm", source=src["plan"], color="#00838f", marker="inverted_triangle",
+                                 size=10, legend_label="planned tests")
     fig.add_tools(HoverTool(renderers=[line], mode="vline", tooltips=[
         ("speed", "@rpm{0,0} rpm"), ("depth limit", "@blim_mm{0.000} mm"), ("chatter", "@chatter_hz{0,0.0} Hz"),
         ("lobe", "@lobe")]))
     fig.add_layout(fig.legend[0], "right")
     # the point layers' legend entries, shown only while their layer holds points (set_scatter): an empty
     # layer's entry is a name without a marker, and "stable" listed over a plot without one misleads
-    src["legend"] = {key: item for item in fig.legend[0].items for key in src
-                     if (key.startswith("pts_") or key == "plan") and item.renderers[0].data_source is src[key]}
+    src["legend"] = {key: item for item in fig.legend[0].items for key, r in layers.items() if r in item.renderers}
     for item in src["legend"].values():
         item.visible = False
     fig.legend.click_policy = "hide"
@@ -71,9 +72,11 @@ def sld_figure(title: str = "", name: str = "sld", limit: str = "limit", second:
 def set_points(src: dict, points) -> None:
     """Overlay a PointSet by label (or clear with None)."""
     for label, (text, _, _) in MARKERS.items():
-        m = np.zeros(0, bool) if points is None else points.label == label
-        set_scatter(src, f"pts_{text}", [] if points is None else points.rpm[m],
-                    [] if points is None else points.depth_mm[m])
+        if points is None:
+            set_scatter(src, f"pts_{text}", [], [])
+        else:
+            m = points.label == label
+            set_scatter(src, f"pts_{text}", points.rpm[m], points.depth_mm[m])
 
 
 def set_scatter(src: dict, key: str, rpm, depth_mm) -> None:
@@ -82,10 +85,8 @@ def set_scatter(src: dict, key: str, rpm, depth_mm) -> None:
     import panel as pn
 
     update(src[key], dict(rpm=rpm, depth_mm=depth_mm))
-    item = src.get("legend", {}).get(key)
-    if item is not None:
-        with pn.io.unlocked():
-            item.visible = len(rpm) > 0
+    with pn.io.unlocked():
+        src["legend"][key].visible = len(rpm) > 0
 
 
 def set_line(source: ColumnDataSource, rpm, depth_mm, **extra) -> None:

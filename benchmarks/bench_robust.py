@@ -31,7 +31,7 @@ figures).
 ``--save FILE.npz`` keeps every round's posterior samples and cuts, for ``score_conflict.py`` to score a
 conflict rule offline. ``--confirm conflict,always,never`` judges each of recommend's confirm rules in every
 round of the same campaign (the next test does not depend on the rule, so the cuts are the same), printed per
-side (softer / stiffer); ``--trace`` prints per round why the recommendation is where it is (docs/updating.md,
+side (softer / stiffer); ``--trace`` prints per round why the recommendation is where it is (docs/updating-measured.md,
 "Why the softer campaigns stop low"); ``--only 60,62`` runs those campaigns.
 ``--conflict-test`` (issue 24): in a round whose update did not name the conflict,
 when a far-off alternative (every fn, k or ζ shifted 3.5σ) fits the cuts so far at least as well as the
@@ -41,8 +41,8 @@ instead: recommend's next test is the conflict test while the update names the c
 (:func:`millstab.update.decide.next_test_discriminating`; ``--discriminate-rival-lr``: only when the rival fits
 the cuts at least this well, ``=-inf`` always; ``--discriminate-every N``: only in every N-th round);
 ``--discriminate gain`` the gain test (:func:`millstab.update.decide.next_test_gain`). ``--tails multivariate_t_shift``:
-the multivariate t with the rival "every kind shifted together" component (docs/updating.md, "A rival component and
-the gain test").
+the multivariate t with the rival "every kind shifted together" component (docs/updating-measured.md, "A rival component
+and the gain test").
 """
 
 from __future__ import annotations

@@ -73,7 +73,7 @@ reference run printed against the pool of the others; ``--study-first S``: seeds
 row of the plain sampler; ``--study-detail``: per run, which quantile of each parameter is off and by how much, and the
 share of samples with a kind's common shift beyond ``--study-far`` spreads; every row and reference: the share of
 samples in the far modes ``--study-mode KIND:Z`` (the kind's common shift below Z spreads, above Z for Z > 0; default
-``any:4``: some kind's |shift| above 4, the far modes of the rival prior, docs/updating.md "The default prior,
+``any:4``: some kind's |shift| above 4, the far modes of the rival prior, docs/updating-measured.md "The default prior,
 again"); ``--study-mode-mass M``: that
 mode's posterior mass by importance sampling (M spectral evaluations a side, kernels at the study's particles),
 independent of the SMC runs' mode weights; ``--study-save F``: every run's ln samples to an npz file.
@@ -86,8 +86,8 @@ setting joins the study. With ``--breakdown`` each spectral run prints its accur
 particles where the spectral engine enters, the bridge's moves, each later stage's moves) and the proposals the
 second stage rejected.
 ``--doors K``: the update as a user calls it (``millstab.api.update`` with the config's cutting and prior, the
-default sampler), both engines alternately for seeds 0..K−1, CPU and wall and their ratio (docs/updating.md, "The
-ratio through the doors").
+default sampler), both engines alternately for seeds 0..K−1, CPU and wall and their ratio (docs/updating-measured.md,
+"The ratio through the doors").
 
 ``--anchor-moves M[,...]`` and ``--accept-moves T:M[:TOP][,...]`` (with ``--seed-study``): also the anchored screen
 with M moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.DELAYED_ACCEPT_TARGET`)

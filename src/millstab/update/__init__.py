@@ -47,17 +47,17 @@ SURROGATE_KIND = "linear"
 SCREEN_ENGINE = "zoa"
 #: a fresh delayed-acceptance update's first reweightings by the screen alone (:func:`tempered_smc`'s
 #: ``screen_stages``; the accurate engine first sees the distinct particles after them, corrected by a bridge), at
-#: most up to the exponent SCREEN_TOP (``screen_top``). Measured (docs/updating.md, "A screen-tempered start"): on
-#: the a/D 0.1 spectral case 1.4x fewer accurate sets than 0 stages over 8 seeds, the means as close to a 3 000-sample
-#: reference; tempered to 1 (the screen's whole posterior) the bridge's weights collapse, hence the cap
+#: most up to the exponent SCREEN_TOP (``screen_top``). Measured (docs/updating-measured.md, "A screen-tempered
+#: start"): on the a/D 0.1 spectral case 1.4x fewer accurate sets than 0 stages over 8 seeds, the means as close to a
+#: 3 000-sample reference; tempered to 1 (the screen's whole posterior) the bridge's weights collapse, hence the cap
 SCREEN_STAGES = 3
 SCREEN_TOP = 0.75
 #: a fresh delayed-acceptance update's MH moves per stage and the random walk's acceptance target
 #: (:func:`tempered_smc`'s ``moves`` and ``accept_target``; plain updates: 3 and
 #: :data:`millstab.update.sampler.ACCEPT_TARGET` 0.25). A rejected large step mostly costs only the cheap screen, so
 #: longer steps and one more move carry the particles further per accurate evaluation. Measured with SCREEN_TOP 0.75
-#: (docs/updating.md, "Longer steps, a later hand-over"): on the a/D 0.1 spectral case over 8 seeds, 1 000 samples,
-#: 29 % fewer spectral evaluations and 1.41x less CPU than 0.25, 3 moves and SCREEN_TOP 0.5, the means and
+#: (docs/updating-measured.md, "Longer steps, a later hand-over"): on the a/D 0.1 spectral case over 8 seeds, 1 000
+#: samples, 29 % fewer spectral evaluations and 1.41x less CPU than 0.25, 3 moves and SCREEN_TOP 0.5, the means and
 #: quantiles as close to a 3 000-sample reference. Its cost: fewer distinct final samples (a proxy calibration, zoa
 #: screening zoa, 2 x 100 campaigns: median 378 and 396 against 498 and 485; 3 false conflicts named against 1)
 DELAYED_MOVES = 4
@@ -67,7 +67,7 @@ DELAYED_ACCEPT_TARGET = 0.15
 SCREEN_STEPS = 1
 #: delayed acceptance's screen anchored at each particle (:func:`tempered_smc`'s ``anchored``: the zero-order limits of
 #: the proposal times the particle's own accurate / zero-order ratio per data column, a state-dependent screen), in a
-#: fresh update without measured chatter frequencies (docs/updating.md, "An anchored screen")
+#: fresh update without measured chatter frequencies (docs/updating-measured.md, "An anchored screen")
 ANCHORED = True
 
 

@@ -149,7 +149,7 @@ class CampaignOptions:
             campaigns of 300 samples, ``bench_conditions_campaign.py --final fresh``): held-out Brier in unseen
             conditions 0.079 against the sequential posterior's 0.085 on the same cuts, but two fresh updates of one
             machine's cuts with other seeds scored 0.070 and 0.103 (the sequential 0.097): within the seed scatter
-            of 300-sample posteriors (docs/updating.md, "The truth, converged").
+            of 300-sample posteriors (docs/updating-measured.md, "The truth, converged").
         keep: after which numbers of cuts to keep the posterior (for maps).
         best_speeds: speeds of the grid on which the best truly stable cut is sought (≥ 2; a slow truth: fewer).
         decision: more keywords of :func:`recommend` (``confidence``, ``speed_tolerance``, ``test_risk``,

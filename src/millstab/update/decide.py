@@ -231,10 +231,11 @@ def distinct_limits(prior, u: np.ndarray, rpm, engine: str = "zoa", options: dic
     """:func:`millstab.update.likelihood.limits` (N, S) [mm] of the rows u = ln θ (N, P) at speeds rpm (S,) [rpm], each
     DISTINCT row evaluated once and its limits copied to its repeats. Why: a posterior is resampled every tempering
     stage and a move keeps a particle where its proposal is rejected, so its rows repeat (the spectral posteriors of
-    the a/D 0.1 campaigns, docs/updating.md "A spectral campaign now": ~30 % repeats), and a decision that counts
-    samples needs every row's limit but not every row's engine call. The same numbers: a row's limit does not depend
-    on the other rows of a call (each row is its own search; spectral without warm starts under the sampling
-    discretisation; sdm's steps follow the highest natural frequency of the rows, the same over the distinct ones).
+    the a/D 0.1 campaigns, docs/updating-measured.md "A spectral campaign now": ~30 % repeats), and a decision
+    that counts samples needs every row's limit but not every row's engine call. The same numbers: a row's limit
+    does not depend on the other rows of a call (each row is its own search; spectral without warm starts under the
+    sampling discretisation; sdm's steps follow the highest natural frequency of the rows, the same over the distinct
+    ones).
     ``ceiling_mm``: one ceiling [mm] for every entry, a censored search where the engine has one (``takes_ceiling``,
     no ``client``): an entry at or above it is a lower bound of its limit, one below it the limit."""
     u = np.asarray(u, float)
@@ -746,7 +747,7 @@ def frequencies_place_modes(post: Posterior) -> bool:
     """Whether the posterior's cuts carry chatter frequencies that place its natural frequencies: at least
     :data:`PLACE_MODES_CUTS` cuts labelled chatter (or marginal) with a measured frequency, read as the member near
     the mode (``prior.chatter_hz_alias`` < 1; read modulo the tooth-passing frequency alone, a frequency cannot tell
-    neighbouring lobes apart, docs/updating.md "Chatter frequencies on the softer campaigns")."""
+    neighbouring lobes apart, docs/updating-measured.md "Chatter frequencies on the softer campaigns")."""
     if not post.prior.chatter_hz_alias < 1:
         return False
     hz = np.asarray(post.cuts.get("chatter_hz", []) or [], dtype=float)
@@ -1154,8 +1155,8 @@ def next_test_discriminating(post: Posterior, nt: dict, model_cut: tuple[float, 
 
     Why: a posterior that contradicts its hammer test has moved into the prior's tails along the cheapest path
     the cuts allow, not necessarily towards the truth (the softer campaigns: one stiffness far off, the natural
-    frequencies left at the tap test's; docs/updating.md, "Why the softer campaigns stop low"). A cut chosen for
-    its information about θ under that posterior tests where the posterior is unsure and never asks whether a
+    frequencies left at the tap test's; docs/updating-measured.md, "Why the softer campaigns stop low"). A cut chosen
+    for its information about θ under that posterior tests where the posterior is unsure and never asks whether a
     structure it gives no mass to explains the cuts better; the conflict test asks exactly that. ``nt`` stands
     when it tests the recommendation itself (the blind spot, :func:`blind_spot`: a safety rule), when no cut
     tells the two apart (the conflict test returns ``None``) and when the rival fits the cuts so far worse than
@@ -1189,7 +1190,7 @@ def next_test_gain(post: Posterior, nt: dict, model_cut: tuple[float, float], ri
     guard) the posterior samples are reweighted by each label's likelihood, and the recommendation of each reweighted
     posterior (the weighted ``risk``-quantile of the limits at each speed, capped, the most productive speed) is
     averaged over the two labels (:func:`millstab.update._gain.expected_best`). The gain is that average minus the
-    productivity now; the cut with the largest gain is the test. Why (docs/updating.md, "The default prior"): a
+    productivity now; the cut with the largest gain is the test. Why (docs/updating-measured.md, "The default prior"): a
     posterior that contradicts its hammer test is often split between lobe numbers, and the recommendation is held
     by the minority of samples whose limit is low in the productive pocket; the most informative cut tests where
     the samples disagree most, often a pocket the truth does not have, while this test asks where a label would

@@ -30,7 +30,7 @@ samples, :func:`limits`) and depth noise σ_b:
   displacement) says more: with ``[prior] chatter_hz_alias`` a < 1 the term is the mixture (1 − a)·N(f_m −
   f_c) + a·N(nearest-member distance), the first placing the natural frequency itself, not only the
   lobe's phase (the family's aliases are exactly the lobe-number ambiguity fn ↔ fn·(n + 1)/n, so the
-  reading modulo f_tp cannot tell those lobes apart; measured in docs/updating.md, "Chatter frequencies
+  reading modulo f_tp cannot tell those lobes apart; measured in docs/updating-measured.md, "Chatter frequencies
   on the softer campaigns"); a = 1 is the family term alone, a = 0.1 the default
   (:data:`millstab.update.prior.DEFAULT_CHATTER_HZ_ALIAS`);
 * a boundary point (no label): Gaussian in depth, N(b; b_lim, σ_b²);
@@ -720,7 +720,7 @@ class Likelihood:
         only asks whether log L clears a threshold (:func:`millstab.update.sampler.tempered_smc`).
 
         Why (issue 28): 42 % of the proposals that pass the zero-order screen are rejected by the accurate
-        engine (docs/updating.md, "Where the accurate update's time goes"), and a rejection is often decided by
+        engine (docs/updating-measured.md, "Where the accurate update's time goes"), and a rejection is often decided by
         one or two cuts. Each cut's term is a log-probability (≤ 0) and each speed's limit does not depend on the
         other speeds of a call, so the speed columns are evaluated in rounds (:data:`BOUND_ROUNDS`, the columns
         whose cuts cost the most log-likelihood so far first): a row whose partial sum is below the floor by

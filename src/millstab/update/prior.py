@@ -15,7 +15,7 @@ Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²).
   parameter about like one parameter off by r√M σ, where independent tails make the one far-off
   parameter much cheaper (measured: a softer tool, all six parameters 3.6σ off, against a posterior
   with k 8.6σ off and the rest at the tap test: 13.8 nats apart under ``"student"``, 0.3 under this;
-  docs/updating.md, "Why the softer campaigns stop low"). A free Kt or Kr keeps its own independent
+  docs/updating-measured.md, "Why the softer campaigns stop low"). A free Kt or Kr keeps its own independent
   t_ν: it comes from cutting tests or a table, not from the tap test, so its error is not the tap
   test's error and must not share its scale (a shared one would also let a Kt far off make every
   modal parameter's tails broad).
@@ -26,8 +26,8 @@ Coordinates: the sampler works in u = ln θ (θ in Hz, N/m, -, and Kt in N/m²).
   shift. The physics: a tool held otherwise than in the idle tap test (clamping, holder, overhang, bearings under
   load) moves every mode's stiffness together and every natural frequency together, one hypothesis, not six
   coincidences: the whole tap test 3.66σ off in all six is 5.9 nats above one stiffness 8.6σ off (0.4 apart under
-  ``"multivariate_t"``). Measured (docs/updating.md, "A rival component and the gain test"; S chosen among 1.5, 3
-  and 5 on 8 softer campaigns, then checked on 32 wrong-hammer-test campaigns, 16 of them new, the one-kind-off
+  ``"multivariate_t"``). Measured (docs/updating-measured.md, "A rival component and the gain test"; S chosen among 1.5,
+  3 and 5 on 8 softer campaigns, then checked on 32 wrong-hammer-test campaigns, 16 of them new, the one-kind-off
   ones and the 100 calibration campaigns): see :data:`DEFAULT_TAILS`. Its support removes 4.4 % of its draws (the
   widest common shifts), a constant left out of :meth:`Prior.logpdf`.
 
@@ -105,18 +105,18 @@ DEFAULT_CHATTER_HZ_ALIAS = 0.1
 #: default probability that a cut's label is swapped (a shop mislabels a cut now and then)
 DEFAULT_LABEL_ERROR = 0.02
 #: default tails of the modal parameters' prior (see the module docstring): ``"multivariate_t_shift"`` since 2026-11-28
-#: (docs/updating.md, "The default prior, again"): on 32 campaigns with the hammer test 3.6σ off in every parameter (16
-#: softer, 16 stiffer; no chatter frequencies) against ``"multivariate_t"`` in the same campaigns: softer side,
-#: recommendations from round 3 on that chatter 1 / 128 against 4 / 128, last recommendation 0.56 of the best against
-#: 0.48 (6 / 16 against 4 / 16 at ≥ 0.60), test cuts that chattered 41 / 288 against 83 / 288; stiffer side 1.00 either
-#: way; the 100 calibration campaigns (hammer test right) 98 / 100 final recommendations truly stable, 90 % coverage
-#: 0.94, no conflict named. Where it lost: ζ ×3 alone (4 campaigns), last recommendation 0.72 against 0.85 of the best,
-#: one chattering recommendation (round 5) against none from round 3 on. ``"multivariate_t"`` before it moved the whole
-#: structure where independent tails move k alone (softer tool, no frequencies: 0.54 of the best against 0.16). Switched
-#: on 2026-11-28, back the same night (with the accurate engine's sampler its quantiles were off a reference by up to 11
-#: sd in one of 8 seeds), and again after that was explained (32 seeds, six references, importance sampling): no bias of
-#: the sampler; the rival component gives that case far modes (a lobe alias, both fn about a third low) of ~2 % mass,
-#: which every sampler weighs with heavy-tailed scatter
+#: (docs/updating-measured.md, "The default prior, again"): on 32 campaigns with the hammer test 3.6σ off in every
+#: parameter (16 softer, 16 stiffer; no chatter frequencies) against ``"multivariate_t"`` in the same campaigns: softer
+#: side, recommendations from round 3 on that chatter 1 / 128 against 4 / 128, last recommendation 0.56 of the best
+#: against 0.48 (6 / 16 against 4 / 16 at ≥ 0.60), test cuts that chattered 41 / 288 against 83 / 288; stiffer side 1.00
+#: either way; the 100 calibration campaigns (hammer test right) 98 / 100 final recommendations truly stable, 90 %
+#: coverage 0.94, no conflict named. Where it lost: ζ ×3 alone (4 campaigns), last recommendation 0.72 against 0.85 of
+#: the best, one chattering recommendation (round 5) against none from round 3 on. ``"multivariate_t"`` before it moved
+#: the whole structure where independent tails move k alone (softer tool, no frequencies: 0.54 of the best against
+#: 0.16). Switched on 2026-11-28, back the same night (with the accurate engine's sampler its quantiles were off a
+#: reference by up to 11 sd in one of 8 seeds), and again after that was explained (32 seeds, six references, importance
+#: sampling): no bias of the sampler; the rival component gives that case far modes (a lobe alias, both fn about a third
+#: low) of ~2 % mass, which every sampler weighs with heavy-tailed scatter
 DEFAULT_TAILS = "multivariate_t_shift"
 TAILS = ("student", "normal", "mixture", "multivariate_t", "multivariate_t_shift")
 #: the tails whose modal parameters share one t scale (see the module docstring)

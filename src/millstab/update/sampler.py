@@ -51,7 +51,7 @@ has just computed, so it costs no engine call. π(x) q(x, y) g(x, y) α₂(x, y)
 symmetric in x and y, so the kernel is π-reversible whatever the screen; dropping g(y, x) is not (tests/
 test_sampler_delayed.py: the conjugate variances 0.66–0.81 of the posterior's). The bounded second stage still
 applies: g(y, x) ≤ 1, so the floor with g(y, x) = 1 is necessary for acceptance. Measured on the a/D 0.1 spectral
-case (docs/updating.md, "An anchored screen"; seed studies of 8 × 300 and 4 × 1 000 samples): 1.23–1.29× fewer
+case (docs/updating-measured.md, "An anchored screen"; seed studies of 8 × 300 and 4 × 1 000 samples): 1.23–1.29× fewer
 accurate sets and 3–6 % fewer spectral evaluations (the bounded stage had made most rejections cheap already), CPU
 within the machine's noise, the posterior as close to a 3 000-sample reference.
 

@@ -17,7 +17,7 @@ particles, tested on 168 spectral posterior ones): constant 0.124, linear 0.112,
 quadratic 0.181 (over-fitted), the correction's own sd ~0.12–0.17: at a/D 0.1 the correction is rough on the
 posterior's scale (the lobes of the two models differ in shape, not by a smooth factor), so no regression
 tried predicts much of it; linear is the cheapest and was best. The held-out error is reported
-(:attr:`Corrected.heldout_rms`) so the accuracy is seen, not assumed (docs/updating.md, "A
+(:attr:`Corrected.heldout_rms`) so the accuracy is seen, not assumed (docs/updating-measured.md, "A
 surrogate-corrected update").
 
 Units: δ in ln(mm/mm) (dimensionless); the likelihood's interface as :mod:`millstab.update.likelihood`.

@@ -286,3 +286,17 @@ def test_cli_one_cut_plot_and_labelled_list(tmp_path, capsys):
     assert main(["simulate", "example:ex1", "--rpm", "9000", "--depth", "1", "--steps", "10"]) == 2
     assert main(["simulate", "example:ex1", "--cuts", str(cuts), "--out", str(cuts)]) == 2  # never overwrite the input
     assert cuts.read_text() == "rpm,depth_mm\n9000,1\n9000,8\n"
+
+
+def test_the_labelled_file_keeps_the_users_depths_as_written(tmp_path):
+    """The labels hold depths in m; through m and back 3.34 mm reads 3.3400000000000003 mm, so the labelled file
+    would not show the user's own numbers (it did until 2026-11-28). Every cell of rpm and depth is the input's."""
+    from millstab.cli import main
+
+    assert 3.34e-3 * 1e3 != 3.34  # the trap this guards against is real
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm\n9000,3.34\n7012.5,0.29\n")
+    out = tmp_path / "labelled.csv"
+    assert main(["simulate", "example:ex1", "--cuts", str(cuts), "--out", str(out), "--revs", "20"]) == 0
+    rows = [r.split(",") for r in out.read_text().splitlines()[1:]]
+    assert [(r[0], r[1]) for r in rows] == [("9000.0", "3.34"), ("7012.5", "0.29")]

@@ -125,12 +125,15 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, rev
 
 def labels_table(labels, cuts: PointSet | None = None) -> tuple[list[str], list]:
     """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``),
-    and the condition columns of ``cuts`` as read (so the labelled file keeps each cut's condition)."""
+    and the condition columns of ``cuts`` as read (so the labelled file keeps each cut's condition). With
+    ``cuts``, its speeds and depths are written as read: the labels carry depths in m, and 3.34 mm through m
+    and back is 3.3400000000000003 mm in the user's file."""
     from millstab.io.points import condition_columns
 
     header, cols = labels.table()
     header, cols = list(header), list(cols)
     if cuts is not None:
+        cols[0], cols[1] = cuts.rpm, cuts.depth_mm
         h, c = condition_columns(cuts)
         header, cols = header + h, cols + c
     return header, cols

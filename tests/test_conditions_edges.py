@@ -230,6 +230,37 @@ def test_the_posterior_file_keeps_its_conditions_and_the_guard_holds_per_conditi
     assert two.trained_conditions == (two.prior.cutting,)
 
 
+
+def test_a_map_draws_only_the_cuts_made_in_its_condition():
+    """A slot's chatter at 40 mm says nothing direct about a half-immersion map (whose limits are elsewhere): the
+    map of each condition draws its own cuts and counts the others in its legend (it drew every cut before), and
+    the app's filter of an uploaded cuts file picks the same cuts."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from millstab import api
+
+    rpm = np.linspace(5000, 9000, 6)
+    rows = ["rpm,depth_mm,label,radial_immersion,milling"]
+    rows += [f"{r},0.5,stable,," for r in rpm] + [f"{r},40,chatter,," for r in rpm]
+    rows += ["7000,0.3,chatter,0.5,down"]
+    cuts = parse_points("\n".join(rows) + "\n")
+    post = update(CFG, cuts, samples=100, seed=0)
+    half = post.for_condition(post.conditions[1])
+    grid, depth = np.linspace(5000, 9000, 5), np.linspace(0.5, 45, 4)
+    for p, want, other in ((post, {"stable": 6, "chatter": 6}, "1 cut in other conditions: not drawn"),
+                           (half, {"chatter": 1}, "12 cuts in other conditions: not drawn")):
+        fig = api.map_figure(p, grid, depth, np.full((5, 4), 0.5))
+        ax = fig.axes[0]
+        drawn = {ln.get_label(): len(ln.get_xdata()) for ln in ax.get_lines() if ln.get_label() in ("stable", "chatter")}
+        assert drawn == want
+        assert other in [t.get_text() for t in ax.get_legend().get_texts()]
+        plt.close(fig)
+    shown, elsewhere = api.cuts_in_condition(half, cuts, CFG.cutting)
+    assert (list(shown.rpm), list(shown.depth_mm), elsewhere) == ([7000.0], [0.3], 12)
+    shown, elsewhere = api.cuts_in_condition(post, cuts, CFG.cutting)
+    assert len(shown) == 12 and elsewhere == 1
+
 # --- the doors ----------------------------------------------------------------------------------------------
 def test_map_and_recommend_doors_take_the_target_condition(tmp_path, capsys):
     from millstab.cli import main
@@ -330,12 +361,16 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
     try:
         tab = UpdateTab(s)
         s.cfg, s.post = CFG, _posterior_of_draws(200)
+        s.cuts = parse_points("rpm,depth_mm,label,radial_immersion,milling\n5000,1,stable,,\n6000,9,chatter,,\n"
+                              "7000,3,stable,0.25,up\n")
         ran = []
         tab.map_job.start = lambda work, done: (ran.append(1), done(work(None), []))
         tab.target_ri.value, tab.target_milling.value = 0.25, "up"
         tab.map()
         assert ran and "computed for a/D 0.25 up milling, 2 teeth" in tab.rec.text
         assert s.rec.computed_for["milling"] == "up"
+        # the map draws the one cut made at a/D 0.25 up, and says the slot's two are not drawn
+        assert list(tab.map_cuts.rpm) == [7000.0] and "2 cuts in other conditions not drawn" in tab.rec.text
         tab.target_milling.value = "config's"  # a/D 0.25 on a slot config: no direction to take
         ran.clear()
         tab.map()

@@ -518,6 +518,15 @@ def condition_of(base: Cutting, *, radial_immersion: float | None = None, radial
     return replace(base, teeth=n, entry=c.entry, exit=c.exit)
 
 
+def in_condition(points: PointSet, base: Cutting, target: Cutting, diameter_mm: float | None = None) -> np.ndarray:
+    """Boolean mask (n,) of the points cut in ``target`` (:func:`same_condition`), each point's condition read
+    from its columns with ``base`` (the config's cutting) filling empty cells: what a plot of ``target``'s limits
+    may draw (a slot's chatter at 2 mm says nothing direct about a finishing pass whose limit is 10 mm)."""
+    conds, idx = cut_conditions(points, base, diameter_mm)
+    same = np.array([same_condition(c, target) for c in conds], dtype=bool)
+    return same[idx] if len(idx) else np.zeros(0, dtype=bool)
+
+
 def cut_conditions(points: PointSet, base: Cutting, diameter_mm: float | None = None
                    ) -> tuple[tuple[Cutting, ...], np.ndarray]:
     """(conditions, index (n,) int): one :class:`Cutting` per distinct condition of the points, in order of
@@ -567,6 +576,6 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
 
 
 __all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text",
-           "cut_conditions", "cut_feeds", "describe_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS",
+           "cut_conditions", "cut_feeds", "describe_condition", "in_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS",
            "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds", "grade_of_cell",
            "label_of_grade", "parse_label_codes"]

@@ -46,6 +46,7 @@ _HOMES = {
     "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
                 "fit_rpm", "history_figure", "identify"),
     "update": ("ENGINE_OPTION_FORM", "at_stickout", "check_engine_options", "condition_line", "corner_figure",
+               "cuts_in_condition",
                "decision_rule", "depth_grid", "engine_keywords", "engine_option_pairs", "engine_options_from_text",
                "engine_update_note", "for_condition", "limit_memo",
                "map_figure", "map_samples", "map_samples_text", "map_table", "p_stable",

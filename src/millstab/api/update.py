@@ -13,6 +13,7 @@ from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
+from millstab.points import PointSet
 from millstab.io.config import with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
 from millstab.config import Config
 from millstab.points import PointSet
@@ -220,6 +221,15 @@ def posterior_from_json(doc, source: str = "posterior"):
     return Posterior.from_json(doc, str(source))
 
 
+def cuts_in_condition(post, cuts: PointSet, base) -> tuple[PointSet, int]:
+    """(the cuts made in the condition ``post`` decides for, how many were made in others): what a map of that
+    condition may draw; ``base`` (the config's cutting) fills the cuts' empty condition cells."""
+    from millstab.points import in_condition
+
+    mask = in_condition(cuts, base, post.condition, post.diameter_mm)
+    return cuts.subset(mask), int((~mask).sum())
+
+
 def for_condition(post, *, radial_immersion: float | None = None, milling: str | None = None,
                   entry_deg: float | None = None, exit_deg: float | None = None, teeth: int | None = None,
                   radial_width_mm: float | None = None):
@@ -350,7 +360,9 @@ def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[li
 
 
 def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, title: str = "P(stable)"):
-    """The P(stable) map with its 5/50/95 % boundaries, the prior's SLD and the cuts (``millstab map --plot``)."""
+    """The P(stable) map with its 5/50/95 % boundaries, the prior's SLD and the cuts made in the posterior's
+    condition (the decision's: those in other conditions are counted in the legend, not drawn; ``millstab map
+    --plot``)."""
     from millstab.plot.update import plot_pmap
     from millstab.stability import get_engine
 
@@ -361,7 +373,9 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
         prior_sld = forward(par, post.prior.cutting, post.engine, options=post.engine_options)(par.theta0, rpm)[0] * 1e3
     else:
         prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
-    return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, post.cuts, title=title)
+    drawn = post.cuts_in_condition()  # a cut in another condition belongs to another boundary
+    elsewhere = len((post.cuts or {}).get("rpm") or []) - len(drawn.get("rpm") or [])
+    return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, drawn, title=title, elsewhere=elsewhere)
 
 
 def corner_figure(post):

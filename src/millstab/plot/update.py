@@ -45,8 +45,10 @@ def plot_corner(samples: np.ndarray, names, units, truth: np.ndarray | None = No
 
 
 def plot_pmap(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, prior_rpm=None, prior_depth_mm=None,
-              cuts: dict | None = None, recommended: dict | None = None, title: str = ""):
-    """P(stable) (S, D) as colour with its 5/50/95 % contours, the prior's SLD and the labelled cuts."""
+              cuts: dict | None = None, recommended: dict | None = None, title: str = "", elsewhere: int = 0):
+    """P(stable) (S, D) as colour with its 5/50/95 % contours, the prior's SLD and the labelled cuts (those made
+    in the map's condition); ``elsewhere``: how many cuts were made in other conditions, named in the legend
+    and not drawn (their depths belong to other limits)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -66,6 +68,8 @@ def plot_pmap(rpm: np.ndarray, depth_mm: np.ndarray, p_stable: np.ndarray, prior
                 ax.plot(r[sel], d[sel], m, color=c, mec="k" if m != "x" else c, ms=6, label=name or "boundary point")
     if recommended:
         ax.plot(recommended["rpm"], recommended["depth_mm"], "*", color="gold", mec="k", ms=14, label="recommended")
+    if elsewhere:
+        ax.plot([], [], " ", label=f"{elsewhere} cut{'s' if elsewhere > 1 else ''} in other conditions: not drawn")
     ax.set_xlim(rpm.min(), rpm.max())
     ax.set_ylim(depth_mm.min(), depth_mm.max())
     ax.set_xlabel("spindle speed [rpm]")

@@ -66,6 +66,7 @@ class UpdateTab:
         self._engine_changed()
         self.job = JobBar("Update", "update")
         self.map_condition = ""  # "computed for ..." of the last map
+        self.map_cuts = None  # the cuts the last map draws: those made in its condition
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
         self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
@@ -280,6 +281,10 @@ class UpdateTab:
             return
         # an accurate engine's map reads a seeded subsample (api.map_samples): its error is stated beside it
         self.map_condition = f"{api.condition_line(post)}; P(stable) from {api.map_samples_text(post)}"
+        # the map draws the cuts made in its condition; one in another belongs to another boundary
+        self.map_cuts, elsewhere = api.cuts_in_condition(post, cuts, cfg.cutting) if cuts is not None else (None, 0)
+        if elsewhere:
+            self.map_condition += f"; {elsewhere} cut{'s' if elsewhere > 1 else ''} in other conditions not drawn"
 
         def work(progress):
             depth = api.depth_grid(top, field="map depth up to")
@@ -305,7 +310,7 @@ class UpdateTab:
         marks = [(rec.rpm, rec.depth_mm, "recommended")]
         if "rpm" in nt and "depth_mm" in nt:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
-        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.s.cuts, marks=marks),
+        self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
         self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"

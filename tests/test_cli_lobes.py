@@ -36,6 +36,25 @@ def test_lobes_with_points_rpm_file_svg(tmp_path):
     assert fig.read_text().lstrip().startswith(("<?xml", "<svg"))
 
 
+
+def test_lobes_draws_only_the_points_cut_in_the_configs_condition(tmp_path, capsys, monkeypatch):
+    """The SLD is the config's condition (Ex.1: a slot); a point cut at a/D 0.25 up milling belongs to another
+    boundary: it is left out of the figure and the console says so (it was drawn before)."""
+    from millstab import api
+
+    pts = tmp_path / "p.csv"
+    pts.write_text("rpm,depth_mm,label,radial_immersion,milling\n4000,1.0,stable,,\n4000,3.0,chatter,,\n"
+                   "5000,9.0,chatter,0.25,up\n")
+    seen = []
+    draw = api.lobes_figure
+    monkeypatch.setattr(api, "lobes_figure", lambda result, points=None, **k: (seen.append(points),
+                                                                               draw(result, points=points, **k))[1])
+    fig = tmp_path / "sld.png"
+    assert main(["lobes", "example:ex1", "--rpm", "3000:6000:500", "--points", str(pts), "--plot", str(fig)]) == 0
+    assert list(seen[0].rpm) == [4000.0, 4000.0] and list(seen[0].label) == ["stable", "chatter"]
+    assert "1 of the 3 points were cut in other conditions than the config's: not drawn" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("args,needle", [
     (["lobes", "example:nope"], "example"),
     (["lobes", "example:ex1", "--rpm", "5000:100:10"], "--rpm"),

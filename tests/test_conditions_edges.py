@@ -379,6 +379,30 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
         s.close()
 
 
+
+def test_the_apps_sld_overlays_the_cuts_made_in_the_configs_condition():
+    """The Lobes tab draws the config's SLD; of the uploaded cuts it overlays those made in the config's
+    condition (a cut at a/D 0.25 up was drawn on the slot's SLD before)."""
+    pytest.importorskip("panel")
+    from millstab import api
+    from millstab.web.lobes_tab import LobesTab
+    from millstab.web.state import Session
+
+    cuts = parse_points("rpm,depth_mm,label,radial_immersion,milling\n5000,1,stable,,\n6000,9,chatter,,\n"
+                        "7000,3,stable,0.25,up\n")
+    assert list(api.in_config_condition(cuts, CFG).rpm) == [5000.0, 6000.0]
+    plain = parse_points("rpm,depth_mm,label\n5000,1,stable\n")
+    assert api.in_config_condition(plain, CFG) is plain and api.in_config_condition(None, CFG) is None
+    s = Session()
+    try:
+        s.cfg = CFG
+        tab = LobesTab(s)
+        s.cuts = cuts
+        assert list(tab.src["pts_stable"].data["rpm"]) == [5000.0]
+        assert list(tab.src["pts_chatter"].data["rpm"]) == [6000.0]
+    finally:
+        s.close()
+
 def test_cross_validation_predicts_each_held_out_cut_in_its_own_condition():
     """The validation's millstab column equals predict_cuts with each held-out cut's condition (fails if the
     folds' posteriors predicted every cut in the config's slot)."""

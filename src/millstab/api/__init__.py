@@ -39,7 +39,7 @@ import types
 _HOMES = {
     "inputs": ("check_samples", "check_seed", "check_size", "check_speeds", "config", "config_fields",
               "config_from_fields", "config_from_text", "config_toml", "list_example_points", "list_examples",
-              "overlay_points",
+              "in_config_condition", "overlay_points",
               "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds",
               "SHOWN_UNITS", "shown_value"),
     "lobes": ("ENGINES", "Lobes", "cheapest_engine", "envelope", "lobes", "lobes_figure", "raw_lobes"),

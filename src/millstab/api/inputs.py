@@ -82,6 +82,16 @@ def overlay_points(*sets: PointSet | None) -> PointSet | None:
                     np.concatenate([p.label for p in sets]))
 
 
+def in_config_condition(points: PointSet | None, cfg: Config | None) -> PointSet | None:
+    """The points cut in the config's own condition (empty condition cells are the config's), to draw on its
+    SLD: a point cut in another condition belongs to another boundary. ``None`` stays ``None``."""
+    if points is None or cfg is None or not points.has_conditions:
+        return points
+    from millstab.points import in_condition
+
+    return points.subset(in_condition(points, cfg.cutting, cfg.cutting, getattr(cfg, "diameter_mm", None)))
+
+
 def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
     """A point set parsed from CSV text ``rpm,depth_mm[,label][,weight][,chatter_hz]`` (an upload), with the
     same checks as a file; ``name`` names it in messages."""

@@ -49,13 +49,10 @@ def lobes(
     if plot:
         from millstab.io.figures import save_figure
 
-        if pts is not None and pts.has_conditions:  # the SLD is the config's condition: draw the points cut in it
-            from millstab.points import in_condition
-
-            keep = in_condition(pts, cfg.cutting, cfg.cutting, getattr(cfg, "diameter_mm", None))
-            if not keep.all():
-                typer.echo(f"{int((~keep).sum())} of the {len(pts)} points were cut in other conditions than the "
-                           "config's: not drawn")
-            pts = pts.subset(keep)
+        drawn = api.in_config_condition(pts, cfg)  # the SLD is the config's condition: the points cut in it
+        if pts is not None and len(drawn) < len(pts):
+            typer.echo(f"{len(pts) - len(drawn)} of the {len(pts)} points were cut in other conditions than the "
+                       "config's: not drawn")
+        pts = drawn
         save_figure(api.lobes_figure(result, points=pts, raw=raw), plot, protect=protect)
         typer.echo(f"wrote {plot}")

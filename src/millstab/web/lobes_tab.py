@@ -33,12 +33,13 @@ class LobesTab:
         self.engine.param.watch(lambda e: self.redraw(), "value")
         self.raw.param.watch(lambda e: self.redraw(), "value")
         session.param.watch(lambda e: self.redraw(), "cfg")
-        session.param.watch(lambda e: self.overlay(), ["points", "cuts"])
+        session.param.watch(lambda e: self.overlay(), ["points", "cuts", "cfg"])
         self.timing = 0.0
         self.redraw()
 
     def overlay(self) -> None:
-        set_points(self.src, api.overlay_points(self.s.points, self.s.cuts))
+        # the SLD is the config's condition: cuts made in others are not drawn on it
+        set_points(self.src, api.overlay_points(self.s.points, api.in_config_condition(self.s.cuts, self.s.cfg)))
 
     def redraw(self, force: bool = False) -> None:
         cfg, origin = self.s.cfg, self.s.origin

@@ -252,7 +252,8 @@ def test_a_map_draws_only_the_cuts_made_in_its_condition():
                            (half, {"chatter": 1}, "12 cuts in other conditions: not drawn")):
         fig = api.map_figure(p, grid, depth, np.full((5, 4), 0.5))
         ax = fig.axes[0]
-        drawn = {ln.get_label(): len(ln.get_xdata()) for ln in ax.get_lines() if ln.get_label() in ("stable", "chatter")}
+        drawn = {ln.get_label(): len(ln.get_xdata()) for ln in ax.get_lines()
+                 if ln.get_label() in ("stable", "chatter")}
         assert drawn == want
         assert other in [t.get_text() for t in ax.get_legend().get_texts()]
         plt.close(fig)

@@ -576,6 +576,6 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
 
 
 __all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text",
-           "cut_conditions", "cut_feeds", "describe_condition", "in_condition", "same_condition", "CLASS_EDGE", "GRADE", "LABELS",
-           "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds", "grade_of_cell",
-           "label_of_grade", "parse_label_codes"]
+           "cut_conditions", "cut_feeds", "describe_condition", "in_condition", "same_condition", "CLASS_EDGE", "GRADE",
+           "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds",
+           "grade_of_cell", "label_of_grade", "parse_label_codes"]

@@ -203,17 +203,21 @@ def recorded_moves(on: bool):
     if not on:
         yield rec
         return
-    move = smc._delayed_move
+    move, anchored = smc._delayed_move, smc._anchored_move
 
     def recording(u, ll, lp, sll, slp, prop, beta, *a, **k):
         rec.append((u.copy(), prop.copy(), beta))
         return move(u, ll, lp, sll, slp, prop, beta, *a, **k)
 
-    smc._delayed_move = recording
+    def recording_anchored(u, ll, lp, sll, slp, zd, ad, prop, beta, *a, **k):  # the default screen's moves
+        rec.append((u.copy(), prop.copy(), beta))
+        return anchored(u, ll, lp, sll, slp, zd, ad, prop, beta, *a, **k)
+
+    smc._delayed_move, smc._anchored_move = recording, recording_anchored
     try:
         yield rec
     finally:
-        smc._delayed_move = move
+        smc._delayed_move, smc._anchored_move = move, anchored
 
 
 def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
@@ -242,9 +246,32 @@ def anchored_estimate(prior, cuts: PointSet, rec: list) -> None:
         ty_x = lpx + beta * loglik(zx * ay / zy, wx, okx)  # anchored at y, at x
         b1, b1_back = prob(tx_y - pix), prob(ty_x - piy)
         anc_acc = np.minimum(b1, np.exp(np.minimum(piy - pix, 700.0)) * b1_back)  # b1·α2 = min(b1, π(y)·b1_back/π(x))
+        # anchored with a slope: ln(accurate / zero-order) per column, linear in u over each move's particles
+        # (least squares on the distinct particles of the move; the slope is fixed within a move, as the step is)
+        lx, ly = np.zeros_like(ax), np.zeros_like(ay)
+        start = 0
+        for r in rec:
+            m = r[0].shape[0]
+            sl = slice(start, start + m)
+            start += m
+            ux, keep = np.unique(x[sl], axis=0, return_index=True)
+            z = np.log(ax[sl][keep] / zx[sl][keep])
+            good = np.isfinite(z).all(axis=1) & okx[sl][keep]
+            if good.sum() > x.shape[1] + 2:
+                A = np.c_[np.ones(good.sum()), ux[good] - ux[good].mean(axis=0)]
+                coef = np.linalg.lstsq(A, z[good], rcond=None)[0][1:]  # (P, S)
+            else:
+                coef = np.zeros((x.shape[1], ax.shape[1]))
+            d = (y[sl] - x[sl]) @ coef
+            lx[sl], ly[sl] = d, -d
+        sx_y = lpy + beta * loglik(zy * ax / zx * np.exp(lx), wy, oky)
+        sy_x = lpx + beta * loglik(zx * ay / zy * np.exp(ly), wx, okx)
+        c1, c1_back = prob(sx_y - pix), prob(sy_x - piy)
+        slope_acc = np.minimum(c1, np.exp(np.minimum(piy - pix, 700.0)) * c1_back)
     n = x.shape[0]
     print(f"anchored-screen estimate over {n} recorded proposals (plain MH acceptance {prob(piy - pix).mean():.3f}):")
-    for name, ev_, ac in (("zero-order screen", a1, plain_acc), ("anchored screen", b1, anc_acc)):
+    for name, ev_, ac in (("zero-order screen", a1, plain_acc), ("anchored screen", b1, anc_acc),
+                          ("anchored with a slope", c1, slope_acc)):
         print(f"  {name}: expected accurate evaluations {ev_.sum():.0f} ({ev_.mean():.3f} of the proposals), "
               f"accepted {ac.sum():.0f}, evaluations per accepted move {ev_.sum() / ac.sum():.2f}")
 

@@ -78,6 +78,30 @@ def test_two_raters_mean_grade_and_ratings_kept():
     assert parse("rpm,depth_mm,rater_ann,label2\n5000,1,stable,chatter\n").raters == ("ann", "2")
 
 
+def test_operator_columns_under_other_names_are_named_not_read_as_boundary_points():
+    """A shop's file with its operators' columns named op1, op2 (not label_NAME) has no label column: every row
+    would be a boundary point (a measured limit), which the update then fits as such (it did, silently but for
+    "ignored columns"). With --labels that is an error naming the columns to rename; without, a warning; a
+    constant feed column or a notes column is not mistaken for labels."""
+    text = ("rpm,depth_mm,op1,op2,feed,notes\n5000,1,0,0,0.1,ok\n5000,2,2,1,0.1,\n5100,1,0,0,0.1,loud\n")
+    with pytest.raises(InputError, match="no label column .*the columns op1, op2 hold labels: name them label_op1, "
+                                         "label_op2"):
+        parse(text, "0=stable,1=marginal,2=chatter")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        ps = parse(text)
+    msgs = [str(x.message) for x in w]
+    assert msgs[0].startswith("cuts.csv: no label column, so every row is read as a boundary point")
+    assert "op1, op2 hold labels" in msgs[0] and "feed" not in msgs[0] and "notes" not in msgs[0]
+    assert list(ps.label) == ["", "", ""]
+    fixed = parse(text.replace("op1,op2", "label_op1,label_op2", 1), "0=stable,1=marginal,2=chatter")
+    assert fixed.raters == ("op1", "op2") and list(fixed.label) == ["stable", "chatter", "stable"]
+    with warnings.catch_warnings(record=True) as w:  # a points file of boundary points: no label note
+        warnings.simplefilter("always")
+        parse("rpm,depth_mm,notes\n5000,1,a\n5100,2,b\n")
+    assert [str(x.message) for x in w] == ["cuts.csv: ignored columns: notes (kept, not used)"]
+
+
 def test_extra_columns_kept_with_one_note_and_batch_parsed():
     text = ("rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n"
             "5000,2,chatter,0.1,,2024-05-02\n")

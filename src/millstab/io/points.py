@@ -52,8 +52,8 @@ from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 # the model type lives below io (import it from millstab.points, its one home)
-from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, PointSet, check_enough, grade_of_cell, label_of_grade,
-                              parse_label_codes)
+from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_enough, grade_of_cell,
+                              label_of_grade, parse_label_codes)
 from millstab.warnlog import warn
 
 REQUIRED = ("rpm", "depth_mm")
@@ -129,6 +129,15 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
     return raters, batch, [h for h in names if h not in known]
 
 
+def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
+    """True when a column's non-empty cells all read as label words or codes (stable | marginal | chatter and
+    their synonyms, ``codes``' keys, or the 0/1/2 shops write for no / uncertain / clear chatter) and take at
+    least two values: a constant column (a feed of 0.1) or one of other numbers is not mistaken for labels."""
+    filled = {c.strip().lower() for c in cells if c.strip()}
+    words = set(GRADE) | set(SYNONYMS) | set(codes) | {"0", "1", "2"}
+    return len(filled) >= 2 and filled <= words
+
+
 def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict | None = None) -> PointSet:
     """Parse point-set CSV text (an upload, a string in a notebook) with the same checks as
     :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``;
@@ -202,6 +211,19 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         for h in conds:
             conds[h].append(_condition_cell(cells[col[h]], h, line, p))
     ignored = [h for h in unused if h not in KEPT_COLUMNS]
+    if not raters:  # every row a boundary point: say so where the file meant labels under another name
+        looks = [h for h in ignored if _holds_labels(extra[h], codes)]
+        rename = (f"; the column{'s' if len(looks) > 1 else ''} {', '.join(looks)} "
+                  f"hold{'' if len(looks) > 1 else 's'} labels: name "
+                  f"{'them label_' + ', label_'.join(looks) + ' (one per operator)' if len(looks) > 1 else 'it label'}"
+                  if looks else "")
+        if codes:
+            raise InputError(f"{p.name} header", ",".join(names),
+                             "--labels maps label codes, but the file has no label column (label, or one per "
+                             f"operator: label_NAME, labelN, rater_NAME){rename}")
+        if looks:
+            warn(f"{p.name}: no label column, so every row is read as a boundary point (a measured limit){rename}",
+                 UserWarning, stacklevel=3)
     if ignored:
         warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used)", UserWarning, stacklevel=3)
     ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))

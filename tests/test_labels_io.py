@@ -102,6 +102,17 @@ def test_operator_columns_under_other_names_are_named_not_read_as_boundary_point
     assert [str(x.message) for x in w] == ["cuts.csv: ignored columns: notes (kept, not used)"]
 
 
+@pytest.mark.parametrize("word,example", [("OK", "ok=stable,nok=chatter"), ("NOK", "nok=chatter,ok=stable"),
+                                          ("light chatter", "light chatter=marginal,ok=stable")])
+def test_a_shops_own_label_words_are_refused_with_a_mapping_to_copy(word, example):
+    """OK / NOK and the like are a shop's vocabulary: refused (never guessed), naming the line and column, with a
+    --labels example shaped like the word; the example, given, reads the file."""
+    text = f"rpm,depth_mm,label\n5000,1,stable\n6000,2,{word}\n"
+    with pytest.raises(InputError, match=f"cuts.csv line 3, label.*--labels {example}"):
+        parse(text)
+    assert parse(text, example).label[1] == {"ok": "stable", "nok": "chatter"}.get(word.lower(), "marginal")
+
+
 def test_extra_columns_kept_with_one_note_and_batch_parsed():
     text = ("rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n"
             "5000,2,chatter,0.1,,2024-05-02\n")

@@ -106,7 +106,18 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
                          "e.g. --labels yes=chatter,no=stable")
     if codes:
         raise ValueError(f"{LABEL_RULE}, or one of the codes of --labels ({', '.join(codes)})")
-    raise ValueError(LABEL_RULE)
+    # a shop's own words (OK / NOK, light chatter, ...) are mapped, not guessed
+    raise ValueError(f"{LABEL_RULE}; map your own words with --labels, e.g. --labels {_code_example(s)}")
+
+
+def _code_example(word: str) -> str:
+    """A --labels example for a word a reader does not know, shaped like the word: 'ok=stable,nok=chatter'."""
+    w = word.replace(",", " ").replace("=", " ").strip() or "ok"
+    if any(k in w for k in ("light", "slight", "some", "maybe")):
+        return f"{w}=marginal,ok=stable"
+    if any(k in w for k in ("nok", "bad", "fail", "chatter", "noise", "loud")):
+        return f"{w}=chatter,ok=stable"
+    return f"{w}=stable,nok=chatter"
 
 
 def _float(s: str) -> float:

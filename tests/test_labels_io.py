@@ -3,6 +3,7 @@ columns kept and ignored; the errors still name the file, the line and the colum
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -168,3 +169,17 @@ def test_old_files_read_as_before(tmp_path):
     assert ps.label.tolist() == ["", "chatter", "stable"] and ps.weight.tolist() == [1, 2, 1]
     assert ps.raters == ("label",) and ps.extra == {} and (ps.batch == "").all()
     assert np.isnan(ps.grade[0]) and ps.grade[1:].tolist() == [1, 0]
+
+
+@pytest.mark.parametrize("depths,words", [(("0.001", "0.002"), "metres? 0.002 m is 2 mm"),
+                                          (("1000", "2000"), "micrometres? 2000 µm is 2 mm")])
+def test_depths_on_another_scale_are_read_as_written_and_warned(depths, words):
+    """A file of depths in metres or micrometres is read as written (mm), with one warning naming the likely unit;
+    ordinary depths (0.05-60 mm here) raise no warning."""
+    text = f"rpm,depth_mm,label\n5000,{depths[0]},stable\n6000,{depths[1]},chatter\n"
+    with pytest.warns(UserWarning, match=f"deepest cut is {depths[1]} mm .*" + re.escape(words)):
+        ps = parse(text)
+    assert ps.depth_mm.tolist() == [float(d) for d in depths]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse("rpm,depth_mm,label\n5000,0.05,stable\n6000,60,chatter\n")

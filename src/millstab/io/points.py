@@ -93,6 +93,9 @@ def read_points(path: PathLike, labels: str | dict | None = None) -> PointSet:
     return parse_points(text, p, labels)
 
 
+#: depth_mm outside this range [mm] for every cut of a file is warned about: a file of metres (0.002 = 2 mm) or of
+#: micrometres (2000 = 2 mm); micromilling's shallowest tests (~0.02 mm) and long-reach cuts lie inside it
+DEPTH_SCALE_MM = (0.02, 300.0)
 #: columns kept as text in ``PointSet.extra`` for a reader of their own, so not "ignored": the tool stickout of each
 #: cut (:mod:`millstab.io.stickout`, a posterior over the holder)
 KEPT_COLUMNS = ("stickout_mm",)
@@ -226,6 +229,12 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
                  UserWarning, stacklevel=3)
     if ignored:
         warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used)", UserWarning, stacklevel=3)
+    deepest = max(depth)
+    if deepest < DEPTH_SCALE_MM[0] or deepest > DEPTH_SCALE_MM[1]:  # read as written; the user is told the scale
+        hint = (f"metres? {deepest:g} m is {deepest * 1e3:g} mm" if deepest < DEPTH_SCALE_MM[0] else
+                f"micrometres? {deepest:g} µm is {deepest * 1e-3:g} mm")
+        warn(f"{p.name}: the deepest cut is {deepest:g} mm (column depth_mm is in mm): are the depths in {hint}",
+             UserWarning, stacklevel=3)
     ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))
     with np.errstate(all="ignore"):
         rated = ~np.isnan(ratings).all(axis=1)

@@ -643,3 +643,22 @@ def test_the_recommendation_is_drawn_over_the_next_test():
     fig = map_figure(rpm, depth, pm, marks=[(6000.0, 1.0, "recommended"), (6000.0, 1.0, "next test")])
     assert fig.renderers[-1].glyph.marker == "star"
     assert [item.label.value for item in fig.legend[0].items] == ["recommended", "next test"]
+
+
+def test_an_uploaded_cuts_file_shows_the_readers_notes():
+    """The reader's warnings reach the page under the upload (they were dropped): operators' label columns named
+    op1, op2 (every row would be a boundary point) and depths that look like metres."""
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        tab.drop.value = {"shop.csv": "rpm,depth_mm,op1,op2\n9000,3,2,2\n12000,0.5,0,1\n"}
+        assert "2 points" in tab.cuts_note.object
+        assert "no label column" in tab.cuts_note.object and "label_op1, label_op2" in tab.cuts_note.object
+        tab.drop.value = {"m.csv": "rpm,depth_mm,label\n9000,0.003,chatter\n12000,0.0005,stable\n"}
+        assert "are the depths in metres? 0.003 m is 3 mm" in tab.cuts_note.object
+        tab.drop.value = {"ok.csv": "rpm,depth_mm,label\n9000,3,chatter\n12000,0.5,stable\n"}
+        assert 'ms-note' not in tab.cuts_note.object
+    finally:
+        s.close()

@@ -24,12 +24,14 @@ def points_upload(session: Session, attr: str, drop, error, note) -> None:
         got = latest(drop, MAX_TEXT_BYTES, POINTS_TYPES, "points CSV")
         if got is None:
             return
-        pts = api.points_from_text(got[1], got[0])
+        with api.collect_warnings() as caught:  # the reader's notes (label columns, depth scale) reach the page
+            pts = api.points_from_text(got[1], got[0])
     except InputError as exc:
         error.object = error_html(str(exc))
         return
     setattr(session, attr, pts)
-    note.object = f'<span class="ms-done">{esc(got[0])}: {len(pts)} points</span>'
+    notes = "".join(f'<div class="ms-note">{esc(str(w.message))}</div>' for w in caught)
+    note.object = f'<span class="ms-done">{esc(got[0])}: {len(pts)} points</span>{notes}'
 
 
 class IdentifyTab:

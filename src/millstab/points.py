@@ -534,8 +534,7 @@ def in_condition(points: PointSet, base: Cutting, target: Cutting, diameter_mm: 
     from its columns with ``base`` (the config's cutting) filling empty cells: what a plot of ``target``'s limits
     may draw (a slot's chatter at 2 mm says nothing direct about a finishing pass whose limit is 10 mm)."""
     conds, idx = cut_conditions(points, base, diameter_mm)
-    same = np.array([same_condition(c, target) for c in conds], dtype=bool)
-    return same[idx] if len(idx) else np.zeros(0, dtype=bool)
+    return np.array([same_condition(c, target) for c in conds], dtype=bool)[idx]
 
 
 def cut_conditions(points: PointSet, base: Cutting, diameter_mm: float | None = None

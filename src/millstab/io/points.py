@@ -216,10 +216,10 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     ignored = [h for h in unused if h not in KEPT_COLUMNS]
     if not raters:  # every row a boundary point: say so where the file meant labels under another name
         looks = [h for h in ignored if _holds_labels(extra[h], codes)]
-        rename = (f"; the column{'s' if len(looks) > 1 else ''} {', '.join(looks)} "
-                  f"hold{'' if len(looks) > 1 else 's'} labels: name "
-                  f"{'them label_' + ', label_'.join(looks) + ' (one per operator)' if len(looks) > 1 else 'it label'}"
-                  if looks else "")
+        many = len(looks) > 1
+        rename = "" if not looks else (
+            f"; the column{'s' if many else ''} {', '.join(looks)} hold{'' if many else 's'} labels: name "
+            + ("them " + ", ".join(f"label_{h}" for h in looks) + " (one per operator)" if many else "it label"))
         if codes:
             raise InputError(f"{p.name} header", ",".join(names),
                              "--labels maps label codes, but the file has no label column (label, or one per "

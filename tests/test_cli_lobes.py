@@ -36,7 +36,6 @@ def test_lobes_with_points_rpm_file_svg(tmp_path):
     assert fig.read_text().lstrip().startswith(("<?xml", "<svg"))
 
 
-
 def test_lobes_draws_only_the_points_cut_in_the_configs_condition(tmp_path, capsys, monkeypatch):
     """The SLD is the config's condition (Ex.1: a slot); a point cut at a/D 0.25 up milling belongs to another
     boundary: it is left out of the figure and the console says so (it was drawn before)."""

@@ -230,7 +230,6 @@ def test_the_posterior_file_keeps_its_conditions_and_the_guard_holds_per_conditi
     assert two.trained_conditions == (two.prior.cutting,)
 
 
-
 def test_a_map_draws_only_the_cuts_made_in_its_condition():
     """A slot's chatter at 40 mm says nothing direct about a half-immersion map (whose limits are elsewhere): the
     map of each condition draws its own cuts and counts the others in its legend (it drew every cut before), and
@@ -378,7 +377,6 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
         assert not ran and "milling" in tab.map_job.status.text
     finally:
         s.close()
-
 
 
 def test_the_apps_sld_overlays_the_cuts_made_in_the_configs_condition():

@@ -558,3 +558,6 @@ def test_the_summary_line_shows_the_acceptance_of_stages_that_moved():
     plain = Posterior(prior, post.samples, "zoa", diagnostics={"stages": 2, "acceptance": [0.3, 0.2],
                                                               "loglik_calls": 5, "time_s": 0.5})
     assert "acceptance 0.20-0.30" in plain.summary()
+    one = Posterior(prior, post.samples, "zoa", diagnostics={"stages": 1, "acceptance": [0.14], "loglik_calls": 2,
+                                                            "time_s": 0.1})
+    assert one.summary() == "1 tempering stage, acceptance 0.14, 2 likelihood calls, 0.1 s"  # read "1 ... stages"

@@ -252,7 +252,9 @@ class Posterior:
         moved = d.get("moves") or [1] * len(d.get("acceptance") or [])
         # a stage without moves (the zero-order screen's start of an accurate update) has no acceptance to show
         acc = [a for a, m in zip(d.get("acceptance") or [], moved) if m] or [float("nan")]
-        return (f"{d.get('stages', '?')} tempering stages, acceptance {min(acc):.2f}-{max(acc):.2f}, "
+        span = f"{min(acc):.2f}" if min(acc) == max(acc) else f"{min(acc):.2f}-{max(acc):.2f}"
+        stages = d.get("stages", "?")
+        return (f"{stages} tempering stage{'' if stages == 1 else 's'}, acceptance {span}, "
                 f"{d.get('loglik_calls', '?')} likelihood calls, {d.get('time_s', float('nan')):.1f} s")
 
     def figure(self, ax=None):

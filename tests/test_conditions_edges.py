@@ -179,6 +179,31 @@ def test_a_map_for_a_target_condition_is_the_share_of_samples_whose_own_sweep_is
         api.for_condition(post, radial_immersion=0.3)
 
 
+
+def test_a_time_averaged_decision_where_less_than_one_tooth_cuts_is_warned():
+    """The zero-order model averages the force over the tooth period; with under one tooth in the cut on average
+    (closed form N (φ_ex − φ_st)/2π) its decisions are warned (a/D 0.1 with 2 teeth: 0.20 teeth), a slot with 2
+    teeth (exactly 1) is not, nor is an interrupted-cutting engine's posterior."""
+    import warnings
+
+    from millstab.update.decide import recommend, teeth_in_cut, warn_time_averaged
+
+    assert teeth_in_cut(SLOT) == pytest.approx(SLOT.teeth / 2)
+    low = Cutting.from_immersion(SLOT.teeth, SLOT.kt, SLOT.kr, 0.1, "down")
+    assert teeth_in_cut(low) == pytest.approx(SLOT.teeth * math.acos(0.8) / (2 * math.pi))
+    post = _posterior_of_draws(200)
+    tgt = post.for_condition(low)
+    with pytest.warns(UserWarning, match=r"averages the cutting force .*\(a/D 0.1 down milling, 2 teeth\) a tooth "
+                                         r"cuts 10% of the time \(0.20 teeth .*--engine spectral or sdm"):
+        recommend(tgt, 0.05, (5000, 9000))
+    with pytest.warns(UserWarning, match="a cut the map calls stable can chatter"):
+        p_stable_map(tgt, np.array([6000.0]), np.array([1.0]))
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        p_stable_map(post, np.array([6000.0]), np.array([1.0]))  # the slot: one tooth in the cut on average
+        warn_time_averaged(replace(tgt, engine="spectral"), "the recommendation")
+    assert not [x for x in w if "averages the cutting force" in str(x.message)]
+
 def test_predict_takes_each_rows_condition_and_says_which():
     from millstab.api.predict import predict
 

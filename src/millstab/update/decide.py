@@ -453,6 +453,7 @@ def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | 
     cluster): a cell needs only whether each limit lies above its depth, so a limit above the deepest depth is
     searched only up to it. The same map: every entry below the ceiling is the limit, every one at or above it a
     lower bound above every depth of the map (tests/test_decide_censored.py)."""
+    warn_time_averaged(post, "a cut the map calls stable", stacklevel=2)
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
     r = np.asarray(rpm, float)
@@ -515,6 +516,35 @@ def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer"
     if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
         warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
              f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
+
+
+def teeth_in_cut(cutting) -> float:
+    """The mean number of teeth in the cut, N (φ_ex − φ_st) / 2π: below 1 no tooth cuts for part of every tooth
+    period (a/D 0.1 with 2 teeth: 0.20; a slot with 2 teeth: 1; with 4 teeth: 2)."""
+    return cutting.teeth * (cutting.exit - cutting.entry) / (2 * math.pi)
+
+
+def warn_time_averaged(post: Posterior, what: str, stacklevel: int = 2) -> None:
+    """Warn when ``post``'s engine averages the cutting force over the tooth period (the zero-order model) and the
+    decision's condition cuts with less than one tooth on average: there the average misses what the interruption
+    does (flip lobes, pockets moved), so ``what`` can chatter where the model says not. Measured against
+    semi-discretization (``benchmarks/bench_zoa_error.py``, 19 tools and conditions): at 0.2-0.75 teeth in the cut
+    the zero-order limit is up to 1.0-4.4× too high at single speeds (down milling the worst), at 1-2 teeth at most
+    1.24× (docs/updating.md "Decisions for any condition")."""
+    from millstab.points import condition_text
+    from millstab.stability import get_engine
+
+    if not getattr(get_engine(post.engine), "time_averaged", False):
+        return
+    c = post.condition
+    n = teeth_in_cut(c)
+    if n < 1.0:
+        warn(f"the {post.engine} engine averages the cutting force over the tooth period, but in this condition "
+             f"({condition_text(c)}) a tooth cuts {n / c.teeth:.0%} of the time ({n:.2f} teeth in the cut on "
+             f"average): the zero-order limits there can be off by a factor at single speeds (flip lobes, moved "
+             "pockets), so "
+             f"{what} can chatter; decide here from an update with an engine of interrupted cutting "
+             "(--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
 
 
 @dataclass(frozen=True)
@@ -930,6 +960,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         raise InputError("--discriminate", discriminate, "one of " + ", ".join(DISCRIMINATE_CHOICES))
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
+    warn_time_averaged(post, "the recommendation", stacklevel=3)
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
     # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once
     opts = decision_options(post, (lo, hi))
@@ -1399,6 +1430,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",
+           "teeth_in_cut", "warn_time_averaged",
            "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",

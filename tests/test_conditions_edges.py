@@ -193,8 +193,8 @@ def test_a_time_averaged_decision_where_less_than_one_tooth_cuts_is_warned():
     assert teeth_in_cut(low) == pytest.approx(SLOT.teeth * math.acos(0.8) / (2 * math.pi))
     post = _posterior_of_draws(200)
     tgt = post.for_condition(low)
-    with pytest.warns(UserWarning, match=r"averages the cutting force .*\(a/D 0.1 down milling, 2 teeth\) a tooth "
-                                         r"cuts 10% of the time \(0.20 teeth .*--engine spectral or sdm"):
+    with pytest.warns(UserWarning, match=r"averages the cutting force .*\(a/D 0.1 down milling, 2 teeth\) no tooth "
+                                         r"cuts for 80% of every tooth period \(0.20 teeth .*--engine spectral or sdm"):
         recommend(tgt, 0.05, (5000, 9000))
     with pytest.warns(UserWarning, match="a cut the map calls stable can chatter"):
         p_stable_map(tgt, np.array([6000.0]), np.array([1.0]))
@@ -461,3 +461,19 @@ def test_sequential_reuse_checks_the_earlier_cuts_conditions():
     with pytest.raises(InputError, match="first cuts"):
         update(CFG, parse_points(text.replace("0.5,down", "0.5,up") + "7500,3,stable,,\n"), samples=150, seed=1,
                start=first)
+
+
+def test_predict_warns_once_per_condition_where_less_than_one_tooth_cuts():
+    """api.predict from a zero-order posterior: each condition of the cuts with under one tooth in the cut is warned
+    once (a/D 0.1 down, two cuts: one warning), the slot's cuts are not."""
+    import warnings
+
+    from millstab import api
+
+    post = _posterior_of_draws(100)
+    cuts = parse_points("rpm,depth_mm,radial_immersion,milling\n6000,1,,\n6000,2,0.1,down\n7000,3,0.1,down\n")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        api.predict(post, cuts)
+    mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
+    assert len(mine) == 1 and "a/D 0.1 down milling, 2 teeth" in mine[0]

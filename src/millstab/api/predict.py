@@ -124,9 +124,10 @@ def predict(post, cuts: PointSet) -> Prediction:
     Raises:
         InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`).
     Warns:
-        UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior).
+        UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior); a zero-order
+            posterior's cuts in a condition with less than one tooth in the cut (:func:`warn_time_averaged`).
     """
-    from millstab.update.decide import warn_outside
+    from millstab.update.decide import warn_outside, warn_time_averaged
     from millstab.update.predict import predict_cuts
 
     if len(cuts):
@@ -134,6 +135,8 @@ def predict(post, cuts: PointSet) -> Prediction:
     from millstab.points import condition_text, cut_conditions, same_condition
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
+    for k in np.unique(idx):  # each condition the cuts are in, once
+        warn_time_averaged(post.for_condition(conds[int(k)]), "a cut it calls stable", stacklevel=3)
     ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx, batch=cuts.batch)  # a known day: its shift
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
     one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)

@@ -540,8 +540,8 @@ def warn_time_averaged(post: Posterior, what: str, stacklevel: int = 2) -> None:
     n = teeth_in_cut(c)
     if n < 1.0:
         warn(f"the {post.engine} engine averages the cutting force over the tooth period, but in this condition "
-             f"({condition_text(c)}) a tooth cuts {n / c.teeth:.0%} of the time ({n:.2f} teeth in the cut on "
-             f"average): the zero-order limits there can be off by a factor at single speeds (flip lobes, moved "
+             f"({condition_text(c)}) no tooth cuts for {1 - n:.0%} of every tooth period ({n:.2f} teeth in the "
+             f"cut on average): the zero-order limits there can be off by a factor at single speeds (flip lobes, moved "
              "pockets), so "
              f"{what} can chatter; decide here from an update with an engine of interrupted cutting "
              "(--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)

@@ -477,3 +477,22 @@ def test_predict_warns_once_per_condition_where_less_than_one_tooth_cuts():
         api.predict(post, cuts)
     mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
     assert len(mine) == 1 and "a/D 0.1 down milling, 2 teeth" in mine[0]
+
+
+def test_a_zero_order_update_of_cuts_with_less_than_one_tooth_in_the_cut_is_warned_once():
+    """update(engine="zoa") warns when cuts were made with under one tooth in the cut (its parameters absorb the model
+    error there); the warning is the update's, not kept in the posterior (each decision warns for its own
+    condition); a slot's cuts alone raise none."""
+    import warnings
+
+    rows = "rpm,depth_mm,label,radial_immersion,milling\n6000,0.5,stable,,\n7000,40,chatter,,\n"
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        post = update(CFG, parse_points(rows + "7000,5,chatter,0.1,down\n"), samples=100, seed=0)
+    mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
+    assert len(mine) == 1 and "the cuts in a/D 0.1 down milling, 2 teeth have less than one tooth" in mine[0]
+    assert not any("averages the cutting force" in m for m in post.warnings)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        update(CFG, parse_points(rows), samples=100, seed=0)
+    assert not [x for x in w if "averages the cutting force" in str(x.message)]

@@ -114,6 +114,24 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
     return tuple((i,) for i in fn) + ((tuple(fn),) if len(fn) > 1 else ())
 
 
+
+def _warn_time_averaged_cuts(engine: str, conditions) -> None:
+    """Warn (not kept in the posterior: each decision warns for its own condition) when a time-averaged engine
+    fits cuts made with less than one tooth in the cut on average, where its limits can be off by a factor
+    (:func:`millstab.update.decide.warn_time_averaged`): the posterior's parameters absorb that model error."""
+    from millstab.points import condition_text
+    from millstab.stability import get_engine
+    from millstab.update.decide import teeth_in_cut
+
+    if not getattr(get_engine(engine), "time_averaged", False):
+        return
+    poor = [c for c in conditions if teeth_in_cut(c) < 1.0]
+    if poor:
+        warn(f"the {engine} engine averages the cutting force over the tooth period, but the cuts in "
+             f"{'; '.join(condition_text(c) for c in poor)} have less than one tooth in the cut on average, where "
+             "its limits can be off by a factor: the posterior's parameters absorb that error, and its decisions "
+             "inherit it; update with --engine spectral or sdm for those cuts", UserWarning, stacklevel=3)
+
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa",
            samples: int = DEFAULT_SAMPLES, seed: int = 0, moves: int | None = None, prior: Prior | None = None,
            progress: Callable[[str, int, int], None] | None = None, start: Posterior | None = None,
@@ -171,6 +189,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         scr = None if cheap_engine is None else Likelihood(*screen_model(pr, ev, cheap_engine), cheap_engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
+    _warn_time_averaged_cuts(engine, ev.conditions or (pr.cutting,))
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
     # the test days' shifts of ln fn (millstab.update.batch; none unless [prior] batch_effect)
     be, q = lik.batch, pr.dim

@@ -1,6 +1,6 @@
 """How far the zero-order (time-averaged) limits lie from semi-discretization's, by the mean number of teeth in the
 cut, N (φ_ex − φ_st) / 2π: the figures behind the warning of a time-averaged decision where under one tooth cuts
-(:func:`millstab.update.decide.warn_time_averaged`, docs/updating.md "Decisions for any condition").
+(:func:`millstab.stability.time_averaged_note`, docs/updating.md "Decisions for any condition").
 
 For the packaged example tools in their own condition and for the three virtual machines of
 ``bench_conditions_campaign.py`` (their hammer tests, Kt 700 MPa, Kr 0.3) in a slot, at a/D 0.5 down and up, 0.25 up
@@ -22,12 +22,11 @@ from bench_conditions_campaign import KR, KT, machines
 from millstab.io import load_config
 from millstab.model import Cutting
 from millstab.stability import sdm, zoa
-from millstab.update.decide import teeth_in_cut
 
 
 def row(name: str, structure, cutting: Cutting, rpm: np.ndarray) -> tuple[float, str]:
     r = np.log(zoa.envelope(structure, cutting, rpm).depth_mm / sdm.envelope(structure, cutting, rpm).depth_mm)
-    n = teeth_in_cut(cutting)
+    n = cutting.teeth_in_cut
     return n, (f"| {name} | {n:.2f} | {np.median(r):+.3f} | {r.max():+.3f} (×{np.exp(r.max()):.2f}) | "
                f"{np.exp(r.min()):.2f} |")
 

@@ -126,3 +126,21 @@ def test_rpm_file_errors_name_the_real_line(tmp_path, capsys):
     assert main(["lobes", "example:ex1", "--rpm-file", str(f)]) == 2
     err = capsys.readouterr().err
     assert "line 3" in err and "Traceback" not in err
+
+
+def test_a_zero_order_sld_where_less_than_one_tooth_cuts_is_warned_unless_the_time_domain_is_beside_it():
+    """Ex.3 cuts with 0.44 teeth on average (3 teeth, a/D 0.2): its zero-order SLD is warned, pointing to --compare
+    sdm; with the SDM limit drawn beside it, or for Ex.1's slot (one tooth in the cut), nothing."""
+    import warnings
+
+    from millstab import api
+
+    rpm = np.array([6000.0, 9000.0])
+    with pytest.warns(UserWarning, match=r"in ex3's cut \(a/D 0.1998 down milling, 3 teeth\) no tooth cuts for 56% .*"
+                                         r"--compare sdm"):
+        api.lobes(load_config("example:ex3"), rpm)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        api.lobes(load_config("example:ex3"), rpm, compare="sdm")
+        api.lobes(load_config("example:ex1"), rpm)
+    assert not [x for x in w if "averages the cutting force" in str(x.message)]

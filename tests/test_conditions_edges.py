@@ -186,11 +186,11 @@ def test_a_time_averaged_decision_where_less_than_one_tooth_cuts_is_warned():
     teeth (exactly 1) is not, nor is an interrupted-cutting engine's posterior."""
     import warnings
 
-    from millstab.update.decide import recommend, teeth_in_cut, warn_time_averaged
+    from millstab.update.decide import recommend, warn_time_averaged
 
-    assert teeth_in_cut(SLOT) == pytest.approx(SLOT.teeth / 2)
+    assert SLOT.teeth_in_cut == pytest.approx(SLOT.teeth / 2)
     low = Cutting.from_immersion(SLOT.teeth, SLOT.kt, SLOT.kr, 0.1, "down")
-    assert teeth_in_cut(low) == pytest.approx(SLOT.teeth * math.acos(0.8) / (2 * math.pi))
+    assert low.teeth_in_cut == pytest.approx(SLOT.teeth * math.acos(0.8) / (2 * math.pi))
     post = _posterior_of_draws(200)
     tgt = post.for_condition(low)
     with pytest.warns(UserWarning, match=r"averages the cutting force .*\(a/D 0.1 down milling, 2 teeth\) no tooth "
@@ -490,7 +490,7 @@ def test_a_zero_order_update_of_cuts_with_less_than_one_tooth_in_the_cut_is_warn
         warnings.simplefilter("always")
         post = update(CFG, parse_points(rows + "7000,5,chatter,0.1,down\n"), samples=100, seed=0)
     mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
-    assert len(mine) == 1 and "the cuts in a/D 0.1 down milling, 2 teeth have less than one tooth" in mine[0]
+    assert len(mine) == 1 and "in the cuts made in a/D 0.1 down milling, 2 teeth no tooth cuts for 80%" in mine[0]
     assert not any("averages the cutting force" in m for m in post.warnings)
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")

@@ -305,6 +305,12 @@ class Cutting:
             raise InputError("cutting.diameter", None, "needed with process damping (the cutting speed "
                                                        "V = pi D n / 60 sets its size); give the tool diameter")
 
+    @property
+    def teeth_in_cut(self) -> float:
+        """The mean number of teeth in the cut, N (φex − φst) / 2π: below 1 no tooth cuts for part of every tooth
+        period (a/D 0.1 with 2 teeth: 0.20; a slot with 2 teeth: 1; with 4 teeth: 2)."""
+        return self.teeth * (self.exit - self.entry) / (2 * math.pi)
+
     @classmethod
     def from_immersion(cls, teeth: int, kt: float, kr: float, radial_immersion: float, milling: Milling = "down",
                        **extra) -> Cutting:

@@ -10,8 +10,9 @@ import numpy as np
 from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.config import Config
-from millstab.points import PointSet
-from millstab.stability import ENGINES, Envelope, engine_with, get_engine
+from millstab.points import PointSet, condition_text
+from millstab.stability import ENGINES, Envelope, engine_with, get_engine, time_averaged_note
+from millstab.warnlog import warn
 
 #: the schema tag of :meth:`Lobes.to_json`
 SCHEMA = "millstab.lobes/1"
@@ -138,6 +139,10 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
         raise InputError("--compare", compare, f"must differ from --engine ({engine})")
     env = envelope(cfg, rpm, engine, progress)
     other = envelope(cfg, rpm, compare, progress) if compare else None
+    note = time_averaged_note(engine, cfg.cutting, f"{cfg.name}'s cut ({condition_text(cfg.cutting)})")
+    if note and not (compare and not get_engine(compare).time_averaged):  # unless the time domain is drawn beside
+        warn(f"{note}; compare with a time-domain engine (--compare sdm, or --engine spectral)", UserWarning,
+             stacklevel=2)
     return Lobes(cfg, engine, env, compare or None, other)
 
 

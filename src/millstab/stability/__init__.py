@@ -115,9 +115,25 @@ def engine_with(**capabilities: object) -> Engine | ModuleType:
     raise InputError("engine", wanted, f"no registered engine ({', '.join(_REGISTRY)}) declares all of these")
 
 
+def time_averaged_note(engine: str, cutting, where: str) -> str | None:
+    """The first half of a warning when ``engine`` averages the cutting force over the tooth period (the zero-order
+    model) and ``cutting`` (described by ``where``, e.g. "a/D 0.1 down milling, 2 teeth") has under one tooth in
+    the cut on average (:attr:`millstab.model.Cutting.teeth_in_cut`), else ``None``. There the average misses
+    what the interruption does (flip lobes, moved pockets): measured against semi-discretization
+    (``benchmarks/bench_zoa_error.py``, 19 tools and conditions), at 0.2-0.75 teeth in the cut the zero-order
+    limit is up to 1.0-4.4× too high at single speeds (down milling the worst), at 1-2 teeth at most 1.24×."""
+    n = cutting.teeth_in_cut
+    if n >= 1.0 or not getattr(get_engine(engine), "time_averaged", False):
+        return None
+    return (f"the {engine} engine averages the cutting force over the tooth period, but in {where} no tooth cuts for "
+            f"{1 - n:.0%} of every tooth period ({n:.2f} teeth in the cut on average): its limits there can be off by "
+            "a factor at single speeds (flip lobes, moved pockets)")
+
+
 register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
 __all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr",
-           "per_set_process_damping", "directional_matrix", "get_engine", "register", "unregister"]
+           "per_set_process_damping", "directional_matrix", "get_engine", "register", "time_averaged_note",
+           "unregister"]

@@ -117,20 +117,17 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
 
 def _warn_time_averaged_cuts(engine: str, conditions) -> None:
     """Warn (not kept in the posterior: each decision warns for its own condition) when a time-averaged engine
-    fits cuts made with less than one tooth in the cut on average, where its limits can be off by a factor
-    (:func:`millstab.update.decide.warn_time_averaged`): the posterior's parameters absorb that model error."""
+    fits cuts made with less than one tooth in the cut on average (:func:`millstab.stability.time_averaged_note`):
+    the posterior's parameters absorb that model error."""
     from millstab.points import condition_text
-    from millstab.stability import get_engine
-    from millstab.update.decide import teeth_in_cut
+    from millstab.stability import time_averaged_note
 
-    if not getattr(get_engine(engine), "time_averaged", False):
-        return
-    poor = [c for c in conditions if teeth_in_cut(c) < 1.0]
-    if poor:
-        warn(f"the {engine} engine averages the cutting force over the tooth period, but the cuts in "
-             f"{'; '.join(condition_text(c) for c in poor)} have less than one tooth in the cut on average, where "
-             "its limits can be off by a factor: the posterior's parameters absorb that error, and its decisions "
-             "inherit it; update with --engine spectral or sdm for those cuts", UserWarning, stacklevel=3)
+    for c in conditions:
+        note = time_averaged_note(engine, c, f"the cuts made in {condition_text(c)}")
+        if note:
+            warn(f"{note}: the posterior's parameters absorb that error, and its decisions inherit it; update with "
+                 "--engine spectral or sdm for those cuts", UserWarning, stacklevel=3)
+
 
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa",
            samples: int = DEFAULT_SAMPLES, seed: int = 0, moves: int | None = None, prior: Prior | None = None,

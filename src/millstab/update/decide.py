@@ -518,32 +518,16 @@ def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer"
              f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
-def teeth_in_cut(cutting) -> float:
-    """The mean number of teeth in the cut, N (φ_ex − φ_st) / 2π: below 1 no tooth cuts for part of every tooth
-    period (a/D 0.1 with 2 teeth: 0.20; a slot with 2 teeth: 1; with 4 teeth: 2)."""
-    return cutting.teeth * (cutting.exit - cutting.entry) / (2 * math.pi)
-
-
 def warn_time_averaged(post: Posterior, what: str, stacklevel: int = 2) -> None:
     """Warn when ``post``'s engine averages the cutting force over the tooth period (the zero-order model) and the
-    decision's condition cuts with less than one tooth on average: there the average misses what the interruption
-    does (flip lobes, pockets moved), so ``what`` can chatter where the model says not. Measured against
-    semi-discretization (``benchmarks/bench_zoa_error.py``, 19 tools and conditions): at 0.2-0.75 teeth in the cut
-    the zero-order limit is up to 1.0-4.4× too high at single speeds (down milling the worst), at 1-2 teeth at most
-    1.24× (docs/updating.md "Decisions for any condition")."""
+    decision's condition cuts with less than one tooth on average (:func:`millstab.stability.time_averaged_note`,
+    with the measurements): ``what`` can chatter where the model says not."""
     from millstab.points import condition_text
-    from millstab.stability import get_engine
+    from millstab.stability import time_averaged_note
 
-    if not getattr(get_engine(post.engine), "time_averaged", False):
-        return
-    c = post.condition
-    n = teeth_in_cut(c)
-    if n < 1.0:
-        warn(f"the {post.engine} engine averages the cutting force over the tooth period, but in this condition "
-             f"({condition_text(c)}) no tooth cuts for {1 - n:.0%} of every tooth period ({n:.2f} teeth in the "
-             f"cut on average): the zero-order limits there can be off by a factor at single speeds (flip lobes, moved "
-             "pockets), so "
-             f"{what} can chatter; decide here from an update with an engine of interrupted cutting "
+    note = time_averaged_note(post.engine, post.condition, f"this condition ({condition_text(post.condition)})")
+    if note:
+        warn(f"{note}, so {what} can chatter; decide here from an update with an engine of interrupted cutting "
              "(--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
 
 
@@ -1430,7 +1414,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",
-           "teeth_in_cut", "warn_time_averaged",
+           "warn_time_averaged",
            "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",

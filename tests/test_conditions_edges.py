@@ -496,3 +496,22 @@ def test_a_zero_order_update_of_cuts_with_less_than_one_tooth_in_the_cut_is_warn
         warnings.simplefilter("always")
         update(CFG, parse_points(rows), samples=100, seed=0)
     assert not [x for x in w if "averages the cutting force" in str(x.message)]
+
+
+def test_the_apps_zero_order_sld_says_where_the_model_is_poor():
+    """The Lobes tab computes the zero-order SLD in the page: Ex.3's note (0.44 teeth in the cut) is shown under it
+    (it went to the server's log), Ex.1's slot has none."""
+    pytest.importorskip("panel")
+    from millstab.io import load_config
+    from millstab.web.lobes_tab import LobesTab
+    from millstab.web.state import Session
+
+    s = Session()
+    try:
+        s.cfg = load_config("example:ex3")
+        tab = LobesTab(s)
+        assert "no tooth cuts for 56% of every tooth period" in tab.summary.text
+        s.cfg = load_config("example:ex1")
+        assert "no tooth cuts" not in tab.summary.text
+    finally:
+        s.close()

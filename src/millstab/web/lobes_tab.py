@@ -56,7 +56,8 @@ class LobesTab:
             self.job_box.visible = False
             t0 = time.perf_counter()
             try:
-                result = api.lobes(cfg, rpm, engine=engine)
+                with api.collect_warnings() as caught:  # this session's notes (the zero-order model's validity)
+                    result = api.lobes(cfg, rpm, engine=engine)
             except InputError as exc:
                 self.error.object = error_html(str(exc))
                 return
@@ -65,7 +66,7 @@ class LobesTab:
                 self.error.object = error_html(f"failed: {type(exc).__name__}: {exc}")
                 return
             self.timing = time.perf_counter() - t0
-            self.show(result, origin=origin)
+            self.show(result, [str(w.message) for w in caught], origin=origin)
             return
         self.job_box.visible = True
         if not force:

@@ -88,6 +88,8 @@ second stage rejected.
 ``--doors K``: the update as a user calls it (``millstab.api.update`` with the config's cutting and prior, the
 default sampler), both engines alternately for seeds 0..K−1, CPU and wall and their ratio (docs/updating-measured.md,
 "The ratio through the doors").
+``--cold``: no warm-up update first, so the first timed call of each engine also loads its compiled code from the
+cache, as in a user's fresh process (with ``--doors``: seed 0's pair is that first call).
 
 ``--anchor-moves M[,...]`` and ``--accept-moves T:M[:TOP][,...]`` (with ``--seed-study``): also the anchored screen
 with M moves a stage, and with the random walk's acceptance target T (:data:`millstab.update.DELAYED_ACCEPT_TARGET`)
@@ -820,6 +822,8 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="with --seed-study: its runs in a pool of this many processes")
     ap.add_argument("--anchor-moves", type=lambda t: [int(x) for x in t.split(",") if x.strip()], default=[],
                     help="with --seed-study: also the anchored screen with these many moves a stage (comma-separated)")
+    ap.add_argument("--cold", action="store_true", help="no warm-up update before the timings: the first timed "
+                    "call of each engine loads its compiled code from the cache, as a fresh process of a user does")
     ap.add_argument("--doors", type=int, default=0, metavar="K",
                     help="time millstab.api.update with both engines for seeds 0..K-1 (the config's prior), then stop")
     ap.add_argument("--accept-moves", type=lambda t: [tuple(float(v) if i != 1 else int(v)
@@ -856,7 +860,7 @@ def main() -> None:
             proxy(prior, cuts, args.samples, args.proxy_seeds, stages, args.screen_top or upd.SCREEN_TOP)
         if args.proxy_only:
             return
-        for eng in ("zoa", "spectral"):  # compile / load the caches outside the timings
+        for eng in ("zoa", "spectral") if not args.cold else ():  # compile / load the caches outside the timings
             update(cfg, cuts, samples=20, seed=99, engine=eng, moves=1, prior=prior, sampler="plain")
         _WARM.append(True)
         if args.seed_study:

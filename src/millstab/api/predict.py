@@ -136,7 +136,7 @@ def predict(post, cuts: PointSet) -> Prediction:
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
     for k in np.unique(idx):  # each condition the cuts are in, once
-        warn_time_averaged(post.for_condition(conds[int(k)]), "a cut it calls stable", stacklevel=3)
+        warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3)
     ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx, batch=cuts.batch)  # a known day: its shift
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
     one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)

@@ -453,7 +453,7 @@ def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | 
     cluster): a cell needs only whether each limit lies above its depth, so a limit above the deepest depth is
     searched only up to it. The same map: every entry below the ceiling is the limit, every one at or above it a
     lower bound above every depth of the map (tests/test_decide_censored.py)."""
-    warn_time_averaged(post, "a cut the map calls stable", stacklevel=2)
+    warn_time_averaged(post, stacklevel=2)
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
     r = np.asarray(rpm, float)
@@ -518,17 +518,18 @@ def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer"
              f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
-def warn_time_averaged(post: Posterior, what: str, stacklevel: int = 2) -> None:
+def warn_time_averaged(post: Posterior, stacklevel: int = 2) -> None:
     """Warn when ``post``'s engine averages the cutting force over the tooth period (the zero-order model) and the
     decision's condition cuts with less than one tooth on average (:func:`millstab.stability.time_averaged_note`,
-    with the measurements): ``what`` can chatter where the model says not."""
+    with the measurements): a cut it calls stable can chatter. One text for every decision (map, recommendation,
+    prediction), so a page or log that shows a map and a recommendation together shows it once."""
     from millstab.points import condition_text
     from millstab.stability import time_averaged_note
 
     note = time_averaged_note(post.engine, post.condition, f"this condition ({condition_text(post.condition)})")
     if note:
-        warn(f"{note}, so {what} can chatter; decide here from an update with an engine of interrupted cutting "
-             "(--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
+        warn(f"{note}, so a cut it calls stable can chatter; decide here from an update with an engine of interrupted "
+             "cutting (--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
 
 
 @dataclass(frozen=True)
@@ -944,7 +945,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         raise InputError("--discriminate", discriminate, "one of " + ", ".join(DISCRIMINATE_CHOICES))
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
     warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
-    warn_time_averaged(post, "the recommendation", stacklevel=3)
+    warn_time_averaged(post, stacklevel=3)
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
     # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once
     opts = decision_options(post, (lo, hi))

@@ -379,7 +379,7 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
     """The Update tab's target a/D and milling reach the decision (the work run in this thread) and the page
     says which condition; a bad a/D is one line on the tab, no work started."""
     pytest.importorskip("panel")
-    from millstab import api
+    from millstab.web.jobs import collected
     from millstab.web.state import Session
     from millstab.web.update_tab import UpdateTab
 
@@ -391,11 +391,9 @@ def test_the_app_update_tab_maps_and_recommends_for_the_target_condition():
                               "7000,3,stable,0.25,up\n")
         ran = []
 
-        def start(work, done):  # the job's own way: the work's warnings collected, then shown
+        def start(work, done):  # the job's own way (jobs.collected), run in this thread
             ran.append(1)
-            with api.collect_warnings() as caught:
-                result = work(None)
-            done(result, [str(w.message) for w in caught])
+            done(*collected(work, None))
 
         tab.map_job.start = start
         tab.target_ri.value, tab.target_milling.value = 0.25, "up"

@@ -10,7 +10,7 @@ import panel as pn
 from millstab import api
 from millstab.errors import InputError
 from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
-from millstab.web.jobs import JobBar
+from millstab.web.jobs import JobBar, collected
 from millstab.web.plots import set_line, set_points, set_scatter, sld_figure
 from millstab.web.state import Session
 from millstab.web.uploads import MAX_TEXT_BYTES, POINTS_TYPES, dropper, latest
@@ -24,14 +24,14 @@ def points_upload(session: Session, attr: str, drop, error, note) -> None:
         got = latest(drop, MAX_TEXT_BYTES, POINTS_TYPES, "points CSV")
         if got is None:
             return
-        with api.collect_warnings() as caught:  # the reader's notes (label columns, depth scale) reach the page
-            pts = api.points_from_text(got[1], got[0])
+        # the reader's notes (label columns, depth scale) reach the page, as a job's do
+        pts, notes = collected(lambda _: api.points_from_text(got[1], got[0]), None)
     except InputError as exc:
         error.object = error_html(str(exc))
         return
     setattr(session, attr, pts)
-    notes = "".join(f'<div class="ms-note">{esc(str(w.message))}</div>' for w in caught)
-    note.object = f'<span class="ms-done">{esc(got[0])}: {len(pts)} points</span>{notes}'
+    shown = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in notes)
+    note.object = f'<span class="ms-done">{esc(got[0])}: {len(pts)} points</span>{shown}'
 
 
 class IdentifyTab:

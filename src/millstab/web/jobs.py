@@ -23,6 +23,15 @@ EXECUTOR = ThreadPoolExecutor(max_workers=2, thread_name_prefix="millstab-job")
 POLL_MS = 250
 
 
+
+def collected(work: Callable[[api.Progress], Any], progress: api.Progress) -> tuple[Any, list[str]]:
+    """(``work(progress)``, the texts of the millstab warnings it issued, each once, in order): a job's result and
+    notes. Collected per thread (:mod:`millstab.warnlog`), so another session's job adds nothing; once each, as a
+    job whose parts warn alike (a map and a recommendation from one zero-order posterior) says it once."""
+    with api.collect_warnings() as caught:
+        result = work(progress)
+    return result, list(dict.fromkeys(str(w.message) for w in caught))
+
 class JobBar(pn.viewable.Viewer):
     """A run button, a cancel button, a progress bar and a status line for one kind of long work.
 
@@ -67,12 +76,7 @@ class JobBar(pn.viewable.Viewer):
 
         watched = self._token.watch(progress)
 
-        def run():
-            with api.collect_warnings() as caught:  # this job's warnings only (per thread; see millstab.warnlog)
-                result = work(watched)
-            return result, [str(w.message) for w in caught]
-
-        self._future = EXECUTOR.submit(run)
+        self._future = EXECUTOR.submit(collected, work, watched)
         self.run.disabled, self.cancel.disabled = True, False
         # the bar appears once a stage reports its total: an indeterminate bar's animation costs the browser
         # CPU that the work needs on a small machine; the status line shows the iteration meanwhile

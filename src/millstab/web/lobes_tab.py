@@ -13,7 +13,7 @@ import panel as pn
 from millstab import api
 from millstab.errors import InputError
 from millstab.web.common import computed_for, error_html, esc
-from millstab.web.jobs import JobBar
+from millstab.web.jobs import JobBar, collected
 from millstab.web.common import TextBox
 from millstab.web.plots import set_line, set_points, set_raw, sld_figure
 from millstab.web.state import Session
@@ -56,8 +56,8 @@ class LobesTab:
             self.job_box.visible = False
             t0 = time.perf_counter()
             try:
-                with api.collect_warnings() as caught:  # this session's notes (the zero-order model's validity)
-                    result = api.lobes(cfg, rpm, engine=engine)
+                # as a job would: this session's notes (the zero-order model's validity), each once
+                result, notes = collected(lambda _: api.lobes(cfg, rpm, engine=engine), None)
             except InputError as exc:
                 self.error.object = error_html(str(exc))
                 return
@@ -66,7 +66,7 @@ class LobesTab:
                 self.error.object = error_html(f"failed: {type(exc).__name__}: {exc}")
                 return
             self.timing = time.perf_counter() - t0
-            self.show(result, [str(w.message) for w in caught], origin=origin)
+            self.show(result, notes, origin=origin)
             return
         self.job_box.visible = True
         if not force:

@@ -144,3 +144,42 @@ def test_a_zero_order_sld_where_less_than_one_tooth_cuts_is_warned_unless_the_ti
         api.lobes(load_config("example:ex3"), rpm, compare="sdm")
         api.lobes(load_config("example:ex1"), rpm)
     assert not [x for x in w if "averages the cutting force" in str(x.message)]
+
+
+def test_lobes_for_another_condition_is_the_sld_of_that_conditions_config(tmp_path, capsys, monkeypatch):
+    """``--radial-immersion``/``--milling`` (the options of map, recommend and predict) draw the same tool's SLD in
+    another condition: the same depths as a config whose [cutting] is that condition, built independently (entry
+    and exit angles of a/D 0.25 down milling: arccos(1 − 2·0.25) = 120° to 180°); the points drawn are the ones cut
+    in it."""
+    monkeypatch.setenv("COLUMNS", "200")
+    from millstab.model import Cutting
+
+    out, fig = tmp_path / "sld.csv", tmp_path / "sld.png"
+    pts = tmp_path / "p.csv"
+    pts.write_text("rpm,depth_mm,label,radial_immersion,milling\n4000,1.0,stable,,\n4000,3.0,chatter,0.25,down\n"
+                   "4500,2.0,stable,0.25,up\n")
+    assert main(["lobes", "example:ex1", "--rpm", "3000:6000:100", "--radial-immersion", "0.25", "--milling", "down",
+                 "--out", str(out), "--points", str(pts), "--plot", str(fig)]) == 0
+    text = capsys.readouterr().out
+    assert "computed for a/D 0.25 down milling" in text and "(the config's: slot" in text
+    assert "2 of the 3 points were cut in other conditions than the target's: not drawn" in text
+    cfg = load_config("example:ex1")
+    c = cfg.cutting
+    down = Cutting(teeth=c.teeth, kt=c.kt, kr=c.kr, entry=np.radians(120.0), exit=np.pi)
+    rows = list(csv.DictReader(out.open()))
+    rpm = np.array([float(r["rpm"]) for r in rows])
+    expect = zoa.envelope(cfg.structure, down, rpm).depth_mm
+    np.testing.assert_allclose([float(r["blim_mm"]) for r in rows], expect, rtol=1e-9)
+    slot = zoa.envelope(cfg.structure, c, rpm).depth_mm
+    assert np.median(expect / slot) > 1.5  # a quarter immersion is not the slot's SLD
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--radial-immersion", "1.5"], "--radial-immersion"),
+    (["--milling", "sideways"], "--milling"),
+    (["--entry-deg", "30"], "--exit-deg"),
+])
+def test_lobes_target_condition_errors_name_the_option(args, needle, capsys):
+    assert main(["lobes", "example:ex1", "--rpm", "3000:4000:100", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and needle in err

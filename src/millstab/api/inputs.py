@@ -82,14 +82,16 @@ def overlay_points(*sets: PointSet | None) -> PointSet | None:
                     np.concatenate([p.label for p in sets]))
 
 
-def in_config_condition(points: PointSet | None, cfg: Config | None) -> PointSet | None:
-    """The points cut in the config's own condition (empty condition cells are the config's), to draw on its
-    SLD: a point cut in another condition belongs to another boundary. ``None`` stays ``None``."""
-    if points is None or cfg is None or not points.has_conditions:
+def in_config_condition(points: PointSet | None, cfg: Config | None, target=None) -> PointSet | None:
+    """The points cut in the config's own condition, or in ``target`` (a :class:`~millstab.model.Cutting`; empty
+    condition cells are the config's either way), to draw on that condition's SLD: a point cut in another condition
+    belongs to another boundary. ``None`` stays ``None``."""
+    if points is None or cfg is None or (not points.has_conditions and target is None):
         return points
     from millstab.points import in_condition
 
-    return points.subset(in_condition(points, cfg.cutting, cfg.cutting, getattr(cfg, "diameter_mm", None)))
+    return points.subset(in_condition(points, cfg.cutting, cfg.cutting if target is None else target,
+                                      getattr(cfg, "diameter_mm", None)))
 
 
 def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:

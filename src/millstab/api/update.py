@@ -236,7 +236,19 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
     """The posterior deciding for a target cutting condition (map, recommend, predict): the options as the
     doors name them (``--radial-immersion``, ``--milling``, ``--entry-deg``/``--exit-deg``, ``--teeth``,
     ``--radial-width`` with the config's diameter); what is not given keeps the posterior's condition
-    (the config's). None given: ``post`` itself. Rules: :func:`millstab.points.condition_of`.
+    (the config's). None given: ``post`` itself. Rules and errors: :func:`target_condition`."""
+    c = target_condition(post.condition, post.diameter_mm, radial_immersion=radial_immersion, milling=milling,
+                         entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth, radial_width_mm=radial_width_mm)
+    return post if c is None else post.for_condition(c)
+
+
+def target_condition(base, diameter_mm: float | None = None, *, radial_immersion: float | None = None,
+                     milling: str | None = None, entry_deg: float | None = None, exit_deg: float | None = None,
+                     teeth: int | None = None, radial_width_mm: float | None = None):
+    """The cutting condition the doors' target options name (``--radial-immersion``, ``--milling``,
+    ``--entry-deg``/``--exit-deg``, ``--teeth``, ``--radial-width`` with the tool's ``diameter_mm``), ``base`` (a
+    :class:`~millstab.model.Cutting`, the config's or the posterior's) with what is given replaced; ``None`` when
+    nothing is given. Rules: :func:`millstab.points.condition_of`.
 
     Raises:
         InputError: naming the option: a/D outside (0, 1], milling not up|down, angles outside [0, 180] deg
@@ -248,7 +260,7 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
                                ("--entry-deg", entry_deg), ("--exit-deg", exit_deg), ("--teeth", teeth),
                                ("--radial-width", radial_width_mm)) if v is not None}
     if not given:
-        return post
+        return None
     if radial_immersion is not None and not (np.isfinite(radial_immersion) and 0 < radial_immersion <= 1):
         raise InputError("--radial-immersion", radial_immersion, "the radial immersion a/D, in (0, 1] (1 = slot)")
     if milling is not None and str(milling).strip().lower() not in ("up", "down"):
@@ -268,10 +280,9 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
         raise InputError("--radial-width", radial_width_mm, "give --radial-immersion or --radial-width, not both")
     if teeth is not None and not (isinstance(teeth, (int, np.integer)) and teeth >= 1):
         raise InputError("--teeth", teeth, "a positive integer")
-    c = condition_of(post.condition, radial_immersion=radial_immersion, radial_width_mm=radial_width_mm,
-                     milling=None if milling is None else str(milling).strip().lower(), entry_deg=entry_deg,
-                     exit_deg=exit_deg, teeth=teeth, diameter_mm=post.diameter_mm, field="target condition")
-    return post.for_condition(c)
+    return condition_of(base, radial_immersion=radial_immersion, radial_width_mm=radial_width_mm,
+                        milling=None if milling is None else str(milling).strip().lower(), entry_deg=entry_deg,
+                        exit_deg=exit_deg, teeth=teeth, diameter_mm=diameter_mm, field="target condition")
 
 
 def condition_line(post) -> str:

@@ -9,6 +9,7 @@ import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app, engine_progress, progress_bar
+from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -28,13 +29,26 @@ def lobes(
                                           help=f"Overlay a second engine ({', '.join(ENGINES)}) and report the "
                                                "difference."),
     raw: bool = typer.Option(False, "--raw-lobes", help="Draw the individual lobes (zoa) under the envelope."),
+    radial_immersion: RadialImmersionOpt = None,
+    milling: MillingOpt = None,
+    entry_deg: EntryDegOpt = None,
+    exit_deg: ExitDegOpt = None,
+    teeth: TeethOpt = None,
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""
+    import dataclasses
+
     from millstab import api
     from millstab.io import read_points, write_csv
     from millstab.io.outputs import check_outputs, config_inputs
 
     cfg = api.config(config)
+    # another condition than the config's (the same options as map/recommend/predict): the same tool and structure
+    target = api.target_condition(cfg.cutting, cfg.diameter_mm, radial_immersion=radial_immersion, milling=milling,
+                                  entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)
+    base = cfg
+    if target is not None:
+        cfg = dataclasses.replace(cfg, cutting=target)
     speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
     pts = read_points(points) if points else None
     inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
@@ -43,16 +57,20 @@ def lobes(
     with progress_bar("speeds") as update:
         result = api.lobes(cfg, speeds, engine=engine, compare=compare, progress=engine_progress(update))
     typer.echo(result.summary())
+    if target is not None:
+        from millstab.points import condition_text
+
+        typer.echo(f"computed for {condition_text(target)} (the config's: {condition_text(base.cutting)})")
     if out:
         write_csv(out, *result.table(), protect=protect)
         typer.echo(f"wrote {out}")
     if plot:
         from millstab.io.figures import save_figure
 
-        drawn = api.in_config_condition(pts, cfg)  # the SLD is the config's condition: the points cut in it
+        drawn = api.in_config_condition(pts, base, target)  # the SLD is one condition: the points cut in it
         if pts is not None and len(drawn) < len(pts):
             typer.echo(f"{len(pts) - len(drawn)} of the {len(pts)} points were cut in other conditions than the "
-                       "config's: not drawn")
+                       f"{'config' if target is None else 'target'}'s: not drawn")
         pts = drawn
         save_figure(api.lobes_figure(result, points=pts, raw=raw), plot, protect=protect)
         typer.echo(f"wrote {plot}")

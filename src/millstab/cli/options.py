@@ -105,10 +105,11 @@ def dask_client(dask: str | None, workers: int | None) -> Iterator:
         yield client
 
 
-# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions") ---
+# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions") or of an
+# SLD (lobes) ---
 RadialImmersionOpt = Annotated[Optional[float], typer.Option(
-    "--radial-immersion", help="Decide for this radial immersion a/D in (0, 1] (default: the posterior's condition, "
-                               "the config's).", rich_help_panel="Target condition")]
+    "--radial-immersion", help="Decide (or draw lobes) for this radial immersion a/D in (0, 1] (default: the "
+                               "posterior's condition, the config's).", rich_help_panel="Target condition")]
 MillingOpt = Annotated[Optional[str], typer.Option(
     "--milling", help="Decide for up or down milling (with --radial-immersion, or alone: the config's a/D).",
     rich_help_panel="Target condition")]

@@ -250,10 +250,12 @@ def _steps(structure, cutting, r, steps_per_tooth) -> np.ndarray:
 
 def _periods(cutting, revs, n: int) -> np.ndarray:
     rv = _positive("revs", REVS if revs is None else revs, "revolutions")
-    p = np.broadcast_to(np.round(rv * cutting.teeth).astype(np.int64), (n,))
+    # a writable copy whatever n: a broadcast view of one cut stays read-only through ascontiguousarray, and the
+    # kernel compiled for a read-only array is another signature (warmup's one cut compiled the other one)
+    p = np.array(np.broadcast_to(np.round(rv * cutting.teeth).astype(np.int64), (n,)))
     if np.any(p < 2):
         raise InputError("revs", revs, f"need at least 2 tooth periods ({2 / cutting.teeth:g} revolutions)")
-    return np.ascontiguousarray(p)
+    return p
 
 
 def _check_samples(cutting: Cutting, rpm: np.ndarray, steps: np.ndarray, periods: np.ndarray, revs,

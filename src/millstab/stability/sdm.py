@@ -295,7 +295,8 @@ def _per_depth(cutting: Cutting, pd: np.ndarray | None, n_sets: int, r: np.ndarr
     """C / V [N·s/m²] of each set at each speed (B, S): the cutting's own C (zeros for none), or each set's C ``pd``
     (B,) [N/m] at the cutting's tool diameter (InputError where a C > 0 has no diameter to give the speed V)."""
     if pd is None:
-        return np.ascontiguousarray(np.broadcast_to(cutting.process_damping_per_depth(r), (n_sets, r.size)))
+        # a writable copy: a read-only one (one set, one speed) would compile the kernel for another signature
+        return np.array(np.broadcast_to(cutting.process_damping_per_depth(r), (n_sets, r.size)))
     if not (pd > 0).any():
         return np.zeros((n_sets, r.size))
     if not (cutting.diameter or 0) > 0:

@@ -90,7 +90,7 @@ def expected_best(blim_mm: np.ndarray, speeds: np.ndarray, cap_mm: np.ndarray, c
     eps = np.array(np.broadcast_to(np.asarray(label_error, float), (m,)))
     fac = np.array(np.broadcast_to(np.asarray(sigma_factor, float), (m,)))
     speeds = np.ascontiguousarray(speeds, float)
-    cap = np.ascontiguousarray(np.broadcast_to(np.asarray(cap_mm, float), speeds.shape))
+    cap = np.array(np.broadcast_to(np.asarray(cap_mm, float), speeds.shape))  # writable: one signature
     now = float(_best(np.ones(m), float(m), b_sorted, order, speeds, cap, float(risk)))
     e = _expected_best(bt, b_sorted, order, speeds, cap, np.ascontiguousarray(cand, np.int64),
                        np.ascontiguousarray(depth_mm, float), np.ascontiguousarray(sigma_mm, float), eps, fac,

@@ -212,3 +212,24 @@ def test_update_from_an_earlier_posterior(shop, capsys):
                  "--out", str(shop / "x.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("millstab: error:") and "start" in err[0]
+
+
+def test_recommend_prints_without_a_file_and_map_needs_somewhere_to_write(shop, capsys, tmp_path, monkeypatch):
+    """``recommend`` without ``--out`` prints the same cut it writes with it (a shop asking "where do I cut?" needs
+    no file); ``map`` with neither ``--out`` nor ``--plot`` is refused before any work, naming both."""
+    monkeypatch.setenv("COLUMNS", "200")
+    args = ["recommend", str(shop / "post.json"), "--rpm", "5000:9000", "--max-depth", "3"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert main([*args, "--out", str(tmp_path / "r.json")]) == 0
+    with_file = capsys.readouterr().out
+    rec = json.loads((tmp_path / "r.json").read_text())
+    assert f"{rec['rpm']:.0f} rpm" in printed and "wrote" not in printed
+    assert printed.replace("\n", "") in with_file.replace("\n", "")
+    monkeypatch.chdir(tmp_path)
+    assert main(["map", str(shop / "post.json"), "--rpm", "5000:9000:500", "--depth", "0:6:0.5"]) == 2
+    err = capsys.readouterr().err
+    assert "--out" in err and "--plot" in err and len(err.strip().splitlines()) == 1
+    assert main(["map", str(shop / "post.json"), "--rpm", "5000:9000:500", "--depth", "0:6:0.5",
+                 "--plot", "m.png"]) == 0
+    assert (tmp_path / "m.png").stat().st_size > 1000 and not list(tmp_path.glob("*.csv"))

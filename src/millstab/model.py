@@ -311,6 +311,20 @@ class Cutting:
         period (a/D 0.1 with 2 teeth: 0.20; a slot with 2 teeth: 1; with 4 teeth: 2)."""
         return self.teeth * (self.exit - self.entry) / (2 * math.pi)
 
+    @property
+    def time_invariant(self) -> bool:
+        """Whether the directional matrix [A(t)] is the same at every instant of the tooth period (then the
+        zero-order model is the exact stability boundary, not an average: a slot with 4, 6, 8 … teeth).
+
+        Tooth j at angle φ_j adds 2 f(φ_j) g(φ_j)ᵀ, whose entries are a constant, sin 2φ_j and cos 2φ_j; so [A(t)]
+        is constant for every Kr iff the number of teeth in the cut is (the engagement φex − φst is k pitches
+        2π/N, k ≥ 1 a whole number) and the sum of e^{2iφ_j} over those k teeth is too; that sum turns with φ
+        unless it is zero, and Σ_{m<k} e^{4πim/N} = 0 iff N ≥ 3 and 2k is a multiple of N."""
+        k = self.teeth_in_cut
+        whole = round(k)
+        return bool(self.teeth >= 3 and whole >= 1 and abs(k - whole) <= 1e-9 * max(k, 1.0)
+                    and (2 * whole) % self.teeth == 0)
+
     @classmethod
     def from_immersion(cls, teeth: int, kt: float, kr: float, radial_immersion: float, milling: Milling = "down",
                        **extra) -> Cutting:

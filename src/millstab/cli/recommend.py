@@ -50,7 +50,7 @@ def recommend_cmd(
                                help="The speed search: 'full' (every posterior sample at every speed), 'fast' (a "
                                     "subsample finds the pockets, every sample sets the depth: the same risk), "
                                     "'auto' (fast for engines other than zoa)."),
-    out: Path = typer.Option(..., "--out", help="Recommendation JSON."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Recommendation JSON (optional: the summary is printed)."),
     stickout: StickoutOpt = None,
     db: ShopDbOpt = None,
     campaign: CampaignOpt = None,
@@ -87,4 +87,5 @@ def recommend_cmd(
     emit.warnings(con, post.warnings, "warning (from the update)")
     con.print(api.condition_line(post))
     con.print(rec.summary())
-    con.print(f"wrote {out}")
+    if out:
+        con.print(f"wrote {out}")

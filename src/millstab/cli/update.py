@@ -142,7 +142,7 @@ def map_cmd(
     posterior: Optional[Path] = typer.Argument(None, help="Posterior JSON from millstab update (or --db/--campaign)."),
     rpm: str = typer.Option(..., "--rpm", help="Speeds START:STOP:STEP [rpm]."),
     depth: str = typer.Option(..., "--depth", help="Depths START:STOP:STEP [mm], e.g. 0:6:0.05."),
-    out: Path = typer.Option(..., "--out", help="CSV rpm,depth_mm,p_stable."),
+    out: Optional[Path] = typer.Option(None, "--out", help="CSV rpm,depth_mm,p_stable (this, --plot or both)."),
     plot: Optional[Path] = typer.Option(None, "--plot",
                                         help="P(stable) map with the 5/50/95 % boundaries (.png/.svg/.pdf)."),
     stickout: StickoutOpt = None,
@@ -166,6 +166,8 @@ def map_cmd(
     from millstab import api
     from millstab.io import check_outputs, write_csv
 
+    if out is None and plot is None:  # an hour's map that writes nothing is refused before the work
+        raise InputError("--out", None, "give --out CSV, --plot FIGURE or both: the map is written, not printed")
     speeds = api.parse_rpm_range(rpm)
     depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
@@ -175,9 +177,11 @@ def map_cmd(
     used = api.map_samples_text(post, samples)  # a bad --samples is refused before any work
     with _client(dask, workers) as client:  # the samples' limits on a cluster where that pays (sdm, spectral)
         pm = api.p_stable(post, speeds, depths, client, samples=samples)
-    write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
     con = Console()
-    con.print(f"wrote {out} ({speeds.size} speeds × {depths.size} depths, {used}; {api.condition_line(post)})")
+    if out:
+        write_csv(out, *api.map_table(speeds, depths, pm), protect=protect)
+    con.print(f"{'wrote ' + str(out) if out else 'P(stable)'} ({speeds.size} speeds × {depths.size} depths, {used}; "
+              f"{api.condition_line(post)})")
     if plot:
         from millstab.io.figures import save_figure
 

@@ -29,9 +29,9 @@ CUT = Cutting(2, 556.31e6, 0.404, 0.0, math.pi)
 STRUCT = Structure(x=(Mode(903.0, 12.53e6, 0.03),), y=(Mode(1050.0, 15e6, 0.04),))
 
 
-def _likelihoods(alias: float):
-    """(near-the-mode likelihood, family-only likelihood) of one deep chatter cut at 6 000 rpm heard at 1 000 Hz."""
-    cuts = PointSet([6000.0], [50.0], ["chatter"], chatter_hz=[1000.0])
+def _likelihoods(alias: float, depth_mm: float = 1.05):
+    """(near-the-mode likelihood, family-only likelihood) of one chatter cut at 6 000 rpm heard at 1 000 Hz."""
+    cuts = PointSet([6000.0], [depth_mm], ["chatter"], chatter_hz=[1000.0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # "every cut is chatter"
         ev = Evidence.from_points(cuts)
@@ -44,17 +44,22 @@ def test_a_reading_near_the_mode_tells_the_lobe_aliases_apart():
     f_tp = 2 * 6000 / 60  # 200 Hz
     # predicted limiting-lobe frequencies: the reading itself, one tooth-passing alias up, its mirror, 10 Hz off
     hz = np.array([[1000.0], [1000.0 + f_tp], [2 * f_tp - 1000.0 + 4 * f_tp], [1010.0]])
-    depth = np.ones((4, 1))  # 1 mm limits: the 50 mm cut chatters under every row, the same label term
+    depth = np.ones((4, 1))  # 1 mm limits: the 1.05 mm cut chatters under every row, the same label term
     ll_f, ll_n = family.from_limits(depth, hz), near.from_limits(depth, hz)
     assert ll_f[0] == pytest.approx(ll_f[1], abs=1e-12) and ll_f[0] == pytest.approx(ll_f[2], abs=1e-12)
-    s = 20.0  # the default chatter-frequency noise
+    # by hand: 5 % over its limit, σ = hypot(20 Hz, 0.017 × 1 000 Hz × ln 1.05), a reading of another vibration
+    # with 0.05 + 0.12 ln 1.05 (uniform over the 200 Hz tooth-passing band)
+    x = math.log(1.05)
+    s, o = math.hypot(20.0, 0.017 * 1000.0 * x), 0.05 + 0.12 * x
+
+    def term(d0, d, a):
+        return math.log((1 - o) * ((1 - a) * norm.pdf(d0, scale=s) + a * norm.pdf(d, scale=s)) + o / f_tp)
+
     for i, (d0, d) in enumerate([(0.0, 0.0), (f_tp, 0.0), (abs(hz[2, 0] - 1000.0), 0.0), (10.0, 10.0)]):
-        want = math.log(0.9 * norm.pdf(d0, scale=s) + 0.1 * norm.pdf(d, scale=s)) - norm.logpdf(d, scale=s)
-        assert ll_n[i] - ll_f[i] == pytest.approx(want, abs=1e-9)
-    # the alias pays ln 0.1 + ln(1 + ...) ≈ −2.3 nats against the structure that chatters at the reading
-    assert ll_n[0] - ll_n[1] == pytest.approx(math.log(0.9 * norm.pdf(0, scale=s) + 0.1 * norm.pdf(0, scale=s))
-                                              - math.log(0.9 * norm.pdf(f_tp, scale=s) + 0.1 * norm.pdf(0, scale=s)))
-    assert ll_n[0] - ll_n[1] > 2.0
+        assert ll_n[i] - ll_f[i] == pytest.approx(term(d0, d, 0.1) - term(d, d, 1.0), abs=1e-9)
+    # the alias pays ≈ 2 nats against the structure that chatters at the reading
+    assert ll_n[0] - ll_n[1] == pytest.approx(term(0.0, 0.0, 0.1) - term(f_tp, 0.0, 0.1), abs=1e-9)
+    assert ll_n[0] - ll_n[1] > 1.5
     # alias 1 is the family term bit for bit
     one, _ = _likelihoods(1.0)
     np.testing.assert_array_equal(one.from_limits(depth, hz), ll_f)
@@ -85,3 +90,28 @@ def test_chatter_hz_alias_from_the_config_and_in_the_posterior_record():
             parse_config(TOML + f"[prior]\nchatter_hz_alias = {bad}\n")
     with pytest.raises(InputError, match="chatter_hz_alias"):
         replace(p, chatter_hz_alias=0.0)
+
+
+def test_a_deep_cuts_reading_says_less_than_one_at_its_limit():
+    """A cut far above its limit chatters at its own vibration, not at the boundary's f_c (measured drift:
+    benchmarks/bench_chatter_drift.py): its reading's σ grows with ln(depth / limit) and its outlier share too, so
+    the same 100 Hz miss costs a cut at its limit ~4.3 nats (bounded by the 5 % share of readings of another
+    vibration; 12.5 nats by σ alone) and a cut at 7.4× its limit under 2 nats; at or below the limit σ is the
+    prior's."""
+    from millstab.update.likelihood import frequency_spread
+
+    hz = np.array([[1000.0], [1100.0]])  # the reading's own frequency, and 100 Hz off it
+    miss = {}
+    for depth_mm in (1.0, 7.4):
+        near, _ = _likelihoods(0.1, depth_mm)
+        ll = near.from_limits(np.ones((2, 1)), hz)
+        miss[depth_mm] = float(ll[0] - ll[1])
+    s0 = 20.0
+    at_limit = math.log(0.95 * norm.pdf(0, scale=s0) + 0.05 / 200) - math.log(0.95 * norm.pdf(100, scale=s0)
+                                                                              + 0.05 / 200)
+    assert miss[1.0] == pytest.approx(at_limit, rel=1e-3) and 4.0 < miss[1.0] < 4.5  # the 0.1 alias share adds ~0
+    assert 0.5 < miss[7.4] < 2.0
+    s, o = frequency_spread(20.0, np.array([1000.0, 1000.0, 1000.0]), np.array([0.5, 1.0, 7.4]), np.ones((1, 3)))
+    np.testing.assert_allclose(s[0], [20.0, 20.0, math.hypot(20.0, 17.0 * math.log(7.4))])
+    np.testing.assert_allclose(o[0], [0.05, 0.05, 0.05 + 0.12 * math.log(7.4)])
+    assert frequency_spread(20.0, np.array([1e3]), np.array([50.0]), np.ones((1, 1)))[1][0, 0] == 0.3  # at most

@@ -228,6 +228,34 @@ def check_engine(prior: Prior, engine: str):
     return eng
 
 
+#: how far a chattering cut's frequency drifts from the boundary's chatter frequency f_c, relative to f_c, per unit of
+#: x = ln(cut depth / limit): a cut deeper than its limit chatters at its own fastest-growing (and, with the teeth
+#: leaving the cut, saturated) vibration, not at the boundary's. Measured on the virtual shop
+#: (``benchmarks/bench_chatter_drift.py``, 1 082 chattering cuts of four tools in seven conditions, x uniform in
+#: [0, 2]): median |f_m − f_c| / f_c 0.36 %, 1.0 %, 1.5 %, 1.8 %, 2.4 % in bins of x 0.4 wide; the rms slope of the
+#: readings within 5 % is 0.0167. With the boundary's σ alone (20 Hz) the readings of deep cuts (80–480 Hz off at
+#: 3.8 kHz) pulled a posterior confidently away from the truth: docs/updating.md, "Chatter frequencies of deep cuts"
+FREQ_DRIFT = 0.017
+#: the share of readings of another vibration (another mode or lobe: beyond 5 % of f_c, 6 % of the readings at x < 0.4
+#: and 28 % at x 1.6–2, same benchmark): FREQ_OUTLIER[0] + FREQ_OUTLIER[1]·x, at most FREQ_OUTLIER[2]; such a reading
+#: is anywhere in one tooth-passing band (density 1/f_tp), so it costs a bounded log-likelihood
+FREQ_OUTLIER = (0.05, 0.12, 0.3)
+
+
+def frequency_spread(sigma_hz: float, measured_hz: np.ndarray, cut_depth_mm: np.ndarray, limit_mm: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(σ [Hz], outlier share) of chatter-frequency readings (B, J): σ = hypot(``sigma_hz``, FREQ_DRIFT·f_m·x) and the
+    share FREQ_OUTLIER in x = ln(cut depth / limit) where the cut lies above the limit (x = 0 at or below it, and where
+    there is no boundary: a reading there is judged by σ alone). ``measured_hz`` (J,) the readings f_m [Hz] (the drift's
+    scale: the reading, not the model's f_c, so that the lobe aliases f_c ± m·f_tp of one limit keep one σ),
+    ``cut_depth_mm`` (J,), ``limit_mm`` (B, J) [mm]."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.log(np.asarray(cut_depth_mm, float) / np.asarray(limit_mm, float))
+    x = np.where(np.isfinite(x) & (x > 0), x, 0.0)
+    o0, o1, o_max = FREQ_OUTLIER
+    return np.hypot(sigma_hz, FREQ_DRIFT * np.abs(np.asarray(measured_hz, float)) * x), np.minimum(o0 + o1 * x, o_max)
+
+
 def frequency_distance(measured_hz: np.ndarray, predicted_hz: np.ndarray, tooth_hz: np.ndarray) -> np.ndarray:
     """Distance [Hz] from a measured frequency to the nearest of ±f_c + m·f_tp (m integer).
 
@@ -858,13 +886,18 @@ class Likelihood:
             ll += cut_loglik(z, None, eps, ev.cut_grade[i]) @ ev.cut_weight[i]
         j = self._hz[sel[self._hz]] if self._hz.size else self._hz
         if j.size and hz is not None:
-            d = frequency_distance(ev.cut_hz[j], hz[:, self._ic[j]], self._tooth_hz[j])
-            s, a = self.prior.sigma_chatter_hz, self.prior.chatter_hz_alias
+            fc = hz[:, self._ic[j]]
+            d = frequency_distance(ev.cut_hz[j], fc, self._tooth_hz[j])
+            s, o = frequency_spread(self.prior.sigma_chatter_hz, ev.cut_hz[j], ev.cut_depth_mm[j],
+                                    depth_mm[:, self._ic[j]])
+            a = self.prior.chatter_hz_alias
             lf = -0.5 * (d / s) ** 2
             if a < 1:  # the member near the mode with probability 1 − a (module docstring)
-                d0 = np.where(np.isfinite(hz[:, self._ic[j]]), np.abs(ev.cut_hz[j] - hz[:, self._ic[j]]), d)
+                d0 = np.where(np.isfinite(fc), np.abs(ev.cut_hz[j] - fc), d)
                 lf = np.logaddexp(math.log1p(-a) - 0.5 * (d0 / s) ** 2, math.log(a) + lf)
-            ll += (lf - math.log(s) - _LOG_SQRT_2PI) @ ev.cut_weight[j]
+            # a reading of another vibration (FREQ_OUTLIER): anywhere in one tooth-passing band
+            lf = np.logaddexp(np.log1p(-o) + lf - np.log(s) - _LOG_SQRT_2PI, np.log(o) - np.log(self._tooth_hz[j]))
+            ll += lf @ ev.cut_weight[j]
         if ev.pt_rpm.size and points:
             sig = self._sig_p * fac
             r = (ev.pt_depth_mm - depth_mm[:, self._ip]) / sig
@@ -872,5 +905,6 @@ class Likelihood:
         return np.where(np.isnan(ll), -np.inf, ll)
 
 
-__all__ = ["Evidence", "Likelihood", "check_engine", "cut_loglik", "frequency_distance", "limits",
+__all__ = ["Evidence", "Likelihood", "FREQ_DRIFT", "FREQ_OUTLIER", "check_engine", "cut_loglik", "frequency_distance",
+           "frequency_spread", "limits",
            "limits_by_condition", "stickout_groups"]

@@ -99,6 +99,11 @@ def parse() -> argparse.Namespace:
     ap.add_argument("--chatter-hz", type=float, default=None, metavar="SD",
                     help="give each cut labelled chatter that truly chatters the truth's chatter frequency (SDM, "
                          "at its speed) + N(0, SD²) Hz, as a microphone would (`millstab listen`); default: none")
+    ap.add_argument("--chatter-hz-sim", action="store_true",
+                    help="with --chatter-hz: the frequency a microphone hears is the time-domain simulation's of the "
+                         "truth at the cut's own depth (millstab.simulate.label_cuts; a deep cut chatters away from "
+                         "the boundary's f_c, benchmarks/bench_chatter_drift.py), SDM's f_c where the simulation "
+                         "hears none; + N(0, SD²) Hz either way")
     ap.add_argument("--chatter-hz-alias", type=float, default=None, metavar="A",
                     help="the prior's chatter_hz_alias: the chance a frequency is another member of its family than "
                          "the one near the mode (default: the prior's, 1 = any member alike)")
@@ -175,7 +180,14 @@ def run_one(args: argparse.Namespace, c: int) -> tuple[dict, list[str], dict]:
             truly = (np.asarray(depth) > b * np.exp(args.noise * rng.standard_normal(b.shape)))
             chat = truly ^ (rng.random(b.shape) < args.flip)
             if args.chatter_hz is not None:  # the microphone hears the truth's chatter, whatever the operator wrote
-                hz = env.chatter_hz + args.chatter_hz * rng.standard_normal(b.shape)
+                base = env.chatter_hz
+                if args.chatter_hz_sim:  # the cut's own vibration (its depth), not the boundary's
+                    from millstab.simulate import label_cuts
+
+                    heard = label_cuts(s_true, cut, np.asarray(rpm, float), np.asarray(depth, float) * 1e-3,
+                                       1e-4).chatter_hz
+                    base = np.where(np.isfinite(heard), heard, base)
+                hz = base + args.chatter_hz * rng.standard_normal(b.shape)
                 c_hz.extend(np.where(truly & chat, hz, np.nan).tolist())
             return list(np.where(chat, "chatter", "stable"))
 
@@ -302,8 +314,9 @@ def main() -> None:
           f"{os.getloadavg()[0]:.1f}), tails {prior.tails}, truth k×{args.k_factor:g}^s, fn×{1 + args.fn_off:g}^s, "
           f"ζ×{args.zeta_factor:g}^s; labels SDM ({args.truth_steps}) with {args.noise:.0%} noise, "
           f"{args.flip:.0%} swapped" + ("" if args.chatter_hz is None else
-                                         f", chatter frequencies ±{args.chatter_hz:g} Hz (alias "
-                                         f"{prior.chatter_hz_alias:g})")
+                                         f", chatter frequencies ±{args.chatter_hz:g} Hz "
+                                         f"({'the simulation at the cut depth' if args.chatter_hz_sim else 'SDM f_c'};"
+                                         f" alias {prior.chatter_hz_alias:g})")
           + f"; {args.samples} samples, {args.rounds} rounds:")
     print(f"  conflict named after the first update: {sum(r['named'][0] for r in rows)} / {n}; in some round: "
           f"{sum(any(r['named']) for r in rows)} / {n}; in the last: {sum(r['named'][-1] for r in rows)} / {n}")

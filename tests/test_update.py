@@ -109,9 +109,16 @@ def test_likelihood_matches_a_hand_computation():
     def lab(z):  # P(chatter label) of the swap mixture
         return np.log((1 - e) * norm.cdf(z) + e * norm.cdf(-z))
 
+    # the frequency term: the reading's σ and its share of another vibration grow with x = ln(depth / limit) above
+    # the limit (FREQ_DRIFT 0.017, FREQ_OUTLIER 0.05 + 0.12 x, at most 0.3); read as the member near the mode with
+    # 1 − a, any member with a
+    x = np.maximum(np.log(2.0 / b(6000)), 0.0)
+    sf, o, a = np.hypot(20.0, 0.017 * 1000.0 * x), np.minimum(0.05 + 0.12 * x, 0.3), prior.chatter_hz_alias
+    d0 = np.abs(1000.0 - hz[:, i[6000]])
+    freq = np.log((1 - o) * ((1 - a) * norm.pdf(d0, scale=sf) + a * norm.pdf(d, scale=sf)) + o / ftp)
     want = (lab(-(1.0 - b(5000)) / s) + 2 * lab((2.0 - b(6000)) / s)
             + 0.5 * (lab((1.5 - b(7000)) / s) + lab(-(1.5 - b(7000)) / s))
-            + 2 * norm.logpdf(d, scale=20.0) + norm.logpdf(1.7, loc=b(6500), scale=s))
+            + 2 * freq + norm.logpdf(1.7, loc=b(6500), scale=s))
     np.testing.assert_allclose(lik(u), want, rtol=1e-10)
     assert lik.n_calls == 1 and lik.n_sets == 5
 
@@ -410,8 +417,16 @@ def test_boundary_points_combine_with_cuts_and_frequency_term_points_to_the_trut
     d = frequency_distance(hz, hz2, 200.0)
     assert 5 < d < 100
     label = math.log(1 - prior.label_error)  # a cut this deep is written "chatter" unless the label is swapped
-    assert ll[0] == pytest.approx(label + norm.logpdf(0, scale=20.0), abs=1e-6)
-    assert ll[1] == pytest.approx(label + norm.logpdf(d, scale=20.0), abs=1e-6)
+    b = [limits(prior, v, [6000.0], "zoa")[0][0, 0] for v in (u0, shifted)]
+
+    def freq(dist, limit):  # σ and the share of another vibration grow with x = ln(50 mm / limit) (FREQ_DRIFT, ...)
+        x = math.log(50.0 / limit)
+        sf, o = math.hypot(20.0, 0.017 * hz * x), min(0.05 + 0.12 * x, 0.3)
+        return math.log((1 - o) * norm.pdf(dist, scale=sf) + o / 200.0)  # d0 = d here: any alias mixture is moot
+
+    assert ll[0] == pytest.approx(label + freq(0.0, b[0]), abs=1e-6)
+    assert ll[1] == pytest.approx(label + freq(d, b[1]), abs=1e-6)
+    assert ll[0] > ll[1]
     with pytest.warns(UserWarning, match="not used"):
         assert not Likelihood(prior, ev1, "sdm").uses_frequency
 

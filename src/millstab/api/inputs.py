@@ -94,6 +94,31 @@ def in_config_condition(points: PointSet | None, cfg: Config | None, target=None
                                       getattr(cfg, "diameter_mm", None)))
 
 
+def config_in_condition(cfg: Config, **target) -> tuple[Config, str | None]:
+    """(``cfg`` in the target condition the doors' options name, one line saying so), or (``cfg``, None) when none is
+    given: the same tool and structure, ``cutting`` replaced (:func:`millstab.api.target_condition`; ``target``: its
+    keywords ``radial_immersion``, ``milling``, ``entry_deg``, ``exit_deg``, ``teeth``)."""
+    import dataclasses
+
+    from millstab.api.update import condition_text, target_condition
+
+    c = target_condition(cfg.cutting, cfg.diameter_mm, **target)
+    if c is None:
+        return cfg, None
+    return (dataclasses.replace(cfg, cutting=c),
+            f"computed for {condition_text(c)} (the config's: {condition_text(cfg.cutting)})")
+
+
+def points_drawn(points: PointSet | None, cfg: Config, target=None) -> tuple[PointSet | None, str | None]:
+    """(the points cut in the config's condition or in ``target``, :func:`in_config_condition`; a line counting the
+    others, or None when every point is drawn)."""
+    drawn = in_config_condition(points, cfg, target)
+    if points is None or len(drawn) == len(points):
+        return drawn, None
+    return drawn, (f"{len(points) - len(drawn)} of the {len(points)} points were cut in other conditions than the "
+                   f"{'config' if target is None else 'target'}'s: not drawn")
+
+
 def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:
     """A point set parsed from CSV text ``rpm,depth_mm[,label][,weight][,chatter_hz]`` (an upload), with the
     same checks as a file; ``name`` names it in messages."""

@@ -14,6 +14,7 @@ from millstab.bounds import samples as check_samples
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
 from millstab.points import PointSet
+from millstab.points import condition_text  # noqa: F401 (re-exported: "a/D 0.25 up milling, 4 teeth" for the doors)
 from millstab.io.config import with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
 from millstab.config import Config
 from millstab.points import PointSet

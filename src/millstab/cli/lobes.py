@@ -36,19 +36,15 @@ def lobes(
     teeth: TeethOpt = None,
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""
-    import dataclasses
-
     from millstab import api
-    from millstab.io import read_points, write_csv
+    from millstab.cli import emit
+    from millstab.io import read_points
     from millstab.io.outputs import check_outputs, config_inputs
 
-    cfg = api.config(config)
+    base = api.config(config)
     # another condition than the config's (the same options as map/recommend/predict): the same tool and structure
-    target = api.target_condition(cfg.cutting, cfg.diameter_mm, radial_immersion=radial_immersion, milling=milling,
-                                  entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)
-    base = cfg
-    if target is not None:
-        cfg = dataclasses.replace(cfg, cutting=target)
+    cfg, note = api.config_in_condition(base, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
+                                        exit_deg=exit_deg, teeth=teeth)
     speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
     pts = read_points(points) if points else None
     inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
@@ -57,20 +53,12 @@ def lobes(
     with progress_bar("speeds") as update:
         result = api.lobes(cfg, speeds, engine=engine, compare=compare, progress=engine_progress(update))
     typer.echo(result.summary())
-    if target is not None:
-        from millstab.points import condition_text
-
-        typer.echo(f"computed for {condition_text(target)} (the config's: {condition_text(base.cutting)})")
-    if out:
-        write_csv(out, *result.table(), protect=protect)
-        typer.echo(f"wrote {out}")
+    if note:
+        typer.echo(note)
+    emit.csv(out, result.table(), protect)
     if plot:
-        from millstab.io.figures import save_figure
-
-        drawn = api.in_config_condition(pts, base, target)  # the SLD is one condition: the points cut in it
-        if pts is not None and len(drawn) < len(pts):
-            typer.echo(f"{len(pts) - len(drawn)} of the {len(pts)} points were cut in other conditions than the "
-                       f"{'config' if target is None else 'target'}'s: not drawn")
-        pts = drawn
-        save_figure(api.lobes_figure(result, points=pts, raw=raw), plot, protect=protect)
-        typer.echo(f"wrote {plot}")
+        # the SLD is one condition: the points cut in it
+        drawn, skipped = api.points_drawn(pts, base, None if note is None else cfg.cutting)
+        if skipped:
+            typer.echo(skipped)
+        emit.figure(plot, lambda: api.lobes_figure(result, points=drawn, raw=raw), protect)

@@ -6,8 +6,9 @@ docs/engines.md, "Time-invariant cutting") instead of collocating the whole toot
 (one mode per direction, the seed paper's x and y fundamental modes), a slot, ``--cuts`` cuts at random speeds in
 6 000–19 000 rpm and depths around the truth's limit (× e^U(−0.5, 0.5): labels of both kinds), labelled by the
 time-domain simulation of a truth off the hammer test; the spectral update with ``--samples`` samples with the
-hand-over and without it, alternated ``--repeats`` times in one process (BLAS pinned to one thread), and the zero-order update; the posterior medians of
-both spectral updates printed side by side (the same within the collocation's accuracy).
+hand-over and without it, alternated ``--repeats`` times in one process (BLAS pinned to one thread), and the
+zero-order update; the posterior medians of both spectral updates compared (the same within the collocation's
+accuracy and the chains' Monte Carlo error).
 
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_spectral_invariant.py`` (~2 min on 2 cores).
 """

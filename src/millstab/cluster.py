@@ -258,12 +258,34 @@ def _warm_task(engine: str, par, cutting, rpm: np.ndarray, probe_rows: int) -> f
     return (time.thread_time() - t0) / probe_rows
 
 
+#: how long a study waits for a worker of a cluster that has none at the moment [s] (a nanny restarting a lost one)
+WORKER_WAIT_S = 60.0
+
+
+def live_workers(client: Any) -> list[str]:
+    """The addresses of the workers the scheduler holds now, asked of the scheduler itself, waiting up to
+    :data:`WORKER_WAIT_S` for one if there is none. Why not ``client.scheduler_info()``: the client refreshes that
+    copy every few seconds, so right after a worker was lost (and its nanny started another) it named a dead worker or
+    none, and a study failed with "no workers" on a cluster of two (CI, 2026-11-29)."""
+    def names(dask_scheduler=None) -> list[str]:
+        return sorted(dask_scheduler.workers)
+
+    workers = client.run_on_scheduler(names)
+    if not workers:
+        try:
+            client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+        except (TimeoutError, OSError):
+            return []
+        workers = client.run_on_scheduler(names)
+    return list(workers)
+
+
 def warm(client: Any, engine: str, par, cutting, rpm: np.ndarray, probe_rows: int = 32) -> float:
     """Compile the engine on every worker, the first one alone (see the module docstring), and return
     the median CPU seconds per parameter set (row) at these speeds on one worker thread."""
-    workers = sorted(client.scheduler_info()["workers"])
+    workers = live_workers(client)
     if not workers:
-        raise InputError("client", str(client), "the Dask cluster has no workers")
+        raise InputError("client", str(client), f"the Dask cluster has no workers (waited {WORKER_WAIT_S:g} s)")
     first = client.submit(_warm_task, engine, par, cutting, rpm, probe_rows, workers=workers[:1],
                           allow_other_workers=False, pure=False, key=f"millstab-warm-{uuid.uuid4().hex[:8]}-0")
     times = [first.result()]

@@ -643,8 +643,8 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     _reject_process_damping(cutting, name)
     if isinstance(near, bool) or not isinstance(near, (int, float, np.floating)) or not 0.0 <= near < 1.0:
         raise InputError("near", near, "the refinement margin near rho = 1 must be a number in [0, 1)")
-    if INVARIANT_BY_ZOA and cutting.time_invariant:
-        depth, mu = _invariant(batch, cutting, check_rpm(r), check_kr(kr, batch.size))
+    if _by_zoa(cutting):
+        depth, mu = _invariant(batch, cutting, r, check_kr(kr, batch.size))
         return depth, mu, 0
     # solved once per distinct speed, in increasing order (the continuation from speed to speed needs a
     # step > 0: repeated speeds made the kernel divide by zero), then put back in the caller's order
@@ -658,6 +658,12 @@ def _limit(batch: ModalBatch, cutting: Cutting, r: np.ndarray, nodes: int | None
     depth, mu, _ = (_solve_warm if warm else _solve)(batch, cutting, rs, b_ref, p, near=near, ceiling=cap, floor=low,
                                                      kr=kr)
     return depth[:, inv], mu[:, inv], p
+
+
+def _by_zoa(cutting: Cutting) -> bool:
+    """Whether ``cutting`` is handed to the zero-order engine (:data:`INVARIANT_BY_ZOA`): one rule for the depths
+    (:func:`_limit`) and the discretisation (:func:`settings`)."""
+    return INVARIANT_BY_ZOA and cutting.time_invariant
 
 
 def _invariant(batch: ModalBatch, cutting: Cutting, r: np.ndarray, kr: np.ndarray | None
@@ -854,7 +860,7 @@ def settings(batch: ModalBatch, cutting: Cutting, rpm, purpose: str = "fit") -> 
     if purpose not in PURPOSES:
         raise InputError("purpose", purpose, "one of " + ", ".join(PURPOSES))
     _require_modal_batch(batch)
-    if INVARIANT_BY_ZOA and cutting.time_invariant:  # no collocation to discretise (_limit); merged with the others'
+    if _by_zoa(cutting):  # no collocation to discretise (_limit); merged with the others'
         return {}
     rs = np.ascontiguousarray(np.unique(check_rpm(rpm)))
     first = ModalBatch(*(getattr(batch, f)[:1] for f in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y")))

@@ -23,7 +23,6 @@ EXECUTOR = ThreadPoolExecutor(max_workers=2, thread_name_prefix="millstab-job")
 POLL_MS = 250
 
 
-
 def collected(work: Callable[[api.Progress], Any], progress: api.Progress) -> tuple[Any, list[str]]:
     """(``work(progress)``, the texts of the millstab warnings it issued, each once, in order): a job's result and
     notes. Collected per thread (:mod:`millstab.warnlog`), so another session's job adds nothing; once each, as a
@@ -31,6 +30,7 @@ def collected(work: Callable[[api.Progress], Any], progress: api.Progress) -> tu
     with api.collect_warnings() as caught:
         result = work(progress)
     return result, list(dict.fromkeys(str(w.message) for w in caught))
+
 
 class JobBar(pn.viewable.Viewer):
     """A run button, a cancel button, a progress bar and a status line for one kind of long work.

@@ -12,6 +12,11 @@ Printed: |f_m − f_c| / f_c by bins of x = ln(b / b_lim) (median, 90 %, share b
 |f_m − f_c| / f_c on x through the origin over the readings within 5 % (the likelihood's ``FREQ_DRIFT``,
 :mod:`millstab.update.likelihood`).
 
+``--at-depth``: also the frequency of the fastest-growing vibration at the cut's OWN depth as the prediction (the
+dominant Floquet multiplier μ of the spectral monodromy at (speed, depth), f = |arg μ|·f_tp/2π, the same nearest-member
+distance), the same table side by side: is the drift the linear growth frequency moving with depth, which a likelihood
+could compute per cut, or the saturated limit cycle's?
+
 Run: ``PYTHONPATH=src:benchmarks .venv/bin/python benchmarks/bench_chatter_drift.py`` (~10 s on 2 cores).
 """
 
@@ -49,11 +54,23 @@ def conditions(base: Cutting) -> list[Cutting]:
     return c
 
 
+def growth_hz(st: Structure, c: Cutting, rpm: np.ndarray, depth_m: np.ndarray) -> np.ndarray:
+    """The frequency [Hz] of the dominant Floquet multiplier at each (speed, depth): |arg μ|·f_tp/2π (a member of
+    the family ±f + m·f_tp, which is all the nearest-member distance reads)."""
+    out = np.empty(rpm.size)
+    for i, (r, b) in enumerate(zip(rpm, depth_m)):  # a benchmark's census, ~1 000 cuts
+        mu = np.linalg.eigvals(spectral.monodromy(st, c, float(r), float(b), nodes=8))
+        out[i] = abs(np.angle(mu[np.argmax(np.abs(mu))])) / (2.0 * math.pi) * c.teeth * r / 60.0
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cuts", type=int, default=40, help="cuts per (machine, condition)")
     ap.add_argument("--max-log", type=float, default=2.0, help="largest ln(depth / limit)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--at-depth", action="store_true",
+                    help="also the dominant multiplier's frequency at the cut's own depth as the prediction")
     args = ap.parse_args()
     print(describe())
     rng = np.random.default_rng(args.seed)
@@ -73,10 +90,13 @@ def main() -> None:
                 x = rng.uniform(0.0, args.max_log, args.cuts)
                 lab = label_cuts(st, c, rpm[ok], lim[ok] * np.exp(x[ok]), 1e-4)
                 # the distance to the nearest member of ±f_c + m·f_tp: the likelihood's own reading of a frequency
-                dist = frequency_distance(lab.chatter_hz, fc[ok], c.teeth * rpm[ok] / 60.0)
-                for d, f, xi, lb, fm in zip(dist, fc[ok], x[ok], lab.true_label, lab.chatter_hz):
+                f_tp = c.teeth * rpm[ok] / 60.0
+                dist = frequency_distance(lab.chatter_hz, fc[ok], f_tp)
+                at = (frequency_distance(lab.chatter_hz, growth_hz(st, c, rpm[ok], lim[ok] * np.exp(x[ok])), f_tp)
+                      if args.at_depth else np.full(dist.shape, np.nan))
+                for d, a, f, xi, lb, fm in zip(dist, at, fc[ok], x[ok], lab.true_label, lab.chatter_hz):
                     if lb == "chatter" and np.isfinite(fm):
-                        rows.append((name, c.teeth_in_cut, xi, d / f))
+                        rows.append((name, c.teeth_in_cut, xi, d / f, a / f))
     rel = np.array([r[3] for r in rows])
     x = np.array([r[2] for r in rows])
     print(f"{len(rows)} chattering cuts simulated ({time.perf_counter() - t0:.0f} s); |f_m - f_c| / f_c by "
@@ -88,6 +108,14 @@ def main() -> None:
         if sel.any():
             print(f"  {lo:.1f}-{hi:.1f}  {sel.sum():5d}  {np.median(rel[sel]):7.4f} {np.quantile(rel[sel], 0.9):7.4f} "
                   f"{(rel[sel] > 0.05).mean():8.2f}")
+    if args.at_depth:
+        at = np.array([r[4] for r in rows])
+        print("the same with the dominant multiplier's frequency at the cut's own depth as the prediction:")
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            sel = (x >= lo) & (x < hi)
+            if sel.any():
+                print(f"  {lo:.1f}-{hi:.1f}  {sel.sum():5d}  {np.median(at[sel]):7.4f} {np.quantile(at[sel], 0.9):7.4f} "
+                      f"{(at[sel] > 0.05).mean():8.2f}")
     core = rel <= 0.05
     gamma = float(np.sqrt(np.sum(rel[core] ** 2) / np.sum(x[core] ** 2)))
     slope = float(np.sum(rel[core] * x[core]) / np.sum(x[core] ** 2))

@@ -335,6 +335,28 @@ def test_recommend_respects_the_risk_and_beats_the_grid():
         recommend(post, 0.1, (2000, 9000))
 
 
+def test_decisions_beyond_the_tested_speeds_warn_in_one_text():
+    """A map and a recommendation over the same speeds beyond the tested ones say it in the same words (the app shows
+    both on one page: one line, not two that differ in one word); within 10 % of the tested speeds nothing is said."""
+    from millstab import api
+
+    prior = make_prior(STRUCT, CUT)
+    post = Posterior(prior, np.exp(prior.sample(200, np.random.default_rng(4))), cuts={"rpm": [5000.0, 9000.0]})
+    texts = []
+    for call in (lambda: api.p_stable(post, np.linspace(2000, 9000, 8), np.linspace(0, 4, 5)),
+                 lambda: recommend(post, 0.1, (2000, 9000))):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            call()
+        texts.append([str(w.message) for w in caught if "tested speeds" in str(w.message)])
+    assert texts[0] == texts[1] and len(texts[0]) == 1, texts
+    assert "2000-9000 rpm" in texts[0][0] and "(5000-9000 rpm)" in texts[0][0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        recommend(post, 0.1, (4600, 9800))  # within 10 %
+    assert not [w for w in caught if "tested speeds" in str(w.message)]
+
+
 def test_allowed_count_is_the_clopper_pearson_bound():
     from scipy.stats import binom
 

@@ -131,7 +131,7 @@ def predict(post, cuts: PointSet) -> Prediction:
     from millstab.update.predict import predict_cuts
 
     if len(cuts):
-        warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), "the prediction", stacklevel=3)
+        warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), stacklevel=3)
     from millstab.points import condition_text, cut_conditions, same_condition
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)

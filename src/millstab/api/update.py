@@ -333,7 +333,7 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
                          f"{np.size(rpm)} speeds × {np.size(depth_mm)} depths is too many cells (max "
                          f"{MAX_MAP_CELLS:.0e})")
-    warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), "the map", stacklevel=3)
+    warn_outside(post, float(np.min(rpm)), float(np.max(rpm)), stacklevel=3)
     if client is not None:
         from millstab.cluster import check_client
 

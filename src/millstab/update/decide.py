@@ -509,13 +509,14 @@ def map_error(samples: int) -> float:
     return 0.5 / math.sqrt(samples)
 
 
-def warn_outside(post: Posterior, lo: float, hi: float, what: str = "the answer", stacklevel: int = 2) -> None:
-    """Warn when the speeds ``lo``..``hi`` [rpm] reach more than 10 % beyond the tested speeds: there
-    ``what`` leans on the prior."""
+def warn_outside(post: Posterior, lo: float, hi: float, stacklevel: int = 2) -> None:
+    """Warn when the speeds ``lo``..``hi`` [rpm] reach more than 10 % beyond the tested speeds: decisions there lean
+    on the prior. One text for every decision (map, recommendation, prediction), so a page that shows a map and a
+    recommendation together shows it once."""
     data_rpm = np.asarray(post.cuts.get("rpm") or [], float)
     if data_rpm.size and (lo < 0.9 * data_rpm.min() or hi > 1.1 * data_rpm.max()):
         warn(f"the speed range {lo:g}-{hi:g} rpm reaches beyond the tested speeds ({data_rpm.min():g}-"
-             f"{data_rpm.max():g} rpm): there {what} leans on the prior", UserWarning, stacklevel=stacklevel + 1)
+             f"{data_rpm.max():g} rpm): decisions there lean on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
 def warn_time_averaged(post: Posterior, stacklevel: int = 2) -> None:
@@ -944,7 +945,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     if discriminate not in DISCRIMINATE_CHOICES:
         raise InputError("--discriminate", discriminate, "one of " + ", ".join(DISCRIMINATE_CHOICES))
     factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
-    warn_outside(post, lo, hi, "the recommendation", stacklevel=3)
+    warn_outside(post, lo, hi, stacklevel=3)
     warn_time_averaged(post, stacklevel=3)
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised
     # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once

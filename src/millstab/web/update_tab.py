@@ -312,7 +312,8 @@ class UpdateTab:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
-        notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in caught)
+        # the map and the recommendation may say one thing each in the same words (dict: once each, in order)
+        notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in dict.fromkeys(caught))
         self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"
                          f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"

@@ -300,3 +300,28 @@ def test_the_labelled_file_keeps_the_users_depths_as_written(tmp_path):
     assert main(["simulate", "example:ex1", "--cuts", str(cuts), "--out", str(out), "--revs", "20"]) == 0
     rows = [r.split(",") for r in out.read_text().splitlines()[1:]]
     assert [(r[0], r[1]) for r in rows] == [("9000.0", "3.34"), ("7012.5", "0.29")]
+
+
+def test_the_labelled_file_keeps_the_users_other_columns(tmp_path):
+    """A shop's plan carries more than speed and depth: weights, a batch (the day), its notes and tool numbers. The
+    labelled file keeps them (update reads them back: the notes kept and ignored with a note, the batch as a batch);
+    until 2026-11-29 `simulate` dropped them while its warning said "kept". The chatter frequency is written to 0.1 Hz
+    (the detector's spectrum has lines f_T/64 apart), its value the labels' own, rounded."""
+    import csv
+
+    from millstab import api
+    from millstab.cli import main
+    from millstab.io import read_points
+
+    cuts = tmp_path / "plan.csv"
+    cuts.write_text("rpm,depth_mm,weight,batch,notes,tool\n9000,1,1,mon,first pass,T3\n9000,8,2,tue,\"deep, loud?\",T3\n")
+    out = tmp_path / "labelled.csv"
+    assert main(["simulate", "example:ex1", "--cuts", str(cuts), "--out", str(out), "--revs", "20"]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert [r["notes"] for r in rows] == ["first pass", "deep, loud?"] and [r["tool"] for r in rows] == ["T3", "T3"]
+    assert [r["batch"] for r in rows] == ["mon", "tue"] and [float(r["weight"]) for r in rows] == [1.0, 2.0]
+    lab = api.label_cuts(api.config("example:ex1"), read_points(cuts), revs=20)
+    assert rows[1]["label"] == "chatter" and rows[1]["chatter_hz"] == f"{lab.chatter_hz[1]:.1f}"
+    back = read_points(out)  # ready for update: the same cuts, batches and weights, the notes as extra columns
+    assert list(back.batch) == ["mon", "tue"] and list(back.weight) == [1.0, 2.0]
+    assert list(back.extra["notes"]) == ["first pass", "deep, loud?"]

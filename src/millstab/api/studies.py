@@ -124,18 +124,29 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, rev
 
 
 def labels_table(labels, cuts: PointSet | None = None) -> tuple[list[str], list]:
-    """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``),
-    and the condition columns of ``cuts`` as read (so the labelled file keeps each cut's condition). With
-    ``cuts``, its speeds and depths are written as read: the labels carry depths in m, and 3.34 mm through m
-    and back is 3.3400000000000003 mm in the user's file."""
+    """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``; the
+    frequency to 0.1 Hz), and what else ``cuts`` carries as read: its weights (where any is not 1), batches (where any is given), condition
+    columns (so the labelled file keeps each cut's condition) and extra columns (a shop's notes, feed, tool number:
+    kept, as ``update`` keeps them). With ``cuts``, its speeds and depths are written as read: the labels carry depths
+    in m, and 3.34 mm through m and back is 3.3400000000000003 mm in the user's file."""
     from millstab.io.points import condition_columns
 
     header, cols = labels.table()
     header, cols = list(header), list(cols)
+    # the detector reads a peak of a spectrum with lines f_T/64 apart: 0.1 Hz is all the file can honestly hold
+    cols[header.index("chatter_hz")] = np.round(np.asarray(cols[header.index("chatter_hz")], float), 1)
     if cuts is not None:
         cols[0], cols[1] = cuts.rpm, cuts.depth_mm
+        if (np.asarray(cuts.weight) != 1.0).any():
+            header, cols = header + ["weight"], cols + [cuts.weight]
+        if (np.asarray(cuts.batch) != "").any():
+            header, cols = header + ["batch"], cols + [list(cuts.batch)]
         h, c = condition_columns(cuts)
         header, cols = header + h, cols + c
+        taken = set(header)
+        for name, col in cuts.extra.items():
+            if name not in taken:  # a column the labelling writes itself (a plan's own chatter_hz) is the new one
+                header, cols = header + [name], cols + [list(col)]
     return header, cols
 
 

@@ -114,8 +114,8 @@ def main() -> None:
         for lo, hi in zip(edges[:-1], edges[1:]):
             sel = (x >= lo) & (x < hi)
             if sel.any():
-                print(f"  {lo:.1f}-{hi:.1f}  {sel.sum():5d}  {np.median(at[sel]):7.4f} {np.quantile(at[sel], 0.9):7.4f} "
-                      f"{(at[sel] > 0.05).mean():8.2f}")
+                print(f"  {lo:.1f}-{hi:.1f}  {sel.sum():5d}  {np.median(at[sel]):7.4f} "
+                      f"{np.quantile(at[sel], 0.9):7.4f} {(at[sel] > 0.05).mean():8.2f}")
     core = rel <= 0.05
     gamma = float(np.sqrt(np.sum(rel[core] ** 2) / np.sum(x[core] ** 2)))
     slope = float(np.sum(rel[core] * x[core]) / np.sum(x[core] ** 2))

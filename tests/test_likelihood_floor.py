@@ -87,3 +87,31 @@ def test_log_likelihood_with_floors_is_the_same_bits(case):
     rng = np.random.default_rng(3)
     cut_at = np.where(rng.random(want.size) < 0.5, want - 1.0, -3.0)
     np.testing.assert_array_equal(floored.bounded(v, cut_at), plain.bounded(v, cut_at))
+
+
+def test_with_chatter_frequencies_the_columns_without_a_reading_are_still_censored(case):
+    """Measured chatter frequencies (a microphone's, `millstab listen`): the frequency term reads f_c at the limit of
+    its cut's column, so those columns are searched to the limit, and every other column keeps its ceiling and floor
+    (until 2026-11-29 any reading switched both off for the whole update: a spectral update with readings cost ~3×
+    one without). log L of 60 prior draws equals, to rounding, that of a likelihood without ceilings and floors; the
+    entries censored or floored lie in the columns without a reading only, and there are some."""
+    prior, cuts, v = case
+    hz = np.where(cuts.label == "chatter", 1.0, np.nan) * np.array([1010, 1030, 990, 0, 1005, 1020, 985, 1015.0])
+    read = PointSet(cuts.rpm, cuts.depth_mm, cuts.label, chatter_hz=hz)
+    lik = Likelihood(prior, Evidence.from_points(read), "spectral")
+    plain = Likelihood(prior, Evidence.from_points(read), "spectral")
+    plain._censor = plain._floor = False
+    assert lik.uses_frequency and lik._censor and lik._floor
+    got, want = lik(v), plain(v)
+    ok = np.isfinite(want)
+    assert ok.sum() > 40 and np.array_equal(np.isfinite(got), ok)
+    np.testing.assert_allclose(got[ok], want[ok], rtol=1e-12, atol=1e-10)
+    assert lik.n_censored + lik.n_floored > 0 and plain.n_censored + plain.n_floored == 0
+    # which columns: the ones holding a reading are exact (an infinite ceiling, no floor)
+    w = v[:, prior.size:prior.dim]
+    cap, low = lik.ceilings(v[:, :prior.size], w), lik.floors(v[:, :prior.size], w)
+    read_cols = np.unique(lik._ic[np.isfinite(hz)])
+    assert np.all(np.isinf(cap[:, read_cols])) and np.all(low[:, read_cols] == 0)
+    free = np.setdiff1d(np.arange(lik.speeds.size), read_cols)
+    assert free.size and (np.isfinite(cap[:, free]).any() or (low[:, free] > 0).any())
+

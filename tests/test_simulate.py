@@ -314,7 +314,8 @@ def test_the_labelled_file_keeps_the_users_other_columns(tmp_path):
     from millstab.io import read_points
 
     cuts = tmp_path / "plan.csv"
-    cuts.write_text("rpm,depth_mm,weight,batch,notes,tool\n9000,1,1,mon,first pass,T3\n9000,8,2,tue,\"deep, loud?\",T3\n")
+    cuts.write_text("rpm,depth_mm,weight,batch,notes,tool\n"
+                    "9000,1,1,mon,first pass,T3\n9000,8,2,tue,\"deep, loud?\",T3\n")
     out = tmp_path / "labelled.csv"
     assert main(["simulate", "example:ex1", "--cuts", str(cuts), "--out", str(out), "--revs", "20"]) == 0
     rows = list(csv.DictReader(out.open()))

@@ -217,12 +217,18 @@ class Pinned:
         return bool(getattr(self.forward._engine_mod, "reports_chatter_frequency", False))
 
     def with_frequency(self, theta: np.ndarray, kr: np.ndarray | None = None,
-                       process_damping: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                       process_damping: np.ndarray | None = None, ceiling: np.ndarray | None = None,
+                       floor: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(depths (B, S) [m], chatter frequencies (B, S) [Hz]) of rows θ, one call of an engine that
-        :attr:`reports_frequency`, under the same pinned discretisation as :meth:`__call__`."""
+        :attr:`reports_frequency`, under the same pinned discretisation as :meth:`__call__`; ``ceiling``, ``floor``:
+        as :meth:`__call__` (an engine with ``takes_ceiling`` / ``takes_floor``; NaN frequencies there)."""
         t = np.atleast_2d(np.asarray(theta, dtype=float))
         f = self.forward
         extra = per_row(kr, process_damping)
+        if ceiling is not None:
+            extra["ceiling"] = ceiling
+        if floor is not None:
+            extra["floor"] = floor
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:

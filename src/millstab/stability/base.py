@@ -250,7 +250,8 @@ class Engine(Protocol):
             ``engine_with(reports_multipliers=True)``, never an engine by name.
         takes_ceiling: ``envelope_batch`` takes ``ceiling=`` (B, S) [m], a censored search: where every depth of
             the search up to one at or above the ceiling is stable it returns that depth, a certified lower bound
-            of the limit, instead of the limit (spectral; with per-column conditions too; read by the decisions and
+            of the limit, instead of the limit (spectral; with per-column conditions too; its ``envelope_batch_hz``
+            takes it too, with NaN frequencies where it applied; read by the decisions and
             the updating's likelihood, whose label terms no
             longer change above it: :meth:`millstab.update.likelihood.Likelihood.ceilings`).
         likelihood_ceiling: ``envelope_batch`` takes ``ceiling=`` as above and only the updating's likelihood uses it,

@@ -762,13 +762,23 @@ def envelope_batch(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None =
 
 @by_condition
 def envelope_batch_hz(batch: ModalBatch, cutting: Cutting, rpm, nodes: int | None = None,
-                      near: float = NEAR, warm: bool = True, kr=None) -> tuple[np.ndarray, np.ndarray]:
+                      near: float = NEAR, warm: bool = True, kr=None, ceiling=None,
+                      floor=None) -> tuple[np.ndarray, np.ndarray]:
     """Limiting depths (B, S) [m] and chatter frequencies (B, S) [Hz] for B modal parameter sets at S
     spindle speeds [rpm]: the critical multiplier's frequency nearest each set's most flexible mode
     (largest 1/(kζ), x before y on a tie), as :func:`envelope` reports for one structure; NaN where
-    no boundary exists. ``near``, ``warm``, ``kr``: as :func:`envelope_batch`."""
+    no boundary exists. ``near``, ``warm``, ``kr``, ``ceiling``, ``floor``: as :func:`envelope_batch`; an entry whose
+    depth is a censored one (at or above its ceiling) or a floored one (below its floor) has no boundary found, so its
+    frequency is NaN (a likelihood that reads a column's frequency gives that column neither: issue 28)."""
     r = check_rpm(rpm)
-    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near, kr=kr)
+    depth, mu, _ = _limit(batch, cutting, r, nodes, warm=warm, near=near, kr=kr, ceiling=ceiling, floor=floor)
+    bounded = np.zeros(depth.shape, bool)
+    with np.errstate(invalid="ignore"):
+        if ceiling is not None:
+            bounded |= depth >= np.broadcast_to(np.asarray(ceiling, float), depth.shape)
+        if floor is not None:
+            bounded |= depth < np.broadcast_to(np.asarray(floor, float), depth.shape)
+    mu = np.where(bounded, complex(np.nan, np.nan), mu)
     k = np.concatenate([batch.k_x, batch.k_y], axis=1)
     fn = np.concatenate([batch.fn_x, batch.fn_y], axis=1)
     zeta = np.concatenate([batch.zeta_x, batch.zeta_y], axis=1)

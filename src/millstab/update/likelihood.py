@@ -125,9 +125,10 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     fresh model (:func:`millstab.forward.engine_options`; a posterior's
     :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
     ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling`` or
-    ``likelihood_ceiling``, one Cutting or per-column conditions, no client, no frequencies): above it a depth is only
-    a certified lower bound of the limit. ``floor_mm`` (B, S) [mm]: floors (:meth:`Likelihood.floors`; an engine with
-    ``takes_floor``, the same conditions): below it a depth only says that the limit is below it.
+    ``likelihood_ceiling``, one Cutting or per-column conditions, no client; with frequencies ``takes_ceiling``
+    only, and NaN frequencies where censored or floored): above it a depth is only a certified lower bound of the
+    limit. ``floor_mm`` (B, S) [mm]: floors (:meth:`Likelihood.floors`; an engine with ``takes_floor``, the same
+    conditions): below it a depth only says that the limit is below it.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_engine(prior, engine)
@@ -157,17 +158,18 @@ def sample_depths(pin, prior: Prior, u: np.ndarray, with_freq: bool = False,
     """Depths (B, S) [mm] (and chatter frequencies [Hz] or None) of samples u = ln θ by the pinned forward model
     ``pin`` (:func:`pinned_model`): a free Kt's exact factor, a free Kr and a free process-damping C per row; here
     and in a cluster's task (:func:`millstab.cluster.sample_limits`). ``ceiling_mm``, ``floor_mm``: as :func:`limits`
-    (not with frequencies)."""
+    (with frequencies only for an engine whose ``envelope_batch_hz`` takes them: ``takes_ceiling``)."""
     theta, factor = prior.split(u)
     kr, pd = prior.kr_of(u), prior.pd_of(u)
+    extra = {}  # the engine's depths are the likelihood's / (1e3 · factor)
+    if ceiling_mm is not None:
+        extra["ceiling"] = np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])
+    if floor_mm is not None:
+        extra["floor"] = np.asarray(floor_mm, float) / (1e3 * factor[:, None])
     if with_freq and pin.reports_frequency:
-        depth, hz = pin.with_frequency(theta, kr, process_damping=pd)
-    elif ceiling_mm is not None or floor_mm is not None:  # the engine's depths are the likelihood's / (1e3 · factor)
-        extra = {} if floor_mm is None else {"floor": np.asarray(floor_mm, float) / (1e3 * factor[:, None])}
-        cap = None if ceiling_mm is None else np.asarray(ceiling_mm, float) / (1e3 * factor[:, None])
-        depth, hz = pin(theta, kr, ceiling=cap, process_damping=pd, **extra), None
+        depth, hz = pin.with_frequency(theta, kr, process_damping=pd, **extra)
     else:
-        depth, hz = pin(theta, kr, process_damping=pd), None
+        depth, hz = pin(theta, kr, process_damping=pd, **extra), None
     return depth * 1e3 * factor[:, None], hz
 
 
@@ -514,17 +516,20 @@ class Likelihood:
         self.n_entries_saved = 0
         self._column_cost = np.zeros(self.speeds.size)
         # censored limits (:meth:`ceilings`): an engine that takes a ceiling (``takes_ceiling``, or zoa's
-        # ``likelihood_ceiling``; per (set, column), so under several conditions too: issue 27), no cluster, no terms
-        # that read more than the depth relative to the cuts' (chatter frequencies), no test-day columns
+        # ``likelihood_ceiling``; per (set, column), so under several conditions too: issue 27), no cluster, no test-day
+        # columns; with chatter frequencies only an engine whose frequency path takes ceilings and floors too
+        # (``takes_ceiling``: spectral), and a column holding a reading is exact (its f_c is read at the limit itself)
         eng = get_engine(engine)
+        with_hz = not self.uses_frequency or bool(getattr(eng, "takes_ceiling", False))
         self._censor = (bool(getattr(eng, "takes_ceiling", False) or getattr(eng, "likelihood_ceiling", False))
-                        and client is None and not self.uses_frequency and self.batch is None)
+                        and client is None and with_hz and self.batch is None)
         # an engine whose limits below a ceiling are the same bits as without one (zoa): ceilings where every term
         # is saturated to the last bit, so log L, and the sampler's particles, are the same bit for bit
         self._censor_bits = bool(getattr(eng, "likelihood_ceiling", False))
-        # columns holding a boundary point (a Gaussian term: it never saturates) are never censored
+        # columns holding a boundary point (a Gaussian term: it never saturates) or a frequency reading: never censored
         self._exact_column = np.zeros(self.speeds.size, bool)
         self._exact_column[self._ip] = True
+        self._exact_column[self._ic[self._hz]] = True
         self.n_censored = 0
         # floors (:meth:`floors`): an engine that takes one (``takes_floor``), under the censoring's conditions
         self._floor = self._censor and bool(getattr(eng, "takes_floor", False))
@@ -759,7 +764,10 @@ class Likelihood:
         numbers of :meth:`__call__` (each round keeps the discretisation of a full call on these rows, so a
         column's limit is the one a full call gives, to the root's ~1e-12). Falls back to :meth:`__call__` with
         boundary points, chatter frequencies, a test-day effect or a negative weight (terms not bounded by 0),
-        and with a cluster. ``depths``: also the limits (B, S) [mm] as :meth:`depths` (NaN where not evaluated)."""
+        and with a cluster. (Rounds with the frequencies, each unevaluated reading at its largest possible term, were
+        measured on a spectral update of 20 cuts with 11 readings, 2026-11-29: 609 rows decided early, 7 % of the
+        entries saved, no time saved, the same particles: not kept.) ``depths``: also the limits (B, S) [mm] as
+        :meth:`depths` (NaN where not evaluated)."""
         v = np.atleast_2d(np.asarray(v, dtype=float))
         floor = np.broadcast_to(np.asarray(floor, dtype=float), (v.shape[0],))
         ev, n_s = self.evidence, self.speeds.size

@@ -127,8 +127,8 @@ def labels_table(labels, cuts: PointSet | None = None) -> tuple[list[str], list]
     """(header, columns) of a labelled-cuts CSV rpm,depth_mm,label,chatter_hz (a cuts file for ``update``; the
     frequency to 0.1 Hz), and what else ``cuts`` carries as read: its weights (where any is not 1), batches (where
     any is given), condition columns (so the labelled file keeps each cut's condition) and extra columns (a shop's
-    notes, feed, tool number: kept, as ``update`` keeps them). With ``cuts``, its speeds and depths are written as read: the labels carry depths
-    in m, and 3.34 mm through m and back is 3.3400000000000003 mm in the user's file."""
+    notes, feed, tool number: kept, as ``update`` keeps them). With ``cuts``, its speeds and depths are written as
+    read: the labels carry depths in m, and 3.34 mm through m and back is 3.3400000000000003 mm in the user's file."""
     from millstab.io.points import condition_columns
 
     header, cols = labels.table()

@@ -477,6 +477,37 @@ def test_an_anchored_screen_matches_a_brute_force_grid_posterior():
     assert np.isnan(db[::2]).any() and np.all(lb[::2] < floor[::2])
 
 
+@pytest.mark.slow
+def test_an_anchored_screen_with_chatter_frequencies_matches_a_brute_force_grid_posterior():
+    """Chatter frequencies at the chatter cuts (a microphone's, σ 20 Hz): the anchored screen scales each column's
+    frequency by the particle's own accurate / screen ratio as it scales the limits (until 2026-11-29 readings switched
+    the anchored screen off). The target the zero-order likelihood with its frequencies, the screen a model with Kr 30 %
+    high and Kt 20 % low: means, sds and quantiles against a dense grid of the likelihood with the frequency term; the
+    features carry the frequencies, and log L read back from them is log L."""
+    _, prior, cuts = _grid_case()
+    b, f = limits(prior, np.log(prior.median * np.array([1.04, 0.8]))[None], cuts.rpm, with_freq=True)
+    hz = np.where(cuts.label == "chatter", f[0] + np.random.default_rng(4).normal(0.0, 15.0, f.shape[1]), np.nan)
+    cuts = PointSet(cuts.rpm, cuts.depth_mm, cuts.label, chatter_hz=hz)
+    ev = Evidence.from_points(cuts)
+    lik = Likelihood(prior, ev)
+    assert lik.uses_frequency and np.isfinite(hz).sum() >= 3
+    c = prior.cutting
+    scr = Likelihood(dataclasses.replace(prior, cutting=dataclasses.replace(c, kr=1.3 * c.kr, kt=0.8 * c.kt)), ev)
+    res = tempered_smc(prior.sample_full, prior.logpdf_full, lik, 2000, seed=2, screen=scr, screen_stages=2,
+                       anchored=True)
+    assert res.diagnostics()["anchored_screen"]
+    alone = tempered_smc(prior.sample_full, prior.logpdf_full, scr, 2000, seed=2)
+    assert _assert_grid(prior, cuts, res.u, alone.u) > 0.5  # the screen's own posterior is elsewhere
+    u = res.u[:50]
+    ll, feat = lik.depths(u)
+    assert feat.shape == (50, 2 * lik.speeds.size) and np.isfinite(feat[:, lik.speeds.size:][:, lik._ic[lik._hz]]).all()
+    np.testing.assert_array_equal(ll, lik(u))
+    np.testing.assert_allclose(lik.loglik_at(u, feat), ll, rtol=1e-12)
+    wrong = feat.copy()
+    wrong[:, lik.speeds.size:] += 200.0  # the frequencies are read: 10 σ off costs log L
+    assert np.all(lik.loglik_at(u, wrong) < ll - 10)
+
+
 def test_update_with_the_anchored_screen_plumbing(monkeypatch):
     import millstab.update as upd
 

@@ -115,3 +115,32 @@ def test_a_deep_cuts_reading_says_less_than_one_at_its_limit():
     np.testing.assert_allclose(s[0], [20.0, 20.0, math.hypot(20.0, 17.0 * math.log(7.4))])
     np.testing.assert_allclose(o[0], [0.05, 0.05, 0.05 + 0.12 * math.log(7.4)])
     assert frequency_spread(20.0, np.array([1e3]), np.array([50.0]), np.ones((1, 1)))[1][0, 0] == 0.3  # at most
+
+
+def test_a_spectral_update_with_readings_keeps_its_ceilings_floors_and_anchored_screen():
+    """The plumbing of issue 28's savings with a microphone's readings: a spectral update (a/D 0.1 down, 8 cuts, 4 of
+    them chattering with a reading, 300 samples) runs with the anchored screen and censors or floors some limits (in
+    the columns without a reading only: tests/test_likelihood_floor.py), and every reading's column is read: the same
+    seed gives the same samples; the posterior explains the readings (the posterior median's f_c at the reading's
+    column within 60 Hz of it, 3 σ)."""
+    from millstab.update import update
+    from millstab.update.likelihood import limits
+
+    cfg = parse_config(TOML)
+    cut = Cutting.from_immersion(cfg.cutting.teeth, cfg.cutting.kt, cfg.cutting.kr, 0.1, "down")
+    cfg = replace(cfg, cutting=cut)
+    prior = make_prior(cfg.structure, cut, cfg.prior)
+    rpm = np.array([5200.0, 6100, 7000, 7900, 8800, 9700, 10600, 11500])
+    b, f = limits(prior, np.log(prior.median)[None], rpm, "spectral", with_freq=True)
+    depth = b[0] * np.array([0.6, 1.5, 0.7, 1.4, 0.5, 1.6, 0.8, 1.3])
+    chat = depth > b[0]
+    hz = np.where(chat, f[0] + 8.0, np.nan)
+    cuts = PointSet(rpm, depth, np.where(chat, "chatter", "stable"), chatter_hz=hz)
+    post = update(cfg, cuts, samples=300, seed=4, engine="spectral")
+    d = post.diagnostics
+    assert d.get("anchored_screen") and d["frequency_term"]
+    assert d["censored_entries"] + d["floored_entries"] > 0
+    again = update(cfg, cuts, samples=300, seed=4, engine="spectral")
+    np.testing.assert_array_equal(post.samples, again.samples)
+    _, fm = limits(prior, np.log(np.median(post.samples, axis=0))[None], rpm[chat], "spectral", with_freq=True)
+    assert np.all(np.abs(fm[0] - hz[chat]) < 60.0), (fm, hz[chat])

@@ -221,7 +221,8 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         res = tempered_smc(sample_full, logpdf_full, lik, samples, seed=seed, moves=moves, progress=progress,
                            screen=scr, jumps=jumps, screen_stages=SCREEN_STAGES if delayed else 0,
                            screen_steps=SCREEN_STEPS, screen_top=SCREEN_TOP,
-                           anchored=ANCHORED and delayed and SCREEN_STEPS == 1 and not lik.uses_frequency,
+                           anchored=(ANCHORED and delayed and SCREEN_STEPS == 1
+                                     and lik.uses_frequency == getattr(scr, "uses_frequency", False)),
                            accept_target=DELAYED_ACCEPT_TARGET if delayed else None)
     else:
         n_old = _check_start(start, pr, ev, engine, dict(lik.options))

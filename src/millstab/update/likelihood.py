@@ -733,22 +733,28 @@ class Likelihood:
         censors (:meth:`ceilings`: a censored limit is far above every cut at its speed in both models, so the
         anchored screen's ratio there only keeps a term saturated) and floored where it floors (:meth:`floors`: a
         ladder rung below the floor in place of a limit below it, a function of the row; the screen's ratio there is
-        the rung's ladder factor, finite and positive, and keeps a proposal's term near saturation). InputError with
-        chatter frequencies (a term that reads more than the depths)."""
-        if self.uses_frequency:
-            raise InputError("anchored", "chatter frequencies", "an anchored screen reads the limits only: use the "
-                             "plain delayed-acceptance screen with measured chatter frequencies")
-        if floor is not None:
+        the rung's ladder factor, finite and positive, and keeps a proposal's term near saturation). With chatter
+        frequencies the features are (B, 2S): the limits, then each column's chatter frequency [Hz] (NaN where none
+        was found or the column was censored or floored: no reading is there), which the anchored screen scales by
+        the particle's own accurate / screen ratio as it scales the limits (:func:`millstab.update.sampler.
+        anchored_features`: exact at the particle, a model's f_c a smooth function of θ near it)."""
+        if floor is not None and not self.uses_frequency:
             return self.bounded(v, floor, depths=True)
-        depth, _, w, ok = self._limits(v, censor=True)
-        return np.where(ok, self.from_limits(depth, None, noise=w), -np.inf), np.where(ok[:, None], depth, np.nan)
+        depth, hz, w, ok = self._limits(v, censor=True)
+        ll = np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)
+        feat = depth if hz is None else np.hstack([depth, hz])
+        return ll, np.where(ok[:, None], feat, np.nan)
 
-    def loglik_at(self, v: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
-        """log L (B,) of sampler vectors v (their noise coordinates and support, as :meth:`__call__`) at given limits
-        (B, S) [mm] instead of the engine's: the anchored screen's likelihood (no engine call)."""
+    def loglik_at(self, v: np.ndarray, features: np.ndarray) -> np.ndarray:
+        """log L (B,) of sampler vectors v (their noise coordinates and support, as :meth:`__call__`) at given features
+        instead of the engine's: the limits (B, S) [mm], and with chatter frequencies the frequencies after them
+        (B, 2S) [mm, Hz] (:meth:`depths`): the anchored screen's likelihood (no engine call)."""
         _, _, w, ok = self._parts(v)
+        features = np.asarray(features, float)
+        n_s = features.shape[1] // 2 if self.uses_frequency else features.shape[1]
+        depth, hz = features[:, :n_s], (features[:, n_s:] if self.uses_frequency else None)
         with np.errstate(invalid="ignore"):
-            return np.where(ok, self.from_limits(np.where(ok[:, None], depth_mm, 1.0), None, noise=w), -np.inf)
+            return np.where(ok, self.from_limits(np.where(ok[:, None], depth, 1.0), hz, noise=w), -np.inf)
 
     def bounded(self, v: np.ndarray, floor: np.ndarray, depths: bool = False):
         """log L (B,) of sampler vectors v (as :meth:`__call__`), exact where it may reach ``floor`` (B,); where it

@@ -39,6 +39,9 @@ corrected limits, the spectral engine once per distinct final particle and impor
 :func:`millstab.update.sampler.corrected_smc`), the fit's held-out error, the importance ESS, and its posterior
 against the delayed-acceptance one (means and quantiles in sd units); ``--surrogate-kind``: the regression.
 
+``--chatter-hz SIGMA``: every chatter cut carries a frequency reading, as from a microphone (``millstab listen``): the
+truth's SDM chatter frequency at its speed + N(0, SIGMA²) Hz (its own generator: the cuts are the same as without).
+
 ``--breakdown``: where the spectral update's time goes (issue 28): the spectral engine's calls, the (set, speed)
 entries it solved and its ρ / characteristic-function evaluations per entry, CPU in its root search and in its
 zero-order starting depths; the proposals, how many passed the screen and were accepted; how many the bounded
@@ -763,6 +766,8 @@ def main() -> None:
     ap.add_argument("--fit-nodes", action="store_true", help="also the spectral update (default sampler) as before "
                     "issue 28's sampling count: a fit's node count (converged + 2), chosen per call")
     ap.add_argument("--breakdown", action="store_true", help="where the spectral update's time goes")
+    ap.add_argument("--chatter-hz", type=float, default=None, metavar="SIGMA",
+                    help="chatter cuts carry a frequency reading: the truth's SDM chatter frequency + N(0, SIGMA^2) Hz")
     ap.add_argument("--no-bounded", action="store_true", help="also the spectral update without the bounded "
                     "second stage (every survivor at every speed), and the two compared")
     ap.add_argument("--no-censor", action="store_true", help="also the spectral update with every limit searched to "
@@ -848,13 +853,21 @@ def main() -> None:
     fac = np.array([1 + rng.uniform(-off[prior.par.kind(n)], off[prior.par.kind(n)]) for n in names])
     true_struct = prior.par.structure(prior.median * fac)
     rpm = np.sort(rng.uniform(lo, hi, args.cuts))
-    b_true = sdm.envelope(true_struct, cut, rpm).depth_mm
+    env_true = sdm.envelope(true_struct, cut, rpm)
+    b_true = env_true.depth_mm
     depth = np.minimum(b_true * rng.uniform(1 - args.spread, 1 + args.spread, rpm.size), args.max_depth)
     chatter = depth > b_true * np.exp(args.noise * rng.standard_normal(rpm.size))
-    cuts = PointSet(rpm, depth, np.where(chatter, "chatter", "stable"))
+    hz = None
+    if args.chatter_hz is not None:  # a microphone's readings: the truth's SDM f_c + noise (its own generator)
+        noise_hz = np.random.default_rng(args.seed + 1000).normal(0.0, args.chatter_hz, rpm.size)
+        hz = np.where(chatter, env_true.chatter_hz + noise_hz, np.nan)
+    cuts = PointSet(rpm, depth, np.where(chatter, "chatter", "stable"), chatter_hz=hz)
     print(f"case (prior tails {prior.tails}): Ex.1 at a/D {args.immersion} down, truth = hammer test x "
           f"{np.round(fac, 3).tolist()} ({names}); "
-          f"{args.cuts} cuts, {int(chatter.sum())} chatter; true SDM limits {np.round(b_true, 1).tolist()} mm")
+          f"{args.cuts} cuts, {int(chatter.sum())} chatter"
+          + ("" if hz is None else f" ({int(np.isfinite(hz).sum())} with a frequency reading, sigma "
+                                    f"{args.chatter_hz:g} Hz)")
+          + f"; true SDM limits {np.round(b_true, 1).tolist()} mm")
     with threadpool_limits(1):
         if args.proxy_seeds:
             proxy(prior, cuts, args.samples, args.proxy_seeds, stages, args.screen_top or upd.SCREEN_TOP)

@@ -435,23 +435,27 @@ def seconds_per_row(client: Any, engine: str, par, cutting, rpm: np.ndarray) -> 
     return _probed[key]
 
 
-def _samples_task(prior, pinned, with_freq: bool, u: np.ndarray):
+def _samples_task(prior, pinned, with_freq: bool, u: np.ndarray, cap: np.ndarray | None = None,
+                  low: np.ndarray | None = None):
     """On a worker: :func:`millstab.update.likelihood.sample_depths` of the sample rows ``u`` by the whole
-    batch's pinned forward model (depths [mm], chatter frequencies [Hz] or None), numba on one thread."""
+    batch's pinned forward model (depths [mm], chatter frequencies [Hz] or None; ``cap``, ``low``: these rows'
+    ceilings and floors [mm]), numba on one thread."""
     from millstab.update.likelihood import sample_depths  # the local path's own function: one evaluator
 
     one_thread()
-    return sample_depths(pinned, prior, u, with_freq)
+    return sample_depths(pinned, prior, u, with_freq, cap, low)
 
 
 def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: str,
                   with_freq: bool = False, conditions=None,
-                  pinned=None) -> tuple[np.ndarray, np.ndarray | None] | None:
+                  pinned=None, ceiling_mm: np.ndarray | None = None,
+                  floor_mm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None] | None:
     """Limiting depths (B, S) [mm] (and chatter frequencies (B, S) [Hz] or None) of the samples u = ln θ
     (B, P) on the cluster, split by rows into at least one task per worker thread (more for > 2 s each),
     exactly as :func:`millstab.update.likelihood.limits` computes them here (each row is evaluated alone:
     the same numbers; ``pinned``: the caller's pinned forward model of these rows,
-    :func:`millstab.update.likelihood.pinned_model`, made here by default). Returns None when it does not pay
+    :func:`millstab.update.likelihood.pinned_model`, made here by default; ``ceiling_mm``, ``floor_mm`` (B, S):
+    the likelihood's censored and floored search, each task with its rows'). Returns None when it does not pay
     (:data:`PAYS_SECONDS`): the caller runs here."""
     from millstab.stability import check_rpm
 
@@ -483,6 +487,9 @@ def sample_limits(client: Any, prior, u: np.ndarray, rpm: np.ndarray, engine: st
 
         pinned = pinned_model(prior, u, rpm, engine, conditions)
     # pinned once here: every task's rows give the numbers of ONE local call on all of them
-    stream(client, _samples_task, [(u[s:s + per],) for s in starts], take, common=(prior, pinned, with_freq),
-           name="samples")
+    def rows(a, s):
+        return None if a is None else np.asarray(a, float)[s:s + per]
+
+    stream(client, _samples_task, [(u[s:s + per], rows(ceiling_mm, s), rows(floor_mm, s)) for s in starts], take,
+           common=(prior, pinned, with_freq), name="samples")
     return depth, hz[0]

@@ -125,17 +125,17 @@ def limits(prior: Prior, u: np.ndarray, rpm: np.ndarray, engine: str = "zoa",
     fresh model (:func:`millstab.forward.engine_options`; a posterior's
     :attr:`millstab.update.Posterior.engine_options`, the one it was fitted with); ignored with ``fwd``.
     ``ceiling_mm`` (B, S) [mm]: a censored search (:meth:`Likelihood.ceilings`; an engine with ``takes_ceiling`` or
-    ``likelihood_ceiling``, one Cutting or per-column conditions, no client; with frequencies ``takes_ceiling``
-    only, and NaN frequencies where censored or floored): above it a depth is only a certified lower bound of the
-    limit. ``floor_mm`` (B, S) [mm]: floors (:meth:`Likelihood.floors`; an engine with ``takes_floor``, the same
-    conditions): below it a depth only says that the limit is below it.
+    ``likelihood_ceiling``, one Cutting or per-column conditions, here or on a client's cluster; with frequencies
+    ``takes_ceiling`` only, and NaN frequencies where censored or floored): above it a depth is only a certified lower
+    bound of the limit. ``floor_mm`` (B, S) [mm]: floors (:meth:`Likelihood.floors`; an engine with ``takes_floor``,
+    the same conditions): below it a depth only says that the limit is below it.
     """
     pin = pinned_model(prior, u, rpm, engine, conditions, fwd, options)
     check_engine(prior, engine)
     if client is not None:  # the rule and the split live in millstab.cluster; None: it does not pay, run here
         from millstab.cluster import sample_limits
 
-        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin)
+        out = sample_limits(client, prior, u, rpm, engine, with_freq, conditions, pin, ceiling_mm, floor_mm)
         if out is not None:
             return out
     return sample_depths(pin, prior, u, with_freq, ceiling_mm, floor_mm)
@@ -516,13 +516,14 @@ class Likelihood:
         self.n_entries_saved = 0
         self._column_cost = np.zeros(self.speeds.size)
         # censored limits (:meth:`ceilings`): an engine that takes a ceiling (``takes_ceiling``, or zoa's
-        # ``likelihood_ceiling``; per (set, column), so under several conditions too: issue 27), no cluster, no test-day
-        # columns; with chatter frequencies only an engine whose frequency path takes ceilings and floors too
-        # (``takes_ceiling``: spectral), and a column holding a reading is exact (its f_c is read at the limit itself)
+        # ``likelihood_ceiling``; per (set, column), so under several conditions too: issue 27; a cluster's tasks get
+        # their rows' ceilings and floors: the numbers of a local call), no test-day columns; with chatter frequencies
+        # only an engine whose frequency path takes ceilings and floors too (``takes_ceiling``: spectral), and a column
+        # holding a reading is exact (its f_c is read at the limit itself)
         eng = get_engine(engine)
         with_hz = not self.uses_frequency or bool(getattr(eng, "takes_ceiling", False))
         self._censor = (bool(getattr(eng, "takes_ceiling", False) or getattr(eng, "likelihood_ceiling", False))
-                        and client is None and with_hz and self.batch is None)
+                        and with_hz and self.batch is None)
         # an engine whose limits below a ceiling are the same bits as without one (zoa): ceilings where every term
         # is saturated to the last bit, so log L, and the sampler's particles, are the same bit for bit
         self._censor_bits = bool(getattr(eng, "likelihood_ceiling", False))

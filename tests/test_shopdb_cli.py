@@ -109,6 +109,42 @@ def test_listen_records_the_cut_with_the_label_heard(tmp_path, capsys):
     assert main(["listen", str(calm), "--rpm", "9000", "--teeth", "2", "--db", str(db)]) == 2  # --campaign missing
 
 
+def test_update_from_the_cuts_listen_recorded_needs_no_file(tmp_path, capsys):
+    """`listen --db` says "the next `millstab update --db` uses it": an update with --db/--campaign and no CUTS file
+    tempers in the cuts recorded since the campaign's posterior (it demanded a CUTS argument until 2026-11-29); with
+    none recorded it is refused in one line (it re-ran the sampler on nothing and recorded the same posterior as a
+    new one); a changed engine refits from the prior; without --db the missing CUTS is named."""
+    from listen_synth import milling_sound
+
+    from millstab.io.recordings import write_recording
+    from millstab.shopdb import open_store
+
+    (tmp_path / "first.csv").write_text(FIRST)
+    db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    run(capsys, "update", "example:ex1", tmp_path / "first.csv", "--db", db, "--campaign", "t1", *common)
+    wav = tmp_path / "cut.wav"
+    write_recording(wav, 48000, milling_sound(teeth=2, rpm=9000.0, chatter_hz=1000.0, ratio=0.5))
+    run(capsys, "listen", wav, "--rpm", 9000, "--teeth", 2, "--db", db, "--campaign", "t1", "--depth", 3.5)
+    out = run(capsys, "update", "example:ex1", "--db", db, "--campaign", "t1", *common, "--out", tmp_path / "p.json")
+    assert "wrote" in out
+    post = read_json(tmp_path / "p.json")
+    cuts = post["cuts"]
+    assert len(cuts["rpm"]) == 4 and cuts["rpm"][-1] == 9000.0 and cuts["label"][-1] == "chatter"
+    with open_store(db) as s:
+        n_posteriors = s.head("t1").posterior_id
+    code = main([str(a) for a in ["update", "example:ex1", "--db", db, "--campaign", "t1", *common]])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "already holds all 4 recorded cuts" in err, err
+    with open_store(db) as s:
+        assert s.head("t1").posterior_id == n_posteriors  # nothing recorded
+    out = run(capsys, "update", "example:ex1", "--db", db, "--campaign", "t1", "--engine", "sdm", "--samples", 100,
+              "--engine-option", "steps=20")
+    assert "updating from the prior over all 4 cuts" in out
+    code = main(["update", "example:ex1", "--out", str(tmp_path / "q.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "CUTS" in err and err.count("\n") == 1, err
+
+
 #: cuts in several conditions (a/D, direction, teeth, feed) and at several stickouts, on two test days
 MIXED_FIRST = ("rpm,depth_mm,label,batch,radial_immersion,milling,teeth,feed_per_tooth_mm,stickout_mm\n"
                "9000,0.4,stable,mon,,,,,\n"

@@ -211,7 +211,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
         progress, client: as :func:`millstab.api.update` (where and how it runs; not recorded).
 
     Raises:
-        InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, a database error.
+        InputError: bad cuts or config (as :func:`millstab.api.update`), no cuts at all, no new cuts for a current
+            posterior that would be reused as it is, a database error.
         StaleError: still stale after ``retries`` re-runs.
     """
     import hashlib
@@ -245,6 +246,12 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
             raise InputError("cuts", "none", f"campaign {campaign!r} holds no cuts yet; give the cuts to record")
         why = _why_fresh(snap, sha, settings.engine, new, settings.engine_options)
         start = snap.posterior() if snap is not None and snap.posterior_doc is not None and why is None else None
+        if start is not None and not len(new) and len((start.cuts or {}).get("rpm") or []) >= len(cuts):
+            # nothing to temper in: the same posterior again, recorded as a new one (the app refuses it too)
+            raise InputError("cuts", "none new", f"campaign {campaign!r}: its current posterior already holds all "
+                                                 f"{len(cuts)} recorded cuts; give new cuts (or record some with "
+                                                 "`millstab listen --db`); a changed config, engine or engine option "
+                                                 "refits from the prior")
         if why is not None:
             notes.append(f"updating from the prior over all {len(cuts)} cuts: {why}")
         so = stickouts(cuts)  # each cut's stickout [m] (NaN: the config's), as `millstab update` reads it

@@ -34,8 +34,10 @@ def update_cmd(
     config: str = typer.Argument(...,
                                  help="TOML config: cutting conditions, hammer-test modes (the prior), optional "
                                       "[prior]."),
-    cuts: Path = typer.Argument(..., help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|marginal, "
-                                          "a probability of chatter, or a code (--labels); label_NAME per rater."),
+    cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm,label[,chatter_hz]; label stable|chatter|"
+                                                     "marginal, a probability of chatter, or a code (--labels); "
+                                                     "label_NAME per rater. Optional with --db/--campaign: the cuts "
+                                                     "recorded there since its posterior (e.g. heard by listen)."),
     points: Optional[Path] = typer.Option(None, "--points", help="Boundary points CSV to use as well."),
     engine: str = typer.Option("zoa", "--engine", help=f"Stability engine: {', '.join(ENGINES)} (zoa: fast; zoa and "
                                                        "spectral use measured chatter frequencies)."),
@@ -71,10 +73,10 @@ def update_cmd(
     from millstab.cli import emit
     from millstab.io import config_inputs, read_points
 
-    in_db, shop = _target(out, db, campaign, start, shop)
+    in_db, shop = _target(out, db, campaign, start, shop, cuts)
     cfg = api.with_batch_effect(api.config(config), batch_effect)
-    # a 'recording' column: labelled by ear (docs/listen.md)
-    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth, cfg.structure)
+    # a 'recording' column: labelled by ear (docs/listen.md); no file with --db: the campaign's cuts not yet updated
+    c, heard = api.read_cuts(cuts, labels, cfg.cutting.teeth, cfg.structure) if cuts is not None else (None, [])
     p = read_points(points, labels) if points is not None else None
     protect = emit.checked({**config_inputs(cfg), "CUTS": cuts, "--points": points, "--start": start},
                            {"--out": out, "--plot": plot}, figures=("--plot",))
@@ -96,11 +98,16 @@ def update_cmd(
     emit.figure(plot, lambda: api.corner_figure(post), protect, con.print)
 
 
-def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None) -> tuple[bool, str | None]:
+def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None,
+            cuts: Path | None = None) -> tuple[bool, str | None]:
     """(whether the posterior goes to a shop database (--db/--campaign), the checked --shop of a new campaign);
-    InputError for neither target, --start beside a database (whose campaign's current posterior is the start),
-    or --shop without one."""
+    InputError for neither target, no CUTS file without a database (with one, the campaign's recorded cuts are
+    updated: those `listen --db` heard), --start beside a database (whose campaign's current posterior is the
+    start), or --shop without one."""
     in_db = shop_target(db, campaign)
+    if cuts is None and not in_db:
+        raise InputError("CUTS", None, "missing: the cuts CSV to update from (or --db shop.db --campaign NAME, whose "
+                                       "recorded cuts, e.g. heard by listen, are updated)")
     if out is None and not in_db:
         raise InputError("--out", None, "missing: the posterior JSON to write (or --db shop.db --campaign NAME)")
     if in_db and start is not None:

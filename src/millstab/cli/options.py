@@ -99,9 +99,9 @@ def dask_client(dask: str | None, workers: int | None) -> Iterator:
         typer.echo(f"Dask: connecting to {dask} (at most ~{api.CONNECT_SECONDS:g} s)…" if dask else
                    f"Dask: starting {workers} local workers…", err=True)
     with api.open_client(dask, workers) as client:
-        n_workers = len(client.scheduler_info()["workers"])
+        threads = client.nthreads()  # asked of the scheduler (scheduler_info() is the client's copy, seconds old)
         where = f"scheduler {dask}" if dask else "a local cluster started for this run"
-        typer.echo(f"Dask: {n_workers} workers, {sum(client.nthreads().values())} threads ({where})", err=True)
+        typer.echo(f"Dask: {len(threads)} workers, {sum(threads.values())} threads ({where})", err=True)
         yield client
 
 

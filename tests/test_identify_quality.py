@@ -156,6 +156,12 @@ def test_zero_order_model_hint_only_on_its_weak_cuts():
     assert zoa_model_poor(low) and zoa_model_poor(Cutting(2, 2000e6, 0.3))
     assert zoa_model_poor(Cutting(4, 2000e6, 0.3)) is None
     assert zoa_model_poor(Cutting.from_immersion(4, 2000e6, 0.3, 0.5, "down")) is None
+    # a/D 0.3 through its angles is 0.29999999999999993: not "a/D = 0.3 < 0.3" (as it said until 2026-11-29); with
+    # three teeth less than one cuts on average (0.55), the decisions' rule, and that is what is said
+    at = Cutting.from_immersion(3, 2000e6, 0.3, 0.3, "up")
+    assert radial_immersion(at) < 0.3 and "0.3 < 0.3" not in zoa_model_poor(at)
+    assert "0.55 teeth in the cut" in zoa_model_poor(at)
+    assert zoa_model_poor(Cutting.from_immersion(6, 2000e6, 0.3, 0.3, "up")) is None  # 1.1 teeth in the cut
     truth = Structure.symmetric(500.0, 8e6, 0.02)
     slot = Cutting(4, 695e6, 0.404)
     pts = boundary_points(truth, slot, np.linspace(3000, 9000, 30))

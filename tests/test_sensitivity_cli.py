@@ -67,3 +67,16 @@ def test_bad_input_one_line_exit_2(args, capsys):
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("millstab: error:") and "\n" not in err
+
+
+def test_a_time_averaged_study_below_one_tooth_in_the_cut_says_so(capsys):
+    """As `lobes` does: with the zero-order engine and less than one tooth in the cut on average (example ex3: a/D 0.2,
+    3 teeth, 0.44 teeth) the study warns in one line that these are the averaged model's sensitivities and names the
+    time-domain engines; with Ex.1's slot (two teeth, one in the cut on average) it says nothing."""
+    for example, warned in (("example:ex3", True), ("example:ex1", False)):
+        assert main(["sensitivity", "oat", example, "--rpm", "5000:9000:1000"]) == 0
+        err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+        if warned:
+            assert len(err) == 1 and "0.44 teeth in the cut" in err[0] and "--engine spectral" in err[0], err
+        else:
+            assert not err, err

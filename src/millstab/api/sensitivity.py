@@ -195,6 +195,7 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
     if preset is not None and preset not in PRESETS:
         raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")
     cfg, _ = modal(cfg)
+    _warn_time_averaged(cfg, engine)
     example = sa.match_example(cfg.cutting, cfg.structure)
     theta, centre = None, "the config's modal parameters"
     if preset == "paper":
@@ -228,6 +229,20 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
         res = sa.morris(cfg.structure, cfg.cutting, rpm, trajectories=n_val, levels=levels, t=t_val,
                         bounds=bounds or {}, seed=seed, progress=cb, client=client, **common)
     return Study(method, res, **context)
+
+
+def _warn_time_averaged(cfg: Config, engine: str) -> None:
+    """Warn, as ``lobes`` does, when the engine averages the cutting force and less than one tooth cuts on average:
+    the sensitivities are then those of a model whose SLD is off by a factor at single speeds there."""
+    from warnings import warn
+
+    from millstab.points import condition_text
+    from millstab.stability import time_averaged_note
+
+    note = time_averaged_note(engine, cfg.cutting, f"{cfg.name}'s cut ({condition_text(cfg.cutting)})")
+    if note:
+        warn(f"{note}; these are that model's sensitivities: --engine spectral (or sdm) for the time-domain model's",
+             UserWarning, stacklevel=3)
 
 
 def _table_text(study: Study) -> str:

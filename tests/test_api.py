@@ -141,3 +141,23 @@ def test_overlay_points_concatenates_the_sets_and_skips_none():
     assert np.array_equal(both.depth_mm, np.concatenate([pts.depth_mm, pts.depth_mm]))
     assert list(both.label) == list(pts.label) * 2
     assert api.overlay_points(None, None) is None
+
+
+def test_an_sld_figure_says_which_cutting_condition_it_is_for():
+    """An SLD holds for one cutting condition: its title names it (a/D and direction, or a slot), beside the teeth and
+    the coefficients (until 2026-11-29 only "3 teeth, Kt 700 MPa, Kr 0.3": two plots of one tool at a/D 0.3 up and
+    0.5 down looked alike); the app's Lobes tab takes the same text."""
+    import dataclasses
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from millstab.model import Cutting
+
+    cfg = api.config("example:ex1")
+    assert api.sld_title(cfg) == "ex1: slot, 2 teeth, Kt 556.31 MPa, Kr 0.404"
+    c = cfg.cutting
+    up = dataclasses.replace(cfg, cutting=Cutting.from_immersion(3, c.kt, c.kr, 0.3, "up"))
+    with pytest.warns(UserWarning, match="0.55 teeth in the cut"):  # the zero-order engine there (lobes says so)
+        fig = api.lobes(up, np.linspace(5000, 9000, 21)).figure()
+    assert fig.axes[0].get_title() == "ex1: a/D 0.3 up milling, 3 teeth, Kt 556.31 MPa, Kr 0.404"

@@ -42,7 +42,7 @@ _HOMES = {
               "config_in_condition", "in_config_condition", "overlay_points", "points_drawn",
               "modal", "parse_grid", "parse_interval", "parse_rpm_range", "points", "points_from_text", "speeds",
               "SHOWN_UNITS", "shown_value"),
-    "lobes": ("ENGINES", "Lobes", "cheapest_engine", "envelope", "lobes", "lobes_figure", "raw_lobes"),
+    "lobes": ("ENGINES", "Lobes", "cheapest_engine", "envelope", "lobes", "lobes_figure", "raw_lobes", "sld_title"),
     "identify": ("IDENTIFY_METHODS", "check_fit_matches", "design", "design_figure", "fit_curves", "fit_figure",
                 "fit_rpm", "history_figure", "identify"),
     "update": ("ENGINE_OPTION_FORM", "at_stickout", "check_engine_options", "condition_line", "condition_text",

@@ -87,10 +87,9 @@ class Lobes:
         ``lobes`` and measured ``points``; drawn into ``ax`` or a new figure, which it returns."""
         from millstab.plot.sld import plot_sld
 
-        name, c = self.config.name, self.config.cutting
         others = [(f"{self.compare} limit", self.rpm, self.other.depth_mm)] if self.other is not None else []
         return plot_sld(self.rpm, self.envelope.depth_mm, label=f"{self.engine} limit", lobes=lobes, points=points,
-                        others=others, ax=ax, title=f"{name}: {c.teeth} teeth, Kt {c.kt / 1e6:g} MPa, Kr {c.kr:g}")
+                        others=others, ax=ax, title=sld_title(self.config))
 
     def to_json(self) -> dict:
         """``{"schema": "millstab.lobes/1", "config": …, "engine", "envelope", "compare", "other"}``: the
@@ -144,6 +143,13 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
         warn(f"{note}; compare with a time-domain engine (--compare sdm, or --engine spectral)", UserWarning,
              stacklevel=2)
     return Lobes(cfg, engine, env, compare or None, other)
+
+
+def sld_title(cfg: Config) -> str:
+    """The title of an SLD of ``cfg``: its name, the cutting condition (an SLD holds for one) and the coefficients,
+    "t12: a/D 0.3 up milling, 3 teeth, Kt 700 MPa, Kr 0.3"."""
+    c = cfg.cutting
+    return f"{cfg.name}: {condition_text(c)}, Kt {c.kt / 1e6:g} MPa, Kr {c.kr:g}"
 
 
 def raw_lobes(cfg: Config, rpm: np.ndarray, engine: str = "zoa") -> list:

@@ -87,8 +87,7 @@ class LobesTab:
         set_raw(self.src["raw"], api.raw_lobes(result.config, env.rpm) if self.raw.value else None, env.rpm,
                 env.depth_mm)
         cfg = result.config
-        title = (f"{cfg.name}: {cfg.cutting.teeth} teeth, Kt {cfg.cutting.kt / 1e6:g} MPa, Kr {cfg.cutting.kr:g} "
-                 f"({result.engine})")
+        title = f"{api.sld_title(cfg)} ({result.engine})"
         if self.fig.title.text != title:  # an unchanged property is not sent (every change re-lays the page out)
             with pn.io.unlocked():
                 self.fig.title.text = title

@@ -138,11 +138,18 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
         raise InputError("--compare", compare, f"must differ from --engine ({engine})")
     env = envelope(cfg, rpm, engine, progress)
     other = envelope(cfg, rpm, compare, progress) if compare else None
-    note = time_averaged_note(engine, cfg.cutting, f"{cfg.name}'s cut ({condition_text(cfg.cutting)})")
+    note = config_time_averaged_note(cfg, engine)
     if note and not (compare and not get_engine(compare).time_averaged):  # unless the time domain is drawn beside
         warn(f"{note}; compare with a time-domain engine (--compare sdm, or --engine spectral)", UserWarning,
              stacklevel=2)
     return Lobes(cfg, engine, env, compare or None, other)
+
+
+def config_time_averaged_note(cfg: Config, engine: str) -> str | None:
+    """:func:`millstab.stability.time_averaged_note` for the config's own cut, in the words every study of a config
+    uses (``lobes``, ``sensitivity``): "the zoa engine averages ... in ex3's cut (a/D 0.1998 down milling, 3 teeth) ..."
+    or None."""
+    return time_averaged_note(engine, cfg.cutting, f"{cfg.name}'s cut ({condition_text(cfg.cutting)})")
 
 
 def sld_title(cfg: Config) -> str:

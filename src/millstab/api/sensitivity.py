@@ -236,10 +236,9 @@ def _warn_time_averaged(cfg: Config, engine: str) -> None:
     the sensitivities are then those of a model whose SLD is off by a factor at single speeds there."""
     from warnings import warn
 
-    from millstab.points import condition_text
-    from millstab.stability import time_averaged_note
+    from millstab.api.lobes import config_time_averaged_note
 
-    note = time_averaged_note(engine, cfg.cutting, f"{cfg.name}'s cut ({condition_text(cfg.cutting)})")
+    note = config_time_averaged_note(cfg, engine)
     if note:
         warn(f"{note}; these are that model's sensitivities: --engine spectral (or sdm) for the time-domain model's",
              UserWarning, stacklevel=3)

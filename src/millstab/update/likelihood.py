@@ -739,7 +739,7 @@ class Likelihood:
         was found or the column was censored or floored: no reading is there), which the anchored screen scales by
         the particle's own accurate / screen ratio as it scales the limits (:func:`millstab.update.sampler.
         anchored_features`: exact at the particle, a model's f_c a smooth function of θ near it)."""
-        if floor is not None and not self.uses_frequency:
+        if floor is not None:  # (with frequencies the bounded stage falls back to the full call: here, floor None)
             return self.bounded(v, floor, depths=True)
         depth, hz, w, ok = self._limits(v, censor=True)
         ll = np.where(ok, self.from_limits(depth, hz, noise=w), -np.inf)

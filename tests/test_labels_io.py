@@ -103,6 +103,46 @@ def test_operator_columns_under_other_names_are_named_not_read_as_boundary_point
     assert [str(x.message) for x in w] == ["cuts.csv: ignored columns: notes (kept, not used)"]
 
 
+def test_label_words_under_another_column_name_are_refused_not_read_as_boundary_points():
+    """A column 'result' holding stable/chatter words (no label column): every row read as a measured limit made an
+    update blame the hammer test for the contradiction (seen in a user test); such a file is refused, naming the
+    column to rename. Codes alone (0/1/2) stay a warning: a column of small integers may be something else."""
+    with pytest.raises(InputError, match="no label column, so every row would be read as a boundary point.*the "
+                                         "column result holds labels: name it label"):
+        parse("rpm,depth_mm,result\n12150,4.41,stable\n4850,1.91,chatter\n")
+    with pytest.raises(InputError, match="op1, op2 hold labels"):
+        parse("rpm,depth_mm,op1,op2\n12150,4.41,stable,stable\n4850,1.91,chatter,chatter\n12700,3.64,stable,\n")
+
+
+def test_a_code_left_out_of_the_labels_mapping_is_an_error_not_a_probability():
+    """--labels 0=stable,2=chatter on a file that also writes 1 (marginal): the 1 was read as P(chatter) = 1, a
+    chatter cut, silently. With numeric codes mapped, a number that is none of them is refused, naming the line,
+    the column and the codes; a mapping of words still lets probabilities through."""
+    text = "rpm,depth_mm,label\n12150,4.41,0\n4850,1.91,2\n9850,3.03,1\n"
+    with pytest.raises(InputError, match=r"line 4, label.*'1' is not one of the codes of --labels \(0, 2\)"):
+        parse(text, "0=stable,2=chatter")
+    assert list(parse(text, "0=stable,1=marginal,2=chatter").label) == ["stable", "chatter", "marginal"]
+    words = parse("rpm,depth_mm,label\n5000,1,ok\n5100,1,0.8\n", "ok=stable,nok=chatter")
+    np.testing.assert_allclose(words.grade, [0.0, 0.8])
+
+
+def test_blank_label_cells_among_labelled_cuts_are_named():
+    """A blank label cell in a file of labelled cuts is read as a boundary point (the documented format), which a
+    forgotten label also produces: the reader names those lines; a file of boundary points alone says nothing."""
+    text = "rpm,depth_mm,label\n12150,4.41,stable\n4850,1.91,\n12700,3.64,chatter\n5000,1.5,\n"
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        ps = parse(text)
+    assert list(ps.label) == ["stable", "", "chatter", ""]
+    assert [str(x.message) for x in w] == [
+        "cuts.csv: 2 rows without a label (lines 3, 5) are read as boundary points (measured limits), the others "
+        "as test cuts; write stable, marginal or chatter there if they are test cuts"]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        parse("rpm,depth_mm,label\n12150,4.41,\n4850,1.91,\n")
+    assert not w
+
+
 @pytest.mark.parametrize("word,example", [("OK", "ok=stable,nok=chatter"), ("NOK", "nok=chatter,ok=stable"),
                                           ("light chatter", "light chatter=marginal,ok=stable")])
 def test_a_shops_own_label_words_are_refused_with_a_mapping_to_copy(word, example):

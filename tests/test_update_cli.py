@@ -147,9 +147,16 @@ def test_weak_but_valid_answers_warn_in_one_line(shop, capsys):
     capsys.readouterr()
     assert main(["update", "example:ex1", str(shop / "stable.csv"), "--samples", "200", "--out",
                  str(shop / "post_st.json")]) == 0
-    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    out, err = capsys.readouterr()
+    err = [x for x in err.splitlines() if x.strip()]
     assert len(err) == 1 and err[0].startswith("millstab: warning:") and "every cut" in err[0] and "stable" in err[0]
     assert "lean on the prior" in err[0]
+    assert "every cut" not in out  # said once, as it happened (the table's warnings repeated it)
+    assert "every cut" in json.loads((shop / "post_st.json").read_text())["warnings"][0]  # and kept in the file
+    (shop / "marginal.csv").write_text("rpm,depth_mm,label\n6000,1.0,marginal\n7000,1.2,chatter\n")
+    assert main(["update", "example:ex1", str(shop / "marginal.csv"), "--samples", "200", "--out",
+                 str(shop / "post_mg.json")]) == 0
+    assert "every cut" not in "".join(capsys.readouterr())  # a marginal cut lies at the limit: not one-sided
     assert main(["map", str(shop / "post.json"), "--rpm", "2000:20000:2000", "--depth", "0:4:1",
                  "--out", str(shop / "far.csv")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
@@ -157,6 +164,7 @@ def test_weak_but_valid_answers_warn_in_one_line(shop, capsys):
     assert main(["recommend", str(shop / "post.json"), "--rpm", "2000:20000", "--out", str(shop / "far.json")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("millstab: warning:") and "beyond the tested speeds" in err[0]
+    assert err[0].removeprefix("millstab: warning: ") in json.loads((shop / "far.json").read_text())["warnings"]
 
 
 def test_kt_freed_by_the_prior_table_end_to_end(tmp_path):

@@ -75,7 +75,8 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
 
     Raises:
         ValueError: with the reason (the caller names the file, line and column): a number outside
-            [0, 1] without a mapping (a code: suggests ``--labels``), yes/no (which way is "yes"?), any other word.
+            [0, 1] without a mapping (a code: suggests ``--labels``), a number that is none of the codes where
+            ``codes`` maps numbers (a code left out of ``--labels``), yes/no (which way is "yes"?), any other word.
     """
     s = str(text).strip().lower()
     if not s:
@@ -88,6 +89,10 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
             for k, g in codes.items():
                 if _float(k) == x:
                     return g
+            if any(not math.isnan(_float(k)) for k in codes):  # "1" with --labels 0=stable,2=chatter: a code left
+                # out of the mapping, not a probability of chatter of 1
+                raise ValueError(f"{s!r} is not one of the codes of --labels ({', '.join(codes)}): map every code "
+                                 "the file uses, e.g. --labels 0=stable,1=marginal,2=chatter")
     s2 = SYNONYMS.get(s, s)
     if s2 in GRADE:
         return GRADE[s2]
@@ -360,6 +365,20 @@ def check_plausible(points: PointSet) -> PointSet:
 CONDITION_COLUMNS = ("radial_immersion", "radial_width_mm", "milling", "entry_deg", "exit_deg", "feed_per_tooth_mm",
                      "teeth")
 MILLING = ("up", "down")
+#: the other names shops write for a milling direction: climb milling is down milling, conventional is up
+MILLING_SYNONYMS = {"climb": "down", "conventional": "up"}
+#: what a milling cell or option may say, for error messages
+MILLING_RULE = "up or down (climb = down, conventional = up)"
+
+
+def milling_word(text) -> str:
+    """A written milling direction as ``"up"`` or ``"down"`` ("Down milling", "climb", "conventional-milling" too:
+    case, a trailing "milling" and :data:`MILLING_SYNONYMS` are read); any other text comes back stripped and lower
+    case, for the caller to refuse (``""`` for an empty cell)."""
+    s = " ".join(str(text).strip().lower().replace("-", " ").split())
+    if s.endswith(" milling"):
+        s = s[:-len(" milling")]
+    return MILLING_SYNONYMS.get(s, s)
 #: angles [rad] closer than this are one condition (a/D written with 4 digits differs by far more)
 ANGLE_TOL = 1e-9
 
@@ -371,17 +390,23 @@ def _given(col: np.ndarray) -> np.ndarray:
     return np.array([str(v) != "" for v in col], dtype=bool)
 
 
-def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
-    """The condition columns as arrays (floats; ``milling`` lower-case str), each cell checked.
+def check_conditions(conditions: dict | None, n: int, source=None, lines=None) -> dict:
+    """The condition columns as arrays (floats; ``milling`` "up" | "down" | "" (the config's), read by
+    :func:`milling_word`), each cell checked. ``lines``: each row's line in the file it was read from (a reader's
+    errors then name the line, as its own do), else the data row is named.
 
     Raises:
-        InputError: naming the data row (1 = the first row after the header), the column, the value and
+        InputError: naming the line or data row (1 = the first row after the header), the column, the value and
             what is allowed: an unknown column, a value out of range (a/D in (0, 1], widths, feeds > 0,
             angles in [0, 180] deg with entry < exit, teeth a positive integer, milling up | down), or
             columns that contradict each other on one row (a/D and radial_width_mm; a/D, width or milling
             with entry_deg/exit_deg; entry_deg without exit_deg).
     """
     where = f"{Path(source).name} " if source is not None else ""
+
+    def row_name(i: int) -> str:
+        return f"line {lines[i]}" if lines is not None else f"data row {i + 1}"
+
     out: dict[str, np.ndarray] = {}
     for name, col in (conditions or {}).items():
         if name not in CONDITION_COLUMNS:
@@ -390,13 +415,14 @@ def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
         if col.ndim != 1 or col.size != n:
             raise InputError(f"points.conditions[{name!r}]", f"{col.size} values", f"need one value per speed ({n})")
         if name == "milling":
-            col = np.array([("" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v).strip().lower())
-                            for v in col], dtype=object).astype(str) if n else np.array([], dtype="<U4")
+            written = ["" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v) for v in col]
+            col = np.array([milling_word(v) for v in written], dtype=object).astype(str) if n else np.array(
+                [], dtype="<U4")
             bad = ~np.isin(col, ("",) + MILLING)
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(f"{where}data row {i + 1}, column milling", col[i],
-                                 "up or down (or empty: the config's)")
+                raise InputError(f"{where}{row_name(i)}, column milling", written[i].strip(),
+                                 f"{MILLING_RULE}, or empty: the config's")
         else:
             col = np.array([math.nan if v is None or str(v).strip() == "" else v for v in col], dtype=float)
         out[name] = col
@@ -406,7 +432,7 @@ def check_conditions(conditions: dict | None, n: int, source=None) -> dict:
         if mask.any():
             i = int(np.argmax(mask))
             value = out[name][i] if name in out else None
-            raise InputError(f"{where}data row {i + 1}, column {name}", value if name == "milling" else float(value),
+            raise InputError(f"{where}{row_name(i)}, column {name}", str(value) if name == "milling" else float(value),
                              allowed)
 
     ri, w = out.get("radial_immersion", nan), out.get("radial_width_mm", nan)
@@ -585,7 +611,8 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
     return np.full(len(points), float(default_mm)) if f is None else np.where(np.isnan(f), float(default_mm), f)
 
 
-__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "check_conditions", "condition_of", "condition_text",
+__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "MILLING_RULE", "MILLING_SYNONYMS", "milling_word",
+           "check_conditions", "condition_of", "condition_text",
            "cut_conditions", "cut_feeds", "describe_condition", "in_condition", "same_condition", "CLASS_EDGE", "GRADE",
            "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds",
            "grade_of_cell", "label_of_grade", "parse_label_codes"]

@@ -255,7 +255,7 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
         InputError: naming the option: a/D outside (0, 1], milling not up|down, angles outside [0, 180] deg
             or entry ≥ exit, teeth not a positive integer, angles together with a/D or milling.
     """
-    from millstab.points import condition_of
+    from millstab.points import MILLING_RULE, condition_of, milling_word
 
     given = {k: v for k, v in (("--radial-immersion", radial_immersion), ("--milling", milling),
                                ("--entry-deg", entry_deg), ("--exit-deg", exit_deg), ("--teeth", teeth),
@@ -264,8 +264,10 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
         return None
     if radial_immersion is not None and not (np.isfinite(radial_immersion) and 0 < radial_immersion <= 1):
         raise InputError("--radial-immersion", radial_immersion, "the radial immersion a/D, in (0, 1] (1 = slot)")
-    if milling is not None and str(milling).strip().lower() not in ("up", "down"):
-        raise InputError("--milling", milling, "up or down")
+    if milling is not None:
+        if milling_word(milling) not in ("up", "down"):
+            raise InputError("--milling", milling, MILLING_RULE)
+        milling = milling_word(milling)
     for opt, a in (("--entry-deg", entry_deg), ("--exit-deg", exit_deg)):
         if a is not None and not (np.isfinite(a) and 0 <= a <= 180):
             raise InputError(opt, a, "an angle in [0, 180] deg")

@@ -35,7 +35,19 @@ from millstab.cli import listen  # noqa: E402,F401
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    from millstab.cli.emit import SHOWN
+
+    SHOWN.add(str(message))
     print(f"millstab: warning: {message}", file=sys.stderr)
+
+
+def _one_line_warnings() -> None:
+    """Warnings print as one line each from here on; none counts as shown yet (tests run several commands in one
+    process: :data:`millstab.cli.emit.SHOWN`)."""
+    from millstab.cli.emit import SHOWN
+
+    SHOWN.clear()
+    warnings.showwarning = _one_line_warning
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     """
     from millstab.cli.notices import install_compile_notice
 
-    warnings.showwarning = _one_line_warning
+    _one_line_warnings()
     install_compile_notice()
     code = 0
     try:

@@ -76,7 +76,14 @@ def lines(console, text: str) -> None:
                       highlight=False)
 
 
+#: the warnings this process has printed as they were issued (``millstab: warning: ...`` on stderr, cli.main's
+#: handler): a result's own list of them (an update's) is not printed a second time after its table
+SHOWN: set[str] = set()
+
+
 def warnings(console, lines: Iterable[str], tag: str = "warning") -> None:
-    """Each line as ``warning: ...`` in yellow (``tag`` e.g. "warning (from the update)", "note")."""
+    """Each line as ``warning: ...`` in yellow (``tag`` e.g. "warning (from the update)", "note"), but for those
+    already printed as they were issued (:data:`SHOWN`)."""
     for line in lines:
-        console.print(f"[yellow]{tag}:[/yellow] {line}")
+        if line not in SHOWN:
+            console.print(f"[yellow]{tag}:[/yellow] {line}")

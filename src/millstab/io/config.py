@@ -81,6 +81,7 @@ from millstab.io.results import PathLike, atomic_write_text
 from millstab.io.text import read_text
 from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types (Config: import it from there)
 from millstab.model import Cutting, Mode, Structure
+from millstab.points import milling_word
 from millstab.units import parse_quantity
 
 TOP_KEYS = ("name", "description", "cutting", "structure", "speeds", "prior", "tool", "holder")
@@ -180,8 +181,9 @@ def _cutting(t: Any) -> Cutting:
             raise InputError("cutting.milling", None,
                              "missing; with radial_immersion < 1 give milling = \"down\" or \"up\"")
         milling = "down"
+    milling = milling_word(milling) if isinstance(milling, str) else milling
     if milling not in ("down", "up"):
-        raise InputError("cutting.milling", milling, 'must be "down" or "up"')
+        raise InputError("cutting.milling", milling, 'must be "down" or "up" (climb = down, conventional = up)')
     with _as_written({f"cutting.{k}": t[k] for k in ("kt", "kr", "radial_immersion")} | written):
         return Cutting.from_immersion(teeth, kt, kr, ri, milling, **extra)
 

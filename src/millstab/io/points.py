@@ -9,7 +9,8 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
     5700,1.25,marginal,,   <- test cut at the edge of chatter (light marks, growing sound)
 
 * ``rpm`` [rev/min] and ``depth_mm`` [mm] are required, both > 0.
-* ``label`` (optional column): a test cut's written label; an empty cell marks a boundary point.
+* ``label`` (optional column): a test cut's written label; an empty cell marks a boundary point (the lines are named
+  in a warning where other rows are labelled: a forgotten label reads the same).
   A cell may be ``stable``, ``chatter`` or ``marginal`` (``uncertain`` and ``unsure`` read as
   marginal), a probability of chatter in [0, 1] (``0.7`` or ``70 %``), or a code mapped by the
   ``labels`` argument (``--labels 0=stable,1=marginal,2=chatter``; a number outside [0, 1] without a
@@ -28,7 +29,8 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
 * Any other column (feed, notes, tool, ...) is kept as text in ``PointSet.extra`` and ignored, with
   one warning naming the columns. A column that looks like a misspelt known column that is absent
   (``lable``, ``weigth``, ``depht_mm``) is an error, since a silently ignored label column would turn
-  every cut into a boundary point.
+  every cut into a boundary point; so is a file without a label column whose other column holds label words
+  (``result``: stable, chatter); a column of codes alone (0/1/2) there is warned about.
 * Per-cut cutting conditions (optional columns; an empty cell or a missing column takes the config's
   value; docs/updating.md, "Many conditions"): ``radial_immersion`` (a/D in (0, 1], or ``25 %``) or
   ``radial_width_mm`` (needs ``diameter`` in the config's ``[cutting]``), ``milling`` (up | down),
@@ -52,8 +54,8 @@ from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
 from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
 # the model type lives below io (import it from millstab.points, its one home)
-from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_enough, grade_of_cell,
-                              label_of_grade, parse_label_codes)
+from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_conditions, check_enough,
+                              grade_of_cell, label_of_grade, parse_label_codes)
 from millstab.warnlog import warn
 
 REQUIRED = ("rpm", "depth_mm")
@@ -141,6 +143,11 @@ def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
     return len(filled) >= 2 and filled <= words
 
 
+def _holds_words(cells: list[str]) -> bool:
+    """True when some cell of a column is a label word (stable, chatter, marginal or a synonym), not only a code."""
+    return any(c.strip().lower() in GRADE or c.strip().lower() in SYNONYMS for c in cells)
+
+
 def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict | None = None) -> PointSet:
     """Parse point-set CSV text (an upload, a string in a notebook) with the same checks as
     :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``;
@@ -224,9 +231,24 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
             raise InputError(f"{p.name} header", ",".join(names),
                              "--labels maps label codes, but the file has no label column (label, or one per "
                              f"operator: label_NAME, labelN, rater_NAME){rename}")
+        worded = [h for h in looks if _holds_words(extra[h])]
+        if worded:  # "stable"/"chatter" under another name: read as boundary points they would each say "the limit
+            # is exactly here", and an update would blame the hammer test for the contradiction
+            raise InputError(f"{p.name} header", ",".join(names),
+                             "no label column, so every row would be read as a boundary point (a measured limit)"
+                             f"{rename}; a file of boundary points holds no label words")
         if looks:
             warn(f"{p.name}: no label column, so every row is read as a boundary point (a measured limit){rename}",
                  UserWarning, stacklevel=3)
+    blank = [line for (line, _), g in zip(rows[1:], grades) if g and np.isnan(g).all()]
+    if raters and blank and len(blank) < len(grades):  # a forgotten label reads as a measured limit
+        many = len(blank) > 1
+        warn(f"{p.name}: {len(blank)} row{'s' if many else ''} without a label (line{'s' if many else ''} "
+             f"{', '.join(map(str, blank[:10]))}{', …' if len(blank) > 10 else ''}) "
+             + ("are read as boundary points (measured limits)" if many else
+                "is read as a boundary point (a measured limit)")
+             + ", the others as test cuts; write stable, marginal or chatter there if they are test cuts",
+             UserWarning, stacklevel=3)
     if ignored:
         warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used)", UserWarning, stacklevel=3)
     deepest = max(depth)
@@ -235,6 +257,7 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
                 f"micrometres? {deepest:g} µm is {deepest * 1e-3:g} mm")
         warn(f"{p.name}: the deepest cut is {deepest:g} mm (column depth_mm is in mm): are the depths in {hint}",
              UserWarning, stacklevel=3)
+    conds = check_conditions(conds, len(rpm), p, [line for line, _ in rows[1:]])  # errors name the file's line
     ratings = np.array(grades, dtype=float).reshape(len(rpm), len(raters))
     with np.errstate(all="ignore"):
         rated = ~np.isnan(ratings).all(axis=1)
@@ -245,9 +268,10 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
 
 
 def _condition_cell(text: str, name: str, line: int, p: Path):
-    """One condition cell: ``""`` (milling) or NaN when empty; a/D may be a percentage ("25 %")."""
+    """One condition cell: ``""`` (milling) or NaN when empty; a/D may be a percentage ("25 %"); milling as written
+    (:func:`millstab.points.check_conditions` reads it and names the line of a direction it does not know)."""
     if name == "milling":
-        return text.strip().lower()
+        return text.strip()
     if not text:
         return math.nan
     pct = name == "radial_immersion" and text.endswith("%")

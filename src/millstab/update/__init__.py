@@ -115,18 +115,22 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
 
 
 
-def _warn_time_averaged_cuts(engine: str, conditions) -> None:
-    """Warn (not kept in the posterior: each decision warns for its own condition) when a time-averaged engine
-    fits cuts made with less than one tooth in the cut on average (:func:`millstab.stability.time_averaged_note`):
-    the posterior's parameters absorb that model error."""
+def _warn_time_averaged_cuts(engine: str, conditions) -> list[str]:
+    """Warn when a time-averaged engine fits cuts made with less than one tooth in the cut on average
+    (:func:`millstab.stability.time_averaged_note`): the posterior's parameters absorb that model error. Returns the
+    messages, which the posterior keeps (its file and every decision from it carry them; each decision warns for
+    its own condition besides)."""
     from millstab.points import condition_text
     from millstab.stability import time_averaged_note
 
+    said = []
     for c in conditions:
         note = time_averaged_note(engine, c, f"the cuts made in {condition_text(c)}")
         if note:
-            warn(f"{note}: the posterior's parameters absorb that error, and its decisions inherit it; update with "
-                 "--engine spectral or sdm for those cuts", UserWarning, stacklevel=3)
+            said.append(f"{note}: the posterior's parameters absorb that error, and its decisions inherit it; update "
+                        "with --engine spectral or sdm for those cuts")
+            warn(said[-1], UserWarning, stacklevel=3)
+    return said
 
 
 def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa",
@@ -186,7 +190,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         scr = None if cheap_engine is None else Likelihood(*screen_model(pr, ev, cheap_engine), cheap_engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
-    _warn_time_averaged_cuts(engine, ev.conditions or (pr.cutting,))
+    model_error = _warn_time_averaged_cuts(engine, ev.conditions or (pr.cutting,))
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
     # the test days' shifts of ln fn (millstab.update.batch; none unless [prior] batch_effect)
     be, q = lik.batch, pr.dim
@@ -274,7 +278,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     opts = dict(lik.options)  # checked against the engine (millstab.forward.engine_options)
     post = Posterior(pr, np.exp(u), engine, diag, data, (), noise, days, conditions=conditions, diameter_mm=dia,
                      engine_options=opts)
-    messages = [str(w.message) for w in caught]
+    messages = [str(w.message) for w in caught] + model_error
     modes = post.modes()
     twin = split_modes(pr, post.samples, engine) if len(modes) > 1 else None
     main = u if twin is None else u[twin if twin.mean() > 0.5 else ~twin]  # the larger mode's samples

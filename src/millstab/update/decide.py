@@ -69,8 +69,9 @@ whether the process chatters).
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -79,7 +80,7 @@ from millstab.errors import InputError
 from millstab.update._bald import label_information
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
-from millstab.warnlog import warn
+from millstab.warnlog import collect, emit, warn
 
 #: speeds of the coarse grid of :func:`recommend`
 COARSE_POINTS = 200
@@ -557,6 +558,9 @@ class Recommendation:
     test_risk: float | None = None
     #: the cutting condition it is computed for (:func:`millstab.points.describe_condition`)
     computed_for: dict | None = None
+    #: every warning that comes with it, one line each: the update's (``post.warnings``: a prior–data conflict, ...)
+    #: and the decision's own (speeds beyond the tested ones, a zero-order model below one tooth in the cut, ...)
+    warnings: tuple[str, ...] = ()
 
     #: the ``"schema"`` of :meth:`to_json`
     SCHEMA = "millstab.recommendation/1"
@@ -605,7 +609,7 @@ class Recommendation:
                "p_chatter_speed_error": self.p_chatter_speed_error, "p_chatter_bound": self.p_chatter_bound,
                "effective_samples": self.effective_samples, "confidence": self.confidence,
                "speed_tolerance": self.speed_tolerance, "test_risk": self.test_risk, "data_guard": list(self.guard),
-               "computed_for": self.computed_for}
+               "computed_for": self.computed_for, "warnings": list(self.warnings)}
         if self.mrr_cm3_per_min is not None:
             out["mrr_cm3_per_min"] = self.mrr_cm3_per_min
         return out
@@ -629,7 +633,10 @@ class Recommendation:
                    effective_samples=need(doc, "effective_samples", source, opt),
                    confidence=need(doc, "confidence", source, opt),
                    speed_tolerance=float(need(doc, "speed_tolerance", source, num)),
-                   guard=tuple(need(doc, "data_guard", source, list)), test_risk=need(doc, "test_risk", source, opt))
+                   guard=tuple(need(doc, "data_guard", source, list)), test_risk=need(doc, "test_risk", source, opt),
+                   computed_for=(need(doc, "computed_for", source, (dict, type(None))) if "computed_for" in doc
+                                 else None),
+                   warnings=tuple(str(w) for w in need(doc, "warnings", source, list)) if "warnings" in doc else ())
 
 
 def effective_samples(post: Posterior) -> float:
@@ -867,6 +874,22 @@ def pockets(productivity: np.ndarray, k: int) -> np.ndarray:
     return peak[np.argsort(-p[peak], kind="stable")][:k]
 
 
+def _keeps_warnings(decide):
+    """``decide`` (a decision returning a :class:`Recommendation`) with every warning it issues passed on as before
+    and kept in its result, after the posterior's own (``Recommendation.warnings``): a recommendation file read
+    alone, or by a program, says what the terminal said."""
+    @functools.wraps(decide)
+    def kept(post: Posterior, *args, **kwargs) -> Recommendation:
+        with collect() as caught:
+            rec = decide(post, *args, **kwargs)
+        for w in caught:
+            emit(w)
+        said = [*post.warnings, *(str(w.message) for w in caught)]
+        return replace(rec, warnings=tuple(dict.fromkeys(said)))
+    return kept
+
+
+@_keeps_warnings
 def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,

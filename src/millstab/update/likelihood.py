@@ -404,7 +404,7 @@ class Evidence:
         if n_st == 0 and n_ch == 0 and b_rpm.size == 0:
             raise InputError("cuts", f"{int(c.marginal.sum())} marginal and no stable or chatter cut{where}",
                              "updating needs at least one cut labelled stable or chatter (or boundary points)")
-        if b_rpm.size == 0 and (n_st == 0 or n_ch == 0):
+        if b_rpm.size == 0 and (n_st == 0 or n_ch == 0) and not c.marginal.any():  # a marginal cut is at the limit
             only = "stable" if n_ch == 0 else "chatter"
             side = "from below" if only == "stable" else "from above"
             warn(f"every cut{where} is {only}: the data bound the limit {side} only, so the posterior "

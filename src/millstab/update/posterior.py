@@ -31,7 +31,8 @@ SCHEMA = "millstab.posterior/3"
 OLD_SCHEMAS = ("millstab.posterior/2", "millstab.posterior/1")
 #: the code of each kind of warning (``warning_codes`` in the JSON), by the start of its message
 WARNING_CODES = (("the cuts contradict the hammer test", "prior-data-conflict"), ("bimodal posterior", "bimodal"),
-                 ("every cut", "one-sided-data"))
+                 ("every cut", "one-sided-data"),
+                 ("the zoa engine averages the cutting force", "time-averaged-model"))
 #: the least share of samples for a second exchange mode to be reported as a mode
 MODE_SHARE = 0.02
 

@@ -241,7 +241,9 @@ def test_predict_takes_each_rows_condition_and_says_which():
     np.testing.assert_allclose(pred.p_label_chatter, np.r_[ref_slot.p_label_chatter, ref_up.p_label_chatter],
                                atol=1e-12)
     header, cols = pred.table()
-    assert header[-1] == "condition" and cols[-1] == ["slot, 2 teeth"] + ["a/D 0.25 up milling, 2 teeth"] * 2
+    assert header[-2] == "condition" and cols[-2] == ["slot, 2 teeth"] + ["a/D 0.25 up milling, 2 teeth"] * 2
+    # the posterior's cuts were all slots: the a/D 0.25 rows say so, as map and recommend would
+    assert header[-1] == "condition_note" and cols[-1] == [""] + ["never cut: the cuts were in slot, 2 teeth"] * 2
     # its JSON (issue 26: Prediction had none) reads back the same predictions, conditions and provenance
     import dataclasses
     import json
@@ -251,7 +253,7 @@ def test_predict_takes_each_rows_condition_and_says_which():
     named = predict(dataclasses.replace(post, provenance={"config": "ex1"}), cuts)
     assert named.provenance == {"config": "ex1", "points": str(cuts.source)}
     back = Prediction.from_json(json.loads(json.dumps(named.to_json(), allow_nan=False)), "pred.json")
-    assert back.provenance == named.provenance and list(back.condition) == cols[-1]
+    assert back.provenance == named.provenance and list(back.condition) == cols[-2]
     np.testing.assert_array_equal(back.p_stable, pred.p_stable)
 
 

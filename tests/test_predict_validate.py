@@ -56,8 +56,9 @@ def test_predict_in_the_input_order_against_each_cuts_own_limits(repeated):
         assert min(eps.min(), 1 - eps.max()) <= pred.p_label_chatter[i] <= max(1 - eps.min(), eps.max())
     header, cols = pred.table()
     assert header == ["rpm", "depth_mm", "label", "p_stable", "p_label_chatter"]
+    # the label column as written: a probability of chatter stays the probability (its grade), not its class
     assert (cols[0].tolist() == [9000, 5000, 9000, 6100, 5000]
-            and cols[2] == ["stable", "chatter", "", "chatter", "stable"])
+            and cols[2] == ["stable", "chatter", "", "0.7", "stable"])
     s = pred.scores()
     g = np.array([0, 1, 0.7, 0])
     m = np.array([0, 1, 3, 4])
@@ -113,8 +114,109 @@ def test_predict_command_writes_the_prediction_json(tmp_path, capsys):
     assert Prediction.from_json(pred.to_json()).to_json() == pred.to_json()
     assert main(base + ["--json", str(tmp_path / "only.json")]) == 0
     assert (tmp_path / "only.json").exists() and not (tmp_path / "only.csv").exists()
-    assert main(base) == 2 and "--out" in capsys.readouterr().err
+    assert "p_stable" not in capsys.readouterr().out  # --json alone: the table is not printed
     assert main(base + ["--json", str(cuts)]) == 2 and "label" in cuts.read_text()  # never over an input
+
+
+#: a shop's cuts file: per-cut conditions, notes and operator, two raters, a chatter frequency (cells as written)
+SHOP = ("rpm,depth_mm,radial_immersion,milling,notes,operator,label_a,label_b,chatter_hz\n"
+        "5000,1.0,,,first pass,ann,stable,stable,\n"
+        "5000,4.0,,,loud,bob,chatter,chatter,1010\n"
+        "7000,2.0,0.5,down,,ann,stable,0.25,\n"
+        '7000,5.0,0.5,down,"burr, marks",bob,chatter,marginal,\n')
+
+
+def test_predict_keeps_every_input_column_then_the_predictions(tmp_path, capsys):
+    """predict --out on a shop's file keeps every column of the cuts in the input order, cells as written (the
+    reader's warning says they are "kept, not used"), then p_stable, p_label_chatter, condition and condition_note;
+    both probabilities as computed, neither rounded (p_stable of 300 samples is no 3-decimal number); the file
+    reads back as the same cuts. Failed before: rpm,depth_mm,label,p_stable,p_label_chatter,condition only."""
+    from millstab.api import predict
+    from millstab.io import read_points
+
+    post = prior_post()
+    (tmp_path / "post.json").write_text(json.dumps(post.to_json()))
+    (tmp_path / "cuts.csv").write_text(SHOP)
+    assert main(["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv"), "--out",
+                 str(tmp_path / "p.csv")]) == 0
+    with open(tmp_path / "p.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    head = SHOP.splitlines()[0].split(",")
+    assert rows[0] == head + ["p_stable", "p_label_chatter", "condition", "condition_note"]
+    body = [r[:len(head)] for r in rows[1:]]
+    assert [[float(r[0]), float(r[1])] for r in body] == [[5000, 1], [5000, 4], [7000, 2], [7000, 5]]
+    assert [r[2:4] for r in body] == [["", ""], ["", ""], ["0.5", "down"], ["0.5", "down"]]
+    assert [r[4:6] for r in body] == [["first pass", "ann"], ["loud", "bob"], ["", "ann"], ["burr, marks", "bob"]]
+    assert [r[6:8] for r in body] == [["stable", "stable"], ["chatter", "chatter"], ["stable", "0.25"],
+                                      ["chatter", "marginal"]]
+    assert [r[8] for r in body] == ["", "1010.0", "", ""]
+    cuts = read_points(tmp_path / "cuts.csv")
+    pred = predict(post, cuts)
+    assert [float(r[len(head)]) for r in rows[1:]] == pred.p_stable.tolist()  # exact: neither column rounded
+    assert [float(r[len(head) + 1]) for r in rows[1:]] == pred.p_label_chatter.tolist()
+    assert any(abs(p * 1000 - round(p * 1000)) > 1e-6 for p in pred.p_stable)  # k/300: not 3 decimals
+    back = read_points(tmp_path / "p.csv")
+    np.testing.assert_array_equal(back.ratings, cuts.ratings)
+    np.testing.assert_array_equal(back.chatter_hz, cuts.chatter_hz)
+    assert back.raters == cuts.raters and list(back.extra["notes"]) == list(cuts.extra["notes"])
+    np.testing.assert_array_equal(back.conditions["radial_immersion"], cuts.conditions["radial_immersion"])
+    # the JSON document rebuilds the same table
+    from millstab.api import Prediction
+
+    again = Prediction.from_json(json.loads(json.dumps(pred.to_json())))
+    assert again.table()[0] == pred.table()[0] and again.table()[1][4] == pred.table()[1][4]
+
+
+def test_predict_without_out_prints_the_table(tmp_path, capsys):
+    """predict without --out and --json prints the table as CSV (as simulate does without --out); failed before
+    with "error: --out = None is invalid"."""
+    (tmp_path / "post.json").write_text(json.dumps(prior_post().to_json()))
+    (tmp_path / "cuts.csv").write_text(SHOP)
+    base = ["predict", str(tmp_path / "post.json"), str(tmp_path / "cuts.csv")]
+    assert main(base) == 0
+    printed = capsys.readouterr().out
+    assert main(base + ["--out", str(tmp_path / "p.csv")]) == 0
+    assert printed.endswith((tmp_path / "p.csv").read_text())
+
+
+@pytest.mark.filterwarnings("ignore:the zoa engine averages")  # a/D 0.5 down on two teeth: warned, and known here
+def test_predict_notes_the_cuts_in_a_condition_never_cut_in_the_words_of_map_and_recommend():
+    """A cut whose condition none of the posterior's cuts was made in carries the note of map and recommend
+    (one text: millstab.points.never_cut_note, in api.condition_line too): per row in the table and the JSON,
+    counted per condition in the summary; none where every row's condition was cut. Failed before: no note."""
+    from millstab import api
+    from millstab.api import Prediction
+    from millstab.points import never_cut_note
+
+    post = prior_post()
+    cuts = parse_points("rpm,depth_mm,radial_immersion,milling\n6000,1,,\n6000,1,0.5,down\n7000,2,0.5,down\n", "c.csv")
+    pred = api.predict(post, cuts)
+    note = never_cut_note(post.trained_conditions)
+    assert note == "never cut: the cuts were in slot, 2 teeth"
+    half = Cutting.from_immersion(2, CUT.kt, CUT.kr, 0.5, "down")
+    assert api.condition_line(post.for_condition(half)) == f"computed for a/D 0.5 down milling, 2 teeth ({note})"
+    assert list(pred.note) == ["", note, note]
+    header, cols = pred.table()
+    assert header[-2:] == ["condition", "condition_note"] and cols[-1] == ["", note, note]
+    assert f"2 of 3 cuts in a/D 0.5 down milling, 2 teeth ({note})" in pred.summary()
+    back = Prediction.from_json(json.loads(json.dumps(pred.to_json())), "p.json")
+    assert list(back.note) == list(pred.note) and "never cut" in back.summary()
+    slot = api.predict(post, parse_points("rpm,depth_mm\n6000,1\n", "d.csv"))  # the posterior's own condition
+    assert slot.note is None and "condition_note" not in slot.table()[0] and "never cut" not in slot.summary()
+    target = api.predict(post.for_condition(half), parse_points("rpm,depth_mm\n6000,1\n", "d.csv"))  # --radial-...
+    assert list(target.note) == [note]
+
+
+@pytest.mark.filterwarnings("ignore:old.csv")  # its columns kept, not used
+def test_predict_keeps_an_input_column_named_as_a_prediction():
+    """A prediction predicted again: its old p_stable column is kept as input_p_stable, beside the new one (the
+    reader refuses a header with a name twice)."""
+    from millstab.api import predict
+
+    cuts = parse_points("rpm,depth_mm,p_stable,operator\n6000,1,0.25,ann\n", "old.csv")
+    header, cols = predict(prior_post(), cuts).table()
+    assert header == ["rpm", "depth_mm", "input_p_stable", "operator", "p_stable", "p_label_chatter"]
+    assert cols[2] == ["0.25"] and cols[3] == ["ann"]
 
 
 # --- validate: the pieces ------------------------------------------------------------------------------
@@ -164,6 +266,94 @@ def test_baselines_against_brute_force():
     d = np.linalg.norm(x[None, :, :] - xt[:, None, :], axis=2)
     brute = np.array([grade[np.argsort(row)[:5]].mean() for row in d])
     np.testing.assert_allclose(got["knn"], brute, atol=1e-12)
+
+
+def _slot_and_half(n: int, seed: int = 1) -> PointSet:
+    """n cuts alternating slot (empty cells: the config's) and a/D 0.5 down; the slots chatter above 1.5 mm, the
+    half-width cuts never: the condition, not speed or depth, tells most of them apart."""
+    rng = np.random.default_rng(seed)
+    rpm, depth = rng.uniform(5000, 9000, n), rng.uniform(1, 4, n)
+    half = np.arange(n) % 2 == 1
+    lab = np.where(half | (depth < 1.5), "stable", "chatter")
+    return PointSet(rpm, depth, lab, conditions={"radial_immersion": np.where(half, 0.5, np.nan),
+                                                 "milling": np.where(half, "down", "")})
+
+
+def test_baselines_see_the_cutting_condition_where_the_cuts_conditions_differ():
+    """On (rpm, depth) alone a slot and a half-width cut at one speed and depth are one point to the baselines;
+    given the config's cutting they see each cut's entry angle (the one condition feature that differs here:
+    entry 0° slot, 90° down at a/D 0.5; exit 180° both), standardised like rpm and depth: logistic and kNN against
+    brute force on those three features. Failed before: baseline_predictions took no condition."""
+    from millstab.update.validate import baseline_features
+
+    train = _slot_and_half(24)
+    test = PointSet([7000.0, 7000.0], [3.0, 3.0], conditions={"radial_immersion": [np.nan, 0.5],
+                                                              "milling": ["", "down"]})
+    blind = baseline_predictions(train, test)  # as before: rpm and depth only
+    assert blind["logistic"][0] == blind["logistic"][1] and blind["knn"][0] == blind["knn"][1]
+    assert baseline_features(train, CUT) == ("rpm", "depth_mm", "entry_deg")
+    got = baseline_predictions(train, test, CUT)
+    assert got["logistic"][0] > 0.5 > got["logistic"][1] and got["knn"][0] > got["knn"][1]
+    g = train.grade
+    feats = np.column_stack([train.rpm, train.depth_mm, np.where(np.arange(24) % 2 == 1, 90.0, 0.0)])
+    mu, sd = feats.mean(axis=0), feats.std(axis=0)
+    x = (feats - mu) / sd
+    xt = (np.array([[7000.0, 3.0, 0.0], [7000.0, 3.0, 90.0]]) - mu) / sd
+
+    def nll(beta):
+        z = beta[0] + x @ beta[1:]
+        return -(g * -np.logaddexp(0, -z) + (1 - g) * -np.logaddexp(0, z)).sum() + 0.5 * beta[1:] @ beta[1:]
+
+    beta = minimize(nll, np.zeros(4), method="BFGS", options={"gtol": 1e-10}).x
+    np.testing.assert_allclose(got["logistic"], 1 / (1 + np.exp(-(beta[0] + xt @ beta[1:]))), atol=2e-4)
+    d = np.linalg.norm(x[None, :, :] - xt[:, None, :], axis=2)
+    np.testing.assert_allclose(got["knn"], [g[np.argsort(row)[:5]].mean() for row in d], atol=1e-12)  # k = √24
+    # one condition: (rpm, depth) as before; up and down mixed: both angles; another number of teeth: teeth
+    assert baseline_features(train.subset(np.arange(24) % 2 == 0), CUT) == ("rpm", "depth_mm")
+    np.testing.assert_array_equal(baseline_predictions(train.subset(np.arange(24) % 2 == 0), test, CUT)["knn"],
+                                  baseline_predictions(train.subset(np.arange(24) % 2 == 0), test)["knn"])
+    mixed = PointSet([5000.0, 6000.0, 7000.0], [1.0, 2.0, 3.0], ["stable"] * 3,
+                     conditions={"radial_immersion": [0.5, 0.5, np.nan], "milling": ["up", "down", ""],
+                                 "teeth": [np.nan, np.nan, 4]})
+    assert baseline_features(mixed, CUT) == ("rpm", "depth_mm", "entry_deg", "exit_deg", "teeth")
+
+
+def test_cross_validate_keeps_the_conditions_and_warns_as_update_does():
+    """validate on cuts in several conditions: its per-cut table and its JSON's cuts keep the condition columns as
+    read (empty = the config's), its settings name the baselines' features, and with the zero-order engine it warns
+    once for the cuts made with less than one tooth in the cut, as update does (its folds' updates are quiet).
+    Failed before: no condition columns, no warning."""
+    import warnings
+
+    text = ("rpm,depth_mm,label,radial_immersion,milling,operator\n5000,1,stable,,,ann\n5000,4,chatter,,,bob\n"
+            "6000,2,stable,0.1,down,ann\n6000,6,chatter,0.1,down,bob\n7000,1.5,stable,,,ann\n7000,5,chatter,0.1,down,"
+            "ann\n")
+    cuts = parse_points(text, "shop.csv")
+
+    def fake_update(cfg, train, **kw):
+        return prior_post(150, seed=kw["seed"] % 97)
+
+    class Cfg:
+        structure, cutting = STRUCT, CUT
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = cross_validate(Cfg(), cuts, n_folds=2, seed=0, samples=150, update_fn=fake_update)
+    mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
+    assert len(mine) == 1 and "the cuts made in a/D 0.1 down milling, 2 teeth" in mine[0]
+    header, cols = res.table()
+    assert header[:7] == ["rpm", "depth_mm", "label", "grade", "batch", "radial_immersion", "milling"]
+    assert cols[5] == ["", "", "0.1", "0.1", "", "0.1"] and cols[6] == ["", "", "down", "down", "", "down"]
+    doc = json.loads(json.dumps(res.to_json(), allow_nan=False))
+    assert doc["cuts"]["conditions"] == {"radial_immersion": [None, None, 0.1, 0.1, None, 0.1],
+                                         "milling": ["", "", "down", "down", "", "down"]}
+    assert doc["cuts"]["extra"] == {"operator": ["ann", "bob", "ann", "bob", "ann", "ann"]}
+    assert doc["cuts"]["rpm"] == [5000, 5000, 6000, 6000, 7000, 7000] and doc["cuts"]["grade"][:2] == [0, 1]
+    assert res.settings["baseline_features"] == ["rpm", "depth_mm", "entry_deg"]
+    with warnings.catch_warnings(record=True) as w:  # an engine of interrupted cutting: nothing to warn of
+        warnings.simplefilter("always")
+        cross_validate(Cfg(), cuts, n_folds=2, seed=0, samples=150, engine="sdm", update_fn=fake_update)
+    assert not [x for x in w if "averages the cutting force" in str(x.message)]
 
 
 def test_scores_against_their_definitions():
@@ -237,6 +427,26 @@ def test_validate_command_end_to_end(tmp_path, capsys):
     assert len(doc["summary"]["speed"]["millstab"]["fold_brier"]) == 3
     rows = list(csv.DictReader((tmp_path / "v.csv").open()))
     assert len(rows) == 6 and float(rows[2]["grade"]) == 0.25
+
+
+@pytest.mark.slow
+def test_validate_command_on_cuts_in_several_conditions(tmp_path, capsys):
+    """validate --out --predictions on a shop's cuts in two conditions (real zero-order updates): the below-one-tooth
+    warning of update on stderr, the condition columns in the predictions CSV and in the JSON's cuts, the
+    baselines' features named in its settings."""
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,radial_immersion,milling,label\n5000,1.0,,,stable\n"
+                                       "5000,4.0,,,chatter\n7000,2.0,0.1,down,stable\n7000,9.0,0.1,down,chatter\n"
+                                       "9000,1.5,,,stable\n9000,6.5,0.1,down,chatter\n")
+    assert main(["validate", "example:ex1", str(tmp_path / "cuts.csv"), "--folds", "2", "--samples", "100",
+                 "--out", str(tmp_path / "v.json"), "--predictions", str(tmp_path / "v.csv")]) == 0
+    err = " ".join(capsys.readouterr().err.split())
+    assert "averages the cutting force" in err and "the cuts made in a/D 0.1 down milling, 2 teeth" in err
+    rows = list(csv.DictReader((tmp_path / "v.csv").open()))
+    assert [r["radial_immersion"] for r in rows] == ["", "", "0.1", "0.1", "", "0.1"]
+    assert [r["milling"] for r in rows] == ["", "", "down", "down", "", "down"]
+    doc = json.loads((tmp_path / "v.json").read_text())
+    assert doc["cuts"]["conditions"]["milling"] == ["", "", "down", "down", "", "down"]
+    assert doc["settings"]["baseline_features"] == ["rpm", "depth_mm", "entry_deg"]
 
 
 @pytest.mark.parametrize("argv,shown", [(["predict", "--help"], "p_stable,p_label_chatter"),

@@ -392,7 +392,8 @@ def structure_in(doc: Any, source: str):
 def points_out(ps) -> dict:
     """A :class:`millstab.points.PointSet`, every column under its own name (speeds [rpm], depths [mm], labels,
     weights, chatter frequencies [Hz], grades, test days, each rater's grade, the kept columns and the per-cut
-    conditions; NaN as ``null`` where a cell is empty) and its source file's name."""
+    conditions; NaN as ``null`` where a cell is empty), its source file's name and its file's column order
+    (``columns``, ``null`` for points not read from a file)."""
     return {"rpm": floats_out(ps.rpm, "rpm"), "depth_mm": floats_out(ps.depth_mm, "depth_mm"),
             "label": [str(x) for x in ps.label], "weight": floats_out(ps.weight, "weight"),
             "chatter_hz": floats_out(ps.chatter_hz, "chatter_hz", nan_ok=True),
@@ -401,11 +402,13 @@ def points_out(ps) -> dict:
             "extra": {k: [str(x) for x in v] for k, v in ps.extra.items()},
             "conditions": {k: ([str(x) for x in v] if v.dtype.kind in "UO" else floats_out(v, k, nan_ok=True))
                            for k, v in ps.conditions.items()},
-            "source": None if ps.source is None else str(ps.source)}
+            "source": None if ps.source is None else str(ps.source),
+            "columns": None if ps.columns is None else list(ps.columns)}
 
 
 def points_in(doc: Any, source: str):
-    """The inverse of :func:`points_out` (the points validate themselves: InputError)."""
+    """The inverse of :func:`points_out` (the points validate themselves: InputError); a document without
+    ``columns`` (written before it was kept) reads as points not read from a file."""
     from millstab.points import PointSet
 
     if not isinstance(doc, dict):
@@ -416,7 +419,7 @@ def points_in(doc: Any, source: str):
     if ratings.size != n * len(raters):
         raise InputError(f"{source}.ratings", f"{ratings.size} values", f"one per cut and rater ({n} × {len(raters)})")
     cond = need(doc, "conditions", source, dict)
-    src = doc.get("source")
+    src, order = doc.get("source"), doc.get("columns")
     return PointSet(floats_in(doc["rpm"], f"{source}.rpm", 1),
                     floats_in(need(doc, "depth_mm", source), f"{source}.depth_mm", 1),
                     names_in(need(doc, "label", source), f"{source}.label"),
@@ -426,7 +429,8 @@ def points_in(doc: Any, source: str):
                     names_in(need(doc, "batch", source), f"{source}.batch"), ratings.reshape(n, len(raters)), raters,
                     {k: names_in(v, f"{source}.extra.{k}") for k, v in need(doc, "extra", source, dict).items()},
                     {k: (names_in(v, f"{source}.conditions.{k}") if k == "milling" else
-                         floats_in(v, f"{source}.conditions.{k}", 1, nan_ok=True)) for k, v in cond.items()})
+                         floats_in(v, f"{source}.conditions.{k}", 1, nan_ok=True)) for k, v in cond.items()},
+                    None if order is None else names_in(order, f"{source}.columns"))
 
 
 def config_out(cfg) -> dict:

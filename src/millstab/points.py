@@ -158,6 +158,9 @@ class PointSet:
             file gives: floats (NaN = empty cell: the config's value) and ``milling`` as str (``""``
             empty); only the columns present. ``None`` = none (every cut in the config's condition).
             :func:`cut_conditions` turns them into one :class:`~millstab.model.Cutting` per distinct condition.
+        columns: the file's column names in the file's order (lower case, as the reader knows them), so that an
+            output keeps the input's columns where they were (:func:`millstab.io.points.input_columns`);
+            ``None`` = not read from a file (a default order).
     """
 
     rpm: np.ndarray
@@ -172,6 +175,7 @@ class PointSet:
     raters: tuple[str, ...] | None = None
     extra: dict = field(default=None)
     conditions: dict = field(default=None)
+    columns: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
@@ -256,6 +260,8 @@ class PointSet:
         object.__setattr__(self, "raters", raters)
         object.__setattr__(self, "extra", extra)
         object.__setattr__(self, "conditions", conditions)
+        if self.columns is not None:
+            object.__setattr__(self, "columns", tuple(str(c) for c in self.columns))
         if self.source is not None:
             object.__setattr__(self, "source", Path(self.source))
         check_plausible(self)  # a speed of 0.001 rpm or a chatter frequency of 10 MHz: refused, whichever the door
@@ -295,7 +301,8 @@ class PointSet:
             raise InputError("points mask", f"{m.size} values", f"need one value per point ({len(self)})")
         return PointSet(self.rpm[m], self.depth_mm[m], self.label[m], self.weight[m], self.source, self.chatter_hz[m],
                         self.grade[m], self.batch[m], self.ratings[m], self.raters,
-                        {k: v[m] for k, v in self.extra.items()}, {k: v[m] for k, v in self.conditions.items()})
+                        {k: v[m] for k, v in self.extra.items()}, {k: v[m] for k, v in self.conditions.items()},
+                        self.columns)
 
     @property
     def has_conditions(self) -> bool:
@@ -496,6 +503,14 @@ def condition_text(c: Cutting) -> str:
     return f"{head}, {c.teeth} teeth"
 
 
+def never_cut_note(trained) -> str:
+    """The note on a condition none of a posterior's cuts was made in, naming the conditions they were made in
+    (``trained``, :attr:`millstab.update.Posterior.trained_conditions`): "never cut: the cuts were in slot,
+    2 teeth; a/D 0.5 down milling, 2 teeth". One text for every door that says it (the condition line of map and
+    recommend, :func:`millstab.api.condition_line`; the predictions' rows, :func:`millstab.api.predict`)."""
+    return f"never cut: the cuts were in {'; '.join(condition_text(c) for c in trained)}"
+
+
 def same_condition(a: Cutting, b: Cutting) -> bool:
     """True when two cuttings are one condition (teeth, coefficients, process damping, entry and exit within
     :data:`ANGLE_TOL`)."""
@@ -612,7 +627,7 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
 
 
 __all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "MILLING_RULE", "MILLING_SYNONYMS", "milling_word",
-           "check_conditions", "condition_of", "condition_text",
-           "cut_conditions", "cut_feeds", "describe_condition", "in_condition", "same_condition", "CLASS_EDGE", "GRADE",
-           "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds",
-           "grade_of_cell", "label_of_grade", "parse_label_codes"]
+           "check_conditions", "condition_of", "condition_text", "cut_conditions", "cut_feeds", "describe_condition",
+           "in_condition", "never_cut_note", "same_condition", "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE",
+           "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds", "grade_of_cell",
+           "label_of_grade", "parse_label_codes"]

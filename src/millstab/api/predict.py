@@ -30,6 +30,9 @@ class Prediction:
             when every cut is in the one condition the posterior was trained in (the table has no column).
         provenance: what it was made from, ``{"config": the posterior's config name, "points": the cuts file}``
             (each where known; top-level keys of its JSON).
+        note: (n,) str, :func:`millstab.points.never_cut_note` on each cut whose condition none of the posterior's
+            cuts was made in (the words of ``map`` and ``recommend``: there the prediction leans on the model's
+            carrying over from other conditions), ``""`` on the others; ``None`` when every cut's condition was cut.
     """
 
     SCHEMA = SCHEMA
@@ -40,16 +43,18 @@ class Prediction:
     warnings: tuple[str, ...] = ()
     condition: np.ndarray | None = None
     provenance: dict = field(default_factory=dict)
+    note: np.ndarray | None = None
 
     def to_json(self) -> dict:
         """The predictions as plain JSON (``"schema"``): the cuts (:func:`millstab.jsondoc.points_out`),
-        ``p_stable`` and ``p_label_chatter`` per cut, the posterior's warnings, the condition per cut (or null) and
-        the provenance."""
+        ``p_stable`` and ``p_label_chatter`` per cut, the posterior's warnings, the condition per cut (or null), the
+        never-cut note per cut (``note``, or null) and the provenance."""
         from millstab.jsondoc import floats_out, points_out
 
         return {"schema": SCHEMA, "cuts": points_out(self.cuts), "p_stable": floats_out(self.p_stable, "p_stable"),
                 "p_label_chatter": floats_out(self.p_label_chatter, "p_label_chatter"), "warnings": list(self.warnings),
                 "condition": None if self.condition is None else [str(c) for c in self.condition],
+                "note": None if self.note is None else [str(c) for c in self.note],
                 **{k: str(v) for k, v in self.provenance.items()}}
 
     @classmethod
@@ -62,25 +67,35 @@ class Prediction:
         from millstab.jsondoc import check_schema, floats_in, names_in, need, points_in
 
         check_schema(doc, SCHEMA, source)
-        cond = doc.get("condition")
+        cond, note = doc.get("condition"), doc.get("note")  # a document of before the note: none
         return cls(points_in(need(doc, "cuts", source, dict), f"{source}: cuts"),
                    floats_in(need(doc, "p_stable", source), f"{source}: p_stable", 1),
                    floats_in(need(doc, "p_label_chatter", source), f"{source}: p_label_chatter", 1),
                    names_in(need(doc, "warnings", source), f"{source}: warnings"),
                    None if cond is None else np.array(names_in(cond, f"{source}: condition"), dtype=object),
-                   {k: need(doc, k, source, str) for k in ("config", "points") if k in doc})
+                   {k: need(doc, k, source, str) for k in ("config", "points") if k in doc},
+                   None if note is None else np.array(names_in(note, f"{source}: note"), dtype=object))
 
     def table(self) -> tuple[list[str], list]:
-        """(header, columns) of the CSV: rpm, depth_mm, label (when any cut is labelled; the written class,
-        empty for a boundary point), p_stable, p_label_chatter."""
-        c = self.cuts
-        labelled = bool((~c.boundary).any())
-        header = ["rpm", "depth_mm"] + (["label"] if labelled else []) + ["p_stable", "p_label_chatter"]
-        cols = [c.rpm, c.depth_mm] + ([list(c.label)] if labelled else []) + [self.p_stable, self.p_label_chatter]
+        """(header, columns) of the CSV: every column of the cuts file in its order, as read
+        (:func:`millstab.io.points.input_columns`: labels, raters, chatter_hz, condition columns, notes, ...; cuts
+        not read from a file: rpm, depth_mm, label where any cut is labelled), then p_stable and p_label_chatter
+        (both exact: p_stable is a fraction of the N posterior samples, a multiple of 1/N, so it shows 3 decimals
+        with 1000 samples; neither is rounded, as every CSV of millstab), condition (where the cuts' conditions
+        differ from the posterior's one) and condition_note (where a cut's condition was never cut: :attr:`note`).
+        An input column named as one of these (a prediction predicted again) is kept as ``input_NAME``."""
+        from millstab.io.points import input_columns
+
+        header, cols = input_columns(self.cuts)
+        new = {"p_stable": self.p_stable, "p_label_chatter": self.p_label_chatter}
         if self.condition is not None:
-            header.append("condition")
-            cols.append(list(self.condition))
-        return header, cols
+            new["condition"] = list(self.condition)
+        if self.note is not None:
+            new["condition_note"] = list(self.note)
+        for i, h in enumerate(header):
+            while header[i] in new or header.count(header[i]) > 1:
+                header[i] = f"input_{header[i]}"
+        return header + list(new), cols + list(new.values())
 
     def figure(self, ax=None, *, title: str = ""):
         """The cuts coloured by P(stable), the labelled ones ringed by their written label
@@ -96,6 +111,11 @@ class Prediction:
         their Brier score beside that of their own chatter rate as a constant."""
         n = len(self.cuts)
         lines = [f"{n} cuts: P(stable) {self.p_stable.min():.3f}-{self.p_stable.max():.3f}" if n else "no cuts"]
+        if self.note is not None:  # per condition never cut: its cuts, in the words of map and recommend
+            never = self.note != ""
+            for cond in dict.fromkeys(self.condition[never]):
+                m = never & (self.condition == cond)
+                lines.append(f"  {m.sum()} of {n} cuts in {cond} ({self.note[m][0]})")
         s = self.scores()
         if s is not None:
             lines.append(f"  against the {s['n']} labelled cuts: Brier score {s['brier']:.4f} (their own chatter rate "
@@ -119,7 +139,8 @@ def predict(post, cuts: PointSet) -> Prediction:
     """Predictions for the cuts (labelled or not) from a posterior (:class:`millstab.update.Posterior`),
     each in its own cutting condition: the cuts' condition columns (:data:`millstab.points.CONDITION_COLUMNS`),
     empty cells and missing columns taking ``post.condition`` (the config's, or the target of
-    :func:`millstab.api.update.for_condition`).
+    :func:`millstab.api.update.for_condition`); a cut in a condition none of the posterior's cuts was made in
+    carries the note of map and recommend (:attr:`Prediction.note`).
 
     Raises:
         InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`).
@@ -132,19 +153,22 @@ def predict(post, cuts: PointSet) -> Prediction:
 
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), stacklevel=3)
-    from millstab.points import condition_text, cut_conditions, same_condition
+    from millstab.points import condition_text, cut_conditions, never_cut_note, same_condition
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
     for k in np.unique(idx):  # each condition the cuts are in, once
         warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3)
     ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx, batch=cuts.batch)  # a known day: its shift
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
-    one = len(post.trained_conditions) == 1 and same_condition(post.trained_conditions[0], post.condition)
+    trained = post.trained_conditions
+    one = len(trained) == 1 and same_condition(trained[0], post.condition)
     if one and not cuts.has_conditions:  # the posterior's one condition throughout: the table as ever
         text = None
+    cut = np.array([any(same_condition(t, c) for t in trained) for c in conds], dtype=bool)[idx]
+    note = None if cut.all() else np.where(cut, "", never_cut_note(trained)).astype(object)
     made = {"config": post.provenance.get("config"), "points": None if cuts.source is None else str(cuts.source)}
     return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text,
-                      {k: v for k, v in made.items() if v is not None})
+                      {k: v for k, v in made.items() if v is not None}, note)
 
 
 __all__ = ["SCHEMA", "Prediction", "predict"]

@@ -290,12 +290,11 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
 
 def condition_line(post) -> str:
     """"computed for a/D 0.25 up milling, 4 teeth" (and whether the cuts were made in it) for the doors."""
-    from millstab.points import condition_text, same_condition
+    from millstab.points import condition_text, never_cut_note, same_condition
 
     trained = post.trained_conditions
     seen = any(same_condition(c, post.condition) for c in trained)
-    note = ("a condition of the cuts" if seen else
-            f"never cut: the cuts were in {'; '.join(condition_text(c) for c in trained)}")
+    note = "a condition of the cuts" if seen else never_cut_note(trained)
     return f"computed for {condition_text(post.condition)} ({note})"
 
 

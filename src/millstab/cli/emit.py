@@ -35,6 +35,18 @@ def csv(path: Path | None, table, protect: Sequence[Path], echo: Callable[[str],
     wrote(path, lambda: write_csv(path, *table, protect=protect), echo)
 
 
+def csv_or_print(path: Path | None, table, protect: Sequence[Path], echo: Callable[[str], Any] = typer.echo,
+                 printed: bool = True) -> None:
+    """A result's ``table()`` as CSV at ``path``, or without one as CSV text on standard output (``printed``
+    False: not printed, another output, e.g. a JSON file, was asked for instead)."""
+    from millstab.io.results import csv_text
+
+    if path:
+        csv(path, table, protect, echo)
+    elif printed:
+        typer.echo(csv_text(*table), nl=False)
+
+
 def json(path: Path | None, doc: Callable[[], dict] | dict, protect: Sequence[Path],
          echo: Callable[[str], Any] = typer.echo) -> None:
     """A JSON document (or a function making it, called only when ``path`` is given) at ``path``."""

@@ -24,9 +24,11 @@ def predict_cmd(
                                           "and give CUTS alone)."),
     cuts: Optional[Path] = typer.Argument(None, help="Cuts CSV rpm,depth_mm[,label...] to predict (labels, if any, are "
                                                      "scored)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="CSV rpm,depth_mm[,label],p_stable,p_label_chatter, in the "
-                                                           "input order (and condition where the cuts' conditions "
-                                                           "differ)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="CSV: every column of CUTS as read (labels, notes, "
+                                                           "conditions, ...), in the input order, then "
+                                                           "p_stable,p_label_chatter (and condition where the cuts' "
+                                                           "conditions differ, condition_note where one was never "
+                                                           "cut); without --out and --json the table is printed."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="The predictions as JSON (schema "
                                                                  "millstab.prediction/1: the cuts, p_stable, "
                                                                  "p_label_chatter, the posterior's warnings, the "
@@ -53,8 +55,6 @@ def predict_cmd(
         posterior, cuts = None, posterior
     if cuts is None:
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
-    if out is None and json_out is None:
-        raise InputError("--out", None, "missing: the CSV to write (or --json pred.json for the JSON document)")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
     post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
@@ -66,5 +66,5 @@ def predict_cmd(
     con.print(api.condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
                                                                    "'condition' column")
     con.print(pred.summary())
-    emit.csv(out, pred.table(), protect, con.print)
+    emit.csv_or_print(out, pred.table(), protect, con.print, printed=json_out is None)  # as simulate: no --out
     emit.json(json_out, pred.to_json, protect, con.print)

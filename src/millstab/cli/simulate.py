@@ -65,7 +65,7 @@ def simulate(
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
         typer.echo(f"{cfg.name}: {lab.summary()}")
-        return _labels_out(api.labels_table(lab, pts), out, protect)
+        return emit.csv_or_print(out, api.labels_table(lab, pts), protect)  # without --out: printed
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
     typer.echo(f"{cfg.name}: {res.summary(det)}")
     emit.csv(out, res.table(), protect)
@@ -91,14 +91,3 @@ def _recordings_out(cfg, res, record: Path | None, record_tap: Path | None, sens
     if record_tap:
         write(record_tap, api.record_tap(cfg.structure, sensor=sensor, noise=noise, seed=seed),
               "a tap on the tool heard by the ")
-
-
-def _labels_out(table, out: Path | None, protect) -> None:
-    """The labelled cuts as CSV: to ``out``, or to standard output without one."""
-    from millstab.cli import emit
-    from millstab.io.results import csv_text
-
-    if out:
-        emit.csv(out, table, protect)
-    else:
-        typer.echo(csv_text(*table), nl=False)

@@ -46,7 +46,7 @@ import difflib
 import math
 import re
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -264,7 +264,7 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         grade = np.full(len(rpm), np.nan)
         grade[rated] = np.nanmean(ratings[rated], axis=1)
     return PointSet(np.array(rpm), np.array(depth), label_of_grade(grade), np.array(weight), p, np.array(hz), grade,
-                    np.array(batch, dtype=object), ratings, tuple(n for n, _ in raters), extra, conds)
+                    np.array(batch, dtype=object), ratings, tuple(n for n, _ in raters), extra, conds, tuple(names))
 
 
 def _condition_cell(text: str, name: str, line: int, p: Path):
@@ -302,6 +302,38 @@ def condition_columns(points: PointSet) -> tuple[list[str], list[list[str]]]:
     return names, [[_condition_text(n, v) for v in points.conditions[n]] for n in names]
 
 
+def input_columns(points: PointSet) -> tuple[list[str], list]:
+    """(header, columns) of every column the points were read with, in the file's order (``PointSet.columns``),
+    as :func:`write_points` writes them: speeds [rpm] and depths [mm] exactly, each label column (``label``, or a
+    rater's ``label_NAME``) as the grades its cells read as (the class word, else the number: a code that
+    ``--labels`` mapped is written as its class), weight, chatter_hz [Hz] (empty: not measured), the test day
+    under its own column name (batch, date, day or session), the condition columns as read (empty cells stay
+    empty: the config's value) and the kept columns (notes, operator, ...) as read. Points not read from a file
+    (``columns`` None): rpm, depth_mm, the label(s) where any point is labelled, and weight, chatter_hz, batch,
+    the condition columns and the kept columns where any holds something."""
+    cells: dict[str, Sequence] = {"rpm": points.rpm, "depth_mm": points.depth_mm, "weight": points.weight,
+                                  "chatter_hz": points.chatter_hz}
+    h_cond, c_cond = condition_columns(points)
+    cells.update({**dict(zip(h_cond, c_cond)), **{k: list(v) for k, v in points.extra.items()}})
+    n_raters = points.ratings.shape[1]
+    if points.columns is None:
+        labels = ([] if points.boundary.all() else
+                  ["label"] if n_raters == 1 else [f"label_{r}" for r in points.raters])
+        names = (["rpm", "depth_mm", *labels] + (["weight"] if (points.weight != 1).any() else [])
+                 + (["chatter_hz"] if not np.isnan(points.chatter_hz).all() else [])
+                 + (["batch"] if (points.batch != "").any() else []) + h_cond + list(points.extra))
+    else:
+        names = list(points.columns)
+    batch = next((b for b in BATCH_COLUMNS if b in names and b not in points.extra), None)
+    if batch is not None:
+        cells[batch] = list(points.batch)
+    raters = [h for h in names if RATER_COLUMN.match(h) and h not in points.extra]  # rater j: the j-th label column
+    for j, h in enumerate(raters[:n_raters]):
+        cells[h] = [_label_text(g) for g in points.ratings[:, j]]
+    header = [h for h in names if h in cells]
+    return header, [cells[h] for h in header]
+
+
 def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] = ()) -> Path:
     """Write a point set as CSV: rpm, depth_mm, the label (one ``label`` column, or ``label_NAME`` per
     rater when there are several; a grade that is no class word is written as its number), weight,
@@ -330,5 +362,5 @@ def write_points(path: PathLike, points: PointSet, protect: Iterable[PathLike] =
     return write_csv(path, header, cols, protect)
 
 
-__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "check_enough", "parse_points", "read_points",
-           "write_points"]
+__all__ = ["condition_columns", "BATCH_COLUMNS", "LABELS", "check_enough", "input_columns", "parse_points",
+           "read_points", "write_points"]

@@ -115,11 +115,12 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
 
 
 
-def _warn_time_averaged_cuts(engine: str, conditions) -> list[str]:
+def warn_time_averaged_cuts(engine: str, conditions) -> list[str]:
     """Warn when a time-averaged engine fits cuts made with less than one tooth in the cut on average
     (:func:`millstab.stability.time_averaged_note`): the posterior's parameters absorb that model error. Returns the
     messages, which the posterior keeps (its file and every decision from it carry them; each decision warns for
-    its own condition besides)."""
+    its own condition besides). Issued by :func:`update` and, once for all its folds, by
+    :func:`millstab.update.validate.cross_validate` (whose folds' updates are quiet)."""
     from millstab.points import condition_text
     from millstab.stability import time_averaged_note
 
@@ -190,7 +191,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
         scr = None if cheap_engine is None else Likelihood(*screen_model(pr, ev, cheap_engine), cheap_engine, client)
     for w in caught:  # pass them on to the caller, and keep them in the result
         emit(w)
-    model_error = _warn_time_averaged_cuts(engine, ev.conditions or (pr.cutting,))
+    model_error = warn_time_averaged_cuts(engine, ev.conditions or (pr.cutting,))
     # the sampler's vector: ln θ of the free parameters, then the learned noise levels' coordinates, then
     # the test days' shifts of ln fn (millstab.update.batch; none unless [prior] batch_effect)
     be, q = lik.batch, pr.dim
@@ -350,4 +351,4 @@ def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
 
 
 __all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "screen_model", "Evidence", "Likelihood", "Posterior",
-           "Prior", "Recommendation", "make_prior", "p_stable_map", "recommend", "update"]
+           "Prior", "Recommendation", "make_prior", "p_stable_map", "recommend", "update", "warn_time_averaged_cuts"]

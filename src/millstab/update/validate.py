@@ -5,12 +5,22 @@ For each fold the posterior is updated on the training cuts only, and the held-o
 against what was written. Three baselines get the same folds, the same features and the same targets:
 
 * ``majority``: the training cuts' rate of chatter (the mean graded label), a constant;
-* ``logistic``: logistic regression on the standardised (rpm, depth) (scikit-learn, C = 1); graded labels
+* ``logistic``: logistic regression on the standardised features (scikit-learn, C = 1); graded labels
   enter as two weighted rows (chatter with weight g, stable with weight 1 − g), the exact
   log-likelihood of a graded target;
 * ``knn``: the mean graded label of the k = round(√n_train) nearest training cuts in the standardised
-  (rpm, depth) plane (scikit-learn's KNeighborsRegressor; √n is the classical consistent choice and needs
+  feature space (scikit-learn's KNeighborsRegressor; √n is the classical consistent choice and needs
   no inner loop).
+
+The baselines' features (:func:`baseline_features`): rpm [rev/min] and depth [mm] and, where the cuts' cutting
+conditions differ (a shop's slots and half-width cuts in one file), each cut's own condition as
+:data:`CONDITION_FEATURES`: its entry and exit angles [deg] and its number of teeth, each of them only where it
+differs between the cuts. The angles are the one description every condition has (a/D and up/down where it is
+one: a slot 0-180°, down milling at a/D 0.5 90-180°, up milling 0-90°; general angles too), and they carry
+both the engagement (exit − entry, a linear combination) and the side of the cut; each feature is standardised
+like rpm and depth (mean 0, sd 1 over the training cuts). Without them a slot and a half-width cut at one speed
+and depth look identical to the baselines, which then cannot learn what millstab is given (its conditions),
+and millstab's lead over them is flattered. With one condition the features are (rpm, depth), as before.
 
 Fold schemes (each cut is held out exactly once per scheme; boundary points always stay in training):
 
@@ -86,12 +96,52 @@ def fold_indices(cuts: PointSet, scheme: str, n_folds: int, seed: int,
     return [np.flatnonzero(groups == g) for g in np.unique(groups)]
 
 
-def _features(cuts: PointSet) -> np.ndarray:
-    return np.column_stack([cuts.rpm, cuts.depth_mm])
+#: the baselines' features of a cut's cutting condition (where the cuts' conditions differ): entry and exit angle
+#: [deg], number of teeth
+CONDITION_FEATURES = ("entry_deg", "exit_deg", "teeth")
+#: a condition feature differing by less than this over the cuts is constant (angles [deg] of one condition agree
+#: to ~1e-7 deg: :data:`millstab.points.ANGLE_TOL` rad)
+CONSTANT = 1e-6
 
 
-def baseline_predictions(train: PointSet, test: PointSet) -> dict[str, np.ndarray]:
-    """P(chatter label) of the test cuts by the three baselines trained on the labelled training cuts."""
+def condition_features(cuts: PointSet, base, diameter_mm: float | None = None) -> np.ndarray:
+    """(n, 3) the :data:`CONDITION_FEATURES` of each cut's own condition: entry and exit angle [deg] and teeth (its
+    condition columns, empty cells ``base``'s, the config's :class:`~millstab.model.Cutting`:
+    :func:`millstab.points.cut_conditions`; ``diameter_mm`` [mm] for a radial_width_mm column)."""
+    from millstab.points import cut_conditions
+
+    conds, idx = cut_conditions(cuts, base, diameter_mm)
+    return np.array([[math.degrees(c.entry), math.degrees(c.exit), c.teeth] for c in conds], float)[idx]
+
+
+def baseline_features(cuts: PointSet, base=None, diameter_mm: float | None = None) -> tuple[str, ...]:
+    """The names of the baselines' features for these labelled cuts (module docstring): rpm, depth_mm and the
+    :data:`CONDITION_FEATURES` that differ between the cuts' conditions (none without ``base``, the config's
+    cutting, or with one condition)."""
+    return ("rpm", "depth_mm") + (() if base is None else _varying(condition_features(cuts, base, diameter_mm)))
+
+
+def _varying(f: np.ndarray) -> tuple[str, ...]:
+    """The :data:`CONDITION_FEATURES` that differ between the rows of ``f`` (n, 3)."""
+    return tuple(n for n, d in zip(CONDITION_FEATURES, np.ptp(f, axis=0) if len(f) else ()) if d > CONSTANT)
+
+
+def _features(cuts: PointSet, names: tuple[str, ...] = ("rpm", "depth_mm"), base=None,
+              diameter_mm: float | None = None) -> np.ndarray:
+    """(n, len(names)) the features ``names`` of each cut (rpm [rev/min], depth [mm], condition features)."""
+    cols = [cuts.rpm, cuts.depth_mm]
+    if len(names) > 2:
+        f = condition_features(cuts, base, diameter_mm)
+        cols += [f[:, CONDITION_FEATURES.index(n)] for n in names[2:]]
+    return np.column_stack(cols)
+
+
+def baseline_predictions(train: PointSet, test: PointSet, base=None,
+                         diameter_mm: float | None = None) -> dict[str, np.ndarray]:
+    """P(chatter label) of the test cuts by the three baselines trained on the labelled training cuts; with
+    ``base`` (the config's :class:`~millstab.model.Cutting`, filling empty condition cells; ``diameter_mm`` [mm]
+    for a radial_width_mm column) they also see each cut's cutting condition where the conditions of the
+    training and test cuts differ (:func:`baseline_features`, module docstring)."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.neighbors import KNeighborsRegressor
     from sklearn.preprocessing import StandardScaler
@@ -100,8 +150,13 @@ def baseline_predictions(train: PointSet, test: PointSet) -> dict[str, np.ndarra
     g = t.grade
     rate = float(g.mean())
     out = {"majority": np.full(len(test), rate)}
-    sc = StandardScaler().fit(_features(t))
-    x, xt = sc.transform(_features(t)), sc.transform(_features(test))
+    names = ("rpm", "depth_mm")
+    if base is not None:  # the features that differ over the training and test cuts together (every fold: all cuts)
+        names += _varying(np.vstack([condition_features(t, base, diameter_mm),
+                                     condition_features(test, base, diameter_mm)]))
+    x, xt = _features(t, names, base, diameter_mm), _features(test, names, base, diameter_mm)
+    sc = StandardScaler().fit(x)
+    x, xt = sc.transform(x), sc.transform(xt)
     if 0 < rate < 1 and (g > 0).any() and (g < 1).any():
         # a graded target g is a chatter row of weight g and a stable row of weight 1 − g
         xx = np.vstack([x, x])
@@ -148,7 +203,7 @@ class Validation:
         folds: {scheme: (n,) the fold each cut was held out in}.
         summary: {scheme: {method: scores (:func:`scores`) pooled over the folds, plus "fold_brier"}}.
         notes: what went wrong in a fold (an update that could not run), for the user.
-        settings: folds, seed, samples, engine.
+        settings: folds, seed, samples, engine, schemes, the baselines' features (``baseline_features``).
     """
 
     cuts: PointSet
@@ -159,10 +214,13 @@ class Validation:
     settings: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
+        """The report as plain JSON (``"schema"``): settings, summary, notes, the held-out cuts with every column
+        (:func:`millstab.jsondoc.points_out`: rpm, depth_mm, label, grade, batch, raters, the per-cut condition
+        columns, the kept columns), folds and predictions."""
+        from millstab.jsondoc import points_out
+
         return {"schema": "millstab.validation/1", "settings": self.settings, "summary": self.summary,
-                "notes": self.notes, "cuts": {"rpm": self.cuts.rpm.tolist(), "depth_mm": self.cuts.depth_mm.tolist(),
-                                              "label": self.cuts.label.tolist(), "grade": self.cuts.grade.tolist(),
-                                              "batch": self.cuts.batch.tolist()},
+                "notes": self.notes, "cuts": points_out(self.cuts),
                 "folds": {s: f.tolist() for s, f in self.folds.items()},
                 "predictions": {s: {m: p.tolist() for m, p in d.items()} for s, d in self.predictions.items()}}
 
@@ -183,11 +241,15 @@ class Validation:
         return out
 
     def table(self) -> tuple[list[str], list]:
-        """(header, columns) of the per-cut CSV: rpm, depth_mm, label, grade, batch, then per scheme its fold
-        and each method's held-out P(chatter label)."""
+        """(header, columns) of the per-cut CSV: rpm, depth_mm, label, grade, batch, the cuts' condition columns as
+        read (radial_immersion, milling, ...: :func:`millstab.io.points.condition_columns`; empty = the config's),
+        then per scheme its fold and each method's held-out P(chatter label)."""
+        from millstab.io.points import condition_columns
+
         c = self.cuts
-        header, cols = (["rpm", "depth_mm", "label", "grade", "batch"],
-                        [c.rpm, c.depth_mm, list(c.label), c.grade, list(c.batch)])
+        h, conds = condition_columns(c)
+        header, cols = (["rpm", "depth_mm", "label", "grade", "batch", *h],
+                        [c.rpm, c.depth_mm, list(c.label), c.grade, list(c.batch), *conds])
         for s, d in self.predictions.items():
             header.append(f"{s}_fold")
             cols.append(self.folds[s])
@@ -222,7 +284,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme, engine options the engine does
             not take (before any update).
     """
-    from millstab.update import update as run_update
+    from millstab.update import update as run_update, warn_time_averaged_cuts
     from millstab.update.posterior import Posterior
     from millstab.points import cut_conditions
     from millstab.update.predict import predict_cuts
@@ -240,12 +302,16 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         raise InputError("--folds", n_folds, "need an integer ≥ 2")
     lab = cuts.subset(labelled)
     bnd = cuts.subset(cuts.boundary)
+    base = prior.cutting if prior is not None else config.cutting  # what an empty condition cell means
+    diameter = getattr(config, "diameter_mm", None)
+    warn_time_averaged_cuts(engine, cut_conditions(cuts, base, diameter)[0])  # as update (the folds' are quiet)
     if schemes is None:
         schemes = ("random", "speed") + (("batch",) if np.unique(lab.batch[lab.batch != ""]).size >= 2 else ())
     update_fn = update_fn or (lambda cfg, tr, **kw: run_update(cfg, tr, prior=prior, **kw))
     plan = [(s, i, test) for s in schemes for i, test in enumerate(fold_indices(lab, s, n_folds, seed, max_speeds))]
     out = Validation(lab, settings={"folds": int(n_folds), "seed": int(seed), "samples": int(samples), "engine": engine,
-                                    "schemes": list(schemes), **with_opts})
+                                    "schemes": list(schemes), **with_opts,
+                                    "baseline_features": list(baseline_features(lab, base, diameter))})
     for s in schemes:
         out.predictions[s] = {m: np.full(n, np.nan) for m in METHODS}
         out.folds[s] = np.full(n, -1)
@@ -265,9 +331,9 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             out.notes.append(f"{s} fold {i}: update failed ({exc}); the prior predicted it")
             pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine, engine_options=opts)
-        conds, ci = cut_conditions(te, post.condition, getattr(config, "diameter_mm", None))  # each cut's own
+        conds, ci = cut_conditions(te, post.condition, diameter)  # each cut's own
         out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, conds, ci, batch=te.batch)[1]
-        for m, p in baseline_predictions(tr, te).items():
+        for m, p in baseline_predictions(tr, te, base, diameter).items():
             out.predictions[s][m][mask] = p
         out.folds[s][mask] = i
         if progress is not None:

@@ -55,26 +55,30 @@ def parse_interval(text: str, field: str, unit: str, *, positive: bool = False) 
     return lo, hi
 
 
-def parse_grid(text: str, field: str, unit: str, *, positive: bool = False, example: str = "") -> np.ndarray:
-    """``START:STOP:STEP`` → the grid START, START + STEP, … (STOP included when it falls on the grid).
+def parse_grid(text: str, field: str, unit: str, *, positive: bool = False, example: str = "",
+               single: bool = False) -> np.ndarray:
+    """``START:STOP:STEP`` → the grid START, START + STEP, … (STOP included when it falls on the grid);
+    with ``single``, START = STOP is that one point (a grid of one, as a file of one line is).
 
     Raises:
-        InputError: not three numbers, START < 0 (≤ 0 with ``positive``), STOP ≤ START, STEP ≤ 0, or more
-            than :data:`MAX_POINTS` points.
+        InputError: not three numbers, START < 0 (≤ 0 with ``positive``), STOP ≤ START (< START with
+            ``single``), STEP ≤ 0, or more than :data:`MAX_POINTS` points.
     """
     start, stop, step = _numbers(text, field, unit, "START:STOP:STEP", example)
-    if not ((start > 0 if positive else start >= 0) and stop > start and step > 0):
-        raise InputError(field, text, f"need {'0 <' if positive else '0 <='} START < STOP and STEP > 0 ({unit})")
+    if not ((start > 0 if positive else start >= 0) and (stop >= start if single else stop > start) and step > 0):
+        order = "START < STOP (or START = STOP: that one value)" if single else "START < STOP"
+        raise InputError(field, text, f"need {'0 <' if positive else '0 <='} {order} and STEP > 0 ({unit})")
     n = int(math.floor((stop - start) / step + 1e-9)) + 1
     if n > MAX_POINTS:
         raise InputError(field, text, f"{n} points is too many (max {MAX_POINTS:.0e}); use a larger STEP")
     return start + step * np.arange(n)
 
 
-def parse_rpm_range(text: str, field: str = "--rpm") -> np.ndarray:
+def parse_rpm_range(text: str, field: str = "--rpm", *, single: bool = False) -> np.ndarray:
     """Spindle speeds ``START:STOP:STEP`` [rev/min], all within :func:`millstab.bounds.check_speeds`'s bounds
-    (10..500 000 rev/min: below, the engines' work grows without bound)."""
-    grid = parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25")
+    (10..500 000 rev/min: below, the engines' work grows without bound); with ``single`` (where a speeds file
+    of one line is taken too: :func:`millstab.api.speeds`), START = STOP is that one speed."""
+    grid = parse_grid(text, field, "rev/min", positive=True, example="2000:12000:25", single=single)
     check_speeds(grid, field, text)
     return grid
 

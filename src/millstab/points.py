@@ -386,8 +386,16 @@ def milling_word(text) -> str:
     if s.endswith(" milling"):
         s = s[:-len(" milling")]
     return MILLING_SYNONYMS.get(s, s)
+
+
 #: angles [rad] closer than this are one condition (a/D written with 4 digits differs by far more)
 ANGLE_TOL = 1e-9
+#: a radial width [mm] and an a/D (or entry/exit angles) given together agree when they differ by at most this
+#: fraction of the tool diameter (a/D 0.333 and 4 mm on a 12 mm tool do; 0.25 and 6 mm do not)
+WIDTH_TOL = 1e-3
+#: significant digits of an a/D or an angle written for users: a/D 0.5 up milling is 0.5, not the round trip
+#: (1 − cos(arccos(0)))/2 = 0.49999999999999994
+SHOWN_DIGITS = 12
 
 
 def _given(col: np.ndarray) -> np.ndarray:
@@ -480,15 +488,35 @@ def _direction(c: Cutting) -> tuple[float | None, str | None]:
     return None, None
 
 
+def _shown(x: float) -> float:
+    """``x`` to :data:`SHOWN_DIGITS` significant digits (0.49999999999999994 → 0.5)."""
+    return float(f"{x:.{SHOWN_DIGITS}g}")
+
+
+def _shown_deg(rad: float) -> float:
+    """An angle [rad] in degrees, to :data:`SHOWN_DIGITS` digits where those give back the same angle exactly
+    (a record's angles rebuild its condition: ``millstab.update.campaign``), else all of them."""
+    deg = math.degrees(rad)
+    short = _shown(deg)
+    return short if math.radians(short) == rad else deg
+
+
 def describe_condition(c: Cutting) -> dict:
     """The condition as a record for results and JSON: teeth, entry_deg, exit_deg and, where the angles
-    are an a/D and a direction, radial_immersion and milling ("slot" for full immersion)."""
+    are an a/D and a direction, radial_immersion and milling ("slot" for full immersion); the a/D to
+    :data:`SHOWN_DIGITS` significant digits (the angles' round trip leaves 0.49999999999999994 for 0.5)."""
     ri, mill = _direction(c)
-    out = {"teeth": c.teeth, "entry_deg": math.degrees(c.entry), "exit_deg": math.degrees(c.exit)}
+    out = {"teeth": c.teeth, "entry_deg": _shown_deg(c.entry), "exit_deg": _shown_deg(c.exit)}
     if ri is not None:
-        out["radial_immersion"] = ri
+        out["radial_immersion"] = _shown(ri)
         out["milling"] = mill or "slot"
     return out
+
+
+def radial_width(entry: float, exit: float, diameter_mm: float) -> float:
+    """The radial width of cut [mm] between the entry and exit angles [rad] on a tool of ``diameter_mm``:
+    D/2 (cos φ_entry − cos φ_exit) (a/D · D in up or down milling, D in a slot)."""
+    return diameter_mm / 2 * (math.cos(entry) - math.cos(exit))
 
 
 def condition_text(c: Cutting) -> str:
@@ -626,8 +654,8 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
     return np.full(len(points), float(default_mm)) if f is None else np.where(np.isnan(f), float(default_mm), f)
 
 
-__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "MILLING_RULE", "MILLING_SYNONYMS", "milling_word",
-           "check_conditions", "condition_of", "condition_text", "cut_conditions", "cut_feeds", "describe_condition",
-           "in_condition", "never_cut_note", "same_condition", "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE",
-           "PointSet", "SYNONYMS", "check_enough", "check_plausible", "check_speeds", "grade_of_cell",
-           "label_of_grade", "parse_label_codes"]
+__all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "MILLING_RULE", "MILLING_SYNONYMS", "SHOWN_DIGITS",
+           "WIDTH_TOL", "milling_word", "check_conditions", "condition_of", "condition_text", "cut_conditions",
+           "cut_feeds", "describe_condition", "in_condition", "never_cut_note", "radial_width", "same_condition",
+           "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible",
+           "check_speeds", "grade_of_cell", "label_of_grade", "parse_label_codes"]

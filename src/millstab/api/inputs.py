@@ -175,9 +175,9 @@ def config_toml(cfg: Config) -> str:
 
 def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
            field: str = "--rpm", rpm_file: str | os.PathLike | None = None) -> np.ndarray:
-    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text or a sequence of numbers, else a speeds file
-    ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`), else the config's ``[speeds]``, else the
-    ``fallback`` grid.
+    """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text (START = STOP: that one speed, as a file of one
+    line) or a sequence of numbers, else a speeds file ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`),
+    else the config's ``[speeds]``, else the ``fallback`` grid.
 
     Raises:
         InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
@@ -196,7 +196,7 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
             return check_speeds(cfg.rpm, f"{cfg.name} [speeds]")
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
-        return parse_rpm_range(spec, field)
+        return parse_rpm_range(spec, field, single=True)
     r = np.asarray(spec, dtype=float).ravel()
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")

@@ -14,7 +14,7 @@ from millstab.bounds import samples as check_samples
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
 from millstab.points import PointSet
-from millstab.points import condition_text  # noqa: F401 (re-exported: "a/D 0.25 up milling, 4 teeth" for the doors)
+from millstab.points import condition_text  # re-exported too: "a/D 0.25 up milling, 4 teeth" for the doors
 from millstab.io.config import with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
 from millstab.config import Config
 from millstab.points import PointSet
@@ -237,7 +237,10 @@ def for_condition(post, *, radial_immersion: float | None = None, milling: str |
     """The posterior deciding for a target cutting condition (map, recommend, predict): the options as the
     doors name them (``--radial-immersion``, ``--milling``, ``--entry-deg``/``--exit-deg``, ``--teeth``,
     ``--radial-width`` with the config's diameter); what is not given keeps the posterior's condition
-    (the config's). None given: ``post`` itself. Rules and errors: :func:`target_condition`."""
+    (the config's). A posterior without a tool diameter takes a width for nothing here (recommend's width is then
+    for the rate in cm³/min alone). None given: ``post`` itself. Rules and errors: :func:`target_condition`."""
+    if post.diameter_mm is None:
+        radial_width_mm = None
     c = target_condition(post.condition, post.diameter_mm, radial_immersion=radial_immersion, milling=milling,
                          entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth, radial_width_mm=radial_width_mm)
     return post if c is None else post.for_condition(c)
@@ -249,11 +252,14 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
     """The cutting condition the doors' target options name (``--radial-immersion``, ``--milling``,
     ``--entry-deg``/``--exit-deg``, ``--teeth``, ``--radial-width`` with the tool's ``diameter_mm``), ``base`` (a
     :class:`~millstab.model.Cutting`, the config's or the posterior's) with what is given replaced; ``None`` when
-    nothing is given. Rules: :func:`millstab.points.condition_of`.
+    nothing is given. Rules: :func:`millstab.points.condition_of`. With a diameter a width sets a/D = width/D
+    (with ``milling`` or the base's direction) or, given with a/D or the angles, must agree with them
+    (:func:`millstab.points.radial_width`, within :data:`millstab.points.WIDTH_TOL` of D) and they decide.
 
     Raises:
         InputError: naming the option: a/D outside (0, 1], milling not up|down, angles outside [0, 180] deg
-            or entry ≥ exit, teeth not a positive integer, angles together with a/D or milling.
+            or entry ≥ exit, teeth not a positive integer, angles together with a/D or milling, a width outside
+            (0, D] or contradicting a/D or the angles (naming both), a width without a diameter.
     """
     from millstab.points import MILLING_RULE, condition_of, milling_word
 
@@ -276,6 +282,8 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
                          entry_deg if exit_deg is None else exit_deg, "give --entry-deg and --exit-deg together")
     if entry_deg is not None and entry_deg >= exit_deg:
         raise InputError("--entry-deg", entry_deg, f"less than --exit-deg ({exit_deg:g})")
+    if radial_width_mm is not None and diameter_mm is not None:  # a width as a/D, or checked against a/D or angles
+        radial_width_mm = _width_of(radial_width_mm, diameter_mm, radial_immersion, entry_deg, exit_deg)
     if entry_deg is not None and (radial_immersion is not None or milling is not None or radial_width_mm is not None):
         raise InputError("--entry-deg", entry_deg, "give --entry-deg/--exit-deg or --radial-immersion with --milling, "
                                                    "not both")
@@ -286,6 +294,36 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
     return condition_of(base, radial_immersion=radial_immersion, radial_width_mm=radial_width_mm,
                         milling=None if milling is None else str(milling).strip().lower(), entry_deg=entry_deg,
                         exit_deg=exit_deg, teeth=teeth, diameter_mm=diameter_mm, field="target condition")
+
+
+def _width_of(width_mm: float, diameter_mm: float, radial_immersion: float | None, entry_deg: float | None,
+              exit_deg: float | None) -> float | None:
+    """``--radial-width`` on a tool of ``diameter_mm``: the width itself when it alone names the condition, ``None``
+    when it agrees with the a/D or angles given (they decide).
+
+    Raises:
+        InputError: the width outside (0, D], or more than :data:`millstab.points.WIDTH_TOL` · D off the a/D or
+            angles (naming both).
+    """
+    import math
+
+    from millstab.points import WIDTH_TOL, radial_width
+
+    if not (np.isfinite(width_mm) and 0 < width_mm <= diameter_mm * (1 + 1e-12)):
+        raise InputError("--radial-width", width_mm,
+                         f"a radial width in (0, {diameter_mm:g}] mm (the tool diameter of the config)")
+    if radial_immersion is not None:
+        other, implied = f"--radial-immersion {radial_immersion:g}", radial_immersion * diameter_mm
+    elif entry_deg is not None and exit_deg is not None:
+        other = f"--entry-deg {entry_deg:g}/--exit-deg {exit_deg:g}"
+        implied = radial_width(math.radians(entry_deg), math.radians(exit_deg), diameter_mm)
+    else:
+        return width_mm
+    if abs(width_mm - implied) > WIDTH_TOL * diameter_mm:
+        raise InputError("--radial-width", width_mm,
+                         f"contradicts {other}: that is a width of {implied:.4g} mm on the {diameter_mm:g} mm tool "
+                         "of the config; give one of them, or both in agreement")
+    return None
 
 
 def condition_line(post) -> str:
@@ -375,7 +413,8 @@ def map_table(rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray) -> tuple[li
 def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, title: str = "P(stable)"):
     """The P(stable) map with its 5/50/95 % boundaries, the prior's SLD and the cuts made in the posterior's
     condition (the decision's: those in other conditions are counted in the legend, not drawn; ``millstab map
-    --plot``)."""
+    --plot``); titled ``title`` and the condition, as an SLD is (:func:`millstab.api.sld_title`): "P(stable) from
+    post.json: a/D 0.5 down milling, 2 teeth"."""
     from millstab.plot.update import plot_pmap
     from millstab.stability import get_engine
 
@@ -388,7 +427,8 @@ def map_figure(post, rpm: np.ndarray, depth_mm: np.ndarray, pm: np.ndarray, titl
         prior_sld = get_engine(post.engine).envelope(par.structure(par.theta0), post.prior.cutting, rpm).depth_mm
     drawn = post.cuts_in_condition()  # a cut in another condition belongs to another boundary
     elsewhere = len((post.cuts or {}).get("rpm") or []) - len(drawn.get("rpm") or [])
-    return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, drawn, title=title, elsewhere=elsewhere)
+    return plot_pmap(rpm, depth_mm, pm, rpm, prior_sld, drawn, title=f"{title}: {condition_text(post.condition)}",
+                     elsewhere=elsewhere)
 
 
 def corner_figure(post):

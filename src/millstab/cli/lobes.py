@@ -3,22 +3,40 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
 import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app, engine_progress, progress_bar
-from millstab.cli.options import EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt, TeethOpt
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
+
+# --- the cutting condition of the SLD (the names of map/recommend/predict's target options, api.config_in_condition:
+# the config's tool and structure in another condition) ---
+_PANEL = "Cutting condition (default: the config's)"
+LobesImmersionOpt = Annotated[Optional[float], typer.Option(
+    "--radial-immersion", help="Draw the lobes for this radial immersion a/D in (0, 1] (1 = slot; with --milling, "
+                               "else the config's direction).", rich_help_panel=_PANEL)]
+LobesMillingOpt = Annotated[Optional[str], typer.Option(
+    "--milling", help="Draw the lobes for up or down milling (with --radial-immersion, or alone: the config's a/D).",
+    rich_help_panel=_PANEL)]
+LobesEntryOpt = Annotated[Optional[float], typer.Option(
+    "--entry-deg", help="Draw the lobes for this entry angle [deg] (with --exit-deg; instead of a/D and milling).",
+    rich_help_panel=_PANEL)]
+LobesExitOpt = Annotated[Optional[float], typer.Option(
+    "--exit-deg", help="Draw the lobes for this exit angle [deg] (with --entry-deg).", rich_help_panel=_PANEL)]
+LobesTeethOpt = Annotated[Optional[int], typer.Option(
+    "--teeth", help="Draw the lobes for a tool of this family (the config's Kt and Kr) with this many teeth.",
+    rich_help_panel=_PANEL)]
 
 
 @app.command()
 def lobes(
     config: str = typer.Argument(..., help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute)."),
-    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min)."),
+    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min); START = STOP: that one "
+                                                          "speed)."),
     rpm_file: Optional[Path] = typer.Option(None, "--rpm-file", help="Speeds, one per line or an 'rpm' CSV column."),
     out: Optional[Path] = typer.Option(None, "--out", help="CSV: rpm,blim_mm,lobe,chatter_hz."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),
@@ -29,11 +47,11 @@ def lobes(
                                           help=f"Overlay a second engine ({', '.join(ENGINES)}) and report the "
                                                "difference."),
     raw: bool = typer.Option(False, "--raw-lobes", help="Draw the individual lobes (zoa) under the envelope."),
-    radial_immersion: RadialImmersionOpt = None,
-    milling: MillingOpt = None,
-    entry_deg: EntryDegOpt = None,
-    exit_deg: ExitDegOpt = None,
-    teeth: TeethOpt = None,
+    radial_immersion: LobesImmersionOpt = None,
+    milling: LobesMillingOpt = None,
+    entry_deg: LobesEntryOpt = None,
+    exit_deg: LobesExitOpt = None,
+    teeth: LobesTeethOpt = None,
 ) -> None:
     """Compute the stability limit b_lim(Ω) of CONFIG and write it as CSV and/or a figure."""
     from millstab import api

@@ -105,11 +105,11 @@ def dask_client(dask: str | None, workers: int | None) -> Iterator:
         yield client
 
 
-# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions") or of an
-# SLD (lobes) ---
+# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions"); an
+# SLD's (lobes) are its own, in millstab.cli.lobes ---
 RadialImmersionOpt = Annotated[Optional[float], typer.Option(
-    "--radial-immersion", help="Decide (or draw lobes) for this radial immersion a/D in (0, 1] (default: the "
-                               "posterior's condition, the config's).", rich_help_panel="Target condition")]
+    "--radial-immersion", help="Decide for this radial immersion a/D in (0, 1] (default: the posterior's condition, "
+                               "the config's).", rich_help_panel="Target condition")]
 MillingOpt = Annotated[Optional[str], typer.Option(
     "--milling", help="Decide for up or down milling (with --radial-immersion, or alone: the config's a/D).",
     rich_help_panel="Target condition")]
@@ -128,12 +128,13 @@ StickoutOpt = Annotated[Optional[float], typer.Option(
 
 
 def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None,
-                 engine_options=None):
+                 engine_options=None, radial_width=None):
     """The posterior deciding for the target options of map, recommend and predict: at the stickout
-    (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`), with the
-    ``--engine-option`` texts over the options it was fitted with (:func:`millstab.api.with_engine_options`)."""
+    (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`; recommend's
+    ``--radial-width`` with the config's tool diameter among them), with the ``--engine-option`` texts over the
+    options it was fitted with (:func:`millstab.api.with_engine_options`)."""
     from millstab import api
 
     post = api.with_engine_options(api.at_stickout(post, stickout), engine_option_pairs(engine_options))
     return api.for_condition(post, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
-                             exit_deg=exit_deg, teeth=teeth)
+                             exit_deg=exit_deg, teeth=teeth, radial_width_mm=radial_width)

@@ -22,8 +22,12 @@ def recommend_cmd(
     risk: float = typer.Option(0.05, "--risk", help="Tolerated probability of chatter, in (0, 1)."),
     rpm: str = typer.Option(..., "--rpm", help="Speed range LOW:HIGH [rpm]."),
     max_depth: Optional[float] = typer.Option(None, "--max-depth", help="Deepest allowed cut [mm]."),
-    radial_width: Optional[float] = typer.Option(None, "--radial-width",
-                                                 help="Radial width of cut [mm] (for cm³/min)."),
+    radial_width: Optional[float] = typer.Option(
+        None, "--radial-width", rich_help_panel="Target condition",
+        help="Radial width of cut [mm]. With the config's tool diameter it sets the decision's a/D (width/diameter, "
+             "with --milling or the posterior's direction; given with --radial-immersion or --entry-deg/--exit-deg it "
+             "must agree with them) and, with --feed-per-tooth, the cm³/min; without a diameter it is for the "
+             "cm³/min only (the condition is the other options', else the posterior's)."),
     feed_per_tooth: Optional[float] = typer.Option(None, "--feed-per-tooth", help="Feed per tooth [mm] (for cm³/min)."),
     seed: int = seed_option(0, "Seed of the next-test subsample."),
     test_risk: float = typer.Option(TEST_RISK, "--test-risk",
@@ -73,7 +77,7 @@ def recommend_cmd(
                                    feed_mm=feed_per_tooth, seed=seed, confirm=confirm,
                                    discriminate=discriminate, search=search)
     post, inputs, pid = posterior_source(posterior, db, campaign, user)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options, radial_width)
     protect = emit.checked(inputs, {"--out": out})
     if shop_target(db, campaign):  # the campaign's current posterior, read once; the recommendation is recorded there
         from millstab.api.shop import recommend_from_db

@@ -695,6 +695,29 @@ def _mrr_factor(teeth: int, width_mm: float | None, feed_mm: float | None) -> fl
     return width_mm * feed_mm * teeth / 1000.0  # mm·mm·mm/min per (mm·rpm) → cm³/min
 
 
+def _rate_width(post: Posterior, width_mm: float | None, feed_mm: float | None) -> tuple[float | None, float | None]:
+    """(width, feed) [mm] of the removal rate. With the tool diameter a width is the decision's condition's (the
+    doors set the condition from it: ``millstab.api.for_condition``), so it must be that condition's width, and a
+    width without a feed only named the condition (no rate in cm³/min, no error); without a diameter it is the
+    rate's alone, as given.
+
+    Raises:
+        InputError: ``--radial-width`` more than :data:`millstab.points.WIDTH_TOL` · D off the decision's width.
+    """
+    if width_mm is None or post.diameter_mm is None:
+        return width_mm, feed_mm
+    from millstab.points import WIDTH_TOL, condition_text, radial_width
+
+    d = float(post.diameter_mm)
+    w = radial_width(post.condition.entry, post.condition.exit, d)
+    if not (isinstance(width_mm, (int, float)) and abs(width_mm - w) <= WIDTH_TOL * d):
+        raise InputError("--radial-width", width_mm,
+                         f"the decision is for {condition_text(post.condition)}, a width of {w:.4g} mm on the {d:g} mm "
+                         "tool of the config: give that width, or decide for this one (the width alone, or with an "
+                         "a/D or angles that agree with it)")
+    return (width_mm if feed_mm is not None else None), feed_mm
+
+
 def _cut_grades(cuts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(rpm, depth [mm], grade, chatter_hz) of a posterior's labelled cuts (its ``cuts`` record; ``grade``
     when it was kept, else from the label words)."""
@@ -904,7 +927,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         risk: tolerated probability of chatter, in (0, 1).
         rpm_range: (low, high) spindle speeds [rpm].
         max_depth_mm: the deepest cut allowed [mm] (tool, machine), or ``None``.
-        width_mm, feed_mm: radial width of cut and feed per tooth [mm] for a rate in cm³/min.
+        width_mm, feed_mm: radial width of cut and feed per tooth [mm] for a rate in cm³/min; with the posterior's
+            tool diameter the width must be its condition's (a width alone then names no rate: :func:`_rate_width`).
         seed: seed of the subsample of the next-test criterion.
         confidence: P(chatter) ≤ risk must hold with this one-sided confidence against the Monte Carlo
             error of the estimate (see the module docstring); ``None``: the plain count ⌊risk·N⌋.
@@ -967,7 +991,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         raise InputError("--confirm", confirm, "one of " + ", ".join(CONFIRM_CHOICES))
     if discriminate not in DISCRIMINATE_CHOICES:
         raise InputError("--discriminate", discriminate, "one of " + ", ".join(DISCRIMINATE_CHOICES))
-    factor = _mrr_factor(post.prior.cutting.teeth, width_mm, feed_mm)
+    factor = _mrr_factor(post.prior.cutting.teeth, *_rate_width(post, width_mm, feed_mm))
     warn_outside(post, lo, hi, stacklevel=3)
     warn_time_averaged(post, stacklevel=3)
     u = post.decision_u  # a new day: with a test-day effect, its shift marginalised

@@ -172,3 +172,35 @@ def test_lobes_help_speaks_of_the_lobes_not_of_a_posterior(capsys, monkeypatch):
         assert text in out, text
     rec = _help(capsys, monkeypatch, "recommend")
     assert "(or draw lobes)" not in rec and "Decide for this radial immersion" in rec
+
+
+# --- simulate takes the same condition options (a user had to write a config per condition) ------------------
+def test_simulate_runs_a_cut_in_the_condition_its_options_name(tmp_path, capsys):
+    """``simulate CONFIG --radial-immersion 0.5 --milling up`` is the simulation of the config written in that
+    condition (the same cut: identical trace), says which condition it ran, and the cuts mode takes the options as
+    the config's condition for empty cells (a cell of the file still decides its row)."""
+    from millstab.cli import main
+
+    up = TWO_MODE_TOML.replace('entry = "0 deg"', 'radial_immersion = 0.5\nmilling = "up"').replace(
+        'exit = "180 deg"\n', '')
+    (tmp_path / "slot.toml").write_text(TWO_MODE_TOML)
+    (tmp_path / "up.toml").write_text(up)
+    args = ["--rpm", "6000", "--depth", "1.5", "--revs", "20"]
+    assert main(["simulate", str(tmp_path / "slot.toml"), *args, "--radial-immersion", "0.5", "--milling", "up",
+                 "--out", str(tmp_path / "a.csv")]) == 0
+    said = capsys.readouterr().out
+    assert "computed for a/D 0.5 up milling" in said and "the config's: slot" in said
+    assert main(["simulate", str(tmp_path / "up.toml"), *args, "--out", str(tmp_path / "b.csv")]) == 0
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+    assert main(["simulate", str(tmp_path / "slot.toml"), *args, "--out", str(tmp_path / "c.csv")]) == 0
+    assert (tmp_path / "c.csv").read_text() != (tmp_path / "a.csv").read_text()  # the slot is another cut
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,radial_immersion,milling\n6000,1.5,,\n6000,1.5,1,\n")
+    assert main(["simulate", str(tmp_path / "slot.toml"), "--cuts", str(tmp_path / "cuts.csv"), "--revs", "20",
+                 "--radial-immersion", "0.5", "--milling", "up", "--out", str(tmp_path / "l.csv")]) == 0
+    assert main(["simulate", str(tmp_path / "up.toml"), "--cuts", str(tmp_path / "cuts.csv"), "--revs", "20",
+                 "--out", str(tmp_path / "m.csv")]) == 0
+    assert (tmp_path / "l.csv").read_text() == (tmp_path / "m.csv").read_text()
+    with pytest.raises(InputError, match="climb = down"):
+        from millstab import api
+
+        api.config_in_condition(CFG, radial_immersion=0.5, milling="sideways")

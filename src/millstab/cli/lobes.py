@@ -3,33 +3,21 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Optional
 
 import typer
 
 from millstab.api import ENGINES
 from millstab.cli.app import app, engine_progress, progress_bar
+from millstab.cli.options import condition_options
 
 #: speed range when neither the command line nor the config gives one [rpm]
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
 
 # --- the cutting condition of the SLD (the names of map/recommend/predict's target options, api.config_in_condition:
 # the config's tool and structure in another condition) ---
-_PANEL = "Cutting condition (default: the config's)"
-LobesImmersionOpt = Annotated[Optional[float], typer.Option(
-    "--radial-immersion", help="Draw the lobes for this radial immersion a/D in (0, 1] (1 = slot; with --milling, "
-                               "else the config's direction).", rich_help_panel=_PANEL)]
-LobesMillingOpt = Annotated[Optional[str], typer.Option(
-    "--milling", help="Draw the lobes for up or down milling (with --radial-immersion, or alone: the config's a/D).",
-    rich_help_panel=_PANEL)]
-LobesEntryOpt = Annotated[Optional[float], typer.Option(
-    "--entry-deg", help="Draw the lobes for this entry angle [deg] (with --exit-deg; instead of a/D and milling).",
-    rich_help_panel=_PANEL)]
-LobesExitOpt = Annotated[Optional[float], typer.Option(
-    "--exit-deg", help="Draw the lobes for this exit angle [deg] (with --entry-deg).", rich_help_panel=_PANEL)]
-LobesTeethOpt = Annotated[Optional[int], typer.Option(
-    "--teeth", help="Draw the lobes for a tool of this family (the config's Kt and Kr) with this many teeth.",
-    rich_help_panel=_PANEL)]
+LobesImmersionOpt, LobesMillingOpt, LobesEntryOpt, LobesExitOpt, LobesTeethOpt = condition_options(
+    "Draw the lobes", "the config's", "Cutting condition (default: the config's)")
 
 
 @app.command()

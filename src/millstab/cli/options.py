@@ -105,21 +105,26 @@ def dask_client(dask: str | None, workers: int | None) -> Iterator:
         yield client
 
 
-# --- the target cutting condition of a decision (map, recommend, predict; docs/updating.md "Many conditions"); an
-# SLD's (lobes) are its own, in millstab.cli.lobes ---
-RadialImmersionOpt = Annotated[Optional[float], typer.Option(
-    "--radial-immersion", help="Decide for this radial immersion a/D in (0, 1] (default: the posterior's condition, "
-                               "the config's).", rich_help_panel="Target condition")]
-MillingOpt = Annotated[Optional[str], typer.Option(
-    "--milling", help="Decide for up or down milling (with --radial-immersion, or alone: the config's a/D).",
-    rich_help_panel="Target condition")]
-EntryDegOpt = Annotated[Optional[float], typer.Option(
-    "--entry-deg", help="Decide for this entry angle [deg] (with --exit-deg; instead of a/D and milling).",
-    rich_help_panel="Target condition")]
-ExitDegOpt = Annotated[Optional[float], typer.Option(
-    "--exit-deg", help="Decide for this exit angle [deg] (with --entry-deg).", rich_help_panel="Target condition")]
-TeethOpt = Annotated[Optional[int], typer.Option(
-    "--teeth", help="Decide for a tool of this family with this many teeth.", rich_help_panel="Target condition")]
+# --- a cutting condition named on the command line: a decision's target (map, recommend, predict; docs/updating.md
+# "Many conditions"), an SLD's (lobes), a simulated cut's (simulate); the same names and rules everywhere
+# (api.target_condition), the help in the command's own words ---
+def condition_options(doing: str, default: str, panel: str) -> tuple:
+    """(--radial-immersion, --milling, --entry-deg, --exit-deg, --teeth) as typer option types whose help reads
+    "``doing`` for this radial immersion …", ``default`` saying what applies without them."""
+    def opt(kind, name: str, text: str):
+        return Annotated[Optional[kind], typer.Option(name, help=f"{doing} {text}", rich_help_panel=panel)]
+
+    return (opt(float, "--radial-immersion", f"for this radial immersion a/D in (0, 1] (1 = slot; with --milling, else "
+                                              f"the config's direction; default: {default})."),
+            opt(str, "--milling", "for up or down milling (climb = down, conventional = up; with --radial-immersion, "
+                                  "or alone: the config's a/D)."),
+            opt(float, "--entry-deg", "for this entry angle [deg] (with --exit-deg; instead of a/D and milling)."),
+            opt(float, "--exit-deg", "for this exit angle [deg] (with --entry-deg)."),
+            opt(int, "--teeth", "for a tool of this family (the config's Kt and Kr) with this many teeth."))
+
+
+RadialImmersionOpt, MillingOpt, EntryDegOpt, ExitDegOpt, TeethOpt = condition_options(
+    "Decide", "the posterior's condition, the config's", "Target condition")
 
 
 StickoutOpt = Annotated[Optional[float], typer.Option(

@@ -14,7 +14,13 @@ from typing import Optional
 import typer
 
 from millstab.cli.app import app
-from millstab.cli.options import seed_option
+from millstab.cli.options import condition_options, seed_option
+
+# the condition of the simulated cut(s): the config's tool and structure in another condition (a cuts file's condition
+# columns still decide on their rows)
+SimImmersionOpt, SimMillingOpt, SimEntryOpt, SimExitOpt, SimTeethOpt = condition_options(
+    "Simulate the cut(s)", "the config's; a cuts file's condition columns decide on their rows",
+    "Cutting condition (default: the config's)")
 
 
 @app.command()
@@ -48,6 +54,11 @@ def simulate(
     marginal: str = typer.Option("keep", "--marginal", help="keep the 'marginal' label, or 'random': call it "
                                                             "stable/chatter at even odds (needs --seed)."),
     seed: Optional[int] = seed_option(None, "Seed of the label noise (--cuts) or of the recording's noise (--record)."),
+    radial_immersion: SimImmersionOpt = None,
+    milling: SimMillingOpt = None,
+    entry_deg: SimEntryOpt = None,
+    exit_deg: SimExitOpt = None,
+    teeth: SimTeethOpt = None,
 ) -> None:
     """Simulate test cuts of CONFIG in the time domain and label them stable, marginal or chatter."""
     from millstab import api
@@ -55,7 +66,8 @@ def simulate(
     from millstab.io import read_points
     from millstab.io.outputs import config_inputs
 
-    cfg = api.config(config)
+    cfg, note = api.config_in_condition(api.config(config), radial_immersion=radial_immersion, milling=milling,
+                                        entry_deg=entry_deg, exit_deg=exit_deg, teeth=teeth)
     # every output checked before the work (an hour of cuts is not lost to a bad path)
     protect = emit.checked({**config_inputs(cfg), "--cuts": cuts}, {"--out": out, "--plot": plot, "--record": record,
                                                                     "--record-tap": record_tap}, figures=("--plot",))
@@ -64,10 +76,10 @@ def simulate(
         pts = read_points(cuts)
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
-        typer.echo(f"{cfg.name}: {lab.summary()}")
+        typer.echo(f"{cfg.name}: {lab.summary()}" + (f" ({note})" if note else ""))
         return emit.csv_or_print(out, api.labels_table(lab, pts), protect)  # without --out: printed
     res, det = api.simulate_cut(cfg, rpm, depth, feed_mm=feed, revs=revs, steps=steps, start=start)
-    typer.echo(f"{cfg.name}: {res.summary(det)}")
+    typer.echo(f"{cfg.name}: {res.summary(det)}" + (f" ({note})" if note else ""))
     emit.csv(out, res.table(), protect)
     emit.figure(plot, lambda: api.simulate_figure(res, det, title=cfg.name), protect)
     _recordings_out(cfg, res, record, record_tap, sensor, noise, seed, protect)

@@ -15,6 +15,7 @@ from millstab.update.likelihood import Evidence, Likelihood, cut_loglik
 from millstab.update.prior import Prior
 from millstab.update.stickout import at_stickout, config_prior, over_holder
 from test_tooltip_config import TOOL  # the 12 mm carbide end mill at 45 mm
+from configs import TWO_MODE_TOML
 
 CONFIG = """
 [cutting]
@@ -160,3 +161,49 @@ def test_cli_update_with_a_stickout_column_then_map_and_predict_at_60_mm(cfg, tm
                  "--out", str(tmp_path / "post2.json")]) == 2
     err = [line for line in capsys.readouterr().err.strip().splitlines() if "error" in line]
     assert len(err) == 1 and "row 1, stickout_mm" in err[0] and "abc" in err[0]
+
+
+def test_predict_and_validate_take_each_cuts_own_stickout(cfg, tmp_path):
+    """A cuts file's stickout_mm column: predict computes each row at its own stickout (it ignored the column and
+    predicted every row at the posterior's tip: a user test), equal to predicting each stickout's rows alone with
+    the posterior moved there; an empty cell is the posterior's own; a posterior over the tip's modes refuses the
+    column, as update does. validate hands each fold's update and predictions their rows' stickouts."""
+    from millstab.api import predict as api_predict
+    from millstab.api.update import at_stickout as api_at, update
+    from millstab.io.points import parse_points
+    from millstab.update import Posterior, make_prior
+    from millstab.update.validate import cross_validate
+
+    pr = config_prior(cfg)
+    rpm = np.linspace(8000, 16000, 6)
+    blim = zoa.envelope(pr.par.tip_structure(pr.median), pr.cutting, rpm).depth * 1e3
+    cuts = PointSet(rpm, blim * np.array([0.7, 1.3, 0.8, 1.2, 0.6, 1.5]),
+                    np.array(["stable", "chatter", "stable", "chatter", "stable", "chatter"]), np.ones(6))
+    post = update(cfg, cuts, samples=200, seed=1, stickout_mm=np.full(6, 45.0))
+    text = "rpm,depth_mm,stickout_mm\n9000,1.0,60\n11000,1.0,\n13000,0.8,60\n15000,1.2,50\n"  # near the limits
+    pts = parse_points(text, "new.csv")
+    got = api_predict(post, pts).p_stable
+    want = np.empty(4)
+    for s, rows in ((60.0, [0, 2]), (None, [1]), (50.0, [3])):
+        sub = pts.subset(np.isin(np.arange(4), rows))
+        alone = parse_points("rpm,depth_mm\n" + "".join(f"{r},{d}\n" for r, d in zip(sub.rpm, sub.depth_mm)))
+        want[rows] = api_predict(post if s is None else api_at(post, s), alone).p_stable
+    np.testing.assert_array_equal(got, want)
+    at_45 = api_predict(post, parse_points("rpm,depth_mm\n9000,1.0\n11000,1.0\n13000,0.8\n15000,1.2\n")).p_stable
+    assert got[1] == at_45[1] and got[2] < at_45[2] - 0.3  # the 60 mm tip: lower at 13 000 rpm (0.47 against 0.99 mm)
+    tip = make_prior(pr.par.tip_structure(pr.median), pr.cutting)
+    tip_post = Posterior(tip, np.exp(tip.sample(100, np.random.default_rng(0))), "zoa")
+    with pytest.raises(InputError, match="stickout_mm.*posterior over the holder"):
+        api_predict(tip_post, pts)
+    seen = []
+
+    def fold_update(config, train, **kw):
+        seen.append((train.rpm.copy(), kw.get("stickout")))
+        return post
+
+    so = np.array([45.0, 45.0, 60.0, 60.0, np.nan, 45.0]) * 1e-3
+    cross_validate(cfg, cuts, n_folds=2, seed=0, samples=100, schemes=("random",), update_fn=fold_update, stickout=so)
+    for r, s in seen:
+        np.testing.assert_array_equal(s, so[np.searchsorted(rpm, r)])
+    with pytest.raises(InputError, match="stickout_mm"):
+        cross_validate(parse_config(TWO_MODE_TOML), cuts, n_folds=2, samples=100, stickout=so)

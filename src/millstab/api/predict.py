@@ -139,17 +139,20 @@ def predict(post, cuts: PointSet) -> Prediction:
     """Predictions for the cuts (labelled or not) from a posterior (:class:`millstab.update.Posterior`),
     each in its own cutting condition: the cuts' condition columns (:data:`millstab.points.CONDITION_COLUMNS`),
     empty cells and missing columns taking ``post.condition`` (the config's, or the target of
-    :func:`millstab.api.update.for_condition`); a cut in a condition none of the posterior's cuts was made in
-    carries the note of map and recommend (:attr:`Prediction.note`).
+    :func:`millstab.api.update.for_condition`), and at its own stickout (a ``stickout_mm`` column, with a posterior
+    over the holder; an empty cell: the posterior's stickout); a cut in a condition none of the posterior's cuts
+    was made in carries the note of map and recommend (:attr:`Prediction.note`).
 
     Raises:
-        InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`).
+        InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`), a ``stickout_mm``
+            column with a posterior over the tip's modes.
     Warns:
         UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior); a zero-order
             posterior's cuts in a condition with less than one tooth in the cut (:func:`warn_time_averaged`).
     """
+    from millstab.io.stickout import stickouts
     from millstab.update.decide import warn_outside, warn_time_averaged
-    from millstab.update.predict import predict_cuts
+    from millstab.update.predict import predict_at_stickouts
 
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), stacklevel=3)
@@ -158,7 +161,8 @@ def predict(post, cuts: PointSet) -> Prediction:
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
     for k in np.unique(idx):  # each condition the cuts are in, once
         warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3)
-    ps, pl = predict_cuts(post, cuts.rpm, cuts.depth_mm, conds, idx, batch=cuts.batch)  # a known day: its shift
+    # each cut at its own stickout (a stickout_mm column, a posterior over the holder) and test day (a known day)
+    ps, pl = predict_at_stickouts(post, cuts.rpm, cuts.depth_mm, conds, idx, cuts.batch, stickouts(cuts))
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
     trained = post.trained_conditions
     one = len(trained) == 1 and same_condition(trained[0], post.condition)

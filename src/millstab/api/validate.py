@@ -30,10 +30,15 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
         raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
     from millstab.api.update import check_engine_options
 
+    from millstab.api.update import over_holder
+    from millstab.io.stickout import stickouts
+
     engine_options = check_engine_options(engine, engine_options)  # before any fold's update
-    cfg, _ = modal(cfg)
+    if not over_holder(cfg):  # as update: a prior over the holder needs no tip modes
+        cfg, _ = modal(cfg)
+    # each cut at its own stickout (a stickout_mm column; over the holder): the folds' updates and predictions too
     return cross_validate(cfg, cuts, n_folds=folds, seed=seed, samples=samples, engine=engine, progress=progress,
-                          engine_options=engine_options)
+                          engine_options=engine_options, stickout=stickouts(cuts))
 
 
 __all__ = ["validate"]

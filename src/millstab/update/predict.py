@@ -92,4 +92,35 @@ def predict_cuts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None
     return p_stable, (eps + (1.0 - 2.0 * eps) * phi).mean(axis=0)
 
 
-__all__ = ["cut_limits", "predict_cuts"]
+def predict_at_stickouts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None, cond_index=None,
+                         batch=None, stickout=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`predict_cuts` with each cut at its own tool stickout ``stickout`` (n,) [m] (NaN: the posterior's own;
+    ``None``: every cut there): the posterior's holder samples with the tip at each distinct stickout
+    (:func:`millstab.update.stickout.at_stickout`), one engine call per stickout, as the update's likelihood makes.
+
+    Raises:
+        InputError: stickouts with a posterior over the tip's modes (as the update refuses them), and as
+            :func:`predict_cuts`.
+    """
+    from millstab.update.stickout import at_stickout
+
+    so = None if stickout is None else np.atleast_1d(np.asarray(stickout, dtype=float))
+    if so is None or np.isnan(so).all():
+        return predict_cuts(post, rpm, depth_mm, conditions, cond_index, batch)
+    if getattr(post.prior.par, "at", None) is None:
+        raise InputError("stickout_mm", f"{np.unique(so[~np.isnan(so)] * 1e3)} mm", "per-cut stickouts need a "
+                         "posterior over the holder (a config with [tool] and [holder] given by modes); drop the column "
+                         "to predict at the posterior's own tip")
+    r, d = np.atleast_1d(np.asarray(rpm, dtype=float)), np.atleast_1d(np.asarray(depth_mm, dtype=float))
+    idx = None if cond_index is None else np.asarray(cond_index)
+    day = None if batch is None else np.asarray(batch, dtype=object)
+    ps, pl = np.empty(r.size), np.empty(r.size)
+    key = np.nan_to_num(so, nan=-1.0)
+    for s in np.unique(key):  # a few stickouts, each one engine call over its cuts
+        m = key == s
+        ps[m], pl[m] = predict_cuts(post if s < 0 else at_stickout(post, float(s)), r[m], d[m], conditions,
+                                    None if idx is None else idx[m], None if day is None else day[m])
+    return ps, pl
+
+
+__all__ = ["cut_limits", "predict_at_stickouts", "predict_cuts"]

@@ -263,7 +263,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
                    engine: str = "zoa", schemes: tuple[str, ...] | None = None, max_speeds: int = MAX_SPEEDS,
                    prior=None, update_fn: Callable | None = None,
                    progress: Callable[[str, int, int], None] | None = None,
-                   engine_options: dict | None = None) -> Validation:
+                   engine_options: dict | None = None, stickout: np.ndarray | None = None) -> Validation:
     """Cross-validated scores of millstab's predictions beside the baselines (module docstring).
 
     Args:
@@ -280,6 +280,8 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         progress: ``progress(stage, done, total)`` after each update.
         engine_options: the engine's discretisation of every update (passed to ``update_fn`` as
             ``engine_options=`` when given) and so of every prediction (:func:`millstab.forward.engine_options`).
+        stickout: each row's tool stickout [m] (NaN: the config's; None: every row there), for a config over the
+            holder: each fold's update and each prediction take their cuts' own (:mod:`millstab.update.stickout`).
     Raises:
         InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme, engine options the engine does
             not take (before any update).
@@ -287,7 +289,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     from millstab.update import update as run_update, warn_time_averaged_cuts
     from millstab.update.posterior import Posterior
     from millstab.points import cut_conditions
-    from millstab.update.predict import predict_cuts
+    from millstab.update.predict import predict_at_stickouts
     from millstab.warnlog import quiet
 
     from millstab.forward import engine_options as check_options
@@ -302,6 +304,15 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         raise InputError("--folds", n_folds, "need an integer ≥ 2")
     lab = cuts.subset(labelled)
     bnd = cuts.subset(cuts.boundary)
+    so = None if stickout is None or np.isnan(stickout).all() else np.asarray(stickout, dtype=float)
+    so_lab, so_bnd = (None, None) if so is None else (so[labelled], so[cuts.boundary])
+    if so is not None and prior is None and update_fn is None:  # refused before the folds, not in each of them
+        from millstab.update.stickout import config_prior
+
+        if getattr(config_prior(config).par, "at", None) is None:
+            raise InputError("stickout_mm", f"{np.unique(so[~np.isnan(so)] * 1e3)} mm", "per-cut stickouts need a "
+                             "prior over the holder: a config with [tool] and [holder] given by modes "
+                             "([[holder.modes]])")
     base = prior.cutting if prior is not None else config.cutting  # what an empty condition cell means
     diameter = getattr(config, "diameter_mm", None)
     warn_time_averaged_cuts(engine, cut_conditions(cuts, base, diameter)[0])  # as update (the folds' are quiet)
@@ -321,10 +332,11 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         tr = lab.subset(~mask)
         train = tr if not len(bnd) else _concat(tr, bnd)
         te = lab.subset(mask)
+        at = {} if so is None else {"stickout": np.r_[so_lab[~mask], so_bnd]}  # the training rows' own
         try:
             with quiet():  # one-sided folds and speeds beyond the training cuts are expected here
                 post = update_fn(config, train, engine=engine, samples=samples, seed=int(seed) * 1000 + done,
-                                 **with_opts)
+                                 **with_opts, **at)
         except (InputError, RuntimeError) as exc:  # a fold the model cannot be updated on: the prior predicts
             from millstab.update.stickout import config_prior
 
@@ -332,7 +344,8 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
             pr = prior or config_prior(config)  # the update's own prior (over a holder for a [tool] config)
             post = Posterior(pr, np.exp(pr.sample(samples, np.random.default_rng(seed))), engine, engine_options=opts)
         conds, ci = cut_conditions(te, post.condition, diameter)  # each cut's own
-        out.predictions[s]["millstab"][mask] = predict_cuts(post, te.rpm, te.depth_mm, conds, ci, batch=te.batch)[1]
+        out.predictions[s]["millstab"][mask] = predict_at_stickouts(post, te.rpm, te.depth_mm, conds, ci, te.batch,
+                                                                    None if so is None else so_lab[mask])[1]
         for m, p in baseline_predictions(tr, te, base, diameter).items():
             out.predictions[s][m][mask] = p
         out.folds[s][mask] = i

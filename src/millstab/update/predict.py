@@ -109,8 +109,8 @@ def predict_at_stickouts(post: Posterior, rpm, depth_mm, conditions: tuple | Non
         return predict_cuts(post, rpm, depth_mm, conditions, cond_index, batch)
     if getattr(post.prior.par, "at", None) is None:
         raise InputError("stickout_mm", f"{np.unique(so[~np.isnan(so)] * 1e3)} mm", "per-cut stickouts need a "
-                         "posterior over the holder (a config with [tool] and [holder] given by modes); drop the column "
-                         "to predict at the posterior's own tip")
+                         "posterior over the holder (a config with [tool] and [holder] given by modes); drop the "
+                         "column to predict at the posterior's own tip")
     r, d = np.atleast_1d(np.asarray(rpm, dtype=float)), np.atleast_1d(np.asarray(depth_mm, dtype=float))
     idx = None if cond_index is None else np.asarray(cond_index)
     day = None if batch is None else np.asarray(batch, dtype=object)

@@ -193,7 +193,7 @@ def test_predict_and_validate_take_each_cuts_own_stickout(cfg, tmp_path):
     assert got[1] == at_45[1] and got[2] < at_45[2] - 0.3  # the 60 mm tip: lower at 13 000 rpm (0.47 against 0.99 mm)
     tip = make_prior(pr.par.tip_structure(pr.median), pr.cutting)
     tip_post = Posterior(tip, np.exp(tip.sample(100, np.random.default_rng(0))), "zoa")
-    with pytest.raises(InputError, match="stickout_mm.*posterior over the holder"):
+    with pytest.raises(InputError, match="stickout_mm = '50, 60 mm' .*prior over the holder"):
         api_predict(tip_post, pts)
     seen = []
 

@@ -183,8 +183,9 @@ def stickout_groups(prior: Prior, column_stickout: np.ndarray) -> list[tuple[Pri
         return [(prior, np.arange(so.size))]
     at = getattr(prior.par, "at", None)
     if at is None:
-        raise InputError("stickout", f"{np.unique(so[given]) * 1e3} mm", "per-cut stickouts need a prior over the "
-                         "holder: a config with [tool] and [holder] given by modes ([[holder.modes]])")
+        from millstab.update.stickout import not_over_holder
+
+        raise not_over_holder(so)
     own = prior.par.stickout
     so = np.where(given, so, own)
     from dataclasses import replace

@@ -108,9 +108,9 @@ def predict_at_stickouts(post: Posterior, rpm, depth_mm, conditions: tuple | Non
     if so is None or np.isnan(so).all():
         return predict_cuts(post, rpm, depth_mm, conditions, cond_index, batch)
     if getattr(post.prior.par, "at", None) is None:
-        raise InputError("stickout_mm", f"{np.unique(so[~np.isnan(so)] * 1e3)} mm", "per-cut stickouts need a "
-                         "posterior over the holder (a config with [tool] and [holder] given by modes); drop the "
-                         "column to predict at the posterior's own tip")
+        from millstab.update.stickout import not_over_holder
+
+        raise not_over_holder(so)
     r, d = np.atleast_1d(np.asarray(rpm, dtype=float)), np.atleast_1d(np.asarray(depth_mm, dtype=float))
     idx = None if cond_index is None else np.asarray(cond_index)
     day = None if batch is None else np.asarray(batch, dtype=object)

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from millstab.errors import InputError
 from millstab.model import Cutting
 from millstab.update.prior import Prior, make_prior
@@ -51,6 +53,16 @@ def config_prior(config) -> Prior:
     return make_prior(config.structure, config.cutting, getattr(config, "prior", None))
 
 
+def not_over_holder(stickout_m) -> InputError:
+    """The error for per-cut stickouts ``stickout_m`` [m] (NaN: none given) where the prior or posterior is over the
+    tip's modes: the update, predictions and cross-validation refuse them alike, naming the column and its values."""
+    so = np.asarray(stickout_m, dtype=float)
+    mm = ", ".join(f"{v:g}" for v in np.unique(so[~np.isnan(so)]) * 1e3)
+    return InputError("stickout_mm", f"{mm} mm", "per-cut stickouts need a prior over the holder: a config with [tool] "
+                      "and [holder] given by modes ([[holder.modes]]); without the column every cut is at the "
+                      "config's tip")
+
+
 def at_stickout(obj, stickout_m: float | None):
     """A :class:`Prior` or :class:`~millstab.update.Posterior` with the tool at ``stickout_m`` [m] (the same
     holder parameters or samples); ``None``: ``obj`` itself. InputError when ``obj`` is not over a holder."""
@@ -65,4 +77,4 @@ def at_stickout(obj, stickout_m: float | None):
     return moved if isinstance(obj, Prior) else replace(obj, prior=moved)
 
 
-__all__ = ["at_stickout", "config_prior", "holder_prior", "over_holder"]
+__all__ = ["at_stickout", "config_prior", "holder_prior", "not_over_holder", "over_holder"]

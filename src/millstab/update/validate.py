@@ -310,9 +310,9 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         from millstab.update.stickout import config_prior
 
         if getattr(config_prior(config).par, "at", None) is None:
-            raise InputError("stickout_mm", f"{np.unique(so[~np.isnan(so)] * 1e3)} mm", "per-cut stickouts need a "
-                             "prior over the holder: a config with [tool] and [holder] given by modes "
-                             "([[holder.modes]])")
+            from millstab.update.stickout import not_over_holder
+
+            raise not_over_holder(so)
     base = prior.cutting if prior is not None else config.cutting  # what an empty condition cell means
     diameter = getattr(config, "diameter_mm", None)
     warn_time_averaged_cuts(engine, cut_conditions(cuts, base, diameter)[0])  # as update (the folds' are quiet)

@@ -386,6 +386,13 @@ def test_the_next_test_moves_to_another_condition_only_when_it_teaches_more_per_
     assert (got["rpm"], got["depth_mm"]) == (pytest.approx(speeds[i]), pytest.approx(depths[j]))
     rich = dict(own, information_nats=10.0)  # more than any binary label can carry (ln 2): stays in its condition
     assert next_test_across(tgt, rich, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is rich
+    from millstab.update.decide import ACROSS_MARGIN
+
+    # about as informative as the other condition's best (a user saw 0.560 against 0.558 nats move the test): stays
+    near = dict(own, information_nats=info[i, j] / ACROSS_MARGIN * (1 + 1e-9))
+    assert next_test_across(tgt, near, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20) is near
+    less = dict(own, information_nats=info[i, j] / ACROSS_MARGIN * (1 - 1e-6))
+    assert next_test_across(tgt, less, (5000.0, 9000.0), test_risk=None, n_rpm=15, n_depth=20)["condition"] is not None
     # on the rows it is given (the fast speed search's subsample, whose information the own test was measured on),
     # repeats among them included: the same recomputation on those rows alone
     rows = np.r_[np.arange(0, 120, 3), [0, 3, 6]]

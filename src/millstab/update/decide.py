@@ -1385,6 +1385,14 @@ def next_test(post: Posterior, rpm_range: tuple[float, float], rpm_rec: float, d
                    "the recommendation" + ("" if test_risk is None else f" at most {test_risk:g} likely to chatter")}
 
 
+#: the next test moves to another condition only where its label carries this many times the information of the best
+#: test in the decision's own: a binary label carries at most ln 2 = 0.69 nats, and the best tests of every condition
+#: sit near that cap once the posterior is uncertain (a user's test: 0.560 against 0.558 nats moved the test to
+#: another condition); a test in the decision's own condition also checks the model where the decision is made, which
+#: matters where the model is off between conditions (docs/updating-measured.md, the `sym` machine's extrapolation)
+ACROSS_MARGIN = 1.1
+
+
 def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], cap: float = math.inf, *,
                      seed: int = 0, test_risk: float | None = TEST_RISK, n_rpm: int = 60, n_depth: int = 40,
                      rows: np.ndarray | None = None) -> dict:
@@ -1396,8 +1404,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
     decide), the decision's own excluded. In each, the cut with the largest mutual information between its
     label and θ (the measure of :func:`next_test`, per test: no productivity weight, since a test's cost is
     one cut whichever the condition) among cuts at most ``test_risk`` likely to chatter and clear of that
-    condition's data guard. It replaces ``nt`` when its information exceeds ``nt``'s (which is 0 when ``nt``
-    is the recommendation itself); ``why`` then says which condition and why. Why per test and not per
+    condition's data guard. It replaces ``nt`` when its information exceeds :data:`ACROSS_MARGIN` times ``nt``'s
+    (which is 0 when ``nt`` is the recommendation itself); ``why`` then says which condition and why. Why per test and not per
     productivity: the information is about the shared parameters, which every condition's decision reads;
     the productivity weight of :func:`next_test` ranks cuts of one condition by what they may unlock there.
     One engine call per candidate condition: ``n_rpm`` speeds, the posterior rows ``rows`` (the fast speed search's
@@ -1444,7 +1452,7 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
         if best is None or info[i, j] > best[0]:
             best = (float(info[i, j]), c, float(speeds[i]), float(depths[j]), float(p_process[i, j]), float(pbar[i, j]))
     own = float(nt.get("information_nats", 0.0))
-    if best is None or best[0] <= own:
+    if best is None or best[0] <= ACROSS_MARGIN * own:
         return nt
     info, c, rpm, depth, p_ch, p_lab = best
     return {"rpm": rpm, "depth_mm": depth, "p_chatter": p_ch, "p_label_chatter": p_lab, "information_nats": info,
@@ -1459,7 +1467,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "map_ceiling", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
            "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
-           "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
+           "ACROSS_MARGIN", "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",

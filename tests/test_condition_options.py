@@ -168,7 +168,7 @@ def test_lobes_help_speaks_of_the_lobes_not_of_a_posterior(capsys, monkeypatch):
     assert "posterior" not in out and "Decide" not in out
     for text in ("Draw the lobes for this radial immersion a/D", "Draw the lobes for up or down milling",
                  "Draw the lobes for this entry angle", "Draw the lobes for this exit angle",
-                 "START = STOP: that one speed"):
+                 "START = STOP is that one speed"):
         assert text in out, text
     rec = _help(capsys, monkeypatch, "recommend")
     assert "(or draw lobes)" not in rec and "Decide for this radial immersion" in rec

@@ -23,8 +23,8 @@ LobesImmersionOpt, LobesMillingOpt, LobesEntryOpt, LobesExitOpt, LobesTeethOpt =
 @app.command()
 def lobes(
     config: str = typer.Argument(..., help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute)."),
-    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min); START = STOP: that one "
-                                                          "speed)."),
+    rpm: Optional[str] = typer.Option(None, "--rpm", help="Speeds START:STOP:STEP (rev/min); START = STOP is that one "
+                                                          "speed."),
     rpm_file: Optional[Path] = typer.Option(None, "--rpm-file", help="Speeds, one per line or an 'rpm' CSV column."),
     out: Optional[Path] = typer.Option(None, "--out", help="CSV: rpm,blim_mm,lobe,chatter_hz."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure (.png, .svg or .pdf)."),

@@ -40,8 +40,8 @@ app.add_typer(sensitivity_app, name="sensitivity")
 
 # options every method takes (typer.Option objects are shared read-only between the commands)
 ConfigArg = Annotated[str, typer.Argument(help="TOML config file, or example:NAME (ex1, ex2, ex3, fourflute).")]
-RpmOpt = Annotated[Optional[str], typer.Option("--rpm", help="Speeds START:STOP:STEP (rev/min); START = STOP: that one "
-                                                               "speed).")]
+RpmOpt = Annotated[Optional[str], typer.Option("--rpm", help="Speeds START:STOP:STEP (rev/min); START = STOP is that "
+                                                               "one speed.")]
 RpmFileOpt = Annotated[Optional[Path], typer.Option("--rpm-file", help="Speeds, one per line or an 'rpm' CSV column.")]
 OutOpt = Annotated[Optional[Path], typer.Option("--out", help="Result JSON (MSE in mm^2).")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Figure (.png, .svg or .pdf).")]

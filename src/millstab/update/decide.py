@@ -1405,8 +1405,8 @@ def next_test_across(post: Posterior, nt: dict, rpm_range: tuple[float, float], 
     label and θ (the measure of :func:`next_test`, per test: no productivity weight, since a test's cost is
     one cut whichever the condition) among cuts at most ``test_risk`` likely to chatter and clear of that
     condition's data guard. It replaces ``nt`` when its information exceeds :data:`ACROSS_MARGIN` times ``nt``'s
-    (which is 0 when ``nt`` is the recommendation itself); ``why`` then says which condition and why. Why per test and not per
-    productivity: the information is about the shared parameters, which every condition's decision reads;
+    (which is 0 when ``nt`` is the recommendation itself); ``why`` then says which condition and why. Why per test and
+    not per productivity: the information is about the shared parameters, which every condition's decision reads;
     the productivity weight of :func:`next_test` ranks cuts of one condition by what they may unlock there.
     One engine call per candidate condition: ``n_rpm`` speeds, the posterior rows ``rows`` (the fast speed search's
     subsample, whose information ``nt`` was measured on; default a seeded draw of :data:`NEXT_TEST_SAMPLES`), each
@@ -1467,7 +1467,8 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "map_ceiling", "SEARCH_CHOICES", "SEARCH_POCKETS", "SEARCH_SAMPLES", "LimitColumns",
            "LimitMemo", "decision_options", "distinct_limits", "fast_search_for", "map_error",
            "map_rows", "pockets",
-           "ACROSS_MARGIN", "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE", "DISCRIMINATE_CHOICES",
+           "ACROSS_MARGIN", "next_test_across", "next_test_discriminating", "next_test_gain", "DISCRIMINATE",
+           "DISCRIMINATE_CHOICES",
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",

@@ -557,3 +557,39 @@ def test_the_next_tests_information_has_one_numba_signature():
     per = label_information(b, d, s, np.full(3, 0.02), np.ones(3))
     assert all(np.array_equal(x, y) for x, y in zip(one, per))
     assert len(set(_bald.signatures)) == 1, _bald.signatures
+
+
+# --- inputs that set the work without bound, refused before any (an exploratory test of the app: a mode of 10^12 Hz
+# held the server's one thread for minutes, a 4.9 MB cuts file exhausted 24 GB, sdm steps=10^8 grew past 12 GB) ------
+def test_work_bounds_refuse_a_slip_before_any_work(tmp_path):
+    import numpy as np
+
+    from millstab import api
+    from millstab.bounds import MAX_CUTS, MAX_MODE_HZ, MAX_MODES, MAX_TEETH
+    from millstab.forward import MAX_NODES, MAX_STEPS, engine_options
+    from millstab.io.config import parse_config
+    from millstab.points import PointSet
+    from configs import TWO_MODE_TOML
+
+    cfg = parse_config(TWO_MODE_TOML)
+    mode = '[[structure.x]]\nfn = "{}"\nk = "10 N/um"\nzeta = 0.03\n'
+    head = TWO_MODE_TOML.split("[[structure.x]]")[0]
+    with pytest.raises(InputError, match="at most 100,000 Hz .rad/s") as e:
+        parse_config(head + mode.format("1e12 Hz"))
+    assert e.value.field == "structure.x[0].fn" and e.value.value == "1e12 Hz"
+    assert parse_config(head + mode.format(f"{MAX_MODE_HZ:g} Hz")).structure.x[0].fn == MAX_MODE_HZ
+    with pytest.raises(InputError, match=f"at most {MAX_MODES} modes per direction"):
+        parse_config(head + mode.format("1000 Hz") * (MAX_MODES + 1))
+    assert len(parse_config(head + mode.format("1000 Hz") * MAX_MODES).structure.x) == MAX_MODES
+    with pytest.raises(InputError, match=f"at most {MAX_TEETH}"):
+        parse_config(TWO_MODE_TOML.replace("teeth = 2", "teeth = 99999999999999999999"))
+    assert parse_config(TWO_MODE_TOML.replace("teeth = 2", f"teeth = {MAX_TEETH}")).cutting.teeth == MAX_TEETH
+    for engine, key, top in (("sdm", "steps", MAX_STEPS), ("spectral", "nodes", MAX_NODES)):
+        assert dict(engine_options(engine, {key: top})) == {key: top}
+        with pytest.raises(InputError, match=f"in .*{top:,}"):
+            engine_options(engine, {key: top + 1})
+    many = PointSet(np.full(MAX_CUTS + 1, 6000.0), np.ones(MAX_CUTS + 1), np.array(["stable"] * (MAX_CUTS + 1)))
+    for call in (lambda: api.update(cfg, many, samples=100), lambda: api.validate(cfg, many, samples=100)):
+        with pytest.raises(InputError, match=f"at most {MAX_CUTS:,} cuts") as e:
+            call()
+        assert e.value.value == f"{MAX_CUTS + 1:,} rows"

@@ -39,8 +39,33 @@ MAX_SAMPLES = 1_000_000
 #: 40 000; example ex1, 6 cuts, 6 free parameters: the particles, their proposals and the likelihood's
 #: samples x cuts arrays), rounded up for more cuts and parameters
 BYTES_PER_SAMPLE = 2_000
+#: the highest natural frequency of a tool-tip mode [Hz]: as a chatter frequency (above); a mode above it is a slip (rad/s,
+#: rpm or an extra zero) and costs without bound (the zero-order sweep's lobes and sdm's steps grow with it: a mode of
+#: 10^12 Hz held a web server's one thread for minutes)
+MAX_MODE_HZ = MAX_CHATTER_HZ
+#: the most modes per direction of a structure: a tap test's fit uses a few (millstab fit-modes: up to 6), a tool
+#: tip model's up to ~10; more is a slip that makes every engine call and the app's form (a field per value) slow
+MAX_MODES = 20
+#: the most teeth of a cutter: the largest face mills carry ~100 inserts; a tooth count beyond this is a slip
+MAX_TEETH = 500
+#: the most labelled cuts (and points) one update takes: its arrays hold samples x cuts values (~100 bytes a pair
+#: at the default 4 000 samples: 8 000 cuts took 0.8 GB and 79 s, 260 000 a 4.9 MB file exhausted a 24 GB machine);
+#: a shop's campaigns hold tens to hundreds
+MAX_CUTS = 5_000
 #: seeds are numpy's 32-bit unsigned integers (``default_rng``, ``RandomState`` and SALib all accept them)
 SEED_LIMIT = 2**32
+
+
+def check_cuts(n: int, field: str = "cuts") -> None:
+    """Refuse more than :data:`MAX_CUTS` cuts (and points) in one update, prediction or validation, before any work.
+
+    Raises:
+        InputError: naming ``field``, the count and the bound with its reason.
+    """
+    if n > MAX_CUTS:
+        raise InputError(field, f"{n:,} rows", f"at most {MAX_CUTS:,} cuts and points at once (the work holds samples "
+                                              "x cuts values: 8 000 cuts took 0.8 GB; a shop's campaign holds tens to "
+                                              "hundreds); split the file")
 
 
 def speed_rule() -> str:

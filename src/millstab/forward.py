@@ -256,8 +256,15 @@ def forward(par: Parameterization, cutting: Cutting, engine: str = "zoa", purpos
     return Forward(par, cutting, engine, purpose, tuple(sorted((options or {}).items())))
 
 
-def _whole(lo: int):
-    return lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= lo
+def _whole(lo: int, hi: int):
+    return lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= hi
+
+
+#: the most sdm steps per tooth period a user may fix: the monodromy has ~steps² entries (8 MB at 1 000 steps, per
+#: set and thread; 10^6 steps failed for memory and 10^8 grew past 12 GB), and its accuracy control asks for 20-300
+MAX_STEPS = 2_000
+#: the most spectral collocation nodes per element (converged at 6-8 on every benchmark: spectral.py)
+MAX_NODES = 40
 
 
 def _real(ok):
@@ -267,9 +274,9 @@ def _real(ok):
 #: the values each discretisation keyword takes (what its engine accepts, checked before any work so that a bad
 #: value fails in one line at the door, not after the sampler's first stage): keyword -> (test, what is allowed)
 OPTION_VALUES = {
-    "steps": (_whole(1), "a whole number of steps per tooth period >= 1"),
+    "steps": (_whole(1, MAX_STEPS), f"a whole number of steps per tooth period in 1..{MAX_STEPS:,}"),
     "fn_max_hz": (_real(lambda x: math.isfinite(x) and x > 0), "the highest natural frequency [Hz], > 0"),
-    "nodes": (_whole(2), "a whole number of collocation nodes per element >= 2"),
+    "nodes": (_whole(2, MAX_NODES), f"a whole number of collocation nodes per element in 2..{MAX_NODES}"),
     "near": (_real(lambda x: 0.0 <= x < 1.0), "the refinement margin near rho = 1, in [0, 1)"),
 }
 

@@ -23,6 +23,7 @@ from typing import Literal
 
 import numpy as np
 
+from millstab.bounds import MAX_TEETH
 from millstab.errors import FRFWarning, InputError, UnitWarning
 from millstab.warnlog import quiet, warn
 
@@ -258,8 +259,9 @@ class Cutting:
                 object.__setattr__(self, "teeth", int(self.teeth))
             else:
                 raise InputError("cutting.teeth", self.teeth, "number of teeth must be a positive integer")
-        if self.teeth < 1:
-            raise InputError("cutting.teeth", self.teeth, "number of teeth must be a positive integer")
+        if not 1 <= self.teeth <= MAX_TEETH:
+            raise InputError("cutting.teeth", self.teeth, f"number of teeth must be a positive integer, at most "
+                                                          f"{MAX_TEETH} (the largest face mills carry ~100 inserts)")
         object.__setattr__(self, "teeth", int(self.teeth))
         kt = _finite("cutting.kt", self.kt)
         kr = _finite("cutting.kr", self.kr)

@@ -150,10 +150,12 @@ def predict(post, cuts: PointSet) -> Prediction:
         UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior); a zero-order
             posterior's cuts in a condition with less than one tooth in the cut (:func:`warn_time_averaged`).
     """
+    from millstab.bounds import check_cuts
     from millstab.io.stickout import stickouts
     from millstab.update.decide import warn_outside, warn_time_averaged
     from millstab.update.predict import predict_at_stickouts
 
+    check_cuts(len(cuts))
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), stacklevel=3)
     from millstab.points import condition_text, cut_conditions, never_cut_note, same_condition

@@ -11,6 +11,7 @@ import numpy as np
 from millstab.api.inputs import modal
 from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
+from millstab.bounds import check_cuts
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
 from millstab.points import PointSet
@@ -76,6 +77,7 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     from millstab.update import update as run_update
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
+    check_cuts(len(cuts) + (0 if points is None else len(points)))
     check_seed(seed)
     from millstab.update.stickout import over_holder
 

@@ -26,6 +26,9 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
 
     if samples < 100:
         raise InputError("--samples", samples, "need at least 100 samples")
+    from millstab.bounds import check_cuts
+
+    check_cuts(len(cuts))
     if engine not in ENGINES:
         raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
     from millstab.api.update import check_engine_options

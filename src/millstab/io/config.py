@@ -76,6 +76,7 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
+from millstab.bounds import MAX_MODE_HZ, MAX_MODES
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
 from millstab.io.text import read_text
@@ -205,11 +206,17 @@ def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
         value = [value]
     if not isinstance(value, list):
         raise InputError(field, value, f"must be a list of modes: one [[{field}]] table per mode with fn, k, zeta")
+    if len(value) > MAX_MODES:
+        raise InputError(field, f"{len(value)} modes", f"at most {MAX_MODES} modes per direction (a tap test's fit "
+                                                         "holds a few; more makes every engine call slow)")
     modes = []
     for i, m in enumerate(value):
         name = f"{field}[{i}]"
         m = _check_keys(m, name, MODE_KEYS, MODE_KEYS)
         fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
+        if fn > MAX_MODE_HZ:
+            raise InputError(f"{name}.fn", m["fn"], f"a tool-tip mode's natural frequency, at most {MAX_MODE_HZ:,.0f} Hz "
+                                                    "(rad/s? rpm? an extra zero?)")
         k = parse_quantity(m["k"], f"{name}.k", "stiffness")
         zeta = parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless")
         with _as_written({f"{name}.{key}": m[key] for key in MODE_KEYS}):

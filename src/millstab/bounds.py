@@ -39,9 +39,9 @@ MAX_SAMPLES = 1_000_000
 #: 40 000; example ex1, 6 cuts, 6 free parameters: the particles, their proposals and the likelihood's
 #: samples x cuts arrays), rounded up for more cuts and parameters
 BYTES_PER_SAMPLE = 2_000
-#: the highest natural frequency of a tool-tip mode [Hz]: as a chatter frequency (above); a mode above it is a slip (rad/s,
-#: rpm or an extra zero) and costs without bound (the zero-order sweep's lobes and sdm's steps grow with it: a mode of
-#: 10^12 Hz held a web server's one thread for minutes)
+#: the highest natural frequency of a tool-tip mode [Hz]: as a chatter frequency (above); a mode above it is a slip
+#: (rad/s, rpm or an extra zero) and costs without bound (the zero-order sweep's lobes and sdm's steps grow with it:
+#: a mode of 10^12 Hz held a web server's one thread for minutes)
 MAX_MODE_HZ = MAX_CHATTER_HZ
 #: the most modes per direction of a structure: a tap test's fit uses a few (millstab fit-modes: up to 6), a tool
 #: tip model's up to ~10; more is a slip that makes every engine call and the app's form (a field per value) slow

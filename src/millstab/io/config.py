@@ -215,8 +215,8 @@ def _modes(value: Any, direction: str) -> tuple[Mode, ...]:
         m = _check_keys(m, name, MODE_KEYS, MODE_KEYS)
         fn = parse_quantity(m["fn"], f"{name}.fn", "frequency")
         if fn > MAX_MODE_HZ:
-            raise InputError(f"{name}.fn", m["fn"], f"a tool-tip mode's natural frequency, at most {MAX_MODE_HZ:,.0f} Hz "
-                                                    "(rad/s? rpm? an extra zero?)")
+            raise InputError(f"{name}.fn", m["fn"], f"a tool-tip mode's natural frequency, at most "
+                                                    f"{MAX_MODE_HZ:,.0f} Hz (rad/s? rpm? an extra zero?)")
         k = parse_quantity(m["k"], f"{name}.k", "stiffness")
         zeta = parse_quantity(m["zeta"], f"{name}.zeta", "dimensionless")
         with _as_written({f"{name}.{key}": m[key] for key in MODE_KEYS}):

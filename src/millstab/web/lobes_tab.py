@@ -70,11 +70,30 @@ class LobesTab:
             return
         self.job_box.visible = True
         if not force:
+            self.clear()  # the SLD drawn was another config's or engine's: neither shown nor offered for download
             self.summary.text = (f'<span class="ms-note">{esc(engine)} takes seconds to minutes for '
                                    f'{rpm.size} speeds: press Compute</span>')
             return
-        self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress),
-                       lambda result, caught: self.show(result, caught, origin))
+        self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress), self.shown_for(cfg, origin))
+
+    def shown_for(self, cfg, origin: str):
+        """The job's callback for an SLD of ``cfg``: shown only while ``cfg`` is still the session's config and the
+        engine still the selected one (an edit during the job made it another config's: a stale SLD, which the
+        Downloads tab would have offered beside the new config's TOML)."""
+        engine = self.engine.value
+
+        def show(result, caught):
+            if self.s.cfg is cfg and self.engine.value == engine:
+                self.show(result, caught, origin)
+        return show
+
+    def clear(self) -> None:
+        """No SLD: the drawn lines emptied and the session's result dropped (Downloads then offers none)."""
+        self.s.lobes = None
+        for key in ("env", "preview"):
+            if key in self.src:
+                set_line(self.src[key], [], [], lobe=np.zeros(0, int), chatter_hz=np.zeros(0))
+        set_raw(self.src["raw"], None)
 
     def show(self, result, caught=(), origin: str = "") -> None:
         self.s.lobes = result

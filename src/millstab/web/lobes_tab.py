@@ -74,7 +74,8 @@ class LobesTab:
             self.summary.text = (f'<span class="ms-note">{esc(engine)} takes seconds to minutes for '
                                    f'{rpm.size} speeds: press Compute</span>')
             return
-        self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress), self.shown_for(cfg, origin))
+        self.job.start(lambda progress: api.lobes(cfg, rpm, engine=engine, progress=progress),
+                       self.shown_for(cfg, origin))
 
     def shown_for(self, cfg, origin: str):
         """The job's callback for an SLD of ``cfg``: shown only while ``cfg`` is still the session's config and the

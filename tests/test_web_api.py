@@ -726,6 +726,44 @@ def test_the_recommendation_is_drawn_over_the_next_test():
     assert [item.label.value for item in fig.legend[0].items] == ["recommended", "next test"]
 
 
+def test_a_next_test_in_another_condition_is_said_so_and_not_drawn_on_the_target_map():
+    """Exploratory test (s05_update.py): with a target condition a/D 0.5 up, the page showed "next test cut: 16119 rpm,
+    6.13 mm" and drew it on the target's map, while the next test was for a/D 0.1998 down (its JSON said so; fails on
+    the old code: no condition in the text, the marker drawn). A next test in the decision's own condition is drawn
+    and needs no condition."""
+    pytest.importorskip("panel")
+    from millstab.points import condition_of, describe_condition
+    from millstab.update.decide import Recommendation
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        base = api.config("example:ex3").cutting
+        target = describe_condition(condition_of(base, radial_immersion=0.5, milling="up"))
+        other = describe_condition(condition_of(base, radial_immersion=0.1998, milling="down"))
+        rpm, depth = np.linspace(5000.0, 20000.0, 5), np.linspace(0.1, 8.0, 4)
+        pm = np.random.default_rng(0).random((5, 4))
+
+        def shown(nt_condition):
+            nt = {"rpm": 16119.0, "depth_mm": 6.13, "p_chatter": 0.47, "condition": nt_condition,
+                  "why": "a test in another condition carries more information"}
+            rec = Recommendation(9000.0, 2.0, 0.04, 1.0, None, 0.05, nt, "the risk", computed_for=target)
+            tab.show_map((rpm, depth, pm, rec), [])
+            fig = tab.plot.objects[0].object
+            return tab.rec.text, [item.label.value for item in fig.legend[0].items]
+
+        text, legend = shown(other)
+        assert "in another condition: a/D 0.1998 down milling" in text and "not drawn on this map" in text, text
+        assert legend == ["recommended"]
+        assert api.next_test_elsewhere(Recommendation(1, 1, 0, 1, None, 0.1, {"condition": other}, "", computed_for=
+                                                      target)) == f"a/D 0.1998 down milling, {base.teeth} teeth"
+        text, legend = shown(target)
+        assert "another condition" not in text and "16119 rpm" in text and legend == ["recommended", "next test"]
+    finally:
+        s.close()
+
+
 def test_an_uploaded_cuts_file_shows_the_readers_notes():
     """The reader's warnings reach the page under the upload (they were dropped): operators' label columns named
     op1, op2 (every row would be a boundary point) and depths that look like metres."""

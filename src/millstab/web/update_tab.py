@@ -308,8 +308,13 @@ class UpdateTab:
         self.s.pmap, self.s.rec = (rpm, depth, pm), rec
         nt = rec.next_test
         marks = [(rec.rpm, rec.depth_mm, "recommended")]
-        if "rpm" in nt and "depth_mm" in nt:
+        # a next test in another condition (it teaches the shared parameters more) is not on this map's boundary:
+        # said with its condition, not drawn here
+        other = api.next_test_elsewhere(rec)
+        if "rpm" in nt and "depth_mm" in nt and other is None:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
+        where = (f" <b>in another condition: {esc(other)}</b> (not drawn on this map; {esc(nt.get('why', ''))})"
+                 if other is not None else "")
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
         # the map and the recommendation may say one thing each in the same words (dict: once each, in order)
@@ -319,7 +324,7 @@ class UpdateTab:
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, "
                            f"{nt.get('depth_mm', float('nan')):.3g} mm (P(chatter) "
-                           f"{nt.get('p_chatter', float('nan')):.2f}){notes}")
+                           f"{nt.get('p_chatter', float('nan')):.2f}){where}{notes}")
 
     def view(self):
         head = [self.campaign.view()] if self.campaign is not None else []

@@ -749,7 +749,7 @@ def test_a_next_test_in_another_condition_is_said_so_and_not_drawn_on_the_target
             nt = {"rpm": 16119.0, "depth_mm": 6.13, "p_chatter": 0.47, "condition": nt_condition,
                   "why": "a test in another condition carries more information"}
             rec = Recommendation(9000.0, 2.0, 0.04, 1.0, None, 0.05, nt, "the risk", computed_for=target)
-            tab.show_map((rpm, depth, pm, rec), [])
+            tab.show_map((rpm, depth, pm, rec, None), [])
             fig = tab.plot.objects[0].object
             return tab.rec.text, [item.label.value for item in fig.legend[0].items]
 
@@ -761,6 +761,42 @@ def test_a_next_test_in_another_condition_is_said_so_and_not_drawn_on_the_target
         text, legend = shown(target)
         assert "another condition" not in text and "16119 rpm" in text and legend == ["recommended", "next test"]
     finally:
+        s.close()
+
+
+def test_the_downloaded_map_is_drawn_for_the_maps_condition(monkeypatch):
+    """Exploratory test (dl/05_L2_map.png): for a target condition the map.png drew the target's P(stable) over the
+    config condition's cuts and prior SLD (fails on the old code: the download drew the untargeted posterior). It is
+    `millstab map --plot`'s figure (api.map_figure) of the posterior moved to the map's condition, kept by the
+    Update tab with the map."""
+    pytest.importorskip("panel")
+    import matplotlib.pyplot as plt
+
+    from millstab.points import describe_condition
+    from millstab.update.decide import Recommendation
+    from millstab.web.downloads import DownloadsTab
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    try:
+        tab, dl = UpdateTab(s), DownloadsTab(s)
+        drawn = []
+        monkeypatch.setattr(api, "map_figure", lambda post, *a, **k: drawn.append(post) or plt.figure())
+        s.post = "the posterior of the config's condition"
+        target = "the posterior moved to the target condition"
+        rpm, depth = np.linspace(5000.0, 20000.0, 5), np.linspace(0.1, 8.0, 4)
+        pm = np.random.default_rng(0).random((5, 4))
+        here = describe_condition(api.config("example:ex3").cutting)
+        rec = Recommendation(9000.0, 2.0, 0.04, 1.0, None, 0.05, {"rpm": 9000.0, "depth_mm": 2.0, "condition": here},
+                             "the risk", computed_for=here)
+        tab.show_map((rpm, depth, pm, rec, target), [])
+        assert s.map_post == target
+        make = {name: make for _, name, _, make in dl.items()}
+        assert make["map.png"]().getvalue()[:4] == b"\x89PNG" and drawn == [target]
+        tab.clear_results()
+        assert s.map_post is None
+    finally:
+        plt.close("all")
         s.close()
 
 

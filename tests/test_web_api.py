@@ -800,6 +800,29 @@ def test_the_downloaded_map_is_drawn_for_the_maps_condition(monkeypatch):
         s.close()
 
 
+def test_update_tab_reads_a_utf16_cuts_file_and_refuses_a_binary_one_with_a_message():
+    """Exploratory test: an Excel "Unicode text" (UTF-16) or binary cuts CSV raised UnicodeDecodeError in the Update
+    tab and the page showed nothing (fails on the old code); Identify read UTF-16. Read as Identify does; a binary
+    file is refused under the drop zone naming the file and what is allowed."""
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        text = "rpm,depth_mm,label\r\n9000,3,chatter\r\n12000,0.5,stable\r\n"
+        tab.drop.value = {"excel.csv": text.encode("utf-16")}  # with its byte-order mark, as Excel writes it
+        assert "excel.csv: 2 points" in tab.cuts_note.object and tab.drop_error.object == ""
+        assert list(s.cuts.label) == ["chatter", "stable"] and tab.pending is s.cuts
+        tab.drop.value = {"rec.csv": "rpm,depth_mm,label,recording\n9000,3,,cut 1.wav\n".encode("utf-16")}
+        assert tab.cuts_csv is not None and tab.cuts_csv[0] == "rec.csv"  # its recording column was read
+        before = s.cuts
+        tab.drop.value = {"photo.csv": bytes(range(256)) * 4}
+        err = tab.drop_error.object
+        assert "photo.csv" in err and "UTF-8" in err and s.cuts is before, err
+    finally:
+        s.close()
+
+
 def test_an_uploaded_cuts_file_shows_the_readers_notes():
     """The reader's warnings reach the page under the upload (they were dropped): operators' label columns named
     op1, op2 (every row would be a boundary point) and depths that look like metres."""

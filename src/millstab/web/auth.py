@@ -237,8 +237,9 @@ def refused_message(seconds: float) -> str:
 def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
     """A Panel/Bokeh auth provider: Panel's login and logout pages, the password checked against ``users``'
     hashes, failed logins throttled by ``throttle`` (a fresh :class:`LoginThrottle` by default). Imports Panel."""
-    import tornado.escape
-    import tornado.ioloop
+    import asyncio
+    import urllib.parse
+
     from panel.auth import BasicAuthProvider, BasicLoginHandler, _validate_next_url
     from panel.io.state import state
 
@@ -262,7 +263,7 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
                 return
             throttle.begin(*keys)
             # scrypt in a worker thread (it releases the GIL): the server's thread keeps serving the other sessions
-            ok = await tornado.ioloop.IOLoop.current().run_in_executor(None, self._validate, username, password)
+            ok = await asyncio.get_running_loop().run_in_executor(None, self._validate, username, password)
             if ok:
                 throttle.success(*keys)
                 self.set_current_user(username)
@@ -271,7 +272,7 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
                 self._fail("Invalid username or password!")
 
         def _fail(self, message: str):
-            self.redirect(self.request.path + "?error=" + tornado.escape.url_escape(message))
+            self.redirect(self.request.path + "?error=" + urllib.parse.quote_plus(message))
 
     class HashedAuth(BasicAuthProvider):
         @property

@@ -50,7 +50,7 @@ _HOMES = {
                "cuts_in_condition",
                "decision_rule", "depth_grid", "engine_keywords", "engine_option_pairs", "engine_options_from_text",
                "engine_update_note", "for_condition", "limit_memo",
-               "map_figure", "map_samples", "map_samples_text", "map_table", "p_stable",
+               "map_figure", "map_samples", "map_samples_text", "map_table", "next_test_elsewhere", "p_stable",
                "over_holder", "posterior_from_json", "recommend", "target_condition", "update",
                "UpdateSettings", "with_batch_effect", "with_engine_options"),
     "predict": ("Prediction", "predict"),

@@ -338,6 +338,25 @@ def condition_line(post) -> str:
     return f"computed for {condition_text(post.condition)} ({note})"
 
 
+def next_test_elsewhere(rec) -> str | None:
+    """The condition of ``rec``'s next test as a line ("a/D 0.2 down milling, 2 teeth") when it is not the
+    decision's (a test in another condition can teach the shared parameters more: its ``why`` says so), else
+    ``None``: the doors then must not draw it on the decision's map as if it were there."""
+    nt, here = rec.next_test.get("condition"), rec.computed_for
+    if not nt or not here:
+        return None
+    if (nt.get("teeth") == here.get("teeth") and abs(nt.get("entry_deg", 0) - here.get("entry_deg", 0)) < 1e-3
+            and abs(nt.get("exit_deg", 0) - here.get("exit_deg", 0)) < 1e-3):
+        return None
+    if nt.get("milling") == "slot":
+        head = "slot"
+    elif "radial_immersion" in nt:
+        head = f"a/D {nt['radial_immersion']:.4g} {nt['milling']} milling"
+    else:
+        head = f"entry {nt['entry_deg']:.4g}°–{nt['exit_deg']:.4g}°"
+    return f"{head}, {nt.get('teeth')} teeth"
+
+
 def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.ndarray:
     """``n`` depths evenly spaced up to ``max_mm`` [mm]: max/n, 2·max/n, …, max (a P(stable) map's axis).
 

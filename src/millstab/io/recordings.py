@@ -145,7 +145,9 @@ def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = 
     p = Path(path)
     if not p.exists():
         raise InputError("cuts", str(path), "file does not exist")
-    rows = list(csv.reader(_io.StringIO(p.read_text(encoding="utf-8-sig"))))
+    from millstab.io.text import read_text
+
+    rows = list(csv.reader(_io.StringIO(read_text(p, "cuts", "CSV file"))))
     rows = [r for r in rows if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("cuts", str(path), "a header rpm,depth_mm,...,recording and one row per cut")
@@ -201,15 +203,20 @@ def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = 
 
 
 def has_recording_column(path: PathLike) -> bool:
-    """Whether a cuts CSV's header names a ``recording`` column (False for a missing or empty file:
+    """Whether a cuts CSV's header names a ``recording`` column (False for a missing, empty or binary file:
     the ordinary reader then says what is wrong)."""
+    from millstab.io.text import read_text
+
     p = Path(path)
     if not p.is_file():
         return False
-    with p.open(encoding="utf-8-sig") as fh:
-        for line in fh:
-            if line.strip() and not line.lstrip().startswith("#"):
-                return "recording" in [h.strip().lower() for h in line.split(",")]
+    try:  # as every reader of users' text: UTF-8 or UTF-16 with a byte-order mark (Excel's "Unicode text")
+        text = read_text(p, "cuts", "CSV file")
+    except InputError:  # not text: the ordinary reader says so
+        return False
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return "recording" in [h.strip().lower() for h in line.split(",")]
     return False
 
 

@@ -54,11 +54,14 @@ def check_not_protected(path: PathLike, protect: Iterable[PathLike] = ()) -> Pat
     return target
 
 
-def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: Iterable[PathLike] = ()) -> Path:
+def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: Iterable[PathLike] = (),
+                  mode: int | None = None) -> Path:
     """Write a file atomically: ``write(fh)`` fills a temporary file in the target's directory, which
     then replaces the target with :func:`os.replace`.
 
-    The temporary file is created with ``os.open(..., 0o666)`` so the umask applies, as for any file
+    ``mode`` (e.g. 0o600 for a private file): the new file's exact permissions, set before anything is
+    written, whatever the umask or the mode of the file it replaces. Otherwise:
+    the temporary file is created with ``os.open(..., 0o666)`` so the umask applies, as for any file
     a program creates (``tempfile.mkstemp`` would give 0600, and an os.replace keeps that mode: a
     report served from a shared folder then cannot be read). A file that is replaced keeps its mode.
 
@@ -75,15 +78,17 @@ def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: It
                          f"cannot create the directory {target.parent}: {exc.strerror}") from None
     tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666 if mode is None else mode)
     except OSError as exc:
         raise InputError("output", str(target), f"cannot write in {target.parent}: {exc.strerror}") from None
     try:
         with os.fdopen(fd, "wb") as fh:
+            if mode is not None:
+                os.fchmod(fh.fileno(), mode)
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
-        if target.exists():
+        if mode is None and target.exists():
             try:
                 os.chmod(tmp, target.stat().st_mode & 0o7777)
             except OSError:
@@ -98,17 +103,18 @@ def _atomic_write(path: PathLike, write: Callable[[BinaryIO], None], protect: It
     return target
 
 
-def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (), encoding: str = "utf-8") -> Path:
+def atomic_write_text(path: PathLike, text: str, protect: Iterable[PathLike] = (), encoding: str = "utf-8",
+                      mode: int | None = None) -> Path:
     """Write ``text`` to ``path`` atomically (temp file in the same directory, then os.replace).
 
     Parent directories are created. The new file gets the usual permissions (0666 minus umask), or
-    the permissions of the file it replaces.
+    the permissions of the file it replaces, or exactly ``mode`` if given (0o600: readable by its owner only).
 
     Raises:
         InputError: ``path`` is one of ``protect``, is a directory, or cannot be written.
     """
     data = text.encode(encoding)
-    return _atomic_write(path, lambda fh: fh.write(data), protect)
+    return _atomic_write(path, lambda fh: fh.write(data), protect, mode)
 
 
 def atomic_write_bytes(path: PathLike, data: bytes, protect: Iterable[PathLike] = ()) -> Path:

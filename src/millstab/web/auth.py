@@ -8,8 +8,8 @@ machines reach it, and the app refuses to start there without ``--users FILE``. 
 page needs a login, whatever the address. Passwords are never stored, printed or logged; each browser
 session still sees only its own uploads (:class:`millstab.web.state.Session`).
 
-Users file (make it with ``millstab app --add-user NAME --users FILE [--shop SHOP ...]``; keep it private,
-``chmod 600``)::
+Users file (made 0600, readable by its owner only, by ``millstab app --add-user NAME --users FILE
+[--shop SHOP ...]``; keep it private)::
 
     # millstab app users: name:scrypt$N$r$p$salt$hash[:shop,shop]
     anna:scrypt$16384$8$1$3q2+7w...$Jm9v...:acme
@@ -19,6 +19,11 @@ Users file (make it with ``millstab app --add-user NAME --users FILE [--shop SHO
 the shop ``default``, the shop of campaigns made on the command line); it sees and writes only the campaigns
 of its shops (the rule is enforced by :class:`millstab.api.shop.ShopView`, which the page uses for every
 read and write).
+
+**Throttling**: after :data:`MAX_FAILURES` failed logins within :data:`WINDOW_S` seconds for one user name
+or one client address, further attempts for that name or address are refused for :data:`LOCKOUT_S` seconds
+with a message saying so, without hashing the password (:class:`LoginThrottle`, in memory: a restart
+forgets it). The scrypt check runs in a worker thread, so a login flood does not stall the other sessions.
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ import hashlib
 import hmac
 import re
 import secrets
+import threading
+import time
 from pathlib import Path
 
 from millstab.errors import InputError
@@ -38,6 +45,8 @@ LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 SCRYPT_N, SCRYPT_R, SCRYPT_P = 2**14, 8, 1
 _NAME = re.compile(r"[A-Za-z0-9_.@+-]{1,64}")
 MIN_PASSWORD = 8
+#: login throttling: this many failures within WINDOW_S seconds lock a name or address out for LOCKOUT_S seconds
+MAX_FAILURES, WINDOW_S, LOCKOUT_S = 5, 300.0, 300.0
 
 
 def is_local(host: str) -> bool:
@@ -167,13 +176,74 @@ def add_user(path: str | Path, name: str, password: str, shops=None) -> Path:
         shops = had[1]
     kept = [ln for ln in lines if ln.strip().partition(":")[0] != name]
     line = f"{name}:{hash_password(password)}" + (f":{','.join(shops)}" if shops else "")
-    return atomic_write_text(p, "\n".join(kept + [line]) + "\n")
+    # the hashes are secret: owner-only (0600), also when an older file was readable by others
+    return atomic_write_text(p, "\n".join(kept + [line]) + "\n", mode=0o600)
 
 
-def auth_provider(users: dict[str, str]):
+class LoginThrottle:
+    """Failed logins per key (``("user", name)``, ``("addr", ip)``), in memory: :meth:`refused` says how many
+    seconds a key is still locked out (0: not), :meth:`begin` counts an attempt as a failure before the password
+    is checked (so parallel attempts cannot slip past the limit), :meth:`success` forgets a key's failures.
+    Thread-safe; ``clock``: seconds (``time.monotonic``)."""
+
+    def __init__(self, max_failures: int = MAX_FAILURES, window_s: float = WINDOW_S, lockout_s: float = LOCKOUT_S,
+                 clock=time.monotonic, max_keys: int = 100_000):
+        self.max_failures, self.window_s, self.lockout_s = max_failures, window_s, lockout_s
+        self.clock, self.max_keys = clock, max_keys
+        self._fails: dict[tuple, list[float]] = {}
+        self._until: dict[tuple, float] = {}
+        self._lock = threading.Lock()
+
+    def refused(self, *keys) -> float:
+        """Seconds left of the longest lockout among ``keys`` (0.0: none is locked out)."""
+        now = self.clock()
+        with self._lock:
+            return max([0.0] + [self._until.get(k, now) - now for k in keys])
+
+    def begin(self, *keys) -> None:
+        """Count an attempt for ``keys`` as a failure (undone by :meth:`success`); lock out a key at the limit."""
+        now = self.clock()
+        with self._lock:
+            if len(self._fails) > self.max_keys:  # keep memory bounded under a flood of names or addresses
+                self._prune(now)
+            for k in keys:
+                fails = [t for t in self._fails.get(k, ()) if now - t < self.window_s] + [now]
+                self._fails[k] = fails
+                if len(fails) >= self.max_failures:
+                    self._until[k] = now + self.lockout_s
+
+    def success(self, *keys) -> None:
+        """Forget the failures of ``keys`` (a correct password)."""
+        with self._lock:
+            for k in keys:
+                self._fails.pop(k, None)
+                self._until.pop(k, None)
+
+    def _prune(self, now: float) -> None:
+        self._fails = {k: v for k, v in self._fails.items() if v and now - v[-1] < self.window_s}
+        self._until = {k: t for k, t in self._until.items() if t > now}
+        if len(self._fails) > self.max_keys:  # still too many: the oldest go
+            keep = sorted(self._fails, key=lambda k: self._fails[k][-1])[-self.max_keys // 2:]
+            self._fails = {k: self._fails[k] for k in keep}
+
+
+def refused_message(seconds: float) -> str:
+    """The login page's message for a locked-out name or address."""
+    minutes = max(1, int(-(-seconds // 60)))
+    return (f"Too many failed logins for this user name or address ({MAX_FAILURES} within {WINDOW_S / 60:g} min): "
+            f"try again in {minutes} min")
+
+
+def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
     """A Panel/Bokeh auth provider: Panel's login and logout pages, the password checked against ``users``'
-    hashes. Imports Panel."""
-    from panel.auth import BasicAuthProvider, BasicLoginHandler
+    hashes, failed logins throttled by ``throttle`` (a fresh :class:`LoginThrottle` by default). Imports Panel."""
+    import asyncio
+    import urllib.parse
+
+    from panel.auth import BasicAuthProvider, BasicLoginHandler, _validate_next_url
+    from panel.io.state import state
+
+    throttle = throttle if throttle is not None else LoginThrottle()
 
     class HashedLogin(BasicLoginHandler):
         def _validate(self, username, password):
@@ -182,6 +252,27 @@ def auth_provider(users: dict[str, str]):
                 check_password(password, _DUMMY)  # the same time for an unknown name
                 return False
             return check_password(password, stored)
+
+        async def post(self):
+            username = self.get_argument("username", "")
+            password = self.get_argument("password", "")
+            keys = (("user", username), ("addr", self.request.remote_ip))
+            left = throttle.refused(*keys)
+            if left > 0:  # refused before any hashing: a flood costs no scrypt
+                self._fail(refused_message(left))
+                return
+            throttle.begin(*keys)
+            # scrypt in a worker thread (it releases the GIL): the server's thread keeps serving the other sessions
+            ok = await asyncio.get_running_loop().run_in_executor(None, self._validate, username, password)
+            if ok:
+                throttle.success(*keys)
+                self.set_current_user(username)
+                self.redirect(_validate_next_url(self.get_cookie("next_url", state.base_url)))
+            else:
+                self._fail("Invalid username or password!")
+
+        def _fail(self, message: str):
+            self.redirect(self.request.path + "?error=" + urllib.parse.quote_plus(message))
 
     class HashedAuth(BasicAuthProvider):
         @property

@@ -53,7 +53,9 @@ class DownloadsTab:
         lobes = lambda fmt: _figure_bytes(lambda: api.lobes_figure(s.lobes, s.points, s.raw), fmt)  # noqa: E731
         fit = lambda fmt: _figure_bytes(lambda: api.fit_figure(s.fit, api.modal(s.fit_cfg)[0], s.points,  # noqa: E731
                                                                method=s.fit.method), fmt)
-        pmap = lambda fmt: _figure_bytes(lambda: api.map_figure(s.post, *s.pmap), fmt)  # noqa: E731
+        # the figure of `millstab map --plot`: the posterior moved to the map's condition (its cuts, prior SLD, title)
+        pmap = lambda fmt: _figure_bytes(lambda: api.map_figure(  # noqa: E731
+            s.map_post if s.map_post is not None else s.post, *s.pmap), fmt)
         has_fit = lambda: s.fit is not None and s.points is not None  # noqa: E731
         has_map = lambda: s.pmap is not None and s.post is not None  # noqa: E731
         return [

@@ -31,6 +31,8 @@ class Session(param.Parameterized):
     cuts = param.Parameter(default=None, doc="uploaded labelled test cuts (PointSet) or None")
     post = param.Parameter(default=None, doc="the posterior of the last update or None")
     pmap = param.Parameter(default=None, doc="(rpm, depth_mm, P(stable)) of the last map or None")
+    map_post = param.Parameter(default=None, doc="the posterior the last map is for: post moved to the map's "
+                                                 "condition (api.for_condition), or None")
     rec = param.Parameter(default=None, doc="the last recommendation or None")
     lobes = param.Parameter(default=None, doc="the last SLD (millstab.api.Lobes) or None")
     raw = param.Boolean(default=False, doc="the raw lobes are drawn")

@@ -229,7 +229,7 @@ class UpdateTab:
 
     def clear_results(self) -> None:
         """Forget the shown posterior, map and recommendation (a campaign without a posterior was opened)."""
-        self.s.post, self.s.pmap, self.s.rec, self.post_id = None, None, None, None
+        self.s.post, self.s.pmap, self.s.map_post, self.s.rec, self.post_id = None, None, None, None, None
         self.post_table.text = self.rec.text = ""
         self.plot.objects = []
 
@@ -247,7 +247,8 @@ class UpdateTab:
                                 + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior")
                                 + "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
         if post.engine != api.cheapest_engine():  # minutes of the engine for every sample: only when asked
-            self.s.pmap, self.s.rec = None, None  # those of the last posterior are not this one's
+            # those of the last posterior are not this one's
+            self.s.pmap, self.s.map_post, self.s.rec = None, None, None
             self.rec.text = ""
             self.plot.objects = []
             self.map_job.status.text = (f'<span class="ms-note">the map and recommendation call {esc(post.engine)} '
@@ -297,19 +298,26 @@ class UpdateTab:
                 rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post), **grid)[0]
             else:
                 rec = api.recommend(post, risk, span, memo=memo, **grid)
-            return rpm, depth, pm, rec
+            return rpm, depth, pm, rec, post
 
         self.map_job.start(work, self.show_map)
 
     def show_map(self, result, caught) -> None:
-        rpm, depth, pm, rec = result
+        rpm, depth, pm, rec, map_post = result
         if self.campaign is not None and self.campaign.current is not None:
             self.campaign.reload_history()
+        # the map's posterior (moved to the target condition) first: the downloads draw it when pmap changes
+        self.s.map_post = map_post
         self.s.pmap, self.s.rec = (rpm, depth, pm), rec
         nt = rec.next_test
         marks = [(rec.rpm, rec.depth_mm, "recommended")]
-        if "rpm" in nt and "depth_mm" in nt:
+        # a next test in another condition (it teaches the shared parameters more) is not on this map's boundary:
+        # said with its condition, not drawn here
+        other = api.next_test_elsewhere(rec)
+        if "rpm" in nt and "depth_mm" in nt and other is None:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
+        where = (f" <b>in another condition: {esc(other)}</b> (not drawn on this map; {esc(nt.get('why', ''))})"
+                 if other is not None else "")
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
         # the map and the recommendation may say one thing each in the same words (dict: once each, in order)
@@ -319,7 +327,7 @@ class UpdateTab:
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, "
                            f"{nt.get('depth_mm', float('nan')):.3g} mm (P(chatter) "
-                           f"{nt.get('p_chatter', float('nan')):.2f}){notes}")
+                           f"{nt.get('p_chatter', float('nan')):.2f}){where}{notes}")
 
     def view(self):
         head = [self.campaign.view()] if self.campaign is not None else []

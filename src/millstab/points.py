@@ -521,14 +521,19 @@ def radial_width(entry: float, exit: float, diameter_mm: float) -> float:
 
 def condition_text(c: Cutting) -> str:
     """One line: "a/D 0.25 up milling, 4 teeth", "slot, 2 teeth" or "entry 30°–150°, 3 teeth"."""
-    d = describe_condition(c)
+    return described_text(describe_condition(c))
+
+
+def described_text(d: dict) -> str:
+    """:func:`condition_text` of a condition as :func:`describe_condition` writes it (a result file's
+    ``computed_for``, a next test's ``condition``)."""
     if d.get("milling") == "slot":
         head = "slot"
     elif "radial_immersion" in d:
         head = f"a/D {d['radial_immersion']:.4g} {d['milling']} milling"
     else:
         head = f"entry {d['entry_deg']:.4g}°–{d['exit_deg']:.4g}°"
-    return f"{head}, {c.teeth} teeth"
+    return f"{head}, {d.get('teeth')} teeth"
 
 
 def never_cut_note(trained) -> str:
@@ -656,6 +661,7 @@ def cut_feeds(points: PointSet, default_mm: float) -> np.ndarray:
 
 __all__ = ["ANGLE_TOL", "CONDITION_COLUMNS", "MILLING", "MILLING_RULE", "MILLING_SYNONYMS", "SHOWN_DIGITS",
            "WIDTH_TOL", "milling_word", "check_conditions", "condition_of", "condition_text", "cut_conditions",
-           "cut_feeds", "describe_condition", "in_condition", "never_cut_note", "radial_width", "same_condition",
+           "cut_feeds", "describe_condition", "described_text", "in_condition", "never_cut_note", "radial_width",
+           "same_condition",
            "CLASS_EDGE", "GRADE", "LABELS", "LABEL_RULE", "PointSet", "SYNONYMS", "check_enough", "check_plausible",
            "check_speeds", "grade_of_cell", "label_of_grade", "parse_label_codes"]

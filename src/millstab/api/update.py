@@ -348,13 +348,9 @@ def next_test_elsewhere(rec) -> str | None:
     if (nt.get("teeth") == here.get("teeth") and abs(nt.get("entry_deg", 0) - here.get("entry_deg", 0)) < 1e-3
             and abs(nt.get("exit_deg", 0) - here.get("exit_deg", 0)) < 1e-3):
         return None
-    if nt.get("milling") == "slot":
-        head = "slot"
-    elif "radial_immersion" in nt:
-        head = f"a/D {nt['radial_immersion']:.4g} {nt['milling']} milling"
-    else:
-        head = f"entry {nt['entry_deg']:.4g}°–{nt['exit_deg']:.4g}°"
-    return f"{head}, {nt.get('teeth')} teeth"
+    from millstab.points import described_text
+
+    return described_text(nt)
 
 
 def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.ndarray:

@@ -19,12 +19,14 @@ Units: rpm and mm at this interface.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy.special import ndtr
 
 from millstab.errors import InputError
 from millstab.update.batch import fn_columns, shift_fn
-from millstab.update.likelihood import limits_by_condition
+from millstab.update.likelihood import limits_by_condition, stickout_groups
 from millstab.update.posterior import Posterior
 
 
@@ -95,31 +97,25 @@ def predict_cuts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None
 def predict_at_stickouts(post: Posterior, rpm, depth_mm, conditions: tuple | None = None, cond_index=None,
                          batch=None, stickout=None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`predict_cuts` with each cut at its own tool stickout ``stickout`` (n,) [m] (NaN: the posterior's own;
-    ``None``: every cut there): the posterior's holder samples with the tip at each distinct stickout
-    (:func:`millstab.update.stickout.at_stickout`), one engine call per stickout, as the update's likelihood makes.
+    ``None``: every cut there): the posterior's holder samples with the tip at each distinct stickout, grouped as
+    the update's likelihood groups its cuts (:func:`millstab.update.likelihood.stickout_groups`), one engine call
+    per stickout.
 
     Raises:
         InputError: stickouts with a posterior over the tip's modes (as the update refuses them), and as
             :func:`predict_cuts`.
     """
-    from millstab.update.stickout import at_stickout
-
     so = None if stickout is None else np.atleast_1d(np.asarray(stickout, dtype=float))
     if so is None or np.isnan(so).all():
         return predict_cuts(post, rpm, depth_mm, conditions, cond_index, batch)
-    if getattr(post.prior.par, "at", None) is None:
-        from millstab.update.stickout import not_over_holder
-
-        raise not_over_holder(so)
     r, d = np.atleast_1d(np.asarray(rpm, dtype=float)), np.atleast_1d(np.asarray(depth_mm, dtype=float))
     idx = None if cond_index is None else np.asarray(cond_index)
     day = None if batch is None else np.asarray(batch, dtype=object)
     ps, pl = np.empty(r.size), np.empty(r.size)
-    key = np.nan_to_num(so, nan=-1.0)
-    for s in np.unique(key):  # a few stickouts, each one engine call over its cuts
-        m = key == s
-        ps[m], pl[m] = predict_cuts(post if s < 0 else at_stickout(post, float(s)), r[m], d[m], conditions,
-                                    None if idx is None else idx[m], None if day is None else day[m])
+    for prior, m in stickout_groups(post.prior, so):  # a few stickouts, each one engine call over its cuts
+        at = post if prior is post.prior else replace(post, prior=prior)
+        ps[m], pl[m] = predict_cuts(at, r[m], d[m], conditions, None if idx is None else idx[m],
+                                    None if day is None else day[m])
     return ps, pl
 
 

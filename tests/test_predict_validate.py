@@ -254,18 +254,22 @@ def test_baselines_against_brute_force():
     mu, sd = np.array([rpm.mean(), depth.mean()]), np.array([rpm.std(), depth.std()])
     x = (np.column_stack([rpm, depth]) - mu) / sd
     xt = (np.column_stack([test.rpm, test.depth_mm]) - mu) / sd
-    # logistic: the graded log-likelihood with the L2 penalty ½|w|² (C = 1), minimised directly
+    logistic, knn = _brute_baselines(x, xt, grade, 5)  # k = round(sqrt(30)) = 5
+    np.testing.assert_allclose(got["logistic"], logistic, atol=2e-4)
+    np.testing.assert_allclose(got["knn"], knn, atol=1e-12)
 
+
+def _brute_baselines(x: np.ndarray, xt: np.ndarray, grade: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two baselines recomputed on standardised features x (train) and xt (test): logistic regression as the
+    graded log-likelihood with the L2 penalty ½|w|² (C = 1) minimised directly, and the mean grade of the k nearest
+    training cuts by Euclidean distance."""
     def nll(beta):
         z = beta[0] + x @ beta[1:]
         return -(grade * -np.logaddexp(0, -z) + (1 - grade) * -np.logaddexp(0, z)).sum() + 0.5 * beta[1:] @ beta[1:]
 
-    beta = minimize(nll, np.zeros(3), method="BFGS", options={"gtol": 1e-10}).x
-    np.testing.assert_allclose(got["logistic"], 1 / (1 + np.exp(-(beta[0] + xt @ beta[1:]))), atol=2e-4)
-    # kNN: k = round(sqrt(30)) = 5 nearest by Euclidean distance, the mean of their grades
+    beta = minimize(nll, np.zeros(x.shape[1] + 1), method="BFGS", options={"gtol": 1e-10}).x
     d = np.linalg.norm(x[None, :, :] - xt[:, None, :], axis=2)
-    brute = np.array([grade[np.argsort(row)[:5]].mean() for row in d])
-    np.testing.assert_allclose(got["knn"], brute, atol=1e-12)
+    return 1 / (1 + np.exp(-(beta[0] + xt @ beta[1:]))), np.array([grade[np.argsort(row)[:k]].mean() for row in d])
 
 
 def _slot_and_half(n: int, seed: int = 1) -> PointSet:
@@ -299,15 +303,9 @@ def test_baselines_see_the_cutting_condition_where_the_cuts_conditions_differ():
     mu, sd = feats.mean(axis=0), feats.std(axis=0)
     x = (feats - mu) / sd
     xt = (np.array([[7000.0, 3.0, 0.0], [7000.0, 3.0, 90.0]]) - mu) / sd
-
-    def nll(beta):
-        z = beta[0] + x @ beta[1:]
-        return -(g * -np.logaddexp(0, -z) + (1 - g) * -np.logaddexp(0, z)).sum() + 0.5 * beta[1:] @ beta[1:]
-
-    beta = minimize(nll, np.zeros(4), method="BFGS", options={"gtol": 1e-10}).x
-    np.testing.assert_allclose(got["logistic"], 1 / (1 + np.exp(-(beta[0] + xt @ beta[1:]))), atol=2e-4)
-    d = np.linalg.norm(x[None, :, :] - xt[:, None, :], axis=2)
-    np.testing.assert_allclose(got["knn"], [g[np.argsort(row)[:5]].mean() for row in d], atol=1e-12)  # k = √24
+    logistic, knn = _brute_baselines(x, xt, g, 5)  # k = round(√24)
+    np.testing.assert_allclose(got["logistic"], logistic, atol=2e-4)
+    np.testing.assert_allclose(got["knn"], knn, atol=1e-12)
     # one condition: (rpm, depth) as before; up and down mixed: both angles; another number of teeth: teeth
     assert baseline_features(train.subset(np.arange(24) % 2 == 0), CUT) == ("rpm", "depth_mm")
     np.testing.assert_array_equal(baseline_predictions(train.subset(np.arange(24) % 2 == 0), test, CUT)["knn"],

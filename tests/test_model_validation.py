@@ -52,6 +52,21 @@ def test_low_stiffness_warns_with_field_name():
         Mode(903.0, 12.53, 0.03, "structure.x[0]")
 
 
+@pytest.mark.parametrize("k, ok", [(12.53e12, False), (2e10, False), (5e8, True), (2e9, True)])
+def test_implausibly_high_stiffness_warns_naming_the_unit(k, ok):
+    """12.53 N/µm typed as N/mm and read as N/m (or units applied twice) gives 10⁶× the stiffness: every
+    limit 10⁶× too deep. A spindle mode of a few hundred N/µm (5e8, 2e9 N/m) is real and passes."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Mode(903.0, k, 0.03, "structure.y[1]")
+    texts = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
+    if ok:
+        assert texts == []
+    else:
+        assert len(texts) == 1 and texts[0].startswith("structure.y[1].k = ")
+        assert f"{k * 1e-6:g} N/um" in texts[0] and "tool tip" in texts[0]
+
+
 def test_normal_stiffness_does_not_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -117,6 +132,19 @@ def test_from_immersion_angles():
 def test_low_kt_warns():
     with pytest.warns(UnitWarning, match="cutting.kt"):
         Cutting(2, 556.31, 0.404)
+
+
+def test_high_kt_and_kr_warn_and_real_ones_do_not():
+    """Kt of 556.31e12 (MPa applied to a value already in N/m²) and Kr of 300 (Kn in MPa given as the ratio)
+    each warn, naming the field; the seed paper's values and a hardened steel's (5 000 MPa, Kr 1.2) do not."""
+    with pytest.warns(UnitWarning, match=r"cutting\.kt = 5\.5631e\+14 N/m\^2 \(5\.5631e\+08 MPa\)"):
+        Cutting(2, 556.31e12, 0.404)
+    with pytest.warns(UnitWarning, match=r"cutting\.kr = 300 is no radial-to-tangential ratio.*Kn"):
+        Cutting(2, 556.31e6, 300.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Cutting(2, 556.31e6, 0.404)
+        Cutting(4, 5000e6, 1.2)
 
 
 # -------------------------------------------------------------------------------- Structure

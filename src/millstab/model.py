@@ -30,6 +30,16 @@ from millstab.warnlog import quiet, warn
 #: Below this modal stiffness [N/m] a value is almost surely N/µm typed as N/m (the seed paper's
 #: Table 1 prints "12.53 N/m" for 12.53 N/µm).
 SUSPICIOUS_STIFFNESS = 1e4
+#: Above this modal stiffness [N/m] (10 000 N/µm) a value is no tool tip's: tool-tip modes measure ~1–100 N/µm
+#: and the stiffest spindle modes a few hundred; a larger value is a unit slip (N/mm or MN/m read as N/m, or
+#: units applied twice).
+IMPLAUSIBLE_STIFFNESS = 1e10
+#: Above this tangential cutting coefficient [N/m²] (20 000 MPa) no metal cuts: Kt ≈ 500–1 000 MPa for aluminium,
+#: 1 500–3 000 MPa for steels and titanium, ~5 000 MPa for hardened steel.
+IMPLAUSIBLE_KT = 2e10
+#: Above this Kr = Kn/Kt [-] the radial coefficient is no ratio: measured Kr lie between ~0.1 and ~1.5; a value
+#: like 300 is the radial coefficient Kn itself (in MPa), and 40 a percentage.
+IMPLAUSIBLE_KR = 5.0
 
 
 def _finite(field_name: str, value: object) -> float:
@@ -78,6 +88,10 @@ class Mode:
                 UnitWarning,
                 stacklevel=3,
             )
+        elif k > IMPLAUSIBLE_STIFFNESS:
+            warn(f"{self.name}.k = {k:g} N/m ({k * 1e-6:g} N/um) is far stiffer than any tool tip (tool-tip modes "
+                 f"measure ~1-100 N/um, the stiffest spindle modes a few hundred); check its unit: a plain number "
+                 f"is N/m, e.g. \"12.53 N/um\"", UnitWarning, stacklevel=3)
         object.__setattr__(self, "fn", fn)
         object.__setattr__(self, "k", k)
         object.__setattr__(self, "zeta", zeta)
@@ -276,8 +290,16 @@ class Cutting:
                 UnitWarning,
                 stacklevel=3,
             )
+        elif kt > IMPLAUSIBLE_KT:
+            warn(f"cutting.kt = {kt:g} N/m^2 ({kt * 1e-6:g} MPa) is far above any metal's (Kt is ~500-1 000 MPa for "
+                 f"aluminium, 1 500-3 000 MPa for steels, ~5 000 MPa for hardened steel); check its unit: a plain "
+                 f"number is N/m^2, e.g. \"2173 MPa\"", UnitWarning, stacklevel=3)
         if kr < 0:
             raise InputError("cutting.kr", self.kr, "radial-to-tangential ratio must be >= 0")
+        if kr > IMPLAUSIBLE_KR:
+            warn(f"cutting.kr = {kr:g} is no radial-to-tangential ratio Kr = Kn/Kt (measured ones lie between ~0.1 "
+                 f"and ~1.5): is it the radial coefficient Kn itself, or a percentage? Give kr = Kn / Kt, e.g. 0.3",
+                 UnitWarning, stacklevel=3)
         tol = 1e-12
         if not -tol <= entry <= math.pi + tol:
             raise InputError("cutting.entry", self.entry, "entry angle must be in [0, pi] rad (0..180 deg)")

@@ -225,6 +225,10 @@ def rho_map(structure: Structure, cutting: Cutting, rpm, depth_m, steps: int | N
         rpm: spindle speeds (S,) [rev/min]; depth_m: axial depths (D,) [m], ≥ 0;
         steps: steps per tooth period (int), or None for the accuracy-controlled default;
         progress: ``progress(stage, done, total)`` in speeds, see the module docstring.
+
+    The default's accuracy control is set for the boundary (ρ = 1, where the limits are read); far inside a band
+    ρ can be off by a few %: Example 1 at a/D 0.05 down, 12 500 rpm, 145 mm gives 0.912 against 0.953 at 400
+    steps (and the spectral engine's converged value). Pass a fixed ``steps`` for ρ values deep inside a band.
     """
     _require_modal(structure)
     r = check_rpm(rpm)

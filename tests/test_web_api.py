@@ -275,36 +275,63 @@ def test_login_throttle_locks_a_name_or_address_out_for_a_while():
     from millstab.web import auth
 
     now = [0.0]
-    t = auth.LoginThrottle(max_failures=5, window_s=300, lockout_s=300, clock=lambda: now[0])
-    anna, ip = ("user", "anna"), ("addr", "10.0.0.9")
+    t = auth.LoginThrottle({"pair": 5, "addr": 20, "user": 50}, window_s=300, lockout_s=300, clock=lambda: now[0])
+
+    def keys(name, ip):
+        return ("pair", name, ip), ("addr", ip), ("user", name)
+
     for _ in range(4):
-        assert t.refused(anna, ip) == 0
-        t.begin(anna, ip)
+        assert t.refused(*keys("anna", "10.0.0.9")) == 0
+        t.begin(*keys("anna", "10.0.0.9"))
         now[0] += 1
-    t.begin(anna, ip)  # the fifth failure within the window
-    assert t.refused(anna, ip) == pytest.approx(300) and t.refused(("user", "ben")) == 0
-    assert t.refused(("user", "ben"), ip) > 0  # the address too
+    t.begin(*keys("anna", "10.0.0.9"))  # the fifth failure within the window
+    assert t.refused(*keys("anna", "10.0.0.9")) == pytest.approx(300)
+    # a guesser at one address locks only itself out: anna at her own computer and ben at the guesser's are not
+    assert t.refused(*keys("anna", "10.0.0.2")) == 0 and t.refused(*keys("ben", "10.0.0.9")) == 0
+    for i in range(15):  # 20 failures from one address, whatever the names, lock the address
+        assert t.refused(*keys(f"u{i}", "10.0.0.9")) == 0
+        t.begin(*keys(f"u{i}", "10.0.0.9"))
+    assert t.refused(*keys("ben", "10.0.0.9")) > 0 and t.refused(*keys("ben", "10.0.0.3")) == 0
+    for i in range(50):  # 50 for one name from many addresses lock the name everywhere (a distributed guess)
+        t.begin(*keys("carl", f"10.1.{i}.1"))
+    assert t.refused(*keys("carl", "10.9.9.9")) > 0 and t.refused(*keys("anna", "10.9.9.9")) == 0
     now[0] += 301
-    assert t.refused(anna, ip) == 0
-    t.begin(anna)
-    t.success(anna)  # a correct password forgets the failures
-    assert t._fails.get(anna) is None
+    assert t.refused(*keys("anna", "10.0.0.9")) == 0 and t.refused(*keys("carl", "10.9.9.9")) == 0
+    t.begin(*keys("anna", "10.0.0.9"))
+    t.success(*keys("anna", "10.0.0.9"))  # a correct password forgets the failures
+    assert t._fails.get(("pair", "anna", "10.0.0.9")) is None
     now[0] += 1000  # failures spread beyond the window never lock out
     for _ in range(10):
-        t.begin(("user", "carl"))
+        t.begin(*keys("dora", "10.0.0.9"))
         now[0] += 100
-    assert t.refused(("user", "carl")) == 0
-    assert "try again in 5 min" in auth.refused_message(299) and "5 within 5 min" in auth.refused_message(1)
+    assert t.refused(*keys("dora", "10.0.0.9")) == 0
+    msg = auth.refused_message(299)
+    assert "try again in 5 min" in msg and "5 for this user name from this address" in msg
+
+
+def _login(url: str, password: str, client: str | None = None, name: str = "anna") -> str:
+    """POST a login to the app at ``url``; the redirect's target, unquoted (``client``: an X-Forwarded-For)."""
+    import urllib.error
+    import urllib.parse
+    import urllib.request
+
+    class NoRedirect(urllib.request.HTTPRedirectHandler):
+        def redirect_request(self, *args, **kwargs):
+            return None
+
+    data = urllib.parse.urlencode({"username": name, "password": password}).encode()
+    req = urllib.request.Request(url + "login", data=data, headers={"X-Forwarded-For": client} if client else {})
+    try:
+        urllib.request.build_opener(NoRedirect).open(req, timeout=60)
+    except urllib.error.HTTPError as exc:  # the 302 the login answers with
+        return urllib.parse.unquote_plus(exc.headers["Location"])
+    raise AssertionError("no redirect")
 
 
 def test_login_flood_is_refused_without_hashing(tmp_path, monkeypatch):
     """Exploratory test: 100 wrong passwords went through in 4.4 s, each an scrypt on the server's thread (fails on
     the old code: every attempt checked, no refusal message). After 5 failures the name and address are refused,
     with a message, without running scrypt, also for the right password."""
-    import urllib.error
-    import urllib.parse
-    import urllib.request
-
     pytest.importorskip("panel")
     import millstab.web.testing as T
     from millstab.web import auth
@@ -314,27 +341,34 @@ def test_login_flood_is_refused_without_hashing(tmp_path, monkeypatch):
     real = auth.check_password
     monkeypatch.setattr(auth, "check_password", lambda pw, stored: checks.append(1) or real(pw, stored))
 
-    class NoRedirect(urllib.request.HTTPRedirectHandler):
-        def redirect_request(self, *args, **kwargs):
-            return None
-
-    opener = urllib.request.build_opener(NoRedirect)
-
-    def login(password):
-        data = urllib.parse.urlencode({"username": "anna", "password": password}).encode()
-        try:
-            opener.open(url + "login", data=data, timeout=60)
-        except urllib.error.HTTPError as exc:  # the 302 the login answers with
-            return urllib.parse.unquote_plus(exc.headers["Location"])
-        raise AssertionError("no redirect")
-
     with T.running_app(users=auth.read_users(path)) as url:
         url = url if url.endswith("/") else url + "/"
-        got = [login(f"wrong {i}") for i in range(8)]
+        got = [_login(url, f"wrong {i}") for i in range(8)]
         assert all("Invalid username or password" in g for g in got[:5]), got
         assert all("Too many failed logins" in g and "try again in 5 min" in g for g in got[5:]), got
-        assert "Too many failed logins" in login("correct horse 1")
+        assert "Too many failed logins" in _login(url, "correct horse 1")
         assert len(checks) == 5
+        # without --behind-proxy a client's own X-Forwarded-For is ignored: it cannot escape its lockout
+        assert "Too many failed logins" in _login(url, "wrong", client="198.51.100.7")
+
+
+def test_a_guesser_cannot_lock_a_user_out_behind_a_proxy(tmp_path):
+    """Exploratory test: behind a reverse proxy every client had the proxy's address, and 5 wrong passwords for a
+    known name (anyone's) locked its owner out for 5 min (fails on the old code: the name was locked everywhere,
+    and --behind-proxy did not exist). With ``proxy`` the client's address comes from X-Forwarded-For: the guesser
+    at one address is refused, the user at another logs in."""
+    pytest.importorskip("panel")
+    import millstab.web.testing as T
+    from millstab.web import auth
+
+    path = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
+    with T.running_app(users=auth.read_users(path), proxy=True) as url:
+        url = url if url.endswith("/") else url + "/"
+        got = [_login(url, f"wrong {i}", client="203.0.113.5") for i in range(6)]
+        assert all("Invalid username or password" in g for g in got[:5]) and "Too many failed" in got[5], got
+        ok = _login(url, "correct horse 1", client="198.51.100.7")
+        assert "error=" not in ok, ok
+        assert "Too many failed logins" in _login(url, "correct horse 1", client="203.0.113.5")
 
 
 def test_users_file_is_private(tmp_path):

@@ -27,6 +27,9 @@ def app_cmd(
                                    "and writes only their shops' campaigns."),
     db: str = typer.Option(None, "--db", help="Shop database (a file, created when new, or a SQLAlchemy URL): the "
                                               "Update tab lists, opens and updates its campaigns. See docs/app.md."),
+    behind_proxy: bool = typer.Option(False, "--behind-proxy", help="Served behind a reverse proxy (nginx, Caddy): "
+                                      "each client's address, which the login throttle counts, is read from the "
+                                      "proxy's X-Forwarded-For / X-Real-Ip header. Only behind a proxy that sets it."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser tab."),
 ) -> None:
     """Serve the stability tools as a web page (tool and cut, lobes, identify, update, downloads); prints the URL."""
@@ -51,7 +54,7 @@ def app_cmd(
 
     serve(port=port, host=host, show=not no_browser,
           users={n: h for n, (h, _) in accounts.items()} if accounts else None,
-          db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None)
+          db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None, proxy=behind_proxy)
 
 
 def _add_user(users: Path | None, name: str, password_stdin: bool, shops: list[str] | None) -> None:

@@ -66,14 +66,15 @@ def check_address(host: str, port: int) -> None:
 
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
           verbose: bool = False, users: dict[str, str] | None = None, db: str | None = None,
-          shops: dict[str, tuple[str, ...]] | None = None):
+          shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
     (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
     :mod:`millstab.web.auth`) every page needs a login; a host other than 127.0.0.1/localhost/::1
     requires them. ``db``: a shop database (path or URL, created when new) whose campaigns the Update tab
     opens and updates; with ``users``, each user sees only the campaigns of their shops (``shops``: {user:
-    shops}; a user not in it: the shop ``default``).
+    shops}; a user not in it: the shop ``default``). ``proxy``: served behind a reverse proxy, so a client's address
+    (the login throttle's, :mod:`millstab.web.auth`) is read from the proxy's X-Forwarded-For / X-Real-Ip header.
 
     Raises:
         InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
@@ -104,7 +105,8 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     port = port or free_port(host)
     url = f"http://{host}:{port}/"
     origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
-    opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose)
+    opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose,
+                use_xheaders=proxy)
     if users:
         import secrets
 

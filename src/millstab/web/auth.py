@@ -20,10 +20,15 @@ the shop ``default``, the shop of campaigns made on the command line); it sees a
 of its shops (the rule is enforced by :class:`millstab.api.shop.ShopView`, which the page uses for every
 read and write).
 
-**Throttling**: after :data:`MAX_FAILURES` failed logins within :data:`WINDOW_S` seconds for one user name
-or one client address, further attempts for that name or address are refused for :data:`LOCKOUT_S` seconds
-with a message saying so, without hashing the password (:class:`LoginThrottle`, in memory: a restart
-forgets it). The scrypt check runs in a worker thread, so a login flood does not stall the other sessions.
+**Throttling**: failed logins within :data:`WINDOW_S` seconds are counted per user name from one address, per
+address and per user name (:data:`FAILURE_LIMITS`: 5, 20, 50); at its limit a key is refused for
+:data:`LOCKOUT_S` seconds with a message saying so, without hashing the password (:class:`LoginThrottle`, in
+memory: a restart forgets it). A name is locked for everyone only after more failures than one address may make,
+so one guesser cannot lock a known user out (it locks only itself), and a guesser cycling through names from one
+address stops at 20. Behind a reverse proxy every client has the proxy's address: serve with ``proxy=True``
+(``millstab app --behind-proxy``) to take the client's address from the proxy's X-Forwarded-For / X-Real-Ip
+header (only behind a proxy that sets it: without one a client could write its own). The scrypt check runs in a
+worker thread, so a login flood does not stall the other sessions.
 """
 
 from __future__ import annotations
@@ -45,8 +50,13 @@ LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 SCRYPT_N, SCRYPT_R, SCRYPT_P = 2**14, 8, 1
 _NAME = re.compile(r"[A-Za-z0-9_.@+-]{1,64}")
 MIN_PASSWORD = 8
-#: login throttling: this many failures within WINDOW_S seconds lock a name or address out for LOCKOUT_S seconds
-MAX_FAILURES, WINDOW_S, LOCKOUT_S = 5, 300.0, 300.0
+#: login throttling: failures within WINDOW_S seconds that lock a key out for LOCKOUT_S seconds, per kind of key: a
+#: user name from one address ("pair"), an address ("addr", whatever the names), a user name from any address
+#: ("user": above what one address may make, so a single guesser cannot lock a known user out for everyone)
+FAILURE_LIMITS = {"pair": 5, "addr": 20, "user": 50}
+WINDOW_S, LOCKOUT_S = 300.0, 300.0
+#: the failures that lock one user name out at one address (the limit a user meets first)
+MAX_FAILURES = FAILURE_LIMITS["pair"]
 
 
 def is_local(host: str) -> bool:
@@ -181,14 +191,16 @@ def add_user(path: str | Path, name: str, password: str, shops=None) -> Path:
 
 
 class LoginThrottle:
-    """Failed logins per key (``("user", name)``, ``("addr", ip)``), in memory: :meth:`refused` says how many
-    seconds a key is still locked out (0: not), :meth:`begin` counts an attempt as a failure before the password
-    is checked (so parallel attempts cannot slip past the limit), :meth:`success` forgets a key's failures.
-    Thread-safe; ``clock``: seconds (``time.monotonic``)."""
+    """Failed logins per key (``("pair", name, ip)``, ``("addr", ip)``, ``("user", name)``: the first item is the
+    key's kind, whose limit ``limits`` gives, :data:`FAILURE_LIMITS` by default), in memory: :meth:`refused` says
+    how many seconds a key is still locked out (0: not), :meth:`begin` counts an attempt as a failure before the
+    password is checked (so parallel attempts cannot slip past the limit), :meth:`success` forgets a key's
+    failures. Thread-safe; ``clock``: seconds (``time.monotonic``)."""
 
-    def __init__(self, max_failures: int = MAX_FAILURES, window_s: float = WINDOW_S, lockout_s: float = LOCKOUT_S,
+    def __init__(self, limits: dict[str, int] | None = None, window_s: float = WINDOW_S, lockout_s: float = LOCKOUT_S,
                  clock=time.monotonic, max_keys: int = 100_000):
-        self.max_failures, self.window_s, self.lockout_s = max_failures, window_s, lockout_s
+        self.limits = dict(FAILURE_LIMITS if limits is None else limits)
+        self.window_s, self.lockout_s = window_s, lockout_s
         self.clock, self.max_keys = clock, max_keys
         self._fails: dict[tuple, list[float]] = {}
         self._until: dict[tuple, float] = {}
@@ -209,7 +221,7 @@ class LoginThrottle:
             for k in keys:
                 fails = [t for t in self._fails.get(k, ()) if now - t < self.window_s] + [now]
                 self._fails[k] = fails
-                if len(fails) >= self.max_failures:
+                if len(fails) >= self.limits[k[0]]:
                     self._until[k] = now + self.lockout_s
 
     def success(self, *keys) -> None:
@@ -230,8 +242,9 @@ class LoginThrottle:
 def refused_message(seconds: float) -> str:
     """The login page's message for a locked-out name or address."""
     minutes = max(1, int(-(-seconds // 60)))
-    return (f"Too many failed logins for this user name or address ({MAX_FAILURES} within {WINDOW_S / 60:g} min): "
-            f"try again in {minutes} min")
+    n = FAILURE_LIMITS
+    return (f"Too many failed logins ({n['pair']} for this user name from this address, {n['addr']} from this "
+            f"address or {n['user']} for this user name within {WINDOW_S / 60:g} min): try again in {minutes} min")
 
 
 def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
@@ -256,7 +269,8 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
         async def post(self):
             username = self.get_argument("username", "")
             password = self.get_argument("password", "")
-            keys = (("user", username), ("addr", self.request.remote_ip))
+            ip = self.request.remote_ip  # the proxy's header's client address with proxy=True (tornado's xheaders)
+            keys = (("pair", username, ip), ("addr", ip), ("user", username))
             left = throttle.refused(*keys)
             if left > 0:  # refused before any hashing: a flood costs no scrypt
                 self._fail(refused_message(left))

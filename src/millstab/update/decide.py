@@ -534,6 +534,17 @@ def warn_time_averaged(post: Posterior, stacklevel: int = 2) -> None:
              "cutting (--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
 
 
+def warn_averaged_error(post: Posterior, rpm: float, depth_mm: float, risk: float, seed: int = 0) -> None:
+    """Warn when the recommended cut of a time-averaged (zero-order) posterior chatters clearly more often under the
+    interrupted-cutting engine on the same samples (:mod:`millstab.update.model_check`: the tooth-count rule of
+    :func:`warn_time_averaged` missed a 4.9× error at one tooth in the cut)."""
+    from millstab.update.model_check import accurate_check, check_message
+
+    check = accurate_check(post, rpm, depth_mm, risk, seed=seed)
+    if check is not None and check["warn"]:
+        warn(check_message(check, rpm, depth_mm, post.engine), UserWarning, stacklevel=3)
+
+
 @dataclass(frozen=True)
 class Recommendation:
     """The recommended cut and the next test (rpm, mm, cm³/min)."""
@@ -1192,6 +1203,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     from millstab.points import describe_condition, same_condition
 
     nt["condition"] = describe_condition(post.condition)
+    warn_averaged_error(post, float(rpm_best), float(depth_best), risk, seed)
     if across is None:
         trained = post.trained_conditions
         across = len(trained) > 1 or not same_condition(trained[0], post.condition)
@@ -1472,7 +1484,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",
-           "warn_time_averaged",
+           "warn_averaged_error", "warn_time_averaged",
            "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",

@@ -518,6 +518,10 @@ def test_predict_warns_once_per_condition_where_less_than_one_tooth_cuts():
         api.predict(post, cuts)
     mine = [str(x.message) for x in w if "averages the cutting force" in str(x.message)]
     assert len(mine) == 1 and "a/D 0.1 down milling, 2 teeth" in mine[0]
+    # kept in the prediction and its JSON (an exploratory test: pred.json said "warnings": [] while the terminal
+    # showed the warning; fails on the old code)
+    pred = api.predict(post, cuts)
+    assert mine[0] in pred.warnings and mine[0] in pred.to_json()["warnings"]
 
 
 def test_a_zero_order_update_of_cuts_with_less_than_one_tooth_in_the_cut_is_warned_once():

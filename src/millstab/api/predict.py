@@ -24,7 +24,7 @@ class Prediction:
             lies above its depth: the process, free of how labels are written).
         p_label_chatter: (n,) probability that the written label says chatter (with the posterior's label
             model: :func:`millstab.update.predict.predict_cuts`).
-        warnings: the posterior's own warnings (a prior-data conflict among them).
+        warnings: the posterior's own warnings (a prior-data conflict among them), then the prediction's.
         condition: (n,) str, the cutting condition each prediction is computed for ("a/D 0.25 up milling,
             4 teeth"): the cut's own condition columns, else the posterior's (target) condition; ``None``
             when every cut is in the one condition the posterior was trained in (the table has no column).
@@ -141,7 +141,8 @@ def predict(post, cuts: PointSet) -> Prediction:
     empty cells and missing columns taking ``post.condition`` (the config's, or the target of
     :func:`millstab.api.update.for_condition`), and at its own stickout (a ``stickout_mm`` column, with a posterior
     over the holder; an empty cell: the posterior's stickout); a cut in a condition none of the posterior's cuts
-    was made in carries the note of map and recommend (:attr:`Prediction.note`).
+    was made in carries the note of map and recommend (:attr:`Prediction.note`). Every warning it issues is kept in
+    :attr:`Prediction.warnings` after the posterior's own (its JSON said none while the terminal showed some).
 
     Raises:
         InputError: bad speeds or depths (see :func:`millstab.update.predict.predict_cuts`), a ``stickout_mm``
@@ -150,6 +151,13 @@ def predict(post, cuts: PointSet) -> Prediction:
         UserWarning: cuts beyond the tested speeds (there the prediction leans on the prior); a zero-order
             posterior's cuts in a condition with less than one tooth in the cut (:func:`warn_time_averaged`).
     """
+    from millstab.update.decide import keeps_warnings
+
+    return keeps_warnings(_predict)(post, cuts)
+
+
+def _predict(post, cuts: PointSet) -> Prediction:
+    """The work of :func:`predict` (which keeps its warnings)."""
     from millstab.bounds import check_cuts
     from millstab.io.stickout import stickouts
     from millstab.update.decide import warn_outside, warn_time_averaged

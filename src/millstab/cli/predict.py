@@ -61,8 +61,7 @@ def predict_cmd(
     protect = emit.checked({**inputs, "CUTS": cuts}, {"--out": out, "--json": json_out})  # before the work
     pred = predict(post, c)
     con = Console()
-    for w in pred.warnings:
-        con.print(f"[yellow]warning (from the update):[/yellow] {w}")
+    emit.warnings(con, pred.warnings, "warning (from the update)")  # the prediction's own were printed as issued
     con.print(api.condition_line(post) if pred.condition is None else "computed per cut for the condition in its "
                                                                    "'condition' column")
     con.print(pred.summary())

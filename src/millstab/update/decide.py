@@ -908,12 +908,13 @@ def pockets(productivity: np.ndarray, k: int) -> np.ndarray:
     return peak[np.argsort(-p[peak], kind="stable")][:k]
 
 
-def _keeps_warnings(decide):
-    """``decide`` (a decision returning a :class:`Recommendation`) with every warning it issues passed on as before
-    and kept in its result, after the posterior's own (``Recommendation.warnings``): a recommendation file read
-    alone, or by a program, says what the terminal said."""
+def keeps_warnings(decide):
+    """``decide`` (a decision from a posterior returning a dataclass with a ``warnings`` field: a
+    :class:`Recommendation`, a prediction) with every warning it issues passed on as before and kept in its result,
+    after the posterior's own: a recommendation or prediction file read alone, or by a program, says what the
+    terminal said."""
     @functools.wraps(decide)
-    def kept(post: Posterior, *args, **kwargs) -> Recommendation:
+    def kept(post: Posterior, *args, **kwargs):
         with collect() as caught:
             rec = decide(post, *args, **kwargs)
         for w in caught:
@@ -923,7 +924,7 @@ def _keeps_warnings(decide):
     return kept
 
 
-@_keeps_warnings
+@keeps_warnings
 def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, max_depth_mm: float | None = None,
               width_mm: float | None = None, feed_mm: float | None = None, seed: int = 0,
               confidence: float | None = CONFIDENCE, speed_tolerance: float = SPEED_TOLERANCE,
@@ -1484,7 +1485,7 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "DISCRIMINATE_RIVAL_LR", "CONFIRM",
            "CONFIRM_CHOICES", "CONFIDENCE", "CONFIRM_P_CHATTER", "CONFIRM_WIDTH",
            "confirmed_cuts", "conflict_named", "frequencies_place_modes", "PLACE_MODES_CUTS", "support_cap",
-           "warn_averaged_error", "warn_time_averaged",
+           "keeps_warnings", "warn_averaged_error", "warn_time_averaged",
            "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
            "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",

@@ -238,6 +238,12 @@ def test_fold_schemes_hold_out_each_cut_once():
     assert np.bincount(g).tolist() == [10, 10, 10, 10] and (np.diff(g) >= 0).all()
     with pytest.raises(InputError, match="scheme"):
         fold_indices(cuts, "day", 3, 1)
+    # leave one condition out: each condition's cuts are one fold, whatever their order in the file
+    cond = np.array([0, 1, 0, 2, 1, 0, 0, 2, 2, 1, 0, 0, 1, 2])
+    f = fold_indices(cuts, "condition", 3, 1, condition=cond)
+    assert [x.tolist() for x in f] == [np.flatnonzero(cond == c).tolist() for c in range(3)]
+    with pytest.raises(InputError, match="condition"):
+        fold_indices(cuts, "condition", 3, 1)  # without each cut's condition
 
 
 def test_baselines_against_brute_force():
@@ -437,7 +443,8 @@ def test_validate_command_on_cuts_in_several_conditions(tmp_path, capsys):
                                        "9000,1.5,,,stable\n9000,6.5,0.1,down,chatter\n")
     assert main(["validate", "example:ex1", str(tmp_path / "cuts.csv"), "--folds", "2", "--samples", "100",
                  "--out", str(tmp_path / "v.json"), "--predictions", str(tmp_path / "v.csv")]) == 0
-    err = " ".join(capsys.readouterr().err.split())
+    cap = capsys.readouterr()
+    err, out = " ".join(cap.err.split()), " ".join(cap.out.split())
     assert "averages the cutting force" in err and "the cuts made in a/D 0.1 down milling, 2 teeth" in err
     rows = list(csv.DictReader((tmp_path / "v.csv").open()))
     assert [r["radial_immersion"] for r in rows] == ["", "", "0.1", "0.1", "", "0.1"]
@@ -445,6 +452,12 @@ def test_validate_command_on_cuts_in_several_conditions(tmp_path, capsys):
     doc = json.loads((tmp_path / "v.json").read_text())
     assert doc["cuts"]["conditions"]["milling"] == ["", "", "down", "down", "", "down"]
     assert doc["settings"]["baseline_features"] == ["rpm", "depth_mm", "entry_deg"]
+    # cuts in two conditions: leave one condition out is a scheme of its own, each condition one fold (the slot's
+    # three cuts predicted from the a/D 0.1 cuts alone and back); fails on the old code (no such scheme)
+    assert doc["settings"]["schemes"] == ["random", "speed", "condition"]
+    assert doc["folds"]["condition"] == [0, 0, 1, 1, 0, 1]
+    assert "leave one cutting condition out (2 folds, 6 cuts)" in out
+    assert [r["condition_fold"] for r in rows] == ["0", "0", "1", "1", "0", "1"]
 
 
 @pytest.mark.parametrize("argv,shown", [(["predict", "--help"], "p_stable,p_label_chatter"),

@@ -12,8 +12,9 @@ from millstab.points import PointSet
 def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int = 1000, engine: str = "zoa",
              progress: Progress | None = None, engine_options: dict | None = None):
     """Cross-validated Brier score, log loss and AUC of millstab's P(chatter label) and of the majority rate,
-    logistic regression and k-nearest-neighbours, by random folds, leave-one-speed-out and (with two or
-    more batches) leave-one-day-out (:func:`millstab.update.validate.cross_validate`); a measured-FRF config's
+    logistic regression and k-nearest-neighbours, by random folds, leave-one-speed-out, (with two or more batches)
+    leave-one-day-out and (with cuts in two or more conditions) leave-one-condition-out
+    (:func:`millstab.update.validate.cross_validate`); a measured-FRF config's
     prior centres on its fitted modes; ``engine_options``: the engine's discretisation of every fold's update
     and prediction (as :func:`millstab.api.update`).
 

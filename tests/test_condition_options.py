@@ -79,6 +79,10 @@ def test_a_recommendation_refuses_a_rate_width_that_is_not_its_conditions():
     assert rec.mrr_cm3_per_min == pytest.approx(rec.depth_mm * rec.rpm * 6.0 * 0.1 * 2 / 1000)
     # a width alone (no feed) named the condition: no rate, no error
     assert recommend(post, 0.05, (5000, 9000), width_mm=6.0).mrr_cm3_per_min is None
+    # a feed alone takes the condition's width from the diameter (an exploratory test: `--radial-immersion 0.25
+    # --feed-per-tooth 0.1` asked for --radial-width; fails on the old code)
+    rec = recommend(post, 0.05, (5000, 9000), feed_mm=0.1)
+    assert rec.mrr_cm3_per_min == pytest.approx(rec.depth_mm * rec.rpm * 6.0 * 0.1 * 2 / 1000)
 
 
 def test_recommend_command_decides_for_the_width_or_names_the_contradiction(tmp_path, capsys):

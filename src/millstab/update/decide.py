@@ -698,7 +698,8 @@ def _mrr_factor(teeth: int, width_mm: float | None, feed_mm: float | None) -> fl
     if width_mm is None or feed_mm is None:  # name the option that WAS given (not "= None"), and the missing one
         given, value, missing = (("--feed-per-tooth", feed_mm, "--radial-width") if width_mm is None
                                  else ("--radial-width", width_mm, "--feed-per-tooth"))
-        raise InputError(given, value, f"also give {missing} [mm]: the removal rate in cm^3/min needs the radial "
+        hint = " (or the tool's diameter in the config: the width is then the condition's)" if width_mm is None else ""
+        raise InputError(given, value, f"also give {missing} [mm]{hint}: the removal rate in cm^3/min needs the radial "
                                        "width and the feed per tooth (or give neither: depth × speed)")
     for name, v in (("--radial-width", width_mm), ("--feed-per-tooth", feed_mm)):
         if not (math.isfinite(v) and v > 0):
@@ -708,19 +709,21 @@ def _mrr_factor(teeth: int, width_mm: float | None, feed_mm: float | None) -> fl
 
 def _rate_width(post: Posterior, width_mm: float | None, feed_mm: float | None) -> tuple[float | None, float | None]:
     """(width, feed) [mm] of the removal rate. With the tool diameter a width is the decision's condition's (the
-    doors set the condition from it: ``millstab.api.for_condition``), so it must be that condition's width, and a
-    width without a feed only named the condition (no rate in cm³/min, no error); without a diameter it is the
-    rate's alone, as given.
+    doors set the condition from it: ``millstab.api.for_condition``), so it must be that condition's width, a
+    width without a feed only named the condition (no rate in cm³/min, no error), and a feed without a width takes
+    the condition's; without a diameter the width is the rate's alone, as given.
 
     Raises:
         InputError: ``--radial-width`` more than :data:`millstab.points.WIDTH_TOL` · D off the decision's width.
     """
-    if width_mm is None or post.diameter_mm is None:
+    if post.diameter_mm is None:
         return width_mm, feed_mm
     from millstab.points import WIDTH_TOL, condition_text, radial_width
 
     d = float(post.diameter_mm)
     w = radial_width(post.condition.entry, post.condition.exit, d)
+    if width_mm is None:  # a feed with the tool's diameter: the condition's own width (the feed alone was refused)
+        return (w if feed_mm is not None else None), feed_mm
     if not (isinstance(width_mm, (int, float)) and abs(width_mm - w) <= WIDTH_TOL * d):
         raise InputError("--radial-width", width_mm,
                          f"the decision is for {condition_text(post.condition)}, a width of {w:.4g} mm on the {d:g} mm "

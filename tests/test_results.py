@@ -609,6 +609,9 @@ def test_simulate_results_present_themselves(one_of_each):
     assert det.summary() == "stable; level 0.01"  # growth ∞ and the NaN multiplier are not printed
     chat = Detection("chatter", 845.04, "hopf", 0.31, 2.04, 20, 200.0, np.zeros(2), np.zeros(2), multiplier=1.01432)
     assert chat.summary() == "chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31"
+    # settled to round-off: its "growth" and |mu| > 1 are noise (an exploratory user read |mu| 1.0044 as unstable)
+    quiet = Detection("stable", math.nan, "", 5e-14, 2.39, 20, 200.0, np.zeros(2), np.zeros(2), multiplier=1.0044)
+    assert quiet.summary() == "stable; settled to round-off (level 5e-14 < 0.0001: no vibration left to grow)"
     lab = one_of_each["Labels"]
     assert lab.summary() == "2 cuts labelled: 1 stable, 0 marginal, 1 chatter"
     header, cols = lab.table()

@@ -116,11 +116,14 @@ class Detection:
 
     def summary(self) -> str:
         """One line: 'chatter at 845.0 Hz (hopf); growth 2.04 (|mu| 1.0143 per tooth period), level 0.31'
-        (a metric not defined is left out, never printed as 'nan')."""
+        (a metric not defined is left out, never printed as 'nan'); a stable cut settled below ``LEVEL_QUIET`` says so
+        instead of its growth and multiplier, which are then those of round-off (|mu| > 1 read as unstable)."""
         text = self.label
         if self.label != "stable" and math.isfinite(self.chatter_hz):
             text += f" at {self.chatter_hz:.1f} Hz" + (f" ({self.lobe})" if self.lobe else "")
         parts = []
+        if self.label == "stable" and self.level < LEVEL_QUIET:  # settled: a "growth" of round-off is no vibration
+            return f"{text}; settled to round-off (level {self.level:.3g} < {LEVEL_QUIET:g}: no vibration left to grow)"
         if math.isfinite(self.growth):
             parts.append(f"growth {self.growth:.3g}" + (f" (|mu| {self.multiplier:.5g} per tooth period)"
                                                         if math.isfinite(self.multiplier) else ""))

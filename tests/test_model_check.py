@@ -90,3 +90,33 @@ def test_a_zero_order_recommendation_at_one_tooth_in_the_cut_is_checked_and_warn
     from dataclasses import replace
 
     assert accurate_check(replace(_draws(down), engine="spectral"), 9000.0, 2.0, 0.05) is None
+
+
+def test_a_map_and_a_prediction_where_the_median_is_far_off_are_warned_with_its_figures():
+    """The median check (map, predict): the largest ratio of the median parameters' zero-order to spectral limit
+    over the decision's speeds, recomputed here from each engine's own envelope of the median structure; a/D 0.5
+    down (one tooth in the cut, the tooth-count rule silent) is warned by p_stable_map and predict, up milling at the
+    same width is not (fails on the old code: no warning)."""
+    from millstab import api
+    from millstab.points import PointSet
+    from millstab.stability import zoa
+    from millstab.update.decide import p_stable_map
+    from millstab.update.model_check import median_check
+
+    down = _draws(Cutting.from_immersion(4, SHOP.cutting.kt, SHOP.cutting.kr, 0.5, "down"))
+    rpm = np.linspace(4000.0, 15000.0, 23)
+    got = median_check(down, rpm)
+    s = down.prior.par.structure(np.exp(np.median(down.decision_u, axis=0)))
+    want = zoa.envelope(s, down.condition, rpm).depth_mm / spectral.envelope(s, down.condition, rpm).depth_mm
+    assert got["ratio"] == pytest.approx(want.max(), rel=1e-3) and got["rpm"] == rpm[np.argmax(want)]
+    assert got["warn"] and got["speeds"] == 23
+    for post, warned in ((down, True), (_draws(Cutting.from_immersion(4, SHOP.cutting.kt, SHOP.cutting.kr, 0.5, "up")),
+                                        False)):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            p_stable_map(post, rpm, np.array([1.0, 2.0]))
+            api.predict(post, PointSet(rpm[:5], np.full(5, 2.0)))
+        said = [str(x.message) for x in w if "checked against interrupted cutting: in this condition" in str(x.message)]
+        assert len(said) == (2 if warned else 0), said
+        if warned:
+            assert "(a/D 0.5 down milling, 4 teeth)" in said[0] and f"{got['ratio']:.2f}×" in said[0]

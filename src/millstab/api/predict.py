@@ -170,7 +170,7 @@ def _predict(post, cuts: PointSet) -> Prediction:
 
     conds, idx = cut_conditions(cuts, post.condition, post.diameter_mm)
     for k in np.unique(idx):  # each condition the cuts are in, once
-        warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3)
+        warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3, rpm=cuts.rpm[idx == k])
     # each cut at its own stickout (a stickout_mm column, a posterior over the holder) and test day (a known day)
     ps, pl = predict_at_stickouts(post, cuts.rpm, cuts.depth_mm, conds, idx, cuts.batch, stickouts(cuts))
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)

@@ -454,7 +454,7 @@ def p_stable_map(post: Posterior, rpm, depth_mm, client=None, *, samples: int | 
     cluster): a cell needs only whether each limit lies above its depth, so a limit above the deepest depth is
     searched only up to it. The same map: every entry below the ceiling is the limit, every one at or above it a
     lower bound above every depth of the map (tests/test_decide_censored.py)."""
-    warn_time_averaged(post, stacklevel=2)
+    warn_time_averaged(post, stacklevel=2, rpm=rpm)
     rows = map_rows(post.u.shape[0], samples, seed)
     u = post.decision_u if rows is None else post.decision_u[rows]
     r = np.asarray(rpm, float)
@@ -520,18 +520,28 @@ def warn_outside(post: Posterior, lo: float, hi: float, stacklevel: int = 2) -> 
              f"{data_rpm.max():g} rpm): decisions there lean on the prior", UserWarning, stacklevel=stacklevel + 1)
 
 
-def warn_time_averaged(post: Posterior, stacklevel: int = 2) -> None:
+def warn_time_averaged(post: Posterior, stacklevel: int = 2, rpm=None) -> None:
     """Warn when ``post``'s engine averages the cutting force over the tooth period (the zero-order model) and the
     decision's condition cuts with less than one tooth on average (:func:`millstab.stability.time_averaged_note`,
     with the measurements): a cut it calls stable can chatter. One text for every decision (map, recommendation,
-    prediction), so a page or log that shows a map and a recommendation together shows it once."""
+    prediction), so a page or log that shows a map and a recommendation together shows it once. Where that rule is
+    silent and the decision's speeds ``rpm`` [rev/min] are given, the posterior median's limits there are checked
+    against the spectral engine (:func:`millstab.update.model_check.median_check`: a shop's 4-tooth tool at a/D 0.5
+    down, one tooth in the cut, was 4.9× off), and a large difference is warned with its figures."""
     from millstab.points import condition_text
     from millstab.stability import time_averaged_note
 
-    note = time_averaged_note(post.engine, post.condition, f"this condition ({condition_text(post.condition)})")
+    where = f"this condition ({condition_text(post.condition)})"
+    note = time_averaged_note(post.engine, post.condition, where)
     if note:
         warn(f"{note}, so a cut it calls stable can chatter; decide here from an update with an engine of interrupted "
              "cutting (--engine spectral or sdm)", UserWarning, stacklevel=stacklevel + 1)
+    elif rpm is not None:
+        from millstab.update.model_check import median_check, median_message
+
+        check = median_check(post, rpm)
+        if check is not None and check["warn"]:
+            warn(median_message(check, post.engine, where), UserWarning, stacklevel=stacklevel + 1)
 
 
 def warn_averaged_error(post: Posterior, rpm: float, depth_mm: float, risk: float, seed: int = 0) -> None:

@@ -65,6 +65,51 @@ def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0
             "ratio": ratio, "warn": p_acc > risk + max(CHECK_SIGMAS * sigma, CHECK_MARGIN)}
 
 
+#: a decision's condition is warned where the posterior median's averaged limit exceeds the accurate one by this
+#: factor at some speed (the tooth-count rule's tools stayed within 1.24× at one tooth or more in the cut)
+MEDIAN_RATIO = 1.25
+#: the most speeds the median's check computes (evenly picked from the decision's)
+MEDIAN_SPEEDS = 40
+
+
+def median_check(post, rpm) -> dict | None:
+    """The posterior median's limits at (at most :data:`MEDIAN_SPEEDS` of) the decision's speeds ``rpm`` [rev/min]
+    under its own time-averaged engine and under :data:`CHECK_ENGINE`, or ``None`` where there is nothing to check
+    (as :func:`accurate_check`). Keys: ``ratio`` (the largest averaged / accurate limit), ``rpm`` (where), ``median``
+    (the median ratio), ``speeds`` (how many), ``warn`` (ratio > :data:`MEDIAN_RATIO`). For a map or a prediction,
+    which have no one cut to check; the parameter-wise median of the samples stands for the posterior."""
+    from millstab.stability import get_engine
+
+    if not getattr(get_engine(post.engine), "time_averaged", False) or post.condition.time_invariant:
+        return None
+    r = np.unique(np.asarray(rpm, float))
+    if r.size == 0:
+        return None
+    r = r[np.unique(np.linspace(0, r.size - 1, min(r.size, MEDIAN_SPEEDS)).round().astype(int))]
+    u = np.median(post.decision_u, axis=0)[None, :]
+    try:
+        accurate = limits(post.prior, u, r, CHECK_ENGINE)[0][0]
+    except InputError:
+        return None
+    averaged = limits(post.prior, u, r, post.engine, options=post.engine_options)[0][0]
+    ok = np.isfinite(averaged) & np.isfinite(accurate) & (accurate > 0)
+    if not ok.any():
+        return None
+    ratio = averaged[ok] / accurate[ok]
+    i = int(np.argmax(ratio))
+    return {"ratio": float(ratio[i]), "rpm": float(r[ok][i]), "median": float(np.median(ratio)),
+            "speeds": int(ok.sum()), "warn": bool(ratio[i] > MEDIAN_RATIO)}
+
+
+def median_message(check: dict, engine: str, where: str) -> str:
+    """The warning's text for a median check that warns (:func:`median_check`); ``where``: the condition's words."""
+    return (f"checked against interrupted cutting: in {where} the {engine} limits of the posterior's median parameters "
+            f"are up to {check['ratio']:.2f}× the {CHECK_ENGINE} engine's (at {check['rpm']:.0f} rpm; median "
+            f"{check['median']:.2f}× over {check['speeds']} speeds): the {engine} model averages the force over the "
+            f"tooth period, so a cut it calls stable can chatter; decide here from an update with --engine "
+            f"{CHECK_ENGINE}")
+
+
 def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
     """The warning's text for a check that warns (:func:`accurate_check`)."""
     return (f"checked against interrupted cutting: on {check['samples']} of the posterior's samples the "
@@ -74,4 +119,5 @@ def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
             f"{CHECK_ENGINE} ones, median): decide here from an update with --engine {CHECK_ENGINE}, or cut shallower")
 
 
-__all__ = ["CHECK_ENGINE", "CHECK_SAMPLES", "accurate_check", "check_message"]
+__all__ = ["CHECK_ENGINE", "CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "check_message", "median_check",
+           "median_message"]

@@ -208,3 +208,25 @@ def test_simulate_runs_a_cut_in_the_condition_its_options_name(tmp_path, capsys)
         from millstab import api
 
         api.config_in_condition(CFG, radial_immersion=0.5, milling="sideways")
+
+
+@pytest.mark.filterwarnings("ignore:the zoa engine averages")
+def test_map_and_predict_take_a_radial_width_as_recommend_does(tmp_path, capsys):
+    """map --radial-width 3 and predict --radial-width 3 on a 12 mm tool decide for a/D 0.25 (an exploratory test:
+    map refused the option recommend takes); their numbers are those of --radial-immersion 0.25."""
+    from millstab.cli import main
+
+    (tmp_path / "post.json").write_text(json.dumps(_posterior().to_json()))
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm\n6000,1.0\n8000,2.5\n")
+    post = str(tmp_path / "post.json")
+    for i, target in enumerate((["--radial-width", "3"], ["--radial-immersion", "0.25"])):
+        assert main(["map", post, "--rpm", "5000:9000:500", "--depth", "0:4:1", *target, "--milling", "down",
+                     "--out", str(tmp_path / f"m{i}.csv")]) == 0
+        assert main(["predict", post, str(tmp_path / "cuts.csv"), *target, "--milling", "down",
+                     "--out", str(tmp_path / f"p{i}.csv")]) == 0
+    assert "computed for a/D 0.25 down milling" in " ".join(capsys.readouterr().out.split())
+    for name in ("m", "p"):
+        assert (tmp_path / f"{name}0.csv").read_text() == (tmp_path / f"{name}1.csv").read_text()
+    assert main(["map", post, "--rpm", "5000:9000:500", "--depth", "0:4:1", "--radial-width", "14",
+                 "--out", str(tmp_path / "bad.csv")]) == 2
+    assert "--radial-width = 14" in capsys.readouterr().err and not (tmp_path / "bad.csv").exists()

@@ -125,6 +125,11 @@ def condition_options(doing: str, default: str, panel: str) -> tuple:
 
 RadialImmersionOpt, MillingOpt, EntryDegOpt, ExitDegOpt, TeethOpt = condition_options(
     "Decide", "the posterior's condition, the config's", "Target condition")
+#: map's and predict's --radial-width (recommend's also sets its removal rate: its own help)
+RadialWidthOpt = Annotated[Optional[float], typer.Option(
+    "--radial-width", rich_help_panel="Target condition",
+    help="Decide for this radial width of cut [mm]: with the config's tool diameter, the a/D = width/diameter (with "
+         "--milling or the posterior's direction; given with --radial-immersion or the angles it must agree).")]
 
 
 StickoutOpt = Annotated[Optional[float], typer.Option(
@@ -135,7 +140,7 @@ StickoutOpt = Annotated[Optional[float], typer.Option(
 def for_decision(post, stickout=None, radial_immersion=None, milling=None, entry_deg=None, exit_deg=None, teeth=None,
                  engine_options=None, radial_width=None):
     """The posterior deciding for the target options of map, recommend and predict: at the stickout
-    (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`; recommend's
+    (:func:`millstab.api.at_stickout`), in the cutting condition (:func:`millstab.api.for_condition`;
     ``--radial-width`` with the config's tool diameter among them), with the ``--engine-option`` texts over the
     options it was fitted with (:func:`millstab.api.with_engine_options`)."""
     from millstab import api

@@ -12,7 +12,7 @@ from millstab.cli import emit
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, posterior_source
 from millstab.cli.options import (EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
-                                  StickoutOpt, TeethOpt, for_decision)
+                                  RadialWidthOpt, StickoutOpt, TeethOpt, for_decision)
 from millstab.cli.update import LABELS_HELP
 from millstab.errors import InputError
 
@@ -31,7 +31,7 @@ def predict_cmd(
                                                            "cut); without --out and --json the table is printed."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="The predictions as JSON (schema "
                                                                  "millstab.prediction/1: the cuts, p_stable, "
-                                                                 "p_label_chatter, the posterior's warnings, the "
+                                                                 "p_label_chatter, the warnings, the "
                                                                  "condition per cut, config and points); with or "
                                                                  "instead of --out."),
     labels: Optional[str] = typer.Option(None, "--labels", help=LABELS_HELP),
@@ -43,6 +43,7 @@ def predict_cmd(
     entry_deg: EntryDegOpt = None,
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
+    radial_width: RadialWidthOpt = None,
     options: EngineOptionOpt = None,
 ) -> None:
     """P(stable) (the process) and P(label chatter) (what an operator will write) for each cut of CUTS."""
@@ -57,7 +58,7 @@ def predict_cmd(
         raise InputError("CUTS", None, "missing: the cuts CSV to predict")
     c = read_points(cuts, labels)
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options, radial_width)
     protect = emit.checked({**inputs, "CUTS": cuts}, {"--out": out, "--json": json_out})  # before the work
     pred = predict(post, c)
     con = Console()

@@ -12,8 +12,8 @@ from millstab.api import ENGINES
 from millstab.cli.app import app
 from millstab.cli.history import CampaignOpt, ShopDbOpt, ShopOpt, UserOpt, posterior_source, shop_target
 from millstab.cli.options import (DaskOpt, EngineOptionOpt, EntryDegOpt, ExitDegOpt, MillingOpt, RadialImmersionOpt,
-                                  StickoutOpt, TeethOpt, WorkersOpt, engine_option_pairs, for_decision, samples_option,
-                                  seed_option)
+                                  RadialWidthOpt, StickoutOpt, TeethOpt, WorkersOpt, engine_option_pairs, for_decision,
+                                  samples_option, seed_option)
 from millstab.cli.options import dask_client as _client
 from millstab.errors import InputError
 
@@ -162,6 +162,7 @@ def map_cmd(
     entry_deg: EntryDegOpt = None,
     exit_deg: ExitDegOpt = None,
     teeth: TeethOpt = None,
+    radial_width: RadialWidthOpt = None,
     options: EngineOptionOpt = None,
     samples: str = typer.Option("auto", "--samples", help="Posterior samples the map reads: auto (every sample from "
                                 "zoa, a seeded subsample of 500 from spectral or sdm: each cell's Monte Carlo error "
@@ -178,7 +179,7 @@ def map_cmd(
     speeds = api.parse_rpm_range(rpm)
     depths = api.parse_grid(depth, "--depth", "mm", example="0:6:0.05")
     post, inputs, _ = posterior_source(posterior, db, campaign)
-    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options)
+    post = for_decision(post, stickout, radial_immersion, milling, entry_deg, exit_deg, teeth, options, radial_width)
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))
     protect = list(inputs.values())
     used = api.map_samples_text(post, samples)  # a bad --samples is refused before any work

@@ -119,7 +119,8 @@ class Prediction:
         s = self.scores()
         if s is not None:
             lines.append(f"  against the {s['n']} labelled cuts: Brier score {s['brier']:.4f} (their own chatter rate "
-                         f"as a constant: {s['brier_rate']:.4f}); for held-out scores use millstab validate")
+                         f"as a constant: {s['brier_rate']:.4f}); in-sample if these cuts trained the posterior "
+                         "(millstab validate gives held-out scores)")
         return "\n".join(lines)
 
     def scores(self) -> dict | None:

@@ -120,3 +120,34 @@ def test_a_map_and_a_prediction_where_the_median_is_far_off_are_warned_with_its_
         assert len(said) == (2 if warned else 0), said
         if warned:
             assert "(a/D 0.5 down milling, 4 teeth)" in said[0] and f"{got['ratio']:.2f}×" in said[0]
+
+
+def test_a_zero_order_sld_far_from_the_interrupted_cut_is_warned():
+    """api.lobes with the zero-order engine at a/D 0.5 down on the shop's tool (one tooth in the cut: the tooth-count
+    rule is silent) warns with the largest ratio of its limits to the spectral engine's at 40 of its speeds,
+    recomputed here; up milling at the same width, the live redraw (``check=False``) and an SLD drawn beside a
+    spectral one are not warned (fails on the old code: no warning)."""
+    import dataclasses
+
+    from millstab import api
+
+    rpm = np.linspace(3000.0, 15000.0, 121)
+    for milling, warned in (("down", True), ("up", False)):
+        cfg = dataclasses.replace(SHOP, name="shop", cutting=Cutting.from_immersion(4, SHOP.cutting.kt,
+                                                                                   SHOP.cutting.kr, 0.5, milling))
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            res = api.lobes(cfg, rpm)
+        said = [str(x.message) for x in w if "checked against interrupted cutting" in str(x.message)]
+        assert len(said) == int(warned), said
+        if warned:
+            pick = np.unique(np.linspace(0, rpm.size - 1, 40).round().astype(int))
+            ratio = res.envelope.depth_mm[pick] / spectral.envelope(cfg.structure, cfg.cutting, rpm[pick]).depth_mm
+            at = rpm[pick][np.argmax(ratio)]
+            assert f"up to {ratio.max():.2f}× the spectral engine's (at {at:.0f} rpm" in said[0]
+            assert "shop's cut (a/D 0.5 down milling, 4 teeth)" in said[0]
+            for quiet in ({"check": False}, {"compare": "spectral"}):
+                with warnings.catch_warnings(record=True) as w:
+                    warnings.simplefilter("always")
+                    api.lobes(cfg, rpm, **quiet)
+                assert not [x for x in w if "checked against interrupted cutting" in str(x.message)]

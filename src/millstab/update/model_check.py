@@ -24,19 +24,25 @@ from millstab.update.likelihood import limits
 
 #: posterior samples whose limits the check computes again (a seeded subsample)
 CHECK_SAMPLES = 100
-#: the engine of interrupted cutting that checks (modal structures; `sdm` is ~100× dearer per limit)
-CHECK_ENGINE = "spectral"
 #: the check warns where the accurate P(chatter) exceeds the risk by this many Monte Carlo standard errors
 #: (√(p(1 − p)/M) at p = risk) and by at least 0.05 absolute (so a 2 % risk on 100 samples is not warned at 4 %)
 CHECK_SIGMAS, CHECK_MARGIN = 3.0, 0.05
 
 
+def accurate_engine() -> str:
+    """The engine that checks: the cheapest of interrupted cutting, chosen by capability (the spectral engine among
+    the built-ins; sdm is ~100× dearer per limit)."""
+    from millstab.stability import engine_with
+
+    return engine_with(time_averaged=False, cheap=True).name
+
+
 def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0,
                    samples: int = CHECK_SAMPLES) -> dict | None:
     """P(chatter) of the cut (``rpm`` [rev/min], ``depth_mm`` [mm]) under the posterior's own (time-averaged) engine
-    and under :data:`CHECK_ENGINE`, on the same seeded subsample of ``samples`` posterior samples, or ``None`` where
-    there is nothing to check (an engine that does not average, a condition whose directional matrix is constant over
-    the tooth period, where the average is exact, no depth) or the check cannot run (a structure the accurate engine
+    and under :func:`accurate_engine`'s, on the same seeded subsample of ``samples`` posterior samples, or ``None``
+    where there is nothing to check (an engine that does not average, a condition whose directional matrix is
+    constant over the tooth period, where the average is exact, no depth) or the check cannot run (a structure the accurate engine
     does not take: measured FRFs, process damping). Keys: ``samples``, ``p_chatter`` (the posterior's engine),
     ``p_chatter_accurate``, ``ratio`` (the median over the samples of the accurate limit over the averaged one),
     ``warn`` (whether the accurate P(chatter) is clearly above ``risk``: :data:`CHECK_SIGMAS`, :data:`CHECK_MARGIN`).
@@ -52,7 +58,7 @@ def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0
         u = u[np.sort(np.random.default_rng(seed).choice(u.shape[0], samples, replace=False))]
     r = np.array([float(rpm)])
     try:
-        accurate = limits(post.prior, u, r, CHECK_ENGINE)[0][:, 0]
+        accurate = limits(post.prior, u, r, accurate_engine())[0][:, 0]
     except InputError:  # a structure or term the accurate engine does not carry: nothing to compare
         return None
     averaged = limits(post.prior, u, r, post.engine, options=post.engine_options)[0][:, 0]
@@ -74,7 +80,7 @@ MEDIAN_SPEEDS = 40
 
 def median_check(post, rpm) -> dict | None:
     """The posterior median's limits at (at most :data:`MEDIAN_SPEEDS` of) the decision's speeds ``rpm`` [rev/min]
-    under its own time-averaged engine and under :data:`CHECK_ENGINE`, or ``None`` where there is nothing to check
+    under its own time-averaged engine and under :func:`accurate_engine`'s, or ``None`` where there is nothing to check
     (as :func:`accurate_check`). Keys: ``ratio`` (the largest averaged / accurate limit), ``rpm`` (where), ``median``
     (the median ratio), ``speeds`` (how many), ``warn`` (ratio > :data:`MEDIAN_RATIO`). For a map or a prediction,
     which have no one cut to check; the parameter-wise median of the samples stands for the posterior."""
@@ -88,7 +94,7 @@ def median_check(post, rpm) -> dict | None:
     r = r[np.unique(np.linspace(0, r.size - 1, min(r.size, MEDIAN_SPEEDS)).round().astype(int))]
     u = np.median(post.decision_u, axis=0)[None, :]
     try:
-        accurate = limits(post.prior, u, r, CHECK_ENGINE)[0][0]
+        accurate = limits(post.prior, u, r, accurate_engine())[0][0]
     except InputError:
         return None
     averaged = limits(post.prior, u, r, post.engine, options=post.engine_options)[0][0]
@@ -103,21 +109,22 @@ def median_check(post, rpm) -> dict | None:
 
 def median_message(check: dict, engine: str, where: str) -> str:
     """The warning's text for a median check that warns (:func:`median_check`); ``where``: the condition's words."""
+    acc = accurate_engine()
     return (f"checked against interrupted cutting: in {where} the {engine} limits of the posterior's median parameters "
-            f"are up to {check['ratio']:.2f}× the {CHECK_ENGINE} engine's (at {check['rpm']:.0f} rpm; median "
+            f"are up to {check['ratio']:.2f}× the {acc} engine's (at {check['rpm']:.0f} rpm; median "
             f"{check['median']:.2f}× over {check['speeds']} speeds): the {engine} model averages the force over the "
-            f"tooth period, so a cut it calls stable can chatter; decide here from an update with --engine "
-            f"{CHECK_ENGINE}")
+            f"tooth period, so a cut it calls stable can chatter; decide here from an update with --engine {acc}")
 
 
 def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
     """The warning's text for a check that warns (:func:`accurate_check`)."""
-    return (f"checked against interrupted cutting: on {check['samples']} of the posterior's samples the "
-            f"{CHECK_ENGINE} engine gives the recommended cut ({rpm:.0f} rpm, {depth_mm:.3g} mm) P(chatter) "
+    acc = accurate_engine()
+    return (f"checked against interrupted cutting: on {check['samples']} of the posterior's samples the {acc} engine "
+            f"gives the recommended cut ({rpm:.0f} rpm, {depth_mm:.3g} mm) P(chatter) "
             f"{check['p_chatter_accurate']:.2f}, the {engine} engine {check['p_chatter']:.2f} (the {engine} model "
-            f"averages the force over the tooth period; its limits there are {1 / check['ratio']:.2f}× the "
-            f"{CHECK_ENGINE} ones, median): decide here from an update with --engine {CHECK_ENGINE}, or cut shallower")
+            f"averages the force over the tooth period; its limits there are {1 / check['ratio']:.2f}× the {acc} "
+            f"ones, median): decide here from an update with --engine {acc}, or cut shallower")
 
 
-__all__ = ["CHECK_ENGINE", "CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "check_message", "median_check",
+__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "check_message", "median_check",
            "median_message"]

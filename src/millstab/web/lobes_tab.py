@@ -57,7 +57,8 @@ class LobesTab:
             t0 = time.perf_counter()
             try:
                 # as a job would: this session's notes (the zero-order model's validity), each once
-                result, notes = collected(lambda _: api.lobes(cfg, rpm, engine=engine), None)
+                # without the spectral check (up to ~130 ms): a redraw per edit
+                result, notes = collected(lambda _: api.lobes(cfg, rpm, engine=engine, check=False), None)
             except InputError as exc:
                 self.error.object = error_html(str(exc))
                 return

@@ -39,13 +39,15 @@ def accurate_engine() -> str:
 
 def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0,
                    samples: int = CHECK_SAMPLES) -> dict | None:
-    """P(chatter) of the cut (``rpm`` [rev/min], ``depth_mm`` [mm]) under the posterior's own (time-averaged) engine
-    and under :func:`accurate_engine`'s, on the same seeded subsample of ``samples`` posterior samples, or ``None``
-    where there is nothing to check (an engine that does not average, a condition whose directional matrix is
-    constant over the tooth period, where the average is exact, no depth) or the check cannot run (a structure the
-    accurate engine does not take: measured FRFs, process damping). Keys: ``samples``, ``p_chatter`` (the posterior's engine),
-    ``p_chatter_accurate``, ``ratio`` (the median over the samples of the accurate limit over the averaged one),
-    ``warn`` (whether the accurate P(chatter) is clearly above ``risk``: :data:`CHECK_SIGMAS`, :data:`CHECK_MARGIN`).
+    """P(chatter) of the cut (``rpm`` [rev/min], ``depth_mm`` [mm]) under the posterior's own (time-averaged)
+    engine and under :func:`accurate_engine`'s, on the same seeded subsample of ``samples`` posterior samples.
+
+    ``None`` where there is nothing to check (an engine that does not average, a condition whose directional matrix
+    is constant over the tooth period, where the average is exact, no depth) or the check cannot run (a structure
+    the accurate engine does not take: measured FRFs, process damping). Keys: ``samples``, ``p_chatter`` (the
+    posterior's engine), ``p_chatter_accurate``, ``ratio`` (the median over the samples of the accurate limit over
+    the averaged one), ``warn`` (whether the accurate P(chatter) is clearly above ``risk``: :data:`CHECK_SIGMAS`,
+    :data:`CHECK_MARGIN`).
     """
     from millstab.stability import get_engine
 

@@ -94,6 +94,51 @@ def test_progress_reports_stage_done_total_and_cancels_sdm():
         api.lobes(cfg, rpm, engine="sdm", progress=token.watch(cancel_after_first_chunk))
 
 
+def _stop_at(n: int):
+    """(the cancel points met, a check that cancels at the ``n``-th): a user pressing Cancel mid-work."""
+    token, seen = api.CancelToken(), []
+
+    def check():
+        seen.append(len(seen) + 1)
+        if len(seen) >= n:
+            token.cancel()
+        token.check()
+    return seen, check
+
+
+def test_a_cancel_stops_work_that_reports_no_progress_for_long():
+    """Exploratory test (item 1): Cancel was ignored while an update was starting (its first report comes after
+    the first tempering stage: 24 s of sdm at 1000 samples) and during a whole map from an sdm posterior (no
+    progress at all: it ran 250 s to its end and said "done"). The work now stops at its cancel points
+    (millstab.progress.cancel_point: before every engine call, between sdm's compiled chunks) under a thread's
+    check (CancelToken.checked, what the app's jobs run in). Fails on the old code: nothing met a cancel point."""
+    from millstab.progress import cancel_checked
+    from millstab.update.posterior import Posterior
+    from millstab.update.stickout import config_prior
+
+    cfg = api.config("example:ex3")
+    cuts = api.points_from_text("rpm,depth_mm,label\n7000,0.5,stable\n7000,3,chatter\n14000,1,stable\n", "c.csv")
+    seen, check = _stop_at(1)
+    reports = []
+    with cancel_checked(check), pytest.raises(api.Cancelled):
+        api.update(cfg, cuts, samples=100, progress=lambda *a: reports.append(a))
+    assert seen == [1] and reports == []  # stopped at its first engine call, before any progress report
+    # a map from an sdm posterior: one engine call of 40 samples x 8 speeds, stopped inside it (between chunks)
+    prior = config_prior(cfg)
+    post = Posterior(prior, np.exp(prior.sample(40, np.random.default_rng(0))), "sdm", cuts={"rpm": [5000, 9000]},
+                     engine_options={"steps": 10})
+    seen, check = _stop_at(2)
+    with cancel_checked(check), pytest.raises(api.Cancelled):
+        api.p_stable(post, np.linspace(5000.0, 9000.0, 8), api.depth_grid(3.0, 10), samples="all")
+    assert seen == [1, 2]
+    token = api.CancelToken()  # the app's form of it: the job's token, on the job's thread
+    with token.checked():
+        token.cancel()
+        with pytest.raises(api.Cancelled):
+            api.p_stable(post, np.array([5000.0]), api.depth_grid(3.0, 10))
+    api.p_stable(post, np.array([5000.0]), api.depth_grid(3.0, 10))  # outside the block: not checked
+
+
 def test_identification_reports_progress_and_can_be_cancelled():
     cfg = api.config("example:ex3")
     pts = read_points(points_path("ex3_points"))

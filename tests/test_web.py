@@ -204,7 +204,7 @@ def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     """The update tab's engine and engine options: a bad option is refused beside the field in the words of
     --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,
     = millstab update --out) carries the engine and the options its map and recommendation use. A tiny update
-    (4 cuts, 100 samples: sdm at 10 steps, ~5 s CPU)."""
+    (4 cuts, 100 samples: sdm at 10 steps, ~5 s CPU); its map (minutes of sdm) is started and cancelled."""
     import json
 
     page = app
@@ -227,6 +227,14 @@ def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     page.locator(".post-table").filter(has_text="engine sdm (steps=10), 100 samples").wait_for()
     page.locator(".map-status").filter(has_text="press Map and recommend").wait_for()  # minutes of sdm: when asked
     shot(page, "update_sdm")
+    # Cancel stops the map (exploratory test, item 1: it reported no progress, ran its 250 s and said "done")
+    page.locator(".map-run button").click()
+    page.locator(".map-status").filter(has_text="running").wait_for()
+    page.wait_for_timeout(1000)
+    page.locator(".map-cancel button").click()
+    page.locator(".map-status").filter(has_text="cancelled").wait_for(timeout=30_000)
+    assert "recommended" not in T.text(page, "recommendation")
+    shot(page, "update_sdm_map_cancelled")
     T.tab(page, "Downloads")
     with page.expect_download() as info:
         page.locator(".dl-posterior-json button").click()

@@ -200,6 +200,41 @@ def test_update_map_and_recommend(app, tmp_path):
     shot(page, "update")
 
 
+# the last map drawn (the document keeps the earlier ones: a name finds several)
+_MAP_AXES = """() => { const d = Bokeh.documents[0];
+  const figs = [...d._all_models.values()].filter(m => m.name === 'pmap_fig'); const f = figs[figs.length - 1];
+  return [f.x_range.start, f.x_range.end, f.y_range.start, f.y_range.end]; }"""
+
+
+def test_the_recommended_cut_is_on_the_maps_axes(app, tmp_path):
+    """Exploratory test (item 2): cuts all stable at 0.3 mm gave a map up to 0.45 mm (1.5 x the deepest cut) while
+    the recommendation was 1.1 mm and the next test 10.7 mm: both markers lay off the axes and the user saw no
+    recommendation (fails on the old code). The map's depths now reach them, and the page says the axis was raised."""
+    page = app
+    path = tmp_path / "shallow.csv"
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r},0.3,stable\n" for r in (6000, 9000, 12000, 15000, 18000)))
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="shallow.csv: 5 points").wait_for()
+    box = page.locator(".update-samples input").first
+    box.fill("300")
+    box.press("Enter")
+    page.locator(".update-run button").click()
+    page.locator(".map-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".recommendation").filter(has_text="depth axis raised").wait_for(timeout=30_000)
+    rec = T.text(page, "recommendation")
+    assert "raised from 0.45 mm (1.5 × the deepest cut)" in rec, rec
+    x0, x1, y0, y1 = page.evaluate(_MAP_AXES)
+    marks = [re.search(r"risk 0.05: ([0-9.]+) rpm, ([0-9.]+) mm", rec), re.search(r"next test cut: ([0-9.]+) rpm, "
+                                                                                  r"([0-9.]+) mm", rec)]
+    for m in marks:
+        r, d = float(m.group(1)), float(m.group(2))
+        assert x0 <= r <= x1 and y0 <= d <= y1, (rec, (x0, x1, y0, y1))
+    assert y1 > 0.45
+    page.wait_for_timeout(1000)
+    shot(page, "map_axes_reach_the_recommendation")
+
+
 def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     """The update tab's engine and engine options: a bad option is refused beside the field in the words of
     --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,

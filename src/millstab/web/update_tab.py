@@ -27,6 +27,16 @@ MAP_SPEEDS = 240
 #: samples 77 s CPU, the recommendation at its 200 coarse speeds over 5 min; 60 of each are ~4x less). Such a map
 #: is made when asked (Map and recommend), not after every update.
 MAP_SPEEDS_ACCURATE = 60
+#: the map's depth axis reaches this factor above the deepest cut marked on it (the recommended cut, the next test)
+MARK_HEADROOM = 1.1
+
+
+def marked_depths(rec) -> list[float]:
+    """The depths [mm] of the cuts a map marks for ``rec``: the recommended cut, and its next test when that is in
+    the map's condition (:func:`millstab.api.next_test_elsewhere`); finite positive ones only."""
+    nt = rec.next_test
+    got = [rec.depth_mm] + ([nt["depth_mm"]] if "depth_mm" in nt and api.next_test_elsewhere(rec) is None else [])
+    return [float(d) for d in got if d is not None and np.isfinite(d) and d > 0]
 
 
 class UpdateTab:
@@ -66,6 +76,7 @@ class UpdateTab:
         self._engine_changed()
         self.job = JobBar("Update", "update")
         self.map_condition = ""  # "computed for ..." of the last map
+        self.map_top = None  # (the map's top depth as asked [mm], where it came from) of the last map
         self.map_cuts = None  # the cuts the last map draws: those made in its condition
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
@@ -288,18 +299,23 @@ class UpdateTab:
             self.map_condition += f"; {elsewhere} cut{'s' if elsewhere > 1 else ''} in other conditions not drawn"
 
         def work(progress):
-            depth = api.depth_grid(top, field="map depth up to")
+            api.depth_grid(top, field="map depth up to")  # a bad depth is refused before any engine call
             # the map and the recommendation share the limits both read (the map's speeds are the recommendation's
-            # coarse grid; its subsample holds the fast search's): computed once, the same numbers
+            # coarse grid; its subsample holds the fast search's): computed once, the same numbers, in either order
             memo = api.limit_memo()
-            pm = api.p_stable(post, rpm, depth, memo=memo)
             span = (float(rpm[0]), float(rpm[-1]))
             if keep:  # recorded with the posterior it came from
                 rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post), **grid)[0]
             else:
                 rec = api.recommend(post, risk, span, memo=memo, **grid)
+            # the map's depths reach the cuts drawn on it (the recommended one, the next test here): a marker above
+            # the top was drawn off the axes and the user saw no recommendation (show_map says the axis was raised)
+            depth = api.depth_grid(max([top] + [MARK_HEADROOM * d for d in marked_depths(rec)]),
+                                   field="map depth up to")
+            pm = api.p_stable(post, rpm, depth, memo=memo)
             return rpm, depth, pm, rec, post
 
+        self.map_top = (top, "map depth up to" if self.depth_max.value else "1.5 × the deepest cut")
         self.map_job.start(work, self.show_map)
 
     def show_map(self, result, caught) -> None:
@@ -318,11 +334,18 @@ class UpdateTab:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
         where = (f" <b>in another condition: {esc(other)}</b> (not drawn on this map; {esc(nt.get('why', ''))})"
                  if other is not None else "")
+        raised = ""
+        if self.map_top is not None and depth[-1] > self.map_top[0] * (1 + 1e-9):
+            top, asked = self.map_top
+            above = " and ".join({"recommended": "the recommended cut"}.get(text, f"the {text}")
+                                 for _, d, text in marks if d > top)
+            raised = f"; depth axis raised from {top:.3g} mm ({asked}) to {depth[-1]:.3g} mm to show {above}"
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
         # the map and the recommendation may say one thing each in the same words (dict: once each, in order)
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in dict.fromkeys(caught))
-        self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"
+        self.rec.text = (computed_for(self.post_origin)
+                         + f"<div class='ms-note'>{esc(self.map_condition + raised)}</div>"
                          f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, "

@@ -235,6 +235,42 @@ def test_the_recommended_cut_is_on_the_maps_axes(app, tmp_path):
     shot(page, "map_axes_reach_the_recommendation")
 
 
+_DRAWN_CUTS = """() => { const d = Bokeh.documents[0]; let n = 0;
+  for (const k of ['sld_pts_stable', 'sld_pts_chatter']) { const s = d.get_model_by_name(k);
+    n += (s.data instanceof Map ? s.data.get('rpm') : s.data.rpm).length; } return n; }"""
+
+
+def test_cuts_of_another_condition_than_the_forms_are_said_not_hidden(app, tmp_path):
+    """Exploratory test (item 3): cuts made in ex3's condition (entry 126.9°, exit 180°) were drawn on the SLD; an
+    edit of the form's condition (a/D 0.5) made them vanish without a word, while the update still used them (fails
+    on the old code: no note). The Lobes tab now says how many are not drawn and the condition they were cut in."""
+    page = app
+    path = tmp_path / "cond.csv"
+    path.write_text("rpm,depth_mm,label,entry_deg,exit_deg\n6000,0.5,stable,126.9,180\n9000,3,chatter,126.9,180\n"
+                    "12000,0.6,stable,126.9,180\n15000,4,chatter,126.9,180\n")
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="cond.csv: 4 points").wait_for()
+    page.wait_for_function(f"() => ({_DRAWN_CUTS})() === 4")
+    assert T.text(page, "lobes-overlay-note") == ""
+    T.tab(page, "Tool and cut")
+    page.locator(".geometry button", has_text="radial immersion").first.click()
+    T.set_field(page, "cutting.radial_immersion", "0.5")
+    T.tab(page, "Lobes")
+    note = page.locator(".lobes-overlay-note").filter(has_text="not drawn")
+    note.wait_for()
+    text = T.text(page, "lobes-overlay-note")
+    assert ("test cuts (Update and recommend): 4 of the 4 points were cut in other conditions than the config's: not "
+            "drawn (they were cut in a/D 0.1998 down milling, 3 teeth); the update uses every cut") in text, text
+    assert page.evaluate(_DRAWN_CUTS) == 0
+    shot(page, "cuts_of_another_condition")
+    T.tab(page, "Tool and cut")  # back to ex3's angles: the cuts are drawn again and the note goes
+    page.locator(".geometry button", has_text="entry/exit angles").first.click()
+    page.wait_for_function(f"() => ({_DRAWN_CUTS})() === 4")
+    T.tab(page, "Lobes")
+    note.wait_for(state="hidden")
+
+
 def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     """The update tab's engine and engine options: a bad option is refused beside the field in the words of
     --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,

@@ -271,6 +271,31 @@ def test_cuts_of_another_condition_than_the_forms_are_said_not_hidden(app, tmp_p
     note.wait_for(state="hidden")
 
 
+def test_the_samples_field_shows_the_samples_the_update_uses(app, tmp_path):
+    """Exploratory test (item 4): "50" typed in the samples field stayed shown while the server kept 1000 (the
+    browser's lower bound dropped it) and the update ran 1000 samples (fails on the old code: no error, and the
+    posterior said 1000). Every value reaches the server now: one it refuses is said beside the field and no
+    update starts; one it takes is the posterior's count."""
+    page = app
+    upload_cuts(page, tmp_path / "cuts1.csv", np.array([7000.0]), 50)
+    with pytest.raises(InputError) as exc:
+        api.check_samples(50, field="samples")
+    assert error_text(page, "e-samples") == str(exc.value)  # "samples = 50 is invalid: need at least 100 samples"
+    assert page.locator(".update-samples input").first.input_value() == "50"
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="samples: see the error beside the field").wait_for()
+    box = page.locator(".update-samples input").first
+    box.fill("")
+    box.press("Enter")
+    page.locator(".e-samples").filter(has_text="samples = 'empty' is invalid").wait_for()
+    box.fill("200")
+    box.press("Enter")
+    page.locator(".e-samples .ms-error").wait_for(state="detached")
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".post-table").filter(has_text="200 samples").wait_for()
+
+
 def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     """The update tab's engine and engine options: a bad option is refused beside the field in the words of
     --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,

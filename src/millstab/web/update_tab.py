@@ -59,8 +59,13 @@ class UpdateTab:
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
         self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
         self.use_points = pn.widgets.Checkbox(label="use the boundary points (Identify) as well", value=False)
-        self.samples = pn.widgets.IntInput(label="samples", value=1000, start=100, step=500, width=100,
+        # no start= bound in the browser: below it the field kept showing the typed value (50) while the server kept
+        # the last accepted one, and the update ran with 1000 samples; every value now reaches the server, which
+        # checks it (checked_samples) and shows why it is refused beside the field
+        self.samples = pn.widgets.IntInput(label="samples", value=1000, step=500, width=100,
                                            css_classes=["update-samples"])
+        self.samples_error = pn.pane.HTML("", css_classes=["e-samples"])
+        self.samples.param.watch(lambda e: self.checked_samples(), "value")
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
         # the update's engine and its discretisation (docs/app.md "Engine"): kept in the posterior, whose map and
         # recommendation use them; checked as --engine-option is (api.engine_options_from_text), on every edit
@@ -115,6 +120,21 @@ class UpdateTab:
         self.engine_error.object = ""
         return options
 
+    def checked_samples(self) -> int | None:
+        """The posterior samples of the form (:func:`millstab.api.check_samples`: 100 up to what this machine's
+        memory holds), or ``None`` after showing why beside the field (an empty field is no number: it is not
+        taken as 0 or as the last value)."""
+        value = self.samples.value
+        try:
+            if value is None:
+                raise InputError("samples", "empty", "a whole number of posterior samples ≥ 100, e.g. 1000")
+            n = api.check_samples(value, field="samples")
+        except InputError as exc:
+            self.samples_error.object = error_html(str(exc))
+            return None
+        self.samples_error.object = ""
+        return n
+
     def use_engine(self, engine: str, options: dict) -> None:
         """Show ``engine`` and its ``options`` in the form (an opened campaign's posterior: its next update
         continues from it only with the same ones)."""
@@ -124,14 +144,15 @@ class UpdateTab:
 
     def settings(self):
         """The update's settings from the form (:class:`millstab.api.UpdateSettings`: engine, engine_options,
-        samples, seed), or ``None`` when the engine options are refused (the error is shown beside them and in
-        the job's status)."""
-        options = self.checked_engine_options()
-        if options is None:
-            self.job.status.text = error_html("engine options: see the error beside the field")
+        samples, seed), or ``None`` when the engine options or the samples are refused (the error is shown beside
+        the field and in the job's status)."""
+        options, samples = self.checked_engine_options(), self.checked_samples()
+        if options is None or samples is None:
+            which = "engine options" if options is None else "samples"
+            self.job.status.text = error_html(f"{which}: see the error beside the field")
             return None
-        return api.UpdateSettings(engine=self.engine.value, engine_options=options,
-                                  samples=int(self.samples.value or 0), seed=int(self.seed.value or 0))
+        return api.UpdateSettings(engine=self.engine.value, engine_options=options, samples=samples,
+                                  seed=int(self.seed.value or 0))
 
     # --- cuts with recordings ------------------------------------------------------------------------
     def _cuts_uploaded(self) -> None:
@@ -357,7 +378,8 @@ class UpdateTab:
         inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed, self.engine, self.engine_options),
-                         pn.Column(self.engine_error, self.engine_note), self.job, self.post_table.view(),
+                         pn.Column(self.samples_error, self.engine_error, self.engine_note), self.job,
+                         self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job),
                          self.rec.view(), title="P(stable) and recommendation", collapsible=False)

@@ -69,6 +69,35 @@ def test_cli_csv_is_the_services_csv(tmp_path):
     assert header == "rpm,blim_mm,lobe,chatter_hz,blim_mm_sdm"
 
 
+def test_a_long_csv_cell_or_a_deeply_nested_toml_is_an_input_error_naming_the_file(tmp_path):
+    """Exploratory test (item 5): a CSV cell above the csv module's 131 072-character limit raised csv.Error and TOML
+    nested thousands deep raised RecursionError: the page showed nothing (fails on the old code: neither is an
+    InputError). Both are one-line InputErrors naming the file (and the CSV's line), from uploads and from files."""
+    from millstab.io import load_config
+    from millstab.io.frf_files import read_frf_csv
+    from millstab.io.speeds import read_rpm_file
+
+    long = "x" * 200_000
+    for text in (f"rpm,depth_mm,label\n5000,1,stable\n6000,2,{long}\n",
+                 'rpm,depth_mm,label\n5000,1,"stable\n' + "6000,2,chatter\n" * 20_000):  # a quote left open
+        with pytest.raises(InputError, match=r"^cuts\.csv line \d+ = 'a cell over 131,072 characters' is invalid: .*"
+                                             "quote left open"):
+            api.points_from_text(text, "cuts.csv")
+    for name, text, read in (("tap.csv", f"freq_hz,real,imag\n100,1,{long}\n", read_frf_csv),
+                             ("speeds.csv", f"rpm\n{long}\n", read_rpm_file)):
+        (tmp_path / name).write_text(text)
+        with pytest.raises(InputError, match=rf"^{name} line 2 = 'a cell over"):
+            read(tmp_path / name)
+    for deep in ("[" * 5000 + "]" * 5000, "{a = " * 5000 + "1" + "}" * 5000):
+        text = f'name = "deep"\nx = {deep}\n'
+        with pytest.raises(InputError, match=r"^deep\.toml = 'arrays or inline tables nested too deeply to read'"):
+            api.config_from_text(text, "deep.toml")
+        (tmp_path / "deep.toml").write_text(text)
+        with pytest.raises(InputError, match="nested too deeply") as exc:
+            load_config(tmp_path / "deep.toml")
+        assert str(tmp_path / "deep.toml") in str(exc.value)
+
+
 def test_compare_with_itself_is_refused():
     with pytest.raises(InputError, match="must differ"):
         api.lobes(api.config("example:ex1"), api.speeds("3000:4000:100"), engine="zoa", compare="zoa")

@@ -64,7 +64,8 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
     Raises:
         InputError: as for a config file; ``structure.frf.xx`` for a file not in ``files``.
     """
-    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {})))
+    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {}),
+                                 source=name))
 
 
 def points(source: PointSet | str | os.PathLike) -> PointSet:

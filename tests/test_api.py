@@ -69,6 +69,35 @@ def test_cli_csv_is_the_services_csv(tmp_path):
     assert header == "rpm,blim_mm,lobe,chatter_hz,blim_mm_sdm"
 
 
+def test_a_long_csv_cell_or_a_deeply_nested_toml_is_an_input_error_naming_the_file(tmp_path):
+    """Exploratory test (item 5): a CSV cell above the csv module's 131 072-character limit raised csv.Error and TOML
+    nested thousands deep raised RecursionError: the page showed nothing (fails on the old code: neither is an
+    InputError). Both are one-line InputErrors naming the file (and the CSV's line), from uploads and from files."""
+    from millstab.io import load_config
+    from millstab.io.frf_files import read_frf_csv
+    from millstab.io.speeds import read_rpm_file
+
+    long = "x" * 200_000
+    for text in (f"rpm,depth_mm,label\n5000,1,stable\n6000,2,{long}\n",
+                 'rpm,depth_mm,label\n5000,1,"stable\n' + "6000,2,chatter\n" * 20_000):  # a quote left open
+        with pytest.raises(InputError, match=r"^cuts\.csv line \d+ = 'a cell over 131,072 characters' is invalid: .*"
+                                             "quote left open"):
+            api.points_from_text(text, "cuts.csv")
+    for name, text, read in (("tap.csv", f"freq_hz,real,imag\n100,1,{long}\n", read_frf_csv),
+                             ("speeds.csv", f"rpm\n{long}\n", read_rpm_file)):
+        (tmp_path / name).write_text(text)
+        with pytest.raises(InputError, match=rf"^{name} line 2 = 'a cell over"):
+            read(tmp_path / name)
+    for deep in ("[" * 5000 + "]" * 5000, "{a = " * 5000 + "1" + "}" * 5000):
+        text = f'name = "deep"\nx = {deep}\n'
+        with pytest.raises(InputError, match=r"^deep\.toml = 'arrays or inline tables nested too deeply to read'"):
+            api.config_from_text(text, "deep.toml")
+        (tmp_path / "deep.toml").write_text(text)
+        with pytest.raises(InputError, match="nested too deeply") as exc:
+            load_config(tmp_path / "deep.toml")
+        assert str(tmp_path / "deep.toml") in str(exc.value)
+
+
 def test_compare_with_itself_is_refused():
     with pytest.raises(InputError, match="must differ"):
         api.lobes(api.config("example:ex1"), api.speeds("3000:4000:100"), engine="zoa", compare="zoa")
@@ -92,6 +121,51 @@ def test_progress_reports_stage_done_total_and_cancels_sdm():
 
     with pytest.raises(api.Cancelled):
         api.lobes(cfg, rpm, engine="sdm", progress=token.watch(cancel_after_first_chunk))
+
+
+def _stop_at(n: int):
+    """(the cancel points met, a check that cancels at the ``n``-th): a user pressing Cancel mid-work."""
+    token, seen = api.CancelToken(), []
+
+    def check():
+        seen.append(len(seen) + 1)
+        if len(seen) >= n:
+            token.cancel()
+        token.check()
+    return seen, check
+
+
+def test_a_cancel_stops_work_that_reports_no_progress_for_long():
+    """Exploratory test (item 1): Cancel was ignored while an update was starting (its first report comes after
+    the first tempering stage: 24 s of sdm at 1000 samples) and during a whole map from an sdm posterior (no
+    progress at all: it ran 250 s to its end and said "done"). The work now stops at its cancel points
+    (millstab.progress.cancel_point: before every engine call, between sdm's compiled chunks) under a thread's
+    check (CancelToken.checked, what the app's jobs run in). Fails on the old code: nothing met a cancel point."""
+    from millstab.progress import cancel_checked
+    from millstab.update.posterior import Posterior
+    from millstab.update.stickout import config_prior
+
+    cfg = api.config("example:ex3")
+    cuts = api.points_from_text("rpm,depth_mm,label\n7000,0.5,stable\n7000,3,chatter\n14000,1,stable\n", "c.csv")
+    seen, check = _stop_at(1)
+    reports = []
+    with cancel_checked(check), pytest.raises(api.Cancelled):
+        api.update(cfg, cuts, samples=100, progress=lambda *a: reports.append(a))
+    assert seen == [1] and reports == []  # stopped at its first engine call, before any progress report
+    # a map from an sdm posterior: one engine call of 40 samples x 8 speeds, stopped inside it (between chunks)
+    prior = config_prior(cfg)
+    post = Posterior(prior, np.exp(prior.sample(40, np.random.default_rng(0))), "sdm", cuts={"rpm": [5000, 9000]},
+                     engine_options={"steps": 10})
+    seen, check = _stop_at(2)
+    with cancel_checked(check), pytest.raises(api.Cancelled):
+        api.p_stable(post, np.linspace(5000.0, 9000.0, 8), api.depth_grid(3.0, 10), samples="all")
+    assert seen == [1, 2]
+    token = api.CancelToken()  # the app's form of it: the job's token, on the job's thread
+    with token.checked():
+        token.cancel()
+        with pytest.raises(api.Cancelled):
+            api.p_stable(post, np.array([5000.0]), api.depth_grid(3.0, 10))
+    api.p_stable(post, np.array([5000.0]), api.depth_grid(3.0, 10))  # outside the block: not checked
 
 
 def test_identification_reports_progress_and_can_be_cancelled():

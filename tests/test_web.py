@@ -200,11 +200,107 @@ def test_update_map_and_recommend(app, tmp_path):
     shot(page, "update")
 
 
+# the last map drawn (the document keeps the earlier ones: a name finds several)
+_MAP_AXES = """() => { const d = Bokeh.documents[0];
+  const figs = [...d._all_models.values()].filter(m => m.name === 'pmap_fig'); const f = figs[figs.length - 1];
+  return [f.x_range.start, f.x_range.end, f.y_range.start, f.y_range.end]; }"""
+
+
+def test_the_recommended_cut_is_on_the_maps_axes(app, tmp_path):
+    """Exploratory test (item 2): cuts all stable at 0.3 mm gave a map up to 0.45 mm (1.5 x the deepest cut) while
+    the recommendation was 1.1 mm and the next test 10.7 mm: both markers lay off the axes and the user saw no
+    recommendation (fails on the old code). The map's depths now reach them, and the page says the axis was raised."""
+    page = app
+    path = tmp_path / "shallow.csv"
+    path.write_text("rpm,depth_mm,label\n" + "".join(f"{r},0.3,stable\n" for r in (6000, 9000, 12000, 15000, 18000)))
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="shallow.csv: 5 points").wait_for()
+    box = page.locator(".update-samples input").first
+    box.fill("300")
+    box.press("Enter")
+    page.locator(".update-run button").click()
+    page.locator(".map-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".recommendation").filter(has_text="depth axis raised").wait_for(timeout=30_000)
+    rec = T.text(page, "recommendation")
+    assert "raised from 0.45 mm (1.5 × the deepest cut)" in rec, rec
+    x0, x1, y0, y1 = page.evaluate(_MAP_AXES)
+    marks = [re.search(r"risk 0.05: ([0-9.]+) rpm, ([0-9.]+) mm", rec), re.search(r"next test cut: ([0-9.]+) rpm, "
+                                                                                  r"([0-9.]+) mm", rec)]
+    for m in marks:
+        r, d = float(m.group(1)), float(m.group(2))
+        assert x0 <= r <= x1 and y0 <= d <= y1, (rec, (x0, x1, y0, y1))
+    assert y1 > 0.45
+    page.wait_for_timeout(1000)
+    shot(page, "map_axes_reach_the_recommendation")
+
+
+_DRAWN_CUTS = """() => { const d = Bokeh.documents[0]; let n = 0;
+  for (const k of ['sld_pts_stable', 'sld_pts_chatter']) { const s = d.get_model_by_name(k);
+    n += (s.data instanceof Map ? s.data.get('rpm') : s.data.rpm).length; } return n; }"""
+
+
+def test_cuts_of_another_condition_than_the_forms_are_said_not_hidden(app, tmp_path):
+    """Exploratory test (item 3): cuts made in ex3's condition (entry 126.9°, exit 180°) were drawn on the SLD; an
+    edit of the form's condition (a/D 0.5) made them vanish without a word, while the update still used them (fails
+    on the old code: no note). The Lobes tab now says how many are not drawn and the condition they were cut in."""
+    page = app
+    path = tmp_path / "cond.csv"
+    path.write_text("rpm,depth_mm,label,entry_deg,exit_deg\n6000,0.5,stable,126.9,180\n9000,3,chatter,126.9,180\n"
+                    "12000,0.6,stable,126.9,180\n15000,4,chatter,126.9,180\n")
+    T.tab(page, "Update and recommend")
+    T.upload(page, "drop-cuts", path)
+    page.locator(".cuts-note").filter(has_text="cond.csv: 4 points").wait_for()
+    page.wait_for_function(f"() => ({_DRAWN_CUTS})() === 4")
+    assert T.text(page, "lobes-overlay-note") == ""
+    T.tab(page, "Tool and cut")
+    page.locator(".geometry button", has_text="radial immersion").first.click()
+    T.set_field(page, "cutting.radial_immersion", "0.5")
+    T.tab(page, "Lobes")
+    note = page.locator(".lobes-overlay-note").filter(has_text="not drawn")
+    note.wait_for()
+    text = T.text(page, "lobes-overlay-note")
+    assert ("test cuts (Update and recommend): 4 of the 4 points were cut in other conditions than the config's: not "
+            "drawn (they were cut in a/D 0.1998 down milling, 3 teeth); the update uses every cut") in text, text
+    assert page.evaluate(_DRAWN_CUTS) == 0
+    shot(page, "cuts_of_another_condition")
+    T.tab(page, "Tool and cut")  # back to ex3's angles: the cuts are drawn again and the note goes
+    page.locator(".geometry button", has_text="entry/exit angles").first.click()
+    page.wait_for_function(f"() => ({_DRAWN_CUTS})() === 4")
+    T.tab(page, "Lobes")
+    note.wait_for(state="hidden")
+
+
+def test_the_samples_field_shows_the_samples_the_update_uses(app, tmp_path):
+    """Exploratory test (item 4): "50" typed in the samples field stayed shown while the server kept 1000 (the
+    browser's lower bound dropped it) and the update ran 1000 samples (fails on the old code: no error, and the
+    posterior said 1000). Every value reaches the server now: one it refuses is said beside the field and no
+    update starts; one it takes is the posterior's count."""
+    page = app
+    upload_cuts(page, tmp_path / "cuts1.csv", np.array([7000.0]), 50)
+    with pytest.raises(InputError) as exc:
+        api.check_samples(50, field="samples")
+    assert error_text(page, "e-samples") == str(exc.value)  # "samples = 50 is invalid: need at least 100 samples"
+    assert page.locator(".update-samples input").first.input_value() == "50"
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="samples: see the error beside the field").wait_for()
+    box = page.locator(".update-samples input").first
+    box.fill("")
+    box.press("Enter")
+    page.locator(".e-samples").filter(has_text="samples = 'empty' is invalid").wait_for()
+    box.fill("200")
+    box.press("Enter")
+    page.locator(".e-samples .ms-error").wait_for(state="detached")
+    page.locator(".update-run button").click()
+    page.locator(".update-status").filter(has_text="done in").wait_for(timeout=120_000)
+    page.locator(".post-table").filter(has_text="200 samples").wait_for()
+
+
 def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     """The update tab's engine and engine options: a bad option is refused beside the field in the words of
     --engine-option (the same function); sdm with steps=10 runs and the posterior the page keeps (its download,
     = millstab update --out) carries the engine and the options its map and recommendation use. A tiny update
-    (4 cuts, 100 samples: sdm at 10 steps, ~5 s CPU)."""
+    (4 cuts, 100 samples: sdm at 10 steps, ~5 s CPU); its map (minutes of sdm) is started and cancelled."""
     import json
 
     page = app
@@ -227,6 +323,14 @@ def test_update_with_the_sdm_engine_and_its_options(app, tmp_path):
     page.locator(".post-table").filter(has_text="engine sdm (steps=10), 100 samples").wait_for()
     page.locator(".map-status").filter(has_text="press Map and recommend").wait_for()  # minutes of sdm: when asked
     shot(page, "update_sdm")
+    # Cancel stops the map (exploratory test, item 1: it reported no progress, ran its 250 s and said "done")
+    page.locator(".map-run button").click()
+    page.locator(".map-status").filter(has_text="running").wait_for()
+    page.wait_for_timeout(1000)
+    page.locator(".map-cancel button").click()
+    page.locator(".map-status").filter(has_text="cancelled").wait_for(timeout=30_000)
+    assert "recommended" not in T.text(page, "recommendation")
+    shot(page, "update_sdm_map_cancelled")
     T.tab(page, "Downloads")
     with page.expect_download() as info:
         page.locator(".dl-posterior-json button").click()

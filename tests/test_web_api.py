@@ -834,6 +834,28 @@ def test_the_downloaded_map_is_drawn_for_the_maps_condition(monkeypatch):
         s.close()
 
 
+def test_a_long_csv_cell_and_a_deeply_nested_config_upload_are_said_under_their_drop_zones():
+    """Exploratory test (item 5): the page showed nothing for either upload (csv.Error and RecursionError escaped
+    into the server's log; fails on the old code). Each is said under its drop zone, naming the file; the last
+    good cuts and config stay."""
+    from millstab.web.update_tab import UpdateTab
+
+    s, tool = _tool()
+    tab = UpdateTab(s)
+    try:
+        before = s.cfg
+        tool.config_drop.value = {"deep.toml": 'name = "deep"\nx = ' + "[" * 5000 + "]" * 5000 + "\n"}
+        assert "deep.toml = &#x27;arrays or inline tables nested too deeply" in tool.config_error.object
+        assert s.cfg is before
+        tab.drop.value = {"ok.csv": "rpm,depth_mm,label\n9000,3,chatter\n"}
+        cuts = s.cuts
+        tab.drop.value = {"long.csv": "rpm,depth_mm,label\n9000,3," + "x" * 200_000 + "\n"}
+        assert "long.csv line 2 = &#x27;a cell over 131,072 characters" in tab.drop_error.object
+        assert s.cuts is cuts
+    finally:
+        s.close()
+
+
 def test_update_tab_reads_a_utf16_cuts_file_and_refuses_a_binary_one_with_a_message():
     """Exploratory test: an Excel "Unicode text" (UTF-16) or binary cuts CSV raised UnicodeDecodeError in the Update
     tab and the page showed nothing (fails on the old code); Identify read UTF-16. Read as Identify does; a binary

@@ -25,6 +25,7 @@ import numpy as np
 from millstab.errors import InputError
 from millstab.model import Conditions, Cutting
 from millstab.params import Parameterization
+from millstab.progress import cancel_point
 from millstab.stability import get_engine
 from millstab.stability.process_damping import reject as reject_process_damping
 
@@ -209,6 +210,7 @@ class Pinned:
             extra["ceiling"] = ceiling
         if floor is not None:
             extra["floor"] = floor
+        cancel_point()  # a cancelled web job stops here, between engine calls (millstab.progress)
         return f._engine_mod.envelope_batch(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     @property
@@ -229,6 +231,7 @@ class Pinned:
             extra["ceiling"] = ceiling
         if floor is not None:
             extra["floor"] = floor
+        cancel_point()
         return f._engine_mod.envelope_batch_hz(f.par.batch(t), self.conditions, self.rpm, **self.settings, **extra)
 
     def map(self, rows: np.ndarray, *, chunk_rows: int | None = None, progress=None) -> np.ndarray:

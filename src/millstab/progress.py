@@ -10,11 +10,19 @@
 
 :func:`count_progress` and :func:`solver_progress` turn the last two into :data:`Progress`. Cancellation
 (raising from the callback) is :mod:`millstab.api.progress`'s.
+
+Cancel points: a stretch of work that reports no progress for long (the first tempering stage of an update, a map
+or a recommendation from an sdm posterior: minutes of engine calls without a report) still stops when asked.
+:func:`cancel_checked` names a check for the current thread; :func:`cancel_point`, called before every engine call of
+the forward model and between the compiled chunks of an engine that chunks its work, runs it (the check raises to
+stop). A thread without one (the command line, a notebook) pays one attribute lookup per call.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+import threading
+from contextlib import contextmanager
+from typing import Callable, Iterator, Optional
 
 #: progress(stage, done, total); total None = unknown
 Progress = Callable[[str, int, Optional[int]], None]
@@ -43,4 +51,29 @@ def count_progress(progress: Progress | None, stage: str) -> CountProgress | Non
     return lambda done, total: progress(stage, int(done), int(total))
 
 
-__all__ = ["CountProgress", "Progress", "SolverProgress", "count_progress", "solver_progress"]
+_HERE = threading.local()
+
+
+@contextmanager
+def cancel_checked(check: Callable[[], None]) -> Iterator[None]:
+    """Within the block, on this thread only, every :func:`cancel_point` calls ``check()``, which raises to stop
+    the work (``millstab.api.CancelToken.checked``: a web job's Cancel button). Why per thread: the app's jobs of
+    several sessions share one process, and one session's cancel must not stop another's job."""
+    before = getattr(_HERE, "check", None)
+    _HERE.check = check
+    try:
+        yield
+    finally:
+        _HERE.check = before
+
+
+def cancel_point() -> None:
+    """Run this thread's cancel check (:func:`cancel_checked`), if any: a place where the work may stop (between
+    engine calls or compiled chunks, never inside one: nothing is left half-written)."""
+    check = getattr(_HERE, "check", None)
+    if check is not None:
+        check()
+
+
+__all__ = ["CountProgress", "Progress", "SolverProgress", "cancel_checked", "cancel_point", "count_progress",
+           "solver_progress"]

@@ -64,7 +64,8 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
     Raises:
         InputError: as for a config file; ``structure.frf.xx`` for a file not in ``files``.
     """
-    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {})))
+    return _bounded(parse_config(_text(text, name), name=Path(name).stem or name, files=dict(files or {}),
+                                 source=name))
 
 
 def points(source: PointSet | str | os.PathLike) -> PointSet:
@@ -111,12 +112,18 @@ def config_in_condition(cfg: Config, **target) -> tuple[Config, str | None]:
 
 def points_drawn(points: PointSet | None, cfg: Config, target=None) -> tuple[PointSet | None, str | None]:
     """(the points cut in the config's condition or in ``target``, :func:`in_config_condition`; a line counting the
-    others, or None when every point is drawn)."""
+    others and naming their conditions, or None when every point is drawn)."""
     drawn = in_config_condition(points, cfg, target)
     if points is None or len(drawn) == len(points):
         return drawn, None
+    from millstab.points import condition_text, cut_conditions, same_condition
+
+    # named: a reader who edited the form's condition sees where the points went, not only that they went
+    conds, _ = cut_conditions(points, cfg.cutting, getattr(cfg, "diameter_mm", None))
+    shown = cfg.cutting if target is None else target
+    others = "; ".join(dict.fromkeys(condition_text(c) for c in conds if not same_condition(c, shown)))
     return drawn, (f"{len(points) - len(drawn)} of the {len(points)} points were cut in other conditions than the "
-                   f"{'config' if target is None else 'target'}'s: not drawn")
+                   f"{'config' if target is None else 'target'}'s: not drawn (they were cut in {others})")
 
 
 def points_from_text(text: str | bytes, name: str = "points.csv") -> PointSet:

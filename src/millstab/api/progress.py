@@ -13,6 +13,7 @@ from __future__ import annotations
 import threading
 
 from millstab.progress import Progress  # noqa: F401 (the one protocol; re-exported by millstab.api)
+from millstab.progress import cancel_checked
 #: ``with collect_warnings() as caught:`` millstab's warnings issued by this thread only (a web job's own)
 from millstab.warnlog import collect as collect_warnings  # noqa: F401 (re-exported by millstab.api)
 
@@ -43,6 +44,13 @@ class CancelToken:
         """Raise :class:`Cancelled` when cancelled."""
         if self._event.is_set():
             raise Cancelled("cancelled by the user")
+
+    def checked(self):
+        """``with token.checked():`` the work run in the block on this thread stops at its next cancel point
+        (:func:`millstab.progress.cancel_point`: before every engine call, between an engine's compiled chunks) once
+        :meth:`cancel` is called, as well as at its progress reports: work that reports nothing for minutes (an
+        update's first stage, a map or recommendation from an sdm posterior) stops within one engine chunk."""
+        return cancel_checked(self.check)
 
     def watch(self, progress: Progress | None = None) -> Progress:
         """A progress callback that reports to ``progress`` and then raises if cancelled."""

@@ -418,18 +418,17 @@ def _cutting_sizes(t: Mapping[str, Any], tool: Any, cutting: Cutting) -> tuple[f
 
 
 def parse_config(text: str, name: str = "config", base_dir: PathLike | None = None,
-                 files: Mapping[str, PathLike] | None = None) -> Config:
-    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`.
+                 files: Mapping[str, PathLike] | None = None, source: str | None = None) -> Config:
+    """Parse config TOML text (``path`` of the result is ``None``); ``files`` as in :func:`config_from_dict`;
+    ``source``: the file the text came from (an upload's name), named by the errors of the text as a whole (TOML
+    syntax, nesting; default ``name``).
 
     Text has no folder: without ``base_dir`` (the caller's word for where its FRF files are) and without
     ``files``, a ``[structure.frf]`` file name is refused, never looked up from the working directory
     or as an absolute path (the text may come from anyone: an upload)."""
     if base_dir is None and files is None:
         files = {}
-    try:
-        data = tomllib.loads(text.lstrip("\ufeff"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(name, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
+    data = _toml(text.lstrip("\ufeff"), source or name)
     return config_from_dict(data, name, None, Path(base_dir) if base_dir is not None else None, files)
 
 
@@ -450,11 +449,22 @@ def load_config(source: PathLike) -> Config:
         if not path.is_file():
             raise InputError("config", str(source), "file does not exist" if not path.exists() else "is not a file")
     text = read_text(path, "config", "text (TOML) file")  # a byte-order mark (Notepad) is dropped
+    return config_from_dict(_toml(text, str(path)), default_name, path, path.parent)
+
+
+def _toml(text: str, source: str) -> dict:
+    """The TOML tables of ``text``; its syntax errors, and a nesting too deep for Python's recursive TOML parser
+    (a RecursionError that no door showed: an upload of arrays nested 5 000 deep left the page silent), as an
+    :class:`InputError` naming ``source`` (the file).
+    """
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:  # the message carries "(at line L, column C)"
-        raise InputError(str(path), "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
-    return config_from_dict(data, default_name, path, path.parent)
+        raise InputError(source, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
+    except RecursionError:
+        raise InputError(source, "arrays or inline tables nested too deeply to read",
+                         "a config nests a few levels ([structure] → x → its modes); this text nests arrays or "
+                         "inline tables ({ } or [ ]) hundreds of levels deep: is it the config meant?") from None
 
 
 _TOML_COMMA = re.compile(r"^\s*[\w.\-\"']+\s*=\s*[-+]?\d+,\d+\s*(#.*)?$")

@@ -50,7 +50,6 @@ term (perhaps a mode) is ignored.
 
 from __future__ import annotations
 
-import csv
 import math
 import re
 from pathlib import Path
@@ -60,7 +59,8 @@ import numpy as np
 
 from millstab.errors import FRFWarning, InputError, UnitWarning, show
 from millstab.io.results import PathLike, atomic_write_text, csv_text
-from millstab.io.text import COMMA_ADVICE, COMMA_NUMBER, check_comma_separated, parse_number, read_text
+from millstab.io.text import (COMMA_ADVICE, COMMA_NUMBER, check_comma_separated, csv_rows, parse_number,
+                              read_text)
 from millstab.model import MeasuredFRF, sign_convention_message, wrong_sign_resonance
 from millstab.warnlog import quiet, warn
 
@@ -104,7 +104,7 @@ def read_frf_csv(path: PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Read a ``freq_hz,real,imag`` CSV (Hz, m/N). Returns ``(freq_hz, h)``."""
     p = _exists(path, "frf file")
     lines = read_text(p, str(p), "text CSV file").splitlines()
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(lines))
+    rows = [(i + 1, r) for i, r in enumerate(csv_rows(lines, p.name))
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     required = ("freq_hz", "real", "imag")
     if not rows:

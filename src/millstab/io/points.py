@@ -41,7 +41,6 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
 
 from __future__ import annotations
 
-import csv
 import difflib
 import math
 import re
@@ -52,7 +51,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
-from millstab.io.text import COMMA_ADVICE, check_comma_separated, parse_number, read_text
+from millstab.io.text import COMMA_ADVICE, check_comma_separated, csv_rows, parse_number, read_text
 # the model type lives below io (import it from millstab.points, its one home)
 from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_conditions, check_enough,
                               grade_of_cell, label_of_grade, parse_label_codes)
@@ -159,7 +158,7 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     p = Path(source)
     codes = parse_label_codes(labels) if isinstance(labels, (str, type(None))) else dict(labels)
     text = text.lstrip("\ufeff")
-    rows = [(i + 1, row) for i, row in enumerate(csv.reader(text.splitlines()))
+    rows = [(i + 1, row) for i, row in enumerate(csv_rows(text.splitlines(), p.name))
             if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("points file", str(p), f"is empty; expected a header {','.join(REQUIRED + OPTIONAL)} and rows")

@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import csv
 import io as _io
 from pathlib import Path
 from typing import Iterable
@@ -65,8 +64,10 @@ def _read_wav(p: Path, channel: int) -> tuple[np.ndarray, float]:
 
 
 def _read_csv(p: Path) -> tuple[np.ndarray, float]:
+    from millstab.io.text import csv_rows
+
     text = p.read_text(encoding="utf-8-sig")
-    rows = [r for r in csv.reader(_io.StringIO(text)) if r and any(c.strip() for c in r)]
+    rows = [r for r in csv_rows(_io.StringIO(text), p.name) if r and any(c.strip() for c in r)]
     if not rows or rows[0][0].strip().lower() not in ("time_s", "t_s", "time"):
         raise InputError("recording", p.name, "a CSV with the header time_s,signal (time in seconds)")
     try:
@@ -145,9 +146,9 @@ def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = 
     p = Path(path)
     if not p.exists():
         raise InputError("cuts", str(path), "file does not exist")
-    from millstab.io.text import read_text
+    from millstab.io.text import csv_rows, read_text
 
-    rows = list(csv.reader(_io.StringIO(read_text(p, "cuts", "CSV file"))))
+    rows = list(csv_rows(_io.StringIO(read_text(p, "cuts", "CSV file")), p.name))
     rows = [r for r in rows if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("cuts", str(path), "a header rpm,depth_mm,...,recording and one row per cut")

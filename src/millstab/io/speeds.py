@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.io.text import read_text
+from millstab.io.text import csv_rows, read_text
 
 
 def read_rpm_file(path: Path) -> np.ndarray:
@@ -17,7 +16,7 @@ def read_rpm_file(path: Path) -> np.ndarray:
         raise InputError("--rpm-file", str(path), "file does not exist")
     text = read_text(path, "--rpm-file", "text file")  # a byte-order mark (Notepad, Excel) is dropped
     # (line number, cells) of the lines that hold data: blank and '#' lines are skipped
-    rows = [(no, r) for no, r in enumerate(csv.reader(text.splitlines()), start=1)
+    rows = [(no, r) for no, r in enumerate(csv_rows(text.splitlines(), path.name), start=1)
             if r and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError("--rpm-file", str(path), "no speeds in the file")

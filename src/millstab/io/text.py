@@ -9,8 +9,10 @@ where a caller names a fallback (CutPro writes Windows-1252 text, e.g. a "µm/N"
 from __future__ import annotations
 
 import codecs
+import csv
 import math
 import re
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from millstab.errors import InputError
@@ -83,3 +85,29 @@ def check_comma_separated(header: list[str], where: str, line: str, columns: str
         sep = "';'" if ";" in header[0] else "tabs"
         raise InputError(where, line, f"columns are separated by {sep}; a CSV must separate them with commas and "
                                       f"write numbers with a decimal point (header {columns})")
+
+
+def csv_rows(lines: Iterable[str], name: str) -> Iterator[list[str]]:
+    """The rows of ``csv.reader(lines)``, with what the csv module cannot read as an :class:`InputError` naming
+    ``name`` (the file) and the line, instead of a ``csv.Error`` that no door shows (an upload with a cell above the
+    module's 131 072-character limit left the page silent).
+
+    Raises:
+        InputError: a cell longer than ``csv.field_size_limit()`` characters (a quote left open makes the rest of
+            the file one cell), or another row the csv module refuses.
+    """
+    reader = csv.reader(lines)
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            limit = csv.field_size_limit()
+            if "field larger than field limit" in str(exc):
+                raise InputError(f"{name} line {reader.line_num}", f"a cell over {limit:,} characters",
+                                 "each cell holds a number or a label (a quote left open makes the rest of the file "
+                                 "one cell): is it the file meant?") from None
+            raise InputError(f"{name} line {reader.line_num}", "not CSV", f"rows of comma-separated cells ({exc})"
+                             ) from None
+        yield row

@@ -85,7 +85,7 @@ from threadpoolctl import threadpool_limits
 from millstab.errors import InputError
 from millstab.frf import ModalBatch
 from millstab.model import Cutting, Structure
-from millstab.progress import Progress
+from millstab.progress import Progress, cancel_point
 from millstab.stability import _sdm_kernel as _k
 from millstab.stability import zoa
 from millstab.stability.base import Envelope, memory_chunk_rows
@@ -111,7 +111,8 @@ CHUNK_SECONDS: float | None = 0.25
 
 
 def _chunked(run: Callable[[int, int], None], total: int, stage: str, progress: Progress | None) -> None:
-    """Call ``run(first, last)`` over the tasks 0..total-1 in chunks of about CHUNK_SECONDS each.
+    """Call ``run(first, last)`` over the tasks 0..total-1 in chunks of about CHUNK_SECONDS each; the thread's
+    cancel point (:func:`millstab.progress.cancel_point`) is checked between chunks.
 
     The first chunk has one task per thread; each next one as many as the previous chunk's rate gives
     for CHUNK_SECONDS (a multiple of the thread count, at most 4× the previous, so a run whose tasks
@@ -129,6 +130,8 @@ def _chunked(run: Callable[[int, int], None], total: int, stage: str, progress: 
         n, done = last - done, last
         if progress is not None:
             progress(stage, done, total)
+        if done < total:  # a caller without progress (a map, the likelihood) is cancelled here too
+            cancel_point()
         if CHUNK_SECONDS is not None:
             fit = int(n * CHUNK_SECONDS / max(elapsed, 1e-9)) // threads * threads
             size = max(threads, min(4 * n, fit))

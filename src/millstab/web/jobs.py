@@ -54,10 +54,16 @@ class JobBar(pn.viewable.Viewer):
         self._lock = threading.Lock()
         self._report: tuple[str, int, int | None] = ("", 0, None)
         self._t0 = 0.0
-        self.cancel.on_click(lambda e: self._token and self._token.cancel())
+        self.cancel.on_click(lambda e: self._cancel())
 
     def __panel__(self):
         return pn.Column(pn.Row(self.run, self.cancel, self.bar), self.status.view())
+
+    def _cancel(self) -> None:
+        """Ask the job to stop; said at once (it stops at its next cancel point: within an engine chunk, ≲ 1 s)."""
+        if self._token is not None and self.busy:
+            self._token.cancel()
+            self.status.text = "cancelling …"
 
     @property
     def busy(self) -> bool:
@@ -74,9 +80,17 @@ class JobBar(pn.viewable.Viewer):
             with self._lock:
                 self._report = (stage, n, total)
 
-        watched = self._token.watch(progress)
+        token = self._token
+        watched = token.watch(progress)
 
-        self._future = EXECUTOR.submit(collected, work, watched)
+        def run():
+            # the cancel points of the engine calls (millstab.progress) see this job's token, on this worker thread
+            # only: an update's first stage and a map from an sdm posterior report no progress for minutes
+            with token.checked():
+                token.check()  # cancelled while it waited for a worker thread (two, shared by every session)
+                return collected(work, watched)
+
+        self._future = EXECUTOR.submit(run)
         self.run.disabled, self.cancel.disabled = True, False
         # the bar appears once a stage reports its total: an indeterminate bar's animation costs the browser
         # CPU that the work needs on a small machine; the status line shows the iteration meanwhile
@@ -97,7 +111,8 @@ class JobBar(pn.viewable.Viewer):
                 self.bar.visible = True
         elif self.bar.visible:
             self.bar.visible = False
-        self.status.text = (f"running: {stage} ({n}{f'/{total}' if total else ''}) "
+        word = "cancelling" if self._token is not None and self._token.cancelled else "running"
+        self.status.text = (f"{word}: {stage} ({n}{f'/{total}' if total else ''}) "
                             f"{time.perf_counter() - self._t0:.1f} s")
         if fut is None or not fut.done():
             return

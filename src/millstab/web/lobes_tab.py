@@ -27,6 +27,7 @@ class LobesTab:
         self.raw = pn.widgets.Checkbox(label="raw lobes (zoa)", value=False, css_classes=["raw-lobes"])
         self.summary = TextBox("lobes-summary", height=66)
         self.error = pn.pane.HTML("", css_classes=["lobes-error"])
+        self.overlay_note = TextBox("lobes-overlay-note", height=None)  # the points and cuts not drawn, and why
         self.job = JobBar("Compute", "lobes")
         self.job_box = pn.Column(self.job, visible=False)
         self.job.run.on_click(lambda e: self.redraw(force=True))
@@ -38,8 +39,19 @@ class LobesTab:
         self.redraw()
 
     def overlay(self) -> None:
-        # the SLD is the config's condition: cuts made in others are not drawn on it
-        set_points(self.src, api.overlay_points(self.s.points, api.in_config_condition(self.s.cuts, self.s.cfg)))
+        """Draw the boundary points and test cuts made in the form's condition; say how many others there are and
+        their conditions (an edit of the form's condition made loaded cuts vanish from the SLD without a word,
+        while the update still used them)."""
+        cfg, notes = self.s.cfg, []
+        points, note = api.points_drawn(self.s.points, cfg)
+        if note:
+            notes.append(f"boundary points (Identify): {note}")
+        cuts, note = api.points_drawn(self.s.cuts, cfg)
+        if note:
+            notes.append(f"test cuts (Update and recommend): {note}; the update uses every cut, in its own condition")
+        # the SLD is the form's condition: points made in others are not drawn on it
+        set_points(self.src, api.overlay_points(points, cuts))
+        self.overlay_note.text = "".join(f'<div class="ms-note">{esc(n)}</div>' for n in notes)
 
     def redraw(self, force: bool = False) -> None:
         cfg, origin = self.s.cfg, self.s.origin
@@ -118,6 +130,7 @@ class LobesTab:
 
     def view(self):
         return pn.Column(pn.Row(self.engine, self.raw, self.job_box), self.error, self.summary.view(),
+                         self.overlay_note.view(),
                          pn.pane.Bokeh(self.fig, sizing_mode="stretch_width"),
                          pn.pane.HTML('<span class="ms-note">Hover the limit for speed, depth, chatter frequency and '
                                       'lobe number. Uploaded boundary points and test cuts are drawn by label.</span>'),

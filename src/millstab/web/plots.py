@@ -116,11 +116,14 @@ def set_raw(source: ColumnDataSource, lobes, rpm=None, depth_mm=None) -> None:
 
 def map_figure(rpm, depth_mm, pm, cuts=None, name: str = "pmap", marks=()):
     """P(stable) over rpm × depth with the 5/50/95 % contours, the cuts, and ``marks``: (rpm, depth [mm],
-    legend label) of the recommended cut and the next test."""
+    legend label) of the recommended cut and the next test. The axes span the map and every mark (one outside the
+    map was drawn off the axes: the caller makes the map reach them, this keeps them in sight regardless)."""
+    x = [float(rpm[0]), float(rpm[-1])] + [float(r) for r, _, _ in marks]
+    y = [float(depth_mm[0]), float(depth_mm[-1])] + [float(d) for _, d, _ in marks]
     fig = figure(height=430, sizing_mode="stretch_width",
                  title="P(stable), with its 5 % (dashed), 50 % (solid) and 95 % (dotted) boundaries",
                  x_axis_label="spindle speed [rpm]", y_axis_label="axial depth [mm]",
-                 x_range=(float(rpm[0]), float(rpm[-1])), y_range=(float(depth_mm[0]), float(depth_mm[-1])),
+                 x_range=(min(x), max(x)), y_range=(min(y), max(y)),
                  tools="pan,box_zoom,wheel_zoom,reset,save,hover", name=f"{name}_fig",
                  tooltips=[("speed", "$x{0,0} rpm"), ("depth", "$y{0.00} mm"), ("P(stable)", "@image{0.00}")])
     from bokeh.models import ColorBar, LinearColorMapper

@@ -27,6 +27,16 @@ MAP_SPEEDS = 240
 #: samples 77 s CPU, the recommendation at its 200 coarse speeds over 5 min; 60 of each are ~4x less). Such a map
 #: is made when asked (Map and recommend), not after every update.
 MAP_SPEEDS_ACCURATE = 60
+#: the map's depth axis reaches this factor above the deepest cut marked on it (the recommended cut, the next test)
+MARK_HEADROOM = 1.1
+
+
+def marked_depths(rec) -> list[float]:
+    """The depths [mm] of the cuts a map marks for ``rec``: the recommended cut, and its next test when that is in
+    the map's condition (:func:`millstab.api.next_test_elsewhere`); finite positive ones only."""
+    nt = rec.next_test
+    got = [rec.depth_mm] + ([nt["depth_mm"]] if "depth_mm" in nt and api.next_test_elsewhere(rec) is None else [])
+    return [float(d) for d in got if d is not None and np.isfinite(d) and d > 0]
 
 
 class UpdateTab:
@@ -49,8 +59,13 @@ class UpdateTab:
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
         self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
         self.use_points = pn.widgets.Checkbox(label="use the boundary points (Identify) as well", value=False)
-        self.samples = pn.widgets.IntInput(label="samples", value=1000, start=100, step=500, width=100,
+        # no start= bound in the browser: below it the field kept showing the typed value (50) while the server kept
+        # the last accepted one, and the update ran with 1000 samples; every value now reaches the server, which
+        # checks it (checked_samples) and shows why it is refused beside the field
+        self.samples = pn.widgets.IntInput(label="samples", value=1000, step=500, width=100,
                                            css_classes=["update-samples"])
+        self.samples_error = pn.pane.HTML("", css_classes=["e-samples"])
+        self.samples.param.watch(lambda e: self.checked_samples(), "value")
         self.seed = pn.widgets.IntInput(label="seed", value=0, width=80)
         # the update's engine and its discretisation (docs/app.md "Engine"): kept in the posterior, whose map and
         # recommendation use them; checked as --engine-option is (api.engine_options_from_text), on every edit
@@ -66,6 +81,7 @@ class UpdateTab:
         self._engine_changed()
         self.job = JobBar("Update", "update")
         self.map_condition = ""  # "computed for ..." of the last map
+        self.map_top = None  # (the map's top depth as asked [mm], where it came from) of the last map
         self.map_cuts = None  # the cuts the last map draws: those made in its condition
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
@@ -104,6 +120,21 @@ class UpdateTab:
         self.engine_error.object = ""
         return options
 
+    def checked_samples(self) -> int | None:
+        """The posterior samples of the form (:func:`millstab.api.check_samples`: 100 up to what this machine's
+        memory holds), or ``None`` after showing why beside the field (an empty field is no number: it is not
+        taken as 0 or as the last value)."""
+        value = self.samples.value
+        try:
+            if value is None:
+                raise InputError("samples", "empty", "a whole number of posterior samples ≥ 100, e.g. 1000")
+            n = api.check_samples(value, field="samples")
+        except InputError as exc:
+            self.samples_error.object = error_html(str(exc))
+            return None
+        self.samples_error.object = ""
+        return n
+
     def use_engine(self, engine: str, options: dict) -> None:
         """Show ``engine`` and its ``options`` in the form (an opened campaign's posterior: its next update
         continues from it only with the same ones)."""
@@ -113,14 +144,15 @@ class UpdateTab:
 
     def settings(self):
         """The update's settings from the form (:class:`millstab.api.UpdateSettings`: engine, engine_options,
-        samples, seed), or ``None`` when the engine options are refused (the error is shown beside them and in
-        the job's status)."""
-        options = self.checked_engine_options()
-        if options is None:
-            self.job.status.text = error_html("engine options: see the error beside the field")
+        samples, seed), or ``None`` when the engine options or the samples are refused (the error is shown beside
+        the field and in the job's status)."""
+        options, samples = self.checked_engine_options(), self.checked_samples()
+        if options is None or samples is None:
+            which = "engine options" if options is None else "samples"
+            self.job.status.text = error_html(f"{which}: see the error beside the field")
             return None
-        return api.UpdateSettings(engine=self.engine.value, engine_options=options,
-                                  samples=int(self.samples.value or 0), seed=int(self.seed.value or 0))
+        return api.UpdateSettings(engine=self.engine.value, engine_options=options, samples=samples,
+                                  seed=int(self.seed.value or 0))
 
     # --- cuts with recordings ------------------------------------------------------------------------
     def _cuts_uploaded(self) -> None:
@@ -288,18 +320,23 @@ class UpdateTab:
             self.map_condition += f"; {elsewhere} cut{'s' if elsewhere > 1 else ''} in other conditions not drawn"
 
         def work(progress):
-            depth = api.depth_grid(top, field="map depth up to")
+            api.depth_grid(top, field="map depth up to")  # a bad depth is refused before any engine call
             # the map and the recommendation share the limits both read (the map's speeds are the recommendation's
-            # coarse grid; its subsample holds the fast search's): computed once, the same numbers
+            # coarse grid; its subsample holds the fast search's): computed once, the same numbers, in either order
             memo = api.limit_memo()
-            pm = api.p_stable(post, rpm, depth, memo=memo)
             span = (float(rpm[0]), float(rpm[-1]))
             if keep:  # recorded with the posterior it came from
                 rec = self.campaign.v.recommend(oc.name, risk, span, current=(self.post_id, post), **grid)[0]
             else:
                 rec = api.recommend(post, risk, span, memo=memo, **grid)
+            # the map's depths reach the cuts drawn on it (the recommended one, the next test here): a marker above
+            # the top was drawn off the axes and the user saw no recommendation (show_map says the axis was raised)
+            depth = api.depth_grid(max([top] + [MARK_HEADROOM * d for d in marked_depths(rec)]),
+                                   field="map depth up to")
+            pm = api.p_stable(post, rpm, depth, memo=memo)
             return rpm, depth, pm, rec, post
 
+        self.map_top = (top, "map depth up to" if self.depth_max.value else "1.5 × the deepest cut")
         self.map_job.start(work, self.show_map)
 
     def show_map(self, result, caught) -> None:
@@ -318,11 +355,18 @@ class UpdateTab:
             marks.append((nt["rpm"], nt["depth_mm"], "next test"))
         where = (f" <b>in another condition: {esc(other)}</b> (not drawn on this map; {esc(nt.get('why', ''))})"
                  if other is not None else "")
+        raised = ""
+        if self.map_top is not None and depth[-1] > self.map_top[0] * (1 + 1e-9):
+            top, asked = self.map_top
+            above = " and ".join({"recommended": "the recommended cut"}.get(text, f"the {text}")
+                                 for _, d, text in marks if d > top)
+            raised = f"; depth axis raised from {top:.3g} mm ({asked}) to {depth[-1]:.3g} mm to show {above}"
         self.plot.objects = [pn.pane.Bokeh(map_figure(rpm, depth, pm, self.map_cuts, marks=marks),
                                            sizing_mode="stretch_width")]
         # the map and the recommendation may say one thing each in the same words (dict: once each, in order)
         notes = "".join(f'<div class="ms-note">{esc(w)}</div>' for w in dict.fromkeys(caught))
-        self.rec.text = (computed_for(self.post_origin) + f"<div class='ms-note'>{esc(self.map_condition)}</div>"
+        self.rec.text = (computed_for(self.post_origin)
+                         + f"<div class='ms-note'>{esc(self.map_condition + raised)}</div>"
                          f"<b>recommended</b> at risk {rec.risk:g}: <b>{rec.rpm:.0f} rpm, {rec.depth_mm:.3g} mm</b> "
                            f"(P(chatter) {rec.p_chatter:.3f}, limited by {esc(rec.limited_by)})<br>"
                            f"<b>next test cut</b>: {nt.get('rpm', float('nan')):.0f} rpm, "
@@ -334,7 +378,8 @@ class UpdateTab:
         inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
                          pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed, self.engine, self.engine_options),
-                         pn.Column(self.engine_error, self.engine_note), self.job, self.post_table.view(),
+                         pn.Column(self.samples_error, self.engine_error, self.engine_note), self.job,
+                         self.post_table.view(),
                          title="Test cuts and Bayesian update", collapsible=False)
         decide = pn.Card(pn.Row(self.depth_max, self.risk, self.target_ri, self.target_milling, self.map_job),
                          self.rec.view(), title="P(stable) and recommendation", collapsible=False)

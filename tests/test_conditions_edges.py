@@ -604,3 +604,18 @@ def test_the_apps_zero_order_sld_says_where_the_model_is_poor():
         assert "no tooth cuts" not in tab.summary.text
     finally:
         s.close()
+
+
+def test_an_a_over_d_written_to_four_digits_is_the_configs_condition():
+    """ex3's entry is 126.9° (a/D 0.19979); a shop writes a/D 0.1998: 2.5e-5 rad apart, the same condition (an
+    exploratory test: it was another condition printed the same, "a/D 0.1998", never drawn on the config's SLD;
+    fails on the old code). a/D 0.2 (126.87°, 5e-4 rad apart) is written as another condition and stays one."""
+    from millstab import api
+    from millstab.points import same_condition
+
+    ex3 = api.config("example:ex3").cutting
+    pts = parse_points("rpm,depth_mm,label,radial_immersion,milling\n5000,1,stable,0.1998,down\n"
+                       "6000,1,stable,0.2,down\n7000,1,stable,0.19979,down\n")
+    conds, idx = cut_conditions(pts, ex3)
+    assert idx.tolist() == [0, 1, 0] and same_condition(conds[0], ex3) and not same_condition(conds[1], ex3)
+    assert condition_text(conds[0]) == condition_text(ex3) == "a/D 0.1998 down milling, 3 teeth"

@@ -388,8 +388,11 @@ def milling_word(text) -> str:
     return MILLING_SYNONYMS.get(s, s)
 
 
-#: angles [rad] closer than this are one condition (a/D written with 4 digits differs by far more)
-ANGLE_TOL = 1e-9
+#: angles [rad] closer than this are one condition: a shop writes a/D to 3–4 digits (ex3's 126.9° entry is a/D
+#: 0.19979, written 0.1998: 2.5e-5 rad apart, a limit ~3e-5 relative apart), and such a cut was another condition,
+#: printed the same ("a/D 0.1998"), never drawn on the config's SLD and called "never cut"; 1e-4 rad (0.006°) is far
+#: below any engagement a tool tells apart, and above the 4-digit rounding of an a/D (≤ 5e-5 / sin φ rad)
+ANGLE_TOL = 1e-4
 #: a radial width [mm] and an a/D (or entry/exit angles) given together agree when they differ by at most this
 #: fraction of the tool diameter (a/D 0.333 and 4 mm on a 12 mm tool do; 0.25 and 6 mm do not)
 WIDTH_TOL = 1e-3

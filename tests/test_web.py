@@ -127,6 +127,22 @@ def test_bad_field_shows_validator_message_and_keeps_last_sld(app):
     page.locator(".e-cutting-kt .ms-error").wait_for(state="detached")
 
 
+def test_a_unit_slip_is_marked_under_its_field_and_the_status_says_check(app):
+    """k = 12.53 (N/m: the seed paper prints N/µm so) is valid but warned: the warning stands under the k field and
+    the status says to check it (an exploratory test found the hint under a green "valid"; fails on the old code:
+    no text under the field)."""
+    page = app
+    T.set_field(page, "structure.x[0].k", "12.53")
+    warn = page.locator(".e-structure-x-0--k .ms-warn").first
+    warn.wait_for()
+    assert warn.inner_text().startswith("structure.x[0].k = 12.53 N/m is very low for a tool tip; did you mean")
+    page.locator(".tool-status").filter(has_text="valid, but check 1 marked field").wait_for()
+    shot(page, "unit_warning")
+    T.set_field(page, "structure.x[0].k", "9 N/um")
+    page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
+    page.locator(".e-structure-x-0--k .ms-warn").wait_for(state="detached")
+
+
 def test_identify_uploaded_points(app):
     page = app
     T.tab(page, "Identify")

@@ -10,6 +10,7 @@ CSS = """
 .ms-error { color: #b00020; font-size: 0.9em; }
 .ms-done { color: #1b5e20; }
 .ms-note { color: #555; font-size: 0.9em; }
+.ms-warn { color: #8a4b00; font-size: 0.9em; }
 .ms-for { color: #0d47a1; font-size: 0.9em; }
 table.ms-table { border-collapse: collapse; font-size: 0.9em; }
 table.ms-table td, table.ms-table th { border: 1px solid #ccc; padding: 2px 8px; text-align: right; }

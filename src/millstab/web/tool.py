@@ -309,10 +309,18 @@ class ToolTab:
             self.show_error(exc)
             self.status.object = error_html("input not valid: the diagrams show the last valid input")
             return
-        notes = "".join(f'<div class="ms-note">{esc(w.message)}</div>' for w in caught)
+        # a warning about one field (a unit slip: "structure.x[0].k = 12.53 N/m is very low ...") stands under it,
+        # and the status says the config is valid but to be checked (the hint sat under a green "valid")
+        fields = {f.key: f for f in self.all_fields()}
+        marked = [w for w in caught if str(w.message).split(" = ", 1)[0] in fields]
+        for w in marked:
+            fields[str(w.message).split(" = ", 1)[0]].error.object = f'<span class="ms-warn">{esc(w.message)}</span>'
+        notes = "".join(f'<div class="ms-note">{esc(w.message)}</div>' for w in caught if w not in marked)
         origin = self.origin()
-        self.status.object = (f'<span class="ms-done">valid: {esc(cfg.name)}</span> '
-                              f'<span class="ms-note">({esc(origin)})</span>{notes}')
+        state = (f'<span class="ms-done">valid: {esc(cfg.name)}</span>' if not marked else
+                 f'<span class="ms-warn">valid, but check {len(marked)} marked field{"s" if len(marked) > 1 else ""}: '
+                 f'{esc(cfg.name)}</span>')
+        self.status.object = f'{state} <span class="ms-note">({esc(origin)})</span>{notes}'
         self.s.origin = origin  # before cfg: the tabs redraw on cfg and say what they computed for
         self.s.cfg = cfg
 

@@ -297,9 +297,11 @@ def score(name, teeth, truth, joint, per, hammer_post, held, held_tl, args, extr
                             args.truth_steps)
             rec_ok = bool(rec.depth_mm < tl.min())
             cpu_rec += time.process_time() - t0
-            rows.append((key, b_joint, b_hammer, b_per, own, rec_ok, rec.depth_mm, float(tl.min())))
+            # the zero-order recommendation's own check against interrupted cutting (update.model_check)
+            warned = any("checked against interrupted cutting" in w for w in rec.warnings)
+            rows.append((key, b_joint, b_hammer, b_per, own, rec_ok, rec.depth_mm, float(tl.min()), warned))
         else:
-            rows.append((key, b_joint, b_hammer, b_per, own, None, None, None))
+            rows.append((key, b_joint, b_hammer, b_per, own, None, None, None, None))
         say(f"{name}: {condition_text(cond(teeth, *key)).split(',')[0]} scored; CPU so far: predictions "
             f"{cpu_predict:.0f} s, recommendations {cpu_rec:.0f} s")
     return rows, (cpu_predict, cpu_rec)
@@ -438,9 +440,10 @@ def main() -> None:
                   f"{'3 updates' if args.design == 'around' else 'the campaigns'} {cpu[0]:.1f} s, "
                   f"4 posteriors' predictions {cpu[1]:.1f} s, 3 recommendations {cpu[2]:.1f} s)")
             print("  condition              joint  hammer  slot-only  half-only  own-only  recommendation")
-            for key, bj, bh, bp, own, ok, dep, tl in rows:
+            for key, bj, bh, bp, own, ok, dep, tl, warned in rows:
                 txt = condition_text(cond(teeth, *key)).split(",")[0]
-                rec = "" if ok is None else f"{dep:.2f} mm vs true {tl:.2f}: {'stable' if ok else 'CHATTERS'}"
+                rec = "" if ok is None else (f"{dep:.2f} mm vs true {tl:.2f}: {'stable' if ok else 'CHATTERS'}"
+                                             + ("; warned by the check" if warned else ""))
                 print(f"  {txt:<22} {bj:6.3f} {bh:7.3f} {bp[TRAIN[0]]:10.3f} {bp[TRAIN[1]]:10.3f} "
                       f"{'' if own is None else f'{own:8.3f}':>9}  {rec}")
             allrows += rows
@@ -458,6 +461,11 @@ def main() -> None:
                   f"{mj / mh:.2f}), best single-condition {np.mean([min(r[3].values()) for r in mt]):.3f}")
         stable = (f"recommendations truly stable {sum(recs)}/{len(recs)} (target ≥ 95 %)" if recs
                   else "recommendations not made (--no-recommend)")
+        if recs:  # the check against interrupted cutting: chattering ones it warned, stable ones it warned falsely
+            w_bad = sum(1 for r in tgt if r[5] is False and r[8])
+            w_ok = sum(1 for r in tgt if r[5] is True and r[8])
+            stable += (f"; the model check warned {w_bad} of the {len(recs) - sum(recs)} chattering and {w_ok} of the "
+                       f"{sum(recs)} stable")
         print(f"unseen conditions ({len(tgt)}): mean Brier joint {bj:.3f} (target ≤ 0.08), hammer test {bh:.3f} "
               f"(joint/hammer {bj / bh:.2f}, target ≤ 0.5), best single-condition posterior {bsep:.3f}; {stable}")
         print(f"{len(results)} campaigns in {time.perf_counter() - t0:.0f} s wall ({args.jobs} job(s)), "

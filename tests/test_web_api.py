@@ -896,3 +896,45 @@ def test_an_uploaded_cuts_file_shows_the_readers_notes():
         assert 'ms-note' not in tab.cuts_note.object
     finally:
         s.close()
+
+
+def test_number_fields_out_of_range_or_empty_are_refused_with_a_message_not_run_with_another_value():
+    """The risk, a/D, seed and next-tests fields had browser-side bounds (or took empty as 0): a value typed outside
+    them stayed shown while the server kept the previous one (or 0), and the job ran with that. Now every value
+    reaches the server, which refuses it in the job's status line and starts nothing (fails on the old code: the
+    map ran at the previous risk, an empty seed ran as 0, an empty next-tests field raised TypeError)."""
+    import html
+
+    pytest.importorskip("panel")
+    from millstab.web.identify_tab import IdentifyTab
+    from millstab.web.state import Session
+    from millstab.web.update_tab import UpdateTab
+
+    s = Session()
+    try:
+        s.cfg, s.points = api.config("example:ex3"), object()  # never read: the form is refused first
+        tab, ident = UpdateTab(s), IdentifyTab(s)
+        ran = []
+        tab.map_job.start = tab.job.start = ident.job.start = ident.plan_job.start = lambda *a: ran.append(a)
+        s.post = object()  # never reached: the form is refused first
+        for value in (1.5, 0.0, None):
+            tab.risk.value = value
+            tab.map()
+            assert "risk P(chatter)" in tab.map_job.status.text and "(0, 1)" in tab.map_job.status.text
+        tab.seed.value = None
+        assert tab.settings() is None and "seed = 'empty' is invalid" in html.unescape(tab.job.status.text)
+        tab.seed.value = -3
+        assert tab.settings() is None and "seed = -3" in tab.job.status.text
+        tab.seed.value = 7
+        assert tab.settings().seed == 7
+        ident.seed.value = None
+        ident.run()
+        ident.n_plan.value = None
+        ident.plan()
+        ident.n_plan.value = 0
+        ident.plan()
+        assert "seed = 'empty' is invalid" in html.unescape(ident.job.status.text)
+        assert "next tests = 0 is invalid" in ident.plan_job.status.text
+        assert ran == []
+    finally:
+        s.close()

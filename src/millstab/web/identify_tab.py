@@ -9,7 +9,7 @@ import panel as pn
 
 from millstab import api
 from millstab.errors import InputError
-from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
+from millstab.web.common import TextBox, computed_for, error_html, esc, form_value, html_table
 from millstab.web.jobs import JobBar, collected
 from millstab.web.plots import set_line, set_points, set_scatter, sld_figure
 from millstab.web.state import Session
@@ -34,6 +34,17 @@ def points_upload(session: Session, attr: str, drop, error, note) -> None:
     note.object = f'<span class="ms-done">{esc(got[0])}: {len(pts)} points</span>{shown}'
 
 
+
+#: the most next tests the page plans (the browser's bound before; the planner itself takes any number)
+MAX_PLAN = 100
+
+
+def _n_tests(value) -> int:
+    """The form's number of next tests: a whole number 1..MAX_PLAN."""
+    if not (float(value).is_integer() and 1 <= value <= MAX_PLAN):
+        raise InputError("next tests", value, f"a whole number of test speeds, 1 to {MAX_PLAN}")
+    return int(value)
+
 class IdentifyTab:
     def __init__(self, session: Session):
         self.s = session
@@ -54,7 +65,8 @@ class IdentifyTab:
         self.warnings = TextBox("fit-warnings", width=700, height=None)
         self.fig, self.src = sld_figure("identified SLD over the points", name="fit", limit="identified",
                                        second="start", raw=False)
-        self.n_plan = pn.widgets.IntInput(label="next tests", value=8, start=1, end=100, width=90)
+        # no start/end in the browser (common.form_value): the server checks what is typed
+        self.n_plan = pn.widgets.IntInput(label="next tests", value=8, width=90)
         self.plan_job = JobBar("Plan next tests", "plan")
         self.plan_table = TextBox("plan-table", width=None, height=None)
         self.drop.param.watch(lambda e: points_upload(session, "points", self.drop, self.drop_error, self.points_note),
@@ -75,8 +87,12 @@ class IdentifyTab:
         if cfg is None or pts is None:
             self.job.status.text = error_html("need a valid config (Tool and cut) and boundary points")
             return
+        seed, bad = form_value(self.seed, "seed", lambda v: api.check_seed(v, "seed"), "a whole number, e.g. 0")
+        if bad:
+            self.job.status.text = error_html(bad)
+            return
         opts = dict(method=self.method.value, free=self.free.value.strip() or None, axisymmetric=self.axisym.value,
-                    seed=int(self.seed.value))
+                    seed=seed)
         origin = self.s.origin
         self.job.start(lambda progress: (api.identify(cfg, pts, progress=progress, **opts), cfg, pts, opts["method"],
                                          origin), self.show)
@@ -110,7 +126,10 @@ class IdentifyTab:
             return
         if fit is not None and self.s.fit_cfg is not cfg:
             fit = None  # the form changed since the fit: plan around the form's structure
-        n = int(self.n_plan.value)
+        n, bad = form_value(self.n_plan, "next tests", _n_tests, f"a whole number of test speeds, 1 to {MAX_PLAN}")
+        if bad:
+            self.plan_job.status.text = error_html(bad)
+            return
         doc = None if fit is None else fit.to_json()
         origin = self.s.origin
         self.plan_job.start(lambda progress: (api.design(cfg, n=n, points=pts, fit=doc), origin), self.show_plan)

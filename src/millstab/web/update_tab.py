@@ -9,7 +9,7 @@ import panel as pn
 
 from millstab import api
 from millstab.errors import InputError
-from millstab.web.common import TextBox, computed_for, error_html, esc, html_table
+from millstab.web.common import TextBox, computed_for, error_html, esc, form_value, html_table
 from millstab.web.identify_tab import points_upload
 from millstab.web.jobs import JobBar
 from millstab.web.plots import map_figure
@@ -38,6 +38,14 @@ def marked_depths(rec) -> list[float]:
     got = [rec.depth_mm] + ([nt["depth_mm"]] if "depth_mm" in nt and api.next_test_elsewhere(rec) is None else [])
     return [float(d) for d in got if d is not None and np.isfinite(d) and d > 0]
 
+
+
+def _risk(value) -> float:
+    """The form's risk: a probability in (0, 1) (``recommend --risk``'s rule, in the page's words)."""
+    r = float(value)
+    if not 0 < r < 1:
+        raise InputError("risk P(chatter)", value, "a probability in (0, 1), e.g. 0.05")
+    return r
 
 class UpdateTab:
     def __init__(self, session: Session):
@@ -86,11 +94,11 @@ class UpdateTab:
         self.post_origin = ""  # what the posterior was computed for (Session.origin when Update started)
         self.post_table = TextBox("post-table", width=None, height=None)
         self.depth_max = pn.widgets.FloatInput(label="map depth up to [mm]", value=None, width=150)
-        self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, start=0.001, end=0.999, step=0.01,
-                                          width=120)
+        # no start/end in the browser on these (see common.form_value): the server checks what is typed
+        self.risk = pn.widgets.FloatInput(label="risk P(chatter)", value=0.05, step=0.01, width=120)
         # the target condition of the map and the recommendation (docs/updating.md, "Many conditions")
-        self.target_ri = pn.widgets.FloatInput(label="for a/D (empty: the config's)", value=None, start=0.001, end=1.0,
-                                               step=0.05, width=170, css_classes=["target-ri"])
+        self.target_ri = pn.widgets.FloatInput(label="for a/D (empty: the config's)", value=None, step=0.05,
+                                               width=170, css_classes=["target-ri"])
         self.target_milling = pn.widgets.Select(label="milling", options=["config's", "down", "up"], width=100,
                                                 css_classes=["target-milling"])
         self.map_job = JobBar("Map and recommend", "map")
@@ -151,8 +159,11 @@ class UpdateTab:
             which = "engine options" if options is None else "samples"
             self.job.status.text = error_html(f"{which}: see the error beside the field")
             return None
-        return api.UpdateSettings(engine=self.engine.value, engine_options=options, samples=samples,
-                                  seed=int(self.seed.value or 0))
+        seed, bad = form_value(self.seed, "seed", lambda v: api.check_seed(v, "seed"), "a whole number, e.g. 0")
+        if bad:
+            self.job.status.text = error_html(bad)
+            return None
+        return api.UpdateSettings(engine=self.engine.value, engine_options=options, samples=samples, seed=seed)
 
     # --- cuts with recordings ------------------------------------------------------------------------
     def _cuts_uploaded(self) -> None:
@@ -295,6 +306,10 @@ class UpdateTab:
         if post is None or cfg is None:
             self.map_job.status.text = error_html("run Update first")
             return
+        risk, bad = form_value(self.risk, "risk P(chatter)", _risk, "a probability in (0, 1), e.g. 0.05")
+        if bad:
+            self.map_job.status.text = error_html(bad)
+            return
         r = np.asarray(api.speeds(None, cfg))
         cheap = post.engine == api.cheapest_engine()
         rpm = np.linspace(r.min(), r.max(), MAP_SPEEDS if cheap else MAP_SPEEDS_ACCURATE)
@@ -303,7 +318,6 @@ class UpdateTab:
         if not top or top <= 0:
             self.map_job.status.text = error_html(f"map depth up to = {top}: must be > 0 mm")
             return
-        risk = self.risk.value
         oc = self.campaign.current if self.campaign is not None else None
         keep = oc is not None and record and self.post_id is not None and self.post_id == oc.posterior_id
         mill = None if self.target_milling.value == "config's" else self.target_milling.value

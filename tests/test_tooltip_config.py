@@ -270,3 +270,20 @@ def test_holder_finite_differences_files(tmp_path):
     assert errs[1] < 0.01 and errs[1] < errs[0] < 0.03
     e = error(tmp_path, base + 'h02 = "h02.csv"\n')
     assert "h02, h12 and h22 together" in e.allowed
+
+
+def test_a_tool_config_is_simulated_on_the_modes_fitted_to_its_tip(tmp_path):
+    """`simulate` on a [tool] + [holder] config (an exploratory test: refused with "structure = 'measured FRF'",
+    pointing nowhere; fails on the old code): the tip FRF's modes are fitted first, said in a warning, and the cut's
+    label agrees with the zero-order limit of the tip FRF itself (a slot with 3 teeth, where that limit is exact) at
+    0.7 and 1.4 times it."""
+    from millstab import api
+
+    cfg = load_config(write(tmp_path, CUT + TOOL + RIGID))
+    rpm = 9000.0
+    limit = zoa.envelope(cfg.structure, cfg.cutting, [rpm]).depth_mm[0]
+    with pytest.warns(UserWarning, match="the structure is a measured FRF; fitted its modes first"):
+        _, below = api.simulate_cut(cfg, rpm, 0.7 * limit)
+    with quiet():
+        _, above = api.simulate_cut(cfg, rpm, 1.4 * limit)
+    assert (below.label, above.label) == ("stable", "chatter")

@@ -10,6 +10,7 @@ from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.config import Config
 from millstab.points import PointSet
+from millstab.warnlog import warn
 
 
 def _feed(feed_mm: float) -> float:
@@ -61,6 +62,18 @@ def simulate_mode(*, cuts=None, rpm: float | None = None, depth: float | None = 
     return "one"
 
 
+def _modal_for_simulation(cfg: Config) -> Config:
+    """``cfg`` with modes (the time-domain model needs fn, k, ζ per mode): a measured FRF's or a [tool] + [holder]
+    config's computed tip FRF fitted first, said in a warning (:func:`millstab.api.modal`; an exploratory user's
+    tool config was refused with "structure = 'measured FRF'", pointing nowhere)."""
+    from millstab.api.inputs import modal
+
+    fitted, note = modal(cfg)
+    if note:
+        warn(note, UserWarning, stacklevel=3)
+    return fitted
+
+
 def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float | None = None, revs: float = 100.0,
                  steps: int | None = None, start: str = "steady"):
     """One time-domain cut at ``rpm`` [rev/min] and ``depth_mm`` [mm] and its label: (CutResult, Detection);
@@ -71,6 +84,7 @@ def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float | N
 
     feed_mm = config_feed_mm(cfg, feed_mm)
     check_speeds(rpm, "--rpm")  # a near-zero speed is days of steps: refused before the work
+    cfg = _modal_for_simulation(cfg)
     res = run(cfg.structure, cfg.cutting, rpm, depth_mm * 1e-3, _feed(feed_mm), revs=revs, steps_per_tooth=steps,
               start=start)
     return res, detect(res)
@@ -93,6 +107,7 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, rev
     check_seed(seed)
     feed_mm = config_feed_mm(cfg, feed_mm)
     _feed(feed_mm)
+    cfg = _modal_for_simulation(cfg)
     conds, idx = cut_conditions(cuts, cfg.cutting, getattr(cfg, "diameter_mm", None))
     feeds = cut_feeds(cuts, feed_mm)
     groups = np.unique(np.c_[idx, feeds], axis=0) if len(cuts) else np.zeros((0, 2))

@@ -377,6 +377,6 @@ def fitted_config(cfg, modes: int | str = "auto"):
     parts = [f"{d}: " + ", ".join(f"{m.fn:.5g} Hz {m.k / 1e6:.4g} N/um zeta {m.zeta:.4g}" for m in f.modes)
              for d, f in fits.items()]
     cross = "; its cross terms are left out" if frf.xy is not None or frf.yx is not None else ""
-    note = (f"{cfg.name}: the structure is a measured FRF; fitted its modes first ({'; '.join(parts)}){cross} and "
-            f"starting from the fit (`millstab modal` writes it as a [structure] section)")
+    note = (f"{cfg.name}: the structure is a measured FRF; fitted its modes first ({'; '.join(parts)}){cross}, and "
+            f"what follows uses the fit (`millstab modal` writes it as a [structure] section)")
     return dataclasses.replace(cfg, structure=structure), note

@@ -153,36 +153,27 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
     return Lobes(cfg, engine, env, compare or None, other)
 
 
-#: an averaged SLD whose limits exceed the spectral engine's by more than this factor at a checked speed is warned
-#: (the tooth-count rule's tools stayed within 1.24× at one tooth or more in the cut; a shop's was 4.9× off)
-AVERAGED_RATIO = 1.25
+def averaged_error_note(cfg: Config, engine: str, env: Envelope) -> str | None:
+    """The warning for a time-averaged ``engine``'s SLD ``env`` of ``cfg`` where its limits at (up to 40 of) its
+    speeds exceed the accurate engine's by more than :data:`millstab.update.model_check.MEDIAN_RATIO`, else None (an
+    engine that does not average, a constant directional matrix, a structure the accurate engine does not take)."""
+    from millstab.update.model_check import accurate_engine, checked_speeds, worst_ratio
 
-
-def averaged_error_note(cfg: Config, engine: str, env: Envelope, speeds: int = 40) -> str | None:
-    """The warning for a time-averaged ``engine``'s SLD ``env`` of ``cfg`` where its limits at (up to ``speeds`` of)
-    its speeds exceed the spectral engine's by more than :data:`AVERAGED_RATIO`, else None (an engine that does not
-    average, a constant directional matrix, a structure the spectral engine does not take)."""
     if not getattr(get_engine(engine), "time_averaged", False) or cfg.cutting.time_invariant:
         return None
     if not cfg.structure.is_modal or cfg.cutting.process_damping > 0:
         return None
     r = np.asarray(env.rpm, float)
-    pick = np.unique(np.linspace(0, r.size - 1, min(r.size, speeds)).round().astype(int))
-    acc = engine_with(time_averaged=False, cheap=True)  # the spectral engine among the built-ins
-    accurate = acc.envelope(cfg.structure, cfg.cutting, r[pick]).depth_mm
-    averaged = np.asarray(env.depth_mm, float)[pick]
-    ok = np.isfinite(averaged) & np.isfinite(accurate) & (accurate > 0)
-    if not ok.any():
+    pick = np.isin(r, checked_speeds(r))
+    acc = accurate_engine()
+    check = worst_ratio(r[pick], np.asarray(env.depth_mm, float)[pick],
+                        get_engine(acc).envelope(cfg.structure, cfg.cutting, r[pick]).depth_mm)
+    if check is None or not check["warn"]:
         return None
-    ratio = averaged[ok] / accurate[ok]
-    i = int(np.argmax(ratio))
-    if ratio[i] <= AVERAGED_RATIO:
-        return None
-    where = f"{cfg.name}'s cut ({condition_text(cfg.cutting)})"
-    return (f"checked against interrupted cutting: the {engine} limits of {where} are up to {ratio[i]:.2f}× the "
-            f"{acc.name} engine's (at {r[pick][ok][i]:.0f} rpm; median {np.median(ratio):.2f}× over {int(ok.sum())} "
-            f"speeds): the {engine} model averages the force over the tooth period; use --engine {acc.name} (or "
-            f"--compare {acc.name})")
+    return (f"checked against interrupted cutting: the {engine} limits of {cfg.name}'s cut "
+            f"({condition_text(cfg.cutting)}) are up to {check['ratio']:.2f}× the {acc} engine's (at "
+            f"{check['rpm']:.0f} rpm; median {check['median']:.2f}× over {check['speeds']} speeds): the {engine} model "
+            f"averages the force over the tooth period; use --engine {acc} (or --compare {acc})")
 
 
 def config_time_averaged_note(cfg: Config, engine: str) -> str | None:

@@ -90,22 +90,32 @@ def median_check(post, rpm) -> dict | None:
 
     if not getattr(get_engine(post.engine), "time_averaged", False) or post.condition.time_invariant:
         return None
-    r = np.unique(np.asarray(rpm, float))
+    r = checked_speeds(np.unique(np.asarray(rpm, float)))
     if r.size == 0:
         return None
-    r = r[np.unique(np.linspace(0, r.size - 1, min(r.size, MEDIAN_SPEEDS)).round().astype(int))]
     u = np.median(post.decision_u, axis=0)[None, :]
     try:
         accurate = limits(post.prior, u, r, accurate_engine())[0][0]
     except InputError:
         return None
-    averaged = limits(post.prior, u, r, post.engine, options=post.engine_options)[0][0]
+    return worst_ratio(r, limits(post.prior, u, r, post.engine, options=post.engine_options)[0][0], accurate)
+
+
+def checked_speeds(rpm: np.ndarray, n: int = MEDIAN_SPEEDS) -> np.ndarray:
+    """At most ``n`` of the ascending speeds ``rpm`` [rev/min], evenly picked, the first and last among them."""
+    return rpm[np.unique(np.linspace(0, rpm.size - 1, min(rpm.size, n)).round().astype(int))] if rpm.size else rpm
+
+
+def worst_ratio(rpm: np.ndarray, averaged: np.ndarray, accurate: np.ndarray) -> dict | None:
+    """The largest ratio of the averaged to the accurate limit [mm] over the speeds ``rpm`` where both are finite:
+    ``ratio``, ``rpm`` (where), ``median`` ratio, ``speeds`` (how many), ``warn`` (ratio > :data:`MEDIAN_RATIO`);
+    ``None`` where no speed has both."""
     ok = np.isfinite(averaged) & np.isfinite(accurate) & (accurate > 0)
     if not ok.any():
         return None
     ratio = averaged[ok] / accurate[ok]
     i = int(np.argmax(ratio))
-    return {"ratio": float(ratio[i]), "rpm": float(r[ok][i]), "median": float(np.median(ratio)),
+    return {"ratio": float(ratio[i]), "rpm": float(rpm[ok][i]), "median": float(np.median(ratio)),
             "speeds": int(ok.sum()), "warn": bool(ratio[i] > MEDIAN_RATIO)}
 
 
@@ -128,5 +138,5 @@ def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
             f"ones, median): decide here from an update with --engine {acc}, or cut shallower")
 
 
-__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "check_message", "median_check",
-           "median_message"]
+__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "check_message", "checked_speeds",
+           "median_check", "median_message", "worst_ratio"]

@@ -417,3 +417,34 @@ def test_design_options_object_and_keywords_are_one_call():
         design_speeds(par, cfg.cutting, cand, 4, samples=0)
     with pytest.raises(TypeError, match="'sample'"):
         design_speeds(par, cfg.cutting, cand, 4, sample=3)
+
+
+def test_a_plan_uses_the_fits_engine_and_says_so():
+    """A fit made with the spectral engine (at low immersion the zero-order one is off) is planned on the spectral
+    engine: its predicted depths are the spectral limits of the plan's centre, recomputed here (an exploratory test:
+    `design --fit` of a spectral fit predicted zero-order depths up to 2.8× the true limit; fails on the old code).
+    `engine=` overrides it; the plan's JSON and summary name it."""
+    import dataclasses
+
+    from millstab import api
+    from millstab.identify.design import SpeedDesign
+    from millstab.stability import spectral
+
+    cfg = load_example("ex3")
+    pts = boundary_points(cfg.structure, cfg.cutting, np.linspace(3000, 12000, 12), noise=0.02, seed=7)
+    fit = fit_lsq(make_problem(cfg.structure, cfg.cutting, pts), seed=0, n_candidates=16, rounds=0, n_local=0)
+    fit = dataclasses.replace(fit, settings={**fit.settings, "engine": "spectral"})
+    rpm = np.linspace(5000, 11000, 7)
+    plan = api.design(cfg, n=6, fit=fit, rpm=rpm, samples=2, seed=1)
+    assert plan.engine == "spectral" and "(limits from the spectral engine)" in plan.summary()
+    par = Parameterization(fit.structure, fit.names, fit.par.axisymmetric)
+    want = spectral.envelope(par.structure(plan.theta), cfg.cutting, plan.rpm).depth_mm
+    np.testing.assert_allclose(plan.predicted_depth_mm, want, rtol=1e-3)
+    assert SpeedDesign.from_json(json.loads(json.dumps(plan.to_json()))).engine == "spectral"
+    zoa_plan = api.design(cfg, n=6, fit=fit, rpm=rpm, samples=2, seed=1, engine="zoa")
+    assert zoa_plan.engine == "zoa"
+    np.testing.assert_allclose(zoa_plan.predicted_depth_mm,
+                               zoa.envelope(par.structure(zoa_plan.theta), cfg.cutting, zoa_plan.rpm).depth_mm,
+                               rtol=1e-9)
+    with pytest.raises(InputError, match="--engine"):
+        api.design(cfg, n=6, fit=fit, rpm=rpm, samples=2, engine="fast")

@@ -88,7 +88,7 @@ def history_figure(fit):
 def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None, fit_source: str = "fit",
            rpm: np.ndarray | None = None, target: Sequence[str] | str | None = None,
            free: Sequence[str] | str | None = None, axisymmetric: bool = False, noise: float = 0.02,
-           speed_noise: float = 0.005, samples: int = 16, seed: int = 0):
+           speed_noise: float = 0.005, samples: int = 16, seed: int = 0, engine: str | None = None):
     """Plan ``n`` boundary-point tests (:func:`millstab.identify.design.design_speeds`).
 
     Args:
@@ -100,6 +100,9 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
             structure with the ``free`` parameters (default all), x and y tied with ``axisymmetric``.
         rpm: candidate speeds; default :data:`N_CANDIDATES` over the config's [speeds] range.
         target: the parameters to pin (default every free one).
+        engine: the stability engine of the plan's sensitivities and predicted depths; ``None``: the fit's own
+            (a fit made with the spectral engine at low immersion was planned with the zero-order one, whose
+            depths there were up to 2.8× too deep), else the cheapest.
     Returns:
         :class:`millstab.identify.design.SpeedDesign`.
     """
@@ -116,7 +119,8 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
     existing = None if points is None else points.subset(points.boundary)
     if isinstance(target, str):
         target = [t.strip() for t in target.split(",") if t.strip()]
-    options = dict(n=n, existing_rpm=None if existing is None else existing.rpm,
+    engine = plan_engine(engine, None if fit is None else _fit(fit, fit_source))
+    options = dict(n=n, engine=engine, existing_rpm=None if existing is None else existing.rpm,
                    existing_weight=None if existing is None else existing.weight, target=target or None,
                    noise=noise, speed_noise=speed_noise, samples=samples, seed=seed)
     if fit is not None:
@@ -127,21 +131,33 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
     return design_speeds(Parameterization(cfg.structure, names, axisymmetric), cfg.cutting, candidates, **options)
 
 
+def plan_engine(engine: str | None, fit=None) -> str:
+    """The engine a plan uses: ``engine`` when given (checked), else the fit's (:class:`~millstab.identify.result.Fit`
+    settings), else the cheapest."""
+    from millstab.stability import ENGINES, engine_with
+
+    if engine is None:
+        engine = (fit.settings.get("engine") if fit is not None else None) or engine_with(cheap=True).name
+    if engine not in ENGINES:
+        raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
+    return engine
+
+
 def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, fit_source: str = "fit"):
     """The plan on the SLD at its centre, with the measured points (``millstab design --plot``); ``fit``: the
     fit JSON the plan was made around, if any (its structure holds the fixed parameters)."""
     from millstab.params import Parameterization
     from millstab.plot.identify import plot_design
-    from millstab.stability import engine_with
+    from millstab.stability import get_engine
 
-    zoa = engine_with(cheap=True)  # the drawn SLD: the cheapest engine (zoa)
+    eng = get_engine(plan.engine)  # the SLD the plan was made on
     cfg, _ = modal(cfg)
     if fit is not None:
         par = _fit_view(_fit(fit, fit_source), cfg.cutting)[0]
     else:
         par = Parameterization(cfg.structure, plan.names, all("_" not in k for k in plan.names))
     grid = np.linspace(plan.candidates[0], plan.candidates[-1], 800)
-    sld = zoa.envelope(par.structure(plan.theta), cfg.cutting, grid).depth_mm
+    sld = eng.envelope(par.structure(plan.theta), cfg.cutting, grid).depth_mm
     existing = None if points is None else points.subset(points.boundary)
     return plot_design(plan, grid, sld, existing, title=f"{cfg.name}: planned tests")
 

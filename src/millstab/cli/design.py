@@ -47,6 +47,9 @@ def design(
                                       help="Relative uncertainty of the boundary's speed (0.005 = 0.5 %)."),
     samples: int = typer.Option(16, "--samples", help="Parameter samples the plan averages over."),
     seed: int = seed_option(0, "Seed of the parameter samples (same seed, same plan)."),
+    engine: Optional[str] = typer.Option(None, "--engine", help="Stability engine of the plan's sensitivities and "
+                                         "predicted depths: zoa, sdm, spectral (default: the --fit's own, else zoa; "
+                                         "at low radial immersion plan with the engine the fit used)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the plan as CSV: rpm,tests,predicted_depth_mm."),
     plot: Optional[Path] = typer.Option(None, "--plot",
                                         help="The SLD with the planned and measured speeds (.png/.svg/.pdf)."),
@@ -71,7 +74,7 @@ def design(
     plan = api.design(cfg, n=n, points=pts, fit=fit_doc, fit_source=str(fit),
                       rpm=api.parse_rpm_range(rpm) if rpm else None,
                       target=target, free=free, axisymmetric=axisymmetric, noise=noise, speed_noise=speed_noise,
-                      samples=samples, seed=seed)
+                      samples=samples, seed=seed, engine=engine)
     console = Console()
     header, rows, caption = plan.errors()
     emit.table(console, f"{cfg.name}: {n} planned tests", header, rows, caption)

@@ -98,6 +98,7 @@ class SpeedDesign:
         iterations: design-algorithm iterations; samples: θ samples averaged over (those the
             candidates can determine).
         predicted_depth_mm: the limiting depth at ``theta`` at each planned speed [mm] (n,).
+        engine: the stability engine the plan's Jacobians and predicted depths come from.
     """
 
     rpm: np.ndarray
@@ -122,6 +123,7 @@ class SpeedDesign:
     sigma_existing_mean: np.ndarray | None = None
     sigma_uniform_mean: np.ndarray | None = None
     sigma_design_mean: np.ndarray | None = None
+    engine: str = "zoa"
 
     def tests(self) -> list[tuple[float, int, float]]:
         """(rpm, number of tests, predicted depth [mm]) per distinct planned speed, by speed."""
@@ -141,7 +143,7 @@ class SpeedDesign:
         the plan pins, its criterion against evenly spaced tests and its efficiency bound, the parameters it
         gives up (†) or no test determines, and the planned speeds."""
         lines = [("* = the parameters the plan pins: it minimises the sum of their squared relative standard errors, "
-                  f"averaged over {self.samples} parameter samples")]
+                  f"averaged over {self.samples} parameter samples (limits from the {self.engine} engine)")]
         ratio = self.criterion_design / self.criterion_uniform
         if self.uniform:
             head = (f"criterion (expected Σ σ² of the * parameters): the {self.rpm.size} tests evenly spaced over the "
@@ -217,6 +219,7 @@ class SpeedDesign:
         for name in ("criterion_design", "criterion_uniform"):
             doc[name] = number_out(getattr(self, name), f"design.{name}", nan_ok=True)
         doc.update(iterations=int(self.iterations), samples=int(self.samples), uniform=bool(self.uniform),
+                   engine=self.engine,
                    tests=[{"rpm": r, "tests": c, "predicted_depth_mm": number_out(d, "design.tests")}
                           for r, c, d in self.tests()])
         return doc
@@ -243,7 +246,9 @@ class SpeedDesign:
         return SpeedDesign(names=names, target=target,
                            iterations=int_in(need(doc, "iterations", source), f"{source}: iterations"),
                            samples=int_in(need(doc, "samples", source), f"{source}: samples"),
-                           uniform=need(doc, "uniform", source, bool), **arrays, **nums)
+                           uniform=need(doc, "uniform", source, bool),
+                           engine=str(doc.get("engine", "zoa")),  # a plan written before it was recorded: zoa
+                           **arrays, **nums)
 
 
 #: the ``"schema"`` of :meth:`SpeedDesign.to_json`
@@ -564,7 +569,8 @@ def design_speeds(par: Parameterization, cutting: Cutting, candidates, n: int, *
     depth = forward(par, cutting, engine)(centre[None], speeds)[0, at] * 1e3
     return SpeedDesign(
         rpm=rpm, candidates=cand, weights=w, names=names, target=tgt, theta=centre, noise=float(noise),
-        speed_noise=float(speed_noise), sigma_existing=None if info0_c is None else relative_sigma(info0_c),
+        engine=engine, speed_noise=float(speed_noise),
+        sigma_existing=None if info0_c is None else relative_sigma(info0_c),
         sigma_uniform=sigma(even), sigma_design=sigma(counts),
         efficiency=float(min(1.0, eff_w * phi_w / phi_plan)), iterations=its, samples=int(keep.sum()),
         predicted_depth_mm=depth, efficiency_continuous=float(eff_w), criterion_design=float(phi_plan),

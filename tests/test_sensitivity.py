@@ -117,6 +117,7 @@ def test_mc_running_mean_ends_at_mean():
     (dict(t=-0.1), "t"),
     (dict(eps=40.0), "eps"),  # ζ 0.0287·1.1·41 ≥ 1
     (dict(eps=-1.0), "eps"),
+    (dict(eps=0.0), "eps"),  # no change: an all-zero table and NaN ratios (an exploratory test)
     (dict(n=1), "n"),
     (dict(seed=-1), "seed"),
 ])

@@ -68,6 +68,8 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
     n = int(n)
     t = check_scalar("t", t, 0.0, 1.0, "neighbourhood half-width t must be in [0, 1)", lo_open=False)
     eps = check_scalar("eps", eps, -1.0, np.inf, "perturbation must be finite and > -1")
+    if eps == 0:  # every path's change would be zero: an all-zero table and NaN ratios, not a study
+        raise InputError("eps", eps, "a relative change of 0 changes nothing: give one such as 0.01 (1 %) or -0.01")
     seed = check_seed(seed)
     check_neighbourhood(par, th, t, eps)
     r = check_rpm(rpm)

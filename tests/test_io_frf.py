@@ -464,3 +464,32 @@ def test_measured_frf_of_another_kind_is_refused_naming_it(tmp_path, kind, facto
     assert exc.value.field == "structure.frf.xx" and kind in exc.value.allowed and "--frf-type" in exc.value.allowed
     m = load_measured_frf(xx="yy.csv", yy="yy.csv", base_dir=tmp_path)  # receptances pass
     np.testing.assert_array_equal(m.xx, HY)
+
+
+def _uff_labelled(h, num, num_lab, den_lab):
+    s = uff58(h, num=num)
+    s.update(ordinate_axis_units_lab=num_lab, orddenom_axis_units_lab=den_lab)
+    return s
+
+
+@pytest.mark.parametrize("num, num_lab, den_lab, power, factor", [
+    (8, "m", "N", 0, 1.0), (8, "mm", "N", 0, 1e3), (8, "um", "N", 0, 1e6), (8, "m", "kN", 0, 1e3),
+    (11, "m/s", "N", 1, 1.0), (12, "m/s^2", "N", 2, 1.0), (12, "g", "N", 2, 1 / 9.80665),
+    (0, "g", "N", 2, 1 / 9.80665), (0, "mm", "N", 0, 1e3), (12, "g/N", "N", 2, 1 / 9.80665),
+    (8, "mm/N", "NONE", 0, 1e3),
+])
+def test_uff_numerator_and_denominator_labels_as_the_standard_writes_them(tmp_path, num, num_lab, den_lab, power,
+                                                                          factor):
+    """Record 9 holds the response's unit, record 10 the reference's (pyuff ordinate_axis_units_lab and
+    orddenom_axis_units_lab); an unknown type (0) takes the quantity its label names. Before: 'm' over 'N'
+    was refused as 'cannot convert to m/N'."""
+    w = 2j * np.pi * F
+    p = write_uff(tmp_path / "u.uff", _uff_labelled(HX * w**power * factor, num, num_lab, den_lab))
+    np.testing.assert_allclose(read_frf(p)[1], HX, rtol=1e-12)
+
+
+def test_uff_label_contradicting_its_type_names_file_and_record(tmp_path):
+    p = write_uff(tmp_path / "tap.uff", uff58(HX), _uff_labelled(HX, 8, "g", "N"))
+    with pytest.raises(InputError, match=r"tap.uff record 1 ordinate units.*displacement per force") as exc:
+        load_measured_frf(xx={"file": str(p), "record": 1}, field="FRF_X")
+    assert "'g' per 'N'" in str(exc.value)

@@ -31,8 +31,12 @@ Accepted formats (chosen by the file extension, case-insensitive):
     ``xx = { file = "tap.uff", record = 2 }``). The ordinate may be displacement (receptance),
     velocity (mobility) or acceleration (accelerance) per its specific data type (8, 11, 12; 0 =
     unknown is read as displacement); mobility and accelerance are converted to receptance by
-    dividing by iω and −ω². Units, first match wins: (1) the ordinate units label when it is set
-    (e.g. ``mm/N``, ``(m/s)/N``, ``g/N`` for accelerance), converted with pint; (2) a dataset 164
+    dividing by iω and −ω². Units, first match wins: (1) the ordinate units labels when set, as the
+    standard writes them, the numerator's (record 9, ``m``, ``mm``, ``m/s^2``, ``g`` = standard gravity) over
+    the denominator's (record 10, ``N``, ``lbf``; newtons when unset), or a whole ratio in the numerator's
+    label (``mm/N``, ``(m/s)/N``, ``g/N``), converted with pint; an unknown type (0) takes the quantity its
+    label names, and a label that is no unit of the type's quantity per force is refused naming the file and
+    record; (2) a dataset 164
     in the file (SI value = file value × force factor / length factor, as the UFF spec defines the
     factors); (3) SI. The abscissa is in Hz unless its units label names another unit of frequency
     (``kHz``; ``rad/s`` and ``rpm`` are converted as angular/rotational frequencies, not read as Hz);
@@ -310,26 +314,70 @@ def list_uff_records(path: PathLike) -> list[str]:
     return [_describe(i, s) for i, s in enumerate(sets)]
 
 
-def _label_factor(label: str, power: int) -> float | None:
-    """SI factor from a UFF ordinate units label, or None when the label is unset.
+#: what a UFF ordinate (numerator) may hold, by its derivative order: the SI unit of the numerator alone
+_NUMERATOR_SI = {0: "m", 1: "m/s", 2: "m/s**2"}
+#: ... and of the whole FRF
+_FRF_SI = {0: "m/N", 1: "m/s/N", 2: "m/s**2/N"}
+_FRF_EXAMPLES = {0: "m/N or mm/N", 1: "(m/s)/N", 2: "(m/s^2)/N or g/N"}
 
-    ``power`` is the numerator's time derivative order (0 receptance, 1 mobility, 2 accelerance).
-    """
+
+def _unit_text(label: str) -> str | None:
+    """A UFF units label cleaned for pint (µ → u, ^ → **), or None when it is unset (blank or ``NONE``)."""
     text = (label or "").strip()
     if not text or text.upper() == "NONE":
         return None
+    return text.replace("µ", "u").replace("μ", "u").replace("^", "**")
+
+
+def _si_factor(text: str, si: str, power: int) -> float | None:
+    """SI factor of ``text`` as a quantity of unit ``si``, or None when pint cannot read it or its dimension differs.
+
+    A lone ``g`` (or ``g`` before a slash) in an acceleration is standard gravity, as accelerometer software writes
+    it, not pint's gram.
+    """
     from millstab.units import registry
 
-    ureg = registry()
-    si = {0: "m/N", 1: "m/s/N", 2: "m/s**2/N"}[power]
-    cleaned = text.replace("µ", "u").replace("μ", "u").replace("^", "**")
-    # g/N means gravities per newton
-    cleaned = re.sub(r"^\(?\s*g\s*\)?\s*/", "g_0/", cleaned) if power == 2 else cleaned
+    if power == 2:
+        text = re.sub(r"^\(?\s*[gG]\s*\)?(?=\s*(/|$))", "g_0", text)
     try:
-        return float(ureg.Quantity(1.0, cleaned).to(si).magnitude)
-    except Exception:
-        raise InputError("uff ordinate units", text, f"cannot convert to {si}; expected e.g. "
-                         f"{ {0: 'm/N or mm/N', 1: '(m/s)/N', 2: '(m/s^2)/N or g/N'}[power] }") from None
+        return float(registry().Quantity(1.0, text).to(si).magnitude)
+    except Exception:  # not a unit, or not of this dimension
+        return None
+
+
+def _label_factor(num_label: str, den_label: str, power: int, where: str) -> tuple[float, int] | None:
+    """(SI factor, derivative order) from a dataset-58 record's ordinate units labels, or None when unset.
+
+    The UFF standard writes the response and the reference apart: record 9 field 6 (pyuff
+    ``ordinate_axis_units_lab``) is the numerator's unit (``m``, ``mm``, ``m/s^2``, ``g``), record 10 field 6
+    (``orddenom_axis_units_lab``) the denominator's (``N``, ``lbf``); some exporters put the whole ratio in the
+    numerator label (``mm/N``, ``g/N``) and leave the denominator unset or ``N``. Both are read: a numerator label
+    that is already a unit per force is taken whole, else numerator / denominator (newtons when the denominator is
+    unset). ``power`` is the derivative order of the record's specific data type (0 displacement, 1 velocity,
+    2 acceleration); with an unknown type (``power=None``) the label decides.
+
+    Raises:
+        InputError: naming ``where`` (file and record) when the labels are no unit of the record's quantity.
+    """
+    num, den = _unit_text(num_label), _unit_text(den_label)
+    if num is None:
+        return None
+    powers = (0, 1, 2) if power is None else (power,)
+    for p in powers:
+        whole = _si_factor(num, _FRF_SI[p], p)
+        if whole is not None:  # "mm/N", "g/N": the numerator label carries the whole FRF's unit
+            return whole, p
+        top = _si_factor(num, _NUMERATOR_SI[p], p)
+        bottom = 1.0 if den is None else _si_factor(den, "N", 0)
+        if top is not None and bottom is not None:
+            return top / bottom, p
+    written = repr(num_label.strip()) + ("" if den is None else f" per {den_label.strip()!r}")
+    kind = "displacement, velocity or acceleration" if power is None else ("displacement", "velocity",
+                                                                           "acceleration")[power]
+    raise InputError(f"{where} ordinate units", written,
+                     f"not a unit of {kind} per force; expected e.g. "
+                     f"{_FRF_EXAMPLES[0 if power is None else power]} (or the numerator "
+                     f"{_NUMERATOR_SI[0 if power is None else power].replace('**', '^')} with the denominator N)")
 
 
 def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -379,7 +427,11 @@ def read_frf_uff(path: PathLike, record: int | None = None) -> tuple[np.ndarray,
     if den not in (0, 13):
         raise InputError(f"{where} denominator type", den, "the reference must be a force (13)")
     power = _ORDINATE[num][1]
-    factor = _label_factor(str(s.get("ordinate_axis_units_lab", "")), power)
+    labelled = _label_factor(str(s.get("ordinate_axis_units_lab", "") or ""),
+                             str(s.get("orddenom_axis_units_lab", "") or ""), None if num == 0 else power, where)
+    factor = None
+    if labelled is not None:
+        factor, power = labelled  # an unknown type (0) takes the quantity its label names
     if factor is None and units is not None:
         factor = float(units.get("force", 1.0)) / float(units.get("length", 1.0))
     if factor is None:

@@ -15,7 +15,9 @@ Steps, for one direction:
    modes below it; both real.
 3. **Which modes**: with ``modes="auto"`` every candidate whose peak 1/(2ζk) stands at least
    :data:`MIN_PEAK_TO_NOISE` times above the fit's noise (RMS residual) is kept; ``modes=N`` keeps the N
-   candidates with the largest peaks.
+   candidates with the largest peaks, and where there are fewer grows the rest from the misfit (:func:`_grow`),
+   warning about each mode that is not stable across orders or stands below the noise. A fit whose misfit is
+   mostly structure rather than noise is warned about (:func:`_warn_poor_fit`).
 4. **Drive-point check**: the residues are solved once more without the drive-point constraint (complex
    modal constants A_m, see below); a residue whose phase is more than :data:`MAX_PHASE_DEG` from −90°
    means the FRF is not a drive point (a cross FRF has modes of either sign) or the sign convention is
@@ -241,7 +243,9 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     cands = stable_clusters(stab)
     band = f"{f[0]:g}..{f[-1]:g} Hz"
     no_peak = (f"no clear resonance peak in {band}: no pole stays stable across model orders with a peak above "
-               f"the noise; check the file (a drive-point receptance in m/N) or choose --band around the modes")
+               f"the noise; check the file (a drive-point receptance in m/N), or, if you know how many modes the "
+               f"band holds, --modes N fits that many (grown from the misfit where the diagram shows fewer, and "
+               f"warned as not stabilised), or choose --band around the modes")
     cands = _drop_duplicates(cands)
     if cands:
         wn, zeta, c, b = _refine(w, hs, np.array([2 * np.pi * cd.fn for cd in cands]),
@@ -269,8 +273,9 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     else:
         n = int(modes)
         if n > m:
-            raise InputError("--modes", n, f"the stabilisation diagram of {where} shows only {m} stable mode(s) in "
-                                           f"{band}; ask for at most {m} or widen the band")
+            raise InputError("--modes", n, f"{where} gives only {m} physical mode(s) in {band} (stable across model "
+                                           f"orders, or found in the misfit with a positive modal constant, "
+                                           f"zeta < 0.3, inside the band); ask for at most {m} or widen the band")
         keep = np.zeros(m, bool)
         keep[np.argsort(-peak)[:n]] = True
     if not keep.all():  # refit without the dropped candidates: their share moves to the kept modes/residuals
@@ -283,6 +288,9 @@ def _fit_direction(freq_hz, h, direction, source, modes, max_order) -> Direction
     fn = wn / (2 * np.pi)
     _check_drive_point(fn, phase, c[:m], where)
     fitted = b @ c
+    if modes != "auto":
+        _warn_forced(fn, ptn, [cd.n_stable for cd in cands], len(stab.orders), int(modes), where)
+    _warn_poor_fit(fitted - hs, noise, m, where)
     out = []
     for i in range(m):
         near = np.abs(f - fn[i]) <= 3 * zeta[i] * fn[i]
@@ -312,7 +320,14 @@ def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted, n_orders):
     """Add modes the stabilisation diagram missed (two modes closer than their bandwidth look like one
     wandering pole when noisy): a trial mode at the largest (smoothed) misfit, refitted with the rest;
     kept when it cuts the misfit's sum of squares by :data:`GROW_CHI2` noise variances (not asked while
-    fewer than ``wanted`` modes), stands above the noise and is physical (g > 0, ζ < 0.3, in the band)."""
+    fewer than ``wanted`` modes), stands above the noise and is physical (g > 0, ζ < 0.3, in the band).
+
+    With ``wanted`` (the user's ``--modes N``) a mode below the noise is kept too (warned after the fit), and
+    each fitted mode split in two (at fn(1 ∓ ζ), ζ/2 each) is tried beside the misfit's maximum, the physical
+    trial with the smallest misfit kept: at 8 % noise two modes 7 % apart are first fitted as one broad mode,
+    and a trial started next to it collapses onto it (two coincident poles with modal constants of ±10⁴ × the
+    true one, measured on 2 of 8 noise draws of the 800/860/2400 Hz test FRF), while the split reaches both.
+    """
     ss = float(np.sum(np.abs(b @ c - hs) ** 2))
     for _ in range(MAX_GROW if wanted is None else max(0, wanted - wn.size)):
         r = np.abs(b @ c - hs)
@@ -320,19 +335,86 @@ def _grow(w, hs, wn, zeta, c, b, w_lo, cands, wanted, n_orders):
         width = max(3, int(r.size * z0 * (wn.mean() if wn.size else w.mean()) / (w[-1] - w[0] + 1e-300)))
         smooth = np.convolve(r, np.ones(width) / width, mode="same")
         i = int(np.argmax(smooth))
-        trial = _refine(w, hs, np.append(wn, w[i]), np.append(zeta, z0), w_lo)
-        t_ss = float(np.sum(np.abs(trial[3] @ trial[2] - hs) ** 2))
-        t_noise = math.sqrt(t_ss / w.size)
+        new = Candidate(float(w[i] / (2 * np.pi)), z0, 0, n_orders)
+        starts = [(np.append(wn, w[i]), np.append(zeta, z0), cands + [new])]
+        if wanted is not None:
+            for j in range(wn.size):
+                split_wn = np.append(wn, wn[j] * (1 + zeta[j]))
+                split_wn[j] = wn[j] * (1 - zeta[j])
+                split_z = np.append(zeta, zeta[j] / 2)
+                split_z[j] = zeta[j] / 2
+                halves = [Candidate(float(x / (2 * np.pi)), float(zeta[j] / 2), 0, n_orders) for x in split_wn[[j, -1]]]
+                starts.append((split_wn, split_z, cands[:j] + [halves[0]] + cands[j + 1:] + [halves[1]]))
+        best = None
+        for wn0, z0s, cands0 in starts:
+            trial = _refine(w, hs, wn0, z0s, w_lo)
+            t_ss = float(np.sum(np.abs(trial[3] @ trial[2] - hs) ** 2))
+            if _physical(w, hs, w_lo, trial, t_ss, forced=wanted is not None) and (best is None or t_ss < best[1]):
+                best = (trial, t_ss, cands0)
+        if best is None:
+            break
+        trial, t_ss, cands0 = best
         var = max(t_ss / max(2 * w.size - 2 * trial[0].size - trial[2].size, 1), NOISE_FLOOR**2)  # per real component
-        ptn = np.abs(trial[2][:trial[0].size]) / (2 * trial[1]) / max(t_noise, NOISE_FLOOR)
-        physical = (ptn.min() >= MIN_PEAK_TO_NOISE and np.all(trial[1] < 0.3) and np.all(trial[2][:trial[0].size] > 0)
-                    and np.all((trial[0] >= w[0]) & (trial[0] <= w[-1])))  # a mode outside the band is a residual's job
-        if not physical or (wanted is None and (ss - t_ss) / var < GROW_CHI2):
+        if wanted is None and (ss - t_ss) / var < GROW_CHI2:
             break
         wn, zeta, c, b = trial
         ss = t_ss
-        cands = cands + [Candidate(float(w[i] / (2 * np.pi)), z0, 0, n_orders)]
+        cands = cands0
     return wn, zeta, c, b, cands
+
+
+def _physical(w: np.ndarray, hs: np.ndarray, w_lo: float, trial, t_ss: float, forced: bool) -> bool:
+    """Whether a refined trial (ωn, ζ, c, basis) has every modal constant g > 0, ζ < 0.3 and ωn in the band (a
+    mode outside it is a residual's job); unless ``forced``, every peak ≥ :data:`MIN_PEAK_TO_NOISE` × noise;
+    if ``forced``, every free residue within :data:`MAX_PHASE_DEG` of −90° (a forced split of a single mode
+    can leave a pair whose constrained g are both positive but whose free residues are not a drive point's,
+    and the fit would then be refused as a cross FRF: measured with --modes 5 on the exact 3-mode test FRF)."""
+    wn, zeta, c = trial[0], trial[1], trial[2][:trial[0].size]
+    ptn = np.abs(c) / (2 * zeta) / max(math.sqrt(t_ss / w.size), NOISE_FLOOR)
+    ok = bool((forced or ptn.min() >= MIN_PEAK_TO_NOISE) and np.all(zeta < 0.3) and np.all(c > 0)
+              and np.all((wn >= w[0]) & (wn <= w[-1])))
+    return ok and (not forced or bool(np.all(np.abs(_free_residue_phase(w, hs, wn, zeta, w_lo)) <= MAX_PHASE_DEG)))
+
+
+#: a fit's RMS misfit [share of max |H|] above which :func:`_warn_poor_fit` looks at the misfit's structure
+POOR_FIT_NRMSE = 0.02
+#: ... and warns when the RMS misfit is this many times the line-to-line noise. White noise gives 1. Measured
+#: (the 3-mode x FRF of the modal tests, 1451 lines): 1 % noise 1.0 with its 3 modes, 7.9 with --modes 1 (9.3 %
+#: misfit), 7.4 with --modes 2; 8 % noise with 3 modes 1.0; 1 % noise filtered over 3 lines by (1/4, 1/2, 1/4)
+#: (neighbouring lines correlated) 1.7, by a Hann window's (-1/4, 1/2, -1/4) 0.8
+POOR_FIT_STRUCTURE = 3.0
+
+
+def _warn_poor_fit(resid: np.ndarray, noise: float, m: int, where: str) -> None:
+    """Warn when the misfit ``resid`` (fit − data, per unit max |H|) is large and is structure, not noise.
+
+    The line-to-line noise is RMS(diff(resid))/√2: the lines' noise is independent while a missed mode or a
+    mode fitted in the wrong place changes smoothly over its bandwidth (many lines), so a misfit much larger
+    than that noise is the model's, and the modes (their number or the band) are wrong.
+    """
+    if resid.size < 3 or noise <= POOR_FIT_NRMSE:
+        return
+    white = float(np.sqrt(np.mean(np.abs(np.diff(resid)) ** 2) / 2))
+    ratio = noise / max(white, NOISE_FLOOR)
+    if ratio > POOR_FIT_STRUCTURE:
+        warn(f"FRF {where}: poor fit: the RMS misfit of the {m} mode(s) is {100 * noise:.2f} % of max|H|, "
+             f"{ratio:.1f} times the line-to-line noise, so it is a shape the modes miss (a missing mode, two "
+             f"close modes fitted as one, or a band that cuts a mode), not noise; compare the fit in --plot, "
+             f"fit more modes (--modes auto, or a larger N) or choose --band around the modes",
+             FRFWarning, stacklevel=4)
+
+
+def _warn_forced(fn: np.ndarray, ptn: np.ndarray, n_stable: list[int], n_orders: int, asked: int,
+                 where: str) -> None:
+    """Warn about modes a given ``--modes N`` made the fit keep that ``auto`` would not vouch for: not stable
+    across the LSCF model orders (found in the misfit), or with a peak below :data:`MIN_PEAK_TO_NOISE` × noise."""
+    weak = [f"{fn[i]:.6g} Hz ({'not stabilised' if n_stable[i] == 0 else f'stable at {n_stable[i]}/{n_orders} orders'}"
+            f", peak/noise {ptn[i]:.3g})" for i in range(fn.size)
+            if n_stable[i] == 0 or ptn[i] < MIN_PEAK_TO_NOISE]
+    if weak:
+        warn(f"FRF {where}: --modes {asked} fitted {len(weak)} mode(s) that the stabilisation diagram does not "
+             f"show as modes above the noise: {'; '.join(weak)}; check them against the measured FRF (--plot) "
+             f"before using them", FRFWarning, stacklevel=4)
 
 
 def _drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
@@ -347,6 +429,13 @@ def _drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
 def _check_drive_point(fn: np.ndarray, phase: np.ndarray, g: np.ndarray, where: str) -> None:
     """Refuse residues of the wrong sign/phase (cross FRF, conjugated data); warn about skewed ones."""
     bad = (np.abs(phase) > MAX_PHASE_DEG) | (g <= 0)
+    if bad.any() and np.all(np.abs(phase) > 180 - MAX_PHASE_DEG):
+        # every residue at +90 deg: −G, a whole sign flip (reversed hammer or sensor); a conjugated FRF has no
+        # stable poles at all (caught before) and a cross FRF has residues of both signs
+        raise InputError(f"FRF {where}", f"residue phases {', '.join(f'{p - 90:+.0f}' for p in phase)} deg",
+                         "every residue sits at +90 deg instead of the drive point's -90 deg (Re G < 0 below each "
+                         "resonance and Im G > 0 at it): the FRF has its sign reversed (hammer or sensor polarity); "
+                         "negate both the real and the imaginary column")
     if bad.any():
         i = int(np.argmax(bad))
         raise InputError(f"FRF {where} mode at {fn[i]:.6g} Hz", f"residue phase {phase[i] - 90:+.0f} deg",

@@ -37,6 +37,7 @@ def structure_toml(result: ModalResult, sources: dict[str, str]) -> str:
                       f"[[structure.{d}]]", f'fn = "{_g(m.fn)} Hz"', f'k = "{_g(m.k / 1e6)} N/um"',
                       f"zeta = {_g(m.zeta, 6)}"]
         lines.append("")
+    lines += [f"# {d}: no FRF given: rigid (no [[structure.{d}]] modes)" for d in ("x", "y") if d not in result.fits]
     return "\n".join(lines)
 
 

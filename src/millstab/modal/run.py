@@ -72,14 +72,65 @@ def check_frf_type(frf_type: str) -> str:
     return t
 
 
+#: how to undo a whole sign flip (the text of the advice)
+NEGATE_BOTH = ("negate both the real and the imaginary column (the hammer's or the sensor's polarity is reversed: "
+               "G = −H)")
+
+
+def _stiffness_line_above_peaks(g: np.ndarray) -> bool:
+    """Whether the lowest 2 % of the lines of ``g`` [m/N] are a coherent stiffness line (real part positive and
+    most of |g|) standing above every other line of the band.
+
+    A drive-point receptance cannot do that: below its modes it tends to Σ 1/k_m, which lies below its resonance
+    peaks 1/(2ζk) for any structural damping, so a reading whose low end outgrows its peaks was divided by ω² once
+    too often (a sign-flipped receptance read as an accelerance: −(−G)/ω² = G/ω²). The coherence test (real part
+    at least half of |g|) keeps the ω²-amplified noise at the low end of a true accelerance out of it.
+    """
+    n = max(3, g.size // 50)  # the lowest 2 %: a stiffness line divided by ω² falls 1.4x over 100..120 Hz already
+    low, rest = g[:n], g[n:]
+    if rest.size == 0:
+        return False
+    size = float(np.median(np.abs(low)))
+    return bool(np.median(low.real) > 0.5 * size and size > float(np.max(np.abs(rest))))
+
+
+def negated_receptance(f: np.ndarray, h: np.ndarray, seen=None) -> str | None:
+    """``"yes"`` when the drive-point FRF ``h`` at ``f`` [Hz] is a receptance [m/N] with both columns negated (a
+    reversed hammer or sensor: G = −H), ``"maybe"`` when the data fit that reading and an accelerance equally
+    well, ``None`` otherwise.
+
+    Why a separate test: −G has its phase in 0..180 deg like an accelerance −ω²G (both have Im > 0 at the
+    resonances and Re < 0 below them), so :func:`millstab.frfkind.frf_kind`, which weighs receptance, mobility
+    and accelerance each plain or conjugated but never negated, calls it an accelerance (and advises a
+    conversion that gives G/ω², or, given ``--frf-type receptance``, the fit advises negating the imaginary
+    column). The two readings, −H and −H/ω², differ only by the real factor ω²: the one whose end-to-end slope
+    lies in :data:`millstab.frfkind.RECEPTANCE_SLOPE` and whose low end is no stiffness line above its peaks
+    (:func:`_stiffness_line_above_peaks`) scores a point for each; −H must score more to be called a sign flip.
+    """
+    from millstab.frfkind import RECEPTANCE_SLOPE, frf_kind
+
+    seen = seen if seen is not None else frf_kind(f, h)
+    if seen.kind != "accelerance" or seen.conjugated:
+        return None
+    flipped = frf_kind(f, -h)
+    if flipped.kind != "receptance" or flipped.conjugated:
+        return None
+    w2 = (2 * np.pi * np.asarray(f, float)) ** 2
+    lo, hi = RECEPTANCE_SLOPE
+    score_neg = int(lo <= seen.slope <= hi) + int(not _stiffness_line_above_peaks(-h))
+    score_acc = int(lo <= seen.slope - 2 <= hi) + int(not _stiffness_line_above_peaks(-h / w2))
+    return "yes" if score_neg > score_acc else "maybe" if score_neg == score_acc else None
+
+
 def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path) -> np.ndarray:
     """The receptance [m/N] of a drive-point FRF ``h`` at ``f`` [Hz] read from ``path``.
 
     ``frf_type``: ``auto`` tells the quantity from the phase and slope (:func:`millstab.frfkind.frf_kind`)
     and refuses a mobility or an accelerance, naming it and the conversion (the fit would otherwise read an
-    accelerance as a conjugated receptance and advise negating its imaginary part); ``receptance`` takes
-    ``h`` as it is; ``mobility``/``accelerance`` convert (G = H/(iω), G = −H/ω²) and refuse data that do not
-    then look like a receptance.
+    accelerance as a conjugated receptance and advise negating its imaginary part), and a receptance with both
+    columns negated (:func:`negated_receptance`), naming that; ``receptance`` takes ``h`` as it is unless it
+    is such a sign-flipped receptance; ``mobility``/``accelerance`` convert (G = H/(iω), G = −H/ω²) and refuse
+    data that do not then look like a receptance.
 
     Raises:
         InputError: naming ``label``, the file, what the data look like and how to convert.
@@ -87,31 +138,40 @@ def as_receptance(f: np.ndarray, h: np.ndarray, frf_type: str, label: str, path)
     from millstab.frfkind import CONVERSION, KINDS, frf_kind, to_receptance
 
     t = check_frf_type(frf_type)
-    if t == "receptance":
-        return h
     name = Path(str(path)).name
     seen = frf_kind(f, h)
+    flipped = negated_receptance(f, h, seen)
     why = f"|H| changes like f^{seen.slope:+.1f} from {f[0]:g} to {f[-1]:g} Hz"
     if seen.kind is not None:
         lo, hi = PHASE_DEG[seen.kind]
         lo, hi = (-hi, -lo) if seen.conjugated else (lo, hi)
         why = (f"its phase stays within {lo:+d}..{hi:+d} deg at the lines carrying {100 * seen.passive:.0f} % of "
                f"|H|² and {why}")
+    flip_text = (f"looks like a receptance (m/N) with both columns negated, not an accelerance ({why}; −H has a "
+                 f"receptance's slope and stiffness line, −H/ω² has not); {NEGATE_BOTH}")
+    if flipped == "yes":
+        given = "" if t == "auto" else f"--frf-type {t} was given but the file "
+        raise InputError(label, name, given + flip_text + ("" if t == "receptance" else
+                                                           ", then fit it as a receptance"))
+    maybe = (f"; or, if it is a receptance whose hammer or sensor polarity was reversed (both columns negated), "
+             f"{NEGATE_BOTH.split(' (')[0]}" if flipped == "maybe" else "")
+    if t == "receptance":
+        return h
     if t == "auto":
         if seen.kind in ("mobility", "accelerance"):
             raise InputError(label, name, f"looks like {seen.describe()}, not receptance (m/N) ({why}); "
                                           f"{CONVERSION[seen.kind]}, or pass --frf-type {seen.kind} to have it "
-                                          f"converted")
+                                          f"converted{maybe}")
         return h
     g = to_receptance(f, h, t)
     after = frf_kind(f, g)
+    other = f"pass --frf-type {seen.kind or 'auto'}" if seen.kind != t else "check the file's units and sign"
     if after.kind not in (None, "receptance"):
         raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
-                                      f"after converting it is no receptance (m/N); pass --frf-type "
-                                      f"{seen.kind or 'auto'}")
+                                      f"after converting it is no receptance (m/N); {other}{maybe}")
     if after.kind is None or (seen.kind and seen.kind != t):
         raise InputError(label, name, f"--frf-type {t} was given but the file looks like {seen.describe()} ({why}); "
-                                      f"{KINDS[t][1]} data would have the other phase and slope")
+                                      f"{KINDS[t][1]} data would have the other phase and slope{maybe}")
     return g
 
 
@@ -173,13 +233,15 @@ class ModalResult:
 
     def summary(self) -> str:
         """What ``millstab modal`` prints: per direction its file, band, modes and misfit, then each mode's fn [Hz],
-        k [N/µm], ζ, peak over noise and the model orders at which it was stable."""
+        k [N/µm], ζ, peak over noise and the model orders at which it was stable; a direction without a file is
+        said to be rigid."""
         lines = []
         for d, fit in self.fits.items():
             lines.append(f"{d} ({fit.source}, {fit.freq_hz[0]:g}..{fit.freq_hz[-1]:g} Hz, {fit.freq_hz.size} lines): "
                          f"{len(fit.modes)} mode(s), RMS misfit {100 * fit.nrmse:.2f} % of max|H|")
             lines += [f"  fn {m.fn:10.4f} Hz   k {m.k / 1e6:9.4f} N/um   zeta {m.zeta:.5f}   "
                       f"peak/noise {m.peak_to_noise:8.3g}   stable {m.stable_orders}/{m.orders}" for m in fit.modes]
+        lines += [f"{d}: no FRF given: rigid (no modes)" for d in ("x", "y") if d not in self.fits]
         return "\n".join(lines)
 
     def table(self) -> tuple[list[str], list]:
@@ -354,8 +416,9 @@ def sld_check(fitted: Structure, measured: Structure, cutting: Cutting, rpm: np.
                     float(np.asarray(rpm)[ok][i]))
 
 
-__all__ = ["FRF_TYPES", "ModalResult", "SLDCheck", "as_receptance", "check_frf_type", "fit_files", "fitted_config",
-           "measured_structure", "parse_band", "parse_modes", "read_direction", "same_file", "sld_check"]
+__all__ = ["FRF_TYPES", "ModalResult", "NEGATE_BOTH", "SLDCheck", "as_receptance", "check_frf_type", "fit_files",
+           "fitted_config", "measured_structure", "negated_receptance", "parse_band", "parse_modes", "read_direction",
+           "same_file", "sld_check"]
 
 
 def fitted_config(cfg, modes: int | str = "auto"):

@@ -22,7 +22,9 @@ def modal(
     band: Optional[str] = typer.Option(None, "--band",
                                        help="Frequency band A:B [Hz] to fit (default: the whole file)."),
     modes: str = typer.Option("auto", "--modes",
-                              help="Modes per direction: auto (stabilisation diagram), N, or NX,NY."),
+                              help="Modes per direction: auto (stabilisation diagram), N, or NX,NY. A number is "
+                                   "fitted even where noisy data leave some modes unstabilised (they are named in a "
+                                   "warning): state it when you know how many modes the tool has."),
     plot: Optional[Path] = typer.Option(None, "--plot",
                                         help="Figure: fit, phase, stabilisation diagram (and SLD check)."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Fit quality as JSON (schema millstab.modal/1)."),

@@ -46,6 +46,7 @@ class Heard:
                        + (f"; mains hum {', '.join(f'{m:g}' for m in r.mains_hz)} Hz masked" if r.mains_hz else "")]
         lines.append(f"suggested speed: {self.suggested_rpm:.0f} rpm ({self.reason})"
                      if math.isfinite(self.suggested_rpm) else f"suggestion: {self.reason}")
+        lines += [f"note: {n}" for n in getattr(r, "notes", ())]
         return "\n".join(lines)
 
     def table(self) -> tuple[list[str], list]:
@@ -153,11 +154,26 @@ def listen_signal(signal, fs: float, rpm: float, teeth: int, *, start: float | N
 
 def listen_file(path, rpm: float, teeth: int, *, channel: int = 0, tap=None, **kw) -> Heard:
     """:func:`listen_signal` of a WAV or CSV recording (:mod:`millstab.io.recordings`); ``tap``: a tap's
-    recording (path; its first channel, at the cut's sample rate) or its :class:`~millstab.listen.tap.SensorPath`."""
-    from millstab.io.recordings import read_recording
+    recording (path; its first channel, at the cut's sample rate) or its :class:`~millstab.listen.tap.SensorPath`.
+    The file's notes (clipped, the channel heard of several) join the listening's; a recording refused (silent,
+    no tooth-passing sound, too short, another speed or teeth) is named in the error."""
+    from millstab.io.recordings import read_recording_notes
 
-    x, fs = read_recording(path, channel)
-    return listen_signal(x, fs, rpm, teeth, tap=tap, **kw)
+    x, fs, notes = read_recording_notes(path, channel)
+    try:
+        heard = listen_signal(x, fs, rpm, teeth, tap=tap, **kw)
+    except InputError as exc:  # named, with what the file showed (a stereo file's cut on the other channel)
+        exc = _named(exc, path)
+        raise (InputError(exc.field, exc.value, f"{exc.allowed}; {'; '.join(notes)}") if notes else exc) from None
+    if not notes:
+        return heard
+    return replace(heard, listening=replace(heard.listening, notes=tuple(notes) + tuple(heard.listening.notes)))
+
+
+def _named(exc: InputError, path) -> InputError:
+    """``exc`` with the recording's file name before its field (a campaign of recordings: which one was refused)."""
+    name = Path(path).name
+    return exc if exc.field.startswith(name) else InputError(f"{name}: {exc.field}", exc.value, exc.allowed)
 
 
 def tap_path(path, *, channel: int = 0, cut_fs: float | None = None):
@@ -212,8 +228,11 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
     config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`); a
     ``tap`` column names a tap recorded by the cut's sensor (``listen --tap``: the sensor path it measures is
-    divided out when the chatter's member is chosen)."""
-    from millstab.io.recordings import read_cuts_with_recordings, read_recording
+    divided out when the chatter's member is chosen). A cut's note also carries what the listening and the file
+    noted (a short window, a speed the lines do not fit, clipping, the channel), a label written on the row that
+    the heard one replaces, and a recording named on more than one row; a recording refused (silent, no
+    tooth-passing sound, another speed or teeth) stops with an error naming it and its line."""
+    from millstab.io.recordings import CUT_LABELS, read_cuts_with_recordings, read_recording_notes
     from millstab.listen import listen
     from millstab.points import PointSet
 
@@ -227,19 +246,39 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
             hz.append(r["chatter_hz"])
             notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
             continue
-        x, fs = read_recording(r["recording"])
+        shown = name_of.get(r["recording"], Path(r["recording"]).name)
+        x, fs, file_notes = read_recording_notes(r["recording"])
         tap = None
         if r["tap"] is not None:
             if (r["tap"], fs) not in paths:
                 paths[r["tap"], fs] = tap_path(r["tap"], cut_fs=fs)
             tap = paths[r["tap"], fs]
-        res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
+        try:
+            res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
+        except InputError as exc:
+            raise InputError(f"{Path(cuts_csv).name}:{r['line']} recording {shown}: {exc.field}", exc.value,
+                             exc.allowed) from None
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
+        extra = list(file_notes) + list(res.notes)
+        if r["label"] in CUT_LABELS and r["label"] != res.label:  # a person's label, replaced: say so
+            extra.append(f"the row's written label '{r['label']}' is replaced by the heard one (empty its recording "
+                         "cell to keep the written label)")
         notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
-                     + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g}"
-                     + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")"))
+                     + f" (heard in {shown}, score {res.score:.3g}"
+                     + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")")
+                     + "".join(f"; note: {e}" for e in extra))
+    rows_of: dict = {}
+    for r in rows:
+        if r["recording"] is not None:
+            rows_of.setdefault(Path(r["recording"]).resolve(), []).append(r)
+    for same in rows_of.values():  # one recording for several cuts: a copy-paste slip, or one cut counted twice
+        if len(same) > 1:
+            shown = name_of.get(same[0]["recording"], Path(same[0]["recording"]).name)
+            where = ", ".join(f"{r['line']} ({r['rpm']:g} rpm, {r['depth_mm']:g} mm)" for r in same)
+            notes.append(f"note: {shown} is named on lines {where} of {Path(cuts_csv).name}: one recording labels "
+                         "each of those cuts (a copy-paste slip?)")
     rpm = np.array([r["rpm"] for r in rows])
     depth = np.array([r["depth_mm"] for r in rows])
     weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])

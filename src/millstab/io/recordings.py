@@ -28,17 +28,32 @@ MIN_SAMPLES = 1024
 CSV_FS_MIN = 500.0
 
 
+#: a WAV with at least this share of its samples (and CLIP_MIN_SAMPLES) at full scale is noted as clipped
+CLIP_SHARE = 1e-4
+CLIP_MIN_SAMPLES = 4
+#: another channel this much louder (RMS, 6 dB) than the one read is named in the note on the channel
+CHANNEL_LOUDER = 2.0
+
+
 def read_recording(path: PathLike, channel: int = 0) -> tuple[np.ndarray, float]:
     """(signal as float64, sample rate [Hz]) of a WAV or CSV recording; rules in the module docstring."""
+    x, fs, _ = read_recording_notes(path, channel)
+    return x, fs
+
+
+def read_recording_notes(path: PathLike, channel: int = 0) -> tuple[np.ndarray, float, list[str]]:
+    """:func:`read_recording` and notes on the file, one sentence each: a WAV clipped (samples at full scale:
+    the flattened peaks add harmonics and intermodulation lines that no cut made), the channel read of several
+    (and another one louder)."""
     p = Path(path)
     if not p.exists():
         raise InputError("recording", str(path), "file does not exist")
     if p.suffix.lower() == ".csv":
-        return _read_csv(p)
+        return (*_read_csv(p), [])
     return _read_wav(p, channel)
 
 
-def _read_wav(p: Path, channel: int) -> tuple[np.ndarray, float]:
+def _read_wav(p: Path, channel: int) -> tuple[np.ndarray, float, list[str]]:
     from scipy.io import wavfile
 
     try:
@@ -47,20 +62,39 @@ def _read_wav(p: Path, channel: int) -> tuple[np.ndarray, float]:
         raise InputError("recording", str(p), f"a WAV file (PCM 8/16/24/32-bit or float): {exc}") from None
     if not FS_MIN <= fs <= FS_MAX:
         raise InputError("recording", f"{p.name}: {fs} Hz", f"a sample rate from {FS_MIN} to {FS_MAX} Hz")
+    notes = []
     if data.ndim == 2:
         if not 0 <= channel < data.shape[1]:
             raise InputError("--channel", channel, f"a channel from 0 to {data.shape[1] - 1} ({p.name} has "
                                                    f"{data.shape[1]})")
+        # which channel was heard: a stereo phone recording can carry the cut on the other one
+        rms = np.sqrt(np.mean((data.astype(float) - data.astype(float).mean(axis=0)) ** 2, axis=0))
+        note = f"{p.name}: channel {channel} of {data.shape[1]} heard (--channel picks another, 0 = first)"
+        loud = int(np.argmax(rms))
+        if loud != channel and rms[loud] > CHANNEL_LOUDER * rms[channel]:
+            note += f"; channel {loud} is {20 * np.log10(rms[loud] / max(rms[channel], 1e-300)):.0f} dB louder"
+        notes.append(note)
         data = data[:, channel]
     elif channel != 0:
         raise InputError("--channel", channel, f"0 ({p.name} is mono)")
     if data.dtype.kind == "u":  # 8-bit WAV is unsigned, centred on 128
         x = (data.astype(float) - 128.0) / 128.0
+        full = data.astype(int)
+        at_full = (full == 0) | (full == 255)
     elif data.dtype.kind == "i":
         x = data.astype(float) / float(np.iinfo(data.dtype).max)  # scipy returns 24-bit as left-aligned int32
+        # full scale within 256 of the type's ends: 24-bit PCM comes left-aligned (its low byte 0)
+        info = np.iinfo(data.dtype)
+        lsb = 256 if data.dtype.itemsize == 4 else 1
+        at_full = (data >= info.max - lsb + 1) | (data <= info.min + lsb - 1)
     else:
         x = data.astype(float)
-    return _checked(x, float(fs), p)
+        at_full = np.abs(x) >= 1.0
+    n_full = int(np.count_nonzero(at_full))
+    if n_full >= max(CLIP_MIN_SAMPLES, CLIP_SHARE * x.size):
+        notes.append(f"{p.name} is clipped: {n_full} samples ({100 * n_full / x.size:.2g} %) at full scale; the "
+                     "flattened peaks add harmonics and intermodulation lines no cut made (record with less gain)")
+    return (*_checked(x, float(fs), p), notes)
 
 
 def _read_csv(p: Path) -> tuple[np.ndarray, float]:
@@ -135,10 +169,10 @@ CUT_LABELS = ("stable", "marginal", "chatter")
 
 
 def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = None) -> list[dict]:
-    """Rows of a cuts CSV ``rpm,depth_mm[,label][,chatter_hz][,weight],recording[,tap]`` as dicts (rpm, depth_mm,
-    label, chatter_hz, weight, recording: an existing path resolved relative to the CSV's folder, or None
-    where the cell is empty; that row then needs its own label; tap: the same for a tap recorded by the cut's
-    sensor, ``listen --tap``, or None). Other columns are ignored.
+    """Rows of a cuts CSV ``rpm,depth_mm[,label][,chatter_hz][,weight],recording[,tap]`` as dicts (line: the row's
+    line in the file; rpm, depth_mm, label, chatter_hz, weight, recording: an existing path resolved relative to
+    the CSV's folder, or None where the cell is empty; that row then needs its own label; tap: the same for a
+    tap recorded by the cut's sensor, ``listen --tap``, or None). Other columns are ignored.
 
     With ``uploads`` (the web app: uploaded file name → where the session saved it) a recording cell may
     only be the name of a file uploaded in the same session: anything else (a server path, a name with a
@@ -197,7 +231,7 @@ def read_cuts_with_recordings(path: PathLike, uploads: dict[str, Path] | None = 
         hz = num("chatter_hz", False)
         out.append({"rpm": num("rpm", True), "depth_mm": num("depth_mm", True), "label": label,
                     "chatter_hz": float("nan") if hz is None else hz, "weight": num("weight", False),
-                    "recording": rp, "tap": resolve("tap") if rp is not None else None})
+                    "recording": rp, "tap": resolve("tap") if rp is not None else None, "line": line})
     if not out:
         raise InputError("cuts", p.name, "at least one cut below the header")
     return out
@@ -226,5 +260,5 @@ def is_recording_path(path: PathLike) -> bool:
     return Path(path).suffix.lower() in (".wav", ".csv")
 
 
-__all__ = ["has_recording_column", "read_cuts_with_recordings", "read_recording", "write_wav", "write_recording",
-           "write_recording_csv", "is_recording_path"]
+__all__ = ["has_recording_column", "read_cuts_with_recordings", "read_recording", "read_recording_notes", "write_wav",
+           "write_recording", "write_recording_csv", "is_recording_path"]

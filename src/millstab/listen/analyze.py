@@ -2,17 +2,22 @@
 
 The steps, with every threshold and the reason for it:
 
-1. **Cut window.** ``start``/``end`` [s] when given; else the frames (20 ms, and at least 4 tooth
-   periods) where the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error
-   keeps the line within a bin) holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the
-   recording: the comb is the forced vibration, there only while the teeth cut; air cutting, the idle
-   spindle and hum are left out, and chatter that starts late does not move the window (a broadband
-   RMS would). The median, not a high percentile: a ringing entry transient leaks into the comb's
-   50 Hz-wide frame bins and would otherwise set the level and cut the steady cut away (measured: a
-   four-tooth slot at 3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). A
-   recording more than half air is analysed whole (give ``--start``/``--end``). The window is then
-   trimmed by ``TRIM`` = 3 % of its length at each end: the entry and exit transients (an impact rings
-   every mode, which is no chatter).
+1. **Cut window.** ``start``/``end`` [s] when given; else the frames (20 ms, and at least 4 tooth periods)
+   where the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error keeps the line
+   within a bin) holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the frames where the teeth
+   are heard (the comb ``CUT_SNR`` = 4× over the frame's own background beside its lines; all frames when
+   fewer than 8 are): the comb is the forced vibration, there only while the teeth cut; air cutting, the
+   idle spindle and hum are left out, and chatter that starts late does not move the window (a broadband RMS
+   would). The median, not a high percentile: a ringing entry transient leaks into the comb's 50 Hz-wide
+   frame bins and would otherwise set the level and cut the steady cut away (measured: a four-tooth slot at
+   3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). The median of the heard frames,
+   not of all: a recording more than half air had the air's median, and the air joined the window (2-4 s of
+   an idle spindle before a 2 s stable cut: its tooth line switching on within the window was heard as
+   "chatter" at f_T). A window under ``MIN_CUT_S`` = 0.1 s is refused (one periodogram: no label can be
+   heard), one under 0.4 s (< ``MIN_AVERAGES`` = 7 Welch averages) noted; a recording with no line at any
+   spindle harmonic ``PROMINENCE`` over the floor (silence, noise, a speed far off) is refused, not called
+   stable. The window is then trimmed by ``TRIM`` = 3 % of its length at each end: the entry and exit
+   transients (an impact rings every mode, which is no chatter).
 2. **Spectrum.** Welch average of the window: Blackman-Harris segments (side lobes −92 dB, so a line
    60-70 dB over the floor leaks nothing beyond ±4 bins), a quarter of the window long, 0.1-2 s
    (≥ 7 averages; ≤ 0.5 Hz bins on an 8 s window, so a chatter line a few Hz from a spindle line
@@ -165,6 +170,12 @@ The steps, with every threshold and the reason for it:
     The thresholds were set on virtual recordings (``benchmarks/bench_listen.py``: 0.05 keeps every
     stable cut's score below it, while saturated chatter in a microphone's weighting can fall to 0.07).
 
+11. **Checks** (``_harmonic_checks``) on a chatter or marginal line at a harmonic of a spindle, which
+    regenerative chatter never is: another speed's comb within ±``SPEED_WIDE`` = 20 % holding it refuses
+    the speed given (an override at 103 % was "chatter" at its tooth line), another count of teeth whose
+    tooth lines hold it and the given tooth lines at the runout's level refuses the teeth, a tooth-passing
+    harmonic of the speed heard is noted (``Listening.notes``).
+
 Units: seconds, Hz, rev/min; the signal in any unit (only ratios are used).
 """
 
@@ -184,6 +195,18 @@ TRIM = 0.03
 F_LO = 40.0
 F_HI = 8000.0
 SPEED_TOL = 0.015
+#: the cut window's frames where the tooth-passing comb stands this much (6 dB) over the frame's background beside
+#: its lines set the level (measured on 3000 frames of white, 1/f and hum noise: median 0-1 dB, 99th percentile
+#: 3-7 dB; the frames of a cut 9-28 dB, a chatter's sidebands between the lines lowering it)
+CUT_SNR = 4.0
+#: the shortest cut window [s]: the Welch segments' shortest (below, one periodogram: a noise bin passes the
+#: 10 dB prominence with probability 0.06, and the line masks, ±4.5 bins of 1/T, cover most of the spectrum)
+MIN_CUT_S = 0.1
+#: fewer Welch averages than this (a window under 0.4 s) and the label is noted as less sure
+MIN_AVERAGES = 7
+#: the speed given is checked against the spindle lines over ±SPEED_WIDE (an override knob at 103 % or a speed
+#: mistyped is outside the ±SPEED_TOL the analysis searches: its tooth line went unmasked and was heard as "chatter")
+SPEED_WIDE = 0.20
 MAX_COMB = 30
 #: most a harmonic adds to the comb score [log power over the floor] (e⁸ = 35 dB)
 COMB_CLIP = 8.0
@@ -273,6 +296,8 @@ class Listening:
         mains_hz: tuple of the mains line frequencies masked [Hz].
         freq_hz, psd, floor, synchronous: the Welch spectrum, its floor and the mask (for plots).
         times_s, chatter_amp: the chatter amplitude per frame (for plots).
+        notes: what makes the result less sure (a short window, a speed or teeth that the lines do not fit, a
+            line heard on a tooth-passing harmonic), one sentence each; () when none.
     """
 
     label: str
@@ -294,6 +319,7 @@ class Listening:
     synchronous: np.ndarray = field(repr=False)
     times_s: np.ndarray = field(repr=False)
     chatter_amp: np.ndarray = field(repr=False)
+    notes: tuple[str, ...] = ()
     score_scale: str = SCORE_SCALE
     schema: str = "millstab.listen.listening/1"
 
@@ -317,6 +343,9 @@ def _check(signal, fs, rpm, teeth, start, end) -> tuple[np.ndarray, float]:
         raise InputError("signal", f"{x.size} samples", "one channel of at least 1024 samples")
     if not np.all(np.isfinite(x)):
         raise InputError("signal", "NaN/inf", "finite samples")
+    if float(np.ptp(x)) == 0.0:  # nothing to hear: "stable" (and a speed "heard") would be made up
+        raise InputError("signal", "silent (every sample the same)", "a recording of the cut: no tooth-passing "
+                         "sound was heard (a muted or unplugged microphone?)")
     if not (math.isfinite(fs) and 500 <= fs <= 192000):
         raise InputError("fs", fs, "a sample rate from 500 to 192000 Hz")
     if not (math.isfinite(rpm) and rpm > 0):
@@ -356,7 +385,17 @@ def cut_window(x: np.ndarray, fs: float, f_t: float, start: float | None = None,
     b = np.rint(k * f_t * n / fs).astype(int)
     cols = np.clip(np.concatenate([b - 1, b, b + 1]), 0, spec.shape[1] - 1)
     comb = spec[:, cols].sum(axis=1)
-    loud = np.flatnonzero(comb >= WINDOW_LEVEL * np.median(comb))
+    # the frames where the teeth are heard: the comb CUT_SNR over the frame's own background beside its lines
+    # (the median of the bins 2 to spacing/2 from each line: a coloured background cancels); at least 8 such. The
+    # level is WINDOW_LEVEL of their median, not of every frame's: when air (idle spindle, noise) is most of the
+    # recording the median of all frames is the air's, and the air joined the window (a 2 s cut after 4 s of
+    # air was heard over 0.12-6.12 s, its tooth line switching on heard as "chatter" at f_T)
+    h = max(2, int(f_t * n / fs / 2))
+    offs = np.r_[np.arange(-h, -1), np.arange(2, h + 1)]
+    bg = np.median(spec[:, np.clip(b[:, None] + offs[None, :], 0, spec.shape[1] - 1)], axis=2).sum(axis=1)
+    heard = comb >= CUT_SNR * 3.0 * bg
+    ref = np.median(comb[heard]) if heard.sum() >= 8 else np.median(comb)
+    loud = np.flatnonzero(comb >= WINDOW_LEVEL * ref)
     f0, f1 = int(loud[0]), int(loud[-1]) + 1
     trim = max(1, int(round(TRIM * (f1 - f0))))
     if f1 - f0 > 4 * trim:
@@ -422,18 +461,7 @@ def _spindle_hz(f: np.ndarray, p: np.ndarray, floor: np.ndarray, f_s0: float, te
     n_c = int(2 * SPEED_TOL * f_s0 * 2 * kc.size / df) + 1
     cand = f_s0 * (1 + np.linspace(-SPEED_TOL, SPEED_TOL, max(n_c, 3)))
     lp = np.log(np.maximum(p, 1e-300))
-    # each harmonic scores its line's log-prominence over the floor, only at a local maximum (a line,
-    # not the skirt of a chatter hump) and at most COMB_CLIP (so one strong chatter line that a wrong
-    # comb happens to hit cannot outvote the tooth-passing lines)
-    lf = np.log(floor)
-    loc = np.ones(f.size, bool)
-    for sh in (1, 2):
-        loc[sh:] &= p[sh:] >= p[:-sh]
-        loc[:-sh] &= p[:-sh] >= p[sh:]
-    a = np.where(loc, np.clip(lp - lf, 0.0, COMB_CLIP), 0.0)
-    b = np.maximum(a, np.maximum(np.r_[0.0, a[:-1]], np.r_[a[1:], 0.0]))
-    idx = np.clip(np.rint(np.outer(cand, kc) / df).astype(int), 0, f.size - 1)
-    score = b[idx].sum(axis=1)
+    score = _comb_scores(f, p, floor, cand, kc)
     best = np.flatnonzero(score >= score.max() - 1e-9)
     ft = float(cand[best[np.argmin(np.abs(cand[best] - f_s0))]])  # ties: the speed given
     # least squares on the prominent harmonics, f_k = k f_s (up to k = 30): each line is sought within
@@ -452,6 +480,45 @@ def _spindle_hz(f: np.ndarray, p: np.ndarray, floor: np.ndarray, f_s0: float, te
         num += kk * fk
         den += kk * kk
     return num / den if den > 0 else ft
+
+
+def _comb_scores(f: np.ndarray, p: np.ndarray, floor: np.ndarray, cand: np.ndarray, kc: np.ndarray) -> np.ndarray:
+    """Score of each candidate spindle frequency ``cand`` [Hz]: over its harmonics ``kc``, the sum of each line's
+    log-prominence over the floor (spectrum f [Hz], p, floor), only at a local maximum (a line, not the skirt of
+    a chatter hump) and at most COMB_CLIP (so one strong chatter line that a wrong comb happens to hit cannot
+    outvote the tooth-passing lines), taken within ±1 bin of k × cand."""
+    df = f[1] - f[0]
+    lp = np.log(np.maximum(p, 1e-300))
+    loc = np.ones(f.size, bool)
+    for sh in (1, 2):
+        loc[sh:] &= p[sh:] >= p[:-sh]
+        loc[:-sh] &= p[:-sh] >= p[sh:]
+    a = np.where(loc, np.clip(lp - np.log(floor), 0.0, COMB_CLIP), 0.0)
+    b = np.maximum(a, np.maximum(np.r_[0.0, a[:-1]], np.r_[a[1:], 0.0]))
+    idx = np.clip(np.rint(np.outer(cand, kc) / df).astype(int), 0, f.size - 1)
+    return b[idx].sum(axis=1)
+
+
+def _speed_elsewhere(f: np.ndarray, p: np.ndarray, floor: np.ndarray, f_s0: float, f_s: float, teeth: int,
+                     f_max: float) -> float | None:
+    """A spindle frequency [Hz] within ±SPEED_WIDE of the given f_s0 but beyond ±SPEED_TOL of it whose comb
+    (:func:`_comb_scores`, the first COMB_HARMONICS tooth-passing harmonics' spindle harmonics, on the full-window
+    spectrum f [Hz], p, floor) outscores the comb of the speed heard ``f_s`` by at least COMB_CLIP (one more line
+    35 dB over the floor); else None. Such a recording was made at another speed than the one given: its tooth
+    and runout lines are not where the analysis masked them."""
+    df = f[1] - f[0]
+    kc = np.arange(1, COMB_HARMONICS * teeth + 1)
+    kc = kc[kc * f_s0 * (1 + SPEED_WIDE) <= f_max]
+    if kc.size == 0:
+        return None
+    n_c = int(2 * SPEED_WIDE * f_s0 * 2 * kc.size / df) + 1
+    cand = f_s0 * (1 + np.linspace(-SPEED_WIDE, SPEED_WIDE, max(n_c, 3)))
+    score = _comb_scores(f, p, floor, cand, kc)
+    i = int(np.argmax(score))
+    here = float(_comb_scores(f, p, floor, np.array([f_s]), kc)[0])
+    if abs(cand[i] / f_s0 - 1.0) <= SPEED_TOL or score[i] < here + COMB_CLIP:
+        return None
+    return _spindle_hz(f, p, floor, float(cand[i]), teeth, f_max)  # refined on its lines, as the speed heard is
 
 
 def _amp_at(x: np.ndarray, fs: float, f0: float, n_frames: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -494,14 +561,23 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
     f_hi = min(0.45 * fs, F_HI)
     f_t0 = teeth * rpm / 60.0
     i0, i1 = cut_window(x, fs, f_t0, start, end)
-    if (i1 - i0) < 1024:
-        raise InputError("--start/--end", f"{i0 / fs:g}-{i1 / fs:g} s", "a cut window of at least 1024 samples")
+    if (i1 - i0) < 1024 or (i1 - i0) < MIN_CUT_S * fs:
+        given = start is not None or end is not None
+        raise InputError("--start/--end" if given else "recording", f"a cut of {(i1 - i0) / fs:.3g} s",
+                         f"a cut window of at least {MIN_CUT_S:g} s and 1024 samples (shorter, the spectrum is one "
+                         "periodogram and its line masks cover it: no label can be heard; record 1 s or more)")
+    notes: list[str] = []
     w = x[i0:i1] - x[i0:i1].mean()
     f, p, nper = _welch(w, fs)
+    n_avg = (w.size - nper) // max(nper // 2, 1) + 1
+    if n_avg < MIN_AVERAGES:
+        notes.append(f"short: a cut of {w.size / fs:.2f} s gives {n_avg} spectrum averages (< {MIN_AVERAGES}: the "
+                     "prominence test's noise odds are not met), so the label is less sure; record 1 s or more")
     df = f[1] - f[0]
     band = (f >= F_LO) & (f <= f_hi)
     fF, pF = _full_spectrum(w, fs)
-    f_s = _spindle_hz(fF, pF, np.interp(fF, f, _floor(f, p, np.zeros(f.size, bool))), rpm / 60.0, teeth, f_hi)
+    floor_allF = np.interp(fF, f, _floor(f, p, np.zeros(f.size, bool)))
+    f_s = _spindle_hz(fF, pF, floor_allF, rpm / 60.0, teeth, f_hi)
     f_s = _refine_spindle(w, fs, f_s, f_hi)
     f_t = teeth * f_s
     # synchronous masks: every spindle harmonic
@@ -555,6 +631,13 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
     spindle_pow = line_pow  # (line_pow is the chatter line's power further down)
     # mains lines
     floor0 = _floor(f, p, sync)
+    # no line at any spindle harmonic (tooth passing or runout): noise, hum, another machine, or a speed far off;
+    # a "stable" and a "speed heard" would be made up (an all-noise file was "stable" at 9121 rpm heard)
+    lf0 = np.interp(line_f, f, floor0)
+    if not np.any((line_pow >= PROMINENCE * lf0) & (line_f <= f_hi)):
+        raise InputError("recording", "no tooth-passing sound", f"a recording of the cut: no line at a harmonic of "
+                         f"the spindle frequency {rpm / 60.0:.4g} Hz ({rpm:g} rpm; teeth or runout) stands "
+                         f"{10 * math.log10(PROMINENCE):.0f} dB over the noise (noise only, or the speed far off?)")
     mains = []
     mask = sync.copy()
     for fm in MAINS:
@@ -607,7 +690,8 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
     if cand_f.size == 0:
         times = np.zeros(0)
         return Listening("stable", nan, 0.0, nan, nan, nan, float(rpm), float(60.0 * f_s), int(teeth), float(f_t),
-                         (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0))
+                         (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p, floor, mask, times, np.zeros(0),
+                         tuple(notes))
     g2 = None if structure is None else _flexibility(structure)
     # the chatter heard: the strongest line (with a tap, as the source sounds: the path's comb divided out)
     src_e = cand_e if tap is None else cand_e * _f4(cand_f) / np.maximum(weight(cand_f), 1e-300)
@@ -731,12 +815,74 @@ def _listen(signal, fs: float, rpm: float, teeth: int, start, end, structure, ta
     if label == "chatter" and c < n_std:
         fc = _flip_over_heard(fc, float(cand_e[c]), f_t, 2.0 * fs / nper, line_f, spindle_pow, over_runout & ~keep,
                               lambda ff: np.interp(ff, f, floor), fF, lpF, f_hi, w_tap)
+    if label != "stable":
+        notes += _harmonic_checks(fc, rpm, f_s, teeth, 2.0 * fs / nper, fF, pF, floor_allF, f_hi, spindle_pow, lf0)
     # Python floats, not numpy scalars (a numpy bool from comparing them is never ``is False``: bench_listen went
     # blind to a miss that way)
     return Listening(label, float(fc), float(score), 10 * math.log10(prom), float(onset), float(trend), float(rpm),
                      float(60.0 * f_s), int(teeth), float(f_t), (i0 / fs, i1 / fs), tuple(mains), float(fs), f, p,
                      floor, mask,
-                     i0 / fs + tc, a_c)
+                     i0 / fs + tc, a_c, tuple(notes))
+
+
+def _harmonic_checks(fc: float, rpm: float, f_s: float, teeth: int, tol: float, fF: np.ndarray, pF: np.ndarray,
+                     floorF: np.ndarray, f_hi: float, line_pow: np.ndarray, line_floor: np.ndarray) -> list[str]:
+    """Notes on a chatter (or marginal) line heard at ``fc`` [Hz] that sits on a harmonic of the spindle; raises
+    InputError where the recording shows the speed ``rpm`` [rev/min] or the ``teeth`` given to be wrong.
+
+    Regenerative chatter is never at a harmonic of the tooth-passing frequency: there the teeth meet the wave
+    of the tooth before in phase, the top of a lobe, the stablest speed. So a line heard on the harmonic of a
+    spindle is that spindle's own (forced vibration, runout), heard because the speed or teeth given put the
+    masks elsewhere, or because its level changed within the window (air, an entry inside it):
+
+    * another speed within ±SPEED_WIDE (:func:`_speed_elsewhere`: its comb outscores the speed heard's by a
+      line 35 dB over the floor) with ``fc`` on one of its harmonics (± ``tol`` [Hz]): refused, the lines are
+      another speed's (a 103 % override, 9270 rpm given as 9000, was "chatter at 309.0 Hz", its tooth line);
+      that speed with ``fc`` elsewhere: a note (the chatter line stands; the masks and suggestion do not);
+    * ``fc`` on the spindle harmonic m f_s (f_s [Hz], the speed heard) where m is no multiple of the teeth, and
+      for some other count n (2 to max(2 N, 8), m a multiple of n) the first three lines of n teeth (k n f_s)
+      are all lines (``line_pow`` over ``line_floor``, Welch, index k - 1 for k f_s) 6 dB over every line
+      of N teeth that n teeth do not share, which are no more than 6 dB over the runout at f_s: refused, the
+      cutter has n teeth (a 3-flute cut given 2 was flip "chatter" at 1.5 f_T = 450 Hz, its tooth line; a
+      real flip chatter leaves the tooth lines of N, the forced vibration, far over the runout);
+    * ``fc`` on a tooth-passing harmonic of the speed heard: a note (a line whose level changes within the
+      window, its skirts heard as a hump about it)."""
+    notes = []
+    pct = lambda f_: 100.0 * (f_ / (rpm / 60.0) - 1.0)  # noqa: E731
+    f_w = _speed_elsewhere(fF, pF, floorF, rpm / 60.0, f_s, teeth, f_hi)
+    if f_w is not None:
+        m = max(1, round(fc / f_w))
+        if abs(fc - m * f_w) <= tol:
+            raise InputError("--rpm", rpm, f"the spindle's speed: the recording's lines are the harmonics of "
+                             f"{60 * f_w:.0f} rpm ({pct(f_w):+.1f} %, beyond the ±{100 * SPEED_TOL:g} % listen "
+                             f"searches), and the line heard at {fc:.1f} Hz is one of them ({m} × {f_w:.2f} Hz), "
+                             "no chatter: give the speed the spindle ran at (an override?) or check --teeth")
+        notes.append(f"the spindle lines fit {60 * f_w:.0f} rpm ({pct(f_w):+.1f} % from {rpm:g}) better than the "
+                     "speed given: check --rpm (an override?); the line heard is none of theirs, but the masks and "
+                     "the suggested speed are the given speed's")
+    m = round(fc / f_s)
+    if m < 1 or abs(fc - m * f_s) > tol:
+        return notes
+    if m % teeth == 0:
+        return notes + [f"heard at {fc:.1f} Hz, the tooth-passing harmonic {m // teeth} × {teeth * f_s:.2f} Hz: "
+                        "regenerative chatter is never there; the forced vibration's level changing within the "
+                        "window (air or the entry in it? give --start/--end) is heard so"]
+    P = lambda k: float(max(line_pow[k - 1] - line_floor[k - 1], 0.0)) if k <= line_pow.size else 0.0  # noqa: E731
+    floor_at = lambda k: float(line_floor[k - 1]) if k <= line_floor.size else math.inf  # noqa: E731
+    for n in range(2, max(2 * teeth, 8) + 1):
+        if n == teeth or m % n or 3 * n * f_s > f_hi:
+            continue
+        own = [P(k * n) for k in (1, 2, 3)]
+        theirs = [k * teeth for k in (1, 2, 3) if (k * teeth) % n and k * teeth * f_s <= f_hi]
+        if not theirs or min(own) < (PROMINENCE - 1.0) * min(floor_at(k * n) for k in (1, 2, 3)):
+            continue
+        top = max(P(k) for k in theirs)
+        if min(own) >= FLIP_RATIO * top and top <= FLIP_RATIO * max(P(1), PROMINENCE * floor_at(teeth)):
+            raise InputError("--teeth", teeth, f"the cutter's teeth: the recording's lines are those of {n} teeth "
+                             f"({n} × {f_s:.2f} Hz = {n * f_s:.1f} Hz and its harmonics), the tooth-passing line of "
+                             f"{teeth} ({teeth * f_s:.1f} Hz) no louder than the runout, and the line heard at "
+                             f"{fc:.1f} Hz is one of theirs, no chatter: give --teeth {n}?")
+    return notes
 
 
 def _flip_over_heard(fc: float, e_c: float, f_t: float, tol: float, line_f: np.ndarray, line_pow: np.ndarray,

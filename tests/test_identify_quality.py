@@ -18,8 +18,8 @@ from millstab.cli import main
 from millstab.datasets import load_example
 from millstab.errors import InputError
 from millstab.identify import fit_lsq, identify, make_problem
-from millstab.identify.quality import (ASSUMED_NOISE, FEW_DOF, error_sigma, radial_immersion, runs_test,
-                                       zoa_model_poor)
+from millstab.identify.quality import (ASSUMED_NOISE, FEW_DOF, accurate_engine, error_sigma, outliers,
+                                       radial_immersion, runs_test, zoa_model_poor)
 from millstab.identify.synthetic import boundary_points
 from millstab.config import Config
 from millstab.io.points import write_points
@@ -136,14 +136,14 @@ def test_runs_test_matches_its_exact_distribution():
 def test_systematic_misfit_is_flagged_and_points_to_the_model(ex3):
     """Boundary points the model cannot follow (the true boundary × a slow 8 % swell along the speed
     axis, noise-free): the residual signs cluster along the speed, the runs test flags it, and — the
-    cut being a/D 0.2 — the warning points to the time-domain engine. The same structure's exact points
-    raise no such warning."""
+    cut being a/D 0.2 — the warning points to the accurate engine (spectral; it said sdm, against the README
+    and docs/identification.md). The same structure's exact points raise no such warning."""
     rpm = np.linspace(*SPEEDS, 40)
     exact = boundary_points(ex3.structure, ex3.cutting, rpm)
     swell = PointSet(rpm, exact.depth_mm * np.exp(0.08 * np.sin(2 * math.pi * (rpm - rpm[0]) / (rpm[-1] - rpm[0]))))
     fit = identify(ex3, swell, seed=0, **FAST)
     assert "residual_structure" in fit.codes, (fit.codes, fit.checks)
-    assert any("--engine sdm" in w for w in fit.warnings if "systematic" in w)
+    assert any("refit with --engine spectral" in w for w in fit.warnings if "systematic" in w)
     clean = identify(ex3, exact, seed=0, **FAST)
     assert "residual_structure" not in clean.codes and "poor_fit" not in clean.codes
 
@@ -169,7 +169,25 @@ def test_zero_order_model_hint_only_on_its_weak_cuts():
     assert "zoa_model" not in fit.codes
     fit2 = identify(Config(cutting=low, structure=truth, name="low"),
                     boundary_points(truth, low, np.linspace(3000, 9000, 30)), axisymmetric=True, seed=0, **FAST)
-    assert "zoa_model" in fit2.codes and any("--engine sdm" in w for w in fit2.warnings)
+    zoa = fit2.warnings[fit2.codes.index("zoa_model")]
+    assert "check with --engine spectral" in zoa and "process damping" in zoa
+    # the engine to refit with is chosen by capability: spectral, or sdm for a cut with process damping
+    assert accurate_engine(low) == "spectral"
+    assert accurate_engine(Cutting(3, 2000e6, 0.3, process_damping=1e5, diameter=0.012)) == "sdm"
+
+
+def test_outliers_are_points_beyond_four_robust_sigma():
+    """The rule behind the ``outliers`` warning: |r| > 4 × 1.4826 median|r| √(n/(n − p)); a 3.5σ noise point is
+    not one, a ×1.2 depth among 2 % noise is; nothing with fewer than FEW_DOF spare points (a near-interpolating
+    fit's residuals say nothing of the noise) or at an exact fit's round-off."""
+    cfg = load_example("ex3")
+    prob = make_problem(cfg.structure, cfg.cutting, _points(cfg, 40, 0.02, 0))
+    r = 0.02 * np.random.default_rng(5).standard_normal(prob.n)
+    r[3], r[17] = 0.07, np.log(1.2)  # 3.5σ of 2 % noise; a depth 20 % off
+    assert list(np.flatnonzero(outliers(r, prob, prob.p))) == [17]
+    assert not outliers(r[: prob.p + FEW_DOF - 1], make_problem(
+        cfg.structure, cfg.cutting, _points(cfg, prob.p + FEW_DOF - 1, 0.02, 0)), prob.p).any()
+    assert not outliers(1e-9 * r, prob, prob.p).any()
 
 
 # --- point sets that cannot determine the parameters ------------------------------------------------------

@@ -93,3 +93,84 @@ def test_f_test_matches_the_f_distribution_and_the_exact_floor():
     # two exact fits (residuals at the engine's round-off) are indistinguishable: p = 1, not F = 0/0
     assert f_test(1e-21, 1e-22, 100, 6, 3, floor=1e-10)[1] == pytest.approx(1.0)
     assert f_test(1e-21, 1e-22, 100, 6, 3, floor=0.0)[1] < 1e-6  # without the floor: "significant"
+
+
+# --- outliers and a robust loss (the tie used to be tested on plain RSS, outliers and all) ---------------------
+
+#: the field report's case: 3-tooth slot, x 850 Hz / 15 N/µm / ζ 0.025, y 950 Hz / 20 N/µm / ζ 0.015, a start
+#: 5–20 % off, 30 points at 2 % noise, three of them outliers (depth ×1.8, ×0.45, ×2.2)
+OUTLIER_TRUTH = Structure(x=(Mode(850.0, 15e6, 0.025),), y=(Mode(950.0, 20e6, 0.015),))
+OUTLIER_START = Structure(x=(Mode(900.0, 18e6, 0.035),), y=(Mode(910.0, 16e6, 0.02),))
+OUTLIER_AT, OUTLIER_BY = [5, 14, 23], [1.8, 0.45, 2.2]
+
+
+def _outlier_problem():
+    from millstab.model import Cutting
+    from millstab.points import PointSet
+
+    slot = Cutting(3, 600e6, 0.3)
+    rpm = np.linspace(4200, 15800, 30)
+    depth = boundary_points(OUTLIER_TRUTH, slot, rpm, noise=0.02, seed=3).depth_mm.copy()  # the zoa engine's
+    depth[OUTLIER_AT] *= OUTLIER_BY
+    return make_problem(OUTLIER_START, slot, PointSet(rpm, depth)), rpm[OUTLIER_AT]
+
+
+def _stub_fit(prob, theta, loss):
+    """A fit of ``prob`` at ``theta`` as lsq builds one, without the search (its RSS over every point)."""
+    from millstab.identify.result import Fit
+
+    r = prob.residuals(prob.predict_mm(theta[None]))[0]
+    return Fit(method="lsq", par=prob.par, estimate=theta, start=prob.par.theta0, mlae=0.1, rss=float(r @ r),
+               iterations=1, evaluations=1, engine_calls=1, time_s=0.0, history_theta=theta[None],
+               history_mlae=np.zeros(1), history_rss=np.array([float(r @ r)]), std_errors=theta * 0.01,
+               correlation=np.eye(prob.p), settings={"loss": loss})
+
+
+@pytest.mark.parametrize("loss", ["cauchy", "soft_l1"])
+def test_a_robust_fit_tests_x_equals_y_without_its_outliers(loss):
+    """The field report's numbers: the robust free fit at the truth, the tied fit the search found (915 Hz,
+    3.77 N/µm, ζ 0.253). Over every point the outliers' squares swamp the difference (p = 0.14: the old code
+    reported the tie, 4–8σ from the truth); over the 27 points the robust fit keeps it is plain (p ~ 1e-17)."""
+    from millstab.identify.tie import prefer_tied
+
+    prob, outlier_rpm = _outlier_problem()
+    free = _stub_fit(prob, np.array([850.11, 15.89e6, 0.02438, 951.18, 17.98e6, 0.01545]), loss)
+    tied_theta = np.array([915.06, 3.770e6, 0.25281])
+    fit = prefer_tied(prob, free, lambda tprob, start: _stub_fit(tprob, tied_theta, loss))
+    assert f_test(fit.tie["rss_tied"], fit.tie["rss_free"], prob.n, prob.p, 3, 0.0)[1] > 0.05  # all points: no
+    assert not fit.tied and fit.tie["p_value"] < 1e-6 and fit.tie["points_tested"] == 27
+    assert [p["rpm"] for p in fit.tie["left_out"]] == list(outlier_rpm)
+    # a linear fit's test stays on every point, as its objective (its outliers warning says to refit robustly)
+    lin = prefer_tied(prob, _stub_fit(prob, free.estimate, "linear"),
+                      lambda tprob, start: _stub_fit(tprob, tied_theta, "linear"))
+    assert lin.tied and "left_out" not in lin.tie
+
+
+@pytest.mark.slow
+def test_outliers_no_longer_tie_a_robust_fit_and_are_named():
+    """The whole search with the cauchy loss: the free fit is reported, every parameter within one standard
+    error of the truth (the old code reported x = y: fn 915 Hz, k 3.77 ± 1.44 N/µm, ζ 0.25), the standard
+    errors from the kept points' scatter (2 %, not the 26 % the outliers made); the three outliers are named
+    by speed and depth in a warning and flagged in the fit's per-point residuals (JSON too). A linear fit
+    stays pulled by them, and its warning names them and points to a robust loss."""
+    from millstab.identify.result import Fit
+
+    prob, outlier_rpm = _outlier_problem()
+    truth = Parameterization(OUTLIER_TRUTH).theta0
+    fit = fit_lsq(prob, seed=0, loss="cauchy")
+    assert not is_tied(fit) and fit.tie["chosen"] == "free"
+    assert (np.abs(fit.estimate - truth) <= fit.std_errors).all(), (fit.estimate, fit.std_errors)
+    assert fit.noise["sigma"] < 0.03 and fit.noise["points"] == 27
+    assert "outliers" in fit.codes and "poor_fit" not in fit.codes
+    text = fit.warnings[fit.codes.index("outliers")]
+    assert all(f"{r:.6g} rpm" in text for r in outlier_rpm)
+    flagged = [p["rpm"] for p in fit.residuals if p["outlier"]]
+    assert flagged == list(outlier_rpm) and len(fit.residuals) == prob.n
+    back = Fit.from_json(fit.to_json())
+    assert [p["rpm"] for p in back.to_json()["residuals"] if p["outlier"]] == flagged
+    # the estimate explains the kept points far better than the outlier-pulled linear basin: not an alternative
+    assert all(abs(a["estimate"]["k_y"] / 20e6 - 1) < 0.5 for a in fit.alternatives)
+
+    lin = fit_lsq(prob, seed=0)
+    text = lin.warnings[lin.codes.index("outliers")]
+    assert "--loss cauchy" in text and f"{outlier_rpm[1]:.6g} rpm" in text

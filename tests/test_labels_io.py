@@ -154,6 +154,24 @@ def test_a_shops_own_label_words_are_refused_with_a_mapping_to_copy(word, exampl
     assert parse(text, example).label[1] == {"ok": "stable", "nok": "chatter"}.get(word.lower(), "marginal")
 
 
+@pytest.mark.parametrize("cell", ["OK", "2", "yes"])
+def test_identify_which_has_no_labels_option_is_not_told_to_use_it(cell, tmp_path, capsys):
+    """`millstab identify` reads points without --labels: an unknown label used to be answered "map your own
+    words with --labels", an option identify refuses. Now the message says what the file may hold."""
+    from millstab.cli import main
+
+    pts = tmp_path / "pts.csv"
+    pts.write_text(f"rpm,depth_mm,label\n5000,1,\n6000,1.2,{cell}\n7000,1.1,\n")
+    assert main(["identify", "example:ex3", str(pts), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "pts.csv line 3, label" in err and "'stable', 'chatter', 'marginal'" in err
+    assert "no --labels option" in err and "--labels " not in err.replace("no --labels option", "")
+    with pytest.raises(InputError, match="no --labels option"):
+        read_points(pts, labels_option=False)
+    with pytest.raises(InputError, match="with --labels|codes of --labels|map it with --labels"):
+        read_points(pts)  # the commands that have --labels still suggest it
+
+
 def test_extra_columns_kept_with_one_note_and_batch_parsed():
     text = ("rpm,depth_mm,label,feed,notes,date\n5000,1,stable,0.1,good finish,2024-05-01\n"
             "5000,2,chatter,0.1,,2024-05-02\n")

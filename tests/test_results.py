@@ -146,8 +146,9 @@ def legacy_fit_json(fit: Fit) -> dict:
 
 
 def _only_added(doc: dict, legacy: dict) -> None:
-    """``doc`` is ``legacy`` plus exactly ``schema`` and ``parameterization``, every old value unchanged."""
-    assert set(doc) - set(legacy) == {"schema", "parameterization"} and not set(legacy) - set(doc)
+    """``doc`` is ``legacy`` plus exactly ``schema``, ``parameterization`` and ``residuals`` (the per-point
+    record, added since: keys may be added), every old value unchanged."""
+    assert set(doc) - set(legacy) == {"schema", "parameterization", "residuals"} and not set(legacy) - set(doc)
     for key, value in legacy.items():
         assert doc[key] == value, key
 

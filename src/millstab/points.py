@@ -65,7 +65,11 @@ def parse_label_codes(text: str | None, field: str = "--labels") -> dict[str, fl
     return out
 
 
-def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
+#: the end of an invalid-label message where the command has no --labels option to map codes or words
+NO_LABELS_OPTION = "write one of these in the file (this command has no --labels option to map other words or codes)"
+
+
+def grade_of_cell(text: str, codes: dict[str, float] | None = None, labels_option: bool = True) -> float:
     """The graded label [0, 1] of one written label cell; NaN for an empty cell.
 
     Order: a code of ``codes`` (from :func:`parse_label_codes`, matched as written, case-insensitive, or
@@ -77,6 +81,8 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
         ValueError: with the reason (the caller names the file, line and column): a number outside
             [0, 1] without a mapping (a code: suggests ``--labels``), a number that is none of the codes where
             ``codes`` maps numbers (a code left out of ``--labels``), yes/no (which way is "yes"?), any other word.
+            With ``labels_option=False`` (a command without ``--labels``, e.g. identify) the message says what
+            the file may hold instead of suggesting an option the command lacks.
     """
     s = str(text).strip().lower()
     if not s:
@@ -102,10 +108,14 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None) -> float:
         x = x / 100 if pct else x
         if 0 <= x <= 1:
             return x
+        if not labels_option:
+            raise ValueError(f"{LABEL_RULE}; {NO_LABELS_OPTION}")
         if codes:
             raise ValueError(f"{LABEL_RULE}; {s!r} is not one of the codes of --labels ({', '.join(codes)})")
         raise ValueError(f"{LABEL_RULE}; a number outside [0, 1] looks like a code: map the codes with --labels, "
                          "e.g. --labels 0=stable,1=marginal,2=chatter")
+    if not labels_option:
+        raise ValueError(f"{LABEL_RULE}; {NO_LABELS_OPTION}")
     if s in ("yes", "no", "y", "n", "true", "false"):
         raise ValueError(f"{LABEL_RULE}; yes/no does not say which way (chattered? stable?): map it with --labels, "
                          "e.g. --labels yes=chatter,no=stable")

@@ -46,7 +46,8 @@ def identify(
     from millstab.io import read_points
     from millstab.io.outputs import config_inputs
 
-    cfg, pts = api.config(config), read_points(points)
+    # identify has no --labels: an unknown label is told what the file may hold, not to use that option
+    cfg, pts = api.config(config), read_points(points, labels_option=False)
     protect = emit.checked({**config_inputs(cfg), "POINTS": points}, {"--out": out, "--plot": plot, "--history-plot":
                            history_plot}, figures=("--plot", "--history-plot"))  # fail before the work, not after
     cfg, note = api.modal(cfg)  # a measured FRF: start from its fitted modes (issue 14)

@@ -52,7 +52,7 @@ def lobes(
     cfg, note = api.config_in_condition(base, radial_immersion=radial_immersion, milling=milling, entry_deg=entry_deg,
                                         exit_deg=exit_deg, teeth=teeth)
     speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)
-    pts = read_points(points) if points else None
+    pts = read_points(points, labels_option=False) if points else None  # lobes has no --labels
     inputs = {**config_inputs(cfg), "--points": points, "--rpm-file": rpm_file}
     check_outputs(inputs, {"--out": out, "--plot": plot}, figures=("--plot",))  # before the work
     protect = [p for p in inputs.values() if p]

@@ -73,7 +73,7 @@ def simulate(
                                                                     "--record-tap": record_tap}, figures=("--plot",))
     if api.simulate_mode(cuts=cuts, rpm=rpm, depth=depth, plot=plot, record=record, marginal=marginal,
                          label_noise=label_noise, seed=seed, record_tap=record_tap) == "cuts":
-        pts = read_points(cuts)
+        pts = read_points(cuts, labels_option=False)  # simulate has no --labels
         lab = api.label_cuts(cfg, pts, feed_mm=feed, revs=revs, steps=steps, start=start, label_noise=label_noise,
                              marginal=marginal, seed=seed)
         typer.echo(f"{cfg.name}: {lab.summary()}" + (f" ({note})" if note else ""))

@@ -33,7 +33,8 @@ Stages (u = ln θ throughout; every stage evaluates its candidates in ONE batche
 
 4. **x = y?** In an x/y-symmetric cut the tied model is fitted as well and reported when an F-test
    does not reject it (:mod:`~millstab.identify.tie`: near x = y a free fit splits the pairs by
-   noise alone, with overconfident standard errors).
+   noise alone, with overconfident standard errors); with a robust ``loss`` the test, like the standard
+   errors, leaves out the points the fit flags as outliers (:func:`~millstab.identify.quality.kept_points`).
 
 Diagnostics at the solution: cov_u = σ²(JᵀJ)⁻¹ in log-parameters with σ the residual scatter
 √(RSS/(n − p)) — or a stated (``noise``) or assumed depth noise where the points leave few or no
@@ -64,7 +65,7 @@ from millstab.errors import InputError
 from millstab.forward import FD_STEP, fd_rows  # noqa: F401 (FD_STEP: the solver's step, re-exported)
 from millstab.forward import fd_difference as jacobians
 from millstab.identify.objective import Problem
-from millstab.identify.quality import check_noise, diagnose, error_sigma, residual_scale
+from millstab.identify.quality import check_noise, diagnose, error_sigma, kept_points, residual_scale
 from millstab.identify.result import Fit
 from millstab.identify.search import SEARCH, options_with, pick_distinct, search_box, sobol
 from millstab.identify.symmetry import (canonical, exchange_map, exchange_note, exchanged, swap_permutation,
@@ -449,8 +450,10 @@ def polish(problem: Problem, u_start: np.ndarray, *, loss: str, f_scale: float, 
 
 def uncertainty(problem: Problem, jac: np.ndarray, rss: float, noise: float | None):
     """Standard errors of ln θ (P,), the correlation matrix (P, P) and cond(JᵀJ) at the solution, with σ
-    from the residual scatter, a stated or an assumed noise (:func:`~millstab.identify.quality.error_sigma`)."""
-    n, p = problem.n, problem.p
+    from the residual scatter, a stated or an assumed noise (:func:`~millstab.identify.quality.error_sigma`).
+    ``jac`` (m, P) and ``rss`` are those of the m points the fit stands on (all n, or a robust fit's kept
+    points: :func:`~millstab.identify.quality.kept_points`)."""
+    n, p = jac.shape[0], problem.p
     sig = error_sigma(rss, n, p, residual_scale(problem.residual, problem.depth_mm), noise)
     cov_u, cond = covariance(jac, rss, n, p, sig["sigma"] ** 2)
     sd_u = np.sqrt(np.clip(np.diag(cov_u), 0, None))
@@ -478,13 +481,23 @@ def identifiability_warnings(names, corr: np.ndarray, cond: float) -> list[tuple
 
 
 def alternative_solutions(problem: Problem, theta_hat: np.ndarray, rss: float, sd_u: np.ndarray, starts: Starts,
-                          perm, xmap) -> list[dict]:
+                          perm, xmap, keep: np.ndarray | None = None) -> list[dict]:
     """Parameter sets that explain the points as well as the estimate: the exact x↔y exchange (when
     ``xmap``), then the other multi-start solutions inside the 95 % joint confidence region
     RSS ≤ RSS_min (1 + p/(n − p) F_{p, n−p}(0.95)) (Beale 1960) that differ from the estimate by more than
-    max(1 %, 4 σ) in some ln θ and from every listed one by 1 %."""
+    max(1 %, 4 σ) in some ln θ and from every listed one by 1 %.
+
+    ``keep`` (n,) bool: the points a robust fit stands on (:func:`~millstab.identify.quality.kept_points`);
+    where some are left out, ``rss`` is the estimate's over the kept points, and the multi-start solutions
+    (searched with every point) are compared over them too, one engine call: over every point a solution
+    pulled towards the outliers looked as good as a robust estimate whose kept residuals were 20× smaller."""
     n, p, par = problem.n, problem.p, problem.par
     c_lm, u_lm = np.concatenate(starts.rss), np.vstack(starts.u)
+    c_cmp = c_lm  # what is compared; an alternative's "rss" stays its RSS over every point, as Fit.rss
+    if keep is not None and not keep.all():
+        n = int(keep.sum())
+        r_lm = problem.residuals(problem.predict_u(u_lm))[:, keep]
+        c_cmp = np.einsum("ki,ki->k", r_lm, r_lm)
     thresh = rss * (1 + p / (n - p) * stats.f.ppf(0.95, p, n - p)) if n > p else rss
     thresh = max(thresh, rss + 1e-12 * n)
     u_best_c = np.log(canonical(theta_hat, perm))
@@ -495,8 +508,8 @@ def alternative_solutions(problem: Problem, theta_hat: np.ndarray, rss: float, s
         alternatives.append({"estimate": par.as_dict(theta_x), "mlae": float(problem.mlae(pred_x)[0]),
                              "rss": float(problem.rss(pred_x)[0]),
                              "why": "the exact x↔y mode exchange of the estimate (same zero-order SLD)"})
-    for i in np.argsort(c_lm):
-        if c_lm[i] > thresh:
+    for i in np.argsort(c_cmp, kind="stable"):
+        if c_cmp[i] > thresh:
             continue
         u_i = np.log(canonical(np.exp(u_lm[i]), perm))
         d = np.abs(u_i - u_best_c)
@@ -610,8 +623,10 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
     iterations = len(record.rss) - 1  # screening is iteration 0
     theta_hat = np.exp(sol.x)
 
-    # diagnostics
-    sd_u, corr, cond = uncertainty(problem, j_hat, rss, noise)
+    # diagnostics: a robust loss gives outliers almost no weight in the estimate, so its standard errors
+    # leave them out too (with them, σ̂ grew with their squares: 12× the inliers' scatter for 3 in 30)
+    keep = kept_points(loss, r_hat, problem, problem.p)
+    sd_u, corr, cond = uncertainty(problem, j_hat[keep], float(r_hat[keep] @ r_hat[keep]), noise)
     warn: list[str] = []
     codes: list[str] = []  # one per warning kind (Fit.codes)
     symmetry = None
@@ -634,7 +649,8 @@ def fit_lsq_free(problem: Problem, theta0: np.ndarray | None = None, *, options:
     if not sol.success:
         codes.append("not_converged")
         warn.append(f"least squares did not converge: {sol.message}")
-    alternatives = alternative_solutions(problem, theta_hat, rss, sd_u, starts, perm, xmap)
+    alternatives = alternative_solutions(problem, theta_hat, float(r_hat[keep] @ r_hat[keep]), sd_u, starts, perm,
+                                         xmap, keep)
     if alternatives:
         codes.append("alternatives")
         warn.append(f"{len(alternatives)} distinct parameter set(s) explain the points as well as the estimate "

@@ -23,10 +23,17 @@ Warnings with structured codes (``Fit.codes``; :func:`diagnose`):
   engine's own accuracy: systematic misfit — a wrong basin or a model that cannot follow the points;
 * ``zoa_model``: the zero-order engine on a cut where its model is known to be approximate (radial
   immersion a/D < :data:`ZOA_POOR_IMMERSION`, or two or fewer teeth: strongly time-varying forces,
-  flip lobes; see the field notes); suggests ``--engine sdm``;
+  flip lobes; see the field notes); suggests the accurate engine (:func:`accurate_engine`: ``--engine
+  spectral``, or ``sdm`` where the cut carries process damping, which only sdm models);
+* ``outliers``: points whose residual is beyond :data:`OUTLIER_Z` robust σ (:func:`outliers`), named by
+  speed and depth; a fit with a robust ``loss`` leaves them out of its standard errors, its noise record
+  and its x = y test (:func:`kept_points`), a linear fit is told to refit with one;
 * ``at_bound``: an estimate sits on its search bound (the optimum may lie outside);
 * ``flat_points``: every boundary depth is the same — no lobe to locate a natural frequency by (often
   a wrong column or a constant placeholder in the file).
+
+Every fit carries its per-point residuals (``Fit.residuals``: speed, measured and fitted depth, residual,
+outlier flag), so the points behind an ``outliers`` or ``poor_fit`` warning can be looked up.
 """
 
 from __future__ import annotations
@@ -55,6 +62,12 @@ RUNS_ALPHA = 0.01
 ZOA_POOR_IMMERSION = 0.3
 #: standard errors use the residual scatter, a stated noise, or an assumed one
 SOURCES = ("residuals", "stated", "assumed")
+#: a residual beyond this many robust σ marks its point an outlier (:func:`outliers`): a Gaussian point
+#: passes 4σ one time in 16 000 (30 points: one fit in ~500, more with the median's own scatter), while a
+#: depth ×1.2 off among 2 % noise stands at ~9σ; the field report's 30 points hold a 3.2σ noise point
+OUTLIER_Z = 4.0
+#: σ = this × the median |residual| for Gaussian residuals (the MAD's consistency factor)
+MAD_SIGMA = 1.4826
 
 
 def residual_scale(residual: str, depth_mm: np.ndarray) -> float:
@@ -122,6 +135,85 @@ def runs_test(residuals: np.ndarray, rpm: np.ndarray) -> dict | None:
     return {"runs": runs, "expected": mean, "z": z, "p_value": float(stats.norm.cdf(z))}
 
 
+def robust_sigma(residuals: np.ndarray, p: int) -> float:
+    """σ of one residual from the median |residual| (residual units): MAD_SIGMA · median|r| · √(n/(n − p)),
+    the last factor undoing the shrinkage of a fit's residuals by its p parameters (as σ̂ = √(RSS/(n − p))
+    does); unmoved by a few outliers, where σ̂ grows with their squares."""
+    r = np.abs(np.asarray(residuals, float))
+    n = r.size
+    return MAD_SIGMA * float(np.median(r)) * math.sqrt(n / max(n - p, 1))
+
+
+def outliers(residuals: np.ndarray, problem, p: int) -> np.ndarray:
+    """(n,) bool: the points whose |residual| exceeds :data:`OUTLIER_Z` × :func:`robust_sigma`.
+
+    None with fewer than :data:`FEW_DOF` residual degrees of freedom (the median of a near-interpolating
+    fit's residuals says nothing about the noise), and none below 10× the engine's relative accuracy
+    (an exact fit's residuals are round-off, not scatter). ``residuals`` in the problem's point order
+    (sorted by speed), ``p`` the parameters fitted.
+    """
+    r = np.abs(np.asarray(residuals, float))
+    if r.size - p < FEW_DOF:
+        return np.zeros(r.size, bool)
+    floor = 10 * get_engine(problem.engine).depth_accuracy * residual_scale(problem.residual, problem.depth_mm)
+    return r > OUTLIER_Z * max(robust_sigma(r, p), floor)
+
+
+def is_robust(loss: str | None) -> bool:
+    """Whether a fit's ``settings["loss"]`` down-weights large residuals (anything but ``linear``; a fit
+    without one, e.g. Newton's, is a plain least-squares fit)."""
+    return (loss or "linear") != "linear"
+
+
+def kept_points(loss: str | None, residuals: np.ndarray, problem, p: int) -> np.ndarray:
+    """(n,) bool: the points a fit with ``loss`` stands on. A robust loss gives an outlier almost no weight
+    in the estimate, so its standard errors, its noise and its x = y test leave the :func:`outliers` out
+    too (with them in, three outliers among 30 points made σ̂ 12× the inliers' scatter and let a wrong x = y
+    tie pass the F-test); a linear fit is pulled by every point, so every point stays."""
+    r = np.asarray(residuals, float)
+    if not is_robust(loss):
+        return np.ones(r.size, bool)
+    keep = ~outliers(r, problem, p)
+    return keep if keep.sum() > p else np.ones(r.size, bool)
+
+
+def point_residuals(problem, residuals: np.ndarray, flagged: np.ndarray) -> tuple[dict, ...]:
+    """``Fit.residuals``: one record per boundary point in speed order: rpm [rev/min], depth_mm (measured)
+    and fitted_mm [mm], residual (the fit's, :meth:`~millstab.identify.objective.Problem.residuals`) and
+    outlier (bool, :func:`outliers`)."""
+    r = np.asarray(residuals, float)
+    fitted = _fitted_mm(problem, r)
+    return tuple({"rpm": float(a), "depth_mm": float(b), "fitted_mm": float(c), "residual": float(d),
+                  "outlier": bool(o)} for a, b, c, d, o in zip(problem.rpm, problem.depth_mm, fitted, r, flagged))
+
+
+def _fitted_mm(problem, r: np.ndarray) -> np.ndarray:
+    """The fitted depths [mm] behind residuals (n,), without an engine call: log residuals are
+    √w ln(b*/b), mm ones √w (b* − b)."""
+    sw = np.sqrt(problem.weight)
+    return problem.depth_mm * np.exp(r / sw) if problem.residual == "log" else problem.depth_mm + r / sw
+
+
+def accurate_engine(cutting) -> str:
+    """The engine to refit with where the zero-order model is poor, chosen by capability: the cheap
+    accurate one (spectral: the global search runs on it), or the one modelling process damping (sdm)
+    where the cut carries it."""
+    from millstab.stability import engine_with
+
+    if getattr(cutting, "has_process_damping", False):
+        return engine_with(time_averaged=False, process_damping=True).name
+    return engine_with(time_averaged=False, cheap=True).name
+
+
+def _refit_advice(cutting) -> str:
+    """``--engine NAME`` and why, for the warnings that send a zero-order fit to the accurate engine."""
+    name = accurate_engine(cutting)
+    why = ("it models the process damping of this cut" if getattr(cutting, "has_process_damping", False)
+           else "the accurate engine, fast enough for the global search; --engine sdm where the cut has process "
+                "damping")
+    return f"--engine {name} ({why})"
+
+
 def radial_immersion(cutting) -> float:
     """Radial immersion a/D of one engaged arc [entry, exit] ⊂ [0, π]: (cos φst − cos φex)/2."""
     return (math.cos(cutting.entry) - math.cos(cutting.exit)) / 2
@@ -148,10 +240,16 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     if residuals is None:
         residuals = problem.residuals(problem.predict_mm(fit.estimate[None]))[0]
     r = np.asarray(residuals, float)
-    rss = float(r @ r)
-    info = error_sigma(rss, n, p, scale, noise)
-    dof = info["dof"]
+    flagged = outliers(r, problem, p)
+    loss = fit.settings.get("loss")
+    # a robust fit's noise (and so its χ² check) from the points it keeps, as its standard errors
+    keep = kept_points(loss, r, problem, p)
+    rss = float(r[keep] @ r[keep])
+    info = error_sigma(rss, int(keep.sum()), p, scale, noise)
+    dof = n - p
     record = {k: info[k] for k in ("source", "estimated", "stated", "assumed")} | {"sigma": info["sigma"] / scale}
+    if not keep.all():
+        record["points"] = int(keep.sum())  # the points σ rests on, where fewer than n
     notes: list[tuple[str, str]] = []  # (code, warning) pairs, added to the fit at the end
     add = lambda code, text: notes.append((code, text))  # noqa: E731
     checks: dict = {}
@@ -175,7 +273,7 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
     sig_hat = info["estimated"]
     if sig_hat is not None:
         if noise is not None:
-            chi = stats.chi2.sf(rss / (noise * scale) ** 2, dof)
+            chi = stats.chi2.sf(rss / (noise * scale) ** 2, info["dof"])
             checks["chi2_p_value"] = float(chi)
             if chi < CHI2_ALPHA and sig_hat >= POOR_RATIO * noise:
                 add("poor_fit", f"poor fit: the residual scatter {100 * sig_hat:.3g} % is {sig_hat / noise:.3g}× "
@@ -194,11 +292,13 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
                             f"speed axis where about {runs['expected']:.1f} are expected (runs test p = "
                             f"{runs['p_value']:.2g})"
                             + _why(problem))
+    if flagged.any():
+        add("outliers", _outlier_warning(problem, r, flagged, p, loss))
     poor = zoa_model_poor(problem.cutting) if get_engine(problem.engine).time_averaged else None
     if poor:
         add("zoa_model", f"the zero-order model is approximate for this cut ({poor}): on points from real "
                                      "cuts or a time-domain model its estimates can be biased by tens of percent in k "
-                                     "and ζ; check with the time-domain engine (--engine sdm)")
+                                     f"and ζ; check with {_refit_advice(problem.cutting)}")
     lo, hi = np.log(problem.par.lower), np.log(problem.par.upper)
     u = np.log(fit.estimate)
     at = [name for name, a, b, x in zip(fit.names, lo, hi, u) if min(x - a, b - x) < 1e-6]
@@ -211,7 +311,25 @@ def diagnose(fit, problem, noise: float | None = None, residuals: np.ndarray | N
                                        "locate the natural frequencies, so the estimate is arbitrary in fn; check the "
                                        "depth column of the points file")
     checks["rms"] = rms
-    return fit.with_warnings(notes, dof=dof, n_points=n, noise=record, checks=checks)
+    return fit.with_warnings(notes, dof=dof, n_points=n, noise=record, checks=checks,
+                             residuals=point_residuals(problem, r, flagged))
+
+
+def _outlier_warning(problem, r: np.ndarray, flagged: np.ndarray, p: int, loss: str | None) -> str:
+    """The ``outliers`` warning: the flagged points by speed and depth (measured, fitted), and what the
+    fit did with them."""
+    sig = robust_sigma(r, p) / residual_scale(problem.residual, problem.depth_mm)
+    fitted = _fitted_mm(problem, r)
+    idx = np.flatnonzero(flagged)
+    named = "; ".join(f"{problem.rpm[i]:.6g} rpm, {problem.depth_mm[i]:.4g} mm (fitted {fitted[i]:.4g} mm)"
+                      for i in idx)
+    head = (f"{idx.size} outlier{'s' if idx.size > 1 else ''} (residual beyond {OUTLIER_Z:g}× the robust "
+            f"scatter {100 * sig:.3g} % of the others): {named}")
+    if is_robust(loss):
+        return (f"{head}; the {loss} loss gives them little weight, and the standard errors, the noise estimate "
+                "and the x = y test leave them out: check those cuts")
+    return (f"{head}; a linear fit is pulled by every point: check those cuts, or refit with a robust loss "
+            "(--loss cauchy or soft_l1), which gives them little weight")
 
 
 def effective_p(fit, problem) -> int:
@@ -224,7 +342,7 @@ def _why(problem) -> str:
     """The likely causes of a poor or systematic fit, for the warning text."""
     eng = get_engine(problem.engine)
     if eng.time_averaged and zoa_model_poor(problem.cutting):
-        return ("; the zero-order model is poor for this cut: refit with the time-domain engine (--engine sdm)")
+        return f"; the zero-order model is poor for this cut: refit with {_refit_advice(problem.cutting)}"
     if not eng.cheap:  # identify's two stages: a zero-order global search, then this engine's local polish
         e = problem.engine.upper()
         return (f"; the {e} stage polishes the zero-order basin and may be in the wrong one (no global {e} search): "
@@ -233,5 +351,6 @@ def _why(problem) -> str:
             "outliers")
 
 
-__all__ = ["ASSUMED_NOISE", "FEW_DOF", "POOR_RMS", "SOURCES", "check_noise", "diagnose",
-           "error_sigma", "radial_immersion", "residual_scale", "runs_test", "zoa_model_poor"]
+__all__ = ["ASSUMED_NOISE", "FEW_DOF", "OUTLIER_Z", "POOR_RMS", "SOURCES", "accurate_engine", "check_noise",
+           "diagnose", "error_sigma", "is_robust", "kept_points", "outliers", "point_residuals", "radial_immersion",
+           "residual_scale", "robust_sigma", "runs_test", "zoa_model_poor"]

@@ -12,6 +12,10 @@ JSON contract (``Fit.to_json()``; keys may be added, never removed or renamed):
 * the fit's reliability: ``dof`` (residual degrees of freedom n − p), ``n_points``, ``noise`` (the σ the
   standard errors use and where it comes from: residual scatter, stated or assumed), ``warning_codes``
   (one code per warning kind, :mod:`~millstab.identify.quality`), ``checks`` (χ² and runs tests);
+* ``residuals``: one record per boundary point in speed order, ``{rpm, depth_mm, fitted_mm, residual,
+  outlier}`` (rev/min, mm, mm, the fit's residual: relative for log residuals, mm for mm ones; outlier: flagged
+  by :func:`~millstab.identify.quality.outliers`, its points named in the ``outliers`` warning); empty in
+  files written before it;
 * ``cutting``: the cutting conditions the points were fitted under (teeth, kt [N/m²], kr, entry and exit
   [rad]), so a fit file cannot be used with a config of other conditions;
 * provenance (each optional): ``config`` (the config's name) and ``points`` (the points file the fit was
@@ -73,6 +77,9 @@ class Fit:
         noise: the residual σ the standard errors use: {"sigma" (relative), "source" (``residuals``,
             ``stated`` or ``assumed``), "estimated" (σ̂ = √(RSS/dof), relative), "stated", "assumed"}.
         checks: test statistics behind the quality warnings (χ² p-value, runs test, RMS residual).
+        residuals: per boundary point in speed order, {"rpm" [rev/min], "depth_mm", "fitted_mm" [mm],
+            "residual", "outlier" (bool)} (:func:`~millstab.identify.quality.point_residuals`), a tuple; empty
+            before :func:`~millstab.identify.quality.diagnose`.
         cutting: the cutting conditions of the fitted points, or ``None``.
         alternatives: other parameter sets as good as the estimate: ({"estimate": {...}, "mlae", "rss", "why"}, ...).
         symmetry: a line describing an exact symmetry of the data (x↔y), or ``None``.
@@ -115,9 +122,10 @@ class Fit:
     checks: dict[str, Any] = field(default_factory=dict)
     cutting: Cutting | None = None
     provenance: dict[str, str] = field(default_factory=dict)
+    residuals: tuple[dict[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
-        for name in ("warnings", "codes", "alternatives"):
+        for name in ("warnings", "codes", "alternatives", "residuals"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
         if len(self.codes) != len(self.warnings):
             raise ValueError(f"every warning needs its code: {len(self.warnings)} warnings, {len(self.codes)} codes")
@@ -234,6 +242,8 @@ class Fit:
                 pct = f"{100 * nz['sigma']:.3g} %"
                 how = {"residuals": f"the residual scatter ({pct})", "stated": f"the stated depth noise ({pct})",
                        "assumed": f"an assumed depth noise ({pct}; give --noise)"}[nz["source"]]
+                if nz.get("points") is not None:  # a robust fit's σ from the points it keeps
+                    how = f"{how} of the {nz['points']} points kept (outliers left out)"
                 line = f"{line}; standard errors from {how}"
             lines.append(line)
         if self.test_cuts:
@@ -281,6 +291,7 @@ class Fit:
             "noise": self.noise,
             "warning_codes": list(self.codes),
             "checks": self.checks,
+            "residuals": list(self.residuals),
             "cutting": None if self.cutting is None else cutting_record(self.cutting),
             "history": {"theta": self.history_theta, "mlae": self.history_mlae, "rss": self.history_rss},
             **{k: self.provenance[k] for k in PROVENANCE if k in self.provenance},
@@ -356,6 +367,8 @@ class Fit:
                 dof=need(doc, "dof", source, optional_int), n_points=need(doc, "n_points", source, optional_int),
                 noise=need(doc, "noise", source, (dict, type(None))), checks=need(doc, "checks", source, dict),
                 cutting=None if cut is None else _cutting(cut, f"{source}: cutting"),
+                # absent from fits written before the per-point record
+                residuals=tuple(need(doc, "residuals", source, list)) if "residuals" in doc else (),
                 provenance={k: need(doc, k, source, str) for k in PROVENANCE if k in doc})
         except ValueError as exc:  # e.g. warnings without codes
             raise InputError(source, "fit record", str(exc)) from None

@@ -69,12 +69,14 @@ def _number(text: str, field: str, line: int, path: Path) -> float:
     return parse_number(text, f"{path.name} line {line}, {field}")
 
 
-def read_points(path: PathLike, labels: str | dict | None = None) -> PointSet:
+def read_points(path: PathLike, labels: str | dict | None = None, *, labels_option: bool = True) -> PointSet:
     """Read a point set CSV (format in the module docstring), or a packaged example points file
     with ``"example:NAME"`` (e.g. ``"example:ex3_points"``, see :mod:`millstab.datasets`).
 
     ``labels``: codes of the label cells, ``"0=stable,1=marginal,2=chatter"`` or its
-    :func:`~millstab.points.parse_label_codes` dict (the CLI's ``--labels``).
+    :func:`~millstab.points.parse_label_codes` dict (the CLI's ``--labels``). ``labels_option=False``: the
+    caller has no ``--labels`` (identify, lobes, simulate), so an unknown label's message says what the file
+    may hold rather than suggesting that option.
 
     Raises:
         InputError: missing file, empty file, missing or misspelt column, a non-number (with the
@@ -91,7 +93,7 @@ def read_points(path: PathLike, labels: str | dict | None = None) -> PointSet:
     if not p.is_file():
         raise InputError("points file", str(p), "file does not exist")
     text = read_text(p, "points file", "text CSV file")  # spreadsheets and Notepad often write a BOM
-    return parse_points(text, p, labels)
+    return parse_points(text, p, labels, labels_option=labels_option)
 
 
 #: depth_mm outside this range [mm] for every cut of a file is warned about: a file of metres (0.002 = 2 mm) or of
@@ -147,10 +149,12 @@ def _holds_words(cells: list[str]) -> bool:
     return any(c.strip().lower() in GRADE or c.strip().lower() in SYNONYMS for c in cells)
 
 
-def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict | None = None) -> PointSet:
+def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict | None = None, *,
+                 labels_option: bool = True) -> PointSet:
     """Parse point-set CSV text (an upload, a string in a notebook) with the same checks as
     :func:`read_points`; ``source`` names it in messages (its file name) and becomes ``PointSet.source``;
-    ``labels``: codes of the label cells (see :func:`read_points`).
+    ``labels``: codes of the label cells, ``labels_option``: whether the caller has ``--labels`` (see
+    :func:`read_points`).
 
     Raises:
         InputError: as :func:`read_points`.
@@ -190,7 +194,7 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         g = []
         for _, i in raters:
             try:
-                g.append(grade_of_cell(cells[i], codes))
+                g.append(grade_of_cell(cells[i], codes, labels_option))
             except ValueError as exc:
                 raise InputError(f"{p.name} line {line}, {names[i]}", cells[i], str(exc)) from None
         grades.append(g)

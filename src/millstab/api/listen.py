@@ -207,25 +207,34 @@ def read_cuts(path, labels: str | None = None, teeth: int | None = None, structu
 def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None, structure=None):
     """The cuts of a CSV with a ``recording`` column (a path relative to the CSV; empty: keep the row's
     own label) labelled by listening: a :class:`~millstab.points.PointSet` with label and chatter_hz
-    from each recording, and one line per cut saying where its label came from. With ``uploads``
+    from each recording, and one line per cut saying where its label came from. Every other column is read as
+    :func:`millstab.io.read_points` reads it (``stickout_mm``, the condition columns, the test day, weight), and
+    ``extra["recording"]`` holds each heard cut's recording as a reference (its absolute path; an uploaded file's
+    name; ``""``: labelled in the file), which the shop database records with the rater ``listen``. With ``uploads``
     (uploaded file name → saved path, the web app) a recording may only name an uploaded file
     (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
     config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`); a
     ``tap`` column names a tap recorded by the cut's sensor (``listen --tap``: the sensor path it measures is
     divided out when the chatter's member is chosen)."""
+    from millstab.io import read_points
     from millstab.io.recordings import read_cuts_with_recordings, read_recording
     from millstab.listen import listen
-    from millstab.points import PointSet
+    from millstab.points import GRADE
 
     rows = read_cuts_with_recordings(cuts_csv, uploads)
+    # the file's other columns as `update` reads them: a cut's stickout, condition and test day were dropped here
+    # before, so cuts heard at 40 and 60 mm were all updated at the config's stickout
+    base = read_points(cuts_csv)
     name_of = {v: k for k, v in (uploads or {}).items()}  # saved path → the name the user uploaded
-    labels, hz, notes = [], [], []
+    labels, hz, notes, refs = [], [], [], []
     paths = {}  # a tap's measured path, read once for the cuts that share it
-    for r in rows:
+    for i, r in enumerate(rows):
+        where = _cut_text(base, i)
         if r["recording"] is None:
             labels.append(r["label"])
             hz.append(r["chatter_hz"])
-            notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
+            refs.append("")
+            notes.append(f"{where}: {r['label']} (from the file)")
             continue
         x, fs = read_recording(r["recording"])
         tap = None
@@ -236,13 +245,25 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
         res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
-        notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
+        refs.append(name_of.get(r["recording"]) or str(Path(r["recording"]).resolve()))
+        notes.append(f"{where}: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
                      + f" (heard in {name_of.get(r['recording'], Path(r['recording']).name)}, score {res.score:.3g}"
                      + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")"))
-    rpm = np.array([r["rpm"] for r in rows])
-    depth = np.array([r["depth_mm"] for r in rows])
-    weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])
-    pts = PointSet(rpm, depth, np.array(labels, dtype=object), weight=weight, source=Path(cuts_csv),
-                   chatter_hz=np.array(hz, float))
+    lab = np.array(labels, dtype=object)
+    grade = np.where([bool(x) for x in refs], [GRADE.get(x, np.nan) for x in labels], base.grade)
+    pts = replace(base, label=lab, chatter_hz=np.array(hz, float), grade=grade,
+                  ratings=None, raters=None, extra={**base.extra, "recording": np.array(refs, dtype=object)})
     return pts, notes
+
+
+def _cut_text(cuts, i: int) -> str:
+    """Cut ``i`` of ``cuts`` in a note: its speed [rpm] and depth [mm], and its stickout [mm], test day and own
+    condition cells where the file gives them (two cuts of one speed and depth at two stickouts read apart)."""
+    text = f"{cuts.rpm[i]:g} rpm, {cuts.depth_mm[i]:g} mm"
+    so = str((cuts.extra or {}).get("stickout_mm", [""] * len(cuts))[i]).strip()
+    own = [f"stickout {so} mm"] if so else []
+    own += [f"{k} {v[i]}" for k, v in cuts.conditions.items()
+            if (v[i] if k == "milling" else not np.isnan(float(v[i])))]
+    own += [f"test day {cuts.batch[i]}"] if str(cuts.batch[i]) else []
+    return text + (f" ({', '.join(own)})" if own else "")

@@ -8,6 +8,7 @@ database holding the cuts and the posteriors: the same seed gives the same poste
 from __future__ import annotations
 
 import dataclasses
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -74,23 +75,61 @@ def _join(a: PointSet | None, b: PointSet | None) -> PointSet:
                     np.r_[x.batch, y.batch], extra=extra, conditions=conditions)
 
 
-def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | None]:
-    """The rows of ``given`` that are new: all of them, or, when ``given`` begins with every recorded cut (the
-    file workflow's habit of passing the whole cuts file each time), the rows after those; and a note then."""
-    n = len(old)
-    if n == 0 or len(given) < n:
-        return given, None
-    head = given.subset(np.arange(n))
+def _identity(cuts: PointSet, recordings: Sequence[str]) -> list[tuple]:
+    """Per cut, what the user wrote of it: speed [rpm], depth [mm], weight, test day, its own condition and
+    stickout, the recording it was heard in and, for a cut not heard (no recording), its label, grade and chatter
+    frequency [Hz] as written. A heard cut's label and chatter frequency are derived (another config or millstab
+    version hears 300.13 Hz as 300.00 Hz): they do not make it another cut."""
     from millstab.shopdb.store import cut_settings
 
-    same = (np.array_equal(head.rpm, old.rpm) and np.array_equal(head.depth_mm, old.depth_mm)
-            and head.label.tolist() == old.label.tolist() and np.array_equal(head.weight, old.weight)
-            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True)
-            and cut_settings(head) == cut_settings(old))  # the same conditions and stickouts too
-    if not same:
-        return given, None
-    return (given.subset(np.arange(n, len(given))),
-            f"the first {n} rows of the cuts are the campaign's recorded cuts: adding the {len(given) - n} after them")
+    def num(x) -> float | None:
+        return None if np.isnan(x) else float(x)
+
+    own = cut_settings(cuts)
+    return [(float(cuts.rpm[i]), float(cuts.depth_mm[i]), float(cuts.weight[i]), str(cuts.batch[i]),
+             json.dumps(own[i], sort_keys=True), str(recordings[i]),
+             None if recordings[i] else (str(cuts.label[i]), num(cuts.grade[i]), num(cuts.chatter_hz[i])))
+            for i in range(len(cuts))]
+
+
+def _heard_text(label: str, hz: float) -> str:
+    return label + (f" at {hz:.2f} Hz" if np.isfinite(hz) else "")
+
+
+def already_recorded(old: PointSet, given: PointSet, rows: Sequence[dict] | None = None
+                     ) -> tuple[PointSet, tuple[str, ...]]:
+    """The rows of ``given`` that are new, and notes. The rows that begin ``given`` and are, each, a cut the campaign
+    holds (``old``, one recorded cut for one given row; the same speed, depth, weight, test day, condition,
+    stickout, and recording or written label: :func:`_identity`) are not new: the file workflow passes the whole
+    cuts file each time, and cuts recorded meanwhile (``listen --db``) may be missing from it. A given row that
+    is not a recorded cut ends that beginning: it and every row after it are new. ``rows``: the recorded cut
+    rows (:attr:`~millstab.shopdb.store.Snapshot.rows`: their recordings); without them no recorded cut was heard.
+    A recorded cut heard again with another label or chatter frequency is kept as recorded (a campaign's cuts are
+    never changed) and said in a note."""
+    if not len(old) or not len(given):
+        return given, ()
+    refs_old = [str(r.get("recording") or "") for r in rows] if rows is not None else [""] * len(old)
+    refs_new = [str(x) for x in (given.extra or {}).get("recording", [""] * len(given))]
+    pool: dict[tuple, list[int]] = {}
+    for j, key in enumerate(_identity(old, refs_old)):
+        pool.setdefault(key, []).append(j)
+    pairs = []
+    for i, key in enumerate(_identity(given, refs_new)):
+        if not pool.get(key):
+            break
+        pairs.append((i, pool[key].pop(0)))
+    if not pairs:
+        return given, ()
+    k = len(pairs)
+    notes = [f"the first {k} rows of the cuts are cuts the campaign holds (the same speed, depth, condition, "
+             f"stickout, test day and label or recording): not added again; adding the {len(given) - k} after them"]
+    for i, j in pairs:
+        was, now = (old.label[j], old.chatter_hz[j]), (given.label[i], given.chatter_hz[i])
+        if was[0] != now[0] or not np.isclose(was[1], now[1], rtol=0, atol=0.005, equal_nan=True):
+            notes.append(f"cut {j + 1} ({old.rpm[j]:g} rpm, {old.depth_mm[j]:g} mm, {Path(refs_new[i]).name}) is "
+                         f"heard as {_heard_text(*now)} now, recorded as {_heard_text(*was)}: the recorded cut is "
+                         "kept (a campaign's cuts are never changed)")
+    return given.subset(np.arange(k, len(given))), tuple(notes)
 
 
 @dataclass(frozen=True)
@@ -234,8 +273,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     notes: list[str] = []
     first = store.snapshot(campaign, with_posterior=False)
     if first is not None:
-        new, note = already_recorded(first.cuts, new)
-        notes += [note] if note else []
+        new, seen = already_recorded(first.cuts, new, first.rows)
+        notes += seen
     for attempt in range(1, retries + 2):
         if attempt > 1:  # what landed first may be another shop's new campaign of this name: never sample its cuts
             _writable(store, campaign, shops, shop)

@@ -268,3 +268,41 @@ def test_a_cut_heard_again_with_another_chatter_frequency_is_the_same_cut():
     # a cut recorded by listen, missing from the file, does not stop the file's recorded rows being recognised
     new, _ = shop.already_recorded(old.subset(np.array([1, 0])), again.subset(np.array([1])), rows[::-1])
     assert len(new) == 0
+
+
+def test_listen_records_the_stickout_and_checks_campaign_and_teeth(tmp_path, capsys):
+    """Exploratory test items 2 and 6: `listen --db` had no --stickout (a 60 mm cut was stored at the config's
+    stickout), a misspelt --campaign silently started a new campaign, and --teeth 3 went into a 2-tooth campaign
+    without comment. And `update` with a `recording` column dropped the cuts' stickout_mm column (every heard cut
+    at the config's stickout; its notes printed "8500 rpm, 2 mm: chatter" twice for two stickouts). Fails on the
+    old code."""
+    from listen_synth import milling_sound
+    from test_update_stickout import CONFIG
+
+    from millstab.io.recordings import write_recording
+    from millstab.shopdb import open_store
+
+    cfg, db, common = tmp_path / "holder.toml", tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    cfg.write_text(CONFIG)  # 3 teeth, a 12 mm end mill at 45 mm, fluted length 26 mm
+    write_recording(tmp_path / "c.wav", 48000, milling_sound(teeth=3, rpm=8500.0, chatter_hz=1000.0, ratio=0.5,
+                                                             seconds=2.0))
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label,stickout_mm,recording\n9000,0.3,stable,45,\n"
+                                       "8500,2.0,,60,c.wav\n8500,2.0,,40,c.wav\n")
+    out = run(capsys, "update", cfg, tmp_path / "cuts.csv", "--db", db, "--campaign", "em12", *common)
+    assert "8500 rpm, 2 mm (stickout 60 mm): chatter" in out and "8500 rpm, 2 mm (stickout 40 mm): chatter" in out
+    listen = ["listen", tmp_path / "c.wav", "--rpm", 8500, "--depth", 2, "--db", db]
+    run(capsys, *listen, "--teeth", 3, "--campaign", "em12", "--stickout", 55)
+    with open_store(db) as s:
+        assert [r["stickout_mm"] for r in s.cut_rows("em12")] == [45.0, 60.0, 40.0, 55.0]
+    for extra, needle in ((["--teeth", 2, "--campaign", "em12"], "--teeth = 2 is invalid: the tool of campaign "
+                                                                  "'em12' has 3 teeth"),
+                          (["--teeth", 3, "--campaign", "em21"], "no such campaign"),
+                          (["--teeth", 3, "--campaign", "em12", "--stickout", 0.06], "0.06 looks like metres"),
+                          (["--teeth", 3, "--campaign", "em12", "--stickout", 20], "at least the tool's fluted "
+                                                                                    "length (26 mm)")):
+        assert main([str(a) for a in listen + extra]) == 2
+        err = capsys.readouterr().err
+        assert needle in err and err.count("\n") == 1, err
+    run(capsys, *listen, "--teeth", 3, "--campaign", "em21", "--new-campaign")  # a new campaign when asked for
+    with open_store(db) as s:
+        assert len(s.cut_rows("em12")) == 4 and len(s.cut_rows("em21")) == 1

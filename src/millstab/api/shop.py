@@ -229,9 +229,10 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     over all cuts (old, then new) with ``start=`` the current posterior (only the new cuts are tempered in;
     a fresh update from the prior when the config, engine or engine options changed or boundary points were
     added), and records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole
-    cuts file (the file workflow's habit): when it begins with every recorded cut, only the rows after them are
-    new. Each cut's own condition columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it
-    and used as the file workflow uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
+    cuts file (the file workflow's habit): its rows that begin it and are recorded cuts (what the user wrote of
+    them: :func:`already_recorded`) are not added again, only the rows after them. Each cut's own condition
+    columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it and used as the file workflow
+    uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
 
     Args:
         settings: how the update samples (:class:`millstab.api.update.UpdateSettings`: engine, samples, seed,
@@ -365,18 +366,58 @@ def current_posterior(db, campaign: str, user: str | None = None, shops: Shops =
     return None if head.posterior_id is None else posterior_from_db(store, campaign)
 
 
+def heard_target(db, campaign: str, teeth: int, *, stickout_mm: float | None = None, new_campaign: bool = False,
+                 user: str | None = None, shops: Shops = None):
+    """Check where ``listen --db`` is to record a cut heard with ``teeth`` teeth at ``stickout_mm`` [mm] (``None``:
+    the config's) before it listens; returns :func:`current_posterior` (``None``: no posterior yet).
+
+    Raises:
+        InputError: ``campaign`` does not exist in a database that holds others, without ``new_campaign`` (a typo
+            made a new campaign of one cut, silently); ``teeth`` is not the campaign's tool's (its current
+            posterior's condition); ``stickout_mm`` is no stickout of the campaign's tool
+            (:func:`millstab.update.stickout.check_stickout_mm`) or the campaign's posterior is over the tip's
+            modes (it has no stickouts: the next update would refuse the cut).
+    """
+    from millstab.update.stickout import check_stickout_mm, not_over_holder, stickout_mm_of
+
+    exists = False
+    if hasattr(db, "record_update") or "://" in str(db) or Path(str(db)).expanduser().exists():
+        store = open_db(db, user, create=False)
+        exists = store.campaign_shop(campaign) is not None
+        if not exists and store.campaigns(shops) and not new_campaign:
+            gone = store.unknown(campaign, shops)
+            raise InputError("--campaign", campaign, f"{gone.allowed.split('; `millstab')[0]}; give --new-campaign to "
+                                                     "start a campaign of that name with this cut")
+    current = current_posterior(db, campaign, user, shops) if exists else None
+    post = None if current is None else current[1]
+    have = None if post is None else int(post.condition.teeth)
+    if have is not None and int(teeth) != have:
+        raise InputError("--teeth", teeth, f"the tool of campaign {campaign!r} has {have} teeth (its config); "
+                                           "a cut of another tool belongs in another campaign")
+    if stickout_mm is not None:
+        check_stickout_mm(stickout_mm, "--stickout", None if post is None else getattr(post.prior.par, "tool", None))
+        if post is not None and stickout_mm_of(post) is None:
+            raise not_over_holder([float(stickout_mm) * 1e-3])
+    return current
+
+
 def record_heard(db, campaign: str, heard, depth_mm: float, recording, *, user: str | None = None,
-                 shops: Shops = None, weight: float = 1.0) -> int:
+                 shops: Shops = None, weight: float = 1.0, stickout_mm: float | None = None) -> int:
     """Record a cut labelled by listening (:func:`millstab.api.listen_file`'s result ``heard``) in the campaign:
-    its speed (the programmed rpm), ``depth_mm``, the label and chatter frequency heard, the rater
-    ``listen`` and the recording by reference (its absolute path). Returns the campaign's number of cuts."""
+    its speed (the programmed rpm), ``depth_mm``, the tool's ``stickout_mm`` [mm] (``None``: the config's), the
+    label and chatter frequency heard, the rater ``listen`` and the recording by reference (its absolute path).
+    Returns the campaign's number of cuts. (:func:`heard_target` checks the campaign, teeth and stickout first.)"""
+    from millstab.io.stickout import stickout_cells
+    from millstab.update.stickout import check_stickout_mm
+
     r = heard.listening
     depth = float(depth_mm)
     if not np.isfinite(depth) or depth <= 0:
         raise InputError("--depth", depth_mm, "the axial depth of the recorded cut in mm, > 0")
     hz = float(r.chatter_hz) if r.label != "stable" else float("nan")
+    so = {} if stickout_mm is None else {STICKOUT: stickout_cells([check_stickout_mm(stickout_mm, "--stickout")])}
     cut = PointSet(np.array([float(r.rpm)]), np.array([depth]), np.array([r.label], dtype=object),
-                   np.array([float(weight)]), None, np.array([hz]))
+                   np.array([float(weight)]), None, np.array([hz]), extra=so)
     ref = str(Path(recording).expanduser().resolve()) if "://" not in str(recording) else str(recording)
     return record_cuts(db, campaign, cut, user=user, raters=["listen"], recordings=[ref], shops=shops)
 
@@ -506,5 +547,5 @@ class ShopView:
 __all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "CutsBy", "OpenCampaign", "check_shop", "ShopUpdate",
            "ShopView",
            "Shops", "already_recorded", "campaigns", "check", "config_text", "cut_table", "current_posterior",
-           "export_campaign", "history", "history_table", "import_campaign", "open_db", "posterior_from_db",
-           "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]
+           "export_campaign", "heard_target", "history", "history_table", "import_campaign", "open_db",
+           "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

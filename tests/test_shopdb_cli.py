@@ -191,3 +191,118 @@ def test_db_workflow_of_mixed_conditions_and_stickouts_equals_the_file_workflow(
     run(capsys, "recommend", tmp_path / "p2.json", *rec, "--out", tmp_path / "r.json")
     a, b = (json.loads((tmp_path / f).read_text()) for f in ("r.json", "r_db.json"))
     assert (a["rpm"], a["depth_mm"]) == (b["rpm"], b["depth_mm"])
+
+
+def _sounds(tmp_path):
+    """Two recorded cuts of ex1 (2 teeth): one chattering at 1000 Hz at 9000 rpm, one stable at 7000 rpm."""
+    from listen_synth import milling_sound
+
+    from millstab.io.recordings import write_recording
+
+    write_recording(tmp_path / "chat.wav", 48000, milling_sound(teeth=2, rpm=9000.0, chatter_hz=1000.0, ratio=0.5,
+                                                                seconds=2.0))
+    write_recording(tmp_path / "calm.wav", 48000, milling_sound(teeth=2, rpm=7000.0, seconds=2.0))
+
+
+HEARD = "rpm,depth_mm,label,recording\n9000,3.0,,chat.wav\n7000,1.0,,calm.wav\n12000,1.0,stable,\n"
+
+
+def test_the_whole_cuts_file_again_after_a_listen_adds_only_its_new_row(tmp_path, capsys):
+    """Exploratory test item 1 (HIGH): a cuts file with a `recording` column, recorded by `update --db`, then a cut
+    heard by `listen --db`, then the same file plus one row: the campaign holds 3 + 1 + 1 cuts, not 3 + 1 + 4 (every
+    old row was added again: the file no longer began with *every* recorded cut, the listen cut missing from it).
+    Item 3: the heard cuts keep their recording and rater `listen`, in the database and in the export's
+    cuts_meta.csv (both were empty). Fails on the old code."""
+    import csv
+
+    from millstab.shopdb import open_store
+
+    _sounds(tmp_path)
+    (tmp_path / "cuts.csv").write_text(HEARD)
+    (tmp_path / "cuts_b.csv").write_text(HEARD + "12000,3.0,chatter,\n")
+    db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    run(capsys, "update", "example:ex1", tmp_path / "cuts.csv", "--db", db, "--campaign", "a", *common)
+    run(capsys, "listen", tmp_path / "chat.wav", "--rpm", 9000, "--teeth", 2, "--db", db, "--campaign", "a",
+        "--depth", 4.5)
+    out = run(capsys, "update", "example:ex1", tmp_path / "cuts_b.csv", "--db", db, "--campaign", "a", *common)
+    assert "the first 3 rows of the cuts are cuts the campaign holds" in out and "adding the 1 after them" in out
+    with open_store(db) as s:
+        rows = s.cut_rows("a")
+    assert [(r["rpm"], r["depth_mm"], r["label"]) for r in rows] == [
+        (9000.0, 3.0, "chatter"), (7000.0, 1.0, "stable"), (12000.0, 1.0, "stable"), (9000.0, 4.5, "chatter"),
+        (12000.0, 3.0, "chatter")]
+    assert [(r["rater"], r["recording"]) for r in rows] == [
+        ("listen", str((tmp_path / "chat.wav").resolve())), ("listen", str((tmp_path / "calm.wav").resolve())),
+        ("", ""), ("listen", str((tmp_path / "chat.wav").resolve())), ("", "")]
+    run(capsys, "campaign", "export", "--db", db, "--campaign", "a", "--out", tmp_path / "exp")
+    with open(tmp_path / "exp" / "cuts_meta.csv", newline="") as f:
+        meta = list(csv.DictReader(f))
+    assert [m["rater"] for m in meta] == ["listen", "listen", "", "listen", ""]
+    assert meta[1]["recording"] == str((tmp_path / "calm.wav").resolve())
+    # the exported cuts file is the cuts as labelled (no recording column: update does not listen again)
+    assert "recording" not in (tmp_path / "exp" / "cuts.csv").read_text().splitlines()[0]
+
+
+def test_a_cut_heard_again_with_another_chatter_frequency_is_the_same_cut():
+    """Exploratory test item 1: after a config change a recording's chatter was heard at 300.00 Hz, recorded at
+    300.13 Hz; the cut is the one recorded (what the user wrote: speed, depth, recording), kept as recorded and
+    said in a note, not added again (9 -> 18 cuts). A cut written in the file is another cut when its written
+    label differs. Fails on the old code (every row counted as new)."""
+    from millstab.api import shop
+    from millstab.points import PointSet
+
+    def cuts(label, hz, rec):
+        return PointSet(np.array([9000.0, 7000.0]), np.array([1.5, 1.0]), np.array(label, dtype=object),
+                        chatter_hz=np.array(hz), extra={"recording": np.array(rec, dtype=object)})
+
+    old = cuts(["chatter", "stable"], [300.13, np.nan], ["/r/late.wav", ""])
+    rows = [{"recording": "/r/late.wav"}, {"recording": ""}]
+    again = cuts(["chatter", "stable"], [300.0, np.nan], ["/r/late.wav", ""])
+    new, notes = shop.already_recorded(old, again, rows)
+    assert len(new) == 0 and "adding the 0 after them" in notes[0]
+    assert "cut 1 (9000 rpm, 1.5 mm, late.wav) is heard as chatter at 300.00 Hz now, recorded as chatter at " \
+           "300.13 Hz" in notes[1] and len(notes) == 2
+    relabelled = cuts(["chatter", "chatter"], [300.0, np.nan], ["/r/late.wav", ""])
+    new, notes = shop.already_recorded(old, relabelled, rows)
+    assert len(new) == 1 and new.label[0] == "chatter" and "adding the 1 after them" in notes[0]
+    # a cut recorded by listen, missing from the file, does not stop the file's recorded rows being recognised
+    new, _ = shop.already_recorded(old.subset(np.array([1, 0])), again.subset(np.array([1])), rows[::-1])
+    assert len(new) == 0
+
+
+def test_listen_records_the_stickout_and_checks_campaign_and_teeth(tmp_path, capsys):
+    """Exploratory test items 2 and 6: `listen --db` had no --stickout (a 60 mm cut was stored at the config's
+    stickout), a misspelt --campaign silently started a new campaign, and --teeth 3 went into a 2-tooth campaign
+    without comment. And `update` with a `recording` column dropped the cuts' stickout_mm column (every heard cut
+    at the config's stickout; its notes printed "8500 rpm, 2 mm: chatter" twice for two stickouts). Fails on the
+    old code."""
+    from listen_synth import milling_sound
+    from test_update_stickout import CONFIG
+
+    from millstab.io.recordings import write_recording
+    from millstab.shopdb import open_store
+
+    cfg, db, common = tmp_path / "holder.toml", tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    cfg.write_text(CONFIG)  # 3 teeth, a 12 mm end mill at 45 mm, fluted length 26 mm
+    write_recording(tmp_path / "c.wav", 48000, milling_sound(teeth=3, rpm=8500.0, chatter_hz=1000.0, ratio=0.5,
+                                                             seconds=2.0))
+    (tmp_path / "cuts.csv").write_text("rpm,depth_mm,label,stickout_mm,recording\n9000,0.3,stable,45,\n"
+                                       "8500,2.0,,60,c.wav\n8500,2.0,,40,c.wav\n")
+    out = run(capsys, "update", cfg, tmp_path / "cuts.csv", "--db", db, "--campaign", "em12", *common)
+    assert "8500 rpm, 2 mm (stickout 60 mm): chatter" in out and "8500 rpm, 2 mm (stickout 40 mm): chatter" in out
+    listen = ["listen", tmp_path / "c.wav", "--rpm", 8500, "--depth", 2, "--db", db]
+    run(capsys, *listen, "--teeth", 3, "--campaign", "em12", "--stickout", 55)
+    with open_store(db) as s:
+        assert [r["stickout_mm"] for r in s.cut_rows("em12")] == [45.0, 60.0, 40.0, 55.0]
+    for extra, needle in ((["--teeth", 2, "--campaign", "em12"], "--teeth = 2 is invalid: the tool of campaign "
+                                                                  "'em12' has 3 teeth"),
+                          (["--teeth", 3, "--campaign", "em21"], "no such campaign"),
+                          (["--teeth", 3, "--campaign", "em12", "--stickout", 0.06], "0.06 looks like metres"),
+                          (["--teeth", 3, "--campaign", "em12", "--stickout", 20], "at least the tool's fluted "
+                                                                                    "length (26 mm)")):
+        assert main([str(a) for a in listen + extra]) == 2
+        err = capsys.readouterr().err
+        assert needle in err and err.count("\n") == 1, err
+    run(capsys, *listen, "--teeth", 3, "--campaign", "em21", "--new-campaign")  # a new campaign when asked for
+    with open_store(db) as s:
+        assert len(s.cut_rows("em12")) == 4 and len(s.cut_rows("em21")) == 1

@@ -207,3 +207,66 @@ def test_predict_and_validate_take_each_cuts_own_stickout(cfg, tmp_path):
         np.testing.assert_array_equal(s, so[np.searchsorted(rpm, r)])
     with pytest.raises(InputError, match="stickout_mm"):
         cross_validate(parse_config(TWO_MODE_TOML), cuts, n_folds=2, samples=100, stickout=so)
+
+
+@pytest.fixture(scope="module")
+def post45(cfg):
+    """A small posterior over the holder from cuts at 40 and 50 mm (200 samples)."""
+    from millstab.api.update import update
+
+    pr = config_prior(cfg)
+    rpm = np.linspace(8000, 16000, 6)
+    blim = zoa.envelope(pr.par.tip_structure(pr.median), pr.cutting, rpm).depth * 1e3
+    cuts = PointSet(rpm, blim * np.array([0.7, 1.3, 0.8, 1.2, 0.6, 1.5]),
+                    np.array(["stable", "chatter", "stable", "chatter", "stable", "chatter"]), np.ones(6))
+    return update(cfg, cuts, samples=200, seed=1, stickout_mm=np.array([40.0, 40, 40, 50, 50, 50]))
+
+
+def test_a_stickout_in_metres_or_under_the_fluted_length_is_refused_at_every_door(cfg, post45, tmp_path):
+    """Exploratory test item 5: `recommend --stickout 0.06` ended in "internal error: SystemError:
+    CPUDispatcher(limit_batch)"; in predict a stickout_mm cell of 0.055, or one shorter than the tool's fluted length,
+    gave P(stable) = 1.000 silently. Each door names the field, the value and what is allowed, and says when the
+    value looks like metres; update's cuts too. Fails on the old code."""
+    from millstab.api import predict as api_predict
+    from millstab.api.update import at_stickout as api_at, update
+    from millstab.io.points import parse_points
+
+    fl = round(cfg.tooltip[0].fluted_length * 1e3, 6)
+    with pytest.raises(InputError, match=r"--stickout = 0\.06 .*fluted length .*0\.06 looks like metres: 60 mm"):
+        api_at(post45, 0.06)
+    with pytest.raises(InputError, match=rf"--stickout = {fl - 1:g} .*at least the tool's fluted length \({fl:g} mm\)"):
+        api_at(post45, fl - 1)
+    for cell, metres in (("0.055", True), (f"{fl - 1:g}", False)):
+        pts = parse_points(f"rpm,depth_mm,stickout_mm\n9000,0.5,45\n9000,0.5,{cell}\n", "new.csv")
+        with pytest.raises(InputError, match=rf"new.csv row 2, stickout_mm = '{cell}' .*fluted length") as e:
+            api_predict(post45, pts)
+        assert ("looks like metres" in str(e.value)) == metres
+        with pytest.raises(InputError, match=r"new.csv row 2, stickout_mm"):
+            update(cfg, parse_points(
+                f"rpm,depth_mm,label,stickout_mm\n9000,0.5,stable,45\n9000,0.5,stable,{cell}\n", "new.csv"),
+                samples=200)
+
+
+def test_a_decision_beyond_the_cut_stickouts_warns_and_says_its_stickout(post45, tmp_path):
+    """Exploratory test item 4: with cuts at 40-50 mm, a decision at 70 mm said nothing (the speed range beyond the
+    tested speeds is warned: `update.decide.warn_outside`), and the outputs did not record the stickout: now a
+    warning, `computed_for.stickout_mm` in the recommendation, the stickout in the condition line (map, recommend,
+    predict) and predict's `at_stickout_mm` column. Fails on the old code."""
+    from millstab import warnlog
+    from millstab.api import predict as api_predict
+    from millstab.api.update import at_stickout as api_at, condition_line, recommend
+    from millstab.io.points import parse_points
+
+    with warnlog.collect() as got:
+        far = api_at(post45, 70)
+    assert any("the stickout 70 mm lies beyond the stickouts of the cuts (40-50 mm)" in str(w.message) for w in got)
+    with warnlog.collect() as got:
+        api_at(post45, 45)
+    assert not any("stickout" in str(w.message) for w in got)
+    assert ", stickout 70 mm (" in condition_line(far) and ", stickout 45 mm (" in condition_line(post45)
+    rec = recommend(far, 0.1, (8000, 16000))
+    assert rec.to_json()["computed_for"]["stickout_mm"] == 70.0
+    pred = api_predict(far, parse_points("rpm,depth_mm,stickout_mm\n9000,0.5,\n9000,0.5,45\n", "new.csv"))
+    header, cols = pred.table()
+    assert list(cols[header.index("at_stickout_mm")]) == [70.0, 45.0]
+    assert list(type(pred).from_json(pred.to_json()).stickout_mm) == [70.0, 45.0]

@@ -223,7 +223,10 @@ def read_cuts(path, labels: str | None = None, teeth: int | None = None, structu
 def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict | None = None, structure=None):
     """The cuts of a CSV with a ``recording`` column (a path relative to the CSV; empty: keep the row's
     own label) labelled by listening: a :class:`~millstab.points.PointSet` with label and chatter_hz
-    from each recording, and one line per cut saying where its label came from. With ``uploads``
+    from each recording, and one line per cut saying where its label came from. Every other column is read as
+    :func:`millstab.io.read_points` reads it (``stickout_mm``, the condition columns, the test day, weight), and
+    ``extra["recording"]`` holds each heard cut's recording as a reference (its absolute path; an uploaded file's
+    name; ``""``: labelled in the file), which the shop database records with the rater ``listen``. With ``uploads``
     (uploaded file name → saved path, the web app) a recording may only name an uploaded file
     (:func:`millstab.io.recordings.read_cuts_with_recordings`): a server path is refused unopened. With the
     config's ``structure`` a flip chatter is reported at its member nearest the modes (:func:`listen_signal`); a
@@ -232,19 +235,25 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     noted (a short window, a speed the lines do not fit, clipping, the channel), a label written on the row that
     the heard one replaces, and a recording named on more than one row; a recording refused (silent, no
     tooth-passing sound, another speed or teeth) stops with an error naming it and its line."""
+    from millstab.io import read_points
     from millstab.io.recordings import CUT_LABELS, read_cuts_with_recordings, read_recording_notes
     from millstab.listen import listen
-    from millstab.points import PointSet
+    from millstab.points import GRADE
 
     rows = read_cuts_with_recordings(cuts_csv, uploads)
+    # the file's other columns as `update` reads them: a cut's stickout, condition and test day were dropped here
+    # before, so cuts heard at 40 and 60 mm were all updated at the config's stickout
+    base = read_points(cuts_csv)
     name_of = {v: k for k, v in (uploads or {}).items()}  # saved path → the name the user uploaded
-    labels, hz, notes = [], [], []
+    labels, hz, notes, refs = [], [], [], []
     paths = {}  # a tap's measured path, read once for the cuts that share it
-    for r in rows:
+    for i, r in enumerate(rows):
+        where = _cut_text(base, i)
         if r["recording"] is None:
             labels.append(r["label"])
             hz.append(r["chatter_hz"])
-            notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {r['label']} (from the file)")
+            refs.append("")
+            notes.append(f"{where}: {r['label']} (from the file)")
             continue
         shown = name_of.get(r["recording"], Path(r["recording"]).name)
         x, fs, file_notes = read_recording_notes(r["recording"])
@@ -260,11 +269,12 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
                              exc.allowed) from None
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
+        refs.append(name_of.get(r["recording"]) or str(Path(r["recording"]).resolve()))
         extra = list(file_notes) + list(res.notes)
         if r["label"] in CUT_LABELS and r["label"] != res.label:  # a person's label, replaced: say so
             extra.append(f"the row's written label '{r['label']}' is replaced by the heard one (empty its recording "
                          "cell to keep the written label)")
-        notes.append(f"{r['rpm']:g} rpm, {r['depth_mm']:g} mm: {res.label}"
+        notes.append(f"{where}: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
                      + f" (heard in {shown}, score {res.score:.3g}"
                      + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")")
@@ -276,12 +286,23 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
     for same in rows_of.values():  # one recording for several cuts: a copy-paste slip, or one cut counted twice
         if len(same) > 1:
             shown = name_of.get(same[0]["recording"], Path(same[0]["recording"]).name)
-            where = ", ".join(f"{r['line']} ({r['rpm']:g} rpm, {r['depth_mm']:g} mm)" for r in same)
-            notes.append(f"note: {shown} is named on lines {where} of {Path(cuts_csv).name}: one recording labels "
+            lines = ", ".join(f"{r['line']} ({r['rpm']:g} rpm, {r['depth_mm']:g} mm)" for r in same)
+            notes.append(f"note: {shown} is named on lines {lines} of {Path(cuts_csv).name}: one recording labels "
                          "each of those cuts (a copy-paste slip?)")
-    rpm = np.array([r["rpm"] for r in rows])
-    depth = np.array([r["depth_mm"] for r in rows])
-    weight = np.array([1.0 if r["weight"] is None else r["weight"] for r in rows])
-    pts = PointSet(rpm, depth, np.array(labels, dtype=object), weight=weight, source=Path(cuts_csv),
-                   chatter_hz=np.array(hz, float))
+    lab = np.array(labels, dtype=object)
+    grade = np.where([bool(x) for x in refs], [GRADE.get(x, np.nan) for x in labels], base.grade)
+    pts = replace(base, label=lab, chatter_hz=np.array(hz, float), grade=grade,
+                  ratings=None, raters=None, extra={**base.extra, "recording": np.array(refs, dtype=object)})
     return pts, notes
+
+
+def _cut_text(cuts, i: int) -> str:
+    """Cut ``i`` of ``cuts`` in a note: its speed [rpm] and depth [mm], and its stickout [mm], test day and own
+    condition cells where the file gives them (two cuts of one speed and depth at two stickouts read apart)."""
+    text = f"{cuts.rpm[i]:g} rpm, {cuts.depth_mm[i]:g} mm"
+    so = str((cuts.extra or {}).get("stickout_mm", [""] * len(cuts))[i]).strip()
+    own = [f"stickout {so} mm"] if so else []
+    own += [f"{k} {v[i]}" for k, v in cuts.conditions.items()
+            if (v[i] if k == "milling" else not np.isnan(float(v[i])))]
+    own += [f"test day {cuts.batch[i]}"] if str(cuts.batch[i]) else []
+    return text + (f" ({', '.join(own)})" if own else "")

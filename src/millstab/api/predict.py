@@ -33,6 +33,8 @@ class Prediction:
         note: (n,) str, :func:`millstab.points.never_cut_note` on each cut whose condition none of the posterior's
             cuts was made in (the words of ``map`` and ``recommend``: there the prediction leans on the model's
             carrying over from other conditions), ``""`` on the others; ``None`` when every cut's condition was cut.
+        stickout_mm: (n,) the tool stickout [mm] each prediction is for (the cut's ``stickout_mm`` cell, else the
+            posterior's: ``--stickout`` or the config's); ``None`` for a posterior over the tip's modes.
     """
 
     SCHEMA = SCHEMA
@@ -44,6 +46,7 @@ class Prediction:
     condition: np.ndarray | None = None
     provenance: dict = field(default_factory=dict)
     note: np.ndarray | None = None
+    stickout_mm: np.ndarray | None = None
 
     def to_json(self) -> dict:
         """The predictions as plain JSON (``"schema"``): the cuts (:func:`millstab.jsondoc.points_out`),
@@ -55,6 +58,7 @@ class Prediction:
                 "p_label_chatter": floats_out(self.p_label_chatter, "p_label_chatter"), "warnings": list(self.warnings),
                 "condition": None if self.condition is None else [str(c) for c in self.condition],
                 "note": None if self.note is None else [str(c) for c in self.note],
+                "stickout_mm": None if self.stickout_mm is None else floats_out(self.stickout_mm, "stickout_mm"),
                 **{k: str(v) for k, v in self.provenance.items()}}
 
     @classmethod
@@ -74,7 +78,9 @@ class Prediction:
                    names_in(need(doc, "warnings", source), f"{source}: warnings"),
                    None if cond is None else np.array(names_in(cond, f"{source}: condition"), dtype=object),
                    {k: need(doc, k, source, str) for k in ("config", "points") if k in doc},
-                   None if note is None else np.array(names_in(note, f"{source}: note"), dtype=object))
+                   None if note is None else np.array(names_in(note, f"{source}: note"), dtype=object),
+                   None if doc.get("stickout_mm") is None  # a document of before the stickout: none
+                   else floats_in(doc["stickout_mm"], f"{source}: stickout_mm", 1))
 
     def table(self) -> tuple[list[str], list]:
         """(header, columns) of the CSV: every column of the cuts file in its order, as read
@@ -92,6 +98,8 @@ class Prediction:
             new["condition"] = list(self.condition)
         if self.note is not None:
             new["condition_note"] = list(self.note)
+        if self.stickout_mm is not None:  # the stickout each prediction is for: --stickout or the cut's own
+            new["at_stickout_mm"] = self.stickout_mm
         for i, h in enumerate(header):
             while header[i] in new or header.count(header[i]) > 1:
                 header[i] = f"input_{header[i]}"
@@ -173,7 +181,9 @@ def _predict(post, cuts: PointSet) -> Prediction:
     for k in np.unique(idx):  # each condition the cuts are in, once
         warn_time_averaged(post.for_condition(conds[int(k)]), stacklevel=3, rpm=cuts.rpm[idx == k])
     # each cut at its own stickout (a stickout_mm column, a posterior over the holder) and test day (a known day)
-    ps, pl = predict_at_stickouts(post, cuts.rpm, cuts.depth_mm, conds, idx, cuts.batch, stickouts(cuts))
+    so = stickouts(cuts)
+    at = _stickouts_at(post, cuts, so)
+    ps, pl = predict_at_stickouts(post, cuts.rpm, cuts.depth_mm, conds, idx, cuts.batch, so)
     text = np.array([condition_text(c) for c in conds], dtype=object)[idx] if len(cuts) else np.array([], dtype=object)
     trained = post.trained_conditions
     one = len(trained) == 1 and same_condition(trained[0], post.condition)
@@ -183,7 +193,26 @@ def _predict(post, cuts: PointSet) -> Prediction:
     note = None if cut.all() else np.where(cut, "", never_cut_note(trained)).astype(object)
     made = {"config": post.provenance.get("config"), "points": None if cuts.source is None else str(cuts.source)}
     return Prediction(cuts, np.asarray(ps, float), np.asarray(pl, float), tuple(post.warnings), text,
-                      {k: v for k, v in made.items() if v is not None}, note)
+                      {k: v for k, v in made.items() if v is not None}, note, at)
+
+
+def _stickouts_at(post, cuts: PointSet, so) -> np.ndarray | None:
+    """Each cut's stickout [mm] its prediction is for (its ``stickout_mm`` cell, else the posterior's), checked against
+    the tool (:func:`millstab.update.stickout.check_stickout_mm`: 0.055 or a stickout under the fluted length was
+    predicted P(stable) = 1 silently) and warned beyond the stickouts of the posterior's cuts; ``None`` for a
+    posterior over the tip's modes (no stickout; a ``stickout_mm`` column is then refused by the prediction)."""
+    from millstab.update.stickout import check_stickouts_mm, stickout_mm_of, warn_outside_stickouts
+
+    own = stickout_mm_of(post)
+    if own is None:
+        return None
+    mm = np.full(len(cuts), own) if so is None else np.where(np.isnan(so), own, so * 1e3)
+    if so is not None:
+        where = getattr(cuts.source, "name", "cuts")
+        check_stickouts_mm(so * 1e3, f"{where} row {{row}}, stickout_mm", getattr(post.prior.par, "tool", None))
+        for v in {float(mm.min()), float(mm.max())} - {own}:  # --stickout itself was warned where it was given
+            warn_outside_stickouts(post, v, stacklevel=4)
+    return mm
 
 
 __all__ = ["SCHEMA", "Prediction", "predict"]

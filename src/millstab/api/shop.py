@@ -8,6 +8,7 @@ database holding the cuts and the posteriors: the same seed gives the same poste
 from __future__ import annotations
 
 import dataclasses
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -74,23 +75,61 @@ def _join(a: PointSet | None, b: PointSet | None) -> PointSet:
                     np.r_[x.batch, y.batch], extra=extra, conditions=conditions)
 
 
-def already_recorded(old: PointSet, given: PointSet) -> tuple[PointSet, str | None]:
-    """The rows of ``given`` that are new: all of them, or, when ``given`` begins with every recorded cut (the
-    file workflow's habit of passing the whole cuts file each time), the rows after those; and a note then."""
-    n = len(old)
-    if n == 0 or len(given) < n:
-        return given, None
-    head = given.subset(np.arange(n))
+def _identity(cuts: PointSet, recordings: Sequence[str]) -> list[tuple]:
+    """Per cut, what the user wrote of it: speed [rpm], depth [mm], weight, test day, its own condition and
+    stickout, the recording it was heard in and, for a cut not heard (no recording), its label, grade and chatter
+    frequency [Hz] as written. A heard cut's label and chatter frequency are derived (another config or millstab
+    version hears 300.13 Hz as 300.00 Hz): they do not make it another cut."""
     from millstab.shopdb.store import cut_settings
 
-    same = (np.array_equal(head.rpm, old.rpm) and np.array_equal(head.depth_mm, old.depth_mm)
-            and head.label.tolist() == old.label.tolist() and np.array_equal(head.weight, old.weight)
-            and np.array_equal(head.chatter_hz, old.chatter_hz, equal_nan=True)
-            and cut_settings(head) == cut_settings(old))  # the same conditions and stickouts too
-    if not same:
-        return given, None
-    return (given.subset(np.arange(n, len(given))),
-            f"the first {n} rows of the cuts are the campaign's recorded cuts: adding the {len(given) - n} after them")
+    def num(x) -> float | None:
+        return None if np.isnan(x) else float(x)
+
+    own = cut_settings(cuts)
+    return [(float(cuts.rpm[i]), float(cuts.depth_mm[i]), float(cuts.weight[i]), str(cuts.batch[i]),
+             json.dumps(own[i], sort_keys=True), str(recordings[i]),
+             None if recordings[i] else (str(cuts.label[i]), num(cuts.grade[i]), num(cuts.chatter_hz[i])))
+            for i in range(len(cuts))]
+
+
+def _heard_text(label: str, hz: float) -> str:
+    return label + (f" at {hz:.2f} Hz" if np.isfinite(hz) else "")
+
+
+def already_recorded(old: PointSet, given: PointSet, rows: Sequence[dict] | None = None
+                     ) -> tuple[PointSet, tuple[str, ...]]:
+    """The rows of ``given`` that are new, and notes. The rows that begin ``given`` and are, each, a cut the campaign
+    holds (``old``, one recorded cut for one given row; the same speed, depth, weight, test day, condition,
+    stickout, and recording or written label: :func:`_identity`) are not new: the file workflow passes the whole
+    cuts file each time, and cuts recorded meanwhile (``listen --db``) may be missing from it. A given row that
+    is not a recorded cut ends that beginning: it and every row after it are new. ``rows``: the recorded cut
+    rows (:attr:`~millstab.shopdb.store.Snapshot.rows`: their recordings); without them no recorded cut was heard.
+    A recorded cut heard again with another label or chatter frequency is kept as recorded (a campaign's cuts are
+    never changed) and said in a note."""
+    if not len(old) or not len(given):
+        return given, ()
+    refs_old = [str(r.get("recording") or "") for r in rows] if rows is not None else [""] * len(old)
+    refs_new = [str(x) for x in (given.extra or {}).get("recording", [""] * len(given))]
+    pool: dict[tuple, list[int]] = {}
+    for j, key in enumerate(_identity(old, refs_old)):
+        pool.setdefault(key, []).append(j)
+    pairs = []
+    for i, key in enumerate(_identity(given, refs_new)):
+        if not pool.get(key):
+            break
+        pairs.append((i, pool[key].pop(0)))
+    if not pairs:
+        return given, ()
+    k = len(pairs)
+    notes = [f"the first {k} rows of the cuts are cuts the campaign holds (the same speed, depth, condition, "
+             f"stickout, test day and label or recording): not added again; adding the {len(given) - k} after them"]
+    for i, j in pairs:
+        was, now = (old.label[j], old.chatter_hz[j]), (given.label[i], given.chatter_hz[i])
+        if was[0] != now[0] or not np.isclose(was[1], now[1], rtol=0, atol=0.005, equal_nan=True):
+            notes.append(f"cut {j + 1} ({old.rpm[j]:g} rpm, {old.depth_mm[j]:g} mm, {Path(refs_new[i]).name}) is "
+                         f"heard as {_heard_text(*now)} now, recorded as {_heard_text(*was)}: the recorded cut is "
+                         "kept (a campaign's cuts are never changed)")
+    return given.subset(np.arange(k, len(given))), tuple(notes)
 
 
 @dataclass(frozen=True)
@@ -190,9 +229,10 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     over all cuts (old, then new) with ``start=`` the current posterior (only the new cuts are tempered in;
     a fresh update from the prior when the config, engine or engine options changed or boundary points were
     added), and records the new cuts and the posterior in one transaction. ``new_cuts`` may also be the whole
-    cuts file (the file workflow's habit): when it begins with every recorded cut, only the rows after them are
-    new. Each cut's own condition columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it
-    and used as the file workflow uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
+    cuts file (the file workflow's habit): its rows that begin it and are recorded cuts (what the user wrote of
+    them: :func:`already_recorded`) are not added again, only the rows after them. Each cut's own condition
+    columns and ``stickout_mm`` (:mod:`millstab.io.stickout`) are recorded with it and used as the file workflow
+    uses them (a ``[tool]`` + ``[holder]`` config: one posterior over the holder).
 
     Args:
         settings: how the update samples (:class:`millstab.api.update.UpdateSettings`: engine, samples, seed,
@@ -234,8 +274,8 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     notes: list[str] = []
     first = store.snapshot(campaign, with_posterior=False)
     if first is not None:
-        new, note = already_recorded(first.cuts, new)
-        notes += [note] if note else []
+        new, seen = already_recorded(first.cuts, new, first.rows)
+        notes += seen
     for attempt in range(1, retries + 2):
         if attempt > 1:  # what landed first may be another shop's new campaign of this name: never sample its cuts
             _writable(store, campaign, shops, shop)
@@ -326,18 +366,58 @@ def current_posterior(db, campaign: str, user: str | None = None, shops: Shops =
     return None if head.posterior_id is None else posterior_from_db(store, campaign)
 
 
+def heard_target(db, campaign: str, teeth: int, *, stickout_mm: float | None = None, new_campaign: bool = False,
+                 user: str | None = None, shops: Shops = None):
+    """Check where ``listen --db`` is to record a cut heard with ``teeth`` teeth at ``stickout_mm`` [mm] (``None``:
+    the config's) before it listens; returns :func:`current_posterior` (``None``: no posterior yet).
+
+    Raises:
+        InputError: ``campaign`` does not exist in a database that holds others, without ``new_campaign`` (a typo
+            made a new campaign of one cut, silently); ``teeth`` is not the campaign's tool's (its current
+            posterior's condition); ``stickout_mm`` is no stickout of the campaign's tool
+            (:func:`millstab.update.stickout.check_stickout_mm`) or the campaign's posterior is over the tip's
+            modes (it has no stickouts: the next update would refuse the cut).
+    """
+    from millstab.update.stickout import check_stickout_mm, not_over_holder, stickout_mm_of
+
+    exists = False
+    if hasattr(db, "record_update") or "://" in str(db) or Path(str(db)).expanduser().exists():
+        store = open_db(db, user, create=False)
+        exists = store.campaign_shop(campaign) is not None
+        if not exists and store.campaigns(shops) and not new_campaign:
+            gone = store.unknown(campaign, shops)
+            raise InputError("--campaign", campaign, f"{gone.allowed.split('; `millstab')[0]}; give --new-campaign to "
+                                                     "start a campaign of that name with this cut")
+    current = current_posterior(db, campaign, user, shops) if exists else None
+    post = None if current is None else current[1]
+    have = None if post is None else int(post.condition.teeth)
+    if have is not None and int(teeth) != have:
+        raise InputError("--teeth", teeth, f"the tool of campaign {campaign!r} has {have} teeth (its config); "
+                                           "a cut of another tool belongs in another campaign")
+    if stickout_mm is not None:
+        check_stickout_mm(stickout_mm, "--stickout", None if post is None else getattr(post.prior.par, "tool", None))
+        if post is not None and stickout_mm_of(post) is None:
+            raise not_over_holder([float(stickout_mm) * 1e-3])
+    return current
+
+
 def record_heard(db, campaign: str, heard, depth_mm: float, recording, *, user: str | None = None,
-                 shops: Shops = None, weight: float = 1.0) -> int:
+                 shops: Shops = None, weight: float = 1.0, stickout_mm: float | None = None) -> int:
     """Record a cut labelled by listening (:func:`millstab.api.listen_file`'s result ``heard``) in the campaign:
-    its speed (the programmed rpm), ``depth_mm``, the label and chatter frequency heard, the rater
-    ``listen`` and the recording by reference (its absolute path). Returns the campaign's number of cuts."""
+    its speed (the programmed rpm), ``depth_mm``, the tool's ``stickout_mm`` [mm] (``None``: the config's), the
+    label and chatter frequency heard, the rater ``listen`` and the recording by reference (its absolute path).
+    Returns the campaign's number of cuts. (:func:`heard_target` checks the campaign, teeth and stickout first.)"""
+    from millstab.io.stickout import stickout_cells
+    from millstab.update.stickout import check_stickout_mm
+
     r = heard.listening
     depth = float(depth_mm)
     if not np.isfinite(depth) or depth <= 0:
         raise InputError("--depth", depth_mm, "the axial depth of the recorded cut in mm, > 0")
     hz = float(r.chatter_hz) if r.label != "stable" else float("nan")
+    so = {} if stickout_mm is None else {STICKOUT: stickout_cells([check_stickout_mm(stickout_mm, "--stickout")])}
     cut = PointSet(np.array([float(r.rpm)]), np.array([depth]), np.array([r.label], dtype=object),
-                   np.array([float(weight)]), None, np.array([hz]))
+                   np.array([float(weight)]), None, np.array([hz]), extra=so)
     ref = str(Path(recording).expanduser().resolve()) if "://" not in str(recording) else str(recording)
     return record_cuts(db, campaign, cut, user=user, raters=["listen"], recordings=[ref], shops=shops)
 
@@ -467,5 +547,5 @@ class ShopView:
 __all__ = ["CUT_COLUMNS", "OWN_COLUMNS", "DEFAULT_SHOP", "CutsBy", "OpenCampaign", "check_shop", "ShopUpdate",
            "ShopView",
            "Shops", "already_recorded", "campaigns", "check", "config_text", "cut_table", "current_posterior",
-           "export_campaign", "history", "history_table", "import_campaign", "open_db", "posterior_from_db",
-           "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]
+           "export_campaign", "heard_target", "history", "history_table", "import_campaign", "open_db",
+           "posterior_from_db", "recommend_from_db", "record_cuts", "record_heard", "update_in_db"]

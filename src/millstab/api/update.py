@@ -89,6 +89,11 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
         stickout = stickouts(cuts)  # [m], or None without the column
     else:
         stickout = np.asarray(stickout_mm, dtype=float) * 1e-3
+    if stickout is not None and over_holder(cfg):  # the tool's rule, row by row (a stickout under its fluted length)
+        from millstab.update.stickout import check_stickouts_mm
+
+        where = getattr(getattr(cuts, "source", None), "name", "cuts")
+        check_stickouts_mm(np.asarray(stickout, float) * 1e3, f"{where} row {{row}}, stickout_mm", cfg.tooltip[0])
     if client is not None:  # a wrong client fails before any work
         from millstab.cluster import check_client
 
@@ -208,13 +213,15 @@ def at_stickout(post, stickout_mm: float | None):
     """The posterior ``post`` (over a holder) with the tool at ``stickout_mm`` [mm] for map, recommend and
     predict (``None``: ``post`` itself); InputError for a posterior over tip modes or a bad stickout."""
     from millstab.update.stickout import at_stickout as move
+    from millstab.update.stickout import check_stickout_mm, warn_outside_stickouts
 
     if stickout_mm is None:
         return post
-    s = float(stickout_mm)
-    if not (np.isfinite(s) and 0 < s <= 1000):
-        raise InputError("--stickout", stickout_mm, "a stickout in mm, > 0 (holder face to tip)")
-    return move(post, s * 1e-3)
+    # the tool's own rule (no shorter than its fluted length: 0.06 mm, metres written as mm, crashed the beam model)
+    s = check_stickout_mm(stickout_mm, "--stickout", getattr(post.prior.par, "tool", None))
+    moved = move(post, s * 1e-3)  # refuses a posterior over the tip's modes first
+    warn_outside_stickouts(post, s, stacklevel=2)  # as the speed range beyond the cuts' is warned
+    return moved
 
 
 def posterior_from_json(doc, source: str = "posterior"):
@@ -335,7 +342,10 @@ def condition_line(post) -> str:
     trained = post.trained_conditions
     seen = any(same_condition(c, post.condition) for c in trained)
     note = "a condition of the cuts" if seen else never_cut_note(trained)
-    return f"computed for {condition_text(post.condition)} ({note})"
+    from millstab.update.stickout import stickout_mm_of
+
+    so = stickout_mm_of(post)  # a posterior over the holder decides at one stickout: say which
+    return f"computed for {condition_text(post.condition)}{'' if so is None else f', stickout {so:g} mm'} ({note})"
 
 
 def next_test_elsewhere(rec) -> str | None:

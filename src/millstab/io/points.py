@@ -100,8 +100,9 @@ def read_points(path: PathLike, labels: str | dict | None = None, *, labels_opti
 #: micrometres (2000 = 2 mm); micromilling's shallowest tests (~0.02 mm) and long-reach cuts lie inside it
 DEPTH_SCALE_MM = (0.02, 300.0)
 #: columns kept as text in ``PointSet.extra`` for a reader of their own, so not "ignored": the tool stickout of each
-#: cut (:mod:`millstab.io.stickout`, a posterior over the holder)
-KEPT_COLUMNS = ("stickout_mm",)
+#: cut (:mod:`millstab.io.stickout`, a posterior over the holder), the recording a cut is labelled from by listening
+#: and a tap recorded by its sensor (:func:`millstab.io.recordings.read_cuts_with_recordings`)
+KEPT_COLUMNS = ("stickout_mm", "recording", "tap")
 
 
 def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | None, list[str]]:
@@ -243,7 +244,11 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
         if looks:
             warn(f"{p.name}: no label column, so every row is read as a boundary point (a measured limit){rename}",
                  UserWarning, stacklevel=3)
-    blank = [line for (line, _), g in zip(rows[1:], grades) if g and np.isnan(g).all()]
+    # a row naming a recording is labelled by listening to it (millstab.api.listen.label_from_recordings), not a
+    # forgotten label
+    heard = [bool("recording" in col and col["recording"] < len(row) and row[col["recording"]].strip())
+             for _, row in rows[1:]]
+    blank = [line for (line, _), g, h in zip(rows[1:], grades, heard) if g and np.isnan(g).all() and not h]
     if raters and blank and len(blank) < len(grades):  # a forgotten label reads as a measured limit
         many = len(blank) > 1
         warn(f"{p.name}: {len(blank)} row{'s' if many else ''} without a label (line{'s' if many else ''} "

@@ -414,6 +414,10 @@ class Store:
     def _cut_rows(cid: int, first_seq: int, cuts: PointSet, raters: Sequence[str] | None,
                   recordings: Sequence[str] | None, posterior_id: int | None, user: str, at: str) -> list[dict]:
         n = len(cuts)
+        heard = (cuts.extra or {}).get("recording")  # cuts labelled by listening (update's `recording` column)
+        if heard is not None:  # their provenance, as `listen --db` records it: the recording and the rater listen
+            recordings = [str(x) for x in heard] if recordings is None else recordings
+            raters = ["listen" if str(x) else "" for x in heard] if raters is None else raters
         for field, seq in (("raters", raters), ("recordings", recordings)):
             if seq is not None and len(seq) != n:
                 raise InputError(field, f"{len(seq)} values", f"need one per cut ({n})")

@@ -1233,7 +1233,17 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     return Recommendation(float(rpm_best), float(depth_best), p_ch, prod,
                           None if factor is None else prod * factor, float(risk), nt, limited, p_worst, bound,
                           n_eff, confidence, float(speed_tolerance), tuple(binding), test_risk,
-                          describe_condition(post.condition))
+                          _computed_for(post))
+
+
+def _computed_for(post: Posterior) -> dict:
+    """The condition a recommendation is for (:func:`millstab.points.describe_condition`) and, for a posterior over
+    the holder, the stickout [mm] it decided at (``stickout_mm``)."""
+    from millstab.points import describe_condition
+    from millstab.update.stickout import stickout_mm_of
+
+    so = stickout_mm_of(post)
+    return describe_condition(post.condition) | ({} if so is None else {"stickout_mm": so})
 
 
 def next_test_discriminating(post: Posterior, nt: dict, model_cut: tuple[float, float],

@@ -14,6 +14,7 @@ predict) uses :func:`at_stickout`: the same samples of the holder, the tip at th
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -63,6 +64,64 @@ def not_over_holder(stickout_m) -> InputError:
                       "config's tip")
 
 
+#: the longest stickout [mm] any door takes (the config's [tool] stickout: at most 1 m)
+MAX_STICKOUT_MM = 1000.0
+
+
+def check_stickout_mm(value, field: str, tool=None) -> float:
+    """``value`` [mm] as a stickout of ``tool`` (a :class:`~millstab.tooltip.tool.Tool`; ``None``: unknown), else an
+    InputError naming ``field``, the value and what is allowed: a number of mm > 0, at most
+    :data:`MAX_STICKOUT_MM`, and no shorter than the tool's fluted length (a shorter one would hold the flutes in the
+    holder: the beam model has no such tool, and a stickout under 1 mm is said to look like metres). Every door
+    (``--stickout``, a ``stickout_mm`` cell of update's or predict's cuts, ``listen --stickout``) checks here, as the
+    config refuses such a ``[tool]`` stickout."""
+    try:
+        mm = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, value, "a stickout in mm (holder face to tip), e.g. 45") from None
+    fl = 1e3 * getattr(tool, "fluted_length", 0.0) if tool is not None else 0.0
+    low = f"at least the tool's fluted length ({fl:g} mm)" if fl > 0 else "> 0"
+    allowed = f"a stickout in mm (holder face to tip), {low} and at most {MAX_STICKOUT_MM:g}"
+    if not (math.isfinite(mm) and mm > 0 and mm <= MAX_STICKOUT_MM and mm >= fl * (1 - 1e-9)):
+        metres = math.isfinite(mm) and 0 < mm < 1  # no tool sticks out under 1 mm: metres written as mm
+        raise InputError(field, value, allowed + (f"; {value} looks like metres: {mm * 1e3:g} mm?" if metres else ""))
+    return mm
+
+
+def check_stickouts_mm(values_mm, field: str, tool=None) -> None:
+    """:func:`check_stickout_mm` on each given value of ``values_mm`` (n,) [mm] (NaN: the config's), the error
+    naming the row: ``field`` with ``{row}`` (1 = the first) filled in."""
+    for i, v in enumerate(np.asarray(values_mm, dtype=float)):
+        if not np.isnan(v):
+            check_stickout_mm(f"{v:g}", field.format(row=i + 1), tool)
+
+
+def stickout_mm_of(obj) -> float | None:
+    """The stickout [mm] a :class:`Prior` or posterior decides at (``None``: over the tip's modes, no stickout)."""
+    prior = obj if isinstance(obj, Prior) else obj.prior
+    at = getattr(prior.par, "stickout", None)
+    return None if at is None or getattr(prior.par, "at", None) is None else float(at) * 1e3
+
+
+def warn_outside_stickouts(post, stickout_mm: float, stacklevel: int = 2) -> None:
+    """Warn when a decision's stickout ``stickout_mm`` [mm] lies more than 10 % beyond the stickouts the posterior's
+    cuts were made at (an empty cell: the config's): decisions there lean on the holder model and the prior. The
+    mirror of :func:`millstab.update.decide.warn_outside` for the speed range."""
+    from millstab.warnlog import warn
+
+    own = stickout_mm_of(post)
+    cells = (getattr(post, "cuts", None) or {}).get("stickout_mm")
+    n = len((getattr(post, "cuts", None) or {}).get("rpm") or [])
+    if own is None or not n:
+        return
+    cut = np.array([own if c is None else float(c) for c in (cells or [None] * n)], dtype=float)
+    lo, hi = float(cut.min()), float(cut.max())
+    if stickout_mm < lo / 1.1 or stickout_mm > 1.1 * hi:
+        span = f"{lo:g}-{hi:g} mm" if hi > lo else f"{lo:g} mm"
+        warn(f"the stickout {stickout_mm:g} mm lies beyond the stickouts of the cuts ({span}): decisions there lean on "
+             "the holder model and the prior", UserWarning, stacklevel=stacklevel + 1)
+
+
 def at_stickout(obj, stickout_m: float | None):
     """A :class:`Prior` or :class:`~millstab.update.Posterior` with the tool at ``stickout_m`` [m] (the same
     holder parameters or samples); ``None``: ``obj`` itself. InputError when ``obj`` is not over a holder."""
@@ -77,4 +136,5 @@ def at_stickout(obj, stickout_m: float | None):
     return moved if isinstance(obj, Prior) else replace(obj, prior=moved)
 
 
-__all__ = ["at_stickout", "config_prior", "holder_prior", "not_over_holder", "over_holder"]
+__all__ = ["MAX_STICKOUT_MM", "at_stickout", "check_stickout_mm", "check_stickouts_mm", "config_prior", "holder_prior",
+           "not_over_holder", "over_holder", "stickout_mm_of", "warn_outside_stickouts"]

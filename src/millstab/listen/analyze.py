@@ -6,9 +6,9 @@ The steps, with every threshold and the reason for it:
    where the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error keeps the line
    within a bin) holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the frames where the teeth
    are heard (the comb ``CUT_SNR`` = 4× over the frame's own background beside its lines; all frames when
-   fewer than 8 are, or when the heard frames make a window under ``MIN_WINDOW_FRAMES`` frames): the comb is the forced vibration, there only while the teeth cut; air cutting, the
-   idle spindle and hum are left out, and chatter that starts late does not move the window (a broadband RMS
-   would). The median, not a high percentile: a ringing entry transient leaks into the comb's 50 Hz-wide
+   fewer than 8 are, or when the heard frames make a window under ``MIN_WINDOW_FRAMES`` frames): the comb is
+   the forced vibration, there only while the teeth cut; air cutting, the idle spindle and hum are left out,
+   and chatter that starts late does not move the window (a broadband RMS would). The median, not a high percentile: a ringing entry transient leaks into the comb's 50 Hz-wide
    frame bins and would otherwise set the level and cut the steady cut away (measured: a four-tooth slot at
    3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). The median of the heard frames,
    not of all: a recording more than half air had the air's median, and the air joined the window (2-4 s of

@@ -2,22 +2,22 @@
 
 The steps, with every threshold and the reason for it:
 
-1. **Cut window.** ``start``/``end`` [s] when given; else the frames (20 ms, and at least 4 tooth periods)
-   where the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error keeps the line
-   within a bin) holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the frames where the teeth
-   are heard (the comb ``CUT_SNR`` = 4× over the frame's own background beside its lines; all frames when
-   fewer than 8 are, or when the heard frames make a window under ``MIN_WINDOW_FRAMES`` frames): the comb is
-   the forced vibration, there only while the teeth cut; air cutting, the idle spindle and hum are left out,
-   and chatter that starts late does not move the window (a broadband RMS would). The median, not a high percentile: a ringing entry transient leaks into the comb's 50 Hz-wide
-   frame bins and would otherwise set the level and cut the steady cut away (measured: a four-tooth slot at
-   3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). The median of the heard frames,
-   not of all: a recording more than half air had the air's median, and the air joined the window (2-4 s of
-   an idle spindle before a 2 s stable cut: its tooth line switching on within the window was heard as
-   "chatter" at f_T). A window under ``MIN_CUT_S`` = 0.1 s is refused (one periodogram: no label can be
-   heard), one under 0.4 s (< ``MIN_AVERAGES`` = 7 Welch averages) noted; a recording with no line at any
-   spindle harmonic ``PROMINENCE`` over the floor (silence, noise, a speed far off) is refused, not called
-   stable. The window is then trimmed by ``TRIM`` = 3 % of its length at each end: the entry and exit
-   transients (an impact rings every mode, which is no chatter).
+1. **Cut window.** ``start``/``end`` [s] when given; else the frames (20 ms, and at least 4 tooth periods) where
+   the tooth-passing comb (k·f_T, k = 1, 2, ... while a ±``SPEED_TOL`` speed error keeps the line within a bin)
+   holds more than ``WINDOW_LEVEL`` = 0.1 of its median power over the frames where the teeth are heard (the comb
+   ``CUT_SNR`` = 4× over the frame's own background beside its lines; all frames when fewer than 8 are, or when
+   the heard frames make a window under ``MIN_WINDOW_FRAMES`` frames): the comb is the forced vibration, there
+   only while the teeth cut; air cutting, the idle spindle and hum are left out, and chatter that starts late
+   does not move the window (a broadband RMS would). The median, not a high percentile: a ringing entry transient
+   leaks into the comb's 50 Hz-wide frame bins and would otherwise set the level and cut the steady cut away
+   (measured: a four-tooth slot at 3 154 rpm kept 0.02-0.46 s of a 2 s cut and heard the speed 2.7 % off). The
+   median of the heard frames, not of all: a recording more than half air had the air's median, and the air
+   joined the window (2-4 s of an idle spindle before a 2 s stable cut: its tooth line switching on within the
+   window was heard as "chatter" at f_T). A window under ``MIN_CUT_S`` = 0.1 s is refused (one periodogram: no
+   label can be heard), one under 0.4 s (< ``MIN_AVERAGES`` = 7 Welch averages) noted; a recording with no line
+   at any spindle harmonic ``PROMINENCE`` over the floor (silence, noise, a speed far off) is refused, not called
+   stable. The window is then trimmed by ``TRIM`` = 3 % of its length at each end: the entry and exit transients
+   (an impact rings every mode, which is no chatter).
 2. **Spectrum.** Welch average of the window: Blackman-Harris segments (side lobes −92 dB, so a line
    60-70 dB over the floor leaks nothing beyond ±4 bins), a quarter of the window long, 0.1-2 s
    (≥ 7 averages; ≤ 0.5 Hz bins on an 8 s window, so a chatter line a few Hz from a spindle line

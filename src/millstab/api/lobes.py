@@ -157,9 +157,9 @@ def averaged_error_note(cfg: Config, engine: str, env: Envelope) -> str | None:
     """The warning for a time-averaged ``engine``'s SLD ``env`` of ``cfg`` where its limits at (up to 40 of) its
     speeds exceed the accurate engine's by more than :data:`millstab.update.model_check.MEDIAN_RATIO`, else None (an
     engine that does not average, a constant directional matrix, a structure the accurate engine does not take)."""
-    from millstab.update.model_check import accurate_engine, checked_speeds, worst_ratio
+    from millstab.update.model_check import accurate_engine, averaged_here, checked_speeds, worst_ratio
 
-    if not getattr(get_engine(engine), "time_averaged", False) or cfg.cutting.time_invariant:
+    if not averaged_here(engine, cfg.cutting):
         return None
     if not cfg.structure.is_modal or cfg.cutting.process_damping > 0:
         return None

@@ -37,6 +37,15 @@ def accurate_engine() -> str:
     return engine_with(time_averaged=False, cheap=True).name
 
 
+def averaged_here(engine: str, cutting) -> bool:
+    """Whether ``engine`` averages the cutting force over the tooth period and ``cutting``'s directional matrix varies
+    over it: where a check against interrupted cutting has something to find (a constant matrix: the average is
+    exact)."""
+    from millstab.stability import get_engine
+
+    return bool(getattr(get_engine(engine), "time_averaged", False)) and not cutting.time_invariant
+
+
 def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0,
                    samples: int = CHECK_SAMPLES) -> dict | None:
     """P(chatter) of the cut (``rpm`` [rev/min], ``depth_mm`` [mm]) under the posterior's own (time-averaged)
@@ -49,9 +58,7 @@ def accurate_check(post, rpm: float, depth_mm: float, risk: float, seed: int = 0
     the averaged one), ``warn`` (whether the accurate P(chatter) is clearly above ``risk``: :data:`CHECK_SIGMAS`,
     :data:`CHECK_MARGIN`).
     """
-    from millstab.stability import get_engine
-
-    if not getattr(get_engine(post.engine), "time_averaged", False) or post.condition.time_invariant:
+    if not averaged_here(post.engine, post.condition):
         return None
     if not (math.isfinite(depth_mm) and depth_mm > 0):
         return None
@@ -86,9 +93,7 @@ def median_check(post, rpm) -> dict | None:
     (as :func:`accurate_check`). Keys: ``ratio`` (the largest averaged / accurate limit), ``rpm`` (where), ``median``
     (the median ratio), ``speeds`` (how many), ``warn`` (ratio > :data:`MEDIAN_RATIO`). For a map or a prediction,
     which have no one cut to check; the parameter-wise median of the samples stands for the posterior."""
-    from millstab.stability import get_engine
-
-    if not getattr(get_engine(post.engine), "time_averaged", False) or post.condition.time_invariant:
+    if not averaged_here(post.engine, post.condition):
         return None
     r = checked_speeds(np.unique(np.asarray(rpm, float)))
     if r.size == 0:
@@ -138,5 +143,5 @@ def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
             f"ones, median): decide here from an update with --engine {acc}, or cut shallower")
 
 
-__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "check_message", "checked_speeds",
-           "median_check", "median_message", "worst_ratio"]
+__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "averaged_here", "check_message",
+           "checked_speeds", "median_check", "median_message", "worst_ratio"]

@@ -132,15 +132,9 @@ class UpdateTab:
         """The posterior samples of the form (:func:`millstab.api.check_samples`: 100 up to what this machine's
         memory holds), or ``None`` after showing why beside the field (an empty field is no number: it is not
         taken as 0 or as the last value)."""
-        value = self.samples.value
-        try:
-            if value is None:
-                raise InputError("samples", "empty", "a whole number of posterior samples ≥ 100, e.g. 1000")
-            n = api.check_samples(value, field="samples")
-        except InputError as exc:
-            self.samples_error.object = error_html(str(exc))
-            return None
-        self.samples_error.object = ""
+        n, bad = form_value(self.samples, "samples", lambda v: api.check_samples(v, field="samples"),
+                            "a whole number of posterior samples ≥ 100, e.g. 1000")
+        self.samples_error.object = error_html(bad or "")
         return n
 
     def use_engine(self, engine: str, options: dict) -> None:

@@ -184,9 +184,7 @@ def upload_cuts(page, path, rpm, samples: int) -> None:
     T.tab(page, "Update and recommend")
     T.upload(page, "drop-cuts", path)
     page.locator(".cuts-note").filter(has_text=f"{path.name}: {2 * len(rpm)} points").wait_for()
-    samples_box = page.locator(".update-samples input").first
-    samples_box.fill(str(samples))
-    samples_box.press("Enter")
+    T.set_samples(page, samples)
 
 
 def test_update_map_and_recommend(app, tmp_path):
@@ -232,9 +230,7 @@ def test_the_recommended_cut_is_on_the_maps_axes(app, tmp_path):
     T.tab(page, "Update and recommend")
     T.upload(page, "drop-cuts", path)
     page.locator(".cuts-note").filter(has_text="shallow.csv: 5 points").wait_for()
-    box = page.locator(".update-samples input").first
-    box.fill("300")
-    box.press("Enter")
+    T.set_samples(page, 300)
     page.locator(".update-run button").click()
     page.locator(".map-status").filter(has_text="done in").wait_for(timeout=120_000)
     page.locator(".recommendation").filter(has_text="depth axis raised").wait_for(timeout=30_000)

@@ -86,9 +86,7 @@ def test_campaigns_are_remembered_per_shop_in_the_browser(browser, tmp_path):
         assert options(page) == []  # b1 is bolt's
         T.upload(page, "drop-cuts", _both(tmp_path, rpm))
         page.locator(".cuts-note").filter(has_text="14 points").wait_for()
-        samples = page.locator(".update-samples input").first
-        samples.fill("200")
-        samples.press("Enter")
+        T.set_samples(page, 200)
         page.locator(".campaign-new-name input").fill("t12-m1")
         page.locator(".campaign-new-name input").press("Enter")
         page.locator(".campaign-create button").click()
@@ -124,9 +122,7 @@ def test_campaigns_are_remembered_per_shop_in_the_browser(browser, tmp_path):
         # four more cuts, then Update: recorded in the campaign, continuing from its posterior
         T.upload(page, "drop-cuts", cuts_csv(tmp_path / "more.csv", [6000.0, 8000, 12000, 16000], 1.3))
         page.locator(".cuts-note").filter(has_text="4 points").wait_for()
-        samples = page.locator(".update-samples input").first
-        samples.fill("200")
-        samples.press("Enter")
+        T.set_samples(page, 200)
         page.locator(".update-run button").click()
         page.locator(".campaign-summary").filter(has_text="18 cuts, 2 update(s)").wait_for(timeout=240_000)
         shot(page, "campaign_updated")

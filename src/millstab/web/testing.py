@@ -74,6 +74,13 @@ def set_field(page, key: str, value: str) -> None:
     f.press("Enter")
 
 
+def set_samples(page, samples) -> None:
+    """Type ``samples`` in the Update tab's samples field and apply it (Enter)."""
+    box = page.locator(".update-samples input").first
+    box.fill(str(samples))
+    box.press("Enter")
+
+
 def upload(page, css: str, path) -> None:
     """Give a file to the drop zone with CSS class ``css``."""
     page.locator(f".{css} input[type=file]").first.set_input_files(str(path))

@@ -11,7 +11,7 @@ from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.config import Config
 from millstab.points import PointSet, condition_text
-from millstab.stability import ENGINES, Envelope, engine_with, get_engine, time_averaged_note
+from millstab.stability import ENGINES, Envelope, accurate_engine, engine_with, get_engine, time_averaged_note
 from millstab.warnlog import warn
 
 #: the schema tag of :meth:`Lobes.to_json`
@@ -157,7 +157,7 @@ def averaged_error_note(cfg: Config, engine: str, env: Envelope) -> str | None:
     """The warning for a time-averaged ``engine``'s SLD ``env`` of ``cfg`` where its limits at (up to 40 of) its
     speeds exceed the accurate engine's by more than :data:`millstab.update.model_check.MEDIAN_RATIO`, else None (an
     engine that does not average, a constant directional matrix, a structure the accurate engine does not take)."""
-    from millstab.update.model_check import accurate_engine, averaged_here, checked_speeds, worst_ratio
+    from millstab.update.model_check import averaged_here, checked_speeds, worst_ratio
 
     if not averaged_here(engine, cfg.cutting):
         return None

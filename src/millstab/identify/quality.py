@@ -195,14 +195,11 @@ def _fitted_mm(problem, r: np.ndarray) -> np.ndarray:
 
 
 def accurate_engine(cutting) -> str:
-    """The engine to refit with where the zero-order model is poor, chosen by capability: the cheap
-    accurate one (spectral: the global search runs on it), or the one modelling process damping (sdm)
-    where the cut carries it."""
-    from millstab.stability import engine_with
+    """The engine to refit with where the zero-order model is poor (:func:`millstab.stability.accurate_engine`: the
+    cheap accurate one, spectral, on which the global search runs; sdm where the cut carries process damping)."""
+    from millstab.stability import accurate_engine as engine_for
 
-    if getattr(cutting, "has_process_damping", False):
-        return engine_with(time_averaged=False, process_damping=True).name
-    return engine_with(time_averaged=False, cheap=True).name
+    return engine_for(cutting)
 
 
 def _refit_advice(cutting) -> str:

@@ -115,6 +115,15 @@ def engine_with(**capabilities: object) -> Engine | ModuleType:
     raise InputError("engine", wanted, f"no registered engine ({', '.join(_REGISTRY)}) declares all of these")
 
 
+def accurate_engine(cutting=None) -> str:
+    """The name of the engine to check or refit a time-averaged (zero-order) result with, chosen by capability: the
+    cheapest that keeps the interrupted cutting (spectral among the built-ins), or, for a ``cutting`` carrying process
+    damping, one that models it (sdm)."""
+    if getattr(cutting, "has_process_damping", False):
+        return engine_with(time_averaged=False, process_damping=True).name
+    return engine_with(time_averaged=False, cheap=True).name
+
+
 def time_averaged_note(engine: str, cutting, where: str) -> str | None:
     """The first half of a warning when ``engine`` averages the cutting force over the tooth period (the zero-order
     model) and ``cutting`` (described by ``where``, e.g. "a/D 0.1 down milling, 2 teeth") has under one tooth in
@@ -134,6 +143,7 @@ register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "by_condition", "check_rpm", "engine_with", "per_set_kr",
+__all__ = ["ENGINES", "Engine", "Envelope", "accurate_engine", "by_condition", "check_rpm", "engine_with",
+           "per_set_kr",
            "per_set_process_damping", "directional_matrix", "get_engine", "register", "time_averaged_note",
            "unregister"]

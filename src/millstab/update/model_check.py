@@ -11,6 +11,8 @@ cut, within 0.5 % of converged SDM), and where that puts the cut's P(chatter) cl
 warns, with both numbers. It is a check of the model's consistency, not the truth: the samples were fitted with the
 zero-order model (in the trained conditions its parameters absorb part of its error); where both engines agree on
 them the average is good there. Cost: one spectral search per sample at one speed (~0.1–0.5 s for 100 samples).
+The checking engine is :func:`millstab.stability.accurate_engine` without a cutting (spectral): a cut with process
+damping, which only sdm models (~100× dearer per limit), is not checked.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import math
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.stability import accurate_engine
 from millstab.update.likelihood import limits
 
 #: posterior samples whose limits the check computes again (a seeded subsample)
@@ -27,14 +30,6 @@ CHECK_SAMPLES = 100
 #: the check warns where the accurate P(chatter) exceeds the risk by this many Monte Carlo standard errors
 #: (√(p(1 − p)/M) at p = risk) and by at least 0.05 absolute (so a 2 % risk on 100 samples is not warned at 4 %)
 CHECK_SIGMAS, CHECK_MARGIN = 3.0, 0.05
-
-
-def accurate_engine() -> str:
-    """The engine that checks: the cheapest of interrupted cutting, chosen by capability (the spectral engine among
-    the built-ins; sdm is ~100× dearer per limit)."""
-    from millstab.stability import engine_with
-
-    return engine_with(time_averaged=False, cheap=True).name
 
 
 def averaged_here(engine: str, cutting) -> bool:
@@ -143,5 +138,5 @@ def check_message(check: dict, rpm: float, depth_mm: float, engine: str) -> str:
             f"ones, median): decide here from an update with --engine {acc}, or cut shallower")
 
 
-__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "accurate_engine", "averaged_here", "check_message",
+__all__ = ["CHECK_SAMPLES", "MEDIAN_RATIO", "accurate_check", "averaged_here", "check_message",
            "checked_speeds", "median_check", "median_message", "worst_ratio"]

@@ -288,6 +288,19 @@ def test_cli_lobes_rejects_an_unregistered_engine(capsys):
     assert "dummy" in err and "zoa" in err
 
 
+def test_check_engine_name_sees_registered_engines_before_import(dummy):
+    """The one name check of validate, design and sensitivity: a plug-in registered after import passes, an unknown
+    name is refused naming the option, the value and every registered engine (the plug-in among them)."""
+    assert stab.check_engine_name("dummy") == "dummy"
+    with pytest.raises(InputError) as err:
+        stab.check_engine_name("fem", field="--compare")
+    text = str(err.value)
+    assert "--compare" in text and "fem" in text
+    assert all(name in text for name in ("zoa", "sdm", "spectral", "dummy"))
+    with pytest.raises(InputError, match="must be one of"):
+        stab.check_engine_name(None)
+
+
 def test_sensitivity_streams_in_the_engines_own_chunks(dummy, monkeypatch):
     """Sensitivity asks the engine for its chunk size (it used the zero-order one for every engine)."""
     from millstab.params import Parameterization

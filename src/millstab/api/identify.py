@@ -134,13 +134,11 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
 def plan_engine(engine: str | None, fit=None) -> str:
     """The engine a plan uses: ``engine`` when given (checked), else the fit's (:class:`~millstab.identify.result.Fit`
     settings), else the cheapest."""
-    from millstab.stability import ENGINES, engine_with
+    from millstab.stability import check_engine_name, engine_with
 
     if engine is None:
         engine = (fit.settings.get("engine") if fit is not None else None) or engine_with(cheap=True).name
-    if engine not in ENGINES:
-        raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
-    return engine
+    return check_engine_name(engine)
 
 
 def design_figure(plan, cfg: Config, points: PointSet | None = None, fit=None, fit_source: str = "fit"):

@@ -11,7 +11,8 @@ from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.config import Config
 from millstab.points import PointSet, condition_text
-from millstab.stability import ENGINES, Envelope, accurate_engine, engine_with, get_engine, time_averaged_note
+from millstab.stability import ENGINES, Envelope, accurate_engine, check_engine_name, engine_with, get_engine
+from millstab.stability import time_averaged_note
 from millstab.warnlog import warn
 
 #: the schema tag of :meth:`Lobes.to_json`

@@ -22,7 +22,7 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
         InputError: fewer than 100 samples, fewer than 4 labelled cuts, folds < 2, an unknown engine, engine
             options it does not take (``--engine-option``).
     """
-    from millstab.stability import ENGINES
+    from millstab.stability import check_engine_name
     from millstab.update.validate import cross_validate
 
     if samples < 100:
@@ -30,8 +30,7 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
     from millstab.bounds import check_cuts
 
     check_cuts(len(cuts))
-    if engine not in ENGINES:
-        raise InputError("--engine", engine, f"one of {', '.join(ENGINES)}")
+    check_engine_name(engine)
     from millstab.api.update import check_engine_options
 
     from millstab.api.update import over_holder

@@ -156,8 +156,7 @@ def _run(method: str, config: str, *, rpm: str | None = None, rpm_file: Path | N
 
     if preset is not None and preset not in api.SENSITIVITY_PRESETS:  # before any work
         raise InputError("--preset", preset, f"must be one of {', '.join(api.SENSITIVITY_PRESETS)}")
-    if engine not in ENGINES:
-        raise InputError("--engine", engine, f"must be one of {', '.join(ENGINES)}")
+    api.check_engine_name(engine)
     eps_val, bounds = api.parse_eps(method, eps), api.parse_bounds(bound)
     cfg = api.config(config)
     speeds = api.speeds(rpm, cfg, FALLBACK_RPM, rpm_file=rpm_file)

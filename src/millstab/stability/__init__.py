@@ -95,6 +95,18 @@ def get_engine(name: str) -> Engine | ModuleType:
     return engine
 
 
+def check_engine_name(name: object, field: str = "--engine") -> str:
+    """``name`` when it is a registered engine's, without importing it (a check before any work, where the option
+    ``field`` was given).
+
+    Raises:
+        InputError: naming ``field``, the value and the registered engines.
+    """
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise InputError(field, name, f"must be one of {', '.join(_REGISTRY)}")
+    return name
+
+
 def engine_with(**capabilities: object) -> Engine | ModuleType:
     """The first registered engine whose declared capabilities equal all of ``capabilities`` (e.g.
     ``engine_with(cheap=True)``, ``engine_with(accepts_measured_frf=True)``): how a consumer outside
@@ -143,7 +155,6 @@ register("zoa", "millstab.stability.zoa")
 register("sdm", "millstab.stability.sdm")
 register("spectral", "millstab.stability.spectral")
 
-__all__ = ["ENGINES", "Engine", "Envelope", "accurate_engine", "by_condition", "check_rpm", "engine_with",
-           "per_set_kr",
-           "per_set_process_damping", "directional_matrix", "get_engine", "register", "time_averaged_note",
-           "unregister"]
+__all__ = ["ENGINES", "Engine", "Envelope", "accurate_engine", "by_condition", "check_engine_name", "check_rpm",
+           "engine_with", "per_set_kr", "per_set_process_damping", "directional_matrix", "get_engine", "register",
+           "time_averaged_note", "unregister"]

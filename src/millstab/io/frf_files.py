@@ -70,8 +70,12 @@ from millstab.warnlog import quiet, warn
 
 #: extension → format name
 FORMATS = {".csv": "csv", ".frf": "cutpro", ".uff": "uff", ".unv": "uff"}
-#: |H| above this [m/N] is implausible for a tool tip: probably mm/N or µm/N read as m/N
-SUSPICIOUS_RECEPTANCE = 1e-3
+#: |H| above this [m/N] is implausible for a tool tip: probably mm/N or µm/N read as m/N. A mode's peak is
+#: 1/(2ζk): tool tips measure ~1–100 N/µm (:data:`millstab.model.SUSPICIOUS_STIFFNESS`) at ζ ~0.01–0.1, peaks
+#: ~5e-9–5e-5 m/N; in mm/N the same tips read ~5e-6–5e-2. At 1e-3 (before 2026-11-29) a stiff tip in mm/N (20 N/µm,
+#: ζ 0.03: 8.3e-4) passed silently and fitted a 20 000 N/m mode; at 1e-4 only a tip under ~0.25 N/µm·(0.02/ζ) is
+#: warned falsely, and mm/N passes only for tips stiffer than ~100 N/µm at ζ 0.05
+SUSPICIOUS_RECEPTANCE = 1e-4
 
 _COMMENT = ("#", "%", "!", ";", "//")
 
@@ -552,7 +556,8 @@ def load_measured_frf(xx: FRFSource | None = None, yy: FRFSource | None = None, 
             _refuse_other_kind(f, h, f"{field}.{name}", p.name)
         if np.max(np.abs(h), initial=0.0) > SUSPICIOUS_RECEPTANCE:
             warn(f"{field}.{name} ({p.name}): |H| up to {np.max(np.abs(h)):.3g} m/N is very large for a tool "
-                 f"tip; is the file in mm/N or um/N? (.frf: add a unit label; .csv must be in m/N)",
+                 f"tip (a 1-100 N/um tip peaks at ~5e-9 to 5e-5 m/N); is the file in mm/N or um/N? (.frf: add a "
+                 f"unit label; .csv must be in m/N)",
                  UnitWarning, stacklevel=2)
         i = wrong_sign_resonance(h) if name in ("xx", "yy") else None
         if i is not None:

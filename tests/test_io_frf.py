@@ -482,6 +482,23 @@ def test_measured_frf_of_another_kind_is_refused_naming_it(tmp_path, kind, facto
     np.testing.assert_array_equal(m.xx, HY)
 
 
+def test_a_sign_flipped_receptance_in_a_config_is_named_as_such(tmp_path):
+    """Both columns negated (a reversed hammer: −G) read as an accelerance by its phase; the config's refusal
+    advised integrating twice (G/ω², a wrong structure) where `millstab modal` already names the flip: the same
+    test now names it here, and a true accelerance of the same modes is still called one."""
+    f = np.arange(100.0, 3001.0, 5.0)
+    g = modal_receptance(f, [900.0], [20e6], [0.03])
+    write_frf_csv(tmp_path / "flip.csv", f, -g)
+    write_frf_csv(tmp_path / "acc.csv", f, -(2 * np.pi * f) ** 2 * g)
+    with pytest.raises(InputError) as exc:
+        load_measured_frf(xx="flip.csv", base_dir=tmp_path)
+    assert "both columns negated" in exc.value.allowed and "integrate" not in exc.value.allowed
+    with pytest.raises(InputError) as exc:
+        load_measured_frf(xx="acc.csv", base_dir=tmp_path)
+    assert "accelerance" in exc.value.allowed and "integrate twice" in exc.value.allowed
+    assert "negated, not" not in exc.value.allowed
+
+
 def _uff_labelled(h, num, num_lab, den_lab):
     s = uff58(h, num=num)
     s.update(ordinate_axis_units_lab=num_lab, orddenom_axis_units_lab=den_lab)

@@ -128,4 +128,53 @@ def frf_kind(freq_hz: np.ndarray, h: np.ndarray) -> FRFKind:
     return FRFKind(best[1], best[2], best[3], slope)
 
 
-__all__ = ["CONVERSION", "FRFKind", "KINDS", "PASSIVE_SHARE", "RECEPTANCE_SLOPE", "frf_kind", "to_receptance"]
+#: how to undo a whole sign flip (the text of the advice)
+NEGATE_BOTH = ("negate both the real and the imaginary column (the hammer's or the sensor's polarity is reversed: "
+               "G = −H)")
+
+
+def _stiffness_line_above_peaks(g: np.ndarray) -> bool:
+    """Whether the lowest 2 % of the lines of ``g`` [m/N] are a coherent stiffness line (real part positive and
+    most of |g|) standing above every other line of the band.
+
+    A drive-point receptance cannot do that: below its modes it tends to Σ 1/k_m, which lies below its resonance
+    peaks 1/(2ζk) for any structural damping, so a reading whose low end outgrows its peaks was divided by ω² once
+    too often (a sign-flipped receptance read as an accelerance: −(−G)/ω² = G/ω²). The coherence test (real part
+    at least half of |g|) keeps the ω²-amplified noise at the low end of a true accelerance out of it.
+    """
+    n = max(3, g.size // 50)  # the lowest 2 %: a stiffness line divided by ω² falls 1.4x over 100..120 Hz already
+    low, rest = g[:n], g[n:]
+    if rest.size == 0:
+        return False
+    size = float(np.median(np.abs(low)))
+    return bool(np.median(low.real) > 0.5 * size and size > float(np.max(np.abs(rest))))
+
+
+def negated_receptance(f: np.ndarray, h: np.ndarray, seen=None) -> str | None:
+    """``"yes"`` when the drive-point FRF ``h`` at ``f`` [Hz] is a receptance [m/N] with both columns negated (a
+    reversed hammer or sensor: G = −H), ``"maybe"`` when the data fit that reading and an accelerance equally
+    well, ``None`` otherwise.
+
+    Why a separate test: −G has its phase in 0..180 deg like an accelerance −ω²G (both have Im > 0 at the
+    resonances and Re < 0 below them), so :func:`frf_kind`, which weighs receptance, mobility
+    and accelerance each plain or conjugated but never negated, calls it an accelerance (and advises a
+    conversion that gives G/ω², or, given ``--frf-type receptance``, the fit advises negating the imaginary
+    column). The two readings, −H and −H/ω², differ only by the real factor ω²: the one whose end-to-end slope
+    lies in :data:`RECEPTANCE_SLOPE` and whose low end is no stiffness line above its peaks
+    (:func:`_stiffness_line_above_peaks`) scores a point for each; −H must score more to be called a sign flip.
+    """
+    seen = seen if seen is not None else frf_kind(f, h)
+    if seen.kind != "accelerance" or seen.conjugated:
+        return None
+    flipped = frf_kind(f, -h)
+    if flipped.kind != "receptance" or flipped.conjugated:
+        return None
+    w2 = (2 * np.pi * np.asarray(f, float)) ** 2
+    lo, hi = RECEPTANCE_SLOPE
+    score_neg = int(lo <= seen.slope <= hi) + int(not _stiffness_line_above_peaks(-h))
+    score_acc = int(lo <= seen.slope - 2 <= hi) + int(not _stiffness_line_above_peaks(-h / w2))
+    return "yes" if score_neg > score_acc else "maybe" if score_neg == score_acc else None
+
+
+__all__ = ["CONVERSION", "FRFKind", "KINDS", "NEGATE_BOTH", "PASSIVE_SHARE", "RECEPTANCE_SLOPE", "frf_kind",
+           "negated_receptance", "to_receptance"]

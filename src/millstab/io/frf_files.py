@@ -596,13 +596,19 @@ def _refuse_other_kind(freq_hz: np.ndarray, h: np.ndarray, field: str, file_name
     """InputError when a direct term holds mobility or accelerance rather than receptance (told from its
     phase and slope, :func:`millstab.frfkind.frf_kind`): the engines would read it as m/N and give a
     meaningless boundary. A conjugated receptance is left to the sign-convention warning."""
-    from millstab.frfkind import CONVERSION, frf_kind
+    from millstab.frfkind import CONVERSION, NEGATE_BOTH, frf_kind, negated_receptance
 
     seen = frf_kind(freq_hz, h)
+    flipped = negated_receptance(freq_hz, h, seen)
+    if flipped == "yes":  # −G reads as an accelerance by its phase; its slope and low end say receptance
+        raise InputError(field, file_name, f"looks like a receptance (m/N) with both columns negated, not an "
+                                           f"accelerance: {NEGATE_BOTH}")
     if seen.kind in ("mobility", "accelerance"):
+        maybe = (f"; or, if it is a receptance whose hammer or sensor polarity was reversed, "
+                 f"{NEGATE_BOTH.split(' (')[0]}" if flipped == "maybe" else "")
         raise InputError(field, file_name,
                          f"looks like {seen.describe()}, not a receptance (m/N): {CONVERSION[seen.kind]}; "
-                         f"`millstab modal {file_name} --frf-type {seen.kind}` converts it and fits its modes")
+                         f"`millstab modal {file_name} --frf-type {seen.kind}` converts it and fits its modes{maybe}")
 
 
 #: an ignored response at least this share of the largest one kept is called "probably a mode"

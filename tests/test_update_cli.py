@@ -241,3 +241,23 @@ def test_recommend_prints_without_a_file_and_map_needs_somewhere_to_write(shop, 
     assert main(["map", str(shop / "post.json"), "--rpm", "5000:9000:500", "--depth", "0:6:0.5",
                  "--plot", "m.png"]) == 0
     assert (tmp_path / "m.png").stat().st_size > 1000 and not list(tmp_path.glob("*.csv"))
+
+
+@pytest.mark.parametrize("field", ["--risk", "risk P(chatter)"])
+def test_one_risk_rule_for_every_door(field):
+    """recommend, the API's decision_rule and the app's field share parsing.check_risk: a probability strictly
+    inside (0, 1), given as a number or its text; 0, 1, NaN, a boolean, text and None are refused naming the field
+    (the library took a numpy float32 and refused '0.1'; the app's own copy said something else)."""
+    import math
+
+    from millstab.errors import InputError
+    from millstab.parsing import check_risk
+    from millstab.update.decide import recommend
+
+    assert check_risk(np.float32(0.25), field) == 0.25 and check_risk("0.1", field) == 0.1
+    for bad in (0, 1, 1.5, -0.1, math.nan, math.inf, True, "x", None, [0.1]):
+        with pytest.raises(InputError) as exc:
+            check_risk(bad, field)
+        assert exc.value.field == field and "(0, 1)" in str(exc.value)
+    with pytest.raises(InputError, match="--risk"):
+        recommend(None, math.nan, (5000, 9000))  # refused before the posterior is read

@@ -1,6 +1,6 @@
 """Parsing option text shared by the command line and any other front end (one place, one set of
 messages): ``NAME=VALUE`` lists, ``START:STOP:STEP`` speed grids and ``LOW:HIGH`` / ``START:STOP:STEP``
-ranges, for command-line options, config values and web forms alike. Each error is an
+ranges, the risk of a decision, for command-line options, config values and web forms alike. Each error is an
 :class:`InputError` naming the option, the text as written and what is allowed.
 """
 
@@ -97,4 +97,20 @@ def _numbers(text: str, field: str, unit: str, form: str, example: str = "") -> 
     return vals
 
 
-__all__ = ["MAX_POINTS", "parse_assignments", "parse_grid", "parse_interval", "parse_rpm_range"]
+def check_risk(risk, field: str = "--risk") -> float:
+    """``risk`` as a float when it is a probability of chatter in (0, 1) (NaN and booleans refused): the rule of
+    ``recommend``, the API and the app's field, each naming its own ``field``.
+
+    Raises:
+        InputError: naming ``field``, the value and the allowed range.
+    """
+    try:
+        r = float(risk) if not isinstance(risk, bool) else math.nan
+    except (TypeError, ValueError):
+        r = math.nan
+    if not 0 < r < 1:
+        raise InputError(field, risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
+    return r
+
+
+__all__ = ["MAX_POINTS", "check_risk", "parse_assignments", "parse_grid", "parse_interval", "parse_rpm_range"]

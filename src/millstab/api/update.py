@@ -14,6 +14,7 @@ from millstab.bounds import samples as check_samples
 from millstab.bounds import check_cuts
 from millstab.bounds import seed as check_seed
 from millstab.errors import InputError
+from millstab.parsing import check_risk
 from millstab.points import PointSet
 from millstab.points import condition_text  # re-exported too: "a/D 0.25 up milling, 4 teeth" for the doors
 from millstab.io.config import with_batch_effect  # noqa: F401 (re-exported: the doors' --batch-effect)
@@ -482,8 +483,7 @@ def decision_rule(risk: float, rpm: str, *, confidence: str | float | None = 0.9
 
     from millstab.parsing import parse_interval
 
-    if not 0 < risk < 1:
-        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
+    risk = check_risk(risk)
     span = parse_interval(rpm, "--rpm", "rpm", positive=True)
     if isinstance(confidence, str):
         text = confidence

@@ -77,6 +77,7 @@ from typing import Any
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.parsing import check_risk
 from millstab.update._bald import label_information
 from millstab.update.likelihood import limits
 from millstab.update.posterior import Posterior
@@ -998,8 +999,7 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
     """
-    if not (isinstance(risk, (int, float)) and 0 < risk < 1):
-        raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
+    risk = check_risk(risk)
     lo, hi = (float(x) for x in rpm_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
         raise InputError("--rpm", f"{lo:g}:{hi:g}", "need 0 < LOW < HIGH rev/min")

@@ -41,11 +41,8 @@ def marked_depths(rec) -> list[float]:
 
 
 def _risk(value) -> float:
-    """The form's risk: a probability in (0, 1) (``recommend --risk``'s rule, in the page's words)."""
-    r = float(value)
-    if not 0 < r < 1:
-        raise InputError("risk P(chatter)", value, "a probability in (0, 1), e.g. 0.05")
-    return r
+    """The form's risk: a probability in (0, 1) (``recommend --risk``'s rule, under the page's name)."""
+    return api.check_risk(value, "risk P(chatter)")
 
 class UpdateTab:
     def __init__(self, session: Session):

@@ -371,6 +371,43 @@ def test_a_guesser_cannot_lock_a_user_out_behind_a_proxy(tmp_path):
         assert "Too many failed logins" in _login(url, "correct horse 1", client="203.0.113.5")
 
 
+def test_an_is_guest_cookie_does_not_make_a_signed_in_user_the_account_guest(tmp_path, monkeypatch):
+    """Security review: the page took its user from ``pn.state.user``, which answers "guest" for any request with an
+    ``is_guest`` cookie, and a browser writes its own cookies: anna (shop acme), signed in, added ``is_guest=1`` and
+    the page opened the shop database as the account ``guest`` with its shop bolt (fails on the old code:
+    ``("guest", ("bolt",))``). The user is the signed login's only."""
+    pytest.importorskip("panel")
+    pytest.importorskip("sqlalchemy")
+    import http.cookiejar
+    import urllib.parse
+    import urllib.request
+
+    import millstab.web.testing as T
+    from millstab.api import shop
+    from millstab.web import auth
+
+    users = tmp_path / "users.txt"
+    auth.add_user(users, "anna", "correct horse 1", ["acme"])
+    auth.add_user(users, "guest", "guest password 9", ["bolt"])
+    acc = auth.read_accounts(users)
+    seen = []
+    real = shop.ShopView.__init__
+    monkeypatch.setattr(shop.ShopView, "__init__", lambda self, db, user=None, shops=None: (
+        seen.append((user, shops)), real(self, db, user, shops))[-1])
+    with T.running_app(users={n: h for n, (h, _) in acc.items()}, db=str(tmp_path / "shop.db"),
+                       shops={n: s for n, (_, s) in acc.items()}) as url:
+        url = url if url.endswith("/") else url + "/"
+        jar = http.cookiejar.CookieJar()
+        opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor(jar))
+        form = urllib.parse.urlencode({"username": "anna", "password": "correct horse 1"}).encode()
+        opener.open(urllib.request.Request(url + "login", data=form), timeout=120).read()
+        login = "; ".join(f"{c.name}={c.value}" for c in jar)
+        seen.clear()  # the login's redirect opened the page once already
+        for cookie in (login, login + "; is_guest=1"):
+            urllib.request.urlopen(urllib.request.Request(url, headers={"Cookie": cookie}), timeout=120).read()
+    assert seen == [("anna", ("acme",)), ("anna", ("acme",))]
+
+
 def test_users_file_is_private(tmp_path):
     """Exploratory test: `millstab app --add-user` wrote the users file 0644 though the docs say 600 (fails on the
     old code). Made 0600; an existing file readable by others becomes 0600 when a user is added."""

@@ -408,6 +408,44 @@ def test_an_is_guest_cookie_does_not_make_a_signed_in_user_the_account_guest(tmp
     assert seen == [("anna", ("acme",)), ("anna", ("acme",))]
 
 
+def _chunk(drop, name: str, i: int, n: int, data: bytes) -> None:
+    """Send chunk ``i`` of ``n`` of file ``name`` to a drop zone as the browser's script does (a crafted client may
+    send any)."""
+    from types import SimpleNamespace
+
+    drop._process_event(SimpleNamespace(event_name="upload_event", data={
+        "name": name, "chunk": i, "total_chunks": n, "data": data, "type": "application/octet-stream"}))
+
+
+def test_a_drop_zone_drops_a_file_above_its_limit_as_its_chunks_arrive():
+    """Security review: Panel keeps every chunk of an upload until its last one, and the size check came after, so a
+    client that announced 1 000 chunks made the server hold 30 MB for a 5 MB config zone, and more as it sent more
+    (fails on the old code: 30 000 000 bytes buffered). The zone drops a file at the chunk that passes its limit, a
+    multi-file zone at its total, and a single-file zone holds one file."""
+    pytest.importorskip("panel")
+    from millstab.web.uploads import LimitedDropper, dropper
+
+    drop = dropper("config TOML", (".toml",))
+    for i in range(1, 31):
+        _chunk(drop, "a.toml", i, 1000, b"x" * 1_000_000)
+    assert drop._file_buffer == {} and drop.value == {} and drop.dropped == ["a.toml"]
+    _chunk(drop, "b.toml", 1, 2, b"x = ")
+    _chunk(drop, "b.toml", 2, 2, b"1\n")
+    assert drop.value == {"b.toml": b"x = 1\n"}
+    _chunk(drop, "c.toml", 1, 1, b"y = 2\n")  # a single-file zone: the new file replaces the old
+    assert drop.value == {"c.toml": b"y = 2\n"}
+
+    many = LimitedDropper(10, 25, multiple=True)
+    for name in ("1.wav", "2.wav", "3.wav"):
+        _chunk(many, name, 1, 1, b"r" * 10)
+    assert sorted(many.value) == ["1.wav", "2.wav"] and many.dropped == ["3.wav"]
+    _chunk(many, "1.wav", 1, 1, b"s" * 10)  # the same name again replaces its copy: within the total
+    assert many.value["1.wav"] == b"s" * 10
+    _chunk(many, "4.wav", 1, 2, b"t" * 8)
+    _chunk(many, "4.wav", 2, 2, b"t" * 8)  # 16 bytes: above the 10 of one file
+    assert "4.wav" not in many.value and many._file_buffer == {} and many.dropped[-1] == "4.wav"
+
+
 def test_users_file_is_private(tmp_path):
     """Exploratory test: `millstab app --add-user` wrote the users file 0644 though the docs say 600 (fails on the
     old code). Made 0600; an existing file readable by others becomes 0600 when a user is added."""
@@ -554,6 +592,23 @@ def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monke
         assert tab.recordings == {}
         tab.rec_drop.value = {"notes.txt": b"x"}
         assert ".wav, .csv" in tab.rec_error.object and tab.recordings == {}
+    finally:
+        s.close()
+
+
+def test_two_recordings_whose_names_reduce_alike_stay_two_files_and_a_removed_one_is_deleted():
+    """Security review: recordings were saved as ``rec_`` + the name reduced to safe characters, so ``a b.wav`` and
+    ``a_b.wav`` were one file and a cut naming ``a b.wav`` was heard in ``a_b.wav`` (fails on the old code: both read
+    b"BBBB"); a recording removed from the zone stayed in the session's folder, which grew with every upload."""
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        tab.rec_drop.value = {"a b.wav": b"AAAA", "a_b.wav": b"BBBB"}
+        assert tab.recordings["a b.wav"].read_bytes() == b"AAAA" and tab.recordings["a_b.wav"].read_bytes() == b"BBBB"
+        tab.rec_drop.value = {"a_b.wav": b"BBBB"}
+        assert sorted(p.name for p in s.folder.iterdir() if p.name.startswith("rec")) == ["rec2_a_b.wav"]
     finally:
         s.close()
 

@@ -93,6 +93,26 @@ def test_schema_is_created_by_the_migration_and_matches_the_tables(store):
     assert mode == "wal" and fk == 1
 
 
+def test_a_new_database_file_is_private_and_an_existing_one_keeps_its_mode(tmp_path):
+    """Security review: a new shop database was made 0644 (the umask's), with its -wal and -shm files: every
+    account of the machine could read every shop's campaigns, which the app's accounts keep apart (fails on the
+    old code: 0o644). A new file is 0600 like the users file; an existing file's mode is not changed."""
+    import stat
+
+    def mode(p):
+        return stat.S_IMODE(os.stat(p).st_mode)
+
+    cuts = some_cuts(4, 1)
+    with open_store(tmp_path / "shop.db", user="bob") as st:
+        st.record_update("a1", "x = 1\n", cuts, fake_posterior(cuts, 1), expected_head=None, expected_rows=0)
+        assert {p.name: mode(p) for p in tmp_path.iterdir()} == {"shop.db": 0o600, "shop.db-wal": 0o600,
+                                                                 "shop.db-shm": 0o600}
+    os.chmod(tmp_path / "shop.db", 0o640)  # a shop that shares it with a group
+    with open_store(tmp_path / "shop.db", user="bob") as st:
+        assert [c["name"] for c in st.campaigns()] == ["a1"]
+    assert mode(tmp_path / "shop.db") == 0o640
+
+
 def test_cuts_and_posteriors_read_back_bit_identical(store):
     a, b = some_cuts(4, 1), some_cuts(3, 2)
     b = PointSet(b.rpm, b.depth_mm, ["marginal", "", "stable"], b.weight, None, [np.nan] * 3, [0.3, np.nan, 0.1],

@@ -371,6 +371,81 @@ def test_a_guesser_cannot_lock_a_user_out_behind_a_proxy(tmp_path):
         assert "Too many failed logins" in _login(url, "correct horse 1", client="203.0.113.5")
 
 
+def test_an_is_guest_cookie_does_not_make_a_signed_in_user_the_account_guest(tmp_path, monkeypatch):
+    """Security review: the page took its user from ``pn.state.user``, which answers "guest" for any request with an
+    ``is_guest`` cookie, and a browser writes its own cookies: anna (shop acme), signed in, added ``is_guest=1`` and
+    the page opened the shop database as the account ``guest`` with its shop bolt (fails on the old code:
+    ``("guest", ("bolt",))``). The user is the signed login's only."""
+    pytest.importorskip("panel")
+    pytest.importorskip("sqlalchemy")
+    import http.cookiejar
+    import urllib.parse
+    import urllib.request
+
+    import millstab.web.testing as T
+    from millstab.api import shop
+    from millstab.web import auth
+
+    users = tmp_path / "users.txt"
+    auth.add_user(users, "anna", "correct horse 1", ["acme"])
+    auth.add_user(users, "guest", "guest password 9", ["bolt"])
+    acc = auth.read_accounts(users)
+    seen = []
+    real = shop.ShopView.__init__
+    monkeypatch.setattr(shop.ShopView, "__init__", lambda self, db, user=None, shops=None: (
+        seen.append((user, shops)), real(self, db, user, shops))[-1])
+    with T.running_app(users={n: h for n, (h, _) in acc.items()}, db=str(tmp_path / "shop.db"),
+                       shops={n: s for n, (_, s) in acc.items()}) as url:
+        url = url if url.endswith("/") else url + "/"
+        jar = http.cookiejar.CookieJar()
+        opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor(jar))
+        form = urllib.parse.urlencode({"username": "anna", "password": "correct horse 1"}).encode()
+        opener.open(urllib.request.Request(url + "login", data=form), timeout=120).read()
+        login = "; ".join(f"{c.name}={c.value}" for c in jar)
+        seen.clear()  # the login's redirect opened the page once already
+        for cookie in (login, login + "; is_guest=1"):
+            urllib.request.urlopen(urllib.request.Request(url, headers={"Cookie": cookie}), timeout=120).read()
+    assert seen == [("anna", ("acme",)), ("anna", ("acme",))]
+
+
+def _chunk(drop, name: str, i: int, n: int, data: bytes) -> None:
+    """Send chunk ``i`` of ``n`` of file ``name`` to a drop zone as the browser's script does (a crafted client may
+    send any)."""
+    from types import SimpleNamespace
+
+    drop._process_event(SimpleNamespace(event_name="upload_event", data={
+        "name": name, "chunk": i, "total_chunks": n, "data": data, "type": "application/octet-stream"}))
+
+
+def test_a_drop_zone_drops_a_file_above_its_limit_as_its_chunks_arrive():
+    """Security review: Panel keeps every chunk of an upload until its last one, and the size check came after, so a
+    client that announced 1 000 chunks made the server hold 30 MB for a 5 MB config zone, and more as it sent more
+    (fails on the old code: 30 000 000 bytes buffered). The zone drops a file at the chunk that passes its limit, a
+    multi-file zone at its total, and a single-file zone holds one file."""
+    pytest.importorskip("panel")
+    from millstab.web.uploads import LimitedDropper, dropper
+
+    drop = dropper("config TOML", (".toml",))
+    for i in range(1, 31):
+        _chunk(drop, "a.toml", i, 1000, b"x" * 1_000_000)
+    assert drop._file_buffer == {} and drop.value == {} and drop.dropped == ["a.toml"]
+    _chunk(drop, "b.toml", 1, 2, b"x = ")
+    _chunk(drop, "b.toml", 2, 2, b"1\n")
+    assert drop.value == {"b.toml": b"x = 1\n"}
+    _chunk(drop, "c.toml", 1, 1, b"y = 2\n")  # a single-file zone: the new file replaces the old
+    assert drop.value == {"c.toml": b"y = 2\n"}
+
+    many = LimitedDropper(10, 25, multiple=True)
+    for name in ("1.wav", "2.wav", "3.wav"):
+        _chunk(many, name, 1, 1, b"r" * 10)
+    assert sorted(many.value) == ["1.wav", "2.wav"] and many.dropped == ["3.wav"]
+    _chunk(many, "1.wav", 1, 1, b"s" * 10)  # the same name again replaces its copy: within the total
+    assert many.value["1.wav"] == b"s" * 10
+    _chunk(many, "4.wav", 1, 2, b"t" * 8)
+    _chunk(many, "4.wav", 2, 2, b"t" * 8)  # 16 bytes: above the 10 of one file
+    assert "4.wav" not in many.value and many._file_buffer == {} and many.dropped[-1] == "4.wav"
+
+
 def test_users_file_is_private(tmp_path):
     """Exploratory test: `millstab app --add-user` wrote the users file 0644 though the docs say 600 (fails on the
     old code). Made 0600; an existing file readable by others becomes 0600 when a user is added."""
@@ -517,6 +592,23 @@ def test_update_tab_labels_uploaded_cuts_by_their_uploaded_recordings_only(monke
         assert tab.recordings == {}
         tab.rec_drop.value = {"notes.txt": b"x"}
         assert ".wav, .csv" in tab.rec_error.object and tab.recordings == {}
+    finally:
+        s.close()
+
+
+def test_two_recordings_whose_names_reduce_alike_stay_two_files_and_a_removed_one_is_deleted():
+    """Security review: recordings were saved as ``rec_`` + the name reduced to safe characters, so ``a b.wav`` and
+    ``a_b.wav`` were one file and a cut naming ``a b.wav`` was heard in ``a_b.wav`` (fails on the old code: both read
+    b"BBBB"); a recording removed from the zone stayed in the session's folder, which grew with every upload."""
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    try:
+        tab.rec_drop.value = {"a b.wav": b"AAAA", "a_b.wav": b"BBBB"}
+        assert tab.recordings["a b.wav"].read_bytes() == b"AAAA" and tab.recordings["a_b.wav"].read_bytes() == b"BBBB"
+        tab.rec_drop.value = {"a_b.wav": b"BBBB"}
+        assert sorted(p.name for p in s.folder.iterdir() if p.name.startswith("rec")) == ["rec2_a_b.wav"]
     finally:
         s.close()
 

@@ -246,6 +246,8 @@ class Store:
                                                "postgresql+psycopg://user@host/shop, or a file path") from None
         if not create and self.path is not None and not self.path.exists():
             raise InputError("--db", self.url, "no such database file (an update with --db creates one)")
+        if create and self.sqlite and self.path is not None and not u.database.startswith("file:"):
+            _create_private(self.path)
         if self.sqlite:
             sa_event.listen(self.engine, "connect", _sqlite_connect)
             sa_event.listen(self.engine, "begin", _sqlite_begin)
@@ -771,6 +773,17 @@ def cuts_from_rows(rows: Sequence[dict]) -> PointSet:
 
 
 # -- SQLite connection setup ---------------------------------------------------------------------------------
+
+def _create_private(path: Path) -> None:
+    """Make a new database file owner-only (0600) before SQLite opens it (an empty file is an empty database;
+    SQLite gives its -wal and -shm files the database file's mode). The file holds every shop's campaigns, which
+    the app's accounts keep apart: made with the usual umask (0644) any account of the machine could read it.
+    An existing file is left as it is; a folder that refuses the file is SQLite's to report (one line)."""
+    try:
+        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+    except OSError:  # it exists (another writer made it meanwhile), or the folder is read-only
+        pass
+
 
 def _sqlite_connect(dbapi_conn, _record) -> None:
     dbapi_conn.isolation_level = None  # the driver's own BEGIN handling off: _sqlite_begin emits it

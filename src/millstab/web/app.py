@@ -31,7 +31,9 @@ def create_app(db: str | None = None, shops: dict[str, tuple[str, ...]] | None =
         from millstab.api.shop import ShopView
         from millstab.web.campaigns import CampaignPanel, requested_campaign
 
-        user = pn.state.user if shops is not None else None
+        from millstab.web.auth import signed_in_user
+
+        user = signed_in_user() if shops is not None else None  # the signed login only (never an is_guest cookie)
         view = ShopView(db, user, shops.get(user, ()) if shops is not None else None)
         update.campaign = CampaignPanel(view, update, tool.load_text)
         closing.append(view.store.close)

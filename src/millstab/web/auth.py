@@ -298,4 +298,21 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
     return HashedAuth()
 
 
+def signed_in_user() -> str | None:
+    """The account of the page being built (in ``pn.serve``'s page function): the name in the login's signed
+    ``user`` cookie, or None. Not ``pn.state.user``: that answers "guest" for any request that carries an
+    ``is_guest`` cookie, which a browser writes itself, so a signed-in user became the account ``guest`` (and
+    saw its shops' campaigns) by adding ``is_guest=1`` to their cookies. Imports Panel."""
+    from panel.config import config
+    from panel.io.state import state
+    from tornado.web import decode_signed_value
+
+    cookie = (state.cookies or {}).get("user")
+    if not cookie or config.cookie_secret is None:
+        return None
+    # the age limit of Panel's own check (get_user): a cookie older than the login's lifetime is no login
+    got = decode_signed_value(config.cookie_secret, "user", cookie, max_age_days=config.oauth_expiry)
+    return None if got is None else got.decode("utf-8")
+
+
 _DUMMY = hash_password("not a password", b"millstab-dummy!!")

@@ -14,11 +14,15 @@ from millstab.web.identify_tab import points_upload
 from millstab.web.jobs import JobBar
 from millstab.web.plots import map_figure
 from millstab.web.state import Session
-from millstab.web.uploads import MAX_FRF_BYTES, MAX_TEXT_BYTES, POINTS_TYPES, check_type, dropper, latest, save_in
+from millstab.web.uploads import (MAX_FRF_BYTES, MAX_TEXT_BYTES, POINTS_TYPES, LimitedDropper, check_type, dropper,
+                                  latest, save_in)
 
 #: recordings of the cuts: WAV (a microphone) or CSV time_s,signal (an accelerometer), each at most this large
 RECORDING_TYPES = (".wav", ".csv")
 MAX_RECORDING_BYTES = MAX_FRF_BYTES
+#: the recordings one session holds at once [bytes]: each is kept in the server's memory and its folder (a campaign's
+#: tens of cuts of a few MB each fit; without a bound, file after file filled the server's memory and disk)
+MAX_RECORDINGS_TOTAL_BYTES = 200_000_000
 
 #: speeds of the P(stable) map (the map's cost is speeds × posterior samples)
 MAP_SPEEDS = 240
@@ -53,13 +57,17 @@ class UpdateTab:
                                    'uploaded below (labels and chatter frequencies are then heard in it)</span>',
                                    width=330)
         # the recordings of the cuts (several files): uploaded name → where the session keeps it
-        self.rec_drop = pn.widgets.FileDropper(
-            label=f"recordings of the cuts: {', '.join(RECORDING_TYPES)} (≤ {MAX_RECORDING_BYTES / 1e6:g} MB each)",
-            accepted_filetypes=[], max_file_size=f"{MAX_RECORDING_BYTES / 1e6:g}MB", multiple=True, layout="compact",
+        self.rec_drop = LimitedDropper(
+            MAX_RECORDING_BYTES, MAX_RECORDINGS_TOTAL_BYTES,
+            label=f"recordings of the cuts: {', '.join(RECORDING_TYPES)} (≤ {MAX_RECORDING_BYTES / 1e6:g} MB each, "
+                  f"{MAX_RECORDINGS_TOTAL_BYTES / 1e6:g} MB in all)",
+            accepted_filetypes=[], max_file_size=f"{MAX_RECORDING_BYTES / 1e6:g}MB",
+            max_total_file_size=f"{MAX_RECORDINGS_TOTAL_BYTES / 1e6:g}MB", multiple=True, layout="compact",
             css_classes=["drop-recordings"], width=300)
         self.rec_error = pn.pane.HTML("", css_classes=["e-recordings-upload"])
         self.heard = pn.pane.HTML("", css_classes=["cuts-heard"])
         self.recordings: dict = {}
+        self._saved = 0  # recordings saved in this session (each copy's number)
         self.cuts_csv = None  # (name, saved path) of a cuts CSV with a recording column
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
         self.cuts_note = pn.pane.HTML("", css_classes=["cuts-note"])
@@ -186,7 +194,7 @@ class UpdateTab:
         errors = []
         value = self.rec_drop.value or {}
         for name in [n for n in self.recordings if n not in value]:  # removed from the drop zone ("tap to undo")
-            del self.recordings[name]
+            self.recordings.pop(name).unlink(missing_ok=True)  # its copy too: the session's folder does not grow
         for name, content in value.items():
             if name in self.recordings:
                 continue
@@ -197,7 +205,10 @@ class UpdateTab:
             except InputError as exc:
                 errors.append(error_html(str(exc)))
                 continue
-            self.recordings[name] = save_in(self.s.folder, "rec", name, content)
+            # numbered: two names that reduce to the same safe name ("a b.wav", "a_b.wav") were one file, and a
+            # cut was heard in the other's recording
+            self._saved += 1
+            self.recordings[name] = save_in(self.s.folder, f"rec{self._saved}", name, content)
         self.rec_error.object = "".join(errors)
         if self.cuts_csv is not None:
             self._listen()

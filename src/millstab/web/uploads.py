@@ -17,7 +17,8 @@ from millstab.api.inputs import MAX_FRF_BYTES, MAX_TEXT_BYTES
 from millstab.errors import InputError
 from millstab.io.frf_files import FORMATS
 
-__all__ = ["CONFIG_TYPES", "FRF_TYPES", "MAX_FRF_BYTES", "MAX_TEXT_BYTES", "POINTS_TYPES", "check_type", "dropper",
+__all__ = ["CONFIG_TYPES", "FRF_TYPES", "LimitedDropper", "MAX_FRF_BYTES", "MAX_TEXT_BYTES", "POINTS_TYPES",
+           "check_type", "dropper",
            "latest", "save_in"]
 
 #: the extensions each drop zone takes; FRF files: the reader's own (a .txt FRF has no reader: refused here
@@ -31,12 +32,51 @@ def _mb(limit: int) -> str:
     return f"{limit / 1e6:g}MB"
 
 
-def dropper(name: str, accept: tuple[str, ...], limit: int = MAX_TEXT_BYTES, css: str = "") -> pn.widgets.FileDropper:
+class LimitedDropper(pn.widgets.FileDropper):
+    """A drop zone that counts, on the server, each file's bytes as its chunks arrive: a file above ``limit``
+    bytes, or one that would make the zone hold more than ``total`` bytes with its other files (default
+    ``limit``), is dropped at the chunk that passes the limit; a single-file zone holds one file (a new one
+    replaces it). Why: the browser's ``max_file_size`` binds only the page's own script, and Panel keeps every
+    chunk of a file until its last one and every file ever sent (the size check of :func:`latest` comes after), so a
+    crafted client announcing a 1 000-chunk file, or sending file after file, filled the server's memory. The
+    browser refuses such files before sending them (``max_total_file_size`` too), so a dropped file is a crafted
+    client's: its name is kept in ``dropped``, nothing else."""
+
+    def __init__(self, limit: int, total: int | None = None, **params):
+        super().__init__(**params)
+        self._limit, self._total = limit, limit if total is None else total
+        self.dropped: list[str] = []
+
+    def _held(self, name: str) -> int:
+        """Bytes this zone holds besides file ``name``'s kept copy (the one it would replace)."""
+        kept = sum(len(v) for k, v in (self.value or {}).items() if k != name)
+        return kept + sum(len(c) for chunks in self._file_buffer.values() for c in chunks)
+
+    def _process_event(self, event):
+        data = event.data
+        if event.event_name == "upload_event":
+            name = data["name"]
+            if data["chunk"] == 1:
+                self._file_buffer.pop(name, None)  # a file sent again starts afresh (Panel's own rule)
+                if not self.multiple:  # the zone shows one file: the one it replaces is not kept besides it
+                    for other in [k for k in (self.value or {}) if k != name]:
+                        del self.value[other]
+            elif name not in self._file_buffer:
+                return  # the rest of a dropped file (or chunks without a first one)
+            size = sum(len(c) for c in self._file_buffer.get(name, ())) + len(data["data"])
+            if size > self._limit or self._held(name) + len(data["data"]) > self._total:
+                self._file_buffer.pop(name, None)
+                self.dropped.append(name)
+                return
+        super()._process_event(event)
+
+
+def dropper(name: str, accept: tuple[str, ...], limit: int = MAX_TEXT_BYTES, css: str = "") -> LimitedDropper:
     """A single-file drop zone named ``name`` for files ending in ``accept`` (shown in the label, checked by
-    :func:`latest`) and at most ``limit`` bytes (checked in the browser too)."""
-    return pn.widgets.FileDropper(label=f"{name}: {', '.join(accept)} (≤ {limit / 1e6:g} MB)", accepted_filetypes=[],
-                                  max_file_size=_mb(limit), multiple=False, layout="compact",
-                                  css_classes=[css] if css else [], width=300)
+    :func:`latest`) and at most ``limit`` bytes (checked in the browser, as the file arrives and in :func:`latest`)."""
+    return LimitedDropper(limit, label=f"{name}: {', '.join(accept)} (≤ {limit / 1e6:g} MB)", accepted_filetypes=[],
+                          max_file_size=_mb(limit), multiple=False, layout="compact",
+                          css_classes=[css] if css else [], width=300)
 
 
 def check_type(name: str, accept: tuple[str, ...], what: str) -> None:

@@ -1030,3 +1030,20 @@ def test_number_fields_out_of_range_or_empty_are_refused_with_a_message_not_run_
         assert ran == []
     finally:
         s.close()
+
+
+def test_a_jobs_progress_stage_is_shown_as_text_not_markup():
+    """Security review: the job's status line put the stage its work reported into the page's HTML as it was, so a
+    stage quoting an uploaded name (``<img src=x onerror=...>``) became markup in the browser (fails on the old code:
+    the tag reached the Div's text). It is escaped."""
+    pytest.importorskip("panel")
+    from concurrent.futures import Future
+
+    from millstab.web.jobs import JobBar
+
+    bar = JobBar("Run", "t")
+    bar._future, bar._t0 = Future(), 0.0  # still running: the poll shows the stage
+    bar._report = ('fit <img src=x onerror="alert(1)"> & more', 3, 10)
+    bar._poll()
+    assert "<img" not in bar.status.text
+    assert bar.status.text.startswith('running: fit &lt;img src=x onerror=&quot;alert(1)&quot;&gt; &amp; more (3/10) ')

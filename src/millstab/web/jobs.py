@@ -112,7 +112,8 @@ class JobBar(pn.viewable.Viewer):
         elif self.bar.visible:
             self.bar.visible = False
         word = "cancelling" if self._token is not None and self._token.cancelled else "running"
-        self.status.text = (f"{word}: {stage} ({n}{f'/{total}' if total else ''}) "
+        # the stage is text, not markup: it may quote a name or a value that came from an upload
+        self.status.text = (f"{word}: {_esc(stage)} ({n}{f'/{total}' if total else ''}) "
                             f"{time.perf_counter() - self._t0:.1f} s")
         if fut is None or not fut.done():
             return

@@ -1047,3 +1047,45 @@ def test_a_jobs_progress_stage_is_shown_as_text_not_markup():
     bar._poll()
     assert "<img" not in bar.status.text
     assert bar.status.text.startswith('running: fit &lt;img src=x onerror=&quot;alert(1)&quot;&gt; &amp; more (3/10) ')
+
+
+def test_a_recording_uploaded_again_under_its_name_replaces_the_first():
+    """Security review: a recording uploaded again under a name the session held was skipped (``if name in
+    self.recordings: continue``), so a shop that corrected a recording and uploaded it again had its cuts labelled
+    from the first file, silently (fails on the old code: the cut stayed "chatter", the first copy stayed). The
+    newest upload of a name wins, its first copy is deleted and the page says which recording was replaced; the same
+    content sent again changes nothing."""
+    import io as _io
+
+    from scipy.io import wavfile
+
+    from listen_synth import milling_sound
+
+    from millstab.web.update_tab import UpdateTab
+
+    s, _ = _tool()
+    tab = UpdateTab(s)
+    teeth = s.cfg.cutting.teeth
+
+    def wav(chatter_hz):
+        buf = _io.BytesIO()
+        wavfile.write(buf, 48000, (milling_sound(teeth=teeth, rpm=9000.0, chatter_hz=chatter_hz, ratio=0.5,
+                                                 seconds=2.0) * 32767).astype(np.int16))
+        return buf.getvalue()
+
+    chatter, stable = wav(870.0), wav(None)
+    try:
+        tab.drop.value = {"cuts.csv": "rpm,depth_mm,label,recording\n9000,3,,cut 1.wav\n"}
+        _chunk(tab.rec_drop, "cut 1.wav", 1, 1, chatter)  # as the browser sends it
+        assert list(s.cuts.label) == ["chatter"]
+        first = tab.recordings["cut 1.wav"]
+        _chunk(tab.rec_drop, "cut 1.wav", 1, 1, stable)  # corrected, uploaded again under the same name
+        assert list(s.cuts.label) == ["stable"], tab.heard.object
+        assert tab.recordings["cut 1.wav"].read_bytes() == stable and not first.exists()
+        assert [p.name for p in s.folder.iterdir() if p.name.startswith("rec")] == [tab.recordings["cut 1.wav"].name]
+        assert "replaced by the newer upload: cut 1.wav" in tab.rec_note.object
+        again = tab.recordings["cut 1.wav"]
+        _chunk(tab.rec_drop, "cut 1.wav", 1, 1, bytes(stable))  # the same content again: nothing changes
+        assert tab.recordings["cut 1.wav"] == again and tab.rec_note.object == ""
+    finally:
+        s.close()

@@ -65,8 +65,10 @@ class UpdateTab:
             max_total_file_size=f"{MAX_RECORDINGS_TOTAL_BYTES / 1e6:g}MB", multiple=True, layout="compact",
             css_classes=["drop-recordings"], width=300)
         self.rec_error = pn.pane.HTML("", css_classes=["e-recordings-upload"])
+        self.rec_note = pn.pane.HTML("", css_classes=["recordings-note"])  # which recordings a new upload replaced
         self.heard = pn.pane.HTML("", css_classes=["cuts-heard"])
         self.recordings: dict = {}
+        self._rec_content: dict = {}  # uploaded name → the content saved for it (the drop zone's own object)
         self._saved = 0  # recordings saved in this session (each copy's number)
         self.cuts_csv = None  # (name, saved path) of a cuts CSV with a recording column
         self.drop_error = pn.pane.HTML("", css_classes=["e-cuts-upload"])
@@ -189,27 +191,48 @@ class UpdateTab:
         self.cuts_csv = (got[0], path)
         self._listen()
 
+    def _forget_recording(self, name: str) -> None:
+        """Drop the saved copy of recording ``name`` (its file too: the session's folder does not grow)."""
+        self._rec_content.pop(name, None)
+        path = self.recordings.pop(name, None)
+        if path is not None:
+            path.unlink(missing_ok=True)
+
     def _recordings_uploaded(self) -> None:
-        self.rec_error.object = ""
-        errors = []
+        """Save the recordings of the drop zone: a new name is saved, a name uploaded again with other content
+        replaces its saved copy (the newest upload wins, and the page says so: a corrected recording uploaded
+        under its old name used to leave the cuts labelled from the first one), a removed one is deleted."""
+        self.rec_error.object = self.rec_note.object = ""
+        errors, replaced = [], []
         value = self.rec_drop.value or {}
         for name in [n for n in self.recordings if n not in value]:  # removed from the drop zone ("tap to undo")
-            self.recordings.pop(name).unlink(missing_ok=True)  # its copy too: the session's folder does not grow
+            self._forget_recording(name)
         for name, content in value.items():
             if name in self.recordings:
-                continue
+                old = self._rec_content.get(name)
+                # the zone keeps one object per upload: the same object is the same upload; equal bytes of a new
+                # one change nothing
+                if old is content or old == content:
+                    continue
+                self._forget_recording(name)  # also when the new one is refused: the old one is not used
+                replaced.append(name)
             try:
                 check_type(name, RECORDING_TYPES, "recording")
                 size = len(content.encode("utf-8")) if isinstance(content, str) else len(content)
                 api.check_size(size, name, MAX_RECORDING_BYTES)
             except InputError as exc:
                 errors.append(error_html(str(exc)))
+                replaced = [n for n in replaced if n != name]  # said by its error instead
                 continue
             # numbered: two names that reduce to the same safe name ("a b.wav", "a_b.wav") were one file, and a
             # cut was heard in the other's recording
             self._saved += 1
             self.recordings[name] = save_in(self.s.folder, f"rec{self._saved}", name, content)
+            self._rec_content[name] = content
         self.rec_error.object = "".join(errors)
+        if replaced:
+            self.rec_note.object = ('<span class="ms-note">replaced by the newer upload: '
+                                    f'{esc(", ".join(replaced))} (the cuts are heard in the new file)</span>')
         if self.cuts_csv is not None:
             self._listen()
 
@@ -392,7 +415,7 @@ class UpdateTab:
     def view(self):
         head = [self.campaign.view()] if self.campaign is not None else []
         inputs = pn.Card(pn.Column(self.drop, self.format, self.drop_error, self.cuts_note),
-                         pn.Column(self.rec_drop, self.rec_error, self.heard), self.use_points,
+                         pn.Column(self.rec_drop, self.rec_error, self.rec_note, self.heard), self.use_points,
                          pn.Row(self.samples, self.seed, self.engine, self.engine_options),
                          pn.Column(self.samples_error, self.engine_error, self.engine_note), self.job,
                          self.post_table.view(),

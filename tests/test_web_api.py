@@ -1089,3 +1089,67 @@ def test_a_recording_uploaded_again_under_its_name_replaces_the_first():
         assert tab.recordings["cut 1.wav"] == again and tab.rec_note.object == ""
     finally:
         s.close()
+
+
+def _page_token(html: str) -> str:
+    """The Bokeh session token a served page embeds (its websocket opens with it)."""
+    import re
+
+    got = re.search(r'"token":\s*"([^"]+)"', html) or re.search(r"token=\\?\"([^\"\\]+)", html)
+    assert got, html[:2000]
+    return got.group(1)
+
+
+def _ws_opens(url: str, token: str, cookie: str = "") -> bool:
+    """Whether the app's websocket at ``url`` accepts ``token`` (its first message, the ACK, arrives)."""
+    import asyncio
+
+    from tornado.httpclient import HTTPRequest
+    from tornado.websocket import websocket_connect
+
+    async def go():
+        ws_url = url.replace("http://", "ws://").rstrip("/") + "/ws"
+        headers = {"Origin": url.rstrip("/")} | ({"Cookie": cookie} if cookie else {})
+        try:
+            conn = await websocket_connect(HTTPRequest(ws_url, headers=headers, request_timeout=120),
+                                           subprotocols=["bokeh", token])
+        except Exception:  # the handshake refused (403)
+            return False
+        try:
+            return await asyncio.wait_for(conn.read_message(), 120) is not None
+        finally:
+            conn.close()
+
+    return asyncio.run(go())
+
+
+def test_bokeh_session_ids_and_tokens_are_signed():
+    """Security review: the app served with ``sign_sessions`` off, so Bokeh took any session id a client made up
+    (``/?bokeh-session-id=mine``) and any session token, whose payload (the request's cookies, headers and arguments,
+    which the page's code reads) a client could write itself (fails on the old code: both accepted). Each start
+    signs them with its own secret: a made-up id, a client-made token and an altered one are refused, the page's own
+    token opens its websocket."""
+    pytest.importorskip("panel")
+    import json
+    import urllib.error
+    import urllib.request
+
+    from bokeh.util.token import _base64_decode, _base64_encode, generate_jwt_token
+
+    import millstab.web.testing as T
+
+    with T.running_app() as url:
+        url = url if url.endswith("/") else url + "/"
+        token = _page_token(urllib.request.urlopen(url, timeout=120).read().decode())
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(url + "?bokeh-session-id=chosen-by-the-client", timeout=120)
+        assert refused.value.code == 403
+        made_up = generate_jwt_token("chosen-by-the-client", signed=False,
+                                     extra_payload={"cookies": {"user": "someone else"}})
+        assert not _ws_opens(url, made_up)
+        body, _, signature = token.partition(".")
+        payload = json.loads(_base64_decode(body))
+        payload["session_expiry"] += 3600  # a longer life than the server gave it
+        altered = _base64_encode(json.dumps(payload)) + "." + signature
+        assert not _ws_opens(url, altered)
+        assert _ws_opens(url, token)

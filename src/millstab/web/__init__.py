@@ -105,11 +105,13 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     port = port or free_port(host)
     url = f"http://{host}:{port}/"
     origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
-    opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose,
-                use_xheaders=proxy)
-    if users:
-        import secrets
+    import secrets
 
+    # Bokeh's session ids and tokens signed with a fresh key per start: unsigned, a client could name its own session
+    # id and write its own token, whose payload (the request's cookies, headers, arguments) the page's code reads
+    opts = dict(port=port, address=host, websocket_origin=origin, show=show, title="millstab", verbose=verbose,
+                use_xheaders=proxy, sign_sessions=True, secret_key=secrets.token_urlsafe(32))
+    if users:
         from millstab.web.auth import auth_provider
 
         # a fresh cookie key per start: logins end with the server

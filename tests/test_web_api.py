@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import urllib.request
 
 import numpy as np
 import pytest
@@ -309,23 +310,63 @@ def test_login_throttle_locks_a_name_or_address_out_for_a_while():
     assert "try again in 5 min" in msg and "5 for this user name from this address" in msg
 
 
-def _login(url: str, password: str, client: str | None = None, name: str = "anna") -> str:
-    """POST a login to the app at ``url``; the redirect's target, unquoted (``client``: an X-Forwarded-For)."""
+def _form_token(opener, url: str, headers: dict | None = None) -> str:
+    """GET the login page of the app at ``url`` with ``opener`` (its cookie jar keeps the form's ``_xsrf`` cookie);
+    the token of its form."""
+    import re
+
+    html = opener.open(urllib.request.Request(url + "login", headers=headers or {}), timeout=120).read().decode()
+    return re.search(r'name="_xsrf" value="([^"]+)"', html).group(1)
+
+
+class _NoRedirect(urllib.request.HTTPRedirectHandler):
+    """An opener's handler that hands a redirect back as an HTTPError (its Location and Set-Cookie readable)."""
+
+    def redirect_request(self, *args, **kwargs):
+        return None
+
+
+def _cookie_values(response) -> dict[str, str]:
+    """{name: value} of the cookies a response sets."""
+    from http.cookies import SimpleCookie
+
+    jar = SimpleCookie()
+    for header in response.headers.get_all("Set-Cookie") or []:
+        jar.load(header)
+    return {k: m.value for k, m in jar.items()}
+
+
+def _login_response(url: str, password: str, client: str | None = None, name: str = "anna", headers=None,
+                    token: bool = True):
+    """POST a login from the app's own form (its ``_xsrf`` token and cookie; ``token=False``: neither) to the app at
+    ``url``; the 302 it answers with (an HTTPError) and {name: value} of the cookies it sets. The cookies go by hand,
+    as a browser on HTTPS sends them (a cookie jar keeps a Secure cookie from a plain-HTTP test server)."""
+    import re
     import urllib.error
     import urllib.parse
-    import urllib.request
 
-    class NoRedirect(urllib.request.HTTPRedirectHandler):
-        def redirect_request(self, *args, **kwargs):
-            return None
-
-    data = urllib.parse.urlencode({"username": name, "password": password}).encode()
-    req = urllib.request.Request(url + "login", data=data, headers={"X-Forwarded-For": client} if client else {})
+    opener = urllib.request.build_opener(_NoRedirect())
+    head = ({"X-Forwarded-For": client} if client else {}) | (headers or {})
+    form = {"username": name, "password": password}
+    if token:
+        page = opener.open(urllib.request.Request(url + "login", headers=head), timeout=120)
+        field = re.search(r'name="_xsrf" value="([^"]+)"', page.read().decode())
+        if field:  # (a form without one is refused by the assertions, not here)
+            form["_xsrf"] = field.group(1)
+            head = head | {"Cookie": f"_xsrf={_cookie_values(page)['_xsrf']}"}
+    req = urllib.request.Request(url + "login", data=urllib.parse.urlencode(form).encode(), headers=head)
     try:
-        urllib.request.build_opener(NoRedirect).open(req, timeout=60)
+        opener.open(req, timeout=120)
     except urllib.error.HTTPError as exc:  # the 302 the login answers with
-        return urllib.parse.unquote_plus(exc.headers["Location"])
+        return exc, _cookie_values(exc)
     raise AssertionError("no redirect")
+
+
+def _login(url: str, password: str, client: str | None = None, name: str = "anna") -> str:
+    """POST a login to the app at ``url``; the redirect's target, unquoted (``client``: an X-Forwarded-For)."""
+    import urllib.parse
+
+    return urllib.parse.unquote_plus(_login_response(url, password, client, name)[0].headers["Location"])
 
 
 def test_login_flood_is_refused_without_hashing(tmp_path, monkeypatch):
@@ -399,9 +440,10 @@ def test_an_is_guest_cookie_does_not_make_a_signed_in_user_the_account_guest(tmp
         url = url if url.endswith("/") else url + "/"
         jar = http.cookiejar.CookieJar()
         opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor(jar))
-        form = urllib.parse.urlencode({"username": "anna", "password": "correct horse 1"}).encode()
+        form = urllib.parse.urlencode({"username": "anna", "password": "correct horse 1",
+                                       "_xsrf": _form_token(opener, url)}).encode()
         opener.open(urllib.request.Request(url + "login", data=form), timeout=120).read()
-        login = "; ".join(f"{c.name}={c.value}" for c in jar)
+        login = "; ".join(f"{c.name}={c.value}" for c in jar if c.name != "_xsrf")
         seen.clear()  # the login's redirect opened the page once already
         for cookie in (login, login + "; is_guest=1"):
             urllib.request.urlopen(urllib.request.Request(url, headers={"Cookie": cookie}), timeout=120).read()
@@ -1153,3 +1195,141 @@ def test_bokeh_session_ids_and_tokens_are_signed():
         altered = _base64_encode(json.dumps(payload)) + "." + signature
         assert not _ws_opens(url, altered)
         assert _ws_opens(url, token)
+
+
+def _set_cookies(response) -> dict[str, str]:
+    """{name: its Set-Cookie header} of a response."""
+    return {h.split("=", 1)[0]: h for h in response.headers.get_all("Set-Cookie") or []}
+
+
+def test_the_login_form_carries_a_token_that_a_post_must_match(tmp_path):
+    """Security review: the login form had no CSRF token, so another site's page could post its own user name and
+    password to the app and sign a visitor into the attacker's account (login CSRF; fails on the old code: the
+    token-less post logged in). A post without the form's ``_xsrf`` token, or with a token that is not its cookie's,
+    is refused with a message and sets no login; the app's own form logs in."""
+    pytest.importorskip("panel")
+    import urllib.error
+    import urllib.parse
+
+    import millstab.web.testing as T
+    from millstab.web import auth
+
+    path = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
+    with T.running_app(users=auth.read_users(path)) as url:
+        url = url if url.endswith("/") else url + "/"
+        forged, _ = _login_response(url, "correct horse 1", token=False)  # another site's form: no token
+        assert "user" not in _set_cookies(forged)
+        assert "not this page's" in urllib.parse.unquote_plus(forged.headers["Location"])
+        # a token of the attacker's own, without the victim's cookie that matches it
+        data = urllib.parse.urlencode({"username": "anna", "password": "correct horse 1",
+                                       "_xsrf": "2|deadbeef|" + "0" * 32 + "|1700000000"}).encode()
+        with pytest.raises(urllib.error.HTTPError) as other:
+            urllib.request.build_opener(_NoRedirect()).open(urllib.request.Request(url + "login", data=data),
+                                                            timeout=120)
+        assert "user" not in _set_cookies(other.value) and "error=" in other.value.headers["Location"]
+        ok, _ = _login_response(url, "correct horse 1")
+        assert "user" in _set_cookies(ok) and "error=" not in ok.headers["Location"]
+
+
+def test_login_cookies_are_samesite_and_secure_over_https(tmp_path):
+    """Security review: the ``user`` and ``id_token`` cookies had neither SameSite nor Secure (fails on the old code):
+    another site's requests carried the login, and a login made over HTTPS was sent over plain HTTP too. Every
+    cookie the login pages set is ``SameSite=Lax`` (``user`` and ``id_token`` HttpOnly too); Secure when the request
+    came over HTTPS (behind a proxy: its X-Forwarded-Proto, read with ``proxy`` only) or always with
+    ``secure_cookies``."""
+    pytest.importorskip("panel")
+    import millstab.web.testing as T
+    from millstab.web import auth
+
+    users = auth.read_users(auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1"))
+
+    def cookies(url, headers=None):
+        got, _ = _login_response(url if url.endswith("/") else url + "/", "correct horse 1", headers=headers)
+        set_ = _set_cookies(got)
+        assert {"user", "id_token"} <= set(set_), set_
+        return {k: v.lower() for k, v in set_.items()}
+
+    https = {"X-Forwarded-Proto": "https"}
+    with T.running_app(users=users) as url:
+        for header in (cookies(url), cookies(url, https)):  # a client's own X-Forwarded-Proto is no HTTPS
+            for name in ("user", "id_token"):
+                assert "samesite=lax" in header[name] and "httponly" in header[name] and "secure" not in header[name]
+    with T.running_app(users=users, proxy=True) as url:
+        assert "secure" not in cookies(url)["user"]
+        header = cookies(url, https)
+        assert all("secure" in header[n] and "samesite=lax" in header[n] for n in ("user", "id_token")), header
+    with T.running_app(users=users, secure_cookies=True) as url:
+        header = cookies(url)
+        assert all("secure" in header[n] and "samesite=lax" in header[n] for n in ("user", "id_token")), header
+
+
+def test_a_logout_ends_the_login_on_the_server(tmp_path):
+    """Security review: the logout only cleared the browser's cookies, so a copy of the ``user`` cookie taken before
+    it (a shared computer, a proxy log) opened the page and its websocket until it expired a day later (fails on the
+    old code: the page opened after the logout). The logout ends that login on the server: its cookie opens neither
+    the page nor a websocket afterwards, and a new login works."""
+    pytest.importorskip("panel")
+    import urllib.error
+
+    import millstab.web.testing as T
+    from millstab.web import auth
+
+    users = auth.read_users(auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1"))
+    with T.running_app(users=users) as url:
+        url = url if url.endswith("/") else url + "/"
+        _, got = _login_response(url, "correct horse 1")
+        login = f"user={got['user']}; id_token={got['id_token']}"
+        opener = urllib.request.build_opener(_NoRedirect())
+
+        def page():
+            try:
+                return opener.open(urllib.request.Request(url, headers={"Cookie": login}), timeout=120).read().decode()
+            except urllib.error.HTTPError as exc:  # the redirect to the login page
+                return "redirected to " + exc.headers["Location"]
+
+        token = _page_token(page())
+        assert _ws_opens(url, token, login)
+        opener.open(urllib.request.Request(url + "logout", headers={"Cookie": login}), timeout=120).read()
+        assert page().startswith("redirected to /login")  # the copied cookie: the login page, not the app
+        assert not _ws_opens(url, token, login)
+        again, _ = _login_response(url, "correct horse 1")
+        assert "error=" not in again.headers["Location"]
+
+
+def test_signed_in_user_refuses_a_logged_out_cookie_and_the_record_stays_bounded(monkeypatch):
+    """The page's own user check (:func:`signed_in_user`, which the shop database's rule uses) refuses a cookie whose
+    login a logout ended; the record of ended logins keeps at most ``max_keys`` cookies and, above that, ends every
+    login of the user issued up to the one logged out (never fewer)."""
+    pytest.importorskip("panel")
+    from panel.config import config
+    from tornado.web import create_signed_value
+
+    from millstab.web import auth
+
+    monkeypatch.setattr(config, "cookie_secret", "k" * 32)
+    monkeypatch.setattr(auth, "REVOKED", auth.Revocations(max_keys=1))
+    a, b = (create_signed_value("k" * 32, "user", name).decode() for name in ("anna", "ben"))
+    assert auth.login_of(a)[0] == "anna" and auth.login_of("2|forged") is None
+    auth.REVOKED.revoke(a, "anna", auth._issued(a), 86400.0)
+    assert auth.login_of(a) is None and auth.login_of(b)[0] == "ben"
+    auth.REVOKED.revoke(b, "ben", auth._issued(b), 86400.0)  # the record is full: ben's logins up to b end
+    assert auth.login_of(b) is None and auth.REVOKED._before == {"ben": auth._issued(b)}
+    assert len(auth.REVOKED._cookies) == 1 and auth._issued(b) > 1_600_000_000
+
+
+def test_app_secure_cookies_option_reaches_the_server_and_needs_users(tmp_path, capsys, monkeypatch):
+    """``millstab app --secure-cookies``: the login's cookies Secure always (an HTTPS proxy that sends no
+    X-Forwarded-Proto); without --users there is no login, and the option is refused in one line."""
+    pytest.importorskip("panel")
+    import millstab.web
+    from millstab.cli import main
+    from millstab.web import auth
+
+    assert main(["app", "--secure-cookies", "--no-browser"]) == 2
+    err = capsys.readouterr().err
+    assert "--secure-cookies = True is invalid: only with --users FILE" in err and len(err.strip().splitlines()) == 1
+    users = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
+    got = {}
+    monkeypatch.setattr(millstab.web, "serve", lambda **kw: got.update(kw))
+    assert main(["app", "--users", str(users), "--secure-cookies", "--behind-proxy", "--no-browser"]) in (0, None)
+    assert got["secure_cookies"] is True and got["proxy"] is True

@@ -29,7 +29,11 @@ def app_cmd(
                                               "Update tab lists, opens and updates its campaigns. See docs/app.md."),
     behind_proxy: bool = typer.Option(False, "--behind-proxy", help="Served behind a reverse proxy (nginx, Caddy): "
                                       "each client's address, which the login throttle counts, is read from the "
-                                      "proxy's X-Forwarded-For / X-Real-Ip header. Only behind a proxy that sets it."),
+                                      "proxy's X-Forwarded-For / X-Real-Ip header, and HTTPS from its "
+                                      "X-Forwarded-Proto (login cookies then Secure). Only behind a proxy that sets "
+                                      "them."),
+    secure_cookies: bool = typer.Option(False, "--secure-cookies", help="Login cookies always Secure (sent over "
+                                        "HTTPS only): behind an HTTPS proxy that sends no X-Forwarded-Proto."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser tab."),
 ) -> None:
     """Serve the stability tools as a web page (tool and cut, lobes, identify, update, downloads); prints the URL."""
@@ -39,6 +43,8 @@ def app_cmd(
         return _add_user(users, add_user, password_stdin, shop)
     if password_stdin:
         raise InputError("--password-stdin", True, "only with --add-user NAME --users FILE")
+    if secure_cookies and users is None:
+        raise InputError("--secure-cookies", True, "only with --users FILE (the cookies are the login's)")
     if shop:
         raise InputError("--shop", ",".join(shop), "only with --add-user NAME --users FILE (the users file holds "
                                                    "each user's shops)")
@@ -54,7 +60,8 @@ def app_cmd(
 
     serve(port=port, host=host, show=not no_browser,
           users={n: h for n, (h, _) in accounts.items()} if accounts else None,
-          db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None, proxy=behind_proxy)
+          db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None, proxy=behind_proxy,
+          secure_cookies=secure_cookies)
 
 
 def _add_user(users: Path | None, name: str, password_stdin: bool, shops: list[str] | None) -> None:

@@ -66,7 +66,7 @@ def check_address(host: str, port: int) -> None:
 
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
           verbose: bool = False, users: dict[str, str] | None = None, db: str | None = None,
-          shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False):
+          shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False, secure_cookies: bool = False):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
     (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
@@ -74,7 +74,10 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     requires them. ``db``: a shop database (path or URL, created when new) whose campaigns the Update tab
     opens and updates; with ``users``, each user sees only the campaigns of their shops (``shops``: {user:
     shops}; a user not in it: the shop ``default``). ``proxy``: served behind a reverse proxy, so a client's address
-    (the login throttle's, :mod:`millstab.web.auth`) is read from the proxy's X-Forwarded-For / X-Real-Ip header.
+    (the login throttle's, :mod:`millstab.web.auth`) is read from the proxy's X-Forwarded-For / X-Real-Ip header, and
+    whether it came over HTTPS from its X-Forwarded-Proto / X-Scheme (the login's cookies are then ``Secure``).
+    ``secure_cookies``: the login's cookies are ``Secure`` always (an HTTPS proxy that does not say so; a browser
+    then keeps them over HTTPS only).
 
     Raises:
         InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
@@ -115,7 +118,8 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
         from millstab.web.auth import auth_provider
 
         # a fresh cookie key per start: logins end with the server
-        opts.update(auth_provider=auth_provider(users), cookie_secret=secrets.token_urlsafe(32))
+        opts.update(auth_provider=auth_provider(users, secure_cookies=secure_cookies),
+                    cookie_secret=secrets.token_urlsafe(32))
     if threaded:
         return pn.serve({"/": app}, threaded=True, **opts), url
     try:

@@ -29,6 +29,10 @@ address stops at 20. Behind a reverse proxy every client has the proxy's address
 (``millstab app --behind-proxy``) to take the client's address from the proxy's X-Forwarded-For / X-Real-Ip
 header (only behind a proxy that sets it: without one a client could write its own). The scrypt check runs in a
 worker thread, so a login flood does not stall the other sessions.
+
+**Sessions**: a logout ends its login on the server (:data:`REVOKED`: a copy of its cookie opens nothing after it);
+the login pages' cookies are ``SameSite=Lax`` and, over HTTPS (or with ``secure_cookies``), ``Secure``; the login
+form carries Tornado's ``_xsrf`` double-submit token, checked before the password (:func:`auth_provider`).
 """
 
 from __future__ import annotations
@@ -247,18 +251,111 @@ def refused_message(seconds: float) -> str:
             f"address or {n['user']} for this user name within {WINDOW_S / 60:g} min): try again in {minutes} min")
 
 
-def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
+class Revocations:
+    """The logins ended by a logout, per process (a restart makes a new cookie key, which ends every login anyway):
+    :meth:`revoke` records a signed ``user`` cookie, :meth:`revoked` says whether a cookie is one. Kept by its SHA-256
+    until it would have expired anyway (``max_age_s`` after its logout: it was issued before); above ``max_keys``
+    live records a logout instead ends every login of its user issued up to the logged-out one (never fewer than
+    asked, in bounded memory). Thread-safe; ``clock``: seconds since the epoch (``time.time``, as the cookie's
+    own timestamp)."""
+
+    def __init__(self, max_keys: int = 100_000, clock=time.time):
+        self.max_keys, self.clock = max_keys, clock
+        self._cookies: dict[bytes, float] = {}  # digest of a revoked cookie: when it expires anyway [s]
+        self._before: dict[str, int] = {}  # user: their logins issued at or before this second are revoked
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def _digest(cookie: str) -> bytes:
+        return hashlib.sha256(cookie.encode("utf-8", "surrogateescape")).digest()
+
+    def revoke(self, cookie: str, user: str, issued: int, max_age_s: float) -> None:
+        """End the login of ``cookie`` (a valid signed ``user`` cookie of ``user``, issued at second ``issued``)."""
+        now = self.clock()
+        with self._lock:
+            if len(self._cookies) >= self.max_keys:
+                self._cookies = {k: t for k, t in self._cookies.items() if t > now}
+            if len(self._cookies) < self.max_keys:
+                self._cookies[self._digest(cookie)] = now + max_age_s
+            else:
+                self._before[user] = max(self._before.get(user, issued), issued)
+
+    def revoked(self, cookie: str, user: str, issued: int) -> bool:
+        """Whether the login of ``cookie`` (``user``'s, issued at second ``issued``) was ended by a logout."""
+        with self._lock:
+            return self._digest(cookie) in self._cookies or issued <= self._before.get(user, -1)
+
+
+#: the logins ended by a logout in this process (the auth provider's user check and :func:`signed_in_user` ask it)
+REVOKED = Revocations()
+#: the login's cookies go with requests from this site and with links followed from another (a bookmark, a mail);
+#: another site's form post, frame or script gets none (Strict would also drop them on a link from another site)
+SAME_SITE = "Lax"
+
+
+def _issued(cookie: str) -> int:
+    """The second a signed cookie was made (Tornado's version-2 format ``2|1:0|10:TIME|...``; 0 if another)."""
+    parts = cookie.split("|")
+    try:
+        return int(parts[2].split(":", 1)[1]) if parts[0] == "2" else 0
+    except (IndexError, ValueError):
+        return 0
+
+
+def login_of(cookie: str | None) -> tuple[str, int] | None:
+    """(user, second issued) of a signed ``user`` cookie that is valid now: signed with this server's key, within the
+    login's lifetime (Panel's ``oauth_expiry`` days) and not ended by a logout (:data:`REVOKED`); else None."""
+    from panel.config import config
+    from tornado.web import decode_signed_value
+
+    if not cookie or config.cookie_secret is None:
+        return None
+    got = decode_signed_value(config.cookie_secret, "user", cookie, max_age_days=config.oauth_expiry)
+    if got is None:
+        return None
+    user, issued = got.decode("utf-8"), _issued(cookie)
+    return None if REVOKED.revoked(cookie, user, issued) else (user, issued)
+
+
+def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None, secure_cookies: bool = False):
     """A Panel/Bokeh auth provider: Panel's login and logout pages, the password checked against ``users``'
-    hashes, failed logins throttled by ``throttle`` (a fresh :class:`LoginThrottle` by default). Imports Panel."""
+    hashes, failed logins throttled by ``throttle`` (a fresh :class:`LoginThrottle` by default). The login form
+    carries a double-submit token (Tornado's ``_xsrf``: a post without the one of its cookie is refused, so another
+    site cannot sign a visitor into its account); its cookies are ``SameSite=Lax`` (:data:`SAME_SITE`), ``HttpOnly``
+    and ``Secure`` on a request that came over HTTPS (as the proxy says with ``X-Forwarded-Proto`` when served with
+    ``proxy``) or always with ``secure_cookies``; a logout ends its login on the server (:data:`REVOKED`), so a copy
+    of the cookie opens nothing after it. Imports Panel."""
     import asyncio
     import urllib.parse
 
-    from panel.auth import BasicAuthProvider, BasicLoginHandler, _validate_next_url
+    from panel.auth import BasicAuthProvider, BasicLoginHandler, LogoutHandler, _validate_next_url
+    from panel.config import config
+    from panel.io.resources import CDN_DIST, _env
     from panel.io.state import state
+    from tornado.web import HTTPError
 
     throttle = throttle if throttle is not None else LoginThrottle()
 
-    class HashedLogin(BasicLoginHandler):
+    class CookieRules:
+        """Every cookie these pages set (the login's, the form's token, ``next_url``, a cleared one): SameSite, and
+        Secure when the page came over HTTPS or ``secure_cookies``."""
+
+        def set_cookie(self, name, value, *args, **kwargs):
+            kwargs["samesite"] = SAME_SITE
+            if secure_cookies or self.request.protocol == "https":
+                kwargs["secure"] = True
+            return super().set_cookie(name, value, *args, **kwargs)
+
+    class HashedLogin(CookieRules, BasicLoginHandler):
+        def get(self):
+            # Panel's page with the form's token (the page Panel's own handler writes, plus the _xsrf field)
+            next_url = _validate_next_url(self.get_argument("next", state.base_url))
+            if next_url:
+                self.set_cookie("next_url", next_url)
+            self.write(self._form.render(login_endpoint=self._login_endpoint,
+                                         errormessage=self.get_argument("error", ""), PANEL_CDN=CDN_DIST,
+                                         xsrf_form_html=self.xsrf_form_html()))
+
         def _validate(self, username, password):
             stored = users.get(username)
             if stored is None:
@@ -267,6 +364,11 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
             return check_password(password, stored)
 
         async def post(self):
+            try:
+                self.check_xsrf_cookie()  # before anything else: a forged post costs no hashing and counts nothing
+            except HTTPError:
+                self._fail("The login form was not this page's, or has expired: log in again")
+                return
             username = self.get_argument("username", "")
             password = self.get_argument("password", "")
             ip = self.request.remote_ip  # the proxy's header's client address with proxy=True (tornado's xheaders)
@@ -288,14 +390,54 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None):
         def _fail(self, message: str):
             self.redirect(self.request.path + "?error=" + urllib.parse.quote_plus(message))
 
+    class RevokingLogout(CookieRules, LogoutHandler):
+        def get(self):
+            cookie = self.get_cookie("user")
+            got = login_of(cookie)
+            if got is not None:  # only a valid login is recorded: made-up cookies cannot fill the record
+                REVOKED.revoke(cookie, got[0], got[1], config.oauth_expiry * 86400.0)
+            super().get()
+
     class HashedAuth(BasicAuthProvider):
         @property
         def login_handler(self):
             HashedLogin._login_endpoint = self._login_endpoint
-            HashedLogin._login_template = self._login_template
+            HashedLogin._form = _login_form(self._login_template, _env)
             return HashedLogin
 
+        @property
+        def logout_handler(self):
+            RevokingLogout._logout_template = self._logout_template
+            RevokingLogout._login_endpoint = self._login_endpoint
+            return RevokingLogout
+
+        @property
+        def get_user(self):
+            panels = super().get_user
+
+            def get_user(handler):  # every page, websocket and static file: a logged-out cookie is no login
+                cookie = handler.get_cookie("user")
+                if cookie and login_of(cookie) is None:
+                    return None
+                return panels(handler)
+
+            return get_user
+
     return HashedAuth()
+
+
+def _login_form(template, env):
+    """Panel's login page ``template`` with the form's ``_xsrf`` field (rendered as ``xsrf_form_html``).
+
+    Raises:
+        RuntimeError: a Panel whose login page has no ``<form ...>`` to put it in (the login would be refused)."""
+    import re as _re
+
+    source = env.loader.get_source(env, template.name)[0] if template.name else None
+    opened = _re.search(r"<form\b[^>]*>", source or "")
+    if opened is None:
+        raise RuntimeError("millstab app: Panel's login page has no <form>: cannot add its _xsrf field")
+    return env.from_string(source[:opened.end()] + "{{ xsrf_form_html|safe }}" + source[opened.end():])
 
 
 def signed_in_user() -> str | None:
@@ -303,16 +445,11 @@ def signed_in_user() -> str | None:
     ``user`` cookie, or None. Not ``pn.state.user``: that answers "guest" for any request that carries an
     ``is_guest`` cookie, which a browser writes itself, so a signed-in user became the account ``guest`` (and
     saw its shops' campaigns) by adding ``is_guest=1`` to their cookies. Imports Panel."""
-    from panel.config import config
     from panel.io.state import state
-    from tornado.web import decode_signed_value
 
-    cookie = (state.cookies or {}).get("user")
-    if not cookie or config.cookie_secret is None:
-        return None
-    # the age limit of Panel's own check (get_user): a cookie older than the login's lifetime is no login
-    got = decode_signed_value(config.cookie_secret, "user", cookie, max_age_days=config.oauth_expiry)
-    return None if got is None else got.decode("utf-8")
+    # the age limit of Panel's own check (get_user), and no login ended by a logout (login_of)
+    got = login_of((state.cookies or {}).get("user"))
+    return None if got is None else got[0]
 
 
 _DUMMY = hash_password("not a password", b"millstab-dummy!!")

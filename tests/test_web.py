@@ -647,7 +647,8 @@ def test_login_required_beyond_localhost(browser, tmp_path, caplog, host):
     """Issue 31.4: bound beyond 127.0.0.1/localhost/::1 (127.0.0.2, a loopback address the rule counts as
     non-local; 0.0.0.0, reached by the machine's host name as from another machine) the app asks for a
     login; a wrong password is refused; the right one opens a working page (its websocket accepted); the
-    password appears in no log (fails on the old code: no users, no login)."""
+    password appears in no log (fails on the old code: no users, no login). The login cookie is SameSite=Lax, and a
+    copy of it taken before the logout opens only the login page after it (security review)."""
     import logging
     import socket
 
@@ -675,6 +676,16 @@ def test_login_required_beyond_localhost(browser, tmp_path, caplog, host):
         wait_sld(page, expected_sld())
         T.set_field(page, "structure.x[0].k", "5 N/um")  # a round trip through the websocket
         wait_sld(page, expected_sld(x="5 N/um"))
+        copied = [c for c in page.context.cookies() if c["name"] == "user"]
+        assert copied and copied[0]["sameSite"] == "Lax" and copied[0]["httpOnly"] and not copied[0]["secure"]
+        page.goto(url.rstrip("/") + "/logout")
+        other = browser.new_context()  # the cookie copied before the logout, in another browser: no login
+        other.add_cookies(copied)
+        elsewhere = other.new_page()
+        elsewhere.goto(url)
+        elsewhere.locator("input[name=username]").wait_for()
+        assert "/login" in elsewhere.url and elsewhere.locator(".tool-status").count() == 0
+        other.close()
         page.context.close()
     assert "horse" not in caplog.text
 

@@ -3,6 +3,7 @@ the upload size check, the per-session folder, and that the command line does no
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
 import urllib.request
@@ -1142,8 +1143,9 @@ def _page_token(html: str) -> str:
     return got.group(1)
 
 
-def _ws_opens(url: str, token: str, cookie: str = "") -> bool:
-    """Whether the app's websocket at ``url`` accepts ``token`` (its first message, the ACK, arrives)."""
+def _ws_opens(url: str, token: str, cookie: str = "", origin: str | None = None) -> bool:
+    """Whether the app's websocket at ``url`` accepts ``token`` (its first message, the ACK, arrives) from a page at
+    ``origin`` (default: the app's own URL)."""
     import asyncio
 
     from tornado.httpclient import HTTPRequest
@@ -1151,7 +1153,7 @@ def _ws_opens(url: str, token: str, cookie: str = "") -> bool:
 
     async def go():
         ws_url = url.replace("http://", "ws://").rstrip("/") + "/ws"
-        headers = {"Origin": url.rstrip("/")} | ({"Cookie": cookie} if cookie else {})
+        headers = {"Origin": origin or url.rstrip("/")} | ({"Cookie": cookie} if cookie else {})
         try:
             conn = await websocket_connect(HTTPRequest(ws_url, headers=headers, request_timeout=120),
                                            subprotocols=["bokeh", token])
@@ -1195,6 +1197,35 @@ def test_bokeh_session_ids_and_tokens_are_signed():
         altered = _base64_encode(json.dumps(payload)) + "." + signature
         assert not _ws_opens(url, altered)
         assert _ws_opens(url, token)
+
+
+def test_the_page_opens_under_a_proxys_name_given_with_origin_and_not_under_another():
+    """Behind a reverse proxy the browser's page comes from the proxy's name (https://shop.example.com), and Bokeh
+    refused the page's websocket from any origin but the address served: the page stayed blank, whatever the login
+    (found by the security review; fails on the old code: serve takes no origins). ``--origin`` adds such a name;
+    another site's page is still refused, and '*' (every origin) is refused up front."""
+    pytest.importorskip("panel")
+    import urllib.request
+
+    import millstab.web.testing as T
+    from millstab.errors import InputError
+    from millstab.web import allowed_origins, check_origin
+
+    with T.running_app(origins=["https://Shop.example.com/"]) as url:
+        url = url if url.endswith("/") else url + "/"
+        token = _page_token(urllib.request.urlopen(url, timeout=120).read().decode())
+        assert _ws_opens(url, token, origin="https://shop.example.com")
+        assert not _ws_opens(url, token, origin="https://evil.example.com")
+    for bad in ("*", "*:*", "shop.example.com/app", "two words"):
+        with pytest.raises(InputError, match="--origin"):
+            check_origin(bad)
+    from millstab.cli import main
+
+    assert main(["app", "--origin", "*", "--no-browser", "--port", "0"]) == 2  # refused before serving
+    port = 5006
+    lan = allowed_origins("0.0.0.0", port)  # every interface: this machine's own names are allowed too
+    assert f"{socket.gethostname().lower()}:{port}" in {o.lower() for o in lan} and f"localhost:{port}" in lan
+    assert allowed_origins("127.0.0.1", port) == sorted({f"127.0.0.1:{port}", f"localhost:{port}"})
 
 
 def _set_cookies(response) -> dict[str, str]:

@@ -34,6 +34,11 @@ def app_cmd(
                                       "them."),
     secure_cookies: bool = typer.Option(False, "--secure-cookies", help="Login cookies always Secure (sent over "
                                         "HTTPS only): behind an HTTPS proxy that sends no X-Forwarded-Proto."),
+    origin: list[str] = typer.Option(None, "--origin", metavar="HOST[:PORT]", help="A name the browser reaches the "
+                                     "page under, beside the address served (repeat for several): behind a reverse "
+                                     "proxy its public name (shop.example.com). The page's websocket is refused from "
+                                     "other origins and the page stays blank; with --host 0.0.0.0 this machine's "
+                                     "names and addresses are allowed."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser tab."),
 ) -> None:
     """Serve the stability tools as a web page (tool and cut, lobes, identify, update, downloads); prints the URL."""
@@ -58,10 +63,25 @@ def app_cmd(
                          "install the app extra: pip install 'millstab[app]'") from None
     from millstab.web import serve
 
+    origins = _origins(origin, behind_proxy)  # before the server starts
+
     serve(port=port, host=host, show=not no_browser,
           users={n: h for n, (h, _) in accounts.items()} if accounts else None,
           db=db, shops={n: s for n, (_, s) in accounts.items()} if accounts else None, proxy=behind_proxy,
-          secure_cookies=secure_cookies)
+          secure_cookies=secure_cookies, origins=origins)
+
+
+def _origins(origin: list[str] | None, behind_proxy: bool) -> list[str]:
+    """``--origin``'s values checked (:func:`millstab.web.check_origin`); behind a proxy without one, a warning: the
+    browser reaches the page under the proxy's name, from which the page's websocket would be refused."""
+    from millstab.web import check_origin
+
+    origins = [check_origin(o) for o in origin or ()]
+    if behind_proxy and not origins:
+        typer.echo("millstab app: warning: behind a proxy the browser reaches the page under the proxy's name: give "
+                   "it with --origin NAME (e.g. --origin shop.example.com), or the page's websocket is refused and "
+                   "the page stays blank", err=True)
+    return origins
 
 
 def _add_user(users: Path | None, name: str, password_stdin: bool, shops: list[str] | None) -> None:

@@ -64,9 +64,64 @@ def check_address(host: str, port: int) -> None:
         raise _address_error(exc, host, port) from None
 
 
+#: hosts that bind every interface: the page may then be reached under any of this machine's names and addresses
+WILDCARD_HOSTS = ("0.0.0.0", "::", "")
+
+
+def _this_machine() -> set[str]:
+    """This machine's names and addresses as a browser on the network may reach it (host name, its fully qualified
+    name, the addresses they resolve to, the address of the default route), best effort: none of it is needed."""
+    names = {socket.gethostname(), socket.getfqdn()}
+    for name in list(names):
+        try:
+            names |= {info[4][0] for info in socket.getaddrinfo(name, None)}
+        except OSError:
+            pass
+    try:  # the address other machines reach this one at (a UDP "connection" sends nothing)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("10.255.255.255", 1))
+            names.add(s.getsockname()[0])
+    except OSError:
+        pass
+    return {n for n in names if n}
+
+
+def check_origin(text: str) -> str:
+    """``--origin``'s value as Bokeh's allow-list takes it: ``HOST`` or ``HOST:PORT`` (a scheme such as ``https://``
+    and a trailing ``/`` are dropped; ``*`` wildcards within a name or address as Bokeh allows them, ``192.168.1.*``,
+    not ``*`` alone).
+
+    Raises:
+        InputError: naming ``--origin``, the text and the form allowed.
+    """
+    import re
+
+    t = re.sub(r"^[a-z]+://", "", str(text).strip().lower()).rstrip("/")
+    if t.split(":")[0] == "*":  # any origin: another site's page could open a signed-in user's websocket
+        raise InputError("--origin", text, "a host name or address, not every origin ('*'): name the proxy's or "
+                                           "this machine's name (wildcards within an address: 192.168.1.*)")
+    if not re.fullmatch(r"(\*|[a-z0-9*]([a-z0-9*.-]*[a-z0-9*])?|\[[0-9a-f:]+\])(:(\d{1,5}|\*))?", t):
+        raise InputError("--origin", text, "a host name or address the browser reaches the app under, optionally with "
+                                           "its port: shop.example.com, 192.168.1.20:5006 (no path)")
+    return t
+
+
+def allowed_origins(host: str, port: int, origins=()) -> list[str]:
+    """The origins whose pages may open the app's websocket (Bokeh refuses the others, and the page stays blank):
+    the address served, ``localhost`` and ``127.0.0.1`` at ``port``; for a wildcard host (0.0.0.0, ::) also this
+    machine's names and addresses (:func:`_this_machine`) at ``port``; and ``origins`` as given (``--origin``: a
+    reverse proxy's public name, a name this machine is reached under that it does not know)."""
+    got = {f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"}
+    if host.strip() in WILDCARD_HOSTS:
+        got |= {(f"[{n}]" if ":" in n else n) + f":{port}" for n in _this_machine()}
+    got |= {check_origin(o) for o in origins}
+    return sorted(got)
+
+
 def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True, threaded: bool = False,
           verbose: bool = False, users: dict[str, str] | None = None, db: str | None = None,
-          shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False, secure_cookies: bool = False):
+          shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False, secure_cookies: bool = False,
+          origins=()):
     """Serve the app at ``http://host:port/`` (port 0: a free one). Returns (server or server thread, URL);
     with ``threaded`` the server runs in a thread (``.stop()`` ends it), else this blocks until interrupted
     (the URL is printed once the server holds the port, never before). With ``users`` ({name: hash},
@@ -77,7 +132,8 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
     (the login throttle's, :mod:`millstab.web.auth`) is read from the proxy's X-Forwarded-For / X-Real-Ip header, and
     whether it came over HTTPS from its X-Forwarded-Proto / X-Scheme (the login's cookies are then ``Secure``).
     ``secure_cookies``: the login's cookies are ``Secure`` always (an HTTPS proxy that does not say so; a browser
-    then keeps them over HTTPS only).
+    then keeps them over HTTPS only). ``origins``: more names the browser reaches the page under
+    (:func:`allowed_origins`; behind a proxy its public name).
 
     Raises:
         InputError: a host this machine cannot bind (``--host``), a port in use (``--port``), or a
@@ -107,7 +163,7 @@ def serve(port: int = DEFAULT_PORT, host: str = DEFAULT_HOST, show: bool = True,
 
     port = port or free_port(host)
     url = f"http://{host}:{port}/"
-    origin = sorted({f"{host}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"})
+    origin = allowed_origins(host, port, origins)
     import secrets
 
     # Bokeh's session ids and tokens signed with a fresh key per start: unsigned, a client could name its own session

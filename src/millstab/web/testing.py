@@ -17,15 +17,16 @@ LAUNCH = {"executable_path": str(CHROMIUM), "args": ["--no-sandbox"]}
 @contextmanager
 def running_app(timeout: float = 120.0, host: str = "127.0.0.1", users: dict[str, str] | None = None,
                 db: str | None = None, shops: dict[str, tuple[str, ...]] | None = None, proxy: bool = False,
-                secure_cookies: bool = False):
+                secure_cookies: bool = False, origins=()):
     """Serve the app on ``host`` (127.0.0.1) and a free port in a thread, with a login for ``users``
     ({name: hash}) if given, the shop database ``db`` and the users' ``shops`` (``proxy``: client addresses from
-    X-Forwarded-For, as behind a reverse proxy; ``secure_cookies``: login cookies always Secure); yields the URL;
+    X-Forwarded-For, as behind a reverse proxy; ``secure_cookies``: login cookies always Secure; ``origins``: more
+    names the page may be reached under, ``serve``'s); yields the URL;
     stops the server after."""
     from millstab.web import serve
 
     thread, url = serve(port=0, host=host, threaded=True, show=False, users=users, db=db, shops=shops, proxy=proxy,
-                         secure_cookies=secure_cookies)
+                         secure_cookies=secure_cookies, origins=origins)
     t_end = time.monotonic() + timeout
     while True:
         try:

@@ -218,3 +218,28 @@ def test_sdm_studies_do_not_depend_on_the_chunks():
     one = monte_carlo(CFG.structure, CFG.cutting, rpm, chunk_paths=1, **kw)
     whole = monte_carlo(CFG.structure, CFG.cutting, rpm, chunk_paths=2, **kw)
     assert np.array_equal(one.mse_mm2, whole.mse_mm2)
+
+
+@pytest.mark.parametrize("study, kw, message", [
+    (monte_carlo, dict(n=10_000, t=0.1, eps=0.01), "needs ~0.00192 GB of memory (10,000 paths x 6 parameters, "
+                                                   "kept), this machine has 0.001 GB available; use at most 4,166"),
+    (sobol, dict(n=1024, t=0.1), "needs ~0.0482 GB of memory (8,192 structures x 46 speeds), this machine has "
+                                 "0.001 GB available; use at most 16"),
+    (morris, dict(trajectories=200, t=0.1), "needs ~0.00264 GB of memory (1,400 structures x 46 speeds), this "
+                                            "machine has 0.001 GB available; use at most 60"),
+])
+def test_studies_refuse_more_samples_than_memory_before_sampling(monkeypatch, study, kw, message):
+    """A Sobol design of n = 2^22 at the config's 1 201 speeds sampled for 4.6 min and then failed on a
+    300 GiB allocation (MemoryError); a study now says what it needs and the largest n that fits, first."""
+    from millstab import bounds
+
+    def boom(*a, **k):
+        raise AssertionError("sampled or evaluated")
+
+    monkeypatch.setattr(bounds, "available_memory", lambda: 1e6)
+    for target in ("millstab.sensitivity.globalsa.sobol_sample", "SALib.sample.morris.sample",
+                   "millstab.sensitivity.montecarlo._block"):
+        monkeypatch.setattr(target, boom)
+    with pytest.raises(InputError) as exc:
+        study(CFG.structure, CFG.cutting, RPM, seed=0, theta=THETA, **kw)
+    assert exc.value.field == "n" and message in str(exc.value), str(exc.value)

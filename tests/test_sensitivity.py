@@ -243,3 +243,18 @@ def test_studies_refuse_more_samples_than_memory_before_sampling(monkeypatch, st
     with pytest.raises(InputError) as exc:
         study(CFG.structure, CFG.cutting, RPM, seed=0, theta=THETA, **kw)
     assert exc.value.field == "n" and message in str(exc.value), str(exc.value)
+
+
+def test_every_result_document_carries_its_units():
+    """The Sobol document had no ``units`` (OAT, MC and Morris had theirs) and Morris' named not its bounds'."""
+    from millstab.sensitivity import SobolResult
+
+    rpm = np.array([5000.0, 9000.0])
+    so = sobol(CFG.structure, CFG.cutting, rpm, n=2, seed=0, theta=THETA).to_json()
+    assert so["units"] == {"bounds": "Hz, N/m, -", "mse": "mm^2", "minimum": "mm", "blim": "mm", "indices": "-",
+                           "depth_nominal_mm": "mm"}
+    assert SobolResult.from_json(so).n == 2
+    mo = morris(CFG.structure, CFG.cutting, rpm, trajectories=2, seed=0, theta=THETA).to_json()
+    assert mo["units"] == {"mse": "mm^2", "minimum": "mm", "bounds": "Hz, N/m, -"}
+    mc = monte_carlo(CFG.structure, CFG.cutting, rpm, n=2, seed=0, theta=THETA).to_json()
+    assert mc["units"] == {"mse": "mm^2", "theta": "Hz, N/m, -"}

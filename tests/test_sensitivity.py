@@ -8,6 +8,9 @@ of out-of-range settings before any engine call.
 
 from __future__ import annotations
 
+import sys
+import warnings
+
 import numpy as np
 import pytest
 
@@ -258,3 +261,30 @@ def test_every_result_document_carries_its_units():
     assert mo["units"] == {"mse": "mm^2", "minimum": "mm", "bounds": "Hz, N/m, -"}
     mc = monte_carlo(CFG.structure, CFG.cutting, rpm, n=2, seed=0, theta=THETA).to_json()
     assert mc["units"] == {"mse": "mm^2", "theta": "Hz, N/m, -"}
+
+
+@pytest.mark.parametrize("study, kw, message", [
+    (monte_carlo, dict(n=2, eps=1.0), r"eps = 1 is a relative change of \+100 % \(parameter x 2\); changes are "
+                                      r"fractions \(0.01 is 1 %\): did you mean 0.01 \(1 %\)\?"),
+    (oat, dict(eps=[0.0, 5.0, 20.0]), r"eps = 20 is a relative change of \+2000 % \(parameter x 21\); changes are "
+                                      r"fractions \(0.01 is 1 %\): did you mean 0.2 \(20 %\)\?"),
+])
+def test_a_percentage_given_as_a_fraction_is_warned(monkeypatch, study, kw, message):
+    """``--eps 1`` (the paper's 1 %) or an OAT grid 0:20:5 in % doubled (or ×21) a parameter without a word."""
+    from millstab.errors import UnitWarning
+
+    class Stop(Exception):
+        pass
+
+    def stop(*a, **k):
+        raise Stop
+
+    monkeypatch.setattr(sys.modules["millstab.sensitivity.oat"], "depths", stop)  # the package's oat is the function
+    monkeypatch.setattr(sys.modules["millstab.sensitivity.montecarlo"], "pin", stop)
+    with pytest.warns(UnitWarning, match=message), pytest.raises(Stop):
+        study(CFG.structure, CFG.cutting, RPM, theta=THETA, **kw)
+    with warnings.catch_warnings():  # a fraction is not warned about
+        warnings.simplefilter("error", UnitWarning)
+        with pytest.raises(Stop):
+            study(CFG.structure, CFG.cutting, RPM, theta=THETA, **{**kw, "eps": 0.01 if study is monte_carlo else
+                                                                      [-0.25, 0.25]})

@@ -6,12 +6,13 @@ in m; every MSE here is in **mm²** (depths converted to mm before squaring), as
 
 from __future__ import annotations
 
+import warnings
 from typing import Sequence
 
 import numpy as np
 
 from millstab import bounds as _bounds
-from millstab.errors import InputError
+from millstab.errors import InputError, UnitWarning
 from millstab.progress import CountProgress
 from millstab.forward import Pinned, forward
 from millstab.model import Cutting, Structure
@@ -99,6 +100,18 @@ def check_neighbourhood(par: Parameterization, theta: np.ndarray, t: float, eps:
                 field, value = ("t", t) if not (lo < f_t * theta[j] < hi) else ("eps", float(e_end))
                 raise InputError(field, value, f"{name} would reach {v:.6g} (= {theta[j]:.6g} x {f:.6g}, "
                                  f"the corner (1 +/- t)(1 + eps)); {allowed}")
+
+
+def warn_percent(field: str, eps: Sequence[float] | float) -> None:
+    """Warn (:class:`~millstab.errors.UnitWarning`) when a relative change is ±100 % or more: allowed (a factor
+    1 + ε > 0), but almost surely a percentage typed as a fraction (``--eps 1`` meant as the paper's 1 %, a grid
+    ``0:20:5`` meant in %), which scales a parameter by 2 (or 21) without a word."""
+    e = np.atleast_1d(np.asarray(eps, dtype=float))
+    big = e[np.abs(e) >= 1]
+    if big.size:
+        v = float(big[np.argmax(np.abs(big))])
+        warnings.warn(f"{field} = {v:g} is a relative change of {v * 100:+g} % (parameter x {1 + v:g}); changes are "
+                      f"fractions (0.01 is 1 %): did you mean {v / 100:g} ({v:g} %)?", UnitWarning, stacklevel=3)
 
 
 def bounds_from(par: Parameterization, theta: np.ndarray, t: float,

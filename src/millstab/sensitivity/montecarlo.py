@@ -26,7 +26,7 @@ from millstab.params import Parameterization
 from millstab.forward import Pinned, forward
 from millstab.progress import CountProgress
 from millstab.sensitivity._core import (as_parameterization, centre, check_memory, check_neighbourhood,
-                                        check_scalar, engine_module, mse_mm2, pin, rows_per_call)
+                                        check_scalar, engine_module, mse_mm2, pin, rows_per_call, warn_percent)
 from millstab.sensitivity.results import MCResult
 from millstab.stability import check_rpm
 
@@ -73,6 +73,7 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
         raise InputError("eps", eps, "a relative change of 0 changes nothing: give one such as 0.01 (1 %) or -0.01")
     seed = check_seed(seed)
     check_neighbourhood(par, th, t, eps)
+    warn_percent("eps", eps)
     r = check_rpm(rpm)
     eng = engine_module(engine)
     n_p = par.size

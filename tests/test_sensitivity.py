@@ -288,3 +288,12 @@ def test_a_percentage_given_as_a_fraction_is_warned(monkeypatch, study, kw, mess
         with pytest.raises(Stop):
             study(CFG.structure, CFG.cutting, RPM, theta=THETA, **{**kw, "eps": 0.01 if study is monte_carlo else
                                                                       [-0.25, 0.25]})
+
+
+def test_a_misspelt_bound_name_is_blamed_on_bounds(monkeypatch):
+    """``--bound fnx=800:900`` said "parameter = 'fnx' is invalid" without naming the bounds that held it."""
+    monkeypatch.setattr("millstab.sensitivity.globalsa.sobol_sample", lambda *a, **k: 1 / 0)
+    with pytest.raises(InputError) as exc:
+        sobol(CFG.structure, CFG.cutting, RPM, n=2, bounds={"fnx": (800.0, 900.0)}, theta=THETA)
+    assert exc.value.field == "bounds" and exc.value.value == "fnx"
+    assert str(exc.value) == "bounds = 'fnx' is invalid: unknown name; available: fn_x, k_x, zeta_x, fn_y, k_y, zeta_y"

@@ -124,7 +124,10 @@ def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
     check_neighbourhood(par, theta, t, 0.0)
     out = np.column_stack([(1 - t) * theta, (1 + t) * theta])
     for name, lohi in (bounds or {}).items():
-        c = par.canonical(name)
+        try:
+            c = par.canonical(name)
+        except InputError as exc:  # say which input held the name (the parameterization calls it "parameter")
+            raise InputError("bounds", name, exc.allowed) from None
         if c not in par.free:
             raise InputError("bounds", name, f"not a free parameter; free: {', '.join(par.free)}")
         try:

@@ -63,7 +63,7 @@ def test_tables_put_the_paper_beside_ours(report_dir):
     out, _ = report_dir
     rows = list(csv.DictReader((out / "table6_monte_carlo.csv").open()))
     assert {r["parameter"] for r in rows} == {"fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"}
-    assert all(float(r["paper mean"]) > 0 and float(r["ours mean"]) > 0 for r in rows)
+    assert all(float(r["paper mean [mm²]"]) > 0 and float(r["ours mean [mm²]"]) > 0 for r in rows)
     t3 = list(csv.DictReader((out / "table3_identification.csv").open()))
     assert {"paper predicted", "ours: newton", "ours: lsq"} <= set(t3[0])
 
@@ -86,8 +86,8 @@ def test_fn_k_ratio_rows_are_comparisons_with_the_ratio_shown(report_dir):
     rows = list(csv.DictReader((out / "table6_monte_carlo.csv").open()))
     for speed_set in ("A", "B"):
         m = {r["parameter"]: r for r in rows if r["speed set"] == speed_set}
-        ours = float(m["fn_x"]["ours mean"]) / float(m["k_x"]["ours mean"])
-        paper = float(m["fn_x"]["paper mean"]) / float(m["k_x"]["paper mean"])
+        ours = float(m["fn_x"]["ours mean [mm²]"]) / float(m["k_x"]["ours mean [mm²]"])
+        paper = float(m["fn_x"]["paper mean [mm²]"]) / float(m["k_x"]["paper mean [mm²]"])
         (line,) = [ln for ln in md if ln.startswith(f"| Table 6 ({speed_set}): mean fn_x / mean k_x")]
         assert line.endswith("| compared |"), line
         assert f"ours/paper = {ours / paper:.2f}" in line, line

@@ -120,8 +120,13 @@ def test_render_sensitivity_without_computing(tmp_path, monkeypatch):
                         [(sensitivity, "oat"), (sensitivity, "monte_carlo")])
     assert {p.name for p in rep.files} == {"fig_sens_ex1.png", "fig_sens_mse_at_plus20.csv",
                                            "table6_monte_carlo.csv", "fig_mc_convergence.png"}
-    t6 = (tmp_path / "table6_monte_carlo.csv").read_text().splitlines()
+    t6 = (tmp_path / "table6_monte_carlo.csv").read_text(encoding="utf-8").splitlines()
     assert len(t6) == 13 and t6[1].startswith("A,fn_x,5.0,2.0") and t6[7].startswith("B,fn_x,")
+    # the CSVs name their unit, as the report's other tables do (they said "paper mean", "fn_x": no unit)
+    assert t6[0] == ("speed set,parameter,paper mean [mm²],ours mean [mm²],paper SD [mm²],ours SD [mm²],"
+                     "ours SEM [mm²]")
+    sens = (tmp_path / "fig_sens_mse_at_plus20.csv").read_text(encoding="utf-8").splitlines()
+    assert sens[0] == "example,fn_x [mm²],k_x [mm²],zeta_x [mm²],fn_y [mm²],k_y [mm²],zeta_y [mm²]"
     assert "N = 4 paths" in (tmp_path / "report.md").read_text()
 
 

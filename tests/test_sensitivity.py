@@ -8,6 +8,9 @@ of out-of-range settings before any engine call.
 
 from __future__ import annotations
 
+import sys
+import warnings
+
 import numpy as np
 import pytest
 
@@ -218,3 +221,79 @@ def test_sdm_studies_do_not_depend_on_the_chunks():
     one = monte_carlo(CFG.structure, CFG.cutting, rpm, chunk_paths=1, **kw)
     whole = monte_carlo(CFG.structure, CFG.cutting, rpm, chunk_paths=2, **kw)
     assert np.array_equal(one.mse_mm2, whole.mse_mm2)
+
+
+@pytest.mark.parametrize("study, kw, message", [
+    (monte_carlo, dict(n=10_000, t=0.1, eps=0.01), "needs ~0.00192 GB of memory (10,000 paths x 6 parameters, "
+                                                   "kept), this machine has 0.001 GB available; use at most 4,166"),
+    (sobol, dict(n=1024, t=0.1), "needs ~0.0482 GB of memory (8,192 structures x 46 speeds), this machine has "
+                                 "0.001 GB available; use at most 16"),
+    (morris, dict(trajectories=200, t=0.1), "needs ~0.00264 GB of memory (1,400 structures x 46 speeds), this "
+                                            "machine has 0.001 GB available; use at most 60"),
+])
+def test_studies_refuse_more_samples_than_memory_before_sampling(monkeypatch, study, kw, message):
+    """A Sobol design of n = 2^22 at the config's 1 201 speeds sampled for 4.6 min and then failed on a
+    300 GiB allocation (MemoryError); a study now says what it needs and the largest n that fits, first."""
+    from millstab import bounds
+
+    def boom(*a, **k):
+        raise AssertionError("sampled or evaluated")
+
+    monkeypatch.setattr(bounds, "available_memory", lambda: 1e6)
+    for target in ("millstab.sensitivity.globalsa.sobol_sample", "SALib.sample.morris.sample",
+                   "millstab.sensitivity.montecarlo._block"):
+        monkeypatch.setattr(target, boom)
+    with pytest.raises(InputError) as exc:
+        study(CFG.structure, CFG.cutting, RPM, seed=0, theta=THETA, **kw)
+    assert exc.value.field == "n" and message in str(exc.value), str(exc.value)
+
+
+def test_every_result_document_carries_its_units():
+    """The Sobol document had no ``units`` (OAT, MC and Morris had theirs) and Morris' named not its bounds'."""
+    from millstab.sensitivity import SobolResult
+
+    rpm = np.array([5000.0, 9000.0])
+    so = sobol(CFG.structure, CFG.cutting, rpm, n=2, seed=0, theta=THETA).to_json()
+    assert so["units"] == {"bounds": "Hz, N/m, -", "mse": "mm^2", "minimum": "mm", "blim": "mm", "indices": "-",
+                           "depth_nominal_mm": "mm"}
+    assert SobolResult.from_json(so).n == 2
+    mo = morris(CFG.structure, CFG.cutting, rpm, trajectories=2, seed=0, theta=THETA).to_json()
+    assert mo["units"] == {"mse": "mm^2", "minimum": "mm", "bounds": "Hz, N/m, -"}
+    mc = monte_carlo(CFG.structure, CFG.cutting, rpm, n=2, seed=0, theta=THETA).to_json()
+    assert mc["units"] == {"mse": "mm^2", "theta": "Hz, N/m, -"}
+
+
+@pytest.mark.parametrize("study, kw, message", [
+    (monte_carlo, dict(n=2, eps=1.0), r"eps = 1 is a relative change of \+100 % \(parameter x 2\); changes are "
+                                      r"fractions \(0.01 is 1 %\): did you mean 0.01 \(1 %\)\?"),
+    (oat, dict(eps=[0.0, 5.0, 20.0]), r"eps = 20 is a relative change of \+2000 % \(parameter x 21\); changes are "
+                                      r"fractions \(0.01 is 1 %\): did you mean 0.2 \(20 %\)\?"),
+])
+def test_a_percentage_given_as_a_fraction_is_warned(monkeypatch, study, kw, message):
+    """``--eps 1`` (the paper's 1 %) or an OAT grid 0:20:5 in % doubled (or ×21) a parameter without a word."""
+    from millstab.errors import UnitWarning
+
+    class Stop(Exception):
+        pass
+
+    def stop(*a, **k):
+        raise Stop
+
+    monkeypatch.setattr(sys.modules["millstab.sensitivity.oat"], "depths", stop)  # the package's oat is the function
+    monkeypatch.setattr(sys.modules["millstab.sensitivity.montecarlo"], "pin", stop)
+    with pytest.warns(UnitWarning, match=message), pytest.raises(Stop):
+        study(CFG.structure, CFG.cutting, RPM, theta=THETA, **kw)
+    with warnings.catch_warnings():  # a fraction is not warned about
+        warnings.simplefilter("error", UnitWarning)
+        with pytest.raises(Stop):
+            study(CFG.structure, CFG.cutting, RPM, theta=THETA, **{**kw, "eps": 0.01 if study is monte_carlo else
+                                                                      [-0.25, 0.25]})
+
+
+def test_a_misspelt_bound_name_is_blamed_on_bounds(monkeypatch):
+    """``--bound fnx=800:900`` said "parameter = 'fnx' is invalid" without naming the bounds that held it."""
+    monkeypatch.setattr("millstab.sensitivity.globalsa.sobol_sample", lambda *a, **k: 1 / 0)
+    with pytest.raises(InputError) as exc:
+        sobol(CFG.structure, CFG.cutting, RPM, n=2, bounds={"fnx": (800.0, 900.0)}, theta=THETA)
+    assert exc.value.field == "bounds" and exc.value.value == "fnx"
+    assert str(exc.value) == "bounds = 'fnx' is invalid: unknown name; available: fn_x, k_x, zeta_x, fn_y, k_y, zeta_y"

@@ -664,7 +664,8 @@ def render_sensitivity(rep: ReportWriter, r: Sensitivity) -> None:
                    f"Fig. SENS for {ex}: one-at-a-time sensitivity, MSE [mm²] against ε; natural-frequency panels on "
                    "their own scale")
         oat_rows.append([ex] + list(_at_plus20(res)))
-    rep.table("fig_sens_mse_at_plus20", ["example", "fn_x", "k_x", "zeta_x", "fn_y", "k_y", "zeta_y"], oat_rows,
+    rep.table("fig_sens_mse_at_plus20", ["example"] + [f"{n} [mm²]" for n in ("fn_x", "k_x", "zeta_x", "fn_y", "k_y",
+                                                                           "zeta_y")], oat_rows,
               "Fig. SENS in numbers: MSE [mm²] at ε = +20 %")
     mc = next(iter(r.mc.values()))
     n, paper = mc.n, r.paper
@@ -677,7 +678,8 @@ def render_sensitivity(rep: ReportWriter, r: Sensitivity) -> None:
     rows = [[label[0], name, paper[name]["mean"], m.mean[j], paper[name]["sd"], m.sd[j], m.sem[j]]
             for label, m in r.mc.items() for j, name in enumerate(m.names)]
     rep.table("table6_monte_carlo",
-              ["speed set", "parameter", "paper mean", "ours mean", "paper SD", "ours SD", "ours SEM"],
+              ["speed set", "parameter", "paper mean [mm²]", "ours mean [mm²]", "paper SD [mm²]", "ours SD [mm²]",
+               "ours SEM [mm²]"],
               rows, f"Table 6: Monte Carlo sensitivity [mm²], N = {n}, speed sets A and B")
     rep.figure("fig_mc_convergence", plot_mc_convergence(mc, paper=paper),
                f"Monte Carlo convergence (speed set A; N = {mc.n}, t = {mc.t:g}, ε = {mc.eps:g}, seed {mc.seed}): "

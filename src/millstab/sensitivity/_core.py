@@ -6,11 +6,13 @@ in m; every MSE here is in **mm²** (depths converted to mm before squaring), as
 
 from __future__ import annotations
 
+import warnings
 from typing import Sequence
 
 import numpy as np
 
-from millstab.errors import InputError
+from millstab import bounds as _bounds
+from millstab.errors import InputError, UnitWarning
 from millstab.progress import CountProgress
 from millstab.forward import Pinned, forward
 from millstab.model import Cutting, Structure
@@ -100,6 +102,18 @@ def check_neighbourhood(par: Parameterization, theta: np.ndarray, t: float, eps:
                                  f"the corner (1 +/- t)(1 + eps)); {allowed}")
 
 
+def warn_percent(field: str, eps: Sequence[float] | float) -> None:
+    """Warn (:class:`~millstab.errors.UnitWarning`) when a relative change is ±100 % or more: allowed (a factor
+    1 + ε > 0), but almost surely a percentage typed as a fraction (``--eps 1`` meant as the paper's 1 %, a grid
+    ``0:20:5`` meant in %), which scales a parameter by 2 (or 21) without a word."""
+    e = np.atleast_1d(np.asarray(eps, dtype=float))
+    big = e[np.abs(e) >= 1]
+    if big.size:
+        v = float(big[np.argmax(np.abs(big))])
+        warnings.warn(f"{field} = {v:g} is a relative change of {v * 100:+g} % (parameter x {1 + v:g}); changes are "
+                      f"fractions (0.01 is 1 %): did you mean {v / 100:g} ({v:g} %)?", UnitWarning, stacklevel=3)
+
+
 def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
                 bounds: dict[str, tuple[float, float]] | None = None) -> np.ndarray:
     """Input ranges (P, 2) [SI] for global methods: [(1 − t)p, (1 + t)p], or user bounds by name.
@@ -110,7 +124,10 @@ def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
     check_neighbourhood(par, theta, t, 0.0)
     out = np.column_stack([(1 - t) * theta, (1 + t) * theta])
     for name, lohi in (bounds or {}).items():
-        c = par.canonical(name)
+        try:
+            c = par.canonical(name)
+        except InputError as exc:  # say which input held the name (the parameterization calls it "parameter")
+            raise InputError("bounds", name, exc.allowed) from None
         if c not in par.free:
             raise InputError("bounds", name, f"not a free parameter; free: {', '.join(par.free)}")
         try:
@@ -125,6 +142,22 @@ def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
         raise InputError("t", t, f"{par.free[j]} has an empty range; need t > 0 or bounds for it")
     _check_values(par, out.T.copy(), "bounds")
     return out
+
+
+def check_memory(field: str, value: int, nbytes: float, what: str, largest: int) -> None:
+    """Refuse, before any work, a study whose arrays would not fit in the memory this machine has available.
+
+    ``nbytes`` [bytes] is what the study keeps at once (``what`` says which arrays), ``largest`` the largest
+    ``value`` that would fit; a run that would only fail on its allocation after minutes of sampling (or
+    swap the machine) fails here with the field, the need and the limit instead.
+
+    Raises:
+        InputError: naming ``field`` and ``value``, the memory needed and available, and ``largest``.
+    """
+    avail = _bounds.available_memory()
+    if avail is not None and nbytes > 0.8 * avail:
+        raise InputError(field, value, f"needs ~{_bounds._gb(nbytes)} of memory ({what}), this machine has "
+                                       f"{_bounds._gb(avail)} available; use at most {largest:,}")
 
 
 def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.sensitivity._core import (DEFAULT_EPS_GRID, as_parameterization, centre, check_neighbourhood, depths,
-                                        engine_module, mse_mm2)
+                                        engine_module, mse_mm2, warn_percent)
 from millstab.sensitivity.results import OATResult
 from millstab.stability import check_rpm
 
@@ -42,6 +42,7 @@ def oat(model: Structure | Parameterization, cutting: Cutting, rpm, eps: Sequenc
     if e.size == 0:
         raise InputError("eps", list(e), "need at least one perturbation")
     check_neighbourhood(par, th, 0.0, e)
+    warn_percent("eps", e)
     r = check_rpm(rpm)
     n_p, n_e = par.size, e.size
     # row 0 the original; then parameter-major rows: p_j scaled by (1 + eps_k)

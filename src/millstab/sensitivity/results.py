@@ -323,7 +323,10 @@ class SobolResult:
         def per_name(d):
             return {key: {n: v[..., j] for j, n in enumerate(self.names)} for key, v in d.items()}
 
-        return {"method": "sobol", "engine": self.engine, "n": self.n, "evaluations": self.n * (len(self.names) + 2),
+        units = {"bounds": "Hz, N/m, -", "mse": "mm^2", "minimum": "mm", "blim": "mm", "indices": "-",
+                 "depth_nominal_mm": "mm"}
+        return {"method": "sobol", "engine": self.engine, "units": units, "n": self.n,
+                "evaluations": self.n * (len(self.names) + 2),
                 "seed": self.seed, "conf_level": self.conf_level, "parameters": list(self.names),
                 "bounds": {n: self.bounds[j] for j, n in enumerate(self.names)}, "speeds": _speeds(self.rpm),
                 "depth_nominal_mm": self.depth_nominal_mm, "mse": per_name(self.mse), "minimum": per_name(self.minimum),
@@ -405,7 +408,7 @@ class MorrisResult:
         return {"method": "morris", "engine": self.engine, "trajectories": self.trajectories, "levels": self.levels,
                 "evaluations": self.trajectories * (len(self.names) + 1), "seed": self.seed,
                 "parameters": list(self.names), "bounds": {n: self.bounds[j] for j, n in enumerate(self.names)},
-                "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm"},
+                "speeds": _speeds(self.rpm), "units": {"mse": "mm^2", "minimum": "mm", "bounds": "Hz, N/m, -"},
                 "outputs": {o: {key: {n: v[j] for j, n in enumerate(self.names)} for key, v in d.items()}
                             for o, d in self.outputs.items()}}
 

@@ -40,6 +40,9 @@ IMPLAUSIBLE_KT = 2e10
 #: Above this Kr = Kn/Kt [-] the radial coefficient is no ratio: measured Kr lie between ~0.1 and ~1.5; a value
 #: like 300 is the radial coefficient Kn itself (in MPa), and 40 a percentage.
 IMPLAUSIBLE_KR = 5.0
+#: Above this tool diameter [m] a value is mm written as m: the largest face mills measure ~1 m (a config refuses
+#: a bigger one, the model warns)
+LARGEST_DIAMETER = 2.0
 
 
 def _finite(field_name: str, value: object) -> float:
@@ -328,7 +331,7 @@ class Cutting:
             d = _finite("cutting.diameter", self.diameter)
             if d <= 0:
                 raise InputError("cutting.diameter", self.diameter, "tool diameter must be > 0 m")
-            if d > 2.0:
+            if d > LARGEST_DIAMETER:
                 warn(f"cutting.diameter = {d:g} m is very large for a milling tool; did you mean {d:g} mm? "
                      f"Give units explicitly, e.g. \"{d:g} mm\".", UnitWarning, stacklevel=3)
             object.__setattr__(self, "diameter", d)

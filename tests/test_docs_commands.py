@@ -84,3 +84,18 @@ def test_documented_updates_and_maps_say_where_they_write():
             "millstab map post.json --rpm 3000:15000:40 --plot m.png\n"
             "`millstab update --engine spectral` and `millstab update ... --start`\n")
     assert unwritten(text) == ["doc:1: millstab update"]
+
+
+def test_the_quoted_engine_option_error_is_the_commands(tmp_path, capsys):
+    """docs/updating.md quotes the error of a wrong --engine-option value word for word (it said ">= 1" after the
+    bound became 1..2,000)."""
+    from millstab.cli import main
+
+    text = " ".join((ROOT / "docs" / "updating.md").read_text(encoding="utf-8").split())
+    quoted = re.search(r"`(millstab: error: --engine-option steps = 0 [^`]*)`", text).group(1)
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm,label\n9000,1.0,stable\n9000,4.0,chatter\n", encoding="utf-8")
+    argv = ["update", "example:ex1", str(cuts), "--engine", "sdm", "--engine-option", "steps=0", "--out",
+            str(tmp_path / "post.json")]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == quoted

@@ -233,7 +233,7 @@ def test_map_and_predict_take_a_radial_width_as_recommend_does(tmp_path, capsys)
 
 
 def test_an_immersion_written_as_a_percentage_is_named_so():
-    """--radial-immersion 25 (a/D in percent) is refused with the fraction it likely meant; 1.5 just with the range."""
+    """--radial-immersion 25 (a/D in percent) is refused with the fraction it likely meant; 150 just with the range."""
     from millstab.api.update import target_condition
 
     base = parse_config(TWO_MODE_TOML).cutting
@@ -242,5 +242,5 @@ def test_an_immersion_written_as_a_percentage_is_named_so():
     assert str(e.value) == ("--radial-immersion = 25 is invalid: the radial immersion a/D, in (0, 1] (1 = slot); "
                             "a percentage? 25 % is 0.25")
     with pytest.raises(InputError) as e:
-        target_condition(base, radial_immersion=1.5, milling="down")
+        target_condition(base, radial_immersion=150.0, milling="down")
     assert str(e.value).endswith("in (0, 1] (1 = slot)")

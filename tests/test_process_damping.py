@@ -174,8 +174,8 @@ def test_a_face_mill_diameter_is_taken_and_mm_written_as_m_is_refused_once(recwa
     recwarn.clear()
     with pytest.raises(InputError) as exc:
         parse_config(_CONFIG.replace('diameter = "16 mm"', "diameter = 16"))
-    assert str(exc.value) == ('cutting.diameter = 16 is invalid: is 16 m, more than 2 m for a tool\'s diameter; a plain '
-                              'number means metres: did you mean "16 mm"?')
+    assert str(exc.value) == ("cutting.diameter = 16 is invalid: is 16 m, more than 2 m for a tool's diameter; a "
+                              'plain number means metres: did you mean "16 mm"?')
     assert not [w for w in recwarn if "diameter" in str(w.message)]
 
 

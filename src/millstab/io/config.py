@@ -581,7 +581,9 @@ def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | No
         plain = isinstance(value, (int, float))
         lead = re.match(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)", str(value))
         in_metres = plain or (lead is not None and math.isclose(float(lead.group(1)), x, rel_tol=1e-9))
-        hint = (("; a plain number means metres:" if plain else ";") + f" did you mean \"{x:g} mm\"?") if in_metres else ""
+        hint = ""
+        if in_metres:
+            hint = ("; a plain number means metres:" if plain else ";") + f" did you mean \"{x:g} mm\"?"
         raise InputError(f"{field}.{key}", value, f"is {x:g} m, more than {top:g} m for a tool's {key}{hint}")
     return x
 

@@ -99,3 +99,48 @@ def test_the_quoted_engine_option_error_is_the_commands(tmp_path, capsys):
             str(tmp_path / "post.json")]
     assert main(argv) == 2
     assert capsys.readouterr().err.strip() == quoted
+
+
+def unresolved_names(text: str) -> list[str]:
+    """The dotted Python names of ``text`` (`millstab.update.sampler`, `api.update`, `Posterior.engine_options` is
+    not one: only names from millstab or api) that neither import nor resolve as attributes. Schema names
+    (`millstab.posterior/3`) and file names (`millstab.yaml`) are not Python names; a module needing an optional
+    package that is not installed is not checked."""
+    import importlib
+
+    bad = []
+    for m in re.finditer(r"(?<![\w./-])((?:millstab|api)(?:\.\w+)+)(?![\w/]|\.\w)", text):
+        dotted = m.group(1)
+        parts = ("millstab." + dotted if dotted.startswith("api.") else dotted).split(".")
+        if parts[-1] in {"yaml", "toml", "json", "csv"}:
+            continue
+        obj, i = None, len(parts)
+        while i and obj is None:
+            try:
+                obj = importlib.import_module(".".join(parts[:i]))
+            except ModuleNotFoundError as e:
+                if e.name and not e.name.startswith("millstab"):
+                    obj = ...  # an optional dependency is missing here: not checked
+                    break
+                i -= 1
+        if obj is ...:
+            continue
+        for a in parts[i:]:
+            if not hasattr(obj, a):
+                try:
+                    obj = importlib.import_module(f"{obj.__name__}.{a}")
+                    continue
+                except (ModuleNotFoundError, AttributeError):
+                    bad.append(dotted)
+                    break
+            obj = getattr(obj, a)
+    return bad
+
+
+def test_documented_python_names_exist():
+    """`millstab.x.y` and `api.f` in the README and docs name modules, functions and constants that exist (a rename
+    leaves no stale name behind); the check finds a missing one."""
+    stale = [f"{f.name}: {n}" for f in DOCS for n in unresolved_names(f.read_text(encoding="utf-8"))]
+    assert not stale, "names the docs use that the code has not:\n" + "\n".join(stale)
+    text = "`millstab.update.sampler.ACCEPT_TARGET`, `api.update`, `millstab.posterior/3`, `api.no_such_function`"
+    assert unresolved_names(text) == ["api.no_such_function"]

@@ -79,7 +79,7 @@ import numpy as np
 from millstab.bounds import MAX_MODE_HZ, MAX_MODES
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
-from millstab.io.text import read_text
+from millstab.io.text import looks_like, read_text
 from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types (Config: import it from there)
 from millstab.model import LARGEST_DIAMETER, Cutting, Mode, Structure
 from millstab.points import milling_word
@@ -459,7 +459,9 @@ def _toml(text: str, source: str) -> dict:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:  # the message carries "(at line L, column C)"
-        raise InputError(source, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
+        kind = looks_like(text)
+        seems = f"; the file looks like {kind}, not a TOML config: is it in the config's place?" if kind else ""
+        raise InputError(source, "TOML syntax error", f"{exc}{_comma_hint(text)}{seems}") from None
     except RecursionError:
         raise InputError(source, "arrays or inline tables nested too deeply to read",
                          "a config nests a few levels ([structure] → x → its modes); this text nests arrays or "

@@ -53,7 +53,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
-from millstab.io.text import COMMA_ADVICE, check_comma_separated, csv_rows, parse_number, read_text
+from millstab.io.text import COMMA_ADVICE, check_comma_separated, csv_rows, looks_like, parse_number, read_text
 # the model type lives below io (import it from millstab.points, its one home)
 from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_conditions, check_enough,
                               grade_of_cell, label_of_grade, parse_label_codes)
@@ -175,6 +175,10 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     if not rows:
         raise InputError("points file", str(p), f"is empty; expected a header {','.join(REQUIRED + OPTIONAL)} and rows")
     header_line, header = rows[0]
+    kind = looks_like(text)
+    if kind is not None and not kind.startswith("a points"):  # a config or JSON in the cuts' place: say so
+        raise InputError(f"{p.name}", kind, f"not a points or cuts CSV (header {','.join(REQUIRED)},...): is the file "
+                                            "in the CSV's place? (the config or posterior comes first)")
     names = [h.strip().lower() for h in header]
     check_comma_separated(names, f"{p.name} line {header_line}", ",".join(header), ",".join(REQUIRED + OPTIONAL))
     if len(set(names)) != len(names):

@@ -206,7 +206,8 @@ def test_a_cut_with_its_own_teeth_is_heard_with_them(tmp_path):
     csv.write_text("rpm,depth_mm,label,recording\n9000,1,,c.wav\n")
     with pytest.raises(InputError) as e:
         api.label_from_recordings(csv, teeth=2)
-    assert e.value.field == "cuts.csv:2 recording c.wav: teeth (the config's [cutting] teeth, or the row's teeth column)"
+    assert e.value.field == ("cuts.csv:2 recording c.wav: teeth (the config's [cutting] teeth, or the row's teeth "
+                             "column)")
     assert str(e.value).endswith("no chatter: a cut with a 3-tooth cutter? give it a teeth column")
 
 

@@ -276,3 +276,28 @@ def test_ctrl_c_exits_130_without_a_traceback(monkeypatch, capsys):
     monkeypatch.setattr(zoa, "envelope", interrupted)
     assert main(["lobes", "example:ex1", *SPEEDS]) == 130
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_files_in_each_others_place_are_named(tmp_path, capsys):
+    """Arguments swapped (CUTS for CONFIG, a config for the posterior, a posterior for the cuts) say what the file
+    looks like; it was "TOML syntax error: Expected '=' after a key ..." or "not valid JSON: Expecting value"."""
+    cuts = tmp_path / "cuts.csv"
+    cuts.write_text("rpm,depth_mm,label\n9000,1.0,stable\n9000,4.0,chatter\n", encoding="utf-8")
+    config = tmp_path / "tool.toml"
+    config.write_text('[cutting]\nteeth = 2\nkt = "600 MPa"\nkr = 0.3\nradial_immersion = 1\n', encoding="utf-8")
+    post = tmp_path / "post.json"
+    post.write_text('{"schema": "millstab.posterior/3"}\n', encoding="utf-8")
+    runs = [(["update", str(cuts), str(config), "--out", str(tmp_path / "p.json")],
+             "cuts.csv = 'TOML syntax error' is invalid: Expected '=' after a key in a key/value pair (at line 1, "
+             "column 4); the file looks like a points or cuts CSV (header 'rpm,depth_mm,label'), not a TOML config: "
+             "is it in the config's place?"),
+            (["recommend", str(config), "--risk", "0.05", "--rpm", "3000:15000"],
+             "tool.toml = 'line 1, column 2' is invalid: not valid JSON: Expecting value; the file looks like a TOML "
+             "config ([cutting] table), not JSON: is it in the JSON file's place?"),
+            (["update", "example:ex1", str(post), "--out", str(tmp_path / "p.json")],
+             "post.json = 'JSON (a posterior, fit or result file)' is invalid: not a points or cuts CSV (header "
+             "rpm,depth_mm,...): is the file in the CSV's place? (the config or posterior comes first)")]
+    for argv, said in runs:
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("millstab: error: ") and err.endswith(said), err  # the file named with or without folder

@@ -230,3 +230,17 @@ def test_map_and_predict_take_a_radial_width_as_recommend_does(tmp_path, capsys)
     assert main(["map", post, "--rpm", "5000:9000:500", "--depth", "0:4:1", "--radial-width", "14",
                  "--out", str(tmp_path / "bad.csv")]) == 2
     assert "--radial-width = 14" in capsys.readouterr().err and not (tmp_path / "bad.csv").exists()
+
+
+def test_an_immersion_written_as_a_percentage_is_named_so():
+    """--radial-immersion 25 (a/D in percent) is refused with the fraction it likely meant; 150 just with the range."""
+    from millstab.api.update import target_condition
+
+    base = parse_config(TWO_MODE_TOML).cutting
+    with pytest.raises(InputError) as e:
+        target_condition(base, radial_immersion=25.0, milling="down")
+    assert str(e.value) == ("--radial-immersion = 25 is invalid: the radial immersion a/D, in (0, 1] (1 = slot); "
+                            "a percentage? 25 % is 0.25")
+    with pytest.raises(InputError) as e:
+        target_condition(base, radial_immersion=150.0, milling="down")
+    assert str(e.value).endswith("in (0, 1] (1 = slot)")

@@ -228,6 +228,22 @@ def test_a_time_averaged_decision_where_less_than_one_tooth_cuts_is_warned():
         warn_time_averaged(replace(tgt, engine="spectral"))
     assert not [x for x in w if "averages the cutting force" in str(x.message)]
 
+def test_a_slot_written_in_radians_is_not_an_interrupted_cut():
+    """A 2-tooth slot whose exit was written 3.14159 rad (0.9999992 teeth in the cut) was warned "no tooth cuts for
+    0% of every tooth period (1.00 teeth ...)" by lobes; identify said the same of a 3-tooth cut engaged 119.99 deg.
+    a/D 0.99 with 2 teeth (0.94 teeth) still is interrupted."""
+    from millstab.identify.quality import zoa_model_poor
+    from millstab.stability import time_averaged_note
+
+    nearly = Cutting(2, SLOT.kt, SLOT.kr, 0.0, 3.14159)
+    assert 0.999 < nearly.teeth_in_cut < 1 and time_averaged_note("zoa", nearly, "here") is None
+    three = Cutting(3, SLOT.kt, SLOT.kr, math.radians(60.01), math.pi)
+    assert 0.999 < three.teeth_in_cut < 1 and zoa_model_poor(three) is None
+    ninety_nine = Cutting.from_immersion(2, SLOT.kt, SLOT.kr, 0.99, "down")
+    assert ninety_nine.teeth_in_cut == pytest.approx(2 * (math.pi - math.acos(0.98)) / (2 * math.pi))
+    assert "no tooth cuts for 6% of every tooth period (0.94 teeth" in time_averaged_note("zoa", ninety_nine, "here")
+
+
 def test_predict_takes_each_rows_condition_and_says_which():
     from millstab.api.predict import predict
 

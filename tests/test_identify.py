@@ -14,7 +14,7 @@ import pytest
 
 from millstab.cli import main
 from millstab.datasets import paper_values
-from millstab.errors import InputError
+from millstab.errors import InputError, UnitWarning
 from millstab.identify import fit_lsq, fit_newton, identify, make_problem
 from millstab.identify.newton import critical_mask
 from millstab.identify.objective import (canonical, exchange_map, exchanged, rel_error, swap_permutation,
@@ -223,6 +223,20 @@ def test_too_few_points_and_bad_names(examples):
         make_problem(cfg.structure, cfg.cutting, pts, initial="fn_x:900")
     with pytest.raises(InputError):
         identify(cfg, pts, method="bfgs")
+
+
+def test_a_start_in_n_per_um_is_named(examples, recwarn):
+    """--initial takes SI: a stiffness written in N/µm (k_x=6.3 for 6.3 N/µm) is warned about, naming the option
+    and the number in N/m, as a config's k is (before: silent, and the fit ran to its bounds and blamed the model)."""
+    cfg, pts = examples["ex1"]
+    with pytest.warns(UnitWarning) as caught:
+        make_problem(cfg.structure, cfg.cutting, pts, initial="fn_x=1170,k_x=6.3")
+    assert [str(w.message) for w in caught] == [
+        "--initial k_x = 6.3 N/m is very low for a tool tip; did you mean 6.3 N/um (= 6.3e+06 N/m)? write 6.3e+06 "
+        "(N/m: the values are SI)"]
+    recwarn.clear()
+    make_problem(cfg.structure, cfg.cutting, pts, initial="fn_x=1170,k_x=6.3e6")
+    assert not [w for w in recwarn if issubclass(w.category, UnitWarning)]
 
 
 def test_test_cuts_reported(examples):

@@ -293,3 +293,26 @@ def test_a_stickout_column_is_read_not_ignored(tmp_path):
     assert "ignored columns: notes" in text and "stickout_mm" not in text
     so = stickouts(pts)
     assert so[0] == 0.045 and np.isnan(so[1])
+
+
+def test_a_misspelt_kept_column_is_an_error(tmp_path):
+    """"stickout" for stickout_mm (or "recordings" for recording) is an error like "lable": ignored, it put every cut
+    at the config's stickout with only an "ignored columns" warning."""
+    for header, meant in (("stickout", "stickout_mm"), ("recordings", "recording")):
+        e = err(tmp_path, f"rpm,depth_mm,label,{header}\n9000,1.0,stable,60\n")
+        assert (e.field, e.value) == ("pts.csv header", header)
+        assert f"unknown column that looks like a misspelt {meant!r}" in str(e)
+
+
+def test_a_column_like_a_known_one_is_named_in_the_warning(tmp_path):
+    """A column too unlike a known one to be an error, chatter_frequency for chatter_hz, is named in the warning
+    with the column it may stand for; notes stays a plain ignored column."""
+    from millstab.io.points import read_points
+
+    f = tmp_path / "cuts.csv"
+    f.write_text("rpm,depth_mm,label,chatter_frequency,notes\n9000,1.0,stable,,a\n9500,3.0,chatter,870,b\n")
+    with pytest.warns(UserWarning) as caught:
+        read_points(f)
+    assert [str(w.message) for w in caught] == [
+        "cuts.csv: ignored columns: chatter_frequency, notes (kept, not used); is 'chatter_frequency' meant as "
+        "'chatter_hz'? rename it"]

@@ -192,6 +192,25 @@ def test_cuts_csv_with_recordings_are_labelled_by_listening(tmp_path):
         api.label_from_recordings(csv, teeth=2)
 
 
+def test_a_cut_with_its_own_teeth_is_heard_with_them(tmp_path):
+    """A row's teeth column (a 3-flute cutter of the family, the config's has 2) is the teeth its recording is
+    heard with; without the column the refusal names what update reads, not a --teeth option it has not."""
+    from millstab import api
+    from millstab.io.recordings import write_recording
+
+    write_recording(tmp_path / "c.wav", FS, milling_sound(teeth=3, rpm=9000.0, seed=2))
+    csv = tmp_path / "cuts.csv"
+    csv.write_text("rpm,depth_mm,label,recording,teeth\n9000,1,,c.wav,3\n")
+    pts, notes = api.label_from_recordings(csv, teeth=2)
+    assert list(pts.label) == ["stable"] and notes[0].startswith("9000 rpm, 1 mm (teeth 3): stable (heard in c.wav")
+    csv.write_text("rpm,depth_mm,label,recording\n9000,1,,c.wav\n")
+    with pytest.raises(InputError) as e:
+        api.label_from_recordings(csv, teeth=2)
+    assert e.value.field == ("cuts.csv:2 recording c.wav: teeth (the config's [cutting] teeth, or the row's teeth "
+                             "column)")
+    assert str(e.value).endswith("no chatter: a cut with a 3-tooth cutter? give it a teeth column")
+
+
 @pytest.mark.slow
 def test_update_takes_labels_and_chatter_frequencies_from_recordings(tmp_path, capsys):
     """ex1 (2 teeth): a cuts CSV naming a recording per cut; update says where each label came from."""

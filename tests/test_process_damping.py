@@ -166,6 +166,19 @@ def test_config_reads_process_damping_and_diameter_with_units():
     assert exc.value.field == "cutting.diameter"
 
 
+def test_a_face_mill_diameter_is_taken_and_mm_written_as_m_is_refused_once(recwarn):
+    """[cutting] diameter is any milling tool's, a face mill's 250 mm too (it was refused over a [tool] beam's 0.2 m:
+    'is 0.25 m, ...: did you mean "0.25 mm"?'); a plain 16 (mm written as m) is one error, no warning before it."""
+    cfg = parse_config(_CONFIG.replace('diameter = "16 mm"', 'diameter = "250 mm"'))
+    assert cfg.cutting.diameter == pytest.approx(0.25) and cfg.diameter_m == pytest.approx(0.25)
+    recwarn.clear()
+    with pytest.raises(InputError) as exc:
+        parse_config(_CONFIG.replace('diameter = "16 mm"', "diameter = 16"))
+    assert str(exc.value) == ("cutting.diameter = 16 is invalid: is 16 m, more than 2 m for a tool's diameter; a "
+                              'plain number means metres: did you mean "16 mm"?')
+    assert not [w for w in recwarn if "diameter" in str(w.message)]
+
+
 def test_process_damping_survives_the_written_forms():
     """A config written back, a fit's cutting record and a prior's JSON keep C and the diameter."""
     from millstab.identify.result import _cutting, cutting_difference, cutting_record

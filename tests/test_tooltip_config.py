@@ -80,6 +80,7 @@ def _setup(text):
     (('stickout = "45 mm"', 'stickout = 0'), "tool.stickout", "> 0"),
     (('diameter = "12 mm"', 'diameter = "12 m"'), "tool.diameter", 'did you mean "12 mm"'),
     (('diameter = "12 mm"', 'diameter = 12'), "tool.diameter", "plain number"),
+    (('diameter = "12 mm"', 'diameter = "250 mm"'), "tool.diameter", "more than 0.2 m for a tool's diameter"),
     (('material = "carbide"', 'material = "unobtainium"'), "material", "carbide: E 600 GPa, density 14600 kg/m^3"),
     (('material = "carbide"', 'E = "600 GPa"'), "tool.material", "density"),
     (('fluted_length = "26 mm"', 'fluted_length = "50 mm"'), "tool.fluted_length", "must not exceed the stickout"),
@@ -89,6 +90,7 @@ def _setup(text):
 def test_tool_errors_name_field_value_and_what_is_allowed(tmp_path, edit, field, words):
     e = error(tmp_path, CUT + TOOL.replace(*edit) + RIGID)
     assert e.field == field and words in e.allowed
+    assert ("did you mean" in e.allowed) == ("12" in edit[1])  # not "0.25 mm?" for a value written in mm
 
 
 def test_custom_material_and_holder_errors(tmp_path):

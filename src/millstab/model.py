@@ -40,6 +40,9 @@ IMPLAUSIBLE_KT = 2e10
 #: Above this Kr = Kn/Kt [-] the radial coefficient is no ratio: measured Kr lie between ~0.1 and ~1.5; a value
 #: like 300 is the radial coefficient Kn itself (in MPa), and 40 a percentage.
 IMPLAUSIBLE_KR = 5.0
+#: Above this tool diameter [m] a value is mm written as m: the largest face mills measure ~1 m (a config refuses
+#: a bigger one, the model warns)
+LARGEST_DIAMETER = 2.0
 
 
 def _finite(field_name: str, value: object) -> float:
@@ -53,6 +56,23 @@ def _finite(field_name: str, value: object) -> float:
     if not math.isfinite(x):
         raise InputError(field_name, value, "must be a finite number (not NaN or infinity)")
     return x
+
+
+def check_stiffness(field_name: str, k: float, *, si_only: bool = False, stacklevel: int = 2) -> None:
+    """Warn (:class:`UnitWarning`) when a modal stiffness ``k`` [N/m] is almost surely a unit slip: below
+    :data:`SUSPICIOUS_STIFFNESS` (N/µm written as N/m) or above :data:`IMPLAUSIBLE_STIFFNESS`. ``field_name`` names
+    it as the user wrote it (``structure.x[0].k``, ``--initial k_x``); ``si_only``: the field takes plain SI
+    numbers only (``--initial``), so the fix named is the number in N/m rather than a unit."""
+    if k < SUSPICIOUS_STIFFNESS:
+        fix = (f"write {k * 1e6:g} (N/m: the values are SI)" if si_only
+               else f"Give units explicitly, e.g. \"{k:g} N/um\".")
+        warn(f"{field_name} = {k:g} N/m is very low for a tool tip; did you mean {k:g} N/um (= {k * 1e6:g} N/m)? "
+             f"{fix}", UnitWarning, stacklevel=stacklevel)
+    elif k > IMPLAUSIBLE_STIFFNESS:
+        unit = "the values are SI (N/m)" if si_only else "a plain number is N/m, e.g. \"12.53 N/um\""
+        warn(f"{field_name} = {k:g} N/m ({k * 1e-6:g} N/um) is far stiffer than any tool tip (tool-tip modes "
+             f"measure ~1-100 N/um, the stiffest spindle modes a few hundred); check its unit: {unit}",
+             UnitWarning, stacklevel=stacklevel)
 
 
 @dataclass(frozen=True)
@@ -81,17 +101,7 @@ class Mode:
             raise InputError(f"{self.name}.k", self.k, "stiffness must be > 0 N/m")
         if not 0 < zeta < 1:
             raise InputError(f"{self.name}.zeta", self.zeta, "damping ratio must be in (0, 1)")
-        if k < SUSPICIOUS_STIFFNESS:
-            warn(
-                f"{self.name}.k = {k:g} N/m is very low for a tool tip; did you mean "
-                f"{k:g} N/um (= {k * 1e6:g} N/m)? Give units explicitly, e.g. \"{k:g} N/um\".",
-                UnitWarning,
-                stacklevel=3,
-            )
-        elif k > IMPLAUSIBLE_STIFFNESS:
-            warn(f"{self.name}.k = {k:g} N/m ({k * 1e-6:g} N/um) is far stiffer than any tool tip (tool-tip modes "
-                 f"measure ~1-100 N/um, the stiffest spindle modes a few hundred); check its unit: a plain number "
-                 f"is N/m, e.g. \"12.53 N/um\"", UnitWarning, stacklevel=3)
+        check_stiffness(f"{self.name}.k", k, stacklevel=4)
         object.__setattr__(self, "fn", fn)
         object.__setattr__(self, "k", k)
         object.__setattr__(self, "zeta", zeta)
@@ -321,7 +331,7 @@ class Cutting:
             d = _finite("cutting.diameter", self.diameter)
             if d <= 0:
                 raise InputError("cutting.diameter", self.diameter, "tool diameter must be > 0 m")
-            if d > 2.0:
+            if d > LARGEST_DIAMETER:
                 warn(f"cutting.diameter = {d:g} m is very large for a milling tool; did you mean {d:g} mm? "
                      f"Give units explicitly, e.g. \"{d:g} mm\".", UnitWarning, stacklevel=3)
             object.__setattr__(self, "diameter", d)

@@ -5,6 +5,7 @@ column names a recording per cut → labelled cuts for ``update``."""
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -262,11 +263,19 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
             if (r["tap"], fs) not in paths:
                 paths[r["tap"], fs] = tap_path(r["tap"], cut_fs=fs)
             tap = paths[r["tap"], fs]
+        # a row's own cutter (its teeth column: a tool of the same family) is heard with its teeth, not the config's
+        own = (base.conditions or {}).get("teeth")
+        row_teeth = int(own[i]) if own is not None and np.isfinite(float(own[i])) else teeth
         try:
-            res = listen(x, fs, r["rpm"], teeth, structure=structure, tap=tap)
+            res = listen(x, fs, r["rpm"], row_teeth, structure=structure, tap=tap)
         except InputError as exc:
-            raise InputError(f"{Path(cuts_csv).name}:{r['line']} recording {shown}: {exc.field}", exc.value,
-                             exc.allowed) from None
+            field, allowed = exc.field, exc.allowed
+            if field == "--teeth":  # no such option here: the teeth come from the config or the row
+                field = "teeth (the config's [cutting] teeth, or the row's teeth column)"
+                allowed = re.sub(r"give --teeth (\d+)\?$", r"a cut with a \1-tooth cutter? give it a teeth column",
+                                 allowed)
+            raise InputError(f"{Path(cuts_csv).name}:{r['line']} recording {shown}: {field}", exc.value,
+                             allowed) from None
         labels.append(res.label)
         hz.append(res.chatter_hz if res.label != "stable" else float("nan"))
         refs.append(name_of.get(r["recording"]) or str(Path(r["recording"]).resolve()))
@@ -302,7 +311,7 @@ def _cut_text(cuts, i: int) -> str:
     text = f"{cuts.rpm[i]:g} rpm, {cuts.depth_mm[i]:g} mm"
     so = str((cuts.extra or {}).get("stickout_mm", [""] * len(cuts))[i]).strip()
     own = [f"stickout {so} mm"] if so else []
-    own += [f"{k} {v[i]}" for k, v in cuts.conditions.items()
-            if (v[i] if k == "milling" else not np.isnan(float(v[i])))]
+    own += [f"{k} {v[i] if k == 'milling' else format(float(v[i]), 'g')}" for k, v in cuts.conditions.items()
+            if (v[i] if k == "milling" else not np.isnan(float(v[i])))]  # teeth 3, not 3.0
     own += [f"test day {cuts.batch[i]}"] if str(cuts.batch[i]) else []
     return text + (f" ({', '.join(own)})" if own else "")

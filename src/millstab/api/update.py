@@ -279,7 +279,9 @@ def target_condition(base, diameter_mm: float | None = None, *, radial_immersion
     if not given:
         return None
     if radial_immersion is not None and not (np.isfinite(radial_immersion) and 0 < radial_immersion <= 1):
-        raise InputError("--radial-immersion", radial_immersion, "the radial immersion a/D, in (0, 1] (1 = slot)")
+        pct = (f"; a percentage? {radial_immersion:g} % is {radial_immersion / 100:g}"
+               if np.isfinite(radial_immersion) and 1 < radial_immersion <= 100 else "")
+        raise InputError("--radial-immersion", radial_immersion, f"the radial immersion a/D, in (0, 1] (1 = slot){pct}")
     if milling is not None:
         if milling_word(milling) not in ("up", "down"):
             raise InputError("--milling", milling, MILLING_RULE)

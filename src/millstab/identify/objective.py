@@ -28,7 +28,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.forward import forward
-from millstab.model import Cutting, Structure
+from millstab.model import Cutting, Structure, check_stiffness
 from millstab.params import Parameterization
 from millstab.parsing import parse_assignments
 from millstab.points import PointSet, check_enough, check_speeds
@@ -225,6 +225,9 @@ def make_problem(structure: Structure, cutting: Cutting, points: PointSet, *, fr
         free = [s.strip() for s in free.split(",") if s.strip()]
     par = Parameterization(structure, tuple(free or ()), axisymmetric, dict(bounds or {}))
     init = parse_assignments(initial)
+    for name, value in init.items():  # quiet structures follow: a start in N/um (6.3 for 6.3e6) is said here
+        if par.kind(par.canonical(name)) == "k":
+            check_stiffness(f"--initial {name}", value, si_only=True, stacklevel=3)
     if init:
         # re-centre: the start structure carries the initial values so default bounds surround them
         theta = par.with_values(**init)

@@ -43,7 +43,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from millstab.stability import get_engine
+from millstab.stability import INTERRUPTED_BELOW, get_engine
 
 #: fewer residual degrees of freedom than this: the residual scatter alone does not set the errors
 FEW_DOF = 10
@@ -221,7 +221,7 @@ def zoa_model_poor(cutting) -> str | None:
     ad = radial_immersion(cutting)
     if ad < ZOA_POOR_IMMERSION * (1 - 1e-9):  # a/D 0.3 through its angles is 0.29999999999999993: not "0.3 < 0.3"
         return f"radial immersion a/D = {ad:.2g} < {ZOA_POOR_IMMERSION}"
-    if cutting.teeth_in_cut < 1:  # the decisions' rule (millstab.stability.time_averaged_note)
+    if cutting.teeth_in_cut < INTERRUPTED_BELOW:  # the decisions' rule (millstab.stability.time_averaged_note)
         return f"{cutting.teeth_in_cut:.2g} teeth in the cut on average: no tooth cuts for part of every tooth period"
     if cutting.teeth <= 2:
         return f"{cutting.teeth} {'tooth' if cutting.teeth == 1 else 'teeth'}: strongly time-varying cutting forces"

@@ -79,9 +79,9 @@ import numpy as np
 from millstab.bounds import MAX_MODE_HZ, MAX_MODES
 from millstab.errors import InputError, show
 from millstab.io.results import PathLike, atomic_write_text
-from millstab.io.text import read_text
+from millstab.io.text import looks_like, read_text
 from millstab.config import MAX_BATCH_EFFECT, Config, PriorTable  # the model types (Config: import it from there)
-from millstab.model import Cutting, Mode, Structure
+from millstab.model import LARGEST_DIAMETER, Cutting, Mode, Structure
 from millstab.points import milling_word
 from millstab.units import parse_quantity
 
@@ -195,8 +195,8 @@ def _process_damping(t: Mapping[str, Any]) -> dict[str, float]:
     extra = {}
     if "process_damping" in t:
         extra["process_damping"] = parse_quantity(t["process_damping"], "cutting.process_damping", "stiffness")
-    if "diameter" in t:
-        extra["diameter"] = parse_quantity(t["diameter"], "cutting.diameter", "length")
+    if "diameter" in t:  # a face mill may measure ~1 m: not the 0.2 m of a [tool] beam
+        extra["diameter"] = _tool_length(t, "diameter", "cutting", top=LARGEST_DIAMETER)
     return extra
 
 
@@ -404,8 +404,7 @@ def _cutting_sizes(t: Mapping[str, Any], tool: Any, cutting: Cutting) -> tuple[f
     ``cutting.diameter``; else a ``[tool]`` table's)."""
     d = None
     if "diameter" in t:
-        d = _tool_length(t, "diameter", "cutting")  # the mm-written-as-m check of a tool's diameter
-        d = cutting.diameter if cutting.diameter is not None else d
+        d = cutting.diameter  # read and checked with the cutting (_process_damping)
     elif isinstance(tool, Mapping) and "diameter" in tool:
         d = _tool_length(tool, "diameter", "tool")
     f = None
@@ -460,7 +459,9 @@ def _toml(text: str, source: str) -> dict:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:  # the message carries "(at line L, column C)"
-        raise InputError(source, "TOML syntax error", f"{exc}{_comma_hint(text)}") from None
+        kind = looks_like(text)
+        seems = f"; the file looks like {kind}, not a TOML config: is it in the config's place?" if kind else ""
+        raise InputError(source, "TOML syntax error", f"{exc}{_comma_hint(text)}{seems}") from None
     except RecursionError:
         raise InputError(source, "arrays or inline tables nested too deeply to read",
                          "a config nests a few levels ([structure] → x → its modes); this text nests arrays or "
@@ -563,7 +564,10 @@ ARTIFACT_KEYS = ("diameter", "length", "offset", "material", "E", "density", "nu
 _MAX_LENGTH = {"diameter": 0.2, "stickout": 1.0, "fluted_length": 1.0, "length": 1.0, "offset": 1.0}
 
 
-def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | None = None) -> float:
+def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | None = None,
+                 top: float | None = None) -> float:
+    """``t[key]`` as a length [m] > 0 and at most ``top`` [m] (default :data:`_MAX_LENGTH`'s for ``key``): a bigger
+    plain number is mm written as m, and the message says so."""
     if key not in t:
         if default is None:
             raise InputError(f"{field}.{key}", None, f"missing; give it with its unit, e.g. {key} = \"12 mm\"")
@@ -572,10 +576,17 @@ def _tool_length(t: Mapping[str, Any], key: str, field: str, default: float | No
     x = parse_quantity(value, f"{field}.{key}", "length")
     if x <= 0:
         raise InputError(f"{field}.{key}", value, "must be a length > 0, e.g. \"12 mm\"")
-    top = _MAX_LENGTH.get(key, 1.0)
+    top = _MAX_LENGTH.get(key, 1.0) if top is None else top
     if x > top:
-        raise InputError(f"{field}.{key}", value, f"is {x:g} m, more than {top:g} m for a tool's {key}; a plain number "
-                                                  f"means metres: did you mean \"{x:g} mm\"?")
+        # "did you mean mm" only for a length written in metres (12, "12 m"): "250 mm" over a [tool]'s 0.2 m was
+        # asked "did you mean 0.25 mm?"
+        plain = isinstance(value, (int, float))
+        lead = re.match(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)", str(value))
+        in_metres = plain or (lead is not None and math.isclose(float(lead.group(1)), x, rel_tol=1e-9))
+        hint = ""
+        if in_metres:
+            hint = ("; a plain number means metres:" if plain else ";") + f" did you mean \"{x:g} mm\"?"
+        raise InputError(f"{field}.{key}", value, f"is {x:g} m, more than {top:g} m for a tool's {key}{hint}")
     return x
 
 

@@ -28,9 +28,11 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
   of each cut, as written (``PointSet.batch``).
 * Any other column (feed, notes, tool, ...) is kept as text in ``PointSet.extra`` and ignored, with
   one warning naming the columns. A column that looks like a misspelt known column that is absent
-  (``lable``, ``weigth``, ``depht_mm``) is an error, since a silently ignored label column would turn
-  every cut into a boundary point; so is a file without a label column whose other column holds label words
-  (``result``: stable, chatter); a column of codes alone (0/1/2) there is warned about.
+  (``lable``, ``weigth``, ``depht_mm``, ``stickout`` for the kept ``stickout_mm``) is an error, since a silently
+  ignored label column would turn every cut into a boundary point (a column only somewhat like one, such as
+  ``chatter_frequency``, is named in the warning with the column it may stand for); so is a file without a label
+  column whose other column holds label words (``result``: stable, chatter); a column of codes alone (0/1/2) there
+  is warned about.
 * Per-cut cutting conditions (optional columns; an empty cell or a missing column takes the config's
   value; docs/updating.md, "Many conditions"): ``radial_immersion`` (a/D in (0, 1], or ``25 %``) or
   ``radial_width_mm`` (needs ``diameter`` in the config's ``[cutting]``), ``milling`` (up | down),
@@ -51,7 +53,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.io.results import PathLike, write_csv
-from millstab.io.text import COMMA_ADVICE, check_comma_separated, csv_rows, parse_number, read_text
+from millstab.io.text import COMMA_ADVICE, check_comma_separated, csv_rows, looks_like, parse_number, read_text
 # the model type lives below io (import it from millstab.points, its one home)
 from millstab.points import (CONDITION_COLUMNS, GRADE, LABELS, SYNONYMS, PointSet, check_conditions, check_enough,
                               grade_of_cell, label_of_grade, parse_label_codes)
@@ -105,9 +107,10 @@ DEPTH_SCALE_MM = (0.02, 300.0)
 KEPT_COLUMNS = ("stickout_mm", "recording", "tap")
 
 
-def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | None, list[str]]:
-    """(rater columns [(rater name, index)], the batch column or None, the unused columns) of a header;
-    a misspelt known column (close to one that is absent) is an error, anything else unknown is unused."""
+def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | None, list[str], dict[str, str]]:
+    """(rater columns [(rater name, index)], the batch column or None, the unused columns, {unused column: the
+    absent known column it may stand for}) of a header; a misspelt known column (close to one that is absent) is
+    an error, anything else unknown is unused."""
     raters = []
     for i, h in enumerate(names):
         m = RATER_COLUMN.match(h)
@@ -117,7 +120,8 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
     known = (set(REQUIRED) | {"weight", "chatter_hz"} | {names[i] for _, i in raters} | ({batch} if batch else set())
              | set(CONDITION_COLUMNS))
     unknown = [h for h in names if h not in known and h not in BATCH_COLUMNS]
-    absent = ([k for k in REQUIRED + ("weight", "chatter_hz") + CONDITION_COLUMNS if k not in names]
+    # the kept columns too: "stickout" for stickout_mm put every cut at the config's stickout with a mere warning
+    absent = ([k for k in REQUIRED + ("weight", "chatter_hz") + CONDITION_COLUMNS + KEPT_COLUMNS if k not in names]
               + ([] if raters else ["label"]))
     for r in REQUIRED:
         if r not in names:
@@ -131,9 +135,12 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
         if near:  # "lable", "weigth": a misspelt column would silently turn every cut into a boundary point
             raise InputError(f"{p.name} header", h,
                              f"unknown column that looks like a misspelt {near[0]!r}; allowed columns: "
-                             f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, "
-                             "date; other columns are kept and ignored")
-    return raters, batch, [h for h in names if h not in known]
+                             f"{', '.join(REQUIRED + OPTIONAL)}, label_NAME per rater, date, "
+                             f"{', '.join(KEPT_COLUMNS)}; other columns are kept and ignored")
+    unused = [h for h in names if h not in known]
+    # a looser likeness is only named in the warning (chatter_frequency for chatter_hz)
+    maybe = {h: near[0] for h in unused if (near := difflib.get_close_matches(h, absent, 1, 0.55))}
+    return raters, batch, unused, maybe
 
 
 def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
@@ -168,11 +175,15 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     if not rows:
         raise InputError("points file", str(p), f"is empty; expected a header {','.join(REQUIRED + OPTIONAL)} and rows")
     header_line, header = rows[0]
+    kind = looks_like(text)
+    if kind is not None and not kind.startswith("a points"):  # a config or JSON in the cuts' place: say so
+        raise InputError(f"{p.name}", kind, f"not a points or cuts CSV (header {','.join(REQUIRED)},...): is the file "
+                                            "in the CSV's place? (the config or posterior comes first)")
     names = [h.strip().lower() for h in header]
     check_comma_separated(names, f"{p.name} line {header_line}", ",".join(header), ",".join(REQUIRED + OPTIONAL))
     if len(set(names)) != len(names):
         raise InputError(f"{p.name} header", ",".join(names), "a column name appears twice")
-    raters, batch_col, unused = _columns(names, p)
+    raters, batch_col, unused, maybe = _columns(names, p)
     if len(rows) == 1:
         raise InputError("points file", str(p), "has a header but no points")
     col = {h: i for i, h in enumerate(names)}
@@ -258,7 +269,8 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
              + ", the others as test cuts; write stable, marginal or chatter there if they are test cuts",
              UserWarning, stacklevel=3)
     if ignored:
-        warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used)", UserWarning, stacklevel=3)
+        hints = "".join(f"; is {h!r} meant as {maybe[h]!r}? rename it" for h in ignored if h in maybe)
+        warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used){hints}", UserWarning, stacklevel=3)
     deepest = max(depth)
     if deepest < DEPTH_SCALE_MM[0] or deepest > DEPTH_SCALE_MM[1]:  # read as written; the user is told the scale
         hint = (f"metres? {deepest:g} m is {deepest * 1e3:g} mm" if deepest < DEPTH_SCALE_MM[0] else

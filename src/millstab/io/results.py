@@ -27,7 +27,7 @@ from typing import Any, BinaryIO, Callable, Iterable, Sequence
 import numpy as np
 
 from millstab.errors import InputError
-from millstab.io.text import read_text
+from millstab.io.text import looks_like, read_text
 
 PathLike = str | os.PathLike[str]
 
@@ -180,10 +180,14 @@ def read_json(path: PathLike) -> Any:
     p = Path(path)
     if not p.is_file():
         raise InputError("json file", str(p), "file does not exist")
+    text = read_text(p, "json file", "JSON text file")  # a BOM from a Windows editor is fine
     try:
-        return json.loads(read_text(p, "json file", "JSON text file"))  # a BOM from a Windows editor is fine
+        return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(str(p), f"line {exc.lineno}, column {exc.colno}", f"not valid JSON: {exc.msg}") from None
+        kind = looks_like(text)
+        seems = f"; the file looks like {kind}, not JSON: is it in the JSON file's place?" if kind else ""
+        raise InputError(str(p), f"line {exc.lineno}, column {exc.colno}",
+                         f"not valid JSON: {exc.msg}{seems}") from None
 
 
 def _cell(v: Any) -> str:

@@ -20,6 +20,24 @@ from millstab.errors import InputError
 _BOMS = ((codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"))
 
 
+def looks_like(text: str) -> str | None:
+    """What a text that failed to parse as the expected kind looks like, for the error message, or ``None``: a
+    points or cuts CSV (its first line a header naming rpm), JSON (it opens with ``{``), or a TOML config (a
+    ``[cutting]`` table). The commands' arguments go in order (CONFIG CUTS; POSTERIOR CUTS), and one swapped
+    said only "TOML syntax error: Expected '=' after a key" or "not valid JSON: Expecting value"."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return None
+    first = lines[0].lstrip("\ufeff")
+    if "," in first and "rpm" in [c.strip().lower() for c in first.split(",")]:
+        return f"a points or cuts CSV (header {first[:60]!r})"
+    if first.startswith("{"):
+        return "JSON (a posterior, fit or result file)"
+    if any(ln.startswith("[cutting]") for ln in lines):
+        return "a TOML config ([cutting] table)"
+    return None
+
+
 def read_text(path: Path, field: str, what: str = "text file", fallback: str | None = None) -> str:
     """The text of ``path`` without a byte-order mark (UTF-8 or UTF-16 with BOM, else UTF-8).
 

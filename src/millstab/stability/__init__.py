@@ -136,6 +136,11 @@ def accurate_engine(cutting=None) -> str:
     return engine_with(time_averaged=False, cheap=True).name
 
 
+#: teeth in the cut on average below which a cut counts as interrupted (:func:`time_averaged_note`): a gap under
+#: 0.5 % of the tooth period is a slot whose exit was written 3.14159 rad ("no tooth cuts for 0% ..." was warned)
+INTERRUPTED_BELOW = 0.995
+
+
 def time_averaged_note(engine: str, cutting, where: str) -> str | None:
     """The first half of a warning when ``engine`` averages the cutting force over the tooth period (the zero-order
     model) and ``cutting`` (described by ``where``, e.g. "a/D 0.1 down milling, 2 teeth") has under one tooth in
@@ -144,7 +149,7 @@ def time_averaged_note(engine: str, cutting, where: str) -> str | None:
     (``benchmarks/bench_zoa_error.py``, 19 tools and conditions), at 0.2-0.75 teeth in the cut the zero-order
     limit is up to 1.0-4.4× too high at single speeds (down milling the worst), at 1-2 teeth at most 1.24×."""
     n = cutting.teeth_in_cut
-    if n >= 1.0 or not getattr(get_engine(engine), "time_averaged", False):
+    if n >= INTERRUPTED_BELOW or not getattr(get_engine(engine), "time_averaged", False):
         return None
     return (f"the {engine} engine averages the cutting force over the tooth period, but in {where} no tooth cuts for "
             f"{1 - n:.0%} of every tooth period ({n:.2f} teeth in the cut on average): its limits there can be off by "

@@ -52,7 +52,8 @@ def test_config_text_round_trip_gives_the_same_lobes():
 
 @pytest.mark.parametrize("spec, says",
                          [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
-                          ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0")])
+                          ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0"),
+                          (["5000", "abc"], "a sequence of numbers"), ({"rpm": 5000}, "a sequence of numbers")])
 def test_bad_speeds_name_the_field(spec, says):
     with pytest.raises(InputError) as exc:
         api.speeds(spec)

@@ -204,7 +204,11 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
         return parse_rpm_range(spec, field, single=True)
-    r = np.asarray(spec, dtype=float).ravel()
+    try:
+        r = np.asarray(spec, dtype=float).ravel()
+    except (TypeError, ValueError):  # ["5000", "abc"], a dict: numpy's own message names no field
+        raise InputError(field, spec, "speeds must be START:STOP:STEP text or a sequence of numbers in "
+                                      "rev/min") from None
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")
     return check_speeds(r, field)

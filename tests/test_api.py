@@ -23,6 +23,36 @@ def test_points_from_text_equal_the_file_reader():
         assert list(up.label) == list(from_file.label)
 
 
+def test_a_table_of_cuts_in_a_notebook_is_read_as_its_csv_file():
+    """A DataFrame, {column: values} and a list of row dicts give the file reader's point set, conditions, chatter
+    frequencies and empty cells (None, NaN) included; a bad cell gets the file reader's message."""
+    path = points_path("ex3_points")
+    from_file = read_points(path)
+    cols = {"rpm": list(from_file.rpm), "depth_mm": list(from_file.depth_mm), "label": list(from_file.label)}
+    rows = [dict(zip(cols, v)) for v in zip(*cols.values())]
+    tables = [cols, rows]
+    pd = pytest.importorskip("pandas")
+    tables.append(pd.DataFrame(cols))
+    for table in tables:
+        got = api.points(table)
+        np.testing.assert_array_equal(got.rpm, from_file.rpm)
+        np.testing.assert_array_equal(got.depth_mm, from_file.depth_mm)
+        assert list(got.label) == list(from_file.label)
+    mixed = api.points(pd.DataFrame({"rpm": [5000, 6000], "depth_mm": [1.5, 2.0], "label": ["stable", "chatter"],
+                                     "chatter_hz": [np.nan, 912.5], "radial_immersion": [0.5, None]}))
+    np.testing.assert_array_equal(mixed.chatter_hz, [np.nan, 912.5])
+    np.testing.assert_array_equal(mixed.conditions["radial_immersion"], [0.5, np.nan])
+    with pytest.raises(InputError) as exc:
+        api.points([{"rpm": 5000, "depth_mm": "1,5", "label": "stable"}], name="my cuts")
+    assert "my cuts line 2" in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        api.points({"rpm": [5000, 6000], "depth_mm": [1.0]})
+    assert "same number of rows" in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        api.points(42)
+    assert exc.value.field == "points" and "DataFrame" in str(exc.value)
+
+
 @pytest.mark.parametrize("text, field, says", [
     ("rpm,depth\n5000,1\n", "header", "unknown column"),
     ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),

@@ -68,9 +68,66 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
                                  source=name))
 
 
-def points(source: PointSet | str | os.PathLike) -> PointSet:
-    """A point set: itself, a CSV file, or a packaged example ``"example:NAME"`` (ex3_points)."""
-    return source if isinstance(source, PointSet) else read_points(source)
+def points(source, name: str = "table") -> PointSet:
+    """A point set: itself, a CSV file, a packaged example ``"example:NAME"`` (ex3_points), or a table of cuts in
+    a notebook: a pandas DataFrame, a mapping {column: values} or a list of row mappings, with the columns of a
+    points file (``rpm``, ``depth_mm``, ``label``, ``chatter_hz``, the condition columns, …; see
+    :mod:`millstab.io.points`). A table is read by the file reader, so it gets the same checks and messages; they
+    name it ``name`` and count its header as line 1 (row 0 is line 2). Empty cells (None, NaN) are empty.
+
+    Raises:
+        InputError: as the file's reader; ``points`` for a source that is none of these.
+    """
+    if isinstance(source, PointSet):
+        return source
+    if isinstance(source, (str, os.PathLike)):
+        return read_points(source)
+    return parse_points(_table_csv(source, name), name)
+
+
+def _table_csv(table, name: str) -> str:
+    """The CSV text of a table of cuts (a DataFrame, {column: values} or [{column: value}, …]), numbers written
+    exactly (repr), None/NaN as empty cells."""
+    import csv
+    import io
+
+    if hasattr(table, "columns") and hasattr(table, "to_dict"):  # a pandas DataFrame, without importing pandas
+        table = {str(c): list(table[c]) for c in table.columns}
+    if isinstance(table, Mapping):
+        cols = {str(c): list(np.atleast_1d(np.asarray(v, dtype=object))) for c, v in table.items()}
+        lengths = {len(v) for v in cols.values()}
+        if len(lengths) > 1:
+            raise InputError(name, {c: len(v) for c, v in cols.items()}, "every column needs the same number of rows")
+        rows = [dict(zip(cols, vals)) for vals in zip(*cols.values())]
+        header = list(cols)
+    elif isinstance(table, (list, tuple)) and all(isinstance(r, Mapping) for r in table):
+        rows = [{str(c): v for c, v in r.items()} for r in table]
+        header = list(dict.fromkeys(c for r in rows for c in r))
+    else:
+        raise InputError("points", f"a {type(table).__name__}", "a PointSet, a CSV file (path), \"example:NAME\", a "
+                                                                  "DataFrame, {column: values} or a list of row dicts")
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(header)
+    w.writerows([_cell(r.get(c)) for c in header] for r in rows)
+    return out.getvalue()
+
+
+def _cell(v) -> str:
+    """One table cell as CSV text: None, NaN and pandas' NA empty; an integer as such; a float exactly."""
+    if v is None or type(v).__name__ in ("NAType", "NaTType"):
+        return ""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    return "" if x != x else repr(x)
 
 
 def overlay_points(*sets: PointSet | None) -> PointSet | None:

@@ -80,6 +80,15 @@ def test_config_text_round_trip_gives_the_same_lobes():
     np.testing.assert_array_equal(api.lobes(cfg, rpm).envelope.depth, api.lobes(again, rpm).envelope.depth)
 
 
+def test_a_config_from_its_tables_as_a_dict_and_a_wrong_source_named():
+    cfg = api.config("example:ex1")
+    again = api.config(api.config_fields(cfg))
+    assert again.cutting == cfg.cutting and again.structure == cfg.structure
+    with pytest.raises(InputError) as exc:
+        api.config(42)
+    assert exc.value.field == "config" and "a int" in str(exc.value) and "TOML file" in str(exc.value)
+
+
 @pytest.mark.parametrize("spec, says",
                          [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
                           ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0"),

@@ -34,14 +34,22 @@ MAX_TEXT_BYTES = 5_000_000
 MAX_FRF_BYTES = 20_000_000
 
 
-def config(source: Config | str | os.PathLike) -> Config:
-    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute).
+def config(source: Config | str | os.PathLike | Mapping) -> Config:
+    """A config: itself, a TOML file, a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute), or its
+    tables as a dict (``{"cutting": {...}, "structure": {...}}``, :func:`config_from_fields`).
 
     Raises:
         InputError: as the file's reader, and for ``[speeds]`` outside :func:`millstab.bounds.check_speeds`'s
-            bounds (naming the file and ``[speeds]``).
+            bounds (naming the file and ``[speeds]``); ``config`` for a source that is none of these.
     """
-    return _bounded(source if isinstance(source, Config) else load_config(source))
+    if isinstance(source, Config):
+        return _bounded(source)
+    if isinstance(source, Mapping):
+        return config_from_fields(source)
+    if not isinstance(source, (str, os.PathLike)):
+        raise InputError("config", f"a {type(source).__name__}", "a Config, a TOML file (path), \"example:NAME\" or "
+                                                                  "the config's tables as a dict")
+    return _bounded(load_config(source))
 
 
 def _bounded(cfg: Config) -> Config:

@@ -165,6 +165,13 @@ def test_structure_entry_not_a_mode():
     _raises("structure.y", Structure, y=((903, 1e7, 0.03),))
 
 
+def test_one_mode_needs_no_tuple_and_a_number_is_named():
+    m = Mode(903, 1e7, 0.03)
+    assert Structure(x=m, y=[m]) == Structure(x=(m,), y=(m,))
+    err = _raises("structure.x", Structure, x=903.0)
+    assert "sequence of Modes" in err.allowed
+
+
 def test_rigid_direction_is_allowed():
     s = Structure(x=(Mode(922, 1.34e6, 0.011),))
     assert s.y == () and s.is_modal

@@ -205,8 +205,17 @@ class Structure:
     frf: MeasuredFRF | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "x", tuple(self.x))
-        object.__setattr__(self, "y", tuple(self.y))
+        for direction in ("x", "y"):
+            modes = getattr(self, direction)
+            if isinstance(modes, Mode):  # Structure(x=Mode(...)): one mode, not a tuple of one
+                modes = (modes,)
+            elif modes is None:
+                modes = ()
+            try:
+                modes = tuple(modes)
+            except TypeError:
+                raise InputError(f"structure.{direction}", modes, "a Mode or a sequence of Modes") from None
+            object.__setattr__(self, direction, modes)
         for direction in ("x", "y"):
             for m in getattr(self, direction):
                 if not isinstance(m, Mode):

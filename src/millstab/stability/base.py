@@ -41,7 +41,10 @@ ENVELOPE_SCHEMA = "millstab.envelope/1"
 def check_rpm(rpm) -> np.ndarray:
     """Spindle speeds as a 1-D float array [rev/min]; InputError for an empty list or a speed that is not finite
     and > 0. Shared by every engine and by the studies (a helper of the contract, not of one engine)."""
-    r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    try:
+        r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    except (TypeError, ValueError):  # ["5000", "x"], a dict: numpy's message names no field
+        raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds, numbers in rev/min") from None
     if r.ndim != 1 or r.size == 0:
         raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds")
     bad = ~np.isfinite(r) | (r <= 0)

@@ -53,6 +53,28 @@ def test_a_table_of_cuts_in_a_notebook_is_read_as_its_csv_file():
     assert exc.value.field == "points" and "DataFrame" in str(exc.value)
 
 
+def test_every_task_takes_a_table_of_cuts_and_names_what_is_no_number():
+    """update, predict, validate, identify and design read their cuts as api.points does (a notebook's list of rows:
+    AttributeError 'dict' object has no attribute 'has_conditions' from deep in the likelihood before); a text
+    sample count and a speed that is no number are InputErrors naming the option, not numpy's TypeError/ValueError."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"},
+            {"rpm": 7000, "depth_mm": 0.5, "label": "stable"}, {"rpm": 8000, "depth_mm": 6.0, "label": "chatter"}]
+    cuts = api.points(rows)
+    by_rows, by_set = api.update(cfg, rows, samples=100, seed=2), api.update(cfg, cuts, samples=100, seed=2)
+    np.testing.assert_array_equal(by_rows.samples, by_set.samples)
+    np.testing.assert_array_equal(api.predict(by_set, rows).p_stable, api.predict(by_set, cuts).p_stable)
+    with pytest.raises(InputError, match="boundary points"):  # read as a point set: too few boundary points
+        api.identify(cfg, rows)
+    with pytest.raises(InputError, match="--samples"):
+        api.validate(cfg, rows, samples="200")
+    with pytest.raises(InputError, match="rpm") as exc:
+        api.sensitivity("oat", cfg, ["5000", "x"], eps=[0.1])
+    assert "'x'" in str(exc.value)
+    with pytest.raises(InputError, match="rpm"):
+        api.design(cfg, n=2, rpm=[5000.0, float("nan")])
+
+
 @pytest.mark.parametrize("text, field, says", [
     ("rpm,depth\n5000,1\n", "header", "unknown column"),
     ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from millstab.api.inputs import modal
+from millstab.api.inputs import points as point_set
 from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
 from millstab.bounds import check_cuts
@@ -49,10 +50,11 @@ class UpdateSettings:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
-def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
+def update(cfg: Config, cuts, points=None, *, engine: str = "zoa", samples: int = 4000,
            seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto",
            stickout_mm=None, engine_options: dict | None = None):
-    """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
+    """The posterior of the modal parameters given labelled cuts (``cuts`` and the boundary ``points``: anything
+    :func:`millstab.api.points` reads, a DataFrame included; :func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
     whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
@@ -77,6 +79,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     from millstab.update import update as run_update
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
+    cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table (DataFrame, list of rows)
+    points = None if points is None else point_set(points, "points")
     check_cuts(len(cuts) + (0 if points is None else len(points)))
     check_seed(seed)
     from millstab.update.stickout import over_holder

@@ -75,6 +75,30 @@ def test_every_task_takes_a_table_of_cuts_and_names_what_is_no_number():
         api.design(cfg, n=2, rpm=[5000.0, float("nan")])
 
 
+def test_a_map_refuses_a_depth_or_speed_that_is_no_positive_number_instead_of_returning_nonsense():
+    """A NaN depth in p_stable's grid gave P(stable) = -6 .. 0 for every speed (the count of limits above it, off by
+    the NaN's place), a negative one P = 1; now each is an InputError naming the grid and the value, as are a text
+    speed, a bad seed and a speed range that is not two numbers in recommend."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"}]
+    post = api.update(cfg, rows, samples=100, seed=2)
+    rpm = api.speeds("5000:6000:500")
+    good = api.p_stable(post, rpm, [1.0, 2.0])
+    assert np.all((good >= 0) & (good <= 1))
+    for depth, shown in (([1.0, np.nan], "nan"), ([-1.0, 1.0], "-1"), ([0.0], "0"), (["1", "x"], "'x'"), ([], "[]")):
+        with pytest.raises(InputError) as exc:
+            api.p_stable(post, rpm, depth)
+        assert exc.value.field == "depth_mm" and shown in str(exc.value)
+    with pytest.raises(InputError, match="rpm"):
+        api.p_stable(post, ["5000", "x"], [1.0])
+    with pytest.raises(InputError, match="--seed"):
+        api.p_stable(post, rpm, [1.0], seed=-1)
+    for span in ((5000.0,), "5000:8000", (5000.0, "x")):
+        with pytest.raises(InputError, match="--rpm") as exc:
+            api.recommend(post, 0.05, span)
+        assert "two numbers" in str(exc.value)
+
+
 @pytest.mark.parametrize("text, field, says", [
     ("rpm,depth\n5000,1\n", "header", "unknown column"),
     ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),

@@ -392,12 +392,16 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
     search's, at the speeds both read) are computed once; the same numbers.
 
     Raises:
-        InputError: more than :data:`MAX_MAP_CELLS` cells.
+        InputError: more than :data:`MAX_MAP_CELLS` cells; a speed or depth that is not a finite number > 0; a bad
+            seed.
     """
+    from millstab.stability import check_rpm
     from millstab.update import p_stable_map
     from millstab.update.decide import warn_outside
 
     m = map_samples(post, samples)
+    check_seed(seed)
+    rpm, depth_mm = check_rpm(rpm), _depths(depth_mm)  # a NaN depth made P(stable) -6 .. 0 before
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
@@ -409,6 +413,21 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
 
         check_client(client)
     return p_stable_map(post, rpm, depth_mm, client, samples=m, seed=seed, memo=None if client is not None else memo)
+
+
+def _depths(depth_mm, field: str = "depth_mm") -> np.ndarray:
+    """The map's depths as a non-empty 1-D float array [mm]; InputError naming ``field`` and the first value that is
+    not a finite number > 0."""
+    try:
+        d = np.atleast_1d(np.asarray(depth_mm, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm") from None
+    if d.ndim != 1 or d.size == 0:
+        raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm")
+    bad = ~(np.isfinite(d) & (d > 0))
+    if bad.any():
+        raise InputError(field, float(d[bad][0]), "depths must be finite numbers > 0 mm")
+    return d
 
 
 def limit_memo():
@@ -525,5 +544,9 @@ def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm
     from millstab.update import recommend as run_recommend
 
     check_seed(seed)
-    return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
+    try:
+        low, high = (float(v) for v in rpm_range)
+    except (TypeError, ValueError):  # (5000,), "5000:8000", ("5000", "x"): numpy's unpacking error before
+        raise InputError("--rpm", rpm_range, "a speed range (LOW, HIGH) of two numbers in rev/min") from None
+    return run_recommend(post, risk, (low, high), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
                          seed=seed, **rule)

@@ -392,8 +392,8 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
     search's, at the speeds both read) are computed once; the same numbers.
 
     Raises:
-        InputError: more than :data:`MAX_MAP_CELLS` cells; a speed or depth that is not a finite number > 0; a bad
-            seed.
+        InputError: more than :data:`MAX_MAP_CELLS` cells; a speed that is not a finite number > 0, a depth that is
+            not one ≥ 0 [mm]; a bad seed.
     """
     from millstab.stability import check_rpm
     from millstab.update import p_stable_map
@@ -417,16 +417,16 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
 
 def _depths(depth_mm, field: str = "depth_mm") -> np.ndarray:
     """The map's depths as a non-empty 1-D float array [mm]; InputError naming ``field`` and the first value that is
-    not a finite number > 0."""
+    not a finite number ≥ 0 (a depth 0, a grid from np.linspace(0, …), is stable: no cut)."""
     try:
         d = np.atleast_1d(np.asarray(depth_mm, dtype=float))
     except (TypeError, ValueError):
         raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm") from None
     if d.ndim != 1 or d.size == 0:
         raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm")
-    bad = ~(np.isfinite(d) & (d > 0))
+    bad = ~(np.isfinite(d) & (d >= 0))
     if bad.any():
-        raise InputError(field, float(d[bad][0]), "depths must be finite numbers > 0 mm")
+        raise InputError(field, float(d[bad][0]), "depths must be finite numbers >= 0 mm")
     return d
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.model import Cutting
+from millstab.units import is_quantity, quantity_values
 
 LABELS = ("stable", "chatter", "marginal")
 LABEL_RULE = ("must be 'stable', 'chatter', 'marginal' (or 'uncertain'/'unsure' = marginal), a probability of "
@@ -143,9 +144,18 @@ def _float(s: str) -> float:
     return x if math.isfinite(x) else math.nan
 
 
+#: how a PointSet array given as a pint Quantity is converted: {unit of the field: (dimension, factor from SI)}
+_QUANTITY = {"rev/min": ("frequency", 60.0), "mm": ("length", 1e3), "Hz": ("frequency", 1.0),
+             "": ("dimensionless", 1.0)}
+
+
 def _floats(name: str, values, unit: str) -> np.ndarray:
-    """``values`` as a 1-D float array; an InputError naming ``points.NAME[i]`` and the value where one is not a
+    """``values`` as a 1-D float array in ``unit`` (a pint Quantity converted from its own unit: numpy would strip it,
+    reading 2 mm given in m as 0.002 mm); an InputError naming ``points.NAME[i]`` and the value where one is not a
     number (``"5000x"``, a dict), where numpy would raise its own ValueError naming no field."""
+    if is_quantity(values):
+        dimension, factor = _QUANTITY[unit]
+        return np.atleast_1d(quantity_values(values, f"points.{name}", dimension) * factor)
     try:
         return np.atleast_1d(np.asarray(values, dtype=float))
     except (TypeError, ValueError):

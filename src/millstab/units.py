@@ -86,6 +86,31 @@ def is_quantity(value: object) -> bool:
     return hasattr(value, "magnitude") and hasattr(value, "units") and hasattr(value, "to_tuple")
 
 
+def quantity_values(q, field: str, dimension: str):
+    """A pint Quantity (a scalar or an array, any registry) as a float array in the SI unit of ``dimension``
+    (:data:`DIMENSIONS`; a frequency in Hz, rpm counted as turns), through the factor of one of its units: numpy
+    alone would strip the unit (``np.asarray(100 * Hz)`` is 100, read as 100 rpm).
+
+    Raises:
+        InputError: a unit of another dimension, or a magnitude that is not numbers (naming ``field``).
+    """
+    import numpy as np
+
+    # a Quantity has a unit: what a plain number would mean here is not this field's business
+    allowed = re.sub(r" \(plain number = [^)]*\)", "", DIMENSIONS[dimension][2])
+    magnitude, units = q.to_tuple()
+    try:
+        values = np.asarray(magnitude, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(field, q, f"numbers with a unit; expected {allowed}") from None
+    one = " * ".join(["1.0"] + [f"{name} ** {power!r}" for name, power in units])
+    try:
+        factor = _parse_string(one, field, DIMENSIONS[dimension][0], DIMENSIONS[dimension][1], allowed)
+    except InputError as exc:  # the message shows the Quantity as given, not its unit's text
+        raise InputError(field, q, exc.allowed) from None
+    return values * factor
+
+
 def _quantity_text(q, field: str, allowed: str) -> str:
     """A pint Quantity as the text :func:`_parse_string` reads (``"12.5 micrometer ** -1 * newton ** 1"``): its units
     by name, so that a Quantity of the user's own registry is read by millstab's, and ``rpm`` counts its angle."""

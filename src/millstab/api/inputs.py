@@ -25,6 +25,7 @@ from millstab.io.text import decode_text
 from millstab.params import shown_value  # noqa: F401 (re-exported: a parameter value as printed)
 from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
 from millstab.units import SHOWN as SHOWN_UNITS  # noqa: F401 (re-exported: how a parameter is printed)
+from millstab.units import is_quantity, quantity_values
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -248,8 +249,9 @@ def config_toml(cfg: Config) -> str:
 def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
            field: str = "--rpm", rpm_file: str | os.PathLike | None = None) -> np.ndarray:
     """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text (START = STOP: that one speed, as a file of one
-    line) or a sequence of numbers, else a speeds file ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`),
-    else the config's ``[speeds]``, else the ``fallback`` grid.
+    line), a sequence of numbers or a pint Quantity (converted from its unit: 100 Hz = 6000 rpm), else a speeds
+    file ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`), else the config's ``[speeds]``, else the
+    ``fallback`` grid.
 
     Raises:
         InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
@@ -269,6 +271,8 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
         return parse_rpm_range(spec, field, single=True)
+    if is_quantity(spec):  # 100 Hz is 6000 rpm: numpy alone would strip the unit and read 100 rpm
+        spec = quantity_values(spec, field, "frequency") * 60.0
     try:
         r = np.asarray(spec, dtype=float).ravel()
     except (TypeError, ValueError):  # ["5000", "abc"], a dict: numpy's own message names no field

@@ -100,6 +100,25 @@ def test_a_map_refuses_a_depth_or_speed_that_is_no_positive_number_instead_of_re
         assert "two numbers" in str(exc.value)
 
 
+def test_numpy_scalars_are_numbers_to_a_recommendation_and_a_text_depth_is_named():
+    """np.float32(0.05) (a risk read from an array) was refused as "--risk = 0.05000000074505806 is invalid: must be in
+    (0, 1)"; it is the float it holds, and the same answer as 0.05000000074505806 written out. A map's depth axis
+    from text is an InputError, not numpy's TypeError."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"}]
+    post = api.update(cfg, rows, samples=100, seed=2)
+    a = api.recommend(post, np.float32(0.05), np.array([5000.0, 6000.0]), seed=np.int64(1),
+                      max_depth_mm=np.float32(5.0), coarse_points=8)
+    b = api.recommend(post, float(np.float32(0.05)), (5000.0, 6000.0), seed=1, max_depth_mm=5.0, coarse_points=8)
+    assert a.to_json() == b.to_json()
+    for args, field in ((("5",), "--max-depth"), ((5.0, "10"), "depths"), ((5.0, 1), "depths"),
+                        ((None,), "--max-depth")):
+        with pytest.raises(InputError) as exc:
+            api.depth_grid(*args)
+        assert exc.value.field == field
+    np.testing.assert_array_equal(api.depth_grid(np.float32(2.0), np.int64(4)), [0.5, 1.0, 1.5, 2.0])
+
+
 @pytest.mark.parametrize("text, field, says", [
     ("rpm,depth\n5000,1\n", "header", "unknown column"),
     ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),

@@ -373,10 +373,11 @@ def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.nd
     Raises:
         InputError: ``max_mm`` not a finite number > 0, or ``n`` < 2.
     """
-    if not (np.isfinite(max_mm) and max_mm > 0):
-        raise InputError(field, max_mm, "must be a depth > 0 mm")
-    if n < 2:
-        raise InputError("depths", n, "need at least 2 depths")
+    if isinstance(max_mm, bool) or not isinstance(max_mm, (int, float, np.number)) or not (np.isfinite(max_mm)
+                                                                                           and max_mm > 0):
+        raise InputError(field, max_mm, "must be a depth > 0 mm")  # "5" too: numpy's TypeError before
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise InputError("depths", n, "need a whole number of at least 2 depths")
     return np.arange(1, n + 1) * (max_mm / n)
 
 

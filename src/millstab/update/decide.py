@@ -998,6 +998,11 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
     """
+    # a numpy scalar (np.float32(0.05), a value read from an array) is a number: "--risk = 0.05000000074505806 is
+    # invalid: must be in (0, 1)" before
+    risk, confidence, speed_tolerance, test_risk, max_depth_mm, width_mm, feed_mm = (
+        float(x) if isinstance(x, np.number) else x
+        for x in (risk, confidence, speed_tolerance, test_risk, max_depth_mm, width_mm, feed_mm))
     if not (isinstance(risk, (int, float)) and 0 < risk < 1):
         raise InputError("--risk", risk, "the tolerated probability of chatter must be in (0, 1), e.g. 0.05")
     lo, hi = (float(x) for x in rpm_range)

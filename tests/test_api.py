@@ -48,6 +48,8 @@ def test_a_table_of_cuts_in_a_notebook_is_read_as_its_csv_file():
     with pytest.raises(InputError) as exc:
         api.points({"rpm": [5000, 6000], "depth_mm": [1.0]})
     assert "same number of rows" in str(exc.value)
+    text = api.points("rpm,depth_mm,label\n5000,1.5,stable\n6000,2,chatter\n")  # CSV text, not a file name
+    assert list(text.rpm) == [5000.0, 6000.0] and list(text.label) == ["stable", "chatter"]
     with pytest.raises(InputError) as exc:
         api.points(42)
     assert exc.value.field == "points" and "DataFrame" in str(exc.value)

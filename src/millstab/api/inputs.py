@@ -78,7 +78,8 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
 
 
 def points(source, name: str = "table") -> PointSet:
-    """A point set: itself, a CSV file, a packaged example ``"example:NAME"`` (ex3_points), or a table of cuts in
+    """A point set: itself, a CSV file, a packaged example ``"example:NAME"`` (ex3_points), CSV text of more than one
+    line (as :func:`points_from_text`), or a table of cuts in
     a notebook: a pandas DataFrame, a mapping {column: values} or a list of row mappings, with the columns of a
     points file (``rpm``, ``depth_mm``, ``label``, ``chatter_hz``, the condition columns, …; see
     :mod:`millstab.io.points`). A table is read by the file reader, so it gets the same checks and messages; they
@@ -89,6 +90,8 @@ def points(source, name: str = "table") -> PointSet:
     """
     if isinstance(source, PointSet):
         return source
+    if isinstance(source, str) and "\n" in source.strip():  # CSV text itself (no file name holds a line break)
+        return points_from_text(source, name)
     if isinstance(source, (str, os.PathLike)):
         return read_points(source)
     return parse_points(_table_csv(source, name), name)

@@ -23,6 +23,104 @@ def test_points_from_text_equal_the_file_reader():
         assert list(up.label) == list(from_file.label)
 
 
+def test_a_table_of_cuts_in_a_notebook_is_read_as_its_csv_file():
+    """A DataFrame, {column: values} and a list of row dicts give the file reader's point set, conditions, chatter
+    frequencies and empty cells (None, NaN) included; a bad cell gets the file reader's message."""
+    path = points_path("ex3_points")
+    from_file = read_points(path)
+    cols = {"rpm": list(from_file.rpm), "depth_mm": list(from_file.depth_mm), "label": list(from_file.label)}
+    rows = [dict(zip(cols, v)) for v in zip(*cols.values())]
+    tables = [cols, rows]
+    pd = pytest.importorskip("pandas")
+    tables.append(pd.DataFrame(cols))
+    for table in tables:
+        got = api.points(table)
+        np.testing.assert_array_equal(got.rpm, from_file.rpm)
+        np.testing.assert_array_equal(got.depth_mm, from_file.depth_mm)
+        assert list(got.label) == list(from_file.label)
+    mixed = api.points(pd.DataFrame({"rpm": [5000, 6000], "depth_mm": [1.5, 2.0], "label": ["stable", "chatter"],
+                                     "chatter_hz": [np.nan, 912.5], "radial_immersion": [0.5, None]}))
+    np.testing.assert_array_equal(mixed.chatter_hz, [np.nan, 912.5])
+    np.testing.assert_array_equal(mixed.conditions["radial_immersion"], [0.5, np.nan])
+    with pytest.raises(InputError) as exc:
+        api.points([{"rpm": 5000, "depth_mm": "1,5", "label": "stable"}], name="my cuts")
+    assert "my cuts line 2" in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        api.points({"rpm": [5000, 6000], "depth_mm": [1.0]})
+    assert "same number of rows" in str(exc.value)
+    text = api.points("rpm,depth_mm,label\n5000,1.5,stable\n6000,2,chatter\n")  # CSV text, not a file name
+    assert list(text.rpm) == [5000.0, 6000.0] and list(text.label) == ["stable", "chatter"]
+    with pytest.raises(InputError) as exc:
+        api.points(42)
+    assert exc.value.field == "points" and "DataFrame" in str(exc.value)
+
+
+def test_every_task_takes_a_table_of_cuts_and_names_what_is_no_number():
+    """update, predict, validate, identify and design read their cuts as api.points does (a notebook's list of rows:
+    AttributeError 'dict' object has no attribute 'has_conditions' from deep in the likelihood before); a text
+    sample count and a speed that is no number are InputErrors naming the option, not numpy's TypeError/ValueError."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"},
+            {"rpm": 7000, "depth_mm": 0.5, "label": "stable"}, {"rpm": 8000, "depth_mm": 6.0, "label": "chatter"}]
+    cuts = api.points(rows)
+    by_rows, by_set = api.update(cfg, rows, samples=100, seed=2), api.update(cfg, cuts, samples=100, seed=2)
+    np.testing.assert_array_equal(by_rows.samples, by_set.samples)
+    np.testing.assert_array_equal(api.predict(by_set, rows).p_stable, api.predict(by_set, cuts).p_stable)
+    with pytest.raises(InputError, match="boundary points"):  # read as a point set: too few boundary points
+        api.identify(cfg, rows)
+    with pytest.raises(InputError, match="--samples"):
+        api.validate(cfg, rows, samples="200")
+    with pytest.raises(InputError, match="rpm") as exc:
+        api.sensitivity("oat", cfg, ["5000", "x"], eps=[0.1])
+    assert "'x'" in str(exc.value)
+    with pytest.raises(InputError, match="rpm"):
+        api.design(cfg, n=2, rpm=[5000.0, float("nan")])
+
+
+def test_a_map_refuses_a_depth_or_speed_that_is_no_positive_number_instead_of_returning_nonsense():
+    """A NaN depth in p_stable's grid gave P(stable) = -6 .. 0 for every speed (the count of limits above it, off by
+    the NaN's place), a negative one P = 1; now each is an InputError naming the grid and the value, as are a text
+    speed, a bad seed and a speed range that is not two numbers in recommend."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"}]
+    post = api.update(cfg, rows, samples=100, seed=2)
+    rpm = api.speeds("5000:6000:500")
+    good = api.p_stable(post, rpm, [1.0, 2.0])
+    assert np.all((good >= 0) & (good <= 1))
+    assert np.all(api.p_stable(post, rpm, [0.0, 1.0])[:, 0] == 1)  # no cut: stable
+    for depth, shown in (([1.0, np.nan], "nan"), ([-1.0, 1.0], "-1"), (["1", "x"], "'x'"), ([], "[]")):
+        with pytest.raises(InputError) as exc:
+            api.p_stable(post, rpm, depth)
+        assert exc.value.field == "depth_mm" and shown in str(exc.value)
+    with pytest.raises(InputError, match="rpm"):
+        api.p_stable(post, ["5000", "x"], [1.0])
+    with pytest.raises(InputError, match="--seed"):
+        api.p_stable(post, rpm, [1.0], seed=-1)
+    for span in ((5000.0,), "5000:8000", (5000.0, "x")):
+        with pytest.raises(InputError, match="--rpm") as exc:
+            api.recommend(post, 0.05, span)
+        assert "two numbers" in str(exc.value)
+
+
+def test_numpy_scalars_are_numbers_to_a_recommendation_and_a_text_depth_is_named():
+    """np.float32(0.05) (a risk read from an array) was refused as "--risk = 0.05000000074505806 is invalid: must be in
+    (0, 1)"; it is the float it holds, and the same answer as 0.05000000074505806 written out. A map's depth axis
+    from text is an InputError, not numpy's TypeError."""
+    cfg = api.config("example:ex3")
+    rows = [{"rpm": 5000, "depth_mm": 1.0, "label": "stable"}, {"rpm": 6000, "depth_mm": 4.0, "label": "chatter"}]
+    post = api.update(cfg, rows, samples=100, seed=2)
+    a = api.recommend(post, np.float32(0.05), np.array([5000.0, 6000.0]), seed=np.int64(1),
+                      max_depth_mm=np.float32(5.0), coarse_points=8)
+    b = api.recommend(post, float(np.float32(0.05)), (5000.0, 6000.0), seed=1, max_depth_mm=5.0, coarse_points=8)
+    assert a.to_json() == b.to_json()
+    for args, field in ((("5",), "--max-depth"), ((5.0, "10"), "depths"), ((5.0, 1), "depths"),
+                        ((None,), "--max-depth")):
+        with pytest.raises(InputError) as exc:
+            api.depth_grid(*args)
+        assert exc.value.field == field
+    np.testing.assert_array_equal(api.depth_grid(np.float32(2.0), np.int64(4)), [0.5, 1.0, 1.5, 2.0])
+
+
 @pytest.mark.parametrize("text, field, says", [
     ("rpm,depth\n5000,1\n", "header", "unknown column"),
     ("rpm,depth_mm\n5000,abc\n", "line 2", "number"),
@@ -50,9 +148,19 @@ def test_config_text_round_trip_gives_the_same_lobes():
     np.testing.assert_array_equal(api.lobes(cfg, rpm).envelope.depth, api.lobes(again, rpm).envelope.depth)
 
 
+def test_a_config_from_its_tables_as_a_dict_and_a_wrong_source_named():
+    cfg = api.config("example:ex1")
+    again = api.config(api.config_fields(cfg))
+    assert again.cutting == cfg.cutting and again.structure == cfg.structure
+    with pytest.raises(InputError) as exc:
+        api.config(42)
+    assert exc.value.field == "config" and "a int" in str(exc.value) and "TOML file" in str(exc.value)
+
+
 @pytest.mark.parametrize("spec, says",
                          [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
-                          ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0")])
+                          ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0"),
+                          (["5000", "abc"], "a sequence of numbers"), ({"rpm": 5000}, "a sequence of numbers")])
 def test_bad_speeds_name_the_field(spec, says):
     with pytest.raises(InputError) as exc:
         api.speeds(spec)

@@ -92,7 +92,8 @@ def check_speed_order(eng, rtol: float) -> None:
 
 
 def check_bad_input(eng) -> None:
-    for rpm, shown in (([5000.0, -1.0], "-1"), ([], "[]"), ([5000.0, float("nan")], "nan")):
+    for rpm, shown in (([5000.0, -1.0], "-1"), ([], "[]"), ([5000.0, float("nan")], "nan"),
+                       (["5000", "x"], "'x'"), ({"rpm": 5000.0}, "5000")):
         with pytest.raises(InputError, match="rpm") as err:
             eng.envelope(TWO_DOF, HALF3, rpm)
         assert shown in str(err.value)

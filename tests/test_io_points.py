@@ -114,6 +114,19 @@ def test_pointset_validates_arrays():
         PointSet([5000, 6000], [1.0, 2.0], weight=[1.0])
 
 
+@pytest.mark.parametrize("kwargs, field, value", [
+    ({"rpm": ["5000", "6000x"], "depth_mm": [1.0, 2.0]}, "points.rpm[1]", "6000x"),
+    ({"rpm": [5000], "depth_mm": [{"mm": 1}]}, "points.depth_mm[0]", {"mm": 1}),
+    ({"rpm": [5000], "depth_mm": [1.0], "label": ["chatter"], "chatter_hz": ["high"]}, "points.chatter_hz[0]", "high"),
+    ({"rpm": [5000], "depth_mm": [1.0], "weight": ["heavy"]}, "points.weight[0]", "heavy")])
+def test_pointset_names_a_value_that_is_no_number(kwargs, field, value):
+    """A notebook's cuts built by hand: a typo in one cell is an InputError naming the array and the entry, not
+    numpy's "could not convert string to float"."""
+    with pytest.raises(InputError) as exc:
+        PointSet(**kwargs)
+    assert exc.value.field == field and exc.value.value == value and "must be a number" in exc.value.allowed
+
+
 def test_check_enough(tmp_path):
     ps = read_points(points_file(tmp_path, GOOD))  # two boundary points
     assert check_enough(ps, 2) == 2

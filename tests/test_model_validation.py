@@ -74,6 +74,26 @@ def test_normal_stiffness_does_not_warn():
     assert m.k == 12.53e6
 
 
+def test_the_unit_the_warning_asks_for_is_taken_by_the_python_api():
+    """The low-stiffness warning says 'Give units explicitly, e.g. "12.53 N/um"': Mode and Cutting take such a
+    string, and a pint Quantity of the user's own registry, converted as in a config file (rpm counts its angle)."""
+    with pytest.warns(UnitWarning, match='e.g. "12.53 N/um"'):
+        Mode(903.0, 12.53, 0.03)
+    assert Mode(903.0, "12.53 N/um", "3 %") == Mode(903.0, 12.53e6, 0.03)
+    c = Cutting(4, "556.31 MPa", 0.4, entry="90 deg", exit="180 deg", process_damping="2e5 N/m", diameter="12 mm")
+    assert (c.kt, c.entry, c.exit, c.process_damping, c.diameter) == (556.31e6, math.pi / 2, math.pi, 2e5, 0.012)
+    pint = pytest.importorskip("pint")
+    u = pint.UnitRegistry()
+    m = Mode(u.Quantity(54180.0, "rpm"), u.Quantity(12.53, "N/um"), u.Quantity(3, "percent"))
+    assert (m.fn, m.k, m.zeta) == pytest.approx((903.0, 12.53e6, 0.03), rel=1e-15)
+    assert Cutting(2, u.Quantity(600, "MPa"), 0.3).kt == 600e6
+    err = _raises("mode.fn", Mode, u.Quantity(1000, "kg"), 1e7, 0.03)
+    assert err.value == u.Quantity(1000, "kg") and "expected a frequency" in err.allowed
+    err = _raises("cutting.kt", Cutting, 2, "600 N/um", 0.3)
+    assert "expected a cutting coefficient" in err.allowed
+    _raises("mode.k", Mode, 903.0, u.Quantity(np.array([1.0, 2.0]), "N/um"), 0.03)
+
+
 # ---------------------------------------------------------------------------------- Cutting
 
 @pytest.mark.parametrize("teeth", [0, -2, 2.5, "4", None, True])
@@ -163,6 +183,13 @@ def test_structure_modes_and_frf():
 
 def test_structure_entry_not_a_mode():
     _raises("structure.y", Structure, y=((903, 1e7, 0.03),))
+
+
+def test_one_mode_needs_no_tuple_and_a_number_is_named():
+    m = Mode(903, 1e7, 0.03)
+    assert Structure(x=m, y=[m]) == Structure(x=(m,), y=(m,))
+    err = _raises("structure.x", Structure, x=903.0)
+    assert "sequence of Modes" in err.allowed
 
 
 def test_rigid_direction_is_allowed():

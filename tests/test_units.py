@@ -122,3 +122,27 @@ def test_speeds_in_other_units_are_refused_with_their_rpm(value, words):
 def test_speeds_rpm_spellings():
     c = parse_config(HEAD.format(fn="903") + '[speeds]\nstart = "5000 RPM"\nstop = "6000 r/min"\nstep = "500 1/min"\n')
     np.testing.assert_array_equal(c.rpm, [5000.0, 5500.0, 6000.0])
+
+
+def test_speeds_and_points_given_as_pint_arrays_keep_their_units():
+    """numpy strips a Quantity's unit (pint only warns): 100 Hz was read as 100 rpm, a depth of 0.002 m as 0.002 mm.
+    The speeds (api.speeds, every engine's check_rpm) and a PointSet's columns convert from the unit given."""
+    pint = pytest.importorskip("pint")
+    import warnings
+
+    from millstab import api
+    from millstab.points import PointSet
+    from millstab.stability import check_rpm
+
+    u = pint.UnitRegistry()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no UnitStrippedWarning: nothing reaches numpy with its unit
+        np.testing.assert_array_equal(api.speeds(np.array([100.0, 150.0]) * u.Hz), [6000.0, 9000.0])
+        np.testing.assert_allclose(check_rpm(u.Quantity(np.array([5000.0]), "rpm")), [5000.0], rtol=1e-15)
+        p = PointSet(u.Quantity([5000.0], "rpm"), u.Quantity([0.002], "m"), ["chatter"], chatter_hz=[900.0] * u.Hz)
+    np.testing.assert_allclose([p.rpm[0], p.depth_mm[0], p.chatter_hz[0]], [5000.0, 2.0, 900.0], rtol=1e-15)
+    with pytest.raises(InputError) as exc:
+        PointSet([5000.0], [2.0] * u.Hz)
+    assert exc.value.field == "points.depth_mm" and "expected a length" in exc.value.allowed
+    with pytest.raises(InputError, match="--rpm"):
+        api.speeds(np.array([1.0]) * u.m)

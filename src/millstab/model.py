@@ -11,6 +11,8 @@ All classes are small frozen dataclasses, validated on construction, SI inside:
   0..π is slotting, down milling exits at π, up milling enters at 0); optionally the process-damping
   coefficient ``process_damping`` C [N/m] and the tool ``diameter`` [m] its cutting speed needs.
 
+A plain number is SI; a string with units (``Mode(903, "12.53 N/um", 0.03)``, ``kt="556 MPa"``,
+``entry="90 deg"``) or a pint Quantity is converted to SI as in a config file (:mod:`millstab.units`).
 Invalid input raises :class:`millstab.errors.InputError` naming the field, the value and what is
 allowed.
 """
@@ -25,6 +27,7 @@ import numpy as np
 
 from millstab.bounds import MAX_TEETH
 from millstab.errors import FRFWarning, InputError, UnitWarning
+from millstab.units import is_quantity, parse_quantity
 from millstab.warnlog import quiet, warn
 
 #: Below this modal stiffness [N/m] a value is almost surely N/µm typed as N/m (the seed paper's
@@ -45,10 +48,16 @@ IMPLAUSIBLE_KR = 5.0
 LARGEST_DIAMETER = 2.0
 
 
-def _finite(field_name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise if it is not a finite real number."""
+def _finite(field_name: str, value: object, dimension: str) -> float:
+    """Return ``value`` as a float in SI, or raise if it is not a finite real number.
+
+    A number is SI; a string with units (``"12.53 N/um"``, ``"600 MPa"``, ``"90 deg"``) or a pint Quantity is
+    converted from its units to SI as in a config file (:func:`millstab.units.parse_quantity` for ``dimension``),
+    which is what the unit warnings below tell a reader to write."""
     if isinstance(value, bool):
         raise InputError(field_name, value, "must be a number, not a boolean")
+    if not isinstance(value, float) and (isinstance(value, str) or is_quantity(value)):  # floats: the hot path
+        return parse_quantity(value, field_name, dimension)
     try:
         x = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -92,9 +101,9 @@ class Mode:
     name: str = field(default="mode", compare=False, repr=False)
 
     def __post_init__(self) -> None:
-        fn = _finite(f"{self.name}.fn", self.fn)
-        k = _finite(f"{self.name}.k", self.k)
-        zeta = _finite(f"{self.name}.zeta", self.zeta)
+        fn = _finite(f"{self.name}.fn", self.fn, "frequency")
+        k = _finite(f"{self.name}.k", self.k, "stiffness")
+        zeta = _finite(f"{self.name}.zeta", self.zeta, "dimensionless")
         if fn <= 0:
             raise InputError(f"{self.name}.fn", self.fn, "natural frequency must be > 0 Hz")
         if k <= 0:
@@ -215,8 +224,17 @@ class Structure:
     frf: MeasuredFRF | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "x", tuple(self.x))
-        object.__setattr__(self, "y", tuple(self.y))
+        for direction in ("x", "y"):
+            modes = getattr(self, direction)
+            if isinstance(modes, Mode):  # Structure(x=Mode(...)): one mode, not a tuple of one
+                modes = (modes,)
+            elif modes is None:
+                modes = ()
+            try:
+                modes = tuple(modes)
+            except TypeError:
+                raise InputError(f"structure.{direction}", modes, "a Mode or a sequence of Modes") from None
+            object.__setattr__(self, direction, modes)
         for direction in ("x", "y"):
             for m in getattr(self, direction):
                 if not isinstance(m, Mode):
@@ -287,10 +305,10 @@ class Cutting:
             raise InputError("cutting.teeth", self.teeth, f"number of teeth must be a positive integer, at most "
                                                           f"{MAX_TEETH} (the largest face mills carry ~100 inserts)")
         object.__setattr__(self, "teeth", int(self.teeth))
-        kt = _finite("cutting.kt", self.kt)
-        kr = _finite("cutting.kr", self.kr)
-        entry = _finite("cutting.entry", self.entry)
-        exit_ = _finite("cutting.exit", self.exit)
+        kt = _finite("cutting.kt", self.kt, "pressure")
+        kr = _finite("cutting.kr", self.kr, "dimensionless")
+        entry = _finite("cutting.entry", self.entry, "angle")
+        exit_ = _finite("cutting.exit", self.exit, "angle")
         if kt <= 0:
             raise InputError("cutting.kt", self.kt, "tangential cutting coefficient must be > 0 N/m^2")
         if kt < 1e5:
@@ -322,13 +340,13 @@ class Cutting:
         object.__setattr__(self, "kr", kr)
         object.__setattr__(self, "entry", min(max(entry, 0.0), math.pi))
         object.__setattr__(self, "exit", min(max(exit_, 0.0), math.pi))
-        pd = _finite("cutting.process_damping", self.process_damping)
+        pd = _finite("cutting.process_damping", self.process_damping, "stiffness")
         if pd < 0:
             raise InputError("cutting.process_damping", self.process_damping,
                              "process-damping coefficient C must be >= 0 N/m (0: no process damping)")
         object.__setattr__(self, "process_damping", pd)
         if self.diameter is not None:
-            d = _finite("cutting.diameter", self.diameter)
+            d = _finite("cutting.diameter", self.diameter, "length")
             if d <= 0:
                 raise InputError("cutting.diameter", self.diameter, "tool diameter must be > 0 m")
             if d > LARGEST_DIAMETER:
@@ -367,7 +385,7 @@ class Cutting:
         Down (climb) milling: φst = arccos(2a/D − 1), φex = π. Up (conventional) milling: φst = 0,
         φex = arccos(1 − 2a/D). ``extra``: the other fields (``process_damping``, ``diameter``).
         """
-        ri = _finite("cutting.radial_immersion", radial_immersion)
+        ri = _finite("cutting.radial_immersion", radial_immersion, "dimensionless")
         if not 0 < ri <= 1:
             raise InputError("cutting.radial_immersion", radial_immersion, "radial immersion a/D must be in (0, 1]")
         if milling == "down":

@@ -12,6 +12,7 @@ import numpy as np
 
 from millstab.errors import InputError
 from millstab.model import Cutting
+from millstab.units import is_quantity, quantity_values
 
 LABELS = ("stable", "chatter", "marginal")
 LABEL_RULE = ("must be 'stable', 'chatter', 'marginal' (or 'uncertain'/'unsure' = marginal), a probability of "
@@ -143,6 +144,31 @@ def _float(s: str) -> float:
     return x if math.isfinite(x) else math.nan
 
 
+#: how a PointSet array given as a pint Quantity is converted: {unit of the field: (dimension, factor from SI)}
+_QUANTITY = {"rev/min": ("frequency", 60.0), "mm": ("length", 1e3), "Hz": ("frequency", 1.0),
+             "": ("dimensionless", 1.0)}
+
+
+def _floats(name: str, values, unit: str) -> np.ndarray:
+    """``values`` as a 1-D float array in ``unit`` (a pint Quantity converted from its own unit: numpy would strip it,
+    reading 2 mm given in m as 0.002 mm); an InputError naming ``points.NAME[i]`` and the value where one is not a
+    number (``"5000x"``, a dict), where numpy would raise its own ValueError naming no field."""
+    if is_quantity(values):
+        dimension, factor = _QUANTITY[unit]
+        return np.atleast_1d(quantity_values(values, f"points.{name}", dimension) * factor)
+    try:
+        return np.atleast_1d(np.asarray(values, dtype=float))
+    except (TypeError, ValueError):
+        pass
+    seq = values if isinstance(values, (list, tuple, np.ndarray)) else [values]
+    for i, v in enumerate(seq):
+        try:
+            float(v)
+        except (TypeError, ValueError):
+            raise InputError(f"points.{name}[{i}]", v, f"must be a number {unit}".rstrip()) from None
+    raise InputError(f"points.{name}", values, f"a 1-D sequence of numbers {unit}".rstrip())
+
+
 @dataclass(frozen=True, eq=False)
 class PointSet:
     """Spindle-speed/depth points, each a boundary point (label ``""``) or a labelled test cut.
@@ -188,13 +214,13 @@ class PointSet:
     columns: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
-        rpm = np.atleast_1d(np.asarray(self.rpm, dtype=float))
-        depth = np.atleast_1d(np.asarray(self.depth_mm, dtype=float))
+        rpm = _floats("rpm", self.rpm, "rev/min")
+        depth = _floats("depth_mm", self.depth_mm, "mm")
         n = rpm.size
         label = (np.full(n, "", dtype=object) if self.label is None
                  else np.atleast_1d(np.asarray(self.label, dtype=object)))
-        weight = np.ones(n) if self.weight is None else np.atleast_1d(np.asarray(self.weight, dtype=float))
-        hz = np.full(n, np.nan) if self.chatter_hz is None else np.atleast_1d(np.asarray(self.chatter_hz, dtype=float))
+        weight = np.ones(n) if self.weight is None else _floats("weight", self.weight, "")
+        hz = np.full(n, np.nan) if self.chatter_hz is None else _floats("chatter_hz", self.chatter_hz, "Hz")
         for name, arr in (("depth_mm", depth), ("label", label), ("weight", weight), ("chatter_hz", hz)):
             if arr.ndim != 1 or arr.size != n:
                 raise InputError(f"points.{name}", f"{arr.size} values", f"need one value per speed ({n})")

@@ -53,7 +53,8 @@ def parse_quantity(value: object, field: str, dimension: str) -> float:
     """Convert a config value to an SI float.
 
     Args:
-        value: a number (taken as SI) or a string with units such as ``"12.53 N/um"``.
+        value: a number (taken as SI), a string with units such as ``"12.53 N/um"``, or a pint Quantity with a
+            scalar magnitude (of any registry: read by its units' names, angle content counted as for a string).
         field: the config field name, used in error messages.
         dimension: one of :data:`DIMENSIONS`.
 
@@ -68,11 +69,57 @@ def parse_quantity(value: object, field: str, dimension: str) -> float:
         x = float(value)
     elif isinstance(value, str):
         x = _parse_string(value, field, si_unit, angle_power, allowed)
+    elif is_quantity(value):
+        try:
+            x = _parse_string(_quantity_text(value, field, allowed), field, si_unit, angle_power, allowed)
+        except InputError as exc:  # the message shows the Quantity as given, not its text
+            raise InputError(field, value, exc.allowed) from None
     else:
         raise InputError(field, value, f"expected {allowed}")
     if not math.isfinite(x):
         raise InputError(field, value, f"must be finite; expected {allowed}")
     return x
+
+
+def is_quantity(value: object) -> bool:
+    """Whether ``value`` looks like a pint Quantity (a magnitude and units), without importing pint."""
+    return hasattr(value, "magnitude") and hasattr(value, "units") and hasattr(value, "to_tuple")
+
+
+def quantity_values(q, field: str, dimension: str):
+    """A pint Quantity (a scalar or an array, any registry) as a float array in the SI unit of ``dimension``
+    (:data:`DIMENSIONS`; a frequency in Hz, rpm counted as turns), through the factor of one of its units: numpy
+    alone would strip the unit (``np.asarray(100 * Hz)`` is 100, read as 100 rpm).
+
+    Raises:
+        InputError: a unit of another dimension, or a magnitude that is not numbers (naming ``field``).
+    """
+    import numpy as np
+
+    # a Quantity has a unit: what a plain number would mean here is not this field's business
+    allowed = re.sub(r" \(plain number = [^)]*\)", "", DIMENSIONS[dimension][2])
+    magnitude, units = q.to_tuple()
+    try:
+        values = np.asarray(magnitude, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(field, q, f"numbers with a unit; expected {allowed}") from None
+    one = " * ".join(["1.0"] + [f"{name} ** {power!r}" for name, power in units])
+    try:
+        factor = _parse_string(one, field, DIMENSIONS[dimension][0], DIMENSIONS[dimension][1], allowed)
+    except InputError as exc:  # the message shows the Quantity as given, not its unit's text
+        raise InputError(field, q, exc.allowed) from None
+    return values * factor
+
+
+def _quantity_text(q, field: str, allowed: str) -> str:
+    """A pint Quantity as the text :func:`_parse_string` reads (``"12.5 micrometer ** -1 * newton ** 1"``): its units
+    by name, so that a Quantity of the user's own registry is read by millstab's, and ``rpm`` counts its angle."""
+    magnitude, units = q.to_tuple()
+    try:
+        x = float(magnitude)
+    except (TypeError, ValueError):
+        raise InputError(field, q, f"a single quantity, not an array; expected {allowed}") from None
+    return " * ".join([repr(x)] + [f"{name} ** {power!r}" for name, power in units])
 
 
 def _parse_string(text: str, field: str, si_unit: str, angle_power: int, allowed: str) -> float:

@@ -9,6 +9,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from millstab.api.inputs import modal
+from millstab.api.inputs import points as point_set
 from millstab.progress import Progress, solver_progress
 from millstab.errors import InputError
 from millstab.identify import METHODS as IDENTIFY_METHODS  # noqa: F401 (re-exported by millstab.api)
@@ -45,6 +46,7 @@ def identify(cfg: Config, points: PointSet, *, method: str = "lsq", free: Sequen
     if loss != "linear" and method != "lsq":
         raise InputError("--loss", loss, "a robust loss applies to --method lsq only")
     cfg, _ = modal(cfg)
+    points = point_set(points, "points")  # a PointSet, a file, or a notebook's table
     options = {"loss": loss} if method == "lsq" else {}
     options["noise"] = check_noise(noise, "--noise")
     fit = run_identify(cfg, points, method=method, free=free, axisymmetric=axisymmetric, initial=initial,
@@ -110,8 +112,11 @@ def design(cfg: Config, *, n: int = 20, points: PointSet | None = None, fit=None
     from millstab.params import Parameterization
 
     cfg, _ = modal(cfg)
+    points = None if points is None else point_set(points, "points")  # a PointSet, a file, or a notebook's table
     if rpm is not None:
-        candidates = np.asarray(rpm, float)
+        from millstab.stability import check_rpm
+
+        candidates = check_rpm(rpm)
     elif cfg.rpm is not None:
         candidates = np.linspace(float(np.min(cfg.rpm)), float(np.max(cfg.rpm)), N_CANDIDATES)
     else:

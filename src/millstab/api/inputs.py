@@ -25,6 +25,7 @@ from millstab.io.text import decode_text
 from millstab.params import shown_value  # noqa: F401 (re-exported: a parameter value as printed)
 from millstab.parsing import parse_grid, parse_interval, parse_rpm_range  # noqa: F401 (re-exported)
 from millstab.units import SHOWN as SHOWN_UNITS  # noqa: F401 (re-exported: how a parameter is printed)
+from millstab.units import is_quantity, quantity_values
 
 #: speeds when neither the caller nor the config gives any [rpm]: START, STOP, STEP
 FALLBACK_RPM = (2000.0, 12000.0, 20.0)
@@ -34,14 +35,22 @@ MAX_TEXT_BYTES = 5_000_000
 MAX_FRF_BYTES = 20_000_000
 
 
-def config(source: Config | str | os.PathLike) -> Config:
-    """A config: itself, a TOML file, or a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute).
+def config(source: Config | str | os.PathLike | Mapping) -> Config:
+    """A config: itself, a TOML file, a packaged example ``"example:NAME"`` (ex1, ex2, ex3, fourflute), or its
+    tables as a dict (``{"cutting": {...}, "structure": {...}}``, :func:`config_from_fields`).
 
     Raises:
         InputError: as the file's reader, and for ``[speeds]`` outside :func:`millstab.bounds.check_speeds`'s
-            bounds (naming the file and ``[speeds]``).
+            bounds (naming the file and ``[speeds]``); ``config`` for a source that is none of these.
     """
-    return _bounded(source if isinstance(source, Config) else load_config(source))
+    if isinstance(source, Config):
+        return _bounded(source)
+    if isinstance(source, Mapping):
+        return config_from_fields(source)
+    if not isinstance(source, (str, os.PathLike)):
+        raise InputError("config", f"a {type(source).__name__}", "a Config, a TOML file (path), \"example:NAME\" or "
+                                                                  "the config's tables as a dict")
+    return _bounded(load_config(source))
 
 
 def _bounded(cfg: Config) -> Config:
@@ -68,9 +77,69 @@ def config_from_text(text: str | bytes, name: str = "config", files: Mapping[str
                                  source=name))
 
 
-def points(source: PointSet | str | os.PathLike) -> PointSet:
-    """A point set: itself, a CSV file, or a packaged example ``"example:NAME"`` (ex3_points)."""
-    return source if isinstance(source, PointSet) else read_points(source)
+def points(source, name: str = "table") -> PointSet:
+    """A point set: itself, a CSV file, a packaged example ``"example:NAME"`` (ex3_points), CSV text of more than one
+    line (as :func:`points_from_text`), or a table of cuts in
+    a notebook: a pandas DataFrame, a mapping {column: values} or a list of row mappings, with the columns of a
+    points file (``rpm``, ``depth_mm``, ``label``, ``chatter_hz``, the condition columns, …; see
+    :mod:`millstab.io.points`). A table is read by the file reader, so it gets the same checks and messages; they
+    name it ``name`` and count its header as line 1 (row 0 is line 2). Empty cells (None, NaN) are empty.
+
+    Raises:
+        InputError: as the file's reader; ``points`` for a source that is none of these.
+    """
+    if isinstance(source, PointSet):
+        return source
+    if isinstance(source, str) and "\n" in source.strip():  # CSV text itself (no file name holds a line break)
+        return points_from_text(source, name)
+    if isinstance(source, (str, os.PathLike)):
+        return read_points(source)
+    return parse_points(_table_csv(source, name), name)
+
+
+def _table_csv(table, name: str) -> str:
+    """The CSV text of a table of cuts (a DataFrame, {column: values} or [{column: value}, …]), numbers written
+    exactly (repr), None/NaN as empty cells."""
+    import csv
+    import io
+
+    if hasattr(table, "columns") and hasattr(table, "to_dict"):  # a pandas DataFrame, without importing pandas
+        table = {str(c): list(table[c]) for c in table.columns}
+    if isinstance(table, Mapping):
+        cols = {str(c): list(np.atleast_1d(np.asarray(v, dtype=object))) for c, v in table.items()}
+        lengths = {len(v) for v in cols.values()}
+        if len(lengths) > 1:
+            raise InputError(name, {c: len(v) for c, v in cols.items()}, "every column needs the same number of rows")
+        rows = [dict(zip(cols, vals)) for vals in zip(*cols.values())]
+        header = list(cols)
+    elif isinstance(table, (list, tuple)) and all(isinstance(r, Mapping) for r in table):
+        rows = [{str(c): v for c, v in r.items()} for r in table]
+        header = list(dict.fromkeys(c for r in rows for c in r))
+    else:
+        raise InputError("points", f"a {type(table).__name__}", "a PointSet, a CSV file (path), \"example:NAME\", a "
+                                                                  "DataFrame, {column: values} or a list of row dicts")
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(header)
+    w.writerows([_cell(r.get(c)) for c in header] for r in rows)
+    return out.getvalue()
+
+
+def _cell(v) -> str:
+    """One table cell as CSV text: None, NaN and pandas' NA empty; an integer as such; a float exactly."""
+    if v is None or type(v).__name__ in ("NAType", "NaTType"):
+        return ""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    return "" if x != x else repr(x)
 
 
 def overlay_points(*sets: PointSet | None) -> PointSet | None:
@@ -183,8 +252,9 @@ def config_toml(cfg: Config) -> str:
 def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, float] = FALLBACK_RPM,
            field: str = "--rpm", rpm_file: str | os.PathLike | None = None) -> np.ndarray:
     """Spindle speeds [rpm]: ``spec`` as ``START:STOP:STEP`` text (START = STOP: that one speed, as a file of one
-    line) or a sequence of numbers, else a speeds file ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`),
-    else the config's ``[speeds]``, else the ``fallback`` grid.
+    line), a sequence of numbers or a pint Quantity (converted from its unit: 100 Hz = 6000 rpm), else a speeds
+    file ``rpm_file`` (:func:`millstab.io.speeds.read_rpm_file`), else the config's ``[speeds]``, else the
+    ``fallback`` grid.
 
     Raises:
         InputError: bad range text, both ``spec`` and ``rpm_file``, or a speed outside
@@ -204,7 +274,13 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
         return np.arange(fallback[0], fallback[1] + fallback[2] / 2, fallback[2])
     if isinstance(spec, str):
         return parse_rpm_range(spec, field, single=True)
-    r = np.asarray(spec, dtype=float).ravel()
+    if is_quantity(spec):  # 100 Hz is 6000 rpm: numpy alone would strip the unit and read 100 rpm
+        spec = quantity_values(spec, field, "frequency") * 60.0
+    try:
+        r = np.asarray(spec, dtype=float).ravel()
+    except (TypeError, ValueError):  # ["5000", "abc"], a dict: numpy's own message names no field
+        raise InputError(field, spec, "speeds must be START:STOP:STEP text or a sequence of numbers in "
+                                      "rev/min") from None
     if r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
         raise InputError(field, spec if r.size < 6 else f"{r.size} speeds", "speeds must be finite numbers > 0 rev/min")
     return check_speeds(r, field)

@@ -171,7 +171,9 @@ def _predict(post, cuts: PointSet) -> Prediction:
     from millstab.io.stickout import stickouts
     from millstab.update.decide import warn_outside, warn_time_averaged
     from millstab.update.predict import predict_at_stickouts
+    from millstab.api.inputs import points as point_set
 
+    cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table (DataFrame, list of rows)
     check_cuts(len(cuts))
     if len(cuts):
         warn_outside(post, float(cuts.rpm.min()), float(cuts.rpm.max()), stacklevel=3)

@@ -194,6 +194,9 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
         raise InputError("METHOD", method, f"must be one of {', '.join(METHODS)}")
     if preset is not None and preset not in PRESETS:
         raise InputError("--preset", preset, f"must be one of {', '.join(PRESETS)}")
+    from millstab.stability import check_rpm
+
+    rpm = check_rpm(rpm)  # ["5000", "x"], NaN, 0: an InputError naming rpm before any work
     cfg, _ = modal(cfg)
     _warn_time_averaged(cfg, engine)
     example = sa.match_example(cfg.cutting, cfg.structure)
@@ -207,7 +210,7 @@ def sensitivity(method: str, cfg: Config, rpm: np.ndarray, *, n: int | None = No
     t_val = DEFAULT_T if t is None else t
     n_val = DEFAULT_N.get(method) if n is None else n
     common = dict(theta=theta, engine=engine)
-    context = dict(config=cfg, rpm=np.asarray(rpm, float), engine=engine, preset=preset, centre_source=centre,
+    context = dict(config=cfg, rpm=rpm, engine=engine, preset=preset, centre_source=centre,
                    paper_example=example)
     if method == "oat":
         grid = sa.PAPER_EPS_GRID if (preset == "paper" and eps is None) else eps

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from millstab.api.inputs import modal
+from millstab.api.inputs import points as point_set
 from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
 from millstab.bounds import check_cuts
@@ -50,10 +51,11 @@ class UpdateSettings:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
-def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engine: str = "zoa", samples: int = 4000,
+def update(cfg: Config, cuts, points=None, *, engine: str = "zoa", samples: int = 4000,
            seed: int = 0, start=None, progress: Progress | None = None, client=None, sampler: str = "auto",
            stickout_mm=None, engine_options: dict | None = None):
-    """The posterior of the modal parameters given labelled cuts (:func:`millstab.update.update`); a
+    """The posterior of the modal parameters given labelled cuts (``cuts`` and the boundary ``points``: anything
+    :func:`millstab.api.points` reads, a DataFrame included; :func:`millstab.update.update`); a
     measured-FRF config's prior centres on its fitted modes; ``start``: an earlier posterior whose cuts are
     among ``cuts`` (sequential reuse: only the new cuts are tempered in); ``client``: a ``distributed.Client``
     whose cluster runs the likelihood's engine calls where that pays (same seed, same posterior); ``sampler``:
@@ -78,6 +80,8 @@ def update(cfg: Config, cuts: PointSet, points: PointSet | None = None, *, engin
     from millstab.update import update as run_update
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
+    cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table (DataFrame, list of rows)
+    points = None if points is None else point_set(points, "points")
     check_cuts(len(cuts) + (0 if points is None else len(points)))
     check_seed(seed)
     from millstab.update.stickout import over_holder
@@ -372,10 +376,11 @@ def depth_grid(max_mm: float, n: int = 100, field: str = "--max-depth") -> np.nd
     Raises:
         InputError: ``max_mm`` not a finite number > 0, or ``n`` < 2.
     """
-    if not (np.isfinite(max_mm) and max_mm > 0):
-        raise InputError(field, max_mm, "must be a depth > 0 mm")
-    if n < 2:
-        raise InputError("depths", n, "need at least 2 depths")
+    if isinstance(max_mm, bool) or not isinstance(max_mm, (int, float, np.number)) or not (np.isfinite(max_mm)
+                                                                                           and max_mm > 0):
+        raise InputError(field, max_mm, "must be a depth > 0 mm")  # "5" too: numpy's TypeError before
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise InputError("depths", n, "need a whole number of at least 2 depths")
     return np.arange(1, n + 1) * (max_mm / n)
 
 
@@ -391,12 +396,16 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
     search's, at the speeds both read) are computed once; the same numbers.
 
     Raises:
-        InputError: more than :data:`MAX_MAP_CELLS` cells.
+        InputError: more than :data:`MAX_MAP_CELLS` cells; a speed that is not a finite number > 0, a depth that is
+            not one ≥ 0 [mm]; a bad seed.
     """
+    from millstab.stability import check_rpm
     from millstab.update import p_stable_map
     from millstab.update.decide import warn_outside
 
     m = map_samples(post, samples)
+    check_seed(seed)
+    rpm, depth_mm = check_rpm(rpm), _depths(depth_mm)  # a NaN depth made P(stable) -6 .. 0 before
 
     if np.size(rpm) * np.size(depth_mm) > MAX_MAP_CELLS:
         raise InputError("--depth", f"{np.size(depth_mm)} depths",
@@ -408,6 +417,21 @@ def p_stable(post, rpm: np.ndarray, depth_mm: np.ndarray, client=None, *, sample
 
         check_client(client)
     return p_stable_map(post, rpm, depth_mm, client, samples=m, seed=seed, memo=None if client is not None else memo)
+
+
+def _depths(depth_mm, field: str = "depth_mm") -> np.ndarray:
+    """The map's depths as a non-empty 1-D float array [mm]; InputError naming ``field`` and the first value that is
+    not a finite number ≥ 0 (a depth 0, a grid from np.linspace(0, …), is stable: no cut)."""
+    try:
+        d = np.atleast_1d(np.asarray(depth_mm, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm") from None
+    if d.ndim != 1 or d.size == 0:
+        raise InputError(field, depth_mm, "depths must be a non-empty 1-D list of numbers in mm")
+    bad = ~(np.isfinite(d) & (d >= 0))
+    if bad.any():
+        raise InputError(field, float(d[bad][0]), "depths must be finite numbers >= 0 mm")
+    return d
 
 
 def limit_memo():
@@ -523,5 +547,9 @@ def recommend(post, risk: float, rpm_range: tuple[float, float], *, max_depth_mm
     from millstab.update import recommend as run_recommend
 
     check_seed(seed)
-    return run_recommend(post, risk, tuple(rpm_range), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
+    try:
+        low, high = (float(v) for v in rpm_range)
+    except (TypeError, ValueError):  # (5000,), "5000:8000", ("5000", "x"): numpy's unpacking error before
+        raise InputError("--rpm", rpm_range, "a speed range (LOW, HIGH) of two numbers in rev/min") from None
+    return run_recommend(post, risk, (low, high), max_depth_mm=max_depth_mm, width_mm=width_mm, feed_mm=feed_mm,
                          seed=seed, **rule)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from millstab.api.inputs import modal
+from millstab.api.inputs import points as point_set
 from millstab.progress import Progress
 from millstab.errors import InputError
 from millstab.points import PointSet
@@ -25,10 +26,11 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
     from millstab.stability import check_engine_name
     from millstab.update.validate import cross_validate
 
-    if samples < 100:
-        raise InputError("--samples", samples, "need at least 100 samples")
     from millstab.bounds import check_cuts
+    from millstab.bounds import samples as check_samples
 
+    check_samples(samples)  # a whole number 100..10^6, as update's (a text "200" was numpy's TypeError)
+    cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table
     check_cuts(len(cuts))
     check_engine_name(engine)
     from millstab.api.update import check_engine_options

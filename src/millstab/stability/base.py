@@ -17,6 +17,7 @@ from typing import Any, Callable, Protocol, runtime_checkable
 import numpy as np
 
 from millstab.errors import InputError
+from millstab.units import is_quantity, quantity_values
 from millstab.jsondoc import check_schema, floats_in, floats_out, ints_in, need
 
 #: outputs (sets × speeds) one batched call should hold at most: a few float64 arrays of this many
@@ -39,9 +40,15 @@ ENVELOPE_SCHEMA = "millstab.envelope/1"
 
 
 def check_rpm(rpm) -> np.ndarray:
-    """Spindle speeds as a 1-D float array [rev/min]; InputError for an empty list or a speed that is not finite
-    and > 0. Shared by every engine and by the studies (a helper of the contract, not of one engine)."""
-    r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    """Spindle speeds as a 1-D float array [rev/min] (a pint Quantity converted from its unit); InputError for an
+    empty list or a speed that is not finite and > 0. Shared by every engine and by the studies (a helper of the
+    contract, not of one engine)."""
+    if is_quantity(rpm):  # 100 Hz is 6000 rpm: numpy alone would strip the unit and read 100 rpm
+        rpm = quantity_values(rpm, "rpm", "frequency") * 60.0
+    try:
+        r = np.atleast_1d(np.asarray(rpm, dtype=float))
+    except (TypeError, ValueError):  # ["5000", "x"], a dict: numpy's message names no field
+        raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds, numbers in rev/min") from None
     if r.ndim != 1 or r.size == 0:
         raise InputError("rpm", rpm, "need a non-empty 1-D list of spindle speeds")
     bad = ~np.isfinite(r) | (r <= 0)

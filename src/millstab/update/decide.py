@@ -999,6 +999,11 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
         UserWarning: the speed range reaches beyond the speeds of the data (the answer leans on the prior
             there); too few effective samples to bound the risk at ``confidence``.
     """
+    # a numpy scalar (np.float32(0.05), a value read from an array) is a number: "--risk = 0.05000000074505806 is
+    # invalid: must be in (0, 1)" before
+    confidence, speed_tolerance, test_risk, max_depth_mm, width_mm, feed_mm = (
+        float(x) if isinstance(x, np.number) else x
+        for x in (confidence, speed_tolerance, test_risk, max_depth_mm, width_mm, feed_mm))
     risk = check_risk(risk)
     lo, hi = (float(x) for x in rpm_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):

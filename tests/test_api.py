@@ -157,6 +157,29 @@ def test_a_config_from_its_tables_as_a_dict_and_a_wrong_source_named():
     assert exc.value.field == "config" and "a int" in str(exc.value) and "TOML file" in str(exc.value)
 
 
+def test_every_task_takes_a_config_as_api_config_does_and_lobes_bounds_its_speeds():
+    """A notebook writes api.lobes("example:ex1", rpm): it was "'str' object has no attribute 'structure'" from
+    inside the task. The tasks read their config through api.config (a name, a file, its tables, a Config), so the
+    same config gives the same numbers either way, and a source that is none of these is named; lobes' speeds obey
+    the speed bounds (1e9 rpm gave a 1 134 m limit)."""
+    cfg = api.config("example:ex1")
+    rpm = np.array([5000.0, 6000.0, 7000.0])
+    np.testing.assert_array_equal(api.lobes("example:ex1", rpm).envelope.depth, api.lobes(cfg, rpm).envelope.depth)
+    np.testing.assert_array_equal(api.envelope(api.config_fields(cfg), rpm).depth, api.envelope(cfg, rpm).depth)
+    assert api.modal("example:ex3")[0].structure == api.config("example:ex3").structure
+    cuts = [{"rpm": 5000, "depth_mm": 1.0}, {"rpm": 6000, "depth_mm": 3.0}]
+    a = api.label_cuts("example:ex1", cuts, revs=20, seed=1)
+    b = api.label_cuts(cfg, api.points(cuts), revs=20, seed=1)
+    assert list(a.label) == list(b.label)
+    for task in (lambda c: api.lobes(c, rpm), lambda c: api.identify(c, "example:ex3_points"),
+                 lambda c: api.update(c, cuts, samples=100), lambda c: api.simulate_cut(c, 5000, 1.0)):
+        with pytest.raises(InputError) as exc:
+            task(42)
+        assert exc.value.field == "config"
+    with pytest.raises(InputError, match="10..500,000"):
+        api.lobes(cfg, [1e9])
+
+
 @pytest.mark.parametrize("spec, says",
                          [("2000:1000:10", "START < STOP"), ("a:b:c", "numbers"), ("1:2", "START:STOP:STEP"),
                           ([1000.0, -5.0], "> 0"), ([1000.0, np.nan], "> 0"),

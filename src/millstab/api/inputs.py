@@ -288,7 +288,9 @@ def speeds(spec=None, cfg: Config | None = None, fallback: tuple[float, float, f
 
 def modal(cfg: Config, modes: int | str = "auto") -> tuple[Config, str | None]:
     """``cfg`` itself when its structure is modal; else ``cfg`` with the modes fitted to its measured FRF
-    (identification, planning, updating and sensitivity need modes) and a one-line note saying so."""
+    (identification, planning, updating and sensitivity need modes) and a one-line note saying so. ``cfg``: what
+    :func:`config` takes (a Config, a file, ``"example:NAME"``, its tables)."""
+    cfg = config(cfg)
     if cfg.structure.is_modal:
         return cfg, None
     from millstab.modal.run import fitted_config

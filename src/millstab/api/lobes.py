@@ -117,7 +117,12 @@ class Lobes:
 
 def envelope(cfg: Config, rpm: np.ndarray, engine: str = "zoa", progress: Progress | None = None) -> Envelope:
     """One engine's envelope of ``cfg`` at ``rpm``; an engine that reports progress reports to ``progress``
-    (and is cancelled through it)."""
+    (and is cancelled through it). ``cfg``: what :func:`millstab.api.config` takes (a Config, a file,
+    ``"example:NAME"``, its tables); ``rpm`` within :func:`millstab.bounds.check_speeds`'s bounds."""
+    from millstab.api.inputs import config
+    from millstab.bounds import check_speeds
+
+    cfg, rpm = config(cfg), check_speeds(rpm, "rpm")
     eng = get_engine(engine)
     if not cfg.structure.is_modal and not eng.accepts_measured_frf:
         raise InputError("engine", engine, "needs a modal structure; this config's structure is a measured FRF "
@@ -140,8 +145,12 @@ def lobes(cfg: Config, rpm: np.ndarray, *, engine: str = "zoa", compare: str | N
         InputError: an unknown engine, ``compare`` equal to ``engine``, or an engine that cannot take the
             config's structure.
     """
+    from millstab.api.inputs import config
+    from millstab.bounds import check_speeds
+
     if compare and compare == engine:
         raise InputError("--compare", compare, f"must differ from --engine ({engine})")
+    cfg, rpm = config(cfg), check_speeds(rpm, "rpm")  # a file or example name too, as every task takes it
     env = envelope(cfg, rpm, engine, progress)
     other = envelope(cfg, rpm, compare, progress) if compare else None
     note = config_time_averaged_note(cfg, engine)

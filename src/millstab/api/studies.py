@@ -82,6 +82,9 @@ def simulate_cut(cfg: Config, rpm: float, depth_mm: float, *, feed_mm: float | N
     from millstab.simulate import detect
     from millstab.simulate import simulate_cut as run
 
+    from millstab.api.inputs import config
+
+    cfg = config(cfg)  # a Config, a file, "example:NAME" or its tables
     feed_mm = config_feed_mm(cfg, feed_mm)
     check_speeds(rpm, "--rpm")  # a near-zero speed is days of steps: refused before the work
     cfg = _modal_for_simulation(cfg)
@@ -104,7 +107,11 @@ def label_cuts(cfg: Config, cuts: PointSet, *, feed_mm: float | None = None, rev
     from millstab.simulate import Labels, add_label_noise
     from millstab.simulate import label_cuts as run
 
+    from millstab.api.inputs import config
+    from millstab.api.inputs import points as point_set
+
     check_seed(seed)
+    cfg, cuts = config(cfg), point_set(cuts, "cuts")  # each as every task takes it
     feed_mm = config_feed_mm(cfg, feed_mm)
     _feed(feed_mm)
     cfg = _modal_for_simulation(cfg)

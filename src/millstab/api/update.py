@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from millstab.api.inputs import modal
+from millstab.api.inputs import config, modal
 from millstab.api.inputs import points as point_set
 from millstab.progress import Progress
 from millstab.bounds import samples as check_samples
@@ -80,6 +80,7 @@ def update(cfg: Config, cuts, points=None, *, engine: str = "zoa", samples: int 
     from millstab.update import update as run_update
 
     check_samples(samples)  # 100..10^6 and what this machine's memory holds, before any allocation
+    cfg = config(cfg)  # a Config, a file, "example:NAME" or its tables
     cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table (DataFrame, list of rows)
     points = None if points is None else point_set(points, "points")
     check_cuts(len(cuts) + (0 if points is None else len(points)))

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from millstab.api.inputs import modal
+from millstab.api.inputs import config, modal
 from millstab.api.inputs import points as point_set
 from millstab.progress import Progress
 from millstab.errors import InputError
@@ -30,6 +30,7 @@ def validate(cfg, cuts: PointSet, *, folds: int = 5, seed: int = 0, samples: int
     from millstab.bounds import samples as check_samples
 
     check_samples(samples)  # a whole number 100..10^6, as update's (a text "200" was numpy's TypeError)
+    cfg = config(cfg)  # a Config, a file, "example:NAME" or its tables
     cuts = point_set(cuts, "cuts")  # a PointSet, a file, or a notebook's table
     check_cuts(len(cuts))
     check_engine_name(engine)

@@ -206,6 +206,28 @@ def test_errors_still_name_file_line_and_column(text, field, words):
     assert e.value.field == field and words in str(e.value)
 
 
+@pytest.mark.parametrize("header,bad,meant", [
+    ("label_op1,lable_op2", "lable_op2", "label_op2"), ("lable_op1,label_op2", "lable_op1", "label_op1"),
+    ("label_op1,labl_op2", "labl_op2", "label_op2"), ("labels_1,labels_2", "labels_1", "label_1"),
+    ("rater_a,rate_b", "rate_b", "rater_b")])
+def test_a_misspelt_rater_column_is_an_error_not_a_dropped_operator(header, bad, meant):
+    """A second operator's column misspelt (lable_op2) was an ignored column with a warning: that operator's labels
+    were dropped; with a chatter_hz column the error blamed a frequency on a 'boundary point' instead."""
+    for tail, row in (("", ""), (",chatter_hz", ",900")):
+        text = f"rpm,depth_mm,{header}{tail}\n5000,1,stable,chatter{row}\n5000,2,chatter,{row}\n"
+        with pytest.raises(InputError) as e:
+            parse(text)
+        assert e.value.field == "cuts.csv header" and e.value.value == bad
+        assert f"looks like a misspelt rater column {meant!r} and holds labels" in str(e.value)
+
+
+def test_a_column_only_named_like_a_rater_is_kept():
+    """The likeness alone is no error: a column whose cells are not labels stays an ignored column."""
+    with pytest.warns(UserWarning, match="ignored columns: rate_1"):
+        ps = parse("rpm,depth_mm,label,rate_1\n5000,1,stable,0.37\n5000,2,chatter,0.52\n")
+    assert ps.raters == ("label",) and ps.extra["rate_1"].tolist() == ["0.37", "0.52"]
+
+
 def test_round_trip_of_grades_raters_batch_and_extras(tmp_path):
     with pytest.warns(UserWarning, match="notes"):
         ps = parse("rpm,depth_mm,label_op1,label_op2,batch,notes\n5000,1,stable,0.25,d1,x\n5000,2,0.6,chatter,d2,\n"

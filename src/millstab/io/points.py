@@ -28,7 +28,8 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
   of each cut, as written (``PointSet.batch``).
 * Any other column (feed, notes, tool, ...) is kept as text in ``PointSet.extra`` and ignored, with
   one warning naming the columns. A column that looks like a misspelt known column that is absent
-  (``lable``, ``weigth``, ``depht_mm``, ``stickout`` for the kept ``stickout_mm``) is an error, since a silently
+  (``lable``, ``weigth``, ``depht_mm``, ``stickout`` for the kept ``stickout_mm``; a rater's ``lable_op2`` that
+  holds labels) is an error, since a silently
   ignored label column would turn every cut into a boundary point (a column only somewhat like one, such as
   ``chatter_frequency``, is named in the warning with the column it may stand for); so is a file without a label
   column whose other column holds label words (``result``: stable, chatter); a column of codes alone (0/1/2) there
@@ -143,6 +144,22 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
     return raters, batch, unused, maybe
 
 
+#: a column named like a rater's label column with its prefix misspelt: lable_op2, labl_op2, lbl_2, labels_op1, rate_b
+MISSPELT_RATER = re.compile(r"^(?P<prefix>[a-z]+)(?:[_\- ](?P<name>\w.*)|(?P<num>\d+))$")
+
+
+def _misspelt_rater(column: str) -> str | None:
+    """The rater column ``column`` may stand for (``label_op2`` for ``lable_op2``), or ``None``: its prefix is
+    close to ``label`` or ``rater`` without being either."""
+    m = MISSPELT_RATER.match(column)
+    if not m or RATER_COLUMN.match(column):
+        return None
+    near = difflib.get_close_matches(m.group("prefix"), ["label", "rater"], 1, 0.75)
+    if not near:
+        return None
+    return f"{near[0]}_{m.group('name')}" if m.group("name") else f"{near[0]}{m.group('num')}"
+
+
 def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
     """True when a column's non-empty cells all read as label words or codes (stable | marginal | chatter and
     their synonyms, ``codes``' keys, or the 0/1/2 shops write for no / uncertain / clear chatter) and take at
@@ -187,6 +204,14 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     if len(rows) == 1:
         raise InputError("points file", str(p), "has a header but no points")
     col = {h: i for i, h in enumerate(names)}
+    for h in unused:  # before the rows: a row's own error (a chatter_hz on a now unlabelled cut) would hide it
+        meant = _misspelt_rater(h)
+        cells = [row[col[h]] if col[h] < len(row) else "" for _, row in rows[1:]]
+        if meant and (_holds_labels(cells, codes) or _holds_words(cells)):  # an operator's labels would be dropped with a mere warning
+            raise InputError(f"{p.name} header", h,
+                             f"unknown column that looks like a misspelt rater column {meant!r} and holds labels; "
+                             "name each operator's column label_NAME (or rater_NAME, labelN), or rename it if it "
+                             "is not a label column")
     rpm, depth, grades, weight, hz, batch = [], [], [], [], [], []
     extra: dict[str, list[str]] = {h: [] for h in unused}
     conds: dict[str, list] = {h: [] for h in CONDITION_COLUMNS if h in col}

@@ -207,7 +207,8 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     for h in unused:  # before the rows: a row's own error (a chatter_hz on a now unlabelled cut) would hide it
         meant = _misspelt_rater(h)
         cells = [row[col[h]] if col[h] < len(row) else "" for _, row in rows[1:]]
-        if meant and (_holds_labels(cells, codes) or _holds_words(cells)):  # an operator's labels would be dropped with a mere warning
+        # an operator's labels would otherwise be dropped with a mere warning
+        if meant and (_holds_labels(cells, codes) or _holds_words(cells)):
             raise InputError(f"{p.name} header", h,
                              f"unknown column that looks like a misspelt rater column {meant!r} and holds labels; "
                              "name each operator's column label_NAME (or rater_NAME, labelN), or rename it if it "

@@ -263,3 +263,24 @@ def test_depths_on_another_scale_are_read_as_written_and_warned(depths, words):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parse("rpm,depth_mm,label\n5000,0.05,stable\n6000,60,chatter\n")
+
+
+def test_dates_in_two_formats_are_warned_as_two_days():
+    """A date column whose later rows were written 04/03/2026 instead of 2026-03-04 read, silently, as a fourth test
+    day (one day split in two in validate's leave-one-day-out folds and under a batch effect); now one warning names
+    the column, each format's first cell and its line. One format in two digit counts (4.3.26, 04.03.26) and
+    session names (A, B) raise none."""
+    text = ("rpm,depth_mm,label,date\n5000,1,stable,2026-03-02\n5000,2,chatter,2026-03-04\n"
+            "5100,1.5,stable,04/03/2026\n")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        ps = parse(text)
+    assert [str(x.message) for x in w] == [
+        "cuts.csv: the column date writes its dates in 2 formats (2026-03-02 on line 2; 04/03/2026 on line 4): each "
+        "distinct text is its own test day, so a day written two ways counts as two (in validate's leave-one-day-out "
+        "folds and a batch effect); write every date in one format"]
+    assert ps.batch.tolist() == ["2026-03-02", "2026-03-04", "04/03/2026"]  # read as written
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse("rpm,depth_mm,label,day\n5000,1,stable,4.3.26\n5000,2,chatter,04.03.26\n")
+        parse("rpm,depth_mm,label,session\n5000,1,stable,A\n5000,2,chatter,B\n")

@@ -160,6 +160,22 @@ def _misspelt_rater(column: str) -> str | None:
     return f"{near[0]}_{m.group('name')}" if m.group("name") else f"{near[0]}{m.group('num')}"
 
 
+#: a test day written as a date: 2026-03-04, 04/03/2026, 4.3.26, 2026/3/4 (the digits' grouping is its format)
+DATE_CELL = re.compile(r"^\d{1,4}([-/.])\d{1,2}\1\d{1,4}$")
+
+
+def _date_formats(cells: list[str], lines: list[int]) -> dict[str, tuple[str, int]]:
+    """{format: (the first cell written so, its line)} of the cells that are dates; a format is the cell with each
+    digit as 9 and each run of 1-2 digits as one group (``9999-99-99``, ``99/99/9999``), so that 4.3.26 and
+    04.03.26 are one format."""
+    out: dict[str, tuple[str, int]] = {}
+    for c, line in zip(cells, lines):
+        if DATE_CELL.match(c):
+            shape = re.sub(r"\d+", lambda m: "9999" if len(m.group()) > 2 else "99", c)
+            out.setdefault(shape, (c, line))
+    return out
+
+
 def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
     """True when a column's non-empty cells all read as label words or codes (stable | marginal | chatter and
     their synonyms, ``codes``' keys, or the 0/1/2 shops write for no / uncertain / clear chatter) and take at
@@ -294,6 +310,12 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
                 "is read as a boundary point (a measured limit)")
              + ", the others as test cuts; write stable, marginal or chatter there if they are test cuts",
              UserWarning, stacklevel=3)
+    days = _date_formats(batch, [line for line, _ in rows[1:]]) if batch_col else {}
+    if len(days) > 1:  # the test day is the text as written: one day in two formats would be two days
+        shown = "; ".join(f"{c} on line {line}" for c, line in days.values())
+        warn(f"{p.name}: the column {batch_col} writes its dates in {len(days)} formats ({shown}): each distinct text "
+             "is its own test day, so a day written two ways counts as two (in validate's leave-one-day-out folds and "
+             "a batch effect); write every date in one format", UserWarning, stacklevel=3)
     if ignored:
         hints = "".join(f"; is {h!r} meant as {maybe[h]!r}? rename it" for h in ignored if h in maybe)
         warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used){hints}", UserWarning, stacklevel=3)

@@ -284,3 +284,15 @@ def test_dates_in_two_formats_are_warned_as_two_days():
         warnings.simplefilter("error")
         parse("rpm,depth_mm,label,day\n5000,1,stable,4.3.26\n5000,2,chatter,04.03.26\n")
         parse("rpm,depth_mm,label,session\n5000,1,stable,A\n5000,2,chatter,B\n")
+
+
+@pytest.mark.parametrize("cell,codes", [("?", None), ("?", "0=stable,2=chatter"), ("n/a", None)])
+def test_a_question_mark_is_answered_with_its_two_readings(cell, codes):
+    """An operator's '?' suggested '--labels ?=stable,nok=chatter' (a doubt mapped to a verdict), or with codes
+    only listed them; now the message names the file, line, column and value and says how to write 'cannot tell'."""
+    with pytest.raises(InputError) as e:
+        parse(f"rpm,depth_mm,label_op1,label_op2\n5000,1,stable,{cell}\n5000,2,chatter,chatter\n", codes)
+    assert e.value.field == "cuts.csv line 2, label_op2" and e.value.value == cell
+    assert str(e.value).endswith(f"{cell!r} reads as 'cannot tell': write marginal there (near the limit), leave the "
+                                 f"cell empty (no label from this rater), or map it, e.g. --labels {cell}=marginal")
+    assert parse(f"rpm,depth_mm,label\n5000,1,{cell}\n5000,2,chatter\n", f"{cell}=marginal").grade.tolist() == [.5, 1]

@@ -206,6 +206,28 @@ def test_errors_still_name_file_line_and_column(text, field, words):
     assert e.value.field == field and words in str(e.value)
 
 
+@pytest.mark.parametrize("header,bad,meant", [
+    ("label_op1,lable_op2", "lable_op2", "label_op2"), ("lable_op1,label_op2", "lable_op1", "label_op1"),
+    ("label_op1,labl_op2", "labl_op2", "label_op2"), ("labels_1,labels_2", "labels_1", "label_1"),
+    ("rater_a,rate_b", "rate_b", "rater_b")])
+def test_a_misspelt_rater_column_is_an_error_not_a_dropped_operator(header, bad, meant):
+    """A second operator's column misspelt (lable_op2) was an ignored column with a warning: that operator's labels
+    were dropped; with a chatter_hz column the error blamed a frequency on a 'boundary point' instead."""
+    for tail, row in (("", ""), (",chatter_hz", ",900")):
+        text = f"rpm,depth_mm,{header}{tail}\n5000,1,stable,chatter{row}\n5000,2,chatter,{row}\n"
+        with pytest.raises(InputError) as e:
+            parse(text)
+        assert e.value.field == "cuts.csv header" and e.value.value == bad
+        assert f"looks like a misspelt rater column {meant!r} and holds labels" in str(e.value)
+
+
+def test_a_column_only_named_like_a_rater_is_kept():
+    """The likeness alone is no error: a column whose cells are not labels stays an ignored column."""
+    with pytest.warns(UserWarning, match="ignored columns: rate_1"):
+        ps = parse("rpm,depth_mm,label,rate_1\n5000,1,stable,0.37\n5000,2,chatter,0.52\n")
+    assert ps.raters == ("label",) and ps.extra["rate_1"].tolist() == ["0.37", "0.52"]
+
+
 def test_round_trip_of_grades_raters_batch_and_extras(tmp_path):
     with pytest.warns(UserWarning, match="notes"):
         ps = parse("rpm,depth_mm,label_op1,label_op2,batch,notes\n5000,1,stable,0.25,d1,x\n5000,2,0.6,chatter,d2,\n"
@@ -241,3 +263,36 @@ def test_depths_on_another_scale_are_read_as_written_and_warned(depths, words):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parse("rpm,depth_mm,label\n5000,0.05,stable\n6000,60,chatter\n")
+
+
+def test_dates_in_two_formats_are_warned_as_two_days():
+    """A date column whose later rows were written 04/03/2026 instead of 2026-03-04 read, silently, as a fourth test
+    day (one day split in two in validate's leave-one-day-out folds and under a batch effect); now one warning names
+    the column, each format's first cell and its line. One format in two digit counts (4.3.26, 04.03.26) and
+    session names (A, B) raise none."""
+    text = ("rpm,depth_mm,label,date\n5000,1,stable,2026-03-02\n5000,2,chatter,2026-03-04\n"
+            "5100,1.5,stable,04/03/2026\n")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        ps = parse(text)
+    assert [str(x.message) for x in w] == [
+        "cuts.csv: the column date writes its dates in 2 formats (2026-03-02 on line 2; 04/03/2026 on line 4): each "
+        "distinct text is its own test day, so a day written two ways counts as two (in validate's leave-one-day-out "
+        "folds and a batch effect); write every date in one format"]
+    assert ps.batch.tolist() == ["2026-03-02", "2026-03-04", "04/03/2026"]  # read as written
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse("rpm,depth_mm,label,day\n5000,1,stable,4.3.26\n5000,2,chatter,04.03.26\n")
+        parse("rpm,depth_mm,label,session\n5000,1,stable,A\n5000,2,chatter,B\n")
+
+
+@pytest.mark.parametrize("cell,codes", [("?", None), ("?", "0=stable,2=chatter"), ("n/a", None)])
+def test_a_question_mark_is_answered_with_its_two_readings(cell, codes):
+    """An operator's '?' suggested '--labels ?=stable,nok=chatter' (a doubt mapped to a verdict), or with codes
+    only listed them; now the message names the file, line, column and value and says how to write 'cannot tell'."""
+    with pytest.raises(InputError) as e:
+        parse(f"rpm,depth_mm,label_op1,label_op2\n5000,1,stable,{cell}\n5000,2,chatter,chatter\n", codes)
+    assert e.value.field == "cuts.csv line 2, label_op2" and e.value.value == cell
+    assert str(e.value).endswith(f"{cell!r} reads as 'cannot tell': write marginal there (near the limit), leave the "
+                                 f"cell empty (no label from this rater), or map it, e.g. --labels {cell}=marginal")
+    assert parse(f"rpm,depth_mm,label\n5000,1,{cell}\n5000,2,chatter\n", f"{cell}=marginal").grade.tolist() == [.5, 1]

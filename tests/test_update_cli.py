@@ -261,3 +261,25 @@ def test_one_risk_rule_for_every_door(field):
         assert exc.value.field == field and "(0, 1)" in str(exc.value)
     with pytest.raises(InputError, match="--risk"):
         recommend(None, math.nan, (5000, 9000))  # refused before the posterior is read
+
+
+def test_speeds_in_hz_are_warned_and_kept_with_the_posterior(tmp_path, capsys):
+    """A cuts file whose rpm column holds rev/s (Hz: 83-150 for 5 000-9 000 rpm) was fitted 60 times too slow
+    without a word naming the speeds; the warning names the column, the value, its reading in rpm and the config's
+    speeds, and post.json keeps it. Speeds within the config's range raise none."""
+    from millstab.io import load_config
+    from millstab.update import warn_speeds_in_hz
+    from millstab.points import PointSet
+
+    rows = CUTS.splitlines()
+    hz = [rows[0]] + [",".join([f"{float(r.split(',')[0]) / 60:.2f}"] + r.split(",")[1:]) for r in rows[1:]]
+    (tmp_path / "cuts.csv").write_text("\n".join(hz) + "\n")
+    assert main(["update", "example:ex1", str(tmp_path / "cuts.csv"), "--samples", "100", "--seed", "3",
+                 "--out", str(tmp_path / "post.json")]) == 0
+    said = ("rpm: the fastest cut is 150 rpm, below a tenth of the config's speeds (3000-15000 rpm): are the speeds "
+            "in Hz (rev/s)? 150 rev/s is 9000 rpm; the column rpm is in rev/min")
+    assert said in json.loads((tmp_path / "post.json").read_text())["warnings"]
+    assert said in " ".join(capsys.readouterr().err.split())
+    cfg = load_config("example:ex1")
+    assert warn_speeds_in_hz(cfg, PointSet([5000, 9000], [1, 2], ["stable", "chatter"])) is None
+    assert warn_speeds_in_hz(cfg, PointSet([10, 20], [1, 2], ["stable", "chatter"])) is None  # 60× is no speed of it

@@ -120,8 +120,15 @@ def grade_of_cell(text: str, codes: dict[str, float] | None = None, labels_optio
     if s in ("yes", "no", "y", "n", "true", "false"):
         raise ValueError(f"{LABEL_RULE}; yes/no does not say which way (chattered? stable?): map it with --labels, "
                          "e.g. --labels yes=chatter,no=stable")
+    unknown = ""
+    if s.strip("?") == "" or s in ("n/a", "na", "-", "--", "unknown", "not sure", "dunno", "idk"):  # "I cannot tell"
+        # a guessed example (?=stable) would read a doubt as a verdict: the two readings it may have are named
+        unknown = (f"; {s!r} reads as 'cannot tell': write marginal there (near the limit), leave the cell empty (no "
+                   f"label from this rater), or map it, e.g. --labels {s}=marginal")
     if codes:
-        raise ValueError(f"{LABEL_RULE}, or one of the codes of --labels ({', '.join(codes)})")
+        raise ValueError(f"{LABEL_RULE}, or one of the codes of --labels ({', '.join(codes)}){unknown}")
+    if unknown:
+        raise ValueError(f"{LABEL_RULE}{unknown}")
     # a shop's own words (OK / NOK, light chatter, ...) are mapped, not guessed
     raise ValueError(f"{LABEL_RULE}; map your own words with --labels, e.g. --labels {_code_example(s)}")
 

@@ -28,7 +28,8 @@ File format (UTF-8 CSV, header required, columns in any order, names case-insens
   of each cut, as written (``PointSet.batch``).
 * Any other column (feed, notes, tool, ...) is kept as text in ``PointSet.extra`` and ignored, with
   one warning naming the columns. A column that looks like a misspelt known column that is absent
-  (``lable``, ``weigth``, ``depht_mm``, ``stickout`` for the kept ``stickout_mm``) is an error, since a silently
+  (``lable``, ``weigth``, ``depht_mm``, ``stickout`` for the kept ``stickout_mm``; a rater's ``lable_op2`` that
+  holds labels) is an error, since a silently
   ignored label column would turn every cut into a boundary point (a column only somewhat like one, such as
   ``chatter_frequency``, is named in the warning with the column it may stand for); so is a file without a label
   column whose other column holds label words (``result``: stable, chatter); a column of codes alone (0/1/2) there
@@ -143,6 +144,38 @@ def _columns(names: list[str], p: Path) -> tuple[list[tuple[str, int]], str | No
     return raters, batch, unused, maybe
 
 
+#: a column named like a rater's label column with its prefix misspelt: lable_op2, labl_op2, lbl_2, labels_op1, rate_b
+MISSPELT_RATER = re.compile(r"^(?P<prefix>[a-z]+)(?:[_\- ](?P<name>\w.*)|(?P<num>\d+))$")
+
+
+def _misspelt_rater(column: str) -> str | None:
+    """The rater column ``column`` may stand for (``label_op2`` for ``lable_op2``), or ``None``: its prefix is
+    close to ``label`` or ``rater`` without being either."""
+    m = MISSPELT_RATER.match(column)
+    if not m or RATER_COLUMN.match(column):
+        return None
+    near = difflib.get_close_matches(m.group("prefix"), ["label", "rater"], 1, 0.75)
+    if not near:
+        return None
+    return f"{near[0]}_{m.group('name')}" if m.group("name") else f"{near[0]}{m.group('num')}"
+
+
+#: a test day written as a date: 2026-03-04, 04/03/2026, 4.3.26, 2026/3/4 (the digits' grouping is its format)
+DATE_CELL = re.compile(r"^\d{1,4}([-/.])\d{1,2}\1\d{1,4}$")
+
+
+def _date_formats(cells: list[str], lines: list[int]) -> dict[str, tuple[str, int]]:
+    """{format: (the first cell written so, its line)} of the cells that are dates; a format is the cell with each
+    digit as 9 and each run of 1-2 digits as one group (``9999-99-99``, ``99/99/9999``), so that 4.3.26 and
+    04.03.26 are one format."""
+    out: dict[str, tuple[str, int]] = {}
+    for c, line in zip(cells, lines):
+        if DATE_CELL.match(c):
+            shape = re.sub(r"\d+", lambda m: "9999" if len(m.group()) > 2 else "99", c)
+            out.setdefault(shape, (c, line))
+    return out
+
+
 def _holds_labels(cells: list[str], codes: dict[str, float]) -> bool:
     """True when a column's non-empty cells all read as label words or codes (stable | marginal | chatter and
     their synonyms, ``codes``' keys, or the 0/1/2 shops write for no / uncertain / clear chatter) and take at
@@ -187,6 +220,15 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
     if len(rows) == 1:
         raise InputError("points file", str(p), "has a header but no points")
     col = {h: i for i, h in enumerate(names)}
+    for h in unused:  # before the rows: a row's own error (a chatter_hz on a now unlabelled cut) would hide it
+        meant = _misspelt_rater(h)
+        cells = [row[col[h]] if col[h] < len(row) else "" for _, row in rows[1:]]
+        # an operator's labels would otherwise be dropped with a mere warning
+        if meant and (_holds_labels(cells, codes) or _holds_words(cells)):
+            raise InputError(f"{p.name} header", h,
+                             f"unknown column that looks like a misspelt rater column {meant!r} and holds labels; "
+                             "name each operator's column label_NAME (or rater_NAME, labelN), or rename it if it "
+                             "is not a label column")
     rpm, depth, grades, weight, hz, batch = [], [], [], [], [], []
     extra: dict[str, list[str]] = {h: [] for h in unused}
     conds: dict[str, list] = {h: [] for h in CONDITION_COLUMNS if h in col}
@@ -268,6 +310,12 @@ def parse_points(text: str, source: PathLike = "points.csv", labels: str | dict 
                 "is read as a boundary point (a measured limit)")
              + ", the others as test cuts; write stable, marginal or chatter there if they are test cuts",
              UserWarning, stacklevel=3)
+    days = _date_formats(batch, [line for line, _ in rows[1:]]) if batch_col else {}
+    if len(days) > 1:  # the test day is the text as written: one day in two formats would be two days
+        shown = "; ".join(f"{c} on line {line}" for c, line in days.values())
+        warn(f"{p.name}: the column {batch_col} writes its dates in {len(days)} formats ({shown}): each distinct text "
+             "is its own test day, so a day written two ways counts as two (in validate's leave-one-day-out folds and "
+             "a batch effect); write every date in one format", UserWarning, stacklevel=3)
     if ignored:
         hints = "".join(f"; is {h!r} meant as {maybe[h]!r}? rename it" for h in ignored if h in maybe)
         warn(f"{p.name}: ignored columns: {', '.join(ignored)} (kept, not used){hints}", UserWarning, stacklevel=3)

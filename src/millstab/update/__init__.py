@@ -115,6 +115,25 @@ def lobe_jump_groups(prior: Prior) -> tuple[tuple[int, ...], ...]:
 
 
 
+def warn_speeds_in_hz(config, *point_sets: PointSet | None, stacklevel: int = 3) -> str | None:
+    """Warn when every speed of the cuts (and points) lies below a tenth of the config's ``[speeds]`` while 60 times
+    the fastest lies within them: the column ``rpm`` then most likely holds rev/s (Hz, a spindle's display or a
+    controller's log), and every cut would be fitted 60 times too slow without a word (the update runs: the
+    label-error warning it gives blames labels or units vaguely). Returns the message, or ``None``; issued by
+    :func:`update` and :func:`millstab.update.validate.cross_validate`."""
+    speeds = getattr(config, "rpm", None)
+    rpm = np.concatenate([np.asarray(p.rpm, float) for p in point_sets if p is not None and len(p)] or [np.zeros(0)])
+    if speeds is None or not len(speeds) or not rpm.size:
+        return None
+    lo, hi, fastest = float(np.min(speeds)), float(np.max(speeds)), float(rpm.max())
+    if not (fastest < lo / 10 and lo / 2 <= 60 * fastest <= 2 * hi):
+        return None
+    msg = (f"rpm: the fastest cut is {fastest:g} rpm, below a tenth of the config's speeds ({lo:g}-{hi:g} rpm): are "
+           f"the speeds in Hz (rev/s)? {fastest:g} rev/s is {60 * fastest:g} rpm; the column rpm is in rev/min")
+    warn(msg, UserWarning, stacklevel=stacklevel)
+    return msg
+
+
 def warn_time_averaged_cuts(engine: str, conditions) -> list[str]:
     """Warn when a time-averaged engine fits cuts made with less than one tooth in the cut on average
     (:func:`millstab.stability.time_averaged_note`): the posterior's parameters absorb that model error. Returns the
@@ -185,6 +204,7 @@ def update(config, cuts: PointSet, points: PointSet | None = None, *, engine: st
     pr = prior or config_prior(config)
     cheap_engine = screen_engine(engine, sampler)
     with collect() as caught:
+        warn_speeds_in_hz(config, cuts, points)  # kept with the posterior's warnings
         ev = Evidence.from_points(cuts, points, stickout, base_cutting=pr.cutting,
                                   diameter_mm=getattr(config, "diameter_mm", None))
         lik = Likelihood(pr, ev, engine, client, engine_options)
@@ -351,4 +371,5 @@ def _same_conditions(start: Posterior, ev: Evidence, n_old: int) -> bool:
 
 
 __all__ = ["DEFAULT_SAMPLES", "SAMPLERS", "screen_engine", "screen_model", "Evidence", "Likelihood", "Posterior",
-           "Prior", "Recommendation", "make_prior", "p_stable_map", "recommend", "update", "warn_time_averaged_cuts"]
+           "Prior", "Recommendation", "make_prior", "p_stable_map", "recommend", "update", "warn_speeds_in_hz",
+           "warn_time_averaged_cuts"]

@@ -296,7 +296,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
         InputError: fewer than 4 labelled cuts, folds < 2, an unknown scheme, ``condition`` with the cuts in one
             condition, engine options the engine does not take (before any update).
     """
-    from millstab.update import update as run_update, warn_time_averaged_cuts
+    from millstab.update import update as run_update, warn_speeds_in_hz, warn_time_averaged_cuts
     from millstab.update.posterior import Posterior
     from millstab.points import cut_conditions
     from millstab.update.predict import predict_at_stickouts
@@ -326,6 +326,7 @@ def cross_validate(config, cuts: PointSet, *, n_folds: int = 5, seed: int = 0, s
     base = prior.cutting if prior is not None else config.cutting  # what an empty condition cell means
     diameter = getattr(config, "diameter_mm", None)
     warn_time_averaged_cuts(engine, cut_conditions(cuts, base, diameter)[0])  # as update (the folds' are quiet)
+    warn_speeds_in_hz(config, cuts)
     lab_cond = cut_conditions(lab, base, diameter)[1]  # each labelled cut's condition
     n_cond = np.unique(lab_cond).size
     if schemes is None:

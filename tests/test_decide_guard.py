@@ -276,3 +276,38 @@ def test_auto_confirms_unless_chatter_frequencies_place_the_modes():
     assert not frequencies_place_modes(post)
     # a frequency on a cut labelled stable does not count
     assert not frequencies_place_modes(post_with(rpm, depth, ["chatter", "stable", "chatter"], hz=cases["two"]))
+
+
+def test_a_recommendation_above_an_explained_chatter_cut_nearby_says_why():
+    """A shop saw recommend propose 2.35 mm at 12 052 rpm beside cuts that chattered at 11 200 rpm, 2.17 mm, within
+    a lobe's width, without a word: the posterior explains those cuts (its limit is below them there and higher at the
+    recommended speed), so by the rule the guard stays off, rightly, but the shop needs the reason. A tight posterior
+    (the prior's median, 0.2 % spread) whose limit rises from 3.55 mm at 8 300 rpm to 4.1 mm at 8 800-9 000: a chatter
+    cut at 8 300 rpm, 3.7 mm is explained (99 % of the samples put the limit below it) and the recommendation lies
+    deeper, within the cut's neighbourhood: one line names the cut and why it does not hold the depth. An
+    unexplained cut still holds it (the guard), and a chatter cut deeper than the recommendation says nothing."""
+    from millstab.update.decide import chatter_cuts, explained_below
+
+    u0 = np.median(np.log(SAMPLES), axis=0)
+    tight = np.exp(u0 + 0.002 * np.random.default_rng(0).standard_normal((400, u0.size)))
+
+    def tight_post(rpm, depth, label):
+        return Posterior(PRIOR, tight, cuts={"rpm": rpm, "depth_mm": depth, "label": label,
+                                             "chatter_hz": [None] * len(rpm)})
+
+    post = tight_post([8300.0], [3.7], ["chatter"])
+    (cut,) = chatter_cuts(post)
+    assert cut["p_model_chatter"] > 0.99 and data_guard(post) == []  # explained: no guard
+    with pytest.warns(UserWarning, match=r"deeper than a cut labelled chatter at 8300 rpm, 3\.7 mm") as rec_w:
+        rec = recommend(post, 0.05, (5000, 9000))
+    assert rec.depth_mm > 3.7 and abs(rec.rpm - 8300) <= cut["half_width_rpm"]
+    assert explained_below([cut], rec.rpm, rec.depth_mm) == [cut]
+    assert any("posterior explains that cut" in w for w in rec.warnings), rec.warnings
+    assert sum("posterior explains" in str(w.message) for w in rec_w) == 1  # one line
+    # the same cut deeper than the recommendation, or one the model does not explain (the guard holds): no such line
+    for depth in (8.0, 1.0):
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            rec2 = recommend(tight_post([8300.0], [depth], ["chatter"]), 0.05, (5000, 9000))
+        assert not any("posterior explains that cut" in str(w.message) for w in seen)
+        assert rec2.depth_mm < depth or abs(rec2.rpm - 8300) > cut["half_width_rpm"]  # below it, or out of its lobe

@@ -762,11 +762,11 @@ def _cut_grades(cuts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return rpm[keep], depth[keep], grade[keep], hz[keep]
 
 
-def data_guard(post: Posterior, columns: LimitColumns | None = None) -> list[dict]:
-    """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
-    a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
-    one per guarding cut (cuts the posterior explains, and outweighed ones, are left out). ``columns``: the limits of
-    ``post.decision_u`` (:class:`LimitColumns`) a decision shares; default a call of its own."""
+def chatter_cuts(post: Posterior, columns: LimitColumns | None = None) -> list[dict]:
+    """Every chatter-labelled cut (grade > ½) of the posterior's condition, as the data guard weighs it (the rule is
+    in the module docstring): {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight,
+    chatter_weight}. ``columns``: the limits of ``post.decision_u`` (:class:`LimitColumns`) a decision shares;
+    default a call of its own."""
     rpm, depth, grade, hz = _cut_grades(post.cuts_in_condition())  # per condition: a slot's chatter cut does not
     ch = np.flatnonzero(grade > 0.5)  # bound a finishing pass (the model carries what it teaches)
     if ch.size == 0:
@@ -784,18 +784,36 @@ def data_guard(post: Posterior, columns: LimitColumns | None = None) -> list[dic
     strength = np.abs(2 * grade - 1)
     out = []
     for i, p in zip(ch, p_model):
-        if p >= GUARD_EXPLAINED:  # the model calls it chatter too: its own boundary already respects the cut
-            continue
         near = np.abs(rpm - rpm[i]) <= rel[i] * rpm[i]
-        w_stable = float(strength[near & (grade < 0.5) & (depth >= depth[i])].sum())
-        w_chatter = float(strength[near & (grade > 0.5) & (depth <= depth[i])].sum())
-        if w_stable > w_chatter:
-            continue
         out.append({"rpm": float(rpm[i]), "depth_mm": float(depth[i]), "grade": float(grade[i]),
                     "p_model_chatter": float(p), "half_width_rpm": float(rel[i] * rpm[i]),
-                    "cap_mm": float((1 - GUARD_MARGIN) * depth[i]), "stable_weight": w_stable,
-                    "chatter_weight": w_chatter})
+                    "cap_mm": float((1 - GUARD_MARGIN) * depth[i]),
+                    "stable_weight": float(strength[near & (grade < 0.5) & (depth >= depth[i])].sum()),
+                    "chatter_weight": float(strength[near & (grade > 0.5) & (depth <= depth[i])].sum())})
     return out
+
+
+def guarding(cuts: list[dict]) -> list[dict]:
+    """The cuts of :func:`chatter_cuts` that guard: those the posterior does not explain (it calls them chatter with
+    probability below :data:`GUARD_EXPLAINED`: its own boundary does not respect them) and that the stable cuts
+    as deep nearby do not outweigh."""
+    return [c for c in cuts if c["p_model_chatter"] < GUARD_EXPLAINED and c["stable_weight"] <= c["chatter_weight"]]
+
+
+def data_guard(post: Posterior, columns: LimitColumns | None = None) -> list[dict]:
+    """The chatter-labelled cuts that bound the recommendation (the rule is in the module docstring):
+    a list of {rpm, depth_mm, grade, p_model_chatter, half_width_rpm, cap_mm, stable_weight, chatter_weight},
+    one per guarding cut (cuts the posterior explains, and outweighed ones, are left out: :func:`guarding` of
+    :func:`chatter_cuts`). ``columns``: as :func:`chatter_cuts`."""
+    return guarding(chatter_cuts(post, columns))
+
+
+def explained_below(cuts: list[dict], rpm: float, depth_mm: float) -> list[dict]:
+    """The chatter cuts of :func:`chatter_cuts` that the posterior explains, at most ``depth_mm`` deep, whose
+    neighbourhood holds ``rpm``: a recommendation there lies above a cut that chattered within a lobe's width of
+    it, which the data guard allows (the model puts its limit below that cut and higher here): said in a line."""
+    return [c for c in cuts if c["p_model_chatter"] >= GUARD_EXPLAINED and abs(rpm - c["rpm"]) <= c["half_width_rpm"]
+            and depth_mm >= c["depth_mm"]]
 
 
 def guard_cap(guard: list[dict], rpm) -> np.ndarray:
@@ -1028,7 +1046,8 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
     # every engine call of this decision under one discretisation, each (distinct sample, speed) computed once
     opts = decision_options(post, (lo, hi))
     every = LimitColumns(post, u, opts, memo)
-    guards = data_guard(post, every) if guard else []
+    chatter = chatter_cuts(post, every) if guard else []
+    guards = guarding(chatter)
     cap = math.inf if max_depth_mm is None else max_depth_mm
     n = u.shape[0]
     n_eff = effective_samples(post)
@@ -1210,6 +1229,15 @@ def recommend(post: Posterior, risk: float, rpm_range: tuple[float, float], *, m
              f"rpm, {g['depth_mm']:.3g} mm: the data guard holds the recommendation below {g['cap_mm']:.3g} mm "
              "(the model does not explain that cut; check the label, or update with an engine that models the cut)",
              UserWarning, stacklevel=2)
+    beside = explained_below(chatter, rpm_best, depth_best)
+    if beside:  # allowed by the rule, but a shop sees a cut deeper than one that chattered nearby: say why
+        c = max(beside, key=lambda c: c["depth_mm"])
+        warn(f"the recommended {depth_best:.3g} mm at {rpm_best:.0f} rpm is deeper than a cut labelled chatter at "
+             f"{c['rpm']:.0f} rpm, {c['depth_mm']:.3g} mm ({abs(rpm_best - c['rpm']):.0f} rpm away, within a lobe's "
+             f"width): the posterior explains that cut (P(chatter) there {c['p_model_chatter']:.2f}) and puts the "
+             f"limit higher at this speed, so the data guard does not hold it; if that cut's label is doubtful or the "
+             f"boundary is not trusted this close to it, cut below {c['depth_mm']:.3g} mm first"
+             + (f" ({len(beside)} such cuts)" if len(beside) > 1 else ""), UserWarning, stacklevel=2)
     # the next test reads the coarse grid's limits (every other speed) instead of a second engine call
     # the next test is sought above the MODEL's cut (with a confirmed recommendation too): the tests that teach
     # the model where it may go, and its own cut when nothing above it is allowed and informative
@@ -1516,5 +1544,6 @@ __all__ = ["MAP_SAMPLES", "map_samples", "map_samples_text", "SEARCH_BOUND", "SE
            "keeps_warnings", "warn_averaged_error", "warn_time_averaged",
            "GUARD_EXPLAINED", "GUARD_LOBE_FRACTION", "GUARD_MARGIN",
            "SPEED_TOLERANCE", "TEST_RISK", "Recommendation",
-           "allowed_count", "blind_spot", "data_guard", "effective_samples", "guard_cap", "next_test",
+           "allowed_count", "blind_spot", "chatter_cuts", "data_guard", "explained_below", "guarding",
+           "effective_samples", "guard_cap", "next_test",
            "p_stable_from_limits", "p_stable_map", "recommend", "safe_depth"]

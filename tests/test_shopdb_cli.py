@@ -306,3 +306,22 @@ def test_listen_records_the_stickout_and_checks_campaign_and_teeth(tmp_path, cap
     run(capsys, *listen, "--teeth", 3, "--campaign", "em21", "--new-campaign")  # a new campaign when asked for
     with open_store(db) as s:
         assert len(s.cut_rows("em12")) == 4 and len(s.cut_rows("em21")) == 1
+
+
+def test_update_records_the_cuts_file_and_says_a_campaign_is_new(tmp_path, capsys):
+    """A cut is traced to the file it came from (the update's event names it), and an update of a campaign the
+    database does not hold, while it holds others, says so (a misspelt --campaign: a campaign of one cut)."""
+    (tmp_path / "mon.csv").write_text(FIRST)
+    (tmp_path / "tue.csv").write_text(MORE)
+    db, common = tmp_path / "shop.db", ["--samples", 200, "--seed", 3]
+    run(capsys, "update", "example:ex1", tmp_path / "mon.csv", "--db", db, "--campaign", "t12-m1", *common)
+    out = run(capsys, "update", "example:ex1", tmp_path / "tue.csv", "--db", db, "--campaign", "t12-m2", *common)
+    said = ("new campaign 't12-m2' in " f"{db} (it holds 1 campaign(s): t12-m1); did you mean 't12-m1'? "
+            "(a misspelt --campaign starts a campaign of its own)")
+    assert said in " ".join(out.split())
+    from millstab.api import shop
+
+    details = {e.campaign: e.detail for e in shop.history(db) if e.action == "update"}
+    assert details["t12-m1"].startswith(f"update: +3 cut(s) from {tmp_path / 'mon.csv'}, 3 in all;")
+    assert details["t12-m2"].startswith(f"update: +2 cut(s) from {tmp_path / 'tue.csv'}, 2 in all;")
+    assert said in details["t12-m2"]

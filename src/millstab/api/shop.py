@@ -276,6 +276,9 @@ def update_in_db(db, campaign: str, cfg: Config, new_cuts: PointSet | None = Non
     if first is not None:
         new, seen = already_recorded(first.cuts, new, first.rows)
         notes += seen
+    elif store.campaigns(shops):  # a misspelt --campaign starts a campaign of its own from the prior: say so
+        gone = store.unknown(campaign, shops).allowed.split("; `millstab")[0].removeprefix("no such campaign ")
+        notes.append(f"new campaign {campaign!r} {gone} (a misspelt --campaign starts a campaign of its own)")
     for attempt in range(1, retries + 2):
         if attempt > 1:  # what landed first may be another shop's new campaign of this name: never sample its cuts
             _writable(store, campaign, shops, shop)

@@ -85,7 +85,7 @@ def update_cmd(
         typer.echo(line)
     # with --dask/--workers the likelihood's engine calls go to the cluster where that pays (sdm, spectral; not zoa)
     with _client(dask, workers) as client:
-        post, done = _run_update(cfg, c, p, client, db=db, campaign=campaign, user=user, shop=shop, start=start,
+        post, done = _run_update(cfg, c, p, client, cuts, db=db, campaign=campaign, user=user, shop=shop, start=start,
                                  engine=engine, samples=samples, seed=seed, sampler=sampler, engine_options=options)
     emit.json(out, post.to_json(), protect, lambda _: None)  # its config's name included: the web download is the same
     con = Console()
@@ -121,11 +121,12 @@ def _target(out: Path | None, db, campaign, start: Path | None, shop: str | None
     return in_db, shop
 
 
-def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, **settings):
+def _run_update(cfg, cuts, points, client, source=None, *, db, campaign, user, shop, start, **settings):
     """(posterior, the shop's record or None): in a shop database the campaign's cuts so far and these, from its
     current posterior, recorded in one transaction with each cut's condition and stickout (its notes printed);
     else an update of these cuts. ``settings``: engine, samples, seed, sampler, engine_options (the --engine-option
-    texts, checked here before any work against the engine: one line naming --engine-option)."""
+    texts, checked here before any work against the engine: one line naming --engine-option); ``source``: the cuts
+    file's path, recorded in the update's event (a cut traced to its file)."""
     from millstab import api
 
     settings["engine_options"] = api.check_engine_options(settings["engine"],
@@ -134,8 +135,9 @@ def _run_update(cfg, cuts, points, client, *, db, campaign, user, shop, start, *
     if shop_target(db, campaign):
         from millstab.api.shop import CutsBy, update_in_db
 
-        done = update_in_db(db, campaign, cfg, cuts, points, settings=settings, by=CutsBy(user=user), client=client,
-                            shop=shop)
+        src = None if source is None else str(Path(source).expanduser().resolve())  # the same file on another day
+        done = update_in_db(db, campaign, cfg, cuts, points, settings=settings, by=CutsBy(user=user, source=src),
+                            client=client, shop=shop)
         for line in done.notes:
             typer.echo(line)
         return done.posterior, done

@@ -36,6 +36,8 @@ class CutsBy:
         machine, tool: the campaign's machine and tool (set when the campaign is created, at its first write).
         raters: per new cut, who labelled it (``None``: nobody named).
         recordings: per new cut, a reference to its recording (``None``: none).
+        source: where the new cuts came from (``millstab update --db`` gives the cuts file's absolute path), kept in
+            the event that records them so that a cut can be traced to its file (``None``: not said).
     """
 
     user: str | None = None
@@ -43,6 +45,7 @@ class CutsBy:
     tool: str | None = None
     raters: Sequence[str] | None = None
     recordings: Sequence[str] | None = None
+    source: str | None = None
 
 
 def check_shop(name, field: str = "--shop") -> str:

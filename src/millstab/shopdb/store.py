@@ -488,7 +488,8 @@ class Store:
             conn.execute(T.campaign.update().where(T.campaign.c.id == cid)
                          .values(head_posterior_id=pid, revision=T.campaign.c.revision + 1, updated_at=at))
             start = f"from posterior {parent}" if parent is not None else "from the prior"
-            detail = (f"update: +{len(new_cuts)} cut(s), {expected_rows + len(new_cuts)} in all; "
+            src = f" from {by.source}" if by.source and len(new_cuts) else ""  # the file, to trace a cut to it
+            detail = (f"update: +{len(new_cuts)} cut(s){src}, {expected_rows + len(new_cuts)} in all; "
                       f"{n_samples} samples, {doc.get('engine', 'zoa')}, seed {seed}, {start}"
                       + (f"; {note}" if note else ""))
             self._event(conn, cid, user, at, "update", detail, posterior_id=pid)  # the last write before the commit

@@ -218,23 +218,14 @@ def test_load_measured_frf_errors(tmp_path):
         load_measured_frf(xx={"path": "xx.csv"}, base_dir=tmp_path)
 
 
-def test_receptance_in_mm_per_n_warns(tmp_path):
-    write_frf_csv(tmp_path / "xx.csv", F, HX * 1e3)
-    with pytest.warns(UnitWarning, match="mm/N"):
-        load_measured_frf(xx=tmp_path / "xx.csv")
-    write_frf_csv(tmp_path / "ok.csv", F, HX)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        load_measured_frf(xx=tmp_path / "ok.csv")
-
-
-@pytest.mark.parametrize("k_n_per_um, zeta", [(1.0, 0.01), (20.0, 0.03), (100.0, 0.03)])
-def test_a_stiff_tip_in_mm_per_n_warns_and_a_flexible_one_in_m_per_n_does_not(tmp_path, k_n_per_um, zeta):
+@pytest.mark.parametrize("k_n_per_um, zeta", [(None, None), (1.0, 0.01), (20.0, 0.03), (100.0, 0.03)])
+def test_a_tip_in_mm_per_n_warns_and_in_m_per_n_does_not(tmp_path, k_n_per_um, zeta):
     """Tool tips measure ~1–100 N/µm: the same tip's receptance written in mm/N (×1e3) is warned whatever its stiffness
     in that range (a 20 N/µm tip at ζ 0.03 peaks at 1/(2ζk) = 8.3e-4 in mm/N: it passed the 1e-3 m/N threshold before),
-    and the most flexible tip of the range, in m/N, is not (peak 5e-5 m/N)."""
-    h = modal_receptance(F, [700.0], [k_n_per_um * 1e6], [zeta])
-    assert np.max(np.abs(h)) == pytest.approx(1 / (2 * zeta * k_n_per_um * 1e6), rel=0.02)  # F holds the peak
+    and in m/N it is not, the most flexible tip of the range included (peak 5e-5 m/N); None: the module's HX."""
+    h = HX if k_n_per_um is None else modal_receptance(F, [700.0], [k_n_per_um * 1e6], [zeta])
+    if k_n_per_um is not None:
+        assert np.max(np.abs(h)) == pytest.approx(1 / (2 * zeta * k_n_per_um * 1e6), rel=0.02)  # F holds the peak
     write_frf_csv(tmp_path / "mm.csv", F, h * 1e3)
     with pytest.warns(UnitWarning, match="mm/N"):
         load_measured_frf(xx=tmp_path / "mm.csv")

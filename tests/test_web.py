@@ -724,3 +724,38 @@ def test_cuts_with_recordings_are_labelled_by_listening_and_server_paths_refused
     msg = error_text(page, "e-cuts-upload")
     assert "uploaded in the same session" in msg and "root:" not in page.content()
     T.tab(page, "Tool and cut")
+
+
+def test_the_page_logs_out_from_a_link_and_the_login_pages_fetch_nothing_from_the_internet(browser, tmp_path):
+    """Walked through as a shop user (explore_appui): with accounts the page had no way to log out but typing
+    /logout, and the login and logout pages showed Panel's logo fetched from cdn.holoviz.org (a broken image on a
+    shop network without internet; every login told the CDN) under the title "Panel App". Now the header says who is
+    signed in with a "Log out" link, which ends the login (the page then asks for it again), and every request of
+    the login, the page and the logout goes to the app's own server."""
+    from millstab.web import auth
+
+    path = auth.add_user(tmp_path / "users.txt", "anna", "correct horse 1")
+    with T.running_app(users=auth.read_users(path)) as url:
+        context = browser.new_context()
+        seen = []
+        context.on("request", lambda r: seen.append(r.url))
+        page = context.new_page()
+        page.set_default_timeout(90_000)
+        page.goto(url)
+        page.locator("input[name=username]").wait_for()
+        assert page.title() == "millstab | Login"
+        assert page.locator("#logo").inner_text() == "millstab: milling stability"
+        page.locator("input[name=username]").fill("anna")
+        page.locator("input[name=password]").fill("correct horse 1")
+        page.locator("button[type=submit]").click()
+        page.locator(".tool-status").filter(has_text="valid: ex3").wait_for()
+        page.locator(".ms-header").filter(has_text="signed in as anna · Log out").wait_for()
+        page.locator(".ms-header a.ms-logout").click()
+        page.wait_for_url("**/logout")
+        assert page.title() == "millstab | Logout" and "logged out" in page.content()
+        page.goto(url)
+        page.locator("input[name=username]").wait_for()
+        assert "/login" in page.url and page.locator(".tool-status").count() == 0
+        off = sorted({u for u in seen if not u.startswith((url.rstrip("/"), "ws://", "blob:", "data:"))})
+        assert off == [], off
+        context.close()

@@ -103,8 +103,11 @@ def test_campaigns_are_remembered_per_shop_in_the_browser(browser, tmp_path):
         med = np.median(np.asarray(mine.posterior.samples), axis=0)
         shown = T.text(page, "post-table")
         assert re.search(r"computed for: campaign t12-m1", shown), shown
-        for v in med:
-            assert f"{v:.5g}" in shown
+        cells = {r[0]: r[1:] for r in (row.locator("td").all_inner_texts()
+                                       for row in page.locator(".post-table tr").all()) if r}
+        for name, v in zip(mine.posterior.names, med):  # as the form writes them: k in N/µm (was N/m, unit-less)
+            want = {"k": (f"{v * 1e-6:.5g}", "N/µm"), "f": (f"{v:.5g}", "Hz"), "z": (f"{v:.5g}", "")}[name[0]]
+            assert (cells[name][1], cells[name][3]) == want, (name, cells)
         # a guessed address of bolt's campaign shows nothing of it: the words of a campaign that does not exist
         page.goto(url + "?campaign=b1")
         page.locator(".tool-status").filter(has_text="valid").wait_for()

@@ -47,10 +47,23 @@ def create_app(db: str | None = None, shops: dict[str, tuple[str, ...]] | None =
                    css_classes=["ms-tabs"], sizing_mode="stretch_width")
     header = pn.pane.HTML("<h2 style='margin:4px 0'>millstab: milling stability</h2>"
                           "<span class='ms-note'>Tool and cut → Lobes → Identify → Update and recommend → Downloads"
-                          "</span>")
+                          "</span>" + _login_line(), css_classes=["ms-header"])
     page = pn.Column(header, tabs, sizing_mode="stretch_width", css_classes=["ms-page"])
     if update.campaign is not None and (wanted := requested_campaign()):
         update.campaign.open(wanted)  # /?campaign=NAME: the user's own campaigns only (the service's rule)
     page.session = session  # for tests and notebooks
     page.tabs = {"tool": tool, "lobes": lobes, "identify": ident, "update": update, "downloads": downloads}
     return page
+
+
+def _login_line() -> str:
+    """The header's "signed in as NAME · Log out" when the app has accounts (else empty): the logout, which ends the
+    login on the server, was reachable only by typing /logout. The link is relative, so it keeps a proxy's path."""
+    from millstab.web.auth import signed_in_user
+    from millstab.web.common import esc
+
+    user = signed_in_user()
+    if user is None:
+        return ""
+    return (f"<span class='ms-note ms-login'> · signed in as {esc(user)} · "
+            "<a href='logout' class='ms-logout'>Log out</a></span>")

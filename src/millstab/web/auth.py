@@ -407,7 +407,7 @@ def auth_provider(users: dict[str, str], throttle: LoginThrottle | None = None, 
 
         @property
         def logout_handler(self):
-            RevokingLogout._logout_template = self._logout_template
+            RevokingLogout._logout_template = _own_page(self._logout_template, _env)
             RevokingLogout._login_endpoint = self._login_endpoint
             return RevokingLogout
 
@@ -433,11 +433,33 @@ def _login_form(template, env):
         RuntimeError: a Panel whose login page has no ``<form ...>`` to put it in (the login would be refused)."""
     import re as _re
 
-    source = env.loader.get_source(env, template.name)[0] if template.name else None
+    source = _own_source(env.loader.get_source(env, template.name)[0]) if template.name else None
     opened = _re.search(r"<form\b[^>]*>", source or "")
     if opened is None:
         raise RuntimeError("millstab app: Panel's login page has no <form>: cannot add its _xsrf field")
     return env.from_string(source[:opened.end()] + "{{ xsrf_form_html|safe }}" + source[opened.end():])
+
+
+#: what the login and logout pages show in place of Panel's logo
+PAGE_HEADING = "millstab: milling stability"
+
+
+def _own_source(source: str) -> str:
+    """Panel's login or logout page ``source`` as millstab's: the title says millstab (not "Panel App"), and the
+    heading is text in place of Panel's logo, an image fetched from Panel's CDN on the internet: on a shop network
+    without internet it was a broken image, and elsewhere every login told that CDN the page was used."""
+    import re as _re
+
+    source = source.replace("Panel App |", "millstab |")
+    return _re.sub(r"<img\b[^>]*\bid=\"logo\"[^>]*>", f'<span id="logo">{PAGE_HEADING}</span>', source)
+
+
+def _own_page(template, env):
+    """Panel's logout page ``template`` as millstab's (:func:`_own_source`); a template without a file (Panel's
+    own, always with one) is kept."""
+    if not template.name:
+        return template
+    return env.from_string(_own_source(env.loader.get_source(env, template.name)[0]))
 
 
 def signed_in_user() -> str | None:

@@ -306,13 +306,16 @@ class UpdateTab:
         self.s.post, self.post_id = post, post_id
         theta = np.asarray(post.samples)
         q = np.percentile(theta, [5, 50, 95], axis=0)
-        rows = [(n, f"{a:.5g}", f"{b:.5g}", f"{c:.5g}") for n, a, b, c in zip(post.names, q[0], q[1], q[2])]
+        # in the units of the form and the command line (k in N/µm): in N/m, 8.0027e+06 beside a form's "9 N/um"
+        scale = [api.SHOWN_UNITS.get(u, (1.0, u)) for u in post.prior.units()]
+        rows = [(n, f"{a * f:.5g}", f"{b * f:.5g}", f"{c * f:.5g}", unit)
+                for n, a, b, c, (f, unit) in zip(post.names, q[0], q[1], q[2], scale)]
         lines = list(post.warnings) + [w for w in caught if w not in post.warnings]
         opts = ", ".join(f"{k}={v}" for k, v in sorted(post.engine_options.items())) or "its own discretisation"
         self.post_table.text = (computed_for(self.post_origin)
                                 + f'<div class="ms-note">engine {esc(post.engine)} ({esc(opts)}), '
                                   f'{len(theta)} samples</div>'
-                                + html_table(("parameter", "5 %", "median", "95 %"), rows, "posterior")
+                                + html_table(("parameter", "5 %", "median", "95 %", "unit"), rows, "posterior")
                                 + "".join(f'<div class="ms-note">{esc(w)}</div>' for w in lines))
         if post.engine != api.cheapest_engine():  # minutes of the engine for every sample: only when asked
             # those of the last posterior are not this one's

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import struct
 
 import numpy as np
@@ -184,6 +185,9 @@ def test_cuts_csv_with_recordings_are_labelled_by_listening(tmp_path):
     assert list(pts.label) == ["chatter", "stable", "stable"]
     assert abs(pts.chatter_hz[0] - 870.0) < 0.2 and np.isnan(pts.chatter_hz[1]) and np.isnan(pts.chatter_hz[2])
     assert "heard in a.wav" in notes[0] and "from the file" in notes[2]
+    # the score is the chatter line's over the teeth's: named so, and a stable cut with none says that (not "score 0")
+    assert re.search(r"heard in a\.wav, chatter score \d", notes[0]), notes[0]
+    assert "heard in b.wav, no chatter line" in notes[1] and "score" not in notes[1].split(";")[0], notes[1]
     csv.write_text("rpm,depth_mm,recording\n9000,3,rec/missing.wav\n")
     with pytest.raises(InputError, match="missing.wav"):
         api.label_from_recordings(csv, teeth=2)

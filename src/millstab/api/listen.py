@@ -285,7 +285,8 @@ def label_from_recordings(cuts_csv, teeth: int, *, rpm_range=None, uploads: dict
                          "cell to keep the written label)")
         notes.append(f"{where}: {res.label}"
                      + (f" at {res.chatter_hz:.1f} Hz" if res.label != "stable" else "")
-                     + f" (heard in {shown}, score {res.score:.3g}"
+                     + f" (heard in {shown}, "
+                     + (f"chatter score {res.score:.3g}" if res.score > 0 else "no chatter line")
                      + (f", path measured by {name_of.get(r['tap'], Path(r['tap']).name)})" if tap else ")")
                      + "".join(f"; note: {e}" for e in extra))
     rows_of: dict = {}

@@ -1164,7 +1164,12 @@ def _ws_opens(url: str, token: str, cookie: str = "", origin: str | None = None)
         finally:
             conn.close()
 
-    return asyncio.run(go())
+    # in a thread of its own: a browser test before it in this worker (Playwright's sync API) leaves an event loop
+    # running in the main thread, where asyncio.run refuses to start
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, go()).result()
 
 
 def test_bokeh_session_ids_and_tokens_are_signed():

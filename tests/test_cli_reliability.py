@@ -537,6 +537,20 @@ def test_warmup_compiles_zoa(capsys):
     assert code == 0 and out.startswith("zoa: ready ("), out + err
 
 
+def test_warmup_reaches_the_kernel_of_cuts_in_several_conditions(monkeypatch):
+    """`make demo`'s report compiled the zero-order kernel of per-column conditions after `millstab warmup` (a numba
+    compile listener named `_zoa_kernel.envelope_modal_conditions`, 2026-11-29): the warm-up now runs an envelope
+    batch in two conditions, which reaches it (fails on the warm-up before: no such call)."""
+    from millstab.api.warmup import warm
+    from millstab.stability import zoa
+
+    seen = []
+    run = zoa._run_conditions
+    monkeypatch.setattr(zoa, "_run_conditions", lambda *a, **k: seen.append(a[1]) or run(*a, **k))
+    warm("zoa")
+    assert seen and len(seen[0].cuttings) == 2
+
+
 def test_speeds_reach_the_kernels_contiguous_so_warmup_covers_them():
     """A strided speed list (rpm[::2]) reached the SDM kernel as layout 'A', a second compile after
     `millstab warmup` (seen in `make demo`); check_rpm hands every engine a C-contiguous copy."""

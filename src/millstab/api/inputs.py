@@ -98,48 +98,23 @@ def points(source, name: str = "table") -> PointSet:
 
 
 def _table_csv(table, name: str) -> str:
-    """The CSV text of a table of cuts (a DataFrame, {column: values} or [{column: value}, …]), numbers written
-    exactly (repr), None/NaN as empty cells."""
-    import csv
-    import io
+    """The CSV text of a table of cuts (a DataFrame, {column: values} or [{column: value}, …]) as the command line's
+    files are written (:func:`millstab.io.results.csv_text`: numbers exactly, None/NaN/NA as empty cells)."""
+    from millstab.io.results import csv_text
 
     if hasattr(table, "columns") and hasattr(table, "to_dict"):  # a pandas DataFrame, without importing pandas
         table = {str(c): list(table[c]) for c in table.columns}
     if isinstance(table, Mapping):
         cols = {str(c): list(np.atleast_1d(np.asarray(v, dtype=object))) for c, v in table.items()}
-        lengths = {len(v) for v in cols.values()}
-        if len(lengths) > 1:
+        if len({len(v) for v in cols.values()}) > 1:
             raise InputError(name, {c: len(v) for c, v in cols.items()}, "every column needs the same number of rows")
-        rows = [dict(zip(cols, vals)) for vals in zip(*cols.values())]
-        header = list(cols)
-    elif isinstance(table, (list, tuple)) and all(isinstance(r, Mapping) for r in table):
+        return csv_text(list(cols), list(cols.values()))
+    if isinstance(table, (list, tuple)) and all(isinstance(r, Mapping) for r in table):
         rows = [{str(c): v for c, v in r.items()} for r in table]
         header = list(dict.fromkeys(c for r in rows for c in r))
-    else:
-        raise InputError("points", f"a {type(table).__name__}", "a PointSet, a CSV file (path), \"example:NAME\", a "
-                                                                  "DataFrame, {column: values} or a list of row dicts")
-    out = io.StringIO()
-    w = csv.writer(out, lineterminator="\n")
-    w.writerow(header)
-    w.writerows([_cell(r.get(c)) for c in header] for r in rows)
-    return out.getvalue()
-
-
-def _cell(v) -> str:
-    """One table cell as CSV text: None, NaN and pandas' NA empty; an integer as such; a float exactly."""
-    if v is None or type(v).__name__ in ("NAType", "NaTType"):
-        return ""
-    if isinstance(v, str):
-        return v
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v))
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return str(v)
-    return "" if x != x else repr(x)
+        return csv_text(header, [[r.get(c) for r in rows] for c in header])
+    raise InputError("points", f"a {type(table).__name__}", "a PointSet, a CSV file (path), \"example:NAME\", a "
+                                                              "DataFrame, {column: values} or a list of row dicts")
 
 
 def overlay_points(*sets: PointSet | None) -> PointSet | None:

@@ -191,8 +191,8 @@ def read_json(path: PathLike) -> Any:
 
 
 def _cell(v: Any) -> str:
-    """One CSV cell: floats with the shortest repr that reads back exactly, NaN as empty."""
-    if v is None:
+    """One CSV cell: floats with the shortest repr that reads back exactly, NaN, None and pandas' NA as empty."""
+    if v is None or type(v).__name__ in ("NAType", "NaTType"):  # pandas' missing values, without importing pandas
         return ""
     if isinstance(v, (bool, np.bool_)):
         return "true" if v else "false"

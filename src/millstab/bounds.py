@@ -134,6 +134,31 @@ def available_memory() -> float | None:
         return None
 
 
+#: the share of the available memory (:func:`available_memory`) one command's arrays may take
+MEMORY_SHARE = 0.8
+
+
+def memory_room(per_item: float) -> float:
+    """How many items of ``per_item`` bytes fit in :data:`MEMORY_SHARE` of the available memory (0 when unknown)."""
+    return MEMORY_SHARE * (available_memory() or 0.0) / per_item
+
+
+def check_memory(field: str, value: int, nbytes: float, what: str, largest: int) -> None:
+    """Refuse, before any work, a run whose arrays would not fit in the memory this machine has available.
+
+    ``nbytes`` [bytes] is what the run keeps at once (``what`` says which arrays), ``largest`` the largest
+    ``value`` that would fit (:func:`memory_room`); a run that would only fail on its allocation after minutes of
+    sampling (or swap the machine) fails here with the field, the need and the limit instead.
+
+    Raises:
+        InputError: naming ``field`` and ``value``, the memory needed and available, and ``largest``.
+    """
+    avail = available_memory()
+    if avail is not None and nbytes > MEMORY_SHARE * avail:
+        raise InputError(field, value, f"needs ~{_gb(nbytes)} of memory ({what}), this machine has "
+                                       f"{_gb(avail)} available; use at most {largest:,}")
+
+
 def samples(n, field: str = "--samples", minimum: int = 100) -> int:
     """A sample count in [``minimum``, :data:`MAX_SAMPLES`] whose memory (:data:`BYTES_PER_SAMPLE` each) fits
     in this machine's available memory, checked before anything is allocated.
@@ -156,9 +181,9 @@ def samples(n, field: str = "--samples", minimum: int = 100) -> int:
     if k > MAX_SAMPLES:
         raise InputError(field, n, f"at most {MAX_SAMPLES:,} samples: this many needs ~{_gb(need)} of memory{has} "
                                    f"(the default 4 000 is usually plenty)")
-    if avail is not None and need > 0.8 * avail:
+    if avail is not None and need > MEMORY_SHARE * avail:
         raise InputError(field, n, f"needs ~{_gb(need)} of memory, this machine has {_gb(avail)} available; "
-                                   f"use at most ~{int(0.8 * avail / BYTES_PER_SAMPLE):,} samples")
+                                   f"use at most ~{int(memory_room(BYTES_PER_SAMPLE)):,} samples")
     return int(k)
 
 
@@ -166,5 +191,5 @@ def _gb(nbytes: float) -> str:
     return f"{nbytes / 1e9:.3g} GB" if nbytes < 1e12 else f"{nbytes / 1e12:,.0f} TB"
 
 
-__all__ = ["BYTES_PER_SAMPLE", "MAX_CHATTER_HZ", "MAX_RPM", "MAX_SAMPLES", "MIN_RPM", "SEED_LIMIT", "available_memory",
-           "check_speeds", "samples", "seed", "speed_rule"]
+__all__ = ["BYTES_PER_SAMPLE", "MAX_CHATTER_HZ", "MAX_RPM", "MAX_SAMPLES", "MEMORY_SHARE", "MIN_RPM", "SEED_LIMIT",
+           "available_memory", "check_memory", "check_speeds", "memory_room", "samples", "seed", "speed_rule"]

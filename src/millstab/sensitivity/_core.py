@@ -11,7 +11,6 @@ from typing import Sequence
 
 import numpy as np
 
-from millstab import bounds as _bounds
 from millstab.errors import InputError, UnitWarning
 from millstab.progress import CountProgress
 from millstab.forward import Pinned, forward
@@ -142,22 +141,6 @@ def bounds_from(par: Parameterization, theta: np.ndarray, t: float,
         raise InputError("t", t, f"{par.free[j]} has an empty range; need t > 0 or bounds for it")
     _check_values(par, out.T.copy(), "bounds")
     return out
-
-
-def check_memory(field: str, value: int, nbytes: float, what: str, largest: int) -> None:
-    """Refuse, before any work, a study whose arrays would not fit in the memory this machine has available.
-
-    ``nbytes`` [bytes] is what the study keeps at once (``what`` says which arrays), ``largest`` the largest
-    ``value`` that would fit; a run that would only fail on its allocation after minutes of sampling (or
-    swap the machine) fails here with the field, the need and the limit instead.
-
-    Raises:
-        InputError: naming ``field`` and ``value``, the memory needed and available, and ``largest``.
-    """
-    avail = _bounds.available_memory()
-    if avail is not None and nbytes > 0.8 * avail:
-        raise InputError(field, value, f"needs ~{_bounds._gb(nbytes)} of memory ({what}), this machine has "
-                                       f"{_bounds._gb(avail)} available; use at most {largest:,}")
 
 
 def mse_mm2(ref_m: np.ndarray, other_m: np.ndarray) -> np.ndarray:

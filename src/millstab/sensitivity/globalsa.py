@@ -27,7 +27,7 @@ from millstab.errors import InputError
 from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.progress import CountProgress
-from millstab.sensitivity._core import (as_parameterization, bounds_from, centre, check_memory, check_scalar,
+from millstab.sensitivity._core import (as_parameterization, bounds_from, centre, check_scalar,
                                         depths_chunked, engine_module, mse_mm2, pin)
 from millstab.sensitivity.montecarlo import check_seed
 from millstab.sensitivity.results import MorrisResult, SobolResult
@@ -175,8 +175,8 @@ def sobol(model: Structure | Parameterization, cutting: Cutting, rpm, n: int = 1
     # and the temporaries of their MSE or their standardized copy), and sobol_indices' five (n, resamples, speed
     # block) bootstrap arrays (measured: n 4 096 at 201 speeds, 0.46 GB over the interpreter; this says 0.40)
     per_n = 8 * ((par.size + 2) * (par.size + 5 * r.size) + 5 * int(num_resamples) * _SPEED_BLOCK)
-    largest = 2 ** max(1, int(np.floor(np.log2(max(2.0, 0.8 * (_bounds.available_memory() or 0) / per_n)))))
-    check_memory("n", n, n * per_n, f"{n * (par.size + 2):,} structures x {r.size} speeds", largest)
+    largest = 2 ** max(1, int(np.floor(np.log2(max(2.0, _bounds.memory_room(per_n))))))
+    _bounds.check_memory("n", n, n * per_n, f"{n * (par.size + 2):,} structures x {r.size} speeds", largest)
     prob = problem(par.free, bnds)
     X = sobol_sample(prob, n, seed)
     d = depths_chunked(f, X, progress, client, chunk_rows)
@@ -213,8 +213,8 @@ def morris(model: Structure | Parameterization, cutting: Cutting, rpm, trajector
         raise InputError("levels", levels, "number of Morris levels must be an even integer >= 2")
     par, th, seed, bnds, r, f, nominal = _prepare(model, cutting, rpm, t, bounds, seed, theta, engine, client)
     per_r = 8 * (par.size + 1) * (par.size + 5 * r.size)  # [bytes] per trajectory: as sobol's design rows
-    largest = max(2, int(0.8 * (_bounds.available_memory() or 0) / per_r))
-    check_memory("n", trajectories, trajectories * per_r,
+    largest = max(2, int(_bounds.memory_room(per_r)))
+    _bounds.check_memory("n", trajectories, trajectories * per_r,
                  f"{trajectories * (par.size + 1):,} structures x {r.size} speeds", largest)
     prob = problem(par.free, bnds)
     X = ms.sample(prob, int(trajectories), num_levels=int(levels), seed=seed)

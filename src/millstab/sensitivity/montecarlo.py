@@ -25,7 +25,7 @@ from millstab.model import Cutting, Structure
 from millstab.params import Parameterization
 from millstab.forward import Pinned, forward
 from millstab.progress import CountProgress
-from millstab.sensitivity._core import (as_parameterization, centre, check_memory, check_neighbourhood,
+from millstab.sensitivity._core import (as_parameterization, centre, check_neighbourhood,
                                         check_scalar, engine_module, mse_mm2, pin, rows_per_call, warn_percent)
 from millstab.sensitivity.results import MCResult
 from millstab.stability import check_rpm
@@ -83,8 +83,8 @@ def monte_carlo(model: Structure | Parameterization, cutting: Cutting, rpm, n: i
         raise InputError("chunk_paths", chunk_paths, "must be a positive integer")
     # every path's MSE (n, P) is kept, and the result's running statistics make three more such arrays
     per_path = 4 * 8 * n_p  # [bytes]
-    check_memory("n", n, n * per_path, f"{n:,} paths x {n_p} parameters, kept",
-                 max(2, int(0.8 * (_bounds.available_memory() or 0) / per_path)))
+    _bounds.check_memory("n", n, n * per_path, f"{n:,} paths x {n_p} parameters, kept",
+                         max(2, int(_bounds.memory_room(per_path))))
     mse = np.empty((n, n_p))
     # every row of every path lies in [(1 − t)p, (1 + t)(1 + ε⁺)p]: pin the discretisation on the centre and that
     # corner once, so the blocks (their size, where they run) change no number
